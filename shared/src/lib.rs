@@ -6,5 +6,6 @@
 #![cfg_attr(not(any(test, feature = "std")), no_std)]
 
 pub mod config;
+pub mod model;
 
 pub use config::{ControllerConfig, QuantMode, Quantization};

@@ -1,0 +1,184 @@
+//! Scalars the plant right-hand sides are generic over: `f64`, and forward-mode dual numbers
+//! with `M` derivative components, which give exact Jacobians in one evaluation.
+
+use core::ops::{Add, Div, Mul, Neg, Sub};
+
+/// The arithmetic a plant's right-hand side may use.
+pub trait Scalar:
+    Copy
+    + Add<Output = Self>
+    + Sub<Output = Self>
+    + Mul<Output = Self>
+    + Div<Output = Self>
+    + Neg<Output = Self>
+    + Add<f64, Output = Self>
+    + Sub<f64, Output = Self>
+    + Mul<f64, Output = Self>
+    + Div<f64, Output = Self>
+{
+    /// A constant (zero derivative).
+    fn cst(v: f64) -> Self;
+    /// The value part.
+    fn re(self) -> f64;
+    /// `(sin x, cos x)`.
+    fn sin_cos(self) -> (Self, Self);
+}
+
+impl Scalar for f64 {
+    #[inline(always)]
+    fn cst(v: f64) -> Self {
+        v
+    }
+    #[inline(always)]
+    fn re(self) -> f64 {
+        self
+    }
+    #[inline(always)]
+    fn sin_cos(self) -> (Self, Self) {
+        f64::sin_cos(self)
+    }
+}
+
+/// A forward-mode dual number: value `v` and derivatives `d` with respect to `M` seeds.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Dual<const M: usize> {
+    pub v: f64,
+    pub d: [f64; M],
+}
+
+impl<const M: usize> Dual<M> {
+    /// The `k`-th independent variable with value `v` (derivative 1 in slot `k`).
+    pub fn var(v: f64, k: usize) -> Self {
+        let mut d = [0.0; M];
+        if let Some(slot) = d.get_mut(k) {
+            *slot = 1.0;
+        }
+        Self { v, d }
+    }
+    #[inline(always)]
+    fn map_d(self, f: impl Fn(f64) -> f64) -> [f64; M] {
+        let mut d = self.d;
+        for x in &mut d {
+            *x = f(*x);
+        }
+        d
+    }
+}
+
+impl<const M: usize> Add for Dual<M> {
+    type Output = Self;
+    #[inline(always)]
+    fn add(self, o: Self) -> Self {
+        let mut d = self.d;
+        for (a, b) in d.iter_mut().zip(o.d) {
+            *a += b;
+        }
+        Self { v: self.v + o.v, d }
+    }
+}
+impl<const M: usize> Sub for Dual<M> {
+    type Output = Self;
+    #[inline(always)]
+    fn sub(self, o: Self) -> Self {
+        let mut d = self.d;
+        for (a, b) in d.iter_mut().zip(o.d) {
+            *a -= b;
+        }
+        Self { v: self.v - o.v, d }
+    }
+}
+impl<const M: usize> Mul for Dual<M> {
+    type Output = Self;
+    #[inline(always)]
+    fn mul(self, o: Self) -> Self {
+        let mut d = self.d;
+        for (a, b) in d.iter_mut().zip(o.d) {
+            *a = *a * o.v + self.v * b;
+        }
+        Self { v: self.v * o.v, d }
+    }
+}
+impl<const M: usize> Div for Dual<M> {
+    type Output = Self;
+    #[inline(always)]
+    fn div(self, o: Self) -> Self {
+        let q = self.v / o.v;
+        let mut d = self.d;
+        for (a, b) in d.iter_mut().zip(o.d) {
+            *a = (*a - q * b) / o.v;
+        }
+        Self { v: q, d }
+    }
+}
+impl<const M: usize> Neg for Dual<M> {
+    type Output = Self;
+    #[inline(always)]
+    fn neg(self) -> Self {
+        Self { v: -self.v, d: self.map_d(|x| -x) }
+    }
+}
+impl<const M: usize> Add<f64> for Dual<M> {
+    type Output = Self;
+    #[inline(always)]
+    fn add(self, o: f64) -> Self {
+        Self { v: self.v + o, d: self.d }
+    }
+}
+impl<const M: usize> Sub<f64> for Dual<M> {
+    type Output = Self;
+    #[inline(always)]
+    fn sub(self, o: f64) -> Self {
+        Self { v: self.v - o, d: self.d }
+    }
+}
+impl<const M: usize> Mul<f64> for Dual<M> {
+    type Output = Self;
+    #[inline(always)]
+    fn mul(self, o: f64) -> Self {
+        Self { v: self.v * o, d: self.map_d(|x| x * o) }
+    }
+}
+impl<const M: usize> Div<f64> for Dual<M> {
+    type Output = Self;
+    #[inline(always)]
+    fn div(self, o: f64) -> Self {
+        Self { v: self.v / o, d: self.map_d(|x| x / o) }
+    }
+}
+
+impl<const M: usize> Scalar for Dual<M> {
+    #[inline(always)]
+    fn cst(v: f64) -> Self {
+        Self { v, d: [0.0; M] }
+    }
+    #[inline(always)]
+    fn re(self) -> f64 {
+        self.v
+    }
+    #[inline(always)]
+    fn sin_cos(self) -> (Self, Self) {
+        let (s, c) = self.v.sin_cos();
+        (Self { v: s, d: self.map_d(|x| x * c) }, Self { v: c, d: self.map_d(|x| -x * s) })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn dual_derivatives_match_calculus() {
+        // f(x, y) = sin(x) * y / (1 + x*y), at (0.3, 2.0).
+        let x = Dual::<2>::var(0.3, 0);
+        let y = Dual::<2>::var(2.0, 1);
+        let (s, _) = x.sin_cos();
+        let f = s * y / (x * y + 1.0);
+        let (xv, yv) = (0.3f64, 2.0f64);
+        let den = 1.0 + xv * yv;
+        let dfdx = (xv.cos() * yv * den - xv.sin() * yv * yv) / (den * den);
+        let dfdy = (xv.sin() * den - xv.sin() * yv * xv) / (den * den);
+        assert!((f.v - xv.sin() * yv / den).abs() < 1e-15);
+        assert!((f.d[0] - dfdx).abs() < 1e-14, "{} vs {}", f.d[0], dfdx);
+        assert!((f.d[1] - dfdy).abs() < 1e-14, "{} vs {}", f.d[1], dfdy);
+    }
+}
