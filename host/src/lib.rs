@@ -5,4 +5,5 @@ pub mod chart;
 pub mod linear;
 pub mod ode;
 pub mod plant;
+pub mod scene;
 pub mod ssm;

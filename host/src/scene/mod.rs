@@ -1,0 +1,462 @@
+//! Scenes: what to simulate, as TOML. A scene names the plant and its parameters, the
+//! controller (gains, sampling period, delay), the initial state with its pre-history, how
+//! long to run, the integrator, and the list of effects to simulate. Only the effects a scene
+//! names are simulated: no `[effects.quantization]` means the exact float controller, no
+//! `[effects.noise]` means no random numbers are drawn, `tasks = ["stability"]` runs no
+//! simulation.
+//!
+//! Owns parsing, `--set path=value` overrides and validation with key paths in errors. Must
+//! not run anything.
+
+mod bundled;
+
+pub use bundled::{BUNDLED, bundled_names};
+
+use serde::{Deserialize, Serialize};
+use shared::{ControllerConfig, QuantMode, Quantization};
+use std::path::Path;
+
+/// A fully parsed and validated scene.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Scene {
+    /// Scene name (file stem or bundled name).
+    pub name: String,
+    /// One line saying what the scene shows.
+    #[serde(default)]
+    pub description: String,
+    pub plant: PlantSpec,
+    pub controller: ControllerSpec,
+    #[serde(default)]
+    pub initial: InitialSpec,
+    pub run: RunSpec,
+    #[serde(default)]
+    pub integrator: IntegratorSpec,
+    #[serde(default)]
+    pub effects: Effects,
+}
+
+/// Which plant, and overrides of its default (paper) parameters.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct PlantSpec {
+    pub kind: PlantKind,
+    /// Parameter overrides, checked against the plant's own parameter type when the scene is
+    /// built (unknown names are errors there, with the path `plant.params.NAME`).
+    #[serde(default)]
+    pub params: toml::Table,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum PlantKind {
+    /// The Furuta (rotary inverted) pendulum of the paper.
+    Furuta,
+    /// A planar inverted pendulum on a motor-driven cart.
+    Cart,
+}
+
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ControllerSpec {
+    /// V/rad.
+    pub kp: f64,
+    /// V s/rad.
+    pub kd: f64,
+    /// V s/rad, derivative gain on the secondary angle.
+    #[serde(default)]
+    pub kphi_d: f64,
+    /// Sampling period, ms.
+    pub dt_ms: f64,
+    /// Feedback delay r in samples.
+    #[serde(default = "one")]
+    pub delay: u32,
+}
+
+fn one() -> u32 {
+    1
+}
+
+/// Initial condition at t = 0 and the samples the controller saw before it.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct InitialSpec {
+    /// Plant state at t = 0 (its length must match the plant); default: all zero.
+    #[serde(default)]
+    pub state: Vec<f64>,
+    /// The r + 1 samples (primary, secondary) before t = 0, oldest first; default: the plant
+    /// at rest at the initial angles.
+    #[serde(default)]
+    pub history: Option<Vec<[f64; 2]>>,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum Task {
+    /// Closed-loop simulation.
+    Simulate,
+    /// Exact multipliers of the linearized sampled-data loop.
+    Stability,
+}
+
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RunSpec {
+    /// Number of sampling periods to simulate.
+    pub periods: u64,
+    /// What to compute; default: simulate and stability.
+    #[serde(default = "default_tasks")]
+    pub tasks: Vec<Task>,
+}
+
+fn default_tasks() -> Vec<Task> {
+    vec![Task::Simulate, Task::Stability]
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum MethodKind {
+    /// Adaptive L-stable Rosenbrock (RODAS4), error-controlled by rtol/atol.
+    Rodas,
+    /// The same scheme with a fixed number of steps per period.
+    RodasFixed,
+    /// Classical explicit RK4 with a fixed number of steps per period (baseline).
+    Rk4,
+}
+
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct IntegratorSpec {
+    #[serde(default = "default_method")]
+    pub method: MethodKind,
+    /// Relative tolerance (rodas).
+    #[serde(default)]
+    pub rtol: Option<f64>,
+    /// Absolute tolerance (rodas).
+    #[serde(default)]
+    pub atol: Option<f64>,
+    /// Steps per sampling period (rodas-fixed, rk4).
+    #[serde(default)]
+    pub steps: Option<u32>,
+}
+
+fn default_method() -> MethodKind {
+    MethodKind::Rodas
+}
+
+impl Default for IntegratorSpec {
+    fn default() -> Self {
+        Self { method: MethodKind::Rodas, rtol: Some(1e-10), atol: Some(1e-12), steps: None }
+    }
+}
+
+/// The effects a scene asks for; an absent table is an effect not simulated.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Effects {
+    #[serde(default)]
+    pub quantization: Option<QuantSpec>,
+    #[serde(default)]
+    pub saturation: Option<SaturationSpec>,
+    #[serde(default)]
+    pub noise: Option<NoiseSpec>,
+    #[serde(default)]
+    pub integral: Option<IntegralSpec>,
+}
+
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct QuantSpec {
+    /// `counts` (encoder counts in, DAC code out: what a device does) or `literal` (the
+    /// paper's formula read literally, one step h = h_adc).
+    pub mode: QuantModeSpec,
+    /// rad per count of the primary angle.
+    pub h_adc: f64,
+    /// rad per count of the secondary angle; default: h_adc.
+    #[serde(default)]
+    pub h_adc_phi: Option<f64>,
+    /// V per DAC code; default: h_adc * 1 V/rad (only meaningful for `counts`).
+    #[serde(default)]
+    pub h_dac: Option<f64>,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum QuantModeSpec {
+    Counts,
+    Literal,
+}
+
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SaturationSpec {
+    /// |u| <= u_max, V.
+    pub u_max: f64,
+}
+
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct NoiseSpec {
+    /// Seed of the ChaCha8 generator: the same seed gives the same run, bit for bit.
+    pub seed: u64,
+    /// Standard deviation of Gaussian noise added to the sampled primary angle, rad.
+    pub sigma_theta: f64,
+    /// The same for the secondary angle, rad.
+    #[serde(default)]
+    pub sigma_phi: f64,
+}
+
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct IntegralSpec {
+    /// Integral gain, V/(rad s).
+    pub ki: f64,
+}
+
+/// A scene that could not be read or is invalid; the message names the key path.
+#[derive(Debug, thiserror::Error)]
+pub enum SceneError {
+    #[error("cannot read scene file {path}: {source}")]
+    Io { path: String, source: std::io::Error },
+    #[error("scene {scene}: TOML syntax: {message}")]
+    Syntax { scene: String, message: String },
+    #[error("scene {scene}: `{path}`: {message}")]
+    Key { scene: String, path: String, message: String },
+    #[error("unknown scene `{0}`: not a bundled scene name (see `ssmctl scenes`) nor a readable .toml file")]
+    Unknown(String),
+    #[error("override `{0}`: expected PATH=VALUE, e.g. controller.dt_ms=31.2")]
+    BadOverride(String),
+}
+
+impl SceneError {
+    fn key(scene: &str, path: impl Into<String>, message: impl Into<String>) -> Self {
+        Self::Key { scene: scene.into(), path: path.into(), message: message.into() }
+    }
+}
+
+impl Scene {
+    /// Loads a bundled scene by name, or a TOML file by path, applies `overrides`
+    /// (`path.to.key=value`, value parsed as TOML, else taken as a string) and validates.
+    pub fn load(name_or_file: &str, overrides: &[String]) -> Result<Self, SceneError> {
+        let (label, text) = if let Some(text) = bundled::get(name_or_file) {
+            (name_or_file.to_string(), text.to_string())
+        } else if name_or_file.ends_with(".toml") || Path::new(name_or_file).is_file() {
+            let text = std::fs::read_to_string(name_or_file)
+                .map_err(|source| SceneError::Io { path: name_or_file.into(), source })?;
+            (name_or_file.to_string(), text)
+        } else {
+            return Err(SceneError::Unknown(name_or_file.into()));
+        };
+        Self::parse(&label, &text, overrides)
+    }
+
+    /// Parses scene TOML text (`label` names it in errors).
+    pub fn parse(label: &str, text: &str, overrides: &[String]) -> Result<Self, SceneError> {
+        let mut table: toml::Table = text
+            .parse()
+            .map_err(|e: toml::de::Error| SceneError::Syntax { scene: label.into(), message: e.message().into() })?;
+        for o in overrides {
+            apply_override(label, &mut table, o)?;
+        }
+        let scene: Scene = serde_path_to_error::deserialize(toml::Value::Table(table)).map_err(|e| {
+            SceneError::key(label, e.path().to_string(), e.inner().to_string())
+        })?;
+        scene.validate()?;
+        Ok(scene)
+    }
+
+    /// Checks values the types cannot: finiteness, signs, lengths.
+    pub fn validate(&self) -> Result<(), SceneError> {
+        let s = self.name.as_str();
+        let finite = |path: &str, v: f64| {
+            if v.is_finite() { Ok(()) } else { Err(SceneError::key(s, path, format!("must be finite, got {v}"))) }
+        };
+        let positive = |path: &str, v: f64| {
+            if v.is_finite() && v > 0.0 {
+                Ok(())
+            } else {
+                Err(SceneError::key(s, path, format!("must be finite and > 0, got {v}")))
+            }
+        };
+        let c = &self.controller;
+        finite("controller.kp", c.kp)?;
+        finite("controller.kd", c.kd)?;
+        finite("controller.kphi_d", c.kphi_d)?;
+        positive("controller.dt_ms", c.dt_ms)?;
+        if c.delay > 6 {
+            return Err(SceneError::key(s, "controller.delay", format!("at most 6 samples are supported, got {}", c.delay)));
+        }
+        for (i, v) in self.initial.state.iter().enumerate() {
+            finite(&format!("initial.state[{i}]"), *v)?;
+        }
+        if let Some(h) = &self.initial.history {
+            let need = c.delay as usize + 1;
+            if h.len() != need {
+                return Err(SceneError::key(
+                    s,
+                    "initial.history",
+                    format!("needs delay + 1 = {need} samples [primary, secondary], oldest first; got {}", h.len()),
+                ));
+            }
+            for (i, pair) in h.iter().enumerate() {
+                finite(&format!("initial.history[{i}][0]"), pair[0])?;
+                finite(&format!("initial.history[{i}][1]"), pair[1])?;
+            }
+        }
+        if self.run.periods == 0 && self.run.tasks.contains(&Task::Simulate) {
+            return Err(SceneError::key(s, "run.periods", "must be >= 1 when the scene simulates"));
+        }
+        if self.run.tasks.is_empty() {
+            return Err(SceneError::key(s, "run.tasks", "lists nothing to do"));
+        }
+        let i = &self.integrator;
+        match i.method {
+            MethodKind::Rodas => {
+                if i.steps.is_some() {
+                    return Err(SceneError::key(s, "integrator.steps", "not used by method rodas (set rtol/atol)"));
+                }
+                positive("integrator.rtol", i.rtol.unwrap_or(1e-10))?;
+                positive("integrator.atol", i.atol.unwrap_or(1e-12))?;
+            }
+            MethodKind::RodasFixed | MethodKind::Rk4 => {
+                if i.rtol.is_some() || i.atol.is_some() {
+                    return Err(SceneError::key(s, "integrator.rtol", "fixed-step methods take `steps`, not tolerances"));
+                }
+                match i.steps {
+                    Some(n) if n >= 1 => {}
+                    _ => return Err(SceneError::key(s, "integrator.steps", "fixed-step methods need steps >= 1")),
+                }
+            }
+        }
+        if let Some(q) = &self.effects.quantization {
+            positive("effects.quantization.h_adc", q.h_adc)?;
+            if let Some(h) = q.h_adc_phi {
+                positive("effects.quantization.h_adc_phi", h)?;
+            }
+            if let Some(h) = q.h_dac {
+                positive("effects.quantization.h_dac", h)?;
+            }
+            if q.mode == QuantModeSpec::Literal && q.h_dac.is_some() {
+                return Err(SceneError::key(
+                    s,
+                    "effects.quantization.h_dac",
+                    "the literal reading uses one step h = h_adc for ADC and DAC; remove h_dac",
+                ));
+            }
+        }
+        if let Some(sat) = &self.effects.saturation {
+            positive("effects.saturation.u_max", sat.u_max)?;
+        }
+        if let Some(n) = &self.effects.noise {
+            if !(n.sigma_theta.is_finite() && n.sigma_theta >= 0.0) {
+                return Err(SceneError::key(s, "effects.noise.sigma_theta", "must be finite and >= 0"));
+            }
+            if !(n.sigma_phi.is_finite() && n.sigma_phi >= 0.0) {
+                return Err(SceneError::key(s, "effects.noise.sigma_phi", "must be finite and >= 0"));
+            }
+        }
+        if let Some(ig) = &self.effects.integral {
+            finite("effects.integral.ki", ig.ki)?;
+        }
+        Ok(())
+    }
+
+    /// Sampling period in seconds.
+    pub fn dt(&self) -> f64 {
+        self.controller.dt_ms * 1e-3
+    }
+
+    /// The controller configuration this scene runs (what a device would be flashed with).
+    pub fn controller_config(&self) -> ControllerConfig {
+        let c = &self.controller;
+        ControllerConfig {
+            kp: c.kp,
+            kd: c.kd,
+            kphi_d: c.kphi_d,
+            ki: self.effects.integral.as_ref().map_or(0.0, |i| i.ki),
+            dt: self.dt(),
+            delay: c.delay,
+            u_max: self.effects.saturation.as_ref().map(|s| s.u_max),
+            quant: self.effects.quantization.as_ref().map(|q| Quantization {
+                mode: match q.mode {
+                    QuantModeSpec::Counts => QuantMode::Counts,
+                    QuantModeSpec::Literal => QuantMode::Literal,
+                },
+                h_adc: q.h_adc,
+                h_adc_phi: q.h_adc_phi.unwrap_or(q.h_adc),
+                h_dac: q.h_dac.unwrap_or(q.h_adc),
+            }),
+        }
+    }
+
+    /// Names of the effects this scene simulates, for metadata and reports.
+    pub fn effect_names(&self) -> Vec<String> {
+        let e = &self.effects;
+        let mut v = vec![format!("sampling/zoh dt={} ms, delay r={}", self.controller.dt_ms, self.controller.delay)];
+        if let Some(q) = &e.quantization {
+            v.push(format!("quantization ({})", match q.mode {
+                QuantModeSpec::Counts => "counts",
+                QuantModeSpec::Literal => "literal",
+            }));
+        }
+        if let Some(s) = &e.saturation {
+            v.push(format!("saturation |u| <= {} V", s.u_max));
+        }
+        if let Some(n) = &e.noise {
+            v.push(format!("sensor noise seed={} sigma_theta={} sigma_phi={}", n.seed, n.sigma_theta, n.sigma_phi));
+        }
+        if let Some(i) = &e.integral {
+            v.push(format!("integral action ki={}", i.ki));
+        }
+        v
+    }
+
+    pub fn wants(&self, t: Task) -> bool {
+        self.run.tasks.contains(&t)
+    }
+}
+
+/// Applies `a.b.c=value` to the table, creating intermediate tables as needed.
+fn apply_override(label: &str, table: &mut toml::Table, o: &str) -> Result<(), SceneError> {
+    let (path, raw) = o.split_once('=').ok_or_else(|| SceneError::BadOverride(o.into()))?;
+    let path = path.trim();
+    if path.is_empty() || path.split('.').any(str::is_empty) {
+        return Err(SceneError::BadOverride(o.into()));
+    }
+    let value = parse_value(raw.trim());
+    let keys: Vec<&str> = path.split('.').collect();
+    let (last, parents) = keys.split_last().ok_or_else(|| SceneError::BadOverride(o.into()))?;
+    let mut cur = table;
+    let mut walked = String::new();
+    for k in parents {
+        if !walked.is_empty() {
+            walked.push('.');
+        }
+        walked.push_str(k);
+        let entry = cur.entry((*k).to_string()).or_insert_with(|| toml::Value::Table(toml::Table::new()));
+        cur = match entry {
+            toml::Value::Table(t) => t,
+            other => {
+                return Err(SceneError::key(
+                    label,
+                    walked,
+                    format!("cannot set `{path}`: this key is a {}, not a table", other.type_str()),
+                ));
+            }
+        };
+    }
+    cur.insert((*last).to_string(), value);
+    Ok(())
+}
+
+/// A TOML value if `raw` parses as one (number, bool, array, quoted string), else a string.
+fn parse_value(raw: &str) -> toml::Value {
+    let doc = format!("v = {raw}");
+    match doc.parse::<toml::Table>() {
+        Ok(mut t) => t.remove("v").unwrap_or_else(|| toml::Value::String(raw.into())),
+        Err(_) => toml::Value::String(raw.into()),
+    }
+}
+
+#[cfg(test)]
+mod tests;
