@@ -1,9 +1,16 @@
 //! Host side of the workspace: plants, the closed-loop simulator that runs the device's own
 //! controller, exact linear stability, SSM fitting and model export, and the `ssmctl` CLI.
 
+pub mod bench;
 pub mod chart;
+pub mod cli;
 pub mod linear;
 pub mod ode;
 pub mod plant;
+pub mod plot;
+pub mod report;
+pub mod reproduce;
 pub mod scene;
+pub mod sim;
 pub mod ssm;
+pub mod stability;

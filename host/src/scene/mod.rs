@@ -107,6 +107,9 @@ pub struct RunSpec {
     /// What to compute; default: simulate and stability.
     #[serde(default = "default_tasks")]
     pub tasks: Vec<Task>,
+    /// Stop the run when |primary angle| exceeds this many radians (an escape), if set.
+    #[serde(default)]
+    pub escape_theta: Option<f64>,
 }
 
 fn default_tasks() -> Vec<Task> {
@@ -305,6 +308,9 @@ impl Scene {
         }
         if self.run.periods == 0 && self.run.tasks.contains(&Task::Simulate) {
             return Err(SceneError::key(s, "run.periods", "must be >= 1 when the scene simulates"));
+        }
+        if let Some(e) = self.run.escape_theta {
+            positive("run.escape_theta", e)?;
         }
         if self.run.tasks.is_empty() {
             return Err(SceneError::key(s, "run.tasks", "lists nothing to do"));

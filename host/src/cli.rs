@@ -1,0 +1,218 @@
+//! The `ssmctl` command line: argument parsing and output formatting only; the work is in
+//! the library modules.
+
+use crate::scene::{BUNDLED, Scene};
+use crate::{bench, reproduce, sim, stability};
+use clap::{Args, Parser, Subcommand};
+use indicatif::{ProgressBar, ProgressStyle};
+use std::path::PathBuf;
+
+#[derive(Parser)]
+#[command(name = "ssmctl", version, about = "Simulate, analyse and reduce a mechanical system under delayed, sampled, quantized PD control")]
+pub struct Cli {
+    /// No progress bars.
+    #[arg(long, global = true)]
+    pub quiet: bool,
+    #[command(subcommand)]
+    pub cmd: Cmd,
+}
+
+#[derive(Args, Clone)]
+pub struct SceneArgs {
+    /// A bundled scene name (see `ssmctl scenes`) or a scene TOML file.
+    #[arg(long)]
+    pub scene: String,
+    /// Override any scene field: `--set path.to.field=value` (repeatable).
+    #[arg(long = "set", value_name = "PATH=VALUE")]
+    pub set: Vec<String>,
+}
+
+impl SceneArgs {
+    fn load(&self) -> Result<Scene, crate::scene::SceneError> {
+        Scene::load(&self.scene, &self.set)
+    }
+}
+
+#[derive(Subcommand)]
+pub enum Cmd {
+    /// List the bundled scenes.
+    Scenes {
+        #[arg(long)]
+        json: bool,
+    },
+    /// Simulate a scene's closed loop; writes DIR/<scene>.csv and DIR/<scene>.json.
+    Simulate {
+        #[command(flatten)]
+        scene: SceneArgs,
+        #[arg(long)]
+        out: PathBuf,
+    },
+    /// Exact closed-loop multipliers of the linearized sampled-data loop.
+    Stability {
+        #[command(flatten)]
+        scene: SceneArgs,
+        /// Print JSON `{"multipliers": [...]}` sorted by modulus, largest first.
+        #[arg(long)]
+        json: bool,
+    },
+    /// Stability chart over a (KP, KD) grid for several sampling periods, as a PNG.
+    StabilityChart {
+        #[command(flatten)]
+        scene: SceneArgs,
+        /// Output PNG.
+        #[arg(long)]
+        out: PathBuf,
+        /// Sampling periods in ms, comma separated.
+        #[arg(long, value_delimiter = ',', default_value = "20,25,30.8")]
+        dt_ms: Vec<f64>,
+        /// KP range and points, `min:max:n`.
+        #[arg(long, default_value = "0:40:161")]
+        kp: String,
+        /// KD range and points, `min:max:n`.
+        #[arg(long, default_value = "0:8:161")]
+        kd: String,
+    },
+    /// Run everything on the bundled scenes; writes DIR/index.html and DIR/summary.json.
+    Reproduce {
+        #[arg(long)]
+        out: PathBuf,
+        /// Shorter runs and timing windows (smoke test).
+        #[arg(long)]
+        quick: bool,
+    },
+    /// Benchmarks.
+    Bench {
+        #[command(subcommand)]
+        what: BenchCmd,
+    },
+}
+
+#[derive(Subcommand)]
+pub enum BenchCmd {
+    /// Periods simulated per second vs max theta error against a tight reference.
+    Simulate {
+        #[arg(long)]
+        json: bool,
+        #[arg(long, default_value_t = 200)]
+        periods: u64,
+        #[arg(long)]
+        quick: bool,
+    },
+}
+
+fn spinner(quiet: bool, len: Option<u64>, msg: &str) -> Option<ProgressBar> {
+    if quiet {
+        return None;
+    }
+    let pb = match len {
+        Some(n) => ProgressBar::new(n).with_style(
+            ProgressStyle::with_template("{msg} [{bar:40}] {pos}/{len} ({per_sec}, eta {eta})")
+                .unwrap_or_else(|_| ProgressStyle::default_bar()),
+        ),
+        None => ProgressBar::new_spinner(),
+    };
+    pb.set_message(msg.to_string());
+    Some(pb)
+}
+
+/// Parses `min:max:n`.
+pub fn parse_range(s: &str, what: &str) -> Result<(f64, f64, usize), String> {
+    let parts: Vec<&str> = s.split(':').collect();
+    let bad = || format!("--{what} `{s}`: expected min:max:n with min < max and n >= 2");
+    if parts.len() != 3 {
+        return Err(bad());
+    }
+    let lo: f64 = parts[0].trim().parse().map_err(|_| bad())?;
+    let hi: f64 = parts[1].trim().parse().map_err(|_| bad())?;
+    let n: usize = parts[2].trim().parse().map_err(|_| bad())?;
+    if !(lo.is_finite() && hi.is_finite() && lo < hi && n >= 2) {
+        return Err(bad());
+    }
+    Ok((lo, hi, n))
+}
+
+/// Runs the CLI; the error is printed by `main`.
+pub fn run(cli: Cli) -> Result<(), Box<dyn std::error::Error>> {
+    let quiet = cli.quiet;
+    match cli.cmd {
+        Cmd::Scenes { json } => {
+            let mut list = Vec::new();
+            for (name, text) in BUNDLED {
+                let s = Scene::parse(name, text, &[])?;
+                list.push(serde_json::json!({"name": name, "description": s.description, "effects": s.effect_names()}));
+                if !json {
+                    println!("{name:<22} {}", s.description);
+                }
+            }
+            if json {
+                println!("{}", serde_json::to_string_pretty(&list)?);
+            }
+        }
+        Cmd::Simulate { scene, out } => {
+            let s = scene.load()?;
+            let pb = spinner(quiet, Some(s.run.periods), &s.name);
+            let tr = sim::simulate(&s, pb.as_ref())?;
+            if let Some(pb) = pb {
+                pb.finish_and_clear();
+            }
+            let csv = sim::write_outputs(&s, &tr, &out)?;
+            eprintln!(
+                "{}: {} periods in {:.3} s ({}){}; wrote {}",
+                s.name,
+                tr.rows() - 1,
+                tr.wall_seconds,
+                tr.integrator,
+                tr.stopped.as_deref().map(|r| format!(", stopped: {r}")).unwrap_or_default(),
+                csv.display()
+            );
+        }
+        Cmd::Stability { scene, json } => {
+            let s = scene.load()?;
+            let m = stability::scene_multipliers(&s)?;
+            if json {
+                println!("{}", serde_json::to_string(&serde_json::json!({ "multipliers": m }))?);
+            } else {
+                println!("{:>12} {:>12} {:>10} {:>10} {:>12}", "re", "im", "|mu|", "f [Hz]", "rate [1/s]");
+                for x in &m {
+                    println!("{:>12.6} {:>12.6} {:>10.6} {:>10.4} {:>12.5}", x.re, x.im, x.abs, x.freq_hz, x.rate);
+                }
+            }
+        }
+        Cmd::StabilityChart { scene, out, dt_ms, kp, kd } => {
+            let s = scene.load()?;
+            let kp = parse_range(&kp, "kp")?;
+            let kd = parse_range(&kd, "kd")?;
+            let summary = stability::chart_for_scene(&s, &out, &dt_ms, kp, kd)?;
+            println!("{}", serde_json::to_string_pretty(&summary)?);
+        }
+        Cmd::Reproduce { out, quick } => {
+            reproduce::run(&out, quick, quiet)?;
+            eprintln!("wrote {}", out.join("index.html").display());
+        }
+        Cmd::Bench { what: BenchCmd::Simulate { json, periods, quick } } => {
+            let pb = spinner(quiet, None, "bench");
+            let (rows, baseline) = bench::bench_simulate(periods, quick, |m| {
+                if let Some(pb) = &pb {
+                    pb.set_message(m.to_string());
+                    pb.tick();
+                }
+            })?;
+            if let Some(pb) = pb {
+                pb.finish_and_clear();
+            }
+            if json {
+                println!("{}", serde_json::to_string_pretty(&rows)?);
+            } else {
+                println!("baseline: {baseline}");
+                println!("{:<34} {:>14} {:>12} {:>10} {:>12}", "method", "periods/s", "max err rad", "x baseline", "steps/period");
+                for r in &rows {
+                    println!(
+                        "{:<34} {:>14.0} {:>12.2e} {:>10.2} {:>12.1}",
+                        r.method, r.periods_per_s, r.max_err_rad, r.ratio_vs_baseline, r.steps_per_period
+                    );
+                }
+            }
+        }
+    }
+    Ok(())
+}

@@ -1,0 +1,88 @@
+//! Small PNG line plots for reports (plotters, bitmap backend, an embedded DejaVu font so
+//! no system fonts are needed).
+
+use plotters::prelude::*;
+use std::path::Path;
+use std::sync::Once;
+
+static FONT: Once = Once::new();
+
+/// Registers the embedded font for plotters' text; call before drawing any text.
+pub fn ensure_font() {
+    FONT.call_once(|| {
+        // Registration can only fail for an unparsable font, which the embedded DejaVu is not;
+        // if it ever did, plotters reports the missing font when drawing, as an error.
+        let _ = plotters::style::register_font("sans-serif", FontStyle::Normal, dejavu::sans::regular());
+    });
+}
+
+/// A plotting failure (backend or file).
+#[derive(Debug, thiserror::Error)]
+#[error("plot {path}: {message}")]
+pub struct PlotError {
+    pub path: String,
+    pub message: String,
+}
+
+impl PlotError {
+    pub fn new(path: &Path, e: impl std::fmt::Display) -> Self {
+        Self { path: path.display().to_string(), message: e.to_string() }
+    }
+}
+
+/// One named polyline.
+pub struct Series<'a> {
+    pub name: &'a str,
+    pub points: &'a [(f64, f64)],
+    pub color: RGBColor,
+}
+
+/// Draws polylines into a PNG of `size` pixels; the ranges cover all finite points.
+pub fn lines(path: &Path, title: &str, xlabel: &str, ylabel: &str, series: &[Series<'_>], size: (u32, u32)) -> Result<(), PlotError> {
+    ensure_font();
+    let e = |m: &dyn std::fmt::Display| PlotError::new(path, m);
+    let finite = series.iter().flat_map(|s| s.points.iter()).filter(|p| p.0.is_finite() && p.1.is_finite());
+    let (mut x0, mut x1, mut y0, mut y1) = (f64::INFINITY, f64::NEG_INFINITY, f64::INFINITY, f64::NEG_INFINITY);
+    for &(x, y) in finite {
+        x0 = x0.min(x);
+        x1 = x1.max(x);
+        y0 = y0.min(y);
+        y1 = y1.max(y);
+    }
+    if !(x0.is_finite() && y0.is_finite()) {
+        return Err(e(&"no finite points to plot"));
+    }
+    if x1 <= x0 {
+        x1 = x0 + 1.0;
+    }
+    let pad = if y1 > y0 { 0.05 * (y1 - y0) } else { 1e-3_f64.max(y0.abs() * 0.05) };
+    let root = BitMapBackend::new(path, size).into_drawing_area();
+    root.fill(&WHITE).map_err(|x| e(&x))?;
+    let mut chart = ChartBuilder::on(&root)
+        .caption(title, ("sans-serif", 18))
+        .margin(10)
+        .x_label_area_size(36)
+        .y_label_area_size(64)
+        .build_cartesian_2d(x0..x1, (y0 - pad)..(y1 + pad))
+        .map_err(|x| e(&x))?;
+    chart.configure_mesh().x_desc(xlabel).y_desc(ylabel).label_style(("sans-serif", 13)).draw().map_err(|x| e(&x))?;
+    for s in series {
+        let color = s.color;
+        chart
+            .draw_series(LineSeries::new(s.points.iter().copied().filter(|p| p.0.is_finite() && p.1.is_finite()), color.stroke_width(1)))
+            .map_err(|x| e(&x))?
+            .label(s.name)
+            .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 16, y)], color.stroke_width(2)));
+    }
+    if series.len() > 1 {
+        chart
+            .configure_series_labels()
+            .background_style(WHITE.mix(0.85))
+            .border_style(BLACK)
+            .label_font(("sans-serif", 13))
+            .draw()
+            .map_err(|x| e(&x))?;
+    }
+    root.present().map_err(|x| e(&x))?;
+    Ok(())
+}
