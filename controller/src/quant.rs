@@ -141,9 +141,9 @@ fn to_q16(codes_per_count: f64, source: f64, field: Field) -> Result<i64, Config
 
 impl<const H: usize> IntPd<H> {
     /// Validate `cfg` once (quantization present with mode `Counts`; every step finite and
-    /// > 0; gains finite; `dt` > 0; `delay + 2 <= H`; every Q16 gain within
-    /// [`GAIN_MAX_Q`] and non-zero when its field is; `1 <= u_max / h_dac <= i32::MAX`)
-    /// and convert the gains to Q16 codes per count.
+    /// positive; gains finite; `dt` positive; `delay + 2 <= H`; every Q16 gain within
+    /// [`GAIN_MAX_Q`] and non-zero when its field is; `1 <= u_max / h_dac <= i32::MAX`) and
+    /// convert the gains to Q16 codes per count.
     pub fn try_new(cfg: &ControllerConfig) -> Result<Self, ConfigError> {
         let delay = validate_common(cfg, H)?;
         let q = validate_quant(cfg, QuantMode::Counts)?;

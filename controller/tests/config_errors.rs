@@ -7,6 +7,8 @@ use controller::{
     ConfigError, ControllerConfig, Field, FloatPd, IntPd, Law, LiteralPd, QuantMode, Quantization,
 };
 
+type Path = fn(ControllerConfig) -> Result<(), ConfigError>;
+
 fn float(cfg: ControllerConfig) -> Result<(), ConfigError> {
     FloatPd::<f64, 4>::try_new(&cfg).map(|_| ())
 }
@@ -41,7 +43,7 @@ fn check_common(set: fn(&mut ControllerConfig, f64), field: Field, positive: boo
         for &(v, expected) in &bad {
             let mut cfg = base;
             set(&mut cfg, v);
-            let paths: [fn(ControllerConfig) -> Result<(), ConfigError>; 2] = match base.quant.map(|q| q.mode) {
+            let paths: [Path; 2] = match base.quant.map(|q| q.mode) {
                 None => [float, float32],
                 Some(QuantMode::Counts) => [int, law],
                 Some(QuantMode::Literal) => [literal, law],
@@ -99,7 +101,7 @@ fn quantization_fields() {
 #[test]
 fn delay_and_modes() {
     // H = 4 holds delay <= 2.
-    let cases: [(fn(ControllerConfig) -> Result<(), ConfigError>, ControllerConfig); 4] = [
+    let cases: [(Path, ControllerConfig); 4] = [
         (float, ControllerConfig::paper(0.025)),
         (float32, ControllerConfig::paper(0.025)),
         (int, paper_counts(0.0, 1)),

@@ -109,7 +109,7 @@ proptest! {
         let seq: Vec<(i32, i32)> = pre.iter().chain(&inputs).copied().collect();
         let mut s = 0i64;
         let mut decided = 0;
-        for i in 0..inputs.len() {
+        for (i, out) in got.iter().enumerate() {
             let k = i + r + 1;
             let (y0, z0) = seq[k - r];
             let (y1, z1) = seq[k - r - 1];
@@ -136,7 +136,7 @@ proptest! {
             let lo_raw = (x - e - f64_err).floor();
             let hi_raw = (x + e + f64_err).floor();
             let (lo, hi) = (lo_raw.clamp(-c, c), hi_raw.clamp(-c, c));
-            let code = f64::from(got[i].code);
+            let code = f64::from(out.code);
             prop_assert!(lo <= code && code <= hi, "step {i}: code {code} not in [{lo}, {hi}], x = {x}");
             if lo == hi {
                 decided += 1;
@@ -144,9 +144,9 @@ proptest! {
             }
             // The flag: set when both bounds lie outside the range, clear when both inside.
             if lo_raw.abs() > c && hi_raw.abs() > c && lo_raw.signum() == hi_raw.signum() {
-                prop_assert!(got[i].saturated, "step {i}: x = {x} beyond +-{c}, flag clear");
+                prop_assert!(out.saturated, "step {i}: x = {x} beyond +-{c}, flag clear");
             } else if lo_raw.abs() <= c && hi_raw.abs() <= c {
-                prop_assert!(!got[i].saturated, "step {i}: x = {x} within +-{c}, flag set");
+                prop_assert!(!out.saturated, "step {i}: x = {x} within +-{c}, flag set");
             }
         }
         // The bound is tight: almost every step is decided exactly.
@@ -231,5 +231,5 @@ fn adc_floors_and_rejects() {
 #[test]
 fn overflow_checks_are_on_in_this_profile() {
     // (c) relies on debug assertions (and with them overflow checks) being on for tests.
-    assert!(cfg!(debug_assertions));
+    const { assert!(cfg!(debug_assertions)) };
 }

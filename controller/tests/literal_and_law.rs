@@ -14,12 +14,13 @@ fn literal_cfg(u_max: Option<f64>) -> ControllerConfig {
     c
 }
 
-/// Angles given in units of h = h_adc; u = h * floor(-15.5 floor(y/h) - 5.45 floor(ydot/h)
-/// + 1.5 floor(zdot/h)), r = 1, dt = 25 ms. Expected integers computed independently at 50
-/// digits; every inner quotient is >= 0.04 from an integer and every sum >= 0.15, far beyond
-/// f64 rounding. E.g. step 0: floor(2.709) = 2, floor((2.709 - 0.313)/0.025) = floor(95.84)
-/// = 95, floor((-0.402 - 0.117)/0.025) = floor(-20.76) = -21:
-/// -31 - 517.75 - 31.5 = -580.25 -> -581. u_max = 10 V clamps to floor(10/h) = 6518.
+/// Angles given in units of h = h_adc, r = 1, dt = 25 ms,
+/// `u = h * floor(-15.5 floor(y/h) - 5.45 floor(ydot/h) + 1.5 floor(zdot/h))`. Expected integers computed independently at 50
+/// digits; every inner quotient is at least 0.04 from an integer and every sum at least 0.15,
+/// far beyond f64 rounding. Step 0 for example: floor(2.709) is 2,
+/// floor((2.709 - 0.313)/0.025) is floor(95.84) = 95, floor((-0.402 - 0.117)/0.025) is
+/// floor(-20.76) = -21, so the sum is -31 - 517.75 - 31.5 = -580.25 and n is -581.
+/// u_max = 10 V clamps n to floor(10/h) = 6518.
 #[test]
 fn literal_golden_trace() {
     let pre = [(0.313, 0.117), (2.709, -0.402)];
