@@ -1,0 +1,69 @@
+//! Fixed-capacity delay line shared by the control paths (no allocation, no panics).
+
+/// The last `H` samples, newest at `head`. Invariant kept by the owners: `back(k)` is only
+/// called with `k < H` (the `try_new`s check `delay + 2 <= H`), and `H >= 2`.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Delay<S: Copy + Default, const H: usize> {
+    buf: [S; H],
+    head: usize,
+}
+
+impl<S: Copy + Default, const H: usize> Delay<S, H> {
+    pub(crate) fn new(fill: S) -> Self {
+        Self { buf: [fill; H], head: 0 }
+    }
+
+    /// Every slot set to `s`.
+    pub(crate) fn fill(&mut self, s: S) {
+        self.buf = [s; H];
+    }
+
+    /// Make `s` the newest sample (`back(0)`).
+    pub(crate) fn push(&mut self, s: S) {
+        let next = if self.head.saturating_add(1) >= H { 0 } else { self.head.saturating_add(1) };
+        if let Some(slot) = self.buf.get_mut(next) {
+            *slot = s;
+        }
+        self.head = next;
+    }
+
+    /// What `back(k)` would return after `push(new)`, without pushing.
+    pub(crate) fn back_after_push(&self, new: S, k: usize) -> S {
+        match k.checked_sub(1) {
+            None => new,
+            Some(k1) => self.back(k1),
+        }
+    }
+
+    /// The sample pushed `k` pushes before the newest (`back(0)` is the newest).
+    pub(crate) fn back(&self, k: usize) -> S {
+        let idx = if k <= self.head {
+            self.head.saturating_sub(k)
+        } else {
+            self.head.saturating_add(H).saturating_sub(k)
+        };
+        // `k < H` by the owners' invariant, so the slot exists; the default is unreachable.
+        self.buf.get(idx).copied().unwrap_or_default()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::Delay;
+
+    #[test]
+    fn back_returns_pushed_samples_in_order_across_wraps() {
+        let mut d: Delay<i32, 4> = Delay::new(-1);
+        for i in 0..11 {
+            assert_eq!(d.back_after_push(i, 0), i);
+            d.push(i);
+            for k in 0..4 {
+                let expected = if i >= k as i32 { i - k as i32 } else { -1 };
+                assert_eq!(d.back(k), expected, "after pushing {i}, back({k})");
+                if k + 1 < 4 {
+                    assert_eq!(d.back_after_push(i + 1, k + 1), expected);
+                }
+            }
+        }
+    }
+}
