@@ -9,8 +9,7 @@
 use crate::ode::{Integrator, Method, OdeError, OdeStats};
 use crate::plant::{Plant, PlantError, cart::{CartPendulum, CartPendulumParams}, furuta::{Furuta, FurutaParams}};
 use crate::scene::{MethodKind, PlantKind, Scene, SceneError};
-use controller::pd::FloatPd;
-use controller::quant::{IntPd, LiteralPd, adc};
+use controller::{FloatPd, IntPd, LiteralPd, adc};
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, Normal};
@@ -172,7 +171,7 @@ enum Law {
 
 impl Law {
     fn new(cfg: &ControllerConfig, scene: &str) -> Result<Self, SimError> {
-        let err = |e: controller::pd::ConfigError| SimError::Controller { scene: scene.into(), message: e.to_string() };
+        let err = |e: controller::ConfigError| SimError::Controller { scene: scene.into(), message: e.to_string() };
         Ok(match cfg.quant {
             None => Law::Float(FloatPd::try_new(cfg).map_err(err)?),
             Some(q) => match q.mode {
@@ -206,9 +205,10 @@ pub fn simulate_with<P: Plant<N>, const N: usize>(
     };
     let mut law = Law::new(&cfg, name)?;
     let sensor_err = |t: f64, e: String| SimError::Sensor { scene: name.into(), t, message: e };
+    let prime_err = |e: controller::InputError| SimError::Controller { scene: name.into(), message: format!("initial.history: {e}") };
     match &mut law {
-        Law::Float(pd) => pd.prime(&history),
-        Law::Literal(pd) => pd.prime(&history),
+        Law::Float(pd) => pd.prime(&history).map_err(prime_err)?,
+        Law::Literal(pd) => pd.prime(&history).map_err(prime_err)?,
         Law::Counts { pd, h_y, h_z } => {
             let mut q = Vec::with_capacity(history.len());
             for &(y, z) in &history {
@@ -216,7 +216,7 @@ pub fn simulate_with<P: Plant<N>, const N: usize>(
                 let qz = adc(z, *h_z).map_err(|e| sensor_err(0.0, format!("pre-history secondary angle {z}: {e}")))?;
                 q.push((qy, qz));
             }
-            pd.prime(&q);
+            pd.prime(&q).map_err(prime_err)?;
         }
     }
     // Only a scene that names noise gets a generator: a noiseless run draws no random numbers.
@@ -255,11 +255,11 @@ pub fn simulate_with<P: Plant<N>, const N: usize>(
         }
         let (u, saturated) = match &mut law {
             Law::Float(pd) => {
-                let o = pd.step(y, z);
+                let o = pd.step(y, z).map_err(|e| sensor_err(t, e.to_string()))?;
                 (o.u, o.saturated)
             }
             Law::Literal(pd) => {
-                let o = pd.step(y, z);
+                let o = pd.step(y, z).map_err(|e| sensor_err(t, e.to_string()))?;
                 (o.u, o.saturated)
             }
             Law::Counts { pd, h_y, h_z } => {
