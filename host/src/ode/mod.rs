@@ -1,0 +1,402 @@
+//! ODE integrators for one sampling period at a time: the simulator holds the input constant
+//! over a period and calls [`Integrator::advance`] once per period, so the input jump at each
+//! period start falls exactly on a step boundary.
+//!
+//! The Furuta pendulum is stiff (a linearization eigenvalue near -1.56e4 1/s from the motor's
+//! back-EMF over the near-singular mass matrix): explicit RK4 needs steps below ~0.18 ms to
+//! stay stable, whatever the accuracy asked. [`Method::Rodas`] is the adaptive, L-stable
+//! RODAS4 Rosenbrock method with the exact Jacobian from dual numbers; [`Method::RodasFixed`]
+//! the same scheme with a fixed number of steps per period; [`Method::Rk4`] the explicit
+//! baseline.
+//!
+//! This module owns time stepping only: it knows nothing of controllers or sampling beyond
+//! "advance `x` by `h` under the held input `u`". Nothing here allocates per step.
+
+mod lu;
+mod rodas;
+
+use serde::{Deserialize, Serialize};
+
+use crate::plant::{Plant, jacobian};
+
+/// How to integrate one sampling period.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(tag = "kind", rename_all = "snake_case", deny_unknown_fields)]
+pub enum Method {
+    /// Adaptive RODAS4 with the mixed error test `|err_i| <= atol + rtol*|y_i|` (RMS norm).
+    Rodas { rtol: f64, atol: f64 },
+    /// RODAS4 with `steps` equal steps per period (no error control).
+    RodasFixed { steps: u32 },
+    /// Classical explicit Runge-Kutta of order 4 with `steps` equal steps per period.
+    Rk4 { steps: u32 },
+}
+
+/// Why an integration failed. The state is never left holding NaN or infinity: on error it is
+/// the last good state.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+pub enum OdeError {
+    #[error("state or derivative component {component} became non-finite at t = {t} s")]
+    NonFinite { t: f64, component: usize },
+    #[error("step size underflow at t = {t} s (h = {h:e} s)")]
+    StepSizeUnderflow { t: f64, h: f64 },
+    #[error("more than {steps} steps in one period, at t = {t} s")]
+    TooManySteps { t: f64, steps: u64 },
+    #[error("the Rosenbrock iteration matrix stayed singular at t = {t} s (h = {h:e} s)")]
+    SingularMatrix { t: f64, h: f64 },
+    #[error("bad integration method: {0}")]
+    BadMethod(String),
+    #[error("bad call to advance: {0}")]
+    BadArgument(String),
+}
+
+/// Work counters since the integrator was created.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+pub struct OdeStats {
+    /// Accepted steps.
+    pub steps: u64,
+    /// Rejected steps (error test failed, non-finite trial state, or singular matrix).
+    pub rejected: u64,
+    /// Right-hand side evaluations in `f64` (the Jacobian evaluations, which also yield `f`,
+    /// are not counted here).
+    pub rhs_evals: u64,
+    /// Jacobian evaluations (one dual-number evaluation of the right-hand side each).
+    pub jac_evals: u64,
+}
+
+/// Step-size controller constants (Hairer & Wanner's `rodas.f` defaults).
+const SAFETY: f64 = 0.9;
+/// Largest step growth factor.
+const FAC_MAX: f64 = 6.0;
+/// Largest step shrink factor (on rejection by the error test).
+const FAC_MIN: f64 = 0.2;
+/// Embedded order + 1 of RODAS4(3): the error estimate scales as `h^4`.
+const ERR_EXP: f64 = 0.25;
+/// Default bound on the steps of one period.
+const DEFAULT_MAX_STEPS: u64 = 1_000_000;
+/// Consecutive singular-matrix or non-finite rejections before giving up.
+const MAX_HALVINGS: u32 = 60;
+
+/// An integrator for an `N`-state plant. Keeps the step size across periods.
+#[derive(Clone, Debug)]
+pub struct Integrator<const N: usize> {
+    method: Method,
+    stats: OdeStats,
+    /// Time advanced so far (sum of the `h` passed to `advance`), s; used in error reports.
+    t: f64,
+    max_steps: u64,
+    /// Adaptive: the step proposed for the next step inside a smooth stretch (`None` before
+    /// the first period).
+    h_smooth: Option<f64>,
+    /// Adaptive: the step proposed for the first step after an input jump, learnt from the
+    /// error of the first step of previous periods.
+    h_jump: Option<f64>,
+    /// The input of the previous period; the first step of a period is a jump step unless the
+    /// input is bit-identical to it.
+    last_u: Option<f64>,
+}
+
+impl<const N: usize> Integrator<N> {
+    /// Validates the method: tolerances finite and positive, step counts at least 1.
+    pub fn new(method: Method) -> Result<Self, OdeError> {
+        match method {
+            Method::Rodas { rtol, atol } => {
+                for (name, v) in [("rtol", rtol), ("atol", atol)] {
+                    if !(v.is_finite() && v > 0.0) {
+                        return Err(OdeError::BadMethod(format!(
+                            "rodas: {name} must be finite and positive, got {v}"
+                        )));
+                    }
+                }
+                if rtol < 1e-15 {
+                    return Err(OdeError::BadMethod(format!(
+                        "rodas: rtol = {rtol:e} is below what f64 arithmetic can deliver (1e-15)"
+                    )));
+                }
+            }
+            Method::RodasFixed { steps } | Method::Rk4 { steps } => {
+                if steps == 0 {
+                    return Err(OdeError::BadMethod(format!(
+                        "{}: steps must be at least 1, got 0",
+                        Self::method_name(&method)
+                    )));
+                }
+            }
+        }
+        Ok(Self {
+            method,
+            stats: OdeStats::default(),
+            t: 0.0,
+            max_steps: DEFAULT_MAX_STEPS,
+            h_smooth: None,
+            h_jump: None,
+            last_u: None,
+        })
+    }
+
+    /// Caps the number of steps (accepted plus rejected) one call of [`advance`](Self::advance)
+    /// may take; [`OdeError::TooManySteps`] beyond it. Default one million.
+    pub fn with_max_steps(mut self, max_steps: u64) -> Self {
+        self.max_steps = max_steps.max(1);
+        self
+    }
+
+    pub fn method(&self) -> Method {
+        self.method
+    }
+
+    pub fn stats(&self) -> OdeStats {
+        self.stats
+    }
+
+    /// Time advanced so far, s.
+    pub fn time(&self) -> f64 {
+        self.t
+    }
+
+    fn method_name(m: &Method) -> &'static str {
+        match m {
+            Method::Rodas { .. } => "rodas4",
+            Method::RodasFixed { .. } => "rodas4-fixed",
+            Method::Rk4 { .. } => "rk4",
+        }
+    }
+
+    /// A one-line description, e.g. `"rodas4 rtol=1e-10 atol=1e-12"`.
+    pub fn describe(&self) -> String {
+        let name = Self::method_name(&self.method);
+        match self.method {
+            Method::Rodas { rtol, atol } => format!("{name} rtol={rtol:e} atol={atol:e}"),
+            Method::RodasFixed { steps } | Method::Rk4 { steps } => {
+                format!("{name} steps={steps}/period")
+            }
+        }
+    }
+
+    /// Advances `x` by exactly `h` seconds under the held input `u`. On error `x` holds the
+    /// last state that was finite (the state at the failing step's start).
+    pub fn advance<P: Plant<N>>(
+        &mut self,
+        plant: &P,
+        x: &mut [f64; N],
+        u: f64,
+        h: f64,
+    ) -> Result<(), OdeError> {
+        if !(h.is_finite() && h > 0.0) {
+            return Err(OdeError::BadArgument(format!("period h must be finite and positive, got {h}")));
+        }
+        if !u.is_finite() {
+            return Err(OdeError::BadArgument(format!("input u must be finite, got {u}")));
+        }
+        if let Some(component) = first_non_finite(x) {
+            return Err(OdeError::NonFinite { t: self.t, component });
+        }
+        let t0 = self.t;
+        let result = match self.method {
+            Method::Rk4 { steps } => self.rk4(plant, x, u, h, steps),
+            Method::RodasFixed { steps } => self.rodas_fixed(plant, x, u, h, steps),
+            Method::Rodas { rtol, atol } => self.rodas_adaptive(plant, x, u, h, rtol, atol),
+        };
+        self.t = t0 + h;
+        self.last_u = Some(u);
+        if result.is_err() {
+            // Force a fresh start if the caller continues after an error.
+            self.h_smooth = None;
+            self.h_jump = None;
+            self.last_u = None;
+        }
+        result
+    }
+
+    fn rk4<P: Plant<N>>(&mut self, p: &P, x: &mut [f64; N], u: f64, h: f64, steps: u32) -> Result<(), OdeError> {
+        let dt = h / f64::from(steps);
+        for i in 0..steps {
+            let t = self.t + f64::from(i) * dt;
+            let k1 = p.rhs(x, u);
+            let k2 = p.rhs(&axpy(x, 0.5 * dt, &k1), u);
+            let k3 = p.rhs(&axpy(x, 0.5 * dt, &k2), u);
+            let k4 = p.rhs(&axpy(x, dt, &k3), u);
+            self.stats.rhs_evals += 4;
+            let y: [f64; N] =
+                core::array::from_fn(|j| x[j] + dt / 6.0 * (k1[j] + 2.0 * (k2[j] + k3[j]) + k4[j]));
+            if let Some(component) = first_non_finite(&y) {
+                return Err(OdeError::NonFinite { t: t + dt, component });
+            }
+            *x = y;
+            self.stats.steps += 1;
+        }
+        Ok(())
+    }
+
+    fn rodas_fixed<P: Plant<N>>(
+        &mut self,
+        p: &P,
+        x: &mut [f64; N],
+        u: f64,
+        h: f64,
+        steps: u32,
+    ) -> Result<(), OdeError> {
+        let dt = h / f64::from(steps);
+        for i in 0..steps {
+            let t = self.t + f64::from(i) * dt;
+            let (f0, jac) = jacobian(p, x, u);
+            self.stats.jac_evals += 1;
+            if let Some(component) = first_non_finite(&f0) {
+                return Err(OdeError::NonFinite { t, component });
+            }
+            let lu = rodas::factor(&jac, dt).ok_or(OdeError::SingularMatrix { t, h: dt })?;
+            let mut rhs = |y: &[f64; N]| p.rhs(y, u);
+            let (y, _) = rodas::step(&mut rhs, &lu, x, &f0, dt);
+            self.stats.rhs_evals += 5;
+            if let Some(component) = first_non_finite(&y) {
+                return Err(OdeError::NonFinite { t: t + dt, component });
+            }
+            *x = y;
+            self.stats.steps += 1;
+        }
+        Ok(())
+    }
+
+    fn rodas_adaptive<P: Plant<N>>(
+        &mut self,
+        p: &P,
+        x: &mut [f64; N],
+        u: f64,
+        h_period: f64,
+        rtol: f64,
+        atol: f64,
+    ) -> Result<(), OdeError> {
+        let t0 = self.t;
+        let jump = self.last_u != Some(u);
+        // First step: a small guess the first time; after an input jump the step learnt for
+        // jumps; otherwise carry on with the smooth-stretch step.
+        let h_default = (1e-3 * h_period).min(1e-5);
+        let mut hs = match (self.h_smooth, self.h_jump) {
+            (None, _) => h_default,
+            (Some(hs), Some(hj)) if jump => hs.min(hj),
+            (Some(hs), None) if jump => hs.min(h_default),
+            (Some(hs), _) => hs,
+        };
+        let h_min = 1e-14 * h_period.max(t0.abs());
+        let mut t = 0.0;
+        let (mut f0, mut jac) = jacobian(p, x, u);
+        self.stats.jac_evals += 1;
+        if let Some(component) = first_non_finite(&f0) {
+            return Err(OdeError::NonFinite { t: t0, component });
+        }
+        let mut first = true;
+        let mut rejected_last = false;
+        let mut n_tries: u64 = 0;
+        let mut halvings: u32 = 0;
+        // Gustafsson predictive controller memory (previous accepted step and its error).
+        let mut h_acc = 0.0;
+        let mut err_acc = 0.0;
+        let mut n_acc = 0u64;
+        loop {
+            let remaining = h_period - t;
+            let (h_try, last) = if hs * 1.0001 >= remaining {
+                (remaining, true)
+            } else if 2.0 * hs > remaining {
+                // Split what is left evenly rather than leave a sliver for the last step.
+                (0.5 * remaining, false)
+            } else {
+                (hs, false)
+            };
+            n_tries += 1;
+            if n_tries > self.max_steps {
+                return Err(OdeError::TooManySteps { t: t0 + t, steps: self.max_steps });
+            }
+            if h_try < h_min {
+                return Err(OdeError::StepSizeUnderflow { t: t0 + t, h: h_try });
+            }
+            let Some(lu) = rodas::factor(&jac, h_try) else {
+                halvings += 1;
+                if halvings > MAX_HALVINGS {
+                    return Err(OdeError::SingularMatrix { t: t0 + t, h: h_try });
+                }
+                self.stats.rejected += 1;
+                hs = 0.5 * h_try;
+                rejected_last = true;
+                continue;
+            };
+            let mut rhs = |y: &[f64; N]| p.rhs(y, u);
+            let (y, k6) = rodas::step(&mut rhs, &lu, x, &f0, h_try);
+            self.stats.rhs_evals += 5;
+            let mut sum = 0.0;
+            for i in 0..N {
+                let sk = atol + rtol * x[i].abs().max(y[i].abs());
+                let r = k6[i] / sk;
+                sum += r * r;
+            }
+            let err = (sum / N as f64).sqrt();
+            if !err.is_finite() || first_non_finite(&y).is_some() {
+                // A trial state blew up: shrink hard and retry from the same point.
+                halvings += 1;
+                if halvings > MAX_HALVINGS {
+                    let component = first_non_finite(&y).unwrap_or(0);
+                    return Err(OdeError::NonFinite { t: t0 + t + h_try, component });
+                }
+                self.stats.rejected += 1;
+                hs = FAC_MIN * h_try;
+                rejected_last = true;
+                continue;
+            }
+            halvings = 0;
+            // Step ratio from this step's error: h_new = h / fac, fac in [1/FAC_MAX, 1/FAC_MIN].
+            let fac = (err.powf(ERR_EXP) / SAFETY).clamp(1.0 / FAC_MAX, 1.0 / FAC_MIN);
+            let mut h_new = h_try / fac;
+            if err <= 1.0 {
+                if first {
+                    // What this jump step should have been: learnt for the next jump.
+                    self.h_jump = Some(h_new);
+                    first = false;
+                }
+                if n_acc > 0 {
+                    let fac_gus = ((h_acc / h_try) * (err * err / err_acc).powf(ERR_EXP) / SAFETY)
+                        .clamp(1.0 / FAC_MAX, 1.0 / FAC_MIN);
+                    h_new = h_try / fac.max(fac_gus);
+                }
+                n_acc += 1;
+                h_acc = h_try;
+                err_acc = err.max(1e-2);
+                if rejected_last {
+                    h_new = h_new.min(h_try);
+                }
+                rejected_last = false;
+                *x = y;
+                t += h_try;
+                self.stats.steps += 1;
+                if last {
+                    // A step shortened to hit the period end says little about the smooth
+                    // step size: keep the larger of the proposals.
+                    self.h_smooth = Some(if h_try < hs { h_new.max(hs) } else { h_new });
+                    return Ok(());
+                }
+                hs = h_new;
+                (f0, jac) = jacobian(p, x, u);
+                self.stats.jac_evals += 1;
+                if let Some(component) = first_non_finite(&f0) {
+                    return Err(OdeError::NonFinite { t: t0 + t, component });
+                }
+            } else {
+                if first {
+                    self.h_jump = Some(h_new);
+                }
+                self.stats.rejected += 1;
+                rejected_last = true;
+                hs = h_new;
+            }
+        }
+    }
+}
+
+#[inline(always)]
+fn axpy<const N: usize>(x: &[f64; N], a: f64, y: &[f64; N]) -> [f64; N] {
+    core::array::from_fn(|i| x[i] + a * y[i])
+}
+
+fn first_non_finite<const N: usize>(x: &[f64; N]) -> Option<usize> {
+    x.iter().position(|v| !v.is_finite())
+}
+
+#[cfg(test)]
+mod tests;

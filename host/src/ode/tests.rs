@@ -1,0 +1,370 @@
+use super::*;
+use crate::plant::{Cart, Furuta, FurutaParams, Scalar};
+
+const DT: f64 = 0.0308;
+const KP: f64 = 15.5;
+const KD: f64 = 5.45;
+const KPHI_D: f64 = 1.5;
+
+/// The paper's delayed PD loop (r = 1), test-local: `u_i = -KP th_{i-1} - KD (th_{i-1} -
+/// th_{i-2})/dt + KphiD (ph_{i-1} - ph_{i-2})/dt`, pre-history equal to the initial state.
+/// Returns the primary angle at samples `0..=periods`.
+fn closed_loop<P: Plant<4>>(
+    integ: &mut Integrator<4>,
+    plant: &P,
+    x0: [f64; 4],
+    gains: (f64, f64, f64),
+    dt: f64,
+    periods: usize,
+) -> Result<Vec<f64>, OdeError> {
+    let (kp, kd, kphi) = gains;
+    let (ip, is) = (P::PRIMARY, P::SECONDARY);
+    let mut x = x0;
+    let mut s1 = (x0[ip], x0[is]);
+    let mut s2 = s1;
+    let mut out = Vec::with_capacity(periods + 1);
+    for _ in 0..periods {
+        let u = -kp * s1.0 - kd * (s1.0 - s2.0) / dt + kphi * (s1.1 - s2.1) / dt;
+        out.push(x[ip]);
+        s2 = s1;
+        s1 = (x[ip], x[is]);
+        integ.advance(plant, &mut x, u, dt)?;
+    }
+    out.push(x[ip]);
+    Ok(out)
+}
+
+fn paper_loop(method: Method, periods: usize) -> Vec<f64> {
+    let mut integ = Integrator::new(method).unwrap();
+    closed_loop(&mut integ, &Furuta::paper(), [0.05, 0.0, 0.0, 0.0], (KP, KD, KPHI_D), DT, periods)
+        .unwrap()
+}
+
+fn max_diff(a: &[f64], b: &[f64]) -> f64 {
+    assert_eq!(a.len(), b.len());
+    a.iter().zip(b).map(|(x, y)| (x - y).abs()).fold(0.0, f64::max)
+}
+
+fn run<P: Plant<4>>(method: Method, p: &P, x0: [f64; 4], u: f64, h: f64, periods: usize) -> Result<[f64; 4], OdeError> {
+    let mut integ = Integrator::new(method).unwrap();
+    let mut x = x0;
+    for _ in 0..periods {
+        integ.advance(p, &mut x, u, h)?;
+    }
+    Ok(x)
+}
+
+#[test]
+fn closed_loop_accuracy_against_two_independent_references() {
+    let rodas_ref = paper_loop(Method::Rodas { rtol: 1e-13, atol: 1e-15 }, 200);
+    let rk4_ref = paper_loop(Method::Rk4 { steps: 20_000 }, 200);
+    let agree = max_diff(&rodas_ref, &rk4_ref);
+    assert!(agree < 1e-11, "references disagree by {agree:e}");
+    // The loop does something: it is not a trivially decaying or exploding run.
+    let amp = rodas_ref.iter().fold(0.0f64, |a, v| a.max(v.abs()));
+    assert!(amp > 0.04 && amp < 1.0, "amplitude {amp}");
+
+    let moderate = paper_loop(Method::Rodas { rtol: 1e-9, atol: 1e-12 }, 200);
+    let err = max_diff(&moderate, &rodas_ref);
+    assert!(err < 1e-9, "rodas rtol 1e-9: max theta error {err:e}");
+    // And it is not the reference in disguise.
+    assert!(err > 0.0);
+}
+
+#[test]
+fn energy_conserved_without_damping() {
+    let p = Furuta::new(FurutaParams { b1: 0.0, b2: 0.0, k: 0.0, ..FurutaParams::default() }).unwrap();
+    let x0 = [0.3, 0.0, 0.0, 2.0];
+    let e0 = p.energy(&x0);
+    for rtol in [1e-8, 1e-11] {
+        let mut integ = Integrator::new(Method::Rodas { rtol, atol: rtol * 1e-2 }).unwrap();
+        let mut x = x0;
+        let mut drift = 0.0f64;
+        let mut max_theta = 0.0f64;
+        // 100 s in periods of 30.8 ms.
+        for _ in 0..3247 {
+            integ.advance(&p, &mut x, 0.0, DT).unwrap();
+            drift = drift.max(((p.energy(&x) - e0) / e0).abs());
+            max_theta = max_theta.max(x[0].abs());
+        }
+        // The pendulum falls and swings through the bottom: a real test of the integrator.
+        assert!(max_theta > 3.0, "max theta {max_theta}");
+        assert!(drift < 100.0 * rtol, "rtol {rtol:e}: relative energy drift {drift:e}");
+        eprintln!("rtol {rtol:e}: drift {drift:e}, stats {:?}", integ.stats());
+    }
+}
+
+#[test]
+fn one_rodas_step_per_period_is_stable_rk4_at_half_ms_is_not() {
+    let p = Furuta::paper();
+    let x0 = [0.01, 0.0, 0.0, 0.0];
+    let u = 0.2;
+    let periods = 10;
+    let reference = run(Method::Rodas { rtol: 1e-12, atol: 1e-14 }, &p, x0, u, DT, periods).unwrap();
+    let one_step = run(Method::RodasFixed { steps: 1 }, &p, x0, u, DT, periods).unwrap();
+    for i in 0..4 {
+        let scale = reference[i].abs().max(1e-3);
+        assert!(
+            (one_step[i] - reference[i]).abs() < 1e-2 * scale,
+            "component {i}: {} vs {}",
+            one_step[i],
+            reference[i]
+        );
+    }
+    // RK4 at 0.5 ms (62 steps per period): h*lambda = -7.8, outside its stability interval.
+    let err = run(Method::Rk4 { steps: 62 }, &p, x0, u, DT, periods).unwrap_err();
+    assert!(matches!(err, OdeError::NonFinite { t, .. } if t < DT * periods as f64), "{err}");
+    // At 175 steps per period (0.176 ms) it is stable and agrees with the reference.
+    let rk4 = run(Method::Rk4 { steps: 175 }, &p, x0, u, DT, periods).unwrap();
+    for i in 0..4 {
+        assert!((rk4[i] - reference[i]).abs() < 1e-6 * reference[i].abs().max(1.0), "{rk4:?}");
+    }
+}
+
+#[test]
+fn rodas_is_l_stable() {
+    // y' = lambda (y - u): one step of h with h*lambda = -1e8 lands on u (R(inf) = 0).
+    struct Relax;
+    impl Plant<1> for Relax {
+        const PRIMARY: usize = 0;
+        const SECONDARY: usize = 0;
+        fn name(&self) -> &'static str {
+            "relax"
+        }
+        fn state_names(&self) -> [&'static str; 1] {
+            ["y"]
+        }
+        fn rhs<S: Scalar>(&self, x: &[S; 1], u: S) -> [S; 1] {
+            [(x[0] - u) * -1e8]
+        }
+        fn energy(&self, _: &[f64; 1]) -> f64 {
+            0.0
+        }
+    }
+    let mut integ = Integrator::<1>::new(Method::RodasFixed { steps: 1 }).unwrap();
+    let mut x = [1.0];
+    integ.advance(&Relax, &mut x, 0.5, 1.0).unwrap();
+    assert!((x[0] - 0.5).abs() < 1e-6, "{}", x[0]);
+}
+
+#[test]
+fn rodas_fixed_converges_with_order_four() {
+    // Smooth, non-stiff case: the cart swinging from 0.3 rad under a constant push, 0.5 s.
+    let p = Cart::reference();
+    let x0 = [0.3, 0.0, 0.0, 0.0];
+    let reference = run(Method::Rodas { rtol: 1e-14, atol: 1e-16 }, &p, x0, 1.0, 0.5, 1).unwrap();
+    let mut errs = Vec::new();
+    // 8 and 16 steps are pre-asymptotic (the error changes sign near 16..32 steps).
+    let steps = [64u32, 128, 256, 512];
+    for &n in &steps {
+        let x = run(Method::RodasFixed { steps: n }, &p, x0, 1.0, 0.5, 1).unwrap();
+        errs.push((0..4).map(|i| (x[i] - reference[i]).abs()).fold(0.0, f64::max));
+    }
+    let slope = (errs[0] / errs[3]).log2() / (steps[3] as f64 / steps[0] as f64).log2();
+    assert!((slope - 4.0).abs() < 0.5, "errors {errs:?}, slope {slope}");
+    // RK4 on the same problem, the same test.
+    let mut errs = Vec::new();
+    for &n in &steps {
+        let x = run(Method::Rk4 { steps: n }, &p, x0, 1.0, 0.5, 1).unwrap();
+        errs.push((0..4).map(|i| (x[i] - reference[i]).abs()).fold(0.0, f64::max));
+    }
+    let slope = (errs[0] / errs[3]).log2() / (steps[3] as f64 / steps[0] as f64).log2();
+    assert!((slope - 4.0).abs() < 0.5, "rk4 errors {errs:?}, slope {slope}");
+}
+
+#[test]
+fn method_validation_names_the_problem() {
+    let e = Integrator::<4>::new(Method::Rodas { rtol: 0.0, atol: 1e-9 }).unwrap_err();
+    assert!(matches!(&e, OdeError::BadMethod(m) if m.contains("rtol")), "{e}");
+    let e = Integrator::<4>::new(Method::Rodas { rtol: 1e-8, atol: f64::NAN }).unwrap_err();
+    assert!(matches!(&e, OdeError::BadMethod(m) if m.contains("atol")), "{e}");
+    let e = Integrator::<4>::new(Method::Rodas { rtol: 1e-17, atol: 1e-9 }).unwrap_err();
+    assert!(matches!(&e, OdeError::BadMethod(m) if m.contains("rtol")), "{e}");
+    let e = Integrator::<4>::new(Method::RodasFixed { steps: 0 }).unwrap_err();
+    assert!(matches!(&e, OdeError::BadMethod(m) if m.contains("steps")), "{e}");
+    let e = Integrator::<4>::new(Method::Rk4 { steps: 0 }).unwrap_err();
+    assert!(matches!(&e, OdeError::BadMethod(m) if m.contains("rk4")), "{e}");
+
+    let p = Furuta::paper();
+    let mut integ = Integrator::<4>::new(Method::Rk4 { steps: 10 }).unwrap();
+    let mut x = [0.0; 4];
+    for h in [0.0, -1.0, f64::NAN, f64::INFINITY] {
+        let e = integ.advance(&p, &mut x, 0.0, h).unwrap_err();
+        assert!(matches!(&e, OdeError::BadArgument(m) if m.contains("period")), "{e}");
+    }
+    let e = integ.advance(&p, &mut x, f64::NAN, DT).unwrap_err();
+    assert!(matches!(&e, OdeError::BadArgument(m) if m.contains("input")), "{e}");
+    let mut bad = [0.0, 0.0, f64::INFINITY, 0.0];
+    assert_eq!(integ.advance(&p, &mut bad, 0.0, DT).unwrap_err(), OdeError::NonFinite { t: 0.0, component: 2 });
+}
+
+#[test]
+fn adaptive_failure_is_reported_not_nan() {
+    // A right-hand side that is finite at the start and poisons everything past y = 1.
+    struct Cliff;
+    impl Plant<1> for Cliff {
+        const PRIMARY: usize = 0;
+        const SECONDARY: usize = 0;
+        fn name(&self) -> &'static str {
+            "cliff"
+        }
+        fn state_names(&self) -> [&'static str; 1] {
+            ["y"]
+        }
+        fn rhs<S: Scalar>(&self, x: &[S; 1], _u: S) -> [S; 1] {
+            // y' = 1/(1 - y): reaches y = 1 at t = 1/2 with infinite slope.
+            [S::cst(1.0) / (S::cst(1.0) - x[0])]
+        }
+        fn energy(&self, _: &[f64; 1]) -> f64 {
+            0.0
+        }
+    }
+    let mut integ = Integrator::<1>::new(Method::Rodas { rtol: 1e-8, atol: 1e-10 }).unwrap();
+    let mut x = [0.0];
+    let e = integ.advance(&Cliff, &mut x, 0.0, 1.0).unwrap_err();
+    assert!(
+        matches!(e, OdeError::StepSizeUnderflow { t, .. } | OdeError::NonFinite { t, .. } | OdeError::TooManySteps { t, .. } if (t - 0.5).abs() < 1e-3),
+        "{e}"
+    );
+    assert!(x[0].is_finite() && x[0] < 1.0, "{}", x[0]);
+}
+
+#[test]
+fn method_serde_and_describe() {
+    let m: Method = serde_json::from_str(r#"{"kind": "rodas", "rtol": 1e-10, "atol": 1e-12}"#).unwrap();
+    assert_eq!(m, Method::Rodas { rtol: 1e-10, atol: 1e-12 });
+    let m: Method = toml::from_str("kind = \"rk4\"\nsteps = 175").unwrap();
+    assert_eq!(m, Method::Rk4 { steps: 175 });
+    assert!(serde_json::from_str::<Method>(r#"{"kind": "rk4", "steps": 1, "h": 2}"#).is_err());
+    let integ = Integrator::<4>::new(Method::Rodas { rtol: 1e-10, atol: 1e-12 }).unwrap();
+    assert_eq!(integ.describe(), "rodas4 rtol=1e-10 atol=1e-12");
+    let integ = Integrator::<4>::new(Method::RodasFixed { steps: 8 }).unwrap();
+    assert_eq!(integ.describe(), "rodas4-fixed steps=8/period");
+}
+
+#[test]
+fn stats_count_the_work() {
+    let p = Furuta::paper();
+    let mut integ = Integrator::<4>::new(Method::RodasFixed { steps: 3 }).unwrap();
+    let mut x = [0.01, 0.0, 0.0, 0.0];
+    integ.advance(&p, &mut x, 0.1, DT).unwrap();
+    integ.advance(&p, &mut x, 0.2, DT).unwrap();
+    assert_eq!(integ.stats(), OdeStats { steps: 6, rejected: 0, rhs_evals: 30, jac_evals: 6 });
+    assert!((integ.time() - 2.0 * DT).abs() < 1e-15);
+    let mut integ = Integrator::<4>::new(Method::Rk4 { steps: 200 }).unwrap();
+    integ.advance(&p, &mut x, 0.1, DT).unwrap();
+    assert_eq!(integ.stats(), OdeStats { steps: 200, rejected: 0, rhs_evals: 800, jac_evals: 0 });
+}
+
+/// Spectral radius of the exact ZOH discretization of the linearized delayed PD loop
+/// (state: current sample, previous and second-previous primary/secondary samples), with the
+/// multiplier 1 of the secondary-angle shift removed.
+fn loop_radius<P: Plant<4>>(p: &P, (kp, kd, kphi): (f64, f64, f64), dt: f64) -> f64 {
+    use nalgebra::SMatrix;
+    let (a, b) = crate::plant::linearize(p);
+    let mut aug = SMatrix::<f64, 5, 5>::zeros();
+    aug.fixed_view_mut::<4, 4>(0, 0).copy_from(&(a * dt));
+    aug.fixed_view_mut::<4, 1>(0, 4).copy_from(&(b * dt));
+    let e = aug.exp();
+    // z = [x_i (4), th_{i-1}, ph_{i-1}, th_{i-2}, ph_{i-2}]; u_i acts on [4..8].
+    let k = [-kp - kd / dt, kphi / dt, kd / dt, -kphi / dt];
+    let mut m = SMatrix::<f64, 8, 8>::zeros();
+    for r in 0..4 {
+        for c in 0..4 {
+            m[(r, c)] = e[(r, c)];
+        }
+        for (q, kq) in k.iter().enumerate() {
+            m[(r, 4 + q)] = e[(r, 4)] * kq;
+        }
+    }
+    m[(4, P::PRIMARY)] = 1.0;
+    m[(5, P::SECONDARY)] = 1.0;
+    m[(6, 4)] = 1.0;
+    m[(7, 5)] = 1.0;
+    let mut r: Vec<f64> = m.complex_eigenvalues().iter().map(|z| z.norm()).collect();
+    let shift = r
+        .iter()
+        .enumerate()
+        .min_by(|a, b| (a.1 - 1.0).abs().total_cmp(&(b.1 - 1.0).abs()))
+        .map(|(i, _)| i)
+        .unwrap();
+    assert!((r[shift] - 1.0).abs() < 1e-9, "no shift multiplier: {r:?}");
+    r.remove(shift);
+    r.into_iter().fold(0.0, f64::max)
+}
+
+#[test]
+fn furuta_linear_loop_is_near_double_hopf() {
+    // MODEL.md: at 25 ms one pair just outside the unit circle; at 30.8 ms ln|mu|/dt ~ +0.27.
+    let r25 = loop_radius(&Furuta::paper(), (KP, KD, KPHI_D), 0.025);
+    assert!(r25 > 1.0 && r25 < 1.02, "{r25}");
+    let rate = loop_radius(&Furuta::paper(), (KP, KD, KPHI_D), DT).ln() / DT;
+    assert!((rate - 0.27).abs() < 0.02, "{rate}");
+}
+
+/// Gains for the cart (V/rad, V s/rad, V s/m): the same law, with a stronger proportional
+/// and secondary-velocity gain than the Furuta pendulum needs.
+const CART_GAINS: (f64, f64, f64) = (30.0, 5.45, 10.0);
+
+#[test]
+fn cart_is_stabilized_by_the_same_law() {
+    let p = Cart::reference();
+    let radius = loop_radius(&p, CART_GAINS, DT);
+    assert!(radius < 0.93, "cart loop multipliers up to {radius}");
+    // The paper's Furuta gains are not enough for the cart (KphiD too small).
+    assert!(loop_radius(&p, (KP, KD, KPHI_D), DT) > 1.0);
+    // Nonlinear loop from 0.1 rad: decays at the linear rate; the cart drifts and stops.
+    let mut integ = Integrator::new(Method::Rodas { rtol: 1e-10, atol: 1e-12 }).unwrap();
+    let th = closed_loop(&mut integ, &p, [0.1, 0.0, 0.0, 0.0], CART_GAINS, DT, 300).unwrap();
+    let tail = th[250..].iter().fold(0.0f64, |a, v| a.max(v.abs()));
+    assert!(tail < 1e-4 && tail < 0.1 * 1e3 * radius.powi(250), "theta over the last 50 periods reaches {tail:e}");
+    // And it does not stay up without feedback (upright is unstable).
+    let x = run(Method::Rodas { rtol: 1e-10, atol: 1e-12 }, &p, [0.1, 0.0, 0.0, 0.0], 0.0, DT, 30).unwrap();
+    assert!(x[0].abs() > 0.5, "{x:?}");
+}
+
+/// The accuracy-versus-time table for the 200-period closed loop.
+#[test]
+#[ignore = "timing; run with --release --ignored --nocapture"]
+fn timing_table() {
+    use std::time::Instant;
+    let reference = paper_loop(Method::Rodas { rtol: 1e-13, atol: 1e-15 }, 200);
+    let rk4_ref = paper_loop(Method::Rk4 { steps: 20_000 }, 200);
+    println!("reference agreement (rodas 1e-13 vs rk4 20000/period): {:.2e}", max_diff(&reference, &rk4_ref));
+    let mut methods = Vec::new();
+    for rtol in [1e-6, 1e-7, 1e-8, 1e-9, 1e-10, 1e-11, 1e-12] {
+        methods.push(Method::Rodas { rtol, atol: rtol * 1e-3 });
+    }
+    for steps in [2, 4, 8, 16, 32, 64] {
+        methods.push(Method::RodasFixed { steps });
+    }
+    for steps in [175, 350, 700, 1400] {
+        methods.push(Method::Rk4 { steps });
+    }
+    println!("{:<36} {:>12} {:>12} {:>10} {:>9} {:>9}", "method", "periods/s", "max err", "steps/per", "rej/per", "jac/per");
+    for m in methods {
+        let periods = 200;
+        let mut reps = 0usize;
+        let start = Instant::now();
+        let mut integ = Integrator::new(m).unwrap();
+        let mut out = Vec::new();
+        while start.elapsed().as_secs_f64() < 0.5 || reps < 3 {
+            integ = Integrator::new(m).unwrap();
+            out = closed_loop(&mut integ, &Furuta::paper(), [0.05, 0.0, 0.0, 0.0], (KP, KD, KPHI_D), DT, periods)
+                .unwrap();
+            reps += 1;
+        }
+        let secs = start.elapsed().as_secs_f64();
+        let rate = (reps * periods) as f64 / secs;
+        let s = integ.stats();
+        println!(
+            "{:<36} {:>12.0} {:>12.2e} {:>10.1} {:>9.2} {:>9.1}",
+            integ.describe(),
+            rate,
+            max_diff(&out, &reference),
+            s.steps as f64 / periods as f64,
+            s.rejected as f64 / periods as f64,
+            s.jac_evals as f64 / periods as f64
+        );
+    }
+}
