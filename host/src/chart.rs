@@ -102,6 +102,15 @@ pub struct Curve {
     pub kind: Crossing,
     /// (KP, KD) points in order along the curve.
     pub points: Vec<(f64, f64)>,
+    /// Frequency `arg(mu) / (2 pi dt)` of the multiplier on the circle at each point, Hz.
+    pub freq_hz: Vec<f64>,
+}
+
+impl Curve {
+    fn from_clipped(kind: Crossing, pts: Vec<(f64, f64, f64)>) -> Self {
+        let (points, freq_hz) = pts.into_iter().map(|(x, y, f)| ((x, y), f)).unzip();
+        Self { kind, points, freq_hz }
+    }
 }
 
 /// Everything computed for one sampling period.
@@ -327,19 +336,20 @@ fn d_curves(zoh: &Zoh, base: &ControllerConfig, kp: Axis, kd: Axis) -> Result<Ve
     let (w, h) = (kp.hi - kp.lo, kd.hi - kd.lo);
     let mut curves = Vec::new();
     // Real multipliers +1 and -1: one real equation, a straight line.
-    for (lambda, kind) in [(1.0, Crossing::Static), (-1.0, Crossing::Flip)] {
+    let nyquist = 0.5 / zoh.dt;
+    for (lambda, kind, f) in [(1.0, Crossing::Static, 0.0), (-1.0, Crossing::Flip, nyquist)] {
         let (f0, fa, fb) = affine_det(zoh, base, Complex::new(lambda, 0.0), w, h)?;
         let (f0, fa, fb) = (f0.re, fa.re, fb.re);
         // Parametrize by the coordinate with the smaller coefficient (weighted by span).
-        let line: Vec<(f64, f64)> = if (fa * w).abs() >= (fb * h).abs() {
+        let line: Vec<(f64, f64, f64)> = if (fa * w).abs() >= (fb * h).abs() {
             if fa == 0.0 {
                 continue;
             }
-            (0..=200).map(|k| kd.lo - h + 3.0 * h * k as f64 / 200.0).map(|d| ((-f0 - fb * d) / fa, d)).collect()
+            (0..=200).map(|k| kd.lo - h + 3.0 * h * k as f64 / 200.0).map(|d| ((-f0 - fb * d) / fa, d, f)).collect()
         } else {
-            (0..=200).map(|k| kp.lo - w + 3.0 * w * k as f64 / 200.0).map(|p| (p, (-f0 - fa * p) / fb)).collect()
+            (0..=200).map(|k| kp.lo - w + 3.0 * w * k as f64 / 200.0).map(|p| (p, (-f0 - fa * p) / fb, f)).collect()
         };
-        curves.extend(clip_polyline(&line, kp, kd).into_iter().map(|points| Curve { kind, points }));
+        curves.extend(clip_polyline(&line, kp, kd).into_iter().map(|pts| Curve::from_clipped(kind, pts)));
     }
     // Complex pair e^{+-iw}: two real equations.
     let solve = |omega: f64| -> Result<Option<(f64, f64)>, LinearError> {
@@ -385,28 +395,32 @@ fn d_curves(zoh: &Zoh, base: &ControllerConfig, kp: Axis, kd: Axis) -> Result<Ve
         }
     }
     // Split at gaps (unsolvable frequencies) and at jumps still left (poles).
-    let mut piece: Vec<(f64, f64)> = Vec::new();
+    let hz = 1.0 / (2.0 * pi * zoh.dt);
+    let mut piece: Vec<(f64, f64, f64)> = Vec::new();
     let mut pieces = Vec::new();
-    for (_, p) in samples {
+    for (omega, p) in samples {
         match p {
-            Some(p) if piece.last().is_none_or(|&q| !far(p, q) || !(near(p) || near(q))) => piece.push(p),
-            Some(p) => pieces.push(std::mem::replace(&mut piece, vec![p])),
+            Some(p) if piece.last().is_none_or(|&(qx, qy, _)| !far(p, (qx, qy)) || !(near(p) || near((qx, qy)))) => {
+                piece.push((p.0, p.1, omega * hz))
+            }
+            Some(p) => pieces.push(std::mem::replace(&mut piece, vec![(p.0, p.1, omega * hz)])),
             None => pieces.push(std::mem::take(&mut piece)),
         }
     }
     pieces.push(piece);
     for piece in pieces {
         curves.extend(
-            clip_polyline(&piece, kp, kd).into_iter().map(|points| Curve { kind: Crossing::Dynamic, points }),
+            clip_polyline(&piece, kp, kd).into_iter().map(|pts| Curve::from_clipped(Crossing::Dynamic, pts)),
         );
     }
     Ok(curves)
 }
 
-/// Clip a polyline to the window; returns the pieces inside (each with >= 2 points).
-fn clip_polyline(line: &[(f64, f64)], kp: Axis, kd: Axis) -> Vec<Vec<(f64, f64)>> {
-    let mut out: Vec<Vec<(f64, f64)>> = Vec::new();
-    let mut cur: Vec<(f64, f64)> = Vec::new();
+/// Clip a polyline `(KP, KD, attribute)` to the window; returns the pieces inside (each
+/// with >= 2 points), the attribute interpolated linearly at cut points.
+fn clip_polyline(line: &[(f64, f64, f64)], kp: Axis, kd: Axis) -> Vec<Vec<(f64, f64, f64)>> {
+    let mut out: Vec<Vec<(f64, f64, f64)>> = Vec::new();
+    let mut cur: Vec<(f64, f64, f64)> = Vec::new();
     for seg in line.windows(2) {
         match clip_segment(seg[0], seg[1], kp, kd) {
             Some((a, b)) => {
@@ -434,8 +448,9 @@ fn clip_polyline(line: &[(f64, f64)], kp: Axis, kd: Axis) -> Vec<Vec<(f64, f64)>
 }
 
 /// Liang-Barsky clipping of the segment a-b to the window.
-fn clip_segment(a: (f64, f64), b: (f64, f64), kp: Axis, kd: Axis) -> Option<((f64, f64), (f64, f64))> {
-    let (dx, dy) = (b.0 - a.0, b.1 - a.1);
+type P3 = (f64, f64, f64);
+fn clip_segment(a: P3, b: P3, kp: Axis, kd: Axis) -> Option<(P3, P3)> {
+    let (dx, dy, dz) = (b.0 - a.0, b.1 - a.1, b.2 - a.2);
     let (mut t0, mut t1) = (0.0f64, 1.0f64);
     for (p, q) in [(-dx, a.0 - kp.lo), (dx, kp.hi - a.0), (-dy, a.1 - kd.lo), (dy, kd.hi - a.1)] {
         if p == 0.0 {
@@ -451,7 +466,8 @@ fn clip_segment(a: (f64, f64), b: (f64, f64), kp: Axis, kd: Axis) -> Option<((f6
             }
         }
     }
-    (t0 <= t1).then(|| ((a.0 + t0 * dx, a.1 + t0 * dy), (a.0 + t1 * dx, a.1 + t1 * dy)))
+    let at = |t: f64| (a.0 + t * dx, a.1 + t * dy, a.2 + t * dz);
+    (t0 <= t1).then(|| (at(t0), at(t1)))
 }
 
 /// Compute the chart for the plant `x' = A x + B u` (controller reads `x[primary]`,

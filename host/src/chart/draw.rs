@@ -110,6 +110,14 @@ fn draw_panel<DB: DrawingBackend>(
             }
         }
     }
+    // Frequency of the pair on the circle, at the middle of each longer dynamic piece.
+    let freq_labels = panel.curves.iter().filter(|c| c.kind == Crossing::Dynamic && c.points.len() >= 20).map(|c| {
+        let k = c.points.len() / 2;
+        let (x, y) = c.points[k];
+        let at = (x + 0.012 * (kp.hi - kp.lo), y - 0.02 * (kd.hi - kd.lo));
+        Text::new(format!("{:.2} Hz", c.freq_hz[k]), at, ("sans-serif", 14).into_font().color(&DYNAMIC_COLOR))
+    });
+    cc.draw_series(freq_labels)?;
     // The base gains.
     let (bx, by) = (chart.base.kp, chart.base.kd);
     if bx >= kp.lo && bx <= kp.hi && by >= kd.lo && by <= kd.hi {
@@ -118,7 +126,7 @@ fn draw_panel<DB: DrawingBackend>(
             .legend(|(x, y)| Cross::new((x + 9, y), 5, BLACK.stroke_width(2)));
     }
     cc.configure_series_labels()
-        .position(SeriesLabelPosition::UpperLeft)
+        .position(SeriesLabelPosition::UpperRight)
         .background_style(WHITE.mix(0.85))
         .border_style(BLACK.mix(0.4))
         .label_font(("sans-serif", 13))

@@ -53,7 +53,7 @@ fn d_curve_points_have_a_multiplier_on_the_unit_circle() {
         let mut kinds = [0usize; 3];
         for c in &curves {
             kinds[c.kind as usize] += 1;
-            for &(x, y) in c.points.iter().step_by(7) {
+            for (&(x, y), &f) in c.points.iter().zip(&c.freq_hz).step_by(7) {
                 let cfg = ControllerConfig { kp: x, kd: y, dt, ..base };
                 let dom = zoh.closed_loop(&cfg).unwrap().dominant_multipliers().unwrap();
                 let target = match c.kind {
@@ -70,6 +70,9 @@ fn d_curve_points_have_a_multiplier_on_the_unit_circle() {
                     })
                     .fold(f64::INFINITY, f64::min);
                 assert!(best < 1e-7, "dt {dt} {:?} at ({x}, {y}): distance {best:e}", c.kind);
+                // The curve's frequency is that of the multiplier on the circle.
+                let on_circle = dom.iter().min_by(|a, b| (a.abs - 1.0).abs().total_cmp(&(b.abs - 1.0).abs())).unwrap();
+                assert!((on_circle.freq_hz - f).abs() < 1e-6 * (1.0 + f), "{on_circle:?} vs {f} Hz");
             }
         }
         // Dynamic boundaries are present in the window at every period, static ones never.
@@ -188,10 +191,11 @@ fn bad_chart_inputs_are_named() {
 fn clipping_keeps_inside_pieces() {
     let kp = Axis { lo: 0.0, hi: 10.0, n: 2 };
     let kd = Axis { lo: 0.0, hi: 1.0, n: 2 };
-    let pieces = clip_polyline(&[(-5.0, 0.5), (5.0, 0.5), (15.0, 0.5), (15.0, 2.0), (5.0, 0.25)], kp, kd);
+    let line = [(-5.0, 0.5, 0.0), (5.0, 0.5, 1.0), (15.0, 0.5, 2.0), (15.0, 2.0, 3.0), (5.0, 0.25, 4.0)];
+    let pieces = clip_polyline(&line, kp, kd);
     assert_eq!(pieces.len(), 2);
-    assert_eq!(pieces[0], vec![(0.0, 0.5), (5.0, 0.5), (10.0, 0.5)]);
-    assert_eq!(pieces[1].last(), Some(&(5.0, 0.25)));
+    assert_eq!(pieces[0], vec![(0.0, 0.5, 0.5), (5.0, 0.5, 1.0), (10.0, 0.5, 1.5)]);
+    assert_eq!(pieces[1].last(), Some(&(5.0, 0.25, 4.0)));
     // (15, 2) -> (5, 0.25) enters through KD = 1 at KP = 15 - 10/1.75.
     let entry = pieces[1][0];
     assert!((entry.0 - (15.0 - 10.0 / 1.75)).abs() < 1e-12 && (entry.1 - 1.0).abs() < 1e-12, "{entry:?}");
@@ -228,3 +232,4 @@ fn paper_chart() {
         .unwrap();
     println!("{}", serde_json::to_string_pretty(&s).unwrap());
 }
+

@@ -1,7 +1,7 @@
 //! Tests of the exact linear stability against independent routes and the physics of
 //! `shared/MODEL.md`.
 
-use super::eig::eigenvalues_nalgebra;
+use super::eig::eigenvalues_faer;
 use super::*;
 use nalgebra::{Complex, Matrix4, Vector4};
 
@@ -77,7 +77,7 @@ fn zoh_rk4(p: &LinearPlant, dt: f64, h: f64) -> (DMatrix<f64>, DVector<f64>) {
 /// eigenvector computed as the null vector of `A - l I` (SVD).
 fn zoh_eigen(p: &LinearPlant, dt: f64) -> (DMatrix<f64>, DVector<f64>) {
     let n = p.dim();
-    let ev = eigenvalues_nalgebra(p.a()).unwrap();
+    let ev = eigenvalues_faer(p.a()).unwrap();
     let mut v = DMatrix::<f64>::zeros(n, n);
     let mut lam = Vec::new();
     for (k, c) in ev.iter().enumerate() {
@@ -187,7 +187,7 @@ fn faer_and_nalgebra_eigenvalues_agree() {
         let m = p.closed_loop(&cfg).unwrap();
         let a: Vec<_> = eigenvalues(&m.matrix).unwrap().iter().map(|c| Multiplier::new(c.re, c.im, dt)).collect();
         let b: Vec<_> =
-            eigenvalues_nalgebra(&m.matrix).unwrap().iter().map(|c| Multiplier::new(c.re, c.im, dt)).collect();
+            eigenvalues_faer(&m.matrix).unwrap().iter().map(|c| Multiplier::new(c.re, c.im, dt)).collect();
         let d = multiplier_distance(&a, &b, 1e-3);
         assert!(d < 1e-11, "dt {dt} kp {kp} kd {kd}: {d:e}");
     }
