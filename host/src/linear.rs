@@ -1,0 +1,426 @@
+//! Exact linear stability of the sampled-data, delayed loop at the upright equilibrium.
+//!
+//! Input is plant-generic: the continuous linearization `x' = A x + B u` (N states, one
+//! input), the index of the primary (stabilized) angle `y = x[primary]` and of the
+//! secondary angle `z = x[secondary]` that the controller reads, and a
+//! [`ControllerConfig`]. The module
+//!
+//! 1. discretizes the plant exactly under zero-order hold ([`LinearPlant::discretize`]):
+//!    `Phi = e^{A dt}`, `Gamma = int_0^dt e^{A s} ds B`, both read off the exponential of
+//!    the augmented matrix `[[A, B], [0, 0]] dt` (scaling and squaring, Padé 13);
+//! 2. builds the closed-loop map of the delayed law ([`Zoh::closed_loop`]) on the state
+//!    `(x_i, y_{i-1}, ..., y_{i-r-1}, z_{i-1}, ..., z_{i-r-1} [, x_I,i-1])`;
+//! 3. returns its eigenvalues, the closed-loop multipliers ([`Multiplier`]), all of them
+//!    or with the structural multiplier 1 of the secondary-angle shift removed exactly
+//!    ([`ClosedLoopMap::dominant_multipliers`]).
+//!
+//! The map is that of the *unquantized, unsaturated* loop: saturation is inactive at the
+//! equilibrium and quantization has no linearization, so `u_max` and `quant` of the
+//! configuration play no part here (by definition, not by omission).
+//!
+//! Integral action (`ki != 0`) follows `shared::ControllerConfig`: the running sum is
+//! updated before use, `x_I,i = x_I,i-1 + dt*y_{i-r}` and `u_i = ... - ki*x_I,i`; the
+//! sum is then one more state. With `ki == 0` it is left out (it would only add an
+//! uncontrolled multiplier 1).
+//!
+//! This module owns no plant: it never evaluates a nonlinear right-hand side.
+
+mod eig;
+mod expm;
+#[cfg(test)]
+pub(crate) mod tests;
+
+use nalgebra::{DMatrix, DVector, SMatrix, SVector};
+use serde::Serialize;
+use shared::ControllerConfig;
+
+pub use eig::eigenvalues;
+pub use expm::{ExpmFailure, expm};
+
+/// Largest delay accepted, in samples (the map has `N + 2(r+1) [+1]` states).
+pub const MAX_DELAY: u32 = 1000;
+
+/// Why a linear stability computation could not be done.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum LinearError {
+    #[error("non-finite entry {value} in {what} at ({row}, {col})")]
+    NonFinite { what: &'static str, row: usize, col: usize, value: f64 },
+    #[error("A is {rows}x{cols} and B has {b_rows} rows: A must be square and B must match it")]
+    Shape { rows: usize, cols: usize, b_rows: usize },
+    #[error("the plant has no states")]
+    Empty,
+    #[error("{which} index {index} is out of range for a plant with {n} states")]
+    IndexOutOfRange { which: &'static str, index: usize, n: usize },
+    #[error("primary and secondary index are both {0}: the controller needs two different coordinates")]
+    SameIndex(usize),
+    #[error("sampling period dt = {0} s must be finite and > 0")]
+    BadDt(f64),
+    #[error("controller gain {name} = {value} is not finite")]
+    BadGain { name: &'static str, value: f64 },
+    #[error("delay r = {0} samples exceeds the supported maximum {MAX_DELAY}")]
+    DelayTooLarge(u32),
+    #[error("controller dt = {config} s differs from the discretization dt = {zoh} s")]
+    DtMismatch { config: f64, zoh: f64 },
+    #[error("matrix exponential of [[A, B], [0, 0]]*dt failed at dt = {dt} s: {failure:?}")]
+    Exponential { dt: f64, failure: ExpmFailure },
+    #[error("eigenvalue computation failed for the {n}x{n} closed-loop map: {reason}")]
+    Eigen { n: usize, reason: String },
+    #[error(
+        "the secondary coordinate {index} enters the dynamics (A[{row}][{index}] = {value}): \
+         there is no structural multiplier 1 to remove"
+    )]
+    SecondaryCouples { index: usize, row: usize, value: f64 },
+    #[error(
+        "structural deflation check failed: column {col} of the transformed map has off-diagonal \
+         magnitude {residual:e} (expected rounding level)"
+    )]
+    Deflation { col: usize, residual: f64 },
+}
+
+/// One closed-loop multiplier `mu` (eigenvalue of the one-period map).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct Multiplier {
+    pub re: f64,
+    pub im: f64,
+    /// `|mu|`.
+    pub abs: f64,
+    /// `|arg mu| / (2 pi dt)`, Hz (0 for a positive real multiplier, Nyquist for a negative one).
+    pub freq_hz: f64,
+    /// `ln|mu| / dt`, 1/s: the growth rate of the equivalent continuous mode;
+    /// `-inf` for `mu = 0` (serialized by serde_json as `null`).
+    pub rate: f64,
+}
+
+impl Multiplier {
+    /// The multiplier `re + i im` of a map with sampling period `dt`.
+    pub fn new(re: f64, im: f64, dt: f64) -> Self {
+        let abs = re.hypot(im);
+        let arg = if abs == 0.0 { 0.0 } else { im.atan2(re).abs() };
+        let rate = if abs == 0.0 { f64::NEG_INFINITY } else { abs.ln() / dt };
+        Self { re, im, abs, freq_hz: arg / (2.0 * std::f64::consts::PI * dt), rate }
+    }
+}
+
+/// Largest modulus in `ms` (0 for an empty list).
+pub fn spectral_radius(ms: &[Multiplier]) -> f64 {
+    ms.iter().fold(0.0, |m, x| m.max(x.abs))
+}
+
+/// A validated continuous linearization `x' = A x + B u` with the coordinates the
+/// controller reads.
+#[derive(Debug, Clone, PartialEq)]
+pub struct LinearPlant {
+    a: DMatrix<f64>,
+    b: DVector<f64>,
+    primary: usize,
+    secondary: usize,
+}
+
+impl LinearPlant {
+    /// From fixed-size matrices (as `host::plant::linearize` returns them).
+    pub fn new<const N: usize>(
+        a: &SMatrix<f64, N, N>,
+        b: &SVector<f64, N>,
+        primary: usize,
+        secondary: usize,
+    ) -> Result<Self, LinearError> {
+        Self::from_dynamic(
+            DMatrix::from_column_slice(N, N, a.as_slice()),
+            DVector::from_column_slice(b.as_slice()),
+            primary,
+            secondary,
+        )
+    }
+
+    /// From dynamically sized matrices.
+    pub fn from_dynamic(
+        a: DMatrix<f64>,
+        b: DVector<f64>,
+        primary: usize,
+        secondary: usize,
+    ) -> Result<Self, LinearError> {
+        let n = a.nrows();
+        if a.ncols() != n || b.nrows() != n {
+            return Err(LinearError::Shape { rows: n, cols: a.ncols(), b_rows: b.nrows() });
+        }
+        if n == 0 {
+            return Err(LinearError::Empty);
+        }
+        for col in 0..n {
+            for row in 0..n {
+                let value = a[(row, col)];
+                if !value.is_finite() {
+                    return Err(LinearError::NonFinite { what: "A", row, col, value });
+                }
+            }
+        }
+        if let Some((row, &value)) = b.iter().enumerate().find(|(_, v)| !v.is_finite()) {
+            return Err(LinearError::NonFinite { what: "B", row, col: 0, value });
+        }
+        for (which, index) in [("primary", primary), ("secondary", secondary)] {
+            if index >= n {
+                return Err(LinearError::IndexOutOfRange { which, index, n });
+            }
+        }
+        if primary == secondary {
+            return Err(LinearError::SameIndex(primary));
+        }
+        Ok(Self { a, b, primary, secondary })
+    }
+
+    /// Number of plant states N.
+    pub fn dim(&self) -> usize {
+        self.a.nrows()
+    }
+
+    pub fn a(&self) -> &DMatrix<f64> {
+        &self.a
+    }
+
+    pub fn b(&self) -> &DVector<f64> {
+        &self.b
+    }
+
+    pub fn primary(&self) -> usize {
+        self.primary
+    }
+
+    pub fn secondary(&self) -> usize {
+        self.secondary
+    }
+
+    /// Exact zero-order-hold discretization with period `dt` (s).
+    pub fn discretize(&self, dt: f64) -> Result<Zoh, LinearError> {
+        if !(dt.is_finite() && dt > 0.0) {
+            return Err(LinearError::BadDt(dt));
+        }
+        let n = self.dim();
+        let mut aug = DMatrix::<f64>::zeros(n + 1, n + 1);
+        aug.view_mut((0, 0), (n, n)).copy_from(&(&self.a * dt));
+        aug.view_mut((0, n), (n, 1)).copy_from(&(&self.b * dt));
+        let e = expm(&aug).map_err(|failure| LinearError::Exponential { dt, failure })?;
+        Ok(Zoh {
+            dt,
+            phi: e.view((0, 0), (n, n)).into_owned(),
+            gamma: e.view((0, n), (n, 1)).column(0).into_owned(),
+            primary: self.primary,
+            secondary: self.secondary,
+            secondary_coupling: self.secondary_coupling(),
+        })
+    }
+
+    /// The first nonzero entry of column `secondary` of A, if any: `(row, value)`.
+    fn secondary_coupling(&self) -> Option<(usize, f64)> {
+        self.a.column(self.secondary).iter().copied().enumerate().find(|(_, v)| *v != 0.0)
+    }
+
+    /// Closed-loop map for `cfg` (discretizes at `cfg.dt`).
+    pub fn closed_loop(&self, cfg: &ControllerConfig) -> Result<ClosedLoopMap, LinearError> {
+        self.discretize(cfg.dt)?.closed_loop(cfg)
+    }
+}
+
+/// Exact ZOH discretization `x_{i+1} = Phi x_i + Gamma u_i`.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Zoh {
+    pub dt: f64,
+    pub phi: DMatrix<f64>,
+    pub gamma: DVector<f64>,
+    primary: usize,
+    secondary: usize,
+    /// First nonzero entry `(row, value)` of column `secondary` of A, if any.
+    secondary_coupling: Option<(usize, f64)>,
+}
+
+/// Where each part of the augmented closed-loop state sits.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct AugmentedLayout {
+    /// Plant states N (indices `0..n_plant`).
+    pub n_plant: usize,
+    /// Delay r.
+    pub delay: usize,
+    /// Index of `y_{i-1}`; `y_{i-1-k}` is at `y_start + k`, `k = 0..=r`.
+    pub y_start: usize,
+    /// Index of `z_{i-1}`; `z_{i-1-k}` is at `z_start + k`, `k = 0..=r`.
+    pub z_start: usize,
+    /// Index of the integral sum `x_I,i-1`, if `ki != 0`.
+    pub integral: Option<usize>,
+    /// Total dimension.
+    pub dim: usize,
+}
+
+impl AugmentedLayout {
+    fn new(n_plant: usize, delay: usize, integral: bool) -> Self {
+        let y_start = n_plant;
+        let z_start = y_start + delay + 1;
+        let end = z_start + delay + 1;
+        let integral = integral.then_some(end);
+        Self { n_plant, delay, y_start, z_start, integral, dim: end + usize::from(integral.is_some()) }
+    }
+}
+
+fn check_gains(cfg: &ControllerConfig) -> Result<(), LinearError> {
+    for (name, value) in [("kp", cfg.kp), ("kd", cfg.kd), ("kphi_d", cfg.kphi_d), ("ki", cfg.ki)] {
+        if !value.is_finite() {
+            return Err(LinearError::BadGain { name, value });
+        }
+    }
+    if !(cfg.dt.is_finite() && cfg.dt > 0.0) {
+        return Err(LinearError::BadDt(cfg.dt));
+    }
+    if cfg.delay > MAX_DELAY {
+        return Err(LinearError::DelayTooLarge(cfg.delay));
+    }
+    Ok(())
+}
+
+impl Zoh {
+    /// The closed-loop one-period map of the delayed law of `cfg` (`cfg.dt` must equal
+    /// the discretization period).
+    pub fn closed_loop(&self, cfg: &ControllerConfig) -> Result<ClosedLoopMap, LinearError> {
+        check_gains(cfg)?;
+        if cfg.dt != self.dt {
+            return Err(LinearError::DtMismatch { config: cfg.dt, zoh: self.dt });
+        }
+        let n = self.phi.nrows();
+        let r = cfg.delay as usize;
+        let lay = AugmentedLayout::new(n, r, cfg.ki != 0.0);
+        let dt = self.dt;
+        // Index of the delayed sample y_{i-d} / z_{i-d} in the augmented state.
+        let y_at = |d: usize| if d == 0 { self.primary } else { lay.y_start + d - 1 };
+        let z_at = |d: usize| if d == 0 { self.secondary } else { lay.z_start + d - 1 };
+        // The law as a row: u_i = g . state_i.
+        let mut g = DVector::<f64>::zeros(lay.dim);
+        g[y_at(r)] += -(cfg.kp + cfg.kd / dt);
+        g[y_at(r + 1)] += cfg.kd / dt;
+        g[z_at(r)] += cfg.kphi_d / dt;
+        g[z_at(r + 1)] -= cfg.kphi_d / dt;
+        if let Some(s) = lay.integral {
+            g[y_at(r)] -= cfg.ki * dt;
+            g[s] -= cfg.ki;
+        }
+        let mut m = DMatrix::<f64>::zeros(lay.dim, lay.dim);
+        m.view_mut((0, 0), (n, n)).copy_from(&self.phi);
+        m.view_mut((0, 0), (n, lay.dim)).ger(1.0, &self.gamma, &g, 1.0);
+        // Shift registers: the new y_{i} (stored as y_{(i+1)-1}) is x_i[primary].
+        m[(lay.y_start, self.primary)] = 1.0;
+        m[(lay.z_start, self.secondary)] = 1.0;
+        for k in 1..=r {
+            m[(lay.y_start + k, lay.y_start + k - 1)] = 1.0;
+            m[(lay.z_start + k, lay.z_start + k - 1)] = 1.0;
+        }
+        if let Some(s) = lay.integral {
+            m[(s, s)] = 1.0;
+            m[(s, y_at(r))] += dt;
+        }
+        Ok(ClosedLoopMap {
+            matrix: m,
+            layout: lay,
+            dt,
+            secondary: self.secondary,
+            secondary_coupling: self.secondary_coupling,
+        })
+    }
+}
+
+/// The closed-loop one-period map `s_{i+1} = M s_i` on the augmented state.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ClosedLoopMap {
+    pub matrix: DMatrix<f64>,
+    pub layout: AugmentedLayout,
+    pub dt: f64,
+    secondary: usize,
+    secondary_coupling: Option<(usize, f64)>,
+}
+
+impl ClosedLoopMap {
+    /// Every eigenvalue of the map, sorted by modulus, largest first.
+    pub fn multipliers(&self) -> Result<Vec<Multiplier>, LinearError> {
+        to_multipliers(&self.matrix, self.dt)
+    }
+
+    /// The structural eigenvector of multiplier 1: a shift of the secondary coordinate and
+    /// of every stored copy of it by the same constant (an eigenvector only if column
+    /// `secondary` of A is zero).
+    pub fn structural_eigenvector(&self) -> DVector<f64> {
+        let mut v = DVector::zeros(self.layout.dim);
+        v[self.secondary] = 1.0;
+        for k in 0..=self.layout.delay {
+            v[self.layout.z_start + k] = 1.0;
+        }
+        v
+    }
+
+    /// The map with the structural multiplier removed, of dimension `dim - 1`.
+    ///
+    /// Change of coordinates `w_k = z_{i-1-k} - x_i[secondary]` (all other coordinates
+    /// kept): it sends the structural eigenvector to the unit vector of
+    /// `x[secondary]`, so in the new coordinates that column is `e_secondary` and
+    /// dropping its row and column removes exactly that eigenvalue. The column is checked
+    /// to be `e_secondary` to rounding level.
+    pub fn deflated(&self) -> Result<DMatrix<f64>, LinearError> {
+        if let Some((row, value)) = self.secondary_coupling {
+            return Err(LinearError::SecondaryCouples { index: self.secondary, row, value });
+        }
+        let lay = &self.layout;
+        let s = self.secondary;
+        // M' = T M T^{-1}, T = I - sum_k e_{z_k} e_s^T, T^{-1} = I + sum_k e_{z_k} e_s^T.
+        // M T^{-1}: column s gains the sum of the z columns.
+        let mut mt = self.matrix.clone();
+        for k in 0..=lay.delay {
+            let zc = self.matrix.column(lay.z_start + k).clone_owned();
+            let mut col_s = mt.column_mut(s);
+            col_s += zc;
+        }
+        // T (M T^{-1}): each z row loses row s.
+        let row_s = mt.row(s).clone_owned();
+        for k in 0..=lay.delay {
+            let mut row = mt.row_mut(lay.z_start + k);
+            row -= &row_s;
+        }
+        let scale = mt.iter().fold(1.0f64, |m, v| m.max(v.abs()));
+        let residual = mt.column(s).iter().enumerate().filter(|(i, _)| *i != s).fold(0.0f64, |m, (_, v)| m.max(v.abs()));
+        if residual > 1e-10 * scale || (mt[(s, s)] - 1.0).abs() > 1e-10 * scale {
+            return Err(LinearError::Deflation { col: s, residual });
+        }
+        Ok(mt.remove_row(s).remove_column(s))
+    }
+
+    /// The multipliers without the structural one, sorted by modulus, largest first: the
+    /// list that decides stability.
+    pub fn dominant_multipliers(&self) -> Result<Vec<Multiplier>, LinearError> {
+        to_multipliers(&self.deflated()?, self.dt)
+    }
+}
+
+fn to_multipliers(m: &DMatrix<f64>, dt: f64) -> Result<Vec<Multiplier>, LinearError> {
+    let ev = eigenvalues(m)?;
+    let mut out: Vec<Multiplier> = ev.iter().map(|c| Multiplier::new(c.re, c.im, dt)).collect();
+    out.sort_by(|a, b| b.abs.total_cmp(&a.abs).then(b.im.total_cmp(&a.im)));
+    Ok(out)
+}
+
+/// Every closed-loop multiplier of the loop `cfg` around the plant `(a, b)`, sorted by
+/// modulus, largest first (includes the structural multiplier 1).
+pub fn multipliers<const N: usize>(
+    a: &SMatrix<f64, N, N>,
+    b: &SVector<f64, N>,
+    primary: usize,
+    secondary: usize,
+    cfg: &ControllerConfig,
+) -> Result<Vec<Multiplier>, LinearError> {
+    LinearPlant::new(a, b, primary, secondary)?.closed_loop(cfg)?.multipliers()
+}
+
+/// The closed-loop multipliers without the structural multiplier 1 of the secondary-angle
+/// shift (removed by exact deflation), sorted by modulus, largest first. Errors with
+/// [`LinearError::SecondaryCouples`] if A depends on the secondary coordinate.
+pub fn dominant_multipliers<const N: usize>(
+    a: &SMatrix<f64, N, N>,
+    b: &SVector<f64, N>,
+    primary: usize,
+    secondary: usize,
+    cfg: &ControllerConfig,
+) -> Result<Vec<Multiplier>, LinearError> {
+    LinearPlant::new(a, b, primary, secondary)?.closed_loop(cfg)?.dominant_multipliers()
+}
