@@ -273,8 +273,7 @@ pub(crate) fn longest_consistent_run(
         }
         sorted.clear();
         let (mut sum, mut sumsq) = (0.0, 0.0);
-        for b in a..=hi {
-            let v = s[b];
+        for (b, &v) in s.iter().enumerate().take(hi + 1).skip(a) {
             let pos = sorted.partition_point(|&x| x < v);
             sorted.insert(pos, v);
             sum += v;
