@@ -1,0 +1,412 @@
+//! Largest Lyapunov exponent from a time series: Rosenstein's nearest-neighbour method and
+//! Kantz's neighbourhood-average variant at several scales `eps`.
+//!
+//! Both build a divergence curve `y(k)`, the mean logarithm of the distance between pairs
+//! of trajectory segments `k` samples after they were close, and fit a line to it over a
+//! window picked by the [`FitRule`]; the exponent is the slope per unit time
+//! (`k * dt`). Only reference points whose partners still have `max_steps` samples ahead
+//! are used, so every point of the curve averages the same pairs. Distances are between
+//! whole points (embedding vectors or states) in the chosen [`Norm`].
+//!
+//! # Fit-window rule ([`FitRule`])
+//! Let `y0 = y(0)`, `ytop = max y`, `rise = ytop - y0`, and `s(k)` the local slope of the
+//! curve (centred difference in time; one-sided at the ends).
+//! - If `rise < min_rise` (nats) the pairs do not separate measurably (periodic or
+//!   quasi-periodic motion, or `max_steps` too short): the line is fitted to the whole
+//!   curve and `grew = false` (slope near zero for regular motion).
+//! - Otherwise the candidate range runs from the first `k` with
+//!   `y(k) >= y0 + lo_fraction * rise` to the last `k` before `y` first reaches
+//!   `y0 + hi_fraction * rise` (before saturation at the attractor's size). Inside it, the
+//!   window is the longest run of at least `min_points` samples whose local slopes all lie
+//!   within `tolerance * |median|` of the run's median (the straightest section; it skips
+//!   the initial reorientation of the separation, where the curve is steeper). Ties go to
+//!   the run with the smaller spread of slopes. The exponent is the least-squares slope over
+//!   the window; `fit_stderr` is its regression standard error and `slope_std` the standard
+//!   deviation of the local slopes in the window.
+//!
+//! The curves bend on real data: report the curve and the window with the number.
+
+use crate::{ChaosError, LineFit, Norm, Points, Result, at_least, fit_line, positive, strided};
+
+/// Parameters shared by both estimators.
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct DivergenceParams {
+    /// Neighbours must satisfy `|i - j| > theiler` (about one dominant period for flows).
+    pub theiler: usize,
+    /// Length of the divergence curve in samples.
+    pub max_steps: usize,
+    /// At most this many reference points, evenly strided in time.
+    pub max_reference: usize,
+    /// Time per sample (1 for maps; the exponent comes out per unit of `dt`).
+    pub dt: f64,
+    pub norm: Norm,
+}
+
+impl Default for DivergenceParams {
+    fn default() -> Self {
+        Self { theiler: 1, max_steps: 30, max_reference: 3000, dt: 1.0, norm: Norm::Euclidean }
+    }
+}
+
+/// The rule that picks the fit window (module docs).
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct FitRule {
+    pub lo_fraction: f64,
+    pub hi_fraction: f64,
+    pub min_rise: f64,
+    /// Relative band around the median local slope.
+    pub tolerance: f64,
+    pub min_points: usize,
+}
+
+impl Default for FitRule {
+    fn default() -> Self {
+        Self { lo_fraction: 0.0, hi_fraction: 0.7, min_rise: 1.0, tolerance: 0.2, min_points: 5 }
+    }
+}
+
+/// Mean log distance against time, ready to plot.
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+pub struct DivergenceCurve {
+    /// `k * dt`, `k = 0..=max_steps`.
+    pub time: Vec<f64>,
+    /// Rosenstein: mean of `ln d_i(k)`; Kantz: mean over references of the log of the mean
+    /// distance to the neighbourhood.
+    pub mean_log_distance: Vec<f64>,
+    /// Number of terms averaged at each `k`.
+    pub n_terms: Vec<usize>,
+    /// Reference points that found a partner.
+    pub n_reference: usize,
+    /// Terms skipped because the distance was exactly zero (repeated points, e.g. quantized
+    /// data).
+    pub zero_distances: usize,
+}
+
+/// Slope of a divergence curve over the chosen window.
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
+pub struct DivergenceFit {
+    /// Largest Lyapunov exponent, per unit of `dt`.
+    pub exponent: f64,
+    pub fit_stderr: f64,
+    /// Standard deviation of the local slopes in the window (per unit time).
+    pub slope_std: f64,
+    /// Inclusive sample indices of the fit window.
+    pub window: (usize, usize),
+    pub window_time: (f64, f64),
+    /// `max y - y(0)` in nats.
+    pub rise: f64,
+    /// `false` when the rise was below `min_rise` and the whole curve was fitted.
+    pub grew: bool,
+}
+
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+pub struct LyapunovEstimate {
+    pub fit: DivergenceFit,
+    pub curve: DivergenceCurve,
+}
+
+/// Kantz's estimate at one scale.
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+pub struct KantzEstimate {
+    pub eps: f64,
+    /// Mean neighbourhood size over references that had neighbours (after the cap).
+    pub mean_neighbours: f64,
+    pub curve: Option<DivergenceCurve>,
+    pub fit: Option<DivergenceFit>,
+    /// Why `curve` or `fit` is missing (no neighbours within `eps`, no window).
+    pub failure: Option<String>,
+}
+
+/// `n` values log-spaced from `lo` to `hi` inclusive.
+pub fn log_spaced(lo: f64, hi: f64, n: usize) -> Result<Vec<f64>> {
+    positive("lo", lo)?;
+    positive("hi", hi)?;
+    at_least("n", n, 2)?;
+    let (a, b) = (lo.ln(), hi.ln());
+    Ok((0..n).map(|k| (a + (b - a) * k as f64 / (n - 1) as f64).exp()).collect())
+}
+
+fn check_params(points: &Points, p: &DivergenceParams) -> Result<usize> {
+    positive("dt", p.dt)?;
+    at_least("max_steps", p.max_steps, 2)?;
+    at_least("max_reference", p.max_reference, 1)?;
+    let n = points.len();
+    let need = p.max_steps + 2 * (p.theiler + 1) + 1;
+    if n < need {
+        return Err(ChaosError::TooShort { param: "max_steps + 2*(theiler+1)", have: n, need });
+    }
+    points.check_variance()?;
+    Ok(n - p.max_steps)
+}
+
+/// Rosenstein's divergence curve: each reference's nearest neighbour (outside the Theiler
+/// window, at non-zero distance), then the mean of `ln` of their distance `k` steps later.
+pub fn rosenstein_curve(points: &Points, p: &DivergenceParams) -> Result<DivergenceCurve> {
+    let nc = check_params(points, p)?;
+    let k_len = p.max_steps + 1;
+    let mut sum = vec![0.0; k_len];
+    let mut n_terms = vec![0usize; k_len];
+    let mut zero = 0usize;
+    let mut n_ref = 0usize;
+    for i in strided(nc, p.max_reference) {
+        let pi = points.point(i);
+        let mut best: Option<(usize, f64)> = None;
+        for j in (0..nc).filter(|&j| j.abs_diff(i) > p.theiler) {
+            let d2 = p.norm.dist2(pi, points.point(j));
+            if d2 > 0.0 && best.is_none_or(|(_, b)| d2 < b) {
+                best = Some((j, d2));
+            }
+        }
+        let Some((j, _)) = best else { continue };
+        n_ref += 1;
+        for k in 0..k_len {
+            let d2 = p.norm.dist2(points.point(i + k), points.point(j + k));
+            if d2 > 0.0 {
+                sum[k] += 0.5 * d2.ln();
+                n_terms[k] += 1;
+            } else {
+                zero += 1;
+            }
+        }
+    }
+    finish_curve(sum, n_terms, n_ref, zero, p.dt)
+}
+
+fn finish_curve(
+    sum: Vec<f64>,
+    n_terms: Vec<usize>,
+    n_reference: usize,
+    zero_distances: usize,
+    dt: f64,
+) -> Result<DivergenceCurve> {
+    if let Some(k) = n_terms.iter().position(|&c| c == 0) {
+        return Err(ChaosError::NoFitWindow {
+            reason: format!("no pair at non-zero distance at step {k} ({n_reference} references)"),
+        });
+    }
+    Ok(DivergenceCurve {
+        time: (0..sum.len()).map(|k| k as f64 * dt).collect(),
+        mean_log_distance: sum.iter().zip(&n_terms).map(|(s, &c)| s / c as f64).collect(),
+        n_terms,
+        n_reference,
+        zero_distances,
+    })
+}
+
+/// Apply the fit-window rule (module docs) to a curve.
+pub fn fit_divergence(curve: &DivergenceCurve, rule: &FitRule) -> Result<DivergenceFit> {
+    let ok_frac = |v: f64| v.is_finite() && (0.0..=1.0).contains(&v);
+    if !ok_frac(rule.lo_fraction) || !ok_frac(rule.hi_fraction) || rule.lo_fraction >= rule.hi_fraction {
+        return Err(ChaosError::BadParameter {
+            name: "lo_fraction/hi_fraction",
+            value: rule.hi_fraction,
+            reason: "need 0 <= lo_fraction < hi_fraction <= 1",
+        });
+    }
+    if !(rule.min_rise.is_finite() && rule.min_rise >= 0.0) {
+        return Err(ChaosError::BadParameter { name: "min_rise", value: rule.min_rise, reason: "must be finite and >= 0" });
+    }
+    at_least("min_points", rule.min_points, 2)?;
+    let y = &curve.mean_log_distance;
+    let t = &curve.time;
+    if y.len() < rule.min_points {
+        return Err(ChaosError::TooShort { param: "divergence curve (min_points)", have: y.len(), need: rule.min_points });
+    }
+    let y0 = y[0];
+    let ytop = y.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+    let rise = ytop - y0;
+    let n = y.len();
+    let slope = |a: usize, b: usize| (y[b] - y[a]) / (t[b] - t[a]);
+    let local: Vec<f64> = (0..n)
+        .map(|k| if k == 0 { slope(0, 1) } else if k == n - 1 { slope(n - 2, n - 1) } else { slope(k - 1, k + 1) })
+        .collect();
+    let (a, b, grew) = if rise < rule.min_rise {
+        (0, n - 1, false)
+    } else {
+        positive("tolerance", rule.tolerance)?;
+        let lo = y0 + rule.lo_fraction * rise;
+        let hi = y0 + rule.hi_fraction * rise;
+        let ka = y.iter().position(|&v| v >= lo).unwrap_or(0);
+        let kb = y.iter().position(|&v| v >= hi).unwrap_or(n - 1).saturating_sub(1).max(ka);
+        let Some((a, b, _, _)) = crate::longest_consistent_run(&local, ka, kb, rule.tolerance, rule.min_points) else {
+            return Err(ChaosError::NoFitWindow {
+                reason: format!(
+                    "no run of {} samples with local slopes within +-{:.0}% of their median in k = {ka}..={kb} \
+                     (rise {rise:.3} nats, fractions {}..{})",
+                    rule.min_points,
+                    100.0 * rule.tolerance,
+                    rule.lo_fraction,
+                    rule.hi_fraction
+                ),
+            });
+        };
+        (a, b, true)
+    };
+    let LineFit { slope, slope_stderr, .. } = fit_line(&t[a..=b], &y[a..=b])?;
+    let (_, slope_std) = crate::mean_std(&local[a..=b]);
+    Ok(DivergenceFit {
+        exponent: slope,
+        fit_stderr: slope_stderr,
+        slope_std,
+        window: (a, b),
+        window_time: (t[a], t[b]),
+        rise,
+        grew,
+    })
+}
+
+/// Rosenstein's estimate: curve plus fit.
+pub fn rosenstein(points: &Points, p: &DivergenceParams, rule: &FitRule) -> Result<LyapunovEstimate> {
+    let curve = rosenstein_curve(points, p)?;
+    let fit = fit_divergence(&curve, rule)?;
+    Ok(LyapunovEstimate { fit, curve })
+}
+
+/// Kantz's divergence curves, one per `eps`: for each reference, the neighbours within
+/// `eps` outside the Theiler window (at most `max_neighbours`, evenly strided in time when
+/// there are more); `S(k) = mean_i ln( mean_j |x_{i+k} - x_{j+k}| )`.
+/// Returns, per `eps`, the curve (or why there is none) and the mean neighbourhood size.
+#[allow(clippy::type_complexity)]
+pub fn kantz_curves(
+    points: &Points,
+    eps: &[f64],
+    p: &DivergenceParams,
+    max_neighbours: usize,
+) -> Result<Vec<(f64, f64, std::result::Result<DivergenceCurve, String>)>> {
+    let nc = check_params(points, p)?;
+    at_least("max_neighbours", max_neighbours, 1)?;
+    if eps.is_empty() {
+        return Err(ChaosError::BadParameter { name: "eps", value: 0.0, reason: "need at least one scale" });
+    }
+    for &e in eps {
+        positive("eps", e)?;
+    }
+    let eps_max = eps.iter().copied().fold(0.0, f64::max);
+    let k_len = p.max_steps + 1;
+    let ne = eps.len();
+    let mut sum = vec![vec![0.0; k_len]; ne];
+    let mut n_terms = vec![vec![0usize; k_len]; ne];
+    let mut zero = vec![0usize; ne];
+    let mut n_ref = vec![0usize; ne];
+    let mut neigh_total = vec![0usize; ne];
+    let mut cand: Vec<(usize, f64)> = Vec::new();
+    let mut chosen: Vec<usize> = Vec::new();
+    for i in strided(nc, p.max_reference) {
+        let pi = points.point(i);
+        cand.clear();
+        for j in (0..nc).filter(|&j| j.abs_diff(i) > p.theiler) {
+            let d2 = p.norm.dist2(pi, points.point(j));
+            if d2 < eps_max * eps_max {
+                cand.push((j, d2));
+            }
+        }
+        for (e, &eps_e) in eps.iter().enumerate() {
+            chosen.clear();
+            chosen.extend(cand.iter().filter(|(_, d2)| *d2 < eps_e * eps_e).map(|(j, _)| *j));
+            if chosen.is_empty() {
+                continue;
+            }
+            if chosen.len() > max_neighbours {
+                let keep: Vec<usize> = strided(chosen.len(), max_neighbours).into_iter().map(|q| chosen[q]).collect();
+                chosen.clear();
+                chosen.extend(keep);
+            }
+            n_ref[e] += 1;
+            neigh_total[e] += chosen.len();
+            for k in 0..k_len {
+                let a = points.point(i + k);
+                let mean_d =
+                    chosen.iter().map(|&j| p.norm.dist2(a, points.point(j + k)).sqrt()).sum::<f64>() / chosen.len() as f64;
+                if mean_d > 0.0 {
+                    sum[e][k] += mean_d.ln();
+                    n_terms[e][k] += 1;
+                } else {
+                    zero[e] += 1;
+                }
+            }
+        }
+    }
+    let mut out = Vec::with_capacity(ne);
+    for e in 0..ne {
+        let mean_neigh = if n_ref[e] > 0 { neigh_total[e] as f64 / n_ref[e] as f64 } else { 0.0 };
+        let curve = if n_ref[e] == 0 {
+            Err(format!("no reference point has a neighbour within eps = {:.4e}", eps[e]))
+        } else {
+            finish_curve(std::mem::take(&mut sum[e]), std::mem::take(&mut n_terms[e]), n_ref[e], zero[e], p.dt)
+                .map_err(|err| err.to_string())
+        };
+        out.push((eps[e], mean_neigh, curve));
+    }
+    Ok(out)
+}
+
+/// Kantz's exponent as a function of the scale `eps` (scale dependence is the point: on
+/// quantized-control data the exponent changes with `eps`).
+pub fn kantz(
+    points: &Points,
+    eps: &[f64],
+    p: &DivergenceParams,
+    max_neighbours: usize,
+    rule: &FitRule,
+) -> Result<Vec<KantzEstimate>> {
+    Ok(kantz_curves(points, eps, p, max_neighbours)?
+        .into_iter()
+        .map(|(eps, mean_neighbours, curve)| match curve {
+            Err(why) => KantzEstimate { eps, mean_neighbours, curve: None, fit: None, failure: Some(why) },
+            Ok(c) => match fit_divergence(&c, rule) {
+                Ok(f) => KantzEstimate { eps, mean_neighbours, curve: Some(c), fit: Some(f), failure: None },
+                Err(e) => KantzEstimate { eps, mean_neighbours, curve: Some(c), fit: None, failure: Some(e.to_string()) },
+            },
+        })
+        .collect())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn curve(y: &[f64]) -> DivergenceCurve {
+        DivergenceCurve {
+            time: (0..y.len()).map(|k| k as f64 * 0.5).collect(),
+            mean_log_distance: y.to_vec(),
+            n_terms: vec![1; y.len()],
+            n_reference: 1,
+            zero_distances: 0,
+        }
+    }
+
+    #[test]
+    fn window_rule_on_a_ramp_with_plateau() {
+        // Steep start (1 per sample up to k = 2), then 0.25 per sample up to y = 6, then
+        // flat: rise 6; candidates end before y >= 4.2 (first at k = 11, y = 4.25), so
+        // k <= 10; centred local slopes equal 0.25 per sample from k = 3 -> window 3..=10,
+        // slope 0.25 / 0.5 s = 0.5 per unit time.
+        let y: Vec<f64> =
+            (0..30).map(|k| if k <= 2 { k as f64 } else { (2.0 + 0.25 * (k - 2) as f64).min(6.0) }).collect();
+        let f = fit_divergence(&curve(&y), &FitRule::default()).unwrap();
+        assert_eq!(f.window, (3, 10));
+        assert!((f.exponent - 0.5).abs() < 1e-12, "{}", f.exponent);
+        assert!(f.grew);
+    }
+
+    #[test]
+    fn flat_curve_fits_everything() {
+        let y: Vec<f64> = (0..20).map(|k| -3.0 + 0.01 * (k as f64).sin()).collect();
+        let f = fit_divergence(&curve(&y), &FitRule::default()).unwrap();
+        assert!(!f.grew);
+        assert_eq!(f.window, (0, 19));
+        assert!(f.exponent.abs() < 0.01);
+    }
+
+    #[test]
+    fn rejects_short_series_naming_the_parameter() {
+        let x: Vec<f64> = (0..50).map(|i| (i as f64 * 0.3).sin()).collect();
+        let p = Points::from_series(&x).unwrap();
+        let e = rosenstein_curve(&p, &DivergenceParams { max_steps: 40, theiler: 5, ..Default::default() }).unwrap_err();
+        assert_eq!(e, ChaosError::TooShort { param: "max_steps + 2*(theiler+1)", have: 50, need: 53 });
+        assert!(matches!(
+            rosenstein_curve(&p, &DivergenceParams { dt: 0.0, ..Default::default() }),
+            Err(ChaosError::BadParameter { name: "dt", .. })
+        ));
+    }
+}
