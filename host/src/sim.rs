@@ -7,7 +7,7 @@
 //! controller configuration. Must not implement control law arithmetic itself.
 
 use crate::ode::{Integrator, Method, OdeError, OdeStats};
-use crate::plant::{Plant, PlantError, cart::{CartPendulum, CartPendulumParams}, furuta::{Furuta, FurutaParams}};
+use crate::plant::{Cart, CartParams, Furuta, FurutaParams, Plant, PlantError};
 use crate::scene::{MethodKind, PlantKind, Scene, SceneError};
 use controller::{FloatPd, IntPd, LiteralPd, adc};
 use rand::SeedableRng;
@@ -142,7 +142,7 @@ fn params<T: serde::de::DeserializeOwned>(scene: &Scene) -> Result<T, SimError> 
 /// A plant built from a scene, one variant per kind.
 pub enum AnyPlant {
     Furuta(Furuta),
-    Cart(CartPendulum),
+    Cart(Cart),
 }
 
 /// Builds the plant a scene names, validating its parameters.
@@ -150,7 +150,7 @@ pub fn build_plant(scene: &Scene) -> Result<AnyPlant, SimError> {
     let plant_err = |source| SimError::Plant { scene: scene.name.clone(), source };
     Ok(match scene.plant.kind {
         PlantKind::Furuta => AnyPlant::Furuta(Furuta::new(params::<FurutaParams>(scene)?).map_err(plant_err)?),
-        PlantKind::Cart => AnyPlant::Cart(CartPendulum::new(params::<CartPendulumParams>(scene)?).map_err(plant_err)?),
+        PlantKind::Cart => AnyPlant::Cart(Cart::new(params::<CartParams>(scene)?).map_err(plant_err)?),
     })
 }
 
