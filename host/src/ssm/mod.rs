@@ -25,3 +25,6 @@ pub use dynamics::{Dynamics, ReducedDynamics};
 pub use error::FitError;
 pub use fit::{FitOptions, Prediction, SsmModel, Stop, StopReason, fit};
 pub use ridge::{Conditioning, Ridge};
+
+#[cfg(test)]
+mod tests;
