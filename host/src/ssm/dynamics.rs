@@ -21,6 +21,9 @@
 //! `ln(mu) / dt`. For the RBF map the Jacobian at the origin is used (the linear kernel is
 //! differentiable there unless a centre sits exactly at the origin, which is reported).
 
+// Index loops mirror the formulas over small fixed dimensions.
+#![allow(clippy::needless_range_loop)]
+
 use faer::{Mat, MatRef};
 use serde::{Deserialize, Serialize};
 

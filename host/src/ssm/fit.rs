@@ -176,10 +176,9 @@ impl SsmModel {
         let (p, s, d) = (self.options.embed, self.options.shift, self.options.dim);
         let y = delay_embed(test, p, s, 1)?;
         let dt = test.dt().unwrap_or(self.dt);
-        if let Some(map_dt) = self.dynamics.map_dt() {
-            if (dt - map_dt).abs() > MAP_DT_RTOL * map_dt {
-                return Err(FitError::StepMismatch { name: test.name.clone(), dt, dt_model: map_dt, rtol: MAP_DT_RTOL });
-            }
+        let map_dt = self.dynamics.map_dt().unwrap_or(dt);
+        if (dt - map_dt).abs() > MAP_DT_RTOL * map_dt {
+            return Err(FitError::StepMismatch { name: test.name.clone(), dt, dt_model: map_dt, rtol: MAP_DT_RTOL });
         }
         let m_total = embedded_len(test.len(), p, s).unwrap_or(0);
         let y0: Vec<f64> = (0..p).map(|i| y[(i, 0)]).collect();

@@ -198,7 +198,7 @@ mod tests {
             }
         }
         let y = Mat::from_fn(5, cols.len(), |i, j| cols[j][i]);
-        let m = Manifold::fit(&[y.clone()], 2, 4, Ridge::Fixed(0.0)).unwrap();
+        let m = Manifold::fit(std::slice::from_ref(&y), 2, 4, Ridge::Fixed(0.0)).unwrap();
         assert!(m.constraint_defect() < 1e-13, "defect {}", m.constraint_defect());
         // V1 spans e1, e2: no components along e3..e5.
         for j in 0..2 {
@@ -233,7 +233,7 @@ mod tests {
             }
         }
         let y = Mat::from_fn(4, cols.len(), |i, j| cols[j][i]);
-        let m = Manifold::fit(&[y.clone()], 2, 2, Ridge::Fixed(0.0)).unwrap();
+        let m = Manifold::fit(std::slice::from_ref(&y), 2, 2, Ridge::Fixed(0.0)).unwrap();
         let mut sc = PolyScratch::default();
         let mut out = vec![0.0; 4];
         for j in (0..y.ncols()).step_by(17) {

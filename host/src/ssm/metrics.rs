@@ -6,6 +6,9 @@
 //! `mean(vecnorm(yPred - yTrue)) / max(vecnorm(yTrue))`, i.e. the mean over samples of the
 //! Euclidean error norm divided by the largest norm of the true trajectory.
 
+// `%` instead of `is_multiple_of`: the workspace MSRV is 1.85.
+#![allow(clippy::manual_is_multiple_of)]
+
 use serde::{Deserialize, Serialize};
 
 /// NMTE of a predicted trajectory against the truth; points are rows of `dim` values
@@ -259,6 +262,7 @@ mod tests {
     }
 
     #[test]
+    #[allow(clippy::needless_range_loop)]
     fn dft_matches_direct_sum() {
         for n in [1usize, 2, 7, 8, 12, 100] {
             let x: Vec<C> = (0..n).map(|i| ((i as f64 * 0.7).sin(), (i as f64 * 0.3).cos())).collect();

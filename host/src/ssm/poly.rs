@@ -165,7 +165,7 @@ mod tests {
         // f(eta) = [3 z1 - z1 z2^2, 2 z2^3] with z = eta / scale.
         let exps = exponents(2, 1, 3);
         let mut coef = vec![0.0; exps.len() * 2];
-        coef[0 * 2] = 3.0; // z1 -> out 0
+        coef[0] = 3.0; // z1 -> out 0
         coef[7 * 2] = -1.0; // z1 z2^2 -> out 0
         coef[8 * 2 + 1] = 2.0; // z2^3 -> out 1
         let p = Poly { dim_in: 2, dim_out: 2, scale: vec![2.0, 0.5], exps, coef };

@@ -189,6 +189,7 @@ pub fn cross_validate(
 }
 
 #[cfg(test)]
+#[allow(clippy::single_range_in_vec_init)]
 mod tests {
     use super::*;
 
