@@ -226,3 +226,27 @@ fn blow_up_is_detected_and_truncated() {
     assert!(pred.x.iter().all(|v| v.is_finite()));
     assert_eq!(pred.nmte(&test), f64::INFINITY);
 }
+
+#[test]
+fn bad_options_and_inputs_are_reported() {
+    let dt = 0.05;
+    let train = [synthetic("a", 0.5, 0.0, dt, 300)];
+    let base = FitOptions { dim: 2, embed: 5, shift: 1, manifold_order: 2, dyn_order: 3, dynamics: Dynamics::Map, ridge: Ridge::Fixed(0.0) };
+    let e = fit(&train, &FitOptions { embed: 4, ..base }).unwrap_err();
+    assert!(matches!(e, FitError::BadOption { what: "embed", .. }), "{e}");
+    let e = fit(&train, &FitOptions { shift: 0, ..base }).unwrap_err();
+    assert!(matches!(e, FitError::BadOption { what: "shift", .. }), "{e}");
+    let e = fit(&train, &FitOptions { ridge: Ridge::Fixed(-1.0), ..base }).unwrap_err();
+    assert!(matches!(e, FitError::BadOption { what: "ridge alpha", .. }), "{e}");
+    let e = fit(&[], &base).unwrap_err();
+    assert!(matches!(e, FitError::NoTrainingData), "{e}");
+    let e = fit(&[synthetic("short", 0.5, 0.0, dt, 10)], &base).unwrap_err();
+    assert!(matches!(e, FitError::Data(DataError::TooShort { have: 10, need: 12, .. })), "{e}");
+    // A discrete-time model refuses a test series sampled at another step.
+    let model = fit(&train, &base).unwrap();
+    let e = model.predict(&synthetic("other step", 0.5, 0.0, 0.06, 300)).unwrap_err();
+    assert!(matches!(e, FitError::StepMismatch { .. }), "{e}");
+    // A test series shorter than one embedded point.
+    let e = model.predict(&synthetic("tiny", 0.5, 0.0, dt, 4)).unwrap_err();
+    assert!(matches!(e, FitError::Data(DataError::TooShort { .. })), "{e}");
+}
