@@ -1,0 +1,254 @@
+//! Scalar time series: loading `(t, observable)` CSV files and validating sampling.
+//!
+//! A file has one header line, then one `t,x` pair per line (extra whitespace allowed, blank
+//! lines rejected). Validation is strict: every value finite, time strictly increasing and
+//! uniformly sampled (each step within a relative tolerance [`SAMPLING_RTOL`] of the mean
+//! step), signal not constant. Nothing is silently dropped.
+
+use std::path::Path;
+
+use serde::{Deserialize, Serialize};
+use thiserror::Error;
+
+/// Relative tolerance on each sampling step with respect to the mean step.
+pub const SAMPLING_RTOL: f64 = 1e-6;
+
+/// A uniformly sampled scalar observable.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct TimeSeries {
+    /// Name used in error messages and reports (the file stem for loaded files).
+    pub name: String,
+    /// Sample times in seconds, strictly increasing and uniform.
+    pub t: Vec<f64>,
+    /// Observable values, same length as `t`.
+    pub x: Vec<f64>,
+}
+
+/// Errors from loading or validating a time series. Rows are 1-based data rows (the header
+/// is not counted); lines are 1-based file lines (the header is line 1).
+#[derive(Debug, Error)]
+pub enum DataError {
+    #[error("{file}: cannot read: {source}")]
+    Io {
+        file: String,
+        #[source]
+        source: std::io::Error,
+    },
+    #[error("{file}: empty file, expected a header line `t,x`")]
+    NoHeader { file: String },
+    #[error("{file}: line {line}: expected 2 comma-separated columns `t,x`, found {found}")]
+    Columns { file: String, line: usize, found: usize },
+    #[error("{file}: line {line}: cannot parse {column} value {text:?} as a number")]
+    Parse { file: String, line: usize, column: &'static str, text: String },
+    #[error("{name}: row {row}: {column} is not finite ({value})")]
+    NonFinite { name: String, row: usize, column: &'static str, value: f64 },
+    #[error("{name}: t and x have different lengths ({nt} vs {nx})")]
+    LengthMismatch { name: String, nt: usize, nx: usize },
+    #[error("{name}: row {row}: time does not increase (t = {t_prev} then {t})")]
+    NonIncreasing { name: String, row: usize, t_prev: f64, t: f64 },
+    #[error(
+        "{name}: row {row}: uneven sampling, step {step} differs from the mean step {mean} by more than {rtol} relative"
+    )]
+    UnevenSampling { name: String, row: usize, step: f64, mean: f64, rtol: f64 },
+    #[error("{name}: {have} samples, need at least {need} ({why})")]
+    TooShort { name: String, have: usize, need: usize, why: String },
+    #[error("{name}: the signal is constant (x = {value} everywhere)")]
+    Constant { name: String, value: f64 },
+}
+
+impl TimeSeries {
+    /// Builds and validates a series (see [`TimeSeries::validate`]).
+    pub fn new(name: impl Into<String>, t: Vec<f64>, x: Vec<f64>) -> Result<Self, DataError> {
+        let ts = TimeSeries { name: name.into(), t, x };
+        ts.validate()?;
+        Ok(ts)
+    }
+
+    /// Number of samples.
+    pub fn len(&self) -> usize {
+        self.t.len()
+    }
+
+    /// True when there are no samples.
+    pub fn is_empty(&self) -> bool {
+        self.t.is_empty()
+    }
+
+    /// Mean sampling step `(t_last - t_first) / (n - 1)`; `None` with fewer than 2 samples.
+    pub fn dt(&self) -> Option<f64> {
+        let n = self.t.len();
+        (n >= 2).then(|| (self.t[n - 1] - self.t[0]) / (n - 1) as f64)
+    }
+
+    /// Checks lengths, finiteness, strictly increasing uniform time, and a non-constant
+    /// signal. Needs at least 2 samples; embedding-specific lengths are checked by
+    /// [`TimeSeries::require_len`].
+    pub fn validate(&self) -> Result<(), DataError> {
+        let name = &self.name;
+        if self.t.len() != self.x.len() {
+            return Err(DataError::LengthMismatch {
+                name: name.clone(),
+                nt: self.t.len(),
+                nx: self.x.len(),
+            });
+        }
+        self.require_len(2, "a sampling step")?;
+        for (i, (&t, &x)) in self.t.iter().zip(&self.x).enumerate() {
+            for (column, value) in [("t", t), ("x", x)] {
+                if !value.is_finite() {
+                    return Err(DataError::NonFinite { name: name.clone(), row: i + 1, column, value });
+                }
+            }
+        }
+        for (i, w) in self.t.windows(2).enumerate() {
+            if w[1] <= w[0] {
+                return Err(DataError::NonIncreasing {
+                    name: name.clone(),
+                    row: i + 2,
+                    t_prev: w[0],
+                    t: w[1],
+                });
+            }
+        }
+        let mean = self.dt().unwrap_or(0.0);
+        for (i, w) in self.t.windows(2).enumerate() {
+            let step = w[1] - w[0];
+            if (step - mean).abs() > SAMPLING_RTOL * mean {
+                return Err(DataError::UnevenSampling {
+                    name: name.clone(),
+                    row: i + 2,
+                    step,
+                    mean,
+                    rtol: SAMPLING_RTOL,
+                });
+            }
+        }
+        let x0 = self.x[0];
+        if self.x.iter().all(|&x| x == x0) {
+            return Err(DataError::Constant { name: name.clone(), value: x0 });
+        }
+        Ok(())
+    }
+
+    /// Errors with [`DataError::TooShort`] unless there are at least `need` samples.
+    pub fn require_len(&self, need: usize, why: &str) -> Result<(), DataError> {
+        if self.t.len() < need {
+            return Err(DataError::TooShort {
+                name: self.name.clone(),
+                have: self.t.len(),
+                need,
+                why: why.to_string(),
+            });
+        }
+        Ok(())
+    }
+
+    /// The samples with `t >= t_from` (a copy, renamed with the cut), validated again.
+    pub fn from_time(&self, t_from: f64) -> Result<Self, DataError> {
+        let start = self.t.partition_point(|&t| t < t_from);
+        TimeSeries::new(
+            format!("{}[t>={t_from}]", self.name),
+            self.t[start..].to_vec(),
+            self.x[start..].to_vec(),
+        )
+    }
+}
+
+/// Loads a CSV file with a header line and two columns `t,x`, then validates it.
+/// The series is named after the file stem.
+pub fn load_csv(path: impl AsRef<Path>) -> Result<TimeSeries, DataError> {
+    let path = path.as_ref();
+    let file = path.display().to_string();
+    let text = std::fs::read_to_string(path).map_err(|source| DataError::Io { file: file.clone(), source })?;
+    let name = path.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_else(|| file.clone());
+    parse_csv(&file, name, &text)
+}
+
+/// Parses CSV text (see [`load_csv`]); `file` is used in error messages.
+pub fn parse_csv(file: &str, name: String, text: &str) -> Result<TimeSeries, DataError> {
+    let mut lines = text.lines().enumerate();
+    match lines.next() {
+        Some((_, h)) if !h.trim().is_empty() => {}
+        _ => return Err(DataError::NoHeader { file: file.to_string() }),
+    }
+    let mut t = Vec::new();
+    let mut x = Vec::new();
+    for (i, line) in lines {
+        let line_no = i + 1;
+        let cols: Vec<&str> = line.split(',').map(str::trim).collect();
+        if cols.len() != 2 || cols.iter().any(|c| c.is_empty()) {
+            let found = if line.trim().is_empty() { 0 } else { cols.len() };
+            return Err(DataError::Columns { file: file.to_string(), line: line_no, found });
+        }
+        for (column, text, out) in [("t", cols[0], &mut t), ("x", cols[1], &mut x)] {
+            let v: f64 = text.parse().map_err(|_| DataError::Parse {
+                file: file.to_string(),
+                line: line_no,
+                column,
+                text: text.to_string(),
+            })?;
+            out.push(v);
+        }
+    }
+    TimeSeries::new(format!("{name} ({file})"), t, x)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn parse(text: &str) -> Result<TimeSeries, DataError> {
+        parse_csv("mem.csv", "mem".into(), text)
+    }
+
+    #[test]
+    fn parses_valid_file() {
+        let ts = parse("t_s,x\n0,1\n0.5,2\n1.0,-3.5\n").unwrap();
+        assert_eq!(ts.t, vec![0.0, 0.5, 1.0]);
+        assert_eq!(ts.x, vec![1.0, 2.0, -3.5]);
+        assert!((ts.dt().unwrap() - 0.5).abs() < 1e-15);
+    }
+
+    #[test]
+    fn errors_name_the_line_or_row() {
+        let e = parse("t,x\n0,1\n0.5,abc\n").unwrap_err();
+        assert!(matches!(e, DataError::Parse { line: 3, column: "x", .. }), "{e}");
+        assert!(e.to_string().contains("mem.csv: line 3"), "{e}");
+
+        let e = parse("t,x\n0,1\n0.5\n").unwrap_err();
+        assert!(matches!(e, DataError::Columns { line: 3, found: 1, .. }), "{e}");
+
+        let e = parse("t,x\n0,1\n0.5,NaN\n1,2\n").unwrap_err();
+        assert!(matches!(e, DataError::NonFinite { row: 2, column: "x", .. }), "{e}");
+
+        let e = parse("t,x\n0,1\n0.5,2\n0.5,3\n").unwrap_err();
+        assert!(matches!(e, DataError::NonIncreasing { row: 3, .. }), "{e}");
+
+        let e = parse("t,x\n0,1\n0.5,2\n1.0,3\n1.6,4\n2.0,5\n").unwrap_err();
+        assert!(matches!(e, DataError::UnevenSampling { row: 4, .. }), "{e}");
+
+        let e = parse("t,x\n0,2\n1,2\n2,2\n").unwrap_err();
+        assert!(matches!(e, DataError::Constant { .. }), "{e}");
+
+        let e = parse("").unwrap_err();
+        assert!(matches!(e, DataError::NoHeader { .. }), "{e}");
+
+        let e = parse("t,x\n0,1\n").unwrap_err();
+        assert!(matches!(e, DataError::TooShort { have: 1, need: 2, .. }), "{e}");
+    }
+
+    #[test]
+    fn sampling_tolerance_is_relative_to_mean_step() {
+        // A step off by 1e-7 relative passes, 1e-5 relative fails.
+        let ok = TimeSeries::new("a", vec![0.0, 1.0, 2.0 + 1e-7, 3.0], vec![0.0, 1.0, 0.0, 1.0]);
+        assert!(ok.is_ok());
+        let bad = TimeSeries::new("b", vec![0.0, 1.0, 2.0 + 1e-5, 3.0], vec![0.0, 1.0, 0.0, 1.0]);
+        assert!(matches!(bad, Err(DataError::UnevenSampling { row: 3, .. })));
+    }
+
+    #[test]
+    fn missing_file_is_reported() {
+        let e = load_csv("/nonexistent/definitely/missing.csv").unwrap_err();
+        assert!(e.to_string().contains("missing.csv"), "{e}");
+    }
+}

@@ -1,0 +1,492 @@
+//! SSM-reduced dynamics fitted to reduced-coordinate trajectories (paper appendix A,
+//! "Data-driven modeling of the SSM-reduced dynamics").
+//!
+//! * [`ReducedDynamics::Flow`]: `eta' = R(eta)`, a polynomial of degrees 1..=K (no constant,
+//!   the fixed point is the origin) fitted to derivatives from 4th-order central finite
+//!   differences `(-e[n+2] + 8 e[n+1] - 8 e[n-1] + e[n-2]) / (12 dt)`, dropping two samples
+//!   at each end of every trajectory. Integrated with classic RK4, [`RK4_SUBSTEPS`] steps
+//!   per sample.
+//! * [`ReducedDynamics::Map`]: `eta_{n+1} = eta_n + P(eta_n)`, P a polynomial of degrees
+//!   1..=K. The regression target is the increment so that the ridge shrinks towards the
+//!   identity map (no motion) instead of the zero map (spurious damping).
+//! * [`ReducedDynamics::Rbf`]: `eta_{n+1} = eta_n + sum_i C_i ||z_n - c_i|| + A z_n + b`,
+//!   linear kernel `k(r) = r` (Xu et al. 2024), `z = eta / s` scaled like the polynomials,
+//!   centres `c_i` a farthest-point subset of the (scaled) training points, started from the
+//!   point of largest norm. The affine augmentation `A z + b` makes the regression well
+//!   posed (the linear kernel alone is only conditionally positive definite). Coefficients
+//!   are the ridge least-squares fit over all training pairs (not interpolation), solved
+//!   through the SVD (see [`super::ridge`]).
+//!
+//! Linear part: for a flow, `DR(0)`; for a map, `DF(0)`, converted to continuous time by
+//! `ln(mu) / dt`. For the RBF map the Jacobian at the origin is used (the linear kernel is
+//! differentiable there unless a centre sits exactly at the origin, which is reported).
+
+// Index loops mirror the formulas over small fixed dimensions.
+#![allow(clippy::needless_range_loop)]
+
+use faer::{Mat, MatRef};
+use serde::{Deserialize, Serialize};
+
+use super::error::FitError;
+use super::manifold::design_matrix;
+use super::poly::{self, Poly, PolyScratch};
+use super::ridge::{self, Conditioning, Ridge};
+
+/// RK4 steps per sampling interval when integrating a flow.
+pub const RK4_SUBSTEPS: usize = 4;
+
+/// Which reduced dynamics to fit.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub enum Dynamics {
+    /// Continuous-time polynomial vector field.
+    Flow,
+    /// Discrete-time polynomial map at the sampling step.
+    Map,
+    /// Discrete-time RBF map with the linear kernel and this many centres.
+    Rbf { centers: usize },
+}
+
+/// A fitted reduced model.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+pub enum ReducedDynamics {
+    Flow { field: Poly, conditioning: Conditioning },
+    Map { increment: Poly, dt: f64, conditioning: Conditioning },
+    Rbf(RbfMap),
+}
+
+/// RBF map with linear kernel plus affine augmentation (see the module docs).
+#[derive(Clone, Debug, Serialize, Deserialize)]
+pub struct RbfMap {
+    pub dim: usize,
+    /// Sampling step of the map.
+    pub dt: f64,
+    /// Scaling `z = eta / scale`.
+    pub scale: Vec<f64>,
+    /// Centres in scaled coordinates, `centers.len() / dim` of them, row-major.
+    pub centers: Vec<f64>,
+    /// Coefficients, row-major `(n_centers + dim + 1) x dim`: kernel weights, then the
+    /// linear rows (one per z coordinate), then the constant row.
+    pub coef: Vec<f64>,
+    pub conditioning: Conditioning,
+}
+
+impl RbfMap {
+    pub fn n_centers(&self) -> usize {
+        self.centers.len() / self.dim
+    }
+
+    fn features(&self, eta: &[f64], out: &mut [f64]) {
+        let d = self.dim;
+        let k = self.n_centers();
+        for i in 0..k {
+            let c = &self.centers[i * d..(i + 1) * d];
+            out[i] = c.iter().zip(eta).zip(&self.scale).map(|((c, e), s)| (e / s - c).powi(2)).sum::<f64>().sqrt();
+        }
+        for j in 0..d {
+            out[k + j] = eta[j] / self.scale[j];
+        }
+        out[k + d] = 1.0;
+    }
+
+    /// Next state `eta_{n+1}` in place.
+    pub fn step(&self, eta: &mut [f64], feat: &mut Vec<f64>) {
+        let d = self.dim;
+        feat.resize(self.n_centers() + d + 1, 0.0);
+        self.features(eta, feat);
+        for (r, f) in feat.iter().enumerate() {
+            for j in 0..d {
+                eta[j] += self.coef[r * d + j] * f;
+            }
+        }
+    }
+
+    /// Jacobian of the map at the origin (row-major d x d), or `None` if a centre sits at
+    /// the origin (the linear kernel is not differentiable there).
+    pub fn jacobian_at_origin(&self) -> Option<Vec<f64>> {
+        let d = self.dim;
+        let k = self.n_centers();
+        let mut jac = vec![0.0; d * d];
+        for i in 0..d {
+            jac[i * d + i] = 1.0;
+        }
+        for c in 0..k {
+            let ctr = &self.centers[c * d..(c + 1) * d];
+            let r = ctr.iter().map(|v| v * v).sum::<f64>().sqrt();
+            if r == 0.0 {
+                return None;
+            }
+            // d/d eta_j ||z - c|| at z = 0 = (0 - c_j) / r / scale_j.
+            for out in 0..d {
+                let w = self.coef[c * d + out];
+                for j in 0..d {
+                    jac[out * d + j] += w * (-ctr[j] / r) / self.scale[j];
+                }
+            }
+        }
+        for j in 0..d {
+            for out in 0..d {
+                jac[out * d + j] += self.coef[(k + j) * d + out] / self.scale[j];
+            }
+        }
+        Some(jac)
+    }
+}
+
+/// Reduced trajectories as `M_i x d` matrices (rows = time samples) with their steps.
+pub struct EtaTrajectory<'a> {
+    pub eta: MatRef<'a, f64>,
+    pub dt: f64,
+}
+
+/// Per-coordinate max |eta| over all trajectories.
+pub fn eta_scale(trajs: &[EtaTrajectory<'_>]) -> Vec<f64> {
+    let d = trajs.first().map(|t| t.eta.ncols()).unwrap_or(0);
+    (0..d)
+        .map(|j| trajs.iter().flat_map(|t| (0..t.eta.nrows()).map(move |i| t.eta[(i, j)].abs())).fold(0.0, f64::max))
+        .collect()
+}
+
+/// 4th-order central differences of the rows of `eta`, dropping two rows at each end.
+/// Returns (points, derivatives), both `(M - 4) x d`.
+pub fn central_diff4(eta: MatRef<'_, f64>, dt: f64) -> (Mat<f64>, Mat<f64>) {
+    let m = eta.nrows().saturating_sub(4);
+    let d = eta.ncols();
+    let pts = Mat::from_fn(m, d, |i, j| eta[(i + 2, j)]);
+    let der = Mat::from_fn(m, d, |i, j| {
+        let n = i + 2;
+        (-eta[(n + 2, j)] + 8.0 * eta[(n + 1, j)] - 8.0 * eta[(n - 1, j)] + eta[(n - 2, j)]) / (12.0 * dt)
+    });
+    (pts, der)
+}
+
+fn stack(parts: &[Mat<f64>]) -> (Mat<f64>, Vec<std::ops::Range<usize>>) {
+    let n: usize = parts.iter().map(|p| p.nrows()).sum();
+    let c = parts.first().map(|p| p.ncols()).unwrap_or(0);
+    let mut out = Mat::<f64>::zeros(n, c);
+    let mut groups = Vec::new();
+    let mut off = 0;
+    for p in parts {
+        for i in 0..p.nrows() {
+            for j in 0..c {
+                out[(off + i, j)] = p[(i, j)];
+            }
+        }
+        groups.push(off..off + p.nrows());
+        off += p.nrows();
+    }
+    (out, groups)
+}
+
+fn to_poly(w: &Mat<f64>, exps: Vec<Vec<u32>>, scale: Vec<f64>) -> Poly {
+    let (nm, d) = (w.nrows(), w.ncols());
+    let mut coef = vec![0.0; nm * d];
+    for k in 0..nm {
+        for i in 0..d {
+            coef[k * d + i] = w[(k, i)];
+        }
+    }
+    Poly { dim_in: scale.len(), dim_out: d, scale, exps, coef }
+}
+
+/// Farthest-point subset of the rows of `z` (scaled points): starts from the row of
+/// largest norm, then repeatedly adds the row farthest from the chosen set.
+pub fn farthest_points(z: MatRef<'_, f64>, k: usize) -> Vec<usize> {
+    let n = z.nrows();
+    let d = z.ncols();
+    let dist2 = |a: usize, b: usize| (0..d).map(|j| (z[(a, j)] - z[(b, j)]).powi(2)).sum::<f64>();
+    let norm2 = |a: usize| (0..d).map(|j| z[(a, j)].powi(2)).sum::<f64>();
+    let mut chosen = Vec::with_capacity(k.min(n));
+    if n == 0 || k == 0 {
+        return chosen;
+    }
+    let first = (0..n).max_by(|&a, &b| norm2(a).total_cmp(&norm2(b))).unwrap_or(0);
+    chosen.push(first);
+    let mut mind: Vec<f64> = (0..n).map(|i| dist2(i, first)).collect();
+    while chosen.len() < k.min(n) {
+        let next = (0..n).max_by(|&a, &b| mind[a].total_cmp(&mind[b])).unwrap_or(0);
+        if mind[next] == 0.0 {
+            break; // remaining points duplicate chosen ones
+        }
+        chosen.push(next);
+        for i in 0..n {
+            mind[i] = mind[i].min(dist2(i, next));
+        }
+    }
+    chosen
+}
+
+impl ReducedDynamics {
+    /// Fits the requested dynamics of polynomial order `order` (ignored for RBF).
+    pub fn fit(trajs: &[EtaTrajectory<'_>], kind: Dynamics, order: u32, ridge: Ridge) -> Result<Self, FitError> {
+        let d = trajs.first().map(|t| t.eta.ncols()).ok_or(FitError::NoTrainingData)?;
+        if order == 0 {
+            return Err(FitError::BadOption { what: "dyn_order", why: "must be >= 1".into() });
+        }
+        let scale = eta_scale(trajs);
+        match kind {
+            Dynamics::Flow => {
+                let mut xs = Vec::new();
+                let mut ys = Vec::new();
+                for t in trajs {
+                    let (p, dv) = central_diff4(t.eta, t.dt);
+                    xs.push(p);
+                    ys.push(dv);
+                }
+                let (x, groups) = stack(&xs);
+                let (y, _) = stack(&ys);
+                let exps = poly::exponents(d, 1, order);
+                let a = design_matrix(x.as_ref(), &scale, &exps);
+                let (w, conditioning) = ridge::fit(a.as_ref(), y.as_ref(), &groups, ridge, "flow regression")?;
+                Ok(ReducedDynamics::Flow { field: to_poly(&w, exps, scale), conditioning })
+            }
+            Dynamics::Map | Dynamics::Rbf { .. } => {
+                let dt = common_dt(trajs)?;
+                let mut xs = Vec::new();
+                let mut ys = Vec::new();
+                for t in trajs {
+                    let m = t.eta.nrows().saturating_sub(1);
+                    xs.push(Mat::from_fn(m, d, |i, j| t.eta[(i, j)]));
+                    ys.push(Mat::from_fn(m, d, |i, j| t.eta[(i + 1, j)] - t.eta[(i, j)]));
+                }
+                let (x, groups) = stack(&xs);
+                let (y, _) = stack(&ys);
+                if let Dynamics::Rbf { centers } = kind {
+                    return fit_rbf(x.as_ref(), y.as_ref(), &groups, scale, centers, dt, ridge).map(ReducedDynamics::Rbf);
+                }
+                let exps = poly::exponents(d, 1, order);
+                let a = design_matrix(x.as_ref(), &scale, &exps);
+                let (w, conditioning) = ridge::fit(a.as_ref(), y.as_ref(), &groups, ridge, "map regression")?;
+                Ok(ReducedDynamics::Map { increment: to_poly(&w, exps, scale), dt, conditioning })
+            }
+        }
+    }
+
+    /// Conditioning of the dynamics regression.
+    pub fn conditioning(&self) -> &Conditioning {
+        match self {
+            ReducedDynamics::Flow { conditioning, .. } | ReducedDynamics::Map { conditioning, .. } => conditioning,
+            ReducedDynamics::Rbf(r) => &r.conditioning,
+        }
+    }
+
+    /// The sampling step of a discrete model (`None` for a flow).
+    pub fn map_dt(&self) -> Option<f64> {
+        match self {
+            ReducedDynamics::Flow { .. } => None,
+            ReducedDynamics::Map { dt, .. } => Some(*dt),
+            ReducedDynamics::Rbf(r) => Some(r.dt),
+        }
+    }
+
+    /// Linear part at the origin: `DR(0)` for a flow, `DF(0)` for a map (row-major d x d).
+    pub fn linear_part(&self) -> Result<Vec<f64>, FitError> {
+        match self {
+            ReducedDynamics::Flow { field, .. } => Ok(field.linear_part()),
+            ReducedDynamics::Map { increment, .. } => {
+                let mut a = increment.linear_part();
+                let d = increment.dim_in;
+                for i in 0..d {
+                    a[i * d + i] += 1.0;
+                }
+                Ok(a)
+            }
+            ReducedDynamics::Rbf(r) => r.jacobian_at_origin().ok_or(FitError::BadOption {
+                what: "rbf centres",
+                why: "a centre sits at the origin, the linear part is undefined".into(),
+            }),
+        }
+    }
+
+    /// Continuous-time eigenvalues of the linear part, sorted by decreasing real part, then
+    /// decreasing imaginary part. Maps use `ln(mu) / dt` (principal logarithm).
+    pub fn eigenvalues_ct(&self) -> Result<Vec<(f64, f64)>, FitError> {
+        let a = self.linear_part()?;
+        let d = (a.len() as f64).sqrt() as usize;
+        let m = Mat::from_fn(d, d, |i, j| a[i * d + j]);
+        let ev = m.eigenvalues().map_err(|_| FitError::Eigen { what: "linear part of the reduced dynamics" })?;
+        let mut out: Vec<(f64, f64)> = ev
+            .iter()
+            .map(|z| match self.map_dt() {
+                None => (z.re, z.im),
+                Some(dt) => ((z.re.hypot(z.im)).ln() / dt, z.im.atan2(z.re) / dt),
+            })
+            .collect();
+        out.sort_by(|a, b| b.0.total_cmp(&a.0).then(b.1.total_cmp(&a.1)));
+        Ok(out)
+    }
+
+    /// Advances `eta` by one sampling interval `dt` (for maps `dt` must equal the map's step;
+    /// the caller checks).
+    pub fn step(&self, eta: &mut [f64], dt: f64, s: &mut StepScratch) {
+        match self {
+            ReducedDynamics::Flow { field, .. } => {
+                let d = eta.len();
+                let h = dt / RK4_SUBSTEPS as f64;
+                s.resize(d);
+                for _ in 0..RK4_SUBSTEPS {
+                    field.eval_into(eta, &mut s.poly, &mut s.k1);
+                    for i in 0..d {
+                        s.tmp[i] = eta[i] + 0.5 * h * s.k1[i];
+                    }
+                    field.eval_into(&s.tmp, &mut s.poly, &mut s.k2);
+                    for i in 0..d {
+                        s.tmp[i] = eta[i] + 0.5 * h * s.k2[i];
+                    }
+                    field.eval_into(&s.tmp, &mut s.poly, &mut s.k3);
+                    for i in 0..d {
+                        s.tmp[i] = eta[i] + h * s.k3[i];
+                    }
+                    field.eval_into(&s.tmp, &mut s.poly, &mut s.k4);
+                    for i in 0..d {
+                        eta[i] += h / 6.0 * (s.k1[i] + 2.0 * s.k2[i] + 2.0 * s.k3[i] + s.k4[i]);
+                    }
+                }
+            }
+            ReducedDynamics::Map { increment, .. } => {
+                s.resize(eta.len());
+                increment.eval_into(eta, &mut s.poly, &mut s.k1);
+                for (e, k) in eta.iter_mut().zip(&s.k1) {
+                    *e += k;
+                }
+            }
+            ReducedDynamics::Rbf(r) => r.step(eta, &mut s.feat),
+        }
+    }
+}
+
+/// Scratch buffers for [`ReducedDynamics::step`].
+#[derive(Default)]
+pub struct StepScratch {
+    poly: PolyScratch,
+    k1: Vec<f64>,
+    k2: Vec<f64>,
+    k3: Vec<f64>,
+    k4: Vec<f64>,
+    tmp: Vec<f64>,
+    feat: Vec<f64>,
+}
+
+impl StepScratch {
+    fn resize(&mut self, d: usize) {
+        for v in [&mut self.k1, &mut self.k2, &mut self.k3, &mut self.k4, &mut self.tmp] {
+            v.resize(d, 0.0);
+        }
+    }
+}
+
+/// Relative tolerance on sampling steps for discrete-time models.
+pub const MAP_DT_RTOL: f64 = 1e-3;
+
+fn common_dt(trajs: &[EtaTrajectory<'_>]) -> Result<f64, FitError> {
+    let dt0 = trajs[0].dt;
+    for (i, t) in trajs.iter().enumerate() {
+        if (t.dt - dt0).abs() > MAP_DT_RTOL * dt0 {
+            return Err(FitError::StepMismatch { name: format!("training trajectory {i}"), dt: t.dt, dt_model: dt0, rtol: MAP_DT_RTOL });
+        }
+    }
+    Ok(trajs.iter().map(|t| t.dt).sum::<f64>() / trajs.len() as f64)
+}
+
+fn fit_rbf(
+    x: MatRef<'_, f64>,
+    y: MatRef<'_, f64>,
+    groups: &[std::ops::Range<usize>],
+    scale: Vec<f64>,
+    n_centers: usize,
+    dt: f64,
+    ridge: Ridge,
+) -> Result<RbfMap, FitError> {
+    let (n, d) = (x.nrows(), x.ncols());
+    if n_centers == 0 {
+        return Err(FitError::BadOption { what: "rbf centers", why: "need at least one centre".into() });
+    }
+    if n_centers + d + 1 > n {
+        return Err(FitError::Underdetermined { what: "rbf regression", rows: n, cols: n_centers + d + 1 });
+    }
+    let z = Mat::from_fn(n, d, |i, j| x[(i, j)] / scale[j]);
+    let idx = farthest_points(z.as_ref(), n_centers);
+    let mut centers = Vec::with_capacity(idx.len() * d);
+    for &i in &idx {
+        centers.extend((0..d).map(|j| z[(i, j)]));
+    }
+    let mut map = RbfMap {
+        dim: d,
+        dt,
+        scale,
+        centers,
+        coef: Vec::new(),
+        conditioning: Conditioning {
+            rows: 0,
+            cols: 0,
+            s_max: 0.0,
+            s_min: 0.0,
+            cond: 0.0,
+            alpha: 0.0,
+            cond_regularized: 0.0,
+            rel_residual: 0.0,
+        },
+    };
+    let nf = map.n_centers() + d + 1;
+    let mut a = Mat::<f64>::zeros(n, nf);
+    let mut feat = vec![0.0; nf];
+    let mut eta = vec![0.0; d];
+    for i in 0..n {
+        for j in 0..d {
+            eta[j] = x[(i, j)];
+        }
+        map.features(&eta, &mut feat);
+        for (k, f) in feat.iter().enumerate() {
+            a[(i, k)] = *f;
+        }
+    }
+    let (w, conditioning) = ridge::fit(a.as_ref(), y, groups, ridge, "rbf regression")?;
+    map.coef = (0..nf).flat_map(|k| (0..d).map(move |j| (k, j))).map(|(k, j)| w[(k, j)]).collect();
+    map.conditioning = conditioning;
+    Ok(map)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Linear oscillator eta' = A eta sampled exactly: flow, map and RBF must all recover
+    /// the eigenvalues -0.3 +- 2i.
+    #[test]
+    fn recovers_linear_eigenvalues() {
+        let (sig, om, dt) = (-0.3, 2.0, 0.01);
+        let mut trajs = Vec::new();
+        for (r0, ph) in [(1.0, 0.0), (0.7, 1.0)] {
+            let n = 800;
+            trajs.push(Mat::from_fn(n, 2, |i, j| {
+                let t = i as f64 * dt;
+                let a = r0 * (sig * t).exp();
+                if j == 0 { a * (om * t + ph).cos() } else { a * (om * t + ph).sin() }
+            }));
+        }
+        let et: Vec<EtaTrajectory> = trajs.iter().map(|m| EtaTrajectory { eta: m.as_ref(), dt }).collect();
+        for (kind, tol) in [(Dynamics::Flow, 1e-6), (Dynamics::Map, 1e-9), (Dynamics::Rbf { centers: 20 }, 2e-2)] {
+            let dynm = ReducedDynamics::fit(&et, kind, 3, Ridge::Fixed(0.0)).unwrap();
+            let ev = dynm.eigenvalues_ct().unwrap();
+            assert!((ev[0].0 - sig).abs() < tol && (ev[0].1 - om).abs() < tol, "{kind:?}: {ev:?}");
+            assert!((ev[1].0 - sig).abs() < tol && (ev[1].1 + om).abs() < tol, "{kind:?}: {ev:?}");
+        }
+    }
+
+    #[test]
+    fn central_difference_is_fourth_order() {
+        // d/dt sin(t) at step h: error ~ h^4/30 * |f^(5)|.
+        let h = 0.05;
+        let e = Mat::from_fn(50, 1, |i, _| (i as f64 * h).sin());
+        let (p, dv) = central_diff4(e.as_ref(), h);
+        for i in 0..p.nrows() {
+            let t = (i + 2) as f64 * h;
+            assert!((dv[(i, 0)] - t.cos()).abs() < h.powi(4) / 30.0 * 1.01, "i={i}");
+        }
+    }
+
+    #[test]
+    fn farthest_points_spread() {
+        let z = Mat::from_fn(5, 1, |i, _| [0.0, 0.1, 0.5, 0.9, -1.0][i]);
+        assert_eq!(farthest_points(z.as_ref(), 3), vec![4, 3, 0]);
+    }
+}

@@ -1,0 +1,241 @@
+//! The fitting pipeline and the fitted model: delay embedding -> tangent space and graph
+//! parametrization -> reduced dynamics; prediction from a test series' first embedded
+//! point with blow-up detection.
+
+use serde::{Deserialize, Serialize};
+
+use super::data::TimeSeries;
+use super::dynamics::{Dynamics, EtaTrajectory, MAP_DT_RTOL, ReducedDynamics, StepScratch};
+use super::embed::{delay_embed, embedded_len};
+use super::error::FitError;
+use super::manifold::Manifold;
+use super::metrics;
+use super::poly::PolyScratch;
+use super::ridge::{Conditioning, Ridge};
+
+/// A prediction stops when a reduced coordinate exceeds this multiple of its training range.
+pub const BLOWUP_FACTOR: f64 = 10.0;
+
+/// Options of [`fit`].
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct FitOptions {
+    /// SSM dimension d (>= 1).
+    pub dim: usize,
+    /// Delay-embedding dimension p (> 2 d).
+    pub embed: usize,
+    /// Delay between embedding coordinates, in samples (>= 1).
+    pub shift: usize,
+    /// Polynomial order K of the manifold parametrization (1 = linear).
+    pub manifold_order: u32,
+    /// Polynomial order of the reduced dynamics (ignored for RBF).
+    pub dyn_order: u32,
+    /// Kind of reduced dynamics.
+    pub dynamics: Dynamics,
+    /// Ridge parameter choice, used for both regressions.
+    pub ridge: Ridge,
+}
+
+impl FitOptions {
+    fn validate(&self) -> Result<(), FitError> {
+        let bad = |what, why: String| Err(FitError::BadOption { what, why });
+        if self.dim == 0 {
+            return bad("dim", "must be >= 1".into());
+        }
+        if self.embed <= 2 * self.dim {
+            return bad("embed", format!("p = {} must exceed 2 d = {} (Takens)", self.embed, 2 * self.dim));
+        }
+        if self.shift == 0 {
+            return bad("shift", "must be >= 1 sample".into());
+        }
+        if self.manifold_order == 0 {
+            return bad("manifold_order", "must be >= 1".into());
+        }
+        if self.dyn_order == 0 {
+            return bad("dyn_order", "must be >= 1".into());
+        }
+        Ok(())
+    }
+}
+
+/// A fitted SSM-reduced model (serializable, e.g. to JSON).
+#[derive(Clone, Debug, Serialize, Deserialize)]
+pub struct SsmModel {
+    pub options: FitOptions,
+    /// Mean sampling step of the training data.
+    pub dt: f64,
+    pub manifold: Manifold,
+    pub dynamics: ReducedDynamics,
+    /// Continuous-time eigenvalues (re, im) of the linear part of the reduced dynamics.
+    pub eigenvalues_ct: Vec<(f64, f64)>,
+    /// Per-coordinate max |eta| over the training data (blow-up detection reference).
+    pub eta_range: Vec<f64>,
+    /// Number of embedded training points.
+    pub n_points: usize,
+}
+
+/// Why a prediction stopped early.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub enum StopReason {
+    /// A reduced coordinate became NaN or infinite.
+    NonFinite,
+    /// Coordinate `coord` reached `value`, beyond `BLOWUP_FACTOR` x its training range.
+    LeftRange { coord: usize, value: f64, limit: f64 },
+}
+
+/// Where and why a prediction stopped.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Stop {
+    /// Index of the first embedded sample that was not produced.
+    pub index: usize,
+    pub t: f64,
+    pub reason: StopReason,
+}
+
+/// A model prediction of the observable. All values are finite.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+pub struct Prediction {
+    /// Times of the predicted samples (a prefix of the test's times).
+    pub t: Vec<f64>,
+    /// Predicted observable. Full test length when `stop` is `None`: sample `n` comes from
+    /// embedded point `m = n - k shift` (coordinate k, the smallest k with m in range), so
+    /// the last `(p-1) shift` samples use the later coordinates of the last point.
+    /// When stopped early, only the samples of the produced embedded points.
+    pub x: Vec<f64>,
+    /// Reduced coordinates of the produced embedded points, row-major `len x d`.
+    pub eta: Vec<f64>,
+    pub stop: Option<Stop>,
+    /// Conditioning of the manifold regression (absent for a linear manifold).
+    pub manifold_conditioning: Option<Conditioning>,
+    /// Conditioning of the dynamics regression.
+    pub dynamics_conditioning: Conditioning,
+}
+
+impl Prediction {
+    /// NMTE of the predicted observable against `test` (SSMLearn definition, see
+    /// [`metrics::nmte`]). Infinite when the prediction stopped early (as SSMLearn does for
+    /// failed integrations).
+    pub fn nmte(&self, test: &TimeSeries) -> f64 {
+        if self.stop.is_some() || self.x.len() != test.x.len() {
+            return f64::INFINITY;
+        }
+        metrics::nmte(&self.x, &test.x, 1).unwrap_or(f64::INFINITY)
+    }
+
+    /// NMTE after DTW alignment (Sakoe-Chiba band `band` samples), on the predicted prefix.
+    pub fn nmte_dtw(&self, test: &TimeSeries, band: Option<usize>) -> f64 {
+        let n = self.x.len().min(test.x.len());
+        metrics::nmte_dtw(&self.x[..n], &test.x[..n], 1, band).unwrap_or(f64::INFINITY)
+    }
+}
+
+/// Fits an SSM-reduced model to training series `train` (each validated again here).
+pub fn fit(train: &[TimeSeries], opts: &FitOptions) -> Result<SsmModel, FitError> {
+    opts.validate()?;
+    if train.is_empty() {
+        return Err(FitError::NoTrainingData);
+    }
+    // Flow fitting drops 2 points per end; require a few usable points per trajectory.
+    let min_points = 8;
+    let mut ys = Vec::with_capacity(train.len());
+    let mut dts = Vec::with_capacity(train.len());
+    for ts in train {
+        ts.validate()?;
+        ys.push(delay_embed(ts, opts.embed, opts.shift, min_points)?);
+        dts.push(ts.dt().unwrap_or(0.0));
+    }
+    let manifold = Manifold::fit(&ys, opts.dim, opts.manifold_order, opts.ridge)?;
+    let etas: Vec<_> = ys.iter().map(|y| manifold.reduce_points(y.as_ref())).collect();
+    let trajs: Vec<EtaTrajectory> =
+        etas.iter().zip(&dts).map(|(e, &dt)| EtaTrajectory { eta: e.as_ref(), dt }).collect();
+    let dynamics = ReducedDynamics::fit(&trajs, opts.dynamics, opts.dyn_order, opts.ridge)?;
+    let eigenvalues_ct = dynamics.eigenvalues_ct()?;
+    let eta_range = super::dynamics::eta_scale(&trajs);
+    let dt = dts.iter().sum::<f64>() / dts.len() as f64;
+    Ok(SsmModel {
+        options: *opts,
+        dt,
+        manifold,
+        dynamics,
+        eigenvalues_ct,
+        eta_range,
+        n_points: ys.iter().map(|y| y.ncols()).sum(),
+    })
+}
+
+impl SsmModel {
+    /// Continuous-time eigenvalues (re, im) of the reduced dynamics' linear part.
+    pub fn eigenvalues_ct(&self) -> &[(f64, f64)] {
+        &self.eigenvalues_ct
+    }
+
+    /// Predicts the observable of `test` from its first embedded point over its whole
+    /// length. Blow-up (non-finite state or a reduced coordinate beyond
+    /// [`BLOWUP_FACTOR`] x its training range) truncates the prediction and sets `stop`.
+    pub fn predict(&self, test: &TimeSeries) -> Result<Prediction, FitError> {
+        test.validate()?;
+        let (p, s, d) = (self.options.embed, self.options.shift, self.options.dim);
+        let y = delay_embed(test, p, s, 1)?;
+        let dt = test.dt().unwrap_or(self.dt);
+        let map_dt = self.dynamics.map_dt().unwrap_or(dt);
+        if (dt - map_dt).abs() > MAP_DT_RTOL * map_dt {
+            return Err(FitError::StepMismatch { name: test.name.clone(), dt, dt_model: map_dt, rtol: MAP_DT_RTOL });
+        }
+        let m_total = embedded_len(test.len(), p, s).unwrap_or(0);
+        let y0: Vec<f64> = (0..p).map(|i| y[(i, 0)]).collect();
+        let mut eta = self.manifold.reduce(&y0);
+        let mut etas = Vec::with_capacity(m_total * d);
+        let mut scratch = StepScratch::default();
+        let mut stop = None;
+        for n in 0..m_total {
+            if let Some(reason) = self.check(&eta) {
+                stop = Some(Stop { index: n, t: test.t[n], reason });
+                break;
+            }
+            etas.extend_from_slice(&eta);
+            if n + 1 < m_total {
+                self.dynamics.step(&mut eta, dt, &mut scratch);
+            }
+        }
+        let produced = etas.len() / d;
+        let mut lifted = vec![0.0; produced * p];
+        let mut ps = PolyScratch::default();
+        for (k, e) in etas.chunks_exact(d).enumerate() {
+            self.manifold.lift_into(e, &mut ps, &mut lifted[k * p..(k + 1) * p]);
+        }
+        let len = if stop.is_some() { produced } else { test.len() };
+        let mut x = Vec::with_capacity(len);
+        for n in 0..len {
+            // smallest k with m = n - k s <= produced - 1
+            let over = n.saturating_sub(produced.saturating_sub(1));
+            let k = over.div_ceil(s);
+            let m = n - k * s;
+            x.push(lifted[m * p + k]);
+        }
+        Ok(Prediction {
+            t: test.t[..len].to_vec(),
+            x,
+            eta: etas,
+            stop,
+            manifold_conditioning: self.manifold.conditioning,
+            dynamics_conditioning: *self.dynamics.conditioning(),
+        })
+    }
+
+    fn check(&self, eta: &[f64]) -> Option<StopReason> {
+        if eta.iter().any(|v| !v.is_finite()) {
+            return Some(StopReason::NonFinite);
+        }
+        for (coord, (v, r)) in eta.iter().zip(&self.eta_range).enumerate() {
+            let limit = BLOWUP_FACTOR * r;
+            if v.abs() > limit {
+                return Some(StopReason::LeftRange { coord, value: *v, limit });
+            }
+        }
+        None
+    }
+
+    /// The model as pretty JSON.
+    pub fn to_json(&self) -> Result<String, serde_json::Error> {
+        serde_json::to_string_pretty(self)
+    }
+}
