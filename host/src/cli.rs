@@ -5,7 +5,20 @@ use crate::scene::{BUNDLED, Scene};
 use crate::{bench, reproduce, sim, stability};
 use clap::{Args, Parser, Subcommand};
 use indicatif::{ProgressBar, ProgressStyle};
+use std::io::Write as _;
 use std::path::PathBuf;
+
+/// Prints a line to stdout; a closed pipe (e.g. `| head`) ends output quietly, other write
+/// errors are returned.
+macro_rules! outln {
+    ($($arg:tt)*) => {{
+        let mut o = std::io::stdout().lock();
+        match writeln!(o, $($arg)*) {
+            Err(e) if e.kind() == std::io::ErrorKind::BrokenPipe => return Ok(()),
+            r => r?,
+        }
+    }};
+}
 
 #[derive(Parser)]
 #[command(name = "ssmctl", version, about = "Simulate, analyse and reduce a mechanical system under delayed, sampled, quantized PD control")]
@@ -141,11 +154,11 @@ pub fn run(cli: Cli) -> Result<(), Box<dyn std::error::Error>> {
                 let s = Scene::parse(name, text, &[])?;
                 list.push(serde_json::json!({"name": name, "description": s.description, "effects": s.effect_names()}));
                 if !json {
-                    println!("{name:<22} {}", s.description);
+                    outln!("{name:<22} {}", s.description);
                 }
             }
             if json {
-                println!("{}", serde_json::to_string_pretty(&list)?);
+                outln!("{}", serde_json::to_string_pretty(&list)?);
             }
         }
         Cmd::Simulate { scene, out } => {
@@ -170,11 +183,11 @@ pub fn run(cli: Cli) -> Result<(), Box<dyn std::error::Error>> {
             let s = scene.load()?;
             let m = stability::scene_multipliers(&s)?;
             if json {
-                println!("{}", serde_json::to_string(&serde_json::json!({ "multipliers": m }))?);
+                outln!("{}", serde_json::to_string(&serde_json::json!({ "multipliers": m }))?);
             } else {
-                println!("{:>12} {:>12} {:>10} {:>10} {:>12}", "re", "im", "|mu|", "f [Hz]", "rate [1/s]");
+                outln!("{:>12} {:>12} {:>10} {:>10} {:>12}", "re", "im", "|mu|", "f [Hz]", "rate [1/s]");
                 for x in &m {
-                    println!("{:>12.6} {:>12.6} {:>10.6} {:>10.4} {:>12.5}", x.re, x.im, x.abs, x.freq_hz, x.rate);
+                    outln!("{:>12.6} {:>12.6} {:>10.6} {:>10.4} {:>12.5}", x.re, x.im, x.abs, x.freq_hz, x.rate);
                 }
             }
         }
@@ -183,7 +196,7 @@ pub fn run(cli: Cli) -> Result<(), Box<dyn std::error::Error>> {
             let kp = parse_range(&kp, "kp")?;
             let kd = parse_range(&kd, "kd")?;
             let summary = stability::chart_for_scene(&s, &out, &dt_ms, kp, kd)?;
-            println!("{}", serde_json::to_string_pretty(&summary)?);
+            outln!("{}", serde_json::to_string_pretty(&summary)?);
         }
         Cmd::Reproduce { out, quick } => {
             reproduce::run(&out, quick, quiet)?;
@@ -201,12 +214,12 @@ pub fn run(cli: Cli) -> Result<(), Box<dyn std::error::Error>> {
                 pb.finish_and_clear();
             }
             if json {
-                println!("{}", serde_json::to_string_pretty(&rows)?);
+                outln!("{}", serde_json::to_string_pretty(&rows)?);
             } else {
-                println!("baseline: {baseline}");
-                println!("{:<34} {:>14} {:>12} {:>10} {:>12}", "method", "periods/s", "max err rad", "x baseline", "steps/period");
+                outln!("baseline: {baseline}");
+                outln!("{:<34} {:>14} {:>12} {:>10} {:>12}", "method", "periods/s", "max err rad", "x baseline", "steps/period");
                 for r in &rows {
-                    println!(
+                    outln!(
                         "{:<34} {:>14.0} {:>12.2e} {:>10.2} {:>12.1}",
                         r.method, r.periods_per_s, r.max_err_rad, r.ratio_vs_baseline, r.steps_per_period
                     );
