@@ -4,6 +4,7 @@
 pub mod bench;
 pub mod chart;
 pub mod cli;
+pub mod export;
 pub mod linear;
 pub mod ode;
 pub mod plant;

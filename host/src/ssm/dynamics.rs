@@ -60,7 +60,7 @@ pub struct RbfMap {
     pub dim: usize,
     /// Sampling step of the map.
     pub dt: f64,
-    /// Scaling `z = eta / scale`.
+    /// Scaling `z = eta / scale` (the same value for every coordinate, see `fit`).
     pub scale: Vec<f64>,
     /// Centres in scaled coordinates, `centers.len() / dim` of them, row-major.
     pub centers: Vec<f64>,
@@ -251,7 +251,12 @@ impl ReducedDynamics {
                 let (x, groups) = stack(&xs);
                 let (y, _) = stack(&ys);
                 if let Dynamics::Rbf { centers } = kind {
-                    return fit_rbf(x.as_ref(), y.as_ref(), &groups, scale, centers, dt, ridge).map(ReducedDynamics::Rbf);
+                    // One common scale for all coordinates: the kernel then stays a Euclidean
+                    // distance in eta itself (||eta/s - c|| = ||eta - s c|| / s), which is what
+                    // the exported device model evaluates.
+                    let common = scale.iter().fold(0.0_f64, |m, v| m.max(*v));
+                    let uniform = vec![common; scale.len()];
+                    return fit_rbf(x.as_ref(), y.as_ref(), &groups, uniform, centers, dt, ridge).map(ReducedDynamics::Rbf);
                 }
                 let exps = poly::exponents(d, 1, order);
                 let a = design_matrix(x.as_ref(), &scale, &exps);

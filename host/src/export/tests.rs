@@ -1,0 +1,73 @@
+use super::*;
+use crate::scene::Scene;
+use crate::sim::simulate;
+use crate::ssm::{Dynamics, FitOptions, Ridge, TimeSeries, fit};
+use controller::predictor::{Predictor, SqrtFlavour};
+use shared::model::Model;
+
+/// A fitted RBF model of the Furuta loop at dt = 25 ms (theta series, 4D SSM).
+fn fitted() -> (SsmModel, TimeSeries) {
+    let scene = Scene::load("furuta-dt25", &["run.periods=1200".into()]).unwrap();
+    let tr = simulate(&scene, None).unwrap();
+    let ts = TimeSeries::new("theta", tr.t.clone(), tr.primary()).unwrap();
+    let opts = FitOptions {
+        dim: 4,
+        embed: 9,
+        shift: 1,
+        manifold_order: 2,
+        dyn_order: 1,
+        dynamics: Dynamics::Rbf { centers: 60 },
+        ridge: Ridge::Fixed(1e-10),
+    };
+    (fit(std::slice::from_ref(&ts), &opts).unwrap(), ts)
+}
+
+#[test]
+fn device_exponent_order_is_graded_descending_lexicographic() {
+    assert_eq!(device_exponents(2, 3), vec![vec![2, 0], vec![1, 1], vec![0, 2], vec![3, 0], vec![2, 1], vec![1, 2], vec![0, 3]]);
+    assert_eq!(device_exponents(4, 3).len(), shared::model::lift_terms(4, 3).unwrap());
+}
+
+#[test]
+fn polynomial_dynamics_are_refused() {
+    let (m, ts) = fitted();
+    let mut opts = m.options.clone();
+    opts.dynamics = Dynamics::Map;
+    opts.dyn_order = 3;
+    let poly = fit(std::slice::from_ref(&ts), &opts).unwrap();
+    let e = to_device_model(&poly, shared::ControllerConfig::paper(0.025)).unwrap_err().to_string();
+    assert!(e.contains("rbf"), "{e}");
+}
+
+#[test]
+fn device_f32_predictor_matches_host_f64_model() {
+    let (m, ts) = fitted();
+    let owned = to_device_model(&m, shared::ControllerConfig::paper(0.025)).unwrap();
+    let blob = encode(&owned).unwrap();
+    let model = Model::<16, 6, 128, 64>::decode(&blob).unwrap();
+    let pred = Predictor::<16, 6, 128, 64, 64>::from_model(model, SqrtFlavour::Libm).unwrap();
+    let (p, d) = (m.manifold.p, m.manifold.dim);
+    let range = ts.x.iter().fold(0.0_f64, |a, v| a.max(v.abs()));
+    let mut worst = 0.0_f64;
+    let mut scratch = crate::ssm::dynamics::StepScratch::default();
+    let mut ps = crate::ssm::poly::PolyScratch::default();
+    for start in (0..ts.x.len() - p - 60).step_by(97) {
+        let y0: Vec<f64> = ts.x[start..start + p].to_vec();
+        let mut eta = m.manifold.reduce(&y0);
+        let mut e32 = [0.0f32; 6];
+        let y32: [f32; 16] = core::array::from_fn(|i| if i < p { y0[i] as f32 } else { 0.0 });
+        let r = pred.project(&y32);
+        e32[..d].copy_from_slice(&r[..d]);
+        let mut out = vec![0.0; p];
+        for _ in 0..50 {
+            m.dynamics.step(&mut eta, m.dt, &mut scratch);
+            e32 = pred.step(&e32);
+            m.manifold.lift_into(&eta, &mut ps, &mut out);
+            let dev = pred.lift(&e32) as f64;
+            worst = worst.max((dev - out[0]).abs() / range);
+        }
+    }
+    // f32 rounding through 50 map steps; the f64 model is the reference.
+    assert!(worst < 1e-4, "worst f32-vs-f64 deviation {worst:e} of the signal range");
+    assert!(worst > 0.0, "f32 and f64 cannot agree exactly");
+}
