@@ -93,11 +93,72 @@ pub enum Cmd {
         #[arg(long)]
         quick: bool,
     },
+    /// Fit an SSM reduced model to scalar time series (CSV files of t, observable).
+    Fit(FitArgs),
+    /// Convert a fitted RBF model (JSON from `fit --save`) to the device blob.
+    Export {
+        /// Fitted model JSON written by `ssmctl fit --save`.
+        #[arg(long)]
+        model: PathBuf,
+        /// Output blob.
+        #[arg(long)]
+        out: PathBuf,
+        /// Scene whose controller configuration the blob carries (default: the paper's gains
+        /// at the model's sampling period).
+        #[arg(long)]
+        scene: Option<String>,
+    },
+    /// Print a device blob's header and shapes.
+    Inspect {
+        blob: PathBuf,
+        #[arg(long)]
+        json: bool,
+    },
     /// Benchmarks.
     Bench {
         #[command(subcommand)]
         what: BenchCmd,
     },
+}
+
+#[derive(Args)]
+pub struct FitArgs {
+    /// Training CSV files, comma separated.
+    #[arg(long, value_delimiter = ',', required = true)]
+    pub data: Vec<PathBuf>,
+    /// Test CSV files, comma separated.
+    #[arg(long, value_delimiter = ',')]
+    pub test: Vec<PathBuf>,
+    /// SSM dimension d.
+    #[arg(long)]
+    pub dim: usize,
+    /// Delay-embedding dimension p (> 2d).
+    #[arg(long)]
+    pub embed: usize,
+    /// Delay between embedding components, in samples.
+    #[arg(long, default_value_t = 1)]
+    pub shift: usize,
+    /// Polynomial order of the manifold parametrization.
+    #[arg(long, default_value_t = 3)]
+    pub order: u32,
+    /// Polynomial order of the reduced dynamics (flow, map).
+    #[arg(long, default_value_t = 5)]
+    pub dyn_order: u32,
+    /// flow | map | rbf
+    #[arg(long, default_value = "map")]
+    pub dynamics: String,
+    /// Number of RBF centres.
+    #[arg(long, default_value_t = 100)]
+    pub centers: usize,
+    /// Ridge alpha (relative to the largest squared singular value), or `cv`.
+    #[arg(long, default_value = "0")]
+    pub ridge: String,
+    /// Print JSON.
+    #[arg(long)]
+    pub json: bool,
+    /// Save the fitted model as JSON (input of `export`).
+    #[arg(long)]
+    pub save: Option<PathBuf>,
 }
 
 #[derive(Subcommand)]
@@ -163,6 +224,9 @@ pub fn run(cli: Cli) -> Result<(), Box<dyn std::error::Error>> {
         }
         Cmd::Simulate { scene, out } => {
             let s = scene.load()?;
+            if !s.wants(crate::scene::Task::Simulate) {
+                return Err(format!("scene {} asks only for {:?} (run.tasks); it runs no simulation", s.name, s.run.tasks).into());
+            }
             let pb = spinner(quiet, Some(s.run.periods), &s.name);
             let tr = sim::simulate(&s, pb.as_ref())?;
             if let Some(pb) = pb {
@@ -201,6 +265,52 @@ pub fn run(cli: Cli) -> Result<(), Box<dyn std::error::Error>> {
         Cmd::Reproduce { out, quick } => {
             reproduce::run(&out, quick, quiet)?;
             eprintln!("wrote {}", out.join("index.html").display());
+        }
+        Cmd::Fit(a) => {
+            let r = crate::fitcmd::run_fit(&crate::fitcmd::FitRequest {
+                data: a.data,
+                test: a.test,
+                dim: a.dim,
+                embed: a.embed,
+                shift: a.shift,
+                order: a.order,
+                dyn_order: a.dyn_order,
+                dynamics: a.dynamics,
+                centers: a.centers,
+                ridge: a.ridge,
+            })?;
+            if let Some(path) = &a.save {
+                std::fs::write(path, r.model.to_json()?)?;
+            }
+            if a.json {
+                outln!("{}", serde_json::to_string_pretty(&r.summary)?);
+            } else {
+                outln!("{}", crate::fitcmd::text_summary(&r.summary));
+            }
+        }
+        Cmd::Export { model, out, scene } => {
+            let text = std::fs::read_to_string(&model).map_err(|e| format!("reading {}: {e}", model.display()))?;
+            let m: crate::ssm::SsmModel =
+                serde_json::from_str(&text).map_err(|e| format!("{}: not a fitted model JSON: {e}", model.display()))?;
+            let cfg = match scene {
+                Some(s) => Scene::load(&s, &[])?.controller_config(),
+                None => shared::ControllerConfig::paper(m.dt),
+            };
+            let owned = crate::export::to_device_model(&m, cfg)?;
+            let blob = crate::export::encode(&owned)?;
+            std::fs::write(&out, &blob).map_err(|e| format!("writing {}: {e}", out.display()))?;
+            eprintln!("wrote {} ({} bytes): p={} d={} K={} lift order {}", out.display(), blob.len(), owned.p, owned.d, owned.k, owned.lift_order);
+        }
+        Cmd::Inspect { blob, json } => {
+            let bytes = std::fs::read(&blob).map_err(|e| format!("reading {}: {e}", blob.display()))?;
+            let v = crate::fitcmd::inspect(&bytes).map_err(|e| format!("{}: {e}", blob.display()))?;
+            if json {
+                outln!("{}", serde_json::to_string_pretty(&v)?);
+            } else {
+                for (k, x) in v.as_object().into_iter().flatten() {
+                    outln!("{k:<18} {x}");
+                }
+            }
         }
         Cmd::Bench { what: BenchCmd::Simulate { json, periods, quick } } => {
             let pb = spinner(quiet, None, "bench");

@@ -5,6 +5,7 @@ pub mod bench;
 pub mod chart;
 pub mod cli;
 pub mod export;
+pub mod fitcmd;
 pub mod linear;
 pub mod ode;
 pub mod plant;

@@ -1,0 +1,111 @@
+//! The CLI contract other checks rely on: output shapes, errors, files written.
+
+use serde_json::Value;
+use std::process::Command;
+
+fn ssmctl(args: &[&str]) -> (bool, String, String) {
+    let o = Command::new(env!("CARGO_BIN_EXE_ssmctl")).arg("--quiet").args(args).output().expect("run ssmctl");
+    (o.status.success(), String::from_utf8_lossy(&o.stdout).into(), String::from_utf8_lossy(&o.stderr).into())
+}
+
+fn tmp(name: &str) -> std::path::PathBuf {
+    let d = std::env::temp_dir().join(format!("ssmctl-test-{}-{name}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&d);
+    d
+}
+
+#[test]
+fn scenes_lists_the_paper_sweep() {
+    let (ok, out, _) = ssmctl(&["scenes", "--json"]);
+    assert!(ok);
+    let v: Value = serde_json::from_str(&out).unwrap();
+    let names: Vec<&str> = v.as_array().unwrap().iter().map(|s| s["name"].as_str().unwrap()).collect();
+    for n in ["furuta-dt30.5", "furuta-dt31.41", "furuta-dt25", "furuta-quant-dt25", "furuta-microchaos", "furuta-saturation"] {
+        assert!(names.contains(&n), "{n} missing from {names:?}");
+    }
+}
+
+#[test]
+fn stability_json_has_the_contract_shape_and_paper_values() {
+    let (ok, out, err) = ssmctl(&["stability", "--scene", "furuta-dt30.8", "--json"]);
+    assert!(ok, "{err}");
+    let v: Value = serde_json::from_str(&out).unwrap();
+    let ms = v["multipliers"].as_array().unwrap();
+    assert_eq!(ms.len(), 8, "4 plant states + 2 delayed theta + 2 delayed phi samples");
+    let mut prev = f64::INFINITY;
+    for m in ms {
+        let o = m.as_object().unwrap();
+        let mut keys: Vec<&str> = o.keys().map(|k| k.as_str()).collect();
+        keys.sort();
+        assert_eq!(keys, ["abs", "freq_hz", "im", "rate", "re"]);
+        let a = m["abs"].as_f64().unwrap();
+        assert!(a <= prev + 1e-15, "not sorted by modulus");
+        prev = a;
+    }
+    // The dominant pair: ln|mu|/dt = +0.27 1/s at ~8.4 Hz (paper's normal-form table, MODEL.md).
+    let rate = ms[0]["rate"].as_f64().unwrap();
+    let f = ms[0]["freq_hz"].as_f64().unwrap();
+    assert!((rate - 0.27).abs() < 0.01 && (f - 8.45).abs() < 0.1, "rate {rate}, f {f}");
+}
+
+#[test]
+fn simulate_writes_csv_and_metadata_and_overrides_apply() {
+    let dir = tmp("sim");
+    let d = dir.to_str().unwrap();
+    let (ok, _, err) = ssmctl(&["simulate", "--scene", "furuta-quant-dt25", "--out", d, "--set", "run.periods=50"]);
+    assert!(ok, "{err}");
+    let csv = std::fs::read_to_string(dir.join("furuta-quant-dt25.csv")).unwrap();
+    let mut lines = csv.lines();
+    assert_eq!(lines.next().unwrap(), "t,theta,w_theta,phi,w_phi,u,q_theta,q_phi,code");
+    assert_eq!(lines.count(), 51);
+    let meta: Value = serde_json::from_str(&std::fs::read_to_string(dir.join("furuta-quant-dt25.json")).unwrap()).unwrap();
+    assert_eq!(meta["scene"], "furuta-quant-dt25");
+    assert!(meta["integrator"].as_str().unwrap().contains("rodas4"));
+    assert_eq!(meta["tolerance"][0].as_f64(), Some(1e-10));
+    assert!(meta["effects"].as_array().unwrap().iter().any(|e| e.as_str().unwrap().starts_with("quantization (counts)")));
+    // An unquantized scene has no code columns.
+    let (ok, _, err) = ssmctl(&["simulate", "--scene", "furuta-dt31", "--out", d, "--set", "run.periods=5"]);
+    assert!(ok, "{err}");
+    let csv = std::fs::read_to_string(dir.join("furuta-dt31.csv")).unwrap();
+    assert_eq!(csv.lines().next().unwrap(), "t,theta,w_theta,phi,w_phi,u");
+}
+
+#[test]
+fn bad_input_is_a_clear_error() {
+    let (ok, _, err) = ssmctl(&["simulate", "--scene", "furuta-dt25", "--out", "/tmp/x", "--set", "controller.kq=1"]);
+    assert!(!ok && err.contains("controller") && err.contains("kq"), "{err}");
+    let (ok, _, err) = ssmctl(&["simulate", "--scene", "furuta-dt25", "--out", "/tmp/x", "--set", "plant.params.jp=-1"]);
+    assert!(!ok && err.contains("jp"), "{err}");
+    let (ok, _, err) = ssmctl(&["stability", "--scene", "nope"]);
+    assert!(!ok && err.contains("nope"), "{err}");
+    let (ok, _, err) = ssmctl(&["simulate", "--scene", "furuta-dt25", "--out", "/tmp/x", "--set", "run.tasks=[\"stability\"]"]);
+    assert!(!ok && err.contains("runs no simulation"), "{err}");
+}
+
+#[test]
+fn bench_json_rows_have_the_contract_keys() {
+    let (ok, out, err) = ssmctl(&["bench", "simulate", "--json", "--quick", "--periods", "20"]);
+    assert!(ok, "{err}");
+    let v: Value = serde_json::from_str(&out).unwrap();
+    let rows = v.as_array().unwrap();
+    assert!(rows.len() >= 3);
+    for r in rows {
+        assert!(r["method"].is_string() && r["periods_per_s"].as_f64().unwrap() > 0.0);
+        assert!(r["max_err_rad"].as_f64().unwrap().is_finite());
+    }
+    assert_eq!(rows[0]["ratio_vs_baseline"].as_f64(), Some(1.0));
+}
+
+#[test]
+fn reproduce_quick_writes_the_report() {
+    let dir = tmp("rep");
+    let (ok, _, err) = ssmctl(&["reproduce", "--quick", "--out", dir.to_str().unwrap()]);
+    assert!(ok, "{err}");
+    let html = std::fs::read_to_string(dir.join("index.html")).unwrap();
+    assert!(html.contains("stability_chart.png") && html.contains("What accuracy costs in time"));
+    let s: Value = serde_json::from_str(&std::fs::read_to_string(dir.join("summary.json")).unwrap()).unwrap();
+    for k in ["scenes", "stability", "stability_chart", "bench_simulate"] {
+        assert!(s.get(k).is_some(), "summary.json lacks {k}");
+    }
+    assert!(dir.join("fig/stability_chart.png").metadata().unwrap().len() > 10_000);
+}
