@@ -92,6 +92,9 @@ pub enum Cmd {
         /// Shorter runs and timing windows (smoke test).
         #[arg(long)]
         quick: bool,
+        /// Folder of the measured reference data sets (sections skip, saying so, when absent).
+        #[arg(long, default_value = "../shared/data")]
+        data_dir: PathBuf,
     },
     /// Fit an SSM reduced model to scalar time series (CSV files of t, observable).
     Fit(FitArgs),
@@ -262,8 +265,8 @@ pub fn run(cli: Cli) -> Result<(), Box<dyn std::error::Error>> {
             let summary = stability::chart_for_scene(&s, &out, &dt_ms, kp, kd)?;
             outln!("{}", serde_json::to_string_pretty(&summary)?);
         }
-        Cmd::Reproduce { out, quick } => {
-            reproduce::run(&out, quick, quiet)?;
+        Cmd::Reproduce { out, quick, data_dir } => {
+            reproduce::run(&out, &data_dir, quick, quiet)?;
             eprintln!("wrote {}", out.join("index.html").display());
         }
         Cmd::Fit(a) => {

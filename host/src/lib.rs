@@ -6,6 +6,7 @@ pub mod chart;
 pub mod cli;
 pub mod export;
 pub mod fitcmd;
+pub mod fitreport;
 pub mod linear;
 pub mod ode;
 pub mod plant;

@@ -14,7 +14,7 @@ use std::error::Error;
 use std::path::Path;
 
 /// Runs the whole report into `out`.
-pub fn run(out: &Path, quick: bool, quiet: bool) -> Result<(), Box<dyn Error>> {
+pub fn run(out: &Path, data_dir: &Path, quick: bool, quiet: bool) -> Result<(), Box<dyn Error>> {
     let mut rep = Report::new(out)?;
     std::fs::create_dir_all(out.join("fig"))?;
     rep.summary.insert("quick".into(), Value::Bool(quick));
@@ -22,6 +22,8 @@ pub fn run(out: &Path, quick: bool, quiet: bool) -> Result<(), Box<dyn Error>> {
     stability_section(&mut rep)?;
     chart_section(&mut rep, quick)?;
     bench_section(&mut rep, quick, quiet)?;
+    crate::fitreport::sloshing_section(&mut rep, data_dir, quick)?;
+    crate::fitreport::furuta_blob(&mut rep, quick)?;
     rep.finish("ssmctl reproduce: delayed, sampled, quantized PD control of the Furuta pendulum")?;
     Ok(())
 }
