@@ -117,6 +117,24 @@ pub enum Cmd {
         #[arg(long)]
         json: bool,
     },
+    /// Chaotic statistics of scalar series vs SSM models: correlation dimension, SSM
+    /// dimension, Lyapunov exponents, PDF divergences.
+    Chaos {
+        /// Training CSV files, comma separated (the longest is the reference data).
+        #[arg(long, value_delimiter = ',', required = true)]
+        data: Vec<PathBuf>,
+        /// Embedding dimension of the estimators.
+        #[arg(long, default_value_t = 6)]
+        gp_embed: usize,
+        /// SSM dimension (default: smallest even integer above the correlation dimension).
+        #[arg(long)]
+        ssm_dim: Option<usize>,
+        /// RBF centres.
+        #[arg(long, default_value_t = 200)]
+        centers: usize,
+        #[arg(long)]
+        json: bool,
+    },
     /// Benchmarks.
     Bench {
         #[command(subcommand)]
@@ -312,6 +330,22 @@ pub fn run(cli: Cli) -> Result<(), Box<dyn std::error::Error>> {
             } else {
                 for (k, x) in v.as_object().into_iter().flatten() {
                     outln!("{k:<18} {x}");
+                }
+            }
+        }
+        Cmd::Chaos { data, gp_embed, ssm_dim, centers, json } => {
+            let train = data.iter().map(crate::ssm::load_csv).collect::<Result<Vec<_>, _>>()?;
+            let o = crate::chaoscmd::ChaosOptions { gp_embed, ssm_dim, centers, ..Default::default() };
+            let r = crate::chaoscmd::analyse(&train, &o)?;
+            if json {
+                outln!("{}", serde_json::to_string_pretty(&r)?);
+            } else {
+                let opt = |v: Option<f64>| v.map_or("-".to_string(), |x| format!("{x:.4}"));
+                outln!("correlation dimension {:.3} +- {:.3} -> SSM dimension {}", r.corr_dim, r.corr_dim_err, r.ssm_dim);
+                outln!("largest Lyapunov exponent [1/s]: data {:.4}, RBF model {}, polynomial model {}", r.lle_data, opt(r.lle_model_rbf), opt(r.lle_model_poly));
+                outln!("PDF Jensen-Shannon divergence [bits]: RBF {}, polynomial {}", opt(r.pdf_divergence_rbf), opt(r.pdf_divergence_poly));
+                for n in &r.notes {
+                    outln!("note: {n}");
                 }
             }
         }
