@@ -39,6 +39,8 @@ fn label(s: &Scene) -> String {
         MethodKind::Rodas => format!("rodas4 rtol={:e}", i.rtol.unwrap_or_default()),
         MethodKind::RodasFixed => format!("rodas4 fixed {} steps/period", i.steps.unwrap_or_default()),
         MethodKind::Rk4 => format!("rk4 {} steps/period", i.steps.unwrap_or_default()),
+        MethodKind::Exprb => format!("exprb43 rtol={:e}", i.rtol.unwrap_or_default()),
+        MethodKind::ExprbFixed => format!("exprb43 fixed {} steps/period", i.steps.unwrap_or_default()),
     }
 }
 
@@ -77,6 +79,8 @@ pub fn bench_simulate(periods: u64, quick: bool, mut progress: impl FnMut(&str))
     configs.extend(rtols.iter().map(|&r| with(&base, MethodKind::Rodas, Some(r), None)));
     let fixed: &[u32] = if quick { &[8] } else { &[2, 4, 8, 16, 32] };
     configs.extend(fixed.iter().map(|&n| with(&base, MethodKind::RodasFixed, None, Some(n))));
+    let ex: &[f64] = if quick { &[1e-8] } else { &[1e-7, 1e-8, 1e-9, 1e-10] };
+    configs.extend(ex.iter().map(|&r| with(&base, MethodKind::Exprb, Some(r), None)));
     let rk: &[u32] = if quick { &[] } else { &[350, 700, 1400] };
     configs.extend(rk.iter().map(|&n| with(&base, MethodKind::Rk4, None, Some(n))));
     let window = if quick { 0.02 } else { 0.5 };

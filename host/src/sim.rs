@@ -125,6 +125,8 @@ pub fn method_of(scene: &Scene) -> Method {
         MethodKind::Rodas => Method::Rodas { rtol: i.rtol.unwrap_or(1e-10), atol: i.atol.unwrap_or(1e-12) },
         MethodKind::RodasFixed => Method::RodasFixed { steps: i.steps.unwrap_or(1) },
         MethodKind::Rk4 => Method::Rk4 { steps: i.steps.unwrap_or(1) },
+        MethodKind::Exprb => Method::Exprb { rtol: i.rtol.unwrap_or(1e-10), atol: i.atol.unwrap_or(1e-12) },
+        MethodKind::ExprbFixed => Method::ExprbFixed { steps: i.steps.unwrap_or(1) },
     }
 }
 

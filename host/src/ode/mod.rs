@@ -12,6 +12,7 @@
 //! This module owns time stepping only: it knows nothing of controllers or sampling beyond
 //! "advance `x` by `h` under the held input `u`". Nothing here allocates per step.
 
+mod exprb;
 mod lu;
 mod rodas;
 
@@ -29,6 +30,19 @@ pub enum Method {
     RodasFixed { steps: u32 },
     /// Classical explicit Runge-Kutta of order 4 with `steps` equal steps per period.
     Rk4 { steps: u32 },
+    /// Adaptive exponential Rosenbrock method `exprb43` (order 4, embedded order 3), with the
+    /// same error test as [`Method::Rodas`]. Exact on linear systems: the stiff, nearly linear
+    /// transient after an input jump costs no small steps.
+    Exprb { rtol: f64, atol: f64 },
+    /// `exprb43` with `steps` equal steps per period (no error control).
+    ExprbFixed { steps: u32 },
+}
+
+/// The two error-controlled one-step schemes sharing the adaptive driver.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Scheme {
+    Rodas,
+    Exprb,
 }
 
 /// Why an integration failed. The state is never left holding NaN or infinity: on error it is
@@ -99,21 +113,22 @@ impl<const N: usize> Integrator<N> {
     /// Validates the method: tolerances finite and positive, step counts at least 1.
     pub fn new(method: Method) -> Result<Self, OdeError> {
         match method {
-            Method::Rodas { rtol, atol } => {
+            Method::Rodas { rtol, atol } | Method::Exprb { rtol, atol } => {
+                let kind = if matches!(method, Method::Rodas { .. }) { "rodas" } else { "exprb" };
                 for (name, v) in [("rtol", rtol), ("atol", atol)] {
                     if !(v.is_finite() && v > 0.0) {
                         return Err(OdeError::BadMethod(format!(
-                            "rodas: {name} must be finite and positive, got {v}"
+                            "{kind}: {name} must be finite and positive, got {v}"
                         )));
                     }
                 }
                 if rtol < 1e-15 {
                     return Err(OdeError::BadMethod(format!(
-                        "rodas: rtol = {rtol:e} is below what f64 arithmetic can deliver (1e-15)"
+                        "{kind}: rtol = {rtol:e} is below what f64 arithmetic can deliver (1e-15)"
                     )));
                 }
             }
-            Method::RodasFixed { steps } | Method::Rk4 { steps } => {
+            Method::RodasFixed { steps } | Method::Rk4 { steps } | Method::ExprbFixed { steps } => {
                 if steps == 0 {
                     return Err(OdeError::BadMethod(format!(
                         "{}: steps must be at least 1, got 0",
@@ -158,6 +173,8 @@ impl<const N: usize> Integrator<N> {
             Method::Rodas { .. } => "rodas4",
             Method::RodasFixed { .. } => "rodas4-fixed",
             Method::Rk4 { .. } => "rk4",
+            Method::Exprb { .. } => "exprb43",
+            Method::ExprbFixed { .. } => "exprb43-fixed",
         }
     }
 
@@ -165,8 +182,10 @@ impl<const N: usize> Integrator<N> {
     pub fn describe(&self) -> String {
         let name = Self::method_name(&self.method);
         match self.method {
-            Method::Rodas { rtol, atol } => format!("{name} rtol={rtol:e} atol={atol:e}"),
-            Method::RodasFixed { steps } | Method::Rk4 { steps } => {
+            Method::Rodas { rtol, atol } | Method::Exprb { rtol, atol } => {
+                format!("{name} rtol={rtol:e} atol={atol:e}")
+            }
+            Method::RodasFixed { steps } | Method::Rk4 { steps } | Method::ExprbFixed { steps } => {
                 format!("{name} steps={steps}/period")
             }
         }
@@ -194,7 +213,9 @@ impl<const N: usize> Integrator<N> {
         let result = match self.method {
             Method::Rk4 { steps } => self.rk4(plant, x, u, h, steps),
             Method::RodasFixed { steps } => self.rodas_fixed(plant, x, u, h, steps),
-            Method::Rodas { rtol, atol } => self.rodas_adaptive(plant, x, u, h, rtol, atol),
+            Method::Rodas { rtol, atol } => self.adaptive(plant, x, u, h, rtol, atol, Scheme::Rodas),
+            Method::ExprbFixed { steps } => self.exprb_fixed(plant, x, u, h, steps),
+            Method::Exprb { rtol, atol } => self.adaptive(plant, x, u, h, rtol, atol, Scheme::Exprb),
         };
         self.t = t0 + h;
         self.last_u = Some(u);
@@ -256,7 +277,39 @@ impl<const N: usize> Integrator<N> {
         Ok(())
     }
 
-    fn rodas_adaptive<P: Plant<N>>(
+    fn exprb_fixed<P: Plant<N>>(
+        &mut self,
+        p: &P,
+        x: &mut [f64; N],
+        u: f64,
+        h: f64,
+        steps: u32,
+    ) -> Result<(), OdeError> {
+        let dt = h / f64::from(steps);
+        for i in 0..steps {
+            let t = self.t + f64::from(i) * dt;
+            let (f0, jac) = jacobian(p, x, u);
+            self.stats.jac_evals += 1;
+            if let Some(component) = first_non_finite(&f0) {
+                return Err(OdeError::NonFinite { t, component });
+            }
+            let phis = exprb::phis(&jac, dt).ok_or(OdeError::NonFinite { t, component: bad_row(&jac) })?;
+            let mut rhs = |y: &[f64; N]| p.rhs(y, u);
+            let (y, _) = exprb::step(&mut rhs, &jac, &phis, x, &f0, dt);
+            self.stats.rhs_evals += 2;
+            if let Some(component) = first_non_finite(&y) {
+                return Err(OdeError::NonFinite { t: t + dt, component });
+            }
+            *x = y;
+            self.stats.steps += 1;
+        }
+        Ok(())
+    }
+
+    /// The error-controlled driver shared by RODAS4 and exprb43 (both with an order-3
+    /// embedded solution, so one controller serves both).
+    #[allow(clippy::too_many_arguments)]
+    fn adaptive<P: Plant<N>>(
         &mut self,
         p: &P,
         x: &mut [f64; N],
@@ -264,6 +317,7 @@ impl<const N: usize> Integrator<N> {
         h_period: f64,
         rtol: f64,
         atol: f64,
+        scheme: Scheme,
     ) -> Result<(), OdeError> {
         let t0 = self.t;
         let jump = self.last_u != Some(u);
@@ -308,19 +362,32 @@ impl<const N: usize> Integrator<N> {
             if h_try < h_min {
                 return Err(OdeError::StepSizeUnderflow { t: t0 + t, h: h_try });
             }
-            let Some(lu) = rodas::factor(&jac, h_try) else {
+            let mut rhs = |y: &[f64; N]| p.rhs(y, u);
+            let trial = match scheme {
+                Scheme::Rodas => rodas::factor(&jac, h_try).map(|lu| rodas::step(&mut rhs, &lu, x, &f0, h_try)),
+                Scheme::Exprb => {
+                    exprb::phis(&jac, h_try).map(|phis| exprb::step(&mut rhs, &jac, &phis, x, &f0, h_try))
+                }
+            };
+            let Some((y, k6)) = trial else {
+                // RODAS: E = I/(h gamma) - J singular; exprb: h J not finite or too large to
+                // scale. Either way a smaller step may cure it.
                 halvings += 1;
                 if halvings > MAX_HALVINGS {
-                    return Err(OdeError::SingularMatrix { t: t0 + t, h: h_try });
+                    return Err(match scheme {
+                        Scheme::Rodas => OdeError::SingularMatrix { t: t0 + t, h: h_try },
+                        Scheme::Exprb => OdeError::NonFinite { t: t0 + t, component: bad_row(&jac) },
+                    });
                 }
                 self.stats.rejected += 1;
                 hs = 0.5 * h_try;
                 rejected_last = true;
                 continue;
             };
-            let mut rhs = |y: &[f64; N]| p.rhs(y, u);
-            let (y, k6) = rodas::step(&mut rhs, &lu, x, &f0, h_try);
-            self.stats.rhs_evals += 5;
+            self.stats.rhs_evals += match scheme {
+                Scheme::Rodas => 5,
+                Scheme::Exprb => 2,
+            };
             let mut sum = 0.0;
             for i in 0..N {
                 let sk = atol + rtol * x[i].abs().max(y[i].abs());
@@ -396,6 +463,11 @@ fn axpy<const N: usize>(x: &[f64; N], a: f64, y: &[f64; N]) -> [f64; N] {
 
 fn first_non_finite<const N: usize>(x: &[f64; N]) -> Option<usize> {
     x.iter().position(|v| !v.is_finite())
+}
+
+/// The first Jacobian row holding a non-finite entry (0 if all are finite).
+fn bad_row<const N: usize>(jac: &[[f64; N]; N]) -> usize {
+    jac.iter().position(|r| first_non_finite(r).is_some()).unwrap_or(0)
 }
 
 #[cfg(test)]

@@ -125,6 +125,11 @@ pub enum MethodKind {
     RodasFixed,
     /// Classical explicit RK4 with a fixed number of steps per period (baseline).
     Rk4,
+    /// Adaptive exponential Rosenbrock (exprb43), error-controlled by rtol/atol; integrates
+    /// the stiff transient after each input jump exactly.
+    Exprb,
+    /// The same scheme with a fixed number of steps per period.
+    ExprbFixed,
 }
 
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -132,13 +137,13 @@ pub enum MethodKind {
 pub struct IntegratorSpec {
     #[serde(default = "default_method")]
     pub method: MethodKind,
-    /// Relative tolerance (rodas).
+    /// Relative tolerance (rodas, exprb).
     #[serde(default)]
     pub rtol: Option<f64>,
-    /// Absolute tolerance (rodas).
+    /// Absolute tolerance (rodas, exprb).
     #[serde(default)]
     pub atol: Option<f64>,
-    /// Steps per sampling period (rodas-fixed, rk4).
+    /// Steps per sampling period (rodas-fixed, exprb-fixed, rk4).
     #[serde(default)]
     pub steps: Option<u32>,
 }
@@ -317,14 +322,14 @@ impl Scene {
         }
         let i = &self.integrator;
         match i.method {
-            MethodKind::Rodas => {
+            MethodKind::Rodas | MethodKind::Exprb => {
                 if i.steps.is_some() {
-                    return Err(SceneError::key(s, "integrator.steps", "not used by method rodas (set rtol/atol)"));
+                    return Err(SceneError::key(s, "integrator.steps", "not used by adaptive methods (set rtol/atol)"));
                 }
                 positive("integrator.rtol", i.rtol.unwrap_or(1e-10))?;
                 positive("integrator.atol", i.atol.unwrap_or(1e-12))?;
             }
-            MethodKind::RodasFixed | MethodKind::Rk4 => {
+            MethodKind::RodasFixed | MethodKind::Rk4 | MethodKind::ExprbFixed => {
                 if i.rtol.is_some() || i.atol.is_some() {
                     return Err(SceneError::key(s, "integrator.rtol", "fixed-step methods take `steps`, not tolerances"));
                 }
