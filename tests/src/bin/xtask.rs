@@ -8,6 +8,8 @@
 
 #[path = "../xtask/elf.rs"]
 mod elf;
+#[path = "../xtask/traces.rs"]
+mod traces;
 #[path = "../xtask/vectors.rs"]
 mod vectors;
 
@@ -113,6 +115,8 @@ fn write_target_data() -> Result<usize> {
     };
     write("model.bin", &v.blob)?;
     write("vectors.rs", v.source.as_bytes())?;
+    let t = traces::generate()?;
+    write("traces.rs", t.source.as_bytes())?;
     println!(
         "qemu-test: model blob {} bytes (p={}, d={}, k={}, lift order {}), {} rolling + {} free-run expected outputs per sqrt flavour",
         v.blob.len(),
@@ -123,6 +127,9 @@ fn write_target_data() -> Result<usize> {
         v.rolling_len,
         vectors::FREE_RUN
     );
+    for (name, clamped, steps) in &t.summary {
+        println!("qemu-test: IntPd golden trace {name}: {steps} steps, {clamped} clamped");
+    }
     Ok(v.blob.len())
 }
 
