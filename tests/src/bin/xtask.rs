@@ -9,7 +9,8 @@
 //!   predictor (K = 50 ... 1000 centres, each sqrt flavour) with the predictions' relative
 //!   error against the host's f64 evaluation; `--json` prints (and writes to
 //!   `qemu/target/device-table.json`) the table as JSON.
-//! - `test`: install + `cargo test --workspace` + qemu-test + STM32F407 build.
+//! - `test`: install + `cargo test --workspace` + qemu-test + device-table (counted as one
+//!   on-target test, see `device_table::check`) + STM32F407 build.
 
 #[path = "../xtask/device_table.rs"]
 mod device_table;
@@ -318,14 +319,28 @@ fn test_all() -> Result<()> {
     host.current_dir(root()).args(["test", "--workspace"]);
     let host_result = run(&mut host);
     let target = qemu_test();
+    // The cost table (about 1 s in QEMU): it must run, calibrate (1,000 nops = 1,000
+    // instructions) and its f32 predictions must agree with the host's f64 evaluation.
+    let table = device_table_run().and_then(|(t, s)| {
+        print_table(&t, &s);
+        device_table::check(&t)
+    });
     let stm32 = build_firmware(true).map(|_| println!("stm32f407 configuration builds and links"));
-    let (passed, failed) = match &target {
+    let (mut passed, mut failed) = match &target {
         Ok(r) => (r.passed, r.failed),
         Err(_) => (0, 1),
     };
+    match &table {
+        Ok(()) => passed += 1,
+        Err(e) => {
+            eprintln!("device-table: {e}");
+            failed += 1;
+        }
+    }
     println!("on-target: {passed} passed, {failed} failed");
     host_result?;
     target?;
+    table?;
     stm32?;
     Ok(())
 }

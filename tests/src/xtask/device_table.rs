@@ -359,6 +359,27 @@ pub fn table(parsed: &Parsed, reference: &[Vec<f64>]) -> Result<Table, String> {
     })
 }
 
+/// Accuracy bounds of the table's predictions (`predict(HORIZON)` against the host's f64):
+/// correctly rounded sqrt flavours to f32 accuracy, micromath's fast sqrt (~5 % per root)
+/// within 10 %. A table that violates them (or has a non-finite entry) fails `xtask test`.
+pub const REL_ERROR_EXACT: f64 = 1e-4;
+pub const REL_ERROR_FAST: f64 = 0.1;
+
+pub fn check(t: &Table) -> Result<(), String> {
+    for r in &t.predictor {
+        let bound = if r.sqrt == "fast" { REL_ERROR_FAST } else { REL_ERROR_EXACT };
+        if !(r.rel_error <= bound && r.instructions.is_finite() && r.instructions > 0.0) {
+            return Err(format!("K = {} {}: rel_error {:e} (bound {bound:e}), {} instructions", r.centers, r.sqrt, r.rel_error, r.instructions));
+        }
+    }
+    for (what, v) in [("IntPd", t.ctrl_int), ("FloatPd<f32>", t.ctrl_f32), ("FloatPd<f64>", t.ctrl_f64)] {
+        if !(v.is_finite() && v > 0.0) {
+            return Err(format!("{what} step measured as {v} instructions"));
+        }
+    }
+    Ok(())
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
