@@ -13,7 +13,7 @@ fn main() {
     println!("cargo:rerun-if-changed=memory");
 
     let data = manifest.join("target-data");
-    for file in ["model.bin", "vectors.rs"] {
+    for file in ["model.bin", "vectors.rs", "traces.rs", "device_table.rs"] {
         let path = data.join(file);
         if !path.exists() {
             panic!("{} is missing: run `cargo xtask qemu-test` (it generates the test data, then builds)", path.display());

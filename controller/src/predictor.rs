@@ -297,25 +297,43 @@ impl<const P: usize, const D: usize, const K: usize, const T: usize, const H: us
     /// One step of the RBF map, in this order: `out_j = b_j`, then `out_j += A[j][l] eta_l`
     /// for `l = 0..d`, then for each centre `i`: `r_i = sqrt(sum_l (eta_l - c_il)^2)` and
     /// `out_j += w_ij r_i`.
+    ///
+    /// The loops run over the full capacity `D` (a fixed trip count the compiler unrolls,
+    /// keeping `out` in registers): the model's entries at and beyond `d` are zero and `eta`'s
+    /// are zeroed here, so every extra term is an exact `+0` and the result is the same as
+    /// summing over `l < d` only. Entries `out_j`, `j >= d`, are zero (NaN if `r_i` overflows).
     pub fn step(&self, eta: &[f32; D]) -> [f32; D] {
+        // One monomorphized loop per flavour: no dispatch per centre, the sqrt inlines.
+        match self.sqrt {
+            SqrtFlavour::Libm => self.step_with(eta, libm::sqrtf),
+            SqrtFlavour::Fast => self.step_with(eta, |x| micromath::F32(x).sqrt().0),
+            SqrtFlavour::Hardware => self.step_with(eta, hw_sqrt),
+        }
+    }
+
+    #[inline(always)]
+    fn step_with(&self, eta: &[f32; D], sqrt: impl Fn(f32) -> f32) -> [f32; D] {
         let m = &self.model;
-        let d = m.d();
+        let mut e = [0.0f32; D];
+        for (dst, &src) in e.iter_mut().zip(eta.iter()).take(m.d()) {
+            *dst = src;
+        }
         let mut out = [0.0f32; D];
         for ((o, row), &b) in out.iter_mut().zip(m.affine_linear()).zip(m.affine_bias()) {
             let mut acc = b;
-            for (&a, &e) in row.iter().zip(eta.iter()).take(d) {
-                acc += a * e;
+            for (&a, &x) in row.iter().zip(e.iter()) {
+                acc += a * x;
             }
             *o = acc;
         }
         for (c, w) in m.centres().iter().zip(m.weights()) {
             let mut r2 = 0.0f32;
-            for (&e, &ci) in eta.iter().zip(c.iter()).take(d) {
-                let diff = e - ci;
+            for (&x, &ci) in e.iter().zip(c.iter()) {
+                let diff = x - ci;
                 r2 += diff * diff;
             }
-            let r = self.sqrt.sqrt(r2);
-            for (o, &wi) in out.iter_mut().zip(w.iter()).take(d) {
+            let r = sqrt(r2);
+            for (o, &wi) in out.iter_mut().zip(w.iter()) {
                 *o += wi * r;
             }
         }

@@ -241,13 +241,22 @@ impl<const H: usize> IntPd<H> {
         let (y0, y1, z0, z1) = (i64::from(y0), i64::from(y1), i64::from(z0), i64::from(z1));
         self.sum = self.sum.saturating_add(y0);
         let g = self.gains;
-        let acc = g
-            .p
-            .saturating_mul(y0)
-            .saturating_neg()
-            .saturating_sub(g.d.saturating_mul(y0.saturating_sub(y1)))
-            .saturating_add(g.z.saturating_mul(z0.saturating_sub(z1)))
-            .saturating_sub(g.i.saturating_mul(self.sum));
+        // Exact without saturation (see GAIN_MAX_Q): |g.p|, |g.d|, |g.z| < 2^29 (checked in
+        // `try_new`), |y0| <= 2^31 and the count differences below 2^32, so the products are
+        // below 2^60, 2^61, 2^61 and their sum below 2^62.4. Wrapping ops are cheap on the
+        // 32-bit core and never wrap here.
+        let pdz = g
+            .z
+            .wrapping_mul(z0.wrapping_sub(z1))
+            .wrapping_sub(g.p.wrapping_mul(y0))
+            .wrapping_sub(g.d.wrapping_mul(y0.wrapping_sub(y1)));
+        // The integral product is exact below |S| < 2^33 (then < 2^62); beyond, saturate.
+        let integral = if self.sum.unsigned_abs() < 1 << 33 {
+            g.i.wrapping_mul(self.sum)
+        } else {
+            g.i.saturating_mul(self.sum)
+        };
+        let acc = pdz.saturating_sub(integral);
         // Arithmetic shift: floor division by 2^16.
         let raw = acc >> GAIN_FRAC_BITS;
         let code = raw.clamp(self.code_max.saturating_neg(), self.code_max);

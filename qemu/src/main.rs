@@ -3,7 +3,7 @@
 //! Runs every test of [`TESTS`] in order, prints `test NAME ... ok|FAILED` and a summary line
 //! over semihosting, and exits 0 only if all passed (semihosting `exit` sets QEMU's exit
 //! code). A panic or a HardFault exits with failure. New test groups (integer controller
-//! golden traces, ...) add a module and entries to [`TESTS`].
+//! ...) add a module and entries to [`TESTS`].
 #![no_std]
 #![no_main]
 
@@ -12,12 +12,14 @@ use cortex_m_semihosting::{debug, hprintln};
 use panic_semihosting as _;
 
 mod model_tests;
+mod trace_tests;
 
 /// The host-generated data: `model.bin` (the blob) and `vectors.rs` (inputs and the
 /// expected outputs computed on the host by the same predictor code).
 pub mod data {
     pub static MODEL_BLOB: &[u8] = include_bytes!(concat!(env!("CARGO_MANIFEST_DIR"), "/target-data/model.bin"));
     include!(concat!(env!("CARGO_MANIFEST_DIR"), "/target-data/vectors.rs"));
+    include!(concat!(env!("CARGO_MANIFEST_DIR"), "/target-data/traces.rs"));
 }
 
 /// A test: its name and a function returning `Err(reason)` on failure (details may be
@@ -35,6 +37,12 @@ const TESTS: &[Test] = &[
     Test { name: "predictor::rolling_matches_host_fast", run: model_tests::rolling_fast },
     Test { name: "predictor::rolling_matches_host_hardware", run: model_tests::rolling_hardware },
     Test { name: "predictor::free_run_matches_host_all_flavours", run: model_tests::free_run_all },
+    Test { name: "intpd::golden_trace_pd_delay1", run: trace_tests::case::<0> },
+    Test { name: "intpd::golden_trace_pid_delay1", run: trace_tests::case::<1> },
+    Test { name: "intpd::golden_trace_pd_delay3", run: trace_tests::case::<2> },
+    Test { name: "intpd::golden_trace_pid_delay3", run: trace_tests::case::<3> },
+    Test { name: "intpd::golden_trace_pid_delay1_no_umax", run: trace_tests::case::<4> },
+    Test { name: "intpd::all_golden_cases_listed", run: trace_tests::all_cases_listed },
 ];
 
 #[entry]

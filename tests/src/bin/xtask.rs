@@ -4,10 +4,20 @@
 //! - `qemu-test`: generate the model blob and expected outputs, build the firmware in
 //!   `qemu/` with its own config, run it under QEMU (hard timeout), pass/fail by exit code.
 //! - `firmware-size`: flash/RAM of the firmware for each board configuration.
-//! - `test`: install + `cargo test --workspace` + qemu-test + STM32F407 build.
+//! - `device-table [--json]`: build the firmware's `device_table` binary, run it under QEMU
+//!   with `-icount shift=7` and print instructions per call of the controllers and the
+//!   predictor (K = 50 ... 1000 centres, each sqrt flavour) with the predictions' relative
+//!   error against the host's f64 evaluation; `--json` prints (and writes to
+//!   `qemu/target/device-table.json`) the table as JSON.
+//! - `test`: install + `cargo test --workspace` + qemu-test + device-table (counted as one
+//!   on-target test, see `device_table::check`) + STM32F407 build.
 
+#[path = "../xtask/device_table.rs"]
+mod device_table;
 #[path = "../xtask/elf.rs"]
 mod elf;
+#[path = "../xtask/traces.rs"]
+mod traces;
 #[path = "../xtask/vectors.rs"]
 mod vectors;
 
@@ -36,8 +46,13 @@ fn main() -> ExitCode {
         Some("install") => install(),
         Some("qemu-test") => qemu_test().map(|_| ()),
         Some("firmware-size") => firmware_size(),
+        Some("device-table") => match args.get(1).map(String::as_str) {
+            None => device_table_cmd(false),
+            Some("--json") => device_table_cmd(true),
+            Some(other) => Err(format!("device-table: unknown option `{other}` (expected --json)")),
+        },
         Some("test") => test_all(),
-        _ => Err("usage: cargo xtask <install | qemu-test | firmware-size | test>".into()),
+        _ => Err("usage: cargo xtask <install | qemu-test | firmware-size | device-table [--json] | test>".into()),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
@@ -99,7 +114,8 @@ struct TargetResult {
     failed: u32,
 }
 
-fn write_target_data() -> Result<usize> {
+/// Writes everything the firmware includes; returns the device table's f64 references.
+fn write_target_data() -> Result<Vec<Vec<f64>>> {
     let v = vectors::generate()?;
     let dir = qemu_dir().join("target-data");
     std::fs::create_dir_all(&dir).map_err(|e| format!("{}: {e}", dir.display()))?;
@@ -113,6 +129,8 @@ fn write_target_data() -> Result<usize> {
     };
     write("model.bin", &v.blob)?;
     write("vectors.rs", v.source.as_bytes())?;
+    let t = traces::generate()?;
+    write("traces.rs", t.source.as_bytes())?;
     println!(
         "qemu-test: model blob {} bytes (p={}, d={}, k={}, lift order {}), {} rolling + {} free-run expected outputs per sqrt flavour",
         v.blob.len(),
@@ -123,7 +141,15 @@ fn write_target_data() -> Result<usize> {
         v.rolling_len,
         vectors::FREE_RUN
     );
-    Ok(v.blob.len())
+    for (name, clamped, steps) in &t.summary {
+        println!("qemu-test: IntPd golden trace {name}: {steps} steps, {clamped} clamped");
+    }
+    let dt = device_table::generate()?;
+    for (k, blob) in &dt.blobs {
+        write(&format!("dt_k{k}.bin"), blob)?;
+    }
+    write("device_table.rs", dt.source.as_bytes())?;
+    Ok(dt.reference)
 }
 
 fn build_firmware(stm32: bool) -> Result<PathBuf> {
@@ -137,16 +163,18 @@ fn build_firmware(stm32: bool) -> Result<PathBuf> {
     Ok(base.join(TARGET).join("release").join("firmware"))
 }
 
-fn qemu_test() -> Result<TargetResult> {
-    write_target_data()?;
-    let elf = build_firmware(false)?;
+/// Runs `elf` under QEMU (mps2-an386) with `extra` arguments, output into `log`; `None` on
+/// timeout. Returns the exit status and the output.
+fn run_qemu(elf: &Path, extra: &[&str], log: &str, timeout: Duration) -> Result<(Option<std::process::ExitStatus>, String)> {
     let start = Instant::now();
-    let log = qemu_dir().join("target").join("qemu-test.log");
+    let log = qemu_dir().join("target").join(log);
     let log_file = std::fs::File::create(&log).map_err(|e| format!("{}: {e}", log.display()))?;
     let mut child = cmd("qemu-system-arm")
         .args(["-cpu", "cortex-m4", "-machine", "mps2-an386", "-nographic"])
-        .args(["-semihosting-config", "enable=on,target=native", "-kernel"])
-        .arg(&elf)
+        .args(["-semihosting-config", "enable=on,target=native"])
+        .args(extra)
+        .arg("-kernel")
+        .arg(elf)
         .stdin(Stdio::null())
         .stdout(log_file.try_clone().map_err(|e| e.to_string())?)
         .stderr(log_file)
@@ -156,14 +184,21 @@ fn qemu_test() -> Result<TargetResult> {
         if let Some(s) = child.try_wait().map_err(|e| e.to_string())? {
             break Some(s);
         }
-        if start.elapsed() > QEMU_TIMEOUT {
+        if start.elapsed() > timeout {
             let _ = child.kill();
             let _ = child.wait();
             break None;
         }
         std::thread::sleep(Duration::from_millis(20));
     };
-    let text = std::fs::read_to_string(&log).unwrap_or_default();
+    Ok((status, std::fs::read_to_string(&log).unwrap_or_default()))
+}
+
+fn qemu_test() -> Result<TargetResult> {
+    write_target_data()?;
+    let elf = build_firmware(false)?;
+    let start = Instant::now();
+    let (status, text) = run_qemu(&elf, &[], "qemu-test.log", QEMU_TIMEOUT)?;
     print!("{text}");
     let mut r = TargetResult::default();
     for line in text.lines() {
@@ -182,6 +217,77 @@ fn qemu_test() -> Result<TargetResult> {
         }
         Some(s) => Err(format!("qemu-test: FAIL (exit {s}, {} passed, {} failed)", r.passed, r.failed)),
     }
+}
+
+/// Builds and runs the device-table firmware under `-icount shift=7`, returns the table
+/// and the binary's flash/RAM.
+fn device_table_run() -> Result<(device_table::Table, elf::Sizes)> {
+    let reference = write_target_data()?;
+    let firmware = build_firmware(false)?;
+    let elf_path = firmware.with_file_name("device_table");
+    let start = Instant::now();
+    let (status, text) = run_qemu(&elf_path, &["-icount", "shift=7"], "device-table.log", QEMU_TIMEOUT)?;
+    match status {
+        None => return Err(format!("device-table: QEMU timed out after {}s", QEMU_TIMEOUT.as_secs())),
+        Some(s) if !s.success() => return Err(format!("device-table: firmware exited with {s}:\n{text}")),
+        Some(_) => {}
+    }
+    let parsed = device_table::parse(&text)?;
+    let table = device_table::table(&parsed, &reference)?;
+    let bytes = std::fs::read(&elf_path).map_err(|e| format!("{}: {e}", elf_path.display()))?;
+    let sizes = elf::sizes(&bytes, RAM_ORIGIN)?;
+    eprintln!("device-table: {:.1} s in QEMU", start.elapsed().as_secs_f64());
+    Ok((table, sizes))
+}
+
+fn device_table_json(t: &device_table::Table, s: &elf::Sizes) -> serde_json::Value {
+    let r1 = |x: f64| (x * 10.0).round() / 10.0;
+    serde_json::json!({
+        "controller_step_instructions_int": r1(t.ctrl_int),
+        "controller_step_instructions_float": r1(t.ctrl_f32),
+        "controller_step_instructions_f64": r1(t.ctrl_f64),
+        "predictor": t.predictor.iter().map(|r| serde_json::json!({
+            "centers": r.centers,
+            "sqrt": r.sqrt,
+            "instructions": r1(r.instructions),
+            "per_center": (r.per_center * 100.0).round() / 100.0,
+            "rel_error": r.rel_error,
+        })).collect::<Vec<_>>(),
+        "predictor_project_instructions": r1(t.project),
+        "predictor_lift_instructions": r1(t.lift),
+        "predictor_model": { "d": device_table::D, "p": device_table::P, "lift_order": device_table::ORDER, "horizon": device_table::HORIZON },
+        "calibration_1000_nops": r1(t.calib_nops1000),
+        "flash_bytes": s.flash,
+        "ram_bytes": s.ram,
+    })
+}
+
+fn print_table(t: &device_table::Table, s: &elf::Sizes) {
+    println!("device-table: instructions per call (QEMU -icount shift=7, SysTick; 1,000 nops measure {:.1})", t.calib_nops1000);
+    println!("  IntPd step            {:8.1}", t.ctrl_int);
+    println!("  FloatPd<f32> step     {:8.1}", t.ctrl_f32);
+    println!("  FloatPd<f64> step     {:8.1}", t.ctrl_f64);
+    println!("  predictor project     {:8.1}  (p = {}, d = {})", t.project, device_table::P, device_table::D);
+    println!("  predictor lift        {:8.1}  (lift order {})", t.lift, device_table::ORDER);
+    println!("  predictor step (d = {}):   K  sqrt       instructions  per centre  rel_error (predict({}))", device_table::D, device_table::HORIZON);
+    for r in &t.predictor {
+        println!("  {:>28} {:<10} {:>12.1} {:>11.2}  {:.2e}", r.centers, r.sqrt, r.instructions, r.per_center, r.rel_error);
+    }
+    println!("  device_table binary: flash {} B, static RAM {} B", s.flash, s.ram);
+}
+
+fn device_table_cmd(json: bool) -> Result<()> {
+    let (t, s) = device_table_run()?;
+    if json {
+        let v = device_table_json(&t, &s);
+        let text = serde_json::to_string_pretty(&v).map_err(|e| e.to_string())?;
+        let path = qemu_dir().join("target").join("device-table.json");
+        std::fs::write(&path, &text).map_err(|e| format!("{}: {e}", path.display()))?;
+        println!("{text}");
+    } else {
+        print_table(&t, &s);
+    }
+    Ok(())
 }
 
 fn firmware_size() -> Result<()> {
@@ -213,14 +319,28 @@ fn test_all() -> Result<()> {
     host.current_dir(root()).args(["test", "--workspace"]);
     let host_result = run(&mut host);
     let target = qemu_test();
+    // The cost table (about 1 s in QEMU): it must run, calibrate (1,000 nops = 1,000
+    // instructions) and its f32 predictions must agree with the host's f64 evaluation.
+    let table = device_table_run().and_then(|(t, s)| {
+        print_table(&t, &s);
+        device_table::check(&t)
+    });
     let stm32 = build_firmware(true).map(|_| println!("stm32f407 configuration builds and links"));
-    let (passed, failed) = match &target {
+    let (mut passed, mut failed) = match &target {
         Ok(r) => (r.passed, r.failed),
         Err(_) => (0, 1),
     };
+    match &table {
+        Ok(()) => passed += 1,
+        Err(e) => {
+            eprintln!("device-table: {e}");
+            failed += 1;
+        }
+    }
     println!("on-target: {passed} passed, {failed} failed");
     host_result?;
     target?;
+    table?;
     stm32?;
     Ok(())
 }

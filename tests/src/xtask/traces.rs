@@ -1,0 +1,247 @@
+//! Golden traces of the integer controller: a fixed sequence of encoder counts and the DAC
+//! codes and saturation flags the host's `controller::IntPd` computes from it, for several
+//! configurations. The firmware runs the same inputs through the same code and must agree
+//! exactly (`qemu/src/trace_tests.rs`).
+
+use controller::IntPd;
+use shared::{ControllerConfig, QuantMode, Quantization};
+use std::f64::consts::PI;
+use std::fmt::Write as _;
+
+/// History capacity of the controller on both sides (delay up to 6).
+pub const H: usize = 8;
+/// Steps of the mean-reverting random walk, then the extreme inputs.
+pub const WALK: usize = 2000;
+pub const EXTREME: usize = 100;
+
+/// One configuration of the trace set.
+pub struct Case {
+    pub name: &'static str,
+    pub config: ControllerConfig,
+}
+
+/// The paper's quantized loop: gains KP 15.5, KD 5.45, KphiD 1.5, dt 25 ms,
+/// h_adc = h_adc_phi = pi/1000 rad, h_dac = 10/2048 V, with the given integral gain, delay
+/// and saturation.
+pub fn paper_counts(ki: f64, delay: u32, u_max: Option<f64>) -> ControllerConfig {
+    ControllerConfig {
+        kp: 15.5,
+        kd: 5.45,
+        kphi_d: 1.5,
+        ki,
+        dt: 0.025,
+        delay,
+        u_max,
+        quant: Some(Quantization { mode: QuantMode::Counts, h_adc: PI / 1000.0, h_adc_phi: PI / 1000.0, h_dac: 10.0 / 2048.0 }),
+    }
+}
+
+pub fn cases() -> Vec<Case> {
+    vec![
+        Case { name: "pd_delay1", config: paper_counts(0.0, 1, Some(10.0)) },
+        Case { name: "pid_delay1", config: paper_counts(0.5, 1, Some(10.0)) },
+        Case { name: "pd_delay3", config: paper_counts(0.0, 3, Some(10.0)) },
+        Case { name: "pid_delay3", config: paper_counts(0.5, 3, Some(10.0)) },
+        Case { name: "pid_delay1_no_umax", config: paper_counts(0.5, 1, None) },
+    ]
+}
+
+/// SplitMix64.
+struct Rng(u64);
+impl Rng {
+    fn next(&mut self) -> u64 {
+        self.0 = self.0.wrapping_add(0x9e37_79b9_7f4a_7c15);
+        let mut z = self.0;
+        z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
+        z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
+        z ^ (z >> 31)
+    }
+    /// Uniform integer in `[lo, hi]`.
+    fn range(&mut self, lo: i64, hi: i64) -> i64 {
+        lo + (self.next() % (hi - lo + 1) as u64) as i64
+    }
+}
+
+/// `WALK` steps of a mean-reverting random walk in counts (small steps, occasional jumps of
+/// up to a few hundred counts, so the codes cover the linear range and both saturations),
+/// then `EXTREME` steps drawn from the `i32` extremes and their neighbours.
+pub fn inputs() -> Vec<(i32, i32)> {
+    let mut rng = Rng(0x4950_4454_5241_4345);
+    let (mut y, mut z) = (0i64, 0i64);
+    let mut out = Vec::with_capacity(WALK + EXTREME);
+    for _ in 0..WALK {
+        y += -y / 16 + rng.range(-3, 3);
+        z += -z / 32 + rng.range(-6, 6);
+        if rng.next() % 40 == 0 {
+            y += rng.range(-300, 300);
+        }
+        if rng.next() % 60 == 0 {
+            z += rng.range(-500, 500);
+        }
+        out.push((y as i32, z as i32));
+    }
+    let pool = [i32::MIN, i32::MIN + 1, -1, 0, 1, i32::MAX - 1, i32::MAX];
+    for _ in 0..EXTREME {
+        let a = pool[rng.range(0, pool.len() as i64 - 1) as usize];
+        let b = pool[rng.range(0, pool.len() as i64 - 1) as usize];
+        out.push((a, b));
+    }
+    out
+}
+
+/// The host's codes and flags for one case.
+pub struct Trace {
+    pub gains: [i64; 4],
+    pub code_max: i32,
+    pub codes: Vec<i32>,
+    pub saturated: Vec<bool>,
+}
+
+pub fn run(config: &ControllerConfig, inputs: &[(i32, i32)]) -> Result<Trace, String> {
+    let mut pd = IntPd::<H>::try_new(config).map_err(|e| e.to_string())?;
+    let g = pd.gains();
+    let (mut codes, mut saturated) = (Vec::new(), Vec::new());
+    for &(qy, qz) in inputs {
+        let o = pd.step(qy, qz);
+        codes.push(o.code);
+        saturated.push(o.saturated);
+    }
+    Ok(Trace { gains: [g.p, g.d, g.z, g.i], code_max: pd.code_max(), codes, saturated })
+}
+
+/// A trace that does not exercise both signs, the linear range and the clamp would let a
+/// broken device pass: refuse to generate it.
+fn check_live(name: &str, t: &Trace) -> Result<(), String> {
+    let walk = WALK.min(t.codes.len());
+    let (codes, sat) = (&t.codes[..walk], &t.saturated[..walk]);
+    let linear_pos = codes.iter().zip(sat).filter(|&(&c, &s)| !s && c > 0).count();
+    let linear_neg = codes.iter().zip(sat).filter(|&(&c, &s)| !s && c < 0).count();
+    let clamped = sat.iter().filter(|&&s| s).count();
+    let clamped_all = t.saturated.iter().filter(|&&s| s).count();
+    if linear_pos < walk / 10 || linear_neg < walk / 10 || clamped > walk / 2 || clamped_all < walk / 100 {
+        return Err(format!(
+            "golden trace {name} is not representative: {linear_pos} positive and {linear_neg} negative unsaturated codes, \
+             {clamped} clamped of {walk} walk steps, {clamped_all} clamped in all"
+        ));
+    }
+    Ok(())
+}
+
+fn f64_lit(x: f64) -> String {
+    format!("f64::from_bits({:#018x})", x.to_bits())
+}
+
+fn config_lit(c: &ControllerConfig) -> String {
+    let q = c.quant.expect("trace configs are quantized");
+    let u_max = match c.u_max {
+        Some(u) => format!("Some({})", f64_lit(u)),
+        None => "None".into(),
+    };
+    format!(
+        "shared::ControllerConfig {{ kp: {}, kd: {}, kphi_d: {}, ki: {}, dt: {}, delay: {}, u_max: {u_max}, \
+         quant: Some(shared::Quantization {{ mode: shared::QuantMode::Counts, h_adc: {}, h_adc_phi: {}, h_dac: {} }}) }}",
+        f64_lit(c.kp),
+        f64_lit(c.kd),
+        f64_lit(c.kphi_d),
+        f64_lit(c.ki),
+        f64_lit(c.dt),
+        c.delay,
+        f64_lit(q.h_adc),
+        f64_lit(q.h_adc_phi),
+        f64_lit(q.h_dac)
+    )
+}
+
+/// Summary for the xtask's log: (name, clamped steps, steps).
+pub struct Generated {
+    pub source: String,
+    pub summary: Vec<(&'static str, usize, usize)>,
+}
+
+/// `traces.rs` for `qemu/target-data/`.
+pub fn generate() -> Result<Generated, String> {
+    let input = inputs();
+    let n = input.len();
+    let mut s = String::new();
+    let _ = writeln!(s, "// Generated by `cargo xtask qemu-test` (tests/src/xtask/traces.rs). Do not edit.");
+    let _ = writeln!(s, "pub const TRACE_H: usize = {H};");
+    let _ = writeln!(s, "pub const TRACE_LEN: usize = {n};");
+    let list: Vec<String> = input.iter().map(|(a, b)| format!("({a}, {b})")).collect();
+    let _ = writeln!(s, "/// Encoder counts (q_y, q_z) fed to every case, in order.");
+    let _ = writeln!(s, "pub static TRACE_INPUTS: [(i32, i32); {n}] = [{}];", list.join(", "));
+    let mut summary = Vec::new();
+    let mut case_lits = Vec::new();
+    for (i, case) in cases().iter().enumerate() {
+        let t = run(&case.config, &input)?;
+        check_live(case.name, &t)?;
+        summary.push((case.name, t.saturated.iter().filter(|&&b| b).count(), n));
+        let codes: Vec<String> = t.codes.iter().map(|c| c.to_string()).collect();
+        let _ = writeln!(s, "static TRACE_CODES_{i}: [i32; {n}] = [{}];", codes.join(", "));
+        let mut bits = vec![0u32; n.div_ceil(32)];
+        for (j, &f) in t.saturated.iter().enumerate() {
+            if f {
+                bits[j / 32] |= 1 << (j % 32);
+            }
+        }
+        let bits: Vec<String> = bits.iter().map(|b| format!("{b:#010x}")).collect();
+        let _ = writeln!(s, "static TRACE_SAT_{i}: [u32; {}] = [{}];", n.div_ceil(32), bits.join(", "));
+        case_lits.push(format!(
+            "    TraceCase {{ name: {:?}, config: {}, gains: {:?}, code_max: {}, codes: &TRACE_CODES_{i}, saturated: &TRACE_SAT_{i} }},",
+            case.name,
+            config_lit(&case.config),
+            t.gains,
+            t.code_max
+        ));
+    }
+    let _ = writeln!(s, "/// One configuration: the host's Q16 gains [p, d, z, i], DAC range, codes and saturation bitmap (bit j%32 of word j/32).");
+    let _ = writeln!(
+        s,
+        "pub struct TraceCase {{ pub name: &'static str, pub config: shared::ControllerConfig, pub gains: [i64; 4], pub code_max: i32, pub codes: &'static [i32; {n}], pub saturated: &'static [u32] }}"
+    );
+    let _ = writeln!(s, "pub static TRACE_CASES: [TraceCase; {}] = [", case_lits.len());
+    for l in case_lits {
+        let _ = writeln!(s, "{l}");
+    }
+    let _ = writeln!(s, "];");
+    Ok(Generated { source: s, summary })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The fixed-point law checked against an independent exact evaluation (i128 on the
+    /// documented formula) on the generated inputs: the golden data are what the law says.
+    #[test]
+    fn host_trace_matches_exact_formula() {
+        let input = inputs();
+        for case in cases() {
+            let t = run(&case.config, &input).unwrap();
+            check_live(case.name, &t).unwrap();
+            let r = case.config.delay as usize;
+            let [p, d, z, i] = t.gains.map(i128::from);
+            let at = |j: isize| if j < 0 { (0i128, 0i128) } else { let (a, b) = input[j as usize]; (a as i128, b as i128) };
+            let mut s = 0i128;
+            for (j, (&code, &sat)) in t.codes.iter().zip(&t.saturated).enumerate() {
+                let (y0, z0) = at(j as isize - r as isize);
+                let (y1, z1) = at(j as isize - r as isize - 1);
+                s += y0;
+                let acc = -p * y0 - d * (y0 - y1) + z * (z0 - z1) - i * s;
+                let raw = acc >> 16;
+                let c = i128::from(t.code_max);
+                let want = raw.clamp(-c, c);
+                assert_eq!(i128::from(code), want, "{} step {j}", case.name);
+                assert_eq!(sat, want != raw, "{} step {j}", case.name);
+            }
+        }
+    }
+
+    #[test]
+    fn gains_are_the_rounded_paper_values() {
+        let t = run(&paper_counts(0.5, 1, Some(10.0)), &[]).unwrap();
+        let per = |g: f64| (g * 65536.0).round() as i64;
+        let (h_adc, h_dac, dt) = (PI / 1000.0, 10.0 / 2048.0, 0.025);
+        assert_eq!(t.gains, [per(15.5 * h_adc / h_dac), per(5.45 * h_adc / dt / h_dac), per(1.5 * h_adc / dt / h_dac), per(0.5 * dt * h_adc / h_dac)]);
+        assert_eq!(t.code_max, 2048);
+    }
+}
