@@ -109,6 +109,7 @@ proptest! {
         let seq: Vec<(i32, i32)> = pre.iter().chain(&inputs).copied().collect();
         let mut s = 0i64;
         let mut decided = 0;
+        let mut narrow = 0;
         for (i, out) in got.iter().enumerate() {
             let k = i + r + 1;
             let (y0, z0) = seq[k - r];
@@ -139,8 +140,12 @@ proptest! {
             let code = f64::from(out.code);
             prop_assert!(lo <= code && code <= hi, "step {i}: code {code} not in [{lo}, {hi}], x = {x}");
             if lo == hi {
-                decided += 1;
                 prop_assert_eq!(code, x.floor().clamp(-c, c));
+            }
+            // Narrow windows (<= 0.05 codes) hold an integer with probability <= 5 %.
+            if 2.0 * (e + f64_err) <= 0.05 {
+                narrow += 1;
+                decided += usize::from(lo == hi);
             }
             // The flag: set when both bounds lie outside the range, clear when both inside.
             if lo_raw.abs() > c && hi_raw.abs() > c && lo_raw.signum() == hi_raw.signum() {
@@ -149,8 +154,10 @@ proptest! {
                 prop_assert!(!out.saturated, "step {i}: x = {x} within +-{c}, flag set");
             }
         }
-        // The bound is tight: almost every step is decided exactly.
-        prop_assert!(decided * 10 >= inputs.len() * 8, "{decided} of {}", inputs.len());
+        // The bound is tight: almost every step with a narrow window is decided exactly.
+        if narrow >= 20 {
+            prop_assert!(decided * 10 >= narrow * 8, "{decided} of {narrow} narrow-window steps decided");
+        }
     }
 }
 

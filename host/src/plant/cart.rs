@@ -10,8 +10,10 @@
 //! Lagrangian with `Jp` the pendulum inertia about its pivot and `M = mc + m`:
 //! `T = M v^2/2 - m l cos(theta) v w + Jp w^2/2`, `V = m g l cos(theta)`, giving
 //!
+//! ```text
 //!     [  Jp     -m l c ] [w']   [ m g l s - bp w               ]
 //!     [ -m l c   M     ] [v'] = [ F - bc v - m l s w^2          ]
+//! ```
 //!
 //! The motor (torque per volt `n`, back-EMF damping `k`, as in the Furuta model) drives the
 //! belt through a pulley of radius `rho`: the motor torque is `n u - k w_motor` with
