@@ -17,6 +17,7 @@ pub mod error;
 pub mod fit;
 pub mod manifold;
 pub mod metrics;
+pub mod normal_form;
 pub mod poly;
 pub mod ridge;
 
