@@ -15,8 +15,10 @@ pub mod dynamics;
 pub mod embed;
 pub mod error;
 pub mod fit;
+pub mod furuta;
 pub mod manifold;
 pub mod metrics;
+pub mod normal_form;
 pub mod poly;
 pub mod ridge;
 
