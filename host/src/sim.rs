@@ -333,7 +333,7 @@ pub fn write_outputs(scene: &Scene, traj: &Trajectory, dir: &Path) -> Result<std
         controller: scene.controller_config(),
         effects: scene.effect_names(),
         integrator: &traj.integrator,
-        tolerance: (i.method == MethodKind::Rodas).then(|| [i.rtol.unwrap_or(1e-10), i.atol.unwrap_or(1e-12)]),
+        tolerance: matches!(i.method, MethodKind::Rodas | MethodKind::Exprb).then(|| [i.rtol.unwrap_or(1e-10), i.atol.unwrap_or(1e-12)]),
         steps_per_period: i.steps,
         periods_simulated: traj.rows().saturating_sub(1),
         stopped: traj.stopped.as_deref(),

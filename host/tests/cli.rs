@@ -60,8 +60,8 @@ fn simulate_writes_csv_and_metadata_and_overrides_apply() {
     assert_eq!(lines.count(), 51);
     let meta: Value = serde_json::from_str(&std::fs::read_to_string(dir.join("furuta-quant-dt25.json")).unwrap()).unwrap();
     assert_eq!(meta["scene"], "furuta-quant-dt25");
-    assert!(meta["integrator"].as_str().unwrap().contains("rodas4"));
-    assert_eq!(meta["tolerance"][0].as_f64(), Some(1e-10));
+    assert!(meta["integrator"].as_str().unwrap().contains("exprb43"));
+    assert_eq!(meta["tolerance"][0].as_f64(), Some(1e-9));
     assert!(meta["effects"].as_array().unwrap().iter().any(|e| e.as_str().unwrap().starts_with("quantization (counts)")));
     // An unquantized scene has no code columns.
     let (ok, _, err) = ssmctl(&["simulate", "--scene", "furuta-dt31", "--out", d, "--set", "run.periods=5"]);
