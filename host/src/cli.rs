@@ -177,6 +177,9 @@ pub struct FitArgs {
     /// Print JSON.
     #[arg(long)]
     pub json: bool,
+    /// Add the extended normal form in polar coordinates (polynomial flow or map dynamics).
+    #[arg(long)]
+    pub normal_form: bool,
     /// Save the fitted model as JSON (input of `export`).
     #[arg(long)]
     pub save: Option<PathBuf>,
@@ -299,6 +302,7 @@ pub fn run(cli: Cli) -> Result<(), Box<dyn std::error::Error>> {
                 dynamics: a.dynamics,
                 centers: a.centers,
                 ridge: a.ridge,
+                normal_form: a.normal_form,
             })?;
             if let Some(path) = &a.save {
                 std::fs::write(path, r.model.to_json()?)?;

@@ -18,6 +18,7 @@ pub struct FitRequest {
     pub dynamics: String,
     pub centers: usize,
     pub ridge: String,
+    pub normal_form: bool,
 }
 
 #[derive(Debug, Serialize)]
@@ -108,7 +109,12 @@ pub fn run_fit(r: &FitRequest) -> Result<FitResult, Box<dyn std::error::Error>> 
     let (te, te_dtw) = score(&test, true)?;
     let summary = FitSummary {
         eigenvalues: model.eigenvalues_ct().iter().map(|&(re, im)| Eigenvalue { re, im }).collect(),
-        normal_form: None,
+        normal_form: if r.normal_form {
+            let nf = crate::ssm::normal_form::model_normal_form(&model, &Default::default())?;
+            Some(serde_json::to_value(nf.table())?)
+        } else {
+            None
+        },
         nmte_train: mean(&tr),
         nmte_test: (!te.is_empty()).then(|| mean(&te)),
         nmte_dtw_test: (!te_dtw.is_empty()).then(|| mean(&te_dtw)),

@@ -162,3 +162,49 @@ pub fn furuta_blob(rep: &mut Report, quick: bool) -> Result<(), Box<dyn Error>> 
     rep.summary.insert("exported_blobs".into(), json!(["sloshing-rbf50.bin", "furuta-quant-dt25-rbf100.bin"]));
     Ok(())
 }
+
+/// Report section: the device cost table measured under QEMU (`cargo xtask device-table`
+/// writes `qemu/target/device-table.json`; the host cannot count Cortex-M instructions).
+pub fn device_section(rep: &mut Report, table: &Path) -> Result<(), Box<dyn Error>> {
+    rep.section(
+        "device",
+        "What accuracy costs in time: on the device",
+        "Instructions per call on the Cortex-M4F (QEMU mps2-an386, <code>-icount shift=7</code>, SysTick: exact \
+         and repeatable counts, not cycles), and the prediction error of each sqrt flavour against the host's f64 \
+         evaluation of the same model.",
+    );
+    let Ok(text) = std::fs::read_to_string(table) else {
+        rep.para(&format!(
+            "No device table at {}: run <code>cargo xtask device-table</code> (builds the firmware, runs it in QEMU) and \
+             rerun the report.",
+            esc(&table.display().to_string())
+        ));
+        rep.summary.insert("device".into(), json!({"missing": table.display().to_string()}));
+        return Ok(());
+    };
+    let v: Value = serde_json::from_str(&text).map_err(|e| format!("{}: {e}", table.display()))?;
+    let g = |k: &str| v.get(k).and_then(Value::as_f64).map_or("-".to_string(), |x| format!("{x:.0}"));
+    rep.para(&format!(
+        "Controller step: integer {} instructions, f32 {} , f64 (software double) {}. Firmware flash {} B, static RAM {} B.",
+        g("controller_step_instructions_int"),
+        g("controller_step_instructions_float"),
+        g("controller_step_instructions_f64"),
+        g("flash_bytes"),
+        g("ram_bytes")
+    ));
+    let rows: Vec<Vec<String>> = v
+        .get("predictor")
+        .and_then(Value::as_array)
+        .map(|a| {
+            a.iter()
+                .map(|r| {
+                    let f = |k: &str| r.get(k).map_or("-".to_string(), |x| x.to_string().trim_matches('"').to_string());
+                    vec![f("centers"), f("sqrt"), f("instructions"), f("per_center"), f("rel_error")]
+                })
+                .collect()
+        })
+        .unwrap_or_default();
+    rep.table(&["centres", "sqrt", "instructions / step", "per centre", "rel. error vs f64"], &rows);
+    rep.summary.insert("device".into(), v);
+    Ok(())
+}

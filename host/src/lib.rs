@@ -9,6 +9,7 @@ pub mod export;
 pub mod fitcmd;
 pub mod fitreport;
 pub mod linear;
+pub mod nfreport;
 pub mod ode;
 pub mod plant;
 pub mod plot;
