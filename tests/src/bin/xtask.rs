@@ -52,7 +52,8 @@ fn main() -> ExitCode {
             Some(other) => Err(format!("device-table: unknown option `{other}` (expected --json)")),
         },
         Some("test") => test_all(),
-        _ => Err("usage: cargo xtask <install | qemu-test | firmware-size | device-table [--json] | test>".into()),
+        Some("reproduce") => reproduce(&args[1..]),
+        _ => Err("usage: cargo xtask <install | qemu-test | firmware-size | device-table [--json] | test | reproduce --out DIR>".into()),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
@@ -278,16 +279,27 @@ fn print_table(t: &device_table::Table, s: &elf::Sizes) {
 
 fn device_table_cmd(json: bool) -> Result<()> {
     let (t, s) = device_table_run()?;
+    // Always leave the JSON where `ssmctl reproduce` reads it.
+    let v = device_table_json(&t, &s);
+    let text = serde_json::to_string_pretty(&v).map_err(|e| e.to_string())?;
+    let path = qemu_dir().join("target").join("device-table.json");
+    std::fs::write(&path, &text).map_err(|e| format!("{}: {e}", path.display()))?;
     if json {
-        let v = device_table_json(&t, &s);
-        let text = serde_json::to_string_pretty(&v).map_err(|e| e.to_string())?;
-        let path = qemu_dir().join("target").join("device-table.json");
-        std::fs::write(&path, &text).map_err(|e| format!("{}: {e}", path.display()))?;
         println!("{text}");
     } else {
         print_table(&t, &s);
     }
     Ok(())
+}
+
+/// The README's main job: the on-device table under QEMU, then `ssmctl reproduce` with the
+/// remaining arguments (e.g. `--out out/report`).
+fn reproduce(rest: &[String]) -> Result<()> {
+    install()?;
+    device_table_cmd(false)?;
+    let mut c = cmd("cargo");
+    c.current_dir(root()).args(["run", "--release", "-p", "host", "--bin", "ssmctl", "--", "reproduce"]).args(rest);
+    run(&mut c)
 }
 
 fn firmware_size() -> Result<()> {
