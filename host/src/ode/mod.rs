@@ -38,7 +38,7 @@ pub enum Method {
     ExprbFixed { steps: u32 },
 }
 
-/// The two error-controlled one-step schemes sharing the adaptive driver.
+/// The two Jacobian-based one-step schemes sharing the adaptive and fixed-step drivers.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 enum Scheme {
     Rodas,
@@ -212,9 +212,9 @@ impl<const N: usize> Integrator<N> {
         let t0 = self.t;
         let result = match self.method {
             Method::Rk4 { steps } => self.rk4(plant, x, u, h, steps),
-            Method::RodasFixed { steps } => self.rodas_fixed(plant, x, u, h, steps),
+            Method::RodasFixed { steps } => self.fixed(plant, x, u, h, steps, Scheme::Rodas),
             Method::Rodas { rtol, atol } => self.adaptive(plant, x, u, h, rtol, atol, Scheme::Rodas),
-            Method::ExprbFixed { steps } => self.exprb_fixed(plant, x, u, h, steps),
+            Method::ExprbFixed { steps } => self.fixed(plant, x, u, h, steps, Scheme::Exprb),
             Method::Exprb { rtol, atol } => self.adaptive(plant, x, u, h, rtol, atol, Scheme::Exprb),
         };
         self.t = t0 + h;
@@ -248,13 +248,16 @@ impl<const N: usize> Integrator<N> {
         Ok(())
     }
 
-    fn rodas_fixed<P: Plant<N>>(
+    /// Fixed-step driver shared by RODAS4 and exprb43: one exact Jacobian per step, then the
+    /// scheme's step; a non-finite derivative or result is an error, never a NaN state.
+    fn fixed<P: Plant<N>>(
         &mut self,
         p: &P,
         x: &mut [f64; N],
         u: f64,
         h: f64,
         steps: u32,
+        scheme: Scheme,
     ) -> Result<(), OdeError> {
         let dt = h / f64::from(steps);
         for i in 0..steps {
@@ -264,39 +267,19 @@ impl<const N: usize> Integrator<N> {
             if let Some(component) = first_non_finite(&f0) {
                 return Err(OdeError::NonFinite { t, component });
             }
-            let lu = rodas::factor(&jac, dt).ok_or(OdeError::SingularMatrix { t, h: dt })?;
             let mut rhs = |y: &[f64; N]| p.rhs(y, u);
-            let (y, _) = rodas::step(&mut rhs, &lu, x, &f0, dt);
-            self.stats.rhs_evals += 5;
-            if let Some(component) = first_non_finite(&y) {
-                return Err(OdeError::NonFinite { t: t + dt, component });
-            }
-            *x = y;
-            self.stats.steps += 1;
-        }
-        Ok(())
-    }
-
-    fn exprb_fixed<P: Plant<N>>(
-        &mut self,
-        p: &P,
-        x: &mut [f64; N],
-        u: f64,
-        h: f64,
-        steps: u32,
-    ) -> Result<(), OdeError> {
-        let dt = h / f64::from(steps);
-        for i in 0..steps {
-            let t = self.t + f64::from(i) * dt;
-            let (f0, jac) = jacobian(p, x, u);
-            self.stats.jac_evals += 1;
-            if let Some(component) = first_non_finite(&f0) {
-                return Err(OdeError::NonFinite { t, component });
-            }
-            let phis = exprb::phis(&jac, dt).ok_or(OdeError::NonFinite { t, component: bad_row(&jac) })?;
-            let mut rhs = |y: &[f64; N]| p.rhs(y, u);
-            let (y, _) = exprb::step(&mut rhs, &jac, &phis, x, &f0, dt);
-            self.stats.rhs_evals += 2;
+            let y = match scheme {
+                Scheme::Rodas => {
+                    let lu = rodas::factor(&jac, dt).ok_or(OdeError::SingularMatrix { t, h: dt })?;
+                    self.stats.rhs_evals += 5;
+                    rodas::step(&mut rhs, &lu, x, &f0, dt).0
+                }
+                Scheme::Exprb => {
+                    let phis = exprb::phis(&jac, dt).ok_or(OdeError::NonFinite { t, component: bad_row(&jac) })?;
+                    self.stats.rhs_evals += 2;
+                    exprb::step(&mut rhs, &jac, &phis, x, &f0, dt).0
+                }
+            };
             if let Some(component) = first_non_finite(&y) {
                 return Err(OdeError::NonFinite { t: t + dt, component });
             }
