@@ -20,7 +20,8 @@ impl<S: Copy + Default, const H: usize> Delay<S, H> {
 
     /// Make `s` the newest sample (`back(0)`).
     pub(crate) fn push(&mut self, s: S) {
-        let next = if self.head.saturating_add(1) >= H { 0 } else { self.head.saturating_add(1) };
+        // head < H, so head + 1 cannot overflow; `% H` is a mask for power-of-two H.
+        let next = self.head.wrapping_add(1) % H;
         if let Some(slot) = self.buf.get_mut(next) {
             *slot = s;
         }
@@ -37,11 +38,8 @@ impl<S: Copy + Default, const H: usize> Delay<S, H> {
 
     /// The sample pushed `k` pushes before the newest (`back(0)` is the newest).
     pub(crate) fn back(&self, k: usize) -> S {
-        let idx = if k <= self.head {
-            self.head.saturating_sub(k)
-        } else {
-            self.head.saturating_add(H).saturating_sub(k)
-        };
+        // head < H and k < H: head + H - k neither overflows nor underflows.
+        let idx = self.head.wrapping_add(H).wrapping_sub(k) % H;
         // `k < H` by the owners' invariant, so the slot exists; the default is unreachable.
         self.buf.get(idx).copied().unwrap_or_default()
     }

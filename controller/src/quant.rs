@@ -119,6 +119,9 @@ pub struct IntOutput {
 #[derive(Clone, Copy, Debug)]
 pub struct IntPd<const H: usize> {
     gains: IntGains,
+    /// The gains as `i32` for the step's 32x32 -> 64-bit products: `z`, `d`, and `p + d`
+    /// (all below `2^30` in magnitude by [`GAIN_MAX_Q`]).
+    g32: [i32; 3],
     code_max: i64,
     h_dac: f64,
     delay: usize,
@@ -164,8 +167,12 @@ impl<const H: usize> IntPd<H> {
             }
             None => i64::from(CODE_MAX),
         };
+        // |p|, |d| <= GAIN_MAX_Q = 2^29 - 1, so p + d fits in i32; the conversion cannot fail.
+        let narrow = |v: i64| i32::try_from(v).map_err(|_| ConfigError::OutOfRange(Field::Kd));
+        let g32 = [narrow(gains.z)?, narrow(gains.d)?, narrow(gains.p + gains.d)?];
         Ok(Self {
             gains,
+            g32,
             code_max,
             h_dac: q.h_dac,
             delay,
@@ -238,20 +245,19 @@ impl<const H: usize> IntPd<H> {
         let (y0, z0) = self.hist.back_after_push((q_y, q_z), self.delay);
         let (y1, z1) = self.hist.back_after_push((q_y, q_z), self.delay.saturating_add(1));
         self.hist.push((q_y, q_z));
-        let (y0, y1, z0, z1) = (i64::from(y0), i64::from(y1), i64::from(z0), i64::from(z1));
-        self.sum = self.sum.saturating_add(y0);
         let g = self.gains;
-        // Exact without saturation (see GAIN_MAX_Q): |g.p|, |g.d|, |g.z| < 2^29 (checked in
-        // `try_new`), |y0| <= 2^31 and the count differences below 2^32, so the products are
-        // below 2^60, 2^61, 2^61 and their sum below 2^62.4. Wrapping ops are cheap on the
-        // 32-bit core and never wrap here.
-        let pdz = g
-            .z
-            .wrapping_mul(z0.wrapping_sub(z1))
-            .wrapping_sub(g.p.wrapping_mul(y0))
-            .wrapping_sub(g.d.wrapping_mul(y0.wrapping_sub(y1)));
+        self.sum = self.sum.saturating_add(i64::from(y0));
+        // The law `z (z0 - z1) - p y0 - d (y0 - y1)` expanded into four 32 x 32 -> 64-bit
+        // products (one SMULL each on the M4): `z z0 - z z1 - (p + d) y0 + d y1`. Each factor
+        // is below 2^31 (counts) and 2^30 (gains), so each product is below 2^61 and the sum
+        // below 2^63: exact, no wrap, no saturation needed.
+        let [gz, gd, gpd] = self.g32;
+        let m = |a: i32, b: i32| i64::from(a) * i64::from(b);
+        let pdz = m(gz, z0) - m(gz, z1) - m(gpd, y0) + m(gd, y1);
         // The integral product is exact below |S| < 2^33 (then < 2^62); beyond, saturate.
-        let integral = if self.sum.unsigned_abs() < 1 << 33 {
+        let integral = if g.i == 0 {
+            0
+        } else if self.sum.unsigned_abs() < 1 << 33 {
             g.i.wrapping_mul(self.sum)
         } else {
             g.i.saturating_mul(self.sum)
