@@ -205,6 +205,29 @@ pub fn device_section(rep: &mut Report, table: &Path) -> Result<(), Box<dyn Erro
         })
         .unwrap_or_default();
     rep.table(&["centres", "sqrt", "instructions / step", "per centre", "rel. error vs f64"], &rows);
+    // Plot: instructions per predictor step against centres, one line per sqrt flavour.
+    let mut by: std::collections::BTreeMap<String, Vec<(f64, f64)>> = Default::default();
+    for r in v.get("predictor").and_then(Value::as_array).into_iter().flatten() {
+        if let (Some(k), Some(sq), Some(n)) =
+            (r.get("centers").and_then(Value::as_f64), r.get("sqrt").and_then(Value::as_str), r.get("instructions").and_then(Value::as_f64))
+        {
+            by.entry(sq.to_string()).or_default().push((k, n));
+        }
+    }
+    if !by.is_empty() {
+        let colors = [RGBColor(20, 60, 160), RED, RGBColor(30, 140, 60), BLACK];
+        let series: Vec<Series<'_>> =
+            by.iter().zip(colors.iter().cycle()).map(|((name, pts), c)| Series { name, points: pts, color: *c }).collect();
+        plot::lines(
+            &rep.dir().join("fig/device_predictor.png"),
+            "RBF predictor step on the Cortex-M4F (d = 6)",
+            "centres K",
+            "instructions per step",
+            &series,
+            (620, 340),
+        )?;
+        rep.figure("fig/device_predictor.png", "Instructions per predictor step against the number of centres, per sqrt flavour");
+    }
     rep.summary.insert("device".into(), v);
     Ok(())
 }
