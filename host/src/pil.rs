@@ -351,7 +351,7 @@ fn run_with<P: Plant<N>, const N: usize>(plant: &P, scene: &Scene, opts: &PilOpt
     let mut ode = Integrator::<N>::new(method_of(scene)).map_err(|source| SimError::Ode { scene: name.clone(), source })?;
 
     std::fs::create_dir_all(&opts.out).map_err(io(format!("creating {}", opts.out.display())))?;
-    let (_qemu, stream) = start(&opts.elf, &opts.out)?;
+    let (mut qemu, stream) = start(&opts.elf, &opts.out)?;
     stream.set_read_timeout(Some(opts.reply_timeout)).map_err(io("read timeout"))?;
     let mut link = Link { stream, seq: 0 };
     for chunk in blob.chunks(240) {
@@ -440,11 +440,11 @@ fn run_with<P: Plant<N>, const N: usize>(plant: &P, scene: &Scene, opts: &PilOpt
         writeln!(csv, "{t},{},{},{qy},{qz},{code},{},{},{},{dp},{hp}", x[P::PRIMARY], x[P::SECONDARY], host.code, u8::from(saturated), u8::from(ready))
             .map_err(wr)?;
         s.periods = i + 1;
-        if let Some(limit) = scene.run.escape_theta {
-            if x[P::PRIMARY].abs() > limit {
-                s.stopped = Some(format!("|primary angle| exceeded {limit} rad at t = {t:.4} s"));
-                break;
-            }
+        if let Some(limit) = scene.run.escape_theta
+            && x[P::PRIMARY].abs() > limit
+        {
+            s.stopped = Some(format!("|primary angle| exceeded {limit} rad at t = {t:.4} s"));
+            break;
         }
         // The device's code is what the plant sees.
         let u = pd.volts(code);
@@ -454,7 +454,6 @@ fn run_with<P: Plant<N>, const N: usize>(plant: &P, scene: &Scene, opts: &PilOpt
     s.round_trips_per_s = if link_secs > 0.0 { s.periods as f64 / link_secs } else { 0.0 };
     s.periods_per_s = if secs > 0.0 { s.periods as f64 / secs } else { 0.0 };
     link.transact(K_SHUTDOWN, &[])?;
-    let mut qemu = _qemu;
     let t0 = Instant::now();
     let status = loop {
         if let Some(st) = qemu.0.try_wait().map_err(io("waiting for QEMU"))? {
