@@ -140,6 +140,31 @@ pub enum Cmd {
         #[command(subcommand)]
         what: BenchCmd,
     },
+    /// Processor-in-the-loop: the scene's plant simulated here, the integer controller and
+    /// the predictor on the Cortex-M4F under QEMU over UART0; writes DIR/pil.csv and
+    /// DIR/summary.json. `cargo xtask pil` builds the firmware, fits a model and runs this.
+    Pil {
+        #[command(flatten)]
+        scene: SceneArgs,
+        /// Device model blob (its controller configuration must equal the scene's).
+        #[arg(long)]
+        model: PathBuf,
+        /// Fit a 4D RBF model of the scene first and write it to --model.
+        #[arg(long)]
+        fit_model: bool,
+        #[arg(long, default_value_t = 2000)]
+        periods: u64,
+        #[arg(long)]
+        out: PathBuf,
+        /// The firmware's PIL binary.
+        #[arg(long, default_value = "qemu/target/thumbv7em-none-eabihf/release/pil")]
+        elf: PathBuf,
+        /// Per-reply timeout, seconds.
+        #[arg(long, default_value_t = 5.0)]
+        timeout: f64,
+        #[arg(long)]
+        json: bool,
+    },
 }
 
 #[derive(Args)]
@@ -351,6 +376,42 @@ pub fn run(cli: Cli) -> Result<(), Box<dyn std::error::Error>> {
                 for n in &r.notes {
                     outln!("note: {n}");
                 }
+            }
+        }
+        Cmd::Pil { scene, model, fit_model, periods, out, elf, timeout, json } => {
+            if fit_model {
+                let blob = crate::pil::fit_model(&scene.load()?)?;
+                std::fs::write(&model, &blob).map_err(|e| format!("writing {}: {e}", model.display()))?;
+                eprintln!("pil: fitted model written to {} ({} bytes)", model.display(), blob.len());
+            }
+            if !(timeout > 0.0 && timeout.is_finite()) {
+                return Err(format!("--timeout must be a positive number of seconds, got {timeout}").into());
+            }
+            let opts = crate::pil::PilOptions {
+                scene: scene.scene.clone(),
+                overrides: scene.set.clone(),
+                model,
+                periods,
+                out,
+                elf,
+                reply_timeout: std::time::Duration::from_secs_f64(timeout),
+            };
+            let s = crate::pil::run(&opts)?;
+            if json {
+                outln!("{}", serde_json::to_string_pretty(&s)?);
+            } else {
+                outln!(
+                    "pil: {} periods, codes identical: {}, predictions compared: {} (bit-identical: {}, max rel diff {:.3e}), {} saturated, {:.0} round trips/s on the link, {:.0} periods/s overall{}",
+                    s.periods,
+                    if s.codes_identical { "yes" } else { "NO" },
+                    s.predictions_compared,
+                    if s.predictions_bit_identical { "yes" } else { "no" },
+                    s.max_pred_rel_diff,
+                    s.saturated_samples,
+                    s.round_trips_per_s,
+                    s.periods_per_s,
+                    s.stopped.as_ref().map_or(String::new(), |r| format!(", stopped: {r}"))
+                );
             }
         }
         Cmd::Bench { what: BenchCmd::Simulate { json, periods, quick } } => {

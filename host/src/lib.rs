@@ -11,6 +11,7 @@ pub mod fitreport;
 pub mod linear;
 pub mod nfreport;
 pub mod ode;
+pub mod pil;
 pub mod plant;
 pub mod plot;
 pub mod report;

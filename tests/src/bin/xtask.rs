@@ -9,8 +9,14 @@
 //!   predictor (K = 50 ... 1000 centres, each sqrt flavour) with the predictions' relative
 //!   error against the host's f64 evaluation; `--json` prints (and writes to
 //!   `qemu/target/device-table.json`) the table as JSON.
+//! - `pil [--periods N] [--scene NAME]`: processor-in-the-loop. Builds the firmware (its
+//!   `pil` binary), fits a 4D RBF model of the scene and runs `ssmctl pil` (plant on the host,
+//!   integer controller + predictor on the device over UART0); output in `qemu/target/pil/`.
+//!   Passes when every period ran, the device's codes equal the host's and its predictions
+//!   are bit-identical to the host's f32 predictor.
 //! - `test`: install + `cargo test --workspace` + qemu-test + device-table (counted as one
-//!   on-target test, see `device_table::check`) + STM32F407 build.
+//!   on-target test, see `device_table::check`) + a 2,000-period PIL run (one more) +
+//!   STM32F407 build.
 
 #[path = "../xtask/device_table.rs"]
 mod device_table;
@@ -53,7 +59,8 @@ fn main() -> ExitCode {
         },
         Some("test") => test_all(),
         Some("reproduce") => reproduce(&args[1..]),
-        _ => Err("usage: cargo xtask <install | qemu-test | firmware-size | device-table [--json] | test | reproduce --out DIR>".into()),
+        Some("pil") => pil_args(&args[1..]).and_then(|(scene, periods)| pil(&scene, periods)).map(|_| ()),
+        _ => Err("usage: cargo xtask <install | qemu-test | firmware-size | device-table [--json] | pil [--periods N] [--scene NAME] | test | reproduce --out DIR>".into()),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
@@ -302,6 +309,73 @@ fn reproduce(rest: &[String]) -> Result<()> {
     run(&mut c)
 }
 
+const PIL_SCENE: &str = "furuta-quant-dt25";
+/// Periods of the PIL run inside `cargo xtask test`.
+const PIL_TEST_PERIODS: u64 = 2000;
+
+fn pil_args(rest: &[String]) -> Result<(String, u64)> {
+    let mut scene = PIL_SCENE.to_string();
+    let mut periods = PIL_TEST_PERIODS;
+    let mut it = rest.iter();
+    while let Some(a) = it.next() {
+        let mut value = |name: &str| it.next().cloned().ok_or_else(|| format!("pil: {name} needs a value"));
+        match a.as_str() {
+            "--periods" => {
+                let v = value("--periods")?;
+                periods = v.parse().map_err(|e| format!("pil: --periods `{v}`: {e}"))?;
+                if periods == 0 {
+                    return Err("pil: --periods must be at least 1".into());
+                }
+            }
+            "--scene" => scene = value("--scene")?,
+            other => return Err(format!("pil: unknown option `{other}` (expected --periods N, --scene NAME)")),
+        }
+    }
+    Ok((scene, periods))
+}
+
+/// Builds the PIL firmware, fits a model and runs `ssmctl pil`; checks the summary.
+fn pil(scene: &str, periods: u64) -> Result<serde_json::Value> {
+    if !qemu_dir().join("target-data/model.bin").exists() {
+        write_target_data()?;
+    }
+    let elf = build_firmware(false)?.with_file_name("pil");
+    let out = qemu_dir().join("target").join("pil");
+    std::fs::create_dir_all(&out).map_err(|e| format!("{}: {e}", out.display()))?;
+    let model = out.join("model.bin");
+    let periods_arg = periods.to_string();
+    let mut c = cmd("cargo");
+    // The test profile optimizes the host crate (the plant integration dominates otherwise)
+    // and shares the dependencies `cargo test` built.
+    c.current_dir(root()).args(["run", "--profile", "test", "-q", "-p", "host", "--bin", "ssmctl", "--", "pil", "--scene", scene]);
+    c.arg("--model").arg(&model).arg("--fit-model").args(["--periods", &periods_arg]).arg("--out").arg(&out).arg("--elf").arg(&elf);
+    run(&mut c)?;
+    let path = out.join("summary.json");
+    let text = std::fs::read_to_string(&path).map_err(|e| format!("{}: {e}", path.display()))?;
+    let v: serde_json::Value = serde_json::from_str(&text).map_err(|e| format!("{}: {e}", path.display()))?;
+    pil_check(&v, periods)?;
+    println!("pil: PASS ({} periods, codes identical, predictions bit-identical; {})", periods, path.display());
+    Ok(v)
+}
+
+/// The run passes when every period ran, codes agree and predictions are bit-identical.
+fn pil_check(v: &serde_json::Value, periods: u64) -> Result<()> {
+    let ran = v["periods"].as_u64().ok_or("pil summary: no `periods`")?;
+    if ran != periods {
+        return Err(format!("pil: {ran} of {periods} periods ran (stopped: {})", v["stopped"]));
+    }
+    if v["codes_identical"] != serde_json::Value::Bool(true) {
+        return Err(format!("pil: device and host codes differ, first at period {}", v["first_code_mismatch"]));
+    }
+    if v["predictions_bit_identical"] != serde_json::Value::Bool(true) || v["max_pred_rel_diff"].as_f64() != Some(0.0) {
+        return Err(format!("pil: predictions differ (max relative difference {})", v["max_pred_rel_diff"]));
+    }
+    if v["predictions_compared"].as_u64().unwrap_or(0) == 0 {
+        return Err("pil: no prediction was compared (window never filled)".into());
+    }
+    Ok(())
+}
+
 fn firmware_size() -> Result<()> {
     if !qemu_dir().join("target-data/model.bin").exists() {
         write_target_data()?;
@@ -337,6 +411,7 @@ fn test_all() -> Result<()> {
         print_table(&t, &s);
         device_table::check(&t)
     });
+    let pil_run = pil(PIL_SCENE, PIL_TEST_PERIODS);
     let stm32 = build_firmware(true).map(|_| println!("stm32f407 configuration builds and links"));
     let (mut passed, mut failed) = match &target {
         Ok(r) => (r.passed, r.failed),
@@ -349,10 +424,18 @@ fn test_all() -> Result<()> {
             failed += 1;
         }
     }
+    match &pil_run {
+        Ok(_) => passed += 1,
+        Err(e) => {
+            eprintln!("pil: {e}");
+            failed += 1;
+        }
+    }
     println!("on-target: {passed} passed, {failed} failed");
     host_result?;
     target?;
     table?;
+    pil_run?;
     stm32?;
     Ok(())
 }
