@@ -91,7 +91,7 @@ impl Default for FurutaOptions {
             slow_starts: vec![(0.002, 0.0), (0.002, std::f64::consts::FRAC_PI_2), (0.004, 0.7), (0.008, 2.3)],
             fit: FitOptions {
                 dim: 4,
-                embed: 15,
+                embed: 21,
                 shift: 1,
                 manifold_order: 3,
                 dyn_order: 7,
@@ -331,17 +331,22 @@ mod tests {
             worst_interp = worst_interp.max(err[0].abs()).max(err[1].abs());
         }
         eprintln!("table at 30.8 ms:\n{}", pm.coefficients_at(30.8).unwrap().to_text());
-        // Achieved (release numbers of this configuration): at 30.5 and 31 ms the fast rate
-        // is within 1e-4 and the slow rate within 0.7 % / 1.2 % (target 1 %). At 32 and
-        // 32.5 ms the runs escape within ~25 s and the slow rate is still off by 26 % / 17 %
-        // (printed, not asserted).
+        // Achieved: at 30.5 and 31 ms the fast rate is within 2e-4 and the slow rate within
+        // 0.4 % / 0.7 % (target 1 %); at 32 ms slow 3.5 %, fast 1.8 %; at 32.5 ms the slow
+        // rate is off by 14 % (printed, not asserted: the runs escape within ~25 s there and
+        // the result is sensitive to the embedding, see the report). Deterministic runs.
         for t in pm.trained.iter().filter(|t| t.dt_ms <= 31.0) {
             let (r, e) = (t.normal_form.linear_rates(), t.exact.rates);
             assert!(((r[1] - e[1]) / e[1]).abs() < 1e-3, "dt {}: fast {} vs {}", t.dt_ms, r[1], e[1]);
-            assert!(((r[0] - e[0]) / e[0]).abs() < 0.015, "dt {}: slow {} vs {}", t.dt_ms, r[0], e[0]);
+            assert!(((r[0] - e[0]) / e[0]).abs() < 0.01, "dt {}: slow {} vs {}", t.dt_ms, r[0], e[0]);
+        }
+        for t in pm.trained.iter().filter(|t| t.dt_ms == 32.0) {
+            let (r, e) = (t.normal_form.linear_rates(), t.exact.rates);
+            assert!(((r[1] - e[1]) / e[1]).abs() < 0.03, "dt {}: fast {} vs {}", t.dt_ms, r[1], e[1]);
+            assert!(((r[0] - e[0]) / e[0]).abs() < 0.05, "dt {}: slow {} vs {}", t.dt_ms, r[0], e[0]);
         }
         let (r, e) = (pm.linear_rates_at(30.8).unwrap(), exact_modes(30.8).unwrap().rates);
-        assert!(((r[1] - e[1]) / e[1]).abs() < 0.01 && ((r[0] - e[0]) / e[0]).abs() < 0.04, "30.8: {r:?} vs {e:?}");
+        assert!(((r[1] - e[1]) / e[1]).abs() < 0.01 && ((r[0] - e[0]) / e[0]).abs() < 0.03, "30.8: {r:?} vs {e:?}");
         let _ = (worst_train, worst_interp);
     }
 
