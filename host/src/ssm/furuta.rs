@@ -61,6 +61,11 @@ pub struct FurutaOptions {
     /// Each trajectory is cut at its first sample with |theta| above this (rad): beyond the
     /// unstable torus the state escapes to the controller's O(1) equilibria, off the SSM.
     pub max_theta: f64,
+    /// Extra trajectories started on the slow closed-loop eigenvector (plant state and
+    /// controller pre-history from [`slow_mode_start`]): `(theta amplitude rad, phase rad)`.
+    /// The slow mode is otherwise weakly excited next to the growing fast one.
+    #[serde(default)]
+    pub slow_starts: Vec<(f64, f64)>,
     /// SSM fit options (dim must be 4, dynamics a polynomial map).
     pub fit: FitOptions,
 }
@@ -82,12 +87,14 @@ impl Default for FurutaOptions {
             periods: 3000,
             skip: 20,
             max_theta: 0.3,
+            // Slow-eigenvector starts: the slow mode is otherwise swamped by the fast one.
+            slow_starts: vec![(0.002, 0.0), (0.002, std::f64::consts::FRAC_PI_2), (0.004, 0.7), (0.008, 2.3)],
             fit: FitOptions {
                 dim: 4,
-                embed: 9,
+                embed: 21,
                 shift: 1,
                 manifold_order: 3,
-                dyn_order: 5,
+                dyn_order: 7,
                 dynamics: Dynamics::Map,
                 ridge: Ridge::Fixed(0.0),
             },
@@ -130,21 +137,79 @@ pub struct ParametricModel {
     pub trained: Vec<TrainedDt>,
 }
 
+/// A start on the slow mode of the linearized closed loop at `dt_ms`: the real part of
+/// `e^{i phase} v`, `v` the eigenvector of the slow multiplier pair of the augmented map
+/// (inverse iteration in complex arithmetic), scaled so the theta component of `v` has
+/// modulus `theta_amp`. Returns the plant state `[theta, w_theta, phi, w_phi]` and the
+/// controller pre-history (`delay + 1` samples `[theta, phi]`, oldest first) for `Scene`.
+pub fn slow_mode_start(dt_ms: f64, theta_amp: f64, phase: f64) -> Result<([f64; 4], Vec<[f64; 2]>), FurutaError> {
+    use nalgebra::{Complex, DMatrix, DVector};
+    if !(theta_amp > 0.0 && theta_amp.is_finite() && phase.is_finite()) {
+        return Err(FurutaError::BadOption { what: "slow_starts", why: format!("amplitude must be positive and finite, phase finite; got ({theta_amp}, {phase})") });
+    }
+    let scene = Scene::load("furuta-dt30.5", &[format!("controller.dt_ms={dt_ms}")])?;
+    let le = |source| StabilityError::Linear { scene: scene.name.clone(), source };
+    let map = crate::stability::linear_plant(&scene)?.closed_loop(&scene.controller_config()).map_err(le)?;
+    let mut pairs = dominant_pairs(&scene)?;
+    if pairs.len() < 2 {
+        return Err(FurutaError::Multipliers { dt_ms, got: pairs.len() });
+    }
+    pairs.truncate(2);
+    pairs.sort_by(|a, b| a.freq_hz.total_cmp(&b.freq_hz));
+    let mu = Complex::new(pairs[0].re, pairs[0].im) * (1.0 + 1e-9);
+    let n = map.matrix.nrows();
+    let shifted = DMatrix::<Complex<f64>>::from_fn(n, n, |i, j| {
+        Complex::new(map.matrix[(i, j)], 0.0) - if i == j { mu } else { Complex::new(0.0, 0.0) }
+    });
+    let lu = shifted.lu();
+    let mut v = DVector::<Complex<f64>>::from_element(n, Complex::new(1.0, 0.0));
+    for _ in 0..3 {
+        v = lu.solve(&v).ok_or_else(|| FurutaError::BadOption { what: "slow_starts", why: format!("singular shifted map at dt = {dt_ms} ms") })?;
+        let norm = v.iter().map(|c| c.norm_sqr()).sum::<f64>().sqrt();
+        v /= Complex::new(norm, 0.0);
+    }
+    let lay = map.layout;
+    if lay.n_plant != 4 || lay.integral.is_some() {
+        return Err(FurutaError::BadOption { what: "slow_starts", why: "needs the 4-state Furuta plant without integral action".into() });
+    }
+    let th = v[0];
+    let scale = Complex::from_polar(theta_amp / th.norm(), phase - th.arg());
+    let re = |k: usize| (v[k] * scale).re;
+    let state = [re(0), re(1), re(2), re(3)];
+    let history = (0..=lay.delay).rev().map(|k| [re(lay.y_start + k), re(lay.z_start + k)]).collect();
+    Ok((state, history))
+}
+
 /// Simulated theta series for one sampling period and initial state: samples `skip..`, cut
 /// before the first |theta| > `max_theta` (the run itself stops at 2 `max_theta`).
 pub fn furuta_series(dt_ms: f64, ic: [f64; 4], periods: u64, skip: usize, max_theta: f64) -> Result<TimeSeries, FurutaError> {
+    furuta_series_with_history(dt_ms, ic, None, periods, skip, max_theta)
+}
+
+/// [`furuta_series`] with an explicit controller pre-history (`delay + 1` samples
+/// `[theta, phi]`, oldest first).
+pub fn furuta_series_with_history(
+    dt_ms: f64,
+    ic: [f64; 4],
+    history: Option<&[[f64; 2]]>,
+    periods: u64,
+    skip: usize,
+    max_theta: f64,
+) -> Result<TimeSeries, FurutaError> {
     if !(max_theta > 0.0 && max_theta.is_finite()) {
         return Err(FurutaError::BadOption { what: "max_theta", why: format!("must be positive and finite, got {max_theta}") });
     }
-    let scene = Scene::load(
-        "furuta-dt30.5",
-        &[
-            format!("controller.dt_ms={dt_ms}"),
-            format!("run.periods={periods}"),
-            format!("initial.state=[{},{},{},{}]", ic[0], ic[1], ic[2], ic[3]),
-            format!("run.escape_theta={}", 2.0 * max_theta),
-        ],
-    )?;
+    let mut ov = vec![
+        format!("controller.dt_ms={dt_ms}"),
+        format!("run.periods={periods}"),
+        format!("initial.state=[{:e},{:e},{:e},{:e}]", ic[0], ic[1], ic[2], ic[3]),
+        format!("run.escape_theta={}", 2.0 * max_theta),
+    ];
+    if let Some(h) = history {
+        let items: Vec<String> = h.iter().map(|p| format!("[{:e},{:e}]", p[0], p[1])).collect();
+        ov.push(format!("initial.history=[{}]", items.join(",")));
+    }
+    let scene = Scene::load("furuta-dt30.5", &ov)?;
     let tr = simulate(&scene, None)?;
     let x = tr.primary();
     let end = x.iter().position(|v| v.abs() > max_theta).unwrap_or(x.len());
@@ -169,11 +234,15 @@ pub fn furuta_parametric(opts: &FurutaOptions) -> Result<ParametricModel, Furuta
     }
     let mut trained = Vec::with_capacity(opts.dts_ms.len());
     for &dt_ms in &opts.dts_ms {
-        let train: Vec<TimeSeries> = opts
+        let mut train: Vec<TimeSeries> = opts
             .initial_states
             .iter()
             .map(|&ic| furuta_series(dt_ms, ic, opts.periods, opts.skip, opts.max_theta))
             .collect::<Result<_, _>>()?;
+        for &(amp, phase) in &opts.slow_starts {
+            let (ic, hist) = slow_mode_start(dt_ms, amp, phase)?;
+            train.push(furuta_series_with_history(dt_ms, ic, Some(&hist), opts.periods, opts.skip, opts.max_theta)?);
+        }
         let model = fit(&train, &opts.fit)?;
         let normal_form = model_normal_form(&model, &NormalFormOptions::default())
             .map_err(|source| FurutaError::NormalForm { dt: dt_ms, source })?;
@@ -235,7 +304,7 @@ mod tests {
     use super::*;
 
     #[test]
-    // ~18 s in the test profile (simulates 8 runs at each of the 4 training periods).
+    // ~12-25 s in the test profile (simulates 12 runs at each of the 4 training periods).
     fn furuta_rates_match_exact_multipliers() {
         let t0 = std::time::Instant::now();
         let pm = furuta_parametric(&FurutaOptions::default()).unwrap();
@@ -262,18 +331,66 @@ mod tests {
             worst_interp = worst_interp.max(err[0].abs()).max(err[1].abs());
         }
         eprintln!("table at 30.8 ms:\n{}", pm.coefficients_at(30.8).unwrap().to_text());
-        // Achieved (not the 1 % / 2 % targets): at 30.5 and 31 ms the fast rate is within
-        // 0.5 % and the slow rate within 5.2 %; the 30.8 ms interpolation likewise. At 32 and
-        // 32.5 ms the runs escape within ~25 s and the slow rate is not identified (see the
-        // report), so those are printed but not asserted.
+        // Achieved: at 30.5 and 31 ms the fast rate is within 2e-4 and the slow rate within
+        // 0.4 % / 0.7 % (target 1 %); at 32 ms slow 3.5 %, fast 1.8 %; at 32.5 ms the slow
+        // rate is off by 14 % (printed, not asserted: the runs escape within ~25 s there and
+        // the result is sensitive to the embedding, see the report). Deterministic runs.
         for t in pm.trained.iter().filter(|t| t.dt_ms <= 31.0) {
             let (r, e) = (t.normal_form.linear_rates(), t.exact.rates);
-            assert!(((r[1] - e[1]) / e[1]).abs() < 0.01, "dt {}: fast {} vs {}", t.dt_ms, r[1], e[1]);
-            assert!(((r[0] - e[0]) / e[0]).abs() < 0.06, "dt {}: slow {} vs {}", t.dt_ms, r[0], e[0]);
+            assert!(((r[1] - e[1]) / e[1]).abs() < 1e-3, "dt {}: fast {} vs {}", t.dt_ms, r[1], e[1]);
+            assert!(((r[0] - e[0]) / e[0]).abs() < 0.01, "dt {}: slow {} vs {}", t.dt_ms, r[0], e[0]);
+        }
+        for t in pm.trained.iter().filter(|t| t.dt_ms == 32.0) {
+            let (r, e) = (t.normal_form.linear_rates(), t.exact.rates);
+            assert!(((r[1] - e[1]) / e[1]).abs() < 0.03, "dt {}: fast {} vs {}", t.dt_ms, r[1], e[1]);
+            assert!(((r[0] - e[0]) / e[0]).abs() < 0.05, "dt {}: slow {} vs {}", t.dt_ms, r[0], e[0]);
         }
         let (r, e) = (pm.linear_rates_at(30.8).unwrap(), exact_modes(30.8).unwrap().rates);
-        assert!(((r[1] - e[1]) / e[1]).abs() < 0.01 && ((r[0] - e[0]) / e[0]).abs() < 0.06, "30.8: {r:?} vs {e:?}");
+        assert!(((r[1] - e[1]) / e[1]).abs() < 0.01 && ((r[0] - e[0]) / e[0]).abs() < 0.03, "30.8: {r:?} vs {e:?}");
         let _ = (worst_train, worst_interp);
+    }
+
+    /// The slow-mode start decays at the slow exact rate (checks the eigenvector and the
+    /// pre-history ordering): theta peaks over the first 10 s shrink like exp(rate t).
+    #[test]
+    fn slow_mode_start_excites_only_slow_mode() {
+        let dt_ms = 31.0;
+        let (ic, hist) = slow_mode_start(dt_ms, 1e-3, 0.0).unwrap();
+        let ts = furuta_series_with_history(dt_ms, ic, Some(&hist), 700, 0, 0.3).unwrap();
+        let x = &ts.x;
+        let dt = dt_ms * 1e-3;
+        let e = exact_modes(dt_ms).unwrap();
+        // Fit ln|theta| envelope: max |theta| over successive slow periods.
+        let per = (1.0 / (e.freqs_hz[0] * dt)).round() as usize;
+        let peaks: Vec<f64> = x.chunks(per).take(8).map(|c| c.iter().fold(0.0f64, |m, v| m.max(v.abs()))).collect();
+        let rate = (peaks[7] / peaks[1]).ln() / (6.0 * per as f64 * dt);
+        eprintln!("peaks {peaks:?}; envelope rate {rate:+.5} vs exact slow {:+.5}", e.rates[0]);
+        assert!(((rate - e.rates[0]) / e.rates[0]).abs() < 0.05, "envelope rate {rate} vs {}", e.rates[0]);
+    }
+
+    /// Exploration: `FUR_P`, `FUR_SHIFT`, `FUR_R`, `FUR_SLOW` (amplitude), `FUR_IC` (0 = no
+    /// default ICs), `FUR_RIDGE` override the defaults; prints the rate errors.
+    #[test]
+    #[ignore = "exploration, prints only"]
+    fn furuta_explore() {
+        let env = |k: &str| std::env::var(k).ok().and_then(|v| v.parse::<f64>().ok());
+        let mut o = FurutaOptions::default();
+        if let Some(p) = env("FUR_P") { o.fit.embed = p as usize; }
+        if let Some(p) = env("FUR_SHIFT") { o.fit.shift = p as usize; }
+        if let Some(p) = env("FUR_R") { o.fit.dyn_order = p as u32; }
+        if let Some(p) = env("FUR_K") { o.fit.manifold_order = p as u32; }
+        if let Some(p) = env("FUR_RIDGE") { o.fit.ridge = Ridge::Fixed(p); }
+        if let Some(a) = env("FUR_SLOW") {
+            o.slow_starts = vec![(a, 0.0), (a, 1.5707963), (2.0 * a, 0.7), (4.0 * a, 2.3)];
+        }
+        if env("FUR_IC") == Some(0.0) { o.initial_states.truncate(2); }
+        let t0 = std::time::Instant::now();
+        let pm = furuta_parametric(&o).unwrap();
+        eprintln!("fit time {:.1} s", t0.elapsed().as_secs_f64());
+        for t in &pm.trained {
+            let (r, e) = (t.normal_form.linear_rates(), t.exact.rates);
+            eprintln!("EXP dt {:5.2}: slow err {:+.3e} ({:+.5} vs {:+.5}), fast err {:+.3e}", t.dt_ms, (r[0] - e[0]) / e[0], r[0], e[0], (r[1] - e[1]) / e[1]);
+        }
     }
 }
 
