@@ -229,5 +229,30 @@ pub fn device_section(rep: &mut Report, table: &Path) -> Result<(), Box<dyn Erro
         rep.figure("fig/device_predictor.png", "Instructions per predictor step against the number of centres, per sqrt flavour");
     }
     rep.summary.insert("device".into(), v);
+    pil_paragraph(rep, &table.with_file_name("pil").join("summary.json"))
+}
+
+/// The processor-in-the-loop result (`cargo xtask pil` writes `qemu/target/pil/summary.json`).
+fn pil_paragraph(rep: &mut Report, path: &Path) -> Result<(), Box<dyn Error>> {
+    let Ok(text) = std::fs::read_to_string(path) else {
+        rep.para(&format!("No processor-in-the-loop run at {}: run <code>cargo xtask pil</code>.", esc(&path.display().to_string())));
+        rep.summary.insert("pil".into(), json!({"missing": path.display().to_string()}));
+        return Ok(());
+    };
+    let v: Value = serde_json::from_str(&text).map_err(|e| format!("{}: {e}", path.display()))?;
+    let f = |k: &str| v.get(k).map_or("-".to_string(), |x| x.to_string());
+    rep.para(&format!(
+        "Processor in the loop (plant on the host, integer controller and RBF predictor in QEMU over the emulated UART,          framed and CRC-checked): {} periods, control codes identical to the host-only controller: {}, predictions          compared: {}, max relative prediction difference vs the host's f32 evaluation: {}, {} round trips/s.",
+        f("periods"),
+        f("codes_identical"),
+        f("predictions_compared"),
+        f("max_pred_rel_diff"),
+        v.get("round_trips_per_s").and_then(Value::as_f64).map_or("-".into(), |x| format!("{x:.0}"))
+    ));
+    rep.summary.insert(
+        "pil".into(),
+        json!({"periods": v.get("periods"), "codes_identical": v.get("codes_identical"),
+               "max_pred_rel_diff": v.get("max_pred_rel_diff"), "source": path.display().to_string()}),
+    );
     Ok(())
 }

@@ -304,6 +304,8 @@ fn device_table_cmd(json: bool) -> Result<()> {
 fn reproduce(rest: &[String]) -> Result<()> {
     install()?;
     device_table_cmd(false)?;
+    // A processor-in-the-loop run; its summary.json goes into the report.
+    pil("furuta-quant-dt25", 2000)?;
     let mut c = cmd("cargo");
     c.current_dir(root()).args(["run", "--release", "-p", "host", "--bin", "ssmctl", "--", "reproduce"]).args(rest);
     run(&mut c)
