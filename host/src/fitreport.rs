@@ -180,7 +180,7 @@ pub fn device_section(rep: &mut Report, table: &Path) -> Result<(), Box<dyn Erro
             esc(&table.display().to_string())
         ));
         rep.summary.insert("device".into(), json!({"missing": table.display().to_string()}));
-        return Ok(());
+        return pil_paragraph(rep, &table.with_file_name("pil").join("summary.json"));
     };
     let v: Value = serde_json::from_str(&text).map_err(|e| format!("{}: {e}", table.display()))?;
     let g = |k: &str| v.get(k).and_then(Value::as_f64).map_or("-".to_string(), |x| format!("{x:.0}"));
