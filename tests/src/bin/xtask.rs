@@ -22,6 +22,8 @@
 mod device_table;
 #[path = "../xtask/elf.rs"]
 mod elf;
+#[path = "../xtask/rng.rs"]
+mod rng;
 #[path = "../xtask/traces.rs"]
 mod traces;
 #[path = "../xtask/vectors.rs"]

@@ -3,6 +3,7 @@
 //! the firmware's `dt ...` lines (`qemu/src/bin/device_table.rs`).
 
 use shared::ControllerConfig;
+use crate::rng::{Rng, orthonormal_v1};
 use shared::model::OwnedModel;
 use std::collections::BTreeMap;
 use std::fmt::Write as _;
@@ -20,40 +21,12 @@ pub const FLAVOURS: [&str; 3] = ["libm", "fast", "hardware"];
 /// SysTick ticks (40 ns) per instruction (2^7 ns) under `-icount shift=7`.
 pub const TICKS_PER_INSTRUCTION: f64 = 128.0 / 40.0;
 
-/// SplitMix64.
-struct Rng(u64);
-impl Rng {
-    fn next(&mut self) -> u64 {
-        self.0 = self.0.wrapping_add(0x9e37_79b9_7f4a_7c15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
-        z ^ (z >> 31)
-    }
-    /// Uniform in [-1, 1).
-    fn sym(&mut self) -> f64 {
-        (self.next() >> 11) as f64 / (1u64 << 53) as f64 * 2.0 - 1.0
-    }
-}
-
 /// A random but valid model with `k` centres: `V1` with orthonormal columns, three damped
 /// rotations as the affine part, centres uniform in `[-1, 1]^d`, RBF weights of size
 /// `0.05 / sqrt(k)` (the RBF sum stays O(0.1) and the map contracting for every `k`), small lift coefficients.
 pub fn model(k: usize) -> OwnedModel {
     let mut rng = Rng(0x4445_5654_4142_0000 ^ k as u64);
-    let mut cols: Vec<Vec<f64>> = Vec::new();
-    while cols.len() < D {
-        let mut v: Vec<f64> = (0..P).map(|_| rng.sym()).collect();
-        for c in &cols {
-            let dot: f64 = v.iter().zip(c).map(|(a, b)| a * b).sum();
-            v.iter_mut().zip(c).for_each(|(a, b)| *a -= dot * b);
-        }
-        let norm = v.iter().map(|a| a * a).sum::<f64>().sqrt();
-        if norm > 1e-3 {
-            cols.push(v.into_iter().map(|a| a / norm).collect());
-        }
-    }
-    let v1 = (0..P).flat_map(|i| cols.iter().map(move |c| c[i] as f32)).collect();
+    let v1 = orthonormal_v1(&mut rng, P, D);
     let n_terms = shared::model::lift_terms(D, ORDER).expect("small");
     let lift = (0..P * n_terms).map(|_| (0.05 * rng.sym()) as f32).collect();
     let centres = (0..k * D).map(|_| rng.sym() as f32).collect();

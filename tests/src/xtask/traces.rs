@@ -3,6 +3,7 @@
 //! configurations. The firmware runs the same inputs through the same code and must agree
 //! exactly (`qemu/src/trace_tests.rs`).
 
+use crate::rng::Rng;
 use controller::IntPd;
 use shared::{ControllerConfig, QuantMode, Quantization};
 use std::f64::consts::PI;
@@ -44,22 +45,6 @@ pub fn cases() -> Vec<Case> {
         Case { name: "pid_delay3", config: paper_counts(0.5, 3, Some(10.0)) },
         Case { name: "pid_delay1_no_umax", config: paper_counts(0.5, 1, None) },
     ]
-}
-
-/// SplitMix64.
-struct Rng(u64);
-impl Rng {
-    fn next(&mut self) -> u64 {
-        self.0 = self.0.wrapping_add(0x9e37_79b9_7f4a_7c15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
-        z ^ (z >> 31)
-    }
-    /// Uniform integer in `[lo, hi]`.
-    fn range(&mut self, lo: i64, hi: i64) -> i64 {
-        lo + (self.next() % (hi - lo + 1) as u64) as i64
-    }
 }
 
 /// `WALK` steps of a mean-reverting random walk in counts (small steps, occasional jumps of

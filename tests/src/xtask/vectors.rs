@@ -4,6 +4,7 @@
 
 use controller::predictor::{Predictor, SqrtFlavour};
 use shared::ControllerConfig;
+use crate::rng::{Rng, orthonormal_v1};
 use shared::model::{Model, OwnedModel};
 use std::fmt::Write as _;
 
@@ -20,40 +21,11 @@ pub const HORIZON: u32 = 12;
 pub const FREE_RUN: usize = 100;
 pub const CORRUPT_CASES: u32 = 2000;
 
-/// SplitMix64, for reproducible pseudo-random coefficients.
-struct Rng(u64);
-impl Rng {
-    fn next(&mut self) -> u64 {
-        self.0 = self.0.wrapping_add(0x9e37_79b9_7f4a_7c15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
-        z ^ (z >> 31)
-    }
-    /// Uniform in [-1, 1).
-    fn sym(&mut self) -> f64 {
-        (self.next() >> 11) as f64 / (1u64 << 53) as f64 * 2.0 - 1.0
-    }
-}
-
 /// A stable synthetic model: `V1` with orthonormal columns, a contracting rotation pair as
 /// the affine part, small RBF weights and lift coefficients.
 pub fn model() -> OwnedModel {
     let mut rng = Rng(0x0053_534d_5200_0001);
-    // Gram-Schmidt on random columns (f64), stored row-major p x d.
-    let mut cols: Vec<Vec<f64>> = Vec::new();
-    while cols.len() < D {
-        let mut v: Vec<f64> = (0..P).map(|_| rng.sym()).collect();
-        for c in &cols {
-            let dot: f64 = v.iter().zip(c).map(|(a, b)| a * b).sum();
-            v.iter_mut().zip(c).for_each(|(a, b)| *a -= dot * b);
-        }
-        let norm = v.iter().map(|a| a * a).sum::<f64>().sqrt();
-        if norm > 1e-3 {
-            cols.push(v.into_iter().map(|a| a / norm).collect());
-        }
-    }
-    let v1 = (0..P).flat_map(|i| cols.iter().map(move |c| c[i] as f32)).collect();
+    let v1 = orthonormal_v1(&mut rng, P, D);
     let n_terms = shared::model::lift_terms(D, ORDER).expect("small");
     let lift = (0..P * n_terms).map(|_| (0.05 * rng.sym()) as f32).collect();
     let centres = (0..K * D).map(|_| rng.sym() as f32).collect();
