@@ -282,21 +282,7 @@ fn start(elf: &Path, out: &Path) -> Result<(Qemu, TcpStream), PilError> {
 /// Fits a 4D RBF SSM model of the scene's primary angle (1,200 simulated periods) and
 /// returns the device blob carrying the scene's controller configuration.
 pub fn fit_model(scene: &Scene) -> Result<Vec<u8>, PilError> {
-    use crate::ssm::{Dynamics, FitOptions, Ridge, TimeSeries, fit};
-    let mut s = scene.clone();
-    s.run.periods = 1200;
-    let tr = crate::sim::simulate(&s, None)?;
-    let ts = TimeSeries::new("theta", tr.t.clone(), tr.primary()).map_err(|e| PilError::Fit(e.to_string()))?;
-    let opts = FitOptions {
-        dim: 4,
-        embed: 9,
-        shift: 1,
-        manifold_order: 2,
-        dyn_order: 1,
-        dynamics: Dynamics::Rbf { centers: 60 },
-        ridge: Ridge::Fixed(1e-10),
-    };
-    let m = fit(std::slice::from_ref(&ts), &opts).map_err(|e| PilError::Fit(e.to_string()))?;
+    let (m, _) = crate::export::fit_scene_rbf(scene, 1200).map_err(PilError::Fit)?;
     let owned = crate::export::to_device_model(&m, scene.controller_config()).map_err(|e| PilError::Fit(e.to_string()))?;
     crate::export::encode(&owned).map_err(|e| PilError::Fit(e.to_string()))
 }

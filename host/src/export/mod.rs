@@ -123,6 +123,31 @@ pub fn to_device_model(m: &SsmModel, cfg: ControllerConfig) -> Result<OwnedModel
     })
 }
 
+/// The reference device model: the scene's primary angle over `periods` simulated periods,
+/// a 4D SSM (p = 9, quadratic lift) with a 60-centre RBF map. Returns the model and the
+/// series it was fitted to.
+pub fn fit_scene_rbf(
+    scene: &crate::scene::Scene,
+    periods: u64,
+) -> Result<(crate::ssm::SsmModel, crate::ssm::TimeSeries), String> {
+    use crate::ssm::{Dynamics, FitOptions, Ridge, TimeSeries, fit};
+    let mut s = scene.clone();
+    s.run.periods = periods;
+    let tr = crate::sim::simulate(&s, None).map_err(|e| e.to_string())?;
+    let ts = TimeSeries::new("theta", tr.t.clone(), tr.primary()).map_err(|e| e.to_string())?;
+    let opts = FitOptions {
+        dim: 4,
+        embed: 9,
+        shift: 1,
+        manifold_order: 2,
+        dyn_order: 1,
+        dynamics: Dynamics::Rbf { centers: 60 },
+        ridge: Ridge::Fixed(1e-10),
+    };
+    let m = fit(std::slice::from_ref(&ts), &opts).map_err(|e| e.to_string())?;
+    Ok((m, ts))
+}
+
 /// Encodes the device blob.
 pub fn encode(model: &OwnedModel) -> Result<Vec<u8>, ExportError> {
     model.encode().map_err(|e| ExportError::Encode(format!("{e:?}")))

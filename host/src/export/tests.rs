@@ -1,25 +1,12 @@
 use super::*;
 use crate::scene::Scene;
-use crate::sim::simulate;
-use crate::ssm::{Dynamics, FitOptions, Ridge, TimeSeries, fit};
+use crate::ssm::{Dynamics, TimeSeries, fit};
 use controller::predictor::{Predictor, SqrtFlavour};
 use shared::model::Model;
 
 /// A fitted RBF model of the Furuta loop at dt = 25 ms (theta series, 4D SSM).
 fn fitted() -> (SsmModel, TimeSeries) {
-    let scene = Scene::load("furuta-dt25", &["run.periods=1200".into()]).unwrap();
-    let tr = simulate(&scene, None).unwrap();
-    let ts = TimeSeries::new("theta", tr.t.clone(), tr.primary()).unwrap();
-    let opts = FitOptions {
-        dim: 4,
-        embed: 9,
-        shift: 1,
-        manifold_order: 2,
-        dyn_order: 1,
-        dynamics: Dynamics::Rbf { centers: 60 },
-        ridge: Ridge::Fixed(1e-10),
-    };
-    (fit(std::slice::from_ref(&ts), &opts).unwrap(), ts)
+    fit_scene_rbf(&Scene::load("furuta-dt25", &[]).unwrap(), 1200).unwrap()
 }
 
 #[test]
