@@ -105,3 +105,106 @@ pub fn bench_simulate(periods: u64, quick: bool, mut progress: impl FnMut(&str))
     }
     Ok((rows, label(&configs[0])))
 }
+
+// ------------------------------------------------------------------------ fitting cost
+
+/// One row of the fitting cost table (second table): one setting varied from the
+/// recommended sloshing fit, which is the baseline.
+#[derive(Clone, Debug, Serialize)]
+pub struct FitBenchRow {
+    pub setting: String,
+    /// Best-of-repeats wall time of one fit, ms.
+    pub fit_ms: f64,
+    /// `fit_ms` over the baseline's, same run.
+    pub ratio_vs_baseline: f64,
+    pub nmte_test: f64,
+    pub dtw_nmte_test: f64,
+    /// Why the test prediction stopped early, if it did.
+    pub stopped: Option<String>,
+}
+
+/// The recommended 2D sloshing fit (p = 5, shift 1, manifold order 3, polynomial map of
+/// order 5, no ridge): the baseline of [`bench_fit`].
+pub fn sloshing_fit_options() -> crate::ssm::FitOptions {
+    fit_opts(5, 3, 5, crate::ssm::Dynamics::Map)
+}
+
+fn fit_opts(p: usize, k: u32, r: u32, dynamics: crate::ssm::Dynamics) -> crate::ssm::FitOptions {
+    crate::ssm::FitOptions { dim: 2, embed: p, shift: 1, manifold_order: k, dyn_order: r, dynamics, ridge: crate::ssm::Ridge::Fixed(0.0) }
+}
+
+/// Best-of-`reps` fit time (s) and the last model.
+pub fn timed_fit(
+    train: &[crate::ssm::TimeSeries],
+    o: &crate::ssm::FitOptions,
+    reps: usize,
+) -> Result<(f64, crate::ssm::SsmModel), crate::ssm::FitError> {
+    let mut best = f64::INFINITY;
+    let mut model = None;
+    for _ in 0..reps.max(1) {
+        let t0 = Instant::now();
+        let m = crate::ssm::fit(train, o)?;
+        best = best.min(t0.elapsed().as_secs_f64());
+        model = Some(m);
+    }
+    Ok((best, model.ok_or(crate::ssm::FitError::NoTrainingData)?))
+}
+
+/// Fit time against test error: manifold order, map order, embedding dimension, number of
+/// training samples, flow vs map, RBF centres, each varied alone from
+/// [`sloshing_fit_options`] (first row, the baseline). `train` are the training series, `test`
+/// the held-out one. Returns the rows and the 50-centre RBF model (exported by the report).
+pub fn bench_fit(
+    train: &[crate::ssm::TimeSeries],
+    test: &crate::ssm::TimeSeries,
+    quick: bool,
+    mut progress: impl FnMut(&str),
+) -> Result<(Vec<FitBenchRow>, Option<crate::ssm::SsmModel>), crate::ssm::FitError> {
+    use crate::ssm::{Dynamics, TimeSeries};
+    let mut configs: Vec<(String, crate::ssm::FitOptions, f64)> =
+        vec![("baseline: p = 5, manifold 3, map 5".into(), sloshing_fit_options(), 1.0)];
+    for k in [1, 5, 7] {
+        configs.push((format!("manifold order {k}"), fit_opts(5, k, 5, Dynamics::Map), 1.0));
+    }
+    for r in [3, 7, 9] {
+        configs.push((format!("map order {r}"), fit_opts(5, 3, r, Dynamics::Map), 1.0));
+    }
+    for p in [7, 9, 13] {
+        configs.push((format!("embedding p = {p}"), fit_opts(p, 3, 5, Dynamics::Map), 1.0));
+    }
+    for frac in [0.25, 0.5] {
+        configs.push((format!("{:.0} % of training samples", frac * 100.0), sloshing_fit_options(), frac));
+    }
+    configs.push(("flow, order 5".into(), fit_opts(5, 3, 5, Dynamics::Flow), 1.0));
+    for c in [25, 50, 100] {
+        configs.push((format!("RBF map, {c} centres"), fit_opts(5, 3, 1, Dynamics::Rbf { centers: c }), 1.0));
+    }
+    let reps = if quick { 2 } else { 10 };
+    let mut rows: Vec<FitBenchRow> = Vec::new();
+    let mut rbf50 = None;
+    for (label, o, frac) in &configs {
+        progress(label);
+        let tr: Vec<TimeSeries> = train
+            .iter()
+            .map(|s| {
+                let n = ((s.x.len() as f64) * frac) as usize;
+                TimeSeries::new(s.name.clone(), s.t[..n].to_vec(), s.x[..n].to_vec())
+            })
+            .collect::<Result<_, _>>()?;
+        let (secs, m) = timed_fit(&tr, o, reps)?;
+        let p = m.predict(test)?;
+        let base = rows.first().map_or(secs * 1e3, |b| b.fit_ms);
+        rows.push(FitBenchRow {
+            setting: label.clone(),
+            fit_ms: secs * 1e3,
+            ratio_vs_baseline: secs * 1e3 / base,
+            nmte_test: p.nmte(test),
+            dtw_nmte_test: p.nmte_dtw(test, None),
+            stopped: p.stop.as_ref().map(|s| format!("{:?}", s.reason)),
+        });
+        if matches!(o.dynamics, Dynamics::Rbf { centers: 50 }) {
+            rbf50 = Some(m);
+        }
+    }
+    Ok((rows, rbf50))
+}

@@ -221,6 +221,17 @@ pub enum BenchCmd {
         #[arg(long)]
         quick: bool,
     },
+    /// Fit time vs test error on the sloshing data (train decay_0, decay_1; test decay_2),
+    /// one setting varied at a time; ratios against the recommended fit in the same run.
+    Fit {
+        #[arg(long)]
+        json: bool,
+        /// Folder holding `sloshing/decay_{0,1,2}.csv`.
+        #[arg(long, default_value = "../shared/data")]
+        data_dir: PathBuf,
+        #[arg(long)]
+        quick: bool,
+    },
 }
 
 fn spinner(quiet: bool, len: Option<u64>, msg: &str) -> Option<ProgressBar> {
@@ -412,6 +423,38 @@ pub fn run(cli: Cli) -> Result<(), Box<dyn std::error::Error>> {
                     s.periods_per_s,
                     s.stopped.as_ref().map_or(String::new(), |r| format!(", stopped: {r}"))
                 );
+            }
+        }
+        Cmd::Bench { what: BenchCmd::Fit { json, data_dir, quick } } => {
+            let dir = data_dir.join("sloshing");
+            let series: Vec<crate::ssm::TimeSeries> = (0..3)
+                .map(|i| crate::ssm::load_csv(dir.join(format!("decay_{i}.csv"))))
+                .collect::<Result<_, _>>()?;
+            let pb = spinner(quiet, None, "bench fit");
+            let (rows, _) = bench::bench_fit(&series[..2], &series[2], quick, |m| {
+                if let Some(pb) = &pb {
+                    pb.set_message(m.to_string());
+                    pb.tick();
+                }
+            })?;
+            if let Some(pb) = pb {
+                pb.finish_and_clear();
+            }
+            if json {
+                outln!("{}", serde_json::to_string_pretty(&rows)?);
+            } else {
+                outln!("{:<36} {:>9} {:>10} {:>10} {:>10}  stopped", "setting", "fit ms", "x baseline", "NMTE", "DTW-NMTE");
+                for r in &rows {
+                    outln!(
+                        "{:<36} {:>9.3} {:>10.2} {:>10.4} {:>10.4}  {}",
+                        r.setting,
+                        r.fit_ms,
+                        r.ratio_vs_baseline,
+                        r.nmte_test,
+                        r.dtw_nmte_test,
+                        r.stopped.as_deref().unwrap_or("-")
+                    );
+                }
             }
         }
         Cmd::Bench { what: BenchCmd::Simulate { json, periods, quick } } => {

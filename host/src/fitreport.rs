@@ -7,32 +7,14 @@ use crate::report::{Report, esc, num};
 use crate::scene::Scene;
 use crate::sim::simulate;
 use crate::ssm::metrics::amplitude_spectrum;
-use crate::ssm::{Dynamics, FitOptions, Ridge, SsmModel, TimeSeries, fit, load_csv};
+use crate::ssm::{Dynamics, FitOptions, Ridge, TimeSeries, fit, load_csv};
 use plotters::style::RGBColor;
 use serde_json::{Value, json};
 use std::error::Error;
 use std::path::Path;
-use std::time::Instant;
 
 const BLACK: RGBColor = RGBColor(0, 0, 0);
 const RED: RGBColor = RGBColor(200, 30, 30);
-
-fn opts(p: usize, k: u32, r: u32, dynamics: Dynamics) -> FitOptions {
-    FitOptions { dim: 2, embed: p, shift: 1, manifold_order: k, dyn_order: r, dynamics, ridge: Ridge::Fixed(0.0) }
-}
-
-/// Best-of-`reps` fit time (s) and the model.
-fn timed_fit(train: &[TimeSeries], o: &FitOptions, reps: usize) -> Result<(f64, SsmModel), Box<dyn Error>> {
-    let mut best = f64::INFINITY;
-    let mut model = None;
-    for _ in 0..reps.max(1) {
-        let t0 = Instant::now();
-        let m = fit(train, o)?;
-        best = best.min(t0.elapsed().as_secs_f64());
-        model = Some(m);
-    }
-    Ok((best, model.ok_or("no fit")?))
-}
 
 /// The sloshing section; skipped with a note when the data folder is absent.
 pub fn sloshing_section(rep: &mut Report, data_dir: &Path, quick: bool) -> Result<(), Box<dyn Error>> {
@@ -54,7 +36,7 @@ pub fn sloshing_section(rep: &mut Report, data_dir: &Path, quick: bool) -> Resul
     let series: Vec<TimeSeries> = files.iter().map(load_csv).collect::<Result<_, _>>()?;
     let (train, test) = (&series[..2], &series[2]);
     let reps = if quick { 2 } else { 10 };
-    let (secs, m) = timed_fit(train, &opts(5, 3, 5, Dynamics::Map), reps)?;
+    let (secs, m) = crate::bench::timed_fit(train, &crate::bench::sloshing_fit_options(), reps)?;
     let pred = m.predict(test)?;
     let (nmte, dtw) = (pred.nmte(test), pred.nmte_dtw(test, None));
     let eig: Vec<Value> = m.eigenvalues_ct().iter().map(|&(re, im)| json!({"re": re, "im": im})).collect();
@@ -91,47 +73,28 @@ pub fn sloshing_section(rep: &mut Report, data_dir: &Path, quick: bool) -> Resul
     rep.figure("fig/sloshing_prediction.png", "Test trajectory decay_2 and the model's prediction from its first point");
     rep.figure("fig/sloshing_spectrum.png", "FFT amplitude spectra of the test trajectory and the prediction");
 
-    // What accuracy costs in time (second table).
-    let mut rows = Vec::new();
-    let mut list = Vec::new();
-    let mut configs: Vec<(String, FitOptions, f64)> = Vec::new();
-    for k in [1, 3, 5, 7] {
-        configs.push((format!("manifold order {k}"), opts(5, k, 5, Dynamics::Map), 1.0));
-    }
-    for r in [3, 5, 7, 9] {
-        configs.push((format!("map order {r}"), opts(5, 3, r, Dynamics::Map), 1.0));
-    }
-    for p in [5, 7, 9, 13] {
-        configs.push((format!("embedding p = {p}"), opts(p, 3, 5, Dynamics::Map), 1.0));
-    }
-    for frac in [0.25, 0.5, 1.0] {
-        configs.push((format!("{:.0} % of training samples", frac * 100.0), opts(5, 3, 5, Dynamics::Map), frac));
-    }
-    configs.push(("flow, order 5".into(), opts(5, 3, 5, Dynamics::Flow), 1.0));
-    for c in [25, 50, 100] {
-        configs.push((format!("RBF map, {c} centres"), opts(5, 3, 1, Dynamics::Rbf { centers: c }), 1.0));
-    }
-    let reps = if quick { 1 } else { 5 };
-    let mut rbf50 = None;
-    for (label, o, frac) in &configs {
-        let tr: Vec<TimeSeries> = train
-            .iter()
-            .map(|s| {
-                let n = ((s.x.len() as f64) * frac) as usize;
-                TimeSeries::new(s.name.clone(), s.t[..n].to_vec(), s.x[..n].to_vec())
-            })
-            .collect::<Result<_, _>>()?;
-        let (secs, m) = timed_fit(&tr, o, reps)?;
-        let p = m.predict(test)?;
-        let (e, ed) = (p.nmte(test), p.nmte_dtw(test, None));
-        rows.push(vec![label.clone(), format!("{:.2}", secs * 1e3), num(e), num(ed), p.stop.as_ref().map_or("-".into(), |s| format!("{:?}", s.reason))]);
-        list.push(json!({"setting": label, "fit_ms": secs * 1e3, "nmte_test": e, "dtw_nmte_test": ed}));
-        if matches!(o.dynamics, Dynamics::Rbf { centers: 50 }) {
-            rbf50 = Some(m);
-        }
-    }
-    rep.para("What accuracy costs in time (fitting): each row varies one setting from the recommended one; fit time is the best of repeated fits on one core.");
-    rep.table(&["setting", "fit [ms]", "test NMTE", "test DTW-NMTE", "stopped"], &rows);
+    // What accuracy costs in time (second table; also `ssmctl bench fit`).
+    let (bench_rows, rbf50) = crate::bench::bench_fit(train, test, quick, |_| {})?;
+    let rows: Vec<Vec<String>> = bench_rows
+        .iter()
+        .map(|r| {
+            vec![
+                r.setting.clone(),
+                format!("{:.2}", r.fit_ms),
+                format!("{:.2}", r.ratio_vs_baseline),
+                num(r.nmte_test),
+                num(r.dtw_nmte_test),
+                r.stopped.clone().unwrap_or_else(|| "-".into()),
+            ]
+        })
+        .collect();
+    let list = serde_json::to_value(&bench_rows)?;
+    rep.para(
+        "What accuracy costs in time (fitting): each row varies one setting from the baseline (first row); fit time is \
+         the best of repeated fits on one core, and its ratio to the baseline's is measured in the same run \
+         (<code>ssmctl bench fit</code> prints the same table).",
+    );
+    rep.table(&["setting", "fit [ms]", "x baseline", "test NMTE", "test DTW-NMTE", "stopped"], &rows);
     if let Some(m) = rbf50 {
         let blob = encode(&to_device_model(&m, shared::ControllerConfig::paper(m.dt))?)?;
         std::fs::write(rep.dir().join("sloshing-rbf50.bin"), &blob)?;

@@ -109,3 +109,26 @@ fn reproduce_quick_writes_the_report() {
     }
     assert!(dir.join("fig/stability_chart.png").metadata().unwrap().len() > 10_000);
 }
+
+#[test]
+fn bench_fit_rows_have_the_contract_keys() {
+    let data = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../shared/data");
+    if !data.join("sloshing/decay_2.csv").is_file() {
+        eprintln!("SKIPPED: {} not found", data.display());
+        return;
+    }
+    let (ok, out, err) = ssmctl(&["bench", "fit", "--json", "--quick", "--data-dir", data.to_str().unwrap()]);
+    assert!(ok, "{err}");
+    let v: Value = serde_json::from_str(&out).unwrap();
+    let rows = v.as_array().unwrap();
+    assert!(rows.len() >= 10);
+    assert_eq!(rows[0]["ratio_vs_baseline"].as_f64(), Some(1.0));
+    // The baseline meets the sloshing target of the Python reference (test NMTE 0.012).
+    assert!(rows[0]["nmte_test"].as_f64().unwrap() < 0.012, "{}", rows[0]);
+    for r in rows {
+        assert!(r["fit_ms"].as_f64().unwrap() > 0.0 && r["nmte_test"].as_f64().unwrap().is_finite(), "{r}");
+    }
+    // A missing data folder names the file.
+    let (ok, _, err) = ssmctl(&["bench", "fit", "--data-dir", "/nonexistent-dir"]);
+    assert!(!ok && err.contains("decay_0.csv"), "{err}");
+}
