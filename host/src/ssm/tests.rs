@@ -355,3 +355,33 @@ fn synthetic_known_normal_form_is_recovered() {
     }
     println!("worst relative coefficient error {worst:.2e}");
 }
+
+/// Near the heteroclinic bifurcation (dt = 31.40 / 31.41 ms) the Furuta fits stay well
+/// conditioned: the design matrices' condition numbers are finite and reported, the map's
+/// residual is small, the manifold constraint holds, and the fitted linear rates stay near
+/// the exact multipliers (the bifurcation is global: nothing local degenerates there).
+#[test]
+fn near_bifurcation_fits_are_well_conditioned() {
+    use super::furuta::{FurutaOptions, furuta_parametric};
+    let opts = FurutaOptions { dts_ms: vec![31.40, 31.41], ..FurutaOptions::default() };
+    let pm = furuta_parametric(&opts).unwrap();
+    for t in &pm.trained {
+        let dc = t.model.dynamics.conditioning().clone();
+        let mc = t.model.manifold.conditioning.clone().unwrap();
+        println!("dt {}: dynamics {dc:?}\n  manifold {mc:?}", t.dt_ms);
+        for c in [&dc, &mc] {
+            assert!(c.cond.is_finite() && c.cond < 1e8, "dt {}: {c:?}", t.dt_ms);
+        }
+        // One-step map residual (the manifold's residual is relative to the small
+        // off-tangent part of the data and is not a conditioning measure).
+        assert!(dc.rel_residual < 1e-2, "dt {}: {dc:?}", t.dt_ms);
+        assert!(t.model.manifold.constraint_defect() < 1e-10);
+        let (r, e) = (t.normal_form.linear_rates(), t.exact.rates);
+        let err = [(r[0] - e[0]) / e[0], (r[1] - e[1]) / e[1]];
+        println!("  rates {r:?} vs exact {e:?}: rel err {err:?}");
+        // Measured: fast -1.9 %, slow -9.3 % at 31.40 ms (trained here directly, the runs
+        // leave |theta| < 0.3 early near the bifurcation, so the slow mode is poorly sampled;
+        // the parametric model interpolated from 31/32 ms is better: 0.7 % / 1.6 %).
+        assert!(err[1].abs() < 0.03 && err[0].abs() < 0.15, "dt {}: {err:?}", t.dt_ms);
+    }
+}
