@@ -425,7 +425,7 @@ mod tests {
         if let Some(p) = env("FUR_K") { o.fit.manifold_order = p as u32; }
         if let Some(p) = env("FUR_RIDGE") { o.fit.ridge = Ridge::Fixed(p); }
         if let Some(a) = env("FUR_SLOW") {
-            o.slow_starts = vec![(a, 0.0), (a, 1.5707963), (2.0 * a, 0.7), (4.0 * a, 2.3)];
+            o.slow_starts = vec![(a, 0.0), (a, std::f64::consts::FRAC_PI_2), (2.0 * a, 0.7), (4.0 * a, 2.3)];
         }
         if env("FUR_IC") == Some(0.0) { o.initial_states.truncate(2); }
         let t0 = std::time::Instant::now();

@@ -107,8 +107,8 @@ fn second_derivative_operator(x: &[f64]) -> Vec<Vec<f64>> {
         for r in (0..inner).rev() {
             m[r] = d[r] - if r + 1 < inner { c[r] * m[r + 1] } else { 0.0 };
         }
-        for r in 0..inner {
-            s[r + 1][j] = m[r];
+        for (row, mr) in s[1..n - 1].iter_mut().zip(&m) {
+            row[j] = *mr;
         }
     }
     s
