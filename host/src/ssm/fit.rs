@@ -130,6 +130,20 @@ impl Prediction {
 
 /// Fits an SSM-reduced model to training series `train` (each validated again here).
 pub fn fit(train: &[TimeSeries], opts: &FitOptions) -> Result<SsmModel, FitError> {
+    fit_impl(train, opts, None)
+}
+
+/// [`fit`] with a given tangent basis `v1` (`p x d`, column-major, orthonormal columns)
+/// instead of the SVD of `train`'s own data: the manifold is a graph over `v1` including a
+/// degree-1 normal part (see [`Manifold::fit_with_tangent`]). Models fitted with the same
+/// `v1` share their reduced coordinates `eta = V1^T y`, so their coefficients can be
+/// compared and interpolated.
+pub fn fit_with_tangent(train: &[TimeSeries], opts: &FitOptions, v1: &[f64]) -> Result<SsmModel, FitError> {
+    fit_impl(train, opts, Some(v1))
+}
+
+/// Delay embeddings (`p x M_i`) and sampling steps of validated training series.
+pub fn embed_training(train: &[TimeSeries], opts: &FitOptions) -> Result<(Vec<faer::Mat<f64>>, Vec<f64>), FitError> {
     opts.validate()?;
     if train.is_empty() {
         return Err(FitError::NoTrainingData);
@@ -143,7 +157,15 @@ pub fn fit(train: &[TimeSeries], opts: &FitOptions) -> Result<SsmModel, FitError
         ys.push(delay_embed(ts, opts.embed, opts.shift, min_points)?);
         dts.push(ts.dt().unwrap_or(0.0));
     }
-    let manifold = Manifold::fit(&ys, opts.dim, opts.manifold_order, opts.ridge)?;
+    Ok((ys, dts))
+}
+
+fn fit_impl(train: &[TimeSeries], opts: &FitOptions, v1: Option<&[f64]>) -> Result<SsmModel, FitError> {
+    let (ys, dts) = embed_training(train, opts)?;
+    let manifold = match v1 {
+        None => Manifold::fit(&ys, opts.dim, opts.manifold_order, opts.ridge)?,
+        Some(v1) => Manifold::fit_with_tangent(&ys, v1, opts.dim, opts.manifold_order, opts.ridge)?,
+    };
     let etas: Vec<_> = ys.iter().map(|y| manifold.reduce_points(y.as_ref())).collect();
     let trajs: Vec<EtaTrajectory> =
         etas.iter().zip(&dts).map(|(e, &dt)| EtaTrajectory { eta: e.as_ref(), dt }).collect();

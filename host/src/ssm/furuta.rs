@@ -18,6 +18,7 @@ use super::data::TimeSeries;
 use super::dynamics::Dynamics;
 use super::error::FitError;
 use super::fit::{FitOptions, SsmModel, fit};
+use super::furuta_predict::{Interp, interp_weights};
 use super::normal_form::{NormalFormError, NormalFormOptions, NormalFormTable, PolarNormalForm, model_normal_form};
 use super::ridge::Ridge;
 use crate::scene::{Scene, SceneError};
@@ -221,8 +222,8 @@ pub fn furuta_series_with_history(
         .map_err(|e| FurutaError::Fit(e.into()))
 }
 
-/// Fits the parametric model (slow: one simulation per dt and initial state).
-pub fn furuta_parametric(opts: &FurutaOptions) -> Result<ParametricModel, FurutaError> {
+/// Checks the options shared by [`furuta_parametric`] and the shared-tangent model.
+pub(crate) fn validate_options(opts: &FurutaOptions) -> Result<(), FurutaError> {
     if opts.fit.dim != 4 {
         return Err(FurutaError::BadOption { what: "fit.dim", why: format!("must be 4, got {}", opts.fit.dim) });
     }
@@ -232,17 +233,30 @@ pub fn furuta_parametric(opts: &FurutaOptions) -> Result<ParametricModel, Furuta
     if opts.initial_states.is_empty() {
         return Err(FurutaError::BadOption { what: "initial_states", why: "need at least one".into() });
     }
+    Ok(())
+}
+
+/// The training series of one sampling period: one run per initial state, then one per
+/// slow-mode start (see [`FurutaOptions`]).
+pub fn training_series(opts: &FurutaOptions, dt_ms: f64) -> Result<Vec<TimeSeries>, FurutaError> {
+    let mut train: Vec<TimeSeries> = opts
+        .initial_states
+        .iter()
+        .map(|&ic| furuta_series(dt_ms, ic, opts.periods, opts.skip, opts.max_theta))
+        .collect::<Result<_, _>>()?;
+    for &(amp, phase) in &opts.slow_starts {
+        let (ic, hist) = slow_mode_start(dt_ms, amp, phase)?;
+        train.push(furuta_series_with_history(dt_ms, ic, Some(&hist), opts.periods, opts.skip, opts.max_theta)?);
+    }
+    Ok(train)
+}
+
+/// Fits the parametric model (slow: one simulation per dt and initial state).
+pub fn furuta_parametric(opts: &FurutaOptions) -> Result<ParametricModel, FurutaError> {
+    validate_options(opts)?;
     let mut trained = Vec::with_capacity(opts.dts_ms.len());
     for &dt_ms in &opts.dts_ms {
-        let mut train: Vec<TimeSeries> = opts
-            .initial_states
-            .iter()
-            .map(|&ic| furuta_series(dt_ms, ic, opts.periods, opts.skip, opts.max_theta))
-            .collect::<Result<_, _>>()?;
-        for &(amp, phase) in &opts.slow_starts {
-            let (ic, hist) = slow_mode_start(dt_ms, amp, phase)?;
-            train.push(furuta_series_with_history(dt_ms, ic, Some(&hist), opts.periods, opts.skip, opts.max_theta)?);
-        }
+        let train = training_series(opts, dt_ms)?;
         let model = fit(&train, &opts.fit)?;
         let normal_form = model_normal_form(&model, &NormalFormOptions::default())
             .map_err(|source| FurutaError::NormalForm { dt: dt_ms, source })?;
@@ -283,6 +297,36 @@ impl ParametricModel {
         out.amp = lerp(&a.amp, &b.amp);
         out.phase = lerp(&a.phase, &b.phase);
         out.eigenvalues = (0..a.modes).map(|m| (out.amp[m][0], out.phase[m][0])).collect();
+        out.map_dt = Some(dt_ms * 1e-3);
+        Ok(out)
+    }
+
+    /// The polar normal form at `dt_ms` with every coefficient interpolated by `interp`
+    /// (linear: same as [`ParametricModel::normal_form_at`]; spline: natural cubic spline
+    /// through all training periods). No extrapolation.
+    pub fn normal_form_at_with(&self, dt_ms: f64, interp: Interp) -> Result<PolarNormalForm, FurutaError> {
+        if interp == Interp::Linear {
+            return self.normal_form_at(dt_ms);
+        }
+        let nodes: Vec<f64> = self.trained.iter().map(|t| t.dt_ms).collect();
+        let w = interp_weights(&nodes, dt_ms, interp)?;
+        let first = &self.trained[0].normal_form;
+        if let Some(t) = self.trained.iter().find(|t| t.normal_form.pexps != first.pexps || t.normal_form.modes != first.modes) {
+            return Err(FurutaError::BadOption { what: "normal forms", why: format!("dt = {} ms has other monomials than dt = {} ms", t.dt_ms, nodes[0]) });
+        }
+        let mix = |get: &dyn Fn(&PolarNormalForm) -> &Vec<Vec<f64>>| -> Vec<Vec<f64>> {
+            let mut out = get(first).clone();
+            for (m, row) in out.iter_mut().enumerate() {
+                for (k, v) in row.iter_mut().enumerate() {
+                    *v = self.trained.iter().zip(&w).map(|(t, wi)| wi * get(&t.normal_form)[m][k]).sum();
+                }
+            }
+            out
+        };
+        let mut out = first.clone();
+        out.amp = mix(&|n| &n.amp);
+        out.phase = mix(&|n| &n.phase);
+        out.eigenvalues = (0..first.modes).map(|m| (out.amp[m][0], out.phase[m][0])).collect();
         out.map_dt = Some(dt_ms * 1e-3);
         Ok(out)
     }
@@ -381,7 +425,7 @@ mod tests {
         if let Some(p) = env("FUR_K") { o.fit.manifold_order = p as u32; }
         if let Some(p) = env("FUR_RIDGE") { o.fit.ridge = Ridge::Fixed(p); }
         if let Some(a) = env("FUR_SLOW") {
-            o.slow_starts = vec![(a, 0.0), (a, 1.5707963), (2.0 * a, 0.7), (4.0 * a, 2.3)];
+            o.slow_starts = vec![(a, 0.0), (a, std::f64::consts::FRAC_PI_2), (2.0 * a, 0.7), (4.0 * a, 2.3)];
         }
         if env("FUR_IC") == Some(0.0) { o.initial_states.truncate(2); }
         let t0 = std::time::Instant::now();

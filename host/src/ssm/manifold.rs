@@ -41,46 +41,47 @@ pub struct Manifold {
 impl Manifold {
     /// Fits the manifold to embedded trajectories `ys` (each `p x M_i`).
     pub fn fit(ys: &[Mat<f64>], dim: usize, order: u32, ridge: Ridge) -> Result<Self, FitError> {
+        let (v1, singular_values) = tangent_space(ys, dim)?;
+        Self::fit_on(ys, v1, singular_values, order, 2, ridge)
+    }
+
+    /// Fits the manifold as a graph over a GIVEN tangent basis `v1` (`p x dim`,
+    /// column-major, orthonormal columns), e.g. one shared by several fits so that their
+    /// reduced coordinates agree. Unlike [`Manifold::fit`], the normal part also has
+    /// degree-1 terms (`order >= 1` always fits them): `v1` is in general not the tangent
+    /// space of this data set, and the linear normal part `W_1 eta` (with `V1^T W_1 = 0`)
+    /// absorbs the tilt. `singular_values` are those of this data set.
+    pub fn fit_with_tangent(ys: &[Mat<f64>], v1: &[f64], dim: usize, order: u32, ridge: Ridge) -> Result<Self, FitError> {
         let p = ys.first().map(|y| y.nrows()).ok_or(FitError::NoTrainingData)?;
+        if v1.len() != p * dim {
+            return Err(FitError::BadOption { what: "v1", why: format!("need p x dim = {p} x {dim} entries, got {}", v1.len()) });
+        }
+        for a in 0..dim {
+            for b in 0..dim {
+                let dot: f64 = v1[a * p..(a + 1) * p].iter().zip(&v1[b * p..(b + 1) * p]).map(|(x, y)| x * y).sum();
+                let want = if a == b { 1.0 } else { 0.0 };
+                if (dot - want).abs() >= 1e-9 || !dot.is_finite() {
+                    return Err(FitError::BadOption { what: "v1", why: format!("columns not orthonormal: v{a} . v{b} = {dot}") });
+                }
+            }
+        }
+        let all = stack_points(ys, p)?.0;
+        let singular_values: Vec<f64> = all.singular_values().map_err(|_| FitError::Svd { what: "embedded data SVD" })?;
+        Self::fit_on(ys, v1.to_vec(), singular_values, order, 1, ridge)
+    }
+
+    /// The graph fit over `v1`, normal-part degrees `min_deg..=order`.
+    fn fit_on(ys: &[Mat<f64>], v1: Vec<f64>, singular_values: Vec<f64>, order: u32, min_deg: u32, ridge: Ridge) -> Result<Self, FitError> {
+        let p = ys.first().map(|y| y.nrows()).ok_or(FitError::NoTrainingData)?;
+        let dim = v1.len() / p;
         if dim == 0 || dim >= p {
             return Err(FitError::BadOption { what: "dim", why: format!("need 1 <= dim < p = {p}, got {dim}") });
         }
         if order == 0 {
             return Err(FitError::BadOption { what: "manifold_order", why: "must be >= 1".into() });
         }
-        let total: usize = ys.iter().map(|y| y.ncols()).sum();
-        let mut all = Mat::<f64>::zeros(total, p); // points as rows
-        let mut groups = Vec::with_capacity(ys.len());
-        let mut off = 0;
-        for y in ys {
-            for j in 0..y.ncols() {
-                for i in 0..p {
-                    all[(off + j, i)] = y[(i, j)];
-                }
-            }
-            groups.push(off..off + y.ncols());
-            off += y.ncols();
-        }
-        if total < p {
-            return Err(FitError::Underdetermined { what: "tangent space SVD", rows: total, cols: p });
-        }
-        let svd = all.thin_svd().map_err(|_| FitError::Svd { what: "tangent space SVD" })?;
-        let singular_values: Vec<f64> = (0..p).map(|i| svd.S()[i]).collect();
-        let vs = svd.V();
-        let mut v1 = vec![0.0; p * dim];
-        for j in 0..dim {
-            let col = vs.col(j);
-            let (mut big, mut sign) = (0.0, 1.0);
-            for i in 0..p {
-                if col[i].abs() > big {
-                    big = col[i].abs();
-                    sign = col[i].signum();
-                }
-            }
-            for i in 0..p {
-                v1[j * p + i] = sign * col[i];
-            }
-        }
+        let (all, groups) = stack_points(ys, p)?;
+        let total = all.nrows();
         // eta = Y V1 (rows are points), residual = Y - eta V1^T.
         let v1m = Mat::from_fn(p, dim, |i, j| v1[j * p + i]);
         let eta = &all * &v1m;
@@ -93,9 +94,9 @@ impl Manifold {
             eta_scale[j] = m;
         }
         let mut m = Manifold { dim, p, v1, singular_values, eta_scale, nonlinear: None, conditioning: None };
-        if order >= 2 {
+        if order >= min_deg {
             let resid = &all - &eta * v1m.transpose();
-            let exps = poly::exponents(dim, 2, order);
+            let exps = poly::exponents(dim, min_deg, order);
             let design = design_matrix(eta.as_ref(), &m.eta_scale, &exps);
             let (w, cond) = ridge::fit(design.as_ref(), resid.as_ref(), &groups, ridge, "manifold regression")?;
             let nm = exps.len();
@@ -109,6 +110,23 @@ impl Manifold {
             m.conditioning = Some(cond);
         }
         Ok(m)
+    }
+
+    /// The linear observable row: `d x_0 / d eta` at the origin, i.e. the first row of `V1`
+    /// plus the first row of a degree-1 normal part (present after
+    /// [`Manifold::fit_with_tangent`]).
+    pub fn observable_row(&self) -> Vec<f64> {
+        let mut row: Vec<f64> = (0..self.dim).map(|j| self.v1[j * self.p]).collect();
+        if let Some(poly) = &self.nonlinear {
+            for (k, e) in poly.exps.iter().enumerate() {
+                if e.iter().sum::<u32>() == 1
+                    && let Some(j) = e.iter().position(|&q| q == 1)
+                {
+                    row[j] += poly.coef[k * self.p] / poly.scale[j];
+                }
+            }
+        }
+        row
     }
 
     /// Reduced coordinates of one embedded point: `eta = V1^T y`.
@@ -156,6 +174,59 @@ impl Manifold {
         }
         worst
     }
+}
+
+/// Embedded points of all trajectories as rows of one matrix, with the row range of each.
+fn stack_points(ys: &[Mat<f64>], p: usize) -> Result<(Mat<f64>, Vec<std::ops::Range<usize>>), FitError> {
+    if let Some(y) = ys.iter().find(|y| y.nrows() != p) {
+        return Err(FitError::BadOption { what: "embedded data", why: format!("mixed embedding dimensions {} and {p}", y.nrows()) });
+    }
+    let total: usize = ys.iter().map(|y| y.ncols()).sum();
+    if total < p {
+        return Err(FitError::Underdetermined { what: "tangent space SVD", rows: total, cols: p });
+    }
+    let mut all = Mat::<f64>::zeros(total, p); // points as rows
+    let mut groups = Vec::with_capacity(ys.len());
+    let mut off = 0;
+    for y in ys {
+        for j in 0..y.ncols() {
+            for i in 0..p {
+                all[(off + j, i)] = y[(i, j)];
+            }
+        }
+        groups.push(off..off + y.ncols());
+        off += y.ncols();
+    }
+    Ok((all, groups))
+}
+
+/// Tangent basis `V1` (`p x dim`, column-major) of embedded trajectories `ys`: the first
+/// `dim` right singular vectors of the point matrix (rows = points), each column's sign
+/// fixed so that its largest-magnitude entry is positive; and all singular values.
+pub fn tangent_space(ys: &[Mat<f64>], dim: usize) -> Result<(Vec<f64>, Vec<f64>), FitError> {
+    let p = ys.first().map(|y| y.nrows()).ok_or(FitError::NoTrainingData)?;
+    if dim == 0 || dim >= p {
+        return Err(FitError::BadOption { what: "dim", why: format!("need 1 <= dim < p = {p}, got {dim}") });
+    }
+    let all = stack_points(ys, p)?.0;
+    let svd = all.thin_svd().map_err(|_| FitError::Svd { what: "tangent space SVD" })?;
+    let singular_values: Vec<f64> = (0..p).map(|i| svd.S()[i]).collect();
+    let vs = svd.V();
+    let mut v1 = vec![0.0; p * dim];
+    for j in 0..dim {
+        let col = vs.col(j);
+        let (mut big, mut sign) = (0.0, 1.0);
+        for i in 0..p {
+            if col[i].abs() > big {
+                big = col[i].abs();
+                sign = col[i].signum();
+            }
+        }
+        for i in 0..p {
+            v1[j * p + i] = sign * col[i];
+        }
+    }
+    Ok((v1, singular_values))
 }
 
 /// Design matrix of monomials `exps` evaluated at the rows of `eta` divided by `scale`.

@@ -16,6 +16,7 @@ pub mod embed;
 pub mod error;
 pub mod fit;
 pub mod furuta;
+pub mod furuta_predict;
 pub mod manifold;
 pub mod metrics;
 pub mod normal_form;
