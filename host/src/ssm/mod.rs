@@ -21,6 +21,7 @@ pub mod manifold;
 pub mod metrics;
 pub mod normal_form;
 pub mod poly;
+pub mod portrait;
 pub mod ridge;
 
 pub use data::{DataError, TimeSeries, load_csv};
