@@ -2,6 +2,7 @@
 //! controller, exact linear stability, SSM fitting and model export, and the `ssmctl` CLI.
 
 pub mod bench;
+pub mod bifreport;
 pub mod chaoscmd;
 pub mod chart;
 pub mod cli;

@@ -25,6 +25,7 @@ pub fn run(out: &Path, data_dir: &Path, quick: bool, quiet: bool) -> Result<(), 
     crate::fitreport::sloshing_section(&mut rep, data_dir, quick)?;
     crate::fitreport::furuta_blob(&mut rep, quick)?;
     crate::nfreport::section(&mut rep)?;
+    crate::bifreport::predictions_section(&mut rep)?;
     crate::fitreport::device_section(&mut rep, Path::new("qemu/target/device-table.json"))?;
     crate::chaoscmd::section(&mut rep, data_dir, quick)?;
     rep.finish("ssmctl reproduce: delayed, sampled, quantized PD control of the Furuta pendulum")?;
