@@ -5,7 +5,12 @@
 
 use crate::plot::{self, Series};
 use crate::report::{Report, num};
-use crate::ssm::furuta::FurutaOptions;
+use crate::nfreport::PAPER_DTS;
+use crate::ssm::furuta::{FurutaOptions, ParametricModel};
+use crate::ssm::portrait::{
+    FixedPoint, HeteroclinicEvent, HopfEvent, PointKind, PortraitOptions, ScanOptions, fixed_points, heteroclinic_dt, plot_portrait,
+    portrait, torus_hopf_dt,
+};
 use crate::ssm::furuta_predict::{Interp, PredictOptions, PredictionResult, predictions, shared_parametric};
 use plotters::style::RGBColor;
 use serde_json::{Value, json};
@@ -98,4 +103,109 @@ pub fn predictions_section(rep: &mut Report) -> Result<(), Box<dyn Error>> {
     rep.summary.insert("predictions".into(), list(&lin));
     rep.summary.insert("predictions_spline".into(), list(&spl));
     Ok(())
+}
+
+fn kind_text(k: PointKind) -> String {
+    match k {
+        PointKind::Equilibrium => "equilibrium".into(),
+        PointKind::LimitCycle { mode } => format!("limit cycle (mode {mode})"),
+        PointKind::Torus2 => "2-torus".into(),
+    }
+}
+
+/// Box of the amplitude plane drawn and searched: the fitted models saw |theta| <= 0.3 rad.
+pub const RHO_MAX: [f64; 2] = [0.6, 0.3];
+
+/// The model's bifurcation values: heteroclinic connection of the saddle cycles and the
+/// loss of stability of the 2-torus, found on the linearly interpolated normal forms.
+pub struct ModelBifurcations {
+    pub heteroclinic: Option<HeteroclinicEvent>,
+    pub hopf: Option<HopfEvent>,
+    /// The 2-torus at 30.8 ms: amplitudes (rad) and frequencies (Hz).
+    pub torus_30p8: Option<FixedPoint>,
+}
+
+/// Phase portraits in `(rho_1, rho_2)` at the paper's unseen sampling periods: fixed points
+/// (equilibrium, limit cycles, 2-torus) and their stability, the saddle cycles' stable and
+/// unstable manifolds, unstable 3-tori; then the heteroclinic and torus-Hopf values of dt.
+pub fn portraits_section(rep: &mut Report, pm: &ParametricModel) -> Result<ModelBifurcations, Box<dyn Error>> {
+    rep.section(
+        "portraits",
+        "Parametric model: phase portraits and bifurcations",
+        "Amplitude equations rho' = f(rho; dt) of the interpolated normal form. Fixed points: the origin is the \
+         equilibrium, a point on an axis a limit cycle of that mode, an interior point a 2-torus; a closed orbit of the \
+         amplitude equations is a 3-torus. Saddles' stable manifolds in blue, unstable in red, 3-tori in green. \
+         The heteroclinic value is where the interior unstable branch of a saddle cycle switches fate (it lands on the \
+         other saddle's stable manifold there), refined by bisection; the torus loses stability where the real part of \
+         its Jacobian eigenvalues crosses zero.",
+    );
+    let popts = PortraitOptions { rho_max: RHO_MAX, ..PortraitOptions::default() };
+    let mut rows = Vec::new();
+    let mut list = Vec::new();
+    for &dt in PAPER_DTS.iter() {
+        let nf = pm.normal_form_at(dt)?;
+        let p = portrait(&nf, &popts)?;
+        for f in &p.fixed_points {
+            rows.push(vec![
+                format!("{dt}"),
+                kind_text(f.kind),
+                format!("({:.4}, {:.4})", f.rho[0], f.rho[1]),
+                format!("{:?}", f.stability),
+                format!("{:+.4} {:+.4}i, {:+.4} {:+.4}i", f.eigenvalues[0].0, f.eigenvalues[0].1, f.eigenvalues[1].0, f.eigenvalues[1].1),
+                format!("{:.3}, {:.3}", f.freqs_hz[0], f.freqs_hz[1]),
+            ]);
+        }
+        for o in &p.orbits {
+            rows.push(vec![
+                format!("{dt}"),
+                format!("3-torus ({})", if o.stable { "stable" } else { "unstable" }),
+                format!("rho_1 {:.3}..{:.3}, rho_2 {:.3}..{:.3}", o.rho_range[0][0], o.rho_range[0][1], o.rho_range[1][0], o.rho_range[1][1]),
+                format!("multiplier {:.4}", o.multiplier),
+                format!("period {:.2} s", o.period),
+                String::new(),
+            ]);
+        }
+        list.push(json!({"dt_ms": dt, "fixed_points": p.fixed_points, "orbits": p.orbits.iter().map(|o| json!({
+            "rho_range": o.rho_range, "period_s": o.period, "multiplier": o.multiplier, "stable": o.stable})).collect::<Vec<_>>()}));
+        let tag = format!("{dt}").replace('.', "p");
+        let path = format!("fig/portrait_dt{tag}.png");
+        plot_portrait(&rep.dir().join(&path), &p, &format!("dt = {dt} ms"), &[])?;
+        rep.figure(&path, &format!("Phase portrait of the amplitude equations at dt = {dt} ms"));
+    }
+    rep.table(&["dt [ms]", "object", "rho (rad)", "stability", "eigenvalues [1/s]", "freqs [Hz]"], &rows);
+    let (lo, hi) = pm.range();
+    let sopts = ScanOptions { portrait: PortraitOptions { rho_max: RHO_MAX, ..ScanOptions::default().portrait }, ..ScanOptions::default() };
+    let nf_at = |dt: f64| pm.normal_form_at(dt);
+    let heteroclinic = heteroclinic_dt(nf_at, lo, hi, &sopts)?;
+    let hopf = torus_hopf_dt(nf_at, lo, hi, &sopts)?;
+    let torus_30p8 = fixed_points(&pm.normal_form_at(30.8)?, &popts)?.into_iter().find(|f| f.kind == PointKind::Torus2);
+    rep.para(&match &heteroclinic {
+        Some(h) => format!(
+            "Heteroclinic bifurcation (model): dt = {:.4} ms (bracket {:.4}..{:.4}); the interior unstable branch of the {} \
+             goes from {:?} below to {:?} above.",
+            h.dt,
+            h.bracket.0,
+            h.bracket.1,
+            kind_text(h.saddle),
+            h.fate_below,
+            h.fate_above
+        ),
+        None => format!("No heteroclinic switch found in {lo}..{hi} ms."),
+    });
+    rep.para(&match &hopf {
+        Some(h) => format!(
+            "The 2-torus {} at dt = {:.4} ms ({}; the 3-torus frequency there is {:.4} Hz).",
+            if h.loses_stability { "loses stability" } else { "gains stability" },
+            h.dt,
+            if h.complex_pair { "a complex pair crosses: a Hopf bifurcation of the amplitude equations" } else { "a real eigenvalue crosses" },
+            h.frequency_hz
+        ),
+        None => format!("The 2-torus does not change stability in {lo}..{hi} ms."),
+    });
+    rep.summary.insert("portraits".into(), Value::Array(list));
+    rep.summary.insert(
+        "torus_hopf_dt_ms".into(),
+        json!({"model": hopf.as_ref().map(|h| h.dt), "complex_pair": hopf.as_ref().map(|h| h.complex_pair)}),
+    );
+    Ok(ModelBifurcations { heteroclinic, hopf, torus_30p8 })
 }

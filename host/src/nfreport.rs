@@ -3,13 +3,15 @@
 //! in dt, checked against the exact linear multipliers.
 
 use crate::report::{Report, num};
-use crate::ssm::furuta::{FurutaOptions, exact_modes, furuta_parametric};
+use crate::ssm::furuta::{FurutaOptions, ParametricModel, exact_modes, furuta_parametric};
 use serde_json::{Value, json};
 use std::error::Error;
 
-const PAPER_DTS: [f64; 6] = [30.8, 31.4, 31.41, 31.55, 31.68, 32.3];
+pub const PAPER_DTS: [f64; 6] = [30.8, 31.4, 31.41, 31.55, 31.68, 32.3];
 
-pub fn section(rep: &mut Report) -> Result<(), Box<dyn Error>> {
+/// Writes the section and returns the fitted parametric model (reused by the bifurcation
+/// section).
+pub fn section(rep: &mut Report) -> Result<ParametricModel, Box<dyn Error>> {
     let opts = FurutaOptions::default();
     let f = &opts.fit;
     rep.section(
@@ -76,5 +78,5 @@ pub fn section(rep: &mut Report) -> Result<(), Box<dyn Error>> {
     rep.table(&h, &trows);
     rep.summary.insert("linear_nf".into(), Value::Array(list));
     rep.summary.insert("normal_form_table".into(), json!({"dt_ms": PAPER_DTS, "rows": tjson}));
-    Ok(())
+    Ok(model)
 }

@@ -24,7 +24,8 @@ pub fn run(out: &Path, data_dir: &Path, quick: bool, quiet: bool) -> Result<(), 
     bench_section(&mut rep, quick, quiet)?;
     crate::fitreport::sloshing_section(&mut rep, data_dir, quick)?;
     crate::fitreport::furuta_blob(&mut rep, quick)?;
-    crate::nfreport::section(&mut rep)?;
+    let parametric = crate::nfreport::section(&mut rep)?;
+    crate::bifreport::portraits_section(&mut rep, &parametric)?;
     crate::bifreport::predictions_section(&mut rep)?;
     crate::fitreport::device_section(&mut rep, Path::new("qemu/target/device-table.json"))?;
     crate::chaoscmd::section(&mut rep, data_dir, quick)?;
