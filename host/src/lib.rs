@@ -9,6 +9,7 @@ pub mod cli;
 pub mod export;
 pub mod fitcmd;
 pub mod fitreport;
+pub mod furcheck;
 pub mod linear;
 pub mod nfreport;
 pub mod ode;

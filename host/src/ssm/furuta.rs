@@ -144,40 +144,68 @@ pub struct ParametricModel {
 /// modulus `theta_amp`. Returns the plant state `[theta, w_theta, phi, w_phi]` and the
 /// controller pre-history (`delay + 1` samples `[theta, phi]`, oldest first) for `Scene`.
 pub fn slow_mode_start(dt_ms: f64, theta_amp: f64, phase: f64) -> Result<([f64; 4], Vec<[f64; 2]>), FurutaError> {
-    use nalgebra::{Complex, DMatrix, DVector};
     if !(theta_amp > 0.0 && theta_amp.is_finite() && phase.is_finite()) {
         return Err(FurutaError::BadOption { what: "slow_starts", why: format!("amplitude must be positive and finite, phase finite; got ({theta_amp}, {phase})") });
+    }
+    mode_start(dt_ms, Some((theta_amp, phase)), None)
+}
+
+/// A start on a combination of the slow and the fast mode of the linearized closed loop at
+/// `dt_ms`: the sum over the given modes of the real part of `e^{i phase} v_j`, `v_j` the
+/// eigenvector of mode `j`'s multiplier pair of the augmented map (inverse iteration in
+/// complex arithmetic), scaled so its theta component has modulus `theta_amp` (the phase is
+/// that of theta's component). `slow` / `fast` are `(theta amplitude rad, phase rad)`;
+/// `None` leaves that mode unexcited (at least one must be given). Returns the plant state
+/// `[theta, w_theta, phi, w_phi]` and the controller pre-history (`delay + 1` samples
+/// `[theta, phi]`, oldest first) for `Scene`.
+pub fn mode_start(dt_ms: f64, slow: Option<(f64, f64)>, fast: Option<(f64, f64)>) -> Result<([f64; 4], Vec<[f64; 2]>), FurutaError> {
+    use nalgebra::{Complex, DMatrix, DVector};
+    if slow.is_none() && fast.is_none() {
+        return Err(FurutaError::BadOption { what: "mode_start", why: "give at least one of the slow and the fast mode".into() });
+    }
+    for (name, m) in [("slow", slow), ("fast", fast)] {
+        if let Some((a, p)) = m {
+            if !(a > 0.0 && a.is_finite() && p.is_finite()) {
+                return Err(FurutaError::BadOption { what: "mode_start", why: format!("{name} mode: amplitude must be positive and finite, phase finite; got ({a}, {p})") });
+            }
+        }
     }
     let scene = Scene::load("furuta-dt30.5", &[format!("controller.dt_ms={dt_ms}")])?;
     let le = |source| StabilityError::Linear { scene: scene.name.clone(), source };
     let map = crate::stability::linear_plant(&scene)?.closed_loop(&scene.controller_config()).map_err(le)?;
+    let lay = map.layout;
+    if lay.n_plant != 4 || lay.integral.is_some() {
+        return Err(FurutaError::BadOption { what: "mode_start", why: "needs the 4-state Furuta plant without integral action".into() });
+    }
     let mut pairs = dominant_pairs(&scene)?;
     if pairs.len() < 2 {
         return Err(FurutaError::Multipliers { dt_ms, got: pairs.len() });
     }
     pairs.truncate(2);
     pairs.sort_by(|a, b| a.freq_hz.total_cmp(&b.freq_hz));
-    let mu = Complex::new(pairs[0].re, pairs[0].im) * (1.0 + 1e-9);
     let n = map.matrix.nrows();
-    let shifted = DMatrix::<Complex<f64>>::from_fn(n, n, |i, j| {
-        Complex::new(map.matrix[(i, j)], 0.0) - if i == j { mu } else { Complex::new(0.0, 0.0) }
-    });
-    let lu = shifted.lu();
-    let mut v = DVector::<Complex<f64>>::from_element(n, Complex::new(1.0, 0.0));
-    for _ in 0..3 {
-        v = lu.solve(&v).ok_or_else(|| FurutaError::BadOption { what: "slow_starts", why: format!("singular shifted map at dt = {dt_ms} ms") })?;
-        let norm = v.iter().map(|c| c.norm_sqr()).sum::<f64>().sqrt();
-        v /= Complex::new(norm, 0.0);
+    let mut total = DVector::<f64>::zeros(n);
+    for (pair, m) in pairs.iter().zip([slow, fast]) {
+        let Some((theta_amp, phase)) = m else { continue };
+        let mu = Complex::new(pair.re, pair.im) * (1.0 + 1e-9);
+        let shifted = DMatrix::<Complex<f64>>::from_fn(n, n, |i, j| {
+            Complex::new(map.matrix[(i, j)], 0.0) - if i == j { mu } else { Complex::new(0.0, 0.0) }
+        });
+        let lu = shifted.lu();
+        let mut v = DVector::<Complex<f64>>::from_element(n, Complex::new(1.0, 0.0));
+        for _ in 0..3 {
+            v = lu.solve(&v).ok_or_else(|| FurutaError::BadOption { what: "mode_start", why: format!("singular shifted map at dt = {dt_ms} ms") })?;
+            let norm = v.iter().map(|c| c.norm_sqr()).sum::<f64>().sqrt();
+            v /= Complex::new(norm, 0.0);
+        }
+        let th = v[0];
+        let scale = Complex::from_polar(theta_amp / th.norm(), phase - th.arg());
+        for k in 0..n {
+            total[k] += (v[k] * scale).re;
+        }
     }
-    let lay = map.layout;
-    if lay.n_plant != 4 || lay.integral.is_some() {
-        return Err(FurutaError::BadOption { what: "slow_starts", why: "needs the 4-state Furuta plant without integral action".into() });
-    }
-    let th = v[0];
-    let scale = Complex::from_polar(theta_amp / th.norm(), phase - th.arg());
-    let re = |k: usize| (v[k] * scale).re;
-    let state = [re(0), re(1), re(2), re(3)];
-    let history = (0..=lay.delay).rev().map(|k| [re(lay.y_start + k), re(lay.z_start + k)]).collect();
+    let state = [total[0], total[1], total[2], total[3]];
+    let history = (0..=lay.delay).rev().map(|k| [total[lay.y_start + k], total[lay.z_start + k]]).collect();
     Ok((state, history))
 }
 
