@@ -476,7 +476,7 @@ fn record_args(rest: &[String]) -> Result<RecordArgs> {
 /// repeating; all inside the quantized loop's bounded oscillation.
 fn record_theta0(r: u32) -> f64 {
     let i = r.saturating_sub(1);
-    let sign = if i % 2 == 0 { 1.0 } else { -1.0 };
+    let sign = if i.is_multiple_of(2) { 1.0 } else { -1.0 };
     sign * (0.01 + 0.005 * f64::from(i % 4))
 }
 
