@@ -141,8 +141,11 @@ pub enum Cmd {
         what: BenchCmd,
     },
     /// Processor-in-the-loop: the scene's plant simulated here, the integer controller and
-    /// the predictor on the Cortex-M4F under QEMU over UART0; writes DIR/pil.csv and
-    /// DIR/summary.json. `cargo xtask pil` builds the firmware, fits a model and runs this.
+    /// the predictor on the Cortex-M4F under QEMU over UART0; writes DIR/pil.csv,
+    /// DIR/summary.json and the recorded data set DIR/theta.csv (`t_s,theta_meas_rad`: the
+    /// measured angle, noise then encoder quantization) and DIR/record.csv (t, true theta and
+    /// phi, measured theta, code, prediction). `cargo xtask pil` builds the firmware, fits a
+    /// model and runs this; `cargo xtask pil-record` records several runs.
     Pil {
         #[command(flatten)]
         scene: SceneArgs,
@@ -412,9 +415,11 @@ pub fn run(cli: Cli) -> Result<(), Box<dyn std::error::Error>> {
                 outln!("{}", serde_json::to_string_pretty(&s)?);
             } else {
                 outln!(
-                    "pil: {} periods, codes identical: {}, predictions compared: {} (bit-identical: {}, max rel diff {:.3e}), {} saturated, {:.0} round trips/s on the link, {:.0} periods/s overall{}",
+                    "pil: {} periods, codes identical: {} (to the host-only simulation: {}, max state diff {:.1e}), predictions compared: {} (bit-identical: {}, max rel diff {:.3e}), {} saturated, {:.0} round trips/s on the link, {:.0} periods/s overall{}",
                     s.periods,
                     if s.codes_identical { "yes" } else { "NO" },
+                    if s.host_sim_codes_identical { "yes" } else { "NO" },
+                    s.host_sim_max_state_diff,
                     s.predictions_compared,
                     if s.predictions_bit_identical { "yes" } else { "no" },
                     s.max_pred_rel_diff,

@@ -168,6 +168,28 @@ pub fn device_section(rep: &mut Report, table: &Path) -> Result<(), Box<dyn Erro
         })
         .unwrap_or_default();
     rep.table(&["centres", "sqrt", "instructions / step", "per centre", "rel. error vs f64"], &rows);
+    // f32 against f64 where it matters: the same RBF kernel with a generic scalar.
+    let scalar_rows: Vec<Vec<String>> = v
+        .get("predictor_f32_vs_f64")
+        .and_then(Value::as_array)
+        .map(|a| {
+            a.iter()
+                .map(|r| {
+                    let f = |k: &str| r.get(k).filter(|x| !x.is_null()).map_or("-".to_string(), |x| x.to_string().trim_matches('"').to_string());
+                    vec![f("centers"), f("scalar"), f("instructions"), f("per_center"), f("vs_f32"), f("rel_error")]
+                })
+                .collect()
+        })
+        .unwrap_or_default();
+    if !scalar_rows.is_empty() {
+        rep.para(
+            "f32 or f64: the Cortex-M4F's FPU is single precision only, so f64 arithmetic runs in software \
+             (compiler-builtins' double routines, <code>libm::sqrt</code>). The same RBF step (d = 6, the library's \
+             operation order, generic scalar) counted both ways; the error is that of <code>predict(12)</code> against \
+             the host's f64 evaluation of the same model.",
+        );
+        rep.table(&["centres", "scalar", "instructions / step", "per centre", "x f32", "rel. error vs f64"], &scalar_rows);
+    }
     // Plot: instructions per predictor step against centres, one line per sqrt flavour.
     let mut by: std::collections::BTreeMap<String, Vec<(f64, f64)>> = Default::default();
     for r in v.get("predictor").and_then(Value::as_array).into_iter().flatten() {
@@ -205,17 +227,54 @@ fn pil_paragraph(rep: &mut Report, path: &Path) -> Result<(), Box<dyn Error>> {
     let v: Value = serde_json::from_str(&text).map_err(|e| format!("{}: {e}", path.display()))?;
     let f = |k: &str| v.get(k).map_or("-".to_string(), |x| x.to_string());
     rep.para(&format!(
-        "Processor in the loop (plant on the host, integer controller and RBF predictor in QEMU over the emulated UART,          framed and CRC-checked): {} periods, control codes identical to the host-only controller: {}, predictions          compared: {}, max relative prediction difference vs the host's f32 evaluation: {}, {} round trips/s.",
+        "Processor in the loop (plant on the host, integer controller and RBF predictor in QEMU over the emulated UART,          framed and CRC-checked): {} periods, control codes identical to the host-only controller: {}, predictions          compared: {}, max relative prediction difference vs the host's f32 evaluation: {}, {} round trips/s. \
+         The whole closed loop (encoder counts, codes, states) equals the host-only simulation of the scene{}: {}.",
         f("periods"),
         f("codes_identical"),
         f("predictions_compared"),
         f("max_pred_rel_diff"),
-        v.get("round_trips_per_s").and_then(Value::as_f64).map_or("-".into(), |x| format!("{x:.0}"))
+        v.get("round_trips_per_s").and_then(Value::as_f64).map_or("-".into(), |x| format!("{x:.0}")),
+        v.get("noise").filter(|n| !n.is_null()).map_or(String::new(), |n| format!(
+            " (sensor noise sigma {} rad, seed {}, the same draws)",
+            n.get("sigma_theta").map_or("-".to_string(), |x| x.to_string()),
+            n.get("seed").map_or("-".to_string(), |x| x.to_string())
+        )),
+        f("host_sim_codes_identical")
     ));
     rep.summary.insert(
         "pil".into(),
         json!({"periods": v.get("periods"), "codes_identical": v.get("codes_identical"),
+               "host_sim_codes_identical": v.get("host_sim_codes_identical"), "noise": v.get("noise"),
                "max_pred_rel_diff": v.get("max_pred_rel_diff"), "source": path.display().to_string()}),
     );
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The f32-vs-f64 rows of the device table JSON are rendered as a table.
+    #[test]
+    fn device_section_renders_f32_vs_f64_rows() {
+        let dir = std::env::temp_dir().join(format!("ssm-fitreport-dev-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let table = dir.join("device-table.json");
+        let v = json!({
+            "controller_step_instructions_int": 90.5,
+            "predictor_f32_vs_f64": [
+                {"centers": 50, "scalar": "f32", "instructions": 1234.5, "per_center": 24.69, "rel_error": 3e-7, "vs_f32": 1.0},
+                {"centers": 50, "scalar": "f64", "instructions": 23456.5, "per_center": 469.13, "rel_error": 2e-16, "vs_f32": 19.0},
+            ],
+        });
+        std::fs::write(&table, v.to_string()).unwrap();
+        let mut rep = Report::new(&dir.join("out")).unwrap();
+        device_section(&mut rep, &table).unwrap();
+        rep.finish("t").unwrap();
+        let html = std::fs::read_to_string(dir.join("out/index.html")).unwrap();
+        assert!(html.contains("<th>x f32</th>"), "no f32/f64 table");
+        assert!(html.contains("<td>f64</td><td>23456.5</td><td>469.13</td><td>19.0</td><td>2e-16</td>"), "{html}");
+        assert_eq!(rep.summary["device"]["predictor_f32_vs_f64"][1]["vs_f32"], 19.0);
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
 }

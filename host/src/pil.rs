@@ -1,9 +1,18 @@
 //! Processor-in-the-loop: the plant of a scene simulated here, the integer controller and the
 //! RBF predictor running on the Cortex-M4F under QEMU (`qemu/src/bin/pil.rs`), joined by
-//! UART0 over TCP. Every period the host sends the encoder counts and the (noisy) primary
-//! angle, the device answers with the DAC code and a one-step prediction, and the code is
-//! held over the next period. A host-side [`IntPd`] and f32 [`Predictor`] fed the same
-//! inputs check the device's answers (codes and prediction bits).
+//! UART0 over TCP. Every period the host sends the encoder counts and the measured primary
+//! angle (`q_theta * h_adc`, the angle the counts stand for: all a device can know), the
+//! device answers with the DAC code and a one-step prediction, and the code is held over the
+//! next period. A host-side [`IntPd`] and f32 [`Predictor`] fed the same inputs check the
+//! device's answers (codes and prediction bits); after the run, the host-only simulation of
+//! the same scene ([`crate::sim::simulate_with`], same seed) checks the whole closed loop:
+//! its codes and states must equal the PIL run's.
+//!
+//! The run is recorded as a data set: `theta.csv` (`t_s,theta_meas_rad`, the measured primary
+//! angle as the controller saw it: sensor noise added, then encoder quantization; the format
+//! of the measured data sets, loadable with [`crate::ssm::data::load_csv`]) and `record.csv`
+//! (`t_s,theta_rad,phi_rad,theta_meas_rad,code,prediction`: true plant angles, measured
+//! angle, the device's DAC code and its `predict(1)`, `NaN` until the window is full).
 //!
 //! Sensor semantics are those of [`crate::sim::simulate_with`]: the same noise draws (ChaCha8
 //! with the scene's seed, primary then secondary), the same `adc` rounding, the same
@@ -68,6 +77,8 @@ pub enum PilError {
     Fit(String),
     #[error("t = {t}: {message}")]
     Sensor { t: f64, message: String },
+    #[error("host-only simulation for the comparison: {0}")]
+    HostSim(String),
 }
 
 fn io(what: impl Into<String>) -> impl FnOnce(std::io::Error) -> PilError {
@@ -143,6 +154,75 @@ pub struct PilSummary {
     pub periods_per_s: f64,
     pub error_frames_checked: bool,
     pub stopped: Option<String>,
+    /// The scene's sensor noise (`None`: noiseless run).
+    pub noise: Option<crate::scene::NoiseSpec>,
+    /// What `theta.csv` holds.
+    pub observable: String,
+    /// Whether the host-only simulation of the scene (same seed, [`crate::sim::simulate_with`])
+    /// produced the same encoder counts and DAC codes as the PIL run, period by period.
+    pub host_sim_codes_identical: bool,
+    pub host_sim_first_mismatch: Option<u64>,
+    /// Largest |state difference| between the PIL run and the host-only simulation (0 when
+    /// the codes agree: the plant integration is the same code on the same inputs).
+    pub host_sim_max_state_diff: f64,
+}
+
+/// Header of `theta.csv`.
+pub const THETA_HEADER: &str = "t_s,theta_meas_rad";
+/// Header of `record.csv`.
+pub const RECORD_HEADER: &str = "t_s,theta_rad,phi_rad,theta_meas_rad,code,prediction";
+
+/// One period of the recorded data set.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct RecordRow {
+    pub t: f64,
+    /// True plant angles at the sample.
+    pub theta: f64,
+    pub phi: f64,
+    /// The measured primary angle the controller saw: `q_theta * h_adc`.
+    pub theta_meas: f64,
+    /// The device's DAC code.
+    pub code: i32,
+    /// The device's `predict(1)`, `None` until its window is full (written `NaN`).
+    pub prediction: Option<f32>,
+}
+
+/// Writes `theta.csv` and `record.csv` row by row (values printed in Rust's shortest
+/// round-trip form, so loading gives back the same bits).
+pub struct Recorder {
+    theta: std::io::BufWriter<std::fs::File>,
+    record: std::io::BufWriter<std::fs::File>,
+    theta_path: PathBuf,
+    record_path: PathBuf,
+}
+
+impl Recorder {
+    /// Creates `dir/theta.csv` and `dir/record.csv` (the folder must exist) with headers.
+    pub fn create(dir: &Path) -> Result<Self, PilError> {
+        let theta_path = dir.join("theta.csv");
+        let record_path = dir.join("record.csv");
+        let open = |p: &Path| -> Result<std::io::BufWriter<std::fs::File>, PilError> {
+            let f = std::fs::File::create(p).map_err(io(format!("creating {}", p.display())))?;
+            Ok(std::io::BufWriter::new(f))
+        };
+        let mut r = Recorder { theta: open(&theta_path)?, record: open(&record_path)?, theta_path, record_path };
+        writeln!(r.theta, "{THETA_HEADER}").map_err(io(r.theta_path.display().to_string()))?;
+        writeln!(r.record, "{RECORD_HEADER}").map_err(io(r.record_path.display().to_string()))?;
+        Ok(r)
+    }
+
+    pub fn row(&mut self, r: &RecordRow) -> Result<(), PilError> {
+        writeln!(self.theta, "{},{}", r.t, r.theta_meas).map_err(io(self.theta_path.display().to_string()))?;
+        let pred = r.prediction.map_or_else(|| "NaN".to_string(), |p| p.to_string());
+        writeln!(self.record, "{},{},{},{},{},{pred}", r.t, r.theta, r.phi, r.theta_meas, r.code)
+            .map_err(io(self.record_path.display().to_string()))
+    }
+
+    /// Flushes both files.
+    pub fn finish(mut self) -> Result<(), PilError> {
+        self.theta.flush().map_err(io(self.theta_path.display().to_string()))?;
+        self.record.flush().map_err(io(self.record_path.display().to_string()))
+    }
 }
 
 struct Link {
@@ -287,7 +367,8 @@ pub fn fit_model(scene: &Scene) -> Result<Vec<u8>, PilError> {
     crate::export::encode(&owned).map_err(|e| PilError::Fit(e.to_string()))
 }
 
-/// Runs the loop; writes `pil.csv` and `summary.json` into `opts.out`.
+/// Runs the loop; writes `pil.csv`, `theta.csv`, `record.csv` and `summary.json` into
+/// `opts.out`.
 pub fn run(opts: &PilOptions) -> Result<PilSummary, PilError> {
     let scene = Scene::load(&opts.scene, &opts.overrides)?;
     match build_plant(&scene)? {
@@ -356,6 +437,10 @@ fn run_with<P: Plant<N>, const N: usize>(plant: &P, scene: &Scene, opts: &PilOpt
     let mut csv = std::io::BufWriter::new(std::fs::File::create(&csv_path).map_err(io(csv_path.display().to_string()))?);
     let wr = |e| io(csv_path.display().to_string())(e);
     writeln!(csv, "t,theta,phi,q_theta,q_phi,code,code_host,saturated,ready,prediction,prediction_host").map_err(wr)?;
+    let mut rec = Recorder::create(&opts.out)?;
+    // What the PIL loop produced, for the comparison with the host-only simulation.
+    let mut run_codes: Vec<crate::sim::Codes> = Vec::new();
+    let mut run_states: Vec<[f64; N]> = Vec::new();
     let mut s = PilSummary {
         scene: scene.name.clone(),
         periods: 0,
@@ -369,6 +454,18 @@ fn run_with<P: Plant<N>, const N: usize>(plant: &P, scene: &Scene, opts: &PilOpt
         periods_per_s: 0.0,
         error_frames_checked: true,
         stopped: None,
+        noise: scene.effects.noise.clone(),
+        observable: format!(
+            "theta.csv: measured primary angle q_theta * h_adc (h_adc = {} rad){}",
+            q.h_adc,
+            scene.effects.noise.as_ref().map_or(String::new(), |n| format!(
+                ", Gaussian sensor noise sigma {} rad (seed {}) added before the encoder",
+                n.sigma_theta, n.seed
+            ))
+        ),
+        host_sim_codes_identical: false,
+        host_sim_first_mismatch: None,
+        host_sim_max_state_diff: f64::INFINITY,
     };
     let dt = cfg.dt;
     let t_start = Instant::now();
@@ -382,7 +479,9 @@ fn run_with<P: Plant<N>, const N: usize>(plant: &P, scene: &Scene, opts: &PilOpt
         }
         let qy = controller::adc(y, q.h_adc).map_err(|e| sensor(t, "primary angle", y, e))?;
         let qz = controller::adc(z, q.h_adc_phi).map_err(|e| sensor(t, "secondary angle", z, e))?;
-        let sample = y as f32;
+        // The measured angle: what the counts stand for (the controller's own view).
+        let theta_meas = f64::from(qy) * q.h_adc;
+        let sample = theta_meas as f32;
         let mut p = Vec::with_capacity(12);
         p.extend_from_slice(&qy.to_le_bytes());
         p.extend_from_slice(&qz.to_le_bytes());
@@ -425,6 +524,16 @@ fn run_with<P: Plant<N>, const N: usize>(plant: &P, scene: &Scene, opts: &PilOpt
         let dp = if ready { dev_pred.to_string() } else { String::new() };
         writeln!(csv, "{t},{},{},{qy},{qz},{code},{},{},{},{dp},{hp}", x[P::PRIMARY], x[P::SECONDARY], host.code, u8::from(saturated), u8::from(ready))
             .map_err(wr)?;
+        rec.row(&RecordRow {
+            t,
+            theta: x[P::PRIMARY],
+            phi: x[P::SECONDARY],
+            theta_meas,
+            code,
+            prediction: ready.then_some(dev_pred),
+        })?;
+        run_codes.push(crate::sim::Codes { q_theta: qy, q_phi: qz, code });
+        run_states.push(x);
         s.periods = i + 1;
         if let Some(limit) = scene.run.escape_theta
             && x[P::PRIMARY].abs() > limit
@@ -454,10 +563,50 @@ fn run_with<P: Plant<N>, const N: usize>(plant: &P, scene: &Scene, opts: &PilOpt
         return Err(PilError::Qemu(format!("exited with {status} after the shutdown frame")));
     }
     csv.flush().map_err(wr)?;
+    rec.finish()?;
+    compare_with_host_sim(plant, scene, &run_codes, &run_states, &mut s)?;
     let json = serde_json::to_string_pretty(&s).map_err(|e| PilError::Fit(e.to_string()))?;
     let path = opts.out.join("summary.json");
     std::fs::write(&path, json).map_err(io(path.display().to_string()))?;
     Ok(s)
+}
+
+/// Runs the host-only simulation of `scene` over the PIL run's periods and compares codes
+/// (counts in, code out) and states with the PIL run's, filling the `host_sim_*` fields.
+fn compare_with_host_sim<P: Plant<N>, const N: usize>(
+    plant: &P,
+    scene: &Scene,
+    codes: &[crate::sim::Codes],
+    states: &[[f64; N]],
+    s: &mut PilSummary,
+) -> Result<(), PilError> {
+    let Some(last) = codes.len().checked_sub(1) else {
+        return Ok(());
+    };
+    let mut sc = scene.clone();
+    sc.run.periods = last as u64; // rows 0..=periods
+    let tr = crate::sim::simulate_with(plant, &sc, None).map_err(|e| PilError::HostSim(e.to_string()))?;
+    let sim_codes = tr.codes.as_deref().unwrap_or_default();
+    let rows = tr.rows().min(sim_codes.len());
+    s.host_sim_codes_identical = rows == codes.len();
+    s.host_sim_first_mismatch = None;
+    s.host_sim_max_state_diff = 0.0;
+    for (i, (dev, x)) in codes.iter().zip(states).enumerate() {
+        let (Some(sim), true) = (sim_codes.get(i), i < rows) else {
+            s.host_sim_codes_identical = false;
+            s.host_sim_first_mismatch.get_or_insert(i as u64);
+            break;
+        };
+        if sim != dev {
+            s.host_sim_codes_identical = false;
+            s.host_sim_first_mismatch.get_or_insert(i as u64);
+        }
+        for (k, xk) in x.iter().enumerate() {
+            let d = (tr.state(i, k) - xk).abs();
+            s.host_sim_max_state_diff = s.host_sim_max_state_diff.max(if d.is_nan() { f64::INFINITY } else { d });
+        }
+    }
+    Ok(())
 }
 
 #[cfg(test)]
@@ -536,6 +685,109 @@ mod tests {
         let mut l = fake(|seq| reply(R_STEP, seq, &[0; 10]));
         let e = l.transact(K_PRIME, &[0; 8]).unwrap_err().to_string();
         assert!(e.contains("expected 0x81"), "{e}");
+    }
+
+    fn temp_dir(tag: &str) -> PathBuf {
+        let d = std::env::temp_dir().join(format!("ssm-pil-{tag}-{}", std::process::id()));
+        std::fs::create_dir_all(&d).unwrap();
+        d
+    }
+
+    /// `theta.csv` loads with the data-set loader and gives back the measured angles bit for
+    /// bit; `record.csv` has its documented columns, `NaN` before the predictor is ready.
+    #[test]
+    fn recorded_csv_files_load_back_exactly() {
+        let dir = temp_dir("rec");
+        let dt = 0.025;
+        let h = 3.141592653589793e-3;
+        let rows: Vec<RecordRow> = (0..50)
+            .map(|i| {
+                let t = i as f64 * dt;
+                let theta = 0.02 * (3.1 * t).cos() + 1e-5 * i as f64;
+                let q = (theta / h).floor() as i32;
+                RecordRow {
+                    t,
+                    theta,
+                    phi: -0.4 * t,
+                    theta_meas: f64::from(q) * h,
+                    code: 7 - i,
+                    prediction: (i >= 25).then(|| (0.01 * f64::from(i)) as f32 + 1e-9),
+                }
+            })
+            .collect();
+        let mut r = Recorder::create(&dir).unwrap();
+        for row in &rows {
+            r.row(row).unwrap();
+        }
+        r.finish().unwrap();
+
+        let ts = crate::ssm::data::load_csv(dir.join("theta.csv")).unwrap();
+        assert_eq!(ts.len(), rows.len());
+        for (row, (&t, &x)) in rows.iter().zip(ts.t.iter().zip(&ts.x)) {
+            assert_eq!((t.to_bits(), x.to_bits()), (row.t.to_bits(), row.theta_meas.to_bits()));
+        }
+        assert!((ts.dt().unwrap() - dt).abs() < 1e-15);
+        // Measured values are whole counts.
+        assert!(ts.x.iter().all(|x| ((x / h).round() * h - x).abs() < 1e-15));
+
+        let text = std::fs::read_to_string(dir.join("record.csv")).unwrap();
+        let mut lines = text.lines();
+        assert_eq!(lines.next(), Some(RECORD_HEADER));
+        for (row, line) in rows.iter().zip(lines) {
+            let c: Vec<&str> = line.split(',').collect();
+            assert_eq!(c.len(), 6, "{line}");
+            let f = |k: usize| c[k].parse::<f64>().unwrap();
+            assert_eq!([f(0), f(1), f(2), f(3)].map(f64::to_bits), [row.t, row.theta, row.phi, row.theta_meas].map(f64::to_bits));
+            assert_eq!(c[4].parse::<i32>().unwrap(), row.code);
+            match row.prediction {
+                Some(p) => assert_eq!(c[5].parse::<f32>().unwrap().to_bits(), p.to_bits()),
+                None => assert_eq!(c[5], "NaN"),
+            }
+        }
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    /// The comparison with the host-only simulation passes on the simulation's own output
+    /// (noisy quantized scene) and names the first period that differs.
+    #[test]
+    fn host_sim_comparison_finds_the_first_mismatch() {
+        let scene = Scene::load("furuta-quant-dt25-noise", &["run.periods=120".to_string()]).unwrap();
+        let AnyPlant::Furuta(plant) = build_plant(&scene).unwrap() else { panic!("furuta scene") };
+        let tr = crate::sim::simulate(&scene, None).unwrap();
+        let mut codes = tr.codes.clone().unwrap();
+        let states: Vec<[f64; 4]> = (0..tr.rows()).map(|i| std::array::from_fn(|k| tr.state(i, k))).collect();
+        let mut s = summary_for_test();
+        compare_with_host_sim(&plant, &scene, &codes, &states, &mut s).unwrap();
+        assert!(s.host_sim_codes_identical && s.host_sim_first_mismatch.is_none() && s.host_sim_max_state_diff == 0.0);
+        // The seed matters: another seed changes some encoder count within 120 periods.
+        let other = Scene::load("furuta-quant-dt25-noise", &["run.periods=120".to_string(), "effects.noise.seed=2".to_string()]).unwrap();
+        compare_with_host_sim(&plant, &other, &codes, &states, &mut s).unwrap();
+        assert!(!s.host_sim_codes_identical && s.host_sim_first_mismatch.is_some());
+        codes[77].code += 1;
+        compare_with_host_sim(&plant, &scene, &codes, &states, &mut s).unwrap();
+        assert_eq!((s.host_sim_codes_identical, s.host_sim_first_mismatch), (false, Some(77)));
+    }
+
+    fn summary_for_test() -> PilSummary {
+        PilSummary {
+            scene: String::new(),
+            periods: 0,
+            codes_identical: true,
+            first_code_mismatch: None,
+            predictions_compared: 0,
+            predictions_bit_identical: true,
+            max_pred_rel_diff: 0.0,
+            saturated_samples: 0,
+            round_trips_per_s: 0.0,
+            periods_per_s: 0.0,
+            error_frames_checked: true,
+            stopped: None,
+            noise: None,
+            observable: String::new(),
+            host_sim_codes_identical: false,
+            host_sim_first_mismatch: None,
+            host_sim_max_state_diff: f64::INFINITY,
+        }
     }
 
     #[test]

@@ -21,6 +21,7 @@ pub const BUNDLED: &[(&str, &str)] = &[
     ("furuta-microchaos", include_str!("../../../scenes/furuta-microchaos.toml")),
     ("furuta-noise-pid", include_str!("../../../scenes/furuta-noise-pid.toml")),
     ("furuta-quant-dt25", include_str!("../../../scenes/furuta-quant-dt25.toml")),
+    ("furuta-quant-dt25-noise", include_str!("../../../scenes/furuta-quant-dt25-noise.toml")),
     ("furuta-saturation", include_str!("../../../scenes/furuta-saturation.toml")),
 ];
 

@@ -7,8 +7,16 @@
 //! and a baseline loop doing the same input loads without the call; the xtask converts
 //! `(ticks - base) * 40 / 128 / reps`. A block of 1,000 `nop`s calibrates the conversion.
 //!
+//! f32 against f64: the library predictor is f32 only (the M4F's FPU is single precision,
+//! f64 arithmetic runs in software: compiler-builtins' `__aeabi_d*` and `libm::sqrt`). The
+//! [`generic`] module here evaluates the same model formula with a generic scalar, in the
+//! library's operation order, and is counted as f32 and as f64 for K = 50 and 200 (the step
+//! instructions and `predict(HORIZON)` on every window, printed as f64 bits).
+//!
 //! Output lines (semihosting), parsed by the xtask:
-//! `dt KEY reps=R ticks=T base=B`, `dt predval k=K sqrt=S w=W bits=0x...`, `dt done`.
+//! `dt KEY reps=R ticks=T base=B`, `dt predval k=K sqrt=S w=W bits=0x...`,
+//! `dt gstep k=K scalar=S reps=R ticks=T base=B`, `dt gpredval k=K scalar=S w=W bits=0x...`
+//! (64-bit), `dt done`.
 //! Anything going wrong prints `dt error ...` and exits with failure.
 #![no_std]
 #![no_main]
@@ -144,6 +152,176 @@ fn flavour_name(s: SqrtFlavour) -> &'static str {
     }
 }
 
+/// The RBF model formula (reduce, step, lift component 0) for a generic scalar, in the
+/// library predictor's operation order; model entries (f32) are widened on use.
+mod generic {
+    use core::ops::{Add, AddAssign, Div, Mul, Sub};
+    use shared::model::Model;
+    use shared::model::monomial::degree_count;
+
+    pub trait Real:
+        Copy + Add<Output = Self> + Sub<Output = Self> + Mul<Output = Self> + Div<Output = Self> + AddAssign
+    {
+        const ZERO: Self;
+        fn from_f32(x: f32) -> Self;
+        fn sqrt(self) -> Self;
+        fn to_f64(self) -> f64;
+    }
+
+    impl Real for f32 {
+        const ZERO: Self = 0.0;
+        #[inline(always)]
+        fn from_f32(x: f32) -> Self {
+            x
+        }
+        #[inline(always)]
+        fn sqrt(self) -> Self {
+            // `vsqrt.f32`, as the library's `SqrtFlavour::Hardware`.
+            controller::predictor::SqrtFlavour::Hardware.sqrt(self)
+        }
+        fn to_f64(self) -> f64 {
+            f64::from(self)
+        }
+    }
+
+    impl Real for f64 {
+        const ZERO: Self = 0.0;
+        #[inline(always)]
+        fn from_f32(x: f32) -> Self {
+            f64::from(x)
+        }
+        #[inline(always)]
+        fn sqrt(self) -> Self {
+            libm::sqrt(self)
+        }
+        fn to_f64(self) -> f64 {
+            self
+        }
+    }
+
+    /// `eta_j = sum_i V1[i][j] (y_i - offset) / scale` with `y_i = window[i * shift]`.
+    pub fn reduce<S: Real, const P: usize, const D: usize, const K: usize, const T: usize>(
+        m: &Model<P, D, K, T>,
+        window: &[u32],
+    ) -> [S; D] {
+        let mut eta = [S::ZERO; D];
+        let (off, scale) = (S::from_f32(m.offset()), S::from_f32(m.scale()));
+        for (i, row) in m.v1().iter().enumerate() {
+            let y = window.get(i.saturating_mul(m.shift())).map_or(S::ZERO, |&b| S::from_f32(f32::from_bits(b)));
+            let z = (y - off) / scale;
+            for (e, &v) in eta.iter_mut().zip(row.iter()).take(m.d()) {
+                *e += S::from_f32(v) * z;
+            }
+        }
+        eta
+    }
+
+    /// One step of the RBF map: affine part, then the centres in order.
+    #[inline(never)]
+    pub fn step<S: Real, const P: usize, const D: usize, const K: usize, const T: usize>(
+        m: &Model<P, D, K, T>,
+        eta: &[S; D],
+    ) -> [S; D] {
+        let mut out = [S::ZERO; D];
+        for ((o, row), &b) in out.iter_mut().zip(m.affine_linear()).zip(m.affine_bias()) {
+            let mut acc = S::from_f32(b);
+            for (&a, &x) in row.iter().zip(eta.iter()) {
+                acc += S::from_f32(a) * x;
+            }
+            *o = acc;
+        }
+        for (c, w) in m.centres().iter().zip(m.weights()) {
+            let mut r2 = S::ZERO;
+            for (&x, &ci) in eta.iter().zip(c.iter()) {
+                let diff = x - S::from_f32(ci);
+                r2 += diff * diff;
+            }
+            let r = r2.sqrt();
+            for (o, &wi) in out.iter_mut().zip(w.iter()) {
+                *o += S::from_f32(wi) * r;
+            }
+        }
+        out
+    }
+
+    /// Component 0 of the lift: `(sum_j V1[0][j] eta_j + sum_t L[0][t] m_t(eta)) * scale +
+    /// offset`, monomials in the graded order of `shared::model::monomial` (degree `k` as
+    /// `eta_i` times the suffix of degree `k-1`). `None` if a capacity is exceeded.
+    pub fn lift0<S: Real, const P: usize, const D: usize, const K: usize, const T: usize>(
+        m: &Model<P, D, K, T>,
+        eta: &[S; D],
+    ) -> Option<S> {
+        let d = m.d();
+        let e = eta.get(..d)?;
+        let mut mono = [S::ZERO; T];
+        let mut prev_start = 0usize;
+        let mut write = 0usize;
+        for k in 2..=m.lift_order() {
+            let prev_len = degree_count(d, k - 1)?;
+            for (i, &ei) in e.iter().enumerate() {
+                let suffix_len = degree_count(d - i, k - 1)?;
+                let suffix_start = prev_len.checked_sub(suffix_len)?;
+                for s in suffix_start..prev_len {
+                    let factor = if k == 2 { *e.get(s)? } else { *mono.get(prev_start + s)? };
+                    *mono.get_mut(write)? = ei * factor;
+                    write += 1;
+                }
+            }
+            if k > 2 {
+                prev_start += prev_len;
+            }
+        }
+        let v = m.v1().first()?;
+        let l = m.lift().first()?;
+        let mut acc = S::ZERO;
+        for (&a, &x) in v.iter().zip(e.iter()) {
+            acc += S::from_f32(a) * x;
+        }
+        for (&a, &x) in l.iter().zip(mono.iter()).take(write) {
+            acc += S::from_f32(a) * x;
+        }
+        Some(acc * S::from_f32(m.scale()) + S::from_f32(m.offset()))
+    }
+
+    /// `lift0(step^n(reduce(window)))`.
+    pub fn predict<S: Real, const P: usize, const D: usize, const K: usize, const T: usize>(
+        m: &Model<P, D, K, T>,
+        window: &[u32],
+        n: u32,
+    ) -> Option<S> {
+        let mut eta = reduce::<S, P, D, K, T>(m, window);
+        for _ in 0..n {
+            eta = step(m, &eta);
+        }
+        lift0(m, &eta)
+    }
+}
+
+/// Centre counts of the generic f32 / f64 rows.
+const GENERIC_K: [usize; 2] = [50, 200];
+
+fn bench_generic<S: generic::Real>(p: &Pred, k: usize, name: &str) {
+    let m = p.model();
+    let first = data::WINDOWS.first().unwrap_or_else(|| fail("no windows"));
+    let eta: [S; 6] = generic::reduce(m, first);
+    let reps = (2_000 / k).max(4);
+    let base = ticks(|| {
+        for _ in 0..reps {
+            black_box(black_box(&eta));
+        }
+    });
+    let t = ticks(|| {
+        for _ in 0..reps {
+            black_box(generic::step(m, black_box(&eta)));
+        }
+    });
+    hprintln!("dt gstep k={} scalar={} reps={} ticks={} base={}", k, name, reps, t, base);
+    for (w, window) in data::WINDOWS.iter().enumerate() {
+        let y: S = generic::predict(m, window, data::HORIZON).unwrap_or_else(|| fail("generic lift: capacity"));
+        hprintln!("dt gpredval k={} scalar={} w={} bits={:#018x}", k, name, w, y.to_f64().to_bits());
+    }
+}
+
 fn bench_predictor() {
     // SAFETY: the only reference to PREDICTOR, taken once here.
     let p = unsafe { &mut *(&raw mut PREDICTOR) };
@@ -182,6 +360,10 @@ fn bench_predictor() {
                 let y = p.predict(data::HORIZON).unwrap_or_else(|_| fail("predict failed"));
                 hprintln!("dt predval k={} sqrt={} w={} bits={:#010x}", k, flavour_name(sqrt), w, y.to_bits());
             }
+        }
+        if GENERIC_K.contains(&k) {
+            bench_generic::<f32>(p, k, "f32");
+            bench_generic::<f64>(p, k, "f64");
         }
         if k == first.0 {
             // Projection and lift do not depend on K or the sqrt flavour.

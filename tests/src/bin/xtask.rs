@@ -13,7 +13,14 @@
 //!   `pil` binary), fits a 4D RBF model of the scene and runs `ssmctl pil` (plant on the host,
 //!   integer controller + predictor on the device over UART0); output in `qemu/target/pil/`.
 //!   Passes when every period ran, the device's codes equal the host's and its predictions
-//!   are bit-identical to the host's f32 predictor.
+//!   are bit-identical to the host's f32 predictor, and the whole run (counts, codes,
+//!   states) equals the host-only simulation of the scene with the same noise seed.
+//! - `pil-record --out DIR [--runs N] [--periods P] [--scene NAME] [--seed S]`: records N
+//!   PIL runs of a noisy quantized scene (default `furuta-quant-dt25-noise`, 3 runs of
+//!   20,000 periods) as data sets `DIR/run{1..N}/theta.csv` (measured angle, format of the
+//!   measured data sets) with `record.csv` and `summary.json`; run r uses noise seed
+//!   `S + r - 1` and its own initial angle. One model, fitted once, serves all runs
+//!   (`DIR/model.bin`); `DIR/runs.json` lists seeds, initial states and times.
 //! - `test`: install + `cargo test --workspace` + qemu-test + device-table (counted as one
 //!   on-target test, see `device_table::check`) + a 2,000-period PIL run (one more) +
 //!   STM32F407 build.
@@ -62,7 +69,8 @@ fn main() -> ExitCode {
         Some("test") => test_all(),
         Some("reproduce") => reproduce(&args[1..]),
         Some("pil") => pil_args(&args[1..]).and_then(|(scene, periods)| pil(&scene, periods)).map(|_| ()),
-        _ => Err("usage: cargo xtask <install | qemu-test | firmware-size | device-table [--json] | pil [--periods N] [--scene NAME] | test | reproduce --out DIR>".into()),
+        Some("pil-record") => record_args(&args[1..]).and_then(|r| pil_record(&r)),
+        _ => Err("usage: cargo xtask <install | qemu-test | firmware-size | device-table [--json] | pil [--periods N] [--scene NAME] | pil-record --out DIR [--runs N] [--periods P] [--scene NAME] [--seed S] | test | reproduce --out DIR>".into()),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
@@ -263,6 +271,19 @@ fn device_table_json(t: &device_table::Table, s: &elf::Sizes) -> serde_json::Val
             "per_center": (r.per_center * 100.0).round() / 100.0,
             "rel_error": r.rel_error,
         })).collect::<Vec<_>>(),
+        // The same kernel (generic scalar, library operation order) as f32 on the FPU and as
+        // f64 in software; `vs_f32` = instructions over the f32 row's at the same K.
+        "predictor_f32_vs_f64": t.scalar.iter().map(|r| {
+            let f32_row = t.scalar.iter().find(|o| o.centers == r.centers && o.scalar == "f32");
+            serde_json::json!({
+                "centers": r.centers,
+                "scalar": r.scalar,
+                "instructions": r1(r.instructions),
+                "per_center": (r.per_center * 100.0).round() / 100.0,
+                "rel_error": r.rel_error,
+                "vs_f32": f32_row.map(|o| (r.instructions / o.instructions * 100.0).round() / 100.0),
+            })
+        }).collect::<Vec<_>>(),
         "predictor_project_instructions": r1(t.project),
         "predictor_lift_instructions": r1(t.lift),
         "predictor_model": { "d": device_table::D, "p": device_table::P, "lift_order": device_table::ORDER, "horizon": device_table::HORIZON },
@@ -282,6 +303,10 @@ fn print_table(t: &device_table::Table, s: &elf::Sizes) {
     println!("  predictor step (d = {}):   K  sqrt       instructions  per centre  rel_error (predict({}))", device_table::D, device_table::HORIZON);
     for r in &t.predictor {
         println!("  {:>28} {:<10} {:>12.1} {:>11.2}  {:.2e}", r.centers, r.sqrt, r.instructions, r.per_center, r.rel_error);
+    }
+    println!("  RBF step, generic kernel (d = {}, vsqrt.f32 / libm::sqrt): K  scalar  instructions  per centre  rel_error (predict({}))", device_table::D, device_table::HORIZON);
+    for r in &t.scalar {
+        println!("  {:>45} {:<7} {:>12.1} {:>11.2}  {:.2e}", r.centers, r.scalar, r.instructions, r.per_center, r.rel_error);
     }
     println!("  device_table binary: flash {} B, static RAM {} B", s.flash, s.ram);
 }
@@ -313,7 +338,9 @@ fn reproduce(rest: &[String]) -> Result<()> {
     run(&mut c)
 }
 
-const PIL_SCENE: &str = "furuta-quant-dt25";
+/// The PIL scene of `cargo xtask test` / `pil`: quantized, with seeded sensor noise, so the
+/// run checks noise and encoder counts against the host-only simulation too.
+const PIL_SCENE: &str = "furuta-quant-dt25-noise";
 /// Periods of the PIL run inside `cargo xtask test`.
 const PIL_TEST_PERIODS: u64 = 2000;
 
@@ -338,28 +365,154 @@ fn pil_args(rest: &[String]) -> Result<(String, u64)> {
     Ok((scene, periods))
 }
 
-/// Builds the PIL firmware, fits a model and runs `ssmctl pil`; checks the summary.
-fn pil(scene: &str, periods: u64) -> Result<serde_json::Value> {
+/// The PIL firmware, built (and the target data it includes written) if needed.
+fn pil_firmware() -> Result<PathBuf> {
     if !qemu_dir().join("target-data/model.bin").exists() {
         write_target_data()?;
     }
-    let elf = build_firmware(false)?.with_file_name("pil");
-    let out = qemu_dir().join("target").join("pil");
-    std::fs::create_dir_all(&out).map_err(|e| format!("{}: {e}", out.display()))?;
-    let model = out.join("model.bin");
+    Ok(build_firmware(false)?.with_file_name("pil"))
+}
+
+/// One `ssmctl pil` run into `out` (`fit`: fit the scene's model into `model` first) with
+/// scene overrides `set`; returns the checked summary.
+fn ssmctl_pil(elf: &Path, scene: &str, set: &[String], model: &Path, fit: bool, periods: u64, out: &Path) -> Result<serde_json::Value> {
+    std::fs::create_dir_all(out).map_err(|e| format!("{}: {e}", out.display()))?;
     let periods_arg = periods.to_string();
     let mut c = cmd("cargo");
     // The test profile optimizes the host crate (the plant integration dominates otherwise)
     // and shares the dependencies `cargo test` built.
     c.current_dir(root()).args(["run", "--profile", "test", "-q", "-p", "host", "--bin", "ssmctl", "--", "pil", "--scene", scene]);
-    c.arg("--model").arg(&model).arg("--fit-model").args(["--periods", &periods_arg]).arg("--out").arg(&out).arg("--elf").arg(&elf);
+    for o in set {
+        c.arg("--set").arg(o);
+    }
+    c.arg("--model").arg(model);
+    if fit {
+        c.arg("--fit-model");
+    }
+    c.args(["--periods", &periods_arg]).arg("--out").arg(out).arg("--elf").arg(elf);
     run(&mut c)?;
     let path = out.join("summary.json");
     let text = std::fs::read_to_string(&path).map_err(|e| format!("{}: {e}", path.display()))?;
     let v: serde_json::Value = serde_json::from_str(&text).map_err(|e| format!("{}: {e}", path.display()))?;
     pil_check(&v, periods)?;
-    println!("pil: PASS ({} periods, codes identical, predictions bit-identical; {})", periods, path.display());
+    theta_csv_check(&out.join("theta.csv"), periods)?;
     Ok(v)
+}
+
+/// Builds the PIL firmware, fits a model and runs `ssmctl pil`; checks the summary.
+fn pil(scene: &str, periods: u64) -> Result<serde_json::Value> {
+    let elf = pil_firmware()?;
+    let out = qemu_dir().join("target").join("pil");
+    let v = ssmctl_pil(&elf, scene, &[], &out.join("model.bin"), true, periods, &out)?;
+    println!(
+        "pil: PASS ({periods} periods of {scene}, codes identical to the host's controller and to the host-only simulation, predictions bit-identical; {})",
+        out.display()
+    );
+    Ok(v)
+}
+
+/// `theta.csv` has the header and one row per period, each `t,x` with finite numbers.
+fn theta_csv_check(path: &Path, periods: u64) -> Result<()> {
+    let text = std::fs::read_to_string(path).map_err(|e| format!("{}: {e}", path.display()))?;
+    let mut lines = text.lines();
+    if lines.next() != Some("t_s,theta_meas_rad") {
+        return Err(format!("{}: header is not `t_s,theta_meas_rad`", path.display()));
+    }
+    let mut n = 0u64;
+    for (i, l) in lines.enumerate() {
+        let ok = l.split_once(',').is_some_and(|(a, b)| {
+            a.parse::<f64>().is_ok_and(f64::is_finite) && b.parse::<f64>().is_ok_and(f64::is_finite)
+        });
+        if !ok {
+            return Err(format!("{}: line {} is not `t,x` with finite numbers: {l:?}", path.display(), i + 2));
+        }
+        n += 1;
+    }
+    if n != periods {
+        return Err(format!("{}: {n} rows, expected {periods}", path.display()));
+    }
+    Ok(())
+}
+
+/// Options of `cargo xtask pil-record`.
+#[derive(Debug, Clone, PartialEq)]
+struct RecordArgs {
+    out: PathBuf,
+    runs: u32,
+    periods: u64,
+    scene: String,
+    seed: u64,
+}
+
+fn record_args(rest: &[String]) -> Result<RecordArgs> {
+    let mut r = RecordArgs { out: PathBuf::new(), runs: 3, periods: 20_000, scene: PIL_SCENE.to_string(), seed: 1 };
+    let mut out = None;
+    let mut it = rest.iter();
+    while let Some(a) = it.next() {
+        let mut value = |name: &str| it.next().cloned().ok_or_else(|| format!("pil-record: {name} needs a value"));
+        let int = |name: &str, v: String| v.parse::<u64>().map_err(|e| format!("pil-record: {name} `{v}`: {e}"));
+        match a.as_str() {
+            "--out" => out = Some(PathBuf::from(value("--out")?)),
+            "--runs" => {
+                let v = int("--runs", value("--runs")?)?;
+                r.runs = u32::try_from(v).ok().filter(|&n| (1..=100).contains(&n)).ok_or(format!("pil-record: --runs {v}: between 1 and 100"))?;
+            }
+            "--periods" => {
+                r.periods = int("--periods", value("--periods")?)?;
+                if r.periods < 2 {
+                    return Err("pil-record: --periods must be at least 2 (a data set needs two samples)".into());
+                }
+            }
+            "--scene" => r.scene = value("--scene")?,
+            "--seed" => r.seed = int("--seed", value("--seed")?)?,
+            other => return Err(format!("pil-record: unknown option `{other}` (expected --out DIR, --runs N, --periods P, --scene NAME, --seed S)")),
+        }
+    }
+    r.out = out.ok_or("pil-record: --out DIR is required")?;
+    Ok(r)
+}
+
+/// Initial primary angle of recorded run `r` (1-based): 0.01, -0.015, 0.02, -0.025 rad,
+/// repeating; all inside the quantized loop's bounded oscillation.
+fn record_theta0(r: u32) -> f64 {
+    let i = r.saturating_sub(1);
+    let sign = if i.is_multiple_of(2) { 1.0 } else { -1.0 };
+    sign * (0.01 + 0.005 * f64::from(i % 4))
+}
+
+fn pil_record(a: &RecordArgs) -> Result<()> {
+    let elf = pil_firmware()?;
+    std::fs::create_dir_all(&a.out).map_err(|e| format!("{}: {e}", a.out.display()))?;
+    let model = a.out.join("model.bin");
+    let start = Instant::now();
+    let mut runs = Vec::new();
+    for r in 1..=a.runs {
+        let seed = a.seed.checked_add(u64::from(r - 1)).ok_or("pil-record: seed overflows")?;
+        let theta0 = record_theta0(r);
+        let set = vec![format!("effects.noise.seed={seed}"), format!("initial.state=[{theta0},0.0,0.0,0.0]")];
+        let dir = a.out.join(format!("run{r}"));
+        let t0 = Instant::now();
+        let v = ssmctl_pil(&elf, &a.scene, &set, &model, r == 1, a.periods, &dir)?;
+        let secs = t0.elapsed().as_secs_f64();
+        println!(
+            "pil-record: run {r}/{}: seed {seed}, theta0 {theta0} rad, {} periods in {secs:.1} s ({:.0} periods/s), identical to the host-only simulation; {}",
+            a.runs,
+            a.periods,
+            v["periods_per_s"].as_f64().unwrap_or(0.0),
+            dir.join("theta.csv").display()
+        );
+        runs.push(serde_json::json!({
+            "run": r, "seed": seed, "initial_state": [theta0, 0.0, 0.0, 0.0], "periods": a.periods,
+            "theta_csv": format!("run{r}/theta.csv"), "wall_seconds": secs, "summary": v,
+        }));
+    }
+    let total = start.elapsed().as_secs_f64();
+    let index = serde_json::json!({ "scene": a.scene, "model": "model.bin", "runs": runs, "total_wall_seconds": total });
+    let path = a.out.join("runs.json");
+    let text = serde_json::to_string_pretty(&index).map_err(|e| e.to_string())?;
+    std::fs::write(&path, text).map_err(|e| format!("{}: {e}", path.display()))?;
+    println!("pil-record: {} runs x {} periods in {total:.1} s; {}", a.runs, a.periods, path.display());
+    Ok(())
 }
 
 /// The run passes when every period ran, codes agree and predictions are bit-identical.
@@ -376,6 +529,12 @@ fn pil_check(v: &serde_json::Value, periods: u64) -> Result<()> {
     }
     if v["predictions_compared"].as_u64().unwrap_or(0) == 0 {
         return Err("pil: no prediction was compared (window never filled)".into());
+    }
+    if v["host_sim_codes_identical"] != serde_json::Value::Bool(true) || v["host_sim_max_state_diff"].as_f64() != Some(0.0) {
+        return Err(format!(
+            "pil: the run differs from the host-only simulation of the scene (first period {}, max state difference {})",
+            v["host_sim_first_mismatch"], v["host_sim_max_state_diff"]
+        ));
     }
     Ok(())
 }
@@ -442,4 +601,48 @@ fn test_all() -> Result<()> {
     pil_run?;
     stm32?;
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn args(a: &[&str]) -> Vec<String> {
+        a.iter().map(|s| s.to_string()).collect()
+    }
+
+    #[test]
+    fn pil_record_options() {
+        let r = record_args(&args(&["--out", "d", "--runs", "2", "--periods", "500", "--seed", "7"])).unwrap();
+        assert_eq!(r, RecordArgs { out: "d".into(), runs: 2, periods: 500, scene: PIL_SCENE.into(), seed: 7 });
+        let d = record_args(&args(&["--out", "x"])).unwrap();
+        assert_eq!((d.runs, d.periods, d.seed), (3, 20_000, 1));
+        for (bad, says) in [
+            (&["--runs", "2"][..], "--out DIR is required"),
+            (&["--out", "d", "--runs", "0"], "between 1 and 100"),
+            (&["--out", "d", "--periods", "1"], "at least 2"),
+            (&["--out", "d", "--seed", "-1"], "--seed `-1`"),
+            (&["--out"], "--out needs a value"),
+            (&["--out", "d", "--bogus"], "unknown option `--bogus`"),
+        ] {
+            let e = record_args(&args(bad)).unwrap_err();
+            assert!(e.contains(says), "{bad:?}: {e}");
+        }
+        assert_eq!([1, 2, 3, 4, 5].map(record_theta0), [0.01, -0.015, 0.02, -0.025, 0.01]);
+    }
+
+    #[test]
+    fn theta_csv_check_counts_rows_and_rejects_bad_lines() {
+        let dir = std::env::temp_dir().join(format!("xtask-theta-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let p = dir.join("theta.csv");
+        std::fs::write(&p, "t_s,theta_meas_rad\n0,0.1\n0.025,0.2\n").unwrap();
+        assert!(theta_csv_check(&p, 2).is_ok());
+        assert!(theta_csv_check(&p, 3).unwrap_err().contains("2 rows, expected 3"));
+        std::fs::write(&p, "t_s,theta_meas_rad\n0,0.1\n0.025,NaN\n").unwrap();
+        assert!(theta_csv_check(&p, 2).unwrap_err().contains("line 3"));
+        std::fs::write(&p, "t,x\n0,0.1\n").unwrap();
+        assert!(theta_csv_check(&p, 1).unwrap_err().contains("header"));
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
 }

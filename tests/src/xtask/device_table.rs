@@ -18,6 +18,9 @@ pub const WINDOW: usize = (P - 1) * SHIFT + 1;
 pub const WINDOWS: usize = 4;
 pub const HORIZON: u32 = 12;
 pub const FLAVOURS: [&str; 3] = ["libm", "fast", "hardware"];
+/// Centre counts and scalars of the generic-kernel rows (f32 on the FPU, f64 in software).
+pub const GENERIC_CENTRES: [usize; 2] = [50, 200];
+pub const SCALARS: [&str; 2] = ["f32", "f64"];
 /// SysTick ticks (40 ns) per instruction (2^7 ns) under `-icount shift=7`.
 pub const TICKS_PER_INSTRUCTION: f64 = 128.0 / 40.0;
 
@@ -217,6 +220,8 @@ pub struct Parsed {
     pub measures: BTreeMap<String, Measure>,
     /// `(K, sqrt, window)` -> prediction.
     pub predictions: BTreeMap<(usize, String, usize), f32>,
+    /// `(K, scalar, window)` -> prediction of the generic kernel (`gstep:K:SCALAR` measures).
+    pub generic: BTreeMap<(usize, String, usize), f64>,
     pub done: bool,
 }
 
@@ -250,9 +255,20 @@ pub fn parse(text: &str) -> Result<Parsed, String> {
                     .map_err(|_| format!("device-table line: bad bits `{bits}`"))?;
                 out.predictions.insert((k, sqrt, w), f32::from_bits(bits));
             }
+            Some("gpredval") => {
+                let k = num(&tokens, "k")?;
+                let scalar = field(&tokens, "scalar")?.to_string();
+                let w = num(&tokens, "w")?;
+                let bits = field(&tokens, "bits")?;
+                let bits = u64::from_str_radix(bits.trim_start_matches("0x"), 16)
+                    .map_err(|_| format!("device-table line: bad bits `{bits}`"))?;
+                out.generic.insert((k, scalar, w), f64::from_bits(bits));
+            }
             Some(key) => {
                 let name = if key == "pred" {
                     format!("pred:{}:{}", num::<usize>(&tokens, "k")?, field(&tokens, "sqrt")?)
+                } else if key == "gstep" {
+                    format!("gstep:{}:{}", num::<usize>(&tokens, "k")?, field(&tokens, "scalar")?)
                 } else {
                     key.to_string()
                 };
@@ -281,6 +297,16 @@ pub struct PredRow {
     pub rel_error: f64,
 }
 
+/// One row of the f32-vs-f64 comparison (the firmware's generic kernel).
+#[derive(Debug, Clone)]
+pub struct ScalarRow {
+    pub centers: usize,
+    pub scalar: &'static str,
+    pub instructions: f64,
+    pub per_center: f64,
+    pub rel_error: f64,
+}
+
 /// The table: controller steps, predictor rows, projection and lift.
 #[derive(Debug, Clone)]
 pub struct Table {
@@ -291,6 +317,8 @@ pub struct Table {
     pub project: f64,
     pub lift: f64,
     pub predictor: Vec<PredRow>,
+    /// The generic kernel as f32 and as f64 (software double) for [`GENERIC_CENTRES`].
+    pub scalar: Vec<ScalarRow>,
 }
 
 /// `rel_error = max_w |device_w - ref_w| / max_w |ref_w|` over the input windows, the
@@ -321,6 +349,24 @@ pub fn table(parsed: &Parsed, reference: &[Vec<f64>]) -> Result<Table, String> {
             rows.push(PredRow { centers: k, sqrt, instructions, per_center: instructions / k as f64, rel_error: err / norm });
         }
     }
+    let mut scalar = Vec::new();
+    for k in GENERIC_CENTRES {
+        let ki = CENTRES.iter().position(|&c| c == k).ok_or("generic K not among the table's")?;
+        let refs = reference.get(ki).ok_or("missing reference")?;
+        for s in SCALARS {
+            let instructions = get(&format!("gstep:{k}:{s}"))?;
+            let (mut err, mut norm) = (0.0f64, 0.0f64);
+            for (w, &r) in refs.iter().enumerate() {
+                let got = parsed
+                    .generic
+                    .get(&(k, s.to_string(), w))
+                    .ok_or_else(|| format!("device table: no {s} prediction for K = {k}, window {w}"))?;
+                err = err.max((got - r).abs());
+                norm = norm.max(r.abs());
+            }
+            scalar.push(ScalarRow { centers: k, scalar: s, instructions, per_center: instructions / k as f64, rel_error: err / norm });
+        }
+    }
     Ok(Table {
         calib_nops1000: calib,
         ctrl_int: get("ctrl_int")?,
@@ -329,6 +375,7 @@ pub fn table(parsed: &Parsed, reference: &[Vec<f64>]) -> Result<Table, String> {
         project: get("project")?,
         lift: get("lift")?,
         predictor: rows,
+        scalar,
     })
 }
 
@@ -337,6 +384,9 @@ pub fn table(parsed: &Parsed, reference: &[Vec<f64>]) -> Result<Table, String> {
 /// within 10 %. A table that violates them (or has a non-finite entry) fails `xtask test`.
 pub const REL_ERROR_EXACT: f64 = 1e-4;
 pub const REL_ERROR_FAST: f64 = 0.1;
+/// The f64 kernel against the host's f64 evaluation of the same model: only summation order
+/// and libm's `sqrt` against std's may differ (both correctly rounded), so near f64 epsilon.
+pub const REL_ERROR_F64: f64 = 1e-12;
 
 pub fn check(t: &Table) -> Result<(), String> {
     for r in &t.predictor {
@@ -344,6 +394,15 @@ pub fn check(t: &Table) -> Result<(), String> {
         if !(r.rel_error <= bound && r.instructions.is_finite() && r.instructions > 0.0) {
             return Err(format!("K = {} {}: rel_error {:e} (bound {bound:e}), {} instructions", r.centers, r.sqrt, r.rel_error, r.instructions));
         }
+    }
+    for r in &t.scalar {
+        let bound = if r.scalar == "f64" { REL_ERROR_F64 } else { REL_ERROR_EXACT };
+        if !(r.rel_error <= bound && r.instructions.is_finite() && r.instructions > 0.0) {
+            return Err(format!("generic kernel K = {} {}: rel_error {:e} (bound {bound:e}), {} instructions", r.centers, r.scalar, r.rel_error, r.instructions));
+        }
+    }
+    if t.scalar.len() != GENERIC_CENTRES.len() * SCALARS.len() {
+        return Err(format!("{} f32/f64 rows, expected {}", t.scalar.len(), GENERIC_CENTRES.len() * SCALARS.len()));
     }
     for (what, v) in [("IntPd", t.ctrl_int), ("FloatPd<f32>", t.ctrl_f32), ("FloatPd<f64>", t.ctrl_f64)] {
         if !(v.is_finite() && v > 0.0) {
@@ -393,8 +452,11 @@ mod tests {
 
     #[test]
     fn parser_reads_lines_and_rejects_errors() {
-        let text = "noise\ndt ctrl_int reps=1000 ticks=320000 base=32000\ndt predval k=50 sqrt=fast w=1 bits=0x3f800000\ndt pred k=50 sqrt=libm reps=4 ticks=12800 base=0\ndt done\n";
+        let text = "noise\ndt ctrl_int reps=1000 ticks=320000 base=32000\ndt predval k=50 sqrt=fast w=1 bits=0x3f800000\ndt pred k=50 sqrt=libm reps=4 ticks=12800 base=0\ndt gstep k=200 scalar=f64 reps=10 ticks=64000 base=0\ndt gpredval k=200 scalar=f64 w=3 bits=0xbff8000000000000\ndt done\n";
         let p = parse(text).unwrap();
+        assert_eq!(p.measures["gstep:200:f64"].per_call(), 2000.0);
+        assert_eq!(p.generic[&(200, "f64".to_string(), 3)], -1.5);
+        assert!(parse("dt gpredval k=1 scalar=f64 w=0 bits=0xzz\ndt done\n").unwrap_err().contains("bad bits"));
         assert_eq!(p.measures["ctrl_int"].per_call(), 90.0);
         assert_eq!(p.measures["pred:50:libm"].per_call(), 1000.0);
         assert_eq!(p.predictions[&(50, "fast".to_string(), 1)], 1.0);
