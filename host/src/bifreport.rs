@@ -8,8 +8,8 @@ use crate::report::{Report, num};
 use crate::nfreport::PAPER_DTS;
 use crate::ssm::furuta::{FurutaOptions, ParametricModel};
 use crate::ssm::portrait::{
-    FixedPoint, HeteroclinicEvent, HopfEvent, PointKind, PortraitOptions, ScanOptions, fixed_points, heteroclinic_dt, plot_portrait,
-    portrait, torus_hopf_dt,
+    Fate, FixedPoint, HeteroclinicEvent, HopfEvent, PointKind, PortraitOptions, ScanOptions, fixed_points, heteroclinic_dt, plot_portrait,
+    portrait, torus_hopf_dt, trajectory,
 };
 use crate::ssm::furuta_predict::{Interp, PredictOptions, PredictionResult, predictions, shared_parametric};
 use plotters::style::RGBColor;
@@ -208,4 +208,262 @@ pub fn portraits_section(rep: &mut Report, pm: &ParametricModel) -> Result<Model
         json!({"model": hopf.as_ref().map(|h| h.dt), "complex_pair": hopf.as_ref().map(|h| h.complex_pair)}),
     );
     Ok(ModelBifurcations { heteroclinic, hopf, torus_30p8 })
+}
+
+// ------------------------------------------------------------------ model vs full system
+
+/// Where the model sends a small start: the fate of the interior unstable branch of the
+/// fast-mode saddle cycle (small starts grow along the fast mode to that cycle first, then
+/// follow this branch; the full system's runs do the same, see `furcheck`).
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
+pub enum SmallStartFate {
+    /// Reaches the 2-torus continued from 30.8 ms (stable) or circles it on a 3-torus.
+    Principal,
+    /// Reaches another attractor, leaves the box or stops otherwise.
+    Elsewhere,
+}
+
+/// The model's fate of a small start at `dt` (see [`SmallStartFate`]); `principal` is the
+/// continued torus position (updated).
+fn small_start_fate(pm: &ParametricModel, dt: f64, principal: &mut [f64; 2]) -> Result<SmallStartFate, Box<dyn Error>> {
+    let nf = pm.normal_form_at(dt)?;
+    let o = PortraitOptions { rho_max: RHO_MAX, ray_samples: 0, flow_grid: 0, ..PortraitOptions::default() };
+    let fps = fixed_points(&nf, &o)?;
+    let Some(fc) = fps.iter().filter(|f| f.kind == (PointKind::LimitCycle { mode: 2 })).min_by(|a, b| a.rho[1].total_cmp(&b.rho[1])) else {
+        return Ok(SmallStartFate::Elsewhere);
+    };
+    let torus = fps
+        .iter()
+        .filter(|f| f.kind == PointKind::Torus2)
+        .min_by(|a, b| {
+            let d = |f: &FixedPoint| (f.rho[0] - principal[0]).hypot(f.rho[1] - principal[1]);
+            d(a).total_cmp(&d(b))
+        })
+        .map(|f| f.rho);
+    let Some(tc) = torus else { return Ok(SmallStartFate::Elsewhere) };
+    *principal = tc;
+    let (pts, fate) = trajectory(&nf, [1e-4, fc.rho[1]], 4000.0, &o)?;
+    Ok(match fate {
+        Fate::Converges { .. } => {
+            let last = pts.last().copied().unwrap_or((f64::NAN, f64::NAN));
+            if (last.0 - tc[0]).hypot(last.1 - tc[1]) < 1e-3 { SmallStartFate::Principal } else { SmallStartFate::Elsewhere }
+        }
+        Fate::TimeLimit => {
+            // On a 3-torus when the last quarter circles the torus point (both sides of it in
+            // rho_1 and in rho_2) without leaving.
+            let tail = &pts[pts.len() * 3 / 4..];
+            let around = |i: usize| {
+                let v = |p: &(f64, f64)| if i == 0 { p.0 } else { p.1 };
+                tail.iter().any(|p| v(p) < tc[i]) && tail.iter().any(|p| v(p) > tc[i])
+            };
+            if around(0) && around(1) { SmallStartFate::Principal } else { SmallStartFate::Elsewhere }
+        }
+        _ => SmallStartFate::Elsewhere,
+    })
+}
+
+/// The first dt in `[lo, hi]` (grid of `n`, then bisection to 1e-3 ms) at which the model's
+/// small-start fate stops being [`SmallStartFate::Principal`]: the model's counterpart of
+/// the full system's bounded-vs-escape switch of small starts.
+pub fn model_small_start_switch(pm: &ParametricModel, lo: f64, hi: f64, n: usize) -> Result<Option<(f64, f64)>, Box<dyn Error>> {
+    let mut principal = [0.1, 0.03];
+    let mut prev = lo;
+    for k in 0..n {
+        let dt = lo + (hi - lo) * k as f64 / (n - 1) as f64;
+        if small_start_fate(pm, dt, &mut principal)? == SmallStartFate::Elsewhere {
+            if k == 0 {
+                return Ok(None);
+            }
+            let (mut a, mut b) = (prev, dt);
+            let mut pa = principal;
+            while b - a > 1e-3 {
+                let m = 0.5 * (a + b);
+                let mut pm_ = pa;
+                if small_start_fate(pm, m, &mut pm_)? == SmallStartFate::Principal {
+                    a = m;
+                    pa = pm_;
+                } else {
+                    b = m;
+                }
+            }
+            return Ok(Some((a, b)));
+        }
+        prev = dt;
+    }
+    Ok(None)
+}
+
+/// Full-system checks of the model's predictions: where small starts switch from bounded to
+/// escape, the 2-torus at 30.8 ms, the domain of attraction at 31.55 ms (three starts, paper
+/// fig. 5), and the transient spectrum near the 3-torus (paper fig. 6).
+pub fn fullsystem_section(rep: &mut Report, pm: &ParametricModel, bif: &ModelBifurcations, quick: bool) -> Result<(), Box<dyn Error>> {
+    use crate::furcheck::{
+        DEFAULT_SCAN_PERIODS, ESCAPE_THETA, default_ics, default_switch_scan, fate_from, start_from_rho, switch_scan, torus_full,
+        transient_analysis,
+    };
+    rep.section(
+        "fullsystem",
+        "Parametric model vs the full system: bifurcations, torus, domain of attraction",
+        &format!(
+            "The full system is simulated (exprb43, rtol 1e-9) from small starts built on the exact linear eigenvectors with \
+             given slow/fast theta amplitudes (rho_1, rho_2); a run escapes when |theta| > {ESCAPE_THETA} rad. Mode \
+             amplitudes of full-system runs are sliding least-squares fits of the slow and fast components (2.5 s windows), \
+             drawn in the model's (rho_1, rho_2) plane."
+        ),
+    );
+    // 1. Small-start switch.
+    let (lo, hi) = pm.range();
+    let model_switch = model_small_start_switch(pm, 30.8, hi.min(32.3), 76)?;
+    let scan = if quick {
+        let mut outcomes = Vec::new();
+        let dts = [31.2, 31.3, 31.4, 31.5, 31.6];
+        let mut runs = 0;
+        let t0 = std::time::Instant::now();
+        for &dt in &dts {
+            let ics: Vec<_> = default_ics(dt)?.into_iter().take(2).collect();
+            let one = switch_scan(&[dt], &ics, 3000, ESCAPE_THETA)?;
+            runs += one.runs;
+            outcomes.extend(one.outcomes);
+        }
+        crate::furcheck::SwitchScan { dts_ms: dts.to_vec(), outcomes, periods: 3000, escape_theta: ESCAPE_THETA, runs, wall_seconds: t0.elapsed().as_secs_f64() }
+    } else {
+        default_switch_scan(DEFAULT_SCAN_PERIODS)?
+    };
+    let full_bracket = scan.bracket();
+    rep.para(&format!(
+        "Small starts, full system: {} runs of {} periods over dt = {:.2}..{:.2} ms ({:.1} s wall): all bounded up to \
+         {}, some escape from {}{}; every start escapes from {}. Model: a small start follows the fast-mode saddle cycle's \
+         interior unstable branch, which reaches the torus born at 30.8 ms (or the 3-torus around it) up to {} ms. Heteroclinic \
+         search on the model's saddle cycles (unstable branch switching fate between converging and leaving): {}.",
+        scan.runs,
+        scan.periods,
+        scan.dts_ms.first().copied().unwrap_or(f64::NAN),
+        scan.dts_ms.last().copied().unwrap_or(f64::NAN),
+        scan.wall_seconds,
+        full_bracket.map_or("-".into(), |b| format!("{} ms", b.0)),
+        full_bracket.map_or("-".into(), |b| format!("{} ms", b.1)),
+        if scan.monotone() { "" } else { " (not monotone in dt)" },
+        scan.all_escape_from().map_or("never in the scan".into(), |d| format!("{d} ms")),
+        model_switch.map_or(format!("the end of the range ({:.2} ms)", hi.min(32.3)), |b| format!("{:.3}", b.0)),
+        bif.heteroclinic.as_ref().map_or("none found".into(), |h| format!("{:.4} ms", h.dt)),
+    ));
+    rep.para(&format!("<pre>{}</pre>", crate::report::esc(&scan.to_text())));
+    rep.summary.insert(
+        "heteroclinic_dt_ms".into(),
+        json!({
+            "model": model_switch.map(|b| 0.5 * (b.0 + b.1)),
+            "model_rule": "first dt where the fast saddle cycle's interior unstable branch no longer ends on the continued 2-torus or a 3-torus around it",
+            "model_saddle_connection": bif.heteroclinic.as_ref().map(|h| h.dt),
+            "full_system": full_bracket.map(|b| [b.0, b.1]),
+            "full_system_all_escape_from": scan.all_escape_from(),
+            "scan_periods": scan.periods,
+        }),
+    );
+    let _ = lo;
+
+    // 2. The 2-torus at 30.8 ms.
+    let tf = torus_full(30.8, &([0.05, 0.0, 0.0, 0.0], None), if quick { 4000 } else { 8000 }, if quick { 40.0 } else { 80.0 })?;
+    let tm = bif.torus_30p8.as_ref();
+    let amp_model = tm.map(|t| t.rho[0] + t.rho[1]);
+    rep.table(
+        &["2-torus at 30.8 ms", "max |theta| [rad]", "rho_1 (slow) [rad]", "rho_2 (fast) [rad]", "slow [Hz]", "fast [Hz]"],
+        &[
+            vec![
+                "model (fixed point of the amplitude equations; max |theta| = rho_1 + rho_2)".into(),
+                amp_model.map_or("-".into(), |a| format!("{a:.4}")),
+                tm.map_or("-".into(), |t| format!("{:.4}", t.rho[0])),
+                tm.map_or("-".into(), |t| format!("{:.4}", t.rho[1])),
+                tm.map_or("-".into(), |t| format!("{:.4}", t.freqs_hz[0])),
+                tm.map_or("-".into(), |t| format!("{:.4}", t.freqs_hz[1])),
+            ],
+            vec![
+                format!("full system (last {:.0} s of {:.0} s from theta0 = 0.05)", tf.tail_s, tf.total_s),
+                format!("{:.4}", tf.amplitude_theta),
+                format!("{:.4}", tf.rho[0]),
+                format!("{:.4}", tf.rho[1]),
+                format!("{:.4}", tf.freqs_hz[0]),
+                format!("{:.4}", tf.freqs_hz[1]),
+            ],
+            vec![
+                "exact linear frequencies".into(),
+                String::new(),
+                String::new(),
+                String::new(),
+                format!("{:.4}", tf.linear_freqs_hz[0]),
+                format!("{:.4}", tf.linear_freqs_hz[1]),
+            ],
+        ],
+    );
+    rep.summary.insert(
+        "torus_30p8".into(),
+        json!({
+            "amplitude_theta_model": amp_model,
+            "amplitude_theta_full": tf.amplitude_theta,
+            "rho_model": tm.map(|t| t.rho),
+            "rho_full": tf.rho,
+            "freqs_hz_model": tm.map(|t| t.freqs_hz),
+            "freqs_hz_full": tf.freqs_hz,
+        }),
+    );
+
+    // 3. Domain of attraction (paper fig. 5): three starts at 31.55 ms.
+    let dt_doa = 31.55;
+    let nf = pm.normal_form_at(dt_doa)?;
+    let popts = PortraitOptions { rho_max: RHO_MAX, ..PortraitOptions::default() };
+    let p = portrait(&nf, &popts)?;
+    let starts: [[f64; 2]; 3] = [[0.08, 0.03], [0.02, 0.03], [0.14, 0.055]];
+    let periods = if quick { 2000 } else { 6000 };
+    let mut rows = Vec::new();
+    let mut curves: Vec<(String, Vec<(f64, f64)>)> = Vec::new();
+    let mut doa = Vec::new();
+    for rho in starts {
+        let f = fate_from(dt_doa, rho, [0.0, 0.0], periods)?;
+        let (mpts, mfate) = trajectory(&nf, rho, 2000.0, &popts)?;
+        let model_class = match mfate {
+            Fate::LeavesBox { .. } => "leaves the box (escape)".to_string(),
+            Fate::Converges { point } => format!("converges to the {}", kind_text(p.fixed_points.get(point).map_or(PointKind::Torus2, |x| x.kind))),
+            Fate::TimeLimit => "stays bounded (3-torus)".to_string(),
+            other => format!("{other:?}"),
+        };
+        rows.push(vec![
+            format!("({}, {})", rho[0], rho[1]),
+            model_class.clone(),
+            if f.bounded { format!("bounded for {:.0} s", periods as f64 * dt_doa * 1e-3) } else { format!("escapes at {:.1} s", f.escape_t.unwrap_or(f64::NAN)) },
+        ]);
+        doa.push(json!({"rho": rho, "model": model_class, "full_bounded": f.bounded, "full_escape_t": f.escape_t}));
+        curves.push((format!("full ({}, {})", rho[0], rho[1]), f.amps.iter().map(|(_, r)| (r[0], r[1])).collect()));
+        let _ = mpts;
+    }
+    let extra: Vec<(&str, &[(f64, f64)])> = curves.iter().map(|(n, c)| (n.as_str(), c.as_slice())).collect();
+    plot_portrait(&rep.dir().join("fig/domain_31p55.png"), &p, "dt = 31.55 ms: model portrait, full-system runs", &extra)?;
+    rep.table(&["start (rho_1, rho_2) [rad]", "model", "full system"], &rows);
+    rep.figure("fig/domain_31p55.png", "Domain of attraction at 31.55 ms: the model's portrait with three full-system runs in amplitude coordinates");
+    rep.summary.insert("domain_of_attraction".into(), json!({"dt_ms": dt_doa, "starts": doa}));
+
+    // 4. Transient spectrum near the 3-torus (paper fig. 6).
+    let dt_tr = 31.5;
+    let start = start_from_rho(dt_tr, [0.02, 0.035], [0.0, 0.0])?;
+    let ta = transient_analysis(dt_tr, &(start.0, Some(start.1)), if quick { 60.0 } else { 150.0 })?;
+    let model_orbit = portrait(&pm.normal_form_at(dt_tr)?, &popts)?.orbits.first().map(|o| 1.0 / o.period);
+    rep.para(&format!(
+        "Transient at {dt_tr} ms from (rho_1, rho_2) = (0.02, 0.035), {:.0} s analysed{}: {} spectral peaks above 5 % of the \
+         largest ({}); slow {:.4} Hz, fast {:.4} Hz; the third frequency as sideband spacing {} and as the oscillation of \
+         rho_1(t) {}; the model's 3-torus at {dt_tr} ms circles at {}.",
+        ta.analysed_s,
+        ta.escape_t.map_or(String::new(), |t| format!(" (escapes at {t:.1} s)")),
+        ta.peaks.len(),
+        ta.peaks.iter().map(|p| format!("{:.4}", p.freq_hz)).collect::<Vec<_>>().join(", "),
+        ta.slow.freq_hz,
+        ta.fast.freq_hz,
+        ta.sideband_spacing_hz.map_or("-".into(), |s| format!("{s:.4} Hz")),
+        ta.envelope_freq_hz.map_or("-".into(), |s| format!("{s:.4} Hz")),
+        model_orbit.map_or("- (no 3-torus in the model)".into(), |f| format!("{f:.4} Hz")),
+    ));
+    rep.summary.insert(
+        "transient_3torus".into(),
+        json!({"dt_ms": dt_tr, "peaks_hz": ta.peaks.iter().map(|p| p.freq_hz).collect::<Vec<_>>(),
+               "sideband_spacing_hz": ta.sideband_spacing_hz, "envelope_freq_hz": ta.envelope_freq_hz,
+               "model_3torus_freq_hz": model_orbit}),
+    );
+    Ok(())
 }

@@ -25,7 +25,8 @@ pub fn run(out: &Path, data_dir: &Path, quick: bool, quiet: bool) -> Result<(), 
     crate::fitreport::sloshing_section(&mut rep, data_dir, quick)?;
     crate::fitreport::furuta_blob(&mut rep, quick)?;
     let parametric = crate::nfreport::section(&mut rep)?;
-    crate::bifreport::portraits_section(&mut rep, &parametric)?;
+    let bif = crate::bifreport::portraits_section(&mut rep, &parametric)?;
+    crate::bifreport::fullsystem_section(&mut rep, &parametric, &bif, quick)?;
     crate::bifreport::predictions_section(&mut rep)?;
     crate::fitreport::device_section(&mut rep, Path::new("qemu/target/device-table.json"))?;
     crate::chaoscmd::section(&mut rep, data_dir, quick)?;

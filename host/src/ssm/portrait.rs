@@ -790,6 +790,24 @@ fn integrate(
     Traj { points, t, end, min_distance }
 }
 
+/// The forward trajectory of the amplitude equations from `rho0` for at most `t_max` s, and
+/// its fate (reaches a fixed point within `converge_tol`, leaves the box, or a limit).
+pub fn trajectory(nf: &PolarNormalForm, rho0: [f64; 2], t_max: f64, opts: &PortraitOptions) -> Result<(Vec<(f64, f64)>, Fate), PortraitError> {
+    check_opts(opts)?;
+    for (name, v) in [("rho0[0]", rho0[0]), ("rho0[1]", rho0[1])] {
+        if !(v.is_finite() && v >= 0.0) {
+            return Err(PortraitError::BadOption { name, value: v, why: "must be finite and non-negative" });
+        }
+    }
+    if !(t_max.is_finite() && t_max > 0.0) {
+        return Err(PortraitError::BadOption { name: "t_max", value: t_max, why: "must be finite and positive" });
+    }
+    let field = Field::new(nf)?;
+    let fps = fixed_points_field(&field, opts);
+    let tr = integrate(&field, rho0, 1.0, t_max, &fps, None, opts, &mut |_, _, _, _| Step::Go);
+    Ok((tr.points, fate_of(&tr.end)))
+}
+
 fn fate_of(end: &End) -> Fate {
     match end {
         End::Fate(f) => *f,
