@@ -104,7 +104,10 @@ fn reproduce_quick_writes_the_report() {
     let html = std::fs::read_to_string(dir.join("index.html")).unwrap();
     assert!(html.contains("stability_chart.png") && html.contains("What accuracy costs in time"));
     let s: Value = serde_json::from_str(&std::fs::read_to_string(dir.join("summary.json")).unwrap()).unwrap();
-    for k in ["scenes", "stability", "stability_chart", "bench_simulate", "linear_nf", "chaos", "device", "pil"] {
+    for k in [
+        "scenes", "stability", "stability_chart", "bench_simulate", "linear_nf", "chaos", "device", "pil", "predictions", "heteroclinic_dt_ms",
+        "torus_30p8", "portraits",
+    ] {
         assert!(s.get(k).is_some(), "summary.json lacks {k}");
     }
     assert!(dir.join("fig/stability_chart.png").metadata().unwrap().len() > 10_000);
