@@ -227,7 +227,9 @@ fn pil_paragraph(rep: &mut Report, path: &Path) -> Result<(), Box<dyn Error>> {
     let v: Value = serde_json::from_str(&text).map_err(|e| format!("{}: {e}", path.display()))?;
     let f = |k: &str| v.get(k).map_or("-".to_string(), |x| x.to_string());
     rep.para(&format!(
-        "Processor in the loop (plant on the host, integer controller and RBF predictor in QEMU over the emulated UART,          framed and CRC-checked): {} periods, control codes identical to the host-only controller: {}, predictions          compared: {}, max relative prediction difference vs the host's f32 evaluation: {}, {} round trips/s. \
+        "Processor in the loop (plant on the host, integer controller and RBF predictor in QEMU over the emulated UART, \
+         framed and CRC-checked): {} periods, control codes identical to the host-only controller: {}, predictions \
+         compared: {}, max relative prediction difference vs the host's f32 evaluation: {}, {} round trips/s. \
          The whole closed loop (encoder counts, codes, states) equals the host-only simulation of the scene{}: {}.",
         f("periods"),
         f("codes_identical"),
@@ -241,6 +243,15 @@ fn pil_paragraph(rep: &mut Report, path: &Path) -> Result<(), Box<dyn Error>> {
         )),
         f("host_sim_codes_identical")
     ));
+    // The blob the run flashed is part of the report's exported models.
+    let blob = path.with_file_name("model.bin");
+    if blob.is_file() {
+        std::fs::copy(&blob, rep.dir().join("pil-model.bin")).map_err(|e| format!("{}: {e}", blob.display()))?;
+        rep.para("The model blob of this run is <code>pil-model.bin</code>.");
+        if let Some(Value::Array(list)) = rep.summary.get_mut("exported_blobs") {
+            list.push(json!("pil-model.bin"));
+        }
+    }
     rep.summary.insert(
         "pil".into(),
         json!({"periods": v.get("periods"), "codes_identical": v.get("codes_identical"),
