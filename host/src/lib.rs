@@ -3,6 +3,7 @@
 
 pub mod bench;
 pub mod chaoscmd;
+pub mod chaostable;
 pub mod chart;
 pub mod cli;
 pub mod export;
