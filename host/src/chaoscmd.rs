@@ -1,14 +1,20 @@
 //! Chaotic statistics, data vs SSM models (paper section 3.2): correlation dimension
-//! (Grassberger-Procaccia) and the SSM dimension rule (the smallest
-//! even dimension above it); SSM fits with RBF and polynomial reduced dynamics; the largest
+//! (Grassberger-Procaccia) and the SSM dimension rule (the smallest even dimension above the
+//! estimate plus its error bar); SSM fits with RBF and polynomial reduced dynamics; the largest
 //! Lyapunov exponent by Rosenstein's estimator applied identically to data and to
-//! model-generated series; PDFs of the reduced coordinates and their Jensen-Shannon divergence.
+//! model-generated series, and of the smooth reduced maps themselves by Benettin's method
+//! (analytic tangent maps, [`crate::chaostable`]); PDFs of the reduced coordinates and their
+//! Jensen-Shannon divergence.
 //!
 //! Stated choices: delay lag = first zero of the autocorrelation; Theiler window = dominant
-//! period (both from the training data, reused unchanged for model series); GP embedding
+//! period T (both from the training data, reused unchanged for model series); GP embedding
 //! dimension `gp_embed` (default 6); Rosenstein in the same embedding, curve length
 //! 3 Theiler windows (30..1000 samples), fit window by the chaos crate's straightest-section
-//! rule. Model series are as long as the data series and start from the data's first point.
+//! rule. SSM delay embedding `p = 2 d + 1` with shift `round(T / (4 (p - 1)))` (the window
+//! spans a quarter period); defaults 500 RBF centres, polynomial map order 4, relative ridge
+//! 1e-8 (measured on the inverted flag: see the report). Model series are as long as the
+//! data series and start from the data's first point; Benettin runs 5,000 transient and
+//! 50,000 measured steps from the same point.
 
 use crate::chaostable::{ModelLyapunov, model_lyapunov};
 use crate::ssm::embed::delay_embed as ssm_embed;
@@ -34,8 +40,9 @@ pub struct ChaosOptions {
     pub ridge: f64,
     /// SSM delay-embedding dimension (default `2 d + 1`).
     pub embed: Option<usize>,
-    /// SSM delay-embedding shift, samples.
-    pub shift: usize,
+    /// SSM delay-embedding shift, samples (default: the embedding window `(p - 1) shift`
+    /// spans a quarter of the dominant period, `round(T / (4 (p - 1)))`, at least 1).
+    pub shift: Option<usize>,
     /// Polynomial order of the manifold parametrization.
     pub manifold_order: u32,
     /// Benettin: transient and measured map steps on the model's own attractor.
@@ -48,11 +55,11 @@ impl Default for ChaosOptions {
         Self {
             gp_embed: 6,
             ssm_dim: None,
-            centers: 200,
-            poly_order: 3,
+            centers: 500,
+            poly_order: 4,
             ridge: 1e-8,
             embed: None,
-            shift: 1,
+            shift: None,
             manifold_order: 2,
             benettin_transient: 5_000,
             benettin_steps: 50_000,
@@ -123,7 +130,7 @@ impl Context {
     pub fn ssm_dim_from_data(&self, x: &[f64], embed: usize) -> Result<usize, ChaosError> {
         let pts = delay_embed(x, embed, self.lag)?;
         let cd = correlation_dimension(&pts, &CorrSumParams { theiler: self.theiler, ..Default::default() }, &ScalingRule::default())?;
-        ssm_dimension(cd.dimension)
+        dimension_rule(cd.dimension, cd.slope_std)
     }
 
     /// Rosenstein exponent (1/s) and fit window (s) of series `x`; fallbacks go to `notes`.
@@ -154,12 +161,21 @@ pub fn fit_lle_curve(curve: &DivergenceCurve) -> Result<(chaos::DivergenceFit, O
     }
 }
 
-/// SSM fit options of the study (dynamics set by the caller).
-pub fn fit_options(o: &ChaosOptions, ssm_dim: usize) -> FitOptions {
+/// The paper's rule read with the error bar ("an even number larger than 4.39 +- 0.06"): the
+/// smallest even integer above `D2 + err`.
+pub fn dimension_rule(d2: f64, err: f64) -> Result<usize, ChaosError> {
+    ssm_dimension(d2 + err.max(0.0))
+}
+
+/// SSM fit options of the study (dynamics set by the caller); `ctx` gives the dominant
+/// period for the default shift.
+pub fn fit_options(o: &ChaosOptions, ssm_dim: usize, ctx: &Context) -> FitOptions {
+    let embed = o.embed.unwrap_or(2 * ssm_dim + 1);
+    let auto = ((ctx.theiler as f64 / (4.0 * (embed.max(2) - 1) as f64)).round() as usize).max(1);
     FitOptions {
         dim: ssm_dim,
-        embed: o.embed.unwrap_or(2 * ssm_dim + 1),
-        shift: o.shift,
+        embed,
+        shift: o.shift.unwrap_or(auto),
         manifold_order: o.manifold_order,
         dyn_order: o.poly_order,
         dynamics: Dynamics::Map,
@@ -233,11 +249,11 @@ pub fn analyse(train: &[TimeSeries], o: &ChaosOptions) -> Result<ChaosSummary, B
     let cd = correlation_dimension(&pts, &CorrSumParams { theiler: ctx.theiler, ..Default::default() }, &ScalingRule::default())?;
     let ssm_dim = match o.ssm_dim {
         Some(d) => d,
-        None => ssm_dimension(cd.dimension)?,
+        None => dimension_rule(cd.dimension, cd.slope_std)?,
     };
     let mut notes = Vec::new();
     let (lle_data, window) = ctx.lle(&data.x, &mut notes, "data")?;
-    let base = fit_options(o, ssm_dim);
+    let base = fit_options(o, ssm_dim, &ctx);
     let mut out = ChaosSummary {
         corr_dim: cd.dimension,
         corr_dim_err: cd.slope_std,
@@ -307,10 +323,11 @@ pub fn section(rep: &mut crate::report::Report, data_dir: &std::path::Path, quic
         "Chaotic statistics: data vs SSM models",
         "Correlation dimension by Grassberger-Procaccia (self-pairs and a Theiler window of one dominant period \
          excluded; scaling range: the longest run of radii whose local slopes stay within 10 % of their median, \
-         error bar = their standard deviation), SSM dimension = smallest even integer above it (the paper's rule); \
-         4D/6D SSMs with RBF (linear kernel) and cubic polynomial map dynamics; largest Lyapunov exponent by \
-         Rosenstein's estimator with identical settings on data and model series; mean Jensen-Shannon divergence \
-         of the reduced-coordinate PDFs.",
+         error bar = their standard deviation), SSM dimension = smallest even integer above the estimate plus its \
+         error bar (the paper's rule); 4D/6D SSMs with RBF (linear kernel, 500 centres) and quartic polynomial map \
+         dynamics; largest Lyapunov exponent by Rosenstein's estimator with identical settings on data and model \
+         series, and of the reduced maps themselves by Benettin's method (analytic Jacobians, QR); mean \
+         Jensen-Shannon divergence of the reduced-coordinate PDFs.",
     );
     let mut sets: Vec<(String, Vec<TimeSeries>)> = Vec::new();
     let periods = if quick { 6000 } else { 30000 };
@@ -340,6 +357,8 @@ pub fn section(rep: &mut crate::report::Report, data_dir: &std::path::Path, quic
             num(r.lle_data),
             opt(r.lle_model_rbf),
             opt(r.lle_model_poly),
+            opt(r.lle_model_rbf_benettin),
+            opt(r.lle_model_poly_benettin),
             opt(r.pdf_divergence_rbf),
             opt(r.pdf_divergence_poly),
             r.notes.join("; "),
@@ -347,7 +366,7 @@ pub fn section(rep: &mut crate::report::Report, data_dir: &std::path::Path, quic
         list.insert(name.clone(), serde_json::to_value(&r)?);
     }
     rep.table(
-        &["data", "corr. dim", "SSM dim", "LLE data [1/s]", "LLE RBF", "LLE poly", "JS RBF [bits]", "JS poly [bits]", "notes"],
+        &["data", "corr. dim", "SSM dim", "LLE data [1/s]", "LLE RBF", "LLE poly", "LLE RBF Benettin", "LLE poly Benettin", "JS RBF [bits]", "JS poly [bits]", "notes"],
         &rows,
     );
     rep.summary.insert("chaos".into(), serde_json::Value::Object(list));

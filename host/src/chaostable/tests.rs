@@ -183,3 +183,86 @@ fn scale_dependence_of_a_microchaos_map() {
     assert!(matches!(e, ChaosError::TooShort { .. }), "{e}");
     println!("40 samples: {e}");
 }
+
+fn flag_dir() -> Option<std::path::PathBuf> {
+    let d = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../shared/data/inverted_flag_chaotic");
+    if d.join("traj_9.csv").is_file() {
+        Some(d)
+    } else {
+        println!("SKIP: inverted-flag data not found under {} (the shared data folder is absent)", d.display());
+        None
+    }
+}
+
+fn flag(files: &[usize]) -> Option<Vec<TimeSeries>> {
+    let d = flag_dir()?;
+    Some(files.iter().map(|k| crate::ssm::load_csv(d.join(format!("traj_{k}.csv"))).unwrap()).collect())
+}
+
+/// Exploration of model settings on the inverted flag (prints only; run with
+/// `--ignored --nocapture`).
+#[test]
+#[ignore]
+fn explore_flag_models() {
+    let Some(two) = flag(&[9, 7]) else { return };
+    let all = flag(&[9, 7, 3, 8, 0, 6, 4, 5, 2, 1]).unwrap();
+    let spec = std::env::var("CHAOS_EXPLORE").unwrap_or_default();
+    for cfg in spec.split(';').filter(|s| !s.is_empty()) {
+        let mut o = ChaosOptions::default();
+        let mut train = &two;
+        for kv in cfg.split(',') {
+            let (k, v) = kv.split_once('=').unwrap();
+            match k {
+                "d" => o.ssm_dim = Some(v.parse().unwrap()),
+                "c" => o.centers = v.parse().unwrap(),
+                "r" => o.ridge = v.parse().unwrap(),
+                "s" => o.shift = Some(v.parse().unwrap()),
+                "p" => o.embed = Some(v.parse().unwrap()),
+                "m" => o.manifold_order = v.parse().unwrap(),
+                "k" => o.poly_order = v.parse().unwrap(),
+                "all" => train = &all,
+                _ => panic!("{k}"),
+            }
+        }
+        let t0 = Instant::now();
+        match crate::chaoscmd::analyse(train, &o) {
+            Ok(r) => println!(
+                "{cfg:<28} d{} data {:.3} | rbf R {} B {} JS {} | poly R {} B {} JS {} | {:.1}s | {}",
+                r.ssm_dim,
+                r.lle_data,
+                fmt_opt(r.lle_model_rbf, 3),
+                fmt_opt(r.lle_model_rbf_benettin, 3),
+                fmt_opt(r.pdf_divergence_rbf, 3),
+                fmt_opt(r.lle_model_poly, 3),
+                fmt_opt(r.lle_model_poly_benettin, 3),
+                fmt_opt(r.pdf_divergence_poly, 3),
+                t0.elapsed().as_secs_f64(),
+                r.notes.join("; ").chars().take(300).collect::<String>()
+            ),
+            Err(e) => println!("{cfg}: {e}"),
+        }
+    }
+}
+
+/// The scale and accuracy-vs-cost tables as a criterion-free bench print (run with
+/// `--ignored --nocapture`; timings are printed, never asserted).
+#[test]
+#[ignore]
+fn bench_scale_and_cost_tables() {
+    let data = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../shared/data");
+    let t0 = Instant::now();
+    let studies = scale_studies(&data, 30000).unwrap();
+    let (h, rows, _) = scale_table(&studies);
+    println!("{}", print_table(&format!("scale dependence ({:.1} s)", t0.elapsed().as_secs_f64()), &h, &rows));
+    for s in &studies {
+        println!("{}: {} samples, lag {}, Theiler {}, curve {} samples", s.name, s.samples, s.lag, s.theiler, s.max_steps);
+    }
+    if let Some(st) = flag_cost_study(&data).unwrap() {
+        let (h, rows, _) = cost_table(&st);
+        println!("{}", print_table(&format!("accuracy vs cost, data LLE {:.3} 1/s", st.lle_data), &h, &rows));
+    }
+    if let Some(train) = flag(&[9, 7]) {
+        let r = crate::chaoscmd::analyse(&train, &ChaosOptions::default()).unwrap();
+        println!("{}", serde_json::to_string_pretty(&r).unwrap());
+    }
+}
