@@ -266,3 +266,38 @@ fn bench_scale_and_cost_tables() {
         println!("{}", serde_json::to_string_pretty(&r).unwrap());
     }
 }
+
+/// The default analysis on the simulated quantized loop (prints only; `--ignored`).
+#[test]
+#[ignore]
+fn explore_simulated_quantized() {
+    let train: Vec<TimeSeries> = [0.02, 0.035]
+        .iter()
+        .enumerate()
+        .map(|(i, th)| crate::chaoscmd::simulate_quantized(30000, *th, &format!("sim #{i}")).unwrap())
+        .collect();
+    let mut o = ChaosOptions::default();
+    if let Ok(v) = std::env::var("CHAOS_SIM_DIM") {
+        o.ssm_dim = Some(v.parse().unwrap());
+    }
+    if let Ok(v) = std::env::var("CHAOS_SIM_SHIFT") {
+        o.shift = Some(v.parse().unwrap());
+    }
+    let r = crate::chaoscmd::analyse(&train, &o).unwrap();
+    println!(
+        "sim: D2 {:.2}+-{:.2} d{} shift {} data {:.3} | rbf R {} B {} JS {} | poly R {} B {} JS {} | {:.1}s | {}",
+        r.corr_dim,
+        r.corr_dim_err,
+        r.ssm_dim,
+        r.ssm_shift,
+        r.lle_data,
+        fmt_opt(r.lle_model_rbf, 3),
+        fmt_opt(r.lle_model_rbf_benettin, 3),
+        fmt_opt(r.pdf_divergence_rbf, 3),
+        fmt_opt(r.lle_model_poly, 3),
+        fmt_opt(r.lle_model_poly_benettin, 3),
+        fmt_opt(r.pdf_divergence_poly, 3),
+        r.seconds,
+        r.notes.join("; ")
+    );
+}
