@@ -8,8 +8,9 @@ pub mod lyapunov;
 pub mod reference;
 
 pub use benettin::{
-    jacobian_tangent_step,
-    BenettinParams, BenettinResult, Orbit, benettin_tangent, benettin_two_trajectory, iterate_map,
+    jacobian_tangent_step, kaplan_yorke,
+    BenettinParams, BenettinResult, Orbit, SpectrumResult, benettin_qr, benettin_tangent, benettin_two_trajectory,
+    iterate_map,
 };
 pub use corrdim::{
     CorrSumParams, CorrelationCurve, DimensionEstimate, ScalingRule, correlation_dimension,
@@ -18,7 +19,7 @@ pub use corrdim::{
 pub use density::{Bins, CoordinatePdf, PdfComparison, compare_pdfs, jensen_shannon_bits};
 pub use embed::{autocorrelation, delay_embed, dominant_period, first_zero_crossing};
 pub use lyapunov::{
-    DivergenceCurve, DivergenceParams, FitRule, KantzEstimate, LyapunovEstimate, fit_divergence,
+    DivergenceCurve, DivergenceFit, DivergenceParams, FitRule, KantzEstimate, LyapunovEstimate, fit_divergence,
     kantz, kantz_curves, log_spaced, rosenstein, rosenstein_curve,
 };
 
@@ -53,6 +54,9 @@ pub enum ChaosError {
     /// that sends nearby states to the same state): no exponent at that scale.
     #[error("separation collapsed to zero at step {step}")]
     Collapsed { step: usize },
+    /// A Jacobian was requested where the map is not differentiable.
+    #[error("map not differentiable at step {step}: {reason}")]
+    NotDifferentiable { step: usize, reason: &'static str },
 }
 
 pub type Result<T> = std::result::Result<T, ChaosError>;

@@ -3,7 +3,7 @@
 use chaos::reference::{Henon, Lorenz};
 use chaos::{
     BenettinParams, ChaosError, CorrSumParams, DivergenceParams, FitRule, Points, ScalingRule,
-    benettin_tangent, benettin_two_trajectory, correlation_dimension, correlation_sum,
+    benettin_qr, benettin_tangent, benettin_two_trajectory, correlation_dimension, correlation_sum,
     delay_embed, iterate_map, kantz, rosenstein,
 };
 
@@ -207,5 +207,42 @@ fn estimators_reject_bad_series() {
     assert!(matches!(
         kantz(&p, &[-1.0], &DivergenceParams { max_steps: 10, ..Default::default() }, 10, &FitRule::default()),
         Err(ChaosError::BadParameter { name: "eps", .. })
+    ));
+}
+
+#[test]
+fn henon_spectrum_by_qr() {
+    // Two exponents: the largest is the published 0.41922 per iteration; det J = -b is
+    // constant, so l1 + l2 = ln b exactly (up to rounding) at any run length.
+    let h = Henon::default();
+    let prm = BenettinParams { transient: 1000, steps: 200_000, bound: 10.0, ..Default::default() };
+    let jac = |x: &[f64], j: &mut [f64]| {
+        h.jacobian(x, j);
+        Ok(())
+    };
+    let r = benettin_qr(&[0.1, 0.1], |x, o| h.map(x, o), jac, 2, &prm).unwrap();
+    println!("henon QR spectrum {:?} +- {:?}, Kaplan-Yorke {:?}", r.exponents, r.std_error, r.kaplan_yorke);
+    assert!((r.exponents[0] - HENON_LAMBDA).abs() < 0.005, "{:?}", r.exponents);
+    assert!((r.exponents[0] + r.exponents[1] - 0.3f64.ln()).abs() < 1e-9, "{:?}", r.exponents);
+    // Kaplan-Yorke dimension 1 + l1 / |l2| = 1.258 for the published exponents.
+    let ky = r.kaplan_yorke.unwrap();
+    assert!((ky - (1.0 + HENON_LAMBDA / (HENON_LAMBDA - 0.3f64.ln()))).abs() < 0.003, "{ky}");
+    // One vector gives the same largest exponent as the single-vector tangent method.
+    let r1 = benettin_qr(&[0.1, 0.1], |x, o| h.map(x, o), jac, 1, &prm).unwrap();
+    assert!((r1.exponents[0] - r.exponents[0]).abs() < 1e-12);
+
+    // A kink where the Jacobian does not exist is reported with its step, never as NaN.
+    let e = benettin_qr(
+        &[0.0],
+        |x, o| o[0] = 0.5 * x[0].abs(),
+        |x, j| if x[0] == 0.0 { Err("kink of |x| at 0") } else { j[0] = 0.5 * x[0].signum(); Ok(()) },
+        1,
+        &BenettinParams { transient: 10, steps: 100, ..Default::default() },
+    )
+    .unwrap_err();
+    assert_eq!(e, ChaosError::NotDifferentiable { step: 0, reason: "kink of |x| at 0" });
+    assert!(matches!(
+        benettin_qr(&[0.1, 0.1], |x, o| h.map(x, o), jac, 3, &prm),
+        Err(ChaosError::BadParameter { name: "k (tangent vectors)", .. })
     ));
 }

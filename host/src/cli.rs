@@ -130,8 +130,18 @@ pub enum Cmd {
         #[arg(long)]
         ssm_dim: Option<usize>,
         /// RBF centres.
-        #[arg(long, default_value_t = 200)]
+        #[arg(long, default_value_t = 500)]
         centers: usize,
+        /// Polynomial map order.
+        #[arg(long, default_value_t = 4)]
+        poly_order: u32,
+        /// SSM delay-embedding shift in samples (default: the embedding window spans a quarter
+        /// of the dominant period).
+        #[arg(long)]
+        shift: Option<usize>,
+        /// Relative ridge parameter of the SSM regressions.
+        #[arg(long, default_value_t = 1e-8)]
+        ridge: f64,
         #[arg(long)]
         json: bool,
     },
@@ -376,9 +386,9 @@ pub fn run(cli: Cli) -> Result<(), Box<dyn std::error::Error>> {
                 }
             }
         }
-        Cmd::Chaos { data, gp_embed, ssm_dim, centers, json } => {
+        Cmd::Chaos { data, gp_embed, ssm_dim, centers, poly_order, shift, ridge, json } => {
             let train = data.iter().map(crate::ssm::load_csv).collect::<Result<Vec<_>, _>>()?;
-            let o = crate::chaoscmd::ChaosOptions { gp_embed, ssm_dim, centers, ..Default::default() };
+            let o = crate::chaoscmd::ChaosOptions { gp_embed, ssm_dim, centers, poly_order, shift, ridge, ..Default::default() };
             let r = crate::chaoscmd::analyse(&train, &o)?;
             if json {
                 outln!("{}", serde_json::to_string_pretty(&r)?);
@@ -386,6 +396,7 @@ pub fn run(cli: Cli) -> Result<(), Box<dyn std::error::Error>> {
                 let opt = |v: Option<f64>| v.map_or("-".to_string(), |x| format!("{x:.4}"));
                 outln!("correlation dimension {:.3} +- {:.3} -> SSM dimension {}", r.corr_dim, r.corr_dim_err, r.ssm_dim);
                 outln!("largest Lyapunov exponent [1/s]: data {:.4}, RBF model {}, polynomial model {}", r.lle_data, opt(r.lle_model_rbf), opt(r.lle_model_poly));
+                outln!("Benettin exponent of the reduced maps [1/s]: RBF {}, polynomial {}", opt(r.lle_model_rbf_benettin), opt(r.lle_model_poly_benettin));
                 outln!("PDF Jensen-Shannon divergence [bits]: RBF {}, polynomial {}", opt(r.pdf_divergence_rbf), opt(r.pdf_divergence_poly));
                 for n in &r.notes {
                     outln!("note: {n}");

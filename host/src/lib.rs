@@ -4,6 +4,7 @@
 pub mod bench;
 pub mod bifreport;
 pub mod chaoscmd;
+pub mod chaostable;
 pub mod chart;
 pub mod cli;
 pub mod export;
