@@ -241,8 +241,16 @@ pub fn evaluate_model(m: &SsmModel, data: &TimeSeries, ctx: &Context, o: &ChaosO
 
 /// Runs the whole analysis on training series (the longest is the reference data).
 pub fn analyse(train: &[TimeSeries], o: &ChaosOptions) -> Result<ChaosSummary, Box<dyn Error>> {
+    analyse_held_out(train, None, o)
+}
+
+/// [`analyse`] with a held-out trajectory: the models are fitted on `train` only, and the
+/// data statistics (dimension, Lyapunov exponent, PDFs) and the model series' starting point
+/// come from `test` (the longest training series when `None`).
+pub fn analyse_held_out(train: &[TimeSeries], test: Option<&TimeSeries>, o: &ChaosOptions) -> Result<ChaosSummary, Box<dyn Error>> {
     let t0 = std::time::Instant::now();
-    let data = train.iter().max_by_key(|s| s.x.len()).ok_or("no training series")?;
+    let longest = train.iter().max_by_key(|s| s.x.len()).ok_or("no training series")?;
+    let data = test.unwrap_or(longest);
     let dt = data.dt().ok_or("data series has no sampling step")?;
     let ctx = Context::from_series(&data.x, dt, o.gp_embed)?;
     let pts = delay_embed(&data.x, o.gp_embed, ctx.lag)?;
@@ -316,6 +324,10 @@ pub fn simulate_quantized(periods: usize, theta0: f64, name: &str) -> Result<Tim
 }
 
 /// Report section: the chaos analysis for the simulated quantized loop and the inverted flag.
+/// Where `cargo xtask reproduce` leaves the processor-in-the-loop recordings (relative to
+/// the workspace root, where `reproduce` runs).
+pub const PIL_RECORD_DIR: &str = "qemu/target/pil-record";
+
 pub fn section(rep: &mut crate::report::Report, data_dir: &std::path::Path, quick: bool) -> Result<(), Box<dyn Error>> {
     use crate::report::{esc, num};
     rep.section(
@@ -327,31 +339,50 @@ pub fn section(rep: &mut crate::report::Report, data_dir: &std::path::Path, quic
          error bar (the paper's rule); 4D/6D SSMs with RBF (linear kernel, 500 centres) and quartic polynomial map \
          dynamics; largest Lyapunov exponent by Rosenstein's estimator with identical settings on data and model \
          series, and of the reduced maps themselves by Benettin's method (analytic Jacobians, QR); mean \
-         Jensen-Shannon divergence of the reduced-coordinate PDFs.",
+         Jensen-Shannon divergence of the reduced-coordinate PDFs. Models are fitted on the training trajectories; \
+         the data statistics come from a held-out trajectory, from whose first point the model series start.",
     );
-    let mut sets: Vec<(String, Vec<TimeSeries>)> = Vec::new();
+    // (name, training series, held-out series)
+    let mut sets: Vec<(String, Vec<TimeSeries>, TimeSeries)> = Vec::new();
     let periods = if quick { 6000 } else { 30000 };
     let mut sim = Vec::new();
-    for (i, th) in [0.02, 0.035].iter().enumerate() {
+    for (i, th) in [0.02, 0.035, 0.05].iter().enumerate() {
         sim.push(simulate_quantized(periods, *th, &format!("furuta-quant-dt25 #{i}"))?);
     }
-    sets.push(("simulated: furuta-quant-dt25 (theta)".into(), sim));
+    let sim_test = sim.pop().ok_or("no simulated series")?;
+    sets.push(("simulated: furuta-quant-dt25 (theta)".into(), sim, sim_test));
+    // The "experiment": processor-in-the-loop recordings with sensor noise
+    // (`cargo xtask pil-record`, run by `cargo xtask reproduce`).
+    let pil_dir = std::path::Path::new(PIL_RECORD_DIR);
+    let pil_files: Vec<_> = (1..=3).map(|r| pil_dir.join(format!("run{r}/theta.csv"))).collect();
+    if pil_files.iter().all(|f| f.is_file()) {
+        let mut runs: Vec<TimeSeries> = pil_files.iter().map(crate::ssm::load_csv).collect::<Result<_, _>>()?;
+        let test = runs.pop().ok_or("no PIL run")?;
+        sets.push(("processor in the loop: furuta-quant-dt25-noise (measured theta)".into(), runs, test));
+    } else {
+        rep.para(&format!(
+            "No processor-in-the-loop recordings under {} (run <code>cargo xtask pil-record --out {}</code>): skipped.",
+            esc(&pil_dir.display().to_string()),
+            esc(PIL_RECORD_DIR)
+        ));
+    }
     let flag = data_dir.join("inverted_flag_chaotic");
-    if flag.join("traj_9.csv").is_file() {
+    if ["traj_9.csv", "traj_7.csv", "traj_8.csv"].iter().all(|f| flag.join(f).is_file()) {
         sets.push((
             "measured: inverted flag (tip deflection)".into(),
             vec![crate::ssm::load_csv(flag.join("traj_9.csv"))?, crate::ssm::load_csv(flag.join("traj_7.csv"))?],
+            crate::ssm::load_csv(flag.join("traj_8.csv"))?,
         ));
     } else {
         rep.para(&format!("Inverted-flag data not found under {}: skipped.", esc(&flag.display().to_string())));
     }
     let mut rows = Vec::new();
     let mut list = serde_json::Map::new();
-    for (name, train) in &sets {
-        let r = analyse(train, &ChaosOptions::default())?;
+    for (name, train, test) in &sets {
+        let r = analyse_held_out(train, Some(test), &ChaosOptions::default())?;
         let opt = |v: Option<f64>| v.map_or("-".to_string(), num);
         rows.push(vec![
-            name.clone(),
+            format!("{name}; train {}, test {}", train.iter().map(|t| t.name.as_str()).collect::<Vec<_>>().join(" + "), test.name),
             format!("{:.2} ± {:.2}", r.corr_dim, r.corr_dim_err),
             r.ssm_dim.to_string(),
             num(r.lle_data),

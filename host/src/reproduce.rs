@@ -30,6 +30,10 @@ pub fn run(out: &Path, data_dir: &Path, quick: bool, quiet: bool) -> Result<(), 
     crate::bifreport::predictions_section(&mut rep)?;
     crate::fitreport::device_section(&mut rep, Path::new("qemu/target/device-table.json"))?;
     crate::chaoscmd::section(&mut rep, data_dir, quick)?;
+    crate::chaostable::scale_section(&mut rep, data_dir, quick)?;
+    if !quick {
+        crate::chaostable::cost_section(&mut rep, data_dir)?;
+    }
     rep.finish("ssmctl reproduce: delayed, sampled, quantized PD control of the Furuta pendulum")?;
     Ok(())
 }

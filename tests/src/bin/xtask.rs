@@ -333,6 +333,14 @@ fn reproduce(rest: &[String]) -> Result<()> {
     device_table_cmd(false)?;
     // A processor-in-the-loop run; its summary.json goes into the report.
     pil("furuta-quant-dt25", 2000)?;
+    // The chaos study's "experiment": three noisy PIL recordings (train on two, test on one).
+    pil_record(&RecordArgs {
+        out: qemu_dir().join("target").join("pil-record"),
+        runs: 3,
+        periods: 20_000,
+        scene: PIL_SCENE.into(),
+        seed: 1,
+    })?;
     let mut c = cmd("cargo");
     c.current_dir(root()).args(["run", "--release", "-p", "host", "--bin", "ssmctl", "--", "reproduce"]).args(rest);
     run(&mut c)
