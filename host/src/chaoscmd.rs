@@ -153,12 +153,42 @@ pub fn fit_lle_curve(curve: &DivergenceCurve) -> Result<(chaos::DivergenceFit, O
     match fit_divergence(curve, &rule) {
         Err(ChaosError::NoFitWindow { .. }) => match fit_divergence(curve, &FitRule { tolerance: 0.5, ..rule }) {
             Ok(f) => Ok((f, Some("Lyapunov fit window found only at +-50 % slope tolerance".into()))),
-            Err(ChaosError::NoFitWindow { .. }) => fit_divergence(curve, &FitRule { tolerance: 1e6, ..rule })
-                .map(|f| (f, Some("divergence curve has no straight section; slope fitted over its first 70 % rise".into()))),
+            Err(ChaosError::NoFitWindow { .. }) => match fit_divergence(curve, &FitRule { tolerance: 1e6, ..rule }) {
+                Ok(f) => Ok((f, Some("divergence curve has no straight section; slope fitted over its first 70 % rise".into()))),
+                Err(ChaosError::NoFitWindow { .. }) => after_noise_jump(curve, &rule),
+                Err(e) => Err(e),
+            },
             Err(e) => Err(e),
         },
         other => other.map(|f| (f, None)),
     }
+}
+
+/// Noisy data: neighbours separate by the noise level in one step, so 70 % of the rise can
+/// happen at the first step and no window of 5 samples exists. Drop the initial jump (the
+/// steps before the first one whose increment is below a tenth of the total rise) and fit the
+/// first 70 % of the rest; the note gives the share of the rise the jump took.
+fn after_noise_jump(curve: &DivergenceCurve, rule: &FitRule) -> Result<(chaos::DivergenceFit, Option<String>), ChaosError> {
+    let y = &curve.mean_log_distance;
+    let rise = y.iter().copied().fold(f64::NEG_INFINITY, f64::max) - y.first().copied().unwrap_or(0.0);
+    let skip = (1..y.len()).find(|&k| y[k] - y[k - 1] < 0.1 * rise).unwrap_or(y.len()).saturating_sub(1);
+    if skip == 0 || y.len() - skip < 2 * rule.min_points {
+        return Err(ChaosError::NoFitWindow { reason: format!("no straight section and no noise jump to skip (rise {rise:.3} nats)") });
+    }
+    let cut = |v: &[f64]| v[skip..].to_vec();
+    let tail = DivergenceCurve {
+        time: curve.time[skip..].iter().map(|t| t - curve.time[skip]).collect(),
+        mean_log_distance: cut(y),
+        n_terms: curve.n_terms[skip..].to_vec(),
+        n_reference: curve.n_reference,
+        zero_distances: curve.zero_distances,
+    };
+    let jump = (y[skip] - y[0]) / rise;
+    let t0 = curve.time[skip];
+    fit_divergence(&tail, &FitRule { tolerance: 1e6, min_rise: 0.0, ..*rule }).map(|mut f| {
+        f.window_time = (f.window_time.0 + t0, f.window_time.1 + t0);
+        (f, Some(format!("noise-dominated first {skip} step(s) ({:.0} % of the rise) skipped; slope fitted over the first 70 % of the rest", 100.0 * jump)))
+    })
 }
 
 /// The paper's rule read with the error bar ("an even number larger than 4.39 +- 0.06"): the
@@ -324,6 +354,31 @@ pub fn simulate_quantized(periods: usize, theta0: f64, name: &str) -> Result<Tim
 }
 
 /// Report section: the chaos analysis for the simulated quantized loop and the inverted flag.
+/// The plant angle `theta_rad` of a PIL `record.csv` (`t_s,theta_rad,phi_rad,theta_meas_rad,
+/// code,prediction`). The chaos study uses it rather than the encoder reading `theta.csv`:
+/// the reading is quantized to whole counts, so delay vectors tie exactly and the Lyapunov
+/// estimators' log-distances are undefined at their first steps.
+pub fn pil_plant_theta(path: &std::path::Path) -> Result<TimeSeries, Box<dyn Error>> {
+    let text = std::fs::read_to_string(path).map_err(|e| format!("{}: {e}", path.display()))?;
+    let mut lines = text.lines();
+    let header = lines.next().ok_or_else(|| format!("{}: empty file", path.display()))?;
+    if !header.starts_with("t_s,theta_rad,") {
+        return Err(format!("{}: header `{header}` is not a PIL record (expected t_s,theta_rad,...)", path.display()).into());
+    }
+    let (mut t, mut x) = (Vec::new(), Vec::new());
+    for (i, l) in lines.enumerate() {
+        let mut f = l.split(',');
+        let mut num = |what: &str| -> Result<f64, Box<dyn Error>> {
+            let v = f.next().ok_or_else(|| format!("{}: line {}: no {what}", path.display(), i + 2))?;
+            v.trim().parse::<f64>().map_err(|e| format!("{}: line {}: {what} `{v}`: {e}", path.display(), i + 2).into())
+        };
+        t.push(num("t_s")?);
+        x.push(num("theta_rad")?);
+    }
+    let name = format!("run {} plant theta", path.parent().and_then(|p| p.file_name()).map_or("?".into(), |n| n.to_string_lossy()));
+    Ok(TimeSeries::new(name, t, x)?)
+}
+
 /// Where `cargo xtask reproduce` leaves the processor-in-the-loop recordings (relative to
 /// the workspace root, where `reproduce` runs).
 pub const PIL_RECORD_DIR: &str = "qemu/target/pil-record";
@@ -354,11 +409,11 @@ pub fn section(rep: &mut crate::report::Report, data_dir: &std::path::Path, quic
     // The "experiment": processor-in-the-loop recordings with sensor noise
     // (`cargo xtask pil-record`, run by `cargo xtask reproduce`).
     let pil_dir = std::path::Path::new(PIL_RECORD_DIR);
-    let pil_files: Vec<_> = (1..=3).map(|r| pil_dir.join(format!("run{r}/theta.csv"))).collect();
+    let pil_files: Vec<_> = (1..=3).map(|r| pil_dir.join(format!("run{r}/record.csv"))).collect();
     if pil_files.iter().all(|f| f.is_file()) {
-        let mut runs: Vec<TimeSeries> = pil_files.iter().map(crate::ssm::load_csv).collect::<Result<_, _>>()?;
+        let mut runs: Vec<TimeSeries> = pil_files.iter().map(|f| pil_plant_theta(f)).collect::<Result<_, _>>()?;
         let test = runs.pop().ok_or("no PIL run")?;
-        sets.push(("processor in the loop: furuta-quant-dt25-noise (measured theta)".into(), runs, test));
+        sets.push(("processor in the loop: furuta-quant-dt25-noise (plant theta)".into(), runs, test));
     } else {
         rep.para(&format!(
             "No processor-in-the-loop recordings under {} (run <code>cargo xtask pil-record --out {}</code>): skipped.",
@@ -379,10 +434,21 @@ pub fn section(rep: &mut crate::report::Report, data_dir: &std::path::Path, quic
     let mut rows = Vec::new();
     let mut list = serde_json::Map::new();
     for (name, train, test) in &sets {
-        let r = analyse_held_out(train, Some(test), &ChaosOptions::default())?;
+        let label = format!("{name}; train {}, test {}", train.iter().map(|t| t.name.as_str()).collect::<Vec<_>>().join(" + "), test.name);
+        let r = match analyse_held_out(train, Some(test), &ChaosOptions::default()) {
+            Ok(r) => r,
+            Err(e) => {
+                // One data set failing an estimator's precondition is reported, not fatal.
+                let mut row = vec![label, format!("analysis failed: {e}")];
+                row.resize(11, String::new());
+                rows.push(row);
+                list.insert(name.clone(), serde_json::json!({"error": e.to_string()}));
+                continue;
+            }
+        };
         let opt = |v: Option<f64>| v.map_or("-".to_string(), num);
         rows.push(vec![
-            format!("{name}; train {}, test {}", train.iter().map(|t| t.name.as_str()).collect::<Vec<_>>().join(" + "), test.name),
+            label,
             format!("{:.2} ± {:.2}", r.corr_dim, r.corr_dim_err),
             r.ssm_dim.to_string(),
             num(r.lle_data),
@@ -402,4 +468,54 @@ pub fn section(rep: &mut crate::report::Report, data_dir: &std::path::Path, quic
     );
     rep.summary.insert("chaos".into(), serde_json::Value::Object(list));
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A curve with a noise jump of 80 % of its rise at the first step, then a straight rise
+    /// at 0.25 1/s that saturates: the fallback skips the jump and returns the slope.
+    #[test]
+    fn noise_jump_is_skipped_and_the_slope_recovered() {
+        let dt = 0.05;
+        let mut y = vec![0.0];
+        for k in 1..=60 {
+            let t = (k - 1) as f64 * dt;
+            y.push(4.0 + 0.25 * t.min(2.0));
+        }
+        let curve = DivergenceCurve {
+            time: (0..y.len()).map(|k| k as f64 * dt).collect(),
+            n_terms: vec![10; y.len()],
+            mean_log_distance: y,
+            n_reference: 10,
+            zero_distances: 0,
+        };
+        let (f, note) = fit_lle_curve(&curve).unwrap();
+        assert!((f.exponent - 0.25).abs() < 1e-9, "{}", f.exponent);
+        assert!(note.unwrap().contains("noise-dominated first 1 step"));
+        assert!(f.window_time.0 >= dt, "{:?}", f.window_time);
+    }
+
+    #[test]
+    fn pil_record_theta_loads_and_bad_files_are_named() {
+        let dir = std::env::temp_dir().join(format!("chaoscmd-pil-{}", std::process::id()));
+        std::fs::create_dir_all(dir.join("run1")).unwrap();
+        let p = dir.join("run1/record.csv");
+        let mut text = String::from("t_s,theta_rad,phi_rad,theta_meas_rad,code,prediction\n");
+        for k in 0..50 {
+            text.push_str(&format!("{},{},0,0,0,NaN\n", k as f64 * 0.025, 0.01 * (k as f64).sin()));
+        }
+        std::fs::write(&p, text).unwrap();
+        let ts = pil_plant_theta(&p).unwrap();
+        assert_eq!(ts.x.len(), 50);
+        assert_eq!(ts.x[3], 0.01 * 3f64.sin());
+        std::fs::write(&p, "t_s,theta_meas_rad\n0,1\n").unwrap();
+        let e = pil_plant_theta(&p).unwrap_err().to_string();
+        assert!(e.contains("not a PIL record"), "{e}");
+        std::fs::write(&p, "t_s,theta_rad,phi_rad\n0,abc,0\n").unwrap();
+        let e = pil_plant_theta(&p).unwrap_err().to_string();
+        assert!(e.contains("line 2") && e.contains("theta_rad"), "{e}");
+        std::fs::remove_dir_all(&dir).ok();
+    }
 }
