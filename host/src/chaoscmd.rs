@@ -379,6 +379,108 @@ pub fn pil_plant_theta(path: &std::path::Path) -> Result<TimeSeries, Box<dyn Err
     Ok(TimeSeries::new(name, t, x)?)
 }
 
+/// Figures of one data set: the PDF of each reduced coordinate (held-out data vs the RBF and
+/// polynomial models, on the models' common grids), the attractor projected on
+/// `(eta_1, eta_2)`, and the amplitude spectra of the observable. The models are refitted with
+/// the options [`analyse_held_out`] used (deterministic, so they are the same models).
+pub fn chaos_figures(
+    rep: &mut crate::report::Report,
+    tag: &str,
+    title: &str,
+    train: &[TimeSeries],
+    test: &TimeSeries,
+    r: &ChaosSummary,
+    o: &ChaosOptions,
+) -> Result<(), Box<dyn Error>> {
+    use crate::plot::{Panel, Series, grid};
+    use plotters::style::RGBColor;
+    let colors = [RGBColor(0, 0, 0), RGBColor(200, 30, 30), RGBColor(30, 90, 200)];
+    let dt = test.dt().ok_or("held-out series has no sampling step")?;
+    let ctx = Context::from_series(&test.x, dt, o.gp_embed)?;
+    let base = fit_options(o, r.ssm_dim, &ctx);
+    let mut runs: Vec<(&str, SsmModel, crate::ssm::Prediction)> = Vec::new();
+    for (name, dynamics) in [("RBF model", Dynamics::Rbf { centers: o.centers }), ("polynomial model", Dynamics::Map)] {
+        let mut opts = base;
+        opts.dynamics = dynamics;
+        if let Ok(m) = fit(train, &opts) {
+            let p = m.predict(test)?;
+            runs.push((name, m, p));
+        }
+    }
+    let Some((_, m0, _)) = runs.first() else { return Ok(()) };
+    let d = m0.options.dim;
+    let y = ssm_embed(test, m0.manifold.p, m0.options.shift, 1)?;
+    let mut eta_data = Vec::with_capacity(y.ncols() * d);
+    let mut col = vec![0.0; m0.manifold.p];
+    for j in 0..y.ncols() {
+        for (i, c) in col.iter_mut().enumerate() {
+            *c = y[(i, j)];
+        }
+        eta_data.extend(m0.manifold.reduce(&col));
+    }
+    let data_pts = Points::from_flat(d, eta_data.clone())?;
+    // PDFs per coordinate.
+    let mut pdf_lines: Vec<Vec<Vec<(f64, f64)>>> = vec![Vec::new(); d];
+    for (k, (_, _, p)) in runs.iter().enumerate() {
+        if p.eta.len() < 2 * d {
+            continue;
+        }
+        let cmp = chaos::compare_pdfs(&data_pts, &Points::from_flat(d, p.eta.clone())?, chaos::Bins::default())?;
+        for c in &cmp.coords {
+            if k == 0 {
+                pdf_lines[c.coord].push(c.centers.iter().copied().zip(c.data_density.iter().copied()).collect());
+            }
+            pdf_lines[c.coord].push(c.centers.iter().copied().zip(c.model_density.iter().copied()).collect());
+        }
+    }
+    let names: Vec<&str> = std::iter::once("data (held out)").chain(runs.iter().map(|r| r.0)).collect();
+    let panels: Vec<Panel<'_>> = pdf_lines
+        .iter()
+        .enumerate()
+        .filter(|(_, l)| !l.is_empty())
+        .map(|(c, lines)| Panel {
+            title: format!("PDF of eta_{}", c + 1),
+            xlabel: "eta",
+            ylabel: "density",
+            series: lines.iter().enumerate().map(|(k, pts)| Series { name: names[k.min(names.len() - 1)], points: pts, color: colors[k % 3] }).collect(),
+        })
+        .collect();
+    if !panels.is_empty() {
+        let path = format!("fig/chaos_{tag}_pdfs.png");
+        grid(&rep.dir().join(&path), &panels, 3, (1050, 300 * panels.len().div_ceil(3) as u32))?;
+        rep.figure(&path, &format!("{title}: PDFs of the reduced coordinates, held-out data vs models"));
+    }
+    // Attractor projections and spectra.
+    let proj = |eta: &[f64]| -> Vec<(f64, f64)> {
+        let n = eta.len() / d;
+        let step = (n / 20_000).max(1);
+        (0..n).step_by(step).map(|i| (eta[i * d], eta[i * d + 1])).collect()
+    };
+    let mut projs = vec![("data (held out)".to_string(), proj(&eta_data))];
+    projs.extend(runs.iter().map(|(n, _, p)| (n.to_string(), proj(&p.eta))));
+    let panels: Vec<Panel<'_>> = projs
+        .iter()
+        .enumerate()
+        .map(|(k, (n, pts))| Panel { title: n.clone(), xlabel: "eta_1", ylabel: "eta_2", series: vec![Series { name: n, points: pts, color: colors[k % 3] }] })
+        .collect();
+    let path = format!("fig/chaos_{tag}_attractor.png");
+    grid(&rep.dir().join(&path), &panels, 3, (1050, 330))?;
+    rep.figure(&path, &format!("{title}: attractor projected on (eta_1, eta_2)"));
+    let fmax = 10.0 / (ctx.theiler as f64 * dt);
+    let spec = |x: &[f64]| -> Vec<(f64, f64)> {
+        let (f, a) = crate::ssm::metrics::amplitude_spectrum(x, dt);
+        f.into_iter().zip(a).filter(|p| p.0 <= fmax).collect()
+    };
+    let n = runs.iter().map(|r| r.2.x.len()).min().unwrap_or(test.x.len()).min(test.x.len());
+    let mut specs = vec![("data (held out)".to_string(), spec(&test.x[..n]))];
+    specs.extend(runs.iter().map(|(nm, _, p)| (nm.to_string(), spec(&p.x[..n]))));
+    let series: Vec<Series<'_>> = specs.iter().enumerate().map(|(k, (nm, pts))| Series { name: nm, points: pts, color: colors[k % 3] }).collect();
+    let path = format!("fig/chaos_{tag}_spectrum.png");
+    grid(&rep.dir().join(&path), &[Panel { title: format!("{title}: amplitude spectra"), xlabel: "f [Hz]", ylabel: "amplitude", series }], 1, (760, 300))?;
+    rep.figure(&path, &format!("{title}: amplitude spectra of the observable over the same {n} samples"));
+    Ok(())
+}
+
 /// Where `cargo xtask reproduce` leaves the processor-in-the-loop recordings (relative to
 /// the workspace root, where `reproduce` runs).
 pub const PIL_RECORD_DIR: &str = "qemu/target/pil-record";
@@ -433,6 +535,7 @@ pub fn section(rep: &mut crate::report::Report, data_dir: &std::path::Path, quic
     }
     let mut rows = Vec::new();
     let mut list = serde_json::Map::new();
+    let mut figs = Vec::new();
     for (name, train, test) in &sets {
         let label = format!("{name}; train {}, test {}", train.iter().map(|t| t.name.as_str()).collect::<Vec<_>>().join(" + "), test.name);
         let r = match analyse_held_out(train, Some(test), &ChaosOptions::default()) {
@@ -461,12 +564,17 @@ pub fn section(rep: &mut crate::report::Report, data_dir: &std::path::Path, quic
             r.notes.join("; "),
         ]);
         list.insert(name.clone(), serde_json::to_value(&r)?);
+        let tag: String = name.split(':').next().unwrap_or("set").chars().filter(|c| c.is_ascii_alphanumeric()).collect();
+        figs.push((tag, name.clone(), train.clone(), test.clone(), r));
     }
     rep.table(
         &["data", "corr. dim", "SSM dim", "LLE data [1/s]", "LLE RBF", "LLE poly", "LLE RBF Benettin", "LLE poly Benettin", "JS RBF [bits]", "JS poly [bits]", "notes"],
         &rows,
     );
     rep.summary.insert("chaos".into(), serde_json::Value::Object(list));
+    for (tag, name, train, test, r) in &figs {
+        chaos_figures(rep, tag, name, train, test, r, &ChaosOptions::default())?;
+    }
     Ok(())
 }
 

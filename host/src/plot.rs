@@ -86,3 +86,75 @@ pub fn lines(path: &Path, title: &str, xlabel: &str, ylabel: &str, series: &[Ser
     root.present().map_err(|x| e(&x))?;
     Ok(())
 }
+
+/// One panel of [`grid`].
+pub struct Panel<'a> {
+    pub title: String,
+    pub xlabel: &'a str,
+    pub ylabel: &'a str,
+    pub series: Vec<Series<'a>>,
+}
+
+fn finite_range(values: impl Iterator<Item = f64>) -> Option<(f64, f64)> {
+    let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
+    for v in values.filter(|v| v.is_finite()) {
+        lo = lo.min(v);
+        hi = hi.max(v);
+    }
+    if !lo.is_finite() {
+        return None;
+    }
+    if hi <= lo {
+        let w = 1e-3_f64.max(lo.abs() * 0.05);
+        return Some((lo - w, hi + w));
+    }
+    let pad = 0.04 * (hi - lo);
+    Some((lo - pad, hi + pad))
+}
+
+/// Panels of polylines in a grid of `cols` columns, each with its own ranges; the legend
+/// is drawn in the first panel.
+pub fn grid(path: &Path, panels: &[Panel<'_>], cols: usize, size: (u32, u32)) -> Result<(), PlotError> {
+    ensure_font();
+    let e = |m: &dyn std::fmt::Display| PlotError::new(path, m);
+    if panels.is_empty() || cols == 0 {
+        return Err(e(&"no panels"));
+    }
+    let rows = panels.len().div_ceil(cols);
+    let root = BitMapBackend::new(path, size).into_drawing_area();
+    root.fill(&WHITE).map_err(|x| e(&x))?;
+    let areas = root.split_evenly((rows, cols));
+    for (k, (p, area)) in panels.iter().zip(areas.iter()).enumerate() {
+        let pts = || p.series.iter().flat_map(|s| s.points.iter());
+        let (Some((x0, x1)), Some((y0, y1))) = (finite_range(pts().map(|q| q.0)), finite_range(pts().map(|q| q.1))) else {
+            return Err(e(&format!("panel `{}`: no finite points", p.title)));
+        };
+        let mut chart = ChartBuilder::on(area)
+            .caption(&p.title, ("sans-serif", 15))
+            .margin(6)
+            .x_label_area_size(30)
+            .y_label_area_size(52)
+            .build_cartesian_2d(x0..x1, y0..y1)
+            .map_err(|x| e(&x))?;
+        chart.configure_mesh().x_desc(p.xlabel).y_desc(p.ylabel).label_style(("sans-serif", 11)).draw().map_err(|x| e(&x))?;
+        for s in &p.series {
+            let color = s.color;
+            chart
+                .draw_series(LineSeries::new(s.points.iter().copied().filter(|q| q.0.is_finite() && q.1.is_finite()), color.stroke_width(1)))
+                .map_err(|x| e(&x))?
+                .label(s.name)
+                .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 16, y)], color.stroke_width(2)));
+        }
+        if k == 0 && p.series.len() > 1 {
+            chart
+                .configure_series_labels()
+                .background_style(WHITE.mix(0.85))
+                .border_style(BLACK)
+                .label_font(("sans-serif", 11))
+                .draw()
+                .map_err(|x| e(&x))?;
+        }
+    }
+    root.present().map_err(|x| e(&x))?;
+    Ok(())
+}
