@@ -247,6 +247,22 @@ pub enum BenchCmd {
     },
 }
 
+/// Runs `f` with a spinner showing the progress messages `f` reports (none when `quiet`).
+fn with_spinner<T>(quiet: bool, msg: &str, f: impl FnOnce(&mut dyn FnMut(&str)) -> T) -> T {
+    let pb = spinner(quiet, None, msg);
+    let mut report = |m: &str| {
+        if let Some(pb) = &pb {
+            pb.set_message(m.to_string());
+            pb.tick();
+        }
+    };
+    let out = f(&mut report);
+    if let Some(pb) = pb {
+        pb.finish_and_clear();
+    }
+    out
+}
+
 fn spinner(quiet: bool, len: Option<u64>, msg: &str) -> Option<ProgressBar> {
     if quiet {
         return None;
@@ -446,16 +462,7 @@ pub fn run(cli: Cli) -> Result<(), Box<dyn std::error::Error>> {
             let series: Vec<crate::ssm::TimeSeries> = (0..3)
                 .map(|i| crate::ssm::load_csv(dir.join(format!("decay_{i}.csv"))))
                 .collect::<Result<_, _>>()?;
-            let pb = spinner(quiet, None, "bench fit");
-            let (rows, _) = bench::bench_fit(&series[..2], &series[2], quick, |m| {
-                if let Some(pb) = &pb {
-                    pb.set_message(m.to_string());
-                    pb.tick();
-                }
-            })?;
-            if let Some(pb) = pb {
-                pb.finish_and_clear();
-            }
+            let (rows, _) = with_spinner(quiet, "bench fit", |p| bench::bench_fit(&series[..2], &series[2], quick, p))?;
             if json {
                 outln!("{}", serde_json::to_string_pretty(&rows)?);
             } else {
@@ -474,16 +481,7 @@ pub fn run(cli: Cli) -> Result<(), Box<dyn std::error::Error>> {
             }
         }
         Cmd::Bench { what: BenchCmd::Simulate { json, periods, quick } } => {
-            let pb = spinner(quiet, None, "bench");
-            let (rows, baseline) = bench::bench_simulate(periods, quick, |m| {
-                if let Some(pb) = &pb {
-                    pb.set_message(m.to_string());
-                    pb.tick();
-                }
-            })?;
-            if let Some(pb) = pb {
-                pb.finish_and_clear();
-            }
+            let (rows, baseline) = with_spinner(quiet, "bench", |p| bench::bench_simulate(periods, quick, p))?;
             if json {
                 outln!("{}", serde_json::to_string_pretty(&rows)?);
             } else {
