@@ -111,6 +111,19 @@ fn reproduce_quick_writes_the_report() {
         assert!(s.get(k).is_some(), "summary.json lacks {k}");
     }
     assert!(dir.join("fig/stability_chart.png").metadata().unwrap().len() > 10_000);
+    // The parametric model against the full system (measured: rho within 1.1 % / 4 %,
+    // frequencies within 0.35 % / 0.01 % in the quick run).
+    let t = &s["torus_30p8"];
+    for k in 0..2 {
+        let (m, f) = (t["rho_model"][k].as_f64().unwrap(), t["rho_full"][k].as_f64().unwrap());
+        assert!((m - f).abs() < 0.08 * f, "torus rho_{}: model {m} vs full {f}", k + 1);
+        let (m, f) = (t["freqs_hz_model"][k].as_f64().unwrap(), t["freqs_hz_full"][k].as_f64().unwrap());
+        assert!((m - f).abs() < 0.01 * f, "torus freq {}: model {m} vs full {f}", k + 1);
+    }
+    let p0 = s["predictions"].as_array().unwrap().iter().find(|p| p["dt_ms"].as_f64() == Some(30.8)).unwrap();
+    assert!(p0["nmte"].as_f64().unwrap() < 3e-3, "{p0}");
+    let h = &s["heteroclinic_dt_ms"];
+    assert!(h["full_system"][0].as_f64().unwrap() < h["full_system"][1].as_f64().unwrap(), "{h}");
 }
 
 #[test]
