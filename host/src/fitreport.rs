@@ -168,6 +168,22 @@ pub fn device_section(rep: &mut Report, table: &Path) -> Result<(), Box<dyn Erro
         })
         .unwrap_or_default();
     rep.table(&["centres", "sqrt", "instructions / step", "per centre", "rel. error vs f64"], &rows);
+    if let Some(sizes) = v.get("firmware_sizes").and_then(Value::as_array) {
+        let rows: Vec<Vec<String>> = sizes
+            .iter()
+            .map(|r| {
+                let n = |k: &str| r.get(k).and_then(Value::as_u64).unwrap_or(0);
+                let pct = |a: u64, b: u64| if b > 0 { format!("{a} ({:.1} %)", 100.0 * a as f64 / b as f64) } else { a.to_string() };
+                vec![
+                    r.get("config").and_then(Value::as_str).unwrap_or("?").to_string(),
+                    pct(n("flash_bytes"), n("flash_capacity")),
+                    pct(n("ram_bytes"), n("ram_capacity")),
+                ]
+            })
+            .collect();
+        rep.para("Flash and static RAM per firmware configuration (share of the linked memory map):");
+        rep.table(&["configuration", "flash [B]", "static RAM [B]"], &rows);
+    }
     // f32 against f64 where it matters: the same RBF kernel with a generic scalar.
     let scalar_rows: Vec<Vec<String>> = v
         .get("predictor_f32_vs_f64")
@@ -277,6 +293,9 @@ mod tests {
                 {"centers": 50, "scalar": "f32", "instructions": 1234.5, "per_center": 24.69, "rel_error": 3e-7, "vs_f32": 1.0},
                 {"centers": 50, "scalar": "f64", "instructions": 23456.5, "per_center": 469.13, "rel_error": 2e-16, "vs_f32": 19.0},
             ],
+            "firmware_sizes": [
+                {"config": "stm32f407: on-target tests", "flash_bytes": 262144, "ram_bytes": 32768, "flash_capacity": 1048576, "ram_capacity": 131072},
+            ],
         });
         std::fs::write(&table, v.to_string()).unwrap();
         let mut rep = Report::new(&dir.join("out")).unwrap();
@@ -286,6 +305,7 @@ mod tests {
         assert!(html.contains("<th>x f32</th>"), "no f32/f64 table");
         assert!(html.contains("<td>f64</td><td>23456.5</td><td>469.13</td><td>19.0</td><td>2e-16</td>"), "{html}");
         assert_eq!(rep.summary["device"]["predictor_f32_vs_f64"][1]["vs_f32"], 19.0);
+        assert!(html.contains("<td>stm32f407: on-target tests</td><td>262144 (25.0 %)</td><td>32768 (25.0 %)</td>"), "{html}");
         std::fs::remove_dir_all(&dir).unwrap();
     }
 }

@@ -314,7 +314,8 @@ fn print_table(t: &device_table::Table, s: &elf::Sizes) {
 fn device_table_cmd(json: bool) -> Result<()> {
     let (t, s) = device_table_run()?;
     // Always leave the JSON where `ssmctl reproduce` reads it.
-    let v = device_table_json(&t, &s);
+    let mut v = device_table_json(&t, &s);
+    v["firmware_sizes"] = serde_json::Value::Array(firmware_sizes()?);
     let text = serde_json::to_string_pretty(&v).map_err(|e| e.to_string())?;
     let path = qemu_dir().join("target").join("device-table.json");
     std::fs::write(&path, &text).map_err(|e| format!("{}: {e}", path.display()))?;
@@ -547,24 +548,42 @@ fn pil_check(v: &serde_json::Value, periods: u64) -> Result<()> {
     Ok(())
 }
 
-fn firmware_size() -> Result<()> {
+/// Flash and static RAM of every firmware image: the three QEMU binaries (on-target tests,
+/// device table with its K = 1000 model, PIL loop) and the STM32F407 build (built here),
+/// with the capacity of the memory map each is linked for.
+fn firmware_sizes() -> Result<Vec<serde_json::Value>> {
     if !qemu_dir().join("target-data/model.bin").exists() {
         write_target_data()?;
     }
-    for (name, stm32, flash_cap, ram_cap) in
-        [("mps2-an386 (QEMU)", false, 4u64 << 20, 4u64 << 20), ("stm32f407", true, 1 << 20, 128 << 10)]
-    {
-        let elf = build_firmware(stm32)?;
+    let qemu = build_firmware(false)?;
+    let stm32 = build_firmware(true)?;
+    let mut out = Vec::new();
+    for (name, elf, flash_cap, ram_cap) in [
+        ("mps2-an386: on-target tests", qemu.clone(), 4u64 << 20, 4u64 << 20),
+        ("mps2-an386: device table", qemu.with_file_name("device_table"), 4 << 20, 4 << 20),
+        ("mps2-an386: processor in the loop", qemu.with_file_name("pil"), 4 << 20, 4 << 20),
+        ("stm32f407: on-target tests", stm32, 1 << 20, 128 << 10),
+    ] {
         let bytes = std::fs::read(&elf).map_err(|e| format!("{}: {e}", elf.display()))?;
         let s = elf::sizes(&bytes, RAM_ORIGIN)?;
+        out.push(serde_json::json!({"config": name, "flash_bytes": s.flash, "ram_bytes": s.ram,
+            "flash_capacity": flash_cap, "ram_capacity": ram_cap}));
+    }
+    Ok(out)
+}
+
+fn firmware_size() -> Result<()> {
+    for v in firmware_sizes()? {
+        let n = |k: &str| v[k].as_u64().unwrap_or(0);
         println!(
-            "firmware-size: {name}: flash {} B ({:.1} % of {} KiB), static RAM {} B ({:.1} % of {} KiB)",
-            s.flash,
-            100.0 * s.flash as f64 / flash_cap as f64,
-            flash_cap >> 10,
-            s.ram,
-            100.0 * s.ram as f64 / ram_cap as f64,
-            ram_cap >> 10
+            "firmware-size: {}: flash {} B ({:.1} % of {} KiB), static RAM {} B ({:.1} % of {} KiB)",
+            v["config"].as_str().unwrap_or("?"),
+            n("flash_bytes"),
+            100.0 * n("flash_bytes") as f64 / n("flash_capacity") as f64,
+            n("flash_capacity") >> 10,
+            n("ram_bytes"),
+            100.0 * n("ram_bytes") as f64 / n("ram_capacity") as f64,
+            n("ram_capacity") >> 10
         );
     }
     Ok(())
