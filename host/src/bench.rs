@@ -130,7 +130,7 @@ pub fn sloshing_fit_options() -> crate::ssm::FitOptions {
 }
 
 fn fit_opts(p: usize, k: u32, r: u32, dynamics: crate::ssm::Dynamics) -> crate::ssm::FitOptions {
-    crate::ssm::FitOptions { dim: 2, embed: p, shift: 1, manifold_order: k, dyn_order: r, dynamics, ridge: crate::ssm::Ridge::Fixed(0.0) }
+    crate::ssm::FitOptions { dim: 2, embed: p, shift: 1, manifold_order: k, dyn_order: r, dynamics, ridge: crate::ssm::Ridge::Fixed(0.0), linear_anchor: None }
 }
 
 /// Best-of-`reps` fit time (s) and the last model.

@@ -6,12 +6,12 @@
 use crate::plot::{self, Series};
 use crate::report::{Report, num};
 use crate::nfreport::PAPER_DTS;
-use crate::ssm::furuta::{FurutaOptions, ParametricModel};
+use crate::ssm::furuta::ParametricModel;
 use crate::ssm::portrait::{
     Fate, FixedPoint, HeteroclinicEvent, HopfEvent, PointKind, PortraitOptions, ScanOptions, fixed_points, heteroclinic_dt, plot_portrait,
     portrait, torus_hopf_dt, trajectory,
 };
-use crate::ssm::furuta_predict::{Interp, PredictOptions, PredictionResult, predictions, shared_parametric};
+use crate::ssm::furuta_predict::{Interp, PredictOptions, PredictionResult, prediction_options, predictions, shared_parametric};
 use plotters::style::RGBColor;
 use serde_json::{Value, json};
 use std::error::Error;
@@ -69,7 +69,7 @@ pub fn predictions_section(rep: &mut Report) -> Result<(), Box<dyn Error>> {
             po.max_theta
         ),
     );
-    let model = shared_parametric(&FurutaOptions::default())?;
+    let model = shared_parametric(&prediction_options())?;
     let lin = predictions(&model, &po, Interp::Linear)?;
     let spl = predictions(&model, &po, Interp::Spline)?;
     let mut rows = Vec::new();
@@ -466,4 +466,40 @@ pub fn fullsystem_section(rep: &mut Report, pm: &ParametricModel, bif: &ModelBif
                "model_3torus_freq_hz": model_orbit}),
     );
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::ssm::furuta::{FurutaOptions, furuta_parametric};
+
+    /// Exploration: the model's bifurcation values for the default options (`FUR_ANCHOR`,
+    /// `FUR_R` override); prints only.
+    #[test]
+    #[ignore = "exploration, prints only"]
+    fn model_bifurcations_explore() {
+        let env = |k: &str| std::env::var(k).ok().and_then(|v| v.parse::<f64>().ok());
+        let mut o = FurutaOptions::default();
+        if let Some(p) = env("FUR_R") { o.fit.dyn_order = p as u32; }
+        if let Some(p) = env("FUR_ANCHOR") { o.fit.linear_anchor = if p > 0.0 { Some(p) } else { None }; }
+        if let Ok(v) = std::env::var("FUR_DTS") { o.dts_ms = v.split(',').map(|x| x.parse().unwrap()).collect(); }
+        let pm = furuta_parametric(&o).unwrap();
+        for t in &pm.trained {
+            eprintln!("BIF trained {} : {} series rho range {:?}", t.dt_ms, t.model.n_points, t.model.eta_range);
+        }
+        let (lo, hi) = pm.range();
+        let sopts = ScanOptions { portrait: PortraitOptions { rho_max: RHO_MAX, ..ScanOptions::default().portrait }, ..ScanOptions::default() };
+        let nf_at = |dt: f64| pm.normal_form_at(dt);
+        let h = heteroclinic_dt(nf_at, lo, hi, &sopts).unwrap();
+        let hopf = torus_hopf_dt(nf_at, lo, hi, &sopts).unwrap();
+        let sw = model_small_start_switch(&pm, lo, hi, 41).unwrap();
+        eprintln!("BIF heteroclinic {:?}\nBIF hopf {:?}\nBIF small-start switch {sw:?}", h.map(|h| (h.dt, h.fate_below, h.fate_above)), hopf.map(|h| (h.dt, h.loses_stability, h.complex_pair, h.frequency_hz)));
+        let popts = PortraitOptions { rho_max: RHO_MAX, ..PortraitOptions::default() };
+        for dt in [30.8, 31.4, 31.55, 31.68, 32.3].into_iter().filter(|d| *d >= lo && *d <= hi) {
+            let fps = fixed_points(&pm.normal_form_at(dt).unwrap(), &popts).unwrap();
+            for f in fps {
+                eprintln!("BIF dt {dt}: {:?} rho {:.4?} {:?} ev {:.4?}", f.kind, f.rho, f.stability, f.eigenvalues);
+            }
+        }
+    }
 }

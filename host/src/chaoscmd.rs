@@ -210,6 +210,7 @@ pub fn fit_options(o: &ChaosOptions, ssm_dim: usize, ctx: &Context) -> FitOption
         dyn_order: o.poly_order,
         dynamics: Dynamics::Map,
         ridge: Ridge::Fixed(o.ridge),
+        linear_anchor: None,
     }
 }
 

@@ -212,6 +212,11 @@ pub struct FitArgs {
     /// Ridge alpha (relative to the largest squared singular value), or `cv`.
     #[arg(long, default_value = "0")]
     pub ridge: String,
+    /// Fit the linear part of flow/map dynamics to the points within this fraction of the
+    /// largest |eta| only (then the higher orders to all): exact rates near the fixed
+    /// point when the data also reach large amplitudes. E.g. 0.01.
+    #[arg(long)]
+    pub linear_anchor: Option<f64>,
     /// Print JSON.
     #[arg(long)]
     pub json: bool,
@@ -367,6 +372,7 @@ pub fn run(cli: Cli) -> Result<(), Box<dyn std::error::Error>> {
                 dynamics: a.dynamics,
                 centers: a.centers,
                 ridge: a.ridge,
+                linear_anchor: a.linear_anchor,
                 normal_form: a.normal_form,
             })?;
             if let Some(path) = &a.save {

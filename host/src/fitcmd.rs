@@ -18,6 +18,8 @@ pub struct FitRequest {
     pub dynamics: String,
     pub centers: usize,
     pub ridge: String,
+    /// See [`FitOptions::linear_anchor`].
+    pub linear_anchor: Option<f64>,
     pub normal_form: bool,
 }
 
@@ -86,6 +88,7 @@ pub fn run_fit(r: &FitRequest) -> Result<FitResult, Box<dyn std::error::Error>> 
         dyn_order: r.dyn_order,
         dynamics: parse_dynamics(&r.dynamics, r.centers)?,
         ridge: parse_ridge(&r.ridge)?,
+        linear_anchor: r.linear_anchor,
     };
     let t0 = Instant::now();
     let model = fit(&train, &opts)?;

@@ -143,6 +143,7 @@ pub fn fit_scene_rbf(
         dyn_order: 1,
         dynamics: Dynamics::Rbf { centers: 60 },
         ridge: Ridge::Fixed(1e-10),
+        linear_anchor: None,
     };
     let m = fit(std::slice::from_ref(&ts), &opts).map_err(|e| e.to_string())?;
     Ok((m, ts))

@@ -33,6 +33,15 @@ pub struct FitOptions {
     pub dynamics: Dynamics,
     /// Ridge parameter choice, used for both regressions.
     pub ridge: Ridge,
+    /// Anchor the linear part of polynomial dynamics on small amplitudes: `Some(f)` fits
+    /// the degree-1 terms to the training pairs within `f` times the largest `||eta||`
+    /// only, then the higher degrees to the rest (see
+    /// [`ReducedDynamics::fit_anchored`]). Use it when the linear rates matter (normal
+    /// forms, stability) and the data also reach large amplitudes: over the whole range
+    /// the degree-1 terms otherwise trade accuracy at the fixed point against the
+    /// truncated higher orders. `None`: one regression over all pairs.
+    #[serde(default)]
+    pub linear_anchor: Option<f64>,
 }
 
 impl FitOptions {
@@ -169,7 +178,7 @@ fn fit_impl(train: &[TimeSeries], opts: &FitOptions, v1: Option<&[f64]>) -> Resu
     let etas: Vec<_> = ys.iter().map(|y| manifold.reduce_points(y.as_ref())).collect();
     let trajs: Vec<EtaTrajectory> =
         etas.iter().zip(&dts).map(|(e, &dt)| EtaTrajectory { eta: e.as_ref(), dt }).collect();
-    let dynamics = ReducedDynamics::fit(&trajs, opts.dynamics, opts.dyn_order, opts.ridge)?;
+    let dynamics = ReducedDynamics::fit_anchored(&trajs, opts.dynamics, opts.dyn_order, opts.ridge, opts.linear_anchor)?;
     let eigenvalues_ct = dynamics.eigenvalues_ct()?;
     let eta_range = super::dynamics::eta_scale(&trajs);
     let dt = dts.iter().sum::<f64>() / dts.len() as f64;

@@ -98,6 +98,10 @@ impl Default for FurutaOptions {
                 dyn_order: 7,
                 dynamics: Dynamics::Map,
                 ridge: Ridge::Fixed(0.0),
+                // Linear part from the pairs within 1 % of the largest |eta|: over the whole
+                // range the rates trade against the order-7 terms (slow rate -3.5 % at 32 ms,
+                // -14 % at 32.5 ms without; within 0.06 % with).
+                linear_anchor: Some(0.01),
             },
         }
     }
@@ -403,23 +407,14 @@ mod tests {
             worst_interp = worst_interp.max(err[0].abs()).max(err[1].abs());
         }
         eprintln!("table at 30.8 ms:\n{}", pm.coefficients_at(30.8).unwrap().to_text());
-        // Achieved: at 30.5 and 31 ms the fast rate is within 2e-4 and the slow rate within
-        // 0.4 % / 0.7 % (target 1 %); at 32 ms slow 3.5 %, fast 1.8 %; at 32.5 ms the slow
-        // rate is off by 14 % (printed, not asserted: the runs escape within ~25 s there and
-        // the result is sensitive to the embedding, see the report). Deterministic runs.
-        for t in pm.trained.iter().filter(|t| t.dt_ms <= 31.0) {
-            let (r, e) = (t.normal_form.linear_rates(), t.exact.rates);
-            assert!(((r[1] - e[1]) / e[1]).abs() < 1e-3, "dt {}: fast {} vs {}", t.dt_ms, r[1], e[1]);
-            assert!(((r[0] - e[0]) / e[0]).abs() < 0.01, "dt {}: slow {} vs {}", t.dt_ms, r[0], e[0]);
-        }
-        for t in pm.trained.iter().filter(|t| t.dt_ms == 32.0) {
-            let (r, e) = (t.normal_form.linear_rates(), t.exact.rates);
-            assert!(((r[1] - e[1]) / e[1]).abs() < 0.03, "dt {}: fast {} vs {}", t.dt_ms, r[1], e[1]);
-            assert!(((r[0] - e[0]) / e[0]).abs() < 0.05, "dt {}: slow {} vs {}", t.dt_ms, r[0], e[0]);
-        }
-        let (r, e) = (pm.linear_rates_at(30.8).unwrap(), exact_modes(30.8).unwrap().rates);
-        assert!(((r[1] - e[1]) / e[1]).abs() < 0.01 && ((r[0] - e[0]) / e[0]).abs() < 0.03, "30.8: {r:?} vs {e:?}");
-        let _ = (worst_train, worst_interp);
+        // The targets: within 1 % at the training periods, 2 % interpolated. Measured
+        // with the anchored linear part (FurutaOptions::default): at most 5.5e-4 (slow) and
+        // 1.0e-3 (fast) at training, 3.8e-4 / 1.2e-3 interpolated (without the anchor: slow
+        // -3.5 % at 32 ms, -14 % at 32.5 ms, -9.4 % interpolated at 32.3 ms).
+        assert!(worst_train < 0.01, "training rate error {worst_train}");
+        assert!(worst_interp < 0.02, "interpolated rate error {worst_interp}");
+        // Tighter than the targets, to catch regressions of the anchored fit.
+        assert!(worst_train < 3e-3 && worst_interp < 3e-3, "train {worst_train}, interp {worst_interp}");
     }
 
     /// The slow-mode start decays at the slow exact rate (checks the eigenvector and the
@@ -452,6 +447,7 @@ mod tests {
         if let Some(p) = env("FUR_R") { o.fit.dyn_order = p as u32; }
         if let Some(p) = env("FUR_K") { o.fit.manifold_order = p as u32; }
         if let Some(p) = env("FUR_RIDGE") { o.fit.ridge = Ridge::Fixed(p); }
+        if let Some(p) = env("FUR_ANCHOR") { o.fit.linear_anchor = Some(p); }
         if let Some(a) = env("FUR_SLOW") {
             o.slow_starts = vec![(a, 0.0), (a, std::f64::consts::FRAC_PI_2), (2.0 * a, 0.7), (4.0 * a, 2.3)];
         }
@@ -463,6 +459,59 @@ mod tests {
             let (r, e) = (t.normal_form.linear_rates(), t.exact.rates);
             eprintln!("EXP dt {:5.2}: slow err {:+.3e} ({:+.5} vs {:+.5}), fast err {:+.3e}", t.dt_ms, (r[0] - e[0]) / e[0], r[0], e[0], (r[1] - e[1]) / e[1]);
         }
+        for dt in [30.8, 31.4, 31.41, 31.55, 31.68, 32.3] {
+            let r = pm.linear_rates_at(dt).unwrap();
+            let e = exact_modes(dt).unwrap().rates;
+            eprintln!("EXP interp {dt:5.2}: slow err {:+.3e}, fast err {:+.3e}", (r[0] - e[0]) / e[0], (r[1] - e[1]) / e[1]);
+        }
+        eprintln!("table at 30.8 ms:\n{}", pm.coefficients_at(30.8).unwrap().to_text());
+    }
+
+    /// Exploration: linear part from small-amplitude samples only, then nonlinear terms on
+    /// the residual. Prints the rate errors per radius.
+    #[test]
+    #[ignore = "exploration, prints only"]
+    fn furuta_linear_first_explore() {
+        use super::super::fit::embed_training;
+        use super::super::manifold::{Manifold, design_matrix};
+        use faer::Mat;
+        let o = FurutaOptions::default();
+        for dt_ms in [30.5, 32.0, 32.5] {
+            let train = training_series(&o, dt_ms).unwrap();
+            let (ys, _dts) = embed_training(&train, &o.fit).unwrap();
+            let man = Manifold::fit(&ys, 4, o.fit.manifold_order, o.fit.ridge).unwrap();
+            let etas: Vec<Mat<f64>> = ys.iter().map(|y| man.reduce_points(y.as_ref())).collect();
+            let e = exact_modes(dt_ms).unwrap();
+            let dt = dt_ms * 1e-3;
+            let gmax = etas.iter().flat_map(|m| (0..m.nrows()).map(move |i| (0..4).map(|j| m[(i, j)] * m[(i, j)]).sum::<f64>().sqrt())).fold(0.0, f64::max);
+            for frac in [0.01, 0.03, 0.1, 0.3, 1.0] {
+                let r = frac * gmax;
+                let mut xs = Vec::new();
+                let mut ysn = Vec::new();
+                for m in &etas {
+                    for i in 0..m.nrows() - 1 {
+                        let n2 = (0..4).map(|j| m[(i, j)] * m[(i, j)]).sum::<f64>().sqrt();
+                        if n2 <= r {
+                            xs.push([m[(i, 0)], m[(i, 1)], m[(i, 2)], m[(i, 3)]]);
+                            ysn.push([m[(i + 1, 0)], m[(i + 1, 1)], m[(i + 1, 2)], m[(i + 1, 3)]]);
+                        }
+                    }
+                }
+                let n = xs.len();
+                if n < 20 { continue; }
+                let a = Mat::from_fn(n, 4, |i, j| xs[i][j]);
+                let b = Mat::from_fn(n, 4, |i, j| ysn[i][j]);
+                let (w, _) = super::super::ridge::fit(a.as_ref(), b.as_ref(), &[0..n], Ridge::Fixed(0.0), "lin").unwrap();
+                let am = nalgebra::Matrix4::from_fn(|i, j| w[(j, i)]);
+                let ev = am.complex_eigenvalues();
+                let mut rates: Vec<(f64, f64)> = ev.iter().map(|z| (z.norm().ln() / dt, z.arg().abs() / dt / std::f64::consts::TAU)).collect();
+                rates.sort_by(|a, b| a.1.total_cmp(&b.1));
+                let _ = design_matrix;
+                eprintln!(
+                    "EXP dt {dt_ms}: r {frac:.2} (n {n}): slow {:+.5} ({:+.2e}) fast {:+.5} ({:+.2e}); freqs {:.4} {:.4}",
+                    rates[0].0, (rates[0].0 - e.rates[0]) / e.rates[0], rates[3].0, (rates[3].0 - e.rates[1]) / e.rates[1], rates[0].1, rates[3].1
+                );
+            }
+        }
     }
 }
-
