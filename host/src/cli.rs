@@ -123,6 +123,9 @@ pub enum Cmd {
         /// Training CSV files, comma separated (the longest is the reference data).
         #[arg(long, value_delimiter = ',', required = true)]
         data: Vec<PathBuf>,
+        /// The observable's column in wider CSV files (the first column is the time).
+        #[arg(long)]
+        column: Option<String>,
         /// Embedding dimension of the estimators.
         #[arg(long, default_value_t = 6)]
         gp_embed: usize,
@@ -188,6 +191,10 @@ pub struct FitArgs {
     /// Test CSV files, comma separated.
     #[arg(long, value_delimiter = ',')]
     pub test: Vec<PathBuf>,
+    /// The observable's column in wider CSV files (e.g. `theta` of `ssmctl simulate`'s
+    /// output; the first column is the time). Without it files must have two columns.
+    #[arg(long)]
+    pub column: Option<String>,
     /// SSM dimension d.
     #[arg(long)]
     pub dim: usize,
@@ -372,6 +379,7 @@ pub fn run(cli: Cli) -> Result<(), Box<dyn std::error::Error>> {
                 dynamics: a.dynamics,
                 centers: a.centers,
                 ridge: a.ridge,
+                column: a.column,
                 linear_anchor: a.linear_anchor,
                 normal_form: a.normal_form,
             })?;
@@ -408,8 +416,8 @@ pub fn run(cli: Cli) -> Result<(), Box<dyn std::error::Error>> {
                 }
             }
         }
-        Cmd::Chaos { data, gp_embed, ssm_dim, centers, poly_order, shift, ridge, json } => {
-            let train = data.iter().map(crate::ssm::load_csv).collect::<Result<Vec<_>, _>>()?;
+        Cmd::Chaos { data, column, gp_embed, ssm_dim, centers, poly_order, shift, ridge, json } => {
+            let train = data.iter().map(|p| crate::ssm::load_csv_column(p, column.as_deref())).collect::<Result<Vec<_>, _>>()?;
             let o = crate::chaoscmd::ChaosOptions { gp_embed, ssm_dim, centers, poly_order, shift, ridge, ..Default::default() };
             let r = crate::chaoscmd::analyse(&train, &o)?;
             if json {

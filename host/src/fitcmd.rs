@@ -1,6 +1,6 @@
 //! `ssmctl fit` / `inspect`: the fitting request from the command line and its JSON summary.
 
-use crate::ssm::{Dynamics, FitOptions, Ridge, SsmModel, TimeSeries, fit, load_csv};
+use crate::ssm::{Dynamics, FitOptions, Ridge, SsmModel, TimeSeries, fit, load_csv_column};
 use serde::Serialize;
 use serde_json::{Value, json};
 use std::path::PathBuf;
@@ -18,6 +18,8 @@ pub struct FitRequest {
     pub dynamics: String,
     pub centers: usize,
     pub ridge: String,
+    /// Observable column of wider CSV files (see [`crate::ssm::load_csv_column`]).
+    pub column: Option<String>,
     /// See [`FitOptions::linear_anchor`].
     pub linear_anchor: Option<f64>,
     pub normal_form: bool,
@@ -77,7 +79,7 @@ fn mean(v: &[f64]) -> f64 {
 
 /// Loads, fits and scores.
 pub fn run_fit(r: &FitRequest) -> Result<FitResult, Box<dyn std::error::Error>> {
-    let load = |ps: &[PathBuf]| ps.iter().map(load_csv).collect::<Result<Vec<TimeSeries>, _>>();
+    let load = |ps: &[PathBuf]| ps.iter().map(|p| load_csv_column(p, r.column.as_deref())).collect::<Result<Vec<TimeSeries>, _>>();
     let train = load(&r.data)?;
     let test = load(&r.test)?;
     let opts = FitOptions {

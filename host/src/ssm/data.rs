@@ -38,8 +38,12 @@ pub enum DataError {
     },
     #[error("{file}: empty file, expected a header line `t,x`")]
     NoHeader { file: String },
-    #[error("{file}: line {line}: expected 2 comma-separated columns `t,x`, found {found}")]
-    Columns { file: String, line: usize, found: usize },
+    #[error("{file}: line {line}: expected {expected} comma-separated columns (as the header), found {found}")]
+    Columns { file: String, line: usize, expected: usize, found: usize },
+    #[error("{file}: {found} columns ({available}); name the observable column (`--column NAME`), the first is the time")]
+    ManyColumns { file: String, found: usize, available: String },
+    #[error("{file}: no column `{column}` in the header (columns: {available}); the first column is the time")]
+    UnknownColumn { file: String, column: String, available: String },
     #[error("{file}: line {line}: cannot parse {column} value {text:?} as a number")]
     Parse { file: String, line: usize, column: &'static str, text: String },
     #[error("{name}: row {row}: {column} is not finite ({value})")]
@@ -159,34 +163,62 @@ impl TimeSeries {
 /// Loads a CSV file with a header line and two columns `t,x`, then validates it.
 /// The series is named after the file stem.
 pub fn load_csv(path: impl AsRef<Path>) -> Result<TimeSeries, DataError> {
+    load_csv_column(path, None)
+}
+
+/// [`load_csv`] for a file of several columns (e.g. what `ssmctl simulate` writes): the first
+/// column is the time, `column` names the observable by its header entry. With `None` the
+/// file must have exactly two columns.
+pub fn load_csv_column(path: impl AsRef<Path>, column: Option<&str>) -> Result<TimeSeries, DataError> {
     let path = path.as_ref();
     let file = path.display().to_string();
     let text = std::fs::read_to_string(path).map_err(|source| DataError::Io { file: file.clone(), source })?;
     let name = path.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_else(|| file.clone());
-    parse_csv(&file, name, &text)
+    parse_csv_column(&file, name, &text, column)
 }
 
-/// Parses CSV text (see [`load_csv`]); `file` is used in error messages.
+/// Parses two-column CSV text (see [`load_csv`]); `file` is used in error messages.
 pub fn parse_csv(file: &str, name: String, text: &str) -> Result<TimeSeries, DataError> {
+    parse_csv_column(file, name, text, None)
+}
+
+/// Parses CSV text (see [`load_csv_column`]); `file` is used in error messages. Every data
+/// line must have as many columns as the header; every entry of the time column and of
+/// the chosen column must parse (the other columns are not read).
+pub fn parse_csv_column(file: &str, name: String, text: &str, column: Option<&str>) -> Result<TimeSeries, DataError> {
     let mut lines = text.lines().enumerate();
-    match lines.next() {
-        Some((_, h)) if !h.trim().is_empty() => {}
+    let header: Vec<&str> = match lines.next() {
+        Some((_, h)) if !h.trim().is_empty() => h.split(',').map(str::trim).collect(),
         _ => return Err(DataError::NoHeader { file: file.to_string() }),
+    };
+    let (ncols, xcol) = match column {
+        None => (2, 1),
+        Some(c) => {
+            let idx = header.iter().position(|h| *h == c).filter(|&i| i > 0).ok_or_else(|| DataError::UnknownColumn {
+                file: file.to_string(),
+                column: c.to_string(),
+                available: header[1..].join(", "),
+            })?;
+            (header.len(), idx)
+        }
+    };
+    if column.is_none() && header.len() > 2 {
+        return Err(DataError::ManyColumns { file: file.to_string(), found: header.len(), available: header.join(", ") });
     }
     let mut t = Vec::new();
     let mut x = Vec::new();
     for (i, line) in lines {
         let line_no = i + 1;
         let cols: Vec<&str> = line.split(',').map(str::trim).collect();
-        if cols.len() != 2 || cols.iter().any(|c| c.is_empty()) {
+        if cols.len() != ncols || cols.iter().any(|c| c.is_empty()) {
             let found = if line.trim().is_empty() { 0 } else { cols.len() };
-            return Err(DataError::Columns { file: file.to_string(), line: line_no, found });
+            return Err(DataError::Columns { file: file.to_string(), line: line_no, expected: ncols, found });
         }
-        for (column, text, out) in [("t", cols[0], &mut t), ("x", cols[1], &mut x)] {
+        for (col, text, out) in [("t", cols[0], &mut t), ("x", cols[xcol], &mut x)] {
             let v: f64 = text.parse().map_err(|_| DataError::Parse {
                 file: file.to_string(),
                 line: line_no,
-                column,
+                column: col,
                 text: text.to_string(),
             })?;
             out.push(v);
@@ -237,6 +269,28 @@ mod tests {
 
         let e = parse("t,x\n0,1\n").unwrap_err();
         assert!(matches!(e, DataError::TooShort { have: 1, need: 2, .. }), "{e}");
+    }
+
+    #[test]
+    fn named_column_of_a_wider_file() {
+        let text = "t,theta,w,u\n0,0.1,5,1\n0.5,0.2,6,1\n1.0,-0.1,7,1\n";
+        let ts = parse_csv_column("sim.csv", "sim".into(), text, Some("theta")).unwrap();
+        assert_eq!((ts.t.clone(), ts.x.clone()), (vec![0.0, 0.5, 1.0], vec![0.1, 0.2, -0.1]));
+        let ts = parse_csv_column("sim.csv", "sim".into(), text, Some("w")).unwrap();
+        assert_eq!(ts.x, vec![5.0, 6.0, 7.0]);
+        // Without a name a wide file is an error that says what to do.
+        let e = parse_csv_column("sim.csv", "sim".into(), text, None).unwrap_err();
+        assert!(matches!(e, DataError::ManyColumns { found: 4, .. }) && e.to_string().contains("--column"), "{e}");
+        // Unknown names (and the time column itself) list the available ones.
+        for bad in ["phi", "t"] {
+            let e = parse_csv_column("sim.csv", "sim".into(), text, Some(bad)).unwrap_err();
+            assert!(matches!(e, DataError::UnknownColumn { .. }) && e.to_string().contains("theta, w, u"), "{e}");
+        }
+        // A short row is reported against the header's width; a bad entry of the chosen column by line.
+        let e = parse_csv_column("sim.csv", "sim".into(), "t,theta,w\n0,1,2\n1,2\n", Some("theta")).unwrap_err();
+        assert!(matches!(e, DataError::Columns { line: 3, expected: 3, found: 2, .. }), "{e}");
+        let e = parse_csv_column("sim.csv", "sim".into(), "t,theta,w\n0,1,2\n1,x,2\n", Some("theta")).unwrap_err();
+        assert!(matches!(e, DataError::Parse { line: 3, column: "x", .. }), "{e}");
     }
 
     #[test]

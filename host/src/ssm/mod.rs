@@ -24,7 +24,7 @@ pub mod poly;
 pub mod portrait;
 pub mod ridge;
 
-pub use data::{DataError, TimeSeries, load_csv};
+pub use data::{DataError, TimeSeries, load_csv, load_csv_column};
 pub use dynamics::{Dynamics, ReducedDynamics};
 pub use error::FitError;
 pub use fit::{FitOptions, Prediction, SsmModel, Stop, StopReason, fit};
