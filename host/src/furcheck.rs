@@ -473,6 +473,9 @@ pub struct TorusFull {
     /// Mean slow and fast amplitudes over the tail ([`mode_amplitudes`] at the measured
     /// frequencies, window [`AMP_WINDOW_S`]).
     pub rho: [f64; 2],
+    /// Max minus min of each amplitude over the tail: near 0 on an attracting 2-torus,
+    /// growing where the torus loses attraction (a slow amplitude oscillation).
+    pub rho_spread: [f64; 2],
     /// Peak frequencies of the tail's Hann spectrum (slow below, fast above the geometric
     /// mean of the exact linear frequencies), log-quadratic peak interpolation.
     pub freqs_hz: [f64; 2],
@@ -511,10 +514,16 @@ pub fn torus_full(dt_ms: f64, start: &Start, periods: u64, tail_s: f64) -> Resul
     }
     let k = amps.len() as f64;
     let rho = [amps.iter().map(|a| a.1[0]).sum::<f64>() / k, amps.iter().map(|a| a.1[1]).sum::<f64>() / k];
+    let spread = |j: usize| {
+        let (lo, hi) = amps.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), a| (lo.min(a.1[j]), hi.max(a.1[j])));
+        hi - lo
+    };
+    let rho_spread = [spread(0), spread(1)];
     Ok(TorusFull {
         dt_ms,
         amplitude_theta: tail.iter().fold(0.0f64, |m, v| m.max(v.abs())),
         rho,
+        rho_spread,
         freqs_hz,
         linear_freqs_hz: lin,
         tail_s: n_tail as f64 * dt,

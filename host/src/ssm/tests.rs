@@ -380,8 +380,8 @@ fn near_bifurcation_fits_are_well_conditioned() {
         let (r, e) = (t.normal_form.linear_rates(), t.exact.rates);
         let err = [(r[0] - e[0]) / e[0], (r[1] - e[1]) / e[1]];
         println!("  rates {r:?} vs exact {e:?}: rel err {err:?}");
-        // Measured with the anchored linear part: slow -3.5e-4, fast -1.1e-3 / -1.0e-3 at
-        // 31.40 / 31.41 ms (without it: slow -9.3 % / -2.5 %, fast -1.9 % / +0.7 %: the runs
+        // Measured with the anchored linear part: slow -2.2e-4 / -2.3e-4, fast -5.0e-4 /
+        // -5.1e-4 at 31.40 / 31.41 ms (without it: slow -9.3 % / -2.5 %, fast -1.9 % / +0.7 %: the runs
         // leave |theta| < 0.3 early near the bifurcation and the whole-range fit trades the
         // rates against the higher orders).
         assert!(err[1].abs() < 0.01 && err[0].abs() < 0.01, "dt {}: {err:?}", t.dt_ms);
