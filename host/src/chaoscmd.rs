@@ -345,7 +345,16 @@ pub fn analyse_held_out(train: &[TimeSeries], test: Option<&TimeSeries>, o: &Cha
 /// `periods` sampling periods of the quantized scene `furuta-quant-dt25` from
 /// `theta(0) = theta0`, theta only, first 20 s of transient dropped.
 pub fn simulate_quantized(periods: usize, theta0: f64, name: &str) -> Result<TimeSeries, Box<dyn Error>> {
-    let s = crate::scene::Scene::load("furuta-quant-dt25", &[format!("run.periods={periods}"), format!("initial.state=[{theta0},0,0,0]")])?;
+    simulate_scene("furuta-quant-dt25", &[], periods, theta0, name)
+}
+
+/// [`simulate_quantized`] for any bundled scene with extra `--set`-style `overrides`
+/// (e.g. `controller.kd=5.0`, `effects.noise.seed=2`), applied after the run length and
+/// initial state.
+pub fn simulate_scene(scene: &str, overrides: &[String], periods: usize, theta0: f64, name: &str) -> Result<TimeSeries, Box<dyn Error>> {
+    let mut all = vec![format!("run.periods={periods}"), format!("initial.state=[{theta0},0,0,0]")];
+    all.extend(overrides.iter().cloned());
+    let s = crate::scene::Scene::load(scene, &all)?;
     let tr = crate::sim::simulate(&s, None)?;
     let skip = (20.0 / tr.dt) as usize;
     if skip >= tr.t.len() {
