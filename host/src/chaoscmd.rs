@@ -91,6 +91,8 @@ pub struct ChaosSummary {
     pub theiler_samples: usize,
     pub gp_embed: usize,
     pub lle_fit_window_s: (f64, f64),
+    /// The data's divergence curve read over doubling windows (see [`growth_windows`]).
+    pub growth_windows_data: Vec<GrowthWindow>,
     /// SSM fit settings used.
     pub ssm_embed: usize,
     pub ssm_shift: usize,
@@ -133,10 +135,15 @@ impl Context {
         dimension_rule(cd.dimension, cd.slope_std)
     }
 
+    /// Rosenstein divergence curve of series `x` with these settings.
+    pub fn divergence(&self, x: &[f64]) -> Result<DivergenceCurve, ChaosError> {
+        let pts = delay_embed(x, self.embed, self.lag)?;
+        rosenstein_curve(&pts, &self.divergence_params())
+    }
+
     /// Rosenstein exponent (1/s) and fit window (s) of series `x`; fallbacks go to `notes`.
     pub fn lle(&self, x: &[f64], notes: &mut Vec<String>, who: &str) -> Result<(f64, (f64, f64)), ChaosError> {
-        let pts = delay_embed(x, self.embed, self.lag)?;
-        let curve = rosenstein_curve(&pts, &self.divergence_params())?;
+        let curve = self.divergence(x)?;
         let (f, note) = fit_lle_curve(&curve)?;
         if let Some(n) = note {
             notes.push(format!("{who}: {n}"));
@@ -189,6 +196,38 @@ fn after_noise_jump(curve: &DivergenceCurve, rule: &FitRule) -> Result<(chaos::D
         f.window_time = (f.window_time.0 + t0, f.window_time.1 + t0);
         (f, Some(format!("noise-dominated first {skip} step(s) ({:.0} % of the rise) skipped; slope fitted over the first 70 % of the rest", 100.0 * jump)))
     })
+}
+
+/// Secant slope of a divergence curve over one window `[t0, t1 = 2 t0]`.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+pub struct GrowthWindow {
+    pub t0: f64,
+    pub t1: f64,
+    /// `(y(t1) - y(t0)) / (t1 - t0)`, 1/s (y = mean log distance).
+    pub slope: f64,
+    /// The same rise read as a power law `d ~ t^a`: `a = (y(t1) - y(t0)) / ln(t1 / t0)`.
+    pub power: f64,
+}
+
+/// Secant slopes of `curve` over doubling windows `[t, 2t]`, `t` from the first positive
+/// time on the curve. Exponential separation keeps the slope fixed (the power grows like
+/// t); separation by diffusion along a neutral direction keeps the power fixed (about 0.5)
+/// while the slope falls like 1/t. A single Rosenstein number cannot tell them apart.
+pub fn growth_windows(curve: &DivergenceCurve) -> Vec<GrowthWindow> {
+    let time = &curve.time;
+    let y = &curve.mean_log_distance;
+    let at = |t: f64| time.iter().position(|&s| s >= t * (1.0 - 1e-9));
+    let mut out = Vec::new();
+    let Some(mut t) = time.iter().copied().find(|&s| s > 0.0) else { return out };
+    while let (Some(a), Some(b)) = (at(t), at(2.0 * t)) {
+        let (t0, t1) = (time[a], time[b]);
+        if t1 <= t0 {
+            break;
+        }
+        out.push(GrowthWindow { t0, t1, slope: (y[b] - y[a]) / (t1 - t0), power: (y[b] - y[a]) / (t1 / t0).ln() });
+        t *= 2.0;
+    }
+    out
 }
 
 /// The paper's rule read with the error bar ("an even number larger than 4.39 +- 0.06"): the
@@ -292,6 +331,7 @@ pub fn analyse_held_out(train: &[TimeSeries], test: Option<&TimeSeries>, o: &Cha
     };
     let mut notes = Vec::new();
     let (lle_data, window) = ctx.lle(&data.x, &mut notes, "data")?;
+    let growth_windows_data = growth_windows(&ctx.divergence(&data.x)?);
     let base = fit_options(o, ssm_dim, &ctx);
     let mut out = ChaosSummary {
         corr_dim: cd.dimension,
@@ -310,6 +350,7 @@ pub fn analyse_held_out(train: &[TimeSeries], test: Option<&TimeSeries>, o: &Cha
         theiler_samples: ctx.theiler,
         gp_embed: o.gp_embed,
         lle_fit_window_s: window,
+        growth_windows_data,
         ssm_embed: base.embed,
         ssm_shift: base.shift,
         ridge: o.ridge,
@@ -582,6 +623,28 @@ pub fn section(rep: &mut crate::report::Report, data_dir: &std::path::Path, quic
         &rows,
     );
     rep.summary.insert("chaos".into(), serde_json::Value::Object(list));
+    rep.para(
+        "How the data separate: the secant slope of each data set's Rosenstein curve over doubling windows [t, 2t], and the \
+         same rise read as a power law d ~ t^a (a = rise / ln 2). Exponential separation (chaos) keeps the slope and lets a \
+         grow with t; diffusion along a neutral direction (a torus shaken by quantization or noise) keeps a near 0.5 while \
+         the slope falls like 1/t, and then the single Rosenstein number depends on its fit window. The models' Benettin \
+         spectra (first two exponents) tell whether the smooth model's own attractor is a torus (two zeros).",
+    );
+    let mut grows = Vec::new();
+    for (_, name, _, _, r) in &figs {
+        let w = &r.growth_windows_data;
+        let spec = |b: &Option<ModelLyapunov>| {
+            b.as_ref().map_or("-".to_string(), |b| b.spectrum.iter().take(2).map(|v| format!("{v:+.4}")).collect::<Vec<_>>().join(", "))
+        };
+        grows.push(vec![
+            name.clone(),
+            w.iter().map(|g| format!("{:.2}-{:.2} s: {:.3}", g.t0, g.t1, g.slope)).collect::<Vec<_>>().join("; "),
+            w.iter().map(|g| format!("{:.2}", g.power)).collect::<Vec<_>>().join(", "),
+            spec(&r.benettin_rbf),
+            spec(&r.benettin_poly),
+        ]);
+    }
+    rep.table(&["data", "slope over [t, 2t] [1/s]", "power a per window", "RBF Benettin (1st, 2nd)", "poly Benettin (1st, 2nd)"], &grows);
     for (tag, name, train, test, r) in &figs {
         chaos_figures(rep, tag, name, train, test, r, &ChaosOptions::default())?;
     }
@@ -613,6 +676,28 @@ mod tests {
         assert!((f.exponent - 0.25).abs() < 1e-9, "{}", f.exponent);
         assert!(note.unwrap().contains("noise-dominated first 1 step"));
         assert!(f.window_time.0 >= dt, "{:?}", f.window_time);
+    }
+
+    /// Exponential and power-law curves read over doubling windows: exponential keeps the
+    /// slope (0.3 1/s), a t^0.5 law keeps the power (0.5) while the slope halves.
+    #[test]
+    fn growth_windows_tell_exponential_from_diffusive() {
+        let dt = 0.05;
+        let curve = |f: &dyn Fn(f64) -> f64| {
+            let time: Vec<f64> = (0..=80).map(|k| k as f64 * dt).collect();
+            DivergenceCurve { mean_log_distance: time.iter().map(|&t| f(t)).collect(), n_terms: vec![10; time.len()], time, n_reference: 10, zero_distances: 0 }
+        };
+        let e = growth_windows(&curve(&|t| -5.0 + 0.3 * t));
+        assert_eq!(e.len(), 6, "{e:?}"); // 0.05..0.1, ..., 1.6..3.2 (the curve ends at 4.0)
+        for g in &e {
+            assert!((g.slope - 0.3).abs() < 1e-9 && (g.t1 - 2.0 * g.t0).abs() < 1e-9, "{g:?}");
+            assert!((g.power - 0.3 * g.t0 / 2f64.ln()).abs() < 1e-9, "{g:?}");
+        }
+        let d = growth_windows(&curve(&|t| -5.0 + 0.5 * t.max(1e-12).ln()));
+        for w in d.windows(2) {
+            assert!((w[0].power - 0.5).abs() < 1e-9 && (w[1].slope - 0.5 * w[0].slope).abs() < 1e-9, "{w:?}");
+        }
+        assert!(growth_windows(&curve(&|_| 0.0)).iter().all(|g| g.slope == 0.0));
     }
 
     #[test]
