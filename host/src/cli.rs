@@ -428,6 +428,13 @@ pub fn run(cli: Cli) -> Result<(), Box<dyn std::error::Error>> {
                 outln!("largest Lyapunov exponent [1/s]: data {:.4}, RBF model {}, polynomial model {}", r.lle_data, opt(r.lle_model_rbf), opt(r.lle_model_poly));
                 outln!("Benettin exponent of the reduced maps [1/s]: RBF {}, polynomial {}", opt(r.lle_model_rbf_benettin), opt(r.lle_model_poly_benettin));
                 outln!("PDF Jensen-Shannon divergence [bits]: RBF {}, polynomial {}", opt(r.pdf_divergence_rbf), opt(r.pdf_divergence_poly));
+                outln!(
+                    "residual-kicked models: LLE RBF {}, polynomial {}; JS RBF {}, polynomial {}",
+                    opt(r.lle_model_rbf_kicked),
+                    opt(r.lle_model_poly_kicked),
+                    opt(r.pdf_divergence_rbf_kicked),
+                    opt(r.pdf_divergence_poly_kicked)
+                );
                 for n in &r.notes {
                     outln!("note: {n}");
                 }
