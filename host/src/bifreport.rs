@@ -586,8 +586,8 @@ mod tests {
     use super::*;
     use crate::ssm::furuta::furuta_parametric;
 
-    /// Exploration: the model's bifurcation values for the default options (`FUR_ANCHOR`,
-    /// `FUR_R` override); prints only.
+    /// Exploration: the model's bifurcation values for the default options (overrides of
+    /// `ssm::furuta::explore_options`); prints only.
     /// The sensitivity row of the default training reproduces the portraits section's
     /// values (same fit, same scans), and the full system's torus spread grows with dt.
     #[test]
@@ -601,12 +601,7 @@ mod tests {
     #[test]
     #[ignore = "exploration, prints only"]
     fn model_bifurcations_explore() {
-        let env = |k: &str| std::env::var(k).ok().and_then(|v| v.parse::<f64>().ok());
-        let mut o = FurutaOptions::default();
-        if let Some(p) = env("FUR_R") { o.fit.dyn_order = p as u32; }
-        if let Some(p) = env("FUR_ANCHOR") { o.fit.linear_anchor = if p > 0.0 { Some(p) } else { None }; }
-        if let Some(p) = env("FUR_MAXTH") { o.max_theta = p; }
-        if let Ok(v) = std::env::var("FUR_DTS") { o.dts_ms = v.split(',').map(|x| x.parse().unwrap()).collect(); }
+        let o = crate::ssm::furuta::explore_options();
         let pm = furuta_parametric(&o).unwrap();
         for t in &pm.trained {
             eprintln!("BIF trained {} : {} series rho range {:?}", t.dt_ms, t.model.n_points, t.model.eta_range);

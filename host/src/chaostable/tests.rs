@@ -212,14 +212,10 @@ fn explore_flag_models() {
         let mut train = &two;
         for kv in cfg.split(',') {
             let (k, v) = kv.split_once('=').unwrap();
+            if model_key(&mut o, k, v) {
+                continue;
+            }
             match k {
-                "d" => o.ssm_dim = Some(v.parse().unwrap()),
-                "c" => o.centers = v.parse().unwrap(),
-                "r" => o.ridge = v.parse().unwrap(),
-                "s" => o.shift = Some(v.parse().unwrap()),
-                "p" => o.embed = Some(v.parse().unwrap()),
-                "m" => o.manifold_order = v.parse().unwrap(),
-                "k" => o.poly_order = v.parse().unwrap(),
                 "all" => train = &all,
                 _ => panic!("{k}"),
             }
@@ -398,14 +394,10 @@ fn explore_quantized_models() {
         let mut kick = None;
         for kv in cfg.split(',') {
             let (k, v) = kv.trim().split_once('=').unwrap();
+            if model_key(&mut o, k, v) {
+                continue;
+            }
             match k {
-                "d" => o.ssm_dim = Some(v.parse().unwrap()),
-                "c" => o.centers = v.parse().unwrap(),
-                "r" => o.ridge = v.parse().unwrap(),
-                "s" => o.shift = Some(v.parse().unwrap()),
-                "p" => o.embed = Some(v.parse().unwrap()),
-                "m" => o.manifold_order = v.parse().unwrap(),
-                "k" => o.poly_order = v.parse().unwrap(),
                 "sub" => sub = v.parse().unwrap(),
                 "n" => periods = v.parse().unwrap(),
                 "kd" => overrides.push(format!("controller.kd={v}")),
@@ -517,19 +509,6 @@ fn sd_of(x: &[f64]) -> f64 {
     (x.iter().map(|v| (v - m) * (v - m)).sum::<f64>() / x.len() as f64).sqrt()
 }
 
-/// Reduced coordinates of every embedded point of `ts` (row-major) under model `m`.
-fn reduced(m: &SsmModel, ts: &TimeSeries) -> Vec<f64> {
-    let y = crate::ssm::embed::delay_embed(ts, m.manifold.p, m.options.shift, 1).unwrap();
-    let mut out = Vec::with_capacity(y.ncols() * m.options.dim);
-    let mut col = vec![0.0; m.manifold.p];
-    for j in 0..y.ncols() {
-        for (i, c) in col.iter_mut().enumerate() {
-            *c = y[(i, j)];
-        }
-        out.extend(m.manifold.reduce(&col));
-    }
-    out
-}
 
 /// The smooth model driven by its own one-step residuals: the residual vectors
 /// `eta_{n+1} - F(eta_n)` of the training data are resampled at random (xorshift, `seed`),
@@ -543,7 +522,7 @@ fn kicked_model(m: &SsmModel, train: &[TimeSeries], test: &TimeSeries, ctx: &Con
     let mut sc = StepScratch::default();
     let mut res = Vec::new();
     for ts in train {
-        let e = reduced(m, ts);
+        let e = crate::chaoscmd::reduce_series(m, ts).unwrap();
         for w in e.chunks_exact(d).collect::<Vec<_>>().windows(2) {
             let mut x = w[0].to_vec();
             m.dynamics.step(&mut x, m.dt, &mut sc);
@@ -552,7 +531,7 @@ fn kicked_model(m: &SsmModel, train: &[TimeSeries], test: &TimeSeries, ctx: &Con
     }
     let nres = res.len() / d;
     let rms = (res.iter().map(|v| v * v).sum::<f64>() / nres as f64).sqrt();
-    let eta_test = reduced(m, test);
+    let eta_test = crate::chaoscmd::reduce_series(m, test).unwrap();
     let n = eta_test.len() / d;
     let mut state = seed.wrapping_mul(0x9E37_79B9_7F4A_7C15) | 1;
     let mut rnd = move || {
@@ -664,4 +643,21 @@ fn quantized_loop_data_diffuse_and_smooth_model_is_a_torus() {
     }
     let k = r.lle_model_rbf_kicked.unwrap();
     assert!(k > 0.5 * r.lle_data && k < 2.0 * r.lle_data, "kicked RBF {k} vs data {}", r.lle_data);
+}
+
+/// Applies one `key=value` of the exploration configurations that sets a model option
+/// (`d` SSM dim, `c` centres, `r` ridge, `s` shift, `p` embedding, `m` manifold order, `k`
+/// map order); false for other keys.
+fn model_key(o: &mut ChaosOptions, k: &str, v: &str) -> bool {
+    match k {
+        "d" => o.ssm_dim = Some(v.parse().unwrap()),
+        "c" => o.centers = v.parse().unwrap(),
+        "r" => o.ridge = v.parse().unwrap(),
+        "s" => o.shift = Some(v.parse().unwrap()),
+        "p" => o.embed = Some(v.parse().unwrap()),
+        "m" => o.manifold_order = v.parse().unwrap(),
+        "k" => o.poly_order = v.parse().unwrap(),
+        _ => return false,
+    }
+    true
 }

@@ -440,23 +440,11 @@ mod tests {
         assert!(((rate - e.rates[0]) / e.rates[0]).abs() < 0.05, "envelope rate {rate} vs {}", e.rates[0]);
     }
 
-    /// Exploration: `FUR_P`, `FUR_SHIFT`, `FUR_R`, `FUR_SLOW` (amplitude), `FUR_IC` (0 = no
-    /// default ICs), `FUR_RIDGE` override the defaults; prints the rate errors.
+    /// Exploration: see [`explore_options`] for the overrides; prints the rate errors.
     #[test]
     #[ignore = "exploration, prints only"]
     fn furuta_explore() {
-        let env = |k: &str| std::env::var(k).ok().and_then(|v| v.parse::<f64>().ok());
-        let mut o = FurutaOptions::default();
-        if let Some(p) = env("FUR_P") { o.fit.embed = p as usize; }
-        if let Some(p) = env("FUR_SHIFT") { o.fit.shift = p as usize; }
-        if let Some(p) = env("FUR_R") { o.fit.dyn_order = p as u32; }
-        if let Some(p) = env("FUR_K") { o.fit.manifold_order = p as u32; }
-        if let Some(p) = env("FUR_RIDGE") { o.fit.ridge = Ridge::Fixed(p); }
-        if let Some(p) = env("FUR_ANCHOR") { o.fit.linear_anchor = Some(p); }
-        if let Some(a) = env("FUR_SLOW") {
-            o.slow_starts = vec![(a, 0.0), (a, std::f64::consts::FRAC_PI_2), (2.0 * a, 0.7), (4.0 * a, 2.3)];
-        }
-        if env("FUR_IC") == Some(0.0) { o.initial_states.truncate(2); }
+        let o = explore_options();
         let t0 = std::time::Instant::now();
         let pm = furuta_parametric(&o).unwrap();
         eprintln!("fit time {:.1} s", t0.elapsed().as_secs_f64());
@@ -519,4 +507,27 @@ mod tests {
             }
         }
     }
+}
+
+/// [`FurutaOptions::default`] with the exploration tests' environment overrides:
+/// `FUR_P` embedding, `FUR_SHIFT`, `FUR_R` map order, `FUR_K` manifold order, `FUR_RIDGE`,
+/// `FUR_ANCHOR` (0 = none), `FUR_MAXTH` amplitude cut, `FUR_SLOW` slow-start amplitude,
+/// `FUR_IC=0` only two default starts, `FUR_DTS` comma list of training periods.
+#[cfg(test)]
+pub(crate) fn explore_options() -> FurutaOptions {
+    let env = |k: &str| std::env::var(k).ok().and_then(|v| v.parse::<f64>().ok());
+    let mut o = FurutaOptions::default();
+    if let Some(p) = env("FUR_P") { o.fit.embed = p as usize; }
+    if let Some(p) = env("FUR_SHIFT") { o.fit.shift = p as usize; }
+    if let Some(p) = env("FUR_R") { o.fit.dyn_order = p as u32; }
+    if let Some(p) = env("FUR_K") { o.fit.manifold_order = p as u32; }
+    if let Some(p) = env("FUR_RIDGE") { o.fit.ridge = Ridge::Fixed(p); }
+    if let Some(p) = env("FUR_ANCHOR") { o.fit.linear_anchor = if p > 0.0 { Some(p) } else { None }; }
+    if let Some(p) = env("FUR_MAXTH") { o.max_theta = p; }
+    if let Some(a) = env("FUR_SLOW") {
+        o.slow_starts = vec![(a, 0.0), (a, std::f64::consts::FRAC_PI_2), (2.0 * a, 0.7), (4.0 * a, 2.3)];
+    }
+    if env("FUR_IC") == Some(0.0) { o.initial_states.truncate(2); }
+    if let Ok(v) = std::env::var("FUR_DTS") { o.dts_ms = v.split(',').map(|x| x.parse().unwrap()).collect(); }
+    o
 }

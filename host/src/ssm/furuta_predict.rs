@@ -532,12 +532,7 @@ mod tests {
     #[ignore = "exploration, prints only"]
     fn shared_explore() {
         let t0 = std::time::Instant::now();
-        let env = |k: &str| std::env::var(k).ok().and_then(|v| v.parse::<f64>().ok());
-        let mut fo = FurutaOptions::default();
-        if let Some(p) = env("FUR_R") { fo.fit.dyn_order = p as u32; }
-        if let Some(p) = env("FUR_K") { fo.fit.manifold_order = p as u32; }
-        if let Some(p) = env("FUR_P") { fo.fit.embed = p as usize; }
-        if let Some(p) = env("FUR_ANCHOR") { fo.fit.linear_anchor = if p > 0.0 { Some(p) } else { None }; }
+        let fo = super::super::furuta::explore_options();
         let pm = shared_parametric(&fo).unwrap();
         eprintln!("fit {:.1} s; sv {:?}", t0.elapsed().as_secs_f64(), &pm.singular_values[..6]);
         for n in &pm.nodes {
