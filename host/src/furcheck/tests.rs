@@ -264,3 +264,15 @@ fn mode_start_excites_the_fast_mode() {
     assert!(mode_start(dt_ms, None, None).is_err());
     assert!(mode_start(dt_ms, Some((-1e-3, 0.0)), None).is_err());
 }
+
+/// Exploration: the full system's fast-mode cycle (start on the fast mode only, tiny slow
+/// part) against the model's fast saddle cycle; prints the amplitude history.
+#[test]
+#[ignore = "exploration, prints only"]
+fn fast_cycle_explore() {
+    for dt in [30.8, 31.2, 31.4, 31.6] {
+        let f = fate_from(dt, [1e-7, 0.005], [0.0, 0.0], 6000).unwrap();
+        let pick: Vec<String> = f.amps.iter().step_by((f.amps.len() / 16).max(1)).map(|(t, r)| format!("{t:.0}:({:.4},{:.4})", r[0], r[1])).collect();
+        eprintln!("FAST dt {dt}: bounded {} escape {:?}: {}", f.bounded, f.escape_t, pick.join(" "));
+    }
+}
