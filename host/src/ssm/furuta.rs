@@ -380,6 +380,35 @@ impl ParametricModel {
     }
 }
 
+/// [`FurutaOptions::default`] with the exploration tests' environment overrides:
+/// `FUR_P` embedding, `FUR_SHIFT`, `FUR_R` map order, `FUR_K` manifold order, `FUR_RIDGE`,
+/// `FUR_ANCHOR` (0 = none), `FUR_MAXTH` amplitude cut, `FUR_SLOW` slow-start amplitude,
+/// `FUR_SLOW_EXTRA` comma list of extra slow-start amplitudes (two phases each),
+/// `FUR_IC=0` only two default starts, `FUR_DTS` comma list of training periods.
+#[cfg(test)]
+pub(crate) fn explore_options() -> FurutaOptions {
+    let env = |k: &str| std::env::var(k).ok().and_then(|v| v.parse::<f64>().ok());
+    let mut o = FurutaOptions::default();
+    if let Some(p) = env("FUR_P") { o.fit.embed = p as usize; }
+    if let Some(p) = env("FUR_SHIFT") { o.fit.shift = p as usize; }
+    if let Some(p) = env("FUR_R") { o.fit.dyn_order = p as u32; }
+    if let Some(p) = env("FUR_K") { o.fit.manifold_order = p as u32; }
+    if let Some(p) = env("FUR_RIDGE") { o.fit.ridge = Ridge::Fixed(p); }
+    if let Some(p) = env("FUR_ANCHOR") { o.fit.linear_anchor = if p > 0.0 { Some(p) } else { None }; }
+    if let Some(p) = env("FUR_MAXTH") { o.max_theta = p; }
+    if let Some(a) = env("FUR_SLOW") {
+        o.slow_starts = vec![(a, 0.0), (a, std::f64::consts::FRAC_PI_2), (2.0 * a, 0.7), (4.0 * a, 2.3)];
+    }
+    if let Ok(v) = std::env::var("FUR_SLOW_EXTRA") {
+        for a in v.split(',').map(|x| x.parse::<f64>().unwrap()) {
+            o.slow_starts.extend([(a, 0.0), (a, std::f64::consts::FRAC_PI_2)]);
+        }
+    }
+    if env("FUR_IC") == Some(0.0) { o.initial_states.truncate(2); }
+    if let Ok(v) = std::env::var("FUR_DTS") { o.dts_ms = v.split(',').map(|x| x.parse().unwrap()).collect(); }
+    o
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -507,33 +536,4 @@ mod tests {
             }
         }
     }
-}
-
-/// [`FurutaOptions::default`] with the exploration tests' environment overrides:
-/// `FUR_P` embedding, `FUR_SHIFT`, `FUR_R` map order, `FUR_K` manifold order, `FUR_RIDGE`,
-/// `FUR_ANCHOR` (0 = none), `FUR_MAXTH` amplitude cut, `FUR_SLOW` slow-start amplitude,
-/// `FUR_SLOW_EXTRA` comma list of extra slow-start amplitudes (two phases each),
-/// `FUR_IC=0` only two default starts, `FUR_DTS` comma list of training periods.
-#[cfg(test)]
-pub(crate) fn explore_options() -> FurutaOptions {
-    let env = |k: &str| std::env::var(k).ok().and_then(|v| v.parse::<f64>().ok());
-    let mut o = FurutaOptions::default();
-    if let Some(p) = env("FUR_P") { o.fit.embed = p as usize; }
-    if let Some(p) = env("FUR_SHIFT") { o.fit.shift = p as usize; }
-    if let Some(p) = env("FUR_R") { o.fit.dyn_order = p as u32; }
-    if let Some(p) = env("FUR_K") { o.fit.manifold_order = p as u32; }
-    if let Some(p) = env("FUR_RIDGE") { o.fit.ridge = Ridge::Fixed(p); }
-    if let Some(p) = env("FUR_ANCHOR") { o.fit.linear_anchor = if p > 0.0 { Some(p) } else { None }; }
-    if let Some(p) = env("FUR_MAXTH") { o.max_theta = p; }
-    if let Some(a) = env("FUR_SLOW") {
-        o.slow_starts = vec![(a, 0.0), (a, std::f64::consts::FRAC_PI_2), (2.0 * a, 0.7), (4.0 * a, 2.3)];
-    }
-    if let Ok(v) = std::env::var("FUR_SLOW_EXTRA") {
-        for a in v.split(',').map(|x| x.parse::<f64>().unwrap()) {
-            o.slow_starts.extend([(a, 0.0), (a, std::f64::consts::FRAC_PI_2)]);
-        }
-    }
-    if env("FUR_IC") == Some(0.0) { o.initial_states.truncate(2); }
-    if let Ok(v) = std::env::var("FUR_DTS") { o.dts_ms = v.split(',').map(|x| x.parse().unwrap()).collect(); }
-    o
 }
