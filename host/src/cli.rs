@@ -221,7 +221,8 @@ pub struct FitArgs {
     pub ridge: String,
     /// Fit the linear part of flow/map dynamics to the points within this fraction of the
     /// largest |eta| only (then the higher orders to all): exact rates near the fixed
-    /// point when the data also reach large amplitudes. E.g. 0.01.
+    /// point when the data also reach large amplitudes. E.g. 0.01. Needs clean data near
+    /// the fixed point: noise-dominated small amplitudes make it worse (see bench fit).
     #[arg(long)]
     pub linear_anchor: Option<f64>,
     /// Print JSON.
