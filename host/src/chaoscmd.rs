@@ -277,15 +277,7 @@ pub struct ModelStats {
 /// against the data's reduced coordinates, Benettin exponent of the map.
 pub fn evaluate_model(m: &SsmModel, data: &TimeSeries, ctx: &Context, o: &ChaosOptions, name: &str) -> Result<ModelStats, Box<dyn Error>> {
     let d = m.options.dim;
-    let y = ssm_embed(data, m.manifold.p, m.options.shift, 1)?;
-    let mut eta_data = Vec::with_capacity(y.ncols() * d);
-    let mut col = vec![0.0; m.manifold.p];
-    for j in 0..y.ncols() {
-        for (i, c) in col.iter_mut().enumerate() {
-            *c = y[(i, j)];
-        }
-        eta_data.extend(m.manifold.reduce(&col));
-    }
+    let eta_data = reduce_series(m, data)?;
     let eta0 = eta_data[..d].to_vec();
     let mut notes = Vec::new();
     let mut out = ModelStats { lle_rosenstein: None, js: None, benettin: None, eta0, notes: Vec::new() };
@@ -570,15 +562,7 @@ pub fn chaos_figures(
     }
     let Some((_, m0, _)) = runs.first() else { return Ok(()) };
     let d = m0.options.dim;
-    let y = ssm_embed(test, m0.manifold.p, m0.options.shift, 1)?;
-    let mut eta_data = Vec::with_capacity(y.ncols() * d);
-    let mut col = vec![0.0; m0.manifold.p];
-    for j in 0..y.ncols() {
-        for (i, c) in col.iter_mut().enumerate() {
-            *c = y[(i, j)];
-        }
-        eta_data.extend(m0.manifold.reduce(&col));
-    }
+    let eta_data = reduce_series(m0, test)?;
     let data_pts = Points::from_flat(d, eta_data.clone())?;
     // PDFs per coordinate.
     let mut pdf_lines: Vec<Vec<Vec<(f64, f64)>>> = vec![Vec::new(); d];

@@ -167,6 +167,32 @@ pub struct PilSummary {
     pub host_sim_max_state_diff: f64,
 }
 
+impl PilSummary {
+    /// A summary before the first period: nothing compared yet, every flag still true, the
+    /// host-only comparison not yet made (state difference infinite).
+    fn initial(scene: String, noise: Option<crate::scene::NoiseSpec>, observable: String) -> Self {
+        PilSummary {
+            scene,
+            periods: 0,
+            codes_identical: true,
+            first_code_mismatch: None,
+            predictions_compared: 0,
+            predictions_bit_identical: true,
+            max_pred_rel_diff: 0.0,
+            saturated_samples: 0,
+            round_trips_per_s: 0.0,
+            periods_per_s: 0.0,
+            error_frames_checked: true,
+            stopped: None,
+            noise,
+            observable,
+            host_sim_codes_identical: false,
+            host_sim_first_mismatch: None,
+            host_sim_max_state_diff: f64::INFINITY,
+        }
+    }
+}
+
 /// Header of `theta.csv`.
 pub const THETA_HEADER: &str = "t_s,theta_meas_rad";
 /// Header of `record.csv`.
@@ -441,32 +467,15 @@ fn run_with<P: Plant<N>, const N: usize>(plant: &P, scene: &Scene, opts: &PilOpt
     // What the PIL loop produced, for the comparison with the host-only simulation.
     let mut run_codes: Vec<crate::sim::Codes> = Vec::new();
     let mut run_states: Vec<[f64; N]> = Vec::new();
-    let mut s = PilSummary {
-        scene: scene.name.clone(),
-        periods: 0,
-        codes_identical: true,
-        first_code_mismatch: None,
-        predictions_compared: 0,
-        predictions_bit_identical: true,
-        max_pred_rel_diff: 0.0,
-        saturated_samples: 0,
-        round_trips_per_s: 0.0,
-        periods_per_s: 0.0,
-        error_frames_checked: true,
-        stopped: None,
-        noise: scene.effects.noise.clone(),
-        observable: format!(
-            "theta.csv: measured primary angle q_theta * h_adc (h_adc = {} rad){}",
-            q.h_adc,
-            scene.effects.noise.as_ref().map_or(String::new(), |n| format!(
-                ", Gaussian sensor noise sigma {} rad (seed {}) added before the encoder",
-                n.sigma_theta, n.seed
-            ))
-        ),
-        host_sim_codes_identical: false,
-        host_sim_first_mismatch: None,
-        host_sim_max_state_diff: f64::INFINITY,
-    };
+    let observable = format!(
+        "theta.csv: measured primary angle q_theta * h_adc (h_adc = {} rad){}",
+        q.h_adc,
+        scene.effects.noise.as_ref().map_or(String::new(), |n| format!(
+            ", Gaussian sensor noise sigma {} rad (seed {}) added before the encoder",
+            n.sigma_theta, n.seed
+        ))
+    );
+    let mut s = PilSummary::initial(scene.name.clone(), scene.effects.noise.clone(), observable);
     let dt = cfg.dt;
     let t_start = Instant::now();
     let mut link_secs = 0.0f64;
@@ -769,25 +778,7 @@ mod tests {
     }
 
     fn summary_for_test() -> PilSummary {
-        PilSummary {
-            scene: String::new(),
-            periods: 0,
-            codes_identical: true,
-            first_code_mismatch: None,
-            predictions_compared: 0,
-            predictions_bit_identical: true,
-            max_pred_rel_diff: 0.0,
-            saturated_samples: 0,
-            round_trips_per_s: 0.0,
-            periods_per_s: 0.0,
-            error_frames_checked: true,
-            stopped: None,
-            noise: None,
-            observable: String::new(),
-            host_sim_codes_identical: false,
-            host_sim_first_mismatch: None,
-            host_sim_max_state_diff: f64::INFINITY,
-        }
+        PilSummary::initial(String::new(), None, String::new())
     }
 
     #[test]

@@ -1,6 +1,7 @@
 //! Small PNG line plots for reports (plotters, bitmap backend, an embedded DejaVu font so
 //! no system fonts are needed).
 
+use plotters::coord::types::RangedCoordf64;
 use plotters::prelude::*;
 use std::path::Path;
 use std::sync::Once;
@@ -66,25 +67,41 @@ pub fn lines(path: &Path, title: &str, xlabel: &str, ylabel: &str, series: &[Ser
         .build_cartesian_2d(x0..x1, (y0 - pad)..(y1 + pad))
         .map_err(|x| e(&x))?;
     chart.configure_mesh().x_desc(xlabel).y_desc(ylabel).label_style(("sans-serif", 13)).draw().map_err(|x| e(&x))?;
-    for s in series {
-        let color = s.color;
-        chart
-            .draw_series(LineSeries::new(s.points.iter().copied().filter(|p| p.0.is_finite() && p.1.is_finite()), color.stroke_width(1)))
-            .map_err(|x| e(&x))?
-            .label(s.name)
-            .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 16, y)], color.stroke_width(2)));
-    }
+    draw_lines(&mut chart, series, path)?;
     if series.len() > 1 {
-        chart
-            .configure_series_labels()
-            .background_style(WHITE.mix(0.85))
-            .border_style(BLACK)
-            .label_font(("sans-serif", 13))
-            .draw()
-            .map_err(|x| e(&x))?;
+        draw_legend(&mut chart, 13, SeriesLabelPosition::MiddleRight, path)?;
     }
     root.present().map_err(|x| e(&x))?;
     Ok(())
+}
+
+/// A report chart: f64 axes on a PNG drawing area.
+pub type Chart<'a, 'b> = ChartContext<'a, BitMapBackend<'b>, Cartesian2d<RangedCoordf64, RangedCoordf64>>;
+
+/// Draws `series` into `chart` as labelled 1-px polylines (non-finite points skipped), each
+/// with a 2-px legend sample; `path` names the file in errors.
+pub fn draw_lines(chart: &mut Chart<'_, '_>, series: &[Series<'_>], path: &Path) -> Result<(), PlotError> {
+    for s in series {
+        let color = s.color;
+        chart
+            .draw_series(LineSeries::new(s.points.iter().copied().filter(|q| q.0.is_finite() && q.1.is_finite()), color.stroke_width(1)))
+            .map_err(|x| PlotError::new(path, x))?
+            .label(s.name)
+            .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 16, y)], color.stroke_width(2)));
+    }
+    Ok(())
+}
+
+/// The legend box of the reports' charts (white, framed, labels at `font` px) at `position`.
+pub fn draw_legend<'a, 'b: 'a>(chart: &mut Chart<'a, 'b>, font: u32, position: SeriesLabelPosition, path: &Path) -> Result<(), PlotError> {
+    chart
+        .configure_series_labels()
+        .position(position)
+        .background_style(WHITE.mix(0.85))
+        .border_style(BLACK)
+        .label_font(("sans-serif", font))
+        .draw()
+        .map_err(|x| PlotError::new(path, x))
 }
 
 /// One panel of [`grid`].
@@ -137,22 +154,9 @@ pub fn grid(path: &Path, panels: &[Panel<'_>], cols: usize, size: (u32, u32)) ->
             .build_cartesian_2d(x0..x1, y0..y1)
             .map_err(|x| e(&x))?;
         chart.configure_mesh().x_desc(p.xlabel).y_desc(p.ylabel).label_style(("sans-serif", 11)).draw().map_err(|x| e(&x))?;
-        for s in &p.series {
-            let color = s.color;
-            chart
-                .draw_series(LineSeries::new(s.points.iter().copied().filter(|q| q.0.is_finite() && q.1.is_finite()), color.stroke_width(1)))
-                .map_err(|x| e(&x))?
-                .label(s.name)
-                .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 16, y)], color.stroke_width(2)));
-        }
+        draw_lines(&mut chart, &p.series, path)?;
         if k == 0 && p.series.len() > 1 {
-            chart
-                .configure_series_labels()
-                .background_style(WHITE.mix(0.85))
-                .border_style(BLACK)
-                .label_font(("sans-serif", 11))
-                .draw()
-                .map_err(|x| e(&x))?;
+            draw_legend(&mut chart, 11, SeriesLabelPosition::MiddleRight, path)?;
         }
     }
     root.present().map_err(|x| e(&x))?;

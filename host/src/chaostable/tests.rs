@@ -223,15 +223,10 @@ fn explore_flag_models() {
         let t0 = Instant::now();
         match crate::chaoscmd::analyse(train, &o) {
             Ok(r) => println!(
-                "{cfg:<28} d{} data {:.3} | rbf R {} B {} JS {} | poly R {} B {} JS {} | {:.1}s | {}",
+                "{cfg:<28} d{} data {:.3} | {} | {:.1}s | {}",
                 r.ssm_dim,
                 r.lle_data,
-                fmt_opt(r.lle_model_rbf, 3),
-                fmt_opt(r.lle_model_rbf_benettin, 3),
-                fmt_opt(r.pdf_divergence_rbf, 3),
-                fmt_opt(r.lle_model_poly, 3),
-                fmt_opt(r.lle_model_poly_benettin, 3),
-                fmt_opt(r.pdf_divergence_poly, 3),
+                model_columns(&r),
                 t0.elapsed().as_secs_f64(),
                 r.notes.join("; ").chars().take(300).collect::<String>()
             ),
@@ -281,18 +276,13 @@ fn explore_simulated_quantized() {
     }
     let r = crate::chaoscmd::analyse(&train, &o).unwrap();
     println!(
-        "sim: D2 {:.2}+-{:.2} d{} shift {} data {:.3} | rbf R {} B {} JS {} | poly R {} B {} JS {} | {:.1}s | {}",
+        "sim: D2 {:.2}+-{:.2} d{} shift {} data {:.3} | {} | {:.1}s | {}",
         r.corr_dim,
         r.corr_dim_err,
         r.ssm_dim,
         r.ssm_shift,
         r.lle_data,
-        fmt_opt(r.lle_model_rbf, 3),
-        fmt_opt(r.lle_model_rbf_benettin, 3),
-        fmt_opt(r.pdf_divergence_rbf, 3),
-        fmt_opt(r.lle_model_poly, 3),
-        fmt_opt(r.lle_model_poly_benettin, 3),
-        fmt_opt(r.pdf_divergence_poly, 3),
+        model_columns(&r),
         r.seconds,
         r.notes.join("; ")
     );
@@ -660,4 +650,17 @@ fn model_key(o: &mut ChaosOptions, k: &str, v: &str) -> bool {
         _ => return false,
     }
     true
+}
+
+/// The model columns of the exploration prints: Rosenstein, Benettin and JS per model.
+fn model_columns(r: &crate::chaoscmd::ChaosSummary) -> String {
+    format!(
+        "rbf R {} B {} JS {} | poly R {} B {} JS {}",
+        fmt_opt(r.lle_model_rbf, 3),
+        fmt_opt(r.lle_model_rbf_benettin, 3),
+        fmt_opt(r.pdf_divergence_rbf, 3),
+        fmt_opt(r.lle_model_poly, 3),
+        fmt_opt(r.lle_model_poly_benettin, 3),
+        fmt_opt(r.pdf_divergence_poly, 3)
+    )
 }

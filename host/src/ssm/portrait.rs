@@ -1410,14 +1410,7 @@ pub fn plot_portrait(path: &Path, p: &Portrait, title: &str, extra: &[(&str, &[(
             }
         }
     }
-    chart
-        .configure_series_labels()
-        .position(SeriesLabelPosition::UpperRight)
-        .background_style(WHITE.mix(0.85))
-        .border_style(BLACK)
-        .label_font(("sans-serif", 13))
-        .draw()
-        .map_err(|x| e(&x))?;
+    crate::plot::draw_legend(&mut chart, 13, SeriesLabelPosition::UpperRight, path)?;
     root.present().map_err(|x| e(&x))?;
     Ok(())
 }
