@@ -507,20 +507,27 @@ pub struct SensitivityRow {
     pub small_start_switch_dt_ms: Option<f64>,
     /// The 2-torus at 30.8 ms (rad).
     pub torus_30p8_rho: Option<[f64; 2]>,
-    pub fit_seconds: f64,
+    /// Fit time of the variant's model (`None`: the report's own model, fitted above).
+    pub fit_seconds: Option<f64>,
 }
 
-/// The model's bifurcation values for one training variant.
+/// The model's bifurcation values for one training variant (fits the parametric model).
 pub fn sensitivity_row(variant: &str, o: &FurutaOptions) -> Result<SensitivityRow, Box<dyn Error>> {
     let t0 = std::time::Instant::now();
     let pm = crate::ssm::furuta::furuta_parametric(o)?;
     let fit_seconds = t0.elapsed().as_secs_f64();
+    model_row(variant, o, &pm, Some(fit_seconds))
+}
+
+/// The bifurcation values of `pm`, fitted with options `o` (`fit_seconds`: its fit time,
+/// `None` when it was fitted elsewhere).
+pub fn model_row(variant: &str, o: &FurutaOptions, pm: &ParametricModel, fit_seconds: Option<f64>) -> Result<SensitivityRow, Box<dyn Error>> {
     let (lo, hi) = pm.range();
     let sopts = ScanOptions { portrait: PortraitOptions { rho_max: RHO_MAX, ..ScanOptions::default().portrait }, ..ScanOptions::default() };
     let nf_at = |dt: f64| pm.normal_form_at(dt);
     let het = heteroclinic_dt(nf_at, lo, hi, &sopts)?;
     let hopf = torus_hopf_dt(nf_at, lo, hi, &sopts)?;
-    let sw = model_small_start_switch(&pm, 30.8, hi.min(32.3), 76)?;
+    let sw = model_small_start_switch(pm, 30.8, hi.min(32.3), 76)?;
     let popts = PortraitOptions { rho_max: RHO_MAX, ..PortraitOptions::default() };
     let torus = fixed_points(&pm.normal_form_at(30.8)?, &popts)?.into_iter().find(|f| f.kind == PointKind::Torus2).map(|f| f.rho);
     Ok(SensitivityRow {
@@ -536,9 +543,9 @@ pub fn sensitivity_row(variant: &str, o: &FurutaOptions) -> Result<SensitivityRo
 }
 
 /// How the model's bifurcation values depend on the training data: the amplitude cut of
-/// the training runs and the density of training periods (full report only: five more
-/// parametric fits).
-pub fn sensitivity_section(rep: &mut Report) -> Result<(), Box<dyn Error>> {
+/// the training runs and the density of training periods (full report only: four more
+/// parametric fits). `default` is the report's model, fitted with `FurutaOptions::default()`.
+pub fn sensitivity_section(rep: &mut Report, default: &ParametricModel) -> Result<(), Box<dyn Error>> {
     rep.section(
         "bifsensitivity",
         "Model bifurcations vs training choices",
@@ -550,7 +557,6 @@ pub fn sensitivity_section(rep: &mut Report) -> Result<(), Box<dyn Error>> {
     let base = FurutaOptions::default();
     let dense = vec![30.5, 31.0, 31.25, 31.5, 31.75, 32.0, 32.5];
     let variants = [
-        ("default (paper's periods, cut 0.2 rad)", FurutaOptions { ..base.clone() }),
         ("cut 0.3 rad", FurutaOptions { max_theta: 0.3, ..base.clone() }),
         ("cut 0.15 rad", FurutaOptions { max_theta: 0.15, ..base.clone() }),
         ("7 periods, cut 0.2 rad", FurutaOptions { dts_ms: dense.clone(), ..base.clone() }),
@@ -559,15 +565,17 @@ pub fn sensitivity_section(rep: &mut Report) -> Result<(), Box<dyn Error>> {
     let mut rows = Vec::new();
     let mut list = Vec::new();
     let f = |v: Option<f64>| v.map_or("none".to_string(), |x| format!("{x:.3}"));
-    for (name, o) in &variants {
-        let r = sensitivity_row(name, o)?;
+    let rows_iter = std::iter::once(model_row("default (paper's periods, cut 0.2 rad)", &base, default, None))
+        .chain(variants.iter().map(|(name, o)| sensitivity_row(name, o)));
+    for r in rows_iter {
+        let r = r?;
         rows.push(vec![
             r.variant.clone(),
             f(r.torus_hopf_dt_ms),
             f(r.heteroclinic_dt_ms),
             f(r.small_start_switch_dt_ms),
             r.torus_30p8_rho.map_or("none".into(), |t| format!("({:.4}, {:.4})", t[0], t[1])),
-            format!("{:.1}", r.fit_seconds),
+            r.fit_seconds.map_or("(above)".into(), |t| format!("{t:.1}")),
         ]);
         list.push(r);
     }
@@ -622,7 +630,8 @@ mod tests {
     #[ignore = "exploration, prints only"]
     fn sensitivity_explore() {
         let mut rep = Report::new(&std::env::temp_dir().join("bifsens-explore")).unwrap();
-        sensitivity_section(&mut rep).unwrap();
+        let pm = furuta_parametric(&FurutaOptions::default()).unwrap();
+        sensitivity_section(&mut rep, &pm).unwrap();
         eprintln!("{}", serde_json::to_string_pretty(&rep.summary).unwrap());
     }
 
@@ -635,12 +644,7 @@ mod tests {
             eprintln!("BIF trained {} : {} series rho range {:?}", t.dt_ms, t.model.n_points, t.model.eta_range);
         }
         let (lo, hi) = pm.range();
-        let sopts = ScanOptions { portrait: PortraitOptions { rho_max: RHO_MAX, ..ScanOptions::default().portrait }, ..ScanOptions::default() };
-        let nf_at = |dt: f64| pm.normal_form_at(dt);
-        let h = heteroclinic_dt(nf_at, lo, hi, &sopts).unwrap();
-        let hopf = torus_hopf_dt(nf_at, lo, hi, &sopts).unwrap();
-        let sw = model_small_start_switch(&pm, lo, hi, 41).unwrap();
-        eprintln!("BIF heteroclinic {:?}\nBIF hopf {:?}\nBIF small-start switch {sw:?}", h.map(|h| (h.dt, h.fate_below, h.fate_above)), hopf.map(|h| (h.dt, h.loses_stability, h.complex_pair, h.frequency_hz)));
+        eprintln!("BIF {:?}", model_row("explore", &o, &pm, None).unwrap());
         let popts = PortraitOptions { rho_max: RHO_MAX, ..PortraitOptions::default() };
         for dt in [30.8, 31.4, 31.55, 31.68, 32.3].into_iter().filter(|d| *d >= lo && *d <= hi) {
             let fps = fixed_points(&pm.normal_form_at(dt).unwrap(), &popts).unwrap();

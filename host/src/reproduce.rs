@@ -29,7 +29,7 @@ pub fn run(out: &Path, data_dir: &Path, quick: bool, quiet: bool) -> Result<(), 
     crate::bifreport::fullsystem_section(&mut rep, &parametric, &bif, quick)?;
     crate::bifreport::predictions_section(&mut rep)?;
     if !quick {
-        crate::bifreport::sensitivity_section(&mut rep)?;
+        crate::bifreport::sensitivity_section(&mut rep, &parametric)?;
     }
     crate::fitreport::device_section(&mut rep, Path::new("qemu/target/device-table.json"))?;
     crate::chaoscmd::section(&mut rep, data_dir, quick)?;
