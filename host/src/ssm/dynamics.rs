@@ -208,8 +208,8 @@ fn poly_regression(
             why: format!("{} training pairs within {frac} of the largest |eta| ({r:.3e}), need at least {need}; raise the fraction or add small-amplitude data", rows.len()),
         });
     }
-    let a_lin = Mat::from_fn(rows.len(), d, |i, j| a[(rows[i], j)]);
-    let y_lin = Mat::from_fn(rows.len(), y.ncols(), |i, j| y[(rows[i], j)]);
+    let a_lin = ridge::take_rows(a.subcols(0, d), &rows);
+    let y_lin = ridge::take_rows(y, &rows);
     let (w_lin, _) = ridge::fit(a_lin.as_ref(), y_lin.as_ref(), &[0..rows.len()], Ridge::Fixed(0.0), "anchored linear part")?;
     let mut w = Mat::<f64>::zeros(nm, y.ncols());
     for k in 0..d {
@@ -221,7 +221,7 @@ fn poly_regression(
         let cond = ridge::RidgeLs::new(a, what)?.conditioning(a, y, w.as_ref(), 0.0);
         return Ok((w, cond));
     }
-    let resid = Mat::from_fn(n, y.ncols(), |i, c| y[(i, c)] - (0..d).map(|k| a[(i, k)] * w_lin[(k, c)]).sum::<f64>());
+    let resid = y - a.subcols(0, d) * &w_lin;
     let a_nl = a.subcols(d, nm - d);
     let (w_nl, mut cond) = ridge::fit(a_nl, resid.as_ref(), groups, ridge, what)?;
     for k in 0..nm - d {
@@ -230,15 +230,7 @@ fn poly_regression(
         }
     }
     // Residual relative to the whole target (not to the part left by the linear terms).
-    let fitted = a * w.as_ref();
-    let (mut num, mut den) = (0.0, 0.0);
-    for i in 0..n {
-        for c in 0..y.ncols() {
-            num += (fitted[(i, c)] - y[(i, c)]).powi(2);
-            den += y[(i, c)].powi(2);
-        }
-    }
-    cond.rel_residual = if den > 0.0 { (num / den).sqrt() } else { num.sqrt() };
+    cond.rel_residual = ridge::rel_residual(a, y, w.as_ref());
     Ok((w, cond))
 }
 

@@ -95,8 +95,6 @@ impl RidgeLs {
         let s_max = self.s.first().copied().unwrap_or(0.0);
         let s_min = self.s.last().copied().unwrap_or(0.0);
         let lambda = alpha * s_max * s_max;
-        let r = a * x - b;
-        let nb = b.norm_l2();
         Conditioning {
             rows: a.nrows(),
             cols: a.ncols(),
@@ -109,9 +107,16 @@ impl RidgeLs {
             } else {
                 f64::INFINITY
             },
-            rel_residual: if nb > 0.0 { r.norm_l2() / nb } else { r.norm_l2() },
+            rel_residual: rel_residual(a, b, x),
         }
     }
+}
+
+/// `||a x - b||_F / ||b||_F` (the absolute residual when `b` is zero).
+pub fn rel_residual(a: MatRef<'_, f64>, b: MatRef<'_, f64>, x: MatRef<'_, f64>) -> f64 {
+    let r = (a * x - b).norm_l2();
+    let nb = b.norm_l2();
+    if nb > 0.0 { r / nb } else { r }
 }
 
 fn all_finite(a: MatRef<'_, f64>) -> bool {
@@ -119,7 +124,7 @@ fn all_finite(a: MatRef<'_, f64>) -> bool {
 }
 
 /// Copies the rows listed in `rows` of `a`.
-fn take_rows(a: MatRef<'_, f64>, rows: &[usize]) -> Mat<f64> {
+pub(crate) fn take_rows(a: MatRef<'_, f64>, rows: &[usize]) -> Mat<f64> {
     Mat::from_fn(rows.len(), a.ncols(), |i, j| a[(rows[i], j)])
 }
 
