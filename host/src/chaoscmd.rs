@@ -289,22 +289,47 @@ pub fn evaluate_model(m: &SsmModel, data: &TimeSeries, ctx: &Context, o: &ChaosO
     if let Some(s) = &p.stop {
         notes.push(format!("{name} model stopped at t = {:.2} s: {:?}", s.t, s.reason));
     }
-    let min_len = 10 * ctx.theiler;
-    if p.x.len() < min_len {
-        notes.push(format!("{name} model series too short ({} samples < {min_len}) for the estimators", p.x.len()));
-        out.notes = notes;
-        return Ok(out);
-    }
-    match ctx.lle(&p.x, &mut notes, name) {
-        Ok(v) => out.lle_rosenstein = Some(v.0),
-        Err(e) => notes.push(format!("{name} model Lyapunov: {e}")),
-    }
-    match Points::from_flat(d, eta_data).and_then(|a| chaos::compare_pdfs(&a, &Points::from_flat(d, p.eta)?, Bins::default())) {
-        Ok(c) => out.js = Some(c.mean_js_bits),
-        Err(e) => notes.push(format!("{name} model PDFs: {e}")),
-    }
+    (out.lle_rosenstein, out.js) = series_statistics(ctx, d, &p.x, p.eta, eta_data, name, &format!("{name} model"), &mut notes);
     out.notes = notes;
     Ok(out)
+}
+
+/// Rosenstein exponent (settings of `ctx`) of a model's observable series `x`, and the mean
+/// PDF divergence of its reduced coordinates `eta` against the data's `eta_data` (both
+/// row-major, `d` per point). A value is `None`, with a note naming `who`, when its
+/// estimator fails or the series is shorter than 10 Theiler windows; `lle_tag` prefixes the
+/// Lyapunov fit-rule notes.
+#[allow(clippy::too_many_arguments)]
+fn series_statistics(
+    ctx: &Context,
+    d: usize,
+    x: &[f64],
+    eta: Vec<f64>,
+    eta_data: Vec<f64>,
+    lle_tag: &str,
+    who: &str,
+    notes: &mut Vec<String>,
+) -> (Option<f64>, Option<f64>) {
+    let min_len = 10 * ctx.theiler;
+    if x.len() < min_len {
+        notes.push(format!("{who} series too short ({} samples < {min_len}) for the estimators", x.len()));
+        return (None, None);
+    }
+    let lle = match ctx.lle(x, notes, lle_tag) {
+        Ok(v) => Some(v.0),
+        Err(e) => {
+            notes.push(format!("{who} Lyapunov: {e}"));
+            None
+        }
+    };
+    let js = match Points::from_flat(d, eta_data).and_then(|a| chaos::compare_pdfs(&a, &Points::from_flat(d, eta)?, Bins::default())) {
+        Ok(c) => Some(c.mean_js_bits),
+        Err(e) => {
+            notes.push(format!("{who} PDFs: {e}"));
+            None
+        }
+    };
+    (lle, js)
 }
 
 /// Reduced coordinates of every embedded point of `ts` under model `m`, row-major.
@@ -382,22 +407,8 @@ pub fn evaluate_kicked(m: &SsmModel, train: &[TimeSeries], data: &TimeSeries, ct
             *e += r;
         }
     }
-    let mut out = KickedStats { lle_rosenstein: None, js: None, residual_rms, notes: Vec::new() };
-    if x.len() < 10 * ctx.theiler {
-        notes.push(format!("{name} kicked series too short ({} samples) for the estimators", x.len()));
-        out.notes = notes;
-        return Ok(out);
-    }
-    match ctx.lle(&x, &mut notes, &format!("{name} kicked")) {
-        Ok(v) => out.lle_rosenstein = Some(v.0),
-        Err(e) => notes.push(format!("{name} kicked model Lyapunov: {e}")),
-    }
-    match Points::from_flat(d, eta_data).and_then(|a| chaos::compare_pdfs(&a, &Points::from_flat(d, etas)?, Bins::default())) {
-        Ok(c) => out.js = Some(c.mean_js_bits),
-        Err(e) => notes.push(format!("{name} kicked model PDFs: {e}")),
-    }
-    out.notes = notes;
-    Ok(out)
+    let (lle_rosenstein, js) = series_statistics(ctx, d, &x, etas, eta_data, &format!("{name} kicked"), &format!("{name} kicked model"), &mut notes);
+    Ok(KickedStats { lle_rosenstein, js, residual_rms, notes })
 }
 
 /// Runs the whole analysis on training series (the longest is the reference data).
