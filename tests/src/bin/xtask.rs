@@ -343,7 +343,7 @@ fn reproduce(rest: &[String]) -> Result<()> {
         seed: 1,
     })?;
     let mut c = cmd("cargo");
-    c.current_dir(root()).args(["run", "--release", "-p", "host", "--bin", "ssmctl", "--", "reproduce"]).args(rest);
+    c.current_dir(root()).args(["run", "--release", "-p", "ssmctl", "--bin", "ssmctl", "--", "reproduce"]).args(rest);
     run(&mut c)
 }
 
@@ -390,7 +390,7 @@ fn ssmctl_pil(elf: &Path, scene: &str, set: &[String], model: &Path, fit: bool, 
     let mut c = cmd("cargo");
     // The test profile optimizes the host crate (the plant integration dominates otherwise)
     // and shares the dependencies `cargo test` built.
-    c.current_dir(root()).args(["run", "--profile", "test", "-q", "-p", "host", "--bin", "ssmctl", "--", "pil", "--scene", scene]);
+    c.current_dir(root()).args(["run", "--profile", "test", "-q", "-p", "ssmctl", "--bin", "ssmctl", "--", "pil", "--scene", scene]);
     for o in set {
         c.arg("--set").arg(o);
     }

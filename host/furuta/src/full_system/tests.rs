@@ -1,0 +1,112 @@
+use super::*;
+
+/// Known facts (MODEL.md): small starts stay bounded at 31.2 ms and escape within tens of
+/// seconds at 31.6 ms; in between, the pure fast-mode start of 1e-3 rad escapes at 31.38 ms
+/// (measured: after 93 s) while the plain 0.05 rad start does not within 3000 periods.
+#[test]
+fn switch_scan_brackets_the_switch() {
+    let (x, h) = mode_start(31.38, None, Some((1e-3, 0.0))).unwrap();
+    let ics: Vec<Start> = vec![([0.05, 0.0, 0.0, 0.0], None), (x, Some(h))];
+    let s = switch_scan(&[31.2, 31.38, 31.6], &ics, 3000, ESCAPE_THETA).unwrap();
+    eprintln!("{}cost {:.2} s for {} runs", s.to_text(), s.wall_seconds, s.runs);
+    assert!(s.outcomes[0].iter().all(Outcome::bounded));
+    assert!(s.outcomes[0].iter().all(|o| o.max_theta < 0.3), "{:?}", s.outcomes[0]);
+    assert_eq!(s.bracket(), Some((31.2, 31.38)));
+    assert_eq!(s.all_escape_from(), Some(31.6));
+    assert!(s.monotone());
+    assert!(s.outcomes[1][0].bounded());
+    let t = s.outcomes[1][1].escape_t.unwrap();
+    assert!((80.0..100.0).contains(&t), "escape at {t}");
+    for o in &s.outcomes[2] {
+        let t = o.escape_t.unwrap();
+        assert!((10.0..100.0).contains(&t), "escape at {t}");
+    }
+    assert!(switch_scan(&[31.4, 31.3], &ics, 10, 1.0).is_err());
+    assert!(switch_scan(&[31.4], &[], 10, 1.0).is_err());
+}
+
+/// The stable 2-torus at 30.8 ms from theta0 = 0.05: bounded, the fast frequency within 1 %
+/// of the exact linear one, the slow one shifted up by the amplitude (measured +13.7 %,
+/// 0.501 vs 0.4405 Hz), amplitude about a tenth of a radian and consistent with the mode
+/// amplitudes (max |theta| of two tones <= rho_1 + rho_2, reached on a long tail).
+#[test]
+fn torus_at_30_8_ms() {
+    let tf = torus_full(30.8, &([0.05, 0.0, 0.0, 0.0], None), 8000, 80.0).unwrap();
+    eprintln!("{tf:?}");
+    let lin = tf.linear_freqs_hz;
+    assert!(((tf.freqs_hz[1] - lin[1]) / lin[1]).abs() < 0.01, "{tf:?}");
+    let shift = (tf.freqs_hz[0] - lin[0]) / lin[0];
+    assert!((0.08..0.20).contains(&shift), "slow shift {shift}");
+    assert!((0.08..0.2).contains(&tf.amplitude_theta), "{tf:?}");
+    let sum = tf.rho[0] + tf.rho[1];
+    assert!(tf.amplitude_theta < 1.05 * sum && tf.amplitude_theta > 0.9 * sum, "{tf:?}");
+    assert!(tf.rho[0] > 2.0 * tf.rho[1], "slow component dominates: {:?}", tf.rho);
+}
+
+/// Domain of attraction at 31.6 ms (paper fig. 5): a start near the 2-torus stays, one
+/// inside it (small slow amplitude) and one outside it escape.
+#[test]
+fn fates_at_31_6_ms() {
+    let inside = fate_from(31.6, [0.08, 0.03], [0.0, 0.0], 6000).unwrap();
+    let low = fate_from(31.6, [0.02, 0.03], [0.0, 0.0], 6000).unwrap();
+    let high = fate_from(31.6, [0.14, 0.055], [0.0, 0.0], 6000).unwrap();
+    eprintln!("inside {:?} {:?}; low {:?}; high {:?}", inside.bounded, inside.freqs_hz, low.escape_t, high.escape_t);
+    assert!(inside.bounded && inside.escape_t.is_none());
+    assert!(!low.bounded && !high.bounded);
+    assert!((15.0..40.0).contains(&low.escape_t.unwrap()), "{:?}", low.escape_t);
+    assert!(high.escape_t.unwrap() < 10.0, "{:?}", high.escape_t);
+    // The first window reads the requested amplitudes (linear start, 1.25 s in).
+    let r = inside.amps[0].1;
+    assert!((r[0] - 0.08).abs() < 0.1 * 0.08 && (r[1] - 0.03).abs() < 0.15 * 0.03, "{r:?}");
+    // Bounded run: the amplitudes stay near the torus.
+    let tail = &inside.amps[inside.amps.len() / 2..];
+    assert!(tail.iter().all(|a| (0.05..0.13).contains(&a.1[0]) && a.1[1] < 0.06), "amplitudes left the torus");
+    assert!(fate_from(31.6, [0.0, 0.0], [0.0, 0.0], 10).is_err());
+}
+
+/// Near the 3-torus at 31.5 ms: the 150 s transient has the slow and fast peaks plus
+/// sidebands; their spacing is the frequency of the slow amplitude's own oscillation
+/// (measured 0.02097 vs 0.02092 Hz), two independent readings of the third frequency.
+#[test]
+fn transient_near_three_torus_shows_third_frequency() {
+    let (x, h) = start_from_rho(31.5, [0.02, 0.035], [0.0, 0.0]).unwrap();
+    let a = transient_analysis(31.5, &(x, Some(h)), 150.0).unwrap();
+    eprintln!("{a:?}");
+    assert!(a.peaks.len() >= 3, "{:?}", a.peaks);
+    let (s, e) = (a.sideband_spacing_hz.unwrap(), a.envelope_freq_hz.unwrap());
+    assert!((s - e).abs() < 0.02 * e, "sideband {s} vs envelope {e}");
+    assert!((0.01..0.05).contains(&e), "{e}");
+    let lin = exact_modes(31.5).unwrap().freqs_hz;
+    assert!(((a.fast.freq_hz - lin[1]) / lin[1]).abs() < 0.03 && ((a.slow.freq_hz - lin[0]) / lin[0]).abs() < 0.2, "{a:?}");
+}
+
+
+/// `mode_start` on the fast mode alone: theta's envelope grows at the exact fast rate
+/// (`ln|mu|/dt`, +0.27 1/s) and its first sample is the requested amplitude times
+/// cos(phase); the mixed start's theta is the sum of the two single-mode starts (linear).
+#[test]
+fn mode_start_excites_the_fast_mode() {
+    let dt_ms = 31.0;
+    let e = exact_modes(dt_ms).unwrap();
+    let (x, h) = mode_start(dt_ms, None, Some((1e-4, 0.4))).unwrap();
+    assert!((x[0] - 1e-4 * 0.4f64.cos()).abs() < 1e-12, "{x:?}");
+    let tr = run(dt_ms, &(x, Some(h)), 640, ESCAPE_THETA).unwrap();
+    let th = tr.primary();
+    let per = 32; // ~1 s chunks, 8 fast periods each
+    let peaks: Vec<f64> = th.chunks(per).take(20).map(|c| c.iter().fold(0.0f64, |m, v| m.max(v.abs()))).collect();
+    let rate = (peaks[18] / peaks[2]).ln() / (16.0 * per as f64 * tr.dt);
+    eprintln!("fast envelope rate {rate:+.5} vs exact {:+.5}", e.rates[1]);
+    assert!(((rate - e.rates[1]) / e.rates[1]).abs() < 0.05, "{rate} vs {}", e.rates[1]);
+    let (s, hs) = mode_start(dt_ms, Some((2e-3, 1.0)), None).unwrap();
+    let (f, hf) = mode_start(dt_ms, None, Some((1e-3, -0.5))).unwrap();
+    let (m, hm) = mode_start(dt_ms, Some((2e-3, 1.0)), Some((1e-3, -0.5))).unwrap();
+    for k in 0..4 {
+        assert!((m[k] - s[k] - f[k]).abs() < 1e-12 * (1.0 + m[k].abs()), "{k}");
+    }
+    for ((a, b), c) in hs.iter().zip(&hf).zip(&hm) {
+        assert!((c[0] - a[0] - b[0]).abs() < 1e-14 && (c[1] - a[1] - b[1]).abs() < 1e-14);
+    }
+    assert!(mode_start(dt_ms, None, None).is_err());
+    assert!(mode_start(dt_ms, Some((-1e-3, 0.0)), None).is_err());
+}
+

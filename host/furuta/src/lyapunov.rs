@@ -1,0 +1,220 @@
+//! Lyapunov exponents of fitted reduced maps themselves (paper section 3.2):
+//!
+//! - [`rbf_jacobian`], [`poly_map_jacobian`]: analytic Jacobians of the fitted reduced maps;
+//!   [`dynamics_lyapunov`] / [`model_lyapunov`]: Benettin's method with these tangent maps and
+//!   QR re-orthonormalization on the model's own attractor (after a transient), so the
+//!   smooth model's exponent is measured directly, not through a time-series estimator.
+//!   [`iterate_dynamics`]: a long bounded iteration of a reduced map that reports escape.
+//!
+//! The scale and accuracy-vs-cost studies that use these are in [`crate::chaos_tables`].
+
+
+use chaos::{BenettinParams, ChaosError, Orbit, benettin_qr, iterate_map};
+use serde::Serialize;
+
+use ssm::dynamics::{RbfMap, ReducedDynamics, StepScratch};
+use ssm::fit::BLOWUP_FACTOR;
+use ssm::poly::Poly;
+use ssm::SsmModel;
+
+/// Why a model exponent could not be measured.
+#[derive(Debug, thiserror::Error)]
+pub enum ChaosTableError {
+    #[error(transparent)]
+    Chaos(#[from] ChaosError),
+    #[error("Benettin's method here needs a discrete map; these reduced dynamics are a continuous flow")]
+    NotAMap,
+    #[error("initial state has {got} coordinates, the reduced dynamics have {expected}")]
+    Shape { expected: usize, got: usize },
+}
+
+/// Message for the non-differentiable points of the linear kernel.
+pub const RBF_KINK: &str = "state exactly at an RBF centre (the linear kernel has a kink there)";
+
+/// Jacobian (row-major `d x d`) of the RBF map `eta -> eta + sum_i C_i ||z - c_i|| + A z + b`,
+/// `z = eta / s`: `I + sum_i C_i (z - c_i)^T / (||z - c_i|| s) + A / s`. Fails only exactly
+/// at a centre.
+pub fn rbf_jacobian(m: &RbfMap, eta: &[f64], jac: &mut [f64]) -> Result<(), &'static str> {
+    let d = m.dim;
+    let k = m.n_centers();
+    jac.iter_mut().for_each(|v| *v = 0.0);
+    for i in 0..d {
+        jac[i * d + i] = 1.0;
+    }
+    let mut diff = [0.0; 16];
+    let mut diff_v = Vec::new();
+    let diff: &mut [f64] = if d <= 16 {
+        &mut diff[..d]
+    } else {
+        diff_v.resize(d, 0.0);
+        &mut diff_v
+    };
+    for c in 0..k {
+        let ctr = &m.centers[c * d..(c + 1) * d];
+        let mut r2 = 0.0;
+        for j in 0..d {
+            diff[j] = eta[j] / m.scale[j] - ctr[j];
+            r2 += diff[j] * diff[j];
+        }
+        if r2 == 0.0 {
+            return Err(RBF_KINK);
+        }
+        let r = r2.sqrt();
+        for out in 0..d {
+            let w = m.coef[c * d + out];
+            for j in 0..d {
+                jac[out * d + j] += w * diff[j] / (r * m.scale[j]);
+            }
+        }
+    }
+    for j in 0..d {
+        for out in 0..d {
+            jac[out * d + j] += m.coef[(k + j) * d + out] / m.scale[j];
+        }
+    }
+    Ok(())
+}
+
+/// Jacobian (row-major `d x d`) of the polynomial map `eta -> eta + P(eta)`, `P` evaluated
+/// on `z = eta / s`: `I + dP/dz / s`.
+pub fn poly_map_jacobian(p: &Poly, eta: &[f64], jac: &mut [f64]) {
+    let d = p.dim_in;
+    jac.iter_mut().for_each(|v| *v = 0.0);
+    for i in 0..d.min(p.dim_out) {
+        jac[i * d + i] = 1.0;
+    }
+    let maxdeg = ssm::poly::max_degree(&p.exps) as usize;
+    let stride = maxdeg + 1;
+    let mut pow = vec![1.0; d * stride];
+    for i in 0..d {
+        let z = eta[i] / p.scale[i];
+        for e in 1..stride {
+            pow[i * stride + e] = pow[i * stride + e - 1] * z;
+        }
+    }
+    for (k, e) in p.exps.iter().enumerate() {
+        for j in 0..d {
+            if e[j] == 0 {
+                continue;
+            }
+            let mut g = e[j] as f64 * pow[j * stride + e[j] as usize - 1] / p.scale[j];
+            for (i, &ei) in e.iter().enumerate() {
+                if i != j {
+                    g *= pow[i * stride + ei as usize];
+                }
+            }
+            for out in 0..p.dim_out {
+                jac[out * d + j] += p.coef[k * p.dim_out + out] * g;
+            }
+        }
+    }
+}
+
+/// Jacobian of a discrete reduced map at `eta`.
+pub fn map_jacobian(dynamics: &ReducedDynamics, eta: &[f64], jac: &mut [f64]) -> Result<(), &'static str> {
+    match dynamics {
+        ReducedDynamics::Rbf(m) => rbf_jacobian(m, eta, jac),
+        ReducedDynamics::Map { increment, .. } => {
+            poly_map_jacobian(increment, eta, jac);
+            Ok(())
+        }
+        ReducedDynamics::Flow { .. } => Err("continuous flow: no map Jacobian"),
+    }
+}
+
+/// Benettin result of a reduced map, in 1/s.
+#[derive(Clone, Debug, Serialize)]
+pub struct ModelLyapunov {
+    /// Largest exponent, 1/s.
+    pub exponent: f64,
+    /// Its block standard error, 1/s.
+    pub std_error: f64,
+    /// All `d` exponents, 1/s, largest first.
+    pub spectrum: Vec<f64>,
+    pub kaplan_yorke: Option<f64>,
+    pub transient: usize,
+    pub steps: usize,
+    /// Map step, s.
+    pub dt: f64,
+}
+
+/// Benettin's method with the analytic tangent map and QR re-orthonormalization every step,
+/// from `eta0` after `transient` steps, over `steps` steps (20 blocks). Escape (any
+/// `|eta_i| > bound` or a non-finite state) and a hit on an RBF centre are errors with the
+/// step number.
+pub fn dynamics_lyapunov(
+    dynamics: &ReducedDynamics,
+    eta0: &[f64],
+    bound: f64,
+    transient: usize,
+    steps: usize,
+) -> Result<ModelLyapunov, ChaosTableError> {
+    let dt = dynamics.map_dt().ok_or(ChaosTableError::NotAMap)?;
+    let d = dim_of(dynamics);
+    if eta0.len() != d {
+        return Err(ChaosTableError::Shape { expected: d, got: eta0.len() });
+    }
+    let p = BenettinParams { transient, steps, time_step: dt, renorm_every: 1, bound, blocks: 20 };
+    let mut scratch = StepScratch::default();
+    let f = |x: &[f64], out: &mut [f64]| {
+        out.copy_from_slice(x);
+        dynamics.step(out, dt, &mut scratch);
+    };
+    let r = benettin_qr(eta0, f, |x, j| map_jacobian(dynamics, x, j), d, &p)?;
+    Ok(ModelLyapunov {
+        exponent: r.exponents[0],
+        std_error: r.std_error[0],
+        kaplan_yorke: r.kaplan_yorke,
+        spectrum: r.exponents,
+        transient,
+        steps: r.steps,
+        dt,
+    })
+}
+
+/// [`dynamics_lyapunov`] for a fitted model, bounded by [`BLOWUP_FACTOR`] x the largest
+/// training range of the reduced coordinates (the prediction's blow-up rule).
+pub fn model_lyapunov(model: &SsmModel, eta0: &[f64], transient: usize, steps: usize) -> Result<ModelLyapunov, ChaosTableError> {
+    dynamics_lyapunov(&model.dynamics, eta0, model_bound(model), transient, steps)
+}
+
+/// The escape bound used for a model: [`BLOWUP_FACTOR`] x max training |eta_i|.
+pub fn model_bound(model: &SsmModel) -> f64 {
+    BLOWUP_FACTOR * model.eta_range.iter().fold(0.0_f64, |m, v| m.max(*v))
+}
+
+/// Iterates a discrete reduced map `steps` times from `eta0` (recording every
+/// `record_every`-th state, 0 = none); escape beyond `bound` is an error with the step.
+pub fn iterate_dynamics(
+    dynamics: &ReducedDynamics,
+    eta0: &[f64],
+    steps: usize,
+    bound: f64,
+    record_every: usize,
+) -> Result<Orbit, ChaosTableError> {
+    let dt = dynamics.map_dt().ok_or(ChaosTableError::NotAMap)?;
+    let d = dim_of(dynamics);
+    if eta0.len() != d {
+        return Err(ChaosTableError::Shape { expected: d, got: eta0.len() });
+    }
+    let mut scratch = StepScratch::default();
+    Ok(iterate_map(
+        eta0,
+        |x, out| {
+            out.copy_from_slice(x);
+            dynamics.step(out, dt, &mut scratch);
+        },
+        steps,
+        bound,
+        record_every,
+    )?)
+}
+
+fn dim_of(dynamics: &ReducedDynamics) -> usize {
+    match dynamics {
+        ReducedDynamics::Rbf(m) => m.dim,
+        ReducedDynamics::Map { increment, .. } => increment.dim_in,
+        ReducedDynamics::Flow { field, .. } => field.dim_in,
+    }
+}
+

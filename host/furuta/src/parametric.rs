@@ -1,0 +1,474 @@
+//! Parametric SSM model of the delayed Furuta pendulum (paper section 3.1): per training
+//! sampling period, simulate theta series, fit a 4D SSM with polynomial map dynamics and
+//! take its polar extended normal form; then interpolate the normal-form coefficients
+//! linearly in the sampling period.
+//!
+//! Map dynamics are used (not a flow): at 30-32 ms sampling the fast 8.45 Hz mode has under
+//! 4 samples per period, where finite-difference derivatives are far off; the sampled data
+//! are exactly a discrete system, and the map normal form is converted to the continuous
+//! polar form by its logarithm (see [`ssm::normal_form`]), so linear rates are
+//! `ln|mu|/dt` like `stability::dominant_pairs`. Amplitudes use the observable convention:
+//! `rho_j` is the amplitude of mode `j` in theta (rad). Mode 1 = slow (about 0.44 Hz),
+//! mode 2 = fast (about 8.45 Hz), as in the paper's table.
+
+use serde::{Deserialize, Serialize};
+use thiserror::Error;
+
+use ssm::data::TimeSeries;
+use ssm::dynamics::Dynamics;
+use ssm::error::FitError;
+use ssm::fit::{FitOptions, SsmModel, fit};
+use ssm::interp::{Interp, InterpError, interp_weights};
+use ssm::normal_form::{NormalFormError, NormalFormOptions, NormalFormTable, PolarNormalForm, model_normal_form};
+use ssm::ridge::Ridge;
+use sim::scene::{Scene, SceneError};
+use sim::closed_loop::{SimError, simulate};
+use sim::stability::{StabilityError, dominant_pairs};
+
+/// Errors of the parametric Furuta model.
+#[derive(Debug, Error)]
+pub enum FurutaError {
+    #[error(transparent)]
+    Scene(#[from] SceneError),
+    #[error(transparent)]
+    Sim(#[from] SimError),
+    #[error(transparent)]
+    Stability(#[from] StabilityError),
+    #[error(transparent)]
+    Fit(#[from] FitError),
+    #[error("dt = {dt} ms: {source}")]
+    NormalForm { dt: f64, source: NormalFormError },
+    #[error("invalid option {what}: {why}")]
+    BadOption { what: &'static str, why: String },
+    #[error("dt = {dt} ms outside the training range [{lo}, {hi}] ms (no extrapolation)")]
+    OutOfRange { dt: f64, lo: f64, hi: f64 },
+    #[error("interpolation in dt: {0}")]
+    Interp(#[from] InterpError),
+    #[error("dt = {dt_ms} ms: simulation from {ic:?} stopped early: {why}")]
+    Escaped { dt_ms: f64, ic: [f64; 4], why: String },
+    #[error("dt = {dt_ms} ms: expected two oscillatory multiplier pairs, got {got}")]
+    Multipliers { dt_ms: f64, got: usize },
+}
+
+/// Options of [`furuta_parametric`].
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct FurutaOptions {
+    /// Training sampling periods in ms (bundled scenes `furuta-dt<value>`), increasing.
+    pub dts_ms: Vec<f64>,
+    /// Initial states `[theta, w_theta, phi, w_phi]`, one trajectory each per dt.
+    pub initial_states: Vec<[f64; 4]>,
+    /// Sampling periods simulated per trajectory.
+    pub periods: u64,
+    /// Samples dropped at the start of each trajectory (fast transients off the SSM).
+    pub skip: usize,
+    /// Each trajectory is cut at its first sample with |theta| above this (rad): beyond the
+    /// unstable torus the state escapes to the controller's O(1) equilibria, off the SSM.
+    pub max_theta: f64,
+    /// Extra trajectories started on the slow closed-loop eigenvector (plant state and
+    /// controller pre-history from [`slow_mode_start`]): `(theta amplitude rad, phase rad)`.
+    /// The slow mode is otherwise weakly excited next to the growing fast one.
+    #[serde(default)]
+    pub slow_starts: Vec<(f64, f64)>,
+    /// SSM fit options (dim must be 4, dynamics a polynomial map).
+    pub fit: FitOptions,
+}
+
+impl Default for FurutaOptions {
+    fn default() -> Self {
+        FurutaOptions {
+            dts_ms: vec![30.5, 31.0, 32.0, 32.5],
+            initial_states: vec![
+                [0.001, 0.0, 0.0, -0.2],
+                [0.002, 0.0, 0.0, 0.3],
+                [0.003, 0.0, 0.0, 1.0],
+                [0.005, 0.0, 0.0, -0.6],
+                [0.01, 0.0, 0.0, 0.0],
+                [0.02, 0.0, 0.0, 0.5],
+                [0.05, 0.0, 0.0, 0.0],
+                [0.08, 0.0, 0.0, -1.0],
+            ],
+            periods: 3000,
+            skip: 20,
+            // Cut at 0.2 rad: with 0.3 the runs at 32 / 32.5 ms reach far into the escape
+            // before the cut, and the fitted higher orders put the torus Hopf at 31.12 ms,
+            // where the full system's torus is still attracting; with 0.2 the model's torus
+            // Hopf (31.86) and saddle connection (31.83) sit where the full system's torus
+            // stops attracting (between 31.6 and 31.9 ms). See the report's sensitivity table.
+            max_theta: 0.2,
+            // Slow-eigenvector starts: the slow mode is otherwise swamped by the fast one.
+            slow_starts: vec![(0.002, 0.0), (0.002, std::f64::consts::FRAC_PI_2), (0.004, 0.7), (0.008, 2.3)],
+            fit: FitOptions {
+                dim: 4,
+                embed: 21,
+                shift: 1,
+                manifold_order: 3,
+                dyn_order: 7,
+                dynamics: Dynamics::Map,
+                ridge: Ridge::Fixed(0.0),
+                // Linear part from the pairs within 1 % of the largest |eta|: over the whole
+                // range the rates trade against the order-7 terms (slow rate -3.5 % at 32 ms,
+                // -14 % at 32.5 ms without, runs cut at 0.3 rad; within 0.05 % with).
+                linear_anchor: Some(0.01),
+            },
+        }
+    }
+}
+
+/// Exact linear data of one sampling period (from `dominant_pairs`), in mode order.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct ExactModes {
+    /// `ln|mu|/dt` of the slow and the fast pair.
+    pub rates: [f64; 2],
+    pub freqs_hz: [f64; 2],
+}
+
+/// Exact rates at a sampling period in ms (slow mode first).
+pub fn exact_modes(dt_ms: f64) -> Result<ExactModes, FurutaError> {
+    let scene = Scene::load("furuta-dt30.5", &[format!("controller.dt_ms={dt_ms}")])?;
+    let mut pairs = dominant_pairs(&scene)?;
+    if pairs.len() < 2 {
+        return Err(FurutaError::Multipliers { dt_ms, got: pairs.len() });
+    }
+    pairs.truncate(2);
+    pairs.sort_by(|a, b| a.freq_hz.total_cmp(&b.freq_hz));
+    Ok(ExactModes { rates: [pairs[0].rate, pairs[1].rate], freqs_hz: [pairs[0].freq_hz, pairs[1].freq_hz] })
+}
+
+/// One training sampling period: the fitted model and its normal form.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+pub struct TrainedDt {
+    pub dt_ms: f64,
+    pub model: SsmModel,
+    pub normal_form: PolarNormalForm,
+    pub exact: ExactModes,
+}
+
+/// Normal forms at the training periods, interpolated linearly in between.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+pub struct ParametricModel {
+    pub trained: Vec<TrainedDt>,
+}
+
+/// A start on the slow mode of the linearized closed loop at `dt_ms`: the real part of
+/// `e^{i phase} v`, `v` the eigenvector of the slow multiplier pair of the augmented map
+/// (inverse iteration in complex arithmetic), scaled so the theta component of `v` has
+/// modulus `theta_amp`. Returns the plant state `[theta, w_theta, phi, w_phi]` and the
+/// controller pre-history (`delay + 1` samples `[theta, phi]`, oldest first) for `Scene`.
+pub fn slow_mode_start(dt_ms: f64, theta_amp: f64, phase: f64) -> Result<([f64; 4], Vec<[f64; 2]>), FurutaError> {
+    if !(theta_amp > 0.0 && theta_amp.is_finite() && phase.is_finite()) {
+        return Err(FurutaError::BadOption { what: "slow_starts", why: format!("amplitude must be positive and finite, phase finite; got ({theta_amp}, {phase})") });
+    }
+    mode_start(dt_ms, Some((theta_amp, phase)), None)
+}
+
+/// A start on a combination of the slow and the fast mode of the linearized closed loop at
+/// `dt_ms`: the sum over the given modes of the real part of `e^{i phase} v_j`, `v_j` the
+/// eigenvector of mode `j`'s multiplier pair of the augmented map (inverse iteration in
+/// complex arithmetic), scaled so its theta component has modulus `theta_amp` (the phase is
+/// that of theta's component). `slow` / `fast` are `(theta amplitude rad, phase rad)`;
+/// `None` leaves that mode unexcited (at least one must be given). Returns the plant state
+/// `[theta, w_theta, phi, w_phi]` and the controller pre-history (`delay + 1` samples
+/// `[theta, phi]`, oldest first) for `Scene`.
+pub fn mode_start(dt_ms: f64, slow: Option<(f64, f64)>, fast: Option<(f64, f64)>) -> Result<([f64; 4], Vec<[f64; 2]>), FurutaError> {
+    use nalgebra::{Complex, DMatrix, DVector};
+    if slow.is_none() && fast.is_none() {
+        return Err(FurutaError::BadOption { what: "mode_start", why: "give at least one of the slow and the fast mode".into() });
+    }
+    for (name, m) in [("slow", slow), ("fast", fast)] {
+        if let Some((a, p)) = m {
+            if !(a > 0.0 && a.is_finite() && p.is_finite()) {
+                return Err(FurutaError::BadOption { what: "mode_start", why: format!("{name} mode: amplitude must be positive and finite, phase finite; got ({a}, {p})") });
+            }
+        }
+    }
+    let scene = Scene::load("furuta-dt30.5", &[format!("controller.dt_ms={dt_ms}")])?;
+    let le = |source| StabilityError::Linear { scene: scene.name.clone(), source };
+    let map = sim::stability::linear_plant(&scene)?.closed_loop(&scene.controller_config()).map_err(le)?;
+    let lay = map.layout;
+    if lay.n_plant != 4 || lay.integral.is_some() {
+        return Err(FurutaError::BadOption { what: "mode_start", why: "needs the 4-state Furuta plant without integral action".into() });
+    }
+    let mut pairs = dominant_pairs(&scene)?;
+    if pairs.len() < 2 {
+        return Err(FurutaError::Multipliers { dt_ms, got: pairs.len() });
+    }
+    pairs.truncate(2);
+    pairs.sort_by(|a, b| a.freq_hz.total_cmp(&b.freq_hz));
+    let n = map.matrix.nrows();
+    let mut total = DVector::<f64>::zeros(n);
+    for (pair, m) in pairs.iter().zip([slow, fast]) {
+        let Some((theta_amp, phase)) = m else { continue };
+        let mu = Complex::new(pair.re, pair.im) * (1.0 + 1e-9);
+        let shifted = DMatrix::<Complex<f64>>::from_fn(n, n, |i, j| {
+            Complex::new(map.matrix[(i, j)], 0.0) - if i == j { mu } else { Complex::new(0.0, 0.0) }
+        });
+        let lu = shifted.lu();
+        let mut v = DVector::<Complex<f64>>::from_element(n, Complex::new(1.0, 0.0));
+        for _ in 0..3 {
+            v = lu.solve(&v).ok_or_else(|| FurutaError::BadOption { what: "mode_start", why: format!("singular shifted map at dt = {dt_ms} ms") })?;
+            let norm = v.iter().map(|c| c.norm_sqr()).sum::<f64>().sqrt();
+            v /= Complex::new(norm, 0.0);
+        }
+        let th = v[0];
+        let scale = Complex::from_polar(theta_amp / th.norm(), phase - th.arg());
+        for k in 0..n {
+            total[k] += (v[k] * scale).re;
+        }
+    }
+    let state = [total[0], total[1], total[2], total[3]];
+    let history = (0..=lay.delay).rev().map(|k| [total[lay.y_start + k], total[lay.z_start + k]]).collect();
+    Ok((state, history))
+}
+
+/// Simulated theta series for one sampling period and initial state: samples `skip..`, cut
+/// before the first |theta| > `max_theta` (the run itself stops at 2 `max_theta`).
+pub fn furuta_series(dt_ms: f64, ic: [f64; 4], periods: u64, skip: usize, max_theta: f64) -> Result<TimeSeries, FurutaError> {
+    furuta_series_with_history(dt_ms, ic, None, periods, skip, max_theta)
+}
+
+/// [`furuta_series`] with an explicit controller pre-history (`delay + 1` samples
+/// `[theta, phi]`, oldest first).
+pub fn furuta_series_with_history(
+    dt_ms: f64,
+    ic: [f64; 4],
+    history: Option<&[[f64; 2]]>,
+    periods: u64,
+    skip: usize,
+    max_theta: f64,
+) -> Result<TimeSeries, FurutaError> {
+    if !(max_theta > 0.0 && max_theta.is_finite()) {
+        return Err(FurutaError::BadOption { what: "max_theta", why: format!("must be positive and finite, got {max_theta}") });
+    }
+    let mut ov = vec![
+        format!("controller.dt_ms={dt_ms}"),
+        format!("run.periods={periods}"),
+        format!("initial.state=[{:e},{:e},{:e},{:e}]", ic[0], ic[1], ic[2], ic[3]),
+        format!("run.escape_theta={}", 2.0 * max_theta),
+    ];
+    if let Some(h) = history {
+        let items: Vec<String> = h.iter().map(|p| format!("[{:e},{:e}]", p[0], p[1])).collect();
+        ov.push(format!("initial.history=[{}]", items.join(",")));
+    }
+    let scene = Scene::load("furuta-dt30.5", &ov)?;
+    let tr = simulate(&scene, None)?;
+    let x = tr.primary();
+    let end = x.iter().position(|v| v.abs() > max_theta).unwrap_or(x.len());
+    if skip + 100 > end {
+        let why = tr.stopped.unwrap_or_else(|| format!("|theta| > {max_theta} after {end} samples"));
+        return Err(FurutaError::Escaped { dt_ms, ic, why: format!("{why}; fewer than skip + 100 usable samples") });
+    }
+    TimeSeries::new(format!("furuta dt={dt_ms} ic={ic:?}"), tr.t[skip..end].to_vec(), x[skip..end].to_vec())
+        .map_err(|e| FurutaError::Fit(e.into()))
+}
+
+/// Checks the options shared by [`furuta_parametric`] and the shared-tangent model.
+pub(crate) fn validate_options(opts: &FurutaOptions) -> Result<(), FurutaError> {
+    if opts.fit.dim != 4 {
+        return Err(FurutaError::BadOption { what: "fit.dim", why: format!("must be 4, got {}", opts.fit.dim) });
+    }
+    if opts.dts_ms.is_empty() || opts.dts_ms.windows(2).any(|w| w[1] <= w[0]) {
+        return Err(FurutaError::BadOption { what: "dts_ms", why: "need at least one, strictly increasing".into() });
+    }
+    if opts.initial_states.is_empty() {
+        return Err(FurutaError::BadOption { what: "initial_states", why: "need at least one".into() });
+    }
+    Ok(())
+}
+
+/// The training series of one sampling period: one run per initial state, then one per
+/// slow-mode start (see [`FurutaOptions`]).
+pub fn training_series(opts: &FurutaOptions, dt_ms: f64) -> Result<Vec<TimeSeries>, FurutaError> {
+    let mut train: Vec<TimeSeries> = opts
+        .initial_states
+        .iter()
+        .map(|&ic| furuta_series(dt_ms, ic, opts.periods, opts.skip, opts.max_theta))
+        .collect::<Result<_, _>>()?;
+    for &(amp, phase) in &opts.slow_starts {
+        let (ic, hist) = slow_mode_start(dt_ms, amp, phase)?;
+        train.push(furuta_series_with_history(dt_ms, ic, Some(&hist), opts.periods, opts.skip, opts.max_theta)?);
+    }
+    Ok(train)
+}
+
+/// Fits the parametric model (slow: one simulation per dt and initial state).
+pub fn furuta_parametric(opts: &FurutaOptions) -> Result<ParametricModel, FurutaError> {
+    validate_options(opts)?;
+    let mut trained = Vec::with_capacity(opts.dts_ms.len());
+    for &dt_ms in &opts.dts_ms {
+        let train = training_series(opts, dt_ms)?;
+        let model = fit(&train, &opts.fit)?;
+        let normal_form = model_normal_form(&model, &NormalFormOptions::default())
+            .map_err(|source| FurutaError::NormalForm { dt: dt_ms, source })?;
+        trained.push(TrainedDt { dt_ms, model, normal_form, exact: exact_modes(dt_ms)? });
+    }
+    Ok(ParametricModel { trained })
+}
+
+impl ParametricModel {
+    /// Training range (ms).
+    pub fn range(&self) -> (f64, f64) {
+        (self.trained.first().map_or(f64::NAN, |t| t.dt_ms), self.trained.last().map_or(f64::NAN, |t| t.dt_ms))
+    }
+
+    /// Bracketing training indices and weight of the upper one.
+    fn bracket(&self, dt_ms: f64) -> Result<(usize, usize, f64), FurutaError> {
+        let (lo, hi) = self.range();
+        if !(dt_ms >= lo && dt_ms <= hi) {
+            return Err(FurutaError::OutOfRange { dt: dt_ms, lo, hi });
+        }
+        let n = self.trained.len();
+        if n == 1 {
+            return Ok((0, 0, 0.0));
+        }
+        let k = self.trained.windows(2).position(|w| dt_ms <= w[1].dt_ms).unwrap_or(n - 2);
+        let (a, b) = (self.trained[k].dt_ms, self.trained[k + 1].dt_ms);
+        Ok((k, k + 1, (dt_ms - a) / (b - a)))
+    }
+
+    /// The polar normal form at `dt_ms`, coefficients linearly interpolated.
+    pub fn normal_form_at(&self, dt_ms: f64) -> Result<PolarNormalForm, FurutaError> {
+        let (i, j, w) = self.bracket(dt_ms)?;
+        let (a, b) = (&self.trained[i].normal_form, &self.trained[j].normal_form);
+        let lerp = |x: &Vec<Vec<f64>>, y: &Vec<Vec<f64>>| -> Vec<Vec<f64>> {
+            x.iter().zip(y).map(|(u, v)| u.iter().zip(v).map(|(p, q)| (1.0 - w) * p + w * q).collect()).collect()
+        };
+        let mut out = a.clone();
+        out.amp = lerp(&a.amp, &b.amp);
+        out.phase = lerp(&a.phase, &b.phase);
+        out.eigenvalues = (0..a.modes).map(|m| (out.amp[m][0], out.phase[m][0])).collect();
+        out.map_dt = Some(dt_ms * 1e-3);
+        Ok(out)
+    }
+
+    /// The polar normal form at `dt_ms` with every coefficient interpolated by `interp`
+    /// (linear: same as [`ParametricModel::normal_form_at`]; spline: natural cubic spline
+    /// through all training periods). No extrapolation.
+    pub fn normal_form_at_with(&self, dt_ms: f64, interp: Interp) -> Result<PolarNormalForm, FurutaError> {
+        if interp == Interp::Linear {
+            return self.normal_form_at(dt_ms);
+        }
+        let nodes: Vec<f64> = self.trained.iter().map(|t| t.dt_ms).collect();
+        let w = interp_weights(&nodes, dt_ms, interp)?;
+        let first = &self.trained[0].normal_form;
+        if let Some(t) = self.trained.iter().find(|t| t.normal_form.pexps != first.pexps || t.normal_form.modes != first.modes) {
+            return Err(FurutaError::BadOption { what: "normal forms", why: format!("dt = {} ms has other monomials than dt = {} ms", t.dt_ms, nodes[0]) });
+        }
+        let mix = |get: &dyn Fn(&PolarNormalForm) -> &Vec<Vec<f64>>| -> Vec<Vec<f64>> {
+            let mut out = get(first).clone();
+            for (m, row) in out.iter_mut().enumerate() {
+                for (k, v) in row.iter_mut().enumerate() {
+                    *v = self.trained.iter().zip(&w).map(|(t, wi)| wi * get(&t.normal_form)[m][k]).sum();
+                }
+            }
+            out
+        };
+        let mut out = first.clone();
+        out.amp = mix(&|n| &n.amp);
+        out.phase = mix(&|n| &n.phase);
+        out.eigenvalues = (0..first.modes).map(|m| (out.amp[m][0], out.phase[m][0])).collect();
+        out.map_dt = Some(dt_ms * 1e-3);
+        Ok(out)
+    }
+
+    /// The `rho'` coefficient table at `dt_ms`.
+    pub fn coefficients_at(&self, dt_ms: f64) -> Result<NormalFormTable, FurutaError> {
+        Ok(self.normal_form_at(dt_ms)?.table())
+    }
+
+    /// Interpolated linear rates `[slow rho_1, fast rho_2]` (1/s) at `dt_ms`.
+    pub fn linear_rates_at(&self, dt_ms: f64) -> Result<[f64; 2], FurutaError> {
+        let r = self.normal_form_at(dt_ms)?.linear_rates();
+        Ok([r[0], r[1]])
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    // ~12-25 s in the test profile (simulates 12 runs at each of the 4 training periods).
+    fn furuta_rates_match_exact_multipliers() {
+        let t0 = std::time::Instant::now();
+        let pm = furuta_parametric(&FurutaOptions::default()).unwrap();
+        eprintln!("fit time {:.1} s", t0.elapsed().as_secs_f64());
+        let mut worst_train: f64 = 0.0;
+        for t in &pm.trained {
+            let r = t.normal_form.linear_rates();
+            let e = t.exact.rates;
+            let err = [(r[0] - e[0]) / e[0], (r[1] - e[1]) / e[1]];
+            eprintln!(
+                "dt {:5.2}: slow {:+.5} vs {:+.5} ({:+.2e}), fast {:+.5} vs {:+.5} ({:+.2e}); freqs {:?} vs {:?}",
+                t.dt_ms, r[0], e[0], err[0], r[1], e[1], err[1],
+                t.normal_form.eigenvalues.iter().map(|x| x.1 / std::f64::consts::TAU).collect::<Vec<_>>(),
+                t.exact.freqs_hz
+            );
+            worst_train = worst_train.max(err[0].abs()).max(err[1].abs());
+        }
+        let mut worst_interp: f64 = 0.0;
+        for dt in [30.8, 31.4, 31.41, 31.55, 31.68, 32.3] {
+            let r = pm.linear_rates_at(dt).unwrap();
+            let e = exact_modes(dt).unwrap().rates;
+            let err = [(r[0] - e[0]) / e[0], (r[1] - e[1]) / e[1]];
+            eprintln!("interp dt {dt:5.2}: slow {:+.5} vs {:+.5} ({:+.2e}), fast {:+.5} vs {:+.5} ({:+.2e})", r[0], e[0], err[0], r[1], e[1], err[1]);
+            worst_interp = worst_interp.max(err[0].abs()).max(err[1].abs());
+        }
+        eprintln!("table at 30.8 ms:\n{}", pm.coefficients_at(30.8).unwrap().to_text());
+        // The targets: within 1 % at the training periods, 2 % interpolated. Measured
+        // with the anchored linear part (FurutaOptions::default): at most 3.1e-4 (slow) and
+        // 5.0e-4 (fast) at training, 1.9e-4 / 9.3e-4 interpolated (without the anchor, runs
+        // cut at 0.3 rad: slow -3.5 % at 32 ms, -14 % at 32.5 ms, -9.4 % interpolated at 32.3).
+        assert!(worst_train < 0.01, "training rate error {worst_train}");
+        assert!(worst_interp < 0.02, "interpolated rate error {worst_interp}");
+        // Tighter than the targets, to catch regressions of the anchored fit.
+        assert!(worst_train < 3e-3 && worst_interp < 3e-3, "train {worst_train}, interp {worst_interp}");
+    }
+
+    /// The slow-mode start decays at the slow exact rate (checks the eigenvector and the
+    /// pre-history ordering): theta peaks over the first 10 s shrink like exp(rate t).
+    #[test]
+    fn slow_mode_start_excites_only_slow_mode() {
+        let dt_ms = 31.0;
+        let (ic, hist) = slow_mode_start(dt_ms, 1e-3, 0.0).unwrap();
+        let ts = furuta_series_with_history(dt_ms, ic, Some(&hist), 700, 0, 0.3).unwrap();
+        let x = &ts.x;
+        let dt = dt_ms * 1e-3;
+        let e = exact_modes(dt_ms).unwrap();
+        // Fit ln|theta| envelope: max |theta| over successive slow periods.
+        let per = (1.0 / (e.freqs_hz[0] * dt)).round() as usize;
+        let peaks: Vec<f64> = x.chunks(per).take(8).map(|c| c.iter().fold(0.0f64, |m, v| m.max(v.abs()))).collect();
+        let rate = (peaks[7] / peaks[1]).ln() / (6.0 * per as f64 * dt);
+        eprintln!("peaks {peaks:?}; envelope rate {rate:+.5} vs exact slow {:+.5}", e.rates[0]);
+        assert!(((rate - e.rates[0]) / e.rates[0]).abs() < 0.05, "envelope rate {rate} vs {}", e.rates[0]);
+    }
+
+    /// Near the heteroclinic bifurcation (dt = 31.40 / 31.41 ms) the Furuta fits stay well
+    /// conditioned: the design matrices' condition numbers are finite and reported, the map's
+    /// residual is small, the manifold constraint holds, and the fitted linear rates stay near
+    /// the exact multipliers (the bifurcation is global: nothing local degenerates there).
+    #[test]
+    fn near_bifurcation_fits_are_well_conditioned() {
+        let opts = FurutaOptions { dts_ms: vec![31.40, 31.41], ..FurutaOptions::default() };
+        let pm = furuta_parametric(&opts).unwrap();
+        for t in &pm.trained {
+            let dc = t.model.dynamics.conditioning().clone();
+            let mc = t.model.manifold.conditioning.clone().unwrap();
+            println!("dt {}: dynamics {dc:?}\n  manifold {mc:?}", t.dt_ms);
+            for c in [&dc, &mc] {
+                assert!(c.cond.is_finite() && c.cond < 1e8, "dt {}: {c:?}", t.dt_ms);
+            }
+            // One-step map residual (the manifold's residual is relative to the small
+            // off-tangent part of the data and is not a conditioning measure).
+            assert!(dc.rel_residual < 1e-2, "dt {}: {dc:?}", t.dt_ms);
+            assert!(t.model.manifold.constraint_defect() < 1e-10);
+            let (r, e) = (t.normal_form.linear_rates(), t.exact.rates);
+            let err = [(r[0] - e[0]) / e[0], (r[1] - e[1]) / e[1]];
+            println!("  rates {r:?} vs exact {e:?}: rel err {err:?}");
+            // Measured with the anchored linear part: slow -2.2e-4 / -2.3e-4, fast -5.0e-4 /
+            // -5.1e-4 at 31.40 / 31.41 ms (without it: slow -9.3 % / -2.5 %, fast -1.9 % / +0.7 %: the runs
+            // leave |theta| < 0.3 early near the bifurcation and the whole-range fit trades the
+            // rates against the higher orders).
+            assert!(err[1].abs() < 0.01 && err[0].abs() < 0.01, "dt {}: {err:?}", t.dt_ms);
+        }
+    }
+}

@@ -1,0 +1,408 @@
+//! Trajectory predictions of the parametric Furuta SSM model at sampling periods not used
+//! for training (paper section 3.1, fig. "TrajectoryPredictions1").
+//!
+//! A prediction needs a full model (manifold and reduced map) at the test period. The
+//! per-period fits of [`crate::parametric`] each take their tangent basis `V1` from their own
+//! SVD, so their coefficients live in different coordinates and cannot be mixed. Here all
+//! training periods share ONE tangent basis: `V1` from the SVD of the pooled embedded data
+//! of every training period. Each period is then fitted over that `V1`
+//! ([`fit_with_tangent`]: graph with a degree-1 normal part, since the shared `V1` is only
+//! close to each period's own tangent space), so `eta = V1^T y` means the same at every
+//! period. The reduced coordinates are a linear image of the SSM, so the map's linear part
+//! is still conjugate to the true one: its eigenvalues `ln|mu|/dt` must match
+//! [`exact_modes`] as well as with the own-SVD fits (checked in the tests).
+//!
+//! All polynomials are rescaled to one common monomial scale (the largest per-coordinate
+//! scale over the periods; rescaling a coefficient by `prod (S_j/s_j)^{k_j}` leaves the
+//! polynomial unchanged), then every coefficient of the manifold and of the map increment is
+//! interpolated in the sampling period, linearly between the bracketing periods or by a
+//! natural cubic spline through all of them ([`Interp`]). The interpolated model is a plain
+//! [`SsmModel`] at the test step, so prediction (embed the first `p` test samples, project
+//! `eta0 = V1^T y0`, iterate the map, lift, read theta) and blow-up detection are those of
+//! [`SsmModel::predict`].
+
+use serde::{Deserialize, Serialize};
+
+use ssm::data::TimeSeries;
+use ssm::dynamics::ReducedDynamics;
+use ssm::fit::{Prediction, SsmModel, Stop, embed_training, fit_with_tangent};
+use crate::parametric::{
+    ExactModes, FurutaError, FurutaOptions, exact_modes, furuta_series_with_history, slow_mode_start, training_series,
+    validate_options,
+};
+use ssm::manifold::tangent_space;
+use ssm::metrics::amplitude_spectrum;
+use ssm::normal_form::{NormalFormOptions, Normalization, PolarNormalForm, normal_form};
+use ssm::poly::Poly;
+use ssm::interp::{Interp, interp_weights};
+
+/// One training period of the shared-tangent model.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+pub struct SharedNode {
+    pub dt_ms: f64,
+    /// Fit over the shared `V1`, polynomials rescaled to the common scale.
+    pub model: SsmModel,
+    /// `ln|mu|/dt` of the map's slow and fast multiplier pairs (1/s).
+    pub rates: [f64; 2],
+    /// `arg(mu)/(2 pi dt)` of the slow and fast pairs (Hz).
+    pub freqs_hz: [f64; 2],
+    pub exact: ExactModes,
+}
+
+/// Parametric model whose training fits share one tangent basis.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+pub struct SharedParametricModel {
+    /// Shared tangent basis, `p x 4` column-major.
+    pub v1: Vec<f64>,
+    /// Singular values of the pooled embedded training data.
+    pub singular_values: Vec<f64>,
+    /// Common monomial scale of every polynomial (per reduced coordinate).
+    pub scale: Vec<f64>,
+    pub nodes: Vec<SharedNode>,
+}
+
+/// Slow and fast `(rate 1/s, freq Hz)` of a model's linear part (pairs with positive
+/// imaginary part, by increasing frequency).
+fn model_modes(model: &SsmModel, dt_ms: f64) -> Result<([f64; 2], [f64; 2]), FurutaError> {
+    let mut up: Vec<(f64, f64)> = model.eigenvalues_ct.iter().copied().filter(|e| e.1 > 0.0).collect();
+    if up.len() != 2 {
+        return Err(FurutaError::Multipliers { dt_ms, got: up.len() });
+    }
+    up.sort_by(|a, b| a.1.total_cmp(&b.1));
+    let tau = std::f64::consts::TAU;
+    Ok(([up[0].0, up[1].0], [up[0].1 / tau, up[1].1 / tau]))
+}
+
+/// `poly` re-expressed on the monomial scale `to` (same polynomial function).
+fn rescale(poly: &Poly, to: &[f64]) -> Poly {
+    let mut out = poly.clone();
+    for (k, e) in poly.exps.iter().enumerate() {
+        let f: f64 = e.iter().zip(to.iter().zip(&poly.scale)).map(|(&q, (t, s))| (t / s).powi(q as i32)).product();
+        for c in &mut out.coef[k * poly.dim_out..(k + 1) * poly.dim_out] {
+            *c *= f;
+        }
+    }
+    out.scale = to.to_vec();
+    out
+}
+
+/// Fits the shared-tangent parametric model on the training data of `opts` (the same
+/// series as [`crate::parametric::furuta_parametric`]; polynomial map dynamics required).
+pub fn shared_parametric(opts: &FurutaOptions) -> Result<SharedParametricModel, FurutaError> {
+    validate_options(opts)?;
+    if opts.fit.dynamics != ssm::dynamics::Dynamics::Map {
+        return Err(FurutaError::BadOption { what: "fit.dynamics", why: "the shared-tangent model interpolates polynomial maps; use Dynamics::Map".into() });
+    }
+    let mut series = Vec::with_capacity(opts.dts_ms.len());
+    let mut pooled = Vec::new();
+    for &dt_ms in &opts.dts_ms {
+        let train = training_series(opts, dt_ms)?;
+        pooled.extend(embed_training(&train, &opts.fit)?.0);
+        series.push(train);
+    }
+    let (v1, singular_values) = tangent_space(&pooled, opts.fit.dim)?;
+    drop(pooled);
+    let mut fits = Vec::with_capacity(series.len());
+    for (train, &dt_ms) in series.iter().zip(&opts.dts_ms) {
+        fits.push((dt_ms, fit_with_tangent(train, &opts.fit, &v1)?));
+    }
+    let d = opts.fit.dim;
+    let scale: Vec<f64> = (0..d).map(|j| fits.iter().map(|(_, m)| m.manifold.eta_scale[j]).fold(0.0, f64::max)).collect();
+    let mut nodes = Vec::with_capacity(fits.len());
+    for (dt_ms, mut model) in fits {
+        if let Some(nl) = &model.manifold.nonlinear {
+            model.manifold.nonlinear = Some(rescale(nl, &scale));
+        }
+        model.manifold.eta_scale = scale.clone();
+        if let ReducedDynamics::Map { increment, .. } = &mut model.dynamics {
+            *increment = rescale(increment, &scale);
+        }
+        let (rates, freqs_hz) = model_modes(&model, dt_ms)?;
+        nodes.push(SharedNode { dt_ms, model, rates, freqs_hz, exact: exact_modes(dt_ms)? });
+    }
+    Ok(SharedParametricModel { v1, singular_values, scale, nodes })
+}
+
+impl SharedParametricModel {
+    /// Training periods (ms).
+    pub fn dts_ms(&self) -> Vec<f64> {
+        self.nodes.iter().map(|n| n.dt_ms).collect()
+    }
+
+    /// The full model (manifold and map) at `dt_ms`, every coefficient interpolated by
+    /// `interp`. Blow-up reference `eta_range`: the largest training range over all
+    /// periods. Conditioning records: those of the nearest training period.
+    pub fn model_at(&self, dt_ms: f64, interp: Interp) -> Result<SsmModel, FurutaError> {
+        let dts = self.dts_ms();
+        let w = interp_weights(&dts, dt_ms, interp)?;
+        let nearest = (0..dts.len()).min_by(|&a, &b| (dts[a] - dt_ms).abs().total_cmp(&(dts[b] - dt_ms).abs())).unwrap_or(0);
+        let mut out = self.nodes[nearest].model.clone();
+        let mix = |get: &dyn Fn(&SsmModel) -> Option<&Poly>| -> Result<Option<Poly>, FurutaError> {
+            let Some(base) = get(&out) else { return Ok(None) };
+            let mut p = base.clone();
+            p.coef.iter_mut().for_each(|c| *c = 0.0);
+            for (node, wi) in self.nodes.iter().zip(&w) {
+                let q = get(&node.model).filter(|q| q.exps == p.exps && q.scale == p.scale && q.dim_out == p.dim_out);
+                let q = q.ok_or_else(|| FurutaError::BadOption {
+                    what: "shared fits",
+                    why: format!("dt = {} ms has other monomials or scales than dt = {} ms", node.dt_ms, dts[nearest]),
+                })?;
+                for (c, v) in p.coef.iter_mut().zip(&q.coef) {
+                    *c += wi * v;
+                }
+            }
+            Ok(Some(p))
+        };
+        let manifold_poly = mix(&|m: &SsmModel| m.manifold.nonlinear.as_ref())?;
+        let map_poly = mix(&|m: &SsmModel| match &m.dynamics {
+            ReducedDynamics::Map { increment, .. } => Some(increment),
+            _ => None,
+        })?;
+        out.manifold.nonlinear = manifold_poly;
+        out.manifold.singular_values = self.singular_values.clone();
+        if let (ReducedDynamics::Map { increment, dt, .. }, Some(p)) = (&mut out.dynamics, map_poly) {
+            *increment = p;
+            *dt = dt_ms * 1e-3;
+        }
+        out.dt = dt_ms * 1e-3;
+        out.eigenvalues_ct = out.dynamics.eigenvalues_ct()?;
+        out.eta_range =
+            (0..self.scale.len()).map(|j| self.nodes.iter().map(|n| n.model.eta_range[j]).fold(0.0, f64::max)).collect();
+        out.n_points = self.nodes.iter().map(|n| n.model.n_points).sum();
+        Ok(out)
+    }
+
+    /// Predicts `test` (sampled at `dt_ms`) from its first embedded point with the model
+    /// interpolated at `dt_ms`. Blow-up shows as `stop` in the prediction.
+    pub fn predict_at(&self, dt_ms: f64, test: &TimeSeries, interp: Interp) -> Result<Prediction, FurutaError> {
+        Ok(self.model_at(dt_ms, interp)?.predict(test)?)
+    }
+
+    /// Linear `ln|mu|/dt` rates `[slow, fast]` of the interpolated map at `dt_ms`.
+    pub fn rates_at(&self, dt_ms: f64, interp: Interp) -> Result<[f64; 2], FurutaError> {
+        Ok(model_modes(&self.model_at(dt_ms, interp)?, dt_ms)?.0)
+    }
+
+    /// Polar normal form of the interpolated map at `dt_ms`, observable convention on
+    /// theta (linear observable row including the manifold's degree-1 normal part).
+    pub fn normal_form_at(&self, dt_ms: f64, interp: Interp) -> Result<PolarNormalForm, FurutaError> {
+        let m = self.model_at(dt_ms, interp)?;
+        let o = NormalFormOptions { normalization: Normalization::Observable(m.manifold.observable_row()), ..NormalFormOptions::default() };
+        normal_form(&m.dynamics, &o).map_err(|source| FurutaError::NormalForm { dt: dt_ms, source })
+    }
+}
+
+/// Test trajectories for [`predictions`].
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct PredictOptions {
+    /// Unseen sampling periods (ms), inside the training range.
+    pub dts_ms: Vec<f64>,
+    /// Initial theta offset (rad) added to the plant state and to the pre-history (plant at
+    /// rest at that angle before t = 0), exciting mostly the fast mode.
+    pub theta0: f64,
+    /// Slow-eigenvector part of the start: `(theta amplitude rad, phase rad)`.
+    pub slow: (f64, f64),
+    /// Simulated horizon (s); the series is cut earlier at `|theta| > max_theta`.
+    pub horizon_s: f64,
+    /// Samples dropped at the start.
+    pub skip: usize,
+    pub max_theta: f64,
+    /// Sakoe-Chiba band of the DTW alignment in samples (`None`: unconstrained).
+    pub dtw_band: Option<usize>,
+}
+
+impl Default for PredictOptions {
+    fn default() -> Self {
+        PredictOptions {
+            dts_ms: vec![30.8, 31.2, 31.8, 32.2, 31.42, 31.65],
+            theta0: 0.01,
+            slow: (0.004, 0.0),
+            horizon_s: 30.0,
+            skip: 20,
+            max_theta: 0.3,
+            dtw_band: None,
+        }
+    }
+}
+
+/// An amplitude spectrum: frequencies (Hz) and single-sided amplitudes (rad).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Spectrum {
+    pub freq_hz: Vec<f64>,
+    pub amp: Vec<f64>,
+}
+
+impl Spectrum {
+    fn of(x: &[f64], dt: f64) -> Self {
+        let (freq_hz, amp) = amplitude_spectrum(x, dt);
+        Spectrum { freq_hz, amp }
+    }
+}
+
+/// One prediction at an unseen sampling period.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+pub struct PredictionResult {
+    pub dt_ms: f64,
+    pub interp: Interp,
+    /// NMTE over the predicted samples (all of them unless `stop` is set, then the prefix
+    /// before the blow-up).
+    pub nmte: f64,
+    /// NMTE after DTW alignment over the same samples.
+    pub dtw_nmte: f64,
+    /// Times of the test series (s).
+    pub t: Vec<f64>,
+    /// Simulated theta (rad), the whole test series.
+    pub x_true: Vec<f64>,
+    /// Predicted theta (rad); shorter than `x_true` when `stop` is set.
+    pub x_pred: Vec<f64>,
+    /// Spectra over the compared samples (`x_pred.len()` of each).
+    pub spectrum_true: Spectrum,
+    pub spectrum_pred: Spectrum,
+    /// Model blow-up, if any.
+    pub stop: Option<Stop>,
+    /// Why the simulated test run ended before the horizon (escape), if it did.
+    pub test_cut: Option<String>,
+}
+
+/// The test series at `dt_ms` of [`PredictOptions`]: plant state and pre-history of the
+/// slow-mode start plus a `theta0` offset in theta.
+pub fn test_series(dt_ms: f64, o: &PredictOptions) -> Result<TimeSeries, FurutaError> {
+    let (mut ic, mut hist) = slow_mode_start(dt_ms, o.slow.0, o.slow.1)?;
+    ic[0] += o.theta0;
+    hist.iter_mut().for_each(|h| h[0] += o.theta0);
+    if !(o.horizon_s > 0.0 && o.horizon_s.is_finite()) {
+        return Err(FurutaError::BadOption { what: "horizon_s", why: format!("must be positive and finite, got {}", o.horizon_s) });
+    }
+    let periods = (o.horizon_s / (dt_ms * 1e-3)).ceil() as u64;
+    furuta_series_with_history(dt_ms, ic, Some(&hist), periods, o.skip, o.max_theta)
+}
+
+/// Predictions at every period of `o.dts_ms` with interpolation `interp`.
+pub fn predictions(model: &SharedParametricModel, o: &PredictOptions, interp: Interp) -> Result<Vec<PredictionResult>, FurutaError> {
+    o.dts_ms.iter().map(|&dt_ms| predict_one(model, dt_ms, &test_series(dt_ms, o)?, o, interp)).collect()
+}
+
+/// The prediction and its metrics for one test series.
+pub fn predict_one(
+    model: &SharedParametricModel,
+    dt_ms: f64,
+    test: &TimeSeries,
+    o: &PredictOptions,
+    interp: Interp,
+) -> Result<PredictionResult, FurutaError> {
+    let pred = model.predict_at(dt_ms, test, interp)?;
+    let n = pred.x.len();
+    let truth = &test.x[..n];
+    let bad = |what: &str| FurutaError::BadOption { what: "prediction", why: format!("dt = {dt_ms} ms: {what} undefined ({n} samples)") };
+    let nmte = ssm::metrics::nmte(&pred.x, truth, 1).ok_or_else(|| bad("NMTE"))?;
+    let dtw_nmte = pred.nmte_dtw(test, o.dtw_band);
+    if !dtw_nmte.is_finite() {
+        return Err(bad("DTW-NMTE"));
+    }
+    let dt = dt_ms * 1e-3;
+    let horizon = test.t.first().copied().unwrap_or(0.0) + o.horizon_s - (o.skip as f64 + 2.0) * dt;
+    let test_cut = (test.t.last().copied().unwrap_or(0.0) < horizon)
+        .then(|| format!("|theta| > {} rad at t = {:.2} s", o.max_theta, test.t.last().copied().unwrap_or(0.0)));
+    Ok(PredictionResult {
+        dt_ms,
+        interp,
+        nmte,
+        dtw_nmte,
+        t: test.t.clone(),
+        x_true: test.x.clone(),
+        spectrum_true: Spectrum::of(truth, dt),
+        spectrum_pred: Spectrum::of(&pred.x, dt),
+        x_pred: pred.x,
+        stop: pred.stop,
+        test_cut,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// One shared fit (~15 s in the test profile) reused for every check.
+    #[test]
+    fn shared_tangent_rates_and_predictions() {
+        let pm = shared_parametric(&FurutaOptions::default()).unwrap();
+        // 1. The shared-V1 maps keep the exact linear rates like the own-V1 fits (anchored
+        //    linear part; measured: slow -0.9e-4 / -1.2e-4 / -2.5e-4 / -3.1e-4, fast -3.0e-4 /
+        //    -3.3e-4 / -5.0e-4 / -4.7e-4 at 30.5 / 31 / 32 / 32.5 ms).
+        for n in &pm.nodes {
+            let err = [(n.rates[0] - n.exact.rates[0]) / n.exact.rates[0], (n.rates[1] - n.exact.rates[1]) / n.exact.rates[1]];
+            eprintln!("node {:5.2}: rate errors slow {:+.2e}, fast {:+.2e}", n.dt_ms, err[0], err[1]);
+            assert!(err[0].abs() < 0.01 && err[1].abs() < 0.01, "dt {}: {:?} vs {:?}", n.dt_ms, n.rates, n.exact.rates);
+            let f = [(n.freqs_hz[0] - n.exact.freqs_hz[0]) / n.exact.freqs_hz[0], (n.freqs_hz[1] - n.exact.freqs_hz[1]) / n.exact.freqs_hz[1]];
+            if n.dt_ms <= 31.0 {
+                assert!(f[0].abs() < 1e-3 && f[1].abs() < 1e-4, "dt {}: freqs {:?} vs {:?}", n.dt_ms, n.freqs_hz, n.exact.freqs_hz);
+            }
+        }
+        // 2. At a training period both interpolants return that period's model exactly.
+        let node = &pm.nodes[1];
+        for interp in [Interp::Linear, Interp::Spline] {
+            let m = pm.model_at(node.dt_ms, interp).unwrap();
+            let (ReducedDynamics::Map { increment: a, .. }, ReducedDynamics::Map { increment: b, .. }) = (&m.dynamics, &node.model.dynamics) else {
+                panic!("map dynamics expected")
+            };
+            assert_eq!(a.coef, b.coef, "{interp:?}");
+            assert_eq!(m.manifold.nonlinear.as_ref().unwrap().coef, node.model.manifold.nonlinear.as_ref().unwrap().coef);
+        }
+        // 3. Normal-form spline interpolation (ParametricModel::normal_form_at_with) on
+        //    normal forms of the shared nodes: nodes reproduced, Linear = normal_form_at.
+        let pmod = crate::parametric::ParametricModel {
+            trained: pm
+                .nodes
+                .iter()
+                .map(|n| crate::parametric::TrainedDt {
+                    dt_ms: n.dt_ms,
+                    model: n.model.clone(),
+                    normal_form: pm.normal_form_at(n.dt_ms, Interp::Linear).unwrap(),
+                    exact: n.exact.clone(),
+                })
+                .collect(),
+        };
+        for t in &pmod.trained {
+            let nf = pmod.normal_form_at_with(t.dt_ms, Interp::Spline).unwrap();
+            for (u, v) in nf.amp.iter().flatten().zip(t.normal_form.amp.iter().flatten()) {
+                assert!((u - v).abs() <= 1e-12 * v.abs().max(1.0), "dt {}: {u} vs {v}", t.dt_ms);
+            }
+            // linear rates of the shared normal form = ln|mu|/dt of the map
+            let r = t.normal_form.linear_rates();
+            let node = pm.nodes.iter().find(|n| n.dt_ms == t.dt_ms).unwrap();
+            assert!((r[0] - node.rates[0]).abs() < 1e-9 && (r[1] - node.rates[1]).abs() < 1e-9, "{r:?} vs {:?}", node.rates);
+        }
+        assert_eq!(pmod.normal_form_at_with(30.8, Interp::Linear).unwrap().amp, pmod.normal_form_at(30.8).unwrap().amp);
+        // 4. Predictions at the six unseen periods, both interpolants: full horizon, no
+        //    blow-up, finite metrics. At 30.8 ms (linear) the measured NMTE is 9.3e-4; the
+        //    bound 3e-3 leaves room for rounding differences between platforms but fails
+        //    for a model off by a few percent in rate or amplitude over the 30 s run. As an
+        //    independent scale: predicting 0 gives NMTE = mean|theta| / max|theta| (about 0.18
+        //    here); every period must do better than a quarter of that (measured: at most 0.17).
+        let o = PredictOptions::default();
+        for interp in [Interp::Linear, Interp::Spline] {
+            let res = predictions(&pm, &o, interp).unwrap();
+            assert_eq!(res.len(), 6);
+            for r in &res {
+                let zero = r.x_true.iter().map(|v| v.abs()).sum::<f64>() / r.x_true.len() as f64 / r.x_true.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+                let peak = r.spectrum_true.amp.iter().zip(&r.spectrum_true.freq_hz).skip(1).fold((0.0, 0.0), |m, (a, f)| if *a > m.0 { (*a, *f) } else { m });
+                eprintln!(
+                    "{interp:?} dt {:5.2}: NMTE {:.4}, DTW-NMTE {:.4} (zero predictor {:.3}), {} samples, stop {:?}, cut {:?}, true peak {:.2e} rad at {:.2} Hz",
+                    r.dt_ms, r.nmte, r.dtw_nmte, zero, r.x_pred.len(), r.stop, r.test_cut, peak.0, peak.1
+                );
+                assert!(r.stop.is_none() && r.x_pred.len() == r.x_true.len(), "dt {}: {:?}", r.dt_ms, r.stop);
+                assert!(r.t.last().unwrap() - r.t[0] > 20.0, "dt {}: horizon", r.dt_ms);
+                assert!(r.nmte.is_finite() && r.dtw_nmte.is_finite());
+                assert!(r.nmte < 0.25 * zero, "dt {}: NMTE {} vs zero predictor {}", r.dt_ms, r.nmte, zero);
+                if r.dt_ms == 30.8 && interp == Interp::Linear {
+                    assert!(r.nmte < 3e-3, "30.8 ms NMTE {}", r.nmte);
+                }
+                // Measured (training runs cut at 0.2 rad): linear 0.0005 / 0.0007 / 0.0010 /
+                // 0.0012 / 0.0008 / 0.0010 at 30.8 / 31.2 / 31.8 / 32.2 / 31.42 / 31.65 ms,
+                // spline within 0.0002 of those (with the 0.3 rad cut: up to 0.045).
+                assert!(r.nmte < 0.005, "dt {}: NMTE {}", r.dt_ms, r.nmte);
+            }
+        }
+    }
+
+}

@@ -1,0 +1,75 @@
+//! Scene-level linear stability: builds the plant a scene names, linearizes it at the upright
+//! equilibrium (exact dual-number Jacobian) and hands it to `linear` / `chart`. Quantization
+//! and saturation are nonlinear effects and do not enter the linearization; integral action,
+//! the delay and the sampling period do.
+
+use crate::chart::{Chart, ChartError, plant_chart};
+use crate::linear::{LinearError, LinearPlant, Multiplier};
+use crate::plant::{Plant, linearize};
+use crate::scene::Scene;
+use crate::closed_loop::{AnyPlant, SimError, build_plant};
+
+#[derive(Debug, thiserror::Error)]
+pub enum StabilityError {
+    #[error(transparent)]
+    Sim(#[from] SimError),
+    #[error("scene {scene}: {source}")]
+    Linear { scene: String, source: LinearError },
+    #[error("scene {scene}: chart: {source}")]
+    Chart { scene: String, source: ChartError },
+}
+
+fn lin<P: Plant<N>, const N: usize>(p: &P) -> Result<LinearPlant, LinearError> {
+    let (a, b) = linearize(p);
+    LinearPlant::new(&a, &b, P::PRIMARY, P::SECONDARY)
+}
+
+/// The continuous linearization of the scene's plant at the origin.
+pub fn linear_plant(scene: &Scene) -> Result<LinearPlant, StabilityError> {
+    let le = |source| StabilityError::Linear { scene: scene.name.clone(), source };
+    match build_plant(scene)? {
+        AnyPlant::Furuta(p) => lin(&p).map_err(le),
+        AnyPlant::Cart(p) => lin(&p).map_err(le),
+    }
+}
+
+/// Every closed-loop multiplier (structural 1 included), largest modulus first.
+pub fn scene_multipliers(scene: &Scene) -> Result<Vec<Multiplier>, StabilityError> {
+    let le = |source| StabilityError::Linear { scene: scene.name.clone(), source };
+    linear_plant(scene)?.closed_loop(&scene.controller_config()).map_err(le)?.multipliers().map_err(le)
+}
+
+/// The non-structural multipliers with one entry per complex-conjugate pair (the one with
+/// im >= 0), largest modulus first.
+pub fn dominant_pairs(scene: &Scene) -> Result<Vec<Multiplier>, StabilityError> {
+    let le = |source| StabilityError::Linear { scene: scene.name.clone(), source };
+    let all = linear_plant(scene)?.closed_loop(&scene.controller_config()).map_err(le)?.dominant_multipliers().map_err(le)?;
+    Ok(all.into_iter().filter(|m| m.im >= 0.0).collect())
+}
+
+/// The (KP, KD) stability chart of the scene's plant for several sampling periods (ms, as
+/// on the command line), and the wall time of its computation in seconds.
+pub fn scene_chart(
+    scene: &Scene,
+    dts_ms: &[f64],
+    kp: (f64, f64, usize),
+    kd: (f64, f64, usize),
+) -> Result<(Chart, f64), StabilityError> {
+    let ce = |source| StabilityError::Chart { scene: scene.name.clone(), source };
+    let dts: Vec<f64> = dts_ms.iter().map(|d| d * 1e-3).collect();
+    let cfg = scene.controller_config();
+    fn go<P: Plant<N>, const N: usize>(
+        p: &P,
+        cfg: &shared::ControllerConfig,
+        dts: &[f64],
+        kp: (f64, f64, usize),
+        kd: (f64, f64, usize),
+    ) -> Result<(Chart, f64), ChartError> {
+        let (a, b) = linearize(p);
+        plant_chart(&a, &b, P::PRIMARY, P::SECONDARY, cfg, dts, kp, kd)
+    }
+    match build_plant(scene)? {
+        AnyPlant::Furuta(p) => go(&p, &cfg, &dts, kp, kd).map_err(ce),
+        AnyPlant::Cart(p) => go(&p, &cfg, &dts, kp, kd).map_err(ce),
+    }
+}

@@ -1,0 +1,132 @@
+//! Export of a fitted SSM-RBF model to the device blob (`shared::model`), and the check that
+//! the device's f32 predictor code reproduces the host's f64 model.
+//!
+//! Conventions bridged here (both sides documented in their modules): the fitter evaluates
+//! monomials and the RBF kernel on scaled reduced coordinates; the blob holds everything in
+//! unscaled `eta = V1^T y`. The RBF fit uses one common scale `s` for all coordinates, so
+//! `||eta/s - c|| = ||eta - s c|| / s` and the conversion is exact (up to f32 rounding).
+//! Monomial orders agree (graded, exponent vectors descending lexicographically); the
+//! conversion checks this rather than assuming it.
+
+use crate::{ReducedDynamics, SsmModel};
+use shared::ControllerConfig;
+use shared::model::OwnedModel;
+
+#[derive(Debug, thiserror::Error)]
+pub enum ExportError {
+    #[error("only RBF reduced dynamics can be exported to the device (this model has {0} dynamics); fit with --dynamics rbf")]
+    NotRbf(&'static str),
+    #[error("the RBF scale is not common to all coordinates ({0:?}); refit with this version")]
+    NonUniformScale(Vec<f64>),
+    #[error("lift monomial {0:?} is not in the device's graded order for d = {1}, order {2}")]
+    Monomial(Vec<u32>, usize, usize),
+    #[error("value {what} = {value} does not fit in f32")]
+    F32 { what: &'static str, value: f64 },
+    #[error("encoding: {0}")]
+    Encode(String),
+}
+
+/// Exponent vectors of degrees 2..=order in the device's graded order.
+fn device_exponents(d: usize, order: usize) -> Vec<Vec<u32>> {
+    let mut out = Vec::new();
+    for deg in 2..=order as u32 {
+        let mut v: Vec<Vec<u32>> = Vec::new();
+        fn rec(d: usize, left: u32, cur: &mut Vec<u32>, v: &mut Vec<Vec<u32>>) {
+            if cur.len() == d - 1 {
+                cur.push(left);
+                v.push(cur.clone());
+                cur.pop();
+                return;
+            }
+            for e in (0..=left).rev() {
+                cur.push(e);
+                rec(d, left - e, cur, v);
+                cur.pop();
+            }
+        }
+        rec(d, deg, &mut Vec::new(), &mut v);
+        out.extend(v);
+    }
+    out
+}
+
+fn f32_of(what: &'static str, value: f64) -> Result<f32, ExportError> {
+    let v = value as f32;
+    if v.is_finite() { Ok(v) } else { Err(ExportError::F32 { what, value }) }
+}
+
+/// Converts a fitted RBF model to the device model for controller configuration `cfg`.
+pub fn to_device_model(m: &SsmModel, cfg: ControllerConfig) -> Result<OwnedModel, ExportError> {
+    let rbf = match &m.dynamics {
+        ReducedDynamics::Rbf(r) => r,
+        ReducedDynamics::Flow { .. } => return Err(ExportError::NotRbf("flow")),
+        ReducedDynamics::Map { .. } => return Err(ExportError::NotRbf("polynomial map")),
+    };
+    let man = &m.manifold;
+    let (p, d, k) = (man.p, man.dim, rbf.n_centers());
+    let s = rbf.scale.first().copied().unwrap_or(1.0);
+    if rbf.scale.iter().any(|v| (v - s).abs() > 1e-15 * s.abs()) {
+        return Err(ExportError::NonUniformScale(rbf.scale.clone()));
+    }
+    let mut v1 = Vec::with_capacity(p * d);
+    for i in 0..p {
+        for j in 0..d {
+            v1.push(f32_of("v1", man.v1[j * p + i])?);
+        }
+    }
+    let order = man.nonlinear.as_ref().map_or(1, |poly| poly.exps.iter().map(|e| e.iter().sum::<u32>()).max().unwrap_or(1) as usize);
+    let exps = device_exponents(d, order);
+    let mut lift = vec![0.0f32; p * exps.len()];
+    if let Some(poly) = &man.nonlinear {
+        for (kk, e) in poly.exps.iter().enumerate() {
+            let col = exps.iter().position(|x| x == e).ok_or_else(|| ExportError::Monomial(e.clone(), d, order))?;
+            // monomial of eta/s_m = monomial(eta) / prod s_m^e
+            let div: f64 = e.iter().zip(&poly.scale).map(|(&ej, sj)| sj.powi(ej as i32)).product();
+            for i in 0..p {
+                lift[i * exps.len() + col] = f32_of("lift", poly.coef[kk * p + i] / div)?;
+            }
+        }
+    }
+    let mut centres = Vec::with_capacity(k * d);
+    for c in &rbf.centers {
+        centres.push(f32_of("centre", c * s)?);
+    }
+    let mut weights = Vec::with_capacity(k * d);
+    for i in 0..k {
+        for j in 0..d {
+            weights.push(f32_of("weight", rbf.coef[i * d + j] / s)?);
+        }
+    }
+    let mut affine = Vec::with_capacity(d * (d + 1));
+    for j in 0..d {
+        for l in 0..d {
+            let id = if j == l { 1.0 } else { 0.0 };
+            affine.push(f32_of("affine", id + rbf.coef[(k + l) * d + j] / s)?);
+        }
+        affine.push(f32_of("affine bias", rbf.coef[(k + d) * d + j])?);
+    }
+    Ok(OwnedModel {
+        config: cfg,
+        p,
+        shift: m.options.shift,
+        sample_period: f32_of("sample_period", rbf.dt)?,
+        offset: 0.0,
+        scale: 1.0,
+        d,
+        lift_order: order,
+        k,
+        v1,
+        lift,
+        centres,
+        weights,
+        affine,
+    })
+}
+
+/// Encodes the device blob.
+pub fn encode(model: &OwnedModel) -> Result<Vec<u8>, ExportError> {
+    model.encode().map_err(|e| ExportError::Encode(format!("{e:?}")))
+}
+
+#[cfg(test)]
+mod tests;

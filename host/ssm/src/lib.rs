@@ -1,0 +1,41 @@
+//! Data-driven spectral submanifold (SSM) models from scalar time series: the SSMLearn
+//! algorithm (paper appendix A) in our own code.
+//!
+//! Pipeline: [`data`] (CSV loading, validation) -> [`embed`] (delay embedding) ->
+//! [`manifold`] (tangent space by SVD, constrained graph-style polynomial parametrization)
+//! -> [`dynamics`] (polynomial flow / polynomial map / linear-kernel RBF map) -> [`fit`]
+//! (options, fitted model, prediction with blow-up detection); [`metrics`] holds NMTE,
+//! DTW-aligned NMTE and FFT amplitude spectra; [`spectrum`] sliding two-tone amplitudes and
+//! interpolated spectral peaks. Linear least squares go through [`ridge`]. On top of a fit:
+//! [`normal_form`] (polar normal forms of flows and maps), [`portrait`] (analysis of the
+//! two-mode amplitude equations: fixed points, saddle manifolds, heteroclinic and torus-Hopf
+//! detection), [`interp`] (coefficients interpolated in a system parameter) and [`device`]
+//! (a fitted RBF model converted to the device's `shared::model` blob).
+//!
+//! Architecture invariant: this crate knows no plant, no scene and no simulator (it does not
+//! depend on `sim`), and draws nothing; its only workspace dependency is `shared`, for the
+//! device model format.
+
+pub mod data;
+pub mod dynamics;
+pub mod device;
+pub mod embed;
+pub mod error;
+pub mod fit;
+pub mod interp;
+pub mod manifold;
+pub mod metrics;
+pub mod normal_form;
+pub mod poly;
+pub mod portrait;
+pub mod ridge;
+pub mod spectrum;
+
+pub use data::{DataError, TimeSeries, load_csv, load_csv_column};
+pub use dynamics::{Dynamics, ReducedDynamics};
+pub use error::FitError;
+pub use fit::{FitOptions, Prediction, SsmModel, Stop, StopReason, fit};
+pub use ridge::{Conditioning, Ridge};
+
+#[cfg(test)]
+mod tests;

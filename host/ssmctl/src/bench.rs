@@ -1,0 +1,215 @@
+//! What accuracy costs in time: sampling periods simulated per second against the max theta
+//! error versus a tight reference, for the project's integrator at several accuracies and a
+//! plain RK4 baseline, all measured in the same run. Ratios are against that baseline.
+
+use sim::scene::{IntegratorSpec, MethodKind, Scene};
+use sim::closed_loop::{SimError, Trajectory, simulate};
+use serde::Serialize;
+use std::time::Instant;
+
+/// One row of the table.
+#[derive(Clone, Debug, Serialize)]
+pub struct BenchRow {
+    pub method: String,
+    pub periods_per_s: f64,
+    pub max_err_rad: f64,
+    /// periods_per_s divided by the baseline's (RK4 at its stable step), same run.
+    pub ratio_vs_baseline: f64,
+    /// Integrator steps per sampling period (accepted + rejected).
+    pub steps_per_period: f64,
+}
+
+/// The benchmark problem: `furuta-dt30.8`, 200 periods from theta0 = 0.05 rad, the rest at rest.
+pub fn problem(periods: u64) -> Result<Scene, SimError> {
+    Ok(Scene::load(
+        "furuta-dt30.8",
+        &[format!("run.periods={periods}"), "initial.state=[0.05, 0.0, 0.0, 0.0]".into(), "run.tasks=[\"simulate\"]".into()],
+    )?)
+}
+
+fn with(scene: &Scene, method: MethodKind, rtol: Option<f64>, steps: Option<u32>) -> Scene {
+    let mut s = scene.clone();
+    s.integrator = IntegratorSpec { method, rtol, atol: rtol.map(|r| r * 1e-2), steps };
+    s
+}
+
+fn label(s: &Scene) -> String {
+    let i = &s.integrator;
+    match i.method {
+        MethodKind::Rodas => format!("rodas4 rtol={:e}", i.rtol.unwrap_or_default()),
+        MethodKind::RodasFixed => format!("rodas4 fixed {} steps/period", i.steps.unwrap_or_default()),
+        MethodKind::Rk4 => format!("rk4 {} steps/period", i.steps.unwrap_or_default()),
+        MethodKind::Exprb => format!("exprb43 rtol={:e}", i.rtol.unwrap_or_default()),
+        MethodKind::ExprbFixed => format!("exprb43 fixed {} steps/period", i.steps.unwrap_or_default()),
+    }
+}
+
+fn max_err(a: &Trajectory, b: &Trajectory) -> f64 {
+    if a.rows() != b.rows() {
+        return f64::INFINITY;
+    }
+    a.primary().iter().zip(b.primary()).map(|(x, y)| (x - y).abs()).fold(0.0, f64::max)
+}
+
+/// Times one configuration: repeats until `min_seconds` of wall time (at least 3 runs) and
+/// keeps the fastest run, which is the least disturbed by the rest of the machine.
+fn time(scene: &Scene, min_seconds: f64) -> Result<(f64, Trajectory), SimError> {
+    let mut best = f64::INFINITY;
+    let mut runs = 0;
+    let start = Instant::now();
+    let mut last = None;
+    while runs < 3 || start.elapsed().as_secs_f64() < min_seconds {
+        let t0 = Instant::now();
+        let tr = simulate(scene, None)?;
+        best = best.min(t0.elapsed().as_secs_f64());
+        last = Some(tr);
+        runs += 1;
+    }
+    // `last` is set: the loop runs at least three times.
+    Ok((best, last.ok_or_else(|| SimError::Controller { scene: scene.name.clone(), message: "no run".into() })?))
+}
+
+/// Runs the table. `quick` uses fewer configurations and shorter timing windows (tests).
+pub fn bench_simulate(periods: u64, quick: bool, mut progress: impl FnMut(&str)) -> Result<(Vec<BenchRow>, String), SimError> {
+    let base = problem(periods)?;
+    progress("reference: rodas4 rtol=1e-13");
+    let reference = simulate(&with(&base, MethodKind::Rodas, Some(1e-13), None), None)?;
+    let mut configs = vec![with(&base, MethodKind::Rk4, None, Some(175))];
+    let rtols: &[f64] = if quick { &[1e-8, 1e-11] } else { &[1e-6, 1e-8, 1e-9, 1e-10, 1e-11, 1e-12] };
+    configs.extend(rtols.iter().map(|&r| with(&base, MethodKind::Rodas, Some(r), None)));
+    let fixed: &[u32] = if quick { &[8] } else { &[2, 4, 8, 16, 32] };
+    configs.extend(fixed.iter().map(|&n| with(&base, MethodKind::RodasFixed, None, Some(n))));
+    let ex: &[f64] = if quick { &[1e-8] } else { &[1e-7, 1e-8, 1e-9, 1e-10] };
+    configs.extend(ex.iter().map(|&r| with(&base, MethodKind::Exprb, Some(r), None)));
+    let rk: &[u32] = if quick { &[] } else { &[350, 700, 1400] };
+    configs.extend(rk.iter().map(|&n| with(&base, MethodKind::Rk4, None, Some(n))));
+    let window = if quick { 0.02 } else { 0.5 };
+    let mut rows = Vec::new();
+    for c in &configs {
+        let name = label(c);
+        progress(&name);
+        let (secs, tr) = time(c, window)?;
+        let n = (tr.rows() - 1) as f64;
+        let st = tr.ode_stats;
+        rows.push(BenchRow {
+            method: name,
+            periods_per_s: n / secs,
+            max_err_rad: max_err(&tr, &reference),
+            ratio_vs_baseline: 0.0,
+            steps_per_period: (st.steps + st.rejected) as f64 / n,
+        });
+    }
+    let baseline = rows.first().map_or(1.0, |r| r.periods_per_s);
+    for r in &mut rows {
+        r.ratio_vs_baseline = r.periods_per_s / baseline;
+    }
+    Ok((rows, label(&configs[0])))
+}
+
+// ------------------------------------------------------------------------ fitting cost
+
+/// One row of the fitting cost table (second table): one setting varied from the
+/// recommended sloshing fit, which is the baseline.
+#[derive(Clone, Debug, Serialize)]
+pub struct FitBenchRow {
+    pub setting: String,
+    /// Best-of-repeats wall time of one fit, ms.
+    pub fit_ms: f64,
+    /// `fit_ms` over the baseline's, same run.
+    pub ratio_vs_baseline: f64,
+    pub nmte_test: f64,
+    pub dtw_nmte_test: f64,
+    /// Why the test prediction stopped early, if it did.
+    pub stopped: Option<String>,
+}
+
+/// The recommended 2D sloshing fit (p = 5, shift 1, manifold order 3, polynomial map of
+/// order 5, no ridge): the baseline of [`bench_fit`].
+pub fn sloshing_fit_options() -> ssm::FitOptions {
+    fit_opts(5, 3, 5, ssm::Dynamics::Map)
+}
+
+fn fit_opts(p: usize, k: u32, r: u32, dynamics: ssm::Dynamics) -> ssm::FitOptions {
+    ssm::FitOptions { dim: 2, embed: p, shift: 1, manifold_order: k, dyn_order: r, dynamics, ridge: ssm::Ridge::Fixed(0.0), linear_anchor: None }
+}
+
+/// Best-of-`reps` fit time (s) and the last model.
+pub fn timed_fit(
+    train: &[ssm::TimeSeries],
+    o: &ssm::FitOptions,
+    reps: usize,
+) -> Result<(f64, ssm::SsmModel), ssm::FitError> {
+    let mut best = f64::INFINITY;
+    let mut model = None;
+    for _ in 0..reps.max(1) {
+        let t0 = Instant::now();
+        let m = ssm::fit(train, o)?;
+        best = best.min(t0.elapsed().as_secs_f64());
+        model = Some(m);
+    }
+    Ok((best, model.ok_or(ssm::FitError::NoTrainingData)?))
+}
+
+/// Fit time against test error: manifold order, map order, embedding dimension, number of
+/// training samples, flow vs map, RBF centres, each varied alone from
+/// [`sloshing_fit_options`] (first row, the baseline). `train` are the training series, `test`
+/// the held-out one. Returns the rows and the 50-centre RBF model (exported by the report).
+pub fn bench_fit(
+    train: &[ssm::TimeSeries],
+    test: &ssm::TimeSeries,
+    quick: bool,
+    mut progress: impl FnMut(&str),
+) -> Result<(Vec<FitBenchRow>, Option<ssm::SsmModel>), ssm::FitError> {
+    use ssm::{Dynamics, TimeSeries};
+    let mut configs: Vec<(String, ssm::FitOptions, f64)> =
+        vec![("baseline: p = 5, manifold 3, map 5".into(), sloshing_fit_options(), 1.0)];
+    for k in [1, 5, 7] {
+        configs.push((format!("manifold order {k}"), fit_opts(5, k, 5, Dynamics::Map), 1.0));
+    }
+    for r in [3, 7, 9] {
+        configs.push((format!("map order {r}"), fit_opts(5, 3, r, Dynamics::Map), 1.0));
+    }
+    for p in [7, 9, 13] {
+        configs.push((format!("embedding p = {p}"), fit_opts(p, 3, 5, Dynamics::Map), 1.0));
+    }
+    for frac in [0.25, 0.5] {
+        configs.push((format!("{:.0} % of training samples", frac * 100.0), sloshing_fit_options(), frac));
+    }
+    configs.push(("flow, order 5".into(), fit_opts(5, 3, 5, Dynamics::Flow), 1.0));
+    for a in [0.01, 0.2] {
+        // Measured data decay into sensor noise: the small-amplitude pairs are noise
+        // dominated, so anchoring the linear part there costs accuracy (the row shows how much).
+        configs.push((format!("linear part anchored within {:.0} %", a * 100.0), ssm::FitOptions { linear_anchor: Some(a), ..sloshing_fit_options() }, 1.0));
+    }
+    for c in [25, 50, 100] {
+        configs.push((format!("RBF map, {c} centres"), fit_opts(5, 3, 1, Dynamics::Rbf { centers: c }), 1.0));
+    }
+    let reps = if quick { 2 } else { 10 };
+    let mut rows: Vec<FitBenchRow> = Vec::new();
+    let mut rbf50 = None;
+    for (label, o, frac) in &configs {
+        progress(label);
+        let tr: Vec<TimeSeries> = train
+            .iter()
+            .map(|s| {
+                let n = ((s.x.len() as f64) * frac) as usize;
+                TimeSeries::new(s.name.clone(), s.t[..n].to_vec(), s.x[..n].to_vec())
+            })
+            .collect::<Result<_, _>>()?;
+        let (secs, m) = timed_fit(&tr, o, reps)?;
+        let p = m.predict(test)?;
+        let base = rows.first().map_or(secs * 1e3, |b| b.fit_ms);
+        rows.push(FitBenchRow {
+            setting: label.clone(),
+            fit_ms: secs * 1e3,
+            ratio_vs_baseline: secs * 1e3 / base,
+            nmte_test: p.nmte(test),
+            dtw_nmte_test: p.nmte_dtw(test, None),
+            stopped: p.stop.as_ref().map(|s| format!("{:?}", s.reason)),
+        });
+        if matches!(o.dynamics, Dynamics::Rbf { centers: 50 }) {
+            rbf50 = Some(m);
+        }
+    }
+    Ok((rows, rbf50))
+}

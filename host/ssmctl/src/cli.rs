@@ -1,0 +1,530 @@
+//! The `ssmctl` command line: argument parsing and output formatting only; the work is in
+//! the library modules.
+
+use sim::scene::{BUNDLED, Scene};
+use crate::bench;
+use crate::report::reproduce;
+use sim::closed_loop;
+use sim::stability;
+use clap::{Args, Parser, Subcommand};
+use indicatif::{ProgressBar, ProgressStyle};
+use std::io::Write as _;
+use std::path::PathBuf;
+
+/// Prints a line to stdout; a closed pipe (e.g. `| head`) ends output quietly, other write
+/// errors are returned.
+macro_rules! outln {
+    ($($arg:tt)*) => {{
+        let mut o = std::io::stdout().lock();
+        match writeln!(o, $($arg)*) {
+            Err(e) if e.kind() == std::io::ErrorKind::BrokenPipe => return Ok(()),
+            r => r?,
+        }
+    }};
+}
+
+#[derive(Parser)]
+#[command(name = "ssmctl", version, about = "Simulate, analyse and reduce a mechanical system under delayed, sampled, quantized PD control")]
+pub struct Cli {
+    /// No progress bars.
+    #[arg(long, global = true)]
+    pub quiet: bool,
+    #[command(subcommand)]
+    pub cmd: Cmd,
+}
+
+#[derive(Args, Clone)]
+pub struct SceneArgs {
+    /// A bundled scene name (see `ssmctl scenes`) or a scene TOML file.
+    #[arg(long)]
+    pub scene: String,
+    /// Override any scene field: `--set path.to.field=value` (repeatable).
+    #[arg(long = "set", value_name = "PATH=VALUE")]
+    pub set: Vec<String>,
+}
+
+impl SceneArgs {
+    fn load(&self) -> Result<Scene, sim::scene::SceneError> {
+        Scene::load(&self.scene, &self.set)
+    }
+}
+
+#[derive(Subcommand)]
+pub enum Cmd {
+    /// List the bundled scenes.
+    Scenes {
+        #[arg(long)]
+        json: bool,
+    },
+    /// Simulate a scene's closed loop; writes DIR/<scene>.csv and DIR/<scene>.json.
+    Simulate {
+        #[command(flatten)]
+        scene: SceneArgs,
+        #[arg(long)]
+        out: PathBuf,
+    },
+    /// Exact closed-loop multipliers of the linearized sampled-data loop.
+    Stability {
+        #[command(flatten)]
+        scene: SceneArgs,
+        /// Print JSON `{"multipliers": [...]}` sorted by modulus, largest first.
+        #[arg(long)]
+        json: bool,
+    },
+    /// Stability chart over a (KP, KD) grid for several sampling periods, as a PNG.
+    StabilityChart {
+        #[command(flatten)]
+        scene: SceneArgs,
+        /// Output PNG.
+        #[arg(long)]
+        out: PathBuf,
+        /// Sampling periods in ms, comma separated.
+        #[arg(long, value_delimiter = ',', default_value = "20,25,30.8")]
+        dt_ms: Vec<f64>,
+        /// KP range and points, `min:max:n`.
+        #[arg(long, default_value = "0:40:161")]
+        kp: String,
+        /// KD range and points, `min:max:n`.
+        #[arg(long, default_value = "0:8:161")]
+        kd: String,
+    },
+    /// Run everything on the bundled scenes; writes DIR/index.html and DIR/summary.json.
+    Reproduce {
+        #[arg(long)]
+        out: PathBuf,
+        /// Shorter runs and timing windows (smoke test).
+        #[arg(long)]
+        quick: bool,
+        /// Folder of the measured reference data sets (sections skip, saying so, when absent).
+        #[arg(long, default_value = "../shared/data")]
+        data_dir: PathBuf,
+    },
+    /// Fit an SSM reduced model to scalar time series (CSV files of t, observable).
+    Fit(FitArgs),
+    /// Convert a fitted RBF model (JSON from `fit --save`) to the device blob.
+    Export {
+        /// Fitted model JSON written by `ssmctl fit --save`.
+        #[arg(long)]
+        model: PathBuf,
+        /// Output blob.
+        #[arg(long)]
+        out: PathBuf,
+        /// Scene whose controller configuration the blob carries (default: the paper's gains
+        /// at the model's sampling period).
+        #[arg(long)]
+        scene: Option<String>,
+    },
+    /// Print a device blob's header and shapes.
+    Inspect {
+        blob: PathBuf,
+        #[arg(long)]
+        json: bool,
+    },
+    /// Chaotic statistics of scalar series vs SSM models: correlation dimension, SSM
+    /// dimension, Lyapunov exponents, PDF divergences.
+    Chaos {
+        /// Training CSV files, comma separated (the longest is the reference data).
+        #[arg(long, value_delimiter = ',', required = true)]
+        data: Vec<PathBuf>,
+        /// The observable's column in wider CSV files (the first column is the time).
+        #[arg(long)]
+        column: Option<String>,
+        /// Embedding dimension of the estimators.
+        #[arg(long, default_value_t = 6)]
+        gp_embed: usize,
+        /// SSM dimension (default: smallest even integer above the correlation dimension).
+        #[arg(long)]
+        ssm_dim: Option<usize>,
+        /// RBF centres.
+        #[arg(long, default_value_t = 500)]
+        centers: usize,
+        /// Polynomial map order.
+        #[arg(long, default_value_t = 4)]
+        poly_order: u32,
+        /// SSM delay-embedding shift in samples (default: the embedding window spans a quarter
+        /// of the dominant period).
+        #[arg(long)]
+        shift: Option<usize>,
+        /// Relative ridge parameter of the SSM regressions.
+        #[arg(long, default_value_t = 1e-8)]
+        ridge: f64,
+        #[arg(long)]
+        json: bool,
+    },
+    /// Benchmarks.
+    Bench {
+        #[command(subcommand)]
+        what: BenchCmd,
+    },
+    /// Processor-in-the-loop: the scene's plant simulated here, the integer controller and
+    /// the predictor on the Cortex-M4F under QEMU over UART0; writes DIR/pil.csv,
+    /// DIR/summary.json and the recorded data set DIR/theta.csv (`t_s,theta_meas_rad`: the
+    /// measured angle, noise then encoder quantization) and DIR/record.csv (t, true theta and
+    /// phi, measured theta, code, prediction). `cargo xtask pil` builds the firmware, fits a
+    /// model and runs this; `cargo xtask pil-record` records several runs.
+    Pil {
+        #[command(flatten)]
+        scene: SceneArgs,
+        /// Device model blob (its controller configuration must equal the scene's).
+        #[arg(long)]
+        model: PathBuf,
+        /// Fit a 4D RBF model of the scene first and write it to --model.
+        #[arg(long)]
+        fit_model: bool,
+        #[arg(long, default_value_t = 2000)]
+        periods: u64,
+        #[arg(long)]
+        out: PathBuf,
+        /// The firmware's PIL binary.
+        #[arg(long, default_value = "qemu/target/thumbv7em-none-eabihf/release/pil")]
+        elf: PathBuf,
+        /// Per-reply timeout, seconds.
+        #[arg(long, default_value_t = 5.0)]
+        timeout: f64,
+        #[arg(long)]
+        json: bool,
+    },
+}
+
+#[derive(Args)]
+pub struct FitArgs {
+    /// Training CSV files, comma separated.
+    #[arg(long, value_delimiter = ',', required = true)]
+    pub data: Vec<PathBuf>,
+    /// Test CSV files, comma separated.
+    #[arg(long, value_delimiter = ',')]
+    pub test: Vec<PathBuf>,
+    /// The observable's column in wider CSV files (e.g. `theta` of `ssmctl simulate`'s
+    /// output; the first column is the time). Without it files must have two columns.
+    #[arg(long)]
+    pub column: Option<String>,
+    /// SSM dimension d.
+    #[arg(long)]
+    pub dim: usize,
+    /// Delay-embedding dimension p (> 2d).
+    #[arg(long)]
+    pub embed: usize,
+    /// Delay between embedding components, in samples.
+    #[arg(long, default_value_t = 1)]
+    pub shift: usize,
+    /// Polynomial order of the manifold parametrization.
+    #[arg(long, default_value_t = 3)]
+    pub order: u32,
+    /// Polynomial order of the reduced dynamics (flow, map).
+    #[arg(long, default_value_t = 5)]
+    pub dyn_order: u32,
+    /// flow | map | rbf
+    #[arg(long, default_value = "map")]
+    pub dynamics: String,
+    /// Number of RBF centres.
+    #[arg(long, default_value_t = 100)]
+    pub centers: usize,
+    /// Ridge alpha (relative to the largest squared singular value), or `cv`.
+    #[arg(long, default_value = "0")]
+    pub ridge: String,
+    /// Fit the linear part of flow/map dynamics to the points within this fraction of the
+    /// largest |eta| only (then the higher orders to all): exact rates near the fixed
+    /// point when the data also reach large amplitudes. E.g. 0.01. Needs clean data near
+    /// the fixed point: noise-dominated small amplitudes make it worse (see bench fit).
+    #[arg(long)]
+    pub linear_anchor: Option<f64>,
+    /// Print JSON.
+    #[arg(long)]
+    pub json: bool,
+    /// Add the extended normal form in polar coordinates (polynomial flow or map dynamics).
+    #[arg(long)]
+    pub normal_form: bool,
+    /// Save the fitted model as JSON (input of `export`).
+    #[arg(long)]
+    pub save: Option<PathBuf>,
+}
+
+#[derive(Subcommand)]
+pub enum BenchCmd {
+    /// Periods simulated per second vs max theta error against a tight reference.
+    Simulate {
+        #[arg(long)]
+        json: bool,
+        #[arg(long, default_value_t = 200)]
+        periods: u64,
+        #[arg(long)]
+        quick: bool,
+    },
+    /// Fit time vs test error on the sloshing data (train decay_0, decay_1; test decay_2),
+    /// one setting varied at a time; ratios against the recommended fit in the same run.
+    Fit {
+        #[arg(long)]
+        json: bool,
+        /// Folder holding `sloshing/decay_{0,1,2}.csv`.
+        #[arg(long, default_value = "../shared/data")]
+        data_dir: PathBuf,
+        #[arg(long)]
+        quick: bool,
+    },
+}
+
+/// Runs `f` with a spinner showing the progress messages `f` reports (none when `quiet`).
+fn with_spinner<T>(quiet: bool, msg: &str, f: impl FnOnce(&mut dyn FnMut(&str)) -> T) -> T {
+    let pb = spinner(quiet, None, msg);
+    let mut report = |m: &str| {
+        if let Some(pb) = &pb {
+            pb.set_message(m.to_string());
+            pb.tick();
+        }
+    };
+    let out = f(&mut report);
+    if let Some(pb) = pb {
+        pb.finish_and_clear();
+    }
+    out
+}
+
+fn spinner(quiet: bool, len: Option<u64>, msg: &str) -> Option<ProgressBar> {
+    if quiet {
+        return None;
+    }
+    let pb = match len {
+        Some(n) => ProgressBar::new(n).with_style(
+            ProgressStyle::with_template("{msg} [{bar:40}] {pos}/{len} ({per_sec}, eta {eta})")
+                .unwrap_or_else(|_| ProgressStyle::default_bar()),
+        ),
+        None => ProgressBar::new_spinner(),
+    };
+    pb.set_message(msg.to_string());
+    Some(pb)
+}
+
+/// Parses `min:max:n`.
+pub fn parse_range(s: &str, what: &str) -> Result<(f64, f64, usize), String> {
+    let parts: Vec<&str> = s.split(':').collect();
+    let bad = || format!("--{what} `{s}`: expected min:max:n with min < max and n >= 2");
+    if parts.len() != 3 {
+        return Err(bad());
+    }
+    let lo: f64 = parts[0].trim().parse().map_err(|_| bad())?;
+    let hi: f64 = parts[1].trim().parse().map_err(|_| bad())?;
+    let n: usize = parts[2].trim().parse().map_err(|_| bad())?;
+    if !(lo.is_finite() && hi.is_finite() && lo < hi && n >= 2) {
+        return Err(bad());
+    }
+    Ok((lo, hi, n))
+}
+
+/// Runs the CLI; the error is printed by `main`.
+pub fn run(cli: Cli) -> Result<(), Box<dyn std::error::Error>> {
+    let quiet = cli.quiet;
+    match cli.cmd {
+        Cmd::Scenes { json } => {
+            let mut list = Vec::new();
+            for (name, text) in BUNDLED {
+                let s = Scene::parse(name, text, &[])?;
+                list.push(serde_json::json!({"name": name, "description": s.description, "effects": s.effect_names()}));
+                if !json {
+                    outln!("{name:<22} {}", s.description);
+                }
+            }
+            if json {
+                outln!("{}", serde_json::to_string_pretty(&list)?);
+            }
+        }
+        Cmd::Simulate { scene, out } => {
+            let s = scene.load()?;
+            if !s.wants(sim::scene::Task::Simulate) {
+                return Err(format!("scene {} asks only for {:?} (run.tasks); it runs no simulation", s.name, s.run.tasks).into());
+            }
+            let pb = spinner(quiet, Some(s.run.periods), &s.name);
+            let report = |i: u64| {
+                if let Some(pb) = &pb {
+                    pb.set_position(i);
+                }
+            };
+            let tr = closed_loop::simulate(&s, Some(&report))?;
+            if let Some(pb) = pb {
+                pb.finish_and_clear();
+            }
+            let csv = closed_loop::write_outputs(&s, &tr, &out)?;
+            eprintln!(
+                "{}: {} periods in {:.3} s ({}){}; wrote {}",
+                s.name,
+                tr.rows() - 1,
+                tr.wall_seconds,
+                tr.integrator,
+                tr.stopped.as_deref().map(|r| format!(", stopped: {r}")).unwrap_or_default(),
+                csv.display()
+            );
+        }
+        Cmd::Stability { scene, json } => {
+            let s = scene.load()?;
+            let m = stability::scene_multipliers(&s)?;
+            if json {
+                outln!("{}", serde_json::to_string(&serde_json::json!({ "multipliers": m }))?);
+            } else {
+                outln!("{:>12} {:>12} {:>10} {:>10} {:>12}", "re", "im", "|mu|", "f [Hz]", "rate [1/s]");
+                for x in &m {
+                    outln!("{:>12.6} {:>12.6} {:>10.6} {:>10.4} {:>12.5}", x.re, x.im, x.abs, x.freq_hz, x.rate);
+                }
+            }
+        }
+        Cmd::StabilityChart { scene, out, dt_ms, kp, kd } => {
+            let s = scene.load()?;
+            let kp = parse_range(&kp, "kp")?;
+            let kd = parse_range(&kd, "kd")?;
+            let summary = crate::draw::chart::chart_for_scene(&s, &out, &dt_ms, kp, kd)?;
+            outln!("{}", serde_json::to_string_pretty(&summary)?);
+        }
+        Cmd::Reproduce { out, quick, data_dir } => {
+            reproduce::run(&out, &data_dir, quick, quiet)?;
+            eprintln!("wrote {}", out.join("index.html").display());
+        }
+        Cmd::Fit(a) => {
+            let r = crate::fit_command::run_fit(&crate::fit_command::FitRequest {
+                data: a.data,
+                test: a.test,
+                dim: a.dim,
+                embed: a.embed,
+                shift: a.shift,
+                order: a.order,
+                dyn_order: a.dyn_order,
+                dynamics: a.dynamics,
+                centers: a.centers,
+                ridge: a.ridge,
+                column: a.column,
+                linear_anchor: a.linear_anchor,
+                normal_form: a.normal_form,
+            })?;
+            if let Some(path) = &a.save {
+                std::fs::write(path, r.model.to_json()?)?;
+            }
+            if a.json {
+                outln!("{}", serde_json::to_string_pretty(&r.summary)?);
+            } else {
+                outln!("{}", crate::fit_command::text_summary(&r.summary));
+            }
+        }
+        Cmd::Export { model, out, scene } => {
+            let text = std::fs::read_to_string(&model).map_err(|e| format!("reading {}: {e}", model.display()))?;
+            let m: ssm::SsmModel =
+                serde_json::from_str(&text).map_err(|e| format!("{}: not a fitted model JSON: {e}", model.display()))?;
+            let cfg = match scene {
+                Some(s) => Scene::load(&s, &[])?.controller_config(),
+                None => shared::ControllerConfig::paper(m.dt),
+            };
+            let owned = ssm::device::to_device_model(&m, cfg)?;
+            let blob = ssm::device::encode(&owned)?;
+            std::fs::write(&out, &blob).map_err(|e| format!("writing {}: {e}", out.display()))?;
+            eprintln!("wrote {} ({} bytes): p={} d={} K={} lift order {}", out.display(), blob.len(), owned.p, owned.d, owned.k, owned.lift_order);
+        }
+        Cmd::Inspect { blob, json } => {
+            let bytes = std::fs::read(&blob).map_err(|e| format!("reading {}: {e}", blob.display()))?;
+            let v = crate::fit_command::inspect(&bytes).map_err(|e| format!("{}: {e}", blob.display()))?;
+            if json {
+                outln!("{}", serde_json::to_string_pretty(&v)?);
+            } else {
+                for (k, x) in v.as_object().into_iter().flatten() {
+                    outln!("{k:<18} {x}");
+                }
+            }
+        }
+        Cmd::Chaos { data, column, gp_embed, ssm_dim, centers, poly_order, shift, ridge, json } => {
+            let train = data.iter().map(|p| ssm::load_csv_column(p, column.as_deref())).collect::<Result<Vec<_>, _>>()?;
+            let o = furuta::microchaos::ChaosOptions { gp_embed, ssm_dim, centers, poly_order, shift, ridge, ..Default::default() };
+            let r = furuta::microchaos::analyse(&train, &o)?;
+            if json {
+                outln!("{}", serde_json::to_string_pretty(&r)?);
+            } else {
+                let opt = |v: Option<f64>| v.map_or("-".to_string(), |x| format!("{x:.4}"));
+                outln!("correlation dimension {:.3} +- {:.3} -> SSM dimension {}", r.corr_dim, r.corr_dim_err, r.ssm_dim);
+                outln!("largest Lyapunov exponent [1/s]: data {:.4}, RBF model {}, polynomial model {}", r.lle_data, opt(r.lle_model_rbf), opt(r.lle_model_poly));
+                outln!("Benettin exponent of the reduced maps [1/s]: RBF {}, polynomial {}", opt(r.lle_model_rbf_benettin), opt(r.lle_model_poly_benettin));
+                outln!("PDF Jensen-Shannon divergence [bits]: RBF {}, polynomial {}", opt(r.pdf_divergence_rbf), opt(r.pdf_divergence_poly));
+                outln!(
+                    "residual-kicked models: LLE RBF {}, polynomial {}; JS RBF {}, polynomial {}",
+                    opt(r.lle_model_rbf_kicked),
+                    opt(r.lle_model_poly_kicked),
+                    opt(r.pdf_divergence_rbf_kicked),
+                    opt(r.pdf_divergence_poly_kicked)
+                );
+                for n in &r.notes {
+                    outln!("note: {n}");
+                }
+            }
+        }
+        Cmd::Pil { scene, model, fit_model, periods, out, elf, timeout, json } => {
+            if fit_model {
+                let blob = crate::pil::fit_model(&scene.load()?)?;
+                std::fs::write(&model, &blob).map_err(|e| format!("writing {}: {e}", model.display()))?;
+                eprintln!("pil: fitted model written to {} ({} bytes)", model.display(), blob.len());
+            }
+            if !(timeout > 0.0 && timeout.is_finite()) {
+                return Err(format!("--timeout must be a positive number of seconds, got {timeout}").into());
+            }
+            let opts = crate::pil::PilOptions {
+                scene: scene.scene.clone(),
+                overrides: scene.set.clone(),
+                model,
+                periods,
+                out,
+                elf,
+                reply_timeout: std::time::Duration::from_secs_f64(timeout),
+            };
+            let s = crate::pil::run(&opts)?;
+            if json {
+                outln!("{}", serde_json::to_string_pretty(&s)?);
+            } else {
+                outln!(
+                    "pil: {} periods, codes identical: {} (to the host-only simulation: {}, max state diff {:.1e}), predictions compared: {} (bit-identical: {}, max rel diff {:.3e}), {} saturated, {:.0} round trips/s on the link, {:.0} periods/s overall{}",
+                    s.periods,
+                    if s.codes_identical { "yes" } else { "NO" },
+                    if s.host_sim_codes_identical { "yes" } else { "NO" },
+                    s.host_sim_max_state_diff,
+                    s.predictions_compared,
+                    if s.predictions_bit_identical { "yes" } else { "no" },
+                    s.max_pred_rel_diff,
+                    s.saturated_samples,
+                    s.round_trips_per_s,
+                    s.periods_per_s,
+                    s.stopped.as_ref().map_or(String::new(), |r| format!(", stopped: {r}"))
+                );
+            }
+        }
+        Cmd::Bench { what: BenchCmd::Fit { json, data_dir, quick } } => {
+            let dir = data_dir.join("sloshing");
+            let series: Vec<ssm::TimeSeries> = (0..3)
+                .map(|i| ssm::load_csv(dir.join(format!("decay_{i}.csv"))))
+                .collect::<Result<_, _>>()?;
+            let (rows, _) = with_spinner(quiet, "bench fit", |p| bench::bench_fit(&series[..2], &series[2], quick, p))?;
+            if json {
+                outln!("{}", serde_json::to_string_pretty(&rows)?);
+            } else {
+                outln!("{:<36} {:>9} {:>10} {:>10} {:>10}  stopped", "setting", "fit ms", "x baseline", "NMTE", "DTW-NMTE");
+                for r in &rows {
+                    outln!(
+                        "{:<36} {:>9.3} {:>10.2} {:>10.4} {:>10.4}  {}",
+                        r.setting,
+                        r.fit_ms,
+                        r.ratio_vs_baseline,
+                        r.nmte_test,
+                        r.dtw_nmte_test,
+                        r.stopped.as_deref().unwrap_or("-")
+                    );
+                }
+            }
+        }
+        Cmd::Bench { what: BenchCmd::Simulate { json, periods, quick } } => {
+            let (rows, baseline) = with_spinner(quiet, "bench", |p| bench::bench_simulate(periods, quick, p))?;
+            if json {
+                outln!("{}", serde_json::to_string_pretty(&rows)?);
+            } else {
+                outln!("baseline: {baseline}");
+                outln!("{:<34} {:>14} {:>12} {:>10} {:>12}", "method", "periods/s", "max err rad", "x baseline", "steps/period");
+                for r in &rows {
+                    outln!(
+                        "{:<34} {:>14.0} {:>12.2e} {:>10.2} {:>12.1}",
+                        r.method, r.periods_per_s, r.max_err_rad, r.ratio_vs_baseline, r.steps_per_period
+                    );
+                }
+            }
+        }
+    }
+    Ok(())
+}

@@ -1,0 +1,225 @@
+//! Drawing a computed [`Chart`] as a PNG with plotters (one panel per sampling period).
+
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+use plotters::prelude::*;
+use serde::Serialize;
+
+use crate::plot::{PlotError, ensure_font};
+use sim::chart::{Axis, Chart, Crossing, Panel, PanelSummary, plant_chart};
+use sim::scene::Scene;
+use sim::stability::{StabilityError, scene_chart};
+use nalgebra::{SMatrix, SVector};
+use shared::ControllerConfig;
+
+const STABLE_FILL: RGBColor = RGBColor(170, 220, 170);
+const STATIC_COLOR: RGBColor = RGBColor(30, 80, 200);
+const DYNAMIC_COLOR: RGBColor = RGBColor(210, 30, 30);
+const FLIP_COLOR: RGBColor = RGBColor(230, 140, 0);
+const PANEL_W: u32 = 620;
+const PANEL_H: u32 = 560;
+const TITLE_H: u32 = 50;
+
+fn label(kind: Crossing) -> (&'static str, RGBColor) {
+    match kind {
+        Crossing::Static => ("static boundary (real multiplier at +1)", STATIC_COLOR),
+        Crossing::Dynamic => ("dynamic boundary (complex pair on |mu| = 1)", DYNAMIC_COLOR),
+        Crossing::Flip => ("flip boundary (real multiplier at -1)", FLIP_COLOR),
+    }
+}
+
+/// Write `chart` to `out` as a PNG.
+pub fn draw_chart(out: &Path, chart: &Chart) -> Result<(), PlotError> {
+    ensure_font();
+    let err = |e: &dyn std::fmt::Display| PlotError::new(out, e);
+    let n = chart.panels.len().max(1) as u32;
+    let root = BitMapBackend::new(out, (PANEL_W * n, PANEL_H + TITLE_H)).into_drawing_area();
+    root.fill(&WHITE).map_err(|e| err(&e))?;
+    let b = &chart.base;
+    let integral = if b.ki != 0.0 { format!(", KI = {} V/(rad s)", b.ki) } else { String::new() };
+    let title = format!(
+        "Linear stability of the sampled PD loop with ZOH, delay r = {}, KphiD = {} V s/rad{integral}",
+        b.delay, b.kphi_d
+    );
+    let (top, body) = root.split_vertically(TITLE_H);
+    top.titled(&title, ("sans-serif", 24)).map_err(|e| err(&e))?;
+    for (area, panel) in body.split_evenly((1, n as usize)).iter().zip(&chart.panels) {
+        draw_panel(area, chart, panel).map_err(|e| err(&e))?;
+    }
+    root.present().map_err(|e| err(&e))?;
+    Ok(())
+}
+
+fn draw_panel<DB: DrawingBackend>(
+    area: &DrawingArea<DB, plotters::coord::Shift>,
+    chart: &Chart,
+    panel: &Panel,
+) -> Result<(), DrawingAreaErrorKind<DB::ErrorType>> {
+    let (kp, kd) = (chart.kp, chart.kd);
+    let s = &panel.summary;
+    let caption = format!(
+        "dt = {:.1} ms: stable {:.1} % of the grid",
+        panel.dt_s * 1e3,
+        100.0 * s.stable_fraction
+    );
+    let mut cc = ChartBuilder::on(area)
+        .caption(caption, ("sans-serif", 20))
+        .margin(12)
+        .x_label_area_size(45)
+        .y_label_area_size(55)
+        .build_cartesian_2d(kp.lo..kp.hi, kd.lo..kd.hi)?;
+    cc.configure_mesh()
+        .x_desc("KP [V/rad]")
+        .y_desc("KD [V s/rad]")
+        .label_style(("sans-serif", 15))
+        .axis_desc_style(("sans-serif", 17))
+        .light_line_style(WHITE.mix(0.0))
+        .bold_line_style(BLACK.mix(0.12))
+        .draw()?;
+    // Stable cells, centred on the grid points.
+    let (hx, hy) = (0.5 * kp.step(), 0.5 * kd.step());
+    let cells = (0..kd.n).flat_map(|i| (0..kp.n).map(move |j| (i, j))).filter_map(|(i, j)| {
+        (panel.radius[i * kp.n + j] < 1.0).then(|| {
+            let (x, y) = (kp.at(j), kd.at(i));
+            Rectangle::new(
+                [((x - hx).max(kp.lo), (y - hy).max(kd.lo)), ((x + hx).min(kp.hi), (y + hy).min(kd.hi))],
+                STABLE_FILL.filled(),
+            )
+        })
+    });
+    cc.draw_series(cells)?
+        .label("stable (all multipliers inside |mu| = 1)")
+        .legend(|(x, y)| Rectangle::new([(x, y - 6), (x + 18, y + 6)], STABLE_FILL.filled()));
+    // D-curves, one legend entry per kind present.
+    for kind in [Crossing::Static, Crossing::Dynamic, Crossing::Flip] {
+        let (text, color) = label(kind);
+        let mut first = true;
+        for curve in panel.curves.iter().filter(|c| c.kind == kind) {
+            let series = cc.draw_series(LineSeries::new(curve.points.iter().copied(), color.stroke_width(2)))?;
+            if first {
+                series.label(text).legend(move |(x, y)| PathElement::new([(x, y), (x + 18, y)], color.stroke_width(2)));
+                first = false;
+            }
+        }
+    }
+    // Frequency of the pair on the circle, at the middle of each longer dynamic piece.
+    let freq_labels = panel.curves.iter().filter(|c| c.kind == Crossing::Dynamic && c.points.len() >= 20).map(|c| {
+        let k = c.points.len() / 2;
+        let (x, y) = c.points[k];
+        let at = (x + 0.012 * (kp.hi - kp.lo), y - 0.02 * (kd.hi - kd.lo));
+        Text::new(format!("{:.2} Hz", c.freq_hz[k]), at, ("sans-serif", 14).into_font().color(&DYNAMIC_COLOR))
+    });
+    cc.draw_series(freq_labels)?;
+    // The base gains.
+    let (bx, by) = (chart.base.kp, chart.base.kd);
+    if bx >= kp.lo && bx <= kp.hi && by >= kd.lo && by <= kd.hi {
+        cc.draw_series(std::iter::once(Cross::new((bx, by), 7, BLACK.stroke_width(3))))?
+            .label(format!("KP = {bx} V/rad, KD = {by} V s/rad (|mu|max = {:.4})", s.base_radius))
+            .legend(|(x, y)| Cross::new((x + 9, y), 5, BLACK.stroke_width(2)));
+    }
+    cc.configure_series_labels()
+        .position(SeriesLabelPosition::UpperRight)
+        .background_style(WHITE.mix(0.85))
+        .border_style(BLACK.mix(0.4))
+        .label_font(("sans-serif", 13))
+        .draw()?;
+    Ok(())
+}
+
+/// What [`stability_chart`] returns.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct ChartSummary {
+    pub png: PathBuf,
+    pub kp: Axis,
+    pub kd: Axis,
+    /// (KP, KD) of the marked base point.
+    pub base_point: (f64, f64),
+    pub panels: Vec<PanelSummary>,
+    /// Wall time of the computation (without drawing), s.
+    pub compute_seconds: f64,
+    /// Wall time of drawing and writing the PNG, s.
+    pub draw_seconds: f64,
+}
+
+/// Why a chart could not be made or drawn.
+#[derive(Debug, thiserror::Error)]
+pub enum ChartDrawError {
+    #[error(transparent)]
+    Chart(#[from] sim::chart::ChartError),
+    #[error(transparent)]
+    Stability(#[from] StabilityError),
+    #[error(transparent)]
+    Plot(#[from] PlotError),
+}
+
+fn summarize(out: &Path, chart: &Chart, compute_seconds: f64) -> Result<ChartSummary, PlotError> {
+    let t1 = Instant::now();
+    draw_chart(out, chart)?;
+    let draw_seconds = t1.elapsed().as_secs_f64();
+    Ok(ChartSummary {
+        png: out.to_path_buf(),
+        kp: chart.kp,
+        kd: chart.kd,
+        base_point: (chart.base.kp, chart.base.kd),
+        panels: chart.panels.iter().map(|p| p.summary.clone()).collect(),
+        compute_seconds,
+        draw_seconds,
+    })
+}
+
+/// Compute the chart for the plant `x' = A x + B u` (controller reads `x[primary]`,
+/// `x[secondary]`) and write it as a PNG to `out`: one panel per sampling period, the
+/// stable region shaded, the static / dynamic / flip boundaries drawn, the base gains
+/// marked.
+#[allow(clippy::too_many_arguments)]
+pub fn stability_chart<const N: usize>(
+    out: &Path,
+    a: &SMatrix<f64, N, N>,
+    b: &SVector<f64, N>,
+    primary: usize,
+    secondary: usize,
+    base: &ControllerConfig,
+    dts_s: &[f64],
+    kp: (f64, f64, usize),
+    kd: (f64, f64, usize),
+) -> Result<ChartSummary, ChartDrawError> {
+    let (chart, seconds) = plant_chart(a, b, primary, secondary, base, dts_s, kp, kd)?;
+    Ok(summarize(out, &chart, seconds)?)
+}
+
+/// The (KP, KD) stability chart of the scene's plant for several sampling periods (ms),
+/// written to `out`.
+pub fn chart_for_scene(
+    scene: &Scene,
+    out: &Path,
+    dts_ms: &[f64],
+    kp: (f64, f64, usize),
+    kd: (f64, f64, usize),
+) -> Result<ChartSummary, ChartDrawError> {
+    let (chart, seconds) = scene_chart(scene, dts_ms, kp, kd)?;
+    Ok(summarize(out, &chart, seconds)?)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn writes_a_png() {
+        let dir = std::env::temp_dir().join(format!("chart-test-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let out = dir.join("stability.png");
+        let scene = Scene::load("furuta-dt25", &[]).unwrap();
+        let s = chart_for_scene(&scene, &out, &[20.0, 25.0], (0.0, 40.0, 41), (0.0, 8.0, 33)).unwrap();
+        let bytes = std::fs::read(&out).unwrap();
+        assert_eq!(&bytes[..8], b"\x89PNG\r\n\x1a\n");
+        // IHDR width and height.
+        let w = u32::from_be_bytes(bytes[16..20].try_into().unwrap());
+        let h = u32::from_be_bytes(bytes[20..24].try_into().unwrap());
+        assert_eq!((w, h), (2 * 620, 560 + 50));
+        assert_eq!(s.panels.len(), 2);
+        assert_eq!(s.base_point, (15.5, 5.45));
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+}

@@ -1,0 +1,426 @@
+//! The report's chaos sections: the chaos analysis of the simulated quantized loop, the PIL
+//! recordings and the inverted flag (figures and tables), the scale dependence of the
+//! time-series exponent and the accuracy-vs-cost table. The numbers come from
+//! [`furuta::microchaos`] and [`furuta::chaos_tables`].
+
+use std::error::Error;
+
+use furuta::chaos_tables::*;
+use furuta::microchaos::*;
+use furuta::lyapunov::ModelLyapunov;
+use chaos::Points;
+use ssm::{Dynamics, SsmModel, TimeSeries, fit};
+
+
+
+/// The plant angle `theta_rad` of a PIL `record.csv` (`t_s,theta_rad,phi_rad,theta_meas_rad,
+/// code,prediction`). The chaos study uses it rather than the encoder reading `theta.csv`:
+/// the reading is quantized to whole counts, so delay vectors tie exactly and the Lyapunov
+/// estimators' log-distances are undefined at their first steps.
+pub fn pil_plant_theta(path: &std::path::Path) -> Result<TimeSeries, Box<dyn Error>> {
+    let text = std::fs::read_to_string(path).map_err(|e| format!("{}: {e}", path.display()))?;
+    let mut lines = text.lines();
+    let header = lines.next().ok_or_else(|| format!("{}: empty file", path.display()))?;
+    if !header.starts_with("t_s,theta_rad,") {
+        return Err(format!("{}: header `{header}` is not a PIL record (expected t_s,theta_rad,...)", path.display()).into());
+    }
+    let (mut t, mut x) = (Vec::new(), Vec::new());
+    for (i, l) in lines.enumerate() {
+        let mut f = l.split(',');
+        let mut num = |what: &str| -> Result<f64, Box<dyn Error>> {
+            let v = f.next().ok_or_else(|| format!("{}: line {}: no {what}", path.display(), i + 2))?;
+            v.trim().parse::<f64>().map_err(|e| format!("{}: line {}: {what} `{v}`: {e}", path.display(), i + 2).into())
+        };
+        t.push(num("t_s")?);
+        x.push(num("theta_rad")?);
+    }
+    let name = format!("run {} plant theta", path.parent().and_then(|p| p.file_name()).map_or("?".into(), |n| n.to_string_lossy()));
+    Ok(TimeSeries::new(name, t, x)?)
+}
+
+/// Figures of one data set: the PDF of each reduced coordinate (held-out data vs the RBF and
+/// polynomial models, on the models' common grids), the attractor projected on
+/// `(eta_1, eta_2)`, and the amplitude spectra of the observable. The models are refitted with
+/// the options [`analyse_held_out`] used (deterministic, so they are the same models).
+pub fn chaos_figures(
+    rep: &mut crate::report::Report,
+    tag: &str,
+    title: &str,
+    train: &[TimeSeries],
+    test: &TimeSeries,
+    r: &ChaosSummary,
+    o: &ChaosOptions,
+) -> Result<(), Box<dyn Error>> {
+    use crate::plot::{Panel, Series, grid};
+    use plotters::style::RGBColor;
+    let colors = [RGBColor(0, 0, 0), RGBColor(200, 30, 30), RGBColor(30, 90, 200)];
+    let dt = test.dt().ok_or("held-out series has no sampling step")?;
+    let ctx = Context::from_series(&test.x, dt, o.gp_embed)?;
+    let base = fit_options(o, r.ssm_dim, &ctx);
+    let mut runs: Vec<(&str, SsmModel, ssm::Prediction)> = Vec::new();
+    for (name, dynamics) in [("RBF model", Dynamics::Rbf { centers: o.centers }), ("polynomial model", Dynamics::Map)] {
+        let mut opts = base;
+        opts.dynamics = dynamics;
+        if let Ok(m) = fit(train, &opts) {
+            let p = m.predict(test)?;
+            runs.push((name, m, p));
+        }
+    }
+    let Some((_, m0, _)) = runs.first() else { return Ok(()) };
+    let d = m0.options.dim;
+    let eta_data = reduce_series(m0, test)?;
+    let data_pts = Points::from_flat(d, eta_data.clone())?;
+    // PDFs per coordinate.
+    let mut pdf_lines: Vec<Vec<Vec<(f64, f64)>>> = vec![Vec::new(); d];
+    for (k, (_, _, p)) in runs.iter().enumerate() {
+        if p.eta.len() < 2 * d {
+            continue;
+        }
+        let cmp = chaos::compare_pdfs(&data_pts, &Points::from_flat(d, p.eta.clone())?, chaos::Bins::default())?;
+        for c in &cmp.coords {
+            if k == 0 {
+                pdf_lines[c.coord].push(c.centers.iter().copied().zip(c.data_density.iter().copied()).collect());
+            }
+            pdf_lines[c.coord].push(c.centers.iter().copied().zip(c.model_density.iter().copied()).collect());
+        }
+    }
+    let names: Vec<&str> = std::iter::once("data (held out)").chain(runs.iter().map(|r| r.0)).collect();
+    let panels: Vec<Panel<'_>> = pdf_lines
+        .iter()
+        .enumerate()
+        .filter(|(_, l)| !l.is_empty())
+        .map(|(c, lines)| Panel {
+            title: format!("PDF of eta_{}", c + 1),
+            xlabel: "eta",
+            ylabel: "density",
+            series: lines.iter().enumerate().map(|(k, pts)| Series { name: names[k.min(names.len() - 1)], points: pts, color: colors[k % 3] }).collect(),
+        })
+        .collect();
+    if !panels.is_empty() {
+        let path = format!("fig/chaos_{tag}_pdfs.png");
+        grid(&rep.dir().join(&path), &panels, 3, (1050, 300 * panels.len().div_ceil(3) as u32))?;
+        rep.figure(&path, &format!("{title}: PDFs of the reduced coordinates, held-out data vs models"));
+    }
+    // Attractor projections and spectra.
+    let proj = |eta: &[f64]| -> Vec<(f64, f64)> {
+        let n = eta.len() / d;
+        let step = (n / 20_000).max(1);
+        (0..n).step_by(step).map(|i| (eta[i * d], eta[i * d + 1])).collect()
+    };
+    let mut projs = vec![("data (held out)".to_string(), proj(&eta_data))];
+    projs.extend(runs.iter().map(|(n, _, p)| (n.to_string(), proj(&p.eta))));
+    let panels: Vec<Panel<'_>> = projs
+        .iter()
+        .enumerate()
+        .map(|(k, (n, pts))| Panel { title: n.clone(), xlabel: "eta_1", ylabel: "eta_2", series: vec![Series { name: n, points: pts, color: colors[k % 3] }] })
+        .collect();
+    let path = format!("fig/chaos_{tag}_attractor.png");
+    grid(&rep.dir().join(&path), &panels, 3, (1050, 330))?;
+    rep.figure(&path, &format!("{title}: attractor projected on (eta_1, eta_2)"));
+    let fmax = 10.0 / (ctx.theiler as f64 * dt);
+    let spec = |x: &[f64]| -> Vec<(f64, f64)> {
+        let (f, a) = ssm::metrics::amplitude_spectrum(x, dt);
+        f.into_iter().zip(a).filter(|p| p.0 <= fmax).collect()
+    };
+    let n = runs.iter().map(|r| r.2.x.len()).min().unwrap_or(test.x.len()).min(test.x.len());
+    let mut specs = vec![("data (held out)".to_string(), spec(&test.x[..n]))];
+    specs.extend(runs.iter().map(|(nm, _, p)| (nm.to_string(), spec(&p.x[..n]))));
+    let series: Vec<Series<'_>> = specs.iter().enumerate().map(|(k, (nm, pts))| Series { name: nm, points: pts, color: colors[k % 3] }).collect();
+    let path = format!("fig/chaos_{tag}_spectrum.png");
+    grid(&rep.dir().join(&path), &[Panel { title: format!("{title}: amplitude spectra"), xlabel: "f [Hz]", ylabel: "amplitude", series }], 1, (760, 300))?;
+    rep.figure(&path, &format!("{title}: amplitude spectra of the observable over the same {n} samples"));
+    Ok(())
+}
+
+/// Where `cargo xtask reproduce` leaves the processor-in-the-loop recordings (relative to
+/// the workspace root, where `reproduce` runs).
+pub const PIL_RECORD_DIR: &str = "qemu/target/pil-record";
+
+pub fn section(rep: &mut crate::report::Report, data_dir: &std::path::Path, quick: bool) -> Result<(), Box<dyn Error>> {
+    use crate::report::{esc, num};
+    rep.section(
+        "chaos",
+        "Chaotic statistics: data vs SSM models",
+        "Correlation dimension by Grassberger-Procaccia (self-pairs and a Theiler window of one dominant period \
+         excluded; scaling range: the longest run of radii whose local slopes stay within 10 % of their median, \
+         error bar = their standard deviation), SSM dimension = smallest even integer above the estimate plus its \
+         error bar (the paper's rule); 4D/6D SSMs with RBF (linear kernel, 500 centres) and quartic polynomial map \
+         dynamics; largest Lyapunov exponent by Rosenstein's estimator with identical settings on data and model \
+         series, and of the reduced maps themselves by Benettin's method (analytic Jacobians, QR); mean \
+         Jensen-Shannon divergence of the reduced-coordinate PDFs. Models are fitted on the training trajectories; \
+         the data statistics come from a held-out trajectory, from whose first point the model series start.",
+    );
+    // (name, training series, held-out series)
+    let mut sets: Vec<(String, Vec<TimeSeries>, TimeSeries)> = Vec::new();
+    let periods = if quick { 6000 } else { 30000 };
+    let mut sim = Vec::new();
+    for (i, th) in [0.02, 0.035, 0.05].iter().enumerate() {
+        sim.push(simulate_quantized(periods, *th, &format!("furuta-quant-dt25 #{i}"))?);
+    }
+    let sim_test = sim.pop().ok_or("no simulated series")?;
+    sets.push(("simulated: furuta-quant-dt25 (theta)".into(), sim, sim_test));
+    // The "experiment": processor-in-the-loop recordings with sensor noise
+    // (`cargo xtask pil-record`, run by `cargo xtask reproduce`).
+    let pil_dir = std::path::Path::new(PIL_RECORD_DIR);
+    let pil_files: Vec<_> = (1..=3).map(|r| pil_dir.join(format!("run{r}/record.csv"))).collect();
+    if pil_files.iter().all(|f| f.is_file()) {
+        let mut runs: Vec<TimeSeries> = pil_files.iter().map(|f| pil_plant_theta(f)).collect::<Result<_, _>>()?;
+        let test = runs.pop().ok_or("no PIL run")?;
+        sets.push(("processor in the loop: furuta-quant-dt25-noise (plant theta)".into(), runs, test));
+    } else {
+        rep.para(&format!(
+            "No processor-in-the-loop recordings under {} (run <code>cargo xtask pil-record --out {}</code>): skipped.",
+            esc(&pil_dir.display().to_string()),
+            esc(PIL_RECORD_DIR)
+        ));
+    }
+    let flag = data_dir.join("inverted_flag_chaotic");
+    if ["traj_9.csv", "traj_7.csv", "traj_8.csv"].iter().all(|f| flag.join(f).is_file()) {
+        sets.push((
+            "measured: inverted flag (tip deflection)".into(),
+            vec![ssm::load_csv(flag.join("traj_9.csv"))?, ssm::load_csv(flag.join("traj_7.csv"))?],
+            ssm::load_csv(flag.join("traj_8.csv"))?,
+        ));
+    } else {
+        rep.para(&format!("Inverted-flag data not found under {}: skipped.", esc(&flag.display().to_string())));
+    }
+    let mut rows = Vec::new();
+    let mut list = serde_json::Map::new();
+    let mut figs = Vec::new();
+    for (name, train, test) in &sets {
+        let label = format!("{name}; train {}, test {}", train.iter().map(|t| t.name.as_str()).collect::<Vec<_>>().join(" + "), test.name);
+        let r = match analyse_held_out(train, Some(test), &ChaosOptions::default()) {
+            Ok(r) => r,
+            Err(e) => {
+                // One data set failing an estimator's precondition is reported, not fatal.
+                let mut row = vec![label, format!("analysis failed: {e}")];
+                row.resize(11, String::new());
+                rows.push(row);
+                list.insert(name.clone(), serde_json::json!({"error": e.to_string()}));
+                continue;
+            }
+        };
+        let opt = |v: Option<f64>| v.map_or("-".to_string(), num);
+        rows.push(vec![
+            label,
+            format!("{:.2} ± {:.2}", r.corr_dim, r.corr_dim_err),
+            r.ssm_dim.to_string(),
+            num(r.lle_data),
+            opt(r.lle_model_rbf),
+            opt(r.lle_model_poly),
+            opt(r.lle_model_rbf_benettin),
+            opt(r.lle_model_poly_benettin),
+            opt(r.pdf_divergence_rbf),
+            opt(r.pdf_divergence_poly),
+            r.notes.join("; "),
+        ]);
+        list.insert(name.clone(), serde_json::to_value(&r)?);
+        let tag: String = name.split(':').next().unwrap_or("set").chars().filter(|c| c.is_ascii_alphanumeric()).collect();
+        figs.push((tag, name.clone(), train.clone(), test.clone(), r));
+    }
+    rep.table(
+        &["data", "corr. dim", "SSM dim", "LLE data [1/s]", "LLE RBF", "LLE poly", "LLE RBF Benettin", "LLE poly Benettin", "JS RBF [bits]", "JS poly [bits]", "notes"],
+        &rows,
+    );
+    rep.summary.insert("chaos".into(), serde_json::Value::Object(list));
+    rep.para(
+        "How the data separate: the secant slope of each data set's Rosenstein curve over doubling windows [t, 2t], and the \
+         same rise read as a power law d ~ t^a (a = rise / ln 2). Exponential separation (chaos) keeps the slope and lets a \
+         grow with t; diffusion along a neutral direction (a torus shaken by quantization or noise) keeps a near 0.5 while \
+         the slope falls like 1/t, and then the single Rosenstein number depends on its fit window. The models' Benettin \
+         spectra (first two exponents) tell whether the smooth model's own attractor is a torus (two zeros). The kicked \
+         models are the smooth maps driven by their own one-step training residuals, drawn at random and added after \
+         every step (a bootstrap of what the smooth map misses, e.g. the quantization kicks): same estimators, same \
+         start.",
+    );
+    let mut grows = Vec::new();
+    for (_, name, _, _, r) in &figs {
+        let w = &r.growth_windows_data;
+        let opt = |v: Option<f64>| v.map_or("-".to_string(), num);
+        let spec = |b: &Option<ModelLyapunov>| {
+            b.as_ref().map_or("-".to_string(), |b| b.spectrum.iter().take(2).map(|v| format!("{v:+.4}")).collect::<Vec<_>>().join(", "))
+        };
+        grows.push(vec![
+            name.clone(),
+            w.iter().map(|g| format!("{:.2}-{:.2} s: {:.3}", g.t0, g.t1, g.slope)).collect::<Vec<_>>().join("; "),
+            w.iter().map(|g| format!("{:.2}", g.power)).collect::<Vec<_>>().join(", "),
+            spec(&r.benettin_rbf),
+            spec(&r.benettin_poly),
+            format!("{} / {}", opt(r.lle_model_rbf_kicked), opt(r.pdf_divergence_rbf_kicked)),
+            format!("{} / {}", opt(r.lle_model_poly_kicked), opt(r.pdf_divergence_poly_kicked)),
+        ]);
+    }
+    rep.table(
+        &[
+            "data",
+            "slope over [t, 2t] [1/s]",
+            "power a per window",
+            "RBF Benettin (1st, 2nd)",
+            "poly Benettin (1st, 2nd)",
+            "kicked RBF: LLE / JS",
+            "kicked poly: LLE / JS",
+        ],
+        &grows,
+    );
+    for (tag, name, train, test, r) in &figs {
+        chaos_figures(rep, tag, name, train, test, r, &ChaosOptions::default())?;
+    }
+    Ok(())
+}
+
+fn fmt_opt(v: Option<f64>, prec: usize) -> String {
+    v.map_or("-".into(), |x| format!("{x:.prec$}"))
+}
+
+/// Report table of scale studies: header, rows (one per series and scale) and JSON.
+pub fn scale_table(studies: &[ScaleStudy]) -> (Vec<String>, Vec<Vec<String>>, serde_json::Value) {
+    let header = ["data", "eps", "eps / unit", "unit", "LLE Kantz [1/s]", "fit window [s]", "rise [nats]", "neighbours", "note"]
+        .map(String::from)
+        .to_vec();
+    let mut rows = Vec::new();
+    for s in studies {
+        for r in &s.rows {
+            rows.push(vec![
+                s.name.clone(),
+                format!("{:.3e}", r.eps),
+                format!("{:.3}", r.eps_units),
+                s.unit_name.clone(),
+                fmt_opt(r.exponent, 3),
+                r.window_s.map_or("-".into(), |(a, b)| format!("{a:.2}..{b:.2}")),
+                fmt_opt(r.rise, 2),
+                format!("{:.1}", r.mean_neighbours),
+                r.note.clone(),
+            ]);
+        }
+    }
+    let json = serde_json::to_value(studies).unwrap_or(serde_json::Value::Null);
+    (header, rows, json)
+}
+
+/// Report table of an accuracy-vs-cost study: header, rows and JSON.
+pub fn cost_table(study: &CostStudy) -> (Vec<String>, Vec<Vec<String>>, serde_json::Value) {
+    let header = [
+        "model",
+        "centres / order",
+        "LLE Rosenstein [1/s]",
+        "|LLE model - LLE data|",
+        "LLE Benettin [1/s]",
+        "JS [bits]",
+        "fit [s]",
+        "step [us]",
+        "fit ratio",
+        "step ratio",
+        "notes",
+    ]
+    .map(String::from)
+    .to_vec();
+    let rows = study
+        .rows
+        .iter()
+        .map(|r| {
+            vec![
+                r.kind.clone(),
+                r.setting.to_string(),
+                fmt_opt(r.lle_rosenstein, 3),
+                fmt_opt(r.lle_abs_error, 3),
+                fmt_opt(r.lle_benettin, 3),
+                fmt_opt(r.pdf_js, 3),
+                format!("{:.3}", r.fit_s),
+                format!("{:.2}", r.step_us),
+                format!("{:.2}", r.fit_ratio),
+                format!("{:.2}", r.step_ratio),
+                r.notes.join("; "),
+            ]
+        })
+        .collect();
+    (header, rows, serde_json::to_value(study).unwrap_or(serde_json::Value::Null))
+}
+
+/// Prints a table as aligned text (the criterion-free bench print).
+pub fn print_table(title: &str, header: &[String], rows: &[Vec<String>]) -> String {
+    let mut w: Vec<usize> = header.iter().map(|h| h.chars().count()).collect();
+    for r in rows {
+        for (i, c) in r.iter().enumerate() {
+            if i < w.len() {
+                w[i] = w[i].max(c.chars().count());
+            }
+        }
+    }
+    let line = |cells: &[String]| {
+        cells.iter().enumerate().map(|(i, c)| format!("{c:<width$}", width = w.get(i).copied().unwrap_or(0))).collect::<Vec<_>>().join("  ")
+    };
+    let mut out = format!("{title}\n{}\n", line(header));
+    for r in rows {
+        out.push_str(&line(r));
+        out.push('\n');
+    }
+    out
+}
+
+/// Report section with the scale table (for the lead to wire into the report).
+pub fn scale_section(rep: &mut crate::report::Report, data_dir: &std::path::Path, quick: bool) -> Result<(), Box<dyn Error>> {
+    rep.section(
+        "chaos-scale",
+        "Scale dependence of the time-series Lyapunov exponent",
+        "Kantz's estimator (embedding dimension 6, lag = first zero of the autocorrelation, Theiler window = \
+         dominant period, at most 2000 references with 50 neighbours each) at 8 log-spaced neighbourhood radii. \
+         In a quantized loop, states closer than one quantization step receive the same control codes and \
+         separate at the open-loop rate; the microchaotic rate appears only at scales of a few steps and above.",
+    );
+    let studies = scale_studies(data_dir, if quick { 6000 } else { 30000 })?;
+    let (h, rows, json) = scale_table(&studies);
+    let hr: Vec<&str> = h.iter().map(String::as_str).collect();
+    rep.table(&hr, &rows);
+    rep.summary.insert("chaos_scale".into(), json);
+    Ok(())
+}
+
+/// Report section with the accuracy-vs-cost table (for the lead to wire into the report).
+pub fn cost_section(rep: &mut crate::report::Report, data_dir: &std::path::Path) -> Result<(), Box<dyn Error>> {
+    rep.section(
+        "chaos-cost",
+        "Model accuracy against cost (inverted flag)",
+        "6D SSM models: |LLE model - LLE data| with the same Rosenstein settings on both series, the map's own \
+         Benettin exponent, mean Jensen-Shannon divergence of the reduced-coordinate PDFs, wall time of the fit \
+         and per reduced-map step (this machine, single run), and the time ratios to the smallest configuration.",
+    );
+    match flag_cost_study(data_dir)? {
+        None => rep.para("Inverted-flag data not found: skipped."),
+        Some(st) => {
+            let (h, rows, json) = cost_table(&st);
+            let hr: Vec<&str> = h.iter().map(String::as_str).collect();
+            rep.para(&format!("Data exponent (Rosenstein): {:.3} 1/s.", st.lle_data));
+            rep.table(&hr, &rows);
+            rep.summary.insert("chaos_cost".into(), json);
+        }
+    }
+    Ok(())
+}
+
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn pil_record_theta_loads_and_bad_files_are_named() {
+        let dir = std::env::temp_dir().join(format!("chaoscmd-pil-{}", std::process::id()));
+        std::fs::create_dir_all(dir.join("run1")).unwrap();
+        let p = dir.join("run1/record.csv");
+        let mut text = String::from("t_s,theta_rad,phi_rad,theta_meas_rad,code,prediction\n");
+        for k in 0..50 {
+            text.push_str(&format!("{},{},0,0,0,NaN\n", k as f64 * 0.025, 0.01 * (k as f64).sin()));
+        }
+        std::fs::write(&p, text).unwrap();
+        let ts = pil_plant_theta(&p).unwrap();
+        assert_eq!(ts.x.len(), 50);
+        assert_eq!(ts.x[3], 0.01 * 3f64.sin());
+        std::fs::write(&p, "t_s,theta_meas_rad\n0,1\n").unwrap();
+        let e = pil_plant_theta(&p).unwrap_err().to_string();
+        assert!(e.contains("not a PIL record"), "{e}");
+        std::fs::write(&p, "t_s,theta_rad,phi_rad\n0,abc,0\n").unwrap();
+        let e = pil_plant_theta(&p).unwrap_err().to_string();
+        assert!(e.contains("line 2") && e.contains("theta_rad"), "{e}");
+        std::fs::remove_dir_all(&dir).ok();
+    }
+}

@@ -1,0 +1,107 @@
+//! The `reproduce` report: an HTML page (figures and tables, readable in a browser) and a
+//! `summary.json` with every number the page shows. Sections are appended by capability.
+
+use serde_json::{Map, Value};
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+
+/// An HTML report under construction plus its machine-readable summary.
+pub struct Report {
+    dir: PathBuf,
+    body: String,
+    toc: Vec<(String, String)>,
+    pub summary: Map<String, Value>,
+}
+
+/// Escapes text for HTML.
+pub fn esc(s: &str) -> String {
+    s.replace('&', "&amp;").replace('<', "&lt;").replace('>', "&gt;").replace('"', "&quot;")
+}
+
+/// Formats a number compactly for tables (4 significant digits, exponent when needed).
+pub fn num(v: f64) -> String {
+    if !v.is_finite() {
+        return if v.is_nan() { "NaN".into() } else if v > 0.0 { "inf".into() } else { "-inf".into() };
+    }
+    let a = v.abs();
+    if a != 0.0 && !(1e-3..1e5).contains(&a) { format!("{v:.3e}") } else { format!("{}", (v * 1e4).round() / 1e4) }
+}
+
+impl Report {
+    pub fn new(dir: &Path) -> std::io::Result<Self> {
+        std::fs::create_dir_all(dir)?;
+        Ok(Self { dir: dir.to_path_buf(), body: String::new(), toc: Vec::new(), summary: Map::new() })
+    }
+
+    pub fn dir(&self) -> &Path {
+        &self.dir
+    }
+
+    /// Starts a section with an anchor in the table of contents.
+    pub fn section(&mut self, id: &str, title: &str, intro: &str) {
+        self.toc.push((id.into(), title.into()));
+        let _ = write!(self.body, "<h2 id=\"{}\">{}</h2>\n<p>{}</p>\n", esc(id), esc(title), intro);
+    }
+
+    /// A paragraph of trusted HTML (callers escape user text with [`esc`]).
+    pub fn para(&mut self, html: &str) {
+        let _ = writeln!(self.body, "<p>{html}</p>");
+    }
+
+    /// A table; cells are escaped.
+    pub fn table(&mut self, header: &[&str], rows: &[Vec<String>]) {
+        self.body.push_str("<table>\n<tr>");
+        for h in header {
+            let _ = write!(self.body, "<th>{}</th>", esc(h));
+        }
+        self.body.push_str("</tr>\n");
+        for r in rows {
+            self.body.push_str("<tr>");
+            for c in r {
+                let _ = write!(self.body, "<td>{}</td>", esc(c));
+            }
+            self.body.push_str("</tr>\n");
+        }
+        self.body.push_str("</table>\n");
+    }
+
+    /// An image already written under the report folder (path relative to it).
+    pub fn figure(&mut self, rel: &str, caption: &str) {
+        let _ = write!(
+            self.body,
+            "<figure><img src=\"{}\" alt=\"{}\"><figcaption>{}</figcaption></figure>\n",
+            esc(rel),
+            esc(caption),
+            esc(caption)
+        );
+    }
+
+    /// Writes `index.html` and `summary.json`.
+    pub fn finish(&self, title: &str) -> std::io::Result<()> {
+        let mut html = String::new();
+        let _ = write!(
+            html,
+            "<!doctype html>\n<html lang=\"en\"><head><meta charset=\"utf-8\"><title>{t}</title>\n<style>\
+body{{font-family:sans-serif;max-width:72em;margin:2em auto;padding:0 1em;line-height:1.4}}\
+table{{border-collapse:collapse;margin:0.5em 0 1em}}td,th{{border:1px solid #bbb;padding:2px 8px;text-align:right;font-size:90%}}\
+th{{background:#eee}}figure{{display:inline-block;margin:0.5em}}img{{max-width:100%;border:1px solid #ddd}}\
+figcaption{{font-size:85%;color:#444}}code{{background:#f4f4f4}}</style></head><body>\n<h1>{t}</h1>\n<ul>",
+            t = esc(title)
+        );
+        for (id, name) in &self.toc {
+            let _ = write!(html, "<li><a href=\"#{}\">{}</a></li>", esc(id), esc(name));
+        }
+        html.push_str("</ul>\n");
+        html.push_str(&self.body);
+        html.push_str("<p><small>Numbers on this page are also in <a href=\"summary.json\">summary.json</a>.</small></p></body></html>\n");
+        std::fs::write(self.dir.join("index.html"), html)?;
+        let json = serde_json::to_string_pretty(&Value::Object(self.summary.clone())).map_err(std::io::Error::other)?;
+        std::fs::write(self.dir.join("summary.json"), json)
+    }
+}
+
+pub mod bifurcations;
+pub mod chaos;
+pub mod normal_form;
+pub mod reproduce;
+pub mod sloshing;

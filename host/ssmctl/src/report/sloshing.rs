@@ -1,0 +1,311 @@
+//! Report section: SSM fitting on real measured data (sloshing decay), the fit
+//! accuracy-vs-time table, and the device blobs exported from fitted RBF models.
+
+use ssm::device::{encode, to_device_model};
+use crate::plot::{self, Series};
+use crate::report::{Report, esc, num};
+use sim::scene::Scene;
+use sim::closed_loop::simulate;
+use ssm::metrics::amplitude_spectrum;
+use ssm::{Dynamics, FitOptions, Ridge, TimeSeries, fit, load_csv};
+use plotters::style::RGBColor;
+use serde_json::{Value, json};
+use std::error::Error;
+use std::path::Path;
+
+const BLACK: RGBColor = RGBColor(0, 0, 0);
+const RED: RGBColor = RGBColor(200, 30, 30);
+
+/// The sloshing section; skipped with a note when the data folder is absent.
+pub fn sloshing_section(rep: &mut Report, data_dir: &Path, quick: bool) -> Result<(), Box<dyn Error>> {
+    rep.section(
+        "fit-sloshing",
+        "SSM fit of measured data: water sloshing decay",
+        "A 2D SSM in a delay embedding of the centre-of-mass signal (SSMLearn's sloshing example data, read from \
+         <code>../shared/data/sloshing</code>): trained on decay_0 and decay_1, tested on decay_2. NMTE as SSMLearn \
+         defines it (mean error norm over the max norm of the truth), on the observable; DTW-NMTE after dynamic time \
+         warping. The Python reference implementation reaches test NMTE 0.012.",
+    );
+    let dir = data_dir.join("sloshing");
+    let files = ["decay_0.csv", "decay_1.csv", "decay_2.csv"].map(|f| dir.join(f));
+    if !files.iter().all(|f| f.is_file()) {
+        rep.para(&format!("Skipped: data folder {} not found.", esc(&dir.display().to_string())));
+        rep.summary.insert("fit_sloshing".into(), json!({"skipped": format!("{} not found", dir.display())}));
+        return Ok(());
+    }
+    let series: Vec<TimeSeries> = files.iter().map(load_csv).collect::<Result<_, _>>()?;
+    let (train, test) = (&series[..2], &series[2]);
+    let reps = if quick { 2 } else { 10 };
+    let (secs, m) = crate::bench::timed_fit(train, &crate::bench::sloshing_fit_options(), reps)?;
+    let pred = m.predict(test)?;
+    let (nmte, dtw) = (pred.nmte(test), pred.nmte_dtw(test, None));
+    let eig: Vec<Value> = m.eigenvalues_ct().iter().map(|&(re, im)| json!({"re": re, "im": im})).collect();
+    rep.para(&format!(
+        "Recommended settings (p = 5, shift 1, manifold order 3, polynomial map order 5): fit {:.2} ms (best of {reps}), \
+         test NMTE {:.4}, DTW-NMTE {:.4}; eigenvalues {}.",
+        secs * 1e3,
+        nmte,
+        dtw,
+        m.eigenvalues_ct().iter().map(|(a, b)| format!("{a:+.4} {b:+.4}i")).collect::<Vec<_>>().join(", ")
+    ));
+    let tp: Vec<(f64, f64)> = test.t.iter().copied().zip(test.x.iter().copied()).collect();
+    let pp: Vec<(f64, f64)> = pred.t.iter().copied().zip(pred.x.iter().copied()).collect();
+    plot::lines(
+        &rep.dir().join("fig/sloshing_prediction.png"),
+        "sloshing decay_2: measured vs SSM prediction",
+        "t [s]",
+        "x [% tank width]",
+        &[Series { name: "measured", points: &tp, color: BLACK }, Series { name: "SSM model", points: &pp, color: RED }],
+        (760, 320),
+    )?;
+    let (f1, a1) = amplitude_spectrum(&test.x[..pred.x.len()], m.dt);
+    let (f2, a2) = amplitude_spectrum(&pred.x, m.dt);
+    let s1: Vec<(f64, f64)> = f1.into_iter().zip(a1).filter(|p| p.0 <= 3.0).collect();
+    let s2: Vec<(f64, f64)> = f2.into_iter().zip(a2).filter(|p| p.0 <= 3.0).collect();
+    plot::lines(
+        &rep.dir().join("fig/sloshing_spectrum.png"),
+        "amplitude spectra",
+        "f [Hz]",
+        "amplitude",
+        &[Series { name: "measured", points: &s1, color: BLACK }, Series { name: "SSM model", points: &s2, color: RED }],
+        (520, 320),
+    )?;
+    rep.figure("fig/sloshing_prediction.png", "Test trajectory decay_2 and the model's prediction from its first point");
+    rep.figure("fig/sloshing_spectrum.png", "FFT amplitude spectra of the test trajectory and the prediction");
+
+    // What accuracy costs in time (second table; also `ssmctl bench fit`).
+    let (bench_rows, rbf50) = crate::bench::bench_fit(train, test, quick, |_| {})?;
+    let rows: Vec<Vec<String>> = bench_rows
+        .iter()
+        .map(|r| {
+            vec![
+                r.setting.clone(),
+                format!("{:.2}", r.fit_ms),
+                format!("{:.2}", r.ratio_vs_baseline),
+                num(r.nmte_test),
+                num(r.dtw_nmte_test),
+                r.stopped.clone().unwrap_or_else(|| "-".into()),
+            ]
+        })
+        .collect();
+    let list = serde_json::to_value(&bench_rows)?;
+    rep.para(
+        "What accuracy costs in time (fitting): each row varies one setting from the baseline (first row); fit time is \
+         the best of repeated fits on one core, and its ratio to the baseline's is measured in the same run \
+         (<code>ssmctl bench fit</code> prints the same table).",
+    );
+    rep.table(&["setting", "fit [ms]", "x baseline", "test NMTE", "test DTW-NMTE", "stopped"], &rows);
+    if let Some(m) = rbf50 {
+        let blob = encode(&to_device_model(&m, shared::ControllerConfig::paper(m.dt))?)?;
+        std::fs::write(rep.dir().join("sloshing-rbf50.bin"), &blob)?;
+        rep.para(&format!("Exported the 50-centre RBF model as <code>sloshing-rbf50.bin</code> ({} bytes).", blob.len()));
+    }
+    rep.summary.insert(
+        "fit_sloshing".into(),
+        json!({"fit_ms": secs * 1e3, "nmte_test": nmte, "dtw_nmte_test": dtw, "eigenvalues": eig, "table": list}),
+    );
+    Ok(())
+}
+
+/// Fits an RBF model to a simulated Furuta theta series and writes its device blob.
+pub fn furuta_blob(rep: &mut Report, quick: bool) -> Result<(), Box<dyn Error>> {
+    let s = Scene::load("furuta-quant-dt25", &[if quick { "run.periods=1500" } else { "run.periods=4000" }.into()])?;
+    let tr = simulate(&s, None)?;
+    let ts = TimeSeries::new("theta", tr.t.clone(), tr.primary())?;
+    let o = FitOptions { dim: 4, embed: 9, shift: 1, manifold_order: 2, dyn_order: 1, dynamics: Dynamics::Rbf { centers: 100 }, ridge: Ridge::Fixed(1e-10), linear_anchor: None };
+    let m = fit(std::slice::from_ref(&ts), &o)?;
+    let blob = encode(&to_device_model(&m, s.controller_config())?)?;
+    std::fs::write(rep.dir().join("furuta-quant-dt25-rbf100.bin"), &blob)?;
+    rep.para(&format!(
+        "Exported a 4D SSM with a 100-centre RBF map fitted to the theta series of furuta-quant-dt25, together with that \
+         scene's quantized controller configuration, as <code>furuta-quant-dt25-rbf100.bin</code> ({} bytes): the blob \
+         the firmware runs.",
+        blob.len()
+    ));
+    rep.summary.insert("exported_blobs".into(), json!(["sloshing-rbf50.bin", "furuta-quant-dt25-rbf100.bin"]));
+    Ok(())
+}
+
+/// Report section: the device cost table measured under QEMU (`cargo xtask device-table`
+/// writes `qemu/target/device-table.json`; the host cannot count Cortex-M instructions).
+pub fn device_section(rep: &mut Report, table: &Path) -> Result<(), Box<dyn Error>> {
+    rep.section(
+        "device",
+        "What accuracy costs in time: on the device",
+        "Instructions per call on the Cortex-M4F (QEMU mps2-an386, <code>-icount shift=7</code>, SysTick: exact \
+         and repeatable counts, not cycles), and the prediction error of each sqrt flavour against the host's f64 \
+         evaluation of the same model.",
+    );
+    let Ok(text) = std::fs::read_to_string(table) else {
+        rep.para(&format!(
+            "No device table at {}: run <code>cargo xtask device-table</code> (builds the firmware, runs it in QEMU) and \
+             rerun the report.",
+            esc(&table.display().to_string())
+        ));
+        rep.summary.insert("device".into(), json!({"missing": table.display().to_string()}));
+        return pil_paragraph(rep, &table.with_file_name("pil").join("summary.json"));
+    };
+    let v: Value = serde_json::from_str(&text).map_err(|e| format!("{}: {e}", table.display()))?;
+    let g = |k: &str| v.get(k).and_then(Value::as_f64).map_or("-".to_string(), |x| format!("{x:.0}"));
+    rep.para(&format!(
+        "Controller step: integer {} instructions, f32 {} , f64 (software double) {}. Firmware flash {} B, static RAM {} B.",
+        g("controller_step_instructions_int"),
+        g("controller_step_instructions_float"),
+        g("controller_step_instructions_f64"),
+        g("flash_bytes"),
+        g("ram_bytes")
+    ));
+    let rows: Vec<Vec<String>> = v
+        .get("predictor")
+        .and_then(Value::as_array)
+        .map(|a| {
+            a.iter()
+                .map(|r| {
+                    let f = |k: &str| r.get(k).map_or("-".to_string(), |x| x.to_string().trim_matches('"').to_string());
+                    vec![f("centers"), f("sqrt"), f("instructions"), f("per_center"), f("rel_error")]
+                })
+                .collect()
+        })
+        .unwrap_or_default();
+    rep.table(&["centres", "sqrt", "instructions / step", "per centre", "rel. error vs f64"], &rows);
+    if let Some(sizes) = v.get("firmware_sizes").and_then(Value::as_array) {
+        let rows: Vec<Vec<String>> = sizes
+            .iter()
+            .map(|r| {
+                let n = |k: &str| r.get(k).and_then(Value::as_u64).unwrap_or(0);
+                let pct = |a: u64, b: u64| if b > 0 { format!("{a} ({:.1} %)", 100.0 * a as f64 / b as f64) } else { a.to_string() };
+                vec![
+                    r.get("config").and_then(Value::as_str).unwrap_or("?").to_string(),
+                    pct(n("flash_bytes"), n("flash_capacity")),
+                    pct(n("ram_bytes"), n("ram_capacity")),
+                ]
+            })
+            .collect();
+        rep.para("Flash and static RAM per firmware configuration (share of the linked memory map):");
+        rep.table(&["configuration", "flash [B]", "static RAM [B]"], &rows);
+    }
+    // f32 against f64 where it matters: the same RBF kernel with a generic scalar.
+    let scalar_rows: Vec<Vec<String>> = v
+        .get("predictor_f32_vs_f64")
+        .and_then(Value::as_array)
+        .map(|a| {
+            a.iter()
+                .map(|r| {
+                    let f = |k: &str| r.get(k).filter(|x| !x.is_null()).map_or("-".to_string(), |x| x.to_string().trim_matches('"').to_string());
+                    vec![f("centers"), f("scalar"), f("instructions"), f("per_center"), f("vs_f32"), f("rel_error")]
+                })
+                .collect()
+        })
+        .unwrap_or_default();
+    if !scalar_rows.is_empty() {
+        rep.para(
+            "f32 or f64: the Cortex-M4F's FPU is single precision only, so f64 arithmetic runs in software \
+             (compiler-builtins' double routines, <code>libm::sqrt</code>). The same RBF step (d = 6, the library's \
+             operation order, generic scalar) counted both ways; the error is that of <code>predict(12)</code> against \
+             the host's f64 evaluation of the same model.",
+        );
+        rep.table(&["centres", "scalar", "instructions / step", "per centre", "x f32", "rel. error vs f64"], &scalar_rows);
+    }
+    // Plot: instructions per predictor step against centres, one line per sqrt flavour.
+    let mut by: std::collections::BTreeMap<String, Vec<(f64, f64)>> = Default::default();
+    for r in v.get("predictor").and_then(Value::as_array).into_iter().flatten() {
+        if let (Some(k), Some(sq), Some(n)) =
+            (r.get("centers").and_then(Value::as_f64), r.get("sqrt").and_then(Value::as_str), r.get("instructions").and_then(Value::as_f64))
+        {
+            by.entry(sq.to_string()).or_default().push((k, n));
+        }
+    }
+    if !by.is_empty() {
+        let colors = [RGBColor(20, 60, 160), RED, RGBColor(30, 140, 60), BLACK];
+        let series: Vec<Series<'_>> =
+            by.iter().zip(colors.iter().cycle()).map(|((name, pts), c)| Series { name, points: pts, color: *c }).collect();
+        plot::lines(
+            &rep.dir().join("fig/device_predictor.png"),
+            "RBF predictor step on the Cortex-M4F (d = 6)",
+            "centres K",
+            "instructions per step",
+            &series,
+            (620, 340),
+        )?;
+        rep.figure("fig/device_predictor.png", "Instructions per predictor step against the number of centres, per sqrt flavour");
+    }
+    rep.summary.insert("device".into(), v);
+    pil_paragraph(rep, &table.with_file_name("pil").join("summary.json"))
+}
+
+/// The processor-in-the-loop result (`cargo xtask pil` writes `qemu/target/pil/summary.json`).
+fn pil_paragraph(rep: &mut Report, path: &Path) -> Result<(), Box<dyn Error>> {
+    let Ok(text) = std::fs::read_to_string(path) else {
+        rep.para(&format!("No processor-in-the-loop run at {}: run <code>cargo xtask pil</code>.", esc(&path.display().to_string())));
+        rep.summary.insert("pil".into(), json!({"missing": path.display().to_string()}));
+        return Ok(());
+    };
+    let v: Value = serde_json::from_str(&text).map_err(|e| format!("{}: {e}", path.display()))?;
+    let f = |k: &str| v.get(k).map_or("-".to_string(), |x| x.to_string());
+    rep.para(&format!(
+        "Processor in the loop (plant on the host, integer controller and RBF predictor in QEMU over the emulated UART, \
+         framed and CRC-checked): {} periods, control codes identical to the host-only controller: {}, predictions \
+         compared: {}, max relative prediction difference vs the host's f32 evaluation: {}, {} round trips/s. \
+         The whole closed loop (encoder counts, codes, states) equals the host-only simulation of the scene{}: {}.",
+        f("periods"),
+        f("codes_identical"),
+        f("predictions_compared"),
+        f("max_pred_rel_diff"),
+        v.get("round_trips_per_s").and_then(Value::as_f64).map_or("-".into(), |x| format!("{x:.0}")),
+        v.get("noise").filter(|n| !n.is_null()).map_or(String::new(), |n| format!(
+            " (sensor noise sigma {} rad, seed {}, the same draws)",
+            n.get("sigma_theta").map_or("-".to_string(), |x| x.to_string()),
+            n.get("seed").map_or("-".to_string(), |x| x.to_string())
+        )),
+        f("host_sim_codes_identical")
+    ));
+    // The blob the run flashed is part of the report's exported models.
+    let blob = path.with_file_name("model.bin");
+    if blob.is_file() {
+        std::fs::copy(&blob, rep.dir().join("pil-model.bin")).map_err(|e| format!("{}: {e}", blob.display()))?;
+        rep.para("The model blob of this run is <code>pil-model.bin</code>.");
+        if let Some(Value::Array(list)) = rep.summary.get_mut("exported_blobs") {
+            list.push(json!("pil-model.bin"));
+        }
+    }
+    rep.summary.insert(
+        "pil".into(),
+        json!({"periods": v.get("periods"), "codes_identical": v.get("codes_identical"),
+               "host_sim_codes_identical": v.get("host_sim_codes_identical"), "noise": v.get("noise"),
+               "max_pred_rel_diff": v.get("max_pred_rel_diff"), "source": path.display().to_string()}),
+    );
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The f32-vs-f64 rows of the device table JSON are rendered as a table.
+    #[test]
+    fn device_section_renders_f32_vs_f64_rows() {
+        let dir = std::env::temp_dir().join(format!("ssm-fitreport-dev-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let table = dir.join("device-table.json");
+        let v = json!({
+            "controller_step_instructions_int": 90.5,
+            "predictor_f32_vs_f64": [
+                {"centers": 50, "scalar": "f32", "instructions": 1234.5, "per_center": 24.69, "rel_error": 3e-7, "vs_f32": 1.0},
+                {"centers": 50, "scalar": "f64", "instructions": 23456.5, "per_center": 469.13, "rel_error": 2e-16, "vs_f32": 19.0},
+            ],
+            "firmware_sizes": [
+                {"config": "stm32f407: on-target tests", "flash_bytes": 262144, "ram_bytes": 32768, "flash_capacity": 1048576, "ram_capacity": 131072},
+            ],
+        });
+        std::fs::write(&table, v.to_string()).unwrap();
+        let mut rep = Report::new(&dir.join("out")).unwrap();
+        device_section(&mut rep, &table).unwrap();
+        rep.finish("t").unwrap();
+        let html = std::fs::read_to_string(dir.join("out/index.html")).unwrap();
+        assert!(html.contains("<th>x f32</th>"), "no f32/f64 table");
+        assert!(html.contains("<td>f64</td><td>23456.5</td><td>469.13</td><td>19.0</td><td>2e-16</td>"), "{html}");
+        assert_eq!(rep.summary["device"]["predictor_f32_vs_f64"][1]["vs_f32"], 19.0);
+        assert!(html.contains("<td>stm32f407: on-target tests</td><td>262144 (25.0 %)</td><td>32768 (25.0 %)</td>"), "{html}");
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+}
