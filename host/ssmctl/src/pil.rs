@@ -19,7 +19,7 @@
 //! constant pre-history. Scenes must use `counts` quantization; a scene with an explicit
 //! `initial.history` is refused (the device primes from one constant pair).
 //!
-//! Frame layout: see the firmware's module documentation.
+//! Frame layout, kinds and fault codes: [`shared::frame`].
 
 use sim::ode::Integrator;
 use sim::plant::Plant;
@@ -31,6 +31,7 @@ use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, Normal};
 use serde::Serialize;
+use shared::frame::{self, Fault, FrameError, HEADER_LEN, Header, Kind, MAX_FRAME, REPLY_START, Seq};
 use std::io::{Read, Write};
 use std::net::{TcpListener, TcpStream};
 use std::path::{Path, PathBuf};
@@ -39,17 +40,6 @@ use std::time::{Duration, Instant};
 
 /// The firmware's predictor capacities (`qemu/src/bin/pil.rs` uses the same).
 pub type PilPredictor = Predictor<16, 6, 256, 84, 64>;
-
-const REQ: u8 = 0xA5;
-const REP: u8 = 0x5A;
-const K_CHUNK: u8 = 1;
-const K_LOAD: u8 = 2;
-const K_PRIME: u8 = 3;
-const K_STEP: u8 = 4;
-const K_SHUTDOWN: u8 = 5;
-const R_ACK: u8 = 0x81;
-const R_STEP: u8 = 0x84;
-const R_ERR: u8 = 0xEE;
 
 #[derive(Debug, thiserror::Error)]
 pub enum PilError {
@@ -86,41 +76,26 @@ fn io(what: impl Into<String>) -> impl FnOnce(std::io::Error) -> PilError {
     move |source| PilError::Io { what, source }
 }
 
-/// CRC-32 (IEEE 802.3, reflected, init and final xor all ones; zlib's).
-pub fn crc32(bytes: &[u8]) -> u32 {
-    let mut c = 0xFFFF_FFFFu32;
-    for &b in bytes {
-        c ^= u32::from(b);
-        for _ in 0..8 {
-            c = if c & 1 != 0 { (c >> 1) ^ 0xEDB8_8320 } else { c >> 1 };
-        }
-    }
-    !c
+/// A frame ready to send: [`frame::encode`] into a buffer of the largest frame's size.
+struct Outgoing {
+    buf: [u8; MAX_FRAME],
+    len: usize,
 }
 
-/// A request frame: `[0xA5, kind, seq, len, payload, crc]`.
-pub fn request(kind: u8, seq: u16, payload: &[u8]) -> Vec<u8> {
-    assert!(payload.len() <= 255, "payload of {} bytes", payload.len());
-    let mut f = vec![REQ, kind];
-    f.extend_from_slice(&seq.to_le_bytes());
-    f.push(payload.len() as u8);
-    f.extend_from_slice(payload);
-    let crc = crc32(&f);
-    f.extend_from_slice(&crc.to_le_bytes());
-    f
+impl Outgoing {
+    fn new(kind: Kind, seq: Seq, payload: &[u8]) -> Result<Self, PilError> {
+        let mut buf = [0u8; MAX_FRAME];
+        let len = frame::encode(kind, seq, payload, &mut buf).map_err(|e| PilError::Link { seq: seq.0, what: e.to_string() })?;
+        Ok(Outgoing { buf, len })
+    }
+
+    fn bytes(&self) -> &[u8] {
+        &self.buf[..self.len]
+    }
 }
 
 fn fault_name(code: u8) -> &'static str {
-    match code {
-        1 => "bad CRC (corrupt frame)",
-        2 => "unexpected sequence number (lost or duplicated frame)",
-        3 => "unknown kind or wrong payload length",
-        4 => "model blob does not decode",
-        5 => "no model loaded",
-        6 => "model blob exceeds the device buffer",
-        7 => "the blob's controller configuration is invalid",
-        _ => "unknown fault code",
-    }
+    Fault::from_code(code).map_or("unknown fault code", Fault::description)
 }
 
 /// Options of one PIL run.
@@ -253,24 +228,29 @@ impl Recorder {
 
 struct Link {
     stream: TcpStream,
-    seq: u16,
+    seq: Seq,
 }
 
 impl Link {
-    fn transact(&mut self, kind: u8, payload: &[u8]) -> Result<(u8, Vec<u8>), PilError> {
+    /// Sends a request of `kind` (a request kind) and returns the device's successful reply.
+    fn transact(&mut self, kind: Kind, payload: &[u8]) -> Result<(Kind, Vec<u8>), PilError> {
         let seq = self.seq;
-        self.seq = self.seq.wrapping_add(1);
-        self.send_raw(&request(kind, seq, payload), seq)?;
-        let (rk, rseq, p) = self.receive(seq)?;
-        if rseq != seq {
+        self.seq = self.seq.next();
+        self.send_raw(Outgoing::new(kind, seq, payload)?.bytes(), seq.0)?;
+        let (rk, rseq, p) = self.receive(seq.0)?;
+        let (seq, code) = (seq.0, kind.code());
+        if rseq.0 != seq {
             return Err(PilError::Link { seq, what: format!("reply carries sequence number {rseq} (a frame was lost or duplicated)") });
         }
-        if rk == R_ERR {
-            return Err(PilError::Device { seq, kind, fault: fault_name(p.first().copied().unwrap_or(0)) });
+        if rk == Kind::Error {
+            return Err(PilError::Device { seq, kind: code, fault: fault_name(p.first().copied().unwrap_or(0)) });
         }
-        let want = if kind == K_STEP { R_STEP } else { R_ACK };
+        let Some(want) = kind.success_reply() else {
+            return Err(PilError::Link { seq, what: format!("kind {code:#x} is not a request") });
+        };
         if rk != want {
-            return Err(PilError::Link { seq, what: format!("reply of kind {rk:#x} to a request of kind {kind}, expected {want:#x}") });
+            let (rk, want) = (rk.code(), want.code());
+            return Err(PilError::Link { seq, what: format!("reply of kind {rk:#x} to a request of kind {code}, expected {want:#x}") });
         }
         Ok((rk, p))
     }
@@ -290,42 +270,43 @@ impl Link {
         })
     }
 
-    /// One reply frame: (kind, seq, payload), CRC checked.
-    fn receive(&mut self, seq: u16) -> Result<(u8, u16, Vec<u8>), PilError> {
-        let mut head = [0u8; 5];
-        self.read_exact(&mut head[..1], seq)?;
-        if head[0] != REP {
-            return Err(PilError::Link { seq, what: format!("reply starts with byte {:#04x}, not {REP:#04x} (corrupt stream)", head[0]) });
+    /// One reply frame: (kind, seq, payload), CRC and kind checked ([`frame::decode`]).
+    fn receive(&mut self, seq: u16) -> Result<(Kind, Seq, Vec<u8>), PilError> {
+        let mut buf = [0u8; MAX_FRAME];
+        self.read_exact(&mut buf[..1], seq)?;
+        if buf[0] != REPLY_START {
+            return Err(PilError::Link { seq, what: format!("reply starts with byte {:#04x}, not {REPLY_START:#04x} (corrupt stream)", buf[0]) });
         }
-        self.read_exact(&mut head[1..], seq)?;
-        let len = usize::from(head[4]);
-        let mut rest = vec![0u8; len + 4];
-        self.read_exact(&mut rest, seq)?;
-        let mut whole = head.to_vec();
-        whole.extend_from_slice(&rest[..len]);
-        let crc = u32::from_le_bytes([rest[len], rest[len + 1], rest[len + 2], rest[len + 3]]);
-        if crc != crc32(&whole) {
-            return Err(PilError::Link { seq, what: format!("reply CRC {crc:#010x} != computed {:#010x} (corrupt frame)", crc32(&whole)) });
+        self.read_exact(&mut buf[1..HEADER_LEN], seq)?;
+        let n = Header::parse(&buf).map_err(|e| PilError::Link { seq, what: format!("reply: {e}") })?.frame_len();
+        self.read_exact(&mut buf[HEADER_LEN..n], seq)?;
+        match frame::decode(&buf[..n]) {
+            Ok(f) => Ok((f.kind, f.seq, f.payload.to_vec())),
+            Err(FrameError::Crc { stated, computed, .. }) => {
+                Err(PilError::Link { seq, what: format!("reply CRC {stated:#010x} != computed {computed:#010x} (corrupt frame)") })
+            }
+            Err(e) => Err(PilError::Link { seq, what: format!("reply: {e}") }),
         }
-        Ok((head[1], u16::from_le_bytes([head[2], head[3]]), rest[..len].to_vec()))
     }
 
     /// The device must answer a corrupt frame and a frame out of sequence with the matching
     /// error, and change nothing (the sequence continues).
     fn check_error_paths(&mut self) -> Result<(), PilError> {
         let seq = self.seq;
-        let mut bad = request(K_PRIME, seq, &[0; 8]);
-        bad[6] ^= 0x40;
-        self.send_raw(&bad, seq)?;
-        let (k, s, p) = self.receive(seq)?;
-        if (k, s, p.as_slice()) != (R_ERR, seq, &[1u8][..]) {
-            return Err(PilError::Link { seq, what: format!("a corrupted frame got reply kind {k:#x} seq {s} payload {p:?}, not a CRC error") });
+        let mut bad = Outgoing::new(Kind::Prime, seq, &[0; 8])?;
+        bad.buf[6] ^= 0x40;
+        self.send_raw(bad.bytes(), seq.0)?;
+        let (k, s, p) = self.receive(seq.0)?;
+        if (k, s, p.as_slice()) != (Kind::Error, seq, &[Fault::Crc.code()][..]) {
+            let k = k.code();
+            return Err(PilError::Link { seq: seq.0, what: format!("a corrupted frame got reply kind {k:#x} seq {s} payload {p:?}, not a CRC error") });
         }
-        let ahead = seq.wrapping_add(7);
-        self.send_raw(&request(K_PRIME, ahead, &[0; 8]), ahead)?;
-        let (k, s, p) = self.receive(ahead)?;
-        if (k, s, p.as_slice()) != (R_ERR, ahead, &[2u8][..]) {
-            return Err(PilError::Link { seq, what: format!("an out-of-sequence frame got reply kind {k:#x} seq {s} payload {p:?}, not a sequence error") });
+        let ahead = Seq(seq.0.wrapping_add(7));
+        self.send_raw(Outgoing::new(Kind::Prime, ahead, &[0; 8])?.bytes(), ahead.0)?;
+        let (k, s, p) = self.receive(ahead.0)?;
+        if (k, s, p.as_slice()) != (Kind::Error, ahead, &[Fault::Seq.code()][..]) {
+            let k = k.code();
+            return Err(PilError::Link { seq: seq.0, what: format!("an out-of-sequence frame got reply kind {k:#x} seq {s} payload {p:?}, not a sequence error") });
         }
         Ok(())
     }
@@ -446,18 +427,18 @@ fn run_with<P: Plant<N>, const N: usize>(plant: &P, scene: &Scene, opts: &PilOpt
     std::fs::create_dir_all(&opts.out).map_err(io(format!("creating {}", opts.out.display())))?;
     let (mut qemu, stream) = start(&opts.elf, &opts.out)?;
     stream.set_read_timeout(Some(opts.reply_timeout)).map_err(io("read timeout"))?;
-    let mut link = Link { stream, seq: 0 };
+    let mut link = Link { stream, seq: Seq(0) };
     for chunk in blob.chunks(240) {
-        link.transact(K_CHUNK, chunk)?;
+        link.transact(Kind::ModelChunk, chunk)?;
     }
-    let (_, delay) = link.transact(K_LOAD, &[])?;
+    let (_, delay) = link.transact(Kind::Load, &[])?;
     if delay.first().copied() != Some(pd.delay().min(255) as u8) {
-        return Err(PilError::Link { seq: link.seq.wrapping_sub(1), what: format!("device reports delay {delay:?}, host {}", pd.delay()) });
+        return Err(PilError::Link { seq: link.seq.0.wrapping_sub(1), what: format!("device reports delay {delay:?}, host {}", pd.delay()) });
     }
     link.check_error_paths()?;
     let mut p = q0.0.to_le_bytes().to_vec();
     p.extend_from_slice(&q0.1.to_le_bytes());
-    link.transact(K_PRIME, &p)?;
+    link.transact(Kind::Prime, &p)?;
 
     let csv_path = opts.out.join("pil.csv");
     let mut csv = std::io::BufWriter::new(std::fs::File::create(&csv_path).map_err(io(csv_path.display().to_string()))?);
@@ -495,12 +476,12 @@ fn run_with<P: Plant<N>, const N: usize>(plant: &P, scene: &Scene, opts: &PilOpt
         p.extend_from_slice(&qy.to_le_bytes());
         p.extend_from_slice(&qz.to_le_bytes());
         p.extend_from_slice(&sample.to_le_bytes());
-        let seq = link.seq;
+        let seq = link.seq.0;
         let t_rt = Instant::now();
-        let (k, r) = link.transact(K_STEP, &p)?;
+        let (k, r) = link.transact(Kind::Step, &p)?;
         link_secs += t_rt.elapsed().as_secs_f64();
-        if k != R_STEP || r.len() != 10 {
-            return Err(PilError::Link { seq, what: format!("step reply of kind {k:#x} with {} bytes", r.len()) });
+        if k != Kind::StepReply || r.len() != 10 {
+            return Err(PilError::Link { seq, what: format!("step reply of kind {:#x} with {} bytes", k.code(), r.len()) });
         }
         let code = i32::from_le_bytes([r[0], r[1], r[2], r[3]]);
         let saturated = r[4] != 0;
@@ -557,7 +538,7 @@ fn run_with<P: Plant<N>, const N: usize>(plant: &P, scene: &Scene, opts: &PilOpt
     let secs = t_start.elapsed().as_secs_f64();
     s.round_trips_per_s = if link_secs > 0.0 { s.periods as f64 / link_secs } else { 0.0 };
     s.periods_per_s = if secs > 0.0 { s.periods as f64 / secs } else { 0.0 };
-    link.transact(K_SHUTDOWN, &[])?;
+    link.transact(Kind::Shutdown, &[])?;
     let t0 = Instant::now();
     let status = loop {
         if let Some(st) = qemu.0.try_wait().map_err(io("waiting for QEMU"))? {
@@ -623,20 +604,17 @@ mod tests {
     use super::*;
 
     #[test]
-    fn crc32_check_value() {
-        // The catalogue check value of CRC-32/ISO-HDLC.
-        assert_eq!(crc32(b"123456789"), 0xCBF4_3926);
-        assert_eq!(crc32(b""), 0);
+    fn frame_crc_check_value() {
+        // The catalogue check value of CRC-32/ISO-HDLC, the frame's CRC.
+        assert_eq!(frame::checksum(b"123456789"), 0xCBF4_3926);
+        assert_eq!(frame::checksum(b""), 0);
     }
 
     /// A reply frame as the firmware builds it.
-    fn reply(kind: u8, seq: u16, payload: &[u8]) -> Vec<u8> {
-        let mut f = request(kind, seq, payload);
-        f[0] = REP;
-        let n = f.len() - 4;
-        let crc = crc32(&f[..n]);
-        f[n..].copy_from_slice(&crc.to_le_bytes());
-        f
+    fn reply(kind: Kind, seq: u16, payload: &[u8]) -> Vec<u8> {
+        let mut buf = [0u8; MAX_FRAME];
+        let n = frame::encode(kind, Seq(seq), payload, &mut buf).unwrap();
+        buf[..n].to_vec()
     }
 
     /// A host link to a fake device that reads one request and answers with `answer(seq)`.
@@ -645,54 +623,54 @@ mod tests {
         let addr = listener.local_addr().unwrap();
         std::thread::spawn(move || {
             let mut dev = TcpStream::connect(addr).unwrap();
-            let mut head = [0u8; 5];
-            dev.read_exact(&mut head).unwrap();
-            let mut rest = vec![0u8; usize::from(head[4]) + 4];
-            dev.read_exact(&mut rest).unwrap();
-            dev.write_all(&answer(u16::from_le_bytes([head[2], head[3]]))).unwrap();
+            let mut buf = [0u8; MAX_FRAME];
+            dev.read_exact(&mut buf[..HEADER_LEN]).unwrap();
+            let n = Header::parse(&buf).unwrap().frame_len();
+            dev.read_exact(&mut buf[HEADER_LEN..n]).unwrap();
+            dev.write_all(&answer(frame::decode(&buf[..n]).unwrap().seq.0)).unwrap();
             // Keep the socket open long enough for the host to time out if nothing was sent.
             std::thread::sleep(Duration::from_millis(600));
         });
         let (stream, _) = listener.accept().unwrap();
         stream.set_read_timeout(Some(Duration::from_millis(300))).unwrap();
-        Link { stream, seq: 41 }
+        Link { stream, seq: Seq(41) }
     }
 
     #[test]
     fn link_accepts_a_good_reply() {
-        let mut l = fake(|seq| reply(R_ACK, seq, &[3]));
-        assert_eq!(l.transact(K_LOAD, &[]).unwrap(), (R_ACK, vec![3]));
-        assert_eq!(l.seq, 42);
+        let mut l = fake(|seq| reply(Kind::Ack, seq, &[3]));
+        assert_eq!(l.transact(Kind::Load, &[]).unwrap(), (Kind::Ack, vec![3]));
+        assert_eq!(l.seq, Seq(42));
     }
 
     #[test]
     fn link_names_lost_or_duplicated_frames() {
-        let mut l = fake(|seq| reply(R_ACK, seq.wrapping_sub(1), &[]));
-        let e = l.transact(K_LOAD, &[]).unwrap_err().to_string();
+        let mut l = fake(|seq| reply(Kind::Ack, seq.wrapping_sub(1), &[]));
+        let e = l.transact(Kind::Load, &[]).unwrap_err().to_string();
         assert!(e.contains("frame 41") && e.contains("sequence number 40") && e.contains("lost or duplicated"), "{e}");
     }
 
     #[test]
     fn link_names_corrupt_replies() {
         let mut l = fake(|seq| {
-            let mut f = reply(R_STEP, seq, &[0; 10]);
+            let mut f = reply(Kind::StepReply, seq, &[0; 10]);
             f[7] ^= 1;
             f
         });
-        let e = l.transact(K_STEP, &[0; 12]).unwrap_err().to_string();
+        let e = l.transact(Kind::Step, &[0; 12]).unwrap_err().to_string();
         assert!(e.contains("CRC") && e.contains("corrupt frame"), "{e}");
     }
 
     #[test]
     fn link_names_device_faults_and_timeouts() {
-        let mut l = fake(|seq| reply(R_ERR, seq, &[2]));
-        let e = l.transact(K_PRIME, &[0; 8]).unwrap_err().to_string();
+        let mut l = fake(|seq| reply(Kind::Error, seq, &[Fault::Seq.code()]));
+        let e = l.transact(Kind::Prime, &[0; 8]).unwrap_err().to_string();
         assert!(e.contains("refused frame 41") && e.contains("unexpected sequence number"), "{e}");
         let mut l = fake(|_| Vec::new());
-        let e = l.transact(K_PRIME, &[0; 8]).unwrap_err().to_string();
+        let e = l.transact(Kind::Prime, &[0; 8]).unwrap_err().to_string();
         assert!(e.contains("no reply within the timeout"), "{e}");
-        let mut l = fake(|seq| reply(R_STEP, seq, &[0; 10]));
-        let e = l.transact(K_PRIME, &[0; 8]).unwrap_err().to_string();
+        let mut l = fake(|seq| reply(Kind::StepReply, seq, &[0; 10]));
+        let e = l.transact(Kind::Prime, &[0; 8]).unwrap_err().to_string();
         assert!(e.contains("expected 0x81"), "{e}");
     }
 
@@ -783,8 +761,11 @@ mod tests {
 
     #[test]
     fn request_layout() {
-        let f = request(K_STEP, 0x0102, &[9, 8, 7]);
+        let o = Outgoing::new(Kind::Step, Seq(0x0102), &[9, 8, 7]).unwrap();
+        let f = o.bytes();
         assert_eq!(&f[..8], &[0xA5, 4, 0x02, 0x01, 3, 9, 8, 7]);
-        assert_eq!(u32::from_le_bytes([f[8], f[9], f[10], f[11]]), crc32(&f[..8]));
+        assert_eq!(u32::from_le_bytes([f[8], f[9], f[10], f[11]]), frame::checksum(&f[..8]));
+        let e = Outgoing::new(Kind::ModelChunk, Seq(3), &[0; 256]).err().unwrap().to_string();
+        assert!(e.contains("frame 3") && e.contains("256 bytes"), "{e}");
     }
 }

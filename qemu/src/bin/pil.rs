@@ -1,16 +1,15 @@
 //! Processor-in-the-loop: the integer PD controller and the RBF predictor answer requests
 //! from the host over UART0 (run by `ssmctl pil` / `cargo xtask pil`).
 //!
-//! Frames (little-endian), CRC-32 (IEEE, reflected, as zlib) over header + payload:
-//! request `[0xA5, kind, seq u16, len u8, payload, crc u32]`,
-//! reply   `[0x5A, kind, seq u16, len u8, payload, crc u32]`.
-//! Request kinds: 1 model chunk (appended to the blob buffer), 2 load (decode the blob:
-//! predictor + controller config; reply payload = delay u8), 3 prime (`q_y i32, q_z i32`),
-//! 4 step (`q_y i32, q_z i32, sample f32`), 5 shutdown (reply, then semihosting exit 0).
-//! Replies: 0x81 ack, 0x84 step (`code i32, saturated u8, ready u8, prediction f32`; the
-//! prediction is 0 and `ready` 0 until the predictor's window is full), 0xEE error
-//! (`code u8`, see [`Fault`]). Requests are numbered 0, 1, 2, ...: a frame with a bad CRC
-//! or an unexpected number is answered with an error and changes nothing.
+//! Frames, kinds and fault codes: `shared::frame` (the host uses the same definition).
+//! Request kinds: model chunk (appended to the blob buffer), load (decode the blob:
+//! predictor + controller config; reply payload = delay u8), prime (`q_y i32, q_z i32`),
+//! step (`q_y i32, q_z i32, sample f32`), shutdown (reply, then semihosting exit 0).
+//! The step reply is `code i32, saturated u8, ready u8, prediction f32`; the prediction is 0
+//! and `ready` 0 until the predictor's window is full. Requests are numbered 0, 1, 2, ...:
+//! a frame with a bad CRC or an unexpected number is answered with an error reply
+//! ([`Fault`]) and changes nothing; an unknown kind or a payload length the kind does not
+//! take is answered with [`Fault::Kind`] (its number counts).
 #![no_std]
 #![no_main]
 
@@ -19,6 +18,7 @@ use controller::predictor::{Predictor, SqrtFlavour};
 use cortex_m_rt::{ExceptionFrame, entry, exception};
 use cortex_m_semihosting::{debug, hprintln};
 use panic_semihosting as _;
+use shared::frame::{self, Direction, Fault, FrameError, Kind, Receiver, Seq};
 
 /// Capacities: p <= 16, d <= 6, K <= 256, lift terms <= 84, window <= 64.
 type Pred = Predictor<16, 6, 256, 84, 64>;
@@ -56,44 +56,21 @@ fn write_byte(b: u8) {
     }
 }
 
-fn crc32(bytes: &[u8]) -> u32 {
-    let mut c = 0xFFFF_FFFFu32;
-    for &b in bytes {
-        c ^= u32::from(b);
-        for _ in 0..8 {
-            c = if c & 1 != 0 { (c >> 1) ^ 0xEDB8_8320 } else { c >> 1 };
+/// Largest reply payload (the step reply has 10 bytes).
+const REPLY_CAP: usize = 16;
+
+fn reply(kind: Kind, seq: Seq, payload: &[u8]) {
+    let mut buf = [0u8; frame::frame_len(REPLY_CAP)];
+    // Every reply payload fits REPLY_CAP; one that did not would go unanswered.
+    if let Ok(n) = frame::encode(kind, seq, payload, &mut buf) {
+        for &b in &buf[..n] {
+            write_byte(b);
         }
     }
-    !c
 }
 
-/// Error codes sent in 0xEE replies.
-#[derive(Clone, Copy)]
-enum Fault {
-    Crc = 1,
-    Seq = 2,
-    Kind = 3,
-    Load = 4,
-    NotLoaded = 5,
-    BlobFull = 6,
-    Config = 7,
-}
-
-fn reply(kind: u8, seq: u16, payload: &[u8]) {
-    let mut buf = [0u8; 5 + 16 + 4];
-    let n = payload.len().min(16);
-    buf[0] = 0x5A;
-    buf[1] = kind;
-    buf[2..4].copy_from_slice(&seq.to_le_bytes());
-    buf[4] = n as u8;
-    for (d, s) in buf[5..5 + n].iter_mut().zip(payload) {
-        *d = *s;
-    }
-    let crc = crc32(&buf[..5 + n]);
-    buf[5 + n..9 + n].copy_from_slice(&crc.to_le_bytes());
-    for &b in &buf[..9 + n] {
-        write_byte(b);
-    }
+fn fault(seq: Seq, f: Fault) {
+    reply(Kind::Error, seq, &[f.code()]);
 }
 
 fn word(p: &[u8], at: usize) -> [u8; 4] {
@@ -112,61 +89,63 @@ fn main() -> ! {
     let blob = unsafe { &mut *(&raw mut BLOB) };
     let mut blob_len = 0usize;
     let mut pd: Option<IntPd<8>> = None;
-    let mut expected: u16 = 0;
-    let mut frame = [0u8; 5 + 255 + 4];
+    let mut expected = Seq(0);
+    let mut rx = Receiver::new(Direction::Request);
     loop {
-        // Hunt for the start byte, then read the header, payload and CRC.
-        while read_byte() != 0xA5 {}
-        frame[0] = 0xA5;
-        for b in &mut frame[1..5] {
-            *b = read_byte();
-        }
-        let kind = frame[1];
-        let seq = u16::from_le_bytes([frame[2], frame[3]]);
-        let len = usize::from(frame[4]);
-        for b in &mut frame[5..5 + len + 4] {
-            *b = read_byte();
-        }
-        let crc = u32::from_le_bytes(word(&frame, 5 + len));
-        if crc != crc32(&frame[..5 + len]) {
-            reply(0xEE, seq, &[Fault::Crc as u8]);
+        // The receiver hunts for the start byte, then takes the header, payload and CRC.
+        let Some(received) = rx.push(read_byte()) else {
             continue;
-        }
+        };
+        // An unknown kind is refused like a wrong payload length, after the sequence check.
+        let (seq, request) = match received {
+            Ok(f) => (f.seq, Some((f.kind, f.payload))),
+            Err(FrameError::UnknownKind { seq, .. }) => (seq, None),
+            Err(FrameError::Crc { seq, .. }) => {
+                fault(seq, Fault::Crc);
+                continue;
+            }
+            // The receiver only completes frames with a request start byte, whole: nothing
+            // else reaches here.
+            Err(_) => continue,
+        };
         if seq != expected {
-            reply(0xEE, seq, &[Fault::Seq as u8]);
+            fault(seq, Fault::Seq);
             continue;
         }
-        expected = expected.wrapping_add(1);
-        let payload = &frame[5..5 + len];
-        match (kind, len) {
-            (1, _) => match blob.get_mut(blob_len..blob_len + len) {
+        expected = expected.next();
+        let Some((kind, payload)) = request else {
+            fault(seq, Fault::Kind);
+            continue;
+        };
+        match (kind, payload.len()) {
+            (Kind::ModelChunk, len) => match blob.get_mut(blob_len..blob_len + len) {
                 Some(dst) => {
                     dst.copy_from_slice(payload);
                     blob_len += len;
-                    reply(0x81, seq, &[]);
+                    reply(Kind::Ack, seq, &[]);
                 }
-                None => reply(0xEE, seq, &[Fault::BlobFull as u8]),
+                None => fault(seq, Fault::BlobFull),
             },
-            (2, 0) => match pred.load(&blob[..blob_len]) {
+            (Kind::Load, 0) => match pred.load(&blob[..blob_len]) {
                 Ok(()) => match IntPd::<8>::try_new(pred.model().config()) {
                     Ok(p) => {
                         let delay = p.delay().min(255) as u8;
                         pd = Some(p);
-                        reply(0x81, seq, &[delay]);
+                        reply(Kind::Ack, seq, &[delay]);
                     }
-                    Err(_) => reply(0xEE, seq, &[Fault::Config as u8]),
+                    Err(_) => fault(seq, Fault::Config),
                 },
-                Err(_) => reply(0xEE, seq, &[Fault::Load as u8]),
+                Err(_) => fault(seq, Fault::Load),
             },
-            (3, 8) => match &mut pd {
+            (Kind::Prime, 8) => match &mut pd {
                 Some(p) => {
                     p.prime_constant(i32::from_le_bytes(word(payload, 0)), i32::from_le_bytes(word(payload, 4)));
                     pred.reset();
-                    reply(0x81, seq, &[]);
+                    reply(Kind::Ack, seq, &[]);
                 }
-                None => reply(0xEE, seq, &[Fault::NotLoaded as u8]),
+                None => fault(seq, Fault::NotLoaded),
             },
-            (4, 12) => match &mut pd {
+            (Kind::Step, 12) => match &mut pd {
                 Some(p) => {
                     let out = p.step(i32::from_le_bytes(word(payload, 0)), i32::from_le_bytes(word(payload, 4)));
                     let sample = f32::from_le_bytes(word(payload, 8));
@@ -179,15 +158,15 @@ fn main() -> ! {
                     r[4] = u8::from(out.saturated);
                     r[5] = ready;
                     r[6..10].copy_from_slice(&y.to_le_bytes());
-                    reply(0x84, seq, &r);
+                    reply(Kind::StepReply, seq, &r);
                 }
-                None => reply(0xEE, seq, &[Fault::NotLoaded as u8]),
+                None => fault(seq, Fault::NotLoaded),
             },
-            (5, 0) => {
-                reply(0x81, seq, &[]);
+            (Kind::Shutdown, 0) => {
+                reply(Kind::Ack, seq, &[]);
                 debug::exit(debug::EXIT_SUCCESS);
             }
-            _ => reply(0xEE, seq, &[Fault::Kind as u8]),
+            _ => fault(seq, Fault::Kind),
         }
     }
 }
