@@ -11,12 +11,13 @@
 //! Mode amplitudes follow the model's observable convention: `rho_j` is the amplitude of
 //! mode `j` in theta (rad); mode 1 = slow (about 0.44 Hz), mode 2 = fast (about 8.4 Hz).
 
+use sim::units::ms_to_s;
 use std::time::Instant;
 
 use serde::Serialize;
 use thiserror::Error;
 
-use sim::scene::{Scene, SceneError};
+use sim::scene::{SceneBuilder, SceneError};
 use sim::closed_loop::{SimError, Trajectory, simulate};
 use crate::parametric::{FurutaError, exact_modes, mode_start};
 use ssm::spectrum::{SpectrumError, PEAK_REL_THRESHOLD, Peak, band_peak, mode_amplitudes, sideband_spacing, spectral_peaks};
@@ -73,20 +74,18 @@ pub fn run(dt_ms: f64, start: &Start, periods: u64, escape_theta: f64) -> Result
     if x.iter().any(|v| !v.is_finite()) {
         return Err(FurCheckError::BadInput { what: "start", why: format!("state must be finite, got {x:?}") });
     }
-    let mut ov = vec![
-        format!("controller.dt_ms={dt_ms}"),
-        format!("run.periods={periods}"),
-        format!("initial.state=[{:e},{:e},{:e},{:e}]", x[0], x[1], x[2], x[3]),
-        format!("run.escape_theta={escape_theta:e}"),
-    ];
     if let Some(h) = hist {
         if h.iter().flatten().any(|v| !v.is_finite()) {
             return Err(FurCheckError::BadInput { what: "start", why: "pre-history must be finite".into() });
         }
-        let items: Vec<String> = h.iter().map(|p| format!("[{:e},{:e}]", p[0], p[1])).collect();
-        ov.push(format!("initial.history=[{}]", items.join(",")));
     }
-    let scene = Scene::load("furuta-dt30.5", &ov)?;
+    let scene = SceneBuilder::load("furuta-dt30.5")?
+        .dt_ms(dt_ms)
+        .periods(periods)
+        .initial_state(x)
+        .escape_theta(escape_theta)
+        .history(hist.as_deref())
+        .build()?;
     Ok(simulate(&scene, None)?)
 }
 
@@ -382,7 +381,7 @@ pub fn transient_spectrum(dt_ms: f64, start: &Start, seconds: f64) -> Result<Vec
     if !(seconds.is_finite() && seconds > 0.0) {
         return Err(FurCheckError::BadInput { what: "seconds", why: format!("must be positive and finite, got {seconds}") });
     }
-    let periods = (seconds / (dt_ms * 1e-3)).ceil() as u64;
+    let periods = (seconds / (ms_to_s(dt_ms))).ceil() as u64;
     let tr = run(dt_ms, start, periods, ESCAPE_THETA)?;
     let x = tr.primary();
     let end = x.iter().position(|v| v.abs() > TRANSIENT_CUT).unwrap_or(x.len());
@@ -421,7 +420,7 @@ pub fn transient_analysis(dt_ms: f64, start: &Start, seconds: f64) -> Result<Tra
     if !(seconds.is_finite() && seconds > 0.0) {
         return Err(FurCheckError::BadInput { what: "seconds", why: format!("must be positive and finite, got {seconds}") });
     }
-    let periods = (seconds / (dt_ms * 1e-3)).ceil() as u64;
+    let periods = (seconds / (ms_to_s(dt_ms))).ceil() as u64;
     let tr = run(dt_ms, start, periods, ESCAPE_THETA)?;
     let o = outcome_of(&tr);
     let dt = tr.dt;

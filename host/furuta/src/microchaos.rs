@@ -24,6 +24,7 @@ use chaos::{
     delay_embed, dominant_period, first_zero_crossing, fit_divergence, rosenstein_curve, ssm_dimension,
 };
 use serde::Serialize;
+use sim::scene::SceneBuilder;
 use std::error::Error;
 
 #[derive(Clone, Debug)]
@@ -499,16 +500,13 @@ pub fn analyse_held_out(train: &[TimeSeries], test: Option<&TimeSeries>, o: &Cha
 /// `periods` sampling periods of the quantized scene `furuta-quant-dt25` from
 /// `theta(0) = theta0`, theta only, first 20 s of transient dropped.
 pub fn simulate_quantized(periods: usize, theta0: f64, name: &str) -> Result<TimeSeries, Box<dyn Error>> {
-    simulate_scene("furuta-quant-dt25", &[], periods, theta0, name)
+    simulate_scene(SceneBuilder::load("furuta-quant-dt25")?, periods, theta0, name)
 }
 
-/// [`simulate_quantized`] for any bundled scene with extra `--set`-style `overrides`
-/// (e.g. `controller.kd=5.0`, `effects.noise.seed=2`), applied after the run length and
-/// initial state.
-pub fn simulate_scene(scene: &str, overrides: &[String], periods: usize, theta0: f64, name: &str) -> Result<TimeSeries, Box<dyn Error>> {
-    let mut all = vec![format!("run.periods={periods}"), format!("initial.state=[{theta0},0,0,0]")];
-    all.extend(overrides.iter().cloned());
-    let s = sim::scene::Scene::load(scene, &all)?;
+/// [`simulate_quantized`] for any scene (e.g. with another `kd` or noise seed set on the
+/// builder): the run length and the initial state `[theta0, 0, 0, 0]` are set here.
+pub fn simulate_scene(scene: SceneBuilder, periods: usize, theta0: f64, name: &str) -> Result<TimeSeries, Box<dyn Error>> {
+    let s = scene.periods(periods as u64).initial_state(&[theta0, 0.0, 0.0, 0.0]).build()?;
     let tr = sim::closed_loop::simulate(&s, None)?;
     let skip = (20.0 / tr.dt) as usize;
     if skip >= tr.t.len() {

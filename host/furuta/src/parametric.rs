@@ -11,6 +11,7 @@
 //! `rho_j` is the amplitude of mode `j` in theta (rad). Mode 1 = slow (about 0.44 Hz),
 //! mode 2 = fast (about 8.45 Hz), as in the paper's table.
 
+use sim::units::ms_to_s;
 use serde::{Deserialize, Serialize};
 use thiserror::Error;
 
@@ -21,7 +22,7 @@ use ssm::fit::{FitOptions, SsmModel, fit};
 use ssm::interp::{Interp, InterpError, interp_weights};
 use ssm::normal_form::{NormalFormError, NormalFormOptions, NormalFormTable, PolarNormalForm, model_normal_form};
 use ssm::ridge::Ridge;
-use sim::scene::{Scene, SceneError};
+use sim::scene::{SceneBuilder, SceneError};
 use sim::closed_loop::{SimError, simulate};
 use sim::stability::{StabilityError, dominant_pairs};
 
@@ -124,7 +125,7 @@ pub struct ExactModes {
 
 /// Exact rates at a sampling period in ms (slow mode first).
 pub fn exact_modes(dt_ms: f64) -> Result<ExactModes, FurutaError> {
-    let scene = Scene::load("furuta-dt30.5", &[format!("controller.dt_ms={dt_ms}")])?;
+    let scene = SceneBuilder::load("furuta-dt30.5")?.dt_ms(dt_ms).build()?;
     let mut pairs = dominant_pairs(&scene)?;
     if pairs.len() < 2 {
         return Err(FurutaError::Multipliers { dt_ms, got: pairs.len() });
@@ -181,7 +182,7 @@ pub fn mode_start(dt_ms: f64, slow: Option<(f64, f64)>, fast: Option<(f64, f64)>
             }
         }
     }
-    let scene = Scene::load("furuta-dt30.5", &[format!("controller.dt_ms={dt_ms}")])?;
+    let scene = SceneBuilder::load("furuta-dt30.5")?.dt_ms(dt_ms).build()?;
     let le = |source| StabilityError::Linear { scene: scene.name.clone(), source };
     let map = sim::stability::linear_plant(&scene)?.closed_loop(&scene.controller_config()).map_err(le)?;
     let lay = map.layout;
@@ -239,17 +240,13 @@ pub fn furuta_series_with_history(
     if !(max_theta > 0.0 && max_theta.is_finite()) {
         return Err(FurutaError::BadOption { what: "max_theta", why: format!("must be positive and finite, got {max_theta}") });
     }
-    let mut ov = vec![
-        format!("controller.dt_ms={dt_ms}"),
-        format!("run.periods={periods}"),
-        format!("initial.state=[{:e},{:e},{:e},{:e}]", ic[0], ic[1], ic[2], ic[3]),
-        format!("run.escape_theta={}", 2.0 * max_theta),
-    ];
-    if let Some(h) = history {
-        let items: Vec<String> = h.iter().map(|p| format!("[{:e},{:e}]", p[0], p[1])).collect();
-        ov.push(format!("initial.history=[{}]", items.join(",")));
-    }
-    let scene = Scene::load("furuta-dt30.5", &ov)?;
+    let scene = SceneBuilder::load("furuta-dt30.5")?
+        .dt_ms(dt_ms)
+        .periods(periods)
+        .initial_state(&ic)
+        .escape_theta(2.0 * max_theta)
+        .history(history)
+        .build()?;
     let tr = simulate(&scene, None)?;
     let x = tr.primary();
     let end = x.iter().position(|v| v.abs() > max_theta).unwrap_or(x.len());
@@ -336,7 +333,7 @@ impl ParametricModel {
         out.amp = lerp(&a.amp, &b.amp);
         out.phase = lerp(&a.phase, &b.phase);
         out.eigenvalues = (0..a.modes).map(|m| (out.amp[m][0], out.phase[m][0])).collect();
-        out.map_dt = Some(dt_ms * 1e-3);
+        out.map_dt = Some(ms_to_s(dt_ms));
         Ok(out)
     }
 
@@ -366,7 +363,7 @@ impl ParametricModel {
         out.amp = mix(&|n| &n.amp);
         out.phase = mix(&|n| &n.phase);
         out.eigenvalues = (0..first.modes).map(|m| (out.amp[m][0], out.phase[m][0])).collect();
-        out.map_dt = Some(dt_ms * 1e-3);
+        out.map_dt = Some(ms_to_s(dt_ms));
         Ok(out)
     }
 
@@ -432,7 +429,7 @@ mod tests {
         let (ic, hist) = slow_mode_start(dt_ms, 1e-3, 0.0).unwrap();
         let ts = furuta_series_with_history(dt_ms, ic, Some(&hist), 700, 0, 0.3).unwrap();
         let x = &ts.x;
-        let dt = dt_ms * 1e-3;
+        let dt = ms_to_s(dt_ms);
         let e = exact_modes(dt_ms).unwrap();
         // Fit ln|theta| envelope: max |theta| over successive slow periods.
         let per = (1.0 / (e.freqs_hz[0] * dt)).round() as usize;

@@ -21,6 +21,7 @@
 //! `eta0 = V1^T y0`, iterate the map, lift, read theta) and blow-up detection are those of
 //! [`SsmModel::predict`].
 
+use sim::units::ms_to_s;
 use serde::{Deserialize, Serialize};
 
 use ssm::data::TimeSeries;
@@ -162,9 +163,9 @@ impl SharedParametricModel {
         out.manifold.singular_values = self.singular_values.clone();
         if let (ReducedDynamics::Map { increment, dt, .. }, Some(p)) = (&mut out.dynamics, map_poly) {
             *increment = p;
-            *dt = dt_ms * 1e-3;
+            *dt = ms_to_s(dt_ms);
         }
-        out.dt = dt_ms * 1e-3;
+        out.dt = ms_to_s(dt_ms);
         out.eigenvalues_ct = out.dynamics.eigenvalues_ct()?;
         out.eta_range =
             (0..self.scale.len()).map(|j| self.nodes.iter().map(|n| n.model.eta_range[j]).fold(0.0, f64::max)).collect();
@@ -273,7 +274,7 @@ pub fn test_series(dt_ms: f64, o: &PredictOptions) -> Result<TimeSeries, FurutaE
     if !(o.horizon_s > 0.0 && o.horizon_s.is_finite()) {
         return Err(FurutaError::BadOption { what: "horizon_s", why: format!("must be positive and finite, got {}", o.horizon_s) });
     }
-    let periods = (o.horizon_s / (dt_ms * 1e-3)).ceil() as u64;
+    let periods = (o.horizon_s / (ms_to_s(dt_ms))).ceil() as u64;
     furuta_series_with_history(dt_ms, ic, Some(&hist), periods, o.skip, o.max_theta)
 }
 
@@ -299,7 +300,7 @@ pub fn predict_one(
     if !dtw_nmte.is_finite() {
         return Err(bad("DTW-NMTE"));
     }
-    let dt = dt_ms * 1e-3;
+    let dt = ms_to_s(dt_ms);
     let horizon = test.t.first().copied().unwrap_or(0.0) + o.horizon_s - (o.skip as f64 + 2.0) * dt;
     let test_cut = (test.t.last().copied().unwrap_or(0.0) < horizon)
         .then(|| format!("|theta| > {} rad at t = {:.2} s", o.max_theta, test.t.last().copied().unwrap_or(0.0)));

@@ -2,8 +2,8 @@
 //! the device's own controller code, exact linear stability of the sampled-data loop (ZOH
 //! multipliers) and stability charts (computation only).
 //!
-//! Knows no SSM and draws nothing. Time is in seconds everywhere inside; the scene file's
-//! `controller.dt_ms` is the one millisecond field, read through [`scene::Scene::dt`].
+//! Architecture invariant: knows no SSM (does not depend on `ssm`), draws nothing, and runs
+//! control arithmetic only through the `controller` crate. Units: see [`units`].
 
 pub mod chart;
 pub mod closed_loop;
@@ -12,3 +12,4 @@ pub mod ode;
 pub mod plant;
 pub mod scene;
 pub mod stability;
+pub mod units;

@@ -56,7 +56,7 @@ pub fn scene_chart(
     kd: (f64, f64, usize),
 ) -> Result<(Chart, f64), StabilityError> {
     let ce = |source| StabilityError::Chart { scene: scene.name.clone(), source };
-    let dts: Vec<f64> = dts_ms.iter().map(|d| d * 1e-3).collect();
+    let dts: Vec<f64> = dts_ms.iter().map(|&d| crate::units::ms_to_s(d)).collect();
     let cfg = scene.controller_config();
     fn go<P: Plant<N>, const N: usize>(
         p: &P,

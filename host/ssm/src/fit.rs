@@ -69,6 +69,22 @@ impl FitOptions {
     }
 }
 
+/// The `format` tag of a saved model file.
+pub const MODEL_FORMAT: &str = "ssm-model";
+/// The saved-model format version this build writes and reads.
+pub const MODEL_FORMAT_VERSION: u32 = 1;
+
+/// A saved model file that cannot be read.
+#[derive(Debug, thiserror::Error)]
+pub enum ModelFileError {
+    #[error("not a saved SSM model ({0}; `ssmctl fit --save` writes \"format\": \"ssm-model\")")]
+    NotAModel(String),
+    #[error("saved-model format version {found}; this build reads version 1 (refit and save with this version)")]
+    Version { found: String },
+    #[error("saved model: {0}")]
+    Json(serde_json::Error),
+}
+
 /// A fitted SSM-reduced model (serializable, e.g. to JSON).
 #[derive(Clone, Debug, Serialize, Deserialize)]
 pub struct SsmModel {
@@ -268,8 +284,31 @@ impl SsmModel {
         None
     }
 
-    /// The model as pretty JSON.
+    /// The model as pretty JSON in the saved-model format: `{"format": MODEL_FORMAT,
+    /// "version": MODEL_FORMAT_VERSION, "model": {...}}`.
     pub fn to_json(&self) -> Result<String, serde_json::Error> {
-        serde_json::to_string_pretty(self)
+        #[derive(Serialize)]
+        struct Saved<'a> {
+            format: &'static str,
+            version: u32,
+            model: &'a SsmModel,
+        }
+        serde_json::to_string_pretty(&Saved { format: MODEL_FORMAT, version: MODEL_FORMAT_VERSION, model: self })
+    }
+
+    /// Reads a model saved by [`SsmModel::to_json`]; another format or version is an error
+    /// naming what was found, and so is a model whose shapes do not fit together.
+    pub fn from_json(text: &str) -> Result<Self, ModelFileError> {
+        let v: serde_json::Value = serde_json::from_str(text).map_err(ModelFileError::Json)?;
+        let format = v.get("format").and_then(serde_json::Value::as_str);
+        if format != Some(MODEL_FORMAT) {
+            return Err(ModelFileError::NotAModel(format.map_or_else(|| "no \"format\" key".into(), |f| format!("format \"{f}\""))));
+        }
+        match v.get("version").and_then(serde_json::Value::as_u64) {
+            Some(n) if n == u64::from(MODEL_FORMAT_VERSION) => {}
+            found => return Err(ModelFileError::Version { found: found.map_or_else(|| "none".into(), |n| n.to_string()) }),
+        }
+        let model = v.get("model").ok_or(ModelFileError::NotAModel("no \"model\" key".into()))?;
+        serde_json::from_value(model.clone()).map_err(ModelFileError::Json)
     }
 }

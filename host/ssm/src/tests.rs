@@ -7,7 +7,7 @@ use std::time::Instant;
 use super::*;
 
 fn sloshing_dir() -> Option<PathBuf> {
-    let dir = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../shared/data/sloshing");
+    let dir = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../../shared/data/sloshing");
     if dir.join("decay_0.csv").exists() {
         Some(dir)
     } else {
@@ -94,7 +94,14 @@ fn sloshing_meets_reference_nmte() {
     let (re, im) = model.eigenvalues_ct()[0];
     assert!(re < 0.0 && (im.abs() - 7.8).abs() < 0.3, "eigenvalue {re} + {im}i");
     let json = model.to_json().unwrap();
-    let back: SsmModel = serde_json::from_str(&json).unwrap();
+    let back = SsmModel::from_json(&json).unwrap();
+    // Other formats and versions are refused, naming what was found.
+    let v: serde_json::Value = serde_json::from_str(&json).unwrap();
+    assert_eq!((v["format"].as_str(), v["version"].as_u64()), (Some("ssm-model"), Some(1)));
+    let e = SsmModel::from_json(&json.replacen("\"version\": 1", "\"version\": 2", 1)).unwrap_err().to_string();
+    assert!(e.contains("version 2") && e.contains("reads version 1"), "{e}");
+    let e = SsmModel::from_json(&serde_json::to_string(&v["model"]).unwrap()).unwrap_err().to_string();
+    assert!(e.contains("no \"format\" key"), "{e}");
     // serde_json's default float parsing may differ in the last bit: compare with a tolerance.
     let p2 = back.predict(&data[2]).unwrap();
     let p1 = model.predict(&data[2]).unwrap();

@@ -2,7 +2,8 @@
 //! error versus a tight reference, for the project's integrator at several accuracies and a
 //! plain RK4 baseline, all measured in the same run. Ratios are against that baseline.
 
-use sim::scene::{IntegratorSpec, MethodKind, Scene};
+use sim::units::s_to_ms;
+use sim::scene::{IntegratorSpec, MethodKind, Scene, SceneBuilder, Task};
 use sim::closed_loop::{SimError, Trajectory, simulate};
 use serde::Serialize;
 use std::time::Instant;
@@ -21,10 +22,7 @@ pub struct BenchRow {
 
 /// The benchmark problem: `furuta-dt30.8`, 200 periods from theta0 = 0.05 rad, the rest at rest.
 pub fn problem(periods: u64) -> Result<Scene, SimError> {
-    Ok(Scene::load(
-        "furuta-dt30.8",
-        &[format!("run.periods={periods}"), "initial.state=[0.05, 0.0, 0.0, 0.0]".into(), "run.tasks=[\"simulate\"]".into()],
-    )?)
+    Ok(SceneBuilder::load("furuta-dt30.8")?.periods(periods).initial_state(&[0.05, 0.0, 0.0, 0.0]).tasks(&[Task::Simulate]).build()?)
 }
 
 fn with(scene: &Scene, method: MethodKind, rtol: Option<f64>, steps: Option<u32>) -> Scene {
@@ -198,11 +196,11 @@ pub fn bench_fit(
             .collect::<Result<_, _>>()?;
         let (secs, m) = timed_fit(&tr, o, reps)?;
         let p = m.predict(test)?;
-        let base = rows.first().map_or(secs * 1e3, |b| b.fit_ms);
+        let base = rows.first().map_or(s_to_ms(secs), |b| b.fit_ms);
         rows.push(FitBenchRow {
             setting: label.clone(),
-            fit_ms: secs * 1e3,
-            ratio_vs_baseline: secs * 1e3 / base,
+            fit_ms: s_to_ms(secs),
+            ratio_vs_baseline: s_to_ms(secs) / base,
             nmte_test: p.nmte(test),
             dtw_nmte_test: p.nmte_dtw(test, None),
             stopped: p.stop.as_ref().map(|s| format!("{:?}", s.reason)),

@@ -403,8 +403,7 @@ pub fn run(cli: Cli) -> Result<(), Box<dyn std::error::Error>> {
         }
         Cmd::Export { model, out, scene } => {
             let text = std::fs::read_to_string(&model).map_err(|e| format!("reading {}: {e}", model.display()))?;
-            let m: ssm::SsmModel =
-                serde_json::from_str(&text).map_err(|e| format!("{}: not a fitted model JSON: {e}", model.display()))?;
+            let m = ssm::SsmModel::from_json(&text).map_err(|e| format!("{}: {e}", model.display()))?;
             let cfg = match scene {
                 Some(s) => Scene::load(&s, &[])?.controller_config(),
                 None => shared::ControllerConfig::paper(m.dt),

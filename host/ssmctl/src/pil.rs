@@ -602,6 +602,7 @@ fn compare_with_host_sim<P: Plant<N>, const N: usize>(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use sim::scene::SceneBuilder;
 
     #[test]
     fn frame_crc_check_value() {
@@ -738,7 +739,7 @@ mod tests {
     /// (noisy quantized scene) and names the first period that differs.
     #[test]
     fn host_sim_comparison_finds_the_first_mismatch() {
-        let scene = Scene::load("furuta-quant-dt25-noise", &["run.periods=120".to_string()]).unwrap();
+        let scene = SceneBuilder::load("furuta-quant-dt25-noise").unwrap().periods(120).build().unwrap();
         let AnyPlant::Furuta(plant) = build_plant(&scene).unwrap() else { panic!("furuta scene") };
         let tr = sim::closed_loop::simulate(&scene, None).unwrap();
         let mut codes = tr.codes.clone().unwrap();
@@ -747,7 +748,7 @@ mod tests {
         compare_with_host_sim(&plant, &scene, &codes, &states, &mut s).unwrap();
         assert!(s.host_sim_codes_identical && s.host_sim_first_mismatch.is_none() && s.host_sim_max_state_diff == 0.0);
         // The seed matters: another seed changes some encoder count within 120 periods.
-        let other = Scene::load("furuta-quant-dt25-noise", &["run.periods=120".to_string(), "effects.noise.seed=2".to_string()]).unwrap();
+        let other = SceneBuilder::load("furuta-quant-dt25-noise").unwrap().periods(120).noise_seed(2).build().unwrap();
         compare_with_host_sim(&plant, &other, &codes, &states, &mut s).unwrap();
         assert!(!s.host_sim_codes_identical && s.host_sim_first_mismatch.is_some());
         codes[77].code += 1;

@@ -220,7 +220,7 @@ fn quantized_loop_data_diffuse_and_smooth_model_is_a_torus() {
     let runs: Vec<TimeSeries> = [0.02, 0.035]
         .iter()
         .enumerate()
-        .map(|(i, th)| crate::microchaos::simulate_scene("furuta-quant-dt25", &[], 15_000, *th, &format!("quant #{i}")).unwrap())
+        .map(|(i, th)| crate::microchaos::simulate_quantized(15_000, *th, &format!("quant #{i}")).unwrap())
         .collect();
     let o = ChaosOptions { centers: 100, ..ChaosOptions::default() };
     let r = crate::microchaos::analyse_held_out(&runs[..1], Some(&runs[1]), &o).unwrap();

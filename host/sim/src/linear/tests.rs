@@ -1,6 +1,7 @@
 //! Tests of the exact linear stability against independent routes and the physics of
 //! `shared/MODEL.md`.
 
+use crate::units::ms_to_s;
 use super::eig::eigenvalues_faer;
 use super::*;
 use nalgebra::{Complex, Matrix4, Vector4};
@@ -371,7 +372,7 @@ fn rates_reproduce_the_normal_form_linear_coefficients() {
     ];
     println!("dt [ms]  fast: |mu| f [Hz] rate [1/s]   slow: |mu| f [Hz] rate [1/s]");
     for dt_ms in [30.5, 30.8, 31.0, 31.2, 31.4, 31.41, 31.55, 31.68, 32.0, 32.3, 32.5] {
-        let dom = dominant_multipliers(&a, &b, 0, 2, &ControllerConfig::paper(dt_ms * 1e-3)).unwrap();
+        let dom = dominant_multipliers(&a, &b, 0, 2, &ControllerConfig::paper(ms_to_s(dt_ms))).unwrap();
         let (fast, slow) = two_pairs(&dom);
         println!(
             "{dt_ms:6.2}  {:.6} {:.4} {:+.5}   {:.6} {:.4} {:+.5}",

@@ -242,6 +242,91 @@ impl SceneError {
     }
 }
 
+/// Typed edits of a parsed scene, for code that derives runs from a scene (parametric
+/// sweeps, full-system checks, benches). The `--set PATH=VALUE` strings are the command
+/// line's; programs set fields here. Each setter replaces one field; [`SceneBuilder::build`]
+/// validates the result exactly as a parsed scene file is validated.
+#[derive(Clone, Debug)]
+pub struct SceneBuilder {
+    scene: Scene,
+    /// A setter that needed a table the scene does not have (its key path).
+    missing: Option<&'static str>,
+}
+
+impl SceneBuilder {
+    /// Starts from a bundled scene (or a scene file) without overrides.
+    pub fn load(name_or_file: &str) -> Result<Self, SceneError> {
+        Ok(Scene::load(name_or_file, &[])?.builder())
+    }
+
+    /// Sampling period, ms (the scene file's unit).
+    pub fn dt_ms(mut self, dt_ms: f64) -> Self {
+        self.scene.controller.dt_ms = dt_ms;
+        self
+    }
+
+    /// Derivative gain on the primary angle, V s/rad.
+    pub fn kd(mut self, kd: f64) -> Self {
+        self.scene.controller.kd = kd;
+        self
+    }
+
+    /// Number of sampling periods to simulate.
+    pub fn periods(mut self, periods: u64) -> Self {
+        self.scene.run.periods = periods;
+        self
+    }
+
+    /// Plant state at t = 0.
+    pub fn initial_state(mut self, state: &[f64]) -> Self {
+        self.scene.initial.state = state.to_vec();
+        self
+    }
+
+    /// The `delay + 1` samples `[primary, secondary]` before t = 0, oldest first (`None`: the
+    /// plant at rest at the initial angles).
+    pub fn history(mut self, history: Option<&[[f64; 2]]>) -> Self {
+        self.scene.initial.history = history.map(<[[f64; 2]]>::to_vec);
+        self
+    }
+
+    /// Stop the run when |primary angle| exceeds this many radians.
+    pub fn escape_theta(mut self, escape_theta: f64) -> Self {
+        self.scene.run.escape_theta = Some(escape_theta);
+        self
+    }
+
+    /// The integrator.
+    pub fn integrator(mut self, integrator: IntegratorSpec) -> Self {
+        self.scene.integrator = integrator;
+        self
+    }
+
+    /// What the run computes.
+    pub fn tasks(mut self, tasks: &[Task]) -> Self {
+        self.scene.run.tasks = tasks.to_vec();
+        self
+    }
+
+    /// Seed of the sensor noise; an error at [`SceneBuilder::build`] if the scene has none.
+    pub fn noise_seed(mut self, seed: u64) -> Self {
+        match &mut self.scene.effects.noise {
+            Some(n) => n.seed = seed,
+            None => self.missing = Some("effects.noise.seed"),
+        }
+        self
+    }
+
+    /// The validated scene.
+    pub fn build(self) -> Result<Scene, SceneError> {
+        if let Some(path) = self.missing {
+            return Err(SceneError::key(&self.scene.name, path, "the scene has no such table to set (it does not simulate this effect)"));
+        }
+        self.scene.validate()?;
+        Ok(self.scene)
+    }
+}
+
 impl Scene {
     /// Loads a bundled scene by name, or a TOML file by path, applies `overrides`
     /// (`path.to.key=value`, value parsed as TOML, else taken as a string) and validates.
@@ -372,9 +457,14 @@ impl Scene {
         Ok(())
     }
 
-    /// Sampling period in seconds.
+    /// Sampling period in seconds (the one place the scene's millisecond field is converted).
     pub fn dt(&self) -> f64 {
-        self.controller.dt_ms * 1e-3
+        crate::units::ms_to_s(self.controller.dt_ms)
+    }
+
+    /// Typed edits of this scene (see [`SceneBuilder`]).
+    pub fn builder(self) -> SceneBuilder {
+        SceneBuilder { scene: self, missing: None }
     }
 
     /// The controller configuration this scene runs (what a device would be flashed with).

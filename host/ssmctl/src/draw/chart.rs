@@ -1,5 +1,6 @@
 //! Drawing a computed [`Chart`] as a PNG with plotters (one panel per sampling period).
 
+use sim::units::s_to_ms;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
@@ -60,7 +61,7 @@ fn draw_panel<DB: DrawingBackend>(
     let s = &panel.summary;
     let caption = format!(
         "dt = {:.1} ms: stable {:.1} % of the grid",
-        panel.dt_s * 1e3,
+        s_to_ms(panel.dt_s),
         100.0 * s.stable_fraction
     );
     let mut cc = ChartBuilder::on(area)

@@ -4,7 +4,7 @@
 use crate::bench;
 use crate::plot::{self, Series};
 use crate::report::{Report, num};
-use sim::scene::{BUNDLED, Scene, Task};
+use sim::scene::{BUNDLED, Scene, SceneBuilder, Task};
 use sim::closed_loop;
 use sim::stability;
 use indicatif::{ProgressBar, ProgressStyle};
@@ -63,11 +63,11 @@ fn scenes_section(rep: &mut Report, quick: bool, quiet: bool) -> Result<(), Box<
     let mut rows = Vec::new();
     let mut list = Vec::new();
     for (name, _) in BUNDLED {
-        let mut overrides = Vec::new();
+        let mut b = SceneBuilder::load(name)?;
         if quick {
-            overrides.push("run.periods=300".to_string());
+            b = b.periods(300);
         }
-        let s = Scene::load(name, &overrides)?;
+        let s = b.build()?;
         if !s.wants(Task::Simulate) {
             continue;
         }

@@ -1,10 +1,11 @@
 //! Report section: SSM fitting on real measured data (sloshing decay), the fit
 //! accuracy-vs-time table, and the device blobs exported from fitted RBF models.
 
+use sim::units::s_to_ms;
 use ssm::device::{encode, to_device_model};
 use crate::plot::{self, Series};
 use crate::report::{Report, esc, num};
-use sim::scene::Scene;
+use sim::scene::SceneBuilder;
 use sim::closed_loop::simulate;
 use ssm::metrics::amplitude_spectrum;
 use ssm::{Dynamics, FitOptions, Ridge, TimeSeries, fit, load_csv};
@@ -43,7 +44,7 @@ pub fn sloshing_section(rep: &mut Report, data_dir: &Path, quick: bool) -> Resul
     rep.para(&format!(
         "Recommended settings (p = 5, shift 1, manifold order 3, polynomial map order 5): fit {:.2} ms (best of {reps}), \
          test NMTE {:.4}, DTW-NMTE {:.4}; eigenvalues {}.",
-        secs * 1e3,
+        s_to_ms(secs),
         nmte,
         dtw,
         m.eigenvalues_ct().iter().map(|(a, b)| format!("{a:+.4} {b:+.4}i")).collect::<Vec<_>>().join(", ")
@@ -102,14 +103,14 @@ pub fn sloshing_section(rep: &mut Report, data_dir: &Path, quick: bool) -> Resul
     }
     rep.summary.insert(
         "fit_sloshing".into(),
-        json!({"fit_ms": secs * 1e3, "nmte_test": nmte, "dtw_nmte_test": dtw, "eigenvalues": eig, "table": list}),
+        json!({"fit_ms": s_to_ms(secs), "nmte_test": nmte, "dtw_nmte_test": dtw, "eigenvalues": eig, "table": list}),
     );
     Ok(())
 }
 
 /// Fits an RBF model to a simulated Furuta theta series and writes its device blob.
 pub fn furuta_blob(rep: &mut Report, quick: bool) -> Result<(), Box<dyn Error>> {
-    let s = Scene::load("furuta-quant-dt25", &[if quick { "run.periods=1500" } else { "run.periods=4000" }.into()])?;
+    let s = SceneBuilder::load("furuta-quant-dt25")?.periods(if quick { 1500 } else { 4000 }).build()?;
     let tr = simulate(&s, None)?;
     let ts = TimeSeries::new("theta", tr.t.clone(), tr.primary())?;
     let o = FitOptions { dim: 4, embed: 9, shift: 1, manifold_order: 2, dyn_order: 1, dynamics: Dynamics::Rbf { centers: 100 }, ridge: Ridge::Fixed(1e-10), linear_anchor: None };
