@@ -4,20 +4,13 @@
 
 use serde::Serialize;
 use ssm::portrait::{
-    Fate, FixedPoint, HeteroclinicEvent, HopfEvent, PointKind, PortraitError, PortraitOptions, ScanOptions, fixed_points, heteroclinic_dt,
+    Fate, FixedPoint, HeteroclinicEvent, HopfEvent, PointKind, PortraitOptions, ScanOptions, fixed_points, heteroclinic_dt,
     torus_hopf_dt, trajectory,
 };
 
-use crate::parametric::{FurutaError, FurutaOptions, ParametricModel, furuta_parametric};
+use crate::Error;
+use crate::parametric::{FurutaOptions, ParametricModel, furuta_parametric};
 
-/// Why the model's bifurcation values could not be computed.
-#[derive(Debug, thiserror::Error)]
-pub enum BifurcationError {
-    #[error(transparent)]
-    Model(#[from] FurutaError),
-    #[error(transparent)]
-    Portrait(#[from] PortraitError),
-}
 
 /// Box of the amplitude plane drawn and searched: the fitted models saw |theta| <= 0.3 rad.
 pub const RHO_MAX: [f64; 2] = [0.6, 0.3];
@@ -33,7 +26,7 @@ pub struct ModelBifurcations {
 
 /// The model's heteroclinic and torus-Hopf values over its training range and its 2-torus at
 /// 30.8 ms, on the linearly interpolated normal forms.
-pub fn model_bifurcations(pm: &ParametricModel) -> Result<ModelBifurcations, BifurcationError> {
+pub fn model_bifurcations(pm: &ParametricModel) -> Result<ModelBifurcations, Error> {
     let (lo, hi) = pm.range();
     let popts = PortraitOptions { rho_max: RHO_MAX, ..PortraitOptions::default() };
     let sopts = ScanOptions { portrait: PortraitOptions { rho_max: RHO_MAX, ..ScanOptions::default().portrait }, ..ScanOptions::default() };
@@ -57,7 +50,7 @@ pub enum SmallStartFate {
 
 /// The model's fate of a small start at `dt` (see [`SmallStartFate`]); `principal` is the
 /// continued torus position (updated).
-fn small_start_fate(pm: &ParametricModel, dt: f64, principal: &mut [f64; 2]) -> Result<SmallStartFate, BifurcationError> {
+fn small_start_fate(pm: &ParametricModel, dt: f64, principal: &mut [f64; 2]) -> Result<SmallStartFate, Error> {
     let nf = pm.normal_form_at(dt)?;
     let o = PortraitOptions { rho_max: RHO_MAX, ray_samples: 0, flow_grid: 0, ..PortraitOptions::default() };
     let fps = fixed_points(&nf, &o)?;
@@ -97,7 +90,7 @@ fn small_start_fate(pm: &ParametricModel, dt: f64, principal: &mut [f64; 2]) -> 
 /// The first dt in `[lo, hi]` (grid of `n`, then bisection to 1e-3 ms) at which the model's
 /// small-start fate stops being [`SmallStartFate::Principal`]: the model's counterpart of
 /// the full system's bounded-vs-escape switch of small starts.
-pub fn model_small_start_switch(pm: &ParametricModel, lo: f64, hi: f64, n: usize) -> Result<Option<(f64, f64)>, BifurcationError> {
+pub fn model_small_start_switch(pm: &ParametricModel, lo: f64, hi: f64, n: usize) -> Result<Option<(f64, f64)>, Error> {
     let mut principal = [0.1, 0.03];
     let mut prev = lo;
     for k in 0..n {
@@ -141,7 +134,7 @@ pub struct SensitivityRow {
 }
 
 /// The model's bifurcation values for one training variant (fits the parametric model).
-pub fn sensitivity_row(variant: &str, o: &FurutaOptions) -> Result<SensitivityRow, BifurcationError> {
+pub fn sensitivity_row(variant: &str, o: &FurutaOptions) -> Result<SensitivityRow, Error> {
     let t0 = std::time::Instant::now();
     let pm = furuta_parametric(o)?;
     let fit_seconds = t0.elapsed().as_secs_f64();
@@ -150,7 +143,7 @@ pub fn sensitivity_row(variant: &str, o: &FurutaOptions) -> Result<SensitivityRo
 
 /// The bifurcation values of `pm`, fitted with options `o` (`fit_seconds`: its fit time,
 /// `None` when it was fitted elsewhere).
-pub fn model_row(variant: &str, o: &FurutaOptions, pm: &ParametricModel, fit_seconds: Option<f64>) -> Result<SensitivityRow, BifurcationError> {
+pub fn model_row(variant: &str, o: &FurutaOptions, pm: &ParametricModel, fit_seconds: Option<f64>) -> Result<SensitivityRow, Error> {
     let (lo, hi) = pm.range();
     let sopts = ScanOptions { portrait: PortraitOptions { rho_max: RHO_MAX, ..ScanOptions::default().portrait }, ..ScanOptions::default() };
     let nf_at = |dt: f64| pm.normal_form_at(dt);

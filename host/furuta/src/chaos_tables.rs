@@ -10,7 +10,7 @@
 //!   `Instant` measurements, reported also as ratios to the smallest configuration; they are
 //!   never asserted.
 
-use std::error::Error;
+use crate::Error;
 use std::time::Instant;
 
 use chaos::{ChaosError, DivergenceParams, delay_embed, kantz_curves};
@@ -181,9 +181,9 @@ pub const TIMED_STEPS: usize = 20_000;
 /// other options of `o` (SSM dimension: `o.ssm_dim`, else the paper's rule), and measures
 /// accuracy and cost. Times come from `Instant` around the fit and around [`TIMED_STEPS`]
 /// steps of the reduced map; never asserted anywhere.
-pub fn accuracy_vs_cost(name: &str, train: &[TimeSeries], o: &ChaosOptions, centres: &[usize], orders: &[u32]) -> Result<CostStudy, Box<dyn Error>> {
-    let data = train.iter().max_by_key(|s| s.x.len()).ok_or("no training series")?;
-    let dt = data.dt().ok_or("data series has no sampling step")?;
+pub fn accuracy_vs_cost(name: &str, train: &[TimeSeries], o: &ChaosOptions, centres: &[usize], orders: &[u32]) -> Result<CostStudy, Error> {
+    let data = train.iter().max_by_key(|s| s.x.len()).ok_or(Error::BadInput { what: "training", why: "no training series".into() })?;
+    let dt = data.dt().ok_or(Error::BadInput { what: "data", why: "the series has no sampling step".into() })?;
     let ctx = Context::from_series(&data.x, dt, o.gp_embed)?;
     let ssm_dim = match o.ssm_dim {
         Some(d) => d,
@@ -263,16 +263,16 @@ pub const H_ADC: f64 = std::f64::consts::PI / 1000.0;
 /// The two scale studies of the report: the simulated quantized loop (theta, `periods`
 /// sampling periods, eps = 0.1..30 encoder steps) and, when present, the inverted flag
 /// (traj_9, eps = 0.01..1 series sd); 8 log-spaced scales each, embedding dimension 6.
-pub fn scale_studies(data_dir: &std::path::Path, periods: usize) -> Result<Vec<ScaleStudy>, Box<dyn Error>> {
+pub fn scale_studies(data_dir: &std::path::Path, periods: usize) -> Result<Vec<ScaleStudy>, Error> {
     let mut out = Vec::new();
     let sim = crate::microchaos::simulate_quantized(periods, 0.02, "furuta-quant-dt25")?;
-    let dt = sim.dt().ok_or("simulated series has no step")?;
+    let dt = sim.dt().ok_or(Error::BadInput { what: "simulated series", why: "no sampling step".into() })?;
     let eps = chaos::log_spaced(0.1, 30.0, 8)?;
     out.push(scale_dependence("simulated: furuta-quant-dt25 (theta)", &sim.x, dt, 6, "encoder step h = pi/1000 rad", H_ADC, &eps)?);
     let f = data_dir.join("inverted_flag_chaotic").join("traj_9.csv");
     if f.is_file() {
         let ts = ssm::load_csv(&f)?;
-        let dt = ts.dt().ok_or("flag series has no step")?;
+        let dt = ts.dt().ok_or(Error::BadInput { what: "inverted-flag series", why: "no sampling step".into() })?;
         let n = ts.x.len() as f64;
         let m = ts.x.iter().sum::<f64>() / n;
         let sd = (ts.x.iter().map(|v| (v - m) * (v - m)).sum::<f64>() / (n - 1.0)).sqrt();
@@ -284,7 +284,7 @@ pub fn scale_studies(data_dir: &std::path::Path, periods: usize) -> Result<Vec<S
 
 /// The inverted-flag accuracy-vs-cost study of the report: RBF centres 50, 100, 200, 500
 /// and polynomial orders 2..5 (6D SSM, default options otherwise), trained on traj_9 + traj_7.
-pub fn flag_cost_study(data_dir: &std::path::Path) -> Result<Option<CostStudy>, Box<dyn Error>> {
+pub fn flag_cost_study(data_dir: &std::path::Path) -> Result<Option<CostStudy>, Error> {
     let d = data_dir.join("inverted_flag_chaotic");
     if !d.join("traj_9.csv").is_file() {
         return Ok(None);

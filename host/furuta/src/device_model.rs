@@ -11,11 +11,11 @@ use ssm::{Dynamics, FitOptions, Ridge, SsmModel, TimeSeries, fit};
 pub fn fit_scene_rbf(
     scene: &Scene,
     periods: u64,
-) -> Result<(SsmModel, TimeSeries), String> {
+) -> Result<(SsmModel, TimeSeries), crate::Error> {
     let mut s = scene.clone();
     s.run.periods = periods;
-    let tr = simulate(&s, None).map_err(|e| e.to_string())?;
-    let ts = TimeSeries::new("theta", tr.t.clone(), tr.primary()).map_err(|e| e.to_string())?;
+    let tr = simulate(&s, None)?;
+    let ts = TimeSeries::new("theta", tr.t.clone(), tr.primary())?;
     let opts = FitOptions {
         dim: 4,
         embed: 9,
@@ -26,7 +26,7 @@ pub fn fit_scene_rbf(
         ridge: Ridge::Fixed(1e-10),
         linear_anchor: None,
     };
-    let m = fit(std::slice::from_ref(&ts), &opts).map_err(|e| e.to_string())?;
+    let m = fit(std::slice::from_ref(&ts), &opts)?;
     Ok((m, ts))
 }
 

@@ -15,29 +15,13 @@ use sim::units::ms_to_s;
 use std::time::Instant;
 
 use serde::Serialize;
-use thiserror::Error;
+use crate::Error;
 
-use sim::scene::{SceneBuilder, SceneError};
-use sim::closed_loop::{SimError, Trajectory, simulate};
-use crate::parametric::{FurutaError, exact_modes, mode_start};
-use ssm::spectrum::{SpectrumError, PEAK_REL_THRESHOLD, Peak, band_peak, mode_amplitudes, sideband_spacing, spectral_peaks};
+use sim::scene::SceneBuilder;
+use sim::closed_loop::{Trajectory, simulate};
+use crate::parametric::{exact_modes, mode_start};
+use ssm::spectrum::{PEAK_REL_THRESHOLD, Peak, band_peak, mode_amplitudes, sideband_spacing, spectral_peaks};
 
-/// Errors of the full-system checks.
-#[derive(Debug, Error)]
-pub enum FurCheckError {
-    #[error(transparent)]
-    Scene(#[from] SceneError),
-    #[error(transparent)]
-    Sim(#[from] SimError),
-    #[error(transparent)]
-    Furuta(#[from] FurutaError),
-    #[error("invalid input {what}: {why}")]
-    BadInput { what: &'static str, why: String },
-    #[error(transparent)]
-    Spectrum(#[from] SpectrumError),
-    #[error("dt = {dt_ms} ms: the run escaped ({why}); a torus needs a bounded run")]
-    Escaped { dt_ms: f64, why: String },
-}
 
 /// A full-system start: plant state `[theta, w_theta, phi, w_phi]` and optionally the
 /// controller pre-history (`delay + 1` samples `[theta, phi]`, oldest first; `None` = the
@@ -53,30 +37,30 @@ pub const ESCAPE_THETA: f64 = 1.0;
 /// short against the amplitude time scales (1/|rate| >= 3 s).
 pub const AMP_WINDOW_S: f64 = 2.5;
 
-fn check_dt(dt_ms: f64) -> Result<(), FurCheckError> {
+fn check_dt(dt_ms: f64) -> Result<(), Error> {
     if !(dt_ms.is_finite() && dt_ms > 0.0) {
-        return Err(FurCheckError::BadInput { what: "dt_ms", why: format!("must be positive and finite, got {dt_ms}") });
+        return Err(Error::BadInput { what: "dt_ms", why: format!("must be positive and finite, got {dt_ms}") });
     }
     Ok(())
 }
 
 /// One full-system run of `periods` sampling periods at `dt_ms` from `start`, stopped when
 /// |theta| exceeds `escape_theta`.
-pub fn run(dt_ms: f64, start: &Start, periods: u64, escape_theta: f64) -> Result<Trajectory, FurCheckError> {
+pub fn run(dt_ms: f64, start: &Start, periods: u64, escape_theta: f64) -> Result<Trajectory, Error> {
     check_dt(dt_ms)?;
     if !(escape_theta.is_finite() && escape_theta > 0.0) {
-        return Err(FurCheckError::BadInput { what: "escape_theta", why: format!("must be positive and finite, got {escape_theta}") });
+        return Err(Error::BadInput { what: "escape_theta", why: format!("must be positive and finite, got {escape_theta}") });
     }
     if periods == 0 {
-        return Err(FurCheckError::BadInput { what: "periods", why: "must be at least 1".into() });
+        return Err(Error::BadInput { what: "periods", why: "must be at least 1".into() });
     }
     let (x, hist) = start;
     if x.iter().any(|v| !v.is_finite()) {
-        return Err(FurCheckError::BadInput { what: "start", why: format!("state must be finite, got {x:?}") });
+        return Err(Error::BadInput { what: "start", why: format!("state must be finite, got {x:?}") });
     }
     if let Some(h) = hist {
         if h.iter().flatten().any(|v| !v.is_finite()) {
-            return Err(FurCheckError::BadInput { what: "start", why: "pre-history must be finite".into() });
+            return Err(Error::BadInput { what: "start", why: "pre-history must be finite".into() });
         }
     }
     let scene = SceneBuilder::load("furuta-dt30.5")?
@@ -170,12 +154,12 @@ impl SwitchScan {
 
 /// Runs every start at every sampling period for `periods` periods (escape: |theta| >
 /// `escape_theta`). `dts_ms` must be strictly increasing.
-pub fn switch_scan(dts_ms: &[f64], ics: &[Start], periods: u64, escape_theta: f64) -> Result<SwitchScan, FurCheckError> {
+pub fn switch_scan(dts_ms: &[f64], ics: &[Start], periods: u64, escape_theta: f64) -> Result<SwitchScan, Error> {
     if dts_ms.is_empty() || dts_ms.windows(2).any(|w| w[1] <= w[0]) {
-        return Err(FurCheckError::BadInput { what: "dts_ms", why: "need at least one, strictly increasing".into() });
+        return Err(Error::BadInput { what: "dts_ms", why: "need at least one, strictly increasing".into() });
     }
     if ics.is_empty() {
-        return Err(FurCheckError::BadInput { what: "ics", why: "need at least one start".into() });
+        return Err(Error::BadInput { what: "ics", why: "need at least one start".into() });
     }
     let t0 = Instant::now();
     let mut outcomes = Vec::with_capacity(dts_ms.len());
@@ -206,7 +190,7 @@ fn outcome_of(tr: &Trajectory) -> Outcome {
 /// The default small starts at `dt_ms`: the plant displaced in theta alone (pre-history at
 /// rest), pure slow-mode, pure fast-mode and mixed starts on the linear eigenvectors,
 /// theta amplitudes 1e-3 ... 0.05 rad.
-pub fn default_ics(dt_ms: f64) -> Result<Vec<Start>, FurCheckError> {
+pub fn default_ics(dt_ms: f64) -> Result<Vec<Start>, Error> {
     let mut v: Vec<Start> = vec![([0.05, 0.0, 0.0, 0.0], None), ([0.01, 0.0, 0.0, 0.0], None)];
     for (slow, fast) in [
         (Some((1e-3, 0.0)), None),
@@ -235,7 +219,7 @@ pub fn default_dts() -> Vec<f64> {
 /// [`ESCAPE_THETA`]. The horizon matters: near the switch the escapes take 100-200 s
 /// (the pure slow-mode start first grows the fast mode from round-off), so use
 /// [`DEFAULT_SCAN_PERIODS`]; 3000 periods (95 s) moves the bracket up by 0.04 ms.
-pub fn default_switch_scan(periods: u64) -> Result<SwitchScan, FurCheckError> {
+pub fn default_switch_scan(periods: u64) -> Result<SwitchScan, Error> {
     let t0 = Instant::now();
     let dts = default_dts();
     let mut outcomes = Vec::with_capacity(dts.len());
@@ -276,16 +260,16 @@ pub struct TorusFull {
 
 /// Runs `periods` periods at `dt_ms` from `start` and measures the torus on the last
 /// `tail_s` seconds. Errors if the run escapes or the tail is not shorter than the run.
-pub fn torus_full(dt_ms: f64, start: &Start, periods: u64, tail_s: f64) -> Result<TorusFull, FurCheckError> {
+pub fn torus_full(dt_ms: f64, start: &Start, periods: u64, tail_s: f64) -> Result<TorusFull, Error> {
     let tr = run(dt_ms, start, periods, ESCAPE_THETA)?;
     if let Some(why) = tr.stopped {
-        return Err(FurCheckError::Escaped { dt_ms, why });
+        return Err(Error::TorusEscaped { dt_ms, why });
     }
     let dt = tr.dt;
     let x = tr.primary();
     let n_tail = (tail_s / dt).round() as usize;
     if !(tail_s.is_finite() && n_tail >= 64 && n_tail < x.len()) {
-        return Err(FurCheckError::BadInput { what: "tail_s", why: format!("need at least 64 samples and fewer than the run's {}, got {tail_s} s", x.len()) });
+        return Err(Error::BadInput { what: "tail_s", why: format!("need at least 64 samples and fewer than the run's {}, got {tail_s} s", x.len()) });
     }
     let tail = &x[x.len() - n_tail..];
     let lin = exact_modes(dt_ms)?.freqs_hz;
@@ -294,12 +278,12 @@ pub fn torus_full(dt_ms: f64, start: &Start, periods: u64, tail_s: f64) -> Resul
     let slow = band_peak(tail, dt, 0.0, split);
     let fast = band_peak(tail, dt, split, nyq);
     let (Some(slow), Some(fast)) = (slow, fast) else {
-        return Err(FurCheckError::BadInput { what: "tail_s", why: "no spectral peak in the slow or the fast band".into() });
+        return Err(Error::BadInput { what: "tail_s", why: "no spectral peak in the slow or the fast band".into() });
     };
     let freqs_hz = [slow.freq_hz, fast.freq_hz];
     let amps = mode_amplitudes(tail, dt, freqs_hz, AMP_WINDOW_S)?;
     if amps.is_empty() {
-        return Err(FurCheckError::BadInput { what: "tail_s", why: format!("shorter than the amplitude window {AMP_WINDOW_S} s") });
+        return Err(Error::BadInput { what: "tail_s", why: format!("shorter than the amplitude window {AMP_WINDOW_S} s") });
     }
     let k = amps.len() as f64;
     let rho = [amps.iter().map(|a| a.1[0]).sum::<f64>() / k, amps.iter().map(|a| a.1[1]).sum::<f64>() / k];
@@ -343,9 +327,9 @@ pub struct Fate {
 
 /// The start at `dt_ms` with theta amplitudes `rho` (slow, fast; rad) and phases `phases`
 /// on the linear eigenvectors ([`mode_start`]; a zero amplitude leaves that mode out).
-pub fn start_from_rho(dt_ms: f64, rho: [f64; 2], phases: [f64; 2]) -> Result<([f64; 4], Vec<[f64; 2]>), FurCheckError> {
+pub fn start_from_rho(dt_ms: f64, rho: [f64; 2], phases: [f64; 2]) -> Result<([f64; 4], Vec<[f64; 2]>), Error> {
     if rho.iter().any(|r| !(r.is_finite() && *r >= 0.0)) || rho == [0.0, 0.0] {
-        return Err(FurCheckError::BadInput { what: "rho", why: format!("need finite non-negative amplitudes, not both zero, got {rho:?}") });
+        return Err(Error::BadInput { what: "rho", why: format!("need finite non-negative amplitudes, not both zero, got {rho:?}") });
     }
     let m = |k: usize| (rho[k] > 0.0).then_some((rho[k], phases[k]));
     Ok(mode_start(dt_ms, m(0), m(1))?)
@@ -353,7 +337,7 @@ pub fn start_from_rho(dt_ms: f64, rho: [f64; 2], phases: [f64; 2]) -> Result<([f
 
 /// Runs `periods` periods at `dt_ms` from the start at amplitudes `rho` and `phases`
 /// ([`start_from_rho`]); escape at [`ESCAPE_THETA`].
-pub fn fate_from(dt_ms: f64, rho: [f64; 2], phases: [f64; 2], periods: u64) -> Result<Fate, FurCheckError> {
+pub fn fate_from(dt_ms: f64, rho: [f64; 2], phases: [f64; 2], periods: u64) -> Result<Fate, Error> {
     let (x, h) = start_from_rho(dt_ms, rho, phases)?;
     let tr = run(dt_ms, &(x, Some(h.clone())), periods, ESCAPE_THETA)?;
     let o = outcome_of(&tr);
@@ -376,10 +360,10 @@ pub fn fate_from(dt_ms: f64, rho: [f64; 2], phases: [f64; 2], periods: u64) -> R
 /// The spectral peaks of the first `seconds` of the run from `start` at `dt_ms` (or up to
 /// its escape, if earlier: the part with |theta| <= 0.5 rad, so the escape's large swing
 /// does not dominate): [`spectral_peaks`] with threshold [`PEAK_REL_THRESHOLD`].
-pub fn transient_spectrum(dt_ms: f64, start: &Start, seconds: f64) -> Result<Vec<Peak>, FurCheckError> {
+pub fn transient_spectrum(dt_ms: f64, start: &Start, seconds: f64) -> Result<Vec<Peak>, Error> {
     check_dt(dt_ms)?;
     if !(seconds.is_finite() && seconds > 0.0) {
-        return Err(FurCheckError::BadInput { what: "seconds", why: format!("must be positive and finite, got {seconds}") });
+        return Err(Error::BadInput { what: "seconds", why: format!("must be positive and finite, got {seconds}") });
     }
     let periods = (seconds / (ms_to_s(dt_ms))).ceil() as u64;
     let tr = run(dt_ms, start, periods, ESCAPE_THETA)?;
@@ -415,10 +399,10 @@ pub struct TransientAnalysis {
 
 /// [`transient_spectrum`] plus the third frequency read from the sideband spacing and from
 /// the slow amplitude's own oscillation.
-pub fn transient_analysis(dt_ms: f64, start: &Start, seconds: f64) -> Result<TransientAnalysis, FurCheckError> {
+pub fn transient_analysis(dt_ms: f64, start: &Start, seconds: f64) -> Result<TransientAnalysis, Error> {
     check_dt(dt_ms)?;
     if !(seconds.is_finite() && seconds > 0.0) {
-        return Err(FurCheckError::BadInput { what: "seconds", why: format!("must be positive and finite, got {seconds}") });
+        return Err(Error::BadInput { what: "seconds", why: format!("must be positive and finite, got {seconds}") });
     }
     let periods = (seconds / (ms_to_s(dt_ms))).ceil() as u64;
     let tr = run(dt_ms, start, periods, ESCAPE_THETA)?;
@@ -431,7 +415,7 @@ pub fn transient_analysis(dt_ms: f64, start: &Start, seconds: f64) -> Result<Tra
     let lin = exact_modes(dt_ms)?.freqs_hz;
     let split = (lin[0] * lin[1]).sqrt();
     let (Some(slow), Some(fast)) = (band_peak(x, dt, 0.0, split), band_peak(x, dt, split, 0.5 / dt)) else {
-        return Err(FurCheckError::BadInput { what: "seconds", why: "no spectral peak in the slow or the fast band".into() });
+        return Err(Error::BadInput { what: "seconds", why: "no spectral peak in the slow or the fast band".into() });
     };
     let amps = mode_amplitudes(x, dt, [slow.freq_hz, fast.freq_hz], AMP_WINDOW_S)?;
     let rho1: Vec<f64> = amps.iter().map(|a| a.1[0]).collect();

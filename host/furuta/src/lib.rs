@@ -6,8 +6,11 @@
 pub mod bifurcations;
 pub mod chaos_tables;
 pub mod device_model;
+pub mod error;
 pub mod full_system;
 pub mod lyapunov;
 pub mod microchaos;
 pub mod parametric;
 pub mod shared_tangent;
+
+pub use error::Error;

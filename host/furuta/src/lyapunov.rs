@@ -9,7 +9,8 @@
 //! The scale and accuracy-vs-cost studies that use these are in [`crate::chaos_tables`].
 
 
-use chaos::{BenettinParams, ChaosError, Orbit, benettin_qr, iterate_map};
+use crate::Error;
+use chaos::{BenettinParams, Orbit, benettin_qr, iterate_map};
 use serde::Serialize;
 
 use ssm::dynamics::{RbfMap, ReducedDynamics, StepScratch};
@@ -17,16 +18,6 @@ use ssm::fit::BLOWUP_FACTOR;
 use ssm::poly::Poly;
 use ssm::SsmModel;
 
-/// Why a model exponent could not be measured.
-#[derive(Debug, thiserror::Error)]
-pub enum ChaosTableError {
-    #[error(transparent)]
-    Chaos(#[from] ChaosError),
-    #[error("Benettin's method here needs a discrete map; these reduced dynamics are a continuous flow")]
-    NotAMap,
-    #[error("initial state has {got} coordinates, the reduced dynamics have {expected}")]
-    Shape { expected: usize, got: usize },
-}
 
 /// Message for the non-differentiable points of the linear kernel.
 pub const RBF_KINK: &str = "state exactly at an RBF centre (the linear kernel has a kink there)";
@@ -148,11 +139,11 @@ pub fn dynamics_lyapunov(
     bound: f64,
     transient: usize,
     steps: usize,
-) -> Result<ModelLyapunov, ChaosTableError> {
-    let dt = dynamics.map_dt().ok_or(ChaosTableError::NotAMap)?;
+) -> Result<ModelLyapunov, Error> {
+    let dt = dynamics.map_dt().ok_or(Error::NotAMap)?;
     let d = dim_of(dynamics);
     if eta0.len() != d {
-        return Err(ChaosTableError::Shape { expected: d, got: eta0.len() });
+        return Err(Error::Shape { expected: d, got: eta0.len() });
     }
     let p = BenettinParams { transient, steps, time_step: dt, renorm_every: 1, bound, blocks: 20 };
     let mut scratch = StepScratch::default();
@@ -174,7 +165,7 @@ pub fn dynamics_lyapunov(
 
 /// [`dynamics_lyapunov`] for a fitted model, bounded by [`BLOWUP_FACTOR`] x the largest
 /// training range of the reduced coordinates (the prediction's blow-up rule).
-pub fn model_lyapunov(model: &SsmModel, eta0: &[f64], transient: usize, steps: usize) -> Result<ModelLyapunov, ChaosTableError> {
+pub fn model_lyapunov(model: &SsmModel, eta0: &[f64], transient: usize, steps: usize) -> Result<ModelLyapunov, Error> {
     dynamics_lyapunov(&model.dynamics, eta0, model_bound(model), transient, steps)
 }
 
@@ -191,11 +182,11 @@ pub fn iterate_dynamics(
     steps: usize,
     bound: f64,
     record_every: usize,
-) -> Result<Orbit, ChaosTableError> {
-    let dt = dynamics.map_dt().ok_or(ChaosTableError::NotAMap)?;
+) -> Result<Orbit, Error> {
+    let dt = dynamics.map_dt().ok_or(Error::NotAMap)?;
     let d = dim_of(dynamics);
     if eta0.len() != d {
-        return Err(ChaosTableError::Shape { expected: d, got: eta0.len() });
+        return Err(Error::Shape { expected: d, got: eta0.len() });
     }
     let mut scratch = StepScratch::default();
     Ok(iterate_map(

@@ -25,7 +25,7 @@ use chaos::{
 };
 use serde::Serialize;
 use sim::scene::SceneBuilder;
-use std::error::Error;
+use crate::Error;
 
 #[derive(Clone, Debug)]
 pub struct ChaosOptions {
@@ -276,7 +276,7 @@ pub struct ModelStats {
 /// Runs model `m` from the data's first embedded point over the data's length, then
 /// measures: Rosenstein exponent of the model series (settings of `ctx`), PDF divergence
 /// against the data's reduced coordinates, Benettin exponent of the map.
-pub fn evaluate_model(m: &SsmModel, data: &TimeSeries, ctx: &Context, o: &ChaosOptions, name: &str) -> Result<ModelStats, Box<dyn Error>> {
+pub fn evaluate_model(m: &SsmModel, data: &TimeSeries, ctx: &Context, o: &ChaosOptions, name: &str) -> Result<ModelStats, Error> {
     let d = m.options.dim;
     let eta_data = reduce_series(m, data)?;
     let eta0 = eta_data[..d].to_vec();
@@ -334,7 +334,7 @@ fn series_statistics(
 }
 
 /// Reduced coordinates of every embedded point of `ts` under model `m`, row-major.
-pub fn reduce_series(m: &SsmModel, ts: &TimeSeries) -> Result<Vec<f64>, Box<dyn Error>> {
+pub fn reduce_series(m: &SsmModel, ts: &TimeSeries) -> Result<Vec<f64>, Error> {
     let y = ssm_embed(ts, m.manifold.p, m.options.shift, 1)?;
     let mut out = Vec::with_capacity(y.ncols() * m.options.dim);
     let mut col = vec![0.0; m.manifold.p];
@@ -363,7 +363,7 @@ pub struct KickedStats {
 /// quantized loop has the loop's mean dynamics but not its kicks; this puts them back as a
 /// bootstrap noise, so its statistics show how much of the data's "chaos" the kicks alone
 /// explain. Same estimators and settings as [`evaluate_model`].
-pub fn evaluate_kicked(m: &SsmModel, train: &[TimeSeries], data: &TimeSeries, ctx: &Context, seed: u64, name: &str) -> Result<KickedStats, Box<dyn Error>> {
+pub fn evaluate_kicked(m: &SsmModel, train: &[TimeSeries], data: &TimeSeries, ctx: &Context, seed: u64, name: &str) -> Result<KickedStats, Error> {
     use ssm::dynamics::StepScratch;
     let d = m.options.dim;
     let mut sc = StepScratch::default();
@@ -378,7 +378,7 @@ pub fn evaluate_kicked(m: &SsmModel, train: &[TimeSeries], data: &TimeSeries, ct
     }
     let nres = res.len() / d;
     if nres == 0 {
-        return Err(format!("{name}: no training pairs for the residuals").into());
+        return Err(Error::BadInput { what: "kicked model", why: format!("{name}: no training pairs for the residuals") });
     }
     let residual_rms = (res.iter().map(|v| v * v).sum::<f64>() / nres as f64).sqrt();
     let eta_data = reduce_series(m, data)?;
@@ -413,18 +413,18 @@ pub fn evaluate_kicked(m: &SsmModel, train: &[TimeSeries], data: &TimeSeries, ct
 }
 
 /// Runs the whole analysis on training series (the longest is the reference data).
-pub fn analyse(train: &[TimeSeries], o: &ChaosOptions) -> Result<ChaosSummary, Box<dyn Error>> {
+pub fn analyse(train: &[TimeSeries], o: &ChaosOptions) -> Result<ChaosSummary, Error> {
     analyse_held_out(train, None, o)
 }
 
 /// [`analyse`] with a held-out trajectory: the models are fitted on `train` only, and the
 /// data statistics (dimension, Lyapunov exponent, PDFs) and the model series' starting point
 /// come from `test` (the longest training series when `None`).
-pub fn analyse_held_out(train: &[TimeSeries], test: Option<&TimeSeries>, o: &ChaosOptions) -> Result<ChaosSummary, Box<dyn Error>> {
+pub fn analyse_held_out(train: &[TimeSeries], test: Option<&TimeSeries>, o: &ChaosOptions) -> Result<ChaosSummary, Error> {
     let t0 = std::time::Instant::now();
-    let longest = train.iter().max_by_key(|s| s.x.len()).ok_or("no training series")?;
+    let longest = train.iter().max_by_key(|s| s.x.len()).ok_or(Error::BadInput { what: "training", why: "no training series".into() })?;
     let data = test.unwrap_or(longest);
-    let dt = data.dt().ok_or("data series has no sampling step")?;
+    let dt = data.dt().ok_or(Error::BadInput { what: "data", why: "the series has no sampling step".into() })?;
     let ctx = Context::from_series(&data.x, dt, o.gp_embed)?;
     let pts = delay_embed(&data.x, o.gp_embed, ctx.lag)?;
     let cd = correlation_dimension(&pts, &CorrSumParams { theiler: ctx.theiler, ..Default::default() }, &ScalingRule::default())?;
@@ -499,18 +499,18 @@ pub fn analyse_held_out(train: &[TimeSeries], test: Option<&TimeSeries>, o: &Cha
 
 /// `periods` sampling periods of the quantized scene `furuta-quant-dt25` from
 /// `theta(0) = theta0`, theta only, first 20 s of transient dropped.
-pub fn simulate_quantized(periods: usize, theta0: f64, name: &str) -> Result<TimeSeries, Box<dyn Error>> {
+pub fn simulate_quantized(periods: usize, theta0: f64, name: &str) -> Result<TimeSeries, Error> {
     simulate_scene(SceneBuilder::load("furuta-quant-dt25")?, periods, theta0, name)
 }
 
 /// [`simulate_quantized`] for any scene (e.g. with another `kd` or noise seed set on the
 /// builder): the run length and the initial state `[theta0, 0, 0, 0]` are set here.
-pub fn simulate_scene(scene: SceneBuilder, periods: usize, theta0: f64, name: &str) -> Result<TimeSeries, Box<dyn Error>> {
+pub fn simulate_scene(scene: SceneBuilder, periods: usize, theta0: f64, name: &str) -> Result<TimeSeries, Error> {
     let s = scene.periods(periods as u64).initial_state(&[theta0, 0.0, 0.0, 0.0]).build()?;
     let tr = sim::closed_loop::simulate(&s, None)?;
     let skip = (20.0 / tr.dt) as usize;
     if skip >= tr.t.len() {
-        return Err(format!("{periods} periods are shorter than the 20 s transient").into());
+        return Err(Error::BadInput { what: "periods", why: format!("{periods} periods are shorter than the 20 s transient") });
     }
     Ok(TimeSeries::new(name, tr.t[skip..].to_vec(), tr.primary()[skip..].to_vec())?)
 }

@@ -13,43 +13,18 @@
 
 use sim::units::ms_to_s;
 use serde::{Deserialize, Serialize};
-use thiserror::Error;
+use crate::Error;
 
 use ssm::data::TimeSeries;
 use ssm::dynamics::Dynamics;
-use ssm::error::FitError;
 use ssm::fit::{FitOptions, SsmModel, fit};
-use ssm::interp::{Interp, InterpError, interp_weights};
-use ssm::normal_form::{NormalFormError, NormalFormOptions, NormalFormTable, PolarNormalForm, model_normal_form};
+use ssm::interp::{Interp, interp_weights};
+use ssm::normal_form::{NormalFormOptions, NormalFormTable, PolarNormalForm, model_normal_form};
 use ssm::ridge::Ridge;
-use sim::scene::{SceneBuilder, SceneError};
-use sim::closed_loop::{SimError, simulate};
+use sim::scene::SceneBuilder;
+use sim::closed_loop::simulate;
 use sim::stability::{StabilityError, dominant_pairs};
 
-/// Errors of the parametric Furuta model.
-#[derive(Debug, Error)]
-pub enum FurutaError {
-    #[error(transparent)]
-    Scene(#[from] SceneError),
-    #[error(transparent)]
-    Sim(#[from] SimError),
-    #[error(transparent)]
-    Stability(#[from] StabilityError),
-    #[error(transparent)]
-    Fit(#[from] FitError),
-    #[error("dt = {dt} ms: {source}")]
-    NormalForm { dt: f64, source: NormalFormError },
-    #[error("invalid option {what}: {why}")]
-    BadOption { what: &'static str, why: String },
-    #[error("dt = {dt} ms outside the training range [{lo}, {hi}] ms (no extrapolation)")]
-    OutOfRange { dt: f64, lo: f64, hi: f64 },
-    #[error("interpolation in dt: {0}")]
-    Interp(#[from] InterpError),
-    #[error("dt = {dt_ms} ms: simulation from {ic:?} stopped early: {why}")]
-    Escaped { dt_ms: f64, ic: [f64; 4], why: String },
-    #[error("dt = {dt_ms} ms: expected two oscillatory multiplier pairs, got {got}")]
-    Multipliers { dt_ms: f64, got: usize },
-}
 
 /// Options of [`furuta_parametric`].
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -124,11 +99,11 @@ pub struct ExactModes {
 }
 
 /// Exact rates at a sampling period in ms (slow mode first).
-pub fn exact_modes(dt_ms: f64) -> Result<ExactModes, FurutaError> {
+pub fn exact_modes(dt_ms: f64) -> Result<ExactModes, Error> {
     let scene = SceneBuilder::load("furuta-dt30.5")?.dt_ms(dt_ms).build()?;
     let mut pairs = dominant_pairs(&scene)?;
     if pairs.len() < 2 {
-        return Err(FurutaError::Multipliers { dt_ms, got: pairs.len() });
+        return Err(Error::Multipliers { dt_ms, got: pairs.len() });
     }
     pairs.truncate(2);
     pairs.sort_by(|a, b| a.freq_hz.total_cmp(&b.freq_hz));
@@ -155,9 +130,9 @@ pub struct ParametricModel {
 /// (inverse iteration in complex arithmetic), scaled so the theta component of `v` has
 /// modulus `theta_amp`. Returns the plant state `[theta, w_theta, phi, w_phi]` and the
 /// controller pre-history (`delay + 1` samples `[theta, phi]`, oldest first) for `Scene`.
-pub fn slow_mode_start(dt_ms: f64, theta_amp: f64, phase: f64) -> Result<([f64; 4], Vec<[f64; 2]>), FurutaError> {
+pub fn slow_mode_start(dt_ms: f64, theta_amp: f64, phase: f64) -> Result<([f64; 4], Vec<[f64; 2]>), Error> {
     if !(theta_amp > 0.0 && theta_amp.is_finite() && phase.is_finite()) {
-        return Err(FurutaError::BadOption { what: "slow_starts", why: format!("amplitude must be positive and finite, phase finite; got ({theta_amp}, {phase})") });
+        return Err(Error::BadOption { what: "slow_starts", why: format!("amplitude must be positive and finite, phase finite; got ({theta_amp}, {phase})") });
     }
     mode_start(dt_ms, Some((theta_amp, phase)), None)
 }
@@ -170,15 +145,15 @@ pub fn slow_mode_start(dt_ms: f64, theta_amp: f64, phase: f64) -> Result<([f64; 
 /// `None` leaves that mode unexcited (at least one must be given). Returns the plant state
 /// `[theta, w_theta, phi, w_phi]` and the controller pre-history (`delay + 1` samples
 /// `[theta, phi]`, oldest first) for `Scene`.
-pub fn mode_start(dt_ms: f64, slow: Option<(f64, f64)>, fast: Option<(f64, f64)>) -> Result<([f64; 4], Vec<[f64; 2]>), FurutaError> {
+pub fn mode_start(dt_ms: f64, slow: Option<(f64, f64)>, fast: Option<(f64, f64)>) -> Result<([f64; 4], Vec<[f64; 2]>), Error> {
     use nalgebra::{Complex, DMatrix, DVector};
     if slow.is_none() && fast.is_none() {
-        return Err(FurutaError::BadOption { what: "mode_start", why: "give at least one of the slow and the fast mode".into() });
+        return Err(Error::BadOption { what: "mode_start", why: "give at least one of the slow and the fast mode".into() });
     }
     for (name, m) in [("slow", slow), ("fast", fast)] {
         if let Some((a, p)) = m {
             if !(a > 0.0 && a.is_finite() && p.is_finite()) {
-                return Err(FurutaError::BadOption { what: "mode_start", why: format!("{name} mode: amplitude must be positive and finite, phase finite; got ({a}, {p})") });
+                return Err(Error::BadOption { what: "mode_start", why: format!("{name} mode: amplitude must be positive and finite, phase finite; got ({a}, {p})") });
             }
         }
     }
@@ -187,11 +162,11 @@ pub fn mode_start(dt_ms: f64, slow: Option<(f64, f64)>, fast: Option<(f64, f64)>
     let map = sim::stability::linear_plant(&scene)?.closed_loop(&scene.controller_config()).map_err(le)?;
     let lay = map.layout;
     if lay.n_plant != 4 || lay.integral.is_some() {
-        return Err(FurutaError::BadOption { what: "mode_start", why: "needs the 4-state Furuta plant without integral action".into() });
+        return Err(Error::BadOption { what: "mode_start", why: "needs the 4-state Furuta plant without integral action".into() });
     }
     let mut pairs = dominant_pairs(&scene)?;
     if pairs.len() < 2 {
-        return Err(FurutaError::Multipliers { dt_ms, got: pairs.len() });
+        return Err(Error::Multipliers { dt_ms, got: pairs.len() });
     }
     pairs.truncate(2);
     pairs.sort_by(|a, b| a.freq_hz.total_cmp(&b.freq_hz));
@@ -206,7 +181,7 @@ pub fn mode_start(dt_ms: f64, slow: Option<(f64, f64)>, fast: Option<(f64, f64)>
         let lu = shifted.lu();
         let mut v = DVector::<Complex<f64>>::from_element(n, Complex::new(1.0, 0.0));
         for _ in 0..3 {
-            v = lu.solve(&v).ok_or_else(|| FurutaError::BadOption { what: "mode_start", why: format!("singular shifted map at dt = {dt_ms} ms") })?;
+            v = lu.solve(&v).ok_or_else(|| Error::BadOption { what: "mode_start", why: format!("singular shifted map at dt = {dt_ms} ms") })?;
             let norm = v.iter().map(|c| c.norm_sqr()).sum::<f64>().sqrt();
             v /= Complex::new(norm, 0.0);
         }
@@ -223,7 +198,7 @@ pub fn mode_start(dt_ms: f64, slow: Option<(f64, f64)>, fast: Option<(f64, f64)>
 
 /// Simulated theta series for one sampling period and initial state: samples `skip..`, cut
 /// before the first |theta| > `max_theta` (the run itself stops at 2 `max_theta`).
-pub fn furuta_series(dt_ms: f64, ic: [f64; 4], periods: u64, skip: usize, max_theta: f64) -> Result<TimeSeries, FurutaError> {
+pub fn furuta_series(dt_ms: f64, ic: [f64; 4], periods: u64, skip: usize, max_theta: f64) -> Result<TimeSeries, Error> {
     furuta_series_with_history(dt_ms, ic, None, periods, skip, max_theta)
 }
 
@@ -236,9 +211,9 @@ pub fn furuta_series_with_history(
     periods: u64,
     skip: usize,
     max_theta: f64,
-) -> Result<TimeSeries, FurutaError> {
+) -> Result<TimeSeries, Error> {
     if !(max_theta > 0.0 && max_theta.is_finite()) {
-        return Err(FurutaError::BadOption { what: "max_theta", why: format!("must be positive and finite, got {max_theta}") });
+        return Err(Error::BadOption { what: "max_theta", why: format!("must be positive and finite, got {max_theta}") });
     }
     let scene = SceneBuilder::load("furuta-dt30.5")?
         .dt_ms(dt_ms)
@@ -252,29 +227,29 @@ pub fn furuta_series_with_history(
     let end = x.iter().position(|v| v.abs() > max_theta).unwrap_or(x.len());
     if skip + 100 > end {
         let why = tr.stopped.unwrap_or_else(|| format!("|theta| > {max_theta} after {end} samples"));
-        return Err(FurutaError::Escaped { dt_ms, ic, why: format!("{why}; fewer than skip + 100 usable samples") });
+        return Err(Error::Escaped { dt_ms, ic, why: format!("{why}; fewer than skip + 100 usable samples") });
     }
     TimeSeries::new(format!("furuta dt={dt_ms} ic={ic:?}"), tr.t[skip..end].to_vec(), x[skip..end].to_vec())
-        .map_err(|e| FurutaError::Fit(e.into()))
+        .map_err(|e| Error::from(ssm::FitError::from(e)))
 }
 
 /// Checks the options shared by [`furuta_parametric`] and the shared-tangent model.
-pub(crate) fn validate_options(opts: &FurutaOptions) -> Result<(), FurutaError> {
+pub(crate) fn validate_options(opts: &FurutaOptions) -> Result<(), Error> {
     if opts.fit.dim != 4 {
-        return Err(FurutaError::BadOption { what: "fit.dim", why: format!("must be 4, got {}", opts.fit.dim) });
+        return Err(Error::BadOption { what: "fit.dim", why: format!("must be 4, got {}", opts.fit.dim) });
     }
     if opts.dts_ms.is_empty() || opts.dts_ms.windows(2).any(|w| w[1] <= w[0]) {
-        return Err(FurutaError::BadOption { what: "dts_ms", why: "need at least one, strictly increasing".into() });
+        return Err(Error::BadOption { what: "dts_ms", why: "need at least one, strictly increasing".into() });
     }
     if opts.initial_states.is_empty() {
-        return Err(FurutaError::BadOption { what: "initial_states", why: "need at least one".into() });
+        return Err(Error::BadOption { what: "initial_states", why: "need at least one".into() });
     }
     Ok(())
 }
 
 /// The training series of one sampling period: one run per initial state, then one per
 /// slow-mode start (see [`FurutaOptions`]).
-pub fn training_series(opts: &FurutaOptions, dt_ms: f64) -> Result<Vec<TimeSeries>, FurutaError> {
+pub fn training_series(opts: &FurutaOptions, dt_ms: f64) -> Result<Vec<TimeSeries>, Error> {
     let mut train: Vec<TimeSeries> = opts
         .initial_states
         .iter()
@@ -288,14 +263,14 @@ pub fn training_series(opts: &FurutaOptions, dt_ms: f64) -> Result<Vec<TimeSerie
 }
 
 /// Fits the parametric model (slow: one simulation per dt and initial state).
-pub fn furuta_parametric(opts: &FurutaOptions) -> Result<ParametricModel, FurutaError> {
+pub fn furuta_parametric(opts: &FurutaOptions) -> Result<ParametricModel, Error> {
     validate_options(opts)?;
     let mut trained = Vec::with_capacity(opts.dts_ms.len());
     for &dt_ms in &opts.dts_ms {
         let train = training_series(opts, dt_ms)?;
         let model = fit(&train, &opts.fit)?;
         let normal_form = model_normal_form(&model, &NormalFormOptions::default())
-            .map_err(|source| FurutaError::NormalForm { dt: dt_ms, source })?;
+            .map_err(|source| Error::NormalForm { dt: dt_ms, source })?;
         trained.push(TrainedDt { dt_ms, model, normal_form, exact: exact_modes(dt_ms)? });
     }
     Ok(ParametricModel { trained })
@@ -308,10 +283,10 @@ impl ParametricModel {
     }
 
     /// Bracketing training indices and weight of the upper one.
-    fn bracket(&self, dt_ms: f64) -> Result<(usize, usize, f64), FurutaError> {
+    fn bracket(&self, dt_ms: f64) -> Result<(usize, usize, f64), Error> {
         let (lo, hi) = self.range();
         if !(dt_ms >= lo && dt_ms <= hi) {
-            return Err(FurutaError::OutOfRange { dt: dt_ms, lo, hi });
+            return Err(Error::OutOfRange { dt: dt_ms, lo, hi });
         }
         let n = self.trained.len();
         if n == 1 {
@@ -323,7 +298,7 @@ impl ParametricModel {
     }
 
     /// The polar normal form at `dt_ms`, coefficients linearly interpolated.
-    pub fn normal_form_at(&self, dt_ms: f64) -> Result<PolarNormalForm, FurutaError> {
+    pub fn normal_form_at(&self, dt_ms: f64) -> Result<PolarNormalForm, Error> {
         let (i, j, w) = self.bracket(dt_ms)?;
         let (a, b) = (&self.trained[i].normal_form, &self.trained[j].normal_form);
         let lerp = |x: &Vec<Vec<f64>>, y: &Vec<Vec<f64>>| -> Vec<Vec<f64>> {
@@ -340,7 +315,7 @@ impl ParametricModel {
     /// The polar normal form at `dt_ms` with every coefficient interpolated by `interp`
     /// (linear: same as [`ParametricModel::normal_form_at`]; spline: natural cubic spline
     /// through all training periods). No extrapolation.
-    pub fn normal_form_at_with(&self, dt_ms: f64, interp: Interp) -> Result<PolarNormalForm, FurutaError> {
+    pub fn normal_form_at_with(&self, dt_ms: f64, interp: Interp) -> Result<PolarNormalForm, Error> {
         if interp == Interp::Linear {
             return self.normal_form_at(dt_ms);
         }
@@ -348,7 +323,7 @@ impl ParametricModel {
         let w = interp_weights(&nodes, dt_ms, interp)?;
         let first = &self.trained[0].normal_form;
         if let Some(t) = self.trained.iter().find(|t| t.normal_form.pexps != first.pexps || t.normal_form.modes != first.modes) {
-            return Err(FurutaError::BadOption { what: "normal forms", why: format!("dt = {} ms has other monomials than dt = {} ms", t.dt_ms, nodes[0]) });
+            return Err(Error::BadOption { what: "normal forms", why: format!("dt = {} ms has other monomials than dt = {} ms", t.dt_ms, nodes[0]) });
         }
         let mix = |get: &dyn Fn(&PolarNormalForm) -> &Vec<Vec<f64>>| -> Vec<Vec<f64>> {
             let mut out = get(first).clone();
@@ -368,12 +343,12 @@ impl ParametricModel {
     }
 
     /// The `rho'` coefficient table at `dt_ms`.
-    pub fn coefficients_at(&self, dt_ms: f64) -> Result<NormalFormTable, FurutaError> {
+    pub fn coefficients_at(&self, dt_ms: f64) -> Result<NormalFormTable, Error> {
         Ok(self.normal_form_at(dt_ms)?.table())
     }
 
     /// Interpolated linear rates `[slow rho_1, fast rho_2]` (1/s) at `dt_ms`.
-    pub fn linear_rates_at(&self, dt_ms: f64) -> Result<[f64; 2], FurutaError> {
+    pub fn linear_rates_at(&self, dt_ms: f64) -> Result<[f64; 2], Error> {
         let r = self.normal_form_at(dt_ms)?.linear_rates();
         Ok([r[0], r[1]])
     }

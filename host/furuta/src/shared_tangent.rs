@@ -21,6 +21,7 @@
 //! `eta0 = V1^T y0`, iterate the map, lift, read theta) and blow-up detection are those of
 //! [`SsmModel::predict`].
 
+use crate::Error;
 use sim::units::ms_to_s;
 use serde::{Deserialize, Serialize};
 
@@ -28,7 +29,7 @@ use ssm::data::TimeSeries;
 use ssm::dynamics::ReducedDynamics;
 use ssm::fit::{Prediction, SsmModel, Stop, embed_training, fit_with_tangent};
 use crate::parametric::{
-    ExactModes, FurutaError, FurutaOptions, exact_modes, furuta_series_with_history, slow_mode_start, training_series,
+    ExactModes, FurutaOptions, exact_modes, furuta_series_with_history, slow_mode_start, training_series,
     validate_options,
 };
 use ssm::manifold::tangent_space;
@@ -64,10 +65,10 @@ pub struct SharedParametricModel {
 
 /// Slow and fast `(rate 1/s, freq Hz)` of a model's linear part (pairs with positive
 /// imaginary part, by increasing frequency).
-fn model_modes(model: &SsmModel, dt_ms: f64) -> Result<([f64; 2], [f64; 2]), FurutaError> {
+fn model_modes(model: &SsmModel, dt_ms: f64) -> Result<([f64; 2], [f64; 2]), Error> {
     let mut up: Vec<(f64, f64)> = model.eigenvalues_ct.iter().copied().filter(|e| e.1 > 0.0).collect();
     if up.len() != 2 {
-        return Err(FurutaError::Multipliers { dt_ms, got: up.len() });
+        return Err(Error::Multipliers { dt_ms, got: up.len() });
     }
     up.sort_by(|a, b| a.1.total_cmp(&b.1));
     let tau = std::f64::consts::TAU;
@@ -89,10 +90,10 @@ fn rescale(poly: &Poly, to: &[f64]) -> Poly {
 
 /// Fits the shared-tangent parametric model on the training data of `opts` (the same
 /// series as [`crate::parametric::furuta_parametric`]; polynomial map dynamics required).
-pub fn shared_parametric(opts: &FurutaOptions) -> Result<SharedParametricModel, FurutaError> {
+pub fn shared_parametric(opts: &FurutaOptions) -> Result<SharedParametricModel, Error> {
     validate_options(opts)?;
     if opts.fit.dynamics != ssm::dynamics::Dynamics::Map {
-        return Err(FurutaError::BadOption { what: "fit.dynamics", why: "the shared-tangent model interpolates polynomial maps; use Dynamics::Map".into() });
+        return Err(Error::BadOption { what: "fit.dynamics", why: "the shared-tangent model interpolates polynomial maps; use Dynamics::Map".into() });
     }
     let mut series = Vec::with_capacity(opts.dts_ms.len());
     let mut pooled = Vec::new();
@@ -133,18 +134,18 @@ impl SharedParametricModel {
     /// The full model (manifold and map) at `dt_ms`, every coefficient interpolated by
     /// `interp`. Blow-up reference `eta_range`: the largest training range over all
     /// periods. Conditioning records: those of the nearest training period.
-    pub fn model_at(&self, dt_ms: f64, interp: Interp) -> Result<SsmModel, FurutaError> {
+    pub fn model_at(&self, dt_ms: f64, interp: Interp) -> Result<SsmModel, Error> {
         let dts = self.dts_ms();
         let w = interp_weights(&dts, dt_ms, interp)?;
         let nearest = (0..dts.len()).min_by(|&a, &b| (dts[a] - dt_ms).abs().total_cmp(&(dts[b] - dt_ms).abs())).unwrap_or(0);
         let mut out = self.nodes[nearest].model.clone();
-        let mix = |get: &dyn Fn(&SsmModel) -> Option<&Poly>| -> Result<Option<Poly>, FurutaError> {
+        let mix = |get: &dyn Fn(&SsmModel) -> Option<&Poly>| -> Result<Option<Poly>, Error> {
             let Some(base) = get(&out) else { return Ok(None) };
             let mut p = base.clone();
             p.coef.iter_mut().for_each(|c| *c = 0.0);
             for (node, wi) in self.nodes.iter().zip(&w) {
                 let q = get(&node.model).filter(|q| q.exps == p.exps && q.scale == p.scale && q.dim_out == p.dim_out);
-                let q = q.ok_or_else(|| FurutaError::BadOption {
+                let q = q.ok_or_else(|| Error::BadOption {
                     what: "shared fits",
                     why: format!("dt = {} ms has other monomials or scales than dt = {} ms", node.dt_ms, dts[nearest]),
                 })?;
@@ -175,21 +176,21 @@ impl SharedParametricModel {
 
     /// Predicts `test` (sampled at `dt_ms`) from its first embedded point with the model
     /// interpolated at `dt_ms`. Blow-up shows as `stop` in the prediction.
-    pub fn predict_at(&self, dt_ms: f64, test: &TimeSeries, interp: Interp) -> Result<Prediction, FurutaError> {
+    pub fn predict_at(&self, dt_ms: f64, test: &TimeSeries, interp: Interp) -> Result<Prediction, Error> {
         Ok(self.model_at(dt_ms, interp)?.predict(test)?)
     }
 
     /// Linear `ln|mu|/dt` rates `[slow, fast]` of the interpolated map at `dt_ms`.
-    pub fn rates_at(&self, dt_ms: f64, interp: Interp) -> Result<[f64; 2], FurutaError> {
+    pub fn rates_at(&self, dt_ms: f64, interp: Interp) -> Result<[f64; 2], Error> {
         Ok(model_modes(&self.model_at(dt_ms, interp)?, dt_ms)?.0)
     }
 
     /// Polar normal form of the interpolated map at `dt_ms`, observable convention on
     /// theta (linear observable row including the manifold's degree-1 normal part).
-    pub fn normal_form_at(&self, dt_ms: f64, interp: Interp) -> Result<PolarNormalForm, FurutaError> {
+    pub fn normal_form_at(&self, dt_ms: f64, interp: Interp) -> Result<PolarNormalForm, Error> {
         let m = self.model_at(dt_ms, interp)?;
         let o = NormalFormOptions { normalization: Normalization::Observable(m.manifold.observable_row()), ..NormalFormOptions::default() };
-        normal_form(&m.dynamics, &o).map_err(|source| FurutaError::NormalForm { dt: dt_ms, source })
+        normal_form(&m.dynamics, &o).map_err(|source| Error::NormalForm { dt: dt_ms, source })
     }
 }
 
@@ -267,19 +268,19 @@ pub struct PredictionResult {
 
 /// The test series at `dt_ms` of [`PredictOptions`]: plant state and pre-history of the
 /// slow-mode start plus a `theta0` offset in theta.
-pub fn test_series(dt_ms: f64, o: &PredictOptions) -> Result<TimeSeries, FurutaError> {
+pub fn test_series(dt_ms: f64, o: &PredictOptions) -> Result<TimeSeries, Error> {
     let (mut ic, mut hist) = slow_mode_start(dt_ms, o.slow.0, o.slow.1)?;
     ic[0] += o.theta0;
     hist.iter_mut().for_each(|h| h[0] += o.theta0);
     if !(o.horizon_s > 0.0 && o.horizon_s.is_finite()) {
-        return Err(FurutaError::BadOption { what: "horizon_s", why: format!("must be positive and finite, got {}", o.horizon_s) });
+        return Err(Error::BadOption { what: "horizon_s", why: format!("must be positive and finite, got {}", o.horizon_s) });
     }
     let periods = (o.horizon_s / (ms_to_s(dt_ms))).ceil() as u64;
     furuta_series_with_history(dt_ms, ic, Some(&hist), periods, o.skip, o.max_theta)
 }
 
 /// Predictions at every period of `o.dts_ms` with interpolation `interp`.
-pub fn predictions(model: &SharedParametricModel, o: &PredictOptions, interp: Interp) -> Result<Vec<PredictionResult>, FurutaError> {
+pub fn predictions(model: &SharedParametricModel, o: &PredictOptions, interp: Interp) -> Result<Vec<PredictionResult>, Error> {
     o.dts_ms.iter().map(|&dt_ms| predict_one(model, dt_ms, &test_series(dt_ms, o)?, o, interp)).collect()
 }
 
@@ -290,11 +291,11 @@ pub fn predict_one(
     test: &TimeSeries,
     o: &PredictOptions,
     interp: Interp,
-) -> Result<PredictionResult, FurutaError> {
+) -> Result<PredictionResult, Error> {
     let pred = model.predict_at(dt_ms, test, interp)?;
     let n = pred.x.len();
     let truth = &test.x[..n];
-    let bad = |what: &str| FurutaError::BadOption { what: "prediction", why: format!("dt = {dt_ms} ms: {what} undefined ({n} samples)") };
+    let bad = |what: &str| Error::BadOption { what: "prediction", why: format!("dt = {dt_ms} ms: {what} undefined ({n} samples)") };
     let nmte = ssm::metrics::nmte(&pred.x, truth, 1).ok_or_else(|| bad("NMTE"))?;
     let dtw_nmte = pred.nmte_dtw(test, o.dtw_band);
     if !dtw_nmte.is_finite() {

@@ -7,9 +7,12 @@
 
 pub mod chart;
 pub mod closed_loop;
+pub mod error;
 pub mod linear;
 pub mod ode;
 pub mod plant;
 pub mod scene;
 pub mod stability;
 pub mod units;
+
+pub use error::Error;

@@ -33,7 +33,7 @@ pub mod spectrum;
 
 pub use data::{DataError, TimeSeries, load_csv, load_csv_column};
 pub use dynamics::{Dynamics, ReducedDynamics};
-pub use error::FitError;
+pub use error::{Error, FitError};
 pub use fit::{FitOptions, MODEL_FORMAT, MODEL_FORMAT_VERSION, ModelFileError, Prediction, SsmModel, Stop, StopReason, fit};
 pub use ridge::{Conditioning, Ridge};
 

@@ -369,7 +369,7 @@ fn start(elf: &Path, out: &Path) -> Result<(Qemu, TcpStream), PilError> {
 /// Fits a 4D RBF SSM model of the scene's primary angle (1,200 simulated periods) and
 /// returns the device blob carrying the scene's controller configuration.
 pub fn fit_model(scene: &Scene) -> Result<Vec<u8>, PilError> {
-    let (m, _) = furuta::device_model::fit_scene_rbf(scene, 1200).map_err(PilError::Fit)?;
+    let (m, _) = furuta::device_model::fit_scene_rbf(scene, 1200).map_err(|e| PilError::Fit(e.to_string()))?;
     let owned = ssm::device::to_device_model(&m, scene.controller_config()).map_err(|e| PilError::Fit(e.to_string()))?;
     ssm::device::encode(&owned).map_err(|e| PilError::Fit(e.to_string()))
 }

@@ -147,13 +147,13 @@ fn rbf_map_million_steps_bounded_and_escape_reported() {
     // the step, not as NaN.
     let e = iterate_dynamics(&rbf, &[3.0, 0.0], 1_000_000, 10.0, 0).unwrap_err();
     match e {
-        ChaosTableError::Chaos(ChaosError::Escape { step, reason, .. }) => {
+        Error::Chaos(ChaosError::Escape { step, reason, .. }) => {
             println!("rbf escape from (3, 0) at step {step}: {reason}");
             assert!(step < 100, "{step}");
         }
         other => panic!("expected escape, got {other}"),
     }
-    assert!(matches!(iterate_dynamics(&rbf, &[0.1], 10, 10.0, 0), Err(ChaosTableError::Shape { expected: 2, got: 1 })));
+    assert!(matches!(iterate_dynamics(&rbf, &[0.1], 10, 10.0, 0), Err(Error::Shape { expected: 2, got: 1 })));
 }
 
 /// The micro-chaos map x' = a x - b h floor(x / h): inside one quantization cell two states

@@ -457,7 +457,7 @@ pub fn sensitivity_section(rep: &mut Report, default: &ParametricModel) -> Resul
                 ]);
                 tlist.push(json!({"dt_ms": dt, "rho": t.rho, "rho_spread": t.rho_spread, "escaped": false}));
             }
-            Err(furuta::full_system::FurCheckError::Escaped { why, .. }) => {
+            Err(furuta::Error::TorusEscaped { why, .. }) => {
                 trows.push(vec![format!("{dt}"), format!("escaped ({why})"), "-".into(), "-".into()]);
                 tlist.push(json!({"dt_ms": dt, "escaped": true}));
             }
