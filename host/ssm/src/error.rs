@@ -1,6 +1,5 @@
-//! The SSM layer's errors: [`FitError`] for fitting and evaluating a model, and [`Error`],
-//! the one enum over every module error of the crate (each names the option, file, row,
-//! dimension or parameter that is wrong); `?` lifts any of them into [`Error`].
+//! [`FitError`]: what can go wrong while fitting or evaluating a model. The crate's one
+//! enum over every module error is [`crate::Error`].
 
 use thiserror::Error;
 
@@ -29,25 +28,4 @@ pub enum FitError {
     StepMismatch { name: String, dt: f64, dt_model: f64, rtol: f64 },
     #[error("{name}: embedded dimension {got} does not match the model's {expected}")]
     DimMismatch { name: String, got: usize, expected: usize },
-}
-
-/// Anything the SSM layer refuses or fails at.
-#[derive(Debug, Error)]
-pub enum Error {
-    #[error(transparent)]
-    Fit(#[from] FitError),
-    #[error(transparent)]
-    Data(#[from] DataError),
-    #[error(transparent)]
-    NormalForm(#[from] crate::normal_form::NormalFormError),
-    #[error(transparent)]
-    Portrait(#[from] crate::portrait::PortraitError),
-    #[error(transparent)]
-    Interp(#[from] crate::interp::InterpError),
-    #[error(transparent)]
-    Spectrum(#[from] crate::spectrum::SpectrumError),
-    #[error(transparent)]
-    Export(#[from] crate::device::ExportError),
-    #[error(transparent)]
-    ModelFile(#[from] crate::fit::ModelFileError),
 }

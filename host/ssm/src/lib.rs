@@ -33,9 +33,31 @@ pub mod spectrum;
 
 pub use data::{DataError, TimeSeries, load_csv, load_csv_column};
 pub use dynamics::{Dynamics, ReducedDynamics};
-pub use error::{Error, FitError};
+pub use error::FitError;
 pub use fit::{FitOptions, MODEL_FORMAT, MODEL_FORMAT_VERSION, ModelFileError, Prediction, SsmModel, Stop, StopReason, fit};
 pub use ridge::{Conditioning, Ridge};
 
 #[cfg(test)]
 mod tests;
+
+/// Anything the SSM layer refuses or fails at: one enum over the module errors (each names
+/// the option, file, row, dimension or parameter that is wrong); `?` lifts any of them.
+#[derive(Debug, thiserror::Error)]
+pub enum Error {
+    #[error(transparent)]
+    Fit(#[from] crate::error::FitError),
+    #[error(transparent)]
+    Data(#[from] crate::data::DataError),
+    #[error(transparent)]
+    NormalForm(#[from] crate::normal_form::NormalFormError),
+    #[error(transparent)]
+    Portrait(#[from] crate::portrait::PortraitError),
+    #[error(transparent)]
+    Interp(#[from] crate::interp::InterpError),
+    #[error(transparent)]
+    Spectrum(#[from] crate::spectrum::SpectrumError),
+    #[error(transparent)]
+    Export(#[from] crate::device::ExportError),
+    #[error(transparent)]
+    ModelFile(#[from] crate::fit::ModelFileError),
+}

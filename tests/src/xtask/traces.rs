@@ -57,10 +57,10 @@ pub fn inputs() -> Vec<(i32, i32)> {
     for _ in 0..WALK {
         y += -y / 16 + rng.range(-3, 3);
         z += -z / 32 + rng.range(-6, 6);
-        if rng.next() % 40 == 0 {
+        if rng.next().is_multiple_of(40) {
             y += rng.range(-300, 300);
         }
-        if rng.next() % 60 == 0 {
+        if rng.next().is_multiple_of(60) {
             z += rng.range(-500, 500);
         }
         out.push((y as i32, z as i32));

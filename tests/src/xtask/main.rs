@@ -24,16 +24,22 @@
 //! - `test`: install + `cargo test --workspace` + qemu-test + device-table (counted as one
 //!   on-target test, see `device_table::check`) + a 2,000-period PIL run (one more) +
 //!   STM32F407 build.
+//! - `reproduce --out DIR [...]`: install + device-table + a PIL run + the PIL recordings of
+//!   the chaos study, then `ssmctl reproduce` with the remaining arguments (the report).
+//! - `compare-report BASE NEW`: do two report directories of `ssmctl reproduce [--quick]
+//!   --out DIR` (e.g. before and after a refactor) hold the same results? `summary.json` and
+//!   `scenes/*.json` equal as JSON (numbers to 1e-12 relative, wall-clock timing keys
+//!   skipped, paths inside the report equal after their `BASE`/`NEW` prefix), `index.html`
+//!   equal with every number masked, every other file (figures, model blobs, scene CSVs)
+//!   byte-identical, no file in only one tree. Prints each mismatch (file, JSON path) and
+//!   `N numbers compared, M files byte-identical, K mismatches`; fails on any mismatch.
+//!   Rules and the timing keys: `compare_report.rs`.
 
-#[path = "../xtask/device_table.rs"]
+mod compare_report;
 mod device_table;
-#[path = "../xtask/elf.rs"]
 mod elf;
-#[path = "../xtask/rng.rs"]
 mod rng;
-#[path = "../xtask/traces.rs"]
 mod traces;
-#[path = "../xtask/vectors.rs"]
 mod vectors;
 
 use std::path::{Path, PathBuf};
@@ -70,7 +76,8 @@ fn main() -> ExitCode {
         Some("reproduce") => reproduce(&args[1..]),
         Some("pil") => pil_args(&args[1..]).and_then(|(scene, periods)| pil(&scene, periods)).map(|_| ()),
         Some("pil-record") => record_args(&args[1..]).and_then(|r| pil_record(&r)),
-        _ => Err("usage: cargo xtask <install | qemu-test | firmware-size | device-table [--json] | pil [--periods N] [--scene NAME] | pil-record --out DIR [--runs N] [--periods P] [--scene NAME] [--seed S] | test | reproduce --out DIR>".into()),
+        Some("compare-report") => compare_report::run(&args[1..]),
+        _ => Err("usage: cargo xtask <install | qemu-test | firmware-size | device-table [--json] | pil [--periods N] [--scene NAME] | pil-record --out DIR [--runs N] [--periods P] [--scene NAME] [--seed S] | test | reproduce --out DIR | compare-report BASE NEW>".into()),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
