@@ -1,1 +1,2 @@
-//! End-to-end tests live in `tests/tests/`.
+//! Workspace-level checks live in `tests/tests/` (the crate graph); the xtask automation in
+//! `src/xtask/`.

@@ -32,9 +32,9 @@
 use std::time::Instant;
 
 use faer::Mat;
-use furuta::bifurcations::{RHO_MAX, model_row, sensitivity_row};
+use furuta::bifurcations::{RHO_MAX, model_row, sensitivity_row, sensitivity_variants};
 use furuta::full_system::{
-    AMP_WINDOW_S, ESCAPE_THETA, FurCheckError, Outcome, default_ics, default_switch_scan, fate_from, run, start_from_rho, torus_full,
+    AMP_WINDOW_S, ESCAPE_THETA, Outcome, default_ics, default_switch_scan, fate_from, run, start_from_rho, torus_full,
     transient_analysis,
 };
 use furuta::parametric::{FurutaOptions, exact_modes, furuta_parametric, training_series};
@@ -167,7 +167,8 @@ fn furuta_linear_first_explore() {
             }
             let a = Mat::from_fn(n, 4, |i, j| xs[i][j]);
             let b = Mat::from_fn(n, 4, |i, j| ysn[i][j]);
-            let (w, _) = ssm::ridge::fit(a.as_ref(), b.as_ref(), &[0..n], Ridge::Fixed(0.0), "lin").unwrap();
+            // One segment: all n pairs.
+            let (w, _) = ssm::ridge::fit(a.as_ref(), b.as_ref(), std::slice::from_ref(&(0..n)), Ridge::Fixed(0.0), "lin").unwrap();
             let am = nalgebra::Matrix4::from_fn(|i, j| w[(j, i)]);
             let ev = am.complex_eigenvalues();
             let mut rates: Vec<(f64, f64)> = ev.iter().map(|z| (z.norm().ln() / dt, z.arg().abs() / dt / std::f64::consts::TAU)).collect();
@@ -256,18 +257,11 @@ fn model_bifurcations_explore() {
 /// The sensitivity row of the default training reproduces the portraits section's
 /// values (same fit, same scans), and the full system's torus spread grows with dt.
 ///
-/// The variants are those of `ssmctl`'s `report::bifurcations::sensitivity_section` (kept
-/// in step by hand).
+/// The variants are `furuta::bifurcations::sensitivity_variants`, the report's.
 fn sensitivity_explore() {
     let base = FurutaOptions::default();
     let pm = furuta_parametric(&base).unwrap();
-    let dense = vec![30.5, 31.0, 31.25, 31.5, 31.75, 32.0, 32.5];
-    let variants = [
-        ("cut 0.3 rad", FurutaOptions { max_theta: 0.3, ..base.clone() }),
-        ("cut 0.15 rad", FurutaOptions { max_theta: 0.15, ..base.clone() }),
-        ("7 periods, cut 0.2 rad", FurutaOptions { dts_ms: dense.clone(), ..base.clone() }),
-        ("7 periods, cut 0.3 rad", FurutaOptions { dts_ms: dense, max_theta: 0.3, ..base.clone() }),
-    ];
+    let variants = sensitivity_variants();
     let mut rows = vec![model_row("default (paper's periods, cut 0.2 rad)", &base, &pm, None).unwrap()];
     for (name, o) in &variants {
         rows.push(sensitivity_row(name, o).unwrap());
@@ -279,7 +273,7 @@ fn sensitivity_explore() {
         let (x, h) = start_from_rho(dt, [0.095, 0.028], [0.0, 0.0]).unwrap();
         match torus_full(dt, &(x, Some(h)), 16_000, 125.0) {
             Ok(t) => tlist.push(json!({"dt_ms": dt, "rho": t.rho, "rho_spread": t.rho_spread, "escaped": false})),
-            Err(FurCheckError::Escaped { .. }) => tlist.push(json!({"dt_ms": dt, "escaped": true})),
+            Err(furuta::Error::TorusEscaped { .. }) => tlist.push(json!({"dt_ms": dt, "escaped": true})),
             Err(e) => panic!("{e}"),
         }
     }

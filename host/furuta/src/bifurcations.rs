@@ -164,3 +164,17 @@ pub fn model_row(variant: &str, o: &FurutaOptions, pm: &ParametricModel, fit_sec
     })
 }
 
+
+/// The training variants of the sensitivity study (besides the default options): the
+/// amplitude cut of the training runs (0.3, 0.15 rad) and seven training periods instead of
+/// the paper's four (cut 0.2 and 0.3 rad).
+pub fn sensitivity_variants() -> Vec<(&'static str, FurutaOptions)> {
+    let base = FurutaOptions::default();
+    let dense = vec![30.5, 31.0, 31.25, 31.5, 31.75, 32.0, 32.5];
+    vec![
+        ("cut 0.3 rad", FurutaOptions { max_theta: 0.3, ..base.clone() }),
+        ("cut 0.15 rad", FurutaOptions { max_theta: 0.15, ..base.clone() }),
+        ("7 periods, cut 0.2 rad", FurutaOptions { dts_ms: dense.clone(), ..base.clone() }),
+        ("7 periods, cut 0.3 rad", FurutaOptions { dts_ms: dense, max_theta: 0.3, ..base }),
+    ]
+}

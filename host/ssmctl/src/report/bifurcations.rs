@@ -11,7 +11,7 @@ use ssm::portrait::{Fate, PointKind, PortraitOptions, fixed_points, portrait, tr
 use ssm::interp::Interp;
 use furuta::shared_tangent::{PredictOptions, PredictionResult, predictions, shared_parametric};
 use crate::draw::portrait::plot_portrait;
-use furuta::bifurcations::{ModelBifurcations, RHO_MAX, model_bifurcations, model_row, model_small_start_switch, sensitivity_row};
+use furuta::bifurcations::{ModelBifurcations, RHO_MAX, model_bifurcations, model_row, model_small_start_switch, sensitivity_row, sensitivity_variants};
 use plotters::style::RGBColor;
 use serde_json::{Value, json};
 use std::error::Error;
@@ -413,13 +413,7 @@ pub fn sensitivity_section(rep: &mut Report, default: &ParametricModel) -> Resul
          of the exact ones in every variant; the higher-order coefficients, and with them the bifurcations, do not.",
     );
     let base = FurutaOptions::default();
-    let dense = vec![30.5, 31.0, 31.25, 31.5, 31.75, 32.0, 32.5];
-    let variants = [
-        ("cut 0.3 rad", FurutaOptions { max_theta: 0.3, ..base.clone() }),
-        ("cut 0.15 rad", FurutaOptions { max_theta: 0.15, ..base.clone() }),
-        ("7 periods, cut 0.2 rad", FurutaOptions { dts_ms: dense.clone(), ..base.clone() }),
-        ("7 periods, cut 0.3 rad", FurutaOptions { dts_ms: dense, max_theta: 0.3, ..base.clone() }),
-    ];
+    let variants = sensitivity_variants();
     let mut rows = Vec::new();
     let mut list = Vec::new();
     let f = |v: Option<f64>| v.map_or("none".to_string(), |x| format!("{x:.3}"));
