@@ -1,5 +1,5 @@
 //! The processor-in-the-loop frame: the one definition of the bytes the host
-//! (`host::pil`) and the firmware (`qemu/src/bin/pil.rs`) exchange over UART0.
+//! (`ssmctl::pil`) and the firmware (`qemu/src/bin/pil.rs`) exchange over UART0.
 //!
 //! ```text
 //! [start u8, kind u8, seq u16 LE, len u8, payload (len bytes), crc u32 LE]

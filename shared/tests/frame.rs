@@ -41,7 +41,7 @@ fn reseal(f: &mut [u8]) {
 }
 
 // Golden frames, byte for byte as the hand-written encoders built them before this module
-// (`host::pil::request` for requests, the firmware's `reply`, mirrored by the host tests'
+// (the host's request encoder for requests, the firmware's `reply`, mirrored by the host tests'
 // `reply`, for replies); fields: start, kind, seq, len, payload, CRC.
 
 /// A step request: seq 0x0102, `q_y = 0x40302010, q_z = -2, sample = 1.0f32`.

@@ -39,7 +39,7 @@ pub fn model_bifurcations(pm: &ParametricModel) -> Result<ModelBifurcations, Err
 
 /// Where the model sends a small start: the fate of the interior unstable branch of the
 /// fast-mode saddle cycle (small starts grow along the fast mode to that cycle first, then
-/// follow this branch; the full system's runs do the same, see `furcheck`).
+/// follow this branch; the full system's runs do the same, see `crate::full_system`).
 #[derive(Clone, Copy, Debug, PartialEq, Serialize)]
 pub enum SmallStartFate {
     /// Reaches the 2-torus continued from 30.8 ms (stable) or circles it on a 3-torus.

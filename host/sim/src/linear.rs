@@ -117,7 +117,7 @@ pub struct LinearPlant {
 }
 
 impl LinearPlant {
-    /// From fixed-size matrices (as `host::plant::linearize` returns them).
+    /// From fixed-size matrices (as `crate::plant::linearize` returns them).
     pub fn new<const N: usize>(
         a: &SMatrix<f64, N, N>,
         b: &SVector<f64, N>,

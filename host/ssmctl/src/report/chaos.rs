@@ -404,7 +404,7 @@ mod tests {
 
     #[test]
     fn pil_record_theta_loads_and_bad_files_are_named() {
-        let dir = std::env::temp_dir().join(format!("chaoscmd-pil-{}", std::process::id()));
+        let dir = std::env::temp_dir().join(format!("chaos-report-pil-{}", std::process::id()));
         std::fs::create_dir_all(dir.join("run1")).unwrap();
         let p = dir.join("run1/record.csv");
         let mut text = String::from("t_s,theta_rad,phi_rad,theta_meas_rad,code,prediction\n");

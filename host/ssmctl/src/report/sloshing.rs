@@ -285,7 +285,7 @@ mod tests {
     /// The f32-vs-f64 rows of the device table JSON are rendered as a table.
     #[test]
     fn device_section_renders_f32_vs_f64_rows() {
-        let dir = std::env::temp_dir().join(format!("ssm-fitreport-dev-{}", std::process::id()));
+        let dir = std::env::temp_dir().join(format!("ssm-sloshing-report-dev-{}", std::process::id()));
         std::fs::create_dir_all(&dir).unwrap();
         let table = dir.join("device-table.json");
         let v = json!({
