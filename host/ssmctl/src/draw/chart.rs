@@ -8,11 +8,9 @@ use plotters::prelude::*;
 use serde::Serialize;
 
 use crate::plot::{PlotError, ensure_font};
-use sim::chart::{Axis, Chart, Crossing, Panel, PanelSummary, plant_chart};
+use sim::chart::{Axis, Chart, Crossing, Panel, PanelSummary};
 use sim::scene::Scene;
 use sim::stability::{StabilityError, scene_chart};
-use nalgebra::{SMatrix, SVector};
-use shared::ControllerConfig;
 
 const STABLE_FILL: RGBColor = RGBColor(170, 220, 170);
 const STATIC_COLOR: RGBColor = RGBColor(30, 80, 200);
@@ -167,26 +165,6 @@ fn summarize(out: &Path, chart: &Chart, compute_seconds: f64) -> Result<ChartSum
         compute_seconds,
         draw_seconds,
     })
-}
-
-/// Compute the chart for the plant `x' = A x + B u` (controller reads `x[primary]`,
-/// `x[secondary]`) and write it as a PNG to `out`: one panel per sampling period, the
-/// stable region shaded, the static / dynamic / flip boundaries drawn, the base gains
-/// marked.
-#[allow(clippy::too_many_arguments)]
-pub fn stability_chart<const N: usize>(
-    out: &Path,
-    a: &SMatrix<f64, N, N>,
-    b: &SVector<f64, N>,
-    primary: usize,
-    secondary: usize,
-    base: &ControllerConfig,
-    dts_s: &[f64],
-    kp: (f64, f64, usize),
-    kd: (f64, f64, usize),
-) -> Result<ChartSummary, ChartDrawError> {
-    let (chart, seconds) = plant_chart(a, b, primary, secondary, base, dts_s, kp, kd)?;
-    Ok(summarize(out, &chart, seconds)?)
 }
 
 /// The (KP, KD) stability chart of the scene's plant for several sampling periods (ms),
