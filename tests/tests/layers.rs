@@ -81,3 +81,100 @@ fn only_the_app_draws_and_parses_command_lines() {
         }
     }
 }
+
+/// Top-level modules of one crate and the crate's own top-level modules each one uses
+/// (`crate::m` anywhere in its files, `super::m` in a top-level file), comments skipped.
+fn module_graph(src: &std::path::Path) -> BTreeMap<String, std::collections::BTreeSet<String>> {
+    fn files(dir: &std::path::Path, out: &mut Vec<std::path::PathBuf>) {
+        for e in std::fs::read_dir(dir).unwrap().flatten() {
+            let p = e.path();
+            if p.is_dir() {
+                files(&p, out);
+            } else if p.extension().is_some_and(|x| x == "rs") {
+                out.push(p);
+            }
+        }
+    }
+    fn used(text: &str, prefix: &str, out: &mut std::collections::BTreeSet<String>) {
+        for line in text.lines().filter(|l| !l.trim_start().starts_with("//")) {
+            let mut rest = line;
+            while let Some(i) = rest.find(prefix) {
+                rest = &rest[i + prefix.len()..];
+                let name: String = rest.chars().take_while(|c| c.is_ascii_lowercase() || c.is_ascii_digit() || *c == '_').collect();
+                if !name.is_empty() {
+                    out.insert(name);
+                }
+            }
+        }
+    }
+    let mut all = Vec::new();
+    files(src, &mut all);
+    let mut graph: BTreeMap<String, std::collections::BTreeSet<String>> = BTreeMap::new();
+    for p in &all {
+        let rel = p.strip_prefix(src).unwrap();
+        let top = rel.components().next().unwrap().as_os_str().to_string_lossy().trim_end_matches(".rs").to_string();
+        let text = std::fs::read_to_string(p).unwrap();
+        let entry = graph.entry(top.clone()).or_default();
+        used(&text, "crate::", entry);
+        if rel.components().count() == 1 {
+            used(&text, "super::", entry);
+        }
+        entry.remove(&top);
+    }
+    let names: Vec<String> = graph.keys().cloned().collect();
+    for deps in graph.values_mut() {
+        deps.retain(|d| names.contains(d));
+    }
+    graph
+}
+
+/// A module that reaches itself through the imports of others, if any.
+fn cycle(graph: &BTreeMap<String, std::collections::BTreeSet<String>>) -> Option<Vec<String>> {
+    fn visit(
+        g: &BTreeMap<String, std::collections::BTreeSet<String>>,
+        m: &str,
+        path: &mut Vec<String>,
+        done: &mut std::collections::BTreeSet<String>,
+    ) -> Option<Vec<String>> {
+        if let Some(i) = path.iter().position(|p| p == m) {
+            return Some(path[i..].iter().cloned().chain([m.to_string()]).collect());
+        }
+        if done.contains(m) {
+            return None;
+        }
+        path.push(m.to_string());
+        for d in g.get(m).into_iter().flatten() {
+            if let Some(c) = visit(g, d, path, done) {
+                return Some(c);
+            }
+        }
+        path.pop();
+        done.insert(m.to_string());
+        None
+    }
+    let mut done = std::collections::BTreeSet::new();
+    graph.keys().find_map(|m| visit(graph, m, &mut Vec::new(), &mut done))
+}
+
+/// No import circles between the top-level modules of a crate (the crate root and its
+/// error module, which gather every module, excepted).
+#[test]
+fn no_module_import_circles() {
+    let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).parent().unwrap().to_path_buf();
+    for krate in ["host/sim", "host/ssm", "host/chaos", "host/furuta", "host/ssmctl", "controller", "shared"] {
+        let mut g = module_graph(&root.join(krate).join("src"));
+        for gather in ["lib", "main", "error"] {
+            g.remove(gather);
+        }
+        for deps in g.values_mut() {
+            deps.remove("error");
+        }
+        assert_eq!(cycle(&g), None, "{krate}: import circle");
+    }
+    // The check sees a circle when there is one.
+    let mut g: BTreeMap<String, std::collections::BTreeSet<String>> = BTreeMap::new();
+    g.entry("a".into()).or_default().insert("b".into());
+    g.entry("b".into()).or_default().insert("c".into());
+    g.entry("c".into()).or_default().insert("a".into());
+    assert_eq!(cycle(&g), Some(vec!["a".into(), "b".into(), "c".into(), "a".into()]));
+}
