@@ -15,17 +15,21 @@
 //!   Passes when every period ran, the device's codes equal the host's and its predictions
 //!   are bit-identical to the host's f32 predictor, and the whole run (counts, codes,
 //!   states) equals the host-only simulation of the scene with the same noise seed.
-//! - `pil-record --out DIR [--runs N] [--periods P] [--scene NAME] [--seed S]`: records N
+//! - `pil-record --out DIR [--runs N] [--periods P] [--scene NAME] [--seed S] [--fresh]`: records N
 //!   PIL runs of a noisy quantized scene (default `furuta-quant-dt25-noise`, 3 runs of
 //!   20,000 periods) as data sets `DIR/run{1..N}/theta.csv` (measured angle, format of the
 //!   measured data sets) with `record.csv` and `summary.json`; run r uses noise seed
 //!   `S + r - 1` and its own initial angle. One model, fitted once, serves all runs
-//!   (`DIR/model.bin`); `DIR/runs.json` lists seeds, initial states and times.
+//!   (`DIR/model.bin`); `DIR/runs.json` lists seeds, initial states and times. Run 1 fits
+//!   the model, the others then run concurrently (one QEMU each). A run whose folder holds a
+//!   complete run with the same fingerprint (firmware image, host binary, scene, overrides,
+//!   model, periods: `cache.rs`) is reused and says so; `--fresh` redoes it.
 //! - `test`: install + `cargo test --workspace` + qemu-test + device-table (counted as one
 //!   on-target test, see `device_table::check`) + a 2,000-period PIL run (one more) +
 //!   STM32F407 build.
-//! - `reproduce --out DIR [...]`: install + device-table + a PIL run + the PIL recordings of
-//!   the chaos study, then `ssmctl reproduce` with the remaining arguments (the report).
+//! - `reproduce --out DIR [--fresh] [...]`: install + device-table + a PIL run + the PIL
+//!   recordings of the chaos study (both reused when unchanged, `--fresh` redoes them), then
+//!   `ssmctl reproduce` with the remaining arguments (the report).
 //! - `compare-report BASE NEW`: do two report directories of `ssmctl reproduce [--quick]
 //!   --out DIR` (e.g. before and after a refactor) hold the same results? `summary.json` and
 //!   `scenes/*.json` equal as JSON (numbers to 1e-12 relative, wall-clock timing keys
@@ -35,6 +39,7 @@
 //!   `N numbers compared, M files byte-identical, K mismatches`; fails on any mismatch.
 //!   Rules and the timing keys: `compare_report.rs`.
 
+mod cache;
 mod compare_report;
 mod device_table;
 mod elf;
@@ -74,10 +79,11 @@ fn main() -> ExitCode {
         },
         Some("test") => test_all(),
         Some("reproduce") => reproduce(&args[1..]),
-        Some("pil") => pil_args(&args[1..]).and_then(|(scene, periods)| pil(&scene, periods)).map(|_| ()),
-        Some("pil-record") => record_args(&args[1..]).and_then(|r| pil_record(&r)),
+        // An explicit `pil` always runs (it is a test of the device); reproduce may reuse.
+        Some("pil") => pil_args(&args[1..]).and_then(|(scene, periods)| pil(&scene, periods, true)).map(|_| ()),
+        Some("pil-record") => record_args(&args[1..]).and_then(|r| pil_record(&r)).map(|_| ()),
         Some("compare-report") => compare_report::run(&args[1..]),
-        _ => Err("usage: cargo xtask <install | qemu-test | firmware-size | device-table [--json] | pil [--periods N] [--scene NAME] | pil-record --out DIR [--runs N] [--periods P] [--scene NAME] [--seed S] | test | reproduce --out DIR | compare-report BASE NEW>".into()),
+        _ => Err("usage: cargo xtask <install | qemu-test | firmware-size | device-table [--json] | pil [--periods N] [--scene NAME] | pil-record --out DIR [--runs N] [--periods P] [--scene NAME] [--seed S] [--fresh] | test | reproduce --out DIR [--fresh] | compare-report BASE NEW>".into()),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
@@ -337,18 +343,34 @@ fn device_table_cmd(json: bool) -> Result<()> {
 /// The README's main job: the on-device table under QEMU, then `ssmctl reproduce` with the
 /// remaining arguments (e.g. `--out out/report`).
 fn reproduce(rest: &[String]) -> Result<()> {
+    // `--fresh` redoes the processor-in-the-loop runs even when stored ones match; the other
+    // arguments go to `ssmctl reproduce`.
+    let fresh = rest.iter().any(|a| a == "--fresh");
+    let rest: Vec<&String> = rest.iter().filter(|a| *a != "--fresh").collect();
     install()?;
+    let mut steps = Vec::new();
+    let t = Instant::now();
     device_table_cmd(false)?;
+    steps.push(serde_json::json!({"name": "device table (build + QEMU)", "seconds": t.elapsed().as_secs_f64(), "cached": false}));
     // A processor-in-the-loop run; its summary.json goes into the report.
-    pil("furuta-quant-dt25", 2000)?;
+    let t = Instant::now();
+    let v = pil("furuta-quant-dt25", 2000, fresh)?;
+    steps.push(serde_json::json!({"name": "PIL run (2,000 periods)", "seconds": t.elapsed().as_secs_f64(), "cached": v["cached"]}));
     // The chaos study's "experiment": three noisy PIL recordings (train on two, test on one).
-    pil_record(&RecordArgs {
+    let t = Instant::now();
+    let recorded = pil_record(&RecordArgs {
         out: qemu_dir().join("target").join("pil-record"),
         runs: 3,
         periods: 20_000,
         scene: PIL_SCENE.into(),
         seed: 1,
+        fresh,
     })?;
+    steps.push(serde_json::json!({"name": "PIL recordings (3 x 20,000 periods)", "seconds": t.elapsed().as_secs_f64(), "cached": recorded}));
+    // Where the xtask's own time went, for the report's timings.
+    let path = qemu_dir().join("target").join("xtask-steps.json");
+    let text = serde_json::to_string_pretty(&serde_json::json!({ "steps": steps })).map_err(|e| e.to_string())?;
+    std::fs::write(&path, text).map_err(|e| format!("{}: {e}", path.display()))?;
     let mut c = cmd("cargo");
     c.current_dir(root()).args(["run", "--release", "-p", "ssmctl", "--bin", "ssmctl", "--", "reproduce"]).args(rest);
     run(&mut c)
@@ -389,40 +411,81 @@ fn pil_firmware() -> Result<PathBuf> {
     Ok(build_firmware(false)?.with_file_name("pil"))
 }
 
-/// One `ssmctl pil` run into `out` (`fit`: fit the scene's model into `model` first) with
-/// scene overrides `set`; returns the checked summary.
-fn ssmctl_pil(elf: &Path, scene: &str, set: &[String], model: &Path, fit: bool, periods: u64, out: &Path) -> Result<serde_json::Value> {
-    std::fs::create_dir_all(out).map_err(|e| format!("{}: {e}", out.display()))?;
-    let periods_arg = periods.to_string();
+/// The host's `ssmctl` in the test profile (which optimizes the host crates and shares the
+/// dependencies `cargo test` built), built if needed; PIL runs call the binary directly so
+/// several can run at once.
+fn ssmctl_bin() -> Result<PathBuf> {
     let mut c = cmd("cargo");
-    // The test profile optimizes the host crate (the plant integration dominates otherwise)
-    // and shares the dependencies `cargo test` built.
-    c.current_dir(root()).args(["run", "--profile", "test", "-q", "-p", "ssmctl", "--bin", "ssmctl", "--", "pil", "--scene", scene]);
-    for o in set {
+    c.current_dir(root()).args(["build", "--profile", "test", "-q", "-p", "ssmctl", "--bin", "ssmctl"]);
+    run(&mut c)?;
+    Ok(root().join("target").join("debug").join("ssmctl"))
+}
+
+/// What one `ssmctl pil` run is: scene, overrides, model (fitted by this run when `fit`),
+/// periods, output folder.
+struct PilRun<'a> {
+    scene: &'a str,
+    set: Vec<String>,
+    model: PathBuf,
+    fit: bool,
+    periods: u64,
+    out: PathBuf,
+}
+
+/// One `ssmctl pil` run (firmware `elf`, host binary `host`); returns the checked summary and
+/// whether it was reused. A run is reused when its output folder holds a complete run with the
+/// same fingerprint of firmware image, host binary, scene, overrides, model and periods
+/// (`fresh`: never reused).
+fn ssmctl_pil(elf: &Path, host: &Path, r: &PilRun<'_>, fresh: bool) -> Result<(serde_json::Value, bool)> {
+    let read = |p: &Path| std::fs::read(p).map_err(|e| format!("{}: {e}", p.display()));
+    let (elf_bytes, host_bytes) = (read(elf)?, read(host)?);
+    let model_bytes = if r.fit { Vec::new() } else { read(&r.model)? };
+    let periods_arg = r.periods.to_string();
+    let set = r.set.join("\n");
+    let key = cache::key(&[&elf_bytes, &host_bytes, r.scene.as_bytes(), set.as_bytes(), periods_arg.as_bytes(), &[u8::from(r.fit)], &model_bytes]);
+    let summary = |out: &Path| -> Result<serde_json::Value> {
+        let path = out.join("summary.json");
+        let text = std::fs::read_to_string(&path).map_err(|e| format!("{}: {e}", path.display()))?;
+        let v: serde_json::Value = serde_json::from_str(&text).map_err(|e| format!("{}: {e}", path.display()))?;
+        pil_check(&v, r.periods)?;
+        theta_csv_check(&out.join("theta.csv"), r.periods)?;
+        Ok(v)
+    };
+    if !fresh && cache::hit(&r.out, &key) && r.model.is_file() {
+        if let Ok(v) = summary(&r.out) {
+            return Ok((v, true));
+        }
+    }
+    cache::forget(&r.out);
+    std::fs::create_dir_all(&r.out).map_err(|e| format!("{}: {e}", r.out.display()))?;
+    let mut c = cmd(host.to_str().ok_or("host binary path is not UTF-8")?);
+    c.current_dir(root()).args(["pil", "--scene", r.scene]);
+    for o in &r.set {
         c.arg("--set").arg(o);
     }
-    c.arg("--model").arg(model);
-    if fit {
+    c.arg("--model").arg(&r.model);
+    if r.fit {
         c.arg("--fit-model");
     }
-    c.args(["--periods", &periods_arg]).arg("--out").arg(out).arg("--elf").arg(elf);
+    c.args(["--periods", &periods_arg]).arg("--out").arg(&r.out).arg("--elf").arg(elf);
     run(&mut c)?;
-    let path = out.join("summary.json");
-    let text = std::fs::read_to_string(&path).map_err(|e| format!("{}: {e}", path.display()))?;
-    let v: serde_json::Value = serde_json::from_str(&text).map_err(|e| format!("{}: {e}", path.display()))?;
-    pil_check(&v, periods)?;
-    theta_csv_check(&out.join("theta.csv"), periods)?;
-    Ok(v)
+    let v = summary(&r.out)?;
+    cache::store(&r.out, &key)?;
+    Ok((v, false))
 }
 
 /// Builds the PIL firmware, fits a model and runs `ssmctl pil`; checks the summary.
-fn pil(scene: &str, periods: u64) -> Result<serde_json::Value> {
+fn pil(scene: &str, periods: u64, fresh: bool) -> Result<serde_json::Value> {
     let elf = pil_firmware()?;
+    let host = ssmctl_bin()?;
     let out = qemu_dir().join("target").join("pil");
-    let v = ssmctl_pil(&elf, scene, &[], &out.join("model.bin"), true, periods, &out)?;
+    let run = PilRun { scene, set: Vec::new(), model: out.join("model.bin"), fit: true, periods, out: out.clone() };
+    let (mut v, cached) = ssmctl_pil(&elf, &host, &run, fresh)?;
+    v["cached"] = serde_json::Value::Bool(cached);
     println!(
-        "pil: PASS ({periods} periods of {scene}, codes identical to the host's controller and to the host-only simulation, predictions bit-identical; {})",
-        out.display()
+        "pil: PASS ({periods} periods of {scene}, codes identical to the host's controller and to the host-only simulation, predictions bit-identical; {}{})",
+        out.display(),
+        if cached { "; reused: same firmware, host, scene and periods as the stored run" } else { "" }
     );
     Ok(v)
 }
@@ -458,10 +521,12 @@ struct RecordArgs {
     periods: u64,
     scene: String,
     seed: u64,
+    /// Redo runs even when their stored output has the same fingerprint.
+    fresh: bool,
 }
 
 fn record_args(rest: &[String]) -> Result<RecordArgs> {
-    let mut r = RecordArgs { out: PathBuf::new(), runs: 3, periods: 20_000, scene: PIL_SCENE.to_string(), seed: 1 };
+    let mut r = RecordArgs { out: PathBuf::new(), runs: 3, periods: 20_000, scene: PIL_SCENE.to_string(), seed: 1, fresh: false };
     let mut out = None;
     let mut it = rest.iter();
     while let Some(a) = it.next() {
@@ -481,7 +546,8 @@ fn record_args(rest: &[String]) -> Result<RecordArgs> {
             }
             "--scene" => r.scene = value("--scene")?,
             "--seed" => r.seed = int("--seed", value("--seed")?)?,
-            other => return Err(format!("pil-record: unknown option `{other}` (expected --out DIR, --runs N, --periods P, --scene NAME, --seed S)")),
+            "--fresh" => r.fresh = true,
+            other => return Err(format!("pil-record: unknown option `{other}` (expected --out DIR, --runs N, --periods P, --scene NAME, --seed S, --fresh)")),
         }
     }
     r.out = out.ok_or("pil-record: --out DIR is required")?;
@@ -496,31 +562,44 @@ fn record_theta0(r: u32) -> f64 {
     sign * (0.01 + 0.005 * f64::from(i % 4))
 }
 
-fn pil_record(a: &RecordArgs) -> Result<()> {
+/// Records the runs: run 1 fits the model (its scene and overrides define it), then the
+/// others run concurrently, one QEMU each (each `ssmctl pil` binds its own port). Runs whose
+/// fingerprint matches the stored output are reused (`a.fresh`: never).
+fn pil_record(a: &RecordArgs) -> Result<bool> {
     let elf = pil_firmware()?;
+    let host = ssmctl_bin()?;
     std::fs::create_dir_all(&a.out).map_err(|e| format!("{}: {e}", a.out.display()))?;
     let model = a.out.join("model.bin");
     let start = Instant::now();
-    let mut runs = Vec::new();
+    let mut specs = Vec::new();
     for r in 1..=a.runs {
         let seed = a.seed.checked_add(u64::from(r - 1)).ok_or("pil-record: seed overflows")?;
         let theta0 = record_theta0(r);
         let set = vec![format!("effects.noise.seed={seed}"), format!("initial.state=[{theta0},0.0,0.0,0.0]")];
-        let dir = a.out.join(format!("run{r}"));
+        let run = PilRun { scene: &a.scene, set, model: model.clone(), fit: r == 1, periods: a.periods, out: a.out.join(format!("run{r}")) };
+        specs.push((r, seed, theta0, run));
+    }
+    let one = |(r, seed, theta0, run): &(u32, u64, f64, PilRun<'_>)| -> Result<serde_json::Value> {
         let t0 = Instant::now();
-        let v = ssmctl_pil(&elf, &a.scene, &set, &model, r == 1, a.periods, &dir)?;
+        let (v, cached) = ssmctl_pil(&elf, &host, run, a.fresh)?;
         let secs = t0.elapsed().as_secs_f64();
         println!(
-            "pil-record: run {r}/{}: seed {seed}, theta0 {theta0} rad, {} periods in {secs:.1} s ({:.0} periods/s), identical to the host-only simulation; {}",
+            "pil-record: run {r}/{}: seed {seed}, theta0 {theta0} rad, {} periods {}, identical to the host-only simulation; {}",
             a.runs,
             a.periods,
-            v["periods_per_s"].as_f64().unwrap_or(0.0),
-            dir.join("theta.csv").display()
+            if cached { "reused (same fingerprint)".to_string() } else { format!("in {secs:.1} s ({:.0} periods/s)", v["periods_per_s"].as_f64().unwrap_or(0.0)) },
+            run.out.join("theta.csv").display()
         );
-        runs.push(serde_json::json!({
+        Ok(serde_json::json!({
             "run": r, "seed": seed, "initial_state": [theta0, 0.0, 0.0, 0.0], "periods": a.periods,
-            "theta_csv": format!("run{r}/theta.csv"), "wall_seconds": secs, "summary": v,
-        }));
+            "theta_csv": format!("run{r}/theta.csv"), "wall_seconds": secs, "cached": cached, "summary": v,
+        }))
+    };
+    let mut runs = vec![one(&specs[0])?];
+    let rest: Vec<Result<serde_json::Value>> =
+        std::thread::scope(|s| specs[1..].iter().map(|spec| s.spawn(|| one(spec))).collect::<Vec<_>>().into_iter().map(|h| h.join().unwrap_or_else(|_| Err("pil-record: a run's thread panicked".into()))).collect());
+    for r in rest {
+        runs.push(r?);
     }
     let total = start.elapsed().as_secs_f64();
     let index = serde_json::json!({ "scene": a.scene, "model": "model.bin", "runs": runs, "total_wall_seconds": total });
@@ -528,7 +607,7 @@ fn pil_record(a: &RecordArgs) -> Result<()> {
     let text = serde_json::to_string_pretty(&index).map_err(|e| e.to_string())?;
     std::fs::write(&path, text).map_err(|e| format!("{}: {e}", path.display()))?;
     println!("pil-record: {} runs x {} periods in {total:.1} s; {}", a.runs, a.periods, path.display());
-    Ok(())
+    Ok(runs.iter().all(|r| r["cached"] == serde_json::Value::Bool(true)))
 }
 
 /// The run passes when every period ran, codes agree and predictions are bit-identical.
@@ -608,7 +687,7 @@ fn test_all() -> Result<()> {
         print_table(&t, &s);
         device_table::check(&t)
     });
-    let pil_run = pil(PIL_SCENE, PIL_TEST_PERIODS);
+    let pil_run = pil(PIL_SCENE, PIL_TEST_PERIODS, true);
     let stm32 = build_firmware(true).map(|_| println!("stm32f407 configuration builds and links"));
     let (mut passed, mut failed) = match &target {
         Ok(r) => (r.passed, r.failed),
@@ -648,7 +727,7 @@ mod tests {
     #[test]
     fn pil_record_options() {
         let r = record_args(&args(&["--out", "d", "--runs", "2", "--periods", "500", "--seed", "7"])).unwrap();
-        assert_eq!(r, RecordArgs { out: "d".into(), runs: 2, periods: 500, scene: PIL_SCENE.into(), seed: 7 });
+        assert_eq!(r, RecordArgs { out: "d".into(), runs: 2, periods: 500, scene: PIL_SCENE.into(), seed: 7, fresh: false });
         let d = record_args(&args(&["--out", "x"])).unwrap();
         assert_eq!((d.runs, d.periods, d.seed), (3, 20_000, 1));
         for (bad, says) in [
