@@ -19,8 +19,9 @@ use std::io::Write;
 use std::path::Path;
 use std::time::Instant;
 
-/// History capacity of the controllers the simulator instantiates (delay r <= 6).
-pub const HISTORY: usize = 8;
+/// History capacity of the controllers the simulator instantiates (delay r <= 6): the
+/// project's one capacity, the firmware's too.
+pub const HISTORY: usize = controller::HISTORY;
 
 /// Anything that can go wrong building or running a scene.
 #[derive(Debug, thiserror::Error)]
