@@ -258,7 +258,9 @@ impl SsmModel {
         test.validate()?;
         let (p, s, d) = (self.options.embed, self.options.shift, self.options.dim);
         crate::limits::check_matrix("delay embedding of the test data", p, embedded_len(test.len(), p, s).unwrap_or(0), false)?;
-        let y = delay_embed(test, p, s, 1)?;
+        // At least `s` embedded points: every sample is then some coordinate of a produced
+        // point (with fewer, samples between the last point's coordinates have none).
+        let y = delay_embed(test, p, s, s)?;
         let dt = test.dt().unwrap_or(self.dt);
         let map_dt = self.dynamics.map_dt().unwrap_or(dt);
         if (dt - map_dt).abs() > MAP_DT_RTOL * map_dt {
@@ -280,12 +282,22 @@ impl SsmModel {
                 self.dynamics.step(&mut eta, dt, &mut scratch);
             }
         }
-        let produced = etas.len() / d;
+        let mut produced = etas.len() / d;
         let mut lifted = vec![0.0; produced * p];
         let mut ps = PolyScratch::default();
         for (k, e) in etas.chunks_exact(d).enumerate() {
-            self.manifold.lift_into(e, &mut ps, &mut lifted[k * p..(k + 1) * p]);
+            let out = &mut lifted[k * p..(k + 1) * p];
+            self.manifold.lift_into(e, &mut ps, out);
+            // A finite state can still lift to a non-finite observable (coefficients of a
+            // corrupted or extreme model): the prediction stops there, it never emits one.
+            if out.iter().any(|v| !v.is_finite()) {
+                produced = k;
+                stop = Some(Stop { index: k, t: test.t[k], reason: StopReason::NonFinite });
+                break;
+            }
         }
+        etas.truncate(produced * d);
+        lifted.truncate(produced * p);
         let len = if stop.is_some() { produced } else { test.len() };
         let mut x = Vec::with_capacity(len);
         for n in 0..len {

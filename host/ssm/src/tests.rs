@@ -442,3 +442,25 @@ fn saved_model_shapes_are_validated_on_load() {
         assert!(m.contains(field) && m.contains(why), "{field} / {why}: {m}");
     }
 }
+
+/// Found by the model-JSON fuzz target: a valid model with extreme lift coefficients lifted
+/// finite states to infinite samples (documented: all values finite), and a shift large
+/// against a short test series made the sample index underflow (a panic).
+#[test]
+fn prediction_never_emits_non_finite_samples_nor_indexes_past_short_series() {
+    let mut v = saved_rbf_model();
+    for c in v["model"]["manifold"]["nonlinear"]["coef"].as_array_mut().unwrap() {
+        *c = 1.7e308.into();
+    }
+    let m = SsmModel::from_json(&v.to_string()).unwrap();
+    let test = synthetic("test", 0.45, 1.0, 0.05, 200);
+    let p = m.predict(&test).unwrap();
+    assert!(matches!(p.stop, Some(Stop { reason: StopReason::NonFinite, .. })), "{:?}", p.stop);
+    assert!(p.x.iter().all(|x| x.is_finite()) && p.eta.len() == p.x.len() * 2);
+    // shift 45, p = 5: 200 samples give 20 embedded points, fewer than the shift.
+    let mut v = saved_rbf_model();
+    v["model"]["options"]["shift"] = 45.into();
+    let m = SsmModel::from_json(&v.to_string()).unwrap();
+    let e = m.predict(&test).unwrap_err();
+    assert!(matches!(e, FitError::Data(DataError::TooShort { have: 200, need: 225, .. })), "{e}");
+}
