@@ -283,3 +283,22 @@ fn untrustworthy_numbers_and_headerless_data_are_errors() {
     refused(&["fit", "--data", s(&nohdr), "--dim", "2", "--embed", "5"], &["nohdr.csv: line 1", "header line"]);
     std::fs::remove_dir_all(&dir).unwrap();
 }
+
+/// Class 1: a model sampled at another period than the loop is refused by `pil` before
+/// QEMU starts (it ran with exit 0), like `export --scene` refuses it.
+#[test]
+fn pil_refuses_a_model_sampled_at_another_period() {
+    let dir = tmp("pil-dt");
+    let cfg = sim::scene::Scene::load("furuta-quant-dt25", &[]).unwrap().controller_config();
+    let mut m = shared::model::Model::<8, 4, 4, 4>::decode(&blob(cfg)).unwrap().to_owned_model();
+    m.sample_period = 0.033;
+    let path = dir.join("m33.bin");
+    std::fs::write(&path, m.encode().unwrap()).unwrap();
+    let out = dir.join("out");
+    refused(
+        &["pil", "--scene", "furuta-quant-dt25", "--model", s(&path), "--out", s(&out), "--elf", "/nonexistent.elf", "--periods", "10"],
+        &["m33.bin", "sampling step 0.03299", "controller dt 0.025"],
+    );
+    assert!(!out.join("theta.csv").exists());
+    std::fs::remove_dir_all(&dir).unwrap();
+}
