@@ -114,6 +114,34 @@ impl fmt::Display for ConfigError {
 
 impl core::error::Error for ConfigError {}
 
+impl ConfigError {
+    /// The configuration field the error is about (`None` for the delay and for a
+    /// quantization that is missing, unexpected or of the other mode).
+    pub const fn field(&self) -> Option<Field> {
+        match *self {
+            ConfigError::NonFinite(f) | ConfigError::NonPositive(f) | ConfigError::OutOfRange(f) => Some(f),
+            ConfigError::DelayTooLong { .. }
+            | ConfigError::MissingQuantization
+            | ConfigError::UnexpectedQuantization
+            | ConfigError::WrongQuantMode { .. } => None,
+        }
+    }
+}
+
+/// History capacity (samples) of the controllers this project builds: the simulator's and
+/// the firmware's (`qemu/src/bin/pil.rs` instantiates `IntPd<8>`). A delay of at most
+/// `HISTORY - 2` samples fits.
+pub const HISTORY: usize = 8;
+
+/// The one validation of a [`ControllerConfig`] for a controller with history capacity `H`:
+/// exactly what [`Law::try_new`] checks (finite gains, `dt > 0`, `u_max > 0`, quantization
+/// steps `> 0`, the delay within the history, and the integer path's derived fixed-point
+/// ranges). Scenes, decoded model blobs and `export` all call this, so one configuration
+/// is accepted or refused the same way with the same message wherever it crosses a boundary.
+pub fn validate_config<const H: usize>(cfg: &ControllerConfig) -> Result<(), ConfigError> {
+    Law::<H>::try_new(cfg).map(|_| ())
+}
+
 /// Which measured signal an [`InputError`] concerns.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Signal {

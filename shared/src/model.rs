@@ -21,7 +21,8 @@
 //!   `eta' = A [eta; 1] + sum_i w_i ||eta - c_i||_2`, with `K` centres `c_i` (each of dim `d`),
 //!   weights `w_i` (each of dim `d`) and the affine part `A` (`d x (d+1)`, last column the
 //!   constant term).
-//! - The [`ControllerConfig`] of the closed loop the model was identified on.
+//! - The [`ControllerConfig`](crate::ControllerConfig) of the closed loop the model was
+//!   identified on (carried here, validated by `controller::validate_config`).
 //!
 //! All matrices are `f32`, row-major.
 //!
@@ -46,8 +47,6 @@
 //! `weights`, `affine`, each a postcard byte string of little-endian `f32`s). The header
 //! dimensions are repeated in the payload and must agree: a reader checks shapes before it
 //! touches a number.
-
-use crate::config::ControllerConfig;
 
 mod error;
 mod fixed;
@@ -78,8 +77,13 @@ pub const HEADER_LEN: usize = 22;
 pub(crate) const CRC32: crc::Crc<u32> = crc::Crc::<u32>::new(&crc::CRC_32_ISO_HDLC);
 
 /// The scalar fields of a model, as the encoder and the decoder both check them.
-pub(crate) struct Scalars<'c> {
-    pub config: &'c ControllerConfig,
+///
+/// The controller configuration a blob carries is not checked here: its one validation is
+/// the controller's (`controller::validate_config`, the `try_new`s), which a scene, a decoded
+/// blob (`ssmctl inspect`, the firmware's load), and `ssmctl export` all go through, so a
+/// configuration is accepted or refused the same way, with the same message, wherever it
+/// crosses a boundary. Decoding it cannot fail beyond postcard's own checks.
+pub(crate) struct Scalars {
     pub p: usize,
     pub d: usize,
     pub shift: usize,
@@ -90,37 +94,8 @@ pub(crate) struct Scalars<'c> {
 }
 
 /// Checks shared by the encoder and the decoder, on the scalar fields.
-pub(crate) fn check_scalars(m: &Scalars<'_>) -> Result<(), DecodeError> {
+pub(crate) fn check_scalars(m: &Scalars) -> Result<(), DecodeError> {
     use DecodeError::{Invalid, NonFinite};
-    let c: &ControllerConfig = m.config;
-    let config_floats = [
-        ("config.kp", c.kp),
-        ("config.kd", c.kd),
-        ("config.kphi_d", c.kphi_d),
-        ("config.ki", c.ki),
-        ("config.dt", c.dt),
-    ];
-    for (what, v) in config_floats {
-        if !v.is_finite() {
-            return Err(NonFinite { what });
-        }
-    }
-    if let Some(u) = c.u_max {
-        if !u.is_finite() {
-            return Err(NonFinite { what: "config.u_max" });
-        }
-    }
-    if let Some(q) = c.quant {
-        for (what, v) in [
-            ("config.quant.h_adc", q.h_adc),
-            ("config.quant.h_adc_phi", q.h_adc_phi),
-            ("config.quant.h_dac", q.h_dac),
-        ] {
-            if !v.is_finite() {
-                return Err(NonFinite { what });
-            }
-        }
-    }
     for (what, v) in [("sample_period", m.sample_period), ("offset", m.offset), ("scale", m.scale)] {
         if !v.is_finite() {
             return Err(NonFinite { what });

@@ -51,6 +51,58 @@ pub struct ChaosOptions {
     pub benettin_steps: usize,
 }
 
+/// Largest delay-embedding dimension of the chaos estimators.
+pub const MAX_GP_EMBED: usize = 64;
+
+impl ChaosOptions {
+    /// Checks the options before any work: an SSM dimension, centre count, shift or order of
+    /// 0 is an error (not a failed fit reported in a note), sizes are bounded by
+    /// [`ssm::limits`] (and [`MAX_GP_EMBED`]) with the limit in the message.
+    pub fn validate(&self) -> Result<(), Error> {
+        use ssm::limits::{MAX_CENTERS, MAX_DIM, MAX_EMBED, MAX_ORDER, MAX_SHIFT};
+        let range = |what: &'static str, v: usize, max: usize| {
+            if v == 0 {
+                Err(Error::BadOption { what, why: "must be >= 1".into() })
+            } else if v > max {
+                Err(Error::BadOption { what, why: format!("{v} exceeds the limit of {max}") })
+            } else {
+                Ok(())
+            }
+        };
+        range("gp_embed", self.gp_embed, MAX_GP_EMBED)?;
+        if let Some(d) = self.ssm_dim {
+            range("ssm_dim", d, MAX_DIM)?;
+        }
+        range("centers", self.centers, MAX_CENTERS)?;
+        range("poly_order", self.poly_order as usize, MAX_ORDER as usize)?;
+        range("manifold_order", self.manifold_order as usize, MAX_ORDER as usize)?;
+        if let Some(p) = self.embed {
+            range("embed", p, MAX_EMBED)?;
+        }
+        if let Some(s) = self.shift {
+            range("shift", s, MAX_SHIFT)?;
+        }
+        if !(self.ridge.is_finite() && self.ridge >= 0.0) {
+            return Err(Error::BadOption { what: "ridge", why: format!("must be finite and >= 0, got {}", self.ridge) });
+        }
+        if let Some(d) = self.ssm_dim {
+            // Everything the SSM options imply (monomial counts, p > 2d) before any estimate.
+            let ctx_free = FitOptions {
+                dim: d,
+                embed: self.embed.unwrap_or(2 * d + 1),
+                shift: self.shift.unwrap_or(1),
+                manifold_order: self.manifold_order,
+                dyn_order: self.poly_order,
+                dynamics: Dynamics::Map,
+                ridge: Ridge::Fixed(self.ridge),
+                linear_anchor: None,
+            };
+            ctx_free.validate()?;
+        }
+        Ok(())
+    }
+}
+
 impl Default for ChaosOptions {
     fn default() -> Self {
         Self {
@@ -421,6 +473,7 @@ pub fn analyse(train: &[TimeSeries], o: &ChaosOptions) -> Result<ChaosSummary, E
 /// data statistics (dimension, Lyapunov exponent, PDFs) and the model series' starting point
 /// come from `test` (the longest training series when `None`).
 pub fn analyse_held_out(train: &[TimeSeries], test: Option<&TimeSeries>, o: &ChaosOptions) -> Result<ChaosSummary, Error> {
+    o.validate()?;
     let t0 = std::time::Instant::now();
     let longest = train.iter().max_by_key(|s| s.x.len()).ok_or(Error::BadInput { what: "training", why: "no training series".into() })?;
     let data = test.unwrap_or(longest);
@@ -436,6 +489,9 @@ pub fn analyse_held_out(train: &[TimeSeries], test: Option<&TimeSeries>, o: &Cha
     let (lle_data, window) = ctx.lle(&data.x, &mut notes, "data")?;
     let growth_windows_data = growth_windows(&ctx.divergence(&data.x)?);
     let base = fit_options(o, ssm_dim, &ctx);
+    for dynamics in [Dynamics::Rbf { centers: o.centers }, Dynamics::Map] {
+        FitOptions { dynamics, ..base }.validate()?;
+    }
     let mut out = ChaosSummary {
         corr_dim: cd.dimension,
         corr_dim_err: cd.slope_std,
@@ -471,6 +527,8 @@ pub fn analyse_held_out(train: &[TimeSeries], test: Option<&TimeSeries>, o: &Cha
         opts.dynamics = dynamics;
         let m = match fit(train, &opts) {
             Ok(m) => m,
+            // A size beyond the stated limits is the caller's to fix, not a finding.
+            Err(e @ ssm::FitError::TooLarge { .. }) => return Err(e.into()),
             Err(e) => {
                 notes.push(format!("{name} fit failed: {e}"));
                 continue;

@@ -16,11 +16,11 @@ use rand_distr::{Distribution, Normal};
 use serde::Serialize;
 use shared::{ControllerConfig, QuantMode};
 use std::io::Write;
-use std::path::Path;
 use std::time::Instant;
 
-/// History capacity of the controllers the simulator instantiates (delay r <= 6).
-pub const HISTORY: usize = 8;
+/// History capacity of the controllers the simulator instantiates (delay r <= 6): the
+/// project's one capacity, the firmware's too.
+pub const HISTORY: usize = controller::HISTORY;
 
 /// Anything that can go wrong building or running a scene.
 #[derive(Debug, thiserror::Error)]
@@ -87,11 +87,9 @@ impl Trajectory {
         (0..self.rows()).map(|i| self.state(i, 0)).collect()
     }
 
-    /// Writes `t, <states>, u[, q_theta, q_phi, code]` as CSV.
-    pub fn write_csv(&self, path: &Path) -> Result<(), SimError> {
-        let io = |source| SimError::Io { path: path.display().to_string(), source };
-        let f = std::fs::File::create(path).map_err(io)?;
-        let mut w = std::io::BufWriter::new(f);
+    /// Writes `t, <states>, u[, q_theta, q_phi, code]` as CSV to `w` (the application
+    /// decides where: `ssmctl` writes a temporary file and renames it when complete).
+    pub fn write_csv_to(&self, w: &mut impl Write) -> std::io::Result<()> {
         let mut header = String::from("t");
         for n in &self.state_names {
             header.push(',');
@@ -101,20 +99,20 @@ impl Trajectory {
         if self.codes.is_some() {
             header.push_str(",q_theta,q_phi,code");
         }
-        writeln!(w, "{header}").map_err(io)?;
+        writeln!(w, "{header}")?;
         let n = self.n_states();
         for i in 0..self.rows() {
-            write!(w, "{}", self.t[i]).map_err(io)?;
+            write!(w, "{}", self.t[i])?;
             for k in 0..n {
-                write!(w, ",{}", self.states[i * n + k]).map_err(io)?;
+                write!(w, ",{}", self.states[i * n + k])?;
             }
-            write!(w, ",{}", self.u[i]).map_err(io)?;
+            write!(w, ",{}", self.u[i])?;
             if let Some(c) = &self.codes {
-                write!(w, ",{},{},{}", c[i].q_theta, c[i].q_phi, c[i].code).map_err(io)?;
+                write!(w, ",{},{},{}", c[i].q_theta, c[i].q_phi, c[i].code)?;
             }
-            writeln!(w).map_err(io)?;
+            writeln!(w)?;
         }
-        w.flush().map_err(io)
+        Ok(())
     }
 }
 
@@ -319,11 +317,15 @@ pub struct Metadata<'a> {
     pub csv: &'a str,
 }
 
-/// Writes `DIR/<scene>.csv` and `DIR/<scene>.json`; returns the CSV path.
-pub fn write_outputs(scene: &Scene, traj: &Trajectory, dir: &Path) -> Result<std::path::PathBuf, SimError> {
-    std::fs::create_dir_all(dir).map_err(|source| SimError::Io { path: dir.display().to_string(), source })?;
-    let csv = dir.join(format!("{}.csv", scene.name));
-    traj.write_csv(&csv)?;
+/// The file names a scene's run is written to: `<scene>.csv` (the trajectory) and
+/// `<scene>.json` (the metadata). Scene names are restricted to safe file names
+/// ([`crate::scene::check_name`]), so these never leave the output folder.
+pub fn output_names(scene: &Scene) -> (String, String) {
+    (format!("{}.csv", scene.name), format!("{}.json", scene.name))
+}
+
+/// The metadata JSON written beside the trajectory CSV `csv_name`.
+pub fn metadata_json(scene: &Scene, traj: &Trajectory, csv_name: &str) -> Result<String, serde_json::Error> {
     let i = &scene.integrator;
     let meta = Metadata {
         scene: &scene.name,
@@ -340,12 +342,9 @@ pub fn write_outputs(scene: &Scene, traj: &Trajectory, dir: &Path) -> Result<std
         saturated_samples: traj.saturated_samples,
         ode_stats: traj.ode_stats,
         wall_seconds: traj.wall_seconds,
-        csv: csv.file_name().and_then(|s| s.to_str()).unwrap_or_default(),
+        csv: csv_name,
     };
-    let json = dir.join(format!("{}.json", scene.name));
-    let text = serde_json::to_string_pretty(&meta).map_err(|e| SimError::Io { path: json.display().to_string(), source: e.into() })?;
-    std::fs::write(&json, text).map_err(|source| SimError::Io { path: json.display().to_string(), source })?;
-    Ok(csv)
+    serde_json::to_string_pretty(&meta)
 }
 
 #[cfg(test)]

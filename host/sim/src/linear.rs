@@ -40,6 +40,20 @@ pub use expm::{ExpmFailure, expm};
 /// Largest delay accepted, in samples (the map has `N + 2(r+1) [+1]` states).
 pub const MAX_DELAY: u32 = 1000;
 
+/// Largest 1-norm of the exponent `[[A, B], [0, 0]] dt` whose exponential is trusted
+/// (scaling and squaring then takes at most 11 squarings, each of which can amplify the
+/// rounding of a non-normal matrix).
+pub const EXPONENT_NORM_MAX: f64 = 1e4;
+
+/// Largest accepted rounding bound of a multiplier: `n eps ||M||_F`, the backward error of
+/// the eigenvalues of the `n x n` closed-loop map `M` (before any ill-conditioning of the
+/// eigenvalue amplifies it). Beyond it `|mu|` cannot be compared with 1.
+pub const MULTIPLIER_ERROR_MAX: f64 = 1e-6;
+
+/// Largest accepted rounding bound of a rate `ln|mu| / dt`, relative to the plant's own
+/// rate scale `max(||A||_1, 1 1/s)`: `n eps ||M||_F / dt` must stay below this fraction.
+pub const RATE_ERROR_MAX: f64 = 1e-6;
+
 /// Why a linear stability computation could not be done.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum LinearError {
@@ -63,6 +77,18 @@ pub enum LinearError {
     DtMismatch { config: f64, zoh: f64 },
     #[error("matrix exponential of [[A, B], [0, 0]]*dt failed at dt = {dt} s: {failure:?}")]
     Exponential { dt: f64, failure: ExpmFailure },
+    #[error(
+        "sampling period dt = {dt} s: the exponent [[A, B], [0, 0]]*dt has 1-norm {norm:e} > {EXPONENT_NORM_MAX:e}; its exponential cannot be trusted"
+    )]
+    ExponentTooLarge { dt: f64, norm: f64 },
+    #[error(
+        "{cause}: the closed-loop map has norm {norm:e}, so its multipliers are only known to +-{error:e} (n eps ||M||, limit {MULTIPLIER_ERROR_MAX:e}); refusing to report them"
+    )]
+    MultipliersInaccurate { cause: String, norm: f64, error: f64 },
+    #[error(
+        "sampling period dt = {dt:e} s: the rates ln|mu|/dt are only known to +-{error:e} 1/s (n eps ||M|| / dt), more than {RATE_ERROR_MAX:e} of the plant's rate scale {scale:e} 1/s; refusing to report them"
+    )]
+    RatesInaccurate { dt: f64, error: f64, scale: f64 },
     #[error("eigenvalue computation failed for the {n}x{n} closed-loop map: {reason}")]
     Eigen { n: usize, reason: String },
     #[error(
@@ -198,6 +224,10 @@ impl LinearPlant {
         let mut aug = DMatrix::<f64>::zeros(n + 1, n + 1);
         aug.view_mut((0, 0), (n, n)).copy_from(&(&self.a * dt));
         aug.view_mut((0, n), (n, 1)).copy_from(&(&self.b * dt));
+        let norm = one_norm(&aug);
+        if !(norm <= EXPONENT_NORM_MAX) {
+            return Err(LinearError::ExponentTooLarge { dt, norm });
+        }
         let e = expm(&aug).map_err(|failure| LinearError::Exponential { dt, failure })?;
         Ok(Zoh {
             dt,
@@ -206,6 +236,7 @@ impl LinearPlant {
             primary: self.primary,
             secondary: self.secondary,
             secondary_coupling: self.secondary_coupling(),
+            rate_scale: one_norm(&self.a).max(1.0),
         })
     }
 
@@ -230,6 +261,23 @@ pub struct Zoh {
     secondary: usize,
     /// First nonzero entry `(row, value)` of column `secondary` of A, if any.
     secondary_coupling: Option<(usize, f64)>,
+    /// The plant's rate scale `max(||A||_1, 1)`, 1/s (see [`RATE_ERROR_MAX`]).
+    rate_scale: f64,
+}
+
+/// The Frobenius norm, scaled so that it overflows only when the matrix does (entries of
+/// 1e200 have a norm of about 1e200, not inf).
+fn frobenius(m: &DMatrix<f64>) -> f64 {
+    let big = m.iter().fold(0.0f64, |a, v| a.max(v.abs()));
+    if !(big > 0.0) || !big.is_finite() {
+        return if big.is_nan() { f64::NAN } else { big };
+    }
+    big * m.iter().map(|v| (v / big) * (v / big)).sum::<f64>().sqrt()
+}
+
+/// The 1-norm (largest absolute column sum) of a matrix.
+fn one_norm(m: &DMatrix<f64>) -> f64 {
+    m.column_iter().map(|c| c.iter().map(|v| v.abs()).sum::<f64>()).fold(0.0, f64::max)
 }
 
 /// Where each part of the augmented closed-loop state sits.
@@ -313,12 +361,23 @@ impl Zoh {
             m[(s, s)] = 1.0;
             m[(s, y_at(r))] += dt;
         }
+        // What each gain puts into the map (its coefficients in the law row times |Gamma|),
+        // to name the one responsible when the map is too large to be trusted.
+        let gn = self.gamma.norm();
+        let gains = vec![
+            ("kp", cfg.kp, cfg.kp.abs() * gn),
+            ("kd", cfg.kd, (cfg.kd / dt).abs() * 2.0 * gn),
+            ("kphi_d", cfg.kphi_d, (cfg.kphi_d / dt).abs() * 2.0 * gn),
+            ("ki", cfg.ki, (cfg.ki.abs() * dt + cfg.ki.abs()) * gn),
+        ];
         Ok(ClosedLoopMap {
             matrix: m,
             layout: lay,
             dt,
             secondary: self.secondary,
             secondary_coupling: self.secondary_coupling,
+            rate_scale: self.rate_scale,
+            gains,
         })
     }
 }
@@ -331,12 +390,43 @@ pub struct ClosedLoopMap {
     pub dt: f64,
     secondary: usize,
     secondary_coupling: Option<(usize, f64)>,
+    /// The plant's rate scale (see [`RATE_ERROR_MAX`]).
+    rate_scale: f64,
+    /// (name, value, size of its entries in the map) of each gain.
+    gains: Vec<(&'static str, f64, f64)>,
 }
 
 impl ClosedLoopMap {
     /// Every eigenvalue of the map, sorted by modulus, largest first.
     pub fn multipliers(&self) -> Result<Vec<Multiplier>, LinearError> {
+        self.check_accuracy()?;
         to_multipliers(&self.matrix, self.dt)
+    }
+
+    /// Refuses a map whose multipliers or rates cannot be trusted in double precision: the
+    /// eigenvalues of `M` carry an absolute error of about `n eps ||M||_F` (the backward
+    /// error of the Schur decomposition), which must stay below [`MULTIPLIER_ERROR_MAX`]
+    /// (or `|mu|` cannot be compared with 1: `kp = 1e200` gave `|mu| = 1.016`), and that error
+    /// divided by `dt` (the error of `ln|mu| / dt`) below [`RATE_ERROR_MAX`] of the plant's
+    /// rate scale (`dt = 1e-303 s` gave a rate of 4e291 1/s). The error names the gain whose
+    /// entries dominate the map, or `dt`.
+    pub fn check_accuracy(&self) -> Result<(), LinearError> {
+        let n = self.matrix.nrows() as f64;
+        let norm = frobenius(&self.matrix);
+        let error = n * f64::EPSILON * norm;
+        if !(error <= MULTIPLIER_ERROR_MAX) {
+            let biggest = self.gains.iter().copied().max_by(|a, b| a.2.total_cmp(&b.2));
+            let cause = match biggest {
+                Some((name, value, size)) if !(size <= 0.5 * norm) || !size.is_finite() => format!("controller gain {name} = {value:e}"),
+                _ => format!("sampling period dt = {:e} s (e^(A dt) is large)", self.dt),
+            };
+            return Err(LinearError::MultipliersInaccurate { cause, norm, error });
+        }
+        let rate_error = error / self.dt;
+        if !(rate_error <= RATE_ERROR_MAX * self.rate_scale) {
+            return Err(LinearError::RatesInaccurate { dt: self.dt, error: rate_error, scale: self.rate_scale });
+        }
+        Ok(())
     }
 
     /// The structural eigenvector of multiplier 1: a shift of the secondary coordinate and
@@ -389,6 +479,7 @@ impl ClosedLoopMap {
     /// The multipliers without the structural one, sorted by modulus, largest first: the
     /// list that decides stability.
     pub fn dominant_multipliers(&self) -> Result<Vec<Multiplier>, LinearError> {
+        self.check_accuracy()?;
         to_multipliers(&self.deflated()?, self.dt)
     }
 }

@@ -1,19 +1,28 @@
 //! Scalar time series: loading `(t, observable)` CSV files and validating sampling.
 //!
-//! A file has one header line, then one `t,x` pair per line (extra whitespace allowed, blank
-//! lines rejected). Validation is strict: every value finite, time strictly increasing and
-//! uniformly sampled (each step within a relative tolerance [`SAMPLING_RTOL`] of the mean
-//! step), signal not constant. Nothing is silently dropped.
+//! A file has one header line naming the columns (a first line of numbers is an error, not
+//! a lost sample), then one `t,x` pair per line (extra whitespace allowed, blank lines
+//! rejected). Validation is strict: every value finite, time strictly increasing and
+//! uniformly sampled (each step within a relative tolerance [`SAMPLING_RTOL`] of the
+//! typical (median) step, so a missing or repeated sample is reported at the row where the
+//! step changes), signal not constant. Nothing is silently dropped. Files larger than
+//! [`crate::limits::MAX_DATA_FILE_BYTES`] are refused before they are read.
 
 use std::path::Path;
 
 use serde::{Deserialize, Serialize};
 use thiserror::Error;
 
-/// Relative tolerance on each sampling step with respect to the mean step.
+/// Relative tolerance on each sampling step with respect to the typical (median) step.
 /// (1e-4: CSV time stamps are printed rounded, e.g. to 1e-7 s on a 1/30 s grid = 3e-6 relative;
 /// a dropped or repeated sample is a 100 % deviation.)
 pub const SAMPLING_RTOL: f64 = 1e-4;
+
+/// Smallest accepted magnitude (largest |x|) of a signal: below it the squares the learner
+/// forms (norms, SVDs, regressions) reach the subnormal range and lose their digits.
+pub const MIN_MAGNITUDE: f64 = 1e-100;
+/// Largest accepted magnitude of a signal: above it the squares overflow.
+pub const MAX_MAGNITUDE: f64 = 1e100;
 
 /// A uniformly sampled scalar observable.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -38,6 +47,8 @@ pub enum DataError {
     },
     #[error("{file}: empty file, expected a header line `t,x`")]
     NoHeader { file: String },
+    #[error("{file}: line 1 `{line}` holds numbers, not column names: the file needs a header line (e.g. `t,x`) before the data")]
+    NumericHeader { file: String, line: String },
     #[error("{file}: line {line}: expected {expected} comma-separated columns (as the header), found {found}")]
     Columns { file: String, line: usize, expected: usize, found: usize },
     #[error("{file}: {found} columns ({available}); name the observable column (`--column NAME`), the first is the time")]
@@ -53,13 +64,17 @@ pub enum DataError {
     #[error("{name}: row {row}: time does not increase (t = {t_prev} then {t})")]
     NonIncreasing { name: String, row: usize, t_prev: f64, t: f64 },
     #[error(
-        "{name}: row {row}: uneven sampling, step {step} differs from the mean step {mean} by more than {rtol} relative"
+        "{name}: row {row}: uneven sampling, the step to this row {step} differs from the typical (median) step {typical} by more than {rtol} relative"
     )]
-    UnevenSampling { name: String, row: usize, step: f64, mean: f64, rtol: f64 },
+    UnevenSampling { name: String, row: usize, step: f64, typical: f64, rtol: f64 },
     #[error("{name}: {have} samples, need at least {need} ({why})")]
     TooShort { name: String, have: usize, need: usize, why: String },
     #[error("{name}: the signal is constant (x = {value} everywhere)")]
     Constant { name: String, value: f64 },
+    #[error(
+        "{name}: the largest |x| is {max_abs:e}, outside [{MIN_MAGNITUDE:e}, {MAX_MAGNITUDE:e}]: squares and products of such values under- or overflow double precision (the fit would lose its digits); rescale the data"
+    )]
+    Magnitude { name: String, max_abs: f64 },
 }
 
 impl TimeSeries {
@@ -116,15 +131,19 @@ impl TimeSeries {
                 });
             }
         }
-        let mean = self.dt().unwrap_or(0.0);
+        // The typical step is the median: one missing or repeated sample changes the mean of
+        // all steps (and every step would differ from it), not the median.
+        let mut steps: Vec<f64> = self.t.windows(2).map(|w| w[1] - w[0]).collect();
+        steps.sort_by(f64::total_cmp);
+        let typical = steps[steps.len() / 2];
         for (i, w) in self.t.windows(2).enumerate() {
             let step = w[1] - w[0];
-            if (step - mean).abs() > SAMPLING_RTOL * mean {
+            if (step - typical).abs() > SAMPLING_RTOL * typical {
                 return Err(DataError::UnevenSampling {
                     name: name.clone(),
                     row: i + 2,
                     step,
-                    mean,
+                    typical,
                     rtol: SAMPLING_RTOL,
                 });
             }
@@ -132,6 +151,10 @@ impl TimeSeries {
         let x0 = self.x[0];
         if self.x.iter().all(|&x| x == x0) {
             return Err(DataError::Constant { name: name.clone(), value: x0 });
+        }
+        let max_abs = self.x.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+        if !(MIN_MAGNITUDE..=MAX_MAGNITUDE).contains(&max_abs) {
+            return Err(DataError::Magnitude { name: name.clone(), max_abs });
         }
         Ok(())
     }
@@ -172,7 +195,8 @@ pub fn load_csv(path: impl AsRef<Path>) -> Result<TimeSeries, DataError> {
 pub fn load_csv_column(path: impl AsRef<Path>, column: Option<&str>) -> Result<TimeSeries, DataError> {
     let path = path.as_ref();
     let file = path.display().to_string();
-    let text = std::fs::read_to_string(path).map_err(|source| DataError::Io { file: file.clone(), source })?;
+    let text = crate::limits::read_text_limited(path, crate::limits::MAX_DATA_FILE_BYTES)
+        .map_err(|source| DataError::Io { file: file.clone(), source })?;
     let name = path.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_else(|| file.clone());
     parse_csv_column(&file, name, &text, column)
 }
@@ -191,6 +215,10 @@ pub fn parse_csv_column(file: &str, name: String, text: &str, column: Option<&st
         Some((_, h)) if !h.trim().is_empty() => h.split(',').map(str::trim).collect(),
         _ => return Err(DataError::NoHeader { file: file.to_string() }),
     };
+    if header.iter().all(|h| h.parse::<f64>().is_ok()) {
+        let line = text.lines().next().unwrap_or_default();
+        return Err(DataError::NumericHeader { file: file.to_string(), line: line.chars().take(80).collect() });
+    }
     let (ncols, xcol) = match column {
         None => (2, 1),
         Some(c) => {
@@ -300,6 +328,56 @@ mod tests {
         assert!(ok.is_ok());
         let bad = TimeSeries::new("b", vec![0.0, 1.0, 2.0 + 1e-3, 3.0], vec![0.0, 1.0, 0.0, 1.0]);
         assert!(matches!(bad, Err(DataError::UnevenSampling { row: 3, .. })));
+    }
+
+    /// Issue 14: a file without a header line lost its first sample silently.
+    #[test]
+    fn a_file_without_a_header_is_an_error_naming_the_file() {
+        for text in ["0,1\n0.5,2\n1.0,3\n", "0, 1e-3\n1,2\n2,3\n", "-1.5,2\n"] {
+            let e = parse(text).unwrap_err();
+            assert!(matches!(e, DataError::NumericHeader { .. }), "{text:?}: {e}");
+            let m = e.to_string();
+            assert!(m.starts_with("mem.csv: line 1") && m.contains("header line"), "{m}");
+        }
+        // Also with a named column.
+        let e = parse_csv_column("sim.csv", "sim".into(), "0,0.1,2\n1,0.2,3\n", Some("theta")).unwrap_err();
+        assert!(matches!(e, DataError::NumericHeader { .. }), "{e}");
+        // Column names that merely contain digits are a header.
+        assert!(parse("t1,x2\n0,1\n1,2\n").is_ok());
+    }
+
+    /// Issue 14: one missing sample in a long series was reported at row 2 (every step
+    /// differed from the mean step); it is the row where the step changes.
+    #[test]
+    fn a_missing_sample_is_reported_where_the_step_changes() {
+        let mut t: Vec<f64> = (0..100).map(|i| f64::from(i) * 0.01).collect();
+        t.remove(57); // data rows are 1-based: row 58 now holds t = 0.58
+        let x: Vec<f64> = t.iter().map(|v| v.sin()).collect();
+        let e = TimeSeries::new("gap", t, x).unwrap_err();
+        match &e {
+            DataError::UnevenSampling { row, step, typical, .. } => {
+                assert_eq!(*row, 58, "{e}");
+                assert!((step - 0.02).abs() < 1e-12 && (typical - 0.01).abs() < 1e-12, "{e}");
+            }
+            _ => panic!("{e}"),
+        }
+        assert!(e.to_string().contains("row 58"), "{e}");
+        // A repeated sample: reported where it sits, too.
+        let e = parse("t,x\n0,1\n1,2\n2,3\n3,4\n3.5,5\n4.5,6\n5.5,7\n").unwrap_err();
+        assert!(matches!(e, DataError::UnevenSampling { row: 5, .. }), "{e}");
+    }
+
+    /// Issue 14: data scaled by 1e-300 were fitted with subnormal arithmetic and scored
+    /// `inf`: signals outside the magnitudes double precision can square are refused.
+    #[test]
+    fn signals_too_small_or_large_to_square_are_refused() {
+        for s in [1e-300, 1e-120, 1e120, 1e300] {
+            let e = TimeSeries::new("s", vec![0.0, 1.0, 2.0], vec![s, -s, 0.5 * s]).unwrap_err();
+            assert!(matches!(e, DataError::Magnitude { .. }) && e.to_string().contains("rescale the data"), "{s}: {e}");
+        }
+        for s in [1e-90, 1.0, 1e90] {
+            assert!(TimeSeries::new("s", vec![0.0, 1.0, 2.0], vec![s, -s, 0.5 * s]).is_ok(), "{s}");
+        }
     }
 
     #[test]

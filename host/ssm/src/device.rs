@@ -24,6 +24,24 @@ pub enum ExportError {
     F32 { what: &'static str, value: f64 },
     #[error("encoding: {0}")]
     Encode(String),
+    #[error("{what} = {got} exceeds the limit of {max}")]
+    Size { what: &'static str, got: usize, max: usize },
+    #[error(
+        "the model's sampling step {model_dt} s differs from the loop's controller dt {loop_dt} s (relative tolerance {rtol}); refit on data sampled at the loop's period"
+    )]
+    StepMismatch { model_dt: f64, loop_dt: f64, rtol: f64 },
+}
+
+/// Checks that a model sampled every `model_dt` seconds can run in a loop sampled every
+/// `loop_dt` seconds (the device predicts one sample ahead per controller period): equal
+/// within [`crate::dynamics::MAP_DT_RTOL`]. Used by `export --scene` and the PIL host.
+pub fn check_loop_dt(model_dt: f64, loop_dt: f64) -> Result<(), ExportError> {
+    let rtol = crate::dynamics::MAP_DT_RTOL;
+    if model_dt.is_finite() && loop_dt.is_finite() && (model_dt - loop_dt).abs() <= rtol * loop_dt.abs() {
+        Ok(())
+    } else {
+        Err(ExportError::StepMismatch { model_dt, loop_dt, rtol })
+    }
 }
 
 /// Exponent vectors of degrees 2..=order in the device's graded order.
@@ -75,6 +93,10 @@ pub fn to_device_model(m: &SsmModel, cfg: ControllerConfig) -> Result<OwnedModel
         }
     }
     let order = man.nonlinear.as_ref().map_or(1, |poly| poly.exps.iter().map(|e| e.iter().sum::<u32>()).max().unwrap_or(1) as usize);
+    let n_terms = shared::model::lift_terms(d, order).unwrap_or(usize::MAX);
+    if d == 0 || n_terms > crate::limits::MAX_TERMS {
+        return Err(ExportError::Size { what: "lift monomials (d, lift order)", got: n_terms, max: crate::limits::MAX_TERMS });
+    }
     let exps = device_exponents(d, order);
     let mut lift = vec![0.0f32; p * exps.len()];
     if let Some(poly) = &man.nonlinear {

@@ -317,6 +317,8 @@ impl ReducedDynamics {
                 }
                 let (x, groups) = stack(&xs);
                 let (y, _) = stack(&ys);
+                let nm = poly::count(d, 1, order).unwrap_or(usize::MAX);
+                crate::limits::check_matrix("flow regression", x.nrows(), nm, true)?;
                 let exps = poly::exponents(d, 1, order);
                 let a = design_matrix(x.as_ref(), &scale, &exps);
                 let (w, conditioning) = poly_regression(a.as_ref(), x.as_ref(), y.as_ref(), &groups, ridge, anchor, "flow regression")?;
@@ -341,6 +343,8 @@ impl ReducedDynamics {
                     let uniform = vec![common; scale.len()];
                     return fit_rbf(x.as_ref(), y.as_ref(), &groups, uniform, centers, dt, ridge).map(ReducedDynamics::Rbf);
                 }
+                let nm = poly::count(d, 1, order).unwrap_or(usize::MAX);
+                crate::limits::check_matrix("map regression", x.nrows(), nm, true)?;
                 let exps = poly::exponents(d, 1, order);
                 let a = design_matrix(x.as_ref(), &scale, &exps);
                 let (w, conditioning) = poly_regression(a.as_ref(), x.as_ref(), y.as_ref(), &groups, ridge, anchor, "map regression")?;
@@ -488,9 +492,8 @@ fn fit_rbf(
     if n_centers == 0 {
         return Err(FitError::BadOption { what: "rbf centers", why: "need at least one centre".into() });
     }
-    if n_centers + d + 1 > n {
-        return Err(FitError::Underdetermined { what: "rbf regression", rows: n, cols: n_centers + d + 1 });
-    }
+    crate::limits::check("rbf centers", n_centers, crate::limits::MAX_CENTERS)?;
+    crate::limits::check_matrix("rbf regression", n, n_centers + d + 1, true)?;
     let z = Mat::from_fn(n, d, |i, j| x[(i, j)] / scale[j]);
     let idx = farthest_points(z.as_ref(), n_centers);
     let mut centers = Vec::with_capacity(idx.len() * d);

@@ -12,6 +12,8 @@ pub enum FitError {
     Data(#[from] DataError),
     #[error("invalid option {what}: {why}")]
     BadOption { what: &'static str, why: String },
+    #[error("{what}: {value} exceeds the limit of {limit} (ssm::limits)")]
+    TooLarge { what: &'static str, value: String, limit: String },
     #[error("no training trajectories given")]
     NoTrainingData,
     #[error("{what}: least-squares problem is underdetermined ({rows} rows < {cols} unknowns); use more data or lower orders")]

@@ -48,22 +48,50 @@ pub struct FitOptions {
 }
 
 impl FitOptions {
-    fn validate(&self) -> Result<(), FitError> {
+    /// Checks the options alone (no data): ranges, and the sizes the options imply against
+    /// [`crate::limits`] (dimensions, orders, monomial counts, centres), so that nothing of
+    /// that size is allocated first. [`fit`] calls it; the data-dependent sizes (rows of the
+    /// regressions) are checked where the data are known, before each matrix is built.
+    pub fn validate(&self) -> Result<(), FitError> {
+        use crate::limits::{self, MAX_CENTERS, MAX_DIM, MAX_EMBED, MAX_ORDER, MAX_SHIFT, MAX_TERMS};
         let bad = |what, why: String| Err(FitError::BadOption { what, why });
         if self.dim == 0 {
             return bad("dim", "must be >= 1".into());
         }
+        limits::check("dim", self.dim, MAX_DIM)?;
+        limits::check("embed", self.embed, MAX_EMBED)?;
         if self.embed <= 2 * self.dim {
             return bad("embed", format!("p = {} must exceed 2 d = {} (Takens)", self.embed, 2 * self.dim));
         }
         if self.shift == 0 {
             return bad("shift", "must be >= 1 sample".into());
         }
+        limits::check("shift", self.shift, MAX_SHIFT)?;
         if self.manifold_order == 0 {
             return bad("manifold_order", "must be >= 1".into());
         }
+        limits::check("manifold_order", self.manifold_order as usize, MAX_ORDER as usize)?;
         if self.dyn_order == 0 {
             return bad("dyn_order", "must be >= 1".into());
+        }
+        limits::check("dyn_order", self.dyn_order as usize, MAX_ORDER as usize)?;
+        let terms = |min: u32, max: u32| super::poly::count(self.dim, min, max).unwrap_or(usize::MAX);
+        limits::check("manifold monomials (dim, manifold_order)", terms(1, self.manifold_order), MAX_TERMS)?;
+        match self.dynamics {
+            Dynamics::Flow | Dynamics::Map => {
+                limits::check("dynamics monomials (dim, dyn_order)", terms(1, self.dyn_order), MAX_TERMS)?;
+            }
+            Dynamics::Rbf { centers } => {
+                if centers == 0 {
+                    return bad("rbf centers", "need at least one centre".into());
+                }
+                limits::check("rbf centers", centers, MAX_CENTERS)?;
+            }
+        }
+        if let Some(f) = self.linear_anchor {
+            if !(f > 0.0 && f <= 1.0) {
+                return bad("linear_anchor", format!("the radius fraction must be in (0, 1], got {f}"));
+            }
         }
         Ok(())
     }
@@ -83,6 +111,8 @@ pub enum ModelFileError {
     Version { found: String },
     #[error("saved model: {0}")]
     Json(serde_json::Error),
+    #[error("saved model: `{field}`: {why}")]
+    Invalid { field: String, why: String },
 }
 
 /// A fitted SSM-reduced model (serializable, e.g. to JSON).
@@ -180,8 +210,11 @@ pub fn embed_training(train: &[TimeSeries], opts: &FitOptions) -> Result<(Vec<fa
     let min_points = 8;
     let mut ys = Vec::with_capacity(train.len());
     let mut dts = Vec::with_capacity(train.len());
+    let mut total = 0usize;
     for ts in train {
         ts.validate()?;
+        total = total.saturating_add(embedded_len(ts.len(), opts.embed, opts.shift).unwrap_or(0));
+        crate::limits::check_matrix("delay embedding of the training data", opts.embed, total, false)?;
         ys.push(delay_embed(ts, opts.embed, opts.shift, min_points)?);
         dts.push(ts.dt().unwrap_or(0.0));
     }
@@ -224,7 +257,10 @@ impl SsmModel {
     pub fn predict(&self, test: &TimeSeries) -> Result<Prediction, FitError> {
         test.validate()?;
         let (p, s, d) = (self.options.embed, self.options.shift, self.options.dim);
-        let y = delay_embed(test, p, s, 1)?;
+        crate::limits::check_matrix("delay embedding of the test data", p, embedded_len(test.len(), p, s).unwrap_or(0), false)?;
+        // At least `s` embedded points: every sample is then some coordinate of a produced
+        // point (with fewer, samples between the last point's coordinates have none).
+        let y = delay_embed(test, p, s, s)?;
         let dt = test.dt().unwrap_or(self.dt);
         let map_dt = self.dynamics.map_dt().unwrap_or(dt);
         if (dt - map_dt).abs() > MAP_DT_RTOL * map_dt {
@@ -246,12 +282,22 @@ impl SsmModel {
                 self.dynamics.step(&mut eta, dt, &mut scratch);
             }
         }
-        let produced = etas.len() / d;
+        let mut produced = etas.len() / d;
         let mut lifted = vec![0.0; produced * p];
         let mut ps = PolyScratch::default();
         for (k, e) in etas.chunks_exact(d).enumerate() {
-            self.manifold.lift_into(e, &mut ps, &mut lifted[k * p..(k + 1) * p]);
+            let out = &mut lifted[k * p..(k + 1) * p];
+            self.manifold.lift_into(e, &mut ps, out);
+            // A finite state can still lift to a non-finite observable (coefficients of a
+            // corrupted or extreme model): the prediction stops there, it never emits one.
+            if out.iter().any(|v| !v.is_finite()) {
+                produced = k;
+                stop = Some(Stop { index: k, t: test.t[k], reason: StopReason::NonFinite });
+                break;
+            }
         }
+        etas.truncate(produced * d);
+        lifted.truncate(produced * p);
         let len = if stop.is_some() { produced } else { test.len() };
         let mut x = Vec::with_capacity(len);
         for n in 0..len {
@@ -309,6 +355,125 @@ impl SsmModel {
             found => return Err(ModelFileError::Version { found: found.map_or_else(|| "none".into(), |n| n.to_string()) }),
         }
         let model = v.get("model").ok_or(ModelFileError::NotAModel("no \"model\" key".into()))?;
-        serde_json::from_value(model.clone()).map_err(ModelFileError::Json)
+        let m: SsmModel = serde_json::from_value(model.clone()).map_err(ModelFileError::Json)?;
+        m.validate()?;
+        Ok(m)
     }
+
+    /// Checks that the parts of a model fit together before anything indexes them: the
+    /// options within [`crate::limits`], every vector of the length the dimensions imply
+    /// (`manifold.v1` = p * dim, scales = dim, coefficients = terms * outputs, ...), every
+    /// exponent vector of length dim with degree 1..=[`crate::limits::MAX_ORDER`], steps and
+    /// scales positive, every number finite. The error names the field (its JSON path
+    /// under `model`).
+    pub fn validate(&self) -> Result<(), ModelFileError> {
+        let inv = |field: &str, why: String| Err(ModelFileError::Invalid { field: field.to_string(), why });
+        if let Err(e) = self.options.validate() {
+            return inv("options", e.to_string());
+        }
+        let (d, p) = (self.options.dim, self.options.embed);
+        positive("dt", self.dt)?;
+        let man = &self.manifold;
+        if man.dim != d {
+            return inv("manifold.dim", format!("{} differs from options.dim = {d}", man.dim));
+        }
+        if man.p != p {
+            return inv("manifold.p", format!("{} differs from options.embed = {p}", man.p));
+        }
+        finite_vec("manifold.v1", &man.v1, p * d)?;
+        if man.singular_values.len() > p {
+            return inv("manifold.singular_values", format!("{} values, at most p = {p}", man.singular_values.len()));
+        }
+        finite_vec("manifold.singular_values", &man.singular_values, man.singular_values.len())?;
+        positive_vec("manifold.eta_scale", &man.eta_scale, d)?;
+        if let Some(poly) = &man.nonlinear {
+            check_poly("manifold.nonlinear", poly, d, p)?;
+        }
+        match &self.dynamics {
+            ReducedDynamics::Flow { field, .. } => check_poly("dynamics.Flow.field", field, d, d)?,
+            ReducedDynamics::Map { increment, dt, .. } => {
+                check_poly("dynamics.Map.increment", increment, d, d)?;
+                positive("dynamics.Map.dt", *dt)?;
+            }
+            ReducedDynamics::Rbf(r) => {
+                if r.dim != d {
+                    return inv("dynamics.Rbf.dim", format!("{} differs from options.dim = {d}", r.dim));
+                }
+                positive("dynamics.Rbf.dt", r.dt)?;
+                positive_vec("dynamics.Rbf.scale", &r.scale, d)?;
+                if r.centers.is_empty() || r.centers.len() % d != 0 {
+                    return inv("dynamics.Rbf.centers", format!("length {} is not a positive multiple of dim = {d}", r.centers.len()));
+                }
+                let k = r.centers.len() / d;
+                if k > crate::limits::MAX_CENTERS {
+                    return inv("dynamics.Rbf.centers", format!("{k} centres exceed the limit of {}", crate::limits::MAX_CENTERS));
+                }
+                finite_vec("dynamics.Rbf.centers", &r.centers, k * d)?;
+                finite_vec("dynamics.Rbf.coef", &r.coef, (k + d + 1) * d)?;
+            }
+        }
+        if self.eigenvalues_ct.len() != d {
+            return inv("eigenvalues_ct", format!("{} values, expected dim = {d}", self.eigenvalues_ct.len()));
+        }
+        finite_vec("eta_range", &self.eta_range, d)?;
+        if let Some(v) = self.eta_range.iter().find(|v| **v < 0.0) {
+            return inv("eta_range", format!("contains the negative range {v}"));
+        }
+        Ok(())
+    }
+}
+
+/// `field` must be finite and > 0.
+fn positive(field: &str, v: f64) -> Result<(), ModelFileError> {
+    if v.is_finite() && v > 0.0 {
+        Ok(())
+    } else {
+        Err(ModelFileError::Invalid { field: field.to_string(), why: format!("must be finite and > 0, got {v}") })
+    }
+}
+
+/// `field` must hold exactly `len` finite values.
+fn finite_vec(field: &str, v: &[f64], len: usize) -> Result<(), ModelFileError> {
+    if v.len() != len {
+        return Err(ModelFileError::Invalid { field: field.to_string(), why: format!("length {}, expected {len}", v.len()) });
+    }
+    if let Some((i, x)) = v.iter().enumerate().find(|(_, x)| !x.is_finite()) {
+        return Err(ModelFileError::Invalid { field: format!("{field}[{i}]"), why: format!("not finite ({x})") });
+    }
+    Ok(())
+}
+
+/// `field` must hold exactly `len` finite values > 0.
+fn positive_vec(field: &str, v: &[f64], len: usize) -> Result<(), ModelFileError> {
+    finite_vec(field, v, len)?;
+    if let Some((i, x)) = v.iter().enumerate().find(|(_, x)| **x <= 0.0) {
+        return Err(ModelFileError::Invalid { field: format!("{field}[{i}]"), why: format!("must be > 0, got {x}") });
+    }
+    Ok(())
+}
+
+/// A polynomial `dim_in -> dim_out`: shapes, degrees within the limit, finite values.
+fn check_poly(field: &str, poly: &super::poly::Poly, dim_in: usize, dim_out: usize) -> Result<(), ModelFileError> {
+    use crate::limits::{MAX_ORDER, MAX_TERMS};
+    let inv = |sub: &str, why: String| Err(ModelFileError::Invalid { field: format!("{field}.{sub}"), why });
+    if poly.dim_in != dim_in {
+        return inv("dim_in", format!("{} differs from the expected {dim_in}", poly.dim_in));
+    }
+    if poly.dim_out != dim_out {
+        return inv("dim_out", format!("{} differs from the expected {dim_out}", poly.dim_out));
+    }
+    positive_vec(&format!("{field}.scale"), &poly.scale, dim_in)?;
+    if poly.exps.is_empty() || poly.exps.len() > MAX_TERMS {
+        return inv("exps", format!("{} monomials, expected 1..={MAX_TERMS}", poly.exps.len()));
+    }
+    for (k, e) in poly.exps.iter().enumerate() {
+        if e.len() != dim_in {
+            return inv(&format!("exps[{k}]"), format!("length {}, expected dim_in = {dim_in}", e.len()));
+        }
+        let deg: u64 = e.iter().map(|&x| u64::from(x)).sum();
+        if deg == 0 || deg > u64::from(MAX_ORDER) {
+            return inv(&format!("exps[{k}]"), format!("total degree {deg}, expected 1..={MAX_ORDER}"));
+        }
+    }
+    finite_vec(&format!("{field}.coef"), &poly.coef, poly.exps.len() * dim_out)
 }

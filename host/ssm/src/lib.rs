@@ -23,6 +23,7 @@ pub mod embed;
 pub mod error;
 pub mod fit;
 pub mod interp;
+pub mod limits;
 pub mod manifold;
 pub mod metrics;
 pub mod normal_form;

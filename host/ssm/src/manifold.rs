@@ -95,6 +95,8 @@ impl Manifold {
         }
         let mut m = Manifold { dim, p, v1, singular_values, eta_scale, nonlinear: None, conditioning: None };
         if order >= min_deg {
+            let nm = poly::count(dim, min_deg, order).unwrap_or(usize::MAX);
+            crate::limits::check_matrix("manifold regression", total, nm, true)?;
             let resid = &all - &eta * v1m.transpose();
             let exps = poly::exponents(dim, min_deg, order);
             let design = design_matrix(eta.as_ref(), &m.eta_scale, &exps);
@@ -182,9 +184,7 @@ fn stack_points(ys: &[Mat<f64>], p: usize) -> Result<(Mat<f64>, Vec<std::ops::Ra
         return Err(FitError::BadOption { what: "embedded data", why: format!("mixed embedding dimensions {} and {p}", y.nrows()) });
     }
     let total: usize = ys.iter().map(|y| y.ncols()).sum();
-    if total < p {
-        return Err(FitError::Underdetermined { what: "tangent space SVD", rows: total, cols: p });
-    }
+    crate::limits::check_matrix("tangent space SVD", total, p, true)?;
     let mut all = Mat::<f64>::zeros(total, p); // points as rows
     let mut groups = Vec::with_capacity(ys.len());
     let mut off = 0;

@@ -13,8 +13,32 @@ use serde::{Deserialize, Serialize};
 
 /// NMTE of a predicted trajectory against the truth; points are rows of `dim` values
 /// stored contiguously (`pred.len() == truth.len()`, a multiple of `dim`). Returns `None`
-/// for empty input, mismatched lengths or an all-zero truth.
+/// for empty input, mismatched lengths, non-finite values or an all-zero truth. Values so
+/// small or large that their squares underflow or overflow (1e-300, 1e200) are handled by
+/// rescaling: the NMTE is scale-invariant.
 pub fn nmte(pred: &[f64], truth: &[f64], dim: usize) -> Option<f64> {
+    if let Some(v) = nmte_plain(pred, truth, dim) {
+        return Some(v);
+    }
+    let s = rescale_factor(pred, truth)?;
+    let scaled = |v: &[f64]| v.iter().map(|x| x / s).collect::<Vec<f64>>();
+    nmte_plain(&scaled(pred), &scaled(truth), dim)
+}
+
+/// The largest magnitude of `a` and `b` when every value is finite and one is non-zero.
+fn rescale_factor(a: &[f64], b: &[f64]) -> Option<f64> {
+    let mut s = 0.0f64;
+    for v in a.iter().chain(b) {
+        if !v.is_finite() {
+            return None;
+        }
+        s = s.max(v.abs());
+    }
+    (s > 0.0).then_some(s)
+}
+
+/// [`nmte`] without rescaling: `None` also when the result is not a finite number.
+fn nmte_plain(pred: &[f64], truth: &[f64], dim: usize) -> Option<f64> {
     if dim == 0 || pred.len() != truth.len() || truth.is_empty() || truth.len() % dim != 0 {
         return None;
     }
@@ -27,7 +51,8 @@ pub fn nmte(pred: &[f64], truth: &[f64], dim: usize) -> Option<f64> {
         err += e;
         max_true = max_true.max(norm(t));
     }
-    (max_true > 0.0).then(|| err / n as f64 / max_true)
+    let v = err / n as f64 / max_true;
+    (max_true > 0.0 && v.is_finite()).then_some(v)
 }
 
 /// Result of a DTW alignment without the path.
@@ -100,11 +125,21 @@ pub fn dtw(a: &[f64], b: &[f64], dim: usize, band: Option<usize>) -> Option<DtwC
 }
 
 /// NMTE after DTW alignment: mean distance along the optimal warping path divided by the
-/// max norm of the truth (`b`).
+/// max norm of the truth (`b`); rescaled like [`nmte`] when the squares under- or overflow.
 pub fn nmte_dtw(pred: &[f64], truth: &[f64], dim: usize, band: Option<usize>) -> Option<f64> {
+    if let Some(v) = nmte_dtw_plain(pred, truth, dim, band) {
+        return Some(v);
+    }
+    let s = rescale_factor(pred, truth)?;
+    let scaled = |v: &[f64]| v.iter().map(|x| x / s).collect::<Vec<f64>>();
+    nmte_dtw_plain(&scaled(pred), &scaled(truth), dim, band)
+}
+
+fn nmte_dtw_plain(pred: &[f64], truth: &[f64], dim: usize, band: Option<usize>) -> Option<f64> {
     let c = dtw(pred, truth, dim, band)?;
     let max_true = truth.chunks_exact(dim).map(|t| t.iter().map(|x| x * x).sum::<f64>().sqrt()).fold(0.0, f64::max);
-    (max_true > 0.0 && c.path_len > 0).then(|| c.total / c.path_len as f64 / max_true)
+    let v = c.total / c.path_len as f64 / max_true;
+    (max_true > 0.0 && c.path_len > 0 && v.is_finite()).then_some(v)
 }
 
 /// Complex number as (re, im) for the FFT.
@@ -220,6 +255,25 @@ mod tests {
         let pred = [1.0, 0.5, 0.0, 2.0];
         assert!((nmte(&pred, &truth, 2).unwrap() - 0.125).abs() < 1e-15);
         assert_eq!(nmte(&pred, &truth[..2], 2), None);
+    }
+
+    /// Issue 14: data scaled by 1e-300 gave NMTE = inf (the squares underflow to 0). The NMTE
+    /// is scale-invariant; tiny and huge data give the unscaled value.
+    #[test]
+    fn nmte_is_scale_invariant_down_to_subnormal_squares() {
+        let truth = [1.0, 0.0, 0.0, 2.0];
+        let pred = [1.0, 0.5, 0.0, 2.0];
+        for s in [1e-300, 1e-200, 1e200, 1e300] {
+            let (t, p): (Vec<f64>, Vec<f64>) = truth.iter().zip(&pred).map(|(a, b)| (a * s, b * s)).unzip();
+            let v = nmte(&p, &t, 2).unwrap();
+            assert!((v - 0.125).abs() < 1e-14, "scale {s}: {v}");
+            let w = nmte_dtw(&p, &t, 2, None).unwrap();
+            let w0 = nmte_dtw(&pred, &truth, 2, None).unwrap();
+            assert!((w - w0).abs() < 1e-14 * w0.max(1.0), "scale {s}: {w} vs {w0}");
+        }
+        // Non-finite or all-zero data stay `None` (the caller reports it).
+        assert_eq!(nmte(&[f64::NAN, 0.0], &[1.0, 0.0], 2), None);
+        assert_eq!(nmte(&[1.0, 0.0], &[0.0, 0.0], 2), None);
     }
 
     /// Brute-force DTW over all monotone paths for tiny sequences as an independent check.

@@ -22,6 +22,29 @@ pub fn exponents(dim: usize, min: u32, max: u32) -> Vec<Vec<u32>> {
     out
 }
 
+/// Number of exponent vectors [`exponents`]`(dim, min, max)` would list, computed without
+/// listing them (`C(dim + k - 1, k)` per degree `k`); `None` on overflow of `usize`.
+pub fn count(dim: usize, min: u32, max: u32) -> Option<usize> {
+    let mut total: usize = 0;
+    for k in min..=max {
+        // C(dim + k - 1, k) = prod_{j=1..k} (dim - 1 + j) / j, exact at every step.
+        let per = if dim == 0 {
+            usize::from(k == 0)
+        } else {
+            let mut acc: u128 = 1;
+            for j in 1..=u128::from(k) {
+                acc = acc.checked_mul(dim as u128 - 1 + j)? / j;
+                if acc > usize::MAX as u128 {
+                    return None;
+                }
+            }
+            acc as usize
+        };
+        total = total.checked_add(per)?;
+    }
+    Some(total)
+}
+
 fn push_degree(out: &mut Vec<Vec<u32>>, cur: &mut Vec<u32>, i: usize, left: u32) {
     if i + 1 == cur.len() {
         cur[i] = left;
@@ -156,8 +179,13 @@ mod tests {
             for k in 1..=6u32 {
                 let n = exponents(d, k, k).len();
                 assert_eq!(n, binom(d + k as usize - 1, k as usize), "d={d} k={k}");
+                assert_eq!(count(d, 1, k), Some(exponents(d, 1, k).len()), "d={d} k={k}");
+                assert_eq!(count(d, 2, k), Some(exponents(d, 2, k).len()), "d={d} k={k}");
             }
         }
+        // Counted without listing, overflow reported.
+        assert_eq!(count(100, 1, 3), Some(176_850));
+        assert_eq!(count(usize::MAX, 1, 3), None);
     }
 
     #[test]

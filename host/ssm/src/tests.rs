@@ -363,3 +363,104 @@ fn synthetic_known_normal_form_is_recovered() {
     }
     println!("worst relative coefficient error {worst:.2e}");
 }
+
+// ------------------------------------------------------------------ issue 14: limits and saved models
+
+/// Sizes implied by the options are checked against `limits` before anything of that size
+/// is allocated (issue 14: `fit --dim 100 --embed 201` allocated 6-9 GB before failing);
+/// the error names the option and the limit.
+#[test]
+fn option_sizes_are_checked_against_the_stated_limits() {
+    use crate::limits::{MAX_CENTERS, MAX_DIM, MAX_EMBED, MAX_ORDER, MAX_TERMS};
+    let dt = 0.05;
+    let train = [synthetic("a", 0.5, 0.0, dt, 300)];
+    let base = FitOptions { dim: 2, embed: 5, shift: 1, manifold_order: 2, dyn_order: 3, dynamics: Dynamics::Map, ridge: Ridge::Fixed(0.0), linear_anchor: None };
+    let cases: Vec<(FitOptions, &str, String)> = vec![
+        (FitOptions { dim: 100, embed: 201, ..base }, "dim: 100", MAX_DIM.to_string()),
+        (FitOptions { embed: 5000, ..base }, "embed: 5000", MAX_EMBED.to_string()),
+        (FitOptions { manifold_order: 1000, ..base }, "manifold_order: 1000", MAX_ORDER.to_string()),
+        (FitOptions { dyn_order: u32::MAX, ..base }, "dyn_order", MAX_ORDER.to_string()),
+        (FitOptions { dim: 20, embed: 41, manifold_order: 6, ..base }, "manifold monomials", MAX_TERMS.to_string()),
+        (FitOptions { dim: 12, embed: 25, manifold_order: 1, dyn_order: 9, ..base }, "dynamics monomials", MAX_TERMS.to_string()),
+        (FitOptions { dynamics: Dynamics::Rbf { centers: usize::MAX }, ..base }, "rbf centers", MAX_CENTERS.to_string()),
+    ];
+    for (o, what, limit) in cases {
+        let t0 = std::time::Instant::now();
+        let e = fit(&train, &o).unwrap_err();
+        assert!(matches!(e, FitError::TooLarge { .. }), "{o:?}: {e}");
+        let m = e.to_string();
+        assert!(m.contains(what) && m.contains(&format!("limit of {limit}")), "{m}");
+        assert!(t0.elapsed().as_secs_f64() < 1.0, "{m}: took {:?}", t0.elapsed());
+    }
+    let e = fit(&train, &FitOptions { dynamics: Dynamics::Rbf { centers: 0 }, ..base }).unwrap_err();
+    assert!(matches!(e, FitError::BadOption { what: "rbf centers", .. }), "{e}");
+    // Data-dependent sizes: more unknowns than rows is refused before the design matrix exists.
+    let e = fit(&train, &FitOptions { dim: 4, embed: 9, manifold_order: 12, ..base }).unwrap_err();
+    assert!(matches!(e, FitError::Underdetermined { what: "manifold regression", cols: 1815, .. }), "{e}");
+    let e = fit(&train, &FitOptions { dynamics: Dynamics::Rbf { centers: 5000 }, ..base }).unwrap_err();
+    assert!(matches!(e, FitError::Underdetermined { what: "rbf regression", cols: 5003, .. }), "{e}");
+}
+
+/// A fitted RBF model saved as JSON, as a `serde_json::Value` to corrupt.
+fn saved_rbf_model() -> serde_json::Value {
+    let dt = 0.05;
+    let train = [synthetic("a", 0.5, 0.0, dt, 300), synthetic("b", 0.4, 1.0, dt, 300)];
+    let o = FitOptions { dim: 2, embed: 5, shift: 1, manifold_order: 3, dyn_order: 3, dynamics: Dynamics::Rbf { centers: 10 }, ridge: Ridge::Fixed(1e-8), linear_anchor: None };
+    serde_json::from_str(&fit(&train, &o).unwrap().to_json().unwrap()).unwrap()
+}
+
+/// Issue 14: a saved model with inconsistent shapes indexed out of bounds, divided by a zero
+/// dimension, exported an empty scale vector or allocated gigabytes for a huge exponent.
+/// Every such model is refused on load with the field named.
+#[test]
+fn saved_model_shapes_are_validated_on_load() {
+    let good = saved_rbf_model();
+    assert!(SsmModel::from_json(&good.to_string()).is_ok());
+    type Edit = fn(&mut serde_json::Value);
+    let cases: [(Edit, &str, &str); 14] = [
+        (|m| m["manifold"]["v1"].as_array_mut().unwrap().truncate(3), "`manifold.v1`", "length 3, expected 10"),
+        (|m| { m["options"]["dim"] = 0.into(); m["manifold"]["dim"] = 0.into(); m["dynamics"]["Rbf"]["dim"] = 0.into(); }, "`options`", "dim"),
+        (|m| m["manifold"]["dim"] = 3.into(), "`manifold.dim`", "differs from options.dim = 2"),
+        (|m| m["manifold"]["p"] = 7.into(), "`manifold.p`", "differs from options.embed = 5"),
+        (|m| m["dynamics"]["Rbf"]["scale"] = serde_json::json!([]), "`dynamics.Rbf.scale`", "length 0, expected 2"),
+        (|m| m["dynamics"]["Rbf"]["scale"][1] = (-1.0).into(), "`dynamics.Rbf.scale[1]`", "must be > 0"),
+        (|m| m["dynamics"]["Rbf"]["centers"].as_array_mut().unwrap().truncate(3), "`dynamics.Rbf.centers`", "not a positive multiple of dim = 2"),
+        (|m| m["dynamics"]["Rbf"]["coef"].as_array_mut().unwrap().pop().map(|_| ()).unwrap(), "`dynamics.Rbf.coef`", "expected 26"),
+        (|m| m["dynamics"]["Rbf"]["dt"] = (-0.05).into(), "`dynamics.Rbf.dt`", "must be finite and > 0"),
+        (|m| m["manifold"]["nonlinear"]["exps"][0] = serde_json::json!([4000000000u32, 0]), "`manifold.nonlinear.exps[0]`", "total degree 4000000000, expected 1..=32"),
+        (|m| m["manifold"]["nonlinear"]["exps"][0] = serde_json::json!([1, 1, 0]), "`manifold.nonlinear.exps[0]`", "length 3"),
+        (|m| m["manifold"]["nonlinear"]["dim_out"] = 4.into(), "`manifold.nonlinear.dim_out`", "expected 5"),
+        (|m| m["manifold"]["eta_scale"] = serde_json::json!([1.0]), "`manifold.eta_scale`", "length 1, expected 2"),
+        (|m| m["dt"] = 0.0.into(), "`dt`", "must be finite and > 0"),
+    ];
+    for (edit, field, why) in cases {
+        let mut v = good.clone();
+        edit(&mut v["model"]);
+        let e = SsmModel::from_json(&v.to_string()).unwrap_err();
+        assert!(matches!(e, crate::ModelFileError::Invalid { .. }), "{field}: {e}");
+        let m = e.to_string();
+        assert!(m.contains(field) && m.contains(why), "{field} / {why}: {m}");
+    }
+}
+
+/// Found by the model-JSON fuzz target: a valid model with extreme lift coefficients lifted
+/// finite states to infinite samples (documented: all values finite), and a shift large
+/// against a short test series made the sample index underflow (a panic).
+#[test]
+fn prediction_never_emits_non_finite_samples_nor_indexes_past_short_series() {
+    let mut v = saved_rbf_model();
+    for c in v["model"]["manifold"]["nonlinear"]["coef"].as_array_mut().unwrap() {
+        *c = 1.7e308.into();
+    }
+    let m = SsmModel::from_json(&v.to_string()).unwrap();
+    let test = synthetic("test", 0.45, 1.0, 0.05, 200);
+    let p = m.predict(&test).unwrap();
+    assert!(matches!(p.stop, Some(Stop { reason: StopReason::NonFinite, .. })), "{:?}", p.stop);
+    assert!(p.x.iter().all(|x| x.is_finite()) && p.eta.len() == p.x.len() * 2);
+    // shift 45, p = 5: 200 samples give 20 embedded points, fewer than the shift.
+    let mut v = saved_rbf_model();
+    v["model"]["options"]["shift"] = 45.into();
+    let m = SsmModel::from_json(&v.to_string()).unwrap();
+    let e = m.predict(&test).unwrap_err();
+    assert!(matches!(e, FitError::Data(DataError::TooShort { have: 200, need: 225, .. })), "{e}");
+}

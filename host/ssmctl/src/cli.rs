@@ -342,7 +342,8 @@ pub fn run(cli: Cli) -> Result<(), Box<dyn std::error::Error>> {
             if let Some(pb) = pb {
                 pb.finish_and_clear();
             }
-            let csv = closed_loop::write_outputs(&s, &tr, &out)?;
+            let scene_file = std::path::Path::new(&scene.scene);
+            let csv = crate::output::write_scene_outputs(&s, &tr, &out, &[("--scene", scene_file)])?;
             eprintln!(
                 "{}: {} periods in {:.3} s ({}){}; wrote {}",
                 s.name,
@@ -377,6 +378,11 @@ pub fn run(cli: Cli) -> Result<(), Box<dyn std::error::Error>> {
             eprintln!("wrote {}", out.join("index.html").display());
         }
         Cmd::Fit(a) => {
+            if let Some(path) = &a.save {
+                let inputs: Vec<(&str, &std::path::Path)> =
+                    a.data.iter().map(|p| ("--data", p.as_path())).chain(a.test.iter().map(|p| ("--test", p.as_path()))).collect();
+                crate::output::check_not_input(path, &inputs)?;
+            }
             let r = crate::fit_command::run_fit(&crate::fit_command::FitRequest {
                 data: a.data,
                 test: a.test,
@@ -393,7 +399,7 @@ pub fn run(cli: Cli) -> Result<(), Box<dyn std::error::Error>> {
                 normal_form: a.normal_form,
             })?;
             if let Some(path) = &a.save {
-                std::fs::write(path, r.model.to_json()?)?;
+                crate::output::write_atomic(path, r.model.to_json()?.as_bytes())?;
             }
             if a.json {
                 outln!("{}", serde_json::to_string_pretty(&r.summary)?);
@@ -402,19 +408,35 @@ pub fn run(cli: Cli) -> Result<(), Box<dyn std::error::Error>> {
             }
         }
         Cmd::Export { model, out, scene } => {
-            let text = std::fs::read_to_string(&model).map_err(|e| format!("reading {}: {e}", model.display()))?;
+            let mut inputs = vec![("--model", model.as_path())];
+            if let Some(s) = &scene {
+                inputs.push(("--scene", std::path::Path::new(s)));
+            }
+            crate::output::check_not_input(&out, &inputs)?;
+            let text = ssm::limits::read_text_limited(&model, ssm::limits::MAX_MODEL_FILE_BYTES)
+                .map_err(|e| format!("reading {}: {e}", model.display()))?;
             let m = ssm::SsmModel::from_json(&text).map_err(|e| format!("{}: {e}", model.display()))?;
             let cfg = match scene {
-                Some(s) => Scene::load(&s, &[])?.controller_config(),
+                Some(s) => {
+                    let sc = Scene::load(&s, &[])?;
+                    // The device predicts one sample ahead per controller period.
+                    ssm::device::check_loop_dt(m.dt, sc.dt()).map_err(|e| format!("{} for scene {}: {e}", model.display(), sc.name))?;
+                    sc.controller_config()
+                }
                 None => shared::ControllerConfig::paper(m.dt),
             };
+            controller::validate_config::<{ controller::HISTORY }>(&cfg)?;
             let owned = ssm::device::to_device_model(&m, cfg)?;
             let blob = ssm::device::encode(&owned)?;
-            std::fs::write(&out, &blob).map_err(|e| format!("writing {}: {e}", out.display()))?;
+            // What is written must be what `inspect` and the device accept: decode it again
+            // with the host decoder and validate its configuration before writing.
+            crate::fit_command::inspect(&blob).map_err(|e| format!("{}: the exported blob would be refused: {e}", model.display()))?;
+            crate::output::write_atomic(&out, &blob)?;
             eprintln!("wrote {} ({} bytes): p={} d={} K={} lift order {}", out.display(), blob.len(), owned.p, owned.d, owned.k, owned.lift_order);
         }
         Cmd::Inspect { blob, json } => {
-            let bytes = std::fs::read(&blob).map_err(|e| format!("reading {}: {e}", blob.display()))?;
+            let bytes = ssm::limits::read_limited(&blob, crate::fit_command::MAX_BLOB_BYTES)
+                .map_err(|e| format!("reading {}: {e}", blob.display()))?;
             let v = crate::fit_command::inspect(&bytes).map_err(|e| format!("{}: {e}", blob.display()))?;
             if json {
                 outln!("{}", serde_json::to_string_pretty(&v)?);
@@ -449,13 +471,19 @@ pub fn run(cli: Cli) -> Result<(), Box<dyn std::error::Error>> {
             }
         }
         Cmd::Pil { scene, model, fit_model, periods, out, elf, timeout, json } => {
-            if fit_model {
-                let blob = crate::pil::fit_model(&scene.load()?)?;
-                std::fs::write(&model, &blob).map_err(|e| format!("writing {}: {e}", model.display()))?;
-                eprintln!("pil: fitted model written to {} ({} bytes)", model.display(), blob.len());
+            // Options first (cheap), then anything that runs or writes.
+            if periods == 0 {
+                return Err("--periods must be >= 1 (a PIL run of 0 periods compares nothing)".into());
             }
-            if !(timeout > 0.0 && timeout.is_finite()) {
-                return Err(format!("--timeout must be a positive number of seconds, got {timeout}").into());
+            if periods > sim::scene::MAX_PERIODS {
+                return Err(format!("--periods {periods} exceeds the limit of {} periods", sim::scene::MAX_PERIODS).into());
+            }
+            let reply_timeout = crate::pil::reply_timeout(timeout)?;
+            if fit_model {
+                crate::output::check_not_input(&model, &[("--scene", std::path::Path::new(&scene.scene)), ("--elf", elf.as_path())])?;
+                let blob = crate::pil::fit_model(&scene.load()?)?;
+                crate::output::write_atomic(&model, &blob)?;
+                eprintln!("pil: fitted model written to {} ({} bytes)", model.display(), blob.len());
             }
             let opts = crate::pil::PilOptions {
                 scene: scene.scene.clone(),
@@ -464,7 +492,7 @@ pub fn run(cli: Cli) -> Result<(), Box<dyn std::error::Error>> {
                 periods,
                 out,
                 elf,
-                reply_timeout: std::time::Duration::from_secs_f64(timeout),
+                reply_timeout,
             };
             let s = crate::pil::run(&opts)?;
             if json {

@@ -103,9 +103,18 @@ pub fn run_fit(r: &FitRequest) -> Result<FitResult, Box<dyn std::error::Error>> 
             if let Some(s) = &p.stop {
                 stopped.push(format!("{}: stopped at t = {} s: {:?}", ts.name, s.t, s.reason));
             }
-            a.push(p.nmte(ts));
+            // A stopped prediction's NMTE is infinite by convention (reported in `stopped`);
+            // any other non-finite metric is a number that cannot be trusted: an error.
+            let finite = |what: &str, v: f64| -> Result<f64, Box<dyn std::error::Error>> {
+                if v.is_finite() || p.stop.is_some() {
+                    Ok(v)
+                } else {
+                    Err(format!("{}: the {what} of the prediction is not a finite number ({v}); the data or the model cannot be scored", ts.name).into())
+                }
+            };
+            a.push(finite("NMTE", p.nmte(ts))?);
             if dtw {
-                b.push(p.nmte_dtw(ts, None));
+                b.push(finite("DTW-aligned NMTE", p.nmte_dtw(ts, None))?);
             }
         }
         Ok((a, b))
@@ -148,11 +157,31 @@ pub fn text_summary(s: &FitSummary) -> String {
     out
 }
 
-/// Header and shapes of a device blob, after a full decode (so every check runs).
-pub fn inspect(bytes: &[u8]) -> Result<Value, shared::model::DecodeError> {
+/// Capacities of the host's blob decoder (`inspect`, and `export`'s round trip):
+/// `p`, `d`, RBF centres, lift monomials.
+pub type HostModel = shared::model::Model<256, { ssm::limits::MAX_DIM }, 8192, 4096>;
+
+/// Largest blob file `inspect` reads: header plus the largest payload [`HostModel`] holds,
+/// with room to spare (the decoder then names what is wrong).
+pub const MAX_BLOB_BYTES: u64 = 16 * 1024 * 1024;
+
+/// Why a blob is refused: its format, or its controller configuration.
+#[derive(Debug, thiserror::Error)]
+pub enum BlobError {
+    #[error(transparent)]
+    Decode(#[from] shared::model::DecodeError),
+    #[error(transparent)]
+    Config(#[from] controller::ConfigError),
+}
+
+/// Header and shapes of a device blob, after a full decode (so every check runs) and the
+/// validation of its controller configuration: the same check a scene's configuration
+/// passes ([`controller::validate_config`] for the project's history capacity).
+pub fn inspect(bytes: &[u8]) -> Result<Value, BlobError> {
     let (h, _) = shared::model::Header::parse(bytes)?;
-    let mut m = Box::new(shared::model::Model::<256, 32, 8192, 4096>::empty());
+    let mut m = Box::new(HostModel::empty());
     m.decode_into(bytes)?;
+    controller::validate_config::<{ controller::HISTORY }>(m.config())?;
     let c = m.config();
     Ok(json!({
         "format_version": h.version,

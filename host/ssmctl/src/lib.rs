@@ -7,6 +7,7 @@ pub mod bench;
 pub mod cli;
 pub mod draw;
 pub mod fit_command;
+pub mod output;
 pub mod pil;
 pub mod plot;
 pub mod report;

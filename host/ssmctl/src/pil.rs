@@ -38,6 +38,8 @@ use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Stdio};
 use std::time::{Duration, Instant};
 
+use crate::output::AtomicFile;
+
 /// The firmware's predictor capacities (`qemu/src/bin/pil.rs` uses the same).
 pub type PilPredictor = Predictor<16, 6, 256, 84, 64>;
 
@@ -55,6 +57,8 @@ pub enum PilError {
     ConfigMismatch { scene: String, blob: String, scene_cfg: String },
     #[error("model blob: {0}")]
     Blob(String),
+    #[error("{0}")]
+    Options(String),
     #[error("{what}: {source}")]
     Io { what: String, source: std::io::Error },
     #[error("QEMU: {0}")]
@@ -189,23 +193,34 @@ pub struct RecordRow {
 }
 
 /// Writes `theta.csv` and `record.csv` row by row (values printed in Rust's shortest
-/// round-trip form, so loading gives back the same bits).
+/// round-trip form, so loading gives back the same bits). Both are temporary files until
+/// [`Recorder::finish`]: a failed run leaves no partial data set (see [`crate::output`]).
 pub struct Recorder {
-    theta: std::io::BufWriter<std::fs::File>,
-    record: std::io::BufWriter<std::fs::File>,
+    theta: AtomicFile,
+    record: AtomicFile,
     theta_path: PathBuf,
     record_path: PathBuf,
 }
 
+/// Largest `--timeout` accepted, seconds.
+pub const MAX_REPLY_TIMEOUT_S: f64 = 3600.0;
+
+/// The per-reply timeout of `--timeout SECONDS`, range-checked before it becomes a
+/// `Duration` (which panics on huge values).
+pub fn reply_timeout(secs: f64) -> Result<Duration, String> {
+    if secs.is_finite() && secs > 0.0 && secs <= MAX_REPLY_TIMEOUT_S {
+        Ok(Duration::from_secs_f64(secs))
+    } else {
+        Err(format!("--timeout must be a number of seconds in (0, {MAX_REPLY_TIMEOUT_S}], got {secs}"))
+    }
+}
+
 impl Recorder {
-    /// Creates `dir/theta.csv` and `dir/record.csv` (the folder must exist) with headers.
+    /// Starts `dir/theta.csv` and `dir/record.csv` (the folder must exist) with headers.
     pub fn create(dir: &Path) -> Result<Self, PilError> {
         let theta_path = dir.join("theta.csv");
         let record_path = dir.join("record.csv");
-        let open = |p: &Path| -> Result<std::io::BufWriter<std::fs::File>, PilError> {
-            let f = std::fs::File::create(p).map_err(io(format!("creating {}", p.display())))?;
-            Ok(std::io::BufWriter::new(f))
-        };
+        let open = |p: &Path| -> Result<AtomicFile, PilError> { AtomicFile::create(p).map_err(io(format!("creating {}", p.display()))) };
         let mut r = Recorder { theta: open(&theta_path)?, record: open(&record_path)?, theta_path, record_path };
         writeln!(r.theta, "{THETA_HEADER}").map_err(io(r.theta_path.display().to_string()))?;
         writeln!(r.record, "{RECORD_HEADER}").map_err(io(r.record_path.display().to_string()))?;
@@ -219,10 +234,10 @@ impl Recorder {
             .map_err(io(self.record_path.display().to_string()))
     }
 
-    /// Flushes both files.
-    pub fn finish(mut self) -> Result<(), PilError> {
-        self.theta.flush().map_err(io(self.theta_path.display().to_string()))?;
-        self.record.flush().map_err(io(self.record_path.display().to_string()))
+    /// Completes both files (renames them into place).
+    pub fn finish(self) -> Result<(), PilError> {
+        self.theta.commit().map_err(io(self.theta_path.display().to_string()))?;
+        self.record.commit().map_err(io(self.record_path.display().to_string()))
     }
 }
 
@@ -377,6 +392,9 @@ pub fn fit_model(scene: &Scene) -> Result<Vec<u8>, PilError> {
 /// Runs the loop; writes `pil.csv`, `theta.csv`, `record.csv` and `summary.json` into
 /// `opts.out`.
 pub fn run(opts: &PilOptions) -> Result<PilSummary, PilError> {
+    if opts.periods == 0 || opts.periods > sim::scene::MAX_PERIODS {
+        return Err(PilError::Options(format!("periods must be in 1..={}, got {}", sim::scene::MAX_PERIODS, opts.periods)));
+    }
     let scene = Scene::load(&opts.scene, &opts.overrides)?;
     match build_plant(&scene)? {
         AnyPlant::Furuta(p) => run_with(&p, &scene, opts),
@@ -394,12 +412,21 @@ fn run_with<P: Plant<N>, const N: usize>(plant: &P, scene: &Scene, opts: &PilOpt
     if scene.initial.history.is_some() {
         return Err(PilError::History(name));
     }
-    let blob = std::fs::read(&opts.model).map_err(io(format!("reading {}", opts.model.display())))?;
+    let outputs = ["pil.csv", "theta.csv", "record.csv", "summary.json"].map(|f| opts.out.join(f));
+    let scene_file = PathBuf::from(&opts.scene);
+    for o in &outputs {
+        crate::output::check_not_input(o, &[("--model", &opts.model), ("--scene", &scene_file), ("--elf", &opts.elf)]).map_err(PilError::Options)?;
+    }
+    let blob = ssm::limits::read_limited(&opts.model, crate::fit_command::MAX_BLOB_BYTES)
+        .map_err(io(format!("reading {}", opts.model.display())))?;
     let mut pred = Box::new(PilPredictor::empty(SqrtFlavour::Libm));
     pred.load(&blob).map_err(|e| PilError::Blob(format!("{}: {e}", opts.model.display())))?;
     if *pred.model().config() != cfg {
         return Err(PilError::ConfigMismatch { scene: name, blob: format!("{:?}", pred.model().config()), scene_cfg: format!("{cfg:?}") });
     }
+    // The predictor runs one step per controller period: the model must be sampled at it.
+    ssm::device::check_loop_dt(f64::from(pred.model().sample_period()), cfg.dt)
+        .map_err(|e| PilError::Blob(format!("{}: {e}", opts.model.display())))?;
     let mut pd = IntPd::<HISTORY>::try_new(&cfg).map_err(|e| PilError::Blob(format!("controller configuration: {e}")))?;
 
     let mut x = [0.0; N];
@@ -441,7 +468,7 @@ fn run_with<P: Plant<N>, const N: usize>(plant: &P, scene: &Scene, opts: &PilOpt
     link.transact(Kind::Prime, &p)?;
 
     let csv_path = opts.out.join("pil.csv");
-    let mut csv = std::io::BufWriter::new(std::fs::File::create(&csv_path).map_err(io(csv_path.display().to_string()))?);
+    let mut csv = AtomicFile::create(&csv_path).map_err(io(csv_path.display().to_string()))?;
     let wr = |e| io(csv_path.display().to_string())(e);
     writeln!(csv, "t,theta,phi,q_theta,q_phi,code,code_host,saturated,ready,prediction,prediction_host").map_err(wr)?;
     let mut rec = Recorder::create(&opts.out)?;
@@ -552,12 +579,13 @@ fn run_with<P: Plant<N>, const N: usize>(plant: &P, scene: &Scene, opts: &PilOpt
     if !status.success() {
         return Err(PilError::Qemu(format!("exited with {status} after the shutdown frame")));
     }
-    csv.flush().map_err(wr)?;
-    rec.finish()?;
     compare_with_host_sim(plant, scene, &run_codes, &run_states, &mut s)?;
     let json = serde_json::to_string_pretty(&s).map_err(|e| PilError::Fit(e.to_string()))?;
+    // Only a complete run becomes files.
+    csv.commit().map_err(wr)?;
+    rec.finish()?;
     let path = opts.out.join("summary.json");
-    std::fs::write(&path, json).map_err(io(path.display().to_string()))?;
+    crate::output::write_atomic(&path, json.as_bytes()).map_err(io(path.display().to_string()))?;
     Ok(s)
 }
 
@@ -677,6 +705,7 @@ mod tests {
 
     fn temp_dir(tag: &str) -> PathBuf {
         let d = std::env::temp_dir().join(format!("ssm-pil-{tag}-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&d);
         std::fs::create_dir_all(&d).unwrap();
         d
     }
@@ -703,6 +732,14 @@ mod tests {
                 }
             })
             .collect();
+        // A run that fails before the end leaves no data set (nor temporary files).
+        {
+            let mut r = Recorder::create(&dir).unwrap();
+            for row in &rows[..10] {
+                r.row(row).unwrap();
+            }
+        }
+        assert_eq!(std::fs::read_dir(&dir).unwrap().count(), 0, "a failed run left files");
         let mut r = Recorder::create(&dir).unwrap();
         for row in &rows {
             r.row(row).unwrap();

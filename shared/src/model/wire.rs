@@ -149,7 +149,6 @@ pub(crate) fn check(blob: &[u8], caps: [usize; 4]) -> Result<Checked<'_>, Decode
         .ok_or(DecodeError::Invalid { what: "lift order too high" })?;
     shape("lift terms for d and lift_order", usize::from(h.lift_terms), n_terms)?;
     check_scalars(&Scalars {
-        config: &payload.config,
         p,
         d,
         shift: usize::from(payload.shift),
@@ -206,7 +205,6 @@ impl ModelRef<'_> {
     /// number of bytes written.
     pub fn encode_into(&self, buf: &mut [u8]) -> Result<usize, EncodeError> {
         check_scalars(&Scalars {
-            config: &self.config,
             p: self.p,
             d: self.d,
             shift: self.shift,

@@ -399,3 +399,39 @@ fn experimental_gains_are_unstable_at_20_ms() {
     };
     assert!(at(5.2) < 1.0 && at(5.4) > 1.0, "{} {}", at(5.2), at(5.4));
 }
+
+/// Issue 14: `kp = 1e200` gave |mu| = 1.016 and `dt = 1e-303 s` a rate of 4e291 1/s: the
+/// multipliers of such maps are rounding noise. The computation checks its own accuracy
+/// bound and refuses, naming the gain or dt; ordinary and even large-but-sane values pass.
+#[test]
+fn untrustworthy_multipliers_are_refused_naming_the_cause() {
+    let p = plant();
+    let cfg = |kp: f64, kd: f64, dt: f64| ControllerConfig { kp, kd, ..ControllerConfig::paper(dt) };
+    for (c, cause) in [
+        (cfg(1e200, 5.45, 0.025), "controller gain kp = 1e200"),
+        (cfg(1e12, 5.45, 0.025), "controller gain kp = 1e12"),
+        (cfg(15.5, -1e15, 0.025), "controller gain kd = -1e15"),
+        (ControllerConfig { kphi_d: 1e14, ..cfg(15.5, 5.45, 0.025) }, "controller gain kphi_d = 1e14"),
+    ] {
+        for e in [
+            p.closed_loop(&c).unwrap().multipliers().unwrap_err(),
+            p.closed_loop(&c).unwrap().dominant_multipliers().unwrap_err(),
+        ] {
+            assert!(matches!(e, LinearError::MultipliersInaccurate { .. }), "{e}");
+            assert!(e.to_string().starts_with(cause) && e.to_string().contains("refusing"), "{e}");
+        }
+    }
+    for dt in [1e-303, 1e-20, 1e-14] {
+        let e = p.closed_loop(&cfg(15.5, 5.45, dt)).unwrap().multipliers().unwrap_err();
+        assert!(matches!(e, LinearError::RatesInaccurate { .. }), "dt {dt}: {e}");
+        assert!(e.to_string().contains(&format!("dt = {dt:e} s")), "{e}");
+    }
+    // A period so long that e^(A dt) cannot be formed accurately: named by dt.
+    let e = p.closed_loop(&cfg(15.5, 5.45, 1e5)).unwrap_err();
+    assert!(matches!(e, LinearError::ExponentTooLarge { .. }) && e.to_string().contains("dt = 100000 s"), "{e}");
+    // What the study and the charts use passes, as do large but resolvable values.
+    for c in [cfg(15.5, 5.45, 0.025), cfg(40.0, 8.0, 0.001), cfg(1e5, 1e3, 1e-4), cfg(15.5, 5.45, 1e-7), cfg(15.5, 5.45, 0.1)] {
+        let m = p.closed_loop(&c).unwrap();
+        assert!(m.multipliers().is_ok() && m.dominant_multipliers().is_ok(), "{c:?}: {:?}", m.check_accuracy());
+    }
+}

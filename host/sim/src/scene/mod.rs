@@ -371,13 +371,27 @@ impl Scene {
                 Err(SceneError::key(s, path, format!("must be finite and > 0, got {v}")))
             }
         };
+        check_name(&self.name)?;
         let c = &self.controller;
-        finite("controller.kp", c.kp)?;
-        finite("controller.kd", c.kd)?;
-        finite("controller.kphi_d", c.kphi_d)?;
-        positive("controller.dt_ms", c.dt_ms)?;
-        if c.delay > 6 {
-            return Err(SceneError::key(s, "controller.delay", format!("at most 6 samples are supported, got {}", c.delay)));
+        if let Some(q) = &self.effects.quantization {
+            if q.mode == QuantModeSpec::Literal && q.h_dac.is_some() {
+                return Err(SceneError::key(
+                    s,
+                    "effects.quantization.h_dac",
+                    "the literal reading uses one step h = h_adc for ADC and DAC; remove h_dac",
+                ));
+            }
+        }
+        // The controller configuration: the one validation every boundary uses (scene,
+        // decoded blob, export), with the controller's message under the scene's key path.
+        controller::validate_config::<{ crate::closed_loop::HISTORY }>(&self.controller_config())
+            .map_err(|e| SceneError::key(s, self.config_key(&e), e.to_string()))?;
+        if self.run.periods > MAX_PERIODS {
+            return Err(SceneError::key(
+                s,
+                "run.periods",
+                format!("{} exceeds the limit of {MAX_PERIODS} periods (the run is held in memory)", self.run.periods),
+            ));
         }
         for (i, v) in self.initial.state.iter().enumerate() {
             finite(&format!("initial.state[{i}]"), *v)?;
@@ -424,25 +438,6 @@ impl Scene {
                 }
             }
         }
-        if let Some(q) = &self.effects.quantization {
-            positive("effects.quantization.h_adc", q.h_adc)?;
-            if let Some(h) = q.h_adc_phi {
-                positive("effects.quantization.h_adc_phi", h)?;
-            }
-            if let Some(h) = q.h_dac {
-                positive("effects.quantization.h_dac", h)?;
-            }
-            if q.mode == QuantModeSpec::Literal && q.h_dac.is_some() {
-                return Err(SceneError::key(
-                    s,
-                    "effects.quantization.h_dac",
-                    "the literal reading uses one step h = h_adc for ADC and DAC; remove h_dac",
-                ));
-            }
-        }
-        if let Some(sat) = &self.effects.saturation {
-            positive("effects.saturation.u_max", sat.u_max)?;
-        }
         if let Some(n) = &self.effects.noise {
             if !(n.sigma_theta.is_finite() && n.sigma_theta >= 0.0) {
                 return Err(SceneError::key(s, "effects.noise.sigma_theta", "must be finite and >= 0"));
@@ -451,10 +446,30 @@ impl Scene {
                 return Err(SceneError::key(s, "effects.noise.sigma_phi", "must be finite and >= 0"));
             }
         }
-        if let Some(ig) = &self.effects.integral {
-            finite("effects.integral.ki", ig.ki)?;
-        }
         Ok(())
+    }
+
+    /// The scene key path of the field a controller configuration error is about.
+    fn config_key(&self, e: &controller::ConfigError) -> &'static str {
+        use controller::Field;
+        let q = self.effects.quantization.as_ref();
+        match e.field() {
+            Some(Field::Kp) => "controller.kp",
+            Some(Field::Kd) => "controller.kd",
+            Some(Field::KphiD) => "controller.kphi_d",
+            Some(Field::Ki) => "effects.integral.ki",
+            Some(Field::Dt) => "controller.dt_ms",
+            Some(Field::UMax) => "effects.saturation.u_max",
+            Some(Field::HAdc) => "effects.quantization.h_adc",
+            // Defaults come from h_adc: name the key the value came from.
+            Some(Field::HAdcPhi) if q.is_some_and(|q| q.h_adc_phi.is_some()) => "effects.quantization.h_adc_phi",
+            Some(Field::HDac) if q.is_some_and(|q| q.h_dac.is_some()) => "effects.quantization.h_dac",
+            Some(Field::HAdcPhi | Field::HDac) => "effects.quantization.h_adc",
+            None => match e {
+                controller::ConfigError::DelayTooLong { .. } => "controller.delay",
+                _ => "effects.quantization",
+            },
+        }
     }
 
     /// Sampling period in seconds (the one place the scene's millisecond field is converted).
@@ -514,6 +529,38 @@ impl Scene {
 
     pub fn wants(&self, t: Task) -> bool {
         self.run.tasks.contains(&t)
+    }
+}
+
+/// Largest `run.periods` of a scene: a run is held in memory (about 60 bytes a period).
+pub const MAX_PERIODS: u64 = 10_000_000;
+
+/// Largest length of a scene name.
+pub const MAX_NAME_LEN: usize = 100;
+
+/// Scene names become file names (`simulate` writes `DIR/<name>.csv`): only ASCII letters,
+/// digits, `-`, `_` and `.` are allowed, not starting with `.` (no `..`, no separators, no
+/// absolute paths, no hidden files), at most [`MAX_NAME_LEN`] characters.
+pub fn check_name(name: &str) -> Result<(), SceneError> {
+    let ok_char = |c: char| c.is_ascii_alphanumeric() || matches!(c, '-' | '_' | '.');
+    let why = if name.is_empty() {
+        Some("is empty".to_string())
+    } else if name.len() > MAX_NAME_LEN {
+        Some(format!("is {} characters long, the limit is {MAX_NAME_LEN}", name.len()))
+    } else if name.starts_with('.') {
+        Some("starts with `.`".to_string())
+    } else if let Some(c) = name.chars().find(|c| !ok_char(*c)) {
+        Some(format!("contains {c:?}"))
+    } else {
+        None
+    };
+    match why {
+        None => Ok(()),
+        Some(why) => Err(SceneError::key(
+            &name.chars().take(MAX_NAME_LEN).collect::<String>(),
+            "name",
+            format!("{why}: a scene name becomes a file name and may hold only ASCII letters, digits, `-`, `_` and `.` (not first)"),
+        )),
     }
 }
 

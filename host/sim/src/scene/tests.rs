@@ -100,3 +100,65 @@ fn malformed_overrides_and_unknown_scenes_are_rejected() {
     let e = Scene::load("no-such-scene", &[]).unwrap_err().to_string();
     assert!(e.contains("no-such-scene"), "{e}");
 }
+
+/// Issue 14: a scene name of `../../x` or `/abs/x` made `simulate` write outside `--out`.
+/// Names become file names and are restricted to a safe set.
+#[test]
+fn scene_names_are_restricted_to_safe_file_names() {
+    for bad in ["../../x", "/abs/x", "a/b", "a\\\\b", "..", ".hidden", "", "x y", "na\\u0000me", "é"] {
+        let text = MINIMAL.replace("name = \"t\"", &format!("name = \"{bad}\""));
+        let e = err(&text, &[]);
+        assert!(e.contains("`name`") && e.contains("may hold only ASCII letters, digits"), "{bad:?}: {e}");
+    }
+    let long = "n".repeat(MAX_NAME_LEN + 1);
+    let e = err(&MINIMAL.replace("name = \"t\"", &format!("name = \"{long}\"")), &[]);
+    assert!(e.contains(&format!("the limit is {MAX_NAME_LEN}")), "{e}");
+    // The bundled names and ordinary ones pass.
+    for ok in ["furuta-dt31.41", "my_scene-2", "A.b"] {
+        assert!(Scene::parse("t", &MINIMAL.replace("name = \"t\"", &format!("name = \"{ok}\"")), &[]).is_ok(), "{ok}");
+    }
+    // Overrides and builders are validated too.
+    let e = err(MINIMAL, &["name=\"../up\""]);
+    assert!(e.contains("`name`"), "{e}");
+}
+
+/// Issue 14: `run.periods` near u64::MAX panicked in `Vec::with_capacity`, 1e12 aborted on
+/// allocation. The limit is stated and checked before anything is allocated.
+#[test]
+fn run_periods_are_limited_before_allocation() {
+    for p in [u64::MAX, 1_000_000_000_000, MAX_PERIODS + 1] {
+        let e = err(MINIMAL, &[&format!("run.periods={}", p.min(i64::MAX as u64))]);
+        assert!(e.contains("`run.periods`") && e.contains(&format!("limit of {MAX_PERIODS}")), "{p}: {e}");
+    }
+    assert!(Scene::parse("t", MINIMAL, &[format!("run.periods={MAX_PERIODS}")]).is_ok());
+    let e = Scene::load("furuta-dt25", &[]).unwrap().builder().periods(u64::MAX).build().unwrap_err().to_string();
+    assert!(e.contains("run.periods"), "{e}");
+}
+
+/// Issue 14: the controller configuration is validated by the controller's own check (the
+/// one `inspect` and `export` use), under the scene's key path with the controller's message.
+#[test]
+fn controller_fields_are_validated_by_the_controller_check() {
+    let quant = "\n[effects.quantization]\nmode = \"counts\"\nh_adc = 0.001\n";
+    for (text, o, key, msg) in [
+        (MINIMAL.to_string(), "controller.kp=inf", "controller.kp", "controller config: `kp` is not finite"),
+        (MINIMAL.to_string(), "controller.kphi_d=nan", "controller.kphi_d", "controller config: `kphi_d` is not finite"),
+        (MINIMAL.to_string(), "controller.delay=7", "controller.delay", "controller config: `delay` = 7 samples exceeds this controller's history (max 6)"),
+        (MINIMAL.to_string(), "effects.saturation.u_max=-2", "effects.saturation.u_max", "controller config: `u_max` must be > 0"),
+        (MINIMAL.to_string(), "effects.integral.ki=nan", "effects.integral.ki", "controller config: `ki` is not finite"),
+        (format!("{MINIMAL}{quant}"), "effects.quantization.h_dac=0", "effects.quantization.h_dac", "controller config: `quant.h_dac` must be > 0"),
+        (format!("{MINIMAL}{quant}"), "effects.quantization.h_adc=-1", "effects.quantization.h_adc", "controller config: `quant.h_adc` must be > 0"),
+        (format!("{MINIMAL}{quant}"), "effects.quantization.h_adc_phi=0", "effects.quantization.h_adc_phi", "must be > 0"),
+        (format!("{MINIMAL}{quant}"), "controller.kp=1e30", "controller.kp", "not representable"),
+    ] {
+        let e = err(&text, &[o]);
+        assert!(e.contains(&format!("`{key}`")) && e.contains(msg), "{o}: {e}");
+    }
+    // dt is named by the scene's key (in ms), with the controller's message.
+    for o in ["controller.dt_ms=0", "controller.dt_ms=-1", "controller.dt_ms=4e-324"] {
+        let e = err(MINIMAL, &[o]);
+        assert!(e.contains("`controller.dt_ms`") && e.contains("controller config: `dt` must be > 0"), "{o}: {e}");
+    }
+    let e = err(MINIMAL, &["controller.dt_ms=nan"]);
+    assert!(e.contains("`controller.dt_ms`") && e.contains("controller config: `dt` is not finite"), "{e}");
+}

@@ -94,9 +94,9 @@ figcaption{{font-size:85%;color:#444}}code{{background:#f4f4f4}}</style></head><
         html.push_str("</ul>\n");
         html.push_str(&self.body);
         html.push_str("<p><small>Numbers on this page are also in <a href=\"summary.json\">summary.json</a>.</small></p></body></html>\n");
-        std::fs::write(self.dir.join("index.html"), html)?;
+        crate::output::write_atomic(&self.dir.join("index.html"), html.as_bytes())?;
         let json = serde_json::to_string_pretty(&Value::Object(self.summary.clone())).map_err(std::io::Error::other)?;
-        std::fs::write(self.dir.join("summary.json"), json)
+        crate::output::write_atomic(&self.dir.join("summary.json"), json.as_bytes())
     }
 }
 

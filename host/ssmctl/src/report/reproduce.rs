@@ -72,7 +72,7 @@ fn scenes_section(rep: &mut Report, quick: bool, quiet: bool) -> Result<(), Box<
             continue;
         }
         let tr = closed_loop::simulate(&s, None)?;
-        closed_loop::write_outputs(&s, &tr, &rep.dir().join("scenes"))?;
+        crate::output::write_scene_outputs(&s, &tr, &rep.dir().join("scenes"), &[])?;
         let theta = tr.primary();
         let half = theta.len() / 2;
         let max_late = theta[half..].iter().fold(0.0_f64, |m, v| m.max(v.abs()));

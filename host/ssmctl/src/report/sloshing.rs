@@ -98,7 +98,7 @@ pub fn sloshing_section(rep: &mut Report, data_dir: &Path, quick: bool) -> Resul
     rep.table(&["setting", "fit [ms]", "x baseline", "test NMTE", "test DTW-NMTE", "stopped"], &rows);
     if let Some(m) = rbf50 {
         let blob = encode(&to_device_model(&m, shared::ControllerConfig::paper(m.dt))?)?;
-        std::fs::write(rep.dir().join("sloshing-rbf50.bin"), &blob)?;
+        crate::output::write_atomic(&rep.dir().join("sloshing-rbf50.bin"), &blob)?;
         rep.para(&format!("Exported the 50-centre RBF model as <code>sloshing-rbf50.bin</code> ({} bytes).", blob.len()));
     }
     rep.summary.insert(
@@ -116,7 +116,7 @@ pub fn furuta_blob(rep: &mut Report, quick: bool) -> Result<(), Box<dyn Error>> 
     let o = FitOptions { dim: 4, embed: 9, shift: 1, manifold_order: 2, dyn_order: 1, dynamics: Dynamics::Rbf { centers: 100 }, ridge: Ridge::Fixed(1e-10), linear_anchor: None };
     let m = fit(std::slice::from_ref(&ts), &o)?;
     let blob = encode(&to_device_model(&m, s.controller_config())?)?;
-    std::fs::write(rep.dir().join("furuta-quant-dt25-rbf100.bin"), &blob)?;
+    crate::output::write_atomic(&rep.dir().join("furuta-quant-dt25-rbf100.bin"), &blob)?;
     rep.para(&format!(
         "Exported a 4D SSM with a 100-centre RBF map fitted to the theta series of furuta-quant-dt25, together with that \
          scene's quantized controller configuration, as <code>furuta-quant-dt25-rbf100.bin</code> ({} bytes): the blob \
