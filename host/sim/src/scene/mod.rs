@@ -384,7 +384,7 @@ impl Scene {
         }
         // The controller configuration: the one validation every boundary uses (scene,
         // decoded blob, export), with the controller's message under the scene's key path.
-        controller::validate_config::<{ crate::closed_loop::HISTORY }>(&self.controller_config())
+        controller::validate_config::<{ controller::HISTORY }>(&self.controller_config())
             .map_err(|e| SceneError::key(s, self.config_key(&e), e.to_string()))?;
         if self.run.periods > MAX_PERIODS {
             return Err(SceneError::key(
