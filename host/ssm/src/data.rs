@@ -1,9 +1,14 @@
-//! Scalar time series: loading `(t, observable)` CSV files and validating sampling.
+//! Scalar time series: loading `(t, observable)` CSV files and validating sampling; several
+//! observables per trajectory (CSV columns, SSMLearn `.mat` files, time windows) in [`multi`].
 //!
 //! A file has one header line, then one `t,x` pair per line (extra whitespace allowed, blank
 //! lines rejected). Validation is strict: every value finite, time strictly increasing and
 //! uniformly sampled (each step within a relative tolerance [`SAMPLING_RTOL`] of the mean
 //! step), signal not constant. Nothing is silently dropped.
+
+pub mod multi;
+
+pub use multi::{MultiSeries, check_same_observables, load_csv_observables, load_mat, mat_trajectories};
 
 use std::path::Path;
 
@@ -45,9 +50,9 @@ pub enum DataError {
     #[error("{file}: no column `{column}` in the header (columns: {available}); the first column is the time")]
     UnknownColumn { file: String, column: String, available: String },
     #[error("{file}: line {line}: cannot parse {column} value {text:?} as a number")]
-    Parse { file: String, line: usize, column: &'static str, text: String },
+    Parse { file: String, line: usize, column: String, text: String },
     #[error("{name}: row {row}: {column} is not finite ({value})")]
-    NonFinite { name: String, row: usize, column: &'static str, value: f64 },
+    NonFinite { name: String, row: usize, column: String, value: f64 },
     #[error("{name}: t and x have different lengths ({nt} vs {nx})")]
     LengthMismatch { name: String, nt: usize, nx: usize },
     #[error("{name}: row {row}: time does not increase (t = {t_prev} then {t})")]
@@ -60,6 +65,20 @@ pub enum DataError {
     TooShort { name: String, have: usize, need: usize, why: String },
     #[error("{name}: the signal is constant (x = {value} everywhere)")]
     Constant { name: String, value: f64 },
+    #[error("{name}: observable {observable} is constant ({value} everywhere)")]
+    ConstantObservable { name: String, observable: String, value: f64 },
+    #[error("{name}: no observables (a trajectory needs at least one besides the time)")]
+    NoObservables { name: String },
+    #[error("{name}: observables [{got}] differ from those of {first} [{expected}]; every trajectory needs the same observables")]
+    ObservableMismatch { name: String, got: String, first: String, expected: String },
+    #[error("{name}: time window [{from}, {to}]: {why} (the data span t = {t_first} .. {t_last} s)")]
+    Window { name: String, from: String, to: String, t_first: f64, t_last: f64, why: String },
+    #[error("{name}: no observable `{observable}` (observables: {available})")]
+    UnknownObservable { name: String, observable: String, available: String },
+    #[error(transparent)]
+    Mat(#[from] crate::mat::MatError),
+    #[error("{file}: {var}: {why}")]
+    MatLayout { file: String, var: String, why: String },
 }
 
 impl TimeSeries {
@@ -102,7 +121,7 @@ impl TimeSeries {
         for (i, (&t, &x)) in self.t.iter().zip(&self.x).enumerate() {
             for (column, value) in [("t", t), ("x", x)] {
                 if !value.is_finite() {
-                    return Err(DataError::NonFinite { name: name.clone(), row: i + 1, column, value });
+                    return Err(DataError::NonFinite { name: name.clone(), row: i + 1, column: column.into(), value });
                 }
             }
         }
@@ -218,7 +237,7 @@ pub fn parse_csv_column(file: &str, name: String, text: &str, column: Option<&st
             let v: f64 = text.parse().map_err(|_| DataError::Parse {
                 file: file.to_string(),
                 line: line_no,
-                column: col,
+                column: col.to_string(),
                 text: text.to_string(),
             })?;
             out.push(v);
@@ -246,14 +265,14 @@ mod tests {
     #[test]
     fn errors_name_the_line_or_row() {
         let e = parse("t,x\n0,1\n0.5,abc\n").unwrap_err();
-        assert!(matches!(e, DataError::Parse { line: 3, column: "x", .. }), "{e}");
+        assert!(matches!(&e, DataError::Parse { line: 3, column, .. } if column == "x"), "{e}");
         assert!(e.to_string().contains("mem.csv: line 3"), "{e}");
 
         let e = parse("t,x\n0,1\n0.5\n").unwrap_err();
         assert!(matches!(e, DataError::Columns { line: 3, found: 1, .. }), "{e}");
 
         let e = parse("t,x\n0,1\n0.5,NaN\n1,2\n").unwrap_err();
-        assert!(matches!(e, DataError::NonFinite { row: 2, column: "x", .. }), "{e}");
+        assert!(matches!(&e, DataError::NonFinite { row: 2, column, .. } if column == "x"), "{e}");
 
         let e = parse("t,x\n0,1\n0.5,2\n0.5,3\n").unwrap_err();
         assert!(matches!(e, DataError::NonIncreasing { row: 3, .. }), "{e}");
@@ -290,7 +309,7 @@ mod tests {
         let e = parse_csv_column("sim.csv", "sim".into(), "t,theta,w\n0,1,2\n1,2\n", Some("theta")).unwrap_err();
         assert!(matches!(e, DataError::Columns { line: 3, expected: 3, found: 2, .. }), "{e}");
         let e = parse_csv_column("sim.csv", "sim".into(), "t,theta,w\n0,1,2\n1,x,2\n", Some("theta")).unwrap_err();
-        assert!(matches!(e, DataError::Parse { line: 3, column: "x", .. }), "{e}");
+        assert!(matches!(&e, DataError::Parse { line: 3, column, .. } if column == "x"), "{e}");
     }
 
     #[test]

@@ -1,7 +1,8 @@
-//! Data-driven spectral submanifold (SSM) models from scalar time series: the SSMLearn
-//! algorithm (paper appendix A) in our own code.
+//! Data-driven spectral submanifold (SSM) models from time series of one or several
+//! observables: the SSMLearn algorithm (paper appendix A) in our own code.
 //!
-//! Pipeline: [`data`] (CSV loading, validation) -> [`embed`] (delay embedding) ->
+//! Pipeline: [`data`] (CSV and SSMLearn `.mat` loading through [`mat`], validation, time
+//! windows) -> [`embed`] (delay embedding, over-embedding of several observables) ->
 //! [`manifold`] (tangent space by SVD, constrained graph-style polynomial parametrization)
 //! -> [`dynamics`] (polynomial flow / polynomial map / linear-kernel RBF map) -> [`fit`]
 //! (options, fitted model, prediction with blow-up detection); [`metrics`] holds NMTE,
@@ -24,6 +25,7 @@ pub mod error;
 pub mod fit;
 pub mod interp;
 pub mod manifold;
+pub mod mat;
 pub mod metrics;
 pub mod normal_form;
 pub mod poly;
@@ -31,10 +33,10 @@ pub mod portrait;
 pub mod ridge;
 pub mod spectrum;
 
-pub use data::{DataError, TimeSeries, load_csv, load_csv_column};
+pub use data::{DataError, MultiSeries, TimeSeries, load_csv, load_csv_column, load_csv_observables, load_mat};
 pub use dynamics::{Dynamics, ReducedDynamics};
 pub use error::FitError;
-pub use fit::{FitOptions, MODEL_FORMAT, MODEL_FORMAT_VERSION, ModelFileError, Prediction, SsmModel, Stop, StopReason, fit};
+pub use fit::{FitOptions, MODEL_FORMAT, MODEL_FORMAT_VERSION, ModelFileError, Prediction, SsmModel, Stop, StopReason, fit, fit_multi};
 pub use ridge::{Conditioning, Ridge};
 
 #[cfg(test)]
