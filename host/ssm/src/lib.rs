@@ -8,7 +8,9 @@
 //! (options, fitted model, prediction with blow-up detection); [`metrics`] holds NMTE,
 //! DTW-aligned NMTE and FFT amplitude spectra; [`spectrum`] sliding two-tone amplitudes and
 //! interpolated spectral peaks. Linear least squares go through [`ridge`]. On top of a fit:
-//! [`normal_form`] (polar normal forms of flows and maps), [`portrait`] (analysis of the
+//! [`normal_form`] (polar normal forms of flows and maps, with their change of
+//! coordinates), [`backbone`] (instantaneous damping and frequency against the amplitude of
+//! an observable), [`portrait`] (analysis of the
 //! two-mode amplitude equations: fixed points, saddle manifolds, heteroclinic and torus-Hopf
 //! detection), [`interp`] (coefficients interpolated in a system parameter) and [`device`]
 //! (a fitted RBF model converted to the device's `shared::model` blob).
@@ -17,6 +19,7 @@
 //! depend on `sim`), and draws nothing; its only workspace dependency is `shared`, for the
 //! device model format.
 
+pub mod backbone;
 pub mod data;
 pub mod dynamics;
 pub mod device;
@@ -62,4 +65,6 @@ pub enum Error {
     Export(#[from] crate::device::ExportError),
     #[error(transparent)]
     ModelFile(#[from] crate::fit::ModelFileError),
+    #[error(transparent)]
+    Backbone(#[from] crate::backbone::BackboneError),
 }
