@@ -190,6 +190,12 @@ impl Prediction {
         let n = self.x.len().min(test.x.len());
         metrics::nmte_dtw(&self.x[..n], &test.x[..n], 1, band).unwrap_or(f64::INFINITY)
     }
+
+    /// [`Prediction::nmte_dtw`] over all observables of `test`.
+    pub fn nmte_dtw_multi(&self, test: &MultiSeries, band: Option<usize>) -> f64 {
+        let n = self.x.len().min(test.x.len());
+        metrics::nmte_dtw(&self.x[..n], &test.x[..n], test.dim(), band).unwrap_or(f64::INFINITY)
+    }
 }
 
 /// Fits an SSM-reduced model to training series `train` (each validated again here).
