@@ -347,6 +347,77 @@ mod tests {
         assert!(matches!(e, BackboneError::BadOption { what: "points", .. }), "{e}");
     }
 
+    /// Two modes (4D): `z_j' = z_j (lambda_j + beta_j1 |z_1|^2 + beta_j2 |z_2|^2)` in
+    /// `eta = (Re z_1, Im z_1, Re z_2, Im z_2)`, observed through `y_0 = Re z_1 + Re z_2`
+    /// (the normalization row, so each mode alone has amplitude rho_j). The backbone of mode
+    /// j (the other at zero) is that of its own `lambda_j + beta_jj rho^2`; modes come out by
+    /// increasing frequency although the fast one is first in eta.
+    #[test]
+    fn four_dimensional_normal_form_has_one_backbone_per_mode() {
+        // (lambda, beta_self, beta_cross) per mode; eta block 0 is the FAST mode.
+        let fast = ((-0.3, 9.0), (-0.2, -1.5), (0.7, 0.4));
+        let slow = ((-0.05, 2.0), (-0.8, 0.6), (-0.1, 0.9));
+        let exps = poly::exponents(4, 1, 3);
+        let mut coef = vec![0.0; exps.len() * 4];
+        let mut add = |e: [u32; 4], out: usize, v: f64| {
+            let k = exps.iter().position(|x| x.as_slice() == e).unwrap();
+            coef[k * 4 + out] += v;
+        };
+        for (blk, (lam, bs, bc)) in [(0usize, fast), (1, slow)] {
+            let (r, i) = (2 * blk, 2 * blk + 1);
+            let unit = |k: usize| {
+                let mut e = [0u32; 4];
+                e[k] = 1;
+                e
+            };
+            // linear: (a x - w y, w x + a y)
+            add(unit(r), r, lam.0);
+            add(unit(i), r, -lam.1);
+            add(unit(r), i, lam.1);
+            add(unit(i), i, lam.0);
+            // cubic: (b x - c y, c x + b y) times |z_self|^2 and |z_other|^2
+            for (other, (b, c)) in [(blk, bs), (1 - blk, bc)] {
+                for sq in [2 * other, 2 * other + 1] {
+                    let with = |k: usize| {
+                        let mut e = unit(k);
+                        e[sq] += 2;
+                        e
+                    };
+                    add(with(r), r, b);
+                    add(with(i), r, -c);
+                    add(with(r), i, c);
+                    add(with(i), i, b);
+                }
+            }
+        }
+        let field = Poly { dim_in: 4, dim_out: 4, scale: vec![1.0; 4], exps, coef };
+        let mut m = model(0.0, 0.0);
+        m.manifold = Manifold {
+            dim: 4,
+            p: 5,
+            v1: vec![1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0],
+            singular_values: vec![1.0; 5],
+            eta_scale: vec![1.0; 4],
+            nonlinear: None,
+            conditioning: None,
+        };
+        // Row 0 of V1 = (1, 0, 1, 0): y_0 = eta_0 + eta_2.
+        m.dynamics = ReducedDynamics::Flow { field, conditioning: cond() };
+        m.options.dim = 4;
+        m.observables = 5;
+        let bb = backbone(&m, &BackboneOptions::new(0, 0.8)).unwrap();
+        assert_eq!(bb.len(), 2);
+        for (curve, (lam, bs, _)) in bb.iter().zip([slow, fast]) {
+            for p in &curve.points {
+                let (a, om) = (lam.0 + bs.0 * p.rho * p.rho, lam.1 + bs.1 * p.rho * p.rho);
+                assert!((p.freq_rad_s - om).abs() < 1e-12 && (p.damping_ratio - damping_ratio(a, om)).abs() < 1e-12, "mode {}: {p:?}", curve.mode);
+                assert!((p.amplitude - p.rho).abs() < 1e-12, "mode {}: {p:?}", curve.mode);
+            }
+            assert!((curve.points.last().unwrap().amplitude - 0.8).abs() < 1e-12);
+        }
+        assert_eq!((bb[0].mode, bb[1].mode), (1, 2));
+    }
+
     /// With a non-resonant quadratic term the normal form needs a transformation `h`:
     /// normal-form trajectories mapped through `eta = W (u + h(u))` follow the true field
     /// to `O(rho^4)` (order 3), while ignoring `h` leaves an `O(rho^2)` error.

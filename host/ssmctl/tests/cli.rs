@@ -249,6 +249,10 @@ fn fit_mat_with_observables_windows_and_backbone() {
     assert!(ok, "{err}");
     let j: Value = serde_json::from_str(&std::fs::read_to_string(out2.join("backbone.json")).unwrap()).unwrap();
     assert!((j[0]["points"][100]["amplitude"].as_f64().unwrap() - 0.5).abs() < 1e-9, "{j}");
+    // The device predictor embeds one observable: a two-observable model is refused.
+    let blob = dir.join("m.bin");
+    let (ok, _, err) = ssmctl(&["export", "--model", model.to_str().unwrap(), "--out", blob.to_str().unwrap()]);
+    assert!(!ok && err.contains("embeds one observable; this model has 2"), "{err}");
     // Errors name what is wrong.
     for (extra, want) in [
         (vec!["--mat", mat, "--from", "100"], "duffing.mat xData{1,:}: time window [100, end]: the window lies outside the data"),
