@@ -6,9 +6,10 @@
 //!
 //! # Format (MathWorks, "MAT-File Format", Level 5)
 //!
-//! * A 128-byte header: 116 bytes of text (`MATLAB 5.0 MAT-file, ...`), 8 bytes of
-//!   subsystem offset, the version `0x0100` and the endian indicator `IM` (little-endian
-//!   writer; `MI` is big-endian, refused here).
+//! * A 128-byte header: 116 bytes of descriptive text (`MATLAB 5.0 MAT-file, ...`; not
+//!   checked, writers word it differently), 8 bytes of subsystem offset, the version
+//!   `0x0100` (`0x0200` is v7.3) and the endian indicator `IM` (little-endian writer; `MI`
+//!   is big-endian, refused here).
 //! * Then data elements, one per variable: an 8-byte tag (type `u32`, byte count `u32`) and
 //!   the data padded to 8 bytes; or the *small* form, a 4-byte tag (count in the high 16
 //!   bits, type in the low 16) with up to 4 bytes of data. A top-level `miCOMPRESSED`
@@ -244,23 +245,22 @@ impl MatFile {
     /// Checks the header and inflates every variable; `file` names the input in errors.
     pub fn parse(file: &str, bytes: &[u8]) -> Result<Self, MatError> {
         let not = |why: &str| MatError::NotMat { file: file.to_string(), why: why.to_string() };
+        let v73 = || MatError::V73 { file: file.to_string() };
         if bytes.starts_with(b"MATLAB 7.3") || bytes.get(512..520) == Some(b"\x89HDF\r\n\x1a\n") || bytes.starts_with(b"\x89HDF") {
-            return Err(MatError::V73 { file: file.to_string() });
+            return Err(v73());
         }
         if bytes.len() < 128 {
             return Err(not(&format!("{} bytes, shorter than the 128-byte header", bytes.len())));
         }
-        if !bytes.starts_with(b"MATLAB 5.0 MAT-file") {
-            return Err(not("no `MATLAB 5.0 MAT-file` header text; a v4 file or not a .mat file"));
-        }
-        match &bytes[126..128] {
-            b"IM" => {}
-            b"MI" => return Err(MatError::BigEndian { file: file.to_string() }),
-            other => return Err(not(&format!("endian indicator {other:?}, expected \"IM\""))),
-        }
+        // The text is descriptive (MATLAB, Octave, scipy and matio word it differently): the
+        // version and the endian indicator identify the format.
         let version = u16::from_le_bytes([bytes[124], bytes[125]]);
-        if version != 0x0100 {
-            return Err(not(&format!("version {version:#06x}, expected 0x0100")));
+        match (&bytes[126..128], version) {
+            (b"IM", 0x0100) => {}
+            (b"IM", 0x0200) => return Err(v73()),
+            (b"MI", _) => return Err(MatError::BigEndian { file: file.to_string() }),
+            (b"IM", v) => return Err(not(&format!("version {v:#06x}, expected 0x0100"))),
+            (other, _) => return Err(not(&format!("endian indicator {other:?} at byte 126, expected \"IM\"; a v4 file or not a .mat file"))),
         }
         let mut vars = Vec::new();
         let mut top = Cursor::new(&bytes[128..]);
@@ -434,6 +434,10 @@ mod tests {
         be[126..128].copy_from_slice(b"MI");
         check(&be, "", "big-endian");
         check(b"hello", "", "not a MATLAB v5 .mat file");
+        check(&[0u8; 200], "", "a v4 file or not a .mat file");
+        let mut other_text = file(&ok);
+        other_text[..6].copy_from_slice(b"Octave");
+        assert!(MatFile::parse("m.mat", &other_text).is_ok());
         let mut v73 = b"MATLAB 7.3 MAT-file, Platform: GLNXA64, Created on: Mon Jan  1 00:00:00 2024 HDF5 schema 1.00 .".to_vec();
         v73.resize(512, b' ');
         v73.extend_from_slice(b"\x89HDF\r\n\x1a\n");
