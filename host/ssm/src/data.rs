@@ -1,4 +1,5 @@
-//! Scalar time series: loading `(t, observable)` CSV files and validating sampling.
+//! Scalar time series: loading `(t, observable)` CSV files and validating sampling; several
+//! observables per trajectory (CSV columns, SSMLearn `.mat` files, time windows) in [`multi`].
 //!
 //! A file has one header line naming the columns (a first line of numbers is an error, not
 //! a lost sample), then one `t,x` pair per line (extra whitespace allowed, blank lines
@@ -7,6 +8,10 @@
 //! typical (median) step, so a missing or repeated sample is reported at the row where the
 //! step changes), signal not constant. Nothing is silently dropped. Files larger than
 //! [`crate::limits::MAX_DATA_FILE_BYTES`] are refused before they are read.
+
+pub mod multi;
+
+pub use multi::{MultiSeries, check_same_observables, load_csv_observables, load_mat, mat_trajectories};
 
 use std::path::Path;
 
@@ -56,9 +61,9 @@ pub enum DataError {
     #[error("{file}: no column `{column}` in the header (columns: {available}); the first column is the time")]
     UnknownColumn { file: String, column: String, available: String },
     #[error("{file}: line {line}: cannot parse {column} value {text:?} as a number")]
-    Parse { file: String, line: usize, column: &'static str, text: String },
+    Parse { file: String, line: usize, column: String, text: String },
     #[error("{name}: row {row}: {column} is not finite ({value})")]
-    NonFinite { name: String, row: usize, column: &'static str, value: f64 },
+    NonFinite { name: String, row: usize, column: String, value: f64 },
     #[error("{name}: t and x have different lengths ({nt} vs {nx})")]
     LengthMismatch { name: String, nt: usize, nx: usize },
     #[error("{name}: row {row}: time does not increase (t = {t_prev} then {t})")]
@@ -75,6 +80,42 @@ pub enum DataError {
         "{name}: the largest |x| is {max_abs:e}, outside [{MIN_MAGNITUDE:e}, {MAX_MAGNITUDE:e}]: squares and products of such values under- or overflow double precision (the fit would lose its digits); rescale the data"
     )]
     Magnitude { name: String, max_abs: f64 },
+    #[error("{name}: observable {observable} is constant ({value} everywhere)")]
+    ConstantObservable { name: String, observable: String, value: f64 },
+    #[error("{name}: no observables (a trajectory needs at least one besides the time)")]
+    NoObservables { name: String },
+    #[error("{name}: observables [{got}] differ from those of {first} [{expected}]; every trajectory needs the same observables")]
+    ObservableMismatch { name: String, got: String, first: String, expected: String },
+    #[error("{name}: time window [{from}, {to}]: {why} (the data span t = {t_first} .. {t_last} s)")]
+    Window { name: String, from: String, to: String, t_first: f64, t_last: f64, why: String },
+    #[error("{name}: no observable `{observable}` (observables: {available})")]
+    UnknownObservable { name: String, observable: String, available: String },
+    #[error(transparent)]
+    Mat(#[from] crate::mat::MatError),
+    #[error("{file}: {var}: {why}")]
+    MatLayout { file: String, var: String, why: String },
+}
+
+/// Time strictly increasing and uniformly sampled (finite values and >= 2 samples checked
+/// before). The typical step is the median: one missing or repeated sample changes the mean
+/// of all steps (and every step would differ from it), not the median, so the error names
+/// the row where the step changes.
+pub(crate) fn check_time(name: &str, t: &[f64]) -> Result<(), DataError> {
+    for (i, w) in t.windows(2).enumerate() {
+        if w[1] <= w[0] {
+            return Err(DataError::NonIncreasing { name: name.to_string(), row: i + 2, t_prev: w[0], t: w[1] });
+        }
+    }
+    let mut steps: Vec<f64> = t.windows(2).map(|w| w[1] - w[0]).collect();
+    steps.sort_by(f64::total_cmp);
+    let typical = steps[steps.len() / 2];
+    for (i, w) in t.windows(2).enumerate() {
+        let step = w[1] - w[0];
+        if (step - typical).abs() > SAMPLING_RTOL * typical {
+            return Err(DataError::UnevenSampling { name: name.to_string(), row: i + 2, step, typical, rtol: SAMPLING_RTOL });
+        }
+    }
+    Ok(())
 }
 
 impl TimeSeries {
@@ -117,37 +158,11 @@ impl TimeSeries {
         for (i, (&t, &x)) in self.t.iter().zip(&self.x).enumerate() {
             for (column, value) in [("t", t), ("x", x)] {
                 if !value.is_finite() {
-                    return Err(DataError::NonFinite { name: name.clone(), row: i + 1, column, value });
+                    return Err(DataError::NonFinite { name: name.clone(), row: i + 1, column: column.into(), value });
                 }
             }
         }
-        for (i, w) in self.t.windows(2).enumerate() {
-            if w[1] <= w[0] {
-                return Err(DataError::NonIncreasing {
-                    name: name.clone(),
-                    row: i + 2,
-                    t_prev: w[0],
-                    t: w[1],
-                });
-            }
-        }
-        // The typical step is the median: one missing or repeated sample changes the mean of
-        // all steps (and every step would differ from it), not the median.
-        let mut steps: Vec<f64> = self.t.windows(2).map(|w| w[1] - w[0]).collect();
-        steps.sort_by(f64::total_cmp);
-        let typical = steps[steps.len() / 2];
-        for (i, w) in self.t.windows(2).enumerate() {
-            let step = w[1] - w[0];
-            if (step - typical).abs() > SAMPLING_RTOL * typical {
-                return Err(DataError::UnevenSampling {
-                    name: name.clone(),
-                    row: i + 2,
-                    step,
-                    typical,
-                    rtol: SAMPLING_RTOL,
-                });
-            }
-        }
+        check_time(name, &self.t)?;
         let x0 = self.x[0];
         if self.x.iter().all(|&x| x == x0) {
             return Err(DataError::Constant { name: name.clone(), value: x0 });
@@ -246,7 +261,7 @@ pub fn parse_csv_column(file: &str, name: String, text: &str, column: Option<&st
             let v: f64 = text.parse().map_err(|_| DataError::Parse {
                 file: file.to_string(),
                 line: line_no,
-                column: col,
+                column: col.to_string(),
                 text: text.to_string(),
             })?;
             out.push(v);
@@ -274,14 +289,14 @@ mod tests {
     #[test]
     fn errors_name_the_line_or_row() {
         let e = parse("t,x\n0,1\n0.5,abc\n").unwrap_err();
-        assert!(matches!(e, DataError::Parse { line: 3, column: "x", .. }), "{e}");
+        assert!(matches!(&e, DataError::Parse { line: 3, column, .. } if column == "x"), "{e}");
         assert!(e.to_string().contains("mem.csv: line 3"), "{e}");
 
         let e = parse("t,x\n0,1\n0.5\n").unwrap_err();
         assert!(matches!(e, DataError::Columns { line: 3, found: 1, .. }), "{e}");
 
         let e = parse("t,x\n0,1\n0.5,NaN\n1,2\n").unwrap_err();
-        assert!(matches!(e, DataError::NonFinite { row: 2, column: "x", .. }), "{e}");
+        assert!(matches!(&e, DataError::NonFinite { row: 2, column, .. } if column == "x"), "{e}");
 
         let e = parse("t,x\n0,1\n0.5,2\n0.5,3\n").unwrap_err();
         assert!(matches!(e, DataError::NonIncreasing { row: 3, .. }), "{e}");
@@ -318,7 +333,7 @@ mod tests {
         let e = parse_csv_column("sim.csv", "sim".into(), "t,theta,w\n0,1,2\n1,2\n", Some("theta")).unwrap_err();
         assert!(matches!(e, DataError::Columns { line: 3, expected: 3, found: 2, .. }), "{e}");
         let e = parse_csv_column("sim.csv", "sim".into(), "t,theta,w\n0,1,2\n1,x,2\n", Some("theta")).unwrap_err();
-        assert!(matches!(e, DataError::Parse { line: 3, column: "x", .. }), "{e}");
+        assert!(matches!(&e, DataError::Parse { line: 3, column, .. } if column == "x"), "{e}");
     }
 
     #[test]

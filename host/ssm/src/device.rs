@@ -22,6 +22,8 @@ pub enum ExportError {
     Monomial(Vec<u32>, usize, usize),
     #[error("value {what} = {value} does not fit in f32")]
     F32 { what: &'static str, value: f64 },
+    #[error("the device predictor embeds one observable; this model has {0}")]
+    Observables(usize),
     #[error("encoding: {0}")]
     Encode(String),
     #[error("{what} = {got} exceeds the limit of {max}")]
@@ -75,6 +77,9 @@ fn f32_of(what: &'static str, value: f64) -> Result<f32, ExportError> {
 
 /// Converts a fitted RBF model to the device model for controller configuration `cfg`.
 pub fn to_device_model(m: &SsmModel, cfg: ControllerConfig) -> Result<OwnedModel, ExportError> {
+    if m.observables != 1 {
+        return Err(ExportError::Observables(m.observables));
+    }
     let rbf = match &m.dynamics {
         ReducedDynamics::Rbf(r) => r,
         ReducedDynamics::Flow { .. } => return Err(ExportError::NotRbf("flow")),

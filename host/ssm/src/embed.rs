@@ -1,12 +1,17 @@
-//! Delay embedding of a scalar series.
+//! Delay embedding of a scalar series, and over-embedding of several observables.
 //!
 //! With `p` coordinates and a shift of `s` samples, embedded point `n` is
 //! `y_n = [x_n, x_{n+s}, ..., x_{n+(p-1)s}]`, for `n = 0 .. N - (p-1)s`. The embedded point
 //! is attached to time `t_n` (its first coordinate is the observable now).
+//!
+//! With `q` observables `X_n` (a vector), `p` copies stack delayed copies of every
+//! observable, `y_n = [X_n; X_{n+s}; ...; X_{n+(p-1)s}]` (`q p` coordinates: row `k q + i`
+//! is observable `i` delayed by `k s` samples), as SSMLearn's `coordinatesEmbedding` with
+//! `OverEmbedding = p - 1` stacks them. For `q = 1` it is the scalar embedding above.
 
 use faer::Mat;
 
-use super::data::{DataError, TimeSeries};
+use super::data::{DataError, MultiSeries, TimeSeries};
 
 /// Number of embedded points of a series of length `n`, or `None` if it is too short.
 pub fn embedded_len(n: usize, p: usize, shift: usize) -> Option<usize> {
@@ -23,9 +28,45 @@ pub fn delay_embed(ts: &TimeSeries, p: usize, shift: usize, min_points: usize) -
     Ok(Mat::from_fn(p, m, |i, j| ts.x[j + i * shift]))
 }
 
+/// Embeds the `q` observables of `ts` with `p` copies into a `q p x M` matrix (see the
+/// module docs); `min_points` as for [`delay_embed`].
+pub fn delay_embed_multi(ts: &MultiSeries, p: usize, shift: usize, min_points: usize) -> Result<Mat<f64>, DataError> {
+    let need = (p.saturating_sub(1)).saturating_mul(shift).saturating_add(min_points.max(1));
+    if ts.len() < need {
+        return Err(DataError::TooShort {
+            name: ts.name.clone(),
+            have: ts.len(),
+            need,
+            why: format!("delay embedding with p = {p}, shift = {shift} and {} points", min_points.max(1)),
+        });
+    }
+    let q = ts.dim();
+    let m = ts.len() - (p.saturating_sub(1)) * shift;
+    Ok(Mat::from_fn(q * p, m, |r, j| ts.x[(j + (r / q) * shift) * q + r % q]))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn over_embeds_every_observable() {
+        // q = 2 observables a_n = n, b_n = 10 n; p = 3 copies, shift 2.
+        let t: Vec<f64> = (0..7).map(|i| i as f64).collect();
+        let x: Vec<f64> = (0..7).flat_map(|i| [i as f64, 10.0 * i as f64]).collect();
+        let ms = MultiSeries::new("m", t, vec!["a".into(), "b".into()], x).unwrap();
+        let y = delay_embed_multi(&ms, 3, 2, 1).unwrap();
+        assert_eq!((y.nrows(), y.ncols()), (6, 3));
+        // column 1 = [a1, b1, a3, b3, a5, b5]
+        assert_eq!((0..6).map(|r| y[(r, 1)]).collect::<Vec<_>>(), [1.0, 10.0, 3.0, 30.0, 5.0, 50.0]);
+        // One observable: the scalar embedding, entry for entry.
+        let ts = TimeSeries::new("s", (0..9).map(|i| i as f64).collect(), (0..9).map(|i| (i * i) as f64 - 3.0).collect()).unwrap();
+        let (a, b) = (delay_embed(&ts, 4, 2, 1).unwrap(), delay_embed_multi(&MultiSeries::from(&ts), 4, 2, 1).unwrap());
+        assert_eq!((a.nrows(), a.ncols()), (b.nrows(), b.ncols()));
+        assert!((0..a.nrows()).all(|r| (0..a.ncols()).all(|c| a[(r, c)] == b[(r, c)])));
+        let e = delay_embed_multi(&ms, 3, 2, 4).unwrap_err();
+        assert!(matches!(e, DataError::TooShort { have: 7, need: 8, .. }), "{e}");
+    }
 
     #[test]
     fn embeds_with_shift() {

@@ -30,4 +30,6 @@ pub enum FitError {
     StepMismatch { name: String, dt: f64, dt_model: f64, rtol: f64 },
     #[error("{name}: embedded dimension {got} does not match the model's {expected}")]
     DimMismatch { name: String, got: usize, expected: usize },
+    #[error("{name}: {got} observables, the model was fitted to {expected}")]
+    Observables { name: String, got: usize, expected: usize },
 }

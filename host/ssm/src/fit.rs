@@ -1,12 +1,15 @@
 //! The fitting pipeline and the fitted model: delay embedding -> tangent space and graph
 //! parametrization -> reduced dynamics; prediction from a test series' first embedded
-//! point with blow-up detection.
+//! point with blow-up detection. Scalar series ([`fit`], [`SsmModel::predict`]) are the
+//! one-observable case of trajectories of several observables ([`fit_multi`],
+//! [`SsmModel::predict_multi`]), which over-embed every observable
+//! ([`crate::embed::delay_embed_multi`]).
 
 use serde::{Deserialize, Serialize};
 
-use super::data::TimeSeries;
+use super::data::{MultiSeries, TimeSeries, check_same_observables};
 use super::dynamics::{Dynamics, EtaTrajectory, MAP_DT_RTOL, ReducedDynamics, StepScratch};
-use super::embed::{delay_embed, embedded_len};
+use super::embed::{delay_embed_multi, embedded_len};
 use super::error::FitError;
 use super::manifold::Manifold;
 use super::metrics;
@@ -21,7 +24,10 @@ pub const BLOWUP_FACTOR: f64 = 10.0;
 pub struct FitOptions {
     /// SSM dimension d (>= 1).
     pub dim: usize,
-    /// Delay-embedding dimension p (> 2 d).
+    /// Delay-embedding dimension p (> 2 d): the number of delayed copies of the observable.
+    /// With q observables ([`fit_multi`]) every observable is copied p times, `q p > 2 d`
+    /// coordinates (SSMLearn's `OverEmbedding` is `p - 1`; p = 1 uses the observables as
+    /// they are).
     pub embed: usize,
     /// Delay between embedding coordinates, in samples (>= 1).
     pub shift: usize,
@@ -48,20 +54,32 @@ pub struct FitOptions {
 }
 
 impl FitOptions {
-    /// Checks the options alone (no data): ranges, and the sizes the options imply against
-    /// [`crate::limits`] (dimensions, orders, monomial counts, centres), so that nothing of
-    /// that size is allocated first. [`fit`] calls it; the data-dependent sizes (rows of the
-    /// regressions) are checked where the data are known, before each matrix is built.
+    /// Checks the options alone (no data) for one observable: see [`FitOptions::validate_for`].
     pub fn validate(&self) -> Result<(), FitError> {
+        self.validate_for(1)
+    }
+
+    /// Checks the options alone (no data) for data of `q` observables: ranges, and the sizes
+    /// the options imply against [`crate::limits`] (dimensions, orders, monomial counts,
+    /// centres), so that nothing of that size is allocated first. [`fit`] calls it; the
+    /// data-dependent sizes (rows of the regressions) are checked where the data are known,
+    /// before each matrix is built.
+    pub fn validate_for(&self, q: usize) -> Result<(), FitError> {
         use crate::limits::{self, MAX_CENTERS, MAX_DIM, MAX_EMBED, MAX_ORDER, MAX_SHIFT, MAX_TERMS};
         let bad = |what, why: String| Err(FitError::BadOption { what, why });
         if self.dim == 0 {
             return bad("dim", "must be >= 1".into());
         }
         limits::check("dim", self.dim, MAX_DIM)?;
-        limits::check("embed", self.embed, MAX_EMBED)?;
-        if self.embed <= 2 * self.dim {
+        limits::check("embed", self.embed.saturating_mul(q), MAX_EMBED)?;
+        if q == 1 && self.embed <= 2 * self.dim {
             return bad("embed", format!("p = {} must exceed 2 d = {} (Takens)", self.embed, 2 * self.dim));
+        }
+        if self.embed == 0 || q * self.embed <= 2 * self.dim {
+            return bad(
+                "embed",
+                format!("p = {} copies of {q} observables = {} coordinates must exceed 2 d = {} (Takens)", self.embed, q * self.embed, 2 * self.dim),
+            );
         }
         if self.shift == 0 {
             return bad("shift", "must be >= 1 sample".into());
@@ -129,6 +147,18 @@ pub struct SsmModel {
     pub eta_range: Vec<f64>,
     /// Number of embedded training points.
     pub n_points: usize,
+    /// Number of observables q of the training data (1 for scalar series; absent from
+    /// saved scalar models, which read back as 1).
+    #[serde(default = "one", skip_serializing_if = "is_one")]
+    pub observables: usize,
+}
+
+fn one() -> usize {
+    1
+}
+
+fn is_one(q: &usize) -> bool {
+    *q == 1
 }
 
 /// Why a prediction stopped early.
@@ -157,7 +187,9 @@ pub struct Prediction {
     /// Predicted observable. Full test length when `stop` is `None`: sample `n` comes from
     /// embedded point `m = n - k shift` (coordinate k, the smallest k with m in range), so
     /// the last `(p-1) shift` samples use the later coordinates of the last point.
-    /// When stopped early, only the samples of the produced embedded points.
+    /// When stopped early, only the samples of the produced embedded points. With q
+    /// observables ([`SsmModel::predict_multi`]) row-major `len x q`, as
+    /// [`MultiSeries::x`].
     pub x: Vec<f64>,
     /// Reduced coordinates of the produced embedded points, row-major `len x d`.
     pub eta: Vec<f64>,
@@ -179,16 +211,51 @@ impl Prediction {
         metrics::nmte(&self.x, &test.x, 1).unwrap_or(f64::INFINITY)
     }
 
+    /// NMTE over all observables of `test` (the error norm of the observable vector, see
+    /// [`metrics::nmte`]); infinite when the prediction stopped early.
+    pub fn nmte_multi(&self, test: &MultiSeries) -> f64 {
+        if self.stop.is_some() || self.x.len() != test.x.len() {
+            return f64::INFINITY;
+        }
+        metrics::nmte(&self.x, &test.x, test.dim()).unwrap_or(f64::INFINITY)
+    }
+
     /// NMTE after DTW alignment (Sakoe-Chiba band `band` samples), on the predicted prefix.
     pub fn nmte_dtw(&self, test: &TimeSeries, band: Option<usize>) -> f64 {
         let n = self.x.len().min(test.x.len());
         metrics::nmte_dtw(&self.x[..n], &test.x[..n], 1, band).unwrap_or(f64::INFINITY)
     }
+
+    /// [`Prediction::nmte_dtw`] over all observables of `test`.
+    pub fn nmte_dtw_multi(&self, test: &MultiSeries, band: Option<usize>) -> f64 {
+        let n = self.x.len().min(test.x.len());
+        metrics::nmte_dtw(&self.x[..n], &test.x[..n], test.dim(), band).unwrap_or(f64::INFINITY)
+    }
 }
 
 /// Fits an SSM-reduced model to training series `train` (each validated again here).
 pub fn fit(train: &[TimeSeries], opts: &FitOptions) -> Result<SsmModel, FitError> {
+    fit_impl(&as_multi(train)?, opts, None)
+}
+
+/// Fits an SSM-reduced model to trajectories of several observables (each validated again
+/// here; all must have the same number of observables): `opts.embed` copies of every
+/// observable are stacked (see [`crate::embed`]), and predictions and NMTE are over all
+/// observables.
+pub fn fit_multi(train: &[MultiSeries], opts: &FitOptions) -> Result<SsmModel, FitError> {
     fit_impl(train, opts, None)
+}
+
+/// Scalar series as one-observable trajectories, each validated as a scalar series first
+/// (so errors read as before).
+fn as_multi(train: &[TimeSeries]) -> Result<Vec<MultiSeries>, FitError> {
+    train
+        .iter()
+        .map(|ts| {
+            ts.validate()?;
+            Ok(MultiSeries::from(ts))
+        })
+        .collect()
 }
 
 /// [`fit`] with a given tangent basis `v1` (`p x d`, column-major, orthonormal columns)
@@ -197,15 +264,21 @@ pub fn fit(train: &[TimeSeries], opts: &FitOptions) -> Result<SsmModel, FitError
 /// `v1` share their reduced coordinates `eta = V1^T y`, so their coefficients can be
 /// compared and interpolated.
 pub fn fit_with_tangent(train: &[TimeSeries], opts: &FitOptions, v1: &[f64]) -> Result<SsmModel, FitError> {
-    fit_impl(train, opts, Some(v1))
+    fit_impl(&as_multi(train)?, opts, Some(v1))
 }
 
 /// Delay embeddings (`p x M_i`) and sampling steps of validated training series.
 pub fn embed_training(train: &[TimeSeries], opts: &FitOptions) -> Result<(Vec<faer::Mat<f64>>, Vec<f64>), FitError> {
-    opts.validate()?;
+    embed_training_multi(&as_multi(train)?, opts)
+}
+
+/// Embeddings (`q p x M_i`) and sampling steps of validated trajectories of q observables.
+pub fn embed_training_multi(train: &[MultiSeries], opts: &FitOptions) -> Result<(Vec<faer::Mat<f64>>, Vec<f64>), FitError> {
+    opts.validate_for(train.first().map_or(1, MultiSeries::dim))?;
     if train.is_empty() {
         return Err(FitError::NoTrainingData);
     }
+    check_same_observables(train, false)?;
     // Flow fitting drops 2 points per end; require a few usable points per trajectory.
     let min_points = 8;
     let mut ys = Vec::with_capacity(train.len());
@@ -214,15 +287,15 @@ pub fn embed_training(train: &[TimeSeries], opts: &FitOptions) -> Result<(Vec<fa
     for ts in train {
         ts.validate()?;
         total = total.saturating_add(embedded_len(ts.len(), opts.embed, opts.shift).unwrap_or(0));
-        crate::limits::check_matrix("delay embedding of the training data", opts.embed, total, false)?;
-        ys.push(delay_embed(ts, opts.embed, opts.shift, min_points)?);
+        crate::limits::check_matrix("delay embedding of the training data", opts.embed.saturating_mul(ts.dim()), total, false)?;
+        ys.push(delay_embed_multi(ts, opts.embed, opts.shift, min_points)?);
         dts.push(ts.dt().unwrap_or(0.0));
     }
     Ok((ys, dts))
 }
 
-fn fit_impl(train: &[TimeSeries], opts: &FitOptions, v1: Option<&[f64]>) -> Result<SsmModel, FitError> {
-    let (ys, dts) = embed_training(train, opts)?;
+fn fit_impl(train: &[MultiSeries], opts: &FitOptions, v1: Option<&[f64]>) -> Result<SsmModel, FitError> {
+    let (ys, dts) = embed_training_multi(train, opts)?;
     let manifold = match v1 {
         None => Manifold::fit(&ys, opts.dim, opts.manifold_order, opts.ridge)?,
         Some(v1) => Manifold::fit_with_tangent(&ys, v1, opts.dim, opts.manifold_order, opts.ridge)?,
@@ -242,6 +315,7 @@ fn fit_impl(train: &[TimeSeries], opts: &FitOptions, v1: Option<&[f64]>) -> Resu
         eigenvalues_ct,
         eta_range,
         n_points: ys.iter().map(|y| y.ncols()).sum(),
+        observables: train[0].dim(),
     })
 }
 
@@ -256,17 +330,29 @@ impl SsmModel {
     /// [`BLOWUP_FACTOR`] x its training range) truncates the prediction and sets `stop`.
     pub fn predict(&self, test: &TimeSeries) -> Result<Prediction, FitError> {
         test.validate()?;
-        let (p, s, d) = (self.options.embed, self.options.shift, self.options.dim);
-        crate::limits::check_matrix("delay embedding of the test data", p, embedded_len(test.len(), p, s).unwrap_or(0), false)?;
+        self.predict_multi(&MultiSeries::from(test))
+    }
+
+    /// [`SsmModel::predict`] for a trajectory of the model's q observables: `x` of the
+    /// prediction is row-major `len x q`.
+    pub fn predict_multi(&self, test: &MultiSeries) -> Result<Prediction, FitError> {
+        test.validate()?;
+        let q = self.observables;
+        if test.dim() != q {
+            return Err(FitError::Observables { name: test.name.clone(), got: test.dim(), expected: q });
+        }
+        let (copies, s, d) = (self.options.embed, self.options.shift, self.options.dim);
+        let p = self.manifold.p;
+        crate::limits::check_matrix("delay embedding of the test data", p, embedded_len(test.len(), copies, s).unwrap_or(0), false)?;
         // At least `s` embedded points: every sample is then some coordinate of a produced
         // point (with fewer, samples between the last point's coordinates have none).
-        let y = delay_embed(test, p, s, s)?;
+        let y = delay_embed_multi(test, copies, s, s)?;
         let dt = test.dt().unwrap_or(self.dt);
         let map_dt = self.dynamics.map_dt().unwrap_or(dt);
         if (dt - map_dt).abs() > MAP_DT_RTOL * map_dt {
             return Err(FitError::StepMismatch { name: test.name.clone(), dt, dt_model: map_dt, rtol: MAP_DT_RTOL });
         }
-        let m_total = embedded_len(test.len(), p, s).unwrap_or(0);
+        let m_total = embedded_len(test.len(), copies, s).unwrap_or(0);
         let y0: Vec<f64> = (0..p).map(|i| y[(i, 0)]).collect();
         let mut eta = self.manifold.reduce(&y0);
         let mut etas = Vec::with_capacity(m_total * d);
@@ -299,13 +385,13 @@ impl SsmModel {
         etas.truncate(produced * d);
         lifted.truncate(produced * p);
         let len = if stop.is_some() { produced } else { test.len() };
-        let mut x = Vec::with_capacity(len);
+        let mut x = Vec::with_capacity(len * q);
         for n in 0..len {
             // smallest k with m = n - k s <= produced - 1
             let over = n.saturating_sub(produced.saturating_sub(1));
             let k = over.div_ceil(s);
             let m = n - k * s;
-            x.push(lifted[m * p + k]);
+            x.extend_from_slice(&lifted[m * p + k * q..m * p + (k + 1) * q]);
         }
         Ok(Prediction {
             t: test.t[..len].to_vec(),
@@ -368,17 +454,21 @@ impl SsmModel {
     /// under `model`).
     pub fn validate(&self) -> Result<(), ModelFileError> {
         let inv = |field: &str, why: String| Err(ModelFileError::Invalid { field: field.to_string(), why });
-        if let Err(e) = self.options.validate() {
+        if self.observables == 0 {
+            return inv("observables", "must be >= 1".into());
+        }
+        if let Err(e) = self.options.validate_for(self.observables) {
             return inv("options", e.to_string());
         }
-        let (d, p) = (self.options.dim, self.options.embed);
+        // The embedding holds `embed` delayed copies of every observable.
+        let (d, p) = (self.options.dim, self.options.embed * self.observables);
         positive("dt", self.dt)?;
         let man = &self.manifold;
         if man.dim != d {
             return inv("manifold.dim", format!("{} differs from options.dim = {d}", man.dim));
         }
         if man.p != p {
-            return inv("manifold.p", format!("{} differs from options.embed = {p}", man.p));
+            return inv("manifold.p", format!("{} differs from options.embed x observables = {p}", man.p));
         }
         finite_vec("manifold.v1", &man.v1, p * d)?;
         if man.singular_values.len() > p {

@@ -1,13 +1,16 @@
-//! Data-driven spectral submanifold (SSM) models from scalar time series: the SSMLearn
-//! algorithm (paper appendix A) in our own code.
+//! Data-driven spectral submanifold (SSM) models from time series of one or several
+//! observables: the SSMLearn algorithm (paper appendix A) in our own code.
 //!
-//! Pipeline: [`data`] (CSV loading, validation) -> [`embed`] (delay embedding) ->
+//! Pipeline: [`data`] (CSV and SSMLearn `.mat` loading through [`mat`], validation, time
+//! windows) -> [`embed`] (delay embedding, over-embedding of several observables) ->
 //! [`manifold`] (tangent space by SVD, constrained graph-style polynomial parametrization)
 //! -> [`dynamics`] (polynomial flow / polynomial map / linear-kernel RBF map) -> [`fit`]
 //! (options, fitted model, prediction with blow-up detection); [`metrics`] holds NMTE,
 //! DTW-aligned NMTE and FFT amplitude spectra; [`spectrum`] sliding two-tone amplitudes and
 //! interpolated spectral peaks. Linear least squares go through [`ridge`]. On top of a fit:
-//! [`normal_form`] (polar normal forms of flows and maps), [`portrait`] (analysis of the
+//! [`normal_form`] (polar normal forms of flows and maps, with their change of
+//! coordinates), [`backbone`] (instantaneous damping and frequency against the amplitude of
+//! an observable), [`portrait`] (analysis of the
 //! two-mode amplitude equations: fixed points, saddle manifolds, heteroclinic and torus-Hopf
 //! detection), [`interp`] (coefficients interpolated in a system parameter) and [`device`]
 //! (a fitted RBF model converted to the device's `shared::model` blob).
@@ -16,6 +19,7 @@
 //! depend on `sim`), and draws nothing; its only workspace dependency is `shared`, for the
 //! device model format.
 
+pub mod backbone;
 pub mod data;
 pub mod dynamics;
 pub mod device;
@@ -25,6 +29,7 @@ pub mod fit;
 pub mod interp;
 pub mod limits;
 pub mod manifold;
+pub mod mat;
 pub mod metrics;
 pub mod normal_form;
 pub mod poly;
@@ -32,10 +37,10 @@ pub mod portrait;
 pub mod ridge;
 pub mod spectrum;
 
-pub use data::{DataError, TimeSeries, load_csv, load_csv_column};
+pub use data::{DataError, MultiSeries, TimeSeries, load_csv, load_csv_column, load_csv_observables, load_mat};
 pub use dynamics::{Dynamics, ReducedDynamics};
 pub use error::FitError;
-pub use fit::{FitOptions, MODEL_FORMAT, MODEL_FORMAT_VERSION, ModelFileError, Prediction, SsmModel, Stop, StopReason, fit};
+pub use fit::{FitOptions, MODEL_FORMAT, MODEL_FORMAT_VERSION, ModelFileError, Prediction, SsmModel, Stop, StopReason, fit, fit_multi};
 pub use ridge::{Conditioning, Ridge};
 
 #[cfg(test)]
@@ -61,4 +66,6 @@ pub enum Error {
     Export(#[from] crate::device::ExportError),
     #[error(transparent)]
     ModelFile(#[from] crate::fit::ModelFileError),
+    #[error(transparent)]
+    Backbone(#[from] crate::backbone::BackboneError),
 }

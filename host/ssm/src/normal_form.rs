@@ -314,6 +314,8 @@ struct Modal {
     lam: Vec<C>,
     /// Nonlinear part of the modal field / map, one SPoly per equation.
     f: Vec<SPoly>,
+    /// Eigenvector matrix: `eta = W q` (columns `w_1, conj w_1, ...`, normalized).
+    w: DMatrix<C>,
 }
 
 /// Eigenvector of real `a` (d x d) for eigenvalue `lam` by inverse iteration.
@@ -435,7 +437,7 @@ fn modal(
         })
         .collect();
     let eig_ct: Vec<(f64, f64)> = pos.iter().map(|&z| (ct(z).re, ct(z).im)).collect();
-    Ok((Modal { lam, f }, eig_ct))
+    Ok((Modal { lam, f, w: wm }, eig_ct))
 }
 
 /// Structural resonance: in the equation of variable `i` (pair `i/2`, conjugate if odd),
@@ -448,6 +450,8 @@ fn structural(i: usize, m: &[u32]) -> bool {
 struct Normalized {
     /// Normal-form nonlinear terms per equation.
     n: Vec<SPoly>,
+    /// Near-identity transformation `q = u + h(u)`, nonlinear part per variable.
+    h: Vec<SPoly>,
     extra: Vec<ExtraResonance>,
     min_div: f64,
 }
@@ -519,7 +523,7 @@ fn normalize(md: &Modal, order: u32, is_map: bool, small: f64) -> Normalized {
             }
         }
     }
-    Normalized { n, extra, min_div }
+    Normalized { n, h, extra, min_div }
 }
 
 /// Extracts `beta_{i,ab}` (complex, indexed by `pexps`) from the equation of `z_i`.
@@ -672,14 +676,65 @@ fn map_to_flow(
     Err(NormalFormError::NoConvergence { residual: res, iterations: max_it })
 }
 
+/// The change of coordinates of a normal form: reduced coordinates
+/// `eta = W (u + h(u))` of the normal-form coordinates `u = (z_1, conj z_1, z_2, ...)`,
+/// `z_j = rho_j e^{i theta_j}`, with `W` the normalized eigenvectors and `h` the
+/// near-identity transformation (degrees 2..=order) that removed the non-resonant terms.
+/// Truncated at the normal form's order: a trajectory of the polar normal form mapped
+/// through it follows the reduced dynamics up to `O(rho^(order+1))`.
+#[derive(Clone, Debug)]
+pub struct NormalFormTransform {
+    w: DMatrix<C>,
+    h: Vec<SPoly>,
+}
+
+fn eval_spoly(p: &SPoly, u: &[C]) -> C {
+    p.iter().map(|(e, c)| e.iter().zip(u).fold(*c, |acc, (&k, &x)| if k == 0 { acc } else { acc * x.powu(k) })).sum()
+}
+
+impl NormalFormTransform {
+    /// Dimension d of the reduced coordinates.
+    pub fn dim(&self) -> usize {
+        self.w.nrows()
+    }
+
+    /// Reduced coordinates `eta` (length d) at amplitudes `rho` and phases `theta` (one
+    /// per mode, mode order of the normal form).
+    pub fn eta(&self, rho: &[f64], theta: &[f64]) -> Vec<f64> {
+        let d = self.dim();
+        let mut u = Vec::with_capacity(d);
+        for (r, th) in rho.iter().zip(theta) {
+            let z = C::from_polar(*r, *th);
+            u.push(z);
+            u.push(z.conj());
+        }
+        let q: Vec<C> = (0..d).map(|i| u[i] + eval_spoly(&self.h[i], &u)).collect();
+        (0..d).map(|r| (0..d).map(|l| self.w[(r, l)] * q[l]).sum::<C>().re).collect()
+    }
+}
+
+fn dynamics_poly(dynamics: &ReducedDynamics) -> Result<(&Poly, Option<f64>), NormalFormError> {
+    match dynamics {
+        ReducedDynamics::Flow { field, .. } => Ok((field, None)),
+        ReducedDynamics::Map { increment, dt, .. } => Ok((increment, Some(*dt))),
+        ReducedDynamics::Rbf(_) => Err(NormalFormError::NotPolynomial),
+    }
+}
+
 /// Normal form of polynomial reduced dynamics (`Flow` or `Map`).
 pub fn normal_form(dynamics: &ReducedDynamics, opts: &NormalFormOptions) -> Result<PolarNormalForm, NormalFormError> {
-    let (poly, map_dt) = match dynamics {
-        ReducedDynamics::Flow { field, .. } => (field, None),
-        ReducedDynamics::Map { increment, dt, .. } => (increment, Some(*dt)),
-        ReducedDynamics::Rbf(_) => return Err(NormalFormError::NotPolynomial),
-    };
+    let (poly, map_dt) = dynamics_poly(dynamics)?;
     normal_form_of_poly(poly, map_dt, opts)
+}
+
+/// [`normal_form`] together with its change of coordinates (e.g. to map normal-form
+/// amplitudes to reduced coordinates, and through the manifold to an observable).
+pub fn normal_form_with_transform(
+    dynamics: &ReducedDynamics,
+    opts: &NormalFormOptions,
+) -> Result<(PolarNormalForm, NormalFormTransform), NormalFormError> {
+    let (poly, map_dt) = dynamics_poly(dynamics)?;
+    normal_form_parts(poly, map_dt, opts)
 }
 
 /// Normal form of `eta' = poly(eta)` (`map_dt = None`) or of the map
@@ -689,6 +744,14 @@ pub fn normal_form_of_poly(
     map_dt: Option<f64>,
     opts: &NormalFormOptions,
 ) -> Result<PolarNormalForm, NormalFormError> {
+    normal_form_parts(poly, map_dt, opts).map(|(nf, _)| nf)
+}
+
+fn normal_form_parts(
+    poly: &Poly,
+    map_dt: Option<f64>,
+    opts: &NormalFormOptions,
+) -> Result<(PolarNormalForm, NormalFormTransform), NormalFormError> {
     let order = opts.order.unwrap_or_else(|| poly::max_degree(&poly.exps).max(1));
     if order == 0 || order > 9 {
         return Err(NormalFormError::Order(order));
@@ -713,7 +776,7 @@ pub fn normal_form_of_poly(
             .collect();
         (amp, phase)
     };
-    Ok(PolarNormalForm {
+    let nf = PolarNormalForm {
         modes,
         order: odd,
         pexps,
@@ -724,17 +787,29 @@ pub fn normal_form_of_poly(
         extra_resonances: nz.extra,
         min_divisor: nz.min_div,
         map_dt,
-    })
+    };
+    Ok((nf, NormalFormTransform { w: md.w, h: nz.h }))
 }
 
 /// Normal form of a fitted model with the [`Normalization::Observable`] convention on the
 /// observable itself (first row of the tangent basis `V1`): `rho_j` is the amplitude of
 /// mode `j` in the measured signal. `opts.normalization` is overridden.
 pub fn model_normal_form(model: &SsmModel, opts: &NormalFormOptions) -> Result<PolarNormalForm, NormalFormError> {
+    normal_form(&model.dynamics, &model_options(model, opts))
+}
+
+/// [`model_normal_form`] with its change of coordinates ([`normal_form_with_transform`]).
+pub fn model_normal_form_with_transform(
+    model: &SsmModel,
+    opts: &NormalFormOptions,
+) -> Result<(PolarNormalForm, NormalFormTransform), NormalFormError> {
+    normal_form_with_transform(&model.dynamics, &model_options(model, opts))
+}
+
+fn model_options(model: &SsmModel, opts: &NormalFormOptions) -> NormalFormOptions {
     let m = &model.manifold;
     let row: Vec<f64> = (0..m.dim).map(|j| m.v1[j * m.p]).collect();
-    let o = NormalFormOptions { normalization: Normalization::Observable(row), ..opts.clone() };
-    normal_form(&model.dynamics, &o)
+    NormalFormOptions { normalization: Normalization::Observable(row), ..opts.clone() }
 }
 
 #[cfg(test)]

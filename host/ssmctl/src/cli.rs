@@ -99,8 +99,24 @@ pub enum Cmd {
         #[arg(long, default_value = "../shared/data")]
         data_dir: PathBuf,
     },
-    /// Fit an SSM reduced model to scalar time series (CSV files of t, observable).
-    Fit(FitArgs),
+    /// Fit an SSM reduced model to time series of one or several observables (CSV files of
+    /// t and observables, or SSMLearn .mat files with a cell array xData of {t, X} rows).
+    Fit(Box<FitArgs>),
+    /// Backbone curves (instantaneous damping ratio and frequency against amplitude) of a
+    /// saved model with polynomial dynamics; writes DIR/backbone.json and DIR/backbone.png.
+    Backbone {
+        /// Fitted model JSON written by `ssmctl fit --save`.
+        #[arg(long)]
+        model: PathBuf,
+        #[arg(long)]
+        out: PathBuf,
+        /// Observable (1-based, in the order the model was fitted with).
+        #[arg(long, default_value_t = 1)]
+        observable: usize,
+        /// Largest amplitude of the curve, in the observable's units.
+        #[arg(long)]
+        amplitude: f64,
+    },
     /// Convert a fitted RBF model (JSON from `fit --save`) to the device blob.
     Export {
         /// Fitted model JSON written by `ssmctl fit --save`.
@@ -188,16 +204,40 @@ pub enum Cmd {
 
 #[derive(Args)]
 pub struct FitArgs {
-    /// Training CSV files, comma separated.
-    #[arg(long, value_delimiter = ',', required = true)]
+    /// Training files, comma separated: CSV, or .mat (every trajectory of --mat-var).
+    #[arg(long, value_delimiter = ',', required_unless_present = "mat")]
     pub data: Vec<PathBuf>,
-    /// Test CSV files, comma separated.
+    /// Test files, comma separated (CSV or .mat).
     #[arg(long, value_delimiter = ',')]
     pub test: Vec<PathBuf>,
+    /// A MATLAB .mat file (v5-v7; SSMLearn's layout: a cell array with one row {t, X} per
+    /// trajectory, X one row per observable) split into training and test trajectories by
+    /// --test-rows.
+    #[arg(long)]
+    pub mat: Option<PathBuf>,
+    /// The cell-array variable of .mat files.
+    #[arg(long, default_value = "xData")]
+    pub mat_var: String,
+    /// Rows of --mat (1-based, comma separated) held out for testing (SSMLearn's indTest).
+    #[arg(long, value_delimiter = ',')]
+    pub test_rows: Vec<usize>,
     /// The observable's column in wider CSV files (e.g. `theta` of `ssmctl simulate`'s
     /// output; the first column is the time). Without it files must have two columns.
-    #[arg(long)]
+    #[arg(long, conflicts_with = "observables")]
     pub column: Option<String>,
+    /// Several observables, comma separated: CSV column names, or rows of X in .mat files
+    /// (1, 2, ...); `all` for every column / row. Every observable is delay-embedded with
+    /// --embed copies (SSMLearn's OverEmbedding = embed - 1); NMTE is over all of them.
+    #[arg(long, value_delimiter = ',')]
+    pub observables: Option<Vec<String>>,
+    /// Start of the time window in s (SSMLearn's sliceTrajectories), to cut initial
+    /// transients: one value for every trajectory, or one per trajectory (training, then
+    /// test; an empty entry leaves it uncut).
+    #[arg(long, value_delimiter = ',', allow_hyphen_values = true)]
+    pub from: Vec<String>,
+    /// End of the time window in s (as --from).
+    #[arg(long, value_delimiter = ',', allow_hyphen_values = true)]
+    pub to: Vec<String>,
     /// SSM dimension d.
     #[arg(long)]
     pub dim: usize,
@@ -237,6 +277,28 @@ pub struct FitArgs {
     /// Save the fitted model as JSON (input of `export`).
     #[arg(long)]
     pub save: Option<PathBuf>,
+    /// Backbone curves of the normal form (polynomial dynamics): instantaneous damping ratio
+    /// and frequency against the amplitude of an observable through the manifold; written
+    /// to DIR/backbone.json and DIR/backbone.png and added to the summary.
+    #[arg(long, value_name = "DIR")]
+    pub backbone: Option<PathBuf>,
+    /// The backbone's observable (a name of --observables; default the first).
+    #[arg(long, requires = "backbone")]
+    pub backbone_observable: Option<String>,
+    /// The backbone's largest amplitude (default: the largest |observable| in the training
+    /// data).
+    #[arg(long, requires = "backbone")]
+    pub backbone_amplitude: Option<f64>,
+}
+
+/// `--from`/`--to` entries: numbers, empty for no bound.
+fn parse_bounds(v: &[String], flag: &str) -> Result<Vec<Option<f64>>, String> {
+    v.iter()
+        .map(|s| match s.trim() {
+            "" => Ok(None),
+            t => t.parse::<f64>().map(Some).map_err(|_| format!("{flag} `{s}`: expected a time in seconds")),
+        })
+        .collect()
 }
 
 #[derive(Subcommand)]
@@ -378,14 +440,31 @@ pub fn run(cli: Cli) -> Result<(), Box<dyn std::error::Error>> {
             eprintln!("wrote {}", out.join("index.html").display());
         }
         Cmd::Fit(a) => {
+            let a = *a;
             if let Some(path) = &a.save {
-                let inputs: Vec<(&str, &std::path::Path)> =
-                    a.data.iter().map(|p| ("--data", p.as_path())).chain(a.test.iter().map(|p| ("--test", p.as_path()))).collect();
+                let inputs: Vec<(&str, &std::path::Path)> = a
+                    .data
+                    .iter()
+                    .map(|p| ("--data", p.as_path()))
+                    .chain(a.test.iter().map(|p| ("--test", p.as_path())))
+                    .chain(a.mat.iter().map(|p| ("--mat", p.as_path())))
+                    .collect();
                 crate::output::check_not_input(path, &inputs)?;
             }
             let r = crate::fit_command::run_fit(&crate::fit_command::FitRequest {
                 data: a.data,
                 test: a.test,
+                mat: a.mat,
+                mat_var: a.mat_var,
+                test_rows: a.test_rows,
+                observables: a.observables,
+                from: parse_bounds(&a.from, "--from")?,
+                to: parse_bounds(&a.to, "--to")?,
+                backbone: a.backbone.map(|out| crate::fit_command::BackboneRequest {
+                    out: Some(out),
+                    observable: a.backbone_observable,
+                    amplitude: a.backbone_amplitude,
+                }),
                 dim: a.dim,
                 embed: a.embed,
                 shift: a.shift,
@@ -406,6 +485,16 @@ pub fn run(cli: Cli) -> Result<(), Box<dyn std::error::Error>> {
             } else {
                 outln!("{}", crate::fit_command::text_summary(&r.summary));
             }
+        }
+        Cmd::Backbone { model, out, observable, amplitude } => {
+            let text = std::fs::read_to_string(&model).map_err(|e| format!("reading {}: {e}", model.display()))?;
+            let m = ssm::SsmModel::from_json(&text).map_err(|e| format!("{}: {e}", model.display()))?;
+            let index = observable.checked_sub(1).ok_or("--observable is 1-based")?;
+            let curves = ssm::backbone::backbone(&m, &ssm::backbone::BackboneOptions::new(index, amplitude))?;
+            let name = observable.to_string();
+            let json = crate::fit_command::backbone_json(&curves, &name);
+            crate::fit_command::write_backbone(&out, &curves, &json, &name)?;
+            eprintln!("wrote {} and {}", out.join("backbone.json").display(), out.join("backbone.png").display());
         }
         Cmd::Export { model, out, scene } => {
             let mut inputs = vec![("--model", model.as_path())];

@@ -1,15 +1,36 @@
-//! `ssmctl fit` / `inspect`: the fitting request from the command line and its JSON summary.
+//! `ssmctl fit` / `backbone` / `inspect`: the fitting request from the command line (CSV or
+//! SSMLearn `.mat` trajectories of one or several observables, time windows, backbone
+//! curves) and its JSON summary.
 
-use ssm::{Dynamics, FitOptions, Ridge, SsmModel, TimeSeries, fit, load_csv_column};
+use ssm::backbone::{Backbone, BackboneOptions, backbone};
+use ssm::{Dynamics, FitOptions, MultiSeries, Ridge, SsmModel, fit_multi, load_csv_column, load_csv_observables, load_mat};
 use serde::Serialize;
 use serde_json::{Value, json};
-use std::path::PathBuf;
+use std::error::Error;
+use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 /// What `ssmctl fit` was asked.
 pub struct FitRequest {
+    /// Training files: CSV, or `.mat` (all trajectories of `mat_var`).
     pub data: Vec<PathBuf>,
+    /// Test files, likewise.
     pub test: Vec<PathBuf>,
+    /// A `.mat` file split into training and test trajectories by `test_rows`.
+    pub mat: Option<PathBuf>,
+    /// The cell-array variable of `.mat` files (SSMLearn's `xData`).
+    pub mat_var: String,
+    /// 1-based rows of `mat` held out for testing (SSMLearn's `indTest`).
+    pub test_rows: Vec<usize>,
+    /// Observables: CSV column names or `.mat` rows of X (`1`, `2`, ...); `all` for every
+    /// one; `None`: one observable (CSV: two columns or `column`; `.mat`: all rows).
+    pub observables: Option<Vec<String>>,
+    /// Time windows (`--from`, `--to`): one value for every trajectory or one per
+    /// trajectory (training, then test); `None` entries leave that side open.
+    pub from: Vec<Option<f64>>,
+    pub to: Vec<Option<f64>>,
+    /// Backbone curves (polynomial dynamics).
+    pub backbone: Option<BackboneRequest>,
     pub dim: usize,
     pub embed: usize,
     pub shift: usize,
@@ -23,6 +44,16 @@ pub struct FitRequest {
     /// See [`FitOptions::linear_anchor`].
     pub linear_anchor: Option<f64>,
     pub normal_form: bool,
+}
+
+/// `--backbone DIR` and its options.
+pub struct BackboneRequest {
+    /// Writes DIR/backbone.json and DIR/backbone.png.
+    pub out: Option<PathBuf>,
+    /// Observable name (default: the first).
+    pub observable: Option<String>,
+    /// Largest amplitude (default: the largest |observable| of the training data).
+    pub amplitude: Option<f64>,
 }
 
 #[derive(Debug, Serialize)]
@@ -47,6 +78,13 @@ pub struct FitSummary {
     pub dynamics_condition: f64,
     /// Predictions that stopped early (blow-up), with the reason.
     pub stopped: Vec<String>,
+    /// Names of the observables (NMTE is over all of them).
+    pub observables: Vec<String>,
+    /// Numbers of training and test trajectories.
+    pub trajectories: [usize; 2],
+    /// Backbone curves (with `--backbone`): `[{"mode", "observable", "points": [{"amplitude",
+    /// "freq_rad_s", "damping_ratio", "rate", "rho"}, ...]}, ...]`.
+    pub backbone: Option<Value>,
 }
 
 pub struct FitResult {
@@ -77,11 +115,107 @@ fn mean(v: &[f64]) -> f64 {
     v.iter().sum::<f64>() / v.len().max(1) as f64
 }
 
+fn is_mat(p: &Path) -> bool {
+    p.extension().is_some_and(|e| e.eq_ignore_ascii_case("mat"))
+}
+
+/// The trajectories of one file (see [`FitRequest::observables`]).
+fn load_file(r: &FitRequest, path: &Path) -> Result<Vec<MultiSeries>, Box<dyn Error>> {
+    let all = |o: &[String]| o.len() == 1 && o[0] == "all";
+    if is_mat(path) {
+        let trajs = load_mat(path, &r.mat_var)?;
+        return match &r.observables {
+            Some(o) if !all(o) => Ok(trajs.iter().map(|t| t.select(o)).collect::<Result<_, _>>()?),
+            _ => Ok(trajs),
+        };
+    }
+    Ok(vec![match &r.observables {
+        None => MultiSeries::from(&load_csv_column(path, r.column.as_deref())?),
+        Some(o) if all(o) => load_csv_observables(path, None)?,
+        Some(o) => load_csv_observables(path, Some(o))?,
+    }])
+}
+
+/// Training and test trajectories, windows applied.
+pub fn load_sets(r: &FitRequest) -> Result<(Vec<MultiSeries>, Vec<MultiSeries>), Box<dyn Error>> {
+    let mut train = Vec::new();
+    let mut test = Vec::new();
+    for p in &r.data {
+        train.extend(load_file(r, p)?);
+    }
+    for p in &r.test {
+        test.extend(load_file(r, p)?);
+    }
+    if let Some(path) = &r.mat {
+        let trajs = load_file(r, path)?;
+        if let Some(bad) = r.test_rows.iter().find(|&&k| k == 0 || k > trajs.len()) {
+            return Err(format!("--test-rows {bad}: {} has {} trajectories (rows 1..={})", path.display(), trajs.len(), trajs.len()).into());
+        }
+        for (i, t) in trajs.into_iter().enumerate() {
+            if r.test_rows.contains(&(i + 1)) { test.push(t) } else { train.push(t) }
+        }
+    } else if !r.test_rows.is_empty() {
+        return Err("--test-rows needs --mat".into());
+    }
+    let n = train.len() + test.len();
+    let bounds = |v: &[Option<f64>], flag: &str| -> Result<Vec<Option<f64>>, String> {
+        match v.len() {
+            0 => Ok(vec![None; n]),
+            1 => Ok(vec![v[0]; n]),
+            k if k == n => Ok(v.to_vec()),
+            k => Err(format!("{flag}: {k} values for {n} trajectories (training, then test); give one for all, or one per trajectory")),
+        }
+    };
+    let (from, to) = (bounds(&r.from, "--from")?, bounds(&r.to, "--to")?);
+    for (k, t) in train.iter_mut().chain(test.iter_mut()).enumerate() {
+        if from[k].is_some() || to[k].is_some() {
+            *t = t.window(from[k], to[k])?;
+        }
+    }
+    Ok((train, test))
+}
+
+/// Backbone curves of `model` as asked; `train` gives the observable names and the default
+/// largest amplitude.
+pub fn run_backbone(model: &SsmModel, train: &[MultiSeries], b: &BackboneRequest) -> Result<(Vec<Backbone>, Value), Box<dyn Error>> {
+    let names = &train.first().ok_or("no training data")?.observables;
+    let index = match &b.observable {
+        None => 0,
+        Some(o) => names.iter().position(|n| n == o).ok_or_else(|| format!("--backbone-observable {o}: observables are {}", names.join(", ")))?,
+    };
+    let amplitude = match b.amplitude {
+        Some(a) => a,
+        None => train.iter().flat_map(|t| t.x.iter().skip(index).step_by(t.dim())).fold(0.0, |m: f64, v| m.max(v.abs())),
+    };
+    let curves = backbone(model, &BackboneOptions::new(index, amplitude))?;
+    let json = backbone_json(&curves, &names[index]);
+    if let Some(dir) = &b.out {
+        write_backbone(dir, &curves, &json, &names[index])?;
+    }
+    Ok((curves, json))
+}
+
+/// The curves as JSON, the observable named.
+pub fn backbone_json(curves: &[Backbone], observable: &str) -> Value {
+    Value::Array(
+        curves
+            .iter()
+            .map(|b| json!({"mode": b.mode, "observable": observable, "points": serde_json::to_value(&b.points).unwrap_or(Value::Null)}))
+            .collect(),
+    )
+}
+
+/// Writes DIR/backbone.json and DIR/backbone.png.
+pub fn write_backbone(dir: &Path, curves: &[Backbone], json: &Value, observable: &str) -> Result<(), Box<dyn Error>> {
+    std::fs::create_dir_all(dir).map_err(|e| format!("{}: {e}", dir.display()))?;
+    std::fs::write(dir.join("backbone.json"), serde_json::to_string_pretty(json)?)?;
+    crate::draw::backbone::backbone_figure(&dir.join("backbone.png"), "backbone", curves, &format!("amplitude of {observable}"))?;
+    Ok(())
+}
+
 /// Loads, fits and scores.
 pub fn run_fit(r: &FitRequest) -> Result<FitResult, Box<dyn std::error::Error>> {
-    let load = |ps: &[PathBuf]| ps.iter().map(|p| load_csv_column(p, r.column.as_deref())).collect::<Result<Vec<TimeSeries>, _>>();
-    let train = load(&r.data)?;
-    let test = load(&r.test)?;
+    let (train, test) = load_sets(r)?;
     let opts = FitOptions {
         dim: r.dim,
         embed: r.embed,
@@ -93,13 +227,13 @@ pub fn run_fit(r: &FitRequest) -> Result<FitResult, Box<dyn std::error::Error>> 
         linear_anchor: r.linear_anchor,
     };
     let t0 = Instant::now();
-    let model = fit(&train, &opts)?;
+    let model = fit_multi(&train, &opts)?;
     let fit_seconds = t0.elapsed().as_secs_f64();
     let mut stopped = Vec::new();
-    let mut score = |set: &[TimeSeries], dtw: bool| -> Result<(Vec<f64>, Vec<f64>), Box<dyn std::error::Error>> {
+    let mut score = |set: &[MultiSeries], dtw: bool| -> Result<(Vec<f64>, Vec<f64>), Box<dyn std::error::Error>> {
         let (mut a, mut b) = (Vec::new(), Vec::new());
         for ts in set {
-            let p = model.predict(ts)?;
+            let p = model.predict_multi(ts)?;
             if let Some(s) = &p.stop {
                 stopped.push(format!("{}: stopped at t = {} s: {:?}", ts.name, s.t, s.reason));
             }
@@ -112,9 +246,9 @@ pub fn run_fit(r: &FitRequest) -> Result<FitResult, Box<dyn std::error::Error>> 
                     Err(format!("{}: the {what} of the prediction is not a finite number ({v}); the data or the model cannot be scored", ts.name).into())
                 }
             };
-            a.push(finite("NMTE", p.nmte(ts))?);
+            a.push(finite("NMTE", p.nmte_multi(ts))?);
             if dtw {
-                b.push(finite("DTW-aligned NMTE", p.nmte_dtw(ts, None))?);
+                b.push(finite("DTW-aligned NMTE", p.nmte_dtw_multi(ts, None))?);
             }
         }
         Ok((a, b))
@@ -136,6 +270,12 @@ pub fn run_fit(r: &FitRequest) -> Result<FitResult, Box<dyn std::error::Error>> 
         manifold_condition: model.manifold.conditioning.map(|c| c.cond),
         dynamics_condition: model.dynamics.conditioning().cond,
         stopped,
+        observables: train[0].observables.clone(),
+        trajectories: [train.len(), test.len()],
+        backbone: match &r.backbone {
+            Some(b) => Some(run_backbone(&model, &train, b)?.1),
+            None => None,
+        },
     };
     Ok(FitResult { model, summary })
 }
@@ -149,6 +289,29 @@ pub fn text_summary(s: &FitSummary) -> String {
     out.push_str(&format!("nmte_train {:.5}\n", s.nmte_train));
     if let Some(t) = s.nmte_test {
         out.push_str(&format!("nmte_test  {t:.5} (after DTW {:.5})\n", s.nmte_dtw_test.unwrap_or(f64::NAN)));
+    }
+    if s.observables.len() > 1 {
+        out.push_str(&format!("observables {} (NMTE over all)\n", s.observables.join(", ")));
+    }
+    out.push_str(&format!("trajectories: {} training, {} test\n", s.trajectories[0], s.trajectories[1]));
+    if let Some(Value::Array(curves)) = &s.backbone {
+        for c in curves {
+            let pts = c["points"].as_array().map(Vec::as_slice).unwrap_or_default();
+            if let (Some(a), Some(b)) = (pts.first(), pts.last()) {
+                let f = |p: &Value, k: &str| p[k].as_f64().unwrap_or(f64::NAN);
+                out.push_str(&format!(
+                    "backbone mode {} ({}): amplitude {:.4} -> {:.4}: frequency {:.4} -> {:.4} Hz, damping ratio {:.4} -> {:.4}\n",
+                    c["mode"],
+                    c["observable"].as_str().unwrap_or("?"),
+                    f(a, "amplitude"),
+                    f(b, "amplitude"),
+                    f(a, "freq_rad_s") / std::f64::consts::TAU,
+                    f(b, "freq_rad_s") / std::f64::consts::TAU,
+                    f(a, "damping_ratio"),
+                    f(b, "damping_ratio")
+                ));
+            }
+        }
     }
     out.push_str(&format!("fit_seconds {:.4}", s.fit_seconds));
     for st in &s.stopped {

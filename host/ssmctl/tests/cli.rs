@@ -106,7 +106,7 @@ fn reproduce_quick_writes_the_report() {
     let s: Value = serde_json::from_str(&std::fs::read_to_string(dir.join("summary.json")).unwrap()).unwrap();
     for k in [
         "scenes", "stability", "stability_chart", "bench_simulate", "linear_nf", "chaos", "device", "pil", "predictions", "heteroclinic_dt_ms",
-        "torus_30p8", "portraits", "fast_cycle",
+        "torus_30p8", "portraits", "fast_cycle", "backbone",
     ] {
         assert!(s.get(k).is_some(), "summary.json lacks {k}");
     }
@@ -203,4 +203,72 @@ fn fit_on_simulated_furuta_runs_matches_exact_multipliers() {
         assert!(((got.1 - want.1) / want.1).abs() < 1e-3, "frequency {got:?} vs exact {want:?}");
     }
     assert!(v["nmte_test"].as_f64().unwrap() < 0.02, "{}", v["nmte_test"]);
+}
+
+/// `.mat` input (SSMLearn's layout, the ssm crate's test file written by scipy), several
+/// observables, time windows, backbone curves, and the errors each names.
+#[test]
+fn fit_mat_with_observables_windows_and_backbone() {
+    let data = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../ssm/tests/data");
+    let mat = data.join("duffing.mat");
+    let (mat, dir) = (mat.to_str().unwrap(), tmp("matfit"));
+    let bb = dir.join("bb");
+    let common = ["--dim", "2", "--embed", "2", "--order", "3", "--dyn-order", "5", "--json"];
+    let mut args = vec!["fit", "--mat", mat, "--test-rows", "2", "--from", "0.5", "--backbone", bb.to_str().unwrap()];
+    args.extend(common);
+    let (ok, out, err) = ssmctl(&args);
+    assert!(ok, "{err}");
+    let v: Value = serde_json::from_str(&out).unwrap();
+    assert_eq!(v["observables"], serde_json::json!(["1", "2", "3"]));
+    assert_eq!(v["trajectories"], serde_json::json!([2, 1]));
+    let nmte_mat = v["nmte_test"].as_f64().unwrap();
+    assert!(nmte_mat < 1e-2, "{v}");
+    let pts = v["backbone"][0]["points"].as_array().unwrap();
+    assert_eq!(pts.len(), 101);
+    // Default largest amplitude: the largest |x| of the (windowed) training data.
+    assert!((pts[100]["amplitude"].as_f64().unwrap() - 0.5).abs() < 0.1, "{}", pts[100]);
+    assert!(bb.join("backbone.png").metadata().unwrap().len() > 5_000 && bb.join("backbone.json").is_file());
+    // The same trajectories from the CSV files the .mat was made of: the same fit.
+    let csv = |i: usize| data.join(format!("duffing_{i}.csv")).to_str().unwrap().to_string();
+    let train = format!("{},{}", csv(1), csv(3));
+    let t2 = csv(2);
+    let mut args = vec!["fit", "--data", &train, "--test", &t2, "--observables", "x,v,x2", "--from", "0.5"];
+    args.extend(common);
+    let (ok, out, err) = ssmctl(&args);
+    assert!(ok, "{err}");
+    let c: Value = serde_json::from_str(&out).unwrap();
+    assert_eq!(c["nmte_test"].as_f64().unwrap(), nmte_mat, "csv {c} vs mat {v}");
+    // A saved model's backbone from the `backbone` subcommand.
+    let model = dir.join("model.json");
+    let mut args = vec!["fit", "--mat", mat, "--observables", "1,3", "--save", model.to_str().unwrap()];
+    args.extend(["--dim", "2", "--embed", "3"]);
+    let (ok, _, err) = ssmctl(&args);
+    assert!(ok, "{err}");
+    let out2 = dir.join("bb2");
+    let (ok, _, err) = ssmctl(&["backbone", "--model", model.to_str().unwrap(), "--out", out2.to_str().unwrap(), "--observable", "2", "--amplitude", "0.5"]);
+    assert!(ok, "{err}");
+    let j: Value = serde_json::from_str(&std::fs::read_to_string(out2.join("backbone.json")).unwrap()).unwrap();
+    assert!((j[0]["points"][100]["amplitude"].as_f64().unwrap() - 0.5).abs() < 1e-9, "{j}");
+    // The device predictor embeds one observable: a two-observable model is refused.
+    let blob = dir.join("m.bin");
+    let (ok, _, err) = ssmctl(&["export", "--model", model.to_str().unwrap(), "--out", blob.to_str().unwrap()]);
+    assert!(!ok && err.contains("embeds one observable; this model has 2"), "{err}");
+    // Errors name what is wrong.
+    for (extra, want) in [
+        (vec!["--mat", mat, "--from", "100"], "duffing.mat xData{1,:}: time window [100, end]: the window lies outside the data"),
+        (vec!["--mat", mat, "--from", "1,2"], "--from: 2 values for 3 trajectories"),
+        (vec!["--mat", mat, "--test-rows", "5"], "--test-rows 5"),
+        (vec!["--mat", mat, "--observables", "4"], "no observable `4`"),
+        (vec!["--data", &t2, "--observables", "x,w"], "no column `w`"),
+    ] {
+        let mut args = vec!["fit"];
+        args.extend(extra);
+        args.extend(common);
+        let (ok, _, err) = ssmctl(&args);
+        assert!(!ok && err.contains(want), "{args:?}: {err}");
+    }
+    let v73 = data.join("v73.mat");
+    let (ok, _, err) = ssmctl(&["fit", "--mat", v73.to_str().unwrap(), "--dim", "2", "--embed", "5"]);
+    assert!(!ok && err.contains("v7.3 (HDF5)") && err.contains("'-v7'"), "{err}");
+    let _ = std::fs::remove_dir_all(&dir);
 }

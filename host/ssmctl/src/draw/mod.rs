@@ -1,4 +1,5 @@
-//! Figures of computed results: stability charts and phase portraits.
+//! Figures of computed results: stability charts, phase portraits and backbone curves.
 
+pub mod backbone;
 pub mod chart;
 pub mod portrait;

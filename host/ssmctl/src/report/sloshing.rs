@@ -1,5 +1,5 @@
-//! Report section: SSM fitting on real measured data (sloshing decay), the fit
-//! accuracy-vs-time table, and the device blobs exported from fitted RBF models.
+//! Report section: SSM fitting on real measured data (sloshing decay), its backbone curve,
+//! the fit accuracy-vs-time table, and the device blobs exported from fitted RBF models.
 
 use sim::units::s_to_ms;
 use ssm::device::{encode, to_device_model};
@@ -7,6 +7,7 @@ use crate::plot::{self, Series};
 use crate::report::{Report, esc, num};
 use sim::scene::SceneBuilder;
 use sim::closed_loop::simulate;
+use ssm::backbone::{BackboneOptions, backbone};
 use ssm::metrics::amplitude_spectrum;
 use ssm::{Dynamics, FitOptions, Ridge, TimeSeries, fit, load_csv};
 use plotters::style::RGBColor;
@@ -32,6 +33,7 @@ pub fn sloshing_section(rep: &mut Report, data_dir: &Path, quick: bool) -> Resul
     if !files.iter().all(|f| f.is_file()) {
         rep.para(&format!("Skipped: data folder {} not found.", esc(&dir.display().to_string())));
         rep.summary.insert("fit_sloshing".into(), json!({"skipped": format!("{} not found", dir.display())}));
+        rep.summary.insert("backbone".into(), json!({"skipped": format!("{} not found", dir.display())}));
         return Ok(());
     }
     let series: Vec<TimeSeries> = files.iter().map(load_csv).collect::<Result<_, _>>()?;
@@ -73,6 +75,7 @@ pub fn sloshing_section(rep: &mut Report, data_dir: &Path, quick: bool) -> Resul
     )?;
     rep.figure("fig/sloshing_prediction.png", "Test trajectory decay_2 and the model's prediction from its first point");
     rep.figure("fig/sloshing_spectrum.png", "FFT amplitude spectra of the test trajectory and the prediction");
+    backbone_paragraph(rep, &m, train)?;
 
     // What accuracy costs in time (second table; also `ssmctl bench fit`).
     let (bench_rows, rbf50) = crate::bench::bench_fit(train, test, quick, |_| {})?;
@@ -105,6 +108,36 @@ pub fn sloshing_section(rep: &mut Report, data_dir: &Path, quick: bool) -> Resul
         "fit_sloshing".into(),
         json!({"fit_ms": s_to_ms(secs), "nmte_test": nmte, "dtw_nmte_test": dtw, "eigenvalues": eig, "table": list}),
     );
+    Ok(())
+}
+
+/// The backbone curve of the recommended sloshing model: instantaneous damping ratio and
+/// frequency against the amplitude of x (through the normal-form transformation and the
+/// manifold), up to the largest |x| of the training data; `summary.json` key `backbone`:
+/// `{"sloshing": [{"amplitude", "freq_rad_s", "damping_ratio"}, ...]}`.
+fn backbone_paragraph(rep: &mut Report, m: &ssm::SsmModel, train: &[TimeSeries]) -> Result<(), Box<dyn Error>> {
+    let amp_max = train.iter().flat_map(|t| t.x.iter()).fold(0.0_f64, |a, v| a.max(v.abs()));
+    let opts = BackboneOptions { points: 51, ..BackboneOptions::new(0, amp_max) };
+    let curves = backbone(m, &opts)?;
+    let fig = "fig/sloshing_backbone.png";
+    crate::draw::backbone::backbone_figure(&rep.dir().join(fig), "sloshing", &curves, "amplitude of x [% tank width]")?;
+    let pts = &curves[0].points;
+    let (first, last) = (pts[0], pts[pts.len() - 1]);
+    rep.para(&format!(
+        "Backbone curve of this model (normal form of the map, <code>ssm::backbone</code>): instantaneous damping ratio \
+         -Re&lambda;/|&lambda;| and frequency against the amplitude of x, the max over a period of x on the manifold \
+         above the normal-form amplitude. From amplitude 0 to {} % (the largest |x| of the training data) the frequency \
+         goes from {} to {} Hz and the damping ratio from {} to {} %.",
+        num(last.amplitude),
+        num(first.freq_rad_s / std::f64::consts::TAU),
+        num(last.freq_rad_s / std::f64::consts::TAU),
+        num(100.0 * first.damping_ratio),
+        num(100.0 * last.damping_ratio)
+    ));
+    rep.figure(fig, "Backbone curve of the sloshing model: amplitude of x against damping ratio and against frequency");
+    let list: Vec<Value> =
+        pts.iter().map(|p| json!({"amplitude": p.amplitude, "freq_rad_s": p.freq_rad_s, "damping_ratio": p.damping_ratio})).collect();
+    rep.summary.insert("backbone".into(), json!({ "sloshing": list }));
     Ok(())
 }
 

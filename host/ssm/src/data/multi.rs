@@ -1,0 +1,366 @@
+//! Several observables per trajectory ([`MultiSeries`]): CSV files with more than one
+//! observable column, SSMLearn `.mat` trajectories (see [`super::mat`]), time windows
+//! (SSMLearn's `sliceTrajectories`) and the check that every trajectory of a set has the
+//! same observables.
+//!
+//! Validation is that of [`TimeSeries`] applied to the shared time and to every observable:
+//! finite values, strictly increasing uniform time, no constant observable.
+
+use std::path::Path;
+
+use serde::{Deserialize, Serialize};
+
+use super::{DataError, TimeSeries, check_time};
+use crate::mat::{MatFile, MatValue};
+
+/// A uniformly sampled trajectory of `q >= 1` observables.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct MultiSeries {
+    /// Name used in error messages and reports.
+    pub name: String,
+    /// Sample times in seconds, strictly increasing and uniform.
+    pub t: Vec<f64>,
+    /// Names of the observables (CSV header entries, or `1..=q` for the rows of a `.mat` X).
+    pub observables: Vec<String>,
+    /// Samples, row-major `t.len() x q`: `x[n * q + i]` is observable `i` at `t[n]`.
+    pub x: Vec<f64>,
+}
+
+impl From<&TimeSeries> for MultiSeries {
+    /// The one-observable trajectory of a scalar series (observable named `x`); not
+    /// validated again.
+    fn from(ts: &TimeSeries) -> Self {
+        MultiSeries { name: ts.name.clone(), t: ts.t.clone(), observables: vec!["x".into()], x: ts.x.clone() }
+    }
+}
+
+impl MultiSeries {
+    /// Builds and validates a trajectory (see [`MultiSeries::validate`]).
+    pub fn new(name: impl Into<String>, t: Vec<f64>, observables: Vec<String>, x: Vec<f64>) -> Result<Self, DataError> {
+        let ms = MultiSeries { name: name.into(), t, observables, x };
+        ms.validate()?;
+        Ok(ms)
+    }
+
+    /// Number of samples.
+    pub fn len(&self) -> usize {
+        self.t.len()
+    }
+
+    /// True when there are no samples.
+    pub fn is_empty(&self) -> bool {
+        self.t.is_empty()
+    }
+
+    /// Number of observables q.
+    pub fn dim(&self) -> usize {
+        self.observables.len()
+    }
+
+    /// Mean sampling step; `None` with fewer than 2 samples.
+    pub fn dt(&self) -> Option<f64> {
+        let n = self.t.len();
+        (n >= 2).then(|| (self.t[n - 1] - self.t[0]) / (n - 1) as f64)
+    }
+
+    /// Observable `i` as a scalar series (named `name/observable`).
+    pub fn observable(&self, i: usize) -> Option<TimeSeries> {
+        let q = self.dim();
+        (i < q).then(|| TimeSeries {
+            name: format!("{}/{}", self.name, self.observables[i]),
+            t: self.t.clone(),
+            x: self.x.iter().skip(i).step_by(q).copied().collect(),
+        })
+    }
+
+    /// Checks shapes, finiteness, strictly increasing uniform time and that no observable
+    /// is constant; needs at least 2 samples and 1 observable.
+    pub fn validate(&self) -> Result<(), DataError> {
+        let name = &self.name;
+        let q = self.dim();
+        if q == 0 {
+            return Err(DataError::NoObservables { name: name.clone() });
+        }
+        if self.x.len() != self.t.len() * q {
+            return Err(DataError::LengthMismatch { name: name.clone(), nt: self.t.len(), nx: self.x.len() / q });
+        }
+        if self.t.len() < 2 {
+            return Err(DataError::TooShort { name: name.clone(), have: self.t.len(), need: 2, why: "a sampling step".into() });
+        }
+        for (n, &t) in self.t.iter().enumerate() {
+            if !t.is_finite() {
+                return Err(DataError::NonFinite { name: name.clone(), row: n + 1, column: "t".into(), value: t });
+            }
+            for (i, &v) in self.x[n * q..(n + 1) * q].iter().enumerate() {
+                if !v.is_finite() {
+                    return Err(DataError::NonFinite { name: name.clone(), row: n + 1, column: self.observables[i].clone(), value: v });
+                }
+            }
+        }
+        check_time(name, &self.t)?;
+        for i in 0..q {
+            let x0 = self.x[i];
+            if self.x.iter().skip(i).step_by(q).all(|&v| v == x0) {
+                return Err(DataError::ConstantObservable { name: name.clone(), observable: self.observables[i].clone(), value: x0 });
+            }
+        }
+        Ok(())
+    }
+
+    /// The samples with `from <= t <= to` (either bound optional), as SSMLearn's
+    /// `sliceTrajectories` cuts initial transients. A window that misses the data, or
+    /// bounds that are not finite or not ordered, is an error naming the trajectory, the
+    /// window and the data's time span; a window keeping fewer than 2 samples is
+    /// [`DataError::TooShort`].
+    pub fn window(&self, from: Option<f64>, to: Option<f64>) -> Result<Self, DataError> {
+        let (first, last) = (self.t.first().copied().unwrap_or(f64::NAN), self.t.last().copied().unwrap_or(f64::NAN));
+        let bad = |why: &str| DataError::Window {
+            name: self.name.clone(),
+            from: from.map_or("start".into(), |v| v.to_string()),
+            to: to.map_or("end".into(), |v| v.to_string()),
+            t_first: first,
+            t_last: last,
+            why: why.into(),
+        };
+        if from.is_some_and(|v| !v.is_finite()) || to.is_some_and(|v| !v.is_finite()) {
+            return Err(bad("the bounds must be finite"));
+        }
+        if let (Some(a), Some(b)) = (from, to)
+            && a >= b
+        {
+            return Err(bad("--from must be below --to"));
+        }
+        if from.is_some_and(|a| a > last) || to.is_some_and(|b| b < first) {
+            return Err(bad("the window lies outside the data"));
+        }
+        let start = from.map_or(0, |a| self.t.partition_point(|&t| t < a));
+        let end = to.map_or(self.t.len(), |b| self.t.partition_point(|&t| t <= b));
+        let q = self.dim();
+        let label = format!("{}[t in {}..{}]", self.name, from.map_or(String::new(), |v| v.to_string()), to.map_or(String::new(), |v| v.to_string()));
+        let t = self.t[start..end.max(start)].to_vec();
+        let x = self.x[start * q..end.max(start) * q].to_vec();
+        MultiSeries::new(label, t, self.observables.clone(), x)
+    }
+}
+
+impl MultiSeries {
+    /// The observables named `names`, in that order (a copy); an unknown name is an error
+    /// listing the available ones.
+    pub fn select(&self, names: &[String]) -> Result<Self, DataError> {
+        let q = self.dim();
+        let idx: Vec<usize> = names
+            .iter()
+            .map(|n| {
+                self.observables.iter().position(|o| o == n).ok_or_else(|| DataError::UnknownObservable {
+                    name: self.name.clone(),
+                    observable: n.clone(),
+                    available: self.observables.join(", "),
+                })
+            })
+            .collect::<Result<_, _>>()?;
+        let x = (0..self.len()).flat_map(|n| idx.iter().map(move |&i| self.x[n * q + i])).collect();
+        MultiSeries::new(self.name.clone(), self.t.clone(), names.to_vec(), x)
+    }
+}
+
+/// Errors unless every trajectory has the observables of the first (count, and names when
+/// `names` is true); the error names the first trajectory that differs.
+pub fn check_same_observables(set: &[MultiSeries], names: bool) -> Result<(), DataError> {
+    let Some(first) = set.first() else { return Ok(()) };
+    for s in &set[1..] {
+        if s.dim() != first.dim() || (names && s.observables != first.observables) {
+            return Err(DataError::ObservableMismatch {
+                name: s.name.clone(),
+                got: s.observables.join(", "),
+                first: first.name.clone(),
+                expected: first.observables.join(", "),
+            });
+        }
+    }
+    Ok(())
+}
+
+/// Loads a CSV file whose first column is the time and whose other columns are observables:
+/// `columns` names the observable columns to keep (in that order), `None` keeps them all.
+/// The trajectory is named after the file stem.
+pub fn load_csv_observables(path: impl AsRef<Path>, columns: Option<&[String]>) -> Result<MultiSeries, DataError> {
+    let path = path.as_ref();
+    let file = path.display().to_string();
+    let text = std::fs::read_to_string(path).map_err(|source| DataError::Io { file: file.clone(), source })?;
+    let name = path.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_else(|| file.clone());
+    parse_csv_observables(&file, name, &text, columns)
+}
+
+/// Parses CSV text (see [`load_csv_observables`]); `file` is used in error messages.
+pub fn parse_csv_observables(file: &str, name: String, text: &str, columns: Option<&[String]>) -> Result<MultiSeries, DataError> {
+    let mut lines = text.lines().enumerate();
+    let header: Vec<&str> = match lines.next() {
+        Some((_, h)) if !h.trim().is_empty() => h.split(',').map(str::trim).collect(),
+        _ => return Err(DataError::NoHeader { file: file.to_string() }),
+    };
+    let available = || header[1..].join(", ");
+    let picked: Vec<usize> = match columns {
+        None => (1..header.len()).collect(),
+        Some(cs) => cs
+            .iter()
+            .map(|c| {
+                header.iter().position(|h| h == c).filter(|&i| i > 0).ok_or_else(|| DataError::UnknownColumn {
+                    file: file.to_string(),
+                    column: c.clone(),
+                    available: available(),
+                })
+            })
+            .collect::<Result<_, _>>()?,
+    };
+    if picked.is_empty() {
+        return Err(DataError::NoObservables { name: file.to_string() });
+    }
+    let observables: Vec<String> = picked.iter().map(|&i| header[i].to_string()).collect();
+    let (mut t, mut x) = (Vec::new(), Vec::new());
+    for (i, line) in lines {
+        let line_no = i + 1;
+        let cols: Vec<&str> = line.split(',').map(str::trim).collect();
+        if cols.len() != header.len() || cols.iter().any(|c| c.is_empty()) {
+            let found = if line.trim().is_empty() { 0 } else { cols.len() };
+            return Err(DataError::Columns { file: file.to_string(), line: line_no, expected: header.len(), found });
+        }
+        let parse = |k: usize, column: &str| {
+            cols[k].parse::<f64>().map_err(|_| DataError::Parse {
+                file: file.to_string(),
+                line: line_no,
+                column: column.to_string(),
+                text: cols[k].to_string(),
+            })
+        };
+        t.push(parse(0, "t")?);
+        for &k in &picked {
+            x.push(parse(k, header[k])?);
+        }
+    }
+    MultiSeries::new(format!("{name} ({file})"), t, observables, x)
+}
+
+/// Loads the trajectories of an SSMLearn `.mat` file: variable `var` (SSMLearn's `xData`)
+/// is an `N x 2` cell array with one row per trajectory, `{t, X}`: `t` a vector of times
+/// (row or column), `X` one row per observable and one column per time. Observables are
+/// named by their row of X, `1..=q`; trajectory `i` is named `FILE var{i,:}`. Every
+/// trajectory must have the same number of observables. MATLAB writes this layout with
+/// `save(FILE, 'xData', '-v7')`; scipy with `savemat(FILE, {'xData': cells})` where
+/// `cells` is an object array of shape `(N, 2)`.
+pub fn load_mat(path: impl AsRef<Path>, var: &str) -> Result<Vec<MultiSeries>, DataError> {
+    let path = path.as_ref();
+    let file = path.display().to_string();
+    let value = MatFile::open(path)?.get(var)?;
+    mat_trajectories(&file, var, &value)
+}
+
+/// The trajectories of an SSMLearn `xData` cell array already read (see [`load_mat`]).
+pub fn mat_trajectories(file: &str, var: &str, value: &MatValue) -> Result<Vec<MultiSeries>, DataError> {
+    let layout = |at: String, why: String| DataError::MatLayout { file: file.to_string(), var: at, why };
+    let MatValue::Cell { dims, cells } = value else {
+        return Err(layout(var.into(), "a double array; expected a cell array with one row {t, X} per trajectory".into()));
+    };
+    let [n, cols] = *dims;
+    if cols != 2 || n == 0 {
+        return Err(layout(var.into(), format!("a {n} x {cols} cell array; expected N x 2, one row {{t, X}} per trajectory")));
+    }
+    let mut out = Vec::with_capacity(n);
+    for i in 0..n {
+        let at = |j: usize| format!("{var}{{{},{j}}}", i + 1);
+        let (MatValue::Double { dims: td, data: t }, MatValue::Double { dims: xd, data: xs }) = (&cells[i], &cells[n + i]) else {
+            let j = if matches!(cells[i], MatValue::Cell { .. }) { 1 } else { 2 };
+            return Err(layout(at(j), "a cell array; expected a double array".into()));
+        };
+        if td[0].min(td[1]) != 1 {
+            return Err(layout(at(1), format!("a {} x {} array; expected a vector of times", td[0], td[1])));
+        }
+        let len = t.len();
+        let [q, nx] = *xd;
+        if nx != len {
+            let hint = if q == len { " (one column per observable: SSMLearn's layout has one ROW per observable, transpose X)" } else { "" };
+            return Err(layout(at(2), format!("X is {q} x {nx} but t has {len} samples; expected q x {len}{hint}")));
+        }
+        // X column-major q x len: sample n, observable r is xs[n * q + r], already row-major
+        // in the MultiSeries sense.
+        let name = format!("{file} {var}{{{},:}}", i + 1);
+        let observables = (1..=q).map(|r| r.to_string()).collect();
+        out.push(MultiSeries::new(name, t.clone(), observables, xs.clone())?);
+    }
+    check_same_observables(&out, false)?;
+    Ok(out)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn series() -> MultiSeries {
+        let t: Vec<f64> = (0..11).map(|i| i as f64 * 0.5).collect();
+        let x: Vec<f64> = (0..11).flat_map(|i| [i as f64, (i * i) as f64]).collect();
+        MultiSeries::new("m", t, vec!["a".into(), "b".into()], x).unwrap()
+    }
+
+    #[test]
+    fn csv_with_several_observables() {
+        let text = "t,a,b,c\n0,1,5,9\n0.5,2,6,8\n1.0,3,7,9\n";
+        let all = parse_csv_observables("f.csv", "f".into(), text, None).unwrap();
+        assert_eq!(all.observables, ["a", "b", "c"]);
+        assert_eq!(all.x, [1.0, 5.0, 9.0, 2.0, 6.0, 8.0, 3.0, 7.0, 9.0]);
+        let picked = parse_csv_observables("f.csv", "f".into(), text, Some(&["c".into(), "a".into()])).unwrap();
+        assert_eq!((picked.observables.clone(), picked.x.clone()), (vec!["c".to_string(), "a".into()], vec![9.0, 1.0, 8.0, 2.0, 9.0, 3.0]));
+        assert_eq!(picked.observable(1).unwrap().x, [1.0, 2.0, 3.0]);
+        let e = parse_csv_observables("f.csv", "f".into(), text, Some(&["d".into()])).unwrap_err();
+        assert!(matches!(e, DataError::UnknownColumn { .. }) && e.to_string().contains("a, b, c"), "{e}");
+        let e = parse_csv_observables("f.csv", "f".into(), "t,a,b\n0,1,2\n1,2,x\n", None).unwrap_err();
+        assert!(e.to_string().contains("line 3") && e.to_string().contains("b value"), "{e}");
+        // A constant observable is named.
+        let e = parse_csv_observables("f.csv", "f".into(), "t,a,b\n0,1,2\n1,2,2\n2,3,2\n", None).unwrap_err();
+        assert!(matches!(&e, DataError::ConstantObservable { observable, .. } if observable == "b"), "{e}");
+        let e = parse_csv_observables("f.csv", "f".into(), "t\n0\n1\n", None).unwrap_err();
+        assert!(matches!(e, DataError::NoObservables { .. }), "{e}");
+    }
+
+    #[test]
+    fn windows_cut_and_name_what_is_wrong() {
+        let s = series();
+        let w = s.window(Some(1.0), Some(2.0)).unwrap();
+        assert_eq!(w.t, [1.0, 1.5, 2.0]);
+        assert_eq!(w.x, [2.0, 4.0, 3.0, 9.0, 4.0, 16.0]);
+        assert_eq!(s.window(Some(4.2), None).unwrap().t, [4.5, 5.0]);
+        assert_eq!(s.window(None, Some(0.5)).unwrap().t, [0.0, 0.5]);
+        assert_eq!(s.window(None, None).unwrap().x, s.x);
+        for (from, to, why) in [
+            (Some(6.0), None, "outside"),
+            (None, Some(-1.0), "outside"),
+            (Some(2.0), Some(1.0), "below"),
+            (Some(f64::NAN), None, "finite"),
+        ] {
+            let e = s.window(from, to).unwrap_err();
+            let msg = e.to_string();
+            assert!(matches!(e, DataError::Window { .. }) && msg.contains(why) && msg.contains("m:") && msg.contains("0 .. 5"), "{msg}");
+        }
+        // Inside the span but holding a single sample.
+        let e = s.window(Some(4.9), None).unwrap_err();
+        assert!(matches!(e, DataError::TooShort { have: 1, .. }), "{e}");
+    }
+
+    #[test]
+    fn observable_counts_must_agree() {
+        let a = series();
+        let mut b = series();
+        b.name = "second".into();
+        b.observables = vec!["a".into()];
+        b.x = (0..11).map(|i| i as f64).collect();
+        let e = check_same_observables(&[a.clone(), b], false).unwrap_err();
+        assert!(matches!(&e, DataError::ObservableMismatch { name, .. } if name == "second"), "{e}");
+        assert!(check_same_observables(&[a.clone(), a], true).is_ok());
+    }
+
+    #[test]
+    fn scalar_series_converts() {
+        let ts = TimeSeries::new("s", vec![0.0, 1.0, 2.0], vec![1.0, -1.0, 0.5]).unwrap();
+        let m = MultiSeries::from(&ts);
+        assert_eq!((m.dim(), m.x.clone(), m.t.clone()), (1, ts.x.clone(), ts.t.clone()));
+        assert!(m.validate().is_ok());
+    }
+}
