@@ -421,7 +421,7 @@ fn saved_model_shapes_are_validated_on_load() {
         (|m| m["manifold"]["v1"].as_array_mut().unwrap().truncate(3), "`manifold.v1`", "length 3, expected 10"),
         (|m| { m["options"]["dim"] = 0.into(); m["manifold"]["dim"] = 0.into(); m["dynamics"]["Rbf"]["dim"] = 0.into(); }, "`options`", "dim"),
         (|m| m["manifold"]["dim"] = 3.into(), "`manifold.dim`", "differs from options.dim = 2"),
-        (|m| m["manifold"]["p"] = 7.into(), "`manifold.p`", "differs from options.embed = 5"),
+        (|m| m["manifold"]["p"] = 7.into(), "`manifold.p`", "differs from options.embed x observables = 5"),
         (|m| m["dynamics"]["Rbf"]["scale"] = serde_json::json!([]), "`dynamics.Rbf.scale`", "length 0, expected 2"),
         (|m| m["dynamics"]["Rbf"]["scale"][1] = (-1.0).into(), "`dynamics.Rbf.scale[1]`", "must be > 0"),
         (|m| m["dynamics"]["Rbf"]["centers"].as_array_mut().unwrap().truncate(3), "`dynamics.Rbf.centers`", "not a positive multiple of dim = 2"),
