@@ -98,6 +98,10 @@ pub enum Cmd {
         /// Folder of the measured reference data sets (sections skip, saying so, when absent).
         #[arg(long, default_value = "../shared/data")]
         data_dir: PathBuf,
+        /// Threads of the pool the sweeps run on (default: RAYON_NUM_THREADS, else one per
+        /// core). The results do not depend on it.
+        #[arg(long, value_parser = clap::value_parser!(u16).range(1..))]
+        jobs: Option<u16>,
     },
     /// Fit an SSM reduced model to scalar time series (CSV files of t, observable).
     Fit(FitArgs),
@@ -372,7 +376,10 @@ pub fn run(cli: Cli) -> Result<(), Box<dyn std::error::Error>> {
             let summary = crate::draw::chart::chart_for_scene(&s, &out, &dt_ms, kp, kd)?;
             outln!("{}", serde_json::to_string_pretty(&summary)?);
         }
-        Cmd::Reproduce { out, quick, data_dir } => {
+        Cmd::Reproduce { out, quick, data_dir, jobs } => {
+            if let Some(n) = jobs {
+                rayon::ThreadPoolBuilder::new().num_threads(n.into()).build_global()?;
+            }
             reproduce::run(&out, &data_dir, quick, quiet)?;
             eprintln!("wrote {}", out.join("index.html").display());
         }

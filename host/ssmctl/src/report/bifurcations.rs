@@ -4,7 +4,7 @@
 //! in dt (linearly, and by a natural cubic spline for comparison).
 
 use crate::plot::{self, Series};
-use crate::report::{Report, num};
+use crate::report::{Report, num, par_map};
 use crate::report::normal_form::PAPER_DTS;
 use furuta::parametric::{FurutaOptions, ParametricModel};
 use ssm::portrait::{Fate, PointKind, PortraitOptions, fixed_points, portrait, trajectory};
@@ -70,8 +70,8 @@ pub fn predictions_section(rep: &mut Report) -> Result<(), Box<dyn Error>> {
         ),
     );
     let model = shared_parametric(&FurutaOptions::default())?;
-    let lin = predictions(&model, &po, Interp::Linear)?;
-    let spl = predictions(&model, &po, Interp::Spline)?;
+    let (lin, spl) = rayon::join(|| predictions(&model, &po, Interp::Linear), || predictions(&model, &po, Interp::Spline));
+    let (lin, spl) = (lin?, spl?);
     let mut rows = Vec::new();
     for (a, b) in lin.iter().zip(&spl) {
         let stop = |r: &PredictionResult| r.stop.as_ref().map_or("-".to_string(), |s| format!("model left range at {:.1} s", s.t));
@@ -202,7 +202,7 @@ pub fn portraits_section(rep: &mut Report, pm: &ParametricModel) -> Result<Model
 /// fig. 5), and the transient spectrum near the 3-torus (paper fig. 6).
 pub fn fullsystem_section(rep: &mut Report, pm: &ParametricModel, bif: &ModelBifurcations, quick: bool) -> Result<(), Box<dyn Error>> {
     use furuta::full_system::{
-        DEFAULT_SCAN_PERIODS, ESCAPE_THETA, default_ics, default_switch_scan, fate_from, start_from_rho, switch_scan, torus_full,
+        DEFAULT_SCAN_PERIODS, ESCAPE_THETA, default_ics, default_switch_scan, fate_from, start_from_rho, switch_scan_per_dt, torus_full,
         transient_analysis,
     };
     rep.section(
@@ -219,17 +219,8 @@ pub fn fullsystem_section(rep: &mut Report, pm: &ParametricModel, bif: &ModelBif
     let (lo, hi) = pm.range();
     let model_switch = model_small_start_switch(pm, 30.8, hi.min(32.3), 76)?;
     let scan = if quick {
-        let mut outcomes = Vec::new();
-        let dts = [31.2, 31.3, 31.4, 31.5, 31.6];
-        let mut runs = 0;
-        let t0 = std::time::Instant::now();
-        for &dt in &dts {
-            let ics: Vec<_> = default_ics(dt)?.into_iter().take(2).collect();
-            let one = switch_scan(&[dt], &ics, 3000, ESCAPE_THETA)?;
-            runs += one.runs;
-            outcomes.extend(one.outcomes);
-        }
-        furuta::full_system::SwitchScan { dts_ms: dts.to_vec(), outcomes, periods: 3000, escape_theta: ESCAPE_THETA, runs, wall_seconds: t0.elapsed().as_secs_f64() }
+        let two = |dt: f64| default_ics(dt).map(|v| v.into_iter().take(2).collect());
+        switch_scan_per_dt(&[31.2, 31.3, 31.4, 31.5, 31.6], two, 3000)?
     } else {
         default_switch_scan(DEFAULT_SCAN_PERIODS)?
     };
@@ -316,8 +307,9 @@ pub fn fullsystem_section(rep: &mut Report, pm: &ParametricModel, bif: &ModelBif
     let mut crows = Vec::new();
     let mut clist = Vec::new();
     let popts = PortraitOptions { rho_max: RHO_MAX, ray_samples: 0, flow_grid: 0, ..PortraitOptions::default() };
-    for dt in [30.8, 31.2, 31.4, 31.6] {
-        let f = fate_from(dt, [1e-7, 0.005], [0.0, 0.0], 3000)?;
+    let dts = [30.8, 31.2, 31.4, 31.6];
+    let fates = par_map(&dts, |&dt| fate_from(dt, [1e-7, 0.005], [0.0, 0.0], 3000))?;
+    for (dt, f) in dts.into_iter().zip(fates) {
         let plateau: Vec<f64> = f.amps.iter().filter(|(t, r)| *t > 15.0 && r[0] < 1e-3).map(|(_, r)| r[1]).collect();
         let full = (!plateau.is_empty()).then(|| plateau.iter().sum::<f64>() / plateau.len() as f64);
         let model = fixed_points(&pm.normal_form_at(dt)?, &popts)?
@@ -348,8 +340,8 @@ pub fn fullsystem_section(rep: &mut Report, pm: &ParametricModel, bif: &ModelBif
     let mut rows = Vec::new();
     let mut curves: Vec<(String, Vec<(f64, f64)>)> = Vec::new();
     let mut doa = Vec::new();
-    for rho in starts {
-        let f = fate_from(dt_doa, rho, [0.0, 0.0], periods)?;
+    let fates = par_map(&starts, |&rho| fate_from(dt_doa, rho, [0.0, 0.0], periods))?;
+    for (rho, f) in starts.into_iter().zip(fates) {
         let (mpts, mfate) = trajectory(&nf, rho, 2000.0, &popts)?;
         let model_class = match mfate {
             Fate::LeavesBox { .. } => "leaves the box (escape)".to_string(),
@@ -417,10 +409,10 @@ pub fn sensitivity_section(rep: &mut Report, default: &ParametricModel) -> Resul
     let mut rows = Vec::new();
     let mut list = Vec::new();
     let f = |v: Option<f64>| v.map_or("none".to_string(), |x| format!("{x:.3}"));
-    let rows_iter = std::iter::once(model_row("default (paper's periods, cut 0.2 rad)", &base, default, None))
-        .chain(variants.iter().map(|(name, o)| sensitivity_row(name, o)));
-    for r in rows_iter {
-        let r = r?;
+    // The default model's row, then one refit per variant on the rayon pool (in order).
+    let mut all = vec![model_row("default (paper's periods, cut 0.2 rad)", &base, default, None)?];
+    all.extend(par_map(&variants, |(name, o)| sensitivity_row(name, o))?);
+    for r in all {
         rows.push(vec![
             r.variant.clone(),
             f(r.torus_hopf_dt_ms),
@@ -439,9 +431,13 @@ pub fn sensitivity_section(rep: &mut Report, default: &ParametricModel) -> Resul
     // on the last 125 s.
     let mut trows = Vec::new();
     let mut tlist = Vec::new();
-    for dt in [30.8, 31.2, 31.4, 31.6, 31.8, 31.9] {
+    let dts = [30.8, 31.2, 31.4, 31.6, 31.8, 31.9];
+    let tori = par_map(&dts, |&dt| {
         let (x, h) = furuta::full_system::start_from_rho(dt, [0.095, 0.028], [0.0, 0.0])?;
-        match furuta::full_system::torus_full(dt, &(x, Some(h)), 16_000, 125.0) {
+        Ok::<_, furuta::Error>(furuta::full_system::torus_full(dt, &(x, Some(h)), 16_000, 125.0))
+    })?;
+    for (dt, torus) in dts.into_iter().zip(tori) {
+        match torus {
             Ok(t) => {
                 trows.push(vec![
                     format!("{dt}"),
