@@ -192,6 +192,7 @@ pub fn bars(path: &Path, title: &str, xlabel: &str, bars: &[(String, f64)], colo
     chart
         .configure_mesh()
         .disable_y_mesh()
+        .x_max_light_lines(1)
         .y_labels(n)
         .y_label_formatter(&|v| match v {
             SegmentValue::CenterOf(k) if *k < n => label_of(*k).to_string(),
@@ -216,4 +217,21 @@ pub fn bars(path: &Path, title: &str, xlabel: &str, bars: &[(String, f64)], colo
         .map_err(|x| e(&x))?;
     root.present().map_err(|x| e(&x))?;
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn bars_draw_and_refuse_bad_values() {
+        let p = std::env::temp_dir().join(format!("ssmctl-bars-{}.png", std::process::id()));
+        let blue = RGBColor(20, 60, 160);
+        bars(&p, "t", "s", &[("a".into(), 1.5), ("b".into(), 0.0)], blue, (400, 160)).unwrap();
+        assert!(p.metadata().unwrap().len() > 1000);
+        assert!(bars(&p, "t", "s", &[], blue, (400, 160)).unwrap_err().to_string().contains("no bars"));
+        let e = bars(&p, "t", "s", &[("c".into(), -1.0)], blue, (400, 160)).unwrap_err().to_string();
+        assert!(e.contains("bar `c`"), "{e}");
+        std::fs::remove_file(&p).unwrap();
+    }
 }
