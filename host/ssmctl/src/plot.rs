@@ -1,4 +1,4 @@
-//! Small PNG line plots for reports (plotters, bitmap backend, an embedded DejaVu font so
+//! Small PNG line and bar plots for reports (plotters, bitmap backend, an embedded DejaVu font so
 //! no system fonts are needed).
 
 use plotters::coord::types::RangedCoordf64;
