@@ -264,21 +264,29 @@ pub const H_ADC: f64 = std::f64::consts::PI / 1000.0;
 /// sampling periods, eps = 0.1..30 encoder steps) and, when present, the inverted flag
 /// (traj_9, eps = 0.01..1 series sd); 8 log-spaced scales each, embedding dimension 6.
 pub fn scale_studies(data_dir: &std::path::Path, periods: usize) -> Result<Vec<ScaleStudy>, Error> {
-    let mut out = Vec::new();
-    let sim = crate::microchaos::simulate_quantized(periods, 0.02, "furuta-quant-dt25")?;
-    let dt = sim.dt().ok_or(Error::BadInput { what: "simulated series", why: "no sampling step".into() })?;
-    let eps = chaos::log_spaced(0.1, 30.0, 8)?;
-    out.push(scale_dependence("simulated: furuta-quant-dt25 (theta)", &sim.x, dt, 6, "encoder step h = pi/1000 rad", H_ADC, &eps)?);
-    let f = data_dir.join("inverted_flag_chaotic").join("traj_9.csv");
-    if f.is_file() {
+    // The two studies are independent: two tasks on the rayon pool, in this order.
+    let simulated = || -> Result<ScaleStudy, Error> {
+        let sim = crate::microchaos::simulate_quantized(periods, 0.02, "furuta-quant-dt25")?;
+        let dt = sim.dt().ok_or(Error::BadInput { what: "simulated series", why: "no sampling step".into() })?;
+        let eps = chaos::log_spaced(0.1, 30.0, 8)?;
+        Ok(scale_dependence("simulated: furuta-quant-dt25 (theta)", &sim.x, dt, 6, "encoder step h = pi/1000 rad", H_ADC, &eps)?)
+    };
+    let measured = || -> Result<Option<ScaleStudy>, Error> {
+        let f = data_dir.join("inverted_flag_chaotic").join("traj_9.csv");
+        if !f.is_file() {
+            return Ok(None);
+        }
         let ts = ssm::load_csv(&f)?;
         let dt = ts.dt().ok_or(Error::BadInput { what: "inverted-flag series", why: "no sampling step".into() })?;
         let n = ts.x.len() as f64;
         let m = ts.x.iter().sum::<f64>() / n;
         let sd = (ts.x.iter().map(|v| (v - m) * (v - m)).sum::<f64>() / (n - 1.0)).sqrt();
         let eps = chaos::log_spaced(0.01, 1.0, 8)?;
-        out.push(scale_dependence("measured: inverted flag traj_9", &ts.x, dt, 6, "series sd", sd, &eps)?);
-    }
+        Ok(Some(scale_dependence("measured: inverted flag traj_9", &ts.x, dt, 6, "series sd", sd, &eps)?))
+    };
+    let (a, b) = rayon::join(simulated, measured);
+    let mut out = vec![a?];
+    out.extend(b?);
     Ok(out)
 }
 

@@ -162,15 +162,8 @@ pub fn switch_scan(dts_ms: &[f64], ics: &[Start], periods: u64, escape_theta: f6
         return Err(Error::BadInput { what: "ics", why: "need at least one start".into() });
     }
     let t0 = Instant::now();
-    let mut outcomes = Vec::with_capacity(dts_ms.len());
-    for &dt in dts_ms {
-        let mut row = Vec::with_capacity(ics.len());
-        for ic in ics {
-            let tr = run(dt, ic, periods, escape_theta)?;
-            row.push(outcome_of(&tr));
-        }
-        outcomes.push(row);
-    }
+    // Every (dt, start) run on the rayon pool, collected in input order.
+    let outcomes = crate::par_map(dts_ms, |&dt| crate::par_map(ics, |ic| run(dt, ic, periods, escape_theta).map(|tr| outcome_of(&tr))))?;
     Ok(SwitchScan {
         dts_ms: dts_ms.to_vec(),
         outcomes,
@@ -220,17 +213,25 @@ pub fn default_dts() -> Vec<f64> {
 /// (the pure slow-mode start first grows the fast mode from round-off), so use
 /// [`DEFAULT_SCAN_PERIODS`]; 3000 periods (95 s) moves the bracket up by 0.04 ms.
 pub fn default_switch_scan(periods: u64) -> Result<SwitchScan, Error> {
-    let t0 = Instant::now();
-    let dts = default_dts();
-    let mut outcomes = Vec::with_capacity(dts.len());
-    let mut runs = 0;
-    for &dt in &dts {
-        let ics = default_ics(dt)?;
-        let one = switch_scan(&[dt], &ics, periods, ESCAPE_THETA)?;
-        runs += one.runs;
-        outcomes.extend(one.outcomes);
+    switch_scan_per_dt(&default_dts(), default_ics, periods)
+}
+
+/// [`switch_scan`] with the starts computed at each dt by `ics_at` (e.g. from that dt's
+/// eigenvectors, [`default_ics`]); escape at [`ESCAPE_THETA`]. Every run on the rayon pool,
+/// collected in input order.
+pub fn switch_scan_per_dt(
+    dts_ms: &[f64],
+    ics_at: impl Fn(f64) -> Result<Vec<Start>, Error> + Sync,
+    periods: u64,
+) -> Result<SwitchScan, Error> {
+    if dts_ms.is_empty() || dts_ms.windows(2).any(|w| w[1] <= w[0]) {
+        return Err(Error::BadInput { what: "dts_ms", why: "need at least one, strictly increasing".into() });
     }
-    Ok(SwitchScan { dts_ms: dts, outcomes, periods, escape_theta: ESCAPE_THETA, runs, wall_seconds: t0.elapsed().as_secs_f64() })
+    let t0 = Instant::now();
+    let rows = crate::par_map(dts_ms, |&dt| switch_scan(&[dt], &ics_at(dt)?, periods, ESCAPE_THETA))?;
+    let runs = rows.iter().map(|r| r.runs).sum();
+    let outcomes = rows.into_iter().flat_map(|r| r.outcomes).collect();
+    Ok(SwitchScan { dts_ms: dts_ms.to_vec(), outcomes, periods, escape_theta: ESCAPE_THETA, runs, wall_seconds: t0.elapsed().as_secs_f64() })
 }
 
 // ---------------------------------------------------------------------------------------

@@ -522,19 +522,31 @@ pub fn analyse_held_out(train: &[TimeSeries], test: Option<&TimeSeries>, o: &Cha
         notes: Vec::new(),
         seconds: 0.0,
     };
-    for (name, dynamics) in [("rbf", Dynamics::Rbf { centers: o.centers }), ("poly", Dynamics::Map)] {
+    // The RBF and the polynomial model are fitted and evaluated as two tasks on the rayon
+    // pool (the kicked runs draw from seed 1 in each); notes and values are merged in this
+    // order. A failed fit is a note, not an error.
+    let kinds = [("rbf", Dynamics::Rbf { centers: o.centers }), ("poly", Dynamics::Map)];
+    let evals = crate::par_map(&kinds, |&(name, dynamics)| -> Result<Result<(ModelStats, KickedStats), String>, Error> {
         let mut opts = base;
         opts.dynamics = dynamics;
         let m = match fit(train, &opts) {
             Ok(m) => m,
             // A size beyond the stated limits is the caller's to fix, not a finding.
             Err(e @ ssm::FitError::TooLarge { .. }) => return Err(e.into()),
-            Err(e) => {
-                notes.push(format!("{name} fit failed: {e}"));
+            Err(e) => return Ok(Err(format!("{name} fit failed: {e}"))),
+        };
+        let s = evaluate_model(&m, data, &ctx, o, name)?;
+        let k = evaluate_kicked(&m, train, data, &ctx, 1, name)?;
+        Ok(Ok((s, k)))
+    })?;
+    for (&(name, _), eval) in kinds.iter().zip(evals) {
+        let (s, k) = match eval {
+            Ok(sk) => sk,
+            Err(note) => {
+                notes.push(note);
                 continue;
             }
         };
-        let s = evaluate_model(&m, data, &ctx, o, name)?;
         notes.extend(s.notes);
         let b = s.benettin.as_ref().map(|b| b.exponent);
         if name == "rbf" {
@@ -542,7 +554,6 @@ pub fn analyse_held_out(train: &[TimeSeries], test: Option<&TimeSeries>, o: &Cha
         } else {
             (out.lle_model_poly, out.pdf_divergence_poly, out.lle_model_poly_benettin, out.benettin_poly) = (s.lle_rosenstein, s.js, b, s.benettin);
         }
-        let k = evaluate_kicked(&m, train, data, &ctx, 1, name)?;
         notes.extend(k.notes);
         if name == "rbf" {
             (out.lle_model_rbf_kicked, out.pdf_divergence_rbf_kicked) = (k.lle_rosenstein, k.js);

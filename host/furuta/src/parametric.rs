@@ -250,29 +250,26 @@ pub(crate) fn validate_options(opts: &FurutaOptions) -> Result<(), Error> {
 /// The training series of one sampling period: one run per initial state, then one per
 /// slow-mode start (see [`FurutaOptions`]).
 pub fn training_series(opts: &FurutaOptions, dt_ms: f64) -> Result<Vec<TimeSeries>, Error> {
-    let mut train: Vec<TimeSeries> = opts
-        .initial_states
-        .iter()
-        .map(|&ic| furuta_series(dt_ms, ic, opts.periods, opts.skip, opts.max_theta))
-        .collect::<Result<_, _>>()?;
-    for &(amp, phase) in &opts.slow_starts {
+    // The runs on the rayon pool, in this order: initial states, then slow-mode starts.
+    let mut train = crate::par_map(&opts.initial_states, |&ic| furuta_series(dt_ms, ic, opts.periods, opts.skip, opts.max_theta))?;
+    train.extend(crate::par_map(&opts.slow_starts, |&(amp, phase)| {
         let (ic, hist) = slow_mode_start(dt_ms, amp, phase)?;
-        train.push(furuta_series_with_history(dt_ms, ic, Some(&hist), opts.periods, opts.skip, opts.max_theta)?);
-    }
+        furuta_series_with_history(dt_ms, ic, Some(&hist), opts.periods, opts.skip, opts.max_theta)
+    })?);
     Ok(train)
 }
 
 /// Fits the parametric model (slow: one simulation per dt and initial state).
 pub fn furuta_parametric(opts: &FurutaOptions) -> Result<ParametricModel, Error> {
     validate_options(opts)?;
-    let mut trained = Vec::with_capacity(opts.dts_ms.len());
-    for &dt_ms in &opts.dts_ms {
+    // One training period per task on the rayon pool, collected in order.
+    let trained = crate::par_map(&opts.dts_ms, |&dt_ms| {
         let train = training_series(opts, dt_ms)?;
         let model = fit(&train, &opts.fit)?;
         let normal_form = model_normal_form(&model, &NormalFormOptions::default())
             .map_err(|source| Error::NormalForm { dt: dt_ms, source })?;
-        trained.push(TrainedDt { dt_ms, model, normal_form, exact: exact_modes(dt_ms)? });
-    }
+        Ok::<_, Error>(TrainedDt { dt_ms, model, normal_form, exact: exact_modes(dt_ms)? })
+    })?;
     Ok(ParametricModel { trained })
 }
 

@@ -95,19 +95,16 @@ pub fn shared_parametric(opts: &FurutaOptions) -> Result<SharedParametricModel, 
     if opts.fit.dynamics != ssm::dynamics::Dynamics::Map {
         return Err(Error::BadOption { what: "fit.dynamics", why: "the shared-tangent model interpolates polynomial maps; use Dynamics::Map".into() });
     }
-    let mut series = Vec::with_capacity(opts.dts_ms.len());
+    // Training runs and fits per period on the rayon pool, collected in order.
+    let series = crate::par_map(&opts.dts_ms, |&dt_ms| training_series(opts, dt_ms))?;
     let mut pooled = Vec::new();
-    for &dt_ms in &opts.dts_ms {
-        let train = training_series(opts, dt_ms)?;
-        pooled.extend(embed_training(&train, &opts.fit)?.0);
-        series.push(train);
+    for train in &series {
+        pooled.extend(embed_training(train, &opts.fit)?.0);
     }
     let (v1, singular_values) = tangent_space(&pooled, opts.fit.dim)?;
     drop(pooled);
-    let mut fits = Vec::with_capacity(series.len());
-    for (train, &dt_ms) in series.iter().zip(&opts.dts_ms) {
-        fits.push((dt_ms, fit_with_tangent(train, &opts.fit, &v1)?));
-    }
+    let tasks: Vec<(&Vec<TimeSeries>, f64)> = series.iter().zip(opts.dts_ms.iter().copied()).collect();
+    let fits = crate::par_map(&tasks, |&(train, dt_ms)| Ok::<_, Error>((dt_ms, fit_with_tangent(train, &opts.fit, &v1)?)))?;
     let d = opts.fit.dim;
     let scale: Vec<f64> = (0..d).map(|j| fits.iter().map(|(_, m)| m.manifold.eta_scale[j]).fold(0.0, f64::max)).collect();
     let mut nodes = Vec::with_capacity(fits.len());
@@ -281,7 +278,7 @@ pub fn test_series(dt_ms: f64, o: &PredictOptions) -> Result<TimeSeries, Error> 
 
 /// Predictions at every period of `o.dts_ms` with interpolation `interp`.
 pub fn predictions(model: &SharedParametricModel, o: &PredictOptions, interp: Interp) -> Result<Vec<PredictionResult>, Error> {
-    o.dts_ms.iter().map(|&dt_ms| predict_one(model, dt_ms, &test_series(dt_ms, o)?, o, interp)).collect()
+    crate::par_map(&o.dts_ms, |&dt_ms| predict_one(model, dt_ms, &test_series(dt_ms, o)?, o, interp))
 }
 
 /// The prediction and its metrics for one test series.

@@ -21,6 +21,7 @@ mod tests;
 use std::time::Instant;
 
 use nalgebra::{Complex, DMatrix, SMatrix, SVector};
+use rayon::prelude::*;
 use serde::Serialize;
 use shared::ControllerConfig;
 
@@ -173,10 +174,9 @@ pub fn compute_chart(
     if let Some(&dt) = dts_s.iter().find(|dt| !(dt.is_finite() && **dt > 0.0)) {
         return Err(ChartError::BadPeriod(dt));
     }
-    let panels = dts_s
-        .iter()
-        .map(|&dt| compute_panel(plant, base, dt, kp, kd))
-        .collect::<Result<Vec<_>, _>>()?;
+    // Panels in parallel, collected in input order; the first error in that order wins.
+    let panels: Vec<Result<Panel, ChartError>> = dts_s.par_iter().map(|&dt| compute_panel(plant, base, dt, kp, kd)).collect();
+    let panels = panels.into_iter().collect::<Result<Vec<_>, _>>()?;
     Ok(Chart { kp, kd, base: *base, panels })
 }
 
@@ -211,18 +211,25 @@ fn compute_panel(
 ) -> Result<Panel, ChartError> {
     let zoh = plant.discretize(dt)?;
     let n = kp.n * kd.n;
+    // Grid rows (one KD each) in parallel with the D-curves; every point is computed
+    // alone, and the rows are put together in order, so the result is the serial one.
+    let row = |i: usize| -> Result<Vec<(f64, Option<Crossing>)>, LinearError> {
+        (0..kp.n).map(|j| classify(&zoh, &ControllerConfig { kp: kp.at(j), kd: kd.at(i), dt, ..*base })).collect()
+    };
+    let (rows, curves) = rayon::join(
+        || (0..kd.n).into_par_iter().map(row).collect::<Vec<_>>(),
+        || d_curves(&zoh, base, kp, kd),
+    );
     let mut radius = Vec::with_capacity(n);
     let mut unstable_kind = Vec::with_capacity(n);
-    for i in 0..kd.n {
-        for j in 0..kp.n {
-            let cfg = ControllerConfig { kp: kp.at(j), kd: kd.at(i), dt, ..*base };
-            let (r, k) = classify(&zoh, &cfg)?;
+    for r in rows {
+        for (r, k) in r? {
             radius.push(r);
             unstable_kind.push(k);
         }
     }
     let (base_radius, _) = classify(&zoh, &ControllerConfig { dt, ..*base })?;
-    let curves = d_curves(&zoh, base, kp, kd)?;
+    let curves = curves?;
     let summary = summarize(dt, kp, kd, &radius, &unstable_kind, base_radius);
     Ok(Panel { dt_s: dt, radius, unstable_kind, curves, summary })
 }

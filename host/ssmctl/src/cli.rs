@@ -98,6 +98,10 @@ pub enum Cmd {
         /// Folder of the measured reference data sets (sections skip, saying so, when absent).
         #[arg(long, default_value = "../shared/data")]
         data_dir: PathBuf,
+        /// Threads of the pool the sweeps run on (default: RAYON_NUM_THREADS, else one per
+        /// core). The results do not depend on it.
+        #[arg(long, value_parser = clap::value_parser!(u16).range(1..))]
+        jobs: Option<u16>,
     },
     /// Fit an SSM reduced model to time series of one or several observables (CSV files of
     /// t and observables, or SSMLearn .mat files with a cell array xData of {t, X} rows).
@@ -405,7 +409,7 @@ pub fn run(cli: Cli) -> Result<(), Box<dyn std::error::Error>> {
                 pb.finish_and_clear();
             }
             let scene_file = std::path::Path::new(&scene.scene);
-            let csv = crate::output::write_scene_outputs(&s, &tr, &out, &[("--scene", scene_file)])?;
+            let csv = crate::output::write_scene_outputs(&s, &tr, &out, &[("--scene", scene_file)]).map_err(|e| -> Box<dyn std::error::Error> { e })?;
             eprintln!(
                 "{}: {} periods in {:.3} s ({}){}; wrote {}",
                 s.name,
@@ -435,7 +439,10 @@ pub fn run(cli: Cli) -> Result<(), Box<dyn std::error::Error>> {
             let summary = crate::draw::chart::chart_for_scene(&s, &out, &dt_ms, kp, kd)?;
             outln!("{}", serde_json::to_string_pretty(&summary)?);
         }
-        Cmd::Reproduce { out, quick, data_dir } => {
+        Cmd::Reproduce { out, quick, data_dir, jobs } => {
+            if let Some(n) = jobs {
+                rayon::ThreadPoolBuilder::new().num_threads(n.into()).build_global()?;
+            }
             reproduce::run(&out, &data_dir, quick, quiet)?;
             eprintln!("wrote {}", out.join("index.html").display());
         }

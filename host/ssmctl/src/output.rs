@@ -134,7 +134,7 @@ pub fn write_scene_outputs(
     traj: &sim::closed_loop::Trajectory,
     dir: &Path,
     inputs: &[(&str, &Path)],
-) -> Result<PathBuf, Box<dyn std::error::Error>> {
+) -> Result<PathBuf, Box<dyn std::error::Error + Send + Sync>> {
     let (csv_name, json_name) = sim::closed_loop::output_names(scene);
     let (csv, json) = (dir.join(&csv_name), dir.join(&json_name));
     check_not_input(&csv, inputs)?;

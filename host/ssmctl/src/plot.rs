@@ -1,4 +1,4 @@
-//! Small PNG line plots for reports (plotters, bitmap backend, an embedded DejaVu font so
+//! Small PNG line and bar plots for reports (plotters, bitmap backend, an embedded DejaVu font so
 //! no system fonts are needed).
 
 use plotters::coord::types::RangedCoordf64;
@@ -161,4 +161,77 @@ pub fn grid(path: &Path, panels: &[Panel<'_>], cols: usize, size: (u32, u32)) ->
     }
     root.present().map_err(|x| e(&x))?;
     Ok(())
+}
+
+/// Horizontal bars, one per `(label, value)`, top to bottom in the given order; the value
+/// (`{:.1}`) is written after each bar. Values must be finite and >= 0.
+pub fn bars(path: &Path, title: &str, xlabel: &str, bars: &[(String, f64)], color: RGBColor, size: (u32, u32)) -> Result<(), PlotError> {
+    use plotters::style::text_anchor::{HPos, Pos, VPos};
+    ensure_font();
+    let e = |m: &dyn std::fmt::Display| PlotError::new(path, m);
+    if bars.is_empty() {
+        return Err(e(&"no bars"));
+    }
+    if let Some((l, v)) = bars.iter().find(|b| !(b.1.is_finite() && b.1 >= 0.0)) {
+        return Err(e(&format!("bar `{l}`: value {v} must be finite and >= 0")));
+    }
+    let n = bars.len();
+    let xmax = bars.iter().map(|b| b.1).fold(0.0, f64::max);
+    let xmax = if xmax > 0.0 { 1.15 * xmax } else { 1.0 };
+    // Bar i sits in segment n - 1 - i, so the first bar is at the top.
+    let label_of = |k: usize| bars.get(n - 1 - k).map_or("", |b| b.0.as_str());
+    let root = BitMapBackend::new(path, size).into_drawing_area();
+    root.fill(&WHITE).map_err(|x| e(&x))?;
+    let mut chart = ChartBuilder::on(&root)
+        .caption(title, ("sans-serif", 18))
+        .margin(10)
+        .x_label_area_size(36)
+        .y_label_area_size(170)
+        .build_cartesian_2d(0.0..xmax, (0..n).into_segmented())
+        .map_err(|x| e(&x))?;
+    chart
+        .configure_mesh()
+        .disable_y_mesh()
+        .x_max_light_lines(1)
+        .y_labels(n)
+        .y_label_formatter(&|v| match v {
+            SegmentValue::CenterOf(k) if *k < n => label_of(*k).to_string(),
+            _ => String::new(),
+        })
+        .x_desc(xlabel)
+        .label_style(("sans-serif", 13))
+        .draw()
+        .map_err(|x| e(&x))?;
+    chart
+        .draw_series(bars.iter().enumerate().map(|(i, (_, v))| {
+            let k = n - 1 - i;
+            let mut r = Rectangle::new([(0.0, SegmentValue::Exact(k)), (*v, SegmentValue::Exact(k + 1))], color.filled());
+            r.set_margin(3, 3, 0, 0);
+            r
+        }))
+        .map_err(|x| e(&x))?;
+    chart
+        .draw_series(bars.iter().enumerate().map(|(i, (_, v))| {
+            Text::new(format!(" {v:.1}"), (*v, SegmentValue::CenterOf(n - 1 - i)), TextStyle::from(("sans-serif", 12).into_font()).pos(Pos::new(HPos::Left, VPos::Center)))
+        }))
+        .map_err(|x| e(&x))?;
+    root.present().map_err(|x| e(&x))?;
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn bars_draw_and_refuse_bad_values() {
+        let p = std::env::temp_dir().join(format!("ssmctl-bars-{}.png", std::process::id()));
+        let blue = RGBColor(20, 60, 160);
+        bars(&p, "t", "s", &[("a".into(), 1.5), ("b".into(), 0.0)], blue, (400, 160)).unwrap();
+        assert!(p.metadata().unwrap().len() > 1000);
+        assert!(bars(&p, "t", "s", &[], blue, (400, 160)).unwrap_err().to_string().contains("no bars"));
+        let e = bars(&p, "t", "s", &[("c".into(), -1.0)], blue, (400, 160)).unwrap_err().to_string();
+        assert!(e.contains("bar `c`"), "{e}");
+        std::fs::remove_file(&p).unwrap();
+    }
 }

@@ -99,11 +99,24 @@ fn bench_json_rows_have_the_contract_keys() {
 #[test]
 fn reproduce_quick_writes_the_report() {
     let dir = tmp("rep");
-    let (ok, _, err) = ssmctl(&["reproduce", "--quick", "--out", dir.to_str().unwrap()]);
+    let (ok, _, err) = ssmctl(&["reproduce", "--quick", "--jobs", "2", "--out", dir.to_str().unwrap()]);
     assert!(ok, "{err}");
     let html = std::fs::read_to_string(dir.join("index.html")).unwrap();
     assert!(html.contains("stability_chart.png") && html.contains("What accuracy costs in time"));
+    assert!(html.contains("<!-- timings -->") && html.contains("fig/timings.png"));
     let s: Value = serde_json::from_str(&std::fs::read_to_string(dir.join("summary.json")).unwrap()).unwrap();
+    // Where the time went: every section timed, on the pool `--jobs` asked for.
+    let t = &s["timings"];
+    assert_eq!(t["jobs"].as_u64(), Some(2), "{t}");
+    assert!(t["total_seconds"].as_f64().unwrap() > 0.0 && t["cached"].is_array(), "{t}");
+    let names: Vec<&str> = t["sections"].as_array().unwrap().iter().map(|x| x["name"].as_str().unwrap()).collect();
+    for k in ["scenes", "chart", "parametric", "fullsystem", "chaos"] {
+        assert!(names.contains(&k), "timings lack {k}: {names:?}");
+    }
+    if cfg!(target_os = "linux") {
+        assert!(t["peak_rss_mb"].as_f64().unwrap() > 1.0, "{t}");
+    }
+    assert!(dir.join("fig/timings.png").is_file());
     for k in [
         "scenes", "stability", "stability_chart", "bench_simulate", "linear_nf", "chaos", "device", "pil", "predictions", "heteroclinic_dt_ms",
         "torus_30p8", "portraits", "fast_cycle", "backbone",

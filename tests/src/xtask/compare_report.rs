@@ -5,12 +5,16 @@
 //!   keys, the same array lengths, strings, booleans and nulls equal, every number equal to
 //!   1e-12 relative (`|a - b| <= 1e-12 * max(|a|, |b|)`). The values of the wall-clock
 //!   timing keys in [`TIMING_KEYS`] are skipped (at any depth; the key itself must still be
-//!   on both sides). A string that is a path inside the report directory (e.g.
+//!   on both sides). The timing records in [`TIMING_RECORDS`] (the top-level `timings`
+//!   object of `summary.json`) are skipped whole, even when only one side has them: a
+//!   report that predates them compares equal. A string that is a path inside the report directory (e.g.
 //!   `BASE/fig/stability_chart.png`) equals its counterpart when both are the same after
 //!   stripping the `BASE` / `NEW` prefix.
 //! - `index.html` holds timings: it is compared as text with every number masked (see
-//!   [`mask_numbers`]) and the report directories' absolute paths replaced.
-//! - Every other file (PNG figures, `.bin` model blobs, scene CSVs) must be byte-identical.
+//!   [`mask_numbers`]), the report directories' absolute paths replaced and the timing
+//!   section dropped (the text between [`TIMINGS_BEGIN`] and [`TIMINGS_END`]).
+//! - Every other file (PNG figures, `.bin` model blobs, scene CSVs) must be byte-identical,
+//!   except the timing figures in [`TIMING_FILES`], skipped on either side.
 //! - A file present in only one tree is a mismatch.
 
 use std::collections::BTreeSet;
@@ -34,6 +38,19 @@ pub const TIMING_KEYS: &[&str] = &[
     "fit_ratio",
     "step_ratio",
 ];
+
+/// Top-level keys of `summary.json` that hold only run records (wall times per section, the
+/// thread-pool size, the peak memory, what was reused from a cache): skipped whole, also
+/// when only one side has them (reports written before they existed lack them).
+pub const TIMING_RECORDS: &[&str] = &["timings"];
+
+/// Figures of wall times (relative to the report folder): skipped, on either side.
+pub const TIMING_FILES: &[&str] = &["fig/timings.png"];
+
+/// The markers `ssmctl reproduce` puts around the timing section of `index.html` and its
+/// contents-list entry (`ssmctl::report::TIMINGS_BEGIN` / `TIMINGS_END`).
+pub const TIMINGS_BEGIN: &str = "<!-- timings -->";
+pub const TIMINGS_END: &str = "<!-- /timings -->";
 
 /// Relative tolerance of the numbers in the JSON files.
 pub const REL_TOL: f64 = 1e-12;
@@ -77,6 +94,9 @@ pub fn compare(base: &Path, new: &Path) -> Result<Outcome, String> {
     let mut c = Comparer { base_prefixes: prefixes(base), new_prefixes: prefixes(new), out: Outcome::default() };
     for rel in base_files.union(&new_files) {
         let name = rel.to_string_lossy().replace('\\', "/");
+        if TIMING_FILES.contains(&name.as_str()) {
+            continue;
+        }
         match (base_files.contains(rel), new_files.contains(rel)) {
             (true, false) => c.mismatch(format!("{name}: only in BASE ({})", base.display())),
             (false, true) => c.mismatch(format!("{name}: only in NEW ({})", new.display())),
@@ -239,6 +259,22 @@ pub fn mask_numbers(text: &str) -> String {
     out
 }
 
+/// `text` without every span from [`TIMINGS_BEGIN`] to the next [`TIMINGS_END`] (markers
+/// included, and a line break right after the end marker, so a span on lines of its own
+/// leaves no empty line; an unclosed span runs to the end).
+pub fn drop_timings(text: &str) -> String {
+    let mut out = String::with_capacity(text.len());
+    let mut rest = text;
+    while let Some(i) = rest.find(TIMINGS_BEGIN) {
+        out.push_str(&rest[..i]);
+        rest = &rest[i + TIMINGS_BEGIN.len()..];
+        rest = rest.find(TIMINGS_END).map_or("", |j| &rest[j + TIMINGS_END.len()..]);
+        rest = rest.strip_prefix('\n').unwrap_or(rest);
+    }
+    out.push_str(rest);
+    out
+}
+
 /// Shortens a line of text for a message.
 fn clip(s: &str) -> String {
     const MAX: usize = 120;
@@ -270,7 +306,16 @@ impl Comparer {
             serde_json::from_slice::<Value>(bytes).map_err(|e| format!("{name}: not JSON in {side}: {e}"))
         };
         match (parse(a, "BASE"), parse(b, "NEW")) {
-            (Ok(x), Ok(y)) => self.json(name, "$", &x, &y),
+            (Ok(mut x), Ok(mut y)) => {
+                if name == "summary.json" {
+                    for v in [&mut x, &mut y] {
+                        if let Value::Object(m) = v {
+                            TIMING_RECORDS.iter().for_each(|k| drop(m.remove(*k)));
+                        }
+                    }
+                }
+                self.json(name, "$", &x, &y)
+            }
             (Err(e), _) | (_, Err(e)) => self.mismatch(e),
         }
     }
@@ -341,7 +386,7 @@ impl Comparer {
             for p in abs {
                 text = text.replace(&format!("{p}/"), "<REPORT>/");
             }
-            mask_numbers(&text)
+            mask_numbers(&drop_timings(&text))
         };
         let x = normalize(a, &self.base_prefixes);
         let y = normalize(b, &self.new_prefixes);
@@ -476,6 +521,56 @@ mod tests {
         assert!(o.mismatches.is_empty(), "{:?}", o.mismatches);
         assert_eq!(o.numbers, 8);
         cleanup(&[&a, &b]);
+    }
+
+    /// A report with the timing records (summary key, figure, marked page section and
+    /// contents entry) against one without, and two with different timings: equal.
+    #[test]
+    fn timing_records_are_skipped_even_when_base_lacks_them() {
+        let (a, b) = pair("records");
+        let timings = |total: f64| {
+            serde_json::json!({"total_seconds": total, "jobs": 2, "cached": [], "peak_rss_mb": 512.0,
+                               "sections": [{"name": "scenes", "seconds": total / 2.0}]})
+        };
+        edit_summary(&b, |v| v["timings"] = timings(40.0));
+        write(&b.join("fig/timings.png"), b"\x89PNG\r\n\x1a\nbars");
+        let page = |extra: &str| {
+            format!(
+                "<ul><li><a href=\"#a\">A</a></li><!-- timings --><li><a href=\"#timings\">Where the time goes</a></li><!-- /timings --></ul>\n\
+                 <p>furuta-dt25: 300 periods, max 0.0279 rad, 27362 periods/s, fit 12.5 ms</p>\n\
+                 <!-- timings -->\n<h2 id=\"timings\">Where the time goes</h2>\n<table><tr><td>{extra}</td></tr></table>\n<!-- /timings -->\n"
+            )
+        };
+        write(&a.join("index.html"), b"<ul><li><a href=\"#a\">A</a></li></ul>\n<p>furuta-dt25: 300 periods, max 0.0279 rad, 27362 periods/s, fit 12.5 ms</p>\n");
+        write(&b.join("index.html"), page("scenes").as_bytes());
+        let o = compare(&a, &b).unwrap();
+        assert!(o.mismatches.is_empty(), "{:?}", o.mismatches);
+        assert_eq!(o.numbers, 8, "the timing record's numbers are not counted");
+        // Both with timings, different ones (and different section names in the page).
+        edit_summary(&a, |v| v["timings"] = timings(75.0));
+        write(&a.join("fig/timings.png"), b"\x89PNG\r\n\x1a\nother bars");
+        write(&a.join("index.html"), page("chart").as_bytes());
+        let o = compare(&a, &b).unwrap();
+        assert!(o.mismatches.is_empty(), "{:?}", o.mismatches);
+        // Only the marked span is dropped: a change outside it still counts.
+        write(&b.join("index.html"), page("scenes").replace("max", "min").as_bytes());
+        let o = compare(&a, &b).unwrap();
+        assert_eq!(o.mismatches.len(), 1, "{:?}", o.mismatches);
+        // `timings` is skipped only at the top level of summary.json.
+        edit_summary(&b, |v| v["chaos"]["timings"] = 1.into());
+        write(&b.join("index.html"), page("scenes").as_bytes());
+        let o = compare(&a, &b).unwrap();
+        assert_eq!(o.mismatches.len(), 1, "{:?}", o.mismatches);
+        assert!(o.mismatches[0].starts_with("summary.json $.chaos.timings: key only in NEW"), "{:?}", o.mismatches);
+        cleanup(&[&a, &b]);
+    }
+
+    #[test]
+    fn drop_timings_removes_marked_spans() {
+        assert_eq!(drop_timings("a<!-- timings -->b<!-- /timings -->c<!-- timings -->d<!-- /timings -->e"), "ace");
+        assert_eq!(drop_timings("a<!-- timings -->b"), "a");
+        assert_eq!(drop_timings("a\n<!-- timings -->\nb\n<!-- /timings -->\nc\n"), "a\nc\n");
+        assert_eq!(drop_timings("no markers"), "no markers");
     }
 
     #[test]

@@ -200,3 +200,19 @@ fn clipping_keeps_inside_pieces() {
     let entry = pieces[1][0];
     assert!((entry.0 - (15.0 - 10.0 / 1.75)).abs() < 1e-12 && (entry.1 - 1.0).abs() < 1e-12, "{entry:?}");
 }
+
+/// The chart's panels and grid rows run on the rayon pool: a 1-thread and a 2-thread pool
+/// give the same chart, bit for bit (Debug prints every f64 exactly).
+#[test]
+fn chart_is_bit_identical_on_one_and_two_threads() {
+    let base = ControllerConfig::paper(0.025);
+    let kp = Axis { lo: 0.0, hi: 40.0, n: 23 };
+    let kd = Axis { lo: 0.0, hi: 8.0, n: 17 };
+    let on = |threads: usize| {
+        let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
+        pool.install(|| compute_chart(&plant(), &base, &[0.020, 0.025, 0.0308], kp, kd).unwrap())
+    };
+    let (one, two) = (on(1), on(2));
+    assert_eq!(format!("{one:?}"), format!("{two:?}"));
+    assert!(one.panels.iter().all(|p| p.radius.len() == 23 * 17 && !p.curves.is_empty()));
+}

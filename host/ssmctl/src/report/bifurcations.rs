@@ -4,7 +4,7 @@
 //! in dt (linearly, and by a natural cubic spline for comparison).
 
 use crate::plot::{self, Series};
-use crate::report::{Report, num};
+use crate::report::{Report, num, par_map};
 use crate::report::normal_form::PAPER_DTS;
 use furuta::parametric::{FurutaOptions, ParametricModel};
 use ssm::portrait::{Fate, PointKind, PortraitOptions, fixed_points, portrait, trajectory};
@@ -70,8 +70,8 @@ pub fn predictions_section(rep: &mut Report) -> Result<(), Box<dyn Error>> {
         ),
     );
     let model = shared_parametric(&FurutaOptions::default())?;
-    let lin = predictions(&model, &po, Interp::Linear)?;
-    let spl = predictions(&model, &po, Interp::Spline)?;
+    let (lin, spl) = rayon::join(|| predictions(&model, &po, Interp::Linear), || predictions(&model, &po, Interp::Spline));
+    let (lin, spl) = (lin?, spl?);
     let mut rows = Vec::new();
     for (a, b) in lin.iter().zip(&spl) {
         let stop = |r: &PredictionResult| r.stop.as_ref().map_or("-".to_string(), |s| format!("model left range at {:.1} s", s.t));
@@ -202,7 +202,7 @@ pub fn portraits_section(rep: &mut Report, pm: &ParametricModel) -> Result<Model
 /// fig. 5), and the transient spectrum near the 3-torus (paper fig. 6).
 pub fn fullsystem_section(rep: &mut Report, pm: &ParametricModel, bif: &ModelBifurcations, quick: bool) -> Result<(), Box<dyn Error>> {
     use furuta::full_system::{
-        DEFAULT_SCAN_PERIODS, ESCAPE_THETA, default_ics, default_switch_scan, fate_from, start_from_rho, switch_scan, torus_full,
+        DEFAULT_SCAN_PERIODS, ESCAPE_THETA, default_ics, default_switch_scan, fate_from, start_from_rho, switch_scan_per_dt, torus_full,
         transient_analysis,
     };
     rep.section(
@@ -215,24 +215,37 @@ pub fn fullsystem_section(rep: &mut Report, pm: &ParametricModel, bif: &ModelBif
              drawn in the model's (rho_1, rho_2) plane."
         ),
     );
-    // 1. Small-start switch.
+    // The full-system runs of the four parts below and the model's small-start scan share
+    // nothing: they run together on the pool, then the parts are written in order.
     let (lo, hi) = pm.range();
-    let model_switch = model_small_start_switch(pm, 30.8, hi.min(32.3), 76)?;
-    let scan = if quick {
-        let mut outcomes = Vec::new();
-        let dts = [31.2, 31.3, 31.4, 31.5, 31.6];
-        let mut runs = 0;
-        let t0 = std::time::Instant::now();
-        for &dt in &dts {
-            let ics: Vec<_> = default_ics(dt)?.into_iter().take(2).collect();
-            let one = switch_scan(&[dt], &ics, 3000, ESCAPE_THETA)?;
-            runs += one.runs;
-            outcomes.extend(one.outcomes);
+    let fast_dts = [30.8, 31.2, 31.4, 31.6];
+    let dt_doa = 31.55;
+    let starts: [[f64; 2]; 3] = [[0.08, 0.03], [0.02, 0.03], [0.14, 0.055]];
+    let periods = if quick { 2000 } else { 6000 };
+    let dt_tr = 31.5;
+    let model_switch = || model_small_start_switch(pm, 30.8, hi.min(32.3), 76);
+    let scan = || {
+        if quick {
+            let two = |dt: f64| default_ics(dt).map(|v| v.into_iter().take(2).collect());
+            switch_scan_per_dt(&[31.2, 31.3, 31.4, 31.5, 31.6], two, 3000)
+        } else {
+            default_switch_scan(DEFAULT_SCAN_PERIODS)
         }
-        furuta::full_system::SwitchScan { dts_ms: dts.to_vec(), outcomes, periods: 3000, escape_theta: ESCAPE_THETA, runs, wall_seconds: t0.elapsed().as_secs_f64() }
-    } else {
-        default_switch_scan(DEFAULT_SCAN_PERIODS)?
     };
+    let torus = || torus_full(30.8, &([0.05, 0.0, 0.0, 0.0], None), if quick { 4000 } else { 8000 }, if quick { 40.0 } else { 80.0 });
+    let fast_fates = || par_map(&fast_dts, |&dt| fate_from(dt, [1e-7, 0.005], [0.0, 0.0], 3000));
+    let doa_fates = || par_map(&starts, |&rho| fate_from(dt_doa, rho, [0.0, 0.0], periods));
+    let transient = || {
+        let start = start_from_rho(dt_tr, [0.02, 0.035], [0.0, 0.0])?;
+        transient_analysis(dt_tr, &(start.0, Some(start.1)), if quick { 60.0 } else { 150.0 })
+    };
+    let ((model_switch, scan), ((tf, fast_fates), (doa_fates, ta))) = rayon::join(
+        || rayon::join(model_switch, scan),
+        || rayon::join(|| rayon::join(torus, fast_fates), || rayon::join(doa_fates, transient)),
+    );
+    let (model_switch, scan, tf, fast_fates, doa_fates, ta) = (model_switch?, scan?, tf?, fast_fates?, doa_fates?, ta?);
+
+    // 1. Small-start switch.
     let full_bracket = scan.bracket();
     rep.para(&format!(
         "Small starts, full system: {} runs of {} periods over dt = {:.2}..{:.2} ms ({:.1} s wall): all bounded up to \
@@ -266,7 +279,6 @@ pub fn fullsystem_section(rep: &mut Report, pm: &ParametricModel, bif: &ModelBif
     let _ = lo;
 
     // 2. The 2-torus at 30.8 ms.
-    let tf = torus_full(30.8, &([0.05, 0.0, 0.0, 0.0], None), if quick { 4000 } else { 8000 }, if quick { 40.0 } else { 80.0 })?;
     let tm = bif.torus_30p8.as_ref();
     let amp_model = tm.map(|t| t.rho[0] + t.rho[1]);
     rep.table(
@@ -316,8 +328,7 @@ pub fn fullsystem_section(rep: &mut Report, pm: &ParametricModel, bif: &ModelBif
     let mut crows = Vec::new();
     let mut clist = Vec::new();
     let popts = PortraitOptions { rho_max: RHO_MAX, ray_samples: 0, flow_grid: 0, ..PortraitOptions::default() };
-    for dt in [30.8, 31.2, 31.4, 31.6] {
-        let f = fate_from(dt, [1e-7, 0.005], [0.0, 0.0], 3000)?;
+    for (dt, f) in fast_dts.into_iter().zip(fast_fates) {
         let plateau: Vec<f64> = f.amps.iter().filter(|(t, r)| *t > 15.0 && r[0] < 1e-3).map(|(_, r)| r[1]).collect();
         let full = (!plateau.is_empty()).then(|| plateau.iter().sum::<f64>() / plateau.len() as f64);
         let model = fixed_points(&pm.normal_form_at(dt)?, &popts)?
@@ -339,17 +350,13 @@ pub fn fullsystem_section(rep: &mut Report, pm: &ParametricModel, bif: &ModelBif
     rep.summary.insert("fast_cycle".into(), Value::Array(clist));
 
     // 3. Domain of attraction (paper fig. 5): three starts at 31.55 ms.
-    let dt_doa = 31.55;
     let nf = pm.normal_form_at(dt_doa)?;
     let popts = PortraitOptions { rho_max: RHO_MAX, ..PortraitOptions::default() };
     let p = portrait(&nf, &popts)?;
-    let starts: [[f64; 2]; 3] = [[0.08, 0.03], [0.02, 0.03], [0.14, 0.055]];
-    let periods = if quick { 2000 } else { 6000 };
     let mut rows = Vec::new();
     let mut curves: Vec<(String, Vec<(f64, f64)>)> = Vec::new();
     let mut doa = Vec::new();
-    for rho in starts {
-        let f = fate_from(dt_doa, rho, [0.0, 0.0], periods)?;
+    for (rho, f) in starts.into_iter().zip(doa_fates) {
         let (mpts, mfate) = trajectory(&nf, rho, 2000.0, &popts)?;
         let model_class = match mfate {
             Fate::LeavesBox { .. } => "leaves the box (escape)".to_string(),
@@ -373,9 +380,6 @@ pub fn fullsystem_section(rep: &mut Report, pm: &ParametricModel, bif: &ModelBif
     rep.summary.insert("domain_of_attraction".into(), json!({"dt_ms": dt_doa, "starts": doa}));
 
     // 4. Transient spectrum near the 3-torus (paper fig. 6).
-    let dt_tr = 31.5;
-    let start = start_from_rho(dt_tr, [0.02, 0.035], [0.0, 0.0])?;
-    let ta = transient_analysis(dt_tr, &(start.0, Some(start.1)), if quick { 60.0 } else { 150.0 })?;
     let model_orbit = portrait(&pm.normal_form_at(dt_tr)?, &popts)?.orbits.first().map(|o| 1.0 / o.period);
     rep.para(&format!(
         "Transient at {dt_tr} ms from (rho_1, rho_2) = (0.02, 0.035), {:.0} s analysed{}: {} spectral peaks above 5 % of the \
@@ -417,10 +421,23 @@ pub fn sensitivity_section(rep: &mut Report, default: &ParametricModel) -> Resul
     let mut rows = Vec::new();
     let mut list = Vec::new();
     let f = |v: Option<f64>| v.map_or("none".to_string(), |x| format!("{x:.3}"));
-    let rows_iter = std::iter::once(model_row("default (paper's periods, cut 0.2 rad)", &base, default, None))
-        .chain(variants.iter().map(|(name, o)| sensitivity_row(name, o)));
-    for r in rows_iter {
-        let r = r?;
+    // The default model's row, one refit per variant and the full system's torus across dt
+    // (below) run together on the pool; rows are kept in this order.
+    let dts = [30.8, 31.2, 31.4, 31.6, 31.8, 31.9];
+    let tori = || {
+        par_map(&dts, |&dt| {
+            let (x, h) = furuta::full_system::start_from_rho(dt, [0.095, 0.028], [0.0, 0.0])?;
+            Ok::<_, furuta::Error>(furuta::full_system::torus_full(dt, &(x, Some(h)), 16_000, 125.0))
+        })
+    };
+    let ((first, rest), tori) = rayon::join(
+        || rayon::join(|| model_row("default (paper's periods, cut 0.2 rad)", &base, default, None), || par_map(&variants, |(name, o)| sensitivity_row(name, o))),
+        tori,
+    );
+    let mut all = vec![first?];
+    all.extend(rest?);
+    let tori = tori?;
+    for r in all {
         rows.push(vec![
             r.variant.clone(),
             f(r.torus_hopf_dt_ms),
@@ -439,9 +456,8 @@ pub fn sensitivity_section(rep: &mut Report, default: &ParametricModel) -> Resul
     // on the last 125 s.
     let mut trows = Vec::new();
     let mut tlist = Vec::new();
-    for dt in [30.8, 31.2, 31.4, 31.6, 31.8, 31.9] {
-        let (x, h) = furuta::full_system::start_from_rho(dt, [0.095, 0.028], [0.0, 0.0])?;
-        match furuta::full_system::torus_full(dt, &(x, Some(h)), 16_000, 125.0) {
+    for (dt, torus) in dts.into_iter().zip(tori) {
+        match torus {
             Ok(t) => {
                 trows.push(vec![
                     format!("{dt}"),

@@ -57,15 +57,20 @@ pub fn chaos_figures(
     let dt = test.dt().ok_or("held-out series has no sampling step")?;
     let ctx = Context::from_series(&test.x, dt, o.gp_embed)?;
     let base = fit_options(o, r.ssm_dim, &ctx);
-    let mut runs: Vec<(&str, SsmModel, ssm::Prediction)> = Vec::new();
-    for (name, dynamics) in [("RBF model", Dynamics::Rbf { centers: o.centers }), ("polynomial model", Dynamics::Map)] {
+    // The two refits and predictions as tasks on the rayon pool, kept in this order.
+    let kinds = [("RBF model", Dynamics::Rbf { centers: o.centers }), ("polynomial model", Dynamics::Map)];
+    let fitted = crate::report::par_map(&kinds, |&(name, dynamics)| -> Result<Option<(&str, SsmModel, ssm::Prediction)>, ssm::FitError> {
         let mut opts = base;
         opts.dynamics = dynamics;
-        if let Ok(m) = fit(train, &opts) {
-            let p = m.predict(test)?;
-            runs.push((name, m, p));
+        match fit(train, &opts) {
+            Ok(m) => {
+                let p = m.predict(test)?;
+                Ok(Some((name, m, p)))
+            }
+            Err(_) => Ok(None),
         }
-    }
+    })?;
+    let runs: Vec<(&str, SsmModel, ssm::Prediction)> = fitted.into_iter().flatten().collect();
     let Some((_, m0, _)) = runs.first() else { return Ok(()) };
     let d = m0.options.dim;
     let eta_data = reduce_series(m0, test)?;
@@ -153,10 +158,8 @@ pub fn section(rep: &mut crate::report::Report, data_dir: &std::path::Path, quic
     // (name, training series, held-out series)
     let mut sets: Vec<(String, Vec<TimeSeries>, TimeSeries)> = Vec::new();
     let periods = if quick { 6000 } else { 30000 };
-    let mut sim = Vec::new();
-    for (i, th) in [0.02, 0.035, 0.05].iter().enumerate() {
-        sim.push(simulate_quantized(periods, *th, &format!("furuta-quant-dt25 #{i}"))?);
-    }
+    let starts: Vec<(usize, f64)> = [0.02, 0.035, 0.05].into_iter().enumerate().collect();
+    let mut sim = crate::report::par_map(&starts, |&(i, th)| simulate_quantized(periods, th, &format!("furuta-quant-dt25 #{i}")))?;
     let sim_test = sim.pop().ok_or("no simulated series")?;
     sets.push(("simulated: furuta-quant-dt25 (theta)".into(), sim, sim_test));
     // The "experiment": processor-in-the-loop recordings with sensor noise

@@ -9,13 +9,29 @@ use std::path::{Path, PathBuf};
 pub struct Report {
     dir: PathBuf,
     body: String,
-    toc: Vec<(String, String)>,
+    /// Contents list: (anchor, title, whether the entry is wrapped in the timing markers).
+    toc: Vec<(String, String, bool)>,
     pub summary: Map<String, Value>,
 }
+
+/// Start and end markers of the page's wall-clock parts (the timing section and its
+/// contents-list entry): `cargo xtask compare-report` drops the text between them, so
+/// reports of different runs, or one that predates the timings, compare equal.
+pub const TIMINGS_BEGIN: &str = "<!-- timings -->";
+pub const TIMINGS_END: &str = "<!-- /timings -->";
 
 /// Escapes text for HTML.
 pub fn esc(s: &str) -> String {
     s.replace('&', "&amp;").replace('<', "&lt;").replace('>', "&gt;").replace('"', "&quot;")
+}
+
+/// `f` over `items` on the rayon pool, collected in input order: the serial loop's values
+/// whatever the pool size (each task depends only on its item), and the first error in input
+/// order.
+pub fn par_map<T: Sync, U: Send, E: Send>(items: &[T], f: impl Fn(&T) -> Result<U, E> + Sync + Send) -> Result<Vec<U>, E> {
+    use rayon::prelude::*;
+    let out: Vec<Result<U, E>> = items.par_iter().map(f).collect();
+    out.into_iter().collect()
 }
 
 /// Formats a number compactly for tables (4 significant digits, exponent when needed).
@@ -37,10 +53,44 @@ impl Report {
         &self.dir
     }
 
+    /// An empty report writing into the same folder: a section built in it (e.g. on another
+    /// thread) is added to this report by [`Report::append`], in the order of the appends.
+    pub fn part(&self) -> Self {
+        Self { dir: self.dir.clone(), body: String::new(), toc: Vec::new(), summary: Map::new() }
+    }
+
+    /// Appends a [`Report::part`]: its HTML after this report's, its contents entries, its
+    /// summary keys (a key both already have is an error: no section overwrites another's).
+    pub fn append(&mut self, part: Report) -> Result<(), String> {
+        if let Some(k) = part.summary.keys().find(|k| self.summary.contains_key(*k)) {
+            return Err(format!("report: summary key `{k}` written by two sections"));
+        }
+        self.body.push_str(&part.body);
+        self.toc.extend(part.toc);
+        self.summary.extend(part.summary);
+        Ok(())
+    }
+
     /// Starts a section with an anchor in the table of contents.
     pub fn section(&mut self, id: &str, title: &str, intro: &str) {
-        self.toc.push((id.into(), title.into()));
+        self.toc.push((id.into(), title.into(), false));
         let _ = write!(self.body, "<h2 id=\"{}\">{}</h2>\n<p>{}</p>\n", esc(id), esc(title), intro);
+    }
+
+    /// Starts the timing section: like [`Report::section`], but the section (up to
+    /// [`Report::end_timings`]) and its contents entry sit between [`TIMINGS_BEGIN`] and
+    /// [`TIMINGS_END`].
+    pub fn timings_section(&mut self, id: &str, title: &str, intro: &str) {
+        self.toc.push((id.into(), title.into(), true));
+        self.body.push_str(TIMINGS_BEGIN);
+        self.body.push('\n');
+        let _ = write!(self.body, "<h2 id=\"{}\">{}</h2>\n<p>{}</p>\n", esc(id), esc(title), intro);
+    }
+
+    /// Ends the timing section started by [`Report::timings_section`].
+    pub fn end_timings(&mut self) {
+        self.body.push_str(TIMINGS_END);
+        self.body.push('\n');
     }
 
     /// A paragraph of trusted HTML (callers escape user text with [`esc`]).
@@ -88,8 +138,9 @@ th{{background:#eee}}figure{{display:inline-block;margin:0.5em}}img{{max-width:1
 figcaption{{font-size:85%;color:#444}}code{{background:#f4f4f4}}</style></head><body>\n<h1>{t}</h1>\n<ul>",
             t = esc(title)
         );
-        for (id, name) in &self.toc {
-            let _ = write!(html, "<li><a href=\"#{}\">{}</a></li>", esc(id), esc(name));
+        for (id, name, timings) in &self.toc {
+            let (begin, end) = if *timings { (TIMINGS_BEGIN, TIMINGS_END) } else { ("", "") };
+            let _ = write!(html, "{begin}<li><a href=\"#{}\">{}</a></li>{end}", esc(id), esc(name));
         }
         html.push_str("</ul>\n");
         html.push_str(&self.body);
@@ -105,3 +156,37 @@ pub mod chaos;
 pub mod normal_form;
 pub mod reproduce;
 pub mod sloshing;
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Parts built apart are appended in order; a summary key written twice is refused; the
+    /// timing section and its contents entry sit between the markers.
+    #[test]
+    fn parts_append_in_order_and_timings_are_marked() {
+        let dir = std::env::temp_dir().join(format!("ssmctl-report-parts-{}", std::process::id()));
+        let mut rep = Report::new(&dir).unwrap();
+        let (mut a, mut b) = (rep.part(), rep.part());
+        b.section("b", "B", "second");
+        b.summary.insert("b".into(), Value::from(2));
+        a.section("a", "A", "first");
+        a.summary.insert("a".into(), Value::from(1));
+        rep.append(a).unwrap();
+        rep.append(b).unwrap();
+        let mut dup = rep.part();
+        dup.summary.insert("a".into(), Value::from(3));
+        assert!(rep.append(dup).unwrap_err().contains("`a`"));
+        rep.timings_section("timings", "Where the time goes", "wall");
+        rep.para("1.0 s");
+        rep.end_timings();
+        rep.finish("t").unwrap();
+        let html = std::fs::read_to_string(dir.join("index.html")).unwrap();
+        let (ia, ib) = (html.find("<h2 id=\"a\"").unwrap(), html.find("<h2 id=\"b\"").unwrap());
+        assert!(ia < ib);
+        assert!(html.contains(&format!("{TIMINGS_BEGIN}<li><a href=\"#timings\">Where the time goes</a></li>{TIMINGS_END}")));
+        assert!(html.contains(&format!("{TIMINGS_BEGIN}\n<h2 id=\"timings\">")) && html.contains(&format!("<p>1.0 s</p>\n{TIMINGS_END}\n")));
+        assert_eq!(rep.summary["a"], 1);
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+}

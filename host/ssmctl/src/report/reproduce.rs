@@ -3,7 +3,7 @@
 
 use crate::bench;
 use crate::plot::{self, Series};
-use crate::report::{Report, num};
+use crate::report::{Report, num, par_map};
 use sim::scene::{BUNDLED, Scene, SceneBuilder, Task};
 use sim::closed_loop;
 use sim::stability;
@@ -12,32 +12,163 @@ use plotters::style::RGBColor;
 use serde_json::{Value, json};
 use std::error::Error;
 use std::path::Path;
+use std::time::Instant;
 
-/// Runs the whole report into `out`.
+/// Runs the whole report into `out`, on the current rayon pool (`ssmctl reproduce --jobs N`
+/// sizes the global one). The sections' wall times, the pool size and the peak resident
+/// memory go into a last, timing-only section and `summary.json` key `timings`.
+///
+/// Sweeps inside the sections run on the pool. Besides, two chains of sections that share
+/// nothing run concurrently (`rayon::join`), each into its own [`Report::part`], appended in
+/// the fixed order: the parametric-model chain (parametric, portraits, fullsystem,
+/// predictions, bifsensitivity) and the chaos chain (device, chaos, chaos-scale). Sections
+/// that measure speed (accuracy-time-sim, the fit bench of fit-sloshing, chaos-cost) run
+/// alone, so nothing else competes for the cores while they time.
 pub fn run(out: &Path, data_dir: &Path, quick: bool, quiet: bool) -> Result<(), Box<dyn Error>> {
+    let t0 = Instant::now();
     let mut rep = Report::new(out)?;
     std::fs::create_dir_all(out.join("fig"))?;
     rep.summary.insert("quick".into(), Value::Bool(quick));
-    scenes_section(&mut rep, quick, quiet)?;
-    stability_section(&mut rep)?;
-    chart_section(&mut rep, quick)?;
-    bench_section(&mut rep, quick, quiet)?;
-    crate::report::sloshing::sloshing_section(&mut rep, data_dir, quick)?;
-    crate::report::sloshing::furuta_blob(&mut rep, quick)?;
-    let parametric = crate::report::normal_form::section(&mut rep)?;
-    let bif = crate::report::bifurcations::portraits_section(&mut rep, &parametric)?;
-    crate::report::bifurcations::fullsystem_section(&mut rep, &parametric, &bif, quick)?;
-    crate::report::bifurcations::predictions_section(&mut rep)?;
-    if !quick {
-        crate::report::bifurcations::sensitivity_section(&mut rep, &parametric)?;
+    let mut t = Timings::default();
+    t.time("scenes", || scenes_section(&mut rep, quick, quiet))?;
+    t.time("stability", || stability_section(&mut rep))?;
+    t.time("chart", || chart_section(&mut rep, quick))?;
+    t.time("accuracy-time-sim", || bench_section(&mut rep, quick, quiet))?;
+    t.time("fit-sloshing", || crate::report::sloshing::sloshing_section(&mut rep, data_dir, quick))?;
+    t.time("furuta-blob", || crate::report::sloshing::furuta_blob(&mut rep, quick))?;
+    let (model_chain, chaos_chain) = rayon::join(
+        || {
+            let mut part = rep.part();
+            let mut t = Timings::default();
+            let r = (|| -> Result<(), Box<dyn Error>> {
+                let rep = &mut part;
+                let parametric = t.time("parametric", || crate::report::normal_form::section(rep))?;
+                let bif = t.time("portraits", || crate::report::bifurcations::portraits_section(rep, &parametric))?;
+                t.time("fullsystem", || crate::report::bifurcations::fullsystem_section(rep, &parametric, &bif, quick))?;
+                t.time("predictions", || crate::report::bifurcations::predictions_section(rep))?;
+                if !quick {
+                    t.time("bifsensitivity", || crate::report::bifurcations::sensitivity_section(rep, &parametric))?;
+                }
+                Ok(())
+            })();
+            sendable(r).map(|()| (part, t))
+        },
+        || {
+            let mut part = rep.part();
+            let mut t = Timings::default();
+            let r = (|| -> Result<(), Box<dyn Error>> {
+                let rep = &mut part;
+                t.time("device", || crate::report::sloshing::device_section(rep, Path::new("qemu/target/device-table.json")))?;
+                t.time("chaos", || crate::report::chaos::section(rep, data_dir, quick))?;
+                t.time("chaos-scale", || crate::report::chaos::scale_section(rep, data_dir, quick))?;
+                Ok(())
+            })();
+            sendable(r).map(|()| (part, t))
+        },
+    );
+    for chain in [model_chain, chaos_chain] {
+        let (part, times) = chain.map_err(|e| e as Box<dyn Error>)?;
+        rep.append(part)?;
+        t.sections.extend(times.sections);
     }
-    crate::report::sloshing::device_section(&mut rep, Path::new("qemu/target/device-table.json"))?;
-    crate::report::chaos::section(&mut rep, data_dir, quick)?;
-    crate::report::chaos::scale_section(&mut rep, data_dir, quick)?;
     if !quick {
-        crate::report::chaos::cost_section(&mut rep, data_dir)?;
+        t.time("chaos-cost", || crate::report::chaos::cost_section(&mut rep, data_dir))?;
     }
+    timings_section(&mut rep, &t, t0.elapsed().as_secs_f64())?;
     rep.finish("ssmctl reproduce: delayed, sampled, quantized PD control of the Furuta pendulum")?;
+    Ok(())
+}
+
+/// An error that can cross threads (a task's on the rayon pool).
+type SendError = Box<dyn Error + Send + Sync>;
+
+/// A section's result made sendable across threads (the error keeps its message).
+fn sendable<T>(r: Result<T, Box<dyn Error>>) -> Result<T, SendError> {
+    r.map_err(|e| e.to_string().into())
+}
+
+/// Wall time of each section, and the peak resident memory when it ended, in the order
+/// they were recorded.
+#[derive(Default)]
+struct Timings {
+    sections: Vec<(&'static str, f64, Option<f64>)>,
+}
+
+impl Timings {
+    /// Runs `f` and records its wall time under `name`.
+    fn time<T, E>(&mut self, name: &'static str, f: impl FnOnce() -> Result<T, E>) -> Result<T, E> {
+        let t0 = Instant::now();
+        let r = f();
+        self.sections.push((name, t0.elapsed().as_secs_f64(), peak_rss_mb()));
+        r
+    }
+}
+
+/// The process's peak resident set size in MB (2^20 bytes): `VmHWM` of `/proc/self/status`
+/// on Linux, `None` elsewhere or when it cannot be read.
+pub fn peak_rss_mb() -> Option<f64> {
+    #[cfg(target_os = "linux")]
+    {
+        let status = std::fs::read_to_string("/proc/self/status").ok()?;
+        let line = status.lines().find(|l| l.starts_with("VmHWM:"))?;
+        let kb: f64 = line.split_whitespace().nth(1)?.parse().ok()?;
+        Some(kb / 1024.0)
+    }
+    #[cfg(not(target_os = "linux"))]
+    {
+        None
+    }
+}
+
+/// The last section: where the time went (table and bar figure), the pool size and the peak
+/// memory; `summary.json` key `timings`. Wall-clock only: `cargo xtask compare-report` skips
+/// the key, the figure and the section's text.
+fn timings_section(rep: &mut Report, t: &Timings, total_seconds: f64) -> Result<(), Box<dyn Error>> {
+    let jobs = rayon::current_num_threads();
+    let peak = peak_rss_mb();
+    rep.timings_section(
+        "timings",
+        "Where the time goes",
+        "Wall time of each section of this run, the size of the thread pool the sweeps ran on (<code>--jobs N</code>, \
+         else <code>RAYON_NUM_THREADS</code>, else one thread per core) and the process's peak resident memory \
+         (<code>VmHWM</code>; per section: the peak up to its end). Sections that run concurrently overlap, so their \
+         times can add up to more than the total. \
+         These numbers change from run to run; the report's results do not depend on the pool size.",
+    );
+    rep.para(&format!(
+        "Total {total_seconds:.1} s on {jobs} thread{}; peak resident memory {}.",
+        if jobs == 1 { "" } else { "s" },
+        peak.map_or("not measured (no /proc/self/status)".to_string(), |m| format!("{m:.0} MB")),
+    ));
+    let rows: Vec<Vec<String>> = t
+        .sections
+        .iter()
+        .map(|(name, s, m)| {
+            vec![
+                name.to_string(),
+                format!("{s:.2}"),
+                format!("{:.1} %", 100.0 * s / total_seconds.max(1e-9)),
+                m.map_or("-".into(), |m| format!("{m:.0}")),
+            ]
+        })
+        .collect();
+    rep.table(&["section", "wall [s]", "of total", "peak memory so far [MB]"], &rows);
+    let fig = "fig/timings.png";
+    let bars: Vec<(String, f64)> = t.sections.iter().map(|(n, s, _)| (n.to_string(), *s)).collect();
+    let height = 80 + 26 * bars.len() as u32;
+    plot::bars(&rep.dir().join(fig), &format!("wall time per section ({jobs} threads)"), "wall [s]", &bars, RGBColor(20, 60, 160), (760, height))?;
+    rep.figure(fig, "Wall time per section of this run");
+    rep.end_timings();
+    rep.summary.insert(
+        "timings".into(),
+        json!({
+            "total_seconds": total_seconds,
+            "jobs": jobs,
+            "cached": [],
+            "sections": t.sections.iter().map(|(n, s, m)| json!({"name": n, "seconds": s, "peak_rss_mb": m})).collect::<Vec<_>>(),
+            "peak_rss_mb": peak,
+        }),
+    );
     Ok(())
 }
 
@@ -60,60 +191,72 @@ fn scenes_section(rep: &mut Report, quick: bool, quiet: bool) -> Result<(), Box<
          with JSON metadata. max |theta| is over the second half of the run.",
     );
     let pb = bar(quiet, BUNDLED.len() as u64, "simulating scenes");
-    let mut rows = Vec::new();
-    let mut list = Vec::new();
-    for (name, _) in BUNDLED {
-        let mut b = SceneBuilder::load(name)?;
-        if quick {
-            b = b.periods(300);
-        }
-        let s = b.build()?;
-        if !s.wants(Task::Simulate) {
-            continue;
-        }
-        let tr = closed_loop::simulate(&s, None)?;
-        crate::output::write_scene_outputs(&s, &tr, &rep.dir().join("scenes"), &[])?;
-        let theta = tr.primary();
-        let half = theta.len() / 2;
-        let max_late = theta[half..].iter().fold(0.0_f64, |m, v| m.max(v.abs()));
-        let pts: Vec<(f64, f64)> = tr.t.iter().copied().zip(theta.iter().copied()).collect();
-        let fig = format!("fig/{name}.png");
-        plot::lines(
-            &rep.dir().join(&fig),
-            &format!("{name}: theta(t)"),
-            "t [s]",
-            "theta [rad]",
-            &[Series { name: "theta", points: &pts, color: RGBColor(20, 60, 160) }],
-            (640, 300),
-        )?;
-        let periods = tr.rows() - 1;
-        rows.push(vec![
-            name.to_string(),
-            s.effect_names().join("; "),
-            periods.to_string(),
-            num(max_late),
-            tr.stopped.clone().unwrap_or_else(|| "-".into()),
-            tr.saturated_samples.to_string(),
-            format!("{:.0}", periods as f64 / tr.wall_seconds.max(1e-9)),
-        ]);
-        list.push(json!({
-            "name": name, "effects": s.effect_names(), "periods": periods, "max_abs_theta_late": max_late,
-            "stopped": tr.stopped, "saturated_samples": tr.saturated_samples, "integrator": tr.integrator,
-            "wall_seconds": tr.wall_seconds, "figure": fig,
-        }));
+    // Each scene (run, CSV outputs, figure) is a task on the rayon pool writing only its own
+    // files; rows and JSON are collected in the bundled order.
+    let dir = rep.dir().to_path_buf();
+    let done = par_map(BUNDLED, |(name, _)| -> Result<Option<(Vec<String>, Value)>, SendError> {
+        let r = scene_task(&dir, name, quick);
         if let Some(pb) = &pb {
             pb.inc(1);
         }
-    }
+        r
+    })
+    .map_err(|e| e as Box<dyn Error>)?;
     if let Some(pb) = pb {
         pb.finish_and_clear();
     }
+    let (rows, list): (Vec<Vec<String>>, Vec<Value>) = done.into_iter().flatten().unzip();
     rep.table(&["scene", "effects", "periods", "max |theta| late [rad]", "stopped", "saturated samples", "periods/s"], &rows);
     for (name, _) in BUNDLED {
         rep.figure(&format!("fig/{name}.png"), &format!("{name}: theta(t)"));
     }
     rep.summary.insert("scenes".into(), Value::Array(list));
     Ok(())
+}
+
+/// One bundled scene of the scenes section: simulates it (300 periods when `quick`), writes
+/// its outputs under `dir/scenes` and its figure; `None` for a scene that asks for no
+/// simulation.
+fn scene_task(dir: &Path, name: &str, quick: bool) -> Result<Option<(Vec<String>, Value)>, SendError> {
+    let mut b = SceneBuilder::load(name)?;
+    if quick {
+        b = b.periods(300);
+    }
+    let s = b.build()?;
+    if !s.wants(Task::Simulate) {
+        return Ok(None);
+    }
+    let tr = closed_loop::simulate(&s, None)?;
+    crate::output::write_scene_outputs(&s, &tr, &dir.join("scenes"), &[])?;
+    let theta = tr.primary();
+    let half = theta.len() / 2;
+    let max_late = theta[half..].iter().fold(0.0_f64, |m, v| m.max(v.abs()));
+    let pts: Vec<(f64, f64)> = tr.t.iter().copied().zip(theta.iter().copied()).collect();
+    let fig = format!("fig/{name}.png");
+    plot::lines(
+        &dir.join(&fig),
+        &format!("{name}: theta(t)"),
+        "t [s]",
+        "theta [rad]",
+        &[Series { name: "theta", points: &pts, color: RGBColor(20, 60, 160) }],
+        (640, 300),
+    )?;
+    let periods = tr.rows() - 1;
+    let row = vec![
+        name.to_string(),
+        s.effect_names().join("; "),
+        periods.to_string(),
+        num(max_late),
+        tr.stopped.clone().unwrap_or_else(|| "-".into()),
+        tr.saturated_samples.to_string(),
+        format!("{:.0}", periods as f64 / tr.wall_seconds.max(1e-9)),
+    ];
+    let json = json!({
+        "name": name, "effects": s.effect_names(), "periods": periods, "max_abs_theta_late": max_late,
+        "stopped": tr.stopped, "saturated_samples": tr.saturated_samples, "integrator": tr.integrator,
+        "wall_seconds": tr.wall_seconds, "figure": fig,
+    });
+    Ok(Some((row, json)))
 }
 
 fn stability_section(rep: &mut Report) -> Result<(), Box<dyn Error>> {
@@ -202,4 +345,55 @@ fn bench_section(rep: &mut Report, quick: bool, quiet: bool) -> Result<(), Box<d
     rep.table(&["method", "periods/s", "max theta error [rad]", "x baseline", "steps/period"], &table);
     rep.summary.insert("bench_simulate".into(), serde_json::to_value(&rows)?);
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// `v` without the wall-clock keys (at any depth).
+    fn without_wall(mut v: Value) -> Value {
+        match &mut v {
+            Value::Object(m) => {
+                m.remove("wall_seconds");
+                for x in m.values_mut() {
+                    *x = without_wall(x.take());
+                }
+            }
+            Value::Array(a) => a.iter_mut().for_each(|x| *x = without_wall(x.take())),
+            _ => {}
+        }
+        v
+    }
+
+    /// The scenes section (`--quick`) on a 1-thread and a 2-thread pool: the same summary
+    /// (wall times aside), the same trajectories, metadata and figures, byte for byte.
+    #[test]
+    fn scenes_section_is_bit_identical_on_one_and_two_threads() {
+        let on = |threads: usize| {
+            let dir = std::env::temp_dir().join(format!("ssmctl-scenes-par-{}-{threads}", std::process::id()));
+            let _ = std::fs::remove_dir_all(&dir);
+            let mut rep = Report::new(&dir).unwrap();
+            std::fs::create_dir_all(dir.join("fig")).unwrap();
+            let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
+            pool.install(|| scenes_section(&mut rep, true, true).map_err(|e| e.to_string())).unwrap();
+            (dir, without_wall(Value::Object(rep.summary.clone())))
+        };
+        let ((d1, s1), (d2, s2)) = (on(1), on(2));
+        assert_eq!(s1, s2);
+        let scenes = s1["scenes"].as_array().unwrap();
+        assert!(scenes.len() >= 5, "{s1}");
+        for sc in scenes {
+            let name = sc["name"].as_str().unwrap();
+            for rel in [format!("scenes/{name}.csv"), format!("fig/{name}.png")] {
+                let (a, b) = (std::fs::read(d1.join(&rel)).unwrap(), std::fs::read(d2.join(&rel)).unwrap());
+                assert!(a == b, "{rel} differs between 1 and 2 threads");
+            }
+            let meta = |d: &Path| without_wall(serde_json::from_slice(&std::fs::read(d.join(format!("scenes/{name}.json"))).unwrap()).unwrap());
+            assert_eq!(meta(&d1), meta(&d2), "{name}.json");
+        }
+        for d in [d1, d2] {
+            std::fs::remove_dir_all(d).unwrap();
+        }
+    }
 }
