@@ -373,6 +373,7 @@ fn reproduce(rest: &[String]) -> Result<()> {
     std::fs::write(&path, text).map_err(|e| format!("{}: {e}", path.display()))?;
     let mut c = cmd("cargo");
     c.current_dir(root()).args(["run", "--release", "-p", "ssmctl", "--bin", "ssmctl", "--", "reproduce"]).args(rest);
+    c.env("SSMCTL_XTASK_STEPS", &path);
     run(&mut c)
 }
 

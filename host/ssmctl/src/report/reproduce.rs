@@ -153,6 +153,31 @@ fn timings_section(rep: &mut Report, t: &Timings, total_seconds: f64) -> Result<
         })
         .collect();
     rep.table(&["section", "wall [s]", "of total", "peak memory so far [MB]"], &rows);
+    // `cargo xtask reproduce` runs the device table and the processor-in-the-loop steps
+    // before this report and names their timings file in SSMCTL_XTASK_STEPS.
+    let steps: Vec<Value> = match std::env::var_os("SSMCTL_XTASK_STEPS") {
+        Some(path) => {
+            let text = std::fs::read_to_string(&path).map_err(|e| format!("SSMCTL_XTASK_STEPS {}: {e}", path.to_string_lossy()))?;
+            let v: Value = serde_json::from_str(&text).map_err(|e| format!("SSMCTL_XTASK_STEPS {}: {e}", path.to_string_lossy()))?;
+            v["steps"].as_array().cloned().ok_or_else(|| format!("SSMCTL_XTASK_STEPS {}: no `steps` array", path.to_string_lossy()))?
+        }
+        None => Vec::new(),
+    };
+    if !steps.is_empty() {
+        rep.para("Before this report, <code>cargo xtask reproduce</code> ran these steps (a reused step matched the stored run's fingerprint of firmware image, host binary, scene, model and periods):");
+        let rows: Vec<Vec<String>> = steps
+            .iter()
+            .map(|st| {
+                vec![
+                    st["name"].as_str().unwrap_or("?").to_string(),
+                    format!("{:.2}", st["seconds"].as_f64().unwrap_or(f64::NAN)),
+                    if st["cached"] == Value::Bool(true) { "reused".into() } else { "run".into() },
+                ]
+            })
+            .collect();
+        rep.table(&["xtask step", "wall [s]", ""], &rows);
+    }
+    let cached: Vec<Value> = steps.iter().filter(|st| st["cached"] == Value::Bool(true)).map(|st| st["name"].clone()).collect();
     let fig = "fig/timings.png";
     let bars: Vec<(String, f64)> = t.sections.iter().map(|(n, s, _)| (n.to_string(), *s)).collect();
     let height = 80 + 26 * bars.len() as u32;
@@ -164,7 +189,8 @@ fn timings_section(rep: &mut Report, t: &Timings, total_seconds: f64) -> Result<
         json!({
             "total_seconds": total_seconds,
             "jobs": jobs,
-            "cached": [],
+            "cached": cached,
+            "xtask_steps": steps,
             "sections": t.sections.iter().map(|(n, s, m)| json!({"name": n, "seconds": s, "peak_rss_mb": m})).collect::<Vec<_>>(),
             "peak_rss_mb": peak,
         }),
