@@ -34,13 +34,12 @@ use std::time::Instant;
 use faer::Mat;
 use furuta::bifurcations::{RHO_MAX, model_row, sensitivity_row, sensitivity_variants};
 use furuta::full_system::{
-    AMP_WINDOW_S, ESCAPE_THETA, Outcome, default_ics, default_switch_scan, fate_from, run, start_from_rho, torus_full,
+    AMP_WINDOW_S, ESCAPE_THETA, default_ics, outcome_of, default_switch_scan, fate_from, run, start_from_rho, torus_full,
     transient_analysis,
 };
 use furuta::parametric::{FurutaOptions, exact_modes, furuta_parametric, training_series};
 use furuta::shared_tangent::{PredictOptions, predict_one, shared_parametric, test_series};
 use serde_json::{Value, json};
-use sim::closed_loop::Trajectory;
 use ssm::Ridge;
 use ssm::fit::embed_training;
 use ssm::interp::Interp;
@@ -282,14 +281,6 @@ fn sensitivity_explore() {
 }
 
 // ======================================================================= full system
-
-/// The bounded/escape outcome of a full-system run (as `furuta::full_system` classifies
-/// its scans).
-fn outcome_of(tr: &Trajectory) -> Outcome {
-    let max_theta = tr.primary().iter().fold(0.0f64, |m, v| m.max(v.abs()));
-    let escape_t = tr.stopped.as_ref().and_then(|_| tr.t.last().copied());
-    Outcome { escape_t, max_theta }
-}
 
 /// Exploration, prints only: `FC_WHAT` (or `what`, the second argument) selects the
 /// experiment:

@@ -174,7 +174,8 @@ pub fn switch_scan(dts_ms: &[f64], ics: &[Start], periods: u64, escape_theta: f6
     })
 }
 
-fn outcome_of(tr: &Trajectory) -> Outcome {
+/// The bounded/escape outcome of a full-system run, as the scans classify it.
+pub fn outcome_of(tr: &Trajectory) -> Outcome {
     let max_theta = tr.primary().iter().fold(0.0f64, |m, v| m.max(v.abs()));
     let escape_t = tr.stopped.as_ref().and_then(|_| tr.t.last().copied());
     Outcome { escape_t, max_theta }

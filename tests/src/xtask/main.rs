@@ -422,6 +422,21 @@ fn ssmctl_bin() -> Result<PathBuf> {
     Ok(root().join("target").join("debug").join("ssmctl"))
 }
 
+/// The two programs of a PIL run, built, and the fingerprint of their images (read and
+/// hashed once per command, not once per run).
+struct PilTools {
+    elf: PathBuf,
+    host: PathBuf,
+    fingerprint: String,
+}
+
+fn pil_tools() -> Result<PilTools> {
+    let (elf, host) = (pil_firmware()?, ssmctl_bin()?);
+    let read = |p: &Path| std::fs::read(p).map_err(|e| format!("{}: {e}", p.display()));
+    let fingerprint = cache::key(&[&read(&elf)?, &read(&host)?]);
+    Ok(PilTools { elf, host, fingerprint })
+}
+
 /// What one `ssmctl pil` run is: scene, overrides, model (fitted by this run when `fit`),
 /// periods, output folder.
 struct PilRun<'a> {
@@ -433,17 +448,15 @@ struct PilRun<'a> {
     out: PathBuf,
 }
 
-/// One `ssmctl pil` run (firmware `elf`, host binary `host`); returns the checked summary and
-/// whether it was reused. A run is reused when its output folder holds a complete run with the
+/// One `ssmctl pil` run with `tools`; returns the checked summary and whether it was reused. A run is reused when its output folder holds a complete run with the
 /// same fingerprint of firmware image, host binary, scene, overrides, model and periods
 /// (`fresh`: never reused).
-fn ssmctl_pil(elf: &Path, host: &Path, r: &PilRun<'_>, fresh: bool) -> Result<(serde_json::Value, bool)> {
-    let read = |p: &Path| std::fs::read(p).map_err(|e| format!("{}: {e}", p.display()));
-    let (elf_bytes, host_bytes) = (read(elf)?, read(host)?);
-    let model_bytes = if r.fit { Vec::new() } else { read(&r.model)? };
+fn ssmctl_pil(tools: &PilTools, r: &PilRun<'_>, fresh: bool) -> Result<(serde_json::Value, bool)> {
+    let (elf, host) = (tools.elf.as_path(), tools.host.as_path());
+    let model_bytes = if r.fit { Vec::new() } else { std::fs::read(&r.model).map_err(|e| format!("{}: {e}", r.model.display()))? };
     let periods_arg = r.periods.to_string();
     let set = r.set.join("\n");
-    let key = cache::key(&[&elf_bytes, &host_bytes, r.scene.as_bytes(), set.as_bytes(), periods_arg.as_bytes(), &[u8::from(r.fit)], &model_bytes]);
+    let key = cache::key(&[tools.fingerprint.as_bytes(), r.scene.as_bytes(), set.as_bytes(), periods_arg.as_bytes(), &[u8::from(r.fit)], &model_bytes]);
     let summary = |out: &Path| -> Result<serde_json::Value> {
         let path = out.join("summary.json");
         let text = std::fs::read_to_string(&path).map_err(|e| format!("{}: {e}", path.display()))?;
@@ -477,11 +490,10 @@ fn ssmctl_pil(elf: &Path, host: &Path, r: &PilRun<'_>, fresh: bool) -> Result<(s
 
 /// Builds the PIL firmware, fits a model and runs `ssmctl pil`; checks the summary.
 fn pil(scene: &str, periods: u64, fresh: bool) -> Result<serde_json::Value> {
-    let elf = pil_firmware()?;
-    let host = ssmctl_bin()?;
+    let tools = pil_tools()?;
     let out = qemu_dir().join("target").join("pil");
     let run = PilRun { scene, set: Vec::new(), model: out.join("model.bin"), fit: true, periods, out: out.clone() };
-    let (mut v, cached) = ssmctl_pil(&elf, &host, &run, fresh)?;
+    let (mut v, cached) = ssmctl_pil(&tools, &run, fresh)?;
     v["cached"] = serde_json::Value::Bool(cached);
     println!(
         "pil: PASS ({periods} periods of {scene}, codes identical to the host's controller and to the host-only simulation, predictions bit-identical; {}{})",
@@ -567,8 +579,7 @@ fn record_theta0(r: u32) -> f64 {
 /// others run concurrently, one QEMU each (each `ssmctl pil` binds its own port). Runs whose
 /// fingerprint matches the stored output are reused (`a.fresh`: never).
 fn pil_record(a: &RecordArgs) -> Result<bool> {
-    let elf = pil_firmware()?;
-    let host = ssmctl_bin()?;
+    let tools = pil_tools()?;
     std::fs::create_dir_all(&a.out).map_err(|e| format!("{}: {e}", a.out.display()))?;
     let model = a.out.join("model.bin");
     let start = Instant::now();
@@ -582,7 +593,7 @@ fn pil_record(a: &RecordArgs) -> Result<bool> {
     }
     let one = |(r, seed, theta0, run): &(u32, u64, f64, PilRun<'_>)| -> Result<serde_json::Value> {
         let t0 = Instant::now();
-        let (v, cached) = ssmctl_pil(&elf, &host, run, a.fresh)?;
+        let (v, cached) = ssmctl_pil(&tools, run, a.fresh)?;
         let secs = t0.elapsed().as_secs_f64();
         println!(
             "pil-record: run {r}/{}: seed {seed}, theta0 {theta0} rad, {} periods {}, identical to the host-only simulation; {}",

@@ -339,28 +339,7 @@ pub fn cost_table(study: &CostStudy) -> (Vec<String>, Vec<Vec<String>>, serde_js
     (header, rows, serde_json::to_value(study).unwrap_or(serde_json::Value::Null))
 }
 
-/// Prints a table as aligned text (the criterion-free bench print).
-pub fn print_table(title: &str, header: &[String], rows: &[Vec<String>]) -> String {
-    let mut w: Vec<usize> = header.iter().map(|h| h.chars().count()).collect();
-    for r in rows {
-        for (i, c) in r.iter().enumerate() {
-            if i < w.len() {
-                w[i] = w[i].max(c.chars().count());
-            }
-        }
-    }
-    let line = |cells: &[String]| {
-        cells.iter().enumerate().map(|(i, c)| format!("{c:<width$}", width = w.get(i).copied().unwrap_or(0))).collect::<Vec<_>>().join("  ")
-    };
-    let mut out = format!("{title}\n{}\n", line(header));
-    for r in rows {
-        out.push_str(&line(r));
-        out.push('\n');
-    }
-    out
-}
-
-/// Report section with the scale table (for the lead to wire into the report).
+/// Report section with the scale table.
 pub fn scale_section(rep: &mut crate::report::Report, data_dir: &std::path::Path, quick: bool) -> Result<(), Box<dyn Error>> {
     rep.section(
         "chaos-scale",
@@ -378,7 +357,7 @@ pub fn scale_section(rep: &mut crate::report::Report, data_dir: &std::path::Path
     Ok(())
 }
 
-/// Report section with the accuracy-vs-cost table (for the lead to wire into the report).
+/// Report section with the accuracy-vs-cost table.
 pub fn cost_section(rep: &mut crate::report::Report, data_dir: &std::path::Path) -> Result<(), Box<dyn Error>> {
     rep.section(
         "chaos-cost",
