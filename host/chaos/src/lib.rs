@@ -1,4 +1,6 @@
 #![doc = include_str!("../README.md")]
+// Library code returns errors: no unwrap/expect/panic outside tests (CI runs clippy).
+#![cfg_attr(not(test), deny(clippy::unwrap_used, clippy::expect_used, clippy::panic))]
 
 pub mod benettin;
 pub mod corrdim;

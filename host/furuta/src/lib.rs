@@ -2,6 +2,8 @@
 //! the parametric Furuta model (normal forms and shared-tangent maps interpolated in the
 //! sampling period), full-system checks of its bifurcations, and the chaotic-statistics study
 //! of data against reduced models. Library only: returns data, draws nothing.
+// Library code returns errors: no unwrap/expect/panic outside tests (CI runs clippy).
+#![cfg_attr(not(test), deny(clippy::unwrap_used, clippy::expect_used, clippy::panic))]
 
 pub mod bifurcations;
 pub mod chaos_tables;

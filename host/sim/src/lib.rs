@@ -4,6 +4,8 @@
 //!
 //! Architecture invariant: knows no SSM (does not depend on `ssm`), draws nothing, and runs
 //! control arithmetic only through the `controller` crate. Units: see [`units`].
+// Library code returns errors: no unwrap/expect/panic outside tests (CI runs clippy).
+#![cfg_attr(not(test), deny(clippy::unwrap_used, clippy::expect_used, clippy::panic))]
 
 pub mod chart;
 pub mod closed_loop;

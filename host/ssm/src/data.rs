@@ -8,6 +8,8 @@
 //! typical (median) step, so a missing or repeated sample is reported at the row where the
 //! step changes), signal not constant. Nothing is silently dropped. Files larger than
 //! [`crate::limits::MAX_DATA_FILE_BYTES`] are refused before they are read.
+// Parses untrusted input: no indexing that can panic (CI runs clippy).
+#![cfg_attr(not(test), deny(clippy::indexing_slicing))]
 
 pub mod multi;
 
@@ -101,16 +103,19 @@ pub enum DataError {
 /// of all steps (and every step would differ from it), not the median, so the error names
 /// the row where the step changes.
 pub(crate) fn check_time(name: &str, t: &[f64]) -> Result<(), DataError> {
-    for (i, w) in t.windows(2).enumerate() {
-        if w[1] <= w[0] {
-            return Err(DataError::NonIncreasing { name: name.to_string(), row: i + 2, t_prev: w[0], t: w[1] });
+    let pairs = || t.iter().zip(t.iter().skip(1));
+    for (i, (&t_prev, &t_next)) in pairs().enumerate() {
+        if t_next <= t_prev {
+            return Err(DataError::NonIncreasing { name: name.to_string(), row: i + 2, t_prev, t: t_next });
         }
     }
-    let mut steps: Vec<f64> = t.windows(2).map(|w| w[1] - w[0]).collect();
+    let mut steps: Vec<f64> = pairs().map(|(a, b)| b - a).collect();
     steps.sort_by(f64::total_cmp);
-    let typical = steps[steps.len() / 2];
-    for (i, w) in t.windows(2).enumerate() {
-        let step = w[1] - w[0];
+    let Some(&typical) = steps.get(steps.len() / 2) else {
+        return Ok(()); // fewer than 2 samples: checked by the callers
+    };
+    for (i, (&t_prev, &t_next)) in pairs().enumerate() {
+        let step = t_next - t_prev;
         if (step - typical).abs() > SAMPLING_RTOL * typical {
             return Err(DataError::UnevenSampling { name: name.to_string(), row: i + 2, step, typical, rtol: SAMPLING_RTOL });
         }
@@ -139,7 +144,10 @@ impl TimeSeries {
     /// Mean sampling step `(t_last - t_first) / (n - 1)`; `None` with fewer than 2 samples.
     pub fn dt(&self) -> Option<f64> {
         let n = self.t.len();
-        (n >= 2).then(|| (self.t[n - 1] - self.t[0]) / (n - 1) as f64)
+        match (self.t.first(), self.t.last()) {
+            (Some(first), Some(last)) if n >= 2 => Some((last - first) / (n - 1) as f64),
+            _ => None,
+        }
     }
 
     /// Checks lengths, finiteness, strictly increasing uniform time, and a non-constant
@@ -163,7 +171,7 @@ impl TimeSeries {
             }
         }
         check_time(name, &self.t)?;
-        let x0 = self.x[0];
+        let x0 = self.x.first().copied().unwrap_or_default();
         if self.x.iter().all(|&x| x == x0) {
             return Err(DataError::Constant { name: name.clone(), value: x0 });
         }
@@ -192,8 +200,8 @@ impl TimeSeries {
         let start = self.t.partition_point(|&t| t < t_from);
         TimeSeries::new(
             format!("{}[t>={t_from}]", self.name),
-            self.t[start..].to_vec(),
-            self.x[start..].to_vec(),
+            self.t.get(start..).unwrap_or_default().to_vec(),
+            self.x.get(start..).unwrap_or_default().to_vec(),
         )
     }
 }
@@ -240,7 +248,7 @@ pub fn parse_csv_column(file: &str, name: String, text: &str, column: Option<&st
             let idx = header.iter().position(|h| *h == c).filter(|&i| i > 0).ok_or_else(|| DataError::UnknownColumn {
                 file: file.to_string(),
                 column: c.to_string(),
-                available: header[1..].join(", "),
+                available: header.get(1..).unwrap_or_default().join(", "),
             })?;
             (header.len(), idx)
         }
@@ -253,11 +261,15 @@ pub fn parse_csv_column(file: &str, name: String, text: &str, column: Option<&st
     for (i, line) in lines {
         let line_no = i + 1;
         let cols: Vec<&str> = line.split(',').map(str::trim).collect();
+        let found = if line.trim().is_empty() { 0 } else { cols.len() };
+        let columns = || DataError::Columns { file: file.to_string(), line: line_no, expected: ncols, found };
         if cols.len() != ncols || cols.iter().any(|c| c.is_empty()) {
-            let found = if line.trim().is_empty() { 0 } else { cols.len() };
-            return Err(DataError::Columns { file: file.to_string(), line: line_no, expected: ncols, found });
+            return Err(columns());
         }
-        for (col, text, out) in [("t", cols[0], &mut t), ("x", cols[xcol], &mut x)] {
+        let (Some(&t_text), Some(&x_text)) = (cols.first(), cols.get(xcol)) else {
+            return Err(columns());
+        };
+        for (col, text, out) in [("t", t_text, &mut t), ("x", x_text, &mut x)] {
             let v: f64 = text.parse().map_err(|_| DataError::Parse {
                 file: file.to_string(),
                 line: line_no,

@@ -7,6 +7,8 @@
 //! `||eta/s - c|| = ||eta - s c|| / s` and the conversion is exact (up to f32 rounding).
 //! Monomial orders agree (graded, exponent vectors descending lexicographically); the
 //! conversion checks this rather than assuming it.
+// Parses untrusted input: no indexing that can panic (CI runs clippy).
+#![cfg_attr(not(test), deny(clippy::indexing_slicing))]
 
 use crate::{ReducedDynamics, SsmModel};
 use shared::ControllerConfig;
@@ -26,12 +28,20 @@ pub enum ExportError {
     Observables(usize),
     #[error("encoding: {0}")]
     Encode(String),
+    #[error("{what}: index {index} outside its {len} values (an unvalidated model)")]
+    Shape { what: &'static str, index: usize, len: usize },
     #[error("{what} = {got} exceeds the limit of {max}")]
     Size { what: &'static str, got: usize, max: usize },
     #[error(
         "the model's sampling step {model_dt} s differs from the loop's controller dt {loop_dt} s (relative tolerance {rtol}); refit on data sampled at the loop's period"
     )]
     StepMismatch { model_dt: f64, loop_dt: f64, rtol: f64 },
+}
+
+/// `v[index]`, or an error naming the field (models are validated on load; this keeps an
+/// unvalidated one from indexing out of bounds).
+fn at(what: &'static str, v: &[f64], index: usize) -> Result<f64, ExportError> {
+    v.get(index).copied().ok_or(ExportError::Shape { what, index, len: v.len() })
 }
 
 /// Checks that a model sampled every `model_dt` seconds can run in a loop sampled every
@@ -94,7 +104,7 @@ pub fn to_device_model(m: &SsmModel, cfg: ControllerConfig) -> Result<OwnedModel
     let mut v1 = Vec::with_capacity(p * d);
     for i in 0..p {
         for j in 0..d {
-            v1.push(f32_of("v1", man.v1[j * p + i])?);
+            v1.push(f32_of("v1", at("manifold.v1", &man.v1, j * p + i)?)?);
         }
     }
     let order = man.nonlinear.as_ref().map_or(1, |poly| poly.exps.iter().map(|e| e.iter().sum::<u32>()).max().unwrap_or(1) as usize);
@@ -109,8 +119,9 @@ pub fn to_device_model(m: &SsmModel, cfg: ControllerConfig) -> Result<OwnedModel
             let col = exps.iter().position(|x| x == e).ok_or_else(|| ExportError::Monomial(e.clone(), d, order))?;
             // monomial of eta/s_m = monomial(eta) / prod s_m^e
             let div: f64 = e.iter().zip(&poly.scale).map(|(&ej, sj)| sj.powi(ej as i32)).product();
-            for i in 0..p {
-                lift[i * exps.len() + col] = f32_of("lift", poly.coef[kk * p + i] / div)?;
+            for (i, row) in lift.chunks_exact_mut(exps.len().max(1)).enumerate() {
+                let slot = row.get_mut(col).ok_or(ExportError::Shape { what: "lift column", index: col, len: exps.len() })?;
+                *slot = f32_of("lift", at("manifold.nonlinear.coef", &poly.coef, kk * p + i)? / div)?;
             }
         }
     }
@@ -121,16 +132,16 @@ pub fn to_device_model(m: &SsmModel, cfg: ControllerConfig) -> Result<OwnedModel
     let mut weights = Vec::with_capacity(k * d);
     for i in 0..k {
         for j in 0..d {
-            weights.push(f32_of("weight", rbf.coef[i * d + j] / s)?);
+            weights.push(f32_of("weight", at("dynamics.Rbf.coef", &rbf.coef, i * d + j)? / s)?);
         }
     }
     let mut affine = Vec::with_capacity(d * (d + 1));
     for j in 0..d {
         for l in 0..d {
             let id = if j == l { 1.0 } else { 0.0 };
-            affine.push(f32_of("affine", id + rbf.coef[(k + l) * d + j] / s)?);
+            affine.push(f32_of("affine", id + at("dynamics.Rbf.coef", &rbf.coef, (k + l) * d + j)? / s)?);
         }
-        affine.push(f32_of("affine bias", rbf.coef[(k + d) * d + j])?);
+        affine.push(f32_of("affine bias", at("dynamics.Rbf.coef", &rbf.coef, (k + d) * d + j)?)?);
     }
     Ok(OwnedModel {
         config: cfg,

@@ -18,6 +18,8 @@
 //! Architecture invariant: this crate knows no plant, no scene and no simulator (it does not
 //! depend on `sim`), and draws nothing; its only workspace dependency is `shared`, for the
 //! device model format.
+// Library code returns errors: no unwrap/expect/panic outside tests (CI runs clippy).
+#![cfg_attr(not(test), deny(clippy::unwrap_used, clippy::expect_used, clippy::panic))]
 
 pub mod backbone;
 pub mod data;

@@ -23,6 +23,8 @@
 //! Anything else (other classes, complex, sparse, more than 2 dimensions, big-endian, v4,
 //! v7.3) is an error naming the variable, and the cell within it, where it was met. A v7.3
 //! file is HDF5: the error says so and how to convert it.
+// Parses untrusted input: no indexing that can panic (CI runs clippy).
+#![cfg_attr(not(test), deny(clippy::indexing_slicing))]
 
 use std::path::Path;
 
@@ -135,8 +137,9 @@ struct Cursor<'a> {
     pos: usize,
 }
 
-fn u32_le(b: &[u8]) -> u32 {
-    u32::from_le_bytes([b[0], b[1], b[2], b[3]])
+/// The little-endian `u32` at the start of `b` (`None` when fewer than 4 bytes).
+fn u32_le(b: &[u8]) -> Option<u32> {
+    b.first_chunk::<4>().map(|c| u32::from_le_bytes(*c))
 }
 
 impl<'a> Cursor<'a> {
@@ -151,26 +154,26 @@ impl<'a> Cursor<'a> {
     /// The next element `(type, data)`; `padded`: skip to the next 8-byte boundary after
     /// a full-form element (always, except after a top-level `miCOMPRESSED`).
     fn element(&mut self) -> Result<(u32, &'a [u8]), String> {
-        let rest = &self.buf[self.pos..];
-        if rest.len() < 8 {
-            return Err(format!("{} bytes left at offset {}, need an 8-byte tag", rest.len(), self.pos));
-        }
-        let first = u32_le(rest);
+        let rest = self.buf.get(self.pos..).unwrap_or_default();
+        let short = || format!("{} bytes left at offset {}, need an 8-byte tag", rest.len(), self.pos);
+        let (Some(first), Some(second)) = (u32_le(rest), rest.get(4..).and_then(u32_le)) else {
+            return Err(short());
+        };
         if first >> 16 != 0 {
             // Small data element: 2-byte count, 2-byte type, 4 data bytes.
             let (ty, n) = (first & 0xffff, (first >> 16) as usize);
-            if n > 4 {
+            let data = rest.get(4..4 + n).filter(|_| n <= 4);
+            let Some(data) = data else {
                 return Err(format!("small element of {n} bytes at offset {}", self.pos));
-            }
+            };
             self.pos += 8;
-            return Ok((ty, &rest[4..4 + n]));
+            return Ok((ty, data));
         }
-        let n = u32_le(&rest[4..]) as usize;
-        if rest.len() - 8 < n {
-            return Err(format!("element of {n} bytes at offset {} but only {} left", self.pos, rest.len() - 8));
-        }
+        let n = second as usize;
+        let Some(data) = rest.get(8..).and_then(|r| r.get(..n)) else {
+            return Err(format!("element of {n} bytes at offset {} but only {} left", self.pos, rest.len().saturating_sub(8)));
+        };
         let ty = first;
-        let data = &rest[8..8 + n];
         let advance = if ty == MI_COMPRESSED { 8 + n } else { 8 + n.div_ceil(8) * 8 };
         self.pos = (self.pos + advance).min(self.buf.len());
         Ok((ty, data))
@@ -216,14 +219,16 @@ fn header(c: &mut Cursor<'_>) -> Result<Header, String> {
     if ty != MI_UINT32 || flags.len() != 8 {
         return Err(format!("array flags: expected 8 bytes of miUINT32, found type {ty} with {} bytes", flags.len()));
     }
-    let f = u32_le(flags);
+    let Some(f) = u32_le(flags) else {
+        return Err(format!("array flags: {} bytes", flags.len()));
+    };
     let (ty, dims) = c.element()?;
     if ty != MI_INT32 || dims.len() % 4 != 0 || dims.len() < 8 {
         return Err(format!("dimensions: expected at least 2 miINT32, found type {ty} with {} bytes", dims.len()));
     }
     let dims: Vec<usize> = dims
         .chunks_exact(4)
-        .map(|b| i32::from_le_bytes([b[0], b[1], b[2], b[3]]))
+        .filter_map(|b| b.first_chunk::<4>().map(|c| i32::from_le_bytes(*c)))
         .map(|d| usize::try_from(d).map_err(|_| format!("negative dimension {d}")))
         .collect::<Result<_, _>>()?;
     let (ty, name) = c.element()?;
@@ -249,13 +254,15 @@ impl MatFile {
         if bytes.starts_with(b"MATLAB 7.3") || bytes.get(512..520) == Some(b"\x89HDF\r\n\x1a\n") || bytes.starts_with(b"\x89HDF") {
             return Err(v73());
         }
-        if bytes.len() < 128 {
-            return Err(not(&format!("{} bytes, shorter than the 128-byte header", bytes.len())));
-        }
         // The text is descriptive (MATLAB, Octave, scipy and matio word it differently): the
         // version and the endian indicator identify the format.
-        let version = u16::from_le_bytes([bytes[124], bytes[125]]);
-        match (&bytes[126..128], version) {
+        let (Some(version), Some(endian), Some(rest)) =
+            (bytes.get(124..126).and_then(|b| b.first_chunk::<2>()), bytes.get(126..128), bytes.get(128..))
+        else {
+            return Err(not(&format!("{} bytes, shorter than the 128-byte header", bytes.len())));
+        };
+        let version = u16::from_le_bytes(*version);
+        match (endian, version) {
             (b"IM", 0x0100) => {}
             (b"IM", 0x0200) => return Err(v73()),
             (b"MI", _) => return Err(MatError::BigEndian { file: file.to_string() }),
@@ -263,7 +270,7 @@ impl MatFile {
             (other, _) => return Err(not(&format!("endian indicator {other:?} at byte 126, expected \"IM\"; a v4 file or not a .mat file"))),
         }
         let mut vars = Vec::new();
-        let mut top = Cursor::new(&bytes[128..]);
+        let mut top = Cursor::new(rest);
         while !top.at_end() {
             let index = vars.len() + 1;
             let where_ = || format!("variable #{index}");
@@ -319,11 +326,11 @@ impl MatFile {
         let mut c = Cursor::new(body);
         let h = header(&mut c).map_err(malformed)?;
         let class = class_name(h.class);
-        if h.dims.len() != 2 {
+        let &[rows, cols] = h.dims.as_slice() else {
             return Err(unsupported(format!("a {}-dimensional {class} array ({:?})", h.dims.len(), h.dims)));
-        }
-        let dims = [h.dims[0], h.dims[1]];
-        let n = dims[0].checked_mul(dims[1]).ok_or_else(|| malformed(format!("dimensions {dims:?} overflow")))?;
+        };
+        let dims = [rows, cols];
+        let n = rows.checked_mul(cols).ok_or_else(|| malformed(format!("dimensions {dims:?} overflow")))?;
         match h.class {
             MX_DOUBLE => {
                 if h.flags & FLAG_COMPLEX != 0 {
@@ -332,7 +339,7 @@ impl MatFile {
                 let (ty, re) = c.element().map_err(malformed)?;
                 let data = numbers(ty, re).map_err(|w| malformed(format!("real part: {w}")))?;
                 if data.len() != n {
-                    return Err(malformed(format!("{} values for dimensions {}x{}", data.len(), dims[0], dims[1])));
+                    return Err(malformed(format!("{} values for dimensions {rows}x{cols}", data.len())));
                 }
                 Ok(MatValue::Double { dims, data })
             }

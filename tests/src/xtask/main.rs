@@ -687,11 +687,33 @@ fn firmware_size() -> Result<()> {
     Ok(())
 }
 
+/// The library crates' lint policy (issue 14): no `unwrap`/`expect`/`panic` outside tests,
+/// and no panicking indexing in the crates and modules that parse input (`shared`,
+/// `controller`, `ssm::{mat, data, device}`, `sim::scene`); the `deny` attributes live in
+/// the crates, this runs clippy over them (installing the component when missing).
+fn clippy_lints() -> Result<()> {
+    if output(cmd("cargo").args(["clippy", "--version"])).is_none() {
+        run(cmd("rustup").args(["component", "add", "clippy"]))?;
+    }
+    let mut c = cmd("cargo");
+    c.current_dir(root()).args(["clippy", "-q", "--lib"]);
+    for p in LINTED_CRATES {
+        c.args(["-p", p]);
+    }
+    run(&mut c).map_err(|e| format!("clippy (unwrap/expect/panic/indexing policy of {}): {e}", LINTED_CRATES.join(", ")))?;
+    println!("clippy: lint policy holds in {}", LINTED_CRATES.join(", "));
+    Ok(())
+}
+
+/// Library crates under the clippy policy of [`clippy_lints`].
+const LINTED_CRATES: [&str; 6] = ["shared", "controller", "sim", "ssm", "chaos", "furuta"];
+
 fn test_all() -> Result<()> {
     install()?;
     let mut host = cmd("cargo");
     host.current_dir(root()).args(["test", "--workspace"]);
     let host_result = run(&mut host);
+    let lints = clippy_lints();
     let target = qemu_test();
     // The cost table (about 1 s in QEMU): it must run, calibrate (1,000 nops = 1,000
     // instructions) and its f32 predictions must agree with the host's f64 evaluation.
@@ -721,6 +743,7 @@ fn test_all() -> Result<()> {
     }
     println!("on-target: {passed} passed, {failed} failed");
     host_result?;
+    lints?;
     target?;
     table?;
     pil_run?;

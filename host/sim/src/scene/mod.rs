@@ -7,6 +7,8 @@
 //!
 //! Owns parsing, `--set path=value` overrides and validation with key paths in errors. Must
 //! not run anything.
+// Parses untrusted input: no indexing that can panic (CI runs clippy).
+#![cfg_attr(not(test), deny(clippy::indexing_slicing))]
 
 mod bundled;
 

@@ -5,6 +5,8 @@
 //!
 //! Validation is that of [`TimeSeries`] applied to the shared time and to every observable:
 //! finite values, strictly increasing uniform time, no constant observable.
+// Parses untrusted input: no indexing that can panic (CI runs clippy).
+#![cfg_attr(not(test), deny(clippy::indexing_slicing))]
 
 use std::path::Path;
 
@@ -60,14 +62,17 @@ impl MultiSeries {
     /// Mean sampling step; `None` with fewer than 2 samples.
     pub fn dt(&self) -> Option<f64> {
         let n = self.t.len();
-        (n >= 2).then(|| (self.t[n - 1] - self.t[0]) / (n - 1) as f64)
+        match (self.t.first(), self.t.last()) {
+            (Some(first), Some(last)) if n >= 2 => Some((last - first) / (n - 1) as f64),
+            _ => None,
+        }
     }
 
     /// Observable `i` as a scalar series (named `name/observable`).
     pub fn observable(&self, i: usize) -> Option<TimeSeries> {
         let q = self.dim();
-        (i < q).then(|| TimeSeries {
-            name: format!("{}/{}", self.name, self.observables[i]),
+        self.observables.get(i).map(|obs| TimeSeries {
+            name: format!("{}/{}", self.name, obs),
             t: self.t.clone(),
             x: self.x.iter().skip(i).step_by(q).copied().collect(),
         })
@@ -87,21 +92,20 @@ impl MultiSeries {
         if self.t.len() < 2 {
             return Err(DataError::TooShort { name: name.clone(), have: self.t.len(), need: 2, why: "a sampling step".into() });
         }
-        for (n, &t) in self.t.iter().enumerate() {
+        for (n, (&t, row)) in self.t.iter().zip(self.x.chunks_exact(q)).enumerate() {
             if !t.is_finite() {
                 return Err(DataError::NonFinite { name: name.clone(), row: n + 1, column: "t".into(), value: t });
             }
-            for (i, &v) in self.x[n * q..(n + 1) * q].iter().enumerate() {
+            for (&v, obs) in row.iter().zip(&self.observables) {
                 if !v.is_finite() {
-                    return Err(DataError::NonFinite { name: name.clone(), row: n + 1, column: self.observables[i].clone(), value: v });
+                    return Err(DataError::NonFinite { name: name.clone(), row: n + 1, column: obs.clone(), value: v });
                 }
             }
         }
         check_time(name, &self.t)?;
-        for i in 0..q {
-            let x0 = self.x[i];
+        for (i, (obs, &x0)) in self.observables.iter().zip(&self.x).enumerate() {
             if self.x.iter().skip(i).step_by(q).all(|&v| v == x0) {
-                return Err(DataError::ConstantObservable { name: name.clone(), observable: self.observables[i].clone(), value: x0 });
+                return Err(DataError::ConstantObservable { name: name.clone(), observable: obs.clone(), value: x0 });
             }
         }
         Ok(())
@@ -137,8 +141,9 @@ impl MultiSeries {
         let end = to.map_or(self.t.len(), |b| self.t.partition_point(|&t| t <= b));
         let q = self.dim();
         let label = format!("{}[t in {}..{}]", self.name, from.map_or(String::new(), |v| v.to_string()), to.map_or(String::new(), |v| v.to_string()));
-        let t = self.t[start..end.max(start)].to_vec();
-        let x = self.x[start * q..end.max(start) * q].to_vec();
+        let end = end.max(start);
+        let t = self.t.get(start..end).unwrap_or_default().to_vec();
+        let x = self.x.get(start * q..end * q).unwrap_or_default().to_vec();
         MultiSeries::new(label, t, self.observables.clone(), x)
     }
 }
@@ -158,7 +163,7 @@ impl MultiSeries {
                 })
             })
             .collect::<Result<_, _>>()?;
-        let x = (0..self.len()).flat_map(|n| idx.iter().map(move |&i| self.x[n * q + i])).collect();
+        let x = self.x.chunks_exact(q.max(1)).flat_map(|row| idx.iter().filter_map(move |&i| row.get(i).copied())).collect();
         MultiSeries::new(self.name.clone(), self.t.clone(), names.to_vec(), x)
     }
 }
@@ -167,7 +172,7 @@ impl MultiSeries {
 /// `names` is true); the error names the first trajectory that differs.
 pub fn check_same_observables(set: &[MultiSeries], names: bool) -> Result<(), DataError> {
     let Some(first) = set.first() else { return Ok(()) };
-    for s in &set[1..] {
+    for s in set.iter().skip(1) {
         if s.dim() != first.dim() || (names && s.observables != first.observables) {
             return Err(DataError::ObservableMismatch {
                 name: s.name.clone(),
@@ -198,7 +203,7 @@ pub fn parse_csv_observables(file: &str, name: String, text: &str, columns: Opti
         Some((_, h)) if !h.trim().is_empty() => h.split(',').map(str::trim).collect(),
         _ => return Err(DataError::NoHeader { file: file.to_string() }),
     };
-    let available = || header[1..].join(", ");
+    let available = || header.get(1..).unwrap_or_default().join(", ");
     let picked: Vec<usize> = match columns {
         None => (1..header.len()).collect(),
         Some(cs) => cs
@@ -215,7 +220,7 @@ pub fn parse_csv_observables(file: &str, name: String, text: &str, columns: Opti
     if picked.is_empty() {
         return Err(DataError::NoObservables { name: file.to_string() });
     }
-    let observables: Vec<String> = picked.iter().map(|&i| header[i].to_string()).collect();
+    let observables: Vec<String> = picked.iter().filter_map(|&i| header.get(i)).map(|h| h.to_string()).collect();
     let (mut t, mut x) = (Vec::new(), Vec::new());
     for (i, line) in lines {
         let line_no = i + 1;
@@ -224,17 +229,19 @@ pub fn parse_csv_observables(file: &str, name: String, text: &str, columns: Opti
             let found = if line.trim().is_empty() { 0 } else { cols.len() };
             return Err(DataError::Columns { file: file.to_string(), line: line_no, expected: header.len(), found });
         }
+        // `cols` has one entry per header column (checked above), `picked` indexes the header.
         let parse = |k: usize, column: &str| {
-            cols[k].parse::<f64>().map_err(|_| DataError::Parse {
+            let text = cols.get(k).copied().unwrap_or_default();
+            text.parse::<f64>().map_err(|_| DataError::Parse {
                 file: file.to_string(),
                 line: line_no,
                 column: column.to_string(),
-                text: cols[k].to_string(),
+                text: text.to_string(),
             })
         };
         t.push(parse(0, "t")?);
-        for &k in &picked {
-            x.push(parse(k, header[k])?);
+        for (&k, obs) in picked.iter().zip(&observables) {
+            x.push(parse(k, obs)?);
         }
     }
     MultiSeries::new(format!("{name} ({file})"), t, observables, x)
@@ -267,12 +274,16 @@ pub fn mat_trajectories(file: &str, var: &str, value: &MatValue) -> Result<Vec<M
     let mut out = Vec::with_capacity(n);
     for i in 0..n {
         let at = |j: usize| format!("{var}{{{},{j}}}", i + 1);
-        let (MatValue::Double { dims: td, data: t }, MatValue::Double { dims: xd, data: xs }) = (&cells[i], &cells[n + i]) else {
-            let j = if matches!(cells[i], MatValue::Cell { .. }) { 1 } else { 2 };
+        let (Some(t_cell), Some(x_cell)) = (cells.get(i), cells.get(n + i)) else {
+            return Err(layout(at(1), format!("{} cells for a {n} x 2 cell array", cells.len())));
+        };
+        let (MatValue::Double { dims: td, data: t }, MatValue::Double { dims: xd, data: xs }) = (t_cell, x_cell) else {
+            let j = if matches!(t_cell, MatValue::Cell { .. }) { 1 } else { 2 };
             return Err(layout(at(j), "a cell array; expected a double array".into()));
         };
-        if td[0].min(td[1]) != 1 {
-            return Err(layout(at(1), format!("a {} x {} array; expected a vector of times", td[0], td[1])));
+        let [t_rows, t_cols] = *td;
+        if t_rows.min(t_cols) != 1 {
+            return Err(layout(at(1), format!("a {t_rows} x {t_cols} array; expected a vector of times")));
         }
         let len = t.len();
         let [q, nx] = *xd;
