@@ -33,21 +33,22 @@ pub fn draw_chart(out: &Path, chart: &Chart) -> Result<(), PlotError> {
     ensure_font();
     let err = |e: &dyn std::fmt::Display| PlotError::new(out, e);
     let n = chart.panels.len().max(1) as u32;
-    let root = BitMapBackend::new(out, (PANEL_W * n, PANEL_H + TITLE_H)).into_drawing_area();
-    root.fill(&WHITE).map_err(|e| err(&e))?;
-    let b = &chart.base;
-    let integral = if b.ki != 0.0 { format!(", KI = {} V/(rad s)", b.ki) } else { String::new() };
-    let title = format!(
-        "Linear stability of the sampled PD loop with ZOH, delay r = {}, KphiD = {} V s/rad{integral}",
-        b.delay, b.kphi_d
-    );
-    let (top, body) = root.split_vertically(TITLE_H);
-    top.titled(&title, ("sans-serif", 24)).map_err(|e| err(&e))?;
-    for (area, panel) in body.split_evenly((1, n as usize)).iter().zip(&chart.panels) {
-        draw_panel(area, chart, panel).map_err(|e| err(&e))?;
-    }
-    root.present().map_err(|e| err(&e))?;
-    Ok(())
+    crate::plot::render_png(out, (PANEL_W * n, PANEL_H + TITLE_H), |root| {
+        root.fill(&WHITE).map_err(|e| err(&e))?;
+        let b = &chart.base;
+        let integral = if b.ki != 0.0 { format!(", KI = {} V/(rad s)", b.ki) } else { String::new() };
+        let title = format!(
+            "Linear stability of the sampled PD loop with ZOH, delay r = {}, KphiD = {} V s/rad{integral}",
+            b.delay, b.kphi_d
+        );
+        let (top, body) = root.split_vertically(TITLE_H);
+        top.titled(&title, ("sans-serif", 24)).map_err(|e| err(&e))?;
+        for (area, panel) in body.split_evenly((1, n as usize)).iter().zip(&chart.panels) {
+            draw_panel(area, chart, panel).map_err(|e| err(&e))?;
+        }
+        root.present().map_err(|e| err(&e))?;
+        Ok(())
+    })
 }
 
 fn draw_panel<DB: DrawingBackend>(
