@@ -129,17 +129,19 @@ def test_normal_form_and_backbone_against_the_conservative_duffing():
     def exact_freq(a):  # conservative Duffing: period by quadrature (x = a sin phi)
         phi = np.linspace(0, np.pi / 2, 4001)
         f = 1 / np.sqrt(W**2 + K / 2 * a**2 * (1 + np.sin(phi) ** 2))
-        return 2 * np.pi / (4 * np.trapz(f, phi))
+        return 2 * np.pi / (4 * np.sum((f[1:] + f[:-1]) / 2 * np.diff(phi)))  # trapezoid
 
-    for k in (50, 75, 100):
+    for k in (25, 50, 75, 100):
         a, got = c["amplitude"][k], c["freq_rad_s"][k]
         want = exact_freq(a) * math.sqrt(1 - ZETA**2)
-        assert abs(got - want) / want < BACKBONE_RTOL, (a, got, want)
+        assert abs(got - want) / want < 1e-3, (a, got, want)  # measured: <= 1.6e-4
+        # Weak linear damping (first-order averaging): decay rate zeta w at every amplitude,
+        # damping ratio zeta w / |lambda| with |lambda|^2 = (zeta w)^2 + Omega(a)^2.
+        zeta = ZETA * W / math.hypot(ZETA * W, exact_freq(a))
+        assert abs(c["damping_ratio"][k] - zeta) / zeta < 0.01, (a, c["damping_ratio"][k], zeta)
     # Hardening: the frequency grows with the amplitude.
     assert np.all(np.diff(c["freq_rad_s"]) > 0)
 
-
-BACKBONE_RTOL = 5e-3
 
 
 def test_saved_model_json_round_trip(tmp_path):
@@ -149,12 +151,16 @@ def test_saved_model_json_round_trip(tmp_path):
     again = sc.Model.from_json(text)
     assert again.fit_seconds is None
     assert np.array_equal(again.eigenvalues, model.eigenvalues)
-    assert np.array_equal(again.predict(test).x, model.predict(test).x)
+    # serde_json parses floats to within an ulp (not bit for bit: its `float_roundtrip`
+    # feature is off), so the reloaded model agrees to rounding; a second trip is exact.
+    x, y = model.predict(test).x, again.predict(test).x
+    assert np.max(np.abs(x - y)) <= 1e-13 * np.max(np.abs(x))
+    assert again.to_json() == sc.Model.from_json(again.to_json()).to_json()
     path = tmp_path / "m.json"
     model.save(path)
     loaded = sc.load_model(path)
     assert loaded.options == model.options and loaded.options["dim"] == 2
-    assert np.array_equal(loaded.predict(test).x, model.predict(test).x)
+    assert np.array_equal(loaded.predict(test).x, y)
     with pytest.raises(ValueError, match="not a saved SSM model"):
         sc.Model.from_json('{"format": "other"}')
     with pytest.raises(ValueError, match="version"):
@@ -206,7 +212,7 @@ def test_bad_input_is_a_value_error_naming_it():
         (lambda: sc.Trajectory(t[0].t, t[0].x.T), r"samples go along the first axis, shape \(301, q\)"),
         (lambda: sc.Trajectory(t[0].t, t[0].x, observables=["a"]), "1 observable names for 3 columns"),
         (lambda: sc.Trajectory([0, 1, 2], [1, 1, 1]), "constant"),
-        (lambda: sc.Trajectory([0, 1, 3], [1, 2, 1]), "(?i)uniform"),
+        (lambda: sc.Trajectory([0, 1, 3], [1, 2, 1]), "uneven sampling"),
         (lambda: sc.Trajectory([0, 1, 2], ["a", "b", "c"]), "x: not an array of numbers"),
         (lambda: sc.load_model(DATA / "duffing_1.csv"), "duffing_1.csv"),
     ]
