@@ -16,11 +16,16 @@ const ALLOWED: &[(&str, &[&str])] = &[
     ("ssm", &["shared"]),
     ("furuta", &["sim", "ssm", "chaos", "shared", "controller"]),
     ("ssmctl", &["sim", "ssm", "chaos", "furuta", "shared", "controller"]),
+    // The Python module `ssm_ctl` (host/python): an app layer beside ssmctl, on the learner.
+    ("python", &["ssm", "shared"]),
     ("tests", &["controller", "shared"]),
 ];
 
 /// External crates only the app may depend on.
 const APP_ONLY: &[&str] = &["clap", "indicatif", "plotters", "dejavu"];
+
+/// External crates only the Python module may depend on (the bindings).
+const PYTHON_ONLY: &[&str] = &["pyo3", "numpy"];
 
 fn metadata() -> Value {
     let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).parent().unwrap().to_path_buf();
@@ -78,6 +83,18 @@ fn only_the_app_draws_and_parses_command_lines() {
             if kind.is_none() {
                 assert!(!APP_ONLY.contains(&dep.as_str()), "{name} depends on {dep}, which only ssmctl may use");
             }
+        }
+    }
+}
+
+#[test]
+fn only_the_python_module_binds_python() {
+    for (name, d) in deps() {
+        if name == "python" {
+            continue;
+        }
+        for (dep, _) in d {
+            assert!(!PYTHON_ONLY.contains(&dep.as_str()), "{name} depends on {dep}, which only the Python module (host/python) may use");
         }
     }
 }

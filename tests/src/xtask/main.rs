@@ -24,7 +24,9 @@
 //!   the model, the others then run concurrently (one QEMU each). A run whose folder holds a
 //!   complete run with the same fingerprint (firmware image, host binary, scene, overrides,
 //!   model, periods: `cache.rs`) is reused and says so; `--fresh` redoes it.
-//! - `test`: install + `cargo test --workspace` + qemu-test + device-table (counted as one
+//! - `python-test`: the Python module (`host/python`) built into a venv (`target/pyvenv`,
+//!   made and given maturin, pytest and numpy when missing) and its pytest tests (`python.rs`).
+//! - `test`: install + `cargo test --workspace` + python-test + qemu-test + device-table (counted as one
 //!   on-target test, see `device_table::check`) + a 2,000-period PIL run (one more) +
 //!   STM32F407 build.
 //! - `reproduce --out DIR [--fresh] [...]`: install + device-table + a PIL run + the PIL
@@ -43,6 +45,7 @@ mod cache;
 mod compare_report;
 mod device_table;
 mod elf;
+mod python;
 mod rng;
 mod traces;
 mod vectors;
@@ -78,12 +81,13 @@ fn main() -> ExitCode {
             Some(other) => Err(format!("device-table: unknown option `{other}` (expected --json)")),
         },
         Some("test") => test_all(),
+        Some("python-test") => python::python_test(),
         Some("reproduce") => reproduce(&args[1..]),
         // An explicit `pil` always runs (it is a test of the device); reproduce may reuse.
         Some("pil") => pil_args(&args[1..]).and_then(|(scene, periods)| pil(&scene, periods, true)).map(|_| ()),
         Some("pil-record") => record_args(&args[1..]).and_then(|r| pil_record(&r)).map(|_| ()),
         Some("compare-report") => compare_report::run(&args[1..]),
-        _ => Err("usage: cargo xtask <install | qemu-test | firmware-size | device-table [--json] | pil [--periods N] [--scene NAME] | pil-record --out DIR [--runs N] [--periods P] [--scene NAME] [--seed S] [--fresh] | test | reproduce --out DIR [--fresh] | compare-report BASE NEW>".into()),
+        _ => Err("usage: cargo xtask <install | qemu-test | firmware-size | device-table [--json] | python-test | pil [--periods N] [--scene NAME] | pil-record --out DIR [--runs N] [--periods P] [--scene NAME] [--seed S] [--fresh] | test | reproduce --out DIR [--fresh] | compare-report BASE NEW>".into()),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
@@ -96,7 +100,7 @@ fn main() -> ExitCode {
 
 /// A command without the environment of the outer `cargo run` that would leak into a nested
 /// cargo (target dir, rustflags of the host build).
-fn cmd(program: &str) -> Command {
+fn cmd(program: impl AsRef<std::ffi::OsStr>) -> Command {
     let mut c = Command::new(program);
     for var in ["CARGO_TARGET_DIR", "RUSTFLAGS", "CARGO_ENCODED_RUSTFLAGS", "CARGO_BUILD_TARGET", "CARGO_MANIFEST_DIR"] {
         c.env_remove(var);
@@ -714,6 +718,7 @@ fn test_all() -> Result<()> {
     host.current_dir(root()).args(["test", "--workspace"]);
     let host_result = run(&mut host);
     let lints = clippy_lints();
+    let python_result = python::python_test();
     let target = qemu_test();
     // The cost table (about 1 s in QEMU): it must run, calibrate (1,000 nops = 1,000
     // instructions) and its f32 predictions must agree with the host's f64 evaluation.
@@ -744,6 +749,7 @@ fn test_all() -> Result<()> {
     println!("on-target: {passed} passed, {failed} failed");
     host_result?;
     lints?;
+    python_result.map_err(|e| format!("python-test: {e}"))?;
     target?;
     table?;
     pil_run?;
