@@ -33,8 +33,9 @@ impl PlotError {
 
 /// An RGB canvas the figures draw into, written as a PNG by [`Png::save`] through an
 /// [`AtomicFile`](crate::output::AtomicFile) (a failed run leaves no partial figure). The PNG
-/// is encoded with the `png` crate, settings as plotters' own file output had them (default
-/// compression, adaptive filtering), so figures are byte-identical to before.
+/// is encoded with the `png` crate, settings as plotters' own file output (through `image`
+/// 0.24) had them (fast compression, adaptive filtering), so figures are byte-identical to
+/// before.
 pub struct Png {
     size: (u32, u32),
     buf: Vec<u8>,
@@ -59,7 +60,7 @@ impl Png {
             let mut enc = png::Encoder::new(std::io::BufWriter::new(&mut file), self.size.0, self.size.1);
             enc.set_color(png::ColorType::Rgb);
             enc.set_depth(png::BitDepth::Eight);
-            enc.set_compression(png::Compression::Default);
+            enc.set_compression(png::Compression::Fast);
             enc.set_filter(png::FilterType::Sub);
             enc.set_adaptive_filter(png::AdaptiveFilterType::Adaptive);
             let mut w = enc.write_header().map_err(|x| e(&x))?;
