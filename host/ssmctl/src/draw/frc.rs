@@ -43,7 +43,7 @@ pub fn frc_figure(path: &Path, title: &str, frc: &Frc, backbone: Option<&Backbon
         .draw()
         .map_err(|x| e(&x))?;
     if let Some(bb) = backbone {
-        let line: Vec<(f64, f64)> = bb.points.iter().map(|p| (p.freq_rad_s, p.amplitude)).filter(|p| p.0 >= x0 && p.0 <= x1).collect();
+        let line: Vec<(f64, f64)> = bb.points.iter().map(|p| (p.freq_rad_s, p.amplitude)).filter(|p| p.0 >= x0 && p.0 <= x1 && p.1 <= 1.05 * y1).collect();
         chart
             .draw_series(LineSeries::new(line, BACKBONE.stroke_width(1)))
             .map_err(|x| e(&x))?
