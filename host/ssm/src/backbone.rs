@@ -318,7 +318,7 @@ pub(crate) mod tests {
             dyn_order: 3,
             dynamics: Dynamics::Flow,
             ridge: Ridge::Fixed(0.0),
-            linear_anchor: None,
+            linear_anchor: None, anchor_joint: false,
         };
         SsmModel { options, dt: 0.01, manifold, dynamics, eigenvalues_ct: vec![], eta_range: vec![1.0, 1.0], n_points: 0, observables: 3 }
     }

@@ -116,7 +116,7 @@ fn predicted_forced_response_matches_the_simulated_duffing_oscillator() {
         dyn_order: 7,
         dynamics: Dynamics::Map,
         ridge: Ridge::Fixed(0.0),
-        linear_anchor: None,
+        linear_anchor: None, anchor_joint: false,
     };
     let t0 = Instant::now();
     let model = fit_multi(&train, &opts).unwrap();

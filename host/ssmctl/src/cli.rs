@@ -302,6 +302,10 @@ pub struct FitArgs {
     /// the fixed point: noise-dominated small amplitudes make it worse (see bench fit).
     #[arg(long)]
     pub linear_anchor: Option<f64>,
+    /// With --linear-anchor: pick the small pairs by their envelope and fit the linear part
+    /// jointly with the higher orders (unbiased by them; see ssm::FitOptions::anchor_joint).
+    #[arg(long, requires = "linear_anchor")]
+    pub anchor_joint: bool,
     /// Print JSON.
     #[arg(long)]
     pub json: bool,
@@ -512,6 +516,7 @@ pub fn run(cli: Cli) -> Result<(), Box<dyn std::error::Error>> {
                 ridge: a.ridge,
                 column: a.column,
                 linear_anchor: a.linear_anchor,
+                anchor_joint: a.anchor_joint,
                 normal_form: a.normal_form,
             })?;
             if let Some(path) = &a.save {

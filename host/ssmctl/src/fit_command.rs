@@ -43,6 +43,8 @@ pub struct FitRequest {
     pub column: Option<String>,
     /// See [`FitOptions::linear_anchor`].
     pub linear_anchor: Option<f64>,
+    /// See [`FitOptions::anchor_joint`].
+    pub anchor_joint: bool,
     pub normal_form: bool,
 }
 
@@ -292,6 +294,7 @@ pub fn run_fit(r: &FitRequest) -> Result<FitResult, Box<dyn std::error::Error>> 
         dynamics: parse_dynamics(&r.dynamics, r.centers)?,
         ridge: parse_ridge(&r.ridge)?,
         linear_anchor: r.linear_anchor,
+        anchor_joint: r.anchor_joint,
     };
     let t0 = Instant::now();
     let model = fit_multi(&train, &opts)?;

@@ -194,7 +194,7 @@ pub fn furuta_blob(rep: &mut Report, quick: bool) -> Result<(), Box<dyn Error>> 
     let s = SceneBuilder::load("furuta-quant-dt25")?.periods(if quick { 1500 } else { 4000 }).build()?;
     let tr = simulate(&s, None)?;
     let ts = TimeSeries::new("theta", tr.t.clone(), tr.primary())?;
-    let o = FitOptions { dim: 4, embed: 9, shift: 1, manifold_order: 2, dyn_order: 1, dynamics: Dynamics::Rbf { centers: 100 }, ridge: Ridge::Fixed(1e-10), linear_anchor: None };
+    let o = FitOptions { dim: 4, embed: 9, shift: 1, manifold_order: 2, dyn_order: 1, dynamics: Dynamics::Rbf { centers: 100 }, ridge: Ridge::Fixed(1e-10), linear_anchor: None, anchor_joint: false };
     let m = fit(std::slice::from_ref(&ts), &o)?;
     let blob = encode(&to_device_model(&m, s.controller_config())?)?;
     crate::output::write_atomic(&rep.dir().join("furuta-quant-dt25-rbf100.bin"), &blob)?;
