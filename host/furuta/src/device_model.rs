@@ -24,7 +24,7 @@ pub fn fit_scene_rbf(
         dyn_order: 1,
         dynamics: Dynamics::Rbf { centers: 60 },
         ridge: Ridge::Fixed(1e-10),
-        linear_anchor: None,
+        linear_anchor: None, anchor_joint: false,
     };
     let m = fit(std::slice::from_ref(&ts), &opts)?;
     Ok((m, ts))

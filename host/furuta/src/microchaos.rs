@@ -95,7 +95,7 @@ impl ChaosOptions {
                 dyn_order: self.poly_order,
                 dynamics: Dynamics::Map,
                 ridge: Ridge::Fixed(self.ridge),
-                linear_anchor: None,
+                linear_anchor: None, anchor_joint: false,
             };
             ctx_free.validate()?;
         }
@@ -308,7 +308,7 @@ pub fn fit_options(o: &ChaosOptions, ssm_dim: usize, ctx: &Context) -> FitOption
         dyn_order: o.poly_order,
         dynamics: Dynamics::Map,
         ridge: Ridge::Fixed(o.ridge),
-        linear_anchor: None,
+        linear_anchor: None, anchor_joint: false,
     }
 }
 

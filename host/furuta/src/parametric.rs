@@ -84,7 +84,7 @@ impl Default for FurutaOptions {
                 // Linear part from the pairs within 1 % of the largest |eta|: over the whole
                 // range the rates trade against the order-7 terms (slow rate -3.5 % at 32 ms,
                 // -14 % at 32.5 ms without, runs cut at 0.3 rad; within 0.05 % with).
-                linear_anchor: Some(0.01),
+                linear_anchor: Some(0.01), anchor_joint: false,
             },
         }
     }

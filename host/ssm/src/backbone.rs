@@ -135,6 +135,67 @@ fn max_over_phase(f: &mut dyn FnMut(f64) -> f64, n: usize) -> f64 {
     best.max(fc).max(fd)
 }
 
+/// Amplitude of an observable on mode `mode` (0-based) of a normal form with `modes` modes
+/// at normal-form amplitude `rho`, the other modes at zero: the max over the phase of
+/// `|observe(eta)|`, `eta` the reduced coordinates above `(rho, theta)` through `tr`
+/// (`phases` grid points, then golden-section refinement).
+pub fn amplitude_at(
+    tr: &NormalFormTransform,
+    observe: &mut dyn FnMut(&[f64]) -> f64,
+    modes: usize,
+    mode: usize,
+    rho: f64,
+    phases: usize,
+) -> f64 {
+    let mut r = vec![0.0; modes];
+    r[mode] = rho;
+    let mut th = vec![0.0; modes];
+    max_over_phase(
+        &mut |theta| {
+            th[mode] = theta;
+            observe(&tr.eta(&r, &th))
+        },
+        phases,
+    )
+}
+
+/// The first `rho` where `amplitude(rho)` reaches `target`: a linear gain from a small
+/// probe, a march in 400 steps up to 5 times the linear estimate, then bisection (60
+/// halvings). `Err((largest amplitude met, rho searched to))` when it is not reached.
+pub(crate) fn first_rho_reaching(amplitude: &mut dyn FnMut(f64) -> f64, target: f64) -> Result<f64, (f64, f64)> {
+    let probe = 1e-6;
+    let gain = amplitude(probe) / probe;
+    if !(gain > 0.0 && gain.is_finite()) {
+        return Err((0.0, probe));
+    }
+    let rho_lin = target / gain;
+    let (steps, reach) = (400, 5.0);
+    let (mut lo, mut hi) = (0.0, None);
+    let mut reached: f64 = 0.0;
+    for k in 1..=steps {
+        let rho = reach * rho_lin * k as f64 / steps as f64;
+        let a = amplitude(rho);
+        reached = reached.max(a);
+        if a >= target {
+            hi = Some(rho);
+            break;
+        }
+        lo = rho;
+    }
+    let Some(mut hi) = hi else {
+        return Err((reached, reach * rho_lin));
+    };
+    for _ in 0..60 {
+        let mid = 0.5 * (lo + hi);
+        if amplitude(mid) >= target {
+            hi = mid;
+        } else {
+            lo = mid;
+        }
+    }
+    Ok(hi)
+}
+
 /// Backbone of mode `mode` (0-based) of `nf`, with the amplitude of `observe(eta)` (the
 /// observable of the point above reduced coordinates `eta`), from rho = 0 to where the
 /// amplitude first reaches `opts.amplitude_max`.
@@ -158,50 +219,10 @@ pub fn backbone_of(
     if mode >= nf.modes {
         return bad("mode", format!("mode {} of a normal form with {} modes", mode + 1, nf.modes));
     }
-    let mut amplitude = |rho: f64| {
-        let mut r = vec![0.0; nf.modes];
-        r[mode] = rho;
-        let mut th = vec![0.0; nf.modes];
-        max_over_phase(
-            &mut |theta| {
-                th[mode] = theta;
-                observe(&tr.eta(&r, &th))
-            },
-            opts.phases,
-        )
-    };
-    // Linear gain (amplitude per rho) from a small rho, then march to the target.
+    let mut amplitude = |rho: f64| amplitude_at(tr, observe, nf.modes, mode, rho, opts.phases);
     let target = opts.amplitude_max;
-    let probe = 1e-6;
-    let gain = amplitude(probe) / probe;
-    if !(gain > 0.0 && gain.is_finite()) {
-        return Err(BackboneError::Unreached { mode: mode + 1, observable: opts.observable, target, reached: 0.0, rho: probe });
-    }
-    let rho_lin = target / gain;
-    let (steps, reach) = (400, 5.0);
-    let (mut lo, mut hi) = (0.0, None);
-    let mut reached: f64 = 0.0;
-    for k in 1..=steps {
-        let rho = reach * rho_lin * k as f64 / steps as f64;
-        let a = amplitude(rho);
-        reached = reached.max(a);
-        if a >= target {
-            hi = Some(rho);
-            break;
-        }
-        lo = rho;
-    }
-    let Some(mut hi) = hi else {
-        return Err(BackboneError::Unreached { mode: mode + 1, observable: opts.observable, target, reached, rho: reach * rho_lin });
-    };
-    for _ in 0..60 {
-        let mid = 0.5 * (lo + hi);
-        if amplitude(mid) >= target {
-            hi = mid;
-        } else {
-            lo = mid;
-        }
-    }
+    let hi = first_rho_reaching(&mut amplitude, target)
+        .map_err(|(reached, rho)| BackboneError::Unreached { mode: mode + 1, observable: opts.observable, target, reached, rho })?;
     let points = (0..opts.points)
         .map(|k| {
             let rho = hi * k as f64 / (opts.points - 1) as f64;
@@ -231,7 +252,7 @@ pub fn backbone(model: &SsmModel, opts: &BackboneOptions) -> Result<Vec<Backbone
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::*;
     use crate::dynamics::ReducedDynamics;
     use crate::manifold::Manifold;
@@ -267,14 +288,14 @@ mod tests {
         Poly { dim_in: 2, dim_out: 2, scale: scale.to_vec(), exps, coef }
     }
 
-    fn cond() -> Conditioning {
+    pub(crate) fn cond() -> Conditioning {
         Conditioning { rows: 0, cols: 0, s_max: 1.0, s_min: 1.0, cond: 1.0, alpha: 0.0, cond_regularized: 1.0, rel_residual: 0.0 }
     }
 
     /// A hand-built model: the synthetic field above and three observables, linear in eta
     /// with rows `(cos a, -sin a)` (`y_0 = Re(e^{ia} z)`, amplitude |z|) and
     /// `(2 sin a, cos(a) / 2)`, and quadratic `y_2 = kappa eta_0^2`.
-    fn model(alpha: f64, kappa: f64) -> SsmModel {
+    pub(crate) fn model(alpha: f64, kappa: f64) -> SsmModel {
         let v1 = vec![alpha.cos(), 2.0 * alpha.sin(), 0.0, -alpha.sin(), 0.5 * alpha.cos(), 0.0];
         let exps = poly::exponents(2, 2, 2);
         let mut coef = vec![0.0; exps.len() * 3];
@@ -297,7 +318,7 @@ mod tests {
             dyn_order: 3,
             dynamics: Dynamics::Flow,
             ridge: Ridge::Fixed(0.0),
-            linear_anchor: None,
+            linear_anchor: None, anchor_joint: false,
         };
         SsmModel { options, dt: 0.01, manifold, dynamics, eigenvalues_ct: vec![], eta_range: vec![1.0, 1.0], n_points: 0, observables: 3 }
     }

@@ -192,11 +192,15 @@ fn poly_regression(
     groups: &[std::ops::Range<usize>],
     ridge: Ridge,
     anchor: Option<f64>,
+    joint: bool,
     what: &'static str,
 ) -> Result<(Mat<f64>, Conditioning), FitError> {
     let Some(frac) = anchor else {
         return ridge::fit(a, y, groups, ridge, what);
     };
+    if joint {
+        return joint_anchored(a, x, y, groups, ridge, frac, what);
+    }
     let (n, d, nm) = (a.nrows(), x.ncols(), a.ncols());
     let norm = |i: usize| (0..d).map(|j| x[(i, j)] * x[(i, j)]).sum::<f64>().sqrt();
     let r = frac * (0..n).map(norm).fold(0.0, f64::max);
@@ -230,6 +234,95 @@ fn poly_regression(
         }
     }
     // Residual relative to the whole target (not to the part left by the linear terms).
+    cond.rel_residual = ridge::rel_residual(a, y, w.as_ref());
+    Ok((w, cond))
+}
+
+/// The joint anchored fit (see [`FitOptions::anchor_joint`](super::fit::FitOptions::anchor_joint)).
+/// Envelope of row `i`: the max `||x||` over the rows of its trajectory (group) within one
+/// oscillation of it (the largest gap between successive local maxima of `||x||` in the
+/// group). The selected rows `S` (envelope within `frac` of the largest) and all rows solve
+/// `A_S,l^T (y_S - A_S,l w_l - A_S,n w_n) = 0` and `A_n^T (y - A_l w_l - A_n w_n) = lambda w_n`
+/// together (one linear system; `lambda` the ridge of a plain fit of the higher orders).
+fn joint_anchored(
+    a: MatRef<'_, f64>,
+    x: MatRef<'_, f64>,
+    y: MatRef<'_, f64>,
+    groups: &[std::ops::Range<usize>],
+    ridge: Ridge,
+    frac: f64,
+    what: &'static str,
+) -> Result<(Mat<f64>, Conditioning), FitError> {
+    use faer::linalg::solvers::Solve;
+    let (n, d, nm, q) = (a.nrows(), x.ncols(), a.ncols(), y.ncols());
+    let norm: Vec<f64> = (0..n).map(|i| (0..d).map(|j| x[(i, j)] * x[(i, j)]).sum::<f64>().sqrt()).collect();
+    let mut env = vec![0.0; n];
+    for g in groups {
+        let r = g.clone();
+        // local maxima of ||x|| in the group; the window is the largest gap between them
+        let peaks: Vec<usize> = (r.start + 1..r.end.saturating_sub(1)).filter(|&i| norm[i] >= norm[i - 1] && norm[i] > norm[i + 1]).collect();
+        let half = peaks.windows(2).map(|w| w[1] - w[0]).max().unwrap_or(r.len()).max(1);
+        for i in r.clone() {
+            let (lo, hi) = (i.saturating_sub(half).max(r.start), (i + half + 1).min(r.end));
+            env[i] = norm[lo..hi].iter().copied().fold(0.0, f64::max);
+        }
+    }
+    let top = env.iter().copied().fold(0.0, f64::max);
+    let rows: Vec<usize> = (0..n).filter(|&i| env[i] <= frac * top).collect();
+    let need = ANCHOR_MIN_ROWS_PER_DIM * d;
+    if rows.len() < need {
+        return Err(FitError::BadOption {
+            what: "linear_anchor",
+            why: format!("{} training pairs with an envelope within {frac} of the largest ({:.3e}), need at least {need}; raise the fraction or add small-amplitude data", rows.len(), frac * top),
+        });
+    }
+    if nm == d {
+        let a_s = ridge::take_rows(a, &rows);
+        let y_s = ridge::take_rows(y, &rows);
+        let (w, _) = ridge::fit(a_s.as_ref(), y_s.as_ref(), &[0..rows.len()], Ridge::Fixed(0.0), "anchored linear part")?;
+        let cond = ridge::RidgeLs::new(a, what)?.conditioning(a, y, w.as_ref(), 0.0);
+        return Ok((w, cond));
+    }
+    // The ridge of the higher orders: that of a plain fit of them to the whole target.
+    let a_nl = a.subcols(d, nm - d);
+    let (_, c0) = ridge::fit(a_nl, y, groups, ridge, what)?;
+    let lambda = c0.alpha * c0.s_max * c0.s_max;
+    let a_s = ridge::take_rows(a, &rows);
+    let y_s = ridge::take_rows(y, &rows);
+    let (a_sl, a_sn) = (a_s.as_ref().subcols(0, d), a_s.as_ref().subcols(d, nm - d));
+    let a_l = a.subcols(0, d);
+    let mut m = Mat::<f64>::zeros(nm, nm);
+    let mut rhs = Mat::<f64>::zeros(nm, q);
+    let blocks = [
+        (0, 0, a_sl.transpose() * a_sl),
+        (0, d, a_sl.transpose() * a_sn),
+        (d, 0, a_nl.transpose() * a_l),
+        (d, d, a_nl.transpose() * a_nl),
+    ];
+    for (r0, c0, b) in &blocks {
+        for i in 0..b.nrows() {
+            for j in 0..b.ncols() {
+                m[(r0 + i, c0 + j)] = b[(i, j)];
+            }
+        }
+    }
+    for k in d..nm {
+        m[(k, k)] += lambda;
+    }
+    let (r_l, r_n) = (a_sl.transpose() * y_s.as_ref(), a_nl.transpose() * y);
+    for c in 0..q {
+        for i in 0..d {
+            rhs[(i, c)] = r_l[(i, c)];
+        }
+        for i in 0..nm - d {
+            rhs[(d + i, c)] = r_n[(i, c)];
+        }
+    }
+    let w = m.partial_piv_lu().solve(&rhs);
+    if w.col_iter().any(|c| c.iter().any(|v| !v.is_finite())) {
+        return Err(FitError::BadOption { what: "linear_anchor", why: "the joint anchored system is singular (too few distinct small-amplitude pairs)".into() });
+    }
+    let mut cond = c0;
     cond.rel_residual = ridge::rel_residual(a, y, w.as_ref());
     Ok((w, cond))
 }
@@ -278,6 +371,19 @@ impl ReducedDynamics {
         Self::fit_anchored(trajs, kind, order, ridge, None)
     }
 
+    /// [`Self::fit_anchored`] with the plain anchor (`joint = false`) or the joint one
+    /// (see [`FitOptions::anchor_joint`](super::fit::FitOptions::anchor_joint)).
+    pub fn fit_with(
+        trajs: &[EtaTrajectory<'_>],
+        kind: Dynamics,
+        order: u32,
+        ridge: Ridge,
+        anchor: Option<f64>,
+        joint: bool,
+    ) -> Result<Self, FitError> {
+        Self::fit_impl(trajs, kind, order, ridge, anchor, joint)
+    }
+
     /// [`Self::fit`] with the linear part optionally anchored on small-amplitude data:
     /// with `anchor = Some(f)`, the degree-1 coefficients of a polynomial flow or map are
     /// fitted (plain least squares) to the pairs whose point has `||eta|| <= f max ||eta||`
@@ -292,6 +398,17 @@ impl ReducedDynamics {
         order: u32,
         ridge: Ridge,
         anchor: Option<f64>,
+    ) -> Result<Self, FitError> {
+        Self::fit_impl(trajs, kind, order, ridge, anchor, false)
+    }
+
+    fn fit_impl(
+        trajs: &[EtaTrajectory<'_>],
+        kind: Dynamics,
+        order: u32,
+        ridge: Ridge,
+        anchor: Option<f64>,
+        joint: bool,
     ) -> Result<Self, FitError> {
         if let Some(f) = anchor {
             if !(f > 0.0 && f <= 1.0) {
@@ -321,7 +438,7 @@ impl ReducedDynamics {
                 crate::limits::check_matrix("flow regression", x.nrows(), nm, true)?;
                 let exps = poly::exponents(d, 1, order);
                 let a = design_matrix(x.as_ref(), &scale, &exps);
-                let (w, conditioning) = poly_regression(a.as_ref(), x.as_ref(), y.as_ref(), &groups, ridge, anchor, "flow regression")?;
+                let (w, conditioning) = poly_regression(a.as_ref(), x.as_ref(), y.as_ref(), &groups, ridge, anchor, joint, "flow regression")?;
                 Ok(ReducedDynamics::Flow { field: to_poly(&w, exps, scale), conditioning })
             }
             Dynamics::Map | Dynamics::Rbf { .. } => {
@@ -347,7 +464,7 @@ impl ReducedDynamics {
                 crate::limits::check_matrix("map regression", x.nrows(), nm, true)?;
                 let exps = poly::exponents(d, 1, order);
                 let a = design_matrix(x.as_ref(), &scale, &exps);
-                let (w, conditioning) = poly_regression(a.as_ref(), x.as_ref(), y.as_ref(), &groups, ridge, anchor, "map regression")?;
+                let (w, conditioning) = poly_regression(a.as_ref(), x.as_ref(), y.as_ref(), &groups, ridge, anchor, joint, "map regression")?;
                 Ok(ReducedDynamics::Map { increment: to_poly(&w, exps, scale), dt, conditioning })
             }
         }

@@ -10,7 +10,8 @@
 //! interpolated spectral peaks. Linear least squares go through [`ridge`]. On top of a fit:
 //! [`normal_form`] (polar normal forms of flows and maps, with their change of
 //! coordinates), [`backbone`] (instantaneous damping and frequency against the amplitude of
-//! an observable), [`portrait`] (analysis of the
+//! an observable), [`frc`] (forced response curves from the normal form, calibrated at one
+//! measured point), [`portrait`] (analysis of the
 //! two-mode amplitude equations: fixed points, saddle manifolds, heteroclinic and torus-Hopf
 //! detection), [`interp`] (coefficients interpolated in a system parameter) and [`device`]
 //! (a fitted RBF model converted to the device's `shared::model` blob).
@@ -28,6 +29,7 @@ pub mod device;
 pub mod embed;
 pub mod error;
 pub mod fit;
+pub mod frc;
 pub mod interp;
 pub mod limits;
 pub mod manifold;
@@ -70,4 +72,6 @@ pub enum Error {
     ModelFile(#[from] crate::fit::ModelFileError),
     #[error(transparent)]
     Backbone(#[from] crate::backbone::BackboneError),
+    #[error(transparent)]
+    Frc(#[from] crate::frc::FrcError),
 }

@@ -48,7 +48,7 @@ pub fn sloshing_options() -> FitOptions {
         dyn_order: 5,
         dynamics: Dynamics::Map,
         ridge: Ridge::Fixed(0.0),
-        linear_anchor: None,
+        linear_anchor: None, anchor_joint: false,
     }
 }
 
@@ -166,7 +166,7 @@ fn synthetic_known_eigenvalues() {
         [(0.6, 0.0), (0.5, 2.0), (0.55, 4.0)].iter().enumerate().map(|(i, &(r, th))| synthetic(&format!("train{i}"), r, th, dt, 800)).collect();
     let test = synthetic("test", 0.45, 1.0, dt, 800);
     for (dynm, kd, tol) in [(Dynamics::Flow, 5, 5e-4), (Dynamics::Map, 5, 5e-4)] {
-        let opts = FitOptions { dim: 2, embed: 5, shift: 2, manifold_order: 5, dyn_order: kd, dynamics: dynm, ridge: Ridge::Fixed(0.0), linear_anchor: None };
+        let opts = FitOptions { dim: 2, embed: 5, shift: 2, manifold_order: 5, dyn_order: kd, dynamics: dynm, ridge: Ridge::Fixed(0.0), linear_anchor: None, anchor_joint: false };
         let model = fit(&train, &opts).unwrap();
         let ev = model.eigenvalues_ct();
         println!("{dynm:?}: eigenvalues {ev:?}");
@@ -189,7 +189,7 @@ fn high_order_engages_ridge_and_reports_conditioning() {
     let train: Vec<TimeSeries> =
         [(0.6, 0.0), (0.5, 2.0)].iter().enumerate().map(|(i, &(r, th))| synthetic(&format!("train{i}"), r, th, dt, 600)).collect();
     let test = synthetic("test", 0.45, 1.0, dt, 600);
-    let opts = FitOptions { dim: 2, embed: 5, shift: 2, manifold_order: 9, dyn_order: 9, dynamics: Dynamics::Flow, ridge: Ridge::CrossValidated, linear_anchor: None };
+    let opts = FitOptions { dim: 2, embed: 5, shift: 2, manifold_order: 9, dyn_order: 9, dynamics: Dynamics::Flow, ridge: Ridge::CrossValidated, linear_anchor: None, anchor_joint: false };
     let model = fit(&train, &opts).unwrap();
     let pred = model.predict(&test).unwrap();
     let mc = pred.manifold_conditioning.unwrap();
@@ -221,7 +221,7 @@ fn blow_up_is_detected_and_truncated() {
         TimeSeries::new(name, t, x).unwrap()
     };
     let train = [grow("a", 0.1, 200), grow("b", 0.15, 200)];
-    let opts = FitOptions { dim: 2, embed: 5, shift: 1, manifold_order: 1, dyn_order: 1, dynamics: Dynamics::Map, ridge: Ridge::Fixed(0.0), linear_anchor: None };
+    let opts = FitOptions { dim: 2, embed: 5, shift: 1, manifold_order: 1, dyn_order: 1, dynamics: Dynamics::Map, ridge: Ridge::Fixed(0.0), linear_anchor: None, anchor_joint: false };
     let model = fit(&train, &opts).unwrap();
     assert!(model.eigenvalues_ct()[0].0 > 0.19 && model.eigenvalues_ct()[0].0 < 0.21, "{:?}", model.eigenvalues_ct());
     let test = grow("long", 0.1, 1000);
@@ -239,7 +239,7 @@ fn blow_up_is_detected_and_truncated() {
 fn bad_options_and_inputs_are_reported() {
     let dt = 0.05;
     let train = [synthetic("a", 0.5, 0.0, dt, 300)];
-    let base = FitOptions { dim: 2, embed: 5, shift: 1, manifold_order: 2, dyn_order: 3, dynamics: Dynamics::Map, ridge: Ridge::Fixed(0.0), linear_anchor: None };
+    let base = FitOptions { dim: 2, embed: 5, shift: 1, manifold_order: 2, dyn_order: 3, dynamics: Dynamics::Map, ridge: Ridge::Fixed(0.0), linear_anchor: None, anchor_joint: false };
     let e = fit(&train, &FitOptions { embed: 4, ..base }).unwrap_err();
     assert!(matches!(e, FitError::BadOption { what: "embed", .. }), "{e}");
     let e = fit(&train, &FitOptions { shift: 0, ..base }).unwrap_err();
@@ -328,7 +328,7 @@ fn synthetic_known_normal_form_is_recovered() {
     // Amplitudes up to 0.42, 1000 samples (50 s) each.
     let train: Vec<TimeSeries> =
         starts.iter().enumerate().map(|(i, s)| nf_series(&format!("nf{i}"), [0.7 * s[0], 0.7 * s[1], s[2], s[3]], dt, 1000)).collect();
-    let opts = FitOptions { dim: 4, embed: 11, shift: 1, manifold_order: 3, dyn_order: 5, dynamics: Dynamics::Map, ridge: Ridge::Fixed(0.0), linear_anchor: None };
+    let opts = FitOptions { dim: 4, embed: 11, shift: 1, manifold_order: 3, dyn_order: 5, dynamics: Dynamics::Map, ridge: Ridge::Fixed(0.0), linear_anchor: None, anchor_joint: false };
     let model = fit(&train, &opts).unwrap();
     let nf = model_normal_form(&model, &NormalFormOptions::default()).unwrap();
     let t = nf.table();
@@ -374,7 +374,7 @@ fn option_sizes_are_checked_against_the_stated_limits() {
     use crate::limits::{MAX_CENTERS, MAX_DIM, MAX_EMBED, MAX_ORDER, MAX_TERMS};
     let dt = 0.05;
     let train = [synthetic("a", 0.5, 0.0, dt, 300)];
-    let base = FitOptions { dim: 2, embed: 5, shift: 1, manifold_order: 2, dyn_order: 3, dynamics: Dynamics::Map, ridge: Ridge::Fixed(0.0), linear_anchor: None };
+    let base = FitOptions { dim: 2, embed: 5, shift: 1, manifold_order: 2, dyn_order: 3, dynamics: Dynamics::Map, ridge: Ridge::Fixed(0.0), linear_anchor: None, anchor_joint: false };
     let cases: Vec<(FitOptions, &str, String)> = vec![
         (FitOptions { dim: 100, embed: 201, ..base }, "dim: 100", MAX_DIM.to_string()),
         (FitOptions { embed: 5000, ..base }, "embed: 5000", MAX_EMBED.to_string()),
@@ -405,7 +405,7 @@ fn option_sizes_are_checked_against_the_stated_limits() {
 fn saved_rbf_model() -> serde_json::Value {
     let dt = 0.05;
     let train = [synthetic("a", 0.5, 0.0, dt, 300), synthetic("b", 0.4, 1.0, dt, 300)];
-    let o = FitOptions { dim: 2, embed: 5, shift: 1, manifold_order: 3, dyn_order: 3, dynamics: Dynamics::Rbf { centers: 10 }, ridge: Ridge::Fixed(1e-8), linear_anchor: None };
+    let o = FitOptions { dim: 2, embed: 5, shift: 1, manifold_order: 3, dyn_order: 3, dynamics: Dynamics::Rbf { centers: 10 }, ridge: Ridge::Fixed(1e-8), linear_anchor: None, anchor_joint: false };
     serde_json::from_str(&fit(&train, &o).unwrap().to_json().unwrap()).unwrap()
 }
 

@@ -29,7 +29,7 @@ fn models() -> &'static Vec<Value> {
         [Dynamics::Rbf { centers: 12 }, Dynamics::Map, Dynamics::Flow]
             .into_iter()
             .map(|dynamics| {
-                let o = FitOptions { dim: 2, embed: 5, shift: 1, manifold_order: 3, dyn_order: 3, dynamics, ridge: Ridge::Fixed(1e-8), linear_anchor: None };
+                let o = FitOptions { dim: 2, embed: 5, shift: 1, manifold_order: 3, dyn_order: 3, dynamics, ridge: Ridge::Fixed(1e-8), linear_anchor: None, anchor_joint: false };
                 serde_json::from_str(&fit(&train, &o).unwrap().to_json().unwrap()).unwrap()
             })
             .collect()

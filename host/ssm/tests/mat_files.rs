@@ -78,7 +78,7 @@ fn fits_several_observables_from_a_mat_file() {
         dyn_order: 5,
         dynamics: Dynamics::Map,
         ridge: Ridge::Fixed(0.0),
-        linear_anchor: None,
+        linear_anchor: None, anchor_joint: false,
     };
     let t0 = Instant::now();
     let model = fit_multi(&train, &opts).unwrap();

@@ -121,6 +121,36 @@ pub enum Cmd {
         #[arg(long)]
         amplitude: f64,
     },
+    /// Forced response curve of a saved model with polynomial dynamics: harmonic forcing
+    /// added to its normal form, the forcing amplitude calibrated from one measured
+    /// steady state; all branches with their stability. Writes DIR/frc.json and DIR/frc.png.
+    Frc {
+        /// Fitted model JSON written by `ssmctl fit --save`.
+        #[arg(long)]
+        model: PathBuf,
+        #[arg(long)]
+        out: PathBuf,
+        /// Forcing frequencies A:B or A:B:N in rad/s (0 < A < B; N points, default 400).
+        #[arg(long, value_name = "A:B[:N]")]
+        freq_range: String,
+        /// A measured steady state: forcing frequency (rad/s) and amplitude (max |observable|
+        /// over a period, in the observable's units).
+        #[arg(long, value_name = "FREQ,AMP")]
+        calibrate: String,
+        /// Observable (1-based, in the order the model was fitted with).
+        #[arg(long, default_value_t = 1)]
+        observable: usize,
+        /// Forced mode (1-based, by increasing frequency) of a model with several modes.
+        #[arg(long, default_value_t = 1)]
+        mode: usize,
+        /// Largest amplitude the model is trusted at (default: where the reduced coordinates
+        /// leave the training data's range).
+        #[arg(long)]
+        amplitude_max: Option<f64>,
+        /// Print the curve as JSON.
+        #[arg(long)]
+        json: bool,
+    },
     /// Convert a fitted RBF model (JSON from `fit --save`) to the device blob.
     Export {
         /// Fitted model JSON written by `ssmctl fit --save`.
@@ -272,6 +302,10 @@ pub struct FitArgs {
     /// the fixed point: noise-dominated small amplitudes make it worse (see bench fit).
     #[arg(long)]
     pub linear_anchor: Option<f64>,
+    /// With --linear-anchor: pick the small pairs by their envelope and fit the linear part
+    /// jointly with the higher orders (unbiased by them; see ssm::FitOptions::anchor_joint).
+    #[arg(long, requires = "linear_anchor")]
+    pub anchor_joint: bool,
     /// Print JSON.
     #[arg(long)]
     pub json: bool,
@@ -482,6 +516,7 @@ pub fn run(cli: Cli) -> Result<(), Box<dyn std::error::Error>> {
                 ridge: a.ridge,
                 column: a.column,
                 linear_anchor: a.linear_anchor,
+                anchor_joint: a.anchor_joint,
                 normal_form: a.normal_form,
             })?;
             if let Some(path) = &a.save {
@@ -502,6 +537,25 @@ pub fn run(cli: Cli) -> Result<(), Box<dyn std::error::Error>> {
             let json = crate::fit_command::backbone_json(&curves, &name);
             crate::fit_command::write_backbone(&out, &curves, &json, &name)?;
             eprintln!("wrote {} and {}", out.join("backbone.json").display(), out.join("backbone.png").display());
+        }
+        Cmd::Frc { model, out, freq_range, calibrate, observable, mode, amplitude_max, json } => {
+            crate::output::check_not_input(&out.join("frc.json"), &[("--model", model.as_path())])?;
+            let text = std::fs::read_to_string(&model).map_err(|e| format!("reading {}: {e}", model.display()))?;
+            let m = ssm::SsmModel::from_json(&text).map_err(|e| format!("{}: {e}", model.display()))?;
+            let (lo, hi, n) = crate::fit_command::parse_freq_range(&freq_range)?;
+            let cal = crate::fit_command::parse_calibration(&calibrate)?;
+            let index = observable.checked_sub(1).ok_or("--observable is 1-based")?;
+            let mode = mode.checked_sub(1).ok_or("--mode is 1-based")?;
+            let opts = ssm::frc::FrcOptions { mode, amplitude_max, ..ssm::frc::FrcOptions::new(index) };
+            let frc = ssm::frc::frc(&m, &opts, cal, lo, hi, n)?;
+            let name = observable.to_string();
+            crate::fit_command::write_frc(&out, &m, &frc, &name)?;
+            if json {
+                outln!("{}", serde_json::to_string_pretty(&crate::fit_command::frc_json(&frc, &name)?)?);
+            } else {
+                outln!("{}", crate::fit_command::frc_text(&frc).trim_end());
+            }
+            eprintln!("wrote {} and {}", out.join("frc.json").display(), out.join("frc.png").display());
         }
         Cmd::Export { model, out, scene } => {
             let mut inputs = vec![("--model", model.as_path())];

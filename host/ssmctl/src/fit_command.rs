@@ -1,6 +1,6 @@
-//! `ssmctl fit` / `backbone` / `inspect`: the fitting request from the command line (CSV or
-//! SSMLearn `.mat` trajectories of one or several observables, time windows, backbone
-//! curves) and its JSON summary.
+//! `ssmctl fit` / `backbone` / `frc` / `inspect`: the fitting request from the command line
+//! (CSV or SSMLearn `.mat` trajectories of one or several observables, time windows, backbone
+//! curves), its JSON summary, and forced response curves of a saved model.
 
 use ssm::backbone::{Backbone, BackboneOptions, backbone};
 use ssm::{Dynamics, FitOptions, MultiSeries, Ridge, SsmModel, fit_multi, load_csv_column, load_csv_observables, load_mat};
@@ -43,6 +43,8 @@ pub struct FitRequest {
     pub column: Option<String>,
     /// See [`FitOptions::linear_anchor`].
     pub linear_anchor: Option<f64>,
+    /// See [`FitOptions::anchor_joint`].
+    pub anchor_joint: bool,
     pub normal_form: bool,
 }
 
@@ -213,6 +215,73 @@ pub fn write_backbone(dir: &Path, curves: &[Backbone], json: &Value, observable:
     Ok(())
 }
 
+/// `--freq-range A:B[:N]`: forcing frequencies in rad/s, `0 < A < B`, N points (default 400).
+pub fn parse_freq_range(s: &str) -> Result<(f64, f64, usize), String> {
+    let parts: Vec<&str> = s.split(':').collect();
+    let num = |x: &str| x.trim().parse::<f64>().map_err(|_| format!("--freq-range `{s}`: `{x}` is not a number (expected A:B or A:B:N, rad/s)"));
+    let (a, b, n) = match parts.as_slice() {
+        [a, b] => (num(a)?, num(b)?, 400),
+        [a, b, n] => (num(a)?, num(b)?, n.trim().parse::<usize>().map_err(|_| format!("--freq-range `{s}`: N = `{n}` is not a count"))?),
+        _ => return Err(format!("--freq-range `{s}`: expected A:B or A:B:N (forcing frequencies in rad/s)")),
+    };
+    if !(a > 0.0 && a.is_finite() && b.is_finite()) {
+        return Err(format!("--freq-range `{s}`: forcing frequencies must be > 0 rad/s"));
+    }
+    if b <= a {
+        return Err(format!("--freq-range `{s}`: the upper end must exceed the lower end"));
+    }
+    Ok((a, b, n))
+}
+
+/// `--calibrate FREQ,AMP`: a measured steady state (rad/s, observable units).
+pub fn parse_calibration(s: &str) -> Result<ssm::frc::Calibration, String> {
+    let v: Vec<f64> = s.split(',').map(|x| x.trim().parse::<f64>()).collect::<Result<_, _>>().map_err(|_| format!("--calibrate `{s}`: expected FREQ,AMP (two numbers)"))?;
+    match v.as_slice() {
+        [f, a] => Ok(ssm::frc::Calibration { freq_rad_s: *f, amplitude: *a }),
+        _ => Err(format!("--calibrate `{s}`: expected FREQ,AMP (forcing frequency in rad/s, steady-state amplitude)")),
+    }
+}
+
+/// The forced response of `model` as JSON (`ssm::frc::Frc` with the observable named):
+/// `{"mode", "observable", "calibration": {"freq_rad_s", "amplitude", "rho", "forcing"},
+/// "amplitude_max", "rho_max", "branches": [{"stable", "freq_rad_s": [...], "amplitude":
+/// [...], "rho": [...]}, ...]}`.
+pub fn frc_json(frc: &ssm::frc::Frc, observable: &str) -> Result<Value, serde_json::Error> {
+    let mut v = serde_json::to_value(frc)?;
+    v["observable"] = json!(observable);
+    Ok(v)
+}
+
+/// Writes DIR/frc.json and DIR/frc.png (with the forced mode's backbone when it is computable).
+pub fn write_frc(dir: &Path, model: &SsmModel, frc: &ssm::frc::Frc, observable: &str) -> Result<(), Box<dyn Error>> {
+    std::fs::create_dir_all(dir).map_err(|e| format!("{}: {e}", dir.display()))?;
+    let json = frc_json(frc, observable)?;
+    crate::output::write_atomic(&dir.join("frc.json"), serde_json::to_string_pretty(&json)?.as_bytes())?;
+    let bb = backbone(model, &BackboneOptions::new(frc.observable, frc.amplitude_max)).ok();
+    let mode_bb = bb.as_ref().and_then(|c| c.iter().find(|b| b.mode == frc.mode));
+    crate::draw::frc::frc_figure(&dir.join("frc.png"), "forced response", frc, mode_bb, &format!("amplitude of {observable}"))?;
+    Ok(())
+}
+
+/// One line per branch: stability, frequency span, amplitude span.
+pub fn frc_text(frc: &ssm::frc::Frc) -> String {
+    let c = frc.calibration;
+    let mut out = format!(
+        "calibration: {:.4} rad/s, amplitude {:.5} -> normal-form forcing {:.5e} (rho {:.5}); model range up to amplitude {:.5}\n",
+        c.freq_rad_s, c.amplitude, c.forcing, c.rho, frc.amplitude_max
+    );
+    for b in &frc.branches {
+        let span = |v: &[f64]| (v.iter().copied().fold(f64::INFINITY, f64::min), v.iter().copied().fold(f64::NEG_INFINITY, f64::max));
+        let ((f0, f1), (a0, a1)) = (span(&b.freq_rad_s), span(&b.amplitude));
+        out.push_str(&format!(
+            "{:<8} {:>4} points: frequency {f0:.4} .. {f1:.4} rad/s, amplitude {a0:.5} .. {a1:.5}\n",
+            if b.stable { "stable" } else { "unstable" },
+            b.freq_rad_s.len()
+        ));
+    }
+    out
+}
+
 /// Loads, fits and scores.
 pub fn run_fit(r: &FitRequest) -> Result<FitResult, Box<dyn std::error::Error>> {
     let (train, test) = load_sets(r)?;
@@ -225,6 +294,7 @@ pub fn run_fit(r: &FitRequest) -> Result<FitResult, Box<dyn std::error::Error>> 
         dynamics: parse_dynamics(&r.dynamics, r.centers)?,
         ridge: parse_ridge(&r.ridge)?,
         linear_anchor: r.linear_anchor,
+        anchor_joint: r.anchor_joint,
     };
     let t0 = Instant::now();
     let model = fit_multi(&train, &opts)?;

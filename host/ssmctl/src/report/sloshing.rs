@@ -1,5 +1,5 @@
-//! Report section: SSM fitting on real measured data (sloshing decay), its backbone curve,
-//! the fit accuracy-vs-time table, and the device blobs exported from fitted RBF models.
+//! Report section: SSM fitting on real measured data (sloshing decay), its backbone curve
+//! and forced response curve (illustrative calibration), the fit accuracy-vs-time table, and the device blobs exported from fitted RBF models.
 
 use sim::units::s_to_ms;
 use ssm::device::{encode, to_device_model};
@@ -34,6 +34,7 @@ pub fn sloshing_section(rep: &mut Report, data_dir: &Path, quick: bool) -> Resul
         rep.para(&format!("Skipped: data folder {} not found.", esc(&dir.display().to_string())));
         rep.summary.insert("fit_sloshing".into(), json!({"skipped": format!("{} not found", dir.display())}));
         rep.summary.insert("backbone".into(), json!({"skipped": format!("{} not found", dir.display())}));
+        rep.summary.insert("frc".into(), json!({"skipped": format!("{} not found", dir.display())}));
         return Ok(());
     }
     let series: Vec<TimeSeries> = files.iter().map(load_csv).collect::<Result<_, _>>()?;
@@ -76,6 +77,7 @@ pub fn sloshing_section(rep: &mut Report, data_dir: &Path, quick: bool) -> Resul
     rep.figure("fig/sloshing_prediction.png", "Test trajectory decay_2 and the model's prediction from its first point");
     rep.figure("fig/sloshing_spectrum.png", "FFT amplitude spectra of the test trajectory and the prediction");
     backbone_paragraph(rep, &m, train)?;
+    frc_paragraph(rep, &m, train)?;
 
     // What accuracy costs in time (second table; also `ssmctl bench fit`).
     let (bench_rows, rbf50) = crate::bench::bench_fit(train, test, quick, |_| {})?;
@@ -141,12 +143,58 @@ fn backbone_paragraph(rep: &mut Report, m: &ssm::SsmModel, train: &[TimeSeries])
     Ok(())
 }
 
+/// The forced response curve of the recommended sloshing model (`ssm::frc`), forcing
+/// calibrated at an ILLUSTRATIVE point (no forced measurement is part of the data): amplitude
+/// 1 % of the tank width at 1.03 times the linear frequency, above resonance where the
+/// softening curve is single-valued. Model range: the largest |x| of the training data.
+/// `summary.json` key `frc`: `{"sloshing": {"calibration": {"freq_rad_s", "amplitude",
+/// "rho", "forcing"}, "branches": [{"stable", "freq_rad_s", "amplitude", "rho"}, ...], ...}}`.
+fn frc_paragraph(rep: &mut Report, m: &ssm::SsmModel, train: &[TimeSeries]) -> Result<(), Box<dyn Error>> {
+    use ssm::frc::{Calibration, FrcOptions, frc};
+    let amp_max = train.iter().flat_map(|t| t.x.iter()).fold(0.0_f64, |a, v| a.max(v.abs()));
+    let w0 = m.eigenvalues_ct().first().map_or(0.0, |e| e.1.abs());
+    let cal = Calibration { freq_rad_s: 1.03 * w0, amplitude: 1.0 };
+    let opts = FrcOptions { amplitude_max: Some(amp_max), ..FrcOptions::new(0) };
+    let curve = frc(m, &opts, cal, 0.9 * w0, 1.06 * w0, 200)?;
+    let bb = backbone(m, &BackboneOptions { points: 51, ..BackboneOptions::new(0, amp_max) })?;
+    let fig = "fig/sloshing_frc.png";
+    crate::draw::frc::frc_figure(&rep.dir().join(fig), "sloshing: forced response", &curve, bb.first(), "amplitude of x [% tank width]")?;
+    let (mut peak_f, mut peak_a) = (0.0, 0.0);
+    for b in curve.branches.iter().filter(|b| b.stable) {
+        for (f, a) in b.freq_rad_s.iter().zip(&b.amplitude) {
+            if *a > peak_a {
+                (peak_f, peak_a) = (*f, *a);
+            }
+        }
+    }
+    let unstable = curve.branches.iter().filter(|b| !b.stable).count();
+    rep.para(&format!(
+        "Forced response curve of this model (<code>ssm::frc</code>, SSMLearn's calibrateFRC approach): harmonic forcing \
+         added to the polar normal form, steady states and their stability in closed form, amplitudes of x through the \
+         normal-form transformation and the manifold. The calibration point is illustrative (the data hold no forced \
+         measurement): amplitude {} % at {} rad/s ({} times the linear frequency), giving the normal-form forcing {}. \
+         Largest stable amplitude {} % at {} rad/s; {} unstable branch(es) (dashed).",
+        num(cal.amplitude),
+        num(cal.freq_rad_s),
+        num(1.03),
+        num(curve.calibration.forcing),
+        num(peak_a),
+        num(peak_f),
+        unstable
+    ));
+    rep.figure(fig, "Forced response of the sloshing model (illustrative calibration point): stable solid, unstable dashed, backbone grey");
+    let mut v = crate::fit_command::frc_json(&curve, "x")?;
+    v["calibration_illustrative"] = json!(true);
+    rep.summary.insert("frc".into(), json!({ "sloshing": v }));
+    Ok(())
+}
+
 /// Fits an RBF model to a simulated Furuta theta series and writes its device blob.
 pub fn furuta_blob(rep: &mut Report, quick: bool) -> Result<(), Box<dyn Error>> {
     let s = SceneBuilder::load("furuta-quant-dt25")?.periods(if quick { 1500 } else { 4000 }).build()?;
     let tr = simulate(&s, None)?;
     let ts = TimeSeries::new("theta", tr.t.clone(), tr.primary())?;
-    let o = FitOptions { dim: 4, embed: 9, shift: 1, manifold_order: 2, dyn_order: 1, dynamics: Dynamics::Rbf { centers: 100 }, ridge: Ridge::Fixed(1e-10), linear_anchor: None };
+    let o = FitOptions { dim: 4, embed: 9, shift: 1, manifold_order: 2, dyn_order: 1, dynamics: Dynamics::Rbf { centers: 100 }, ridge: Ridge::Fixed(1e-10), linear_anchor: None, anchor_joint: false };
     let m = fit(std::slice::from_ref(&ts), &o)?;
     let blob = encode(&to_device_model(&m, s.controller_config())?)?;
     crate::output::write_atomic(&rep.dir().join("furuta-quant-dt25-rbf100.bin"), &blob)?;
