@@ -31,9 +31,5 @@ fn ssm_ctl(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(model::fit, m)?)?;
     m.add_function(wrap_pyfunction!(model::load_model, m)?)?;
     m.add_function(wrap_pyfunction!(model::inspect_blob, m)?)?;
-    // Forced response (issue 15 item 3, `ssm`'s forced-response module, in progress):
-    // `Model.forced_response(...)` goes in `model.rs` next to `Model.backbone`, returning
-    // numpy arrays per branch (frequency, amplitude of the observable, stability) the same
-    // way; its calibration point and frequency range as keyword arguments.
     Ok(())
 }

@@ -7,6 +7,7 @@ use numpy::{Complex64, PyArray1, PyArray2};
 use pyo3::prelude::*;
 use pyo3::types::{PyBytes, PyDict, PyList};
 use ssm::backbone::{BackboneOptions, backbone};
+use ssm::frc::{Calibration, FrcOptions, frc};
 use ssm::{Dynamics, FitOptions, MultiSeries, Ridge, SsmModel, fit_multi};
 
 use crate::convert::{to_python, value_error, windows};
@@ -265,7 +266,55 @@ impl Model {
         Ok(out)
     }
 
-    // Forced response (issue 15 item 3) belongs here, beside `backbone`: see lib.rs.
+    /// The forced response curve (SSMLearn's `calibrateFRC`; `ssmctl frc`): harmonic forcing
+    /// added to the normal form of mode `mode`, its amplitude calibrated so that a steady
+    /// state of amplitude `calibrate_amplitude` (max |observable| over a period) lies at the
+    /// forcing frequency `calibrate_freq` (rad/s); all branches over `freq_min..freq_max`
+    /// (rad/s, `points` frequencies) with their stability. Returns a dict: `calibration`
+    /// (`freq_rad_s`, `amplitude`, `rho`, `forcing`), `amplitude_max`, `rho_max` and
+    /// `branches`, a list of dicts with `stable` and numpy arrays `freq_rad_s`, `amplitude`,
+    /// `rho`.
+    #[pyo3(signature = (freq_min, freq_max, calibrate_freq, calibrate_amplitude, observable=0, mode=0, points=301, amplitude_max=None))]
+    #[allow(clippy::too_many_arguments)]
+    fn forced_response<'py>(
+        &self,
+        py: Python<'py>,
+        freq_min: f64,
+        freq_max: f64,
+        calibrate_freq: f64,
+        calibrate_amplitude: f64,
+        observable: usize,
+        mode: usize,
+        points: usize,
+        amplitude_max: Option<f64>,
+    ) -> PyResult<Bound<'py, PyDict>> {
+        let opts = FrcOptions { mode, amplitude_max, ..FrcOptions::new(observable) };
+        let cal = Calibration { freq_rad_s: calibrate_freq, amplitude: calibrate_amplitude };
+        let curve = py.detach(|| frc(&self.inner, &opts, cal, freq_min, freq_max, points)).map_err(value_error)?;
+        let out = PyDict::new(py);
+        let c = curve.calibration;
+        let cal_d = PyDict::new(py);
+        cal_d.set_item("freq_rad_s", c.freq_rad_s)?;
+        cal_d.set_item("amplitude", c.amplitude)?;
+        cal_d.set_item("rho", c.rho)?;
+        cal_d.set_item("forcing", c.forcing)?;
+        out.set_item("calibration", cal_d)?;
+        out.set_item("mode", curve.mode)?;
+        out.set_item("observable", curve.observable)?;
+        out.set_item("amplitude_max", curve.amplitude_max)?;
+        out.set_item("rho_max", curve.rho_max)?;
+        let branches = PyList::empty(py);
+        for b in &curve.branches {
+            let d = PyDict::new(py);
+            d.set_item("stable", b.stable)?;
+            d.set_item("freq_rad_s", PyArray1::from_slice(py, &b.freq_rad_s))?;
+            d.set_item("amplitude", PyArray1::from_slice(py, &b.amplitude))?;
+            d.set_item("rho", PyArray1::from_slice(py, &b.rho))?;
+            branches.append(d)?;
+        }
+        out.set_item("branches", branches)?;
+        Ok(out)
+    }
 
     /// The device blob (bytes) of an RBF model of one observable, for the paper's controller
     /// at the model's sampling step (what `ssmctl export` writes without `--scene`).

@@ -144,6 +144,37 @@ def test_normal_form_and_backbone_against_the_conservative_duffing():
 
 
 
+def test_forced_response_obeys_the_forced_normal_form():
+    # README's `ssmctl frc` example: the same fit, calibrated at 6.25 rad/s, amplitude 0.32.
+    model, _ = duffing_fit()
+    r = model.forced_response(5.8, 6.9, 6.25, 0.32)
+    cal = r["calibration"]
+    assert cal["freq_rad_s"] == 6.25 and cal["amplitude"] == pytest.approx(0.32, rel=1e-9)
+    assert cal["forcing"] == pytest.approx(6.37119e-2, rel=1e-5)  # what the CLI prints
+    # Every steady state satisfies the forced polar normal form
+    # f = rho sqrt(A(rho)^2 + (w(rho) - Omega)^2), A and w read off the backbone's rate and
+    # frequency at that rho (the backbone is the f = 0 curve).
+    bb = model.backbone(r["amplitude_max"], points=2001)[0]
+    f = cal["forcing"]
+    stable = [b for b in r["branches"] if b["stable"]]
+    unstable = [b for b in r["branches"] if not b["stable"]]
+    assert len(stable) == 2 and len(unstable) == 1  # hysteresis: two stable branches and a saddle branch
+    for b in r["branches"]:
+        assert b["freq_rad_s"].shape == b["amplitude"].shape == b["rho"].shape
+        rate = np.interp(b["rho"], bb["rho"], bb["rate"])
+        w = np.interp(b["rho"], bb["rho"], bb["freq_rad_s"])
+        resid = b["rho"] * np.hypot(rate, w - b["freq_rad_s"]) - f
+        assert np.max(np.abs(resid)) < 1e-3 * f, np.max(np.abs(resid))
+    lo = min(b["freq_rad_s"].min() for b in r["branches"])
+    hi = max(b["freq_rad_s"].max() for b in r["branches"])
+    assert lo == pytest.approx(5.8) and hi == pytest.approx(6.9)
+    for bad in (dict(calibrate_freq=-1.0), dict(calibrate_amplitude=0.0), dict(calibrate_amplitude=10.0), dict(freq_min=7.0)):
+        args = dict(freq_min=5.8, freq_max=6.9, calibrate_freq=6.25, calibrate_amplitude=0.32)
+        args.update(bad)
+        with pytest.raises(ValueError):
+            model.forced_response(**args)
+
+
 def test_saved_model_json_round_trip(tmp_path):
     model, test = duffing_fit()
     text = model.to_json()
