@@ -1,8 +1,10 @@
 //! Cross-target automation behind `cargo xtask` (alias in `.cargo/config.toml`).
 //!
 //! - `install`: the thumbv7em-none-eabihf target and `qemu-system-arm`, if missing.
-//! - `qemu-test`: generate the model blob and expected outputs, build the firmware in
-//!   `qemu/` with its own config, run it under QEMU (hard timeout), pass/fail by exit code.
+//! - `qemu-test [--board mps2-an386|stm32f407]`: generate the model blob and expected
+//!   outputs, build the firmware in `qemu/` with its own config for the board (default
+//!   mps2-an386), run it under QEMU (hard timeout; the STM32F407 image in QEMU's
+//!   `netduinoplus2`, an STM32F405), pass/fail by exit code.
 //! - `firmware-size`: flash/RAM of the firmware for each board configuration.
 //! - `device-table [--json]`: build the firmware's `device_table` binary, run it under QEMU
 //!   with `-icount shift=7` and print instructions per call of the controllers and the
@@ -25,8 +27,8 @@
 //!   complete run with the same fingerprint (firmware image, host binary, scene, overrides,
 //!   model, periods: `cache.rs`) is reused and says so; `--fresh` redoes it.
 //! - `test`: install + `cargo test --workspace` + qemu-test + device-table (counted as one
-//!   on-target test, see `device_table::check`) + a 2,000-period PIL run (one more) +
-//!   STM32F407 build.
+//!   on-target test, see `device_table::check`) + a 2,000-period PIL run (one more) + the
+//!   STM32F407 image's on-target suite on `netduinoplus2`.
 //! - `reproduce --out DIR [--fresh] [...]`: install + device-table + a PIL run + the PIL
 //!   recordings of the chaos study (both reused when unchanged, `--fresh` redoes them), then
 //!   `ssmctl reproduce` with the remaining arguments (the report).
@@ -56,6 +58,59 @@ const TARGET: &str = "thumbv7em-none-eabihf";
 const QEMU_TIMEOUT: Duration = Duration::from_secs(120);
 const RAM_ORIGIN: u64 = 0x2000_0000;
 
+/// The board an image is built for (the firmware's cargo feature) and the QEMU machine that
+/// runs it.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Board {
+    /// QEMU's `mps2-an386` (Cortex-M4F, 4 MiB code + 4 MiB data SSRAM, CMSDK UART): the default.
+    Mps2An386,
+    /// The STM32F407 image (`--features stm32f407`: flash 0x0800_0000 1 MiB, SRAM 0x2000_0000
+    /// 128 KiB, USART1), the one flashed to a real board; QEMU runs it as `netduinoplus2`
+    /// (STM32F405: the same flash and SRAM; QEMU maps 192 KiB of SRAM, the image uses 128).
+    Stm32f407,
+}
+
+impl Board {
+    fn parse(name: &str) -> Result<Self> {
+        match name {
+            "mps2-an386" => Ok(Self::Mps2An386),
+            "stm32f407" => Ok(Self::Stm32f407),
+            other => Err(format!("unknown board `{other}` (expected mps2-an386 or stm32f407)")),
+        }
+    }
+
+    fn name(self) -> &'static str {
+        match self {
+            Self::Mps2An386 => "mps2-an386",
+            Self::Stm32f407 => "stm32f407",
+        }
+    }
+
+    /// QEMU's machine (and CPU) options for this board.
+    fn machine(self) -> &'static [&'static str] {
+        match self {
+            Self::Mps2An386 => &["-cpu", "cortex-m4", "-machine", "mps2-an386"],
+            Self::Stm32f407 => &["-machine", "netduinoplus2"],
+        }
+    }
+
+    /// Flash and RAM capacity of the memory map the image is linked for.
+    fn capacity(self) -> (u64, u64) {
+        match self {
+            Self::Mps2An386 => (4 << 20, 4 << 20),
+            Self::Stm32f407 => (1 << 20, 128 << 10),
+        }
+    }
+
+    /// The firmware's own target dir for this board (relative to `qemu/`).
+    fn target_dir(self) -> &'static str {
+        match self {
+            Self::Mps2An386 => "target",
+            Self::Stm32f407 => "target/stm32f407",
+        }
+    }
+}
+
 fn root() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).parent().expect("tests/ has a parent").to_path_buf()
 }
@@ -70,7 +125,11 @@ fn main() -> ExitCode {
     let args: Vec<String> = std::env::args().skip(1).collect();
     let result = match args.first().map(String::as_str) {
         Some("install") => install(),
-        Some("qemu-test") => qemu_test().map(|_| ()),
+        Some("qemu-test") => match (args.get(1).map(String::as_str), args.get(2)) {
+            (None, _) => qemu_test(Board::Mps2An386).map(|_| ()),
+            (Some("--board"), Some(b)) if args.len() == 3 => Board::parse(b).and_then(qemu_test).map(|_| ()),
+            _ => Err("qemu-test: expected no option or `--board mps2-an386|stm32f407`".into()),
+        },
         Some("firmware-size") => firmware_size(),
         Some("device-table") => match args.get(1).map(String::as_str) {
             None => device_table_cmd(false),
@@ -83,7 +142,7 @@ fn main() -> ExitCode {
         Some("pil") => pil_args(&args[1..]).and_then(|(scene, periods)| pil(&scene, periods, true)).map(|_| ()),
         Some("pil-record") => record_args(&args[1..]).and_then(|r| pil_record(&r)).map(|_| ()),
         Some("compare-report") => compare_report::run(&args[1..]),
-        _ => Err("usage: cargo xtask <install | qemu-test | firmware-size | device-table [--json] | pil [--periods N] [--scene NAME] | pil-record --out DIR [--runs N] [--periods P] [--scene NAME] [--seed S] [--fresh] | test | reproduce --out DIR [--fresh] | compare-report BASE NEW>".into()),
+        _ => Err("usage: cargo xtask <install | qemu-test [--board mps2-an386|stm32f407] | firmware-size | device-table [--json] | pil [--periods N] [--scene NAME] | pil-record --out DIR [--runs N] [--periods P] [--scene NAME] [--seed S] [--fresh] | test | reproduce --out DIR [--fresh] | compare-report BASE NEW>".into()),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
@@ -183,25 +242,30 @@ fn write_target_data() -> Result<Vec<Vec<f64>>> {
     Ok(dt.reference)
 }
 
-fn build_firmware(stm32: bool) -> Result<PathBuf> {
+/// Builds the firmware's binaries for `board`; returns the test binary's path (the others
+/// are beside it).
+fn build_firmware(board: Board) -> Result<PathBuf> {
     let mut c = cmd("cargo");
     c.current_dir(qemu_dir()).args(["build", "--release"]);
-    if stm32 {
-        c.args(["--features", "stm32f407", "--target-dir", "target/stm32f407"]);
+    if board == Board::Stm32f407 {
+        c.args(["--features", "stm32f407", "--target-dir", board.target_dir()]);
     }
     run(&mut c)?;
-    let base = if stm32 { qemu_dir().join("target/stm32f407") } else { qemu_dir().join("target") };
-    Ok(base.join(TARGET).join("release").join("firmware"))
+    Ok(qemu_dir().join(board.target_dir()).join(TARGET).join("release").join("firmware"))
 }
 
-/// Runs `elf` under QEMU (mps2-an386) with `extra` arguments, output into `log`; `None` on
-/// timeout. Returns the exit status and the output.
-fn run_qemu(elf: &Path, extra: &[&str], log: &str, timeout: Duration) -> Result<(Option<std::process::ExitStatus>, String)> {
+/// Runs `elf` under QEMU as `board`'s machine with `extra` arguments, output into `log`;
+/// `None` on timeout. Returns the exit status and the output.
+fn run_qemu(elf: &Path, board: Board, extra: &[&str], log: &str, timeout: Duration) -> Result<(Option<std::process::ExitStatus>, String)> {
     let start = Instant::now();
     let log = qemu_dir().join("target").join(log);
+    if let Some(dir) = log.parent() {
+        std::fs::create_dir_all(dir).map_err(|e| format!("{}: {e}", dir.display()))?;
+    }
     let log_file = std::fs::File::create(&log).map_err(|e| format!("{}: {e}", log.display()))?;
     let mut child = cmd("qemu-system-arm")
-        .args(["-cpu", "cortex-m4", "-machine", "mps2-an386", "-nographic"])
+        .args(board.machine())
+        .arg("-nographic")
         .args(["-semihosting-config", "enable=on,target=native"])
         .args(extra)
         .arg("-kernel")
@@ -225,11 +289,17 @@ fn run_qemu(elf: &Path, extra: &[&str], log: &str, timeout: Duration) -> Result<
     Ok((status, std::fs::read_to_string(&log).unwrap_or_default()))
 }
 
-fn qemu_test() -> Result<TargetResult> {
+/// Builds the on-target test suite for `board` and runs it in QEMU's machine for it; the
+/// verdict is QEMU's exit code (semihosting exit) and the `test ... ok|FAILED` lines.
+fn qemu_test(board: Board) -> Result<TargetResult> {
     write_target_data()?;
-    let elf = build_firmware(false)?;
+    let elf = build_firmware(board)?;
     let start = Instant::now();
-    let (status, text) = run_qemu(&elf, &[], "qemu-test.log", QEMU_TIMEOUT)?;
+    let log = match board {
+        Board::Mps2An386 => "qemu-test.log".to_string(),
+        other => format!("qemu-test-{}.log", other.name()),
+    };
+    let (status, text) = run_qemu(&elf, board, &[], &log, QEMU_TIMEOUT)?;
     print!("{text}");
     let mut r = TargetResult::default();
     for line in text.lines() {
@@ -243,10 +313,10 @@ fn qemu_test() -> Result<TargetResult> {
     match status {
         None => Err(format!("QEMU timed out after {}s ({} passed, {} failed so far)", QEMU_TIMEOUT.as_secs(), r.passed, r.failed)),
         Some(s) if s.success() && r.failed == 0 && r.passed > 0 => {
-            println!("qemu-test: PASS ({} passed, 0 failed, {secs:.1} s in QEMU)", r.passed);
+            println!("qemu-test: PASS on {} ({} passed, 0 failed, {secs:.1} s in QEMU)", board.name(), r.passed);
             Ok(r)
         }
-        Some(s) => Err(format!("qemu-test: FAIL (exit {s}, {} passed, {} failed)", r.passed, r.failed)),
+        Some(s) => Err(format!("qemu-test: FAIL on {} (exit {s}, {} passed, {} failed)", board.name(), r.passed, r.failed)),
     }
 }
 
@@ -254,10 +324,10 @@ fn qemu_test() -> Result<TargetResult> {
 /// and the binary's flash/RAM.
 fn device_table_run() -> Result<(device_table::Table, elf::Sizes)> {
     let reference = write_target_data()?;
-    let firmware = build_firmware(false)?;
+    let firmware = build_firmware(Board::Mps2An386)?;
     let elf_path = firmware.with_file_name("device_table");
     let start = Instant::now();
-    let (status, text) = run_qemu(&elf_path, &["-icount", "shift=7"], "device-table.log", QEMU_TIMEOUT)?;
+    let (status, text) = run_qemu(&elf_path, Board::Mps2An386, &["-icount", "shift=7"], "device-table.log", QEMU_TIMEOUT)?;
     match status {
         None => return Err(format!("device-table: QEMU timed out after {}s", QEMU_TIMEOUT.as_secs())),
         Some(s) if !s.success() => return Err(format!("device-table: firmware exited with {s}:\n{text}")),
@@ -409,7 +479,7 @@ fn pil_firmware() -> Result<PathBuf> {
     if !qemu_dir().join("target-data/model.bin").exists() {
         write_target_data()?;
     }
-    Ok(build_firmware(false)?.with_file_name("pil"))
+    Ok(build_firmware(Board::Mps2An386)?.with_file_name("pil"))
 }
 
 /// The host's `ssmctl` in the test profile (which optimizes the host crates and shares the
@@ -653,15 +723,16 @@ fn firmware_sizes() -> Result<Vec<serde_json::Value>> {
     if !qemu_dir().join("target-data/model.bin").exists() {
         write_target_data()?;
     }
-    let qemu = build_firmware(false)?;
-    let stm32 = build_firmware(true)?;
+    let qemu = build_firmware(Board::Mps2An386)?;
+    let stm32 = build_firmware(Board::Stm32f407)?;
     let mut out = Vec::new();
-    for (name, elf, flash_cap, ram_cap) in [
-        ("mps2-an386: on-target tests", qemu.clone(), 4u64 << 20, 4u64 << 20),
-        ("mps2-an386: device table", qemu.with_file_name("device_table"), 4 << 20, 4 << 20),
-        ("mps2-an386: processor in the loop", qemu.with_file_name("pil"), 4 << 20, 4 << 20),
-        ("stm32f407: on-target tests", stm32, 1 << 20, 128 << 10),
+    for (name, elf, board) in [
+        ("mps2-an386: on-target tests", qemu.clone(), Board::Mps2An386),
+        ("mps2-an386: device table", qemu.with_file_name("device_table"), Board::Mps2An386),
+        ("mps2-an386: processor in the loop", qemu.with_file_name("pil"), Board::Mps2An386),
+        ("stm32f407: on-target tests", stm32, Board::Stm32f407),
     ] {
+        let (flash_cap, ram_cap) = board.capacity();
         let bytes = std::fs::read(&elf).map_err(|e| format!("{}: {e}", elf.display()))?;
         let s = elf::sizes(&bytes, RAM_ORIGIN)?;
         out.push(serde_json::json!({"config": name, "flash_bytes": s.flash, "ram_bytes": s.ram,
@@ -692,7 +763,12 @@ fn test_all() -> Result<()> {
     let mut host = cmd("cargo");
     host.current_dir(root()).args(["test", "--workspace"]);
     let host_result = run(&mut host);
-    let target = qemu_test();
+    let target = qemu_test(Board::Mps2An386);
+    // The STM32F407 image (the one flashed to a board) runs the same suite in QEMU's
+    // netduinoplus2 (STM32F405); its build and run time is printed for CI's budget.
+    let t = Instant::now();
+    let stm32 = qemu_test(Board::Stm32f407);
+    println!("qemu-test: stm32f407 build + netduinoplus2 run: {:.1} s", t.elapsed().as_secs_f64());
     // The cost table (about 1 s in QEMU): it must run, calibrate (1,000 nops = 1,000
     // instructions) and its f32 predictions must agree with the host's f64 evaluation.
     let table = device_table_run().and_then(|(t, s)| {
@@ -700,11 +776,13 @@ fn test_all() -> Result<()> {
         device_table::check(&t)
     });
     let pil_run = pil(PIL_SCENE, PIL_TEST_PERIODS, true);
-    let stm32 = build_firmware(true).map(|_| println!("stm32f407 configuration builds and links"));
-    let (mut passed, mut failed) = match &target {
-        Ok(r) => (r.passed, r.failed),
-        Err(_) => (0, 1),
-    };
+    let (mut passed, mut failed) = (0, 0);
+    for r in [&target, &stm32] {
+        match r {
+            Ok(r) => (passed, failed) = (passed + r.passed, failed + r.failed),
+            Err(_) => failed += 1,
+        }
+    }
     match &table {
         Ok(()) => passed += 1,
         Err(e) => {
