@@ -6,6 +6,7 @@
 //! Request kinds: model chunk (appended to the blob buffer), load (decode the blob:
 //! predictor + controller config; reply payload = delay u8), prime (`q_y i32, q_z i32`),
 //! step (`q_y i32, q_z i32, sample f32`), shutdown (reply, then semihosting exit 0).
+//! After enabling its serial port the device sends a hello: an empty ack numbered 0xFFFF.
 //! The step reply is `code i32, saturated u8, ready u8, prediction f32`; the prediction is 0
 //! and `ready` 0 until the predictor's window is full. Requests are numbered 0, 1, 2, ...:
 //! a frame with a bad CRC or an unexpected number is answered with an error reply
@@ -30,6 +31,9 @@ static mut BLOB: [u8; BLOB_CAP] = [0; BLOB_CAP];
 #[path = "../board.rs"]
 mod board;
 use board::{read_byte, write_byte};
+
+/// Sequence number of the hello reply (the one before the first request's 0).
+const HELLO: Seq = Seq(u16::MAX);
 
 /// Largest reply payload (the step reply has 10 bytes).
 const REPLY_CAP: usize = 16;
@@ -59,6 +63,9 @@ fn word(p: &[u8], at: usize) -> [u8; 4] {
 #[entry]
 fn main() -> ! {
     board::serial_init();
+    // Hello: the port is ready. Bytes sent before it was enabled may be lost (the STM32's
+    // USART drops them), so the host waits for this before its first request.
+    reply(Kind::Ack, HELLO, &[]);
     // SAFETY: the only references to these statics, taken once here.
     let pred = unsafe { &mut *(&raw mut PREDICTOR) };
     let blob = unsafe { &mut *(&raw mut BLOB) };

@@ -28,7 +28,8 @@
 //!   model, periods: `cache.rs`) is reused and says so; `--fresh` redoes it.
 //! - `test`: install + `cargo test --workspace` + qemu-test + device-table (counted as one
 //!   on-target test, see `device_table::check`) + a 2,000-period PIL run (one more) + the
-//!   STM32F407 image's on-target suite on `netduinoplus2`.
+//!   STM32F407 image's on-target suite on `netduinoplus2` + a 500-period PIL run of the
+//!   STM32F407 image there, over USART1 (one more).
 //! - `reproduce --out DIR [--fresh] [...]`: install + device-table + a PIL run + the PIL
 //!   recordings of the chaos study (both reused when unchanged, `--fresh` redoes them), then
 //!   `ssmctl reproduce` with the remaining arguments (the report).
@@ -42,9 +43,11 @@
 //!   Rules and the timing keys: `compare_report.rs`.
 
 mod cache;
+mod child;
 mod compare_report;
 mod device_table;
 mod elf;
+mod files;
 mod rng;
 mod traces;
 mod vectors;
@@ -102,6 +105,14 @@ impl Board {
         }
     }
 
+    /// `ssmctl pil --machine` for this board's PIL firmware.
+    fn pil_machine(self) -> &'static str {
+        match self {
+            Self::Mps2An386 => "mps2-an386",
+            Self::Stm32f407 => "netduinoplus2",
+        }
+    }
+
     /// The firmware's own target dir for this board (relative to `qemu/`).
     fn target_dir(self) -> &'static str {
         match self {
@@ -154,9 +165,11 @@ fn main() -> ExitCode {
 }
 
 /// A command without the environment of the outer `cargo run` that would leak into a nested
-/// cargo (target dir, rustflags of the host build).
+/// cargo (target dir, rustflags of the host build), tied to the xtask: its process dies with
+/// the xtask, whatever kills it (`child.rs`).
 fn cmd(program: &str) -> Command {
     let mut c = Command::new(program);
+    child::tie(&mut c);
     for var in ["CARGO_TARGET_DIR", "RUSTFLAGS", "CARGO_ENCODED_RUSTFLAGS", "CARGO_BUILD_TARGET", "CARGO_MANIFEST_DIR"] {
         c.env_remove(var);
     }
@@ -213,7 +226,7 @@ fn write_target_data() -> Result<Vec<Vec<f64>>> {
     let write = |name: &str, bytes: &[u8]| -> Result<()> {
         let path = dir.join(name);
         if std::fs::read(&path).ok().as_deref() != Some(bytes) {
-            std::fs::write(&path, bytes).map_err(|e| format!("{}: {e}", path.display()))?;
+            files::write_atomic(&path, bytes)?;
         }
         Ok(())
     };
@@ -263,7 +276,7 @@ fn run_qemu(elf: &Path, board: Board, extra: &[&str], log: &str, timeout: Durati
         std::fs::create_dir_all(dir).map_err(|e| format!("{}: {e}", dir.display()))?;
     }
     let log_file = std::fs::File::create(&log).map_err(|e| format!("{}: {e}", log.display()))?;
-    let mut child = cmd("qemu-system-arm")
+    let mut child = child::Tied(cmd("qemu-system-arm")
         .args(board.machine())
         .arg("-nographic")
         .args(["-semihosting-config", "enable=on,target=native"])
@@ -274,14 +287,14 @@ fn run_qemu(elf: &Path, board: Board, extra: &[&str], log: &str, timeout: Durati
         .stdout(log_file.try_clone().map_err(|e| e.to_string())?)
         .stderr(log_file)
         .spawn()
-        .map_err(|e| format!("cannot start qemu-system-arm (run `cargo xtask install`): {e}"))?;
+        .map_err(|e| format!("cannot start qemu-system-arm (run `cargo xtask install`): {e}"))?);
+    // Any return from here kills and reaps QEMU (`Tied`); a timeout does it explicitly.
     let status = loop {
-        if let Some(s) = child.try_wait().map_err(|e| e.to_string())? {
+        if let Some(s) = child.0.try_wait().map_err(|e| e.to_string())? {
             break Some(s);
         }
         if start.elapsed() > timeout {
-            let _ = child.kill();
-            let _ = child.wait();
+            drop(child);
             break None;
         }
         std::thread::sleep(Duration::from_millis(20));
@@ -401,7 +414,7 @@ fn device_table_cmd(json: bool) -> Result<()> {
     v["firmware_sizes"] = serde_json::Value::Array(firmware_sizes()?);
     let text = serde_json::to_string_pretty(&v).map_err(|e| e.to_string())?;
     let path = qemu_dir().join("target").join("device-table.json");
-    std::fs::write(&path, &text).map_err(|e| format!("{}: {e}", path.display()))?;
+    files::write_atomic(&path, text.as_bytes())?;
     if json {
         println!("{text}");
     } else {
@@ -440,7 +453,7 @@ fn reproduce(rest: &[String]) -> Result<()> {
     // Where the xtask's own time went, for the report's timings.
     let path = qemu_dir().join("target").join("xtask-steps.json");
     let text = serde_json::to_string_pretty(&serde_json::json!({ "steps": steps })).map_err(|e| e.to_string())?;
-    std::fs::write(&path, text).map_err(|e| format!("{}: {e}", path.display()))?;
+    files::write_atomic(&path, text.as_bytes())?;
     let mut c = cmd("cargo");
     c.current_dir(root()).args(["run", "--release", "-p", "ssmctl", "--bin", "ssmctl", "--", "reproduce"]).args(rest);
     c.env("SSMCTL_XTASK_STEPS", &path);
@@ -474,12 +487,12 @@ fn pil_args(rest: &[String]) -> Result<(String, u64)> {
     Ok((scene, periods))
 }
 
-/// The PIL firmware, built (and the target data it includes written) if needed.
-fn pil_firmware() -> Result<PathBuf> {
+/// The PIL firmware for `board`, built (and the target data it includes written) if needed.
+fn pil_firmware(board: Board) -> Result<PathBuf> {
     if !qemu_dir().join("target-data/model.bin").exists() {
         write_target_data()?;
     }
-    Ok(build_firmware(Board::Mps2An386)?.with_file_name("pil"))
+    Ok(build_firmware(board)?.with_file_name("pil"))
 }
 
 /// The host's `ssmctl` in the test profile (which optimizes the host crates and shares the
@@ -497,14 +510,16 @@ fn ssmctl_bin() -> Result<PathBuf> {
 struct PilTools {
     elf: PathBuf,
     host: PathBuf,
+    /// The board the firmware is built for (its QEMU machine runs it).
+    board: Board,
     fingerprint: String,
 }
 
-fn pil_tools() -> Result<PilTools> {
-    let (elf, host) = (pil_firmware()?, ssmctl_bin()?);
+fn pil_tools(board: Board) -> Result<PilTools> {
+    let (elf, host) = (pil_firmware(board)?, ssmctl_bin()?);
     let read = |p: &Path| std::fs::read(p).map_err(|e| format!("{}: {e}", p.display()));
-    let fingerprint = cache::key(&[&read(&elf)?, &read(&host)?]);
-    Ok(PilTools { elf, host, fingerprint })
+    let fingerprint = cache::key(&[&read(&elf)?, &read(&host)?, board.name().as_bytes()]);
+    Ok(PilTools { elf, host, board, fingerprint })
 }
 
 /// What one `ssmctl pil` run is: scene, overrides, model (fitted by this run when `fit`),
@@ -552,6 +567,7 @@ fn ssmctl_pil(tools: &PilTools, r: &PilRun<'_>, fresh: bool) -> Result<(serde_js
         c.arg("--fit-model");
     }
     c.args(["--periods", &periods_arg]).arg("--out").arg(&r.out).arg("--elf").arg(elf);
+    c.args(["--machine", tools.board.pil_machine()]);
     run(&mut c)?;
     let v = summary(&r.out)?;
     cache::store(&r.out, &key)?;
@@ -560,7 +576,7 @@ fn ssmctl_pil(tools: &PilTools, r: &PilRun<'_>, fresh: bool) -> Result<(serde_js
 
 /// Builds the PIL firmware, fits a model and runs `ssmctl pil`; checks the summary.
 fn pil(scene: &str, periods: u64, fresh: bool) -> Result<serde_json::Value> {
-    let tools = pil_tools()?;
+    let tools = pil_tools(Board::Mps2An386)?;
     let out = qemu_dir().join("target").join("pil");
     let run = PilRun { scene, set: Vec::new(), model: out.join("model.bin"), fit: true, periods, out: out.clone() };
     let (mut v, cached) = ssmctl_pil(&tools, &run, fresh)?;
@@ -570,6 +586,22 @@ fn pil(scene: &str, periods: u64, fresh: bool) -> Result<serde_json::Value> {
         out.display(),
         if cached { "; reused: same firmware, host, scene and periods as the stored run" } else { "" }
     );
+    Ok(v)
+}
+
+/// Periods of the STM32 image's PIL run inside `cargo xtask test` (over USART1).
+const PIL_STM32_PERIODS: u64 = 500;
+
+/// The STM32F407 image's PIL binary in QEMU's netduinoplus2 (USART1 instead of the CMSDK
+/// UART), with the model the mps2-an386 run `pil` fitted (`qemu/target/pil/model.bin`);
+/// the same checks as `pil`. Output in `qemu/target/pil-stm32f407/`.
+fn pil_stm32(scene: &str, periods: u64) -> Result<serde_json::Value> {
+    let tools = pil_tools(Board::Stm32f407)?;
+    let out = qemu_dir().join("target").join("pil-stm32f407");
+    let model = qemu_dir().join("target").join("pil").join("model.bin");
+    let run = PilRun { scene, set: Vec::new(), model, fit: false, periods, out: out.clone() };
+    let (v, _) = ssmctl_pil(&tools, &run, true)?;
+    println!("pil: PASS on netduinoplus2 (the STM32F407 image over USART1: {periods} periods of {scene}, codes and predictions identical to the host's; {})", out.display());
     Ok(v)
 }
 
@@ -649,7 +681,7 @@ fn record_theta0(r: u32) -> f64 {
 /// others run concurrently, one QEMU each (each `ssmctl pil` binds its own port). Runs whose
 /// fingerprint matches the stored output are reused (`a.fresh`: never).
 fn pil_record(a: &RecordArgs) -> Result<bool> {
-    let tools = pil_tools()?;
+    let tools = pil_tools(Board::Mps2An386)?;
     std::fs::create_dir_all(&a.out).map_err(|e| format!("{}: {e}", a.out.display()))?;
     let model = a.out.join("model.bin");
     let start = Instant::now();
@@ -687,7 +719,7 @@ fn pil_record(a: &RecordArgs) -> Result<bool> {
     let index = serde_json::json!({ "scene": a.scene, "model": "model.bin", "runs": runs, "total_wall_seconds": total });
     let path = a.out.join("runs.json");
     let text = serde_json::to_string_pretty(&index).map_err(|e| e.to_string())?;
-    std::fs::write(&path, text).map_err(|e| format!("{}: {e}", path.display()))?;
+    files::write_atomic(&path, text.as_bytes())?;
     println!("pil-record: {} runs x {} periods in {total:.1} s; {}", a.runs, a.periods, path.display());
     Ok(runs.iter().all(|r| r["cached"] == serde_json::Value::Bool(true)))
 }
@@ -776,6 +808,12 @@ fn test_all() -> Result<()> {
         device_table::check(&t)
     });
     let pil_run = pil(PIL_SCENE, PIL_TEST_PERIODS, true);
+    let t = Instant::now();
+    let pil_stm32_run = match &pil_run {
+        Ok(_) => pil_stm32(PIL_SCENE, PIL_STM32_PERIODS),
+        Err(_) => Err("pil (stm32f407): not run, it needs the model of the mps2-an386 PIL run".to_string()),
+    };
+    println!("pil: stm32f407 PIL run on netduinoplus2: {:.1} s", t.elapsed().as_secs_f64());
     let (mut passed, mut failed) = (0, 0);
     for r in [&target, &stm32] {
         match r {
@@ -790,11 +828,13 @@ fn test_all() -> Result<()> {
             failed += 1;
         }
     }
-    match &pil_run {
-        Ok(_) => passed += 1,
-        Err(e) => {
-            eprintln!("pil: {e}");
-            failed += 1;
+    for (name, r) in [("pil", &pil_run), ("pil (stm32f407 on netduinoplus2)", &pil_stm32_run)] {
+        match r {
+            Ok(_) => passed += 1,
+            Err(e) => {
+                eprintln!("{name}: {e}");
+                failed += 1;
+            }
         }
     }
     println!("on-target: {passed} passed, {failed} failed");
@@ -803,6 +843,7 @@ fn test_all() -> Result<()> {
     table?;
     pil_run?;
     stm32?;
+    pil_stm32_run?;
     Ok(())
 }
 
