@@ -61,10 +61,8 @@ fn child_named(parent: i32, name: &str) -> i32 {
     while t0.elapsed() < Duration::from_secs(20) {
         for entry in std::fs::read_dir("/proc").unwrap().flatten() {
             let Some(pid) = entry.file_name().to_str().and_then(|s| s.parse::<i32>().ok()) else { continue };
-            if let Some((ppid, _, comm)) = stat(pid) {
-                if ppid == parent && comm == name {
-                    return pid;
-                }
+            if stat(pid).is_some_and(|(ppid, _, comm)| ppid == parent && comm == name) {
+                return pid;
             }
         }
         std::thread::sleep(Duration::from_millis(20));

@@ -13,7 +13,8 @@
 //!   `qemu/target/device-table.json`) the table as JSON.
 //! - `pil [--periods N] [--scene NAME]`: processor-in-the-loop. Builds the firmware (its
 //!   `pil` binary), fits a 4D RBF model of the scene and runs `ssmctl pil` (plant on the host,
-//!   integer controller + predictor on the device over UART0); output in `qemu/target/pil/`.
+//!   integer controller + predictor on the device over UART0 of mps2-an386); output in
+//!   `qemu/target/pil/`.
 //!   Passes when every period ran, the device's codes equal the host's and its predictions
 //!   are bit-identical to the host's f32 predictor, and the whole run (counts, codes,
 //!   states) equals the host-only simulation of the scene with the same noise seed.
