@@ -11,6 +11,7 @@ use cortex_m_rt::{ExceptionFrame, entry, exception};
 use cortex_m_semihosting::{debug, hprintln};
 use panic_semihosting as _;
 
+mod board;
 mod model_tests;
 mod trace_tests;
 
@@ -30,6 +31,7 @@ pub struct Test {
 }
 
 const TESTS: &[Test] = &[
+    Test { name: "board::memory_map", run: board_tests::memory_map },
     Test { name: "model::decodes_embedded_blob", run: model_tests::decodes_embedded_blob },
     Test { name: "model::rejects_targeted_corruptions", run: model_tests::rejects_targeted_corruptions },
     Test { name: "model::rejects_random_corruptions", run: model_tests::rejects_random_corruptions },
@@ -45,9 +47,66 @@ const TESTS: &[Test] = &[
     Test { name: "intpd::all_golden_cases_listed", run: trace_tests::all_cases_listed },
 ];
 
+/// Checks that the image runs in the memory map of the board it was built for.
+mod board_tests {
+    use crate::board::{FLASH, RAM, contains};
+    use core::sync::atomic::{AtomicU32, Ordering};
+
+    unsafe extern "C" {
+        /// Start of cortex-m-rt's vector table (placed at ORIGIN(FLASH)).
+        static __vector_table: u32;
+        /// Initial stack pointer: ORIGIN(RAM) + LENGTH(RAM).
+        static _stack_start: u32;
+    }
+
+    /// A static in `.bss` (RAM), written and read back.
+    static IN_RAM: AtomicU32 = AtomicU32::new(0);
+
+    /// The linker placed the vector table at the board's flash origin and the stack at the
+    /// end of its RAM; at run time this code executes from flash, the stack and statics
+    /// live in RAM, and (where flash is not at address 0) the vector table's first word read
+    /// from flash is that stack top.
+    pub fn memory_map() -> Result<(), &'static str> {
+        let vectors = (&raw const __vector_table) as usize;
+        let stack_top = (&raw const _stack_start) as usize;
+        let code = memory_map as fn() -> Result<(), &'static str> as usize;
+        let local = 0u32;
+        let sp = core::hint::black_box(&raw const local) as usize;
+        IN_RAM.store(0xA5A5_5A5A, Ordering::SeqCst);
+        let ram_static = (&raw const IN_RAM) as usize;
+        cortex_m_semihosting::hprintln!(
+            "  flash {:#010x}+{:#x}: vector table {:#010x}, code {:#010x}; ram {:#010x}+{:#x}: stack top {:#010x}, stack {:#010x}, static {:#010x}",
+            FLASH.0, FLASH.1, vectors, code, RAM.0, RAM.1, stack_top, sp, ram_static
+        );
+        if vectors != FLASH.0 {
+            return Err("vector table is not at the board's flash origin");
+        }
+        if stack_top != RAM.0 + RAM.1 {
+            return Err("initial stack pointer is not the end of the board's RAM");
+        }
+        if !contains(FLASH, code) {
+            return Err("code does not run from the board's flash");
+        }
+        if !contains(RAM, sp) || sp >= stack_top {
+            return Err("stack is not in the board's RAM below the stack top");
+        }
+        if !contains(RAM, ram_static) || IN_RAM.load(Ordering::SeqCst) != 0xA5A5_5A5A {
+            return Err("static is not in the board's RAM or does not keep its value");
+        }
+        if FLASH.0 != 0 {
+            // SAFETY: the vector table's first word, in flash (non-null here), word-aligned.
+            let initial_sp = unsafe { core::ptr::read_volatile(&raw const __vector_table) } as usize;
+            if initial_sp != stack_top {
+                return Err("the vector table read from flash does not hold the stack top");
+            }
+        }
+        Ok(())
+    }
+}
+
 #[entry]
 fn main() -> ! {
-    hprintln!("running {} on-target tests", TESTS.len());
+    hprintln!("running {} on-target tests (board: {})", TESTS.len(), board::NAME);
     let (mut passed, mut failed) = (0u32, 0u32);
     for t in TESTS {
         match (t.run)() {

@@ -228,6 +228,10 @@ pub enum Cmd {
         /// The firmware's PIL binary.
         #[arg(long, default_value = "qemu/target/thumbv7em-none-eabihf/release/pil")]
         elf: PathBuf,
+        /// QEMU machine: mps2-an386, or netduinoplus2 (STM32F405) for the `stm32f407` build
+        /// (qemu/target/stm32f407/thumbv7em-none-eabihf/release/pil).
+        #[arg(long, default_value = "mps2-an386", value_parser = crate::pil::Machine::parse)]
+        machine: crate::pil::Machine,
         /// Per-reply timeout, seconds.
         #[arg(long, default_value_t = 5.0)]
         timeout: f64,
@@ -620,7 +624,7 @@ pub fn run(cli: Cli) -> Result<(), Box<dyn std::error::Error>> {
                 }
             }
         }
-        Cmd::Pil { scene, model, fit_model, periods, out, elf, timeout, json } => {
+        Cmd::Pil { scene, model, fit_model, periods, out, elf, machine, timeout, json } => {
             // Options first (cheap), then anything that runs or writes.
             if periods == 0 {
                 return Err("--periods must be >= 1 (a PIL run of 0 periods compares nothing)".into());
@@ -642,6 +646,7 @@ pub fn run(cli: Cli) -> Result<(), Box<dyn std::error::Error>> {
                 periods,
                 out,
                 elf,
+                machine,
                 reply_timeout,
             };
             let s = crate::pil::run(&opts)?;

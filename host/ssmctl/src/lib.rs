@@ -4,6 +4,7 @@
 //! of the workspace that depends on clap, indicatif and plotters.
 
 pub mod bench;
+pub mod child;
 pub mod cli;
 pub mod draw;
 pub mod fit_command;

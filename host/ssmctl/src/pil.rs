@@ -35,7 +35,7 @@ use shared::frame::{self, Fault, FrameError, HEADER_LEN, Header, Kind, MAX_FRAME
 use std::io::{Read, Write};
 use std::net::{TcpListener, TcpStream};
 use std::path::{Path, PathBuf};
-use std::process::{Child, Command, Stdio};
+use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
 
 use crate::output::AtomicFile;
@@ -102,6 +102,43 @@ fn fault_name(code: u8) -> &'static str {
     Fault::from_code(code).map_or("unknown fault code", Fault::description)
 }
 
+/// The QEMU machine of a PIL run: each runs the firmware built for its board.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Machine {
+    /// `mps2-an386` (Cortex-M4F): the default build, CMSDK UART0.
+    #[default]
+    Mps2An386,
+    /// `netduinoplus2` (STM32F405): the `stm32f407` build (same memory map), USART1.
+    Netduinoplus2,
+}
+
+impl Machine {
+    /// QEMU's name of the machine.
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::Mps2An386 => "mps2-an386",
+            Self::Netduinoplus2 => "netduinoplus2",
+        }
+    }
+
+    /// Parses QEMU's name of the machine.
+    pub fn parse(name: &str) -> Result<Self, String> {
+        match name {
+            "mps2-an386" => Ok(Self::Mps2An386),
+            "netduinoplus2" => Ok(Self::Netduinoplus2),
+            other => Err(format!("unknown machine `{other}` (expected mps2-an386 or netduinoplus2)")),
+        }
+    }
+
+    /// QEMU's machine and CPU options.
+    fn qemu_args(self) -> &'static [&'static str] {
+        match self {
+            Self::Mps2An386 => &["-cpu", "cortex-m4", "-machine", "mps2-an386"],
+            Self::Netduinoplus2 => &["-machine", "netduinoplus2"],
+        }
+    }
+}
+
 /// Options of one PIL run.
 #[derive(Clone, Debug)]
 pub struct PilOptions {
@@ -112,6 +149,8 @@ pub struct PilOptions {
     pub out: PathBuf,
     /// The firmware's `pil` ELF.
     pub elf: PathBuf,
+    /// The QEMU machine it runs in (the ELF must be built for it).
+    pub machine: Machine,
     /// Per-reply limit.
     pub reply_timeout: Duration,
 }
@@ -270,6 +309,18 @@ impl Link {
         Ok((rk, p))
     }
 
+    /// Waits for the device's hello (an empty ack numbered 0xFFFF, sent once its serial port
+    /// is enabled): a request sent earlier could be lost (the STM32's USART drops bytes
+    /// received before it is enabled).
+    fn hello(&mut self) -> Result<(), PilError> {
+        let (k, s, p) = self.receive(u16::MAX)?;
+        if (k, s, p.as_slice()) != (Kind::Ack, Seq(u16::MAX), &[][..]) {
+            let k = k.code();
+            return Err(PilError::Link { seq: u16::MAX, what: format!("the device's first frame is kind {k:#x} seq {s} payload {p:?}, not the hello (empty ack numbered 65535)") });
+        }
+        Ok(())
+    }
+
     fn send_raw(&mut self, frame: &[u8], seq: u16) -> Result<(), PilError> {
         self.stream.write_all(frame).map_err(|e| PilError::Link { seq, what: format!("send failed: {e}") })
     }
@@ -327,18 +378,13 @@ impl Link {
     }
 }
 
-/// Kills QEMU when the run ends early.
-struct Qemu(Child);
-impl Drop for Qemu {
-    fn drop(&mut self) {
-        if matches!(self.0.try_wait(), Ok(None)) {
-            let _ = self.0.kill();
-        }
-        let _ = self.0.wait();
-    }
+/// QEMU's program: `qemu-system-arm`, or the path in `SSMCTL_QEMU` (another build of QEMU;
+/// the tests use it to put a stand-in child in QEMU's place).
+fn qemu_program() -> std::ffi::OsString {
+    std::env::var_os("SSMCTL_QEMU").unwrap_or_else(|| "qemu-system-arm".into())
 }
 
-fn start(elf: &Path, out: &Path) -> Result<(Qemu, TcpStream), PilError> {
+fn start(elf: &Path, machine: Machine, out: &Path) -> Result<(crate::child::Tied, TcpStream), PilError> {
     if !elf.exists() {
         return Err(PilError::Qemu(format!("{} does not exist: build it with `cargo xtask pil` (or `cargo build --release --bin pil` in qemu/)", elf.display())));
     }
@@ -346,8 +392,13 @@ fn start(elf: &Path, out: &Path) -> Result<(Qemu, TcpStream), PilError> {
     let port = listener.local_addr().map_err(io("local address"))?.port();
     let log_path = out.join("qemu.log");
     let log = std::fs::File::create(&log_path).map_err(io(log_path.display().to_string()))?;
-    let child = Command::new("qemu-system-arm")
-        .args(["-cpu", "cortex-m4", "-machine", "mps2-an386", "-nographic", "-monitor", "none"])
+    let program = qemu_program();
+    // Tied: QEMU dies with ssmctl whatever ends it (signals included) and is killed and
+    // reaped when the run returns (`crate::child`).
+    let mut qemu = crate::child::spawn_tied(
+        Command::new(&program)
+        .args(machine.qemu_args())
+        .args(["-nographic", "-monitor", "none"])
         .args(["-semihosting-config", "enable=on,target=native"])
         .arg("-serial")
         .arg(format!("tcp:127.0.0.1:{port},nodelay=on"))
@@ -355,10 +406,9 @@ fn start(elf: &Path, out: &Path) -> Result<(Qemu, TcpStream), PilError> {
         .arg(elf)
         .stdin(Stdio::null())
         .stdout(log.try_clone().map_err(io("log"))?)
-        .stderr(log)
-        .spawn()
-        .map_err(|e| PilError::Qemu(format!("cannot start qemu-system-arm (run `cargo xtask install`): {e}")))?;
-    let mut qemu = Qemu(child);
+        .stderr(log),
+    )
+    .map_err(|e| PilError::Qemu(format!("cannot start {} (run `cargo xtask install`): {e}", program.to_string_lossy())))?;
     listener.set_nonblocking(true).map_err(io("listener"))?;
     let t0 = Instant::now();
     let stream = loop {
@@ -452,9 +502,10 @@ fn run_with<P: Plant<N>, const N: usize>(plant: &P, scene: &Scene, opts: &PilOpt
     let mut ode = Integrator::<N>::new(method_of(scene)).map_err(|source| SimError::Ode { scene: name.clone(), source })?;
 
     std::fs::create_dir_all(&opts.out).map_err(io(format!("creating {}", opts.out.display())))?;
-    let (mut qemu, stream) = start(&opts.elf, &opts.out)?;
+    let (mut qemu, stream) = start(&opts.elf, opts.machine, &opts.out)?;
     stream.set_read_timeout(Some(opts.reply_timeout)).map_err(io("read timeout"))?;
     let mut link = Link { stream, seq: Seq(0) };
+    link.hello()?;
     for chunk in blob.chunks(240) {
         link.transact(Kind::ModelChunk, chunk)?;
     }
@@ -663,6 +714,34 @@ mod tests {
         let (stream, _) = listener.accept().unwrap();
         stream.set_read_timeout(Some(Duration::from_millis(300))).unwrap();
         Link { stream, seq: Seq(41) }
+    }
+
+    /// A device that sends `bytes` unprompted, then keeps the socket open.
+    fn fake_unprompted(bytes: Vec<u8>) -> Link {
+        let listener = TcpListener::bind("127.0.0.1:0").unwrap();
+        let addr = listener.local_addr().unwrap();
+        std::thread::spawn(move || {
+            let mut dev = TcpStream::connect(addr).unwrap();
+            dev.write_all(&bytes).unwrap();
+            std::thread::sleep(Duration::from_millis(600));
+        });
+        let (stream, _) = listener.accept().unwrap();
+        stream.set_read_timeout(Some(Duration::from_millis(300))).unwrap();
+        Link { stream, seq: Seq(0) }
+    }
+
+    #[test]
+    fn link_waits_for_the_hello() {
+        assert!(fake_unprompted(reply(Kind::Ack, u16::MAX, &[])).hello().is_ok());
+        for (bytes, says) in [
+            (reply(Kind::Ack, 0, &[]), "kind 0x81 seq 0 payload [], not the hello"),
+            (reply(Kind::Ack, u16::MAX, &[1]), "payload [1], not the hello"),
+            (reply(Kind::Error, u16::MAX, &[1]), "kind 0xee"),
+            (Vec::new(), "no reply within the timeout"),
+        ] {
+            let e = fake_unprompted(bytes).hello().unwrap_err().to_string();
+            assert!(e.contains(says) && e.contains("65535"), "{e}");
+        }
     }
 
     #[test]

@@ -1,10 +1,12 @@
 //! Processor-in-the-loop: the integer PD controller and the RBF predictor answer requests
-//! from the host over UART0 (run by `ssmctl pil` / `cargo xtask pil`).
+//! from the host over the board's serial port (UART0 of mps2-an386, USART1 of the
+//! STM32F4: [`board`]) (run by `ssmctl pil` / `cargo xtask pil`).
 //!
 //! Frames, kinds and fault codes: `shared::frame` (the host uses the same definition).
 //! Request kinds: model chunk (appended to the blob buffer), load (decode the blob:
 //! predictor + controller config; reply payload = delay u8), prime (`q_y i32, q_z i32`),
 //! step (`q_y i32, q_z i32, sample f32`), shutdown (reply, then semihosting exit 0).
+//! After enabling its serial port the device sends a hello: an empty ack numbered 0xFFFF.
 //! The step reply is `code i32, saturated u8, ready u8, prediction f32`; the prediction is 0
 //! and `ready` 0 until the predictor's window is full. Requests are numbered 0, 1, 2, ...:
 //! a frame with a bad CRC or an unexpected number is answered with an error reply
@@ -26,35 +28,12 @@ static mut PREDICTOR: Pred = Pred::empty(SqrtFlavour::Libm);
 const BLOB_CAP: usize = 64 * 1024;
 static mut BLOB: [u8; BLOB_CAP] = [0; BLOB_CAP];
 
-const UART0: usize = 0x4000_4000;
-const DATA: *mut u32 = UART0 as *mut u32;
-const STATE: *mut u32 = (UART0 + 0x04) as *mut u32;
-const CTRL: *mut u32 = (UART0 + 0x08) as *mut u32;
-const BAUDDIV: *mut u32 = (UART0 + 0x10) as *mut u32;
+#[path = "../board.rs"]
+mod board;
+use board::{read_byte, write_byte};
 
-fn uart_init() {
-    // SAFETY: CMSDK APB UART0 registers of the mps2-an386 board, word-aligned MMIO.
-    unsafe {
-        BAUDDIV.write_volatile(16);
-        CTRL.write_volatile(0b11);
-    }
-}
-
-fn read_byte() -> u8 {
-    // SAFETY: as in `uart_init`.
-    unsafe {
-        while STATE.read_volatile() & 0b10 == 0 {}
-        (DATA.read_volatile() & 0xFF) as u8
-    }
-}
-
-fn write_byte(b: u8) {
-    // SAFETY: as in `uart_init`.
-    unsafe {
-        while STATE.read_volatile() & 0b01 != 0 {}
-        DATA.write_volatile(u32::from(b));
-    }
-}
+/// Sequence number of the hello reply (the one before the first request's 0).
+const HELLO: Seq = Seq(u16::MAX);
 
 /// Largest reply payload (the step reply has 10 bytes).
 const REPLY_CAP: usize = 16;
@@ -83,7 +62,10 @@ fn word(p: &[u8], at: usize) -> [u8; 4] {
 
 #[entry]
 fn main() -> ! {
-    uart_init();
+    board::serial_init();
+    // Hello: the port is ready. Bytes sent before it was enabled may be lost (the STM32's
+    // USART drops them), so the host waits for this before its first request.
+    reply(Kind::Ack, HELLO, &[]);
     // SAFETY: the only references to these statics, taken once here.
     let pred = unsafe { &mut *(&raw mut PREDICTOR) };
     let blob = unsafe { &mut *(&raw mut BLOB) };

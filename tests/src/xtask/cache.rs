@@ -27,7 +27,7 @@ pub fn hit(dir: &Path, key: &str) -> bool {
 /// Marks `dir` as the completed run with fingerprint `key` (after its checks passed).
 pub fn store(dir: &Path, key: &str) -> Result<(), String> {
     let path = dir.join("cache-key");
-    std::fs::write(&path, format!("{key}\n")).map_err(|e| format!("{}: {e}", path.display()))
+    crate::files::write_atomic(&path, format!("{key}\n").as_bytes())
 }
 
 /// Forgets a run (before it is redone), so a failed redo is never taken for a hit.

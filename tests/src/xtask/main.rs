@@ -1,8 +1,10 @@
 //! Cross-target automation behind `cargo xtask` (alias in `.cargo/config.toml`).
 //!
 //! - `install`: the thumbv7em-none-eabihf target and `qemu-system-arm`, if missing.
-//! - `qemu-test`: generate the model blob and expected outputs, build the firmware in
-//!   `qemu/` with its own config, run it under QEMU (hard timeout), pass/fail by exit code.
+//! - `qemu-test [--board mps2-an386|stm32f407]`: generate the model blob and expected
+//!   outputs, build the firmware in `qemu/` with its own config for the board (default
+//!   mps2-an386), run it under QEMU (hard timeout; the STM32F407 image in QEMU's
+//!   `netduinoplus2`, an STM32F405), pass/fail by exit code.
 //! - `firmware-size`: flash/RAM of the firmware for each board configuration.
 //! - `device-table [--json]`: build the firmware's `device_table` binary, run it under QEMU
 //!   with `-icount shift=7` and print instructions per call of the controllers and the
@@ -11,7 +13,8 @@
 //!   `qemu/target/device-table.json`) the table as JSON.
 //! - `pil [--periods N] [--scene NAME]`: processor-in-the-loop. Builds the firmware (its
 //!   `pil` binary), fits a 4D RBF model of the scene and runs `ssmctl pil` (plant on the host,
-//!   integer controller + predictor on the device over UART0); output in `qemu/target/pil/`.
+//!   integer controller + predictor on the device over UART0 of mps2-an386); output in
+//!   `qemu/target/pil/`.
 //!   Passes when every period ran, the device's codes equal the host's and its predictions
 //!   are bit-identical to the host's f32 predictor, and the whole run (counts, codes,
 //!   states) equals the host-only simulation of the scene with the same noise seed.
@@ -26,9 +29,10 @@
 //!   model, periods: `cache.rs`) is reused and says so; `--fresh` redoes it.
 //! - `python-test`: the Python module (`host/python`) built into a venv (`target/pyvenv`,
 //!   made and given maturin, pytest and numpy when missing) and its pytest tests (`python.rs`).
-//! - `test`: install + `cargo test --workspace` + python-test + qemu-test + device-table (counted as one
-//!   on-target test, see `device_table::check`) + a 2,000-period PIL run (one more) +
-//!   STM32F407 build.
+//! - `test`: install + `cargo test --workspace` + clippy lint policy + python-test + qemu-test
+//!   + device-table (counted as one on-target test, see `device_table::check`) + a
+//!   2,000-period PIL run (one more) + the STM32F407 image's on-target suite on
+//!   `netduinoplus2` + a 500-period PIL run of the STM32F407 image there, over USART1 (one more).
 //! - `reproduce --out DIR [--fresh] [...]`: install + device-table + a PIL run + the PIL
 //!   recordings of the chaos study (both reused when unchanged, `--fresh` redoes them), then
 //!   `ssmctl reproduce` with the remaining arguments (the report).
@@ -42,10 +46,12 @@
 //!   Rules and the timing keys: `compare_report.rs`.
 
 mod cache;
+mod child;
 mod compare_report;
 mod device_table;
 mod elf;
 mod python;
+mod files;
 mod rng;
 mod traces;
 mod vectors;
@@ -58,6 +64,67 @@ const TARGET: &str = "thumbv7em-none-eabihf";
 /// QEMU's own runner already has `timeout 120`; this outer limit also covers the build.
 const QEMU_TIMEOUT: Duration = Duration::from_secs(120);
 const RAM_ORIGIN: u64 = 0x2000_0000;
+
+/// The board an image is built for (the firmware's cargo feature) and the QEMU machine that
+/// runs it.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Board {
+    /// QEMU's `mps2-an386` (Cortex-M4F, 4 MiB code + 4 MiB data SSRAM, CMSDK UART): the default.
+    Mps2An386,
+    /// The STM32F407 image (`--features stm32f407`: flash 0x0800_0000 1 MiB, SRAM 0x2000_0000
+    /// 128 KiB, USART1), the one flashed to a real board; QEMU runs it as `netduinoplus2`
+    /// (STM32F405: the same flash and SRAM; QEMU maps 192 KiB of SRAM, the image uses 128).
+    Stm32f407,
+}
+
+impl Board {
+    fn parse(name: &str) -> Result<Self> {
+        match name {
+            "mps2-an386" => Ok(Self::Mps2An386),
+            "stm32f407" => Ok(Self::Stm32f407),
+            other => Err(format!("unknown board `{other}` (expected mps2-an386 or stm32f407)")),
+        }
+    }
+
+    fn name(self) -> &'static str {
+        match self {
+            Self::Mps2An386 => "mps2-an386",
+            Self::Stm32f407 => "stm32f407",
+        }
+    }
+
+    /// QEMU's machine (and CPU) options for this board.
+    fn machine(self) -> &'static [&'static str] {
+        match self {
+            Self::Mps2An386 => &["-cpu", "cortex-m4", "-machine", "mps2-an386"],
+            Self::Stm32f407 => &["-machine", "netduinoplus2"],
+        }
+    }
+
+    /// Flash and RAM capacity of the memory map the image is linked for.
+    fn capacity(self) -> (u64, u64) {
+        match self {
+            Self::Mps2An386 => (4 << 20, 4 << 20),
+            Self::Stm32f407 => (1 << 20, 128 << 10),
+        }
+    }
+
+    /// `ssmctl pil --machine` for this board's PIL firmware.
+    fn pil_machine(self) -> &'static str {
+        match self {
+            Self::Mps2An386 => "mps2-an386",
+            Self::Stm32f407 => "netduinoplus2",
+        }
+    }
+
+    /// The firmware's own target dir for this board (relative to `qemu/`).
+    fn target_dir(self) -> &'static str {
+        match self {
+            Self::Mps2An386 => "target",
+            Self::Stm32f407 => "target/stm32f407",
+        }
+    }
+}
 
 fn root() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).parent().expect("tests/ has a parent").to_path_buf()
@@ -73,7 +140,11 @@ fn main() -> ExitCode {
     let args: Vec<String> = std::env::args().skip(1).collect();
     let result = match args.first().map(String::as_str) {
         Some("install") => install(),
-        Some("qemu-test") => qemu_test().map(|_| ()),
+        Some("qemu-test") => match (args.get(1).map(String::as_str), args.get(2)) {
+            (None, _) => qemu_test(Board::Mps2An386).map(|_| ()),
+            (Some("--board"), Some(b)) if args.len() == 3 => Board::parse(b).and_then(qemu_test).map(|_| ()),
+            _ => Err("qemu-test: expected no option or `--board mps2-an386|stm32f407`".into()),
+        },
         Some("firmware-size") => firmware_size(),
         Some("device-table") => match args.get(1).map(String::as_str) {
             None => device_table_cmd(false),
@@ -87,7 +158,7 @@ fn main() -> ExitCode {
         Some("pil") => pil_args(&args[1..]).and_then(|(scene, periods)| pil(&scene, periods, true)).map(|_| ()),
         Some("pil-record") => record_args(&args[1..]).and_then(|r| pil_record(&r)).map(|_| ()),
         Some("compare-report") => compare_report::run(&args[1..]),
-        _ => Err("usage: cargo xtask <install | qemu-test | firmware-size | device-table [--json] | python-test | pil [--periods N] [--scene NAME] | pil-record --out DIR [--runs N] [--periods P] [--scene NAME] [--seed S] [--fresh] | test | reproduce --out DIR [--fresh] | compare-report BASE NEW>".into()),
+        _ => Err("usage: cargo xtask <install | qemu-test [--board mps2-an386|stm32f407] | firmware-size | device-table [--json] | python-test | pil [--periods N] [--scene NAME] | pil-record --out DIR [--runs N] [--periods P] [--scene NAME] [--seed S] [--fresh] | test | reproduce --out DIR [--fresh] | compare-report BASE NEW>".into()),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
@@ -99,9 +170,11 @@ fn main() -> ExitCode {
 }
 
 /// A command without the environment of the outer `cargo run` that would leak into a nested
-/// cargo (target dir, rustflags of the host build).
+/// cargo (target dir, rustflags of the host build), tied to the xtask: its process dies with
+/// the xtask, whatever kills it (`child.rs`).
 fn cmd(program: impl AsRef<std::ffi::OsStr>) -> Command {
     let mut c = Command::new(program);
+    child::tie(&mut c);
     for var in ["CARGO_TARGET_DIR", "RUSTFLAGS", "CARGO_ENCODED_RUSTFLAGS", "CARGO_BUILD_TARGET", "CARGO_MANIFEST_DIR"] {
         c.env_remove(var);
     }
@@ -158,7 +231,7 @@ fn write_target_data() -> Result<Vec<Vec<f64>>> {
     let write = |name: &str, bytes: &[u8]| -> Result<()> {
         let path = dir.join(name);
         if std::fs::read(&path).ok().as_deref() != Some(bytes) {
-            std::fs::write(&path, bytes).map_err(|e| format!("{}: {e}", path.display()))?;
+            files::write_atomic(&path, bytes)?;
         }
         Ok(())
     };
@@ -187,25 +260,30 @@ fn write_target_data() -> Result<Vec<Vec<f64>>> {
     Ok(dt.reference)
 }
 
-fn build_firmware(stm32: bool) -> Result<PathBuf> {
+/// Builds the firmware's binaries for `board`; returns the test binary's path (the others
+/// are beside it).
+fn build_firmware(board: Board) -> Result<PathBuf> {
     let mut c = cmd("cargo");
     c.current_dir(qemu_dir()).args(["build", "--release"]);
-    if stm32 {
-        c.args(["--features", "stm32f407", "--target-dir", "target/stm32f407"]);
+    if board == Board::Stm32f407 {
+        c.args(["--features", "stm32f407", "--target-dir", board.target_dir()]);
     }
     run(&mut c)?;
-    let base = if stm32 { qemu_dir().join("target/stm32f407") } else { qemu_dir().join("target") };
-    Ok(base.join(TARGET).join("release").join("firmware"))
+    Ok(qemu_dir().join(board.target_dir()).join(TARGET).join("release").join("firmware"))
 }
 
-/// Runs `elf` under QEMU (mps2-an386) with `extra` arguments, output into `log`; `None` on
-/// timeout. Returns the exit status and the output.
-fn run_qemu(elf: &Path, extra: &[&str], log: &str, timeout: Duration) -> Result<(Option<std::process::ExitStatus>, String)> {
+/// Runs `elf` under QEMU as `board`'s machine with `extra` arguments, output into `log`;
+/// `None` on timeout. Returns the exit status and the output.
+fn run_qemu(elf: &Path, board: Board, extra: &[&str], log: &str, timeout: Duration) -> Result<(Option<std::process::ExitStatus>, String)> {
     let start = Instant::now();
     let log = qemu_dir().join("target").join(log);
+    if let Some(dir) = log.parent() {
+        std::fs::create_dir_all(dir).map_err(|e| format!("{}: {e}", dir.display()))?;
+    }
     let log_file = std::fs::File::create(&log).map_err(|e| format!("{}: {e}", log.display()))?;
-    let mut child = cmd("qemu-system-arm")
-        .args(["-cpu", "cortex-m4", "-machine", "mps2-an386", "-nographic"])
+    let mut child = child::Tied(cmd("qemu-system-arm")
+        .args(board.machine())
+        .arg("-nographic")
         .args(["-semihosting-config", "enable=on,target=native"])
         .args(extra)
         .arg("-kernel")
@@ -214,14 +292,14 @@ fn run_qemu(elf: &Path, extra: &[&str], log: &str, timeout: Duration) -> Result<
         .stdout(log_file.try_clone().map_err(|e| e.to_string())?)
         .stderr(log_file)
         .spawn()
-        .map_err(|e| format!("cannot start qemu-system-arm (run `cargo xtask install`): {e}"))?;
+        .map_err(|e| format!("cannot start qemu-system-arm (run `cargo xtask install`): {e}"))?);
+    // Any return from here kills and reaps QEMU (`Tied`); a timeout does it explicitly.
     let status = loop {
-        if let Some(s) = child.try_wait().map_err(|e| e.to_string())? {
+        if let Some(s) = child.0.try_wait().map_err(|e| e.to_string())? {
             break Some(s);
         }
         if start.elapsed() > timeout {
-            let _ = child.kill();
-            let _ = child.wait();
+            drop(child);
             break None;
         }
         std::thread::sleep(Duration::from_millis(20));
@@ -229,11 +307,17 @@ fn run_qemu(elf: &Path, extra: &[&str], log: &str, timeout: Duration) -> Result<
     Ok((status, std::fs::read_to_string(&log).unwrap_or_default()))
 }
 
-fn qemu_test() -> Result<TargetResult> {
+/// Builds the on-target test suite for `board` and runs it in QEMU's machine for it; the
+/// verdict is QEMU's exit code (semihosting exit) and the `test ... ok|FAILED` lines.
+fn qemu_test(board: Board) -> Result<TargetResult> {
     write_target_data()?;
-    let elf = build_firmware(false)?;
+    let elf = build_firmware(board)?;
     let start = Instant::now();
-    let (status, text) = run_qemu(&elf, &[], "qemu-test.log", QEMU_TIMEOUT)?;
+    let log = match board {
+        Board::Mps2An386 => "qemu-test.log".to_string(),
+        other => format!("qemu-test-{}.log", other.name()),
+    };
+    let (status, text) = run_qemu(&elf, board, &[], &log, QEMU_TIMEOUT)?;
     print!("{text}");
     let mut r = TargetResult::default();
     for line in text.lines() {
@@ -247,10 +331,10 @@ fn qemu_test() -> Result<TargetResult> {
     match status {
         None => Err(format!("QEMU timed out after {}s ({} passed, {} failed so far)", QEMU_TIMEOUT.as_secs(), r.passed, r.failed)),
         Some(s) if s.success() && r.failed == 0 && r.passed > 0 => {
-            println!("qemu-test: PASS ({} passed, 0 failed, {secs:.1} s in QEMU)", r.passed);
+            println!("qemu-test: PASS on {} ({} passed, 0 failed, {secs:.1} s in QEMU)", board.name(), r.passed);
             Ok(r)
         }
-        Some(s) => Err(format!("qemu-test: FAIL (exit {s}, {} passed, {} failed)", r.passed, r.failed)),
+        Some(s) => Err(format!("qemu-test: FAIL on {} (exit {s}, {} passed, {} failed)", board.name(), r.passed, r.failed)),
     }
 }
 
@@ -258,10 +342,10 @@ fn qemu_test() -> Result<TargetResult> {
 /// and the binary's flash/RAM.
 fn device_table_run() -> Result<(device_table::Table, elf::Sizes)> {
     let reference = write_target_data()?;
-    let firmware = build_firmware(false)?;
+    let firmware = build_firmware(Board::Mps2An386)?;
     let elf_path = firmware.with_file_name("device_table");
     let start = Instant::now();
-    let (status, text) = run_qemu(&elf_path, &["-icount", "shift=7"], "device-table.log", QEMU_TIMEOUT)?;
+    let (status, text) = run_qemu(&elf_path, Board::Mps2An386, &["-icount", "shift=7"], "device-table.log", QEMU_TIMEOUT)?;
     match status {
         None => return Err(format!("device-table: QEMU timed out after {}s", QEMU_TIMEOUT.as_secs())),
         Some(s) if !s.success() => return Err(format!("device-table: firmware exited with {s}:\n{text}")),
@@ -335,7 +419,7 @@ fn device_table_cmd(json: bool) -> Result<()> {
     v["firmware_sizes"] = serde_json::Value::Array(firmware_sizes()?);
     let text = serde_json::to_string_pretty(&v).map_err(|e| e.to_string())?;
     let path = qemu_dir().join("target").join("device-table.json");
-    std::fs::write(&path, &text).map_err(|e| format!("{}: {e}", path.display()))?;
+    files::write_atomic(&path, text.as_bytes())?;
     if json {
         println!("{text}");
     } else {
@@ -374,7 +458,7 @@ fn reproduce(rest: &[String]) -> Result<()> {
     // Where the xtask's own time went, for the report's timings.
     let path = qemu_dir().join("target").join("xtask-steps.json");
     let text = serde_json::to_string_pretty(&serde_json::json!({ "steps": steps })).map_err(|e| e.to_string())?;
-    std::fs::write(&path, text).map_err(|e| format!("{}: {e}", path.display()))?;
+    files::write_atomic(&path, text.as_bytes())?;
     let mut c = cmd("cargo");
     c.current_dir(root()).args(["run", "--release", "-p", "ssmctl", "--bin", "ssmctl", "--", "reproduce"]).args(rest);
     c.env("SSMCTL_XTASK_STEPS", &path);
@@ -408,12 +492,12 @@ fn pil_args(rest: &[String]) -> Result<(String, u64)> {
     Ok((scene, periods))
 }
 
-/// The PIL firmware, built (and the target data it includes written) if needed.
-fn pil_firmware() -> Result<PathBuf> {
+/// The PIL firmware for `board`, built (and the target data it includes written) if needed.
+fn pil_firmware(board: Board) -> Result<PathBuf> {
     if !qemu_dir().join("target-data/model.bin").exists() {
         write_target_data()?;
     }
-    Ok(build_firmware(false)?.with_file_name("pil"))
+    Ok(build_firmware(board)?.with_file_name("pil"))
 }
 
 /// The host's `ssmctl` in the test profile (which optimizes the host crates and shares the
@@ -431,14 +515,16 @@ fn ssmctl_bin() -> Result<PathBuf> {
 struct PilTools {
     elf: PathBuf,
     host: PathBuf,
+    /// The board the firmware is built for (its QEMU machine runs it).
+    board: Board,
     fingerprint: String,
 }
 
-fn pil_tools() -> Result<PilTools> {
-    let (elf, host) = (pil_firmware()?, ssmctl_bin()?);
+fn pil_tools(board: Board) -> Result<PilTools> {
+    let (elf, host) = (pil_firmware(board)?, ssmctl_bin()?);
     let read = |p: &Path| std::fs::read(p).map_err(|e| format!("{}: {e}", p.display()));
-    let fingerprint = cache::key(&[&read(&elf)?, &read(&host)?]);
-    Ok(PilTools { elf, host, fingerprint })
+    let fingerprint = cache::key(&[&read(&elf)?, &read(&host)?, board.name().as_bytes()]);
+    Ok(PilTools { elf, host, board, fingerprint })
 }
 
 /// What one `ssmctl pil` run is: scene, overrides, model (fitted by this run when `fit`),
@@ -486,6 +572,7 @@ fn ssmctl_pil(tools: &PilTools, r: &PilRun<'_>, fresh: bool) -> Result<(serde_js
         c.arg("--fit-model");
     }
     c.args(["--periods", &periods_arg]).arg("--out").arg(&r.out).arg("--elf").arg(elf);
+    c.args(["--machine", tools.board.pil_machine()]);
     run(&mut c)?;
     let v = summary(&r.out)?;
     cache::store(&r.out, &key)?;
@@ -494,7 +581,7 @@ fn ssmctl_pil(tools: &PilTools, r: &PilRun<'_>, fresh: bool) -> Result<(serde_js
 
 /// Builds the PIL firmware, fits a model and runs `ssmctl pil`; checks the summary.
 fn pil(scene: &str, periods: u64, fresh: bool) -> Result<serde_json::Value> {
-    let tools = pil_tools()?;
+    let tools = pil_tools(Board::Mps2An386)?;
     let out = qemu_dir().join("target").join("pil");
     let run = PilRun { scene, set: Vec::new(), model: out.join("model.bin"), fit: true, periods, out: out.clone() };
     let (mut v, cached) = ssmctl_pil(&tools, &run, fresh)?;
@@ -504,6 +591,22 @@ fn pil(scene: &str, periods: u64, fresh: bool) -> Result<serde_json::Value> {
         out.display(),
         if cached { "; reused: same firmware, host, scene and periods as the stored run" } else { "" }
     );
+    Ok(v)
+}
+
+/// Periods of the STM32 image's PIL run inside `cargo xtask test` (over USART1).
+const PIL_STM32_PERIODS: u64 = 500;
+
+/// The STM32F407 image's PIL binary in QEMU's netduinoplus2 (USART1 instead of the CMSDK
+/// UART), with the model the mps2-an386 run `pil` fitted (`qemu/target/pil/model.bin`);
+/// the same checks as `pil`. Output in `qemu/target/pil-stm32f407/`.
+fn pil_stm32(scene: &str, periods: u64) -> Result<serde_json::Value> {
+    let tools = pil_tools(Board::Stm32f407)?;
+    let out = qemu_dir().join("target").join("pil-stm32f407");
+    let model = qemu_dir().join("target").join("pil").join("model.bin");
+    let run = PilRun { scene, set: Vec::new(), model, fit: false, periods, out: out.clone() };
+    let (v, _) = ssmctl_pil(&tools, &run, true)?;
+    println!("pil: PASS on netduinoplus2 (the STM32F407 image over USART1: {periods} periods of {scene}, codes and predictions identical to the host's; {})", out.display());
     Ok(v)
 }
 
@@ -583,7 +686,7 @@ fn record_theta0(r: u32) -> f64 {
 /// others run concurrently, one QEMU each (each `ssmctl pil` binds its own port). Runs whose
 /// fingerprint matches the stored output are reused (`a.fresh`: never).
 fn pil_record(a: &RecordArgs) -> Result<bool> {
-    let tools = pil_tools()?;
+    let tools = pil_tools(Board::Mps2An386)?;
     std::fs::create_dir_all(&a.out).map_err(|e| format!("{}: {e}", a.out.display()))?;
     let model = a.out.join("model.bin");
     let start = Instant::now();
@@ -621,7 +724,7 @@ fn pil_record(a: &RecordArgs) -> Result<bool> {
     let index = serde_json::json!({ "scene": a.scene, "model": "model.bin", "runs": runs, "total_wall_seconds": total });
     let path = a.out.join("runs.json");
     let text = serde_json::to_string_pretty(&index).map_err(|e| e.to_string())?;
-    std::fs::write(&path, text).map_err(|e| format!("{}: {e}", path.display()))?;
+    files::write_atomic(&path, text.as_bytes())?;
     println!("pil-record: {} runs x {} periods in {total:.1} s; {}", a.runs, a.periods, path.display());
     Ok(runs.iter().all(|r| r["cached"] == serde_json::Value::Bool(true)))
 }
@@ -657,15 +760,16 @@ fn firmware_sizes() -> Result<Vec<serde_json::Value>> {
     if !qemu_dir().join("target-data/model.bin").exists() {
         write_target_data()?;
     }
-    let qemu = build_firmware(false)?;
-    let stm32 = build_firmware(true)?;
+    let qemu = build_firmware(Board::Mps2An386)?;
+    let stm32 = build_firmware(Board::Stm32f407)?;
     let mut out = Vec::new();
-    for (name, elf, flash_cap, ram_cap) in [
-        ("mps2-an386: on-target tests", qemu.clone(), 4u64 << 20, 4u64 << 20),
-        ("mps2-an386: device table", qemu.with_file_name("device_table"), 4 << 20, 4 << 20),
-        ("mps2-an386: processor in the loop", qemu.with_file_name("pil"), 4 << 20, 4 << 20),
-        ("stm32f407: on-target tests", stm32, 1 << 20, 128 << 10),
+    for (name, elf, board) in [
+        ("mps2-an386: on-target tests", qemu.clone(), Board::Mps2An386),
+        ("mps2-an386: device table", qemu.with_file_name("device_table"), Board::Mps2An386),
+        ("mps2-an386: processor in the loop", qemu.with_file_name("pil"), Board::Mps2An386),
+        ("stm32f407: on-target tests", stm32, Board::Stm32f407),
     ] {
+        let (flash_cap, ram_cap) = board.capacity();
         let bytes = std::fs::read(&elf).map_err(|e| format!("{}: {e}", elf.display()))?;
         let s = elf::sizes(&bytes, RAM_ORIGIN)?;
         out.push(serde_json::json!({"config": name, "flash_bytes": s.flash, "ram_bytes": s.ram,
@@ -719,7 +823,12 @@ fn test_all() -> Result<()> {
     let host_result = run(&mut host);
     let lints = clippy_lints();
     let python_result = python::python_test();
-    let target = qemu_test();
+    let target = qemu_test(Board::Mps2An386);
+    // The STM32F407 image (the one flashed to a board) runs the same suite in QEMU's
+    // netduinoplus2 (STM32F405); its build and run time is printed for CI's budget.
+    let t = Instant::now();
+    let stm32 = qemu_test(Board::Stm32f407);
+    println!("qemu-test: stm32f407 build + netduinoplus2 run: {:.1} s", t.elapsed().as_secs_f64());
     // The cost table (about 1 s in QEMU): it must run, calibrate (1,000 nops = 1,000
     // instructions) and its f32 predictions must agree with the host's f64 evaluation.
     let table = device_table_run().and_then(|(t, s)| {
@@ -727,11 +836,19 @@ fn test_all() -> Result<()> {
         device_table::check(&t)
     });
     let pil_run = pil(PIL_SCENE, PIL_TEST_PERIODS, true);
-    let stm32 = build_firmware(true).map(|_| println!("stm32f407 configuration builds and links"));
-    let (mut passed, mut failed) = match &target {
-        Ok(r) => (r.passed, r.failed),
-        Err(_) => (0, 1),
+    let t = Instant::now();
+    let pil_stm32_run = match &pil_run {
+        Ok(_) => pil_stm32(PIL_SCENE, PIL_STM32_PERIODS),
+        Err(_) => Err("pil (stm32f407): not run, it needs the model of the mps2-an386 PIL run".to_string()),
     };
+    println!("pil: stm32f407 PIL run on netduinoplus2: {:.1} s", t.elapsed().as_secs_f64());
+    let (mut passed, mut failed) = (0, 0);
+    for r in [&target, &stm32] {
+        match r {
+            Ok(r) => (passed, failed) = (passed + r.passed, failed + r.failed),
+            Err(_) => failed += 1,
+        }
+    }
     match &table {
         Ok(()) => passed += 1,
         Err(e) => {
@@ -739,11 +856,13 @@ fn test_all() -> Result<()> {
             failed += 1;
         }
     }
-    match &pil_run {
-        Ok(_) => passed += 1,
-        Err(e) => {
-            eprintln!("pil: {e}");
-            failed += 1;
+    for (name, r) in [("pil", &pil_run), ("pil (stm32f407 on netduinoplus2)", &pil_stm32_run)] {
+        match r {
+            Ok(_) => passed += 1,
+            Err(e) => {
+                eprintln!("{name}: {e}");
+                failed += 1;
+            }
         }
     }
     println!("on-target: {passed} passed, {failed} failed");
@@ -754,6 +873,7 @@ fn test_all() -> Result<()> {
     table?;
     pil_run?;
     stm32?;
+    pil_stm32_run?;
     Ok(())
 }
 
