@@ -3,7 +3,45 @@
 //! test. Run: `cargo run --profile test -p furuta --example equation_ssm -- 7 31.0 31.5`
 //! (`--equation-only` first skips training the data-driven model).
 
-use furuta::equation_ssm::furuta_equation_ssm;
+use furuta::equation_ssm::{furuta_equation_ssm, polynomial_map, scene_period_map};
+use nalgebra::Complex;
+use sim::closed_loop::{AnyPlant, build_plant};
+use sim::ode::Method;
+use sim::scene::SceneBuilder;
+use sim::taylor::FlowOptions;
+use ssm::map_ssm::{MapSsmOptions, map_ssm};
+
+/// Invariance error against the exact (integrated, untruncated) period map, on the sphere
+/// of radius `r` (rad of theta), for the truncations of the order-`order` SSM.
+fn exact_invariance(dt: f64, order: u32, r: f64) -> Result<Vec<(u32, f64)>, Box<dyn std::error::Error>> {
+    let scene = SceneBuilder::load("furuta-dt30.5")?.dt_ms(dt).build()?;
+    let AnyPlant::Furuta(plant) = build_plant(&scene)? else { return Err("not a Furuta scene".into()) };
+    let pm = scene_period_map(&scene, order, &FlowOptions::default())?;
+    let map = polynomial_map(&pm);
+    let mut observable = vec![0.0; pm.dim()];
+    observable[pm.primary] = 1.0;
+    let s = map_ssm(&map, &MapSsmOptions { order, pairs: 2, resonance_tol: 1e-3, observable, dt: pm.dt })?;
+    let method = Method::Rodas { rtol: 1e-13, atol: 1e-15 };
+    let mut out = Vec::new();
+    for k in (3..=order).step_by(2) {
+        let mut worst = 0.0f64;
+        for a in 0..4 {
+            let alpha = (a as f64 + 0.5) / 4.0 * std::f64::consts::FRAC_PI_2;
+            for p in 0..16 {
+                let (t1, t2) = ((p % 4) as f64 * 1.57, (p / 4) as f64 * 1.57 + 0.3);
+                let z1 = Complex::from_polar(r * alpha.cos(), t1);
+                let z2 = Complex::from_polar(r * alpha.sin(), t2);
+                let z = [z1, z1.conj(), z2, z2.conj()];
+                let w: Vec<f64> = s.manifold_at(&z, k).iter().map(|c| c.re).collect();
+                let fw = pm.exact(&plant, &w, method)?;
+                let wr: Vec<f64> = s.manifold_at(&s.reduced_at(&z, k), k).iter().map(|c| c.re).collect();
+                worst = fw.iter().zip(&wr).fold(worst, |m, (x, y)| m.max((x - y).abs()));
+            }
+        }
+        out.push((k, worst));
+    }
+    Ok(out)
+}
 use furuta::parametric::{FurutaOptions, furuta_parametric};
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
@@ -30,8 +68,16 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             e.min_complement_divisor,
             e.extra_resonances.len()
         );
+        for x in &e.extra_resonances {
+            println!("kept near resonance: equation {} monomial {:?} coefficient {:?} divisor {:.3e}", x.equation, x.exponents, x.coefficient, x.divisor);
+        }
         for inv in &e.invariance {
             println!("invariance order {}: abs {:.3e}, rel {:.3e} (radius {})", inv.order, inv.abs, inv.rel, inv.radius);
+        }
+        for r in [0.02, 0.05] {
+            for (k, err) in exact_invariance(dt, order, r)? {
+                println!("invariance against the exact (integrated) map, order {k}, radius {r}: {err:.3e}");
+            }
         }
         for s in &e.order_stats {
             println!("order {}: max |W_m| {:.3e}, max |R_m| {:.3e}", s.order, s.w_max, s.r_max);

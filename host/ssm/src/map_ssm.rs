@@ -302,6 +302,17 @@ pub fn map_ssm(map: &PolynomialMap, opts: &MapSsmOptions) -> Result<MapSsm, MapS
         return Err(MapSsmError::BadOption { what: "dt", why: format!("must be finite and > 0, got {}", opts.dt) });
     }
     let k_max = opts.order;
+    let terms = poly::count(2 * opts.pairs, 0, k_max).unwrap_or(usize::MAX);
+    if terms > crate::limits::MAX_TERMS {
+        return Err(MapSsmError::BadOption {
+            what: "pairs",
+            why: format!("{} pairs at order {k_max} need {terms} monomials, above ssm::limits::MAX_TERMS = {}", opts.pairs, crate::limits::MAX_TERMS),
+        });
+    }
+    let g_terms = map.exps.len().saturating_mul(map.dim);
+    if d > crate::limits::MAX_DIM * 8 || g_terms > crate::limits::MAX_MATRIX_ENTRIES {
+        return Err(MapSsmError::BadMap(format!("dimension {d} with {} monomials exceeds the size limits (ssm::limits)", map.exps.len())));
+    }
     let a = DMatrix::from_row_slice(d, d, &map.linear);
     let am = Mat::from_fn(d, d, |i, j| a[(i, j)]);
     let ev = am.eigenvalues().map_err(|_| MapSsmError::Eigen("eigenvalues did not converge".into()))?;
