@@ -8,6 +8,7 @@
 pub mod bifurcations;
 pub mod chaos_tables;
 pub mod device_model;
+pub mod equation_ssm;
 pub mod error;
 pub mod full_system;
 pub mod lyapunov;

@@ -9,6 +9,7 @@ use crate::ode::OdeError;
 use crate::plant::PlantError;
 use crate::scene::SceneError;
 use crate::stability::StabilityError;
+use crate::taylor::TaylorError;
 
 /// Anything the simulator layer refuses or fails at.
 #[derive(Debug, thiserror::Error)]
@@ -27,4 +28,6 @@ pub enum Error {
     Chart(#[from] ChartError),
     #[error(transparent)]
     Stability(#[from] StabilityError),
+    #[error(transparent)]
+    Taylor(#[from] TaylorError),
 }

@@ -15,6 +15,7 @@ pub mod ode;
 pub mod plant;
 pub mod scene;
 pub mod stability;
+pub mod taylor;
 pub mod units;
 
 pub use error::Error;

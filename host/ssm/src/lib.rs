@@ -9,7 +9,8 @@
 //! DTW-aligned NMTE and FFT amplitude spectra; [`spectrum`] sliding two-tone amplitudes and
 //! interpolated spectral peaks. Linear least squares go through [`ridge`]. On top of a fit:
 //! [`normal_form`] (polar normal forms of flows and maps, with their change of
-//! coordinates), [`backbone`] (instantaneous damping and frequency against the amplitude of
+//! coordinates), [`map_ssm`] (the SSM of a given polynomial map by the parametrization
+//! method, reduced map in extended normal form: the equation-driven reference), [`backbone`] (instantaneous damping and frequency against the amplitude of
 //! an observable), [`frc`] (forced response curves from the normal form, calibrated at one
 //! measured point), [`portrait`] (analysis of the
 //! two-mode amplitude equations: fixed points, saddle manifolds, heteroclinic and torus-Hopf
@@ -33,6 +34,7 @@ pub mod frc;
 pub mod interp;
 pub mod limits;
 pub mod manifold;
+pub mod map_ssm;
 pub mod mat;
 pub mod metrics;
 pub mod normal_form;
@@ -74,4 +76,5 @@ pub enum Error {
     Backbone(#[from] crate::backbone::BackboneError),
     #[error(transparent)]
     Frc(#[from] crate::frc::FrcError),
+    MapSsm(#[from] crate::map_ssm::MapSsmError),
 }

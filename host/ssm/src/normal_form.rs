@@ -614,7 +614,7 @@ fn from_dense(v: &[f64], pexps: &[Vec<u32>]) -> SPoly {
 
 /// Converts a polar map normal form `z_i -> z_i M_i(P)` into the polar flow whose time-`dt`
 /// map it is. Returns (`amp`, `phase`).
-fn map_to_flow(
+pub(crate) fn map_to_flow(
     beta: &[Vec<C>],
     mu: &[C],
     pexps: &[Vec<u32>],

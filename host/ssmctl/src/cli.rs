@@ -106,6 +106,19 @@ pub enum Cmd {
     /// Fit an SSM reduced model to time series of one or several observables (CSV files of
     /// t and observables, or SSMLearn .mat files with a cell array xData of {t, X} rows).
     Fit(Box<FitArgs>),
+    /// The equation-driven SSM of the scene's sampled-data loop (no quantization or
+    /// saturation): Taylor expansion of the one-period map, 4D SSM of the two dominant
+    /// multiplier pairs, polar amplitude equations in the data-driven model's conventions,
+    /// invariance error by order.
+    SsmEquations {
+        #[command(flatten)]
+        scene: SceneArgs,
+        /// Order of the expansion, the manifold and the reduced map (3..=9).
+        #[arg(long, default_value_t = 7)]
+        order: u32,
+        #[arg(long)]
+        json: bool,
+    },
     /// Backbone curves (instantaneous damping ratio and frequency against amplitude) of a
     /// saved model with polynomial dynamics; writes DIR/backbone.json and DIR/backbone.png.
     Backbone {
@@ -690,6 +703,15 @@ pub fn run(cli: Cli) -> Result<(), Box<dyn std::error::Error>> {
                         r.stopped.as_deref().unwrap_or("-")
                     );
                 }
+            }
+        }
+        Cmd::SsmEquations { scene, order, json } => {
+            let s = scene.load()?;
+            let e = crate::equations_command::compute(&s, order)?;
+            if json {
+                outln!("{}", serde_json::to_string_pretty(&crate::equations_command::to_json(&e))?);
+            } else {
+                outln!("{}", crate::equations_command::to_text(&e));
             }
         }
         Cmd::Bench { what: BenchCmd::Simulate { json, periods, quick } } => {

@@ -7,6 +7,7 @@ pub mod bench;
 pub mod child;
 pub mod cli;
 pub mod draw;
+pub mod equations_command;
 pub mod fit_command;
 pub mod output;
 pub mod pil;

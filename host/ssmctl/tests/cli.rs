@@ -285,3 +285,24 @@ fn fit_mat_with_observables_windows_and_backbone() {
     assert!(!ok && err.contains("v7.3 (HDF5)") && err.contains("'-v7'"), "{err}");
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+#[test]
+fn ssm_equations_json_has_the_table_rates_and_invariance() {
+    let (ok, out, err) = ssmctl(&["ssm-equations", "--scene", "furuta-dt31.41", "--order", "5", "--json"]);
+    assert!(ok, "{err}");
+    let v: Value = serde_json::from_str(&out).unwrap();
+    let rows = v["table"].as_array().unwrap();
+    // Two modes, monomials rho_i P^k with total degree of P up to 2: 6 rows each.
+    assert_eq!(rows.len(), 12);
+    let rates = v["exact_rates"].as_array().unwrap();
+    for (mode, lin) in [(1u64, "rho_1"), (2, "rho_2")] {
+        let row = rows.iter().find(|r| r["mode"].as_u64() == Some(mode) && r["monomial"] == lin).unwrap();
+        let (got, want) = (row["value"].as_f64().unwrap(), rates[mode as usize - 1].as_f64().unwrap());
+        assert!((got - want).abs() < 1e-9, "mode {mode}: {got} vs {want}");
+    }
+    let inv = v["invariance"].as_array().unwrap();
+    assert_eq!(inv.len(), 4, "orders 3, 5 at two radii");
+    assert!(inv[1]["abs"].as_f64().unwrap() < inv[0]["abs"].as_f64().unwrap());
+    let (ok, _, err) = ssmctl(&["ssm-equations", "--scene", "furuta-dt31.41", "--order", "12"]);
+    assert!(!ok && err.contains("order"), "{err}");
+}

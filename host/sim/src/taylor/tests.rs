@@ -1,0 +1,193 @@
+use super::*;
+use crate::linear::LinearPlant;
+use crate::plant::{Cart, Furuta};
+
+fn paper_cfg(dt: f64) -> ControllerConfig {
+    ControllerConfig { kp: 15.5, kd: 5.45, kphi_d: 1.5, ki: 0.0, dt, delay: 1, u_max: None, quant: None }
+}
+
+/// Largest relative difference per degree of two coefficient lists (relative to the first's
+/// largest coefficient of that degree).
+fn degree_diff(t: &TpsTable, a: &[f64], b: &[f64]) -> Vec<f64> {
+    (0..=t.order())
+        .map(|d| {
+            let r = t.degree_range(d);
+            let scale = a[r.clone()].iter().fold(0.0f64, |m, v| m.max(v.abs())).max(1e-300);
+            a[r.clone()].iter().zip(&b[r]).fold(0.0f64, |m, (x, y)| m.max((x - y).abs())) / scale
+        })
+        .collect()
+}
+
+/// Order 1 equals the exact ZOH discretization `Phi`, `Gamma` (matrix exponential), and the
+/// period map's linear part equals the deflated closed-loop map of `sim::linear`.
+#[test]
+fn order_one_is_the_exact_zoh_map() {
+    let p = Furuta::paper();
+    let (a, b) = linearize(&p);
+    for dt in [0.031, 0.0315] {
+        let zoh = LinearPlant::new(&a, &b, 0, 2).unwrap().discretize(dt).unwrap();
+        let f = flow_expansion(&p, dt, 3, &FlowOptions::default()).unwrap();
+        let lin = f.table.degree_range(1);
+        let mut worst = 0.0f64;
+        for i in 0..4 {
+            let c = &f.outputs[i][lin.clone()];
+            let scale = zoh.phi.row(i).iter().fold(zoh.gamma[i].abs(), |m, v| m.max(v.abs()));
+            for (k, &j) in f.state_of_var.iter().enumerate() {
+                worst = worst.max((c[k] - zoh.phi[(i, j)]).abs() / scale);
+            }
+            worst = worst.max((c[3] - zoh.gamma[i]).abs() / scale);
+        }
+        assert!(worst < 1e-10, "dt={dt}: order-1 vs ZOH relative error {worst:e}");
+        let pm = period_map(&p, &paper_cfg(dt), 3, &FlowOptions::default()).unwrap();
+        let lp = LinearPlant::new(&a, &b, 0, 2).unwrap();
+        let defl = lp.closed_loop(&paper_cfg(dt)).unwrap().deflated().unwrap();
+        let scale = defl.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+        let diff = (&pm.linear - &defl).abs().max() / scale;
+        assert!(diff < 1e-10, "dt={dt}: period map linear part vs deflated map {diff:e}");
+        eprintln!("dt={dt}: order-1 vs ZOH {worst:.2e}, M vs deflated {diff:.2e}");
+    }
+}
+
+/// Halving every step changes the coefficients by the RK4 truncation error: small, and
+/// ~16 times smaller at the next halving (the stiff mode does not spoil the higher orders).
+#[test]
+fn step_halving_converges_at_fourth_order() {
+    let p = Furuta::paper();
+    let order = 5;
+    let runs: Vec<FlowExpansion> = [1, 2, 4]
+        .iter()
+        .map(|&refine| {
+            let t0 = std::time::Instant::now();
+            let f = flow_expansion(&p, 0.031, order, &FlowOptions { refine }).unwrap();
+            eprintln!("order {order} refine {refine}: {} steps, {:.2} s", f.steps, t0.elapsed().as_secs_f64());
+            f
+        })
+        .collect();
+    let t = runs[0].table;
+    let mut bad = Vec::new();
+    for i in 0..4 {
+        let d12 = degree_diff(t, &runs[2].outputs[i], &runs[0].outputs[i]);
+        let d24 = degree_diff(t, &runs[2].outputs[i], &runs[1].outputs[i]);
+        for d in (1..=order as usize).step_by(2) {
+            eprintln!("x{i} degree {d}: refine 1 vs 4 {:.2e}, 2 vs 4 {:.2e}", d12[d], d24[d]);
+            // Converged (the last refinement gains a factor 8, RK4: 16 in the limit, or is
+            // at the rounding floor) and small. Measured at order 7 (refine 1/2 vs 4): degree 7
+            // of w_theta 2.9e-5 / 1.4e-6, degree 5 5.4e-8 / 2.7e-9, degree 3 3.4e-11 / 1.7e-12.
+            if !(d24[d] < 1e-7 && (d24[d] < d12[d] / 8.0 || d24[d] < 1e-8)) {
+                bad.push((i, d, d12[d], d24[d]));
+            }
+        }
+    }
+    assert!(bad.is_empty(), "{bad:?}");
+}
+
+/// The truncated expansion against the exact f64 flow (the simulator's RODAS4 at tight
+/// tolerance) at two distances `delta` along a fixed direction: the remainder scales like
+/// `delta^(K+2)` for odd K = 1, 3, 5 (the loop is odd-symmetric: even degrees vanish, which
+/// is checked too), i.e. every order up to K is right.
+#[test]
+fn remainder_scales_with_the_order() {
+    let p = Furuta::paper();
+    let cfg = paper_cfg(0.031);
+    let pm = period_map(&p, &cfg, 6, &FlowOptions::default()).unwrap();
+    let dir = [0.8, -2.0, 3.0, 0.5, 0.7, -0.02, 0.01];
+    let method = Method::Rodas { rtol: 1e-13, atol: 1e-15 };
+    let truncated = |k: u32, s: &[f64]| -> Vec<f64> {
+        let keep: Vec<bool> = pm.exps.iter().map(|e| e.iter().sum::<u32>() <= k).collect();
+        let mut q = pm.clone();
+        for row in &mut q.coef {
+            for (c, &kp) in row.iter_mut().zip(&keep) {
+                if !kp {
+                    *c = 0.0;
+                }
+            }
+        }
+        q.eval(s).unwrap()
+    };
+    for e in pm.exps.iter().zip(&pm.coef[0]).filter(|(e, _)| e.iter().sum::<u32>() % 2 == 0) {
+        assert_eq!(*e.1, 0.0, "even-degree coefficient of {:?}", e.0);
+    }
+    for k in [1u32, 3, 5] {
+        let mut errs = Vec::new();
+        for delta in [0.04, 0.02] {
+            let s: Vec<f64> = dir.iter().map(|v| v * delta).collect();
+            let exact = pm.exact(&p, &s, method).unwrap();
+            let approx = truncated(k, &s);
+            errs.push(exact.iter().zip(&approx).fold(0.0f64, |m, (a, b)| m.max((a - b).abs())));
+        }
+        let ratio = errs[0] / errs[1];
+        let want = 2f64.powi(k as i32 + 2);
+        eprintln!("order {k}: remainder {:.3e} -> {:.3e}, ratio {ratio:.2} (2^(K+2) = {want})", errs[0], errs[1]);
+        assert!(ratio > 0.7 * want && ratio < 1.5 * want, "order {k}: ratio {ratio} vs {want}");
+    }
+}
+
+/// Central finite differences of the exact f64 map (second and third directional
+/// derivatives along `dir`) at two step sizes converge to the jet's values.
+#[test]
+fn directional_derivatives_match_finite_differences() {
+    let p = Furuta::paper();
+    let cfg = paper_cfg(0.031);
+    let pm = period_map(&p, &cfg, 4, &FlowOptions::default()).unwrap();
+    let dir = [0.8, -2.0, 3.0, 0.5, 0.7, -0.02, 0.01];
+    let method = Method::Rodas { rtol: 1e-13, atol: 1e-15 };
+    let at = |h: f64| pm.exact(&p, &dir.iter().map(|v| v * h).collect::<Vec<_>>(), method).unwrap();
+    // Jet: F(h dir) = sum_k h^k c_k; second derivative 2 c_2, third 6 c_3.
+    let deg_coef = |k: u32| -> Vec<f64> {
+        let v: Vec<f64> = (0..pm.proj.nrows()).map(|i| (0..7).map(|j| pm.proj[(i, j)] * dir[j]).sum()).collect();
+        (0..7)
+            .map(|r| {
+                pm.exps
+                    .iter()
+                    .zip(&pm.coef[r])
+                    .filter(|(e, _)| e.iter().sum::<u32>() == k)
+                    .map(|(e, c)| c * e.iter().zip(&v).map(|(&q, x)| x.powi(q as i32)).product::<f64>())
+                    .sum()
+            })
+            .collect()
+    };
+    let (c2, c3) = (deg_coef(2), deg_coef(3));
+    for (h, tol2, tol3) in [(0.02, 1e-9, 5e-3), (0.01, 1e-9, 1.2e-3)] {
+        let (p1, m1, p2, m2, z) = (at(h), at(-h), at(2.0 * h), at(-2.0 * h), at(0.0));
+        // Even degrees vanish (odd symmetry): the second difference is measured against the
+        // size of the first-order term.
+        let s2 = (0..7).map(|r| (p1[r] - m1[r]).abs() / (2.0 * h * h)).fold(0.0f64, f64::max);
+        let s3 = c3.iter().fold(0.0f64, |m, v| m.max(6.0 * v.abs()));
+        let mut e2 = 0.0f64;
+        let mut e3 = 0.0f64;
+        for r in 0..7 {
+            let fd2 = (p1[r] - 2.0 * z[r] + m1[r]) / (h * h);
+            let fd3 = (p2[r] - 2.0 * p1[r] + 2.0 * m1[r] - m2[r]) / (2.0 * h * h * h);
+            e2 = e2.max((fd2 - 2.0 * c2[r]).abs() / s2);
+            e3 = e3.max((fd3 - 6.0 * c3[r]).abs() / s3);
+        }
+        eprintln!("h={h}: FD second derivative rel err {e2:.2e}, third {e3:.2e}");
+        assert!(e2 < tol2 && e3 < tol3, "h={h}: {e2:e} {e3:e}");
+    }
+}
+
+/// Orders up to 9 stay finite; coefficient size per degree is reported (conditioning).
+#[test]
+fn order_nine_is_finite() {
+    let p = Furuta::paper();
+    let f = flow_expansion(&p, 0.0315, 9, &FlowOptions { refine: 1 }).unwrap();
+    for (i, c) in f.outputs.iter().enumerate() {
+        let norms: Vec<f64> = (1..=9).map(|d| f.table.degree_range(d).map(|k| c[k].abs()).fold(0.0, f64::max)).collect();
+        let text: Vec<String> = norms.iter().map(|v| format!("{v:.2e}")).collect();
+        eprintln!("x{i}: max |coef| by degree 1..9 {}", text.join(" "));
+        assert!(c.iter().all(|v| v.is_finite()));
+    }
+}
+
+#[test]
+fn bad_inputs_are_named() {
+    let p = Furuta::paper();
+    assert!(matches!(flow_expansion(&p, 0.0, 3, &FlowOptions::default()), Err(TaylorError::BadDt(_))));
+    assert!(matches!(flow_expansion(&p, 0.03, 3, &FlowOptions { refine: 0 }), Err(TaylorError::Refine)));
+    assert!(matches!(flow_expansion(&p, 0.03, 10, &FlowOptions::default()), Err(TaylorError::Order { order: 10, nvar: 4 })));
+    let cfg = ControllerConfig { ki: 1.0, ..paper_cfg(0.03) };
+    assert!(matches!(period_map(&p, &cfg, 3, &FlowOptions::default()), Err(TaylorError::Integral(_))));
+    // The cart's position is cyclic too: its expansion builds.
+    let c = Cart::reference();
+    assert!(flow_expansion(&c, 0.02, 3, &FlowOptions::default()).is_ok());
+}

@@ -1,0 +1,477 @@
+//! Truncated multivariate Taylor series (jets, "TPS"): polynomials in `nvar` variables
+//! truncated at total degree `order`, with the arithmetic of [`Scalar`] so a plant's
+//! right-hand side (and an integrator written over it) runs on them unchanged.
+//!
+//! Monomials are indexed in graded order (by total degree, then lexicographically with the
+//! first variable's exponent largest), the order [`TpsTable::exponents`] lists. Products are
+//! truncated: a term of degree above `order` is never formed. A [`TpsTable`] holds the
+//! indexing and the multiplication table; tables are built once per `(nvar, order)` and
+//! kept for the life of the process ([`TpsTable::get`]), so a [`Tps`] is `Copy` (a
+//! fixed-capacity coefficient array and a `&'static` table).
+
+use std::collections::HashMap;
+use std::sync::{Mutex, OnceLock};
+
+use core::ops::{Add, Div, Mul, Neg, Sub};
+
+use crate::plant::Scalar;
+
+/// Capacity of a [`Tps`]: the number of monomials of degree <= 9 in 4 variables
+/// (`C(13, 4)`), enough for 3 plant states plus the input up to order 9.
+pub const TPS_CAPACITY: usize = 715;
+
+/// Largest order a table is built for.
+pub const TPS_MAX_ORDER: u32 = 12;
+
+/// Monomial indexing and the truncated multiplication table of one `(nvar, order)`.
+#[derive(Debug)]
+pub struct TpsTable {
+    nvar: usize,
+    order: u32,
+    exps: Vec<Vec<u32>>,
+    /// `deg_start[d]` = index of the first monomial of degree `d` (length `order + 2`).
+    deg_start: Vec<usize>,
+    /// `prod[i][j]` = index of `exps[i] + exps[j]`, for every `j` with
+    /// `deg(i) + deg(j) <= order` (a prefix of the graded order).
+    prod: Vec<Vec<u16>>,
+}
+
+/// Number of monomials of degree `<= order` in `nvar` variables, `C(nvar + order, nvar)`;
+/// `None` on overflow.
+pub fn monomial_count(nvar: usize, order: u32) -> Option<usize> {
+    let mut c: u128 = 1;
+    for i in 0..nvar as u128 {
+        c = c.checked_mul(order as u128 + i + 1)? / (i + 1);
+    }
+    usize::try_from(c).ok()
+}
+
+fn push_degree(out: &mut Vec<Vec<u32>>, cur: &mut [u32], pos: usize, left: u32) {
+    if pos + 1 == cur.len() {
+        cur[pos] = left;
+        out.push(cur.to_vec());
+        cur[pos] = 0;
+        return;
+    }
+    for k in (0..=left).rev() {
+        cur[pos] = k;
+        push_degree(out, cur, pos + 1, left - k);
+    }
+    cur[pos] = 0;
+}
+
+impl TpsTable {
+    fn build(nvar: usize, order: u32) -> Self {
+        let mut exps = Vec::new();
+        let mut deg_start = Vec::with_capacity(order as usize + 2);
+        for d in 0..=order {
+            deg_start.push(exps.len());
+            if nvar == 0 {
+                if d == 0 {
+                    exps.push(Vec::new());
+                }
+                continue;
+            }
+            let mut cur = vec![0u32; nvar];
+            push_degree(&mut exps, &mut cur, 0, d);
+        }
+        deg_start.push(exps.len());
+        let index: HashMap<&[u32], u16> = exps.iter().enumerate().map(|(i, e)| (e.as_slice(), i as u16)).collect();
+        let prod = exps
+            .iter()
+            .map(|ei| {
+                let di: u32 = ei.iter().sum();
+                let end = deg_start[(order - di) as usize + 1];
+                exps[..end]
+                    .iter()
+                    .map(|ej| {
+                        let s: Vec<u32> = ei.iter().zip(ej).map(|(a, b)| a + b).collect();
+                        index[s.as_slice()]
+                    })
+                    .collect()
+            })
+            .collect();
+        Self { nvar, order, exps, deg_start, prod }
+    }
+
+    /// The shared table of `(nvar, order)`, built on first use. `None` if it would not fit a
+    /// [`Tps`] (more than [`TPS_CAPACITY`] monomials) or `order > TPS_MAX_ORDER`.
+    pub fn get(nvar: usize, order: u32) -> Option<&'static TpsTable> {
+        if order > TPS_MAX_ORDER || monomial_count(nvar, order)? > TPS_CAPACITY {
+            return None;
+        }
+        static TABLES: OnceLock<Mutex<Vec<&'static TpsTable>>> = OnceLock::new();
+        let tables = TABLES.get_or_init(|| Mutex::new(Vec::new()));
+        let mut guard = match tables.lock() {
+            Ok(g) => g,
+            Err(poisoned) => poisoned.into_inner(),
+        };
+        if let Some(t) = guard.iter().find(|t| t.nvar == nvar && t.order == order) {
+            return Some(t);
+        }
+        // At most one table per (nvar, order) with at most TPS_CAPACITY monomials is ever
+        // built: a bounded amount of memory kept for the process's lifetime.
+        let t: &'static TpsTable = Box::leak(Box::new(Self::build(nvar, order)));
+        guard.push(t);
+        Some(t)
+    }
+
+    pub fn nvar(&self) -> usize {
+        self.nvar
+    }
+
+    pub fn order(&self) -> u32 {
+        self.order
+    }
+
+    /// Number of monomials.
+    pub fn len(&self) -> usize {
+        self.exps.len()
+    }
+
+    /// Always false (the constant monomial is always there).
+    pub fn is_empty(&self) -> bool {
+        self.exps.is_empty()
+    }
+
+    /// Exponent vectors in index order.
+    pub fn exponents(&self) -> &[Vec<u32>] {
+        &self.exps
+    }
+
+    /// Index range of the monomials of degree `d`.
+    pub fn degree_range(&self, d: u32) -> core::ops::Range<usize> {
+        let d = d.min(self.order + 1) as usize;
+        self.deg_start[d]..self.deg_start.get(d + 1).copied().unwrap_or(self.exps.len())
+    }
+
+    /// Index of an exponent vector, if it is a monomial of this table.
+    pub fn index(&self, e: &[u32]) -> Option<usize> {
+        if e.len() != self.nvar {
+            return None;
+        }
+        let d: u32 = e.iter().sum();
+        if d > self.order {
+            return None;
+        }
+        self.degree_range(d).find(|&i| self.exps[i] == e)
+    }
+}
+
+/// A truncated multivariate Taylor series. A series without a table is a constant (what
+/// [`Scalar::cst`] makes); it takes its partner's table in binary operations.
+#[derive(Clone, Copy)]
+pub struct Tps {
+    c: [f64; TPS_CAPACITY],
+    t: Option<&'static TpsTable>,
+}
+
+impl core::fmt::Debug for Tps {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        f.debug_struct("Tps").field("coefficients", &self.coefficients()).finish()
+    }
+}
+
+impl Tps {
+    /// The constant `v` over `table`.
+    pub fn constant(table: &'static TpsTable, v: f64) -> Self {
+        let mut c = [0.0; TPS_CAPACITY];
+        c[0] = v;
+        Self { c, t: Some(table) }
+    }
+
+    /// Variable `k` (0-based) with value `v` at the expansion point.
+    pub fn var(table: &'static TpsTable, k: usize, v: f64) -> Self {
+        let mut s = Self::constant(table, v);
+        let mut e = vec![0u32; table.nvar];
+        if let Some(slot) = e.get_mut(k) {
+            *slot = 1;
+            if let Some(i) = table.index(&e) {
+                s.c[i] = 1.0;
+            }
+        }
+        s
+    }
+
+    /// From coefficients in table order (missing ones are zero, extra ones ignored).
+    pub fn from_coefficients(table: &'static TpsTable, coef: &[f64]) -> Self {
+        let mut c = [0.0; TPS_CAPACITY];
+        let n = coef.len().min(table.len());
+        c[..n].copy_from_slice(&coef[..n]);
+        Self { c, t: Some(table) }
+    }
+
+    /// The table (`None` for a bare constant).
+    pub fn table(&self) -> Option<&'static TpsTable> {
+        self.t
+    }
+
+    /// Coefficients in table order (one entry for a bare constant).
+    pub fn coefficients(&self) -> &[f64] {
+        &self.c[..self.len()]
+    }
+
+    fn len(&self) -> usize {
+        self.t.map_or(1, |t| t.len())
+    }
+
+    /// Largest absolute coefficient of degree `d`.
+    pub fn degree_norm(&self, d: u32) -> f64 {
+        match self.t {
+            Some(t) => self.c[t.degree_range(d)].iter().fold(0.0, |m, v| m.max(v.abs())),
+            None => {
+                if d == 0 {
+                    self.c[0].abs()
+                } else {
+                    0.0
+                }
+            }
+        }
+    }
+
+    fn pick(a: Option<&'static TpsTable>, b: Option<&'static TpsTable>) -> Option<&'static TpsTable> {
+        debug_assert!(
+            match (a, b) {
+                (Some(x), Some(y)) => core::ptr::eq(x, y),
+                _ => true,
+            },
+            "Tps operands over different tables"
+        );
+        a.or(b)
+    }
+
+    /// The part without the constant term.
+    fn nilpotent(mut self) -> Self {
+        self.c[0] = 0.0;
+        self
+    }
+
+    /// `1 / self` by the geometric series of the nilpotent part (exact to the order).
+    fn recip(self) -> Self {
+        let b0 = self.c[0];
+        let Some(t) = self.t else {
+            return Self { c: Self::scalar_array(1.0 / b0), t: None };
+        };
+        // 1/b = (1/b0) sum_n x^n, x = -(b - b0)/b0, Horner: s = 1 + x s.
+        let x = self.nilpotent() * (-1.0 / b0);
+        let mut s = Self::constant(t, 1.0);
+        for _ in 0..t.order {
+            s = x * s + 1.0;
+        }
+        s * (1.0 / b0)
+    }
+
+    fn scalar_array(v: f64) -> [f64; TPS_CAPACITY] {
+        let mut c = [0.0; TPS_CAPACITY];
+        c[0] = v;
+        c
+    }
+}
+
+impl Add for Tps {
+    type Output = Self;
+    fn add(self, o: Self) -> Self {
+        let t = Self::pick(self.t, o.t);
+        let n = self.len().max(o.len());
+        let mut c = self.c;
+        for (a, b) in c[..n].iter_mut().zip(&o.c[..n]) {
+            *a += b;
+        }
+        Self { c, t }
+    }
+}
+
+impl Sub for Tps {
+    type Output = Self;
+    fn sub(self, o: Self) -> Self {
+        let t = Self::pick(self.t, o.t);
+        let n = self.len().max(o.len());
+        let mut c = self.c;
+        for (a, b) in c[..n].iter_mut().zip(&o.c[..n]) {
+            *a -= b;
+        }
+        Self { c, t }
+    }
+}
+
+impl Mul for Tps {
+    type Output = Self;
+    fn mul(self, o: Self) -> Self {
+        match (self.t, o.t) {
+            (None, _) => o * self.c[0],
+            (_, None) => self * o.c[0],
+            (Some(t), Some(_)) => {
+                let _ = Self::pick(self.t, o.t);
+                let mut c = [0.0; TPS_CAPACITY];
+                for (i, row) in t.prod.iter().enumerate() {
+                    let a = self.c[i];
+                    if a == 0.0 {
+                        continue;
+                    }
+                    for (b, &k) in o.c[..row.len()].iter().zip(row) {
+                        c[k as usize] += a * b;
+                    }
+                }
+                Self { c, t: Some(t) }
+            }
+        }
+    }
+}
+
+impl Div for Tps {
+    type Output = Self;
+    fn div(self, o: Self) -> Self {
+        match o.t {
+            None => self / o.c[0],
+            Some(_) => self * o.recip(),
+        }
+    }
+}
+
+impl Neg for Tps {
+    type Output = Self;
+    fn neg(self) -> Self {
+        self * -1.0
+    }
+}
+
+impl Add<f64> for Tps {
+    type Output = Self;
+    fn add(mut self, o: f64) -> Self {
+        self.c[0] += o;
+        self
+    }
+}
+
+impl Sub<f64> for Tps {
+    type Output = Self;
+    fn sub(mut self, o: f64) -> Self {
+        self.c[0] -= o;
+        self
+    }
+}
+
+impl Mul<f64> for Tps {
+    type Output = Self;
+    fn mul(mut self, o: f64) -> Self {
+        let n = self.len();
+        for a in &mut self.c[..n] {
+            *a *= o;
+        }
+        self
+    }
+}
+
+impl Div<f64> for Tps {
+    type Output = Self;
+    fn div(mut self, o: f64) -> Self {
+        let n = self.len();
+        for a in &mut self.c[..n] {
+            *a /= o;
+        }
+        self
+    }
+}
+
+impl Scalar for Tps {
+    fn cst(v: f64) -> Self {
+        Self { c: Self::scalar_array(v), t: None }
+    }
+
+    fn re(self) -> f64 {
+        self.c[0]
+    }
+
+    /// `sin(x0 + y) = sin x0 cos y + cos x0 sin y` (likewise cos), with the series of the
+    /// nilpotent part `y` summed to the order.
+    fn sin_cos(self) -> (Self, Self) {
+        let (s0, c0) = self.c[0].sin_cos();
+        let Some(t) = self.t else {
+            return (Self::cst(s0), Self::cst(c0));
+        };
+        let y = self.nilpotent();
+        let mut sin_y = Self::constant(t, 0.0);
+        let mut cos_y = Self::constant(t, 1.0);
+        let mut p = Self::constant(t, 1.0);
+        let mut fact = 1.0;
+        for n in 1..=t.order {
+            p = p * y;
+            fact *= n as f64;
+            let term = p * (1.0 / fact);
+            match n % 4 {
+                1 => sin_y = sin_y + term,
+                2 => cos_y = cos_y - term,
+                3 => sin_y = sin_y - term,
+                _ => cos_y = cos_y + term,
+            }
+        }
+        (sin_y * c0 + cos_y * s0, cos_y * c0 - sin_y * s0)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn eval(t: &TpsTable, c: &[f64], x: &[f64]) -> f64 {
+        t.exponents().iter().zip(c).map(|(e, c)| c * e.iter().zip(x).map(|(&k, v)| v.powi(k as i32)).product::<f64>()).sum()
+    }
+
+    #[test]
+    fn table_counts_and_graded_order() {
+        let t = TpsTable::get(4, 9).unwrap();
+        assert_eq!(t.len(), 715);
+        assert_eq!(monomial_count(4, 7), Some(330));
+        assert_eq!(t.degree_range(0), 0..1);
+        assert_eq!(t.degree_range(1), 1..5);
+        assert_eq!(t.exponents()[1], vec![1, 0, 0, 0]);
+        assert!(TpsTable::get(5, 8).is_none(), "C(13,5) = 1287 > capacity");
+        assert!(core::ptr::eq(t, TpsTable::get(4, 9).unwrap()));
+        for (i, e) in t.exponents().iter().enumerate() {
+            assert_eq!(t.index(e), Some(i));
+        }
+    }
+
+    /// Products, quotients and sin/cos of jets against the Taylor coefficients of the same
+    /// functions computed independently: the jet of `f` at 0 evaluated at a small point
+    /// equals `f` there up to the truncation order (error ~ |x|^(order+1)).
+    #[test]
+    fn jet_arithmetic_matches_functions() {
+        let t = TpsTable::get(3, 9).unwrap();
+        let x = [Tps::var(t, 0, 0.3), Tps::var(t, 1, -0.2), Tps::var(t, 2, 1.1)];
+        let f = |x: [Tps; 3]| {
+            let (s, c) = (x[0] * x[1]).sin_cos();
+            s * x[2] / (c + x[0] * x[0] + 1.0) - x[1] * 2.0
+        };
+        let ff = |x: [f64; 3]| {
+            let (s, c) = (x[0] * x[1]).sin_cos();
+            s * x[2] / (c + x[0] * x[0] + 1.0) - x[1] * 2.0
+        };
+        let j = f(x);
+        let x0 = [0.3, -0.2, 1.1];
+        assert!((j.re() - ff(x0)).abs() < 1e-15);
+        let mut prev = f64::INFINITY;
+        for h in [1e-1, 5e-2, 2.5e-2] {
+            let d = [h, -0.7 * h, 0.4 * h];
+            let exact = ff([x0[0] + d[0], x0[1] + d[1], x0[2] + d[2]]);
+            let err = (eval(t, j.coefficients(), &d) - exact).abs();
+            // Degree-10 remainder: halving h divides it by ~2^10.
+            assert!(err < 1e-9 && err < prev / 500.0 || err < 1e-14, "h={h}: {err} (prev {prev})");
+            prev = err;
+        }
+    }
+
+    #[test]
+    fn sin_cos_identity_and_bare_constants() {
+        let t = TpsTable::get(2, 8).unwrap();
+        let x = Tps::var(t, 0, 0.7) * Tps::var(t, 1, -0.4) + Tps::var(t, 1, -0.4);
+        let (s, c) = x.sin_cos();
+        let one = s * s + c * c;
+        assert!((one.coefficients()[0] - 1.0).abs() < 1e-15);
+        assert!(one.coefficients()[1..].iter().all(|v| v.abs() < 1e-13), "{one:?}");
+        // cst(1)/x: the constant takes x's table.
+        let q = Tps::cst(1.0) / x;
+        let back = q * x;
+        assert!((back.re() - 1.0).abs() < 1e-15 && back.coefficients()[1..].iter().all(|v| v.abs() < 1e-12));
+    }
+}

@@ -1,0 +1,236 @@
+//! Known answer: a skew product `x' = f(x)`, `y' = B y + g(x)` with `g = h o f - B h`, whose
+//! SSM is exactly the graph `y = h(x)` and whose reduced map is `f`. The SSM's polar
+//! coefficients must equal the normal form of `f` computed by [`crate::normal_form`] (an
+//! independent code path, tested on its own known answers).
+
+use super::*;
+use crate::normal_form::{NormalFormOptions, normal_form_of_poly};
+use crate::poly::Poly;
+
+const DT: f64 = 0.03;
+
+/// Real 4x4 linear part with multipliers `0.995 e^{+-0.15 i}` and `1.008 e^{+-1.63 i}`,
+/// mixed by a fixed matrix.
+fn linear_x() -> DMatrix<f64> {
+    let blk = |r: f64, th: f64| [[r * th.cos(), -r * th.sin()], [r * th.sin(), r * th.cos()]];
+    let (b1, b2) = (blk(0.995, 0.15), blk(1.008, 1.63));
+    let mut d = DMatrix::<f64>::zeros(4, 4);
+    for i in 0..2 {
+        for j in 0..2 {
+            d[(i, j)] = b1[i][j];
+            d[(2 + i, 2 + j)] = b2[i][j];
+        }
+    }
+    let m = DMatrix::from_row_slice(4, 4, &[1.0, 0.2, -0.1, 0.3, 0.1, 0.9, 0.2, -0.2, -0.3, 0.1, 1.1, 0.2, 0.2, -0.3, 0.1, 0.8]);
+    &m * d * m.try_inverse().unwrap()
+}
+
+/// Nonlinear part of `f` (quadratic and cubic), as (exponents in x, coefficients per output).
+fn q_terms() -> Vec<(Vec<u32>, [f64; 4])> {
+    vec![
+        (vec![2, 0, 0, 0], [0.3, -0.2, 0.1, 0.05]),
+        (vec![0, 1, 1, 0], [-0.4, 0.1, 0.2, 0.3]),
+        (vec![1, 0, 0, 1], [0.1, 0.2, -0.3, 0.1]),
+        (vec![3, 0, 0, 0], [-0.5, 0.2, 0.1, -0.1]),
+        (vec![1, 1, 1, 0], [0.2, -0.3, 0.4, 0.2]),
+        (vec![0, 0, 2, 1], [0.1, 0.1, -0.6, 0.3]),
+        (vec![0, 1, 0, 2], [-0.2, 0.4, 0.1, -0.7]),
+    ]
+}
+
+/// `h(x)`: two quadratic components.
+fn h_terms() -> Vec<(Vec<u32>, [f64; 2])> {
+    vec![(vec![1, 1, 0, 0], [0.5, 0.0]), (vec![0, 0, 2, 0], [-0.3, 0.0]), (vec![1, 0, 0, 1], [0.0, 0.2]), (vec![0, 2, 0, 0], [0.0, 1.0])]
+}
+
+const B: [f64; 2] = [0.3, -0.2];
+
+/// The 6D skew-product map and the 4D reduced map `f` (as a [`Poly`] increment).
+fn system() -> (PolynomialMap, Poly) {
+    let l = linear_x();
+    let tab = Table::new(4, 6);
+    let nt = tab.len();
+    let var = |i: usize| {
+        let mut p = vec![C::new(0.0, 0.0); nt];
+        let mut e = vec![0u32; 4];
+        e[i] = 1;
+        p[tab.index[&e]] = C::new(1.0, 0.0);
+        p
+    };
+    // f as polynomials.
+    let mut f: Vec<Vec<C>> = (0..4)
+        .map(|o| {
+            let mut p = vec![C::new(0.0, 0.0); nt];
+            for j in 0..4 {
+                let x = var(j);
+                for (a, b) in p.iter_mut().zip(&x) {
+                    *a += b * l[(o, j)];
+                }
+            }
+            p
+        })
+        .collect();
+    for (e, c) in q_terms() {
+        for o in 0..4 {
+            f[o][tab.index[&e]] += C::new(c[o], 0.0);
+        }
+    }
+    let hexps: Vec<Vec<u32>> = h_terms().iter().map(|(e, _)| e.clone()).collect();
+    let hf = tab.monomials(&hexps, &f, 6);
+    let hx = tab.monomials(&hexps, &(0..4).map(var).collect::<Vec<_>>(), 6);
+    // g_o = sum_t c_t (m_t(f) - B_o m_t(x)).
+    let mut g = vec![vec![C::new(0.0, 0.0); nt]; 2];
+    for (t, (_, c)) in h_terms().iter().enumerate() {
+        let (mf, mx) = (hf[t].as_ref().unwrap(), hx[t].as_ref().unwrap());
+        for o in 0..2 {
+            for i in 0..nt {
+                g[o][i] += (mf[i] - mx[i] * B[o]) * c[o];
+            }
+        }
+    }
+    // G in 6 variables (x, y): rows 0..4 the q terms, rows 4..6 g(x).
+    let mut exps = Vec::new();
+    let mut coef: Vec<Vec<f64>> = vec![Vec::new(); 6];
+    for (i, e) in tab.exps.iter().enumerate() {
+        if e.iter().sum::<u32>() < 2 {
+            continue;
+        }
+        let mut e6 = e.clone();
+        e6.extend([0, 0]);
+        exps.push(e6);
+        let qv = q_terms().iter().find(|(qe, _)| qe == e).map(|(_, c)| *c).unwrap_or([0.0; 4]);
+        for o in 0..4 {
+            coef[o].push(qv[o]);
+        }
+        for o in 0..2 {
+            assert!(g[o][i].im.abs() < 1e-14);
+            coef[4 + o].push(g[o][i].re);
+        }
+    }
+    let mut linear = vec![0.0; 36];
+    for i in 0..4 {
+        for j in 0..4 {
+            linear[i * 6 + j] = l[(i, j)];
+        }
+    }
+    linear[4 * 6 + 4] = B[0];
+    linear[5 * 6 + 5] = B[1];
+    let mut proj = vec![0.0; 36];
+    for i in 0..6 {
+        proj[i * 6 + i] = 1.0;
+    }
+    let map = PolynomialMap { dim: 6, linear, nproj: 6, proj, exps, coef };
+    // f - identity as a Poly of degree 1..=3.
+    let pexps = poly::exponents(4, 1, 3);
+    let mut pc = vec![0.0; pexps.len() * 4];
+    for (k, e) in pexps.iter().enumerate() {
+        for o in 0..4 {
+            let mut v = f[o][tab.index[e]].re;
+            if e.iter().sum::<u32>() == 1 && e[o] == 1 {
+                v -= 1.0;
+            }
+            pc[k * 4 + o] = v;
+        }
+    }
+    (map, Poly { dim_in: 4, dim_out: 4, scale: vec![1.0; 4], exps: pexps, coef: pc })
+}
+
+fn opts(order: u32) -> MapSsmOptions {
+    MapSsmOptions { order, pairs: 2, resonance_tol: 1e-3, observable: vec![1.0, 0.0, 0.5, 0.0, 0.0, 0.0], dt: DT }
+}
+
+#[test]
+fn polar_coefficients_equal_the_normal_form_of_the_reduced_map() {
+    let (map, f) = system();
+    let ssm = map_ssm(&map, &opts(7)).unwrap();
+    let nf_opts = NormalFormOptions {
+        order: Some(7),
+        small_divisor: 1e-3,
+        normalization: Normalization::Observable(vec![1.0, 0.0, 0.5, 0.0]),
+    };
+    let want = normal_form_of_poly(&f, Some(DT), &nf_opts).unwrap();
+    let got = &ssm.polar;
+    assert_eq!(got.pexps, want.pexps);
+    for i in 0..2 {
+        // Linear rates: ln|mu|/dt exactly.
+        let r = [0.995f64, 1.008][i].ln() / DT;
+        assert!((got.amp[i][0] - r).abs() < 1e-11, "mode {i}: {} vs {r}", got.amp[i][0]);
+        for k in 0..got.pexps.len() {
+            let scale = want.amp[i][k].abs().max(want.phase[i][k].abs()).max(1.0);
+            assert!((got.amp[i][k] - want.amp[i][k]).abs() < 1e-8 * scale, "amp {i} {k}: {} vs {}", got.amp[i][k], want.amp[i][k]);
+            assert!((got.phase[i][k] - want.phase[i][k]).abs() < 1e-8 * scale, "phase {i} {k}: {} vs {}", got.phase[i][k], want.phase[i][k]);
+        }
+    }
+    assert!(ssm.extra_resonances.is_empty());
+    assert!(ssm.min_divisor > 1e-3);
+}
+
+/// The computed manifold is the graph `y = h(x)`: its y rows equal `h` of its x rows.
+#[test]
+fn manifold_is_the_known_graph_and_real() {
+    let (map, _) = system();
+    let ssm = map_ssm(&map, &opts(6)).unwrap();
+    let z1 = C::from_polar(0.02, 0.4);
+    let z2 = C::from_polar(0.015, -1.1);
+    let z = [z1, z1.conj(), z2, z2.conj()];
+    let s = ssm.manifold_at(&z, 6);
+    assert!(s.iter().all(|v| v.im.abs() < 1e-15), "{s:?}");
+    let x: Vec<f64> = s[..4].iter().map(|v| v.re).collect();
+    let h: Vec<f64> = (0..2)
+        .map(|o| h_terms().iter().map(|(e, c)| c[o] * e.iter().zip(&x).map(|(&k, v)| v.powi(k as i32)).product::<f64>()).sum())
+        .collect();
+    for o in 0..2 {
+        // Truncation at order 6 of the graph: O(|z|^7) (|z|^7 ~ 1e-12, times coefficients
+        // grown by the slow pair's small divisors |mu_1^2 - mu_1| ~ 0.15).
+        assert!((s[4 + o].re - h[o]).abs() < 1e-9, "y{o}: {} vs {}", s[4 + o].re, h[o]);
+    }
+}
+
+/// Invariance error falls with the order on a ball of radius 0.05 (amplitudes in the
+/// observable's units), roughly like radius^(order+1).
+#[test]
+fn invariance_error_falls_with_the_order() {
+    let (map, _) = system();
+    let ssm = map_ssm(&map, &opts(9)).unwrap();
+    let errs: Vec<f64> = [3, 5, 7, 9].iter().map(|&k| ssm.invariance_error(&map, k, 0.05, 6).abs).collect();
+    for w in errs.windows(2) {
+        assert!(w[1] < w[0] / 5.0, "{errs:?}");
+    }
+    // Measured: 6.5e-5, 1.7e-6, 5.7e-8, 2.2e-9.
+    assert!(errs[3] < 1e-8, "{errs:?}");
+    assert!(ssm.order_stats.iter().all(|s| s.w_max.is_finite() && s.r_max.is_finite()));
+}
+
+/// A tolerance above some non-structural divisor keeps those terms in the reduced map and
+/// reports them (never divided), and the result stays invariant.
+#[test]
+fn near_resonances_are_kept_and_reported() {
+    let (map, _) = system();
+    let mut o = opts(5);
+    o.resonance_tol = 0.3;
+    let ssm = map_ssm(&map, &o).unwrap();
+    assert!(!ssm.extra_resonances.is_empty());
+    assert!(ssm.extra_resonances.iter().all(|e| e.divisor < 0.3));
+    assert!(ssm.min_divisor >= 0.3);
+    let e3 = ssm.invariance_error(&map, 3, 0.05, 6).abs;
+    let e5 = ssm.invariance_error(&map, 5, 0.05, 6).abs;
+    assert!(e5 < e3 / 5.0, "{e3} {e5}");
+}
+
+#[test]
+fn bad_options_are_named() {
+    let (map, _) = system();
+    let cases: [(MapSsmOptions, &str); 4] = [
+        (MapSsmOptions { order: 10, ..opts(3) }, "order"),
+        (MapSsmOptions { pairs: 4, ..opts(3) }, "pairs"),
+        (MapSsmOptions { observable: vec![1.0], ..opts(3) }, "observable"),
+        (MapSsmOptions { dt: 0.0, ..opts(3) }, "dt"),
+    ];
+    for (o, what) in cases {
+        let e = map_ssm(&map, &o).unwrap_err();
+        assert!(e.to_string().contains(what), "{e}");
+    }
+    let mut bad = map.clone();
+    bad.coef[0][0] = f64::NAN;
+    assert!(matches!(map_ssm(&bad, &opts(3)), Err(MapSsmError::BadMap(_))));
+}
