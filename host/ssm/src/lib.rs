@@ -76,5 +76,6 @@ pub enum Error {
     Backbone(#[from] crate::backbone::BackboneError),
     #[error(transparent)]
     Frc(#[from] crate::frc::FrcError),
+    #[error(transparent)]
     MapSsm(#[from] crate::map_ssm::MapSsmError),
 }
