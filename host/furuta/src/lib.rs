@@ -12,6 +12,7 @@ pub mod lyapunov;
 pub mod microchaos;
 pub mod parametric;
 pub mod shared_tangent;
+pub mod sweep;
 
 pub use error::Error;
 
