@@ -246,3 +246,22 @@ fn bad_merges_are_errors_naming_the_shard_or_cell() {
     let back = ShardFile::parse("ok.json", &serde_json::to_string(&files[0].1).unwrap()).unwrap();
     assert_eq!(back, files[0].1);
 }
+
+/// The bundled example specs parse, with the grids the README describes.
+#[test]
+fn bundled_example_specs_parse() {
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../scenes/sweeps");
+    let mut seen = Vec::new();
+    for e in std::fs::read_dir(&dir).unwrap().flatten() {
+        let p = e.path();
+        if p.extension().is_some_and(|x| x == "toml") {
+            let s = Sweep::parse(&p.display().to_string(), &std::fs::read_to_string(&p).unwrap(), &dir).unwrap();
+            seen.push((s.name.clone(), s.kind, s.cells()));
+        }
+    }
+    seen.sort_by(|a, b| a.0.cmp(&b.0));
+    assert_eq!(
+        seen,
+        [("basin-dt-theta0".to_string(), Kind::Basin, 72), ("basin-modes".into(), Kind::Basin, 81), ("chart-kp-kd".into(), Kind::Chart, 2 * 33 * 41)]
+    );
+}

@@ -1,5 +1,7 @@
-//! Figures of computed results: stability charts, phase portraits and backbone curves.
+//! Figures of computed results: stability charts, phase portraits, backbone curves and
+//! basin maps of sweeps.
 
 pub mod backbone;
+pub mod basin;
 pub mod chart;
 pub mod portrait;
