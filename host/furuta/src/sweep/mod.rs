@@ -30,7 +30,7 @@ use std::path::Path;
 use serde::{Deserialize, Serialize};
 use sim::chart::{Axis, Crossing};
 use sim::closed_loop::simulate;
-use sim::scene::{Scene, SceneBuilder};
+use sim::scene::Scene;
 
 use crate::Error;
 use crate::full_system::{ESCAPE_THETA, outcome_of};

@@ -1,4 +1,5 @@
 use super::shard::{ShardFile, merge};
+use sim::scene::SceneBuilder;
 use super::*;
 use std::path::Path;
 
