@@ -38,12 +38,16 @@
 //!   byte-identical, no file in only one tree. Prints each mismatch (file, JSON path) and
 //!   `N numbers compared, M files byte-identical, K mismatches`; fails on any mismatch.
 //!   Rules and the timing keys: `compare_report.rs`.
+//! - `slurm-test`: a one-node Slurm on localhost (installed from Debian when missing) runs
+//!   the bundled sweeps as `sbatch --array` jobs; their merge must equal the local
+//!   single-process run bit for bit; the daemons are shut down on every path (`slurm.rs`).
 
 mod cache;
 mod compare_report;
 mod device_table;
 mod elf;
 mod rng;
+mod slurm;
 mod traces;
 mod vectors;
 
@@ -83,7 +87,8 @@ fn main() -> ExitCode {
         Some("pil") => pil_args(&args[1..]).and_then(|(scene, periods)| pil(&scene, periods, true)).map(|_| ()),
         Some("pil-record") => record_args(&args[1..]).and_then(|r| pil_record(&r)).map(|_| ()),
         Some("compare-report") => compare_report::run(&args[1..]),
-        _ => Err("usage: cargo xtask <install | qemu-test | firmware-size | device-table [--json] | pil [--periods N] [--scene NAME] | pil-record --out DIR [--runs N] [--periods P] [--scene NAME] [--seed S] [--fresh] | test | reproduce --out DIR [--fresh] | compare-report BASE NEW>".into()),
+        Some("slurm-test") => slurm::slurm_test(),
+        _ => Err("usage: cargo xtask <install | qemu-test | firmware-size | device-table [--json] | pil [--periods N] [--scene NAME] | pil-record --out DIR [--runs N] [--periods P] [--scene NAME] [--seed S] [--fresh] | test | reproduce --out DIR [--fresh] | compare-report BASE NEW | slurm-test>".into()),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
