@@ -26,7 +26,7 @@
 //!   model, periods: `cache.rs`) is reused and says so; `--fresh` redoes it.
 //! - `test`: install + `cargo test --workspace` + qemu-test + device-table (counted as one
 //!   on-target test, see `device_table::check`) + a 2,000-period PIL run (one more) +
-//!   STM32F407 build.
+//!   STM32F407 build + `slurm-test` with the test-profile `ssmctl`.
 //! - `reproduce --out DIR [--fresh] [...]`: install + device-table + a PIL run + the PIL
 //!   recordings of the chaos study (both reused when unchanged, `--fresh` redoes them), then
 //!   `ssmctl reproduce` with the remaining arguments (the report).
@@ -87,7 +87,7 @@ fn main() -> ExitCode {
         Some("pil") => pil_args(&args[1..]).and_then(|(scene, periods)| pil(&scene, periods, true)).map(|_| ()),
         Some("pil-record") => record_args(&args[1..]).and_then(|r| pil_record(&r)).map(|_| ()),
         Some("compare-report") => compare_report::run(&args[1..]),
-        Some("slurm-test") => slurm::slurm_test(),
+        Some("slurm-test") => slurm::slurm_test(None),
         _ => Err("usage: cargo xtask <install | qemu-test | firmware-size | device-table [--json] | pil [--periods N] [--scene NAME] | pil-record --out DIR [--runs N] [--periods P] [--scene NAME] [--seed S] [--fresh] | test | reproduce --out DIR [--fresh] | compare-report BASE NEW | slurm-test>".into()),
     };
     match result {
@@ -706,6 +706,9 @@ fn test_all() -> Result<()> {
     });
     let pil_run = pil(PIL_SCENE, PIL_TEST_PERIODS, true);
     let stm32 = build_firmware(true).map(|_| println!("stm32f407 configuration builds and links"));
+    // The sweeps under a real Slurm (about 11 s once installed), with the test-profile
+    // ssmctl the host tests built.
+    let slurm = ssmctl_bin().and_then(|b| slurm::slurm_test(Some(b)));
     let (mut passed, mut failed) = match &target {
         Ok(r) => (r.passed, r.failed),
         Err(_) => (0, 1),
@@ -725,7 +728,11 @@ fn test_all() -> Result<()> {
         }
     }
     println!("on-target: {passed} passed, {failed} failed");
+    if let Err(e) = &slurm {
+        eprintln!("slurm-test: {e}");
+    }
     host_result?;
+    slurm?;
     target?;
     table?;
     pil_run?;

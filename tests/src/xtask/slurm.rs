@@ -215,11 +215,15 @@ fn same_result(a: &Path, b: &Path, name: &str) -> Result<()> {
     Ok(())
 }
 
-/// Runs the test; prints the durations of its steps.
-pub fn slurm_test() -> Result<()> {
+/// Runs the test with `ssmctl` (default: the release binary, built if needed); prints the
+/// durations of its steps.
+pub fn slurm_test(ssmctl: Option<PathBuf>) -> Result<()> {
     let t0 = Instant::now();
     install()?;
-    let ssmctl = ssmctl_release()?;
+    let ssmctl = match ssmctl {
+        Some(p) => p,
+        None => ssmctl_release()?,
+    };
     let t_build = t0.elapsed();
     let dir = root().join("target").join("slurm-test");
     let cluster = Cluster::start(&dir)?;
