@@ -13,6 +13,7 @@ const BOUNDED: RGBColor = RGBColor(170, 220, 170);
 const PANEL_W: u32 = 620;
 const PANEL_H: u32 = 560;
 const TITLE_H: u32 = 50;
+const MIN_W: u32 = 1000;
 /// Most panels one figure shows (combinations of the axes after the first two).
 pub const MAX_PANELS: usize = 12;
 
@@ -55,17 +56,19 @@ pub fn draw_basin(out: &Path, r: &SweepResult) -> Result<Option<String>, PlotErr
     let err = |e: &dyn std::fmt::Display| PlotError::new(out, e);
     let cols = extra.min(3);
     let rows = extra.div_ceil(cols);
-    let root = BitMapBackend::new(out, (PANEL_W * cols as u32, PANEL_H * rows as u32 + TITLE_H)).into_drawing_area();
+    // At least MIN_W wide, so the title fits above a single panel.
+    let width = (PANEL_W * cols as u32).max(MIN_W);
+    let root = BitMapBackend::new(out, (width, PANEL_H * rows as u32 + TITLE_H)).into_drawing_area();
     root.fill(&WHITE).map_err(|e| err(&e))?;
     let b = s.basin.as_ref();
     let title = format!(
-        "{}: bounded (green) or escaping |theta| > {} rad (red, darker = earlier) in {} periods",
+        "{}: bounded (green) or |theta| > {} rad (red, darker = earlier) within {} periods",
         s.name,
         b.map_or(f64::NAN, |b| b.escape_theta),
         b.map_or(0, |b| b.periods)
     );
     let (top, body) = root.split_vertically(TITLE_H);
-    top.titled(&title, ("sans-serif", 20)).map_err(|e| err(&e))?;
+    top.titled(&title, ("sans-serif", 18)).map_err(|e| err(&e))?;
     let t_max = r.cells.iter().filter_map(|c| c.escape_t).fold(0.0_f64, f64::max);
     let x = &s.axes[0];
     let y = s.axes.get(1);
