@@ -53,12 +53,25 @@ pub fn draw_basin(out: &Path, r: &SweepResult) -> Result<Option<String>, PlotErr
         return Ok(Some(format!("{extra} panels (the axes after the first two); the figure shows at most {MAX_PANELS}")));
     }
     ensure_font();
-    let err = |e: &dyn std::fmt::Display| PlotError::new(out, e);
     let cols = extra.min(3);
     let rows = extra.div_ceil(cols);
     // At least MIN_W wide, so the title fits above a single panel.
-    let width = (PANEL_W * cols as u32).max(MIN_W);
-    let root = BitMapBackend::new(out, (width, PANEL_H * rows as u32 + TITLE_H)).into_drawing_area();
+    let size = ((PANEL_W * cols as u32).max(MIN_W), PANEL_H * rows as u32 + TITLE_H);
+    let root = BitMapBackend::new(out, size).into_drawing_area();
+    draw_into(out, root, r, (rows, cols), extra)?;
+    Ok(None)
+}
+
+/// Draws the figure onto `root`: a title and `extra` panels in `rows` x `cols`.
+fn draw_into<DB: DrawingBackend>(
+    out: &Path,
+    root: DrawingArea<DB, plotters::coord::Shift>,
+    r: &SweepResult,
+    (rows, cols): (usize, usize),
+    extra: usize,
+) -> Result<(), PlotError> {
+    let s = &r.spec;
+    let err = |e: &dyn std::fmt::Display| PlotError::new(out, e);
     root.fill(&WHITE).map_err(|e| err(&e))?;
     let b = s.basin.as_ref();
     let title = format!(
@@ -120,7 +133,7 @@ pub fn draw_basin(out: &Path, r: &SweepResult) -> Result<Option<String>, PlotErr
         cc.draw_series(rects).map_err(|e| err(&e))?;
     }
     root.present().map_err(|e| err(&e))?;
-    Ok(None)
+    Ok(())
 }
 
 #[cfg(test)]
