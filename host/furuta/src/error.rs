@@ -29,6 +29,9 @@ pub enum Error {
     Multipliers { dt_ms: f64, got: usize },
     #[error("Benettin's method here needs a discrete map; these reduced dynamics are a continuous flow")]
     NotAMap,
+    /// A sweep spec, shard or merge problem; the message names the spec key, file or cell.
+    #[error("{0}")]
+    Sweep(String),
     #[error("initial state has {got} coordinates, the reduced dynamics have {expected}")]
     Shape { expected: usize, got: usize },
 }

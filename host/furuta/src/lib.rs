@@ -15,6 +15,7 @@ pub mod lyapunov;
 pub mod microchaos;
 pub mod parametric;
 pub mod shared_tangent;
+pub mod sweep;
 
 pub use error::Error;
 

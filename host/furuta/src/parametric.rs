@@ -146,7 +146,18 @@ pub fn slow_mode_start(dt_ms: f64, theta_amp: f64, phase: f64) -> Result<([f64; 
 /// `[theta, w_theta, phi, w_phi]` and the controller pre-history (`delay + 1` samples
 /// `[theta, phi]`, oldest first) for `Scene`.
 pub fn mode_start(dt_ms: f64, slow: Option<(f64, f64)>, fast: Option<(f64, f64)>) -> Result<([f64; 4], Vec<[f64; 2]>), Error> {
+    if slow.is_none() && fast.is_none() {
+        return Err(Error::BadOption { what: "mode_start", why: "give at least one of the slow and the fast mode".into() });
+    }
+    let scene = SceneBuilder::load("furuta-dt30.5")?.dt_ms(dt_ms).build()?;
+    mode_start_in(&scene, slow, fast)
+}
+
+/// [`mode_start`] on the linearized closed loop of any 4-state Furuta scene without integral
+/// action (its gains, delay and sampling period), e.g. a sweep's cell.
+pub fn mode_start_in(scene: &sim::scene::Scene, slow: Option<(f64, f64)>, fast: Option<(f64, f64)>) -> Result<([f64; 4], Vec<[f64; 2]>), Error> {
     use nalgebra::{Complex, DMatrix, DVector};
+    let dt_ms = scene.controller.dt_ms;
     if slow.is_none() && fast.is_none() {
         return Err(Error::BadOption { what: "mode_start", why: "give at least one of the slow and the fast mode".into() });
     }
@@ -157,14 +168,13 @@ pub fn mode_start(dt_ms: f64, slow: Option<(f64, f64)>, fast: Option<(f64, f64)>
             }
         }
     }
-    let scene = SceneBuilder::load("furuta-dt30.5")?.dt_ms(dt_ms).build()?;
     let le = |source| StabilityError::Linear { scene: scene.name.clone(), source };
-    let map = sim::stability::linear_plant(&scene)?.closed_loop(&scene.controller_config()).map_err(le)?;
+    let map = sim::stability::linear_plant(scene)?.closed_loop(&scene.controller_config()).map_err(le)?;
     let lay = map.layout;
     if lay.n_plant != 4 || lay.integral.is_some() {
         return Err(Error::BadOption { what: "mode_start", why: "needs the 4-state Furuta plant without integral action".into() });
     }
-    let mut pairs = dominant_pairs(&scene)?;
+    let mut pairs = dominant_pairs(scene)?;
     if pairs.len() < 2 {
         return Err(Error::Multipliers { dt_ms, got: pairs.len() });
     }

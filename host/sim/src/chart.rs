@@ -41,7 +41,7 @@ pub enum ChartError {
 }
 
 /// A grid axis: `n` points evenly from `lo` to `hi` inclusive.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, serde::Deserialize)]
 pub struct Axis {
     pub lo: f64,
     pub hi: f64,
@@ -181,8 +181,8 @@ pub fn compute_chart(
 }
 
 /// Spectral radius of the non-structural multipliers and, if it exceeds 1, the kind of
-/// the largest one.
-fn classify(zoh: &Zoh, cfg: &ControllerConfig) -> Result<(f64, Option<Crossing>), LinearError> {
+/// the largest one: one grid point of a chart.
+pub fn classify(zoh: &Zoh, cfg: &ControllerConfig) -> Result<(f64, Option<Crossing>), LinearError> {
     let m = zoh.closed_loop(cfg)?.deflated()?;
     let ev = eigenvalues(&m)?;
     let top = ev.iter().copied().max_by(|a, b| a.norm().total_cmp(&b.norm()));
@@ -200,6 +200,33 @@ fn kind_of(mu: Complex<f64>) -> Crossing {
     } else {
         Crossing::Flip
     }
+}
+
+/// A panel from grid points computed elsewhere (a sharded sweep: `points[i * kp.n + j]` is
+/// [`classify`] at `(kp.at(j), kd.at(i))`): the D-curves, the base radius and the summary
+/// are computed here, as [`compute_chart`] computes them.
+pub fn assemble_panel(
+    plant: &LinearPlant,
+    base: &ControllerConfig,
+    dt: f64,
+    kp: Axis,
+    kd: Axis,
+    points: &[(f64, Option<Crossing>)],
+) -> Result<Panel, ChartError> {
+    let kp = kp.check("KP")?;
+    let kd = kd.check("KD")?;
+    if !(dt.is_finite() && dt > 0.0) {
+        return Err(ChartError::BadPeriod(dt));
+    }
+    if points.len() != kp.n * kd.n {
+        return Err(ChartError::BadAxis { axis: "KP x KD", reason: format!("{} points given for a {} x {} grid", points.len(), kp.n, kd.n) });
+    }
+    let zoh = plant.discretize(dt)?;
+    let (radius, unstable_kind): (Vec<f64>, Vec<Option<Crossing>>) = points.iter().copied().unzip();
+    let (base_radius, _) = classify(&zoh, &ControllerConfig { dt, ..*base })?;
+    let curves = d_curves(&zoh, base, kp, kd)?;
+    let summary = summarize(dt, kp, kd, &radius, &unstable_kind, base_radius);
+    Ok(Panel { dt_s: dt, radius, unstable_kind, curves, summary })
 }
 
 fn compute_panel(

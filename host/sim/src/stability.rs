@@ -3,7 +3,7 @@
 //! and saturation are nonlinear effects and do not enter the linearization; integral action,
 //! the delay and the sampling period do.
 
-use crate::chart::{Chart, ChartError, plant_chart};
+use crate::chart::{Axis, Chart, ChartError, Crossing, Panel, assemble_panel, classify, plant_chart};
 use crate::linear::{LinearError, LinearPlant, Multiplier};
 use crate::plant::{Plant, linearize};
 use crate::scene::Scene;
@@ -74,6 +74,25 @@ pub fn scene_chart(
     }
 }
 
+/// One point of a stability chart at the scene's own gains and sampling period: the
+/// spectral radius of the non-structural multipliers and, if it is at least 1, how the
+/// largest one sits ([`classify`], the arithmetic of [`scene_chart`]'s grid points).
+pub fn scene_point(scene: &Scene) -> Result<(f64, Option<Crossing>), StabilityError> {
+    let le = |source| StabilityError::Linear { scene: scene.name.clone(), source };
+    let cfg = scene.controller_config();
+    let zoh = linear_plant(scene)?.discretize(cfg.dt).map_err(le)?;
+    classify(&zoh, &cfg).map_err(le)
+}
+
+/// A chart panel of the scene's plant at `dt_ms` from grid points computed elsewhere
+/// ([`scene_point`] per point, e.g. by a sharded sweep; `points[i * kp.n + j]` at
+/// `(kp.at(j), kd.at(i))`): the D-curves and the summary are computed here.
+pub fn scene_panel(scene: &Scene, dt_ms: f64, kp: Axis, kd: Axis, points: &[(f64, Option<Crossing>)]) -> Result<Panel, StabilityError> {
+    let ce = |source| StabilityError::Chart { scene: scene.name.clone(), source };
+    let plant = linear_plant(scene)?;
+    assemble_panel(&plant, &scene.controller_config(), crate::units::ms_to_s(dt_ms), kp, kd, points).map_err(ce)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -107,5 +126,27 @@ mod tests {
             // Nonlinear terms are O(theta^2) ~ 1e-12 relative 1e-6; integrator rtol 1e-12.
             assert!(worst < 1e-5 * scale, "dt {dt}: deviation {worst:e} vs amplitude {scale:e}");
         }
+    }
+
+    /// A chart assembled from points computed one by one (a sharded sweep's cells) is the
+    /// chart computed in one piece, bit for bit: radius, kinds, D-curves and summary.
+    #[test]
+    fn points_one_by_one_assemble_the_same_chart() {
+        let base = scene("furuta-dt25", &[]);
+        let (kp, kd) = ((0.0, 40.0, 5), (0.0, 8.0, 4));
+        let (chart, _) = scene_chart(&base, &[25.0, 30.8], kp, kd).unwrap();
+        for (dt_ms, panel) in [25.0, 30.8].into_iter().zip(&chart.panels) {
+            let mut points = Vec::new();
+            for i in 0..kd.2 {
+                for j in 0..kp.2 {
+                    let s = base.clone().builder().dt_ms(dt_ms).kp(chart.kp.at(j)).kd(chart.kd.at(i)).build().unwrap();
+                    points.push(scene_point(&s).unwrap());
+                }
+            }
+            let assembled = scene_panel(&base, dt_ms, chart.kp, chart.kd, &points).unwrap();
+            assert_eq!(&assembled, panel, "dt {dt_ms}");
+        }
+        let short = scene_panel(&base, 25.0, chart.kp, chart.kd, &[(0.5, None)]).unwrap_err().to_string();
+        assert!(short.contains("1 points given for a 5 x 4 grid"), "{short}");
     }
 }

@@ -103,6 +103,40 @@ pub enum Cmd {
         #[arg(long, value_parser = clap::value_parser!(u16).range(1..))]
         jobs: Option<u16>,
     },
+    /// Run a sweep spec (basin map, stability chart) or one shard of it; writes
+    /// DIR/shard-I-of-N.json. The shard: --shard, else the Slurm array task
+    /// (SLURM_ARRAY_TASK_ID/COUNT/MIN), else Kubernetes' JOB_COMPLETION_INDEX with --shards
+    /// or the spec's `shards`, else the whole grid. A complete shard file of the same spec
+    /// is kept (re-runs are idempotent).
+    Sweep {
+        /// The sweep spec (TOML).
+        spec: PathBuf,
+        /// Folder of the shard files (created if needed).
+        #[arg(long)]
+        out: PathBuf,
+        /// Compute shard I of N (0-based), e.g. `3/8`.
+        #[arg(long, value_name = "I/N")]
+        shard: Option<String>,
+        /// The shard count for JOB_COMPLETION_INDEX (default: the spec's `shards`).
+        #[arg(long)]
+        shards: Option<u32>,
+        /// Threads of the pool (default: RAYON_NUM_THREADS, else one per core). The results
+        /// do not depend on it.
+        #[arg(long, value_parser = clap::value_parser!(u16).range(1..))]
+        jobs: Option<u16>,
+        /// Recompute even if a complete shard file is there; replace one of another spec.
+        #[arg(long)]
+        force: bool,
+    },
+    /// Merge a folder of sweep shard files: checks every cell is there once, from one spec;
+    /// writes OUT/<name>.json, OUT/<name>.csv and the figure OUT/<name>.png.
+    SweepMerge {
+        /// Folder of shard-*.json files.
+        dir: PathBuf,
+        /// Output folder (created if needed).
+        #[arg(long)]
+        out: PathBuf,
+    },
     /// Fit an SSM reduced model to time series of one or several observables (CSV files of
     /// t and observables, or SSMLearn .mat files with a cell array xData of {t, X} rows).
     Fit(Box<FitArgs>),
@@ -496,6 +530,18 @@ pub fn run(cli: Cli) -> Result<(), Box<dyn std::error::Error>> {
             }
             reproduce::run(&out, &data_dir, quick, quiet)?;
             eprintln!("wrote {}", out.join("index.html").display());
+        }
+        Cmd::Sweep { spec, out, shard, shards, jobs, force } => {
+            if let Some(n) = jobs {
+                rayon::ThreadPoolBuilder::new().num_threads(n.into()).build_global()?;
+            }
+            let r = crate::sweep::run(&spec, &out, shard.as_deref(), shards, force)?;
+            let what = if r.computed { format!("{} cells in {:.3} s on {} threads", r.cells, r.wall_seconds, r.threads) } else { "already complete, kept".into() };
+            eprintln!("shard {} ({:?}) of {} cells, spec hash {}: {what}; {}", r.shard, r.source, r.cells_total, r.spec_hash, r.file.display());
+        }
+        Cmd::SweepMerge { dir, out } => {
+            let m = crate::sweep::merge_dir(&dir, &out)?;
+            outln!("{}", serde_json::to_string_pretty(&m)?);
         }
         Cmd::Fit(a) => {
             let a = *a;

@@ -13,3 +13,4 @@ pub mod output;
 pub mod pil;
 pub mod plot;
 pub mod report;
+pub mod sweep;

@@ -32,7 +32,8 @@
 //! - `test`: install + `cargo test --workspace` + clippy lint policy + python-test + qemu-test
 //!   + device-table (counted as one on-target test, see `device_table::check`) + a
 //!   2,000-period PIL run (one more) + the STM32F407 image's on-target suite on
-//!   `netduinoplus2` + a 500-period PIL run of the STM32F407 image there, over USART1 (one more).
+//!   `netduinoplus2` + a 500-period PIL run of the STM32F407 image there, over USART1 (one
+//!   more) + `slurm-test` with the test-profile `ssmctl`.
 //! - `reproduce --out DIR [--fresh] [...]`: install + device-table + a PIL run + the PIL
 //!   recordings of the chaos study (both reused when unchanged, `--fresh` redoes them), then
 //!   `ssmctl reproduce` with the remaining arguments (the report).
@@ -44,6 +45,9 @@
 //!   byte-identical, no file in only one tree. Prints each mismatch (file, JSON path) and
 //!   `N numbers compared, M files byte-identical, K mismatches`; fails on any mismatch.
 //!   Rules and the timing keys: `compare_report.rs`.
+//! - `slurm-test`: a one-node Slurm on localhost (installed from Debian when missing) runs
+//!   the bundled sweeps as `sbatch --array` jobs; their merge must equal the local
+//!   single-process run bit for bit; the daemons are shut down on every path (`slurm.rs`).
 
 mod cache;
 mod child;
@@ -53,6 +57,7 @@ mod elf;
 mod python;
 mod files;
 mod rng;
+mod slurm;
 mod traces;
 mod vectors;
 
@@ -158,7 +163,8 @@ fn main() -> ExitCode {
         Some("pil") => pil_args(&args[1..]).and_then(|(scene, periods)| pil(&scene, periods, true)).map(|_| ()),
         Some("pil-record") => record_args(&args[1..]).and_then(|r| pil_record(&r)).map(|_| ()),
         Some("compare-report") => compare_report::run(&args[1..]),
-        _ => Err("usage: cargo xtask <install | qemu-test [--board mps2-an386|stm32f407] | firmware-size | device-table [--json] | python-test | pil [--periods N] [--scene NAME] | pil-record --out DIR [--runs N] [--periods P] [--scene NAME] [--seed S] [--fresh] | test | reproduce --out DIR [--fresh] | compare-report BASE NEW>".into()),
+        Some("slurm-test") => slurm::slurm_test(None),
+        _ => Err("usage: cargo xtask <install | qemu-test [--board mps2-an386|stm32f407] | firmware-size | device-table [--json] | python-test | pil [--periods N] [--scene NAME] | pil-record --out DIR [--runs N] [--periods P] [--scene NAME] [--seed S] [--fresh] | test | reproduce --out DIR [--fresh] | compare-report BASE NEW | slurm-test>".into()),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
@@ -842,6 +848,9 @@ fn test_all() -> Result<()> {
         Err(_) => Err("pil (stm32f407): not run, it needs the model of the mps2-an386 PIL run".to_string()),
     };
     println!("pil: stm32f407 PIL run on netduinoplus2: {:.1} s", t.elapsed().as_secs_f64());
+    // The sweeps under a real Slurm (about 11 s once installed), with the test-profile
+    // ssmctl the host tests built.
+    let slurm = ssmctl_bin().and_then(|b| slurm::slurm_test(Some(b)));
     let (mut passed, mut failed) = (0, 0);
     for r in [&target, &stm32] {
         match r {
@@ -866,9 +875,13 @@ fn test_all() -> Result<()> {
         }
     }
     println!("on-target: {passed} passed, {failed} failed");
+    if let Err(e) = &slurm {
+        eprintln!("slurm-test: {e}");
+    }
     host_result?;
     lints?;
     python_result.map_err(|e| format!("python-test: {e}"))?;
+    slurm?;
     target?;
     table?;
     pil_run?;

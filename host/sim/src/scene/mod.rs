@@ -267,6 +267,12 @@ impl SceneBuilder {
         self
     }
 
+    /// Proportional gain on the primary angle, V/rad.
+    pub fn kp(mut self, kp: f64) -> Self {
+        self.scene.controller.kp = kp;
+        self
+    }
+
     /// Derivative gain on the primary angle, V s/rad.
     pub fn kd(mut self, kd: f64) -> Self {
         self.scene.controller.kd = kd;
@@ -315,6 +321,16 @@ impl SceneBuilder {
         match &mut self.scene.effects.noise {
             Some(n) => n.seed = seed,
             None => self.missing = Some("effects.noise.seed"),
+        }
+        self
+    }
+
+    /// Quantization step of the primary angle, rad per count (`effects.quantization.h_adc`);
+    /// an error at [`SceneBuilder::build`] if the scene has no quantization.
+    pub fn quant_step(mut self, h_adc: f64) -> Self {
+        match &mut self.scene.effects.quantization {
+            Some(q) => q.h_adc = h_adc,
+            None => self.missing = Some("effects.quantization.h_adc"),
         }
         self
     }

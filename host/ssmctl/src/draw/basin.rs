@@ -1,0 +1,149 @@
+//! Drawing a merged basin-map sweep as a PNG: the cells over the first two axes (x, y),
+//! green where the full closed loop stayed bounded, red where it escaped (darker = earlier
+//! escape, when `escape_t` is recorded); one panel per value combination of further axes.
+
+use std::path::Path;
+
+use furuta::sweep::shard::SweepResult;
+use plotters::prelude::*;
+
+use crate::plot::{PlotError, ensure_font};
+
+const BOUNDED: RGBColor = RGBColor(170, 220, 170);
+const PANEL_W: u32 = 620;
+const PANEL_H: u32 = 560;
+const TITLE_H: u32 = 50;
+const MIN_W: u32 = 1000;
+/// Most panels one figure shows (combinations of the axes after the first two).
+pub const MAX_PANELS: usize = 12;
+
+/// Cell edges: halfway to the neighbours, the end cells as wide as their inner half.
+fn edges(v: &[f64]) -> Vec<(f64, f64)> {
+    if v.len() == 1 {
+        let w = if v[0] == 0.0 { 0.5 } else { 0.5 * v[0].abs() };
+        return vec![(v[0] - w, v[0] + w)];
+    }
+    (0..v.len())
+        .map(|i| {
+            let lo = if i == 0 { v[0] - 0.5 * (v[1] - v[0]) } else { 0.5 * (v[i - 1] + v[i]) };
+            let hi = if i + 1 == v.len() { v[i] + 0.5 * (v[i] - v[i - 1]) } else { 0.5 * (v[i] + v[i + 1]) };
+            (lo, hi)
+        })
+        .collect()
+}
+
+fn escape_color(frac: f64) -> RGBColor {
+    // frac 0 (escaped at once) -> dark red, 1 (escaped last) -> light orange.
+    let f = frac.clamp(0.0, 1.0);
+    RGBColor((150.0 + 100.0 * f) as u8, (20.0 + 160.0 * f) as u8, (20.0 + 80.0 * f) as u8)
+}
+
+/// Writes the basin map of `r` to `out`; `Ok(Some(reason))` when this result cannot be drawn
+/// (more than [`MAX_PANELS`] panels, axis values not increasing, `bounded` not recorded).
+pub fn draw_basin(out: &Path, r: &SweepResult) -> Result<Option<String>, PlotError> {
+    let s = &r.spec;
+    if r.cells.iter().any(|c| c.bounded.is_none()) {
+        return Ok(Some("the basin figure needs `bounded` recorded".into()));
+    }
+    if let Some(a) = s.axes.iter().take(2).find(|a| a.values.windows(2).any(|w| w[1] <= w[0])) {
+        return Ok(Some(format!("the basin figure needs increasing values on axis `{}`", a.name.as_str())));
+    }
+    let extra: usize = s.axes.iter().skip(2).map(|a| a.values.len()).product();
+    if extra > MAX_PANELS {
+        return Ok(Some(format!("{extra} panels (the axes after the first two); the figure shows at most {MAX_PANELS}")));
+    }
+    ensure_font();
+    let cols = extra.min(3);
+    let rows = extra.div_ceil(cols);
+    // At least MIN_W wide, so the title fits above a single panel.
+    let size = ((PANEL_W * cols as u32).max(MIN_W), PANEL_H * rows as u32 + TITLE_H);
+    crate::plot::render_png(out, size, |root| draw_into(out, root, r, (rows, cols), extra))?;
+    Ok(None)
+}
+
+/// Draws the figure onto `root`: a title and `extra` panels in `rows` x `cols`.
+fn draw_into<DB: DrawingBackend>(
+    out: &Path,
+    root: DrawingArea<DB, plotters::coord::Shift>,
+    r: &SweepResult,
+    (rows, cols): (usize, usize),
+    extra: usize,
+) -> Result<(), PlotError> {
+    let s = &r.spec;
+    let err = |e: &dyn std::fmt::Display| PlotError::new(out, e);
+    root.fill(&WHITE).map_err(|e| err(&e))?;
+    let b = s.basin.as_ref();
+    let title = format!(
+        "{}: bounded (green) or |theta| > {} rad (red, darker = earlier) within {} periods",
+        s.name,
+        b.map_or(f64::NAN, |b| b.escape_theta),
+        b.map_or(0, |b| b.periods)
+    );
+    let (top, body) = root.split_vertically(TITLE_H);
+    top.titled(&title, ("sans-serif", 18)).map_err(|e| err(&e))?;
+    let t_max = r.cells.iter().filter_map(|c| c.escape_t).fold(0.0_f64, f64::max);
+    let x = &s.axes[0];
+    let y = s.axes.get(1);
+    let (xe, ye) = (edges(&x.values), y.map_or_else(|| vec![(0.0, 1.0)], |y| edges(&y.values)));
+    let (ny, np) = (ye.len(), extra);
+    for (p, area) in body.split_evenly((rows, cols)).iter().enumerate().take(np) {
+        // Panel p: the p-th combination of the further axes (row-major like the grid).
+        let mut rest = vec![0usize; s.axes.len().saturating_sub(2)];
+        let mut q = p;
+        for (k, a) in rest.iter_mut().zip(s.axes.iter().skip(2)).rev() {
+            *k = q % a.values.len();
+            q /= a.values.len();
+        }
+        let caption: Vec<String> = s.axes.iter().skip(2).zip(&rest).map(|(a, &k)| format!("{} = {}", a.name.as_str(), a.values[k])).collect();
+        let (x0, x1) = (xe[0].0, xe[xe.len() - 1].1);
+        let (y0, y1) = (ye[0].0, ye[ny - 1].1);
+        let mut cc = ChartBuilder::on(area)
+            .caption(caption.join(", "), ("sans-serif", 18))
+            .margin(12)
+            .x_label_area_size(45)
+            .y_label_area_size(60)
+            .build_cartesian_2d(x0..x1, y0..y1)
+            .map_err(|e| err(&e))?;
+        cc.configure_mesh()
+            .x_desc(x.name.as_str())
+            .y_desc(y.map_or("", |y| y.name.as_str()))
+            .label_style(("sans-serif", 15))
+            .axis_desc_style(("sans-serif", 17))
+            .disable_mesh()
+            .draw()
+            .map_err(|e| err(&e))?;
+        let mut rects = Vec::with_capacity(xe.len() * ny);
+        for (j, &(ylo, yhi)) in ye.iter().enumerate() {
+            for (i, &(xlo, xhi)) in xe.iter().enumerate() {
+                let mut pos = vec![i];
+                if y.is_some() {
+                    pos.push(j);
+                }
+                pos.extend(&rest);
+                let c = &r.cells[s.index_of(&pos) as usize];
+                let color = match (c.bounded, c.escape_t) {
+                    (Some(true), _) => BOUNDED,
+                    (_, Some(t)) if t_max > 0.0 => escape_color(t / t_max),
+                    _ => escape_color(0.0),
+                };
+                rects.push(Rectangle::new([(xlo, ylo), (xhi, yhi)], color.filled()));
+            }
+        }
+        cc.draw_series(rects).map_err(|e| err(&e))?;
+    }
+    root.present().map_err(|e| err(&e))?;
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn cell_edges_meet_halfway() {
+        assert_eq!(edges(&[1.0, 2.0, 4.0]), vec![(0.5, 1.5), (1.5, 3.0), (3.0, 5.0)]);
+        assert_eq!(edges(&[2.0]), vec![(1.0, 3.0)]);
+        let c = escape_color(0.0);
+        assert_eq!((c.0, c.1, c.2), (150, 20, 20));
+    }
+}
