@@ -378,6 +378,17 @@ pub struct FitArgs {
     /// data).
     #[arg(long, requires = "backbone")]
     pub backbone_amplitude: Option<f64>,
+    /// Forced response curve of the fitted normal form (as `ssmctl frc`), for the first
+    /// observable (or --backbone-observable): written to DIR/frc.json and DIR/frc.png; needs
+    /// --frc-range and --frc-calibrate.
+    #[arg(long, value_name = "DIR", requires_all = ["frc_range", "frc_calibrate"])]
+    pub frc: Option<PathBuf>,
+    /// Forcing frequencies A:B or A:B:N in rad/s for --frc.
+    #[arg(long, value_name = "A:B[:N]", requires = "frc")]
+    pub frc_range: Option<String>,
+    /// The measured steady state for --frc: forcing frequency (rad/s) and amplitude.
+    #[arg(long, value_name = "FREQ,AMP", requires = "frc")]
+    pub frc_calibrate: Option<String>,
 }
 
 /// `--from`/`--to` entries: numbers, empty for no bound.
@@ -555,6 +566,7 @@ pub fn run(cli: Cli) -> Result<(), Box<dyn std::error::Error>> {
                     .collect();
                 crate::output::check_not_input(path, &inputs)?;
             }
+            let frc_observable = a.backbone_observable.clone();
             let r = crate::fit_command::run_fit(&crate::fit_command::FitRequest {
                 data: a.data,
                 test: a.test,
@@ -584,6 +596,19 @@ pub fn run(cli: Cli) -> Result<(), Box<dyn std::error::Error>> {
             })?;
             if let Some(path) = &a.save {
                 crate::output::write_atomic(path, r.model.to_json()?.as_bytes())?;
+            }
+            if let (Some(dir), Some(range), Some(calibrate)) = (&a.frc, &a.frc_range, &a.frc_calibrate) {
+                let (lo, hi, n) = crate::fit_command::parse_freq_range(range)?;
+                let cal = crate::fit_command::parse_calibration(calibrate)?;
+                let names = &r.summary.observables;
+                let index = match &frc_observable {
+                    Some(o) => names.iter().position(|n| n == o).ok_or_else(|| format!("--backbone-observable {o}: observables are {}", names.join(", ")))?,
+                    None => 0,
+                };
+                let name = names.get(index).cloned().unwrap_or_else(|| (index + 1).to_string());
+                let frc = ssm::frc::frc(&r.model, &ssm::frc::FrcOptions::new(index), cal, lo, hi, n)?;
+                crate::fit_command::write_frc(dir, &r.model, &frc, &name)?;
+                eprintln!("wrote {} and {}", dir.join("frc.json").display(), dir.join("frc.png").display());
             }
             if a.json {
                 outln!("{}", serde_json::to_string_pretty(&r.summary)?);

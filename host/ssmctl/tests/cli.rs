@@ -306,3 +306,47 @@ fn ssm_equations_json_has_the_table_rates_and_invariance() {
     let (ok, _, err) = ssmctl(&["ssm-equations", "--scene", "furuta-dt31.41", "--order", "12"]);
     assert!(!ok && err.contains("order"), "{err}");
 }
+
+/// Forced response from decay data (README's example): `fit --frc` and `frc` on the saved
+/// model give the same curve; the calibrated forcing is the value the README shows; the
+/// calibration point lies on a stable branch; bad calibrations are errors naming them.
+#[test]
+fn frc_from_fit_and_from_a_saved_model_agree() {
+    let data = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../ssm/tests/data");
+    let mat = data.join("duffing.mat");
+    let (mat, dir) = (mat.to_str().unwrap(), tmp("frc"));
+    let (model, d1, d2) = (dir.join("m.json"), dir.join("fit"), dir.join("frc"));
+    let (ok, _, err) = ssmctl(&[
+        "fit", "--mat", mat, "--test-rows", "2", "--from", "0.5", "--dim", "2", "--embed", "2", "--order", "3", "--dyn-order", "5",
+        "--save", model.to_str().unwrap(), "--frc", d1.to_str().unwrap(), "--frc-range", "5.8:6.9", "--frc-calibrate", "6.25,0.32",
+    ]);
+    assert!(ok, "{err}");
+    let read = |d: &std::path::Path| -> Value { serde_json::from_str(&std::fs::read_to_string(d.join("frc.json")).unwrap()).unwrap() };
+    let a = read(&d1);
+    let forcing = a["calibration"]["forcing"].as_f64().unwrap();
+    assert!((forcing / 6.37119e-2 - 1.0).abs() < 1e-5, "{}", a["calibration"]);
+    assert!(d1.join("frc.png").metadata().unwrap().len() > 5_000);
+    let (ok, out, err) = ssmctl(&["frc", "--model", model.to_str().unwrap(), "--out", d2.to_str().unwrap(), "--freq-range", "5.8:6.9", "--calibrate", "6.25,0.32", "--json"]);
+    assert!(ok, "{err}");
+    let b: Value = serde_json::from_str(&out).unwrap();
+    assert_eq!(a["branches"], b["branches"], "fit --frc and frc differ");
+    // Hysteresis: stable, unstable, stable; the calibration point on a stable branch.
+    let stable: Vec<bool> = b["branches"].as_array().unwrap().iter().map(|x| x["stable"].as_bool().unwrap()).collect();
+    assert_eq!(stable, [true, false, true], "{stable:?}");
+    let on_stable = b["branches"].as_array().unwrap().iter().filter(|x| x["stable"] == true).any(|x| {
+        let f = x["freq_rad_s"].as_array().unwrap();
+        let amp = x["amplitude"].as_array().unwrap();
+        f.iter().zip(amp).any(|(f, amp)| (f.as_f64().unwrap() - 6.25).abs() < 2e-3 && (amp.as_f64().unwrap() - 0.32).abs() < 5e-3)
+    });
+    assert!(on_stable, "the calibration point is not on a stable branch");
+    for (range, cal, want) in [
+        ("5.8:6.9", "-1,0.32", "calibration"),
+        ("5.8:6.9", "6.25,0", "calibration"),
+        ("5.8:6.9", "6.25,10", "off the forced response curve"),
+        ("0:6.9", "6.25,0.32", "range"),
+    ] {
+        let (ok, _, err) = ssmctl(&["frc", "--model", model.to_str().unwrap(), "--out", d2.to_str().unwrap(), "--freq-range", range, "--calibrate", cal]);
+        assert!(!ok && err.to_lowercase().contains(want), "{range} {cal}: {err}");
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}
