@@ -316,6 +316,7 @@ fn frc_from_fit_and_from_a_saved_model_agree() {
     let mat = data.join("duffing.mat");
     let (mat, dir) = (mat.to_str().unwrap(), tmp("frc"));
     let (model, d1, d2) = (dir.join("m.json"), dir.join("fit"), dir.join("frc"));
+    std::fs::create_dir_all(&dir).unwrap();
     let (ok, _, err) = ssmctl(&[
         "fit", "--mat", mat, "--test-rows", "2", "--from", "0.5", "--dim", "2", "--embed", "2", "--order", "3", "--dyn-order", "5",
         "--save", model.to_str().unwrap(), "--frc", d1.to_str().unwrap(), "--frc-range", "5.8:6.9", "--frc-calibrate", "6.25,0.32",
