@@ -67,17 +67,19 @@ fn parse_ridge(obj: &Bound<'_, PyAny>) -> PyResult<Ridge> {
 }
 
 /// `fit(train, dim, embed, *, shift=1, order=3, dyn_order=5, dynamics="map", centers=100,
-/// ridge=0.0, linear_anchor=None, t_from=None, t_to=None)`: fits an SSM model to the
+/// ridge=0.0, linear_anchor=None, anchor_joint=False, t_from=None, t_to=None)`: fits an SSM model to the
 /// training trajectories (a `Trajectory` or a list; every one with the same observables),
 /// with the options and defaults of `ssmctl fit`: SSM dimension `dim`, `embed` delayed
 /// copies of every observable (SSMLearn's `OverEmbedding` is `embed - 1`), manifold
 /// polynomial order `order`, reduced dynamics `flow` | `map` (polynomial of order
 /// `dyn_order`) | `rbf` (`centers` centres), ridge alpha or `"cv"`, the linear part anchored on
-/// small amplitudes (`linear_anchor`, a fraction of the largest |eta|). `t_from`/`t_to`: time
+/// small amplitudes (`linear_anchor`, a fraction of the largest |eta|; with `anchor_joint`
+/// the small pairs are picked by their envelope and the linear part is fitted jointly with
+/// the higher orders, `ssmctl fit --anchor-joint`). `t_from`/`t_to`: time
 /// windows (SSMLearn's `sliceTrajectories`): one number for all, or one per trajectory
 /// (None entries leave that side open).
 #[pyfunction]
-#[pyo3(signature = (train, dim, embed, *, shift=1, order=3, dyn_order=5, dynamics="map", centers=100, ridge=None, linear_anchor=None, t_from=None, t_to=None))]
+#[pyo3(signature = (train, dim, embed, *, shift=1, order=3, dyn_order=5, dynamics="map", centers=100, ridge=None, linear_anchor=None, anchor_joint=false, t_from=None, t_to=None))]
 #[allow(clippy::too_many_arguments)]
 pub fn fit(
     py: Python<'_>,
@@ -91,6 +93,7 @@ pub fn fit(
     centers: usize,
     ridge: Option<&Bound<'_, PyAny>>,
     linear_anchor: Option<f64>,
+    anchor_joint: bool,
     t_from: Option<&Bound<'_, PyAny>>,
     t_to: Option<&Bound<'_, PyAny>>,
 ) -> PyResult<Model> {
@@ -114,6 +117,7 @@ pub fn fit(
             Some(r) => parse_ridge(r)?,
         },
         linear_anchor,
+        anchor_joint,
     };
     let (model, secs) = py.detach(|| {
         let t0 = std::time::Instant::now();
