@@ -5,7 +5,8 @@
 //! `-- --bifurcations 7 9 5` instead prints the equation-driven model's heteroclinic and
 //! torus-Hopf values at orders 7, 9, 5 (nodes every 0.25 ms over 30.5-32.5 ms, linear and
 //! spline interpolation), each confirmed by a direct scan (no interpolation) on a narrow
-//! bracket; `--nodes 0.125` sets the node spacing (ms).
+//! bracket (`--no-direct` skips that; at order 9 it takes minutes); `--nodes 0.125` sets
+//! the node spacing (ms).
 
 use furuta::equation_ssm::{EquationModel, equation_bifurcations, equation_bifurcations_with, scan_options, furuta_equation_ssm, polynomial_map, scene_period_map};
 use ssm::interp::Interp;
@@ -53,10 +54,13 @@ use furuta::parametric::{FurutaOptions, furuta_parametric};
 /// The equation-driven model's bifurcation values at each order in `args`.
 fn bifurcations(args: &[String]) -> Result<(), Box<dyn std::error::Error>> {
     let mut step: f64 = 0.25;
+    let mut direct = true;
     let mut orders = Vec::new();
     let mut it = args.iter();
     while let Some(a) = it.next() {
-        if a == "--nodes" {
+        if a == "--no-direct" {
+            direct = false;
+        } else if a == "--nodes" {
             step = it.next().ok_or("--nodes needs a spacing (ms)")?.parse()?;
         } else {
             orders.push(a.parse::<u32>()?);
@@ -116,7 +120,7 @@ fn bifurcations(args: &[String]) -> Result<(), Box<dyn std::error::Error>> {
                 bl.heteroclinic.as_ref().map(|h| h.exact_hit),
                 bl.hopf.as_ref().map(|h| h.dt)
             );
-            if interp == Interp::Spline {
+            if direct && interp == Interp::Spline {
                 // Confirm without interpolation on a bracket 0.02 ms wider than both values.
                 let t2 = std::time::Instant::now();
                 let vals: Vec<f64> = b.heteroclinic.iter().map(|h| h.dt).chain(b.hopf.iter().map(|h| h.dt)).collect();
