@@ -8,6 +8,8 @@ use ssm::portrait::{
     torus_hopf_dt, trajectory,
 };
 
+use ssm::normal_form::PolarNormalForm;
+
 use crate::Error;
 use crate::parametric::{FurutaOptions, ParametricModel, furuta_parametric};
 
@@ -50,8 +52,8 @@ pub enum SmallStartFate {
 
 /// The model's fate of a small start at `dt` (see [`SmallStartFate`]); `principal` is the
 /// continued torus position (updated).
-fn small_start_fate(pm: &ParametricModel, dt: f64, principal: &mut [f64; 2]) -> Result<SmallStartFate, Error> {
-    let nf = pm.normal_form_at(dt)?;
+fn small_start_fate(nf_at: &impl Fn(f64) -> Result<PolarNormalForm, Error>, dt: f64, principal: &mut [f64; 2]) -> Result<SmallStartFate, Error> {
+    let nf = nf_at(dt)?;
     let o = PortraitOptions { rho_max: RHO_MAX, ray_samples: 0, flow_grid: 0, ..PortraitOptions::default() };
     let fps = fixed_points(&nf, &o)?;
     let Some(fc) = fps.iter().filter(|f| f.kind == (PointKind::LimitCycle { mode: 2 })).min_by(|a, b| a.rho[1].total_cmp(&b.rho[1])) else {
@@ -91,6 +93,13 @@ fn small_start_fate(pm: &ParametricModel, dt: f64, principal: &mut [f64; 2]) -> 
 /// small-start fate stops being [`SmallStartFate::Principal`]: the model's counterpart of
 /// the full system's bounded-vs-escape switch of small starts.
 pub fn model_small_start_switch(pm: &ParametricModel, lo: f64, hi: f64, n: usize) -> Result<Option<(f64, f64)>, Error> {
+    small_start_switch(|dt| pm.normal_form_at(dt), lo, hi, n)
+}
+
+/// [`model_small_start_switch`] of any family of normal forms `nf_at(dt)` (e.g. the
+/// equation-driven model's, `crate::equation_ssm`).
+pub fn small_start_switch(nf_at: impl Fn(f64) -> Result<PolarNormalForm, Error>, lo: f64, hi: f64, n: usize) -> Result<Option<(f64, f64)>, Error> {
+    let pm = &nf_at;
     let mut principal = [0.1, 0.03];
     let mut prev = lo;
     for k in 0..n {

@@ -21,9 +21,12 @@ use sim::scene::{Scene, SceneBuilder};
 use sim::stability::dominant_pairs;
 use sim::taylor::{FlowOptions, PeriodMap, TaylorError, period_map};
 use ssm::map_ssm::{InvarianceError, MapSsm, MapSsmOptions, OrderStats, PolynomialMap, map_ssm};
+use ssm::interp::{Interp, interp_weights};
 use ssm::normal_form::{ExtraResonance, NormalFormTable, PolarNormalForm};
+use ssm::portrait::{FixedPoint, HeteroclinicEvent, HopfEvent, PointKind, PortraitOptions, ScanOptions, fixed_points, heteroclinic_dt, torus_hopf_dt};
 
 use crate::Error;
+use crate::bifurcations::{RHO_MAX, small_start_switch};
 
 /// Radii (in theta amplitude, rad: `sqrt(rho_1^2 + rho_2^2)`) of the spheres the invariance
 /// error is measured on: a fifth and a half of the 2-torus amplitude at 30.8 ms.
@@ -92,11 +95,16 @@ pub fn scene_period_map(scene: &Scene, order: u32, opts: &FlowOptions) -> Result
     pm.map_err(|e| Error::from(sim::Error::from(e)))
 }
 
-/// The equation-driven SSM of `scene` at `order` (3..=9).
-pub fn equation_ssm(scene: &Scene, order: u32) -> Result<EquationSsm, Error> {
+fn check_order(order: u32) -> Result<(), Error> {
     if !(3..=ssm::map_ssm::MAX_ORDER).contains(&order) {
         return Err(Error::BadOption { what: "order", why: format!("must be 3..={}, got {order}", ssm::map_ssm::MAX_ORDER) });
     }
+    Ok(())
+}
+
+/// The period map of `scene` to `order`, its SSM, and the wall times (s) of both.
+fn scene_map_ssm(scene: &Scene, order: u32) -> Result<(PeriodMap, PolynomialMap, MapSsm, f64, f64), Error> {
+    check_order(order)?;
     let t0 = Instant::now();
     let pm = scene_period_map(scene, order, &FlowOptions::default())?;
     let expansion_seconds = t0.elapsed().as_secs_f64();
@@ -107,6 +115,12 @@ pub fn equation_ssm(scene: &Scene, order: u32) -> Result<EquationSsm, Error> {
     let opts = MapSsmOptions { order, pairs: 2, resonance_tol: RESONANCE_TOL, observable, dt: pm.dt };
     let s: MapSsm = map_ssm(&map, &opts).map_err(|e| Error::from(ssm::Error::from(e)))?;
     let ssm_seconds = t1.elapsed().as_secs_f64();
+    Ok((pm, map, s, expansion_seconds, ssm_seconds))
+}
+
+/// The equation-driven SSM of `scene` at `order` (3..=9).
+pub fn equation_ssm(scene: &Scene, order: u32) -> Result<EquationSsm, Error> {
+    let (pm, map, s, expansion_seconds, ssm_seconds) = scene_map_ssm(scene, order)?;
     let dt_ms = scene.controller.dt_ms;
     let mut pairs = dominant_pairs(scene)?;
     if pairs.len() < 2 {
@@ -140,6 +154,152 @@ pub fn furuta_equation_ssm(dt_ms: f64, order: u32) -> Result<EquationSsm, Error>
     equation_ssm(&scene, order)
 }
 
+/// The polar amplitude equations of the equation-driven SSM of the paper's Furuta loop at
+/// `dt_ms` and `order` (3..=9), without the invariance diagnostics of [`equation_ssm`].
+pub fn furuta_equation_polar(dt_ms: f64, order: u32) -> Result<PolarNormalForm, Error> {
+    check_order(order)?;
+    let scene = SceneBuilder::load("furuta-dt30.5")?.dt_ms(dt_ms).build()?;
+    Ok(scene_map_ssm(&scene, order)?.2.polar)
+}
+
+/// The equation-driven polar normal forms at a few sampling periods (nodes), interpolated
+/// in between like the data-driven [`crate::parametric::ParametricModel`] (coefficient by
+/// coefficient, weights from `ssm::interp`). Every node has the same monomials (all
+/// `P`-exponents up to the order), so the interpolation is well defined.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+pub struct EquationModel {
+    pub order: u32,
+    /// Strictly increasing sampling periods (ms).
+    pub nodes_ms: Vec<f64>,
+    /// The normal form at each node.
+    pub forms: Vec<PolarNormalForm>,
+}
+
+impl EquationModel {
+    /// The normal forms of the paper's Furuta loop at `nodes_ms` (at least 2, strictly
+    /// increasing) and `order`, computed on the rayon pool.
+    pub fn furuta(nodes_ms: &[f64], order: u32) -> Result<EquationModel, Error> {
+        check_order(order)?;
+        if nodes_ms.len() < 2 || nodes_ms.iter().any(|x| !x.is_finite()) || nodes_ms.windows(2).any(|w| w[1] <= w[0]) {
+            return Err(Error::BadOption { what: "nodes_ms", why: format!("need at least 2 finite, strictly increasing periods, got {nodes_ms:?}") });
+        }
+        let forms = crate::par_map(nodes_ms, |&dt| furuta_equation_polar(dt, order))?;
+        Ok(EquationModel { order, nodes_ms: nodes_ms.to_vec(), forms })
+    }
+
+    /// First and last node (ms).
+    pub fn range(&self) -> (f64, f64) {
+        (self.nodes_ms.first().copied().unwrap_or(f64::NAN), self.nodes_ms.last().copied().unwrap_or(f64::NAN))
+    }
+
+    /// The normal form at `dt_ms` (inside the nodes), every coefficient interpolated by
+    /// `interp`.
+    pub fn normal_form_at(&self, dt_ms: f64, interp: Interp) -> Result<PolarNormalForm, Error> {
+        let w = interp_weights(&self.nodes_ms, dt_ms, interp)?;
+        let first = self.forms.first().ok_or_else(|| Error::BadInput { what: "equation model", why: "no nodes".into() })?;
+        if let Some((k, _)) = self.forms.iter().enumerate().find(|(_, f)| f.pexps != first.pexps || f.modes != first.modes) {
+            return Err(Error::BadInput { what: "equation model", why: format!("node {} ms has other monomials than node {} ms", self.nodes_ms[k], self.nodes_ms[0]) });
+        }
+        let mix = |get: &dyn Fn(&PolarNormalForm) -> &Vec<Vec<f64>>| -> Vec<Vec<f64>> {
+            let mut out = get(first).clone();
+            for (m, row) in out.iter_mut().enumerate() {
+                for (k, v) in row.iter_mut().enumerate() {
+                    *v = self.forms.iter().zip(&w).map(|(f, wi)| wi * get(f)[m][k]).sum();
+                }
+            }
+            out
+        };
+        let mut out = first.clone();
+        out.amp = mix(&|n| &n.amp);
+        out.phase = mix(&|n| &n.phase);
+        out.eigenvalues = (0..first.modes).map(|m| (out.amp[m][0], out.phase[m][0])).collect();
+        out.map_dt = Some(dt_ms * 1e-3);
+        out.extra_resonances.clear();
+        out.min_divisor = self.forms.iter().map(|f| f.min_divisor).fold(f64::INFINITY, f64::min);
+        Ok(out)
+    }
+}
+
+/// The equation-driven model's global bifurcations, found by the same portrait scans as the
+/// data-driven model's ([`crate::bifurcations::model_bifurcations`]: box
+/// [`crate::bifurcations::RHO_MAX`], `ScanOptions::default()` grid and tolerance).
+#[derive(Clone, Debug, Serialize, Deserialize)]
+pub struct EquationBifurcations {
+    pub order: u32,
+    pub nodes_ms: Vec<f64>,
+    pub interp: Interp,
+    /// Heteroclinic connection of the saddle cycles.
+    pub heteroclinic: Option<HeteroclinicEvent>,
+    /// Change of stability of the 2-torus.
+    pub hopf: Option<HopfEvent>,
+    /// The 2-torus at 30.8 ms when 30.8 ms is inside the nodes.
+    pub torus_30p8: Option<FixedPoint>,
+    /// Bracket (ms) of the small-start switch, as the data-driven model's in
+    /// [`crate::bifurcations::model_row`] (grid of 76 over 30.8 ms to min(last node, 32.3
+    /// ms), bisection to 1e-3 ms): the model's counterpart of the full system's bounded vs
+    /// escape switch of small starts. `None` when 30.8 ms is not inside the nodes or no
+    /// switch is found.
+    pub small_start_switch: Option<(f64, f64)>,
+}
+
+/// The scan options of the data-driven model's bifurcation values.
+pub fn scan_options() -> ScanOptions {
+    ScanOptions { portrait: PortraitOptions { rho_max: RHO_MAX, ..ScanOptions::default().portrait }, ..ScanOptions::default() }
+}
+
+/// The heteroclinic and torus-Hopf values of `model` over its node range (coefficients
+/// interpolated by `interp` between the nodes), its 2-torus at 30.8 ms and its small-start
+/// switch, with the data-driven model's scan options ([`scan_options`]).
+pub fn equation_bifurcations(model: &EquationModel, interp: Interp) -> Result<EquationBifurcations, Error> {
+    equation_bifurcations_with(model, interp, &scan_options())
+}
+
+/// [`equation_bifurcations`] with other scan options (e.g. a longer `t_max`, which narrows
+/// the window of `dt` where the saddle's branch is still passing the other saddle when the
+/// time runs out; see `HeteroclinicEvent::exact_hit`).
+pub fn equation_bifurcations_with(model: &EquationModel, interp: Interp, sopts: &ScanOptions) -> Result<EquationBifurcations, Error> {
+    let (lo, hi) = model.range();
+    let nf_at = |dt: f64| model.normal_form_at(dt, interp);
+    let heteroclinic = heteroclinic_dt(nf_at, lo, hi, sopts)?;
+    let hopf = torus_hopf_dt(nf_at, lo, hi, sopts)?;
+    let (torus_30p8, small_start_switch) = if (lo..hi).contains(&30.8) {
+        let popts = PortraitOptions { rho_max: RHO_MAX, ..PortraitOptions::default() };
+        let torus = fixed_points(&model.normal_form_at(30.8, interp)?, &popts)?.into_iter().find(|f| f.kind == PointKind::Torus2);
+        (torus, small_start_switch(nf_at, 30.8, hi.min(32.3), 76)?)
+    } else {
+        (None, None)
+    };
+    Ok(EquationBifurcations { order: model.order, nodes_ms: model.nodes_ms.clone(), interp, heteroclinic, hopf, torus_30p8, small_start_switch })
+}
+
+/// The same scans on `[lo, hi]` with the normal form computed afresh at every visited `dt`
+/// (no interpolation): `grid` points, bisection to `tol` ms. Costly (one SSM per visited
+/// `dt`, at most `grid + 2 + 2 log2((hi - lo) / tol)` of them, the grid shared by both scans); meant to confirm an interpolated value
+/// on a narrow bracket around it. Returns (heteroclinic, torus Hopf).
+pub fn equation_bifurcations_direct(
+    order: u32,
+    lo: f64,
+    hi: f64,
+    grid: usize,
+    tol: f64,
+) -> Result<(Option<HeteroclinicEvent>, Option<HopfEvent>), Error> {
+    check_order(order)?;
+    let sopts = ScanOptions { grid, tol, ..scan_options() };
+    // Both scans visit the same grid: compute each dt once.
+    let cache = std::cell::RefCell::new(Vec::<(f64, PolarNormalForm)>::new());
+    let nf_at = |dt: f64| -> Result<PolarNormalForm, Error> {
+        if let Some((_, nf)) = cache.borrow().iter().find(|(d, _)| *d == dt) {
+            return Ok(nf.clone());
+        }
+        let nf = furuta_equation_polar(dt, order)?;
+        cache.borrow_mut().push((dt, nf.clone()));
+        Ok(nf)
+    };
+    let het = heteroclinic_dt(nf_at, lo, hi, &sopts)?;
+    let hopf = torus_hopf_dt(nf_at, lo, hi, &sopts)?;
+    Ok((het, hopf))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -167,9 +327,47 @@ mod tests {
         assert!(e.polar.eigenvalues[0].1 < e.polar.eigenvalues[1].1);
     }
 
+    /// The equation-driven model's global bifurcations by the data-driven model's portrait
+    /// scans, on five order-7 nodes (0.5 ms apart, spline): the saddle connection of the
+    /// fast-mode saddle cycle comes before the subcritical torus Hopf, both inside
+    /// 30.5-32.5 ms. References from the example (`--bifurcations 7`: nodes 0.25 ms apart,
+    /// and scans without interpolation on a bracket around each value): torus Hopf in
+    /// [31.8323, 31.8329] ms; saddle connection: the scan's midpoint hits the window where the
+    /// branch is still passing the slow saddle cycle at `t_max` (exact hit at 31.70 ms;
+    /// 31.7295 ms with `t_max` 50000 s), the small-start switch at [31.7294, 31.7300] ms.
+    #[test]
+    fn furuta_equation_bifurcations_order7() {
+        let model = EquationModel::furuta(&[30.5, 31.0, 31.5, 32.0, 32.5], 7).unwrap();
+        // Interpolation error at the middle of a 0.5 ms interval.
+        let direct = furuta_equation_polar(31.25, 7).unwrap();
+        let nf = model.normal_form_at(31.25, Interp::Spline).unwrap();
+        let rel = nf.amp.iter().flatten().zip(direct.amp.iter().flatten()).map(|(x, y)| (x - y).abs() / y.abs()).fold(0.0f64, f64::max);
+        eprintln!("spline interpolation at 31.25 ms: max rel. error {rel:.2e}");
+        assert!(rel < 1e-3, "{rel}"); // measured 9.9e-5
+        let b = equation_bifurcations(&model, Interp::Spline).unwrap();
+        eprintln!("{:?}\n{:?}\nsmall-start switch {:?}", b.heteroclinic, b.hopf, b.small_start_switch);
+        let het = b.heteroclinic.expect("saddle connection found");
+        let hopf = b.hopf.expect("torus Hopf found");
+        assert!(het.dt.is_finite() && hopf.dt.is_finite());
+        assert!(30.5 < het.dt && het.dt < hopf.dt && hopf.dt < 32.5, "{} {}", het.dt, hopf.dt);
+        assert_eq!(het.saddle, PointKind::LimitCycle { mode: 2 });
+        assert_eq!(het.fate_below, ssm::portrait::FateClass::ConvergesTo(PointKind::Torus2));
+        assert!(hopf.complex_pair && hopf.loses_stability, "{hopf:?}");
+        assert!((hopf.dt - 31.8326).abs() < 0.005, "{}", hopf.dt);
+        assert!((31.68..=31.74).contains(&het.dt), "{}", het.dt);
+        let sw = b.small_start_switch.expect("small-start switch found");
+        assert!((0.5 * (sw.0 + sw.1) - 31.7297).abs() < 0.005, "{sw:?}");
+        assert!(het.dt <= sw.1 && sw.1 < hopf.dt);
+        // The 2-torus at 30.8 ms (the data-driven model's is near [0.1, 0.03] rad too).
+        let t = b.torus_30p8.expect("torus at 30.8 ms").rho;
+        assert!((t[0] - 0.0992).abs() < 1e-3 && (t[1] - 0.0305).abs() < 1e-3, "{t:?}");
+    }
+
     #[test]
     fn order_out_of_range_is_refused() {
         assert!(matches!(furuta_equation_ssm(31.0, 2), Err(Error::BadOption { what: "order", .. })));
         assert!(matches!(furuta_equation_ssm(31.0, 10), Err(Error::BadOption { what: "order", .. })));
+        assert!(matches!(EquationModel::furuta(&[31.0], 7), Err(Error::BadOption { what: "nodes_ms", .. })));
+        assert!(matches!(EquationModel::furuta(&[31.0, 30.5], 7), Err(Error::BadOption { what: "nodes_ms", .. })));
     }
 }
