@@ -341,13 +341,14 @@ fn frc_from_fit_and_from_a_saved_model_agree() {
     });
     assert!(on_stable, "the calibration point is not on a stable branch");
     for (range, cal, want) in [
-        ("5.8:6.9", "-1,0.32", "calibration"),
-        ("5.8:6.9", "6.25,0", "calibration"),
-        ("5.8:6.9", "6.25,10", "off the forced response curve"),
-        ("0:6.9", "6.25,0.32", "range"),
+        ("5.8:6.9", "-1,0.32", "the forcing frequency must be a positive number"),
+        ("5.8:6.9", "6.25,0", "the amplitude must be a positive number"),
+        ("5.8:6.9", "6.25,10", "above the largest the model covers"),
+        ("0:6.9", "6.25,0.32", "--freq-range `0:6.9`: forcing frequencies must be > 0"),
     ] {
-        let (ok, _, err) = ssmctl(&["frc", "--model", model.to_str().unwrap(), "--out", d2.to_str().unwrap(), "--freq-range", range, "--calibrate", cal]);
-        assert!(!ok && err.to_lowercase().contains(want), "{range} {cal}: {err}");
+        let (range, cal) = (format!("--freq-range={range}"), format!("--calibrate={cal}"));
+        let (ok, _, err) = ssmctl(&["frc", "--model", model.to_str().unwrap(), "--out", d2.to_str().unwrap(), &range, &cal]);
+        assert!(!ok && err.contains(want), "{range} {cal}: {err}");
     }
     let _ = std::fs::remove_dir_all(&dir);
 }
