@@ -200,20 +200,8 @@ impl EquationModel {
         if let Some((k, _)) = self.forms.iter().enumerate().find(|(_, f)| f.pexps != first.pexps || f.modes != first.modes) {
             return Err(Error::BadInput { what: "equation model", why: format!("node {} ms has other monomials than node {} ms", self.nodes_ms[k], self.nodes_ms[0]) });
         }
-        let mix = |get: &dyn Fn(&PolarNormalForm) -> &Vec<Vec<f64>>| -> Vec<Vec<f64>> {
-            let mut out = get(first).clone();
-            for (m, row) in out.iter_mut().enumerate() {
-                for (k, v) in row.iter_mut().enumerate() {
-                    *v = self.forms.iter().zip(&w).map(|(f, wi)| wi * get(f)[m][k]).sum();
-                }
-            }
-            out
-        };
-        let mut out = first.clone();
-        out.amp = mix(&|n| &n.amp);
-        out.phase = mix(&|n| &n.phase);
-        out.eigenvalues = (0..first.modes).map(|m| (out.amp[m][0], out.phase[m][0])).collect();
-        out.map_dt = Some(dt_ms * 1e-3);
+        let forms: Vec<&PolarNormalForm> = self.forms.iter().collect();
+        let mut out = crate::parametric::blend_normal_forms(&forms, &w, dt_ms)?;
         out.extra_resonances.clear();
         out.min_divisor = self.forms.iter().map(|f| f.min_divisor).fold(f64::INFINITY, f64::min);
         Ok(out)

@@ -283,6 +283,31 @@ pub fn furuta_parametric(opts: &FurutaOptions) -> Result<ParametricModel, Error>
     Ok(ParametricModel { trained })
 }
 
+/// The polar normal form whose every coefficient is `sum_i w[i] * forms[i]` (interpolation
+/// weights over the nodes), at the sampling period `dt_ms`; the forms must share their
+/// monomials (checked by the callers, who name the node). The other fields are the first
+/// form's.
+pub(crate) fn blend_normal_forms(forms: &[&PolarNormalForm], w: &[f64], dt_ms: f64) -> Result<PolarNormalForm, Error> {
+    let Some(&first) = forms.first() else {
+        return Err(Error::BadInput { what: "normal forms", why: "no interpolation nodes".into() });
+    };
+    let mix = |get: &dyn Fn(&PolarNormalForm) -> &Vec<Vec<f64>>| -> Vec<Vec<f64>> {
+        let mut out = get(first).clone();
+        for (m, row) in out.iter_mut().enumerate() {
+            for (k, v) in row.iter_mut().enumerate() {
+                *v = forms.iter().zip(w).map(|(f, wi)| wi * get(f)[m][k]).sum();
+            }
+        }
+        out
+    };
+    let mut out = first.clone();
+    out.amp = mix(&|n| &n.amp);
+    out.phase = mix(&|n| &n.phase);
+    out.eigenvalues = (0..first.modes).map(|m| (out.amp[m][0], out.phase[m][0])).collect();
+    out.map_dt = Some(ms_to_s(dt_ms));
+    Ok(out)
+}
+
 impl ParametricModel {
     /// Training range (ms).
     pub fn range(&self) -> (f64, f64) {
@@ -328,25 +353,11 @@ impl ParametricModel {
         }
         let nodes: Vec<f64> = self.trained.iter().map(|t| t.dt_ms).collect();
         let w = interp_weights(&nodes, dt_ms, interp)?;
-        let first = &self.trained[0].normal_form;
-        if let Some(t) = self.trained.iter().find(|t| t.normal_form.pexps != first.pexps || t.normal_form.modes != first.modes) {
+        let forms: Vec<&PolarNormalForm> = self.trained.iter().map(|t| &t.normal_form).collect();
+        if let Some(t) = self.trained.iter().find(|t| t.normal_form.pexps != forms[0].pexps || t.normal_form.modes != forms[0].modes) {
             return Err(Error::BadOption { what: "normal forms", why: format!("dt = {} ms has other monomials than dt = {} ms", t.dt_ms, nodes[0]) });
         }
-        let mix = |get: &dyn Fn(&PolarNormalForm) -> &Vec<Vec<f64>>| -> Vec<Vec<f64>> {
-            let mut out = get(first).clone();
-            for (m, row) in out.iter_mut().enumerate() {
-                for (k, v) in row.iter_mut().enumerate() {
-                    *v = self.trained.iter().zip(&w).map(|(t, wi)| wi * get(&t.normal_form)[m][k]).sum();
-                }
-            }
-            out
-        };
-        let mut out = first.clone();
-        out.amp = mix(&|n| &n.amp);
-        out.phase = mix(&|n| &n.phase);
-        out.eigenvalues = (0..first.modes).map(|m| (out.amp[m][0], out.phase[m][0])).collect();
-        out.map_dt = Some(ms_to_s(dt_ms));
-        Ok(out)
+        blend_normal_forms(&forms, &w, dt_ms)
     }
 
     /// The `rho'` coefficient table at `dt_ms`.
