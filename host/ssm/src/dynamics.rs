@@ -371,19 +371,6 @@ impl ReducedDynamics {
         Self::fit_anchored(trajs, kind, order, ridge, None)
     }
 
-    /// [`Self::fit_anchored`] with the plain anchor (`joint = false`) or the joint one
-    /// (see [`FitOptions::anchor_joint`](super::fit::FitOptions::anchor_joint)).
-    pub fn fit_with(
-        trajs: &[EtaTrajectory<'_>],
-        kind: Dynamics,
-        order: u32,
-        ridge: Ridge,
-        anchor: Option<f64>,
-        joint: bool,
-    ) -> Result<Self, FitError> {
-        Self::fit_impl(trajs, kind, order, ridge, anchor, joint)
-    }
-
     /// [`Self::fit`] with the linear part optionally anchored on small-amplitude data:
     /// with `anchor = Some(f)`, the degree-1 coefficients of a polynomial flow or map are
     /// fitted (plain least squares) to the pairs whose point has `||eta|| <= f max ||eta||`
@@ -399,10 +386,12 @@ impl ReducedDynamics {
         ridge: Ridge,
         anchor: Option<f64>,
     ) -> Result<Self, FitError> {
-        Self::fit_impl(trajs, kind, order, ridge, anchor, false)
+        Self::fit_with(trajs, kind, order, ridge, anchor, false)
     }
 
-    fn fit_impl(
+    /// [`Self::fit_anchored`] with the plain anchor (`joint = false`) or the joint one
+    /// (see [`FitOptions::anchor_joint`](super::fit::FitOptions::anchor_joint)).
+    pub fn fit_with(
         trajs: &[EtaTrajectory<'_>],
         kind: Dynamics,
         order: u32,
