@@ -8,6 +8,10 @@ pub mod density;
 pub mod embed;
 pub mod lyapunov;
 pub mod reference;
+mod rng;
+pub mod fsle;
+pub mod surrogate;
+pub mod zero_one;
 
 pub use benettin::{
     jacobian_tangent_step, kaplan_yorke,
@@ -19,6 +23,9 @@ pub use corrdim::{
     correlation_sum, fit_scaling_range, ssm_dimension,
 };
 pub use density::{Bins, CoordinatePdf, PdfComparison, compare_pdfs, jensen_shannon_bits};
+pub use fsle::{FsleRow, FsleSeriesParams, fsle_from_separations, fsle_series, scaling_slope, thresholds};
+pub use surrogate::{Statistic, SurrogateParams, SurrogateResult, surrogate_test};
+pub use zero_one::{ZeroOneParams, ZeroOneResult, zero_one_test};
 pub use embed::{autocorrelation, delay_embed, dominant_period, first_zero_crossing};
 pub use lyapunov::{
     DivergenceCurve, DivergenceFit, DivergenceParams, FitRule, KantzEstimate, LyapunovEstimate, fit_divergence,

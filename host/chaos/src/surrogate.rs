@@ -1,0 +1,383 @@
+//! Surrogate-data tests for determinism (Theiler et al. 1992; iterative amplitude-adjusted
+//! Fourier-transform surrogates of Schreiber & Schmitz 1996).
+//!
+//! Null hypothesis: the series is a stationary linear Gaussian process seen through a
+//! static, monotone measurement function. IAAFT surrogates keep the series' amplitude
+//! distribution exactly and its power spectrum approximately (alternate projections: impose
+//! the data's Fourier amplitudes, then rank-order remap onto the data's values). A
+//! discriminating statistic is computed on the data and on every surrogate, and the rank of
+//! the data among them gives the p-value: with `M` surrogates the smallest attainable
+//! one-sided p is `1 / (M + 1)`.
+//!
+//! Statistics: the nonlinear prediction error (zeroth-order local-average predictor in a delay
+//! embedding; deterministic data predict better than their surrogates, one-sided) and the
+//! time-reversal asymmetry `<(x_{n+l} - x_n)^3> / <(x_{n+l} - x_n)^2>^{3/2}` (two-sided).
+//!
+//! The series is cut to the longest power of two (radix-2 FFT), at the offset whose segment
+//! ends match best (value and slope), so the periodic continuation the FFT assumes does not
+//! add a jump that only the data have.
+
+use crate::rng::SplitMix;
+use crate::{ChaosError, Result, at_least, check_finite, strided};
+
+/// The discriminating statistic.
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
+pub enum Statistic {
+    /// RMS error of predicting `horizon` samples ahead from the `neighbours` nearest delay
+    /// vectors (`m`, `tau`), outside a Theiler window, over at most `refs` reference points,
+    /// divided by the standard deviation. Smaller = more deterministic (one-sided test).
+    PredictionError { m: usize, tau: usize, horizon: usize, neighbours: usize, theiler: usize, refs: usize },
+    /// Time-reversal asymmetry at lag `lag` (two-sided test on its absolute value).
+    TimeReversal { lag: usize },
+}
+
+/// Settings of [`surrogate_test`].
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
+pub struct SurrogateParams {
+    pub statistic: Statistic,
+    /// Number of surrogates (19: p >= 0.05; 39: p >= 0.025; 99: p >= 0.01).
+    pub surrogates: usize,
+    /// IAAFT iterations at most (stops earlier when the rank order no longer changes).
+    pub max_iter: usize,
+    pub seed: u64,
+    /// Use at most this many samples (the largest power of two not above it and the length).
+    pub max_len: usize,
+}
+
+impl Default for SurrogateParams {
+    fn default() -> Self {
+        Self {
+            statistic: Statistic::PredictionError { m: 4, tau: 1, horizon: 1, neighbours: 5, theiler: 10, refs: 500 },
+            surrogates: 39,
+            max_iter: 200,
+            seed: 1,
+            max_len: 4096,
+        }
+    }
+}
+
+/// What [`surrogate_test`] found.
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+pub struct SurrogateResult {
+    pub statistic_data: f64,
+    pub statistic_surrogates: Vec<f64>,
+    /// Rank-based p-value of the null hypothesis (linear Gaussian process).
+    pub p_value: f64,
+    /// Samples used (power of two) and where the segment starts.
+    pub len: usize,
+    pub offset: usize,
+    /// Mean IAAFT iterations per surrogate.
+    pub mean_iterations: f64,
+}
+
+/// Shortest segment the test accepts.
+pub const MIN_LEN: usize = 64;
+
+/// Runs the surrogate test on `x` (see the module doc).
+pub fn surrogate_test(x: &[f64], p: &SurrogateParams) -> Result<SurrogateResult> {
+    check_finite(x, 1)?;
+    at_least("surrogates", p.surrogates, 1)?;
+    at_least("max_iter (IAAFT)", p.max_iter, 1)?;
+    let cap = x.len().min(p.max_len);
+    if cap < MIN_LEN {
+        return Err(ChaosError::TooShort { param: "surrogate test", have: cap, need: MIN_LEN });
+    }
+    let len = 1usize << (usize::BITS - 1 - cap.leading_zeros());
+    let offset = best_offset(x, len);
+    let seg = &x[offset..offset + len];
+    if seg.iter().all(|&v| v == seg[0]) {
+        return Err(ChaosError::ZeroVariance { coord: 0, value: seg[0] });
+    }
+    let stat = |s: &[f64]| statistic(s, &p.statistic);
+    let statistic_data = stat(seg)?;
+    let mut sorted = seg.to_vec();
+    sorted.sort_by(f64::total_cmp);
+    let amp = fft_amplitudes(seg);
+    let mut rng = SplitMix::new(p.seed);
+    let mut statistic_surrogates = Vec::with_capacity(p.surrogates);
+    let mut iters = 0usize;
+    for _ in 0..p.surrogates {
+        let (s, it) = iaaft(&sorted, &amp, p.max_iter, &mut rng);
+        iters += it;
+        statistic_surrogates.push(stat(&s)?);
+    }
+    let m = p.surrogates as f64;
+    let as_extreme = match p.statistic {
+        Statistic::PredictionError { .. } => statistic_surrogates.iter().filter(|&&s| s <= statistic_data).count(),
+        Statistic::TimeReversal { .. } => statistic_surrogates.iter().filter(|&&s| s.abs() >= statistic_data.abs()).count(),
+    };
+    Ok(SurrogateResult {
+        statistic_data,
+        statistic_surrogates,
+        p_value: (1.0 + as_extreme as f64) / (m + 1.0),
+        len,
+        offset,
+        mean_iterations: iters as f64 / m,
+    })
+}
+
+/// One IAAFT surrogate from the data's sorted values and Fourier amplitudes; returns it and
+/// the iterations used.
+pub(crate) fn iaaft(sorted: &[f64], amp: &[f64], max_iter: usize, rng: &mut SplitMix) -> (Vec<f64>, usize) {
+    let n = sorted.len();
+    // Start from a random permutation of the values.
+    let mut s = sorted.to_vec();
+    for i in (1..n).rev() {
+        s.swap(i, rng.below(i + 1));
+    }
+    let mut rank: Vec<usize> = vec![0; n];
+    let mut order: Vec<usize> = (0..n).collect();
+    let mut re = vec![0.0; n];
+    let mut im = vec![0.0; n];
+    for it in 1..=max_iter {
+        // Impose the Fourier amplitudes, keep the phases.
+        re.copy_from_slice(&s);
+        im.iter_mut().for_each(|v| *v = 0.0);
+        fft(&mut re, &mut im, false);
+        for k in 0..n {
+            let a = re[k].hypot(im[k]);
+            let (c, si) = if a > 0.0 { (re[k] / a, im[k] / a) } else { (1.0, 0.0) };
+            re[k] = amp[k] * c;
+            im[k] = amp[k] * si;
+        }
+        fft(&mut re, &mut im, true);
+        // Rank-order remap onto the data's values.
+        order.sort_by(|&a, &b| re[a].total_cmp(&re[b]));
+        let mut changed = false;
+        for (r, &i) in order.iter().enumerate() {
+            if rank[i] != r {
+                changed = true;
+                rank[i] = r;
+            }
+            s[i] = sorted[r];
+        }
+        if !changed && it > 1 {
+            return (s, it);
+        }
+    }
+    (s, max_iter)
+}
+
+/// Offset of the length-`len` segment whose ends match best: squared jump between the last
+/// and the first value plus squared slope mismatch, over at most 2000 candidate offsets.
+fn best_offset(x: &[f64], len: usize) -> usize {
+    let last = x.len() - len;
+    let cost = |s: usize| {
+        let (a, b) = (x[s], x[s + len - 1]);
+        let slope = if len > 2 { (x[s + 1] - a) - (b - x[s + len - 2]) } else { 0.0 };
+        (b - a) * (b - a) + slope * slope
+    };
+    strided(last + 1, 2000).into_iter().min_by(|&a, &b| cost(a).total_cmp(&cost(b))).unwrap_or(0)
+}
+
+fn fft_amplitudes(x: &[f64]) -> Vec<f64> {
+    let mut re = x.to_vec();
+    let mut im = vec![0.0; x.len()];
+    fft(&mut re, &mut im, false);
+    re.iter().zip(&im).map(|(a, b)| a.hypot(*b)).collect()
+}
+
+/// In-place iterative radix-2 FFT (length a power of two); `inverse` divides by n.
+pub(crate) fn fft(re: &mut [f64], im: &mut [f64], inverse: bool) {
+    let n = re.len();
+    let mut j = 0;
+    for i in 1..n {
+        let mut bit = n >> 1;
+        while j & bit != 0 {
+            j ^= bit;
+            bit >>= 1;
+        }
+        j |= bit;
+        if i < j {
+            re.swap(i, j);
+            im.swap(i, j);
+        }
+    }
+    let sign = if inverse { 1.0 } else { -1.0 };
+    let mut len = 2;
+    while len <= n {
+        let ang = sign * 2.0 * std::f64::consts::PI / len as f64;
+        for start in (0..n).step_by(len) {
+            for k in 0..len / 2 {
+                let (s, c) = (ang * k as f64).sin_cos();
+                let (a, b) = (start + k, start + k + len / 2);
+                let (tr, ti) = (re[b] * c - im[b] * s, re[b] * s + im[b] * c);
+                re[b] = re[a] - tr;
+                im[b] = im[a] - ti;
+                re[a] += tr;
+                im[a] += ti;
+            }
+        }
+        len <<= 1;
+    }
+    if inverse {
+        let f = 1.0 / n as f64;
+        re.iter_mut().chain(im.iter_mut()).for_each(|v| *v *= f);
+    }
+}
+
+/// The statistic of series `x`.
+pub fn statistic(x: &[f64], s: &Statistic) -> Result<f64> {
+    match *s {
+        Statistic::TimeReversal { lag } => {
+            at_least("lag (time reversal)", lag, 1)?;
+            if x.len() <= lag + 1 {
+                return Err(ChaosError::TooShort { param: "time-reversal lag", have: x.len(), need: lag + 2 });
+            }
+            let (mut s2, mut s3) = (0.0, 0.0);
+            for w in x.windows(lag + 1) {
+                let d = w[lag] - w[0];
+                s2 += d * d;
+                s3 += d * d * d;
+            }
+            let n = (x.len() - lag) as f64;
+            let v = s2 / n;
+            Ok(if v > 0.0 { s3 / n / v.powf(1.5) } else { 0.0 })
+        }
+        Statistic::PredictionError { m, tau, horizon, neighbours, theiler, refs } => prediction_error(x, m, tau, horizon, neighbours, theiler, refs),
+    }
+}
+
+/// Zeroth-order nonlinear prediction error (see [`Statistic::PredictionError`]).
+pub fn prediction_error(x: &[f64], m: usize, tau: usize, horizon: usize, neighbours: usize, theiler: usize, refs: usize) -> Result<f64> {
+    at_least("m (prediction embedding)", m, 1)?;
+    at_least("tau (prediction lag)", tau, 1)?;
+    at_least("horizon (prediction)", horizon, 1)?;
+    at_least("neighbours (prediction)", neighbours, 1)?;
+    at_least("refs (prediction)", refs, 1)?;
+    let w = (m - 1) * tau;
+    // Delay vectors i = 0..nv (first sample x[i], last x[i + w]) with a target x[i + w + horizon].
+    let need = w + horizon + 2 * theiler + neighbours + 2;
+    if x.len() < need {
+        return Err(ChaosError::TooShort { param: "prediction error (embedding window + horizon + Theiler)", have: x.len(), need });
+    }
+    let nv = x.len() - w - horizon;
+    let (mean, sd) = crate::mean_std(x);
+    let _ = mean;
+    if sd <= 0.0 {
+        return Err(ChaosError::ZeroVariance { coord: 0, value: x[0] });
+    }
+    let mut best: Vec<(f64, usize)> = Vec::with_capacity(neighbours + 1);
+    let mut sse = 0.0;
+    let mut count = 0usize;
+    for i in strided(nv, refs) {
+        best.clear();
+        for j in 0..nv {
+            if j.abs_diff(i) <= theiler {
+                continue;
+            }
+            let mut d2 = 0.0;
+            for k in 0..m {
+                let e = x[i + k * tau] - x[j + k * tau];
+                d2 += e * e;
+            }
+            if best.len() < neighbours || d2 < best[best.len() - 1].0 {
+                let pos = best.partition_point(|b| b.0 <= d2);
+                best.insert(pos, (d2, j));
+                best.truncate(neighbours);
+            }
+        }
+        if best.is_empty() {
+            continue;
+        }
+        let pred = best.iter().map(|&(_, j)| x[j + w + horizon]).sum::<f64>() / best.len() as f64;
+        let e = pred - x[i + w + horizon];
+        sse += e * e;
+        count += 1;
+    }
+    if count == 0 {
+        return Err(ChaosError::TooShort { param: "prediction error references", have: 0, need: 1 });
+    }
+    Ok((sse / count as f64).sqrt() / sd)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::reference::Henon;
+
+    fn ar2(n: usize, seed: u64) -> Vec<f64> {
+        let mut rng = SplitMix::new(seed);
+        let (mut a, mut b) = (0.0, 0.0);
+        (0..n + 500)
+            .map(|_| {
+                let x = 1.6 * a - 0.8 * b + rng.normal();
+                b = a;
+                a = x;
+                x
+            })
+            .skip(500)
+            .collect()
+    }
+
+    #[test]
+    fn fft_round_trip_and_known_transform() {
+        let x: Vec<f64> = (0..16).map(|k| (2.0 * std::f64::consts::PI * 3.0 * k as f64 / 16.0).cos()).collect();
+        let (mut re, mut im) = (x.clone(), vec![0.0; 16]);
+        fft(&mut re, &mut im, false);
+        for k in 0..16 {
+            let want = if k == 3 || k == 13 { 8.0 } else { 0.0 };
+            assert!((re[k].hypot(im[k]) - want).abs() < 1e-12, "{k}");
+        }
+        fft(&mut re, &mut im, true);
+        for k in 0..16 {
+            assert!((re[k] - x[k]).abs() < 1e-14 && im[k].abs() < 1e-14);
+        }
+    }
+
+    /// IAAFT keeps the values exactly and the spectrum within a few per cent.
+    #[test]
+    fn iaaft_keeps_distribution_and_spectrum() {
+        let x: Vec<f64> = ar2(1024, 5).iter().map(|v| v.powi(3)).collect(); // non-Gaussian values
+        let mut sorted = x.clone();
+        sorted.sort_by(f64::total_cmp);
+        let amp = fft_amplitudes(&x);
+        let (s, _) = iaaft(&sorted, &amp, 200, &mut SplitMix::new(1));
+        let mut ss = s.clone();
+        ss.sort_by(f64::total_cmp);
+        assert_eq!(ss, sorted);
+        assert_ne!(s, x);
+        let a2 = fft_amplitudes(&s);
+        let num: f64 = amp.iter().zip(&a2).map(|(a, b)| (a - b) * (a - b)).sum();
+        let den: f64 = amp.iter().map(|a| a * a).sum();
+        assert!((num / den).sqrt() < 0.15, "{}", (num / den).sqrt());
+        // A plain shuffle (the start of the iteration) loses the spectrum.
+        let mut sh = x.clone();
+        let mut rng = SplitMix::new(2);
+        for i in (1..sh.len()).rev() {
+            sh.swap(i, rng.below(i + 1));
+        }
+        let a3 = fft_amplitudes(&sh);
+        let num3: f64 = amp.iter().zip(&a3).map(|(a, b)| (a - b) * (a - b)).sum();
+        assert!((num3 / den).sqrt() > 0.5, "{}", (num3 / den).sqrt());
+    }
+
+    /// Known answers: a linear Gaussian AR(2) process is not rejected (by either statistic);
+    /// the Henon map's x series is rejected at the smallest attainable p.
+    #[test]
+    fn ar_not_rejected_henon_rejected() {
+        let p = SurrogateParams { surrogates: 19, max_len: 2048, ..Default::default() };
+        let ar = surrogate_test(&ar2(2048, 11), &p).unwrap();
+        assert!(ar.p_value > 0.1, "{ar:?}");
+        let tr = SurrogateParams { statistic: Statistic::TimeReversal { lag: 1 }, ..p };
+        let ar_t = surrogate_test(&ar2(2048, 12), &tr).unwrap();
+        assert!(ar_t.p_value > 0.1, "{ar_t:?}");
+        let h: Vec<f64> = Henon::default().orbit(2048, 1000).iter().map(|v| v[0]).collect();
+        let he = surrogate_test(&h, &p).unwrap();
+        assert_eq!(he.p_value, 0.05, "{he:?}");
+        assert!(he.statistic_data < 0.5 * he.statistic_surrogates.iter().copied().fold(f64::INFINITY, f64::min), "{he:?}");
+        let he_t = surrogate_test(&h, &tr).unwrap();
+        assert_eq!(he_t.p_value, 0.05, "{he_t:?}");
+    }
+
+    #[test]
+    fn bad_inputs_are_named() {
+        let p = SurrogateParams::default();
+        assert!(matches!(surrogate_test(&[1.0; 40], &p), Err(ChaosError::TooShort { .. })));
+        assert!(matches!(surrogate_test(&[1.0; 100], &p), Err(ChaosError::ZeroVariance { .. })));
+        assert!(matches!(surrogate_test(&ar2(100, 1), &SurrogateParams { surrogates: 0, ..p }), Err(ChaosError::BadParameter { .. })));
+        let mut x = ar2(100, 1);
+        x[7] = f64::INFINITY;
+        assert!(matches!(surrogate_test(&x, &p), Err(ChaosError::NonFinite { index: 7, .. })));
+    }
+}
