@@ -24,7 +24,7 @@ pub use corrdim::{
 };
 pub use density::{Bins, CoordinatePdf, PdfComparison, compare_pdfs, jensen_shannon_bits};
 pub use fsle::{FsleRow, FsleSeriesParams, fsle_from_separations, fsle_series, scaling_slope, thresholds};
-pub use surrogate::{Statistic, SurrogateParams, SurrogateResult, surrogate_test};
+pub use surrogate::{Statistic, SurrogateParams, SurrogateResult, surrogate_test, surrogate_tests};
 pub use zero_one::{ZeroOneParams, ZeroOneResult, zero_one_test};
 pub use embed::{autocorrelation, delay_embed, dominant_period, first_zero_crossing};
 pub use lyapunov::{

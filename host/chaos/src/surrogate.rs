@@ -75,9 +75,16 @@ pub const MIN_LEN: usize = 64;
 
 /// Runs the surrogate test on `x` (see the module doc).
 pub fn surrogate_test(x: &[f64], p: &SurrogateParams) -> Result<SurrogateResult> {
+    surrogate_tests(x, &[p.statistic], p)?.pop().ok_or(ChaosError::TooShort { param: "surrogate statistics", have: 0, need: 1 })
+}
+
+/// [`surrogate_test`] for several statistics on the same surrogates (`p.statistic` is not
+/// used): one result per statistic, in order.
+pub fn surrogate_tests(x: &[f64], stats: &[Statistic], p: &SurrogateParams) -> Result<Vec<SurrogateResult>> {
     check_finite(x, 1)?;
     at_least("surrogates", p.surrogates, 1)?;
     at_least("max_iter (IAAFT)", p.max_iter, 1)?;
+    at_least("statistics", stats.len(), 1)?;
     let cap = x.len().min(p.max_len);
     if cap < MIN_LEN {
         return Err(ChaosError::TooShort { param: "surrogate test", have: cap, need: MIN_LEN });
@@ -88,32 +95,33 @@ pub fn surrogate_test(x: &[f64], p: &SurrogateParams) -> Result<SurrogateResult>
     if seg.iter().all(|&v| v == seg[0]) {
         return Err(ChaosError::ZeroVariance { coord: 0, value: seg[0] });
     }
-    let stat = |s: &[f64]| statistic(s, &p.statistic);
-    let statistic_data = stat(seg)?;
+    let data: Vec<f64> = stats.iter().map(|s| statistic(seg, s)).collect::<Result<_>>()?;
     let mut sorted = seg.to_vec();
     sorted.sort_by(f64::total_cmp);
     let amp = fft_amplitudes(seg);
     let mut rng = SplitMix::new(p.seed);
-    let mut statistic_surrogates = Vec::with_capacity(p.surrogates);
+    let mut surr: Vec<Vec<f64>> = vec![Vec::with_capacity(p.surrogates); stats.len()];
     let mut iters = 0usize;
     for _ in 0..p.surrogates {
         let (s, it) = iaaft(&sorted, &amp, p.max_iter, &mut rng);
         iters += it;
-        statistic_surrogates.push(stat(&s)?);
+        for (v, st) in surr.iter_mut().zip(stats) {
+            v.push(statistic(&s, st)?);
+        }
     }
     let m = p.surrogates as f64;
-    let as_extreme = match p.statistic {
-        Statistic::PredictionError { .. } => statistic_surrogates.iter().filter(|&&s| s <= statistic_data).count(),
-        Statistic::TimeReversal { .. } => statistic_surrogates.iter().filter(|&&s| s.abs() >= statistic_data.abs()).count(),
-    };
-    Ok(SurrogateResult {
-        statistic_data,
-        statistic_surrogates,
-        p_value: (1.0 + as_extreme as f64) / (m + 1.0),
-        len,
-        offset,
-        mean_iterations: iters as f64 / m,
-    })
+    Ok(stats
+        .iter()
+        .zip(data)
+        .zip(surr)
+        .map(|((st, statistic_data), statistic_surrogates)| {
+            let as_extreme = match st {
+                Statistic::PredictionError { .. } => statistic_surrogates.iter().filter(|&&s| s <= statistic_data).count(),
+                Statistic::TimeReversal { .. } => statistic_surrogates.iter().filter(|&&s| s.abs() >= statistic_data.abs()).count(),
+            };
+            SurrogateResult { statistic_data, statistic_surrogates, p_value: (1.0 + as_extreme as f64) / (m + 1.0), len, offset, mean_iterations: iters as f64 / m }
+        })
+        .collect())
 }
 
 /// One IAAFT surrogate from the data's sorted values and Fourier amplitudes; returns it and
@@ -194,12 +202,14 @@ pub(crate) fn fft(re: &mut [f64], im: &mut [f64], inverse: bool) {
         }
     }
     let sign = if inverse { 1.0 } else { -1.0 };
+    // Twiddles of the largest stage; stage `len` reads every (n / len)-th.
+    let tw: Vec<(f64, f64)> = (0..n / 2).map(|k| (sign * 2.0 * std::f64::consts::PI * k as f64 / n as f64).sin_cos()).collect();
     let mut len = 2;
     while len <= n {
-        let ang = sign * 2.0 * std::f64::consts::PI / len as f64;
+        let stride = n / len;
         for start in (0..n).step_by(len) {
             for k in 0..len / 2 {
-                let (s, c) = (ang * k as f64).sin_cos();
+                let (s, c) = tw[k * stride];
                 let (a, b) = (start + k, start + k + len / 2);
                 let (tr, ti) = (re[b] * c - im[b] * s, re[b] * s + im[b] * c);
                 re[b] = re[a] - tr;
@@ -368,6 +378,9 @@ mod tests {
         assert!(he.statistic_data < 0.5 * he.statistic_surrogates.iter().copied().fold(f64::INFINITY, f64::min), "{he:?}");
         let he_t = surrogate_test(&h, &tr).unwrap();
         assert_eq!(he_t.p_value, 0.05, "{he_t:?}");
+        // Both statistics on one set of surrogates: the same numbers as one at a time.
+        let both = surrogate_tests(&h, &[p.statistic, tr.statistic], &p).unwrap();
+        assert_eq!(both, vec![he, he_t]);
     }
 
     #[test]

@@ -16,6 +16,7 @@ pub mod microchaos;
 pub mod parametric;
 pub mod shared_tangent;
 pub mod sweep;
+pub mod verdict;
 
 pub use error::Error;
 
