@@ -288,6 +288,57 @@ pub fn equation_bifurcations_direct(
     Ok((het, hopf))
 }
 
+/// One row of [`coefficient_comparison`]: a polar coefficient `rho_mode' ~ monomial` at one
+/// sampling period, equation-driven and data-driven.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct CoefficientRow {
+    pub dt_ms: f64,
+    /// 1-based mode of the equation.
+    pub mode: usize,
+    /// Exponents of `(rho_1, rho_2)` and the monomial as text (`rho_1 rho_2^2`).
+    pub rho_exps: Vec<u32>,
+    pub monomial: String,
+    /// Total degree of the monomial (1 linear, 3 cubic, 5 quintic, ...).
+    pub degree: u32,
+    pub equation: f64,
+    /// `None` when the data-driven table has no such row (lower order).
+    pub data: Option<f64>,
+    /// `data / equation - 1`.
+    pub rel_diff: Option<f64>,
+}
+
+/// The polar coefficients of the equation-driven SSM at `order` next to the data-driven
+/// normal forms `data(dt)` (e.g. `|dt| pm.normal_form_at(dt)` of a
+/// [`crate::parametric::ParametricModel`]) at each of `dts_ms`, row by row (the equation-driven
+/// table's rows; both use the same conventions, see the module docs). The normal forms are
+/// computed on the rayon pool.
+pub fn coefficient_comparison(
+    dts_ms: &[f64],
+    order: u32,
+    data: impl Fn(f64) -> Result<PolarNormalForm, Error>,
+) -> Result<Vec<CoefficientRow>, Error> {
+    check_order(order)?;
+    let eq = crate::par_map(dts_ms, |&dt| furuta_equation_polar(dt, order))?;
+    let mut out = Vec::new();
+    for (&dt, e) in dts_ms.iter().zip(&eq) {
+        let d = data(dt)?.table();
+        for r in e.table().rows {
+            let dv = d.get(r.mode, &r.monomial);
+            out.push(CoefficientRow {
+                dt_ms: dt,
+                mode: r.mode,
+                degree: r.rho_exps.iter().sum(),
+                rho_exps: r.rho_exps,
+                monomial: r.monomial,
+                equation: r.value,
+                data: dv,
+                rel_diff: dv.map(|x| x / r.value - 1.0),
+            });
+        }
+    }
+    Ok(out)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -349,6 +400,27 @@ mod tests {
         // The 2-torus at 30.8 ms (the data-driven model's is near [0.1, 0.03] rad too).
         let t = b.torus_30p8.expect("torus at 30.8 ms").rho;
         assert!((t[0] - 0.0992).abs() < 1e-3 && (t[1] - 0.0305).abs() < 1e-3, "{t:?}");
+    }
+
+    /// The comparison table matches rows by monomial: an order-5 normal form as the "data"
+    /// side of the order-7 table agrees on every row up to degree 5 (the parametrization is
+    /// order by order; the two expansions differ only by their RK4 meshes) and has no
+    /// degree-7 rows.
+    #[test]
+    fn coefficient_comparison_matches_rows() {
+        let rows = coefficient_comparison(&[31.2], 7, |dt| furuta_equation_polar(dt, 5)).unwrap();
+        assert_eq!(rows.len(), 20);
+        for r in &rows {
+            assert_eq!(r.dt_ms, 31.2);
+            if r.degree <= 5 {
+                let d = r.rel_diff.unwrap();
+                assert!(d.abs() < 1e-6, "{r:?}");
+            } else {
+                assert_eq!(r.degree, 7);
+                assert!(r.data.is_none() && r.rel_diff.is_none(), "{r:?}");
+            }
+        }
+        assert_eq!(rows.iter().filter(|r| r.degree == 3).count(), 4);
     }
 
     #[test]

@@ -7,6 +7,7 @@
 
 pub mod bifurcations;
 pub mod chaos_tables;
+pub mod convergence;
 pub mod device_model;
 pub mod equation_ssm;
 pub mod error;
@@ -14,6 +15,7 @@ pub mod full_system;
 pub mod lyapunov;
 pub mod microchaos;
 pub mod parametric;
+pub mod saddle_cycles;
 pub mod shared_tangent;
 pub mod sweep;
 pub mod verdict;

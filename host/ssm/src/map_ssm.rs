@@ -245,6 +245,10 @@ pub struct MapSsm {
     pub w: Vec<Vec<(f64, f64)>>,
     /// `r[j][k]`: coefficient of `z^exps[k]` in the reduced map of `z_j`.
     pub r: Vec<Vec<(f64, f64)>>,
+    /// Left eigenvectors `u_j` (length D each, variable order), `u_j^T v_l = delta_jl`: the
+    /// master coordinates of a state are `u_j^T s` at linear order.
+    #[serde(default)]
+    pub left: Vec<Vec<(f64, f64)>>,
     /// Non-structural terms kept because their divisor was below the tolerance.
     pub extra_resonances: Vec<ExtraResonance>,
     /// Smallest master divisor `|mu_j - mu^m|` among the terms removed.
@@ -510,6 +514,7 @@ pub fn map_ssm(map: &PolynomialMap, opts: &MapSsmOptions) -> Result<MapSsm, MapS
         exps: tab.exps.clone(),
         w: w.iter().map(|row| row.iter().map(pair).collect()).collect(),
         r: r.iter().map(|row| row.iter().map(pair).collect()).collect(),
+        left: ucols.iter().map(|u| u.iter().map(pair).collect()).collect(),
         extra_resonances: extra,
         min_divisor: min_div,
         min_complement_divisor: min_comp,
@@ -548,6 +553,63 @@ impl MapSsm {
     /// `R(z)` truncated at `order`.
     pub fn reduced_at(&self, z: &[C], order: u32) -> Vec<C> {
         self.r.iter().map(|row| self.eval(row, z, order)).collect()
+    }
+
+    /// Parametrization coordinates `z` (variable order, conjugate pairs) of the state `s`
+    /// (length D) on the order-`order` truncation: the solution of `U^T W(z) = U^T s` (the
+    /// master projections agree; `s` off the manifold is projected along the complement),
+    /// by Newton's method from `z = U^T s` with a finite-difference Jacobian, to a residual
+    /// below `tol` (absolute, in the observable's units). `None` when Newton does not
+    /// converge in 50 steps (e.g. `s` beyond a fold of the truncated `W`).
+    pub fn master_coordinates(&self, s: &[f64], order: u32, tol: f64) -> Option<Vec<C>> {
+        let n = self.left.len();
+        let modes = n / 2;
+        if s.len() != self.w.len() || n == 0 {
+            return None;
+        }
+        let proj = |x: &[C]| -> Vec<C> { (0..modes).map(|j| self.left[2 * j].iter().zip(x).map(|(&(re, im), y)| C::new(re, im) * y).sum()).collect() };
+        let sc: Vec<C> = s.iter().map(|&x| C::new(x, 0.0)).collect();
+        let target = proj(&sc);
+        let full = |h: &[C]| -> Vec<C> { h.iter().flat_map(|x| [*x, x.conj()]).collect() };
+        let resid = |h: &[C]| -> Vec<C> {
+            let w = self.manifold_at(&full(h), order);
+            proj(&w).iter().zip(&target).map(|(a, b)| a - b).collect()
+        };
+        let mut h = target.clone();
+        for _ in 0..50 {
+            let f = resid(&h);
+            let norm = f.iter().fold(0.0f64, |m, x| m.max(x.norm()));
+            if !norm.is_finite() {
+                return None;
+            }
+            if norm <= tol {
+                return Some(full(&h));
+            }
+            // Real 2m x 2m Jacobian by central differences.
+            let m2 = 2 * modes;
+            let scale = h.iter().fold(0.0f64, |m, x| m.max(x.norm())).max(1e-8);
+            let eps = 1e-6 * scale;
+            let mut jac = DMatrix::<f64>::zeros(m2, m2);
+            for c in 0..m2 {
+                let dz = if c % 2 == 0 { C::new(eps, 0.0) } else { C::new(0.0, eps) };
+                let mut hp = h.clone();
+                let mut hm = h.clone();
+                hp[c / 2] += dz;
+                hm[c / 2] -= dz;
+                let (fp, fm) = (resid(&hp), resid(&hm));
+                for r in 0..modes {
+                    let d = (fp[r] - fm[r]) / (2.0 * eps);
+                    jac[(2 * r, c)] = d.re;
+                    jac[(2 * r + 1, c)] = d.im;
+                }
+            }
+            let rhs = DVector::from_fn(m2, |i, _| if i % 2 == 0 { -f[i / 2].re } else { -f[i / 2].im });
+            let step = jac.lu().solve(&rhs)?;
+            for j in 0..modes {
+                h[j] += C::new(step[2 * j], step[2 * j + 1]);
+            }
+        }
+        None
     }
 
     /// Invariance error of the order-`order` truncation against `map`, on the sphere of

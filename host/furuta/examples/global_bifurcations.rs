@@ -1,0 +1,144 @@
+//! Issue 11 items 1-3, the science of the global bifurcations: prints, not a test.
+//! `cargo run --profile test -p furuta --example global_bifurcations -- SUBCOMMAND ...`:
+//! * `convergence ORDER DT...`: invariance and reduced-dynamics errors of the
+//!   equation-driven SSM against the exact period map on spheres of 0.05-0.2 rad
+//!   (`furuta::convergence`).
+//! * `cycles MODE ORDER DT...`: the full system's saddle cycle of `MODE` (invariant circle
+//!   of the exact period map, continuation over the DTs in order) next to the
+//!   equation-driven model's (`furuta::saddle_cycles`).
+//! * `fit VARIANT...`: trains the data-driven model per variant (see [`variant`]), prints its
+//!   bifurcation values, its saddle cycles next to the full system's and its cubic and
+//!   quintic coefficients next to the equation-driven ones.
+
+use furuta::convergence::furuta_convergence;
+use furuta::bifurcations::{model_row, sensitivity_variants};
+use furuta::equation_ssm::coefficient_comparison;
+use furuta::parametric::{FurutaOptions, furuta_parametric};
+use furuta::saddle_cycles::{CircleOptions, model_cycle, saddle_cycles};
+
+type R = Result<(), Box<dyn std::error::Error>>;
+
+fn convergence(args: &[String]) -> R {
+    let order: u32 = args.first().ok_or("convergence ORDER DT...")?.parse()?;
+    for dt in &args[1..] {
+        let t0 = std::time::Instant::now();
+        let c = furuta_convergence(dt.parse()?, order)?;
+        println!("{}({:.1} s)\n", c.to_text(), t0.elapsed().as_secs_f64());
+    }
+    Ok(())
+}
+
+fn cycles(args: &[String]) -> R {
+    let usage = "cycles MODE ORDERS(e.g. 5,7,9) [--n N] [--data] DT...";
+    let mode: usize = args.first().ok_or(usage)?.parse()?;
+    let orders: Vec<u32> = args.get(1).ok_or(usage)?.split(',').map(|s| s.parse()).collect::<Result<_, _>>()?;
+    let mut opts = CircleOptions::default();
+    let mut data = false;
+    let mut dts: Vec<f64> = Vec::new();
+    let mut it = args[2..].iter();
+    while let Some(a) = it.next() {
+        match a.as_str() {
+            "--n" => opts.n = it.next().ok_or(usage)?.parse()?,
+            "--data" => data = true,
+            x => dts.push(x.parse()?),
+        }
+    }
+    let t0 = std::time::Instant::now();
+    let pm = if data { Some(furuta_parametric(&FurutaOptions::default())?) } else { None };
+    let rows = saddle_cycles(&dts, mode, &orders, &opts)?;
+    println!("mode {mode}: full system (invariant circle of the exact period map, n = {}) vs equation-driven orders {orders:?} (rho*, theta first harmonic){}", opts.n, if data { " and data-driven rho*" } else { "" });
+    for r in rows {
+        let f = r.full.as_ref();
+        let mut line = format!(
+            "{:<6} full theta1 {:>8} f {:>8} Hz (res {:>7}, mid {:>7}, {} steps)",
+            r.dt_ms,
+            f.map_or("-".into(), |c| format!("{:.5}", c.theta_amplitude)),
+            f.map_or("-".into(), |c| format!("{:.4}", c.freq_hz)),
+            f.map_or("-".into(), |c| format!("{:.0e}", c.residual)),
+            f.map_or("-".into(), |c| format!("{:.0e}", c.residual_midpoints)),
+            f.map_or("-".into(), |c| c.newton_steps.to_string()),
+        );
+        for e in &r.equation {
+            line.push_str(&format!(
+                " | eq{} rho* {} th1 {} f {}",
+                e.order,
+                e.rho.map_or("-".into(), |x| format!("{x:.5}")),
+                e.theta_amplitude.map_or("-".into(), |x| format!("{x:.5}")),
+                e.freq_hz.map_or("-".into(), |x| format!("{x:.4}"))
+            ));
+        }
+        if let Some(pm) = &pm {
+            let c = model_cycle(&pm.normal_form_at(r.dt_ms)?, mode)?;
+            line.push_str(&format!(" | data rho* {} f {}", c.as_ref().map_or("-".into(), |c| format!("{:.5}", c.rho[mode - 1])), c.as_ref().map_or("-".into(), |c| format!("{:.4}", c.freqs_hz[mode - 1]))));
+        }
+        if let Some(w) = &r.full_failure {
+            line.push_str(&format!(" [{w}]"));
+        }
+        println!("{line}");
+    }
+    println!("({:.1} s)", t0.elapsed().as_secs_f64());
+    Ok(())
+}
+
+/// Training variants: a base (`default`, or a sensitivity variant's name with spaces as
+/// `_`, e.g. `cut_0.3_rad`) and modifiers joined by `+`: `slowsaddle` (slow-eigenvector
+/// starts 0.06-0.14 rad, inside the slow saddle cycle), `slowcycle` (0.15-0.17 rad, at it), `joint` (anchor_joint), `dyn5`,
+/// `dyn9` (dynamics order).
+fn variant(name: &str) -> Result<FurutaOptions, Box<dyn std::error::Error>> {
+    let mut parts = name.split('+');
+    let base = parts.next().unwrap_or("default");
+    let mut o = if base == "default" {
+        FurutaOptions::default()
+    } else {
+        sensitivity_variants().into_iter().find(|(n, _)| n.replace(' ', "_") == base).ok_or(format!("unknown base variant {base}"))?.1
+    };
+    for m in parts {
+        match m {
+            "slowsaddle" => o.slow_starts.extend([(0.06, 0.4), (0.1, 1.3), (0.14, 2.2)]),
+            "slowcycle" => o.slow_starts.extend([(0.15, 0.4), (0.16, 1.3), (0.17, 2.2)]),
+            "joint" => o.fit.anchor_joint = true,
+            "dyn5" => o.fit.dyn_order = 5,
+            "dyn9" => o.fit.dyn_order = 9,
+            x => return Err(format!("unknown modifier {x}").into()),
+        }
+    }
+    Ok(o)
+}
+
+/// Full-system slow saddle cycle, theta first harmonic (rad), from `cycles 1 ... --n 65`.
+const FULL_SLOW_CYCLE: [(f64, f64); 3] = [(31.0, 0.17016), (31.3, 0.16505), (31.6, 0.15975)];
+
+fn fit(args: &[String]) -> R {
+    for name in args {
+        let o = variant(name)?;
+        let t0 = std::time::Instant::now();
+        let pm = furuta_parametric(&o)?;
+        let secs = t0.elapsed().as_secs_f64();
+        let row = model_row(name, &o, &pm, Some(secs))?;
+        println!(
+            "\n== {name}: fit {secs:.0} s; saddle connection {:?} ms, torus Hopf {:?} ms, small-start switch {:?} ms, torus at 30.8 {:?}",
+            row.heteroclinic_dt_ms, row.torus_hopf_dt_ms, row.small_start_switch_dt_ms, row.torus_30p8_rho
+        );
+        for (dt, full) in FULL_SLOW_CYCLE {
+            let nf = pm.normal_form_at(dt)?;
+            let c1 = model_cycle(&nf, 1)?.map(|c| c.rho[0]);
+            let c2 = model_cycle(&nf, 2)?.map(|c| c.rho[1]);
+            println!("  {dt} ms: slow saddle cycle rho* {c1:?} (full system theta1 {full}), fast cycle rho* {c2:?}");
+        }
+        let rows = coefficient_comparison(&[31.0, 31.5], 5, |dt| pm.normal_form_at(dt))?;
+        for r in rows.iter().filter(|r| r.degree >= 3) {
+            println!("  {} ms rho_{}' {:<16} eq {:>10.4} data {:>10.4} rel {:+.3}", r.dt_ms, r.mode, r.monomial, r.equation, r.data.unwrap_or(f64::NAN), r.rel_diff.unwrap_or(f64::NAN));
+        }
+    }
+    Ok(())
+}
+
+fn main() -> R {
+    let args: Vec<String> = std::env::args().skip(1).collect();
+    match args.first().map(String::as_str) {
+        Some("convergence") => convergence(&args[1..]),
+        Some("cycles") => cycles(&args[1..]),
+        Some("fit") => fit(&args[1..]),
+        _ => Err("subcommands: convergence ORDER DT... | cycles MODE ORDER DT...".into()),
+    }
+}
