@@ -13,6 +13,7 @@ pub mod error;
 pub mod full_system;
 pub mod lyapunov;
 pub mod microchaos;
+pub mod model_selection;
 pub mod parametric;
 pub mod shared_tangent;
 pub mod sweep;
