@@ -14,6 +14,7 @@ pub mod error;
 pub mod full_system;
 pub mod lyapunov;
 pub mod microchaos;
+pub mod model_selection;
 pub mod parametric;
 pub mod saddle_cycles;
 pub mod shared_tangent;
