@@ -17,7 +17,7 @@ use std::time::Instant;
 use serde::Serialize;
 use sim::chart::Axis;
 use ssm::normal_form::PolarNormalForm;
-use ssm::portrait::{Fate, PortraitOptions, trajectory};
+use ssm::portrait::{Fate, FixedPoint, PointKind, PortraitOptions, fixed_points, trajectory};
 
 use crate::Error;
 use crate::full_system::{AMP_WINDOW_S, ESCAPE_THETA, run, start_from_rho};
@@ -142,29 +142,38 @@ pub fn full_basin(opts: &BasinOptions) -> Result<FullBasin, Error> {
 /// A reduced model's verdict on one start.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
 pub enum ModelFate {
-    /// Converges to a fixed point (a stable torus or cycle), approaches a saddle, or is still
-    /// inside the box at the time limit (e.g. on a 3-torus).
-    Bounded,
+    /// Converges to a fixed point of the principal kind (e.g. the 2-torus), or is still inside
+    /// the box at the time limit (e.g. circling it on a 3-torus): the full system's "bounded".
+    Principal,
+    /// Converges to another stable fixed point (another attractor of the model, e.g. a
+    /// large-amplitude cycle).
+    OtherAttractor,
     /// Leaves the box.
-    Escapes,
-    /// The integration stopped (step limit): no verdict.
+    LeavesBox,
+    /// Reaches a saddle (on a separatrix) or the integration stopped: no verdict.
     Undecided,
 }
 
 impl ModelFate {
-    fn of(fate: &Fate) -> Self {
+    fn of(fate: &Fate, fps: &[FixedPoint], principal: PointKind) -> Self {
         match fate {
-            Fate::LeavesBox { .. } => ModelFate::Escapes,
-            Fate::StepLimit => ModelFate::Undecided,
-            Fate::Converges { .. } | Fate::ApproachesSaddle { .. } | Fate::TimeLimit => ModelFate::Bounded,
+            Fate::LeavesBox { .. } => ModelFate::LeavesBox,
+            Fate::StepLimit | Fate::ApproachesSaddle { .. } => ModelFate::Undecided,
+            Fate::TimeLimit => ModelFate::Principal,
+            Fate::Converges { point } => match fps.get(*point) {
+                Some(f) if f.kind == principal => ModelFate::Principal,
+                Some(_) => ModelFate::OtherAttractor,
+                None => ModelFate::Undecided,
+            },
         }
     }
 
-    /// `Some(bounded)`, `None` when undecided.
+    /// `Some(bounded)` in the full system's sense (only [`ModelFate::Principal`] is bounded),
+    /// `None` when undecided.
     pub fn bounded(self) -> Option<bool> {
         match self {
-            ModelFate::Bounded => Some(true),
-            ModelFate::Escapes => Some(false),
+            ModelFate::Principal => Some(true),
+            ModelFate::OtherAttractor | ModelFate::LeavesBox => Some(false),
             ModelFate::Undecided => None,
         }
     }
@@ -175,7 +184,8 @@ impl ModelFate {
 pub struct ModelBasin {
     /// Fate of the trajectory within `t_max` s (the asymptotic fate).
     pub asymptotic: Vec<ModelFate>,
-    /// Fate within `horizon_s` (what a run as long as the full system's sees).
+    /// The asymptotic fate, except that leaving the box after `horizon_s` counts as
+    /// [`ModelFate::Principal`] (what a run as long as the full system's sees).
     pub horizon: Vec<ModelFate>,
     pub t_max: f64,
     pub horizon_s: f64,
@@ -183,9 +193,19 @@ pub struct ModelBasin {
 
 /// Classifies every start `(rho1[i], rho2[j])` (entry `i * rho2.len() + j`) by the amplitude
 /// equations of `nf` in the box `opts.rho_max`: the fate within `t_max` s and within
-/// `horizon_s` s ([`ssm::portrait::trajectory`]), on the rayon pool. Amplitudes must be
-/// non-negative and inside the box; `0 < horizon_s <= t_max`.
-pub fn model_basin(nf: &PolarNormalForm, rho1: &[f64], rho2: &[f64], horizon_s: f64, t_max: f64, opts: &PortraitOptions) -> Result<ModelBasin, Error> {
+/// `horizon_s` s ([`ssm::portrait::trajectory`]), on the rayon pool; `principal` is the kind
+/// of fixed point whose basin counts as bounded (the 2-torus for the Furuta loop: the full
+/// system has no other attractor near the upright position). Amplitudes must be non-negative
+/// and inside the box; `0 < horizon_s <= t_max`.
+pub fn model_basin(
+    nf: &PolarNormalForm,
+    principal: PointKind,
+    rho1: &[f64],
+    rho2: &[f64],
+    horizon_s: f64,
+    t_max: f64,
+    opts: &PortraitOptions,
+) -> Result<ModelBasin, Error> {
     if !(horizon_s.is_finite() && t_max.is_finite() && horizon_s > 0.0 && horizon_s <= t_max) {
         return Err(Error::BadOption { what: "horizon_s", why: format!("need 0 < horizon_s <= t_max, finite; got {horizon_s}, {t_max}") });
     }
@@ -197,18 +217,17 @@ pub fn model_basin(nf: &PolarNormalForm, rho1: &[f64], rho2: &[f64], horizon_s: 
             return Err(Error::BadInput { what: "model basin", why: format!("{name} value {x} is not in [0, {m}) (the box rho_max)") });
         }
     }
+    // The fixed points `trajectory` numbers its fates by (the same computation).
+    let fps = fixed_points(nf, opts)?;
     let starts: Vec<[f64; 2]> = rho1.iter().flat_map(|&a| rho2.iter().map(move |&b| [a, b])).collect();
     let fates = crate::par_map(&starts, |&r| -> Result<(ModelFate, ModelFate), Error> {
-        let (pts, fate) = trajectory(nf, r, t_max, opts)?;
-        let asym = ModelFate::of(&fate);
-        // Within the horizon: a second, shorter integration only when the long one ended after
-        // it (one that left the box may have done so after the horizon).
+        let fate = trajectory(nf, r, t_max, opts)?.1;
+        let asym = ModelFate::of(&fate, &fps, principal);
+        // Within the horizon: the asymptotic verdict, except that a start which leaves the
+        // box only after the horizon is still bounded (a second, shorter integration).
         let hor = match fate {
-            Fate::LeavesBox { .. } => ModelFate::of(&trajectory(nf, r, horizon_s, opts)?.1),
-            _ => {
-                let _ = pts;
-                asym
-            }
+            Fate::LeavesBox { .. } => ModelFate::of(&trajectory(nf, r, horizon_s, opts)?.1, &fps, principal),
+            _ => asym,
         };
         Ok((asym, hor))
     })?;
@@ -276,8 +295,10 @@ pub struct TorusStep {
 
 /// The rule of [`TorusStep::lost`]: the run escaped, or the slow amplitude's spread over the
 /// last third is more than this factor times that over the middle third and above
-/// [`TORUS_SPREAD_MIN`] (a growing oscillation about the torus).
-pub const TORUS_GROWTH: f64 = 2.0;
+/// [`TORUS_SPREAD_MIN`] (a growing oscillation about the torus; 1: growing at all, since
+/// near the loss the oscillation grows or decays slowly: measured at 31.6 / 31.7 ms, 8,000
+/// periods from the previous 0.1 ms: spreads 0.062 -> 0.055 / 0.108 -> 0.156 rad).
+pub const TORUS_GROWTH: f64 = 1.0;
 
 /// Spreads of `rho_1` below this (rad) count as the torus itself (the sliding fit's ripple on
 /// an attracting 2-torus is below 1e-3 rad).
@@ -398,14 +419,14 @@ mod tests {
         let opts = PortraitOptions { rho_max: [2.0, 2.0], ray_samples: 0, flow_grid: 0, ..PortraitOptions::default() };
         let v: Vec<f64> = (0..15).map(|k| 0.05 + 0.1 * k as f64).collect();
         let horizon = 0.5;
-        let mb = model_basin(&nf, &v, &v, horizon, 200.0, &opts).unwrap();
+        let mb = model_basin(&nf, PointKind::Equilibrium, &v, &v, horizon, 200.0, &opts).unwrap();
         let (mut checked, mut checked_h) = (0, 0);
         for (i, &x) in v.iter().enumerate() {
             for (j, &y) in v.iter().enumerate() {
                 let r = x.hypot(y);
                 let k = i * v.len() + j;
                 if (r - 1.0).abs() > 0.01 {
-                    assert_eq!(mb.asymptotic[k], if r < 1.0 { ModelFate::Bounded } else { ModelFate::Escapes }, "({x}, {y}) r = {r}");
+                    assert_eq!(mb.asymptotic[k], if r < 1.0 { ModelFate::Principal } else { ModelFate::LeavesBox }, "({x}, {y}) r = {r}");
                     checked += 1;
                 }
                 // Within the horizon.
@@ -416,35 +437,60 @@ mod tests {
                     f64::INFINITY
                 };
                 if (t_exit - horizon).abs() > 0.02 {
-                    assert_eq!(mb.horizon[k], if t_exit < horizon { ModelFate::Escapes } else { ModelFate::Bounded }, "({x}, {y}) exit at {t_exit}");
+                    assert_eq!(mb.horizon[k], if t_exit < horizon { ModelFate::LeavesBox } else { ModelFate::Principal }, "({x}, {y}) exit at {t_exit}");
                     checked_h += 1;
                 }
             }
         }
         // Most cells are away from the boundaries, and both verdicts occur within the horizon.
         assert!(checked >= 215 && checked_h >= 200, "{checked} {checked_h}");
-        assert!(mb.horizon.contains(&ModelFate::Escapes) && mb.horizon.iter().zip(&mb.asymptotic).any(|(h, a)| h != a));
+        assert!(mb.horizon.contains(&ModelFate::LeavesBox) && mb.horizon.iter().zip(&mb.asymptotic).any(|(h, a)| h != a));
         // Against a "full system" that is the exact disc: no disagreement off the circle.
         let exact: Vec<bool> = v.iter().flat_map(|&x| v.iter().map(move |&y| x.hypot(y) < 1.0)).collect();
         let a = agreement(&mb.asymptotic, &exact).unwrap();
         assert_eq!(a.cells, 225);
         assert!(a.disagreement <= 2.0 / 225.0, "{a:?}");
         // A smaller disc (a = -0.81: r = 0.9) disagrees exactly on the ring 0.9 < r < 1.
-        let small = model_basin(&radial(-0.81, 1.0), &v, &v, horizon, 200.0, &opts).unwrap();
+        let small = model_basin(&radial(-0.81, 1.0), PointKind::Equilibrium, &v, &v, horizon, 200.0, &opts).unwrap();
         let ring = exact.iter().zip(v.iter().flat_map(|&x| v.iter().map(move |&y| x.hypot(y)))).filter(|(_, r)| *r > 0.9 && *r < 1.0).count();
         let a = agreement(&small.asymptotic, &exact).unwrap();
         assert_eq!((a.model_escaped_full_bounded, a.model_bounded_full_escaped), (ring, 0), "{a:?}");
+    }
+
+    /// Two attractors: `rho_1' = rho_1 (-1 + 2.5 rho_1^2 - rho_1^4)` (an unstable cycle at
+    /// `rho_1 = sqrt(1/2)`, a stable one at `sqrt(2)`), `rho_2' = -rho_2`: starts below
+    /// `sqrt(1/2)` in `rho_1` reach the equilibrium (the principal attractor here), starts
+    /// above it the stable cycle (another attractor: not bounded in the full system's sense).
+    #[test]
+    fn model_basin_tells_the_principal_attractor_from_another() {
+        let pexps = ssm::poly::exponents(2, 0, 2);
+        let a1: Vec<f64> = pexps.iter().map(|e| match (e[0], e[1]) { (0, 0) => -1.0, (1, 0) => 2.5, (2, 0) => -1.0, _ => 0.0 }).collect();
+        let a2: Vec<f64> = pexps.iter().map(|e| if e[0] + e[1] == 0 { -1.0 } else { 0.0 }).collect();
+        let zero = vec![0.0; pexps.len()];
+        let nf = PolarNormalForm { modes: 2, order: 5, eigenvalues: vec![(-1.0, 1.0), (-1.0, 50.0)], pexps, amp: vec![a1, a2], phase: vec![zero.clone(), zero], ..radial(-1.0, 1.0) };
+        let opts = PortraitOptions { rho_max: [2.0, 2.0], ray_samples: 0, flow_grid: 0, converge_tol: 1e-5, manifold_eps: 1e-4, ..PortraitOptions::default() };
+        let v: Vec<f64> = (0..14).map(|k| 0.05 + 0.1 * k as f64).collect();
+        let mb = model_basin(&nf, PointKind::Equilibrium, &v, &v, 1.0, 200.0, &opts).unwrap();
+        for (i, &x) in v.iter().enumerate() {
+            for (j, &y) in v.iter().enumerate() {
+                let want = if x < 0.5f64.sqrt() { ModelFate::Principal } else { ModelFate::OtherAttractor };
+                assert_eq!(mb.asymptotic[i * v.len() + j], want, "({x}, {y})");
+                assert_eq!(mb.horizon[i * v.len() + j], want);
+            }
+        }
+        assert_eq!(ModelFate::OtherAttractor.bounded(), Some(false));
+        assert_eq!(ModelFate::Undecided.bounded(), None);
     }
 
     #[test]
     fn bad_inputs_are_refused() {
         let nf = radial(-1.0, 1.0);
         let opts = PortraitOptions { rho_max: [2.0, 2.0], ..PortraitOptions::default() };
-        assert!(matches!(model_basin(&nf, &[0.1], &[0.1], 0.0, 10.0, &opts), Err(Error::BadOption { .. })));
-        assert!(matches!(model_basin(&nf, &[0.1], &[0.1], 20.0, 10.0, &opts), Err(Error::BadOption { .. })));
-        assert!(matches!(model_basin(&nf, &[2.5], &[0.1], 1.0, 10.0, &opts), Err(Error::BadInput { .. })));
-        assert!(matches!(model_basin(&nf, &[], &[0.1], 1.0, 10.0, &opts), Err(Error::BadInput { .. })));
-        assert!(matches!(agreement(&[ModelFate::Bounded], &[true, false]), Err(Error::Shape { .. })));
+        assert!(matches!(model_basin(&nf, PointKind::Equilibrium, &[0.1], &[0.1], 0.0, 10.0, &opts), Err(Error::BadOption { .. })));
+        assert!(matches!(model_basin(&nf, PointKind::Equilibrium, &[0.1], &[0.1], 20.0, 10.0, &opts), Err(Error::BadOption { .. })));
+        assert!(matches!(model_basin(&nf, PointKind::Equilibrium, &[2.5], &[0.1], 1.0, 10.0, &opts), Err(Error::BadInput { .. })));
+        assert!(matches!(model_basin(&nf, PointKind::Equilibrium, &[], &[0.1], 1.0, 10.0, &opts), Err(Error::BadInput { .. })));
+        assert!(matches!(agreement(&[ModelFate::Principal], &[true, false]), Err(Error::Shape { .. })));
         assert!(matches!(torus_continuation(&[31.5, 31.4], [0.1, 0.03], 100), Err(Error::BadInput { what: "dts_ms", .. })));
         let mut o = BasinOptions::quick();
         o.dts_ms = vec![];
