@@ -119,7 +119,7 @@ fn reproduce_quick_writes_the_report() {
     assert!(dir.join("fig/timings.png").is_file());
     for k in [
         "scenes", "stability", "stability_chart", "bench_simulate", "linear_nf", "chaos", "device", "pil", "predictions", "heteroclinic_dt_ms",
-        "torus_30p8", "portraits", "fast_cycle", "backbone",
+        "torus_30p8", "portraits", "fast_cycle", "backbone", "equation_ssm", "basin",
     ] {
         assert!(s.get(k).is_some(), "summary.json lacks {k}");
     }
@@ -145,6 +145,38 @@ fn reproduce_quick_writes_the_report() {
         let (m, f) = (c["rho2_model"].as_f64().unwrap(), c["rho2_full"].as_f64().unwrap());
         assert!((m - f).abs() < 0.03 * f, "fast cycle: {c}");
     }
+    // Issue 11: the equation-driven model's values next to the data-driven ones, the full
+    // system's torus loss, and the basin near the global bifurcation (new keys only).
+    let in_range = |v: &Value| v.as_f64().is_some_and(|x| (30.5..=32.5).contains(&x));
+    assert!(in_range(&h["equation"]) && in_range(&h["equation_saddle_connection"]), "{h}");
+    let th = &s["torus_hopf_dt_ms"];
+    assert!(in_range(&th["equation"]) && in_range(&th["model"]), "{th}");
+    let fs = th["full_system"].as_array().unwrap();
+    assert!(fs[0].as_f64().unwrap() < fs[1].as_f64().unwrap() && in_range(&fs[1]), "{th}");
+    let e = &s["equation_ssm"];
+    for d in e["per_dt"].as_array().unwrap() {
+        // The linear rates are the exact ln|mu|/dt; the invariance error on the 0.02 rad
+        // sphere falls with the order.
+        let rates = d["exact_rates"].as_array().unwrap();
+        let coef = d["coefficients"].as_array().unwrap();
+        for (mode, rate) in [(1, &rates[0]), (2, &rates[1])] {
+            let c = coef.iter().find(|c| c["mode"] == mode && c["monomial"] == format!("rho_{mode}")).unwrap();
+            assert!((c["value"].as_f64().unwrap() - rate.as_f64().unwrap()).abs() < 1e-9, "{d}");
+        }
+        let inv: Vec<f64> = d["invariance"].as_array().unwrap().iter().filter(|x| x["radius"] == 0.02).map(|x| x["abs"].as_f64().unwrap()).collect();
+        assert!(inv.len() >= 3 && inv.windows(2).all(|w| w[1] < w[0]), "{d}");
+    }
+    let b = &s["basin"];
+    let per = b["per_dt"].as_array().unwrap();
+    assert_eq!(per.len(), 4, "{b}");
+    let esc: Vec<f64> = per.iter().map(|p| p["escape_fraction"].as_f64().unwrap()).collect();
+    assert!(esc.iter().all(|x| (0.0..=1.0).contains(x)) && esc[3] > esc[0], "{esc:?}");
+    for p in per {
+        for k in ["data_driven", "equation", "data_driven_horizon", "equation_horizon"] {
+            assert!((0.0..=1.0).contains(&p[k]["disagreement"].as_f64().unwrap()), "{p}");
+        }
+    }
+    assert!(dir.join(b["figure"].as_str().unwrap()).metadata().unwrap().len() > 20_000);
 }
 
 #[test]

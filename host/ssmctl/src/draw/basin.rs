@@ -1,6 +1,7 @@
 //! Drawing a merged basin-map sweep as a PNG: the cells over the first two axes (x, y),
 //! green where the full closed loop stayed bounded, red where it escaped (darker = earlier
 //! escape, when `escape_t` is recorded); one panel per value combination of further axes.
+//! [`draw_basin_overlay`]: basin grids with reduced models' curves and marked cells over them.
 
 use std::path::Path;
 
@@ -135,6 +136,122 @@ fn draw_into<DB: DrawingBackend>(
     Ok(())
 }
 
+/// One panel of [`draw_basin_overlay`]: a 2D grid of full-system outcomes with curves and
+/// marked cells drawn over it.
+pub struct OverlayPanel<'a> {
+    pub caption: String,
+    /// Grid values on x and y (increasing).
+    pub x: &'a [f64],
+    pub y: &'a [f64],
+    /// Bounded per cell, x-major: entry `i * y.len() + j` is `(x[i], y[j])`.
+    pub bounded: &'a [bool],
+    /// Cell marks, same order: `(label, colour, which cells)`; each set is drawn as small
+    /// markers of its own shape (cross, circle, square, in order).
+    pub marks: Vec<(String, RGBColor, Vec<bool>)>,
+    /// Curves over the grid: `(label, colour, polylines)`; polylines are cut at the grid's box.
+    pub curves: Vec<(String, RGBColor, Vec<Vec<(f64, f64)>>)>,
+}
+
+/// The parts of `line` inside the box `[x0, x1] x [y0, y1]` (points outside end a part).
+fn inside_parts(line: &[(f64, f64)], (x0, x1): (f64, f64), (y0, y1): (f64, f64)) -> Vec<Vec<(f64, f64)>> {
+    let mut parts = vec![Vec::new()];
+    for &(x, y) in line {
+        if x.is_finite() && y.is_finite() && (x0..=x1).contains(&x) && (y0..=y1).contains(&y) {
+            if let Some(p) = parts.last_mut() {
+                p.push((x, y));
+            }
+        } else if parts.last().is_some_and(|p| !p.is_empty()) {
+            parts.push(Vec::new());
+        }
+    }
+    parts.retain(|p| p.len() >= 2);
+    parts
+}
+
+/// Writes panels of full-system basin grids (green bounded, red escaped) with the reduced
+/// models' curves (e.g. saddle manifolds) and marked cells (e.g. where a model disagrees)
+/// drawn over them: up to 2 panels a row, a legend in each.
+pub fn draw_basin_overlay(out: &Path, title: &str, xdesc: &str, ydesc: &str, panels: &[OverlayPanel]) -> Result<(), PlotError> {
+    let err = |e: &dyn std::fmt::Display| PlotError::new(out, e);
+    if panels.is_empty() || panels.len() > MAX_PANELS {
+        return Err(err(&format!("{} panels; need 1 ..= {MAX_PANELS}", panels.len())));
+    }
+    for p in panels {
+        let n = p.x.len() * p.y.len();
+        if n == 0 || p.bounded.len() != n || p.marks.iter().any(|m| m.2.len() != n) {
+            return Err(err(&format!("panel `{}`: {} x {} grid with {} cells", p.caption, p.x.len(), p.y.len(), p.bounded.len())));
+        }
+        if [p.x, p.y].iter().any(|v| v.windows(2).any(|w| !(w[1] > w[0]))) {
+            return Err(err(&format!("panel `{}`: grid values must increase", p.caption)));
+        }
+    }
+    ensure_font();
+    let cols = panels.len().min(2);
+    let rows = panels.len().div_ceil(cols);
+    let size = ((PANEL_W * cols as u32).max(MIN_W), PANEL_H * rows as u32 + TITLE_H);
+    crate::plot::render_png(out, size, |root| {
+        root.fill(&WHITE).map_err(|e| err(&e))?;
+        let (top, body) = root.split_vertically(TITLE_H);
+        top.titled(title, ("sans-serif", 18)).map_err(|e| err(&e))?;
+        for (p, area) in panels.iter().zip(body.split_evenly((rows, cols)).iter()) {
+            let (xe, ye) = (edges(p.x), edges(p.y));
+            let (bx, by) = ((xe[0].0, xe[xe.len() - 1].1), (ye[0].0, ye[ye.len() - 1].1));
+            let mut cc = ChartBuilder::on(area)
+                .caption(&p.caption, ("sans-serif", 17))
+                .margin(12)
+                .x_label_area_size(45)
+                .y_label_area_size(60)
+                .build_cartesian_2d(bx.0..bx.1, by.0..by.1)
+                .map_err(|e| err(&e))?;
+            cc.configure_mesh().x_desc(xdesc).y_desc(ydesc).label_style(("sans-serif", 14)).axis_desc_style(("sans-serif", 16)).disable_mesh().draw().map_err(|e| err(&e))?;
+            let ny = p.y.len();
+            let mut rects = Vec::with_capacity(p.bounded.len());
+            for (i, &(xlo, xhi)) in xe.iter().enumerate() {
+                for (j, &(ylo, yhi)) in ye.iter().enumerate() {
+                    let c = if p.bounded[i * ny + j] { BOUNDED } else { escape_color(0.6) };
+                    rects.push(Rectangle::new([(xlo, ylo), (xhi, yhi)], c.filled()));
+                }
+            }
+            cc.draw_series(rects).map_err(|e| err(&e))?;
+            for (label, color, lines) in &p.curves {
+                let color = *color;
+                let mut first = true;
+                for part in lines.iter().flat_map(|l| inside_parts(l, bx, by)) {
+                    let s = cc.draw_series(LineSeries::new(part, color.stroke_width(3))).map_err(|e| err(&e))?;
+                    if first {
+                        first = false;
+                        s.label(label.as_str()).legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 16, y)], color.stroke_width(3)));
+                    }
+                }
+            }
+            for (m, (label, color, which)) in p.marks.iter().enumerate() {
+                let color = *color;
+                let at: Vec<(f64, f64)> = which.iter().enumerate().filter(|(_, w)| **w).map(|(k, _)| (p.x[k / ny], p.y[k % ny])).collect();
+                if at.is_empty() {
+                    continue;
+                }
+                let style = color.stroke_width(2);
+                let s = match m % 3 {
+                    0 => cc.draw_series(at.iter().map(|&c| Cross::new(c, 4, style).into_dyn())),
+                    1 => cc.draw_series(at.iter().map(|&c| Circle::new(c, 5, style).into_dyn())),
+                    _ => cc.draw_series(at.iter().map(|&c| TriangleMarker::new(c, 5, style).into_dyn())),
+                }
+                .map_err(|e| err(&e))?;
+                s.label(label.as_str()).legend(move |(x, y)| Circle::new((x + 8, y), 4, style));
+            }
+            cc.configure_series_labels()
+                .position(SeriesLabelPosition::UpperRight)
+                .background_style(WHITE.mix(0.85))
+                .border_style(BLACK)
+                .label_font(("sans-serif", 13))
+                .draw()
+                .map_err(|e| err(&e))?;
+        }
+        root.present().map_err(|e| err(&e))?;
+        Ok(())
+    })
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -145,5 +262,33 @@ mod tests {
         assert_eq!(edges(&[2.0]), vec![(1.0, 3.0)]);
         let c = escape_color(0.0);
         assert_eq!((c.0, c.1, c.2), (150, 20, 20));
+        let box_ = ((0.0, 1.0), (0.0, 1.0));
+        let parts = inside_parts(&[(0.1, 0.1), (0.2, 0.2), (1.5, 0.3), (0.5, 0.5), (0.6, 0.6), (0.7, f64::NAN), (0.8, 0.8)], box_.0, box_.1);
+        assert_eq!(parts, vec![vec![(0.1, 0.1), (0.2, 0.2)], vec![(0.5, 0.5), (0.6, 0.6)]]);
+    }
+
+    /// Two panels with curves and marks make a PNG; a grid of the wrong size is an error.
+    #[test]
+    fn overlay_writes_a_png_and_checks_shapes() {
+        let (x, y) = ([0.1, 0.2, 0.3], [0.01, 0.02]);
+        let bounded = [true, true, true, false, false, false];
+        let panel = |c: &str| OverlayPanel {
+            caption: c.into(),
+            x: &x,
+            y: &y,
+            bounded: &bounded,
+            marks: vec![("model disagrees".into(), RGBColor(0, 0, 0), vec![false, true, false, false, true, false])],
+            curves: vec![("separatrix".into(), RGBColor(30, 80, 220), vec![vec![(0.05, 0.0), (0.25, 0.03), (0.4, 0.05)]])],
+        };
+        let dir = std::env::temp_dir().join(format!("basin-overlay-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let out = dir.join("b.png");
+        draw_basin_overlay(&out, "t", "rho_1", "rho_2", &[panel("a"), panel("b")]).unwrap();
+        let bytes = std::fs::read(&out).unwrap();
+        assert_eq!(&bytes[..8], b"\x89PNG\r\n\x1a\n");
+        let bad = OverlayPanel { bounded: &bounded[..5], ..panel("c") };
+        assert!(draw_basin_overlay(&dir.join("c.png"), "t", "x", "y", &[bad]).is_err());
+        assert!(draw_basin_overlay(&dir.join("d.png"), "t", "x", "y", &[]).is_err());
+        std::fs::remove_dir_all(&dir).unwrap();
     }
 }

@@ -21,7 +21,7 @@ use std::time::Instant;
 /// Sweeps inside the sections run on the pool. Besides, two chains of sections that share
 /// nothing run concurrently (`rayon::join`), each into its own [`Report::part`], appended in
 /// the fixed order: the parametric-model chain (parametric, portraits, fullsystem,
-/// predictions, bifsensitivity) and the chaos chain (device, chaos, chaos-scale). Sections
+/// predictions, bifsensitivity, then the global-bifurcation sections equation and basin) and the chaos chain (device, chaos, chaos-scale). Sections
 /// that measure speed (accuracy-time-sim, the fit bench of fit-sloshing, chaos-cost) run
 /// alone, so nothing else competes for the cores while they time.
 pub fn run(out: &Path, data_dir: &Path, quick: bool, quiet: bool) -> Result<(), Box<dyn Error>> {
@@ -49,6 +49,7 @@ pub fn run(out: &Path, data_dir: &Path, quick: bool, quiet: bool) -> Result<(), 
                 if !quick {
                     t.time("bifsensitivity", || crate::report::bifurcations::sensitivity_section(rep, &parametric))?;
                 }
+                t.time("global", || crate::report::global::global_sections(rep, &parametric, &bif, quick))?;
                 Ok(())
             })();
             sendable(r).map(|()| (part, t))

@@ -1,0 +1,530 @@
+//! The full system's basin near the global bifurcation (issue 11, item 4), and where the
+//! reduced models put its boundary.
+//!
+//! - [`full_basin`]: bounded vs escape of the full closed loop over a grid of mode-shaped
+//!   starts (slow amplitude `rho_1` x fast amplitude `rho_2` at fixed phases) at a few
+//!   sampling periods: a basin [`Sweep`] (axes `slow_amp`, `fast_amp`, `dt_ms`, the scene
+//!   `furuta-dt30.5`), so `ssmctl sweep` on [`BasinOptions::spec`] gives the same cells.
+//! - [`model_basin`]: the same grid classified by a reduced model's amplitude equations
+//!   (any [`PolarNormalForm`]): asymptotically (the fate of the trajectory) and within the
+//!   full runs' horizon.
+//! - [`Agreement`]: the fraction of grid cells where model and full system disagree.
+//! - [`torus_continuation`]: the full system's 2-torus followed across dt by long runs, each
+//!   started from the end of the previous one; where it stops attracting.
+
+use std::time::Instant;
+
+use serde::Serialize;
+use sim::chart::Axis;
+use ssm::normal_form::PolarNormalForm;
+use ssm::portrait::{Fate, FixedPoint, PointKind, PortraitOptions, fixed_points, trajectory};
+
+use crate::Error;
+use crate::full_system::{AMP_WINDOW_S, ESCAPE_THETA, run, start_from_rho};
+use crate::sweep::shard::{RESULT_FORMAT, SweepResult};
+use crate::sweep::{AxisSpec, BasinSpec, Cell, FORMAT_VERSION, Kind, Shard, SpecFile, Sweep, run_shard};
+use ssm::spectrum::mode_amplitudes;
+
+/// The basin grid: sampling periods, the two amplitude axes, the phases and the horizon.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct BasinOptions {
+    /// Sampling periods (ms), strictly increasing: one panel each.
+    pub dts_ms: Vec<f64>,
+    /// Slow-mode theta amplitude `rho_1` (rad): `lo`, `hi`, `n` (both ends included).
+    pub rho1: Axis,
+    /// Fast-mode theta amplitude `rho_2` (rad).
+    pub rho2: Axis,
+    /// Phases (rad) of the slow and the fast mode in every start.
+    pub phases: [f64; 2],
+    /// Horizon of every run (sampling periods).
+    pub periods: u64,
+}
+
+impl BasinOptions {
+    /// The report's full grid: 32 x 32 starts, `rho_1` 0.005..0.25, `rho_2` 0.004..0.12 rad,
+    /// phases 0, at 31.3, 31.4, 31.5, 31.6 ms, 3,000 periods (about 94 s).
+    pub fn full() -> Self {
+        BasinOptions {
+            dts_ms: vec![31.3, 31.4, 31.5, 31.6],
+            rho1: Axis { lo: 0.005, hi: 0.25, n: 32 },
+            rho2: Axis { lo: 0.004, hi: 0.12, n: 32 },
+            phases: [0.0, 0.0],
+            periods: 3000,
+        }
+    }
+
+    /// The quick report's grid: the same box and periods as [`BasinOptions::full`], 12 x 12
+    /// starts, 1,500 periods.
+    pub fn quick() -> Self {
+        BasinOptions { rho1: Axis { n: 12, ..Self::full().rho1 }, rho2: Axis { n: 12, ..Self::full().rho2 }, periods: 1500, ..Self::full() }
+    }
+
+    /// The sweep spec of this grid (axes `slow_amp`, `fast_amp`, `dt_ms` in that order, so
+    /// `ssmctl sweep` draws one panel per dt).
+    pub fn spec(&self, name: &str) -> SpecFile {
+        let range = |name: &str, a: &Axis| AxisSpec { name: name.into(), lo: Some(a.lo), hi: Some(a.hi), n: Some(a.n), values: None };
+        SpecFile {
+            name: name.into(),
+            description: "bounded vs escape of the full system over slow x fast mode amplitudes near the global bifurcation".into(),
+            kind: Kind::Basin,
+            scene: "furuta-dt30.5".into(),
+            set: Vec::new(),
+            axes: vec![
+                range("slow_amp", &self.rho1),
+                range("fast_amp", &self.rho2),
+                AxisSpec { name: "dt_ms".into(), lo: None, hi: None, n: None, values: Some(self.dts_ms.clone()) },
+            ],
+            record: None,
+            shards: None,
+            basin: Some(BasinSpec {
+                periods: Some(self.periods),
+                escape_theta: Some(ESCAPE_THETA),
+                slow_amp: None,
+                fast_amp: None,
+                slow_phase: Some(self.phases[0]),
+                fast_phase: Some(self.phases[1]),
+            }),
+        }
+    }
+
+    /// The amplitude values of the two axes.
+    pub fn values(&self) -> (Vec<f64>, Vec<f64>) {
+        ((0..self.rho1.n).map(|j| self.rho1.at(j)).collect(), (0..self.rho2.n).map(|j| self.rho2.at(j)).collect())
+    }
+}
+
+/// The full system's basin: the merged sweep result and what it cost.
+#[derive(Clone, Debug, Serialize)]
+pub struct FullBasin {
+    pub options: BasinOptions,
+    /// Every cell, in the sweep's index order.
+    pub result: SweepResult,
+    /// Wall time (s) and the rayon pool size it ran on.
+    pub wall_seconds: f64,
+    pub threads: usize,
+}
+
+impl FullBasin {
+    /// Bounded (`true`) or escaped per start at the `p`-th sampling period, `rho_1`-major:
+    /// entry `i * n2 + j` is the start `(rho1[i], rho2[j])`.
+    pub fn bounded_at(&self, p: usize) -> Vec<bool> {
+        let (n1, n2) = (self.options.rho1.n, self.options.rho2.n);
+        (0..n1 * n2).map(|ij| self.cell(ij / n2, ij % n2, p).bounded.unwrap_or(false)).collect()
+    }
+
+    /// The cell of start `(rho1[i], rho2[j])` at the `p`-th sampling period.
+    pub fn cell(&self, i: usize, j: usize, p: usize) -> &Cell {
+        let k = self.result.spec.index_of(&[i, j, p]) as usize;
+        &self.result.cells[k]
+    }
+
+    /// Fraction of escaping starts at the `p`-th sampling period.
+    pub fn escape_fraction(&self, p: usize) -> f64 {
+        let b = self.bounded_at(p);
+        b.iter().filter(|x| !**x).count() as f64 / b.len().max(1) as f64
+    }
+}
+
+/// Runs the full-system basin of `opts` on the rayon pool (cells in index order, bit-identical
+/// for every pool size).
+pub fn full_basin(opts: &BasinOptions) -> Result<FullBasin, Error> {
+    if opts.dts_ms.is_empty() || opts.dts_ms.windows(2).any(|w| w[1] <= w[0]) {
+        return Err(Error::BadInput { what: "dts_ms", why: format!("need at least one, strictly increasing, got {:?}", opts.dts_ms) });
+    }
+    let sweep = Sweep::from_spec("basin", opts.spec("basin"), std::path::Path::new("."))?;
+    let t0 = Instant::now();
+    let cells = run_shard(&sweep, Shard::WHOLE)?;
+    let wall_seconds = t0.elapsed().as_secs_f64();
+    let result = SweepResult { format: RESULT_FORMAT.into(), version: FORMAT_VERSION, spec_hash: sweep.hash()?, spec: sweep, cells };
+    Ok(FullBasin { options: opts.clone(), result, wall_seconds, threads: rayon::current_num_threads() })
+}
+
+/// A reduced model's verdict on one start.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+pub enum ModelFate {
+    /// Converges to a fixed point of the principal kind (e.g. the 2-torus), or is still inside
+    /// the box at the time limit (e.g. circling it on a 3-torus): the full system's "bounded".
+    Principal,
+    /// Converges to another stable fixed point (another attractor of the model, e.g. a
+    /// large-amplitude cycle).
+    OtherAttractor,
+    /// Leaves the box.
+    LeavesBox,
+    /// Reaches a saddle (on a separatrix) or the integration stopped: no verdict.
+    Undecided,
+}
+
+impl ModelFate {
+    fn of(fate: &Fate, fps: &[FixedPoint], principal: PointKind) -> Self {
+        match fate {
+            Fate::LeavesBox { .. } => ModelFate::LeavesBox,
+            Fate::StepLimit | Fate::ApproachesSaddle { .. } => ModelFate::Undecided,
+            Fate::TimeLimit => ModelFate::Principal,
+            Fate::Converges { point } => match fps.get(*point) {
+                Some(f) if f.kind == principal => ModelFate::Principal,
+                Some(_) => ModelFate::OtherAttractor,
+                None => ModelFate::Undecided,
+            },
+        }
+    }
+
+    /// `Some(bounded)` in the full system's sense (only [`ModelFate::Principal`] is bounded),
+    /// `None` when undecided.
+    pub fn bounded(self) -> Option<bool> {
+        match self {
+            ModelFate::Principal => Some(true),
+            ModelFate::OtherAttractor | ModelFate::LeavesBox => Some(false),
+            ModelFate::Undecided => None,
+        }
+    }
+}
+
+/// A reduced model's classification of a grid of starts `(rho1[i], rho2[j])`, `rho_1`-major.
+#[derive(Clone, Debug, Serialize)]
+pub struct ModelBasin {
+    /// Fate of the trajectory within `t_max` s (the asymptotic fate).
+    pub asymptotic: Vec<ModelFate>,
+    /// The asymptotic fate, except that leaving the box after `horizon_s` counts as
+    /// [`ModelFate::Principal`] (what a run as long as the full system's sees).
+    pub horizon: Vec<ModelFate>,
+    pub t_max: f64,
+    pub horizon_s: f64,
+}
+
+/// Classifies every start `(rho1[i], rho2[j])` (entry `i * rho2.len() + j`) by the amplitude
+/// equations of `nf` in the box `opts.rho_max`: the fate within `t_max` s and within
+/// `horizon_s` s ([`ssm::portrait::trajectory`]), on the rayon pool; `principal` is the kind
+/// of fixed point whose basin counts as bounded (the 2-torus for the Furuta loop: the full
+/// system has no other attractor near the upright position). Amplitudes must be non-negative
+/// and inside the box; `0 < horizon_s <= t_max`.
+pub fn model_basin(
+    nf: &PolarNormalForm,
+    principal: PointKind,
+    rho1: &[f64],
+    rho2: &[f64],
+    horizon_s: f64,
+    t_max: f64,
+    opts: &PortraitOptions,
+) -> Result<ModelBasin, Error> {
+    if !(horizon_s.is_finite() && t_max.is_finite() && horizon_s > 0.0 && horizon_s <= t_max) {
+        return Err(Error::BadOption { what: "horizon_s", why: format!("need 0 < horizon_s <= t_max, finite; got {horizon_s}, {t_max}") });
+    }
+    for (name, v, m) in [("rho1", rho1, opts.rho_max[0]), ("rho2", rho2, opts.rho_max[1])] {
+        if v.is_empty() {
+            return Err(Error::BadInput { what: "model basin", why: format!("{name} is empty") });
+        }
+        if let Some(x) = v.iter().find(|x| !(x.is_finite() && **x >= 0.0 && **x < m)) {
+            return Err(Error::BadInput { what: "model basin", why: format!("{name} value {x} is not in [0, {m}) (the box rho_max)") });
+        }
+    }
+    // The fixed points `trajectory` numbers its fates by (the same computation).
+    let fps = fixed_points(nf, opts)?;
+    let starts: Vec<[f64; 2]> = rho1.iter().flat_map(|&a| rho2.iter().map(move |&b| [a, b])).collect();
+    let fates = crate::par_map(&starts, |&r| -> Result<(ModelFate, ModelFate), Error> {
+        let fate = trajectory(nf, r, t_max, opts)?.1;
+        let asym = ModelFate::of(&fate, &fps, principal);
+        // Within the horizon: the asymptotic verdict, except that a start which leaves the
+        // box only after the horizon is still bounded (a second, shorter integration).
+        let hor = match fate {
+            Fate::LeavesBox { .. } => ModelFate::of(&trajectory(nf, r, horizon_s, opts)?.1, &fps, principal),
+            _ => asym,
+        };
+        Ok((asym, hor))
+    })?;
+    let (asymptotic, horizon) = fates.into_iter().unzip();
+    Ok(ModelBasin { asymptotic, horizon, t_max, horizon_s })
+}
+
+/// How a model's classification of a grid compares with the full system's.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+pub struct Agreement {
+    /// Cells compared (the model decided).
+    pub cells: usize,
+    /// Cells where the model said bounded and the full system escaped.
+    pub model_bounded_full_escaped: usize,
+    /// Cells where the model said escape and the full system stayed bounded.
+    pub model_escaped_full_bounded: usize,
+    /// Cells without a model verdict (not compared).
+    pub undecided: usize,
+    /// Disagreeing cells over compared cells.
+    pub disagreement: f64,
+}
+
+/// Compares a model's fates with the full system's `bounded` cell by cell (same order).
+pub fn agreement(model: &[ModelFate], full_bounded: &[bool]) -> Result<Agreement, Error> {
+    if model.len() != full_bounded.len() {
+        return Err(Error::Shape { expected: full_bounded.len(), got: model.len() });
+    }
+    let mut a = Agreement { cells: 0, model_bounded_full_escaped: 0, model_escaped_full_bounded: 0, undecided: 0, disagreement: 0.0 };
+    for (m, &f) in model.iter().zip(full_bounded) {
+        match m.bounded() {
+            None => a.undecided += 1,
+            Some(b) => {
+                a.cells += 1;
+                match (b, f) {
+                    (true, false) => a.model_bounded_full_escaped += 1,
+                    (false, true) => a.model_escaped_full_bounded += 1,
+                    _ => {}
+                }
+            }
+        }
+    }
+    a.disagreement = (a.model_bounded_full_escaped + a.model_escaped_full_bounded) as f64 / a.cells.max(1) as f64;
+    Ok(a)
+}
+
+// ---------------------------------------------------------------------------------------
+// The full system's torus across dt
+// ---------------------------------------------------------------------------------------
+
+/// One step of [`torus_continuation`].
+#[derive(Clone, Debug, Serialize)]
+pub struct TorusStep {
+    pub dt_ms: f64,
+    /// Time (s) of the escape, `None` when the run stayed bounded.
+    pub escape_t: Option<f64>,
+    /// Mean `(rho_1, rho_2)` over the last third of the run (bounded runs only).
+    pub rho: Option<[f64; 2]>,
+    /// Spread (max - min) of `rho_1` over the middle and the last third of the run (bounded
+    /// runs only): an attracting torus keeps them small and not growing.
+    pub spread_mid: Option<f64>,
+    pub spread_last: Option<f64>,
+    /// The torus stopped attracting here ([`TORUS_GROWTH`] rule).
+    pub lost: bool,
+}
+
+/// The rule of [`TorusStep::lost`]: the run escaped, or the slow amplitude's spread over the
+/// last third is more than this factor times that over the middle third and above
+/// [`TORUS_SPREAD_MIN`] (a growing oscillation about the torus; 1: growing at all, since
+/// near the loss the oscillation grows or decays slowly: measured at 31.6 / 31.7 ms, 8,000
+/// periods from the previous 0.1 ms: spreads 0.062 -> 0.055 / 0.108 -> 0.156 rad).
+pub const TORUS_GROWTH: f64 = 1.0;
+
+/// Spreads of `rho_1` below this (rad) count as the torus itself (the sliding fit's ripple on
+/// an attracting 2-torus is below 1e-3 rad).
+pub const TORUS_SPREAD_MIN: f64 = 0.005;
+
+/// The full system's 2-torus followed across dt.
+#[derive(Clone, Debug, Serialize)]
+pub struct TorusContinuation {
+    pub start_rho: [f64; 2],
+    pub periods: u64,
+    pub steps: Vec<TorusStep>,
+    /// `(last dt where the torus attracts, first dt where it is lost)`; `None` when it is
+    /// never lost on the grid or lost at the first dt.
+    pub lost_between: Option<(f64, f64)>,
+}
+
+/// Follows the full system's 2-torus over `dts_ms` (strictly increasing): a run of
+/// `periods` periods at the first dt from the mode start at `start_rho` (phases 0), every
+/// further run from the end state and controller samples of the previous one (so it starts on
+/// the previous dt's torus, a small perturbation of this one's). Stops after the first step
+/// where the torus is lost ([`TorusStep::lost`]). Serial by nature: each run needs the last.
+pub fn torus_continuation(dts_ms: &[f64], start_rho: [f64; 2], periods: u64) -> Result<TorusContinuation, Error> {
+    if dts_ms.is_empty() || dts_ms.windows(2).any(|w| w[1] <= w[0]) {
+        return Err(Error::BadInput { what: "dts_ms", why: format!("need at least one, strictly increasing, got {dts_ms:?}") });
+    }
+    let (x, h) = start_from_rho(dts_ms[0], start_rho, [0.0, 0.0])?;
+    let mut start = (x, Some(h));
+    let mut steps = Vec::new();
+    for &dt in dts_ms {
+        let tr = run(dt, &start, periods, ESCAPE_THETA)?;
+        let theta = tr.primary();
+        let n = theta.len();
+        let mut step = TorusStep { dt_ms: dt, escape_t: None, rho: None, spread_mid: None, spread_last: None, lost: true };
+        if tr.stopped.is_some() {
+            step.escape_t = tr.t.last().copied();
+        } else {
+            let third = |k: usize| &theta[k * n / 3..(k + 1) * n / 3];
+            let lin = crate::parametric::exact_modes(dt)?.freqs_hz;
+            let split = (lin[0] * lin[1]).sqrt();
+            let last = third(2);
+            let freqs = match (ssm::spectrum::band_peak(last, tr.dt, 0.0, split), ssm::spectrum::band_peak(last, tr.dt, split, 0.5 / tr.dt)) {
+                (Some(a), Some(b)) => [a.freq_hz, b.freq_hz],
+                _ => lin,
+            };
+            let amps = |s: &[f64]| mode_amplitudes(s, tr.dt, freqs, AMP_WINDOW_S);
+            let (mid, end) = (amps(third(1))?, amps(last)?);
+            if mid.is_empty() || end.is_empty() {
+                return Err(Error::BadInput { what: "periods", why: format!("a third of {periods} periods is shorter than the amplitude window {AMP_WINDOW_S} s") });
+            }
+            let spread = |a: &[(f64, [f64; 2])]| {
+                let (lo, hi) = a.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), x| (lo.min(x.1[0]), hi.max(x.1[0])));
+                hi - lo
+            };
+            let k = end.len() as f64;
+            step.rho = Some([end.iter().map(|a| a.1[0]).sum::<f64>() / k, end.iter().map(|a| a.1[1]).sum::<f64>() / k]);
+            let (sm, sl) = (spread(&mid), spread(&end));
+            step.spread_mid = Some(sm);
+            step.spread_last = Some(sl);
+            step.lost = sl > TORUS_GROWTH * sm && sl > TORUS_SPREAD_MIN;
+            // The next run starts from this one's end: plant state and the controller's last
+            // `delay + 1` samples, oldest first.
+            let delay = sim::scene::SceneBuilder::load("furuta-dt30.5")?.dt_ms(dt).build()?.controller.delay as usize;
+            let rows = tr.rows();
+            if rows < delay + 1 {
+                return Err(Error::BadInput { what: "periods", why: format!("{periods} periods are fewer than the delay + 1 samples") });
+            }
+            let state = [tr.state(rows - 1, 0), tr.state(rows - 1, 1), tr.state(rows - 1, 2), tr.state(rows - 1, 3)];
+            let hist: Vec<[f64; 2]> = (rows - 1 - delay..rows).map(|i| [tr.state(i, 0), tr.state(i, 2)]).collect();
+            start = (state, Some(hist));
+        }
+        let lost = step.lost;
+        steps.push(step);
+        if lost {
+            break;
+        }
+    }
+    let lost_between = match steps.iter().position(|s| s.lost) {
+        Some(i) if i > 0 => Some((steps[i - 1].dt_ms, steps[i].dt_ms)),
+        _ => None,
+    };
+    Ok(TorusContinuation { start_rho, periods, steps, lost_between })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use ssm::normal_form::Normalization;
+
+    /// `rho_i' = rho_i (a + b r^2)`, `r^2 = rho_1^2 + rho_2^2`: for `a < 0 < b` the origin
+    /// attracts every start inside the circle `r = sqrt(-a/b)` (an invariant circle of
+    /// saddles' stable manifolds' role: the exact separatrix) and every start outside it
+    /// grows without bound.
+    fn radial(a: f64, b: f64) -> PolarNormalForm {
+        let pexps = ssm::poly::exponents(2, 0, 1);
+        let amp = vec![vec![a, b, b], vec![a, b, b]];
+        let phase = vec![vec![std::f64::consts::TAU * 0.44, 0.0, 0.0], vec![std::f64::consts::TAU * 8.4, 0.0, 0.0]];
+        PolarNormalForm {
+            modes: 2,
+            order: 3,
+            eigenvalues: vec![(a, phase[0][0]), (a, phase[1][0])],
+            pexps,
+            amp,
+            phase,
+            normalization: Normalization::UnitEigenvectors,
+            extra_resonances: Vec::new(),
+            min_divisor: 1.0,
+            map_dt: None,
+        }
+    }
+
+    /// The known answer: bounded exactly inside `r = 1` (`a = -1, b = 1`); within a horizon
+    /// `T`, a start at `r0 > 1` on the ray of angle `phi` leaves the box `[0, 2]^2` (at
+    /// `r1 = 2 / max(cos phi, sin phi)`, rays are invariant) after
+    /// `T(r0) = (ln((u1 - 1)/u1) - ln((u0 - 1)/u0)) / 2`, `u = r^2`.
+    #[test]
+    fn model_basin_of_a_radial_system_is_the_unit_disc() {
+        let nf = radial(-1.0, 1.0);
+        let opts = PortraitOptions { rho_max: [2.0, 2.0], ray_samples: 0, flow_grid: 0, ..PortraitOptions::default() };
+        let v: Vec<f64> = (0..15).map(|k| 0.05 + 0.1 * k as f64).collect();
+        let horizon = 0.5;
+        let mb = model_basin(&nf, PointKind::Equilibrium, &v, &v, horizon, 200.0, &opts).unwrap();
+        let (mut checked, mut checked_h) = (0, 0);
+        for (i, &x) in v.iter().enumerate() {
+            for (j, &y) in v.iter().enumerate() {
+                let r = x.hypot(y);
+                let k = i * v.len() + j;
+                if (r - 1.0).abs() > 0.01 {
+                    assert_eq!(mb.asymptotic[k], if r < 1.0 { ModelFate::Principal } else { ModelFate::LeavesBox }, "({x}, {y}) r = {r}");
+                    checked += 1;
+                }
+                // Within the horizon.
+                let t_exit = if r > 1.0 {
+                    let (u0, u1) = (r * r, (2.0 / (x.max(y) / r)).powi(2));
+                    0.5 * (((u1 - 1.0) / u1).ln() - ((u0 - 1.0) / u0).ln())
+                } else {
+                    f64::INFINITY
+                };
+                if (t_exit - horizon).abs() > 0.02 {
+                    assert_eq!(mb.horizon[k], if t_exit < horizon { ModelFate::LeavesBox } else { ModelFate::Principal }, "({x}, {y}) exit at {t_exit}");
+                    checked_h += 1;
+                }
+            }
+        }
+        // Most cells are away from the boundaries, and both verdicts occur within the horizon.
+        assert!(checked >= 215 && checked_h >= 200, "{checked} {checked_h}");
+        assert!(mb.horizon.contains(&ModelFate::LeavesBox) && mb.horizon.iter().zip(&mb.asymptotic).any(|(h, a)| h != a));
+        // Against a "full system" that is the exact disc: no disagreement off the circle.
+        let exact: Vec<bool> = v.iter().flat_map(|&x| v.iter().map(move |&y| x.hypot(y) < 1.0)).collect();
+        let a = agreement(&mb.asymptotic, &exact).unwrap();
+        assert_eq!(a.cells, 225);
+        assert!(a.disagreement <= 2.0 / 225.0, "{a:?}");
+        // A smaller disc (a = -0.81: r = 0.9) disagrees exactly on the ring 0.9 < r < 1.
+        let small = model_basin(&radial(-0.81, 1.0), PointKind::Equilibrium, &v, &v, horizon, 200.0, &opts).unwrap();
+        let ring = exact.iter().zip(v.iter().flat_map(|&x| v.iter().map(move |&y| x.hypot(y)))).filter(|(_, r)| *r > 0.9 && *r < 1.0).count();
+        let a = agreement(&small.asymptotic, &exact).unwrap();
+        assert_eq!((a.model_escaped_full_bounded, a.model_bounded_full_escaped), (ring, 0), "{a:?}");
+    }
+
+    /// Two attractors: `rho_1' = rho_1 (-1 + 2.5 rho_1^2 - rho_1^4)` (an unstable cycle at
+    /// `rho_1 = sqrt(1/2)`, a stable one at `sqrt(2)`), `rho_2' = -rho_2`: starts below
+    /// `sqrt(1/2)` in `rho_1` reach the equilibrium (the principal attractor here), starts
+    /// above it the stable cycle (another attractor: not bounded in the full system's sense).
+    #[test]
+    fn model_basin_tells_the_principal_attractor_from_another() {
+        let pexps = ssm::poly::exponents(2, 0, 2);
+        let a1: Vec<f64> = pexps.iter().map(|e| match (e[0], e[1]) { (0, 0) => -1.0, (1, 0) => 2.5, (2, 0) => -1.0, _ => 0.0 }).collect();
+        let a2: Vec<f64> = pexps.iter().map(|e| if e[0] + e[1] == 0 { -1.0 } else { 0.0 }).collect();
+        let zero = vec![0.0; pexps.len()];
+        let nf = PolarNormalForm { modes: 2, order: 5, eigenvalues: vec![(-1.0, 1.0), (-1.0, 50.0)], pexps, amp: vec![a1, a2], phase: vec![zero.clone(), zero], ..radial(-1.0, 1.0) };
+        let opts = PortraitOptions { rho_max: [2.0, 2.0], ray_samples: 0, flow_grid: 0, converge_tol: 1e-5, manifold_eps: 1e-4, ..PortraitOptions::default() };
+        let v: Vec<f64> = (0..14).map(|k| 0.05 + 0.1 * k as f64).collect();
+        let mb = model_basin(&nf, PointKind::Equilibrium, &v, &v, 1.0, 200.0, &opts).unwrap();
+        for (i, &x) in v.iter().enumerate() {
+            for (j, &y) in v.iter().enumerate() {
+                let want = if x < 0.5f64.sqrt() { ModelFate::Principal } else { ModelFate::OtherAttractor };
+                assert_eq!(mb.asymptotic[i * v.len() + j], want, "({x}, {y})");
+                assert_eq!(mb.horizon[i * v.len() + j], want);
+            }
+        }
+        assert_eq!(ModelFate::OtherAttractor.bounded(), Some(false));
+        assert_eq!(ModelFate::Undecided.bounded(), None);
+    }
+
+    #[test]
+    fn bad_inputs_are_refused() {
+        let nf = radial(-1.0, 1.0);
+        let opts = PortraitOptions { rho_max: [2.0, 2.0], ..PortraitOptions::default() };
+        assert!(matches!(model_basin(&nf, PointKind::Equilibrium, &[0.1], &[0.1], 0.0, 10.0, &opts), Err(Error::BadOption { .. })));
+        assert!(matches!(model_basin(&nf, PointKind::Equilibrium, &[0.1], &[0.1], 20.0, 10.0, &opts), Err(Error::BadOption { .. })));
+        assert!(matches!(model_basin(&nf, PointKind::Equilibrium, &[2.5], &[0.1], 1.0, 10.0, &opts), Err(Error::BadInput { .. })));
+        assert!(matches!(model_basin(&nf, PointKind::Equilibrium, &[], &[0.1], 1.0, 10.0, &opts), Err(Error::BadInput { .. })));
+        assert!(matches!(agreement(&[ModelFate::Principal], &[true, false]), Err(Error::Shape { .. })));
+        assert!(matches!(torus_continuation(&[31.5, 31.4], [0.1, 0.03], 100), Err(Error::BadInput { what: "dts_ms", .. })));
+        let mut o = BasinOptions::quick();
+        o.dts_ms = vec![];
+        assert!(matches!(full_basin(&o), Err(Error::BadInput { what: "dts_ms", .. })));
+    }
+
+    /// A 3 x 2 grid at one dt through the sweep machinery equals the runs of
+    /// `full_system::run` from the same mode starts (outcome by outcome), and the cell order
+    /// is rho_1-major.
+    #[test]
+    fn full_basin_cells_are_the_runs_from_mode_starts() {
+        let o = BasinOptions {
+            dts_ms: vec![31.5],
+            rho1: Axis { lo: 0.02, hi: 0.14, n: 3 },
+            rho2: Axis { lo: 0.01, hi: 0.05, n: 2 },
+            phases: [0.3, 0.0],
+            periods: 200,
+        };
+        let b = full_basin(&o).unwrap();
+        let (r1, r2) = o.values();
+        let bounded = b.bounded_at(0);
+        assert_eq!(bounded.len(), 6);
+        for (i, &x) in r1.iter().enumerate() {
+            for (j, &y) in r2.iter().enumerate() {
+                let (s, h) = start_from_rho(31.5, [x, y], o.phases).unwrap();
+                let out = crate::full_system::outcome_of(&run(31.5, &(s, Some(h)), 200, ESCAPE_THETA).unwrap());
+                let c = b.cell(i, j, 0);
+                assert_eq!(c.values, vec![x, y, 31.5]);
+                assert_eq!((c.bounded, c.escape_t, c.max_theta), (Some(out.bounded()), out.escape_t, Some(out.max_theta)), "({x}, {y})");
+                assert_eq!(bounded[i * 2 + j], out.bounded());
+            }
+        }
+        // (0.14, 0.05) escapes within 200 periods at 31.5 ms; small starts do not.
+        assert!(!bounded[5] && bounded[0], "{bounded:?}");
+        assert!((b.escape_fraction(0) - bounded.iter().filter(|x| !**x).count() as f64 / 6.0).abs() == 0.0);
+    }
+}

@@ -1,0 +1,380 @@
+//! Report sections on the global bifurcations (issue 11, items 4 and 5): the equation-driven
+//! reduced model next to the data-driven one and the full system, every bifurcation value in
+//! three columns (`summary.json` keys `equation_ssm`, and `equation*` / `full_system*` added
+//! to `heteroclinic_dt_ms` and `torus_hopf_dt_ms`), and the full system's basin near the
+//! global bifurcation with both models' saddle manifolds over it (`basin`).
+
+use crate::draw::basin::{OverlayPanel, draw_basin_overlay};
+use crate::report::{Report, num, par_map};
+use furuta::basin::{Agreement, BasinOptions, FullBasin, ModelBasin, TorusContinuation, agreement, full_basin, model_basin, torus_continuation};
+use furuta::bifurcations::{ModelBifurcations, RHO_MAX};
+use furuta::equation_ssm::{EquationBifurcations, EquationModel, EquationSsm, INVARIANCE_RADII, equation_bifurcations, furuta_equation_polar, furuta_equation_ssm};
+use furuta::parametric::ParametricModel;
+use plotters::style::RGBColor;
+use serde_json::{Value, json};
+use ssm::interp::Interp;
+use ssm::normal_form::PolarNormalForm;
+use ssm::portrait::{Direction, PointKind, Portrait, PortraitOptions, portrait};
+use std::error::Error;
+
+/// The order of the equation-driven model in the three-column table and the basin figure.
+pub const EQUATION_ORDER: u32 = 7;
+
+/// Time limit (s) of a model trajectory's asymptotic fate (as the domain-of-attraction table).
+pub const MODEL_T_MAX: f64 = 2000.0;
+
+/// What the two sections compute (all of it on the pool, before either is written).
+struct Computed {
+    diag: Vec<EquationSsm>,
+    by_order: Vec<EquationBifurcations>,
+    basin: FullBasin,
+    /// Per basin dt: (data-driven, equation-driven) normal form, portrait and grid verdicts.
+    models: Vec<[(Portrait, ModelBasin); 2]>,
+    torus: TorusContinuation,
+}
+
+fn settings(quick: bool) -> (Vec<f64>, Vec<u32>, Vec<f64>, u32, BasinOptions, Vec<f64>, u64) {
+    // Interpolation nodes of the equation-driven models, their orders, the dts of the
+    // diagnostics (coefficients, invariance error by order) and its order, the basin grid,
+    // the torus continuation's dts and periods.
+    if quick {
+        let nodes = vec![30.5, 31.0, 31.5, 32.0, 32.5];
+        (nodes, vec![7], vec![31.0, 31.5], 9, BasinOptions::quick(), (0..=6).map(|k| 31.4 + 0.1 * k as f64).collect(), 8000)
+    } else {
+        let nodes: Vec<f64> = (0..=8).map(|k| 30.5 + 0.25 * k as f64).collect();
+        (nodes.clone(), vec![5, 7, 9], nodes, 9, BasinOptions::full(), (0..=14).map(|k| ((31.3 + 0.05 * k as f64) * 1e4).round() / 1e4).collect(), 16_000)
+    }
+}
+
+fn compute(pm: &ParametricModel, quick: bool) -> Result<Computed, Box<dyn Error + Send + Sync>> {
+    let (nodes, orders, diag_dts, diag_order, bopts, torus_dts, torus_periods) = settings(quick);
+    let popts = PortraitOptions { rho_max: RHO_MAX, ..PortraitOptions::default() };
+    let equation = || -> Result<(Vec<EquationSsm>, Vec<EquationBifurcations>), furuta::Error> {
+        let (diag, models) = rayon::join(
+            || par_map(&diag_dts, |&dt| furuta_equation_ssm(dt, diag_order)),
+            || {
+                par_map(&orders, |&order| {
+                    // The diagnostics' normal forms when they are the same nodes and order.
+                    if order == diag_order && diag_dts == nodes { Ok(None) } else { EquationModel::furuta(&nodes, order).map(Some) }
+                })
+            },
+        );
+        let diag = diag?;
+        let models: Vec<EquationModel> = models?
+            .into_iter()
+            .zip(&orders)
+            .map(|(m, &order)| m.unwrap_or_else(|| EquationModel { order, nodes_ms: nodes.clone(), forms: diag.iter().map(|d| d.polar.clone()).collect() }))
+            .collect();
+        let bifs = par_map(&models, |m| equation_bifurcations(m, Interp::Spline))?;
+        Ok((diag, bifs))
+    };
+    // Verdicts only: no orbit search or sample flow; a fixed point counts as reached within
+    // 1e-5 rad (not 1e-8: the torus is a weakly damped focus), the start offset of manifolds
+    // (unused here) above it.
+    let classify = PortraitOptions { ray_samples: 0, flow_grid: 0, converge_tol: 1e-5, manifold_eps: 1e-4, ..popts.clone() };
+    let models = || -> Result<Vec<[(Portrait, ModelBasin); 2]>, furuta::Error> {
+        let (r1, r2) = bopts.values();
+        par_map(&bopts.dts_ms, |&dt| -> Result<[(Portrait, ModelBasin); 2], furuta::Error> {
+            let nfs: [PolarNormalForm; 2] = [pm.normal_form_at(dt)?, furuta_equation_polar(dt, EQUATION_ORDER)?];
+            let [a, b] = nfs;
+            let one = |nf: &PolarNormalForm| -> Result<(Portrait, ModelBasin), furuta::Error> {
+                let p = portrait(nf, &popts).map_err(ssm::Error::from)?;
+                let mb = model_basin(nf, PointKind::Torus2, &r1, &r2, bopts.periods as f64 * dt * 1e-3, MODEL_T_MAX, &classify)?;
+                Ok((p, mb))
+            };
+            let (x, y) = rayon::join(|| one(&a), || one(&b));
+            Ok([x?, y?])
+        })
+    };
+    let ((eq, basin), (models, torus)) = rayon::join(
+        || rayon::join(equation, || full_basin(&bopts)),
+        || rayon::join(models, || torus_continuation(&torus_dts, [0.097, 0.0277], torus_periods)),
+    );
+    let (diag, by_order) = eq?;
+    Ok(Computed { diag, by_order, basin: basin?, models: models?, torus: torus? })
+}
+
+fn f4(v: Option<f64>) -> String {
+    v.map_or("none".into(), |x| format!("{x:.3}"))
+}
+
+/// Both sections: `equation` (the three columns, the order table, coefficients and
+/// invariance) and `basin`. `bif` is the data-driven model's bifurcations (portraits section);
+/// the full system's small-start scan and torus are read from the summary keys the
+/// fullsystem section wrote.
+pub fn global_sections(rep: &mut Report, pm: &ParametricModel, bif: &ModelBifurcations, quick: bool) -> Result<(), Box<dyn Error>> {
+    let c = compute(pm, quick).map_err(|e| e.to_string())?;
+    equation_section(rep, bif, &c, quick)?;
+    basin_section(rep, &c)?;
+    Ok(())
+}
+
+fn equation_section(rep: &mut Report, bif: &ModelBifurcations, c: &Computed, quick: bool) -> Result<(), Box<dyn Error>> {
+    let (nodes, orders, diag_dts, diag_order, _, _, torus_periods) = settings(quick);
+    rep.section(
+        "equation",
+        "Data-driven vs equation-driven model vs full system: every bifurcation value",
+        &format!(
+            "The equation-driven model is the SSM of the unquantized loop's exact one-period map (Taylor expansion at the \
+             upright equilibrium, parametrization method, extended normal form with near resonances kept), in the \
+             data-driven model's polar conventions; its normal forms at dt = {} ms (order {}) are interpolated by natural \
+             cubic splines and scanned for bifurcations by the same portrait code as the data-driven model. The full \
+             system's torus loss: the 2-torus followed across dt by runs of {torus_periods} periods, each started from \
+             the end of the previous one; it is lost at the first dt where the run escapes or the slow amplitude's \
+             spread (max - min over the sliding fit) over the last third of the run is above {} times that over the \
+             middle third and above {} rad (a growing oscillation about the torus).",
+            nodes.iter().map(|d| d.to_string()).collect::<Vec<_>>().join(", "),
+            orders.iter().map(|d| d.to_string()).collect::<Vec<_>>().join(", "),
+            furuta::basin::TORUS_GROWTH,
+            furuta::basin::TORUS_SPREAD_MIN,
+        ),
+    );
+    let eb = c.by_order.iter().find(|b| b.order == EQUATION_ORDER).ok_or("no equation-driven model at the table's order")?;
+    let het = rep.summary.get("heteroclinic_dt_ms").cloned().unwrap_or(Value::Null);
+    let torus = rep.summary.get("torus_30p8").cloned().unwrap_or(Value::Null);
+    let full_switch = het["full_system"].as_array().map(|a| a.iter().filter_map(Value::as_f64).collect::<Vec<_>>());
+    let bracket = |b: Option<&Vec<f64>>| b.filter(|v| v.len() == 2).map_or("none".to_string(), |v| format!("[{:.3}, {:.3}]", v[0], v[1]));
+    let eq_switch = eb.small_start_switch.map(|b| 0.5 * (b.0 + b.1));
+    let lost = c.torus.lost_between;
+    let rho = |r: Option<[f64; 2]>| r.map_or("none".into(), |r| format!("({:.4}, {:.4})", r[0], r[1]));
+    let rho_full = torus["rho_full"].as_array().and_then(|a| Some([a.first()?.as_f64()?, a.get(1)?.as_f64()?]));
+    let rows = vec![
+        vec![
+            "saddle connection of the saddle cycles [ms]".into(),
+            f4(bif.heteroclinic.as_ref().map(|h| h.dt)),
+            f4(eb.heteroclinic.as_ref().map(|h| h.dt)),
+            "no direct counterpart (see the small-start switch)".into(),
+        ],
+        vec![
+            "small-start switch, bounded -> escape [ms]".into(),
+            f4(het["model"].as_f64()),
+            f4(eq_switch),
+            format!("{} (all escape from {})", bracket(full_switch.as_ref()), f4(het["full_system_all_escape_from"].as_f64())),
+        ],
+        vec![
+            "torus Hopf: the 2-torus stops attracting [ms]".into(),
+            f4(bif.hopf.as_ref().map(|h| h.dt)),
+            f4(eb.hopf.as_ref().map(|h| h.dt)),
+            lost.map_or("not lost on the grid".into(), |(a, b)| format!("[{a:.3}, {b:.3}]")),
+        ],
+        vec![
+            "2-torus at 30.8 ms (rho_1, rho_2) [rad]".into(),
+            rho(bif.torus_30p8.as_ref().map(|t| t.rho)),
+            rho(eb.torus_30p8.as_ref().map(|t| t.rho)),
+            rho(rho_full),
+        ],
+    ];
+    rep.table(&["bifurcation", "data-driven model", &format!("equation-driven model (order {EQUATION_ORDER})"), "full system"], &rows);
+    // The equation-driven model's values by order.
+    let orow: Vec<Vec<String>> = c
+        .by_order
+        .iter()
+        .map(|b| {
+            vec![
+                b.order.to_string(),
+                f4(b.heteroclinic.as_ref().map(|h| h.dt)),
+                f4(b.small_start_switch.map(|s| 0.5 * (s.0 + s.1))),
+                f4(b.hopf.as_ref().map(|h| h.dt)),
+                rho(b.torus_30p8.as_ref().map(|t| t.rho)),
+            ]
+        })
+        .collect();
+    rep.para("The equation-driven model's values by the order of the SSM and its normal form:");
+    rep.table(&["order", "saddle connection [ms]", "small-start switch [ms]", "torus Hopf [ms]", "2-torus at 30.8 ms"], &orow);
+    // The full system's torus across dt.
+    let trow: Vec<Vec<String>> = c
+        .torus
+        .steps
+        .iter()
+        .map(|s| {
+            vec![
+                format!("{}", s.dt_ms),
+                rho(s.rho),
+                s.spread_mid.map_or("-".into(), |x| format!("{x:.4}")),
+                s.spread_last.map_or("-".into(), |x| format!("{x:.4}")),
+                s.escape_t.map_or("bounded".into(), |t| format!("escapes at {t:.1} s")),
+                if s.lost { "lost".into() } else { "attracting".into() },
+            ]
+        })
+        .collect();
+    rep.para("The full system's 2-torus continued across dt:");
+    rep.table(&["dt [ms]", "mean (rho_1, rho_2), last third", "rho_1 spread, middle third", "rho_1 spread, last third", "run", "torus"], &trow);
+    // Coefficients and invariance by order.
+    rep.para(&format!(
+        "Equation-driven SSM at order {diag_order}: invariance error max |F(W(z)) - W(R(z))| of the truncations at orders 3, \
+         5, ... on the spheres of theta amplitude {} rad, and the polar coefficients (1/s; rho in rad of theta).",
+        INVARIANCE_RADII.iter().map(|r| r.to_string()).collect::<Vec<_>>().join(" and "),
+    ));
+    let mut irows = Vec::new();
+    for d in &c.diag {
+        for &r in &INVARIANCE_RADII {
+            let mut row = vec![format!("{}", d.dt_ms), format!("{r}")];
+            row.extend(d.invariance.iter().filter(|e| e.radius == r).map(|e| format!("{}: {:.2e}", e.order, e.abs)));
+            irows.push(row);
+        }
+    }
+    let ncols = irows.iter().map(Vec::len).max().unwrap_or(2);
+    let mut head: Vec<String> = vec!["dt [ms]".into(), "radius [rad]".into()];
+    head.extend((0..ncols.saturating_sub(2)).map(|k| format!("order {}", 3 + 2 * k)));
+    let head_ref: Vec<&str> = head.iter().map(String::as_str).collect();
+    rep.table(&head_ref, &irows);
+    let mut crows = Vec::new();
+    if let Some(first) = c.diag.first() {
+        for (k, r) in first.table.rows.iter().enumerate() {
+            let mut row = vec![format!("rho_{}'", r.mode), r.monomial.clone()];
+            row.extend(c.diag.iter().map(|d| d.table.rows.get(k).map_or("-".into(), |x| num(x.value))));
+            crows.push(row);
+        }
+    }
+    let mut chead: Vec<String> = vec!["equation".into(), "monomial".into()];
+    chead.extend(c.diag.iter().map(|d| format!("{} ms", d.dt_ms)));
+    let chead_ref: Vec<&str> = chead.iter().map(String::as_str).collect();
+    rep.table(&chead_ref, &crows);
+
+    // summary.json
+    let per_dt: Vec<Value> = c
+        .diag
+        .iter()
+        .map(|d| {
+            json!({
+                "dt_ms": d.dt_ms,
+                "order": d.order,
+                "exact_rates": d.exact_rates,
+                "coefficients": d.table.rows.iter().map(|r| json!({"mode": r.mode, "monomial": r.monomial, "rho_exps": r.rho_exps, "value": r.value})).collect::<Vec<_>>(),
+                "invariance": d.invariance.iter().map(|e| json!({"order": e.order, "radius": e.radius, "abs": e.abs, "rel": e.rel})).collect::<Vec<_>>(),
+                "extra_resonances": d.extra_resonances,
+                "min_divisor": d.min_divisor,
+                "min_complement_divisor": d.min_complement_divisor,
+                "order_stats": d.order_stats,
+            })
+        })
+        .collect();
+    let by_order: Vec<Value> = c
+        .by_order
+        .iter()
+        .map(|b| {
+            json!({
+                "order": b.order,
+                "saddle_connection_dt_ms": b.heteroclinic.as_ref().map(|h| h.dt),
+                "small_start_switch_dt_ms": b.small_start_switch.map(|s| [s.0, s.1]),
+                "torus_hopf_dt_ms": b.hopf.as_ref().map(|h| h.dt),
+                "torus_30p8_rho": b.torus_30p8.as_ref().map(|t| t.rho),
+            })
+        })
+        .collect();
+    rep.summary.insert(
+        "equation_ssm".into(),
+        json!({"order": diag_order, "invariance_radii": INVARIANCE_RADII, "per_dt": per_dt, "nodes_ms": nodes, "interp": "spline",
+               "bifurcations_by_order": by_order, "table_order": EQUATION_ORDER, "diagnostic_dts_ms": diag_dts}),
+    );
+    if let Some(Value::Object(h)) = rep.summary.get_mut("heteroclinic_dt_ms") {
+        h.insert("equation".into(), json!(eq_switch));
+        h.insert("equation_saddle_connection".into(), json!(eb.heteroclinic.as_ref().map(|h| h.dt)));
+        h.insert("equation_order".into(), json!(EQUATION_ORDER));
+    }
+    if let Some(Value::Object(h)) = rep.summary.get_mut("torus_hopf_dt_ms") {
+        h.insert("equation".into(), json!(eb.hopf.as_ref().map(|h| h.dt)));
+        h.insert("full_system".into(), json!(lost.map(|(a, b)| [a, b])));
+        h.insert(
+            "full_system_rule".into(),
+            json!(format!(
+                "first dt of a continuation by runs of {torus_periods} periods (each from the end of the previous) where the run escapes or the slow amplitude's spread over the last third exceeds {} x that over the middle third and {} rad; [last attracting, first lost]",
+                furuta::basin::TORUS_GROWTH,
+                furuta::basin::TORUS_SPREAD_MIN
+            )),
+        );
+        h.insert("full_system_steps".into(), serde_json::to_value(&c.torus.steps)?);
+    }
+    Ok(())
+}
+
+fn basin_section(rep: &mut Report, c: &Computed) -> Result<(), Box<dyn Error>> {
+    let b = &c.basin;
+    let o = &b.options;
+    let (r1, r2) = o.values();
+    let cells = r1.len() * r2.len();
+    rep.section(
+        "basin",
+        "The full system's basin near the global bifurcation",
+        &format!(
+            "Bounded (green) or escaping (red, |theta| > 1 rad within {} periods) full-system runs from {} x {} starts on the \
+             exact linear eigenvectors, slow amplitude rho_1 = {}..{} rad x fast amplitude rho_2 = {}..{} rad, phases \
+             {:?} rad, at dt = {} ms (a basin sweep: <code>ssmctl sweep</code> on the same spec gives the same cells). Over \
+             it the saddle cycles' stable manifolds (separatrices) and the 3-tori of the data-driven model (blue) and of the \
+             equation-driven model at order {EQUATION_ORDER} (purple), and the cells where a model's verdict differs from \
+             the full system's. A model's start counts as bounded when its trajectory reaches the 2-torus or still circles \
+             in the box after {MODEL_T_MAX} s; reaching another attractor (e.g. a large slow-mode cycle) or leaving the \
+             box {:?} counts as escape (asymptotic verdict); the horizon verdict counts leaving the box after the full \
+             runs' horizon as bounded.",
+            o.periods, o.rho1.n, o.rho2.n, o.rho1.lo, o.rho1.hi, o.rho2.lo, o.rho2.hi, o.phases,
+            o.dts_ms.iter().map(|d| d.to_string()).collect::<Vec<_>>().join(", "),
+            RHO_MAX,
+        ),
+    );
+    let blue = RGBColor(30, 80, 220);
+    let purple = RGBColor(150, 40, 170);
+    let separatrices = |p: &Portrait| -> Vec<Vec<(f64, f64)>> {
+        let mut v: Vec<Vec<(f64, f64)>> = p.manifolds.iter().filter(|m| m.direction == Direction::Stable && !m.on_axis).map(|m| m.points.clone()).collect();
+        v.extend(p.orbits.iter().map(|o| o.points.clone()));
+        v
+    };
+    let mut rows = Vec::new();
+    let mut list = Vec::new();
+    let mut panels_data = Vec::new();
+    for (p, (dt, m)) in o.dts_ms.iter().zip(&c.models).enumerate() {
+        let full = b.bounded_at(p);
+        let ag = |mb: &ModelBasin| -> Result<(Agreement, Agreement), furuta::Error> { Ok((agreement(&mb.asymptotic, &full)?, agreement(&mb.horizon, &full)?)) };
+        let (data, data_h) = ag(&m[0].1)?;
+        let (eq, eq_h) = ag(&m[1].1)?;
+        let esc = b.escape_fraction(p);
+        let pct = |a: &Agreement| format!("{:.1} % ({} / {})", 100.0 * a.disagreement, a.model_bounded_full_escaped, a.model_escaped_full_bounded);
+        rows.push(vec![format!("{dt}"), format!("{:.1} %", 100.0 * esc), pct(&data), pct(&data_h), pct(&eq), pct(&eq_h)]);
+        list.push(json!({"dt_ms": dt, "escape_fraction": esc, "data_driven": data, "data_driven_horizon": data_h, "equation": eq, "equation_horizon": eq_h}));
+        let differs = |mb: &ModelBasin| -> Vec<bool> { mb.asymptotic.iter().zip(&full).map(|(f, &x)| f.bounded().is_some_and(|y| y != x)).collect() };
+        let (d0, d1) = (differs(&m[0].1), differs(&m[1].1));
+        panels_data.push((format!("dt = {dt} ms: {:.0} % escape", 100.0 * esc), full, d0, d1, separatrices(&m[0].0), separatrices(&m[1].0)));
+    }
+    let panels: Vec<OverlayPanel> = panels_data
+        .iter()
+        .map(|(cap, full, d0, d1, s0, s1)| OverlayPanel {
+            caption: cap.clone(),
+            x: &r1,
+            y: &r2,
+            bounded: full,
+            marks: vec![("data-driven model differs".into(), blue, d0.clone()), ("equation-driven model differs".into(), purple, d1.clone())],
+            curves: vec![("data-driven separatrices".into(), blue, s0.clone()), (format!("equation-driven (order {EQUATION_ORDER}) separatrices"), purple, s1.clone())],
+        })
+        .collect();
+    let fig = "fig/basin_global.png";
+    draw_basin_overlay(&rep.dir().join(fig), &format!("Full system: bounded (green) / escape (red) within {} periods", o.periods), "rho_1 (slow) [rad]", "rho_2 (fast) [rad]", &panels)?;
+    rep.figure(fig, "The full system's basin with the reduced models' separatrices; markers: cells where a model's asymptotic verdict differs");
+    rep.para(&format!(
+        "Disagreement: the fraction of the {cells} cells where the model's verdict differs from the full system's (in \
+         parentheses: model bounded but full system escaped / model escaped but full system bounded); asymptotic = the \
+         model's fate within {MODEL_T_MAX} s, horizon = within the full runs' {} periods. {} runs in {:.1} s wall on {} \
+         threads ({:.1} ms per cell and thread).",
+        o.periods,
+        b.result.cells.len(),
+        b.wall_seconds,
+        b.threads,
+        1e3 * b.wall_seconds * b.threads as f64 / b.result.cells.len().max(1) as f64,
+    ));
+    rep.table(&["dt [ms]", "full system: escape", "data-driven: differs", "data-driven, horizon", "equation-driven: differs", "equation-driven, horizon"], &rows);
+    rep.summary.insert(
+        "basin".into(),
+        json!({
+            "figure": fig,
+            "dts_ms": o.dts_ms,
+            "rho1": [o.rho1.lo, o.rho1.hi, o.rho1.n],
+            "rho2": [o.rho2.lo, o.rho2.hi, o.rho2.n],
+            "phases": o.phases,
+            "periods": o.periods,
+            "model_t_max_s": MODEL_T_MAX,
+            "equation_order": EQUATION_ORDER,
+            "spec_hash": b.result.spec_hash,
+            "per_dt": list,
+            "wall_seconds": b.wall_seconds,
+        }),
+    );
+    Ok(())
+}
