@@ -39,6 +39,7 @@ fn label(s: &Scene) -> String {
         MethodKind::Rk4 => format!("rk4 {} steps/period", i.steps.unwrap_or_default()),
         MethodKind::Exprb => format!("exprb43 rtol={:e}", i.rtol.unwrap_or_default()),
         MethodKind::ExprbFixed => format!("exprb43 fixed {} steps/period", i.steps.unwrap_or_default()),
+        MethodKind::ExprbSplit => format!("exprb43-split rtol={:e}", i.rtol.unwrap_or_default()),
     }
 }
 
@@ -81,6 +82,8 @@ pub fn bench_simulate(periods: u64, quick: bool, mut progress: impl FnMut(&str))
     configs.extend(ex.iter().map(|&r| with(&base, MethodKind::Exprb, Some(r), None)));
     let rk: &[u32] = if quick { &[] } else { &[350, 700, 1400] };
     configs.extend(rk.iter().map(|&n| with(&base, MethodKind::Rk4, None, Some(n))));
+    let split: &[f64] = if quick { &[1e-8] } else { &[1e-7, 1e-8, 1e-9, 1e-10] };
+    configs.extend(split.iter().map(|&r| with(&base, MethodKind::ExprbSplit, Some(r), None)));
     let window = if quick { 0.02 } else { 0.5 };
     let mut rows = Vec::new();
     for c in &configs {

@@ -553,3 +553,118 @@ fn exprb_validation_and_describe() {
     assert_eq!(integ.stats(), OdeStats { steps: 3, rejected: 0, rhs_evals: 6, jac_evals: 3 });
 }
 
+
+// ---------------------------------------------------------------------------------------------
+// exprb43-split
+
+#[test]
+fn exprb_split_step_converges_with_order_four_like_exprb() {
+    // The split step on equal steps (the scheme alone, no error control), on the smooth regime
+    // of `exprb_fixed_converges_with_order_four_on_the_furuta_plant`: the same order, and the
+    // same numbers as the full matrix functions to rounding.
+    let p = Furuta::paper();
+    let u = 3.0;
+    let x0 = run(Method::Rodas { rtol: 1e-14, atol: 1e-16 }, &p, [0.3, -1.0, 0.0, 2.0], u, 0.01, 1).unwrap();
+    let reference = run(Method::Rodas { rtol: 1e-14, atol: 1e-16 }, &p, x0, u, DT, 1).unwrap();
+    let steps = [8u32, 16, 32, 64];
+    let mut errs = Vec::new();
+    for &n in &steps {
+        let dt = DT / f64::from(n);
+        let mut x = x0;
+        for _ in 0..n {
+            let (f0, jac) = crate::plant::jacobian(&p, &x, u);
+            let pair = split::dominant_pair(&jac, None).unwrap();
+            let sp = split::Split::new(&jac, &pair, dt).unwrap();
+            let mut rhs = |y: &[f64; 4]| p.rhs(y, u);
+            let (y, _) = split::step(&mut rhs, &jac, &sp, &x, &f0, dt);
+            // The full-matrix step from the same state agrees to rounding.
+            let phis = exprb::phis(&jac, dt).unwrap();
+            let (yf, _) = exprb::step(&mut rhs, &jac, &phis, &x, &f0, dt);
+            for i in 0..4 {
+                assert!((y[i] - yf[i]).abs() < 1e-13 * yf[i].abs().max(1.0), "n {n}: {y:?} vs {yf:?}");
+            }
+            x = y;
+        }
+        errs.push((0..4).map(|i| (x[i] - reference[i]).abs()).fold(0.0, f64::max));
+    }
+    eprintln!("exprb43-split fixed errors at {steps:?} steps: {errs:?}");
+    let slope = (errs[0] / errs[3]).log2() / 3.0;
+    assert!((slope - 4.0).abs() < 0.6, "errors {errs:?}, slope {slope}");
+}
+
+#[test]
+fn exprb_split_closed_loop_accuracy_against_the_tight_reference() {
+    let reference = paper_loop(Method::Rodas { rtol: 1e-13, atol: 1e-15 }, 200);
+    let mut last = f64::INFINITY;
+    for (rtol, bound) in [(1e-7, 1e-8), (1e-8, 1e-9), (1e-9, 1.5e-10), (1e-10, 1.5e-11)] {
+        let m = Method::ExprbSplit { rtol, atol: rtol * 1e-2 };
+        let mut integ = Integrator::new(m).unwrap();
+        let out = closed_loop(&mut integ, &Furuta::paper(), [0.05, 0.0, 0.0, 0.0], (KP, KD, KPHI_D), DT, 200).unwrap();
+        let err = max_diff(&out, &reference);
+        assert!(err < bound && err > 0.0, "exprb-split rtol {rtol:e}: max theta error {err:e}");
+        // Tolerance proportionality: a decade of rtol buys about a decade of error.
+        assert!(err < 0.3 * last, "rtol {rtol:e}: {err:e} after {last:e}");
+        last = err;
+        // The same steps as exprb43 (the same error estimates to rounding) and the same
+        // trajectory to far below the tolerance.
+        let mut full = Integrator::new(Method::Exprb { rtol, atol: rtol * 1e-2 }).unwrap();
+        let out_full = closed_loop(&mut full, &Furuta::paper(), [0.05, 0.0, 0.0, 0.0], (KP, KD, KPHI_D), DT, 200).unwrap();
+        assert!(max_diff(&out, &out_full) < 1e-12, "{:e}", max_diff(&out, &out_full));
+        let (a, b) = (integ.stats(), full.stats());
+        assert!(a.steps.abs_diff(b.steps) <= 2 && a.jac_evals.abs_diff(b.jac_evals) <= 2, "{a:?} vs {b:?}");
+    }
+}
+
+#[test]
+fn exprb_split_falls_back_where_no_mode_dominates() {
+    // The undamped pendulum (no back-EMF, no friction) has no fast mode: every step uses the
+    // full matrix functions, and the result is exprb43's bit for bit.
+    let p = Furuta::new(FurutaParams { b1: 0.0, b2: 0.0, k: 0.0, ..FurutaParams::default() }).unwrap();
+    let x0 = [0.3, 0.0, 0.0, 2.0];
+    let a = run(Method::ExprbSplit { rtol: 1e-9, atol: 1e-11 }, &p, x0, 0.0, DT, 30).unwrap();
+    let b = run(Method::Exprb { rtol: 1e-9, atol: 1e-11 }, &p, x0, 0.0, DT, 30).unwrap();
+    let reference = run(Method::Rodas { rtol: 1e-13, atol: 1e-15 }, &p, x0, 0.0, DT, 30).unwrap();
+    for i in 0..4 {
+        assert!((a[i] - reference[i]).abs() < 1e-7 * reference[i].abs().max(1.0), "{a:?} vs {reference:?}");
+        assert!((a[i] - b[i]).abs() < 1e-9 * b[i].abs().max(1.0), "{a:?} vs {b:?}");
+    }
+    // The linearized plant: exact in one step per period, as exprb43.
+    let lp = LinearFuruta::new();
+    let x0 = [0.05, -0.3, 0.2, 1.5];
+    let mut integ = Integrator::new(Method::ExprbSplit { rtol: 1e-12, atol: 1e-14 }).unwrap();
+    let mut x = x0;
+    let mut want = x0;
+    for _ in 0..5 {
+        integ.advance(&lp, &mut x, 2.0, DT).unwrap();
+        want = lp.exact(&want, 2.0, DT);
+    }
+    let scale = want.iter().fold(1.0f64, |a, v| a.max(v.abs()));
+    for i in 0..4 {
+        assert!((x[i] - want[i]).abs() < 1e-12 * scale, "component {i}: {} vs {}", x[i], want[i]);
+    }
+}
+
+#[test]
+fn exprb_split_validation_describe_and_blow_up() {
+    let e = Integrator::<4>::new(Method::ExprbSplit { rtol: 0.0, atol: 1e-9 }).unwrap_err();
+    assert!(matches!(&e, OdeError::BadMethod(m) if m.contains("exprb-split") && m.contains("rtol")), "{e}");
+    let e = Integrator::<4>::new(Method::ExprbSplit { rtol: 1e-9, atol: f64::NAN }).unwrap_err();
+    assert!(matches!(&e, OdeError::BadMethod(m) if m.contains("atol")), "{e}");
+    let e = Integrator::<4>::new(Method::ExprbSplit { rtol: 1e-16, atol: 1e-9 }).unwrap_err();
+    assert!(matches!(&e, OdeError::BadMethod(m) if m.contains("1e-15")), "{e}");
+    let m: Method = serde_json::from_str(r#"{"kind": "exprb_split", "rtol": 1e-8, "atol": 1e-10}"#).unwrap();
+    assert_eq!(m, Method::ExprbSplit { rtol: 1e-8, atol: 1e-10 });
+    assert_eq!(Integrator::<4>::new(m).unwrap().describe(), "exprb43-split rtol=1e-8 atol=1e-10");
+    // Driven to an absurd voltage: a clean error or a finite state, never NaN.
+    let mut integ = Integrator::new(Method::ExprbSplit { rtol: 1e-8, atol: 1e-10 }).unwrap().with_max_steps(10_000);
+    let mut x = [0.1, 0.0, 0.0, 0.0];
+    for _ in 0..20 {
+        match integ.advance(&Furuta::paper(), &mut x, 1e200, DT) {
+            Ok(()) => assert!(x.iter().all(|v| v.is_finite()), "{x:?}"),
+            Err(e) => {
+                assert!(x.iter().all(|v| v.is_finite()), "{e}: {x:?}");
+                break;
+            }
+        }
+    }
+}

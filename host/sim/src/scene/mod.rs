@@ -132,6 +132,10 @@ pub enum MethodKind {
     Exprb,
     /// The same scheme with a fixed number of steps per period.
     ExprbFixed,
+    /// Adaptive exprb43 with the fast mode split off the `phi`-functions (closed form for
+    /// the dominant eigenvalue, short Taylor sums for the rest): the steps of `exprb` at a
+    /// fraction of the cost per step; error-controlled by rtol/atol.
+    ExprbSplit,
 }
 
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -439,7 +443,7 @@ impl Scene {
         }
         let i = &self.integrator;
         match i.method {
-            MethodKind::Rodas | MethodKind::Exprb => {
+            MethodKind::Rodas | MethodKind::Exprb | MethodKind::ExprbSplit => {
                 if i.steps.is_some() {
                     return Err(SceneError::key(s, "integrator.steps", "not used by adaptive methods (set rtol/atol)"));
                 }

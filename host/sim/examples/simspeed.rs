@@ -1,0 +1,56 @@
+//! The `bench simulate` problem (furuta-dt30.8, theta0 = 0.05 rad) with one integrator, for
+//! profiling and instruction counts: prints the max theta error against RODAS4 at rtol 1e-13,
+//! steps per period and CPU-independent work counters.
+//!
+//! ```text
+//! cargo run --release -p sim --example simspeed -- exprb-split 1e-8 [periods] [repeats] [noref]
+//! valgrind --tool=callgrind target/release/examples/simspeed exprb-split 1e-8 201 1 noref
+//! ```
+//! The second argument is rtol (adaptive methods, atol = rtol/100) or steps per period.
+
+use sim::closed_loop::simulate;
+use sim::scene::{IntegratorSpec, MethodKind, Scene, SceneBuilder, Task};
+use std::time::Instant;
+
+fn scene(periods: u64, kind: MethodKind, arg: f64) -> Result<Scene, Box<dyn std::error::Error>> {
+    let mut s = SceneBuilder::load("furuta-dt30.8")?.periods(periods).initial_state(&[0.05, 0.0, 0.0, 0.0]).tasks(&[Task::Simulate]).build()?;
+    let adaptive = matches!(kind, MethodKind::Rodas | MethodKind::Exprb | MethodKind::ExprbSplit);
+    s.integrator = if adaptive {
+        IntegratorSpec { method: kind, rtol: Some(arg), atol: Some(arg * 1e-2), steps: None }
+    } else {
+        IntegratorSpec { method: kind, rtol: None, atol: None, steps: Some(arg as u32) }
+    };
+    Ok(s)
+}
+
+fn main() -> Result<(), Box<dyn std::error::Error>> {
+    let args: Vec<String> = std::env::args().collect();
+    let kind: MethodKind = toml::Value::String(args.get(1).cloned().unwrap_or_else(|| "exprb-split".into())).try_into()?;
+    let arg: f64 = args.get(2).map_or(Ok(1e-8), |a| a.parse())?;
+    let periods: u64 = args.get(3).map_or(Ok(200), |a| a.parse())?;
+    let repeats: usize = args.get(4).map_or(Ok(1), |a| a.parse())?;
+    let noref = args.get(5).is_some_and(|a| a == "noref");
+    let s = scene(periods, kind, arg)?;
+    let t0 = Instant::now();
+    let mut tr = simulate(&s, None)?;
+    for _ in 1..repeats {
+        tr = simulate(&s, None)?;
+    }
+    let secs = t0.elapsed().as_secs_f64() / repeats as f64;
+    let st = tr.ode_stats;
+    let n = (tr.rows() - 1) as f64;
+    print!(
+        "{}: {:.1} steps/period ({} rejected), {:.0} periods/s wall",
+        tr.integrator,
+        (st.steps + st.rejected) as f64 / n,
+        st.rejected,
+        n / secs
+    );
+    if !noref {
+        let r = simulate(&scene(periods, MethodKind::Rodas, 1e-13)?, None)?;
+        let err = tr.primary().iter().zip(r.primary()).map(|(a, b)| (a - b).abs()).fold(0.0, f64::max);
+        print!(", max theta error {err:.3e}");
+    }
+    println!();
+    Ok(())
+}

@@ -1,0 +1,418 @@
+//! The `phi`-functions of `exprb43` applied to vectors with the fast mode split off: when the
+//! Jacobian `J` has one real eigenvalue `lambda` far larger in modulus than all others (the
+//! Furuta pendulum's back-EMF mode, about -1.5e4 1/s against -11, 0 and +4.4 1/s), the
+//! spectral projector `P = v w^T` (`J v = lambda v`, `w^T J = lambda w^T`, `w^T v = 1`) splits
+//!
+//! ```text
+//! phi_k(hJ) y = phi_k(h lambda) v (w^T y) + phi_k(h J_s) (y - v (w^T y)),   J_s = J - lambda v w^T
+//! ```
+//!
+//! exactly (`P` commutes with `J`, and `J_s` equals `J` on the range of `I - P`). The scalar
+//! `phi_k(h lambda)` take a few flops at any `|h lambda|`; `h J_s` has a small norm (the slow
+//! eigenvalues, the coupling), so `phi_k(h J_s)` applied to a vector is a short Taylor sum of
+//! matrix-vector products: no matrix exponential, no scaling and squaring, no matrix products.
+//! A step costs a few hundred flops instead of the ~3,000 of the matrix functions at the steps
+//! the pendulum takes.
+//!
+//! The pair comes from power iteration on `J` and `J^T` (convergence factor
+//! `|lambda_2 / lambda_1|`, about 1e-3 here), checked by its residuals. Where there is no such
+//! dominant eigenvalue, or `h J_s` is too large for the Taylor sum, [`Split::new`] returns
+//! `None` and the caller uses the full matrix functions ([`super::exprb::phis`]).
+
+/// Power iterations at most (each one matrix-vector product on `J` and one on `J^T`).
+const MAX_POWER_ITERS: usize = 12;
+/// Largest relative eigen-residual `|J v - lambda v| / (|lambda| |v|)` accepted (inf norms):
+/// an eigenvector error `eps` perturbs the result by about `|h lambda| eps` relative.
+const PAIR_TOL: f64 = 1e-14;
+/// Largest 1-norm of `h J_s` handled by the Taylor sums.
+const RHO_MAX: f64 = 1.0;
+/// Taylor terms at most: `RHO_MAX^j / (j+1)!` is below `1e-18` from `j = 18` on.
+const MAX_TERMS: usize = 19;
+/// Bound on the first dropped Taylor term relative to the vector the sum is applied to.
+const TERM_TOL: f64 = 1e-18;
+
+/// `1/k!` for `k = 0..=29`.
+const INV_FACT: [f64; 30] = {
+    let mut t = [1.0; 30];
+    let mut k = 1;
+    while k < 30 {
+        t[k] = t[k - 1] / k as f64;
+        k += 1;
+    }
+    t
+};
+
+/// `phi_k(z)`, `k = 0..=4`, of a real scalar: for `|z| < 2` the Taylor series of `phi_4`
+/// (to a term below `1e-18` of the first; at most 25 terms) and the stable backward recurrence
+/// `phi_{k-1} = 1/(k-1)! + z phi_k`; otherwise `exp(z)` and the forward recurrence
+/// `phi_k = (phi_{k-1} - 1/(k-1)!)/z`, which loses at most a factor `k/|z| <= 2.5` per level
+/// there.
+pub(crate) fn phi_scalar(z: f64) -> [f64; 5] {
+    let mut p = [0.0; 5];
+    let a = z.abs();
+    if a < 2.0 {
+        // Degree n: |z|^(n+1) / (n+5)! below 1e-18 / 24.
+        let mut n = 0;
+        let mut t = INV_FACT[4];
+        while n < 24 {
+            t *= a / (n + 5) as f64;
+            if t < 1e-18 * INV_FACT[4] {
+                break;
+            }
+            n += 1;
+        }
+        let mut s = INV_FACT[4 + n];
+        for j in (0..n).rev() {
+            s = INV_FACT[j + 4] + z * s;
+        }
+        p[4] = s;
+        for k in (0..4).rev() {
+            p[k] = INV_FACT[k] + z * p[k + 1];
+        }
+    } else {
+        p[0] = z.exp();
+        for k in 1..5 {
+            p[k] = (p[k - 1] - INV_FACT[k - 1]) / z;
+        }
+    }
+    p
+}
+
+/// `phi_k(z)`, `k = 0..=4`, and `phi_1(z/2)`, with one exponential where `|z| >= 4`.
+fn phi_scalar_and_half(z: f64) -> ([f64; 5], f64) {
+    let half = 0.5 * z;
+    if half.abs() < 2.0 {
+        return (phi_scalar(z), phi_scalar(half)[1]);
+    }
+    let eh = half.exp();
+    let mut p = [0.0; 5];
+    p[0] = eh * eh;
+    for k in 1..5 {
+        p[k] = (p[k - 1] - INV_FACT[k - 1]) / z;
+    }
+    (p, (eh - 1.0) / half)
+}
+
+#[inline(always)]
+fn matvec<const N: usize>(a: &[[f64; N]; N], x: &[f64; N]) -> [f64; N] {
+    core::array::from_fn(|i| {
+        let mut s = 0.0;
+        for j in 0..N {
+            s += a[i][j] * x[j];
+        }
+        s
+    })
+}
+
+#[inline(always)]
+fn matvec_t<const N: usize>(a: &[[f64; N]; N], x: &[f64; N]) -> [f64; N] {
+    let mut s = [0.0; N];
+    for i in 0..N {
+        for j in 0..N {
+            s[j] += a[i][j] * x[i];
+        }
+    }
+    s
+}
+
+#[inline(always)]
+fn dot<const N: usize>(a: &[f64; N], b: &[f64; N]) -> f64 {
+    let mut s = 0.0;
+    for i in 0..N {
+        s += a[i] * b[i];
+    }
+    s
+}
+
+#[inline(always)]
+fn norm_inf<const N: usize>(a: &[f64; N]) -> f64 {
+    a.iter().fold(0.0f64, |m, v| m.max(v.abs()))
+}
+
+/// `(lambda, v, w)`: a dominant eigenvalue with its right and left eigenvectors, `w^T v = 1`.
+pub(crate) type Pair<const N: usize> = (f64, [f64; N], [f64; N]);
+
+/// The dominant eigenpair of `J`: `(lambda, v, w)` with `J v = lambda v`, `w^T J = lambda w^T`,
+/// `w^T v = 1`, or `None` if power iteration does not converge to [`PAIR_TOL`] (no single real
+/// eigenvalue dominating) or the pair is ill-conditioned. `start` (the pair of a nearby
+/// Jacobian, e.g. the previous step's) seeds the iteration; without it, the largest column and
+/// row of `J` do.
+pub(crate) fn dominant_pair<const N: usize>(jac: &[[f64; N]; N], start: Option<&Pair<N>>) -> Option<Pair<N>> {
+    let (mut v, mut w) = match start {
+        Some(&(_, v, w)) => (v, w),
+        None => {
+            let mut best_c = (0, -1.0);
+            let mut best_r = (0, -1.0);
+            for k in 0..N {
+                let c: f64 = (0..N).map(|i| jac[i][k].abs()).sum();
+                let r: f64 = jac[k].iter().map(|v| v.abs()).sum();
+                if c > best_c.1 {
+                    best_c = (k, c);
+                }
+                if r > best_r.1 {
+                    best_r = (k, r);
+                }
+            }
+            (core::array::from_fn(|i| jac[i][best_c.0]), jac[best_r.0])
+        }
+    };
+    for _ in 0..MAX_POWER_ITERS {
+        let nv = norm_inf(&v);
+        let nw = norm_inf(&w);
+        if !(nv > 0.0 && nw > 0.0 && nv.is_finite() && nw.is_finite()) {
+            return None;
+        }
+        let (iv, iw) = (1.0 / nv, 1.0 / nw);
+        v = v.map(|x| x * iv);
+        w = w.map(|x| x * iw);
+        let jv = matvec(jac, &v);
+        let jw = matvec_t(jac, &w);
+        let wv = dot(&w, &v);
+        // w and v (each of inf norm 1) nearly orthogonal: an ill-conditioned eigenvalue, or
+        // not yet converged; iterate on.
+        if wv.abs() > 1e-8 {
+            let lambda = dot(&w, &jv) / wv;
+            let tol = PAIR_TOL * lambda.abs();
+            let rv = (0..N).map(|i| (jv[i] - lambda * v[i]).abs()).fold(0.0, f64::max);
+            let rw = (0..N).map(|i| (jw[i] - lambda * w[i]).abs()).fold(0.0, f64::max);
+            if rv <= tol && rw <= tol && lambda.is_finite() {
+                let iwv = 1.0 / wv;
+                return Some((lambda, v, w.map(|x| x * iwv)));
+            }
+        }
+        v = jv;
+        w = jw;
+    }
+    None
+}
+
+/// The `phi`-functions of `hJ` for one `exprb43` step, split into the fast mode and the rest.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Split<const N: usize> {
+    /// Right eigenvector of the fast mode.
+    v: [f64; N],
+    /// Left eigenvector, `w^T v = 1`.
+    w: [f64; N],
+    /// `h J_s = h (J - lambda v w^T)`.
+    a: [[f64; N]; N],
+    /// `phi_k(h lambda)`, `k = 0..=4`.
+    fast: [f64; 5],
+    /// `phi_1(h lambda / 2)`.
+    fast_half: f64,
+    /// Taylor terms needed for `phi_k(h J_s)`, `k >= 1`.
+    terms: usize,
+}
+
+impl<const N: usize> Split<N> {
+    /// The split at Jacobian `jac` with its dominant `pair`, for the step `h`; `None` if
+    /// `|h J_s|_1` exceeds [`RHO_MAX`].
+    #[inline]
+    pub(crate) fn new(jac: &[[f64; N]; N], pair: &Pair<N>, h: f64) -> Option<Self> {
+        let &(lambda, v, w) = pair;
+        let hl = h * lambda;
+        let a: [[f64; N]; N] = core::array::from_fn(|i| {
+            let hv = hl * v[i];
+            core::array::from_fn(|j| h * jac[i][j] - hv * w[j])
+        });
+        let mut rho = 0.0f64;
+        for j in 0..N {
+            let mut c = 0.0;
+            for row in &a {
+                c += row[j].abs();
+            }
+            rho = rho.max(c);
+        }
+        if !(rho <= RHO_MAX) {
+            return None;
+        }
+        // Terms j = 0..terms-1; the first dropped one, rho^terms / (terms+1)!, below TERM_TOL.
+        let mut terms = 1;
+        let mut t = 1.0;
+        while terms < MAX_TERMS {
+            t *= rho / (terms + 1) as f64;
+            if t < TERM_TOL {
+                break;
+            }
+            terms += 1;
+        }
+        let (fast, fast_half) = phi_scalar_and_half(hl);
+        Some(Self { v, w, a, fast, fast_half, terms })
+    }
+
+    /// `[phi_1(hJ/2) y, phi_1(hJ) y, phi_3(hJ) y, phi_4(hJ) y]`, each computed only where its
+    /// flag is set (zeros elsewhere).
+    #[inline(always)]
+    fn apply<const H1: bool, const P1: bool, const P3: bool, const P4: bool>(&self, y: &[f64; N]) -> [[f64; N]; 4] {
+        let c = dot(&self.w, y);
+        let mut t: [f64; N] = core::array::from_fn(|i| y[i] - c * self.v[i]);
+        let mut out = [[0.0; N]; 4];
+        let mut half_pow = 1.0;
+        for j in 0..self.terms {
+            if j > 0 {
+                t = matvec(&self.a, &t);
+                half_pow *= 0.5;
+            }
+            for i in 0..N {
+                if H1 {
+                    out[0][i] += (half_pow * INV_FACT[j + 1]) * t[i];
+                }
+                if P1 {
+                    out[1][i] += INV_FACT[j + 1] * t[i];
+                }
+                if P3 {
+                    out[2][i] += INV_FACT[j + 3] * t[i];
+                }
+                if P4 {
+                    out[3][i] += INV_FACT[j + 4] * t[i];
+                }
+            }
+        }
+        let f = [self.fast_half, self.fast[1], self.fast[3], self.fast[4]];
+        for (o, fk) in out.iter_mut().zip(f) {
+            let s = fk * c;
+            for i in 0..N {
+                o[i] += s * self.v[i];
+            }
+        }
+        out
+    }
+}
+
+/// One `exprb43` step with split `phi`-functions: the same formulas as [`super::exprb::step`]
+/// (see `exprb.rs`). Returns the new state and the error estimate.
+#[inline]
+pub(crate) fn step<const N: usize>(
+    rhs: &mut impl FnMut(&[f64; N]) -> [f64; N],
+    jac: &[[f64; N]; N],
+    sp: &Split<N>,
+    y: &[f64; N],
+    f0: &[f64; N],
+    h: f64,
+) -> ([f64; N], [f64; N]) {
+    let remainder = |fu: [f64; N], du: &[f64; N]| -> [f64; N] {
+        let jd = matvec(jac, du);
+        core::array::from_fn(|i| fu[i] - f0[i] - jd[i])
+    };
+    let [pf_half, pf1, _, _] = sp.apply::<true, true, false, false>(f0);
+    let du2: [f64; N] = core::array::from_fn(|i| 0.5 * h * pf_half[i]);
+    let u2: [f64; N] = core::array::from_fn(|i| y[i] + du2[i]);
+    let d2 = remainder(rhs(&u2), &du2);
+    let [_, pd2_1, pd2_3, pd2_4] = sp.apply::<false, true, true, true>(&d2);
+    let du3: [f64; N] = core::array::from_fn(|i| h * (pf1[i] + pd2_1[i]));
+    let u3: [f64; N] = core::array::from_fn(|i| y[i] + du3[i]);
+    let d3 = remainder(rhs(&u3), &du3);
+    let [_, _, pd3_3, pd3_4] = sp.apply::<false, false, true, true>(&d3);
+    let err: [f64; N] = core::array::from_fn(|i| h * (12.0 * pd3_4[i] - 48.0 * pd2_4[i]));
+    let y1: [f64; N] = core::array::from_fn(|i| y[i] + h * pf1[i] + h * (16.0 * pd2_3[i] - 2.0 * pd3_3[i]) + err[i]);
+    (y1, err)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::plant::{Furuta, jacobian};
+    use nalgebra::SVector;
+
+    /// `phi_k(z)` by the series `sum_j z^j/(j+k)!` (60 terms) for `|z| <= 1`, the closed form
+    /// `(e^z - sum_{j<k} z^j/j!)/z^k` beyond (no cancellation there for `k <= 4`).
+    fn phi_ref(k: usize, z: f64) -> f64 {
+        let fact = |n: usize| (1..=n).fold(1.0f64, |a, i| a * i as f64);
+        if z.abs() <= 1.0 {
+            (0..60).map(|j| z.powi(j as i32) / fact(j + k)).sum()
+        } else {
+            let mut s = z.exp();
+            for j in 0..k {
+                s -= z.powi(j as i32) / fact(j);
+            }
+            s / z.powi(k as i32)
+        }
+    }
+
+    #[test]
+    fn scalar_phi_functions_match_series_and_closed_form() {
+        for z in [0.0, 1e-8, -1e-3, 0.37, -1.0, -1.99, 1.999, -2.0, 2.5, -3.0, -7.5, -21.0, -480.0, -1e4, 6.0] {
+            let p = phi_scalar(z);
+            for (k, got) in p.iter().enumerate() {
+                let want = phi_ref(k, z);
+                let tol = if z.abs() <= 1.0 { 4e-15 } else { 2e-14 };
+                assert!((got - want).abs() <= tol * want.abs(), "phi_{k}({z}) = {got:e}, want {want:e}");
+            }
+        }
+    }
+
+    #[test]
+    fn scalar_phi_and_half_agree_with_the_single_evaluations() {
+        for z in [0.0, -1.0, -3.9, -4.0, 4.5, -7.5, -21.0, -480.0] {
+            let (p, h) = phi_scalar_and_half(z);
+            let q = phi_scalar(z);
+            for k in 0..5 {
+                assert!((p[k] - q[k]).abs() <= 4e-16 * q[k].abs(), "phi_{k}({z}): {} vs {}", p[k], q[k]);
+            }
+            let want = phi_ref(1, 0.5 * z);
+            assert!((h - want).abs() <= 4e-15 * want.abs(), "phi_1({z}/2): {h} vs {want}");
+        }
+    }
+
+    /// The split phi-functions against the full matrix functions (scaling and squaring,
+    /// itself checked against an eigendecomposition in `exprb.rs`), at Furuta states from the
+    /// upright to a tilted, fast-moving one, for steps from 10 us to a period.
+    #[test]
+    fn split_phi_functions_match_the_matrix_functions_on_the_furuta_jacobian() {
+        let p = Furuta::paper();
+        let mut used = 0;
+        for (x, u) in [([0.0, 0.0, 0.0, 0.0], 0.0), ([0.05, 1.0, 0.3, 0.5], 0.7), ([-0.1, -2.0, 1.0, 3.0], -2.0), ([0.15, -3.0, 0.0, 2.0], -2.0)] {
+            let (_, jac) = jacobian(&p, &x, u);
+            let pair = dominant_pair(&jac, None).expect("the Furuta Jacobian has a dominant eigenvalue near the upright");
+            // The back-EMF mode: about -K Jp / Delta(theta).
+            let delta = p.delta(x[0]);
+            let want_lambda = -p.params().k * p.params().jp / delta;
+            assert!((pair.0 / want_lambda - 1.0).abs() < 0.05, "lambda {} vs {want_lambda}", pair.0);
+            // A warm start from a nearby Jacobian converges to the same pair.
+            let (_, jac0) = jacobian(&p, &[0.0; 4], 0.0);
+            let pair0 = dominant_pair(&jac0, None).unwrap();
+            let warm = dominant_pair(&jac, Some(&pair0)).unwrap();
+            assert!((warm.0 - pair.0).abs() < 1e-12 * pair.0.abs());
+            for h in [1e-5, 1e-4, 1e-3, 3e-3, 0.0308] {
+                let Some(s) = Split::new(&jac, &pair, h) else {
+                    // Only large steps at tilted states leave the Taylor range.
+                    assert!(h >= 1e-3, "no split at h = {h}, x = {x:?}");
+                    continue;
+                };
+                used += 1;
+                let phis = super::super::exprb::phis(&jac, h).unwrap();
+                for y in [[0.3, -1.0, 2.0, 5.0], pair.1, [1.0, 0.0, 0.0, 0.0]] {
+                    let got = s.apply::<true, true, true, true>(&y);
+                    let yv = SVector::<f64, 4>::from_column_slice(&y);
+                    let want = [phis.p1_half * yv, phis.p1 * yv, phis.p3 * yv, phis.p4 * yv];
+                    for k in 0..4 {
+                        let scale = want[k].abs().max();
+                        for i in 0..4 {
+                            let e = (got[k][i] - want[k][i]).abs() / scale;
+                            assert!(e < 1e-13, "x {x:?} h {h}: function {k} component {i}: relative error {e:e}");
+                        }
+                    }
+                }
+            }
+        }
+        assert!(used >= 12, "split used {used} times");
+    }
+
+    #[test]
+    fn no_dominant_eigenvalue_means_no_split() {
+        // Far from upright and spinning: the back-EMF mode is no longer dominant.
+        let (_, jac) = jacobian(&Furuta::paper(), &[1.0, 3.0, 0.0, 20.0], 10.0);
+        assert!(dominant_pair(&jac, None).is_none());
+        // A rotation: a complex pair dominates; power iteration cannot converge.
+        let rot = [[0.0, 5.0], [-5.0, 0.0]];
+        assert!(dominant_pair(&rot, None).is_none());
+        // Non-finite or zero Jacobians.
+        assert!(dominant_pair(&[[f64::NAN, 0.0], [0.0, 1.0]], None).is_none());
+        assert!(dominant_pair(&[[0.0; 2]; 2], None).is_none());
+        // A clear dominant eigenvalue but a step too long for the Taylor sums of the rest.
+        let j = [[-1e4, 0.0], [0.0, -10.0]];
+        let pair = dominant_pair(&j, None).unwrap();
+        assert!((pair.0 + 1e4).abs() < 1e-9);
+        assert!(Split::new(&j, &pair, 0.05).is_some());
+        assert!(Split::new(&j, &pair, 0.2).is_none());
+    }
+}
