@@ -14,7 +14,7 @@ use furuta::convergence::furuta_convergence;
 use furuta::bifurcations::{model_row, sensitivity_variants};
 use furuta::equation_ssm::coefficient_comparison;
 use furuta::parametric::{FurutaOptions, furuta_parametric};
-use furuta::saddle_cycles::{CircleOptions, model_cycle, saddle_cycles};
+use furuta::saddle_cycles::{CircleOptions, fitted_map_cycle, model_cycle, saddle_cycles};
 
 type R = Result<(), Box<dyn std::error::Error>>;
 
@@ -82,7 +82,7 @@ fn cycles(args: &[String]) -> R {
 
 /// Training variants: a base (`default`, or a sensitivity variant's name with spaces as
 /// `_`, e.g. `cut_0.3_rad`) and modifiers joined by `+`: `slowsaddle` (slow-eigenvector
-/// starts 0.06-0.14 rad, inside the slow saddle cycle), `slowcycle` (0.15-0.17 rad, at it), `joint` (anchor_joint), `dyn5`,
+/// starts 0.06-0.14 rad, inside the slow saddle cycle), `slowcycle` (0.12-0.135 rad, just inside it at 32.5 ms), `joint` (anchor_joint), `man5` (manifold order 5), `dyn5`,
 /// `dyn9` (dynamics order).
 fn variant(name: &str) -> Result<FurutaOptions, Box<dyn std::error::Error>> {
     let mut parts = name.split('+');
@@ -95,9 +95,10 @@ fn variant(name: &str) -> Result<FurutaOptions, Box<dyn std::error::Error>> {
     for m in parts {
         match m {
             "slowsaddle" => o.slow_starts.extend([(0.06, 0.4), (0.1, 1.3), (0.14, 2.2)]),
-            "slowcycle" => o.slow_starts.extend([(0.15, 0.4), (0.16, 1.3), (0.17, 2.2)]),
+            "slowcycle" => o.slow_starts.extend([(0.12, 0.4), (0.13, 1.3), (0.135, 2.2)]),
             "joint" => o.fit.anchor_joint = true,
             "dyn5" => o.fit.dyn_order = 5,
+            "man5" => o.fit.manifold_order = 5,
             "dyn9" => o.fit.dyn_order = 9,
             x => return Err(format!("unknown modifier {x}").into()),
         }
@@ -107,6 +108,10 @@ fn variant(name: &str) -> Result<FurutaOptions, Box<dyn std::error::Error>> {
 
 /// Full-system slow saddle cycle, theta first harmonic (rad), from `cycles 1 ... --n 65`.
 const FULL_SLOW_CYCLE: [(f64, f64); 3] = [(31.0, 0.17016), (31.3, 0.16505), (31.6, 0.15975)];
+
+/// Full-system slow saddle cycle at the training periods: (dt ms, theta first harmonic rad,
+/// frequency Hz), from `cycles 1 3,5,7,9 --n 65`.
+const FULL_SLOW_CYCLE_TRAINING: [(f64, f64, f64); 4] = [(30.5, 0.17830, 0.5455), (31.0, 0.17016, 0.5362), (32.0, 0.15231, 0.5173), (32.5, 0.14230, 0.5074)];
 
 fn fit(args: &[String]) -> R {
     for name in args {
@@ -124,6 +129,19 @@ fn fit(args: &[String]) -> R {
             let c1 = model_cycle(&nf, 1)?.map(|c| c.rho[0]);
             let c2 = model_cycle(&nf, 2)?.map(|c| c.rho[1]);
             println!("  {dt} ms: slow saddle cycle rho* {c1:?} (full system theta1 {full}), fast cycle rho* {c2:?}");
+        }
+        // The fitted reduced maps themselves (no normal form) at the training periods.
+        for t in &pm.trained {
+            let Some(&(_, full, f_hz)) = FULL_SLOW_CYCLE_TRAINING.iter().find(|x| x.0 == t.dt_ms) else { continue };
+            let opts = CircleOptions { n: 65, ..CircleOptions::default() };
+            let omega0 = std::f64::consts::TAU * f_hz * t.dt_ms * 1e-3;
+            match fitted_map_cycle(&t.model, 1, full, omega0, &opts) {
+                Ok(c) => println!(
+                    "  {} ms fitted map's slow cycle: theta1 {:.5} f {:.4} Hz (residual {:.0e}, {} steps); full system theta1 {full} f {f_hz}",
+                    t.dt_ms, c.theta_amplitude, c.freq_hz, c.residual, c.newton_steps
+                ),
+                Err(e) => println!("  {} ms fitted map's slow cycle: not found ({e})", t.dt_ms),
+            }
         }
         let rows = coefficient_comparison(&[31.0, 31.5], 5, |dt| pm.normal_form_at(dt))?;
         for r in rows.iter().filter(|r| r.degree >= 3) {

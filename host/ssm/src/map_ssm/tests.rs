@@ -234,3 +234,32 @@ fn bad_options_are_named() {
     bad.coef[0][0] = f64::NAN;
     assert!(matches!(map_ssm(&bad, &opts(3)), Err(MapSsmError::BadMap(_))));
 }
+
+/// `master_coordinates` inverts the parametrization: on the manifold it returns the `z`
+/// the point was made from; the left eigenvectors are dual to the right ones.
+#[test]
+fn master_coordinates_invert_the_manifold() {
+    let (map, _) = system();
+    let ssm = map_ssm(&map, &opts(7)).unwrap();
+    assert_eq!(ssm.left.len(), 4);
+    let z1 = C::from_polar(0.03, 0.4);
+    let z2 = C::from_polar(0.02, -1.1);
+    let z = [z1, z1.conj(), z2, z2.conj()];
+    let s: Vec<f64> = ssm.manifold_at(&z, 7).iter().map(|v| v.re).collect();
+    let back = ssm.master_coordinates(&s, 7, 1e-14).unwrap();
+    for (a, b) in back.iter().zip(&z) {
+        assert!((a - b).norm() < 1e-12, "{back:?} vs {z:?}");
+    }
+    // u_j^T v_l = delta_jl with v_l the order-1 columns of W.
+    for (j, u) in ssm.left.iter().enumerate() {
+        for l in 0..4 {
+            let mut e = vec![0u32; 4];
+            e[l] = 1;
+            let q = ssm.exps.iter().position(|x| *x == e).unwrap();
+            let dot: C = u.iter().zip(&ssm.w).map(|(&(ur, ui), row)| C::new(ur, ui) * C::new(row[q].0, row[q].1)).sum();
+            let want = if j == l { 1.0 } else { 0.0 };
+            assert!((dot - C::new(want, 0.0)).norm() < 1e-10, "u_{j} . v_{l} = {dot}");
+        }
+    }
+    assert!(ssm.master_coordinates(&s[..3], 7, 1e-14).is_none());
+}
