@@ -517,7 +517,8 @@ pub fn microchaos_verdict(pil: Option<&TimeSeries>, o: &VerdictOptions) -> Resul
          one flip (a DAC kick) takes the separation from ~h/2 to {:.1e} rad within a period. \
          At the attractor's scales ({:.1e}..{:.1e} rad) the twin rate is {} 1/s on average but falls with the scale (slope of ln lambda vs ln delta {}; data FSLE slope {}, \
          diffusion gives -2, chaos 0): {}. \
-         0-1 test K = {:.2} (smooth loop {:.2}, noisy loop {:.2}); IAAFT surrogates reject a linear Gaussian process by prediction error for all three (p = {:.3}, {:.3}, {:.3}; \
+         0-1 test K = {:.2} (smooth loop {:.2}, noisy loop {:.2}; displacements over {:.0} s of data: K reads diffusion, so it rises with the record's length for \
+         both the quantized and the noisy loop); IAAFT surrogates reject a linear Gaussian process by prediction error for all three (p = {:.3}, {:.3}, {:.3}; \
          the smooth torus too: they show nonlinear determinism, not chaos), time reversal rejects none (p = {:.2}, {:.2}, {:.2}). \
          The smooth (unquantized) closed loop's tangent along the quantized orbit has exponents {} 1/s (the orbit stays near the upright equilibrium, where the linearized loop \
          expands at {:.3} 1/s, inside the smooth loop's torus): a smooth reduced model has no open-loop expansion below a count and no kicks, and on its own orbit it settles on \
@@ -545,6 +546,7 @@ pub fn microchaos_verdict(pil: Option<&TimeSeries>, o: &VerdictOptions) -> Resul
         q.zero_one.k,
         smooth.zero_one.k,
         noisy.zero_one.k,
+        (q.zero_one.n_cut * q.zero_one.stride) as f64 * dt,
         q.surrogate_prediction.p_value,
         smooth.surrogate_prediction.p_value,
         noisy.surrogate_prediction.p_value,

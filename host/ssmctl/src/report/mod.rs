@@ -154,6 +154,7 @@ figcaption{{font-size:85%;color:#444}}code{{background:#f4f4f4}}</style></head><
 pub mod bifurcations;
 pub mod chaos;
 pub mod global;
+pub mod verdict;
 pub mod normal_form;
 pub mod reproduce;
 pub mod sloshing;

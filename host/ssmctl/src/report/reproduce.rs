@@ -21,7 +21,7 @@ use std::time::Instant;
 /// Sweeps inside the sections run on the pool. Besides, two chains of sections that share
 /// nothing run concurrently (`rayon::join`), each into its own [`Report::part`], appended in
 /// the fixed order: the parametric-model chain (parametric, portraits, fullsystem,
-/// predictions, bifsensitivity, then the global-bifurcation sections equation and basin) and the chaos chain (device, chaos, chaos-scale). Sections
+/// predictions, bifsensitivity, then the global-bifurcation sections equation and basin) and the chaos chain (device, chaos, chaos-scale, chaos-verdict). Sections
 /// that measure speed (accuracy-time-sim, the fit bench of fit-sloshing, chaos-cost) run
 /// alone, so nothing else competes for the cores while they time.
 pub fn run(out: &Path, data_dir: &Path, quick: bool, quiet: bool) -> Result<(), Box<dyn Error>> {
@@ -62,6 +62,7 @@ pub fn run(out: &Path, data_dir: &Path, quick: bool, quiet: bool) -> Result<(), 
                 t.time("device", || crate::report::sloshing::device_section(rep, Path::new("qemu/target/device-table.json")))?;
                 t.time("chaos", || crate::report::chaos::section(rep, data_dir, quick))?;
                 t.time("chaos-scale", || crate::report::chaos::scale_section(rep, data_dir, quick))?;
+                t.time("chaos-verdict", || crate::report::verdict::microchaos_verdict_section(rep, quick))?;
                 Ok(())
             })();
             sendable(r).map(|()| (part, t))
