@@ -39,7 +39,7 @@ fn settings(quick: bool) -> (Vec<f64>, Vec<u32>, Vec<f64>, u32, BasinOptions, Ve
     // the torus continuation's dts and periods.
     if quick {
         let nodes = vec![30.5, 31.0, 31.5, 32.0, 32.5];
-        (nodes, vec![7], vec![31.0, 31.5], 9, BasinOptions::quick(), (0..=6).map(|k| 31.4 + 0.1 * k as f64).collect(), 8000)
+        (nodes, vec![7], vec![31.0, 31.5], 9, BasinOptions::quick(), (0..=6).map(|k| ((31.4 + 0.1 * k as f64) * 1e4).round() / 1e4).collect(), 8000)
     } else {
         let nodes: Vec<f64> = (0..=8).map(|k| 30.5 + 0.25 * k as f64).collect();
         (nodes.clone(), vec![5, 7, 9], nodes, 9, BasinOptions::full(), (0..=14).map(|k| ((31.3 + 0.05 * k as f64) * 1e4).round() / 1e4).collect(), 16_000)
