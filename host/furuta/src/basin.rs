@@ -155,11 +155,19 @@ pub enum ModelFate {
 }
 
 impl ModelFate {
-    fn of(fate: &Fate, fps: &[FixedPoint], principal: PointKind) -> Self {
+    /// The verdict on a trajectory ending at `last` with `fate`; at the time limit, a stop
+    /// within [`NEAR_ATTRACTOR`] of a stable fixed point of another kind counts as reaching
+    /// it (a slow approach), anything else as circling the principal attractor.
+    fn of(fate: &Fate, last: Option<(f64, f64)>, fps: &[FixedPoint], principal: PointKind) -> Self {
         match fate {
             Fate::LeavesBox { .. } => ModelFate::LeavesBox,
             Fate::StepLimit | Fate::ApproachesSaddle { .. } => ModelFate::Undecided,
-            Fate::TimeLimit => ModelFate::Principal,
+            Fate::TimeLimit => {
+                let near_other = last.is_some_and(|(x, y)| {
+                    fps.iter().any(|f| f.kind != principal && f.stability.is_stable() && (f.rho[0] - x).hypot(f.rho[1] - y) < NEAR_ATTRACTOR)
+                });
+                if near_other { ModelFate::OtherAttractor } else { ModelFate::Principal }
+            }
             Fate::Converges { point } => match fps.get(*point) {
                 Some(f) if f.kind == principal => ModelFate::Principal,
                 Some(_) => ModelFate::OtherAttractor,
@@ -178,6 +186,10 @@ impl ModelFate {
         }
     }
 }
+
+/// Distance (rad) from a stable fixed point within which a trajectory stopped by the time
+/// limit counts as reaching it ([`ModelFate`]).
+pub const NEAR_ATTRACTOR: f64 = 1e-3;
 
 /// A reduced model's classification of a grid of starts `(rho1[i], rho2[j])`, `rho_1`-major.
 #[derive(Clone, Debug, Serialize)]
@@ -221,12 +233,16 @@ pub fn model_basin(
     let fps = fixed_points(nf, opts)?;
     let starts: Vec<[f64; 2]> = rho1.iter().flat_map(|&a| rho2.iter().map(move |&b| [a, b])).collect();
     let fates = crate::par_map(&starts, |&r| -> Result<(ModelFate, ModelFate), Error> {
-        let fate = trajectory(nf, r, t_max, opts)?.1;
-        let asym = ModelFate::of(&fate, &fps, principal);
+        let (pts, fate) = trajectory(nf, r, t_max, opts)?;
+        let asym = ModelFate::of(&fate, pts.last().copied(), &fps, principal);
         // Within the horizon: the asymptotic verdict, except that a start which leaves the
         // box only after the horizon is still bounded (a second, shorter integration).
         let hor = match fate {
-            Fate::LeavesBox { .. } => ModelFate::of(&trajectory(nf, r, horizon_s, opts)?.1, &fps, principal),
+            Fate::LeavesBox { .. } => {
+                let (pts, fate) = trajectory(nf, r, horizon_s, opts)?;
+                // Still in the box at the horizon: bounded so far, wherever it heads.
+                if fate == Fate::TimeLimit { ModelFate::Principal } else { ModelFate::of(&fate, pts.last().copied(), &fps, principal) }
+            }
             _ => asym,
         };
         Ok((asym, hor))

@@ -146,7 +146,7 @@ pub struct OverlayPanel<'a> {
     /// Bounded per cell, x-major: entry `i * y.len() + j` is `(x[i], y[j])`.
     pub bounded: &'a [bool],
     /// Cell marks, same order: `(label, colour, which cells)`; each set is drawn as small
-    /// markers of its own shape (cross, circle, square, in order).
+    /// markers of its own shape (cross, circle, triangle, in order; named in the legend).
     pub marks: Vec<(String, RGBColor, Vec<bool>)>,
     /// Curves over the grid: `(label, colour, polylines)`; polylines are cut at the grid's box.
     pub curves: Vec<(String, RGBColor, Vec<Vec<(f64, f64)>>)>,
@@ -237,7 +237,8 @@ pub fn draw_basin_overlay(out: &Path, title: &str, xdesc: &str, ydesc: &str, pan
                     _ => cc.draw_series(at.iter().map(|&c| TriangleMarker::new(c, 5, style).into_dyn())),
                 }
                 .map_err(|e| err(&e))?;
-                s.label(label.as_str()).legend(move |(x, y)| Circle::new((x + 8, y), 4, style));
+                let shape = ["x", "o", "triangle"][m % 3];
+                s.label(format!("{label} ({shape})")).legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 16, y)], style));
             }
             cc.configure_series_labels()
                 .position(SeriesLabelPosition::UpperRight)

@@ -39,7 +39,7 @@ fn settings(quick: bool) -> (Vec<f64>, Vec<u32>, Vec<f64>, u32, BasinOptions, Ve
     // the torus continuation's dts and periods.
     if quick {
         let nodes = vec![30.5, 31.0, 31.5, 32.0, 32.5];
-        (nodes, vec![7], vec![31.0, 31.5], 9, BasinOptions::quick(), (0..=6).map(|k| 31.4 + 0.1 * k as f64).collect(), 8000)
+        (nodes, vec![7], vec![31.0, 31.5], 9, BasinOptions::quick(), (0..=6).map(|k| ((31.4 + 0.1 * k as f64) * 1e4).round() / 1e4).collect(), 8000)
     } else {
         let nodes: Vec<f64> = (0..=8).map(|k| 30.5 + 0.25 * k as f64).collect();
         (nodes.clone(), vec![5, 7, 9], nodes, 9, BasinOptions::full(), (0..=14).map(|k| ((31.3 + 0.05 * k as f64) * 1e4).round() / 1e4).collect(), 16_000)
@@ -69,9 +69,9 @@ fn compute(pm: &ParametricModel, quick: bool) -> Result<Computed, Box<dyn Error 
         Ok((diag, bifs))
     };
     // Verdicts only: no orbit search or sample flow; a fixed point counts as reached within
-    // 1e-5 rad (not 1e-8: the torus is a weakly damped focus), the start offset of manifolds
+    // 1e-6 rad (not 1e-8: the torus is a weakly damped focus), the start offset of manifolds
     // (unused here) above it.
-    let classify = PortraitOptions { ray_samples: 0, flow_grid: 0, converge_tol: 1e-5, manifold_eps: 1e-4, ..popts.clone() };
+    let classify = PortraitOptions { ray_samples: 0, flow_grid: 0, converge_tol: 1e-6, manifold_eps: 1e-5, ..popts.clone() };
     let models = || -> Result<Vec<[(Portrait, ModelBasin); 2]>, furuta::Error> {
         let (r1, r2) = bopts.values();
         par_map(&bopts.dts_ms, |&dt| -> Result<[(Portrait, ModelBasin); 2], furuta::Error> {
@@ -327,7 +327,10 @@ fn basin_section(rep: &mut Report, c: &Computed) -> Result<(), Box<dyn Error>> {
         let (data, data_h) = ag(&m[0].1)?;
         let (eq, eq_h) = ag(&m[1].1)?;
         let esc = b.escape_fraction(p);
-        let pct = |a: &Agreement| format!("{:.1} % ({} / {})", 100.0 * a.disagreement, a.model_bounded_full_escaped, a.model_escaped_full_bounded);
+        let pct = |a: &Agreement| {
+            let und = if a.undecided > 0 { format!(", {} undecided", a.undecided) } else { String::new() };
+            format!("{:.1} % ({} / {}{und})", 100.0 * a.disagreement, a.model_bounded_full_escaped, a.model_escaped_full_bounded)
+        };
         rows.push(vec![format!("{dt}"), format!("{:.1} %", 100.0 * esc), pct(&data), pct(&data_h), pct(&eq), pct(&eq_h)]);
         list.push(json!({"dt_ms": dt, "escape_fraction": esc, "data_driven": data, "data_driven_horizon": data_h, "equation": eq, "equation_horizon": eq_h}));
         let differs = |mb: &ModelBasin| -> Vec<bool> { mb.asymptotic.iter().zip(&full).map(|(f, &x)| f.bounded().is_some_and(|y| y != x)).collect() };
@@ -350,7 +353,8 @@ fn basin_section(rep: &mut Report, c: &Computed) -> Result<(), Box<dyn Error>> {
     rep.figure(fig, "The full system's basin with the reduced models' separatrices; markers: cells where a model's asymptotic verdict differs");
     rep.para(&format!(
         "Disagreement: the fraction of the {cells} cells where the model's verdict differs from the full system's (in \
-         parentheses: model bounded but full system escaped / model escaped but full system bounded); asymptotic = the \
+         parentheses: model bounded but full system escaped / model escaped but full system bounded; undecided: the model's \
+         trajectory reached a saddle, not compared); asymptotic = the \
          model's fate within {MODEL_T_MAX} s, horizon = within the full runs' {} periods. {} runs in {:.1} s wall on {} \
          threads ({:.1} ms per cell and thread).",
         o.periods,
