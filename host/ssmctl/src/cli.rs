@@ -694,6 +694,10 @@ pub fn run(cli: Cli) -> Result<(), Box<dyn std::error::Error>> {
             }
         }
         Cmd::Chaos { data, column, gp_embed, ssm_dim, centers, poly_order, shift, ridge, test, steps, json } => {
+            // Options first (cheap), before any data is read or analysed.
+            if steps.is_empty() || steps.contains(&0) {
+                return Err(format!("--steps: every map step must be >= 1 sample, got {steps:?}").into());
+            }
             let train = data.iter().map(|p| ssm::load_csv_column(p, column.as_deref())).collect::<Result<Vec<_>, _>>()?;
             let held_out = test.as_ref().map(|p| ssm::load_csv_column(p, column.as_deref())).transpose()?;
             let o = furuta::microchaos::ChaosOptions { gp_embed, ssm_dim, centers, poly_order, shift, ridge, ..Default::default() };
