@@ -27,6 +27,12 @@
 //!   scale (multiples of the series sd, subsampled /1 and /3, and of the encoder step h);
 //!   `CHAOS_Q_N` periods (default 30,000).
 //! - `flag-window-slopes`: windowed Rosenstein slopes of the inverted flag's traj_8.
+//! - `flag-candidates`: candidate models of the flag judged by held-out long-term statistics
+//!   (`furuta::model_selection`), configurations in `CHAOS_CAND` (see
+//!   [`explore_flag_candidates`]); prints a markdown table and the selection. The rows of
+//!   `furuta::model_selection::FLAG_SEARCH` come from it.
+//! - `flag-embedding`: the embedding from the data: average mutual information against the
+//!   lag and false nearest neighbours against the dimension (traj_8, steps 1 and 4).
 //!
 //! The flag data are read from `../shared/data/inverted_flag_chaotic` next to the workspace
 //! (the subcommands that need them print `SKIP` when it is absent). Simulated quantized runs
@@ -42,8 +48,7 @@ use sim::scene::SceneBuilder;
 use ssm::dynamics::StepScratch;
 use ssm::{Dynamics, SsmModel, TimeSeries, fit};
 
-const USAGE: &str =
-    "usage: explore_chaos <flag-models | scale-and-cost-tables | simulated-quantized | quantized-models | quantized-data-scales | flag-window-slopes>";
+const USAGE: &str = "usage: explore_chaos <flag-models | scale-and-cost-tables | simulated-quantized | quantized-models | quantized-data-scales | flag-window-slopes | flag-candidates | flag-embedding>";
 
 fn main() {
     match std::env::args().nth(1).as_deref() {
@@ -53,6 +58,8 @@ fn main() {
         Some("quantized-models") => explore_quantized_models(),
         Some("quantized-data-scales") => explore_quantized_data_scales(),
         Some("flag-window-slopes") => explore_flag_window_slopes(),
+        Some("flag-candidates") => explore_flag_candidates(),
+        Some("flag-embedding") => explore_flag_embedding(),
         _ => {
             eprintln!("{USAGE}");
             std::process::exit(2);
@@ -61,6 +68,150 @@ fn main() {
 }
 
 // ========================================================================== subcommands
+
+/// The embedding from the data (traj_8, at map steps 1 and 4): the first minimum of the
+/// average mutual information (32-bin histograms) against the lag, and Kennel's false
+/// nearest neighbours (R_tol = 15, A_tol = 2, 2000 reference points, brute force) against
+/// the embedding dimension at that lag.
+fn explore_flag_embedding() {
+    let Some(mut v) = flag(&[8]) else { return };
+    let ts = v.pop().unwrap();
+    for k in [1usize, 4] {
+        let x: Vec<f64> = ts.x.iter().step_by(k).copied().collect();
+        let (lo, hi) = x.iter().fold((f64::MAX, f64::MIN), |(a, b), v| (a.min(*v), b.max(*v)));
+        let bins = 32usize;
+        let bin = |v: f64| (((v - lo) / (hi - lo) * bins as f64) as usize).min(bins - 1);
+        let ami = |lag: usize| {
+            let n = x.len() - lag;
+            let mut pxy = vec![0.0; bins * bins];
+            let (mut px, mut py) = (vec![0.0; bins], vec![0.0; bins]);
+            for i in 0..n {
+                let (a, b) = (bin(x[i]), bin(x[i + lag]));
+                pxy[a * bins + b] += 1.0;
+                px[a] += 1.0;
+                py[b] += 1.0;
+            }
+            let nf = n as f64;
+            let mut s = 0.0;
+            for a in 0..bins {
+                for b in 0..bins {
+                    let p = pxy[a * bins + b] / nf;
+                    if p > 0.0 {
+                        s += p * (p / (px[a] / nf * py[b] / nf)).log2();
+                    }
+                }
+            }
+            s
+        };
+        let curve: Vec<f64> = (0..=200 / k).map(ami).collect();
+        let first_min = (1..curve.len() - 1).find(|&l| curve[l] < curve[l - 1] && curve[l] <= curve[l + 1]).unwrap_or(0);
+        let ctx = Context::from_series(&x, ts.dt().unwrap() * k as f64, 6).unwrap();
+        println!(
+            "step {k}: AMI first minimum at lag {first_min} ({:.3} s, {:.2} bits); autocorrelation zero at lag {}, dominant period {} samples",
+            first_min as f64 * ts.dt().unwrap() * k as f64,
+            curve[first_min],
+            ctx.lag,
+            ctx.theiler
+        );
+        for lag in [first_min.max(1), 1] {
+            let mut line = format!("  FNN at lag {lag}:");
+            for m in 1..=8usize {
+                let n = x.len() - m * lag;
+                let pt = |i: usize, j: usize| x[i + j * lag];
+                let refs: Vec<usize> = (0..n).step_by((n / 2000).max(1)).collect();
+                let mut false_nn = 0usize;
+                let sd = sd_of(&x);
+                for &i in &refs {
+                    let mut best = (f64::MAX, 0usize);
+                    for j in 0..n {
+                        if (i as isize - j as isize).unsigned_abs() <= ctx.theiler.min(20) {
+                            continue;
+                        }
+                        let d2: f64 = (0..m).map(|c| (pt(i, c) - pt(j, c)).powi(2)).sum();
+                        if d2 < best.0 && d2 > 0.0 {
+                            best = (d2, j);
+                        }
+                    }
+                    let dist = best.0.sqrt();
+                    let extra = (pt(i, m) - pt(best.1, m)).abs();
+                    if extra / dist > 15.0 || (best.0 + extra * extra).sqrt() / sd > 2.0 {
+                        false_nn += 1;
+                    }
+                }
+                line.push_str(&format!(" m={m}: {:.1} %", 100.0 * false_nn as f64 / refs.len() as f64));
+            }
+            println!("{line}");
+        }
+    }
+}
+
+/// Candidate models of the inverted flag judged by held-out long-term statistics
+/// ([`furuta::model_selection`]): train traj_9 + traj_7, test traj_8. Candidates in
+/// `CHAOS_CAND` separated by `;`, each a comma list of `key=value`: `k` map step (samples),
+/// `d` SSM dim, `p` embedding, `s` shift (samples of the subsampled series), `c` RBF centres
+/// (`dyn=poly` for the polynomial map), `o` map order, `sm` moving-average half-width of the
+/// training data, `r` ridge, `m` manifold order, `long`
+/// long-run length in data lengths. One line per candidate (a markdown table row), then the
+/// selection.
+fn explore_flag_candidates() {
+    use furuta::model_selection::{Candidate, EvalSettings, Targets, evaluate_and_select};
+    let Some(two) = flag(&[9, 7]) else { return };
+    let test = flag(&[8]).unwrap().pop().unwrap();
+    let spec = std::env::var("CHAOS_CAND").unwrap_or_else(|_| "k=1,d=4,c=500".into());
+    let mut s = EvalSettings::default();
+    let mut cands = Vec::new();
+    for cfg in spec.split(';').filter(|c| !c.trim().is_empty()) {
+        let mut k = 1;
+        let mut o = ChaosOptions::default();
+        let mut poly = false;
+        let mut smooth = 0;
+        for kv in cfg.trim().split(',') {
+            let (key, v) = kv.split_once('=').unwrap();
+            match key {
+                "k" => k = v.parse().unwrap(),
+                "dyn" => poly = v == "poly",
+                "sm" => smooth = v.parse().unwrap(),
+                "o" => o.poly_order = v.parse().unwrap(),
+                "long" => s.long_runs = v.parse().unwrap(),
+                _ => assert!(model_key(&mut o, key, v), "unknown key {key}"),
+            }
+        }
+        let d = o.ssm_dim.unwrap_or(4);
+        let ts = furuta::model_selection::subsample(&test, k, 0).unwrap();
+        let ctx = Context::from_series(&ts.x, ts.dt().unwrap(), 6).unwrap();
+        let mut f = fit_options(&o, d, &ctx);
+        f.dynamics = if poly { Dynamics::Map } else { Dynamics::Rbf { centers: o.centers } };
+        cands.push(Candidate { name: cfg.trim().to_string(), step: k, fit: f, smooth });
+    }
+    let t0 = Instant::now();
+    let (res, sel) = evaluate_and_select(&two, &test, &cands, &s, &Targets::default()).unwrap();
+    println!("| candidate | p | shift | data LLE | Benettin (2nd) | Rosenstein (+noise) | D2 (data) | JS | excursion | s | failed / notes |");
+    for r in &res {
+        println!(
+            "| {} | {} | {} | {:.3} | {} ({}) | {} ({}) | {} ({:.2}+-{:.2}) | {} | {} | {:.0} | {} {} |",
+            r.name,
+            r.options.embed,
+            r.options.shift,
+            r.data.lle,
+            fmt_opt(r.benettin, 3),
+            fmt_opt(r.benettin_2nd, 3),
+            fmt_opt(r.rosenstein, 3),
+            fmt_opt(r.rosenstein_noisy, 3),
+            fmt_opt(r.corr_dim, 2),
+            r.data.corr_dim,
+            r.data.corr_dim_err,
+            fmt_opt(r.js, 4),
+            fmt_opt(r.excursion, 2),
+            r.seconds,
+            r.failed.clone().unwrap_or_default(),
+            r.notes.join("; ").chars().take(160).collect::<String>()
+        );
+    }
+    if let Some(r) = res.first() {
+        println!("data noise sd {:.4}", r.data.noise_sd);
+    }
+    println!("selected: {:?}\nwhy: {}\nwarnings: {:?}\n({:.0} s)", sel.name, sel.why, sel.warnings, t0.elapsed().as_secs_f64());
+}
 
 /// Exploration of model settings on the inverted flag (prints only). Configurations in
 /// `CHAOS_EXPLORE` separated by `;`, each a comma list of `key=value`: the model keys of

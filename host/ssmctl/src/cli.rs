@@ -245,6 +245,15 @@ pub enum Cmd {
         /// Relative ridge parameter of the SSM regressions.
         #[arg(long, default_value_t = 1e-8)]
         ridge: f64,
+        /// Held-out CSV file: the models are fitted on --data only; the data statistics, the
+        /// model runs' start and the model selection use this series (default: the longest
+        /// --data series, then nothing is held out).
+        #[arg(long)]
+        test: Option<PathBuf>,
+        /// Map steps (samples) of the candidate models, comma separated: an RBF and a
+        /// polynomial model at each, chosen by held-out long-term statistics.
+        #[arg(long, value_delimiter = ',', default_value = "1,4")]
+        steps: Vec<usize>,
         #[arg(long)]
         json: bool,
     },
@@ -684,12 +693,30 @@ pub fn run(cli: Cli) -> Result<(), Box<dyn std::error::Error>> {
                 }
             }
         }
-        Cmd::Chaos { data, column, gp_embed, ssm_dim, centers, poly_order, shift, ridge, json } => {
+        Cmd::Chaos { data, column, gp_embed, ssm_dim, centers, poly_order, shift, ridge, test, steps, json } => {
+            // Options first (cheap), before any data is read or analysed.
+            if steps.is_empty() || steps.contains(&0) {
+                return Err(format!("--steps: every map step must be >= 1 sample, got {steps:?}").into());
+            }
             let train = data.iter().map(|p| ssm::load_csv_column(p, column.as_deref())).collect::<Result<Vec<_>, _>>()?;
+            let held_out = test.as_ref().map(|p| ssm::load_csv_column(p, column.as_deref())).transpose()?;
             let o = furuta::microchaos::ChaosOptions { gp_embed, ssm_dim, centers, poly_order, shift, ridge, ..Default::default() };
-            let r = furuta::microchaos::analyse(&train, &o)?;
+            let r = furuta::microchaos::analyse_held_out(&train, held_out.as_ref(), &o)?;
+            let reference = match &held_out {
+                Some(t) => t,
+                None => train.iter().max_by_key(|s| s.x.len()).ok_or("no training series")?,
+            };
+            let cands = furuta::model_selection::standard_candidates(&o, r.ssm_dim, &steps, reference)?;
+            let settings = furuta::model_selection::EvalSettings { gp_embed, ..Default::default() };
+            let (results, sel) = furuta::model_selection::evaluate_and_select(&train, reference, &cands, &settings, &Default::default())?;
             if json {
-                outln!("{}", serde_json::to_string_pretty(&r)?);
+                let mut v = serde_json::to_value(&r)?;
+                if let Some(m) = v.as_object_mut() {
+                    m.insert("candidates".into(), serde_json::to_value(&results)?);
+                    m.insert("selection".into(), serde_json::to_value(&sel)?);
+                    m.insert("held_out".into(), serde_json::Value::Bool(held_out.is_some()));
+                }
+                outln!("{}", serde_json::to_string_pretty(&v)?);
             } else {
                 let opt = |v: Option<f64>| v.map_or("-".to_string(), |x| format!("{x:.4}"));
                 outln!("correlation dimension {:.3} +- {:.3} -> SSM dimension {}", r.corr_dim, r.corr_dim_err, r.ssm_dim);
@@ -705,6 +732,19 @@ pub fn run(cli: Cli) -> Result<(), Box<dyn std::error::Error>> {
                 );
                 for n in &r.notes {
                     outln!("note: {n}");
+                }
+                outln!(
+                    "model selection on {} ({}):",
+                    reference.name,
+                    if held_out.is_some() { "held out" } else { "a training series: nothing held out" }
+                );
+                for c in &results {
+                    outln!("  {}", furuta::model_selection::describe(c));
+                }
+                outln!("picked: {}", sel.name.as_deref().unwrap_or("none"));
+                outln!("why: {}", sel.why);
+                for w in &sel.warnings {
+                    outln!("warning: {w}");
                 }
             }
         }

@@ -190,6 +190,7 @@ pub fn section(rep: &mut crate::report::Report, data_dir: &std::path::Path, quic
     let mut rows = Vec::new();
     let mut list = serde_json::Map::new();
     let mut figs = Vec::new();
+    let mut selections = Vec::new();
     for (name, train, test) in &sets {
         let label = format!("{name}; train {}, test {}", train.iter().map(|t| t.name.as_str()).collect::<Vec<_>>().join(" + "), test.name);
         let r = match analyse_held_out(train, Some(test), &ChaosOptions::default()) {
@@ -217,7 +218,20 @@ pub fn section(rep: &mut crate::report::Report, data_dir: &std::path::Path, quic
             opt(r.pdf_divergence_poly),
             r.notes.join("; "),
         ]);
-        list.insert(name.clone(), serde_json::to_value(&r)?);
+        let mut value = serde_json::to_value(&r)?;
+        // Model selection by held-out long-term statistics (new keys `chosen_model` and
+        // `model_candidates`; the values above are unchanged).
+        let mut cands = furuta::model_selection::standard_candidates(&ChaosOptions::default(), r.ssm_dim, &[1], test)?;
+        if name.starts_with("measured: inverted flag") {
+            cands.extend(furuta::model_selection::flag_candidates());
+        }
+        let (results, sel) = furuta::model_selection::evaluate_and_select(train, test, &cands, &Default::default(), &Default::default())?;
+        if let Some(m) = value.as_object_mut() {
+            m.insert("chosen_model".into(), furuta::model_selection::chosen_json(&results, &sel));
+            m.insert("model_candidates".into(), serde_json::to_value(&results)?);
+        }
+        selections.push((name.clone(), results, sel));
+        list.insert(name.clone(), value);
         let tag: String = name.split(':').next().unwrap_or("set").chars().filter(|c| c.is_ascii_alphanumeric()).collect();
         figs.push((tag, name.clone(), train.clone(), test.clone(), r));
     }
@@ -268,7 +282,88 @@ pub fn section(rep: &mut crate::report::Report, data_dir: &std::path::Path, quic
     for (tag, name, train, test, r) in &figs {
         chaos_figures(rep, tag, name, train, test, r, &ChaosOptions::default())?;
     }
+    selection_tables(rep, &selections);
     Ok(())
+}
+
+/// The model-selection tables: the candidates of each data set with their held-out long-term
+/// statistics and the pick, then the inverted-flag candidate search behind the flag's
+/// candidates (`explore_chaos flag-candidates`, committed in `furuta::model_selection`).
+fn selection_tables(rep: &mut crate::report::Report, selections: &[(String, Vec<furuta::model_selection::CandidateResult>, furuta::model_selection::Selection)]) {
+    use crate::report::esc;
+    rep.para(
+        "Model selection by held-out long-term statistics: each candidate is fitted on the training trajectories and run \
+         on its own from the held-out trajectory's first point for five held-out lengths. Measured as on the data (same \
+         estimators, same settings, at the candidate's map step): its own Benettin exponent, the Rosenstein exponent and \
+         correlation dimension of its observable series, the mean JS divergence of the reduced-coordinate PDFs over the \
+         long run. A run leaving the data's region (|eta| above 1.5 x the data's largest |eta_i|) or escaping fails the \
+         candidate. Targets: Benettin > 0 and within 10 % of the data's exponent, Rosenstein within 5 %, D2 within the \
+         data's error bar, JS <= 0.01 bits; the pick meets most targets, ties by the smallest sum of errors over their \
+         tolerances. Candidates with map step k samples are fitted on every pair (n, n + k) (the k phase-shifted \
+         subsamplings) and compared with the held-out series subsampled by k. The JS divergence here is over the long \
+         run, so it differs from the first table's (one held-out length): a model that covers the data's distribution \
+         during its transient and then settles on a regular attractor (the one-sample RBF model: 0.0046 there) is seen \
+         here for what it settles to.",
+    );
+    let f = |v: Option<f64>, p: usize| v.map_or("-".to_string(), |v| format!("{v:.p$}"));
+    let mut rows = Vec::new();
+    for (name, results, sel) in selections {
+        for (i, r) in results.iter().enumerate() {
+            let picked = sel.index == Some(i);
+            rows.push(vec![
+                name.clone(),
+                format!("{}{}", r.name, if picked { " (picked)" } else { "" }),
+                format!("{} ± {}", f(r.benettin, 3), f(r.benettin_err, 3)),
+                f(r.benettin_2nd, 3),
+                format!("{} / {:.3}", f(r.rosenstein, 3), r.data.lle),
+                format!("{} / {:.2} ± {:.2}", f(r.corr_dim, 2), r.data.corr_dim, r.data.corr_dim_err),
+                f(r.js, 4),
+                r.failed.clone().map_or_else(|| "ok".to_string(), |w| format!("FAILED: {w}")),
+            ]);
+        }
+    }
+    rep.table(
+        &["data", "candidate", "Benettin [1/s]", "2nd Benettin", "Rosenstein model / data [1/s]", "D2 model / data", "JS [bits]", "long run"],
+        &rows,
+    );
+    for (name, _, sel) in selections {
+        let mut text = format!("{}: picked {}. {}", esc(name), esc(sel.name.as_deref().unwrap_or("none")), esc(&sel.why));
+        for w in &sel.warnings {
+            text.push_str(&format!(" <b>Warning:</b> {}.", esc(w)));
+        }
+        rep.para(&text);
+    }
+    rep.para(
+        "Inverted flag: the candidate search behind the flag's candidates (train traj_9 + traj_7, held out traj_8; \
+         <code>cargo run --release -p furuta --example explore_chaos -- flag-candidates</code>). Columns as above; \
+         k = map step in samples, d = SSM dimension, p = embedding dimension, s = shift (samples of the subsampled \
+         series), m = manifold order, c = RBF centres, r = relative ridge.",
+    );
+    let rows: Vec<Vec<String>> = furuta::model_selection::FLAG_SEARCH.iter().map(|row| row.iter().map(|c| c.to_string()).collect()).collect();
+    rep.table(&furuta::model_selection::FLAG_SEARCH_HEADER, &rows);
+    rep.para(
+        "What the search shows. (1) The map step decides chaos: every model with a one-sample step (the table above's \
+         RBF and polynomial models) settles on a torus or a periodic orbit; with the step of Xu et al. (every 4th frame, \
+         0.133 s; embedding p = 9, shift 1, i.e. a 1.07 s window) RBF maps are chaotic over a range of centres and ridges \
+         (Benettin 0.14 to 0.51 1/s), with PDFs within 0.01 bits and no escape in runs of five held-out lengths. \
+         (2) Chaos is fragile in the fit settings: neighbouring centre counts or ridges flip a model between chaos, a \
+         torus and escape (200/225/250 centres at ridge 3e-9: chaotic, chaotic, escaped; steps 3, 4, 5 at 500 centres: \
+         torus, chaotic, chaotic). (3) The two exponent targets conflict for these smooth models: the Rosenstein \
+         estimator applied to a model's own series reads 0.45 to 0.75 of the model's true (Benettin) exponent (e.g. \
+         0.316 -> 0.153, 0.497 -> 0.272), while on Henon data the same estimator reads 0.407 for 0.419; adding \
+         white noise at the data's level (sd 0.0018 of the tip deflection) to the model series does not change it. \
+         A model whose Benettin exponent is within 10 % of the data's Rosenstein 0.332 gives a Rosenstein \
+         exponent near 0.15 to 0.22; one whose Rosenstein exponent approaches 0.33 would need a Benettin exponent \
+         above 0.5. So on this data no candidate meets both, and the data's Rosenstein number is not the exponent a \
+         smooth model of it should have. (4) The correlation dimension of the model series (1,972 samples, as the \
+         held-out series at step 4) ranges from 1.4 to 3.3 between neighbouring chaotic models: only the 200-centre, \
+         ridge 3e-9 model is within the data's error bar. (5) Embedding from the data (explore_chaos flag-embedding, \
+         traj_8): the first minimum of the average mutual information is at 2.17 s (65 samples; the autocorrelation's \
+         first zero at 44); false nearest neighbours at that lag fall to 15 % at m = 4 and level at 9 % from m = 5 \
+         (measurement noise and the sparse data keep them above zero); a shift giving a 2.1 s window (s = 2 at step 4) \
+         gives a torus. A 6D SSM (p = 13) was not chaotic or only weakly (Benettin -0.17, 0.08). Smoothing the \
+         training data (moving average of 3 or 5 samples) made the model a torus or less chaotic.",
+    );
 }
 
 fn fmt_opt(v: Option<f64>, prec: usize) -> String {
