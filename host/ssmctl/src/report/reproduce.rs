@@ -42,12 +42,12 @@ pub fn run(out: &Path, data_dir: &Path, quick: bool, quiet: bool) -> Result<(), 
             let mut t = Timings::default();
             let r = (|| -> Result<(), Box<dyn Error>> {
                 let rep = &mut part;
-                let parametric = t.time("parametric", || crate::report::normal_form::section(rep))?;
+                let (parametric, runs) = t.time("parametric", || crate::report::normal_form::section(rep, quick))?;
                 let bif = t.time("portraits", || crate::report::bifurcations::portraits_section(rep, &parametric))?;
                 t.time("fullsystem", || crate::report::bifurcations::fullsystem_section(rep, &parametric, &bif, quick))?;
-                t.time("predictions", || crate::report::bifurcations::predictions_section(rep))?;
+                t.time("predictions", || crate::report::bifurcations::predictions_section(rep, &runs))?;
                 if !quick {
-                    t.time("bifsensitivity", || crate::report::bifurcations::sensitivity_section(rep, &parametric))?;
+                    t.time("bifsensitivity", || crate::report::bifurcations::sensitivity_section(rep, &parametric, &runs))?;
                 }
                 Ok(())
             })();
