@@ -488,6 +488,7 @@ impl ReducedDynamics {
                 let (y, _) = stack(&ys);
                 let nm = poly::count(d, 1, order).unwrap_or(usize::MAX);
                 crate::limits::check_matrix("flow regression", x.nrows(), nm, true)?;
+                let _reserved = ridge::reserve(x.nrows().saturating_mul(nm).saturating_mul(2 * std::mem::size_of::<f64>()));
                 let exps = poly::exponents(d, 1, order);
                 let (w, conditioning) = poly_fit(x.as_ref(), &scale, &exps, y.as_ref(), &groups, ridge, anchor, joint, "flow regression")?;
                 Ok(ReducedDynamics::Flow { field: to_poly(&w, exps, scale), conditioning })
@@ -503,6 +504,12 @@ impl ReducedDynamics {
                 }
                 let (x, groups) = stack(&xs);
                 let (y, _) = stack(&ys);
+                // The design matrix and its factors (two copies, see `ridge::fit_owned`).
+                let cols = match kind {
+                    Dynamics::Rbf { centers } => centers.saturating_add(d + 1),
+                    _ => poly::count(d, 1, order).unwrap_or(usize::MAX),
+                };
+                let _reserved = ridge::reserve(x.nrows().saturating_mul(cols).saturating_mul(2 * std::mem::size_of::<f64>()));
                 if let Dynamics::Rbf { centers } = kind {
                     // One common scale for all coordinates: the kernel then stays a Euclidean
                     // distance in eta itself (||eta/s - c|| = ||eta - s c|| / s), which is what

@@ -9,8 +9,69 @@
 
 use faer::{Mat, MatRef};
 use serde::{Deserialize, Serialize};
+use std::sync::atomic::{AtomicUsize, Ordering};
+use std::sync::{Condvar, Mutex};
 
 use super::error::FitError;
+
+/// A budget of working memory shared by threads: reservations that do not fit next to the
+/// ones held wait for them (one alone always goes ahead, whatever its size).
+pub(crate) struct Budget {
+    /// Bytes; 0 means no limit.
+    limit: AtomicUsize,
+    used: Mutex<usize>,
+    released: Condvar,
+}
+
+/// The process's budget for the large regressions (see [`set_memory_budget`]).
+static REGRESSIONS: Budget = Budget::new();
+
+/// Limits the summed working memory (bytes) of the regressions that run at the same time on
+/// several threads (design matrix and its factors): a regression whose reservation does not
+/// fit next to the running ones waits for them (one always runs, whatever its size). Only the
+/// schedule changes, never a result. 0 removes the limit (the default).
+pub fn set_memory_budget(bytes: usize) {
+    REGRESSIONS.limit.store(bytes, Ordering::Relaxed);
+}
+
+/// Reserves `bytes` of the regressions' budget (see [`Budget::reserve`]).
+pub(crate) fn reserve(bytes: usize) -> Reservation<'static> {
+    REGRESSIONS.reserve(bytes)
+}
+
+/// A reservation of a [`Budget`], returned when dropped.
+pub(crate) struct Reservation<'a>(&'a Budget, usize);
+
+impl Budget {
+    pub(crate) const fn new() -> Self {
+        Budget { limit: AtomicUsize::new(0), used: Mutex::new(0), released: Condvar::new() }
+    }
+
+    /// Reserves `bytes`, waiting while other reservations hold too much. Sizes below 1/16 of
+    /// the limit are not counted.
+    pub(crate) fn reserve(&self, bytes: usize) -> Reservation<'_> {
+        let limit = self.limit.load(Ordering::Relaxed);
+        if limit == 0 || bytes < limit / 16 {
+            return Reservation(self, 0);
+        }
+        let mut used = self.used.lock().unwrap_or_else(|e| e.into_inner());
+        while *used > 0 && used.saturating_add(bytes) > limit {
+            used = self.released.wait(used).unwrap_or_else(|e| e.into_inner());
+        }
+        *used = used.saturating_add(bytes);
+        Reservation(self, bytes)
+    }
+}
+
+impl Drop for Reservation<'_> {
+    fn drop(&mut self) {
+        if self.1 > 0 {
+            let mut used = self.0.used.lock().unwrap_or_else(|e| e.into_inner());
+            *used = used.saturating_sub(self.1);
+            self.0.released.notify_all();
+        }
+    }
+}
 
 /// The default grid of relative ridge parameters tried by cross-validation.
 pub const CV_GRID: [f64; 9] = [0.0, 1e-14, 1e-12, 1e-10, 1e-8, 1e-7, 1e-6, 1e-5, 1e-4];
@@ -375,6 +436,31 @@ mod tests {
             let (xo, co) = fit_owned(a.clone(), b.as_ref(), &[0..m], Ridge::Fixed(0.0), "t", || a.clone()).unwrap();
             assert!(x == xo && c == co, "{m}x{n}: fit_owned differs from fit");
         }
+    }
+
+    /// Reservations beyond the budget take turns; one alone goes ahead whatever its size;
+    /// small ones are not counted.
+    #[test]
+    fn reservations_beyond_the_budget_take_turns() {
+        use std::sync::mpsc;
+        use std::time::Duration;
+        static B: Budget = Budget::new();
+        B.limit.store(1000, Ordering::Relaxed);
+        let first = B.reserve(800);
+        let small = B.reserve(50);
+        let (tx, rx) = mpsc::channel();
+        let h = std::thread::spawn(move || {
+            let _r = B.reserve(800);
+            tx.send(()).unwrap();
+        });
+        assert!(rx.recv_timeout(Duration::from_millis(300)).is_err(), "the second reservation went ahead");
+        drop(first);
+        rx.recv_timeout(Duration::from_secs(10)).unwrap();
+        h.join().unwrap();
+        drop(small);
+        assert_eq!(*B.used.lock().unwrap(), 0);
+        drop(B.reserve(5000));
+        assert_eq!(*B.used.lock().unwrap(), 0);
     }
 
     #[test]

@@ -23,9 +23,11 @@ use std::time::Instant;
 /// the fixed order: the parametric-model chain (parametric, portraits, fullsystem,
 /// predictions, bifsensitivity) and the chaos chain (device, chaos, chaos-scale). Sections
 /// that measure speed (accuracy-time-sim, the fit bench of fit-sloshing, chaos-cost) run
-/// alone, so nothing else competes for the cores while they time.
+/// alone, so nothing else competes for the cores while they time. The large regressions
+/// share a memory budget ([`REGRESSION_MEMORY_MB`]).
 pub fn run(out: &Path, data_dir: &Path, quick: bool, quiet: bool) -> Result<(), Box<dyn Error>> {
     let t0 = Instant::now();
+    ssm::ridge::set_memory_budget(REGRESSION_MEMORY_MB << 20);
     let mut rep = Report::new(out)?;
     std::fs::create_dir_all(out.join("fig"))?;
     rep.summary.insert("quick".into(), Value::Bool(quick));
@@ -78,6 +80,12 @@ pub fn run(out: &Path, data_dir: &Path, quick: bool, quiet: bool) -> Result<(), 
     rep.finish("ssmctl reproduce: delayed, sampled, quantized PD control of the Furuta pendulum")?;
     Ok(())
 }
+
+/// The working memory (MB) the report's regressions may hold at the same time
+/// ([`ssm::ridge::set_memory_budget`]): the largest ones (the chaos study's RBF models, the
+/// parametric fits) then take turns instead of adding up on several threads. Only the
+/// schedule changes, not a result.
+pub const REGRESSION_MEMORY_MB: usize = 320;
 
 /// An error that can cross threads (a task's on the rayon pool).
 type SendError = Box<dyn Error + Send + Sync>;
