@@ -473,6 +473,13 @@ pub fn analyse(train: &[TimeSeries], o: &ChaosOptions) -> Result<ChaosSummary, E
 /// data statistics (dimension, Lyapunov exponent, PDFs) and the model series' starting point
 /// come from `test` (the longest training series when `None`).
 pub fn analyse_held_out(train: &[TimeSeries], test: Option<&TimeSeries>, o: &ChaosOptions) -> Result<ChaosSummary, Error> {
+    analyse_held_out_models(train, test, o).map(|(s, _)| s)
+}
+
+/// [`analyse_held_out`] that also returns the fitted models, `("rbf" | "poly", model)` in
+/// that order (a model whose fit failed, reported in the notes, is left out): callers that
+/// draw the models' series reuse them instead of fitting them again.
+pub fn analyse_held_out_models(train: &[TimeSeries], test: Option<&TimeSeries>, o: &ChaosOptions) -> Result<(ChaosSummary, Vec<(&'static str, SsmModel)>), Error> {
     o.validate()?;
     let t0 = std::time::Instant::now();
     let longest = train.iter().max_by_key(|s| s.x.len()).ok_or(Error::BadInput { what: "training", why: "no training series".into() })?;
@@ -526,7 +533,7 @@ pub fn analyse_held_out(train: &[TimeSeries], test: Option<&TimeSeries>, o: &Cha
     // pool (the kicked runs draw from seed 1 in each); notes and values are merged in this
     // order. A failed fit is a note, not an error.
     let kinds = [("rbf", Dynamics::Rbf { centers: o.centers }), ("poly", Dynamics::Map)];
-    let evals = crate::par_map(&kinds, |&(name, dynamics)| -> Result<Result<(ModelStats, KickedStats), String>, Error> {
+    let evals = crate::par_map(&kinds, |&(name, dynamics)| -> Result<Result<(ModelStats, KickedStats, SsmModel), String>, Error> {
         let mut opts = base;
         opts.dynamics = dynamics;
         let m = match fit(train, &opts) {
@@ -537,16 +544,18 @@ pub fn analyse_held_out(train: &[TimeSeries], test: Option<&TimeSeries>, o: &Cha
         };
         let s = evaluate_model(&m, data, &ctx, o, name)?;
         let k = evaluate_kicked(&m, train, data, &ctx, 1, name)?;
-        Ok(Ok((s, k)))
+        Ok(Ok((s, k, m)))
     })?;
+    let mut models = Vec::new();
     for (&(name, _), eval) in kinds.iter().zip(evals) {
-        let (s, k) = match eval {
+        let (s, k, m) = match eval {
             Ok(sk) => sk,
             Err(note) => {
                 notes.push(note);
                 continue;
             }
         };
+        models.push((name, m));
         notes.extend(s.notes);
         let b = s.benettin.as_ref().map(|b| b.exponent);
         if name == "rbf" {
@@ -563,7 +572,7 @@ pub fn analyse_held_out(train: &[TimeSeries], test: Option<&TimeSeries>, o: &Cha
     }
     out.notes = notes;
     out.seconds = t0.elapsed().as_secs_f64();
-    Ok(out)
+    Ok((out, models))
 }
 
 /// `periods` sampling periods of the quantized scene `furuta-quant-dt25` from

@@ -269,18 +269,200 @@ pub fn training_series(opts: &FurutaOptions, dt_ms: f64) -> Result<Vec<TimeSerie
     Ok(train)
 }
 
+/// One simulated training run: its start and the theta samples up to where it stopped.
+#[derive(Clone, Debug)]
+struct Run {
+    ic: [f64; 4],
+    t: Vec<f64>,
+    x: Vec<f64>,
+}
+
+/// The training runs of several option sets that share their starts and run length (the
+/// report's model and its sensitivity variants, the shared-tangent model): each (sampling
+/// period, start) is simulated once, up to the largest amplitude cut any set asks for, and
+/// every set's series are cut from these runs. A run ends only when |theta| passes its escape
+/// threshold, which changes nothing before that, so the samples before a smaller cut are
+/// those of a run with the smaller threshold: [`TrainingRuns::series`] returns exactly what
+/// [`training_series`] would.
+#[derive(Clone, Debug)]
+pub struct TrainingRuns {
+    initial_states: Vec<[f64; 4]>,
+    slow_starts: Vec<(f64, f64)>,
+    periods: u64,
+    /// The largest cut of the sets (the runs stop at twice it).
+    max_theta: f64,
+    /// Per sampling period (ms): the runs in [`training_series`]'s order.
+    runs: Vec<(f64, Vec<Run>)>,
+}
+
+impl TrainingRuns {
+    /// Simulates the runs of every training period of `sets` (each period once) on the rayon
+    /// pool. The sets must share their initial states, slow starts and run length.
+    pub fn simulate(sets: &[&FurutaOptions]) -> Result<Self, Error> {
+        let Some(first) = sets.first() else {
+            return Err(Error::BadInput { what: "training runs", why: "no option sets".into() });
+        };
+        for o in sets {
+            validate_options(o)?;
+            if o.initial_states != first.initial_states || o.slow_starts != first.slow_starts || o.periods != first.periods {
+                return Err(Error::BadOption { what: "training runs", why: "the option sets must share initial_states, slow_starts and periods".into() });
+            }
+            if !(o.max_theta > 0.0 && o.max_theta.is_finite()) {
+                return Err(Error::BadOption { what: "max_theta", why: format!("must be positive and finite, got {}", o.max_theta) });
+            }
+        }
+        let max_theta = sets.iter().map(|o| o.max_theta).fold(0.0, f64::max);
+        let mut dts: Vec<f64> = Vec::new();
+        for o in sets {
+            for &d in &o.dts_ms {
+                if !dts.iter().any(|x| x.to_bits() == d.to_bits()) {
+                    dts.push(d);
+                }
+            }
+        }
+        // One task per (period, start) on the pool, collected in order: initial states, then
+        // slow-mode starts (as `training_series`).
+        let n_ic = first.initial_states.len();
+        let per_dt = n_ic + first.slow_starts.len();
+        let tasks: Vec<(f64, usize)> = dts.iter().flat_map(|&d| (0..per_dt).map(move |k| (d, k))).collect();
+        let runs = crate::par_map(&tasks, |&(dt_ms, k)| {
+            let (ic, hist) = match first.initial_states.get(k) {
+                Some(&ic) => (ic, None),
+                None => {
+                    let (amp, phase) = first.slow_starts[k - n_ic];
+                    let (ic, hist) = slow_mode_start(dt_ms, amp, phase)?;
+                    (ic, Some(hist))
+                }
+            };
+            let scene = SceneBuilder::load("furuta-dt30.5")?
+                .dt_ms(dt_ms)
+                .periods(first.periods)
+                .initial_state(&ic)
+                .escape_theta(2.0 * max_theta)
+                .history(hist.as_deref())
+                .build()?;
+            let tr = simulate(&scene, None)?;
+            Ok::<_, Error>(Run { ic, x: tr.primary(), t: tr.t })
+        })?;
+        let mut it = runs.into_iter();
+        let runs = dts.iter().map(|&d| (d, it.by_ref().take(per_dt).collect())).collect();
+        Ok(TrainingRuns { initial_states: first.initial_states.clone(), slow_starts: first.slow_starts.clone(), periods: first.periods, max_theta, runs })
+    }
+
+    /// The training series of `opts` at `dt_ms`, the same as [`training_series`]: cut from
+    /// the stored runs when they cover `opts` (same starts and length, a cut no larger than
+    /// theirs, the period simulated), otherwise simulated afresh (so is a run that leaves too
+    /// few samples, which then fails with `training_series`'s own error).
+    pub fn series(&self, opts: &FurutaOptions, dt_ms: f64) -> Result<Vec<TimeSeries>, Error> {
+        let covered = opts.initial_states == self.initial_states
+            && opts.slow_starts == self.slow_starts
+            && opts.periods == self.periods
+            && opts.max_theta > 0.0
+            && opts.max_theta <= self.max_theta;
+        let runs = self.runs.iter().find(|(d, _)| d.to_bits() == dt_ms.to_bits()).map(|(_, r)| r);
+        let (true, Some(runs)) = (covered, runs) else {
+            return training_series(opts, dt_ms);
+        };
+        let mut out = Vec::with_capacity(runs.len());
+        for r in runs {
+            let end = r.x.iter().position(|v| v.abs() > opts.max_theta).unwrap_or(r.x.len());
+            if opts.skip + 100 > end {
+                return training_series(opts, dt_ms);
+            }
+            let ts = TimeSeries::new(format!("furuta dt={dt_ms} ic={:?}", r.ic), r.t[opts.skip..end].to_vec(), r.x[opts.skip..end].to_vec())
+                .map_err(|e| Error::from(ssm::FitError::from(e)))?;
+            out.push(ts);
+        }
+        Ok(out)
+    }
+}
+
 /// Fits the parametric model (slow: one simulation per dt and initial state).
 pub fn furuta_parametric(opts: &FurutaOptions) -> Result<ParametricModel, Error> {
     validate_options(opts)?;
     // One training period per task on the rayon pool, collected in order.
-    let trained = crate::par_map(&opts.dts_ms, |&dt_ms| {
-        let train = training_series(opts, dt_ms)?;
-        let model = fit(&train, &opts.fit)?;
-        let normal_form = model_normal_form(&model, &NormalFormOptions::default())
-            .map_err(|source| Error::NormalForm { dt: dt_ms, source })?;
-        Ok::<_, Error>(TrainedDt { dt_ms, model, normal_form, exact: exact_modes(dt_ms)? })
-    })?;
+    let trained = crate::par_map(&opts.dts_ms, |&dt_ms| fit_period(opts, dt_ms, &training_series(opts, dt_ms)?))?;
     Ok(ParametricModel { trained })
+}
+
+/// [`furuta_parametric`] on training series cut from `runs` (simulated once for several
+/// option sets, see [`TrainingRuns`]): the same model.
+pub fn furuta_parametric_from(opts: &FurutaOptions, runs: &TrainingRuns) -> Result<ParametricModel, Error> {
+    validate_options(opts)?;
+    let trained = crate::par_map(&opts.dts_ms, |&dt_ms| fit_period(opts, dt_ms, &runs.series(opts, dt_ms)?))?;
+    Ok(ParametricModel { trained })
+}
+
+/// The fit and normal form of one training period.
+fn fit_period(opts: &FurutaOptions, dt_ms: f64, train: &[TimeSeries]) -> Result<TrainedDt, Error> {
+    let model = fit(train, &opts.fit)?;
+    let normal_form = model_normal_form(&model, &NormalFormOptions::default()).map_err(|source| Error::NormalForm { dt: dt_ms, source })?;
+    Ok(TrainedDt { dt_ms, model, normal_form, exact: exact_modes(dt_ms)? })
+}
+
+/// Parametric models of several option sets that differ from `base` at most in their
+/// training periods and amplitude cut (the sensitivity variants), sharing work: each
+/// (period, cut) is fitted once, on series cut from `runs`, and the periods already fitted
+/// in `known` (fitted with `base`'s options at `known`'s cut) are reused. Returns each set's
+/// model (the same as [`furuta_parametric`]'s) and the summed wall time of the fits it
+/// added (its shared fits count for the first set that uses them; 0 when all are reused).
+/// A set that differs from `base` in anything else is fitted on its own.
+pub fn furuta_parametric_family(
+    base: &FurutaOptions,
+    known: &ParametricModel,
+    sets: &[&FurutaOptions],
+    runs: &TrainingRuns,
+) -> Result<Vec<(ParametricModel, f64)>, Error> {
+    let strip = |o: &FurutaOptions| FurutaOptions { dts_ms: Vec::new(), max_theta: 0.0, ..o.clone() };
+    let family = strip(base);
+    let key = |d: f64, o: &FurutaOptions| (d.to_bits(), o.max_theta.to_bits());
+    let known_key = |d: f64| key(d, base);
+    // Unique (period, cut) fits not in `known`, in order of first use; and which set first used each.
+    let mut todo: Vec<(f64, &FurutaOptions, usize)> = Vec::new();
+    for (i, o) in sets.iter().enumerate() {
+        validate_options(o)?;
+        if strip(o) != family {
+            continue;
+        }
+        for &d in &o.dts_ms {
+            let k = key(d, o);
+            let have = known.trained.iter().any(|t| known_key(t.dt_ms) == k) || todo.iter().any(|(d2, o2, _)| key(*d2, o2) == k);
+            if !have {
+                todo.push((d, o, i));
+            }
+        }
+    }
+    let fits = crate::par_map(&todo, |&(d, o, _)| {
+        let t0 = std::time::Instant::now();
+        let tr = fit_period(o, d, &runs.series(o, d)?)?;
+        Ok::<_, Error>((tr, t0.elapsed().as_secs_f64()))
+    })?;
+    let mut out = Vec::with_capacity(sets.len());
+    for (i, o) in sets.iter().enumerate() {
+        if strip(o) != family {
+            let t0 = std::time::Instant::now();
+            let pm = furuta_parametric(o)?;
+            out.push((pm, t0.elapsed().as_secs_f64()));
+            continue;
+        }
+        let mut trained = Vec::with_capacity(o.dts_ms.len());
+        let mut secs = 0.0;
+        for &d in &o.dts_ms {
+            let k = key(d, o);
+            if let Some(t) = known.trained.iter().find(|t| known_key(t.dt_ms) == k) {
+                trained.push(t.clone());
+            } else if let Some(((t, s), (_, _, first))) = fits.iter().zip(&todo).find(|(_, (d2, o2, _))| key(*d2, o2) == k) {
+                trained.push(t.clone());
+                if *first == i {
+                    secs += s;
+                }
+            } else {
+                return Err(Error::BadInput { what: "parametric family", why: format!("no fit for dt = {d} ms") });
+            }
+        }
+        out.push((ParametricModel { trained }, secs));
+    }
+    Ok(out)
 }
 
 /// The polar normal form whose every coefficient is `sum_i w[i] * forms[i]` (interpolation
@@ -412,6 +594,67 @@ mod tests {
         assert!(worst_interp < 0.02, "interpolated rate error {worst_interp}");
         // Tighter than the targets, to catch regressions of the anchored fit.
         assert!(worst_train < 3e-3 && worst_interp < 3e-3, "train {worst_train}, interp {worst_interp}");
+    }
+
+    /// Small options for the sharing tests: two starts, one slow start, short runs, a low
+    /// order fit.
+    fn small_opts(dts_ms: Vec<f64>, max_theta: f64) -> FurutaOptions {
+        let base = FurutaOptions::default();
+        FurutaOptions {
+            dts_ms,
+            initial_states: vec![[0.01, 0.0, 0.0, 0.0], [0.05, 0.0, 0.0, 0.5]],
+            slow_starts: vec![(0.004, 0.7)],
+            periods: 900,
+            max_theta,
+            fit: FitOptions { embed: 9, dyn_order: 3, ..base.fit },
+            ..base
+        }
+    }
+
+    /// Series cut from runs shared by several cuts and periods are exactly the series of
+    /// separate runs (times, samples, names), including a cut below which a run escapes.
+    #[test]
+    fn shared_training_runs_give_the_separate_runs_series() {
+        let a = small_opts(vec![30.5, 32.5], 0.2);
+        let b = small_opts(vec![31.0, 32.5], 0.1);
+        let runs = TrainingRuns::simulate(&[&a, &b]).unwrap();
+        for o in [&a, &b] {
+            for &dt in &o.dts_ms {
+                let want = training_series(o, dt).unwrap();
+                let got = runs.series(o, dt).unwrap();
+                assert_eq!(got.len(), want.len());
+                for (g, w) in got.iter().zip(&want) {
+                    assert_eq!((&g.name, &g.t, &g.x), (&w.name, &w.t, &w.x), "dt {dt}, cut {}", o.max_theta);
+                }
+            }
+        }
+        // Not covered (larger cut, other starts): simulated afresh, still the same series.
+        let c = small_opts(vec![30.5], 0.25);
+        assert_eq!(runs.series(&c, 30.5).unwrap()[0].x, training_series(&c, 30.5).unwrap()[0].x);
+        let other = FurutaOptions { initial_states: vec![[0.02, 0.0, 0.0, 0.0]], ..small_opts(vec![30.5], 0.2) };
+        assert!(TrainingRuns::simulate(&[&a, &other]).is_err());
+    }
+
+    /// The family fit (shared fits, reused periods of a known model) gives every set the model
+    /// `furuta_parametric` fits on its own, bit for bit.
+    #[test]
+    fn family_fit_equals_separate_fits() {
+        let base = small_opts(vec![30.5, 32.5], 0.2);
+        let sets = [small_opts(vec![30.5, 31.5, 32.5], 0.2), small_opts(vec![30.5, 32.5], 0.15), small_opts(vec![30.5, 31.5, 32.5], 0.15)];
+        let refs: Vec<&FurutaOptions> = std::iter::once(&base).chain(sets.iter()).collect();
+        let runs = TrainingRuns::simulate(&refs).unwrap();
+        let known = furuta_parametric_from(&base, &runs).unwrap();
+        let set_refs: Vec<&FurutaOptions> = sets.iter().collect();
+        let family = furuta_parametric_family(&base, &known, &set_refs, &runs).unwrap();
+        for (o, (pm, _)) in sets.iter().zip(&family) {
+            let want = furuta_parametric(o).unwrap();
+            assert_eq!(pm.trained.len(), want.trained.len());
+            for (g, w) in pm.trained.iter().zip(&want.trained) {
+                assert_eq!(g.dt_ms, w.dt_ms);
+                assert_eq!(g.normal_form, w.normal_form, "dt {} cut {}", g.dt_ms, o.max_theta);
+                assert_eq!(serde_json::to_string(&g.model).unwrap(), serde_json::to_string(&w.model).unwrap());
+            }
+        }
     }
 
     /// The slow-mode start decays at the slow exact rate (checks the eigenvector and the

@@ -29,7 +29,7 @@ use ssm::data::TimeSeries;
 use ssm::dynamics::ReducedDynamics;
 use ssm::fit::{Prediction, SsmModel, Stop, embed_training, fit_with_tangent};
 use crate::parametric::{
-    ExactModes, FurutaOptions, exact_modes, furuta_series_with_history, slow_mode_start, training_series,
+    ExactModes, FurutaOptions, TrainingRuns, exact_modes, furuta_series_with_history, slow_mode_start, training_series,
     validate_options,
 };
 use ssm::manifold::tangent_space;
@@ -97,6 +97,22 @@ pub fn shared_parametric(opts: &FurutaOptions) -> Result<SharedParametricModel, 
     }
     // Training runs and fits per period on the rayon pool, collected in order.
     let series = crate::par_map(&opts.dts_ms, |&dt_ms| training_series(opts, dt_ms))?;
+    shared_parametric_on(opts, series)
+}
+
+/// [`shared_parametric`] on training series cut from `runs` (simulated once for several
+/// option sets, see [`TrainingRuns`]): the same model.
+pub fn shared_parametric_from(opts: &FurutaOptions, runs: &TrainingRuns) -> Result<SharedParametricModel, Error> {
+    validate_options(opts)?;
+    if opts.fit.dynamics != ssm::dynamics::Dynamics::Map {
+        return Err(Error::BadOption { what: "fit.dynamics", why: "the shared-tangent model interpolates polynomial maps; use Dynamics::Map".into() });
+    }
+    let series = crate::par_map(&opts.dts_ms, |&dt_ms| runs.series(opts, dt_ms))?;
+    shared_parametric_on(opts, series)
+}
+
+/// The shared-tangent fit on the training series of each period of `opts` (in order).
+fn shared_parametric_on(opts: &FurutaOptions, series: Vec<Vec<TimeSeries>>) -> Result<SharedParametricModel, Error> {
     let mut pooled = Vec::new();
     for train in &series {
         pooled.extend(embed_training(train, &opts.fit)?.0);

@@ -9,8 +9,69 @@
 
 use faer::{Mat, MatRef};
 use serde::{Deserialize, Serialize};
+use std::sync::atomic::{AtomicUsize, Ordering};
+use std::sync::{Condvar, Mutex};
 
 use super::error::FitError;
+
+/// A budget of working memory shared by threads: reservations that do not fit next to the
+/// ones held wait for them (one alone always goes ahead, whatever its size).
+pub(crate) struct Budget {
+    /// Bytes; 0 means no limit.
+    limit: AtomicUsize,
+    used: Mutex<usize>,
+    released: Condvar,
+}
+
+/// The process's budget for the large regressions (see [`set_memory_budget`]).
+static REGRESSIONS: Budget = Budget::new();
+
+/// Limits the summed working memory (bytes) of the regressions that run at the same time on
+/// several threads (design matrix and its factors): a regression whose reservation does not
+/// fit next to the running ones waits for them (one always runs, whatever its size). Only the
+/// schedule changes, never a result. 0 removes the limit (the default).
+pub fn set_memory_budget(bytes: usize) {
+    REGRESSIONS.limit.store(bytes, Ordering::Relaxed);
+}
+
+/// Reserves `bytes` of the regressions' budget (see [`Budget::reserve`]).
+pub(crate) fn reserve(bytes: usize) -> Reservation<'static> {
+    REGRESSIONS.reserve(bytes)
+}
+
+/// A reservation of a [`Budget`], returned when dropped.
+pub(crate) struct Reservation<'a>(&'a Budget, usize);
+
+impl Budget {
+    pub(crate) const fn new() -> Self {
+        Budget { limit: AtomicUsize::new(0), used: Mutex::new(0), released: Condvar::new() }
+    }
+
+    /// Reserves `bytes`, waiting while other reservations hold too much. Sizes below 1/16 of
+    /// the limit are not counted.
+    pub(crate) fn reserve(&self, bytes: usize) -> Reservation<'_> {
+        let limit = self.limit.load(Ordering::Relaxed);
+        if limit == 0 || bytes < limit / 16 {
+            return Reservation(self, 0);
+        }
+        let mut used = self.used.lock().unwrap_or_else(|e| e.into_inner());
+        while *used > 0 && used.saturating_add(bytes) > limit {
+            used = self.released.wait(used).unwrap_or_else(|e| e.into_inner());
+        }
+        *used = used.saturating_add(bytes);
+        Reservation(self, bytes)
+    }
+}
+
+impl Drop for Reservation<'_> {
+    fn drop(&mut self) {
+        if self.1 > 0 {
+            let mut used = self.0.used.lock().unwrap_or_else(|e| e.into_inner());
+            *used = used.saturating_sub(self.1);
+            self.0.released.notify_all();
+        }
+    }
+}
 
 /// The default grid of relative ridge parameters tried by cross-validation.
 pub const CV_GRID: [f64; 9] = [0.0, 1e-14, 1e-12, 1e-10, 1e-8, 1e-7, 1e-6, 1e-5, 1e-4];
@@ -45,6 +106,12 @@ pub struct Conditioning {
 }
 
 /// Thin-SVD factorization of a design matrix, reusable for several ridge parameters.
+///
+/// A tall design matrix given by value ([`RidgeLs::from_owned`]) is factorized as faer's
+/// `thin_svd` does it, step by step (a QR factorization, the SVD of `R`, `U = Q [U_R; 0]`),
+/// but in the matrix's own storage: the same operations give the same bits, without faer's
+/// working copy of the matrix, so the peak memory of a fit is two design-matrix sizes
+/// (the QR factors and `U`) instead of three.
 pub struct RidgeLs {
     u: Mat<f64>,
     s: Vec<f64>,
@@ -52,28 +119,97 @@ pub struct RidgeLs {
     rows: usize,
 }
 
+/// Whether faer's SVD starts with a QR factorization (more than 11/6 rows per column).
+fn qr_first(rows: usize, cols: usize) -> bool {
+    let p: faer::Spec<faer::linalg::svd::SvdParams, f64> = Default::default();
+    cols > 0 && rows as f64 / cols as f64 > p.config.qr_ratio_threshold
+}
+
 impl RidgeLs {
     /// Factorizes `a` (rows >= 1, cols >= 1, all finite).
     pub fn new(a: MatRef<'_, f64>, what: &'static str) -> Result<Self, FitError> {
+        Self::check(a, what)?;
+        let svd = a.thin_svd().map_err(|_| FitError::Svd { what })?;
+        let s: Vec<f64> = (0..a.ncols()).map(|i| svd.S()[i]).collect();
+        Ok(RidgeLs { u: svd.U().to_owned(), s, v: svd.V().to_owned(), rows: a.nrows() })
+    }
+
+    /// [`RidgeLs::new`] factorizing `a` in its own storage: the same factors, bit for bit,
+    /// without a working copy of `a`.
+    pub fn from_owned(a: Mat<f64>, what: &'static str) -> Result<Self, FitError> {
+        Self::check(a.as_ref(), what)?;
+        if !qr_first(a.nrows(), a.ncols()) {
+            return Self::new(a.as_ref(), what);
+        }
+        Self::factor_qr(a, what)
+    }
+
+    fn check(a: MatRef<'_, f64>, what: &'static str) -> Result<(), FitError> {
         if a.nrows() < a.ncols() {
             return Err(FitError::Underdetermined { what, rows: a.nrows(), cols: a.ncols() });
         }
         if !all_finite(a) {
             return Err(FitError::NonFinite { what });
         }
-        let svd = a.thin_svd().map_err(|_| FitError::Svd { what })?;
-        let s: Vec<f64> = (0..a.ncols()).map(|i| svd.S()[i]).collect();
-        Ok(RidgeLs { u: svd.U().to_owned(), s, v: svd.V().to_owned(), rows: a.nrows() })
+        Ok(())
+    }
+
+    /// faer's tall-matrix thin SVD (`faer::linalg::svd::svd` with its default parameters and
+    /// the global parallelism), its steps in `qr`'s storage.
+    fn factor_qr(mut qr: Mat<f64>, what: &'static str) -> Result<Self, FitError> {
+        use faer::dyn_stack::{MemBuffer, MemStack};
+        use faer::linalg::{householder, qr::no_pivoting::factor, svd};
+        let (m, n) = qr.shape();
+        let par = faer::get_global_parallelism();
+        let bs = factor::recommended_block_size::<f64>(m, n);
+        let mut hh = Mat::<f64>::zeros(bs, n);
+        {
+            let mut mem = MemBuffer::new(factor::qr_in_place_scratch::<f64>(m, n, bs, par, Default::default()));
+            factor::qr_in_place(qr.as_mut(), hh.as_mut(), par, MemStack::new(&mut mem), Default::default());
+        }
+        let r = Mat::from_fn(n, n, |i, j| if i <= j { qr[(i, j)] } else { 0.0 });
+        let mut s = faer::diag::Diag::<f64>::zeros(n);
+        let mut u_r = Mat::<f64>::zeros(n, n);
+        let mut v = Mat::<f64>::zeros(n, n);
+        {
+            let thin = svd::ComputeSvdVectors::Thin;
+            let mut mem = MemBuffer::new(svd::svd_scratch::<f64>(n, n, thin, thin, par, Default::default()));
+            svd::svd(r.as_ref(), s.as_mut(), Some(u_r.as_mut()), Some(v.as_mut()), par, MemStack::new(&mut mem), Default::default())
+                .map_err(|_| FitError::Svd { what })?;
+        }
+        drop(r);
+        let mut u = Mat::<f64>::zeros(m, n);
+        for j in 0..n {
+            for i in 0..n {
+                u[(i, j)] = u_r[(i, j)];
+            }
+        }
+        drop(u_r);
+        {
+            let mut mem = MemBuffer::new(householder::apply_block_householder_sequence_on_the_left_in_place_scratch::<f64>(m, bs, n));
+            householder::apply_block_householder_sequence_on_the_left_in_place_with_conj(qr.as_ref(), hh.as_ref(), faer::Conj::No, u.as_mut(), par, MemStack::new(&mut mem));
+        }
+        let s: Vec<f64> = (0..n).map(|i| s[i]).collect();
+        Ok(RidgeLs { u, s, v, rows: m })
+    }
+
+    /// `U^T b` (`cols x q`).
+    pub fn utb(&self, b: MatRef<'_, f64>) -> Mat<f64> {
+        self.u.transpose() * b
     }
 
     /// Solves for right-hand sides `b` (rows x q) with relative ridge `alpha`.
     pub fn solve(&self, b: MatRef<'_, f64>, alpha: f64) -> Mat<f64> {
-        let utb = self.u.transpose() * b;
+        self.solve_utb(self.utb(b).as_ref(), alpha)
+    }
+
+    /// [`RidgeLs::solve`] from `U^T b` ([`RidgeLs::utb`]), for several `alpha` on one `b`.
+    pub fn solve_utb(&self, utb: MatRef<'_, f64>, alpha: f64) -> Mat<f64> {
         let s_max = self.s.first().copied().unwrap_or(0.0);
         let lambda = alpha * s_max * s_max;
         let cut = self.rows.max(self.s.len()) as f64 * f64::EPSILON * s_max;
         let n = self.s.len();
-        let mut scaled = Mat::<f64>::zeros(n, b.ncols());
+        let mut scaled = Mat::<f64>::zeros(n, utb.ncols());
         for i in 0..n {
             let si = self.s[i];
             let f = if lambda > 0.0 {
@@ -83,7 +219,7 @@ impl RidgeLs {
             } else {
                 0.0
             };
-            for j in 0..b.ncols() {
+            for j in 0..utb.ncols() {
                 scaled[(i, j)] = f * utb[(i, j)];
             }
         }
@@ -92,23 +228,28 @@ impl RidgeLs {
 
     /// Conditioning report for a solution `x` of `a x ~ b` with ridge `alpha`.
     pub fn conditioning(&self, a: MatRef<'_, f64>, b: MatRef<'_, f64>, x: MatRef<'_, f64>, alpha: f64) -> Conditioning {
-        let s_max = self.s.first().copied().unwrap_or(0.0);
-        let s_min = self.s.last().copied().unwrap_or(0.0);
-        let lambda = alpha * s_max * s_max;
-        Conditioning {
-            rows: a.nrows(),
-            cols: a.ncols(),
-            s_max,
-            s_min,
-            cond: if s_min > 0.0 { s_max / s_min } else { f64::INFINITY },
-            alpha,
-            cond_regularized: if s_min * s_min + lambda > 0.0 {
-                ((s_max * s_max + lambda) / (s_min * s_min + lambda)).sqrt()
-            } else {
-                f64::INFINITY
-            },
-            rel_residual: rel_residual(a, b, x),
-        }
+        conditioning_of(&self.s, a, b, x, alpha)
+    }
+}
+
+/// The conditioning report from the singular values `s` (descending) of `a`.
+fn conditioning_of(s: &[f64], a: MatRef<'_, f64>, b: MatRef<'_, f64>, x: MatRef<'_, f64>, alpha: f64) -> Conditioning {
+    let s_max = s.first().copied().unwrap_or(0.0);
+    let s_min = s.last().copied().unwrap_or(0.0);
+    let lambda = alpha * s_max * s_max;
+    Conditioning {
+        rows: a.nrows(),
+        cols: a.ncols(),
+        s_max,
+        s_min,
+        cond: if s_min > 0.0 { s_max / s_min } else { f64::INFINITY },
+        alpha,
+        cond_regularized: if s_min * s_min + lambda > 0.0 {
+            ((s_max * s_max + lambda) / (s_min * s_min + lambda)).sqrt()
+        } else {
+            f64::INFINITY
+        },
+        rel_residual: rel_residual(a, b, x),
     }
 }
 
@@ -153,6 +294,36 @@ pub fn fit(
     Ok((x, cond))
 }
 
+/// [`fit`] on a design matrix given by value, factorized in its own storage (the same
+/// solution and report; for a tall `a` the peak memory is two sizes of `a` instead of
+/// three); `rebuild` makes `a` again for the residual of the conditioning report, after the
+/// factors are dropped.
+pub fn fit_owned(
+    a: Mat<f64>,
+    b: MatRef<'_, f64>,
+    groups: &[std::ops::Range<usize>],
+    ridge: Ridge,
+    what: &'static str,
+    rebuild: impl FnOnce() -> Mat<f64>,
+) -> Result<(Mat<f64>, Conditioning), FitError> {
+    let alpha = match ridge {
+        Ridge::Fixed(alpha) => {
+            if !(alpha >= 0.0 && alpha.is_finite()) {
+                return Err(FitError::BadOption { what: "ridge alpha", why: format!("{alpha} is not a finite number >= 0") });
+            }
+            alpha
+        }
+        Ridge::CrossValidated => cross_validate(a.as_ref(), b, groups, what)?,
+    };
+    let ls = RidgeLs::from_owned(a, what)?;
+    let x = ls.solve(b, alpha);
+    // The factors go before `a` comes back.
+    let RidgeLs { s, .. } = ls;
+    let a = rebuild();
+    let cond = conditioning_of(&s, a.as_ref(), b, x.as_ref(), alpha);
+    Ok((x, cond))
+}
+
 /// Picks the alpha on [`CV_GRID`] with the smallest summed validation error over folds
 /// (one fold per group; 5 contiguous blocks when there is a single group).
 pub fn cross_validate(
@@ -176,9 +347,10 @@ pub fn cross_validate(
         let bt = take_rows(b, &train);
         let av = take_rows(a, &val);
         let bv = take_rows(b, &val);
-        let ls = RidgeLs::new(at.as_ref(), what)?;
+        let ls = RidgeLs::from_owned(at, what)?;
+        let utb = ls.utb(bt.as_ref());
         for (e, &alpha) in err.iter_mut().zip(CV_GRID.iter()) {
-            let x = ls.solve(bt.as_ref(), alpha);
+            let x = ls.solve_utb(utb.as_ref(), alpha);
             let r = &av * &x - &bv;
             let v = r.norm_l2();
             *e += v * v;
@@ -226,6 +398,69 @@ mod tests {
         let x0 = (s * atb[(0, 0)] - q * atb[(1, 0)]) / det;
         let x1 = (-r * atb[(0, 0)] + p * atb[(1, 0)]) / det;
         assert!((x[(0, 0)] - x0).abs() < 1e-12 && (x[(1, 0)] - x1).abs() < 1e-12);
+    }
+
+    /// `a x ~ b` solved through faer's own thin SVD, as before the factored path: `U^T b`
+    /// with the whole `U`.
+    fn solve_by_thin_svd(a: MatRef<'_, f64>, b: MatRef<'_, f64>, alpha: f64) -> Mat<f64> {
+        let svd = a.thin_svd().unwrap();
+        let s: Vec<f64> = (0..a.ncols()).map(|i| svd.S()[i]).collect();
+        let ls = RidgeLs { u: svd.U().to_owned(), s, v: svd.V().to_owned(), rows: a.nrows() };
+        ls.solve(b, alpha)
+    }
+
+    /// The factorization in place (QR, SVD of R, `U = Q [U_R; 0]`) gives the same bits as
+    /// faer's thin SVD, on tall matrices of several shapes (QR block sizes), with and without
+    /// ridge; so does `fit_owned` against `fit`.
+    #[test]
+    fn factored_solve_is_bit_identical_to_thin_svd() {
+        let mut st = 7u64;
+        let mut r = || {
+            st = st.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            ((st >> 11) as f64) / ((1u64 << 53) as f64) - 0.5
+        };
+        for (m, n, q) in [(400, 30, 3), (3000, 35, 21), (4000, 200, 4), (2500, 330, 4)] {
+            let a = Mat::from_fn(m, n, |_, _| r());
+            let b = Mat::from_fn(m, q, |_, _| r());
+            assert!(qr_first(m, n));
+            for alpha in [0.0, 1e-8] {
+                let want = solve_by_thin_svd(a.as_ref(), b.as_ref(), alpha);
+                let owned = RidgeLs::from_owned(a.clone(), "t").unwrap().solve(b.as_ref(), alpha);
+                for i in 0..n {
+                    for j in 0..q {
+                        assert_eq!(owned[(i, j)].to_bits(), want[(i, j)].to_bits(), "{m}x{n} alpha {alpha}: x[{i},{j}]");
+                    }
+                }
+            }
+            let (x, c) = fit(a.as_ref(), b.as_ref(), &[0..m], Ridge::Fixed(0.0), "t").unwrap();
+            let (xo, co) = fit_owned(a.clone(), b.as_ref(), &[0..m], Ridge::Fixed(0.0), "t", || a.clone()).unwrap();
+            assert!(x == xo && c == co, "{m}x{n}: fit_owned differs from fit");
+        }
+    }
+
+    /// Reservations beyond the budget take turns; one alone goes ahead whatever its size;
+    /// small ones are not counted.
+    #[test]
+    fn reservations_beyond_the_budget_take_turns() {
+        use std::sync::mpsc;
+        use std::time::Duration;
+        static B: Budget = Budget::new();
+        B.limit.store(1000, Ordering::Relaxed);
+        let first = B.reserve(800);
+        let small = B.reserve(50);
+        let (tx, rx) = mpsc::channel();
+        let h = std::thread::spawn(move || {
+            let _r = B.reserve(800);
+            tx.send(()).unwrap();
+        });
+        assert!(rx.recv_timeout(Duration::from_millis(300)).is_err(), "the second reservation went ahead");
+        drop(first);
+        rx.recv_timeout(Duration::from_secs(10)).unwrap();
+        h.join().unwrap();
+        drop(small);
+        assert_eq!(*B.used.lock().unwrap(), 0);
+        drop(B.reserve(5000));
+        assert_eq!(*B.used.lock().unwrap(), 0);
     }
 
     #[test]

@@ -6,12 +6,12 @@
 use crate::plot::{self, Series};
 use crate::report::{Report, num, par_map};
 use crate::report::normal_form::PAPER_DTS;
-use furuta::parametric::{FurutaOptions, ParametricModel};
+use furuta::parametric::{FurutaOptions, ParametricModel, TrainingRuns, furuta_parametric_family};
 use ssm::portrait::{Fate, PointKind, PortraitOptions, fixed_points, portrait, trajectory};
 use ssm::interp::Interp;
-use furuta::shared_tangent::{PredictOptions, PredictionResult, predictions, shared_parametric};
+use furuta::shared_tangent::{PredictOptions, PredictionResult, predictions, shared_parametric_from};
 use crate::draw::portrait::plot_portrait;
-use furuta::bifurcations::{ModelBifurcations, RHO_MAX, model_bifurcations, model_row, model_small_start_switch, sensitivity_row, sensitivity_variants};
+use furuta::bifurcations::{ModelBifurcations, RHO_MAX, SensitivityRow, model_bifurcations, model_row, model_small_start_switch, sensitivity_variants};
 use plotters::style::RGBColor;
 use serde_json::{Value, json};
 use std::error::Error;
@@ -51,7 +51,8 @@ fn prediction_figures(rep: &Report, r: &PredictionResult) -> Result<(String, Str
 
 /// Predictions at the paper's unseen sampling periods; `summary.json` key `predictions`
 /// (linear interpolation, the paper's choice) and `predictions_spline`.
-pub fn predictions_section(rep: &mut Report) -> Result<(), Box<dyn Error>> {
+/// `runs`: the training runs of the parametric section (the same series, simulated once).
+pub fn predictions_section(rep: &mut Report, runs: &TrainingRuns) -> Result<(), Box<dyn Error>> {
     let po = PredictOptions::default();
     rep.section(
         "predictions",
@@ -69,7 +70,7 @@ pub fn predictions_section(rep: &mut Report) -> Result<(), Box<dyn Error>> {
             po.max_theta
         ),
     );
-    let model = shared_parametric(&FurutaOptions::default())?;
+    let model = shared_parametric_from(&FurutaOptions::default(), runs)?;
     let (lin, spl) = rayon::join(|| predictions(&model, &po, Interp::Linear), || predictions(&model, &po, Interp::Spline));
     let (lin, spl) = (lin?, spl?);
     let mut rows = Vec::new();
@@ -406,8 +407,10 @@ pub fn fullsystem_section(rep: &mut Report, pm: &ParametricModel, bif: &ModelBif
 
 /// How the model's bifurcation values depend on the training data: the amplitude cut of
 /// the training runs and the density of training periods (full report only: four more
-/// parametric fits). `default` is the report's model, fitted with `FurutaOptions::default()`.
-pub fn sensitivity_section(rep: &mut Report, default: &ParametricModel) -> Result<(), Box<dyn Error>> {
+/// parametric fits). `default` is the report's model, fitted with `FurutaOptions::default()`;
+/// `runs` its training runs, which cover the variants (simulated once); the variants share
+/// the fits of their common (period, cut) pairs and reuse `default`'s.
+pub fn sensitivity_section(rep: &mut Report, default: &ParametricModel, runs: &TrainingRuns) -> Result<(), Box<dyn Error>> {
     rep.section(
         "bifsensitivity",
         "Model bifurcations vs training choices",
@@ -431,7 +434,17 @@ pub fn sensitivity_section(rep: &mut Report, default: &ParametricModel) -> Resul
         })
     };
     let ((first, rest), tori) = rayon::join(
-        || rayon::join(|| model_row("default (paper's periods, cut 0.2 rad)", &base, default, None), || par_map(&variants, |(name, o)| sensitivity_row(name, o))),
+        || {
+            rayon::join(
+                || model_row("default (paper's periods, cut 0.2 rad)", &base, default, None),
+                || -> Result<Vec<SensitivityRow>, furuta::Error> {
+                    let sets: Vec<&FurutaOptions> = variants.iter().map(|(_, o)| o).collect();
+                    let models = furuta_parametric_family(&base, default, &sets, runs)?;
+                    let items: Vec<(&(&str, FurutaOptions), (ParametricModel, f64))> = variants.iter().zip(models).collect();
+                    par_map(&items, |((name, o), (pm, secs))| model_row(name, o, pm, Some(*secs)))
+                },
+            )
+        },
         tori,
     );
     let mut all = vec![first?];

@@ -9,7 +9,7 @@ use furuta::chaos_tables::*;
 use furuta::microchaos::*;
 use furuta::lyapunov::ModelLyapunov;
 use chaos::Points;
-use ssm::{Dynamics, SsmModel, TimeSeries, fit};
+use ssm::{SsmModel, TimeSeries};
 
 
 
@@ -40,15 +40,14 @@ pub fn pil_plant_theta(path: &std::path::Path) -> Result<TimeSeries, Box<dyn Err
 
 /// Figures of one data set: the PDF of each reduced coordinate (held-out data vs the RBF and
 /// polynomial models, on the models' common grids), the attractor projected on
-/// `(eta_1, eta_2)`, and the amplitude spectra of the observable. The models are refitted with
-/// the options [`analyse_held_out`] used (deterministic, so they are the same models).
+/// `(eta_1, eta_2)`, and the amplitude spectra of the observable. `models` are the ones
+/// [`analyse_held_out_models`] fitted (`"rbf"` / `"poly"`, in that order).
 pub fn chaos_figures(
     rep: &mut crate::report::Report,
     tag: &str,
     title: &str,
-    train: &[TimeSeries],
     test: &TimeSeries,
-    r: &ChaosSummary,
+    models: &[(&str, SsmModel)],
     o: &ChaosOptions,
 ) -> Result<(), Box<dyn Error>> {
     use crate::plot::{Panel, Series, grid};
@@ -56,21 +55,13 @@ pub fn chaos_figures(
     let colors = [RGBColor(0, 0, 0), RGBColor(200, 30, 30), RGBColor(30, 90, 200)];
     let dt = test.dt().ok_or("held-out series has no sampling step")?;
     let ctx = Context::from_series(&test.x, dt, o.gp_embed)?;
-    let base = fit_options(o, r.ssm_dim, &ctx);
-    // The two refits and predictions as tasks on the rayon pool, kept in this order.
-    let kinds = [("RBF model", Dynamics::Rbf { centers: o.centers }), ("polynomial model", Dynamics::Map)];
-    let fitted = crate::report::par_map(&kinds, |&(name, dynamics)| -> Result<Option<(&str, SsmModel, ssm::Prediction)>, ssm::FitError> {
-        let mut opts = base;
-        opts.dynamics = dynamics;
-        match fit(train, &opts) {
-            Ok(m) => {
-                let p = m.predict(test)?;
-                Ok(Some((name, m, p)))
-            }
-            Err(_) => Ok(None),
-        }
-    })?;
-    let runs: Vec<(&str, SsmModel, ssm::Prediction)> = fitted.into_iter().flatten().collect();
+    // The predictions as tasks on the rayon pool, kept in this order.
+    let predicted = crate::report::par_map(models, |(_, m)| m.predict(test))?;
+    let runs: Vec<(&str, &SsmModel, ssm::Prediction)> = models
+        .iter()
+        .zip(predicted)
+        .map(|((kind, m), p)| (if *kind == "rbf" { "RBF model" } else { "polynomial model" }, m, p))
+        .collect();
     let Some((_, m0, _)) = runs.first() else { return Ok(()) };
     let d = m0.options.dim;
     let eta_data = reduce_series(m0, test)?;
@@ -193,7 +184,7 @@ pub fn section(rep: &mut crate::report::Report, data_dir: &std::path::Path, quic
     let mut selections = Vec::new();
     for (name, train, test) in &sets {
         let label = format!("{name}; train {}, test {}", train.iter().map(|t| t.name.as_str()).collect::<Vec<_>>().join(" + "), test.name);
-        let r = match analyse_held_out(train, Some(test), &ChaosOptions::default()) {
+        let (r, models) = match analyse_held_out_models(train, Some(test), &ChaosOptions::default()) {
             Ok(r) => r,
             Err(e) => {
                 // One data set failing an estimator's precondition is reported, not fatal.
@@ -233,7 +224,7 @@ pub fn section(rep: &mut crate::report::Report, data_dir: &std::path::Path, quic
         selections.push((name.clone(), results, sel));
         list.insert(name.clone(), value);
         let tag: String = name.split(':').next().unwrap_or("set").chars().filter(|c| c.is_ascii_alphanumeric()).collect();
-        figs.push((tag, name.clone(), train.clone(), test.clone(), r));
+        figs.push((tag, name.clone(), test.clone(), r, models));
     }
     rep.table(
         &["data", "corr. dim", "SSM dim", "LLE data [1/s]", "LLE RBF", "LLE poly", "LLE RBF Benettin", "LLE poly Benettin", "JS RBF [bits]", "JS poly [bits]", "notes"],
@@ -251,7 +242,7 @@ pub fn section(rep: &mut crate::report::Report, data_dir: &std::path::Path, quic
          start.",
     );
     let mut grows = Vec::new();
-    for (_, name, _, _, r) in &figs {
+    for (_, name, _, r, _) in &figs {
         let w = &r.growth_windows_data;
         let opt = |v: Option<f64>| v.map_or("-".to_string(), num);
         let spec = |b: &Option<ModelLyapunov>| {
@@ -279,8 +270,8 @@ pub fn section(rep: &mut crate::report::Report, data_dir: &std::path::Path, quic
         ],
         &grows,
     );
-    for (tag, name, train, test, r) in &figs {
-        chaos_figures(rep, tag, name, train, test, r, &ChaosOptions::default())?;
+    for (tag, name, test, _, models) in &figs {
+        chaos_figures(rep, tag, name, test, models, &ChaosOptions::default())?;
     }
     selection_tables(rep, &selections);
     Ok(())

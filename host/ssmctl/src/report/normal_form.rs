@@ -3,16 +3,21 @@
 //! in dt, checked against the exact linear multipliers.
 
 use crate::report::{Report, num};
-use furuta::parametric::{FurutaOptions, ParametricModel, exact_modes, furuta_parametric};
+use furuta::parametric::{FurutaOptions, ParametricModel, TrainingRuns, exact_modes, furuta_parametric_from};
 use serde_json::{Value, json};
 use std::error::Error;
 
 pub const PAPER_DTS: [f64; 6] = [30.8, 31.4, 31.41, 31.55, 31.68, 32.3];
 
 /// Writes the section and returns the fitted parametric model (reused by the bifurcation
-/// section).
-pub fn section(rep: &mut Report) -> Result<ParametricModel, Box<dyn Error>> {
+/// section) and the training runs it was fitted on: simulated once for the model, the
+/// shared-tangent model of the predictions and, unless `quick`, the sensitivity variants
+/// (see [`TrainingRuns`]).
+pub fn section(rep: &mut Report, quick: bool) -> Result<(ParametricModel, TrainingRuns), Box<dyn Error>> {
     let opts = FurutaOptions::default();
+    let variants = if quick { Vec::new() } else { furuta::bifurcations::sensitivity_variants() };
+    let sets: Vec<&FurutaOptions> = std::iter::once(&opts).chain(variants.iter().map(|(_, o)| o)).collect();
+    let runs = TrainingRuns::simulate(&sets)?;
     let f = &opts.fit;
     rep.section(
         "parametric",
@@ -36,7 +41,7 @@ pub fn section(rep: &mut Report) -> Result<ParametricModel, Box<dyn Error>> {
             ))
         ),
     );
-    let model = furuta_parametric(&opts)?;
+    let model = furuta_parametric_from(&opts, &runs)?;
     let mut rows = Vec::new();
     let mut list = Vec::new();
     let mut dts: Vec<(f64, bool)> = opts.dts_ms.iter().map(|d| (*d, true)).collect();
@@ -83,5 +88,5 @@ pub fn section(rep: &mut Report) -> Result<ParametricModel, Box<dyn Error>> {
     rep.table(&h, &trows);
     rep.summary.insert("linear_nf".into(), Value::Array(list));
     rep.summary.insert("normal_form_table".into(), json!({"dt_ms": PAPER_DTS, "rows": tjson}));
-    Ok(model)
+    Ok((model, runs))
 }

@@ -23,9 +23,11 @@ use std::time::Instant;
 /// the fixed order: the parametric-model chain (parametric, portraits, fullsystem,
 /// predictions, bifsensitivity, then the global-bifurcation sections equation and basin) and the chaos chain (device, chaos, chaos-scale, chaos-verdict). Sections
 /// that measure speed (accuracy-time-sim, the fit bench of fit-sloshing, chaos-cost) run
-/// alone, so nothing else competes for the cores while they time.
+/// alone, so nothing else competes for the cores while they time. The large regressions
+/// share a memory budget ([`REGRESSION_MEMORY_MB`]).
 pub fn run(out: &Path, data_dir: &Path, quick: bool, quiet: bool) -> Result<(), Box<dyn Error>> {
     let t0 = Instant::now();
+    ssm::ridge::set_memory_budget(REGRESSION_MEMORY_MB << 20);
     let mut rep = Report::new(out)?;
     std::fs::create_dir_all(out.join("fig"))?;
     rep.summary.insert("quick".into(), Value::Bool(quick));
@@ -42,12 +44,12 @@ pub fn run(out: &Path, data_dir: &Path, quick: bool, quiet: bool) -> Result<(), 
             let mut t = Timings::default();
             let r = (|| -> Result<(), Box<dyn Error>> {
                 let rep = &mut part;
-                let parametric = t.time("parametric", || crate::report::normal_form::section(rep))?;
+                let (parametric, runs) = t.time("parametric", || crate::report::normal_form::section(rep, quick))?;
                 let bif = t.time("portraits", || crate::report::bifurcations::portraits_section(rep, &parametric))?;
                 t.time("fullsystem", || crate::report::bifurcations::fullsystem_section(rep, &parametric, &bif, quick))?;
-                t.time("predictions", || crate::report::bifurcations::predictions_section(rep))?;
+                t.time("predictions", || crate::report::bifurcations::predictions_section(rep, &runs))?;
                 if !quick {
-                    t.time("bifsensitivity", || crate::report::bifurcations::sensitivity_section(rep, &parametric))?;
+                    t.time("bifsensitivity", || crate::report::bifurcations::sensitivity_section(rep, &parametric, &runs))?;
                 }
                 t.time("global", || crate::report::global::global_sections(rep, &parametric, &bif, quick))?;
                 Ok(())
@@ -80,6 +82,12 @@ pub fn run(out: &Path, data_dir: &Path, quick: bool, quiet: bool) -> Result<(), 
     rep.finish("ssmctl reproduce: delayed, sampled, quantized PD control of the Furuta pendulum")?;
     Ok(())
 }
+
+/// The working memory (MB) the report's regressions may hold at the same time
+/// ([`ssm::ridge::set_memory_budget`]): the largest ones (the chaos study's RBF models, the
+/// parametric fits) then take turns instead of adding up on several threads. Only the
+/// schedule changes, not a result.
+pub const REGRESSION_MEMORY_MB: usize = 320;
 
 /// An error that can cross threads (a task's on the rayon pool).
 type SendError = Box<dyn Error + Send + Sync>;
