@@ -519,13 +519,10 @@ pub fn check_options(cli: &Cli) -> Result<(), Box<dyn std::error::Error>> {
                 linear_anchor: a.linear_anchor,
                 anchor_joint: a.anchor_joint,
             };
-            // The number of observables is known here unless it is `all`: then the fewest the
-            // embedding needs (the data say how many there are, checked again by the fit).
-            match &a.observables {
-                None => opts.validate()?,
-                Some(o) if !(o.len() == 1 && o[0] == "all") => opts.validate_for(o.len())?,
-                Some(_) => opts.validate_for((2 * a.dim.min(ssm::limits::MAX_DIM) + 1).div_ceil(a.embed.max(1)))?,
-            }
+            // Ranges and size limits here; the embedding's count against the observables
+            // (Takens) where the data are known, after their own errors: checked with the
+            // fewest observables the embedding needs (the fit checks again with the data's).
+            opts.validate_for((2 * a.dim.min(ssm::limits::MAX_DIM) + 1).div_ceil(a.embed.max(1)))?;
             if let Some(r) = &a.frc_range {
                 crate::fit_command::parse_freq_range(r)?;
             }

@@ -149,9 +149,79 @@ fn check_series(t: &[f64], x: &[f64]) {
 /// An accepted model validates again and survives `to_json`/`from_json`; an exported blob
 /// is accepted by the host decoder with its controller check (`inspect`), and decodes to
 /// the model that was encoded.
+///
+/// Input: JSON text (starting with `{` or white space), or else edits of a bundled fitted
+/// model (structure-aware: byte mutations of JSON text rarely stay a model): the first byte
+/// picks the model (RBF, polynomial map, flow, RBF of two observables), then records of 8
+/// bytes, each an operation on one of the model's numbers or arrays (picked by 2 bytes)
+/// with an operand (5 bytes): set a number (an integer, a power of ten, a scaled copy), cut,
+/// grow or empty an array, null it.
 pub fn model_json(data: &[u8]) {
-    let text = String::from_utf8_lossy(data);
-    let m = match ssm::SsmModel::from_json(&text) {
+    match data.first() {
+        Some(b'{' | b' ' | b'\n' | b'\t' | b'\r') | None => model_json_text(&String::from_utf8_lossy(data)),
+        Some(&pick) => {
+            let base = MODELS[usize::from(pick) % MODELS.len()];
+            let mut v: serde_json::Value = serde_json::from_str(base).unwrap_or_else(|e| panic!("bundled seed model: {e}"));
+            for rec in data[1..].chunks_exact(8) {
+                edit_model(&mut v, rec);
+            }
+            model_json_text(&v.to_string());
+        }
+    }
+}
+
+/// Fitted models the structure-aware mode of [`model_json`] edits (its seeds).
+const MODELS: [&str; 4] = [
+    include_str!("../../fuzz/seeds/model_json/rbf"),
+    include_str!("../../fuzz/seeds/model_json/map"),
+    include_str!("../../fuzz/seeds/model_json/flow"),
+    include_str!("../../fuzz/seeds/model_json/multi-rbf"),
+];
+
+/// JSON pointers of every number and array under `v`.
+fn pointers(v: &serde_json::Value, at: &str, out: &mut Vec<String>) {
+    match v {
+        serde_json::Value::Object(m) => m.iter().for_each(|(k, x)| pointers(x, &format!("{at}/{k}"), out)),
+        serde_json::Value::Array(a) => {
+            out.push(at.to_string());
+            a.iter().enumerate().for_each(|(i, x)| pointers(x, &format!("{at}/{i}"), out));
+        }
+        serde_json::Value::Number(_) | serde_json::Value::Null => out.push(at.to_string()),
+        _ => {}
+    }
+}
+
+/// One edit of a JSON model (see [`model_json`]).
+fn edit_model(v: &mut serde_json::Value, rec: &[u8]) {
+    let mut ptrs = Vec::new();
+    pointers(v, "", &mut ptrs);
+    if ptrs.is_empty() {
+        return;
+    }
+    let at = &ptrs[usize::from(u16::from_le_bytes([rec[0], rec[1]])) % ptrs.len()];
+    let op = rec[2];
+    let arg = i64::from(i32::from_le_bytes([rec[3], rec[4], rec[5], rec[6]]));
+    let small = rec[7];
+    let Some(x) = v.pointer_mut(at) else { return };
+    match (op % 8, &mut *x) {
+        (0, _) => *x = serde_json::json!(arg),
+        (1, _) => *x = serde_json::json!(i64::from(small) - 2),
+        (2, _) => *x = serde_json::json!(10f64.powi(i32::from(small as i8) * 3)),
+        (3, serde_json::Value::Number(n)) => *x = serde_json::json!(n.as_f64().unwrap_or(0.0) * (f64::from(small as i8) / 8.0)),
+        (4, serde_json::Value::Array(a)) => a.truncate(usize::from(small) % (a.len() + 1)),
+        (5, serde_json::Value::Array(a)) => {
+            if let Some(last) = a.last().cloned() {
+                a.extend(std::iter::repeat_n(last, usize::from(small % 16) + 1));
+            }
+        }
+        (6, _) => *x = serde_json::Value::Array(Vec::new()),
+        (7, _) => *x = serde_json::Value::Null,
+        _ => *x = serde_json::json!(-arg),
+    }
+}
+
+fn model_json_text(text: &str) {
+    let m = match ssm::SsmModel::from_json(text) {
         Ok(m) => m,
         Err(e) => return check_message("model json", &e.to_string()),
     };
