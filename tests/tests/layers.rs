@@ -19,6 +19,8 @@ const ALLOWED: &[(&str, &[&str])] = &[
     // The Python module `ssm_ctl` (host/python): an app layer beside ssmctl, on the learner.
     ("python", &["ssm", "shared"]),
     ("tests", &["controller", "shared"]),
+    // The fuzz targets' bodies (tests/fuzz-targets): above the app, whose parser they drive.
+    ("fuzz-targets", &["sim", "ssm", "furuta", "controller", "shared", "ssmctl"]),
 ];
 
 /// External crates only the app may depend on.

@@ -49,7 +49,9 @@ pub struct Axis {
 }
 
 impl Axis {
-    fn check(self, axis: &'static str) -> Result<Self, ChartError> {
+    /// The axis if its bounds are finite and ordered and it has 2 ..= 4000 points; else an
+    /// error naming `axis`.
+    pub fn check(self, axis: &'static str) -> Result<Self, ChartError> {
         let bad = |reason: String| Err(ChartError::BadAxis { axis, reason });
         if !(self.lo.is_finite() && self.hi.is_finite()) {
             return bad(format!("bounds {} .. {} must be finite", self.lo, self.hi));

@@ -481,8 +481,96 @@ pub fn parse_range(s: &str, what: &str) -> Result<(f64, f64, usize), String> {
     Ok((lo, hi, n))
 }
 
+/// Parses a command line (`args[0]` is the program name) without exiting: clap's error
+/// carries the usage message and its exit code (2; 0 for `--help`/`--version`).
+pub fn try_parse(args: &[String]) -> Result<Cli, clap::Error> {
+    Cli::try_parse_from(args)
+}
+
+/// The checks of a parsed command line that read no input file, run by [`run`] before any
+/// work: numeric options against their ranges and the stated size limits (`--periods`,
+/// `--timeout`, grid ranges, fit and chaos options through the libraries' own validation),
+/// and bundled scenes with their `--set` overrides (scene files are read by the command).
+/// The seam the `cli_options` fuzz target drives.
+pub fn check_options(cli: &Cli) -> Result<(), Box<dyn std::error::Error>> {
+    let bundled = |a: &SceneArgs| -> Result<(), Box<dyn std::error::Error>> {
+        if sim::scene::BUNDLED.iter().any(|(n, _)| *n == a.scene) {
+            a.load()?;
+        }
+        Ok(())
+    };
+    let one_based = |v: usize, flag: &str| -> Result<(), Box<dyn std::error::Error>> {
+        if v == 0 { Err(format!("{flag} is 1-based").into()) } else { Ok(()) }
+    };
+    match &cli.cmd {
+        Cmd::Simulate { scene, .. } | Cmd::Stability { scene, .. } | Cmd::SsmEquations { scene, .. } => bundled(scene)?,
+        Cmd::StabilityChart { scene, dt_ms, kp, kd, .. } => {
+            let (lo, hi, n) = parse_range(kp, "kp")?;
+            sim::chart::Axis { lo, hi, n }.check("KP")?;
+            let (lo, hi, n) = parse_range(kd, "kd")?;
+            sim::chart::Axis { lo, hi, n }.check("KD")?;
+            if let Some(dt) = dt_ms.iter().find(|dt| !(dt.is_finite() && **dt > 0.0)) {
+                return Err(format!("--dt-ms {dt}: a sampling period must be finite and > 0 ms").into());
+            }
+            bundled(scene)?;
+        }
+        Cmd::Fit(a) => {
+            parse_bounds(&a.from, "--from")?;
+            parse_bounds(&a.to, "--to")?;
+            let opts = ssm::FitOptions {
+                dim: a.dim,
+                embed: a.embed,
+                shift: a.shift,
+                manifold_order: a.order,
+                dyn_order: a.dyn_order,
+                dynamics: crate::fit_command::parse_dynamics(&a.dynamics, a.centers)?,
+                ridge: crate::fit_command::parse_ridge(&a.ridge)?,
+                linear_anchor: a.linear_anchor,
+                anchor_joint: a.anchor_joint,
+            };
+            // Ranges and size limits here; the embedding's count against the observables
+            // (Takens) where the data are known, after their own errors: checked with the
+            // fewest observables the embedding needs (the fit checks again with the data's).
+            opts.validate_for((2 * a.dim.min(ssm::limits::MAX_DIM) + 1).div_ceil(a.embed.max(1)))?;
+            if let Some(r) = &a.frc_range {
+                crate::fit_command::parse_freq_range(r)?;
+            }
+            if let Some(c) = &a.frc_calibrate {
+                crate::fit_command::parse_calibration(c)?;
+            }
+        }
+        Cmd::Backbone { observable, .. } => one_based(*observable, "--observable")?,
+        Cmd::Frc { freq_range, calibrate, observable, mode, .. } => {
+            crate::fit_command::parse_freq_range(freq_range)?;
+            crate::fit_command::parse_calibration(calibrate)?;
+            one_based(*observable, "--observable")?;
+            one_based(*mode, "--mode")?;
+        }
+        Cmd::Chaos { gp_embed, ssm_dim, centers, poly_order, shift, ridge, .. } => {
+            furuta::microchaos::ChaosOptions { gp_embed: *gp_embed, ssm_dim: *ssm_dim, centers: *centers, poly_order: *poly_order, shift: *shift, ridge: *ridge, ..Default::default() }
+                .validate()?;
+        }
+        Cmd::Pil { scene, periods, timeout, .. } => {
+            if *periods == 0 {
+                return Err("--periods must be >= 1 (a PIL run of 0 periods compares nothing)".into());
+            }
+            if *periods > sim::scene::MAX_PERIODS {
+                return Err(format!("--periods {periods} exceeds the limit of {} periods", sim::scene::MAX_PERIODS).into());
+            }
+            crate::pil::reply_timeout(*timeout)?;
+            bundled(scene)?;
+        }
+        Cmd::Bench { what: BenchCmd::Simulate { periods, .. } } => {
+            bench::problem(*periods)?;
+        }
+        Cmd::Scenes { .. } | Cmd::Reproduce { .. } | Cmd::Sweep { .. } | Cmd::SweepMerge { .. } | Cmd::Export { .. } | Cmd::Inspect { .. } | Cmd::Bench { .. } => {}
+    }
+    Ok(())
+}
+
 /// Runs the CLI; the error is printed by `main`.
 pub fn run(cli: Cli) -> Result<(), Box<dyn std::error::Error>> {
+    check_options(&cli)?;
     let quiet = cli.quiet;
     match cli.cmd {
         Cmd::Scenes { json } => {
@@ -749,13 +837,7 @@ pub fn run(cli: Cli) -> Result<(), Box<dyn std::error::Error>> {
             }
         }
         Cmd::Pil { scene, model, fit_model, periods, out, elf, machine, timeout, json } => {
-            // Options first (cheap), then anything that runs or writes.
-            if periods == 0 {
-                return Err("--periods must be >= 1 (a PIL run of 0 periods compares nothing)".into());
-            }
-            if periods > sim::scene::MAX_PERIODS {
-                return Err(format!("--periods {periods} exceeds the limit of {} periods", sim::scene::MAX_PERIODS).into());
-            }
+            // Options were checked first (`check_options`), then anything that runs or writes.
             let reply_timeout = crate::pil::reply_timeout(timeout)?;
             if fit_model {
                 crate::output::check_not_input(&model, &[("--scene", std::path::Path::new(&scene.scene)), ("--elf", elf.as_path())])?;

@@ -94,7 +94,7 @@ pub struct FitResult {
     pub summary: FitSummary,
 }
 
-fn parse_dynamics(s: &str, centers: usize) -> Result<Dynamics, String> {
+pub(crate) fn parse_dynamics(s: &str, centers: usize) -> Result<Dynamics, String> {
     match s {
         "flow" => Ok(Dynamics::Flow),
         "map" => Ok(Dynamics::Map),
@@ -103,7 +103,7 @@ fn parse_dynamics(s: &str, centers: usize) -> Result<Dynamics, String> {
     }
 }
 
-fn parse_ridge(s: &str) -> Result<Ridge, String> {
+pub(crate) fn parse_ridge(s: &str) -> Result<Ridge, String> {
     if s == "cv" {
         return Ok(Ridge::CrossValidated);
     }
@@ -405,6 +405,29 @@ pub enum BlobError {
     Decode(#[from] shared::model::DecodeError),
     #[error(transparent)]
     Config(#[from] controller::ConfigError),
+    /// The decoder's thread could not be started or did not finish.
+    #[error("the blob decoder could not run: {0}")]
+    Decoder(String),
+}
+
+/// Decodes `bytes` with the host decoder ([`HostModel`]: every check the device makes). The
+/// fixed-capacity model is several MB and decoding builds it on the stack in an unoptimized
+/// build (twice: the placeholder and the reset), more than the main thread's 8 MB (`export`
+/// and `inspect` aborted with a stack overflow in the dev profile): it runs on a thread
+/// with room for it, as the Python module's `inspect_blob`.
+pub fn decode_host(bytes: &[u8]) -> Result<Box<HostModel>, BlobError> {
+    let bytes = bytes.to_vec();
+    std::thread::Builder::new()
+        .name("blob-decoder".into())
+        .stack_size(64 << 20)
+        .spawn(move || {
+            let mut m = Box::new(HostModel::empty());
+            m.decode_into(&bytes).map(|()| m)
+        })
+        .map_err(|e| BlobError::Decoder(e.to_string()))?
+        .join()
+        .map_err(|_| BlobError::Decoder("it panicked".into()))?
+        .map_err(BlobError::Decode)
 }
 
 /// Header and shapes of a device blob, after a full decode (so every check runs) and the
@@ -412,8 +435,7 @@ pub enum BlobError {
 /// passes ([`controller::validate_config`] for the project's history capacity).
 pub fn inspect(bytes: &[u8]) -> Result<Value, BlobError> {
     let (h, _) = shared::model::Header::parse(bytes)?;
-    let mut m = Box::new(HostModel::empty());
-    m.decode_into(bytes)?;
+    let m = decode_host(bytes)?;
     controller::validate_config::<{ controller::HISTORY }>(m.config())?;
     let c = m.config();
     Ok(json!({
@@ -427,4 +449,21 @@ pub fn inspect(bytes: &[u8]) -> Result<Value, BlobError> {
         "controller": {"kp": c.kp, "kd": c.kd, "kphi_d": c.kphi_d, "ki": c.ki, "dt": c.dt, "delay": c.delay,
                         "u_max": c.u_max, "quantized": c.quant.is_some()},
     }))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The host decoder needs no stack of the caller's (it runs on its own thread): `inspect`
+    /// of the reference blob works from a thread with a 256 KiB stack, where the several-MB
+    /// model built on the caller's stack overflowed (exit 134 of `export`/`inspect` in the
+    /// dev profile).
+    #[test]
+    fn inspect_runs_on_a_small_stack() {
+        let blob = std::fs::read(concat!(env!("CARGO_MANIFEST_DIR"), "/../../shared/tests/data/model_v1.bin")).unwrap();
+        let v = std::thread::Builder::new().stack_size(256 << 10).spawn(move || inspect(&blob).map_err(|e| e.to_string())).unwrap().join().unwrap().unwrap();
+        assert_eq!(v["format_version"], 1);
+        assert!(v["p"].as_u64().unwrap() >= 1, "{v}");
+    }
 }

@@ -48,6 +48,8 @@
 //! - `slurm-test`: a one-node Slurm on localhost (installed from Debian when missing) runs
 //!   the bundled sweeps as `sbatch --array` jobs; their merge must equal the local
 //!   single-process run bit for bit; the daemons are shut down on every path (`slurm.rs`).
+//! - `fuzz [--seconds N] [TARGET ...]`: the libFuzzer targets of `tests/fuzz` (nightly +
+//!   cargo-fuzz; says so when missing), N seconds each (`fuzz.rs`).
 
 mod cache;
 mod child;
@@ -56,6 +58,7 @@ mod device_table;
 mod elf;
 mod python;
 mod files;
+mod fuzz;
 mod rng;
 mod slurm;
 mod traces;
@@ -164,7 +167,8 @@ fn main() -> ExitCode {
         Some("pil-record") => record_args(&args[1..]).and_then(|r| pil_record(&r)).map(|_| ()),
         Some("compare-report") => compare_report::run(&args[1..]),
         Some("slurm-test") => slurm::slurm_test(None),
-        _ => Err("usage: cargo xtask <install | qemu-test [--board mps2-an386|stm32f407] | firmware-size | device-table [--json] | python-test | pil [--periods N] [--scene NAME] | pil-record --out DIR [--runs N] [--periods P] [--scene NAME] [--seed S] [--fresh] | test | reproduce --out DIR [--fresh] | compare-report BASE NEW | slurm-test>".into()),
+        Some("fuzz") => fuzz::fuzz(&args[1..]),
+        _ => Err("usage: cargo xtask <install | qemu-test [--board mps2-an386|stm32f407] | firmware-size | device-table [--json] | python-test | pil [--periods N] [--scene NAME] | pil-record --out DIR [--runs N] [--periods P] [--scene NAME] [--seed S] [--fresh] | test | reproduce --out DIR [--fresh] | compare-report BASE NEW | slurm-test | fuzz [--seconds N] [TARGET ...]>".into()),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
