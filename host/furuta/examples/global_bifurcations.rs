@@ -157,6 +157,14 @@ fn fit(args: &[String]) -> R {
     Ok(())
 }
 
+/// CPU seconds (user + system) of this process so far, from /proc/self/stat (Linux; 0 elsewhere).
+fn cpu_s() -> f64 {
+    let s = std::fs::read_to_string("/proc/self/stat").unwrap_or_default();
+    let f: Vec<&str> = s.rsplit(')').next().unwrap_or("").split_whitespace().collect();
+    let tick = |i: usize| f.get(i).and_then(|v| v.parse::<f64>().ok()).unwrap_or(0.0);
+    (tick(11) + tick(12)) / 100.0
+}
+
 fn mapswitch(args: &[String]) -> R {
     use furuta::bifurcations::{map_outcome, map_small_start_switch};
     use furuta::full_system::{ESCAPE_THETA, default_ics, DEFAULT_SCAN_PERIODS};
@@ -172,14 +180,16 @@ fn mapswitch(args: &[String]) -> R {
     for name in &names {
         let o = variant(name)?;
         let t0 = std::time::Instant::now();
+        let c0 = cpu_s();
         let sm = furuta::shared_tangent::shared_parametric(&o)?;
         let fit_s = t0.elapsed().as_secs_f64();
+        println!("{name}: shared fit {:.1} s CPU", cpu_s() - c0);
         for interp in [ssm::interp::Interp::Linear, ssm::interp::Interp::Spline] {
-            let t1 = std::time::Instant::now();
+            let (t1, c1) = (std::time::Instant::now(), cpu_s());
             let sw = map_small_start_switch(&sm, interp, default_ics, 31.0, 32.0, 11, periods, 0.005)?;
             println!(
-                "{name} {interp:?}: map switch {:?} ms (fit {fit_s:.0} s, scan {:.1} s wall, {} runs), grid escapes {:?}, monotone {}",
-                sw.bracket, t1.elapsed().as_secs_f64(), sw.evaluations, sw.grid.iter().map(|g| g.1).collect::<Vec<_>>(), sw.monotone
+                "{name} {interp:?}: map switch {:?} ms (fit {fit_s:.0} s, scan {:.1} s wall {:.1} s CPU, {} runs), grid escapes {:?}, monotone {}",
+                sw.bracket, t1.elapsed().as_secs_f64(), cpu_s() - c1, sw.evaluations, sw.grid.iter().map(|g| g.1).collect::<Vec<_>>(), sw.monotone
             );
             if let Some((a, b)) = sw.bracket {
                 for dt in [a, b] {
@@ -204,7 +214,7 @@ fn mapcycles(args: &[String]) -> R {
     println!("fit {:.0} s", t0.elapsed().as_secs_f64());
     for mode in [1usize, 2] {
         let t1 = std::time::Instant::now();
-        let full = saddle_cycles(&dts, mode, &[3], &opts)?;
+        let full = saddle_cycles(&dts, mode, &[7], &opts)?;
         println!("mode {mode}: full system {:.0} s", t1.elapsed().as_secs_f64());
         for r in &full {
             let Some(fc) = &r.full else {
