@@ -186,7 +186,7 @@ fn mapswitch(args: &[String]) -> R {
         println!("{name}: shared fit {:.1} s CPU", cpu_s() - c0);
         for interp in [ssm::interp::Interp::Linear, ssm::interp::Interp::Spline] {
             let (t1, c1) = (std::time::Instant::now(), cpu_s());
-            let sw = map_small_start_switch(&sm, interp, default_ics, 31.0, 32.0, 11, periods, 0.005)?;
+            let sw = map_small_start_switch(|dt| sm.model_at(dt, interp), default_ics, 31.0, 32.0, 11, periods, 0.005)?;
             println!(
                 "{name} {interp:?}: map switch {:?} ms (fit {fit_s:.0} s, scan {:.1} s wall {:.1} s CPU, {} runs), grid escapes {:?}, monotone {}",
                 sw.bracket, t1.elapsed().as_secs_f64(), cpu_s() - c1, sw.evaluations, sw.grid.iter().map(|g| g.1).collect::<Vec<_>>(), sw.monotone

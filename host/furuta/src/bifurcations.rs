@@ -309,16 +309,14 @@ pub fn first_escape_switch(escapes: impl Fn(f64) -> Result<Vec<bool>, Error> + S
     Ok(MapSwitch { bracket, grid, monotone, evaluations })
 }
 
-/// The fitted map's small-start switch: at each `dt` the shared-tangent model's map
-/// `model_at(dt, interp)` is iterated from the full system's starts `ics_at(dt)` (e.g.
+/// The fitted map's small-start switch: at each `dt` the map `model_at(dt)` (e.g. the
+/// shared-tangent model's, `|dt| sm.model_at(dt, Interp::Linear)`) is iterated from the full system's starts `ics_at(dt)` (e.g.
 /// [`crate::full_system::default_ics`]) for `periods` periods ([`map_outcome`]); the switch
 /// is the first dt with an escape (|theta| > [`crate::full_system::ESCAPE_THETA`]), located by
 /// [`first_escape_switch`] on `[lo, hi]` (grid `n`, bisection to `tol` ms). The map's
 /// counterpart of [`crate::full_system::default_switch_scan`], no normal form involved.
-#[allow(clippy::too_many_arguments)]
 pub fn map_small_start_switch(
-    model: &crate::shared_tangent::SharedParametricModel,
-    interp: ssm::interp::Interp,
+    model_at: impl Fn(f64) -> Result<ssm::fit::SsmModel, Error> + Sync,
     ics_at: impl Fn(f64) -> Result<Vec<crate::full_system::Start>, Error> + Sync,
     lo: f64,
     hi: f64,
@@ -327,7 +325,7 @@ pub fn map_small_start_switch(
     tol: f64,
 ) -> Result<MapSwitch, Error> {
     let escapes = |dt: f64| -> Result<Vec<bool>, Error> {
-        let m = model.model_at(dt, interp)?;
+        let m = model_at(dt)?;
         let ics = ics_at(dt)?;
         let outs = crate::par_map(&ics, |ic| map_outcome(&m, dt, ic, periods, crate::full_system::ESCAPE_THETA))?;
         Ok(outs.iter().map(|o| !o.bounded()).collect())
