@@ -9,6 +9,12 @@
 //! * `fit VARIANT...`: trains the data-driven model per variant (see [`variant`]), prints its
 //!   bifurcation values, its saddle cycles next to the full system's and its cubic and
 //!   quintic coefficients next to the equation-driven ones.
+//! * `mapswitch [--periods N] VARIANT...`: the small-start switch of the fitted map itself
+//!   (shared-tangent model, `bifurcations::map_small_start_switch`, 31.0-32.0 ms, bisection
+//!   to 0.005 ms) per variant (`default` or a sensitivity variant, see [`variant`]), with
+//!   direct runs on both sides of the bracket.
+//! * `mapcycles DT...`: slow and fast saddle cycles of the fitted map (`fitted_map_cycle`
+//!   on `model_at(dt)`) next to the full system's.
 
 use furuta::convergence::furuta_convergence;
 use furuta::bifurcations::{model_row, sensitivity_variants};
@@ -151,12 +157,92 @@ fn fit(args: &[String]) -> R {
     Ok(())
 }
 
+/// CPU seconds (user + system) of this process so far, from /proc/self/stat (Linux; 0 elsewhere).
+fn cpu_s() -> f64 {
+    let s = std::fs::read_to_string("/proc/self/stat").unwrap_or_default();
+    let f: Vec<&str> = s.rsplit(')').next().unwrap_or("").split_whitespace().collect();
+    let tick = |i: usize| f.get(i).and_then(|v| v.parse::<f64>().ok()).unwrap_or(0.0);
+    (tick(11) + tick(12)) / 100.0
+}
+
+fn mapswitch(args: &[String]) -> R {
+    use furuta::bifurcations::{map_outcome, map_small_start_switch};
+    use furuta::full_system::{ESCAPE_THETA, default_ics, DEFAULT_SCAN_PERIODS};
+    let mut periods = DEFAULT_SCAN_PERIODS;
+    let mut names = Vec::new();
+    let mut it = args.iter();
+    while let Some(a) = it.next() {
+        match a.as_str() {
+            "--periods" => periods = it.next().ok_or("--periods N")?.parse()?,
+            x => names.push(x.to_string()),
+        }
+    }
+    for name in &names {
+        let o = variant(name)?;
+        let t0 = std::time::Instant::now();
+        let c0 = cpu_s();
+        let sm = furuta::shared_tangent::shared_parametric(&o)?;
+        let fit_s = t0.elapsed().as_secs_f64();
+        println!("{name}: shared fit {:.1} s CPU", cpu_s() - c0);
+        for interp in [ssm::interp::Interp::Linear, ssm::interp::Interp::Spline] {
+            let (t1, c1) = (std::time::Instant::now(), cpu_s());
+            let sw = map_small_start_switch(|dt| sm.model_at(dt, interp), default_ics, 31.0, 32.0, 11, periods, 0.005)?;
+            println!(
+                "{name} {interp:?}: map switch {:?} ms (fit {fit_s:.0} s, scan {:.1} s wall {:.1} s CPU, {} runs), grid escapes {:?}, monotone {}",
+                sw.bracket, t1.elapsed().as_secs_f64(), cpu_s() - c1, sw.evaluations, sw.grid.iter().map(|g| g.1).collect::<Vec<_>>(), sw.monotone
+            );
+            if let Some((a, b)) = sw.bracket {
+                for dt in [a, b] {
+                    let m = sm.model_at(dt, interp)?;
+                    let outs: Vec<String> = default_ics(dt)?
+                        .iter()
+                        .map(|ic| map_outcome(&m, dt, ic, periods, ESCAPE_THETA).map(|o| o.escape_t.map_or(format!("B({:.3})", o.max_theta), |t| format!("E@{t:.0}s"))))
+                        .collect::<Result<_, _>>()?;
+                    println!("   direct at {dt:.4} ms: {}", outs.join(" "));
+                }
+            }
+        }
+    }
+    Ok(())
+}
+
+fn mapcycles(args: &[String]) -> R {
+    let dts: Vec<f64> = args.iter().map(|a| a.parse()).collect::<Result<_, _>>()?;
+    let t0 = std::time::Instant::now();
+    let sm = furuta::shared_tangent::shared_parametric(&FurutaOptions::default())?;
+    let opts = CircleOptions { n: 65, ..CircleOptions::default() };
+    println!("fit {:.0} s", t0.elapsed().as_secs_f64());
+    for mode in [1usize, 2] {
+        let t1 = std::time::Instant::now();
+        let full = saddle_cycles(&dts, mode, &[7], &opts)?;
+        println!("mode {mode}: full system {:.0} s", t1.elapsed().as_secs_f64());
+        for r in &full {
+            let Some(fc) = &r.full else {
+                println!("{:6} mode {mode}: full not found {:?}", r.dt_ms, r.full_failure);
+                continue;
+            };
+            let m = sm.model_at(r.dt_ms, ssm::interp::Interp::Linear)?;
+            let line = match fitted_map_cycle(&m, mode, fc.theta_amplitude, fc.omega, &opts) {
+                Ok(c) => format!(
+                    "map theta1 {:.5} f {:.4} Hz (res {:.0e}) rel {:+.4}",
+                    c.theta_amplitude, c.freq_hz, c.residual, c.theta_amplitude / fc.theta_amplitude - 1.0
+                ),
+                Err(e) => format!("map: not found ({e})"),
+            };
+            println!("{:6} mode {mode}: full theta1 {:.5} f {:.4} Hz | {line}", r.dt_ms, fc.theta_amplitude, fc.freq_hz);
+        }
+    }
+    Ok(())
+}
+
 fn main() -> R {
     let args: Vec<String> = std::env::args().skip(1).collect();
     match args.first().map(String::as_str) {
         Some("convergence") => convergence(&args[1..]),
         Some("cycles") => cycles(&args[1..]),
         Some("fit") => fit(&args[1..]),
+        Some("mapswitch") => mapswitch(&args[1..]),
+        Some("mapcycles") => mapcycles(&args[1..]),
         _ => Err("subcommands: convergence ORDER DT... | cycles MODE ORDER DT...".into()),
     }
 }

@@ -187,3 +187,203 @@ pub fn sensitivity_variants() -> Vec<(&'static str, FurutaOptions)> {
         ("7 periods, cut 0.3 rad", FurutaOptions { dts_ms: dense, max_theta: 0.3, ..base }),
     ]
 }
+
+// ---------------------------------------------------------------------------------------
+// The global bifurcation read off the fitted map itself (no normal form)
+// ---------------------------------------------------------------------------------------
+
+/// Iterates a reduced map from `eta0` for `steps` steps (step `dt` s; sample 0 is `eta0`
+/// itself, at time `t0`) and classifies it as the full-system scans do: escape at the first
+/// sample with |`obs(eta)`| > `escape_theta` (or a non-finite state), else bounded.
+/// `step` advances `eta` in place by one period.
+pub fn iterate_outcome(
+    mut step: impl FnMut(&mut [f64]),
+    obs: impl Fn(&[f64]) -> f64,
+    eta0: &[f64],
+    steps: u64,
+    t0: f64,
+    dt: f64,
+    escape_theta: f64,
+) -> crate::full_system::Outcome {
+    let mut eta = eta0.to_vec();
+    let mut max_theta = 0.0f64;
+    for n in 0..=steps {
+        let th = obs(&eta);
+        if !th.is_finite() || eta.iter().any(|v| !v.is_finite()) || th.abs() > escape_theta {
+            return crate::full_system::Outcome { escape_t: Some(t0 + n as f64 * dt), max_theta: if th.is_finite() { max_theta.max(th.abs()) } else { f64::INFINITY } };
+        }
+        max_theta = max_theta.max(th.abs());
+        if n < steps {
+            step(&mut eta);
+        }
+    }
+    crate::full_system::Outcome { escape_t: None, max_theta }
+}
+
+/// The fitted map's fate of one full-system start at `dt_ms`: the first `p` samples of theta
+/// (the delay-embedding window, `p` = the model's embedding dimension) come from the full
+/// system (as a prediction is started from the first `p` test samples), are projected to
+/// `eta0 = V1^T y0`, and the map is iterated for the rest of `periods` periods; theta is the
+/// newest coordinate of the lifted point. Escape: |theta| > `escape_theta` (also in the
+/// first `p` samples).
+pub fn map_outcome(model: &ssm::fit::SsmModel, dt_ms: f64, start: &crate::full_system::Start, periods: u64, escape_theta: f64) -> Result<crate::full_system::Outcome, Error> {
+    use ssm::dynamics::StepScratch;
+    let p = model.manifold.p;
+    if model.observables != 1 {
+        return Err(Error::BadInput { what: "model", why: format!("needs one observable (theta), has {}", model.observables) });
+    }
+    let dt = model.dynamics.map_dt().ok_or(Error::NotAMap)?;
+    if (dt - sim::units::ms_to_s(dt_ms)).abs() > 1e-9 * dt {
+        return Err(Error::BadInput { what: "dt_ms", why: format!("{dt_ms} ms, but the model's map steps {} ms", dt * 1e3) });
+    }
+    if periods < p as u64 {
+        return Err(Error::BadInput { what: "periods", why: format!("{periods} is shorter than the embedding window ({p} samples)") });
+    }
+    let head = crate::full_system::run(dt_ms, start, p as u64, f64::MAX)?.primary();
+    let Some(y0) = head.get(..p) else {
+        return Err(Error::BadInput { what: "start", why: format!("full-system run gave {} samples, need {p}", head.len()) });
+    };
+    let head_max = y0.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+    if let Some(k) = y0.iter().position(|v| v.abs() > escape_theta) {
+        return Ok(crate::full_system::Outcome { escape_t: Some(k as f64 * dt), max_theta: head_max });
+    }
+    let eta0 = model.manifold.reduce(y0);
+    let mut scratch = StepScratch::default();
+    let lift = std::cell::RefCell::new((vec![0.0; p], ssm::poly::PolyScratch::default()));
+    let obs = |e: &[f64]| {
+        let mut g = lift.borrow_mut();
+        let (out, sc) = &mut *g;
+        model.manifold.lift_into(e, sc, out);
+        out[p - 1]
+    };
+    let o = iterate_outcome(|e| model.dynamics.step(e, dt, &mut scratch), obs, &eta0, periods - (p as u64 - 1), (p - 1) as f64 * dt, dt, escape_theta);
+    Ok(crate::full_system::Outcome { escape_t: o.escape_t, max_theta: o.max_theta.max(head_max) })
+}
+
+/// A bounded-to-escape switch located by a grid and bisection.
+#[derive(Clone, Debug, Serialize)]
+pub struct MapSwitch {
+    /// `(lo, hi)`: every start bounded at `lo`, some start escapes at `hi`, `hi - lo <= tol`.
+    /// `None` when no grid point has an escape or the first one already has one.
+    pub bracket: Option<(f64, f64)>,
+    /// Number of escaping starts per grid point (grid order).
+    pub grid: Vec<(f64, usize)>,
+    /// Whether the escape counts on the grid never decrease (a clean switch).
+    pub monotone: bool,
+    /// Number of (dt, start) evaluations.
+    pub evaluations: usize,
+}
+
+/// The first `dt` in `[lo, hi]` at which any start escapes: `escapes(dt)` returns the
+/// per-start escape flags; grid of `n` points (rayon pool, input order), then bisection
+/// between the last all-bounded grid point and the first escaping one to `tol` ms.
+pub fn first_escape_switch(escapes: impl Fn(f64) -> Result<Vec<bool>, Error> + Sync, lo: f64, hi: f64, n: usize, tol: f64) -> Result<MapSwitch, Error> {
+    if !(lo.is_finite() && hi.is_finite() && lo < hi) || n < 2 {
+        return Err(Error::BadInput { what: "switch range", why: format!("need lo < hi finite and n >= 2, got [{lo}, {hi}], n = {n}") });
+    }
+    if !(tol.is_finite() && tol > 0.0) {
+        return Err(Error::BadInput { what: "tol", why: format!("must be positive, got {tol}") });
+    }
+    let dts: Vec<f64> = (0..n).map(|k| lo + (hi - lo) * k as f64 / (n - 1) as f64).collect();
+    let rows = crate::par_map(&dts, |&dt| escapes(dt))?;
+    let mut evaluations: usize = rows.iter().map(Vec::len).sum();
+    let grid: Vec<(f64, usize)> = dts.iter().zip(&rows).map(|(&d, r)| (d, r.iter().filter(|&&e| e).count())).collect();
+    let monotone = grid.windows(2).all(|w| w[1].1 >= w[0].1);
+    let bracket = match grid.iter().position(|g| g.1 > 0) {
+        None | Some(0) => None,
+        Some(i) => {
+            let (mut a, mut b) = (dts[i - 1], dts[i]);
+            while b - a > tol {
+                let m = 0.5 * (a + b);
+                let r = escapes(m)?;
+                evaluations += r.len();
+                if r.iter().any(|&e| e) {
+                    b = m;
+                } else {
+                    a = m;
+                }
+            }
+            Some((a, b))
+        }
+    };
+    Ok(MapSwitch { bracket, grid, monotone, evaluations })
+}
+
+/// The fitted map's small-start switch: at each `dt` the map `model_at(dt)` (e.g. the
+/// shared-tangent model's, `|dt| sm.model_at(dt, Interp::Linear)`) is iterated from the full system's starts `ics_at(dt)` (e.g.
+/// [`crate::full_system::default_ics`]) for `periods` periods ([`map_outcome`]); the switch
+/// is the first dt with an escape (|theta| > [`crate::full_system::ESCAPE_THETA`]), located by
+/// [`first_escape_switch`] on `[lo, hi]` (grid `n`, bisection to `tol` ms). The map's
+/// counterpart of [`crate::full_system::default_switch_scan`], no normal form involved.
+pub fn map_small_start_switch(
+    model_at: impl Fn(f64) -> Result<ssm::fit::SsmModel, Error> + Sync,
+    ics_at: impl Fn(f64) -> Result<Vec<crate::full_system::Start>, Error> + Sync,
+    lo: f64,
+    hi: f64,
+    n: usize,
+    periods: u64,
+    tol: f64,
+) -> Result<MapSwitch, Error> {
+    let escapes = |dt: f64| -> Result<Vec<bool>, Error> {
+        let m = model_at(dt)?;
+        let ics = ics_at(dt)?;
+        let outs = crate::par_map(&ics, |ic| map_outcome(&m, dt, ic, periods, crate::full_system::ESCAPE_THETA))?;
+        Ok(outs.iter().map(|o| !o.bounded()).collect())
+    };
+    first_escape_switch(escapes, lo, hi, n, tol)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Known answer: the rotation-and-growth map `z -> lambda(dt) e^{0.3 i} z`, `lambda = 1 +
+    /// 0.01 (dt - 31.3)`, from |z| = 1e-3 for N = 1000 steps escapes |z| > 1 exactly when
+    /// `lambda^N > 1000`, i.e. above `dt* = 31.3 + 100 (1000^{1/N} - 1)` = 31.99316 ms. The
+    /// grid-and-bisection switch must bracket dt* to the tolerance; a second start at 1e-4
+    /// (escapes later) changes nothing, the escape count on the grid is monotone.
+    #[test]
+    fn switch_of_a_map_with_a_known_escape_threshold() {
+        let n_steps = 1000u64;
+        let want = 31.3 + 100.0 * (1000f64.powf(1.0 / n_steps as f64) - 1.0);
+        let escapes = |dt: f64| -> Result<Vec<bool>, Error> {
+            let lam = 1.0 + 0.01 * (dt - 31.3);
+            let (c, s) = (lam * 0.3f64.cos(), lam * 0.3f64.sin());
+            Ok([1e-3, 1e-4]
+                .iter()
+                .map(|&r0| {
+                    let step = |e: &mut [f64]| {
+                        let (x, y) = (e[0], e[1]);
+                        e[0] = c * x - s * y;
+                        e[1] = s * x + c * y;
+                    };
+                    !iterate_outcome(step, |e: &[f64]| e[0].hypot(e[1]), &[r0, 0.0], n_steps, 0.0, 0.01, 1.0).bounded()
+                })
+                .collect())
+        };
+        let sw = first_escape_switch(escapes, 31.0, 32.0, 11, 0.005).unwrap();
+        let (a, b) = sw.bracket.unwrap();
+        eprintln!("{sw:?}, want {want}");
+        assert!(a < want && want <= b && b - a <= 0.005, "{a} {b} vs {want}");
+        assert!(sw.monotone);
+        assert_eq!(sw.grid.iter().map(|g| g.1).collect::<Vec<_>>(), vec![0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 1]);
+        // Nothing escapes below 31.9: no bracket; errors for a bad range.
+        assert!(first_escape_switch(escapes, 31.0, 31.9, 5, 0.005).unwrap().bracket.is_none());
+        assert!(matches!(first_escape_switch(escapes, 32.0, 31.0, 5, 0.005), Err(Error::BadInput { .. })));
+        assert!(matches!(first_escape_switch(escapes, 31.0, 32.0, 5, 0.0), Err(Error::BadInput { .. })));
+    }
+
+    /// Escape time and maximum of a direct iteration; a non-finite state counts as escape.
+    #[test]
+    fn iterate_outcome_classifies() {
+        // x -> 2x from 0.1: 0.1, 0.2, 0.4, 0.8, 1.6 -> escape at sample 4, t = 1 + 4 * 0.5.
+        let o = iterate_outcome(|e| e[0] *= 2.0, |e| e[0], &[0.1], 10, 1.0, 0.5, 1.0);
+        assert_eq!(o.escape_t, Some(3.0));
+        assert_eq!(o.max_theta, 1.6);
+        // Bounded for 3 steps (0.8 at the end).
+        let o = iterate_outcome(|e| e[0] *= 2.0, |e| e[0], &[0.1], 3, 0.0, 0.5, 1.0);
+        assert!(o.bounded() && o.max_theta == 0.8);
+        let o = iterate_outcome(|e| e[0] = f64::NAN, |e| 0.0 * e[0], &[0.1], 3, 0.0, 0.5, 1.0);
+        assert_eq!(o.escape_t, Some(0.5));
+    }
+}

@@ -418,6 +418,27 @@ mod tests {
                 assert!(r.nmte < 0.005, "dt {}: NMTE {}", r.dt_ms, r.nmte);
             }
         }
+        // 5. The fitted map's own small-start switch (crate::bifurcations::map_small_start_switch,
+        //    linear interpolation; measured bracket [31.2938, 31.2969] ms, 8000 periods, against
+        //    the full system's [31.32, 31.34]): direct runs of the map from the full system's
+        //    starts on both sides of it. At 31.28 ms every start stays bounded (max |theta|
+        //    measured 0.17-0.18 rad); at 31.31 ms at least one escapes |theta| > 1.
+        use crate::bifurcations::map_outcome;
+        use crate::full_system::{DEFAULT_SCAN_PERIODS, ESCAPE_THETA, default_ics};
+        for (dt, escapes) in [(31.28, false), (31.31, true)] {
+            let m = pm.model_at(dt, Interp::Linear).unwrap();
+            let outs: Vec<_> = default_ics(dt).unwrap().iter().map(|ic| map_outcome(&m, dt, ic, DEFAULT_SCAN_PERIODS, ESCAPE_THETA).unwrap()).collect();
+            eprintln!("map at {dt} ms: {outs:?}");
+            assert_eq!(outs.iter().any(|o| !o.bounded()), escapes, "dt {dt}: {outs:?}");
+            if !escapes {
+                assert!(outs.iter().all(|o| o.max_theta < 0.25), "{outs:?}");
+            }
+        }
+        // The map steps at its own period only.
+        let m = pm.model_at(31.0, Interp::Linear).unwrap();
+        let ic = &default_ics(31.0).unwrap()[0];
+        assert!(matches!(map_outcome(&m, 31.1, ic, 100, ESCAPE_THETA), Err(Error::BadInput { what: "dt_ms", .. })));
+        assert!(matches!(map_outcome(&m, 31.0, ic, 5, ESCAPE_THETA), Err(Error::BadInput { what: "periods", .. })));
     }
 
 }
