@@ -103,6 +103,54 @@ pub fn predictions_section(rep: &mut Report, runs: &TrainingRuns) -> Result<(), 
     };
     rep.summary.insert("predictions".into(), list(&lin));
     rep.summary.insert("predictions_spline".into(), list(&spl));
+    map_switch_part(rep, &model)
+}
+
+/// Range and resolution of the fitted map's small-start switch scan [ms].
+const MAP_SWITCH_RANGE_MS: (f64, f64, usize, f64) = (31.0, 32.0, 11, 0.005);
+
+/// The global bifurcation read off the fitted map itself (no normal form): the same small,
+/// mode-shaped starts as the full system's scan (`full_system::default_ics`), the same horizon
+/// and escape rule, iterated on the shared-tangent model's map at each dt; grid, then
+/// bisection. Summary key `map_switch_dt_ms`.
+fn map_switch_part(rep: &mut Report, model: &furuta::shared_tangent::SharedParametricModel) -> Result<(), Box<dyn Error>> {
+    use furuta::full_system::{DEFAULT_SCAN_PERIODS, ESCAPE_THETA, default_ics};
+    let (lo, hi, n, tol) = MAP_SWITCH_RANGE_MS;
+    let scan = |interp: Interp| furuta::bifurcations::map_small_start_switch(|dt| model.model_at(dt, interp), default_ics, lo, hi, n, DEFAULT_SCAN_PERIODS, tol);
+    let (ml, ms) = rayon::join(|| scan(Interp::Linear), || scan(Interp::Spline));
+    let (ml, ms) = (ml?, ms?);
+    rep.para(&format!(
+        "The global bifurcation read off the fitted map itself, without a normal form: the model above (its maps \
+         interpolated in dt) is iterated from the full system's small mode-shaped starts (the first delay vector from \
+         the full system, then the map) for {DEFAULT_SCAN_PERIODS} periods, escape when |theta| exceeds {ESCAPE_THETA} rad, on \
+         a grid of {n} values of dt over [{lo}, {hi}] ms, then bisected to {tol} ms. The polar normal form is a Taylor \
+         series valid to about 0.1 rad, while the slow saddle cycle lies at 0.14-0.18 rad: the normal form loses that \
+         cycle and its bifurcations come late; the map keeps it (0.1-1.8 % from the full system's cycle)."
+    ));
+    let bracket = |b: Option<(f64, f64)>| b.map_or("none".to_string(), |(a, b)| format!("[{a:.4}, {b:.4}]"));
+    let full = rep.summary.get("heteroclinic_dt_ms").and_then(|h| h.get("full_system")).cloned().unwrap_or(Value::Null);
+    let rows: Vec<Vec<String>> = [("linear", &ml), ("spline", &ms)]
+        .iter()
+        .map(|(name, sw)| {
+            vec![
+                (*name).to_string(),
+                bracket(sw.bracket),
+                sw.grid.iter().map(|g| g.1.to_string()).collect::<Vec<_>>().join(" "),
+                if sw.monotone { "yes".into() } else { "no".into() },
+                sw.evaluations.to_string(),
+            ]
+        })
+        .collect();
+    rep.table(&["interpolation", "switch bracket [ms]", "escaping starts per grid dt", "monotone", "map runs"], &rows);
+    let js = |sw: &furuta::bifurcations::MapSwitch| json!({
+        "bracket": sw.bracket.map(|(a, b)| vec![a, b]),
+        "grid": sw.grid.iter().map(|g| json!([g.0, g.1])).collect::<Vec<_>>(),
+        "monotone": sw.monotone,
+    });
+    rep.summary.insert(
+        "map_switch_dt_ms".into(),
+        json!({"linear": js(&ml), "spline": js(&ms), "full_system": full, "periods": DEFAULT_SCAN_PERIODS, "range_ms": [lo, hi], "tol_ms": tol}),
+    );
     Ok(())
 }
 

@@ -109,6 +109,20 @@ pub fn global_sections(rep: &mut Report, pm: &ParametricModel, bif: &ModelBifurc
     Ok(())
 }
 
+/// The fitted map's switch brackets (predictions section, `map_switch_dt_ms`) as table text.
+fn map_switch(v: Option<&Value>) -> String {
+    let one = |k: &str| {
+        v.and_then(|v| v[k]["bracket"].as_array())
+            .filter(|a| a.len() == 2)
+            .and_then(|a| Some(format!("[{:.3}, {:.3}]", a[0].as_f64()?, a[1].as_f64()?)))
+            .unwrap_or_else(|| "none".into())
+    };
+    if v.is_none() {
+        return "not computed".into();
+    }
+    format!("{} / {}", one("linear"), one("spline"))
+}
+
 fn equation_section(rep: &mut Report, bif: &ModelBifurcations, c: &Computed, quick: bool) -> Result<(), Box<dyn Error>> {
     let (nodes, orders, diag_dts, diag_order, _, _, torus_periods) = settings(quick);
     rep.section(
@@ -149,6 +163,12 @@ fn equation_section(rep: &mut Report, bif: &ModelBifurcations, c: &Computed, qui
             "small-start switch, bounded -> escape [ms]".into(),
             f4(het["model"].as_f64()),
             f4(eq_switch),
+            format!("{} (all escape from {})", bracket(full_switch.as_ref()), f4(het["full_system_all_escape_from"].as_f64())),
+        ],
+        vec![
+            "small-start switch of the fitted map itself, no normal form (linear / spline in dt) [ms]".into(),
+            map_switch(rep.summary.get("map_switch_dt_ms")),
+            "-".into(),
             format!("{} (all escape from {})", bracket(full_switch.as_ref()), f4(het["full_system_all_escape_from"].as_f64())),
         ],
         vec![
