@@ -180,6 +180,33 @@ fn stack(parts: &[Mat<f64>]) -> (Mat<f64>, Vec<std::ops::Range<usize>>) {
 /// Smallest number of anchor pairs per reduced coordinate for an anchored linear part.
 pub const ANCHOR_MIN_ROWS_PER_DIM: usize = 10;
 
+/// The rows of the plain anchor: points with `||x_i|| <= frac max ||x||`; at least
+/// [`ANCHOR_MIN_ROWS_PER_DIM`] per coordinate, else an error naming the count.
+fn anchor_rows(x: MatRef<'_, f64>, frac: f64) -> Result<Vec<usize>, FitError> {
+    let (n, d) = (x.nrows(), x.ncols());
+    let norm = |i: usize| (0..d).map(|j| x[(i, j)] * x[(i, j)]).sum::<f64>().sqrt();
+    let r = frac * (0..n).map(norm).fold(0.0, f64::max);
+    let rows: Vec<usize> = (0..n).filter(|&i| norm(i) <= r).collect();
+    let need = ANCHOR_MIN_ROWS_PER_DIM * d;
+    if rows.len() < need {
+        return Err(FitError::BadOption {
+            what: "linear_anchor",
+            why: format!("{} training pairs within {frac} of the largest |eta| ({r:.3e}), need at least {need}; raise the fraction or add small-amplitude data", rows.len()),
+        });
+    }
+    Ok(rows)
+}
+
+/// Copies the coefficient rows `part` into `w` from row `at` on (the anchored fit's linear
+/// and higher-order parts into one coefficient matrix).
+fn place_rows(w: &mut Mat<f64>, at: usize, part: MatRef<'_, f64>) {
+    for k in 0..part.nrows() {
+        for c in 0..part.ncols() {
+            w[(at + k, c)] = part[(k, c)];
+        }
+    }
+}
+
 /// [`poly_regression`] on the design matrix of `x` (monomials `exps`, scaled by `scale`),
 /// built here in parts so that the big regressions factorize their design matrix in its
 /// own storage ([`ridge::fit_owned`]): the same solution and conditioning, at about a
@@ -198,7 +225,7 @@ fn poly_fit(
 ) -> Result<(Mat<f64>, Conditioning), FitError> {
     // A monomial's column depends on nothing else: parts of the matrix are its columns.
     let design = |e: &[Vec<u32>]| design_matrix(x, scale, e);
-    let (n, d, nm) = (x.nrows(), x.ncols(), exps.len());
+    let (d, nm) = (x.ncols(), exps.len());
     let frac = match anchor {
         None => return ridge::fit_owned(design(exps), y, groups, ridge, what, || design(exps)),
         Some(frac) if !joint && nm > d => frac,
@@ -208,35 +235,18 @@ fn poly_fit(
         }
     };
     // The two-stage anchored fit of `poly_regression`, step for step.
-    let norm = |i: usize| (0..d).map(|j| x[(i, j)] * x[(i, j)]).sum::<f64>().sqrt();
-    let r = frac * (0..n).map(norm).fold(0.0, f64::max);
-    let rows: Vec<usize> = (0..n).filter(|&i| norm(i) <= r).collect();
-    let need = ANCHOR_MIN_ROWS_PER_DIM * d;
-    if rows.len() < need {
-        return Err(FitError::BadOption {
-            what: "linear_anchor",
-            why: format!("{} training pairs within {frac} of the largest |eta| ({r:.3e}), need at least {need}; raise the fraction or add small-amplitude data", rows.len()),
-        });
-    }
+    let rows = anchor_rows(x, frac)?;
     let (lin, higher) = exps.split_at(d);
     let a_l = design(lin);
     let a_lin = ridge::take_rows(a_l.as_ref(), &rows);
     let y_lin = ridge::take_rows(y, &rows);
     let (w_lin, _) = ridge::fit(a_lin.as_ref(), y_lin.as_ref(), &[0..rows.len()], Ridge::Fixed(0.0), "anchored linear part")?;
     let mut w = Mat::<f64>::zeros(nm, y.ncols());
-    for k in 0..d {
-        for c in 0..y.ncols() {
-            w[(k, c)] = w_lin[(k, c)];
-        }
-    }
+    place_rows(&mut w, 0, w_lin.as_ref());
     let resid = y - &a_l * &w_lin;
     drop(a_l);
     let (w_nl, mut cond) = ridge::fit_owned(design(higher), resid.as_ref(), groups, ridge, what, || design(higher))?;
-    for k in 0..nm - d {
-        for c in 0..y.ncols() {
-            w[(d + k, c)] = w_nl[(k, c)];
-        }
-    }
+    place_rows(&mut w, d, w_nl.as_ref());
     // Residual relative to the whole target (not to the part left by the linear terms).
     let a = design(exps);
     cond.rel_residual = ridge::rel_residual(a.as_ref(), y, w.as_ref());
@@ -264,26 +274,13 @@ fn poly_regression(
     if joint {
         return joint_anchored(a, x, y, groups, ridge, frac, what);
     }
-    let (n, d, nm) = (a.nrows(), x.ncols(), a.ncols());
-    let norm = |i: usize| (0..d).map(|j| x[(i, j)] * x[(i, j)]).sum::<f64>().sqrt();
-    let r = frac * (0..n).map(norm).fold(0.0, f64::max);
-    let rows: Vec<usize> = (0..n).filter(|&i| norm(i) <= r).collect();
-    let need = ANCHOR_MIN_ROWS_PER_DIM * d;
-    if rows.len() < need {
-        return Err(FitError::BadOption {
-            what: "linear_anchor",
-            why: format!("{} training pairs within {frac} of the largest |eta| ({r:.3e}), need at least {need}; raise the fraction or add small-amplitude data", rows.len()),
-        });
-    }
+    let (d, nm) = (x.ncols(), a.ncols());
+    let rows = anchor_rows(x, frac)?;
     let a_lin = ridge::take_rows(a.subcols(0, d), &rows);
     let y_lin = ridge::take_rows(y, &rows);
     let (w_lin, _) = ridge::fit(a_lin.as_ref(), y_lin.as_ref(), &[0..rows.len()], Ridge::Fixed(0.0), "anchored linear part")?;
     let mut w = Mat::<f64>::zeros(nm, y.ncols());
-    for k in 0..d {
-        for c in 0..y.ncols() {
-            w[(k, c)] = w_lin[(k, c)];
-        }
-    }
+    place_rows(&mut w, 0, w_lin.as_ref());
     if nm == d {
         let cond = ridge::RidgeLs::new(a, what)?.conditioning(a, y, w.as_ref(), 0.0);
         return Ok((w, cond));
@@ -291,11 +288,7 @@ fn poly_regression(
     let resid = y - a.subcols(0, d) * &w_lin;
     let a_nl = a.subcols(d, nm - d);
     let (w_nl, mut cond) = ridge::fit(a_nl, resid.as_ref(), groups, ridge, what)?;
-    for k in 0..nm - d {
-        for c in 0..y.ncols() {
-            w[(d + k, c)] = w_nl[(k, c)];
-        }
-    }
+    place_rows(&mut w, d, w_nl.as_ref());
     // Residual relative to the whole target (not to the part left by the linear terms).
     cond.rel_residual = ridge::rel_residual(a, y, w.as_ref());
     Ok((w, cond))

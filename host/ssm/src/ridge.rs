@@ -269,6 +269,20 @@ pub(crate) fn take_rows(a: MatRef<'_, f64>, rows: &[usize]) -> Mat<f64> {
     Mat::from_fn(rows.len(), a.ncols(), |i, j| a[(rows[i], j)])
 }
 
+/// The ridge parameter `ridge` asks for: a fixed value (checked finite and >= 0) or the
+/// cross-validated one over the trajectory folds `groups`.
+fn choose_alpha(a: MatRef<'_, f64>, b: MatRef<'_, f64>, groups: &[std::ops::Range<usize>], ridge: Ridge, what: &'static str) -> Result<f64, FitError> {
+    match ridge {
+        Ridge::Fixed(alpha) => {
+            if !(alpha >= 0.0 && alpha.is_finite()) {
+                return Err(FitError::BadOption { what: "ridge alpha", why: format!("{alpha} is not a finite number >= 0") });
+            }
+            Ok(alpha)
+        }
+        Ridge::CrossValidated => cross_validate(a, b, groups, what),
+    }
+}
+
 /// Fits `a x ~ b` with the ridge chosen by `ridge`. `groups[k]` is the row range of
 /// trajectory `k` (used as cross-validation folds). Returns the solution and its
 /// conditioning (on all rows).
@@ -279,15 +293,7 @@ pub fn fit(
     ridge: Ridge,
     what: &'static str,
 ) -> Result<(Mat<f64>, Conditioning), FitError> {
-    let alpha = match ridge {
-        Ridge::Fixed(alpha) => {
-            if !(alpha >= 0.0 && alpha.is_finite()) {
-                return Err(FitError::BadOption { what: "ridge alpha", why: format!("{alpha} is not a finite number >= 0") });
-            }
-            alpha
-        }
-        Ridge::CrossValidated => cross_validate(a, b, groups, what)?,
-    };
+    let alpha = choose_alpha(a, b, groups, ridge, what)?;
     let ls = RidgeLs::new(a, what)?;
     let x = ls.solve(b, alpha);
     let cond = ls.conditioning(a, b, x.as_ref(), alpha);
@@ -306,15 +312,7 @@ pub fn fit_owned(
     what: &'static str,
     rebuild: impl FnOnce() -> Mat<f64>,
 ) -> Result<(Mat<f64>, Conditioning), FitError> {
-    let alpha = match ridge {
-        Ridge::Fixed(alpha) => {
-            if !(alpha >= 0.0 && alpha.is_finite()) {
-                return Err(FitError::BadOption { what: "ridge alpha", why: format!("{alpha} is not a finite number >= 0") });
-            }
-            alpha
-        }
-        Ridge::CrossValidated => cross_validate(a.as_ref(), b, groups, what)?,
-    };
+    let alpha = choose_alpha(a.as_ref(), b, groups, ridge, what)?;
     let ls = RidgeLs::from_owned(a, what)?;
     let x = ls.solve(b, alpha);
     // The factors go before `a` comes back.
