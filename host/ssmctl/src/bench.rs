@@ -40,6 +40,7 @@ fn label(s: &Scene) -> String {
         MethodKind::Exprb => format!("exprb43 rtol={:e}", i.rtol.unwrap_or_default()),
         MethodKind::ExprbFixed => format!("exprb43 fixed {} steps/period", i.steps.unwrap_or_default()),
         MethodKind::ExprbSplit => format!("exprb43-split rtol={:e}", i.rtol.unwrap_or_default()),
+        MethodKind::ExprbLean => format!("exprb43-lean rtol={:e}", i.rtol.unwrap_or_default()),
     }
 }
 
@@ -84,6 +85,8 @@ pub fn bench_simulate(periods: u64, quick: bool, mut progress: impl FnMut(&str))
     configs.extend(rk.iter().map(|&n| with(&base, MethodKind::Rk4, None, Some(n))));
     let split: &[f64] = if quick { &[1e-8] } else { &[1e-7, 1e-8, 1e-9, 1e-10] };
     configs.extend(split.iter().map(|&r| with(&base, MethodKind::ExprbSplit, Some(r), None)));
+    let lean: &[f64] = if quick { &[4e-9] } else { &[1e-7, 1e-8, 4e-9, 1e-9, 1e-10] };
+    configs.extend(lean.iter().map(|&r| with(&base, MethodKind::ExprbLean, Some(r), None)));
     let window = if quick { 0.02 } else { 0.5 };
     let mut rows = Vec::new();
     for c in &configs {

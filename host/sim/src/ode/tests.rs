@@ -668,3 +668,77 @@ fn exprb_split_validation_describe_and_blow_up() {
         }
     }
 }
+
+// ---------------------------------------------------------------------------------------------
+// exprb43-lean
+
+#[test]
+fn exprb_lean_closed_loop_accuracy_against_the_tight_reference() {
+    // The bench problem (paper loop, theta0 = 0.05 rad, 200 periods) against RODAS4 at 1e-13.
+    // Measured: 9.25e-10 at rtol 1e-8, 3.80e-10 at 4e-9, 9.82e-11 at 1e-9 (exprb-split: 9.2e-10,
+    // 3.81e-10, 9.75e-11): the cut sums and looser eigenpair cost no accuracy.
+    let reference = paper_loop(Method::Rodas { rtol: 1e-13, atol: 1e-15 }, 200);
+    let mut last = f64::INFINITY;
+    for (rtol, bound) in [(1e-7, 1e-8), (1e-8, 1.2e-9), (4e-9, 5e-10), (1e-9, 1.5e-10), (1e-10, 1.5e-11)] {
+        let mut integ = Integrator::new(Method::ExprbLean { rtol, atol: rtol * 1e-2 }).unwrap();
+        let out = closed_loop(&mut integ, &Furuta::paper(), [0.05, 0.0, 0.0, 0.0], (KP, KD, KPHI_D), DT, 200).unwrap();
+        let err = max_diff(&out, &reference);
+        assert!(err < bound && err > 0.0, "exprb-lean rtol {rtol:e}: max theta error {err:e}");
+        assert!(err < 0.6 * last, "rtol {rtol:e}: {err:e} after {last:e}");
+        last = err;
+        // Not more work than exprb-split at the same tolerance (fewer rejected first steps).
+        let mut split = Integrator::new(Method::ExprbSplit { rtol, atol: rtol * 1e-2 }).unwrap();
+        closed_loop(&mut split, &Furuta::paper(), [0.05, 0.0, 0.0, 0.0], (KP, KD, KPHI_D), DT, 200).unwrap();
+        let (a, b) = (integ.stats(), split.stats());
+        assert!(a.steps + a.rejected <= b.steps + b.rejected, "{a:?} vs {b:?}");
+    }
+}
+
+#[test]
+fn exprb_lean_is_exact_on_the_linear_plant_and_falls_back_without_a_fast_mode() {
+    let lp = LinearFuruta::new();
+    let x0 = [0.05, -0.3, 0.2, 1.5];
+    let mut integ = Integrator::new(Method::ExprbLean { rtol: 1e-12, atol: 1e-14 }).unwrap();
+    let mut x = x0;
+    let mut want = x0;
+    for _ in 0..5 {
+        integ.advance(&lp, &mut x, 2.0, DT).unwrap();
+        want = lp.exact(&want, 2.0, DT);
+    }
+    let scale = want.iter().fold(1.0f64, |a, v| a.max(v.abs()));
+    for i in 0..4 {
+        assert!((x[i] - want[i]).abs() < 1e-12 * scale, "component {i}: {} vs {}", x[i], want[i]);
+    }
+    // The undamped pendulum: no fast mode, the full matrix functions every step.
+    let p = Furuta::new(FurutaParams { b1: 0.0, b2: 0.0, k: 0.0, ..FurutaParams::default() }).unwrap();
+    let x0 = [0.3, 0.0, 0.0, 2.0];
+    let a = run(Method::ExprbLean { rtol: 1e-9, atol: 1e-11 }, &p, x0, 0.0, DT, 30).unwrap();
+    let reference = run(Method::Rodas { rtol: 1e-13, atol: 1e-15 }, &p, x0, 0.0, DT, 30).unwrap();
+    for i in 0..4 {
+        assert!((a[i] - reference[i]).abs() < 1e-7 * reference[i].abs().max(1.0), "{a:?} vs {reference:?}");
+    }
+}
+
+#[test]
+fn exprb_lean_validation_describe_and_blow_up() {
+    let e = Integrator::<4>::new(Method::ExprbLean { rtol: -1.0, atol: 1e-9 }).unwrap_err();
+    assert!(matches!(&e, OdeError::BadMethod(m) if m.contains("exprb-lean") && m.contains("rtol")), "{e}");
+    let e = Integrator::<4>::new(Method::ExprbLean { rtol: 1e-9, atol: f64::INFINITY }).unwrap_err();
+    assert!(matches!(&e, OdeError::BadMethod(m) if m.contains("exprb-lean") && m.contains("atol")), "{e}");
+    let e = Integrator::<4>::new(Method::ExprbLean { rtol: 1e-16, atol: 1e-9 }).unwrap_err();
+    assert!(matches!(&e, OdeError::BadMethod(m) if m.contains("1e-15")), "{e}");
+    let m: Method = serde_json::from_str(r#"{"kind": "exprb_lean", "rtol": 1e-8, "atol": 1e-10}"#).unwrap();
+    assert_eq!(m, Method::ExprbLean { rtol: 1e-8, atol: 1e-10 });
+    assert_eq!(Integrator::<4>::new(m).unwrap().describe(), "exprb43-lean rtol=1e-8 atol=1e-10");
+    let mut integ = Integrator::new(Method::ExprbLean { rtol: 1e-8, atol: 1e-10 }).unwrap().with_max_steps(10_000);
+    let mut x = [0.1, 0.0, 0.0, 0.0];
+    for _ in 0..20 {
+        match integ.advance(&Furuta::paper(), &mut x, 1e200, DT) {
+            Ok(()) => assert!(x.iter().all(|v| v.is_finite()), "{x:?}"),
+            Err(e) => {
+                assert!(x.iter().all(|v| v.is_finite()), "{e}: {x:?}");
+                break;
+            }
+        }
+    }
+}

@@ -90,4 +90,14 @@ pub trait Plant<const N: usize> {
     fn rhs<S: Scalar>(&self, x: &[S; N], u: S) -> [S; N];
     /// Total mechanical energy (kinetic plus potential), J.
     fn energy(&self, x: &[f64; N]) -> f64;
+    /// `f(x, u)` and `df/dx` at `(x, u)` (`jac[i][j] = d f_i / d x_j`). The default is one
+    /// dual-number evaluation ([`jacobian`]); a plant may override it with a closed form
+    /// (the Furuta plant does, for `exprb-lean`), which must agree with it to rounding.
+    #[inline]
+    fn rhs_and_jacobian(&self, x: &[f64; N], u: f64) -> ([f64; N], [[f64; N]; N])
+    where
+        Self: Sized,
+    {
+        jacobian(self, x, u)
+    }
 }

@@ -136,6 +136,10 @@ pub enum MethodKind {
     /// the dominant eigenvalue, short Taylor sums for the rest): the steps of `exprb` at a
     /// fraction of the cost per step; error-controlled by rtol/atol.
     ExprbSplit,
+    /// exprb-split made lean (closed-form Jacobian, warm-started eigenpair, Taylor sums cut
+    /// at the tolerance, the period's first step learnt): fewer flops per step and fewer
+    /// steps per period; error-controlled by rtol/atol.
+    ExprbLean,
 }
 
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -443,7 +447,7 @@ impl Scene {
         }
         let i = &self.integrator;
         match i.method {
-            MethodKind::Rodas | MethodKind::Exprb | MethodKind::ExprbSplit => {
+            MethodKind::Rodas | MethodKind::Exprb | MethodKind::ExprbSplit | MethodKind::ExprbLean => {
                 if i.steps.is_some() {
                     return Err(SceneError::key(s, "integrator.steps", "not used by adaptive methods (set rtol/atol)"));
                 }
