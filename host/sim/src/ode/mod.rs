@@ -356,7 +356,7 @@ impl<const N: usize> Integrator<N> {
         // exprb-lean: Taylor sums cut at a term below 1e-3 of the tolerance; the eigenpair
         // accepted at a relative residual of 1e-2 of it (at most 1e-10; 1e-14 = exprb-split's).
         // Measured on the bench problem: a residual of 1e-8 moves the error by 1e-3 of itself.
-        let cut = (1e-3 * rtol).clamp(1e-18, 1e-6);
+        let cut = split::Cut::for_rtol(rtol);
         let pair_tol = (1e-2 * rtol).clamp(1e-14, 1e-10);
         let jac_at = |x: &[f64; N]| if lean { p.rhs_and_jacobian(x, u) } else { jacobian(p, x, u) };
         let (mut f0, mut jac) = jac_at(x);
@@ -404,7 +404,7 @@ impl<const N: usize> Integrator<N> {
                     Some(sp) => Some(split::step(&mut rhs, &jac, &sp, x, &f0, h_try)),
                     None => exprb::phis(&jac, h_try).map(|phis| exprb::step(&mut rhs, &jac, &phis, x, &f0, h_try)),
                 },
-                Scheme::ExprbLean => match self.pair.as_ref().and_then(|pr| split::Split::with_cut(&jac, pr, h_try, cut)) {
+                Scheme::ExprbLean => match self.pair.as_ref().and_then(|pr| split::Split::with_cut(&jac, pr, h_try, &cut)) {
                     Some(sp) => Some(split::step(&mut rhs, &jac, &sp, x, &f0, h_try)),
                     None => exprb::phis(&jac, h_try).map(|phis| exprb::step(&mut rhs, &jac, &phis, x, &f0, h_try)),
                 },

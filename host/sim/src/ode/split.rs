@@ -108,6 +108,46 @@ fn phi_scalar_and_half_cut(z: f64, cut: f64) -> ([f64; 5], f64) {
     (p, (eh - 1.0) / half)
 }
 
+/// `exprb-lean`'s accuracy knobs, from its relative tolerance.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Cut {
+    /// Taylor sums stop at a first dropped term below `term` (relative).
+    term: f64,
+    /// Scalar `phi`-functions from `expm1` at `|z| >= z_min`, from their Taylor series below.
+    z_min: f64,
+}
+
+impl Cut {
+    /// `term = 1e-3 rtol` (within `[1e-18, 1e-6]`); `z_min` where the forward recurrence from
+    /// `phi_1 = expm1(z)/z` (relative error about `24 eps / |z|^3` in `phi_4`) reaches `term`.
+    pub(crate) fn for_rtol(rtol: f64) -> Self {
+        let term = (1e-3 * rtol).clamp(1e-18, 1e-6);
+        Self { term, z_min: (24.0 * f64::EPSILON / term).cbrt().min(2.0) }
+    }
+}
+
+/// `phi_k(z)`, `k = 0..=4`, and `phi_1(z/2)` for `exprb-lean`: below `cut.z_min` the Taylor
+/// series (cut at `cut.term`); above, one `expm1(z/2)`: `phi_1(z/2) = expm1(z/2)/(z/2)`,
+/// `expm1(z) = e (e + 2)` with `e = expm1(z/2)` (no cancellation), `phi_1 = expm1(z)/z`, and
+/// the forward recurrence for `phi_2..phi_4`. `phi_0 = (1 + e)^2`, which the step does not
+/// use, carries an absolute (not relative) error of a few `eps` where `e^z` is tiny.
+#[inline]
+fn phi_lean(z: f64, cut: &Cut) -> ([f64; 5], f64) {
+    if z.abs() < cut.z_min {
+        return (phi_scalar_cut(z, cut.term), phi_scalar_cut(0.5 * z, cut.term)[1]);
+    }
+    let half = 0.5 * z;
+    let e = half.exp_m1();
+    let e1 = e * (e + 2.0);
+    let iz = 1.0 / z;
+    let p1 = e1 * iz;
+    let p2 = (p1 - 1.0) * iz;
+    let p3 = (p2 - 0.5) * iz;
+    let p4 = (p3 - INV_FACT[3]) * iz;
+    let eh = e + 1.0;
+    ([eh * eh, p1, p2, p3, p4], e / half)
+}
+
 #[inline(always)]
 fn matvec<const N: usize>(a: &[[f64; N]; N], x: &[f64; N]) -> [f64; N] {
     core::array::from_fn(|i| {
@@ -397,13 +437,18 @@ impl<const N: usize> Split<N> {
     /// `|h J_s|_1` exceeds [`RHO_MAX`].
     #[inline]
     pub(crate) fn new(jac: &[[f64; N]; N], pair: &Pair<N>, h: f64) -> Option<Self> {
-        Self::with_cut(jac, pair, h, TERM_TOL)
+        Self::build(jac, pair, h, TERM_TOL, None)
     }
 
     /// [`Split::new`] with the Taylor sums (matrix and scalar) stopped at a first dropped term
     /// below `cut` (relative) instead of [`TERM_TOL`]: `exprb-lean` ties it to the tolerance.
     #[inline]
-    pub(crate) fn with_cut(jac: &[[f64; N]; N], pair: &Pair<N>, h: f64, cut: f64) -> Option<Self> {
+    pub(crate) fn with_cut(jac: &[[f64; N]; N], pair: &Pair<N>, h: f64, cut: &Cut) -> Option<Self> {
+        Self::build(jac, pair, h, cut.term, Some(cut))
+    }
+
+    #[inline(always)]
+    fn build(jac: &[[f64; N]; N], pair: &Pair<N>, h: f64, cut: f64, lean: Option<&Cut>) -> Option<Self> {
         let &(lambda, v, w) = pair;
         let hl = h * lambda;
         let a: [[f64; N]; N] = core::array::from_fn(|i| {
@@ -431,7 +476,10 @@ impl<const N: usize> Split<N> {
             }
             terms += 1;
         }
-        let (fast, fast_half) = phi_scalar_and_half_cut(hl, cut);
+        let (fast, fast_half) = match lean {
+            Some(c) => phi_lean(hl, c),
+            None => phi_scalar_and_half_cut(hl, cut),
+        };
         Some(Self { v, w, a, fast, fast_half, terms })
     }
 
@@ -464,10 +512,13 @@ impl<const N: usize> Split<N> {
             }
         }
         let f = [self.fast_half, self.fast[1], self.fast[3], self.fast[4]];
-        for (o, fk) in out.iter_mut().zip(f) {
-            let s = fk * c;
-            for i in 0..N {
-                o[i] += s * self.v[i];
+        let on = [H1, P1, P3, P4];
+        for k in 0..4 {
+            if on[k] {
+                let s = f[k] * c;
+                for i in 0..N {
+                    out[k][i] += s * self.v[i];
+                }
             }
         }
         out
@@ -532,6 +583,23 @@ mod tests {
                 let want = phi_ref(k, z);
                 let tol = if z.abs() <= 1.0 { 4e-15 } else { 2e-14 };
                 assert!((got - want).abs() <= tol * want.abs(), "phi_{k}({z}) = {got:e}, want {want:e}");
+            }
+        }
+    }
+
+    #[test]
+    fn lean_scalar_phi_functions_meet_their_cut() {
+        for rtol in [1e-6, 1e-8, 1e-10, 1e-12, 1e-15] {
+            let cut = Cut::for_rtol(rtol);
+            for z in [0.0, 1e-9, -1e-4, -0.01, -0.05, 0.07, -0.1, -0.3, -0.99, 1.5, -1.99, -2.0, -3.0, -7.5, -21.0, -480.0, -1e4, 6.0] {
+                let (p, half) = phi_lean(z, &cut);
+                for (k, got) in p.iter().enumerate() {
+                    let want = phi_ref(k, z);
+                    let tol = cut.term.max(4e-15) * if k == 0 { want.abs().max(1.0) } else { want.abs() };
+                    assert!((got - want).abs() <= tol, "rtol {rtol:e}: phi_{k}({z}) = {got:e}, want {want:e}");
+                }
+                let want = phi_ref(1, 0.5 * z);
+                assert!((half - want).abs() <= 4e-15 * want.abs(), "rtol {rtol:e}: phi_1({z}/2) = {half:e}, want {want:e}");
             }
         }
     }
