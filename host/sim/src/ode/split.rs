@@ -268,6 +268,8 @@ struct ShiftedLu<const N: usize> {
     a: [[f64; N]; N],
     /// Row `i` of `P A` is row `perm[i]` of `A`.
     perm: [usize; N],
+    /// `1 / U[k][k]`.
+    inv_diag: [f64; N],
 }
 
 impl<const N: usize> ShiftedLu<N> {
@@ -281,6 +283,7 @@ impl<const N: usize> ShiftedLu<N> {
         }
         let floor = f64::EPSILON * big.max(f64::MIN_POSITIVE);
         let mut perm: [usize; N] = core::array::from_fn(|i| i);
+        let mut inv_diag = [0.0; N];
         for k in 0..N {
             let mut p = k;
             for i in k + 1..N {
@@ -296,6 +299,7 @@ impl<const N: usize> ShiftedLu<N> {
                 a[k][k] = floor;
             }
             let inv = 1.0 / a[k][k];
+            inv_diag[k] = inv;
             for i in k + 1..N {
                 let l = a[i][k] * inv;
                 a[i][k] = l;
@@ -304,7 +308,7 @@ impl<const N: usize> ShiftedLu<N> {
                 }
             }
         }
-        Self { a, perm }
+        Self { a, perm, inv_diag }
     }
 
     /// `x` with `(J - mu I) x = b`.
@@ -321,7 +325,7 @@ impl<const N: usize> ShiftedLu<N> {
             for j in i + 1..N {
                 x[i] -= a[i][j] * x[j];
             }
-            x[i] /= a[i][i];
+            x[i] *= self.inv_diag[i];
         }
         x
     }
@@ -335,7 +339,7 @@ impl<const N: usize> ShiftedLu<N> {
             for j in 0..i {
                 z[i] -= a[j][i] * z[j];
             }
-            z[i] /= a[i][i];
+            z[i] *= self.inv_diag[i];
         }
         for i in (0..N).rev() {
             for j in i + 1..N {
