@@ -517,6 +517,7 @@ impl<const N: usize> Split<N> {
         }
         let f = [self.fast_half, self.fast[1], self.fast[3], self.fast[4]];
         let on = [H1, P1, P3, P4];
+        #[allow(clippy::needless_range_loop)] // indexed: 3% fewer instructions than the zips
         for k in 0..4 {
             if on[k] {
                 let s = f[k] * c;
