@@ -108,7 +108,6 @@ const DEFAULT_MAX_STEPS: u64 = 1_000_000;
 /// Consecutive singular-matrix or non-finite rejections before giving up.
 const MAX_HALVINGS: u32 = 60;
 
-
 /// An integrator for an `N`-state plant. Keeps the step size across periods.
 #[derive(Clone, Debug)]
 pub struct Integrator<const N: usize> {
