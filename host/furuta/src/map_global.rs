@@ -48,13 +48,27 @@ pub struct ConnectionOptions {
     pub fast_guess: f64,
     /// Collocation of the circles.
     pub circle: CircleOptions,
+    /// Order of the equation-driven SSM whose circle starts Newton on the exact period map
+    /// (3..=9; the circle found does not depend on it, only the cost: 3 is enough at
+    /// theta ~0.07 rad).
+    pub guess_order: u32,
 }
 
 impl Default for ConnectionOptions {
     /// Push 1e-3 rad at 4 phases, 8,000 periods (the switch scans' horizon), fast circle
-    /// guessed at 0.07 rad (the full system's at 31.3 ms), 33 collocation points.
+    /// guessed at 0.07 rad (the full system's at 31.3 ms), 21 collocation points (the exact
+    /// map's fast circle at 31.3 ms: residual between the points 7e-8, against 3e-12 with 33;
+    /// the push is 1e-3), Newton on the exact map from the order-3 equation-driven circle
+    /// (1.6 s CPU per circle, 4.3 s with 33 points from order 7).
     fn default() -> Self {
-        ConnectionOptions { push: 1e-3, phases: 4, periods: crate::full_system::DEFAULT_SCAN_PERIODS, fast_guess: 0.07, circle: CircleOptions::default() }
+        ConnectionOptions {
+            push: 1e-3,
+            phases: 4,
+            periods: crate::full_system::DEFAULT_SCAN_PERIODS,
+            fast_guess: 0.07,
+            circle: CircleOptions { n: 21, ..CircleOptions::default() },
+            guess_order: 3,
+        }
     }
 }
 
@@ -68,6 +82,9 @@ impl ConnectionOptions {
         }
         if self.periods == 0 {
             return Err(Error::BadOption { what: "periods", why: "must be at least 1".into() });
+        }
+        if !(3..=ssm::map_ssm::MAX_ORDER).contains(&self.guess_order) {
+            return Err(Error::BadOption { what: "guess_order", why: format!("need 3..={}, got {}", ssm::map_ssm::MAX_ORDER, self.guess_order) });
         }
         if !(self.fast_guess.is_finite() && self.fast_guess > 0.0) {
             return Err(Error::BadOption { what: "fast_guess", why: format!("must be positive, got {}", self.fast_guess) });
@@ -226,12 +243,12 @@ pub fn start_of_deflated(s: &[f64]) -> Result<Start, Error> {
 }
 
 /// The rule on the full system at `dt_ms`: the fast saddle cycle of the exact period map
-/// ([`saddle_cycles`], Newton from the order-7 equation-driven circle), the pushed starts
+/// ([`saddle_cycles`], Newton from the equation-driven circle of order `o.guess_order`), the pushed starts
 /// (slow eigenvector of the exact ZOH map in the same deflated coordinates), each run by the
 /// simulator ([`run`], escape at [`ESCAPE_THETA`]) for `o.periods` periods.
 pub fn full_connection_fates(dt_ms: f64, o: &ConnectionOptions) -> Result<ConnectionFates, Error> {
     o.check()?;
-    let rows = saddle_cycles(&[dt_ms], 2, &[7], &o.circle)?;
+    let rows = saddle_cycles(&[dt_ms], 2, &[o.guess_order], &o.circle)?;
     let row = rows.first().ok_or_else(|| Error::BadInput { what: "fast circle", why: format!("dt = {dt_ms} ms: no row") })?;
     let circle = row
         .full

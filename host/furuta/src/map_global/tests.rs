@@ -137,3 +137,19 @@ fn map_torus_continuation_loses_the_torus_on_the_grid() {
     assert!(31.5 <= a && b <= 31.9, "{a} {b}");
     assert!(matches!(map_torus_continuation(at, &[31.5, 31.4], [0.1, 0.03], 100), Err(Error::BadInput { what: "dts_ms", .. })));
 }
+
+/// Options are checked before anything is computed.
+#[test]
+fn bad_connection_options_are_refused() {
+    let o = ConnectionOptions::default();
+    for (bad, what) in [
+        (ConnectionOptions { push: f64::NAN, ..o }, "push"),
+        (ConnectionOptions { phases: 0, ..o }, "phases"),
+        (ConnectionOptions { periods: 0, ..o }, "periods"),
+        (ConnectionOptions { guess_order: 11, ..o }, "guess_order"),
+        (ConnectionOptions { fast_guess: -0.1, ..o }, "fast_guess"),
+    ] {
+        assert!(matches!(full_connection_fates(31.3, &bad), Err(Error::BadOption { what: w, .. }) if w == what), "{what}");
+        assert!(matches!(full_connection(31.0, 32.0, 6, 0.005, &bad), Err(Error::BadOption { what: w, .. }) if w == what), "{what}");
+    }
+}
