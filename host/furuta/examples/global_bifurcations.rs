@@ -13,6 +13,10 @@
 //!   (shared-tangent model, `bifurcations::map_small_start_switch`, 31.0-32.0 ms, bisection
 //!   to 0.005 ms) per variant (`default` or a sensitivity variant, see [`variant`]), with
 //!   direct runs on both sides of the bracket.
+//! * `mapglobal [--full] [--periods N] VARIANT...`: the saddle connection of the fitted map by
+//!   the fate of the fast saddle cycle's pushed unstable branch (`map_global::map_connection`,
+//!   linear and spline in dt) and its torus loss by continuation, per variant; `--full` also
+//!   the full system's connection by the same rule.
 //! * `mapcycles DT...`: slow and fast saddle cycles of the fitted map (`fitted_map_cycle`
 //!   on `model_at(dt)`) next to the full system's.
 
@@ -206,6 +210,43 @@ fn mapswitch(args: &[String]) -> R {
     Ok(())
 }
 
+fn mapglobal(args: &[String]) -> R {
+    use furuta::map_global::{ConnectionOptions, full_connection, map_connection, map_torus_continuation};
+    let mut o = ConnectionOptions::default();
+    let mut full = false;
+    let mut names = Vec::new();
+    let mut it = args.iter();
+    while let Some(a) = it.next() {
+        match a.as_str() {
+            "--periods" => o.periods = it.next().ok_or("--periods N")?.parse()?,
+            "--full" => full = true,
+            x => names.push(x.to_string()),
+        }
+    }
+    if full {
+        let (t, c) = (std::time::Instant::now(), cpu_s());
+        let f = full_connection(31.0, 32.0, 11, 0.005, &o)?;
+        println!("full system connection {:?} ({:.0} s wall, {:.0} s CPU, {} runs) grid {:?}", f.switch.bracket, t.elapsed().as_secs_f64(), cpu_s() - c, f.switch.evaluations, f.switch.grid);
+    }
+    let dts: Vec<f64> = (0..=14).map(|k| ((31.3 + 0.05 * k as f64) * 1e4).round() / 1e4).collect();
+    for name in &names {
+        let v = variant(name)?;
+        let sm = furuta::shared_tangent::shared_parametric(&v)?;
+        for interp in [ssm::interp::Interp::Linear, ssm::interp::Interp::Spline] {
+            let (t, c) = (std::time::Instant::now(), cpu_s());
+            let m = map_connection(|dt| Ok(sm.model_at(dt, interp)?), 31.0, 32.0, 11, 0.005, &o)?;
+            let (t2, c2) = (std::time::Instant::now(), cpu_s());
+            let tc = map_torus_continuation(|dt| Ok(sm.model_at(dt, interp)?), &dts, [0.097, 0.0277], 16_000)?;
+            println!(
+                "{name} {interp:?}: map connection {:?} ({:.1} s wall {:.1} s CPU) grid {:?}; torus lost {:?} ({:.1} s CPU)",
+                m.switch.bracket, t.elapsed().as_secs_f64(), c2 - c, m.switch.grid, tc.lost_between, cpu_s() - c2
+            );
+            let _ = t2;
+        }
+    }
+    Ok(())
+}
+
 fn mapcycles(args: &[String]) -> R {
     let dts: Vec<f64> = args.iter().map(|a| a.parse()).collect::<Result<_, _>>()?;
     let t0 = std::time::Instant::now();
@@ -243,6 +284,7 @@ fn main() -> R {
         Some("fit") => fit(&args[1..]),
         Some("mapswitch") => mapswitch(&args[1..]),
         Some("mapcycles") => mapcycles(&args[1..]),
+        Some("mapglobal") => mapglobal(&args[1..]),
         _ => Err("subcommands: convergence ORDER DT... | cycles MODE ORDER DT...".into()),
     }
 }

@@ -331,6 +331,53 @@ pub struct TorusContinuation {
     pub lost_between: Option<(f64, f64)>,
 }
 
+/// The torus-loss rule of one continuation step, shared by the full system
+/// ([`torus_continuation`]) and the fitted map (`crate::map_global::map_torus_continuation`):
+/// `theta` is the run's primary angle, one sample per sampling period `sample_dt` (s), at
+/// `dt_ms`; `escape_t` the time of its escape, if it escaped (then the torus is lost and
+/// nothing is measured). Otherwise the slow and fast amplitudes ([`mode_amplitudes`], window
+/// [`AMP_WINDOW_S`], at the spectral peaks of the last third, the exact linear frequencies
+/// when a band has no peak) over the middle and the last third of the run: `rho` is the mean
+/// over the last third, and the torus is lost when `rho_1`'s spread over the last third is
+/// above [`TORUS_GROWTH`] times that over the middle third and above [`TORUS_SPREAD_MIN`].
+pub fn torus_step(dt_ms: f64, theta: &[f64], sample_dt: f64, escape_t: Option<f64>) -> Result<TorusStep, Error> {
+    let mut step = TorusStep { dt_ms, escape_t, rho: None, spread_mid: None, spread_last: None, lost: true };
+    if escape_t.is_some() {
+        return Ok(step);
+    }
+    if !(sample_dt.is_finite() && sample_dt > 0.0) {
+        return Err(Error::BadInput { what: "sample_dt", why: format!("must be positive and finite, got {sample_dt}") });
+    }
+    if let Some(v) = theta.iter().find(|v| !v.is_finite()) {
+        return Err(Error::BadInput { what: "theta", why: format!("a bounded run must be finite, got {v}") });
+    }
+    let n = theta.len();
+    let third = |k: usize| &theta[k * n / 3..(k + 1) * n / 3];
+    let lin = crate::parametric::exact_modes(dt_ms)?.freqs_hz;
+    let split = (lin[0] * lin[1]).sqrt();
+    let last = third(2);
+    let freqs = match (ssm::spectrum::band_peak(last, sample_dt, 0.0, split), ssm::spectrum::band_peak(last, sample_dt, split, 0.5 / sample_dt)) {
+        (Some(a), Some(b)) => [a.freq_hz, b.freq_hz],
+        _ => lin,
+    };
+    let amps = |s: &[f64]| mode_amplitudes(s, sample_dt, freqs, AMP_WINDOW_S);
+    let (mid, end) = (amps(third(1))?, amps(last)?);
+    if mid.is_empty() || end.is_empty() {
+        return Err(Error::BadInput { what: "periods", why: format!("a third of the {n} samples is shorter than the amplitude window {AMP_WINDOW_S} s") });
+    }
+    let spread = |a: &[(f64, [f64; 2])]| {
+        let (lo, hi) = a.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), x| (lo.min(x.1[0]), hi.max(x.1[0])));
+        hi - lo
+    };
+    let k = end.len() as f64;
+    step.rho = Some([end.iter().map(|a| a.1[0]).sum::<f64>() / k, end.iter().map(|a| a.1[1]).sum::<f64>() / k]);
+    let (sm, sl) = (spread(&mid), spread(&end));
+    step.spread_mid = Some(sm);
+    step.spread_last = Some(sl);
+    step.lost = sl > TORUS_GROWTH * sm && sl > TORUS_SPREAD_MIN;
+    Ok(step)
+}
+
 /// Follows the full system's 2-torus over `dts_ms` (strictly increasing): a run of
 /// `periods` periods at the first dt from the mode start at `start_rho` (phases 0), every
 /// further run from the end state and controller samples of the previous one (so it starts on
@@ -345,35 +392,9 @@ pub fn torus_continuation(dts_ms: &[f64], start_rho: [f64; 2], periods: u64) -> 
     let mut steps = Vec::new();
     for &dt in dts_ms {
         let tr = run(dt, &start, periods, ESCAPE_THETA)?;
-        let theta = tr.primary();
-        let n = theta.len();
-        let mut step = TorusStep { dt_ms: dt, escape_t: None, rho: None, spread_mid: None, spread_last: None, lost: true };
-        if tr.stopped.is_some() {
-            step.escape_t = tr.t.last().copied();
-        } else {
-            let third = |k: usize| &theta[k * n / 3..(k + 1) * n / 3];
-            let lin = crate::parametric::exact_modes(dt)?.freqs_hz;
-            let split = (lin[0] * lin[1]).sqrt();
-            let last = third(2);
-            let freqs = match (ssm::spectrum::band_peak(last, tr.dt, 0.0, split), ssm::spectrum::band_peak(last, tr.dt, split, 0.5 / tr.dt)) {
-                (Some(a), Some(b)) => [a.freq_hz, b.freq_hz],
-                _ => lin,
-            };
-            let amps = |s: &[f64]| mode_amplitudes(s, tr.dt, freqs, AMP_WINDOW_S);
-            let (mid, end) = (amps(third(1))?, amps(last)?);
-            if mid.is_empty() || end.is_empty() {
-                return Err(Error::BadInput { what: "periods", why: format!("a third of {periods} periods is shorter than the amplitude window {AMP_WINDOW_S} s") });
-            }
-            let spread = |a: &[(f64, [f64; 2])]| {
-                let (lo, hi) = a.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), x| (lo.min(x.1[0]), hi.max(x.1[0])));
-                hi - lo
-            };
-            let k = end.len() as f64;
-            step.rho = Some([end.iter().map(|a| a.1[0]).sum::<f64>() / k, end.iter().map(|a| a.1[1]).sum::<f64>() / k]);
-            let (sm, sl) = (spread(&mid), spread(&end));
-            step.spread_mid = Some(sm);
-            step.spread_last = Some(sl);
-            step.lost = sl > TORUS_GROWTH * sm && sl > TORUS_SPREAD_MIN;
+        let escape_t = if tr.stopped.is_some() { tr.t.last().copied() } else { None };
+        let step = torus_step(dt, &tr.primary(), tr.dt, escape_t)?;
+        if !step.lost {
             // The next run starts from this one's end: plant state and the controller's last
             // `delay + 1` samples, oldest first.
             let delay = sim::scene::SceneBuilder::load("furuta-dt30.5")?.dt_ms(dt).build()?.controller.delay as usize;
@@ -496,6 +517,40 @@ mod tests {
         }
         assert_eq!(ModelFate::OtherAttractor.bounded(), Some(false));
         assert_eq!(ModelFate::Undecided.bounded(), None);
+    }
+
+    /// The torus-loss rule on synthetic two-tone series at the exact linear frequencies of
+    /// 31.4 ms, 8,000 samples: constant amplitudes are an attracting torus (means to 1 %,
+    /// spreads below the floor); a slow amplitude growing as `0.08 e^{0.004 t}` is lost
+    /// (spreads 0.044 / 0.062 rad over the middle / last third, less the window's
+    /// smoothing); a decaying oscillation of it is not; an escaped run is lost unmeasured.
+    #[test]
+    fn torus_step_rule_on_synthetic_series() {
+        let dt_ms = 31.4;
+        let h = dt_ms * 1e-3;
+        let f = crate::parametric::exact_modes(dt_ms).unwrap().freqs_hz;
+        let series = |a1: &dyn Fn(f64) -> f64| -> Vec<f64> {
+            (0..8000).map(|k| {
+                let t = k as f64 * h;
+                a1(t) * (std::f64::consts::TAU * f[0] * t).cos() + 0.03 * (std::f64::consts::TAU * f[1] * t + 0.3).cos()
+            }).collect()
+        };
+        let steady = torus_step(dt_ms, &series(&|_| 0.1), h, None).unwrap();
+        eprintln!("{steady:?}");
+        let rho = steady.rho.unwrap();
+        assert!(!steady.lost && (rho[0] / 0.1 - 1.0).abs() < 0.01 && (rho[1] / 0.03 - 1.0).abs() < 0.01, "{steady:?}");
+        assert!(steady.spread_last.unwrap() < TORUS_SPREAD_MIN);
+        let growing = torus_step(dt_ms, &series(&|t| 0.08 * (0.004 * t).exp()), h, None).unwrap();
+        eprintln!("{growing:?}");
+        let (sm, sl) = (growing.spread_mid.unwrap(), growing.spread_last.unwrap());
+        assert!(growing.lost && (0.035..0.045).contains(&sm) && (0.05..0.063).contains(&sl), "{growing:?}");
+        let decaying = torus_step(dt_ms, &series(&|t| 0.1 + 0.03 * (-0.01 * t).exp() * (0.05 * std::f64::consts::TAU * t).sin()), h, None).unwrap();
+        eprintln!("{decaying:?}");
+        assert!(!decaying.lost && decaying.spread_last.unwrap() < decaying.spread_mid.unwrap() && decaying.spread_last.unwrap() > TORUS_SPREAD_MIN, "{decaying:?}");
+        let escaped = torus_step(dt_ms, &[0.1; 10], h, Some(12.5)).unwrap();
+        assert!(escaped.lost && escaped.rho.is_none() && escaped.escape_t == Some(12.5));
+        assert!(matches!(torus_step(dt_ms, &[f64::NAN; 3000], h, None), Err(Error::BadInput { what: "theta", .. })));
+        assert!(matches!(torus_step(dt_ms, &[0.0; 30], h, None), Err(Error::BadInput { what: "periods", .. })));
     }
 
     #[test]

@@ -14,6 +14,7 @@ pub mod equation_ssm;
 pub mod error;
 pub mod full_system;
 pub mod lyapunov;
+pub mod map_global;
 pub mod microchaos;
 pub mod model_selection;
 pub mod parametric;

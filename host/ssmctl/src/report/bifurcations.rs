@@ -52,7 +52,8 @@ fn prediction_figures(rep: &Report, r: &PredictionResult) -> Result<(String, Str
 /// Predictions at the paper's unseen sampling periods; `summary.json` key `predictions`
 /// (linear interpolation, the paper's choice) and `predictions_spline`.
 /// `runs`: the training runs of the parametric section (the same series, simulated once).
-pub fn predictions_section(rep: &mut Report, runs: &TrainingRuns) -> Result<(), Box<dyn Error>> {
+/// Returns the shared-tangent model it predicted with (the fitted map of the global sections).
+pub fn predictions_section(rep: &mut Report, runs: &TrainingRuns) -> Result<furuta::shared_tangent::SharedParametricModel, Box<dyn Error>> {
     let po = PredictOptions::default();
     rep.section(
         "predictions",
@@ -103,7 +104,8 @@ pub fn predictions_section(rep: &mut Report, runs: &TrainingRuns) -> Result<(), 
     };
     rep.summary.insert("predictions".into(), list(&lin));
     rep.summary.insert("predictions_spline".into(), list(&spl));
-    map_switch_part(rep, &model)
+    map_switch_part(rep, &model)?;
+    Ok(model)
 }
 
 /// Range and resolution of the fitted map's small-start switch scan [ms].

@@ -1,15 +1,19 @@
 //! Report sections on the global bifurcations (issue 11, items 4 and 5): the equation-driven
-//! reduced model next to the data-driven one and the full system, every bifurcation value in
-//! three columns (`summary.json` keys `equation_ssm`, and `equation*` / `full_system*` added
-//! to `heteroclinic_dt_ms` and `torus_hopf_dt_ms`), and the full system's basin near the
-//! global bifurcation with both models' saddle manifolds over it (`basin`).
+//! reduced model next to the data-driven one (the fitted map itself and its normal form) and
+//! the full system, every bifurcation value in four columns (`summary.json` keys
+//! `equation_ssm`, and `equation*` / `full_system*` / `map` added to `heteroclinic_dt_ms` and
+//! `torus_hopf_dt_ms`), and the full system's basin near the global bifurcation with both
+//! normal forms' saddle manifolds over it and the fitted map's verdict on it (`basin`, with
+//! `map_disagreement` and `map_figure`).
 
 use crate::draw::basin::{OverlayPanel, draw_basin_overlay};
 use crate::report::{Report, num, par_map};
-use furuta::basin::{Agreement, BasinOptions, FullBasin, ModelBasin, TorusContinuation, agreement, full_basin, model_basin, torus_continuation};
+use furuta::basin::{Agreement, BasinOptions, FullBasin, ModelBasin, ModelFate, TorusContinuation, agreement, full_basin, model_basin, torus_continuation};
 use furuta::bifurcations::{ModelBifurcations, RHO_MAX};
 use furuta::equation_ssm::{EquationBifurcations, EquationModel, EquationSsm, INVARIANCE_RADII, equation_bifurcations, furuta_equation_polar, furuta_equation_ssm};
+use furuta::map_global::{Connection, ConnectionOptions, full_connection, map_basin, map_connection, map_torus_continuation};
 use furuta::parametric::ParametricModel;
+use furuta::shared_tangent::SharedParametricModel;
 use plotters::style::RGBColor;
 use serde_json::{Value, json};
 use ssm::interp::Interp;
@@ -31,7 +35,22 @@ struct Computed {
     /// Per basin dt: (data-driven, equation-driven) normal form, portrait and grid verdicts.
     models: Vec<[(Portrait, ModelBasin); 2]>,
     torus: TorusContinuation,
+    /// The fitted map (linear, spline in dt): saddle connection by the fast cycle's pushed
+    /// unstable branch, torus continuation; its basin verdicts (linear) per basin dt.
+    map_connection: [Result<Connection, String>; 2],
+    map_torus: [TorusContinuation; 2],
+    map_basin: Vec<Vec<bool>>,
+    /// The full system's saddle connection by the same rule.
+    full_connection: Result<Connection, String>,
+    /// CPU-independent cost note: wall seconds of the map computations and of the full
+    /// system's connection.
+    map_seconds: f64,
+    full_connection_seconds: f64,
 }
+
+/// Range, grid and tolerance (ms) of the saddle-connection scans (map and full system).
+/// The full system's costs 1.6 s CPU per circle plus its runs at each of the 6 + 6 dt.
+pub const CONNECTION_RANGE_MS: (f64, f64, usize, f64) = (31.0, 32.0, 6, 0.005);
 
 fn settings(quick: bool) -> (Vec<f64>, Vec<u32>, Vec<f64>, u32, BasinOptions, Vec<f64>, u64) {
     // Interpolation nodes of the equation-driven models, their orders, the dts of the
@@ -46,7 +65,7 @@ fn settings(quick: bool) -> (Vec<f64>, Vec<u32>, Vec<f64>, u32, BasinOptions, Ve
     }
 }
 
-fn compute(pm: &ParametricModel, quick: bool) -> Result<Computed, Box<dyn Error + Send + Sync>> {
+fn compute(pm: &ParametricModel, sm: &SharedParametricModel, quick: bool) -> Result<Computed, Box<dyn Error + Send + Sync>> {
     let (nodes, orders, diag_dts, diag_order, bopts, torus_dts, torus_periods) = settings(quick);
     let popts = PortraitOptions { rho_max: RHO_MAX, ..PortraitOptions::default() };
     let equation = || -> Result<(Vec<EquationSsm>, Vec<EquationBifurcations>), furuta::Error> {
@@ -86,24 +105,61 @@ fn compute(pm: &ParametricModel, quick: bool) -> Result<Computed, Box<dyn Error 
             Ok([x?, y?])
         })
     };
-    let ((eq, basin), (models, torus)) = rayon::join(
-        || rayon::join(equation, || full_basin(&bopts)),
-        || rayon::join(models, || torus_continuation(&torus_dts, [0.097, 0.0277], torus_periods)),
+    // The fitted map: connection, torus continuation (both interpolations) and basin.
+    let co = ConnectionOptions::default();
+    let (clo, chi, cn, ctol) = CONNECTION_RANGE_MS;
+    let at = |interp: Interp| move |dt: f64| -> Result<ssm::fit::SsmModel, furuta::Error> { sm.model_at(dt, interp) };
+    let map_part = || -> Result<_, furuta::Error> {
+        let t0 = std::time::Instant::now();
+        let conn = |i: Interp| map_connection(at(i), clo, chi, cn, ctol, &co).map_err(|e| format!("not found ({e})"));
+        let tor = |i: Interp| map_torus_continuation(at(i), &torus_dts, [0.097, 0.0277], torus_periods);
+        let ((cl, cs), ((tl, ts), mb)) = rayon::join(|| rayon::join(|| conn(Interp::Linear), || conn(Interp::Spline)), || {
+            rayon::join(|| rayon::join(|| tor(Interp::Linear), || tor(Interp::Spline)), || map_basin(at(Interp::Linear), &bopts))
+        });
+        Ok(([cl, cs], [tl?, ts?], mb?, t0.elapsed().as_secs_f64()))
+    };
+    // The full system's connection (about 40 s CPU) in the full report only.
+    let full_conn = || {
+        let t0 = std::time::Instant::now();
+        let r = if quick { Err("full report only".to_string()) } else { full_connection(clo, chi, cn, ctol, &co).map_err(|e| format!("not found ({e})")) };
+        (r, t0.elapsed().as_secs_f64())
+    };
+    let (((eq, basin), (models, torus)), (map, (full_connection, full_connection_seconds))) = rayon::join(
+        || {
+            rayon::join(
+                || rayon::join(equation, || full_basin(&bopts)),
+                || rayon::join(models, || torus_continuation(&torus_dts, [0.097, 0.0277], torus_periods)),
+            )
+        },
+        || rayon::join(map_part, full_conn),
     );
     let (diag, by_order) = eq?;
-    Ok(Computed { diag, by_order, basin: basin?, models: models?, torus: torus? })
+    let (map_connection, map_torus, map_basin, map_seconds) = map?;
+    Ok(Computed {
+        diag,
+        by_order,
+        basin: basin?,
+        models: models?,
+        torus: torus?,
+        map_connection,
+        map_torus,
+        map_basin,
+        full_connection,
+        map_seconds,
+        full_connection_seconds,
+    })
 }
 
 fn f4(v: Option<f64>) -> String {
     v.map_or("none".into(), |x| format!("{x:.3}"))
 }
 
-/// Both sections: `equation` (the three columns, the order table, coefficients and
+/// Both sections: `equation` (the four columns: fitted map, its normal form, equation-driven, full system; the order table, coefficients and
 /// invariance) and `basin`. `bif` is the data-driven model's bifurcations (portraits section);
 /// the full system's small-start scan and torus are read from the summary keys the
 /// fullsystem section wrote.
-pub fn global_sections(rep: &mut Report, pm: &ParametricModel, bif: &ModelBifurcations, quick: bool) -> Result<(), Box<dyn Error>> {
-    let c = compute(pm, quick).map_err(|e| e.to_string())?;
+pub fn global_sections(rep: &mut Report, pm: &ParametricModel, sm: &SharedParametricModel, bif: &ModelBifurcations, quick: bool) -> Result<(), Box<dyn Error>> {
+    let c = compute(pm, sm, quick).map_err(|e| e.to_string())?;
     equation_section(rep, bif, &c, quick)?;
     basin_section(rep, &c)?;
     Ok(())
@@ -152,39 +208,61 @@ fn equation_section(rep: &mut Report, bif: &ModelBifurcations, c: &Computed, qui
     let lost = c.torus.lost_between;
     let rho = |r: Option<[f64; 2]>| r.map_or("none".into(), |r| format!("({:.4}, {:.4})", r[0], r[1]));
     let rho_full = torus["rho_full"].as_array().and_then(|a| Some([a.first()?.as_f64()?, a.get(1)?.as_f64()?]));
+    let conn = |r: &Result<Connection, String>| match r {
+        Ok(c) => c.switch.bracket.map_or("none".into(), |(a, b)| format!("[{a:.4}, {b:.4}]")),
+        Err(e) => e.clone(),
+    };
+    let lost_text = |t: &TorusContinuation| t.lost_between.map_or("not lost on the grid".into(), |(a, b)| format!("[{a:.3}, {b:.3}]"));
+    let co = ConnectionOptions::default();
     let rows = vec![
         vec![
-            "saddle connection of the saddle cycles [ms]".into(),
+            "saddle connection: fast saddle cycle's pushed unstable branch switches from the torus to escape [ms]".into(),
+            format!("{} / {}", conn(&c.map_connection[0]), conn(&c.map_connection[1])),
             f4(bif.heteroclinic.as_ref().map(|h| h.dt)),
             f4(eb.heteroclinic.as_ref().map(|h| h.dt)),
-            "no direct counterpart (see the small-start switch)".into(),
+            conn(&c.full_connection),
         ],
         vec![
             "small-start switch, bounded -> escape [ms]".into(),
+            map_switch(rep.summary.get("map_switch_dt_ms")),
             f4(het["model"].as_f64()),
             f4(eq_switch),
             format!("{} (all escape from {})", bracket(full_switch.as_ref()), f4(het["full_system_all_escape_from"].as_f64())),
         ],
         vec![
-            "small-start switch of the fitted map itself, no normal form (linear / spline in dt) [ms]".into(),
-            map_switch(rep.summary.get("map_switch_dt_ms")),
-            "-".into(),
-            format!("{} (all escape from {})", bracket(full_switch.as_ref()), f4(het["full_system_all_escape_from"].as_f64())),
-        ],
-        vec![
             "torus Hopf: the 2-torus stops attracting [ms]".into(),
+            format!("{} / {}", lost_text(&c.map_torus[0]), lost_text(&c.map_torus[1])),
             f4(bif.hopf.as_ref().map(|h| h.dt)),
             f4(eb.hopf.as_ref().map(|h| h.dt)),
             lost.map_or("not lost on the grid".into(), |(a, b)| format!("[{a:.3}, {b:.3}]")),
         ],
         vec![
             "2-torus at 30.8 ms (rho_1, rho_2) [rad]".into(),
+            "-".into(),
             rho(bif.torus_30p8.as_ref().map(|t| t.rho)),
             rho(eb.torus_30p8.as_ref().map(|t| t.rho)),
             rho(rho_full),
         ],
     ];
-    rep.table(&["bifurcation", "data-driven model", &format!("equation-driven model (order {EQUATION_ORDER})"), "full system"], &rows);
+    rep.para(&format!(
+        "The fitted map column is the shared-tangent SSM model of the predictions section (manifold and map coefficients \
+         interpolated in dt, linearly / by a natural cubic spline), iterated as a map, no normal form. Its saddle \
+         connection and the full system's are read by one rule: the fast saddle cycle (an invariant circle of the \
+         fitted map, of the exact period map for the full system; Fourier collocation and Newton) is pushed along the \
+         slow eigenvector by {} rad of theta at {} slow phases over half a turn, and each start is iterated (the full \
+         system: simulated) for {} periods; the connection is the first dt at which a pushed start escapes (|theta| > \
+         {} rad) instead of settling on the 2-torus, on a grid of {} dt over [{}, {}] ms, then bisected to {} ms. The \
+         map's torus loss uses the full system's continuation rule on the map's own runs (same dt grid, periods and \
+         start). The normal-form column is the data-driven model of the portraits section (per-dt fits' polar normal \
+         forms interpolated in dt): its saddle connection is where the fast cycle's unstable branch lands on the slow \
+         cycle's stable manifold. Fitted map: {:.1} s wall; the full system's connection: {:.1} s wall.",
+        co.push, co.phases, co.periods, furuta::full_system::ESCAPE_THETA, CONNECTION_RANGE_MS.2, CONNECTION_RANGE_MS.0, CONNECTION_RANGE_MS.1, CONNECTION_RANGE_MS.3,
+        c.map_seconds, c.full_connection_seconds,
+    ));
+    rep.table(
+        &["bifurcation", "fitted map (linear / spline in dt)", "its normal form (data-driven)", &format!("equation-driven model (order {EQUATION_ORDER})"), "full system"],
+        &rows,
+    );
     // The equation-driven model's values by order.
     let orow: Vec<Vec<String>> = c
         .by_order
@@ -291,6 +369,17 @@ fn equation_section(rep: &mut Report, bif: &ModelBifurcations, c: &Computed, qui
         h.insert("equation".into(), json!(eq_switch));
         h.insert("equation_saddle_connection".into(), json!(eb.heteroclinic.as_ref().map(|h| h.dt)));
         h.insert("equation_order".into(), json!(EQUATION_ORDER));
+        let cj = |r: &Result<Connection, String>| match r {
+            Ok(c) => json!({"bracket": c.switch.bracket.map(|(a, b)| [a, b]), "grid": c.switch.grid, "monotone": c.switch.monotone, "evaluations": c.switch.evaluations}),
+            Err(e) => json!({"error": e}),
+        };
+        let (lo, hi, n, tol) = CONNECTION_RANGE_MS;
+        h.insert(
+            "map".into(),
+            json!({"linear": cj(&c.map_connection[0]), "spline": cj(&c.map_connection[1]), "range_ms": [lo, hi], "grid": n, "tol_ms": tol, "options": co,
+                   "rule": "first dt at which a start on the fast saddle cycle pushed along the slow eigenvector escapes (|theta| > 1 rad) within the periods"}),
+        );
+        h.insert("full_system_connection".into(), cj(&c.full_connection));
     }
     if let Some(Value::Object(h)) = rep.summary.get_mut("torus_hopf_dt_ms") {
         h.insert("equation".into(), json!(eb.hopf.as_ref().map(|h| h.dt)));
@@ -304,6 +393,11 @@ fn equation_section(rep: &mut Report, bif: &ModelBifurcations, c: &Computed, qui
             )),
         );
         h.insert("full_system_steps".into(), serde_json::to_value(&c.torus.steps)?);
+        h.insert(
+            "map".into(),
+            json!({"linear": c.map_torus[0].lost_between.map(|(a, b)| [a, b]), "spline": c.map_torus[1].lost_between.map(|(a, b)| [a, b]),
+                   "linear_steps": c.map_torus[0].steps, "spline_steps": c.map_torus[1].steps}),
+        );
     }
     Ok(())
 }
@@ -341,6 +435,8 @@ fn basin_section(rep: &mut Report, c: &Computed) -> Result<(), Box<dyn Error>> {
     let mut rows = Vec::new();
     let mut list = Vec::new();
     let mut panels_data = Vec::new();
+    let mut map_disagreement = Vec::new();
+    let mut map_panels: Vec<(String, Vec<bool>, Vec<bool>)> = Vec::new();
     for (p, (dt, m)) in o.dts_ms.iter().zip(&c.models).enumerate() {
         let full = b.bounded_at(p);
         let ag = |mb: &ModelBasin| -> Result<(Agreement, Agreement), furuta::Error> { Ok((agreement(&mb.asymptotic, &full)?, agreement(&mb.horizon, &full)?)) };
@@ -351,8 +447,13 @@ fn basin_section(rep: &mut Report, c: &Computed) -> Result<(), Box<dyn Error>> {
             let und = if a.undecided > 0 { format!(", {} undecided", a.undecided) } else { String::new() };
             format!("{:.1} % ({} / {}{und})", 100.0 * a.disagreement, a.model_bounded_full_escaped, a.model_escaped_full_bounded)
         };
-        rows.push(vec![format!("{dt}"), format!("{:.1} %", 100.0 * esc), pct(&data), pct(&data_h), pct(&eq), pct(&eq_h)]);
-        list.push(json!({"dt_ms": dt, "escape_fraction": esc, "data_driven": data, "data_driven_horizon": data_h, "equation": eq, "equation_horizon": eq_h}));
+        let map_b = c.map_basin.get(p).ok_or("no map basin at this dt")?;
+        let map_fates: Vec<ModelFate> = map_b.iter().map(|&b| if b { ModelFate::Principal } else { ModelFate::LeavesBox }).collect();
+        let map_ag = agreement(&map_fates, &full)?;
+        rows.push(vec![format!("{dt}"), format!("{:.1} %", 100.0 * esc), pct(&map_ag), pct(&data), pct(&data_h), pct(&eq), pct(&eq_h)]);
+        list.push(json!({"dt_ms": dt, "escape_fraction": esc, "map": map_ag, "data_driven": data, "data_driven_horizon": data_h, "equation": eq, "equation_horizon": eq_h}));
+        map_disagreement.push(map_ag.disagreement);
+        map_panels.push((format!("dt = {dt} ms: fitted map differs on {:.1} %", 100.0 * map_ag.disagreement), full.clone(), map_b.iter().zip(&full).map(|(a, b)| a != b).collect::<Vec<bool>>()));
         let differs = |mb: &ModelBasin| -> Vec<bool> { mb.asymptotic.iter().zip(&full).map(|(f, &x)| f.bounded().is_some_and(|y| y != x)).collect() };
         let (d0, d1) = (differs(&m[0].1), differs(&m[1].1));
         panels_data.push((format!("dt = {dt} ms: {:.0} % escape", 100.0 * esc), full, d0, d1, separatrices(&m[0].0), separatrices(&m[1].0)));
@@ -371,10 +472,28 @@ fn basin_section(rep: &mut Report, c: &Computed) -> Result<(), Box<dyn Error>> {
     let fig = "fig/basin_global.png";
     draw_basin_overlay(&rep.dir().join(fig), &format!("Full system: bounded (green) / escape (red) within {} periods", o.periods), "rho_1 (slow) [rad]", "rho_2 (fast) [rad]", &panels)?;
     rep.figure(fig, "The full system's basin with the reduced models' separatrices; markers: cells where a model's asymptotic verdict differs");
+    let orange = RGBColor(230, 120, 0);
+    let map_fig = "fig/basin_map.png";
+    let mpanels: Vec<OverlayPanel> = map_panels
+        .iter()
+        .map(|(cap, full, d)| OverlayPanel { caption: cap.clone(), x: &r1, y: &r2, bounded: full, marks: vec![("fitted map differs".into(), orange, d.clone())], curves: Vec::new() })
+        .collect();
+    draw_basin_overlay(
+        &rep.dir().join(map_fig),
+        &format!("Full system (bounded green / escape red within {} periods) and the fitted map's verdict", o.periods),
+        "rho_1 (slow) [rad]",
+        "rho_2 (fast) [rad]",
+        &mpanels,
+    )?;
+    rep.figure(
+        map_fig,
+        "The full system's basin; markers: cells where the fitted map (shared-tangent model, linear in dt, iterated from the full system's first delay vector of each start, same horizon and escape rule) disagrees",
+    );
     rep.para(&format!(
         "Disagreement: the fraction of the {cells} cells where the model's verdict differs from the full system's (in \
          parentheses: model bounded but full system escaped / model escaped but full system bounded; undecided: the model's \
-         trajectory reached a saddle, not compared); asymptotic = the \
+         trajectory reached a saddle, not compared); the fitted map's verdict is its own run of the same horizon from \
+         the full system's first delay vector; for the normal forms, asymptotic = the \
          model's fate within {MODEL_T_MAX} s, horizon = within the full runs' {} periods. {} runs in {:.1} s wall on {} \
          threads ({:.1} ms per cell and thread).",
         o.periods,
@@ -383,7 +502,7 @@ fn basin_section(rep: &mut Report, c: &Computed) -> Result<(), Box<dyn Error>> {
         b.threads,
         1e3 * b.wall_seconds * b.threads as f64 / b.result.cells.len().max(1) as f64,
     ));
-    rep.table(&["dt [ms]", "full system: escape", "data-driven: differs", "data-driven, horizon", "equation-driven: differs", "equation-driven, horizon"], &rows);
+    rep.table(&["dt [ms]", "full system: escape", "fitted map: differs", "normal form (data-driven): differs", "data-driven, horizon", "equation-driven: differs", "equation-driven, horizon"], &rows);
     rep.summary.insert(
         "basin".into(),
         json!({
@@ -397,6 +516,8 @@ fn basin_section(rep: &mut Report, c: &Computed) -> Result<(), Box<dyn Error>> {
             "equation_order": EQUATION_ORDER,
             "spec_hash": b.result.spec_hash,
             "per_dt": list,
+            "map_disagreement": map_disagreement,
+            "map_figure": map_fig,
             "wall_seconds": b.wall_seconds,
         }),
     );

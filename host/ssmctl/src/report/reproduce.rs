@@ -47,11 +47,11 @@ pub fn run(out: &Path, data_dir: &Path, quick: bool, quiet: bool) -> Result<(), 
                 let (parametric, runs) = t.time("parametric", || crate::report::normal_form::section(rep, quick))?;
                 let bif = t.time("portraits", || crate::report::bifurcations::portraits_section(rep, &parametric))?;
                 t.time("fullsystem", || crate::report::bifurcations::fullsystem_section(rep, &parametric, &bif, quick))?;
-                t.time("predictions", || crate::report::bifurcations::predictions_section(rep, &runs))?;
+                let shared = t.time("predictions", || crate::report::bifurcations::predictions_section(rep, &runs))?;
                 if !quick {
                     t.time("bifsensitivity", || crate::report::bifurcations::sensitivity_section(rep, &parametric, &runs))?;
                 }
-                t.time("global", || crate::report::global::global_sections(rep, &parametric, &bif, quick))?;
+                t.time("global", || crate::report::global::global_sections(rep, &parametric, &shared, &bif, quick))?;
                 Ok(())
             })();
             sendable(r).map(|()| (part, t))
