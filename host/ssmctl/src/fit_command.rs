@@ -99,7 +99,11 @@ pub(crate) fn parse_dynamics(s: &str, centers: usize) -> Result<Dynamics, String
         "flow" => Ok(Dynamics::Flow),
         "map" => Ok(Dynamics::Map),
         "rbf" => Ok(Dynamics::Rbf { centers }),
-        _ => Err(format!("--dynamics `{s}`: expected flow, map or rbf")),
+        _ => match s.strip_prefix("rbf:") {
+            // `rbf:KERNEL`: linear (the default), cubic, thin-plate, gaussian:EPS.
+            Some(k) => ssm::Kernel::parse(k).map(|kernel| Dynamics::RbfWith { centers, kernel }).map_err(|e| format!("--dynamics `{s}`: {e}")),
+            None => Err(format!("--dynamics `{s}`: expected flow, map, rbf or rbf:KERNEL (KERNEL: linear, cubic, thin-plate, gaussian:EPS)")),
+        },
     }
 }
 
