@@ -114,6 +114,13 @@ pub struct CandidateResult {
     /// Gaussian noise of the data's `noise_sd` added (seeded), 1/s: how much of the data's
     /// exponent measurement noise alone can explain.
     pub rosenstein_noisy: Option<f64>,
+    /// Multi-step (rollout) loss on the held-out trajectory: RMS error of the model's
+    /// reduced coordinates run `horizon` map steps (one dominant period of the held-out
+    /// series at this step, its Theiler window) from evenly spaced held-out points, over
+    /// the RMS of the held-out reduced coordinates ([`rollout_error`]). Reported next to
+    /// the long-term statistics; it does not enter the pick.
+    #[serde(default)]
+    pub rollout: Option<f64>,
     /// Correlation dimension of the model's observable series (data settings).
     pub corr_dim: Option<f64>,
     pub corr_dim_err: Option<f64>,
@@ -232,6 +239,7 @@ pub fn evaluate_candidate(train: &[TimeSeries], test: &TimeSeries, c: &Candidate
         benettin_2nd: None,
         rosenstein: None,
         rosenstein_noisy: None,
+        rollout: None,
         corr_dim: None,
         corr_dim_err: None,
         js: None,
@@ -268,6 +276,7 @@ fn measure(m: &SsmModel, test_k: &TimeSeries, ctx: &Context, s: &EvalSettings, r
         return Ok(());
     }
     let eta0 = eta_data[..d].to_vec();
+    r.rollout = rollout_error(&m.dynamics, &eta_data, d, ctx.theiler, 200);
     let data_max = eta_data.iter().fold(0.0_f64, |a, v| a.max(v.abs()));
     match model_lyapunov(m, &eta0, s.benettin_transient, s.benettin_steps) {
         Ok(b) => {
@@ -331,6 +340,35 @@ fn measure(m: &SsmModel, test_k: &TimeSeries, ctx: &Context, s: &EvalSettings, r
         Err(e) => r.notes.push(format!("PDFs: {e}")),
     }
     Ok(())
+}
+
+/// Multi-step loss of a reduced map on a held-out reduced series `eta_data` (`d` values per
+/// point): from `starts` evenly spaced points (each with `horizon` points after it) the map
+/// is run `horizon` steps; the RMS over all starts and steps of the distance to the data's
+/// points, over the RMS norm of the data's points. `None` when the series is shorter than
+/// `horizon + 1` points or a run leaves the finite numbers.
+pub fn rollout_error(dynamics: &ssm::ReducedDynamics, eta_data: &[f64], d: usize, horizon: usize, starts: usize) -> Option<f64> {
+    let dt = dynamics.map_dt()?;
+    let n = eta_data.len() / d.max(1);
+    if d == 0 || horizon == 0 || n < horizon + 1 || starts == 0 {
+        return None;
+    }
+    let stride = ((n - horizon) / starts).max(1);
+    let mut scratch = ssm::dynamics::StepScratch::default();
+    let (mut err2, mut count) = (0.0, 0usize);
+    let mut eta = vec![0.0; d];
+    for s in (0..n - horizon).step_by(stride) {
+        eta.copy_from_slice(&eta_data[s * d..(s + 1) * d]);
+        for k in 1..=horizon {
+            dynamics.step(&mut eta, dt, &mut scratch);
+            let target = &eta_data[(s + k) * d..(s + k + 1) * d];
+            err2 += eta.iter().zip(target).map(|(a, b)| (a - b) * (a - b)).sum::<f64>();
+            count += 1;
+        }
+    }
+    let norm2 = eta_data.iter().map(|v| v * v).sum::<f64>() / n as f64;
+    let e = (err2 / count.max(1) as f64 / norm2).sqrt();
+    e.is_finite().then_some(e)
 }
 
 /// `x` plus white Gaussian noise of standard deviation `sd` (xorshift64 from `seed`,
@@ -662,6 +700,26 @@ mod tests {
         assert!(sel.why.contains("Benettin within 10 %") && sel.warnings.is_empty(), "{sel:?}");
     }
 
+    /// The rollout loss is zero for the exact map of the data (up to rounding), grows with
+    /// the horizon for a map with a slightly wrong rotation (error after k steps about
+    /// k x 0.01 rad of a unit circle), and is `None` on too short a series.
+    #[test]
+    fn rollout_error_known_answers() {
+        let rot = |w: f64, n: usize| -> Vec<f64> { (0..n).flat_map(|k| [(w * k as f64).cos(), (w * k as f64).sin()]).collect() };
+        let data = rot(0.3, 400);
+        let fitted = |w: f64| {
+            let d = rot(w, 400);
+            let mm = faer::Mat::from_fn(400, 2, |i, j| d[2 * i + j]);
+            ssm::ReducedDynamics::fit(&[ssm::dynamics::EtaTrajectory { eta: mm.as_ref(), dt: 0.1 }], Dynamics::Map, 1, Ridge::Fixed(0.0)).unwrap()
+        };
+        let exact = rollout_error(&fitted(0.3), &data, 2, 10, 50).unwrap();
+        assert!(exact < 1e-9, "{exact}");
+        let (e1, e10) = (rollout_error(&fitted(0.31), &data, 2, 1, 50).unwrap(), rollout_error(&fitted(0.31), &data, 2, 10, 50).unwrap());
+        // RMS over k = 1..=10 of 2 sin(0.005 k) ~ 0.01 sqrt(385 / 10) = 0.062.
+        assert!((e1 - 0.01).abs() < 1e-4 && (e10 - 0.0620).abs() < 1e-3, "{e1} {e10}");
+        assert!(rollout_error(&fitted(0.3), &data[..20], 2, 10, 50).is_none());
+    }
+
     fn result(name: &str, b: Option<f64>, r: Option<f64>, d2: Option<f64>, js: Option<f64>, failed: Option<&str>) -> CandidateResult {
         CandidateResult {
             name: name.into(),
@@ -673,6 +731,7 @@ mod tests {
             benettin_2nd: None,
             rosenstein: r,
             rosenstein_noisy: None,
+            rollout: None,
             corr_dim: d2,
             corr_dim_err: d2.map(|_| 0.1),
             js,
