@@ -380,7 +380,7 @@ fn selection_tables(rep: &mut crate::report::Report, selections: &[(String, Vec<
          run, so it differs from the first table's (one held-out length): a model that covers the data's distribution \
          during its transient and then settles on a regular attractor (the one-sample RBF model: 0.0046 there) is seen \
          here for what it settles to. Rollout error: the multi-step loss on the held-out trajectory, RMS distance of the \
-         model's reduced coordinates run one dominant period (the Theiler window, in map steps) from 200 evenly spaced \
+         model's reduced coordinates run a quarter of the dominant period (in map steps) from 200 evenly spaced \
          held-out points to the data's, over the data's RMS; reported, not used in the pick.",
     );
     let f = |v: Option<f64>, p: usize| v.map_or("-".to_string(), |v| format!("{v:.p$}"));
@@ -396,7 +396,7 @@ fn selection_tables(rep: &mut crate::report::Report, selections: &[(String, Vec<
                 format!("{} / {:.3}", f(r.rosenstein, 3), r.data.lle),
                 format!("{} / {:.2} ± {:.2}", f(r.corr_dim, 2), r.data.corr_dim, r.data.corr_dim_err),
                 f(r.js, 4),
-                format!("{} ({} steps)", f(r.rollout, 3), r.data.theiler),
+                format!("{} ({} steps)", f(r.rollout, 3), furuta::model_selection::rollout_horizon(r.data.theiler)),
                 r.failed.clone().map_or_else(|| "ok".to_string(), |w| format!("FAILED: {w}")),
             ]);
         }
