@@ -54,7 +54,7 @@ fn parse_dynamics(s: &str, centers: usize) -> PyResult<Dynamics> {
         "rbf" => Ok(Dynamics::Rbf { centers }),
         _ => match s.strip_prefix("rbf:") {
             Some(k) => ssm::Kernel::parse(k).map(|kernel| Dynamics::RbfWith { centers, kernel }).map_err(|e| value_error(format!("dynamics `{s}`: {e}"))),
-            None => Err(value_error(format!("dynamics `{s}`: expected flow, map, rbf or rbf:KERNEL (KERNEL: linear, cubic, thin-plate, gaussian:EPS)"))),
+            None => Err(value_error(format!("dynamics `{s}`: expected flow, map or rbf (or rbf:KERNEL, KERNEL: linear, cubic, thin-plate, gaussian:EPS)"))),
         },
     }
 }

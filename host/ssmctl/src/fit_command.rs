@@ -102,7 +102,7 @@ pub(crate) fn parse_dynamics(s: &str, centers: usize) -> Result<Dynamics, String
         _ => match s.strip_prefix("rbf:") {
             // `rbf:KERNEL`: linear (the default), cubic, thin-plate, gaussian:EPS.
             Some(k) => ssm::Kernel::parse(k).map(|kernel| Dynamics::RbfWith { centers, kernel }).map_err(|e| format!("--dynamics `{s}`: {e}")),
-            None => Err(format!("--dynamics `{s}`: expected flow, map, rbf or rbf:KERNEL (KERNEL: linear, cubic, thin-plate, gaussian:EPS)")),
+            None => Err(format!("--dynamics `{s}`: expected flow, map or rbf (or rbf:KERNEL, KERNEL: linear, cubic, thin-plate, gaussian:EPS)")),
         },
     }
 }
