@@ -459,6 +459,19 @@ pub fn inspect(bytes: &[u8]) -> Result<Value, BlobError> {
 mod tests {
     use super::*;
 
+    /// `--dynamics rbf:KERNEL` picks the kernel; `rbf` is the linear default; bad kernels
+    /// are errors naming the option.
+    #[test]
+    fn dynamics_with_kernels_parse() {
+        assert_eq!(parse_dynamics("rbf", 7), Ok(Dynamics::Rbf { centers: 7 }));
+        assert_eq!(parse_dynamics("rbf:cubic", 7), Ok(Dynamics::RbfWith { centers: 7, kernel: ssm::Kernel::Cubic }));
+        assert_eq!(parse_dynamics("rbf:gaussian:2", 7), Ok(Dynamics::RbfWith { centers: 7, kernel: ssm::Kernel::Gaussian { eps: 2.0 } }));
+        for bad in ["rbf:quartic", "rbf:gaussian:-1", "spline"] {
+            let e = parse_dynamics(bad, 7).unwrap_err();
+            assert!(e.contains(&format!("--dynamics `{bad}`")), "{e}");
+        }
+    }
+
     /// The host decoder needs no stack of the caller's (it runs on its own thread): `inspect`
     /// of the reference blob works from a thread with a 256 KiB stack, where the several-MB
     /// model built on the caller's stack overflowed (exit 134 of `export`/`inspect` in the
