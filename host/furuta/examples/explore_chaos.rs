@@ -165,12 +165,14 @@ fn explore_flag_candidates() {
         let mut o = ChaosOptions::default();
         let mut poly = false;
         let mut smooth = 0;
+        let mut kernel = ssm::Kernel::Linear;
         for kv in cfg.trim().split(',') {
             let (key, v) = kv.split_once('=').unwrap();
             match key {
                 "k" => k = v.parse().unwrap(),
                 "dyn" => poly = v == "poly",
                 "sm" => smooth = v.parse().unwrap(),
+                "kern" => kernel = ssm::Kernel::parse(v).unwrap(),
                 "o" => o.poly_order = v.parse().unwrap(),
                 "long" => s.long_runs = v.parse().unwrap(),
                 _ => assert!(model_key(&mut o, key, v), "unknown key {key}"),
@@ -180,15 +182,19 @@ fn explore_flag_candidates() {
         let ts = furuta::model_selection::subsample(&test, k, 0).unwrap();
         let ctx = Context::from_series(&ts.x, ts.dt().unwrap(), 6).unwrap();
         let mut f = fit_options(&o, d, &ctx);
-        f.dynamics = if poly { Dynamics::Map } else { Dynamics::Rbf { centers: o.centers } };
+        f.dynamics = match (poly, kernel) {
+            (true, _) => Dynamics::Map,
+            (false, ssm::Kernel::Linear) => Dynamics::Rbf { centers: o.centers },
+            (false, kernel) => Dynamics::RbfWith { centers: o.centers, kernel },
+        };
         cands.push(Candidate { name: cfg.trim().to_string(), step: k, fit: f, smooth });
     }
     let t0 = Instant::now();
     let (res, sel) = evaluate_and_select(&two, &test, &cands, &s, &Targets::default()).unwrap();
-    println!("| candidate | p | shift | data LLE | Benettin (2nd) | Rosenstein (+noise) | D2 (data) | JS | excursion | s | failed / notes |");
+    println!("| candidate | p | shift | data LLE | Benettin (2nd) | Rosenstein (+noise) | D2 (data) | JS | rollout | excursion | s | failed / notes |");
     for r in &res {
         println!(
-            "| {} | {} | {} | {:.3} | {} ({}) | {} ({}) | {} ({:.2}+-{:.2}) | {} | {} | {:.0} | {} {} |",
+            "| {} | {} | {} | {:.3} | {} ({}) | {} ({}) | {} ({:.2}+-{:.2}) | {} | {} | {} | {:.0} | {} {} |",
             r.name,
             r.options.embed,
             r.options.shift,
@@ -201,6 +207,7 @@ fn explore_flag_candidates() {
             r.data.corr_dim,
             r.data.corr_dim_err,
             fmt_opt(r.js, 4),
+            fmt_opt(r.rollout, 3),
             fmt_opt(r.excursion, 2),
             r.seconds,
             r.failed.clone().unwrap_or_default(),

@@ -12,6 +12,7 @@ pub mod convergence;
 pub mod device_model;
 pub mod equation_ssm;
 pub mod error;
+pub mod estimator_check;
 pub mod full_system;
 pub mod lyapunov;
 pub mod map_global;

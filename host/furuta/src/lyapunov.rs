@@ -13,7 +13,7 @@ use crate::Error;
 use chaos::{BenettinParams, Orbit, benettin_qr, iterate_map};
 use serde::Serialize;
 
-use ssm::dynamics::{RbfMap, ReducedDynamics, StepScratch};
+use ssm::dynamics::{Kernel, RbfMap, ReducedDynamics, StepScratch};
 use ssm::fit::BLOWUP_FACTOR;
 use ssm::poly::Poly;
 use ssm::SsmModel;
@@ -22,9 +22,9 @@ use ssm::SsmModel;
 /// Message for the non-differentiable points of the linear kernel.
 pub const RBF_KINK: &str = "state exactly at an RBF centre (the linear kernel has a kink there)";
 
-/// Jacobian (row-major `d x d`) of the RBF map `eta -> eta + sum_i C_i ||z - c_i|| + A z + b`,
-/// `z = eta / s`: `I + sum_i C_i (z - c_i)^T / (||z - c_i|| s) + A / s`. Fails only exactly
-/// at a centre.
+/// Jacobian (row-major `d x d`) of the RBF map `eta -> eta + sum_i C_i phi(||z - c_i||) + A z + b`,
+/// `z = eta / s`: `I + sum_i C_i phi'(r_i) / r_i (z - c_i)^T / s + A / s` (linear kernel:
+/// `phi'(r) / r = 1 / r`). Fails only exactly at a centre of the linear kernel.
 pub fn rbf_jacobian(m: &RbfMap, eta: &[f64], jac: &mut [f64]) -> Result<(), &'static str> {
     let d = m.dim;
     let k = m.n_centers();
@@ -47,14 +47,25 @@ pub fn rbf_jacobian(m: &RbfMap, eta: &[f64], jac: &mut [f64]) -> Result<(), &'st
             diff[j] = eta[j] / m.scale[j] - ctr[j];
             r2 += diff[j] * diff[j];
         }
-        if r2 == 0.0 {
-            return Err(RBF_KINK);
+        if m.kernel == Kernel::Linear {
+            if r2 == 0.0 {
+                return Err(RBF_KINK);
+            }
+            let r = r2.sqrt();
+            for out in 0..d {
+                let w = m.coef[c * d + out];
+                for j in 0..d {
+                    jac[out * d + j] += w * diff[j] / (r * m.scale[j]);
+                }
+            }
+            continue;
         }
-        let r = r2.sqrt();
+        // Other kernels: d phi(||z - c||) / d z = phi'(r) / r (z - c), smooth everywhere.
+        let g = m.kernel.dphi_over_r(r2.sqrt()).ok_or(RBF_KINK)?;
         for out in 0..d {
-            let w = m.coef[c * d + out];
+            let w = m.coef[c * d + out] * g;
             for j in 0..d {
-                jac[out * d + j] += w * diff[j] / (r * m.scale[j]);
+                jac[out * d + j] += w * diff[j] / m.scale[j];
             }
         }
     }

@@ -52,7 +52,10 @@ fn parse_dynamics(s: &str, centers: usize) -> PyResult<Dynamics> {
         "flow" => Ok(Dynamics::Flow),
         "map" => Ok(Dynamics::Map),
         "rbf" => Ok(Dynamics::Rbf { centers }),
-        _ => Err(value_error(format!("dynamics `{s}`: expected flow, map or rbf"))),
+        _ => match s.strip_prefix("rbf:") {
+            Some(k) => ssm::Kernel::parse(k).map(|kernel| Dynamics::RbfWith { centers, kernel }).map_err(|e| value_error(format!("dynamics `{s}`: {e}"))),
+            None => Err(value_error(format!("dynamics `{s}`: expected flow, map or rbf (or rbf:KERNEL, KERNEL: linear, cubic, thin-plate, gaussian:EPS)"))),
+        },
     }
 }
 

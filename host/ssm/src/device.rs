@@ -18,6 +18,10 @@ use shared::model::OwnedModel;
 pub enum ExportError {
     #[error("only RBF reduced dynamics can be exported to the device (this model has {0} dynamics); fit with --dynamics rbf")]
     NotRbf(&'static str),
+    #[error(
+        "the device predictor implements the linear RBF kernel phi(r) = r only; this model's kernel is {0} (refit with --dynamics rbf to export)"
+    )]
+    Kernel(String),
     #[error("the RBF scale is not common to all coordinates ({0:?}); refit with this version")]
     NonUniformScale(Vec<f64>),
     #[error("lift monomial {0:?} is not in the device's graded order for d = {1}, order {2}")]
@@ -95,6 +99,9 @@ pub fn to_device_model(m: &SsmModel, cfg: ControllerConfig) -> Result<OwnedModel
         ReducedDynamics::Flow { .. } => return Err(ExportError::NotRbf("flow")),
         ReducedDynamics::Map { .. } => return Err(ExportError::NotRbf("polynomial map")),
     };
+    if rbf.kernel != crate::Kernel::Linear {
+        return Err(ExportError::Kernel(rbf.kernel.name()));
+    }
     let man = &m.manifold;
     let (p, d, k) = (man.p, man.dim, rbf.n_centers());
     let s = rbf.scale.first().copied().unwrap_or(1.0);

@@ -9,8 +9,10 @@
 //! * [`ReducedDynamics::Map`]: `eta_{n+1} = eta_n + P(eta_n)`, P a polynomial of degrees
 //!   1..=K. The regression target is the increment so that the ridge shrinks towards the
 //!   identity map (no motion) instead of the zero map (spurious damping).
-//! * [`ReducedDynamics::Rbf`]: `eta_{n+1} = eta_n + sum_i C_i ||z_n - c_i|| + A z_n + b`,
-//!   linear kernel `k(r) = r` (Xu et al. 2024), `z = eta / s` scaled like the polynomials,
+//! * [`ReducedDynamics::Rbf`]: `eta_{n+1} = eta_n + sum_i C_i phi(||z_n - c_i||) + A z_n + b`,
+//!   by default the linear kernel `phi(r) = r` (Xu et al. 2024; [`Dynamics::Rbf`]), or a
+//!   [`Kernel`] chosen with [`Dynamics::RbfWith`] (cubic `r^3`, thin-plate `r^2 ln r`,
+//!   Gaussian `exp(-(eps r)^2)`), `z = eta / s` scaled like the polynomials,
 //!   centres `c_i` a farthest-point subset of the (scaled) training points, started from the
 //!   point of largest norm. The affine augmentation `A z + b` makes the regression well
 //!   posed (the linear kernel alone is only conditionally positive definite). Coefficients
@@ -44,6 +46,100 @@ pub enum Dynamics {
     Map,
     /// Discrete-time RBF map with the linear kernel and this many centres.
     Rbf { centers: usize },
+    /// Discrete-time RBF map with this many centres and the given kernel
+    /// (`RbfWith { centers, kernel: Kernel::Linear }` is `Rbf { centers }` exactly).
+    RbfWith { centers: usize, kernel: Kernel },
+}
+
+impl Dynamics {
+    /// Centres and kernel of an RBF map, `None` for polynomial dynamics.
+    pub fn rbf(&self) -> Option<(usize, Kernel)> {
+        match *self {
+            Dynamics::Rbf { centers } => Some((centers, Kernel::Linear)),
+            Dynamics::RbfWith { centers, kernel } => Some((centers, kernel)),
+            Dynamics::Flow | Dynamics::Map => None,
+        }
+    }
+}
+
+/// Radial kernel `phi(r)` of an RBF map, `r = ||z - c||` in scaled coordinates.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub enum Kernel {
+    /// `phi(r) = r`, the paper's (Xu et al. 2024); conditionally positive definite of order 1.
+    #[default]
+    Linear,
+    /// `phi(r) = r^3` (conditionally positive definite of order 2; the affine part covers it).
+    Cubic,
+    /// Thin-plate spline `phi(r) = r^2 ln r` (`phi(0) = 0`).
+    ThinPlate,
+    /// Gaussian `phi(r) = exp(-(eps r)^2)`, shape parameter `eps > 0` (in 1 / scaled units).
+    Gaussian { eps: f64 },
+}
+
+impl Kernel {
+    /// `phi(r)`.
+    #[inline]
+    pub fn phi(&self, r: f64) -> f64 {
+        match *self {
+            Kernel::Linear => r,
+            Kernel::Cubic => r * r * r,
+            Kernel::ThinPlate => {
+                if r > 0.0 { r * r * r.ln() } else { 0.0 }
+            }
+            Kernel::Gaussian { eps } => (-(eps * r) * (eps * r)).exp(),
+        }
+    }
+
+    /// `phi'(r) / r`: the gradient of `phi(||z - c||)` in `z` is this times `z - c`. `None`
+    /// where it does not exist (the linear kernel at `r = 0`, its kink); the other kernels
+    /// are differentiable everywhere (limits at `r = 0`: 0, 0, `-2 eps^2`).
+    #[inline]
+    pub fn dphi_over_r(&self, r: f64) -> Option<f64> {
+        match *self {
+            Kernel::Linear => {
+                if r > 0.0 { Some(1.0 / r) } else { None }
+            }
+            Kernel::Cubic => Some(3.0 * r),
+            Kernel::ThinPlate => Some(if r > 0.0 { 2.0 * r.ln() + 1.0 } else { 0.0 }),
+            Kernel::Gaussian { eps } => Some(-2.0 * eps * eps * (-(eps * r) * (eps * r)).exp()),
+        }
+    }
+
+    /// Checks the kernel's parameter (Gaussian: `eps` finite and positive).
+    pub fn validate(&self) -> Result<(), FitError> {
+        match *self {
+            Kernel::Gaussian { eps } if !(eps.is_finite() && eps > 0.0) => {
+                Err(FitError::BadOption { what: "rbf kernel", why: format!("the Gaussian shape parameter eps must be finite and > 0, got {eps}") })
+            }
+            _ => Ok(()),
+        }
+    }
+
+    /// Short name: `linear`, `cubic`, `thin-plate`, `gaussian:EPS` (what [`Kernel::parse`] reads).
+    pub fn name(&self) -> String {
+        match *self {
+            Kernel::Linear => "linear".into(),
+            Kernel::Cubic => "cubic".into(),
+            Kernel::ThinPlate => "thin-plate".into(),
+            Kernel::Gaussian { eps } => format!("gaussian:{eps}"),
+        }
+    }
+
+    /// Parses [`Kernel::name`]'s forms; an unknown name or a bad `eps` is an error saying so.
+    pub fn parse(s: &str) -> Result<Self, FitError> {
+        let bad = |why: String| FitError::BadOption { what: "rbf kernel", why };
+        let k = match s {
+            "linear" => Kernel::Linear,
+            "cubic" => Kernel::Cubic,
+            "thin-plate" => Kernel::ThinPlate,
+            _ => match s.strip_prefix("gaussian:") {
+                Some(e) => Kernel::Gaussian { eps: e.parse().map_err(|_| bad(format!("`{e}` in `{s}` is not a number (gaussian:EPS)")))? },
+                None => return Err(bad(format!("`{s}` is not one of linear, cubic, thin-plate, gaussian:EPS"))),
+            },
+        };
+        k.validate()?;
+        Ok(k)
+    }
 }
 
 /// A fitted reduced model.
@@ -54,10 +150,13 @@ pub enum ReducedDynamics {
     Rbf(RbfMap),
 }
 
-/// RBF map with linear kernel plus affine augmentation (see the module docs).
+/// RBF map, kernel plus affine augmentation (see the module docs).
 #[derive(Clone, Debug, Serialize, Deserialize)]
 pub struct RbfMap {
     pub dim: usize,
+    /// The radial kernel (saved models without the field are linear).
+    #[serde(default)]
+    pub kernel: Kernel,
     /// Sampling step of the map.
     pub dt: f64,
     /// Scaling `z = eta / scale` (the same value for every coordinate, see `fit`).
@@ -80,7 +179,8 @@ impl RbfMap {
         let k = self.n_centers();
         for i in 0..k {
             let c = &self.centers[i * d..(i + 1) * d];
-            out[i] = c.iter().zip(eta).zip(&self.scale).map(|((c, e), s)| (e / s - c).powi(2)).sum::<f64>().sqrt();
+            let r = c.iter().zip(eta).zip(&self.scale).map(|((c, e), s)| (e / s - c).powi(2)).sum::<f64>().sqrt();
+            out[i] = self.kernel.phi(r);
         }
         for j in 0..d {
             out[k + j] = eta[j] / self.scale[j];
@@ -101,7 +201,7 @@ impl RbfMap {
     }
 
     /// Jacobian of the map at the origin (row-major d x d), or `None` if a centre sits at
-    /// the origin (the linear kernel is not differentiable there).
+    /// the origin and the kernel is linear (not differentiable there).
     pub fn jacobian_at_origin(&self) -> Option<Vec<f64>> {
         let d = self.dim;
         let k = self.n_centers();
@@ -112,14 +212,25 @@ impl RbfMap {
         for c in 0..k {
             let ctr = &self.centers[c * d..(c + 1) * d];
             let r = ctr.iter().map(|v| v * v).sum::<f64>().sqrt();
-            if r == 0.0 {
-                return None;
+            if self.kernel == Kernel::Linear {
+                if r == 0.0 {
+                    return None;
+                }
+                // d/d eta_j ||z - c|| at z = 0 = (0 - c_j) / r / scale_j.
+                for out in 0..d {
+                    let w = self.coef[c * d + out];
+                    for j in 0..d {
+                        jac[out * d + j] += w * (-ctr[j] / r) / self.scale[j];
+                    }
+                }
+                continue;
             }
-            // d/d eta_j ||z - c|| at z = 0 = (0 - c_j) / r / scale_j.
+            // d/d eta_j phi(||z - c||) at z = 0 = phi'(r) / r (0 - c_j) / scale_j.
+            let g = self.kernel.dphi_over_r(r)?;
             for out in 0..d {
                 let w = self.coef[c * d + out];
                 for j in 0..d {
-                    jac[out * d + j] += w * (-ctr[j] / r) / self.scale[j];
+                    jac[out * d + j] += w * g * (-ctr[j]) / self.scale[j];
                 }
             }
         }
@@ -459,7 +570,7 @@ impl ReducedDynamics {
             if !(f > 0.0 && f <= 1.0) {
                 return Err(FitError::BadOption { what: "linear_anchor", why: format!("the radius fraction must be in (0, 1], got {f}") });
             }
-            if let Dynamics::Rbf { .. } = kind {
+            if kind.rbf().is_some() {
                 return Err(FitError::BadOption { what: "linear_anchor", why: "applies to polynomial flow or map dynamics, not to RBF".into() });
             }
         }
@@ -486,7 +597,7 @@ impl ReducedDynamics {
                 let (w, conditioning) = poly_fit(x.as_ref(), &scale, &exps, y.as_ref(), &groups, ridge, anchor, joint, "flow regression")?;
                 Ok(ReducedDynamics::Flow { field: to_poly(&w, exps, scale), conditioning })
             }
-            Dynamics::Map | Dynamics::Rbf { .. } => {
+            Dynamics::Map | Dynamics::Rbf { .. } | Dynamics::RbfWith { .. } => {
                 let dt = common_dt(trajs)?;
                 let mut xs = Vec::new();
                 let mut ys = Vec::new();
@@ -498,18 +609,18 @@ impl ReducedDynamics {
                 let (x, groups) = stack(&xs);
                 let (y, _) = stack(&ys);
                 // The design matrix and its factors (two copies, see `ridge::fit_owned`).
-                let cols = match kind {
-                    Dynamics::Rbf { centers } => centers.saturating_add(d + 1),
-                    _ => poly::count(d, 1, order).unwrap_or(usize::MAX),
+                let cols = match kind.rbf() {
+                    Some((centers, _)) => centers.saturating_add(d + 1),
+                    None => poly::count(d, 1, order).unwrap_or(usize::MAX),
                 };
                 let _reserved = ridge::reserve(x.nrows().saturating_mul(cols).saturating_mul(2 * std::mem::size_of::<f64>()));
-                if let Dynamics::Rbf { centers } = kind {
+                if let Some((centers, kernel)) = kind.rbf() {
                     // One common scale for all coordinates: the kernel then stays a Euclidean
                     // distance in eta itself (||eta/s - c|| = ||eta - s c|| / s), which is what
                     // the exported device model evaluates.
                     let common = scale.iter().fold(0.0_f64, |m, v| m.max(*v));
                     let uniform = vec![common; scale.len()];
-                    return fit_rbf(x.as_ref(), y.as_ref(), &groups, uniform, centers, dt, ridge).map(ReducedDynamics::Rbf);
+                    return fit_rbf(x.as_ref(), y.as_ref(), &groups, uniform, centers, kernel, dt, ridge).map(ReducedDynamics::Rbf);
                 }
                 let nm = poly::count(d, 1, order).unwrap_or(usize::MAX);
                 crate::limits::check_matrix("map regression", x.nrows(), nm, true)?;
@@ -646,12 +757,14 @@ fn common_dt(trajs: &[EtaTrajectory<'_>]) -> Result<f64, FitError> {
     Ok(trajs.iter().map(|t| t.dt).sum::<f64>() / trajs.len() as f64)
 }
 
+#[allow(clippy::too_many_arguments)]
 fn fit_rbf(
     x: MatRef<'_, f64>,
     y: MatRef<'_, f64>,
     groups: &[std::ops::Range<usize>],
     scale: Vec<f64>,
     n_centers: usize,
+    kernel: Kernel,
     dt: f64,
     ridge: Ridge,
 ) -> Result<RbfMap, FitError> {
@@ -659,6 +772,7 @@ fn fit_rbf(
     if n_centers == 0 {
         return Err(FitError::BadOption { what: "rbf centers", why: "need at least one centre".into() });
     }
+    kernel.validate()?;
     crate::limits::check("rbf centers", n_centers, crate::limits::MAX_CENTERS)?;
     crate::limits::check_matrix("rbf regression", n, n_centers + d + 1, true)?;
     let z = Mat::from_fn(n, d, |i, j| x[(i, j)] / scale[j]);
@@ -669,6 +783,7 @@ fn fit_rbf(
     }
     let mut map = RbfMap {
         dim: d,
+        kernel,
         dt,
         scale,
         centers,
@@ -785,6 +900,91 @@ mod tests {
             let e = ReducedDynamics::fit_anchored(&et, kind, 3, Ridge::Fixed(0.0), Some(f)).unwrap_err();
             assert!(matches!(e, FitError::BadOption { what: "linear_anchor", .. }) && e.to_string().contains(what), "{f}: {e}");
         }
+    }
+
+    /// Samples of a nonlinear 2D map (a damped, amplitude-dependent rotation) for the
+    /// kernel tests.
+    fn twist_trajectories() -> Vec<Mat<f64>> {
+        let mut out = Vec::new();
+        for start in [[0.9, 0.0], [0.0, -0.6], [0.4, 0.4]] {
+            let mut x: [f64; 2] = start;
+            let mut rows = Vec::new();
+            for _ in 0..400 {
+                rows.push(x);
+                let r2 = x[0] * x[0] + x[1] * x[1];
+                let (c, s) = ((0.3 + 0.5 * r2).cos(), (0.3 + 0.5 * r2).sin());
+                x = [0.995 * (c * x[0] - s * x[1]), 0.995 * (s * x[0] + c * x[1])];
+            }
+            out.push(Mat::from_fn(400, 2, |i, j| rows[i][j]));
+        }
+        out
+    }
+
+    /// `RbfWith { kernel: Linear }` is today's `Rbf` bit for bit (coefficients, steps, the
+    /// saved kernel), and a saved RBF map without the `kernel` field reads as linear.
+    #[test]
+    fn linear_kernel_is_the_default_bit_for_bit() {
+        let trajs = twist_trajectories();
+        let et: Vec<EtaTrajectory> = trajs.iter().map(|m| EtaTrajectory { eta: m.as_ref(), dt: 0.1 }).collect();
+        let ReducedDynamics::Rbf(a) = ReducedDynamics::fit(&et, Dynamics::Rbf { centers: 30 }, 1, Ridge::Fixed(1e-10)).unwrap() else { panic!() };
+        let ReducedDynamics::Rbf(b) =
+            ReducedDynamics::fit(&et, Dynamics::RbfWith { centers: 30, kernel: Kernel::Linear }, 1, Ridge::Fixed(1e-10)).unwrap()
+        else {
+            panic!()
+        };
+        assert_eq!(a.kernel, Kernel::Linear);
+        assert!(a.coef.iter().zip(&b.coef).all(|(x, y)| x.to_bits() == y.to_bits()) && a.coef.len() == b.coef.len());
+        let mut v = serde_json::to_value(&a).unwrap();
+        v.as_object_mut().unwrap().remove("kernel");
+        let old: RbfMap = serde_json::from_value(v).unwrap();
+        assert_eq!(old.kernel, Kernel::Linear);
+        let (mut e1, mut e2, mut f) = (vec![0.3, -0.2], vec![0.3, -0.2], Vec::new());
+        for _ in 0..50 {
+            a.step(&mut e1, &mut f);
+            old.step(&mut e2, &mut f);
+        }
+        assert_eq!(e1[0].to_bits(), e2[0].to_bits());
+        assert_eq!(e1[1].to_bits(), e2[1].to_bits());
+    }
+
+    /// Every kernel fits the twist map; one-step errors on the training pairs are small, the
+    /// Jacobian at the origin matches central differences of the step, and bad kernels are
+    /// errors that say what is wrong.
+    #[test]
+    fn kernels_fit_and_their_jacobians_match_differences() {
+        let trajs = twist_trajectories();
+        let et: Vec<EtaTrajectory> = trajs.iter().map(|m| EtaTrajectory { eta: m.as_ref(), dt: 0.1 }).collect();
+        for kernel in [Kernel::Linear, Kernel::Cubic, Kernel::ThinPlate, Kernel::Gaussian { eps: 1.5 }] {
+            let dynm = ReducedDynamics::fit(&et, Dynamics::RbfWith { centers: 40, kernel }, 1, Ridge::Fixed(1e-10)).unwrap();
+            let ReducedDynamics::Rbf(m) = &dynm else { panic!() };
+            assert_eq!(m.kernel, kernel);
+            let rr = dynm.conditioning().rel_residual;
+            // Measured: 1e-4 .. 1e-3 relative residual of the increments.
+            assert!(rr < 2e-2, "{kernel:?}: residual {rr}");
+            let jac = dynm.linear_part().unwrap();
+            let (h, mut f) = (1e-6, Vec::new());
+            for j in 0..2 {
+                let (mut p, mut q) = (vec![0.0; 2], vec![0.0; 2]);
+                p[j] = h;
+                q[j] = -h;
+                m.step(&mut p, &mut f);
+                m.step(&mut q, &mut f);
+                for i in 0..2 {
+                    let fd = (p[i] - q[i]) / (2.0 * h);
+                    assert!((fd - jac[i * 2 + j]).abs() < 1e-6, "{kernel:?} J[{i}][{j}]: {fd} vs {}", jac[i * 2 + j]);
+                }
+            }
+        }
+        for (k, what) in [("gaussian:0", "eps must be finite and > 0"), ("gaussian:x", "not a number"), ("quintic", "not one of")] {
+            let e = Kernel::parse(k).unwrap_err().to_string();
+            assert!(e.contains(what) && e.contains("rbf kernel"), "{k}: {e}");
+        }
+        assert_eq!(Kernel::parse("gaussian:2.5").unwrap(), Kernel::Gaussian { eps: 2.5 });
+        for k in [Kernel::Linear, Kernel::Cubic, Kernel::ThinPlate, Kernel::Gaussian { eps: 0.75 }] {
+            assert_eq!(Kernel::parse(&k.name()).unwrap(), k);
+        }
+        let e = ReducedDynamics::fit(&et, Dynamics::RbfWith { centers: 5, kernel: Kernel::Gaussian { eps: f64::NAN } }, 1, Ridge::Fixed(0.0)).unwrap_err();
+        assert!(e.to_string().contains("Gaussian shape parameter"), "{e}");
     }
 
     #[test]

@@ -110,7 +110,10 @@ impl FitOptions {
             Dynamics::Flow | Dynamics::Map => {
                 limits::check("dynamics monomials (dim, dyn_order)", terms(1, self.dyn_order), MAX_TERMS)?;
             }
-            Dynamics::Rbf { centers } => {
+            Dynamics::Rbf { centers } | Dynamics::RbfWith { centers, .. } => {
+                if let Dynamics::RbfWith { kernel, .. } = self.dynamics {
+                    kernel.validate()?;
+                }
                 if centers == 0 {
                     return bad("rbf centers", "need at least one centre".into());
                 }
@@ -511,6 +514,12 @@ impl SsmModel {
                 }
                 finite_vec("dynamics.Rbf.centers", &r.centers, k * d)?;
                 finite_vec("dynamics.Rbf.coef", &r.coef, (k + d + 1) * d)?;
+                if let Err(e) = r.kernel.validate() {
+                    return inv("dynamics.Rbf.kernel", e.to_string());
+                }
+                if self.options.dynamics.rbf().is_some_and(|(_, k)| k != r.kernel) {
+                    return inv("dynamics.Rbf.kernel", format!("{} differs from the options' kernel {:?}", r.kernel.name(), self.options.dynamics));
+                }
             }
         }
         if self.eigenvalues_ct.len() != d {

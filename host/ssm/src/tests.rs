@@ -443,6 +443,48 @@ fn saved_model_shapes_are_validated_on_load() {
     }
 }
 
+/// A saved model keeps its RBF kernel; a saved kernel that is invalid or differs from the
+/// options' is refused naming `dynamics.Rbf.kernel`; old files (no kernel) read as linear;
+/// the device export takes only the linear kernel its predictor implements.
+#[test]
+fn rbf_kernel_saves_validates_and_exports_only_linear() {
+    let dt = 0.05;
+    let train = [synthetic("a", 0.5, 0.0, dt, 300), synthetic("b", 0.4, 1.0, dt, 300)];
+    let base = FitOptions { dim: 2, embed: 5, shift: 1, manifold_order: 3, dyn_order: 3, dynamics: Dynamics::Rbf { centers: 10 }, ridge: Ridge::Fixed(1e-8), linear_anchor: None, anchor_joint: false };
+    let cfg = shared::ControllerConfig::paper(dt);
+    // The linear default exports, also when the saved file has no kernel field.
+    let mut old = saved_rbf_model();
+    assert_eq!(old["model"]["dynamics"]["Rbf"]["kernel"], serde_json::json!("Linear"));
+    old["model"]["dynamics"]["Rbf"].as_object_mut().unwrap().remove("kernel");
+    let m = SsmModel::from_json(&old.to_string()).unwrap();
+    assert!(crate::device::to_device_model(&m, cfg).is_ok());
+    let o = FitOptions { dynamics: Dynamics::RbfWith { centers: 10, kernel: crate::Kernel::Gaussian { eps: 0.8 } }, ..base };
+    let m = fit(&train, &o).unwrap();
+    let back = SsmModel::from_json(&m.to_json().unwrap()).unwrap();
+    let ReducedDynamics::Rbf(r) = &back.dynamics else { panic!() };
+    assert_eq!(r.kernel, crate::Kernel::Gaussian { eps: 0.8 });
+    let test = synthetic("t", 0.45, 1.0, dt, 200);
+    let (p1, p2) = (m.predict(&test).unwrap(), back.predict(&test).unwrap());
+    // (serde_json's float parsing is not exactly round-trip: equal to 1e-12.)
+    let dmax = p1.x.iter().zip(&p2.x).map(|(a, b)| (a - b).abs()).fold(0.0, f64::max);
+    assert!(p1.x.len() == p2.x.len() && dmax <= 1e-12, "{} / {} samples, max difference {dmax:e}, stop {:?}", p1.x.len(), p2.x.len(), p1.stop);
+    let e = crate::device::to_device_model(&back, cfg).unwrap_err().to_string();
+    assert!(e.contains("linear RBF kernel") && e.contains("gaussian:0.8"), "{e}");
+    let good: serde_json::Value = serde_json::from_str(&m.to_json().unwrap()).unwrap();
+    type Edit = fn(&mut serde_json::Value);
+    let cases: [(Edit, &str); 3] = [
+        (|m| m["dynamics"]["Rbf"]["kernel"] = serde_json::json!({"Gaussian": {"eps": -1.0}}), "eps must be finite and > 0"),
+        (|m| m["dynamics"]["Rbf"]["kernel"] = serde_json::json!("Cubic"), "differs from the options' kernel"),
+        (|m| m["options"]["dynamics"] = serde_json::json!({"Rbf": {"centers": 10}}), "differs from the options' kernel"),
+    ];
+    for (edit, why) in cases {
+        let mut v = good.clone();
+        edit(&mut v["model"]);
+        let e = SsmModel::from_json(&v.to_string()).unwrap_err().to_string();
+        assert!(e.contains("dynamics.Rbf.kernel") && e.contains(why), "{why}: {e}");
+    }
+}
+
 /// Found by the model-JSON fuzz target: a valid model with extreme lift coefficients lifted
 /// finite states to infinite samples (documented: all values finite), and a shift large
 /// against a short test series made the sample index underflow (a panic).

@@ -347,7 +347,8 @@ pub struct FitArgs {
     /// Polynomial order of the reduced dynamics (flow, map).
     #[arg(long, default_value_t = 5)]
     pub dyn_order: u32,
-    /// flow | map | rbf
+    /// flow | map | rbf | rbf:KERNEL (KERNEL: linear = rbf, cubic, thin-plate, gaussian:EPS;
+    /// the device exports the linear kernel only)
     #[arg(long, default_value = "map")]
     pub dynamics: String,
     /// Number of RBF centres.

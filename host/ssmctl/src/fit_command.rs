@@ -99,7 +99,11 @@ pub(crate) fn parse_dynamics(s: &str, centers: usize) -> Result<Dynamics, String
         "flow" => Ok(Dynamics::Flow),
         "map" => Ok(Dynamics::Map),
         "rbf" => Ok(Dynamics::Rbf { centers }),
-        _ => Err(format!("--dynamics `{s}`: expected flow, map or rbf")),
+        _ => match s.strip_prefix("rbf:") {
+            // `rbf:KERNEL`: linear (the default), cubic, thin-plate, gaussian:EPS.
+            Some(k) => ssm::Kernel::parse(k).map(|kernel| Dynamics::RbfWith { centers, kernel }).map_err(|e| format!("--dynamics `{s}`: {e}")),
+            None => Err(format!("--dynamics `{s}`: expected flow, map or rbf (or rbf:KERNEL, KERNEL: linear, cubic, thin-plate, gaussian:EPS)")),
+        },
     }
 }
 
@@ -454,6 +458,19 @@ pub fn inspect(bytes: &[u8]) -> Result<Value, BlobError> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// `--dynamics rbf:KERNEL` picks the kernel; `rbf` is the linear default; bad kernels
+    /// are errors naming the option.
+    #[test]
+    fn dynamics_with_kernels_parse() {
+        assert_eq!(parse_dynamics("rbf", 7), Ok(Dynamics::Rbf { centers: 7 }));
+        assert_eq!(parse_dynamics("rbf:cubic", 7), Ok(Dynamics::RbfWith { centers: 7, kernel: ssm::Kernel::Cubic }));
+        assert_eq!(parse_dynamics("rbf:gaussian:2", 7), Ok(Dynamics::RbfWith { centers: 7, kernel: ssm::Kernel::Gaussian { eps: 2.0 } }));
+        for bad in ["rbf:quartic", "rbf:gaussian:-1", "spline"] {
+            let e = parse_dynamics(bad, 7).unwrap_err();
+            assert!(e.contains(&format!("--dynamics `{bad}`")), "{e}");
+        }
+    }
 
     /// The host decoder needs no stack of the caller's (it runs on its own thread): `inspect`
     /// of the reference blob works from a thread with a 256 KiB stack, where the several-MB

@@ -274,6 +274,91 @@ pub fn section(rep: &mut crate::report::Report, data_dir: &std::path::Path, quic
         chaos_figures(rep, tag, name, test, models, &ChaosOptions::default())?;
     }
     selection_tables(rep, &selections);
+    let flag_runs: Option<Vec<TimeSeries>> = (0..10).map(|k| ssm::load_csv(flag.join(format!("traj_{k}.csv"))).ok()).collect();
+    estimator_check_tables(rep, &selections, flag_runs.as_deref(), quick)?;
+    Ok(())
+}
+
+/// The Rosenstein estimator against exact exponents (ROSENSTEIN_CHECK) and the spread of the
+/// flag data's own estimate over its runs and windows ([`furuta::estimator_check`]); summary
+/// key `rosenstein_check`.
+fn estimator_check_tables(
+    rep: &mut crate::report::Report,
+    selections: &[(String, Vec<furuta::model_selection::CandidateResult>, furuta::model_selection::Selection)],
+    flag_runs: Option<&[TimeSeries]>,
+    quick: bool,
+) -> Result<(), Box<dyn Error>> {
+    use furuta::estimator_check::{CheckRow, data_spread, known_answer_rows, model_rows};
+    let f = |v: Option<f64>, p: usize| v.map_or("-".to_string(), |v| format!("{v:.p$}"));
+    let mut rows: Vec<CheckRow> = known_answer_rows(quick)?;
+    let n_known = rows.len();
+    for (name, results, _) in selections {
+        rows.extend(model_rows(name.split(':').next().unwrap_or(name), results));
+    }
+    rep.para(
+        "ROSENSTEIN_CHECK: is the data's time-series exponent the exponent a model should have? The Rosenstein \
+         estimator with exactly the settings used on the data (embedding 6, lag = first zero of the autocorrelation, \
+         Theiler window = dominant period, curve of three Theiler windows, the same fit-window rule and fallbacks) \
+         against exact largest exponents: the Rössler (a = b = 0.2, c = 5.7) and Lorenz (10, 28, 8/3) flows sampled \
+         about 12 times per oscillation like the flag at the model step, exponent by Benettin with the exact \
+         variational equation; and the chaotic fitted models above, Rosenstein on the model's output against the \
+         model's own Benettin exponent. Ratio = Rosenstein / exact.",
+    );
+    let table: Vec<Vec<String>> = rows
+        .iter()
+        .map(|r| {
+            vec![
+                r.system.clone(),
+                r.observable.clone(),
+                r.samples.to_string(),
+                format!("{}", r.dt),
+                format!("{} / {}", r.lag, r.theiler),
+                format!("{:.4} ± {:.4}", r.exact, r.exact_err),
+                f(r.rosenstein, 4),
+                f(r.ratio, 3),
+                r.note.clone(),
+            ]
+        })
+        .collect();
+    rep.table(&["system", "observable", "samples", "dt [s]", "lag / Theiler [samples]", "exact (Benettin) [1/s]", "Rosenstein [1/s]", "ratio", "notes"], &table);
+    let ratios: Vec<f64> = rows[n_known..].iter().filter_map(|r| r.ratio).collect();
+    let (lo, hi) = ratios.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), v| (a.min(*v), b.max(*v)));
+    let mut json = serde_json::json!({ "known_answer": &rows[..n_known], "models": &rows[n_known..] });
+    if !ratios.is_empty() {
+        rep.para(&format!(
+            "On the fitted models the estimator reads {lo:.2} to {hi:.2} of the model's own exponent ({} chaotic models): \
+             on data like these it underestimates, as on Rössler (0.73) and unlike Lorenz z (about 1). The fair comparison \
+             of a model with the data is therefore Rosenstein on the model's output against Rosenstein on the data (the \
+             selection table's column), not the model's Benettin exponent against the data's Rosenstein number.",
+            ratios.len()
+        ));
+    }
+    if let Some(runs) = flag_runs {
+        // The held-out length at step 4 is 1,973 samples; windows of 900 fit every run.
+        let steps: &[usize] = if quick { &[4] } else { &[1, 4] };
+        let mut all_rows = Vec::new();
+        let mut spreads = Vec::new();
+        for &k in steps {
+            let (r, s) = data_spread(runs, &[k], if k == 1 { 3600 } else { 900 })?;
+            all_rows.extend(r);
+            spreads.extend(s);
+        }
+        rep.para(
+            "Spread of the flag data's own Rosenstein estimate (data settings, each series its own lag and Theiler window) \
+             over the ten recorded runs and over consecutive windows cut from them, at map step k (every k-th frame): \
+             the uncertainty of the number the models are compared with.",
+        );
+        let short = |n: &str| n.split(" (").next().unwrap_or(n).to_string() + n.rsplit_once(')').map_or("", |(_, w)| w);
+        let mut t: Vec<Vec<String>> = spreads
+            .iter()
+            .map(|s| vec![format!("{} (k = {})", s.what, s.step), s.n.to_string(), format!("{:.3} ± {:.3}", s.mean, s.sd), format!("{:.0} %", 100.0 * s.cv), format!("{:.3} .. {:.3}", s.min, s.max)])
+            .collect();
+        let per_run: Vec<String> = all_rows.iter().filter(|r| !r.series.contains(" window ")).map(|r| format!("{} k={}: {}", short(&r.series), r.step, f(r.rosenstein, 3))).collect();
+        t.push(vec!["per run".into(), per_run.len().to_string(), per_run.join("; "), String::new(), String::new()]);
+        rep.table(&["estimates", "n", "mean ± sd [1/s]", "CV", "range [1/s]"], &t);
+        json["data_spread"] = serde_json::json!({ "spreads": spreads, "rows": all_rows });
+    }
+    rep.summary.insert("rosenstein_check".into(), json);
     Ok(())
 }
 
@@ -294,7 +379,9 @@ fn selection_tables(rep: &mut crate::report::Report, selections: &[(String, Vec<
          subsamplings) and compared with the held-out series subsampled by k. The JS divergence here is over the long \
          run, so it differs from the first table's (one held-out length): a model that covers the data's distribution \
          during its transient and then settles on a regular attractor (the one-sample RBF model: 0.0046 there) is seen \
-         here for what it settles to.",
+         here for what it settles to. Rollout error: the multi-step loss on the held-out trajectory, RMS distance of the \
+         model's reduced coordinates run a quarter of the dominant period (in map steps) from 200 evenly spaced \
+         held-out points to the data's, over the data's RMS; reported, not used in the pick.",
     );
     let f = |v: Option<f64>, p: usize| v.map_or("-".to_string(), |v| format!("{v:.p$}"));
     let mut rows = Vec::new();
@@ -309,12 +396,13 @@ fn selection_tables(rep: &mut crate::report::Report, selections: &[(String, Vec<
                 format!("{} / {:.3}", f(r.rosenstein, 3), r.data.lle),
                 format!("{} / {:.2} ± {:.2}", f(r.corr_dim, 2), r.data.corr_dim, r.data.corr_dim_err),
                 f(r.js, 4),
+                format!("{} ({} steps)", f(r.rollout, 3), furuta::model_selection::rollout_horizon(r.data.theiler)),
                 r.failed.clone().map_or_else(|| "ok".to_string(), |w| format!("FAILED: {w}")),
             ]);
         }
     }
     rep.table(
-        &["data", "candidate", "Benettin [1/s]", "2nd Benettin", "Rosenstein model / data [1/s]", "D2 model / data", "JS [bits]", "long run"],
+        &["data", "candidate", "Benettin [1/s]", "2nd Benettin", "Rosenstein model / data [1/s]", "D2 model / data", "JS [bits]", "rollout error (horizon)", "long run"],
         &rows,
     );
     for (name, _, sel) in selections {
@@ -353,7 +441,16 @@ fn selection_tables(rep: &mut crate::report::Report, selections: &[(String, Vec<
          first zero at 44); false nearest neighbours at that lag fall to 15 % at m = 4 and level at 9 % from m = 5 \
          (measurement noise and the sparse data keep them above zero); a shift giving a 2.1 s window (s = 2 at step 4) \
          gives a torus. A 6D SSM (p = 13) was not chaotic or only weakly (Benettin -0.17, 0.08). Smoothing the \
-         training data (moving average of 3 or 5 samples) made the model a torus or less chaotic.",
+         training data (moving average of 3 or 5 samples) made the model a torus or less chaotic. (6) Kernels \
+         (rows with a kernel name; the others are the paper's linear kernel; notes: the rollout error over 10 steps): \
+         the smooth kernels settle on a torus (cubic at ridge 1e-8 and 3e-9, Gaussian eps 1, 3, 6) or escape \
+         (Gaussian eps 10); only the cubic kernel at ridge 1e-10 is weakly chaotic (0.071). The thin-plate kernel gives \
+         chaotic models (Benettin 0.12 to 0.20) whose Rosenstein exponent is close to their own Benettin exponent \
+         (0.190 for 0.189 at 500 centres): chaos weaker than the data's number but read faithfully by the estimator. \
+         No kernel brings the model's Rosenstein exponent to the data's 0.332. The rollout loss over a quarter period \
+         (0.10 to 0.14 of the data's RMS for every candidate, chaotic or torus, and 0.09 for the one-sample models that \
+         settle on a torus) does not tell chaotic from regular models: short-term accuracy does not choose the \
+         attractor.",
     );
 }
 
