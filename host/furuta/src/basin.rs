@@ -331,6 +331,17 @@ pub struct TorusContinuation {
     pub lost_between: Option<(f64, f64)>,
 }
 
+impl TorusContinuation {
+    /// The continuation of `steps` (in dt order, stopped at the first loss).
+    pub fn from_steps(start_rho: [f64; 2], periods: u64, steps: Vec<TorusStep>) -> Self {
+        let lost_between = match steps.iter().position(|s| s.lost) {
+            Some(i) if i > 0 => Some((steps[i - 1].dt_ms, steps[i].dt_ms)),
+            _ => None,
+        };
+        TorusContinuation { start_rho, periods, steps, lost_between }
+    }
+}
+
 /// The torus-loss rule of one continuation step, shared by the full system
 /// ([`torus_continuation`]) and the fitted map (`crate::map_global::map_torus_continuation`):
 /// `theta` is the run's primary angle, one sample per sampling period `sample_dt` (s), at
@@ -412,11 +423,7 @@ pub fn torus_continuation(dts_ms: &[f64], start_rho: [f64; 2], periods: u64) -> 
             break;
         }
     }
-    let lost_between = match steps.iter().position(|s| s.lost) {
-        Some(i) if i > 0 => Some((steps[i - 1].dt_ms, steps[i].dt_ms)),
-        _ => None,
-    };
-    Ok(TorusContinuation { start_rho, periods, steps, lost_between })
+    Ok(TorusContinuation::from_steps(start_rho, periods, steps))
 }
 
 #[cfg(test)]

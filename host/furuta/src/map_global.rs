@@ -330,11 +330,7 @@ pub fn map_torus_continuation(
             break;
         }
     }
-    let lost_between = match steps.iter().position(|s| s.lost) {
-        Some(i) if i > 0 => Some((steps[i - 1].dt_ms, steps[i].dt_ms)),
-        _ => None,
-    };
-    Ok(TorusContinuation { start_rho, periods, steps, lost_between })
+    Ok(TorusContinuation::from_steps(start_rho, periods, steps))
 }
 
 /// The fitted map's verdict on the basin grid `opts`: per dt (in order) the bounded flags of

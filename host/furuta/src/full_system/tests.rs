@@ -1,8 +1,10 @@
 use super::*;
 
 /// Known facts (MODEL.md): small starts stay bounded at 31.2 ms and escape within tens of
-/// seconds at 31.6 ms; in between, the pure fast-mode start of 1e-3 rad escapes at 31.38 ms
-/// (measured: after 93 s) while the plain 0.05 rad start does not within 3000 periods.
+/// seconds at 31.6 ms; at 31.38 ms neither the pure fast-mode start of 1e-3 rad nor the plain
+/// 0.05 rad start escapes within 3000 periods (the fast-mode start's escape after 91 s seen
+/// with exprb at rtol 1e-9 was an integration error: see
+/// `near_saddle_verdict_agrees_with_a_tight_reference`).
 #[test]
 fn switch_scan_brackets_the_switch() {
     let (x, h) = mode_start(31.38, None, Some((1e-3, 0.0))).unwrap();
@@ -11,18 +13,50 @@ fn switch_scan_brackets_the_switch() {
     eprintln!("{}cost {:.2} s for {} runs", s.to_text(), s.wall_seconds, s.runs);
     assert!(s.outcomes[0].iter().all(Outcome::bounded));
     assert!(s.outcomes[0].iter().all(|o| o.max_theta < 0.3), "{:?}", s.outcomes[0]);
-    assert_eq!(s.bracket(), Some((31.2, 31.38)));
+    assert_eq!(s.bracket(), Some((31.38, 31.6)));
     assert_eq!(s.all_escape_from(), Some(31.6));
     assert!(s.monotone());
-    assert!(s.outcomes[1][0].bounded());
-    let t = s.outcomes[1][1].escape_t.unwrap();
-    assert!((80.0..100.0).contains(&t), "escape at {t}");
+    assert!(s.outcomes[1].iter().all(Outcome::bounded), "{:?}", s.outcomes[1]);
     for o in &s.outcomes[2] {
         let t = o.escape_t.unwrap();
         assert!((10.0..100.0).contains(&t), "escape at {t}");
     }
     assert!(switch_scan(&[31.4, 31.3], &ics, 10, 1.0).is_err());
     assert!(switch_scan(&[31.4], &[], 10, 1.0).is_err());
+}
+
+/// The scene's integrator near the saddle connection: the pure fast-mode start of 1e-3 rad at
+/// 31.38 ms follows the saddle cycles for minutes, where an integration error decides the
+/// verdict. Against RODAS4 at rtol 1e-12 over 3,000 periods: the same verdict (bounded), the
+/// same largest |theta| within 1e-3 rad (measured 0.1761 both), theta within 0.05 rad at
+/// every sample (the near-saddle motion amplifies the difference; measured 5e-2 at 3,600
+/// periods against rtol 1e-13). exprb at rtol 1e-9 / atol 1e-11 escapes here after 91 s.
+#[test]
+fn near_saddle_verdict_agrees_with_a_tight_reference() {
+    use sim::scene::{IntegratorSpec, MethodKind};
+    let (x, h) = mode_start(31.38, None, Some((1e-3, 0.0))).unwrap();
+    let periods = 3000;
+    let scene_run = run(31.38, &(x, Some(h.clone())), periods, ESCAPE_THETA).unwrap();
+    let reference = SceneBuilder::load("furuta-dt30.5")
+        .unwrap()
+        .dt_ms(31.38)
+        .periods(periods)
+        .initial_state(&x)
+        .escape_theta(ESCAPE_THETA)
+        .history(Some(&h))
+        .integrator(IntegratorSpec { method: MethodKind::Rodas, rtol: Some(1e-12), atol: Some(1e-14), steps: None })
+        .build()
+        .unwrap();
+    let reference = simulate(&reference, None).unwrap();
+    assert!(scene_run.integrator.contains("lean"), "{}", scene_run.integrator);
+    assert!(scene_run.stopped.is_none() && reference.stopped.is_none(), "{:?} {:?}", scene_run.stopped, reference.stopped);
+    let theta = |t: &Trajectory| t.states.chunks(t.state_names.len()).map(|r| r[0]).collect::<Vec<f64>>();
+    let (a, b) = (theta(&scene_run), theta(&reference));
+    assert_eq!(a.len(), b.len());
+    let max = |v: &[f64]| v.iter().fold(0.0f64, |m, x| m.max(x.abs()));
+    assert!((max(&a) - max(&b)).abs() < 1e-3 && max(&b) > 0.1, "{} vs {}", max(&a), max(&b));
+    let diff = a.iter().zip(&b).fold(0.0f64, |m, (p, q)| m.max((p - q).abs()));
+    assert!(diff < 0.05, "max theta difference {diff:e}");
 }
 
 /// The stable 2-torus at 30.8 ms from theta0 = 0.05: bounded, the fast frequency within 1 %
