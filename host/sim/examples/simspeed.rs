@@ -6,17 +6,18 @@
 //! cargo run --release -p sim --example simspeed -- exprb-split 1e-8 [periods] [repeats] [noref]
 //! valgrind --tool=callgrind target/release/examples/simspeed exprb-split 1e-8 201 1 noref
 //! ```
-//! The second argument is rtol (adaptive methods, atol = rtol/100) or steps per period.
+//! The second argument is rtol (adaptive methods, atol = rtol/100, or rtol times the sixth
+//! argument) or steps per period.
 
 use sim::closed_loop::simulate;
 use sim::scene::{IntegratorSpec, MethodKind, Scene, SceneBuilder, Task};
 use std::time::Instant;
 
-fn scene(periods: u64, kind: MethodKind, arg: f64) -> Result<Scene, Box<dyn std::error::Error>> {
+fn scene(periods: u64, kind: MethodKind, arg: f64, atol_factor: f64) -> Result<Scene, Box<dyn std::error::Error>> {
     let mut s = SceneBuilder::load("furuta-dt30.8")?.periods(periods).initial_state(&[0.05, 0.0, 0.0, 0.0]).tasks(&[Task::Simulate]).build()?;
     let adaptive = matches!(kind, MethodKind::Rodas | MethodKind::Exprb | MethodKind::ExprbSplit | MethodKind::ExprbLean);
     s.integrator = if adaptive {
-        IntegratorSpec { method: kind, rtol: Some(arg), atol: Some(arg * 1e-2), steps: None }
+        IntegratorSpec { method: kind, rtol: Some(arg), atol: Some(arg * atol_factor), steps: None }
     } else {
         IntegratorSpec { method: kind, rtol: None, atol: None, steps: Some(arg as u32) }
     };
@@ -30,7 +31,8 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let periods: u64 = args.get(3).map_or(Ok(200), |a| a.parse())?;
     let repeats: usize = args.get(4).map_or(Ok(1), |a| a.parse())?;
     let noref = args.get(5).is_some_and(|a| a == "noref");
-    let s = scene(periods, kind, arg)?;
+    let atol_factor: f64 = args.get(6).map_or(Ok(1e-2), |a| a.parse())?;
+    let s = scene(periods, kind, arg, atol_factor)?;
     let t0 = Instant::now();
     let mut tr = simulate(&s, None)?;
     for _ in 1..repeats {
@@ -47,7 +49,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         n / secs
     );
     if !noref {
-        let r = simulate(&scene(periods, MethodKind::Rodas, 1e-13)?, None)?;
+        let r = simulate(&scene(periods, MethodKind::Rodas, 1e-13, 1e-2)?, None)?;
         let err = tr.primary().iter().zip(r.primary()).map(|(a, b)| (a - b).abs()).fold(0.0, f64::max);
         print!(", max theta error {err:.3e}");
     }

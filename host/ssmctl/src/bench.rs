@@ -40,6 +40,8 @@ fn label(s: &Scene) -> String {
         MethodKind::Exprb => format!("exprb43 rtol={:e}", i.rtol.unwrap_or_default()),
         MethodKind::ExprbFixed => format!("exprb43 fixed {} steps/period", i.steps.unwrap_or_default()),
         MethodKind::ExprbSplit => format!("exprb43-split rtol={:e}", i.rtol.unwrap_or_default()),
+        // atol = rtol (not rtol / 100): the tolerance the full-system scene uses.
+        MethodKind::ExprbLean if i.atol.is_some() && i.atol == i.rtol => format!("exprb43-lean rtol=atol={:e}", i.rtol.unwrap_or_default()),
         MethodKind::ExprbLean => format!("exprb43-lean rtol={:e}", i.rtol.unwrap_or_default()),
     }
 }
@@ -87,6 +89,12 @@ pub fn bench_simulate(periods: u64, quick: bool, mut progress: impl FnMut(&str))
     configs.extend(split.iter().map(|&r| with(&base, MethodKind::ExprbSplit, Some(r), None)));
     let lean: &[f64] = if quick { &[4e-9] } else { &[1e-7, 1e-8, 4e-9, 1e-9, 1e-10] };
     configs.extend(lean.iter().map(|&r| with(&base, MethodKind::ExprbLean, Some(r), None)));
+    let lean_abs: &[f64] = if quick { &[4e-9] } else { &[1e-8, 4e-9, 2e-9] };
+    configs.extend(lean_abs.iter().map(|&r| {
+        let mut s = with(&base, MethodKind::ExprbLean, Some(r), None);
+        s.integrator.atol = Some(r);
+        s
+    }));
     let window = if quick { 0.02 } else { 0.5 };
     let mut rows = Vec::new();
     for c in &configs {
