@@ -5,22 +5,10 @@
 //! exactly and the states to far below one count.
 
 use sim::closed_loop::simulate;
-use sim::scene::{IntegratorSpec, MethodKind, Scene, SceneBuilder, Task};
+use sim::scene::{IntegratorSpec, MethodKind};
 
-fn scene(name: &str, periods: u64, method: MethodKind, rtol: f64, delay: Option<u32>) -> Scene {
-    let mut s = SceneBuilder::load(name)
-        .unwrap()
-        .periods(periods)
-        .tasks(&[Task::Simulate])
-        .integrator(IntegratorSpec { method, rtol: Some(rtol), atol: Some(rtol * 1e-2), steps: None })
-        .build()
-        .unwrap();
-    if let Some(d) = delay {
-        s.controller.delay = d;
-        s.validate().unwrap();
-    }
-    s
-}
+mod common;
+use common::scene;
 
 #[test]
 fn exprb_split_matches_the_reference_on_the_furuta_scenes() {
@@ -38,13 +26,7 @@ fn exprb_split_matches_the_reference_on_the_furuta_scenes() {
         assert_eq!(got.rows(), reference.rows(), "{name}");
         // theta in rad; every state relative to its size (at least 1).
         let err = got.primary().iter().zip(reference.primary()).map(|(a, b)| (a - b).abs()).fold(0.0, f64::max);
-        let mut rel = 0.0f64;
-        for i in 0..got.rows() {
-            for k in 0..got.n_states() {
-                let r = reference.state(i, k);
-                rel = rel.max((got.state(i, k) - r).abs() / r.abs().max(1.0));
-            }
-        }
+        let rel = common::max_relative_state_error(&got, &reference);
         assert!(err < bound && err > 0.0, "{name}: max theta error {err:e}");
         assert!(rel < 50.0 * bound, "{name}: max relative state error {rel:e}");
         assert_eq!(got.codes, reference.codes, "{name}: integer codes differ");
@@ -57,14 +39,7 @@ fn exprb_split_matches_the_reference_on_the_furuta_scenes() {
 
 #[test]
 fn exprb_split_scene_key_is_validated() {
-    let mut s = scene("furuta-dt30.8", 10, MethodKind::ExprbSplit, 1e-8, None);
-    s.integrator.steps = Some(4);
-    let e = s.validate().unwrap_err().to_string();
-    assert!(e.contains("integrator.steps"), "{e}");
-    s.integrator.steps = None;
-    s.integrator.rtol = Some(-1.0);
-    let e = s.validate().unwrap_err().to_string();
-    assert!(e.contains("integrator.rtol"), "{e}");
+    common::assert_scene_key_is_validated(MethodKind::ExprbSplit);
     let parsed: IntegratorSpec = toml::from_str("method = \"exprb-split\"\nrtol = 1e-9\natol = 1e-11").unwrap();
     assert_eq!(parsed.method, MethodKind::ExprbSplit);
 }

@@ -27,19 +27,27 @@ fn rosenstein_with_data_settings_against_exact_exponents() {
     assert!(lx.rosenstein.is_none() && lx.theiler > 300 && lx.note.contains("too short"), "{lx:?}");
 }
 
+/// Two Lorenz trajectories of 5,000 states sampled every `dt` s (the RBF tests' training data).
+fn lorenz_training(dt: f64) -> Vec<faer::Mat<f64>> {
+    let l = Lorenz::default();
+    [[1.0, 1.0, 1.0], [-3.0, 2.0, 20.0]]
+        .iter()
+        .enumerate()
+        .map(|(k, x0)| {
+            let s = Sampling { dt, substeps: 4, transient: 500 + 300 * k, x0: *x0 };
+            let (_, _, st) = exponent_and_series(&l, &s, 5000, 20).unwrap();
+            faer::Mat::from_fn(st.len(), 3, |i, j| st[i][j])
+        })
+        .collect()
+}
+
 /// The RBF fitter on a known answer: RBF maps (linear kernel) fitted on two Lorenz
 /// trajectories of 5,000 states sampled every 0.02 s are themselves chaotic with Lorenz's
 /// exponent 0.906, with a near-zero second exponent (the flow direction).
 #[test]
 fn rbf_map_fitted_on_lorenz_has_its_exponent() {
-    let l = Lorenz::default();
     let dt = 0.02;
-    let mut trajs = Vec::new();
-    for (k, x0) in [[1.0, 1.0, 1.0], [-3.0, 2.0, 20.0]].iter().enumerate() {
-        let s = Sampling { dt, substeps: 4, transient: 500 + 300 * k, x0: *x0 };
-        let (_, _, st) = exponent_and_series(&l, &s, 5000, 20).unwrap();
-        trajs.push(faer::Mat::from_fn(st.len(), 3, |i, j| st[i][j]));
-    }
+    let trajs = lorenz_training(dt);
     let et: Vec<EtaTrajectory> = trajs.iter().map(|m| EtaTrajectory { eta: m.as_ref(), dt }).collect();
     // Measured (Benettin over 50,000 steps): 300 centres ridge 1e-8: 0.885 +- 0.018 (2nd
     // 0.010); 500 centres ridge 1e-10: 0.939 +- 0.009 (2nd -0.063); also 300 / 1e-10 0.925,
@@ -97,14 +105,8 @@ fn longer_series_rows() {
 #[test]
 fn rbf_kernels_on_lorenz_tangent_maps_and_exponents() {
     use ssm::Kernel;
-    let l = Lorenz::default();
     let dt = 0.02;
-    let mut trajs = Vec::new();
-    for (k, x0) in [[1.0, 1.0, 1.0], [-3.0, 2.0, 20.0]].iter().enumerate() {
-        let s = Sampling { dt, substeps: 4, transient: 500 + 300 * k, x0: *x0 };
-        let (_, _, st) = exponent_and_series(&l, &s, 5000, 20).unwrap();
-        trajs.push(faer::Mat::from_fn(st.len(), 3, |i, j| st[i][j]));
-    }
+    let trajs = lorenz_training(dt);
     let et: Vec<EtaTrajectory> = trajs.iter().map(|m| EtaTrajectory { eta: m.as_ref(), dt }).collect();
     for kernel in [Kernel::Cubic, Kernel::ThinPlate, Kernel::Gaussian { eps: 2.0 }] {
         let dynm = ReducedDynamics::fit(&et, Dynamics::RbfWith { centers: 300, kernel }, 1, Ridge::Fixed(1e-8)).unwrap();

@@ -179,6 +179,17 @@ fn dot<const N: usize>(a: &[f64; N], b: &[f64; N]) -> f64 {
     s
 }
 
+/// `v` and `w` scaled to unit inf-norm; `None` if either is zero or not finite.
+fn normalized_pair<const N: usize>(v: &[f64; N], w: &[f64; N]) -> Option<([f64; N], [f64; N])> {
+    let nv = norm_inf(v);
+    let nw = norm_inf(w);
+    if !(nv > 0.0 && nw > 0.0 && nv.is_finite() && nw.is_finite()) {
+        return None;
+    }
+    let (iv, iw) = (1.0 / nv, 1.0 / nw);
+    Some((v.map(|x| x * iv), w.map(|x| x * iw)))
+}
+
 #[inline(always)]
 fn norm_inf<const N: usize>(a: &[f64; N]) -> f64 {
     a.iter().fold(0.0f64, |m, v| m.max(v.abs()))
@@ -232,14 +243,7 @@ fn rayleigh_iteration<const N: usize>(jac: &[[f64; N]; N], start: &Pair<N>, tol:
         let lu = ShiftedLu::new(jac, mu);
         v = lu.solve(&v);
         w = lu.solve_t(&w);
-        let nv = norm_inf(&v);
-        let nw = norm_inf(&w);
-        if !(nv > 0.0 && nw > 0.0 && nv.is_finite() && nw.is_finite()) {
-            return None;
-        }
-        let (iv, iw) = (1.0 / nv, 1.0 / nw);
-        v = v.map(|x| x * iv);
-        w = w.map(|x| x * iw);
+        (v, w) = normalized_pair(&v, &w)?;
         let wv = dot(&w, &v);
         if !(wv.abs() > 1e-8) {
             return None;
@@ -382,14 +386,7 @@ fn power_iteration<const N: usize>(
         }
     };
     for it in 0..MAX_POWER_ITERS {
-        let nv = norm_inf(&v);
-        let nw = norm_inf(&w);
-        if !(nv > 0.0 && nw > 0.0 && nv.is_finite() && nw.is_finite()) {
-            return None;
-        }
-        let (iv, iw) = (1.0 / nv, 1.0 / nw);
-        v = v.map(|x| x * iv);
-        w = w.map(|x| x * iw);
+        (v, w) = normalized_pair(&v, &w)?;
         let jv = matvec(jac, &v);
         let jw = matvec_t(jac, &w);
         // Even from the last step's pair the left vector starts about 1e-1 off (its
