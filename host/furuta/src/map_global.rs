@@ -20,7 +20,7 @@
 //! Owns none of the models: a family of maps is any `model_at(dt_ms)` (e.g.
 //! `SharedParametricModel::model_at`).
 
-use nalgebra::{Complex, DMatrix, DVector};
+use nalgebra::{Complex, DMatrix};
 use serde::Serialize;
 use sim::scene::SceneBuilder;
 use ssm::dynamics::StepScratch;
@@ -121,19 +121,10 @@ pub struct Connection {
 }
 
 /// The eigenvector of the real matrix `a` (`d x d`) for its eigenvalue near `mu` (inverse
-/// iteration on `a - mu (1 + 1e-9)`), scaled so that `row . v = 1/2`: then `2 Re(v z)` has
+/// iteration, [`crate::parametric::eigenvector_near`]), scaled so that `row . v = 1/2`: then `2 Re(v z)` has
 /// theta (`row . x`) equal to `Re z`.
 fn eigenvector(a: &DMatrix<f64>, mu: C, row: &[f64]) -> Result<Vec<C>, Error> {
-    let d = a.nrows();
-    let shift = mu * (1.0 + 1e-9);
-    let m = DMatrix::<C>::from_fn(d, d, |i, j| C::new(a[(i, j)], 0.0) - if i == j { shift } else { C::new(0.0, 0.0) });
-    let lu = m.lu();
-    let mut v = DVector::<C>::from_element(d, C::new(1.0, 0.0));
-    for _ in 0..3 {
-        v = lu.solve(&v).ok_or_else(|| Error::BadInput { what: "eigenvector", why: format!("singular shifted matrix at mu = {mu}") })?;
-        let norm = v.iter().map(|c| c.norm_sqr()).sum::<f64>().sqrt();
-        v /= C::new(norm, 0.0);
-    }
+    let v = crate::parametric::eigenvector_near(a, mu).ok_or_else(|| Error::BadInput { what: "eigenvector", why: format!("singular shifted matrix at mu = {mu}") })?;
     let c: C = row.iter().zip(v.iter()).map(|(r, x)| x * *r).sum();
     if !(c.norm() > 1e-12) {
         return Err(Error::BadInput { what: "eigenvector", why: format!("the slow mode does not show in theta (|row . v| = {:.1e})", c.norm()) });

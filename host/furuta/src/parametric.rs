@@ -156,7 +156,7 @@ pub fn mode_start(dt_ms: f64, slow: Option<(f64, f64)>, fast: Option<(f64, f64)>
 /// [`mode_start`] on the linearized closed loop of any 4-state Furuta scene without integral
 /// action (its gains, delay and sampling period), e.g. a sweep's cell.
 pub fn mode_start_in(scene: &sim::scene::Scene, slow: Option<(f64, f64)>, fast: Option<(f64, f64)>) -> Result<([f64; 4], Vec<[f64; 2]>), Error> {
-    use nalgebra::{Complex, DMatrix, DVector};
+    use nalgebra::{Complex, DVector};
     let dt_ms = scene.controller.dt_ms;
     if slow.is_none() && fast.is_none() {
         return Err(Error::BadOption { what: "mode_start", why: "give at least one of the slow and the fast mode".into() });
@@ -184,17 +184,8 @@ pub fn mode_start_in(scene: &sim::scene::Scene, slow: Option<(f64, f64)>, fast: 
     let mut total = DVector::<f64>::zeros(n);
     for (pair, m) in pairs.iter().zip([slow, fast]) {
         let Some((theta_amp, phase)) = m else { continue };
-        let mu = Complex::new(pair.re, pair.im) * (1.0 + 1e-9);
-        let shifted = DMatrix::<Complex<f64>>::from_fn(n, n, |i, j| {
-            Complex::new(map.matrix[(i, j)], 0.0) - if i == j { mu } else { Complex::new(0.0, 0.0) }
-        });
-        let lu = shifted.lu();
-        let mut v = DVector::<Complex<f64>>::from_element(n, Complex::new(1.0, 0.0));
-        for _ in 0..3 {
-            v = lu.solve(&v).ok_or_else(|| Error::BadOption { what: "mode_start", why: format!("singular shifted map at dt = {dt_ms} ms") })?;
-            let norm = v.iter().map(|c| c.norm_sqr()).sum::<f64>().sqrt();
-            v /= Complex::new(norm, 0.0);
-        }
+        let v = eigenvector_near(&map.matrix, Complex::new(pair.re, pair.im))
+            .ok_or_else(|| Error::BadOption { what: "mode_start", why: format!("singular shifted map at dt = {dt_ms} ms") })?;
         let th = v[0];
         let scale = Complex::from_polar(theta_amp / th.norm(), phase - th.arg());
         for k in 0..n {
@@ -204,6 +195,23 @@ pub fn mode_start_in(scene: &sim::scene::Scene, slow: Option<(f64, f64)>, fast: 
     let state = [total[0], total[1], total[2], total[3]];
     let history = (0..=lay.delay).rev().map(|k| [total[lay.y_start + k], total[lay.z_start + k]]).collect();
     Ok((state, history))
+}
+
+/// Unit eigenvector of the real matrix `a` for its eigenvalue `mu`: three steps of inverse
+/// iteration on `a - mu (1 + 1e-9)` from the all-ones vector. `None` if the shifted matrix is
+/// singular.
+pub(crate) fn eigenvector_near(a: &nalgebra::DMatrix<f64>, mu: nalgebra::Complex<f64>) -> Option<nalgebra::DVector<nalgebra::Complex<f64>>> {
+    use nalgebra::{Complex, DMatrix, DVector};
+    let n = a.nrows();
+    let shift = mu * (1.0 + 1e-9);
+    let lu = DMatrix::<Complex<f64>>::from_fn(n, n, |i, j| Complex::new(a[(i, j)], 0.0) - if i == j { shift } else { Complex::new(0.0, 0.0) }).lu();
+    let mut v = DVector::<Complex<f64>>::from_element(n, Complex::new(1.0, 0.0));
+    for _ in 0..3 {
+        v = lu.solve(&v)?;
+        let norm = v.iter().map(|c| c.norm_sqr()).sum::<f64>().sqrt();
+        v /= Complex::new(norm, 0.0);
+    }
+    Some(v)
 }
 
 /// Simulated theta series for one sampling period and initial state: samples `skip..`, cut
