@@ -15,7 +15,7 @@ use std::time::Instant;
 
 fn scene(periods: u64, kind: MethodKind, arg: f64, atol_factor: f64) -> Result<Scene, Box<dyn std::error::Error>> {
     let mut s = SceneBuilder::load("furuta-dt30.8")?.periods(periods).initial_state(&[0.05, 0.0, 0.0, 0.0]).tasks(&[Task::Simulate]).build()?;
-    let adaptive = matches!(kind, MethodKind::Rodas | MethodKind::Exprb | MethodKind::ExprbSplit | MethodKind::ExprbLean);
+    let adaptive = matches!(kind, MethodKind::Rodas | MethodKind::Exprb | MethodKind::ExprbSplit | MethodKind::ExprbLean | MethodKind::ExprbFiltered);
     s.integrator = if adaptive {
         IntegratorSpec { method: kind, rtol: Some(arg), atol: Some(arg * atol_factor), steps: None }
     } else {

@@ -127,6 +127,7 @@ pub fn method_of(scene: &Scene) -> Method {
         MethodKind::ExprbFixed => Method::ExprbFixed { steps: i.steps.unwrap_or(1) },
         MethodKind::ExprbSplit => Method::ExprbSplit { rtol: i.rtol.unwrap_or(1e-10), atol: i.atol.unwrap_or(1e-12) },
         MethodKind::ExprbLean => Method::ExprbLean { rtol: i.rtol.unwrap_or(1e-10), atol: i.atol.unwrap_or(1e-12) },
+        MethodKind::ExprbFiltered => Method::ExprbFiltered { rtol: i.rtol.unwrap_or(1e-10), atol: i.atol.unwrap_or(1e-12) },
     }
 }
 
@@ -337,7 +338,7 @@ pub fn metadata_json(scene: &Scene, traj: &Trajectory, csv_name: &str) -> Result
         controller: scene.controller_config(),
         effects: scene.effect_names(),
         integrator: &traj.integrator,
-        tolerance: matches!(i.method, MethodKind::Rodas | MethodKind::Exprb | MethodKind::ExprbSplit | MethodKind::ExprbLean).then(|| [i.rtol.unwrap_or(1e-10), i.atol.unwrap_or(1e-12)]),
+        tolerance: matches!(i.method, MethodKind::Rodas | MethodKind::Exprb | MethodKind::ExprbSplit | MethodKind::ExprbLean | MethodKind::ExprbFiltered).then(|| [i.rtol.unwrap_or(1e-10), i.atol.unwrap_or(1e-12)]),
         steps_per_period: i.steps,
         periods_simulated: traj.rows().saturating_sub(1),
         stopped: traj.stopped.as_deref(),

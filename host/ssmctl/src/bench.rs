@@ -43,6 +43,8 @@ fn label(s: &Scene) -> String {
         // atol = rtol (not rtol / 100): the tolerance the full-system scene uses.
         MethodKind::ExprbLean if i.atol.is_some() && i.atol == i.rtol => format!("exprb43-lean rtol=atol={:e}", i.rtol.unwrap_or_default()),
         MethodKind::ExprbLean => format!("exprb43-lean rtol={:e}", i.rtol.unwrap_or_default()),
+        MethodKind::ExprbFiltered if i.atol.is_some() && i.atol == i.rtol => format!("exprb43-filtered rtol=atol={:e}", i.rtol.unwrap_or_default()),
+        MethodKind::ExprbFiltered => format!("exprb43-filtered rtol={:e}", i.rtol.unwrap_or_default()),
     }
 }
 
@@ -92,6 +94,12 @@ pub fn bench_simulate(periods: u64, quick: bool, mut progress: impl FnMut(&str))
     let lean_abs: &[f64] = if quick { &[4e-9] } else { &[1e-8, 4e-9, 2e-9] };
     configs.extend(lean_abs.iter().map(|&r| {
         let mut s = with(&base, MethodKind::ExprbLean, Some(r), None);
+        s.integrator.atol = Some(r);
+        s
+    }));
+    let filtered: &[f64] = if quick { &[4e-9] } else { &[1e-8, 4e-9, 2e-9, 1e-9] };
+    configs.extend(filtered.iter().map(|&r| {
+        let mut s = with(&base, MethodKind::ExprbFiltered, Some(r), None);
         s.integrator.atol = Some(r);
         s
     }));

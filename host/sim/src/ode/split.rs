@@ -171,7 +171,7 @@ fn matvec_t<const N: usize>(a: &[[f64; N]; N], x: &[f64; N]) -> [f64; N] {
 }
 
 #[inline(always)]
-fn dot<const N: usize>(a: &[f64; N], b: &[f64; N]) -> f64 {
+pub(crate) fn dot<const N: usize>(a: &[f64; N], b: &[f64; N]) -> f64 {
     let mut s = 0.0;
     for i in 0..N {
         s += a[i] * b[i];

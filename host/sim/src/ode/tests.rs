@@ -739,3 +739,76 @@ fn exprb_lean_validation_describe_and_blow_up() {
     let mut integ = Integrator::new(Method::ExprbLean { rtol: 1e-8, atol: 1e-10 }).unwrap().with_max_steps(10_000);
     drive_to_an_absurd_voltage(&mut integ);
 }
+
+// ---------------------------------------------------------------------------------------------
+// exprb43-filtered
+
+/// The bench problem with `method` at `rtol = atol = tol` (the full-system scene's setting):
+/// the max theta error against `reference` and the steps (accepted + rejected) per period.
+fn bench_error_and_steps(method: Method, reference: &[f64]) -> (f64, f64) {
+    let mut integ = Integrator::new(method).unwrap();
+    let out = closed_loop(&mut integ, &Furuta::paper(), [0.05, 0.0, 0.0, 0.0], (KP, KD, KPHI_D), DT, 200).unwrap();
+    let st = integ.stats();
+    (max_diff(&out, reference), (st.steps + st.rejected) as f64 / 200.0)
+}
+
+#[test]
+fn exprb_filtered_closed_loop_accuracy_against_the_tight_reference() {
+    // The bench problem against RODAS4 at 1e-13, rtol = atol. Measured (theta error,
+    // steps/period): filtered 1.23e-9 / 15.1 at 1e-8, 5.08e-10 / 18.0 at 4e-9, 1.73e-10 / 23.7
+    // at 1e-9, 2.6e-11 / 35.8 at 1e-10; exprb-lean 1.89e-9 / 27.3 at 1e-8, 7.94e-10 / 33.4 at
+    // 4e-9: at a given tolerance at most 0.6x exprb-lean's steps for at most 4x its error.
+    let reference = paper_loop(Method::Rodas { rtol: 1e-13, atol: 1e-15 }, 200);
+    let mut last = f64::INFINITY;
+    for (tol, bound) in [(1e-8, 1.5e-9), (4e-9, 6e-10), (1e-9, 2.1e-10), (1e-10, 3.2e-11)] {
+        let (err, steps) = bench_error_and_steps(Method::ExprbFiltered { rtol: tol, atol: tol }, &reference);
+        assert!(err < bound && err > 0.0, "exprb-filtered tol {tol:e}: max theta error {err:e}");
+        assert!(err < 0.7 * last, "tol {tol:e}: {err:e} after {last:e}");
+        last = err;
+        let (lean_err, lean_steps) = bench_error_and_steps(Method::ExprbLean { rtol: tol, atol: tol }, &reference);
+        assert!(steps <= 0.6 * lean_steps, "tol {tol:e}: {steps} steps/period vs exprb-lean's {lean_steps}");
+        assert!(err <= 4.0 * lean_err, "tol {tol:e}: {err:e} vs exprb-lean's {lean_err:e}");
+    }
+}
+
+#[test]
+fn exprb_filtered_is_exact_on_the_linear_plant() {
+    // Exact on a linear system whatever the error test says: the filter changes the steps only.
+    let lp = LinearFuruta::new();
+    let x0 = [0.05, -0.3, 0.2, 1.5];
+    let mut integ = Integrator::new(Method::ExprbFiltered { rtol: 1e-12, atol: 1e-14 }).unwrap();
+    let mut x = x0;
+    let mut want = x0;
+    for _ in 0..5 {
+        integ.advance(&lp, &mut x, 2.0, DT).unwrap();
+        want = lp.exact(&want, 2.0, DT);
+    }
+    let scale = want.iter().fold(1.0f64, |a, v| a.max(v.abs()));
+    for i in 0..4 {
+        assert!((x[i] - want[i]).abs() < 1e-12 * scale, "component {i}: {} vs {}", x[i], want[i]);
+    }
+    // No fast mode (the undamped pendulum, where the filter weighs whatever pair it finds):
+    // within exprb-lean's bound (measured 7.6e-9 relative at most).
+    let p = Furuta::new(FurutaParams { b1: 0.0, b2: 0.0, k: 0.0, ..FurutaParams::default() }).unwrap();
+    let x0 = [0.3, 0.0, 0.0, 2.0];
+    let a = run(Method::ExprbFiltered { rtol: 1e-9, atol: 1e-11 }, &p, x0, 0.0, DT, 30).unwrap();
+    let reference = run(Method::Rodas { rtol: 1e-13, atol: 1e-15 }, &p, x0, 0.0, DT, 30).unwrap();
+    for i in 0..4 {
+        assert!((a[i] - reference[i]).abs() < 1e-7 * reference[i].abs().max(1.0), "{a:?} vs {reference:?}");
+    }
+}
+
+#[test]
+fn exprb_filtered_validation_describe_and_blow_up() {
+    let e = Integrator::<4>::new(Method::ExprbFiltered { rtol: -1.0, atol: 1e-9 }).unwrap_err();
+    assert!(matches!(&e, OdeError::BadMethod(m) if m.contains("exprb-filtered") && m.contains("rtol")), "{e}");
+    let e = Integrator::<4>::new(Method::ExprbFiltered { rtol: 1e-9, atol: f64::NAN }).unwrap_err();
+    assert!(matches!(&e, OdeError::BadMethod(m) if m.contains("exprb-filtered") && m.contains("atol")), "{e}");
+    let e = Integrator::<4>::new(Method::ExprbFiltered { rtol: 1e-16, atol: 1e-9 }).unwrap_err();
+    assert!(matches!(&e, OdeError::BadMethod(m) if m.contains("1e-15")), "{e}");
+    let m: Method = serde_json::from_str(r#"{"kind": "exprb_filtered", "rtol": 4e-9, "atol": 4e-9}"#).unwrap();
+    assert_eq!(m, Method::ExprbFiltered { rtol: 4e-9, atol: 4e-9 });
+    assert_eq!(Integrator::<4>::new(m).unwrap().describe(), "exprb43-filtered rtol=4e-9 atol=4e-9");
+    let mut integ = Integrator::new(Method::ExprbFiltered { rtol: 1e-8, atol: 1e-10 }).unwrap().with_max_steps(10_000);
+    drive_to_an_absurd_voltage(&mut integ);
+}
