@@ -37,6 +37,11 @@ pub struct Candidate {
     /// held-out statistics always come from the raw held-out series.
     #[serde(default)]
     pub smooth: usize,
+    /// Multi-step (trajectory) refinement of an RBF map after its one-step ridge fit
+    /// ([`ssm::multistep::refine_model`], on the same training series); `None`: the ridge
+    /// fit as it is.
+    #[serde(default)]
+    pub multistep: Option<ssm::multistep::MultiStep>,
 }
 
 /// Settings of the evaluation (the same for every candidate).
@@ -229,6 +234,9 @@ pub fn evaluate_candidate(train: &[TimeSeries], test: &TimeSeries, c: &Candidate
         return Err(Error::BadInput { what: "data statistics", why: format!("measured at step {}, candidate {} has step {}", ds.step, c.name, c.step) });
     }
     c.fit.validate()?;
+    if let Some(ms) = &c.multistep {
+        ms.validate()?;
+    }
     let mut r = CandidateResult {
         name: c.name.clone(),
         step: c.step,
@@ -252,7 +260,7 @@ pub fn evaluate_candidate(train: &[TimeSeries], test: &TimeSeries, c: &Candidate
     let smoothed: Vec<TimeSeries> = train.iter().map(|t| moving_average(t, c.smooth)).collect::<Result<_, _>>()?;
     let train_k = phase_subsamples(&smoothed, c.step)?;
     let test_k = subsample(test, c.step, 0)?;
-    let m = match fit(&train_k, &c.fit) {
+    let mut m = match fit(&train_k, &c.fit) {
         Ok(m) => m,
         Err(e @ ssm::FitError::TooLarge { .. }) => return Err(e.into()),
         Err(e) => {
@@ -260,6 +268,18 @@ pub fn evaluate_candidate(train: &[TimeSeries], test: &TimeSeries, c: &Candidate
             return Ok(r);
         }
     };
+    if let Some(ms) = &c.multistep {
+        match ssm::multistep::refine_model(&mut m, &train_k, ms) {
+            Ok(stages) => r.notes.extend(stages.iter().map(|st| {
+                format!("multistep h={}: rollout RMS {:.4} -> {:.4} ({} of {} steps kept)", st.horizon, st.rms_before, st.rms_after, st.accepted, st.tried)
+            })),
+            Err(e @ ssm::FitError::TooLarge { .. }) => return Err(e.into()),
+            Err(e) => {
+                r.failed = Some(format!("multistep refinement failed: {e}"));
+                return Ok(r);
+            }
+        }
+    }
     measure(&m, &test_k, ctx, s, &mut r)?;
     r.seconds = t0.elapsed().as_secs_f64();
     Ok(r)
@@ -508,8 +528,8 @@ pub fn standard_candidates(o: &crate::microchaos::ChaosOptions, ssm_dim: usize, 
         let dt = ts.dt().ok_or(Error::BadInput { what: "held-out series", why: format!("{}: no sampling step", ts.name) })?;
         let ctx = Context::from_series(&ts.x, dt, o.gp_embed)?;
         let base = crate::microchaos::fit_options(o, ssm_dim, &ctx);
-        out.push(Candidate { name: format!("RBF {} /{k}", o.centers), step: k, fit: FitOptions { dynamics: ssm::Dynamics::Rbf { centers: o.centers }, ..base }, smooth: 0 });
-        out.push(Candidate { name: format!("poly {} /{k}", o.poly_order), step: k, fit: FitOptions { dynamics: ssm::Dynamics::Map, ..base }, smooth: 0 });
+        out.push(Candidate { name: format!("RBF {} /{k}", o.centers), step: k, fit: FitOptions { dynamics: ssm::Dynamics::Rbf { centers: o.centers }, ..base }, smooth: 0, multistep: None });
+        out.push(Candidate { name: format!("poly {} /{k}", o.poly_order), step: k, fit: FitOptions { dynamics: ssm::Dynamics::Map, ..base }, smooth: 0, multistep: None });
     }
     Ok(out)
 }
@@ -557,6 +577,7 @@ pub fn flag_candidates() -> Vec<Candidate> {
                 anchor_joint: false,
             },
             smooth: 0,
+            multistep: None,
         })
         .collect()
 }
@@ -689,6 +710,7 @@ mod tests {
                 anchor_joint: false,
             },
             smooth: 0,
+            multistep: None,
         }
     }
 
