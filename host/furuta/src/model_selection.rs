@@ -592,6 +592,47 @@ pub const FLAG_CHOSEN: [(&str, usize, usize, usize, usize, u32, usize, f64); 3] 
     ("RBF 200 /4 r=3e-9", 4, 4, 9, 1, 3, 200, 3e-9),
 ];
 
+/// The Rosenstein/Benettin ratios `rho` between which the Benettin (`benettin_rel`) and
+/// Rosenstein (`rosenstein_rel`) targets can hold together: a model with Benettin `B` within
+/// `B_rel` of the data's Rosenstein value `L` and Rosenstein `rho B` within `R_rel` of it
+/// needs `(1 - R_rel) / (1 + B_rel) <= rho <= (1 + R_rel) / (1 - B_rel)` (0.864 .. 1.167 for
+/// the issue's 10 % and 5 %).
+pub fn joint_ratio_range(t: &Targets) -> (f64, f64) {
+    ((1.0 - t.rosenstein_rel) / (1.0 + t.benettin_rel), (1.0 + t.rosenstein_rel) / (1.0 - t.benettin_rel))
+}
+
+/// One chaotic row of [`FLAG_SEARCH`] with its estimator ratio.
+#[derive(Clone, Debug, Serialize)]
+pub struct RatioRow {
+    pub candidate: &'static str,
+    /// The map's own exponent and the Rosenstein exponent of its series, 1/s.
+    pub benettin: f64,
+    pub rosenstein: f64,
+    /// `rosenstein / benettin`: the Rosenstein estimator's bias on this model's attractor.
+    pub ratio: f64,
+    pub corr_dim: f64,
+    pub js: f64,
+    /// The data's Rosenstein exponent at the row's step over `ratio`: the data's exponent if
+    /// the estimator were biased on the data as on this model, 1/s.
+    pub implied_data_exponent: f64,
+    /// Fitted with the multi-step refinement (notes column "multistep ...").
+    pub multistep: bool,
+}
+
+/// The Rosenstein/Benettin ratio of every chaotic row of [`FLAG_SEARCH`] (rows whose
+/// outcome is "chaotic" and whose Benettin and Rosenstein values are numbers).
+pub fn flag_search_ratios() -> Vec<RatioRow> {
+    let first = |c: &str| c.split_whitespace().next().and_then(|v| v.parse::<f64>().ok());
+    FLAG_SEARCH
+        .iter()
+        .filter(|r| r[7] == "chaotic")
+        .filter_map(|r| {
+            let (l, b, ro, d2, js) = (first(r[1])?, first(r[2])?, first(r[3])?, first(r[4])?, first(r[5])?);
+            (b > 0.0).then(|| RatioRow { candidate: r[0], benettin: b, rosenstein: ro, ratio: ro / b, corr_dim: d2, js, implied_data_exponent: l * b / ro, multistep: r[8].starts_with("multistep") })
+        })
+        .collect()
+}
+
 /// Columns of [`FLAG_SEARCH`].
 pub const FLAG_SEARCH_HEADER: [&str; 9] =
     ["candidate", "data Rosenstein at step k [1/s]", "Benettin (2nd) [1/s]", "Rosenstein (with the data's noise) [1/s]", "D2 (data)", "JS [bits]", "excursion", "outcome", "notes"];
@@ -761,6 +802,29 @@ mod tests {
         // RMS over k = 1..=10 of 2 sin(0.005 k) ~ 0.01 sqrt(385 / 10) = 0.062.
         assert!((e1 - 0.01).abs() < 1e-4 && (e10 - 0.0620).abs() < 1e-3, "{e1} {e10}");
         assert!(rollout_error(&fitted(0.3), &data[..20], 2, 10, 50).is_none());
+    }
+
+    /// The estimator bias on the flag's candidates (issue 12): the one-step linear-kernel
+    /// models whose D2 lies within 0.5 of the data's 3.36 and JS <= 0.005 (200 centres at ridge 2e-9
+    /// and 3e-9, 225 centres at 3e-9) have Rosenstein/Benettin 0.43-0.55, outside the
+    /// 0.864-1.167 where the 10 % Benettin and 5 % Rosenstein targets can hold together;
+    /// if the estimator is biased on the data as on them, the data's exponent is 0.60-0.77
+    /// 1/s, not 0.332. The one-step rows inside the joint range (thin-plate kernels, map
+    /// steps 5 and 6) have Benettin exponents of only 0.15-0.20 1/s.
+    #[test]
+    fn flag_search_ratios_and_the_joint_range() {
+        let (lo, hi) = joint_ratio_range(&Targets::default());
+        assert!((lo - 0.95 / 1.1).abs() < 1e-12 && (hi - 1.05 / 0.9).abs() < 1e-12, "{lo} {hi}");
+        let rows = flag_search_ratios();
+        assert!(rows.len() >= 30, "{}", rows.len());
+        let best: Vec<&RatioRow> = rows.iter().filter(|r| !r.multistep && (r.corr_dim - 3.36).abs() <= 0.5 && r.js <= 0.005).collect();
+        assert_eq!(best.len(), 3, "{best:?}");
+        for r in &best {
+            assert!(r.ratio > 0.42 && r.ratio < 0.56 && r.implied_data_exponent > 0.59 && r.implied_data_exponent < 0.78, "{r:?}");
+            assert!(r.ratio < lo, "{r:?}");
+        }
+        let joint: Vec<&RatioRow> = rows.iter().filter(|r| r.ratio >= lo && r.ratio <= hi).collect();
+        assert!(joint.iter().filter(|r| !r.multistep).all(|r| r.benettin < 0.21), "{joint:?}");
     }
 
     fn result(name: &str, b: Option<f64>, r: Option<f64>, d2: Option<f64>, js: Option<f64>, failed: Option<&str>) -> CandidateResult {
