@@ -37,6 +37,11 @@ pub struct Candidate {
     /// held-out statistics always come from the raw held-out series.
     #[serde(default)]
     pub smooth: usize,
+    /// Multi-step (trajectory) refinement of an RBF map after its one-step ridge fit
+    /// ([`ssm::multistep::refine_model`], on the same training series); `None`: the ridge
+    /// fit as it is.
+    #[serde(default)]
+    pub multistep: Option<ssm::multistep::MultiStep>,
 }
 
 /// Settings of the evaluation (the same for every candidate).
@@ -229,6 +234,9 @@ pub fn evaluate_candidate(train: &[TimeSeries], test: &TimeSeries, c: &Candidate
         return Err(Error::BadInput { what: "data statistics", why: format!("measured at step {}, candidate {} has step {}", ds.step, c.name, c.step) });
     }
     c.fit.validate()?;
+    if let Some(ms) = &c.multistep {
+        ms.validate()?;
+    }
     let mut r = CandidateResult {
         name: c.name.clone(),
         step: c.step,
@@ -252,7 +260,7 @@ pub fn evaluate_candidate(train: &[TimeSeries], test: &TimeSeries, c: &Candidate
     let smoothed: Vec<TimeSeries> = train.iter().map(|t| moving_average(t, c.smooth)).collect::<Result<_, _>>()?;
     let train_k = phase_subsamples(&smoothed, c.step)?;
     let test_k = subsample(test, c.step, 0)?;
-    let m = match fit(&train_k, &c.fit) {
+    let mut m = match fit(&train_k, &c.fit) {
         Ok(m) => m,
         Err(e @ ssm::FitError::TooLarge { .. }) => return Err(e.into()),
         Err(e) => {
@@ -260,6 +268,18 @@ pub fn evaluate_candidate(train: &[TimeSeries], test: &TimeSeries, c: &Candidate
             return Ok(r);
         }
     };
+    if let Some(ms) = &c.multistep {
+        match ssm::multistep::refine_model(&mut m, &train_k, ms) {
+            Ok(stages) => r.notes.extend(stages.iter().map(|st| {
+                format!("multistep h={}: rollout RMS {:.4} -> {:.4} ({} of {} steps kept)", st.horizon, st.rms_before, st.rms_after, st.accepted, st.tried)
+            })),
+            Err(e @ ssm::FitError::TooLarge { .. }) => return Err(e.into()),
+            Err(e) => {
+                r.failed = Some(format!("multistep refinement failed: {e}"));
+                return Ok(r);
+            }
+        }
+    }
     measure(&m, &test_k, ctx, s, &mut r)?;
     r.seconds = t0.elapsed().as_secs_f64();
     Ok(r)
@@ -508,8 +528,8 @@ pub fn standard_candidates(o: &crate::microchaos::ChaosOptions, ssm_dim: usize, 
         let dt = ts.dt().ok_or(Error::BadInput { what: "held-out series", why: format!("{}: no sampling step", ts.name) })?;
         let ctx = Context::from_series(&ts.x, dt, o.gp_embed)?;
         let base = crate::microchaos::fit_options(o, ssm_dim, &ctx);
-        out.push(Candidate { name: format!("RBF {} /{k}", o.centers), step: k, fit: FitOptions { dynamics: ssm::Dynamics::Rbf { centers: o.centers }, ..base }, smooth: 0 });
-        out.push(Candidate { name: format!("poly {} /{k}", o.poly_order), step: k, fit: FitOptions { dynamics: ssm::Dynamics::Map, ..base }, smooth: 0 });
+        out.push(Candidate { name: format!("RBF {} /{k}", o.centers), step: k, fit: FitOptions { dynamics: ssm::Dynamics::Rbf { centers: o.centers }, ..base }, smooth: 0, multistep: None });
+        out.push(Candidate { name: format!("poly {} /{k}", o.poly_order), step: k, fit: FitOptions { dynamics: ssm::Dynamics::Map, ..base }, smooth: 0, multistep: None });
     }
     Ok(out)
 }
@@ -557,6 +577,7 @@ pub fn flag_candidates() -> Vec<Candidate> {
                 anchor_joint: false,
             },
             smooth: 0,
+            multistep: None,
         })
         .collect()
 }
@@ -571,13 +592,60 @@ pub const FLAG_CHOSEN: [(&str, usize, usize, usize, usize, u32, usize, f64); 3] 
     ("RBF 200 /4 r=3e-9", 4, 4, 9, 1, 3, 200, 3e-9),
 ];
 
+/// The Rosenstein/Benettin ratios `rho` between which the Benettin (`benettin_rel`) and
+/// Rosenstein (`rosenstein_rel`) targets can hold together: a model with Benettin `B` within
+/// `B_rel` of the data's Rosenstein value `L` and Rosenstein `rho B` within `R_rel` of it
+/// needs `(1 - R_rel) / (1 + B_rel) <= rho <= (1 + R_rel) / (1 - B_rel)` (0.864 .. 1.167 for
+/// the issue's 10 % and 5 %).
+pub fn joint_ratio_range(t: &Targets) -> (f64, f64) {
+    ((1.0 - t.rosenstein_rel) / (1.0 + t.benettin_rel), (1.0 + t.rosenstein_rel) / (1.0 - t.benettin_rel))
+}
+
+/// One chaotic row of [`FLAG_SEARCH`] with its estimator ratio.
+#[derive(Clone, Debug, Serialize)]
+pub struct RatioRow {
+    pub candidate: &'static str,
+    /// The map's own exponent and the Rosenstein exponent of its series, 1/s.
+    pub benettin: f64,
+    pub rosenstein: f64,
+    /// `rosenstein / benettin`: the Rosenstein estimator's bias on this model's attractor.
+    pub ratio: f64,
+    pub corr_dim: f64,
+    pub js: f64,
+    /// The data's Rosenstein exponent at the row's step over `ratio`: the data's exponent if
+    /// the estimator were biased on the data as on this model, 1/s.
+    pub implied_data_exponent: f64,
+    /// Fitted with the multi-step refinement (notes column "multistep ...").
+    pub multistep: bool,
+}
+
+/// The Rosenstein/Benettin ratio of every chaotic row of [`FLAG_SEARCH`] (rows whose
+/// outcome is "chaotic" and whose Benettin and Rosenstein values are numbers).
+pub fn flag_search_ratios() -> Vec<RatioRow> {
+    let first = |c: &str| c.split_whitespace().next().and_then(|v| v.parse::<f64>().ok());
+    FLAG_SEARCH
+        .iter()
+        .filter(|r| r[7] == "chaotic")
+        .filter_map(|r| {
+            let (l, b, ro, d2, js) = (first(r[1])?, first(r[2])?, first(r[3])?, first(r[4])?, first(r[5])?);
+            (b > 0.0).then(|| RatioRow { candidate: r[0], benettin: b, rosenstein: ro, ratio: ro / b, corr_dim: d2, js, implied_data_exponent: l * b / ro, multistep: r[8].starts_with("multistep") })
+        })
+        .collect()
+}
+
 /// Columns of [`FLAG_SEARCH`].
 pub const FLAG_SEARCH_HEADER: [&str; 9] =
     ["candidate", "data Rosenstein at step k [1/s]", "Benettin (2nd) [1/s]", "Rosenstein (with the data's noise) [1/s]", "D2 (data)", "JS [bits]", "excursion", "outcome", "notes"];
 
 /// The inverted-flag candidate search (`explore_chaos flag-candidates`, train traj_9 +
 /// traj_7, held out traj_8), as printed; the report shows it as the source of
-/// [`flag_candidates`].
+/// [`flag_candidates`]. Rows noted "multistep k=.." refine the one-step ridge fit on the
+/// k-step rollout loss ([`ssm::multistep`]): the held-out rollout error drops (linear
+/// kernel, 200 centres: 0.115 -> 0.109 at k = 4, 0.099 at k = 8; thin-plate 300 centres:
+/// 0.114 -> 0.096 at k = 8) but from k = 8 on the model loses its chaos (Benettin <= 0,
+/// D2 0.5-1.0): the trajectory loss favours maps that contract the data's spread; at k = 4
+/// the exponents fall (Benettin 0.497 -> 0.408, Rosenstein 0.272 -> 0.170). No multistep
+/// row meets a target the one-step rows miss.
 pub const FLAG_SEARCH: &[[&str; 9]] = &[
     ["k=1 d=4 p=9 s=5 m=2 c=500 r=1e-8", "0.354", "-0.145 (-0.159)", "0.239", "2.21 (3.13 ± 0.18)", "0.5144", "1.03", "not chaotic (torus or periodic)", ""],
     ["k=4 d=4 p=9 s=1 m=3 c=500 r=1e-8", "0.332", "0.142 (-0.074)", "0.120", "2.63 (3.36 ± 0.17)", "0.0088", "1.00", "chaotic", ""],
@@ -640,6 +708,10 @@ pub const FLAG_SEARCH: &[[&str; 9]] = &[
     ["k=4 d=4 p=9 s=1 m=3 c=300 r=3e-9 kernel gaussian:3", "0.332", "0.000 (-0.356)", "-0.002 (0.001)", "1.01 (3.36 ± 0.17)", "0.0343", "0.99", "not chaotic (torus or periodic)", "rollout 0.101"],
     ["k=4 d=4 p=9 s=1 m=3 c=300 r=3e-9 kernel gaussian:6", "0.332", "-0.011 (-0.069)", "0.013 (0.015)", "1.00 (3.36 ± 0.17)", "0.0399", "0.99", "not chaotic (torus or periodic)", "rollout 0.098"],
     ["k=4 d=4 p=9 s=1 m=3 c=300 r=3e-9 kernel gaussian:10", "0.332", "- (-)", "- (-)", "- (3.36 ± 0.17)", "-", "-", "FAILED: escaped at map step 5752", "rollout 0.114"],
+    ["k=4 d=4 p=9 s=1 m=3 c=200 r=3e-9 multistep h=4", "0.332", "0.408 (-0.278)", "0.170 (0.171)", "2.14 (3.36 ± 0.17)", "0.0130", "1.00", "chaotic", "multistep k=4 (stages 2, 4; window stride 4; 4 LM steps each, all kept): training rollout RMS h=4 0.0167 -> 0.0164; held-out rollout 0.109 (one-step 0.115)"],
+    ["k=4 d=4 p=9 s=1 m=3 c=200 r=3e-9 multistep h=8", "0.332", "-0.086 (-0.187)", "-0.006 (0.041)", "0.56 (3.36 ± 0.17)", "0.0583", "0.98", "not chaotic (torus or periodic)", "multistep k=8 (stages 2, 4, 8; stride 4; 10 LM steps each, all kept): training rollout RMS h=4 0.0163 -> 0.0158; held-out rollout 0.099 (one-step 0.115)"],
+    ["k=4 d=4 p=9 s=1 m=3 c=200 r=3e-9 multistep h=16", "0.332", "-0.070 (-0.070)", "0.041 (0.115)", "0.46 (3.36 ± 0.17)", "0.7783", "1.00", "not chaotic (torus or periodic)", "multistep k=16 (stages 2, 4, 8, 16; stride 4; 10 LM steps each): held-out rollout 0.118 (one-step 0.115)"],
+    ["k=4 d=4 p=9 s=1 m=3 c=300 r=3e-9 kernel thin-plate multistep h=8", "0.332", "-0.013 (-0.291)", "-0.024 (-0.001)", "1.00 (3.36 ± 0.17)", "0.0695", "0.99", "not chaotic (torus or periodic)", "multistep k=8 (stages 2, 4, 8; stride 4; 10 LM steps each, all kept): training rollout RMS h=4 0.0154 -> 0.0147; held-out rollout 0.096 (one-step 0.114)"],
 ];
 
 /// Evaluates every candidate (on the rayon pool, results in input order; data statistics
@@ -689,6 +761,7 @@ mod tests {
                 anchor_joint: false,
             },
             smooth: 0,
+            multistep: None,
         }
     }
 
@@ -739,6 +812,29 @@ mod tests {
         // RMS over k = 1..=10 of 2 sin(0.005 k) ~ 0.01 sqrt(385 / 10) = 0.062.
         assert!((e1 - 0.01).abs() < 1e-4 && (e10 - 0.0620).abs() < 1e-3, "{e1} {e10}");
         assert!(rollout_error(&fitted(0.3), &data[..20], 2, 10, 50).is_none());
+    }
+
+    /// The estimator bias on the flag's candidates (issue 12): the one-step linear-kernel
+    /// models whose D2 lies within 0.5 of the data's 3.36 and JS <= 0.005 (200 centres at ridge 2e-9
+    /// and 3e-9, 225 centres at 3e-9) have Rosenstein/Benettin 0.43-0.55, outside the
+    /// 0.864-1.167 where the 10 % Benettin and 5 % Rosenstein targets can hold together;
+    /// if the estimator is biased on the data as on them, the data's exponent is 0.60-0.77
+    /// 1/s, not 0.332. The one-step rows inside the joint range (thin-plate kernels, map
+    /// steps 5 and 6) have Benettin exponents of only 0.15-0.20 1/s.
+    #[test]
+    fn flag_search_ratios_and_the_joint_range() {
+        let (lo, hi) = joint_ratio_range(&Targets::default());
+        assert!((lo - 0.95 / 1.1).abs() < 1e-12 && (hi - 1.05 / 0.9).abs() < 1e-12, "{lo} {hi}");
+        let rows = flag_search_ratios();
+        assert!(rows.len() >= 30, "{}", rows.len());
+        let best: Vec<&RatioRow> = rows.iter().filter(|r| !r.multistep && (r.corr_dim - 3.36).abs() <= 0.5 && r.js <= 0.005).collect();
+        assert_eq!(best.len(), 3, "{best:?}");
+        for r in &best {
+            assert!(r.ratio > 0.42 && r.ratio < 0.56 && r.implied_data_exponent > 0.59 && r.implied_data_exponent < 0.78, "{r:?}");
+            assert!(r.ratio < lo, "{r:?}");
+        }
+        let joint: Vec<&RatioRow> = rows.iter().filter(|r| r.ratio >= lo && r.ratio <= hi).collect();
+        assert!(joint.iter().filter(|r| !r.multistep).all(|r| r.benettin < 0.21), "{joint:?}");
     }
 
     fn result(name: &str, b: Option<f64>, r: Option<f64>, d2: Option<f64>, js: Option<f64>, failed: Option<&str>) -> CandidateResult {

@@ -174,7 +174,7 @@ impl RbfMap {
         self.centers.len() / self.dim
     }
 
-    fn features(&self, eta: &[f64], out: &mut [f64]) {
+    pub(crate) fn features(&self, eta: &[f64], out: &mut [f64]) {
         let d = self.dim;
         let k = self.n_centers();
         for i in 0..k {

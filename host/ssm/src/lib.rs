@@ -37,6 +37,7 @@ pub mod manifold;
 pub mod map_ssm;
 pub mod mat;
 pub mod metrics;
+pub mod multistep;
 pub mod normal_form;
 pub mod poly;
 pub mod portrait;
