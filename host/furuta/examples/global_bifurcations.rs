@@ -276,6 +276,120 @@ fn mapcycles(args: &[String]) -> R {
     Ok(())
 }
 
+/// Slow/fast amplitudes of a primary-angle series (one sample per period `h` s) at the
+/// spectral peaks of its last third (the exact linear frequencies when a band has none), as
+/// `basin::torus_step` measures them.
+fn torus_amps(theta: &[f64], h: f64, dt_ms: f64) -> Result<Vec<(f64, [f64; 2])>, Box<dyn std::error::Error>> {
+    let lin = furuta::parametric::exact_modes(dt_ms)?.freqs_hz;
+    let split = (lin[0] * lin[1]).sqrt();
+    let last = &theta[2 * theta.len() / 3..];
+    let freqs = match (ssm::spectrum::band_peak(last, h, 0.0, split), ssm::spectrum::band_peak(last, h, split, 0.5 / h)) {
+        (Some(a), Some(b)) => [a.freq_hz, b.freq_hz],
+        _ => lin,
+    };
+    Ok(ssm::spectrum::mode_amplitudes(theta, h, freqs, furuta::full_system::AMP_WINDOW_S)?)
+}
+
+/// One line per tenth of the amplitude series: mean rho_1, its spread, mean rho_2.
+fn torus_tenths(label: &str, theta: &[f64], h: f64, dt_ms: f64, escape: Option<f64>) -> R {
+    let a = torus_amps(theta, h, dt_ms)?;
+    let n = a.len();
+    let mut out = format!("{label:>6} esc {:>8}", escape.map_or("-".into(), |t| format!("{t:.0}s")));
+    if n >= 10 {
+        for k in 0..10 {
+            let seg = &a[k * n / 10..(k + 1) * n / 10];
+            let m1 = seg.iter().map(|x| x.1[0]).sum::<f64>() / seg.len() as f64;
+            let (lo, hi) = seg.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), x| (l.min(x.1[0]), h.max(x.1[0])));
+            let m2 = seg.iter().map(|x| x.1[1]).sum::<f64>() / seg.len() as f64;
+            out += &format!(" | {m1:.4} ±{:.4} {m2:.4}", 0.5 * (hi - lo));
+        }
+    }
+    println!("{out}");
+    Ok(())
+}
+
+/// `torus [--periods N] [--variant V] DT...`: from the mode start (0.097, 0.0277) rad,
+/// phases 0, at each DT, the full system and the fitted map (linear and spline in dt, from
+/// the full system's first delay vector): escape time, and per tenth of the run the slow
+/// amplitude's mean and half-spread and the fast amplitude's mean.
+fn torus(args: &[String]) -> R {
+    use furuta::full_system::{ESCAPE_THETA, run, start_from_rho};
+    let mut periods = 16_000u64;
+    let mut name = "default".to_string();
+    let mut dts = Vec::new();
+    let mut it = args.iter();
+    while let Some(a) = it.next() {
+        match a.as_str() {
+            "--periods" => periods = it.next().ok_or("--periods N")?.parse()?,
+            "--variant" => name = it.next().ok_or("--variant V")?.clone(),
+            x => dts.push(x.parse::<f64>()?),
+        }
+    }
+    let c0 = cpu_s();
+    let sm = furuta::shared_tangent::shared_parametric(&variant(&name)?)?;
+    println!("fit {:.0} s CPU; columns: per tenth of the run, rho_1 mean ± half-spread, rho_2 mean", cpu_s() - c0);
+    let rows: Vec<Result<Vec<(String, Vec<f64>, f64, Option<f64>)>, String>> = {
+        use rayon::prelude::*;
+        dts.par_iter()
+            .map(|&dt| -> Result<_, Box<dyn std::error::Error + Send + Sync>> {
+                let (x, hist) = start_from_rho(dt, [0.097, 0.0277], [0.0, 0.0])?;
+                let start = (x, Some(hist));
+                let c = cpu_s();
+                let tr = run(dt, &start, periods, ESCAPE_THETA)?;
+                let full_cpu = cpu_s() - c;
+                let esc = if tr.stopped.is_some() { tr.t.last().copied() } else { None };
+                let mut out = vec![(format!("full {dt}"), tr.primary(), tr.dt, esc)];
+                let _ = full_cpu;
+                for interp in [ssm::interp::Interp::Linear, ssm::interp::Interp::Spline] {
+                    let m = sm.model_at(dt, interp)?;
+                    let p = m.manifold.p;
+                    let h = m.dynamics.map_dt().ok_or("not a map")?;
+                    let head = run(dt, &start, p as u64, f64::MAX)?.primary();
+                    let mut eta = m.manifold.reduce(&head[..p]);
+                    let (mut scratch, mut sc) = (ssm::dynamics::StepScratch::default(), ssm::poly::PolyScratch::default());
+                    let mut y = vec![0.0; p];
+                    let mut theta = Vec::with_capacity(periods as usize + 1);
+                    let mut esc = None;
+                    for k in 0..=periods {
+                        m.manifold.lift_into(&eta, &mut sc, &mut y);
+                        if !(y[p - 1].abs() <= ESCAPE_THETA) {
+                            esc = Some(k as f64 * h);
+                            break;
+                        }
+                        theta.push(y[p - 1]);
+                        m.dynamics.step(&mut eta, h, &mut scratch);
+                    }
+                    out.push((format!("{interp:?} {dt}"), theta, h, esc));
+                }
+                Ok(out)
+            })
+            .map(|r| r.map_err(|e| e.to_string()))
+            .collect()
+    };
+    for (dt, r) in dts.iter().zip(rows) {
+        let r: Vec<(String, Vec<f64>, f64, Option<f64>)> = r?;
+        for (label, theta, h, esc) in r {
+            torus_tenths(&label, &theta, h, *dt, esc)?;
+        }
+    }
+    println!("total {:.0} s CPU", cpu_s() - c0);
+    Ok(())
+}
+
+/// `fullcont PERIODS DT...`: the full system's torus continuation (`basin::torus_continuation`
+/// from (0.097, 0.0277) rad) over the DTs, each step printed.
+fn fullcont(args: &[String]) -> R {
+    let periods: u64 = args.first().ok_or("fullcont PERIODS DT...")?.parse()?;
+    let dts: Vec<f64> = args[1..].iter().map(|a| a.parse()).collect::<Result<_, _>>()?;
+    let c0 = cpu_s();
+    let c = furuta::basin::torus_continuation(&dts, [0.097, 0.0277], periods)?;
+    for s in &c.steps {
+        println!("{:6} esc {:?} rho {:?} spread mid {:?} last {:?} lost {}", s.dt_ms, s.escape_t, s.rho, s.spread_mid, s.spread_last, s.lost);
+    }
+    println!("lost between {:?} ({:.0} s CPU)", c.lost_between, cpu_s() - c0);
+    Ok(())
+}
+
 fn main() -> R {
     let args: Vec<String> = std::env::args().skip(1).collect();
     match args.first().map(String::as_str) {
@@ -285,6 +399,8 @@ fn main() -> R {
         Some("mapswitch") => mapswitch(&args[1..]),
         Some("mapcycles") => mapcycles(&args[1..]),
         Some("mapglobal") => mapglobal(&args[1..]),
+        Some("torus") => torus(&args[1..]),
+        Some("fullcont") => fullcont(&args[1..]),
         _ => Err("subcommands: convergence ORDER DT... | cycles MODE ORDER DT...".into()),
     }
 }

@@ -20,7 +20,7 @@ use ssm::normal_form::PolarNormalForm;
 use ssm::portrait::{Fate, FixedPoint, PointKind, PortraitOptions, fixed_points, trajectory};
 
 use crate::Error;
-use crate::full_system::{AMP_WINDOW_S, ESCAPE_THETA, run, start_from_rho};
+use crate::full_system::{AMP_WINDOW_S, ESCAPE_THETA, end_start, run, start_from_rho};
 use crate::sweep::shard::{RESULT_FORMAT, SweepResult};
 use crate::sweep::{AxisSpec, BasinSpec, Cell, FORMAT_VERSION, Kind, Shard, SpecFile, Sweep, run_shard};
 use ssm::spectrum::mode_amplitudes;
@@ -406,16 +406,10 @@ pub fn torus_continuation(dts_ms: &[f64], start_rho: [f64; 2], periods: u64) -> 
         let escape_t = if tr.stopped.is_some() { tr.t.last().copied() } else { None };
         let step = torus_step(dt, &tr.primary(), tr.dt, escape_t)?;
         if !step.lost {
-            // The next run starts from this one's end: plant state and the controller's last
-            // `delay + 1` samples, oldest first.
+            // The next run starts from this one's end: plant state of the last row and the
+            // controller's `delay + 1` samples before it, oldest first ([`end_start`]).
             let delay = sim::scene::SceneBuilder::load("furuta-dt30.5")?.dt_ms(dt).build()?.controller.delay as usize;
-            let rows = tr.rows();
-            if rows < delay + 1 {
-                return Err(Error::BadInput { what: "periods", why: format!("{periods} periods are fewer than the delay + 1 samples") });
-            }
-            let state = [tr.state(rows - 1, 0), tr.state(rows - 1, 1), tr.state(rows - 1, 2), tr.state(rows - 1, 3)];
-            let hist: Vec<[f64; 2]> = (rows - 1 - delay..rows).map(|i| [tr.state(i, 0), tr.state(i, 2)]).collect();
-            start = (state, Some(hist));
+            start = end_start(&tr, delay)?;
         }
         let lost = step.lost;
         steps.push(step);
