@@ -308,23 +308,36 @@ fn torus_tenths(label: &str, theta: &[f64], h: f64, dt_ms: f64, escape: Option<f
     Ok(())
 }
 
-/// `torus [--periods N] [--variant V] DT...`: from the mode start (0.097, 0.0277) rad,
-/// phases 0, at each DT, the full system and the fitted map (linear and spline in dt, from
+/// `torus [--periods N] [--variant V] [--settle DT0 N0] DT...`: from the mode start (0.097,
+/// 0.0277) rad, phases 0, at each DT (or from the end of N0 periods at DT0 from it), the full system and the fitted map (linear and spline in dt, from
 /// the full system's first delay vector): escape time, and per tenth of the run the slow
 /// amplitude's mean and half-spread and the fast amplitude's mean.
 fn torus(args: &[String]) -> R {
     use furuta::full_system::{ESCAPE_THETA, run, start_from_rho};
     let mut periods = 16_000u64;
     let mut name = "default".to_string();
+    let mut settle = None;
     let mut dts = Vec::new();
     let mut it = args.iter();
     while let Some(a) = it.next() {
         match a.as_str() {
             "--periods" => periods = it.next().ok_or("--periods N")?.parse()?,
             "--variant" => name = it.next().ok_or("--variant V")?.clone(),
+            "--settle" => settle = Some((it.next().ok_or("--settle DT N")?.parse::<f64>()?, it.next().ok_or("--settle DT N")?.parse::<u64>()?)),
             x => dts.push(x.parse::<f64>()?),
         }
     }
+    // With `--settle DT N`: every run starts from the end of N periods at DT from the mode start.
+    let settled = match settle {
+        Some((dt0, n0)) => {
+            let (x, hist) = start_from_rho(dt0, [0.097, 0.0277], [0.0, 0.0])?;
+            let tr = run(dt0, &(x, Some(hist)), n0, ESCAPE_THETA)?;
+            let delay = sim::scene::SceneBuilder::load("furuta-dt30.5")?.dt_ms(dt0).build()?.controller.delay as usize;
+            torus_tenths(&format!("settle {dt0}"), &tr.primary(), tr.dt, dt0, None)?;
+            Some(furuta::full_system::end_start(&tr, delay)?)
+        }
+        None => None,
+    };
     let c0 = cpu_s();
     let sm = furuta::shared_tangent::shared_parametric(&variant(&name)?)?;
     println!("fit {:.0} s CPU; columns: per tenth of the run, rho_1 mean ± half-spread, rho_2 mean", cpu_s() - c0);
@@ -332,8 +345,13 @@ fn torus(args: &[String]) -> R {
         use rayon::prelude::*;
         dts.par_iter()
             .map(|&dt| -> Result<_, Box<dyn std::error::Error + Send + Sync>> {
-                let (x, hist) = start_from_rho(dt, [0.097, 0.0277], [0.0, 0.0])?;
-                let start = (x, Some(hist));
+                let start = match &settled {
+                    Some(s) => s.clone(),
+                    None => {
+                        let (x, hist) = start_from_rho(dt, [0.097, 0.0277], [0.0, 0.0])?;
+                        (x, Some(hist))
+                    }
+                };
                 let c = cpu_s();
                 let tr = run(dt, &start, periods, ESCAPE_THETA)?;
                 let full_cpu = cpu_s() - c;
@@ -390,6 +408,40 @@ fn fullcont(args: &[String]) -> R {
     Ok(())
 }
 
+/// `coeffs VARIANT...`: the data-driven polar coefficients (per training dt, the fit's own
+/// normal form) next to the equation-driven ones (order 7) at the training dts, cubic and
+/// quintic rows with relative differences.
+fn coeffs(args: &[String]) -> R {
+    for name in args {
+        let v = variant(name)?;
+        let c0 = cpu_s();
+        let pm = furuta_parametric(&v)?;
+        let rows = coefficient_comparison(&v.dts_ms, 7, |dt| pm.normal_form_at(dt))?;
+        println!("{name} ({:.0} s CPU)", cpu_s() - c0);
+        for r in rows.iter().filter(|r| r.degree >= 1 && r.degree <= 5) {
+            println!("  {} ms rho_{}' {:<16} eq {:>12.5} data {:>12.5} rel {:+.4}", r.dt_ms, r.mode, r.monomial, r.equation, r.data.unwrap_or(f64::NAN), r.rel_diff.unwrap_or(f64::NAN));
+        }
+    }
+    Ok(())
+}
+
+/// `maptorus VARIANT...`: the fitted map's torus continuation (linear and spline in dt,
+/// 31.3-32.0 ms by 0.05, 16,000 periods, the report's) per training variant.
+fn maptorus(args: &[String]) -> R {
+    use furuta::map_global::map_torus_continuation;
+    let dts: Vec<f64> = (0..=14).map(|k| ((31.3 + 0.05 * k as f64) * 1e4).round() / 1e4).collect();
+    for name in args {
+        let sm = furuta::shared_tangent::shared_parametric(&variant(name)?)?;
+        for interp in [ssm::interp::Interp::Linear, ssm::interp::Interp::Spline] {
+            let c0 = cpu_s();
+            let tc = map_torus_continuation(|dt| Ok(sm.model_at(dt, interp)?), &dts, [0.097, 0.0277], 16_000)?;
+            let last = tc.steps.last().map(|s| (s.spread_mid, s.spread_last));
+            println!("{name} {interp:?}: torus lost {:?} (last step spreads {last:?}; {:.1} s CPU)", tc.lost_between, cpu_s() - c0);
+        }
+    }
+    Ok(())
+}
+
 fn main() -> R {
     let args: Vec<String> = std::env::args().skip(1).collect();
     match args.first().map(String::as_str) {
@@ -401,6 +453,8 @@ fn main() -> R {
         Some("mapglobal") => mapglobal(&args[1..]),
         Some("torus") => torus(&args[1..]),
         Some("fullcont") => fullcont(&args[1..]),
+        Some("coeffs") => coeffs(&args[1..]),
+        Some("maptorus") => maptorus(&args[1..]),
         _ => Err("subcommands: convergence ORDER DT... | cycles MODE ORDER DT...".into()),
     }
 }
