@@ -442,6 +442,31 @@ fn maptorus(args: &[String]) -> R {
     Ok(())
 }
 
+/// `ratefun VARIANT`: the nonlinear part of the amplitude rates `rho_i'/rho_i - linear`
+/// (1/s) of the data-driven normal form (each training period's fit) and the equation-driven
+/// ones (orders 7 and 9) at a few amplitude points, cubic terms alone and all terms.
+fn ratefun(args: &[String]) -> R {
+    let v = variant(args.first().map_or("default", String::as_str))?;
+    let pm = furuta_parametric(&v)?;
+    let pts = [(0.05, 0.01), (0.05, 0.03), (0.1, 0.01), (0.1, 0.0277), (0.15, 0.02)];
+    for t in &pm.trained {
+        let e7 = furuta::equation_ssm::furuta_equation_polar(t.dt_ms, 7)?;
+        let e9 = furuta::equation_ssm::furuta_equation_polar(t.dt_ms, 9)?;
+        let nl = |f: &ssm::normal_form::PolarNormalForm, mode: usize, r: [f64; 2], maxdeg: u32| -> f64 {
+            f.table().rows.iter().filter(|row| row.mode == mode && (3..=maxdeg).contains(&row.rho_exps.iter().sum::<u32>()))
+                .map(|row| row.value * r[0].powi(row.rho_exps[0] as i32) * r[1].powi(row.rho_exps[1] as i32) / r[mode - 1]).sum()
+        };
+        for &(a, b) in &pts {
+            let r = [a, b];
+            let line: Vec<String> = [1usize, 2].iter().map(|&m| format!(
+                "rho_{m}: cubic data {:+.4} eq {:+.4} | all data {:+.4} eq7 {:+.4} eq9 {:+.4}",
+                nl(&t.normal_form, m, r, 3), nl(&e7, m, r, 3), nl(&t.normal_form, m, r, 99), nl(&e7, m, r, 99), nl(&e9, m, r, 99))).collect();
+            println!("{} ms ({a}, {b}): {}", t.dt_ms, line.join(" || "));
+        }
+    }
+    Ok(())
+}
+
 fn main() -> R {
     let args: Vec<String> = std::env::args().skip(1).collect();
     match args.first().map(String::as_str) {
@@ -455,6 +480,7 @@ fn main() -> R {
         Some("fullcont") => fullcont(&args[1..]),
         Some("coeffs") => coeffs(&args[1..]),
         Some("maptorus") => maptorus(&args[1..]),
+        Some("ratefun") => ratefun(&args[1..]),
         _ => Err("subcommands: convergence ORDER DT... | cycles MODE ORDER DT...".into()),
     }
 }

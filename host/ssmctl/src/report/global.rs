@@ -344,7 +344,10 @@ fn equation_section(rep: &mut Report, pm: &ParametricModel, bif: &ModelBifurcati
 
     // The data-driven model's cubic and quintic coefficients (each training period's own
     // fit, no interpolation) against the equation-driven ones at the same dt.
-    let cubic = cubic_comparison(rep, pm, c)?;
+    let mut cubic = cubic_comparison(rep, pm, c)?;
+    // Whether the coefficients' differences matter: the 2-torus at 30.8 ms of each model
+    // against the full system's.
+    cubic["torus_30p8_rho"] = json!({"full_system": rho_full, "data_driven": bif.torus_30p8.as_ref().map(|t| t.rho), "equation": eb.torus_30p8.as_ref().map(|t| t.rho)});
 
     // summary.json
     let per_dt: Vec<Value> = c
