@@ -598,6 +598,24 @@ mod tests {
         assert_eq!((escaped.growth_onset, escaped.lost_between), (None, Some((31.6, 31.7))));
     }
 
+    /// The full system's continuation on the report's quick grid (8,000 periods, 0.1 ms): the
+    /// torus attracts up to 31.8 ms and is lost at 31.9 ms, as on the fitted map
+    /// (`map_torus_continuation_loses_the_torus_on_the_grid`), and the growth rate turns
+    /// positive between 31.7 and 31.8 ms (measured onset 31.7116 ms; map 31.7015 / 31.7074).
+    /// With the pre-history off by one the torus was lost at 31.7 ms.
+    #[test]
+    fn torus_continuation_loses_the_torus_where_the_map_does() {
+        let dts: Vec<f64> = (0..=5).map(|k| ((31.4 + 0.1 * k as f64) * 1e4).round() / 1e4).collect();
+        let c = torus_continuation(&dts, [0.097, 0.0277], 8000).unwrap();
+        for s in &c.steps {
+            eprintln!("{} {:?} {:?} {:?} {}", s.dt_ms, s.spread_mid, s.spread_last, s.growth_rate, s.lost);
+        }
+        assert_eq!(c.lost_between, Some((31.8, 31.9)));
+        let on = c.growth_onset.unwrap();
+        assert!((31.7..31.8).contains(&on), "{on}");
+        assert!(c.steps[..3].iter().all(|s| s.growth_rate.is_some_and(|g| g < 0.0)), "{:?}", c.steps);
+    }
+
     #[test]
     fn bad_inputs_are_refused() {
         let nf = radial(-1.0, 1.0);
