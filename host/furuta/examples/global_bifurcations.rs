@@ -19,6 +19,12 @@
 //!   the full system's connection by the same rule.
 //! * `mapcycles DT...`: slow and fast saddle cycles of the fitted map (`fitted_map_cycle`
 //!   on `model_at(dt)`) next to the full system's.
+//! * `torus [--periods N] [--variant V] [--settle DT0 N0] DT...`: the full system and the
+//!   fitted map from the same start, slow/fast amplitudes per tenth of the run.
+//! * `fullcont PERIODS DT...`: the full system's torus continuation, step by step.
+//! * `maptorus VARIANT...`: the fitted map's torus continuation per training variant.
+//! * `coeffs VARIANT...`: data-driven vs equation-driven polar coefficients at the training dts.
+//! * `ratefun [VARIANT]`: their nonlinear amplitude rates at a few amplitude points.
 
 use furuta::convergence::furuta_convergence;
 use furuta::bifurcations::{model_row, sensitivity_variants};
