@@ -19,6 +19,12 @@
 //!   the full system's connection by the same rule.
 //! * `mapcycles DT...`: slow and fast saddle cycles of the fitted map (`fitted_map_cycle`
 //!   on `model_at(dt)`) next to the full system's.
+//! * `torus [--periods N] [--variant V] [--settle DT0 N0] DT...`: the full system and the
+//!   fitted map from the same start, slow/fast amplitudes per tenth of the run.
+//! * `fullcont PERIODS DT...`: the full system's torus continuation, step by step.
+//! * `maptorus VARIANT...`: the fitted map's torus continuation per training variant.
+//! * `coeffs VARIANT...`: data-driven vs equation-driven polar coefficients at the training dts.
+//! * `ratefun [VARIANT]`: their nonlinear amplitude rates at a few amplitude points.
 
 use furuta::convergence::furuta_convergence;
 use furuta::bifurcations::{model_row, sensitivity_variants};
@@ -276,6 +282,205 @@ fn mapcycles(args: &[String]) -> R {
     Ok(())
 }
 
+/// Slow/fast amplitudes of a primary-angle series (one sample per period `h` s) at the
+/// spectral peaks of its last third (the exact linear frequencies when a band has none), as
+/// `basin::torus_step` measures them.
+fn torus_amps(theta: &[f64], h: f64, dt_ms: f64) -> Result<Vec<(f64, [f64; 2])>, Box<dyn std::error::Error>> {
+    let lin = furuta::parametric::exact_modes(dt_ms)?.freqs_hz;
+    let split = (lin[0] * lin[1]).sqrt();
+    let last = &theta[2 * theta.len() / 3..];
+    let freqs = match (ssm::spectrum::band_peak(last, h, 0.0, split), ssm::spectrum::band_peak(last, h, split, 0.5 / h)) {
+        (Some(a), Some(b)) => [a.freq_hz, b.freq_hz],
+        _ => lin,
+    };
+    Ok(ssm::spectrum::mode_amplitudes(theta, h, freqs, furuta::full_system::AMP_WINDOW_S)?)
+}
+
+/// One line per tenth of the amplitude series: mean rho_1, its spread, mean rho_2.
+fn torus_tenths(label: &str, theta: &[f64], h: f64, dt_ms: f64, escape: Option<f64>) -> R {
+    let a = torus_amps(theta, h, dt_ms)?;
+    let n = a.len();
+    let mut out = format!("{label:>6} esc {:>8}", escape.map_or("-".into(), |t| format!("{t:.0}s")));
+    if n >= 10 {
+        for k in 0..10 {
+            let seg = &a[k * n / 10..(k + 1) * n / 10];
+            let m1 = seg.iter().map(|x| x.1[0]).sum::<f64>() / seg.len() as f64;
+            let (lo, hi) = seg.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), x| (l.min(x.1[0]), h.max(x.1[0])));
+            let m2 = seg.iter().map(|x| x.1[1]).sum::<f64>() / seg.len() as f64;
+            out += &format!(" | {m1:.4} ±{:.4} {m2:.4}", 0.5 * (hi - lo));
+        }
+    }
+    println!("{out}");
+    Ok(())
+}
+
+/// `torus [--periods N] [--variant V] [--settle DT0 N0] DT...`: from the mode start (0.097,
+/// 0.0277) rad, phases 0, at each DT (or from the end of N0 periods at DT0 from it), the full system and the fitted map (linear and spline in dt, from
+/// the full system's first delay vector): escape time, and per tenth of the run the slow
+/// amplitude's mean and half-spread and the fast amplitude's mean.
+///
+/// Measured (default variant): from the mode start, 16,000 periods, the full system and the
+/// map agree at 31.4-31.8 ms to 1e-4 rad in the means and 1e-3 in the half-spreads (31.8: both
+/// grow, 0.0059 -> 0.0142 full, 0.0059 -> 0.0156 linear). With `--settle 31.6 48000`, 64,000
+/// periods from the settled torus (half-spread 0.0013): at 31.7 the full system decays
+/// (0.0013 -> 0.0011), the map stays (linear 0.0013) or decays (spline 0.0012 -> 0.0009); at
+/// 31.75 all grow (0.0020 -> 0.0089 full, -> 0.0128 linear, -> 0.0080 spline); at 31.8 all
+/// escape (full 1519 s, linear 1403 s, spline 1548 s), at 31.85 after 955 / 926 / 946 s.
+fn torus(args: &[String]) -> R {
+    use furuta::full_system::{ESCAPE_THETA, run, start_from_rho};
+    let mut periods = 16_000u64;
+    let mut name = "default".to_string();
+    let mut settle = None;
+    let mut dts = Vec::new();
+    let mut it = args.iter();
+    while let Some(a) = it.next() {
+        match a.as_str() {
+            "--periods" => periods = it.next().ok_or("--periods N")?.parse()?,
+            "--variant" => name = it.next().ok_or("--variant V")?.clone(),
+            "--settle" => settle = Some((it.next().ok_or("--settle DT N")?.parse::<f64>()?, it.next().ok_or("--settle DT N")?.parse::<u64>()?)),
+            x => dts.push(x.parse::<f64>()?),
+        }
+    }
+    // With `--settle DT N`: every run starts from the end of N periods at DT from the mode start.
+    let settled = match settle {
+        Some((dt0, n0)) => {
+            let (x, hist) = start_from_rho(dt0, [0.097, 0.0277], [0.0, 0.0])?;
+            let tr = run(dt0, &(x, Some(hist)), n0, ESCAPE_THETA)?;
+            let delay = sim::scene::SceneBuilder::load("furuta-dt30.5")?.dt_ms(dt0).build()?.controller.delay as usize;
+            torus_tenths(&format!("settle {dt0}"), &tr.primary(), tr.dt, dt0, None)?;
+            Some(furuta::full_system::end_start(&tr, delay)?)
+        }
+        None => None,
+    };
+    let c0 = cpu_s();
+    let sm = furuta::shared_tangent::shared_parametric(&variant(&name)?)?;
+    println!("fit {:.0} s CPU; columns: per tenth of the run, rho_1 mean ± half-spread, rho_2 mean", cpu_s() - c0);
+    let rows: Vec<Result<Vec<(String, Vec<f64>, f64, Option<f64>)>, String>> = {
+        use rayon::prelude::*;
+        dts.par_iter()
+            .map(|&dt| -> Result<_, Box<dyn std::error::Error + Send + Sync>> {
+                let start = match &settled {
+                    Some(s) => s.clone(),
+                    None => {
+                        let (x, hist) = start_from_rho(dt, [0.097, 0.0277], [0.0, 0.0])?;
+                        (x, Some(hist))
+                    }
+                };
+                let c = cpu_s();
+                let tr = run(dt, &start, periods, ESCAPE_THETA)?;
+                let full_cpu = cpu_s() - c;
+                let esc = if tr.stopped.is_some() { tr.t.last().copied() } else { None };
+                let mut out = vec![(format!("full {dt}"), tr.primary(), tr.dt, esc)];
+                let _ = full_cpu;
+                for interp in [ssm::interp::Interp::Linear, ssm::interp::Interp::Spline] {
+                    let m = sm.model_at(dt, interp)?;
+                    let p = m.manifold.p;
+                    let h = m.dynamics.map_dt().ok_or("not a map")?;
+                    let head = run(dt, &start, p as u64, f64::MAX)?.primary();
+                    let mut eta = m.manifold.reduce(&head[..p]);
+                    let (mut scratch, mut sc) = (ssm::dynamics::StepScratch::default(), ssm::poly::PolyScratch::default());
+                    let mut y = vec![0.0; p];
+                    let mut theta = Vec::with_capacity(periods as usize + 1);
+                    let mut esc = None;
+                    for k in 0..=periods {
+                        m.manifold.lift_into(&eta, &mut sc, &mut y);
+                        if !(y[p - 1].abs() <= ESCAPE_THETA) {
+                            esc = Some(k as f64 * h);
+                            break;
+                        }
+                        theta.push(y[p - 1]);
+                        m.dynamics.step(&mut eta, h, &mut scratch);
+                    }
+                    out.push((format!("{interp:?} {dt}"), theta, h, esc));
+                }
+                Ok(out)
+            })
+            .map(|r| r.map_err(|e| e.to_string()))
+            .collect()
+    };
+    for (dt, r) in dts.iter().zip(rows) {
+        let r: Vec<(String, Vec<f64>, f64, Option<f64>)> = r?;
+        for (label, theta, h, esc) in r {
+            torus_tenths(&label, &theta, h, *dt, esc)?;
+        }
+    }
+    println!("total {:.0} s CPU", cpu_s() - c0);
+    Ok(())
+}
+
+/// `fullcont PERIODS DT...`: the full system's torus continuation (`basin::torus_continuation`
+/// from (0.097, 0.0277) rad) over the DTs, each step printed.
+fn fullcont(args: &[String]) -> R {
+    let periods: u64 = args.first().ok_or("fullcont PERIODS DT...")?.parse()?;
+    let dts: Vec<f64> = args[1..].iter().map(|a| a.parse()).collect::<Result<_, _>>()?;
+    let c0 = cpu_s();
+    let c = furuta::basin::torus_continuation(&dts, [0.097, 0.0277], periods)?;
+    for s in &c.steps {
+        println!("{:6} esc {:?} rho {:?} spread mid {:?} last {:?} lost {}", s.dt_ms, s.escape_t, s.rho, s.spread_mid, s.spread_last, s.lost);
+    }
+    println!("lost between {:?} ({:.0} s CPU)", c.lost_between, cpu_s() - c0);
+    Ok(())
+}
+
+/// `coeffs VARIANT...`: the data-driven polar coefficients (per training dt, the fit's own
+/// normal form) next to the equation-driven ones (order 7) at the training dts, cubic and
+/// quintic rows with relative differences.
+fn coeffs(args: &[String]) -> R {
+    for name in args {
+        let v = variant(name)?;
+        let c0 = cpu_s();
+        let pm = furuta_parametric(&v)?;
+        let rows = coefficient_comparison(&v.dts_ms, 7, |dt| pm.normal_form_at(dt))?;
+        println!("{name} ({:.0} s CPU)", cpu_s() - c0);
+        for r in rows.iter().filter(|r| r.degree >= 1 && r.degree <= 5) {
+            println!("  {} ms rho_{}' {:<16} eq {:>12.5} data {:>12.5} rel {:+.4}", r.dt_ms, r.mode, r.monomial, r.equation, r.data.unwrap_or(f64::NAN), r.rel_diff.unwrap_or(f64::NAN));
+        }
+    }
+    Ok(())
+}
+
+/// `maptorus VARIANT...`: the fitted map's torus continuation (linear and spline in dt,
+/// 31.3-32.0 ms by 0.05, 16,000 periods, the report's) per training variant.
+fn maptorus(args: &[String]) -> R {
+    use furuta::map_global::map_torus_continuation;
+    let dts: Vec<f64> = (0..=14).map(|k| ((31.3 + 0.05 * k as f64) * 1e4).round() / 1e4).collect();
+    for name in args {
+        let sm = furuta::shared_tangent::shared_parametric(&variant(name)?)?;
+        for interp in [ssm::interp::Interp::Linear, ssm::interp::Interp::Spline] {
+            let c0 = cpu_s();
+            let tc = map_torus_continuation(|dt| Ok(sm.model_at(dt, interp)?), &dts, [0.097, 0.0277], 16_000)?;
+            let last = tc.steps.last().map(|s| (s.spread_mid, s.spread_last));
+            println!("{name} {interp:?}: torus lost {:?} (last step spreads {last:?}; {:.1} s CPU)", tc.lost_between, cpu_s() - c0);
+        }
+    }
+    Ok(())
+}
+
+/// `ratefun VARIANT`: the nonlinear part of the amplitude rates `rho_i'/rho_i - linear`
+/// (1/s) of the data-driven normal form (each training period's fit) and the equation-driven
+/// ones (orders 7 and 9) at a few amplitude points, cubic terms alone and all terms.
+fn ratefun(args: &[String]) -> R {
+    let v = variant(args.first().map_or("default", String::as_str))?;
+    let pm = furuta_parametric(&v)?;
+    let pts = [(0.05, 0.01), (0.05, 0.03), (0.1, 0.01), (0.1, 0.0277), (0.15, 0.02)];
+    for t in &pm.trained {
+        let e7 = furuta::equation_ssm::furuta_equation_polar(t.dt_ms, 7)?;
+        let e9 = furuta::equation_ssm::furuta_equation_polar(t.dt_ms, 9)?;
+        let nl = |f: &ssm::normal_form::PolarNormalForm, mode: usize, r: [f64; 2], maxdeg: u32| -> f64 {
+            f.table().rows.iter().filter(|row| row.mode == mode && (3..=maxdeg).contains(&row.rho_exps.iter().sum::<u32>()))
+                .map(|row| row.value * r[0].powi(row.rho_exps[0] as i32) * r[1].powi(row.rho_exps[1] as i32) / r[mode - 1]).sum()
+        };
+        for &(a, b) in &pts {
+            let r = [a, b];
+            let line: Vec<String> = [1usize, 2].iter().map(|&m| format!(
+                "rho_{m}: cubic data {:+.4} eq {:+.4} | all data {:+.4} eq7 {:+.4} eq9 {:+.4}",
+                nl(&t.normal_form, m, r, 3), nl(&e7, m, r, 3), nl(&t.normal_form, m, r, 99), nl(&e7, m, r, 99), nl(&e9, m, r, 99))).collect();
+            println!("{} ms ({a}, {b}): {}", t.dt_ms, line.join(" || "));
+        }
+    }
+    Ok(())
+}
+
 fn main() -> R {
     let args: Vec<String> = std::env::args().skip(1).collect();
     match args.first().map(String::as_str) {
@@ -285,6 +490,11 @@ fn main() -> R {
         Some("mapswitch") => mapswitch(&args[1..]),
         Some("mapcycles") => mapcycles(&args[1..]),
         Some("mapglobal") => mapglobal(&args[1..]),
+        Some("torus") => torus(&args[1..]),
+        Some("fullcont") => fullcont(&args[1..]),
+        Some("coeffs") => coeffs(&args[1..]),
+        Some("maptorus") => maptorus(&args[1..]),
+        Some("ratefun") => ratefun(&args[1..]),
         _ => Err("subcommands: convergence ORDER DT... | cycles MODE ORDER DT...".into()),
     }
 }

@@ -20,7 +20,7 @@ use ssm::normal_form::PolarNormalForm;
 use ssm::portrait::{Fate, FixedPoint, PointKind, PortraitOptions, fixed_points, trajectory};
 
 use crate::Error;
-use crate::full_system::{AMP_WINDOW_S, ESCAPE_THETA, run, start_from_rho};
+use crate::full_system::{AMP_WINDOW_S, ESCAPE_THETA, end_start, run, start_from_rho};
 use crate::sweep::shard::{RESULT_FORMAT, SweepResult};
 use crate::sweep::{AxisSpec, BasinSpec, Cell, FORMAT_VERSION, Kind, Shard, SpecFile, Sweep, run_shard};
 use ssm::spectrum::mode_amplitudes;
@@ -305,6 +305,10 @@ pub struct TorusStep {
     /// runs only): an attracting torus keeps them small and not growing.
     pub spread_mid: Option<f64>,
     pub spread_last: Option<f64>,
+    /// Growth rate (1/s) of the slow amplitude's oscillation about the torus: `ln(spread_last
+    /// / spread_mid)` over the time between the two thirds (bounded runs only; negative:
+    /// decaying, the torus attracts; positive: growing).
+    pub growth_rate: Option<f64>,
     /// The torus stopped attracting here ([`TORUS_GROWTH`] rule).
     pub lost: bool,
 }
@@ -329,6 +333,12 @@ pub struct TorusContinuation {
     /// `(last dt where the torus attracts, first dt where it is lost)`; `None` when it is
     /// never lost on the grid or lost at the first dt.
     pub lost_between: Option<(f64, f64)>,
+    /// Where the oscillation about the torus stops decaying: the zero of
+    /// [`TorusStep::growth_rate`], linear in dt between the last step with a negative rate and
+    /// the first with a positive one (the torus's linear stability; a subcritical loss shows
+    /// it before the growth is large enough for [`TorusStep::lost`] within the run). `None`
+    /// when no step grows, the first does, or the first that does not decay escaped.
+    pub growth_onset: Option<f64>,
 }
 
 impl TorusContinuation {
@@ -338,7 +348,14 @@ impl TorusContinuation {
             Some(i) if i > 0 => Some((steps[i - 1].dt_ms, steps[i].dt_ms)),
             _ => None,
         };
-        TorusContinuation { start_rho, periods, steps, lost_between }
+        let growth_onset = match steps.iter().position(|s| s.lost || s.growth_rate.is_none_or(|r| r > 0.0)) {
+            Some(i) if i > 0 => match (steps[i - 1].growth_rate, steps[i].growth_rate) {
+                (Some(a), Some(b)) if a <= 0.0 && b > 0.0 => Some(steps[i - 1].dt_ms + (steps[i].dt_ms - steps[i - 1].dt_ms) * (-a) / (b - a)),
+                _ => None,
+            },
+            _ => None,
+        };
+        TorusContinuation { start_rho, periods, steps, lost_between, growth_onset }
     }
 }
 
@@ -350,9 +367,10 @@ impl TorusContinuation {
 /// [`AMP_WINDOW_S`], at the spectral peaks of the last third, the exact linear frequencies
 /// when a band has no peak) over the middle and the last third of the run: `rho` is the mean
 /// over the last third, and the torus is lost when `rho_1`'s spread over the last third is
-/// above [`TORUS_GROWTH`] times that over the middle third and above [`TORUS_SPREAD_MIN`].
+/// above [`TORUS_GROWTH`] times that over the middle third and above [`TORUS_SPREAD_MIN`];
+/// the growth rate is the log ratio of the two spreads over the time between the thirds.
 pub fn torus_step(dt_ms: f64, theta: &[f64], sample_dt: f64, escape_t: Option<f64>) -> Result<TorusStep, Error> {
-    let mut step = TorusStep { dt_ms, escape_t, rho: None, spread_mid: None, spread_last: None, lost: true };
+    let mut step = TorusStep { dt_ms, escape_t, rho: None, spread_mid: None, spread_last: None, growth_rate: None, lost: true };
     if escape_t.is_some() {
         return Ok(step);
     }
@@ -385,6 +403,8 @@ pub fn torus_step(dt_ms: f64, theta: &[f64], sample_dt: f64, escape_t: Option<f6
     let (sm, sl) = (spread(&mid), spread(&end));
     step.spread_mid = Some(sm);
     step.spread_last = Some(sl);
+    // The thirds' starts are n / 3 samples apart.
+    step.growth_rate = (sm > 0.0 && sl > 0.0).then(|| (sl / sm).ln() / ((n / 3) as f64 * sample_dt));
     step.lost = sl > TORUS_GROWTH * sm && sl > TORUS_SPREAD_MIN;
     Ok(step)
 }
@@ -406,16 +426,10 @@ pub fn torus_continuation(dts_ms: &[f64], start_rho: [f64; 2], periods: u64) -> 
         let escape_t = if tr.stopped.is_some() { tr.t.last().copied() } else { None };
         let step = torus_step(dt, &tr.primary(), tr.dt, escape_t)?;
         if !step.lost {
-            // The next run starts from this one's end: plant state and the controller's last
-            // `delay + 1` samples, oldest first.
+            // The next run starts from this one's end: plant state of the last row and the
+            // controller's `delay + 1` samples before it, oldest first ([`end_start`]).
             let delay = sim::scene::SceneBuilder::load("furuta-dt30.5")?.dt_ms(dt).build()?.controller.delay as usize;
-            let rows = tr.rows();
-            if rows < delay + 1 {
-                return Err(Error::BadInput { what: "periods", why: format!("{periods} periods are fewer than the delay + 1 samples") });
-            }
-            let state = [tr.state(rows - 1, 0), tr.state(rows - 1, 1), tr.state(rows - 1, 2), tr.state(rows - 1, 3)];
-            let hist: Vec<[f64; 2]> = (rows - 1 - delay..rows).map(|i| [tr.state(i, 0), tr.state(i, 2)]).collect();
-            start = (state, Some(hist));
+            start = end_start(&tr, delay)?;
         }
         let lost = step.lost;
         steps.push(step);
@@ -551,13 +565,55 @@ mod tests {
         eprintln!("{growing:?}");
         let (sm, sl) = (growing.spread_mid.unwrap(), growing.spread_last.unwrap());
         assert!(growing.lost && (0.035..0.045).contains(&sm) && (0.05..0.063).contains(&sl), "{growing:?}");
+        // rho_1 = 0.08 e^{0.004 t} rises monotonically: the spreads' ratio is e^{0.004 T/3}.
+        let g = growing.growth_rate.unwrap();
+        assert!((g / 0.004 - 1.0).abs() < 0.02, "{g}");
         let decaying = torus_step(dt_ms, &series(&|t| 0.1 + 0.03 * (-0.01 * t).exp() * (0.05 * std::f64::consts::TAU * t).sin()), h, None).unwrap();
         eprintln!("{decaying:?}");
         assert!(!decaying.lost && decaying.spread_last.unwrap() < decaying.spread_mid.unwrap() && decaying.spread_last.unwrap() > TORUS_SPREAD_MIN, "{decaying:?}");
+        // An oscillation of 20 s decaying at 0.01/s: each third's spread is set by its first
+        // swing, within a quarter period of the same phase.
+        let d = decaying.growth_rate.unwrap();
+        assert!((-0.012..-0.008).contains(&d), "{d}");
+        assert_eq!(steady.growth_rate.map(f64::is_finite), Some(true));
         let escaped = torus_step(dt_ms, &[0.1; 10], h, Some(12.5)).unwrap();
-        assert!(escaped.lost && escaped.rho.is_none() && escaped.escape_t == Some(12.5));
+        assert!(escaped.lost && escaped.rho.is_none() && escaped.escape_t == Some(12.5) && escaped.growth_rate.is_none());
         assert!(matches!(torus_step(dt_ms, &[f64::NAN; 3000], h, None), Err(Error::BadInput { what: "theta", .. })));
         assert!(matches!(torus_step(dt_ms, &[0.0; 30], h, None), Err(Error::BadInput { what: "periods", .. })));
+    }
+
+    /// The onset is the zero of the growth rate, linear in dt between the last decaying and
+    /// the first growing step; none when the first step grows or the first non-decaying one
+    /// escaped.
+    #[test]
+    fn growth_onset_interpolates_the_rate_zero() {
+        let step = |dt_ms: f64, g: Option<f64>, lost: bool| TorusStep { dt_ms, escape_t: None, rho: None, spread_mid: None, spread_last: None, growth_rate: g, lost };
+        let c = TorusContinuation::from_steps([0.1, 0.03], 100, vec![step(31.6, Some(-3e-4), false), step(31.7, Some(-1e-4), false), step(31.75, Some(3e-4), false), step(31.8, Some(1e-3), true)]);
+        assert_eq!(c.lost_between, Some((31.75, 31.8)));
+        let on = c.growth_onset.unwrap();
+        assert!((on - 31.7125).abs() < 1e-12, "{on}");
+        let first = TorusContinuation::from_steps([0.1, 0.03], 100, vec![step(31.6, Some(1e-4), false), step(31.7, Some(2e-4), true)]);
+        assert_eq!(first.growth_onset, None);
+        let escaped = TorusContinuation::from_steps([0.1, 0.03], 100, vec![step(31.6, Some(-1e-4), false), step(31.7, None, true)]);
+        assert_eq!((escaped.growth_onset, escaped.lost_between), (None, Some((31.6, 31.7))));
+    }
+
+    /// The full system's continuation on the report's quick grid (8,000 periods, 0.1 ms): the
+    /// torus attracts up to 31.8 ms and is lost at 31.9 ms, as on the fitted map
+    /// (`map_torus_continuation_loses_the_torus_on_the_grid`), and the growth rate turns
+    /// positive between 31.7 and 31.8 ms (measured onset 31.7116 ms; map 31.7015 / 31.7074).
+    /// With the pre-history off by one the torus was lost at 31.7 ms.
+    #[test]
+    fn torus_continuation_loses_the_torus_where_the_map_does() {
+        let dts: Vec<f64> = (0..=5).map(|k| ((31.4 + 0.1 * k as f64) * 1e4).round() / 1e4).collect();
+        let c = torus_continuation(&dts, [0.097, 0.0277], 8000).unwrap();
+        for s in &c.steps {
+            eprintln!("{} {:?} {:?} {:?} {}", s.dt_ms, s.spread_mid, s.spread_last, s.growth_rate, s.lost);
+        }
+        assert_eq!(c.lost_between, Some((31.8, 31.9)));
+        let on = c.growth_onset.unwrap();
+        assert!((31.7..31.8).contains(&on), "{on}");
+        assert!(c.steps[..3].iter().all(|s| s.growth_rate.is_some_and(|g| g < 0.0)), "{:?}", c.steps);
     }
 
     #[test]

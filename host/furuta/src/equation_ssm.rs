@@ -321,11 +321,22 @@ pub fn coefficient_comparison(
     let eq = crate::par_map(dts_ms, |&dt| furuta_equation_polar(dt, order))?;
     let mut out = Vec::new();
     for (&dt, e) in dts_ms.iter().zip(&eq) {
-        let d = data(dt)?.table();
-        for r in e.table().rows {
+        out.extend(compare_forms(dt, e, &data(dt)?));
+    }
+    Ok(out)
+}
+
+/// One dt of [`coefficient_comparison`]: the rows of the equation-driven normal form `eq`
+/// next to the data-driven `data` (both at `dt_ms`, same conventions).
+pub fn compare_forms(dt_ms: f64, eq: &PolarNormalForm, data: &PolarNormalForm) -> Vec<CoefficientRow> {
+    let d = data.table();
+    eq.table()
+        .rows
+        .into_iter()
+        .map(|r| {
             let dv = d.get(r.mode, &r.monomial);
-            out.push(CoefficientRow {
-                dt_ms: dt,
+            CoefficientRow {
+                dt_ms,
                 mode: r.mode,
                 degree: r.rho_exps.iter().sum(),
                 rho_exps: r.rho_exps,
@@ -333,10 +344,9 @@ pub fn coefficient_comparison(
                 equation: r.value,
                 data: dv,
                 rel_diff: dv.map(|x| x / r.value - 1.0),
-            });
-        }
-    }
-    Ok(out)
+            }
+        })
+        .collect()
 }
 
 #[cfg(test)]

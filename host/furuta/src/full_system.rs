@@ -174,6 +174,26 @@ pub fn switch_scan(dts_ms: &[f64], ics: &[Start], periods: u64, escape_theta: f6
     })
 }
 
+/// The start that continues `tr` (a run of the scene `furuta-dt30.5` at any dt, not
+/// stopped early or at least `delay + 2` rows long) by a further run: the plant state of its
+/// last row and the controller pre-history, the `delay + 1` samples `[theta, phi]` *before*
+/// that row, oldest first (the last row itself is sampled again at the new run's t = 0, as
+/// the scene's `initial.history` means). At the same dt the continued run equals the
+/// uninterrupted one up to the integrator's restart.
+pub fn end_start(tr: &Trajectory, delay: usize) -> Result<Start, Error> {
+    let rows = tr.rows();
+    if tr.n_states() != 4 {
+        return Err(Error::Shape { expected: 4, got: tr.n_states() });
+    }
+    if rows < delay + 2 {
+        return Err(Error::BadInput { what: "trajectory", why: format!("{rows} rows are fewer than the delay + 2 = {} a continuation needs", delay + 2) });
+    }
+    let last = rows - 1;
+    let state = [tr.state(last, 0), tr.state(last, 1), tr.state(last, 2), tr.state(last, 3)];
+    let hist = (last - 1 - delay..last).map(|i| [tr.state(i, 0), tr.state(i, 2)]).collect();
+    Ok((state, Some(hist)))
+}
+
 /// The bounded/escape outcome of a full-system run, as the scans classify it.
 pub fn outcome_of(tr: &Trajectory) -> Outcome {
     let max_theta = tr.primary().iter().fold(0.0f64, |m, v| m.max(v.abs()));
