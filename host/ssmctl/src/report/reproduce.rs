@@ -183,7 +183,8 @@ impl RssWatch {
     /// The peak in MB (2^20 bytes); `None` where `VmRSS` cannot be read.
     fn finish(self) -> Option<f64> {
         use std::sync::atomic::Ordering;
-        let kb = self.peak.fetch_max(rss_kb()?, Ordering::Relaxed).max(rss_kb()?);
+        let now = rss_kb()?;
+        let kb = self.peak.fetch_max(now, Ordering::Relaxed).max(now);
         Some(kb as f64 / 1024.0)
     }
 }
