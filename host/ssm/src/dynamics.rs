@@ -608,7 +608,7 @@ impl ReducedDynamics {
                 }
                 let (x, groups) = stack(&xs);
                 let (y, _) = stack(&ys);
-                // The design matrix and its factors (two copies, see `ridge::fit_owned`).
+                // The design matrix and its factors (at most two copies, see `ridge::fit_owned`).
                 let cols = match kind.rbf() {
                     Some((centers, _)) => centers.saturating_add(d + 1),
                     None => poly::count(d, 1, order).unwrap_or(usize::MAX),

@@ -111,7 +111,8 @@ pub struct Conditioning {
 /// `thin_svd` does it, step by step (a QR factorization, the SVD of `R`, `U = Q [U_R; 0]`),
 /// but in the matrix's own storage: the same operations give the same bits, without faer's
 /// working copy of the matrix, so the peak memory of a fit is two design-matrix sizes
-/// (the QR factors and `U`) instead of three.
+/// (the QR factors and `U`) instead of three; one and a block of `U` for a single solve
+/// ([`RidgeLs::solve_owned`], used by [`fit_owned`]).
 pub struct RidgeLs {
     u: Mat<f64>,
     s: Vec<f64>,
@@ -156,41 +157,51 @@ impl RidgeLs {
 
     /// faer's tall-matrix thin SVD (`faer::linalg::svd::svd` with its default parameters and
     /// the global parallelism), its steps in `qr`'s storage.
-    fn factor_qr(mut qr: Mat<f64>, what: &'static str) -> Result<Self, FitError> {
-        use faer::dyn_stack::{MemBuffer, MemStack};
-        use faer::linalg::{householder, qr::no_pivoting::factor, svd};
-        let (m, n) = qr.shape();
-        let par = faer::get_global_parallelism();
-        let bs = factor::recommended_block_size::<f64>(m, n);
-        let mut hh = Mat::<f64>::zeros(bs, n);
-        {
-            let mut mem = MemBuffer::new(factor::qr_in_place_scratch::<f64>(m, n, bs, par, Default::default()));
-            factor::qr_in_place(qr.as_mut(), hh.as_mut(), par, MemStack::new(&mut mem), Default::default());
+    fn factor_qr(qr: Mat<f64>, what: &'static str) -> Result<Self, FitError> {
+        let f = TallSvd::new(qr, what)?;
+        let n = f.qr.ncols();
+        let u = f.u_cols(0..n);
+        let rows = u.nrows();
+        let TallSvd { s, v, .. } = f;
+        Ok(RidgeLs { u, s, v, rows })
+    }
+
+    /// [`RidgeLs::from_owned`] followed by [`RidgeLs::solve`] for one `b`, without ever holding
+    /// all of `U`: for a tall `a` its columns are formed a block at a time and only `U^T b` is
+    /// kept, so the peak memory is one size of `a` plus one block of `U` (at most
+    /// [`U_BLOCK`]` * 3/2` columns) instead of two sizes of `a`. The same bits as
+    /// `from_owned(a)?.solve(b, alpha)`: each column of `U` and each row of `U^T b` goes through
+    /// the same kernels in the same order (blocks start at multiples of [`U_BLOCK`], a multiple
+    /// of every register-tile size of faer's x86 kernels, and are wider than 48 columns, where
+    /// those kernels switch). Returns the solution and the singular values (descending).
+    pub fn solve_owned(a: Mat<f64>, b: MatRef<'_, f64>, alpha: f64, what: &'static str) -> Result<(Mat<f64>, Vec<f64>), FitError> {
+        Self::check(a.as_ref(), what)?;
+        if b.nrows() != a.nrows() {
+            return Err(FitError::BadOption { what, why: format!("{} right-hand-side rows for {} matrix rows", b.nrows(), a.nrows()) });
         }
-        let r = Mat::from_fn(n, n, |i, j| if i <= j { qr[(i, j)] } else { 0.0 });
-        let mut s = faer::diag::Diag::<f64>::zeros(n);
-        let mut u_r = Mat::<f64>::zeros(n, n);
-        let mut v = Mat::<f64>::zeros(n, n);
-        {
-            let thin = svd::ComputeSvdVectors::Thin;
-            let mut mem = MemBuffer::new(svd::svd_scratch::<f64>(n, n, thin, thin, par, Default::default()));
-            svd::svd(r.as_ref(), s.as_mut(), Some(u_r.as_mut()), Some(v.as_mut()), par, MemStack::new(&mut mem), Default::default())
-                .map_err(|_| FitError::Svd { what })?;
+        let n = a.ncols();
+        if !qr_first(a.nrows(), n) || n <= 2 * U_BLOCK {
+            let ls = Self::from_owned(a, what)?;
+            let x = ls.solve(b, alpha);
+            return Ok((x, ls.s));
         }
-        drop(r);
-        let mut u = Mat::<f64>::zeros(m, n);
-        for j in 0..n {
-            for i in 0..n {
-                u[(i, j)] = u_r[(i, j)];
+        let f = TallSvd::new(a, what)?;
+        let mut utb = Mat::<f64>::zeros(n, b.ncols());
+        for cols in u_blocks(n) {
+            let u = f.u_cols(cols.clone());
+            let part = u.transpose() * b;
+            for j in 0..b.ncols() {
+                for (i, k) in cols.clone().enumerate() {
+                    utb[(k, j)] = part[(i, j)];
+                }
             }
         }
-        drop(u_r);
-        {
-            let mut mem = MemBuffer::new(householder::apply_block_householder_sequence_on_the_left_in_place_scratch::<f64>(m, bs, n));
-            householder::apply_block_householder_sequence_on_the_left_in_place_with_conj(qr.as_ref(), hh.as_ref(), faer::Conj::No, u.as_mut(), par, MemStack::new(&mut mem));
-        }
-        let s: Vec<f64> = (0..n).map(|i| s[i]).collect();
-        Ok(RidgeLs { u, s, v, rows: m })
+        let TallSvd { qr, s, v, .. } = f;
+        let rows = qr.nrows();
+        drop(qr);
+        let ls = RidgeLs { u: Mat::new(), s, v, rows };
+        let x = ls.solve_utb(utb.as_ref(), alpha);
+        Ok((x, ls.s))
     }
 
     /// `U^T b` (`cols x q`).
@@ -229,6 +240,80 @@ impl RidgeLs {
     /// Conditioning report for a solution `x` of `a x ~ b` with ridge `alpha`.
     pub fn conditioning(&self, a: MatRef<'_, f64>, b: MatRef<'_, f64>, x: MatRef<'_, f64>, alpha: f64) -> Conditioning {
         conditioning_of(&self.s, a, b, x, alpha)
+    }
+}
+
+/// Columns of `U` formed at a time by [`RidgeLs::solve_owned`]: a multiple of the row tiles
+/// of faer's f64 kernels (12 with AVX2, 24 or 48 with AVX-512) and above 48.
+pub const U_BLOCK: usize = 96;
+
+/// The column blocks of `U` for `n` columns: [`U_BLOCK`] wide, the last one between
+/// `U_BLOCK / 2 + 1` and `3 U_BLOCK / 2` wide (a rest of at most `U_BLOCK / 2` joins the
+/// block before it).
+fn u_blocks(n: usize) -> Vec<std::ops::Range<usize>> {
+    let mut out = Vec::new();
+    let mut j = 0;
+    while j < n {
+        let rest = n - j;
+        let w = if rest <= U_BLOCK + U_BLOCK / 2 { rest } else { U_BLOCK };
+        out.push(j..j + w);
+        j += w;
+    }
+    out
+}
+
+/// faer's tall thin SVD up to `U`: the QR factors in the matrix's own storage, the SVD of
+/// `R`; `U = Q [U_R; 0]` is formed on request, all of it or some of its columns.
+struct TallSvd {
+    qr: Mat<f64>,
+    hh: Mat<f64>,
+    bs: usize,
+    u_r: Mat<f64>,
+    s: Vec<f64>,
+    v: Mat<f64>,
+}
+
+impl TallSvd {
+    fn new(mut qr: Mat<f64>, what: &'static str) -> Result<Self, FitError> {
+        use faer::dyn_stack::{MemBuffer, MemStack};
+        use faer::linalg::{qr::no_pivoting::factor, svd};
+        let (m, n) = qr.shape();
+        let par = faer::get_global_parallelism();
+        let bs = factor::recommended_block_size::<f64>(m, n);
+        let mut hh = Mat::<f64>::zeros(bs, n);
+        {
+            let mut mem = MemBuffer::new(factor::qr_in_place_scratch::<f64>(m, n, bs, par, Default::default()));
+            factor::qr_in_place(qr.as_mut(), hh.as_mut(), par, MemStack::new(&mut mem), Default::default());
+        }
+        let r = Mat::from_fn(n, n, |i, j| if i <= j { qr[(i, j)] } else { 0.0 });
+        let mut s = faer::diag::Diag::<f64>::zeros(n);
+        let mut u_r = Mat::<f64>::zeros(n, n);
+        let mut v = Mat::<f64>::zeros(n, n);
+        {
+            let thin = svd::ComputeSvdVectors::Thin;
+            let mut mem = MemBuffer::new(svd::svd_scratch::<f64>(n, n, thin, thin, par, Default::default()));
+            svd::svd(r.as_ref(), s.as_mut(), Some(u_r.as_mut()), Some(v.as_mut()), par, MemStack::new(&mut mem), Default::default())
+                .map_err(|_| FitError::Svd { what })?;
+        }
+        let s: Vec<f64> = (0..n).map(|i| s[i]).collect();
+        Ok(TallSvd { qr, hh, bs, u_r, s, v })
+    }
+
+    /// The columns `cols` of `U = Q [U_R; 0]`.
+    fn u_cols(&self, cols: std::ops::Range<usize>) -> Mat<f64> {
+        use faer::dyn_stack::{MemBuffer, MemStack};
+        use faer::linalg::householder;
+        let (m, n) = self.qr.shape();
+        let par = faer::get_global_parallelism();
+        let mut u = Mat::<f64>::zeros(m, cols.len());
+        for (c, j) in cols.enumerate() {
+            for i in 0..n {
+                u[(i, c)] = self.u_r[(i, j)];
+            }
+        }
+        let mut mem = MemBuffer::new(householder::apply_block_householder_sequence_on_the_left_in_place_scratch::<f64>(m, self.bs, u.ncols()));
+        householder::apply_block_householder_sequence_on_the_left_in_place_with_conj(self.qr.as_ref(), self.hh.as_ref(), faer::Conj::No, u.as_mut(), par, MemStack::new(&mut mem));
+        u
     }
 }
 
@@ -302,7 +387,7 @@ pub fn fit(
 
 /// [`fit`] on a design matrix given by value, factorized in its own storage (the same
 /// solution and report; for a tall `a` the peak memory is two sizes of `a` instead of
-/// three); `rebuild` makes `a` again for the residual of the conditioning report, after the
+/// three, and one plus a block of `U` with [`RidgeLs::solve_owned`]); `rebuild` makes `a` again for the residual of the conditioning report, after the
 /// factors are dropped.
 pub fn fit_owned(
     a: Mat<f64>,
@@ -313,10 +398,8 @@ pub fn fit_owned(
     rebuild: impl FnOnce() -> Mat<f64>,
 ) -> Result<(Mat<f64>, Conditioning), FitError> {
     let alpha = choose_alpha(a.as_ref(), b, groups, ridge, what)?;
-    let ls = RidgeLs::from_owned(a, what)?;
-    let x = ls.solve(b, alpha);
-    // The factors go before `a` comes back.
-    let RidgeLs { s, .. } = ls;
+    // The factors are gone before `a` comes back.
+    let (x, s) = RidgeLs::solve_owned(a, b, alpha, what)?;
     let a = rebuild();
     let cond = conditioning_of(&s, a.as_ref(), b, x.as_ref(), alpha);
     Ok((x, cond))
@@ -434,6 +517,43 @@ mod tests {
             let (xo, co) = fit_owned(a.clone(), b.as_ref(), &[0..m], Ridge::Fixed(0.0), "t", || a.clone()).unwrap();
             assert!(x == xo && c == co, "{m}x{n}: fit_owned differs from fit");
         }
+    }
+
+    /// `solve_owned` (`U` a block of columns at a time, only `U^T b` kept) gives the same
+    /// bits as `from_owned(a).solve(b)`, on shapes whose last block is narrow, wide or joined
+    /// to the one before; the blocks cover the columns once, each wider than 48.
+    #[test]
+    fn blockwise_u_solve_is_bit_identical() {
+        for n in [97, 193, 241, 290, 330, 505, 1000] {
+            let blocks = u_blocks(n);
+            assert_eq!(blocks.first().map(|r| r.start), Some(0));
+            assert_eq!(blocks.last().map(|r| r.end), Some(n));
+            assert!(blocks.windows(2).all(|w| w[0].end == w[1].start && w[0].len() == U_BLOCK), "{n}: {blocks:?}");
+            assert!(blocks.iter().all(|r| r.len() > 48 && r.len() <= U_BLOCK + U_BLOCK / 2), "{n}: {blocks:?}");
+        }
+        let mut st = 11u64;
+        let mut r = || {
+            st = st.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            ((st >> 11) as f64) / ((1u64 << 53) as f64) - 0.5
+        };
+        for (m, n, q) in [(2600, 241, 4), (2000, 290, 4), (3000, 505, 6), (1200, 193, 1)] {
+            let a = Mat::from_fn(m, n, |_, _| r());
+            let b = Mat::from_fn(m, q, |_, _| r());
+            assert!(qr_first(m, n) && n > 2 * U_BLOCK);
+            for alpha in [0.0, 1e-8] {
+                let ls = RidgeLs::from_owned(a.clone(), "t").unwrap();
+                let want = ls.solve(b.as_ref(), alpha);
+                let (got, s) = RidgeLs::solve_owned(a.clone(), b.as_ref(), alpha, "t").unwrap();
+                assert_eq!(s.iter().map(|v| v.to_bits()).collect::<Vec<_>>(), ls.s.iter().map(|v| v.to_bits()).collect::<Vec<_>>(), "{m}x{n}: singular values");
+                for i in 0..n {
+                    for j in 0..q {
+                        assert_eq!(got[(i, j)].to_bits(), want[(i, j)].to_bits(), "{m}x{n} alpha {alpha}: x[{i},{j}]");
+                    }
+                }
+            }
+        }
+        let a = Mat::from_fn(300, 200, |_, _| r());
+        assert!(matches!(RidgeLs::solve_owned(a, Mat::<f64>::zeros(299, 1).as_ref(), 0.0, "t"), Err(FitError::BadOption { .. })));
     }
 
     /// Reservations beyond the budget take turns; one alone goes ahead whatever its size;
