@@ -18,6 +18,9 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         ("exprb-lean 1e-10", spec(MethodKind::ExprbLean, 1e-10, 1e-10)),
         ("exprb-lean 3e-11", spec(MethodKind::ExprbLean, 3e-11, 3e-11)),
         ("exprb-lean 1e-11", spec(MethodKind::ExprbLean, 1e-11, 1e-11)),
+        ("exprb-filtered 1e-10", spec(MethodKind::ExprbFiltered, 1e-10, 1e-10)),
+        ("exprb-filtered 3e-11", spec(MethodKind::ExprbFiltered, 3e-11, 3e-11)),
+        ("exprb-filtered 1e-11", spec(MethodKind::ExprbFiltered, 1e-11, 1e-11)),
     ];
     for dt in [31.38, 31.4] {
         let (x, h) = mode_start(dt, None, Some((1e-3, 0.0)))?;
