@@ -12,7 +12,7 @@ use furuta::basin::{Agreement, BasinOptions, FullBasin, ModelBasin, ModelFate, T
 use furuta::bifurcations::{ModelBifurcations, RHO_MAX};
 use furuta::equation_ssm::{EquationBifurcations, EquationModel, EquationSsm, INVARIANCE_RADII, equation_bifurcations, furuta_equation_polar, furuta_equation_ssm};
 use furuta::map_global::{Connection, ConnectionOptions, full_connection, map_basin, map_connection, map_torus_continuation};
-use furuta::parametric::ParametricModel;
+use furuta::parametric::{ParametricModel, TrainingRuns};
 use furuta::shared_tangent::SharedParametricModel;
 use plotters::style::RGBColor;
 use serde_json::{Value, json};
@@ -48,6 +48,17 @@ struct Computed {
     /// system's connection.
     map_seconds: f64,
     full_connection_seconds: f64,
+    /// The fitted map of each training variant (full report only): its saddle connection
+    /// and torus continuation, linear and spline in dt, by the same rules as the default's.
+    map_variants: Vec<MapVariant>,
+}
+
+/// One training variant's fitted map ([`furuta::bifurcations::sensitivity_variants`]): the
+/// shared-tangent model refitted on the variant's runs, read by the default map's rules.
+struct MapVariant {
+    name: &'static str,
+    connection: [Result<Connection, String>; 2],
+    torus: [Result<TorusContinuation, String>; 2],
 }
 
 /// Range, grid and tolerance (ms) of the saddle-connection scans (map and full system).
@@ -67,7 +78,7 @@ fn settings(quick: bool) -> (Vec<f64>, Vec<u32>, Vec<f64>, u32, BasinOptions, Ve
     }
 }
 
-fn compute(pm: &ParametricModel, sm: &SharedParametricModel, quick: bool) -> Result<Computed, Box<dyn Error + Send + Sync>> {
+fn compute(pm: &ParametricModel, sm: &SharedParametricModel, runs: &TrainingRuns, quick: bool) -> Result<Computed, Box<dyn Error + Send + Sync>> {
     let (nodes, orders, diag_dts, diag_order, bopts, torus_dts, torus_periods) = settings(quick);
     let popts = PortraitOptions { rho_max: RHO_MAX, ..PortraitOptions::default() };
     let equation = || -> Result<(Vec<EquationSsm>, Vec<EquationBifurcations>, Vec<(f64, PolarNormalForm)>), furuta::Error> {
@@ -121,20 +132,53 @@ fn compute(pm: &ParametricModel, sm: &SharedParametricModel, quick: bool) -> Res
         });
         Ok(([cl, cs], [tl?, ts?], mb?, t0.elapsed().as_secs_f64()))
     };
+    // The training variants' fitted maps (full report only: the quick report's runs hold
+    // the default's only), each read like the default's.
+    let variants = || -> Vec<MapVariant> {
+        if quick {
+            return Vec::new();
+        }
+        let list = furuta::bifurcations::sensitivity_variants();
+        let one = |(name, o): &(&'static str, furuta::parametric::FurutaOptions)| -> MapVariant {
+            match furuta::shared_tangent::shared_parametric_from(o, runs) {
+                Ok(m) => {
+                    let at = |interp: Interp| {
+                        let m = &m;
+                        move |dt: f64| -> Result<ssm::fit::SsmModel, furuta::Error> { m.model_at(dt, interp) }
+                    };
+                    let conn = |i: Interp| map_connection(at(i), clo, chi, cn, ctol, &co).map_err(|e| format!("not found ({e})"));
+                    let tor = |i: Interp| map_torus_continuation(at(i), &torus_dts, [0.097, 0.0277], torus_periods).map_err(|e| e.to_string());
+                    let ((cl, cs), (tl, ts)) = rayon::join(|| rayon::join(|| conn(Interp::Linear), || conn(Interp::Spline)), || rayon::join(|| tor(Interp::Linear), || tor(Interp::Spline)));
+                    MapVariant { name, connection: [cl, cs], torus: [tl, ts] }
+                }
+                Err(e) => {
+                    let why = format!("model not fitted ({e})");
+                    MapVariant { name, connection: [Err(why.clone()), Err(why.clone())], torus: [Err(why.clone()), Err(why)] }
+                }
+            }
+        };
+        let mut out: Vec<Option<MapVariant>> = list.iter().map(|_| None).collect();
+        rayon::scope(|sc| {
+            for (slot, v) in out.iter_mut().zip(&list) {
+                sc.spawn(move |_| *slot = Some(one(v)));
+            }
+        });
+        out.into_iter().flatten().collect()
+    };
     // The full system's connection (about 40 s CPU) in the full report only.
     let full_conn = || {
         let t0 = std::time::Instant::now();
         let r = if quick { Err("full report only".to_string()) } else { full_connection(clo, chi, cn, ctol, &co).map_err(|e| format!("not found ({e})")) };
         (r, t0.elapsed().as_secs_f64())
     };
-    let (((eq, basin), (models, torus)), (map, (full_connection, full_connection_seconds))) = rayon::join(
+    let (((eq, basin), (models, torus)), (map, ((full_connection, full_connection_seconds), map_variants))) = rayon::join(
         || {
             rayon::join(
                 || rayon::join(equation, || full_basin(&bopts)),
                 || rayon::join(models, || torus_continuation(&torus_dts, [0.097, 0.0277], torus_periods)),
             )
         },
-        || rayon::join(map_part, full_conn),
+        || rayon::join(map_part, || rayon::join(full_conn, variants)),
     );
     let (diag, by_order, eq_forms) = eq?;
     let (map_connection, map_torus, map_basin, map_seconds) = map?;
@@ -151,6 +195,7 @@ fn compute(pm: &ParametricModel, sm: &SharedParametricModel, quick: bool) -> Res
         full_connection,
         map_seconds,
         full_connection_seconds,
+        map_variants,
     })
 }
 
@@ -162,11 +207,88 @@ fn f4(v: Option<f64>) -> String {
 /// invariance) and `basin`. `bif` is the data-driven model's bifurcations (portraits section);
 /// the full system's small-start scan and torus are read from the summary keys the
 /// fullsystem section wrote.
-pub fn global_sections(rep: &mut Report, pm: &ParametricModel, sm: &SharedParametricModel, bif: &ModelBifurcations, quick: bool) -> Result<(), Box<dyn Error>> {
-    let c = compute(pm, sm, quick).map_err(|e| e.to_string())?;
+pub fn global_sections(rep: &mut Report, pm: &ParametricModel, sm: &SharedParametricModel, runs: &TrainingRuns, bif: &ModelBifurcations, quick: bool) -> Result<(), Box<dyn Error>> {
+    let c = compute(pm, sm, runs, quick).map_err(|e| e.to_string())?;
     equation_section(rep, pm, bif, &c, quick)?;
+    if !quick {
+        map_variants_table(rep, &c);
+    }
     basin_section(rep, &c)?;
     Ok(())
+}
+
+/// The fitted map's saddle connection and torus loss over the training variants (the
+/// sensitivity study's), next to the default's: issue 11's spread target (<= 0.1 ms).
+/// Summary key `map_sensitivity`.
+fn map_variants_table(rep: &mut Report, c: &Computed) {
+    let br = |b: Option<(f64, f64)>| b.map_or("none".to_string(), |(lo, hi)| format!("[{lo:.4}, {hi:.4}]"));
+    let conn = |r: &Result<Connection, String>| r.as_ref().map_or_else(|e| e.clone(), |c| br(c.switch.bracket));
+    // `lost_between` is `None` both when the torus is never lost on the grid and when it is
+    // lost at the first dt: say which.
+    let lost = |t: &TorusContinuation| match (t.lost_between, t.steps.first()) {
+        (Some(b), _) => br(Some(b)),
+        (None, Some(first)) if first.lost => format!("at the first dt ({})", first.dt_ms),
+        (None, _) => "not on the grid".to_string(),
+    };
+    let tor = |r: &Result<TorusContinuation, String>| {
+        r.as_ref().map_or_else(|e| e.clone(), |t| format!("lost {}, onset {}", lost(t), t.growth_onset.map_or("none".into(), |x| format!("{x:.3}"))))
+    };
+    let default_torus: [Result<TorusContinuation, String>; 2] = [Ok(c.map_torus[0].clone()), Ok(c.map_torus[1].clone())];
+    let mut all: Vec<(&str, &[Result<Connection, String>; 2], &[Result<TorusContinuation, String>; 2])> =
+        vec![("default (paper's periods, cut 0.2 rad)", &c.map_connection, &default_torus)];
+    all.extend(c.map_variants.iter().map(|v| (v.name, &v.connection, &v.torus)));
+    let rows: Vec<Vec<String>> = all.iter().map(|(n, cs, ts)| vec![n.to_string(), conn(&cs[0]), conn(&cs[1]), tor(&ts[0]), tor(&ts[1])]).collect();
+    // Spread (max - min) of each value over the rows where it exists: bracket midpoints,
+    // growth onsets; with the number of rows it was found in.
+    let spread = |vals: Vec<Option<f64>>| value_spread(&vals);
+    let mid = |b: Option<(f64, f64)>| b.map(|(lo, hi)| 0.5 * (lo + hi));
+    let mut spreads = serde_json::Map::new();
+    for (k, i) in [("linear", 0), ("spline", 1)] {
+        spreads.insert(format!("connection_{k}"), spread(all.iter().map(|(_, cs, _)| cs[i].as_ref().ok().and_then(|c| mid(c.switch.bracket))).collect()));
+        spreads.insert(format!("torus_lost_{k}"), spread(all.iter().map(|(_, _, ts)| ts[i].as_ref().ok().and_then(|t| mid(t.lost_between))).collect()));
+        spreads.insert(format!("torus_onset_{k}"), spread(all.iter().map(|(_, _, ts)| ts[i].as_ref().ok().and_then(|t| t.growth_onset)).collect()));
+    }
+    let sp = |k: &str| spreads[k]["spread_ms"].as_f64().map_or("-".to_string(), |x| format!("{x:.3}"));
+    rep.para(&format!(
+        "The fitted map over the training variants of the sensitivity study: each variant's runs refitted into the \
+         shared-tangent model and read by the same rules as the default's (saddle connection by the pushed fast cycle; \
+         torus continuation, lost bracket and growth onset). Spread (max - min over the rows where found) of the \
+         connection: {} ms linear, {} ms spline; of the torus growth onset: {} / {} ms; of the torus-loss bracket's \
+         midpoint: {} / {} ms (rows without the value, e.g. a torus already lost at the grid's first dt, are left \
+         out). Target (issue 11): 0.1 ms.",
+        sp("connection_linear"),
+        sp("connection_spline"),
+        sp("torus_onset_linear"),
+        sp("torus_onset_spline"),
+        sp("torus_lost_linear"),
+        sp("torus_lost_spline"),
+    ));
+    rep.table(&["training", "saddle connection, linear [ms]", "saddle connection, spline [ms]", "torus, linear [ms]", "torus, spline [ms]"], &rows);
+    let list: Vec<Value> = all
+        .iter()
+        .map(|(n, cs, ts)| {
+            let cj = |r: &Result<Connection, String>| r.as_ref().map_or_else(|e| json!({"error": e}), |c| json!({"bracket": c.switch.bracket, "monotone": c.switch.monotone}));
+            let tj = |r: &Result<TorusContinuation, String>| {
+                r.as_ref().map_or_else(
+                    |e| json!({"error": e}),
+                    |t| json!({"lost_between": t.lost_between, "lost_at_first_dt": t.lost_between.is_none() && t.steps.first().is_some_and(|s| s.lost), "growth_onset": t.growth_onset}),
+                )
+            };
+            json!({"variant": n, "connection": {"linear": cj(&cs[0]), "spline": cj(&cs[1])}, "torus": {"linear": tj(&ts[0]), "spline": tj(&ts[1])}})
+        })
+        .collect();
+    rep.summary.insert("map_sensitivity".into(), json!({"variants": list, "spreads": spreads}));
+}
+
+/// `{"found", "of", "min", "max", "spread_ms"}` of the values that exist (spread = max - min;
+/// nulls when none does).
+fn value_spread(vals: &[Option<f64>]) -> Value {
+    let v: Vec<f64> = vals.iter().flatten().copied().collect();
+    if v.is_empty() {
+        return json!({"found": 0, "of": vals.len(), "min": Value::Null, "max": Value::Null, "spread_ms": Value::Null});
+    }
+    let (lo, hi) = v.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &x| (a.min(x), b.max(x)));
+    json!({"found": v.len(), "of": vals.len(), "min": lo, "max": hi, "spread_ms": hi - lo})
 }
 
 /// The fitted map's switch brackets (predictions section, `map_switch_dt_ms`) as table text.
@@ -609,4 +731,22 @@ fn basin_section(rep: &mut Report, c: &Computed) -> Result<(), Box<dyn Error>> {
         }),
     );
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::value_spread;
+
+    #[test]
+    fn value_spread_counts_the_values_found_and_spans_them() {
+        let v = value_spread(&[Some(31.3156), None, Some(31.4), Some(31.3281)]);
+        assert_eq!(v["found"], 3);
+        assert_eq!(v["of"], 4);
+        assert_eq!(v["min"], 31.3156);
+        assert_eq!(v["max"], 31.4);
+        assert!((v["spread_ms"].as_f64().unwrap() - 0.0844).abs() < 1e-12, "{v}");
+        let none = value_spread(&[None, None]);
+        assert_eq!(none["found"], 0);
+        assert!(none["spread_ms"].is_null() && none["min"].is_null(), "{none}");
+    }
 }

@@ -52,7 +52,7 @@ pub fn run(out: &Path, data_dir: &Path, quick: bool, quiet: bool) -> Result<(), 
                 if !quick {
                     t.time("bifsensitivity", || crate::report::bifurcations::sensitivity_section(rep, &parametric, &runs))?;
                 }
-                t.time("global", || crate::report::global::global_sections(rep, &parametric, &shared, &bif, quick))?;
+                t.time("global", || crate::report::global::global_sections(rep, &parametric, &shared, &runs, &bif, quick))?;
                 Ok(())
             })();
             sendable(r).map(|()| (part, t))
