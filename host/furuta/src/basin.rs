@@ -357,6 +357,12 @@ impl TorusContinuation {
         };
         TorusContinuation { start_rho, periods, steps, lost_between, growth_onset }
     }
+
+    /// The torus is lost at the grid's first dt already (then [`Self::lost_between`] is
+    /// `None`, as when it is never lost).
+    pub fn lost_at_first_dt(&self) -> bool {
+        self.steps.first().is_some_and(|s| s.lost)
+    }
 }
 
 /// The torus-loss rule of one continuation step, shared by the full system

@@ -611,6 +611,9 @@ pub struct RatioRow {
     /// `rosenstein / benettin`: the Rosenstein estimator's bias on this model's attractor.
     pub ratio: f64,
     pub corr_dim: f64,
+    /// The data's correlation dimension at the row's step (the parenthesized value of the
+    /// D2 column).
+    pub data_corr_dim: f64,
     pub js: f64,
     /// The data's Rosenstein exponent at the row's step over `ratio`: the data's exponent if
     /// the estimator were biased on the data as on this model, 1/s.
@@ -628,9 +631,31 @@ pub fn flag_search_ratios() -> Vec<RatioRow> {
         .filter(|r| r[7] == "chaotic")
         .filter_map(|r| {
             let (l, b, ro, d2, js) = (first(r[1])?, first(r[2])?, first(r[3])?, first(r[4])?, first(r[5])?);
-            (b > 0.0).then(|| RatioRow { candidate: r[0], benettin: b, rosenstein: ro, ratio: ro / b, corr_dim: d2, js, implied_data_exponent: l * b / ro, multistep: r[8].starts_with("multistep") })
+            let data_d2 = r[4].split_once('(').and_then(|(_, t)| first(t))?;
+            (b > 0.0).then(|| RatioRow {
+                candidate: r[0],
+                benettin: b,
+                rosenstein: ro,
+                ratio: ro / b,
+                corr_dim: d2,
+                data_corr_dim: data_d2,
+                js,
+                implied_data_exponent: l * b / ro,
+                multistep: r[8].starts_with("multistep"),
+            })
         })
         .collect()
+}
+
+/// Largest distance of a best-matching row's D2 from the data's ([`best_matching`]).
+pub const BEST_MATCH_D2: f64 = 0.5;
+/// Largest JS divergence (bits) of a best-matching row ([`best_matching`]).
+pub const BEST_MATCH_JS: f64 = 0.005;
+
+/// The one-step (not multistep) rows of [`flag_search_ratios`] closest to the data: D2
+/// within [`BEST_MATCH_D2`] of the data's and JS at most [`BEST_MATCH_JS`].
+pub fn best_matching(rows: &[RatioRow]) -> Vec<&RatioRow> {
+    rows.iter().filter(|r| !r.multistep && (r.corr_dim - r.data_corr_dim).abs() <= BEST_MATCH_D2 && r.js <= BEST_MATCH_JS).collect()
 }
 
 /// Columns of [`FLAG_SEARCH`].
@@ -827,7 +852,8 @@ mod tests {
         assert!((lo - 0.95 / 1.1).abs() < 1e-12 && (hi - 1.05 / 0.9).abs() < 1e-12, "{lo} {hi}");
         let rows = flag_search_ratios();
         assert!(rows.len() >= 30, "{}", rows.len());
-        let best: Vec<&RatioRow> = rows.iter().filter(|r| !r.multistep && (r.corr_dim - 3.36).abs() <= 0.5 && r.js <= 0.005).collect();
+        assert!(rows.iter().filter(|r| r.candidate.starts_with("k=4 ")).all(|r| r.data_corr_dim == 3.36), "{rows:?}");
+        let best = best_matching(&rows);
         assert_eq!(best.len(), 3, "{best:?}");
         for r in &best {
             assert!(r.ratio > 0.42 && r.ratio < 0.56 && r.implied_data_exponent > 0.59 && r.implied_data_exponent < 0.78, "{r:?}");

@@ -464,11 +464,10 @@ fn selection_tables(rep: &mut crate::report::Report, selections: &[(String, Vec<
 /// data's D2 and PDFs best, the data's exponent it implies, and the ratio range in which the
 /// two exponent targets can hold together. Summary key `flag_estimator_bias`.
 fn estimator_bias(rep: &mut crate::report::Report) {
-    use furuta::model_selection::{Targets, flag_search_ratios, joint_ratio_range};
+    use furuta::model_selection::{BEST_MATCH_D2, BEST_MATCH_JS, Targets, best_matching, flag_search_ratios, joint_ratio_range};
     let rows = flag_search_ratios();
     let (lo, hi) = joint_ratio_range(&Targets::default());
-    // The data's D2 at step 4 and its error bar (the FLAG_SEARCH rows at k = 4 carry it).
-    let best: Vec<_> = rows.iter().filter(|r| !r.multistep && (r.corr_dim - 3.36).abs() <= 0.5 && r.js <= 0.005).collect();
+    let best = best_matching(&rows);
     let range = |f: &dyn Fn(&&furuta::model_selection::RatioRow) -> f64| {
         best.iter().map(f).fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), v| (a.min(v), b.max(v)))
     };
@@ -476,18 +475,21 @@ fn estimator_bias(rep: &mut crate::report::Report) {
     let (e_lo, e_hi) = range(&|r| r.implied_data_exponent);
     let in_range: Vec<_> = rows.iter().filter(|r| r.ratio >= lo && r.ratio <= hi).collect();
     let inside = in_range.len();
-    let inside_close = in_range.iter().filter(|r| (r.corr_dim - 3.36).abs() <= 0.5).count();
+    let inside_close = in_range.iter().filter(|r| (r.corr_dim - r.data_corr_dim).abs() <= BEST_MATCH_D2).count();
     if best.is_empty() {
-        rep.para("Estimator bias: no chaotic candidate of the search matches the data's D2 (within 0.5) and PDFs (JS <= 0.005).");
+        rep.para(&format!(
+            "Estimator bias: no chaotic candidate of the search matches the data's D2 (within {BEST_MATCH_D2}) and PDFs (JS <= {BEST_MATCH_JS})."
+        ));
     } else {
         rep.para(&format!(
             "Estimator bias, computed from the search table: Rosenstein / Benettin over the {} chaotic rows; the {} one-step \
-             models closest to the data (D2 within 0.5 of 3.36, JS <= 0.005: {}) read {r_lo:.2} to {r_hi:.2}. If the \
+             models closest to the data (D2 within {BEST_MATCH_D2} of {:.2}, JS <= {BEST_MATCH_JS}: {}) read {r_lo:.2} to {r_hi:.2}. If the \
              estimator is as biased on the data, the data's exponent is {e_lo:.2} to {e_hi:.2} 1/s, not its Rosenstein \
              value. Benettin within {:.0} % and Rosenstein within {:.0} % of the data's number hold together only for a \
-             ratio in [{lo:.3}, {hi:.3}]: {inside} chaotic rows are in it, {inside_close} of them with D2 within 0.5 of the data's.",
+             ratio in [{lo:.3}, {hi:.3}]: {inside} chaotic rows are in it, {inside_close} of them with D2 within {BEST_MATCH_D2} of the data's.",
             rows.len(),
             best.len(),
+            best[0].data_corr_dim,
             best.iter().map(|r| crate::report::esc(r.candidate)).collect::<Vec<_>>().join("; "),
             100.0 * Targets::default().benettin_rel,
             100.0 * Targets::default().rosenstein_rel,

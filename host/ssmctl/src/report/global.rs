@@ -78,6 +78,11 @@ fn settings(quick: bool) -> (Vec<f64>, Vec<u32>, Vec<f64>, u32, BasinOptions, Ve
     }
 }
 
+/// The fitted map at any dt, interpolated by `interp`.
+fn model_at(m: &SharedParametricModel, interp: Interp) -> impl Fn(f64) -> Result<ssm::fit::SsmModel, furuta::Error> + Sync + '_ {
+    move |dt| m.model_at(dt, interp)
+}
+
 fn compute(pm: &ParametricModel, sm: &SharedParametricModel, runs: &TrainingRuns, quick: bool) -> Result<Computed, Box<dyn Error + Send + Sync>> {
     let (nodes, orders, diag_dts, diag_order, bopts, torus_dts, torus_periods) = settings(quick);
     let popts = PortraitOptions { rho_max: RHO_MAX, ..PortraitOptions::default() };
@@ -122,15 +127,18 @@ fn compute(pm: &ParametricModel, sm: &SharedParametricModel, runs: &TrainingRuns
     // The fitted map: connection, torus continuation (both interpolations) and basin.
     let co = ConnectionOptions::default();
     let (clo, chi, cn, ctol) = CONNECTION_RANGE_MS;
-    let at = |interp: Interp| move |dt: f64| -> Result<ssm::fit::SsmModel, furuta::Error> { sm.model_at(dt, interp) };
+    // One fitted map read by both rules, linear and spline in dt: the default's and each
+    // training variant's.
+    let reads = |m: &SharedParametricModel| {
+        let conn = |i: Interp| map_connection(model_at(m, i), clo, chi, cn, ctol, &co).map_err(|e| format!("not found ({e})"));
+        let tor = |i: Interp| map_torus_continuation(model_at(m, i), &torus_dts, [0.097, 0.0277], torus_periods);
+        let ((cl, cs), (tl, ts)) = rayon::join(|| rayon::join(|| conn(Interp::Linear), || conn(Interp::Spline)), || rayon::join(|| tor(Interp::Linear), || tor(Interp::Spline)));
+        ([cl, cs], [tl, ts])
+    };
     let map_part = || -> Result<_, furuta::Error> {
         let t0 = std::time::Instant::now();
-        let conn = |i: Interp| map_connection(at(i), clo, chi, cn, ctol, &co).map_err(|e| format!("not found ({e})"));
-        let tor = |i: Interp| map_torus_continuation(at(i), &torus_dts, [0.097, 0.0277], torus_periods);
-        let ((cl, cs), ((tl, ts), mb)) = rayon::join(|| rayon::join(|| conn(Interp::Linear), || conn(Interp::Spline)), || {
-            rayon::join(|| rayon::join(|| tor(Interp::Linear), || tor(Interp::Spline)), || map_basin(at(Interp::Linear), &bopts))
-        });
-        Ok(([cl, cs], [tl?, ts?], mb?, t0.elapsed().as_secs_f64()))
+        let ((connection, [tl, ts]), mb) = rayon::join(|| reads(sm), || map_basin(model_at(sm, Interp::Linear), &bopts));
+        Ok((connection, [tl?, ts?], mb?, t0.elapsed().as_secs_f64()))
     };
     // The training variants' fitted maps (full report only: the quick report's runs hold
     // the default's only), each read like the default's.
@@ -142,14 +150,8 @@ fn compute(pm: &ParametricModel, sm: &SharedParametricModel, runs: &TrainingRuns
         let one = |(name, o): &(&'static str, furuta::parametric::FurutaOptions)| -> MapVariant {
             match furuta::shared_tangent::shared_parametric_from(o, runs) {
                 Ok(m) => {
-                    let at = |interp: Interp| {
-                        let m = &m;
-                        move |dt: f64| -> Result<ssm::fit::SsmModel, furuta::Error> { m.model_at(dt, interp) }
-                    };
-                    let conn = |i: Interp| map_connection(at(i), clo, chi, cn, ctol, &co).map_err(|e| format!("not found ({e})"));
-                    let tor = |i: Interp| map_torus_continuation(at(i), &torus_dts, [0.097, 0.0277], torus_periods).map_err(|e| e.to_string());
-                    let ((cl, cs), (tl, ts)) = rayon::join(|| rayon::join(|| conn(Interp::Linear), || conn(Interp::Spline)), || rayon::join(|| tor(Interp::Linear), || tor(Interp::Spline)));
-                    MapVariant { name, connection: [cl, cs], torus: [tl, ts] }
+                    let (connection, torus) = reads(&m);
+                    MapVariant { name, connection, torus: torus.map(|t| t.map_err(|e| e.to_string())) }
                 }
                 Err(e) => {
                     let why = format!("model not fitted ({e})");
@@ -157,13 +159,8 @@ fn compute(pm: &ParametricModel, sm: &SharedParametricModel, runs: &TrainingRuns
                 }
             }
         };
-        let mut out: Vec<Option<MapVariant>> = list.iter().map(|_| None).collect();
-        rayon::scope(|sc| {
-            for (slot, v) in out.iter_mut().zip(&list) {
-                sc.spawn(move |_| *slot = Some(one(v)));
-            }
-        });
-        out.into_iter().flatten().collect()
+        use rayon::prelude::*;
+        list.par_iter().map(one).collect()
     };
     // The full system's connection (about 40 s CPU) in the full report only.
     let full_conn = || {
@@ -221,32 +218,20 @@ pub fn global_sections(rep: &mut Report, pm: &ParametricModel, sm: &SharedParame
 /// sensitivity study's), next to the default's: issue 11's spread target (<= 0.1 ms).
 /// Summary key `map_sensitivity`.
 fn map_variants_table(rep: &mut Report, c: &Computed) {
-    let br = |b: Option<(f64, f64)>| b.map_or("none".to_string(), |(lo, hi)| format!("[{lo:.4}, {hi:.4}]"));
-    let conn = |r: &Result<Connection, String>| r.as_ref().map_or_else(|e| e.clone(), |c| br(c.switch.bracket));
-    // `lost_between` is `None` both when the torus is never lost on the grid and when it is
-    // lost at the first dt: say which.
-    let lost = |t: &TorusContinuation| match (t.lost_between, t.steps.first()) {
-        (Some(b), _) => br(Some(b)),
-        (None, Some(first)) if first.lost => format!("at the first dt ({})", first.dt_ms),
-        (None, _) => "not on the grid".to_string(),
-    };
-    let tor = |r: &Result<TorusContinuation, String>| {
-        r.as_ref().map_or_else(|e| e.clone(), |t| format!("lost {}, onset {}", lost(t), t.growth_onset.map_or("none".into(), |x| format!("{x:.3}"))))
-    };
+    let tor = |r: &Result<TorusContinuation, String>| r.as_ref().map_or_else(|e| e.clone(), lost_text);
     let default_torus: [Result<TorusContinuation, String>; 2] = [Ok(c.map_torus[0].clone()), Ok(c.map_torus[1].clone())];
     let mut all: Vec<(&str, &[Result<Connection, String>; 2], &[Result<TorusContinuation, String>; 2])> =
         vec![("default (paper's periods, cut 0.2 rad)", &c.map_connection, &default_torus)];
     all.extend(c.map_variants.iter().map(|v| (v.name, &v.connection, &v.torus)));
-    let rows: Vec<Vec<String>> = all.iter().map(|(n, cs, ts)| vec![n.to_string(), conn(&cs[0]), conn(&cs[1]), tor(&ts[0]), tor(&ts[1])]).collect();
+    let rows: Vec<Vec<String>> = all.iter().map(|(n, cs, ts)| vec![n.to_string(), connection_text(&cs[0]), connection_text(&cs[1]), tor(&ts[0]), tor(&ts[1])]).collect();
     // Spread (max - min) of each value over the rows where it exists: bracket midpoints,
     // growth onsets; with the number of rows it was found in.
-    let spread = |vals: Vec<Option<f64>>| value_spread(&vals);
     let mid = |b: Option<(f64, f64)>| b.map(|(lo, hi)| 0.5 * (lo + hi));
     let mut spreads = serde_json::Map::new();
     for (k, i) in [("linear", 0), ("spline", 1)] {
-        spreads.insert(format!("connection_{k}"), spread(all.iter().map(|(_, cs, _)| cs[i].as_ref().ok().and_then(|c| mid(c.switch.bracket))).collect()));
-        spreads.insert(format!("torus_lost_{k}"), spread(all.iter().map(|(_, _, ts)| ts[i].as_ref().ok().and_then(|t| mid(t.lost_between))).collect()));
-        spreads.insert(format!("torus_onset_{k}"), spread(all.iter().map(|(_, _, ts)| ts[i].as_ref().ok().and_then(|t| t.growth_onset)).collect()));
+        spreads.insert(format!("connection_{k}"), value_spread(&all.iter().map(|(_, cs, _)| cs[i].as_ref().ok().and_then(|c| mid(c.switch.bracket))).collect::<Vec<_>>()));
+        spreads.insert(format!("torus_lost_{k}"), value_spread(&all.iter().map(|(_, _, ts)| ts[i].as_ref().ok().and_then(|t| mid(t.lost_between))).collect::<Vec<_>>()));
+        spreads.insert(format!("torus_onset_{k}"), value_spread(&all.iter().map(|(_, _, ts)| ts[i].as_ref().ok().and_then(|t| t.growth_onset)).collect::<Vec<_>>()));
     }
     let sp = |k: &str| spreads[k]["spread_ms"].as_f64().map_or("-".to_string(), |x| format!("{x:.3}"));
     rep.para(&format!(
@@ -271,13 +256,32 @@ fn map_variants_table(rep: &mut Report, c: &Computed) {
             let tj = |r: &Result<TorusContinuation, String>| {
                 r.as_ref().map_or_else(
                     |e| json!({"error": e}),
-                    |t| json!({"lost_between": t.lost_between, "lost_at_first_dt": t.lost_between.is_none() && t.steps.first().is_some_and(|s| s.lost), "growth_onset": t.growth_onset}),
+                    |t| json!({"lost_between": t.lost_between, "lost_at_first_dt": t.lost_at_first_dt(), "growth_onset": t.growth_onset}),
                 )
             };
             json!({"variant": n, "connection": {"linear": cj(&cs[0]), "spline": cj(&cs[1])}, "torus": {"linear": tj(&ts[0]), "spline": tj(&ts[1])}})
         })
         .collect();
     rep.summary.insert("map_sensitivity".into(), json!({"variants": list, "spreads": spreads}));
+}
+
+/// A saddle-connection search as table text: its bracket, `none`, or why it failed.
+fn connection_text(r: &Result<Connection, String>) -> String {
+    match r {
+        Ok(c) => c.switch.bracket.map_or("none".into(), |(a, b)| format!("[{a:.4}, {b:.4}]")),
+        Err(e) => e.clone(),
+    }
+}
+
+/// A torus continuation's loss as table text: the bracket, or where it is lost at the grid's
+/// first dt or not at all; and its growth onset.
+fn lost_text(t: &TorusContinuation) -> String {
+    let l = match t.lost_between {
+        Some((a, b)) => format!("[{a:.3}, {b:.3}]"),
+        None if t.lost_at_first_dt() => format!("lost at the first dt ({})", t.steps[0].dt_ms),
+        None => "not lost on the grid".into(),
+    };
+    format!("{l}, onset {}", f4(t.growth_onset))
 }
 
 /// `{"found", "of", "min", "max", "spread_ms"}` of the values that exist (spread = max - min;
@@ -339,22 +343,14 @@ fn equation_section(rep: &mut Report, pm: &ParametricModel, bif: &ModelBifurcati
     let lost = c.torus.lost_between;
     let rho = |r: Option<[f64; 2]>| r.map_or("none".into(), |r| format!("({:.4}, {:.4})", r[0], r[1]));
     let rho_full = torus["rho_full"].as_array().and_then(|a| Some([a.first()?.as_f64()?, a.get(1)?.as_f64()?]));
-    let conn = |r: &Result<Connection, String>| match r {
-        Ok(c) => c.switch.bracket.map_or("none".into(), |(a, b)| format!("[{a:.4}, {b:.4}]")),
-        Err(e) => e.clone(),
-    };
-    let lost_text = |t: &TorusContinuation| {
-        let l = t.lost_between.map_or("not lost on the grid".into(), |(a, b)| format!("[{a:.3}, {b:.3}]"));
-        format!("{l}, onset {}", f4(t.growth_onset))
-    };
     let co = ConnectionOptions::default();
     let rows = vec![
         vec![
             "saddle connection: fast saddle cycle's pushed unstable branch switches from the torus to escape [ms]".into(),
-            format!("{} / {}", conn(&c.map_connection[0]), conn(&c.map_connection[1])),
+            format!("{} / {}", connection_text(&c.map_connection[0]), connection_text(&c.map_connection[1])),
             f4(bif.heteroclinic.as_ref().map(|h| h.dt)),
             f4(eb.heteroclinic.as_ref().map(|h| h.dt)),
-            conn(&c.full_connection),
+            connection_text(&c.full_connection),
         ],
         vec![
             "small-start switch, bounded -> escape [ms]".into(),
