@@ -1,0 +1,104 @@
+//! Issue 11: why is the equation-driven model's 2-torus at 30.8 ms 5 % off the full
+//! system's in rho_1? Measures the torus of each truncation the way the full system's is
+//! measured (`full_system::torus_full`: first-harmonic amplitudes of sampled theta by
+//! sliding least squares at the spectral peaks): (a) the polar fixed point mapped through
+//! the manifold `W` (theta = c . W(z)); (b) the reduced 4D map `R` iterated; (c) the
+//! order-K Taylor period map `F` iterated in the full state. Prints; not a test.
+//! Run: `cargo run --release -p furuta --example eqtorus -- [dt_ms] [orders...]`.
+
+use furuta::bifurcations::RHO_MAX;
+use furuta::equation_ssm::{polynomial_map, scene_period_map};
+use furuta::full_system::{AMP_WINDOW_S, torus_full};
+use furuta::parametric::exact_modes;
+use nalgebra::Complex;
+use sim::scene::SceneBuilder;
+use sim::taylor::FlowOptions;
+use ssm::map_ssm::{MapSsmOptions, map_ssm};
+use ssm::portrait::{PointKind, PortraitOptions, fixed_points};
+use ssm::spectrum::{band_peak, mode_amplitudes};
+
+type C = Complex<f64>;
+
+/// `torus_full`'s measurement on a series `x` sampled at `dt` (s): peak frequencies and the
+/// mean sliding first-harmonic amplitudes.
+fn measure(x: &[f64], dt: f64, dt_ms: f64) -> Result<([f64; 2], [f64; 2]), Box<dyn std::error::Error>> {
+    let lin = exact_modes(dt_ms)?.freqs_hz;
+    let split = (lin[0] * lin[1]).sqrt();
+    let slow = band_peak(x, dt, 0.0, split).ok_or("no slow peak")?;
+    let fast = band_peak(x, dt, split, 0.5 / dt).ok_or("no fast peak")?;
+    let f = [slow.freq_hz, fast.freq_hz];
+    let amps = mode_amplitudes(x, dt, f, AMP_WINDOW_S)?;
+    let k = amps.len() as f64;
+    Ok((f, [amps.iter().map(|a| a.1[0]).sum::<f64>() / k, amps.iter().map(|a| a.1[1]).sum::<f64>() / k]))
+}
+
+fn main() -> Result<(), Box<dyn std::error::Error>> {
+    let args: Vec<String> = std::env::args().skip(1).collect();
+    let dt_ms: f64 = args.first().map(|s| s.parse()).transpose()?.unwrap_or(30.8);
+    let orders: Vec<u32> = if args.len() > 1 { args[1..].iter().map(|s| s.parse()).collect::<Result<_, _>>()? } else { vec![5, 7, 9] };
+    let scene = SceneBuilder::load("furuta-dt30.5")?.dt_ms(dt_ms).build()?;
+    let (periods, tail_s) = (8000usize, 80.0);
+    let tf = torus_full(dt_ms, &([0.05, 0.0, 0.0, 0.0], None), periods as u64, tail_s)?;
+    println!("full system at {dt_ms} ms: rho {:.5?}, freqs {:.4?} Hz", tf.rho, tf.freqs_hz);
+    for &order in &orders {
+        let pm = scene_period_map(&scene, order, &FlowOptions::default())?;
+        let map = polynomial_map(&pm);
+        let p = pm.primary;
+        let mut observable = vec![0.0; pm.dim()];
+        observable[p] = 1.0;
+        let s = map_ssm(&map, &MapSsmOptions { order, pairs: 2, resonance_tol: 1e-3, observable, dt: pm.dt })?;
+        let popts = PortraitOptions { rho_max: RHO_MAX, ..PortraitOptions::default() };
+        let Some(t) = fixed_points(&s.polar, &popts)?.into_iter().find(|f| f.kind == PointKind::Torus2) else {
+            println!("order {order}: no 2-torus");
+            continue;
+        };
+        println!("order {order}: polar fixed point rho {:.5?}, freqs {:.4?} Hz", t.rho, t.freqs_hz);
+        // Exact first harmonic of c . W(z) on the torus |z_j| = rho_j: the sum over the
+        // structural monomials z_j |z_1|^2a |z_2|^2b of their theta coefficients.
+        let mut h = [C::new(0.0, 0.0); 2];
+        for (k, e) in s.exps.iter().enumerate() {
+            for j in 0..2 {
+                let sign_ok = (0..2).all(|l| e[2 * l] as i64 - e[2 * l + 1] as i64 == if l == j { 1 } else { 0 });
+                if sign_ok {
+                    let mag: f64 = (0..2).map(|l| t.rho[l].powi((e[2 * l] + e[2 * l + 1]) as i32)).product();
+                    let (re, im) = s.w[p][k];
+                    h[j] += C::new(re, im) * mag;
+                }
+            }
+        }
+        println!("  (a) first harmonic of theta = c.W(z) on the polar torus: [{:.5}, {:.5}]", 2.0 * h[0].norm(), 2.0 * h[1].norm());
+        // (a') the same by the sliding measurement, on the reduced map's orbit.
+        let z0 = [C::from_polar(t.rho[0], 0.0), C::from_polar(t.rho[1], 0.0)];
+        let mut z = vec![z0[0], z0[0].conj(), z0[1], z0[1].conj()];
+        let mut theta_w = Vec::with_capacity(periods);
+        let mut amp_r = [0.0; 2];
+        for _ in 0..periods {
+            theta_w.push(s.manifold_at(&z, order)[p].re);
+            z = s.reduced_at(&z, order);
+            amp_r[0] += z[0].norm() / periods as f64;
+            amp_r[1] += z[2].norm() / periods as f64;
+        }
+        let n_tail = (tail_s / pm.dt).round() as usize;
+        let (f, m) = measure(&theta_w[theta_w.len() - n_tail..], pm.dt, dt_ms)?;
+        println!("  (b) reduced map R iterated: mean |z| [{:.5}, {:.5}]; theta = c.W(z) measured: rho [{:.5}, {:.5}], freqs {:.4?}", amp_r[0], amp_r[1], m[0], m[1], f);
+        // (c) the Taylor period map iterated from W(z0).
+        let mut x: Vec<f64> = s.manifold_at(&[z0[0], z0[0].conj(), z0[1], z0[1].conj()], order).iter().map(|c| c.re).collect();
+        let mut theta_f = Vec::with_capacity(periods);
+        let mut ok = true;
+        for _ in 0..periods {
+            theta_f.push(x[p]);
+            x = pm.eval(&x)?;
+            if !x[p].is_finite() || x[p].abs() > 1.0 {
+                ok = false;
+                break;
+            }
+        }
+        if ok {
+            let (f, m) = measure(&theta_f[theta_f.len() - n_tail..], pm.dt, dt_ms)?;
+            println!("  (c) Taylor map F (order {order}) iterated: rho [{:.5}, {:.5}], freqs {:.4?}", m[0], m[1], f);
+        } else {
+            println!("  (c) Taylor map F (order {order}) iterated: escaped");
+        }
+    }
+    Ok(())
+}
