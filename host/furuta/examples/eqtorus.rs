@@ -13,7 +13,7 @@ use furuta::parametric::exact_modes;
 use nalgebra::Complex;
 use sim::scene::SceneBuilder;
 use sim::taylor::FlowOptions;
-use ssm::map_ssm::{MapSsmOptions, map_ssm};
+use ssm::map_ssm::{Amplitude, MapSsmOptions, map_ssm};
 use ssm::portrait::{PointKind, PortraitOptions, fixed_points};
 use ssm::spectrum::{band_peak, mode_amplitudes};
 
@@ -33,26 +33,46 @@ fn measure(x: &[f64], dt: f64, dt_ms: f64) -> Result<([f64; 2], [f64; 2]), Box<d
 }
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
-    let args: Vec<String> = std::env::args().skip(1).collect();
+    let mut args: Vec<String> = std::env::args().skip(1).collect();
+    if args.first().map(String::as_str) == Some("--table") {
+        // Polar coefficients of both normalizations at each dt in the rest of the args.
+        args.remove(0);
+        for a in &args {
+            let dt_ms: f64 = a.parse()?;
+            let scene = SceneBuilder::load("furuta-dt30.5")?.dt_ms(dt_ms).build()?;
+            let pm = scene_period_map(&scene, 7, &FlowOptions::default())?;
+            let map = polynomial_map(&pm);
+            let mut observable = vec![0.0; pm.dim()];
+            observable[pm.primary] = 1.0;
+            let t: Vec<_> = [Amplitude::Spectral, Amplitude::Observable]
+                .into_iter()
+                .map(|amplitude| map_ssm(&map, &MapSsmOptions { order: 7, pairs: 2, resonance_tol: 1e-3, observable: observable.clone(), dt: pm.dt, amplitude }).map(|s| s.polar.table()))
+                .collect::<Result<_, _>>()?;
+            for (a, b) in t[0].rows.iter().zip(&t[1].rows) {
+                println!("{dt_ms} rho_{}' {:<18} spectral {:>12.5} observable {:>12.5}", a.mode, a.monomial, a.value, b.value);
+            }
+        }
+        return Ok(());
+    }
     let dt_ms: f64 = args.first().map(|s| s.parse()).transpose()?.unwrap_or(30.8);
     let orders: Vec<u32> = if args.len() > 1 { args[1..].iter().map(|s| s.parse()).collect::<Result<_, _>>()? } else { vec![5, 7, 9] };
     let scene = SceneBuilder::load("furuta-dt30.5")?.dt_ms(dt_ms).build()?;
     let (periods, tail_s) = (8000usize, 80.0);
     let tf = torus_full(dt_ms, &([0.05, 0.0, 0.0, 0.0], None), periods as u64, tail_s)?;
     println!("full system at {dt_ms} ms: rho {:.5?}, freqs {:.4?} Hz", tf.rho, tf.freqs_hz);
-    for &order in &orders {
+    for (order, amplitude) in orders.iter().flat_map(|&k| [(k, Amplitude::Spectral), (k, Amplitude::Observable)]) {
         let pm = scene_period_map(&scene, order, &FlowOptions::default())?;
         let map = polynomial_map(&pm);
         let p = pm.primary;
         let mut observable = vec![0.0; pm.dim()];
         observable[p] = 1.0;
-        let s = map_ssm(&map, &MapSsmOptions { order, pairs: 2, resonance_tol: 1e-3, observable, dt: pm.dt })?;
+        let s = map_ssm(&map, &MapSsmOptions { order, pairs: 2, resonance_tol: 1e-3, observable, dt: pm.dt, amplitude })?;
         let popts = PortraitOptions { rho_max: RHO_MAX, ..PortraitOptions::default() };
         let Some(t) = fixed_points(&s.polar, &popts)?.into_iter().find(|f| f.kind == PointKind::Torus2) else {
-            println!("order {order}: no 2-torus");
+            println!("order {order} ({amplitude:?}): no 2-torus");
             continue;
         };
-        println!("order {order}: polar fixed point rho {:.5?}, freqs {:.4?} Hz", t.rho, t.freqs_hz);
+        println!("order {order} ({amplitude:?}): polar fixed point rho {:.5?}, freqs {:.4?} Hz", t.rho, t.freqs_hz);
         // Exact first harmonic of c . W(z) on the torus |z_j| = rho_j: the sum over the
         // structural monomials z_j |z_1|^2a |z_2|^2b of their theta coefficients.
         let mut h = [C::new(0.0, 0.0); 2];

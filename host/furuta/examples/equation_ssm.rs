@@ -16,7 +16,7 @@ use sim::closed_loop::{AnyPlant, build_plant};
 use sim::ode::Method;
 use sim::scene::SceneBuilder;
 use sim::taylor::FlowOptions;
-use ssm::map_ssm::{MapSsmOptions, map_ssm};
+use ssm::map_ssm::{Amplitude, MapSsmOptions, map_ssm};
 
 /// Invariance error against the exact (integrated, untruncated) period map, on the sphere
 /// of radius `r` (rad of theta), for the truncations of the order-`order` SSM.
@@ -27,7 +27,7 @@ fn exact_invariance(dt: f64, order: u32, r: f64) -> Result<Vec<(u32, f64)>, Box<
     let map = polynomial_map(&pm);
     let mut observable = vec![0.0; pm.dim()];
     observable[pm.primary] = 1.0;
-    let s = map_ssm(&map, &MapSsmOptions { order, pairs: 2, resonance_tol: 1e-3, observable, dt: pm.dt })?;
+    let s = map_ssm(&map, &MapSsmOptions { order, pairs: 2, resonance_tol: 1e-3, observable, dt: pm.dt, amplitude: Amplitude::Observable })?;
     let method = Method::Rodas { rtol: 1e-13, atol: 1e-15 };
     let mut out = Vec::new();
     for k in (3..=order).step_by(2) {

@@ -21,7 +21,7 @@ use sim::closed_loop::{AnyPlant, build_plant};
 use sim::ode::Method;
 use sim::scene::{Scene, SceneBuilder};
 use sim::taylor::{FlowOptions, PeriodMap};
-use ssm::map_ssm::{MapSsm, MapSsmOptions, map_ssm};
+use ssm::map_ssm::{Amplitude, MapSsm, MapSsmOptions, map_ssm};
 
 use crate::Error;
 use crate::equation_ssm::{RESONANCE_TOL, polynomial_map, scene_period_map};
@@ -188,7 +188,7 @@ pub fn convergence(scene: &Scene, order: u32, radii: &[f64], phases: usize) -> R
     let map = polynomial_map(&ex.pm);
     let mut observable = vec![0.0; ex.dim()];
     observable[ex.pm.primary] = 1.0;
-    let s = map_ssm(&map, &MapSsmOptions { order, pairs: 2, resonance_tol: RESONANCE_TOL, observable, dt: ex.pm.dt })
+    let s = map_ssm(&map, &MapSsmOptions { order, pairs: 2, resonance_tol: RESONANCE_TOL, observable, dt: ex.pm.dt, amplitude: Amplitude::Observable })
         .map_err(|e| Error::from(ssm::Error::from(e)))?;
     let orders: Vec<u32> = (3..=order).step_by(2).collect();
     let mut rows = Vec::new();

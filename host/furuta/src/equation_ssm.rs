@@ -20,7 +20,7 @@ use sim::plant::Plant;
 use sim::scene::{Scene, SceneBuilder};
 use sim::stability::dominant_pairs;
 use sim::taylor::{FlowOptions, PeriodMap, TaylorError, period_map};
-use ssm::map_ssm::{InvarianceError, MapSsm, MapSsmOptions, OrderStats, PolynomialMap, map_ssm};
+use ssm::map_ssm::{Amplitude, InvarianceError, MapSsm, MapSsmOptions, OrderStats, PolynomialMap, map_ssm};
 use ssm::interp::{Interp, interp_weights};
 use ssm::normal_form::{ExtraResonance, NormalFormTable, PolarNormalForm};
 use ssm::portrait::{FixedPoint, HeteroclinicEvent, HopfEvent, PointKind, PortraitOptions, ScanOptions, fixed_points, heteroclinic_dt, torus_hopf_dt};
@@ -112,7 +112,7 @@ fn scene_map_ssm(scene: &Scene, order: u32) -> Result<(PeriodMap, PolynomialMap,
     let mut observable = vec![0.0; pm.dim()];
     observable[pm.primary] = 1.0;
     let t1 = Instant::now();
-    let opts = MapSsmOptions { order, pairs: 2, resonance_tol: RESONANCE_TOL, observable, dt: pm.dt };
+    let opts = MapSsmOptions { order, pairs: 2, resonance_tol: RESONANCE_TOL, observable, dt: pm.dt, amplitude: Amplitude::Observable };
     let s: MapSsm = map_ssm(&map, &opts).map_err(|e| Error::from(ssm::Error::from(e)))?;
     let ssm_seconds = t1.elapsed().as_secs_f64();
     Ok((pm, map, s, expansion_seconds, ssm_seconds))

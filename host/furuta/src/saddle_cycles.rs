@@ -22,7 +22,7 @@
 use nalgebra::{Complex, DMatrix, DVector};
 use serde::{Deserialize, Serialize};
 use sim::scene::{Scene, SceneBuilder};
-use ssm::map_ssm::{MapSsm, MapSsmOptions, map_ssm};
+use ssm::map_ssm::{Amplitude, MapSsm, MapSsmOptions, map_ssm};
 use ssm::normal_form::PolarNormalForm;
 use ssm::portrait::{FixedPoint, PointKind, PortraitOptions, fixed_points};
 
@@ -311,7 +311,7 @@ pub fn saddle_cycles(dts_ms: &[f64], mode: usize, orders: &[u32], opts: &CircleO
         let mut equation = Vec::new();
         let mut start = None;
         for &order in orders {
-            let s = map_ssm(&map, &MapSsmOptions { order, pairs: 2, resonance_tol: RESONANCE_TOL, observable: observable.clone(), dt: ex.pm.dt })
+            let s = map_ssm(&map, &MapSsmOptions { order, pairs: 2, resonance_tol: RESONANCE_TOL, observable: observable.clone(), dt: ex.pm.dt, amplitude: Amplitude::Observable })
                 .map_err(|e| Error::from(ssm::Error::from(e)))?;
             let mut row = EquationCycle { order, rho: None, theta_amplitude: None, freq_hz: None };
             if let Some(f) = model_cycle(&s.polar, mode)? {

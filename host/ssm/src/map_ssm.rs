@@ -15,12 +15,17 @@
 //! [`Normalization::Observable`]), `R_1 = diag(mu)`. At order `k`, for each monomial
 //! `z^m`, `(A - mu^m) W_m = V R_m + E_m` with `E_m = [W_{<k}(R_{<k})]_m - [G(P W_{<k})]_m`
 //! known. With left eigenvectors `u_j` (`u_j^T v_l = delta_jl`):
-//! * along master direction `j`: the divisor is `mu_j - mu^m`. The term is *resonant* if it
+//! * along master direction `j`: the divisor is `mu_j - mu^m`, and
+//!   `(mu_j - mu^m) u_j^T W_m = u_j^T E_m + R_{m,j}`. The term is *resonant* if it
 //!   is structural (it survives in polar form: `z_j |z_1|^{2a} |z_2|^{2b}` in the equation
-//!   of `z_j`) or if `|mu_j - mu^m| < resonance_tol`; then `R_{m,j} = -u_j^T E_m` and
-//!   `u_j^T W_m = 0` (kept, never divided; the non-structural ones are reported in
-//!   [`MapSsm::extra_resonances`]). Otherwise `R_{m,j} = 0` and
-//!   `u_j^T W_m = u_j^T E_m / (mu_j - mu^m)`; the smallest such divisor is reported.
+//!   of `z_j`) or if `|mu_j - mu^m| < resonance_tol`: it is kept in `R`, never divided.
+//!   A non-structural one (reported in [`MapSsm::extra_resonances`]) has `u_j^T W_m = 0`,
+//!   `R_{m,j} = -u_j^T E_m`. For a structural one `u_j^T W_m = alpha` is free; it fixes what
+//!   the amplitudes mean ([`Amplitude`]): `alpha` such that `c . W_m = 0`
+//!   ([`Amplitude::Observable`]: `rho_j` is the observable's first harmonic on a torus) or
+//!   `alpha = 0` ([`Amplitude::Spectral`]), and `R_{m,j} = (mu_j - mu^m) alpha - u_j^T E_m`.
+//!   Otherwise `R_{m,j} = 0` and `u_j^T W_m = u_j^T E_m / (mu_j - mu^m)`; the smallest such
+//!   divisor is reported.
 //! * in the complementary invariant subspace: the bordered system
 //!   `[[A - mu^m, V], [U^T, 0]] [x; c] = [E_m - V U^T E_m; 0]`, nonsingular whatever `mu^m`,
 //!   with the smallest distance of `mu^m` to a non-master multiplier reported.
@@ -141,6 +146,31 @@ pub struct MapSsmOptions {
     pub observable: Vec<f64>,
     /// Sampling period of the map, s (for the continuous-time polar form).
     pub dt: f64,
+    /// What the amplitudes `rho_j` of the polar form measure beyond linear order (the
+    /// normalization of the resonant terms of `W`).
+    pub amplitude: Amplitude,
+}
+
+/// The normalization of the resonant part of the parametrization `W`, which fixes what the
+/// normal-form amplitudes `rho_j` are beyond linear order (at linear order both give
+/// `c . s = sum_j rho_j cos theta_j`). The reduced map's polar coefficients depend on it at
+/// every nonlinear order: a change `rho_i -> rho_i (1 + sum_j k_ij rho_j^2 + ...)` shifts
+/// the cubic `rho_i rho_j^2` coefficient by `2 k_ij Re lambda_j` and every fixed point's
+/// amplitudes by `O(rho^3)`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub enum Amplitude {
+    /// `c . W_m = 0` for every structural monomial `m` of degree >= 2 (in the equation of
+    /// its mode): the observable has no nonlinear part at a mode's own frequency, so on an
+    /// invariant torus or circle of the polar form (`|z_j| = rho_j`) `rho_j` is exactly the
+    /// first-harmonic amplitude of the observable at mode `j`'s frequency: what a
+    /// measurement on a time series (e.g. `crate::spectrum::mode_amplitudes`) returns, and
+    /// (up to the small change of a delay embedding's projection with frequency) what a
+    /// data-driven model fitted on that observable's delay embedding calls `rho_j`.
+    Observable,
+    /// `u_j^T W_m = 0` for resonant `m` (the graph-style parametrization over the spectral
+    /// subspace): `rho_j` is the first harmonic of the master coordinate `u_j^T s`, which
+    /// differs from the observable's by `O(rho^3)`.
+    Spectral,
 }
 
 /// Dense graded monomial table in `n` variables up to `order`.
@@ -425,13 +455,18 @@ pub fn map_ssm(map: &PolynomialMap, opts: &MapSsmOptions) -> Result<MapSsm, MapS
             let mum: C = m.iter().zip(&mu).fold(C::new(1.0, 0.0), |acc, (&p, l)| acc * l.powu(p));
             let proj = &umat * &e_m;
             let mut coords = DVector::<C>::zeros(n);
+            // The master direction for which `m` is structural (at most one).
+            let mut structural_j = None;
             for j in 0..n {
                 let div = mu[j] - mum;
                 let resonant = structural(j, &m) || div.norm() < opts.resonance_tol;
                 if resonant {
+                    // u_j^T W_m = 0 for now (the `Spectral` normalization); R_m,j = -u_j^T E_m.
                     r[j][idx] = -proj[j];
-                    r_max = r_max.max(proj[j].norm());
-                    if !structural(j, &m) {
+                    if structural(j, &m) {
+                        structural_j = Some(j);
+                    } else {
+                        r_max = r_max.max(proj[j].norm());
                         extra.push(ExtraResonance { equation: j, exponents: m.clone(), coefficient: (-proj[j].re, -proj[j].im), divisor: div.norm() });
                     }
                 } else {
@@ -460,11 +495,22 @@ pub fn map_ssm(map: &PolynomialMap, opts: &MapSsmOptions) -> Result<MapSsm, MapS
                 rhs[i] = rhs_top[i];
             }
             let sol = bm.lu().solve(&rhs).ok_or_else(|| MapSsmError::Singular { monomial: m.clone() })?;
-            for row in 0..d {
-                let mut val = sol[row];
-                for j in 0..n {
-                    val += vmat[(row, j)] * coords[j];
+            let mut wm: Vec<C> = (0..d).map(|row| sol[row] + (0..n).map(|j| vmat[(row, j)] * coords[j]).sum::<C>()).collect();
+            if let Some(j) = structural_j {
+                if opts.amplitude == Amplitude::Observable {
+                    // The resonant freedom: W_m += alpha v_j, R_m,j += (mu_j - mu^m) alpha,
+                    // with alpha making c . W_m = 0 (c . v_j = 1/2).
+                    let cw: C = opts.observable.iter().zip(&wm).map(|(c, x)| x * *c).sum();
+                    let cv: C = opts.observable.iter().zip(vcols[j].iter()).map(|(c, x)| x * *c).sum();
+                    let alpha = -cw / cv;
+                    for (row, x) in wm.iter_mut().enumerate() {
+                        *x += vmat[(row, j)] * alpha;
+                    }
+                    r[j][idx] += (mu[j] - mum) * alpha;
                 }
+                r_max = r_max.max(r[j][idx].norm());
+            }
+            for (row, val) in wm.into_iter().enumerate() {
                 w[row][idx] = val;
                 w_max = w_max.max(val.norm());
             }

@@ -136,7 +136,7 @@ fn system() -> (PolynomialMap, Poly) {
 }
 
 fn opts(order: u32) -> MapSsmOptions {
-    MapSsmOptions { order, pairs: 2, resonance_tol: 1e-3, observable: vec![1.0, 0.0, 0.5, 0.0, 0.0, 0.0], dt: DT }
+    MapSsmOptions { order, pairs: 2, resonance_tol: 1e-3, observable: vec![1.0, 0.0, 0.5, 0.0, 0.0, 0.0], dt: DT, amplitude: Amplitude::Spectral }
 }
 
 #[test]
@@ -262,4 +262,87 @@ fn master_coordinates_invert_the_manifold() {
         }
     }
     assert!(ssm.master_coordinates(&s[..3], 7, 1e-14).is_none());
+}
+
+/// Index of the structural monomial `z_i |z_1|^{2 p_1} |z_2|^{2 p_2}` (equation of `z_i`,
+/// `i` = 0 or 1 the mode) in `ssm.exps`.
+fn structural_index(ssm: &MapSsm, i: usize, p: [u32; 2]) -> usize {
+    let mut e = vec![p[0], p[0], p[1], p[1]];
+    e[2 * i] += 1;
+    ssm.exps.iter().position(|x| *x == e).unwrap()
+}
+
+/// `Amplitude::Observable`: the observable has no nonlinear part at a mode's own frequency
+/// (`c . W_m = 0` for every structural `m` of degree >= 2), so on a torus `|z_j| = rho_j`
+/// the observable's first harmonic at mode `j` is exactly `rho_j` (checked by a 2D DFT over
+/// the phases); the manifold stays invariant (error falls with the order as with
+/// `Spectral`); both normalizations have the same linear part and the same manifold at
+/// order 1.
+#[test]
+fn observable_amplitude_is_the_first_harmonic() {
+    let (map, _) = system();
+    let o = MapSsmOptions { amplitude: Amplitude::Observable, ..opts(7) };
+    let ssm = map_ssm(&map, &o).unwrap();
+    let spec = map_ssm(&map, &opts(7)).unwrap();
+    let c = &o.observable;
+    for (k, e) in ssm.exps.iter().enumerate() {
+        let deg: u32 = e.iter().sum();
+        let is_struct = (0..4).any(|j| structural(j, e));
+        let cw: C = c.iter().zip(&ssm.w).map(|(ci, row)| C::new(row[k].0, row[k].1) * *ci).sum();
+        if deg >= 2 && is_struct {
+            assert!(cw.norm() < 1e-13, "c . W_{e:?} = {cw}");
+        }
+        if deg == 1 {
+            assert_eq!(ssm.w.iter().map(|r| r[k]).collect::<Vec<_>>(), spec.w.iter().map(|r| r[k]).collect::<Vec<_>>());
+        }
+    }
+    let rho = [0.03, 0.02];
+    let n = 16;
+    let mut h = [C::new(0.0, 0.0); 2];
+    for a in 0..n {
+        for b in 0..n {
+            let (t1, t2) = (std::f64::consts::TAU * a as f64 / n as f64, std::f64::consts::TAU * b as f64 / n as f64);
+            let (z1, z2) = (C::from_polar(rho[0], t1), C::from_polar(rho[1], t2));
+            let s = ssm.manifold_at(&[z1, z1.conj(), z2, z2.conj()], 7);
+            let x: f64 = c.iter().zip(&s).map(|(ci, v)| ci * v.re).sum();
+            h[0] += C::from_polar(x, -t1) / (n * n) as f64;
+            h[1] += C::from_polar(x, -t2) / (n * n) as f64;
+        }
+    }
+    for j in 0..2 {
+        assert!((2.0 * h[j].norm() - rho[j]).abs() < 1e-14, "mode {j}: first harmonic {} vs rho {}", 2.0 * h[j].norm(), rho[j]);
+    }
+    let errs: Vec<f64> = [3, 5, 7].iter().map(|&k| ssm.invariance_error(&map, k, 0.05, 6).abs).collect();
+    assert!(errs[1] < errs[0] / 5.0 && errs[2] < errs[1] / 5.0, "{errs:?}");
+    for i in 0..2 {
+        assert_eq!(ssm.polar.amp[i][0], spec.polar.amp[i][0]);
+        assert_eq!(ssm.polar.phase[i][0], spec.polar.phase[i][0]);
+    }
+}
+
+/// The two normalizations are related by `rho_i^obs = rho_i |1 + sum_j kappa_ij rho_j^2 +
+/// ...|` with `kappa_ij = 2 c . W^spec_m` (`m` the structural monomial `z_i |z_j|^2`, and
+/// `c . v_i = 1/2`): the cubic coefficient of `rho_i rho_j^2` must move by exactly
+/// `2 Re(kappa_ij) Re(lambda_j)` (`rho_i' = rho_i (a_i + b_ij rho_j^2)` in `r_i = rho_i (1 +
+/// k_ij rho_j^2)` is `r_i' = r_i (a_i + (b_ij + 2 k_ij a_j) r_j^2) + O(r^5)`).
+#[test]
+fn cubic_coefficients_move_by_two_kappa_lambda() {
+    let (map, _) = system();
+    let obs = map_ssm(&map, &MapSsmOptions { amplitude: Amplitude::Observable, ..opts(5) }).unwrap();
+    let spec = map_ssm(&map, &opts(5)).unwrap();
+    let c = &opts(5).observable;
+    for i in 0..2 {
+        for j in 0..2 {
+            let mut p = [0u32; 2];
+            p[j] = 1;
+            let k = structural_index(&spec, i, p);
+            let cw: C = c.iter().zip(&spec.w).map(|(ci, row)| C::new(row[k].0, row[k].1) * *ci).sum();
+            let kappa = 2.0 * cw.re;
+            let col = spec.polar.pexps.iter().position(|e| e[..] == p[..]).unwrap();
+            let (b_s, b_o) = (spec.polar.amp[i][col], obs.polar.amp[i][col]);
+            let want = b_s + 2.0 * kappa * spec.polar.amp[j][0];
+            assert!((b_o - want).abs() < 1e-9 * want.abs().max(1.0), "b_{i}{j}: observable {b_o}, spectral {b_s} + 2 kappa a_j = {want}");
+            assert!((b_o - b_s).abs() > 1e-6, "b_{i}{j} unchanged: the test needs kappa != 0");
+        }
+    }
 }
