@@ -34,6 +34,34 @@ fn measure(x: &[f64], dt: f64, dt_ms: f64) -> Result<([f64; 2], [f64; 2]), Box<d
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let mut args: Vec<String> = std::env::args().skip(1).collect();
+    if args.first().map(String::as_str) == Some("--embed") {
+        // The data-driven chart on a torus: a delay embedding of `p` samples of a pure tone
+        // at frequency f (|lambda| = 1), projected onto the span of the linear modes'
+        // embeddings and read in modal coordinates: |[E^+ e(lambda)]_j| (1 at the linear
+        // multiplier itself). Args: dt_ms p f1_hz f2_hz.
+        let v: Vec<f64> = args[1..].iter().map(|s| s.parse()).collect::<Result<_, _>>()?;
+        let (dt_ms, p, f) = (v[0], v[1] as usize, [v[2], v[3]]);
+        let scene = SceneBuilder::load("furuta-dt30.5")?.dt_ms(dt_ms).build()?;
+        let pm = scene_period_map(&scene, 3, &FlowOptions::default())?;
+        let map = polynomial_map(&pm);
+        let mut observable = vec![0.0; pm.dim()];
+        observable[pm.primary] = 1.0;
+        let s = map_ssm(&map, &MapSsmOptions { order: 3, pairs: 2, resonance_tol: 1e-3, observable, dt: pm.dt, amplitude: Amplitude::Observable })?;
+        let mu: Vec<C> = s.multipliers.iter().map(|&(re, im)| C::new(re, im)).collect();
+        for forward in [true, false] {
+            let e = |l: C| -> nalgebra::DVector<C> { nalgebra::DVector::from_fn(p, |k, _| if forward { l.powu(k as u32) } else { l.powi(-(k as i32)) }) };
+            let emat = nalgebra::DMatrix::from_fn(p, 4, |k, j| e(mu[j])[k]);
+            let pinv = emat.clone().pseudo_inverse(1e-14)?;
+            for j in 0..2 {
+                let lam = C::from_polar(1.0, std::f64::consts::TAU * f[j] * pm.dt);
+                let q = &pinv * e(lam);
+                let ql = &pinv * e(mu[2 * j]);
+                println!("{} embedding p = {p}: mode {} linear f {:.4} Hz |mu| {:.5}; at f = {} Hz: |q_j| = {:.5} (at mu: {:.5})",
+                    if forward { "forward" } else { "backward" }, j + 1, mu[2 * j].arg() / (std::f64::consts::TAU * pm.dt), mu[2 * j].norm(), f[j], q[2 * j].norm(), ql[2 * j].norm());
+            }
+        }
+        return Ok(());
+    }
     if args.first().map(String::as_str) == Some("--table") {
         // Polar coefficients of both normalizations at each dt in the rest of the args.
         args.remove(0);

@@ -161,13 +161,17 @@ fn reproduce_quick_writes_the_report() {
     for k in ["linear_growth_onset", "spline_growth_onset"] {
         assert!((th["map"][k].as_f64().unwrap() - onset).abs() < 0.05, "{th}");
     }
-    // The cubic coefficients the data determine well are within the 5 % (measured:
-    // at most 2.2 % and 3.4 %).
+    // Cubic coefficients: rho_2^3 hardly depends on the amplitude normalization (chart
+    // shift 0.3 %) and is within the 5 % (measured 3.4 %); rho_1^2 rho_2 is
+    // chart-robust too (0.7 %), so its 7-23 % gap is the fit's; rho_1 rho_2^2 moves by
+    // 16-18 % between the normalizations (2 k_12 Re lambda_2 with lambda_2 the unstable
+    // fast rate), so its comparison says nothing about the fit.
     let terms = s["equation_ssm"]["cubic_comparison"]["terms"].as_array().unwrap();
-    for (mode, mono) in [(1, "rho_1 rho_2^2"), (2, "rho_2^3")] {
-        let t = terms.iter().find(|t| t["mode"] == mode && t["monomial"] == mono).unwrap();
-        assert_eq!(t["within_target"], true, "{t}");
-    }
+    let term = |mode: u64, mono: &str| terms.iter().find(|t| t["mode"] == mode && t["monomial"] == mono).unwrap();
+    let t = term(2, "rho_2^3");
+    assert!(t["within_target"] == true && t["chart_robust"] == true, "{t}");
+    assert_eq!(term(2, "rho_1^2 rho_2")["chart_robust"], true, "{}", term(2, "rho_1^2 rho_2"));
+    assert!(term(1, "rho_1 rho_2^2")["chart_shift"].as_f64().unwrap() > 0.1, "{}", term(1, "rho_1 rho_2^2"));
     let e = &s["equation_ssm"];
     for d in e["per_dt"].as_array().unwrap() {
         // The linear rates are the exact ln|mu|/dt; the invariance error on the 0.02 rad
