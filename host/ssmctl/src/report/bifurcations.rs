@@ -5,6 +5,7 @@
 
 use crate::plot::{self, Series};
 use crate::report::{Report, num, par_map};
+use crate::report::tasks::task;
 use crate::report::normal_form::PAPER_DTS;
 use furuta::parametric::{FurutaOptions, ParametricModel, TrainingRuns, furuta_parametric_family};
 use ssm::portrait::{Fate, PointKind, PortraitOptions, fixed_points, portrait, trajectory};
@@ -71,8 +72,8 @@ pub fn predictions_section(rep: &mut Report, runs: &TrainingRuns) -> Result<furu
             po.max_theta
         ),
     );
-    let model = shared_parametric_from(&FurutaOptions::default(), runs)?;
-    let (lin, spl) = rayon::join(|| predictions(&model, &po, Interp::Linear), || predictions(&model, &po, Interp::Spline));
+    let model = task("predictions/shared-fit", || shared_parametric_from(&FurutaOptions::default(), runs))?;
+    let (lin, spl) = rayon::join(|| task("predictions/linear", || predictions(&model, &po, Interp::Linear)), || task("predictions/spline", || predictions(&model, &po, Interp::Spline)));
     let (lin, spl) = (lin?, spl?);
     let mut rows = Vec::new();
     for (a, b) in lin.iter().zip(&spl) {
@@ -119,7 +120,7 @@ fn map_switch_part(rep: &mut Report, model: &furuta::shared_tangent::SharedParam
     use furuta::full_system::{DEFAULT_SCAN_PERIODS, ESCAPE_THETA, default_ics};
     let (lo, hi, n, tol) = MAP_SWITCH_RANGE_MS;
     let scan = |interp: Interp| furuta::bifurcations::map_small_start_switch(|dt| model.model_at(dt, interp), default_ics, lo, hi, n, DEFAULT_SCAN_PERIODS, tol);
-    let (ml, ms) = rayon::join(|| scan(Interp::Linear), || scan(Interp::Spline));
+    let (ml, ms) = rayon::join(|| task("predictions/map-switch-linear", || scan(Interp::Linear)), || task("predictions/map-switch-spline", || scan(Interp::Spline)));
     let (ml, ms) = (ml?, ms?);
     rep.para(&format!(
         "The global bifurcation read off the fitted map itself, without a normal form: the model above (its maps \
@@ -291,8 +292,13 @@ pub fn fullsystem_section(rep: &mut Report, pm: &ParametricModel, bif: &ModelBif
         transient_analysis(dt_tr, &(start.0, Some(start.1)), if quick { 60.0 } else { 150.0 })
     };
     let ((model_switch, scan), ((tf, fast_fates), (doa_fates, ta))) = rayon::join(
-        || rayon::join(model_switch, scan),
-        || rayon::join(|| rayon::join(torus, fast_fates), || rayon::join(doa_fates, transient)),
+        || rayon::join(|| task("fullsystem/model-switch", model_switch), || task("fullsystem/scan", scan)),
+        || {
+            rayon::join(
+                || rayon::join(|| task("fullsystem/torus", torus), || task("fullsystem/fast-fates", fast_fates)),
+                || rayon::join(|| task("fullsystem/doa-fates", doa_fates), || task("fullsystem/transient", transient)),
+            )
+        },
     );
     let (model_switch, scan, tf, fast_fates, doa_fates, ta) = (model_switch?, scan?, tf?, fast_fates?, doa_fates?, ta?);
 
@@ -486,16 +492,16 @@ pub fn sensitivity_section(rep: &mut Report, default: &ParametricModel, runs: &T
     let ((first, rest), tori) = rayon::join(
         || {
             rayon::join(
-                || model_row("default (paper's periods, cut 0.2 rad)", &base, default, None),
+                || task("bifsensitivity/default-row", || model_row("default (paper's periods, cut 0.2 rad)", &base, default, None)),
                 || -> Result<Vec<SensitivityRow>, furuta::Error> {
                     let sets: Vec<&FurutaOptions> = variants.iter().map(|(_, o)| o).collect();
-                    let models = furuta_parametric_family(&base, default, &sets, runs)?;
+                    let models = task("bifsensitivity/family", || furuta_parametric_family(&base, default, &sets, runs))?;
                     let items: Vec<(&(&str, FurutaOptions), (ParametricModel, f64))> = variants.iter().zip(models).collect();
-                    par_map(&items, |((name, o), (pm, secs))| model_row(name, o, pm, Some(*secs)))
+                    task("bifsensitivity/rows", || par_map(&items, |((name, o), (pm, secs))| model_row(name, o, pm, Some(*secs))))
                 },
             )
         },
-        tori,
+        || task("bifsensitivity/tori", tori),
     );
     let mut all = vec![first?];
     all.extend(rest?);

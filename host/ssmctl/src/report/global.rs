@@ -8,6 +8,7 @@
 
 use crate::draw::basin::{OverlayPanel, draw_basin_overlay};
 use crate::report::{Report, num, par_map};
+use crate::report::tasks::task;
 use furuta::basin::{Agreement, BasinOptions, FullBasin, ModelBasin, ModelFate, TorusContinuation, agreement, full_basin, model_basin, torus_continuation};
 use furuta::bifurcations::{ModelBifurcations, RHO_MAX};
 use furuta::equation_ssm::{EquationBifurcations, EquationModel, EquationSsm, INVARIANCE_RADII, equation_bifurcations, furuta_equation_polar, furuta_equation_polar_with, furuta_equation_ssm};
@@ -131,14 +132,14 @@ fn compute(pm: &ParametricModel, sm: &SharedParametricModel, runs: &TrainingRuns
     // One fitted map read by both rules, linear and spline in dt: the default's and each
     // training variant's.
     let reads = |m: &SharedParametricModel| {
-        let conn = |i: Interp| map_connection(model_at(m, i), clo, chi, cn, ctol, &co).map_err(|e| format!("not found ({e})"));
-        let tor = |i: Interp| map_torus_continuation(model_at(m, i), &torus_dts, [0.097, 0.0277], torus_periods);
+        let conn = |i: Interp| task(&format!("global/map-connection-{i:?}"), || map_connection(model_at(m, i), clo, chi, cn, ctol, &co).map_err(|e| format!("not found ({e})")));
+        let tor = |i: Interp| task(&format!("global/map-torus-{i:?}"), || map_torus_continuation(model_at(m, i), &torus_dts, [0.097, 0.0277], torus_periods));
         let ((cl, cs), (tl, ts)) = rayon::join(|| rayon::join(|| conn(Interp::Linear), || conn(Interp::Spline)), || rayon::join(|| tor(Interp::Linear), || tor(Interp::Spline)));
         ([cl, cs], [tl, ts])
     };
     let map_part = || -> Result<_, furuta::Error> {
         let t0 = std::time::Instant::now();
-        let ((connection, [tl, ts]), mb) = rayon::join(|| reads(sm), || map_basin(model_at(sm, Interp::Linear), &bopts));
+        let ((connection, [tl, ts]), mb) = rayon::join(|| reads(sm), || task("global/map-basin", || map_basin(model_at(sm, Interp::Linear), &bopts)));
         Ok((connection, [tl?, ts?], mb?, t0.elapsed().as_secs_f64()))
     };
     // The training variants' fitted maps (full report only: the quick report's runs hold
@@ -149,7 +150,7 @@ fn compute(pm: &ParametricModel, sm: &SharedParametricModel, runs: &TrainingRuns
         }
         let list = furuta::bifurcations::sensitivity_variants();
         let one = |(name, o): &(&'static str, furuta::parametric::FurutaOptions)| -> MapVariant {
-            match furuta::shared_tangent::shared_parametric_from(o, runs) {
+            match task(&format!("global/variant-fit {name}"), || furuta::shared_tangent::shared_parametric_from(o, runs)) {
                 Ok(m) => {
                     let (connection, torus) = reads(&m);
                     MapVariant { name, connection, torus: torus.map(|t| t.map_err(|e| e.to_string())) }
@@ -161,7 +162,7 @@ fn compute(pm: &ParametricModel, sm: &SharedParametricModel, runs: &TrainingRuns
             }
         };
         use rayon::prelude::*;
-        list.par_iter().map(one).collect()
+        list.par_iter().map(|v| task(&format!("global/variant {}", v.0), || one(v))).collect()
     };
     // The full system's connection (about 40 s CPU) in the full report only.
     let full_conn = || {
@@ -172,11 +173,11 @@ fn compute(pm: &ParametricModel, sm: &SharedParametricModel, runs: &TrainingRuns
     let (((eq, basin), (models, torus)), (map, ((full_connection, full_connection_seconds), map_variants))) = rayon::join(
         || {
             rayon::join(
-                || rayon::join(equation, || full_basin(&bopts)),
-                || rayon::join(models, || torus_continuation(&torus_dts, [0.097, 0.0277], torus_periods)),
+                || rayon::join(|| task("global/equation", equation), || task("global/full-basin", || full_basin(&bopts))),
+                || rayon::join(|| task("global/models", models), || task("global/full-torus", || torus_continuation(&torus_dts, [0.097, 0.0277], torus_periods))),
             )
         },
-        || rayon::join(map_part, || rayon::join(full_conn, variants)),
+        || rayon::join(|| task("global/map", map_part), || rayon::join(|| task("global/full-connection", full_conn), || task("global/variants", variants))),
     );
     let (diag, by_order, eq_forms) = eq?;
     let (map_connection, map_torus, map_basin, map_seconds) = map?;

@@ -158,6 +158,7 @@ pub mod verdict;
 pub mod normal_form;
 pub mod reproduce;
 pub mod sloshing;
+pub mod tasks;
 
 #[cfg(test)]
 mod tests {

@@ -135,7 +135,7 @@ impl Timings {
     fn time<T, E>(&mut self, name: &'static str, f: impl FnOnce() -> Result<T, E>) -> Result<T, E> {
         let t0 = Instant::now();
         let watch = RssWatch::start();
-        let r = f();
+        let r = crate::report::tasks::task(name, f);
         self.sections.push((name, t0.elapsed().as_secs_f64(), watch.finish()));
         r
     }
