@@ -101,7 +101,8 @@ fn cycles(args: &[String]) -> R {
 /// Training variants: a base (`default`, or a sensitivity variant's name with spaces as
 /// `_`, e.g. `cut_0.3_rad`) and modifiers joined by `+`: `slowsaddle` (slow-eigenvector
 /// starts 0.06-0.14 rad, inside the slow saddle cycle), `slowcycle` (0.12-0.135 rad, just inside it at 32.5 ms), `joint` (anchor_joint), `man5` (manifold order 5), `dyn5`,
-/// `dyn9` (dynamics order).
+/// `dyn9` (dynamics order), `noweight` (the fitted map's regression unweighted), `knee=THETA`,
+/// `pow=P` (its row weight, see `furuta::parametric::map_row_weight`).
 fn variant(name: &str) -> Result<FurutaOptions, Box<dyn std::error::Error>> {
     let mut parts = name.split('+');
     let base = parts.next().unwrap_or("default");
@@ -118,6 +119,16 @@ fn variant(name: &str) -> Result<FurutaOptions, Box<dyn std::error::Error>> {
             "dyn5" => o.fit.dyn_order = 5,
             "man5" => o.fit.manifold_order = 5,
             "dyn9" => o.fit.dyn_order = 9,
+            "noweight" => o.map_weight = None,
+            x if x.starts_with("knee=") || x.starts_with("pow=") => {
+                let v: f64 = x.split('=').nth(1).unwrap_or("").parse()?;
+                let w = o.map_weight.get_or_insert(furuta::parametric::map_row_weight(furuta::parametric::MAP_WEIGHT_KNEE_THETA, o.fit.embed, furuta::parametric::MAP_WEIGHT_POWER));
+                if x.starts_with("knee=") {
+                    *w = furuta::parametric::map_row_weight(v, o.fit.embed, w.power);
+                } else {
+                    w.power = v;
+                }
+            }
             x => return Err(format!("unknown modifier {x}").into()),
         }
     }
@@ -541,8 +552,8 @@ fn cuts(args: &[String]) -> R {
             if steps {
                 for s in &tc.steps {
                     println!(
-                        "   {:6.2} rho {:?} spreads {:?} / {:?} rate {:?} lost {} esc {:?}",
-                        s.dt_ms, s.rho.map(|r| [(r[0] * 1e4).round() / 1e4, (r[1] * 1e4).round() / 1e4]), s.spread_mid, s.spread_last, s.growth_rate, s.lost, s.escape_t
+                        "   {:6.2} rho {:?} spreads {:?} / {:?} rate {:?} noise {:?} lost {} esc {:?}",
+                        s.dt_ms, s.rho.map(|r| [(r[0] * 1e4).round() / 1e4, (r[1] * 1e4).round() / 1e4]), s.spread_mid, s.spread_last, s.growth_rate, s.rate_noise, s.lost, s.escape_t
                     );
                 }
             }
