@@ -25,6 +25,8 @@
 //! * `maptorus VARIANT...`: the fitted map's torus continuation per training variant.
 //! * `coeffs VARIANT...`: data-driven vs equation-driven polar coefficients at the training dts.
 //! * `ratefun [VARIANT]`: their nonlinear amplitude rates at a few amplitude points.
+//! * `cuts [--conn] [--steps] [--spline] VARIANT...`: the fitted map's torus onset and loss
+//!   (and saddle connection) per training variant on shared training runs (issue 11's cut).
 
 use furuta::convergence::furuta_convergence;
 use furuta::bifurcations::{model_row, sensitivity_variants};
@@ -99,7 +101,8 @@ fn cycles(args: &[String]) -> R {
 /// Training variants: a base (`default`, or a sensitivity variant's name with spaces as
 /// `_`, e.g. `cut_0.3_rad`) and modifiers joined by `+`: `slowsaddle` (slow-eigenvector
 /// starts 0.06-0.14 rad, inside the slow saddle cycle), `slowcycle` (0.12-0.135 rad, just inside it at 32.5 ms), `joint` (anchor_joint), `man5` (manifold order 5), `dyn5`,
-/// `dyn9` (dynamics order).
+/// `dyn9` (dynamics order), `noweight` (the fitted map's regression unweighted), `knee=THETA`,
+/// `pow=P` (its row weight, see `furuta::parametric::map_row_weight`).
 fn variant(name: &str) -> Result<FurutaOptions, Box<dyn std::error::Error>> {
     let mut parts = name.split('+');
     let base = parts.next().unwrap_or("default");
@@ -116,6 +119,16 @@ fn variant(name: &str) -> Result<FurutaOptions, Box<dyn std::error::Error>> {
             "dyn5" => o.fit.dyn_order = 5,
             "man5" => o.fit.manifold_order = 5,
             "dyn9" => o.fit.dyn_order = 9,
+            "noweight" => o.map_weight = None,
+            x if x.starts_with("knee=") || x.starts_with("pow=") => {
+                let v: f64 = x.split('=').nth(1).unwrap_or("").parse()?;
+                let w = o.map_weight.get_or_insert(furuta::parametric::map_row_weight(furuta::parametric::MAP_WEIGHT_KNEE_THETA, o.fit.embed, furuta::parametric::MAP_WEIGHT_POWER));
+                if x.starts_with("knee=") {
+                    *w = furuta::parametric::map_row_weight(v, o.fit.embed, w.power);
+                } else {
+                    w.power = v;
+                }
+            }
             x => return Err(format!("unknown modifier {x}").into()),
         }
     }
@@ -481,6 +494,99 @@ fn ratefun(args: &[String]) -> R {
     Ok(())
 }
 
+/// `cuts [--conn] [--steps] [--spline] VARIANT...`: issue 11's cut sensitivity in one process:
+/// the training runs of every variant simulated once (`TrainingRuns`, as the report), then
+/// per variant the shared-tangent map's torus continuation on the full report's grid
+/// (31.3-32.0 ms by 0.05, 16,000 periods; linear in dt, `--spline` also spline): growth onset
+/// and loss bracket; `--steps` each step's rho, spreads and growth rate; `--conn` the map's
+/// saddle connection (the report's range 31.0-32.0, 6 points, 0.005 ms). Variants whose runs
+/// differ (modifiers adding starts) are simulated on their own.
+fn cuts(args: &[String]) -> R {
+    use furuta::map_global::{ConnectionOptions, map_connection, map_torus_continuation};
+    use furuta::parametric::TrainingRuns;
+    let (mut conn, mut steps, mut spline) = (false, false, false);
+    let mut names = Vec::new();
+    for a in args {
+        match a.as_str() {
+            "--conn" => conn = true,
+            "--steps" => steps = true,
+            "--spline" => spline = true,
+            x => names.push(x.to_string()),
+        }
+    }
+    let opts: Vec<FurutaOptions> = names.iter().map(|n| variant(n)).collect::<Result<_, _>>()?;
+    let (t0, c0) = (std::time::Instant::now(), cpu_s());
+    let refs: Vec<&FurutaOptions> = opts.iter().collect();
+    let runs = TrainingRuns::simulate(&refs)?;
+    println!("training runs: {:.1} s wall {:.1} s CPU", t0.elapsed().as_secs_f64(), cpu_s() - c0);
+    let dts: Vec<f64> = (0..=14).map(|k| ((31.3 + 0.05 * k as f64) * 1e4).round() / 1e4).collect();
+    let interps: &[ssm::interp::Interp] = if spline { &[ssm::interp::Interp::Linear, ssm::interp::Interp::Spline] } else { &[ssm::interp::Interp::Linear] };
+    for (name, o) in names.iter().zip(&opts) {
+        let (t1, c1) = (std::time::Instant::now(), cpu_s());
+        let sm = match furuta::shared_tangent::shared_parametric_from(o, &runs) {
+            Ok(sm) => sm,
+            Err(e) => {
+                println!("{name}: not fitted ({e})");
+                continue;
+            }
+        };
+        let fit_s = cpu_s() - c1;
+        for &interp in interps {
+            let c2 = cpu_s();
+            let tc = map_torus_continuation(|dt| Ok(sm.model_at(dt, interp)?), &dts, [0.097, 0.0277], 16_000)?;
+            let tor_s = cpu_s() - c2;
+            let c = if conn {
+                let c3 = cpu_s();
+                let m = map_connection(|dt| Ok(sm.model_at(dt, interp)?), 31.0, 32.0, 6, 0.005, &ConnectionOptions::default());
+                format!("connection {:?} ({:.1} s CPU)", m.map(|m| m.switch.bracket).map_err(|e| e.to_string()), cpu_s() - c3)
+            } else {
+                String::new()
+            };
+            println!(
+                "{name:<40} {interp:?}: onset {} lost {:?}{} {c} (fit {fit_s:.1} s, torus {tor_s:.1} s CPU, {:.0} s wall)",
+                tc.growth_onset.map_or("none".into(), |v| format!("{v:.4}")),
+                tc.lost_between,
+                if tc.lost_at_first_dt() { " (at the first dt)" } else { "" },
+                t1.elapsed().as_secs_f64()
+            );
+            if steps {
+                for s in &tc.steps {
+                    println!(
+                        "   {:6.2} rho {:?} spreads {:?} / {:?} rate {:?} noise {:?} lost {} esc {:?}",
+                        s.dt_ms, s.rho.map(|r| [(r[0] * 1e4).round() / 1e4, (r[1] * 1e4).round() / 1e4]), s.spread_mid, s.spread_last, s.growth_rate, s.rate_noise, s.lost, s.escape_t
+                    );
+                }
+            }
+        }
+    }
+    Ok(())
+}
+
+/// `bands VARIANT`: training samples per band of the envelope of |theta| (max over +-37
+/// samples, about one slow period), per training period and in all.
+fn bands(args: &[String]) -> R {
+    let o = variant(args.first().map_or("default", String::as_str))?;
+    let edges = [0.0, 0.01, 0.03, 0.05, 0.08, 0.11, 0.15, 0.2, 0.25, 0.3, 1.0];
+    let mut all = vec![0usize; edges.len() - 1];
+    for &dt in &o.dts_ms {
+        let ser = furuta::parametric::training_series(&o, dt)?;
+        let mut c = vec![0usize; edges.len() - 1];
+        for s in &ser {
+            let n = s.x.len();
+            for i in 0..n {
+                let e = s.x[i.saturating_sub(37)..(i + 38).min(n)].iter().fold(0.0f64, |m, v| m.max(v.abs()));
+                if let Some(b) = edges.windows(2).position(|w| e >= w[0] && e < w[1]) {
+                    c[b] += 1;
+                }
+            }
+        }
+        println!("{dt:5.2} ms: {c:?}");
+        all.iter_mut().zip(&c).for_each(|(a, b)| *a += b);
+    }
+    println!("edges {edges:?}\nall: {all:?}");
+    Ok(())
+}
+
 fn main() -> R {
     let args: Vec<String> = std::env::args().skip(1).collect();
     match args.first().map(String::as_str) {
@@ -495,6 +601,8 @@ fn main() -> R {
         Some("coeffs") => coeffs(&args[1..]),
         Some("maptorus") => maptorus(&args[1..]),
         Some("ratefun") => ratefun(&args[1..]),
+        Some("cuts") => cuts(&args[1..]),
+        Some("bands") => bands(&args[1..]),
         _ => Err("subcommands: convergence ORDER DT... | cycles MODE ORDER DT...".into()),
     }
 }

@@ -309,6 +309,12 @@ pub struct TorusStep {
     /// / spread_mid)` over the time between the two thirds (bounded runs only; negative:
     /// decaying, the torus attracts; positive: growing).
     pub growth_rate: Option<f64>,
+    /// The growth rate's noise floor (1/s): half the difference between the rates measured
+    /// the same way on the two halves of the measured span (sixths 3 -> 4 and 5 -> 6 of the
+    /// run, each over a sixth's time). A rate within +-this is neither growth nor decay for
+    /// [`TorusContinuation::growth_onset`]. `None` when a sixth is shorter than the amplitude
+    /// window or a spread is zero (then the floor is 0).
+    pub rate_noise: Option<f64>,
     /// The torus stopped attracting here ([`TORUS_GROWTH`] rule).
     pub lost: bool,
 }
@@ -334,10 +340,12 @@ pub struct TorusContinuation {
     /// never lost on the grid or lost at the first dt.
     pub lost_between: Option<(f64, f64)>,
     /// Where the oscillation about the torus stops decaying: the zero of
-    /// [`TorusStep::growth_rate`], linear in dt between the last step with a negative rate and
-    /// the first with a positive one (the torus's linear stability; a subcritical loss shows
-    /// it before the growth is large enough for [`TorusStep::lost`] within the run). `None`
-    /// when no step grows, the first does, or the first that does not decay escaped.
+    /// [`TorusStep::growth_rate`], linear in dt between the last step that decays (rate below
+    /// minus its [`TorusStep::rate_noise`]) and the first that grows (rate above its noise, or
+    /// lost); steps within their noise floor between them decide nothing (the torus's linear
+    /// stability; a subcritical loss shows it before the growth is large enough for
+    /// [`TorusStep::lost`] within the run). `None` when no step grows, none decays before the
+    /// first that grows, or that one escaped.
     pub growth_onset: Option<f64>,
 }
 
@@ -348,13 +356,16 @@ impl TorusContinuation {
             Some(i) if i > 0 => Some((steps[i - 1].dt_ms, steps[i].dt_ms)),
             _ => None,
         };
-        let growth_onset = match steps.iter().position(|s| s.lost || s.growth_rate.is_none_or(|r| r > 0.0)) {
-            Some(i) if i > 0 => match (steps[i - 1].growth_rate, steps[i].growth_rate) {
-                (Some(a), Some(b)) if a <= 0.0 && b > 0.0 => Some(steps[i - 1].dt_ms + (steps[i].dt_ms - steps[i - 1].dt_ms) * (-a) / (b - a)),
+        let floor = |s: &TorusStep| s.rate_noise.unwrap_or(0.0);
+        let grows = |s: &TorusStep| s.lost || s.growth_rate.is_none_or(|r| r > floor(s));
+        let decays = |s: &TorusStep| !s.lost && s.growth_rate.is_some_and(|r| r < -floor(s));
+        let growth_onset = steps.iter().position(grows).and_then(|i| {
+            let j = steps[..i].iter().rposition(decays)?;
+            match (steps[j].growth_rate, steps[i].growth_rate) {
+                (Some(a), Some(b)) if a < 0.0 && b > 0.0 => Some(steps[j].dt_ms + (steps[i].dt_ms - steps[j].dt_ms) * (-a) / (b - a)),
                 _ => None,
-            },
-            _ => None,
-        };
+            }
+        });
         TorusContinuation { start_rho, periods, steps, lost_between, growth_onset }
     }
 
@@ -374,9 +385,10 @@ impl TorusContinuation {
 /// when a band has no peak) over the middle and the last third of the run: `rho` is the mean
 /// over the last third, and the torus is lost when `rho_1`'s spread over the last third is
 /// above [`TORUS_GROWTH`] times that over the middle third and above [`TORUS_SPREAD_MIN`];
-/// the growth rate is the log ratio of the two spreads over the time between the thirds.
+/// the growth rate is the log ratio of the two spreads over the time between the thirds, its
+/// noise floor the half difference of that rate on the two halves of the measured span.
 pub fn torus_step(dt_ms: f64, theta: &[f64], sample_dt: f64, escape_t: Option<f64>) -> Result<TorusStep, Error> {
-    let mut step = TorusStep { dt_ms, escape_t, rho: None, spread_mid: None, spread_last: None, growth_rate: None, lost: true };
+    let mut step = TorusStep { dt_ms, escape_t, rho: None, spread_mid: None, spread_last: None, growth_rate: None, rate_noise: None, lost: true };
     if escape_t.is_some() {
         return Ok(step);
     }
@@ -411,6 +423,21 @@ pub fn torus_step(dt_ms: f64, theta: &[f64], sample_dt: f64, escape_t: Option<f6
     step.spread_last = Some(sl);
     // The thirds' starts are n / 3 samples apart.
     step.growth_rate = (sm > 0.0 && sl > 0.0).then(|| (sl / sm).ln() / ((n / 3) as f64 * sample_dt));
+    // The same rate on each half of the measured span (the last two thirds), sixth to sixth.
+    let sixth = |k: usize| -> Result<Option<f64>, Error> {
+        let a = amps(&theta[k * n / 6..(k + 1) * n / 6])?;
+        Ok((!a.is_empty()).then(|| spread(&a)))
+    };
+    let half_rate = |k: usize| -> Result<Option<f64>, Error> {
+        Ok(match (sixth(k)?, sixth(k + 1)?) {
+            (Some(a), Some(b)) if a > 0.0 && b > 0.0 => Some((b / a).ln() / ((n / 6) as f64 * sample_dt)),
+            _ => None,
+        })
+    };
+    step.rate_noise = match (half_rate(2)?, half_rate(4)?) {
+        (Some(a), Some(b)) => Some(0.5 * (a - b).abs()),
+        _ => None,
+    };
     step.lost = sl > TORUS_GROWTH * sm && sl > TORUS_SPREAD_MIN;
     Ok(step)
 }
@@ -574,6 +601,9 @@ mod tests {
         // rho_1 = 0.08 e^{0.004 t} rises monotonically: the spreads' ratio is e^{0.004 T/3}.
         let g = growing.growth_rate.unwrap();
         assert!((g / 0.004 - 1.0).abs() < 0.02, "{g}");
+        // Its halves measure the same rate: the noise floor is a small part of it.
+        let gn = growing.rate_noise.unwrap();
+        assert!(gn < 0.05 * g, "noise {gn} vs rate {g}");
         let decaying = torus_step(dt_ms, &series(&|t| 0.1 + 0.03 * (-0.01 * t).exp() * (0.05 * std::f64::consts::TAU * t).sin()), h, None).unwrap();
         eprintln!("{decaying:?}");
         assert!(!decaying.lost && decaying.spread_last.unwrap() < decaying.spread_mid.unwrap() && decaying.spread_last.unwrap() > TORUS_SPREAD_MIN, "{decaying:?}");
@@ -582,18 +612,42 @@ mod tests {
         let d = decaying.growth_rate.unwrap();
         assert!((-0.012..-0.008).contains(&d), "{d}");
         assert_eq!(steady.growth_rate.map(f64::is_finite), Some(true));
+        assert_eq!(steady.rate_noise.map(f64::is_finite), Some(true));
+        // A growth that speeds up (0.002/s in the first half of the measured span, samples
+        // 2666..5333, 0.006/s in the second): the halves disagree by 0.004/s, the floor is
+        // half that.
+        let t_half = 5333.0 * h;
+        let kinked = torus_step(dt_ms, &series(&|t| 0.08 * if t < t_half { (0.002 * t).exp() } else { (0.002 * t_half + 0.006 * (t - t_half)).exp() }), h, None).unwrap();
+        eprintln!("{kinked:?}");
+        let kn = kinked.rate_noise.unwrap();
+        assert!((kn / 0.002 - 1.0).abs() < 0.1, "{kn}");
         let escaped = torus_step(dt_ms, &[0.1; 10], h, Some(12.5)).unwrap();
-        assert!(escaped.lost && escaped.rho.is_none() && escaped.escape_t == Some(12.5) && escaped.growth_rate.is_none());
+        assert!(escaped.lost && escaped.rho.is_none() && escaped.escape_t == Some(12.5) && escaped.growth_rate.is_none() && escaped.rate_noise.is_none());
         assert!(matches!(torus_step(dt_ms, &[f64::NAN; 3000], h, None), Err(Error::BadInput { what: "theta", .. })));
         assert!(matches!(torus_step(dt_ms, &[0.0; 30], h, None), Err(Error::BadInput { what: "periods", .. })));
     }
 
     /// The onset is the zero of the growth rate, linear in dt between the last decaying and
     /// the first growing step; none when the first step grows or the first non-decaying one
-    /// escaped.
+    /// escaped. A rate within its noise floor neither grows nor decays.
     #[test]
     fn growth_onset_interpolates_the_rate_zero() {
-        let step = |dt_ms: f64, g: Option<f64>, lost: bool| TorusStep { dt_ms, escape_t: None, rho: None, spread_mid: None, spread_last: None, growth_rate: g, lost };
+        let step = |dt_ms: f64, g: Option<f64>, lost: bool| TorusStep { dt_ms, escape_t: None, rho: None, spread_mid: None, spread_last: None, growth_rate: g, rate_noise: None, lost };
+        let noisy = |dt_ms: f64, g: f64, noise: f64| TorusStep { rate_noise: Some(noise), ..step(dt_ms, Some(g), false) };
+        // Without a floor a rate of 1e-9 is growth; with a floor of 1e-5 it decides nothing,
+        // and the zero is interpolated between its neighbours (31.65 + 0.1 * 3/7).
+        let tiny = |s: TorusStep| TorusContinuation::from_steps([0.1, 0.03], 100, vec![step(31.6, Some(-5e-4), false), step(31.65, Some(-3e-4), false), s, step(31.75, Some(4e-4), false)]);
+        assert!((tiny(step(31.7, Some(1e-9), false)).growth_onset.unwrap() - (31.65 + 0.05 * 3e-4 / (3e-4 + 1e-9))).abs() < 1e-12);
+        assert!((tiny(noisy(31.7, 1e-9, 1e-5)).growth_onset.unwrap() - (31.65 + 0.1 * 3.0 / 7.0)).abs() < 1e-12);
+        // So does a decay within its floor; a decay beyond it counts.
+        assert!((tiny(noisy(31.7, -2e-4, 3e-4)).growth_onset.unwrap() - (31.65 + 0.1 * 3.0 / 7.0)).abs() < 1e-12);
+        assert!((tiny(noisy(31.7, -2e-4, 1e-4)).growth_onset.unwrap() - (31.7 + 0.05 * 2.0 / 6.0)).abs() < 1e-12);
+        // A growth within its floor is not the onset; the next step's is.
+        let c = TorusContinuation::from_steps([0.1, 0.03], 100, vec![step(31.6, Some(-3e-4), false), noisy(31.7, 2e-4, 5e-4), noisy(31.8, 6e-4, 1e-4)]);
+        assert!((c.growth_onset.unwrap() - (31.6 + 0.2 * 3.0 / 9.0)).abs() < 1e-12, "{:?}", c.growth_onset);
+        // Nothing decays beyond its floor before the growth: no onset.
+        let c = TorusContinuation::from_steps([0.1, 0.03], 100, vec![noisy(31.6, -1e-4, 2e-4), noisy(31.7, 6e-4, 1e-4)]);
+        assert_eq!(c.growth_onset, None);
         let c = TorusContinuation::from_steps([0.1, 0.03], 100, vec![step(31.6, Some(-3e-4), false), step(31.7, Some(-1e-4), false), step(31.75, Some(3e-4), false), step(31.8, Some(1e-3), true)]);
         assert_eq!(c.lost_between, Some((31.75, 31.8)));
         let on = c.growth_onset.unwrap();

@@ -21,6 +21,7 @@ use ssm::fit::{FitOptions, SsmModel, fit};
 use ssm::interp::{Interp, interp_weights};
 use ssm::normal_form::{NormalFormOptions, NormalFormTable, PolarNormalForm, model_normal_form};
 use ssm::ridge::Ridge;
+use ssm::RowWeight;
 use sim::scene::SceneBuilder;
 use sim::closed_loop::simulate;
 use sim::stability::{StabilityError, dominant_pairs};
@@ -47,10 +48,46 @@ pub struct FurutaOptions {
     pub slow_starts: Vec<(f64, f64)>,
     /// SSM fit options (dim must be 4, dynamics a polynomial map).
     pub fit: FitOptions,
+    /// Row weight of the shared-tangent fitted map's regression
+    /// ([`crate::shared_tangent`]; the per-period normal-form fits do not use it), knee in
+    /// `||eta||` (see [`map_row_weight`]). `None`: unweighted.
+    #[serde(default)]
+    pub map_weight: Option<RowWeight>,
 }
+
+/// The fitted map's row weight whose knee is the `||eta||` of a theta oscillation of
+/// amplitude `knee_theta` (rad) over `embed` delays (`knee_theta * sqrt(embed / 2)`, the
+/// norm of a sampled sinusoid's delay vector; `eta = V1^T y` keeps the norm of on-manifold
+/// points), steepness `power` (see [`RowWeight`]).
+pub fn map_row_weight(knee_theta: f64, embed: usize, power: f64) -> RowWeight {
+    RowWeight { knee: knee_theta * (embed as f64 / 2.0).sqrt(), power }
+}
+
+/// The default fitted map's weight knee (rad of theta): where the training runs at 32 and
+/// 32.5 ms leave the slow saddle cycle (theta first harmonic 0.15-0.18 rad at 30.5-32.5 ms,
+/// plus the fast mode) on their way out. Pairs beyond it weigh `(knee / env)^32`: runs cut at
+/// 0.3 rad instead of 0.2 then fit nearly the same map (issue 11; `MAP_WEIGHT_POWER`).
+pub const MAP_WEIGHT_KNEE_THETA: f64 = 0.2;
+
+/// Steepness of the default fitted map's weight (power 16 at the same knee left the runs cut
+/// at 0.3 rad losing the torus 0.25 ms early).
+pub const MAP_WEIGHT_POWER: f64 = 32.0;
 
 impl Default for FurutaOptions {
     fn default() -> Self {
+        let fit = FitOptions {
+            dim: 4,
+            embed: 21,
+            shift: 1,
+            manifold_order: 3,
+            dyn_order: 7,
+            dynamics: Dynamics::Map,
+            ridge: Ridge::Fixed(0.0),
+            // Linear part from the pairs within 1 % of the largest |eta|: over the whole
+            // range the rates trade against the order-7 terms (slow rate -3.5 % at 32 ms,
+            // -14 % at 32.5 ms without, runs cut at 0.3 rad; within 0.05 % with).
+            linear_anchor: Some(0.01), anchor_joint: false,
+        };
         FurutaOptions {
             dts_ms: vec![30.5, 31.0, 32.0, 32.5],
             initial_states: vec![
@@ -73,19 +110,8 @@ impl Default for FurutaOptions {
             max_theta: 0.2,
             // Slow-eigenvector starts: the slow mode is otherwise swamped by the fast one.
             slow_starts: vec![(0.002, 0.0), (0.002, std::f64::consts::FRAC_PI_2), (0.004, 0.7), (0.008, 2.3)],
-            fit: FitOptions {
-                dim: 4,
-                embed: 21,
-                shift: 1,
-                manifold_order: 3,
-                dyn_order: 7,
-                dynamics: Dynamics::Map,
-                ridge: Ridge::Fixed(0.0),
-                // Linear part from the pairs within 1 % of the largest |eta|: over the whole
-                // range the rates trade against the order-7 terms (slow rate -3.5 % at 32 ms,
-                // -14 % at 32.5 ms without, runs cut at 0.3 rad; within 0.05 % with).
-                linear_anchor: Some(0.01), anchor_joint: false,
-            },
+            map_weight: Some(map_row_weight(MAP_WEIGHT_KNEE_THETA, fit.embed, MAP_WEIGHT_POWER)),
+            fit,
         }
     }
 }

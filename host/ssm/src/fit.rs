@@ -8,7 +8,7 @@
 use serde::{Deserialize, Serialize};
 
 use super::data::{MultiSeries, TimeSeries, check_same_observables};
-use super::dynamics::{Dynamics, EtaTrajectory, MAP_DT_RTOL, ReducedDynamics, StepScratch};
+use super::dynamics::{Dynamics, EtaTrajectory, MAP_DT_RTOL, ReducedDynamics, RowWeight, StepScratch};
 use super::embed::{delay_embed_multi, embedded_len};
 use super::error::FitError;
 use super::manifold::Manifold;
@@ -249,7 +249,7 @@ impl Prediction {
 
 /// Fits an SSM-reduced model to training series `train` (each validated again here).
 pub fn fit(train: &[TimeSeries], opts: &FitOptions) -> Result<SsmModel, FitError> {
-    fit_impl(&as_multi(train)?, opts, None)
+    fit_impl(&as_multi(train)?, opts, None, None)
 }
 
 /// Fits an SSM-reduced model to trajectories of several observables (each validated again
@@ -257,7 +257,7 @@ pub fn fit(train: &[TimeSeries], opts: &FitOptions) -> Result<SsmModel, FitError
 /// observable are stacked (see [`crate::embed`]), and predictions and NMTE are over all
 /// observables.
 pub fn fit_multi(train: &[MultiSeries], opts: &FitOptions) -> Result<SsmModel, FitError> {
-    fit_impl(train, opts, None)
+    fit_impl(train, opts, None, None)
 }
 
 /// Scalar series as one-observable trajectories, each validated as a scalar series first
@@ -278,7 +278,14 @@ fn as_multi(train: &[TimeSeries]) -> Result<Vec<MultiSeries>, FitError> {
 /// `v1` share their reduced coordinates `eta = V1^T y`, so their coefficients can be
 /// compared and interpolated.
 pub fn fit_with_tangent(train: &[TimeSeries], opts: &FitOptions, v1: &[f64]) -> Result<SsmModel, FitError> {
-    fit_impl(&as_multi(train)?, opts, Some(v1))
+    fit_impl(&as_multi(train)?, opts, Some(v1), None)
+}
+
+/// [`fit_with_tangent`] with the reduced dynamics' regression rows weighted by `weight`
+/// ([`ReducedDynamics::fit_weighted`]; `None`: [`fit_with_tangent`]). The weight is training
+/// metadata: the model's `options` do not record it.
+pub fn fit_with_tangent_weighted(train: &[TimeSeries], opts: &FitOptions, v1: &[f64], weight: Option<&RowWeight>) -> Result<SsmModel, FitError> {
+    fit_impl(&as_multi(train)?, opts, Some(v1), weight)
 }
 
 /// Delay embeddings (`p x M_i`) and sampling steps of validated training series.
@@ -308,7 +315,7 @@ pub fn embed_training_multi(train: &[MultiSeries], opts: &FitOptions) -> Result<
     Ok((ys, dts))
 }
 
-fn fit_impl(train: &[MultiSeries], opts: &FitOptions, v1: Option<&[f64]>) -> Result<SsmModel, FitError> {
+fn fit_impl(train: &[MultiSeries], opts: &FitOptions, v1: Option<&[f64]>, weight: Option<&RowWeight>) -> Result<SsmModel, FitError> {
     let (ys, dts) = embed_training_multi(train, opts)?;
     let manifold = match v1 {
         None => Manifold::fit(&ys, opts.dim, opts.manifold_order, opts.ridge)?,
@@ -317,7 +324,7 @@ fn fit_impl(train: &[MultiSeries], opts: &FitOptions, v1: Option<&[f64]>) -> Res
     let etas: Vec<_> = ys.iter().map(|y| manifold.reduce_points(y.as_ref())).collect();
     let trajs: Vec<EtaTrajectory> =
         etas.iter().zip(&dts).map(|(e, &dt)| EtaTrajectory { eta: e.as_ref(), dt }).collect();
-    let dynamics = ReducedDynamics::fit_with(&trajs, opts.dynamics, opts.dyn_order, opts.ridge, opts.linear_anchor, opts.anchor_joint)?;
+    let dynamics = ReducedDynamics::fit_weighted(&trajs, opts.dynamics, opts.dyn_order, opts.ridge, opts.linear_anchor, opts.anchor_joint, weight)?;
     let eigenvalues_ct = dynamics.eigenvalues_ct()?;
     let eta_range = super::dynamics::eta_scale(&trajs);
     let dt = dts.iter().sum::<f64>() / dts.len() as f64;

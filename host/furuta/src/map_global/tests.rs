@@ -140,6 +140,36 @@ fn map_torus_continuation_loses_the_torus_on_the_grid() {
     assert!(matches!(map_torus_continuation(at, &[31.5, 31.4], [0.1, 0.03], 100), Err(Error::BadInput { what: "dts_ms", .. })));
 }
 
+/// Issue 11: the fitted map's torus does not depend on the training cut. Runs cut at 0.3
+/// rad (past the slow saddle cycle at 32 and 32.5 ms) fitted with the default row weight
+/// (`FurutaOptions::map_weight`) lose the torus where the default's map does; unweighted they
+/// lose it far earlier. Continuation on the report's quick grid (31.4-32.0 ms by 0.1, 8,000
+/// periods), linear in dt.
+#[test]
+fn map_torus_does_not_depend_on_the_training_cut() {
+    use crate::parametric::TrainingRuns;
+    use crate::shared_tangent::shared_parametric_from;
+    let base = FurutaOptions::default();
+    let cut = FurutaOptions { max_theta: 0.3, ..base.clone() };
+    let raw = FurutaOptions { map_weight: None, ..cut.clone() };
+    let runs = TrainingRuns::simulate(&[&base, &cut]).unwrap();
+    let dts: Vec<f64> = (0..=6).map(|k| ((31.4 + 0.1 * k as f64) * 1e4).round() / 1e4).collect();
+    let cont = |o: &FurutaOptions| {
+        let sm = shared_parametric_from(o, &runs).unwrap();
+        map_torus_continuation(|dt| Ok(sm.model_at(dt, Interp::Linear)?), &dts, [0.097, 0.0277], 8000).unwrap()
+    };
+    let (b, c, r) = (cont(&base), cont(&cut), cont(&raw));
+    for (name, t) in [("default", &b), ("cut 0.3", &c), ("cut 0.3 unweighted", &r)] {
+        eprintln!("{name}: onset {:?}, lost {:?}, first dt lost {}", t.growth_onset, t.lost_between, t.lost_at_first_dt());
+    }
+    let (ob, oc) = (b.growth_onset.unwrap(), c.growth_onset.unwrap());
+    assert!((ob - oc).abs() <= 0.1, "onsets {ob} vs {oc}");
+    let mid = |t: &crate::basin::TorusContinuation| t.lost_between.map(|(x, y)| 0.5 * (x + y));
+    let (lb, lc) = (mid(&b).unwrap(), mid(&c).unwrap());
+    assert!((lb - lc).abs() <= 0.1 + 1e-9, "lost at {lb} vs {lc}");
+    assert!(r.lost_at_first_dt() || mid(&r).is_some_and(|l| l < lb - 0.2), "unweighted: {:?}", r.lost_between);
+}
+
 /// Options are checked before anything is computed.
 #[test]
 fn bad_connection_options_are_refused() {

@@ -238,8 +238,9 @@ fn map_variants_table(rep: &mut Report, c: &Computed) {
     let sp = |k: &str| spreads[k]["spread_ms"].as_f64().map_or("-".to_string(), |x| format!("{x:.3}"));
     rep.para(&format!(
         "The fitted map over the training variants of the sensitivity study: each variant's runs refitted into the \
-         shared-tangent model and read by the same rules as the default's (saddle connection by the pushed fast cycle; \
-         torus continuation, lost bracket and growth onset). Spread (max - min over the rows where found) of the \
+         shared-tangent model (its regression rows weighted by the default's smooth amplitude cut, FurutaOptions::map_weight, \
+         so runs kept past the slow saddle cycle do not bend the map near the torus) and read by the same rules as the \
+         default's (saddle connection by the pushed fast cycle; torus continuation, lost bracket and growth onset). Spread (max - min over the rows where found) of the \
          connection: {} ms linear, {} ms spline; of the torus growth onset: {} / {} ms; of the torus-loss bracket's \
          midpoint: {} / {} ms (rows without the value, e.g. a torus already lost at the grid's first dt, are left \
          out). Target (issue 11): 0.1 ms.",
@@ -542,7 +543,7 @@ fn equation_section(rep: &mut Report, pm: &ParametricModel, bif: &ModelBifurcati
         );
         h.insert(
             "growth_onset_rule".into(),
-            json!("zero of the steps' growth rate ln(spread_last / spread_mid) / (a third of the run), linear in dt between the last decaying and the first growing step; same continuation for the map and the full system"),
+            json!("zero of the steps' growth rate ln(spread_last / spread_mid) / (a third of the run), linear in dt between the last decaying and the first growing step; a rate within its noise floor (rate_noise: half the difference of the same rate on the two halves of the measured span) neither grows nor decays; same continuation for the map and the full system"),
         );
         h.insert(
             "continuation_fix".into(),
