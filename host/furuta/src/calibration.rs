@@ -34,9 +34,9 @@ pub struct FlagSampling {
 }
 
 /// traj_8 at step 4 (measured by `model_selection::data_stats`; checked against the data in
-/// the tests): 1,973 samples, lag 11, Theiler window 38, noise sd 0.00186 over the series sd
-/// 0.4176 (the tip deflection at the full frame rate).
-pub const FLAG_SAMPLING: FlagSampling = FlagSampling { samples: 1973, lag: 11, theiler: 38, noise_rel: 0.00186 / 0.4176 };
+/// the tests): 1,973 samples, lag 11, Theiler window 38, noise sd 0.001759 over the series sd
+/// 0.5487 (the tip deflection at the full frame rate).
+pub const FLAG_SAMPLING: FlagSampling = FlagSampling { samples: 1973, lag: 11, theiler: 38, noise_rel: 0.001759 / 0.5487 };
 
 /// A smooth system sampled at a fixed step: `advance` moves state and tangent one sample.
 trait Sampled: Sync {
@@ -243,7 +243,15 @@ impl Sampled for MackeyGlass {
     }
 }
 
-/// The systems of [`calibration_rows`], in report order.
+fn lorenz96(n: usize, f: f64, name: &'static str) -> Box<dyn Sampled> {
+    let mut x0 = vec![f; n];
+    x0[0] += 0.01;
+    Box::new(FlowSystem { flow: Lorenz96 { n, f }, name, observable: "x1", obs: 0, x0, max_h: 0.005, fine_dt: 0.005 })
+}
+
+/// The systems of [`calibration_rows`], in report order: first those whose exponent per lag
+/// time is at most 0.21 (D2 2.1-2.7), then Lorenz-96 at growing chaos per lag time (0.25 to
+/// 0.81, D2 3.5-4.4), the range of the flag (0.49 at its Rosenstein value).
 fn systems() -> Vec<Box<dyn Sampled>> {
     vec![
         Box::new(FlowSystem { flow: Rossler, name: "Rössler", observable: "x", obs: 0, x0: vec![1.0, 1.0, 1.0], max_h: 0.02, fine_dt: 0.03 }),
@@ -257,8 +265,13 @@ fn systems() -> Vec<Box<dyn Sampled>> {
             max_h: 0.005,
             fine_dt: 0.03,
         }),
-        Box::new(FlowSystem { flow: Lorenz96 { n: 5, f: 8.0 }, name: "Lorenz-96 N = 5, F = 8", observable: "x1", obs: 0, x0: vec![8.01, 8.0, 8.0, 8.0, 8.0], max_h: 0.01, fine_dt: 0.01 }),
         Box::new(MackeyGlass { tau: 30.0, n: 300 }),
+        lorenz96(5, 8.0, "Lorenz-96 N = 5, F = 8"),
+        lorenz96(5, 9.0, "Lorenz-96 N = 5, F = 9"),
+        lorenz96(5, 10.0, "Lorenz-96 N = 5, F = 10"),
+        lorenz96(6, 9.0, "Lorenz-96 N = 6, F = 9"),
+        lorenz96(5, 20.0, "Lorenz-96 N = 5, F = 20"),
+        lorenz96(6, 10.0, "Lorenz-96 N = 6, F = 10"),
     ]
 }
 
@@ -290,6 +303,10 @@ pub struct CalibrationRow {
     /// Mean and sd over the segments of Rosenstein / exact.
     pub ratio_mean: Option<f64>,
     pub ratio_sd: Option<f64>,
+    /// Median, smallest and largest Rosenstein / exact over the segments.
+    pub ratio_median: Option<f64>,
+    pub ratio_min: Option<f64>,
+    pub ratio_max: Option<f64>,
     pub ratios: Vec<f64>,
     pub notes: Vec<String>,
 }
@@ -381,6 +398,12 @@ pub fn calibration_rows(f: &FlagSampling, noise: &[f64], segments: usize) -> Res
                 (Some(m), Some((ratios.iter().map(|r| (r - m) * (r - m)).sum::<f64>() / (n - 1) as f64).sqrt()))
             }
         };
+        let mut sorted = ratios.clone();
+        sorted.sort_by(f64::total_cmp);
+        let ratio_median = (!sorted.is_empty()).then(|| {
+            let m = sorted.len() / 2;
+            if sorted.len() % 2 == 1 { sorted[m] } else { 0.5 * (sorted[m - 1] + sorted[m]) }
+        });
         Ok(CalibrationRow {
             system: s.name().to_string(),
             observable: s.observable().to_string(),
@@ -398,9 +421,79 @@ pub fn calibration_rows(f: &FlagSampling, noise: &[f64], segments: usize) -> Res
             segments,
             ratio_mean,
             ratio_sd,
+            ratio_median,
+            ratio_min: sorted.first().copied(),
+            ratio_max: sorted.last().copied(),
             ratios,
             notes,
         })
+    })
+}
+
+
+/// Rows whose exponent per lag time is at most this are the smooth, weakly chaotic regime
+/// (Rössler, Lorenz, hyperchaotic Rössler, Mackey-Glass, Lorenz-96 5/8: 0.10-0.19).
+pub const CALM_PER_LAG: f64 = 0.22;
+
+/// What the calibration says about the flag's number.
+#[derive(Clone, Debug, Serialize)]
+pub struct CalibrationSummary {
+    /// The flag's Rosenstein exponent at the model step, 1/s, and its exponent per lag time
+    /// (`lle x lag x dt`).
+    pub data_lle: f64,
+    pub data_per_lag: f64,
+    /// Rows at the flag's noise level with exponent per lag time <= [`CALM_PER_LAG`]:
+    /// their range of mean ratios, of single-segment ratios, and the largest segment sd.
+    pub calm_mean_range: (f64, f64),
+    pub calm_segment_range: (f64, f64),
+    pub calm_segment_sd_max: f64,
+    /// The data's exponent if the estimator read it as on the calm rows (data lle over the
+    /// mean-ratio range), 1/s.
+    pub calm_implied_exponent: (f64, f64),
+    /// Rows at the flag's noise level with more chaos per lag time (the flag's regime):
+    /// the range of mean ratios and of single-segment ratios.
+    pub chaotic_mean_range: (f64, f64),
+    pub chaotic_segment_range: (f64, f64),
+    /// The data's exponent if the estimator read it as on one of these rows (data lle over
+    /// the mean-ratio range), 1/s.
+    pub chaotic_implied_exponent: (f64, f64),
+    /// Largest change of a calm row's mean ratio from no noise to the flag's noise level.
+    pub calm_noise_shift_max: f64,
+}
+
+fn range(v: impl Iterator<Item = f64>) -> (f64, f64) {
+    v.fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), x| (a.min(x), b.max(x)))
+}
+
+/// The summary of `rows` ([`calibration_rows`] with noise multiples 0 and 1 among others) for the flag's
+/// Rosenstein exponent `data_lle` at step `dt` (lag from `f`); `None` when a regime has no
+/// fitted row.
+pub fn summarize(rows: &[CalibrationRow], f: &FlagSampling, data_lle: f64, dt: f64) -> Option<CalibrationSummary> {
+    let at_flag: Vec<&CalibrationRow> = rows.iter().filter(|r| r.noise_rel == f.noise_rel && r.ratio_mean.is_some()).collect();
+    let (calm, chaotic): (Vec<&CalibrationRow>, Vec<&CalibrationRow>) = at_flag.iter().partition(|r| r.per_lag <= CALM_PER_LAG);
+    if calm.is_empty() || chaotic.is_empty() {
+        return None;
+    }
+    let calm_mean_range = range(calm.iter().filter_map(|r| r.ratio_mean));
+    let chaotic_mean_range = range(chaotic.iter().filter_map(|r| r.ratio_mean));
+    let shift = calm
+        .iter()
+        .filter_map(|r| {
+            let clean = rows.iter().find(|c| c.noise_rel == 0.0 && c.system == r.system)?;
+            Some((r.ratio_mean? - clean.ratio_mean?).abs())
+        })
+        .fold(0.0, f64::max);
+    Some(CalibrationSummary {
+        data_lle,
+        data_per_lag: data_lle * f.lag as f64 * dt,
+        calm_mean_range,
+        calm_segment_range: range(calm.iter().flat_map(|r| r.ratios.iter().copied())),
+        calm_segment_sd_max: calm.iter().filter_map(|r| r.ratio_sd).fold(0.0, f64::max),
+        calm_implied_exponent: (data_lle / calm_mean_range.1, data_lle / calm_mean_range.0),
+        chaotic_mean_range,
+        chaotic_implied_exponent: (data_lle / chaotic_mean_range.1, data_lle / chaotic_mean_range.0),
+        chaotic_segment_range: range(chaotic.iter().flat_map(|r| r.ratios.iter().copied())),
+        calm_noise_shift_max: shift,
     })
 }
 
