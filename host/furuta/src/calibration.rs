@@ -22,21 +22,24 @@ use crate::Error;
 use crate::estimator_check::{EMBED, rosenstein_as_on_data};
 use crate::model_selection::add_noise;
 
-/// How the flag's held-out series at the model step looks to the estimator: its length, the
-/// lag and Theiler window the data settings choose on it, and its measurement-noise level
-/// (the [`crate::model_selection::DataStats::noise_sd`] rule) over its standard deviation.
+/// How the flag's held-out series at the model step looks to the estimator: its sampling
+/// step (s), length, the lag and Theiler window the data settings choose on it, its
+/// measurement-noise level (the [`crate::model_selection::DataStats::noise_sd`] rule) over
+/// its standard deviation, and its Rosenstein exponent (1/s).
 #[derive(Clone, Copy, Debug, Serialize)]
 pub struct FlagSampling {
+    pub dt: f64,
     pub samples: usize,
     pub lag: usize,
     pub theiler: usize,
     pub noise_rel: f64,
+    pub lle: f64,
 }
 
 /// traj_8 at step 4 (measured by `model_selection::data_stats`; checked against the data in
 /// the tests): 1,973 samples, lag 11, Theiler window 38, noise sd 0.001759 over the series sd
-/// 0.5487 (the tip deflection at the full frame rate).
-pub const FLAG_SAMPLING: FlagSampling = FlagSampling { samples: 1973, lag: 11, theiler: 38, noise_rel: 0.001759 / 0.5487 };
+/// 0.5487 (the tip deflection at the full frame rate), Rosenstein exponent 0.3320 1/s.
+pub const FLAG_SAMPLING: FlagSampling = FlagSampling { dt: 4.0 / 30.0, samples: 1973, lag: 11, theiler: 38, noise_rel: 0.001759 / 0.5487, lle: 0.3320 };
 
 /// A smooth system sampled at a fixed step: `advance` moves state and tangent one sample.
 trait Sampled: Sync {
@@ -465,10 +468,10 @@ fn range(v: impl Iterator<Item = f64>) -> (f64, f64) {
     v.fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), x| (a.min(x), b.max(x)))
 }
 
-/// The summary of `rows` ([`calibration_rows`] with noise multiples 0 and 1 among others) for the flag's
-/// Rosenstein exponent `data_lle` at step `dt` (lag from `f`); `None` when a regime has no
-/// fitted row.
-pub fn summarize(rows: &[CalibrationRow], f: &FlagSampling, data_lle: f64, dt: f64) -> Option<CalibrationSummary> {
+/// The summary of `rows` ([`calibration_rows`] with noise multiples 0 and 1 among others) for
+/// the flag sampled as `f`; `None` when a regime has no fitted row at the flag's noise level.
+pub fn summarize(rows: &[CalibrationRow], f: &FlagSampling) -> Option<CalibrationSummary> {
+    let data_lle = f.lle;
     let at_flag: Vec<&CalibrationRow> = rows.iter().filter(|r| r.noise_rel == f.noise_rel && r.ratio_mean.is_some()).collect();
     let (calm, chaotic): (Vec<&CalibrationRow>, Vec<&CalibrationRow>) = at_flag.iter().partition(|r| r.per_lag <= CALM_PER_LAG);
     if calm.is_empty() || chaotic.is_empty() {
@@ -485,7 +488,7 @@ pub fn summarize(rows: &[CalibrationRow], f: &FlagSampling, data_lle: f64, dt: f
         .fold(0.0, f64::max);
     Some(CalibrationSummary {
         data_lle,
-        data_per_lag: data_lle * f.lag as f64 * dt,
+        data_per_lag: data_lle * f.lag as f64 * f.dt,
         calm_mean_range,
         calm_segment_range: range(calm.iter().flat_map(|r| r.ratios.iter().copied())),
         calm_segment_sd_max: calm.iter().filter_map(|r| r.ratio_sd).fold(0.0, f64::max),

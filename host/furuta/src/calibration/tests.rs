@@ -16,6 +16,7 @@ fn flag_sampling_constants_match_the_data() {
     println!("{d:?} sd {s}");
     assert_eq!((d.len, d.lag, d.theiler), (FLAG_SAMPLING.samples, FLAG_SAMPLING.lag, FLAG_SAMPLING.theiler), "{d:?}");
     assert!((d.noise_sd / s - FLAG_SAMPLING.noise_rel).abs() < 0.01 * FLAG_SAMPLING.noise_rel, "{} / {s}", d.noise_sd);
+    assert!((d.lle - FLAG_SAMPLING.lle).abs() < 1e-3 && (d.dt - FLAG_SAMPLING.dt).abs() < 1e-9, "{d:?}");
 }
 
 /// The calibration (issue 12, flag3): known exponents on the exact side; then the Rosenstein
@@ -48,7 +49,7 @@ fn calibration_on_known_answers_sampled_like_the_flag() {
         assert!((0.85..=1.10).contains(&m) && r.fitted == r.segments, "{r:?}");
         assert!((2.0..=2.9).contains(&r.corr_dim.unwrap()), "{r:?}");
     }
-    let s = summarize(&rows, &FLAG_SAMPLING, 0.332, 4.0 / 30.0).unwrap();
+    let s = summarize(&rows, &FLAG_SAMPLING).unwrap();
     assert!((s.data_per_lag - 0.487).abs() < 0.001, "{s:?}");
     assert!(s.calm_noise_shift_max < 0.1, "{s:?}");
     // One series of the flag's length: the scatter dwarfs a 5 % tolerance.
