@@ -166,6 +166,7 @@ fn explore_flag_candidates() {
         let mut o = ChaosOptions::default();
         let mut poly = false;
         let mut smooth = 0;
+        let mut denoise_inputs = 0;
         let mut kernel = ssm::Kernel::Linear;
         let mut multistep: Option<ssm::multistep::MultiStep> = None;
         let ms = |m: Option<ssm::multistep::MultiStep>| m.unwrap_or(ssm::multistep::MultiStep { horizon: 8, stride: 1, iterations: 6 });
@@ -175,6 +176,7 @@ fn explore_flag_candidates() {
                 "k" => k = v.parse().unwrap(),
                 "dyn" => poly = v == "poly",
                 "sm" => smooth = v.parse().unwrap(),
+                "eiv" => denoise_inputs = v.parse().unwrap(),
                 "kern" => kernel = ssm::Kernel::parse(v).unwrap(),
                 "ms" => multistep = Some(ssm::multistep::MultiStep { horizon: v.parse().unwrap(), ..ms(multistep) }),
                 "msit" => multistep = Some(ssm::multistep::MultiStep { iterations: v.parse().unwrap(), ..ms(multistep) }),
@@ -193,7 +195,7 @@ fn explore_flag_candidates() {
             (false, ssm::Kernel::Linear) => Dynamics::Rbf { centers: o.centers },
             (false, kernel) => Dynamics::RbfWith { centers: o.centers, kernel },
         };
-        cands.push(Candidate { name: cfg.trim().to_string(), step: k, fit: f, smooth, multistep });
+        cands.push(Candidate { name: cfg.trim().to_string(), step: k, fit: f, smooth, multistep, denoise_inputs });
     }
     let t0 = Instant::now();
     let (res, sel) = evaluate_and_select(&two, &test, &cands, &s, &Targets::default()).unwrap();

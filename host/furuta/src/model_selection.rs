@@ -42,6 +42,13 @@ pub struct Candidate {
     /// fit as it is.
     #[serde(default)]
     pub multistep: Option<ssm::multistep::MultiStep>,
+    /// Errors-in-variables fit: after the ordinary fit on the raw series, the RBF map is
+    /// fitted again on pairs whose inputs are the reduced coordinates of the training series
+    /// smoothed by a centred moving average of `2 w + 1` samples (at the full rate, before
+    /// subsampling) and whose targets are the raw series' ([`ssm::ReducedDynamics::fit_rbf_pairs`]);
+    /// 0 = off. The manifold stays the raw fit's.
+    #[serde(default)]
+    pub denoise_inputs: usize,
 }
 
 /// Settings of the evaluation (the same for every candidate).
@@ -268,6 +275,16 @@ pub fn evaluate_candidate(train: &[TimeSeries], test: &TimeSeries, c: &Candidate
             return Ok(r);
         }
     };
+    if c.denoise_inputs > 0 {
+        match refit_denoised_inputs(&mut m, &smoothed, c.step, c.denoise_inputs) {
+            Ok(()) => r.notes.push(format!("inputs denoised (moving average {}), raw targets", 2 * c.denoise_inputs + 1)),
+            Err(e @ Error::Ssm(ssm::Error::Fit(ssm::FitError::TooLarge { .. }))) => return Err(e),
+            Err(e) => {
+                r.failed = Some(format!("denoised-input refit failed: {e}"));
+                return Ok(r);
+            }
+        }
+    }
     if let Some(ms) = &c.multistep {
         match ssm::multistep::refine_model(&mut m, &train_k, ms) {
             Ok(stages) => r.notes.extend(stages.iter().map(|st| {
@@ -283,6 +300,24 @@ pub fn evaluate_candidate(train: &[TimeSeries], test: &TimeSeries, c: &Candidate
     measure(&m, &test_k, ctx, s, &mut r)?;
     r.seconds = t0.elapsed().as_secs_f64();
     Ok(r)
+}
+
+/// The errors-in-variables refit of [`Candidate::denoise_inputs`]: the RBF map of `m` fitted
+/// again with the reduced coordinates of `train` smoothed by a moving average of `2 w + 1`
+/// samples as inputs and those of `train` itself as targets, at map step `step`.
+pub fn refit_denoised_inputs(m: &mut SsmModel, train: &[TimeSeries], step: usize, w: usize) -> Result<(), Error> {
+    let smooth: Vec<TimeSeries> = train.iter().map(|t| moving_average(t, w)).collect::<Result<_, _>>()?;
+    let reduced = |series: &[TimeSeries]| -> Result<(Vec<faer::Mat<f64>>, Vec<f64>), Error> {
+        let (ys, dts) = ssm::fit::embed_training(&phase_subsamples(series, step)?, &m.options)?;
+        Ok((ys.iter().map(|y| m.manifold.reduce_points(y.as_ref())).collect(), dts))
+    };
+    let (raw, dts) = reduced(train)?;
+    let (den, _) = reduced(&smooth)?;
+    let den_t: Vec<_> = den.iter().zip(&dts).map(|(e, &dt)| ssm::dynamics::EtaTrajectory { eta: e.as_ref(), dt }).collect();
+    let raw_t: Vec<_> = raw.iter().zip(&dts).map(|(e, &dt)| ssm::dynamics::EtaTrajectory { eta: e.as_ref(), dt }).collect();
+    m.dynamics = ssm::ReducedDynamics::fit_rbf_pairs(&den_t, &raw_t, m.options.dynamics, m.options.ridge)?;
+    m.eigenvalues_ct = m.dynamics.eigenvalues_ct()?;
+    Ok(())
 }
 
 /// The measurements of [`evaluate_candidate`] on a fitted model `m` (map step = the step of
@@ -528,8 +563,15 @@ pub fn standard_candidates(o: &crate::microchaos::ChaosOptions, ssm_dim: usize, 
         let dt = ts.dt().ok_or(Error::BadInput { what: "held-out series", why: format!("{}: no sampling step", ts.name) })?;
         let ctx = Context::from_series(&ts.x, dt, o.gp_embed)?;
         let base = crate::microchaos::fit_options(o, ssm_dim, &ctx);
-        out.push(Candidate { name: format!("RBF {} /{k}", o.centers), step: k, fit: FitOptions { dynamics: ssm::Dynamics::Rbf { centers: o.centers }, ..base }, smooth: 0, multistep: None });
-        out.push(Candidate { name: format!("poly {} /{k}", o.poly_order), step: k, fit: FitOptions { dynamics: ssm::Dynamics::Map, ..base }, smooth: 0, multistep: None });
+        out.push(Candidate { name: format!("RBF {} /{k}", o.centers), step: k, fit: FitOptions { dynamics: ssm::Dynamics::Rbf { centers: o.centers }, ..base }, smooth: 0, multistep: None, denoise_inputs: 0 });
+        out.push(Candidate {
+            name: format!("poly {} /{k}", o.poly_order),
+            step: k,
+            fit: FitOptions { dynamics: ssm::Dynamics::Map, ..base },
+            smooth: 0,
+            multistep: None,
+            denoise_inputs: 0,
+        });
     }
     Ok(out)
 }
@@ -578,6 +620,7 @@ pub fn flag_candidates() -> Vec<Candidate> {
             },
             smooth: 0,
             multistep: None,
+            denoise_inputs: 0,
         })
         .collect()
 }
@@ -787,6 +830,7 @@ mod tests {
             },
             smooth: 0,
             multistep: None,
+            denoise_inputs: 0,
         }
     }
 
