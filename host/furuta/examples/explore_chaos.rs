@@ -150,7 +150,8 @@ fn explore_flag_embedding() {
 /// `CHAOS_CAND` separated by `;`, each a comma list of `key=value`: `k` map step (samples),
 /// `d` SSM dim, `p` embedding, `s` shift (samples of the subsampled series), `c` RBF centres
 /// (`dyn=poly` for the polynomial map), `o` map order, `sm` moving-average half-width of the
-/// training data, `ms` multi-step refinement horizon (map steps; `msit` LM iterations per
+/// training data, `eiv` moving-average half-width of the map inputs only (errors-in-variables
+/// refit: denoised inputs, raw targets), `ms` multi-step refinement horizon (map steps; `msit` LM iterations per
 /// stage, default 6; `msst` window stride, default 1), `r` ridge, `m` manifold order, `long`
 /// long-run length in data lengths. One line per candidate (a markdown table row), then the
 /// selection.
