@@ -13,7 +13,6 @@ fn flag_sampling_constants_match_the_data() {
     let ts = ssm::load_csv(&path).unwrap();
     let (d, _) = data_stats(&ts, 4, &EvalSettings::default()).unwrap();
     let s = sd(&ts.x);
-    println!("{d:?} sd {s}");
     assert_eq!((d.len, d.lag, d.theiler), (FLAG_SAMPLING.samples, FLAG_SAMPLING.lag, FLAG_SAMPLING.theiler), "{d:?}");
     assert!((d.noise_sd / s - FLAG_SAMPLING.noise_rel).abs() < 0.01 * FLAG_SAMPLING.noise_rel, "{} / {s}", d.noise_sd);
     assert!((d.lle - FLAG_SAMPLING.lle).abs() < 1e-3 && (d.dt - FLAG_SAMPLING.dt).abs() < 1e-9, "{d:?}");
