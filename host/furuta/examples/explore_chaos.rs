@@ -150,7 +150,8 @@ fn explore_flag_embedding() {
 /// `CHAOS_CAND` separated by `;`, each a comma list of `key=value`: `k` map step (samples),
 /// `d` SSM dim, `p` embedding, `s` shift (samples of the subsampled series), `c` RBF centres
 /// (`dyn=poly` for the polynomial map), `o` map order, `sm` moving-average half-width of the
-/// training data, `ms` multi-step refinement horizon (map steps; `msit` LM iterations per
+/// training data, `eiv` moving-average half-width of the map inputs only (errors-in-variables
+/// refit: denoised inputs, raw targets), `ms` multi-step refinement horizon (map steps; `msit` LM iterations per
 /// stage, default 6; `msst` window stride, default 1), `r` ridge, `m` manifold order, `long`
 /// long-run length in data lengths. One line per candidate (a markdown table row), then the
 /// selection.
@@ -166,6 +167,7 @@ fn explore_flag_candidates() {
         let mut o = ChaosOptions::default();
         let mut poly = false;
         let mut smooth = 0;
+        let mut denoise_inputs = 0;
         let mut kernel = ssm::Kernel::Linear;
         let mut multistep: Option<ssm::multistep::MultiStep> = None;
         let ms = |m: Option<ssm::multistep::MultiStep>| m.unwrap_or(ssm::multistep::MultiStep { horizon: 8, stride: 1, iterations: 6 });
@@ -175,6 +177,7 @@ fn explore_flag_candidates() {
                 "k" => k = v.parse().unwrap(),
                 "dyn" => poly = v == "poly",
                 "sm" => smooth = v.parse().unwrap(),
+                "eiv" => denoise_inputs = v.parse().unwrap(),
                 "kern" => kernel = ssm::Kernel::parse(v).unwrap(),
                 "ms" => multistep = Some(ssm::multistep::MultiStep { horizon: v.parse().unwrap(), ..ms(multistep) }),
                 "msit" => multistep = Some(ssm::multistep::MultiStep { iterations: v.parse().unwrap(), ..ms(multistep) }),
@@ -193,7 +196,7 @@ fn explore_flag_candidates() {
             (false, ssm::Kernel::Linear) => Dynamics::Rbf { centers: o.centers },
             (false, kernel) => Dynamics::RbfWith { centers: o.centers, kernel },
         };
-        cands.push(Candidate { name: cfg.trim().to_string(), step: k, fit: f, smooth, multistep });
+        cands.push(Candidate { name: cfg.trim().to_string(), step: k, fit: f, smooth, multistep, denoise_inputs });
     }
     let t0 = Instant::now();
     let (res, sel) = evaluate_and_select(&two, &test, &cands, &s, &Targets::default()).unwrap();

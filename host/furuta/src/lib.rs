@@ -7,6 +7,7 @@
 
 pub mod basin;
 pub mod bifurcations;
+pub mod calibration;
 pub mod chaos_tables;
 pub mod convergence;
 pub mod device_model;

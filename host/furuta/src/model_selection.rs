@@ -42,6 +42,13 @@ pub struct Candidate {
     /// fit as it is.
     #[serde(default)]
     pub multistep: Option<ssm::multistep::MultiStep>,
+    /// Errors-in-variables fit: after the ordinary fit on the raw series, the RBF map is
+    /// fitted again on pairs whose inputs are the reduced coordinates of the training series
+    /// smoothed by a centred moving average of `2 w + 1` samples (at the full rate, before
+    /// subsampling) and whose targets are the raw series' ([`ssm::ReducedDynamics::fit_rbf_pairs`]);
+    /// 0 = off. The manifold stays the raw fit's.
+    #[serde(default)]
+    pub denoise_inputs: usize,
 }
 
 /// Settings of the evaluation (the same for every candidate).
@@ -268,6 +275,16 @@ pub fn evaluate_candidate(train: &[TimeSeries], test: &TimeSeries, c: &Candidate
             return Ok(r);
         }
     };
+    if c.denoise_inputs > 0 {
+        match refit_denoised_inputs(&mut m, &smoothed, c.step, c.denoise_inputs) {
+            Ok(()) => r.notes.push(format!("inputs denoised (moving average {}), raw targets", 2 * c.denoise_inputs + 1)),
+            Err(e @ Error::Ssm(ssm::Error::Fit(ssm::FitError::TooLarge { .. }))) => return Err(e),
+            Err(e) => {
+                r.failed = Some(format!("denoised-input refit failed: {e}"));
+                return Ok(r);
+            }
+        }
+    }
     if let Some(ms) = &c.multistep {
         match ssm::multistep::refine_model(&mut m, &train_k, ms) {
             Ok(stages) => r.notes.extend(stages.iter().map(|st| {
@@ -283,6 +300,24 @@ pub fn evaluate_candidate(train: &[TimeSeries], test: &TimeSeries, c: &Candidate
     measure(&m, &test_k, ctx, s, &mut r)?;
     r.seconds = t0.elapsed().as_secs_f64();
     Ok(r)
+}
+
+/// The errors-in-variables refit of [`Candidate::denoise_inputs`]: the RBF map of `m` fitted
+/// again with the reduced coordinates of `train` smoothed by a moving average of `2 w + 1`
+/// samples as inputs and those of `train` itself as targets, at map step `step`.
+pub fn refit_denoised_inputs(m: &mut SsmModel, train: &[TimeSeries], step: usize, w: usize) -> Result<(), Error> {
+    let smooth: Vec<TimeSeries> = train.iter().map(|t| moving_average(t, w)).collect::<Result<_, _>>()?;
+    let reduced = |series: &[TimeSeries]| -> Result<(Vec<faer::Mat<f64>>, Vec<f64>), Error> {
+        let (ys, dts) = ssm::fit::embed_training(&phase_subsamples(series, step)?, &m.options)?;
+        Ok((ys.iter().map(|y| m.manifold.reduce_points(y.as_ref())).collect(), dts))
+    };
+    let (raw, dts) = reduced(train)?;
+    let (den, _) = reduced(&smooth)?;
+    let den_t: Vec<_> = den.iter().zip(&dts).map(|(e, &dt)| ssm::dynamics::EtaTrajectory { eta: e.as_ref(), dt }).collect();
+    let raw_t: Vec<_> = raw.iter().zip(&dts).map(|(e, &dt)| ssm::dynamics::EtaTrajectory { eta: e.as_ref(), dt }).collect();
+    m.dynamics = ssm::ReducedDynamics::fit_rbf_pairs(&den_t, &raw_t, m.options.dynamics, m.options.ridge)?;
+    m.eigenvalues_ct = m.dynamics.eigenvalues_ct()?;
+    Ok(())
 }
 
 /// The measurements of [`evaluate_candidate`] on a fitted model `m` (map step = the step of
@@ -528,8 +563,15 @@ pub fn standard_candidates(o: &crate::microchaos::ChaosOptions, ssm_dim: usize, 
         let dt = ts.dt().ok_or(Error::BadInput { what: "held-out series", why: format!("{}: no sampling step", ts.name) })?;
         let ctx = Context::from_series(&ts.x, dt, o.gp_embed)?;
         let base = crate::microchaos::fit_options(o, ssm_dim, &ctx);
-        out.push(Candidate { name: format!("RBF {} /{k}", o.centers), step: k, fit: FitOptions { dynamics: ssm::Dynamics::Rbf { centers: o.centers }, ..base }, smooth: 0, multistep: None });
-        out.push(Candidate { name: format!("poly {} /{k}", o.poly_order), step: k, fit: FitOptions { dynamics: ssm::Dynamics::Map, ..base }, smooth: 0, multistep: None });
+        out.push(Candidate { name: format!("RBF {} /{k}", o.centers), step: k, fit: FitOptions { dynamics: ssm::Dynamics::Rbf { centers: o.centers }, ..base }, smooth: 0, multistep: None, denoise_inputs: 0 });
+        out.push(Candidate {
+            name: format!("poly {} /{k}", o.poly_order),
+            step: k,
+            fit: FitOptions { dynamics: ssm::Dynamics::Map, ..base },
+            smooth: 0,
+            multistep: None,
+            denoise_inputs: 0,
+        });
     }
     Ok(out)
 }
@@ -578,6 +620,7 @@ pub fn flag_candidates() -> Vec<Candidate> {
             },
             smooth: 0,
             multistep: None,
+            denoise_inputs: 0,
         })
         .collect()
 }
@@ -670,7 +713,13 @@ pub const FLAG_SEARCH_HEADER: [&str; 9] =
 /// 0.114 -> 0.096 at k = 8) but from k = 8 on the model loses its chaos (Benettin <= 0,
 /// D2 0.5-1.0): the trajectory loss favours maps that contract the data's spread; at k = 4
 /// the exponents fall (Benettin 0.497 -> 0.408, Rosenstein 0.272 -> 0.170). No multistep
-/// row meets a target the one-step rows miss.
+/// row meets a target the one-step rows miss. Rows "denoised inputs w" are the
+/// errors-in-variables fit ([`Candidate::denoise_inputs`]: map inputs from the training
+/// series smoothed by a moving average of w samples at the full rate, targets raw): D2 falls
+/// to 2.2-2.8 and JS rises to 0.018-0.071 (one-step: 0.004-0.009), a moving average of 9
+/// escapes; no target met that the one-step rows miss (the flag's noise is 0.32 % of its sd,
+/// too small for the errors-in-variables shrinkage to matter; what changes is which attractor
+/// the fragile fit lands on).
 pub const FLAG_SEARCH: &[[&str; 9]] = &[
     ["k=1 d=4 p=9 s=5 m=2 c=500 r=1e-8", "0.354", "-0.145 (-0.159)", "0.239", "2.21 (3.13 ± 0.18)", "0.5144", "1.03", "not chaotic (torus or periodic)", ""],
     ["k=4 d=4 p=9 s=1 m=3 c=500 r=1e-8", "0.332", "0.142 (-0.074)", "0.120", "2.63 (3.36 ± 0.17)", "0.0088", "1.00", "chaotic", ""],
@@ -737,6 +786,14 @@ pub const FLAG_SEARCH: &[[&str; 9]] = &[
     ["k=4 d=4 p=9 s=1 m=3 c=200 r=3e-9 multistep h=8", "0.332", "-0.086 (-0.187)", "-0.006 (0.041)", "0.56 (3.36 ± 0.17)", "0.0583", "0.98", "not chaotic (torus or periodic)", "multistep k=8 (stages 2, 4, 8; stride 4; 10 LM steps each, all kept): training rollout RMS h=4 0.0163 -> 0.0158; held-out rollout 0.099 (one-step 0.115)"],
     ["k=4 d=4 p=9 s=1 m=3 c=200 r=3e-9 multistep h=16", "0.332", "-0.070 (-0.070)", "0.041 (0.115)", "0.46 (3.36 ± 0.17)", "0.7783", "1.00", "not chaotic (torus or periodic)", "multistep k=16 (stages 2, 4, 8, 16; stride 4; 10 LM steps each): held-out rollout 0.118 (one-step 0.115)"],
     ["k=4 d=4 p=9 s=1 m=3 c=300 r=3e-9 kernel thin-plate multistep h=8", "0.332", "-0.013 (-0.291)", "-0.024 (-0.001)", "1.00 (3.36 ± 0.17)", "0.0695", "0.99", "not chaotic (torus or periodic)", "multistep k=8 (stages 2, 4, 8; stride 4; 10 LM steps each, all kept): training rollout RMS h=4 0.0154 -> 0.0147; held-out rollout 0.096 (one-step 0.114)"],
+    ["k=4 d=4 p=9 s=1 m=3 c=200 r=3e-9 denoised inputs 3", "0.332", "0.435 (-0.205)", "0.174 (0.173)", "2.35 (3.36 ± 0.17)", "0.0244", "1.05", "chaotic", "errors in variables: inputs moving average 3 (full rate), raw targets; rollout 0.117"],
+    ["k=4 d=4 p=9 s=1 m=3 c=200 r=3e-9 denoised inputs 5", "0.332", "0.481 (-0.099)", "0.146 (0.145)", "2.29 (3.36 ± 0.17)", "0.0178", "1.11", "chaotic", "errors in variables: inputs moving average 5 (full rate), raw targets; rollout 0.123"],
+    ["k=4 d=4 p=9 s=1 m=3 c=200 r=3e-9 denoised inputs 9", "0.332", "- (-)", "- (-)", "- (3.36 ± 0.17)", "-", "-", "FAILED: escaped at map step 142", "errors in variables: inputs moving average 9 (full rate), raw targets; rollout 0.150"],
+    ["k=4 d=4 p=9 s=1 m=3 c=225 r=3e-9 denoised inputs 5", "0.332", "0.389 (-0.109)", "0.147 (0.147)", "2.23 (3.36 ± 0.17)", "0.0618", "1.07", "chaotic", "errors in variables: inputs moving average 5 (full rate), raw targets; rollout 0.121"],
+    ["k=4 d=4 p=9 s=1 m=3 c=250 r=1e-8 denoised inputs 5", "0.332", "0.272 (-0.130)", "0.237 (0.241)", "2.19 (3.36 ± 0.17)", "0.0561", "1.06", "chaotic", "errors in variables: inputs moving average 5 (full rate), raw targets; rollout 0.119"],
+    ["k=4 d=4 p=9 s=1 m=3 c=300 r=3e-9 denoised inputs 5", "0.332", "0.220 (-0.079)", "0.100 (0.102)", "2.17 (3.36 ± 0.17)", "0.0551", "1.07", "chaotic", "errors in variables: inputs moving average 5 (full rate), raw targets; rollout 0.118"],
+    ["k=4 d=4 p=9 s=1 m=3 c=200 r=1e-8 denoised inputs 5", "0.332", "0.317 (-0.117)", "0.181 (0.179)", "2.76 (3.36 ± 0.17)", "0.0397", "1.07", "chaotic", "errors in variables: inputs moving average 5 (full rate), raw targets; rollout 0.122"],
+    ["k=4 d=4 p=9 s=1 m=3 c=500 r=3e-9 kernel thin-plate denoised inputs 5", "0.332", "-0.058 (-0.131)", "-0.063 (-0.002)", "0.27 (3.36 ± 0.17)", "0.0714", "1.05", "not chaotic (torus or periodic)", "errors in variables: inputs moving average 5 (full rate), raw targets; rollout 0.118"],
 ];
 
 /// Evaluates every candidate (on the rayon pool, results in input order; data statistics
@@ -787,6 +844,7 @@ mod tests {
             },
             smooth: 0,
             multistep: None,
+            denoise_inputs: 0,
         }
     }
 
@@ -844,8 +902,10 @@ mod tests {
     /// and 3e-9, 225 centres at 3e-9) have Rosenstein/Benettin 0.43-0.55, outside the
     /// 0.864-1.167 where the 10 % Benettin and 5 % Rosenstein targets can hold together;
     /// if the estimator is biased on the data as on them, the data's exponent is 0.60-0.77
-    /// 1/s, not 0.332. The one-step rows inside the joint range (thin-plate kernels, map
-    /// steps 5 and 6) have Benettin exponents of only 0.15-0.20 1/s.
+    /// 1/s, not 0.332 (the calibration, `crate::calibration`, finds no such bias common to
+    /// attractors like the flag's). The one-step rows inside the joint range (thin-plate
+    /// kernels, map steps 5 and 6) have Benettin exponents of only 0.15-0.20 1/s, and one
+    /// errors-in-variables row 0.27 with D2 and JS far from the data's.
     #[test]
     fn flag_search_ratios_and_the_joint_range() {
         let (lo, hi) = joint_ratio_range(&Targets::default());
@@ -860,7 +920,60 @@ mod tests {
             assert!(r.ratio < lo, "{r:?}");
         }
         let joint: Vec<&RatioRow> = rows.iter().filter(|r| r.ratio >= lo && r.ratio <= hi).collect();
-        assert!(joint.iter().filter(|r| !r.multistep).all(|r| r.benettin < 0.21), "{joint:?}");
+        // The errors-in-variables row c=250 (Benettin 0.272, ratio 0.87) is the one joint row
+        // above 0.21; its D2 2.19 and JS 0.056 are far from the data's.
+        for r in joint.iter().filter(|r| !r.multistep) {
+            assert!(r.benettin < 0.21 || (r.candidate.contains("denoised inputs") && r.benettin < 0.28 && r.js > 0.01), "{r:?}");
+        }
+    }
+
+    /// The errors-in-variables refit on a known answer: a pure sinusoid with 20 samples per
+    /// period. A centred moving average of 5 samples scales it by
+    /// G = sin(5 pi / 20) / (5 sin(pi / 20)) = 0.9040 (in the interior), so the refitted map
+    /// takes a smoothed point to the raw next point, 1 / G = 1.106 times the smoothed next
+    /// point, where the ordinary fit (a rotation) takes it to the smoothed next point.
+    #[test]
+    fn denoised_input_refit_known_answer_on_a_sinusoid() {
+        let th = 2.0 * std::f64::consts::PI / 20.0;
+        let n = 2000;
+        let ts = TimeSeries::new("sin", (0..n).map(|k| k as f64 * 0.01).collect(), (0..n).map(|k| (th * k as f64).sin()).collect()).unwrap();
+        let opts = FitOptions {
+            dim: 2,
+            embed: 5,
+            shift: 1,
+            manifold_order: 1,
+            dyn_order: 1,
+            dynamics: Dynamics::Rbf { centers: 20 },
+            ridge: Ridge::Fixed(1e-12),
+            linear_anchor: None,
+            anchor_joint: false,
+        };
+        let plain = fit(std::slice::from_ref(&ts), &opts).unwrap();
+        let mut m = plain.clone();
+        refit_denoised_inputs(&mut m, std::slice::from_ref(&ts), 1, 2).unwrap();
+        let g = (5.0 * th / 2.0).sin() / (5.0 * (th / 2.0).sin());
+        assert!((g - 0.9040).abs() < 1e-4, "{g}");
+        let smooth = moving_average(&ts, 2).unwrap();
+        let (ys, _) = ssm::fit::embed_training(std::slice::from_ref(&smooth), &opts).unwrap();
+        let eta = m.manifold.reduce_points(ys[0].as_ref());
+        let mut sc = ssm::dynamics::StepScratch::default();
+        // RMS over interior points of |f(eta_i) - c eta_{i+1}| over the RMS radius.
+        let mut err = |model: &SsmModel, c: f64| {
+            let (mut e2, mut r2) = (0.0, 0.0);
+            for i in 100..eta.nrows() - 100 {
+                let mut e = vec![eta[(i, 0)], eta[(i, 1)]];
+                model.dynamics.step(&mut e, model.dt, &mut sc);
+                e2 += (e[0] - c * eta[(i + 1, 0)]).powi(2) + (e[1] - c * eta[(i + 1, 1)]).powi(2);
+                r2 += eta[(i, 0)].powi(2) + eta[(i, 1)].powi(2);
+            }
+            (e2 / r2).sqrt()
+        };
+        // Measured: refit 1.2e-5 from the raw next point (it interpolates its training
+        // pairs); plain 6.3e-3 from the smoothed one (its training ring is 1 / G larger: the
+        // kernel terms extrapolate inwards).
+        let (refit, plain_err, refit_wrong) = (err(&m, 1.0 / g), err(&plain, 1.0), err(&m, 1.0));
+        assert!(refit < 1e-4 && plain_err < 1e-2, "refit {refit}, plain {plain_err}");
+        assert!((refit_wrong - (1.0 / g - 1.0)).abs() < 0.01, "{refit_wrong}");
     }
 
     fn result(name: &str, b: Option<f64>, r: Option<f64>, d2: Option<f64>, js: Option<f64>, failed: Option<&str>) -> CandidateResult {

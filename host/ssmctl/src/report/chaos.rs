@@ -273,7 +273,7 @@ pub fn section(rep: &mut crate::report::Report, data_dir: &std::path::Path, quic
     for (tag, name, test, _, models) in &figs {
         chaos_figures(rep, tag, name, test, models, &ChaosOptions::default())?;
     }
-    selection_tables(rep, &selections);
+    selection_tables(rep, &selections, quick)?;
     let flag_runs: Option<Vec<TimeSeries>> = (0..10).map(|k| ssm::load_csv(flag.join(format!("traj_{k}.csv"))).ok()).collect();
     estimator_check_tables(rep, &selections, flag_runs.as_deref(), quick)?;
     Ok(())
@@ -365,7 +365,11 @@ fn estimator_check_tables(
 /// The model-selection tables: the candidates of each data set with their held-out long-term
 /// statistics and the pick, then the inverted-flag candidate search behind the flag's
 /// candidates (`explore_chaos flag-candidates`, committed in `furuta::model_selection`).
-fn selection_tables(rep: &mut crate::report::Report, selections: &[(String, Vec<furuta::model_selection::CandidateResult>, furuta::model_selection::Selection)]) {
+fn selection_tables(
+    rep: &mut crate::report::Report,
+    selections: &[(String, Vec<furuta::model_selection::CandidateResult>, furuta::model_selection::Selection)],
+    quick: bool,
+) -> Result<(), Box<dyn Error>> {
     use crate::report::esc;
     rep.para(
         "Model selection by held-out long-term statistics: each candidate is fitted on the training trajectories and run \
@@ -454,16 +458,23 @@ fn selection_tables(rep: &mut crate::report::Report, selections: &[(String, Vec<
          k-step rollout error from the ridge solution, rows with notes \"multistep\") lowers the held-out rollout \
          error (0.115 -> 0.109 at k = 4, 0.099 at k = 8) and takes the chaos away: Benettin 0.497 -> 0.408 at k = 4, \
          a torus or periodic orbit from k = 8 on (D2 0.5 to 1.0). Fitting the short term better contracts the \
-         model's spread; it does not bring the exponents to the data's.",
+         model's spread; it does not bring the exponents to the data's. (8) A noise-aware fit (errors in variables, \
+         rows \"denoised inputs w\": the RBF map refitted with inputs from the training series smoothed by a moving \
+         average of w samples at the full rate and raw targets, <code>ssm::ReducedDynamics::fit_rbf_pairs</code>) \
+         does not help: D2 falls to 2.2-2.8, JS rises to 0.018-0.071, Benettin 0.22-0.48 and Rosenstein 0.10-0.24, \
+         a moving average of 9 escapes. The flag's noise is 0.32 % of its sd, too small for the errors-in-variables \
+         shrinkage to matter; what changes is which attractor the fragile fit lands on.",
     );
-    estimator_bias(rep);
+    estimator_bias(rep, quick)
 }
 
 /// The Rosenstein estimator's bias on the chaotic candidates of the flag search
 /// ([`furuta::model_selection::flag_search_ratios`]): the ratio on the models that match the
 /// data's D2 and PDFs best, the data's exponent it implies, and the ratio range in which the
-/// two exponent targets can hold together. Summary key `flag_estimator_bias`.
-fn estimator_bias(rep: &mut crate::report::Report) {
+/// two exponent targets can hold together; then the estimator calibrated on known answers
+/// sampled like the flag ([`furuta::calibration`]). Summary key `flag_estimator_bias`
+/// (`calibration`: the sampling, the rows and their summary).
+fn estimator_bias(rep: &mut crate::report::Report, quick: bool) -> Result<(), Box<dyn Error>> {
     use furuta::model_selection::{BEST_MATCH_D2, BEST_MATCH_JS, Targets, best_matching, flag_search_ratios, joint_ratio_range};
     let rows = flag_search_ratios();
     let (lo, hi) = joint_ratio_range(&Targets::default());
@@ -495,6 +506,7 @@ fn estimator_bias(rep: &mut crate::report::Report) {
             100.0 * Targets::default().rosenstein_rel,
         ));
     }
+    let calibration = estimator_calibration(rep, quick)?;
     rep.summary.insert(
         "flag_estimator_bias".into(),
         serde_json::json!({
@@ -505,8 +517,87 @@ fn estimator_bias(rep: &mut crate::report::Report) {
             "chaotic_rows": rows.len(),
             "rows_in_joint_range": inside,
             "rows_in_joint_range_near_data_d2": inside_close,
+            "calibration": calibration,
         }),
     );
+    Ok(())
+}
+
+/// The Rosenstein estimator on known answers sampled like the flag (lag, length, noise), its
+/// table and paragraph; returns the summary's `calibration` value. Quick: 4 segments per
+/// system, else 8.
+fn estimator_calibration(rep: &mut crate::report::Report, quick: bool) -> Result<serde_json::Value, Box<dyn Error>> {
+    use furuta::calibration::{CALM_PER_LAG, FLAG_SAMPLING, calibration_rows, summarize};
+    let f = FLAG_SAMPLING;
+    let rows = calibration_rows(&f, &[0.0, 1.0], if quick { 4 } else { 8 })?;
+    let o = |v: Option<f64>, p: usize| v.map_or("-".to_string(), |v| format!("{v:.p$}"));
+    rep.para(&format!(
+        "Calibration of the estimator on known answers sampled like the flag: smooth chaotic systems with an exact \
+         largest exponent (Benettin with the exact tangent dynamics of the equations that make the series; Mackey-Glass \
+         as Heun's method on 300 delay steps, the map that makes the series), sampled so that the data settings choose \
+         the flag's lag ({} samples), cut into segments of the flag's held-out length ({} samples), with white noise at \
+         the flag's measured level ({:.2} % of the series sd) or none, through exactly the estimator and settings used \
+         on the flag. Ratio = Rosenstein / exact over the segments; nats per lag = exact x lag x dt (the flag reads \
+         {:.2} at its Rosenstein value {:.3} 1/s); D2 of the first noise-free segment with the data settings.",
+        f.lag,
+        f.samples,
+        100.0 * f.noise_rel,
+        f.lle * f.lag as f64 * f.dt,
+        f.lle
+    ));
+    let table: Vec<Vec<String>> = rows
+        .iter()
+        .map(|r| {
+            vec![
+                format!("{} ({})", r.system, r.observable),
+                format!("{:.4}", r.dt),
+                format!("{} / {}", r.lag, r.theiler),
+                format!("{:.4} ± {:.4}", r.exact, r.exact_err),
+                format!("{:.3}", r.per_lag),
+                format!("{} ± {}", o(r.corr_dim, 2), o(r.corr_dim_err, 2)),
+                format!("{:.2}", 100.0 * r.noise_rel),
+                format!("{} ± {}", o(r.ratio_mean, 2), o(r.ratio_sd, 2)),
+                o(r.ratio_median, 2),
+                format!("{} .. {}", o(r.ratio_min, 2), o(r.ratio_max, 2)),
+                format!("{} / {}", r.fitted, r.segments),
+            ]
+        })
+        .collect();
+    rep.table(
+        &["system", "dt", "lag / Theiler", "exact [1/s]", "nats per lag", "D2", "noise [% sd]", "ratio mean ± sd", "median", "range", "fitted"],
+        &table,
+    );
+    let summary = summarize(&rows, &f);
+    if let Some(s) = &summary {
+        rep.para(&format!(
+            "What the calibration says. With at most {CALM_PER_LAG} nats per lag (Rössler, Lorenz, hyperchaotic Rössler, \
+             Mackey-Glass, Lorenz-96 5/8; D2 2.1-2.7) the estimator reads {:.2} to {:.2} of the exact exponent on average, \
+             but one series of the flag's length reads {:.2} to {:.2} (segment sd up to {:.2}); the flag's noise level \
+             moves a mean by at most {:.2}. With the flag's chaos per lag (Lorenz-96 with more forcing or sites, D2 3.5-5.6) \
+             the mean ratio ranges from {:.2} to {:.2} between systems and {:.2} to {:.2} between segments. So there is no \
+             bias of about one half for attractors like the flag's: the fitted models' Rosenstein / Benettin of 0.43-0.55 \
+             is within the spread of this regime, not a law, and the data's exponent is pinned by its Rosenstein number \
+             only to {:.2}-{:.2} 1/s by the flag-regime means ({:.2}-{:.2} 1/s if it were read as in the calm regime). \
+             The two exponent targets are therefore not shown to exclude each other; but a 5 % Rosenstein target on one \
+             series of this length is far inside the estimator's own scatter, and a 10 % Benettin target against the \
+             data's Rosenstein number has no firmer reference than that number.",
+            s.calm_mean_range.0,
+            s.calm_mean_range.1,
+            s.calm_segment_range.0,
+            s.calm_segment_range.1,
+            s.calm_segment_sd_max,
+            s.calm_noise_shift_max,
+            s.chaotic_mean_range.0,
+            s.chaotic_mean_range.1,
+            s.chaotic_segment_range.0,
+            s.chaotic_segment_range.1,
+            s.chaotic_implied_exponent.0,
+            s.chaotic_implied_exponent.1,
+            s.calm_implied_exponent.0,
+            s.calm_implied_exponent.1,
+        ));
+    }
+    Ok(serde_json::json!({ "sampling": f, "rows": rows, "summary": summary }))
 }
 
 fn fmt_opt(v: Option<f64>, prec: usize) -> String {
