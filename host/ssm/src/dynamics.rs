@@ -321,7 +321,11 @@ fn place_rows(w: &mut Mat<f64>, at: usize, part: MatRef<'_, f64>) {
 /// [`poly_regression`] on the design matrix of `x` (monomials `exps`, scaled by `scale`),
 /// built here in parts so that the big regressions factorize their design matrix in its
 /// own storage ([`ridge::fit_owned`]): the same solution and conditioning, at about a
-/// third of the peak memory. The joint anchored fit takes the whole matrix.
+/// third of the peak memory. The joint anchored fit takes the whole matrix. With row
+/// factors `rows` (square roots of [`RowWeight`]'s weights) the fit is weighted: with a
+/// plain anchor the linear part stays unweighted on the anchor rows and the higher orders
+/// are weighted; the residual reported is the unweighted one of the whole fit; the joint
+/// anchor is refused.
 #[allow(clippy::too_many_arguments)]
 fn poly_fit(
     x: MatRef<'_, f64>,
@@ -339,10 +343,26 @@ fn poly_fit(
     let design = |e: &[Vec<u32>]| design_matrix(x, scale, e);
     let (d, nm) = (x.ncols(), exps.len());
     if let Some(f) = rows {
-        return weighted_poly_fit(x, scale, exps, y, groups, ridge, anchor, joint, f, what);
+        if f.len() != x.nrows() {
+            return Err(FitError::BadOption { what: "row weights", why: format!("{} factors for {} rows", f.len(), x.nrows()) });
+        }
+        if anchor.is_some() && joint {
+            return Err(FitError::BadOption { what: "row weights", why: "not supported with the joint anchor (anchor_joint)".into() });
+        }
     }
+    // Weighted least squares: the regression's rows scaled by the factors (without: as is).
+    let weigh = |m: Mat<f64>| match rows {
+        Some(f) => scale_rows(m, f),
+        None => m,
+    };
     let frac = match anchor {
-        None => return ridge::fit_owned(design(exps), y, groups, ridge, what, || design(exps)),
+        None if rows.is_none() => return ridge::fit_owned(design(exps), y, groups, ridge, what, || design(exps)),
+        None => {
+            let (w, mut cond) = ridge::fit_owned(weigh(design(exps)), weigh(y.to_owned()).as_ref(), groups, ridge, what, || weigh(design(exps)))?;
+            // The residual reported is the unweighted one.
+            cond.rel_residual = ridge::rel_residual(design(exps).as_ref(), y, w.as_ref());
+            return Ok((w, cond));
+        }
         Some(frac) if !joint && nm > d => frac,
         Some(_) => {
             let a = design(exps);
@@ -358,60 +378,11 @@ fn poly_fit(
     let (w_lin, _) = ridge::fit(a_lin.as_ref(), y_lin.as_ref(), &[0..rows.len()], Ridge::Fixed(0.0), "anchored linear part")?;
     let mut w = Mat::<f64>::zeros(nm, y.ncols());
     place_rows(&mut w, 0, w_lin.as_ref());
-    let resid = y - &a_l * &w_lin;
+    let resid = weigh(y - &a_l * &w_lin);
     drop(a_l);
-    let (w_nl, mut cond) = ridge::fit_owned(design(higher), resid.as_ref(), groups, ridge, what, || design(higher))?;
+    let (w_nl, mut cond) = ridge::fit_owned(weigh(design(higher)), resid.as_ref(), groups, ridge, what, || weigh(design(higher)))?;
     place_rows(&mut w, d, w_nl.as_ref());
     // Residual relative to the whole target (not to the part left by the linear terms).
-    let a = design(exps);
-    cond.rel_residual = ridge::rel_residual(a.as_ref(), y, w.as_ref());
-    Ok((w, cond))
-}
-
-/// [`poly_fit`] with the rows of the regression weighted by the factors `f` (square roots
-/// of [`RowWeight`]'s weights): without an anchor one weighted fit; with a plain anchor the
-/// linear part unweighted on the anchor rows, the higher orders weighted on all. The
-/// residual reported is the unweighted one of the whole fit. The joint anchor is refused.
-#[allow(clippy::too_many_arguments)]
-fn weighted_poly_fit(
-    x: MatRef<'_, f64>,
-    scale: &[f64],
-    exps: &[Vec<u32>],
-    y: MatRef<'_, f64>,
-    groups: &[std::ops::Range<usize>],
-    ridge: Ridge,
-    anchor: Option<f64>,
-    joint: bool,
-    f: &[f64],
-    what: &'static str,
-) -> Result<(Mat<f64>, Conditioning), FitError> {
-    let design = |e: &[Vec<u32>]| design_matrix(x, scale, e);
-    let (d, nm) = (x.ncols(), exps.len());
-    if f.len() != x.nrows() {
-        return Err(FitError::BadOption { what: "row weights", why: format!("{} factors for {} rows", f.len(), x.nrows()) });
-    }
-    let (w, mut cond) = match anchor {
-        None => ridge::fit_owned(scale_rows(design(exps), f), scale_rows(y.to_owned(), f).as_ref(), groups, ridge, what, || scale_rows(design(exps), f))?,
-        Some(_) if joint => return Err(FitError::BadOption { what: "row weights", why: "not supported with the joint anchor (anchor_joint)".into() }),
-        Some(frac) => {
-            let rows = anchor_rows(x, frac)?;
-            let (lin, higher) = exps.split_at(d.min(nm));
-            let a_l = design(lin);
-            let (w_lin, _) = ridge::fit(ridge::take_rows(a_l.as_ref(), &rows).as_ref(), ridge::take_rows(y, &rows).as_ref(), &[0..rows.len()], Ridge::Fixed(0.0), "anchored linear part")?;
-            let mut w = Mat::<f64>::zeros(nm, y.ncols());
-            place_rows(&mut w, 0, w_lin.as_ref());
-            if higher.is_empty() {
-                let a = design(exps);
-                let cond = ridge::RidgeLs::new(a.as_ref(), what)?.conditioning(a.as_ref(), y, w.as_ref(), 0.0);
-                return Ok((w, cond));
-            }
-            let resid = scale_rows(y - &a_l * &w_lin, f);
-            drop(a_l);
-            let (w_nl, cond) = ridge::fit_owned(scale_rows(design(higher), f), resid.as_ref(), groups, ridge, what, || scale_rows(design(higher), f))?;
-            place_rows(&mut w, d, w_nl.as_ref());
-            (w, cond)
-        }
-    };
     let a = design(exps);
     cond.rel_residual = ridge::rel_residual(a.as_ref(), y, w.as_ref());
     Ok((w, cond))
