@@ -1,7 +1,128 @@
-//! Reference systems with published chaotic statistics, for tests and demonstrations:
-//! the Hénon map (a = 1.4, b = 0.3: D2 = 1.21 +- 0.01, Grassberger & Procaccia 1983;
-//! largest exponent 0.419 per iteration) and the Lorenz system (sigma = 10, rho = 28,
-//! beta = 8/3: largest exponent about 0.906 1/s).
+//! Reference systems with published chaotic statistics, for tests, calibrations and
+//! demonstrations: the Hénon map (a = 1.4, b = 0.3: D2 = 1.21 +- 0.01, Grassberger &
+//! Procaccia 1983; largest exponent 0.419 per iteration) and the flows [`Lorenz`] (sigma =
+//! 10, rho = 28, beta = 8/3: largest exponent about 0.906 1/s), [`Rossler`] (about 0.071
+//! 1/s), [`HyperRossler`] (two positive exponents) and [`Lorenz96`]. Every flow implements
+//! [`Flow`] (right-hand side and exact Jacobian-vector product), so [`rk4_flow`] advances
+//! state and tangent together for [`crate::benettin_tangent`].
+
+/// An autonomous flow `x' = f(x)` with its exact tangent `v' = J(x) v`, on slices of the
+/// flow's dimension.
+pub trait Flow: Sync {
+    /// `out = f(x)`.
+    fn rhs(&self, x: &[f64], out: &mut [f64]);
+    /// `out = J(x) v`.
+    fn jvp(&self, x: &[f64], v: &[f64], out: &mut [f64]);
+}
+
+/// `steps` classical RK4 steps of size `dt / steps` of the state `x` and a tangent vector `v`
+/// together (the tangent map of the RK4 step to O(h^5)). `x` and `v` have the flow's dimension.
+pub fn rk4_flow<F: Flow + ?Sized>(f: &F, x: &mut [f64], v: &mut [f64], dt: f64, steps: usize) {
+    let n = x.len();
+    assert_eq!(v.len(), n, "rk4_flow: tangent of length {} for a state of length {n}", v.len());
+    let steps = steps.max(1);
+    let h = dt / steps as f64;
+    let g = |s: &[f64], out: &mut [f64]| {
+        let (a, b) = out.split_at_mut(n);
+        f.rhs(&s[..n], a);
+        f.jvp(&s[..n], &s[n..], b);
+    };
+    // One allocation: the stage state s and the work vectors k1..k4, t.
+    let mut buf = vec![0.0; 12 * n];
+    let (s, rest) = buf.split_at_mut(2 * n);
+    let (k1, rest) = rest.split_at_mut(2 * n);
+    let (k2, rest) = rest.split_at_mut(2 * n);
+    let (k3, rest) = rest.split_at_mut(2 * n);
+    let (k4, t) = rest.split_at_mut(2 * n);
+    s[..n].copy_from_slice(x);
+    s[n..].copy_from_slice(v);
+    for _ in 0..steps {
+        g(s, k1);
+        t.iter_mut().zip(s.iter()).zip(k1.iter()).for_each(|((t, s), k)| *t = s + 0.5 * h * k);
+        g(t, k2);
+        t.iter_mut().zip(s.iter()).zip(k2.iter()).for_each(|((t, s), k)| *t = s + 0.5 * h * k);
+        g(t, k3);
+        t.iter_mut().zip(s.iter()).zip(k3.iter()).for_each(|((t, s), k)| *t = s + h * k);
+        g(t, k4);
+        for i in 0..2 * n {
+            s[i] += h / 6.0 * (k1[i] + 2.0 * k2[i] + 2.0 * k3[i] + k4[i]);
+        }
+    }
+    x.copy_from_slice(&s[..n]);
+    v.copy_from_slice(&s[n..]);
+}
+
+/// The Rössler system `x' = -y - z`, `y' = x + a y`, `z' = b + z (x - c)`, at the classic
+/// a = b = 0.2, c = 5.7 by default (largest exponent about 0.071 1/s).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Rossler {
+    pub a: f64,
+    pub b: f64,
+    pub c: f64,
+}
+
+impl Default for Rossler {
+    fn default() -> Self {
+        Self { a: 0.2, b: 0.2, c: 5.7 }
+    }
+}
+
+impl Flow for Rossler {
+    fn rhs(&self, x: &[f64], o: &mut [f64]) {
+        o[0] = -x[1] - x[2];
+        o[1] = x[0] + self.a * x[1];
+        o[2] = self.b + x[2] * (x[0] - self.c);
+    }
+    fn jvp(&self, x: &[f64], v: &[f64], o: &mut [f64]) {
+        o[0] = -v[1] - v[2];
+        o[1] = v[0] + self.a * v[1];
+        o[2] = x[2] * v[0] + (x[0] - self.c) * v[2];
+    }
+}
+
+/// Rössler's hyperchaotic flow (1979): `x' = -y - z`, `y' = x + 0.25 y + w`,
+/// `z' = 3 + x z`, `w' = -0.5 z + 0.05 w` (exponents about 0.11, 0.02, 0, -25).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct HyperRossler;
+
+impl Flow for HyperRossler {
+    fn rhs(&self, x: &[f64], o: &mut [f64]) {
+        o[0] = -x[1] - x[2];
+        o[1] = x[0] + 0.25 * x[1] + x[3];
+        o[2] = 3.0 + x[0] * x[2];
+        o[3] = -0.5 * x[2] + 0.05 * x[3];
+    }
+    fn jvp(&self, x: &[f64], v: &[f64], o: &mut [f64]) {
+        o[0] = -v[1] - v[2];
+        o[1] = v[0] + 0.25 * v[1] + v[3];
+        o[2] = x[2] * v[0] + x[0] * v[2];
+        o[3] = -0.5 * v[2] + 0.05 * v[3];
+    }
+}
+
+/// Lorenz-96 with `n` sites and forcing `f`: `x_i' = (x_{i+1} - x_{i-2}) x_{i-1} - x_i + f`
+/// (indices cyclic).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Lorenz96 {
+    pub n: usize,
+    pub f: f64,
+}
+
+impl Flow for Lorenz96 {
+    fn rhs(&self, x: &[f64], o: &mut [f64]) {
+        let n = self.n;
+        for i in 0..n {
+            o[i] = (x[(i + 1) % n] - x[(i + n - 2) % n]) * x[(i + n - 1) % n] - x[i] + self.f;
+        }
+    }
+    fn jvp(&self, x: &[f64], v: &[f64], o: &mut [f64]) {
+        let n = self.n;
+        for i in 0..n {
+            let (p, m2, m1) = ((i + 1) % n, (i + n - 2) % n, (i + n - 1) % n);
+            o[i] = (v[p] - v[m2]) * x[m1] + (x[p] - x[m2]) * v[m1] - v[i];
+        }
+    }
+}
 
 /// `x' = 1 - a x^2 + y`, `y' = b x`.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -71,20 +192,6 @@ impl Lorenz {
         [self.sigma * (x[1] - x[0]), x[0] * (self.rho - x[2]) - x[1], x[0] * x[1] - self.beta * x[2]]
     }
 
-    /// Right-hand side of state + variational equation `v' = J(x) v`.
-    fn rhs6(&self, s: &[f64; 6]) -> [f64; 6] {
-        let (x, v) = ([s[0], s[1], s[2]], [s[3], s[4], s[5]]);
-        let f = self.rhs(&x);
-        [
-            f[0],
-            f[1],
-            f[2],
-            self.sigma * (v[1] - v[0]),
-            (self.rho - x[2]) * v[0] - v[1] - x[0] * v[2],
-            x[1] * v[0] + x[0] * v[1] - self.beta * v[2],
-        ]
-    }
-
     /// One classical RK4 step of size `h`.
     pub fn rk4_step(&self, x: &mut [f64], h: f64) {
         let s = [x[0], x[1], x[2]];
@@ -99,17 +206,9 @@ impl Lorenz {
     }
 
     /// One RK4 step of the state and the variational equation together (the tangent map
-    /// of the RK4 step to O(h^5)), for [`crate::benettin_tangent`].
+    /// of the RK4 step to O(h^5)), for [`crate::benettin_tangent`]: [`rk4_flow`] with one step.
     pub fn rk4_tangent_step(&self, x: &mut [f64], v: &mut [f64], h: f64) {
-        let s = [x[0], x[1], x[2], v[0], v[1], v[2]];
-        let add = |a: &[f64; 6], k: &[f64; 6], c: f64| std::array::from_fn::<f64, 6, _>(|i| a[i] + c * k[i]);
-        let k1 = self.rhs6(&s);
-        let k2 = self.rhs6(&add(&s, &k1, h / 2.0));
-        let k3 = self.rhs6(&add(&s, &k2, h / 2.0));
-        let k4 = self.rhs6(&add(&s, &k3, h));
-        let n: [f64; 6] = std::array::from_fn(|i| s[i] + h / 6.0 * (k1[i] + 2.0 * k2[i] + 2.0 * k3[i] + k4[i]));
-        x.copy_from_slice(&n[..3]);
-        v.copy_from_slice(&n[3..]);
+        rk4_flow(self, x, v, h, 1);
     }
 
     /// `n` samples every `sample_every` RK4 steps of size `h`, after `transient` steps, from
@@ -127,5 +226,16 @@ impl Lorenz {
             }
         }
         out
+    }
+}
+
+impl Flow for Lorenz {
+    fn rhs(&self, x: &[f64], o: &mut [f64]) {
+        o[..3].copy_from_slice(&Lorenz::rhs(self, &[x[0], x[1], x[2]]));
+    }
+    fn jvp(&self, x: &[f64], v: &[f64], o: &mut [f64]) {
+        o[0] = self.sigma * (v[1] - v[0]);
+        o[1] = (self.rho - x[2]) * v[0] - v[1] - x[0] * v[2];
+        o[2] = x[1] * v[0] + x[0] * v[1] - self.beta * v[2];
     }
 }

@@ -15,6 +15,7 @@
 //! (Heun's method on a grid of 300 delay steps; the exact exponent is the discretized map's,
 //! the map that produces the series).
 
+use chaos::reference::{Flow, HyperRossler, Lorenz, Lorenz96, Rossler, rk4_flow};
 use chaos::{BenettinParams, CorrSumParams, ScalingRule, benettin_tangent, correlation_dimension, delay_embed, first_zero_crossing};
 use serde::Serialize;
 
@@ -54,107 +55,6 @@ trait Sampled: Sync {
     fn fine_dt(&self) -> f64;
 }
 
-/// An autonomous flow with its tangent (Jacobian-vector product), integrated by RK4 with at
-/// most `max_h` per substep.
-trait Flow: Sync {
-    fn rhs(&self, x: &[f64], out: &mut [f64]);
-    fn jvp(&self, x: &[f64], v: &[f64], out: &mut [f64]);
-}
-
-fn rk4_flow<F: Flow>(f: &F, x: &mut [f64], v: &mut [f64], dt: f64, max_h: f64) {
-    let n = x.len();
-    let steps = (dt / max_h).ceil().max(1.0) as usize;
-    let h = dt / steps as f64;
-    let g = |s: &[f64], out: &mut [f64]| {
-        let (a, b) = out.split_at_mut(n);
-        f.rhs(&s[..n], a);
-        f.jvp(&s[..n], &s[n..], b);
-    };
-    let mut s: Vec<f64> = x.iter().chain(v.iter()).copied().collect();
-    let (mut k1, mut k2, mut k3, mut k4, mut t) = (vec![0.0; 2 * n], vec![0.0; 2 * n], vec![0.0; 2 * n], vec![0.0; 2 * n], vec![0.0; 2 * n]);
-    for _ in 0..steps {
-        g(&s, &mut k1);
-        t.iter_mut().zip(&s).zip(&k1).for_each(|((t, s), k)| *t = s + 0.5 * h * k);
-        g(&t, &mut k2);
-        t.iter_mut().zip(&s).zip(&k2).for_each(|((t, s), k)| *t = s + 0.5 * h * k);
-        g(&t, &mut k3);
-        t.iter_mut().zip(&s).zip(&k3).for_each(|((t, s), k)| *t = s + h * k);
-        g(&t, &mut k4);
-        for i in 0..2 * n {
-            s[i] += h / 6.0 * (k1[i] + 2.0 * k2[i] + 2.0 * k3[i] + k4[i]);
-        }
-    }
-    x.copy_from_slice(&s[..n]);
-    v.copy_from_slice(&s[n..]);
-}
-
-struct Rossler;
-impl Flow for Rossler {
-    fn rhs(&self, x: &[f64], o: &mut [f64]) {
-        o[0] = -x[1] - x[2];
-        o[1] = x[0] + 0.2 * x[1];
-        o[2] = 0.2 + x[2] * (x[0] - 5.7);
-    }
-    fn jvp(&self, x: &[f64], v: &[f64], o: &mut [f64]) {
-        o[0] = -v[1] - v[2];
-        o[1] = v[0] + 0.2 * v[1];
-        o[2] = x[2] * v[0] + (x[0] - 5.7) * v[2];
-    }
-}
-
-struct Lorenz;
-impl Flow for Lorenz {
-    fn rhs(&self, x: &[f64], o: &mut [f64]) {
-        o[0] = 10.0 * (x[1] - x[0]);
-        o[1] = x[0] * (28.0 - x[2]) - x[1];
-        o[2] = x[0] * x[1] - 8.0 / 3.0 * x[2];
-    }
-    fn jvp(&self, x: &[f64], v: &[f64], o: &mut [f64]) {
-        o[0] = 10.0 * (v[1] - v[0]);
-        o[1] = (28.0 - x[2]) * v[0] - v[1] - x[0] * v[2];
-        o[2] = x[1] * v[0] + x[0] * v[1] - 8.0 / 3.0 * v[2];
-    }
-}
-
-/// Rössler's hyperchaotic flow (1979): `x' = -y - z`, `y' = x + 0.25 y + w`,
-/// `z' = 3 + x z`, `w' = -0.5 z + 0.05 w` (exponents about 0.11, 0.02, 0, -25).
-struct HyperRossler;
-impl Flow for HyperRossler {
-    fn rhs(&self, x: &[f64], o: &mut [f64]) {
-        o[0] = -x[1] - x[2];
-        o[1] = x[0] + 0.25 * x[1] + x[3];
-        o[2] = 3.0 + x[0] * x[2];
-        o[3] = -0.5 * x[2] + 0.05 * x[3];
-    }
-    fn jvp(&self, x: &[f64], v: &[f64], o: &mut [f64]) {
-        o[0] = -v[1] - v[2];
-        o[1] = v[0] + 0.25 * v[1] + v[3];
-        o[2] = x[2] * v[0] + x[0] * v[2];
-        o[3] = -0.5 * v[2] + 0.05 * v[3];
-    }
-}
-
-/// Lorenz-96 with `N` sites and forcing `f`: `x_i' = (x_{i+1} - x_{i-2}) x_{i-1} - x_i + f`.
-struct Lorenz96 {
-    n: usize,
-    f: f64,
-}
-impl Flow for Lorenz96 {
-    fn rhs(&self, x: &[f64], o: &mut [f64]) {
-        let n = self.n;
-        for i in 0..n {
-            o[i] = (x[(i + 1) % n] - x[(i + n - 2) % n]) * x[(i + n - 1) % n] - x[i] + self.f;
-        }
-    }
-    fn jvp(&self, x: &[f64], v: &[f64], o: &mut [f64]) {
-        let n = self.n;
-        for i in 0..n {
-            let (p, m2, m1) = ((i + 1) % n, (i + n - 2) % n, (i + n - 1) % n);
-            o[i] = (v[p] - v[m2]) * x[m1] + (x[p] - x[m2]) * v[m1] - v[i];
-        }
-    }
-}
-
 /// A flow as a [`Sampled`] system.
 struct FlowSystem<F: Flow> {
     flow: F,
@@ -176,7 +76,7 @@ impl<F: Flow> Sampled for FlowSystem<F> {
         self.x0.clone()
     }
     fn advance(&self, x: &mut [f64], v: &mut [f64], dt: f64) {
-        rk4_flow(&self.flow, x, v, dt, self.max_h);
+        rk4_flow(&self.flow, x, v, dt, (dt / self.max_h).ceil().max(1.0) as usize);
     }
     fn observe(&self, x: &[f64]) -> f64 {
         x[self.obs]
@@ -257,8 +157,8 @@ fn lorenz96(n: usize, f: f64, name: &'static str) -> Box<dyn Sampled> {
 /// 0.81, D2 3.5-4.4), the range of the flag (0.49 at its Rosenstein value).
 fn systems() -> Vec<Box<dyn Sampled>> {
     vec![
-        Box::new(FlowSystem { flow: Rossler, name: "Rössler", observable: "x", obs: 0, x0: vec![1.0, 1.0, 1.0], max_h: 0.02, fine_dt: 0.03 }),
-        Box::new(FlowSystem { flow: Lorenz, name: "Lorenz", observable: "z", obs: 2, x0: vec![1.0, 1.0, 1.0], max_h: 0.005, fine_dt: 0.004 }),
+        Box::new(FlowSystem { flow: Rossler::default(), name: "Rössler", observable: "x", obs: 0, x0: vec![1.0, 1.0, 1.0], max_h: 0.02, fine_dt: 0.03 }),
+        Box::new(FlowSystem { flow: Lorenz::default(), name: "Lorenz", observable: "z", obs: 2, x0: vec![1.0, 1.0, 1.0], max_h: 0.005, fine_dt: 0.004 }),
         Box::new(FlowSystem {
             flow: HyperRossler,
             name: "hyperchaotic Rössler",

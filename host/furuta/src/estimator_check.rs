@@ -19,6 +19,7 @@
 //! (Rosenstein on model output against Rosenstein on the data), not by its Benettin exponent
 //! against the data's Rosenstein number.
 
+use chaos::reference::{Flow, Rossler, rk4_flow};
 use chaos::{BenettinParams, benettin_tangent};
 use serde::Serialize;
 use ssm::TimeSeries;
@@ -51,65 +52,6 @@ pub struct CheckRow {
     pub note: String,
 }
 
-/// A three-dimensional autonomous flow with its Jacobian.
-trait Flow3: Sync {
-    fn rhs(&self, x: &[f64; 3]) -> [f64; 3];
-    fn jac(&self, x: &[f64; 3]) -> [[f64; 3]; 3];
-}
-
-/// The Rössler system `x' = -y - z`, `y' = x + a y`, `z' = b + z (x - c)`, at the classic
-/// a = b = 0.2, c = 5.7 (largest exponent about 0.071 1/s).
-#[derive(Clone, Copy, Debug)]
-pub struct Rossler {
-    pub a: f64,
-    pub b: f64,
-    pub c: f64,
-}
-
-impl Default for Rossler {
-    fn default() -> Self {
-        Self { a: 0.2, b: 0.2, c: 5.7 }
-    }
-}
-
-impl Flow3 for Rossler {
-    fn rhs(&self, x: &[f64; 3]) -> [f64; 3] {
-        [-x[1] - x[2], x[0] + self.a * x[1], self.b + x[2] * (x[0] - self.c)]
-    }
-    fn jac(&self, x: &[f64; 3]) -> [[f64; 3]; 3] {
-        [[0.0, -1.0, -1.0], [1.0, self.a, 0.0], [x[2], 0.0, x[0] - self.c]]
-    }
-}
-
-impl Flow3 for chaos::reference::Lorenz {
-    fn rhs(&self, x: &[f64; 3]) -> [f64; 3] {
-        chaos::reference::Lorenz::rhs(self, x)
-    }
-    fn jac(&self, x: &[f64; 3]) -> [[f64; 3]; 3] {
-        [[-self.sigma, self.sigma, 0.0], [self.rho - x[2], -1.0, -x[0]], [x[1], x[0], -self.beta]]
-    }
-}
-
-/// One RK4 step of size `h` of the state and a tangent vector together.
-fn rk4_tangent<F: Flow3>(f: &F, x: &mut [f64], v: &mut [f64], h: f64) {
-    let g = |s: &[f64; 6]| -> [f64; 6] {
-        let xs = [s[0], s[1], s[2]];
-        let (r, j) = (f.rhs(&xs), f.jac(&xs));
-        let jv: [f64; 3] = std::array::from_fn(|i| j[i][0] * s[3] + j[i][1] * s[4] + j[i][2] * s[5]);
-        [r[0], r[1], r[2], jv[0], jv[1], jv[2]]
-    };
-    let s: [f64; 6] = [x[0], x[1], x[2], v[0], v[1], v[2]];
-    let add = |a: &[f64; 6], k: &[f64; 6], c: f64| -> [f64; 6] { std::array::from_fn(|i| a[i] + c * k[i]) };
-    let k1 = g(&s);
-    let k2 = g(&add(&s, &k1, h / 2.0));
-    let k3 = g(&add(&s, &k2, h / 2.0));
-    let k4 = g(&add(&s, &k3, h));
-    for i in 0..3 {
-        x[i] = s[i] + h / 6.0 * (k1[i] + 2.0 * k2[i] + 2.0 * k3[i] + k4[i]);
-        v[i] = s[i + 3] + h / 6.0 * (k1[i + 3] + 2.0 * k2[i + 3] + 2.0 * k3[i + 3] + k4[i + 3]);
-    }
-}
-
 /// A sampled flow: `substeps` RK4 steps per sample of `dt`, a `transient` of samples from `x0`.
 #[derive(Clone, Copy, Debug)]
 struct Sampling {
@@ -121,13 +63,8 @@ struct Sampling {
 
 /// The exact largest exponent (Benettin with the variational equation, renormalized every
 /// sample, 20 blocks over `steps` samples) and `n` samples of the state after the transient.
-fn exponent_and_series<F: Flow3>(f: &F, s: &Sampling, n: usize, steps: usize) -> Result<(f64, f64, Vec<[f64; 3]>), Error> {
-    let h = s.dt / s.substeps as f64;
-    let advance = |x: &mut [f64], v: &mut [f64]| {
-        for _ in 0..s.substeps {
-            rk4_tangent(f, x, v, h);
-        }
-    };
+fn exponent_and_series<F: Flow>(f: &F, s: &Sampling, n: usize, steps: usize) -> Result<(f64, f64, Vec<[f64; 3]>), Error> {
+    let advance = |x: &mut [f64], v: &mut [f64]| rk4_flow(f, x, v, s.dt, s.substeps);
     let p = BenettinParams { transient: s.transient, steps, time_step: s.dt, renorm_every: 1, bound: 1e6, blocks: 20 };
     let r = benettin_tangent(&s.x0, advance, &p)?;
     let mut x = s.x0;
