@@ -7,14 +7,19 @@
 //! valgrind --tool=callgrind target/release/examples/simspeed exprb-split 1e-8 201 1 noref
 //! ```
 //! The second argument is rtol (adaptive methods, atol = rtol/100, or rtol times the sixth
-//! argument) or steps per period.
+//! argument) or steps per period. Optional seventh to ninth: scene, theta0 (rad), dt (ms),
+//! e.g. `exprb-lean 3e-11 3000 1 noref 1 furuta-dt30.5 0.02 31.5` (a basin run).
 
 use sim::closed_loop::simulate;
 use sim::scene::{IntegratorSpec, MethodKind, Scene, SceneBuilder, Task};
 use std::time::Instant;
 
-fn scene(periods: u64, kind: MethodKind, arg: f64, atol_factor: f64) -> Result<Scene, Box<dyn std::error::Error>> {
-    let mut s = SceneBuilder::load("furuta-dt30.8")?.periods(periods).initial_state(&[0.05, 0.0, 0.0, 0.0]).tasks(&[Task::Simulate]).build()?;
+fn scene(periods: u64, kind: MethodKind, arg: f64, atol_factor: f64, at: &(String, f64, Option<f64>)) -> Result<Scene, Box<dyn std::error::Error>> {
+    let mut b = SceneBuilder::load(&at.0)?.periods(periods).initial_state(&[at.1, 0.0, 0.0, 0.0]).tasks(&[Task::Simulate]);
+    if let Some(dt) = at.2 {
+        b = b.dt_ms(dt);
+    }
+    let mut s = b.build()?;
     let adaptive = matches!(kind, MethodKind::Rodas | MethodKind::Exprb | MethodKind::ExprbSplit | MethodKind::ExprbLean | MethodKind::ExprbFiltered);
     s.integrator = if adaptive {
         IntegratorSpec { method: kind, rtol: Some(arg), atol: Some(arg * atol_factor), steps: None }
@@ -32,7 +37,12 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let repeats: usize = args.get(4).map_or(Ok(1), |a| a.parse())?;
     let noref = args.get(5).is_some_and(|a| a == "noref");
     let atol_factor: f64 = args.get(6).map_or(Ok(1e-2), |a| a.parse())?;
-    let s = scene(periods, kind, arg, atol_factor)?;
+    let at = (
+        args.get(7).cloned().unwrap_or_else(|| "furuta-dt30.8".into()),
+        args.get(8).map_or(Ok(0.05), |a| a.parse())?,
+        args.get(9).map(|a| a.parse()).transpose()?,
+    );
+    let s = scene(periods, kind, arg, atol_factor, &at)?;
     let t0 = Instant::now();
     let mut tr = simulate(&s, None)?;
     for _ in 1..repeats {
@@ -49,7 +59,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         n / secs
     );
     if !noref {
-        let r = simulate(&scene(periods, MethodKind::Rodas, 1e-13, 1e-2)?, None)?;
+        let r = simulate(&scene(periods, MethodKind::Rodas, 1e-13, 1e-2, &at)?, None)?;
         let err = tr.primary().iter().zip(r.primary()).map(|(a, b)| (a - b).abs()).fold(0.0, f64::max);
         print!(", max theta error {err:.3e}");
     }

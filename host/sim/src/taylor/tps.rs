@@ -31,9 +31,11 @@ pub struct TpsTable {
     exps: Vec<Vec<u32>>,
     /// `deg_start[d]` = index of the first monomial of degree `d` (length `order + 2`).
     deg_start: Vec<usize>,
-    /// `prod[i][j]` = index of `exps[i] + exps[j]`, for every `j` with
-    /// `deg(i) + deg(j) <= order` (a prefix of the graded order).
-    prod: Vec<Vec<u16>>,
+    /// The multiplication table, rows concatenated: row `i` is
+    /// `flat[row_start[i]..row_start[i + 1]]`, its entry `j` the index of `exps[i] + exps[j]`,
+    /// for every `j` with `deg(i) + deg(j) <= order` (a prefix of the graded order).
+    flat: Vec<u16>,
+    row_start: Vec<u32>,
 }
 
 /// Number of monomials of degree `<= order` in `nvar` variables, `C(nvar + order, nvar)`;
@@ -90,8 +92,15 @@ impl TpsTable {
                     })
                     .collect()
             })
-            .collect();
-        Self { nvar, order, exps, deg_start, prod }
+            .collect::<Vec<Vec<u16>>>();
+        let mut flat = Vec::new();
+        let mut row_start = Vec::with_capacity(prod.len() + 1);
+        for row in &prod {
+            row_start.push(flat.len() as u32);
+            flat.extend_from_slice(row);
+        }
+        row_start.push(flat.len() as u32);
+        Self { nvar, order, exps, deg_start, flat, row_start }
     }
 
     /// The shared table of `(nvar, order)`, built on first use. `None` if it would not fit a
@@ -302,21 +311,39 @@ impl Mul for Tps {
             (_, None) => self * o.c[0],
             (Some(t), Some(_)) => {
                 let _ = Self::pick(self.t, o.t);
-                let mut c = [0.0; TPS_CAPACITY];
-                for (i, row) in t.prod.iter().enumerate() {
-                    let a = self.c[i];
-                    if a == 0.0 {
-                        continue;
-                    }
-                    for (b, &k) in o.c[..row.len()].iter().zip(row) {
-                        c[k as usize] += a * b;
-                    }
-                }
-                Self { c, t: Some(t) }
+                Self { c: mul_flat(t, &self.c, &o.c), t: Some(t) }
             }
         }
     }
 }
+
+/// The truncated product's coefficients, row by row of the table (`i` ascending, rows with
+/// `a[i] == 0` skipped, `j` ascending in a row: the same sums in the same order as ever). The
+/// rows are one flat array and the sums go to a power-of-two scratch indexed through a mask,
+/// so the inner loop has no bounds check: 25-30 % less CPU per product at order 9 than
+/// indexing the result (`TPS_BENCH` in the tests).
+#[inline]
+fn mul_flat(t: &TpsTable, a: &[f64; TPS_CAPACITY], b: &[f64; TPS_CAPACITY]) -> [f64; TPS_CAPACITY] {
+    let mut acc = [0.0; SCRATCH];
+    for (i, w) in t.row_start.windows(2).enumerate() {
+        let ai = a[i];
+        if ai == 0.0 {
+            continue;
+        }
+        let row = &t.flat[w[0] as usize..w[1] as usize];
+        for (s, &k) in b.iter().zip(row) {
+            acc[usize::from(k) & (SCRATCH - 1)] += ai * s;
+        }
+    }
+    let mut c = [0.0; TPS_CAPACITY];
+    c.copy_from_slice(&acc[..TPS_CAPACITY]);
+    c
+}
+
+/// [`mul_flat`]'s scratch: a power of two, at least [`TPS_CAPACITY`] (every index of a
+/// table is below its length, so the mask never changes one).
+const SCRATCH: usize = 1024;
+const _: () = assert!(SCRATCH.is_power_of_two() && SCRATCH >= TPS_CAPACITY);
 
 impl Div for Tps {
     type Output = Self;
@@ -458,6 +485,81 @@ mod tests {
             // Degree-10 remainder: halving h divides it by ~2^10.
             assert!(err < 1e-9 && err < prev / 500.0 || err < 1e-14, "h={h}: {err} (prev {prev})");
             prev = err;
+        }
+    }
+
+    /// The flat-table product is bit-identical to the former product (a loop over one `Vec`
+    /// per row indexing the result directly: the same terms in the same order per
+    /// coefficient), on dense, sparse and nilpotent operands at orders 1..9;
+    /// `TPS_BENCH=flat` / `TPS_BENCH=plain` run one of them many times (time with `/usr/bin/time`).
+    #[test]
+    fn flat_product_is_bit_identical_to_the_row_loop() {
+        let mut seed = 0x9e3779b97f4a7c15u64;
+        let mut rnd = || {
+            seed ^= seed << 13;
+            seed ^= seed >> 7;
+            seed ^= seed << 17;
+            (seed >> 11) as f64 / (1u64 << 53) as f64 - 0.5
+        };
+        for order in [1, 5, 7, 9] {
+            let t = TpsTable::get(4, order).unwrap();
+            let n = t.len();
+            let mut ops = Vec::new();
+            for kind in 0..4 {
+                let mut c = [0.0; TPS_CAPACITY];
+                for (i, v) in c[..n].iter_mut().enumerate() {
+                    let deg: u32 = t.exponents()[i].iter().sum();
+                    *v = match kind {
+                        0 => rnd() * 10f64.powi((i % 7) as i32 - 3),
+                        1 if deg == 0 => 0.0,
+                        2 if i % 3 == 0 => 0.0,
+                        3 if deg < 2 => 0.0,
+                        _ => rnd(),
+                    };
+                }
+                ops.push(c);
+            }
+            // The table as one Vec per row, from the exponents (the product's former form).
+            let rows: Vec<Vec<u16>> = t
+                .exponents()
+                .iter()
+                .map(|ei| {
+                    t.exponents()
+                        .iter()
+                        .map_while(|ej| t.index(&ei.iter().zip(ej).map(|(x, y)| x + y).collect::<Vec<u32>>()).map(|k| k as u16))
+                        .collect()
+                })
+                .collect();
+            let mul_plain = |a: &[f64; TPS_CAPACITY], b: &[f64; TPS_CAPACITY]| {
+                let mut c = [0.0; TPS_CAPACITY];
+                for (i, row) in rows.iter().enumerate() {
+                    let ai = a[i];
+                    if ai == 0.0 {
+                        continue;
+                    }
+                    for (s, &k) in b[..row.len()].iter().zip(row) {
+                        c[k as usize] += ai * s;
+                    }
+                }
+                c
+            };
+            for a in &ops {
+                for b in &ops {
+                    let got = mul_flat(t, a, b);
+                    let want = mul_plain(a, b);
+                    assert!(got.iter().zip(&want).all(|(x, y)| x.to_bits() == y.to_bits()), "order {order}");
+                }
+            }
+            // `TPS_BENCH=plain` or `flat`: 200,000 / order products of one kind (user CPU
+            // time on a loaded machine: 0.83 s plain, 0.62 s flat at order 9).
+            if let Ok(kind) = std::env::var("TPS_BENCH") {
+                let reps = 200_000 / order as usize;
+                let mut acc = 0.0;
+                for r in 0..reps {
+                    acc += if kind == "flat" { mul_flat(t, &ops[r % 4], &ops[0]) } else { mul_plain(&ops[r % 4], &ops[0]) }[n - 1];
+                }
+                eprintln!("order {order}: {reps} {kind} products ({acc:.1e})");
+            }
         }
     }
 
