@@ -131,6 +131,29 @@ impl Manifold {
         row
     }
 
+    /// The observable `x_0` (first embedding coordinate) on the manifold as a scalar
+    /// polynomial in `eta` (degrees 1..=K, scales `eta_scale`): the first row of `V1` plus
+    /// the first row of the normal part. Its linear part is [`Manifold::observable_row`].
+    pub fn observable_poly(&self) -> Poly {
+        let d = self.dim;
+        let scale = self.nonlinear.as_ref().map_or_else(|| self.eta_scale.clone(), |p| p.scale.clone());
+        let mut exps = poly::exponents(d, 1, 1);
+        let mut coef: Vec<f64> = (0..d).map(|j| self.v1[j * self.p] * scale[j]).collect();
+        if let Some(nl) = &self.nonlinear {
+            for (k, e) in nl.exps.iter().enumerate() {
+                let c = nl.coef[k * nl.dim_out];
+                match exps.iter().position(|x| x == e) {
+                    Some(q) => coef[q] += c,
+                    None => {
+                        exps.push(e.clone());
+                        coef.push(c);
+                    }
+                }
+            }
+        }
+        Poly { dim_in: d, dim_out: 1, scale, exps, coef }
+    }
+
     /// Reduced coordinates of one embedded point: `eta = V1^T y`.
     pub fn reduce(&self, y: &[f64]) -> Vec<f64> {
         (0..self.dim).map(|j| self.v1[j * self.p..(j + 1) * self.p].iter().zip(y).map(|(a, b)| a * b).sum()).collect()
