@@ -26,6 +26,8 @@
 //! * `coeffs VARIANT...`: data-driven vs equation-driven polar coefficients at the training dts.
 //! * `fhcoeffs VARIANT...`: the same on the first-harmonic basis (both sides' rho the
 //!   observable's first harmonic), next to the linear-row basis and the shared-tangent map's.
+//! * `fhsplit VARIANT`: the per-period fit's cubic gap on the first-harmonic basis split
+//!   by tangent (own SVD, own + degree-1 normal part, pooled) and the map's row weight.
 //! * `eqbasis ORDER DT...`: the first-harmonic normal form of the equation-driven model's own
 //!   reduced map against its `Amplitude::Observable` coefficients.
 //! * `ratefun [VARIANT]`: their nonlinear amplitude rates at a few amplitude points.
@@ -503,6 +505,47 @@ fn fhcoeffs(args: &[String]) -> R {
     Ok(())
 }
 
+/// `fhsplit VARIANT`: where the per-period fit's cubic gap comes from: each training period
+/// fitted as a graph over (a) its own SVD tangent (the report's per-period fit), (b) its own
+/// tangent with a degree-1 normal part (`fit_with_tangent`), (c) the tangent of all periods'
+/// data pooled (the shared-tangent model, unweighted) and (d) the same with the map's row
+/// weight (the fitted map); cubic coefficients on the first-harmonic basis, relative to the
+/// equation-driven order-7 ones.
+fn fhsplit(args: &[String]) -> R {
+    use ssm::fit::{embed_training, fit, fit_with_tangent_weighted};
+    use ssm::manifold::tangent_space;
+    use ssm::normal_form::{NormalFormOptions, model_normal_form_first_harmonic};
+    let v = variant(args.first().map_or("default", String::as_str))?;
+    let series: Vec<_> = v.dts_ms.iter().map(|&dt| furuta::parametric::training_series(&v, dt)).collect::<Result<_, _>>()?;
+    let mut pooled = Vec::new();
+    for s in &series {
+        pooled.extend(embed_training(s, &v.fit)?.0);
+    }
+    let (v1_pool, _) = tangent_space(&pooled, v.fit.dim)?;
+    drop(pooled);
+    for (dt, train) in v.dts_ms.iter().zip(&series) {
+        let eq = furuta::equation_ssm::furuta_equation_polar(*dt, 7)?.table();
+        let (v1_own, _) = tangent_space(&embed_training(train, &v.fit)?.0, v.fit.dim)?;
+        let models = [
+            ("own svd", fit(train, &v.fit)?),
+            ("own+deg1", fit_with_tangent_weighted(train, &v.fit, &v1_own, None)?),
+            ("pooled", fit_with_tangent_weighted(train, &v.fit, &v1_pool, None)?),
+            ("pooled+weight", fit_with_tangent_weighted(train, &v.fit, &v1_pool, v.map_weight.as_ref())?),
+        ];
+        for (name, m) in &models {
+            let t = model_normal_form_first_harmonic(m, &NormalFormOptions::default())?.table();
+            let cells: Vec<String> = eq
+                .rows
+                .iter()
+                .filter(|r| r.rho_exps.iter().sum::<u32>() == 3)
+                .map(|r| format!("rho_{}' {} {:+.1} %", r.mode, r.monomial, 100.0 * (t.get(r.mode, &r.monomial).unwrap_or(f64::NAN) / r.value - 1.0)))
+                .collect();
+            println!("{dt} ms {name:<14} {}", cells.join(" | "));
+        }
+    }
+    Ok(())
+}
+
 /// `eqbasis ORDER DT...`: the first-harmonic normal form applied to the equation-driven
 /// model's own reduced map and observable (the spectral-normalized SSM, `MapSsm::real_form`)
 /// against its `Amplitude::Observable` polar coefficients: largest relative difference.
@@ -686,6 +729,7 @@ fn main() -> R {
         Some("coeffs") => coeffs(&args[1..]),
         Some("fhcoeffs") => fhcoeffs(&args[1..]),
         Some("eqbasis") => eqbasis(&args[1..]),
+        Some("fhsplit") => fhsplit(&args[1..]),
         Some("maptorus") => maptorus(&args[1..]),
         Some("ratefun") => ratefun(&args[1..]),
         Some("cuts") => cuts(&args[1..]),
