@@ -24,6 +24,12 @@
 //! * `fullcont PERIODS DT...`: the full system's torus continuation, step by step.
 //! * `maptorus VARIANT...`: the fitted map's torus continuation per training variant.
 //! * `coeffs VARIANT...`: data-driven vs equation-driven polar coefficients at the training dts.
+//! * `fhcoeffs VARIANT...`: the same on the first-harmonic basis (both sides' rho the
+//!   observable's first harmonic), next to the linear-row basis and the shared-tangent map's.
+//! * `fhsplit VARIANT`: the per-period fit's cubic gap on the first-harmonic basis split
+//!   by tangent (own SVD, own + degree-1 normal part, pooled) and the map's row weight.
+//! * `eqbasis ORDER DT...`: the first-harmonic normal form of the equation-driven model's own
+//!   reduced map against its `Amplitude::Observable` coefficients.
 //! * `ratefun [VARIANT]`: their nonlinear amplitude rates at a few amplitude points.
 //! * `cuts [--conn] [--steps] [--spline] VARIANT...`: the fitted map's torus onset and loss
 //!   (and saddle connection) per training variant on shared training runs (issue 11's cut).
@@ -120,6 +126,12 @@ fn variant(name: &str) -> Result<FurutaOptions, Box<dyn std::error::Error>> {
             "man5" => o.fit.manifold_order = 5,
             "dyn9" => o.fit.dyn_order = 9,
             "noweight" => o.map_weight = None,
+            "noanchor" => o.fit.linear_anchor = None,
+            "slowmid" => o.slow_starts.extend([(0.02, 0.4), (0.04, 1.3), (0.06, 2.2), (0.08, 3.1)]),
+            x if x.starts_with("embed=") => o.fit.embed = x[6..].parse()?,
+            x if x.starts_with("cut=") => o.max_theta = x[4..].parse()?,
+            x if x.starts_with("man=") => o.fit.manifold_order = x[4..].parse()?,
+            x if x.starts_with("dyn=") => o.fit.dyn_order = x[4..].parse()?,
             x if x.starts_with("knee=") || x.starts_with("pow=") => {
                 let v: f64 = x.split('=').nth(1).unwrap_or("").parse()?;
                 let w = o.map_weight.get_or_insert(furuta::parametric::map_row_weight(furuta::parametric::MAP_WEIGHT_KNEE_THETA, o.fit.embed, furuta::parametric::MAP_WEIGHT_POWER));
@@ -452,6 +464,122 @@ fn coeffs(args: &[String]) -> R {
     Ok(())
 }
 
+/// `fhcoeffs VARIANT...`: per training variant (see [`variant`]), each training period's
+/// polar coefficients (cubic and quintic) on the linear-row basis (the report's data column)
+/// and on the first-harmonic basis (`ssm::normal_form::Normalization::FirstHarmonic`, the
+/// equation-driven model's definition of rho), and the shared-tangent fitted map's
+/// (weighted regression) on the first-harmonic basis, each next to the equation-driven
+/// order-7 value: `equation | row (rel) | first harmonic (rel) | shared map fh (rel)`.
+fn fhcoeffs(args: &[String]) -> R {
+    use ssm::normal_form::{NormalFormOptions, model_normal_form_first_harmonic};
+    let dts = FurutaOptions::default().dts_ms;
+    let eq: Vec<_> = dts.iter().map(|&dt| furuta::equation_ssm::furuta_equation_polar(dt, 7)).collect::<Result<_, _>>()?;
+    for name in args {
+        let v = variant(name)?;
+        let c0 = cpu_s();
+        let pm = furuta_parametric(&v)?;
+        let sm = furuta::shared_tangent::shared_parametric(&v)?;
+        println!("== {name} ({:.0} s CPU)", cpu_s() - c0);
+        let mut worst: std::collections::BTreeMap<String, (f64, f64, f64)> = Default::default();
+        for t in &pm.trained {
+            let Some(k) = dts.iter().position(|d| *d == t.dt_ms) else { continue };
+            let fh = model_normal_form_first_harmonic(&t.model, &NormalFormOptions::default())?;
+            let smf = model_normal_form_first_harmonic(&sm.model_at(t.dt_ms, ssm::interp::Interp::Linear)?, &NormalFormOptions::default())?;
+            let (row, fht, smt) = (t.normal_form.table(), fh.table(), smf.table());
+            for r in eq[k].table().rows.iter().filter(|r| r.rho_exps.iter().sum::<u32>() == 3 || r.rho_exps.iter().sum::<u32>() == 5) {
+                let g = |tb: &ssm::normal_form::NormalFormTable| tb.get(r.mode, &r.monomial).unwrap_or(f64::NAN);
+                let (a, b, c) = (g(&row), g(&fht), g(&smt));
+                let rel = |x: f64| x / r.value - 1.0;
+                println!(
+                    "  {} ms rho_{}' {:<16} eq {:>11.4} | row {:>11.4} ({:+7.1} %) | fh {:>11.4} ({:+7.1} %) | shared fh {:>11.4} ({:+7.1} %)",
+                    t.dt_ms, r.mode, r.monomial, r.value, a, 100.0 * rel(a), b, 100.0 * rel(b), c, 100.0 * rel(c)
+                );
+                let w = worst.entry(format!("rho_{}' {}", r.mode, r.monomial)).or_insert((0.0, 0.0, 0.0));
+                *w = (w.0.max(rel(a).abs()), w.1.max(rel(b).abs()), w.2.max(rel(c).abs()));
+            }
+        }
+        for (k, (a, b, c)) in &worst {
+            println!("  max |rel| {k:<24} row {:6.1} %  fh {:6.1} %  shared fh {:6.1} %", 100.0 * a, 100.0 * b, 100.0 * c);
+        }
+    }
+    Ok(())
+}
+
+/// `fhsplit VARIANT`: where the per-period fit's cubic gap comes from: each training period
+/// fitted as a graph over (a) its own SVD tangent (the report's per-period fit), (b) its own
+/// tangent with a degree-1 normal part (`fit_with_tangent`), (c) the tangent of all periods'
+/// data pooled (the shared-tangent model, unweighted) and (d) the same with the map's row
+/// weight (the fitted map); cubic coefficients on the first-harmonic basis, relative to the
+/// equation-driven order-7 ones.
+fn fhsplit(args: &[String]) -> R {
+    use ssm::fit::{embed_training, fit, fit_with_tangent_weighted};
+    use ssm::manifold::tangent_space;
+    use ssm::normal_form::{NormalFormOptions, model_normal_form_first_harmonic};
+    let v = variant(args.first().map_or("default", String::as_str))?;
+    let series: Vec<_> = v.dts_ms.iter().map(|&dt| furuta::parametric::training_series(&v, dt)).collect::<Result<_, _>>()?;
+    let mut pooled = Vec::new();
+    for s in &series {
+        pooled.extend(embed_training(s, &v.fit)?.0);
+    }
+    let (v1_pool, _) = tangent_space(&pooled, v.fit.dim)?;
+    drop(pooled);
+    for (dt, train) in v.dts_ms.iter().zip(&series) {
+        let eq = furuta::equation_ssm::furuta_equation_polar(*dt, 7)?.table();
+        let (v1_own, _) = tangent_space(&embed_training(train, &v.fit)?.0, v.fit.dim)?;
+        let models = [
+            ("own svd", fit(train, &v.fit)?),
+            ("own+deg1", fit_with_tangent_weighted(train, &v.fit, &v1_own, None)?),
+            ("pooled", fit_with_tangent_weighted(train, &v.fit, &v1_pool, None)?),
+            ("pooled+weight", fit_with_tangent_weighted(train, &v.fit, &v1_pool, v.map_weight.as_ref())?),
+        ];
+        for (name, m) in &models {
+            let t = model_normal_form_first_harmonic(m, &NormalFormOptions::default())?.table();
+            let cells: Vec<String> = eq
+                .rows
+                .iter()
+                .filter(|r| r.rho_exps.iter().sum::<u32>() == 3)
+                .map(|r| format!("rho_{}' {} {:+.1} %", r.mode, r.monomial, 100.0 * (t.get(r.mode, &r.monomial).unwrap_or(f64::NAN) / r.value - 1.0)))
+                .collect();
+            println!("{dt} ms {name:<14} {}", cells.join(" | "));
+        }
+    }
+    Ok(())
+}
+
+/// `eqbasis ORDER DT...`: the first-harmonic normal form applied to the equation-driven
+/// model's own reduced map and observable (the spectral-normalized SSM, `MapSsm::real_form`)
+/// against its `Amplitude::Observable` polar coefficients: largest relative difference.
+fn eqbasis(args: &[String]) -> R {
+    use furuta::equation_ssm::{polynomial_map, scene_period_map};
+    use ssm::map_ssm::{Amplitude, MapSsmOptions, map_ssm};
+    use ssm::normal_form::{NormalFormOptions, Normalization, normal_form_of_poly};
+    let order: u32 = args.first().ok_or("eqbasis ORDER DT...")?.parse()?;
+    for a in &args[1..] {
+        let dt: f64 = a.parse()?;
+        let scene = sim::scene::SceneBuilder::load("furuta-dt30.5")?.dt_ms(dt).build()?;
+        let pm = scene_period_map(&scene, order, &sim::taylor::FlowOptions::default())?;
+        let map = polynomial_map(&pm);
+        let mut c = vec![0.0; pm.dim()];
+        c[pm.primary] = 1.0;
+        let o = MapSsmOptions { order, pairs: 2, resonance_tol: 1e-3, observable: c.clone(), dt: pm.dt, amplitude: Amplitude::Spectral };
+        let spec = map_ssm(&map, &o)?;
+        let obs = map_ssm(&map, &MapSsmOptions { amplitude: Amplitude::Observable, ..o })?;
+        let (inc, x) = spec.real_form(&c)?;
+        let nf = normal_form_of_poly(&inc, Some(pm.dt), &NormalFormOptions { order: Some(order), small_divisor: 1e-3, normalization: Normalization::FirstHarmonic(x) })?;
+        let (a, b) = (nf.table(), obs.polar.table());
+        let mut worst = 0.0f64;
+        for r in &b.rows {
+            let got = a.get(r.mode, &r.monomial).unwrap_or(f64::NAN);
+            worst = worst.max((got / r.value - 1.0).abs());
+            if r.rho_exps.iter().sum::<u32>() <= 5 {
+                println!("  {dt} ms rho_{}' {:<16} observable {:>14.8} first harmonic of the spectral map {:>14.8}", r.mode, r.monomial, r.value, got);
+            }
+        }
+        println!("{dt} ms order {order}: largest relative difference {worst:.2e}");
+    }
+    Ok(())
+}
+
 /// `maptorus VARIANT...`: the fitted map's torus continuation (linear and spline in dt,
 /// 31.3-32.0 ms by 0.05, 16,000 periods, the report's) per training variant.
 fn maptorus(args: &[String]) -> R {
@@ -599,6 +727,9 @@ fn main() -> R {
         Some("torus") => torus(&args[1..]),
         Some("fullcont") => fullcont(&args[1..]),
         Some("coeffs") => coeffs(&args[1..]),
+        Some("fhcoeffs") => fhcoeffs(&args[1..]),
+        Some("eqbasis") => eqbasis(&args[1..]),
+        Some("fhsplit") => fhsplit(&args[1..]),
         Some("maptorus") => maptorus(&args[1..]),
         Some("ratefun") => ratefun(&args[1..]),
         Some("cuts") => cuts(&args[1..]),

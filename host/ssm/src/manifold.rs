@@ -131,6 +131,29 @@ impl Manifold {
         row
     }
 
+    /// The observable `x_0` (first embedding coordinate) on the manifold as a scalar
+    /// polynomial in `eta` (degrees 1..=K, scales `eta_scale`): the first row of `V1` plus
+    /// the first row of the normal part. Its linear part is [`Manifold::observable_row`].
+    pub fn observable_poly(&self) -> Poly {
+        let d = self.dim;
+        let scale = self.nonlinear.as_ref().map_or_else(|| self.eta_scale.clone(), |p| p.scale.clone());
+        let mut exps = poly::exponents(d, 1, 1);
+        let mut coef: Vec<f64> = (0..d).map(|j| self.v1[j * self.p] * scale[j]).collect();
+        if let Some(nl) = &self.nonlinear {
+            for (k, e) in nl.exps.iter().enumerate() {
+                let c = nl.coef[k * nl.dim_out];
+                match exps.iter().position(|x| x == e) {
+                    Some(q) => coef[q] += c,
+                    None => {
+                        exps.push(e.clone());
+                        coef.push(c);
+                    }
+                }
+            }
+        }
+        Poly { dim_in: d, dim_out: 1, scale, exps, coef }
+    }
+
     /// Reduced coordinates of one embedded point: `eta = V1^T y`.
     pub fn reduce(&self, y: &[f64]) -> Vec<f64> {
         (0..self.dim).map(|j| self.v1[j * self.p..(j + 1) * self.p].iter().zip(y).map(|(a, b)| a * b).sum()).collect()
@@ -288,6 +311,31 @@ mod tests {
         }
         let c = m.conditioning.unwrap();
         assert!(c.cond.is_finite() && c.cond > 1.0 && c.rel_residual < 1e-12, "{c:?}");
+    }
+
+    /// `observable_poly` is the first coordinate of `lift_into` (a normal part with degree-1
+    /// terms, as after `fit_with_tangent`, and scales), and its linear part is
+    /// `observable_row`.
+    #[test]
+    fn observable_poly_is_the_first_lifted_coordinate() {
+        let (p, d) = (3, 2);
+        let v1 = vec![0.6, 0.8, 0.0, -0.8, 0.6, 0.0];
+        let exps = poly::exponents(d, 1, 3);
+        let coef: Vec<f64> = (0..exps.len() * p).map(|k| 0.1 * ((k * 7 % 11) as f64 - 5.0)).collect();
+        let scale = vec![0.5, 2.0];
+        let nonlinear = Some(Poly { dim_in: d, dim_out: p, scale: scale.clone(), exps, coef });
+        let m = Manifold { dim: d, p, v1, singular_values: vec![1.0; p], eta_scale: scale, nonlinear, conditioning: None };
+        let x = m.observable_poly();
+        let mut sc = PolyScratch::default();
+        let mut out = vec![0.0; p];
+        for eta in [[0.3, -0.2], [-1.1, 0.7], [0.05, 0.9]] {
+            m.lift_into(&eta, &mut sc, &mut out);
+            let got = x.eval(&eta)[0];
+            assert!((got - out[0]).abs() < 1e-14, "{eta:?}: {got} vs {}", out[0]);
+        }
+        for (a, b) in x.linear_part().iter().zip(m.observable_row()) {
+            assert!((a - b).abs() < 1e-15, "{a} vs {b}");
+        }
     }
 
     /// With data symmetric so that the SVD returns exactly span(e1, e2), a graph of a

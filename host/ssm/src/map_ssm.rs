@@ -601,6 +601,72 @@ impl MapSsm {
         self.r.iter().map(|row| self.eval(row, z, order)).collect()
     }
 
+    /// The reduced map and an observable in the real coordinates
+    /// `eta = (Re z_1, Im z_1, Re z_2, Im z_2, ...)`, the form of a data-driven model (a map
+    /// of reduced coordinates, an observable on the manifold): the increment
+    /// `R(z(eta)) - eta` (`dim_out = dim_in = 2 pairs`) and `observable . W(z(eta))` (a
+    /// scalar), both of degrees 1..=order with unit scales. Their
+    /// `crate::normal_form::Normalization::FirstHarmonic` normal form is the
+    /// `Amplitude::Observable` polar form whatever this SSM's amplitude normalization.
+    pub fn real_form(&self, observable: &[f64]) -> Result<(poly::Poly, poly::Poly), MapSsmError> {
+        let n = self.multipliers.len();
+        if observable.len() != self.w.len() || observable.iter().any(|v| !v.is_finite()) {
+            return Err(MapSsmError::BadOption { what: "observable", why: format!("need {} finite entries, got {}", self.w.len(), observable.len()) });
+        }
+        let tab = Table::new(n, self.order);
+        let nt = tab.len();
+        // z_j = eta_2j + i eta_2j+1, conj z_j = eta_2j - i eta_2j+1.
+        let zv: Vec<Vec<C>> = (0..n)
+            .map(|v| {
+                let mut p = vec![C::new(0.0, 0.0); nt];
+                let (re, im) = (2 * (v / 2), 2 * (v / 2) + 1);
+                let unit = |j: usize| {
+                    let mut e = vec![0u32; n];
+                    e[j] = 1;
+                    tab.index[&e]
+                };
+                p[unit(re)] = C::new(1.0, 0.0);
+                p[unit(im)] = C::new(0.0, if v % 2 == 0 { 1.0 } else { -1.0 });
+                p
+            })
+            .collect();
+        let mono = tab.monomials(&self.exps, &zv, self.order);
+        let sum = |coef: &[(f64, f64)]| -> Vec<C> {
+            let mut out = vec![C::new(0.0, 0.0); nt];
+            for (m, &(re, im)) in mono.iter().zip(coef) {
+                if let Some(m) = m {
+                    for (o, x) in out.iter_mut().zip(m) {
+                        *o += x * C::new(re, im);
+                    }
+                }
+            }
+            out
+        };
+        let exps = poly::exponents(n, 1, self.order);
+        let mut inc = vec![0.0; exps.len() * n];
+        for j in 0..n / 2 {
+            let r = sum(&self.r[2 * j]);
+            for (k, e) in exps.iter().enumerate() {
+                let c = r[tab.index[e]];
+                inc[k * n + 2 * j] = c.re - if e[2 * j] == 1 && e.iter().sum::<u32>() == 1 { 1.0 } else { 0.0 };
+                inc[k * n + 2 * j + 1] = c.im - if e[2 * j + 1] == 1 && e.iter().sum::<u32>() == 1 { 1.0 } else { 0.0 };
+            }
+        }
+        let cw: Vec<(f64, f64)> = (0..self.exps.len())
+            .map(|k| {
+                let v: C = observable.iter().zip(&self.w).map(|(c, row)| C::new(row[k].0, row[k].1) * *c).sum();
+                (v.re, v.im)
+            })
+            .collect();
+        let x = sum(&cw);
+        let obs: Vec<f64> = exps.iter().map(|e| x[tab.index[e]].re).collect();
+        let ones = vec![1.0; n];
+        Ok((
+            poly::Poly { dim_in: n, dim_out: n, scale: ones.clone(), exps: exps.clone(), coef: inc },
+            poly::Poly { dim_in: n, dim_out: 1, scale: ones, exps, coef: obs },
+        ))
+    }
+
     /// Parametrization coordinates `z` (variable order, conjugate pairs) of the state `s`
     /// (length D) on the order-`order` truncation: the solution of `U^T W(z) = U^T s` (the
     /// master projections agree; `s` off the manifold is projected along the complement),

@@ -87,6 +87,14 @@ pub enum NormalFormError {
 pub enum Normalization {
     /// `c . w_j = 1/2`: `rho_j` is the mode amplitude in the observable `c . eta`.
     Observable(Vec<f64>),
+    /// The observable `x(eta)`, a scalar polynomial (`dim_out = 1`, degrees `1..`): its
+    /// linear row normalizes the eigenvectors as `Observable` does, and the resonant part of
+    /// the near-identity transformation (free in the homological equation) is chosen so
+    /// that the first-harmonic part of `x(W (u + h(u)))` is exactly
+    /// `sum_j (z_j + conj z_j) / 2` at every order: on an invariant torus of the polar
+    /// form, `rho_j` is the observable's first-harmonic amplitude at mode `j`'s frequency
+    /// (the convention of `map_ssm::Amplitude::Observable` on the equation side).
+    FirstHarmonic(Poly),
     /// `|w_j|_2 = 1` in reduced coordinates.
     UnitEigenvectors,
 }
@@ -316,6 +324,9 @@ struct Modal {
     f: Vec<SPoly>,
     /// Eigenvector matrix: `eta = W q` (columns `w_1, conj w_1, ...`, normalized).
     w: DMatrix<C>,
+    /// [`Normalization::FirstHarmonic`]: the observable's nonlinear part (degrees
+    /// 2..=order) in `q`; its linear part in `q` is `1/2` for every variable.
+    obs: Option<SPoly>,
 }
 
 /// Eigenvector of real `a` (d x d) for eigenvalue `lam` by inverse iteration.
@@ -370,6 +381,29 @@ fn modal(
         return Err(NormalFormError::Eigen("eigenvalues do not form conjugate pairs"));
     }
     let ct = |z: C| if is_map { C::new(z.norm().ln() / dt, z.im.atan2(z.re) / dt) } else { z };
+    let row: Option<Vec<f64>> = match norm {
+        Normalization::UnitEigenvectors => None,
+        Normalization::Observable(c) => Some(c.clone()),
+        Normalization::FirstHarmonic(x) => {
+            if x.dim_in != d || x.dim_out != 1 || x.scale.len() != d || x.coef.len() != x.exps.len() {
+                return Err(NormalFormError::Normalization(format!(
+                    "the first-harmonic observable must map {d} inputs to 1 output, got {} -> {} ({} scales, {} coefficients for {} monomials)",
+                    x.dim_in,
+                    x.dim_out,
+                    x.scale.len(),
+                    x.coef.len(),
+                    x.exps.len()
+                )));
+            }
+            if let Some(k) = x.exps.iter().position(|e| e.len() != d || e.iter().sum::<u32>() == 0) {
+                return Err(NormalFormError::Normalization(format!("first-harmonic observable monomial {k} {:?}: want {d} exponents of degree >= 1", x.exps[k])));
+            }
+            if x.scale.iter().chain(&x.coef).any(|v| !v.is_finite()) || x.scale.iter().any(|&v| v == 0.0) {
+                return Err(NormalFormError::Normalization("first-harmonic observable: non-finite coefficient or zero scale".into()));
+            }
+            Some(x.linear_part())
+        }
+    };
     pos.sort_by(|x, y| ct(*x).im.total_cmp(&ct(*y).im));
     let mut cols: Vec<DVector<C>> = Vec::with_capacity(d);
     let mut lam = Vec::with_capacity(d);
@@ -381,7 +415,8 @@ fn modal(
                 let big = w.iter().copied().max_by(|x, y| x.norm().total_cmp(&y.norm())).unwrap_or(C::new(1.0, 0.0));
                 big.conj() / big.norm()
             }
-            Normalization::Observable(c) => {
+            Normalization::Observable(_) | Normalization::FirstHarmonic(_) => {
+                let c = row.as_deref().unwrap_or(&[]);
                 if c.len() != d {
                     return Err(NormalFormError::Normalization(format!("observable row has {} entries, d = {d}", c.len())));
                 }
@@ -436,8 +471,34 @@ fn modal(
             out
         })
         .collect();
+    let obs = match norm {
+        Normalization::FirstHarmonic(x) => {
+            let sub: Vec<SPoly> = (0..d)
+                .map(|j| {
+                    let mut p = SPoly::new();
+                    for l in 0..d {
+                        let mut e = vec![0; d];
+                        e[l] = 1;
+                        p.insert(e, wm[(j, l)] / x.scale[j]);
+                    }
+                    p
+                })
+                .collect();
+            let nl: SPoly = x
+                .exps
+                .iter()
+                .zip(&x.coef)
+                .filter(|(e, _)| deg(e) >= 2 && deg(e) <= order)
+                .map(|(e, &c)| (e.clone(), C::new(c, 0.0)))
+                .collect();
+            let mut q = compose(&[nl], &sub, d, order).pop().unwrap_or_default();
+            q.retain(|e, _| deg(e) >= 2);
+            Some(q)
+        }
+        _ => None,
+    };
     let eig_ct: Vec<(f64, f64)> = pos.iter().map(|&z| (ct(z).re, ct(z).im)).collect();
-    Ok((Modal { lam, f, w: wm }, eig_ct))
+    Ok((Modal { lam, f, w: wm, obs }, eig_ct))
 }
 
 /// Structural resonance: in the equation of variable `i` (pair `i/2`, conjugate if odd),
@@ -498,21 +559,26 @@ fn normalize(md: &Modal, order: u32, is_map: bool, small: f64) -> Normalized {
                 }
             }
         }
+        let divisor = |i: usize, m: &[u32]| -> C {
+            if is_map {
+                let mut mu = C::new(1.0, 0.0);
+                for (j, &p) in m.iter().enumerate() {
+                    mu *= md.lam[j].powu(p);
+                }
+                mu - md.lam[i]
+            } else {
+                let s: C = m.iter().zip(&md.lam).map(|(&p, l)| l * p as f64).sum();
+                s - md.lam[i]
+            }
+        };
+        // Structural terms wait until the non-resonant part of h at this order is known.
+        let mut resonant: Vec<(usize, Vec<u32>, C)> = Vec::new();
         for i in 0..d {
             for (m, c) in &g[i] {
-                let div = if is_map {
-                    let mut mu = C::new(1.0, 0.0);
-                    for (j, &p) in m.iter().enumerate() {
-                        mu *= md.lam[j].powu(p);
-                    }
-                    mu - md.lam[i]
-                } else {
-                    let s: C = m.iter().zip(&md.lam).map(|(&p, l)| l * p as f64).sum();
-                    s - md.lam[i]
-                };
+                let div = divisor(i, m);
                 let rel = if is_map { div.norm() } else { div.norm() / md.lam[i].norm() };
                 if structural(i, m) {
-                    n[i].insert(m.clone(), *c);
+                    resonant.push((i, m.clone(), *c));
                 } else if rel < small {
                     extra.push(ExtraResonance { equation: i, exponents: m.clone(), coefficient: (c.re, c.im), divisor: rel });
                     n[i].insert(m.clone(), *c);
@@ -520,6 +586,31 @@ fn normalize(md: &Modal, order: u32, is_map: bool, small: f64) -> Normalized {
                     min_div = min_div.min(rel);
                     h[i].insert(m.clone(), c / div);
                 }
+            }
+        }
+        if let Some(obs) = &md.obs {
+            // First harmonic: the coefficient of the structural monomial m (equation i) in
+            // x(W (u + h(u))) is [obs(u + h_{<k})]_m + (1/2) sum_l h_{l,m} (c . w_l = 1/2);
+            // h_{i,m} = alpha makes it vanish, and the homological equation then keeps
+            // n_{i,m} = g_{i,m} - divisor * alpha.
+            let x = compose(std::slice::from_ref(obs), &t, d, k).pop().unwrap_or_default();
+            for (m, _) in x.iter().filter(|(m, _)| deg(m) == k) {
+                for i in 0..d {
+                    if structural(i, m) && !resonant.iter().any(|(j, e, _)| *j == i && e == m) {
+                        resonant.push((i, m.clone(), C::new(0.0, 0.0)));
+                    }
+                }
+            }
+            for (i, m, c) in resonant {
+                let xm = x.get(&m).copied().unwrap_or(C::new(0.0, 0.0));
+                let others: C = (0..d).filter_map(|l| h[l].get(&m)).sum();
+                let alpha = -2.0 * xm - others;
+                h[i].insert(m.clone(), alpha);
+                n[i].insert(m.clone(), c - divisor(i, &m) * alpha);
+            }
+        } else {
+            for (i, m, c) in resonant {
+                n[i].insert(m, c);
             }
         }
     }
@@ -806,6 +897,16 @@ pub fn model_normal_form_with_transform(
     normal_form_with_transform(&model.dynamics, &model_options(model, opts))
 }
 
+/// Normal form of a fitted model on the first-harmonic basis
+/// ([`Normalization::FirstHarmonic`] of the observable on the manifold,
+/// `Manifold::observable_poly`): `rho_j` is the measured signal's first-harmonic amplitude
+/// of mode `j` on an invariant torus, at every order (as the equation-driven
+/// `map_ssm::Amplitude::Observable`). `opts.normalization` is overridden.
+pub fn model_normal_form_first_harmonic(model: &SsmModel, opts: &NormalFormOptions) -> Result<PolarNormalForm, NormalFormError> {
+    let o = NormalFormOptions { normalization: Normalization::FirstHarmonic(model.manifold.observable_poly()), ..opts.clone() };
+    normal_form(&model.dynamics, &o)
+}
+
 fn model_options(model: &SsmModel, opts: &NormalFormOptions) -> NormalFormOptions {
     let m = &model.manifold;
     let row: Vec<f64> = (0..m.dim).map(|j| m.v1[j * m.p]).collect();
@@ -969,6 +1070,193 @@ mod tests {
         assert!((nf.amp[0][1] - a1).abs() < 1e-9 * a1.abs(), "{} vs {a1}", nf.amp[0][1]);
         assert!(nf.amp[0][2].abs() < 1e-9, "{}", nf.amp[0][2]);
         assert!(nf.phase[0][1].abs() < 1e-9 && nf.phase[0][2].abs() < 1e-9, "{nf:?}");
+    }
+
+    /// Conjugate partner of a polynomial in `(z_1, conj z_1, z_2, ...)`: coefficients
+    /// conjugated, exponents of each pair swapped.
+    fn conj_poly(p: &SPoly) -> SPoly {
+        p.iter()
+            .map(|(e, c)| {
+                let mut f = e.clone();
+                for j in 0..e.len() / 2 {
+                    f.swap(2 * j, 2 * j + 1);
+                }
+                (f, c.conj())
+            })
+            .collect()
+    }
+
+    /// A real scalar `x(eta)` (a [`Poly`] with the given scales, degrees 1..=order) of a
+    /// real-valued polynomial `xq(z, conj z)`, `x = (Re z_j, Im z_j)_j = M^-1 eta`.
+    fn real_scalar(xq: &SPoly, m: &DMatrix<f64>, scale: &[f64], order: u32) -> Poly {
+        let d = m.nrows();
+        let minv = m.clone().try_inverse().unwrap();
+        let mut sub = Vec::new();
+        for j in 0..d / 2 {
+            for sgn in [1.0, -1.0] {
+                let mut p = SPoly::new();
+                for l in 0..d {
+                    let mut e = vec![0; d];
+                    e[l] = 1;
+                    p.insert(e, C::new(minv[(2 * j, l)], sgn * minv[(2 * j + 1, l)]));
+                }
+                sub.push(p);
+            }
+        }
+        let x = compose(std::slice::from_ref(xq), &sub, d, order).pop().unwrap();
+        let exps = poly::exponents(d, 1, order);
+        let coef = exps
+            .iter()
+            .map(|e| {
+                let c = x.get(e).copied().unwrap_or(C::new(0.0, 0.0));
+                assert!(c.im.abs() < 1e-12, "observable not real: {e:?} {c}");
+                c.re * e.iter().zip(scale).map(|(&p, s)| s.powi(p as i32)).product::<f64>()
+            })
+            .collect();
+        Poly { dim_in: d, dim_out: 1, scale: scale.to_vec(), exps, coef }
+    }
+
+    /// Known answer of the first-harmonic basis: a two-mode map normal form
+    /// `u_j -> u_j (mu_j + sum beta_j,ab P_1^a P_2^b)` seen through a known near-identity
+    /// change `q = u + k(u)` with resonant and non-resonant terms, mixed by a real 4x4 `M`,
+    /// and an observable whose first harmonic in `u` is exactly `Re u_1 + Re u_2` plus
+    /// non-first-harmonic terms (`|u_1|^2`, `Re u_1^2`, `Re u_1^3`, `Re u_1^2 conj u_2`, `Re u_1^3 conj u_2^2`, ...).
+    /// `FirstHarmonic` must recover the beta's (as the flow coefficients of `map_to_flow`)
+    /// to 1e-9; `Observable` (linear row only) must not (the resonant part of `k` moves it).
+    #[test]
+    fn first_harmonic_recovers_a_known_map_normal_form() {
+        let order = 5;
+        let dt = 0.03;
+        let mu = [C::from_polar(0.995, 0.15), C::from_polar(1.008, 1.63)];
+        let pe = [[1u32, 0], [0, 1], [2, 0], [1, 1], [0, 2]];
+        let beta = [
+            [C::new(0.8, -0.3), C::new(-1.7, 0.4), C::new(2.5, 1.0), C::new(-3.0, 0.7), C::new(1.1, -2.0)],
+            [C::new(-0.6, 0.2), C::new(-1.2, -0.5), C::new(0.9, 0.3), C::new(2.2, -1.4), C::new(-0.7, 0.6)],
+        ];
+        let d = 4;
+        // Normal form N(u), z-equations only (variables u_1, conj u_1, u_2, conj u_2).
+        let mut nz = vec![SPoly::new(), SPoly::new()];
+        for i in 0..2 {
+            let mut e = vec![0u32; d];
+            e[2 * i] = 1;
+            nz[i].insert(e, mu[i]);
+            for (k, p) in pe.iter().enumerate() {
+                let mut e = vec![p[0], p[0], p[1], p[1]];
+                e[2 * i] += 1;
+                nz[i].insert(e, mu[i] * beta[i][k]);
+            }
+        }
+        let full = |z: &[SPoly]| -> Vec<SPoly> { z.iter().flat_map(|p| [p.clone(), conj_poly(p)]).collect() };
+        // k(u): non-resonant (u_1^2, |u_1|^2, u_2 conj u_1, u_2^3, u_1 u_2, conj u_1^2) and
+        // resonant (u_1 |u_1|^2, u_1 |u_2|^2, u_2 |u_2|^2, u_2 |u_1|^4) terms.
+        let kz: Vec<SPoly> = vec![
+            [
+                term(&[2, 0, 0, 0], C::new(0.4, -0.2)),
+                term(&[1, 1, 0, 0], C::new(-0.3, 0.1)),
+                term(&[0, 1, 1, 0], C::new(0.25, 0.3)),
+                term(&[0, 0, 3, 0], C::new(-0.2, 0.1)),
+                term(&[2, 1, 0, 0], C::new(0.7, -0.4)),
+                term(&[1, 0, 1, 1], C::new(-0.5, 0.2)),
+            ]
+            .into_iter()
+            .collect(),
+            [
+                term(&[1, 0, 1, 0], C::new(0.3, 0.2)),
+                term(&[0, 2, 0, 0], C::new(-0.1, 0.35)),
+                term(&[0, 0, 2, 1], C::new(0.6, 0.3)),
+                term(&[2, 2, 1, 0], C::new(-0.8, 0.5)),
+            ]
+            .into_iter()
+            .collect(),
+        ];
+        let kf = full(&kz);
+        // T(u) = u + k(u); T^-1(q) = q - k(T^-1(q)) by fixed point, truncated at `order`.
+        let ids: Vec<SPoly> = (0..d).map(|i| var(d, i)).collect();
+        let mut inv = ids.clone();
+        for _ in 0..order {
+            let kv = compose(&kf, &inv, d, order);
+            inv = (0..d)
+                .map(|i| {
+                    let mut p = ids[i].clone();
+                    add_into(&mut p, &kv[i], C::new(-1.0, 0.0));
+                    p
+                })
+                .collect();
+        }
+        // F(q) = T(N(T^-1(q))), z-equations.
+        let nf_full = full(&nz);
+        let t: Vec<SPoly> = (0..d)
+            .map(|i| {
+                let mut p = ids[i].clone();
+                add_into(&mut p, &kf[i], C::new(1.0, 0.0));
+                p
+            })
+            .collect();
+        let tn = compose(&t, &nf_full, d, order);
+        let fq = compose(&tn, &inv, d, order);
+        let fz = vec![fq[0].clone(), fq[2].clone()];
+        // Observable in u: Re u_1 + Re u_2 + terms with no first harmonic.
+        let half = C::new(0.5, 0.0);
+        let mut xu: SPoly = [
+            term(&[1, 0, 0, 0], half),
+            term(&[0, 1, 0, 0], half),
+            term(&[0, 0, 1, 0], half),
+            term(&[0, 0, 0, 1], half),
+            term(&[1, 1, 0, 0], C::new(0.7, 0.0)),
+            term(&[0, 0, 1, 1], C::new(-0.6, 0.0)),
+        ]
+        .into_iter()
+        .collect();
+        for (e, c) in [([2u32, 0, 0, 0], C::new(0.3, 0.2)), ([1, 0, 1, 0], C::new(-0.2, 0.4)), ([3, 0, 0, 0], C::new(-0.4, 0.1)), ([2, 0, 0, 1], C::new(0.5, -0.3)), ([3, 0, 0, 2], C::new(0.2, 0.2))] {
+            let p: SPoly = [term(&e, c)].into_iter().collect();
+            add_into(&mut xu, &p, C::new(1.0, 0.0));
+            add_into(&mut xu, &conj_poly(&p), C::new(1.0, 0.0));
+        }
+        let xq = compose(std::slice::from_ref(&xu), &inv, d, order).pop().unwrap();
+        let m = DMatrix::from_row_slice(4, 4, &[1.0, 0.2, -0.1, 0.3, 0.1, 0.9, 0.2, -0.2, -0.3, 0.1, 1.1, 0.2, 0.2, -0.3, 0.1, 0.8]);
+        let scale = [0.5, 0.8, 1.2, 2.0];
+        let mut p = real_field(&fz, &m, &scale, order);
+        // increment = F - identity (a degree-1 coefficient multiplies eta_i / scale_i)
+        for i in 0..d {
+            let mut e = vec![0u32; d];
+            e[i] = 1;
+            let k = p.exps.iter().position(|x| *x == e).unwrap();
+            p.coef[k * d + i] -= scale[i];
+        }
+        let x = real_scalar(&xq, &m, &[0.7, 1.3, 0.9, 1.1], order);
+        let pexps = poly::exponents(2, 0, 2);
+        let bfull: Vec<Vec<C>> = (0..2).map(|i| std::iter::once(C::new(0.0, 0.0)).chain(beta[i].iter().map(|b| mu[i] * b)).collect()).collect();
+        let (want_amp, want_phase) = map_to_flow(&bfull, &mu, &pexps, dt).unwrap();
+        let fh = NormalFormOptions { order: Some(order), normalization: Normalization::FirstHarmonic(x.clone()), ..Default::default() };
+        let nf = normal_form_of_poly(&p, Some(dt), &fh).unwrap();
+        assert!(nf.extra_resonances.is_empty());
+        for i in 0..2 {
+            for k in 0..pexps.len() {
+                let sc = want_amp[i][k].abs().max(want_phase[i][k].abs()).max(1.0);
+                assert!((nf.amp[i][k] - want_amp[i][k]).abs() < 1e-9 * sc, "amp {i} {k}: {} vs {}", nf.amp[i][k], want_amp[i][k]);
+                assert!((nf.phase[i][k] - want_phase[i][k]).abs() < 1e-9 * sc, "phase {i} {k}: {} vs {}", nf.phase[i][k], want_phase[i][k]);
+            }
+        }
+        // The transform's observable has exactly the first harmonic rho_j on a torus.
+        let (_, tr) = normal_form_parts(&p, Some(dt), &fh).unwrap();
+        let rho = [0.03, 0.02];
+        let n = 16;
+        let mut h1 = [C::new(0.0, 0.0); 2];
+        for a in 0..n {
+            for b in 0..n {
+                let th = [std::f64::consts::TAU * a as f64 / n as f64, std::f64::consts::TAU * b as f64 / n as f64];
+                let xv = x.eval(&tr.eta(&rho, &th))[0];
+                h1[0] += C::from_polar(xv, -th[0]) / (n * n) as f64;
+                h1[1] += C::from_polar(xv, -th[1]) / (n * n) as f64;
+            }
+        }
+        for j in 0..2 {
+            // O(rho^6) from the truncation of x(W(u + h(u))) at the order.
+            assert!((2.0 * h1[j].norm() - rho[j]).abs() < 1e-8 * rho[j], "mode {j}: first harmonic {} vs rho {}", 2.0 * h1[j].norm(), rho[j]);
+        }
+        let lin = NormalFormOptions { order: Some(order), normalization: Normalization::Observable(x.linear_part()), ..Default::default() };
+        let nl = normal_form_of_poly(&p, Some(dt), &lin).unwrap();
+        assert!((nl.amp[0][1] - want_amp[0][1]).abs() > 1e-3, "{} vs {}: the test needs a resonant k", nl.amp[0][1], want_amp[0][1]);
     }
 
     #[test]

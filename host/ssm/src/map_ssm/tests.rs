@@ -346,3 +346,36 @@ fn cubic_coefficients_move_by_two_kappa_lambda() {
         }
     }
 }
+
+/// The first-harmonic basis of `crate::normal_form` applied to the equation-driven model's
+/// own reduced map and observable (`MapSsm::real_form`, the form of a data-driven model)
+/// reproduces the `Amplitude::Observable` polar coefficients, from either normalization of
+/// the SSM; the linear-row `Observable` normal form of the same map does not.
+#[test]
+fn first_harmonic_normal_form_of_the_reduced_map_is_the_observable_amplitude() {
+    let (map, _) = system();
+    let order = 7;
+    let obs = map_ssm(&map, &MapSsmOptions { amplitude: Amplitude::Observable, ..opts(order) }).unwrap();
+    let c = opts(order).observable;
+    for amplitude in [Amplitude::Spectral, Amplitude::Observable] {
+        let ssm = map_ssm(&map, &MapSsmOptions { amplitude, ..opts(order) }).unwrap();
+        let (inc, x) = ssm.real_form(&c).unwrap();
+        let fh = NormalFormOptions { order: Some(order), small_divisor: 1e-3, normalization: Normalization::FirstHarmonic(x.clone()) };
+        let nf = normal_form_of_poly(&inc, Some(DT), &fh).unwrap();
+        let want = &obs.polar;
+        assert_eq!(nf.pexps, want.pexps);
+        for i in 0..2 {
+            for k in 0..want.pexps.len() {
+                let scale = want.amp[i][k].abs().max(want.phase[i][k].abs()).max(1.0);
+                assert!((nf.amp[i][k] - want.amp[i][k]).abs() < 1e-9 * scale, "{amplitude:?} amp {i} {k}: {} vs {}", nf.amp[i][k], want.amp[i][k]);
+                assert!((nf.phase[i][k] - want.phase[i][k]).abs() < 1e-9 * scale, "{amplitude:?} phase {i} {k}: {} vs {}", nf.phase[i][k], want.phase[i][k]);
+            }
+        }
+        if amplitude == Amplitude::Spectral {
+            let lin = NormalFormOptions { normalization: Normalization::Observable(x.linear_part()), ..fh.clone() };
+            let nl = normal_form_of_poly(&inc, Some(DT), &lin).unwrap();
+            assert!((nl.amp[0][1] - want.amp[0][1]).abs() > 1e-6, "linear-row normal form equals the observable one: the test sees nothing");
+        }
+    }
+    assert!(map_ssm(&map, &opts(3)).unwrap().real_form(&[1.0]).is_err());
+}
