@@ -40,8 +40,8 @@ fn scan() {
             .collect();
     }
     let pick = std::env::var("FLAG4_SYSTEMS").ok();
-    println!("| system | dt | lag / Theiler | D2 | Rosenstein [1/s] | exact [1/s] | nats per lag | s |");
-    println!("|---|---|---|---|---|---|---|---|");
+    println!("| system | dt | lag / Theiler | D2 | Rosenstein [1/s] | exact [1/s] | nats per lag | D2 over 8 pieces: mean ± sd (values) | Rosenstein / exact over the pieces | s |");
+    println!("|---|---|---|---|---|---|---|---|---|---|");
     for s in systems {
         if let Some(p) = &pick {
             if !p.split(',').any(|q| s.name().contains(q)) {
@@ -50,8 +50,18 @@ fn scan() {
         }
         let t0 = std::time::Instant::now();
         match known_stats(&s, &FLAG_LAYOUT, 1, 4000.0) {
-            Ok((k, _)) => println!(
-                "| {} | {:.5} | {} / {} | {:.2} ± {:.2} | {:.3} | {:.4} ± {:.4} | {:.3} | {:.1} |",
+            Ok((k, _)) => {
+                let seg = furuta::flag_pipeline::segment_stats(&s, k.dt, &FLAG_LAYOUT, 8);
+                let o = |v: Option<f64>| v.map_or("-".to_string(), |v| format!("{v:.2}"));
+                let (d2s, ratios) = match &seg {
+                    Ok(g) => (
+                        format!("{} ± {} ({})", o(g.corr_dim_mean), o(g.corr_dim_sd), g.corr_dims.iter().map(|d| o(*d)).collect::<Vec<_>>().join(", ")),
+                        g.rosensteins.iter().map(|r| o(r.map(|r| r / k.exact))).collect::<Vec<_>>().join(", "),
+                    ),
+                    Err(e) => (format!("error: {e}"), String::new()),
+                };
+                println!(
+                "| {} | {:.5} | {} / {} | {:.2} ± {:.2} | {:.3} | {:.4} ± {:.4} | {:.3} | {d2s} | {ratios} | {:.1} |",
                 k.system,
                 k.dt,
                 k.lag,
@@ -63,7 +73,8 @@ fn scan() {
                 k.exact_err,
                 k.per_lag,
                 t0.elapsed().as_secs_f64()
-            ),
+            )
+            }
             Err(e) => println!("| {} | error: {e} |", s.name()),
         }
     }
@@ -79,17 +90,17 @@ fn check(scale: usize) {
     match pipeline_check(&sys, &FLAG_LAYOUT, scale, &cands, 4000.0) {
         Ok((k, rows)) => {
             println!("{k:?}");
-            let o = |v: Option<f64>, p: usize| v.map_or("-".to_string(), |v| format!("{v:.p$}"));
+            let o = |v: Option<f64>, p: usize| v.map_or("None".to_string(), |v| format!("Some({v:.p$})"));
             for r in rows {
                 println!(
-                    "    (\"{}\", {}, {}, {}, {}, {}, {:?}),",
+                    "    (\"{}\", {}, {}, {}, {}, {}, \"{}\"),",
                     r.candidate,
                     r.scale,
                     o(r.benettin, 3),
                     o(r.rosenstein, 3),
                     o(r.corr_dim, 2),
                     o(r.js, 4),
-                    r.failed
+                    r.failed.as_deref().map_or(String::new(), |f| f.split(':').next().unwrap_or(f).to_string())
                 );
             }
             println!("{:.1} s", t0.elapsed().as_secs_f64());

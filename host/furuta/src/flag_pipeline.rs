@@ -248,7 +248,8 @@ pub struct KnownStats {
 }
 
 /// `sys` sampled as `layout` (training series `scale` times longer): the statistics of its
-/// held-out series and the series (training, then held-out). `benettin_time` sets the exact
+/// held-out series and the series (training, then held-out; the held-out series is the
+/// orbit's first piece, the same at every scale). `benettin_time` sets the exact
 /// exponent's length (s, after 5,000 full-rate steps).
 pub fn known_stats(sys: &KnownSystem, layout: &FlagLayout, scale: usize, benettin_time: f64) -> Result<(KnownStats, Vec<TimeSeries>), Error> {
     if scale == 0 {
@@ -260,8 +261,10 @@ pub fn known_stats(sys: &KnownSystem, layout: &FlagLayout, scale: usize, benetti
         return Err(Error::BadOption { what: "benettin_time", why: format!("{benettin_time} s at step {dt} s is not 1..1e9 steps") });
     }
     let (exact, exact_err) = sys.exponent(dt, 5_000, steps as usize)?;
-    let lengths = [layout.train[0] * scale, layout.train[1] * scale, layout.test];
-    let series = sys.flag_like_series(dt, &lengths, layout.noise_rel)?;
+    // The held-out piece first, so that it is the same at every scale.
+    let lengths = [layout.test, layout.train[0] * scale, layout.train[1] * scale];
+    let mut series = sys.flag_like_series(dt, &lengths, layout.noise_rel)?;
+    series.rotate_left(1);
     let (ds, _) = data_stats(&series[2], layout.step, &EvalSettings::default())?;
     let stats = KnownStats {
         system: sys.name(),
@@ -278,6 +281,45 @@ pub fn known_stats(sys: &KnownSystem, layout: &FlagLayout, scale: usize, benetti
         noise_rel: layout.noise_rel,
     };
     Ok((stats, series))
+}
+
+/// The data settings' readings on `segments` consecutive held-out-length pieces of one orbit
+/// of `sys` at the full-rate step `dt` (noise as `layout`), at the map step: D2 and
+/// Rosenstein (1/s) per piece (`None` where the estimator found no scaling range or fit).
+#[derive(Clone, Debug, Serialize)]
+pub struct SegmentStats {
+    pub corr_dims: Vec<Option<f64>>,
+    pub rosensteins: Vec<Option<f64>>,
+    pub lags: Vec<usize>,
+    /// Mean and sd of the D2 values found.
+    pub corr_dim_mean: Option<f64>,
+    pub corr_dim_sd: Option<f64>,
+}
+
+/// [`SegmentStats`] of `sys`.
+pub fn segment_stats(sys: &KnownSystem, dt: f64, layout: &FlagLayout, segments: usize) -> Result<SegmentStats, Error> {
+    if segments == 0 {
+        return Err(Error::BadOption { what: "segments", why: "need at least one segment".into() });
+    }
+    let series = sys.flag_like_series(dt, &vec![layout.test; segments], layout.noise_rel)?;
+    let per = crate::par_map(&series, |ts| Ok::<_, Error>(data_stats(ts, layout.step, &EvalSettings::default()).ok().map(|(d, _)| d)))?;
+    let corr_dims: Vec<Option<f64>> = per.iter().map(|d| d.as_ref().map(|d| d.corr_dim)).collect();
+    let found: Vec<f64> = corr_dims.iter().flatten().copied().collect();
+    let (corr_dim_mean, corr_dim_sd) = match found.len() {
+        0 => (None, None),
+        1 => (Some(found[0]), None),
+        n => {
+            let m = found.iter().sum::<f64>() / n as f64;
+            (Some(m), Some((found.iter().map(|v| (v - m) * (v - m)).sum::<f64>() / (n - 1) as f64).sqrt()))
+        }
+    };
+    Ok(SegmentStats {
+        corr_dims,
+        rosensteins: per.iter().map(|d| d.as_ref().map(|d| d.lle)).collect(),
+        lags: per.iter().map(|d| d.as_ref().map_or(0, |d| d.lag)).collect(),
+        corr_dim_mean,
+        corr_dim_sd,
+    })
 }
 
 /// Flag-like candidates at map step `step` (the flag search's: SSM dimension 4, embedding 9,
@@ -339,23 +381,49 @@ pub struct PipelineRow {
 
 impl PipelineRow {
     pub fn new(r: &CandidateResult, scale: usize, exact: f64) -> Self {
-        let ratio = r.benettin.map(|b| b / exact);
+        let m = Measured { benettin: r.benettin, rosenstein: r.rosenstein, corr_dim: r.corr_dim, js: r.js };
+        Self::from_values(&r.name, scale, &m, r.failed.clone(), r.data.lle, r.data.corr_dim, r.data.corr_dim_err, exact)
+    }
+
+    /// A row from measured values: the model's, whether it failed, the held-out data's
+    /// Rosenstein exponent and D2 (with its error bar), and the exact exponent.
+    #[allow(clippy::too_many_arguments)]
+    pub fn from_values(candidate: &str, scale: usize, m: &Measured, failed: Option<String>, data_lle: f64, data_d2: f64, data_d2_err: f64, exact: f64) -> Self {
+        let ratio = m.benettin.map(|b| b / exact);
+        let t = Targets::default();
+        let rel = |v: Option<f64>, tol: f64| v.is_some_and(|v| (v - data_lle).abs() <= tol * data_lle.abs());
+        let ok = failed.is_none();
+        let passes = [
+            ok && m.benettin.is_some_and(|b| b > 0.0) && rel(m.benettin, t.benettin_rel),
+            ok && rel(m.rosenstein, t.rosenstein_rel),
+            ok && m.corr_dim.is_some_and(|d| (d - data_d2).abs() <= data_d2_err),
+            ok && m.js.is_some_and(|j| j <= t.js_max),
+        ];
         PipelineRow {
-            candidate: r.name.clone(),
+            candidate: candidate.to_string(),
             scale,
-            benettin: r.benettin,
+            benettin: m.benettin,
             benettin_over_exact: ratio,
-            rosenstein: r.rosenstein,
-            data_rosenstein: r.data.lle,
-            corr_dim: r.corr_dim,
-            data_corr_dim: r.data.corr_dim,
-            data_corr_dim_err: r.data.corr_dim_err,
-            js: r.js,
-            benettin_exact_ok: r.failed.is_none() && ratio.is_some_and(|q| (q - 1.0).abs() <= 0.10),
-            passes: r.passes(&Targets::default()),
-            failed: r.failed.clone(),
+            rosenstein: m.rosenstein,
+            data_rosenstein: data_lle,
+            corr_dim: m.corr_dim,
+            data_corr_dim: data_d2,
+            data_corr_dim_err: data_d2_err,
+            js: m.js,
+            benettin_exact_ok: ok && ratio.is_some_and(|q| (q - 1.0).abs() <= 0.10),
+            passes,
+            failed,
         }
     }
+}
+
+/// A model's measured statistics: Benettin (1/s), Rosenstein of its series (1/s), D2, JS (bits).
+#[derive(Clone, Copy, Debug, Serialize)]
+pub struct Measured {
+    pub benettin: Option<f64>,
+    pub rosenstein: Option<f64>,
+    pub corr_dim: Option<f64>,
+    pub js: Option<f64>,
 }
 
 /// The flag's model search on `sys` sampled as `layout`, training data `scale` times the
@@ -368,11 +436,112 @@ pub fn pipeline_check(sys: &KnownSystem, layout: &FlagLayout, scale: usize, cand
     Ok((stats, rows))
 }
 
-/// The known system of the report's pipeline check, chosen by the `scan` of the example: sampled
-/// like the flag it reads lag 11 and Theiler window 39 (the flag: 11 and 38), D2 3.04 ± 0.16
-/// (the flag: 3.13-3.36), Rosenstein 0.337 1/s (the flag: 0.332-0.354); exact exponent 0.990
-/// 1/s, 0.63 nats per lag.
-pub const CHOSEN: KnownSystem = KnownSystem::Lorenz96 { n: 4, f: 18.0 };
+/// What the pipeline check found at one training-data scale.
+#[derive(Clone, Debug, Serialize)]
+pub struct PipelineSummary {
+    pub scale: usize,
+    pub candidates: usize,
+    pub failed: usize,
+    /// Candidates whose model is chaotic (Benettin above 1 % of the exact exponent).
+    pub chaotic: usize,
+    /// Smallest and largest Benettin / exact over the chaotic candidates.
+    pub benettin_over_exact: Option<(f64, f64)>,
+    /// Candidates with Benettin within 10 % of the exact exponent.
+    pub benettin_within_10pct_of_exact: usize,
+    /// Candidates meeting the issue's targets against the held-out data as on the flag:
+    /// each target and all four.
+    pub target_counts: [usize; 4],
+    pub all_four: usize,
+    /// Candidates with Benettin within 10 % of the exact exponent and D2 within the data's
+    /// error bar and JS <= 0.01 (the targets with the exact exponent as reference).
+    pub exact_d2_js: usize,
+}
+
+/// [`PipelineSummary`] of the rows of `scale`.
+pub fn summarize(rows: &[PipelineRow], scale: usize) -> PipelineSummary {
+    let rows: Vec<&PipelineRow> = rows.iter().filter(|r| r.scale == scale).collect();
+    let chaotic: Vec<&&PipelineRow> = rows.iter().filter(|r| r.failed.is_none() && r.benettin_over_exact.is_some_and(|q| q > 0.01)).collect();
+    let ratios = chaotic.iter().filter_map(|r| r.benettin_over_exact);
+    let range = ratios.fold(None, |acc: Option<(f64, f64)>, q| Some(acc.map_or((q, q), |(a, b)| (a.min(q), b.max(q)))));
+    let mut target_counts = [0; 4];
+    for r in &rows {
+        for (c, p) in target_counts.iter_mut().zip(r.passes) {
+            *c += p as usize;
+        }
+    }
+    PipelineSummary {
+        scale,
+        candidates: rows.len(),
+        failed: rows.iter().filter(|r| r.failed.is_some()).count(),
+        chaotic: chaotic.len(),
+        benettin_over_exact: range,
+        benettin_within_10pct_of_exact: rows.iter().filter(|r| r.benettin_exact_ok).count(),
+        target_counts,
+        all_four: rows.iter().filter(|r| r.passes.iter().all(|&p| p)).count(),
+        exact_d2_js: rows.iter().filter(|r| r.benettin_exact_ok && r.passes[2] && r.passes[3]).count(),
+    }
+}
+
+/// The held-out data the committed rows ([`PIPELINE_CHECK`]) were measured against
+/// ([`known_stats`] of [`CHOSEN`] at scale 1, 4,000 s of Benettin): Rosenstein (1/s), D2 and
+/// its error bar, exact exponent (1/s).
+pub const PIPELINE_DATA: (f64, f64, f64, f64) = (1.0361580920352271, 2.6482571409064275, 0.1213970107484192, 0.9402785496526412);
+
+/// The flag's candidate search on [`CHOSEN`] (example `flag_pipeline check 1`, `check 3` and
+/// `check 10`): (candidate, training-data scale, Benettin [1/s], Rosenstein of the model
+/// series [1/s], D2, JS [bits], failure). At scale 3 and 10 only the RBF sizes whose
+/// regression stays within the design-matrix limit.
+pub const PIPELINE_CHECK: &[(&str, usize, Option<f64>, Option<f64>, Option<f64>, Option<f64>, &str)] = &[
+    ("RBF 200 /4 r=3e-9", 1, None, None, None, None, "escaped in the long run"),
+    ("RBF 250 /4 r=1e-8", 1, None, None, None, None, "escaped in the long run"),
+    ("RBF 300 /4 r=3e-9", 1, Some(1.232), Some(0.438), Some(2.43), Some(0.0401), ""),
+    ("RBF 500 /4 r=1e-8", 1, None, None, None, None, "escaped in the long run"),
+    ("RBF 1000 /4 r=1e-8", 1, Some(-0.210), Some(0.304), Some(1.70), Some(0.1096), ""),
+    ("poly 4 /4", 1, Some(-1.183), Some(-1.191), None, Some(0.9439), ""),
+    ("RBF 200 /4 r=3e-9", 3, Some(0.739), Some(0.365), Some(1.94), Some(0.0530), ""),
+    ("RBF 250 /4 r=1e-8", 3, Some(-0.136), Some(-0.113), Some(0.44), Some(0.0947), ""),
+    ("RBF 300 /4 r=3e-9", 3, Some(0.060), Some(0.062), Some(0.83), Some(0.0923), ""),
+    ("RBF 500 /4 r=1e-8", 3, Some(-0.126), Some(0.273), Some(1.41), Some(0.0843), ""),
+    ("RBF 1000 /4 r=1e-8", 3, None, None, None, None, "escaped in the long run"),
+    ("poly 4 /4", 3, Some(-1.163), Some(-1.162), Some(0.00), Some(0.9429), ""),
+    ("RBF 200 /4 r=3e-9", 10, Some(-0.098), Some(0.198), Some(0.58), Some(0.0684), ""),
+    ("RBF 250 /4 r=1e-8", 10, Some(0.517), Some(0.387), Some(1.73), Some(0.0578), ""),
+    ("RBF 300 /4 r=3e-9", 10, None, None, None, None, "escaped in the long run"),
+    ("poly 4 /4", 10, Some(-1.064), Some(-1.064), Some(0.01), Some(0.9433), ""),
+];
+
+/// [`PIPELINE_CHECK`] as rows against [`PIPELINE_DATA`].
+pub fn committed_rows() -> Vec<PipelineRow> {
+    let (lle, d2, d2_err, exact) = PIPELINE_DATA;
+    PIPELINE_CHECK
+        .iter()
+        .map(|&(name, scale, benettin, rosenstein, corr_dim, js, failed)| {
+            let m = Measured { benettin, rosenstein, corr_dim, js };
+            PipelineRow::from_values(name, scale, &m, (!failed.is_empty()).then(|| failed.to_string()), lle, d2, d2_err, exact)
+        })
+        .collect()
+}
+
+/// The conclusion drawn from [`PIPELINE_CHECK`] (report text).
+pub const CONCLUSION: &str = "So on data made by a smooth system of exactly four dimensions, with the flag's \
+    sampling, lengths, noise, D2 (3.0 over pieces) and chaos per lag, the flag's pipeline does not recover the system: \
+    most candidates escape or are not chaotic (5 of 6, 4 of 6 and 3 of 4 at 1x, 3x and 10x the flag's training \
+    data), the chaotic ones read 0.06 to 1.31 times the exact exponent (a different attractor at every RBF size and \
+    data amount), none has its exponent within 10 % together with the data's D2 and PDFs, and none meets the four \
+    targets. Three and ten times more training data do not make it better (the chaotic models' Benettin / exact: \
+    1.31 at 1x; 0.79 and 0.06 at 3x; 0.55 at 10x). The Rosenstein number of one held-out series is no \
+    firmer a reference here than on the flag: 1.10 of the exact exponent on the held-out piece, 0.29 to 0.85 on the \
+    others. What this measures: the failure on the flag is what this pipeline does on data like the flag's even when \
+    a smooth four-dimensional model of the data exists; it is a limit of the fit (one-step ridge regression on \
+    data this sparse and chaotic lands on a fragile, size-dependent attractor), not evidence that no smooth reduced \
+    model of the flag exists, and not cured by the amount of data.";
+
+/// The known system of the report's pipeline check, chosen by the `scan` of the example
+/// (Lorenz-96 with 4 sites, F = 17.7-18.5; see the report): sampled like the flag its exact
+/// exponent is 0.940 1/s, 0.54 nats per lag; D2 over eight held-out-length pieces 3.04 ± 0.50
+/// (2.58-3.94; the flag: 3.13-3.36), lag 10-11 and Theiler window 38 on the first piece (the
+/// flag: 11 and 38).
+pub const CHOSEN: KnownSystem = KnownSystem::Lorenz96 { n: 4, f: 17.7 };
 
 #[cfg(test)]
 mod tests;
