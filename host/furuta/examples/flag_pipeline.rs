@@ -43,10 +43,10 @@ fn scan() {
     println!("| system | dt | lag / Theiler | D2 | Rosenstein [1/s] | exact [1/s] | nats per lag | D2 over 8 pieces: mean ± sd (values) | Rosenstein / exact over the pieces | s |");
     println!("|---|---|---|---|---|---|---|---|---|---|");
     for s in systems {
-        if let Some(p) = &pick {
-            if !p.split(',').any(|q| s.name().contains(q)) {
-                continue;
-            }
+        if let Some(p) = &pick
+            && !p.split(',').any(|q| s.name().contains(q))
+        {
+            continue;
         }
         let t0 = std::time::Instant::now();
         match known_stats(&s, &FLAG_LAYOUT, 1, 4000.0) {

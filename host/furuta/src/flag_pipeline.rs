@@ -487,11 +487,14 @@ pub fn summarize(rows: &[PipelineRow], scale: usize) -> PipelineSummary {
 /// its error bar, exact exponent (1/s).
 pub const PIPELINE_DATA: (f64, f64, f64, f64) = (1.0361580920352271, 2.6482571409064275, 0.1213970107484192, 0.9402785496526412);
 
+/// One committed row: (candidate, scale, Benettin, Rosenstein, D2, JS, failure).
+pub type CommittedRow = (&'static str, usize, Option<f64>, Option<f64>, Option<f64>, Option<f64>, &'static str);
+
 /// The flag's candidate search on [`CHOSEN`] (example `flag_pipeline check 1`, `check 3` and
 /// `check 10`): (candidate, training-data scale, Benettin [1/s], Rosenstein of the model
 /// series [1/s], D2, JS [bits], failure). At scale 3 and 10 only the RBF sizes whose
 /// regression stays within the design-matrix limit.
-pub const PIPELINE_CHECK: &[(&str, usize, Option<f64>, Option<f64>, Option<f64>, Option<f64>, &str)] = &[
+pub const PIPELINE_CHECK: &[CommittedRow] = &[
     ("RBF 200 /4 r=3e-9", 1, None, None, None, None, "escaped in the long run"),
     ("RBF 250 /4 r=1e-8", 1, None, None, None, None, "escaped in the long run"),
     ("RBF 300 /4 r=3e-9", 1, Some(1.232), Some(0.438), Some(2.43), Some(0.0401), ""),
