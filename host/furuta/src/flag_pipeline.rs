@@ -535,7 +535,8 @@ pub const CONCLUSION: &str = "So on data made by a smooth system of exactly four
     1.31 at 1x; 0.79 and 0.06 at 3x; 0.55 at 10x). The Rosenstein number of one held-out series is no \
     firmer a reference here than on the flag: 1.10 of the exact exponent on the held-out piece, 0.29 to 0.85 on the \
     others. What this measures: the failure on the flag is what this pipeline does on data like the flag's even when \
-    a smooth four-dimensional model of the data exists; it is a limit of the fit (one-step ridge regression on \
+    a smooth four-dimensional model of the data exists (the system itself, a 4-D flow, seen in a delay embedding \
+    of 9 = 2 x 4 + 1 samples, Takens' bound, with SSM dimension 4: the flag settings); it is a limit of the fit (one-step ridge regression on \
     data this sparse and chaotic lands on a fragile, size-dependent attractor), not evidence that no smooth reduced \
     model of the flag exists, and not cured by the amount of data.";
 
