@@ -14,6 +14,7 @@ pub mod device_model;
 pub mod equation_ssm;
 pub mod error;
 pub mod estimator_check;
+pub mod flag_pipeline;
 pub mod full_system;
 pub mod lyapunov;
 pub mod map_global;

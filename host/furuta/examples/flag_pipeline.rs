@@ -1,0 +1,119 @@
+//! The flag pipeline on a known chaotic system (`furuta::flag_pipeline`, issue 12). Prints
+//! only (timings are printed, never asserted). Run with
+//!
+//! ```text
+//! cargo run --release -p furuta --example flag_pipeline -- <subcommand>
+//! ```
+//!
+//! - `scan`: known systems sampled like the flag (lag 11 at map step 4, the flag's lengths and
+//!   noise): full-rate step, lag / Theiler window, D2 of the held-out series, its Rosenstein
+//!   exponent, the exact exponent and the nats per lag. `FLAG4_SYSTEMS` selects systems by
+//!   substring of their names; `FLAG4_L96=n:f,n:f` scans those Lorenz-96 systems instead.
+//! - `check [scale]`: the flag's candidate search on the chosen system
+//!   ([`furuta::flag_pipeline::CHOSEN`]) with training data `scale` times the flag's (default
+//!   1; RBF sizes whose regression would exceed the design-matrix limit are left out); one
+//!   row per candidate. The rows of `furuta::flag_pipeline::PIPELINE_CHECK`
+//!   come from `check 1`, `check 3` and `check 10`.
+
+use furuta::flag_pipeline::{FLAG_LAYOUT, FLAG_LIKE_RBF, KnownSystem, flag_like_candidates, known_stats, pipeline_check};
+
+fn scan() {
+    let mut systems = vec![];
+    for f in [10.0, 15.0, 20.0, 30.0] {
+        systems.push(KnownSystem::Lorenz96 { n: 4, f });
+    }
+    for f in [8.0, 8.5, 9.0, 10.0, 12.0, 15.0, 20.0] {
+        systems.push(KnownSystem::Lorenz96 { n: 5, f });
+    }
+    for (a, b, c) in [(0.2, 0.2, 5.7), (0.3, 0.1, 8.5), (0.38, 0.3, 4.82), (0.25, 0.4, 8.5)] {
+        systems.push(KnownSystem::Rossler { a, b, c });
+    }
+    for c in [1.0, 4.0] {
+        systems.push(KnownSystem::CoupledLorenz { c });
+    }
+    if let Ok(list) = std::env::var("FLAG4_L96") {
+        // "n:f,n:f,..": Lorenz-96 systems only.
+        systems = list
+            .split(',')
+            .filter_map(|p| p.split_once(':'))
+            .filter_map(|(n, f)| Some(KnownSystem::Lorenz96 { n: n.trim().parse().ok()?, f: f.trim().parse().ok()? }))
+            .collect();
+    }
+    let pick = std::env::var("FLAG4_SYSTEMS").ok();
+    println!("| system | dt | lag / Theiler | D2 | Rosenstein [1/s] | exact [1/s] | nats per lag | D2 over 8 pieces: mean ± sd (values) | Rosenstein / exact over the pieces | s |");
+    println!("|---|---|---|---|---|---|---|---|---|---|");
+    for s in systems {
+        if let Some(p) = &pick
+            && !p.split(',').any(|q| s.name().contains(q))
+        {
+            continue;
+        }
+        let t0 = std::time::Instant::now();
+        match known_stats(&s, &FLAG_LAYOUT, 1, 4000.0) {
+            Ok((k, _)) => {
+                let seg = furuta::flag_pipeline::segment_stats(&s, k.dt, &FLAG_LAYOUT, 8);
+                let o = |v: Option<f64>| v.map_or("-".to_string(), |v| format!("{v:.2}"));
+                let (d2s, ratios) = match &seg {
+                    Ok(g) => (
+                        format!("{} ± {} ({})", o(g.corr_dim_mean), o(g.corr_dim_sd), g.corr_dims.iter().map(|d| o(*d)).collect::<Vec<_>>().join(", ")),
+                        g.rosensteins.iter().map(|r| o(r.map(|r| r / k.exact))).collect::<Vec<_>>().join(", "),
+                    ),
+                    Err(e) => (format!("error: {e}"), String::new()),
+                };
+                println!(
+                "| {} | {:.5} | {} / {} | {:.2} ± {:.2} | {:.3} | {:.4} ± {:.4} | {:.3} | {d2s} | {ratios} | {:.1} |",
+                k.system,
+                k.dt,
+                k.lag,
+                k.theiler,
+                k.corr_dim,
+                k.corr_dim_err,
+                k.rosenstein,
+                k.exact,
+                k.exact_err,
+                k.per_lag,
+                t0.elapsed().as_secs_f64()
+            )
+            }
+            Err(e) => println!("| {} | error: {e} |", s.name()),
+        }
+    }
+}
+
+fn check(scale: usize) {
+    let sys = furuta::flag_pipeline::CHOSEN;
+    let t0 = std::time::Instant::now();
+    // RBF sizes whose regression fits the design-matrix limit (10^8 entries) at this scale.
+    let rows = scale * (FLAG_LAYOUT.train[0] + FLAG_LAYOUT.train[1]);
+    let rbf: Vec<(usize, f64)> = FLAG_LIKE_RBF.iter().copied().filter(|&(c, _)| rows * (c + 5) <= ssm::limits::MAX_MATRIX_ENTRIES).collect();
+    let cands = flag_like_candidates(FLAG_LAYOUT.step, &rbf);
+    match pipeline_check(&sys, &FLAG_LAYOUT, scale, &cands, 4000.0) {
+        Ok((k, rows)) => {
+            println!("{k:?}");
+            let o = |v: Option<f64>, p: usize| v.map_or("None".to_string(), |v| format!("Some({v:.p$})"));
+            for r in rows {
+                println!(
+                    "    (\"{}\", {}, {}, {}, {}, {}, \"{}\"),",
+                    r.candidate,
+                    r.scale,
+                    o(r.benettin, 3),
+                    o(r.rosenstein, 3),
+                    o(r.corr_dim, 2),
+                    o(r.js, 4),
+                    r.failed.as_deref().map_or(String::new(), |f| f.split(':').next().unwrap_or(f).to_string())
+                );
+            }
+            println!("{:.1} s", t0.elapsed().as_secs_f64());
+        }
+        Err(e) => println!("error: {e}"),
+    }
+}
+
+fn main() {
+    let args: Vec<String> = std::env::args().skip(1).collect();
+    match args.first().map(String::as_str) {
+        Some("scan") => scan(),
+        Some("check") => check(args.get(1).and_then(|s| s.parse().ok()).unwrap_or(1)),
+        _ => eprintln!("usage: flag_pipeline scan | check [scale]"),
+    }
+}
