@@ -17,6 +17,7 @@
 //! system observed by `x` (the lobe switching makes its autocorrelation slow: much chaos per
 //! lag, like the flag).
 
+use chaos::reference::{Flow, Lorenz, Lorenz96, Rossler, rk4_flow};
 use chaos::{BenettinParams, benettin_tangent, first_zero_crossing};
 use serde::Serialize;
 use ssm::{FitOptions, TimeSeries};
@@ -97,70 +98,9 @@ impl KnownSystem {
             KnownSystem::CoupledLorenz { .. } => x[0] + x[3],
         }
     }
-    /// Right-hand side `o = F(x)` and tangent `w = DF(x) v`.
-    fn rhs(&self, x: &[f64], v: &[f64], o: &mut [f64], w: &mut [f64]) {
-        fn lorenz(rho: f64, x: &[f64], v: &[f64], o: &mut [f64], w: &mut [f64]) {
-            let (s, b) = (10.0, 8.0 / 3.0);
-            o[0] = s * (x[1] - x[0]);
-            o[1] = x[0] * (rho - x[2]) - x[1];
-            o[2] = x[0] * x[1] - b * x[2];
-            w[0] = s * (v[1] - v[0]);
-            w[1] = (rho - x[2]) * v[0] - v[1] - x[0] * v[2];
-            w[2] = x[1] * v[0] + x[0] * v[1] - b * v[2];
-        }
-        match *self {
-            KnownSystem::Lorenz96 { n, f } => {
-                for i in 0..n {
-                    let (p, m2, m1) = ((i + 1) % n, (i + n - 2) % n, (i + n - 1) % n);
-                    o[i] = (x[p] - x[m2]) * x[m1] - x[i] + f;
-                    w[i] = (v[p] - v[m2]) * x[m1] + (x[p] - x[m2]) * v[m1] - v[i];
-                }
-            }
-            KnownSystem::CoupledLorenz { c } => {
-                lorenz(28.0, &x[..3], &v[..3], &mut o[..3], &mut w[..3]);
-                lorenz(28.0, &x[3..], &v[3..], &mut o[3..], &mut w[3..]);
-                o[0] += c * (x[3] - x[0]);
-                o[3] += c * (x[0] - x[3]);
-                w[0] += c * (v[3] - v[0]);
-                w[3] += c * (v[0] - v[3]);
-            }
-            KnownSystem::LorenzX { rho } => lorenz(rho, x, v, o, w),
-            KnownSystem::Rossler { a, b, c } => {
-                o[0] = -x[1] - x[2];
-                o[1] = x[0] + a * x[1];
-                o[2] = b + x[2] * (x[0] - c);
-                w[0] = -v[1] - v[2];
-                w[1] = v[0] + a * v[1];
-                w[2] = x[2] * v[0] + (x[0] - c) * v[2];
-            }
-        }
-    }
-    /// State and tangent over `dt` by RK4 with substeps of at most [`Self::max_h`].
+    /// State and tangent over `dt` by [`rk4_flow`] with substeps of at most [`Self::max_h`].
     fn advance(&self, x: &mut [f64], v: &mut [f64], dt: f64) {
-        let n = self.dim();
-        let steps = (dt / self.max_h()).ceil().max(1.0) as usize;
-        let h = dt / steps as f64;
-        let mut k = [vec![0.0; 2 * n], vec![0.0; 2 * n], vec![0.0; 2 * n], vec![0.0; 2 * n]];
-        let mut s: Vec<f64> = x.iter().chain(v.iter()).copied().collect();
-        let mut t = s.clone();
-        let g = |s: &[f64], out: &mut [f64]| {
-            let (a, b) = out.split_at_mut(n);
-            self.rhs(&s[..n], &s[n..], a, b);
-        };
-        for _ in 0..steps {
-            g(&s, &mut k[0]);
-            t.iter_mut().zip(&s).zip(&k[0]).for_each(|((t, s), k)| *t = s + 0.5 * h * k);
-            g(&t, &mut k[1]);
-            t.iter_mut().zip(&s).zip(&k[1]).for_each(|((t, s), k)| *t = s + 0.5 * h * k);
-            g(&t, &mut k[2]);
-            t.iter_mut().zip(&s).zip(&k[2]).for_each(|((t, s), k)| *t = s + h * k);
-            g(&t, &mut k[3]);
-            for i in 0..2 * n {
-                s[i] += h / 6.0 * (k[0][i] + 2.0 * k[1][i] + 2.0 * k[2][i] + k[3][i]);
-            }
-        }
-        x.copy_from_slice(&s[..n]);
-        v.copy_from_slice(&s[n..]);
+        rk4_flow(self, x, v, dt, (dt / self.max_h()).ceil().max(1.0) as usize);
     }
 
     /// `n` observed samples every `dt` after `transient` samples from the state `x`
@@ -214,6 +154,40 @@ impl KnownSystem {
             out.push(TimeSeries::new(format!("{} #{i}", self.name()), (0..n).map(|k| k as f64 * dt).collect(), y)?);
         }
         Ok(out)
+    }
+}
+
+/// The Lorenz system (10, `rho`, 8/3) of the known-answer systems.
+fn lorenz(rho: f64) -> Lorenz {
+    Lorenz { rho, ..Lorenz::default() }
+}
+
+impl Flow for KnownSystem {
+    fn rhs(&self, x: &[f64], o: &mut [f64]) {
+        match *self {
+            KnownSystem::Lorenz96 { n, f } => Lorenz96 { n, f }.rhs(x, o),
+            KnownSystem::CoupledLorenz { c } => {
+                Flow::rhs(&lorenz(28.0), &x[..3], &mut o[..3]);
+                Flow::rhs(&lorenz(28.0), &x[3..], &mut o[3..]);
+                o[0] += c * (x[3] - x[0]);
+                o[3] += c * (x[0] - x[3]);
+            }
+            KnownSystem::LorenzX { rho } => Flow::rhs(&lorenz(rho), x, o),
+            KnownSystem::Rossler { a, b, c } => Rossler { a, b, c }.rhs(x, o),
+        }
+    }
+    fn jvp(&self, x: &[f64], v: &[f64], w: &mut [f64]) {
+        match *self {
+            KnownSystem::Lorenz96 { n, f } => Lorenz96 { n, f }.jvp(x, v, w),
+            KnownSystem::CoupledLorenz { c } => {
+                lorenz(28.0).jvp(&x[..3], &v[..3], &mut w[..3]);
+                lorenz(28.0).jvp(&x[3..], &v[3..], &mut w[3..]);
+                w[0] += c * (v[3] - v[0]);
+                w[3] += c * (v[0] - v[3]);
+            }
+            KnownSystem::LorenzX { rho } => lorenz(rho).jvp(x, v, w),
+            KnownSystem::Rossler { a, b, c } => Rossler { a, b, c }.jvp(x, v, w),
+        }
     }
 }
 

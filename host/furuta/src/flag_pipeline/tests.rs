@@ -8,13 +8,13 @@ fn tangent_is_the_derivative_of_the_rhs() {
         let n = sys.dim();
         let x: Vec<f64> = (0..n).map(|i| 1.3 + 0.7 * (i as f64 * 1.9).sin()).collect();
         let v: Vec<f64> = (0..n).map(|i| 0.4 - 0.3 * (i as f64 * 0.8).cos()).collect();
-        let (mut o, mut w) = (vec![0.0; n], vec![0.0; n]);
-        sys.rhs(&x, &v, &mut o, &mut w);
+        let mut w = vec![0.0; n];
+        sys.jvp(&x, &v, &mut w);
         let h = 1e-6;
         let f = |s: f64| {
             let y: Vec<f64> = x.iter().zip(&v).map(|(a, b)| a + s * b).collect();
-            let (mut o, mut w) = (vec![0.0; n], vec![0.0; n]);
-            sys.rhs(&y, &v, &mut o, &mut w);
+            let mut o = vec![0.0; n];
+            sys.rhs(&y, &mut o);
             o
         };
         let (p, m) = (f(h), f(-h));
