@@ -66,13 +66,6 @@ impl KnownSystem {
             KnownSystem::Rossler { a, b, c } => format!("Rössler a = {a}, b = {b}, c = {c} (x)"),
         }
     }
-    fn dim(&self) -> usize {
-        match *self {
-            KnownSystem::Lorenz96 { n, .. } => n,
-            KnownSystem::CoupledLorenz { .. } => 6,
-            KnownSystem::LorenzX { .. } | KnownSystem::Rossler { .. } => 3,
-        }
-    }
     fn start(&self) -> Vec<f64> {
         match *self {
             KnownSystem::Lorenz96 { n, f } => {

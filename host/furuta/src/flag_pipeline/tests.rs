@@ -5,7 +5,7 @@ use super::*;
 #[test]
 fn tangent_is_the_derivative_of_the_rhs() {
     for sys in [KnownSystem::Lorenz96 { n: 4, f: 18.0 }, KnownSystem::Lorenz96 { n: 5, f: 8.0 }, KnownSystem::CoupledLorenz { c: 1.5 }, KnownSystem::LorenzX { rho: 28.0 }, KnownSystem::Rossler { a: 0.2, b: 0.2, c: 5.7 }] {
-        let n = sys.dim();
+        let n = sys.start().len();
         let x: Vec<f64> = (0..n).map(|i| 1.3 + 0.7 * (i as f64 * 1.9).sin()).collect();
         let v: Vec<f64> = (0..n).map(|i| 0.4 - 0.3 * (i as f64 * 0.8).cos()).collect();
         let mut w = vec![0.0; n];
