@@ -148,16 +148,9 @@ pub fn rosenstein_curve(points: &Points, p: &DivergenceParams) -> Result<Diverge
     let mut n_terms = vec![0usize; k_len];
     let mut zero = 0usize;
     let mut n_ref = 0usize;
+    let axis = SortedAxis::new(points, nc);
     for i in strided(nc, p.max_reference) {
-        let pi = points.point(i);
-        let mut best: Option<(usize, f64)> = None;
-        for j in (0..nc).filter(|&j| j.abs_diff(i) > p.theiler) {
-            let d2 = p.norm.dist2(pi, points.point(j));
-            if d2 > 0.0 && best.is_none_or(|(_, b)| d2 < b) {
-                best = Some((j, d2));
-            }
-        }
-        let Some((j, _)) = best else { continue };
+        let Some(j) = axis.nearest(points, i, p) else { continue };
         n_ref += 1;
         for k in 0..k_len {
             let d2 = p.norm.dist2(points.point(i + k), points.point(j + k));
@@ -170,6 +163,85 @@ pub fn rosenstein_curve(points: &Points, p: &DivergenceParams) -> Result<Diverge
         }
     }
     finish_curve(sum, n_terms, n_ref, zero, p.dt)
+}
+
+/// The first `nc` points ordered by their first coordinate (ties by index), for exact
+/// neighbour searches that stop once the first coordinate alone is too far: every distance
+/// of [`Norm`] is at least the first coordinate's difference (the rounded square of a
+/// difference never exceeds the rounded sum of squares, or the square of the largest
+/// difference, that contains it), so the points skipped could not have been picked. The
+/// results are those of the scan over all points in index order, bit for bit: the same
+/// distances, the same tie rule (the smallest index among equal distances).
+struct SortedAxis {
+    /// Point indices by increasing first coordinate.
+    order: Vec<usize>,
+    /// `rank[j]`: the position of point `j` in `order`.
+    rank: Vec<usize>,
+}
+
+impl SortedAxis {
+    fn new(points: &Points, nc: usize) -> Self {
+        let mut order: Vec<usize> = (0..nc).collect();
+        order.sort_unstable_by(|&a, &b| points.point(a)[0].total_cmp(&points.point(b)[0]).then(a.cmp(&b)));
+        let mut rank = vec![0; nc];
+        for (r, &j) in order.iter().enumerate() {
+            rank[j] = r;
+        }
+        Self { order, rank }
+    }
+
+    /// Rosenstein's partner of reference `i`: the point `j` outside the Theiler window at the
+    /// smallest non-zero distance, the smallest such `j` on ties; `None` when there is none.
+    fn nearest(&self, points: &Points, i: usize, p: &DivergenceParams) -> Option<usize> {
+        let pi = points.point(i);
+        let x0 = pi[0];
+        let r = self.rank[i];
+        let mut best: Option<(usize, f64)> = None;
+        let consider = |j: usize, best: &mut Option<(usize, f64)>| {
+            if j.abs_diff(i) > p.theiler {
+                let d2 = p.norm.dist2(pi, points.point(j));
+                if d2 > 0.0 && best.is_none_or(|(bj, b)| d2 < b || (d2 == b && j < bj)) {
+                    *best = Some((j, d2));
+                }
+            }
+        };
+        // Walk out from the reference's rank on both sides; a side ends at the first point
+        // whose first-coordinate gap alone exceeds the best distance (all later ones do).
+        let (mut lo, mut hi) = (r, r + 1);
+        let mut lo_open = true;
+        let mut hi_open = true;
+        while lo_open || hi_open {
+            if lo_open {
+                if lo == 0 {
+                    lo_open = false;
+                } else {
+                    lo -= 1;
+                    let j = self.order[lo];
+                    let t = x0 - points.point(j)[0];
+                    if best.is_some_and(|(_, b)| t * t > b) {
+                        lo_open = false;
+                    } else {
+                        consider(j, &mut best);
+                    }
+                }
+            }
+            if hi_open {
+                if hi >= self.order.len() {
+                    hi_open = false;
+                } else {
+                    let j = self.order[hi];
+                    hi += 1;
+                    let t = x0 - points.point(j)[0];
+                    if best.is_some_and(|(_, b)| t * t > b) {
+                        hi_open = false;
+                    } else {
+                        consider(j, &mut best);
+                    }
+                }
+            }
+        }
+        best.map(|(j, _)| j)
+    }
 }
 
 fn finish_curve(
@@ -408,5 +480,34 @@ mod tests {
             rosenstein_curve(&p, &DivergenceParams { dt: 0.0, ..Default::default() }),
             Err(ChaosError::BadParameter { name: "dt", .. })
         ));
+    }
+
+    /// The sorted-axis search against the plain scan over all points in index order
+    /// (Rosenstein: nearest non-zero distance, smallest index on ties): the same picks on a
+    /// quantized Henon-like embedding (many exact ties and zero distances) in both norms.
+    #[test]
+    fn sorted_axis_search_equals_the_full_scan() {
+        let (mut a, mut b) = (0.1_f64, 0.0_f64);
+        let mut x = Vec::new();
+        for _ in 0..1500 {
+            (a, b) = (1.0 - 1.4 * a * a + b, 0.3 * a);
+            x.push((a * 20.0).round() / 20.0);
+        }
+        let pts = crate::delay_embed(&x, 3, 1).unwrap();
+        for norm in [Norm::Euclidean, Norm::Max] {
+            let p = DivergenceParams { theiler: 3, max_steps: 10, norm, ..Default::default() };
+            let nc = pts.len() - p.max_steps;
+            let axis = SortedAxis::new(&pts, nc);
+            for i in 0..nc {
+                let mut best: Option<(usize, f64)> = None;
+                for j in (0..nc).filter(|&j| j.abs_diff(i) > p.theiler) {
+                    let d2 = p.norm.dist2(pts.point(i), pts.point(j));
+                    if d2 > 0.0 && best.is_none_or(|(_, b)| d2 < b) {
+                        best = Some((j, d2));
+                    }
+                }
+                assert_eq!(axis.nearest(&pts, i, &p), best.map(|(j, _)| j), "reference {i}, {norm:?}");
+            }
+        }
     }
 }

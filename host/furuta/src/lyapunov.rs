@@ -32,19 +32,26 @@ pub fn rbf_jacobian(m: &RbfMap, eta: &[f64], jac: &mut [f64]) -> Result<(), &'st
     for i in 0..d {
         jac[i * d + i] = 1.0;
     }
-    let mut diff = [0.0; 16];
-    let mut diff_v = Vec::new();
-    let diff: &mut [f64] = if d <= 16 {
-        &mut diff[..d]
+    // Scratch: the difference to a centre, the scaled state and the linear kernel's
+    // denominators `r s_j` (each the same value as computed per entry, so the same Jacobian).
+    let mut buf = [0.0; 48];
+    let mut buf_v = Vec::new();
+    let buf: &mut [f64] = if d <= 16 {
+        &mut buf[..3 * d]
     } else {
-        diff_v.resize(d, 0.0);
-        &mut diff_v
+        buf_v.resize(3 * d, 0.0);
+        &mut buf_v
     };
+    let (diff, rest) = buf.split_at_mut(d);
+    let (z, den) = rest.split_at_mut(d);
+    for j in 0..d {
+        z[j] = eta[j] / m.scale[j];
+    }
     for c in 0..k {
         let ctr = &m.centers[c * d..(c + 1) * d];
         let mut r2 = 0.0;
         for j in 0..d {
-            diff[j] = eta[j] / m.scale[j] - ctr[j];
+            diff[j] = z[j] - ctr[j];
             r2 += diff[j] * diff[j];
         }
         if m.kernel == Kernel::Linear {
@@ -52,10 +59,14 @@ pub fn rbf_jacobian(m: &RbfMap, eta: &[f64], jac: &mut [f64]) -> Result<(), &'st
                 return Err(RBF_KINK);
             }
             let r = r2.sqrt();
+            for j in 0..d {
+                den[j] = r * m.scale[j];
+            }
             for out in 0..d {
                 let w = m.coef[c * d + out];
+                let row = &mut jac[out * d..(out + 1) * d];
                 for j in 0..d {
-                    jac[out * d + j] += w * diff[j] / (r * m.scale[j]);
+                    row[j] += w * diff[j] / den[j];
                 }
             }
             continue;

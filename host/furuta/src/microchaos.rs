@@ -493,8 +493,14 @@ pub fn analyse_held_out_models(train: &[TimeSeries], test: Option<&TimeSeries>, 
         None => dimension_rule(cd.dimension, cd.slope_std)?,
     };
     let mut notes = Vec::new();
-    let (lle_data, window) = ctx.lle(&data.x, &mut notes, "data")?;
-    let growth_windows_data = growth_windows(&ctx.divergence(&data.x)?);
+    // One divergence curve of the data for the exponent and the growth windows.
+    let data_curve = ctx.divergence(&data.x)?;
+    let (data_fit, note) = fit_lle_curve(&data_curve)?;
+    if let Some(n) = note {
+        notes.push(format!("data: {n}"));
+    }
+    let (lle_data, window) = (data_fit.exponent, data_fit.window_time);
+    let growth_windows_data = growth_windows(&data_curve);
     let base = fit_options(o, ssm_dim, &ctx);
     for dynamics in [Dynamics::Rbf { centers: o.centers }, Dynamics::Map] {
         FitOptions { dynamics, ..base }.validate()?;

@@ -225,16 +225,111 @@ pub fn data_stats(test: &TimeSeries, step: usize, s: &EvalSettings) -> Result<(D
     let cd = correlation_dimension(&pts, &CorrSumParams { theiler: ctx.theiler, ..Default::default() }, &ScalingRule::default())?;
     let mut notes = Vec::new();
     let (lle, _) = ctx.lle(&ts.x, &mut notes, "data")?;
+    let noise_sd = noise_level(test)?;
+    Ok((DataStats { step, dt, lag: ctx.lag, theiler: ctx.theiler, corr_dim: cd.dimension, corr_dim_err: cd.slope_std, lle, len: ts.x.len(), noise_sd }, ctx))
+}
+
+/// [`DataStats::noise_sd`] of the full-rate series `test`.
+fn noise_level(test: &TimeSeries) -> Result<f64, Error> {
     let ma = moving_average(test, 2)?;
     let n = test.x.len().max(1) as f64;
-    let noise_sd = (test.x.iter().zip(&ma.x).map(|(a, b)| (a - b) * (a - b)).sum::<f64>() / n / 0.8).sqrt();
-    Ok((DataStats { step, dt, lag: ctx.lag, theiler: ctx.theiler, corr_dim: cd.dimension, corr_dim_err: cd.slope_std, lle, len: ts.x.len(), noise_sd }, ctx))
+    Ok((test.x.iter().zip(&ma.x).map(|(a, b)| (a - b) * (a - b)).sum::<f64>() / n / 0.8).sqrt())
+}
+
+/// What [`crate::microchaos::analyse_held_out_models`] already computed on the same training
+/// and held-out series, for [`evaluate_and_select_known`] to reuse instead of computing it
+/// again: the held-out data statistics at map step 1 (the same estimators with the same
+/// settings as [`data_stats`]) and the models fitted on the raw training series with their
+/// Benettin results from the held-out series' first point. Reuse changes no number: a
+/// step-1 candidate without smoothing, refits or refinement whose fit options equal a known
+/// model's is that model (the fit is deterministic), and its Benettin run is the known one
+/// when start and lengths agree.
+#[derive(Default)]
+pub struct Known<'a> {
+    /// [`data_stats`] of the held-out series at step 1.
+    pub step1: Option<(DataStats, Context)>,
+    pub models: Vec<KnownModel<'a>>,
+}
+
+/// A model of [`Known`].
+pub struct KnownModel<'a> {
+    pub model: &'a SsmModel,
+    /// Benettin from `eta0` with `transient` and `steps` map steps, and its result.
+    pub benettin: Option<KnownBenettin>,
+}
+
+/// A Benettin run of a [`KnownModel`] and where it started.
+pub struct KnownBenettin {
+    pub eta0: Vec<f64>,
+    pub transient: usize,
+    pub steps: usize,
+    pub result: crate::lyapunov::ModelLyapunov,
+}
+
+impl<'a> Known<'a> {
+    /// From an analysis of `train` with held-out `test` ([`crate::microchaos::analyse_held_out_models`]
+    /// with `Some(test)` and options `o`): its summary and fitted models. The caller passes
+    /// the same `train` and `test` to [`evaluate_and_select_known`].
+    pub fn from_analysis(
+        test: &TimeSeries,
+        o: &crate::microchaos::ChaosOptions,
+        summary: &crate::microchaos::ChaosSummary,
+        models: &'a [(&'static str, SsmModel)],
+    ) -> Result<Self, Error> {
+        let dt = test.dt().ok_or(Error::BadInput { what: "held-out series", why: format!("{}: no sampling step", test.name) })?;
+        let ctx = Context { dt, lag: summary.lag_samples, theiler: summary.theiler_samples, embed: summary.gp_embed };
+        let stats = DataStats {
+            step: 1,
+            dt,
+            lag: ctx.lag,
+            theiler: ctx.theiler,
+            corr_dim: summary.corr_dim,
+            corr_dim_err: summary.corr_dim_err,
+            lle: summary.lle_data,
+            len: test.x.len(),
+            noise_sd: noise_level(test)?,
+        };
+        let mut out = Known { step1: Some((stats, ctx)), models: Vec::new() };
+        for (kind, m) in models {
+            let b = if *kind == "rbf" { &summary.benettin_rbf } else { &summary.benettin_poly };
+            let benettin = match b {
+                Some(r) => {
+                    let eta = reduce_series(m, test)?;
+                    Some(KnownBenettin { eta0: eta[..m.options.dim.min(eta.len())].to_vec(), transient: o.benettin_transient, steps: o.benettin_steps, result: r.clone() })
+                }
+                None => None,
+            };
+            out.models.push(KnownModel { model: m, benettin });
+        }
+        Ok(out)
+    }
+
+    /// The known model that candidate `c` would fit, if any.
+    fn model_for(&self, c: &Candidate) -> Option<&KnownModel<'a>> {
+        if c.step != 1 || c.smooth != 0 || c.multistep.is_some() || c.denoise_inputs != 0 {
+            return None;
+        }
+        self.models.iter().find(|k| k.model.options == c.fit)
+    }
 }
 
 /// Fits `c` on `train` and measures it against the held-out `test` (see the module docs).
 /// `data` must be [`data_stats`] of `test` at `c.step`. Only bad options are errors; a
 /// failed fit, an escape or a statistic that cannot be measured is `failed`, said plainly.
 pub fn evaluate_candidate(train: &[TimeSeries], test: &TimeSeries, c: &Candidate, data: &(DataStats, Context), s: &EvalSettings) -> Result<CandidateResult, Error> {
+    evaluate_candidate_known(train, test, c, data, s, None)
+}
+
+/// [`evaluate_candidate`] with the model already fitted: `known` is the model `c` fits on
+/// `train` (see [`Known`]), used as it is.
+fn evaluate_candidate_known(
+    train: &[TimeSeries],
+    test: &TimeSeries,
+    c: &Candidate,
+    data: &(DataStats, Context),
+    s: &EvalSettings,
+    known: Option<&KnownModel<'_>>,
+) -> Result<CandidateResult, Error> {
     let t0 = std::time::Instant::now();
     let (ds, ctx) = data;
     if ds.step != c.step {
@@ -264,9 +359,14 @@ pub fn evaluate_candidate(train: &[TimeSeries], test: &TimeSeries, c: &Candidate
         notes: Vec::new(),
         seconds: 0.0,
     };
+    let test_k = subsample(test, c.step, 0)?;
+    if let Some(k) = known {
+        measure(k.model, &test_k, ctx, s, &mut r, k.benettin.as_ref())?;
+        r.seconds = t0.elapsed().as_secs_f64();
+        return Ok(r);
+    }
     let smoothed: Vec<TimeSeries> = train.iter().map(|t| moving_average(t, c.smooth)).collect::<Result<_, _>>()?;
     let train_k = phase_subsamples(&smoothed, c.step)?;
-    let test_k = subsample(test, c.step, 0)?;
     let mut m = match fit(&train_k, &c.fit) {
         Ok(m) => m,
         Err(e @ ssm::FitError::TooLarge { .. }) => return Err(e.into()),
@@ -297,7 +397,7 @@ pub fn evaluate_candidate(train: &[TimeSeries], test: &TimeSeries, c: &Candidate
             }
         }
     }
-    measure(&m, &test_k, ctx, s, &mut r)?;
+    measure(&m, &test_k, ctx, s, &mut r, None)?;
     r.seconds = t0.elapsed().as_secs_f64();
     Ok(r)
 }
@@ -322,7 +422,7 @@ pub fn refit_denoised_inputs(m: &mut SsmModel, train: &[TimeSeries], step: usize
 
 /// The measurements of [`evaluate_candidate`] on a fitted model `m` (map step = the step of
 /// `test_k`).
-fn measure(m: &SsmModel, test_k: &TimeSeries, ctx: &Context, s: &EvalSettings, r: &mut CandidateResult) -> Result<(), Error> {
+fn measure(m: &SsmModel, test_k: &TimeSeries, ctx: &Context, s: &EvalSettings, r: &mut CandidateResult, known: Option<&KnownBenettin>) -> Result<(), Error> {
     let d = m.options.dim;
     let eta_data = reduce_series(m, test_k)?;
     let n_data = eta_data.len() / d;
@@ -333,7 +433,9 @@ fn measure(m: &SsmModel, test_k: &TimeSeries, ctx: &Context, s: &EvalSettings, r
     let eta0 = eta_data[..d].to_vec();
     r.rollout = rollout_error(&m.dynamics, &eta_data, d, rollout_horizon(ctx.theiler), 200);
     let data_max = eta_data.iter().fold(0.0_f64, |a, v| a.max(v.abs()));
-    match model_lyapunov(m, &eta0, s.benettin_transient, s.benettin_steps) {
+    // A known Benettin run with this start and these lengths is this one.
+    let reuse = known.filter(|k| k.eta0 == eta0 && k.transient == s.benettin_transient && k.steps == s.benettin_steps);
+    match reuse.map_or_else(|| model_lyapunov(m, &eta0, s.benettin_transient, s.benettin_steps), |k| Ok(k.result.clone())) {
         Ok(b) => {
             r.benettin = Some(b.exponent);
             r.benettin_err = Some(b.std_error);
@@ -805,13 +907,30 @@ pub fn evaluate_and_select(
     s: &EvalSettings,
     t: &Targets,
 ) -> Result<(Vec<CandidateResult>, Selection), Error> {
+    evaluate_and_select_known(train, test, candidates, s, t, &Known::default())
+}
+
+/// [`evaluate_and_select`] reusing what an earlier analysis of the same `train` and `test`
+/// computed ([`Known`]): the step-1 data statistics when their settings are `s`'s, and the
+/// models the step-1 candidates would fit. The results are those of [`evaluate_and_select`].
+pub fn evaluate_and_select_known(
+    train: &[TimeSeries],
+    test: &TimeSeries,
+    candidates: &[Candidate],
+    s: &EvalSettings,
+    t: &Targets,
+    known: &Known<'_>,
+) -> Result<(Vec<CandidateResult>, Selection), Error> {
     let mut steps: Vec<usize> = candidates.iter().map(|c| c.step).collect();
     steps.sort_unstable();
     steps.dedup();
-    let stats = crate::par_map(&steps, |&k| data_stats(test, k, s))?;
+    let stats = crate::par_map(&steps, |&k| match &known.step1 {
+        Some(st) if k == 1 && st.1.embed == s.gp_embed => Ok(st.clone()),
+        _ => data_stats(test, k, s),
+    })?;
     let results = crate::par_map(candidates, |c| {
         let i = steps.iter().position(|&k| k == c.step).unwrap_or(0);
-        evaluate_candidate(train, test, c, &stats[i], s)
+        evaluate_candidate_known(train, test, c, &stats[i], s, known.model_for(c))
     })?;
     let sel = select(&results, t, 0.0);
     Ok((results, sel))

@@ -177,9 +177,21 @@ impl RbfMap {
     pub(crate) fn features(&self, eta: &[f64], out: &mut [f64]) {
         let d = self.dim;
         let k = self.n_centers();
+        // The scaled state once (the same quotients as per centre, so the same features).
+        let mut z_stack = [0.0; 32];
+        let mut z_heap = Vec::new();
+        let z: &mut [f64] = if d <= z_stack.len() {
+            &mut z_stack[..d]
+        } else {
+            z_heap.resize(d, 0.0);
+            &mut z_heap
+        };
+        for ((z, e), s) in z.iter_mut().zip(eta).zip(&self.scale) {
+            *z = e / s;
+        }
         for i in 0..k {
             let c = &self.centers[i * d..(i + 1) * d];
-            let r = c.iter().zip(eta).zip(&self.scale).map(|((c, e), s)| (e / s - c).powi(2)).sum::<f64>().sqrt();
+            let r = c.iter().zip(z.iter()).map(|(c, z)| (z - c).powi(2)).sum::<f64>().sqrt();
             out[i] = self.kernel.phi(r);
         }
         for j in 0..d {
@@ -587,8 +599,12 @@ fn to_poly(w: &Mat<f64>, exps: Vec<Vec<u32>>, scale: Vec<f64>) -> Poly {
 pub fn farthest_points(z: MatRef<'_, f64>, k: usize) -> Vec<usize> {
     let n = z.nrows();
     let d = z.ncols();
-    let dist2 = |a: usize, b: usize| (0..d).map(|j| (z[(a, j)] - z[(b, j)]).powi(2)).sum::<f64>();
-    let norm2 = |a: usize| (0..d).map(|j| z[(a, j)].powi(2)).sum::<f64>();
+    // The rows contiguous (row-major), so each distance reads one slice; the sums are the
+    // same, term by term in the same order.
+    let rows: Vec<f64> = (0..n).flat_map(|i| (0..d).map(move |j| z[(i, j)])).collect();
+    let row = |a: usize| &rows[a * d..(a + 1) * d];
+    let dist2 = |a: usize, b: usize| row(a).iter().zip(row(b)).map(|(x, y)| (x - y).powi(2)).sum::<f64>();
+    let norm2 = |a: usize| row(a).iter().map(|x| x.powi(2)).sum::<f64>();
     let mut chosen = Vec::with_capacity(k.min(n));
     if n == 0 || k == 0 {
         return chosen;
@@ -602,8 +618,9 @@ pub fn farthest_points(z: MatRef<'_, f64>, k: usize) -> Vec<usize> {
             break; // remaining points duplicate chosen ones
         }
         chosen.push(next);
-        for i in 0..n {
-            mind[i] = mind[i].min(dist2(i, next));
+        let c = row(next);
+        for (m, r) in mind.iter_mut().zip(rows.chunks_exact(d.max(1))) {
+            *m = m.min(r.iter().zip(c).map(|(x, y)| (x - y).powi(2)).sum::<f64>());
         }
     }
     chosen

@@ -79,6 +79,13 @@ pub struct Poly {
 /// Evaluates all monomials `exps` at `z` into `out` (length `exps.len()`).
 /// `pow` is scratch of length `dim * (max_degree + 1)`.
 pub fn eval_monomials(exps: &[Vec<u32>], z: &[f64], max_deg: u32, pow: &mut Vec<f64>, out: &mut [f64]) {
+    let _ = eval_monomials_upto(exps, z, max_deg, pow, out);
+}
+
+/// [`eval_monomials`] with powers up to `max_deg` only: `false` (and `out` partly written)
+/// when an exponent exceeds it. The values do not depend on `max_deg` (each power is the
+/// previous one times `z_i`), so any bound at least the largest exponent gives the same.
+fn eval_monomials_upto(exps: &[Vec<u32>], z: &[f64], max_deg: u32, pow: &mut Vec<f64>, out: &mut [f64]) -> bool {
     let d = z.len();
     let stride = max_deg as usize + 1;
     pow.clear();
@@ -91,10 +98,14 @@ pub fn eval_monomials(exps: &[Vec<u32>], z: &[f64], max_deg: u32, pow: &mut Vec<
     for (o, e) in out.iter_mut().zip(exps) {
         let mut v = 1.0;
         for (i, &k) in e.iter().enumerate() {
+            if k > max_deg {
+                return false;
+            }
             v *= pow[i * stride + k as usize];
         }
         *o = v;
     }
+    true
 }
 
 /// Largest total degree in `exps` (0 when empty).
@@ -110,7 +121,13 @@ impl Poly {
         scratch.z.clear();
         scratch.z.extend(eta.iter().zip(&self.scale).map(|(e, s)| e / s));
         scratch.phi.resize(nm, 0.0);
-        eval_monomials(&self.exps, &scratch.z, max_degree(&self.exps), &mut scratch.pow, &mut scratch.phi);
+        // The scratch's largest degree so far bounds the exponents of a polynomial evaluated
+        // again (no pass over the monomials for their degree); a larger exponent is found
+        // in the pass itself and the bound raised.
+        if !eval_monomials_upto(&self.exps, &scratch.z, scratch.max_deg, &mut scratch.pow, &mut scratch.phi) {
+            scratch.max_deg = scratch.max_deg.max(max_degree(&self.exps));
+            eval_monomials(&self.exps, &scratch.z, scratch.max_deg, &mut scratch.pow, &mut scratch.phi);
+        }
         out.iter_mut().for_each(|o| *o = 0.0);
         for (k, &p) in scratch.phi.iter().enumerate() {
             let row = &self.coef[k * self.dim_out..(k + 1) * self.dim_out];
@@ -150,6 +167,8 @@ pub struct PolyScratch {
     z: Vec<f64>,
     pow: Vec<f64>,
     phi: Vec<f64>,
+    /// The largest total degree of the polynomials evaluated with this scratch so far.
+    max_deg: u32,
 }
 
 #[cfg(test)]

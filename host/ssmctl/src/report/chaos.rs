@@ -216,7 +216,10 @@ pub fn section(rep: &mut crate::report::Report, data_dir: &std::path::Path, quic
         if name.starts_with("measured: inverted flag") {
             cands.extend(furuta::model_selection::flag_candidates());
         }
-        let (results, sel) = furuta::model_selection::evaluate_and_select(train, test, &cands, &Default::default(), &Default::default())?;
+        // The step-1 candidates are the models just fitted, on the same data statistics.
+        let known = furuta::model_selection::Known::from_analysis(test, &ChaosOptions::default(), &r, &models)?;
+        let (results, sel) = furuta::model_selection::evaluate_and_select_known(train, test, &cands, &Default::default(), &Default::default(), &known)?;
+        drop(known);
         if let Some(m) = value.as_object_mut() {
             m.insert("chosen_model".into(), furuta::model_selection::chosen_json(&results, &sel));
             m.insert("model_candidates".into(), serde_json::to_value(&results)?);
