@@ -917,12 +917,11 @@ fn model_options(model: &SsmModel, opts: &NormalFormOptions) -> NormalFormOption
 mod tests {
     use super::*;
 
-    /// Real polynomial (as a [`Poly`] with the given scales, degrees 1..=order) of the field
-    /// `eta' = M x'` where `x = (Re z_j, Im z_j)_j = M^-1 eta` and `z_j' = zdot[j](z, conj z)`.
-    fn real_field(zdot: &[SPoly], m: &DMatrix<f64>, scale: &[f64], order: u32) -> Poly {
+    /// `z_j = x_{2j} + i x_{2j+1}` and its conjugate, `x = M^-1 eta`, as linear polynomials in
+    /// `eta` (the order `z_1, conj z_1, z_2, ...`).
+    fn z_of_eta(m: &DMatrix<f64>) -> Vec<SPoly> {
         let d = m.nrows();
         let minv = m.clone().try_inverse().unwrap();
-        // z_j = x_{2j} + i x_{2j+1}, conj likewise, as linear polys in eta.
         let mut sub = Vec::new();
         for j in 0..d / 2 {
             for sgn in [1.0, -1.0] {
@@ -935,7 +934,14 @@ mod tests {
                 sub.push(p);
             }
         }
-        let zd = compose(zdot, &sub, d, order);
+        sub
+    }
+
+    /// Real polynomial (as a [`Poly`] with the given scales, degrees 1..=order) of the field
+    /// `eta' = M x'` where `x = (Re z_j, Im z_j)_j = M^-1 eta` and `z_j' = zdot[j](z, conj z)`.
+    fn real_field(zdot: &[SPoly], m: &DMatrix<f64>, scale: &[f64], order: u32) -> Poly {
+        let d = m.nrows();
+        let zd = compose(zdot, &z_of_eta(m), d, order);
         // x'_{2j} = Re z_j', x'_{2j+1} = Im z_j' (eta real); eta' = M x'.
         let exps = poly::exponents(d, 1, order);
         let mut coef = vec![0.0; exps.len() * d];
@@ -1090,20 +1096,7 @@ mod tests {
     /// real-valued polynomial `xq(z, conj z)`, `x = (Re z_j, Im z_j)_j = M^-1 eta`.
     fn real_scalar(xq: &SPoly, m: &DMatrix<f64>, scale: &[f64], order: u32) -> Poly {
         let d = m.nrows();
-        let minv = m.clone().try_inverse().unwrap();
-        let mut sub = Vec::new();
-        for j in 0..d / 2 {
-            for sgn in [1.0, -1.0] {
-                let mut p = SPoly::new();
-                for l in 0..d {
-                    let mut e = vec![0; d];
-                    e[l] = 1;
-                    p.insert(e, C::new(minv[(2 * j, l)], sgn * minv[(2 * j + 1, l)]));
-                }
-                sub.push(p);
-            }
-        }
-        let x = compose(std::slice::from_ref(xq), &sub, d, order).pop().unwrap();
+        let x = compose(std::slice::from_ref(xq), &z_of_eta(m), d, order).pop().unwrap();
         let exps = poly::exponents(d, 1, order);
         let coef = exps
             .iter()
