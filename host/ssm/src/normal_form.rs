@@ -438,29 +438,34 @@ fn modal(
     }
     let wm = DMatrix::from_fn(d, d, |i, j| cols[j][i]);
     let winv = wm.clone().try_inverse().ok_or(NormalFormError::Eigen("eigenvector matrix is singular"))?;
-    // eta_j = sum_l W_jl q_l; the polynomial takes eta_j / scale_j.
-    let sub: Vec<SPoly> = (0..d)
-        .map(|j| {
-            let mut p = SPoly::new();
-            for l in 0..d {
-                let mut e = vec![0; d];
-                e[l] = 1;
-                p.insert(e, wm[(j, l)] / poly.scale[j]);
-            }
-            p
-        })
-        .collect();
-    let comps: Vec<SPoly> = (0..poly.dim_out)
-        .map(|o| {
-            poly.exps
-                .iter()
-                .enumerate()
-                .filter(|(_, e)| deg(e) >= 2 && deg(e) <= order)
-                .map(|(k, e)| (e.clone(), C::new(poly.coef[k * poly.dim_out + o], 0.0)))
-                .collect()
-        })
-        .collect();
-    let in_eta = compose(&comps, &sub, d, order);
+    // eta_j = sum_l W_jl q_l; a polynomial of `scale` takes eta_j / scale_j.
+    let eta_in_q = |scale: &[f64]| -> Vec<SPoly> {
+        (0..d)
+            .map(|j| {
+                let mut p = SPoly::new();
+                for l in 0..d {
+                    let mut e = vec![0; d];
+                    e[l] = 1;
+                    p.insert(e, wm[(j, l)] / scale[j]);
+                }
+                p
+            })
+            .collect()
+    };
+    // The degree 2..=order terms of each output of a polynomial, as complex polynomials.
+    let nonlinear = |p: &Poly| -> Vec<SPoly> {
+        (0..p.dim_out)
+            .map(|o| {
+                p.exps
+                    .iter()
+                    .enumerate()
+                    .filter(|(_, e)| deg(e) >= 2 && deg(e) <= order)
+                    .map(|(k, e)| (e.clone(), C::new(p.coef[k * p.dim_out + o], 0.0)))
+                    .collect()
+            })
+            .collect()
+    };
+    let in_eta = compose(&nonlinear(poly), &eta_in_q(&poly.scale), d, order);
     let f: Vec<SPoly> = (0..d)
         .map(|i| {
             let mut out = SPoly::new();
@@ -473,25 +478,8 @@ fn modal(
         .collect();
     let obs = match norm {
         Normalization::FirstHarmonic(x) => {
-            let sub: Vec<SPoly> = (0..d)
-                .map(|j| {
-                    let mut p = SPoly::new();
-                    for l in 0..d {
-                        let mut e = vec![0; d];
-                        e[l] = 1;
-                        p.insert(e, wm[(j, l)] / x.scale[j]);
-                    }
-                    p
-                })
-                .collect();
-            let nl: SPoly = x
-                .exps
-                .iter()
-                .zip(&x.coef)
-                .filter(|(e, _)| deg(e) >= 2 && deg(e) <= order)
-                .map(|(e, &c)| (e.clone(), C::new(c, 0.0)))
-                .collect();
-            let mut q = compose(&[nl], &sub, d, order).pop().unwrap_or_default();
+            // `x` is a scalar (`dim_out = 1`, checked above).
+            let mut q = compose(&nonlinear(x), &eta_in_q(&x.scale), d, order).pop().unwrap_or_default();
             q.retain(|e, _| deg(e) >= 2);
             Some(q)
         }
