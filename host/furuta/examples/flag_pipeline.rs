@@ -109,11 +109,130 @@ fn check(scale: usize) {
     }
 }
 
+/// A candidate spec: tokens separated by spaces: `cN` RBF centres (`c0`: polynomial map of
+/// order 4), `rX` ridge, `dN` SSM dimension, `pN` embedding, `sN` shift, `hN` multistep
+/// horizon (with `tN` window stride, `iN` LM iterations per stage), `wN` denoised inputs.
+fn parse_spec(spec: &str, step: usize) -> Option<furuta::model_selection::Candidate> {
+    let (mut c, mut r, mut d, mut p, mut s, mut h, mut t, mut it, mut w) = (200usize, 3e-9, 4usize, 9usize, 1usize, 0usize, 4usize, 10usize, 0usize);
+    for tok in spec.split_whitespace() {
+        let (k, v) = tok.split_at(1);
+        match k {
+            "c" => c = v.parse().ok()?,
+            "r" => r = v.parse().ok()?,
+            "d" => d = v.parse().ok()?,
+            "p" => p = v.parse().ok()?,
+            "s" => s = v.parse().ok()?,
+            "h" => h = v.parse().ok()?,
+            "t" => t = v.parse().ok()?,
+            "i" => it = v.parse().ok()?,
+            "w" => w = v.parse().ok()?,
+            _ => return None,
+        }
+    }
+    let ms = (h > 0).then_some(ssm::multistep::MultiStep { horizon: h, stride: t, iterations: it });
+    Some(furuta::flag_pipeline_fit::variant(step, c, r, d, p, s, ms, w))
+}
+
+fn print_row(r: &furuta::flag_pipeline::PipelineRow, secs: f64) {
+    let o = |v: Option<f64>, p: usize| v.map_or("-".to_string(), |v| format!("{v:.p$}"));
+    println!(
+        "| {} | {} | {} | {} | {} | {} | {} | {} | {} | {:.0} |",
+        r.candidate,
+        r.scale,
+        o(r.benettin, 3),
+        o(r.benettin_over_exact, 2),
+        o(r.rosenstein, 3),
+        o(r.corr_dim, 2),
+        o(r.js, 4),
+        r.passes.iter().map(|&p| if p { "y" } else { "n" }).collect::<String>(),
+        r.failed.as_deref().map_or("", |f| f.split(':').next().unwrap_or(f)),
+        secs
+    );
+}
+
+/// `variants SCALE NOISE "spec" ...`: the flag's search with these candidates, noise
+/// `NOISE` over the sd (`flag`: the flag's).
+fn variants(args: &[String]) {
+    let scale: usize = args.first().and_then(|s| s.parse().ok()).unwrap_or(1);
+    let noise = match args.get(1).map(String::as_str) {
+        None | Some("flag") => FLAG_LAYOUT.noise_rel,
+        Some(v) => v.parse().unwrap_or(FLAG_LAYOUT.noise_rel),
+    };
+    let layout = furuta::flag_pipeline::FlagLayout { noise_rel: noise, ..FLAG_LAYOUT };
+    let Some(cands) = args[2.min(args.len())..].iter().map(|s| parse_spec(s, layout.step)).collect::<Option<Vec<_>>>() else {
+        eprintln!("bad candidate spec");
+        return;
+    };
+    let t0 = std::time::Instant::now();
+    match pipeline_check(&furuta::flag_pipeline::CHOSEN, &layout, scale, &cands, 4000.0) {
+        Ok((k, rows)) => {
+            println!("noise {noise}: data Rosenstein {:.3}, D2 {:.2} ± {:.2}, exact {:.3}", k.rosenstein, k.corr_dim, k.corr_dim_err, k.exact);
+            for r in &rows {
+                print_row(r, t0.elapsed().as_secs_f64());
+            }
+        }
+        Err(e) => println!("error: {e}"),
+    }
+}
+
+/// `state SCALE NOISE "cN rX oN hN"`: the map class on the true state.
+fn state(args: &[String]) {
+    let scale: usize = args.first().and_then(|s| s.parse().ok()).unwrap_or(1);
+    let noise: f64 = args.get(1).and_then(|s| s.parse().ok()).unwrap_or(0.0);
+    for spec in &args[2.min(args.len())..] {
+        let mut f = furuta::flag_pipeline_fit::StateFit { centers: 200, order: 4, ridge: 3e-9, multistep: None, noise_rel: noise };
+        for tok in spec.split_whitespace() {
+            let (k, v) = tok.split_at(1);
+            match k {
+                "c" => f.centers = v.parse().unwrap_or(f.centers),
+                "r" => f.ridge = v.parse().unwrap_or(f.ridge),
+                "o" => f.order = v.parse().unwrap_or(f.order),
+                "h" => f.multistep = v.parse().ok().map(|h| ssm::multistep::MultiStep { horizon: h, stride: 4, iterations: 10 }),
+                _ => {}
+            }
+        }
+        let t0 = std::time::Instant::now();
+        match furuta::flag_pipeline_fit::state_model_check(&furuta::flag_pipeline::CHOSEN, &FLAG_LAYOUT, scale, &f, 4000.0) {
+            Ok((_, r)) => print_row(&r, t0.elapsed().as_secs_f64()),
+            Err(e) => println!("{}: error: {e}", f.name()),
+        }
+    }
+}
+
+/// `fnn`: false nearest neighbours of the projection, noise-free and at the flag's noise,
+/// for embeddings (9, 1), (9, 2), (9, 3), (9, 5).
+fn fnn() {
+    for noise in [0.0, FLAG_LAYOUT.noise_rel] {
+        let layout = furuta::flag_pipeline::FlagLayout { noise_rel: noise, ..FLAG_LAYOUT };
+        let (k, series) = match known_stats(&furuta::flag_pipeline::CHOSEN, &layout, 1, 100.0) {
+            Ok(v) => v,
+            Err(e) => return println!("error: {e}"),
+        };
+        let x = furuta::flag_pipeline_fit::held_out_at_step(&series, layout.step).expect("held-out");
+        // The first training piece at phase 0 (3,231 points) as well.
+        let tr = furuta::model_selection::subsample(&series[0], layout.step, 0).expect("train");
+        for (name, ts) in [("held-out", &x), ("train #0", &tr)] {
+            for (p, s) in [(9, 1), (9, 2), (9, 3), (9, 5)] {
+                match furuta::flag_pipeline_fit::projection_fnn(&ts.x, p, s, k.theiler, &[2, 3, 4, 5, 6, 7, 8], 10.0, 800) {
+                    Ok(rows) => println!(
+                        "noise {noise} {name} p={p} s={s}: {}",
+                        rows.iter().map(|r| format!("d{} sv {:.1e} fnn {:.3}", r.dim, r.singular_rel, r.fnn)).collect::<Vec<_>>().join("; ")
+                    ),
+                    Err(e) => println!("error: {e}"),
+                }
+            }
+        }
+    }
+}
+
 fn main() {
     let args: Vec<String> = std::env::args().skip(1).collect();
     match args.first().map(String::as_str) {
         Some("scan") => scan(),
+        Some("variants") => variants(&args[1..]),
+        Some("state") => state(&args[1..]),
+        Some("fnn") => fnn(),
         Some("check") => check(args.get(1).and_then(|s| s.parse().ok()).unwrap_or(1)),
-        _ => eprintln!("usage: flag_pipeline scan | check [scale]"),
+        _ => eprintln!("usage: flag_pipeline scan | check [scale] | fnn | variants SCALE NOISE SPEC.. | state SCALE NOISE SPEC.."),
     }
 }

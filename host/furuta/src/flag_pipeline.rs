@@ -131,6 +131,29 @@ impl KnownSystem {
         Ok((r.exponent, r.std_error))
     }
 
+    /// The states (not observed, no noise) of the orbit pieces of [`Self::flag_like_series`]
+    /// with the same `dt` and `lengths`: one row-major `n x dim` vector per piece.
+    pub fn flag_like_states(&self, dt: f64, lengths: &[usize]) -> Result<Vec<Vec<f64>>, Error> {
+        if !(dt.is_finite() && dt > 0.0) || lengths.iter().any(|&n| n < 2) {
+            return Err(Error::BadOption { what: "flag-like states", why: format!("need dt > 0 and >= 2 samples per piece (got {dt}, {lengths:?})") });
+        }
+        let mut x = self.start();
+        let mut v = vec![0.0; x.len()];
+        let mut out = Vec::with_capacity(lengths.len());
+        for (i, &n) in lengths.iter().enumerate() {
+            for _ in 0..if i == 0 { 5_000 } else { 1_000 } {
+                self.advance(&mut x, &mut v, dt);
+            }
+            let mut piece = Vec::with_capacity(n * x.len());
+            for _ in 0..n {
+                piece.extend_from_slice(&x);
+                self.advance(&mut x, &mut v, dt);
+            }
+            out.push(piece);
+        }
+        Ok(out)
+    }
+
     /// Series laid out like the flag's at the full-rate step `dt`: consecutive pieces of one
     /// orbit (after a transient of 5,000 samples; 1,000 samples skipped between pieces) of
     /// the given lengths, each with white noise of `noise_rel` times its own sd (seeded by its

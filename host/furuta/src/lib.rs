@@ -15,6 +15,7 @@ pub mod equation_ssm;
 pub mod error;
 pub mod estimator_check;
 pub mod flag_pipeline;
+pub mod flag_pipeline_fit;
 pub mod full_system;
 pub mod lyapunov;
 pub mod map_global;
