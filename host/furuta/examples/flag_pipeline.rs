@@ -175,18 +175,20 @@ fn variants(args: &[String]) {
     }
 }
 
-/// `state SCALE NOISE "cN rX oN hN"`: the map class on the true state.
+/// `state SCALE NOISE "cN rX oN hN pN"`: the map class on the true state (`pN`: on the
+/// whole delay vector of N samples instead).
 fn state(args: &[String]) {
     let scale: usize = args.first().and_then(|s| s.parse().ok()).unwrap_or(1);
     let noise: f64 = args.get(1).and_then(|s| s.parse().ok()).unwrap_or(0.0);
     for spec in &args[2.min(args.len())..] {
-        let mut f = furuta::flag_pipeline_fit::StateFit { centers: 200, order: 4, ridge: 3e-9, multistep: None, noise_rel: noise };
+        let mut f = furuta::flag_pipeline_fit::StateFit { coords: furuta::flag_pipeline_fit::Coords::State, centers: 200, order: 4, ridge: 3e-9, multistep: None, noise_rel: noise };
         for tok in spec.split_whitespace() {
             let (k, v) = tok.split_at(1);
             match k {
                 "c" => f.centers = v.parse().unwrap_or(f.centers),
                 "r" => f.ridge = v.parse().unwrap_or(f.ridge),
                 "o" => f.order = v.parse().unwrap_or(f.order),
+                "p" => f.coords = furuta::flag_pipeline_fit::Coords::Delay { embed: v.parse().unwrap_or(9), shift: 1 },
                 "h" => f.multistep = v.parse().ok().map(|h| ssm::multistep::MultiStep { horizon: h, stride: 4, iterations: 10 }),
                 _ => {}
             }
@@ -200,8 +202,8 @@ fn state(args: &[String]) {
 }
 
 /// `fnn`: false nearest neighbours of the projection, noise-free and at the flag's noise,
-/// for embeddings (9, 1), (9, 2), (9, 3), (9, 5).
-fn fnn() {
+/// for embeddings (9, 1), (9, 2), (9, 3), (11, 1), (13, 1); neighbours false beyond `ratio` (default 10).
+fn fnn(ratio: f64) {
     for noise in [0.0, FLAG_LAYOUT.noise_rel] {
         let layout = furuta::flag_pipeline::FlagLayout { noise_rel: noise, ..FLAG_LAYOUT };
         let (k, series) = match known_stats(&furuta::flag_pipeline::CHOSEN, &layout, 1, 100.0) {
@@ -212,8 +214,8 @@ fn fnn() {
         // The first training piece at phase 0 (3,231 points) as well.
         let tr = furuta::model_selection::subsample(&series[0], layout.step, 0).expect("train");
         for (name, ts) in [("held-out", &x), ("train #0", &tr)] {
-            for (p, s) in [(9, 1), (9, 2), (9, 3), (9, 5)] {
-                match furuta::flag_pipeline_fit::projection_fnn(&ts.x, p, s, k.theiler, &[2, 3, 4, 5, 6, 7, 8], 10.0, 800) {
+            for (p, s) in [(9, 1), (9, 2), (9, 3), (11, 1), (13, 1)] {
+                match furuta::flag_pipeline_fit::projection_fnn(&ts.x, p, s, k.theiler, &(2..p.min(9)).collect::<Vec<_>>(), ratio, 800) {
                     Ok(rows) => println!(
                         "noise {noise} {name} p={p} s={s}: {}",
                         rows.iter().map(|r| format!("d{} sv {:.1e} fnn {:.3}", r.dim, r.singular_rel, r.fnn)).collect::<Vec<_>>().join("; ")
@@ -225,13 +227,37 @@ fn fnn() {
     }
 }
 
+/// `fnn-rule [CSV]`: the dimension rule ([`furuta::flag_pipeline_fit::fnn_dimension`] with
+/// [`furuta::flag_pipeline_fit::FNN_RULE`]) at map step 4 on the known system's first
+/// training series, or on the series in CSV (the flag: traj_9).
+fn fnn_rule(path: Option<&String>) {
+    let ts = match path {
+        Some(p) => ssm::load_csv(p).expect("csv"),
+        None => known_stats(&furuta::flag_pipeline::CHOSEN, &FLAG_LAYOUT, 1, 100.0).expect("series").1.remove(0),
+    };
+    let x = furuta::model_selection::subsample(&ts, FLAG_LAYOUT.step, 0).expect("subsample");
+    let ctx = furuta::microchaos::Context::from_series(&x.x, x.dt().unwrap_or(1.0), 6).expect("context");
+    let (ratio, max_fnn) = furuta::flag_pipeline_fit::FNN_RULE;
+    match furuta::flag_pipeline_fit::fnn_dimension(&x.x, 1, ctx.theiler, ratio, max_fnn, 8, 800) {
+        Ok((d, rows)) => println!(
+            "{}: lag {} Theiler {}; chosen d = {d:?}; {}",
+            ts.name,
+            ctx.lag,
+            ctx.theiler,
+            rows.iter().map(|r| format!("d{} (p {}) fnn {:.4}", r.dim, 2 * r.dim + 1, r.fnn)).collect::<Vec<_>>().join("; ")
+        ),
+        Err(e) => println!("error: {e}"),
+    }
+}
+
 fn main() {
     let args: Vec<String> = std::env::args().skip(1).collect();
     match args.first().map(String::as_str) {
         Some("scan") => scan(),
         Some("variants") => variants(&args[1..]),
         Some("state") => state(&args[1..]),
-        Some("fnn") => fnn(),
+        Some("fnn-rule") => fnn_rule(args.get(1)),
+        Some("fnn") => fnn(args.get(1).and_then(|s| s.parse().ok()).unwrap_or(10.0)),
         Some("check") => check(args.get(1).and_then(|s| s.parse().ok()).unwrap_or(1)),
         _ => eprintln!("usage: flag_pipeline scan | check [scale] | fnn | variants SCALE NOISE SPEC.. | state SCALE NOISE SPEC.."),
     }

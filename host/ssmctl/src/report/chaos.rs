@@ -747,7 +747,7 @@ mod tests {
 /// `flag_pipeline_check`.
 fn flag_pipeline_check(rep: &mut crate::report::Report, quick: bool) -> Result<(), Box<dyn Error>> {
     use furuta::flag_pipeline::{CHOSEN, FLAG_LAYOUT, PIPELINE_DATA, committed_rows, known_stats, segment_stats, summarize};
-    let (k, _) = known_stats(&CHOSEN, &FLAG_LAYOUT, 1, if quick { 1000.0 } else { 4000.0 })?;
+    let (k, series) = known_stats(&CHOSEN, &FLAG_LAYOUT, 1, if quick { 1000.0 } else { 4000.0 })?;
     let seg = segment_stats(&CHOSEN, k.dt, &FLAG_LAYOUT, 8)?;
     let o = |v: Option<f64>, p: usize| v.map_or("-".to_string(), |v| format!("{v:.p$}"));
     rep.para(&format!(
@@ -849,6 +849,135 @@ fn flag_pipeline_check(rep: &mut crate::report::Report, quick: bool) -> Result<(
             "committed_data": { "rosenstein": PIPELINE_DATA.0, "corr_dim": PIPELINE_DATA.1, "corr_dim_err": PIPELINE_DATA.2, "exact": PIPELINE_DATA.3 },
             "rows": rows,
             "summary": summaries,
+        }),
+    );
+    flag_pipeline_fit(rep, &series)
+}
+
+/// Why the flag's fit misses the known system's chaos ([`furuta::flag_pipeline_fit`]): the
+/// projection's false nearest neighbours and the dimension rule (computed here on the
+/// known system's series), the committed diagnosis rows ([`furuta::flag_pipeline_fit::DIAGNOSIS`];
+/// one re-run by a test) and the flag's search at the rule's dimension
+/// ([`furuta::flag_pipeline_fit::FLAG_FIT`]). Summary key `flag_pipeline_fit`.
+fn flag_pipeline_fit(rep: &mut crate::report::Report, series: &[ssm::TimeSeries]) -> Result<(), Box<dyn Error>> {
+    use furuta::flag_pipeline::FLAG_LAYOUT;
+    use furuta::flag_pipeline_fit::{FLAG_DATA, FNN_RULE, diagnosis_rows, flag_fit_rows, fnn_dimension, projection_fnn};
+    let train = furuta::model_selection::subsample(&series[0], FLAG_LAYOUT.step, 0)?;
+    let ctx = furuta::microchaos::Context::from_series(&train.x, train.dt().unwrap_or(1.0), 6)?;
+    let (ratio, max_fnn) = FNN_RULE;
+    let proj = projection_fnn(&train.x, 9, 1, ctx.theiler, &[3, 4, 5, 6], ratio, 800)?;
+    let (rule_dim, rule_rows) = fnn_dimension(&train.x, 1, ctx.theiler, ratio, max_fnn, 8, 800)?;
+    let o = |v: Option<f64>, p: usize| v.map_or("-".to_string(), |v| format!("{v:.p$}"));
+    let pct = |v: f64| format!("{:.1} %", 100.0 * v);
+    rep.para(&format!(
+        "Why the fit misses it (example <code>flag_pipeline -- fnn | fnn-rule | variants | state</code>). \
+         Is the SSM's linear projection one-to-one? Projected on its first d singular directions, the flag's \
+         embedding of the system's first training series (9 samples, shift 1, map step {}) has {} false nearest \
+         neighbours (a neighbour whose distance in the discarded directions exceeds {ratio} times the projected \
+         one) at d = 3, 4, 5, 6. The dimension rule (the smallest d whose projection of the embedding p = 2d + 1 \
+         has at most {} false neighbours) gives {}: {}. On the flag's own series the same rule gives d = 4 \
+         (traj_9, traj_7, traj_8: 0.0, 0.2 and 0.0 % at d = 4; 0.6, 0.9 and 0.5 % at d = 3), so there the \
+         flag's settings already pass it.",
+        FLAG_LAYOUT.step,
+        proj.iter().map(|r| pct(r.fnn)).collect::<Vec<_>>().join(", "),
+        pct(max_fnn),
+        rule_dim.map_or("no d up to 8".to_string(), |d| format!("d = {d}")),
+        rule_rows.iter().map(|r| format!("d = {} (p = {}) {}", r.dim, 2 * r.dim + 1, pct(r.fnn))).collect::<Vec<_>>().join(", "),
+    ));
+    let diag = diagnosis_rows();
+    let yes = |b: bool| if b { "yes" } else { "no" };
+    let table: Vec<Vec<String>> = diag
+        .iter()
+        .map(|(what, noise, r)| {
+            vec![
+                what.to_string(),
+                crate::report::esc(&r.candidate),
+                format!("{}x", r.scale),
+                format!("{:.2} %", 100.0 * noise),
+                format!("{} ({})", o(r.benettin, 3), o(r.benettin_over_exact, 2)),
+                o(r.rosenstein, 3),
+                o(r.corr_dim, 2),
+                o(r.js, 4),
+                yes(r.benettin_exact_ok).to_string(),
+                r.failed.clone().unwrap_or_default(),
+            ]
+        })
+        .collect();
+    rep.table(
+        &["varied", "model", "training data (x flag)", "noise / sd", "Benettin [1/s] (/ exact)", "Rosenstein [1/s]", "D2", "JS [bits]", "Benettin within 10 % of exact", "failed"],
+        &table,
+    );
+    let count = |f: &dyn Fn(&str, f64, usize) -> bool| {
+        let sel: Vec<_> = diag.iter().filter(|(w, n, r)| f(w, *n, r.scale)).collect();
+        (sel.iter().filter(|(_, _, r)| r.benettin_exact_ok).count(), sel.len())
+    };
+    let fnoise = furuta::calibration::FLAG_SAMPLING.noise_rel;
+    let groups = [
+        ("noise_free_d4", count(&|w, _, _| w == "(a) noise-free")),
+        ("d5", count(&|w, _, _| w == "(b) d = 5")),
+        ("d6_1x", count(&|w, n, s| w == "(b) d = 6" && n == fnoise && s == 1)),
+        ("d6_3x", count(&|w, n, s| w == "(b) d = 6" && n == fnoise && s == 3)),
+        ("d6_noise_free", count(&|w, n, _| w == "(b) d = 6" && n == 0.0)),
+        ("shift", count(&|w, _, _| w == "(b) shift")),
+        ("whole_delay_vector", count(&|w, _, _| w == "(b) whole delay vector")),
+        ("true_state_noise_free", count(&|w, n, _| w == "(c) true state" && n == 0.0)),
+        ("true_state_noisy", count(&|w, n, _| w == "(c) true state" && n > 0.0)),
+    ];
+    let g = |k: &str| groups.iter().find(|(n, _)| *n == k).map_or((0, 0), |(_, c)| *c);
+    let flag = flag_fit_rows();
+    rep.para(&format!(
+        "What the diagnosis shows (Benettin within 10 % of the exact exponent, of the rows): (a) noise-free data \
+         with the flag's settings: {}/{} (the noise is not the cause); (c) the same RBF and polynomial maps fitted \
+         on the true state x1..x4 sampled at the map step: {}/{} noise-free (0.92-1.08 of exact, JS 0.005-0.007), \
+         {}/{} with the flag's noise on the state: the model class and the data amount suffice; (b) the \
+         coordinates are what fails: SSM dimension 5: {}/{}, dimension 6 (the rule's choice): {}/{} at the flag's \
+         data amount, {}/{} at three times it, but {}/{} on noise-free data (there the small singular directions \
+         are fitted without the noise's regularization and the attractor moves again); wider shifts {}/{}, the \
+         whole 9-sample delay vector without projection {}/{}. So a larger reduced dimension brings the \
+         exponent within 10 % for most RBF sizes at the flag's noise, but the fit in delay coordinates stays \
+         fragile (one RBF size or data amount away from a wrong attractor), unlike the same fit on the true \
+         state. The Rosenstein exponent of the model series is 0.33-0.46 1/s even for the models whose own \
+         exponent is exact (state poly 4: Benettin 0.99 of exact, Rosenstein 0.34), against the held-out \
+         piece's 1.036: on one held-out-length piece the estimator reads 0.29-1.10 of the exact exponent, so \
+         the Rosenstein and D2 targets cannot be met reliably even by an exact model. On the flag (train \
+         traj_9 + traj_7, held out traj_8, data Rosenstein {:.3} 1/s, D2 {:.2} ± {:.2}) SSM dimension 6 gives \
+         Benettin {} 1/s (RBF 200, 250, 300, 500, 1000), Rosenstein {}, D2 {}, JS {}: targets met {}; \
+         the flag's own dimension rule keeps d = 4, whose rows are the flag search's above.",
+        g("noise_free_d4").0,
+        g("noise_free_d4").1,
+        g("true_state_noise_free").0,
+        g("true_state_noise_free").1,
+        g("true_state_noisy").0,
+        g("true_state_noisy").1,
+        g("d5").0,
+        g("d5").1,
+        g("d6_1x").0,
+        g("d6_1x").1,
+        g("d6_3x").0,
+        g("d6_3x").1,
+        g("d6_noise_free").0,
+        g("d6_noise_free").1,
+        g("shift").0,
+        g("shift").1,
+        g("whole_delay_vector").0,
+        g("whole_delay_vector").1,
+        FLAG_DATA.0,
+        FLAG_DATA.1,
+        FLAG_DATA.2,
+        flag.iter().map(|r| o(r.benettin, 3)).collect::<Vec<_>>().join(", "),
+        flag.iter().map(|r| o(r.rosenstein, 3)).collect::<Vec<_>>().join(", "),
+        flag.iter().map(|r| o(r.corr_dim, 2)).collect::<Vec<_>>().join(", "),
+        flag.iter().map(|r| o(r.js, 4)).collect::<Vec<_>>().join(", "),
+        flag.iter().map(|r| format!("{}/4", r.passes.iter().filter(|&&p| p).count())).collect::<Vec<_>>().join(", "),
+    ));
+    rep.summary.insert(
+        "flag_pipeline_fit".into(),
+        serde_json::json!({
+            "fnn_rule": { "ratio": ratio, "max_fnn": max_fnn, "theiler": ctx.theiler, "dim": rule_dim, "rows": rule_rows },
+            "projection_fnn_p9": proj,
+            "diagnosis": diag.iter().map(|(w, n, r)| serde_json::json!({ "varied": w, "noise_rel": n, "row": r })).collect::<Vec<_>>(),
+            "within_10pct_of_exact": groups.iter().map(|(n, (a, b))| (n.to_string(), serde_json::json!([a, b]))).collect::<serde_json::Map<_, _>>(),
+            "flag": { "data": { "rosenstein": FLAG_DATA.0, "corr_dim": FLAG_DATA.1, "corr_dim_err": FLAG_DATA.2 }, "rows": flag },
         }),
     );
     Ok(())
