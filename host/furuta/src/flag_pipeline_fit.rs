@@ -323,6 +323,14 @@ pub const DIAGNOSIS: &[DiagRow] = &[
     ("(b) whole delay vector", "delay 9 x 1 RBF 200 r=3e-9", 1, FN, Some(1.198), Some(0.499), Some(2.99), Some(0.1003), ""),
     ("(b) whole delay vector", "delay 9 x 1 RBF 300 r=3e-9", 1, FN, Some(1.559), Some(0.471), Some(3.60), Some(0.0655), ""),
     ("(b) whole delay vector", "delay 9 x 1 poly 4", 1, FN, None, None, None, None, "escaped in the long run"),
+    // Fixes on the fit: denoised inputs (errors in variables), multistep refinement.
+    ("denoised inputs", "RBF 200 r=3e-9 d=4 p=9 denoised 3", 1, FN, Some(1.526), Some(0.493), Some(3.33), Some(0.0414), ""),
+    ("denoised inputs", "RBF 200 r=3e-9 d=4 p=9 denoised 5", 1, FN, Some(1.567), Some(0.427), Some(3.47), Some(0.0275), ""),
+    ("denoised inputs", "RBF 300 r=3e-9 d=4 p=9 denoised 3", 1, FN, None, None, None, None, "escaped in the long run"),
+    ("denoised inputs", "RBF 300 r=3e-9 d=4 p=9 denoised 5", 1, FN, Some(1.756), Some(0.430), Some(3.99), Some(0.0265), ""),
+    ("denoised inputs", "RBF 200 r=3e-9 d=4 p=9 denoised 5 ms h=8", 1, FN, Some(1.645), Some(0.552), Some(3.57), Some(0.0777), ""),
+    ("multistep", "RBF 200 r=3e-9 d=4 p=9 ms h=4 stride 8 it 4", 1, FN, Some(0.699), Some(0.439), Some(2.02), Some(0.0756), ""),
+    ("multistep", "RBF 250 r=1e-8 d=6 p=13 ms h=4 stride 8 it 4", 1, FN, Some(0.988), Some(0.460), Some(3.14), Some(0.0138), ""),
     // (c) the model class on the true state x1..x4 (no delays, no projection).
     ("(c) true state", "state RBF 200 r=3e-9", 1, 0.0, Some(0.866), Some(0.406), Some(2.06), Some(0.0060), ""),
     ("(c) true state", "state RBF 300 r=3e-9", 1, 0.0, Some(1.019), Some(0.395), Some(2.32), Some(0.0065), ""),
@@ -360,6 +368,10 @@ pub type FlagRow = (&'static str, Option<f64>, Option<f64>, Option<f64>, Option<
 /// exponent at the flag's noise ([`DIAGNOSIS`] rows "(b) d = 6", and d = 5); the dimension
 /// rule on the flag's own series picks d = 4 (the flag search's [`crate::model_selection::FLAG_SEARCH`]).
 pub const FLAG_FIT: &[FlagRow] = &[
+    ("RBF 200 r=3e-9 d=5 p=11", Some(0.267), Some(0.155), Some(2.44), Some(0.0291), ""),
+    ("RBF 250 r=1e-8 d=5 p=11", Some(-0.182), Some(-0.089), None, Some(0.0645), ""),
+    ("RBF 300 r=3e-9 d=5 p=11", Some(-0.046), Some(0.105), Some(1.64), Some(0.0289), ""),
+    ("RBF 500 r=1e-8 d=5 p=11", Some(-0.118), Some(-0.064), None, Some(0.0800), ""),
     ("RBF 200 r=3e-9 d=6 p=13", Some(0.229), Some(0.194), Some(2.45), Some(0.0270), ""),
     ("RBF 250 r=1e-8 d=6 p=13", Some(0.076), Some(0.045), Some(1.28), Some(0.0380), ""),
     ("RBF 300 r=3e-9 d=6 p=13", Some(-0.078), Some(-0.073), None, Some(0.0789), ""),

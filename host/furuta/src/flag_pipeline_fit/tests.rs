@@ -55,7 +55,8 @@ fn state_model_reproduces_its_committed_row() {
 /// candidate comes within 10 % of the exact exponent; on the true state every noise-free
 /// fit does (0.92-1.08); with SSM dimension 6 (the dimension rule's choice) four of the five
 /// RBF sizes at the flag's noise and data amount do, two of five at three times the data,
-/// none of three on noise-free data (the noise regularizes the small singular directions).
+/// none of three on noise-free data (the noise regularizes the small singular directions);
+/// denoised inputs none of five; on the flag no d = 5 or 6 row meets a target.
 #[test]
 fn diagnosis_counts() {
     let rows = diagnosis_rows();
@@ -69,4 +70,10 @@ fn diagnosis_counts() {
     assert_eq!(within("(b) d = 6", Some(FN), 3), (2, 5));
     assert_eq!(within("(b) d = 6", Some(0.0), 1), (0, 3));
     assert_eq!(within("(b) d = 5", None, 1), (1, 6));
+    assert_eq!(within("denoised inputs", None, 1), (0, 5));
+    assert_eq!(within("multistep", None, 1), (1, 2));
+    // On the flag, SSM dimension 5 and 6 meet none of the four targets.
+    let flag = flag_fit_rows();
+    assert_eq!(flag.len(), 9);
+    assert!(flag.iter().all(|r| r.passes == [false; 4]), "{flag:?}");
 }
