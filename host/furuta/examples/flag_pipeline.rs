@@ -9,6 +9,9 @@
 //!   noise): full-rate step, lag / Theiler window, D2 of the held-out series, its Rosenstein
 //!   exponent, the exact exponent and the nats per lag. `FLAG4_SYSTEMS` selects systems by
 //!   substring of their names; `FLAG4_L96=n:f,n:f` scans those Lorenz-96 systems instead.
+//! - `fnn [ratio]`, `fnn-rule [csv]`: false nearest neighbours of the SSM projection and the
+//!   dimension rule (`furuta::flag_pipeline_fit`); `variants SCALE NOISE SPEC..` and `state SCALE
+//!   NOISE SPEC..`: the rows of `furuta::flag_pipeline_fit::DIAGNOSIS` (see `parse_spec`).
 //! - `check [scale]`: the flag's candidate search on the chosen system
 //!   ([`furuta::flag_pipeline::CHOSEN`]) with training data `scale` times the flag's (default
 //!   1; RBF sizes whose regression would exceed the design-matrix limit are left out); one
