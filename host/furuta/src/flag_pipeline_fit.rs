@@ -323,6 +323,16 @@ pub const DIAGNOSIS: &[DiagRow] = &[
     ("(b) whole delay vector", "delay 9 x 1 RBF 200 r=3e-9", 1, FN, Some(1.198), Some(0.499), Some(2.99), Some(0.1003), ""),
     ("(b) whole delay vector", "delay 9 x 1 RBF 300 r=3e-9", 1, FN, Some(1.559), Some(0.471), Some(3.60), Some(0.0655), ""),
     ("(b) whole delay vector", "delay 9 x 1 poly 4", 1, FN, None, None, None, None, "escaped in the long run"),
+    // A larger ridge (the flag's: 3e-9 and 1e-8).
+    ("ridge", "RBF 200 r=1e-7 d=4 p=9", 1, FN, Some(0.535), Some(0.261), Some(1.80), Some(0.0773), ""),
+    ("ridge", "RBF 200 r=1e-6 d=4 p=9", 1, FN, Some(0.000), Some(0.000), Some(1.15), Some(0.2745), ""),
+    ("ridge", "RBF 300 r=1e-7 d=4 p=9", 1, FN, Some(0.399), Some(0.281), Some(1.59), Some(0.0780), ""),
+    ("ridge", "RBF 300 r=1e-6 d=4 p=9", 1, FN, Some(0.000), Some(-0.006), Some(1.05), Some(0.3152), ""),
+    ("ridge", "RBF 500 r=1e-6 d=4 p=9", 1, FN, Some(0.000), Some(-0.009), Some(1.05), Some(0.3332), ""),
+    ("ridge", "RBF 200 r=1e-7 d=5 p=11", 1, FN, Some(0.620), Some(0.331), Some(2.64), Some(0.0845), ""),
+    ("ridge", "RBF 300 r=1e-7 d=5 p=11", 1, FN, Some(0.019), Some(0.107), Some(1.14), Some(0.2786), ""),
+    ("ridge", "RBF 200 r=1e-7 d=6 p=13", 1, FN, Some(0.678), Some(0.468), Some(2.03), Some(0.1825), ""),
+    ("ridge", "RBF 300 r=1e-7 d=6 p=13", 1, FN, Some(0.000), Some(0.135), Some(1.64), Some(0.3880), ""),
     // Fixes on the fit: denoised inputs (errors in variables), multistep refinement.
     ("denoised inputs", "RBF 200 r=3e-9 d=4 p=9 denoised 3", 1, FN, Some(1.526), Some(0.493), Some(3.33), Some(0.0414), ""),
     ("denoised inputs", "RBF 200 r=3e-9 d=4 p=9 denoised 5", 1, FN, Some(1.567), Some(0.427), Some(3.47), Some(0.0275), ""),

@@ -71,6 +71,7 @@ fn diagnosis_counts() {
     assert_eq!(within("(b) d = 6", Some(0.0), 1), (0, 3));
     assert_eq!(within("(b) d = 5", None, 1), (1, 6));
     assert_eq!(within("denoised inputs", None, 1), (0, 5));
+    assert_eq!(within("ridge", None, 1), (0, 9));
     assert_eq!(within("multistep", None, 1), (1, 2));
     // On the flag, SSM dimension 5 and 6 meet none of the four targets.
     let flag = flag_fit_rows();
