@@ -45,7 +45,7 @@ pub struct FnnRow {
 /// directions exceeds `ratio` times the projected distance. The singular directions are the
 /// SSM fit's ([`ssm::manifold::tangent_space`]).
 pub fn projection_fnn(x: &[f64], embed: usize, shift: usize, theiler: usize, dims: &[usize], ratio: f64, queries: usize) -> Result<Vec<FnnRow>, Error> {
-    if embed < 2 || shift == 0 || queries == 0 || !(ratio > 0.0) || dims.iter().any(|&d| d == 0 || d >= embed) {
+    if embed < 2 || shift == 0 || queries == 0 || ratio.is_nan() || ratio <= 0.0 || dims.iter().any(|&d| d == 0 || d >= embed) {
         return Err(Error::BadOption { what: "projection_fnn", why: format!("need embed >= 2, shift >= 1, queries >= 1, ratio > 0, 1 <= dim < embed (got {embed}, {shift}, {queries}, {ratio}, {dims:?})") });
     }
     let n = x.len().checked_sub((embed - 1) * shift).filter(|&n| n > 2 * theiler + 2).ok_or(Error::BadInput {
@@ -258,7 +258,7 @@ pub fn state_model_check(sys: &KnownSystem, layout: &FlagLayout, scale: usize, f
             None => failed = Some("long run recorded nothing".into()),
             Some(pts) => {
                 let exc = pts.as_flat().iter().fold(0.0_f64, |a, v| a.max(v.abs())) / data_max;
-                if !(exc <= s.region_factor) {
+                if exc.is_nan() || exc > s.region_factor {
                     failed = Some(format!("left the data's region: {exc:.2} x the data's largest |x_i|"));
                 } else {
                     let x: Vec<f64> = (0..test.nrows().min(pts.len())).map(|i| pts.point(i)[0]).collect();
@@ -288,6 +288,7 @@ const FN: f64 = crate::calibration::FLAG_SAMPLING.noise_rel;
 /// SCALE NOISE SPEC..` for the SSM rows, `state SCALE NOISE SPEC..` for the state and
 /// whole-delay-vector rows). The flag's own settings (d = 4, p = 9, s = 1 at the flag's
 /// noise) are [`crate::flag_pipeline::PIPELINE_CHECK`].
+#[allow(clippy::approx_constant)] // a measured D2 of 3.14
 pub const DIAGNOSIS: &[DiagRow] = &[
     // (a) noise-free data, the flag's candidates otherwise.
     ("(a) noise-free", "RBF 200 r=3e-9 d=4 p=9", 1, 0.0, Some(0.840), Some(0.608), Some(2.37), Some(0.0708), ""),
