@@ -37,7 +37,9 @@ use ssm::poly::Poly;
 use ssm::{Conditioning, Dynamics, Ridge};
 
 use crate::Error;
+use crate::basin::TorusContinuation;
 use crate::equation_ssm::furuta_graph_ssm;
+use crate::map_global::{Connection, ConnectionOptions, map_connection, map_torus_continuation_from};
 
 /// The graph-style SSM `s` as a model (see the module docs); `observable` is the row the SSM
 /// was normalized by (theta), `dt` the map's step (s).
@@ -173,6 +175,39 @@ impl EquationMapFamily {
     }
 }
 
+/// The equation-driven map's global bifurcations by [`crate::map_global`]'s rules (those of
+/// the fitted map and the full system): the saddle connection ([`map_connection`] on
+/// `[lo, hi]`, grid `n`, bisection to `tol` ms) and the 2-torus continuation over `torus_dts`
+/// ([`map_torus_continuation_from`] from [`torus_start`] of `start_rho`, `periods` each),
+/// both on the family interpolated by `interp`, the two on the rayon pool.
+#[derive(Clone, Debug, Serialize)]
+pub struct EquationMapGlobal {
+    pub order: u32,
+    pub nodes_ms: Vec<f64>,
+    pub interp: Interp,
+    pub connection: Result<Connection, String>,
+    pub torus: Result<TorusContinuation, String>,
+}
+
+/// See [`EquationMapGlobal`].
+#[allow(clippy::too_many_arguments)]
+pub fn equation_map_global(
+    family: &EquationMapFamily,
+    interp: Interp,
+    (lo, hi, n, tol): (f64, f64, usize, f64),
+    co: &ConnectionOptions,
+    torus_dts: &[f64],
+    start_rho: [f64; 2],
+    periods: u64,
+) -> EquationMapGlobal {
+    let at = |dt: f64| family.model_at(dt, interp);
+    let (connection, torus) = rayon::join(
+        || map_connection(at, lo, hi, n, tol, co).map_err(|e| format!("not found ({e})")),
+        || map_torus_continuation_from(at, torus_dts, start_rho, torus_start(start_rho), periods).map_err(|e| e.to_string()),
+    );
+    EquationMapGlobal { order: family.order, nodes_ms: family.nodes_ms.clone(), interp, connection, torus }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -249,5 +284,24 @@ mod tests {
         assert!(rel < 1e-3, "{rel}");
         assert!(matches!(fam.model_at(33.0, Interp::Linear), Err(_)));
         assert!(matches!(EquationMapFamily::furuta(&[31.0], 5), Err(Error::BadOption { what: "nodes_ms", .. })));
+    }
+
+    /// Measurement (not a check): the equation map's connection and torus loss at orders
+    /// 5, 7, 9 with the full report's settings (9 nodes 30.5..32.5 ms, spline).
+    #[test]
+    #[ignore]
+    fn measure_equation_map_by_order() {
+        let nodes: Vec<f64> = (0..=8).map(|k| 30.5 + 0.25 * k as f64).collect();
+        let torus_dts: Vec<f64> = (0..=14).map(|k| ((31.3 + 0.05 * k as f64) * 1e4).round() / 1e4).collect();
+        let orders: Vec<u32> = std::env::var("EQMAP_ORDERS").map(|s| s.split(',').map(|x| x.parse().unwrap()).collect()).unwrap_or(vec![5, 7, 9]);
+        for order in orders {
+            let t0 = std::time::Instant::now();
+            let fam = EquationMapFamily::furuta(&nodes, order).unwrap();
+            let t1 = t0.elapsed().as_secs_f64();
+            let g = equation_map_global(&fam, Interp::Spline, (31.0, 32.0, 6, 0.005), &ConnectionOptions::default(), &torus_dts, [0.097, 0.0277], 16_000);
+            let c = g.connection.as_ref().map(|c| (c.switch.bracket, c.switch.grid.clone()));
+            let t = g.torus.as_ref().map(|t| (t.lost_between, t.growth_onset, t.steps.iter().map(|s| (s.dt_ms, s.rho, s.growth_rate, s.lost)).collect::<Vec<_>>()));
+            eprintln!("order {order}: family {t1:.1} s, total {:.1} s\n connection {c:?}\n torus {t:?}", t0.elapsed().as_secs_f64());
+        }
     }
 }
