@@ -88,9 +88,31 @@ pub fn model_of_ssm(s: &MapSsm, observable: &[f64]) -> Result<SsmModel, Error> {
     })
 }
 
+/// Which reduced map of the SSM is iterated.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+pub enum MapStyle {
+    /// Every term of `R` kept, `W`'s nonlinear part in the complement (the faithful map; see
+    /// the module docs).
+    Graph,
+    /// The model's normal-form style (`crate::equation_ssm`'s, whose polar form is the
+    /// equation-driven model): `R` keeps only the structural terms, so its iterate is
+    /// rotation-equivariant (the phases averaged out at every order up to `K`). For the
+    /// measurement that separates the normal form's truncation from the map-to-flow step.
+    /// Its reduced coordinates of a state are `U^T s` only at linear order.
+    NormalForm,
+}
+
 /// The equation-driven reduced map of the paper's loop at `dt_ms` and `order` (3..=9).
 pub fn furuta_equation_map(dt_ms: f64, order: u32) -> Result<SsmModel, Error> {
-    let (pm, s) = furuta_graph_ssm(dt_ms, order)?;
+    furuta_equation_map_styled(dt_ms, order, MapStyle::Graph)
+}
+
+/// [`furuta_equation_map`] in the style `style`.
+pub fn furuta_equation_map_styled(dt_ms: f64, order: u32, style: MapStyle) -> Result<SsmModel, Error> {
+    let (pm, s) = match style {
+        MapStyle::Graph => furuta_graph_ssm(dt_ms, order)?,
+        MapStyle::NormalForm => crate::equation_ssm::furuta_normal_form_ssm(dt_ms, order)?,
+    };
     let mut c = vec![0.0; pm.dim()];
     c[pm.primary] = 1.0;
     model_of_ssm(&s, &c)
@@ -108,6 +130,7 @@ pub fn torus_start(rho: [f64; 2]) -> Vec<f64> {
 #[derive(Clone, Debug, Serialize)]
 pub struct EquationMapFamily {
     pub order: u32,
+    pub style: MapStyle,
     /// Strictly increasing sampling periods (ms).
     pub nodes_ms: Vec<f64>,
     #[serde(skip)]
@@ -118,11 +141,16 @@ impl EquationMapFamily {
     /// The maps of the paper's loop at `nodes_ms` (at least 2, strictly increasing) and
     /// `order`, on the rayon pool.
     pub fn furuta(nodes_ms: &[f64], order: u32) -> Result<EquationMapFamily, Error> {
+        Self::furuta_styled(nodes_ms, order, MapStyle::Graph)
+    }
+
+    /// [`EquationMapFamily::furuta`] in the style `style`.
+    pub fn furuta_styled(nodes_ms: &[f64], order: u32, style: MapStyle) -> Result<EquationMapFamily, Error> {
         if nodes_ms.len() < 2 || nodes_ms.iter().any(|x| !x.is_finite()) || nodes_ms.windows(2).any(|w| w[1] <= w[0]) {
             return Err(Error::BadOption { what: "nodes_ms", why: format!("need at least 2 finite, strictly increasing periods, got {nodes_ms:?}") });
         }
-        let maps = crate::par_map(nodes_ms, |&dt| furuta_equation_map(dt, order))?;
-        Ok(EquationMapFamily { order, nodes_ms: nodes_ms.to_vec(), maps })
+        let maps = crate::par_map(nodes_ms, |&dt| furuta_equation_map_styled(dt, order, style))?;
+        Ok(EquationMapFamily { order, style, nodes_ms: nodes_ms.to_vec(), maps })
     }
 
     /// The map at `dt_ms` (inside the nodes): every coefficient of the increment and of the
@@ -183,6 +211,7 @@ impl EquationMapFamily {
 #[derive(Clone, Debug, Serialize)]
 pub struct EquationMapGlobal {
     pub order: u32,
+    pub style: MapStyle,
     pub nodes_ms: Vec<f64>,
     pub interp: Interp,
     pub connection: Result<Connection, String>,
@@ -205,7 +234,7 @@ pub fn equation_map_global(
         || map_connection(at, lo, hi, n, tol, co).map_err(|e| format!("not found ({e})")),
         || map_torus_continuation_from(at, torus_dts, start_rho, torus_start(start_rho), periods).map_err(|e| e.to_string()),
     );
-    EquationMapGlobal { order: family.order, nodes_ms: family.nodes_ms.clone(), interp, connection, torus }
+    EquationMapGlobal { order: family.order, style: family.style, nodes_ms: family.nodes_ms.clone(), interp, connection, torus }
 }
 
 #[cfg(test)]
@@ -303,5 +332,41 @@ mod tests {
             let t = g.torus.as_ref().map(|t| (t.lost_between, t.growth_onset, t.steps.iter().map(|s| (s.dt_ms, s.rho, s.growth_rate, s.lost)).collect::<Vec<_>>()));
             eprintln!("order {order}: family {t1:.1} s, total {:.1} s\n connection {c:?}\n torus {t:?}", t0.elapsed().as_secs_f64());
         }
+    }
+
+    /// Measurement (not a check): at order 7, what separates the polar normal form from the
+    /// map. (a) The normal-form-style reduced map iterated (same SSM as the polar form, phases
+    /// averaged at every order, no map-to-flow step) by the same rules; (b) at a few dt: the
+    /// fast saddle cycle's theta amplitude of the graph map, of the normal-form map, of the
+    /// polar form (`saddle_cycles`' equation row) and of the full system.
+    #[test]
+    #[ignore]
+    fn measure_polar_vs_map() {
+        use crate::map_global::map_fast_circle;
+        let nodes: Vec<f64> = (0..=8).map(|k| 30.5 + 0.25 * k as f64).collect();
+        let torus_dts: Vec<f64> = (0..=14).map(|k| ((31.3 + 0.05 * k as f64) * 1e4).round() / 1e4).collect();
+        let order: u32 = std::env::var("EQMAP_ORDER").map(|s| s.parse().unwrap()).unwrap_or(7);
+        let co = ConnectionOptions::default();
+        let nf = EquationMapFamily::furuta_styled(&nodes, order, MapStyle::NormalForm).unwrap();
+        let graph = EquationMapFamily::furuta(&nodes, order).unwrap();
+        for dt in [31.0, 31.3, 31.45] {
+            let g = map_fast_circle(&graph.model_at(dt, Interp::Spline).unwrap(), &co).unwrap();
+            let n = map_fast_circle(&nf.model_at(dt, Interp::Spline).unwrap(), &co).unwrap();
+            let rows = crate::saddle_cycles::saddle_cycles(&[dt], 2, &[order], &co.circle).unwrap();
+            let eq = &rows[0].equation[0];
+            let full = rows[0].full.as_ref().map(|c| c.theta_amplitude);
+            eprintln!(
+                "dt {dt}: fast cycle theta amplitude: graph map {:.6} ({:.4} Hz), normal-form map {:.6} ({:.4} Hz), polar form rho {:?} theta {:?} ({:?} Hz), full {full:?}",
+                g.theta_amplitude, g.freq_hz, n.theta_amplitude, n.freq_hz, eq.rho, eq.theta_amplitude, eq.freq_hz
+            );
+            let pf = crate::equation_ssm::furuta_equation_polar(dt, order).unwrap();
+            let popts = ssm::portrait::PortraitOptions { rho_max: crate::bifurcations::RHO_MAX, ..ssm::portrait::PortraitOptions::default() };
+            let fps = ssm::portrait::fixed_points(&pf, &popts).unwrap();
+            eprintln!("  polar fixed points: {:?}", fps.iter().map(|f| (f.kind, f.rho)).collect::<Vec<_>>());
+        }
+        let g = equation_map_global(&nf, Interp::Spline, (31.0, 32.0, 6, 0.005), &co, &torus_dts, [0.097, 0.0277], 16_000);
+        let c = g.connection.as_ref().map(|c| (c.switch.bracket, c.switch.grid.clone()));
+        let t = g.torus.as_ref().map(|t| (t.lost_between, t.growth_onset, t.steps.iter().map(|s| (s.dt_ms, s.rho, s.growth_rate, s.lost)).collect::<Vec<_>>()));
+        eprintln!("normal-form map, order {order}:\n connection {c:?}\n torus {t:?}");
     }
 }

@@ -194,6 +194,15 @@ pub fn furuta_graph_ssm(dt_ms: f64, order: u32) -> Result<(Arc<PeriodMap>, MapSs
     Ok((pm, s))
 }
 
+/// The normal-form-style SSM of the paper's loop at `dt_ms` and `order` (the model's own:
+/// only structural terms and those with divisors below [`RESONANCE_TOL`] kept in the reduced
+/// map, `Amplitude::Observable`), the period map and the SSM, for iterating its reduced map
+/// ([`crate::equation_map::MapStyle::NormalForm`]).
+pub fn furuta_normal_form_ssm(dt_ms: f64, order: u32) -> Result<(Arc<PeriodMap>, MapSsm), Error> {
+    let (_, pm, _, s, _, _) = furuta_map_ssm(dt_ms, order, Amplitude::Observable)?;
+    Ok((pm, s))
+}
+
 /// The equation-driven SSM of `scene` at `order` (3..=9).
 pub fn equation_ssm(scene: &Scene, order: u32) -> Result<EquationSsm, Error> {
     let (pm, map, s, expansion_seconds, ssm_seconds) = scene_map_ssm(scene, order, Amplitude::Observable)?;
