@@ -113,17 +113,18 @@ fn scene_map_ssm(scene: &Scene, order: u32, amplitude: Amplitude) -> Result<(Arc
     check_order(order)?;
     let t0 = Instant::now();
     let pm = Arc::new(scene_period_map(scene, order, &FlowOptions::default())?);
-    map_ssm_of(pm, order, amplitude, t0.elapsed().as_secs_f64())
+    map_ssm_of(pm, order, amplitude, RESONANCE_TOL, t0.elapsed().as_secs_f64())
 }
 
-/// The SSM of the period map `pm` (amplitudes normalized by `amplitude`), with the wall
-/// time (s) of its expansion and of the SSM.
-fn map_ssm_of(pm: Arc<PeriodMap>, order: u32, amplitude: Amplitude, expansion_seconds: f64) -> Result<(Arc<PeriodMap>, PolynomialMap, MapSsm, f64, f64), Error> {
+/// The SSM of the period map `pm` (amplitudes normalized by `amplitude`, non-structural
+/// terms with divisors below `resonance_tol` kept in the reduced map), with the wall time (s)
+/// of its expansion and of the SSM.
+fn map_ssm_of(pm: Arc<PeriodMap>, order: u32, amplitude: Amplitude, resonance_tol: f64, expansion_seconds: f64) -> Result<(Arc<PeriodMap>, PolynomialMap, MapSsm, f64, f64), Error> {
     let map = polynomial_map(&pm);
     let mut observable = vec![0.0; pm.dim()];
     observable[pm.primary] = 1.0;
     let t1 = Instant::now();
-    let opts = MapSsmOptions { order, pairs: 2, resonance_tol: RESONANCE_TOL, observable, dt: pm.dt, amplitude };
+    let opts = MapSsmOptions { order, pairs: 2, resonance_tol, observable, dt: pm.dt, amplitude };
     let s: MapSsm = map_ssm(&map, &opts).map_err(|e| Error::from(ssm::Error::from(e)))?;
     let ssm_seconds = t1.elapsed().as_secs_f64();
     Ok((pm, map, s, expansion_seconds, ssm_seconds))
@@ -147,6 +148,12 @@ fn furuta_scene(dt_ms: f64) -> Result<Scene, Error> {
 /// [`MAX_CACHED_MAPS`] at most, further ones computed each time). The expansion's wall time
 /// is this call's: near zero when the map came from the cache.
 fn furuta_map_ssm(dt_ms: f64, order: u32, amplitude: Amplitude) -> Result<(Scene, Arc<PeriodMap>, PolynomialMap, MapSsm, f64, f64), Error> {
+    furuta_map_ssm_tol(dt_ms, order, amplitude, RESONANCE_TOL)
+}
+
+/// [`furuta_map_ssm`] keeping in the reduced map every non-structural term whose divisor is
+/// below `resonance_tol` (`f64::MAX`: all of them, the graph-style parametrization).
+fn furuta_map_ssm_tol(dt_ms: f64, order: u32, amplitude: Amplitude, resonance_tol: f64) -> Result<(Scene, Arc<PeriodMap>, PolynomialMap, MapSsm, f64, f64), Error> {
     check_order(order)?;
     let scene = furuta_scene(dt_ms)?;
     static MAPS: OnceLock<Mutex<Vec<((u64, u32), MapSlot)>>> = OnceLock::new();
@@ -172,8 +179,28 @@ fn furuta_map_ssm(dt_ms: f64, order: u32, amplitude: Amplitude) -> Result<(Scene
         Some(pm) => pm,
         None => Arc::new(scene_period_map(&scene, order, &FlowOptions::default())?),
     };
-    let (pm, map, s, e, t) = map_ssm_of(pm, order, amplitude, t0.elapsed().as_secs_f64())?;
+    let (pm, map, s, e, t) = map_ssm_of(pm, order, amplitude, resonance_tol, t0.elapsed().as_secs_f64())?;
     Ok((scene, pm, map, s, e, t))
+}
+
+/// The graph-style SSM of the paper's loop at `dt_ms` and `order` (3..=9): every term of the
+/// reduced map kept (no normal form: `resonance_tol = f64::MAX`), the parametrization's
+/// nonlinear part in the complementary spectral subspace (`Amplitude::Spectral`: `U^T W(z) =
+/// z` exactly, so the reduced coordinates of a state `s` are `U^T s`). The period map's
+/// expansion comes from the per-process cache of [`furuta_equation_ssm`]. Returns the period
+/// map and the SSM (for [`crate::equation_map`]).
+pub fn furuta_graph_ssm(dt_ms: f64, order: u32) -> Result<(Arc<PeriodMap>, MapSsm), Error> {
+    let (_, pm, _, s, _, _) = furuta_map_ssm_tol(dt_ms, order, Amplitude::Spectral, f64::MAX)?;
+    Ok((pm, s))
+}
+
+/// The normal-form-style SSM of the paper's loop at `dt_ms` and `order` (the model's own:
+/// only structural terms and those with divisors below [`RESONANCE_TOL`] kept in the reduced
+/// map, `Amplitude::Observable`), the period map and the SSM, for iterating its reduced map
+/// ([`crate::equation_map::MapStyle::NormalForm`]).
+pub fn furuta_normal_form_ssm(dt_ms: f64, order: u32) -> Result<(Arc<PeriodMap>, MapSsm), Error> {
+    let (_, pm, _, s, _, _) = furuta_map_ssm(dt_ms, order, Amplitude::Observable)?;
+    Ok((pm, s))
 }
 
 /// The equation-driven SSM of `scene` at `order` (3..=9).

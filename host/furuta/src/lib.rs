@@ -11,6 +11,7 @@ pub mod calibration;
 pub mod chaos_tables;
 pub mod convergence;
 pub mod device_model;
+pub mod equation_map;
 pub mod equation_ssm;
 pub mod error;
 pub mod estimator_check;

@@ -290,7 +290,28 @@ pub fn map_torus_continuation(
     let (x, h) = start_from_rho(dts_ms[0], start_rho, [0.0, 0.0])?;
     let head = run(dts_ms[0], &(x, Some(h)), p as u64, f64::MAX)?.primary();
     let y0 = head.get(..p).ok_or_else(|| Error::BadInput { what: "start", why: format!("full-system run gave {} samples, need {p}", head.len()) })?;
-    let mut eta = first.manifold.reduce(y0);
+    let eta = first.manifold.reduce(y0);
+    map_torus_continuation_from(model_at, dts_ms, start_rho, eta, periods)
+}
+
+/// [`map_torus_continuation`] from the reduced point `eta0` (for a map whose reduced
+/// coordinates of a full-system start are known otherwise, e.g.
+/// [`crate::equation_map::torus_start`]); `start_rho` is recorded as the start.
+pub fn map_torus_continuation_from(
+    model_at: impl Fn(f64) -> Result<SsmModel, Error>,
+    dts_ms: &[f64],
+    start_rho: [f64; 2],
+    eta0: Vec<f64>,
+    periods: u64,
+) -> Result<TorusContinuation, Error> {
+    if dts_ms.is_empty() || dts_ms.windows(2).any(|w| w[1] <= w[0]) {
+        return Err(Error::BadInput { what: "dts_ms", why: format!("need at least one, strictly increasing, got {dts_ms:?}") });
+    }
+    if periods < 3 {
+        return Err(Error::BadInput { what: "periods", why: format!("need at least 3, got {periods}") });
+    }
+    let mut eta = eta0;
+    let p = model_at(dts_ms[0])?.manifold.p;
     let mut steps = Vec::new();
     for &dt_ms in dts_ms {
         let model = model_at(dt_ms)?;

@@ -1,8 +1,8 @@
 //! Report sections on the global bifurcations (issue 11, items 4 and 5): the equation-driven
-//! reduced model next to the data-driven one (the fitted map itself and its normal form) and
-//! the full system, every bifurcation value in four columns (`summary.json` keys
-//! `equation_ssm`, and `equation*` / `full_system*` / `map` added to `heteroclinic_dt_ms` and
-//! `torus_hopf_dt_ms`), and the full system's basin near the global bifurcation with both
+//! reduced model (its reduced map iterated, and its polar normal form) next to the data-driven
+//! one (the fitted map itself and its normal form) and the full system, every bifurcation value
+//! in five columns (`summary.json` keys `equation_ssm`, and `equation*` / `full_system*` /
+//! `map` / `equation_map` added to `heteroclinic_dt_ms` and `torus_hopf_dt_ms`), and the full system's basin near the global bifurcation with both
 //! normal forms' saddle manifolds over it and the fitted map's verdict on it (`basin`, with
 //! `map_disagreement` and `map_figure`).
 
@@ -13,6 +13,7 @@ use furuta::basin::{Agreement, BasinOptions, FullBasin, ModelBasin, ModelFate, T
 use furuta::bifurcations::{ModelBifurcations, RHO_MAX};
 use furuta::equation_ssm::{EquationBifurcations, EquationModel, EquationSsm, INVARIANCE_RADII, equation_bifurcations, furuta_equation_polar, furuta_equation_polar_with, furuta_equation_ssm};
 use ssm::map_ssm::Amplitude;
+use furuta::equation_map::{EquationMapFamily, EquationMapGlobal, equation_map_global};
 use furuta::map_global::{Connection, ConnectionOptions, full_connection, map_basin, map_connection, map_torus_continuation};
 use furuta::parametric::{ParametricModel, TrainingRuns};
 use furuta::shared_tangent::SharedParametricModel;
@@ -53,6 +54,11 @@ struct Computed {
     /// The fitted map of each training variant (full report only): its saddle connection
     /// and torus continuation, linear and spline in dt, by the same rules as the default's.
     map_variants: Vec<MapVariant>,
+    /// The equation-driven reduced map (graph style, spline in dt over the equation model's
+    /// nodes) at each order of the equation-driven model, read by the fitted map's rules, and
+    /// the wall seconds of all of it.
+    eq_map: Vec<EquationMapGlobal>,
+    eq_map_seconds: f64,
 }
 
 /// One training variant's fitted map ([`furuta::bifurcations::sensitivity_variants`]): the
@@ -170,15 +176,31 @@ fn compute(pm: &ParametricModel, sm: &SharedParametricModel, runs: &TrainingRuns
         let r = if quick { Err("full report only".to_string()) } else { full_connection(clo, chi, cn, ctol, &co).map_err(|e| format!("not found ({e})")) };
         (r, t0.elapsed().as_secs_f64())
     };
-    let (((eq, basin), (models, torus)), (map, ((full_connection, full_connection_seconds), map_variants))) = rayon::join(
+    // The equation-driven reduced map at every order (its period maps' expansions are the
+    // equation-driven model's, cached per (dt, order)).
+    let eq_map = || -> Result<(Vec<EquationMapGlobal>, f64), furuta::Error> {
+        let t0 = std::time::Instant::now();
+        let out = par_map(&orders, |&order| -> Result<EquationMapGlobal, furuta::Error> {
+            let fam = EquationMapFamily::furuta(&nodes, order)?;
+            Ok(equation_map_global(&fam, Interp::Spline, CONNECTION_RANGE_MS, &co, &torus_dts, [0.097, 0.0277], torus_periods))
+        })?;
+        Ok((out, t0.elapsed().as_secs_f64()))
+    };
+    let (((eq, basin), (models, torus)), (map, ((full_connection, full_connection_seconds), (map_variants, eq_map)))) = rayon::join(
         || {
             rayon::join(
                 || rayon::join(|| task("global/equation", equation), || task("global/full-basin", || full_basin(&bopts))),
                 || rayon::join(|| task("global/models", models), || task("global/full-torus", || torus_continuation(&torus_dts, [0.097, 0.0277], torus_periods))),
             )
         },
-        || rayon::join(|| task("global/map", map_part), || rayon::join(|| task("global/full-connection", full_conn), || task("global/variants", variants))),
+        || {
+            rayon::join(
+                || task("global/map", map_part),
+                || rayon::join(|| task("global/full-connection", full_conn), || rayon::join(|| task("global/variants", variants), || task("global/equation-map", eq_map))),
+            )
+        },
     );
+    let (eq_map, eq_map_seconds) = eq_map?;
     let (diag, by_order, eq_forms) = eq?;
     let (map_connection, map_torus, map_basin, map_seconds) = map?;
     Ok(Computed {
@@ -195,6 +217,8 @@ fn compute(pm: &ParametricModel, sm: &SharedParametricModel, runs: &TrainingRuns
         map_seconds,
         full_connection_seconds,
         map_variants,
+        eq_map,
+        eq_map_seconds,
     })
 }
 
@@ -287,6 +311,12 @@ fn lost_text(t: &TorusContinuation) -> String {
     format!("{l}, onset {}", f4(t.growth_onset))
 }
 
+/// The equation-driven reduced map's torus continuation as table text ([`lost_text`], or why
+/// it failed).
+fn eq_map_torus_text(t: &Result<TorusContinuation, String>) -> String {
+    t.as_ref().map_or_else(|e| e.clone(), lost_text)
+}
+
 /// `{"found", "of", "min", "max", "spread_ms"}` of the values that exist (spread = max - min;
 /// nulls when none does).
 fn value_spread(vals: &[Option<f64>]) -> Value {
@@ -347,11 +377,15 @@ fn equation_section(rep: &mut Report, pm: &ParametricModel, sm: &SharedParametri
     let rho = |r: Option<[f64; 2]>| r.map_or("none".into(), |r| format!("({:.4}, {:.4})", r[0], r[1]));
     let rho_full = torus["rho_full"].as_array().and_then(|a| Some([a.first()?.as_f64()?, a.get(1)?.as_f64()?]));
     let co = ConnectionOptions::default();
+    let em = c.eq_map.iter().find(|g| g.order == EQUATION_ORDER);
+    let em_conn = em.map_or("not computed".into(), |g| connection_text(&g.connection));
+    let em_torus = em.map_or("not computed".into(), |g| eq_map_torus_text(&g.torus));
     let rows = vec![
         vec![
             "saddle connection: fast saddle cycle's pushed unstable branch switches from the torus to escape [ms]".into(),
             format!("{} / {}", connection_text(&c.map_connection[0]), connection_text(&c.map_connection[1])),
             f4(bif.heteroclinic.as_ref().map(|h| h.dt)),
+            em_conn,
             f4(eb.heteroclinic.as_ref().map(|h| h.dt)),
             connection_text(&c.full_connection),
         ],
@@ -359,6 +393,7 @@ fn equation_section(rep: &mut Report, pm: &ParametricModel, sm: &SharedParametri
             "small-start switch, bounded -> escape [ms]".into(),
             map_switch(rep.summary.get("map_switch_dt_ms")),
             f4(het["model"].as_f64()),
+            "-".into(),
             f4(eq_switch),
             format!("{} (all escape from {})", bracket(full_switch.as_ref()), f4(het["full_system_all_escape_from"].as_f64())),
         ],
@@ -366,6 +401,7 @@ fn equation_section(rep: &mut Report, pm: &ParametricModel, sm: &SharedParametri
             "torus Hopf: the 2-torus stops attracting [ms] (lost by the continuation rule; growth onset)".into(),
             format!("{} / {}", lost_text(&c.map_torus[0]), lost_text(&c.map_torus[1])),
             f4(bif.hopf.as_ref().map(|h| h.dt)),
+            em_torus,
             f4(eb.hopf.as_ref().map(|h| h.dt)),
             lost_text(&c.torus),
         ],
@@ -373,6 +409,7 @@ fn equation_section(rep: &mut Report, pm: &ParametricModel, sm: &SharedParametri
             "2-torus at 30.8 ms (rho_1, rho_2) [rad]".into(),
             "-".into(),
             rho(bif.torus_30p8.as_ref().map(|t| t.rho)),
+            "-".into(),
             rho(eb.torus_30p8.as_ref().map(|t| t.rho)),
             rho(rho_full),
         ],
@@ -388,12 +425,24 @@ fn equation_section(rep: &mut Report, pm: &ParametricModel, sm: &SharedParametri
          map's torus loss uses the full system's continuation rule on the map's own runs (same dt grid, periods and \
          start). The normal-form column is the data-driven model of the portraits section (per-dt fits' polar normal \
          forms interpolated in dt): its saddle connection is where the fast cycle's unstable branch lands on the slow \
-         cycle's stable manifold. Fitted map: {:.1} s wall; the full system's connection: {:.1} s wall.",
+         cycle's stable manifold. The equation-driven reduced map column is the equation-driven model's SSM before its \
+         polar normal form: the graph-style reduced map (every term of the order-{EQUATION_ORDER} reduced map kept, no \
+         phase averaging; furuta::equation_map) at the same nodes, coefficients interpolated by a natural cubic spline in \
+         dt, iterated as a map and read by the fitted map's rules (its torus continuation starts from the reduced point \
+         of the same linear-mode start). Fitted map: {:.1} s wall; equation-driven reduced maps (orders {}): {:.1} s \
+         wall; the full system's connection: {:.1} s wall.",
         co.push, co.phases, co.periods, furuta::full_system::ESCAPE_THETA, CONNECTION_RANGE_MS.2, CONNECTION_RANGE_MS.0, CONNECTION_RANGE_MS.1, CONNECTION_RANGE_MS.3,
-        c.map_seconds, c.full_connection_seconds,
+        c.map_seconds, orders.iter().map(|d| d.to_string()).collect::<Vec<_>>().join(", "), c.eq_map_seconds, c.full_connection_seconds,
     ));
     rep.table(
-        &["bifurcation", "fitted map (linear / spline in dt)", "its normal form (data-driven)", &format!("equation-driven model (order {EQUATION_ORDER})"), "full system"],
+        &[
+            "bifurcation",
+            "fitted map (linear / spline in dt)",
+            "its normal form (data-driven)",
+            &format!("equation-driven reduced map (order {EQUATION_ORDER})"),
+            &format!("equation-driven model (order {EQUATION_ORDER})"),
+            "full system",
+        ],
         &rows,
     );
     // The equation-driven model's values by order.
@@ -401,8 +450,11 @@ fn equation_section(rep: &mut Report, pm: &ParametricModel, sm: &SharedParametri
         .by_order
         .iter()
         .map(|b| {
+            let m = c.eq_map.iter().find(|g| g.order == b.order);
             vec![
                 b.order.to_string(),
+                m.map_or("not computed".into(), |g| connection_text(&g.connection)),
+                m.map_or("not computed".into(), |g| eq_map_torus_text(&g.torus)),
                 f4(b.heteroclinic.as_ref().map(|h| h.dt)),
                 f4(b.small_start_switch.map(|s| 0.5 * (s.0 + s.1))),
                 f4(b.hopf.as_ref().map(|h| h.dt)),
@@ -410,8 +462,22 @@ fn equation_section(rep: &mut Report, pm: &ParametricModel, sm: &SharedParametri
             ]
         })
         .collect();
-    rep.para("The equation-driven model's values by the order of the SSM and its normal form:");
-    rep.table(&["order", "saddle connection [ms]", "small-start switch [ms]", "torus Hopf [ms]", "2-torus at 30.8 ms"], &orow);
+    rep.para(
+        "The equation-driven values by the order of the SSM: its reduced map iterated (saddle connection and torus loss by \
+         the fitted map's rules) and its polar normal form (portrait scans):",
+    );
+    rep.table(
+        &[
+            "order",
+            "reduced map: saddle connection [ms]",
+            "reduced map: torus lost [ms], onset",
+            "normal form: saddle connection [ms]",
+            "normal form: small-start switch [ms]",
+            "normal form: torus Hopf [ms]",
+            "normal form: 2-torus at 30.8 ms",
+        ],
+        &orow,
+    );
     // The full system's torus across dt.
     let trow: Vec<Vec<String>> = c
         .torus
@@ -521,6 +587,12 @@ fn equation_section(rep: &mut Report, pm: &ParametricModel, sm: &SharedParametri
                    "rule": "first dt at which a start on the fast saddle cycle pushed along the slow eigenvector escapes (|theta| > 1 rad) within the periods"}),
         );
         h.insert("full_system_connection".into(), cj(&c.full_connection));
+        let by_order: Vec<Value> = c.eq_map.iter().map(|g| json!({"order": g.order, "connection": cj(&g.connection)})).collect();
+        h.insert(
+            "equation_map".into(),
+            json!({"style": "graph", "interp": "spline", "nodes_ms": nodes, "table_order": EQUATION_ORDER, "seconds": c.eq_map_seconds, "by_order": by_order,
+                   "rule": "as map: the equation-driven SSM's reduced map (every term kept) iterated"}),
+        );
     }
     if let Some(Value::Object(h)) = rep.summary.get_mut("torus_hopf_dt_ms") {
         h.insert("equation".into(), json!(eb.hopf.as_ref().map(|h| h.dt)));
@@ -541,6 +613,15 @@ fn equation_section(rep: &mut Report, pm: &ParametricModel, sm: &SharedParametri
                    "linear_growth_onset": c.map_torus[0].growth_onset, "spline_growth_onset": c.map_torus[1].growth_onset,
                    "linear_steps": c.map_torus[0].steps, "spline_steps": c.map_torus[1].steps}),
         );
+        let by_order: Vec<Value> = c
+            .eq_map
+            .iter()
+            .map(|g| match &g.torus {
+                Ok(t) => json!({"order": g.order, "lost_between": t.lost_between.map(|(a, b)| [a, b]), "growth_onset": t.growth_onset, "steps": t.steps}),
+                Err(e) => json!({"order": g.order, "error": e}),
+            })
+            .collect();
+        h.insert("equation_map".into(), json!({"style": "graph", "interp": "spline", "nodes_ms": nodes, "table_order": EQUATION_ORDER, "by_order": by_order}));
         h.insert(
             "growth_onset_rule".into(),
             json!("zero of the steps' growth rate ln(spread_last / spread_mid) / (a third of the run), linear in dt between the last decaying and the first growing step; a rate within its noise floor (rate_noise: half the difference of the same rate on the two halves of the measured span) neither grows nor decays; same continuation for the map and the full system"),
