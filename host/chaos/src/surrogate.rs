@@ -267,20 +267,46 @@ pub fn prediction_error(x: &[f64], m: usize, tau: usize, horizon: usize, neighbo
     if sd <= 0.0 {
         return Err(ChaosError::ZeroVariance { coord: 0, value: x[0] });
     }
+    let refs = strided(nv, refs);
+    let sse_count = if x.iter().all(|v| v.is_finite()) {
+        prediction_sse_sorted(x, m, tau, horizon, neighbours, theiler, nv, &refs)
+    } else {
+        prediction_sse_scan(x, m, tau, horizon, neighbours, theiler, nv, &refs)
+    };
+    let (sse, count) = sse_count;
+    if count == 0 {
+        return Err(ChaosError::TooShort { param: "prediction error references", have: 0, need: 1 });
+    }
+    Ok((sse / count as f64).sqrt() / sd)
+}
+
+/// Squared distance of the delay vectors starting at `i` and `j` (components in order).
+#[inline]
+fn delay_dist2(x: &[f64], i: usize, j: usize, m: usize, tau: usize) -> f64 {
+    let mut d2 = 0.0;
+    for k in 0..m {
+        let e = x[i + k * tau] - x[j + k * tau];
+        d2 += e * e;
+    }
+    d2
+}
+
+/// The prediction error's sum of squares and count by the plain scan: for each reference,
+/// every delay vector `j` in index order outside the Theiler window, the `neighbours`
+/// nearest kept sorted by distance (the smaller index first among equal distances).
+#[allow(clippy::too_many_arguments)]
+fn prediction_sse_scan(x: &[f64], m: usize, tau: usize, horizon: usize, neighbours: usize, theiler: usize, nv: usize, refs: &[usize]) -> (f64, usize) {
+    let w = (m - 1) * tau;
     let mut best: Vec<(f64, usize)> = Vec::with_capacity(neighbours + 1);
     let mut sse = 0.0;
     let mut count = 0usize;
-    for i in strided(nv, refs) {
+    for &i in refs {
         best.clear();
         for j in 0..nv {
             if j.abs_diff(i) <= theiler {
                 continue;
             }
-            let mut d2 = 0.0;
-            for k in 0..m {
-                let e = x[i + k * tau] - x[j + k * tau];
-                d2 += e * e;
-            }
+            let d2 = delay_dist2(x, i, j, m, tau);
             if best.len() < neighbours || d2 < best[best.len() - 1].0 {
                 let pos = best.partition_point(|b| b.0 <= d2);
                 best.insert(pos, (d2, j));
@@ -295,10 +321,88 @@ pub fn prediction_error(x: &[f64], m: usize, tau: usize, horizon: usize, neighbo
         sse += e * e;
         count += 1;
     }
-    if count == 0 {
-        return Err(ChaosError::TooShort { param: "prediction error references", have: 0, need: 1 });
+    (sse, count)
+}
+
+/// [`prediction_sse_scan`] bit for bit on finite data, by a walk over the delay vectors
+/// sorted by their first component (ties by index), outward from the reference on both
+/// sides; a side ends at the first vector whose first-component gap alone exceeds the
+/// current `neighbours`-th distance (its rounded square is part of every later distance on
+/// that side, and rounding is monotone). The kept set is the `neighbours` smallest
+/// `(distance, index)` pairs, which is what the scan keeps (it sees indices in increasing
+/// order, so an equal distance never displaces an earlier index), in the same order, so
+/// the prediction sums the same values in the same order.
+#[allow(clippy::too_many_arguments)]
+fn prediction_sse_sorted(x: &[f64], m: usize, tau: usize, horizon: usize, neighbours: usize, theiler: usize, nv: usize, refs: &[usize]) -> (f64, usize) {
+    let w = (m - 1) * tau;
+    let mut order: Vec<usize> = (0..nv).collect();
+    order.sort_unstable_by(|&a, &b| x[a].total_cmp(&x[b]).then(a.cmp(&b)));
+    let mut rank = vec![0; nv];
+    for (r, &j) in order.iter().enumerate() {
+        rank[j] = r;
     }
-    Ok((sse / count as f64).sqrt() / sd)
+    let mut best: Vec<(f64, usize)> = Vec::with_capacity(neighbours + 1);
+    let mut sse = 0.0;
+    let mut count = 0usize;
+    for &i in refs {
+        best.clear();
+        let x0 = x[i];
+        let consider = |j: usize, best: &mut Vec<(f64, usize)>| {
+            if j.abs_diff(i) <= theiler {
+                return;
+            }
+            let d2 = delay_dist2(x, i, j, m, tau);
+            // `b` comes before `(d2, j)`; `j` is new, so never equal.
+            let before = |b: &(f64, usize)| b.0 < d2 || (b.0 == d2 && b.1 < j);
+            if best.len() < neighbours || !before(&best[best.len() - 1]) {
+                let pos = best.partition_point(before);
+                best.insert(pos, (d2, j));
+                best.truncate(neighbours);
+            }
+        };
+        let r = rank[i];
+        let (mut lo, mut hi) = (r, r);
+        let (mut lo_open, mut hi_open) = (true, true);
+        // The reference itself (rank r) is inside its own Theiler window; start beside it.
+        while lo_open || hi_open {
+            if lo_open {
+                if lo == 0 {
+                    lo_open = false;
+                } else {
+                    lo -= 1;
+                    let j = order[lo];
+                    let t = x0 - x[j];
+                    if best.len() == neighbours && t * t > best[neighbours - 1].0 {
+                        lo_open = false;
+                    } else {
+                        consider(j, &mut best);
+                    }
+                }
+            }
+            if hi_open {
+                hi += 1;
+                if hi >= nv {
+                    hi_open = false;
+                } else {
+                    let j = order[hi];
+                    let t = x0 - x[j];
+                    if best.len() == neighbours && t * t > best[neighbours - 1].0 {
+                        hi_open = false;
+                    } else {
+                        consider(j, &mut best);
+                    }
+                }
+            }
+        }
+        if best.is_empty() {
+            continue;
+        }
+        let pred = best.iter().map(|&(_, j)| x[j + w + horizon]).sum::<f64>() / best.len() as f64;
+        let e = pred - x[i + w + horizon];
+        sse += e * e;
+        count += 1;
+    }
+    (sse, count)
 }
 
 #[cfg(test)]
@@ -381,6 +485,39 @@ mod tests {
         // Both statistics on one set of surrogates: the same numbers as one at a time.
         let both = surrogate_tests(&h, &[p.statistic, tr.statistic], &p).unwrap();
         assert_eq!(both, vec![he, he_t]);
+    }
+
+    /// The sorted walk against the plain scan: the same sum of squares and count bit for bit,
+    /// on quantized Henon data (many exact ties and zero distances), an AR(2) series and an
+    /// IAAFT surrogate of it, for several embeddings, horizons, neighbour counts and Theiler
+    /// windows; `PE_BENCH=sorted` / `PE_BENCH=scan` time one of them on 4096 samples.
+    #[test]
+    fn sorted_prediction_search_equals_the_scan() {
+        let h: Vec<f64> = Henon::default().orbit(1500, 100).iter().map(|v| (v[0] * 20.0).round() / 20.0).collect();
+        let ar = ar2(2048, 3);
+        let mut sorted = ar.clone();
+        sorted.sort_by(f64::total_cmp);
+        let (surr, _) = iaaft(&sorted, &fft_amplitudes(&ar), 50, &mut SplitMix::new(4));
+        for (name, x) in [("henon", &h), ("ar2", &ar), ("iaaft", &surr)] {
+            for (m, tau, horizon, neighbours, theiler, refs) in [(4, 1, 1, 5, 10, 500), (2, 3, 2, 1, 0, 300), (5, 2, 4, 8, 3, 2000), (1, 1, 1, 3, 20, 100)] {
+                let w = (m - 1) * tau;
+                let nv = x.len() - w - horizon;
+                let refs = strided(nv, refs);
+                let a = prediction_sse_sorted(x, m, tau, horizon, neighbours, theiler, nv, &refs);
+                let b = prediction_sse_scan(x, m, tau, horizon, neighbours, theiler, nv, &refs);
+                assert_eq!((a.0.to_bits(), a.1), (b.0.to_bits(), b.1), "{name} m={m} tau={tau} h={horizon} k={neighbours} theiler={theiler}");
+            }
+        }
+        if let Ok(kind) = std::env::var("PE_BENCH") {
+            let x = ar2(4096, 9);
+            let nv = x.len() - 3 - 1;
+            let refs = strided(nv, 500);
+            let mut acc = 0.0;
+            for _ in 0..40 {
+                acc += if kind == "sorted" { prediction_sse_sorted(&x, 4, 1, 1, 5, 10, nv, &refs) } else { prediction_sse_scan(&x, 4, 1, 1, 5, 10, nv, &refs) }.0;
+            }
+            eprintln!("40 {kind} prediction errors ({acc:.3e})");
+        }
     }
 
     #[test]

@@ -47,7 +47,8 @@
 // Index loops mirror the formulas over small fixed dimensions.
 #![allow(clippy::needless_range_loop)]
 
-use std::collections::BTreeMap;
+use std::collections::{BTreeMap, HashMap};
+use std::hash::{BuildHasherDefault, Hasher};
 
 use faer::Mat;
 use nalgebra::{Complex, DMatrix, DVector};
@@ -238,7 +239,58 @@ fn add_into(acc: &mut SPoly, p: &SPoly, s: C) {
     }
 }
 
+/// The product truncated at total degree `maxdeg`. Every coefficient is the sum, from
+/// `0`, of the products `ca * cb` in the order of `a`'s then `b`'s monomials (the maps'
+/// order), and the product has an entry for every exponent some pair reaches (a zero
+/// sum included). Exponents are packed into one `u64` (first variable in the high bits, so
+/// the packed order is the maps' order; a sum of packed exponents is the packed sum as no
+/// field can exceed `maxdeg`) and summed in a hash table; [`mul_btree`] (the same sums
+/// through the map) when they do not fit.
 fn mul(a: &SPoly, b: &SPoly, maxdeg: u32) -> SPoly {
+    let Some(nvar) = a.keys().chain(b.keys()).next().map(Vec::len) else {
+        return SPoly::new();
+    };
+    let bits = u32::BITS - maxdeg.leading_zeros();
+    let packable = nvar > 0 && (nvar as u32).saturating_mul(bits.max(1)) <= u64::BITS && a.keys().chain(b.keys()).all(|e| e.len() == nvar);
+    if !packable {
+        return mul_btree(a, b, maxdeg);
+    }
+    let bits = bits.max(1);
+    // Only monomials of degree <= maxdeg can enter a product (their exponents fit `bits`).
+    let pack = |p: &SPoly| -> Vec<(u64, u32, C)> {
+        p.iter()
+            .filter(|(e, _)| deg(e) <= maxdeg)
+            .map(|(e, c)| (e.iter().fold(0u64, |k, &x| (k << bits) | u64::from(x)), deg(e), *c))
+            .collect()
+    };
+    let (pa, pb) = (pack(a), pack(b));
+    let mut slot: HashMap<u64, usize, BuildHasherDefault<PackedHasher>> = HashMap::default();
+    let mut acc: Vec<(u64, C)> = Vec::new();
+    for &(ka, da, ca) in &pa {
+        for &(kb, db, cb) in &pb {
+            if da + db > maxdeg {
+                continue;
+            }
+            let k = ka + kb;
+            let i = *slot.entry(k).or_insert_with(|| {
+                acc.push((k, C::new(0.0, 0.0)));
+                acc.len() - 1
+            });
+            acc[i].1 += ca * cb;
+        }
+    }
+    acc.sort_unstable_by_key(|&(k, _)| k);
+    let mask = (1u64 << bits) - 1;
+    acc.into_iter()
+        .map(|(k, c)| {
+            let e: Vec<u32> = (0..nvar).map(|j| ((k >> (bits * (nvar - 1 - j) as u32)) & mask) as u32).collect();
+            (e, c)
+        })
+        .collect()
+}
+
+/// [`mul`] through the map itself (any exponent sizes).
+fn mul_btree(a: &SPoly, b: &SPoly, maxdeg: u32) -> SPoly {
     let mut out = SPoly::new();
     for (ea, ca) in a {
         let da = deg(ea);
@@ -251,6 +303,26 @@ fn mul(a: &SPoly, b: &SPoly, maxdeg: u32) -> SPoly {
         }
     }
     out
+}
+
+/// Hasher of [`mul`]'s packed exponents (one `u64` each): a multiplicative mix, the high
+/// bits folded down (the table indexes by the low bits).
+#[derive(Default)]
+struct PackedHasher(u64);
+
+impl Hasher for PackedHasher {
+    fn finish(&self) -> u64 {
+        self.0
+    }
+    fn write(&mut self, bytes: &[u8]) {
+        for &b in bytes {
+            self.write_u64(u64::from(b));
+        }
+    }
+    fn write_u64(&mut self, k: u64) {
+        let h = (self.0 ^ k).wrapping_mul(0x9e37_79b9_7f4a_7c15);
+        self.0 = h ^ (h >> 29);
+    }
 }
 
 fn one(nvar: usize) -> SPoly {
@@ -904,6 +976,61 @@ fn model_options(model: &SsmModel, opts: &NormalFormOptions) -> NormalFormOption
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The packed-key product against the map product: the same entries (keys, and the
+    /// coefficients bit for bit), on random sparse polynomials in 1..6 variables with
+    /// repeated, zero and negative-zero coefficients, terms above the truncation degree, and
+    /// products truncated at 0..9; `NF_MUL_BENCH=packed` / `btree` time one of them.
+    #[test]
+    fn packed_product_equals_the_map_product() {
+        let mut seed = 0x2545_f491_4f6c_dd1du64;
+        let mut rnd = move || {
+            seed ^= seed << 13;
+            seed ^= seed >> 7;
+            seed ^= seed << 17;
+            seed
+        };
+        let poly = |nvar: usize, terms: usize, top: u32, rnd: &mut dyn FnMut() -> u64| {
+            let mut p = SPoly::new();
+            for _ in 0..terms {
+                let e: Vec<u32> = (0..nvar).map(|_| (rnd() % u64::from(top + 1)) as u32).collect();
+                let v = |r: u64| match r % 5 {
+                    0 => 0.0,
+                    1 => -0.0,
+                    _ => (r >> 11) as f64 / (1u64 << 53) as f64 - 0.5,
+                };
+                let c = C::new(v(rnd()), v(rnd()));
+                p.insert(e, c);
+            }
+            p
+        };
+        let same = |x: &SPoly, y: &SPoly| x.len() == y.len() && x.iter().zip(y).all(|((ea, ca), (eb, cb))| ea == eb && ca.re.to_bits() == cb.re.to_bits() && ca.im.to_bits() == cb.im.to_bits());
+        for nvar in 1..=6 {
+            for maxdeg in 0..=9 {
+                for _ in 0..3 {
+                    let a = poly(nvar, 40, 5, &mut rnd);
+                    let b = poly(nvar, 60, 4, &mut rnd);
+                    assert!(same(&mul(&a, &b, maxdeg), &mul_btree(&a, &b, maxdeg)), "nvar {nvar} maxdeg {maxdeg}");
+                    // Products of products (sums of many terms per key).
+                    let ab = mul_btree(&a, &b, maxdeg);
+                    assert!(same(&mul(&ab, &a, maxdeg), &mul_btree(&ab, &a, maxdeg)), "nvar {nvar} maxdeg {maxdeg} (ab a)");
+                }
+            }
+        }
+        assert!(mul(&SPoly::new(), &one(3), 4).is_empty());
+        // Exponents that do not fit the packing (11 variables of 6 bits) take the map product.
+        let a = poly(11, 30, 3, &mut rnd);
+        assert!(same(&mul(&a, &a, 40), &mul_btree(&a, &a, 40)));
+        if let Ok(kind) = std::env::var("NF_MUL_BENCH") {
+            let a = poly(4, 300, 7, &mut rnd);
+            let t = std::time::Instant::now();
+            let mut n = 0;
+            for _ in 0..50 {
+                n += if kind == "packed" { mul(&a, &a, 7) } else { mul_btree(&a, &a, 7) }.len();
+            }
+            eprintln!("50 {kind} products of 300 terms: {n} entries, {:?}", t.elapsed());
+        }
+    }
 
     /// `z_j = x_{2j} + i x_{2j+1}` and its conjugate, `x = M^-1 eta`, as linear polynomials in
     /// `eta` (the order `z_1, conj z_1, z_2, ...`).

@@ -282,7 +282,13 @@ struct Field {
     pexps: Vec<[i32; 2]>,
     amp: [Vec<f64>; 2],
     phase: [Vec<f64>; 2],
+    /// The largest exponent of each `P_j` in `pexps` (at most 64).
+    top: [usize; 2],
 }
+
+/// `P_j^k` for `k = 0..=top[j]` (by `powi`, the value a monomial takes; entries above
+/// `top[j]` are unused).
+type Powers = [[f64; 65]; 2];
 
 impl Field {
     fn new(nf: &PolarNormalForm) -> Result<Self, PortraitError> {
@@ -318,11 +324,25 @@ impl Field {
                 }
             }
         }
-        Ok(Field { pexps, amp: [nf.amp[0].clone(), nf.amp[1].clone()], phase: [nf.phase[0].clone(), nf.phase[1].clone()] })
+        let top = [0, 1].map(|j| pexps.iter().map(|e: &[i32; 2]| e[j] as usize).max().unwrap_or(0));
+        Ok(Field { pexps, amp: [nf.amp[0].clone(), nf.amp[1].clone()], phase: [nf.phase[0].clone(), nf.phase[1].clone()], top })
+    }
+
+    /// The powers of `P` the monomials use, each computed once (`powi` per monomial gave
+    /// the same values: the same call with the same arguments).
+    fn powers(&self, p: [f64; 2]) -> Powers {
+        let mut pw = [[0.0; 65]; 2];
+        for j in 0..2 {
+            for (k, v) in pw[j][..=self.top[j]].iter_mut().enumerate() {
+                *v = p[j].powi(k as i32);
+            }
+        }
+        pw
     }
 
     fn monos(&self, p: [f64; 2]) -> impl Iterator<Item = f64> + '_ {
-        self.pexps.iter().map(move |e| p[0].powi(e[0]) * p[1].powi(e[1]))
+        let pw = self.powers(p);
+        self.pexps.iter().map(move |e| pw[0][e[0] as usize] * pw[1][e[1] as usize])
     }
 
     fn g(&self, p: [f64; 2]) -> [f64; 2] {
@@ -338,10 +358,12 @@ impl Field {
     fn g_grad(&self, p: [f64; 2]) -> ([f64; 2], [[f64; 2]; 2]) {
         let mut g = [0.0; 2];
         let mut d = [[0.0; 2]; 2];
+        let pw = self.powers(p);
         for (k, e) in self.pexps.iter().enumerate() {
-            let m = p[0].powi(e[0]) * p[1].powi(e[1]);
-            let d0 = if e[0] > 0 { e[0] as f64 * p[0].powi(e[0] - 1) * p[1].powi(e[1]) } else { 0.0 };
-            let d1 = if e[1] > 0 { e[1] as f64 * p[0].powi(e[0]) * p[1].powi(e[1] - 1) } else { 0.0 };
+            let (e0, e1) = (e[0] as usize, e[1] as usize);
+            let m = pw[0][e0] * pw[1][e1];
+            let d0 = if e0 > 0 { e[0] as f64 * pw[0][e0 - 1] * pw[1][e1] } else { 0.0 };
+            let d1 = if e1 > 0 { e[1] as f64 * pw[0][e0] * pw[1][e1 - 1] } else { 0.0 };
             for i in 0..2 {
                 g[i] += self.amp[i][k] * m;
                 d[i][0] += self.amp[i][k] * d0;

@@ -528,3 +528,60 @@ fn bad_input_gives_typed_errors() {
     assert!(torus_hopf_dt(calm, 1.0, 2.0, &ScanOptions { grid: 3, ..s }).unwrap().is_none());
 }
 
+
+/// The field from powers computed once per point against `powi` per monomial (the former
+/// evaluation), bit for bit: `g`, its gradient, `g_scale`, `f`, the Jacobian and the
+/// frequencies, on the paper's table and on a random degree-4 field, at points with zero,
+/// tiny, unit and large coordinates.
+#[test]
+fn field_from_cached_powers_equals_powi_per_monomial() {
+    let mut seed = 0x1234_5678_9abc_def1u64;
+    let mut rnd = move || {
+        seed ^= seed << 13;
+        seed ^= seed >> 7;
+        seed ^= seed << 17;
+        (seed >> 11) as f64 / (1u64 << 53) as f64 - 0.5
+    };
+    let p4 = crate::poly::exponents(2, 0, 4);
+    let n = p4.len();
+    let amp = [(0..n).map(|_| rnd() * 3.0).collect::<Vec<_>>(), (0..n).map(|_| rnd() * 3.0).collect()];
+    let mut rnd_nf = nf_from(p4, amp);
+    rnd_nf.phase = vec![(0..n).map(|_| rnd()).collect(), (0..n).map(|_| rnd()).collect()];
+    let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+    for nf in [paper_nf(30.8).unwrap(), rnd_nf] {
+        let field = Field::new(&nf).unwrap();
+        let monos_old = |p: [f64; 2]| field.pexps.iter().map(|e| p[0].powi(e[0]) * p[1].powi(e[1])).collect::<Vec<f64>>();
+        for x in [[0.0, 0.0], [0.0, 0.3], [1e-3, -2e-2], [0.7, 1.3], [-2.5, 11.0], [1e-160, 3.0]] {
+            let p = [x[0] * x[0], x[1] * x[1]];
+            let m = monos_old(p);
+            assert_eq!(bits(&field.monos(p).collect::<Vec<_>>()), bits(&m), "{x:?}");
+            let (mut g, mut sc, mut fr) = ([0.0; 2], [0.0; 2], [0.0; 2]);
+            let mut d = [[0.0; 2]; 2];
+            for (k, e) in field.pexps.iter().enumerate() {
+                let d0 = if e[0] > 0 { e[0] as f64 * p[0].powi(e[0] - 1) * p[1].powi(e[1]) } else { 0.0 };
+                let d1 = if e[1] > 0 { e[1] as f64 * p[0].powi(e[0]) * p[1].powi(e[1] - 1) } else { 0.0 };
+                for i in 0..2 {
+                    g[i] += field.amp[i][k] * m[k];
+                    d[i][0] += field.amp[i][k] * d0;
+                    d[i][1] += field.amp[i][k] * d1;
+                    sc[i] += (field.amp[i][k] * m[k]).abs();
+                    fr[i] += field.phase[i][k] * m[k];
+                }
+            }
+            let (g2, d2) = field.g_grad(p);
+            assert_eq!(bits(&g2), bits(&g), "{x:?}");
+            assert_eq!(bits(&field.g(p)), bits(&g), "{x:?}");
+            assert_eq!(bits(&d2.concat()), bits(&d.concat()), "{x:?}");
+            assert_eq!(bits(&field.g_scale(p)), bits(&sc), "{x:?}");
+            assert_eq!(bits(&field.f(x)), bits(&[x[0] * g[0], x[1] * g[1]]), "{x:?}");
+            let j = field.jac(x);
+            for i in 0..2 {
+                for k in 0..2 {
+                    let want = 2.0 * x[i] * x[k] * d[i][k] + if i == k { g[i] } else { 0.0 };
+                    assert_eq!(j[i][k].to_bits(), want.to_bits(), "{x:?}");
+                }
+            }
+            assert_eq!(bits(&field.freqs_hz(x)), bits(&[fr[0] / TAU, fr[1] / TAU]), "{x:?}");
+        }
+    }
+}
