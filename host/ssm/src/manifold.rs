@@ -327,6 +327,52 @@ mod tests {
         assert!(c.cond.is_finite() && c.cond > 1.0 && c.rel_residual < 1e-12, "{c:?}");
     }
 
+    /// A curve in R^3 that is an exact graph over its own SVD tangent `e1` with a degree-1 AND a
+    /// degree-2 normal part: `y = e e1 + e w1 + e^2 w2`, `w1, w2` normal to `e1`, `w1 = -w2
+    /// m3 / m2` (`mk` the k-th moment of the samples `e`, skewed so `m3 != 0`), which makes
+    /// `e1` an eigenvector of the data's covariance (and the top one). `fit_with_linear_normal`
+    /// recovers `w1` and every point to rounding; `fit` (no degree-1 part) cannot, and its
+    /// degree-2 part absorbs the missing linear one; alone (order 1) the degree-1 part is zero.
+    #[test]
+    fn linear_normal_part_over_the_own_tangent() {
+        let es: Vec<f64> = (0..=40).map(|k| -0.5 + 1.5 * k as f64 / 40.0).collect();
+        let m2: f64 = es.iter().map(|e| e * e).sum();
+        let m3: f64 = es.iter().map(|e| e * e * e).sum();
+        let w2 = [0.0, 0.3, -0.2];
+        let w1: Vec<f64> = w2.iter().map(|w| -w * m3 / m2).collect();
+        assert!(w1[1].abs() > 0.05, "the test needs a sizeable linear part: {w1:?}");
+        let y = Mat::from_fn(3, es.len(), |i, j| if i == 0 { es[j] } else { w1[i] * es[j] + w2[i] * es[j] * es[j] });
+        let m = Manifold::fit_with_linear_normal(std::slice::from_ref(&y), 1, 2, Ridge::Fixed(0.0)).unwrap();
+        assert!((m.v1[0] - 1.0).abs() < 1e-13 && m.v1[1].abs() < 1e-13 && m.v1[2].abs() < 1e-13, "V1 = {:?}", m.v1);
+        let poly = m.nonlinear.as_ref().unwrap();
+        let k1 = poly.exps.iter().position(|e| e == &vec![1]).unwrap();
+        let k2 = poly.exps.iter().position(|e| e == &vec![2]).unwrap();
+        for i in 0..3 {
+            let got1 = poly.coef[k1 * 3 + i] / poly.scale[0];
+            let got2 = poly.coef[k2 * 3 + i] / (poly.scale[0] * poly.scale[0]);
+            assert!((got1 - w1[i]).abs() < 1e-12, "degree 1, coord {i}: {got1} vs {}", w1[i]);
+            assert!((got2 - w2[i]).abs() < 1e-12, "degree 2, coord {i}: {got2} vs {}", w2[i]);
+        }
+        // observable_row includes the degree-1 part (first coordinate: zero there).
+        assert!((m.observable_row()[0] - 1.0).abs() < 1e-13);
+        let worst = |m: &Manifold| {
+            let (mut sc, mut out, mut w) = (PolyScratch::default(), vec![0.0; 3], 0.0f64);
+            for j in 0..y.ncols() {
+                let yj: Vec<f64> = (0..3).map(|i| y[(i, j)]).collect();
+                m.lift_into(&m.reduce(&yj), &mut sc, &mut out);
+                w = (0..3).fold(w, |w, i| w.max((out[i] - yj[i]).abs()));
+            }
+            w
+        };
+        assert!(worst(&m) < 1e-13, "with the degree-1 part: {}", worst(&m));
+        let plain = Manifold::fit(std::slice::from_ref(&y), 1, 2, Ridge::Fixed(0.0)).unwrap();
+        assert!(worst(&plain) > 1e-2, "without it: {}", worst(&plain));
+        // Order 1: the degree-1 part alone is the regression of the SVD residual on eta, zero.
+        let lin = Manifold::fit_with_linear_normal(std::slice::from_ref(&y), 1, 1, Ridge::Fixed(0.0)).unwrap();
+        let c = &lin.nonlinear.as_ref().unwrap().coef;
+        assert!(c.iter().all(|v| v.abs() < 1e-13), "order-1 degree-1 part {c:?}");
+    }
+
     /// `observable_poly` is the first coordinate of `lift_into` (a normal part with degree-1
     /// terms, as after `fit_with_tangent`, and scales), and its linear part is
     /// `observable_row`.
