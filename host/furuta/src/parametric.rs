@@ -52,8 +52,15 @@ pub struct FurutaOptions {
     /// ([`ssm::fit::fit_with_linear_normal`]; the shared-tangent model always has one).
     /// Without it the normal part's cubic terms absorb the tilt of the SVD tangent and the
     /// normal form's `rho_1^2 rho_2` is 10-26 % off the equation-driven one on the
-    /// first-harmonic basis (issue 11); with it 0.0-2.3 %. Default `true`; `false` (and
-    /// files written before the option) is the graph over the SVD tangent without it.
+    /// first-harmonic basis (issue 11); with it 0.0-2.3 %. The tangent, the reduced
+    /// coordinates and the fitted map are the same either way, and `model_normal_form`
+    /// scales `rho` by `V1`'s first row: the linear-row normal forms (portraits,
+    /// bifurcations, torus, sensitivity) do not change, only theta on the manifold (the
+    /// first-harmonic basis). Taking the linear row with the degree-1 part instead
+    /// (`Manifold::observable_row`, theta's slope at the fixed point) moved the model's
+    /// torus at 30.8 ms from +1.1 / -3.6 % to +8.5 / -10.3 % of the full system's (quick
+    /// report): `V1`'s row is the data's secant over the training amplitudes. Default
+    /// `true`; `false` (and files written before the option) is the graph without it.
     #[serde(default)]
     pub linear_normal: bool,
     /// Row weight of the shared-tangent fitted map's regression
