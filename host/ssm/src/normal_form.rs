@@ -895,12 +895,10 @@ pub fn model_normal_form_first_harmonic(model: &SsmModel, opts: &NormalFormOptio
     normal_form(&model.dynamics, &o)
 }
 
-/// The observable convention's linear row is `Manifold::observable_row`: the first row of
-/// `V1` plus that of a degree-1 normal part (fits over a given tangent or with
-/// `fit_with_linear_normal`); the first row of `V1` alone would scale `rho` by the tangent
-/// alone and not be theta's amplitude. Without a degree-1 part both are the same numbers.
 fn model_options(model: &SsmModel, opts: &NormalFormOptions) -> NormalFormOptions {
-    NormalFormOptions { normalization: Normalization::Observable(model.manifold.observable_row()), ..opts.clone() }
+    let m = &model.manifold;
+    let row: Vec<f64> = (0..m.dim).map(|j| m.v1[j * m.p]).collect();
+    NormalFormOptions { normalization: Normalization::Observable(row), ..opts.clone() }
 }
 
 #[cfg(test)]
