@@ -249,7 +249,7 @@ impl Prediction {
 
 /// Fits an SSM-reduced model to training series `train` (each validated again here).
 pub fn fit(train: &[TimeSeries], opts: &FitOptions) -> Result<SsmModel, FitError> {
-    fit_impl(&as_multi(train)?, opts, None, None)
+    fit_impl(&as_multi(train)?, opts, Tangent::Own, None)
 }
 
 /// Fits an SSM-reduced model to trajectories of several observables (each validated again
@@ -257,7 +257,7 @@ pub fn fit(train: &[TimeSeries], opts: &FitOptions) -> Result<SsmModel, FitError
 /// observable are stacked (see [`crate::embed`]), and predictions and NMTE are over all
 /// observables.
 pub fn fit_multi(train: &[MultiSeries], opts: &FitOptions) -> Result<SsmModel, FitError> {
-    fit_impl(train, opts, None, None)
+    fit_impl(train, opts, Tangent::Own, None)
 }
 
 /// Scalar series as one-observable trajectories, each validated as a scalar series first
@@ -272,20 +272,27 @@ fn as_multi(train: &[TimeSeries]) -> Result<Vec<MultiSeries>, FitError> {
         .collect()
 }
 
+/// [`fit`] with a degree-1 normal part in the manifold (tangent = the SVD of `train`'s own
+/// data, see [`Manifold::fit_with_linear_normal`]). The model's `options` do not record it:
+/// the manifold's normal part has degree-1 terms.
+pub fn fit_with_linear_normal(train: &[TimeSeries], opts: &FitOptions) -> Result<SsmModel, FitError> {
+    fit_impl(&as_multi(train)?, opts, Tangent::OwnLinearNormal, None)
+}
+
 /// [`fit`] with a given tangent basis `v1` (`p x d`, column-major, orthonormal columns)
 /// instead of the SVD of `train`'s own data: the manifold is a graph over `v1` including a
 /// degree-1 normal part (see [`Manifold::fit_with_tangent`]). Models fitted with the same
 /// `v1` share their reduced coordinates `eta = V1^T y`, so their coefficients can be
 /// compared and interpolated.
 pub fn fit_with_tangent(train: &[TimeSeries], opts: &FitOptions, v1: &[f64]) -> Result<SsmModel, FitError> {
-    fit_impl(&as_multi(train)?, opts, Some(v1), None)
+    fit_impl(&as_multi(train)?, opts, Tangent::Given(v1), None)
 }
 
 /// [`fit_with_tangent`] with the reduced dynamics' regression rows weighted by `weight`
 /// ([`ReducedDynamics::fit_weighted`]; `None`: [`fit_with_tangent`]). The weight is training
 /// metadata: the model's `options` do not record it.
 pub fn fit_with_tangent_weighted(train: &[TimeSeries], opts: &FitOptions, v1: &[f64], weight: Option<&RowWeight>) -> Result<SsmModel, FitError> {
-    fit_impl(&as_multi(train)?, opts, Some(v1), weight)
+    fit_impl(&as_multi(train)?, opts, Tangent::Given(v1), weight)
 }
 
 /// Delay embeddings (`p x M_i`) and sampling steps of validated training series.
@@ -315,11 +322,23 @@ pub fn embed_training_multi(train: &[MultiSeries], opts: &FitOptions) -> Result<
     Ok((ys, dts))
 }
 
-fn fit_impl(train: &[MultiSeries], opts: &FitOptions, v1: Option<&[f64]>, weight: Option<&RowWeight>) -> Result<SsmModel, FitError> {
+/// The manifold's tangent basis in [`fit_impl`].
+#[derive(Clone, Copy)]
+enum Tangent<'a> {
+    /// The SVD of the training data, normal part of degrees 2..=K ([`Manifold::fit`]).
+    Own,
+    /// The SVD of the training data, normal part of degrees 1..=K.
+    OwnLinearNormal,
+    /// A given basis, normal part of degrees 1..=K ([`Manifold::fit_with_tangent`]).
+    Given(&'a [f64]),
+}
+
+fn fit_impl(train: &[MultiSeries], opts: &FitOptions, tangent: Tangent<'_>, weight: Option<&RowWeight>) -> Result<SsmModel, FitError> {
     let (ys, dts) = embed_training_multi(train, opts)?;
-    let manifold = match v1 {
-        None => Manifold::fit(&ys, opts.dim, opts.manifold_order, opts.ridge)?,
-        Some(v1) => Manifold::fit_with_tangent(&ys, v1, opts.dim, opts.manifold_order, opts.ridge)?,
+    let manifold = match tangent {
+        Tangent::Own => Manifold::fit(&ys, opts.dim, opts.manifold_order, opts.ridge)?,
+        Tangent::OwnLinearNormal => Manifold::fit_with_linear_normal(&ys, opts.dim, opts.manifold_order, opts.ridge)?,
+        Tangent::Given(v1) => Manifold::fit_with_tangent(&ys, v1, opts.dim, opts.manifold_order, opts.ridge)?,
     };
     let etas: Vec<_> = ys.iter().map(|y| manifold.reduce_points(y.as_ref())).collect();
     let trajs: Vec<EtaTrajectory> =

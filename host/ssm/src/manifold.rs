@@ -45,6 +45,20 @@ impl Manifold {
         Self::fit_on(ys, v1, singular_values, order, 2, ridge)
     }
 
+    /// [`Manifold::fit`] (tangent `V1` = this data's SVD) with a degree-1 normal part
+    /// `W_1 eta` (`V1^T W_1 = 0`) fitted jointly with the higher degrees, as in
+    /// [`Manifold::fit_with_tangent`]. The SVD tangent of finite-amplitude data is tilted
+    /// against the SSM's tangent space at the fixed point (the nonlinear parts of the data
+    /// correlate with their linear part), so over it the manifold has a linear normal part;
+    /// without one the degree-2.. coefficients absorb it (on the Furuta data the cubic
+    /// `rho_1^2 rho_2` of the map's normal form is then 10-26 % off, within 2.3 % with it).
+    /// Alone (no higher degrees) the degree-1 part is zero: the SVD residual is orthogonal
+    /// to `eta`.
+    pub fn fit_with_linear_normal(ys: &[Mat<f64>], dim: usize, order: u32, ridge: Ridge) -> Result<Self, FitError> {
+        let (v1, singular_values) = tangent_space(ys, dim)?;
+        Self::fit_on(ys, v1, singular_values, order, 1, ridge)
+    }
+
     /// Fits the manifold as a graph over a GIVEN tangent basis `v1` (`p x dim`,
     /// column-major, orthonormal columns), e.g. one shared by several fits so that their
     /// reduced coordinates agree. Unlike [`Manifold::fit`], the normal part also has
@@ -116,7 +130,7 @@ impl Manifold {
 
     /// The linear observable row: `d x_0 / d eta` at the origin, i.e. the first row of `V1`
     /// plus the first row of a degree-1 normal part (present after
-    /// [`Manifold::fit_with_tangent`]).
+    /// [`Manifold::fit_with_tangent`] and [`Manifold::fit_with_linear_normal`]).
     pub fn observable_row(&self) -> Vec<f64> {
         let mut row: Vec<f64> = (0..self.dim).map(|j| self.v1[j * self.p]).collect();
         if let Some(poly) = &self.nonlinear {
@@ -311,6 +325,52 @@ mod tests {
         }
         let c = m.conditioning.unwrap();
         assert!(c.cond.is_finite() && c.cond > 1.0 && c.rel_residual < 1e-12, "{c:?}");
+    }
+
+    /// A curve in R^3 that is an exact graph over its own SVD tangent `e1` with a degree-1 AND a
+    /// degree-2 normal part: `y = e e1 + e w1 + e^2 w2`, `w1, w2` normal to `e1`, `w1 = -w2
+    /// m3 / m2` (`mk` the k-th moment of the samples `e`, skewed so `m3 != 0`), which makes
+    /// `e1` an eigenvector of the data's covariance (and the top one). `fit_with_linear_normal`
+    /// recovers `w1` and every point to rounding; `fit` (no degree-1 part) cannot, and its
+    /// degree-2 part absorbs the missing linear one; alone (order 1) the degree-1 part is zero.
+    #[test]
+    fn linear_normal_part_over_the_own_tangent() {
+        let es: Vec<f64> = (0..=40).map(|k| -0.5 + 1.5 * k as f64 / 40.0).collect();
+        let m2: f64 = es.iter().map(|e| e * e).sum();
+        let m3: f64 = es.iter().map(|e| e * e * e).sum();
+        let w2 = [0.0, 0.3, -0.2];
+        let w1: Vec<f64> = w2.iter().map(|w| -w * m3 / m2).collect();
+        assert!(w1[1].abs() > 0.05, "the test needs a sizeable linear part: {w1:?}");
+        let y = Mat::from_fn(3, es.len(), |i, j| if i == 0 { es[j] } else { w1[i] * es[j] + w2[i] * es[j] * es[j] });
+        let m = Manifold::fit_with_linear_normal(std::slice::from_ref(&y), 1, 2, Ridge::Fixed(0.0)).unwrap();
+        assert!((m.v1[0] - 1.0).abs() < 1e-13 && m.v1[1].abs() < 1e-13 && m.v1[2].abs() < 1e-13, "V1 = {:?}", m.v1);
+        let poly = m.nonlinear.as_ref().unwrap();
+        let k1 = poly.exps.iter().position(|e| e == &vec![1]).unwrap();
+        let k2 = poly.exps.iter().position(|e| e == &vec![2]).unwrap();
+        for i in 0..3 {
+            let got1 = poly.coef[k1 * 3 + i] / poly.scale[0];
+            let got2 = poly.coef[k2 * 3 + i] / (poly.scale[0] * poly.scale[0]);
+            assert!((got1 - w1[i]).abs() < 1e-12, "degree 1, coord {i}: {got1} vs {}", w1[i]);
+            assert!((got2 - w2[i]).abs() < 1e-12, "degree 2, coord {i}: {got2} vs {}", w2[i]);
+        }
+        // observable_row includes the degree-1 part (first coordinate: zero there).
+        assert!((m.observable_row()[0] - 1.0).abs() < 1e-13);
+        let worst = |m: &Manifold| {
+            let (mut sc, mut out, mut w) = (PolyScratch::default(), vec![0.0; 3], 0.0f64);
+            for j in 0..y.ncols() {
+                let yj: Vec<f64> = (0..3).map(|i| y[(i, j)]).collect();
+                m.lift_into(&m.reduce(&yj), &mut sc, &mut out);
+                w = (0..3).fold(w, |w, i| w.max((out[i] - yj[i]).abs()));
+            }
+            w
+        };
+        assert!(worst(&m) < 1e-13, "with the degree-1 part: {}", worst(&m));
+        let plain = Manifold::fit(std::slice::from_ref(&y), 1, 2, Ridge::Fixed(0.0)).unwrap();
+        assert!(worst(&plain) > 1e-2, "without it: {}", worst(&plain));
+        // Order 1: the degree-1 part alone is the regression of the SVD residual on eta, zero.
+        let lin = Manifold::fit_with_linear_normal(std::slice::from_ref(&y), 1, 1, Ridge::Fixed(0.0)).unwrap();
+        let c = &lin.nonlinear.as_ref().unwrap().coef;
+        assert!(c.iter().all(|v| v.abs() < 1e-13), "order-1 degree-1 part {c:?}");
     }
 
     /// `observable_poly` is the first coordinate of `lift_into` (a normal part with degree-1

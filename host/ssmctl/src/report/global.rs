@@ -741,7 +741,7 @@ fn cubic_comparison(rep: &mut Report, pm: &ParametricModel, sm: &SharedParametri
     rep.para(&format!(
         "Data-driven vs equation-driven polar coefficients (1/s; rho in rad of theta) at the training periods that are \
          nodes of the equation-driven model: each cell data / equation (relative difference); the data-driven value is \
-         that training period's own fit (order-7 map, normal form), the equation-driven one the order-{EQUATION_ORDER} \
+         that training period's own fit (graph over its own SVD tangent with a degree-1 normal part, order-7 map, normal form), the equation-driven one the order-{EQUATION_ORDER} \
          normal form; the next column says whether every training period is within the issue's {:.0} % target. \
          Beyond linear order a coefficient depends on what rho means: the equation-driven amplitudes are theta's first \
          harmonic on a torus (what the full system's torus amplitude measures); normalizing the manifold by the spectral \

@@ -23,13 +23,20 @@ pub fn section(rep: &mut Report, quick: bool) -> Result<(ParametricModel, Traini
         "parametric",
         "Parametric SSM model of the Furuta loop (normal forms)",
         &format!(
-            "4D SSMs (delay embedding p = {} of theta, manifold order {}, polynomial map of order {}) fitted at dt = {} ms \
+            "4D SSMs (delay embedding p = {} of theta, manifold order {}{}, polynomial map of order {}) fitted at dt = {} ms \
              from {} small initial conditions and {} starts on the slow eigenvector each ({}), reduced to the extended normal \
              form in polar coordinates (rho_1 the slow ~0.44 Hz mode, rho_2 the fast ~8.4 Hz mode; amplitudes in radians of \
              theta) and interpolated linearly in dt. Exact reference: ln|mu|/dt of the two dominant multiplier pairs of \
              the exact ZOH map; targets 1 % at training dt, 2 % interpolated.",
             f.embed,
             f.manifold_order,
+            if opts.linear_normal {
+                " as a graph over the data's own SVD tangent with a degree-1 normal part (the SVD tangent of finite-amplitude \
+                 data is tilted against the manifold's tangent at the fixed point; without that part the cubic terms absorb the \
+                 tilt, FurutaOptions::linear_normal)"
+            } else {
+                " as a graph over the data's own SVD tangent (normal part of degrees 2 and up)"
+            },
             f.dyn_order,
             opts.dts_ms.iter().map(|d| d.to_string()).collect::<Vec<_>>().join(", "),
             opts.initial_states.len(),
