@@ -313,15 +313,22 @@ fn prediction_sse_scan(x: &[f64], m: usize, tau: usize, horizon: usize, neighbou
                 best.truncate(neighbours);
             }
         }
-        if best.is_empty() {
-            continue;
+        if let Some(e) = forecast_error(&best, x, i + w + horizon, w + horizon) {
+            sse += e * e;
+            count += 1;
         }
-        let pred = best.iter().map(|&(_, j)| x[j + w + horizon]).sum::<f64>() / best.len() as f64;
-        let e = pred - x[i + w + horizon];
-        sse += e * e;
-        count += 1;
     }
     (sse, count)
+}
+
+/// The mean of the neighbours' values `ahead` samples after their start, minus the reference's
+/// value `target` (None without neighbours): the prediction error of one reference point.
+fn forecast_error(best: &[(f64, usize)], x: &[f64], target: usize, ahead: usize) -> Option<f64> {
+    if best.is_empty() {
+        return None;
+    }
+    let pred = best.iter().map(|&(_, j)| x[j + ahead]).sum::<f64>() / best.len() as f64;
+    Some(pred - x[target])
 }
 
 /// [`prediction_sse_scan`] bit for bit on finite data, by a walk over the delay vectors
@@ -394,13 +401,10 @@ fn prediction_sse_sorted(x: &[f64], m: usize, tau: usize, horizon: usize, neighb
                 }
             }
         }
-        if best.is_empty() {
-            continue;
+        if let Some(e) = forecast_error(&best, x, i + w + horizon, w + horizon) {
+            sse += e * e;
+            count += 1;
         }
-        let pred = best.iter().map(|&(_, j)| x[j + w + horizon]).sum::<f64>() / best.len() as f64;
-        let e = pred - x[i + w + horizon];
-        sse += e * e;
-        count += 1;
     }
     (sse, count)
 }

@@ -279,12 +279,7 @@ pub fn map_torus_continuation(
     start_rho: [f64; 2],
     periods: u64,
 ) -> Result<TorusContinuation, Error> {
-    if dts_ms.is_empty() || dts_ms.windows(2).any(|w| w[1] <= w[0]) {
-        return Err(Error::BadInput { what: "dts_ms", why: format!("need at least one, strictly increasing, got {dts_ms:?}") });
-    }
-    if periods < 3 {
-        return Err(Error::BadInput { what: "periods", why: format!("need at least 3, got {periods}") });
-    }
+    check_continuation(dts_ms, periods)?;
     let first = model_at(dts_ms[0])?;
     let p = first.manifold.p;
     let (x, h) = start_from_rho(dts_ms[0], start_rho, [0.0, 0.0])?;
@@ -292,6 +287,17 @@ pub fn map_torus_continuation(
     let y0 = head.get(..p).ok_or_else(|| Error::BadInput { what: "start", why: format!("full-system run gave {} samples, need {p}", head.len()) })?;
     let eta = first.manifold.reduce(y0);
     map_torus_continuation_from(model_at, dts_ms, start_rho, eta, periods)
+}
+
+/// The continuation's inputs: at least one dt, strictly increasing; at least 3 periods.
+fn check_continuation(dts_ms: &[f64], periods: u64) -> Result<(), Error> {
+    if dts_ms.is_empty() || dts_ms.windows(2).any(|w| w[1] <= w[0]) {
+        return Err(Error::BadInput { what: "dts_ms", why: format!("need at least one, strictly increasing, got {dts_ms:?}") });
+    }
+    if periods < 3 {
+        return Err(Error::BadInput { what: "periods", why: format!("need at least 3, got {periods}") });
+    }
+    Ok(())
 }
 
 /// [`map_torus_continuation`] from the reduced point `eta0` (for a map whose reduced
@@ -304,12 +310,7 @@ pub fn map_torus_continuation_from(
     eta0: Vec<f64>,
     periods: u64,
 ) -> Result<TorusContinuation, Error> {
-    if dts_ms.is_empty() || dts_ms.windows(2).any(|w| w[1] <= w[0]) {
-        return Err(Error::BadInput { what: "dts_ms", why: format!("need at least one, strictly increasing, got {dts_ms:?}") });
-    }
-    if periods < 3 {
-        return Err(Error::BadInput { what: "periods", why: format!("need at least 3, got {periods}") });
-    }
+    check_continuation(dts_ms, periods)?;
     let mut eta = eta0;
     let p = model_at(dts_ms[0])?.manifold.p;
     let mut steps = Vec::new();
