@@ -20,7 +20,8 @@ use ssm::normal_form::PolarNormalForm;
 use ssm::portrait::{Fate, FixedPoint, PointKind, PortraitOptions, fixed_points, trajectory};
 
 use crate::Error;
-use crate::full_system::{AMP_WINDOW_S, ESCAPE_THETA, end_start, run, start_from_rho};
+use crate::full_system::{AMP_WINDOW_S, ESCAPE_THETA, base_scene, end_start, run_with, start_from_rho};
+use sim::scene::IntegratorSpec;
 use crate::sweep::shard::{RESULT_FORMAT, SweepResult};
 use crate::sweep::{AxisSpec, BasinSpec, Cell, FORMAT_VERSION, Kind, Shard, SpecFile, Sweep, run_shard};
 use ssm::spectrum::mode_amplitudes;
@@ -448,6 +449,12 @@ pub fn torus_step(dt_ms: f64, theta: &[f64], sample_dt: f64, escape_t: Option<f6
 /// the previous dt's torus, a small perturbation of this one's). Stops after the first step
 /// where the torus is lost ([`TorusStep::lost`]). Serial by nature: each run needs the last.
 pub fn torus_continuation(dts_ms: &[f64], start_rho: [f64; 2], periods: u64) -> Result<TorusContinuation, Error> {
+    torus_continuation_with(None, dts_ms, start_rho, periods)
+}
+
+/// [`torus_continuation`] with the scene's integrator replaced by `integrator` (`None`: the
+/// scene's; [`crate::full_system::run_with`]).
+pub fn torus_continuation_with(integrator: Option<&IntegratorSpec>, dts_ms: &[f64], start_rho: [f64; 2], periods: u64) -> Result<TorusContinuation, Error> {
     if dts_ms.is_empty() || dts_ms.windows(2).any(|w| w[1] <= w[0]) {
         return Err(Error::BadInput { what: "dts_ms", why: format!("need at least one, strictly increasing, got {dts_ms:?}") });
     }
@@ -455,13 +462,13 @@ pub fn torus_continuation(dts_ms: &[f64], start_rho: [f64; 2], periods: u64) -> 
     let mut start = (x, Some(h));
     let mut steps = Vec::new();
     for &dt in dts_ms {
-        let tr = run(dt, &start, periods, ESCAPE_THETA)?;
+        let tr = run_with(integrator, dt, &start, periods, ESCAPE_THETA)?;
         let escape_t = if tr.stopped.is_some() { tr.t.last().copied() } else { None };
         let step = torus_step(dt, &tr.primary(), tr.dt, escape_t)?;
         if !step.lost {
             // The next run starts from this one's end: plant state of the last row and the
             // controller's `delay + 1` samples before it, oldest first ([`end_start`]).
-            let delay = sim::scene::SceneBuilder::load("furuta-dt30.5")?.dt_ms(dt).build()?.controller.delay as usize;
+            let delay = base_scene()?.controller.delay as usize;
             start = end_start(&tr, delay)?;
         }
         let lost = step.lost;
@@ -710,7 +717,7 @@ mod tests {
         for (i, &x) in r1.iter().enumerate() {
             for (j, &y) in r2.iter().enumerate() {
                 let (s, h) = start_from_rho(31.5, [x, y], o.phases).unwrap();
-                let out = crate::full_system::outcome_of(&run(31.5, &(s, Some(h)), 200, ESCAPE_THETA).unwrap());
+                let out = crate::full_system::outcome_of(&crate::full_system::run(31.5, &(s, Some(h)), 200, ESCAPE_THETA).unwrap());
                 let c = b.cell(i, j, 0);
                 assert_eq!(c.values, vec![x, y, 31.5]);
                 assert_eq!((c.bounded, c.escape_t, c.max_theta), (Some(out.bounded()), out.escape_t, Some(out.max_theta)), "({x}, {y})");

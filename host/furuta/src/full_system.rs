@@ -17,8 +17,9 @@ use std::time::Instant;
 use serde::Serialize;
 use crate::Error;
 
-use sim::scene::SceneBuilder;
+use sim::scene::{IntegratorSpec, Scene};
 use sim::closed_loop::{Trajectory, simulate};
+use std::sync::OnceLock;
 use crate::parametric::{exact_modes, mode_start};
 use ssm::spectrum::{PEAK_REL_THRESHOLD, Peak, band_peak, mode_amplitudes, sideband_spacing, spectral_peaks};
 
@@ -44,9 +45,26 @@ fn check_dt(dt_ms: f64) -> Result<(), Error> {
     Ok(())
 }
 
+/// The scene of every full-system run (the bundled `furuta-dt30.5`), parsed once per
+/// process: the runs take a copy and override dt, horizon, start and escape threshold.
+pub fn base_scene() -> Result<&'static Scene, Error> {
+    static BASE: OnceLock<Scene> = OnceLock::new();
+    if let Some(s) = BASE.get() {
+        return Ok(s);
+    }
+    let s = Scene::load("furuta-dt30.5", &[])?;
+    Ok(BASE.get_or_init(|| s))
+}
+
 /// One full-system run of `periods` sampling periods at `dt_ms` from `start`, stopped when
 /// |theta| exceeds `escape_theta`.
 pub fn run(dt_ms: f64, start: &Start, periods: u64, escape_theta: f64) -> Result<Trajectory, Error> {
+    run_with(None, dt_ms, start, periods, escape_theta)
+}
+
+/// [`run`] with the scene's integrator replaced by `integrator` (`None`: the scene's), for
+/// comparing integrators on the study's runs (`examples/fullsystem_integrators.rs`).
+pub fn run_with(integrator: Option<&IntegratorSpec>, dt_ms: f64, start: &Start, periods: u64, escape_theta: f64) -> Result<Trajectory, Error> {
     check_dt(dt_ms)?;
     if !(escape_theta.is_finite() && escape_theta > 0.0) {
         return Err(Error::BadInput { what: "escape_theta", why: format!("must be positive and finite, got {escape_theta}") });
@@ -63,14 +81,11 @@ pub fn run(dt_ms: f64, start: &Start, periods: u64, escape_theta: f64) -> Result
             return Err(Error::BadInput { what: "start", why: "pre-history must be finite".into() });
         }
     }
-    let scene = SceneBuilder::load("furuta-dt30.5")?
-        .dt_ms(dt_ms)
-        .periods(periods)
-        .initial_state(x)
-        .escape_theta(escape_theta)
-        .history(hist.as_deref())
-        .build()?;
-    Ok(simulate(&scene, None)?)
+    let mut b = base_scene()?.clone().builder().dt_ms(dt_ms).periods(periods).initial_state(x).escape_theta(escape_theta).history(hist.as_deref());
+    if let Some(i) = integrator {
+        b = b.integrator(i.clone());
+    }
+    Ok(simulate(&b.build()?, None)?)
 }
 
 // ---------------------------------------------------------------------------------------

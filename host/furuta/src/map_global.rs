@@ -238,6 +238,12 @@ pub fn start_of_deflated(s: &[f64]) -> Result<Start, Error> {
 /// (slow eigenvector of the exact ZOH map in the same deflated coordinates), each run by the
 /// simulator ([`run`], escape at [`ESCAPE_THETA`]) for `o.periods` periods.
 pub fn full_connection_fates(dt_ms: f64, o: &ConnectionOptions) -> Result<ConnectionFates, Error> {
+    full_connection_fates_with(None, dt_ms, o)
+}
+
+/// [`full_connection_fates`] with the scene's integrator replaced by `integrator` (`None`: the
+/// scene's; [`crate::full_system::run_with`]).
+pub fn full_connection_fates_with(integrator: Option<&sim::scene::IntegratorSpec>, dt_ms: f64, o: &ConnectionOptions) -> Result<ConnectionFates, Error> {
     o.check()?;
     let rows = saddle_cycles(&[dt_ms], 2, &[o.guess_order], &o.circle)?;
     let row = rows.first().ok_or_else(|| Error::BadInput { what: "fast circle", why: format!("dt = {dt_ms} ms: no row") })?;
@@ -255,7 +261,7 @@ pub fn full_connection_fates(dt_ms: f64, o: &ConnectionOptions) -> Result<Connec
     row[0] = 1.0;
     let v = eigenvector(&a, slow_multiplier(&a)?, &row)?;
     let starts = pushed_starts(&circle, &v, o);
-    let outcomes = crate::par_map(&starts, |s| -> Result<Outcome, Error> { Ok(outcome_of(&run(dt_ms, &start_of_deflated(s)?, o.periods, ESCAPE_THETA)?)) })?;
+    let outcomes = crate::par_map(&starts, |s| -> Result<Outcome, Error> { Ok(outcome_of(&crate::full_system::run_with(integrator, dt_ms, &start_of_deflated(s)?, o.periods, ESCAPE_THETA)?)) })?;
     Ok(ConnectionFates { dt_ms, circle_theta_amplitude: circle.theta_amplitude, circle_freq_hz: circle.freq_hz, circle_residual: circle.residual, outcomes })
 }
 

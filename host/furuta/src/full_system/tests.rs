@@ -1,4 +1,5 @@
 use super::*;
+use sim::scene::SceneBuilder;
 
 /// Known facts (MODEL.md): small starts stay bounded at 31.2 ms and escape within tens of
 /// seconds at 31.6 ms; at 31.38 ms neither the pure fast-mode start of 1e-3 rad nor the plain
@@ -199,4 +200,22 @@ fn end_start_continues_a_run() {
     // Too short a run is refused, naming the trajectory.
     let short = run(dt, &start, 1, ESCAPE_THETA).unwrap();
     assert!(matches!(end_start(&short, delay), Err(Error::BadInput { what: "trajectory", .. })));
+}
+
+/// [`run`] on the scene parsed once per process equals the old path (the bundled scene parsed
+/// for every run) bit for bit, and [`run_with`] with the scene's own integrator equals [`run`].
+#[test]
+fn run_on_the_cached_scene_equals_a_freshly_parsed_scene_bit_for_bit() {
+    let (x, h) = mode_start(31.5, Some((0.05, 0.0)), Some((0.02, 0.0))).unwrap();
+    let start: Start = (x, Some(h.clone()));
+    let fresh = SceneBuilder::load("furuta-dt30.5").unwrap().dt_ms(31.5).periods(300).initial_state(&x).escape_theta(ESCAPE_THETA).history(Some(&h)).build().unwrap();
+    let old = simulate(&fresh, None).unwrap();
+    let new = run(31.5, &start, 300, ESCAPE_THETA).unwrap();
+    let spec = fresh.integrator.clone();
+    let with = run_with(Some(&spec), 31.5, &start, 300, ESCAPE_THETA).unwrap();
+    let bits = |t: &Trajectory| t.states.iter().chain(&t.u).map(|v| v.to_bits()).collect::<Vec<u64>>();
+    assert_eq!(old.rows(), 301);
+    assert_eq!(bits(&old), bits(&new));
+    assert_eq!(bits(&old), bits(&with));
+    assert_eq!((old.ode_stats, &old.integrator), (new.ode_stats, &new.integrator));
 }

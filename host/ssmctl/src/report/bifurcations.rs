@@ -257,14 +257,18 @@ pub fn fullsystem_section(rep: &mut Report, pm: &ParametricModel, bif: &ModelBif
         DEFAULT_SCAN_PERIODS, ESCAPE_THETA, default_ics, default_switch_scan, fate_from, start_from_rho, switch_scan_per_dt, torus_full,
         transient_analysis,
     };
+    // The integrator of every full-system run: the scene's (`furuta-dt30.5`).
+    let scene = furuta::full_system::base_scene()?;
+    let integrator = sim::ode::Integrator::<4>::new(sim::closed_loop::method_of(scene))?.describe();
     rep.section(
         "fullsystem",
         "Parametric model vs the full system: bifurcations, torus, domain of attraction",
         &format!(
-            "The full system is simulated (exprb43, rtol 1e-9) from small starts built on the exact linear eigenvectors with \
+            "The full system is simulated (scene {}: {integrator}) from small starts built on the exact linear eigenvectors with \
              given slow/fast theta amplitudes (rho_1, rho_2); a run escapes when |theta| > {ESCAPE_THETA} rad. Mode \
              amplitudes of full-system runs are sliding least-squares fits of the slow and fast components (2.5 s windows), \
-             drawn in the model's (rho_1, rho_2) plane."
+             drawn in the model's (rho_1, rho_2) plane.",
+            scene.name
         ),
     );
     // The full-system runs of the four parts below and the model's small-start scan share
