@@ -14,6 +14,49 @@
 //! `exprb-lean:3e-11`, `exprb-filtered:1e-11`, `rodas:1e-13:1e-15`. CELLS: a file of run
 //! indices (one a line) to run only those (the reference on the cells where candidates
 //! disagree, or on a sample). The runs go on the rayon pool (`RAYON_NUM_THREADS`).
+//!
+//! Measured at 8f19813 (one thread each, user CPU-s on a loaded 2-core machine; "flips":
+//! runs whose bounded/escape verdict differs):
+//!
+//! | runs | exprb-lean 3e-11 (scene) | exprb-filtered 3e-11 | exprb-lean 1e-10 | exprb-filtered 1e-10 |
+//! |---|---|---|---|---|
+//! | basin-quick (576 runs): CPU-s | 30.9 | 14.6 | - | 11.5 |
+//! | flips against the scene's | - | 0 | 0 | 0 |
+//! | max diff of max theta, bounded (134) | - | 6.6e-9 | 2.8e-9 | 1.8e-8 |
+//! | escape times (442) | - | identical | identical | identical |
+//! | basin-quick, the 108 runs on the basin's edge, against RODAS4 1e-13 (184 CPU-s): flips | 0 | 0 | 0 | 0 |
+//! | max theta error, bounded (51) | 1.2e-9 | 7.8e-9 | 4.0e-9 | 1.9e-8 |
+//! | escape times (57) | identical | identical | identical | identical |
+//! | scan-quick (10 runs) against RODAS4 1e-13: flips | 0 | 0 | 0 | 0 |
+//! | max theta error, bounded (6) | 6.1e-11 | 4.9e-10 | 2.1e-10 | 1.3e-9 |
+//! | escape times (4) | identical | identical | identical | identical |
+//! | torus-quick against RODAS4 1e-13: CPU-s | 5.6 | 2.7 | | |
+//! | lost bracket [31.8, 31.9] ms | same | same | | |
+//! | largest error of rho / spreads / rates | 2.0e-11 / 1.9e-10 / 2.4e-10 | 1.3e-10 / 2.2e-9 / 1.1e-9 | | |
+//! | growth onset error (ms) | 1.8e-9 | 1.1e-8 | | |
+//! | connection (16 runs, 31.325 ... 31.334 ms): CPU-s | 18.4 | 12.0 | | |
+//! | flips against the scene's, escape times | - | 0, identical | | |
+//! | scan-full (168 runs, 8,000 periods): CPU-s | 67.9 | 33.0 | | |
+//! | flips against the scene's | - | 1: 31.38 ms, fast-mode start (escapes at 170.3 s) | | |
+//! | escape times (115 both) | - | 100 identical, the rest up to 0.157 s apart | | |
+//!
+//! The one flip, the fast-mode start of 1e-3 rad at 31.38 ms over 8,000 periods (scan-full
+//! run 36), by integrator (B = bounded, max theta; E = escape time):
+//!
+//! | integrator | verdict | CPU-s |
+//! |---|---|---|
+//! | RODAS4 1e-11 / 1e-12 / 1e-13 (atol rtol/100) | B 0.17613 / 0.17612 / 0.17612 | 4.3 / 7.9 / 14.3 |
+//! | exprb-lean 1e-12, 2e-12, 3e-12 | B 0.17612, 0.17612, 0.17613 | 1.9, 1.7, 1.4 |
+//! | exprb-lean 5e-12 | E 193.4 s | 1.1 |
+//! | exprb-lean 1e-11, 2e-11 | E 176.3, 177.5 s | 0.8, 0.7 |
+//! | exprb-lean 3e-11 (scene), 4e-11 | B 0.17621, 0.17615 | 0.8, 0.7 |
+//! | exprb-lean 5e-11, 1e-10 | E 179.8, 107.9 s | 0.6, 0.3 |
+//! | exprb 1e-11 / 1e-13 | E 177.7 s | 1.5 |
+//! | exprb-filtered 1e-12, 3e-12, 1e-11, 3e-11 | E 177.0, 194.7, 103.3, 170.3 s | 0.6, 0.5, 0.3, - |
+//!
+//! So this verdict is decided by the integration error at every tolerance above ~2e-12; the
+//! scene's setting gets it right with the reference, exprb-filtered does not at any tolerance
+//! tried, and the scene keeps exprb-lean at 3e-11.
 
 use furuta::basin::{BasinOptions, torus_continuation_with};
 use furuta::map_global::{ConnectionOptions, full_connection_fates_with};
