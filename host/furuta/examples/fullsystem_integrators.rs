@@ -35,7 +35,8 @@
 //! | largest error of rho / spreads / rates | 2.0e-11 / 1.9e-10 / 2.4e-10 | 1.3e-10 / 2.2e-9 / 1.1e-9 | | |
 //! | growth onset error (ms) | 1.8e-9 | 1.1e-8 | | |
 //! | connection (16 runs, 31.325 ... 31.334 ms): CPU-s | 18.4 | 12.0 | | |
-//! | flips against the scene's, escape times | - | 0, identical | | |
+//! | against RODAS4 1e-13 (213 CPU-s): flips, escape times (2) | 0, identical | 0, identical | | |
+//! | max theta error, bounded (14) | 1.0e-9 | 3.5e-9 | | |
 //! | scan-full (168 runs, 8,000 periods): CPU-s | 67.9 | 33.0 | | |
 //! | flips against the scene's | - | 1: 31.38 ms, fast-mode start (escapes at 170.3 s) | | |
 //! | escape times (115 both) | - | 100 identical, the rest up to 0.157 s apart | | |
