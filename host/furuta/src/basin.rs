@@ -21,7 +21,7 @@ use ssm::portrait::{Fate, FixedPoint, PointKind, PortraitOptions, fixed_points, 
 
 use crate::Error;
 use crate::full_system::{AMP_WINDOW_S, ESCAPE_THETA, base_scene, end_start, run_with, start_from_rho};
-use sim::scene::IntegratorSpec;
+use sim::scene::{IntegratorSpec, MethodKind};
 use crate::sweep::shard::{RESULT_FORMAT, SweepResult};
 use crate::sweep::{AxisSpec, BasinSpec, Cell, FORMAT_VERSION, Kind, Shard, SpecFile, Sweep, run_shard};
 use ssm::spectrum::mode_amplitudes;
@@ -39,11 +39,14 @@ pub struct BasinOptions {
     pub phases: [f64; 2],
     /// Horizon of every run (sampling periods).
     pub periods: u64,
+    /// The integrator method of the runs (`None`: the scene's; tolerances are the scene's).
+    pub method: Option<MethodKind>,
 }
 
 impl BasinOptions {
     /// The report's full grid: 20 x 20 starts, `rho_1` 0.005..0.25, `rho_2` 0.004..0.12 rad,
-    /// phases 0, at 31.3, 31.4, 31.5, 31.6 ms, 3,000 periods.
+    /// phases 0, at 31.3, 31.4, 31.5, 31.6 ms, 3,000 periods, by
+    /// [`crate::full_system::VERDICT_METHOD`].
     pub fn full() -> Self {
         BasinOptions {
             dts_ms: vec![31.3, 31.4, 31.5, 31.6],
@@ -51,6 +54,7 @@ impl BasinOptions {
             rho2: Axis { lo: 0.004, hi: 0.12, n: 20 },
             phases: [0.0, 0.0],
             periods: 3000,
+            method: Some(crate::full_system::VERDICT_METHOD),
         }
     }
 
@@ -69,7 +73,7 @@ impl BasinOptions {
             description: "bounded vs escape of the full system over slow x fast mode amplitudes near the global bifurcation".into(),
             kind: Kind::Basin,
             scene: "furuta-dt30.5".into(),
-            set: Vec::new(),
+            set: self.method.iter().map(|m| format!("integrator.method=\"{}\"", m.key())).collect(),
             axes: vec![
                 range("slow_amp", &self.rho1),
                 range("fast_amp", &self.rho2),
@@ -698,6 +702,22 @@ mod tests {
         assert!(matches!(full_basin(&o), Err(Error::BadInput { what: "dts_ms", .. })));
     }
 
+    /// The report's grids run by the verdict method at the scene's tolerances; `method: None`
+    /// keeps the scene's integrator whole.
+    #[test]
+    fn report_grids_take_the_verdict_method() {
+        let scene = crate::full_system::base_scene().unwrap();
+        for o in [BasinOptions::full(), BasinOptions::quick()] {
+            let sw = Sweep::from_spec("basin", o.spec("basin"), std::path::Path::new(".")).unwrap();
+            assert_eq!(sw.scene.integrator, crate::full_system::verdict_integrator().unwrap());
+            assert_eq!(sw.scene.integrator.method, MethodKind::ExprbFiltered);
+            assert_eq!((sw.scene.integrator.rtol, sw.scene.integrator.atol), (scene.integrator.rtol, scene.integrator.atol));
+        }
+        let o = BasinOptions { method: None, ..BasinOptions::quick() };
+        let sw = Sweep::from_spec("basin", o.spec("basin"), std::path::Path::new(".")).unwrap();
+        assert_eq!(sw.scene.integrator, scene.integrator);
+    }
+
     /// A 3 x 2 grid at one dt through the sweep machinery equals the runs of
     /// `full_system::run` from the same mode starts (outcome by outcome), and the cell order
     /// is rho_1-major.
@@ -709,6 +729,7 @@ mod tests {
             rho2: Axis { lo: 0.01, hi: 0.05, n: 2 },
             phases: [0.3, 0.0],
             periods: 200,
+            method: None,
         };
         let b = full_basin(&o).unwrap();
         let (r1, r2) = o.values();

@@ -268,8 +268,14 @@ pub fn full_connection_fates_with(integrator: Option<&sim::scene::IntegratorSpec
 /// [`full_connection_fates`] over dt, switch located on `[lo, hi]` (grid of `n`, bisection
 /// to `tol` ms).
 pub fn full_connection(lo: f64, hi: f64, n: usize, tol: f64, o: &ConnectionOptions) -> Result<Connection, Error> {
+    full_connection_with(None, lo, hi, n, tol, o)
+}
+
+/// [`full_connection`] with the scene's integrator replaced by `integrator` (`None`: the
+/// scene's; the report passes [`crate::full_system::verdict_integrator`]).
+pub fn full_connection_with(integrator: Option<&sim::scene::IntegratorSpec>, lo: f64, hi: f64, n: usize, tol: f64, o: &ConnectionOptions) -> Result<Connection, Error> {
     o.check()?;
-    let switch = first_escape_switch(|dt| Ok(full_connection_fates(dt, o)?.escapes()), lo, hi, n, tol)?;
+    let switch = first_escape_switch(|dt| Ok(full_connection_fates_with(integrator, dt, o)?.escapes()), lo, hi, n, tol)?;
     Ok(Connection { switch, options: *o })
 }
 

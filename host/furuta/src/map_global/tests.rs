@@ -101,7 +101,7 @@ fn connection_rule_brackets_on_the_map_and_the_full_system() {
 /// one cell of nine.
 #[test]
 fn map_basin_agrees_with_the_full_system_on_a_small_grid() {
-    let o = BasinOptions { dts_ms: vec![31.5], rho1: Axis { lo: 0.02, hi: 0.2, n: 3 }, rho2: Axis { lo: 0.01, hi: 0.1, n: 3 }, phases: [0.0, 0.0], periods: 1500 };
+    let o = BasinOptions { dts_ms: vec![31.5], rho1: Axis { lo: 0.02, hi: 0.2, n: 3 }, rho2: Axis { lo: 0.01, hi: 0.1, n: 3 }, phases: [0.0, 0.0], periods: 1500, method: None };
     let at = |dt: f64| Ok(model().model_at(dt, Interp::Linear)?);
     let mb = map_basin(at, &o).unwrap();
     let full = full_basin(&o).unwrap().bounded_at(0);

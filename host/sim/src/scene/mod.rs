@@ -147,6 +147,22 @@ pub enum MethodKind {
     ExprbFiltered,
 }
 
+impl MethodKind {
+    /// The scene file's name of the method (`integrator.method`, e.g. `"exprb-lean"`).
+    pub fn key(self) -> &'static str {
+        match self {
+            MethodKind::Rodas => "rodas",
+            MethodKind::RodasFixed => "rodas-fixed",
+            MethodKind::Rk4 => "rk4",
+            MethodKind::Exprb => "exprb",
+            MethodKind::ExprbFixed => "exprb-fixed",
+            MethodKind::ExprbSplit => "exprb-split",
+            MethodKind::ExprbLean => "exprb-lean",
+            MethodKind::ExprbFiltered => "exprb-filtered",
+        }
+    }
+}
+
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct IntegratorSpec {

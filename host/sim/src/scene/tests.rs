@@ -162,3 +162,13 @@ fn controller_fields_are_validated_by_the_controller_check() {
     let e = err(MINIMAL, &["controller.dt_ms=nan"]);
     assert!(e.contains("`controller.dt_ms`") && e.contains("controller config: `dt` is not finite"), "{e}");
 }
+
+/// Every method's key is its scene-file name: it parses back to the method through `--set`.
+#[test]
+fn method_keys_parse_back() {
+    use super::MethodKind::*;
+    for m in [Rodas, RodasFixed, Rk4, Exprb, ExprbFixed, ExprbSplit, ExprbLean, ExprbFiltered] {
+        let v: MethodKind = toml::Value::String(m.key().into()).try_into().unwrap();
+        assert_eq!(v, m);
+    }
+}

@@ -9,12 +9,13 @@
 use crate::draw::basin::{OverlayPanel, draw_basin_overlay};
 use crate::report::{Report, num, par_map};
 use crate::report::tasks::task;
-use furuta::basin::{Agreement, BasinOptions, FullBasin, ModelBasin, ModelFate, TorusContinuation, agreement, full_basin, model_basin, torus_continuation};
+use furuta::basin::{Agreement, BasinOptions, FullBasin, ModelBasin, ModelFate, TorusContinuation, agreement, full_basin, model_basin, torus_continuation_with};
 use furuta::bifurcations::{ModelBifurcations, RHO_MAX};
 use furuta::equation_ssm::{EquationBifurcations, EquationModel, EquationSsm, INVARIANCE_RADII, equation_bifurcations, furuta_equation_polar, furuta_equation_polar_with, furuta_equation_ssm};
 use ssm::map_ssm::Amplitude;
 use furuta::equation_map::{EquationMapFamily, EquationMapGlobal, MapStyle, equation_map_global};
-use furuta::map_global::{Connection, ConnectionOptions, full_connection, map_basin, map_connection, map_torus_continuation};
+use furuta::map_global::{Connection, ConnectionOptions, full_connection_with, map_basin, map_connection, map_torus_continuation};
+use furuta::full_system::verdict_integrator;
 use furuta::parametric::{ParametricModel, TrainingRuns};
 use furuta::shared_tangent::SharedParametricModel;
 use plotters::style::RGBColor;
@@ -180,7 +181,7 @@ fn compute(pm: &ParametricModel, sm: &SharedParametricModel, runs: &TrainingRuns
     // The full system's connection (about 40 s CPU) in the full report only.
     let full_conn = || {
         let t0 = std::time::Instant::now();
-        let r = if quick { Err("full report only".to_string()) } else { full_connection(clo, chi, cn, ctol, &co).map_err(|e| format!("not found ({e})")) };
+        let r = if quick { Err("full report only".to_string()) } else { verdict_integrator().map_err(|e| format!("not found ({e})")).and_then(|vi| full_connection_with(Some(&vi), clo, chi, cn, ctol, &co).map_err(|e| format!("not found ({e})"))) };
         (r, t0.elapsed().as_secs_f64())
     };
     // The equation-driven reduced map at every order (its period maps' expansions are the
@@ -201,7 +202,7 @@ fn compute(pm: &ParametricModel, sm: &SharedParametricModel, runs: &TrainingRuns
         || {
             rayon::join(
                 || rayon::join(|| task("global/equation", equation), || task("global/full-basin", || full_basin(&bopts))),
-                || rayon::join(|| task("global/models", models), || task("global/full-torus", || torus_continuation(&torus_dts, [0.097, 0.0277], torus_periods))),
+                || rayon::join(|| task("global/models", models), || task("global/full-torus", || torus_continuation_with(Some(&verdict_integrator()?), &torus_dts, [0.097, 0.0277], torus_periods))),
             )
         },
         || {
