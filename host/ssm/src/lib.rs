@@ -68,6 +68,8 @@ pub enum Error {
     #[error(transparent)]
     Interp(#[from] crate::interp::InterpError),
     #[error(transparent)]
+    Mix(#[from] crate::interp::MixError),
+    #[error(transparent)]
     Spectrum(#[from] crate::spectrum::SpectrumError),
     #[error(transparent)]
     Export(#[from] crate::device::ExportError),
