@@ -162,8 +162,9 @@ pub fn torus_start(rho: [f64; 2]) -> Vec<f64> {
 
 /// The projection of a full-system start onto the equation map's reduced coordinates at one
 /// sampling period: the start (plant state and controller pre-history) in the period map's
-/// deflated coordinates `s` (`sim::taylor::PeriodMap`: the plant states but `phi`, the samples
-/// `y[i-1] .. y[i-1-r]`, then `z[i-1-k] - phi` for `k = 0..=r`), then `z_j = u_j^T s` with the
+/// deflated coordinates `s` ([`crate::map_global::deflated_of_start`]; as in
+/// `sim::taylor::PeriodMap`: the plant states but `phi`, the samples `y[i-1] .. y[i-1-r]`,
+/// then `z[i-1-k] - phi` for `k = 0..=r`), then `z_j = u_j^T s` with the
 /// left eigenvectors `u_j` of the exact linear one-period map at that dt (the ZOH
 /// discretization, deflated), normalized as the graph-style SSM's (`c . v_j = 1/2`,
 /// `u_j^T v_l = delta_jl`; `ssm::map_ssm` itself computes them, at order 1). In graph style
@@ -215,21 +216,7 @@ impl StartProjection {
     /// pre-history has the plant at rest at its initial angles before t = 0, as the
     /// simulator takes it.
     pub fn deflated(&self, start: &crate::full_system::Start) -> Result<Vec<f64>, Error> {
-        let (x, hist) = start;
-        let r = self.delay;
-        let rest = vec![[x[0], x[2]]; r + 1];
-        let h = hist.as_deref().unwrap_or(&rest);
-        if h.len() != r + 1 {
-            return Err(Error::BadInput { what: "start", why: format!("pre-history has {} samples, the delay {r} needs {}", h.len(), r + 1) });
-        }
-        if x.iter().chain(h.iter().flatten()).any(|v| !v.is_finite()) {
-            return Err(Error::BadInput { what: "start", why: format!("state and pre-history must be finite, got {x:?}") });
-        }
-        // Oldest first: h[r - k] = (y[-1-k], z[-1-k]).
-        let mut s = vec![x[0], x[1], x[3]];
-        s.extend((0..=r).map(|k| h[r - k][0]));
-        s.extend((0..=r).map(|k| h[r - k][1] - x[2]));
-        Ok(s)
+        crate::map_global::deflated_of_start(start, self.delay)
     }
 
     /// The reduced coordinates `eta = (Re z_1, Im z_1, Re z_2, Im z_2)` of `start`.
@@ -468,6 +455,7 @@ mod tests {
         let start: crate::full_system::Start = ([w[0], w[1], phi, w[2]], Some(vec![[w[4], w[6] + phi], [w[3], w[5] + phi]]));
         let back = proj.deflated(&start).unwrap();
         assert!(back.iter().zip(&w).all(|(a, b)| (a - b).abs() < 1e-15), "{back:?} vs {w:?}");
+        assert_eq!(proj.deflated(&crate::map_global::start_of_deflated(&w).unwrap()).unwrap(), w);
         let eta = proj.eta(&start).unwrap();
         let want = [z0[0].re, z0[0].im, z0[1].re, z0[1].im];
         let err = eta.iter().zip(&want).map(|(a, b)| (a - b).abs()).fold(0.0, f64::max);
