@@ -43,6 +43,7 @@ pub mod poly;
 pub mod portrait;
 pub mod ridge;
 pub mod spectrum;
+pub mod testing;
 
 pub use data::{DataError, MultiSeries, TimeSeries, load_csv, load_csv_column, load_csv_observables, load_mat};
 pub use dynamics::{Dynamics, Kernel, ReducedDynamics, RowWeight};
