@@ -418,16 +418,23 @@ fn eq_map_switch_part(rep: &mut Report, c: &Computed, nodes: &[f64]) {
     let ms = rep.summary.get("map_switch_dt_ms").cloned().unwrap_or(Value::Null);
     let full = mid2(&ms["full_system"]);
     let fitted = mid2(&ms["linear"]["bracket"]);
+    let scan_periods = rep.summary.get("heteroclinic_dt_ms").and_then(|h| h["scan_periods"].as_u64());
     let (lo, hi, n, tol) = crate::report::bifurcations::MAP_SWITCH_RANGE_MS;
     let own = sw.as_ref().ok().and_then(|s| s.bracket).map(|(a, b)| 0.5 * (a + b));
     let gap = |a: Option<f64>, b: Option<f64>| a.zip(b).map_or("-".to_string(), |(a, b)| format!("{:+.3}", a - b));
     rep.para(&format!(
-        "The equation-driven reduced map's small-start switch (order {EQUATION_ORDER}, spline in dt) uses the fitted map's          rules: the full system's small mode-shaped starts (plant state and controller samples) projected onto its reduced          coordinates (z = U^T s, the exact linear map's left eigenvectors, in which the graph-style manifold has U^T W(z) = z),          theta read from W(z), {} periods, escape when |theta| exceeds {} rad, a grid of {n} dt over [{lo}, {hi}] ms, then          bisected to {tol} ms ({:.1} s wall). Its bracket {} has its midpoint {} ms from the full system's bracket midpoint          and {} ms from the fitted map's (linear in dt).",
+        "The equation-driven reduced map's small-start switch (order {EQUATION_ORDER}, spline in dt) uses the fitted map's \
+         rules: the full system's small mode-shaped starts (plant state and controller samples) projected onto its reduced \
+         coordinates (z = U^T s, the exact linear map's left eigenvectors, in which the graph-style manifold has U^T W(z) = z), \
+         theta read from W(z), {} periods, escape when |theta| exceeds {} rad, a grid of {n} dt over [{lo}, {hi}] ms, then \
+         bisected to {tol} ms ({:.1} s wall). Its bracket {} has its midpoint {} ms from the full system's bracket midpoint \
+         (the full system's scan: {} periods) and {} ms from the fitted map's (linear in dt).",
         furuta::full_system::DEFAULT_SCAN_PERIODS,
         furuta::full_system::ESCAPE_THETA,
         seconds,
         eq_map_switch_text(c),
         gap(own, full),
+        scan_periods.map_or("unknown".to_string(), |p| p.to_string()),
         gap(own, fitted),
     ));
     let v = match sw {
