@@ -43,14 +43,28 @@
 //! normal-form map 0.069545, polar 0.069546, full 0.069544 rad); the 2-torus at 31.3 ms: graph
 //! map (0.09671, 0.02823), polar fixed point (0.09669, 0.02829), full (0.09671, 0.02823).
 //!
+//! The small-start switch ([`equation_map_switch`]) uses the fitted map's rules from the full
+//! system's starts, projected onto the reduced coordinates by [`StartProjection`] (`z = U^T s`,
+//! the start's state and pre-history in the period map's deflated coordinates). Measured
+//! (`measure_equation_map_switch`, 9 nodes, spline; full system [31.32, 31.34] ms on its 0.02
+//! ms grid, fitted map [31.359, 31.363] linear): order 5 [31.3375, 31.3406], order 7 and 9
+//! [31.3406, 31.3438] ms. The switch is the pure slow-mode start of 1e-3 rad (it first grows
+//! the fast mode from round-off) in both systems; its escape times (`measure_switch_starts`,
+//! order 7) agree to 0.6 s at 31.345-31.36 ms (132.2 / 132.8, 129.2 / 129.3, 126.5 / 126.5 s,
+//! map / full) and part where they diverge at the threshold: at 31.3425 ms 137.8 / 143.4 s, at
+//! 31.34 ms the full system escapes at 203.7 s (of 250) and the map stays bounded, at 31.335 ms
+//! neither escapes. So the full system's switch is in [31.335, 31.34] ms and the map's at most
+//! 0.009 ms above it.
+//!
 //! [`EquationMapFamily`] interpolates the node maps' coefficients in dt like
-//! `SharedParametricModel::model_at` (weights from `ssm::interp`; the coordinates mean the
-//! same at every node: the eigenvector scaling `c . v_j = 1/2` fixes modulus and phase).
+//! `SharedParametricModel::model_at` (`ssm::interp::mix_models`, `V1` mixed too; the
+//! coordinates mean the same at every node: the eigenvector scaling `c . v_j = 1/2` fixes
+//! modulus and phase).
 
 use serde::Serialize;
 use ssm::dynamics::ReducedDynamics;
 use ssm::fit::{FitOptions, SsmModel};
-use ssm::interp::{Interp, interp_weights};
+use ssm::interp::{Interp, MixError, V1Mix, interp_weights, mix_models};
 use ssm::manifold::Manifold;
 use ssm::map_ssm::MapSsm;
 use ssm::poly::Poly;
@@ -146,6 +160,127 @@ pub fn torus_start(rho: [f64; 2]) -> Vec<f64> {
     vec![rho[0], 0.0, rho[1], 0.0]
 }
 
+/// The projection of a full-system start onto the equation map's reduced coordinates at one
+/// sampling period: the start (plant state and controller pre-history) in the period map's
+/// deflated coordinates `s` ([`crate::map_global::deflated_of_start`]; as in
+/// `sim::taylor::PeriodMap`: the plant states but `phi`, the samples `y[i-1] .. y[i-1-r]`,
+/// then `z[i-1-k] - phi` for `k = 0..=r`), then `z_j = u_j^T s` with the
+/// left eigenvectors `u_j` of the exact linear one-period map at that dt (the ZOH
+/// discretization, deflated), normalized as the graph-style SSM's (`c . v_j = 1/2`,
+/// `u_j^T v_l = delta_jl`; `ssm::map_ssm` itself computes them, at order 1). In graph style
+/// `U^T W(z) = z` exactly, so `U^T s` is the manifold point the start projects to along the
+/// complementary spectral subspace (the start's part in the other modes decays with their
+/// multipliers); that part is dropped, as the fitted map drops what
+/// its tangent space does not see.
+#[derive(Clone, Debug)]
+pub struct StartProjection {
+    pub dt_ms: f64,
+    /// Controller delay `r` (samples).
+    pub delay: usize,
+    /// Rows `Re u_1, Im u_1, Re u_2, Im u_2` over the deflated state (`eta = rows . s`).
+    pub rows: [Vec<f64>; 4],
+}
+
+impl StartProjection {
+    /// The projection of the paper's loop (the `furuta-dt30.5` scene) at `dt_ms`.
+    pub fn furuta(dt_ms: f64) -> Result<StartProjection, Error> {
+        let scene = sim::scene::SceneBuilder::load("furuta-dt30.5")?.dt_ms(dt_ms).build()?;
+        let cfg = scene.controller_config();
+        let lin = sim::stability::linear_plant(&scene)?;
+        if lin.dim() != 4 || lin.primary() != 0 || lin.secondary() != 2 {
+            return Err(Error::BadInput { what: "plant", why: "the start projection needs the 4-state Furuta plant [theta, w_theta, phi, w_phi]".into() });
+        }
+        let a = lin.closed_loop(&cfg)?.deflated()?;
+        let d = a.nrows();
+        let map = ssm::map_ssm::PolynomialMap {
+            dim: d,
+            linear: (0..d * d).map(|k| a[(k / d, k % d)]).collect(),
+            nproj: 1,
+            proj: vec![0.0; d],
+            exps: Vec::new(),
+            coef: vec![Vec::new(); d],
+        };
+        let mut observable = vec![0.0; d];
+        observable[0] = 1.0;
+        let opts = ssm::map_ssm::MapSsmOptions { order: 1, pairs: 2, resonance_tol: 0.0, observable, dt: cfg.dt, amplitude: ssm::map_ssm::Amplitude::Spectral };
+        let s = ssm::map_ssm::map_ssm(&map, &opts).map_err(|e| Error::from(ssm::Error::from(e)))?;
+        let (u1, u2) = match (s.left.first(), s.left.get(2)) {
+            (Some(u1), Some(u2)) if u1.len() == d && u2.len() == d => (u1, u2),
+            _ => return Err(Error::BadInput { what: "linear map", why: format!("expected 2 left eigenvectors of length {d}") }),
+        };
+        let part = |u: &[(f64, f64)], im: bool| u.iter().map(|&(re, i)| if im { i } else { re }).collect::<Vec<f64>>();
+        Ok(StartProjection { dt_ms, delay: cfg.delay as usize, rows: [part(u1, false), part(u1, true), part(u2, false), part(u2, true)] })
+    }
+
+    /// The start in deflated coordinates (length `3 + 2 (delay + 1)`). A start without
+    /// pre-history has the plant at rest at its initial angles before t = 0, as the
+    /// simulator takes it.
+    pub fn deflated(&self, start: &crate::full_system::Start) -> Result<Vec<f64>, Error> {
+        crate::map_global::deflated_of_start(start, self.delay)
+    }
+
+    /// The reduced coordinates `eta = (Re z_1, Im z_1, Re z_2, Im z_2)` of `start`.
+    pub fn eta(&self, start: &crate::full_system::Start) -> Result<Vec<f64>, Error> {
+        let s = self.deflated(start)?;
+        if let Some(row) = self.rows.iter().find(|row| row.len() != s.len()) {
+            return Err(Error::Shape { expected: row.len(), got: s.len() });
+        }
+        Ok(self.rows.iter().map(|row| row.iter().zip(&s).map(|(a, b)| a * b).sum()).collect())
+    }
+}
+
+/// The equation map's fate of one full-system start by the full system's rules: the start
+/// projected to `eta0` ([`StartProjection::eta`], `proj` at the map's dt), the map iterated
+/// for `periods` periods (samples `0..=periods`, as a full-system run of `periods` periods),
+/// theta read from `W(z(eta))` (the model's observable); escape at the first sample with
+/// |theta| > `escape_theta` ([`crate::bifurcations::iterate_outcome`]).
+pub fn equation_map_outcome(model: &SsmModel, proj: &StartProjection, start: &crate::full_system::Start, periods: u64, escape_theta: f64) -> Result<crate::full_system::Outcome, Error> {
+    use ssm::dynamics::StepScratch;
+    let dt = model.dynamics.map_dt().ok_or(Error::NotAMap)?;
+    if (dt - sim::units::ms_to_s(proj.dt_ms)).abs() > 1e-9 * dt {
+        return Err(Error::BadInput { what: "projection", why: format!("built at {} ms, but the map steps {} ms", proj.dt_ms, dt * 1e3) });
+    }
+    if model.manifold.p != 1 || model.manifold.dim != 4 {
+        return Err(Error::BadInput { what: "model", why: format!("needs the equation map's form (4 reduced coordinates, theta alone), got dim {} p {}", model.manifold.dim, model.manifold.p) });
+    }
+    let eta0 = proj.eta(start)?;
+    let mut scratch = StepScratch::default();
+    let lift = std::cell::RefCell::new(([0.0; 1], ssm::poly::PolyScratch::default()));
+    let obs = |e: &[f64]| {
+        let mut g = lift.borrow_mut();
+        let (out, sc) = &mut *g;
+        model.manifold.lift_into(e, sc, out);
+        out[0]
+    };
+    Ok(crate::bifurcations::iterate_outcome(|e| model.dynamics.step(e, dt, &mut scratch), obs, &eta0, periods, 0.0, dt, escape_theta))
+}
+
+/// The equation map's small-start switch by the fitted map's and the full system's rules
+/// ([`crate::bifurcations::map_small_start_switch`]): at each dt the family's map (interpolated
+/// by `interp`) is iterated from the full system's starts `ics_at(dt)` (e.g.
+/// [`crate::full_system::default_ics`]) projected onto its reduced coordinates
+/// ([`equation_map_outcome`]) for `periods` periods; the switch is the first dt with an escape
+/// (|theta| > [`crate::full_system::ESCAPE_THETA`]), grid `n` on `[lo, hi]`, bisection to `tol` ms.
+pub fn equation_map_switch(
+    family: &EquationMapFamily,
+    interp: Interp,
+    ics_at: impl Fn(f64) -> Result<Vec<crate::full_system::Start>, Error> + Sync,
+    (lo, hi, n, tol): (f64, f64, usize, f64),
+    periods: u64,
+) -> Result<crate::bifurcations::MapSwitch, Error> {
+    if family.style != MapStyle::Graph {
+        return Err(Error::BadInput { what: "family", why: "the start projection U^T s gives the reduced coordinates of the graph-style map only".into() });
+    }
+    let escapes = |dt: f64| -> Result<Vec<bool>, Error> {
+        let m = family.model_at(dt, interp)?;
+        let proj = StartProjection::furuta(dt)?;
+        let ics = ics_at(dt)?;
+        let outs = crate::par_map(&ics, |ic| equation_map_outcome(&m, &proj, ic, periods, crate::full_system::ESCAPE_THETA))?;
+        Ok(outs.iter().map(|o| !o.bounded()).collect())
+    };
+    crate::bifurcations::first_escape_switch(escapes, lo, hi, n, tol)
+}
+
 /// The equation-driven reduced maps at a few sampling periods (nodes), interpolated in dt.
 #[derive(Clone, Debug, Serialize)]
 pub struct EquationMapFamily {
@@ -177,49 +312,15 @@ impl EquationMapFamily {
     /// observable interpolated by `interp`, the step `dt_ms`.
     pub fn model_at(&self, dt_ms: f64, interp: Interp) -> Result<SsmModel, Error> {
         let w = interp_weights(&self.nodes_ms, dt_ms, interp)?;
-        let first = self.maps.first().ok_or_else(|| Error::BadInput { what: "equation map family", why: "no nodes".into() })?;
-        let mut out = first.clone();
-        let mix = |get: &dyn Fn(&SsmModel) -> Option<&[f64]>, len: usize| -> Result<Vec<f64>, Error> {
-            let mut acc = vec![0.0; len];
-            for ((m, wi), dt) in self.maps.iter().zip(&w).zip(&self.nodes_ms) {
-                let c = get(m).filter(|c| c.len() == len).ok_or_else(|| Error::BadInput {
-                    what: "equation map family",
-                    why: format!("node {dt} ms has other monomials than node {} ms", self.nodes_ms[0]),
-                })?;
-                acc.iter_mut().zip(c).for_each(|(a, x)| *a += wi * x);
-            }
-            Ok(acc)
-        };
-        fn inc(m: &SsmModel) -> Option<&Poly> {
-            match &m.dynamics {
-                ReducedDynamics::Map { increment, .. } => Some(increment),
-                _ => None,
-            }
-        }
-        let base_inc = inc(first).ok_or(Error::NotAMap)?;
-        if let Some((k, _)) = self.maps.iter().enumerate().find(|(_, m)| {
-            inc(m).is_none_or(|p| p.exps != base_inc.exps) || m.manifold.nonlinear.as_ref().map(|p| &p.exps) != first.manifold.nonlinear.as_ref().map(|p| &p.exps)
-        }) {
-            return Err(Error::BadInput { what: "equation map family", why: format!("node {} ms has other monomials than node {} ms", self.nodes_ms[k], self.nodes_ms[0]) });
-        }
-        let inc_coef = mix(&|m| inc(m).map(|p| p.coef.as_slice()), base_inc.coef.len())?;
-        let v1 = mix(&|m| Some(m.manifold.v1.as_slice()), first.manifold.v1.len())?;
-        let obs_coef = match &first.manifold.nonlinear {
-            Some(p) => Some(mix(&|m| m.manifold.nonlinear.as_ref().map(|p| p.coef.as_slice()), p.coef.len())?),
-            None => None,
-        };
-        let dt = sim::units::ms_to_s(dt_ms);
-        if let ReducedDynamics::Map { increment, dt: step, .. } = &mut out.dynamics {
-            increment.coef = inc_coef;
-            *step = dt;
-        }
-        out.manifold.v1 = v1;
-        if let (Some(p), Some(c)) = (&mut out.manifold.nonlinear, obs_coef) {
-            p.coef = c;
-        }
-        out.dt = dt;
-        out.eigenvalues_ct = out.dynamics.eigenvalues_ct()?;
-        Ok(out)
+        let maps: Vec<&SsmModel> = self.maps.iter().collect();
+        mix_models(&maps, &w, 0, V1Mix::Mixed, sim::units::ms_to_s(dt_ms)).map_err(|e| match e {
+            ssm::Error::Mix(MixError::Mismatch { index, part, .. }) => Error::BadInput {
+                what: "equation map family",
+                why: format!("node {} ms has other monomials than node {} ms ({part})", self.nodes_ms[index], self.nodes_ms[0]),
+            },
+            ssm::Error::Mix(MixError::NotAMap { .. }) => Error::NotAMap,
+            e => e.into(),
+        })
     }
 }
 
@@ -269,6 +370,10 @@ mod tests {
     /// the same SSM connects at [31.1688, 31.1719].
     const GOLDEN_CONNECTION: f64 = 31.3234;
     const GOLDEN_ONSET: f64 = 31.7072;
+    /// Measured by [`golden_order5_small_start_switch`] (ms): bracket [31.3344, 31.3375]
+    /// (midpoint), inside the full system's [31.32, 31.34]; escaping starts per grid dt 0 0 0 0 3
+    /// 8 8 8 8 8 8 on [31.0, 32.0] (the fitted map's: the same counts).
+    const GOLDEN_SWITCH: f64 = 31.3359;
 
     fn theta(m: &SsmModel, eta: &[f64]) -> f64 {
         let mut out = vec![0.0; 1];
@@ -307,6 +412,136 @@ mod tests {
             let d = (theta(&m, &e) - fw[pm.primary]).abs();
             eprintln!("start {k}: |theta(R) - theta(F(W))| = {d:.3e}");
             assert!(d <= inv.abs, "{d} vs {}", inv.abs);
+        }
+    }
+
+    /// Known answers of the start projection at 31.0 ms: (a) a start on the linear modes
+    /// with amplitudes `rho` and phases `p` ([`crate::full_system::start_from_rho`]) has `z_j =
+    /// rho_j e^{i p_j}` (theta = `Re z_1 + Re z_2` at linear order, mode 1 slow); (b) the left
+    /// eigenvectors from the exact linear map equal the order-5 graph SSM's own to 1e-9
+    /// (relative); (c) a start exactly on the manifold, `s = W(z0)` given as a plant state and
+    /// pre-history, projects to `z0`, and the map's theta series from there equals that of
+    /// the period map's expansion `F` iterated from `s` and that of the full system run from
+    /// the start (the layout of the deflated coordinates) over 100 periods, to the stated
+    /// tolerance 1e-7 rad (measured 1.9e-8 and 1.3e-8 at max |theta| 0.041: the order-5
+    /// truncation; a wrong layout of the pre-history moves theta by O(rho) = 1e-2).
+    #[test]
+    fn start_projection_known_answers() {
+        let dt = 31.0;
+        let proj = StartProjection::furuta(dt).unwrap();
+        assert_eq!(proj.delay, 1);
+        for (rho, ph) in [([0.03, 0.01], [0.0, 0.0]), ([0.02, 0.005], [0.7, -1.2]), ([0.0, 0.02], [0.0, 2.0])] {
+            let (x, h) = crate::full_system::start_from_rho(dt, rho, ph).unwrap();
+            let eta = proj.eta(&(x, Some(h))).unwrap();
+            let want = [rho[0] * ph[0].cos(), rho[0] * ph[0].sin(), rho[1] * ph[1].cos(), rho[1] * ph[1].sin()];
+            let err = eta.iter().zip(&want).map(|(a, b)| (a - b).abs()).fold(0.0, f64::max);
+            eprintln!("mode start rho {rho:?} phases {ph:?}: eta {eta:?}, error {err:.2e}");
+            assert!(err < 1e-12, "{eta:?} vs {want:?}");
+        }
+        let (pm, s) = furuta_graph_ssm(dt, 5).unwrap();
+        let unorm = s.left.iter().flatten().fold(0.0f64, |m, &(a, b)| m.max(a.hypot(b)));
+        let du = [0usize, 2].iter().flat_map(|&j| s.left[j].iter().enumerate().map(move |(k, &(a, b))| (j, k, a, b))).fold(0.0f64, |m, (j, k, a, b)| {
+            let r = &proj.rows[j];
+            m.max((r[k] - a).abs()).max((proj.rows[j + 1][k] - b).abs())
+        });
+        eprintln!("left eigenvectors: exact linear map vs the SSM's: {:.2e} (relative)", du / unorm);
+        assert!(du / unorm < 1e-9);
+        // A point on the manifold as a full-system start (phi = 0.3 rad, any: phi is cyclic).
+        let z0 = [Complex::new(0.02, 0.008), Complex::new(0.012, -0.006)];
+        let z: Vec<Complex<f64>> = z0.iter().flat_map(|z| [*z, z.conj()]).collect();
+        let w: Vec<f64> = s.manifold_at(&z, 5).iter().map(|x| x.re).collect();
+        assert_eq!(pm.names, ["x0", "x1", "x3", "y[i-1]", "y[i-2]", "z[i-1]-x2", "z[i-2]-x2"]);
+        let phi = 0.3;
+        let start: crate::full_system::Start = ([w[0], w[1], phi, w[2]], Some(vec![[w[4], w[6] + phi], [w[3], w[5] + phi]]));
+        let back = proj.deflated(&start).unwrap();
+        assert!(back.iter().zip(&w).all(|(a, b)| (a - b).abs() < 1e-15), "{back:?} vs {w:?}");
+        assert_eq!(proj.deflated(&crate::map_global::start_of_deflated(&w).unwrap()).unwrap(), w);
+        let eta = proj.eta(&start).unwrap();
+        let want = [z0[0].re, z0[0].im, z0[1].re, z0[1].im];
+        let err = eta.iter().zip(&want).map(|(a, b)| (a - b).abs()).fold(0.0, f64::max);
+        eprintln!("manifold start: eta error {err:.2e}");
+        assert!(err < 1e-10, "{eta:?} vs {want:?}");
+        let m = furuta_equation_map(dt, 5).unwrap();
+        let n = 100;
+        let step = m.dynamics.map_dt().unwrap();
+        let mut e = eta.clone();
+        let mut sf = w.clone();
+        let full = crate::full_system::run(dt, &start, n, 10.0).unwrap().primary();
+        let (mut d_f, mut d_full, mut amp) = (0.0f64, 0.0f64, 0.0f64);
+        for k in 0..=n as usize {
+            let th = theta(&m, &e);
+            d_f = d_f.max((th - sf[0]).abs());
+            d_full = d_full.max((th - full[k]).abs());
+            amp = amp.max(th.abs());
+            m.dynamics.step(&mut e, step, &mut StepScratch::default());
+            sf = pm.eval(&sf).unwrap();
+        }
+        eprintln!("theta over {n} periods (max |theta| {amp:.4}): map vs F {d_f:.2e}, map vs full system {d_full:.2e}");
+        assert!(d_f < 1e-7 && d_full < 1e-7, "{d_f} {d_full}");
+        // Refused: a start with the wrong pre-history length; a map at another dt.
+        assert!(matches!(proj.eta(&([0.01, 0.0, 0.0, 0.0], Some(vec![[0.0, 0.0]]))), Err(Error::BadInput { what: "start", .. })));
+        let other = furuta_equation_map(31.5, 5).unwrap();
+        assert!(matches!(equation_map_outcome(&other, &proj, &start, 10, 1.0), Err(Error::BadInput { what: "projection", .. })));
+    }
+
+    /// Golden value, order 5 on 5 nodes (spline), the fitted map's settings (the full
+    /// system's starts, 8000 periods, grid of 11 on [31.0, 32.0] ms, bisection to 0.005 ms):
+    /// the equation map's small-start switch ([`GOLDEN_SWITCH`], within 0.005 ms); the
+    /// normal-form-style family is refused (its reduced coordinates are not `U^T s`).
+    #[test]
+    fn golden_order5_small_start_switch() {
+        let fam = EquationMapFamily::furuta(&[30.5, 31.0, 31.5, 32.0, 32.5], 5).unwrap();
+        let t0 = std::time::Instant::now();
+        let sw = equation_map_switch(&fam, Interp::Spline, crate::full_system::default_ics, (31.0, 32.0, 11, 0.005), crate::full_system::DEFAULT_SCAN_PERIODS).unwrap();
+        eprintln!("order 5 switch: {sw:?} ({:.1} s)", t0.elapsed().as_secs_f64());
+        let (a, b) = sw.bracket.unwrap();
+        assert!(b - a <= 0.005 + 1e-12);
+        assert!((0.5 * (a + b) - GOLDEN_SWITCH).abs() < 0.005, "{a} {b}");
+        assert!(sw.monotone);
+        let nf = EquationMapFamily::furuta_styled(&[30.5, 31.0], 5, MapStyle::NormalForm).unwrap();
+        assert!(matches!(equation_map_switch(&nf, Interp::Spline, crate::full_system::default_ics, (30.5, 31.0, 3, 0.005), 10), Err(Error::BadInput { what: "family", .. })));
+    }
+
+    /// Measurement (not a check): the equation map's small-start switch at orders 5, 7, 9
+    /// with the full report's nodes (9, 30.5..32.5 ms, spline) and the fitted map's settings;
+    /// per start, the first escaping grid dt.
+    #[test]
+    #[ignore]
+    fn measure_equation_map_switch() {
+        let nodes: Vec<f64> = (0..=8).map(|k| 30.5 + 0.25 * k as f64).collect();
+        let orders: Vec<u32> = std::env::var("EQMAP_ORDERS").map(|s| s.split(',').map(|x| x.parse().unwrap()).collect()).unwrap_or(vec![5, 7, 9]);
+        for order in orders {
+            let t0 = std::time::Instant::now();
+            let fam = EquationMapFamily::furuta(&nodes, order).unwrap();
+            let sw = equation_map_switch(&fam, Interp::Spline, crate::full_system::default_ics, (31.0, 32.0, 11, 0.005), crate::full_system::DEFAULT_SCAN_PERIODS).unwrap();
+            eprintln!("order {order}: {sw:?} ({:.1} s)", t0.elapsed().as_secs_f64());
+        }
+    }
+
+    /// Measurement (not a check): per start, the escape time (s) of the full system and of the
+    /// order-`EQMAP_ORDER` (default 7) equation map (9 nodes, spline) at dt in `EQMAP_DTS`
+    /// (default 31.33..31.36 ms), 8000 periods: which start switches first and how its escape
+    /// time differs, to place the full system's switch inside its coarse grid bracket.
+    #[test]
+    #[ignore]
+    fn measure_switch_starts() {
+        let nodes: Vec<f64> = (0..=8).map(|k| 30.5 + 0.25 * k as f64).collect();
+        let order: u32 = std::env::var("EQMAP_ORDER").map(|s| s.parse().unwrap()).unwrap_or(7);
+        let dts: Vec<f64> = std::env::var("EQMAP_DTS").map(|s| s.split(',').map(|x| x.parse().unwrap()).collect()).unwrap_or(vec![31.33, 31.335, 31.34, 31.3425, 31.345, 31.35, 31.36]);
+        let fam = EquationMapFamily::furuta(&nodes, order).unwrap();
+        let periods = crate::full_system::DEFAULT_SCAN_PERIODS;
+        for &dt in &dts {
+            let ics = crate::full_system::default_ics(dt).unwrap();
+            let m = fam.model_at(dt, Interp::Spline).unwrap();
+            let proj = StartProjection::furuta(dt).unwrap();
+            let full = crate::full_system::switch_scan(&[dt], &ics, periods, crate::full_system::ESCAPE_THETA).unwrap();
+            let map: Vec<_> = ics.iter().map(|ic| equation_map_outcome(&m, &proj, ic, periods, crate::full_system::ESCAPE_THETA).unwrap()).collect();
+            let t = |e: Option<f64>| e.map_or("-".to_string(), |t| format!("{t:.1}"));
+            eprintln!(
+                "dt {dt}: escape t full [{}], map [{}]",
+                full.outcomes[0].iter().map(|o| t(o.escape_t)).collect::<Vec<_>>().join(", "),
+                map.iter().map(|o| t(o.escape_t)).collect::<Vec<_>>().join(", ")
+            );
         }
     }
 

@@ -305,13 +305,8 @@ mod tests {
     /// `RBF_JAC_BENCH=fixed` / `any` time one of them.
     #[test]
     fn fixed_dimension_jacobian_equals_the_general_loop() {
-        let mut seed = 0x853c_49e6_748f_ea9bu64;
-        let mut rnd = move || {
-            seed ^= seed << 13;
-            seed ^= seed >> 7;
-            seed ^= seed << 17;
-            (seed >> 11) as f64 / (1u64 << 53) as f64 - 0.5
-        };
+        let mut rng = ssm::testing::XorShift64::new(0x853c_49e6_748f_ea9b);
+        let mut rnd = move || rng.centered();
         let cond = Conditioning { rows: 0, cols: 0, s_max: 1.0, s_min: 1.0, cond: 1.0, alpha: 0.0, cond_regularized: 1.0, rel_residual: 0.0 };
         for d in 2..=6 {
             let k = 300;

@@ -233,6 +233,26 @@ pub fn start_of_deflated(s: &[f64]) -> Result<Start, Error> {
     Ok(([s[0], s[1], 0.0, s[2]], Some(hist)))
 }
 
+/// The inverse of [`start_of_deflated`] for any `phi`: a full-system start (controller delay
+/// `delay`; no pre-history = the plant at rest at its initial angles, as the simulator takes
+/// it) in the period map's deflated coordinates.
+pub fn deflated_of_start(start: &Start, delay: usize) -> Result<Vec<f64>, Error> {
+    let (x, hist) = start;
+    let rest = vec![[x[0], x[2]]; delay + 1];
+    let h = hist.as_deref().unwrap_or(&rest);
+    if h.len() != delay + 1 {
+        return Err(Error::BadInput { what: "start", why: format!("pre-history has {} samples, the delay {delay} needs {}", h.len(), delay + 1) });
+    }
+    if x.iter().chain(h.iter().flatten()).any(|v| !v.is_finite()) {
+        return Err(Error::BadInput { what: "start", why: format!("state and pre-history must be finite, got {x:?}") });
+    }
+    // Oldest first: h[delay - k] = (y_{-1-k}, z_{-1-k}).
+    let mut s = vec![x[0], x[1], x[3]];
+    s.extend((0..=delay).map(|k| h[delay - k][0]));
+    s.extend((0..=delay).map(|k| h[delay - k][1] - x[2]));
+    Ok(s)
+}
+
 /// The rule on the full system at `dt_ms`: the fast saddle cycle of the exact period map
 /// ([`saddle_cycles`], Newton from the equation-driven circle of order `o.guess_order`), the pushed starts
 /// (slow eigenvector of the exact ZOH map in the same deflated coordinates), each run by the

@@ -36,7 +36,7 @@ use ssm::manifold::tangent_space;
 use ssm::metrics::amplitude_spectrum;
 use ssm::normal_form::{NormalFormOptions, Normalization, PolarNormalForm, normal_form};
 use ssm::poly::Poly;
-use ssm::interp::{Interp, interp_weights};
+use ssm::interp::{Interp, MixError, V1Mix, interp_weights, mix_models};
 
 /// One training period of the shared-tangent model.
 #[derive(Clone, Debug, Serialize, Deserialize)]
@@ -151,36 +151,16 @@ impl SharedParametricModel {
         let dts = self.dts_ms();
         let w = interp_weights(&dts, dt_ms, interp)?;
         let nearest = (0..dts.len()).min_by(|&a, &b| (dts[a] - dt_ms).abs().total_cmp(&(dts[b] - dt_ms).abs())).unwrap_or(0);
-        let mut out = self.nodes[nearest].model.clone();
-        let mix = |get: &dyn Fn(&SsmModel) -> Option<&Poly>| -> Result<Option<Poly>, Error> {
-            let Some(base) = get(&out) else { return Ok(None) };
-            let mut p = base.clone();
-            p.coef.iter_mut().for_each(|c| *c = 0.0);
-            for (node, wi) in self.nodes.iter().zip(&w) {
-                let q = get(&node.model).filter(|q| q.exps == p.exps && q.scale == p.scale && q.dim_out == p.dim_out);
-                let q = q.ok_or_else(|| Error::BadOption {
-                    what: "shared fits",
-                    why: format!("dt = {} ms has other monomials or scales than dt = {} ms", node.dt_ms, dts[nearest]),
-                })?;
-                for (c, v) in p.coef.iter_mut().zip(&q.coef) {
-                    *c += wi * v;
-                }
-            }
-            Ok(Some(p))
-        };
-        let manifold_poly = mix(&|m: &SsmModel| m.manifold.nonlinear.as_ref())?;
-        let map_poly = mix(&|m: &SsmModel| match &m.dynamics {
-            ReducedDynamics::Map { increment, .. } => Some(increment),
-            _ => None,
+        let models: Vec<&SsmModel> = self.nodes.iter().map(|n| &n.model).collect();
+        // One tangent space: V1 is the nearest node's, copied (bit-identical), not mixed.
+        let mut out = mix_models(&models, &w, nearest, V1Mix::Shared, ms_to_s(dt_ms)).map_err(|e| match e {
+            ssm::Error::Mix(MixError::Mismatch { index, .. }) => Error::BadOption {
+                what: "shared fits",
+                why: format!("dt = {} ms has other monomials or scales than dt = {} ms", self.nodes[index].dt_ms, dts[nearest]),
+            },
+            e => e.into(),
         })?;
-        out.manifold.nonlinear = manifold_poly;
         out.manifold.singular_values = self.singular_values.clone();
-        if let (ReducedDynamics::Map { increment, dt, .. }, Some(p)) = (&mut out.dynamics, map_poly) {
-            *increment = p;
-            *dt = ms_to_s(dt_ms);
-        }
-        out.dt = ms_to_s(dt_ms);
-        out.eigenvalues_ct = out.dynamics.eigenvalues_ct()?;
         out.eta_range =
             (0..self.scale.len()).map(|j| self.nodes.iter().map(|n| n.model.eta_range[j]).fold(0.0, f64::max)).collect();
         out.n_points = self.nodes.iter().map(|n| n.model.n_points).sum();

@@ -1252,13 +1252,8 @@ mod tests {
     /// to targets the pair fit is the ordinary fit, bit for bit.
     #[test]
     fn rbf_pair_fit_removes_errors_in_variables_shrinkage() {
-        let mut state = 0x2545_F491_4F6C_DD1Du64;
-        let mut uni = move || {
-            state ^= state << 13;
-            state ^= state >> 7;
-            state ^= state << 17;
-            ((state >> 11) as f64 + 0.5) / (1u64 << 53) as f64
-        };
+        let mut rng = crate::testing::XorShift64::new(0x2545_F491_4F6C_DD1D);
+        let mut uni = move || rng.open01();
         let gauss = |u: &mut dyn FnMut() -> f64| (-2.0 * u().ln()).sqrt() * (2.0 * std::f64::consts::PI * u()).cos();
         let (c, s) = (0.3f64.cos(), 0.3f64.sin());
         let a = [0.95 * c, -0.95 * s, 0.95 * s, 0.95 * c];

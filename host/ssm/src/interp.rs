@@ -1,8 +1,12 @@
 //! Interpolation of fitted coefficients in a system parameter (the sampling period of the
 //! parametric models): weights that are linear in the node values, so one set of weights
-//! serves every coefficient of a model at once.
+//! serves every coefficient of a model at once; [`mix_models`] applies them to whole models.
 
 use serde::{Deserialize, Serialize};
+
+use crate::dynamics::ReducedDynamics;
+use crate::fit::SsmModel;
+use crate::poly::Poly;
 
 /// Interpolation nodes or a query point that cannot be used.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
@@ -59,6 +63,93 @@ pub fn interp_weights(nodes: &[f64], x: f64, interp: Interp) -> Result<Vec<f64>,
     Ok(w)
 }
 
+/// How [`mix_models`] treats the manifold's linear part `V1`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum V1Mix {
+    /// Each model has its own `V1`: mixed with the weights like the polynomials.
+    Mixed,
+    /// The models share one `V1` (one tangent space): the base model's is copied, not
+    /// mixed (a weighted sum of equal vectors is not bit-equal to them).
+    Shared,
+}
+
+/// Models whose coefficients cannot be mixed.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum MixError {
+    #[error("mixing models: {weights} weights for {models} models (base index {base})")]
+    Count { models: usize, weights: usize, base: usize },
+    #[error("model {index} has other monomials, scales or outputs than model {base} in its {part}")]
+    Mismatch { index: usize, base: usize, part: &'static str },
+    #[error("model {index} is not a discrete map: only map increments are mixed")]
+    NotAMap { index: usize },
+}
+
+/// The model `sum_i weights[i] models[i]`: a clone of `models[base]` whose manifold
+/// polynomial (the nonlinear part), map increment and, with [`V1Mix::Mixed`], `V1` hold the
+/// weighted sums of the models' coefficients (each `0 + w_0 c_0 + w_1 c_1 + ...`, in model
+/// order), stepping `dt` seconds (`dt` and the map's step), its continuous-time eigenvalues
+/// recomputed. Every model must be a map with the base's monomials, scales and output
+/// dimension (manifold and increment) and, when mixed, the base's `V1` length. The rest
+/// (fit records, `eta_range`, ...) is the base's. The weights come from
+/// [`interp_weights`] over the models' parameter values.
+pub fn mix_models(models: &[&SsmModel], weights: &[f64], base: usize, v1_mix: V1Mix, dt: f64) -> Result<SsmModel, crate::Error> {
+    let Some(first) = models.get(base).filter(|_| models.len() == weights.len()) else {
+        return Err(MixError::Count { models: models.len(), weights: weights.len(), base }.into());
+    };
+    fn increment(m: &SsmModel) -> Option<&Poly> {
+        match &m.dynamics {
+            ReducedDynamics::Map { increment, .. } => Some(increment),
+            _ => None,
+        }
+    }
+    let same = |p: &Poly, q: &Poly| p.exps == q.exps && p.scale == q.scale && p.dim_out == q.dim_out && p.coef.len() == q.coef.len();
+    for (index, m) in models.iter().enumerate() {
+        let mismatch = |part| MixError::Mismatch { index, base, part };
+        let (Some(p), Some(q)) = (increment(m), increment(first)) else { return Err(MixError::NotAMap { index }.into()) };
+        if !same(p, q) {
+            return Err(mismatch("map increment").into());
+        }
+        match (&m.manifold.nonlinear, &first.manifold.nonlinear) {
+            (None, None) => {}
+            (Some(p), Some(q)) if same(p, q) => {}
+            _ => return Err(mismatch("manifold polynomial").into()),
+        }
+        if v1_mix == V1Mix::Mixed && m.manifold.v1.len() != first.manifold.v1.len() {
+            return Err(mismatch("tangent basis V1").into());
+        }
+    }
+    let mix = |get: &dyn Fn(&SsmModel) -> &[f64], len: usize| -> Vec<f64> {
+        let mut acc = vec![0.0; len];
+        for (m, wi) in models.iter().zip(weights) {
+            acc.iter_mut().zip(get(m)).for_each(|(a, x)| *a += wi * x);
+        }
+        acc
+    };
+    fn inc_coef(m: &SsmModel) -> &[f64] {
+        increment(m).map_or(&[], |p| p.coef.as_slice())
+    }
+    fn obs_coef(m: &SsmModel) -> &[f64] {
+        m.manifold.nonlinear.as_ref().map_or(&[], |p| p.coef.as_slice())
+    }
+    fn v1(m: &SsmModel) -> &[f64] {
+        m.manifold.v1.as_slice()
+    }
+    let mut out = (*first).clone();
+    if let ReducedDynamics::Map { increment, dt: step, .. } = &mut out.dynamics {
+        increment.coef = mix(&inc_coef, increment.coef.len());
+        *step = dt;
+    }
+    if let Some(p) = &mut out.manifold.nonlinear {
+        p.coef = mix(&obs_coef, p.coef.len());
+    }
+    if v1_mix == V1Mix::Mixed {
+        out.manifold.v1 = mix(&v1, first.manifold.v1.len());
+    }
+    out.dt = dt;
+    out.eigenvalues_ct = out.dynamics.eigenvalues_ct()?;
+    Ok(out)
+}
+
 /// Matrix `S` (`n x n`, rows = nodes) with `m = S y` the natural spline's second
 /// derivatives at the nodes (`n >= 3`), by the Thomas algorithm on each unit vector.
 fn second_derivative_operator(x: &[f64]) -> Vec<Vec<f64>> {
@@ -95,6 +186,47 @@ fn second_derivative_operator(x: &[f64]) -> Vec<Vec<f64>> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A hand-built map model whose every coefficient is affine in `a`: mixing models at
+    /// `a_i` with weights summing to 1 gives the model at `sum w_i a_i` (to rounding).
+    fn map_model(a: f64) -> SsmModel {
+        let mut m = crate::backbone::tests::model(0.3, 1.0 + a);
+        let exps = crate::poly::exponents(2, 1, 3);
+        let coef = (0..exps.len() * 2).map(|k| 0.01 * (k as f64 + 1.0) * (1.0 - 0.5 * a) + 0.001 * a).collect();
+        m.dynamics = ReducedDynamics::Map { increment: Poly { dim_in: 2, dim_out: 2, scale: vec![1.0, 1.0], exps, coef }, dt: 0.01, conditioning: crate::backbone::tests::cond() };
+        m.manifold.v1.iter_mut().for_each(|v| *v *= 1.0 + a);
+        m
+    }
+
+    #[test]
+    fn mix_models_mixes_coefficients() {
+        let (m0, m1, m2) = (map_model(0.0), map_model(1.0), map_model(0.25));
+        let w = [0.75, 0.25];
+        let max_diff = |a: &[f64], b: &[f64]| a.iter().zip(b).map(|(x, y)| (x - y).abs()).fold(0.0, f64::max);
+        let inc = |m: &SsmModel| match &m.dynamics {
+            ReducedDynamics::Map { increment, dt, .. } => (increment.coef.clone(), *dt),
+            _ => (Vec::new(), 0.0),
+        };
+        let nl = |m: &SsmModel| m.manifold.nonlinear.as_ref().map(|p| p.coef.clone()).unwrap_or_default();
+        let mixed = mix_models(&[&m0, &m1], &w, 0, V1Mix::Mixed, 0.02).unwrap();
+        assert!(max_diff(&inc(&mixed).0, &inc(&m2).0) < 1e-16 && max_diff(&nl(&mixed), &nl(&m2)) < 1e-15);
+        assert!(max_diff(&mixed.manifold.v1, &m2.manifold.v1) < 1e-15);
+        assert_eq!((inc(&mixed).1, mixed.dt), (0.02, 0.02));
+        assert_eq!(mixed.eigenvalues_ct, mixed.dynamics.eigenvalues_ct().unwrap());
+        // Shared: the base's V1 bit for bit, everything else mixed as before.
+        let shared = mix_models(&[&m0, &m1], &w, 1, V1Mix::Shared, 0.02).unwrap();
+        assert_eq!(shared.manifold.v1, m1.manifold.v1);
+        assert_eq!(inc(&shared).0, inc(&mixed).0);
+        // Refused: counts, other monomials, not a map.
+        assert!(matches!(mix_models(&[&m0, &m1], &[1.0], 0, V1Mix::Mixed, 0.02), Err(crate::Error::Mix(MixError::Count { .. }))));
+        let mut other = map_model(1.0);
+        if let ReducedDynamics::Map { increment, .. } = &mut other.dynamics {
+            increment.scale[0] = 2.0;
+        }
+        assert!(matches!(mix_models(&[&m0, &other], &w, 0, V1Mix::Mixed, 0.02), Err(crate::Error::Mix(MixError::Mismatch { index: 1, base: 0, part: "map increment" }))));
+        let flow = crate::backbone::tests::model(0.3, 1.0);
+        assert!(matches!(mix_models(&[&m0, &flow], &w, 0, V1Mix::Mixed, 0.02), Err(crate::Error::Mix(MixError::NotAMap { index: 1 }))));
+    }
 
     #[test]
     fn spline_weights() {

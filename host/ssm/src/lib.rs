@@ -43,6 +43,7 @@ pub mod poly;
 pub mod portrait;
 pub mod ridge;
 pub mod spectrum;
+pub mod testing;
 
 pub use data::{DataError, MultiSeries, TimeSeries, load_csv, load_csv_column, load_csv_observables, load_mat};
 pub use dynamics::{Dynamics, Kernel, ReducedDynamics, RowWeight};
@@ -67,6 +68,8 @@ pub enum Error {
     Portrait(#[from] crate::portrait::PortraitError),
     #[error(transparent)]
     Interp(#[from] crate::interp::InterpError),
+    #[error(transparent)]
+    Mix(#[from] crate::interp::MixError),
     #[error(transparent)]
     Spectrum(#[from] crate::spectrum::SpectrumError),
     #[error(transparent)]

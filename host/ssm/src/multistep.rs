@@ -371,17 +371,8 @@ mod tests {
     /// Orbits of the twist map from `starts`, `n` points each, with white measurement noise
     /// of standard deviation `sd` (xorshift + Box-Muller, seeded).
     fn orbits(starts: &[[f64; 2]], n: usize, sd: f64, seed: u64) -> (Vec<Mat<f64>>, Vec<Mat<f64>>) {
-        let mut state = seed.wrapping_mul(0x9E37_79B9_7F4A_7C15) | 1;
-        let mut gauss = move || {
-            let mut u = || {
-                state ^= state << 13;
-                state ^= state >> 7;
-                state ^= state << 17;
-                ((state >> 11) as f64 + 0.5) / (1u64 << 53) as f64
-            };
-            let (u1, u2) = (u(), u());
-            (-2.0 * u1.ln()).sqrt() * (2.0 * std::f64::consts::PI * u2).cos()
-        };
+        let mut rng = crate::testing::XorShift64::new(seed.wrapping_mul(0x9E37_79B9_7F4A_7C15) | 1);
+        let mut gauss = move || rng.gauss();
         let (mut clean, mut noisy) = (Vec::new(), Vec::new());
         for s in starts {
             let mut x = *s;

@@ -983,13 +983,8 @@ mod tests {
     /// products truncated at 0..9; `NF_MUL_BENCH=packed` / `btree` time one of them.
     #[test]
     fn packed_product_equals_the_map_product() {
-        let mut seed = 0x2545_f491_4f6c_dd1du64;
-        let mut rnd = move || {
-            seed ^= seed << 13;
-            seed ^= seed >> 7;
-            seed ^= seed << 17;
-            seed
-        };
+        let mut rng = crate::testing::XorShift64::new(0x2545_f491_4f6c_dd1d);
+        let mut rnd = move || rng.next_u64();
         let poly = |nvar: usize, terms: usize, top: u32, rnd: &mut dyn FnMut() -> u64| {
             let mut p = SPoly::new();
             for _ in 0..terms {

@@ -535,13 +535,8 @@ fn bad_input_gives_typed_errors() {
 /// tiny, unit and large coordinates.
 #[test]
 fn field_from_cached_powers_equals_powi_per_monomial() {
-    let mut seed = 0x1234_5678_9abc_def1u64;
-    let mut rnd = move || {
-        seed ^= seed << 13;
-        seed ^= seed >> 7;
-        seed ^= seed << 17;
-        (seed >> 11) as f64 / (1u64 << 53) as f64 - 0.5
-    };
+    let mut rng = crate::testing::XorShift64::new(0x1234_5678_9abc_def1);
+    let mut rnd = move || rng.centered();
     let p4 = crate::poly::exponents(2, 0, 4);
     let n = p4.len();
     let amp = [(0..n).map(|_| rnd() * 3.0).collect::<Vec<_>>(), (0..n).map(|_| rnd() * 3.0).collect()];

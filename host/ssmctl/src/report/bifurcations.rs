@@ -110,7 +110,7 @@ pub fn predictions_section(rep: &mut Report, runs: &TrainingRuns) -> Result<furu
 }
 
 /// Range and resolution of the fitted map's small-start switch scan [ms].
-const MAP_SWITCH_RANGE_MS: (f64, f64, usize, f64) = (31.0, 32.0, 11, 0.005);
+pub(crate) const MAP_SWITCH_RANGE_MS: (f64, f64, usize, f64) = (31.0, 32.0, 11, 0.005);
 
 /// The global bifurcation read off the fitted map itself (no normal form): the same small,
 /// mode-shaped starts as the full system's scan (`full_system::default_ics`), the same horizon

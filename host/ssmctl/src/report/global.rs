@@ -2,7 +2,7 @@
 //! reduced model (its reduced map iterated, and its polar normal form) next to the data-driven
 //! one (the fitted map itself and its normal form) and the full system, every bifurcation value
 //! in five columns (`summary.json` keys `equation_ssm`, and `equation*` / `full_system*` /
-//! `map` / `equation_map` added to `heteroclinic_dt_ms` and `torus_hopf_dt_ms`), and the full system's basin near the global bifurcation with both
+//! `map` / `equation_map` added to `heteroclinic_dt_ms` and `torus_hopf_dt_ms`, the equation map's small-start switch as `map_switch_dt_ms.equation_map`), and the full system's basin near the global bifurcation with both
 //! normal forms' saddle manifolds over it and the fitted map's verdict on it (`basin`, with
 //! `map_disagreement` and `map_figure`).
 
@@ -13,7 +13,8 @@ use furuta::basin::{Agreement, BasinOptions, FullBasin, ModelBasin, ModelFate, T
 use furuta::bifurcations::{ModelBifurcations, RHO_MAX};
 use furuta::equation_ssm::{EquationBifurcations, EquationModel, EquationSsm, INVARIANCE_RADII, equation_bifurcations, furuta_equation_polar, furuta_equation_polar_with, furuta_equation_ssm};
 use ssm::map_ssm::Amplitude;
-use furuta::equation_map::{EquationMapFamily, EquationMapGlobal, MapStyle, equation_map_global};
+use furuta::bifurcations::MapSwitch;
+use furuta::equation_map::{EquationMapFamily, EquationMapGlobal, MapStyle, equation_map_global, equation_map_switch};
 use furuta::map_global::{Connection, ConnectionOptions, full_connection_with, map_basin, map_connection, map_torus_continuation};
 use furuta::full_system::verdict_integrator;
 use furuta::parametric::{ParametricModel, TrainingRuns};
@@ -60,6 +61,9 @@ struct Computed {
     /// the wall seconds of all of it.
     eq_map: Vec<EquationMapGlobal>,
     eq_map_seconds: f64,
+    /// The order-[`EQUATION_ORDER`] graph map's small-start switch by the fitted map's rules
+    /// (the full system's starts projected onto its reduced coordinates), and its wall seconds.
+    eq_map_switch: Option<(Result<MapSwitch, String>, f64)>,
 }
 
 impl Computed {
@@ -186,17 +190,31 @@ fn compute(pm: &ParametricModel, sm: &SharedParametricModel, runs: &TrainingRuns
     };
     // The equation-driven reduced map at every order (its period maps' expansions are the
     // equation-driven model's, cached per (dt, order)).
-    let eq_map = || -> Result<(Vec<EquationMapGlobal>, f64), furuta::Error> {
+    let eq_map = || -> Result<(Vec<EquationMapGlobal>, f64, Option<(Result<MapSwitch, String>, f64)>), furuta::Error> {
         let t0 = std::time::Instant::now();
         // Every order in graph style (the faithful map), and the table order's normal-form
         // style (the same SSM's reduced map with only its structural terms: the polar normal
         // form without the map-to-flow step), which locates the normal form's error.
         let jobs: Vec<(u32, MapStyle)> = orders.iter().map(|&o| (o, MapStyle::Graph)).chain(std::iter::once((EQUATION_ORDER, MapStyle::NormalForm))).collect();
-        let out = par_map(&jobs, |&(order, style)| -> Result<EquationMapGlobal, furuta::Error> {
+        // The table order's graph map also gets the small-start switch (the fitted map's range,
+        // starts, horizon and escape rule).
+        type Job = (EquationMapGlobal, Option<(Result<MapSwitch, String>, f64)>);
+        let out = par_map(&jobs, |&(order, style)| -> Result<Job, furuta::Error> {
             let fam = EquationMapFamily::furuta_styled(&nodes, order, style)?;
-            Ok(equation_map_global(&fam, Interp::Spline, CONNECTION_RANGE_MS, &co, &torus_dts, [0.097, 0.0277], torus_periods))
+            let switch = || {
+                (order == EQUATION_ORDER && style == MapStyle::Graph).then(|| {
+                    let t0 = std::time::Instant::now();
+                    let sw = task("global/equation-map-switch", || {
+                        equation_map_switch(&fam, Interp::Spline, furuta::full_system::default_ics, crate::report::bifurcations::MAP_SWITCH_RANGE_MS, furuta::full_system::DEFAULT_SCAN_PERIODS)
+                    });
+                    (sw.map_err(|e| e.to_string()), t0.elapsed().as_secs_f64())
+                })
+            };
+            let (g, sw) = rayon::join(|| equation_map_global(&fam, Interp::Spline, CONNECTION_RANGE_MS, &co, &torus_dts, [0.097, 0.0277], torus_periods), switch);
+            Ok((g, sw))
         })?;
-        Ok((out, t0.elapsed().as_secs_f64()))
+        let switch = out.iter().find_map(|(_, sw)| sw.clone());
+        Ok((out.into_iter().map(|(g, _)| g).collect(), t0.elapsed().as_secs_f64(), switch))
     };
     let (((eq, basin), (models, torus)), (map, ((full_connection, full_connection_seconds), (map_variants, eq_map)))) = rayon::join(
         || {
@@ -212,7 +230,7 @@ fn compute(pm: &ParametricModel, sm: &SharedParametricModel, runs: &TrainingRuns
             )
         },
     );
-    let (eq_map, eq_map_seconds) = eq_map?;
+    let (eq_map, eq_map_seconds, eq_map_switch) = eq_map?;
     let (diag, by_order, eq_forms) = eq?;
     let (map_connection, map_torus, map_basin, map_seconds) = map?;
     Ok(Computed {
@@ -231,6 +249,7 @@ fn compute(pm: &ParametricModel, sm: &SharedParametricModel, runs: &TrainingRuns
         map_variants,
         eq_map,
         eq_map_seconds,
+        eq_map_switch,
     })
 }
 
@@ -383,6 +402,53 @@ fn value_spread(vals: &[Option<f64>]) -> Value {
     json!({"found": v.len(), "of": vals.len(), "min": lo, "max": hi, "spread_ms": hi - lo})
 }
 
+/// The equation-driven reduced map's small-start switch bracket as table text.
+fn eq_map_switch_text(c: &Computed) -> String {
+    match &c.eq_map_switch {
+        None => "not computed".into(),
+        Some((Err(e), _)) => e.clone(),
+        Some((Ok(sw), _)) => sw.bracket.map_or("none".into(), |(a, b)| format!("[{a:.3}, {b:.3}]")),
+    }
+}
+
+/// The equation-driven reduced map's small-start switch: a paragraph (how far from the full
+/// system's and the fitted map's) and the summary key `map_switch_dt_ms.equation_map`.
+fn eq_map_switch_part(rep: &mut Report, c: &Computed, nodes: &[f64]) {
+    let Some((sw, seconds)) = &c.eq_map_switch else { return };
+    let mid2 = |v: &Value| v.as_array().filter(|a| a.len() == 2).and_then(|a| Some(0.5 * (a[0].as_f64()? + a[1].as_f64()?)));
+    let ms = rep.summary.get("map_switch_dt_ms").cloned().unwrap_or(Value::Null);
+    let full = mid2(&ms["full_system"]);
+    let fitted = mid2(&ms["linear"]["bracket"]);
+    let scan_periods = rep.summary.get("heteroclinic_dt_ms").and_then(|h| h["scan_periods"].as_u64());
+    let (lo, hi, n, tol) = crate::report::bifurcations::MAP_SWITCH_RANGE_MS;
+    let own = sw.as_ref().ok().and_then(|s| s.bracket).map(|(a, b)| 0.5 * (a + b));
+    let gap = |a: Option<f64>, b: Option<f64>| a.zip(b).map_or("-".to_string(), |(a, b)| format!("{:+.3}", a - b));
+    rep.para(&format!(
+        "The equation-driven reduced map's small-start switch (order {EQUATION_ORDER}, spline in dt) uses the fitted map's \
+         rules: the full system's small mode-shaped starts (plant state and controller samples) projected onto its reduced \
+         coordinates (z = U^T s, the exact linear map's left eigenvectors, in which the graph-style manifold has U^T W(z) = z), \
+         theta read from W(z), {} periods, escape when |theta| exceeds {} rad, a grid of {n} dt over [{lo}, {hi}] ms, then \
+         bisected to {tol} ms ({:.1} s wall). Its bracket {} has its midpoint {} ms from the full system's bracket midpoint \
+         (the full system's scan: {} periods) and {} ms from the fitted map's (linear in dt).",
+        furuta::full_system::DEFAULT_SCAN_PERIODS,
+        furuta::full_system::ESCAPE_THETA,
+        seconds,
+        eq_map_switch_text(c),
+        gap(own, full),
+        scan_periods.map_or("unknown".to_string(), |p| p.to_string()),
+        gap(own, fitted),
+    ));
+    let v = match sw {
+        Ok(sw) => json!({"bracket": sw.bracket.map(|(a, b)| vec![a, b]), "grid": sw.grid.iter().map(|g| json!([g.0, g.1])).collect::<Vec<_>>(), "monotone": sw.monotone,
+                         "order": EQUATION_ORDER, "style": "graph", "interp": "spline", "nodes_ms": nodes,
+                         "start": "the full system's start (state and pre-history) in the period map's deflated coordinates s, projected to z = U^T s (exact linear map's left eigenvectors)"}),
+        Err(e) => json!({"error": e}),
+    };
+    if let Some(Value::Object(m)) = rep.summary.get_mut("map_switch_dt_ms") {
+        m.insert("equation_map".into(), v);
+    }
+}
+
 /// The fitted map's switch brackets (predictions section, `map_switch_dt_ms`) as table text.
 fn map_switch(v: Option<&Value>) -> String {
     let one = |k: &str| {
@@ -448,7 +514,7 @@ fn equation_section(rep: &mut Report, pm: &ParametricModel, sm: &SharedParametri
             "small-start switch, bounded -> escape [ms]".into(),
             map_switch(rep.summary.get("map_switch_dt_ms")),
             f4(het["model"].as_f64()),
-            "-".into(),
+            eq_map_switch_text(c),
             f4(eq_switch),
             format!("{} (all escape from {})", bracket(full_switch.as_ref()), f4(het["full_system_all_escape_from"].as_f64())),
         ],
@@ -500,6 +566,7 @@ fn equation_section(rep: &mut Report, pm: &ParametricModel, sm: &SharedParametri
         ],
         &rows,
     );
+    eq_map_switch_part(rep, c, &nodes);
     // The equation-driven model's values by order.
     let orow: Vec<Vec<String>> = c
         .by_order
