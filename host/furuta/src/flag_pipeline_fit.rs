@@ -356,6 +356,18 @@ pub const DIAGNOSIS: &[DiagRow] = &[
     ("d = 6 scan", "RBF 400 r=1e-8 d=6 p=13 ms h=2 stride 8 it 4", 1, FN, Some(1.223), Some(0.433), Some(3.51), Some(0.0209), ""),
     ("d = 6 scan", "RBF 400 r=1e-8 d=6 p=13 ms h=4 stride 8 it 4", 1, FN, Some(1.077), Some(0.958), Some(3.39), Some(0.0204), ""),
     ("d = 6 scan", "RBF 400 r=1e-8 d=6 p=13 ms h=8 stride 8 it 4", 1, FN, Some(1.140), Some(0.729), Some(3.27), Some(0.0228), ""),
+    // Seed 1 (its held-out piece: Rosenstein 0.382, D2 3.11 ± 0.19; the table's target
+    // columns read every row against seed 0's data).
+    ("d = 6 scan", "RBF 250 r=1e-8 d=6 p=13 seed 1", 1, FN, Some(0.000), Some(0.120), Some(0.89), Some(0.7077), ""),
+    ("d = 6 scan", "RBF 250 r=1e-8 d=6 p=13 ms h=4 stride 8 it 4 seed 1", 1, FN, Some(0.817), Some(0.580), Some(2.32), Some(0.0356), ""),
+    ("d = 6 scan", "RBF 150 r=1e-8 d=6 p=13 ms h=8 stride 8 it 4 seed 1", 1, FN, Some(0.682), Some(0.597), Some(2.52), Some(0.0395), ""),
+    // Seed 2 (held-out piece: Rosenstein 0.306, D2 3.08 ± 0.13).
+    ("d = 6 scan", "RBF 250 r=1e-8 d=6 p=13 seed 2", 1, FN, Some(0.000), Some(0.006), Some(1.03), Some(0.6440), ""),
+    ("d = 6 scan", "RBF 250 r=1e-8 d=6 p=13 ms h=4 stride 8 it 4 seed 2", 1, FN, Some(1.112), Some(0.353), Some(3.57), Some(0.0191), ""),
+    ("d = 6 scan", "RBF 150 r=1e-8 d=6 p=13 ms h=8 stride 8 it 4 seed 2", 1, FN, Some(0.816), Some(0.881), Some(3.04), Some(0.0802), ""),
+    // Noise-free data (the one-step rows are "(b) d = 6" above).
+    ("d = 6 scan", "RBF 250 r=1e-8 d=6 p=13 ms h=4 stride 8 it 4", 1, 0.0, Some(-0.000), None, Some(1.28), Some(0.7992), ""),
+    ("d = 6 scan", "RBF 150 r=1e-8 d=6 p=13 ms h=8 stride 8 it 4", 1, 0.0, Some(-0.000), Some(-0.002), Some(1.05), Some(0.6039), ""),
     // (c) the model class on the true state x1..x4 (no delays, no projection).
     ("(c) true state", "state RBF 200 r=3e-9", 1, 0.0, Some(0.866), Some(0.406), Some(2.06), Some(0.0060), ""),
     ("(c) true state", "state RBF 300 r=3e-9", 1, 0.0, Some(1.019), Some(0.395), Some(2.32), Some(0.0065), ""),
