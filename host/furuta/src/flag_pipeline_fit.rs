@@ -365,6 +365,8 @@ pub const DIAGNOSIS: &[DiagRow] = &[
     ("d = 6 scan", "RBF 250 r=1e-8 d=6 p=13 seed 2", 1, FN, Some(0.000), Some(0.006), Some(1.03), Some(0.6440), ""),
     ("d = 6 scan", "RBF 250 r=1e-8 d=6 p=13 ms h=4 stride 8 it 4 seed 2", 1, FN, Some(1.112), Some(0.353), Some(3.57), Some(0.0191), ""),
     ("d = 6 scan", "RBF 150 r=1e-8 d=6 p=13 ms h=8 stride 8 it 4 seed 2", 1, FN, Some(0.816), Some(0.881), Some(3.04), Some(0.0802), ""),
+    // Three times the data (the one-step rows are "(b) d = 6" above).
+    ("d = 6 scan", "RBF 250 r=1e-8 d=6 p=13 ms h=4 stride 8 it 4", 3, FN, Some(-0.000), Some(0.001), Some(1.06), Some(0.4670), ""),
     // Noise-free data (the one-step rows are "(b) d = 6" above).
     ("d = 6 scan", "RBF 250 r=1e-8 d=6 p=13 ms h=4 stride 8 it 4", 1, 0.0, Some(-0.000), None, Some(1.28), Some(0.7992), ""),
     ("d = 6 scan", "RBF 150 r=1e-8 d=6 p=13 ms h=8 stride 8 it 4", 1, 0.0, Some(-0.000), Some(-0.002), Some(1.05), Some(0.6039), ""),
