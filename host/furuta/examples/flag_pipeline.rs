@@ -11,7 +11,10 @@
 //!   substring of their names; `FLAG4_L96=n:f,n:f` scans those Lorenz-96 systems instead.
 //! - `fnn [ratio]`, `fnn-rule [csv]`: false nearest neighbours of the SSM projection and the
 //!   dimension rule (`furuta::flag_pipeline_fit`); `variants SCALE NOISE SPEC..` and `state SCALE
-//!   NOISE SPEC..`: the rows of `furuta::flag_pipeline_fit::DIAGNOSIS` (see `parse_spec`).
+//!   NOISE SPEC..`: the rows of `furuta::flag_pipeline_fit::DIAGNOSIS` (see `parse_spec`);
+//!   `FLAG4_SEEDS=0,1,2` runs `variants` on those realizations of the series
+//!   (`furuta::flag_pipeline::known_stats_seeded`; 0, the default, is the committed one). A row
+//!   marked `B10+JS` has Benettin within 10 % of the exact exponent and JS <= 0.01.
 //! - `check [scale]`: the flag's candidate search on the chosen system
 //!   ([`furuta::flag_pipeline::CHOSEN`]) with training data `scale` times the flag's (default
 //!   1; RBF sizes whose regression would exceed the design-matrix limit are left out); one
@@ -139,7 +142,7 @@ fn parse_spec(spec: &str, step: usize) -> Option<furuta::model_selection::Candid
 fn print_row(r: &furuta::flag_pipeline::PipelineRow, secs: f64) {
     let o = |v: Option<f64>, p: usize| v.map_or("-".to_string(), |v| format!("{v:.p$}"));
     println!(
-        "| {} | {} | {} | {} | {} | {} | {} | {} | {} | {:.0} |",
+        "| {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {:.0} |",
         r.candidate,
         r.scale,
         o(r.benettin, 3),
@@ -148,6 +151,8 @@ fn print_row(r: &furuta::flag_pipeline::PipelineRow, secs: f64) {
         o(r.corr_dim, 2),
         o(r.js, 4),
         r.passes.iter().map(|&p| if p { "y" } else { "n" }).collect::<String>(),
+        // Benettin within 10 % of the exact exponent and JS <= 0.01 (the scan's criterion).
+        if r.benettin_exact_ok && r.js.is_some_and(|j| j <= 0.01) { "B10+JS" } else { "-" },
         r.failed.as_deref().map_or("", |f| f.split(':').next().unwrap_or(f)),
         secs
     );
@@ -166,15 +171,19 @@ fn variants(args: &[String]) {
         eprintln!("bad candidate spec");
         return;
     };
-    let t0 = std::time::Instant::now();
-    match pipeline_check(&furuta::flag_pipeline::CHOSEN, &layout, scale, &cands, 4000.0) {
-        Ok((k, rows)) => {
-            println!("noise {noise}: data Rosenstein {:.3}, D2 {:.2} ± {:.2}, exact {:.3}", k.rosenstein, k.corr_dim, k.corr_dim_err, k.exact);
-            for r in &rows {
-                print_row(r, t0.elapsed().as_secs_f64());
+    // FLAG4_SEEDS=0,1,2: realizations of the series (`known_stats_seeded`; 0 = the committed one).
+    let seeds: Vec<u64> = std::env::var("FLAG4_SEEDS").ok().map_or(vec![0], |v| v.split(',').filter_map(|s| s.trim().parse().ok()).collect());
+    for seed in seeds {
+        let t0 = std::time::Instant::now();
+        match furuta::flag_pipeline::pipeline_check_seeded(&furuta::flag_pipeline::CHOSEN, &layout, scale, &cands, 4000.0, seed) {
+            Ok((k, rows)) => {
+                println!("seed {seed} noise {noise}: data Rosenstein {:.3}, D2 {:.2} ± {:.2}, exact {:.3}", k.rosenstein, k.corr_dim, k.corr_dim_err, k.exact);
+                for r in &rows {
+                    print_row(r, t0.elapsed().as_secs_f64());
+                }
             }
+            Err(e) => println!("seed {seed}: error: {e}"),
         }
-        Err(e) => println!("error: {e}"),
     }
 }
 

@@ -159,14 +159,25 @@ impl KnownSystem {
     /// the given lengths, each with white noise of `noise_rel` times its own sd (seeded by its
     /// index), named `name #i`.
     pub fn flag_like_series(&self, dt: f64, lengths: &[usize], noise_rel: f64) -> Result<Vec<TimeSeries>, Error> {
+        self.flag_like_series_seeded(dt, lengths, noise_rel, 0)
+    }
+
+    /// [`Self::flag_like_series`] for realization `seed` (0: that one exactly): the orbit's
+    /// transient is `5,000 + 7,919 seed` samples (another piece of the attractor) and the
+    /// noise seeds are offset by `1,000 seed`.
+    pub fn flag_like_series_seeded(&self, dt: f64, lengths: &[usize], noise_rel: f64, seed: u64) -> Result<Vec<TimeSeries>, Error> {
+        let extra = usize::try_from(seed).ok().and_then(|s| s.checked_mul(7_919)).filter(|&e| e <= 100_000_000).ok_or(Error::BadOption {
+            what: "flag-like series seed",
+            why: format!("seed {seed} would skip more than 1e8 samples"),
+        })?;
         if !(dt.is_finite() && dt > 0.0 && noise_rel.is_finite() && noise_rel >= 0.0) || lengths.iter().any(|&n| n < 2) {
             return Err(Error::BadOption { what: "flag-like series", why: format!("need dt > 0, noise >= 0 and >= 2 samples per series (got {dt}, {noise_rel}, {lengths:?})") });
         }
         let mut x = self.start();
         let mut out = Vec::with_capacity(lengths.len());
         for (i, &n) in lengths.iter().enumerate() {
-            let clean = self.orbit_from(&mut x, dt, if i == 0 { 5_000 } else { 1_000 }, n);
-            let y = if noise_rel > 0.0 { add_noise(&clean, noise_rel * sd(&clean), 31 + i as u64) } else { clean };
+            let clean = self.orbit_from(&mut x, dt, if i == 0 { 5_000 + extra } else { 1_000 }, n);
+            let y = if noise_rel > 0.0 { add_noise(&clean, noise_rel * sd(&clean), 31 + i as u64 + 1_000 * seed) } else { clean };
             out.push(TimeSeries::new(format!("{} #{i}", self.name()), (0..n).map(|k| k as f64 * dt).collect(), y)?);
         }
         Ok(out)
@@ -242,6 +253,12 @@ pub struct KnownStats {
 /// orbit's first piece, the same at every scale). `benettin_time` sets the exact
 /// exponent's length (s, after 5,000 full-rate steps).
 pub fn known_stats(sys: &KnownSystem, layout: &FlagLayout, scale: usize, benettin_time: f64) -> Result<(KnownStats, Vec<TimeSeries>), Error> {
+    known_stats_seeded(sys, layout, scale, benettin_time, 0)
+}
+
+/// [`known_stats`] on realization `seed` of the series ([`KnownSystem::flag_like_series_seeded`];
+/// 0: [`known_stats`] exactly). The exact exponent is the same for every seed.
+pub fn known_stats_seeded(sys: &KnownSystem, layout: &FlagLayout, scale: usize, benettin_time: f64, seed: u64) -> Result<(KnownStats, Vec<TimeSeries>), Error> {
     if scale == 0 {
         return Err(Error::BadOption { what: "scale", why: "the training-data scale must be >= 1".into() });
     }
@@ -253,7 +270,7 @@ pub fn known_stats(sys: &KnownSystem, layout: &FlagLayout, scale: usize, benetti
     let (exact, exact_err) = sys.exponent(dt, 5_000, steps as usize)?;
     // The held-out piece first, so that it is the same at every scale.
     let lengths = [layout.test, layout.train[0] * scale, layout.train[1] * scale];
-    let mut series = sys.flag_like_series(dt, &lengths, layout.noise_rel)?;
+    let mut series = sys.flag_like_series_seeded(dt, &lengths, layout.noise_rel, seed)?;
     series.rotate_left(1);
     let (ds, _) = data_stats(&series[2], layout.step, &EvalSettings::default())?;
     let stats = KnownStats {
@@ -420,7 +437,12 @@ pub struct Measured {
 /// flag's: the system's statistics and one row per candidate. Candidates and settings as in
 /// [`evaluate_and_select`] with the default settings (those used on the flag).
 pub fn pipeline_check(sys: &KnownSystem, layout: &FlagLayout, scale: usize, candidates: &[Candidate], benettin_time: f64) -> Result<(KnownStats, Vec<PipelineRow>), Error> {
-    let (stats, series) = known_stats(sys, layout, scale, benettin_time)?;
+    pipeline_check_seeded(sys, layout, scale, candidates, benettin_time, 0)
+}
+
+/// [`pipeline_check`] on realization `seed` of the series ([`known_stats_seeded`]).
+pub fn pipeline_check_seeded(sys: &KnownSystem, layout: &FlagLayout, scale: usize, candidates: &[Candidate], benettin_time: f64, seed: u64) -> Result<(KnownStats, Vec<PipelineRow>), Error> {
+    let (stats, series) = known_stats_seeded(sys, layout, scale, benettin_time, seed)?;
     let (results, _) = evaluate_and_select(&series[..2], &series[2], candidates, &EvalSettings::default(), &Targets::default())?;
     let rows = results.iter().map(|r| PipelineRow::new(r, scale, stats.exact)).collect();
     Ok((stats, rows))

@@ -116,6 +116,17 @@ fn flag_like_series_lengths_and_noise() {
     }
     // The pieces do not repeat each other.
     assert!((clean[0].x[0] - clean[1].x[0]).abs() > 1e-6);
+    // Seed 0 is the unseeded series exactly; seed 1 another orbit piece with other noise:
+    // its clean piece is the orbit 7,919 samples later, and its noise is not seed 0's.
+    let s0 = sys.flag_like_series_seeded(0.01, &[3000, 2000], 0.02, 0).unwrap();
+    assert!(s0.iter().zip(&noisy).all(|(a, b)| a.x == b.x));
+    let c1 = sys.flag_like_series_seeded(0.01, &[3000, 2000], 0.0, 1).unwrap();
+    let long = sys.flag_like_series(0.01, &[3000 + 7_919], 0.0).unwrap();
+    assert_eq!(c1[0].x[..], long[0].x[7_919..]);
+    let s1 = sys.flag_like_series_seeded(0.01, &[3000, 2000], 0.02, 1).unwrap();
+    let (e0, e1): (Vec<f64>, Vec<f64>) = (0..3000).map(|k| (noisy[0].x[k] - clean[0].x[k], s1[0].x[k] - c1[0].x[k])).unzip();
+    assert!(e0.iter().zip(&e1).any(|(a, b)| (a - b).abs() > 1e-9) && (sd(&e1) / sd(&c1[0].x) - 0.02).abs() < 0.001);
+    assert!(sys.flag_like_series_seeded(0.01, &[100], 0.0, u64::MAX).unwrap_err().to_string().contains("seed"));
 }
 
 /// Bad options are errors naming what is wrong.
