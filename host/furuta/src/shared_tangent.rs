@@ -27,7 +27,7 @@ use serde::{Deserialize, Serialize};
 
 use ssm::data::TimeSeries;
 use ssm::dynamics::ReducedDynamics;
-use ssm::fit::{Prediction, SsmModel, Stop, embed_training, fit_with_tangent_weighted};
+use ssm::fit::{Prediction, SsmModel, Stop, embed_training, fit_with_tangent_weights};
 use crate::parametric::{
     ExactModes, FurutaOptions, TrainingRuns, exact_modes, furuta_series_with_history, slow_mode_start, training_series,
     validate_options,
@@ -120,7 +120,7 @@ fn shared_parametric_on(opts: &FurutaOptions, series: Vec<Vec<TimeSeries>>) -> R
     let (v1, singular_values) = tangent_space(&pooled, opts.fit.dim)?;
     drop(pooled);
     let tasks: Vec<(&Vec<TimeSeries>, f64)> = series.iter().zip(opts.dts_ms.iter().copied()).collect();
-    let fits = crate::par_map(&tasks, |&(train, dt_ms)| Ok::<_, Error>((dt_ms, fit_with_tangent_weighted(train, &opts.fit, &v1, opts.map_weight.as_ref())?)))?;
+    let fits = crate::par_map(&tasks, |&(train, dt_ms)| Ok::<_, Error>((dt_ms, fit_with_tangent_weights(train, &opts.fit, &v1, opts.map_weight.as_ref(), opts.manifold_weight.as_ref())?)))?;
     let d = opts.fit.dim;
     let scale: Vec<f64> = (0..d).map(|j| fits.iter().map(|(_, m)| m.manifold.eta_scale[j]).fold(0.0, f64::max)).collect();
     let mut nodes = Vec::with_capacity(fits.len());
