@@ -1129,6 +1129,64 @@ mod tests {
     /// (issue 11: training runs cut at 0.3 instead of 0.2 rad), while the unweighted fit
     /// does; exact polynomial data are fitted exactly with or without weights; bad weights
     /// and unsupported combinations are errors naming the option.
+    /// The low-degree first stage ([`LowDegreeStage`]): its degrees are exactly those of a
+    /// fit weighted at the stage's own knee (bit for bit), the degrees above are refitted (they
+    /// differ from that fit's), the low degrees differ from the main knee's fit; bad settings
+    /// are refused. (Its benefit is measured on the Furuta data: `furuta::parametric::MAP_LOW_DEGREE`.)
+    #[test]
+    fn low_degree_stage_takes_the_low_degrees_from_the_small_amplitudes() {
+        // A damped rotation whose amplitude dependence has a degree-7 term, fitted at order 5
+        // (so every fit is biased, and differently by each weight).
+        let f = |x: [f64; 2], c7: f64| {
+            let r2 = x[0] * x[0] + x[1] * x[1];
+            let g = 0.995 - 0.3 * r2 + c7 * r2 * r2 * r2;
+            let (c, s) = (0.2f64.cos(), 0.2f64.sin());
+            [g * (c * x[0] - s * x[1]), g * (s * x[0] + c * x[1])]
+        };
+        let runs = |c7: f64| -> Vec<Mat<f64>> {
+            [0.02, 0.1, 0.3, 0.5, 0.7].iter().map(|&a: &f64| {
+                let mut x = [a, 0.0];
+                let mut rows = Vec::new();
+                for _ in 0..400 {
+                    rows.push(x);
+                    x = f(x, c7);
+                }
+                Mat::from_fn(400, 2, |i, j| rows[i][j])
+            }).collect()
+        };
+        let fit = |ms: &[Mat<f64>], order: u32, wt: &RowWeight| {
+            let t: Vec<EtaTrajectory> = ms.iter().map(|m| EtaTrajectory { eta: m.as_ref(), dt: 0.01 }).collect();
+            ReducedDynamics::fit_weighted(&t, Dynamics::Map, order, Ridge::Fixed(0.0), Some(0.05), false, Some(wt))
+        };
+        let coef = |d: &ReducedDynamics| match d {
+            ReducedDynamics::Map { increment, .. } => increment.coef.clone(),
+            _ => unreachable!("map dynamics"),
+        };
+        let main = RowWeight { knee: 0.6, power: 32.0, low_degrees: None };
+        let small = RowWeight { knee: 0.25, power: 32.0, low_degrees: None };
+        let staged = RowWeight { low_degrees: Some(LowDegreeStage { max_degree: 3, knee: 0.25, power: 32.0 }), ..main };
+        let data = runs(0.5);
+        let (a, b, c) = (coef(&fit(&data, 5, &staged).unwrap()), coef(&fit(&data, 5, &small).unwrap()), coef(&fit(&data, 5, &main).unwrap()));
+        // Degrees 1..=3 in 2 variables: 2 + 3 + 4 monomials, 2 outputs each.
+        let n_low = 2 * 9;
+        assert_eq!(a[..n_low], b[..n_low], "low degrees = the small-knee fit's");
+        let differs = a[n_low..].iter().zip(&b[n_low..]).map(|(u, v)| (u - v).abs()).fold(0.0, f64::max);
+        let from_main = a[..n_low].iter().zip(&c[..n_low]).map(|(u, v)| (u - v).abs()).fold(0.0, f64::max);
+        println!("degrees 4..5 staged vs small-knee fit: {differs:.1e}; degrees 2..3 staged vs main fit: {from_main:.1e}");
+        assert!(differs > 1e-6 && from_main > 1e-6, "{differs} {from_main}");
+        // Refused: without the plain anchor, max_degree below 2 or not below the order.
+        let t: Vec<EtaTrajectory> = data.iter().map(|m| EtaTrajectory { eta: m.as_ref(), dt: 0.01 }).collect();
+        let e = ReducedDynamics::fit_weighted(&t, Dynamics::Map, 5, Ridge::Fixed(0.0), None, false, Some(&staged)).unwrap_err();
+        assert!(matches!(e, FitError::BadOption { what: "row weight low-degree stage", .. }), "{e}");
+        for (deg, order) in [(1, 5), (5, 5), (3, 3)] {
+            let w = RowWeight { low_degrees: Some(LowDegreeStage { max_degree: deg, knee: 0.25, power: 32.0 }), ..main };
+            let e = fit(&data, order, &w).unwrap_err();
+            assert!(matches!(e, FitError::BadOption { what: "row weight low-degree stage", .. }), "{deg} {order}: {e}");
+        }
+        let w = RowWeight { low_degrees: Some(LowDegreeStage { max_degree: 3, knee: -1.0, power: 32.0 }), ..main };
+        assert!(matches!(fit(&data, 5, &w).unwrap_err(), FitError::BadOption { what: "row weight low-degree stage", .. }));
+    }
+
     #[test]
     fn row_weights_make_the_fit_independent_of_data_beyond_the_knee() {
         // The twist map scaled by 0.55 (not polynomial): inner runs from r <= 0.5, and an

@@ -451,4 +451,47 @@ mod tests {
         }
         assert!(m.constraint_defect() < 1e-13);
     }
+    /// [`Manifold::fit_with_tangent_weighted`]: `None` is the unweighted fit bit for bit; an
+    /// exact graph (degree 1 and 2 normal parts) is recovered with weights too; on a graph
+    /// the order does not reach the weights change the fit; the dynamics' low-degree stage
+    /// is refused.
+    #[test]
+    fn weighted_graph_over_a_given_tangent() {
+        let v1 = vec![1.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0];
+        let graph = |cubic: f64| {
+            let mut cols = Vec::new();
+            for i in -10..=10 {
+                for j in -10..=10 {
+                    let (e1, e2) = (0.05 * i as f64, 0.05 * j as f64);
+                    cols.push([e1, e2, 0.2 * e1 + 0.3 * e1 * e2 + cubic * e1.powi(3), -0.1 * e2 + e1 * e1]);
+                }
+            }
+            Mat::from_fn(4, cols.len(), |i, j| cols[j][i])
+        };
+        let wt = RowWeight { knee: 0.3, power: 8.0, low_degrees: None };
+        let exact = graph(0.0);
+        let a = Manifold::fit_with_tangent(std::slice::from_ref(&exact), &v1, 2, 2, Ridge::Fixed(0.0)).unwrap();
+        let b = Manifold::fit_with_tangent_weighted(std::slice::from_ref(&exact), &v1, 2, 2, Ridge::Fixed(0.0), None).unwrap();
+        assert_eq!(a.nonlinear.as_ref().unwrap().coef, b.nonlinear.as_ref().unwrap().coef);
+        let w = Manifold::fit_with_tangent_weighted(std::slice::from_ref(&exact), &v1, 2, 2, Ridge::Fixed(0.0), Some(&wt)).unwrap();
+        let (mut sc, mut out) = (PolyScratch::default(), vec![0.0; 4]);
+        for j in (0..exact.ncols()).step_by(13) {
+            let yj: Vec<f64> = (0..4).map(|i| exact[(i, j)]).collect();
+            w.lift_into(&w.reduce(&yj), &mut sc, &mut out);
+            for i in 0..4 {
+                assert!((out[i] - yj[i]).abs() < 1e-12, "point {j} coord {i}: {} vs {}", out[i], yj[i]);
+            }
+        }
+        assert!(w.conditioning.unwrap().rel_residual < 1e-12);
+        let off = graph(2.0);
+        let (u, v) = (
+            Manifold::fit_with_tangent(std::slice::from_ref(&off), &v1, 2, 2, Ridge::Fixed(0.0)).unwrap(),
+            Manifold::fit_with_tangent_weighted(std::slice::from_ref(&off), &v1, 2, 2, Ridge::Fixed(0.0), Some(&wt)).unwrap(),
+        );
+        let gap = u.nonlinear.unwrap().coef.iter().zip(&v.nonlinear.unwrap().coef).map(|(x, y)| (x - y).abs()).fold(0.0, f64::max);
+        assert!(gap > 1e-4, "weights changed nothing: {gap}");
+        let staged = RowWeight { low_degrees: Some(crate::dynamics::LowDegreeStage { max_degree: 3, knee: 0.1, power: 8.0 }), ..wt };
+        let e = Manifold::fit_with_tangent_weighted(std::slice::from_ref(&exact), &v1, 2, 2, Ridge::Fixed(0.0), Some(&staged)).unwrap_err();
+        assert!(matches!(e, FitError::BadOption { what: "manifold row weight", .. }), "{e}");
+    }
 }
