@@ -419,16 +419,16 @@ mod tests {
             }
         }
         // 5. The fitted map's own small-start switch (crate::bifurcations::map_small_start_switch,
-        //    linear interpolation; measured bracket [31.3594, 31.3625] ms, 8000 periods, against
-        //    the full system's [31.32, 31.34]; [31.2938, 31.2969] before the map's regression
-        //    was weighted, FurutaOptions::map_weight): direct runs of the map from the full
-        //    system's starts on both sides of it. At 31.35 ms every start stays bounded (max
-        //    |theta| 0.17-0.18 rad); at 31.4 ms (the switch scan's grid point after it) three
-        //    of the eight escape |theta| > 1 (at 31.37 ms none does: the switch is not monotone
-        //    on that scale, the heteroclinic region).
+        //    linear interpolation; measured bracket [31.2844, 31.2875] ms, 8000 periods, against
+        //    the full system's [31.32, 31.34]; [31.3594, 31.3625] before the map's low-degree
+        //    stage (FurutaOptions::map_weight, ssm::LowDegreeStage), [31.2938, 31.2969] before
+        //    the map's regression was weighted): direct runs of the map from the full system's
+        //    starts on both sides of it. At 31.25 ms (a bisection point below the bracket) every
+        //    start stays bounded; at 31.3 ms (the switch scan's grid point after it) one of the
+        //    eight escapes |theta| > 1 (at 31.35 ms one does too).
         use crate::bifurcations::map_outcome;
         use crate::full_system::{DEFAULT_SCAN_PERIODS, ESCAPE_THETA, default_ics};
-        for (dt, escapes) in [(31.35, false), (31.4, true)] {
+        for (dt, escapes) in [(31.25, false), (31.3, true)] {
             let m = pm.model_at(dt, Interp::Linear).unwrap();
             let outs: Vec<_> = default_ics(dt).unwrap().iter().map(|ic| map_outcome(&m, dt, ic, DEFAULT_SCAN_PERIODS, ESCAPE_THETA).unwrap()).collect();
             eprintln!("map at {dt} ms: {outs:?}");
