@@ -31,8 +31,12 @@
 //! * `eqbasis ORDER DT...`: the first-harmonic normal form of the equation-driven model's own
 //!   reduced map against its `Amplitude::Observable` coefficients.
 //! * `ratefun [VARIANT]`: their nonlinear amplitude rates at a few amplitude points.
-//! * `cuts [--conn] [--steps] [--spline] VARIANT...`: the fitted map's torus onset and loss
-//!   (and saddle connection) per training variant on shared training runs (issue 11's cut).
+//! * `cuts [--conn] [--steps] [--spline] [--cubic] [--notorus] VARIANT...`: the fitted map's
+//!   torus onset and loss (and saddle connection; its cubic terms on the first-harmonic basis
+//!   against the equation-driven ones) per training variant on shared training runs (issue
+//!   11's cut and cubic).
+//! * `fhmix CUT`: the fitted map's cubic with its manifold and/or its map refitted on runs cut
+//!   at CUT rad (which half bends `rho_1^3`).
 
 use furuta::convergence::furuta_convergence;
 use furuta::bifurcations::{model_row, sensitivity_variants};
@@ -108,7 +112,11 @@ fn cycles(args: &[String]) -> R {
 /// `_`, e.g. `cut_0.3_rad`) and modifiers joined by `+`: `slowsaddle` (slow-eigenvector
 /// starts 0.06-0.14 rad, inside the slow saddle cycle), `slowcycle` (0.12-0.135 rad, just inside it at 32.5 ms), `joint` (anchor_joint), `man5` (manifold order 5), `dyn5`,
 /// `dyn9` (dynamics order), `noweight` (the fitted map's regression unweighted), `knee=THETA`,
-/// `pow=P` (its row weight, see `furuta::parametric::map_row_weight`).
+/// `pow=P` (its row weight, see `furuta::parametric::map_row_weight`), `nolow` (the map
+/// without its low-degree first stage, the default before issue 11's cubic fix),
+/// `low=DEG:KNEE[:POWER]` (that stage's degrees and knee in rad of theta), `mknee=THETA` /
+/// `nomweight` (the shared model's manifold regression weighted at that knee / unweighted),
+/// `ridge=ALPHA` (a fixed relative ridge).
 fn variant(name: &str) -> Result<FurutaOptions, Box<dyn std::error::Error>> {
     let mut parts = name.split('+');
     let base = parts.next().unwrap_or("default");
@@ -127,6 +135,22 @@ fn variant(name: &str) -> Result<FurutaOptions, Box<dyn std::error::Error>> {
             "dyn9" => o.fit.dyn_order = 9,
             "noweight" => o.map_weight = None,
             "noanchor" => o.fit.linear_anchor = None,
+            x if x.starts_with("mknee=") => o.manifold_weight = Some(furuta::parametric::map_row_weight(x[6..].parse()?, o.fit.embed, furuta::parametric::MAP_WEIGHT_POWER)),
+            "nomweight" => o.manifold_weight = None,
+            "nolow" => {
+                if let Some(w) = o.map_weight.as_mut() {
+                    w.low_degrees = None;
+                }
+            }
+            x if x.starts_with("low=") => {
+                // low=DEG:KNEE_THETA[:POWER]: the map's low-degree first stage.
+                let v: Vec<&str> = x[4..].split(':').collect();
+                let knee = furuta::parametric::map_row_weight(v.get(1).ok_or("low=DEG:KNEE")?.parse()?, o.fit.embed, 32.0).knee;
+                let power = v.get(2).map_or(Ok(32.0), |p| p.parse())?;
+                let w = o.map_weight.get_or_insert(furuta::parametric::map_row_weight(furuta::parametric::MAP_WEIGHT_KNEE_THETA, o.fit.embed, furuta::parametric::MAP_WEIGHT_POWER));
+                w.low_degrees = Some(ssm::LowDegreeStage { max_degree: v[0].parse()?, knee, power });
+            }
+            x if x.starts_with("ridge=") => o.fit.ridge = ssm::ridge::Ridge::Fixed(x[6..].parse()?),
             "slowmid" => o.slow_starts.extend([(0.02, 0.4), (0.04, 1.3), (0.06, 2.2), (0.08, 3.1)]),
             x if x.starts_with("embed=") => o.fit.embed = x[6..].parse()?,
             x if x.starts_with("cut=") => o.max_theta = x[4..].parse()?,
@@ -136,7 +160,7 @@ fn variant(name: &str) -> Result<FurutaOptions, Box<dyn std::error::Error>> {
                 let v: f64 = x.split('=').nth(1).unwrap_or("").parse()?;
                 let w = o.map_weight.get_or_insert(furuta::parametric::map_row_weight(furuta::parametric::MAP_WEIGHT_KNEE_THETA, o.fit.embed, furuta::parametric::MAP_WEIGHT_POWER));
                 if x.starts_with("knee=") {
-                    *w = furuta::parametric::map_row_weight(v, o.fit.embed, w.power);
+                    *w = ssm::RowWeight { low_degrees: w.low_degrees, ..furuta::parametric::map_row_weight(v, o.fit.embed, w.power) };
                 } else {
                     w.power = v;
                 }
@@ -632,11 +656,13 @@ fn ratefun(args: &[String]) -> R {
 fn cuts(args: &[String]) -> R {
     use furuta::map_global::{ConnectionOptions, map_connection, map_torus_continuation};
     use furuta::parametric::TrainingRuns;
-    let (mut conn, mut steps, mut spline) = (false, false, false);
+    let (mut conn, mut steps, mut spline, mut cubic, mut notorus) = (false, false, false, false, false);
     let mut names = Vec::new();
     for a in args {
         match a.as_str() {
             "--conn" => conn = true,
+            "--cubic" => cubic = true,
+            "--notorus" => notorus = true,
             "--steps" => steps = true,
             "--spline" => spline = true,
             x => names.push(x.to_string()),
@@ -648,6 +674,9 @@ fn cuts(args: &[String]) -> R {
     let runs = TrainingRuns::simulate(&refs)?;
     println!("training runs: {:.1} s wall {:.1} s CPU", t0.elapsed().as_secs_f64(), cpu_s() - c0);
     let dts: Vec<f64> = (0..=14).map(|k| ((31.3 + 0.05 * k as f64) * 1e4).round() / 1e4).collect();
+    // The equation-driven order-7 normal forms at the training periods (cubic comparison).
+    let eq_dts = FurutaOptions::default().dts_ms;
+    let eqs: Vec<_> = if cubic { eq_dts.iter().map(|&dt| furuta::equation_ssm::furuta_equation_polar(dt, 7)).collect::<Result<_, _>>()? } else { Vec::new() };
     let interps: &[ssm::interp::Interp] = if spline { &[ssm::interp::Interp::Linear, ssm::interp::Interp::Spline] } else { &[ssm::interp::Interp::Linear] };
     for (name, o) in names.iter().zip(&opts) {
         let (t1, c1) = (std::time::Instant::now(), cpu_s());
@@ -659,6 +688,36 @@ fn cuts(args: &[String]) -> R {
             }
         };
         let fit_s = cpu_s() - c1;
+        if cubic {
+            // The fitted map's cubic terms on the first-harmonic basis at its nodes (the
+            // report's `first_harmonic_fitted_map` column), relative to the equation-driven ones.
+            use ssm::normal_form::{NormalFormOptions, model_normal_form_first_harmonic};
+            let mut worst: Vec<(String, f64)> = Vec::new();
+            let mut cells: Vec<String> = Vec::new();
+            for (dt, eq) in eq_dts.iter().zip(&eqs) {
+                if !o.dts_ms.contains(dt) {
+                    continue;
+                }
+                let f = model_normal_form_first_harmonic(&sm.model_at(*dt, ssm::interp::Interp::Linear)?, &NormalFormOptions::default())?;
+                let rows = furuta::equation_ssm::compare_forms(*dt, eq, &f);
+                let mut line = Vec::new();
+                for r in rows.iter().filter(|r| r.degree == 3) {
+                    let e = r.rel_diff.unwrap_or(f64::NAN);
+                    line.push(format!("{} {:+.1}", r.monomial, 100.0 * e));
+                    let k = format!("rho_{}' {}", r.mode, r.monomial);
+                    match worst.iter_mut().find(|w| w.0 == k) {
+                        Some(w) => w.1 = w.1.max(e.abs()),
+                        None => worst.push((k, e.abs())),
+                    }
+                }
+                cells.push(format!("{dt}: {}", line.join(", ")));
+            }
+            println!("{name:<40} cubic % | {}", cells.join(" | "));
+            println!("{name:<40} cubic max |rel| % {}", worst.iter().map(|w| format!("{} {:.1}", w.0, 100.0 * w.1)).collect::<Vec<_>>().join(", "));
+        }
+        if notorus {
+            continue;
+        }
         for &interp in interps {
             let c2 = cpu_s();
             let tc = map_torus_continuation(|dt| Ok(sm.model_at(dt, interp)?), &dts, [0.097, 0.0277], 16_000)?;
@@ -685,6 +744,47 @@ fn cuts(args: &[String]) -> R {
                     );
                 }
             }
+        }
+    }
+    Ok(())
+}
+
+/// `fhmix CUT`: which half of the fitted map's model bends its rho_1^3 on the first-harmonic
+/// basis: the default shared-tangent model at each node with (a) its manifold refitted over
+/// the same `V1` on the training runs cut at `CUT` rad, (b) its map refitted on them
+/// (weighted), (c) both; cubic terms relative to the equation-driven order-7 ones.
+fn fhmix(args: &[String]) -> R {
+    use furuta::parametric::TrainingRuns;
+    use ssm::fit::{embed_training, fit_with_tangent_weighted};
+    use ssm::manifold::Manifold;
+    use ssm::normal_form::{NormalFormOptions, model_normal_form_first_harmonic};
+    let cut: f64 = args.first().ok_or("fhmix CUT")?.parse()?;
+    let d = FurutaOptions::default();
+    let c = FurutaOptions { max_theta: cut, ..d.clone() };
+    let runs = TrainingRuns::simulate(&[&d, &c])?;
+    let sm = furuta::shared_tangent::shared_parametric_from(&d, &runs)?;
+    for &dt in &d.dts_ms {
+        let eq = furuta::equation_ssm::furuta_equation_polar(dt, 7)?;
+        let train = runs.series(&c, dt)?;
+        let (ys, _) = embed_training(&train, &c.fit)?;
+        let man = Manifold::fit_with_tangent(&ys, &sm.v1, 4, c.fit.manifold_order, c.fit.ridge)?;
+        let refit = fit_with_tangent_weighted(&train, &c.fit, &sm.v1, c.map_weight.as_ref())?;
+        let base = sm.model_at(dt, ssm::interp::Interp::Linear)?;
+        let mut a = base.clone();
+        a.manifold = man.clone();
+        let mut b = base.clone();
+        b.dynamics = refit.dynamics.clone();
+        let mut both = base.clone();
+        both.manifold = man;
+        both.dynamics = refit.dynamics;
+        for (name, m) in [("default", &base), ("manifold cut", &a), ("map cut", &b), ("both cut", &both)] {
+            let f = model_normal_form_first_harmonic(m, &NormalFormOptions::default())?;
+            let cells: Vec<String> = furuta::equation_ssm::compare_forms(dt, &eq, &f)
+                .iter()
+                .filter(|r| r.degree == 3)
+                .map(|r| format!("{} {:+.1} %", r.monomial, 100.0 * r.rel_diff.unwrap_or(f64::NAN)))
+                .collect();
+            println!("{dt} ms {name:<13} {}", cells.join(", "));
         }
     }
     Ok(())
@@ -734,6 +834,7 @@ fn main() -> R {
         Some("ratefun") => ratefun(&args[1..]),
         Some("cuts") => cuts(&args[1..]),
         Some("bands") => bands(&args[1..]),
+        Some("fhmix") => fhmix(&args[1..]),
         _ => Err("subcommands: convergence ORDER DT... | cycles MODE ORDER DT...".into()),
     }
 }

@@ -27,7 +27,7 @@ use serde::{Deserialize, Serialize};
 
 use ssm::data::TimeSeries;
 use ssm::dynamics::ReducedDynamics;
-use ssm::fit::{Prediction, SsmModel, Stop, embed_training, fit_with_tangent_weighted};
+use ssm::fit::{Prediction, SsmModel, Stop, embed_training, fit_with_tangent_weights};
 use crate::parametric::{
     ExactModes, FurutaOptions, TrainingRuns, exact_modes, furuta_series_with_history, slow_mode_start, training_series,
     validate_options,
@@ -120,7 +120,7 @@ fn shared_parametric_on(opts: &FurutaOptions, series: Vec<Vec<TimeSeries>>) -> R
     let (v1, singular_values) = tangent_space(&pooled, opts.fit.dim)?;
     drop(pooled);
     let tasks: Vec<(&Vec<TimeSeries>, f64)> = series.iter().zip(opts.dts_ms.iter().copied()).collect();
-    let fits = crate::par_map(&tasks, |&(train, dt_ms)| Ok::<_, Error>((dt_ms, fit_with_tangent_weighted(train, &opts.fit, &v1, opts.map_weight.as_ref())?)))?;
+    let fits = crate::par_map(&tasks, |&(train, dt_ms)| Ok::<_, Error>((dt_ms, fit_with_tangent_weights(train, &opts.fit, &v1, opts.map_weight.as_ref(), opts.manifold_weight.as_ref())?)))?;
     let d = opts.fit.dim;
     let scale: Vec<f64> = (0..d).map(|j| fits.iter().map(|(_, m)| m.manifold.eta_scale[j]).fold(0.0, f64::max)).collect();
     let mut nodes = Vec::with_capacity(fits.len());
@@ -399,16 +399,16 @@ mod tests {
             }
         }
         // 5. The fitted map's own small-start switch (crate::bifurcations::map_small_start_switch,
-        //    linear interpolation; measured bracket [31.3594, 31.3625] ms, 8000 periods, against
-        //    the full system's [31.32, 31.34]; [31.2938, 31.2969] before the map's regression
-        //    was weighted, FurutaOptions::map_weight): direct runs of the map from the full
-        //    system's starts on both sides of it. At 31.35 ms every start stays bounded (max
-        //    |theta| 0.17-0.18 rad); at 31.4 ms (the switch scan's grid point after it) three
-        //    of the eight escape |theta| > 1 (at 31.37 ms none does: the switch is not monotone
-        //    on that scale, the heteroclinic region).
+        //    linear interpolation; measured bracket [31.2844, 31.2875] ms, 8000 periods, against
+        //    the full system's [31.32, 31.34]; [31.3594, 31.3625] before the map's low-degree
+        //    stage (FurutaOptions::map_weight, ssm::LowDegreeStage), [31.2938, 31.2969] before
+        //    the map's regression was weighted): direct runs of the map from the full system's
+        //    starts on both sides of it. At 31.25 ms (a bisection point below the bracket) every
+        //    start stays bounded; at 31.3 ms (the switch scan's grid point after it) one of the
+        //    eight escapes |theta| > 1 (at 31.35 ms one does too).
         use crate::bifurcations::map_outcome;
         use crate::full_system::{DEFAULT_SCAN_PERIODS, ESCAPE_THETA, default_ics};
-        for (dt, escapes) in [(31.35, false), (31.4, true)] {
+        for (dt, escapes) in [(31.25, false), (31.3, true)] {
             let m = pm.model_at(dt, Interp::Linear).unwrap();
             let outs: Vec<_> = default_ics(dt).unwrap().iter().map(|ic| map_outcome(&m, dt, ic, DEFAULT_SCAN_PERIODS, ESCAPE_THETA).unwrap()).collect();
             eprintln!("map at {dt} ms: {outs:?}");

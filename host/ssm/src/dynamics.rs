@@ -349,6 +349,7 @@ fn poly_fit(
     anchor: Option<f64>,
     joint: bool,
     rows: Option<&[f64]>,
+    low: Option<(usize, &[f64])>,
     what: &'static str,
 ) -> Result<(Mat<f64>, Conditioning), FitError> {
     // A monomial's column depends on nothing else: parts of the matrix are its columns.
@@ -367,6 +368,14 @@ fn poly_fit(
         Some(f) => scale_rows(m, f),
         None => m,
     };
+    if let Some((n_low, f)) = low {
+        if rows.is_none() || anchor.is_none() || joint || n_low == 0 || n_low >= nm.saturating_sub(d) || f.len() != x.nrows() {
+            return Err(FitError::BadOption {
+                what: "row weight low-degree stage",
+                why: format!("needs row weights, the plain linear anchor and 2 <= max_degree < the order ({n_low} low monomials of {})", nm.saturating_sub(d)),
+            });
+        }
+    }
     let frac = match anchor {
         None if rows.is_none() => return ridge::fit_owned(design(exps), y, groups, ridge, what, || design(exps)),
         None => {
@@ -390,9 +399,25 @@ fn poly_fit(
     let (w_lin, _) = ridge::fit(a_lin.as_ref(), y_lin.as_ref(), &[0..rows.len()], Ridge::Fixed(0.0), "anchored linear part")?;
     let mut w = Mat::<f64>::zeros(nm, y.ncols());
     place_rows(&mut w, 0, w_lin.as_ref());
-    let resid = weigh(y - &a_l * &w_lin);
+    let resid = y - &a_l * &w_lin;
     drop(a_l);
-    let (w_nl, mut cond) = ridge::fit_owned(weigh(design(higher)), resid.as_ref(), groups, ridge, what, || weigh(design(higher)))?;
+    let (w_nl, mut cond) = match low {
+        None => ridge::fit_owned(weigh(design(higher)), weigh(resid).as_ref(), groups, ridge, what, || weigh(design(higher)))?,
+        Some((n_low, f)) => {
+            // Stage 1: every higher degree on the low-knee weights; keep the low degrees.
+            let (w1, _) = ridge::fit_owned(scale_rows(design(higher), f), scale_rows(resid.clone(), f).as_ref(), groups, ridge, what, || scale_rows(design(higher), f))?;
+            let (lo, hi) = higher.split_at(n_low);
+            let w_lo = w1.subrows(0, n_low).to_owned();
+            place_rows(&mut w, d, w_lo.as_ref());
+            // Stage 2: the degrees above on what the low ones leave, main weights.
+            let resid2 = resid - design(lo) * &w_lo;
+            let (w_hi, cond) = ridge::fit_owned(weigh(design(hi)), weigh(resid2).as_ref(), groups, ridge, what, || weigh(design(hi)))?;
+            let mut w_nl = Mat::<f64>::zeros(higher.len(), y.ncols());
+            place_rows(&mut w_nl, 0, w_lo.as_ref());
+            place_rows(&mut w_nl, n_low, w_hi.as_ref());
+            (w_nl, cond)
+        }
+    };
     place_rows(&mut w, d, w_nl.as_ref());
     // Residual relative to the whole target (not to the part left by the linear terms).
     let a = design(exps);
@@ -473,6 +498,28 @@ pub struct RowWeight {
     pub knee: f64,
     /// Steepness (>= 1).
     pub power: f64,
+    /// A first stage for the low degrees (polynomial dynamics with the plain linear anchor
+    /// only): see [`LowDegreeStage`]. `None` (and files written before the option): one
+    /// weighted fit of every degree above the linear one.
+    #[serde(default)]
+    pub low_degrees: Option<LowDegreeStage>,
+}
+
+/// The two-stage fit of a weighted polynomial regression's nonlinear degrees: first every
+/// degree `2..=K` on the pairs weighted by this stage's own (lower) knee, keeping only its
+/// degrees `2..=max_degree`; then the degrees above `max_degree` on what those leave, with
+/// the [`RowWeight`]'s own knee. The low degrees (which fix the normal form's cubic terms)
+/// then come from the small-amplitude data, where the order-K truncation does not bend
+/// them, and the high degrees still follow the data up to the main knee (the global
+/// bifurcations). The linear part stays the anchored one.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct LowDegreeStage {
+    /// Highest degree taken from the first stage (2 ..= K - 1).
+    pub max_degree: u32,
+    /// Knee of the first stage's weight (envelope of `||eta||`, > 0).
+    pub knee: f64,
+    /// Its steepness (1 ..= 64).
+    pub power: f64,
 }
 
 impl RowWeight {
@@ -483,6 +530,15 @@ impl RowWeight {
         }
         if !(self.power.is_finite() && (1.0..=64.0).contains(&self.power)) {
             return Err(FitError::BadOption { what: "row weight power", why: format!("must be in [1, 64], got {}", self.power) });
+        }
+        if let Some(st) = &self.low_degrees {
+            RowWeight { knee: st.knee, power: st.power, low_degrees: None }.validate().map_err(|e| match e {
+                FitError::BadOption { why, .. } => FitError::BadOption { what: "row weight low-degree stage", why },
+                e => e,
+            })?;
+            if st.max_degree < 2 {
+                return Err(FitError::BadOption { what: "row weight low-degree stage", why: format!("max_degree must be >= 2, got {}", st.max_degree) });
+            }
         }
         Ok(())
     }
@@ -495,8 +551,16 @@ impl RowWeight {
     }
 }
 
+/// The low-degree stage of `weight` (if any) on the pairs `x`: the number of monomials of
+/// degrees `2..=max_degree` in `d` variables and the stage's row factors.
+fn low_stage(weight: Option<&RowWeight>, x: MatRef<'_, f64>, groups: &[std::ops::Range<usize>], d: usize) -> Option<(usize, Vec<f64>)> {
+    let st = weight?.low_degrees?;
+    let n = poly::count(d, 2, st.max_degree).unwrap_or(usize::MAX);
+    Some((n, RowWeight { knee: st.knee, power: st.power, low_degrees: None }.row_factors(x, groups)))
+}
+
 /// `m` with row `i` multiplied by `f[i]`.
-fn scale_rows(mut m: Mat<f64>, f: &[f64]) -> Mat<f64> {
+pub(crate) fn scale_rows(mut m: Mat<f64>, f: &[f64]) -> Mat<f64> {
     for j in 0..m.ncols() {
         for (i, fi) in f.iter().enumerate().take(m.nrows()) {
             m[(i, j)] *= fi;
@@ -710,7 +774,9 @@ impl ReducedDynamics {
                 let _reserved = ridge::reserve(x.nrows().saturating_mul(nm).saturating_mul(2 * std::mem::size_of::<f64>()));
                 let exps = poly::exponents(d, 1, order);
                 let rows = weight.map(|wt| wt.row_factors(x.as_ref(), &groups));
-                let (w, conditioning) = poly_fit(x.as_ref(), &scale, &exps, y.as_ref(), &groups, ridge, anchor, joint, rows.as_deref(), "flow regression")?;
+                let low = low_stage(weight, x.as_ref(), &groups, d);
+                let (w, conditioning) =
+                    poly_fit(x.as_ref(), &scale, &exps, y.as_ref(), &groups, ridge, anchor, joint, rows.as_deref(), low.as_ref().map(|(n, f)| (*n, f.as_slice())), "flow regression")?;
                 Ok(ReducedDynamics::Flow { field: to_poly(&w, exps, scale), conditioning })
             }
             Dynamics::Map | Dynamics::Rbf { .. } | Dynamics::RbfWith { .. } => {
@@ -742,7 +808,9 @@ impl ReducedDynamics {
                 crate::limits::check_matrix("map regression", x.nrows(), nm, true)?;
                 let exps = poly::exponents(d, 1, order);
                 let rows = weight.map(|wt| wt.row_factors(x.as_ref(), &groups));
-                let (w, conditioning) = poly_fit(x.as_ref(), &scale, &exps, y.as_ref(), &groups, ridge, anchor, joint, rows.as_deref(), "map regression")?;
+                let low = low_stage(weight, x.as_ref(), &groups, d);
+                let (w, conditioning) =
+                    poly_fit(x.as_ref(), &scale, &exps, y.as_ref(), &groups, ridge, anchor, joint, rows.as_deref(), low.as_ref().map(|(n, f)| (*n, f.as_slice())), "map regression")?;
                 Ok(ReducedDynamics::Map { increment: to_poly(&w, exps, scale), dt, conditioning })
             }
         }
@@ -1061,6 +1129,64 @@ mod tests {
     /// (issue 11: training runs cut at 0.3 instead of 0.2 rad), while the unweighted fit
     /// does; exact polynomial data are fitted exactly with or without weights; bad weights
     /// and unsupported combinations are errors naming the option.
+    /// The low-degree first stage ([`LowDegreeStage`]): its degrees are exactly those of a
+    /// fit weighted at the stage's own knee (bit for bit), the degrees above are refitted (they
+    /// differ from that fit's), the low degrees differ from the main knee's fit; bad settings
+    /// are refused. (Its benefit is measured on the Furuta data: `furuta::parametric::MAP_LOW_DEGREE`.)
+    #[test]
+    fn low_degree_stage_takes_the_low_degrees_from_the_small_amplitudes() {
+        // A damped rotation whose amplitude dependence has a degree-7 term, fitted at order 5
+        // (so every fit is biased, and differently by each weight).
+        let f = |x: [f64; 2], c7: f64| {
+            let r2 = x[0] * x[0] + x[1] * x[1];
+            let g = 0.995 - 0.3 * r2 + c7 * r2 * r2 * r2;
+            let (c, s) = (0.2f64.cos(), 0.2f64.sin());
+            [g * (c * x[0] - s * x[1]), g * (s * x[0] + c * x[1])]
+        };
+        let runs = |c7: f64| -> Vec<Mat<f64>> {
+            [0.02, 0.1, 0.3, 0.5, 0.7].iter().map(|&a: &f64| {
+                let mut x = [a, 0.0];
+                let mut rows = Vec::new();
+                for _ in 0..400 {
+                    rows.push(x);
+                    x = f(x, c7);
+                }
+                Mat::from_fn(400, 2, |i, j| rows[i][j])
+            }).collect()
+        };
+        let fit = |ms: &[Mat<f64>], order: u32, wt: &RowWeight| {
+            let t: Vec<EtaTrajectory> = ms.iter().map(|m| EtaTrajectory { eta: m.as_ref(), dt: 0.01 }).collect();
+            ReducedDynamics::fit_weighted(&t, Dynamics::Map, order, Ridge::Fixed(0.0), Some(0.05), false, Some(wt))
+        };
+        let coef = |d: &ReducedDynamics| match d {
+            ReducedDynamics::Map { increment, .. } => increment.coef.clone(),
+            _ => unreachable!("map dynamics"),
+        };
+        let main = RowWeight { knee: 0.6, power: 32.0, low_degrees: None };
+        let small = RowWeight { knee: 0.25, power: 32.0, low_degrees: None };
+        let staged = RowWeight { low_degrees: Some(LowDegreeStage { max_degree: 3, knee: 0.25, power: 32.0 }), ..main };
+        let data = runs(0.5);
+        let (a, b, c) = (coef(&fit(&data, 5, &staged).unwrap()), coef(&fit(&data, 5, &small).unwrap()), coef(&fit(&data, 5, &main).unwrap()));
+        // Degrees 1..=3 in 2 variables: 2 + 3 + 4 monomials, 2 outputs each.
+        let n_low = 2 * 9;
+        assert_eq!(a[..n_low], b[..n_low], "low degrees = the small-knee fit's");
+        let differs = a[n_low..].iter().zip(&b[n_low..]).map(|(u, v)| (u - v).abs()).fold(0.0, f64::max);
+        let from_main = a[..n_low].iter().zip(&c[..n_low]).map(|(u, v)| (u - v).abs()).fold(0.0, f64::max);
+        println!("degrees 4..5 staged vs small-knee fit: {differs:.1e}; degrees 2..3 staged vs main fit: {from_main:.1e}");
+        assert!(differs > 1e-6 && from_main > 1e-6, "{differs} {from_main}");
+        // Refused: without the plain anchor, max_degree below 2 or not below the order.
+        let t: Vec<EtaTrajectory> = data.iter().map(|m| EtaTrajectory { eta: m.as_ref(), dt: 0.01 }).collect();
+        let e = ReducedDynamics::fit_weighted(&t, Dynamics::Map, 5, Ridge::Fixed(0.0), None, false, Some(&staged)).unwrap_err();
+        assert!(matches!(e, FitError::BadOption { what: "row weight low-degree stage", .. }), "{e}");
+        for (deg, order) in [(1, 5), (5, 5), (3, 3)] {
+            let w = RowWeight { low_degrees: Some(LowDegreeStage { max_degree: deg, knee: 0.25, power: 32.0 }), ..main };
+            let e = fit(&data, order, &w).unwrap_err();
+            assert!(matches!(e, FitError::BadOption { what: "row weight low-degree stage", .. }), "{deg} {order}: {e}");
+        }
+        let w = RowWeight { low_degrees: Some(LowDegreeStage { max_degree: 3, knee: -1.0, power: 32.0 }), ..main };
+        assert!(matches!(fit(&data, 5, &w).unwrap_err(), FitError::BadOption { what: "row weight low-degree stage", .. }));
+    }
+
     #[test]
     fn row_weights_make_the_fit_independent_of_data_beyond_the_knee() {
         // The twist map scaled by 0.55 (not polynomial): inner runs from r <= 0.5, and an
@@ -1094,7 +1220,7 @@ mod tests {
                 (u[0] - v[0]).abs().max((u[1] - v[1]).abs())
             }).fold(0.0, f64::max)
         };
-        let wt = RowWeight { knee: 0.6, power: 32.0 };
+        let wt = RowWeight { knee: 0.6, power: 32.0, low_degrees: None };
         let (g_w, g_u) = (gap(&fit(&inner, Some(&wt)), &fit(&with_outer, Some(&wt))), gap(&fit(&inner, None), &fit(&with_outer, None)));
         println!("one-step images inside r = 0.45, fits with vs without the outer run: weighted {g_w:.1e}, unweighted {g_u:.1e}");
         // Measured: weighted 6.9e-15, unweighted 0.20.
@@ -1113,7 +1239,7 @@ mod tests {
             }
             Mat::from_fn(200, 2, |i, j| rows[i][j])
         }).collect();
-        for w in [None, Some(&wt), Some(&RowWeight { knee: 0.2, power: 4.0 })] {
+        for w in [None, Some(&wt), Some(&RowWeight { knee: 0.2, power: 4.0, low_degrees: None })] {
             let d = fit(&runs, w);
             let err = [[0.2, 0.1], [-0.3, 0.2]].iter().map(|&x| {
                 let (u, v) = (image(&d, x), cubic(x));
@@ -1130,10 +1256,10 @@ mod tests {
         assert_eq!(aw.linear_part().unwrap(), a.linear_part().unwrap());
         // Errors.
         for (w, anchor, joint, kind, what) in [
-            (RowWeight { knee: 0.0, power: 8.0 }, None, false, Dynamics::Map, "row weight knee"),
-            (RowWeight { knee: f64::NAN, power: 8.0 }, None, false, Dynamics::Map, "row weight knee"),
-            (RowWeight { knee: 0.5, power: 0.5 }, None, false, Dynamics::Map, "row weight power"),
-            (RowWeight { knee: 0.5, power: 100.0 }, None, false, Dynamics::Map, "row weight power"),
+            (RowWeight { knee: 0.0, power: 8.0, low_degrees: None }, None, false, Dynamics::Map, "row weight knee"),
+            (RowWeight { knee: f64::NAN, power: 8.0, low_degrees: None }, None, false, Dynamics::Map, "row weight knee"),
+            (RowWeight { knee: 0.5, power: 0.5, low_degrees: None }, None, false, Dynamics::Map, "row weight power"),
+            (RowWeight { knee: 0.5, power: 100.0, low_degrees: None }, None, false, Dynamics::Map, "row weight power"),
             (wt, Some(0.05), true, Dynamics::Map, "row weights"),
             (wt, None, false, Dynamics::Rbf { centers: 10 }, "row weights"),
         ] {

@@ -285,14 +285,26 @@ pub fn fit_with_linear_normal(train: &[TimeSeries], opts: &FitOptions) -> Result
 /// `v1` share their reduced coordinates `eta = V1^T y`, so their coefficients can be
 /// compared and interpolated.
 pub fn fit_with_tangent(train: &[TimeSeries], opts: &FitOptions, v1: &[f64]) -> Result<SsmModel, FitError> {
-    fit_impl(&as_multi(train)?, opts, Tangent::Given(v1), None)
+    fit_impl(&as_multi(train)?, opts, Tangent::Given(v1, None), None)
 }
 
 /// [`fit_with_tangent`] with the reduced dynamics' regression rows weighted by `weight`
 /// ([`ReducedDynamics::fit_weighted`]; `None`: [`fit_with_tangent`]). The weight is training
 /// metadata: the model's `options` do not record it.
 pub fn fit_with_tangent_weighted(train: &[TimeSeries], opts: &FitOptions, v1: &[f64], weight: Option<&RowWeight>) -> Result<SsmModel, FitError> {
-    fit_impl(&as_multi(train)?, opts, Tangent::Given(v1), weight)
+    fit_with_tangent_weights(train, opts, v1, weight, None)
+}
+
+/// [`fit_with_tangent_weighted`] with the manifold's regression rows weighted too, by
+/// `manifold_weight` ([`Manifold::fit_with_tangent_weighted`]); `None` leaves it unweighted.
+pub fn fit_with_tangent_weights(
+    train: &[TimeSeries],
+    opts: &FitOptions,
+    v1: &[f64],
+    weight: Option<&RowWeight>,
+    manifold_weight: Option<&RowWeight>,
+) -> Result<SsmModel, FitError> {
+    fit_impl(&as_multi(train)?, opts, Tangent::Given(v1, manifold_weight), weight)
 }
 
 /// Delay embeddings (`p x M_i`) and sampling steps of validated training series.
@@ -329,8 +341,9 @@ enum Tangent<'a> {
     Own,
     /// The SVD of the training data, normal part of degrees 1..=K.
     OwnLinearNormal,
-    /// A given basis, normal part of degrees 1..=K ([`Manifold::fit_with_tangent`]).
-    Given(&'a [f64]),
+    /// A given basis, normal part of degrees 1..=K ([`Manifold::fit_with_tangent`]), its
+    /// rows weighted if a weight is given.
+    Given(&'a [f64], Option<&'a RowWeight>),
 }
 
 fn fit_impl(train: &[MultiSeries], opts: &FitOptions, tangent: Tangent<'_>, weight: Option<&RowWeight>) -> Result<SsmModel, FitError> {
@@ -338,7 +351,7 @@ fn fit_impl(train: &[MultiSeries], opts: &FitOptions, tangent: Tangent<'_>, weig
     let manifold = match tangent {
         Tangent::Own => Manifold::fit(&ys, opts.dim, opts.manifold_order, opts.ridge)?,
         Tangent::OwnLinearNormal => Manifold::fit_with_linear_normal(&ys, opts.dim, opts.manifold_order, opts.ridge)?,
-        Tangent::Given(v1) => Manifold::fit_with_tangent(&ys, v1, opts.dim, opts.manifold_order, opts.ridge)?,
+        Tangent::Given(v1, w) => Manifold::fit_with_tangent_weighted(&ys, v1, opts.dim, opts.manifold_order, opts.ridge, w)?,
     };
     let etas: Vec<_> = ys.iter().map(|y| manifold.reduce_points(y.as_ref())).collect();
     let trajs: Vec<EtaTrajectory> =

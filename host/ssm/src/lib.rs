@@ -46,7 +46,7 @@ pub mod spectrum;
 pub mod testing;
 
 pub use data::{DataError, MultiSeries, TimeSeries, load_csv, load_csv_column, load_csv_observables, load_mat};
-pub use dynamics::{Dynamics, Kernel, ReducedDynamics, RowWeight};
+pub use dynamics::{Dynamics, Kernel, LowDegreeStage, ReducedDynamics, RowWeight};
 pub use error::FitError;
 pub use fit::{FitOptions, MODEL_FORMAT, MODEL_FORMAT_VERSION, ModelFileError, Prediction, SsmModel, Stop, StopReason, fit, fit_multi};
 pub use ridge::{Conditioning, Ridge};

@@ -15,6 +15,7 @@
 use faer::{Mat, MatRef};
 use serde::{Deserialize, Serialize};
 
+use super::dynamics::RowWeight;
 use super::error::FitError;
 use super::poly::{self, Poly, PolyScratch};
 use super::ridge::{self, Conditioning, Ridge};
@@ -42,7 +43,7 @@ impl Manifold {
     /// Fits the manifold to embedded trajectories `ys` (each `p x M_i`).
     pub fn fit(ys: &[Mat<f64>], dim: usize, order: u32, ridge: Ridge) -> Result<Self, FitError> {
         let (v1, singular_values) = tangent_space(ys, dim)?;
-        Self::fit_on(ys, v1, singular_values, order, 2, ridge)
+        Self::fit_on(ys, v1, singular_values, order, 2, ridge, None)
     }
 
     /// [`Manifold::fit`] (tangent `V1` = this data's SVD) with a degree-1 normal part
@@ -56,7 +57,7 @@ impl Manifold {
     /// to `eta`.
     pub fn fit_with_linear_normal(ys: &[Mat<f64>], dim: usize, order: u32, ridge: Ridge) -> Result<Self, FitError> {
         let (v1, singular_values) = tangent_space(ys, dim)?;
-        Self::fit_on(ys, v1, singular_values, order, 1, ridge)
+        Self::fit_on(ys, v1, singular_values, order, 1, ridge, None)
     }
 
     /// Fits the manifold as a graph over a GIVEN tangent basis `v1` (`p x dim`,
@@ -66,6 +67,22 @@ impl Manifold {
     /// space of this data set, and the linear normal part `W_1 eta` (with `V1^T W_1 = 0`)
     /// absorbs the tilt. `singular_values` are those of this data set.
     pub fn fit_with_tangent(ys: &[Mat<f64>], v1: &[f64], dim: usize, order: u32, ridge: Ridge) -> Result<Self, FitError> {
+        Self::fit_with_tangent_weighted(ys, v1, dim, order, ridge, None)
+    }
+
+    /// [`Manifold::fit_with_tangent`] with the normal part's regression rows (the points)
+    /// weighted by `weight` ([`RowWeight`]: the envelope of `||eta||` over one oscillation of
+    /// the point's trajectory, as the reduced map's regression weighs its pairs). A smooth
+    /// amplitude cut for the graph's truncated polynomial: points far past the knee no longer
+    /// bend its low-degree terms. `None` is [`Manifold::fit_with_tangent`]. The conditioning's
+    /// residual is the unweighted one.
+    pub fn fit_with_tangent_weighted(ys: &[Mat<f64>], v1: &[f64], dim: usize, order: u32, ridge: Ridge, weight: Option<&RowWeight>) -> Result<Self, FitError> {
+        if let Some(wt) = weight {
+            wt.validate()?;
+            if wt.low_degrees.is_some() {
+                return Err(FitError::BadOption { what: "manifold row weight", why: "the low-degree stage applies to the dynamics regression only".into() });
+            }
+        }
         let p = ys.first().map(|y| y.nrows()).ok_or(FitError::NoTrainingData)?;
         if v1.len() != p * dim {
             return Err(FitError::BadOption { what: "v1", why: format!("need p x dim = {p} x {dim} entries, got {}", v1.len()) });
@@ -81,11 +98,12 @@ impl Manifold {
         }
         let all = stack_points(ys, p)?.0;
         let singular_values: Vec<f64> = all.singular_values().map_err(|_| FitError::Svd { what: "embedded data SVD" })?;
-        Self::fit_on(ys, v1.to_vec(), singular_values, order, 1, ridge)
+        Self::fit_on(ys, v1.to_vec(), singular_values, order, 1, ridge, weight)
     }
 
-    /// The graph fit over `v1`, normal-part degrees `min_deg..=order`.
-    fn fit_on(ys: &[Mat<f64>], v1: Vec<f64>, singular_values: Vec<f64>, order: u32, min_deg: u32, ridge: Ridge) -> Result<Self, FitError> {
+    /// The graph fit over `v1`, normal-part degrees `min_deg..=order`, rows weighted by
+    /// `weight` if given.
+    fn fit_on(ys: &[Mat<f64>], v1: Vec<f64>, singular_values: Vec<f64>, order: u32, min_deg: u32, ridge: Ridge, weight: Option<&RowWeight>) -> Result<Self, FitError> {
         let p = ys.first().map(|y| y.nrows()).ok_or(FitError::NoTrainingData)?;
         let dim = v1.len() / p;
         if dim == 0 || dim >= p {
@@ -114,7 +132,16 @@ impl Manifold {
             let resid = &all - &eta * v1m.transpose();
             let exps = poly::exponents(dim, min_deg, order);
             let design = design_matrix(eta.as_ref(), &m.eta_scale, &exps);
-            let (w, cond) = ridge::fit(design.as_ref(), resid.as_ref(), &groups, ridge, "manifold regression")?;
+            let (w, cond) = match weight {
+                None => ridge::fit(design.as_ref(), resid.as_ref(), &groups, ridge, "manifold regression")?,
+                Some(wt) => {
+                    let f = wt.row_factors(eta.as_ref(), &groups);
+                    let (a, b) = (super::dynamics::scale_rows(design.clone(), &f), super::dynamics::scale_rows(resid.clone(), &f));
+                    let (w, mut cond) = ridge::fit(a.as_ref(), b.as_ref(), &groups, ridge, "manifold regression")?;
+                    cond.rel_residual = ridge::rel_residual(design.as_ref(), resid.as_ref(), w.as_ref());
+                    (w, cond)
+                }
+            };
             let nm = exps.len();
             let mut coef = vec![0.0; nm * p];
             for k in 0..nm {
@@ -423,5 +450,48 @@ mod tests {
             }
         }
         assert!(m.constraint_defect() < 1e-13);
+    }
+    /// [`Manifold::fit_with_tangent_weighted`]: `None` is the unweighted fit bit for bit; an
+    /// exact graph (degree 1 and 2 normal parts) is recovered with weights too; on a graph
+    /// the order does not reach the weights change the fit; the dynamics' low-degree stage
+    /// is refused.
+    #[test]
+    fn weighted_graph_over_a_given_tangent() {
+        let v1 = vec![1.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0];
+        let graph = |cubic: f64| {
+            let mut cols = Vec::new();
+            for i in -10..=10 {
+                for j in -10..=10 {
+                    let (e1, e2) = (0.05 * i as f64, 0.05 * j as f64);
+                    cols.push([e1, e2, 0.2 * e1 + 0.3 * e1 * e2 + cubic * e1.powi(3), -0.1 * e2 + e1 * e1]);
+                }
+            }
+            Mat::from_fn(4, cols.len(), |i, j| cols[j][i])
+        };
+        let wt = RowWeight { knee: 0.3, power: 8.0, low_degrees: None };
+        let exact = graph(0.0);
+        let a = Manifold::fit_with_tangent(std::slice::from_ref(&exact), &v1, 2, 2, Ridge::Fixed(0.0)).unwrap();
+        let b = Manifold::fit_with_tangent_weighted(std::slice::from_ref(&exact), &v1, 2, 2, Ridge::Fixed(0.0), None).unwrap();
+        assert_eq!(a.nonlinear.as_ref().unwrap().coef, b.nonlinear.as_ref().unwrap().coef);
+        let w = Manifold::fit_with_tangent_weighted(std::slice::from_ref(&exact), &v1, 2, 2, Ridge::Fixed(0.0), Some(&wt)).unwrap();
+        let (mut sc, mut out) = (PolyScratch::default(), vec![0.0; 4]);
+        for j in (0..exact.ncols()).step_by(13) {
+            let yj: Vec<f64> = (0..4).map(|i| exact[(i, j)]).collect();
+            w.lift_into(&w.reduce(&yj), &mut sc, &mut out);
+            for i in 0..4 {
+                assert!((out[i] - yj[i]).abs() < 1e-12, "point {j} coord {i}: {} vs {}", out[i], yj[i]);
+            }
+        }
+        assert!(w.conditioning.unwrap().rel_residual < 1e-12);
+        let off = graph(2.0);
+        let (u, v) = (
+            Manifold::fit_with_tangent(std::slice::from_ref(&off), &v1, 2, 2, Ridge::Fixed(0.0)).unwrap(),
+            Manifold::fit_with_tangent_weighted(std::slice::from_ref(&off), &v1, 2, 2, Ridge::Fixed(0.0), Some(&wt)).unwrap(),
+        );
+        let gap = u.nonlinear.unwrap().coef.iter().zip(&v.nonlinear.unwrap().coef).map(|(x, y)| (x - y).abs()).fold(0.0, f64::max);
+        assert!(gap > 1e-4, "weights changed nothing: {gap}");
+        let staged = RowWeight { low_degrees: Some(crate::dynamics::LowDegreeStage { max_degree: 3, knee: 0.1, power: 8.0 }), ..wt };
+        let e = Manifold::fit_with_tangent_weighted(std::slice::from_ref(&exact), &v1, 2, 2, Ridge::Fixed(0.0), Some(&staged)).unwrap_err();
+        assert!(matches!(e, FitError::BadOption { what: "manifold row weight", .. }), "{e}");
     }
 }

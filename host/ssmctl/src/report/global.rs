@@ -337,7 +337,7 @@ fn map_variants_table(rep: &mut Report, c: &Computed) {
     rep.para(&format!(
         "The fitted map over the training variants of the sensitivity study: each variant's runs refitted into the \
          shared-tangent model (its regression rows weighted by the default's smooth amplitude cut, FurutaOptions::map_weight, \
-         so runs kept past the slow saddle cycle do not bend the map near the torus) and read by the same rules as the \
+         so runs kept past the slow saddle cycle do not bend the map near the torus, with its degrees 2-3 from a first fit at a 0.1 rad knee) and read by the same rules as the \
          default's (saddle connection by the pushed fast cycle; torus continuation, lost bracket and growth onset). Spread (max - min over the rows where found) of the \
          connection: {} ms linear, {} ms spline; of the torus growth onset: {} / {} ms; of the torus-loss bracket's \
          midpoint: {} / {} ms (rows without the value, e.g. a torus already lost at the grid's first dt, are left \
@@ -880,7 +880,12 @@ fn cubic_comparison(rep: &mut Report, pm: &ParametricModel, sm: &SharedParametri
          at every order): its value per period (relative difference to the equation-driven value) and whether every period \
          is within the target. On this basis both sides define rho the same way, so every coefficient compares. The last \
          column is the fitted map's (shared tangent, weighted regression, the model of the map-based results) normal form \
-         on the same basis at its node, relative difference to the equation-driven value per period.",
+         on the same basis at its node, relative difference to the equation-driven value per period. The fitted map's \
+         degrees 2-3 come from a first order-7 fit weighted with its knee at 0.1 rad of theta, its degrees 4-7 from the \
+         fit at 0.2 rad (ssm::LowDegreeStage, FurutaOptions::map_weight): with one fit at 0.2 rad the order-7 truncation \
+         bends the cubic terms with the data near the slow saddle cycle (0.14-0.18 rad), and rho_1^3 was -8 / -10 / -16 / \
+         -15 % off at 30.5 / 31 / 32 / 32.5 ms (map order 9 instead: -4 to -10 %, and no saddle connection found; the \
+         knee of the single fit at 0.12 rad: within 5.3 %, connection 0.08 ms early).",
         100.0 * CUBIC_TARGET,
         100.0 * CHART_ROBUST
     ));
