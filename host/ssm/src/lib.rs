@@ -44,6 +44,7 @@ pub mod portrait;
 pub mod ridge;
 pub mod spectrum;
 pub mod testing;
+pub mod weight;
 
 pub use data::{DataError, MultiSeries, TimeSeries, load_csv, load_csv_column, load_csv_observables, load_mat};
 pub use dynamics::{Dynamics, Kernel, LowDegreeStage, ReducedDynamics, RowWeight};

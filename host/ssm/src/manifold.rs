@@ -15,7 +15,7 @@
 use faer::{Mat, MatRef};
 use serde::{Deserialize, Serialize};
 
-use super::dynamics::RowWeight;
+use super::weight::{RowWeight, scale_rows};
 use super::error::FitError;
 use super::poly::{self, Poly, PolyScratch};
 use super::ridge::{self, Conditioning, Ridge};
@@ -136,7 +136,7 @@ impl Manifold {
                 None => ridge::fit(design.as_ref(), resid.as_ref(), &groups, ridge, "manifold regression")?,
                 Some(wt) => {
                     let f = wt.row_factors(eta.as_ref(), &groups);
-                    let (a, b) = (super::dynamics::scale_rows(design.clone(), &f), super::dynamics::scale_rows(resid.clone(), &f));
+                    let (a, b) = (scale_rows(design.clone(), &f), scale_rows(resid.clone(), &f));
                     let (w, mut cond) = ridge::fit(a.as_ref(), b.as_ref(), &groups, ridge, "manifold regression")?;
                     cond.rel_residual = ridge::rel_residual(design.as_ref(), resid.as_ref(), w.as_ref());
                     (w, cond)
@@ -490,7 +490,7 @@ mod tests {
         );
         let gap = u.nonlinear.unwrap().coef.iter().zip(&v.nonlinear.unwrap().coef).map(|(x, y)| (x - y).abs()).fold(0.0, f64::max);
         assert!(gap > 1e-4, "weights changed nothing: {gap}");
-        let staged = RowWeight { low_degrees: Some(crate::dynamics::LowDegreeStage { max_degree: 3, knee: 0.1, power: 8.0 }), ..wt };
+        let staged = RowWeight { low_degrees: Some(crate::weight::LowDegreeStage { max_degree: 3, knee: 0.1, power: 8.0 }), ..wt };
         let e = Manifold::fit_with_tangent_weighted(std::slice::from_ref(&exact), &v1, 2, 2, Ridge::Fixed(0.0), Some(&staged)).unwrap_err();
         assert!(matches!(e, FitError::BadOption { what: "manifold row weight", .. }), "{e}");
     }
