@@ -184,7 +184,7 @@ pub struct StartProjection {
 impl StartProjection {
     /// The projection of the paper's loop (the `furuta-dt30.5` scene) at `dt_ms`.
     pub fn furuta(dt_ms: f64) -> Result<StartProjection, Error> {
-        let scene = sim::scene::SceneBuilder::load("furuta-dt30.5")?.dt_ms(dt_ms).build()?;
+        let scene = crate::full_system::scene_at(dt_ms)?;
         let cfg = scene.controller_config();
         let lin = sim::stability::linear_plant(&scene)?;
         if lin.dim() != 4 || lin.primary() != 0 || lin.secondary() != 2 {

@@ -22,7 +22,7 @@ use std::time::Instant;
 use serde::{Deserialize, Serialize};
 use sim::closed_loop::{AnyPlant, build_plant};
 use sim::plant::Plant;
-use sim::scene::{Scene, SceneBuilder};
+use sim::scene::Scene;
 use sim::stability::dominant_pairs;
 use sim::taylor::{FlowOptions, PeriodMap, TaylorError, period_map};
 use ssm::map_ssm::{Amplitude, InvarianceError, MapSsm, MapSsmOptions, OrderStats, PolynomialMap, map_ssm};
@@ -140,7 +140,7 @@ type MapSlot = Arc<OnceLock<Option<Arc<PeriodMap>>>>;
 
 /// The `furuta-dt30.5` scene at `dt_ms`.
 fn furuta_scene(dt_ms: f64) -> Result<Scene, Error> {
-    Ok(SceneBuilder::load("furuta-dt30.5")?.dt_ms(dt_ms).build()?)
+    crate::full_system::scene_at(dt_ms)
 }
 
 /// [`scene_map_ssm`] of the paper's loop at `dt_ms`, the period map's expansion computed once

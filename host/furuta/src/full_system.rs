@@ -56,6 +56,11 @@ pub fn base_scene() -> Result<&'static Scene, Error> {
     Ok(BASE.get_or_init(|| s))
 }
 
+/// The full-system scene ([`base_scene`]) at `dt_ms`, everything else as bundled.
+pub fn scene_at(dt_ms: f64) -> Result<Scene, Error> {
+    Ok(base_scene()?.clone().builder().dt_ms(dt_ms).build()?)
+}
+
 /// The method of the report's basin, torus-continuation and connection runs: exprb-filtered
 /// at the scene's tolerances ([`verdict_integrator`]). Measured against RODAS4 at rtol 1e-13
 /// and against the scene's exprb-lean (`examples/fullsystem_integrators.rs`): on the full
