@@ -19,7 +19,7 @@ use nalgebra::Complex;
 use serde::{Deserialize, Serialize};
 use sim::closed_loop::{AnyPlant, build_plant};
 use sim::ode::Method;
-use sim::scene::{Scene, SceneBuilder};
+use sim::scene::Scene;
 use sim::taylor::{FlowOptions, PeriodMap};
 use ssm::map_ssm::{Amplitude, MapSsm, MapSsmOptions, map_ssm};
 
@@ -249,7 +249,7 @@ pub fn convergence(scene: &Scene, order: u32, radii: &[f64], phases: usize) -> R
 /// [`convergence`] of the paper's Furuta loop at `dt_ms` on [`CONVERGENCE_RADII`], 6 phases
 /// per excited mode (120 points per sphere).
 pub fn furuta_convergence(dt_ms: f64, order: u32) -> Result<Convergence, Error> {
-    let scene = SceneBuilder::load("furuta-dt30.5")?.dt_ms(dt_ms).build()?;
+    let scene = crate::full_system::scene_at(dt_ms)?;
     convergence(&scene, order, &CONVERGENCE_RADII, 6)
 }
 
@@ -286,7 +286,7 @@ mod tests {
     /// there is small; on the sphere of 0.18 rad (the slow saddle cycle) it does not fall.
     #[test]
     fn exact_invariance_falls_inside_and_not_at_the_saddle_cycle() {
-        let scene = SceneBuilder::load("furuta-dt30.5").unwrap().dt_ms(31.0).build().unwrap();
+        let scene = crate::full_system::scene_at(31.0).unwrap();
         let c = convergence(&scene, 7, &[0.05, 0.18], 4).unwrap();
         eprintln!("{}", c.to_text());
         assert_eq!(c.rows.len(), 6);

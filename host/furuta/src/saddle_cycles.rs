@@ -20,7 +20,7 @@
 
 use nalgebra::{Complex, DMatrix, DVector};
 use serde::{Deserialize, Serialize};
-use sim::scene::{Scene, SceneBuilder};
+use sim::scene::Scene;
 use ssm::map_ssm::{Amplitude, MapSsm, MapSsmOptions, map_ssm};
 use ssm::normal_form::PolarNormalForm;
 use ssm::portrait::{FixedPoint, PointKind, PortraitOptions, fixed_points};
@@ -301,7 +301,7 @@ pub fn saddle_cycles(dts_ms: &[f64], mode: usize, orders: &[u32], opts: &CircleO
     let mut out = Vec::new();
     let mut prev: Option<InvariantCircle> = None;
     for &dt in dts_ms {
-        let scene: Scene = SceneBuilder::load("furuta-dt30.5")?.dt_ms(dt).build()?;
+        let scene: Scene = crate::full_system::scene_at(dt)?;
         let ex = ExactMap::new(&scene, top)?;
         let map = polynomial_map(&ex.pm);
         let mut observable = vec![0.0; ex.dim()];
