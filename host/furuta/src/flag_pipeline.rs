@@ -504,7 +504,7 @@ pub type CommittedRow = (&'static str, usize, Option<f64>, Option<f64>, Option<f
 
 /// The flag's candidate search on [`CHOSEN`] (example `flag_pipeline check 1`, `check 3` and
 /// `check 10`): (candidate, training-data scale, Benettin [1/s], Rosenstein of the model
-/// series [1/s], D2, JS [bits], failure). At scale 3 and 10 only the RBF sizes whose
+/// series [1/s], D2, JS (bits), failure). At scale 3 and 10 only the RBF sizes whose
 /// regression stays within the design-matrix limit.
 pub const PIPELINE_CHECK: &[CommittedRow] = &[
     ("RBF 200 /4 r=3e-9", 1, None, None, None, None, "escaped in the long run"),

@@ -278,7 +278,7 @@ pub fn state_model_check(sys: &KnownSystem, layout: &FlagLayout, scale: usize, f
 }
 
 /// One committed diagnosis row: (what is varied, candidate, training data scale, noise over
-/// the sd, Benettin [1/s], Rosenstein of the model series [1/s], D2, JS [bits], failure).
+/// the sd, Benettin [1/s], Rosenstein of the model series [1/s], D2, JS (bits), failure).
 pub type DiagRow = (&'static str, &'static str, usize, f64, Option<f64>, Option<f64>, Option<f64>, Option<f64>, &'static str);
 
 /// The flag's noise level (0.32 % of the sd), as committed in [`DIAGNOSIS`].
@@ -414,7 +414,7 @@ pub fn d6_scan_counts(rows: &[(&'static str, f64, PipelineRow)], multistep: bool
 pub const FLAG_DATA: (f64, f64, f64) = (0.332, 3.36, 0.17);
 
 /// One committed flag row: (candidate, Benettin [1/s], Rosenstein of the model series [1/s],
-/// D2, JS [bits], failure).
+/// D2, JS (bits), failure).
 pub type FlagRow = (&'static str, Option<f64>, Option<f64>, Option<f64>, Option<f64>, &'static str);
 
 /// The flag's candidate search (example `explore_chaos flag-candidates`, train traj_9 +

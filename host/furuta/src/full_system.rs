@@ -6,7 +6,7 @@
 //!
 //! Owns only the measurement on full-system runs (the bundled `furuta-dt30.5` scene with
 //! `controller.dt_ms` overridden, simulated by [`sim::closed_loop::simulate`]); the reduced model
-//! and its portraits live in [`ssm::furuta`] and the report.
+//! and its portraits live in `ssm::furuta` and the report.
 //!
 //! Mode amplitudes follow the model's observable convention: `rho_j` is the amplitude of
 //! mode `j` in theta (rad); mode 1 = slow (about 0.44 Hz), mode 2 = fast (about 8.4 Hz).

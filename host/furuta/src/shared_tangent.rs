@@ -6,7 +6,7 @@
 //! SVD, so their coefficients live in different coordinates and cannot be mixed. Here all
 //! training periods share ONE tangent basis: `V1` from the SVD of the pooled embedded data
 //! of every training period. Each period is then fitted over that `V1`
-//! ([`fit_with_tangent`]: graph with a degree-1 normal part, since the shared `V1` is only
+//! ([`ssm::fit::fit_with_tangent`]: graph with a degree-1 normal part, since the shared `V1` is only
 //! close to each period's own tangent space), so `eta = V1^T y` means the same at every
 //! period. The reduced coordinates are a linear image of the SSM, so the map's linear part
 //! is still conjugate to the true one: its eigenvalues `ln|mu|/dt` must match

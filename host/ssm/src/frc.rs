@@ -50,7 +50,7 @@ use crate::fit::SsmModel;
 use crate::normal_form::{NormalFormError, NormalFormOptions, NormalFormTransform, PolarNormalForm, model_normal_form_with_transform};
 use crate::poly::PolyScratch;
 
-/// Largest number of points per frequency range of a curve ([`FrcOptions::points`]).
+/// Largest number of points per frequency range of a curve (the `points` of [`ForcedResponse::curve`]).
 pub const MAX_FRC_POINTS: usize = 100_000;
 
 /// Errors of the forced-response computation.

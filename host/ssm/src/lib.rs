@@ -4,7 +4,7 @@
 //! Pipeline: [`data`] (CSV and SSMLearn `.mat` loading through [`mat`], validation, time
 //! windows) -> [`embed`] (delay embedding, over-embedding of several observables) ->
 //! [`manifold`] (tangent space by SVD, constrained graph-style polynomial parametrization)
-//! -> [`dynamics`] (polynomial flow / polynomial map / linear-kernel RBF map) -> [`fit`]
+//! -> [`dynamics`] (polynomial flow / polynomial map / linear-kernel RBF map) -> [`fit`](mod@fit)
 //! (options, fitted model, prediction with blow-up detection); [`metrics`] holds NMTE,
 //! DTW-aligned NMTE and FFT amplitude spectra; [`spectrum`] sliding two-tone amplitudes and
 //! interpolated spectral peaks. Linear least squares go through [`ridge`]. On top of a fit:

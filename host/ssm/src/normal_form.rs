@@ -40,7 +40,7 @@
 //!   at linear order `x = sum_j rho_j cos(theta_j)`: `rho_j` is the amplitude of mode `j` in
 //!   the observable's units. This is independent of the embedding (`p`, shift) and of `V1`'s
 //!   orientation, so coefficients are comparable across fits and sampling periods. It is the
-//!   convention of [`SsmModel`](super::SsmModel)-based calls.
+//!   convention of [`SsmModel`]-based calls.
 //! * `UnitEigenvectors`: `|w_j|_2 = 1` in reduced coordinates `eta` (MATLAB-`eig`-like;
 //!   depends on the embedding).
 

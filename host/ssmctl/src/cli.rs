@@ -56,7 +56,7 @@ pub enum Cmd {
         #[arg(long)]
         json: bool,
     },
-    /// Simulate a scene's closed loop; writes DIR/<scene>.csv and DIR/<scene>.json.
+    /// Simulate a scene's closed loop; writes `DIR/<scene>.csv` and `DIR/<scene>.json`.
     Simulate {
         #[command(flatten)]
         scene: SceneArgs,
@@ -129,7 +129,7 @@ pub enum Cmd {
         force: bool,
     },
     /// Merge a folder of sweep shard files: checks every cell is there once, from one spec;
-    /// writes OUT/<name>.json, OUT/<name>.csv and the figure OUT/<name>.png.
+    /// writes `OUT/<name>.json`, `OUT/<name>.csv` and the figure `OUT/<name>.png`.
     SweepMerge {
         /// Folder of shard-*.json files.
         dir: PathBuf,

@@ -29,7 +29,7 @@
 //!   model, periods: `cache.rs`) is reused and says so; `--fresh` redoes it.
 //! - `python-test`: the Python module (`host/python`) built into a venv (`target/pyvenv`,
 //!   made and given maturin, pytest and numpy when missing) and its pytest tests (`python.rs`).
-//! - `test`: install + `cargo test --workspace` + clippy lint policy + python-test + qemu-test
+//! - `test`: install + `cargo test --workspace` + clippy lint policy + doc links + python-test + qemu-test
 //!   + device-table (counted as one on-target test, see `device_table::check`) + a
 //!   2,000-period PIL run (one more) + the STM32F407 image's on-target suite on
 //!   `netduinoplus2` + a 500-period PIL run of the STM32F407 image there, over USART1 (one
@@ -825,6 +825,19 @@ fn clippy_lints() -> Result<()> {
     Ok(())
 }
 
+/// The API documentation builds without a warning (broken or ambiguous intra-doc links,
+/// stray HTML in doc comments) for the crates a user reads: the library crates and `ssmctl`.
+fn doc_links() -> Result<()> {
+    let mut c = cmd("cargo");
+    c.current_dir(root()).env("RUSTDOCFLAGS", "-D warnings").args(["doc", "-q", "--no-deps"]);
+    for p in LINTED_CRATES.iter().chain(&["ssmctl"]) {
+        c.args(["-p", p]);
+    }
+    run(&mut c).map_err(|e| format!("cargo doc (-D warnings) of {}, ssmctl: {e}", LINTED_CRATES.join(", ")))?;
+    println!("doc: the API documentation of {}, ssmctl builds without warnings", LINTED_CRATES.join(", "));
+    Ok(())
+}
+
 /// Library crates under the clippy policy of [`clippy_lints`].
 const LINTED_CRATES: [&str; 6] = ["shared", "controller", "sim", "ssm", "chaos", "furuta"];
 
@@ -834,6 +847,7 @@ fn test_all() -> Result<()> {
     host.current_dir(root()).args(["test", "--workspace"]);
     let host_result = run(&mut host);
     let lints = clippy_lints();
+    let docs = doc_links();
     let python_result = python::python_test();
     let target = qemu_test(Board::Mps2An386);
     // The STM32F407 image (the one flashed to a board) runs the same suite in QEMU's
@@ -886,6 +900,7 @@ fn test_all() -> Result<()> {
     }
     host_result?;
     lints?;
+    docs?;
     python_result.map_err(|e| format!("python-test: {e}"))?;
     slurm?;
     target?;

@@ -3,7 +3,7 @@
 //! 2nd ed., Springer 1996, section IV.7).
 //!
 //! Coefficients: Hairer's `rodas.f`, subroutine `ROCOE`/`RODAS4` with `METH = 1`
-//! (http://www.unige.ch/~hairer/prog/stiff/rodas.f); the same set is transcribed in
+//! (<http://www.unige.ch/~hairer/prog/stiff/rodas.f>); the same set is transcribed in
 //! SciML OrdinaryDiffEq.jl, `src/tableaus/rosenbrock_tableaus.jl`, `Rodas4Tableau`. Only the
 //! autonomous form is needed (the input is held constant over a step), so the `c_i`, `d_i`
 //! and the dense-output coefficients are not used.

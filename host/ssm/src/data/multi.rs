@@ -1,5 +1,5 @@
 //! Several observables per trajectory ([`MultiSeries`]): CSV files with more than one
-//! observable column, SSMLearn `.mat` trajectories (see [`super::mat`]), time windows
+//! observable column, SSMLearn `.mat` trajectories (see [`crate::mat`]), time windows
 //! (SSMLearn's `sliceTrajectories`) and the check that every trajectory of a set has the
 //! same observables.
 //!

@@ -127,7 +127,7 @@ fn draw_panel<DB: DrawingBackend>(
     Ok(())
 }
 
-/// What [`stability_chart`] returns.
+/// What [`chart_for_scene`] returns.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct ChartSummary {
     pub png: PathBuf,

@@ -91,7 +91,7 @@ pub fn run(out: &Path, data_dir: &Path, quick: bool, quiet: bool) -> Result<(), 
 pub const REGRESSION_MEMORY_MB: usize = 320;
 
 /// Allocations from this size (bytes) up get pages of their own from the system, which go
-/// back to it when they are freed (see [`fixed_mmap_threshold`]).
+/// back to it when they are freed (see `fixed_mmap_threshold`).
 pub const MMAP_THRESHOLD_BYTES: usize = 1 << 20;
 
 /// Gives every allocation of at least `bytes` its own mapping (glibc's `M_MMAP_THRESHOLD`),
