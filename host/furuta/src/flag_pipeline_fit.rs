@@ -128,6 +128,7 @@ pub fn variant(step: usize, centers: usize, ridge: f64, dim: usize, embed: usize
         smooth: 0,
         multistep,
         denoise_inputs: denoise,
+        centres: Default::default(),
     }
 }
 
