@@ -152,7 +152,8 @@ fn explore_flag_embedding() {
 /// (`dyn=poly` for the polynomial map), `o` map order, `sm` moving-average half-width of the
 /// training data, `eiv` moving-average half-width of the map inputs only (errors-in-variables
 /// refit: denoised inputs, raw targets), `ms` multi-step refinement horizon (map steps; `msit` LM iterations per
-/// stage, default 6; `msst` window stride, default 1), `r` ridge, `m` manifold order, `long`
+/// stage, default 6; `msst` window stride, default 1), `cs` RBF centre choice
+/// (`ssm::dynamics::CentreChoice::parse`: `random@SEED`, `kmeans++@SEED`, ...), `r` ridge, `m` manifold order, `long`
 /// long-run length in data lengths. One line per candidate (a markdown table row), then the
 /// selection.
 fn explore_flag_candidates() {
@@ -169,6 +170,7 @@ fn explore_flag_candidates() {
         let mut smooth = 0;
         let mut denoise_inputs = 0;
         let mut kernel = ssm::Kernel::Linear;
+        let mut centres = ssm::dynamics::CentreChoice::Farthest;
         let mut multistep: Option<ssm::multistep::MultiStep> = None;
         let ms = |m: Option<ssm::multistep::MultiStep>| m.unwrap_or(ssm::multistep::MultiStep { horizon: 8, stride: 1, iterations: 6 });
         for kv in cfg.trim().split(',') {
@@ -179,6 +181,7 @@ fn explore_flag_candidates() {
                 "sm" => smooth = v.parse().unwrap(),
                 "eiv" => denoise_inputs = v.parse().unwrap(),
                 "kern" => kernel = ssm::Kernel::parse(v).unwrap(),
+                "cs" => centres = ssm::dynamics::CentreChoice::parse(v).unwrap(),
                 "ms" => multistep = Some(ssm::multistep::MultiStep { horizon: v.parse().unwrap(), ..ms(multistep) }),
                 "msit" => multistep = Some(ssm::multistep::MultiStep { iterations: v.parse().unwrap(), ..ms(multistep) }),
                 "msst" => multistep = Some(ssm::multistep::MultiStep { stride: v.parse().unwrap(), ..ms(multistep) }),
@@ -196,7 +199,7 @@ fn explore_flag_candidates() {
             (false, ssm::Kernel::Linear) => Dynamics::Rbf { centers: o.centers },
             (false, kernel) => Dynamics::RbfWith { centers: o.centers, kernel },
         };
-        cands.push(Candidate { name: cfg.trim().to_string(), step: k, fit: f, smooth, multistep, denoise_inputs });
+        cands.push(Candidate { name: cfg.trim().to_string(), step: k, fit: f, smooth, multistep, denoise_inputs, centres });
     }
     let t0 = Instant::now();
     let (res, sel) = evaluate_and_select(&two, &test, &cands, &s, &Targets::default()).unwrap();

@@ -20,6 +20,9 @@
 //!   1; RBF sizes whose regression would exceed the design-matrix limit are left out); one
 //!   row per candidate. The rows of `furuta::flag_pipeline::PIPELINE_CHECK`
 //!   come from `check 1`, `check 3` and `check 10`.
+//! - `flag SPEC..`: the specs on the inverted flag itself (train traj_9 + traj_7, held out
+//!   traj_8, map step 4) with the Kaplan-Yorke dimension of each model and D2 of its series
+//!   with the data's noise added; the rows of `furuta::flag_pipeline_fit::FLAG_CENTRES`.
 
 use furuta::flag_pipeline::{FLAG_LAYOUT, FLAG_LIKE_RBF, KnownSystem, flag_like_candidates, known_stats, pipeline_check};
 
@@ -117,10 +120,17 @@ fn check(scale: usize) {
 
 /// A candidate spec: tokens separated by spaces: `cN` RBF centres (`c0`: polynomial map of
 /// order 4), `rX` ridge, `dN` SSM dimension, `pN` embedding, `sN` shift, `hN` multistep
-/// horizon (with `tN` window stride, `iN` LM iterations per stage), `wN` denoised inputs.
+/// horizon (with `tN` window stride, `iN` LM iterations per stage), `wN` denoised inputs,
+/// `gCHOICE` the RBF centre choice (`ssm::dynamics::CentreChoice::parse`: `grandom@3`,
+/// `gkmeans++@1`, `gkmeans10@2`, `gfarthest@5`).
 fn parse_spec(spec: &str, step: usize) -> Option<furuta::model_selection::Candidate> {
     let (mut c, mut r, mut d, mut p, mut s, mut h, mut t, mut it, mut w) = (200usize, 3e-9, 4usize, 9usize, 1usize, 0usize, 4usize, 10usize, 0usize);
+    let mut centres = ssm::dynamics::CentreChoice::Farthest;
     for tok in spec.split_whitespace() {
+        if let Some(g) = tok.strip_prefix('g') {
+            centres = ssm::dynamics::CentreChoice::parse(g).ok()?;
+            continue;
+        }
         let (k, v) = tok.split_at(1);
         match k {
             "c" => c = v.parse().ok()?,
@@ -136,7 +146,114 @@ fn parse_spec(spec: &str, step: usize) -> Option<furuta::model_selection::Candid
         }
     }
     let ms = (h > 0).then_some(ssm::multistep::MultiStep { horizon: h, stride: t, iterations: it });
-    Some(furuta::flag_pipeline_fit::variant(step, c, r, d, p, s, ms, w))
+    let mut cand = furuta::flag_pipeline_fit::variant(step, c, r, d, p, s, ms, w);
+    if centres != ssm::dynamics::CentreChoice::Farthest {
+        cand.name += &format!(" centres {}", centres.name());
+        cand.centres = centres;
+    }
+    Some(cand)
+}
+
+/// `flag SPEC..`: the candidates (specs of [`parse_spec`], map step 4) on the inverted flag
+/// itself (train traj_9 + traj_7, held out traj_8), with diagnostics of the dimension: per
+/// row Benettin, Rosenstein, D2, JS, the Kaplan-Yorke dimension of the model's Lyapunov
+/// spectrum, and D2 of the model series with white noise of the data's level added
+/// (`noisy D2`); first the data's D2 raw and after 3- and 5-point moving averages.
+/// `FLAG12_QUIET_DATA=1` skips the data lines.
+fn flag_rows(specs: &[String]) {
+    use furuta::model_selection::{EvalSettings, add_noise, data_stats, evaluate_candidate_fitted, moving_average};
+    let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared/data/inverted_flag_chaotic");
+    let load = |k: usize| ssm::load_csv(dir.join(format!("traj_{k}.csv")));
+    let (Ok(a), Ok(b), Ok(test)) = (load(9), load(7), load(8)) else {
+        return println!("SKIP: inverted-flag data not found under {}", dir.display());
+    };
+    let train = [a, b];
+    let s = EvalSettings::default();
+    let t0 = std::time::Instant::now();
+    let data = match data_stats(&test, 4, &s) {
+        Ok(d) => d,
+        Err(e) => return println!("data: error: {e}"),
+    };
+    let (ds, ctx) = &data;
+    let d2 = |x: &[f64]| {
+        chaos::delay_embed(x, ctx.embed, ctx.lag)
+            .and_then(|p| chaos::correlation_dimension(&p, &chaos::CorrSumParams { theiler: ctx.theiler, ..Default::default() }, &chaos::ScalingRule::default()))
+            .map(|c| (c.dimension, c.slope_std))
+            .ok()
+    };
+    let o2 = |v: Option<(f64, f64)>| v.map_or("-".to_string(), |(a, b)| format!("{a:.2} ± {b:.2}"));
+    println!("data (traj_8 /4): Rosenstein {:.3}, D2 {:.2} ± {:.2}, noise sd {:.5} (lag {}, Theiler {}, embed {}; {:.1} s)", ds.lle, ds.corr_dim, ds.corr_dim_err, ds.noise_sd, ctx.lag, ctx.theiler, ctx.embed, t0.elapsed().as_secs_f64());
+    if std::env::var("FLAG12_QUIET_DATA").is_err() {
+        let x4 = |ts: &ssm::TimeSeries| furuta::model_selection::subsample(ts, 4, 0).map(|t| t.x).unwrap_or_default();
+        for w in [1, 2] {
+            if let Ok(sm) = moving_average(&test, w) {
+                println!("data smoothed ({} points, full rate): D2 {}", 2 * w + 1, o2(d2(&x4(&sm))));
+            }
+        }
+        // The data's noise added to the data again: how much D2 moves with the noise.
+        let x = x4(&test);
+        println!("data + its noise level again: D2 {}", o2(d2(&add_noise(&x, ds.noise_sd, 7))));
+        // Every run of the flag at step 4 through the same estimator (traj_8's lag, Theiler
+        // window and embedding): the spread of D2 over runs of the same system.
+        let runs: Vec<String> = (0..10).map(|k| load(k).map_or("-".to_string(), |ts| format!("traj_{k} {}", o2(d2(&x4(&ts)))))).collect();
+        println!("D2 of every run: {}", runs.join("; "));
+    }
+    println!("| candidate | Benettin | Rosenstein | D2 | JS | KY dim | spectrum | noisy D2 | D2 of 5 pieces of the long run | targets B/R/D2/JS | failed | s |");
+    println!("|---|---|---|---|---|---|---|---|---|---|---|---|");
+    let targets = furuta::model_selection::Targets::default();
+    for spec in specs {
+        let Some(c) = parse_spec(spec, 4) else {
+            println!("bad spec `{spec}`");
+            continue;
+        };
+        let t1 = std::time::Instant::now();
+        let (r, m) = match evaluate_candidate_fitted(&train, &test, &c, &data, &s) {
+            Ok(v) => v,
+            Err(e) => {
+                println!("| {} | error: {e} |", c.name);
+                continue;
+            }
+        };
+        let (mut ky, mut spec_s, mut noisy, mut pieces) = ("-".to_string(), "-".to_string(), "-".to_string(), "-".to_string());
+        if let (Some(m), None) = (&m, &r.failed) {
+            let eta = furuta::microchaos::reduce_series(m, &furuta::model_selection::subsample(&test, 4, 0).expect("subsample")).unwrap_or_default();
+            let d = m.options.dim;
+            if eta.len() >= d {
+                let eta0 = &eta[..d];
+                if let Ok(l) = furuta::lyapunov::model_lyapunov(m, eta0, s.benettin_transient, s.benettin_steps) {
+                    ky = l.kaplan_yorke.map_or("-".into(), |v| format!("{v:.2}"));
+                    spec_s = l.spectrum.iter().map(|v| format!("{v:.2}")).collect::<Vec<_>>().join(" ");
+                }
+                let n = eta.len() / d;
+                if let Ok(orbit) = furuta::lyapunov::iterate_dynamics(&m.dynamics, eta0, n * s.long_runs, furuta::lyapunov::model_bound(m), 1)
+                    && let Some(pts) = orbit.recorded
+                {
+                    let mut lifted = vec![0.0; m.manifold.p];
+                    let mut ps = ssm::poly::PolyScratch::default();
+                    let x: Vec<f64> = (0..pts.len())
+                        .map(|i| {
+                            m.manifold.lift_into(pts.point(i), &mut ps, &mut lifted);
+                            lifted[0]
+                        })
+                        .collect();
+                    noisy = o2(d2(&add_noise(&x[..n.min(x.len())], ds.noise_sd, 1)));
+                    pieces = x.chunks_exact(n).map(|p| d2(p).map_or("-".to_string(), |(v, _)| format!("{v:.2}"))).collect::<Vec<_>>().join(", ");
+                }
+            }
+        }
+        let o = |v: Option<f64>, p: usize| v.map_or("-".to_string(), |v| format!("{v:.p$}"));
+        println!(
+            "| {} | {} | {} | {} | {} | {ky} | {spec_s} | {noisy} | {pieces} | {} | {} | {:.0} |",
+            c.name,
+            o(r.benettin, 3),
+            o(r.rosenstein, 3),
+            o(r.corr_dim, 2),
+            o(r.js, 4),
+            r.passes(&targets).iter().map(|&p| if p { "y" } else { "n" }).collect::<String>(),
+            r.failed.as_deref().map_or("", |f| f.split(':').next().unwrap_or(f)),
+            t1.elapsed().as_secs_f64()
+        );
+    }
 }
 
 fn print_row(r: &furuta::flag_pipeline::PipelineRow, secs: f64) {
@@ -268,6 +385,7 @@ fn main() {
         Some("scan") => scan(),
         Some("variants") => variants(&args[1..]),
         Some("state") => state(&args[1..]),
+        Some("flag") => flag_rows(&args[1..]),
         Some("fnn-rule") => fnn_rule(args.get(1)),
         Some("fnn") => fnn(args.get(1).and_then(|s| s.parse().ok()).unwrap_or(10.0)),
         Some("check") => check(args.get(1).and_then(|s| s.parse().ok()).unwrap_or(1)),

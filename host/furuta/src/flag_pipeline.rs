@@ -353,9 +353,10 @@ pub fn flag_like_candidates(step: usize, rbf: &[(usize, f64)]) -> Vec<Candidate>
             smooth: 0,
             multistep: None,
             denoise_inputs: 0,
+            centres: Default::default(),
         })
         .collect();
-    out.push(Candidate { name: format!("poly 4 /{step}"), step, fit: base, smooth: 0, multistep: None, denoise_inputs: 0 });
+    out.push(Candidate { name: format!("poly 4 /{step}"), step, fit: base, smooth: 0, multistep: None, denoise_inputs: 0, centres: Default::default() });
     out
 }
 

@@ -49,6 +49,16 @@ pub struct Candidate {
     /// 0 = off. The manifold stays the raw fit's.
     #[serde(default)]
     pub denoise_inputs: usize,
+    /// How the RBF map's centres are chosen ([`ssm::dynamics::CentreChoice`]; the default,
+    /// farthest points, is the ordinary fit). Any other choice refits the map on the same
+    /// reduced coordinates with those centres ([`ssm::ReducedDynamics::fit_rbf_centres`]),
+    /// before any multistep refinement; not combined with `denoise_inputs`.
+    #[serde(default, skip_serializing_if = "is_farthest")]
+    pub centres: ssm::dynamics::CentreChoice,
+}
+
+fn is_farthest(c: &ssm::dynamics::CentreChoice) -> bool {
+    *c == ssm::dynamics::CentreChoice::Farthest
 }
 
 /// Settings of the evaluation (the same for every candidate).
@@ -306,7 +316,7 @@ impl<'a> Known<'a> {
 
     /// The known model that candidate `c` would fit, if any.
     fn model_for(&self, c: &Candidate) -> Option<&KnownModel<'a>> {
-        if c.step != 1 || c.smooth != 0 || c.multistep.is_some() || c.denoise_inputs != 0 {
+        if c.step != 1 || c.smooth != 0 || c.multistep.is_some() || c.denoise_inputs != 0 || !is_farthest(&c.centres) {
             return None;
         }
         self.models.iter().find(|k| k.model.options == c.fit)
@@ -330,6 +340,23 @@ fn evaluate_candidate_known(
     s: &EvalSettings,
     known: Option<&KnownModel<'_>>,
 ) -> Result<CandidateResult, Error> {
+    evaluate_candidate_model(train, test, c, data, s, known).map(|(r, _)| r)
+}
+
+/// [`evaluate_candidate`] that also returns the fitted model (`None` when the fit failed or a
+/// known model was used), for diagnostics beyond the result's statistics.
+pub fn evaluate_candidate_fitted(train: &[TimeSeries], test: &TimeSeries, c: &Candidate, data: &(DataStats, Context), s: &EvalSettings) -> Result<(CandidateResult, Option<SsmModel>), Error> {
+    evaluate_candidate_model(train, test, c, data, s, None)
+}
+
+fn evaluate_candidate_model(
+    train: &[TimeSeries],
+    test: &TimeSeries,
+    c: &Candidate,
+    data: &(DataStats, Context),
+    s: &EvalSettings,
+    known: Option<&KnownModel<'_>>,
+) -> Result<(CandidateResult, Option<SsmModel>), Error> {
     let t0 = std::time::Instant::now();
     let (ds, ctx) = data;
     if ds.step != c.step {
@@ -338,6 +365,10 @@ fn evaluate_candidate_known(
     c.fit.validate()?;
     if let Some(ms) = &c.multistep {
         ms.validate()?;
+    }
+    let seeded = !is_farthest(&c.centres);
+    if seeded && (c.fit.dynamics.rbf().is_none() || c.denoise_inputs > 0) {
+        return Err(Error::BadOption { what: "centres", why: format!("candidate {}: a centre choice needs RBF dynamics and no denoised-input refit", c.name) });
     }
     let mut r = CandidateResult {
         name: c.name.clone(),
@@ -363,25 +394,38 @@ fn evaluate_candidate_known(
     if let Some(k) = known {
         measure(k.model, &test_k, ctx, s, &mut r, k.benettin.as_ref())?;
         r.seconds = t0.elapsed().as_secs_f64();
-        return Ok(r);
+        return Ok((r, None));
     }
     let smoothed: Vec<TimeSeries> = train.iter().map(|t| moving_average(t, c.smooth)).collect::<Result<_, _>>()?;
     let train_k = phase_subsamples(&smoothed, c.step)?;
-    let mut m = match fit(&train_k, &c.fit) {
+    // With a centre choice the RBF map is fitted once, below: the manifold fit does not
+    // depend on the dynamics, so the first fit takes the cheap linear map.
+    let first = if seeded { FitOptions { dynamics: ssm::Dynamics::Map, dyn_order: 1, ..c.fit } } else { c.fit };
+    let mut m = match fit(&train_k, &first) {
         Ok(m) => m,
         Err(e @ ssm::FitError::TooLarge { .. }) => return Err(e.into()),
         Err(e) => {
             r.failed = Some(format!("fit failed: {e}"));
-            return Ok(r);
+            return Ok((r, None));
         }
     };
+    if seeded {
+        match refit_centres(&mut m, &train_k, &c.fit, c.centres) {
+            Ok(()) => r.notes.push(format!("centres {}", c.centres.name())),
+            Err(e @ Error::Ssm(ssm::Error::Fit(ssm::FitError::TooLarge { .. }))) => return Err(e),
+            Err(e) => {
+                r.failed = Some(format!("fit failed (centres {}): {e}", c.centres.name()));
+                return Ok((r, None));
+            }
+        }
+    }
     if c.denoise_inputs > 0 {
         match refit_denoised_inputs(&mut m, &smoothed, c.step, c.denoise_inputs) {
             Ok(()) => r.notes.push(format!("inputs denoised (moving average {}), raw targets", 2 * c.denoise_inputs + 1)),
             Err(e @ Error::Ssm(ssm::Error::Fit(ssm::FitError::TooLarge { .. }))) => return Err(e),
             Err(e) => {
                 r.failed = Some(format!("denoised-input refit failed: {e}"));
-                return Ok(r);
+                return Ok((r, None));
             }
         }
     }
@@ -393,13 +437,25 @@ fn evaluate_candidate_known(
             Err(e @ ssm::FitError::TooLarge { .. }) => return Err(e.into()),
             Err(e) => {
                 r.failed = Some(format!("multistep refinement failed: {e}"));
-                return Ok(r);
+                return Ok((r, None));
             }
         }
     }
     measure(&m, &test_k, ctx, s, &mut r, None)?;
     r.seconds = t0.elapsed().as_secs_f64();
-    Ok(r)
+    Ok((r, Some(m)))
+}
+
+/// The RBF map of `m` (fitted on `train_k` with any dynamics) fitted again on the same
+/// reduced coordinates as `opts` says, centres chosen by `choice`; `m.options` becomes `opts`.
+fn refit_centres(m: &mut SsmModel, train_k: &[TimeSeries], opts: &FitOptions, choice: ssm::dynamics::CentreChoice) -> Result<(), Error> {
+    let (ys, dts) = ssm::fit::embed_training(train_k, opts)?;
+    let etas: Vec<faer::Mat<f64>> = ys.iter().map(|y| m.manifold.reduce_points(y.as_ref())).collect();
+    let trajs: Vec<_> = etas.iter().zip(&dts).map(|(e, &dt)| ssm::dynamics::EtaTrajectory { eta: e.as_ref(), dt }).collect();
+    m.dynamics = ssm::ReducedDynamics::fit_rbf_centres(&trajs, opts.dynamics, opts.ridge, choice)?;
+    m.eigenvalues_ct = m.dynamics.eigenvalues_ct()?;
+    m.options = *opts;
+    Ok(())
 }
 
 /// The errors-in-variables refit of [`Candidate::denoise_inputs`]: the RBF map of `m` fitted
@@ -665,7 +721,7 @@ pub fn standard_candidates(o: &crate::microchaos::ChaosOptions, ssm_dim: usize, 
         let dt = ts.dt().ok_or(Error::BadInput { what: "held-out series", why: format!("{}: no sampling step", ts.name) })?;
         let ctx = Context::from_series(&ts.x, dt, o.gp_embed)?;
         let base = crate::microchaos::fit_options(o, ssm_dim, &ctx);
-        out.push(Candidate { name: format!("RBF {} /{k}", o.centers), step: k, fit: FitOptions { dynamics: ssm::Dynamics::Rbf { centers: o.centers }, ..base }, smooth: 0, multistep: None, denoise_inputs: 0 });
+        out.push(Candidate { name: format!("RBF {} /{k}", o.centers), step: k, fit: FitOptions { dynamics: ssm::Dynamics::Rbf { centers: o.centers }, ..base }, smooth: 0, multistep: None, denoise_inputs: 0, centres: Default::default() });
         out.push(Candidate {
             name: format!("poly {} /{k}", o.poly_order),
             step: k,
@@ -673,6 +729,7 @@ pub fn standard_candidates(o: &crate::microchaos::ChaosOptions, ssm_dim: usize, 
             smooth: 0,
             multistep: None,
             denoise_inputs: 0,
+            centres: Default::default(),
         });
     }
     Ok(out)
@@ -723,6 +780,7 @@ pub fn flag_candidates() -> Vec<Candidate> {
             smooth: 0,
             multistep: None,
             denoise_inputs: 0,
+            centres: Default::default(),
         })
         .collect()
 }
@@ -964,6 +1022,7 @@ mod tests {
             smooth: 0,
             multistep: None,
             denoise_inputs: 0,
+            centres: Default::default(),
         }
     }
 
@@ -994,6 +1053,37 @@ mod tests {
         assert!(res[0].benettin.unwrap() < 0.0 && res[2].benettin.unwrap() < 0.0, "{} / {}", describe(&res[0]), describe(&res[2]));
         assert_eq!(sel.index, Some(1), "{sel:?}");
         assert!(sel.why.contains("Benettin within 10 %") && sel.warnings.is_empty(), "{sel:?}");
+    }
+
+    /// A centre choice refits the RBF map on the reduced training coordinates with those
+    /// centres (options unchanged, the centres those of `choose_centres`); on Henon data
+    /// the seeded model is chaotic with the known exponent 0.419 too. A centre choice with
+    /// polynomial dynamics is refused.
+    #[test]
+    fn seeded_centres_refit_the_map() {
+        use ssm::dynamics::CentreChoice;
+        let train = [henon_series("h1", 100, 3000), henon_series("h2", 5000, 3000)];
+        let test = henon_series("h3", 10_000, 3000);
+        let s = EvalSettings { benettin_transient: 1000, benettin_steps: 20_000, ..Default::default() };
+        let data = data_stats(&test, 1, &s).unwrap();
+        let choice = CentreChoice::KMeansPP { seed: 1 };
+        let c = Candidate { centres: choice, ..henon_candidate("rbf 200 kmeans++", Dynamics::Rbf { centers: 200 }, 1) };
+        let (r, m) = evaluate_candidate_fitted(&train, &test, &c, &data, &s).unwrap();
+        let m = m.unwrap();
+        assert_eq!(m.options, c.fit);
+        let (ys, dts) = ssm::fit::embed_training(&phase_subsamples(&train, 1).unwrap(), &c.fit).unwrap();
+        let etas: Vec<faer::Mat<f64>> = ys.iter().map(|y| m.manifold.reduce_points(y.as_ref())).collect();
+        let trajs: Vec<_> = etas.iter().zip(&dts).map(|(e, &dt)| ssm::dynamics::EtaTrajectory { eta: e.as_ref(), dt }).collect();
+        let ssm::ReducedDynamics::Rbf(rbf) = &m.dynamics else { panic!("not an RBF map") };
+        let ssm::ReducedDynamics::Rbf(again) = ssm::ReducedDynamics::fit_rbf_centres(&trajs, c.fit.dynamics, c.fit.ridge, choice).unwrap() else { panic!() };
+        assert_eq!(rbf.centers, again.centers);
+        let ssm::ReducedDynamics::Rbf(plain) = ssm::ReducedDynamics::fit(&trajs, c.fit.dynamics, 1, c.fit.ridge).unwrap() else { panic!() };
+        assert_ne!(rbf.centers, plain.centers);
+        assert!(r.notes.iter().any(|n| n == "centres kmeans++@1"), "{:?}", r.notes);
+        let b = r.benettin.unwrap();
+        assert!(r.failed.is_none() && (b - 0.419).abs() < 0.042, "{}", describe(&r));
+        let poly = Candidate { centres: choice, ..henon_candidate("map", Dynamics::Map, 3) };
+        assert!(matches!(evaluate_candidate(&train, &test, &poly, &data, &s), Err(Error::BadOption { what: "centres", .. })));
     }
 
     /// The rollout loss is zero for the exact map of the data (up to rounding), grows with

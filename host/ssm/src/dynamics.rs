@@ -598,7 +598,206 @@ pub fn farthest_points(z: MatRef<'_, f64>, k: usize) -> Vec<usize> {
     chosen
 }
 
+/// How the centres of an RBF map are chosen from the scaled training points (issue 12: the
+/// centre set as a model choice). [`CentreChoice::Farthest`], the default, is what
+/// [`ReducedDynamics::fit`] does; the others are seeded (the same seed gives the same
+/// centres) and used through [`ReducedDynamics::fit_rbf_centres`].
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+pub enum CentreChoice {
+    /// [`farthest_points`] from the point of largest norm (deterministic).
+    #[default]
+    Farthest,
+    /// [`farthest_points`]' rule started from a point drawn uniformly with `seed`.
+    FarthestFrom { seed: u64 },
+    /// k-means++ seeding: each next centre a training point drawn with probability
+    /// proportional to its squared distance from the chosen ones (denser regions get more
+    /// centres than under the farthest-point rule, outliers fewer).
+    KMeansPP { seed: u64 },
+    /// A uniformly drawn subset of the training points (centres follow the data's density).
+    Random { seed: u64 },
+    /// k-means++ seeding, then `iterations` Lloyd steps: the centres are the means of
+    /// their clusters (not training points); an emptied cluster keeps its centre.
+    KMeans { seed: u64, iterations: u32 },
+}
+
+impl CentreChoice {
+    /// Short name: `farthest`, `farthest@S`, `kmeans++@S`, `random@S`, `kmeansI@S`.
+    pub fn name(&self) -> String {
+        match *self {
+            CentreChoice::Farthest => "farthest".into(),
+            CentreChoice::FarthestFrom { seed } => format!("farthest@{seed}"),
+            CentreChoice::KMeansPP { seed } => format!("kmeans++@{seed}"),
+            CentreChoice::Random { seed } => format!("random@{seed}"),
+            CentreChoice::KMeans { seed, iterations } => format!("kmeans{iterations}@{seed}"),
+        }
+    }
+
+    /// Parses [`CentreChoice::name`]'s forms; anything else is an error saying what is read.
+    pub fn parse(s: &str) -> Result<Self, FitError> {
+        let bad = || FitError::BadOption { what: "rbf centres", why: format!("`{s}` is not one of farthest, farthest@SEED, kmeans++@SEED, random@SEED, kmeansITERATIONS@SEED") };
+        if s == "farthest" {
+            return Ok(CentreChoice::Farthest);
+        }
+        let (kind, seed) = s.split_once('@').ok_or_else(bad)?;
+        let seed: u64 = seed.parse().map_err(|_| bad())?;
+        Ok(match kind {
+            "farthest" => CentreChoice::FarthestFrom { seed },
+            "kmeans++" => CentreChoice::KMeansPP { seed },
+            "random" => CentreChoice::Random { seed },
+            _ => CentreChoice::KMeans { seed, iterations: kind.strip_prefix("kmeans").and_then(|i| i.parse().ok()).ok_or_else(bad)? },
+        })
+    }
+}
+
+/// xorshift64 uniform numbers in [0, 1) from a seed (any seed, 0 included).
+struct Uniform(u64);
+
+impl Uniform {
+    fn new(seed: u64) -> Self {
+        Uniform(seed.wrapping_mul(0x9E37_79B9_7F4A_7C15) | 1)
+    }
+    fn next(&mut self) -> f64 {
+        self.0 ^= self.0 << 13;
+        self.0 ^= self.0 >> 7;
+        self.0 ^= self.0 << 17;
+        (self.0 >> 11) as f64 / (1u64 << 53) as f64
+    }
+    /// An index in `0..n` (`n >= 1`).
+    fn index(&mut self, n: usize) -> usize {
+        ((self.next() * n as f64) as usize).min(n.saturating_sub(1))
+    }
+}
+
+/// Centres (row-major, `d` values each, at most `k` of them) chosen from the rows of `z`
+/// (scaled points) by `choice`. [`CentreChoice::Farthest`] gives exactly the rows of
+/// [`farthest_points`]; every choice stops early when the remaining points duplicate chosen
+/// ones (the point-subset rules) or keeps `min(k, n)` centres (k-means).
+pub fn choose_centres(z: MatRef<'_, f64>, k: usize, choice: CentreChoice) -> Vec<f64> {
+    let (n, d) = (z.nrows(), z.ncols());
+    let rows: Vec<f64> = (0..n).flat_map(|i| (0..d).map(move |j| z[(i, j)])).collect();
+    let row = |a: usize| &rows[a * d..(a + 1) * d];
+    let dist2 = |a: &[f64], b: &[f64]| a.iter().zip(b).map(|(x, y)| (x - y).powi(2)).sum::<f64>();
+    let gather = |idx: &[usize]| idx.iter().flat_map(|&i| row(i).iter().copied()).collect::<Vec<f64>>();
+    if n == 0 || k == 0 {
+        return Vec::new();
+    }
+    let k = k.min(n);
+    // D^2 sampling (k-means++) or farthest point from a given first index.
+    let grow = |first: usize, rng: Option<&mut Uniform>| -> Vec<usize> {
+        let mut rng = rng;
+        let mut chosen = vec![first];
+        let mut mind: Vec<f64> = (0..n).map(|i| dist2(row(i), row(first))).collect();
+        while chosen.len() < k {
+            let next = match rng.as_deref_mut() {
+                None => (0..n).max_by(|&a, &b| mind[a].total_cmp(&mind[b])).unwrap_or(0),
+                Some(r) => {
+                    let total: f64 = mind.iter().sum();
+                    if !(total > 0.0) {
+                        break;
+                    }
+                    let mut u = r.next() * total;
+                    // Rounding can leave `u` past the last weight: the last point of
+                    // positive weight then.
+                    let mut pick = (0..n).rev().find(|&i| mind[i] > 0.0).unwrap_or(0);
+                    for (i, m) in mind.iter().enumerate() {
+                        if u < *m {
+                            pick = i;
+                            break;
+                        }
+                        u -= m;
+                    }
+                    pick
+                }
+            };
+            if mind[next] == 0.0 {
+                break;
+            }
+            chosen.push(next);
+            let c = row(next).to_vec();
+            for (i, m) in mind.iter_mut().enumerate() {
+                *m = m.min(dist2(row(i), &c));
+            }
+        }
+        chosen
+    };
+    match choice {
+        CentreChoice::Farthest => gather(&farthest_points(z, k)),
+        CentreChoice::FarthestFrom { seed } => {
+            let first = Uniform::new(seed).index(n);
+            gather(&grow(first, None))
+        }
+        CentreChoice::KMeansPP { seed } => {
+            let mut rng = Uniform::new(seed);
+            let first = rng.index(n);
+            gather(&grow(first, Some(&mut rng)))
+        }
+        CentreChoice::Random { seed } => {
+            // Partial Fisher-Yates shuffle of the indices.
+            let mut rng = Uniform::new(seed);
+            let mut idx: Vec<usize> = (0..n).collect();
+            for i in 0..k {
+                let j = i + rng.index(n - i);
+                idx.swap(i, j);
+            }
+            gather(&idx[..k])
+        }
+        CentreChoice::KMeans { seed, iterations } => {
+            let mut rng = Uniform::new(seed);
+            let first = rng.index(n);
+            let mut c = gather(&grow(first, Some(&mut rng)));
+            let kc = c.len() / d.max(1);
+            let mut sums = vec![0.0; kc * d];
+            let mut counts = vec![0usize; kc];
+            for _ in 0..iterations {
+                sums.iter_mut().for_each(|s| *s = 0.0);
+                counts.iter_mut().for_each(|s| *s = 0);
+                for i in 0..n {
+                    let p = row(i);
+                    let best = (0..kc).min_by(|&a, &b| dist2(p, &c[a * d..(a + 1) * d]).total_cmp(&dist2(p, &c[b * d..(b + 1) * d]))).unwrap_or(0);
+                    counts[best] += 1;
+                    for j in 0..d {
+                        sums[best * d + j] += p[j];
+                    }
+                }
+                for a in 0..kc {
+                    if counts[a] > 0 {
+                        for j in 0..d {
+                            c[a * d + j] = sums[a * d + j] / counts[a] as f64;
+                        }
+                    }
+                }
+            }
+            c
+        }
+    }
+}
+
 impl ReducedDynamics {
+    /// An RBF map (`kind` an RBF kind) fitted as [`Self::fit`] fits it, with the centres
+    /// chosen by `choice` ([`CentreChoice::Farthest`]: the same map as [`Self::fit`]).
+    pub fn fit_rbf_centres(trajs: &[EtaTrajectory<'_>], kind: Dynamics, ridge: Ridge, choice: CentreChoice) -> Result<Self, FitError> {
+        let Some((centers, kernel)) = kind.rbf() else {
+            return Err(FitError::BadOption { what: "dynamics", why: "a centre choice is for RBF maps only".into() });
+        };
+        let d = trajs.first().map(|t| t.eta.ncols()).ok_or(FitError::NoTrainingData)?;
+        let dt = common_dt(trajs)?;
+        let mut xs = Vec::new();
+        let mut ys = Vec::new();
+        for t in trajs {
+            if t.eta.ncols() != d {
+                return Err(FitError::DimMismatch { name: "training trajectory (reduced dimension)".into(), got: t.eta.ncols(), expected: d });
+            }
+            let m = t.eta.nrows().saturating_sub(1);
+            xs.push(Mat::from_fn(m, d, |i, j| t.eta[(i, j)]));
+            ys.push(Mat::from_fn(m, d, |i, j| t.eta[(i + 1, j)] - t.eta[(i, j)]));
+        }
+        let (x, groups) = stack(&xs);
+        let (y, _) = stack(&ys);
+        let _reserved = ridge::reserve(x.nrows().saturating_mul(centers.saturating_add(d + 1)).saturating_mul(2 * std::mem::size_of::<f64>()));
+        let common = eta_scale(trajs).iter().fold(0.0_f64, |m, v| m.max(*v));
+        fit_rbf_with(x.as_ref(), y.as_ref(), &groups, vec![common; d], centers, kernel, dt, ridge, choice).map(ReducedDynamics::Rbf)
+    }
+
     /// Fits the requested dynamics of polynomial order `order` (ignored for RBF).
     pub fn fit(trajs: &[EtaTrajectory<'_>], kind: Dynamics, order: u32, ridge: Ridge) -> Result<Self, FitError> {
         Self::fit_anchored(trajs, kind, order, ridge, None)
@@ -899,6 +1098,21 @@ fn fit_rbf(
     dt: f64,
     ridge: Ridge,
 ) -> Result<RbfMap, FitError> {
+    fit_rbf_with(x, y, groups, scale, n_centers, kernel, dt, ridge, CentreChoice::Farthest)
+}
+
+#[allow(clippy::too_many_arguments)]
+fn fit_rbf_with(
+    x: MatRef<'_, f64>,
+    y: MatRef<'_, f64>,
+    groups: &[std::ops::Range<usize>],
+    scale: Vec<f64>,
+    n_centers: usize,
+    kernel: Kernel,
+    dt: f64,
+    ridge: Ridge,
+    choice: CentreChoice,
+) -> Result<RbfMap, FitError> {
     let (n, d) = (x.nrows(), x.ncols());
     if n_centers == 0 {
         return Err(FitError::BadOption { what: "rbf centers", why: "need at least one centre".into() });
@@ -907,11 +1121,7 @@ fn fit_rbf(
     crate::limits::check("rbf centers", n_centers, crate::limits::MAX_CENTERS)?;
     crate::limits::check_matrix("rbf regression", n, n_centers + d + 1, true)?;
     let z = Mat::from_fn(n, d, |i, j| x[(i, j)] / scale[j]);
-    let idx = farthest_points(z.as_ref(), n_centers);
-    let mut centers = Vec::with_capacity(idx.len() * d);
-    for &i in &idx {
-        centers.extend((0..d).map(|j| z[(i, j)]));
-    }
+    let centers = choose_centres(z.as_ref(), n_centers, choice);
     let mut map = RbfMap {
         dim: d,
         kernel,
@@ -1277,6 +1487,53 @@ mod tests {
     fn farthest_points_spread() {
         let z = Mat::from_fn(5, 1, |i, _| [0.0, 0.1, 0.5, 0.9, -1.0][i]);
         assert_eq!(farthest_points(z.as_ref(), 3), vec![4, 3, 0]);
+    }
+
+    /// Centre choices: `Farthest` is `farthest_points` and the default fit, bit for bit; the
+    /// seeded subsets are reproducible, distinct training rows, seed-dependent; k-means on two
+    /// separated symmetric clusters lands on their means; a polynomial kind is refused.
+    #[test]
+    fn centre_choices() {
+        let et_m = twist_trajectories();
+        let et: Vec<_> = et_m.iter().map(|e| EtaTrajectory { eta: e.as_ref(), dt: 0.1 }).collect();
+        let ReducedDynamics::Rbf(a) = ReducedDynamics::fit(&et, Dynamics::Rbf { centers: 30 }, 1, Ridge::Fixed(1e-10)).unwrap() else { panic!() };
+        let ReducedDynamics::Rbf(b) = ReducedDynamics::fit_rbf_centres(&et, Dynamics::Rbf { centers: 30 }, Ridge::Fixed(1e-10), CentreChoice::Farthest).unwrap() else { panic!() };
+        assert_eq!(a.centers, b.centers);
+        assert_eq!(a.coef, b.coef);
+        let z = Mat::from_fn(200, 2, |i, j| ((i * 7 + j * 13) % 37) as f64 / 37.0 + 0.01 * i as f64);
+        let rows: Vec<Vec<f64>> = (0..200).map(|i| vec![z[(i, 0)], z[(i, 1)]]).collect();
+        assert_eq!(choose_centres(z.as_ref(), 12, CentreChoice::Farthest), farthest_points(z.as_ref(), 12).iter().flat_map(|&i| rows[i].clone()).collect::<Vec<_>>());
+        for ch in [CentreChoice::FarthestFrom { seed: 3 }, CentreChoice::KMeansPP { seed: 3 }, CentreChoice::Random { seed: 3 }] {
+            let c = choose_centres(z.as_ref(), 12, ch);
+            assert_eq!(c.len(), 24, "{ch:?}");
+            assert_eq!(c, choose_centres(z.as_ref(), 12, ch), "{ch:?} reproducible");
+            let other = match ch {
+                CentreChoice::FarthestFrom { .. } => CentreChoice::FarthestFrom { seed: 4 },
+                CentreChoice::KMeansPP { .. } => CentreChoice::KMeansPP { seed: 4 },
+                _ => CentreChoice::Random { seed: 4 },
+            };
+            assert_ne!(c, choose_centres(z.as_ref(), 12, other), "{ch:?} seed-dependent");
+            let pts: Vec<&[f64]> = c.chunks(2).collect();
+            assert!(pts.iter().all(|p| rows.iter().any(|r| r.as_slice() == *p)), "{ch:?}: centres are training rows");
+            assert!((0..12).all(|i| (0..i).all(|j| pts[i] != pts[j])), "{ch:?}: distinct");
+        }
+        // Two clusters of 4 points each around (0, 0) and (10, 0) (means exactly these).
+        let pts = [[0.5, 0.0], [-0.5, 0.0], [0.0, 0.5], [0.0, -0.5], [10.5, 0.0], [9.5, 0.0], [10.0, 0.5], [10.0, -0.5]];
+        let z2 = Mat::from_fn(8, 2, |i, j| pts[i][j]);
+        for seed in 0..5 {
+            let mut c: Vec<Vec<f64>> = choose_centres(z2.as_ref(), 2, CentreChoice::KMeans { seed, iterations: 5 }).chunks(2).map(|p| p.to_vec()).collect();
+            c.sort_by(|a, b| a[0].total_cmp(&b[0]));
+            assert_eq!(c, vec![vec![0.0, 0.0], vec![10.0, 0.0]], "seed {seed}");
+        }
+        let e = ReducedDynamics::fit_rbf_centres(&et, Dynamics::Map, Ridge::Fixed(0.0), CentreChoice::Random { seed: 1 }).unwrap_err();
+        assert!(matches!(e, FitError::BadOption { what: "dynamics", .. }), "{e}");
+        for c in [CentreChoice::Farthest, CentreChoice::FarthestFrom { seed: 7 }, CentreChoice::KMeansPP { seed: 0 }, CentreChoice::Random { seed: 9 }, CentreChoice::KMeans { seed: 2, iterations: 10 }] {
+            assert_eq!(CentreChoice::parse(&c.name()).unwrap(), c);
+        }
+        assert_eq!(CentreChoice::KMeans { seed: 2, iterations: 10 }.name(), "kmeans10@2");
+        for bad in ["far", "random@x", "kmeans@1", "kmeansx@1", "farthest@"] {
+            assert!(matches!(CentreChoice::parse(bad), Err(FitError::BadOption { what: "rbf centres", .. })), "{bad}");
+        }
     }
 
     /// Errors in variables, known answer: pairs `p -> A p` (A = 0.95 x rotation by 0.3, `p`
