@@ -151,35 +151,69 @@ fn rbf_jacobian_any(m: &RbfMap, eta: &[f64], jac: &mut [f64]) -> Result<(), &'st
 }
 
 /// Jacobian (row-major `d x d`) of the polynomial map `eta -> eta + P(eta)`, `P` evaluated
-/// on `z = eta / s`: `I + dP/dz / s`.
+/// on `z = eta / s`: `I + dP/dz / s`. For many evaluations of one map, [`PolyJacobian`]
+/// prepares the monomials once (the same Jacobian, bit for bit).
 pub fn poly_map_jacobian(p: &Poly, eta: &[f64], jac: &mut [f64]) {
-    let d = p.dim_in;
-    jac.iter_mut().for_each(|v| *v = 0.0);
-    for i in 0..d.min(p.dim_out) {
-        jac[i * d + i] = 1.0;
-    }
-    let maxdeg = ssm::poly::max_degree(&p.exps) as usize;
-    let stride = maxdeg + 1;
-    let mut pow = vec![1.0; d * stride];
-    for i in 0..d {
-        let z = eta[i] / p.scale[i];
-        for e in 1..stride {
-            pow[i * stride + e] = pow[i * stride + e - 1] * z;
+    PolyJacobian::new(p).eval(eta, jac);
+}
+
+/// [`poly_map_jacobian`] of one polynomial, prepared for repeated evaluation (Benettin runs
+/// take one Jacobian per map step): the largest degree and each monomial's non-zero
+/// exponents are found once, and the powers live in a buffer kept between calls. Every
+/// entry is the same product in the same order as the plain loop over all variables, which
+/// multiplies by `z_i^0 = 1` where this skips (exact), so the Jacobian is the same bit for bit.
+pub struct PolyJacobian<'a> {
+    p: &'a Poly,
+    /// Powers per variable: `pow[i * stride + e] = z_i^e`, `e = 0..stride`.
+    stride: usize,
+    pow: Vec<f64>,
+    /// Non-zero exponents `(variable, exponent)` of every monomial, in variable order;
+    /// monomial `k`'s are `factors[starts[k]..starts[k + 1]]`.
+    factors: Vec<(usize, usize)>,
+    starts: Vec<usize>,
+}
+
+impl<'a> PolyJacobian<'a> {
+    pub fn new(p: &'a Poly) -> Self {
+        let stride = ssm::poly::max_degree(&p.exps) as usize + 1;
+        let mut factors = Vec::new();
+        let mut starts = Vec::with_capacity(p.exps.len() + 1);
+        for e in &p.exps {
+            starts.push(factors.len());
+            factors.extend(e.iter().enumerate().filter(|(_, ei)| **ei != 0).map(|(i, &ei)| (i, ei as usize)));
         }
+        starts.push(factors.len());
+        Self { p, stride, pow: vec![1.0; p.dim_in * stride], factors, starts }
     }
-    for (k, e) in p.exps.iter().enumerate() {
-        for j in 0..d {
-            if e[j] == 0 {
-                continue;
+
+    /// The Jacobian at `eta` into `jac` (row-major `d x d`).
+    pub fn eval(&mut self, eta: &[f64], jac: &mut [f64]) {
+        let p = self.p;
+        let d = p.dim_in;
+        let stride = self.stride;
+        jac.iter_mut().for_each(|v| *v = 0.0);
+        for i in 0..d.min(p.dim_out) {
+            jac[i * d + i] = 1.0;
+        }
+        let pow = &mut self.pow;
+        for i in 0..d {
+            let z = eta[i] / p.scale[i];
+            for e in 1..stride {
+                pow[i * stride + e] = pow[i * stride + e - 1] * z;
             }
-            let mut g = e[j] as f64 * pow[j * stride + e[j] as usize - 1] / p.scale[j];
-            for (i, &ei) in e.iter().enumerate() {
-                if i != j {
-                    g *= pow[i * stride + ei as usize];
+        }
+        for (k, w) in self.starts.windows(2).enumerate() {
+            let f = &self.factors[w[0]..w[1]];
+            for &(j, ej) in f {
+                let mut g = ej as f64 * pow[j * stride + ej - 1] / p.scale[j];
+                for &(i, ei) in f {
+                    if i != j {
+                        g *= pow[i * stride + ei];
+                    }
                 }
-            }
-            for out in 0..p.dim_out {
-                jac[out * d + j] += p.coef[k * p.dim_out + out] * g;
+                for out in 0..p.dim_out {
+                    jac[out * d + j] += p.coef[k * p.dim_out + out] * g;
+                }
             }
         }
     }
@@ -235,7 +269,18 @@ pub fn dynamics_lyapunov(
         out.copy_from_slice(x);
         dynamics.step(out, dt, &mut scratch);
     };
-    let r = benettin_qr(eta0, f, |x, j| map_jacobian(dynamics, x, j), d, &p)?;
+    let mut poly_jac = match dynamics {
+        ReducedDynamics::Map { increment, .. } => Some(PolyJacobian::new(increment)),
+        _ => None,
+    };
+    let jac = |x: &[f64], j: &mut [f64]| match &mut poly_jac {
+        Some(pj) => {
+            pj.eval(x, j);
+            Ok(())
+        }
+        None => map_jacobian(dynamics, x, j),
+    };
+    let r = benettin_qr(eta0, f, jac, d, &p)?;
     Ok(ModelLyapunov {
         exponent: r.exponents[0],
         std_error: r.std_error[0],
@@ -298,6 +343,73 @@ fn dim_of(dynamics: &ReducedDynamics) -> usize {
 mod tests {
     use super::*;
     use ssm::Conditioning;
+
+    /// The plain loop [`poly_map_jacobian`] had before [`PolyJacobian`] (every variable's
+    /// power multiplied in, `z^0 = 1` included; a fresh power table per call).
+    fn poly_map_jacobian_plain(p: &Poly, eta: &[f64], jac: &mut [f64]) {
+        let d = p.dim_in;
+        jac.iter_mut().for_each(|v| *v = 0.0);
+        for i in 0..d.min(p.dim_out) {
+            jac[i * d + i] = 1.0;
+        }
+        let stride = ssm::poly::max_degree(&p.exps) as usize + 1;
+        let mut pow = vec![1.0; d * stride];
+        for i in 0..d {
+            let z = eta[i] / p.scale[i];
+            for e in 1..stride {
+                pow[i * stride + e] = pow[i * stride + e - 1] * z;
+            }
+        }
+        for (k, e) in p.exps.iter().enumerate() {
+            for j in 0..d {
+                if e[j] == 0 {
+                    continue;
+                }
+                let mut g = e[j] as f64 * pow[j * stride + e[j] as usize - 1] / p.scale[j];
+                for (i, &ei) in e.iter().enumerate() {
+                    if i != j {
+                        g *= pow[i * stride + ei as usize];
+                    }
+                }
+                for out in 0..p.dim_out {
+                    jac[out * d + j] += p.coef[k * p.dim_out + out] * g;
+                }
+            }
+        }
+    }
+
+    /// The prepared polynomial Jacobian against the plain loop, bit for bit, in dimensions
+    /// 2..=6 and orders 1..=5 (with and without the constant term) at random states, the
+    /// prepared one reused across states.
+    #[test]
+    fn prepared_poly_jacobian_equals_the_plain_loop() {
+        let mut rng = ssm::testing::XorShift64::new(0x2545_f491_4f6c_dd1d);
+        let mut rnd = move || rng.centered();
+        for d in 2..=6 {
+            for order in 1..=5u32 {
+                for min_deg in [0u32, 1] {
+                    let exps = ssm::poly::exponents(d, min_deg, order);
+                    let p = Poly {
+                        dim_in: d,
+                        dim_out: d,
+                        scale: (0..d).map(|_| 0.3 + rnd().abs()).collect(),
+                        coef: (0..exps.len() * d).map(|_| rnd() * 3.0).collect(),
+                        exps,
+                    };
+                    let mut pj = PolyJacobian::new(&p);
+                    let (mut a, mut b, mut c) = (vec![7.0; d * d], vec![-7.0; d * d], vec![3.0; d * d]);
+                    for _ in 0..20 {
+                        let eta: Vec<f64> = (0..d).map(|_| rnd()).collect();
+                        pj.eval(&eta, &mut a);
+                        poly_map_jacobian_plain(&p, &eta, &mut b);
+                        poly_map_jacobian(&p, &eta, &mut c);
+                        assert!(a.iter().zip(&b).all(|(x, y)| x.to_bits() == y.to_bits()), "d {d} order {order}: {a:?} vs {b:?}");
+                        assert!(c.iter().zip(&b).all(|(x, y)| x.to_bits() == y.to_bits()), "d {d} order {order}");
+                    }
+                }
+            }
+        }
+    }
 
     /// The fixed-dimension Jacobian of the linear kernel against the general loop, bit for
     /// bit, in dimensions 2..=6 on random maps (300 centres) at random states, including a
