@@ -21,7 +21,7 @@ use ssm::embed::delay_embed as ssm_embed;
 use ssm::{Dynamics, FitOptions, Ridge, SsmModel, TimeSeries, fit};
 use chaos::{
     Bins, ChaosError, CorrSumParams, DivergenceCurve, DivergenceParams, FitRule, Points, ScalingRule, correlation_dimension,
-    delay_embed, dominant_period, first_zero_crossing, fit_divergence, rosenstein_curve, ssm_dimension,
+    delay_embed, fit_divergence, lag_and_period, rosenstein_curve, ssm_dimension,
 };
 use serde::Serialize;
 use sim::closed_loop::Trajectory;
@@ -178,8 +178,8 @@ pub struct Context {
 impl Context {
     pub fn from_series(x: &[f64], dt: f64, embed: usize) -> Result<Self, ChaosError> {
         let n = x.len();
-        let lag = first_zero_crossing(x, n / 4)?.max(1);
-        let theiler = dominant_period(x, n / 4)?.max(1);
+        let (lag, theiler) = lag_and_period(x, n / 4)?;
+        let (lag, theiler) = (lag.max(1), theiler.max(1));
         Ok(Self { dt, lag, theiler, embed })
     }
 
