@@ -86,6 +86,87 @@ fn rbf_jacobian_linear<const D: usize>(m: &RbfMap, eta: &[f64], jac: &mut [f64])
     Ok(())
 }
 
+/// One step of a linear-kernel RBF map in dimension `D` and its Jacobian at `eta`, from one
+/// pass over the centres (a Benettin run needs both at every state): `jac` as
+/// [`rbf_jacobian`] and `next` as `RbfMap::step` would give them, bit for bit. The step's
+/// features are the distances `r_i = sqrt(sum_j (z_j - c_ij)^2)` the Jacobian computes
+/// anyway (the same sum in the same order), then the scaled state and 1, and `next` adds
+/// `coef * feature` to `eta` feature by feature in the step's order. At a kink (a state
+/// exactly at a centre) the error is the Jacobian's and `next` is not set.
+fn rbf_step_and_jacobian_linear<const D: usize>(m: &RbfMap, eta: &[f64], jac: &mut [f64], next: &mut [f64]) -> Result<(), &'static str> {
+    let k = m.n_centers();
+    let z: [f64; D] = core::array::from_fn(|j| eta[j] / m.scale[j]);
+    let scale: [f64; D] = core::array::from_fn(|j| m.scale[j]);
+    let mut acc = [[0.0; D]; D];
+    for (i, row) in acc.iter_mut().enumerate() {
+        row[i] = 1.0;
+    }
+    let mut nx: [f64; D] = core::array::from_fn(|j| eta[j]);
+    jac.iter_mut().for_each(|v| *v = 0.0);
+    let mut kink = false;
+    for (ctr, w) in m.centers.chunks_exact(D).zip(m.coef.chunks_exact(D)).take(k) {
+        let mut diff = [0.0; D];
+        let mut r2 = 0.0;
+        for j in 0..D {
+            diff[j] = z[j] - ctr[j];
+            r2 += diff[j] * diff[j];
+        }
+        if r2 == 0.0 {
+            kink = true;
+            break;
+        }
+        let r = r2.sqrt();
+        for j in 0..D {
+            nx[j] += w[j] * r;
+        }
+        let den: [f64; D] = core::array::from_fn(|j| r * scale[j]);
+        for (row, &w) in acc.iter_mut().zip(w) {
+            for j in 0..D {
+                row[j] += w * diff[j] / den[j];
+            }
+        }
+    }
+    for (dst, row) in jac.chunks_exact_mut(D).zip(&acc) {
+        dst[..D].copy_from_slice(row);
+    }
+    if kink {
+        return Err(RBF_KINK);
+    }
+    for j in 0..D {
+        for out in 0..D {
+            jac[out * D + j] += m.coef[(k + j) * D + out] / scale[j];
+        }
+    }
+    // The linear features eta_j / s_j (the step's own quotients), then the constant 1.
+    for j2 in 0..D {
+        let f = eta[j2] / m.scale[j2];
+        for j in 0..D {
+            nx[j] += m.coef[(k + j2) * D + j] * f;
+        }
+    }
+    for j in 0..D {
+        nx[j] += m.coef[(k + D) * D + j] * 1.0;
+    }
+    next[..D].copy_from_slice(&nx);
+    Ok(())
+}
+
+/// [`rbf_step_and_jacobian_linear`] for the dimension of `m`; `None` when `m` is not a
+/// linear-kernel map of dimension 2..=6 (then the step and the Jacobian are computed apart).
+fn rbf_step_and_jacobian(m: &RbfMap, eta: &[f64], jac: &mut [f64], next: &mut [f64]) -> Option<Result<(), &'static str>> {
+    if m.kernel != Kernel::Linear {
+        return None;
+    }
+    Some(match m.dim {
+        2 => rbf_step_and_jacobian_linear::<2>(m, eta, jac, next),
+        3 => rbf_step_and_jacobian_linear::<3>(m, eta, jac, next),
+        4 => rbf_step_and_jacobian_linear::<4>(m, eta, jac, next),
+        5 => rbf_step_and_jacobian_linear::<5>(m, eta, jac, next),
+        6 => rbf_step_and_jacobian_linear::<6>(m, eta, jac, next),
+        _ => return None,
+    })
+}
+
 /// [`rbf_jacobian`] for any kernel and dimension.
 fn rbf_jacobian_any(m: &RbfMap, eta: &[f64], jac: &mut [f64]) -> Result<(), &'static str> {
     let d = m.dim;
@@ -265,7 +346,18 @@ pub fn dynamics_lyapunov(
     }
     let p = BenettinParams { transient, steps, time_step: dt, renorm_every: 1, bound, blocks: 20 };
     let mut scratch = StepScratch::default();
+    // Benettin takes the Jacobian at x, then the step from the same x. A linear-kernel RBF
+    // map gives both from one pass over its centres: the Jacobian call keeps the step (and
+    // the state it is for), and the step call uses it when its state is that one, bit for
+    // bit (else it steps as usual).
+    let fused: std::cell::RefCell<Option<(Vec<f64>, Vec<f64>)>> = std::cell::RefCell::new(None);
     let f = |x: &[f64], out: &mut [f64]| {
+        if let Some((at, next)) = fused.borrow_mut().take() {
+            if at.iter().zip(x).all(|(a, b)| a.to_bits() == b.to_bits()) {
+                out.copy_from_slice(&next);
+                return;
+            }
+        }
         out.copy_from_slice(x);
         dynamics.step(out, dt, &mut scratch);
     };
@@ -273,12 +365,22 @@ pub fn dynamics_lyapunov(
         ReducedDynamics::Map { increment, .. } => Some(PolyJacobian::new(increment)),
         _ => None,
     };
-    let jac = |x: &[f64], j: &mut [f64]| match &mut poly_jac {
-        Some(pj) => {
+    let mut next = vec![0.0; d];
+    let jac = |x: &[f64], j: &mut [f64]| {
+        if let Some(pj) = &mut poly_jac {
             pj.eval(x, j);
-            Ok(())
+            return Ok(());
         }
-        None => map_jacobian(dynamics, x, j),
+        if let ReducedDynamics::Rbf(m) = dynamics {
+            if let Some(r) = rbf_step_and_jacobian(m, x, j, &mut next) {
+                let mut slot = fused.borrow_mut();
+                *slot = None;
+                r?;
+                *slot = Some((x.to_vec(), next.clone()));
+                return Ok(());
+            }
+        }
+        map_jacobian(dynamics, x, j)
     };
     let r = benettin_qr(eta0, f, jac, d, &p)?;
     Ok(ModelLyapunov {
@@ -408,6 +510,60 @@ mod tests {
                     }
                 }
             }
+        }
+    }
+
+    /// A random linear-kernel RBF map in dimension `d` with `k` centres: a contraction
+    /// (0.9 eta plus small terms) when `small`, so Benettin runs stay bounded.
+    fn random_rbf(d: usize, k: usize, small: bool, rnd: &mut impl FnMut() -> f64) -> RbfMap {
+        let cond = Conditioning { rows: 0, cols: 0, s_max: 1.0, s_min: 1.0, cond: 1.0, alpha: 0.0, cond_regularized: 1.0, rel_residual: 0.0 };
+        let scale: Vec<f64> = (0..d).map(|_| 0.5 + rnd().abs()).collect();
+        let mut coef: Vec<f64> = (0..(k + d + 1) * d).map(|_| rnd() * if small { 0.002 } else { 10.0 }).collect();
+        if small {
+            for j in 0..d {
+                coef[(k + j) * d + j] = -0.1 * scale[j];
+            }
+        }
+        RbfMap { dim: d, kernel: Kernel::Linear, dt: 0.03, scale, centers: (0..k * d).map(|_| rnd()).collect(), coef, conditioning: cond }
+    }
+
+    /// The fused step and Jacobian against `RbfMap::step` and [`rbf_jacobian`], bit for bit,
+    /// in dimensions 2..=6 at random states and exactly at a centre (the same error); and a
+    /// Benettin run through [`dynamics_lyapunov`] (fused) against `benettin_qr` with the
+    /// step and the Jacobian apart: the same spectrum bit for bit.
+    #[test]
+    fn fused_rbf_step_and_jacobian_equal_the_separate_ones() {
+        let mut rng = ssm::testing::XorShift64::new(0x9e37_79b9_7f4a_7c15);
+        let mut rnd = move || rng.centered();
+        for d in 2..=6 {
+            let m = random_rbf(d, 200, false, &mut rnd);
+            let (mut ja, mut jb, mut next) = (vec![0.0; d * d], vec![0.0; d * d], vec![0.0; d]);
+            let mut feat = Vec::new();
+            for t in 0..40 {
+                let eta: Vec<f64> = if t == 0 { (0..d).map(|j| m.centers[40 * d + j] * m.scale[j]).collect() } else { (0..d).map(|_| rnd()).collect() };
+                let ra = rbf_step_and_jacobian(&m, &eta, &mut ja, &mut next).unwrap();
+                let rb = rbf_jacobian(&m, &eta, &mut jb);
+                assert_eq!(ra, rb, "d {d} state {t}");
+                assert!(ja.iter().zip(&jb).all(|(x, y)| x.to_bits() == y.to_bits()), "d {d} state {t}");
+                if ra.is_ok() {
+                    let mut stepped = eta.clone();
+                    m.step(&mut stepped, &mut feat);
+                    assert!(next.iter().zip(&stepped).all(|(x, y)| x.to_bits() == y.to_bits()), "d {d} state {t}: {next:?} vs {stepped:?}");
+                }
+            }
+            let m = random_rbf(d, 100, true, &mut rnd);
+            let dynamics = ReducedDynamics::Rbf(m.clone());
+            let eta0: Vec<f64> = (0..d).map(|_| 0.2 * rnd()).collect();
+            let fused = dynamics_lyapunov(&dynamics, &eta0, 1e3, 100, 2000).unwrap();
+            let p = BenettinParams { transient: 100, steps: 2000, time_step: 0.03, renorm_every: 1, bound: 1e3, blocks: 20 };
+            let mut feat = Vec::new();
+            let apart = benettin_qr(&eta0, |x, out| {
+                out.copy_from_slice(x);
+                m.step(out, &mut feat);
+            }, |x, j| rbf_jacobian(&m, x, j), d, &p).unwrap();
+            let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+            assert_eq!(bits(&fused.spectrum), bits(&apart.exponents), "d {d}");
+            assert_eq!(fused.std_error.to_bits(), apart.std_error[0].to_bits());
         }
     }
 
