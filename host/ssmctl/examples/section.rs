@@ -1,6 +1,7 @@
 //! Runs one section of `ssmctl reproduce` alone, for profiling (issue 13):
 //! `cargo run --release -p ssmctl --example section -- NAME OUT_DIR [--quick] [--data-dir DIR]`,
-//! NAME one of accuracy-time-sim, chaos, chaos-scale, chaos-verdict, chaos-cost.
+//! NAME one of accuracy-time-sim, chaos, chaos-scale, chaos-verdict, chaos-cost, or chain (the first
+//! three in one process, as the report runs them).
 //! Writes OUT_DIR/index.html and OUT_DIR/summary.json with that section only.
 
 use std::error::Error;
@@ -21,6 +22,16 @@ fn main() -> Result<(), Box<dyn Error>> {
         let w: f64 = args.get(2).ok_or("missing window")?.parse()?;
         let (rows, _) = ssmctl::bench::bench_simulate_window(200, false, w, |_| {})?;
         println!("{}", serde_json::to_string(&rows)?);
+        return Ok(());
+    }
+    if name == "chain" {
+        // The report's chaos chain in one process (chaos, chaos-scale, chaos-verdict), so the
+        // runs they share are shared as in `ssmctl reproduce`.
+        let r = &mut rep;
+        ssmctl::report::tasks::task("chaos", || ssmctl::report::chaos::section(r, &data_dir, quick))?;
+        ssmctl::report::tasks::task("chaos-scale", || ssmctl::report::chaos::scale_section(r, &data_dir, quick))?;
+        ssmctl::report::tasks::task("chaos-verdict", || ssmctl::report::verdict::microchaos_verdict_section(r, quick))?;
+        rep.finish(&name)?;
         return Ok(());
     }
     let r = &mut rep;
