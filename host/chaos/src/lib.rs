@@ -26,7 +26,7 @@ pub use density::{Bins, CoordinatePdf, PdfComparison, compare_pdfs, jensen_shann
 pub use fsle::{FsleRow, FsleSeriesParams, fsle_from_separations, fsle_series, scaling_slope, thresholds};
 pub use surrogate::{Statistic, SurrogateParams, SurrogateResult, surrogate_test, surrogate_tests};
 pub use zero_one::{ZeroOneParams, ZeroOneResult, zero_one_test};
-pub use embed::{autocorrelation, delay_embed, dominant_period, first_zero_crossing};
+pub use embed::{autocorrelation, delay_embed, dominant_period, first_zero_crossing, lag_and_period};
 pub use lyapunov::{
     DivergenceCurve, DivergenceFit, DivergenceParams, FitRule, KantzEstimate, LyapunovEstimate, fit_divergence,
     kantz, kantz_curves, log_spaced, rosenstein, rosenstein_curve,

@@ -201,9 +201,31 @@ pub(crate) fn fft(re: &mut [f64], im: &mut [f64], inverse: bool) {
             im.swap(i, j);
         }
     }
-    let sign = if inverse { 1.0 } else { -1.0 };
-    // Twiddles of the largest stage; stage `len` reads every (n / len)-th.
-    let tw: Vec<(f64, f64)> = (0..n / 2).map(|k| (sign * 2.0 * std::f64::consts::PI * k as f64 / n as f64).sin_cos()).collect();
+    // Twiddles of the largest stage; stage `len` reads every (n / len)-th. IAAFT transforms
+    // the same length back and forth hundreds of times: the tables of the last length (both
+    // directions) are kept per thread, the same values as computed afresh.
+    thread_local! {
+        static TWIDDLES: std::cell::RefCell<[(usize, Vec<(f64, f64)>); 2]> = const { std::cell::RefCell::new([(0, Vec::new()), (0, Vec::new())]) };
+    }
+    TWIDDLES.with(|t| {
+        let mut t = t.borrow_mut();
+        let slot = &mut t[usize::from(inverse)];
+        if slot.0 != n {
+            let sign = if inverse { 1.0 } else { -1.0 };
+            slot.1 = (0..n / 2).map(|k| (sign * 2.0 * std::f64::consts::PI * k as f64 / n as f64).sin_cos()).collect();
+            slot.0 = n;
+        }
+        butterflies(re, im, &slot.1);
+    });
+    if inverse {
+        let f = 1.0 / n as f64;
+        re.iter_mut().chain(im.iter_mut()).for_each(|v| *v *= f);
+    }
+}
+
+/// The radix-2 stages of [`fft`] on bit-reversed `re`, `im` with the twiddles `tw` of length n.
+fn butterflies(re: &mut [f64], im: &mut [f64], tw: &[(f64, f64)]) {
+    let n = re.len();
     let mut len = 2;
     while len <= n {
         let stride = n / len;
@@ -219,10 +241,6 @@ pub(crate) fn fft(re: &mut [f64], im: &mut [f64], inverse: bool) {
             }
         }
         len <<= 1;
-    }
-    if inverse {
-        let f = 1.0 / n as f64;
-        re.iter_mut().chain(im.iter_mut()).for_each(|v| *v *= f);
     }
 }
 
@@ -426,6 +444,44 @@ mod tests {
             })
             .skip(500)
             .collect()
+    }
+
+    /// The kept twiddle tables give the transform computed with fresh ones, bit for bit,
+    /// when lengths and directions alternate.
+    #[test]
+    fn kept_twiddles_give_the_fresh_transform() {
+        let fresh = |re: &mut Vec<f64>, im: &mut Vec<f64>, inverse: bool| {
+            let n = re.len();
+            let mut j = 0;
+            for i in 1..n {
+                let mut bit = n >> 1;
+                while j & bit != 0 {
+                    j ^= bit;
+                    bit >>= 1;
+                }
+                j |= bit;
+                if i < j {
+                    re.swap(i, j);
+                    im.swap(i, j);
+                }
+            }
+            let sign = if inverse { 1.0 } else { -1.0 };
+            let tw: Vec<(f64, f64)> = (0..n / 2).map(|k| (sign * 2.0 * std::f64::consts::PI * k as f64 / n as f64).sin_cos()).collect();
+            butterflies(re, im, &tw);
+            if inverse {
+                let f = 1.0 / n as f64;
+                re.iter_mut().chain(im.iter_mut()).for_each(|v| *v *= f);
+            }
+        };
+        for (n, inverse) in [(64, false), (64, true), (256, false), (64, false), (256, true), (256, true), (8, false)] {
+            let x: Vec<f64> = (0..n).map(|k| ((k * 37 % 11) as f64 - 5.0) * 0.3 + (k as f64 * 0.2).sin()).collect();
+            let (mut a, mut ai) = (x.clone(), x.iter().map(|v| v * 0.5).collect::<Vec<_>>());
+            let (mut b, mut bi) = (a.clone(), ai.clone());
+            fft(&mut a, &mut ai, inverse);
+            fresh(&mut b, &mut bi, inverse);
+            let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+            assert_eq!((bits(&a), bits(&ai)), (bits(&b), bits(&bi)), "n {n} inverse {inverse}");
+        }
     }
 
     #[test]

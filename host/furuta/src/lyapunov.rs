@@ -86,6 +86,87 @@ fn rbf_jacobian_linear<const D: usize>(m: &RbfMap, eta: &[f64], jac: &mut [f64])
     Ok(())
 }
 
+/// One step of a linear-kernel RBF map in dimension `D` and its Jacobian at `eta`, from one
+/// pass over the centres (a Benettin run needs both at every state): `jac` as
+/// [`rbf_jacobian`] and `next` as `RbfMap::step` would give them, bit for bit. The step's
+/// features are the distances `r_i = sqrt(sum_j (z_j - c_ij)^2)` the Jacobian computes
+/// anyway (the same sum in the same order), then the scaled state and 1, and `next` adds
+/// `coef * feature` to `eta` feature by feature in the step's order. At a kink (a state
+/// exactly at a centre) the error is the Jacobian's and `next` is not set.
+fn rbf_step_and_jacobian_linear<const D: usize>(m: &RbfMap, eta: &[f64], jac: &mut [f64], next: &mut [f64]) -> Result<(), &'static str> {
+    let k = m.n_centers();
+    let z: [f64; D] = core::array::from_fn(|j| eta[j] / m.scale[j]);
+    let scale: [f64; D] = core::array::from_fn(|j| m.scale[j]);
+    let mut acc = [[0.0; D]; D];
+    for (i, row) in acc.iter_mut().enumerate() {
+        row[i] = 1.0;
+    }
+    let mut nx: [f64; D] = core::array::from_fn(|j| eta[j]);
+    jac.iter_mut().for_each(|v| *v = 0.0);
+    let mut kink = false;
+    for (ctr, w) in m.centers.chunks_exact(D).zip(m.coef.chunks_exact(D)).take(k) {
+        let mut diff = [0.0; D];
+        let mut r2 = 0.0;
+        for j in 0..D {
+            diff[j] = z[j] - ctr[j];
+            r2 += diff[j] * diff[j];
+        }
+        if r2 == 0.0 {
+            kink = true;
+            break;
+        }
+        let r = r2.sqrt();
+        for j in 0..D {
+            nx[j] += w[j] * r;
+        }
+        let den: [f64; D] = core::array::from_fn(|j| r * scale[j]);
+        for (row, &w) in acc.iter_mut().zip(w) {
+            for j in 0..D {
+                row[j] += w * diff[j] / den[j];
+            }
+        }
+    }
+    for (dst, row) in jac.chunks_exact_mut(D).zip(&acc) {
+        dst[..D].copy_from_slice(row);
+    }
+    if kink {
+        return Err(RBF_KINK);
+    }
+    for j in 0..D {
+        for out in 0..D {
+            jac[out * D + j] += m.coef[(k + j) * D + out] / scale[j];
+        }
+    }
+    // The linear features eta_j / s_j (the step's own quotients), then the constant 1.
+    for j2 in 0..D {
+        let f = eta[j2] / m.scale[j2];
+        for j in 0..D {
+            nx[j] += m.coef[(k + j2) * D + j] * f;
+        }
+    }
+    for j in 0..D {
+        nx[j] += m.coef[(k + D) * D + j] * 1.0;
+    }
+    next[..D].copy_from_slice(&nx);
+    Ok(())
+}
+
+/// [`rbf_step_and_jacobian_linear`] for the dimension of `m`; `None` when `m` is not a
+/// linear-kernel map of dimension 2..=6 (then the step and the Jacobian are computed apart).
+fn rbf_step_and_jacobian(m: &RbfMap, eta: &[f64], jac: &mut [f64], next: &mut [f64]) -> Option<Result<(), &'static str>> {
+    if m.kernel != Kernel::Linear {
+        return None;
+    }
+    Some(match m.dim {
+        2 => rbf_step_and_jacobian_linear::<2>(m, eta, jac, next),
+        3 => rbf_step_and_jacobian_linear::<3>(m, eta, jac, next),
+        4 => rbf_step_and_jacobian_linear::<4>(m, eta, jac, next),
+        5 => rbf_step_and_jacobian_linear::<5>(m, eta, jac, next),
+        6 => rbf_step_and_jacobian_linear::<6>(m, eta, jac, next),
+        _ => return None,
+    })
+}
+
 /// [`rbf_jacobian`] for any kernel and dimension.
 fn rbf_jacobian_any(m: &RbfMap, eta: &[f64], jac: &mut [f64]) -> Result<(), &'static str> {
     let d = m.dim;
@@ -151,35 +232,69 @@ fn rbf_jacobian_any(m: &RbfMap, eta: &[f64], jac: &mut [f64]) -> Result<(), &'st
 }
 
 /// Jacobian (row-major `d x d`) of the polynomial map `eta -> eta + P(eta)`, `P` evaluated
-/// on `z = eta / s`: `I + dP/dz / s`.
+/// on `z = eta / s`: `I + dP/dz / s`. For many evaluations of one map, [`PolyJacobian`]
+/// prepares the monomials once (the same Jacobian, bit for bit).
 pub fn poly_map_jacobian(p: &Poly, eta: &[f64], jac: &mut [f64]) {
-    let d = p.dim_in;
-    jac.iter_mut().for_each(|v| *v = 0.0);
-    for i in 0..d.min(p.dim_out) {
-        jac[i * d + i] = 1.0;
-    }
-    let maxdeg = ssm::poly::max_degree(&p.exps) as usize;
-    let stride = maxdeg + 1;
-    let mut pow = vec![1.0; d * stride];
-    for i in 0..d {
-        let z = eta[i] / p.scale[i];
-        for e in 1..stride {
-            pow[i * stride + e] = pow[i * stride + e - 1] * z;
+    PolyJacobian::new(p).eval(eta, jac);
+}
+
+/// [`poly_map_jacobian`] of one polynomial, prepared for repeated evaluation (Benettin runs
+/// take one Jacobian per map step): the largest degree and each monomial's non-zero
+/// exponents are found once, and the powers live in a buffer kept between calls. Every
+/// entry is the same product in the same order as the plain loop over all variables, which
+/// multiplies by `z_i^0 = 1` where this skips (exact), so the Jacobian is the same bit for bit.
+pub struct PolyJacobian<'a> {
+    p: &'a Poly,
+    /// Powers per variable: `pow[i * stride + e] = z_i^e`, `e = 0..stride`.
+    stride: usize,
+    pow: Vec<f64>,
+    /// Non-zero exponents `(variable, exponent)` of every monomial, in variable order;
+    /// monomial `k`'s are `factors[starts[k]..starts[k + 1]]`.
+    factors: Vec<(usize, usize)>,
+    starts: Vec<usize>,
+}
+
+impl<'a> PolyJacobian<'a> {
+    pub fn new(p: &'a Poly) -> Self {
+        let stride = ssm::poly::max_degree(&p.exps) as usize + 1;
+        let mut factors = Vec::new();
+        let mut starts = Vec::with_capacity(p.exps.len() + 1);
+        for e in &p.exps {
+            starts.push(factors.len());
+            factors.extend(e.iter().enumerate().filter(|(_, ei)| **ei != 0).map(|(i, &ei)| (i, ei as usize)));
         }
+        starts.push(factors.len());
+        Self { p, stride, pow: vec![1.0; p.dim_in * stride], factors, starts }
     }
-    for (k, e) in p.exps.iter().enumerate() {
-        for j in 0..d {
-            if e[j] == 0 {
-                continue;
+
+    /// The Jacobian at `eta` into `jac` (row-major `d x d`).
+    pub fn eval(&mut self, eta: &[f64], jac: &mut [f64]) {
+        let p = self.p;
+        let d = p.dim_in;
+        let stride = self.stride;
+        jac.iter_mut().for_each(|v| *v = 0.0);
+        for i in 0..d.min(p.dim_out) {
+            jac[i * d + i] = 1.0;
+        }
+        let pow = &mut self.pow;
+        for i in 0..d {
+            let z = eta[i] / p.scale[i];
+            for e in 1..stride {
+                pow[i * stride + e] = pow[i * stride + e - 1] * z;
             }
-            let mut g = e[j] as f64 * pow[j * stride + e[j] as usize - 1] / p.scale[j];
-            for (i, &ei) in e.iter().enumerate() {
-                if i != j {
-                    g *= pow[i * stride + ei as usize];
+        }
+        for (k, w) in self.starts.windows(2).enumerate() {
+            let f = &self.factors[w[0]..w[1]];
+            for &(j, ej) in f {
+                let mut g = ej as f64 * pow[j * stride + ej - 1] / p.scale[j];
+                for &(i, ei) in f {
+                    if i != j {
+                        g *= pow[i * stride + ei];
+                    }
                 }
-            }
-            for out in 0..p.dim_out {
-                jac[out * d + j] += p.coef[k * p.dim_out + out] * g;
+                for out in 0..p.dim_out {
+                    jac[out * d + j] += p.coef[k * p.dim_out + out] * g;
+                }
             }
         }
     }
@@ -231,11 +346,43 @@ pub fn dynamics_lyapunov(
     }
     let p = BenettinParams { transient, steps, time_step: dt, renorm_every: 1, bound, blocks: 20 };
     let mut scratch = StepScratch::default();
+    // Benettin takes the Jacobian at x, then the step from the same x. A linear-kernel RBF
+    // map gives both from one pass over its centres: the Jacobian call keeps the step (and
+    // the state it is for), and the step call uses it when its state is that one, bit for
+    // bit (else it steps as usual).
+    let fused: std::cell::RefCell<Option<(Vec<f64>, Vec<f64>)>> = std::cell::RefCell::new(None);
     let f = |x: &[f64], out: &mut [f64]| {
+        if let Some((at, next)) = fused.borrow_mut().take() {
+            if at.iter().zip(x).all(|(a, b)| a.to_bits() == b.to_bits()) {
+                out.copy_from_slice(&next);
+                return;
+            }
+        }
         out.copy_from_slice(x);
         dynamics.step(out, dt, &mut scratch);
     };
-    let r = benettin_qr(eta0, f, |x, j| map_jacobian(dynamics, x, j), d, &p)?;
+    let mut poly_jac = match dynamics {
+        ReducedDynamics::Map { increment, .. } => Some(PolyJacobian::new(increment)),
+        _ => None,
+    };
+    let mut next = vec![0.0; d];
+    let jac = |x: &[f64], j: &mut [f64]| {
+        if let Some(pj) = &mut poly_jac {
+            pj.eval(x, j);
+            return Ok(());
+        }
+        if let ReducedDynamics::Rbf(m) = dynamics {
+            if let Some(r) = rbf_step_and_jacobian(m, x, j, &mut next) {
+                let mut slot = fused.borrow_mut();
+                *slot = None;
+                r?;
+                *slot = Some((x.to_vec(), next.clone()));
+                return Ok(());
+            }
+        }
+        map_jacobian(dynamics, x, j)
+    };
+    let r = benettin_qr(eta0, f, jac, d, &p)?;
     Ok(ModelLyapunov {
         exponent: r.exponents[0],
         std_error: r.std_error[0],
@@ -298,6 +445,127 @@ fn dim_of(dynamics: &ReducedDynamics) -> usize {
 mod tests {
     use super::*;
     use ssm::Conditioning;
+
+    /// The plain loop [`poly_map_jacobian`] had before [`PolyJacobian`] (every variable's
+    /// power multiplied in, `z^0 = 1` included; a fresh power table per call).
+    fn poly_map_jacobian_plain(p: &Poly, eta: &[f64], jac: &mut [f64]) {
+        let d = p.dim_in;
+        jac.iter_mut().for_each(|v| *v = 0.0);
+        for i in 0..d.min(p.dim_out) {
+            jac[i * d + i] = 1.0;
+        }
+        let stride = ssm::poly::max_degree(&p.exps) as usize + 1;
+        let mut pow = vec![1.0; d * stride];
+        for i in 0..d {
+            let z = eta[i] / p.scale[i];
+            for e in 1..stride {
+                pow[i * stride + e] = pow[i * stride + e - 1] * z;
+            }
+        }
+        for (k, e) in p.exps.iter().enumerate() {
+            for j in 0..d {
+                if e[j] == 0 {
+                    continue;
+                }
+                let mut g = e[j] as f64 * pow[j * stride + e[j] as usize - 1] / p.scale[j];
+                for (i, &ei) in e.iter().enumerate() {
+                    if i != j {
+                        g *= pow[i * stride + ei as usize];
+                    }
+                }
+                for out in 0..p.dim_out {
+                    jac[out * d + j] += p.coef[k * p.dim_out + out] * g;
+                }
+            }
+        }
+    }
+
+    /// The prepared polynomial Jacobian against the plain loop, bit for bit, in dimensions
+    /// 2..=6 and orders 1..=5 (with and without the constant term) at random states, the
+    /// prepared one reused across states.
+    #[test]
+    fn prepared_poly_jacobian_equals_the_plain_loop() {
+        let mut rng = ssm::testing::XorShift64::new(0x2545_f491_4f6c_dd1d);
+        let mut rnd = move || rng.centered();
+        for d in 2..=6 {
+            for order in 1..=5u32 {
+                for min_deg in [0u32, 1] {
+                    let exps = ssm::poly::exponents(d, min_deg, order);
+                    let p = Poly {
+                        dim_in: d,
+                        dim_out: d,
+                        scale: (0..d).map(|_| 0.3 + rnd().abs()).collect(),
+                        coef: (0..exps.len() * d).map(|_| rnd() * 3.0).collect(),
+                        exps,
+                    };
+                    let mut pj = PolyJacobian::new(&p);
+                    let (mut a, mut b, mut c) = (vec![7.0; d * d], vec![-7.0; d * d], vec![3.0; d * d]);
+                    for _ in 0..20 {
+                        let eta: Vec<f64> = (0..d).map(|_| rnd()).collect();
+                        pj.eval(&eta, &mut a);
+                        poly_map_jacobian_plain(&p, &eta, &mut b);
+                        poly_map_jacobian(&p, &eta, &mut c);
+                        assert!(a.iter().zip(&b).all(|(x, y)| x.to_bits() == y.to_bits()), "d {d} order {order}: {a:?} vs {b:?}");
+                        assert!(c.iter().zip(&b).all(|(x, y)| x.to_bits() == y.to_bits()), "d {d} order {order}");
+                    }
+                }
+            }
+        }
+    }
+
+    /// A random linear-kernel RBF map in dimension `d` with `k` centres: a contraction
+    /// (0.9 eta plus small terms) when `small`, so Benettin runs stay bounded.
+    fn random_rbf(d: usize, k: usize, small: bool, rnd: &mut impl FnMut() -> f64) -> RbfMap {
+        let cond = Conditioning { rows: 0, cols: 0, s_max: 1.0, s_min: 1.0, cond: 1.0, alpha: 0.0, cond_regularized: 1.0, rel_residual: 0.0 };
+        let scale: Vec<f64> = (0..d).map(|_| 0.5 + rnd().abs()).collect();
+        let mut coef: Vec<f64> = (0..(k + d + 1) * d).map(|_| rnd() * if small { 0.002 } else { 10.0 }).collect();
+        if small {
+            for j in 0..d {
+                coef[(k + j) * d + j] = -0.1 * scale[j];
+            }
+        }
+        RbfMap { dim: d, kernel: Kernel::Linear, dt: 0.03, scale, centers: (0..k * d).map(|_| rnd()).collect(), coef, conditioning: cond }
+    }
+
+    /// The fused step and Jacobian against `RbfMap::step` and [`rbf_jacobian`], bit for bit,
+    /// in dimensions 2..=6 at random states and exactly at a centre (the same error); and a
+    /// Benettin run through [`dynamics_lyapunov`] (fused) against `benettin_qr` with the
+    /// step and the Jacobian apart: the same spectrum bit for bit.
+    #[test]
+    fn fused_rbf_step_and_jacobian_equal_the_separate_ones() {
+        let mut rng = ssm::testing::XorShift64::new(0x9e37_79b9_7f4a_7c15);
+        let mut rnd = move || rng.centered();
+        for d in 2..=6 {
+            let m = random_rbf(d, 200, false, &mut rnd);
+            let (mut ja, mut jb, mut next) = (vec![0.0; d * d], vec![0.0; d * d], vec![0.0; d]);
+            let mut feat = Vec::new();
+            for t in 0..40 {
+                let eta: Vec<f64> = if t == 0 { (0..d).map(|j| m.centers[40 * d + j] * m.scale[j]).collect() } else { (0..d).map(|_| rnd()).collect() };
+                let ra = rbf_step_and_jacobian(&m, &eta, &mut ja, &mut next).unwrap();
+                let rb = rbf_jacobian(&m, &eta, &mut jb);
+                assert_eq!(ra, rb, "d {d} state {t}");
+                assert!(ja.iter().zip(&jb).all(|(x, y)| x.to_bits() == y.to_bits()), "d {d} state {t}");
+                if ra.is_ok() {
+                    let mut stepped = eta.clone();
+                    m.step(&mut stepped, &mut feat);
+                    assert!(next.iter().zip(&stepped).all(|(x, y)| x.to_bits() == y.to_bits()), "d {d} state {t}: {next:?} vs {stepped:?}");
+                }
+            }
+            let m = random_rbf(d, 100, true, &mut rnd);
+            let dynamics = ReducedDynamics::Rbf(m.clone());
+            let eta0: Vec<f64> = (0..d).map(|_| 0.2 * rnd()).collect();
+            let fused = dynamics_lyapunov(&dynamics, &eta0, 1e3, 100, 2000).unwrap();
+            let p = BenettinParams { transient: 100, steps: 2000, time_step: 0.03, renorm_every: 1, bound: 1e3, blocks: 20 };
+            let mut feat = Vec::new();
+            let apart = benettin_qr(&eta0, |x, out| {
+                out.copy_from_slice(x);
+                m.step(out, &mut feat);
+            }, |x, j| rbf_jacobian(&m, x, j), d, &p).unwrap();
+            let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+            assert_eq!(bits(&fused.spectrum), bits(&apart.exponents), "d {d}");
+            assert_eq!(fused.std_error.to_bits(), apart.std_error[0].to_bits());
+        }
+    }
 
     /// The fixed-dimension Jacobian of the linear kernel against the general loop, bit for
     /// bit, in dimensions 2..=6 on random maps (300 centres) at random states, including a

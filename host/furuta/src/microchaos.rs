@@ -21,10 +21,11 @@ use ssm::embed::delay_embed as ssm_embed;
 use ssm::{Dynamics, FitOptions, Ridge, SsmModel, TimeSeries, fit};
 use chaos::{
     Bins, ChaosError, CorrSumParams, DivergenceCurve, DivergenceParams, FitRule, Points, ScalingRule, correlation_dimension,
-    delay_embed, dominant_period, first_zero_crossing, fit_divergence, rosenstein_curve, ssm_dimension,
+    delay_embed, fit_divergence, lag_and_period, rosenstein_curve, ssm_dimension,
 };
 use serde::Serialize;
-use sim::scene::SceneBuilder;
+use sim::closed_loop::Trajectory;
+use sim::scene::{Scene, SceneBuilder};
 use crate::Error;
 
 #[derive(Clone, Debug)]
@@ -177,8 +178,8 @@ pub struct Context {
 impl Context {
     pub fn from_series(x: &[f64], dt: f64, embed: usize) -> Result<Self, ChaosError> {
         let n = x.len();
-        let lag = first_zero_crossing(x, n / 4)?.max(1);
-        let theiler = dominant_period(x, n / 4)?.max(1);
+        let (lag, theiler) = lag_and_period(x, n / 4)?;
+        let (lag, theiler) = (lag.max(1), theiler.max(1));
         Ok(Self { dt, lag, theiler, embed })
     }
 
@@ -591,7 +592,7 @@ pub fn simulate_quantized(periods: usize, theta0: f64, name: &str) -> Result<Tim
 /// builder): the run length and the initial state `[theta0, 0, 0, 0]` are set here.
 pub fn simulate_scene(scene: SceneBuilder, periods: usize, theta0: f64, name: &str) -> Result<TimeSeries, Error> {
     let s = scene.periods(periods as u64).initial_state(&[theta0, 0.0, 0.0, 0.0]).build()?;
-    let tr = sim::closed_loop::simulate(&s, None)?;
+    let tr = simulate_shared(&s)?;
     let skip = (20.0 / tr.dt) as usize;
     if skip >= tr.t.len() {
         return Err(Error::BadInput { what: "periods", why: format!("{periods} periods are shorter than the 20 s transient") });
@@ -599,9 +600,91 @@ pub fn simulate_scene(scene: SceneBuilder, periods: usize, theta0: f64, name: &s
     Ok(TimeSeries::new(name, tr.t[skip..].to_vec(), tr.primary()[skip..].to_vec())?)
 }
 
+/// Runs kept by [`simulate_shared`] (at most this many; the oldest is dropped first).
+pub const SHARED_RUNS: usize = 8;
+
+/// `sim::closed_loop::simulate(scene)`, shared between callers in one process: the chaos
+/// study simulates the same quantized loop (`furuta-quant-dt25` from theta0 = 0.02) in the
+/// chaos, chaos-scale and chaos-verdict sections, 20,000 to 30,000 periods each. A run is
+/// kept per scene (everything but `run.periods`); a request for fewer periods than a kept
+/// run gets that run's first `periods + 1` rows. They are the same numbers bit for bit: the
+/// loop advances period by period and nothing in it depends on the run's length. A prefix
+/// is served only from a run that neither stopped early nor saturated, so its
+/// `saturated_samples` (0) and `stopped` (none) hold for the prefix too; its `ode_stats`
+/// are left zero and its `wall_seconds` is 0 (they are the longer run's, not measured for
+/// the prefix). A longer request simulates afresh and replaces the kept run.
+pub fn simulate_shared(scene: &Scene) -> Result<Trajectory, Error> {
+    type Kept = Vec<(Scene, std::sync::Arc<Trajectory>)>;
+    static RUNS: std::sync::OnceLock<std::sync::Mutex<Kept>> = std::sync::OnceLock::new();
+    let runs = RUNS.get_or_init(|| std::sync::Mutex::new(Vec::new()));
+    let periods = scene.run.periods as usize;
+    let mut key = scene.clone();
+    key.run.periods = 0;
+    let kept = runs.lock().ok().and_then(|v| v.iter().find(|(k, _)| *k == key).map(|(_, t)| t.clone()));
+    if let Some(t) = kept {
+        if t.rows() == periods + 1 {
+            return Ok((*t).clone());
+        }
+        if t.rows() > periods + 1 && t.stopped.is_none() && t.saturated_samples == 0 {
+            return Ok(prefix(&t, periods + 1));
+        }
+    }
+    let t = sim::closed_loop::simulate(scene, None)?;
+    if let Ok(mut v) = runs.lock() {
+        v.retain(|(k, kt)| !(*k == key && kt.rows() <= t.rows()));
+        if !v.iter().any(|(k, _)| *k == key) {
+            if v.len() >= SHARED_RUNS {
+                v.remove(0);
+            }
+            v.push((key, std::sync::Arc::new(t.clone())));
+        }
+    }
+    Ok(t)
+}
+
+/// The first `rows` rows of `t` (see [`simulate_shared`] for the statistics).
+fn prefix(t: &Trajectory, rows: usize) -> Trajectory {
+    let n = t.n_states();
+    Trajectory {
+        scene: t.scene.clone(),
+        state_names: t.state_names.clone(),
+        dt: t.dt,
+        t: t.t[..rows].to_vec(),
+        states: t.states[..rows * n].to_vec(),
+        u: t.u[..rows].to_vec(),
+        codes: t.codes.as_ref().map(|c| c[..rows].to_vec()),
+        saturated_samples: t.saturated_samples,
+        stopped: None,
+        integrator: t.integrator.clone(),
+        ode_stats: Default::default(),
+        wall_seconds: 0.0,
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A run served by [`simulate_shared`] equals a plain `simulate` bit for bit: the same
+    /// length again (kept run), a shorter one (prefix of the kept run), and a longer one
+    /// (simulated afresh, then kept).
+    #[test]
+    fn shared_runs_equal_fresh_runs_bit_for_bit() {
+        let scene = |periods: u64| SceneBuilder::load("furuta-quant-dt25").unwrap().periods(periods).initial_state(&[0.0312, 0.0, 0.0, 0.0]).build().unwrap();
+        let same = |a: &Trajectory, b: &Trajectory| {
+            assert_eq!(a.rows(), b.rows());
+            let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+            assert_eq!(bits(&a.t), bits(&b.t));
+            assert_eq!(bits(&a.states), bits(&b.states));
+            assert_eq!(bits(&a.u), bits(&b.u));
+            assert_eq!(a.codes, b.codes);
+            assert_eq!((a.saturated_samples, &a.stopped), (b.saturated_samples, &b.stopped));
+        };
+        for periods in [600, 600, 250, 900, 400] {
+            let fresh = sim::closed_loop::simulate(&scene(periods), None).unwrap();
+            same(&simulate_shared(&scene(periods)).unwrap(), &fresh);
+        }
+    }
 
     /// A curve with a noise jump of 80 % of its rise at the first step, then a straight rise
     /// at 0.25 1/s that saturates: the fallback skips the jump and returns the slope.

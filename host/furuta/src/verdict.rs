@@ -477,7 +477,7 @@ pub fn microchaos_verdict(pil: Option<&TimeSeries>, o: &VerdictOptions) -> Resul
         .iter()
         .map(|name| Ok(SceneBuilder::load(name)?.periods(o.periods as u64).initial_state(&[o.theta0, 0.0, 0.0, 0.0]).build()?))
         .collect::<Result<_, Error>>()?;
-    let sims = crate::par_map(&built, |s| -> Result<Trajectory, Error> { Ok(simulate(s, None)?) })?;
+    let sims = crate::par_map(&built, crate::microchaos::simulate_shared)?;
     let quant_traj = &sims[0];
     let dt = quant_traj.dt;
     let skip = (20.0 / dt) as usize;

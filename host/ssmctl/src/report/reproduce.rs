@@ -438,7 +438,7 @@ fn chart_section(rep: &mut Report, quick: bool) -> Result<(), Box<dyn Error>> {
     Ok(())
 }
 
-fn bench_section(rep: &mut Report, quick: bool, quiet: bool) -> Result<(), Box<dyn Error>> {
+pub fn bench_section(rep: &mut Report, quick: bool, quiet: bool) -> Result<(), Box<dyn Error>> {
     rep.section(
         "accuracy-time-sim",
         "What accuracy costs in time: simulation",
