@@ -219,6 +219,22 @@ impl Manifold {
         }
     }
 
+    /// Coordinate `i` of [`Manifold::lift_into`] alone (`i < p`, else `NaN`), the same bits:
+    /// a map iterated for its observable (the newest embedding coordinate) needs only that one.
+    pub fn lift_one(&self, eta: &[f64], scratch: &mut PolyScratch, i: usize) -> f64 {
+        if i >= self.p {
+            return f64::NAN;
+        }
+        let mut o = match &self.nonlinear {
+            Some(poly) => poly.eval_one(eta, scratch, i),
+            None => 0.0,
+        };
+        for (j, e) in eta.iter().enumerate() {
+            o += self.v1[j * self.p + i] * e;
+        }
+        o
+    }
+
     /// Largest violation of the constraints: `max(|V1^T V1 - I|, |V1^T V_k|)` (entrywise,
     /// `V_k` in the scaled-monomial coefficients).
     pub fn constraint_defect(&self) -> f64 {

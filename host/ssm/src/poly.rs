@@ -137,6 +137,27 @@ impl Poly {
         }
     }
 
+    /// Output `i` of [`Poly::eval_into`] alone (`i < dim_out`, else `NaN`): the same
+    /// operations in the same order, so the same bits, at the cost of one output's sum.
+    pub fn eval_one(&self, eta: &[f64], scratch: &mut PolyScratch, i: usize) -> f64 {
+        if i >= self.dim_out {
+            return f64::NAN;
+        }
+        let nm = self.exps.len();
+        scratch.z.clear();
+        scratch.z.extend(eta.iter().zip(&self.scale).map(|(e, s)| e / s));
+        scratch.phi.resize(nm, 0.0);
+        if !eval_monomials_upto(&self.exps, &scratch.z, scratch.max_deg, &mut scratch.pow, &mut scratch.phi) {
+            scratch.max_deg = scratch.max_deg.max(max_degree(&self.exps));
+            eval_monomials(&self.exps, &scratch.z, scratch.max_deg, &mut scratch.pow, &mut scratch.phi);
+        }
+        let mut o = 0.0;
+        for (k, &p) in scratch.phi.iter().enumerate() {
+            o += self.coef[k * self.dim_out + i] * p;
+        }
+        o
+    }
+
     /// Allocating convenience wrapper around [`Poly::eval_into`].
     pub fn eval(&self, eta: &[f64]) -> Vec<f64> {
         let mut out = vec![0.0; self.dim_out];
