@@ -379,9 +379,9 @@ fn poly_fit(
         }
     }
     let frac = match anchor {
-        None if rows.is_none() => return ridge::fit_owned(design(exps), y, groups, ridge, what, || design(exps)),
+        None if rows.is_none() => return ridge::fit_owned_qtb(design(exps), y, groups, ridge, what, || design(exps)),
         None => {
-            let (w, mut cond) = ridge::fit_owned(weigh(design(exps)), weigh(y.to_owned()).as_ref(), groups, ridge, what, || weigh(design(exps)))?;
+            let (w, mut cond) = ridge::fit_owned_qtb(weigh(design(exps)), weigh(y.to_owned()).as_ref(), groups, ridge, what, || weigh(design(exps)))?;
             // The residual reported is the unweighted one.
             cond.rel_residual = ridge::rel_residual(design(exps).as_ref(), y, w.as_ref());
             return Ok((w, cond));
@@ -404,16 +404,16 @@ fn poly_fit(
     let resid = y - &a_l * &w_lin;
     drop(a_l);
     let (w_nl, mut cond) = match low {
-        None => ridge::fit_owned(weigh(design(higher)), weigh(resid).as_ref(), groups, ridge, what, || weigh(design(higher)))?,
+        None => ridge::fit_owned_qtb(weigh(design(higher)), weigh(resid).as_ref(), groups, ridge, what, || weigh(design(higher)))?,
         Some((n_low, f)) => {
             // Stage 1: every higher degree on the low-knee weights; keep the low degrees.
-            let (w1, _) = ridge::fit_owned(scale_rows(design(higher), f), scale_rows(resid.clone(), f).as_ref(), groups, ridge, what, || scale_rows(design(higher), f))?;
+            let (w1, _) = ridge::fit_owned_qtb(scale_rows(design(higher), f), scale_rows(resid.clone(), f).as_ref(), groups, ridge, what, || scale_rows(design(higher), f))?;
             let (lo, hi) = higher.split_at(n_low);
             let w_lo = w1.subrows(0, n_low).to_owned();
             place_rows(&mut w, d, w_lo.as_ref());
             // Stage 2: the degrees above on what the low ones leave, main weights.
             let resid2 = resid - design(lo) * &w_lo;
-            let (w_hi, cond) = ridge::fit_owned(weigh(design(hi)), weigh(resid2).as_ref(), groups, ridge, what, || weigh(design(hi)))?;
+            let (w_hi, cond) = ridge::fit_owned_qtb(weigh(design(hi)), weigh(resid2).as_ref(), groups, ridge, what, || weigh(design(hi)))?;
             let mut w_nl = Mat::<f64>::zeros(higher.len(), y.ncols());
             place_rows(&mut w_nl, 0, w_lo.as_ref());
             place_rows(&mut w_nl, n_low, w_hi.as_ref());
