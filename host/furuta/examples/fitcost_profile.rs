@@ -35,6 +35,19 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         eprintln!("{what}: {:.2} CPU-s", c - c0);
         c0 = c;
     };
+    if has("heads") {
+        // The full-system head of a map-basin cell (the embedding window, 21 periods) against
+        // longer runs from the same starts: the cost of a run's start-up.
+        let basis = furuta::parametric::ModeBasis::at(31.5)?;
+        let starts: Vec<_> = (0..100).map(|k| furuta::full_system::start_from_rho_in(&basis, [0.005 + 0.002 * k as f64, 0.01], [0.0, 0.0])).collect::<Result<_, _>>()?;
+        for periods in [1u64, 21, 210] {
+            for s in &starts {
+                std::hint::black_box(furuta::full_system::run(31.5, &(s.0, Some(s.1.clone())), periods, 1.0)?);
+            }
+            lap(&format!("100 full-system runs of {periods} periods"));
+        }
+        return Ok(());
+    }
     let runs = TrainingRuns::simulate(&sets)?;
     lap("runs");
     if has("parametric") {

@@ -200,6 +200,33 @@ mod tests {
         (0..k).fold(1, |acc, i| acc * (n - i) / (i + 1))
     }
 
+    /// One output alone ([`Poly::eval_one`]) is [`Poly::eval_into`]'s, bit for bit, with a
+    /// scratch reused across polynomials of other degrees; out of range: NaN.
+    #[test]
+    fn one_output_is_the_same_bits() {
+        let mut st = 3u64;
+        let mut r = || {
+            st = st.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            ((st >> 11) as f64) / ((1u64 << 53) as f64) - 0.5
+        };
+        let mut sc = PolyScratch::default();
+        for (d, max, q) in [(4usize, 7u32, 4usize), (4, 3, 21), (2, 5, 3)] {
+            let exps = exponents(d, 1, max);
+            let scale: Vec<f64> = (0..d).map(|_| 0.5 + r().abs()).collect();
+            let coef: Vec<f64> = (0..exps.len() * q).map(|_| r()).collect();
+            let p = Poly { dim_in: d, dim_out: q, scale, exps, coef };
+            let mut out = vec![0.0; q];
+            for _ in 0..5 {
+                let eta: Vec<f64> = (0..d).map(|_| r()).collect();
+                p.eval_into(&eta, &mut sc, &mut out);
+                for (i, o) in out.iter().enumerate() {
+                    assert_eq!(p.eval_one(&eta, &mut sc, i).to_bits(), o.to_bits(), "d {d} order {max} output {i}");
+                }
+            }
+            assert!(p.eval_one(&vec![0.1; d], &mut sc, q).is_nan());
+        }
+    }
+
     #[test]
     fn order_and_count() {
         let e = exponents(2, 1, 3);
