@@ -334,9 +334,10 @@ fn place_rows(w: &mut Mat<f64>, at: usize, part: MatRef<'_, f64>) {
 
 /// [`poly_regression`] on the design matrix of `x` (monomials `exps`, scaled by `scale`),
 /// built here in parts so that the big regressions factorize their design matrix in its
-/// own storage and solve through `Q^T b` without forming `U` ([`ridge::fit_owned_qtb`]): the
-/// same solution up to rounding and the same conditioning, at about a third of the peak
-/// memory and about half the cost. The joint anchored fit takes the whole matrix. With row
+/// own storage ([`ridge::fit_owned`]): the same solution and conditioning, at about a third
+/// of the peak memory; the anchored and the weighted fits also solve through `Q^T b` without
+/// forming `U` ([`ridge::fit_owned_qtb`]): the same solution up to rounding, about half the
+/// cost. The joint anchored fit takes the whole matrix. With row
 /// factors `rows` (square roots of [`RowWeight`]'s weights) the fit is weighted: with a
 /// plain anchor the linear part stays unweighted on the anchor rows and the higher orders
 /// are weighted; the residual reported is the unweighted one of the whole fit; the joint
@@ -380,7 +381,12 @@ fn poly_fit(
         }
     }
     let frac = match anchor {
-        None if rows.is_none() => return ridge::fit_owned_qtb(design(exps), y, groups, ridge, what, || design(exps)),
+        // The plain fit keeps the `U` solve, bit for bit as before: the chaos study's map
+        // models are fitted this way, and their finite-time Lyapunov and PDF statistics turn a
+        // rounding change of the coefficients into changes of several percent (measured:
+        // the chaos-cost table's poly rows, 2-8 %). The anchored and weighted fits below (the
+        // Furuta models) solve through `Q^T b`.
+        None if rows.is_none() => return ridge::fit_owned(design(exps), y, groups, ridge, what, || design(exps)),
         None => {
             let (w, mut cond) = ridge::fit_owned_qtb_no_residual(weigh(design(exps)), weigh(y.to_owned()).as_ref(), groups, ridge, what)?;
             // The residual reported is the unweighted one.
