@@ -249,13 +249,9 @@ pub fn map_outcome(model: &ssm::fit::SsmModel, dt_ms: f64, start: &crate::full_s
     }
     let eta0 = model.manifold.reduce(y0);
     let mut scratch = StepScratch::default();
-    let lift = std::cell::RefCell::new((vec![0.0; p], ssm::poly::PolyScratch::default()));
-    let obs = |e: &[f64]| {
-        let mut g = lift.borrow_mut();
-        let (out, sc) = &mut *g;
-        model.manifold.lift_into(e, sc, out);
-        out[p - 1]
-    };
+    // Theta is the lifted point's newest coordinate: only that one is evaluated.
+    let lift = std::cell::RefCell::new(ssm::poly::PolyScratch::default());
+    let obs = |e: &[f64]| model.manifold.lift_one(e, &mut lift.borrow_mut(), p - 1);
     let o = iterate_outcome(|e| model.dynamics.step(e, dt, &mut scratch), obs, &eta0, periods - (p as u64 - 1), (p - 1) as f64 * dt, dt, escape_theta);
     Ok(crate::full_system::Outcome { escape_t: o.escape_t, max_theta: o.max_theta.max(head_max) })
 }

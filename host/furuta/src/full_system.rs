@@ -20,7 +20,7 @@ use crate::Error;
 use sim::scene::{IntegratorSpec, MethodKind, Scene};
 use sim::closed_loop::{Trajectory, simulate};
 use std::sync::OnceLock;
-use crate::parametric::{exact_modes, mode_start};
+use crate::parametric::{ModeBasis, check_mode_amplitudes, exact_modes, mode_start};
 use ssm::spectrum::{PEAK_REL_THRESHOLD, Peak, band_peak, mode_amplitudes, sideband_spacing, spectral_peaks};
 
 
@@ -386,11 +386,25 @@ pub struct Fate {
 /// The start at `dt_ms` with theta amplitudes `rho` (slow, fast; rad) and phases `phases`
 /// on the linear eigenvectors ([`mode_start`]; a zero amplitude leaves that mode out).
 pub fn start_from_rho(dt_ms: f64, rho: [f64; 2], phases: [f64; 2]) -> Result<([f64; 4], Vec<[f64; 2]>), Error> {
+    let [slow, fast] = rho_modes(rho, phases)?;
+    Ok(mode_start(dt_ms, slow, fast)?)
+}
+
+/// [`start_from_rho`] from the eigenvectors of its sampling period computed once
+/// ([`ModeBasis::at`]): the same start, bit for bit, for a grid of starts at one dt.
+pub fn start_from_rho_in(basis: &ModeBasis, rho: [f64; 2], phases: [f64; 2]) -> Result<([f64; 4], Vec<[f64; 2]>), Error> {
+    let [slow, fast] = rho_modes(rho, phases)?;
+    check_mode_amplitudes(slow, fast)?;
+    basis.start(slow, fast)
+}
+
+/// The mode amplitudes and phases of [`start_from_rho`] (a zero amplitude leaves the mode out).
+fn rho_modes(rho: [f64; 2], phases: [f64; 2]) -> Result<[Option<(f64, f64)>; 2], Error> {
     if rho.iter().any(|r| !(r.is_finite() && *r >= 0.0)) || rho == [0.0, 0.0] {
         return Err(Error::BadInput { what: "rho", why: format!("need finite non-negative amplitudes, not both zero, got {rho:?}") });
     }
     let m = |k: usize| (rho[k] > 0.0).then_some((rho[k], phases[k]));
-    Ok(mode_start(dt_ms, m(0), m(1))?)
+    Ok([m(0), m(1)])
 }
 
 /// Runs `periods` periods at `dt_ms` from the start at amplitudes `rho` and `phases`

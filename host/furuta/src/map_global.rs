@@ -30,7 +30,8 @@ use ssm::poly::PolyScratch;
 use crate::Error;
 use crate::basin::{BasinOptions, TorusContinuation, torus_step};
 use crate::bifurcations::{MapSwitch, first_escape_switch, iterate_outcome, map_outcome};
-use crate::full_system::{ESCAPE_THETA, Outcome, Start, outcome_of, run, start_from_rho};
+use crate::full_system::{ESCAPE_THETA, Outcome, Start, outcome_of, run, start_from_rho, start_from_rho_in};
+use crate::parametric::ModeBasis;
 use crate::saddle_cycles::{CircleOptions, InvariantCircle, saddle_cycles};
 
 type C = Complex<f64>;
@@ -191,13 +192,8 @@ pub fn map_connection_fates(model: &SsmModel, dt_ms: f64, o: &ConnectionOptions)
         .iter()
         .map(|eta0| {
             let mut scratch = StepScratch::default();
-            let lift = std::cell::RefCell::new((vec![0.0; p], PolyScratch::default()));
-            let obs = |e: &[f64]| {
-                let mut g = lift.borrow_mut();
-                let (out, sc) = &mut *g;
-                model.manifold.lift_into(e, sc, out);
-                out[p - 1]
-            };
+            let lift = std::cell::RefCell::new(PolyScratch::default());
+            let obs = |e: &[f64]| model.manifold.lift_one(e, &mut lift.borrow_mut(), p - 1);
             iterate_outcome(|e| model.dynamics.step(e, dt, &mut scratch), obs, eta0, o.periods, 0.0, dt, ESCAPE_THETA)
         })
         .collect();
@@ -353,12 +349,10 @@ pub fn map_torus_continuation_from(
             return Err(Error::Shape { expected: p, got: model.manifold.p });
         }
         let (mut scratch, mut sc) = (StepScratch::default(), PolyScratch::default());
-        let mut out = vec![0.0; p];
         let mut theta = Vec::with_capacity(periods as usize + 1);
         let mut escape_t = None;
         for k in 0..=periods {
-            model.manifold.lift_into(&eta, &mut sc, &mut out);
-            let th = out[p - 1];
+            let th = model.manifold.lift_one(&eta, &mut sc, p - 1);
             if !th.is_finite() || eta.iter().any(|v| !v.is_finite()) || th.abs() > ESCAPE_THETA {
                 escape_t = Some(k as f64 * dt);
                 break;
@@ -386,7 +380,8 @@ pub fn map_basin(model_at: impl Fn(f64) -> Result<SsmModel, Error> + Sync, opts:
     if opts.dts_ms.is_empty() || opts.dts_ms.windows(2).any(|w| w[1] <= w[0]) {
         return Err(Error::BadInput { what: "dts_ms", why: format!("need at least one, strictly increasing, got {:?}", opts.dts_ms) });
     }
-    let models = crate::par_map(&opts.dts_ms, |&dt| model_at(dt))?;
+    // The model and the linear eigenvectors of the starts once per dt (not per cell).
+    let models = crate::par_map(&opts.dts_ms, |&dt| Ok::<_, Error>((model_at(dt)?, ModeBasis::at(dt)?)))?;
     let (r1, r2) = opts.values();
     let mut cells: Vec<(usize, f64, f64)> = Vec::with_capacity(opts.dts_ms.len() * r1.len() * r2.len());
     for k in 0..opts.dts_ms.len() {
@@ -396,8 +391,9 @@ pub fn map_basin(model_at: impl Fn(f64) -> Result<SsmModel, Error> + Sync, opts:
     }
     let bounded = crate::par_map(&cells, |&(k, x, y)| -> Result<bool, Error> {
         let dt = opts.dts_ms[k];
-        let (s, h) = start_from_rho(dt, [x, y], opts.phases)?;
-        Ok(map_outcome(&models[k], dt, &(s, Some(h)), opts.periods, ESCAPE_THETA)?.bounded())
+        let (model, basis) = &models[k];
+        let (s, h) = start_from_rho_in(basis, [x, y], opts.phases)?;
+        Ok(map_outcome(model, dt, &(s, Some(h)), opts.periods, ESCAPE_THETA)?.bounded())
     })?;
     Ok(bounded.chunks(r1.len() * r2.len()).map(<[bool]>::to_vec).collect())
 }

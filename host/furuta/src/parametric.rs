@@ -233,8 +233,12 @@ pub fn mode_start(dt_ms: f64, slow: Option<(f64, f64)>, fast: Option<(f64, f64)>
 /// [`mode_start`] on the linearized closed loop of any 4-state Furuta scene without integral
 /// action (its gains, delay and sampling period), e.g. a sweep's cell.
 pub fn mode_start_in(scene: &sim::scene::Scene, slow: Option<(f64, f64)>, fast: Option<(f64, f64)>) -> Result<([f64; 4], Vec<[f64; 2]>), Error> {
-    use nalgebra::{Complex, DVector};
-    let dt_ms = scene.controller.dt_ms;
+    check_mode_amplitudes(slow, fast)?;
+    ModeBasis::of(scene)?.start(slow, fast)
+}
+
+/// The amplitudes of [`mode_start`]: at least one mode, each positive and finite, phases finite.
+pub(crate) fn check_mode_amplitudes(slow: Option<(f64, f64)>, fast: Option<(f64, f64)>) -> Result<(), Error> {
     if slow.is_none() && fast.is_none() {
         return Err(Error::BadOption { what: "mode_start", why: "give at least one of the slow and the fast mode".into() });
     }
@@ -245,33 +249,72 @@ pub fn mode_start_in(scene: &sim::scene::Scene, slow: Option<(f64, f64)>, fast: 
             }
         }
     }
-    let le = |source| StabilityError::Linear { scene: scene.name.clone(), source };
-    let map = sim::stability::linear_plant(scene)?.closed_loop(&scene.controller_config()).map_err(le)?;
-    let lay = map.layout;
-    if lay.n_plant != 4 || lay.integral.is_some() {
-        return Err(Error::BadOption { what: "mode_start", why: "needs the 4-state Furuta plant without integral action".into() });
+    Ok(())
+}
+
+/// The slow and fast eigenvectors of one scene's linearized closed loop (the augmented map),
+/// computed once, so that [`mode_start`]'s starts at many amplitudes and phases of one
+/// sampling period (a basin grid) cost a few multiplications each: [`ModeBasis::start`] gives
+/// the same start, bit for bit, as [`mode_start_in`] on that scene.
+#[derive(Clone, Debug)]
+pub struct ModeBasis {
+    dt_ms: f64,
+    /// Size of the augmented state and where the delayed samples sit in it.
+    n: usize,
+    delay: usize,
+    y_start: usize,
+    z_start: usize,
+    /// Unit eigenvector per mode (slow, fast); `None` where the shifted map was singular
+    /// (an error only when that mode is asked for).
+    vectors: [Option<nalgebra::DVector<nalgebra::Complex<f64>>>; 2],
+}
+
+impl ModeBasis {
+    /// The basis at `dt_ms` on the bundled Furuta scene (as [`mode_start`]).
+    pub fn at(dt_ms: f64) -> Result<Self, Error> {
+        Self::of(&SceneBuilder::load("furuta-dt30.5")?.dt_ms(dt_ms).build()?)
     }
-    let mut pairs = dominant_pairs(scene)?;
-    if pairs.len() < 2 {
-        return Err(Error::Multipliers { dt_ms, got: pairs.len() });
-    }
-    pairs.truncate(2);
-    pairs.sort_by(|a, b| a.freq_hz.total_cmp(&b.freq_hz));
-    let n = map.matrix.nrows();
-    let mut total = DVector::<f64>::zeros(n);
-    for (pair, m) in pairs.iter().zip([slow, fast]) {
-        let Some((theta_amp, phase)) = m else { continue };
-        let v = eigenvector_near(&map.matrix, Complex::new(pair.re, pair.im))
-            .ok_or_else(|| Error::BadOption { what: "mode_start", why: format!("singular shifted map at dt = {dt_ms} ms") })?;
-        let th = v[0];
-        let scale = Complex::from_polar(theta_amp / th.norm(), phase - th.arg());
-        for k in 0..n {
-            total[k] += (v[k] * scale).re;
+
+    /// The basis of a 4-state Furuta scene without integral action (as [`mode_start_in`]).
+    pub fn of(scene: &sim::scene::Scene) -> Result<Self, Error> {
+        use nalgebra::Complex;
+        let dt_ms = scene.controller.dt_ms;
+        let le = |source| StabilityError::Linear { scene: scene.name.clone(), source };
+        let map = sim::stability::linear_plant(scene)?.closed_loop(&scene.controller_config()).map_err(le)?;
+        let lay = map.layout;
+        if lay.n_plant != 4 || lay.integral.is_some() {
+            return Err(Error::BadOption { what: "mode_start", why: "needs the 4-state Furuta plant without integral action".into() });
         }
+        let mut pairs = dominant_pairs(scene)?;
+        if pairs.len() < 2 {
+            return Err(Error::Multipliers { dt_ms, got: pairs.len() });
+        }
+        pairs.truncate(2);
+        pairs.sort_by(|a, b| a.freq_hz.total_cmp(&b.freq_hz));
+        let v = |k: usize| eigenvector_near(&map.matrix, Complex::new(pairs[k].re, pairs[k].im));
+        Ok(ModeBasis { dt_ms, n: map.matrix.nrows(), delay: lay.delay, y_start: lay.y_start, z_start: lay.z_start, vectors: [v(0), v(1)] })
     }
-    let state = [total[0], total[1], total[2], total[3]];
-    let history = (0..=lay.delay).rev().map(|k| [total[lay.y_start + k], total[lay.z_start + k]]).collect();
-    Ok((state, history))
+
+    /// The start of [`mode_start`] from this basis: the sum over the given modes of the real
+    /// part of `e^{i phase} v_j`, theta's component of modulus `theta_amp` (amplitudes not
+    /// checked here: [`mode_start_in`] does). Plant state and controller pre-history.
+    pub fn start(&self, slow: Option<(f64, f64)>, fast: Option<(f64, f64)>) -> Result<([f64; 4], Vec<[f64; 2]>), Error> {
+        use nalgebra::{Complex, DVector};
+        let n = self.n;
+        let mut total = DVector::<f64>::zeros(n);
+        for (v, m) in self.vectors.iter().zip([slow, fast]) {
+            let Some((theta_amp, phase)) = m else { continue };
+            let v = v.as_ref().ok_or_else(|| Error::BadOption { what: "mode_start", why: format!("singular shifted map at dt = {} ms", self.dt_ms) })?;
+            let th = v[0];
+            let scale = Complex::from_polar(theta_amp / th.norm(), phase - th.arg());
+            for k in 0..n {
+                total[k] += (v[k] * scale).re;
+            }
+        }
+        let state = [total[0], total[1], total[2], total[3]];
+        let history = (0..=self.delay).rev().map(|k| [total[self.y_start + k], total[self.z_start + k]]).collect();
+        Ok((state, history))
+    }
 }
 
 /// Unit eigenvector of the real matrix `a` for its eigenvalue `mu`: three steps of inverse

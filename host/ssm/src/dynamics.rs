@@ -334,8 +334,10 @@ fn place_rows(w: &mut Mat<f64>, at: usize, part: MatRef<'_, f64>) {
 
 /// [`poly_regression`] on the design matrix of `x` (monomials `exps`, scaled by `scale`),
 /// built here in parts so that the big regressions factorize their design matrix in its
-/// own storage ([`ridge::fit_owned`]): the same solution and conditioning, at about a
-/// third of the peak memory. The joint anchored fit takes the whole matrix. With row
+/// own storage ([`ridge::fit_owned`]): the same solution and conditioning, at about a third
+/// of the peak memory; the anchored and the weighted fits also solve through `Q^T b` without
+/// forming `U` ([`ridge::fit_owned_qtb`]): the same solution up to rounding, about half the
+/// cost. The joint anchored fit takes the whole matrix. With row
 /// factors `rows` (square roots of [`RowWeight`]'s weights) the fit is weighted: with a
 /// plain anchor the linear part stays unweighted on the anchor rows and the higher orders
 /// are weighted; the residual reported is the unweighted one of the whole fit; the joint
@@ -379,9 +381,14 @@ fn poly_fit(
         }
     }
     let frac = match anchor {
+        // The plain fit keeps the `U` solve, bit for bit as before: the chaos study's map
+        // models are fitted this way, and their finite-time Lyapunov and PDF statistics turn a
+        // rounding change of the coefficients into changes of several percent (measured:
+        // the chaos-cost table's poly rows, 2-8 %). The anchored and weighted fits below (the
+        // Furuta models) solve through `Q^T b`.
         None if rows.is_none() => return ridge::fit_owned(design(exps), y, groups, ridge, what, || design(exps)),
         None => {
-            let (w, mut cond) = ridge::fit_owned(weigh(design(exps)), weigh(y.to_owned()).as_ref(), groups, ridge, what, || weigh(design(exps)))?;
+            let (w, mut cond) = ridge::fit_owned_qtb_no_residual(weigh(design(exps)), weigh(y.to_owned()).as_ref(), groups, ridge, what)?;
             // The residual reported is the unweighted one.
             cond.rel_residual = ridge::rel_residual(design(exps).as_ref(), y, w.as_ref());
             return Ok((w, cond));
@@ -403,17 +410,18 @@ fn poly_fit(
     place_rows(&mut w, 0, w_lin.as_ref());
     let resid = y - &a_l * &w_lin;
     drop(a_l);
+    // The residual reported is the whole fit's (below): the stages' own are not computed.
     let (w_nl, mut cond) = match low {
-        None => ridge::fit_owned(weigh(design(higher)), weigh(resid).as_ref(), groups, ridge, what, || weigh(design(higher)))?,
+        None => ridge::fit_owned_qtb_no_residual(weigh(design(higher)), weigh(resid).as_ref(), groups, ridge, what)?,
         Some((n_low, f)) => {
             // Stage 1: every higher degree on the low-knee weights; keep the low degrees.
-            let (w1, _) = ridge::fit_owned(scale_rows(design(higher), f), scale_rows(resid.clone(), f).as_ref(), groups, ridge, what, || scale_rows(design(higher), f))?;
+            let (w1, _) = ridge::fit_owned_qtb_no_residual(scale_rows(design(higher), f), scale_rows(resid.clone(), f).as_ref(), groups, ridge, what)?;
             let (lo, hi) = higher.split_at(n_low);
             let w_lo = w1.subrows(0, n_low).to_owned();
             place_rows(&mut w, d, w_lo.as_ref());
             // Stage 2: the degrees above on what the low ones leave, main weights.
             let resid2 = resid - design(lo) * &w_lo;
-            let (w_hi, cond) = ridge::fit_owned(weigh(design(hi)), weigh(resid2).as_ref(), groups, ridge, what, || weigh(design(hi)))?;
+            let (w_hi, cond) = ridge::fit_owned_qtb_no_residual(weigh(design(hi)), weigh(resid2).as_ref(), groups, ridge, what)?;
             let mut w_nl = Mat::<f64>::zeros(higher.len(), y.ncols());
             place_rows(&mut w_nl, 0, w_lo.as_ref());
             place_rows(&mut w_nl, n_low, w_hi.as_ref());

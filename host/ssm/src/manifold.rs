@@ -219,6 +219,22 @@ impl Manifold {
         }
     }
 
+    /// Coordinate `i` of [`Manifold::lift_into`] alone (`i < p`, else `NaN`), the same bits:
+    /// a map iterated for its observable (the newest embedding coordinate) needs only that one.
+    pub fn lift_one(&self, eta: &[f64], scratch: &mut PolyScratch, i: usize) -> f64 {
+        if i >= self.p {
+            return f64::NAN;
+        }
+        let mut o = match &self.nonlinear {
+            Some(poly) => poly.eval_one(eta, scratch, i),
+            None => 0.0,
+        };
+        for (j, e) in eta.iter().enumerate() {
+            o += self.v1[j * self.p + i] * e;
+        }
+        o
+    }
+
     /// Largest violation of the constraints: `max(|V1^T V1 - I|, |V1^T V_k|)` (entrywise,
     /// `V_k` in the scaled-monomial coefficients).
     pub fn constraint_defect(&self) -> f64 {
@@ -294,20 +310,35 @@ pub fn tangent_space(ys: &[Mat<f64>], dim: usize) -> Result<(Vec<f64>, Vec<f64>)
 }
 
 /// Design matrix of monomials `exps` evaluated at the rows of `eta` divided by `scale`.
+///
+/// Built a column at a time: the powers `z_j^m` of every row first (each the previous power
+/// times `z_j`), then each monomial's column as `1 * z_1^{k_1} * ... * z_d^{k_d}` in that
+/// order, the products of [`poly::eval_monomials`] row by row, so the same bits (checked in
+/// the tests), with contiguous writes that vectorize.
 pub fn design_matrix(eta: MatRef<'_, f64>, scale: &[f64], exps: &[Vec<u32>]) -> Mat<f64> {
     let (n, d) = (eta.nrows(), eta.ncols());
-    let deg = poly::max_degree(exps);
-    let mut out = Mat::<f64>::zeros(n, exps.len());
-    let mut z = vec![0.0; d];
-    let mut pow = Vec::new();
-    let mut phi = vec![0.0; exps.len()];
-    for i in 0..n {
-        for j in 0..d {
-            z[j] = eta[(i, j)] / scale[j];
+    let stride = poly::max_degree(exps) as usize + 1;
+    // pow[(j * stride + m) * n + i] = (eta[i, j] / scale[j])^m.
+    let mut pow = vec![1.0; d * stride * n];
+    for j in 0..d {
+        let z: Vec<f64> = (0..n).map(|i| eta[(i, j)] / scale[j]).collect();
+        let block = &mut pow[j * stride * n..(j + 1) * stride * n];
+        for m in 1..stride {
+            let (prev, cur) = block.split_at_mut(m * n);
+            for ((c, p), zi) in cur[..n].iter_mut().zip(&prev[(m - 1) * n..]).zip(&z) {
+                *c = p * zi;
+            }
         }
-        poly::eval_monomials(exps, &z, deg, &mut pow, &mut phi);
-        for (k, v) in phi.iter().enumerate() {
-            out[(i, k)] = *v;
+    }
+    let mut out = Mat::<f64>::zeros(n, exps.len());
+    for (k, e) in exps.iter().enumerate() {
+        let col = out.col_as_slice_mut(k);
+        col.fill(1.0);
+        for (j, &m) in e.iter().enumerate().take(d) {
+            let p = &pow[(j * stride + m as usize) * n..][..n];
+            for (c, v) in col.iter_mut().zip(p) {
+                *c *= v;
+            }
         }
     }
     out
@@ -316,6 +347,32 @@ pub fn design_matrix(eta: MatRef<'_, f64>, scale: &[f64], exps: &[Vec<u32>]) -> 
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The column-wise design matrix is the row-by-row monomial evaluation
+    /// (`poly::eval_monomials`, as before), bit for bit, for maps and manifolds of several
+    /// orders and a single degree block.
+    #[test]
+    fn design_matrix_equals_the_row_by_row_monomials() {
+        let mut st = 9u64;
+        let mut r = || {
+            st = st.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            ((st >> 11) as f64) / ((1u64 << 53) as f64) - 0.5
+        };
+        for (d, lo, hi, n) in [(4usize, 1u32, 7u32, 257usize), (4, 4, 7, 100), (2, 1, 3, 31), (3, 2, 2, 10)] {
+            let eta = Mat::from_fn(n, d, |_, _| r());
+            let scale: Vec<f64> = (0..d).map(|_| 0.3 + r().abs()).collect();
+            let exps = poly::exponents(d, lo, hi);
+            let a = design_matrix(eta.as_ref(), &scale, &exps);
+            let (mut pow, mut phi) = (Vec::new(), vec![0.0; exps.len()]);
+            for i in 0..n {
+                let z: Vec<f64> = (0..d).map(|j| eta[(i, j)] / scale[j]).collect();
+                poly::eval_monomials(&exps, &z, poly::max_degree(&exps), &mut pow, &mut phi);
+                for (k, v) in phi.iter().enumerate() {
+                    assert_eq!(a[(i, k)].to_bits(), v.to_bits(), "d {d} degrees {lo}..={hi}: row {i} monomial {k}");
+                }
+            }
+        }
+    }
 
     /// Points on a quartic graph over span(e1, e2) in R^5, with graph functions even in
     /// (e1, e2) jointly, on a symmetric grid: the data covariance is block diagonal, so the
@@ -348,8 +405,11 @@ mod tests {
             m.lift_into(&m.reduce(&yj), &mut sc, &mut out);
             for i in 0..5 {
                 assert!((out[i] - yj[i]).abs() < 1e-12, "point {j} coord {i}: {} vs {}", out[i], yj[i]);
+                // One coordinate alone: the same bits.
+                assert_eq!(m.lift_one(&m.reduce(&yj), &mut sc, i).to_bits(), out[i].to_bits(), "point {j} coord {i}");
             }
         }
+        assert!(m.lift_one(&[0.1, 0.2], &mut sc, 5).is_nan());
         let c = m.conditioning.unwrap();
         assert!(c.cond.is_finite() && c.cond > 1.0 && c.rel_residual < 1e-12, "{c:?}");
     }

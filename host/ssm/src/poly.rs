@@ -137,6 +137,27 @@ impl Poly {
         }
     }
 
+    /// Output `i` of [`Poly::eval_into`] alone (`i < dim_out`, else `NaN`): the same
+    /// operations in the same order, so the same bits, at the cost of one output's sum.
+    pub fn eval_one(&self, eta: &[f64], scratch: &mut PolyScratch, i: usize) -> f64 {
+        if i >= self.dim_out {
+            return f64::NAN;
+        }
+        let nm = self.exps.len();
+        scratch.z.clear();
+        scratch.z.extend(eta.iter().zip(&self.scale).map(|(e, s)| e / s));
+        scratch.phi.resize(nm, 0.0);
+        if !eval_monomials_upto(&self.exps, &scratch.z, scratch.max_deg, &mut scratch.pow, &mut scratch.phi) {
+            scratch.max_deg = scratch.max_deg.max(max_degree(&self.exps));
+            eval_monomials(&self.exps, &scratch.z, scratch.max_deg, &mut scratch.pow, &mut scratch.phi);
+        }
+        let mut o = 0.0;
+        for (k, &p) in scratch.phi.iter().enumerate() {
+            o += self.coef[k * self.dim_out + i] * p;
+        }
+        o
+    }
+
     /// Allocating convenience wrapper around [`Poly::eval_into`].
     pub fn eval(&self, eta: &[f64]) -> Vec<f64> {
         let mut out = vec![0.0; self.dim_out];
@@ -177,6 +198,33 @@ mod tests {
 
     fn binom(n: usize, k: usize) -> usize {
         (0..k).fold(1, |acc, i| acc * (n - i) / (i + 1))
+    }
+
+    /// One output alone ([`Poly::eval_one`]) is [`Poly::eval_into`]'s, bit for bit, with a
+    /// scratch reused across polynomials of other degrees; out of range: NaN.
+    #[test]
+    fn one_output_is_the_same_bits() {
+        let mut st = 3u64;
+        let mut r = || {
+            st = st.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            ((st >> 11) as f64) / ((1u64 << 53) as f64) - 0.5
+        };
+        let mut sc = PolyScratch::default();
+        for (d, max, q) in [(4usize, 7u32, 4usize), (4, 3, 21), (2, 5, 3)] {
+            let exps = exponents(d, 1, max);
+            let scale: Vec<f64> = (0..d).map(|_| 0.5 + r().abs()).collect();
+            let coef: Vec<f64> = (0..exps.len() * q).map(|_| r()).collect();
+            let p = Poly { dim_in: d, dim_out: q, scale, exps, coef };
+            let mut out = vec![0.0; q];
+            for _ in 0..5 {
+                let eta: Vec<f64> = (0..d).map(|_| r()).collect();
+                p.eval_into(&eta, &mut sc, &mut out);
+                for (i, o) in out.iter().enumerate() {
+                    assert_eq!(p.eval_one(&eta, &mut sc, i).to_bits(), o.to_bits(), "d {d} order {max} output {i}");
+                }
+            }
+            assert!(p.eval_one(&vec![0.1; d], &mut sc, q).is_nan());
+        }
     }
 
     #[test]

@@ -145,6 +145,52 @@ fn mode_start_excites_the_fast_mode() {
     assert!(mode_start(dt_ms, Some((-1e-3, 0.0)), None).is_err());
 }
 
+/// The starts of a grid from one `ModeBasis` per dt (`start_from_rho_in`, as `map_basin`
+/// takes them) equal, bit for bit, those of the per-start computation as it was before the
+/// basis (eigenvectors of the requested modes computed for every start, written out here),
+/// with one mode left out, both modes, and both phases; bad amplitudes are refused alike.
+#[test]
+fn starts_from_one_mode_basis_equal_the_per_start_ones() {
+    use nalgebra::{Complex, DVector};
+    fn per_start(dt_ms: f64, slow: Option<(f64, f64)>, fast: Option<(f64, f64)>) -> ([f64; 4], Vec<[f64; 2]>) {
+        let scene = SceneBuilder::load("furuta-dt30.5").unwrap().dt_ms(dt_ms).build().unwrap();
+        let map = sim::stability::linear_plant(&scene).unwrap().closed_loop(&scene.controller_config()).unwrap();
+        let lay = map.layout;
+        let mut pairs = sim::stability::dominant_pairs(&scene).unwrap();
+        pairs.truncate(2);
+        pairs.sort_by(|a, b| a.freq_hz.total_cmp(&b.freq_hz));
+        let n = map.matrix.nrows();
+        let mut total = DVector::<f64>::zeros(n);
+        for (pair, m) in pairs.iter().zip([slow, fast]) {
+            let Some((theta_amp, phase)) = m else { continue };
+            let v = crate::parametric::eigenvector_near(&map.matrix, Complex::new(pair.re, pair.im)).unwrap();
+            let th = v[0];
+            let scale = Complex::from_polar(theta_amp / th.norm(), phase - th.arg());
+            for k in 0..n {
+                total[k] += (v[k] * scale).re;
+            }
+        }
+        let state = [total[0], total[1], total[2], total[3]];
+        let history = (0..=lay.delay).rev().map(|k| [total[lay.y_start + k], total[lay.z_start + k]]).collect();
+        (state, history)
+    }
+    let bits = |s: &([f64; 4], Vec<[f64; 2]>)| s.0.iter().chain(s.1.iter().flatten()).map(|v| v.to_bits()).collect::<Vec<_>>();
+    for dt_ms in [31.3, 31.6] {
+        let basis = crate::parametric::ModeBasis::at(dt_ms).unwrap();
+        for (rho, phases) in [([0.005, 0.0], [0.0, 0.0]), ([0.0, 0.12], [0.0, 0.3]), ([0.1, 0.03], [0.0, 0.0]), ([0.25, 0.004], [1.0, -2.0])] {
+            let m = |k: usize| (rho[k] > 0.0).then_some((rho[k], phases[k]));
+            let want = per_start(dt_ms, m(0), m(1));
+            let got = start_from_rho_in(&basis, rho, phases).unwrap();
+            assert_eq!(bits(&got), bits(&want), "dt {dt_ms} rho {rho:?}");
+            assert_eq!(bits(&start_from_rho(dt_ms, rho, phases).unwrap()), bits(&want), "dt {dt_ms} rho {rho:?}");
+        }
+        for rho in [[0.0, 0.0], [-0.1, 0.1], [f64::NAN, 0.1]] {
+            assert!(matches!(start_from_rho_in(&basis, rho, [0.0, 0.0]), Err(Error::BadInput { what: "rho", .. })), "{rho:?}");
+        }
+        assert!(matches!(start_from_rho_in(&basis, [0.1, 0.0], [f64::NAN, 0.0]), Err(Error::BadOption { what: "mode_start", .. })));
+    }
+}
+
 
 /// The switch scan runs every (dt, start) on the rayon pool: a 1-thread and a 2-thread pool
 /// give the same outcomes, bit for bit, in the same order; so does the per-dt variant.
