@@ -334,9 +334,10 @@ fn mul_flat(t: &TpsTable, a: &[f64; TPS_CAPACITY], b: &[f64; TPS_CAPACITY]) -> [
     let mut acc = [0.0; SCRATCH];
     let order = t.order as usize;
     let ds = &t.deg_start;
-    // Bit `d` set: degree `d` has a nonzero (or NaN) coefficient.
+    // Bit `d` set: degree `d` has a nonzero (or NaN) coefficient (the bits without the sign
+    // are nonzero; an OR over the block, which vectorizes, not an early exit).
     let nonzero_degrees = |c: &[f64; TPS_CAPACITY]| -> u32 {
-        (0..=order).filter(|&d| c[ds[d]..ds[d + 1]].iter().any(|&v| v != 0.0)).fold(0u32, |m, d| m | 1 << d)
+        (0..=order).filter(|&d| c[ds[d]..ds[d + 1]].iter().fold(0u64, |m, v| m | v.to_bits() << 1) != 0).fold(0u32, |m, d| m | 1 << d)
     };
     let (amask, bmask) = (nonzero_degrees(a), nonzero_degrees(b));
     for da in (0..=order).filter(|&d| amask >> d & 1 == 1) {
