@@ -17,7 +17,7 @@ use std::time::Instant;
 use serde::Serialize;
 use sim::chart::Axis;
 use ssm::normal_form::PolarNormalForm;
-use ssm::portrait::{Fate, FixedPoint, PointKind, PortraitOptions, fixed_points, trajectory};
+use ssm::portrait::{Fate, FixedPoint, PointKind, PortraitOptions, PreparedField};
 
 use crate::Error;
 use crate::full_system::{AMP_WINDOW_S, ESCAPE_THETA, base_scene, end_start, run_with, start_from_rho};
@@ -234,19 +234,21 @@ pub fn model_basin(
             return Err(Error::BadInput { what: "model basin", why: format!("{name} value {x} is not in [0, {m}) (the box rho_max)") });
         }
     }
-    // The fixed points `trajectory` numbers its fates by (the same computation).
-    let fps = fixed_points(nf, opts)?;
+    // The field and the fixed points `trajectory` numbers its fates by, computed once (the
+    // same computation as `trajectory`'s per start).
+    let field = PreparedField::new(nf, opts)?;
+    let fps = field.fixed_points();
     let starts: Vec<[f64; 2]> = rho1.iter().flat_map(|&a| rho2.iter().map(move |&b| [a, b])).collect();
     let fates = crate::par_map(&starts, |&r| -> Result<(ModelFate, ModelFate), Error> {
-        let (pts, fate) = trajectory(nf, r, t_max, opts)?;
-        let asym = ModelFate::of(&fate, pts.last().copied(), &fps, principal);
+        let (pts, fate) = field.trajectory(r, t_max)?;
+        let asym = ModelFate::of(&fate, pts.last().copied(), fps, principal);
         // Within the horizon: the asymptotic verdict, except that a start which leaves the
         // box only after the horizon is still bounded (a second, shorter integration).
         let hor = match fate {
             Fate::LeavesBox { .. } => {
-                let (pts, fate) = trajectory(nf, r, horizon_s, opts)?;
+                let (pts, fate) = field.trajectory(r, horizon_s)?;
                 // Still in the box at the horizon: bounded so far, wherever it heads.
-                if fate == Fate::TimeLimit { ModelFate::Principal } else { ModelFate::of(&fate, pts.last().copied(), &fps, principal) }
+                if fate == Fate::TimeLimit { ModelFate::Principal } else { ModelFate::of(&fate, pts.last().copied(), fps, principal) }
             }
             _ => asym,
         };

@@ -122,7 +122,8 @@ impl PolynomialMap {
     fn eval_c(&self, s: &[C]) -> Vec<C> {
         let (d, m) = (self.dim, self.nproj);
         let v: Vec<C> = (0..m).map(|k| (0..d).map(|j| s[j] * self.proj[k * d + j]).sum()).collect();
-        let mono: Vec<C> = self.exps.iter().map(|e| e.iter().zip(&v).fold(C::new(1.0, 0.0), |a, (&k, x)| a * x.powu(k))).collect();
+        let pows = powers(&v, poly::max_degree(&self.exps));
+        let mono: Vec<C> = self.exps.iter().map(|e| monomial_times(C::new(1.0, 0.0), e, &pows)).collect();
         (0..d)
             .map(|r| {
                 let lin: C = (0..d).map(|j| s[j] * self.linear[r * d + j]).sum();
@@ -581,24 +582,41 @@ pub struct InvarianceError {
     pub rel: f64,
 }
 
+/// `x^k` (`powu`) of every variable `x` of `v` for `k = 0..=max`: `out[j][k]`.
+fn powers(v: &[C], max: u32) -> Vec<Vec<C>> {
+    v.iter().map(|x| (0..=max).map(|k| x.powu(k)).collect()).collect()
+}
+
+/// `c * v_0^e_0 * v_1^e_1 * ...` (left to right) from the powers of [`powers`], the factors
+/// with `e_j = 0` left out. The same sums as multiplying by `v_j.powu(0) = 1` too, bit for bit
+/// (finite values): `a * (1 + 0i)` is `a` up to the signs of zero parts, later products by the
+/// same factors keep "equal up to signed zeros", and such terms give the same sum (a sum
+/// started at `+0.0` is never `-0.0` in round-to-nearest, so a zero term never changes it).
+fn monomial_times(c: C, e: &[u32], pows: &[Vec<C>]) -> C {
+    e.iter().zip(pows).fold(c, |acc, (&k, p)| if k == 0 { acc } else { acc * p[k as usize] })
+}
+
 impl MapSsm {
-    fn eval(&self, coef: &[(f64, f64)], z: &[C], order: u32) -> C {
+    /// One row of `W` or `R` at the point whose powers are `pows`, truncated at `order`.
+    fn eval(&self, coef: &[(f64, f64)], pows: &[Vec<C>], order: u32) -> C {
         self.exps
             .iter()
             .zip(coef)
             .filter(|(e, _)| e.iter().sum::<u32>() <= order)
-            .map(|(e, &(re, im))| e.iter().zip(z).fold(C::new(re, im), |acc, (&k, x)| acc * x.powu(k)))
+            .map(|(e, &(re, im))| monomial_times(C::new(re, im), e, pows))
             .sum()
     }
 
     /// `W(z)` truncated at `order`.
     pub fn manifold_at(&self, z: &[C], order: u32) -> Vec<C> {
-        self.w.iter().map(|row| self.eval(row, z, order)).collect()
+        let pows = powers(z, order.min(poly::max_degree(&self.exps)));
+        self.w.iter().map(|row| self.eval(row, &pows, order)).collect()
     }
 
     /// `R(z)` truncated at `order`.
     pub fn reduced_at(&self, z: &[C], order: u32) -> Vec<C> {
-        self.r.iter().map(|row| self.eval(row, z, order)).collect()
+        let pows = powers(z, order.min(poly::max_degree(&self.exps)));
+        self.r.iter().map(|row| self.eval(row, &pows, order)).collect()
     }
 
     /// The reduced map and an observable in the real coordinates

@@ -813,6 +813,11 @@ fn integrate(
 /// its fate (reaches a fixed point within `converge_tol`, leaves the box, or a limit).
 pub fn trajectory(nf: &PolarNormalForm, rho0: [f64; 2], t_max: f64, opts: &PortraitOptions) -> Result<(Vec<(f64, f64)>, Fate), PortraitError> {
     check_opts(opts)?;
+    check_start(rho0, t_max)?;
+    PreparedField::new(nf, opts)?.trajectory(rho0, t_max)
+}
+
+fn check_start(rho0: [f64; 2], t_max: f64) -> Result<(), PortraitError> {
     for (name, v) in [("rho0[0]", rho0[0]), ("rho0[1]", rho0[1])] {
         if !(v.is_finite() && v >= 0.0) {
             return Err(PortraitError::BadOption { name, value: v, why: "must be finite and non-negative" });
@@ -821,10 +826,39 @@ pub fn trajectory(nf: &PolarNormalForm, rho0: [f64; 2], t_max: f64, opts: &Portr
     if !(t_max.is_finite() && t_max > 0.0) {
         return Err(PortraitError::BadOption { name: "t_max", value: t_max, why: "must be finite and positive" });
     }
-    let field = Field::new(nf)?;
-    let fps = fixed_points_field(&field, opts);
-    let tr = integrate(&field, rho0, 1.0, t_max, &fps, None, opts, &mut |_, _, _, _| Step::Go);
-    Ok((tr.points, fate_of(&tr.end)))
+    Ok(())
+}
+
+/// The amplitude equations of one normal form and their fixed points, computed once for
+/// many [`PreparedField::trajectory`] calls (a basin grid: [`trajectory`] finds the fixed
+/// points afresh each time, most of a short run's cost). Bit-identical to [`trajectory`] with
+/// the same options.
+pub struct PreparedField {
+    field: Field,
+    fps: Vec<FixedPoint>,
+    opts: PortraitOptions,
+}
+
+impl PreparedField {
+    /// The field of `nf` and its fixed points in the box of `opts` ([`fixed_points`]).
+    pub fn new(nf: &PolarNormalForm, opts: &PortraitOptions) -> Result<Self, PortraitError> {
+        check_opts(opts)?;
+        let field = Field::new(nf)?;
+        let fps = fixed_points_field(&field, opts);
+        Ok(PreparedField { field, fps, opts: opts.clone() })
+    }
+
+    /// The fixed points, as [`fixed_points`] returns them (the numbering of the fates).
+    pub fn fixed_points(&self) -> &[FixedPoint] {
+        &self.fps
+    }
+
+    /// [`trajectory`] from `rho0` for at most `t_max` s.
+    pub fn trajectory(&self, rho0: [f64; 2], t_max: f64) -> Result<(Vec<(f64, f64)>, Fate), PortraitError> {
+        check_start(rho0, t_max)?;
+        let tr = integrate(&self.field, rho0, 1.0, t_max, &self.fps, None, &self.opts, &mut |_, _, _, _| Step::Go);
+        Ok((tr.points, fate_of(&tr.end)))
+    }
 }
 
 fn fate_of(end: &End) -> Fate {

@@ -322,17 +322,38 @@ impl Mul for Tps {
 /// rows are one flat array and the sums go to a power-of-two scratch indexed through a mask,
 /// so the inner loop has no bounds check: 25-30 % less CPU per product at order 9 than
 /// indexing the result (`TPS_BENCH` in the tests).
+///
+/// Whole degrees of `a` or `b` that are zero are skipped: a term `a[i] b[j]` that is exactly
+/// zero never changes a sum (the scratch starts at `+0.0`, and in round-to-nearest a sum is
+/// `-0.0` only when both terms are, so it never holds `-0.0`: `+0.0 + (+-0.0) = +0.0` and
+/// `x + (+-0.0) = x`), so the result is bit-identical to the full loop for finite operands.
+/// The jets of a plant odd about its equilibrium (the Furuta pendulum upright) have only
+/// odd or only even degrees: about half the terms (order-9 expansion 1.9x faster).
 #[inline]
 fn mul_flat(t: &TpsTable, a: &[f64; TPS_CAPACITY], b: &[f64; TPS_CAPACITY]) -> [f64; TPS_CAPACITY] {
     let mut acc = [0.0; SCRATCH];
-    for (i, w) in t.row_start.windows(2).enumerate() {
-        let ai = a[i];
-        if ai == 0.0 {
-            continue;
-        }
-        let row = &t.flat[w[0] as usize..w[1] as usize];
-        for (s, &k) in b.iter().zip(row) {
-            acc[usize::from(k) & (SCRATCH - 1)] += ai * s;
+    let order = t.order as usize;
+    let ds = &t.deg_start;
+    // Bit `d` set: degree `d` has a nonzero (or NaN) coefficient (the bits without the sign
+    // are nonzero; an OR over the block, which vectorizes, not an early exit).
+    let nonzero_degrees = |c: &[f64; TPS_CAPACITY]| -> u32 {
+        (0..=order).filter(|&d| c[ds[d]..ds[d + 1]].iter().fold(0u64, |m, v| m | v.to_bits() << 1) != 0).fold(0u32, |m, d| m | 1 << d)
+    };
+    let (amask, bmask) = (nonzero_degrees(a), nonzero_degrees(b));
+    for da in (0..=order).filter(|&d| amask >> d & 1 == 1) {
+        for i in ds[da]..ds[da + 1] {
+            let ai = a[i];
+            if ai == 0.0 {
+                continue;
+            }
+            let row = &t.flat[t.row_start[i] as usize..t.row_start[i + 1] as usize];
+            // The row holds every `j` of degree <= order - da, in graded order.
+            for db in (0..=order - da).filter(|&d| bmask >> d & 1 == 1) {
+                let (lo, hi) = (ds[db], ds[db + 1]);
+                for (s, &k) in b[lo..hi].iter().zip(&row[lo..hi]) {
+                    acc[usize::from(k) & (SCRATCH - 1)] += ai * s;
+                }
+            }
         }
     }
     let mut c = [0.0; TPS_CAPACITY];
@@ -490,7 +511,8 @@ mod tests {
 
     /// The flat-table product is bit-identical to the former product (a loop over one `Vec`
     /// per row indexing the result directly: the same terms in the same order per
-    /// coefficient), on dense, sparse and nilpotent operands at orders 1..9;
+    /// coefficient), on dense, sparse, nilpotent, odd and even operands (the last two with
+    /// whole zero degrees, which the product skips; `-0.0` entries too) at orders 1..9;
     /// `TPS_BENCH=flat` / `TPS_BENCH=plain` run one of them many times (time with `/usr/bin/time`).
     #[test]
     fn flat_product_is_bit_identical_to_the_row_loop() {
@@ -505,7 +527,7 @@ mod tests {
             let t = TpsTable::get(4, order).unwrap();
             let n = t.len();
             let mut ops = Vec::new();
-            for kind in 0..4 {
+            for kind in 0..7 {
                 let mut c = [0.0; TPS_CAPACITY];
                 for (i, v) in c[..n].iter_mut().enumerate() {
                     let deg: u32 = t.exponents()[i].iter().sum();
@@ -514,6 +536,10 @@ mod tests {
                         1 if deg == 0 => 0.0,
                         2 if i % 3 == 0 => 0.0,
                         3 if deg < 2 => 0.0,
+                        // Odd and even jets (skipped degree blocks), one with -0.0 entries.
+                        4 if deg % 2 == 0 => 0.0,
+                        5 if deg % 2 == 1 => -0.0,
+                        6 if deg % 2 == 1 || deg == 0 => 0.0,
                         _ => rnd(),
                     };
                 }

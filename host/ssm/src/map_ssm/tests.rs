@@ -201,6 +201,55 @@ fn invariance_error_falls_with_the_order() {
     assert!(ssm.order_stats.iter().all(|s| s.w_max.is_finite() && s.r_max.is_finite()));
 }
 
+/// `W`, `R` and `F` evaluated from cached powers (factors with zero exponent left out) give
+/// the same bits as the former evaluation (`powu` of every variable in every monomial, a
+/// factor `powu(0) = 1` included), at every truncation order, including rows with exact zeros.
+#[test]
+fn cached_power_evaluation_is_bit_identical() {
+    let (map, _) = system();
+    let mut ssm = map_ssm(&map, &opts(9)).unwrap();
+    // Exact zeros (either sign) in some coefficients: the signed-zero argument of
+    // `monomial_times`.
+    for (k, c) in ssm.w[0].iter_mut().enumerate().filter(|(k, _)| k % 5 == 0) {
+        *c = if k % 2 == 0 { (0.0, c.1) } else { (-0.0, -0.0) };
+    }
+    let old_eval = |rows: &[Vec<(f64, f64)>], z: &[C], order: u32| -> Vec<C> {
+        rows.iter()
+            .map(|coef| {
+                ssm.exps
+                    .iter()
+                    .zip(coef)
+                    .filter(|(e, _)| e.iter().sum::<u32>() <= order)
+                    .map(|(e, &(re, im))| e.iter().zip(z).fold(C::new(re, im), |acc, (&k, x)| acc * x.powu(k)))
+                    .sum()
+            })
+            .collect()
+    };
+    let old_map = |s: &[C]| -> Vec<C> {
+        let (d, m) = (map.dim, map.nproj);
+        let v: Vec<C> = (0..m).map(|k| (0..d).map(|j| s[j] * map.proj[k * d + j]).sum()).collect();
+        let mono: Vec<C> = map.exps.iter().map(|e| e.iter().zip(&v).fold(C::new(1.0, 0.0), |a, (&k, x)| a * x.powu(k))).collect();
+        (0..d)
+            .map(|r| {
+                let lin: C = (0..d).map(|j| s[j] * map.linear[r * d + j]).sum();
+                lin + map.coef[r].iter().zip(&mono).map(|(c, x)| x * *c).sum::<C>()
+            })
+            .collect()
+    };
+    let bits = |v: &[C]| v.iter().map(|c| (c.re.to_bits(), c.im.to_bits())).collect::<Vec<_>>();
+    for (r, th) in [(0.05, 0.3), (0.2, -1.7), (0.0, 0.0)] {
+        let z1 = C::from_polar(r, th);
+        let z2 = C::from_polar(0.6 * r, 2.0 * th + 0.1);
+        let z = [z1, z1.conj(), z2, z2.conj()];
+        for order in [1, 3, 6, 9, 12] {
+            assert_eq!(bits(&ssm.manifold_at(&z, order)), bits(&old_eval(&ssm.w, &z, order)), "W at r = {r}, order {order}");
+            assert_eq!(bits(&ssm.reduced_at(&z, order)), bits(&old_eval(&ssm.r, &z, order)), "R at r = {r}, order {order}");
+        }
+        let s = ssm.manifold_at(&z, 9);
+        assert_eq!(bits(&map.eval_c(&s)), bits(&old_map(&s)), "F at r = {r}");
+    }
+}
+
 /// A tolerance above some non-structural divisor keeps those terms in the reduced map and
 /// reports them (never divided), and the result stays invariant.
 #[test]
