@@ -481,7 +481,7 @@ fn poly_regression(
 fn low_stage(weight: Option<&RowWeight>, x: MatRef<'_, f64>, groups: &[std::ops::Range<usize>], d: usize) -> Option<(usize, Vec<f64>)> {
     let st = weight?.low_degrees?;
     let n = poly::count(d, 2, st.max_degree).unwrap_or(usize::MAX);
-    Some((n, RowWeight { knee: st.knee, power: st.power, low_degrees: None }.row_factors(x, groups)))
+    Some((n, st.weight().row_factors(x, groups)))
 }
 
 

@@ -64,6 +64,13 @@ pub struct LowDegreeStage {
     pub power: f64,
 }
 
+impl LowDegreeStage {
+    /// The first stage's own row weight (its knee and power, no further stage).
+    pub fn weight(&self) -> RowWeight {
+        RowWeight { knee: self.knee, power: self.power, low_degrees: None }
+    }
+}
+
 impl RowWeight {
     /// Checks `knee > 0` and `1 <= power <= 64`, both finite.
     pub fn validate(&self) -> Result<(), FitError> {
@@ -74,7 +81,7 @@ impl RowWeight {
             return Err(FitError::BadOption { what: "row weight power", why: format!("must be in [1, 64], got {}", self.power) });
         }
         if let Some(st) = &self.low_degrees {
-            RowWeight { knee: st.knee, power: st.power, low_degrees: None }.validate().map_err(|e| match e {
+            st.weight().validate().map_err(|e| match e {
                 FitError::BadOption { why, .. } => FitError::BadOption { what: "row weight low-degree stage", why },
                 e => e,
             })?;
