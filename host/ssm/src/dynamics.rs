@@ -336,7 +336,7 @@ fn place_rows(w: &mut Mat<f64>, at: usize, part: MatRef<'_, f64>) {
 /// built here in parts so that the big regressions factorize their design matrix in its
 /// own storage ([`ridge::fit_owned`]): the same solution and conditioning, at about a third
 /// of the peak memory; the anchored and the weighted fits also solve through `Q^T b` without
-/// forming `U` ([`ridge::fit_owned_qtb`]): the same solution up to rounding, about half the
+/// forming `U` ([`ridge::fit_owned_qtb_no_residual`]): the same solution up to rounding, about half the
 /// cost. The joint anchored fit takes the whole matrix. With row
 /// factors `rows` (square roots of [`RowWeight`]'s weights) the fit is weighted: with a
 /// plain anchor the linear part stays unweighted on the anchor rows and the higher orders
@@ -917,7 +917,7 @@ impl ReducedDynamics {
                     // the exported device model evaluates.
                     let common = scale.iter().fold(0.0_f64, |m, v| m.max(*v));
                     let uniform = vec![common; scale.len()];
-                    return fit_rbf(x.as_ref(), y.as_ref(), &groups, uniform, centers, kernel, dt, ridge).map(ReducedDynamics::Rbf);
+                    return fit_rbf_with(x.as_ref(), y.as_ref(), &groups, uniform, centers, kernel, dt, ridge, CentreChoice::Farthest).map(ReducedDynamics::Rbf);
                 }
                 let nm = poly::count(d, 1, order).unwrap_or(usize::MAX);
                 crate::limits::check_matrix("map regression", x.nrows(), nm, true)?;
@@ -966,7 +966,7 @@ impl ReducedDynamics {
         let (y, _) = stack(&ys);
         let _reserved = ridge::reserve(x.nrows().saturating_mul(centers.saturating_add(d + 1)).saturating_mul(2 * std::mem::size_of::<f64>()));
         let common = eta_scale(inputs).iter().fold(0.0_f64, |m, v| m.max(*v));
-        fit_rbf(x.as_ref(), y.as_ref(), &groups, vec![common; d], centers, kernel, dt, ridge).map(ReducedDynamics::Rbf)
+        fit_rbf_with(x.as_ref(), y.as_ref(), &groups, vec![common; d], centers, kernel, dt, ridge, CentreChoice::Farthest).map(ReducedDynamics::Rbf)
     }
 
     /// Conditioning of the dynamics regression.
@@ -1093,20 +1093,6 @@ fn common_dt(trajs: &[EtaTrajectory<'_>]) -> Result<f64, FitError> {
         }
     }
     Ok(trajs.iter().map(|t| t.dt).sum::<f64>() / trajs.len() as f64)
-}
-
-#[allow(clippy::too_many_arguments)]
-fn fit_rbf(
-    x: MatRef<'_, f64>,
-    y: MatRef<'_, f64>,
-    groups: &[std::ops::Range<usize>],
-    scale: Vec<f64>,
-    n_centers: usize,
-    kernel: Kernel,
-    dt: f64,
-    ridge: Ridge,
-) -> Result<RbfMap, FitError> {
-    fit_rbf_with(x, y, groups, scale, n_centers, kernel, dt, ridge, CentreChoice::Farthest)
 }
 
 #[allow(clippy::too_many_arguments)]

@@ -196,12 +196,7 @@ impl RidgeLs {
                 }
             }
         }
-        let TallSvd { qr, s, v, .. } = f;
-        let rows = qr.nrows();
-        drop(qr);
-        let ls = RidgeLs { u: Mat::new(), s, v, rows };
-        let x = ls.solve_utb(utb.as_ref(), alpha);
-        Ok((x, ls.s))
+        Ok(f.solve_utb(utb.as_ref(), alpha))
     }
 
     /// [`RidgeLs::solve_owned`] without `U`: for a tall `a`, `U^T b = U_R^T (Q^T b)[..n]`
@@ -220,12 +215,7 @@ impl RidgeLs {
         }
         let f = TallSvd::new(a, what)?;
         let utb = f.utb_by_qt(b);
-        let TallSvd { qr, s, v, .. } = f;
-        let rows = qr.nrows();
-        drop(qr);
-        let ls = RidgeLs { u: Mat::new(), s, v, rows };
-        let x = ls.solve_utb(utb.as_ref(), alpha);
-        Ok((x, ls.s))
+        Ok(f.solve_utb(utb.as_ref(), alpha))
     }
 
     /// `U^T b` (`cols x q`).
@@ -353,6 +343,16 @@ impl TallSvd {
         householder::apply_block_householder_sequence_transpose_on_the_left_in_place_with_conj(self.qr.as_ref(), self.hh.as_ref(), faer::Conj::No, qtb.as_mut(), par, MemStack::new(&mut mem));
         self.u_r.transpose() * qtb.as_ref().subrows(0, n)
     }
+
+    /// The ridge solution from `U^T b` (the QR factors dropped first) and the singular values.
+    fn solve_utb(self, utb: MatRef<'_, f64>, alpha: f64) -> (Mat<f64>, Vec<f64>) {
+        let TallSvd { qr, s, v, .. } = self;
+        let rows = qr.nrows();
+        drop(qr);
+        let ls = RidgeLs { u: Mat::new(), s, v, rows };
+        let x = ls.solve_utb(utb, alpha);
+        (x, ls.s)
+    }
 }
 
 /// The conditioning report from the singular values `s` (descending) of `a`.
@@ -449,27 +449,12 @@ pub fn fit_owned(
     Ok((x, cond))
 }
 
-/// [`fit_owned`] through [`RidgeLs::solve_owned_qtb`] (no `U`): the same conditioning
-/// report, the solution equal up to rounding (not bit for bit), at about a third of the cost
-/// for a tall design matrix with few right-hand sides (the polynomial map and flow fits).
-pub fn fit_owned_qtb(
-    a: Mat<f64>,
-    b: MatRef<'_, f64>,
-    groups: &[std::ops::Range<usize>],
-    ridge: Ridge,
-    what: &'static str,
-    rebuild: impl FnOnce() -> Mat<f64>,
-) -> Result<(Mat<f64>, Conditioning), FitError> {
-    let alpha = choose_alpha(a.as_ref(), b, groups, ridge, what)?;
-    let (x, s) = RidgeLs::solve_owned_qtb(a, b, alpha, what)?;
-    let a = rebuild();
-    let cond = conditioning_of(&s, a.as_ref(), b, x.as_ref(), alpha);
-    Ok((x, cond))
-}
-
-/// [`fit_owned_qtb`] for a caller that computes the residual itself (the two-stage fits
-/// report the residual of the whole fit): the design matrix is not rebuilt and the report's
-/// `rel_residual` is NaN until the caller sets it; everything else is the same, bit for bit.
+/// [`fit_owned`] through [`RidgeLs::solve_owned_qtb`] (no `U`; the solution equal up to
+/// rounding, not bit for bit, at about a third of the cost for a tall design matrix with few
+/// right-hand sides: the weighted and anchored polynomial map and flow fits), for a caller
+/// that computes the residual itself (the two-stage fits report the residual of the whole
+/// fit): the design matrix is not rebuilt and the report's `rel_residual` is NaN until the
+/// caller sets it.
 pub fn fit_owned_qtb_no_residual(
     a: Mat<f64>,
     b: MatRef<'_, f64>,
