@@ -56,9 +56,15 @@ pub fn base_scene() -> Result<&'static Scene, Error> {
     Ok(BASE.get_or_init(|| s))
 }
 
+/// A builder from the full-system scene ([`base_scene`]): `SceneBuilder::load("furuta-dt30.5")`
+/// without reading and parsing the bundled TOML again.
+pub fn base_builder() -> Result<sim::scene::SceneBuilder, Error> {
+    Ok(base_scene()?.clone().builder())
+}
+
 /// The full-system scene ([`base_scene`]) at `dt_ms`, everything else as bundled.
 pub fn scene_at(dt_ms: f64) -> Result<Scene, Error> {
-    Ok(base_scene()?.clone().builder().dt_ms(dt_ms).build()?)
+    Ok(base_builder()?.dt_ms(dt_ms).build()?)
 }
 
 /// The method of the report's basin, torus-continuation and connection runs: exprb-filtered

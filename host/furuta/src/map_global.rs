@@ -22,7 +22,6 @@
 
 use nalgebra::{Complex, DMatrix};
 use serde::Serialize;
-use sim::scene::SceneBuilder;
 use ssm::dynamics::StepScratch;
 use ssm::fit::SsmModel;
 use ssm::poly::PolyScratch;
@@ -267,7 +266,7 @@ pub fn full_connection_fates_with(integrator: Option<&sim::scene::IntegratorSpec
         .full
         .clone()
         .ok_or_else(|| Error::BadInput { what: "fast circle", why: format!("dt = {dt_ms} ms: {}", row.full_failure.clone().unwrap_or_default()) })?;
-    let scene = SceneBuilder::load("furuta-dt30.5")?.dt_ms(dt_ms).build()?;
+    let scene = crate::full_system::scene_at(dt_ms)?;
     let le = |source| sim::stability::StabilityError::Linear { scene: scene.name.clone(), source };
     let a = sim::stability::linear_plant(&scene)?.closed_loop(&scene.controller_config()).map_err(le)?.deflated().map_err(le)?;
     if a.nrows() != circle.points.first().map_or(0, Vec::len) {

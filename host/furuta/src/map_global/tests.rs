@@ -18,7 +18,7 @@ fn model() -> &'static SharedParametricModel {
 #[test]
 fn deflated_state_is_the_full_system_start() {
     let dt_ms = 31.3;
-    let scene = SceneBuilder::load("furuta-dt30.5").unwrap().dt_ms(dt_ms).build().unwrap();
+    let scene = crate::full_system::scene_at(dt_ms).unwrap();
     let ex = crate::convergence::ExactMap::new(&scene, 3).unwrap();
     assert_eq!(ex.dim(), 7);
     let s = [0.03, -0.1, 0.05, 0.025, 0.02, -0.01, 0.004];
