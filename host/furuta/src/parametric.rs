@@ -22,6 +22,7 @@ use ssm::interp::{Interp, interp_weights};
 use ssm::normal_form::{NormalFormOptions, NormalFormTable, PolarNormalForm, model_normal_form};
 use ssm::ridge::Ridge;
 use ssm::RowWeight;
+use sim::scene::SceneBuilder;
 use sim::closed_loop::simulate;
 use sim::stability::{StabilityError, dominant_pairs};
 
@@ -176,7 +177,7 @@ pub struct ExactModes {
 
 /// Exact rates at a sampling period in ms (slow mode first).
 pub fn exact_modes(dt_ms: f64) -> Result<ExactModes, Error> {
-    let scene = crate::full_system::scene_at(dt_ms)?;
+    let scene = SceneBuilder::load("furuta-dt30.5")?.dt_ms(dt_ms).build()?;
     let mut pairs = dominant_pairs(&scene)?;
     if pairs.len() < 2 {
         return Err(Error::Multipliers { dt_ms, got: pairs.len() });
@@ -225,7 +226,7 @@ pub fn mode_start(dt_ms: f64, slow: Option<(f64, f64)>, fast: Option<(f64, f64)>
     if slow.is_none() && fast.is_none() {
         return Err(Error::BadOption { what: "mode_start", why: "give at least one of the slow and the fast mode".into() });
     }
-    let scene = crate::full_system::scene_at(dt_ms)?;
+    let scene = SceneBuilder::load("furuta-dt30.5")?.dt_ms(dt_ms).build()?;
     mode_start_in(&scene, slow, fast)
 }
 
@@ -271,7 +272,7 @@ pub struct ModeBasis {
 impl ModeBasis {
     /// The basis at `dt_ms` on the bundled Furuta scene (as [`mode_start`]).
     pub fn at(dt_ms: f64) -> Result<Self, Error> {
-        Self::of(&crate::full_system::scene_at(dt_ms)?)
+        Self::of(&SceneBuilder::load("furuta-dt30.5")?.dt_ms(dt_ms).build()?)
     }
 
     /// The basis of a 4-state Furuta scene without integral action (as [`mode_start_in`]).
@@ -352,7 +353,7 @@ pub fn furuta_series_with_history(
     if !(max_theta > 0.0 && max_theta.is_finite()) {
         return Err(Error::BadOption { what: "max_theta", why: format!("must be positive and finite, got {max_theta}") });
     }
-    let scene = crate::full_system::base_builder()?
+    let scene = SceneBuilder::load("furuta-dt30.5")?
         .dt_ms(dt_ms)
         .periods(periods)
         .initial_state(&ic)
@@ -461,7 +462,7 @@ impl TrainingRuns {
                     (ic, Some(hist))
                 }
             };
-            let scene = crate::full_system::base_builder()?
+            let scene = SceneBuilder::load("furuta-dt30.5")?
                 .dt_ms(dt_ms)
                 .periods(first.periods)
                 .initial_state(&ic)
