@@ -114,9 +114,9 @@ pub fn max_degree(exps: &[Vec<u32>]) -> u32 {
 }
 
 impl Poly {
-    /// Evaluates the polynomial at `eta` (unscaled) into `out` (length `dim_out`), using
-    /// `scratch` for the scaled point, powers and monomial values.
-    pub fn eval_into(&self, eta: &[f64], scratch: &mut PolyScratch, out: &mut [f64]) {
+    /// The monomials' values at `eta` (unscaled) into `scratch.phi`, for
+    /// [`Poly::eval_into`] and [`Poly::eval_one`].
+    fn monomials_into(&self, eta: &[f64], scratch: &mut PolyScratch) {
         let nm = self.exps.len();
         scratch.z.clear();
         scratch.z.extend(eta.iter().zip(&self.scale).map(|(e, s)| e / s));
@@ -128,6 +128,12 @@ impl Poly {
             scratch.max_deg = scratch.max_deg.max(max_degree(&self.exps));
             eval_monomials(&self.exps, &scratch.z, scratch.max_deg, &mut scratch.pow, &mut scratch.phi);
         }
+    }
+
+    /// Evaluates the polynomial at `eta` (unscaled) into `out` (length `dim_out`), using
+    /// `scratch` for the scaled point, powers and monomial values.
+    pub fn eval_into(&self, eta: &[f64], scratch: &mut PolyScratch, out: &mut [f64]) {
+        self.monomials_into(eta, scratch);
         out.iter_mut().for_each(|o| *o = 0.0);
         for (k, &p) in scratch.phi.iter().enumerate() {
             let row = &self.coef[k * self.dim_out..(k + 1) * self.dim_out];
@@ -143,14 +149,7 @@ impl Poly {
         if i >= self.dim_out {
             return f64::NAN;
         }
-        let nm = self.exps.len();
-        scratch.z.clear();
-        scratch.z.extend(eta.iter().zip(&self.scale).map(|(e, s)| e / s));
-        scratch.phi.resize(nm, 0.0);
-        if !eval_monomials_upto(&self.exps, &scratch.z, scratch.max_deg, &mut scratch.pow, &mut scratch.phi) {
-            scratch.max_deg = scratch.max_deg.max(max_degree(&self.exps));
-            eval_monomials(&self.exps, &scratch.z, scratch.max_deg, &mut scratch.pow, &mut scratch.phi);
-        }
+        self.monomials_into(eta, scratch);
         let mut o = 0.0;
         for (k, &p) in scratch.phi.iter().enumerate() {
             o += self.coef[k * self.dim_out + i] * p;
