@@ -185,8 +185,8 @@ fn fft_amplitudes(x: &[f64]) -> Vec<f64> {
     re.iter().zip(&im).map(|(a, b)| a.hypot(*b)).collect()
 }
 
-/// In-place iterative radix-2 FFT (length a power of two); `inverse` divides by n.
-pub(crate) fn fft(re: &mut [f64], im: &mut [f64], inverse: bool) {
+/// The bit-reversal permutation of the radix-2 FFT, in place on both parts.
+fn bit_reverse(re: &mut [f64], im: &mut [f64]) {
     let n = re.len();
     let mut j = 0;
     for i in 1..n {
@@ -201,6 +201,12 @@ pub(crate) fn fft(re: &mut [f64], im: &mut [f64], inverse: bool) {
             im.swap(i, j);
         }
     }
+}
+
+/// In-place iterative radix-2 FFT (length a power of two); `inverse` divides by n.
+pub(crate) fn fft(re: &mut [f64], im: &mut [f64], inverse: bool) {
+    let n = re.len();
+    bit_reverse(re, im);
     // Twiddles of the largest stage; stage `len` reads every (n / len)-th. IAAFT transforms
     // the same length back and forth hundreds of times: the tables of the last length (both
     // directions) are kept per thread, the same values as computed afresh.
@@ -452,19 +458,7 @@ mod tests {
     fn kept_twiddles_give_the_fresh_transform() {
         let fresh = |re: &mut Vec<f64>, im: &mut Vec<f64>, inverse: bool| {
             let n = re.len();
-            let mut j = 0;
-            for i in 1..n {
-                let mut bit = n >> 1;
-                while j & bit != 0 {
-                    j ^= bit;
-                    bit >>= 1;
-                }
-                j |= bit;
-                if i < j {
-                    re.swap(i, j);
-                    im.swap(i, j);
-                }
-            }
+            bit_reverse(re, im);
             let sign = if inverse { 1.0 } else { -1.0 };
             let tw: Vec<(f64, f64)> = (0..n / 2).map(|k| (sign * 2.0 * std::f64::consts::PI * k as f64 / n as f64).sin_cos()).collect();
             butterflies(re, im, &tw);
