@@ -5,7 +5,9 @@
 //! STAGE among `runs` (the training runs of the default and the variants), `default` (the
 //! default shared-tangent fit), `variant` (the 7-period, cut 0.3 rad variant's fit),
 //! `parametric` (the per-period normal-form fits), `basin` (the fitted map's verdict on the
-//! full basin grid), `reads` (the map's connection and torus continuation, linear).
+//! full basin grid), `reads` (the map's connection and torus continuation, linear), `step`
+//! (one step of the default map at 31.3 ms, linear, with its theta lift: ns per step over
+//! 1e6 steps, median of 5).
 
 use furuta::basin::BasinOptions;
 use furuta::map_global::{ConnectionOptions, map_basin, map_connection, map_torus_continuation};
@@ -55,7 +57,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         lap("parametric fit");
         std::hint::black_box(pm);
     }
-    let need_default = has("default") || has("basin") || has("reads");
+    let need_default = has("default") || has("basin") || has("reads") || has("step");
     let sm = if need_default { Some(shared_parametric_from(&base, &runs)?) } else { None };
     if need_default {
         lap("default shared fit");
@@ -71,6 +73,9 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             lap("map basin (full grid)");
             eprintln!("bounded cells: {}", b.iter().flatten().filter(|&&x| x).count());
         }
+        if has("step") {
+            step_bench(sm)?;
+        }
         if has("reads") {
             let co = ConnectionOptions::default();
             let c = map_connection(|dt| sm.model_at(dt, Interp::Linear), 31.0, 32.0, 6, 0.005, &co)?;
@@ -82,5 +87,66 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             eprintln!("torus onset {:?}", t.growth_onset);
         }
     }
+    Ok(())
+}
+
+/// This thread's CPU time in ns (/proc/thread-self/schedstat: time on a CPU), so that the
+/// load of other processes on a shared machine counts less than in wall time.
+fn thread_ns() -> f64 {
+    let s = std::fs::read_to_string("/proc/thread-self/schedstat").unwrap_or_default();
+    s.split_whitespace().next().and_then(|v| v.parse().ok()).unwrap_or(0.0)
+}
+
+/// ns per map step (step + theta lift, as the basin and connection loops) on the default
+/// shared model at 31.3 ms, from the torus continuation's start, in thread CPU time; the
+/// plain path (`ReducedDynamics::step`, `Manifold::lift_one`) and the prepared one
+/// (`PreparedDynamics`, `PreparedLift`) alternate, 5 runs of 1e6 steps each (restarted from
+/// the start on escape), median of the 5 printed.
+fn step_bench(sm: &furuta::shared_tangent::SharedParametricModel) -> Result<(), Box<dyn std::error::Error>> {
+    use ssm::dynamics::StepScratch;
+    use ssm::poly::PolyScratch;
+    let dt_ms = 31.3;
+    let model = sm.model_at(dt_ms, Interp::Linear)?;
+    let p = model.manifold.p;
+    let dt = model.dynamics.map_dt().ok_or("not a map")?;
+    let (x, h) = furuta::full_system::start_from_rho(dt_ms, [0.097, 0.0277], [0.0, 0.0])?;
+    let head = furuta::full_system::run(dt_ms, &(x, Some(h)), p as u64, f64::MAX)?.primary();
+    let eta0 = model.manifold.reduce(&head[..p]);
+    let n = 1_000_000u32;
+    let (map, manifold) = (model.dynamics.prepare(), model.manifold.prepare());
+    let run = |prepared: bool| {
+        let (mut sc, mut lsc) = (StepScratch::default(), PolyScratch::default());
+        let mut eta = eta0.clone();
+        let mut sum = 0.0;
+        let t = thread_ns();
+        for _ in 0..n {
+            let th = if prepared { manifold.lift_one(&eta, &mut lsc, p - 1) } else { model.manifold.lift_one(&eta, &mut lsc, p - 1) };
+            if !th.is_finite() || th.abs() > furuta::full_system::ESCAPE_THETA {
+                eta.copy_from_slice(&eta0);
+            }
+            sum += th;
+            if prepared {
+                map.step(&mut eta, dt, &mut sc);
+            } else {
+                model.dynamics.step(&mut eta, dt, &mut sc);
+            }
+        }
+        ((thread_ns() - t) / f64::from(n), sum)
+    };
+    let (mut old, mut new) = (Vec::new(), Vec::new());
+    for _ in 0..5 {
+        let (a, sa) = run(false);
+        let (b, sb) = run(true);
+        if sa.to_bits() != sb.to_bits() {
+            return Err(format!("the prepared path's theta sum {sb:e} differs from the plain {sa:e}").into());
+        }
+        old.push(a);
+        new.push(b);
+    }
+    let median = |mut v: Vec<f64>| {
+        v.sort_by(f64::total_cmp);
+        v[v.len() / 2]
+    };
+    eprintln!("map step + theta lift, thread CPU ns/step, median of 5: plain {:.0} {old:.0?}, prepared {:.0} {new:.0?}", median(old.clone()), median(new.clone()));
     Ok(())
 }

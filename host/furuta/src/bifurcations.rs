@@ -249,10 +249,12 @@ pub fn map_outcome(model: &ssm::fit::SsmModel, dt_ms: f64, start: &crate::full_s
     }
     let eta0 = model.manifold.reduce(y0);
     let mut scratch = StepScratch::default();
-    // Theta is the lifted point's newest coordinate: only that one is evaluated.
+    // Theta is the lifted point's newest coordinate: only that one is evaluated. Map and
+    // lift prepared once for the run (the same bits as the plain step and lift).
+    let (map, manifold) = (model.dynamics.prepare(), model.manifold.prepare());
     let lift = std::cell::RefCell::new(ssm::poly::PolyScratch::default());
-    let obs = |e: &[f64]| model.manifold.lift_one(e, &mut lift.borrow_mut(), p - 1);
-    let o = iterate_outcome(|e| model.dynamics.step(e, dt, &mut scratch), obs, &eta0, periods - (p as u64 - 1), (p - 1) as f64 * dt, dt, escape_theta);
+    let obs = |e: &[f64]| manifold.lift_one(e, &mut lift.borrow_mut(), p - 1);
+    let o = iterate_outcome(|e| map.step(e, dt, &mut scratch), obs, &eta0, periods - (p as u64 - 1), (p - 1) as f64 * dt, dt, escape_theta);
     Ok(crate::full_system::Outcome { escape_t: o.escape_t, max_theta: o.max_theta.max(head_max) })
 }
 

@@ -245,14 +245,12 @@ pub fn equation_map_outcome(model: &SsmModel, proj: &StartProjection, start: &cr
     }
     let eta0 = proj.eta(start)?;
     let mut scratch = StepScratch::default();
-    let lift = std::cell::RefCell::new(([0.0; 1], ssm::poly::PolyScratch::default()));
-    let obs = |e: &[f64]| {
-        let mut g = lift.borrow_mut();
-        let (out, sc) = &mut *g;
-        model.manifold.lift_into(e, sc, out);
-        out[0]
-    };
-    Ok(crate::bifurcations::iterate_outcome(|e| model.dynamics.step(e, dt, &mut scratch), obs, &eta0, periods, 0.0, dt, escape_theta))
+    // Map and lift prepared once for the run; theta is the one lifted coordinate
+    // (`lift_one(.., 0)` is `lift_into`'s only entry, the same bits).
+    let (map, manifold) = (model.dynamics.prepare(), model.manifold.prepare());
+    let lift = std::cell::RefCell::new(ssm::poly::PolyScratch::default());
+    let obs = |e: &[f64]| manifold.lift_one(e, &mut lift.borrow_mut(), 0);
+    Ok(crate::bifurcations::iterate_outcome(|e| map.step(e, dt, &mut scratch), obs, &eta0, periods, 0.0, dt, escape_theta))
 }
 
 /// The equation map's small-start switch by the fitted map's and the full system's rules

@@ -187,13 +187,14 @@ pub fn map_connection_fates(model: &SsmModel, dt_ms: f64, o: &ConnectionOptions)
     let a = DMatrix::from_row_slice(d, d, &model.dynamics.linear_part()?);
     let v = eigenvector(&a, slow_multiplier(&a)?, &model.manifold.observable_row())?;
     let p = model.manifold.p;
+    let (map, manifold) = (model.dynamics.prepare(), model.manifold.prepare());
     let outcomes = pushed_starts(&circle, &v, o)
         .iter()
         .map(|eta0| {
             let mut scratch = StepScratch::default();
             let lift = std::cell::RefCell::new(PolyScratch::default());
-            let obs = |e: &[f64]| model.manifold.lift_one(e, &mut lift.borrow_mut(), p - 1);
-            iterate_outcome(|e| model.dynamics.step(e, dt, &mut scratch), obs, eta0, o.periods, 0.0, dt, ESCAPE_THETA)
+            let obs = |e: &[f64]| manifold.lift_one(e, &mut lift.borrow_mut(), p - 1);
+            iterate_outcome(|e| map.step(e, dt, &mut scratch), obs, eta0, o.periods, 0.0, dt, ESCAPE_THETA)
         })
         .collect();
     Ok(ConnectionFates { dt_ms, circle_theta_amplitude: circle.theta_amplitude, circle_freq_hz: circle.freq_hz, circle_residual: circle.residual, outcomes })
@@ -348,17 +349,18 @@ pub fn map_torus_continuation_from(
             return Err(Error::Shape { expected: p, got: model.manifold.p });
         }
         let (mut scratch, mut sc) = (StepScratch::default(), PolyScratch::default());
+        let (map, manifold) = (model.dynamics.prepare(), model.manifold.prepare());
         let mut theta = Vec::with_capacity(periods as usize + 1);
         let mut escape_t = None;
         for k in 0..=periods {
-            let th = model.manifold.lift_one(&eta, &mut sc, p - 1);
+            let th = manifold.lift_one(&eta, &mut sc, p - 1);
             if !th.is_finite() || eta.iter().any(|v| !v.is_finite()) || th.abs() > ESCAPE_THETA {
                 escape_t = Some(k as f64 * dt);
                 break;
             }
             theta.push(th);
             if k < periods {
-                model.dynamics.step(&mut eta, dt, &mut scratch);
+                map.step(&mut eta, dt, &mut scratch);
             }
         }
         let step = torus_step(dt_ms, &theta, dt, escape_t)?;

@@ -33,7 +33,7 @@ use super::error::FitError;
 use super::manifold::design_matrix;
 pub use super::weight::{LowDegreeStage, RowWeight};
 use super::weight::{envelope, scale_rows};
-use super::poly::{self, Poly, PolyScratch};
+use super::poly::{self, Poly, PolyScratch, PreparedPoly};
 use super::ridge::{self, Conditioning, Ridge};
 
 /// RK4 steps per sampling interval when integrating a flow.
@@ -1027,38 +1027,74 @@ impl ReducedDynamics {
     /// the caller checks).
     pub fn step(&self, eta: &mut [f64], dt: f64, s: &mut StepScratch) {
         match self {
-            ReducedDynamics::Flow { field, .. } => {
-                let d = eta.len();
-                let h = dt / RK4_SUBSTEPS as f64;
-                s.resize(d);
-                for _ in 0..RK4_SUBSTEPS {
-                    field.eval_into(eta, &mut s.poly, &mut s.k1);
-                    for i in 0..d {
-                        s.tmp[i] = eta[i] + 0.5 * h * s.k1[i];
-                    }
-                    field.eval_into(&s.tmp, &mut s.poly, &mut s.k2);
-                    for i in 0..d {
-                        s.tmp[i] = eta[i] + 0.5 * h * s.k2[i];
-                    }
-                    field.eval_into(&s.tmp, &mut s.poly, &mut s.k3);
-                    for i in 0..d {
-                        s.tmp[i] = eta[i] + h * s.k3[i];
-                    }
-                    field.eval_into(&s.tmp, &mut s.poly, &mut s.k4);
-                    for i in 0..d {
-                        eta[i] += h / 6.0 * (s.k1[i] + 2.0 * s.k2[i] + 2.0 * s.k3[i] + s.k4[i]);
-                    }
-                }
-            }
-            ReducedDynamics::Map { increment, .. } => {
-                s.resize(eta.len());
-                increment.eval_into(eta, &mut s.poly, &mut s.k1);
-                for (e, k) in eta.iter_mut().zip(&s.k1) {
-                    *e += k;
-                }
-            }
+            ReducedDynamics::Flow { field, .. } => rk4_step(|x, sc, out| field.eval_into(x, sc, out), eta, dt, s),
+            ReducedDynamics::Map { increment, .. } => map_step(|x, sc, out| increment.eval_into(x, sc, out), eta, s),
             ReducedDynamics::Rbf(r) => r.step(eta, &mut s.feat),
         }
+    }
+
+    /// The dynamics prepared for many steps ([`PreparedDynamics::step`]: the same bits as
+    /// [`ReducedDynamics::step`], the polynomial evaluated by [`PreparedPoly`]).
+    pub fn prepare(&self) -> PreparedDynamics<'_> {
+        let kind = match self {
+            ReducedDynamics::Flow { field: p, .. } | ReducedDynamics::Map { increment: p, .. } => PreparedPoly::new(p),
+            ReducedDynamics::Rbf(_) => None,
+        };
+        PreparedDynamics { dynamics: self, poly: kind }
+    }
+}
+
+/// [`ReducedDynamics`] prepared for many steps ([`ReducedDynamics::prepare`]).
+#[derive(Clone, Debug)]
+pub struct PreparedDynamics<'a> {
+    dynamics: &'a ReducedDynamics,
+    /// The field's or increment's polynomial prepared (`None`: RBF, or a polynomial of
+    /// inconsistent shape, stepped the plain way).
+    poly: Option<PreparedPoly<'a>>,
+}
+
+impl PreparedDynamics<'_> {
+    /// [`ReducedDynamics::step`], the same bits.
+    pub fn step(&self, eta: &mut [f64], dt: f64, s: &mut StepScratch) {
+        match (self.dynamics, &self.poly) {
+            (ReducedDynamics::Flow { .. }, Some(pp)) => rk4_step(|x, sc, out| pp.eval_into(x, sc, out), eta, dt, s),
+            (ReducedDynamics::Map { .. }, Some(pp)) => map_step(|x, sc, out| pp.eval_into(x, sc, out), eta, s),
+            (d, _) => d.step(eta, dt, s),
+        }
+    }
+}
+
+/// One RK4 step of `dt` (in [`RK4_SUBSTEPS`] substeps) of the field `f`.
+fn rk4_step(f: impl Fn(&[f64], &mut PolyScratch, &mut [f64]), eta: &mut [f64], dt: f64, s: &mut StepScratch) {
+    let d = eta.len();
+    let h = dt / RK4_SUBSTEPS as f64;
+    s.resize(d);
+    for _ in 0..RK4_SUBSTEPS {
+        f(eta, &mut s.poly, &mut s.k1);
+        for i in 0..d {
+            s.tmp[i] = eta[i] + 0.5 * h * s.k1[i];
+        }
+        f(&s.tmp, &mut s.poly, &mut s.k2);
+        for i in 0..d {
+            s.tmp[i] = eta[i] + 0.5 * h * s.k2[i];
+        }
+        f(&s.tmp, &mut s.poly, &mut s.k3);
+        for i in 0..d {
+            s.tmp[i] = eta[i] + h * s.k3[i];
+        }
+        f(&s.tmp, &mut s.poly, &mut s.k4);
+        for i in 0..d {
+            eta[i] += h / 6.0 * (s.k1[i] + 2.0 * s.k2[i] + 2.0 * s.k3[i] + s.k4[i]);
+        }
+    }
+}
+
+/// One step `eta += f(eta)` of the map with increment `f`.
+fn map_step(f: impl Fn(&[f64], &mut PolyScratch, &mut [f64]), eta: &mut [f64], s: &mut StepScratch) {
+    s.resize(eta.len());
+    f(eta, &mut s.poly, &mut s.k1);
+    for (e, k) in eta.iter_mut().zip(&s.k1) {
+        *e += k;
     }
 }
 
@@ -1590,5 +1626,46 @@ mod tests {
         assert!(e.contains("pair-fit target trajectories"), "{e}");
         let e = ReducedDynamics::fit_rbf_pairs(&tr(&clean), &tr(&clean), Dynamics::Map, Ridge::Fixed(1e-10)).unwrap_err().to_string();
         assert!(e.contains("RBF maps only"), "{e}");
+    }
+
+    /// [`PreparedDynamics::step`] is [`ReducedDynamics::step`] bit for bit along 300 steps of
+    /// a polynomial map (d = 4, order 7, the Furuta map's shape), a polynomial flow (RK4) and
+    /// an RBF map (stepped the plain way), with one scratch per path.
+    #[test]
+    fn prepared_step_is_the_same_bits() {
+        let mut st = 5u64;
+        let mut r = || {
+            st = st.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            ((st >> 11) as f64) / ((1u64 << 53) as f64) - 0.5
+        };
+        let cond = crate::backbone::tests::cond();
+        let mut poly = |d: usize, order: u32, gain: f64| {
+            let exps = poly::exponents(d, 1, order);
+            let coef: Vec<f64> = (0..exps.len() * d).map(|k| if k < d * d { -0.02 * r() } else { gain * r() }).collect();
+            Poly { dim_in: d, dim_out: d, scale: (0..d).map(|i| 0.5 + 0.1 * i as f64).collect(), exps, coef }
+        };
+        let centers = vec![0.1, -0.2, 0.3, 0.05, -0.25, 0.15];
+        let cases = [
+            (ReducedDynamics::Map { increment: poly(4, 7, 1e-3), dt: 0.03, conditioning: cond }, 0.03),
+            (ReducedDynamics::Flow { field: poly(3, 5, 1e-2), conditioning: cond }, 0.01),
+            (ReducedDynamics::Rbf(RbfMap { dim: 2, kernel: Kernel::Linear, dt: 1.0, scale: vec![1.0; 2], centers, coef: (0..12).map(|k| 0.01 * (k as f64 - 5.0)).collect(), conditioning: cond }), 1.0),
+        ];
+        for (dynamics, dt) in &cases {
+            let d = match dynamics {
+                ReducedDynamics::Map { increment: p, .. } | ReducedDynamics::Flow { field: p, .. } => p.dim_in,
+                ReducedDynamics::Rbf(m) => m.dim,
+            };
+            let prepared = dynamics.prepare();
+            assert_eq!(prepared.poly.is_some(), !matches!(dynamics, ReducedDynamics::Rbf(_)));
+            let (mut a, mut b): (Vec<f64>, Vec<f64>) = ((0..d).map(|i| 0.3 - 0.1 * i as f64).collect(), (0..d).map(|i| 0.3 - 0.1 * i as f64).collect());
+            let (mut sa, mut sb) = (StepScratch::default(), StepScratch::default());
+            for n in 0..300 {
+                dynamics.step(&mut a, *dt, &mut sa);
+                prepared.step(&mut b, *dt, &mut sb);
+                let (ba, bb): (Vec<u64>, Vec<u64>) = (a.iter().map(|v| v.to_bits()).collect(), b.iter().map(|v| v.to_bits()).collect());
+                assert_eq!(ba, bb, "step {n}: {a:?} vs {b:?}");
+            }
+            assert!(a.iter().all(|v| v.is_finite() && *v != 0.0), "{a:?}");
+        }
     }
 }

@@ -17,7 +17,7 @@ use serde::{Deserialize, Serialize};
 
 use super::weight::{RowWeight, scale_rows};
 use super::error::FitError;
-use super::poly::{self, Poly, PolyScratch};
+use super::poly::{self, Poly, PolyScratch, PreparedPoly};
 use super::ridge::{self, Conditioning, Ridge};
 
 /// A fitted SSM parametrization.
@@ -225,14 +225,25 @@ impl Manifold {
         if i >= self.p {
             return f64::NAN;
         }
-        let mut o = match &self.nonlinear {
+        let o = match &self.nonlinear {
             Some(poly) => poly.eval_one(eta, scratch, i),
             None => 0.0,
         };
+        self.plus_linear_one(o, eta, i)
+    }
+
+    /// `o` plus coordinate `i` of `V1 eta`, added in [`Manifold::lift_into`]'s order.
+    fn plus_linear_one(&self, mut o: f64, eta: &[f64], i: usize) -> f64 {
         for (j, e) in eta.iter().enumerate() {
             o += self.v1[j * self.p + i] * e;
         }
         o
+    }
+
+    /// The lift prepared for many points ([`PreparedLift::lift_one`]: the same bits as
+    /// [`Manifold::lift_one`], the polynomial evaluated by [`PreparedPoly`]).
+    pub fn prepare(&self) -> PreparedLift<'_> {
+        PreparedLift { m: self, poly: self.nonlinear.as_ref().and_then(PreparedPoly::new) }
     }
 
     /// Largest violation of the constraints: `max(|V1^T V1 - I|, |V1^T V_k|)` (entrywise,
@@ -344,6 +355,28 @@ pub fn design_matrix(eta: MatRef<'_, f64>, scale: &[f64], exps: &[Vec<u32>]) -> 
     out
 }
 
+/// [`Manifold`] prepared for many lifts ([`Manifold::prepare`]).
+#[derive(Clone, Debug)]
+pub struct PreparedLift<'a> {
+    m: &'a Manifold,
+    /// The nonlinear part prepared (`None`: linear manifold, or a polynomial of inconsistent
+    /// shape, lifted the plain way).
+    poly: Option<PreparedPoly<'a>>,
+}
+
+impl PreparedLift<'_> {
+    /// [`Manifold::lift_one`], the same bits.
+    pub fn lift_one(&self, eta: &[f64], scratch: &mut PolyScratch, i: usize) -> f64 {
+        let (m, Some(pp)) = (self.m, &self.poly) else {
+            return self.m.lift_one(eta, scratch, i);
+        };
+        if i >= m.p {
+            return f64::NAN;
+        }
+        m.plus_linear_one(pp.eval_one(eta, scratch, i), eta, i)
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -400,16 +433,20 @@ mod tests {
         }
         let mut sc = PolyScratch::default();
         let mut out = vec![0.0; 5];
+        let prepared = m.prepare();
+        assert!(prepared.poly.is_some());
         for j in 0..y.ncols() {
             let yj: Vec<f64> = (0..5).map(|i| y[(i, j)]).collect();
             m.lift_into(&m.reduce(&yj), &mut sc, &mut out);
             for i in 0..5 {
                 assert!((out[i] - yj[i]).abs() < 1e-12, "point {j} coord {i}: {} vs {}", out[i], yj[i]);
-                // One coordinate alone: the same bits.
+                // One coordinate alone, plain and prepared: the same bits.
                 assert_eq!(m.lift_one(&m.reduce(&yj), &mut sc, i).to_bits(), out[i].to_bits(), "point {j} coord {i}");
+                assert_eq!(prepared.lift_one(&m.reduce(&yj), &mut sc, i).to_bits(), out[i].to_bits(), "prepared: point {j} coord {i}");
             }
         }
         assert!(m.lift_one(&[0.1, 0.2], &mut sc, 5).is_nan());
+        assert!(prepared.lift_one(&[0.1, 0.2], &mut sc, 5).is_nan());
         let c = m.conditioning.unwrap();
         assert!(c.cond.is_finite() && c.cond > 1.0 && c.rel_residual < 1e-12, "{c:?}");
     }

@@ -181,6 +181,206 @@ impl Poly {
     }
 }
 
+/// A [`Poly`] prepared for many evaluations (a map iterated for thousands of steps): the
+/// same values as [`Poly::eval_into`] and [`Poly::eval_one`], bit for bit, for less work.
+///
+/// [`Poly::eval_into`] forms each monomial as the product, in variable order, of the powers
+/// `z_i^{k_i}` of all `dim_in` variables, `z_i^0 = 1` included, starting from 1. Multiplying
+/// by 1 is exact, so the same value is the product of the non-zero exponents' powers alone,
+/// and that product with its last factor left out is the value of another monomial (the
+/// exponent vector with its last non-zero entry set to zero), which in a full degree range
+/// is itself one of the polynomial's monomials. Preparing lists, per monomial, that
+/// parent and the last factor's power: then every monomial is one product (`parent * power`)
+/// of values already formed, the same multiplications in the same order as the plain loop.
+/// Parents missing from the polynomial's own list are added as hidden values. The sums over
+/// the monomials are then the plain loop's (each output from 0, in monomial order), with
+/// the outputs kept in registers for up to four outputs.
+#[derive(Clone, Debug)]
+pub struct PreparedPoly<'a> {
+    p: &'a Poly,
+    /// Powers per variable: `pow[i * stride + e] = z_i^e`, `e = 0..stride`.
+    stride: usize,
+    /// Value `n + 1` (value 0 is the constant 1) is `vals[parent] * pow[power]`, with
+    /// `(parent, power) = nodes[n]`; parents come before their children.
+    nodes: Vec<(u32, u32)>,
+    /// The value of monomial `k` is `vals[of[k]]`.
+    of: Vec<u32>,
+    /// `of[k] == k + 1` for every `k` ([`PreparedPoly::in_order`]).
+    in_order: bool,
+}
+
+impl<'a> PreparedPoly<'a> {
+    /// Prepares `p`; `None` when `p`'s shape is inconsistent (an exponent vector of another
+    /// length than `dim_in`, fewer scales than inputs, coefficients not `exps.len() x
+    /// dim_out`) or too large to index with `u32`: use [`Poly::eval_into`] then.
+    pub fn new(p: &'a Poly) -> Option<Self> {
+        let d = p.dim_in;
+        if p.exps.iter().any(|e| e.len() != d) || p.scale.len() < d || Some(p.coef.len()) != p.exps.len().checked_mul(p.dim_out) {
+            return None;
+        }
+        let stride = usize::try_from(max_degree(&p.exps)).ok()?.checked_add(1)?;
+        u32::try_from(d.checked_mul(stride)?).ok()?;
+        let mut nodes: Vec<(u32, u32)> = Vec::new();
+        // Index of every value formed so far, by its exponent vector (the constant is 0).
+        let mut index: std::collections::HashMap<Vec<u32>, u32> = std::collections::HashMap::new();
+        index.insert(vec![0; d], 0);
+        let mut of = Vec::with_capacity(p.exps.len());
+        for e in &p.exps {
+            of.push(Self::value_of(e, stride, &mut nodes, &mut index)?);
+        }
+        let in_order = nodes.len() == of.len() && of.iter().enumerate().all(|(k, &n)| n as usize == k + 1);
+        Some(PreparedPoly { p, stride, nodes, of, in_order })
+    }
+
+    /// The value index of exponent vector `e`, formed (with its missing parents) when new.
+    fn value_of(e: &[u32], stride: usize, nodes: &mut Vec<(u32, u32)>, index: &mut std::collections::HashMap<Vec<u32>, u32>) -> Option<u32> {
+        if let Some(&n) = index.get(e) {
+            return Some(n);
+        }
+        // `e` is not all zero (the constant is in the index): its last non-zero exponent.
+        let j = e.iter().rposition(|&k| k != 0)?;
+        let mut parent = e.to_vec();
+        parent[j] = 0;
+        let pn = Self::value_of(&parent, stride, nodes, index)?;
+        let power = u32::try_from(j * stride + e[j] as usize).ok()?;
+        nodes.push((pn, power));
+        let n = u32::try_from(nodes.len()).ok()?;
+        index.insert(e.to_vec(), n);
+        Some(n)
+    }
+
+    /// The polynomial prepared.
+    pub fn poly(&self) -> &'a Poly {
+        self.p
+    }
+
+    /// The powers at `eta` (unscaled) into `scratch.pow`, and `scratch.phi` sized for the
+    /// values (value 0, the constant, set).
+    fn powers_into(&self, eta: &[f64], scratch: &mut PolyScratch) {
+        let p = self.p;
+        let stride = self.stride;
+        scratch.pow.clear();
+        scratch.pow.resize(p.dim_in * stride, 1.0);
+        for (i, (e, s)) in eta.iter().zip(&p.scale).take(p.dim_in).enumerate() {
+            let z = e / s;
+            let row = &mut scratch.pow[i * stride..(i + 1) * stride];
+            for k in 1..stride {
+                row[k] = row[k - 1] * z;
+            }
+        }
+        scratch.phi.clear();
+        scratch.phi.resize(self.nodes.len() + 1, 1.0);
+    }
+
+    /// The powers and all values at `eta` (unscaled) into `scratch` (`pow`, `phi`).
+    fn values_into(&self, eta: &[f64], scratch: &mut PolyScratch) {
+        self.powers_into(eta, scratch);
+        let (pow, vals) = (&scratch.pow, &mut scratch.phi);
+        for (n, &(parent, power)) in self.nodes.iter().enumerate() {
+            vals[n + 1] = vals[parent as usize] * pow[power as usize];
+        }
+    }
+
+    /// Whether value `k + 1` is monomial `k` for every `k` (no hidden values, the monomials
+    /// in the order their values are formed: a full degree range in the documented order).
+    /// Then one pass forms each value and adds it to the sums.
+    fn in_order(&self) -> bool {
+        self.in_order
+    }
+
+    /// [`Poly::eval_into`] (the same bits): the polynomial at `eta` (unscaled) into `out`
+    /// (length `dim_out`).
+    pub fn eval_into(&self, eta: &[f64], scratch: &mut PolyScratch, out: &mut [f64]) {
+        let coef = &self.p.coef;
+        if self.in_order() && (1..=4).contains(&self.p.dim_out) {
+            self.powers_into(eta, scratch);
+            let (nodes, pow, vals) = (&self.nodes, &scratch.pow, &mut scratch.phi);
+            match self.p.dim_out {
+                1 => write(out, fused::<1>(nodes, pow, vals, coef)),
+                2 => write(out, fused::<2>(nodes, pow, vals, coef)),
+                3 => write(out, fused::<3>(nodes, pow, vals, coef)),
+                _ => write(out, fused::<4>(nodes, pow, vals, coef)),
+            }
+            return;
+        }
+        self.values_into(eta, scratch);
+        let vals = &scratch.phi;
+        match self.p.dim_out {
+            1 => write(out, contract::<1>(coef, vals, &self.of)),
+            2 => write(out, contract::<2>(coef, vals, &self.of)),
+            3 => write(out, contract::<3>(coef, vals, &self.of)),
+            4 => write(out, contract::<4>(coef, vals, &self.of)),
+            q => {
+                out.iter_mut().for_each(|o| *o = 0.0);
+                for (row, &n) in coef.chunks_exact(q).zip(&self.of) {
+                    let v = vals[n as usize];
+                    for (o, c) in out.iter_mut().zip(row) {
+                        *o += c * v;
+                    }
+                }
+            }
+        }
+    }
+
+    /// [`Poly::eval_one`] (the same bits): output `i` alone (`i < dim_out`, else `NaN`).
+    pub fn eval_one(&self, eta: &[f64], scratch: &mut PolyScratch, i: usize) -> f64 {
+        let q = self.p.dim_out;
+        if i >= q {
+            return f64::NAN;
+        }
+        let mut o = 0.0;
+        if self.in_order() {
+            self.powers_into(eta, scratch);
+            let (pow, vals) = (&scratch.pow, &mut scratch.phi);
+            for (n, (&(parent, power), row)) in self.nodes.iter().zip(self.p.coef.chunks_exact(q)).enumerate() {
+                let v = vals[parent as usize] * pow[power as usize];
+                vals[n + 1] = v;
+                o += row[i] * v;
+            }
+            return o;
+        }
+        self.values_into(eta, scratch);
+        let vals = &scratch.phi;
+        for (row, &n) in self.p.coef.chunks_exact(q).zip(&self.of) {
+            o += row[i] * vals[n as usize];
+        }
+        o
+    }
+}
+
+/// One pass of an in-order plan ([`PreparedPoly::in_order`]): value `k + 1` formed and added,
+/// times coefficient row `k`, to the `N` sums (from 0, in monomial order, in registers).
+fn fused<const N: usize>(nodes: &[(u32, u32)], pow: &[f64], vals: &mut [f64], coef: &[f64]) -> [f64; N] {
+    let mut acc = [0.0; N];
+    for (n, (&(parent, power), row)) in nodes.iter().zip(coef.chunks_exact(N)).enumerate() {
+        let v = vals[parent as usize] * pow[power as usize];
+        vals[n + 1] = v;
+        for (a, c) in acc.iter_mut().zip(row) {
+            *a += c * v;
+        }
+    }
+    acc
+}
+
+/// `out` as [`Poly::eval_into`] leaves it: the first `N` entries `acc`, any further ones 0.
+fn write<const N: usize>(out: &mut [f64], acc: [f64; N]) {
+    out.iter_mut().for_each(|o| *o = 0.0);
+    out.iter_mut().zip(acc).for_each(|(o, a)| *o = a);
+}
+
+/// `sum_k coef[k, :] vals[of[k]]`, each of the `N` outputs summed from 0 in monomial order
+/// (the plain loop's order), in registers.
+fn contract<const N: usize>(coef: &[f64], vals: &[f64], of: &[u32]) -> [f64; N] {
+    let mut acc = [0.0; N];
+    for (row, &n) in coef.chunks_exact(N).zip(of) {
+        let v = vals[n as usize];
+        for (a, c) in acc.iter_mut().zip(row) {
+            *a += c * v;
+        }
+    }
+    acc
+}
+
 /// Reusable buffers for polynomial evaluation (keeps allocation out of integration loops).
 #[derive(Clone, Debug, Default)]
 pub struct PolyScratch {
@@ -224,6 +424,67 @@ mod tests {
             }
             assert!(p.eval_one(&vec![0.1; d], &mut sc, q).is_nan());
         }
+    }
+
+    /// [`PreparedPoly`] against [`Poly::eval_into`] / [`Poly::eval_one`] bit for bit on random
+    /// points (and on points whose powers overflow, underflow or are signed zeros): full degree
+    /// ranges (every parent a monomial), ranges without the low degrees and lists in another
+    /// order (hidden parents), the constant monomial, one to six outputs (registers and the
+    /// general sum). A scratch is shared with the plain path, as a caller may.
+    #[test]
+    fn prepared_is_the_same_bits() {
+        let mut st = 11u64;
+        let mut r = || {
+            st = st.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            ((st >> 11) as f64) / ((1u64 << 53) as f64) - 0.5
+        };
+        let mut shuffled = exponents(3, 1, 4);
+        shuffled.reverse();
+        shuffled.swap(2, 17);
+        let cases: Vec<(usize, Vec<Vec<u32>>, usize)> = vec![
+            (4, exponents(4, 1, 7), 4),
+            (4, exponents(4, 2, 3), 21),
+            (4, exponents(4, 2, 3), 1),
+            (2, exponents(2, 1, 5), 3),
+            (1, exponents(1, 1, 9), 2),
+            (3, exponents(3, 3, 6), 5),
+            (3, shuffled, 6),
+            (2, exponents(2, 0, 4), 4),
+            (5, vec![vec![0, 0, 3, 0, 1], vec![2, 0, 0, 0, 0], vec![0, 0, 3, 0, 1]], 2),
+        ];
+        let (mut plain, mut prep) = (PolyScratch::default(), PolyScratch::default());
+        for (d, exps, q) in cases {
+            let scale: Vec<f64> = (0..d).map(|_| 0.5 + r().abs()).collect();
+            let coef: Vec<f64> = (0..exps.len() * q).map(|_| r()).collect();
+            let p = Poly { dim_in: d, dim_out: q, scale, exps, coef };
+            let pp = PreparedPoly::new(&p).unwrap();
+            // A full degree range from 1 is formed in monomial order (one pass), others not.
+            assert_eq!(pp.in_order(), p.exps.first().is_some_and(|e| e.iter().sum::<u32>() == 1) && p.exps == exponents(d, 1, max_degree(&p.exps)), "d {d} q {q}");
+            let (mut want, mut got) = (vec![0.0; q], vec![1.0; q]);
+            let mut points: Vec<Vec<f64>> = (0..20).map(|_| (0..d).map(|_| 3.0 * r()).collect()).collect();
+            points.push((0..d).map(|i| if i % 2 == 0 { 1e80 } else { -1e-80 }).collect());
+            points.push((0..d).map(|i| if i % 2 == 0 { -0.0 } else { 0.0 }).collect());
+            for eta in &points {
+                p.eval_into(eta, &mut plain, &mut want);
+                pp.eval_into(eta, &mut prep, &mut got);
+                for i in 0..q {
+                    assert_eq!(got[i].to_bits(), want[i].to_bits(), "d {d} q {q} at {eta:?}: output {i} {} vs {}", got[i], want[i]);
+                    assert_eq!(pp.eval_one(eta, &mut plain, i).to_bits(), want[i].to_bits(), "d {d} q {q} eval_one {i}");
+                }
+            }
+            assert!(pp.eval_one(&vec![0.1; d], &mut prep, q).is_nan());
+            // A longer output buffer is left as the plain path leaves it (zeros past dim_out).
+            let (mut w2, mut g2) = (vec![7.0; q + 2], vec![7.0; q + 2]);
+            p.eval_into(&points[0], &mut plain, &mut w2);
+            pp.eval_into(&points[0], &mut prep, &mut g2);
+            assert_eq!(w2.iter().map(|v| v.to_bits()).collect::<Vec<_>>(), g2.iter().map(|v| v.to_bits()).collect::<Vec<_>>());
+        }
+        // Inconsistent shapes are refused, not evaluated.
+        let good = Poly { dim_in: 2, dim_out: 1, scale: vec![1.0; 2], exps: exponents(2, 1, 2), coef: vec![1.0; 5] };
+        assert!(PreparedPoly::new(&good).is_some());
+        assert!(PreparedPoly::new(&Poly { coef: vec![1.0; 4], ..good.clone() }).is_none());
+        assert!(PreparedPoly::new(&Poly { scale: vec![1.0], ..good.clone() }).is_none());
+        assert!(PreparedPoly::new(&Poly { exps: vec![vec![1, 0], vec![1], vec![0, 1], vec![2, 0], vec![0, 2]], ..good }).is_none());
     }
 
     #[test]
