@@ -351,6 +351,7 @@ pub fn dynamics_lyapunov(
     // the state it is for), and the step call uses it when its state is that one, bit for
     // bit (else it steps as usual).
     let fused: std::cell::RefCell<Option<(Vec<f64>, Vec<f64>)>> = std::cell::RefCell::new(None);
+    let map = dynamics.prepare();
     let f = |x: &[f64], out: &mut [f64]| {
         if let Some((at, next)) = fused.borrow_mut().take() {
             if at.iter().zip(x).all(|(a, b)| a.to_bits() == b.to_bits()) {
@@ -359,7 +360,7 @@ pub fn dynamics_lyapunov(
             }
         }
         out.copy_from_slice(x);
-        dynamics.step(out, dt, &mut scratch);
+        map.step(out, dt, &mut scratch);
     };
     let mut poly_jac = match dynamics {
         ReducedDynamics::Map { increment, .. } => Some(PolyJacobian::new(increment)),
@@ -420,11 +421,12 @@ pub fn iterate_dynamics(
         return Err(Error::Shape { expected: d, got: eta0.len() });
     }
     let mut scratch = StepScratch::default();
+    let map = dynamics.prepare();
     Ok(iterate_map(
         eta0,
         |x, out| {
             out.copy_from_slice(x);
-            dynamics.step(out, dt, &mut scratch);
+            map.step(out, dt, &mut scratch);
         },
         steps,
         bound,

@@ -444,15 +444,16 @@ pub fn evaluate_kicked(m: &SsmModel, train: &[TimeSeries], data: &TimeSeries, ct
     let mut lifted = vec![0.0; m.manifold.p];
     let mut ps = ssm::poly::PolyScratch::default();
     let mut notes = Vec::new();
+    let (map, manifold) = (m.dynamics.prepare(), m.manifold.prepare());
     for step in 0..n {
         if !eta.iter().all(|v| v.is_finite() && v.abs() <= bound) {
             notes.push(format!("{name} kicked model left the bound {bound:.3e} at step {step}"));
             break;
         }
         etas.extend_from_slice(&eta);
-        m.manifold.lift_into(&eta, &mut ps, &mut lifted);
+        manifold.lift_into(&eta, &mut ps, &mut lifted);
         x.push(lifted[0]);
-        m.dynamics.step(&mut eta, m.dt, &mut sc);
+        map.step(&mut eta, m.dt, &mut sc);
         state ^= state << 13;
         state ^= state >> 7;
         state ^= state << 17;

@@ -576,12 +576,13 @@ pub fn rollout_error(dynamics: &ssm::ReducedDynamics, eta_data: &[f64], d: usize
     }
     let stride = ((n - horizon) / starts).max(1);
     let mut scratch = ssm::dynamics::StepScratch::default();
+    let map = dynamics.prepare();
     let (mut err2, mut count) = (0.0, 0usize);
     let mut eta = vec![0.0; d];
     for s in (0..n - horizon).step_by(stride) {
         eta.copy_from_slice(&eta_data[s * d..(s + 1) * d]);
         for k in 1..=horizon {
-            dynamics.step(&mut eta, dt, &mut scratch);
+            map.step(&mut eta, dt, &mut scratch);
             let target = &eta_data[(s + k) * d..(s + k + 1) * d];
             err2 += eta.iter().zip(target).map(|(a, b)| (a - b) * (a - b)).sum::<f64>();
             count += 1;

@@ -411,6 +411,8 @@ impl SsmModel {
         let mut etas = Vec::with_capacity(m_total * d);
         let mut scratch = StepScratch::default();
         let mut stop = None;
+        // Map and lift prepared once for the run (the same bits as the plain ones).
+        let (map, manifold) = (self.dynamics.prepare(), self.manifold.prepare());
         for n in 0..m_total {
             if let Some(reason) = self.check(&eta) {
                 stop = Some(Stop { index: n, t: test.t[n], reason });
@@ -418,7 +420,7 @@ impl SsmModel {
             }
             etas.extend_from_slice(&eta);
             if n + 1 < m_total {
-                self.dynamics.step(&mut eta, dt, &mut scratch);
+                map.step(&mut eta, dt, &mut scratch);
             }
         }
         let mut produced = etas.len() / d;
@@ -426,7 +428,7 @@ impl SsmModel {
         let mut ps = PolyScratch::default();
         for (k, e) in etas.chunks_exact(d).enumerate() {
             let out = &mut lifted[k * p..(k + 1) * p];
-            self.manifold.lift_into(e, &mut ps, out);
+            manifold.lift_into(e, &mut ps, out);
             // A finite state can still lift to a non-finite observable (coefficients of a
             // corrupted or extreme model): the prediction stops there, it never emits one.
             if out.iter().any(|v| !v.is_finite()) {

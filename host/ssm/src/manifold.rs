@@ -212,6 +212,11 @@ impl Manifold {
             Some(poly) => poly.eval_into(eta, scratch, out),
             None => out.iter_mut().for_each(|o| *o = 0.0),
         }
+        self.plus_linear_into(out, eta);
+    }
+
+    /// `out += V1 eta`, in [`Manifold::lift_into`]'s order.
+    fn plus_linear_into(&self, out: &mut [f64], eta: &[f64]) {
         for (j, e) in eta.iter().enumerate() {
             for (o, v) in out.iter_mut().zip(&self.v1[j * self.p..(j + 1) * self.p]) {
                 *o += v * e;
@@ -365,6 +370,15 @@ pub struct PreparedLift<'a> {
 }
 
 impl PreparedLift<'_> {
+    /// [`Manifold::lift_into`], the same bits.
+    pub fn lift_into(&self, eta: &[f64], scratch: &mut PolyScratch, out: &mut [f64]) {
+        let (m, Some(pp)) = (self.m, &self.poly) else {
+            return self.m.lift_into(eta, scratch, out);
+        };
+        pp.eval_into(eta, scratch, out);
+        m.plus_linear_into(out, eta);
+    }
+
     /// [`Manifold::lift_one`], the same bits.
     pub fn lift_one(&self, eta: &[f64], scratch: &mut PolyScratch, i: usize) -> f64 {
         let (m, Some(pp)) = (self.m, &self.poly) else {
@@ -444,6 +458,9 @@ mod tests {
                 assert_eq!(m.lift_one(&m.reduce(&yj), &mut sc, i).to_bits(), out[i].to_bits(), "point {j} coord {i}");
                 assert_eq!(prepared.lift_one(&m.reduce(&yj), &mut sc, i).to_bits(), out[i].to_bits(), "prepared: point {j} coord {i}");
             }
+            let mut all = vec![0.0; 5];
+            prepared.lift_into(&m.reduce(&yj), &mut sc, &mut all);
+            assert_eq!(all.iter().map(|v| v.to_bits()).collect::<Vec<_>>(), out.iter().map(|v| v.to_bits()).collect::<Vec<_>>(), "prepared lift_into: point {j}");
         }
         assert!(m.lift_one(&[0.1, 0.2], &mut sc, 5).is_nan());
         assert!(prepared.lift_one(&[0.1, 0.2], &mut sc, 5).is_nan());
