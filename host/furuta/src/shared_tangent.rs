@@ -277,6 +277,23 @@ pub fn predictions(model: &SharedParametricModel, o: &PredictOptions, interp: In
     crate::par_map(&o.dts_ms, |&dt_ms| predict_one(model, dt_ms, &test_series(dt_ms, o)?, o, interp))
 }
 
+/// The test series of every period of `o.dts_ms` ([`test_series`], full-system runs), on the
+/// pool, for [`predictions_on`]: the linear and the spline reads of the report test against
+/// the same runs, simulated once.
+pub fn test_series_all(o: &PredictOptions) -> Result<Vec<TimeSeries>, Error> {
+    crate::par_map(&o.dts_ms, |&dt_ms| test_series(dt_ms, o))
+}
+
+/// [`predictions`] against test series already simulated (`tests[i]` the series at
+/// `o.dts_ms[i]`, as [`test_series_all`] gives): the same results.
+pub fn predictions_on(model: &SharedParametricModel, o: &PredictOptions, tests: &[TimeSeries], interp: Interp) -> Result<Vec<PredictionResult>, Error> {
+    if tests.len() != o.dts_ms.len() {
+        return Err(Error::Shape { expected: o.dts_ms.len(), got: tests.len() });
+    }
+    let pairs: Vec<(f64, &TimeSeries)> = o.dts_ms.iter().copied().zip(tests).collect();
+    crate::par_map(&pairs, |&(dt_ms, test)| predict_one(model, dt_ms, test, o, interp))
+}
+
 /// The prediction and its metrics for one test series.
 pub fn predict_one(
     model: &SharedParametricModel,
@@ -375,9 +392,16 @@ mod tests {
         //    independent scale: predicting 0 gives NMTE = mean|theta| / max|theta| (about 0.18
         //    here); every period must do better than a quarter of that (measured: at most 0.17).
         let o = PredictOptions::default();
+        let tests = test_series_all(&o).unwrap();
         for interp in [Interp::Linear, Interp::Spline] {
             let res = predictions(&pm, &o, interp).unwrap();
             assert_eq!(res.len(), 6);
+            // The report's path (test runs simulated once, read by both interpolations) gives
+            // the same results, bit for bit.
+            let shared = predictions_on(&pm, &o, &tests, interp).unwrap();
+            for (a, b) in res.iter().zip(&shared) {
+                assert!(a.dt_ms == b.dt_ms && a.nmte == b.nmte && a.dtw_nmte == b.dtw_nmte && a.t == b.t && a.x_true == b.x_true && a.x_pred == b.x_pred, "dt {}", a.dt_ms);
+            }
             for r in &res {
                 let zero = r.x_true.iter().map(|v| v.abs()).sum::<f64>() / r.x_true.len() as f64 / r.x_true.iter().fold(0.0f64, |m, v| m.max(v.abs()));
                 let peak = r.spectrum_true.amp.iter().zip(&r.spectrum_true.freq_hz).skip(1).fold((0.0, 0.0), |m, (a, f)| if *a > m.0 { (*a, *f) } else { m });

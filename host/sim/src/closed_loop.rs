@@ -64,6 +64,9 @@ pub struct Trajectory {
     pub codes: Option<Vec<Codes>>,
     /// Samples at which the controller output was clipped by saturation.
     pub saturated_samples: u64,
+    /// The rows of those samples, in order (`saturated_samples` of them): what a prefix of
+    /// the run needs to count its own.
+    pub saturated_rows: Vec<usize>,
     /// Why the run ended early (escape threshold crossed), if it did.
     pub stopped: Option<String>,
     pub integrator: String,
@@ -243,6 +246,7 @@ pub fn simulate_with<P: Plant<N>, const N: usize>(
         u: Vec::with_capacity(periods + 1),
         codes: matches!(law, Law::Counts { .. }).then(|| Vec::with_capacity(periods + 1)),
         saturated_samples: 0,
+        saturated_rows: Vec::new(),
         stopped: None,
         integrator: ode.describe(),
         ode_stats: OdeStats::default(),
@@ -275,7 +279,10 @@ pub fn simulate_with<P: Plant<N>, const N: usize>(
                 (pd.volts(o.code), o.saturated)
             }
         };
-        traj.saturated_samples += u64::from(saturated);
+        if saturated {
+            traj.saturated_samples += 1;
+            traj.saturated_rows.push(i);
+        }
         traj.t.push(t);
         traj.states.extend_from_slice(&x);
         traj.u.push(u);
@@ -424,6 +431,10 @@ mod tests {
     fn saturation_scene_escapes_to_the_tilted_rotating_state_and_clips() {
         let tr = simulate(&scene("furuta-saturation", &[]), None).unwrap();
         assert!(tr.saturated_samples > 0);
+        // The clipped rows, in order: exactly those whose held input sits at the limit.
+        assert_eq!(tr.saturated_rows.len() as u64, tr.saturated_samples);
+        assert!(tr.saturated_rows.windows(2).all(|w| w[0] < w[1]) && tr.saturated_rows.iter().all(|&r| r < tr.rows()));
+        assert!(tr.saturated_rows.iter().all(|&r| tr.u[r].abs() == 24.0));
         let late = &tr.primary()[tr.rows() - 200..];
         let mean = late.iter().sum::<f64>() / late.len() as f64;
         let spread = late.iter().fold(0.0_f64, |m, t| m.max((t - mean).abs()));

@@ -10,7 +10,7 @@ use crate::report::normal_form::PAPER_DTS;
 use furuta::parametric::{FurutaOptions, ParametricModel, TrainingRuns, furuta_parametric_family};
 use ssm::portrait::{Fate, PointKind, PortraitOptions, fixed_points, portrait, trajectory};
 use ssm::interp::Interp;
-use furuta::shared_tangent::{PredictOptions, PredictionResult, predictions, shared_parametric_from};
+use furuta::shared_tangent::{PredictOptions, PredictionResult, predictions_on, shared_parametric_from, test_series_all};
 use crate::draw::portrait::plot_portrait;
 use furuta::bifurcations::{ModelBifurcations, RHO_MAX, SensitivityRow, model_bifurcations, model_row, model_small_start_switch, sensitivity_variants};
 use plotters::style::RGBColor;
@@ -73,7 +73,12 @@ pub fn predictions_section(rep: &mut Report, runs: &TrainingRuns) -> Result<furu
         ),
     );
     let model = task("predictions/shared-fit", || shared_parametric_from(&FurutaOptions::default(), runs))?;
-    let (lin, spl) = rayon::join(|| task("predictions/linear", || predictions(&model, &po, Interp::Linear)), || task("predictions/spline", || predictions(&model, &po, Interp::Spline)));
+    // The test runs once, read by both interpolations.
+    let tests = task("predictions/test-runs", || test_series_all(&po))?;
+    let (lin, spl) = rayon::join(
+        || task("predictions/linear", || predictions_on(&model, &po, &tests, Interp::Linear)),
+        || task("predictions/spline", || predictions_on(&model, &po, &tests, Interp::Spline)),
+    );
     let (lin, spl) = (lin?, spl?);
     let mut rows = Vec::new();
     for (a, b) in lin.iter().zip(&spl) {
