@@ -27,6 +27,8 @@
 //!   (`furuta::flag_self::experiment_as_model`); the rows of `furuta::flag_self::FLAG_SELF`.
 //! - `flag-validate RUN [FROM TO]`: the rows of `FLAG_CENTRES` (index FROM..TO) fitted again and
 //!   measured on the validation run traj_RUN; the rows of `furuta::flag_self::FLAG_VALIDATION`.
+//! - `flag-ensemble [K]`: the top K (default 5) validation-ranked models pooled
+//!   (`furuta::flag_self::ensemble`); `furuta::flag_self::FLAG_ENSEMBLE`.
 
 use furuta::flag_pipeline::{FLAG_LAYOUT, FLAG_LIKE_RBF, KnownSystem, flag_like_candidates, known_stats, pipeline_check};
 
@@ -458,6 +460,21 @@ fn flag_validate(args: &[String]) {
     }
 }
 
+/// `flag-ensemble K`: the top K d = 4 validation-ranked models' long runs pooled.
+fn flag_ensemble(k: usize) {
+    let dir = flag_dir();
+    let load = |k: usize| ssm::load_csv(dir.join(format!("traj_{k}.csv")));
+    let (Ok(a), Ok(b), Ok(test)) = (load(9), load(7), load(8)) else {
+        return println!("SKIP: inverted-flag data not found under {}", dir.display());
+    };
+    let names = furuta::flag_self::ensemble_members(k);
+    let t0 = std::time::Instant::now();
+    match furuta::flag_self::ensemble(&[a, b], &test, &names, &furuta::model_selection::EvalSettings::default()) {
+        Ok(e) => println!("{e:?} ({:.1} s)", t0.elapsed().as_secs_f64()),
+        Err(e) => println!("error: {e}"),
+    }
+}
+
 fn main() {
     let args: Vec<String> = std::env::args().skip(1).collect();
     match args.first().map(String::as_str) {
@@ -467,6 +484,7 @@ fn main() {
         Some("flag") => flag_rows(&args[1..]),
         Some("flag-self") => flag_self(),
         Some("flag-validate") => flag_validate(&args[1..]),
+        Some("flag-ensemble") => flag_ensemble(args.get(1).and_then(|s| s.parse().ok()).unwrap_or(5)),
         Some("fnn-rule") => fnn_rule(args.get(1)),
         Some("fnn") => fnn(args.get(1).and_then(|s| s.parse().ok()).unwrap_or(10.0)),
         Some("check") => check(args.get(1).and_then(|s| s.parse().ok()).unwrap_or(1)),

@@ -23,7 +23,7 @@ use ssm::{Dynamics, FitOptions, TimeSeries, fit};
 
 use crate::Error;
 use crate::flag_pipeline::PipelineRow;
-use crate::flag_pipeline_fit::{FLAG_DATA, FlagRow, variant};
+use crate::flag_pipeline_fit::{FlagRow, variant};
 use crate::microchaos::reduce_series;
 use crate::model_selection::{Candidate, DataStats, EvalSettings, Targets, data_stats, phase_subsamples, subsample};
 
@@ -146,7 +146,7 @@ pub const FLAG_SELF: &[SelfRowC] = &[
 /// from its own series by [`data_stats`], as the pipeline measures a held-out run; example
 /// `flag_pipeline -- flag-self`): (run, lag, Theiler window, Rosenstein [1/s], D2, D2 error
 /// bar). traj_1 is left out: its D2 has no scaling range, so its statistics fail as a whole.
-/// traj_8's are [`FLAG_DATA`]'s (lag 11, Theiler 38).
+/// traj_8's are [`crate::flag_pipeline_fit::FLAG_DATA`]'s (lag 11, Theiler 38).
 pub const FLAG_RUNS_OWN: &[(usize, usize, usize, f64, f64, f64)] = &[
     (0, 12, 37, 0.481, 3.56, 0.23),
     (2, 12, 37, 0.517, 1.04, 0.05),
@@ -273,13 +273,255 @@ pub fn pick(rows: &[PipelineRow]) -> Option<usize> {
     best.map(|b| b.0)
 }
 
-/// The validation run's statistics at step 4 (traj_3: Rosenstein, D2, error bar).
-pub const FLAG_VALIDATION_DATA: DataRef = (0.0, 0.0, 0.0);
+/// The validation run traj_3 at step 4 with its own settings (lag 12, Theiler window 38, as
+/// [`FLAG_RUNS_OWN`]): Rosenstein (1/s), D2, error bar.
+pub const FLAG_VALIDATION_DATA: DataRef = (0.291, 1.93, 0.10);
+
+/// The validation run.
+pub const VALIDATION_RUN: usize = 3;
 
 /// Every row of [`crate::flag_pipeline_fit::FLAG_CENTRES`] fitted on traj_9 + traj_7 again and
 /// measured on the validation run traj_3 (neither training nor test; example `flag_pipeline
 /// -- flag-validate 3`). Rows as [`crate::flag_pipeline_fit::FLAG_FIT`].
-pub const FLAG_VALIDATION: &[FlagRow] = &[];
+pub const FLAG_VALIDATION: &[FlagRow] = &[
+    ("RBF 200 r=3e-9 d=4 p=9", Some(0.499), Some(0.283), Some(2.89), Some(0.0041), ""),
+    ("RBF 200 r=3e-9 d=4 p=9 centres farthest@1", Some(0.000), Some(0.223), Some(2.90), Some(0.2875), ""),
+    ("RBF 200 r=3e-9 d=4 p=9 centres kmeans++@1", Some(0.440), Some(0.215), Some(2.36), Some(0.0063), ""),
+    ("RBF 200 r=3e-9 d=4 p=9 centres random@1", None, None, None, None, "escaped in the long run"),
+    ("RBF 200 r=3e-9 d=4 p=9 centres kmeans10@1", None, None, None, None, "escaped in the long run"),
+    ("RBF 200 r=3e-9 d=4 p=9 centres farthest@2", Some(0.463), Some(0.212), Some(3.08), Some(0.0096), ""),
+    ("RBF 200 r=3e-9 d=4 p=9 centres kmeans++@2", Some(0.543), Some(0.251), Some(2.83), Some(0.0079), ""),
+    ("RBF 200 r=3e-9 d=4 p=9 centres random@2", None, None, None, None, "escaped in the long run"),
+    ("RBF 200 r=3e-9 d=4 p=9 centres kmeans10@2", Some(0.000), Some(-0.007), Some(1.03), Some(0.1617), ""),
+    ("RBF 200 r=3e-9 d=4 p=9 centres farthest@3", Some(0.342), Some(0.158), Some(2.44), Some(0.0047), ""),
+    ("RBF 200 r=3e-9 d=4 p=9 centres kmeans++@3", Some(0.468), Some(0.352), Some(3.17), Some(0.0080), ""),
+    ("RBF 200 r=3e-9 d=4 p=9 centres random@3", None, None, None, None, "escaped in the long run"),
+    ("RBF 200 r=3e-9 d=4 p=9 centres kmeans10@3", Some(0.000), Some(0.039), Some(1.08), Some(0.1550), ""),
+    ("RBF 200 r=3e-9 d=4 p=9 centres farthest@4", None, Some(0.213), Some(2.31), Some(0.0048), ""),
+    ("RBF 200 r=3e-9 d=4 p=9 centres kmeans++@4", None, None, None, None, "escaped in the long run"),
+    ("RBF 200 r=3e-9 d=4 p=9 centres random@4", None, None, None, None, "escaped in the long run"),
+    ("RBF 200 r=3e-9 d=4 p=9 centres kmeans10@4", None, None, None, None, "escaped in the long run"),
+    ("RBF 200 r=1e-8 d=4 p=9", Some(0.388), Some(0.255), Some(2.82), Some(0.0082), ""),
+    ("RBF 200 r=1e-8 d=4 p=9 centres farthest@1", Some(0.268), Some(0.190), Some(2.64), Some(0.0080), ""),
+    ("RBF 200 r=1e-8 d=4 p=9 centres kmeans++@1", Some(0.373), Some(0.220), Some(2.55), Some(0.0047), ""),
+    ("RBF 200 r=1e-8 d=4 p=9 centres random@1", Some(0.428), Some(0.240), Some(2.09), Some(0.0146), ""),
+    ("RBF 200 r=1e-8 d=4 p=9 centres kmeans10@1", Some(0.000), Some(-0.003), Some(1.04), Some(0.1463), ""),
+    ("RBF 200 r=1e-8 d=4 p=9 centres farthest@2", Some(0.392), Some(0.236), Some(1.64), Some(0.0103), ""),
+    ("RBF 200 r=1e-8 d=4 p=9 centres kmeans++@2", Some(0.514), Some(0.345), Some(2.82), Some(0.0059), ""),
+    ("RBF 200 r=1e-8 d=4 p=9 centres random@2", None, None, None, None, "escaped in the long run"),
+    ("RBF 200 r=1e-8 d=4 p=9 centres kmeans10@2", Some(0.000), Some(0.008), Some(1.05), Some(0.1461), ""),
+    ("RBF 200 r=1e-8 d=4 p=9 centres farthest@3", Some(0.253), Some(0.130), Some(1.73), Some(0.0090), ""),
+    ("RBF 200 r=1e-8 d=4 p=9 centres kmeans++@3", Some(-0.000), Some(-0.019), Some(1.05), Some(0.1439), ""),
+    ("RBF 200 r=1e-8 d=4 p=9 centres random@3", None, None, None, None, "escaped in the long run"),
+    ("RBF 200 r=1e-8 d=4 p=9 centres kmeans10@3", Some(-0.000), Some(-0.007), Some(1.10), Some(0.1709), ""),
+    ("RBF 200 r=1e-8 d=4 p=9 centres farthest@4", Some(0.318), Some(0.238), Some(2.65), Some(0.0081), ""),
+    ("RBF 200 r=1e-8 d=4 p=9 centres kmeans++@4", Some(0.410), Some(0.201), Some(3.08), Some(0.0109), ""),
+    ("RBF 200 r=1e-8 d=4 p=9 centres random@4", None, None, None, None, "escaped in the long run"),
+    ("RBF 200 r=1e-8 d=4 p=9 centres kmeans10@4", Some(0.360), Some(0.162), Some(2.79), Some(0.0165), ""),
+    ("RBF 150 r=3e-9 d=4 p=9", None, None, None, None, "escaped in the long run"),
+    ("RBF 150 r=3e-9 d=4 p=9 centres farthest@1", Some(0.381), Some(0.199), Some(2.09), Some(0.0189), ""),
+    ("RBF 150 r=3e-9 d=4 p=9 centres kmeans++@1", None, None, None, None, "escaped in the long run"),
+    ("RBF 150 r=3e-9 d=4 p=9 centres random@1", None, None, None, None, "escaped in the long run"),
+    ("RBF 150 r=3e-9 d=4 p=9 centres kmeans10@1", Some(0.000), Some(-0.001), Some(1.03), Some(0.2448), ""),
+    ("RBF 150 r=3e-9 d=4 p=9 centres farthest@2", Some(0.000), Some(0.034), Some(1.08), Some(0.1166), ""),
+    ("RBF 150 r=3e-9 d=4 p=9 centres kmeans++@2", None, None, None, None, "escaped in the long run"),
+    ("RBF 150 r=3e-9 d=4 p=9 centres random@2", None, None, None, None, "escaped in the long run"),
+    ("RBF 150 r=3e-9 d=4 p=9 centres kmeans10@2", Some(-0.000), Some(-0.004), Some(1.04), Some(0.1671), ""),
+    ("RBF 150 r=3e-9 d=4 p=9 centres farthest@3", Some(0.317), Some(0.164), Some(2.10), Some(0.0092), ""),
+    ("RBF 150 r=3e-9 d=4 p=9 centres kmeans++@3", Some(0.441), Some(0.359), Some(2.23), Some(0.0076), ""),
+    ("RBF 150 r=3e-9 d=4 p=9 centres random@3", None, None, None, None, "escaped in the long run"),
+    ("RBF 150 r=3e-9 d=4 p=9 centres kmeans10@3", None, None, None, None, "escaped in the long run"),
+    ("RBF 150 r=3e-9 d=4 p=9 centres farthest@4", None, None, None, None, "escaped in the long run"),
+    ("RBF 150 r=3e-9 d=4 p=9 centres kmeans++@4", Some(0.445), Some(0.272), Some(2.92), Some(0.0063), ""),
+    ("RBF 150 r=3e-9 d=4 p=9 centres random@4", None, None, None, None, "escaped in the long run"),
+    ("RBF 150 r=3e-9 d=4 p=9 centres kmeans10@4", Some(-0.000), Some(-0.008), Some(1.03), Some(0.1664), ""),
+    ("RBF 150 r=1e-8 d=4 p=9", Some(-0.100), Some(0.024), None, Some(0.1547), ""),
+    ("RBF 150 r=1e-8 d=4 p=9 centres farthest@1", Some(0.000), Some(0.035), Some(1.12), Some(0.1140), ""),
+    ("RBF 150 r=1e-8 d=4 p=9 centres kmeans++@1", None, Some(0.196), Some(3.03), Some(0.0177), ""),
+    ("RBF 150 r=1e-8 d=4 p=9 centres random@1", None, None, None, None, "escaped in the long run"),
+    ("RBF 150 r=1e-8 d=4 p=9 centres kmeans10@1", Some(0.000), Some(-0.001), Some(0.70), Some(0.2364), ""),
+    ("RBF 150 r=1e-8 d=4 p=9 centres farthest@2", Some(0.000), Some(0.025), Some(1.05), Some(0.1355), ""),
+    ("RBF 150 r=1e-8 d=4 p=9 centres kmeans++@2", Some(0.574), Some(0.292), Some(2.99), Some(0.0112), ""),
+    ("RBF 150 r=1e-8 d=4 p=9 centres random@2", None, None, None, None, "escaped in the long run"),
+    ("RBF 150 r=1e-8 d=4 p=9 centres kmeans10@2", Some(-0.000), Some(0.017), Some(1.21), Some(0.2154), ""),
+    ("RBF 150 r=1e-8 d=4 p=9 centres farthest@3", Some(0.000), Some(0.056), Some(1.14), Some(0.1135), ""),
+    ("RBF 150 r=1e-8 d=4 p=9 centres kmeans++@3", Some(0.000), Some(0.094), Some(1.07), Some(0.1140), ""),
+    ("RBF 150 r=1e-8 d=4 p=9 centres random@3", None, None, None, None, "escaped in the long run"),
+    ("RBF 150 r=1e-8 d=4 p=9 centres kmeans10@3", Some(0.000), Some(0.006), Some(1.05), Some(0.1981), ""),
+    ("RBF 150 r=1e-8 d=4 p=9 centres farthest@4", Some(-0.000), Some(0.015), Some(1.03), Some(0.1310), ""),
+    ("RBF 150 r=1e-8 d=4 p=9 centres kmeans++@4", Some(0.381), Some(0.166), Some(2.71), Some(0.0104), ""),
+    ("RBF 150 r=1e-8 d=4 p=9 centres random@4", None, None, None, None, "escaped in the long run"),
+    ("RBF 150 r=1e-8 d=4 p=9 centres kmeans10@4", Some(-0.000), Some(-0.014), Some(1.00), Some(0.1626), ""),
+    ("RBF 300 r=3e-9 d=4 p=9", Some(0.304), Some(0.267), Some(2.20), Some(0.0058), ""),
+    ("RBF 300 r=3e-9 d=4 p=9 centres farthest@1", Some(0.363), Some(0.255), Some(2.33), Some(0.0042), ""),
+    ("RBF 300 r=3e-9 d=4 p=9 centres kmeans++@1", Some(0.298), Some(0.248), Some(2.25), Some(0.0140), ""),
+    ("RBF 300 r=3e-9 d=4 p=9 centres random@1", Some(0.460), Some(0.177), Some(2.51), Some(0.0108), ""),
+    ("RBF 300 r=3e-9 d=4 p=9 centres kmeans10@1", None, None, None, None, "escaped in the long run"),
+    ("RBF 300 r=3e-9 d=4 p=9 centres farthest@2", Some(0.313), Some(0.162), Some(2.62), Some(0.0167), ""),
+    ("RBF 300 r=3e-9 d=4 p=9 centres kmeans++@2", Some(0.445), Some(0.311), Some(2.84), Some(0.0061), ""),
+    ("RBF 300 r=3e-9 d=4 p=9 centres random@2", Some(-0.022), Some(0.253), Some(1.12), Some(0.6043), ""),
+    ("RBF 300 r=3e-9 d=4 p=9 centres kmeans10@2", None, None, None, None, "escaped in the long run"),
+    ("RBF 300 r=3e-9 d=4 p=9 centres farthest@3", Some(0.350), Some(0.190), Some(1.96), Some(0.0044), ""),
+    ("RBF 300 r=3e-9 d=4 p=9 centres kmeans++@3", Some(0.367), Some(0.261), Some(3.15), Some(0.0047), ""),
+    ("RBF 300 r=3e-9 d=4 p=9 centres random@3", Some(0.436), Some(0.272), Some(2.69), Some(0.0055), ""),
+    ("RBF 300 r=3e-9 d=4 p=9 centres kmeans10@3", Some(0.248), Some(0.128), Some(1.97), Some(0.0526), ""),
+    ("RBF 300 r=3e-9 d=4 p=9 centres farthest@4", Some(-0.023), Some(0.202), Some(1.62), Some(0.0055), ""),
+    ("RBF 300 r=3e-9 d=4 p=9 centres kmeans++@4", Some(-0.087), Some(0.144), Some(1.11), Some(0.0502), ""),
+    ("RBF 300 r=3e-9 d=4 p=9 centres random@4", Some(0.371), Some(0.308), Some(2.29), Some(0.0152), ""),
+    ("RBF 300 r=3e-9 d=4 p=9 centres kmeans10@4", None, None, None, None, "escaped in the long run"),
+    ("RBF 300 r=1e-8 d=4 p=9", Some(0.209), Some(0.210), Some(1.90), Some(0.0091), ""),
+    ("RBF 300 r=1e-8 d=4 p=9 centres farthest@1", Some(0.236), Some(0.102), Some(1.88), Some(0.0087), ""),
+    ("RBF 300 r=1e-8 d=4 p=9 centres kmeans++@1", Some(0.230), Some(0.169), Some(1.35), Some(0.0111), ""),
+    ("RBF 300 r=1e-8 d=4 p=9 centres random@1", Some(-0.099), Some(0.016), Some(0.82), Some(0.0708), ""),
+    ("RBF 300 r=1e-8 d=4 p=9 centres kmeans10@1", Some(0.061), Some(0.139), Some(2.54), Some(0.0219), ""),
+    ("RBF 300 r=1e-8 d=4 p=9 centres farthest@2", Some(0.191), Some(0.186), Some(1.53), Some(0.0102), ""),
+    ("RBF 300 r=1e-8 d=4 p=9 centres kmeans++@2", Some(0.359), Some(0.205), Some(3.02), Some(0.0077), ""),
+    ("RBF 300 r=1e-8 d=4 p=9 centres random@2", Some(0.404), Some(0.167), Some(2.69), Some(0.0314), ""),
+    ("RBF 300 r=1e-8 d=4 p=9 centres kmeans10@2", Some(0.105), Some(0.096), Some(1.39), Some(0.0495), ""),
+    ("RBF 300 r=1e-8 d=4 p=9 centres farthest@3", Some(0.205), Some(0.179), Some(2.24), Some(0.0093), ""),
+    ("RBF 300 r=1e-8 d=4 p=9 centres kmeans++@3", Some(0.295), Some(0.158), Some(2.68), Some(0.0080), ""),
+    ("RBF 300 r=1e-8 d=4 p=9 centres random@3", Some(0.399), Some(0.161), Some(2.78), Some(0.0051), ""),
+    ("RBF 300 r=1e-8 d=4 p=9 centres kmeans10@3", Some(0.053), Some(0.125), Some(1.23), Some(0.0440), ""),
+    ("RBF 300 r=1e-8 d=4 p=9 centres farthest@4", Some(0.190), Some(0.165), Some(1.99), Some(0.0108), ""),
+    ("RBF 300 r=1e-8 d=4 p=9 centres kmeans++@4", Some(0.304), Some(0.140), Some(2.57), Some(0.0134), ""),
+    ("RBF 300 r=1e-8 d=4 p=9 centres random@4", Some(0.326), Some(0.151), Some(2.09), Some(0.0070), ""),
+    ("RBF 300 r=1e-8 d=4 p=9 centres kmeans10@4", Some(0.126), Some(0.158), Some(2.51), Some(0.0307), ""),
+    ("RBF 200 r=3e-9 d=4 p=9 ms h=4 stride 8 it 4", Some(0.418), Some(0.218), Some(1.72), Some(0.0101), ""),
+    ("RBF 200 r=3e-9 d=4 p=9 centres farthest@2 ms h=4 stride 8 it 4", Some(0.320), Some(0.176), Some(2.20), Some(0.0303), ""),
+    ("RBF 200 r=3e-9 d=4 p=9 centres kmeans++@4 ms h=4 stride 8 it 4", Some(0.436), Some(0.199), Some(2.40), Some(0.0110), ""),
+    ("RBF 300 r=1e-8 d=4 p=9 centres kmeans++@2 ms h=4 stride 8 it 4", Some(0.354), Some(0.151), Some(1.35), Some(0.0120), ""),
+    ("RBF 300 r=1e-8 d=4 p=9 centres random@3 ms h=4 stride 8 it 4", Some(0.316), Some(0.212), Some(2.25), Some(0.0070), ""),
+    ("RBF 150 r=1e-8 d=4 p=9 centres kmeans++@2 ms h=4 stride 8 it 4", Some(0.466), Some(0.256), Some(2.16), Some(0.0126), ""),
+    ("RBF 300 r=1e-8 d=4 p=9 centres random@1 ms h=4 stride 8 it 4", Some(0.327), Some(0.105), Some(2.85), Some(0.0156), ""),
+    ("RBF 200 r=3e-9 d=4 p=9 ms h=2 stride 8 it 4", Some(0.448), Some(0.221), Some(2.25), Some(0.0081), ""),
+    ("RBF 300 r=1e-8 d=4 p=9 centres kmeans++@2 ms h=2 stride 8 it 4", Some(0.273), Some(0.256), Some(1.73), Some(0.0145), ""),
+    ("RBF 200 r=3e-9 d=4 p=9 centres farthest@5", Some(0.372), Some(0.188), Some(1.13), Some(0.0222), ""),
+    ("RBF 200 r=3e-9 d=4 p=9 centres kmeans++@5", None, None, None, None, "escaped in the long run"),
+    ("RBF 200 r=3e-9 d=4 p=9 centres random@5", Some(0.204), Some(0.312), Some(1.74), Some(0.0142), ""),
+    ("RBF 200 r=3e-9 d=4 p=9 centres farthest@6", Some(0.351), Some(0.195), Some(2.53), Some(0.0054), ""),
+    ("RBF 200 r=3e-9 d=4 p=9 centres kmeans++@6", Some(0.034), Some(0.141), Some(2.44), Some(0.0407), ""),
+    ("RBF 200 r=3e-9 d=4 p=9 centres random@6", None, None, None, None, "escaped in the long run"),
+    ("RBF 200 r=3e-9 d=4 p=9 centres farthest@7", Some(0.028), Some(0.026), Some(1.15), Some(0.6546), ""),
+    ("RBF 200 r=3e-9 d=4 p=9 centres kmeans++@7", Some(0.463), Some(0.198), Some(1.96), Some(0.0057), ""),
+    ("RBF 200 r=3e-9 d=4 p=9 centres random@7", Some(0.552), Some(0.332), Some(2.08), Some(0.0081), ""),
+    ("RBF 200 r=3e-9 d=4 p=9 centres farthest@8", Some(0.069), Some(0.202), Some(3.07), Some(0.1362), ""),
+    ("RBF 200 r=3e-9 d=4 p=9 centres kmeans++@8", Some(0.435), Some(0.189), Some(2.03), Some(0.0108), ""),
+    ("RBF 200 r=3e-9 d=4 p=9 centres random@8", Some(0.502), Some(0.163), Some(2.81), Some(0.0068), ""),
+    ("RBF 200 r=3e-9 d=4 p=9 centres farthest@9", Some(0.284), Some(0.219), Some(1.73), Some(0.0049), ""),
+    ("RBF 200 r=3e-9 d=4 p=9 centres kmeans++@9", Some(-0.096), Some(0.116), Some(1.20), Some(0.0961), ""),
+    ("RBF 200 r=3e-9 d=4 p=9 centres random@9", Some(0.000), Some(-0.007), Some(1.05), Some(0.5778), ""),
+    ("RBF 200 r=3e-9 d=4 p=9 centres farthest@10", Some(0.386), Some(0.231), Some(2.76), Some(0.0089), ""),
+    ("RBF 200 r=3e-9 d=4 p=9 centres kmeans++@10", Some(0.513), Some(0.169), Some(3.25), Some(0.0048), ""),
+    ("RBF 200 r=3e-9 d=4 p=9 centres random@10", None, Some(0.197), Some(2.82), Some(0.0254), ""),
+    ("RBF 200 r=3e-9 d=4 p=9 centres farthest@11", Some(0.445), Some(0.220), Some(3.06), Some(0.0083), ""),
+    ("RBF 200 r=3e-9 d=4 p=9 centres kmeans++@11", Some(0.480), Some(0.242), Some(2.83), Some(0.0058), ""),
+    ("RBF 200 r=3e-9 d=4 p=9 centres random@11", Some(0.473), Some(0.245), Some(3.19), Some(0.0054), ""),
+    ("RBF 200 r=3e-9 d=4 p=9 centres farthest@12", Some(0.355), Some(0.292), Some(2.47), Some(0.0064), ""),
+    ("RBF 200 r=3e-9 d=4 p=9 centres kmeans++@12", Some(0.460), Some(0.221), Some(2.82), Some(0.0123), ""),
+    ("RBF 200 r=3e-9 d=4 p=9 centres random@12", None, None, None, None, "escaped in the long run"),
+    ("RBF 300 r=1e-8 d=4 p=9 centres farthest@5", Some(0.166), Some(0.162), Some(2.31), Some(0.0090), ""),
+    ("RBF 300 r=1e-8 d=4 p=9 centres kmeans++@5", Some(0.288), Some(0.145), Some(2.70), Some(0.0091), ""),
+    ("RBF 300 r=1e-8 d=4 p=9 centres random@5", Some(0.412), Some(0.328), Some(2.77), Some(0.0069), ""),
+    ("RBF 300 r=1e-8 d=4 p=9 centres farthest@6", Some(0.207), Some(0.175), Some(2.03), Some(0.0098), ""),
+    ("RBF 300 r=1e-8 d=4 p=9 centres kmeans++@6", Some(0.293), Some(0.204), Some(2.05), Some(0.0086), ""),
+    ("RBF 300 r=1e-8 d=4 p=9 centres random@6", None, None, None, None, "escaped in the long run"),
+    ("RBF 300 r=1e-8 d=4 p=9 centres farthest@7", Some(0.214), Some(0.135), Some(2.66), Some(0.0076), ""),
+    ("RBF 300 r=1e-8 d=4 p=9 centres kmeans++@7", Some(0.278), Some(0.114), Some(1.59), Some(0.0075), ""),
+    ("RBF 300 r=1e-8 d=4 p=9 centres random@7", Some(0.437), Some(0.297), Some(3.07), Some(0.0070), ""),
+    ("RBF 300 r=1e-8 d=4 p=9 centres farthest@8", Some(0.222), Some(0.067), Some(2.60), Some(0.0111), ""),
+    ("RBF 300 r=1e-8 d=4 p=9 centres kmeans++@8", Some(0.249), Some(0.138), Some(1.74), Some(0.0179), ""),
+    ("RBF 300 r=1e-8 d=4 p=9 centres random@8", Some(0.439), Some(0.253), Some(2.86), Some(0.0053), ""),
+    ("RBF 300 r=1e-8 d=4 p=9 centres farthest@9", Some(0.250), Some(0.250), Some(2.39), Some(0.0069), ""),
+    ("RBF 300 r=1e-8 d=4 p=9 centres kmeans++@9", Some(0.330), Some(0.287), Some(2.94), Some(0.0053), ""),
+    ("RBF 300 r=1e-8 d=4 p=9 centres random@9", Some(0.385), Some(0.307), Some(1.55), Some(0.0039), ""),
+    ("RBF 300 r=1e-8 d=4 p=9 centres farthest@10", Some(0.259), Some(0.240), Some(2.24), Some(0.0068), ""),
+    ("RBF 300 r=1e-8 d=4 p=9 centres kmeans++@10", Some(0.290), Some(0.116), Some(2.94), Some(0.0049), ""),
+    ("RBF 300 r=1e-8 d=4 p=9 centres random@10", Some(0.363), Some(0.210), Some(2.54), Some(0.0108), ""),
+    ("RBF 300 r=1e-8 d=4 p=9 centres farthest@11", Some(0.307), Some(0.185), Some(2.49), Some(0.0078), ""),
+    ("RBF 300 r=1e-8 d=4 p=9 centres kmeans++@11", Some(0.294), Some(0.164), Some(1.52), Some(0.0047), ""),
+    ("RBF 300 r=1e-8 d=4 p=9 centres random@11", Some(0.381), Some(0.172), Some(2.58), Some(0.0059), ""),
+    ("RBF 300 r=1e-8 d=4 p=9 centres farthest@12", Some(0.248), Some(0.161), Some(1.91), Some(0.0060), ""),
+    ("RBF 300 r=1e-8 d=4 p=9 centres kmeans++@12", Some(0.273), Some(0.166), Some(2.68), Some(0.0103), ""),
+    ("RBF 300 r=1e-8 d=4 p=9 centres random@12", Some(0.506), Some(0.288), Some(3.01), Some(0.0115), ""),
+    ("RBF 250 r=1e-8 d=4 p=9 centres farthest@5", Some(0.235), Some(0.133), Some(2.15), Some(0.0095), ""),
+    ("RBF 250 r=1e-8 d=4 p=9 centres kmeans++@5", Some(0.399), Some(0.226), Some(2.49), Some(0.0093), ""),
+    ("RBF 250 r=1e-8 d=4 p=9 centres random@5", Some(0.456), Some(0.178), Some(1.98), Some(0.0048), ""),
+    ("RBF 250 r=1e-8 d=4 p=9 centres farthest@6", Some(0.270), Some(0.181), Some(2.13), Some(0.0099), ""),
+    ("RBF 250 r=1e-8 d=4 p=9 centres kmeans++@6", Some(0.330), Some(0.111), Some(2.30), Some(0.0151), ""),
+    ("RBF 250 r=1e-8 d=4 p=9 centres random@6", None, None, None, None, "escaped in the long run"),
+    ("RBF 250 r=1e-8 d=4 p=9 centres farthest@7", Some(0.272), Some(0.136), Some(2.58), Some(0.0104), ""),
+    ("RBF 250 r=1e-8 d=4 p=9 centres kmeans++@7", Some(0.340), Some(0.137), Some(2.46), Some(0.0063), ""),
+    ("RBF 250 r=1e-8 d=4 p=9 centres random@7", Some(0.457), Some(0.199), Some(2.38), Some(0.0078), ""),
+    ("RBF 250 r=1e-8 d=4 p=9 centres farthest@8", Some(0.264), Some(0.198), Some(2.44), Some(0.0133), ""),
+    ("RBF 250 r=1e-8 d=4 p=9 centres kmeans++@8", Some(0.204), Some(0.119), Some(2.05), Some(0.0238), ""),
+    ("RBF 250 r=1e-8 d=4 p=9 centres random@8", Some(0.456), Some(0.118), Some(3.04), Some(0.0057), ""),
+    ("RBF 250 r=1e-8 d=4 p=9 centres farthest@9", Some(0.261), Some(0.223), Some(2.51), Some(0.0055), ""),
+    ("RBF 250 r=1e-8 d=4 p=9 centres kmeans++@9", Some(0.336), Some(0.158), Some(2.28), Some(0.0082), ""),
+    ("RBF 250 r=1e-8 d=4 p=9 centres random@9", Some(0.416), Some(0.226), Some(2.66), Some(0.0067), ""),
+    ("RBF 250 r=1e-8 d=4 p=9 centres farthest@10", Some(0.229), Some(0.194), Some(2.26), Some(0.0086), ""),
+    ("RBF 250 r=1e-8 d=4 p=9 centres kmeans++@10", Some(0.384), Some(0.202), Some(3.31), Some(0.0083), ""),
+    ("RBF 250 r=1e-8 d=4 p=9 centres random@10", Some(0.417), Some(0.105), Some(2.30), Some(0.0093), ""),
+    ("RBF 250 r=1e-8 d=4 p=9 centres farthest@11", Some(0.338), Some(0.194), Some(2.21), Some(0.0094), ""),
+    ("RBF 250 r=1e-8 d=4 p=9 centres kmeans++@11", Some(0.300), Some(0.213), Some(1.96), Some(0.0067), ""),
+    ("RBF 250 r=1e-8 d=4 p=9 centres random@11", Some(0.401), Some(0.130), Some(2.14), Some(0.0104), ""),
+    ("RBF 250 r=1e-8 d=4 p=9 centres farthest@12", Some(0.303), Some(0.152), Some(1.61), Some(0.0060), ""),
+    ("RBF 250 r=1e-8 d=4 p=9 centres kmeans++@12", Some(0.332), Some(0.199), Some(2.55), Some(0.0090), ""),
+    ("RBF 250 r=1e-8 d=4 p=9 centres random@12", Some(0.451), Some(0.160), Some(2.60), Some(0.0056), ""),
+    ("RBF 200 r=3e-9 d=5 p=11", None, None, None, None, "escaped in the long run"),
+    ("RBF 200 r=3e-9 d=5 p=11 centres kmeans++@1", None, None, None, None, "escaped in the long run"),
+    ("RBF 200 r=3e-9 d=5 p=11 centres random@1", Some(0.424), Some(0.180), Some(2.67), Some(0.0324), ""),
+    ("RBF 200 r=3e-9 d=5 p=11 centres kmeans++@2", None, None, None, None, "escaped in the long run"),
+    ("RBF 200 r=3e-9 d=5 p=11 centres random@2", None, None, None, None, "escaped in the long run"),
+    ("RBF 200 r=3e-9 d=5 p=11 centres kmeans++@3", None, None, None, None, "escaped in the long run"),
+    ("RBF 200 r=3e-9 d=5 p=11 centres random@3", None, None, None, None, "escaped in the long run"),
+    ("RBF 300 r=1e-8 d=5 p=11", Some(-0.070), Some(-0.077), None, Some(0.0570), ""),
+    ("RBF 300 r=1e-8 d=5 p=11 centres kmeans++@1", Some(0.091), Some(0.093), Some(1.10), Some(0.0486), ""),
+    ("RBF 300 r=1e-8 d=5 p=11 centres random@1", Some(-0.052), Some(0.115), Some(1.89), Some(0.0482), ""),
+    ("RBF 300 r=1e-8 d=5 p=11 centres kmeans++@2", Some(0.143), Some(0.137), Some(2.01), Some(0.0381), ""),
+    ("RBF 300 r=1e-8 d=5 p=11 centres random@2", None, None, None, None, "escaped in the long run"),
+    ("RBF 300 r=1e-8 d=5 p=11 centres kmeans++@3", Some(-0.015), Some(-0.004), Some(1.19), Some(0.0624), ""),
+    ("RBF 300 r=1e-8 d=5 p=11 centres random@3", Some(0.154), Some(0.137), Some(1.87), Some(0.0418), ""),
+    ("RBF 200 r=3e-9 d=6 p=13", Some(0.231), Some(0.167), Some(2.51), Some(0.0285), ""),
+    ("RBF 200 r=3e-9 d=6 p=13 centres kmeans++@1", Some(0.268), Some(0.149), Some(2.41), Some(0.0347), ""),
+    ("RBF 200 r=3e-9 d=6 p=13 centres random@1", Some(-0.044), Some(0.180), Some(2.38), Some(0.0319), ""),
+    ("RBF 200 r=3e-9 d=6 p=13 centres kmeans++@2", None, None, None, None, "escaped in the long run"),
+    ("RBF 200 r=3e-9 d=6 p=13 centres random@2", Some(-0.000), Some(0.052), Some(1.06), Some(0.3116), ""),
+    ("RBF 200 r=3e-9 d=6 p=13 centres kmeans++@3", None, None, None, None, "escaped in the long run"),
+    ("RBF 200 r=3e-9 d=6 p=13 centres random@3", Some(0.242), Some(0.185), Some(1.90), Some(0.0359), ""),
+    ("RBF 300 r=1e-8 d=6 p=13", Some(-0.277), Some(-0.070), None, Some(0.0820), ""),
+    ("RBF 300 r=1e-8 d=6 p=13 centres kmeans++@1", Some(-0.067), Some(-0.026), Some(0.96), Some(0.0671), ""),
+    ("RBF 300 r=1e-8 d=6 p=13 centres random@1", Some(0.199), Some(0.163), Some(1.71), Some(0.0387), ""),
+    ("RBF 300 r=1e-8 d=6 p=13 centres kmeans++@2", Some(-0.048), Some(-0.023), Some(0.48), Some(0.0597), ""),
+    ("RBF 300 r=1e-8 d=6 p=13 centres random@2", Some(0.097), Some(0.113), Some(1.92), Some(0.0448), ""),
+    ("RBF 300 r=1e-8 d=6 p=13 centres kmeans++@3", Some(0.079), Some(0.117), Some(1.31), Some(0.0445), ""),
+    ("RBF 300 r=1e-8 d=6 p=13 centres random@3", Some(0.104), Some(0.082), Some(1.23), Some(0.0412), ""),
+    ("RBF 250 r=5e-9 d=4 p=9", Some(0.386), Some(0.247), Some(2.22), Some(0.0042), ""),
+    ("RBF 250 r=5e-9 d=4 p=9 centres kmeans++@1", Some(0.425), Some(0.151), Some(2.60), Some(0.0060), ""),
+    ("RBF 250 r=5e-9 d=4 p=9 centres random@1", None, None, None, None, "escaped in the long run"),
+    ("RBF 250 r=5e-9 d=4 p=9 centres kmeans++@2", Some(0.436), Some(0.165), Some(2.62), Some(0.0088), ""),
+    ("RBF 250 r=5e-9 d=4 p=9 centres random@2", Some(0.410), Some(0.212), Some(2.43), Some(0.0138), ""),
+    ("RBF 250 r=5e-9 d=4 p=9 centres kmeans++@3", Some(0.336), Some(0.167), Some(1.66), Some(0.0099), ""),
+    ("RBF 250 r=5e-9 d=4 p=9 centres random@3", Some(0.416), Some(0.254), Some(2.65), Some(0.0047), ""),
+    ("RBF 250 r=5e-9 d=4 p=9 centres kmeans++@4", Some(0.369), Some(0.180), Some(1.94), Some(0.0301), ""),
+    ("RBF 250 r=5e-9 d=4 p=9 centres random@4", None, None, None, None, "escaped in the long run"),
+    ("RBF 250 r=5e-9 d=4 p=9 centres kmeans++@5", None, None, None, None, "escaped in the long run"),
+    ("RBF 250 r=5e-9 d=4 p=9 centres random@5", Some(0.441), Some(0.438), Some(2.65), Some(0.0086), ""),
+    ("RBF 250 r=5e-9 d=4 p=9 centres kmeans++@6", Some(0.442), Some(0.125), Some(3.02), Some(0.0174), ""),
+    ("RBF 250 r=5e-9 d=4 p=9 centres random@6", None, None, None, None, "escaped in the long run"),
+    ("RBF 300 r=5e-9 d=4 p=9", Some(0.274), Some(0.178), Some(1.42), Some(0.0056), ""),
+    ("RBF 300 r=5e-9 d=4 p=9 centres kmeans++@1", Some(-0.033), Some(0.245), Some(2.56), Some(0.0420), ""),
+    ("RBF 300 r=5e-9 d=4 p=9 centres random@1", Some(0.461), Some(0.274), Some(2.02), Some(0.0099), ""),
+    ("RBF 300 r=5e-9 d=4 p=9 centres kmeans++@2", Some(0.413), Some(0.254), Some(2.71), Some(0.0074), ""),
+    ("RBF 300 r=5e-9 d=4 p=9 centres random@2", Some(0.424), Some(0.184), Some(2.35), Some(0.0101), ""),
+    ("RBF 300 r=5e-9 d=4 p=9 centres kmeans++@3", Some(0.348), Some(0.154), Some(2.59), Some(0.0060), ""),
+    ("RBF 300 r=5e-9 d=4 p=9 centres random@3", Some(0.431), Some(0.296), Some(2.28), Some(0.0040), ""),
+    ("RBF 300 r=5e-9 d=4 p=9 centres kmeans++@4", Some(0.316), Some(0.201), Some(1.85), Some(0.0343), ""),
+    ("RBF 300 r=5e-9 d=4 p=9 centres random@4", Some(0.347), Some(0.166), Some(1.77), Some(0.0255), ""),
+    ("RBF 300 r=5e-9 d=4 p=9 centres kmeans++@5", Some(0.366), Some(0.137), Some(2.49), Some(0.0125), ""),
+    ("RBF 300 r=5e-9 d=4 p=9 centres random@5", Some(0.443), Some(0.218), Some(2.46), Some(0.0077), ""),
+    ("RBF 300 r=5e-9 d=4 p=9 centres kmeans++@6", Some(0.371), Some(0.254), Some(2.46), Some(0.0088), ""),
+    ("RBF 300 r=5e-9 d=4 p=9 centres random@6", None, None, None, None, "escaped in the long run"),
+];
 
 /// The validation pick ([`pick`] over [`FLAG_VALIDATION`] against [`FLAG_VALIDATION_DATA`]):
 /// its validation row, and its committed test row ([`crate::flag_pipeline_fit::FLAG_CENTRES`]
@@ -289,6 +531,82 @@ pub fn validation_pick() -> Option<(PipelineRow, PipelineRow)> {
     let i = pick(&val)?;
     let test = crate::flag_pipeline_fit::flag_centre_rows().into_iter().find(|r| r.candidate == val[i].candidate)?;
     Some((val[i].clone(), test))
+}
+
+/// The candidates of `rows` in the order of [`pick`]'s rule (most targets met first, then the
+/// smallest [`row_score`]); failed rows are left out. Indices into `rows`.
+pub fn ranked(rows: &[PipelineRow]) -> Vec<usize> {
+    let mut idx: Vec<usize> = (0..rows.len()).filter(|&i| rows[i].failed.is_none()).collect();
+    let n = |i: usize| rows[i].passes.iter().filter(|&&p| p).count();
+    idx.sort_by(|&a, &b| n(b).cmp(&n(a)).then(row_score(&rows[a]).total_cmp(&row_score(&rows[b]))));
+    idx
+}
+
+/// An ensemble of flag models: the members, each member's JS against the held-out run (its
+/// own long run, as [`crate::model_selection::evaluate_candidate`] measures it) and the JS
+/// of the pooled long runs of all members.
+#[derive(Clone, Debug, Serialize)]
+pub struct Ensemble {
+    pub members: Vec<String>,
+    pub js_members: Vec<Option<f64>>,
+    /// Members whose long run escaped or left the data's region (their points are left out).
+    pub failed: Vec<String>,
+    pub js_pooled: Option<f64>,
+}
+
+/// The members `names` (committed row names, d = 4 and p = 9: every member then has the
+/// reduced coordinates of [`flag_manifold`]) fitted on `train` and run from the held-out
+/// run's first point for [`EvalSettings::long_runs`] held-out lengths, as the model rows
+/// are; their long runs pooled into one density and compared with the held-out run's.
+pub fn ensemble(train: &[TimeSeries], test: &TimeSeries, names: &[&str], s: &EvalSettings) -> Result<Ensemble, Error> {
+    let test_k = subsample(test, STEP, 0)?;
+    let m0 = flag_manifold(train)?;
+    let eta_test = reduce_series(&m0, &test_k)?;
+    let d = m0.options.dim;
+    let data_max = eta_test.iter().fold(0.0_f64, |a, v| a.max(v.abs()));
+    let reference = Points::from_flat(d, eta_test.clone())?;
+    let mut out = Ensemble { members: Vec::new(), js_members: Vec::new(), failed: Vec::new(), js_pooled: None };
+    let mut pooled = Vec::new();
+    let data = data_stats(test, STEP, s)?;
+    for name in names {
+        let c = candidate_from_name(name)?;
+        if c.fit.dim != d || c.fit.embed != m0.options.embed {
+            return Err(Error::BadInput { what: "ensemble member", why: format!("`{name}`: members need d = {d}, p = {} (shared reduced coordinates)", m0.options.embed) });
+        }
+        out.members.push(name.to_string());
+        let (r, m) = crate::model_selection::evaluate_candidate_fitted(train, test, &c, &data, s)?;
+        let Some(m) = m.filter(|_| r.failed.is_none()) else {
+            out.failed.push(name.to_string());
+            out.js_members.push(None);
+            continue;
+        };
+        let eta = reduce_series(&m, &test_k)?;
+        if eta.len() != eta_test.len() || eta.iter().zip(&eta_test).any(|(a, b)| (a - b).abs() > 1e-9 * data_max.max(1.0)) {
+            return Err(Error::BadInput { what: "ensemble member", why: format!("`{name}`: its reduced coordinates differ from the shared ones") });
+        }
+        out.js_members.push(r.js);
+        let n_long = test_k.x.len() * s.long_runs.max(1);
+        let orbit = crate::lyapunov::iterate_dynamics(&m.dynamics, &eta[..d], n_long, crate::lyapunov::model_bound(&m), 1)?;
+        if let Some(p) = orbit.recorded {
+            pooled.extend_from_slice(p.as_flat());
+        }
+    }
+    if !pooled.is_empty() {
+        out.js_pooled = Some(chaos::compare_pdfs(&reference, &Points::from_flat(d, pooled)?, Bins::default())?.mean_js_bits);
+    }
+    Ok(out)
+}
+
+/// The ensemble of the five best validation-ranked d = 4 models ([`ensemble_members`]`(5)`,
+/// example `flag_pipeline -- flag-ensemble 5`): JS of their pooled long runs against traj_8
+/// (bits; the members' own: 0.0070, 0.0050, 0.0037, 0.0079, 0.0051, their committed rows).
+pub const FLAG_ENSEMBLE: (usize, f64) = (5, 0.0037);
+
+/// The first `k` rows of [`FLAG_VALIDATION`] in [`ranked`] order that have d = 4 and p = 9
+/// (the members of [`ensemble`]).
+pub fn ensemble_members(k: usize) -> Vec<&'static str> {
+    let val = rows_against(FLAG_VALIDATION, FLAG_VALIDATION_DATA);
+    ranked(&val).into_iter().map(|i| FLAG_VALIDATION[i].0).filter(|n| n.contains(" d=4 p=9")).take(k).collect()
 }
 
 #[cfg(test)]

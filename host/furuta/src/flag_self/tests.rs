@@ -1,5 +1,5 @@
 use super::*;
-use crate::flag_pipeline_fit::{FLAG_CENTRES, FLAG_D2_RUNS, flag_centre_rows};
+use crate::flag_pipeline_fit::{FLAG_CENTRES, FLAG_D2_RUNS, FLAG_DATA, flag_centre_rows};
 
 fn flag_dir() -> std::path::PathBuf {
     std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared/data/inverted_flag_chaotic")
@@ -159,4 +159,85 @@ fn flag_self_reproduces() {
         assert!((d.lle - lle).abs() <= 5e-4 && (d.corr_dim - d2).abs() <= 5e-3 && (d.corr_dim_err - d2_err).abs() <= 5e-3, "traj_{k}: {d:?}");
     }
     assert!(data_stats(&load(1), STEP, &s).is_err());
+}
+
+/// The pick on the validation run traj_3 (committed rows, its own settings: Rosenstein 0.291,
+/// D2 1.93 ± 0.10): 237 rows, 45 failed, Benettin 27, Rosenstein 7, D2 19, JS 92, Benettin
+/// and JS 17, Benettin, D2 and JS one: the pick, RBF 250 r=1e-8 k-means++@11, meets them there (0.300, 1.96, 0.0067; Rosenstein 0.213) and on the test
+/// run traj_8 only JS (Benettin 0.287, -14 %; Rosenstein 0.155; D2 1.64; JS 0.0070). The
+/// test-run pick by the same rule is the best test row (k-means++@3), which reads Rosenstein 0.167 and
+/// D2 1.66 on traj_3 against 0.291 and 2.91 on traj_8.
+#[test]
+fn validation_pick_on_traj3() {
+    use crate::flag_pipeline_fit::target_counts;
+    let val = rows_against(FLAG_VALIDATION, FLAG_VALIDATION_DATA);
+    assert_eq!(val.len(), FLAG_CENTRES.len());
+    assert!(val.iter().zip(FLAG_CENTRES).all(|(v, c)| v.candidate == c.0));
+    assert_eq!(target_counts(&val), (237, 45, 27, 19, 92, 17, 1));
+    assert_eq!(val.iter().filter(|r| r.passes[1]).count(), 7);
+    assert_eq!(val.iter().filter(|r| r.passes[0] && r.passes[2] && r.passes[3]).count(), 1);
+    let (v, t) = validation_pick().unwrap();
+    assert_eq!(v.candidate, "RBF 250 r=1e-8 d=4 p=9 centres kmeans++@11");
+    assert_eq!(v.passes, [true, false, true, true]);
+    assert_eq!((v.benettin, v.rosenstein, v.corr_dim, v.js), (Some(0.300), Some(0.213), Some(1.96), Some(0.0067)));
+    assert_eq!((t.benettin, t.rosenstein, t.corr_dim, t.js), (Some(0.287), Some(0.155), Some(1.64), Some(0.0070)));
+    assert_eq!(t.passes, [false, false, false, true]);
+    let test = flag_centre_rows();
+    let tp = &test[pick(&test).unwrap()];
+    assert_eq!(tp.candidate, "RBF 250 r=5e-9 d=4 p=9 centres kmeans++@3");
+    let best = val.iter().find(|r| r.candidate == "RBF 250 r=5e-9 d=4 p=9 centres kmeans++@3").unwrap();
+    assert_eq!((best.rosenstein, best.corr_dim), (Some(0.167), Some(1.66)));
+    // The ensemble's members: the five best-ranked d = 4 rows.
+    let m = ensemble_members(5);
+    assert_eq!(m[0], v.candidate);
+    assert_eq!(m.len(), 5);
+}
+
+/// The ensemble of the five best validation-ranked models on traj_8 (committed test rows):
+/// Benettin 0.328 ± 0.047 (mean within 2 % of the data's 0.332), Rosenstein 0.198 ± 0.032,
+/// D2 2.14 ± 0.57; the pooled density's JS 0.0037 is below every member's but one
+/// (0.0037-0.0079).
+#[test]
+fn ensemble_statistics() {
+    let test = flag_centre_rows();
+    let rows: Vec<_> = ensemble_members(FLAG_ENSEMBLE.0).iter().map(|n| test.iter().find(|r| r.candidate == *n).unwrap().clone()).collect();
+    let col = |f: &dyn Fn(&PipelineRow) -> Option<f64>| mean_sd(&rows.iter().filter_map(|r| f(r)).collect::<Vec<_>>()).unwrap();
+    let (b, r, d) = (col(&|r| r.benettin), col(&|r| r.rosenstein), col(&|r| r.corr_dim));
+    println!("{b:?} {r:?} {d:?}");
+    assert!((b.0 - 0.3282).abs() < 5e-5 && (b.1 - 0.0471).abs() < 5e-5, "{b:?}");
+    assert!((r.0 - 0.1982).abs() < 5e-5 && (r.1 - 0.0320).abs() < 5e-5, "{r:?}");
+    assert!((d.0 - 2.136).abs() < 5e-4 && (d.1 - 0.574).abs() < 5e-4, "{d:?}");
+    let js: Vec<f64> = rows.iter().filter_map(|r| r.js).collect();
+    assert_eq!(js, vec![0.0070, 0.0050, 0.0037, 0.0079, 0.0051]);
+    assert!(js.iter().all(|&j| FLAG_ENSEMBLE.1 <= j));
+}
+
+/// Live re-runs (skipped without the data): the validation pick on traj_3 gives its committed
+/// row, and the five-model ensemble its pooled JS (about 15 s).
+#[test]
+fn validation_pick_and_ensemble_reproduce() {
+    let dir = flag_dir();
+    if !dir.join("traj_8.csv").is_file() {
+        println!("inverted-flag data not found under {}: skipped", dir.display());
+        return;
+    }
+    let load = |k: usize| ssm::load_csv(dir.join(format!("traj_{k}.csv"))).unwrap();
+    let train = [load(9), load(7)];
+    let s = EvalSettings::default();
+    let val = load(VALIDATION_RUN);
+    let data = data_stats(&val, STEP, &s).unwrap();
+    assert!((data.0.lle - FLAG_VALIDATION_DATA.0).abs() <= 5e-4 && (data.0.corr_dim - FLAG_VALIDATION_DATA.1).abs() <= 5e-3 && (data.0.corr_dim_err - FLAG_VALIDATION_DATA.2).abs() <= 5e-3, "{:?}", data.0);
+    let (v, _) = validation_pick().unwrap();
+    let r = crate::model_selection::evaluate_candidate(&train, &val, &candidate_from_name(&v.candidate).unwrap(), &data, &s).unwrap();
+    assert!(r.failed.is_none(), "{r:?}");
+    assert!(close(r.benettin, v.benettin, 5e-4) && close(r.rosenstein, v.rosenstein, 5e-4) && close(r.corr_dim, v.corr_dim, 5e-3) && close(r.js, v.js, 5e-5), "{r:?} vs {v:?}");
+    let e = ensemble(&train, &load(8), &ensemble_members(FLAG_ENSEMBLE.0), &s).unwrap();
+    assert!(e.failed.is_empty(), "{e:?}");
+    assert!(close(e.js_pooled, Some(FLAG_ENSEMBLE.1), 5e-5), "{e:?}");
+    let test = flag_centre_rows();
+    for (n, j) in e.members.iter().zip(&e.js_members) {
+        assert!(close(*j, test.iter().find(|r| &r.candidate == n).unwrap().js, 5e-5), "{n}: {j:?}");
+    }
+    let bad = ensemble(&train, &load(8), &["RBF 200 r=3e-9 d=5 p=11"], &s).unwrap_err().to_string();
+    assert!(bad.contains("d = 4"), "{bad}");
 }
