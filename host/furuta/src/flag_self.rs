@@ -114,7 +114,7 @@ pub fn self_passes(rosenstein: Option<f64>, corr_dim: Option<f64>, js: Option<f6
 }
 
 /// One committed row of [`FLAG_SELF`]: (run, first sample, length at step 4, Rosenstein
-/// [1/s], D2, D2 error bar, JS [bits]).
+/// (1/s), D2, D2 error bar, JS (bits)).
 pub type SelfRowC = (usize, usize, usize, Option<f64>, Option<f64>, Option<f64>, Option<f64>);
 
 /// The held-out run traj_8 at step 4: its length in samples.
