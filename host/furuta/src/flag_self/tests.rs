@@ -187,6 +187,22 @@ fn validation_pick_on_traj3() {
     assert_eq!(tp.candidate, "RBF 250 r=5e-9 d=4 p=9 centres kmeans++@3");
     let best = val.iter().find(|r| r.candidate == "RBF 250 r=5e-9 d=4 p=9 centres kmeans++@3").unwrap();
     assert_eq!((best.rosenstein, best.corr_dim), (Some(0.167), Some(1.66)));
+    // On the second validation run traj_0 (Rosenstein 0.481, D2 3.56 ± 0.23) the pick is
+    // another row, RBF 200 r=3e-9 random@8 (there Benettin 0.495, Rosenstein 0.387, D2 2.94,
+    // JS 0.0081: Benettin and JS), which on traj_8 meets JS only (Benettin 0.495, +49 %).
+    let own = |k: usize| FLAG_RUNS_OWN.iter().find(|r| r.0 == k).map(|r| (r.3, r.4, r.5)).unwrap();
+    assert_eq!((own(0), own(3)), (FLAG_VALIDATION_0_DATA, FLAG_VALIDATION_DATA));
+    let val0 = rows_against(FLAG_VALIDATION_0, FLAG_VALIDATION_0_DATA);
+    assert!(val0.iter().zip(FLAG_CENTRES).all(|(v, c)| v.candidate == c.0) && val0.len() == 237);
+    assert_eq!(target_counts(&val0), (237, 38, 32, 3, 44, 16, 0));
+    let (v0, t0) = validation_pick_on(FLAG_VALIDATION_0, FLAG_VALIDATION_0_DATA).unwrap();
+    assert_eq!(v0.candidate, "RBF 200 r=3e-9 d=4 p=9 centres random@8");
+    assert_eq!((v0.benettin, v0.rosenstein, v0.corr_dim, v0.js, v0.passes), (Some(0.495), Some(0.387), Some(2.94), Some(0.0081), [true, false, false, true]));
+    assert_eq!((t0.benettin, t0.rosenstein, t0.corr_dim, t0.js, t0.passes), (Some(0.495), Some(0.244), Some(2.95), Some(0.0064), [false, false, false, true]));
+    // The same model's Rosenstein exponent on its own series, started from each run: 0.163
+    // (traj_3), 0.387 (traj_0), 0.244 (traj_8).
+    let r3 = val.iter().find(|r| r.candidate == v0.candidate).unwrap().rosenstein;
+    assert_eq!(r3, Some(0.163));
     // The ensemble's members: the five best-ranked d = 4 rows.
     let m = ensemble_members(5);
     assert_eq!(m[0], v.candidate);

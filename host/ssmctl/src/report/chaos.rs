@@ -1134,8 +1134,8 @@ fn flag_self_paragraphs(
 ) -> (serde_json::Value, serde_json::Value, serde_json::Value) {
     use furuta::flag_pipeline_fit::FLAG_DATA;
     use furuta::flag_self::{
-        FLAG_ENSEMBLE, FLAG_RUNS_OWN, FLAG_VALIDATION, FLAG_VALIDATION_DATA, SelfRow, VALIDATION_RUN, ensemble_members, flag_self_rows, is_whole, mean_sd, placement,
-        rows_against, self_counts, self_passes, validation_pick,
+        FLAG_ENSEMBLE, FLAG_RUNS_OWN, FLAG_VALIDATION, FLAG_VALIDATION_0, FLAG_VALIDATION_0_DATA, FLAG_VALIDATION_DATA, SelfRow, VALIDATION_RUN, ensemble_members, flag_self_rows, is_whole, mean_sd, placement,
+        rows_against, self_counts, self_passes, validation_pick, validation_pick_on,
     };
     let rows = flag_self_rows();
     let whole: Vec<&SelfRow> = rows.iter().filter(|r| is_whole(r, &rows)).collect();
@@ -1219,6 +1219,10 @@ fn flag_self_paragraphs(
     let vr = val.iter().filter(|r| r.passes[1]).count();
     let test_pick = furuta::flag_self::pick(test_rows).map(|i| &test_rows[i]);
     let picked = validation_pick();
+    let picked0 = validation_pick_on(FLAG_VALIDATION_0, FLAG_VALIDATION_0_DATA);
+    let pick_place = place(picked.as_ref().map(|(_, t)| t));
+    let pick_place_json: serde_json::Map<String, serde_json::Value> =
+        ["rosenstein", "corr_dim", "js"].iter().zip(&pick_place).map(|(k, p)| (k.to_string(), serde_json::json!(p.map(|p| [p.0, p.1])))).collect();
     let members = ensemble_members(FLAG_ENSEMBLE.0);
     let mrows: Vec<&furuta::flag_pipeline::PipelineRow> = members.iter().filter_map(|n| test_rows.iter().find(|r| r.candidate == *n)).collect();
     let mcol = |f: &dyn Fn(&furuta::flag_pipeline::PipelineRow) -> Option<f64>| mrows.iter().filter_map(|r| f(r)).collect::<Vec<f64>>();
@@ -1230,9 +1234,11 @@ fn flag_self_paragraphs(
          traj_{VALIDATION_RUN} (neither training nor test; its own settings: Rosenstein {:.3}, D2 {:.2} ± {:.2}; example \
          <code>flag_pipeline -- flag-validate {VALIDATION_RUN}</code>): {vfail} escaped; Benettin within 10 %: {vb}, Rosenstein within 5 %: {vr}, \
          D2: {vd}, JS: {vj}, Benettin and JS: {vbj}, Benettin, D2 and JS: {vbdj}. The report's selection rule (most targets, then the \
-         smallest normalized error) picks {} there ({}; {} of 4 targets); on the test run traj_8 it reads {} ({} of 4 targets). \
+         smallest normalized error) picks {} there ({}; {} of 4 targets); on the test run traj_8 it reads {} ({} of 4 targets; among the \
+         nine runs as models of traj_8: Rosenstein {}, D2 {}, JS {}). \
          The same rule on traj_8 itself picks {} ({}), which reads Rosenstein {} and D2 {} on traj_{VALIDATION_RUN}: the one-run \
-         statistics that the pick rests on move with the run as much as between models. An ensemble of the {} best-ranked d = 4 \
+         statistics that the pick rests on move with the run as much as between models. A second validation run, traj_0 \
+         (Rosenstein {:.3}, D2 {:.2} ± {:.2}), picks yet another row, {} ({}), which on traj_8 reads {} ({} of 4 targets). An ensemble of the {} best-ranked d = 4 \
          models on traj_8: Benettin {} (the data's {:.3}), Rosenstein {}, D2 {}; JS of the pooled long runs {:.4} (members {}).",
         FLAG_VALIDATION_DATA.0,
         FLAG_VALIDATION_DATA.1,
@@ -1242,10 +1248,20 @@ fn flag_self_paragraphs(
         picked.as_ref().map_or(0, |(v, _)| met(v)),
         picked.as_ref().map_or("-".to_string(), |(_, t)| row4(t)),
         picked.as_ref().map_or(0, |(_, t)| met(t)),
+        pl(pick_place[0]),
+        pl(pick_place[1]),
+        pl(pick_place[2]),
         test_pick.map_or("-".to_string(), |r| crate::report::esc(&r.candidate)),
         test_pick.map_or("-".to_string(), |r| row4(r)),
         test_pick.and_then(|t| val.iter().find(|r| r.candidate == t.candidate)).map_or("-".to_string(), |r| o(r.rosenstein, 3)),
         test_pick.and_then(|t| val.iter().find(|r| r.candidate == t.candidate)).map_or("-".to_string(), |r| o(r.corr_dim, 2)),
+        FLAG_VALIDATION_0_DATA.0,
+        FLAG_VALIDATION_0_DATA.1,
+        FLAG_VALIDATION_0_DATA.2,
+        picked0.as_ref().map_or("-".to_string(), |(v, _)| crate::report::esc(&v.candidate)),
+        picked0.as_ref().map_or("-".to_string(), |(v, _)| row4(v)),
+        picked0.as_ref().map_or("-".to_string(), |(_, t)| row4(t)),
+        picked0.as_ref().map_or(0, |(_, t)| met(t)),
         members.len(),
         ms(&eb, 3),
         FLAG_DATA.0,
@@ -1272,7 +1288,10 @@ fn flag_self_paragraphs(
             "run": VALIDATION_RUN, "data": { "rosenstein": FLAG_VALIDATION_DATA.0, "corr_dim": FLAG_VALIDATION_DATA.1, "corr_dim_err": FLAG_VALIDATION_DATA.2 },
             "counts": { "rows": vn, "failed": vfail, "benettin": vb, "rosenstein": vr, "corr_dim": vd, "js": vj, "benettin_js": vbj, "benettin_corr_dim_js": vbdj },
             "pick": picked.as_ref().map(|(v, _)| v.candidate.clone()), "pick_validation": picked.as_ref().map(|(v, _)| v.clone()), "pick_test": picked.as_ref().map(|(_, t)| t.clone()),
+            "pick_test_placement": pick_place_json,
             "test_run_pick": test_pick.map(|r| r.candidate.clone()),
+            "second_run": { "run": 0, "data": { "rosenstein": FLAG_VALIDATION_0_DATA.0, "corr_dim": FLAG_VALIDATION_0_DATA.1, "corr_dim_err": FLAG_VALIDATION_0_DATA.2 },
+                "pick_validation": picked0.as_ref().map(|(v, _)| v.clone()), "pick_test": picked0.as_ref().map(|(_, t)| t.clone()) },
         }),
         serde_json::json!({
             "members": members, "js_pooled": FLAG_ENSEMBLE.1, "js_members": ej,
