@@ -17,6 +17,7 @@ pub mod error;
 pub mod estimator_check;
 pub mod flag_pipeline;
 pub mod flag_pipeline_fit;
+pub mod flag_self;
 pub mod full_system;
 pub mod lyapunov;
 pub mod map_global;

@@ -1099,6 +1099,8 @@ fn flag_pipeline_fit(rep: &mut crate::report::Report, series: &[ssm::TimeSeries]
         sd / FLAG_DATA.2,
         FLAG_DATA.2,
     ));
+    // The experiment as its own model, the pick on a validation run, an ensemble (committed rows).
+    let self_keys = flag_self_paragraphs(rep, &fcs, &o);
     rep.summary.insert(
         "flag_pipeline_fit".into(),
         serde_json::json!({
@@ -1110,7 +1112,8 @@ fn flag_pipeline_fit(rep: &mut crate::report::Report, series: &[ssm::TimeSeries]
                 "centre_rows": fcs, "centre_counts": { "rows": cn, "failed": cfail, "benettin": cb, "corr_dim": cd, "js": cj, "benettin_js": cbj, "benettin_corr_dim_js": cbdj },
                 "kaplan_yorke": FLAG_DIMENSION.iter().map(|r| serde_json::json!({ "candidate": r.0, "kaplan_yorke": r.1, "corr_dim_pieces": r.2 })).collect::<Vec<_>>(),
                 "corr_dim_runs": FLAG_D2_RUNS, "corr_dim_smoothed_3_5_noise_added": [FLAG_D2_NOISE.0, FLAG_D2_NOISE.1, FLAG_D2_NOISE.2],
-                "model_noisy_corr_dim": { "rows": FLAG_D2_NOISY_MODEL.0, "mean_change": FLAG_D2_NOISY_MODEL.1, "changed_over_0_2": FLAG_D2_NOISY_MODEL.2 } },
+                "model_noisy_corr_dim": { "rows": FLAG_D2_NOISY_MODEL.0, "mean_change": FLAG_D2_NOISY_MODEL.1, "changed_over_0_2": FLAG_D2_NOISY_MODEL.2 },
+                "experiment_as_model": self_keys.0, "validation_pick": self_keys.1, "ensemble": self_keys.2 },
             "d6_multistep_scan": scan_cases.iter().map(|&(k, scale, noise)| {
                 let (m, p) = (scan(true, scale, noise), scan(false, scale, noise));
                 (k.to_string(), serde_json::json!({ "multistep": [m.0, m.1, m.2], "one_step": [p.0, p.1, p.2] }))
@@ -1118,4 +1121,181 @@ fn flag_pipeline_fit(rep: &mut crate::report::Report, series: &[ssm::TimeSeries]
         }),
     );
     Ok(())
+}
+
+/// The flag's experiment as its own model, the candidate pick on the validation run and the
+/// ensemble of the validation-ranked models ([`furuta::flag_self`], committed rows): two
+/// paragraphs, a table, and the summary values (experiment as model, validation pick,
+/// ensemble) under `flag_pipeline_fit.flag`.
+fn flag_self_paragraphs(
+    rep: &mut crate::report::Report,
+    test_rows: &[furuta::flag_pipeline::PipelineRow],
+    o: &dyn Fn(Option<f64>, usize) -> String,
+) -> (serde_json::Value, serde_json::Value, serde_json::Value) {
+    use furuta::flag_pipeline_fit::FLAG_DATA;
+    use furuta::flag_self::{
+        FLAG_ENSEMBLE, FLAG_RUNS_OWN, FLAG_VALIDATION, FLAG_VALIDATION_0, FLAG_VALIDATION_0_DATA, FLAG_VALIDATION_DATA, SelfRow, VALIDATION_RUN, ensemble_members, flag_self_rows, is_whole, mean_sd, placement,
+        rows_against, self_counts, self_passes, validation_pick, validation_pick_on,
+    };
+    let rows = flag_self_rows();
+    let whole: Vec<&SelfRow> = rows.iter().filter(|r| is_whole(r, &rows)).collect();
+    let part: Vec<&SelfRow> = rows.iter().filter(|r| !is_whole(r, &rows)).collect();
+    let (cw, cp) = (self_counts(&whole, FLAG_DATA), self_counts(&part, FLAG_DATA));
+    let col = |f: &dyn Fn(&SelfRow) -> Option<f64>| whole.iter().filter_map(|r| f(r)).collect::<Vec<f64>>();
+    let stats: [(&str, Vec<f64>, usize); 3] = [("rosenstein", col(&|r| r.rosenstein), 3), ("corr_dim", col(&|r| r.corr_dim), 2), ("js", col(&|r| r.js), 4)];
+    let best = test_rows.iter().find(|r| r.candidate == "RBF 250 r=5e-9 d=4 p=9 centres kmeans++@3");
+    let model_vals = |r: &furuta::flag_pipeline::PipelineRow| [r.rosenstein, r.corr_dim, r.js];
+    let place = |r: Option<&furuta::flag_pipeline::PipelineRow>| -> Vec<Option<(f64, f64)>> {
+        let v = r.map(model_vals).unwrap_or([None; 3]);
+        stats.iter().zip(v).map(|((_, runs, _), x)| x.and_then(|x| placement(x, runs))).collect()
+    };
+    let best_place = place(best);
+    let ms = |v: &[f64], p: usize| mean_sd(v).map_or("-".to_string(), |(m, s)| format!("{m:.p$} ± {s:.p$}"));
+    let pl = |p: Option<(f64, f64)>| p.map_or("-".to_string(), |(q, z)| format!("percentile {:.0}, z {z:+.2}", 100.0 * q));
+    let own_d2 = |k: usize| FLAG_RUNS_OWN.iter().find(|r| r.0 == k).map_or("-".to_string(), |r| format!("{:.2} (lag {})", r.4, r.1));
+    let d2_of = |k: usize| whole.iter().find(|r| r.run == k).map_or("-".to_string(), |r| o(r.corr_dim, 2));
+    let t3: Vec<String> = part.iter().filter(|r| r.run == 3).map(|r| o(r.rosenstein, 3)).collect();
+    rep.para(&format!(
+        "The experiment as its own model (<code>furuta::flag_self</code>, committed rows; example <code>flag_pipeline -- flag-self</code>): \
+         each of the other nine runs of the flag, whole, and the first and last traj_8-length pieces ({} samples at step 4) of the three \
+         longer ones, is treated as the output of a perfect model and measured against traj_8 exactly as a model row is: Rosenstein \
+         exponent and D2 of the series with traj_8's lag, Theiler window and embedding, JS of the densities in the SSM's reduced \
+         coordinates (d = 4, p = 9, fitted on traj_9 + traj_7). Benettin needs the equations of a map and has no value for data. \
+         Whole runs: Rosenstein within 5 % of {:.3}: {} of {}, D2 within {:.2} ± {:.2}: {}, JS &lt;= 0.01: {}, all three: {}; \
+         traj_8-length pieces: Rosenstein {}, D2 {}, JS {} of {}, all three: {}. The real system meets the three one-run targets \
+         together on none of its runs: a perfect model would fail them as the runs do, so they cannot be required of a model on one \
+         run. The estimators are fragile at this length: two pieces of \
+         traj_3 that share 88 % of their samples read Rosenstein {}; with each run's own settings (as the pipeline measures a \
+         held-out run; lag 11 or 12 samples) D2 moves, traj_2 {} to {}, traj_3 {} to {}. The best model row (RBF 250 r=5e-9 \
+         k-means++@3) among the nine runs: Rosenstein {} ({}; runs {}), D2 {} ({}; runs {}), JS {} ({}; runs {}): its \
+         exponent is typical of a run, its D2 low, and its densities further from traj_8's than most runs' are.",
+        furuta::flag_self::FLAG_TEST_LEN,
+        FLAG_DATA.0,
+        cw.1,
+        cw.0,
+        FLAG_DATA.1,
+        FLAG_DATA.2,
+        cw.2,
+        cw.3,
+        cw.4,
+        cp.1,
+        cp.2,
+        cp.3,
+        cp.0,
+        cp.4,
+        t3.join(" and "),
+        d2_of(2),
+        own_d2(2),
+        d2_of(3),
+        own_d2(3),
+        o(best.and_then(|r| r.rosenstein), 3),
+        pl(best_place[0]),
+        ms(&stats[0].1, 3),
+        o(best.and_then(|r| r.corr_dim), 2),
+        pl(best_place[1]),
+        ms(&stats[1].1, 2),
+        o(best.and_then(|r| r.js), 4),
+        pl(best_place[2]),
+        ms(&stats[2].1, 4),
+    ));
+    let yn = |p: [bool; 3]| p.iter().map(|&b| if b { "y" } else { "n" }).collect::<String>();
+    let table: Vec<Vec<String>> = rows
+        .iter()
+        .map(|r| {
+            vec![
+                format!("traj_{}{}", r.run, if [7, 9].contains(&r.run) { " (training)" } else { "" }),
+                format!("{}-{}", r.start, r.start + r.len),
+                o(r.rosenstein, 3),
+                format!("{}{}", o(r.corr_dim, 2), r.corr_dim_err.map_or(String::new(), |e| format!(" ± {e:.2}"))),
+                o(r.js, 4),
+                yn(self_passes(r.rosenstein, r.corr_dim, r.js, FLAG_DATA)),
+            ]
+        })
+        .collect();
+    rep.table(&["run (as a model of traj_8)", "samples at step 4", "Rosenstein [1/s]", "D2", "JS [bits]", "targets R/D2/JS"], &table);
+    // The pick on the validation run, and the ensemble.
+    let val = rows_against(FLAG_VALIDATION, FLAG_VALIDATION_DATA);
+    let (vn, vfail, vb, vd, vj, vbj, vbdj) = furuta::flag_pipeline_fit::target_counts(&val);
+    let vr = val.iter().filter(|r| r.passes[1]).count();
+    let test_pick = furuta::flag_self::pick(test_rows).map(|i| &test_rows[i]);
+    let picked = validation_pick();
+    let picked0 = validation_pick_on(FLAG_VALIDATION_0, FLAG_VALIDATION_0_DATA);
+    let pick_place = place(picked.as_ref().map(|(_, t)| t));
+    let pick_place_json: serde_json::Map<String, serde_json::Value> =
+        ["rosenstein", "corr_dim", "js"].iter().zip(&pick_place).map(|(k, p)| (k.to_string(), serde_json::json!(p.map(|p| [p.0, p.1])))).collect();
+    let members = ensemble_members(FLAG_ENSEMBLE.0);
+    let mrows: Vec<&furuta::flag_pipeline::PipelineRow> = members.iter().filter_map(|n| test_rows.iter().find(|r| r.candidate == *n)).collect();
+    let mcol = |f: &dyn Fn(&furuta::flag_pipeline::PipelineRow) -> Option<f64>| mrows.iter().filter_map(|r| f(r)).collect::<Vec<f64>>();
+    let (eb, er, ed, ej) = (mcol(&|r| r.benettin), mcol(&|r| r.rosenstein), mcol(&|r| r.corr_dim), mcol(&|r| r.js));
+    let row4 = |r: &furuta::flag_pipeline::PipelineRow| format!("Benettin {}, Rosenstein {}, D2 {}, JS {}", o(r.benettin, 3), o(r.rosenstein, 3), o(r.corr_dim, 2), o(r.js, 4));
+    let met = |r: &furuta::flag_pipeline::PipelineRow| r.passes.iter().filter(|&&p| p).count();
+    rep.para(&format!(
+        "Selection on a validation run, not the test run: the {vn} centre-set rows fitted again on traj_9 + traj_7 and measured on \
+         traj_{VALIDATION_RUN} (neither training nor test; its own settings: Rosenstein {:.3}, D2 {:.2} ± {:.2}; example \
+         <code>flag_pipeline -- flag-validate {VALIDATION_RUN}</code>): {vfail} escaped; Benettin within 10 %: {vb}, Rosenstein within 5 %: {vr}, \
+         D2: {vd}, JS: {vj}, Benettin and JS: {vbj}, Benettin, D2 and JS: {vbdj}. The report's selection rule (most targets, then the \
+         smallest normalized error) picks {} there ({}; {} of 4 targets); on the test run traj_8 it reads {} ({} of 4 targets; among the \
+         nine runs as models of traj_8: Rosenstein {}, D2 {}, JS {}). \
+         The same rule on traj_8 itself picks {} ({}), which reads Rosenstein {} and D2 {} on traj_{VALIDATION_RUN}: the one-run \
+         statistics that the pick rests on move with the run as much as between models. A second validation run, traj_0 \
+         (Rosenstein {:.3}, D2 {:.2} ± {:.2}), picks yet another row, {} ({}), which on traj_8 reads {} ({} of 4 targets). An ensemble of the {} best-ranked d = 4 \
+         models on traj_8: Benettin {} (the data's {:.3}), Rosenstein {}, D2 {}; JS of the pooled long runs {:.4} (members {}).",
+        FLAG_VALIDATION_DATA.0,
+        FLAG_VALIDATION_DATA.1,
+        FLAG_VALIDATION_DATA.2,
+        picked.as_ref().map_or("-".to_string(), |(v, _)| crate::report::esc(&v.candidate)),
+        picked.as_ref().map_or("-".to_string(), |(v, _)| row4(v)),
+        picked.as_ref().map_or(0, |(v, _)| met(v)),
+        picked.as_ref().map_or("-".to_string(), |(_, t)| row4(t)),
+        picked.as_ref().map_or(0, |(_, t)| met(t)),
+        pl(pick_place[0]),
+        pl(pick_place[1]),
+        pl(pick_place[2]),
+        test_pick.map_or("-".to_string(), |r| crate::report::esc(&r.candidate)),
+        test_pick.map_or("-".to_string(), |r| row4(r)),
+        test_pick.and_then(|t| val.iter().find(|r| r.candidate == t.candidate)).map_or("-".to_string(), |r| o(r.rosenstein, 3)),
+        test_pick.and_then(|t| val.iter().find(|r| r.candidate == t.candidate)).map_or("-".to_string(), |r| o(r.corr_dim, 2)),
+        FLAG_VALIDATION_0_DATA.0,
+        FLAG_VALIDATION_0_DATA.1,
+        FLAG_VALIDATION_0_DATA.2,
+        picked0.as_ref().map_or("-".to_string(), |(v, _)| crate::report::esc(&v.candidate)),
+        picked0.as_ref().map_or("-".to_string(), |(v, _)| row4(v)),
+        picked0.as_ref().map_or("-".to_string(), |(_, t)| row4(t)),
+        picked0.as_ref().map_or(0, |(_, t)| met(t)),
+        members.len(),
+        ms(&eb, 3),
+        FLAG_DATA.0,
+        ms(&er, 3),
+        ms(&ed, 2),
+        FLAG_ENSEMBLE.1,
+        ej.iter().map(|j| format!("{j:.4}")).collect::<Vec<_>>().join(", "),
+    ));
+    let per_stat: serde_json::Map<String, serde_json::Value> = stats
+        .iter()
+        .zip(&best_place)
+        .map(|((k, v, _), p)| {
+            let (m, sd) = mean_sd(v).unwrap_or((f64::NAN, f64::NAN));
+            (k.to_string(), serde_json::json!({ "runs_mean": m, "runs_sd": sd, "best_row_percentile": p.map(|p| p.0), "best_row_z": p.map(|p| p.1) }))
+        })
+        .collect();
+    let counts = |c: (usize, usize, usize, usize, usize)| serde_json::json!({ "rows": c.0, "rosenstein": c.1, "corr_dim": c.2, "js": c.3, "all_three": c.4 });
+    (
+        serde_json::json!({
+            "rows": rows, "counts_whole_runs": counts(cw), "counts_pieces": counts(cp), "best_row": best.map(|r| r.candidate.clone()), "placement": per_stat,
+            "runs_own_settings": FLAG_RUNS_OWN.iter().map(|r| serde_json::json!({ "run": r.0, "lag": r.1, "theiler": r.2, "rosenstein": r.3, "corr_dim": r.4, "corr_dim_err": r.5 })).collect::<Vec<_>>(),
+        }),
+        serde_json::json!({
+            "run": VALIDATION_RUN, "data": { "rosenstein": FLAG_VALIDATION_DATA.0, "corr_dim": FLAG_VALIDATION_DATA.1, "corr_dim_err": FLAG_VALIDATION_DATA.2 },
+            "counts": { "rows": vn, "failed": vfail, "benettin": vb, "rosenstein": vr, "corr_dim": vd, "js": vj, "benettin_js": vbj, "benettin_corr_dim_js": vbdj },
+            "pick": picked.as_ref().map(|(v, _)| v.candidate.clone()), "pick_validation": picked.as_ref().map(|(v, _)| v.clone()), "pick_test": picked.as_ref().map(|(_, t)| t.clone()),
+            "pick_test_placement": pick_place_json,
+            "test_run_pick": test_pick.map(|r| r.candidate.clone()),
+            "second_run": { "run": 0, "data": { "rosenstein": FLAG_VALIDATION_0_DATA.0, "corr_dim": FLAG_VALIDATION_0_DATA.1, "corr_dim_err": FLAG_VALIDATION_0_DATA.2 },
+                "pick_validation": picked0.as_ref().map(|(v, _)| v.clone()), "pick_test": picked0.as_ref().map(|(_, t)| t.clone()) },
+        }),
+        serde_json::json!({
+            "members": members, "js_pooled": FLAG_ENSEMBLE.1, "js_members": ej,
+            "benettin_mean_sd": mean_sd(&eb), "rosenstein_mean_sd": mean_sd(&er), "corr_dim_mean_sd": mean_sd(&ed),
+        }),
+    )
 }
