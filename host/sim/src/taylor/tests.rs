@@ -192,23 +192,26 @@ fn bad_inputs_are_named() {
     assert!(flow_expansion(&c, 0.02, 3, &FlowOptions::default()).is_ok());
 }
 
-/// EXPERIMENT: order 9 truncated vs order k, same mesh and own mesh.
+/// The order-9 expansion truncated to orders 5 and 7 is the direct expansion to that order
+/// (the same mesh, [`MESH_ORDER`]), `==` on every coefficient, flow and period map, at two
+/// dts; a truncation above the own order is refused.
 #[test]
-fn truncation_experiment() {
+fn truncated_order_nine_is_the_lower_order_expansion() {
     let p = Furuta::paper();
     for dt in [0.031, 0.0325] {
-        let f9 = flow_expansion(&p, dt, 9, &FlowOptions::default()).unwrap();
+        let cfg = paper_cfg(dt);
+        let pm9 = period_map(&p, &cfg, 9, &FlowOptions::default()).unwrap();
         for k in [5u32, 7] {
-            let fk = flow_expansion(&p, dt, k, &FlowOptions::default()).unwrap();
-            let f9k = flow_expansion_on_mesh(&p, dt, 9, k, &FlowOptions::default()).unwrap();
-            let n = fk.table.len();
-            for i in 0..4 {
-                let own = degree_diff(fk.table, &fk.outputs[i], &f9.outputs[i][..n]);
-                let same = degree_diff(fk.table, &fk.outputs[i], &f9k.outputs[i][..n]);
-                let bits = fk.outputs[i].iter().zip(&f9k.outputs[i][..n]).filter(|(a, b)| a != b).count();
-                eprintln!("dt {dt} k {k} x{i}: own mesh {:?}\n   same mesh {:?} ({bits} differ)", own.iter().map(|v| format!("{v:.1e}")).collect::<Vec<_>>(), same.iter().map(|v| format!("{v:.1e}")).collect::<Vec<_>>());
-            }
+            let direct = period_map(&p, &cfg, k, &FlowOptions::default()).unwrap();
+            let cut = pm9.truncated(k).unwrap();
+            assert_eq!((cut.order, cut.flow.order, cut.flow.steps), (k, k, direct.flow.steps));
+            assert!(core::ptr::eq(cut.flow.table, direct.flow.table));
+            assert_eq!(cut.flow.outputs, direct.flow.outputs, "dt {dt} order {k}: flow");
+            assert_eq!((&cut.exps, &cut.coef), (&direct.exps, &direct.coef), "dt {dt} order {k}: map");
+            assert_eq!(cut.linear, direct.linear);
+            assert_eq!(cut.proj, direct.proj);
         }
+        assert!(matches!(pm9.truncated(7).unwrap().truncated(9), Err(TaylorError::Order { order: 9, .. })));
     }
 }
 
