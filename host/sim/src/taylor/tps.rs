@@ -273,7 +273,7 @@ impl Tps {
     }
 
     /// `self * o` without copying either operand (a `Tps` is 5.7 kB): [`Mul`]'s product,
-    /// bit for bit (the same [`mul_flat`], `self` the row operand).
+    /// bit for bit (the same `mul_flat`, `self` the row operand).
     pub fn mul_ref(&self, o: &Tps) -> Tps {
         match (self.t, o.t) {
             (None, _) => o.scaled(self.c[0]),
