@@ -96,6 +96,30 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             );
         }
     }
+    if what == "report" {
+        // The full report's expansions and SSMs of global/equation and global/equation-map
+        // (nodes 30.5..32.5 by 0.25 ms; the order-9 diagnostics first, then the order-5 and
+        // -7 models, then the reduced-map families): time the process with /usr/bin/time.
+        use furuta::equation_map::{EquationMapFamily, MapStyle};
+        use rayon::prelude::*;
+        let nodes: Vec<f64> = (0..=8).map(|k| 30.5 + 0.25 * k as f64).collect();
+        let t0 = Instant::now();
+        let diag = nodes.par_iter().map(|&dt| furuta_equation_ssm(dt, 9)).collect::<Result<Vec<_>, _>>()?;
+        let t1 = Instant::now();
+        let models = [5u32, 7].par_iter().map(|&o| EquationModel::furuta(&nodes, o)).collect::<Result<Vec<_>, _>>()?;
+        let t2 = Instant::now();
+        let jobs = [(5u32, MapStyle::Graph), (7, MapStyle::Graph), (9, MapStyle::Graph), (7, MapStyle::NormalForm)];
+        let fams = jobs.par_iter().map(|&(o, st)| EquationMapFamily::furuta_styled(&nodes, o, st)).collect::<Result<Vec<_>, _>>()?;
+        eprintln!(
+            "report: diag (order 9) {:.2} s, models 5/7 {:.2} s, map families {:.2} s wall; {} + {} + {} results",
+            (t1 - t0).as_secs_f64(),
+            (t2 - t1).as_secs_f64(),
+            t2.elapsed().as_secs_f64(),
+            diag.len(),
+            models.len(),
+            fams.len()
+        );
+    }
     if what == "models" {
         for dt in [31.3, 31.4] {
             let t0 = Instant::now();

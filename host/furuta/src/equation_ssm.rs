@@ -24,7 +24,7 @@ use sim::closed_loop::{AnyPlant, build_plant};
 use sim::plant::Plant;
 use sim::scene::Scene;
 use sim::stability::dominant_pairs;
-use sim::taylor::{FlowOptions, PeriodMap, TaylorError, period_map};
+use sim::taylor::{FlowOptions, MESH_ORDER, PeriodMap, TaylorError, period_map};
 use ssm::map_ssm::{Amplitude, InvarianceError, MapSsm, MapSsmOptions, OrderStats, PolynomialMap, map_ssm};
 use ssm::interp::{Interp, interp_weights};
 use ssm::normal_form::{ExtraResonance, NormalFormTable, PolarNormalForm};
@@ -145,25 +145,40 @@ fn furuta_scene(dt_ms: f64) -> Result<Scene, Error> {
 
 /// [`scene_map_ssm`] of the paper's loop at `dt_ms`, the period map's expansion computed once
 /// per `(dt_ms, order)` in the process (bit-identical: the same deterministic computation;
-/// [`MAX_CACHED_MAPS`] at most, further ones computed each time). The expansion's wall time
+/// [`MAX_CACHED_MAPS`] at most, further ones computed each time), or truncated from a higher
+/// order's at the same `dt_ms` asked for earlier (both at most `sim::taylor::MESH_ORDER`:
+/// bit for bit the direct expansion, [`PeriodMap::truncated`]). The expansion's wall time
 /// is this call's: near zero when the map came from the cache.
 fn furuta_map_ssm(dt_ms: f64, order: u32, amplitude: Amplitude) -> Result<(Scene, Arc<PeriodMap>, PolynomialMap, MapSsm, f64, f64), Error> {
     furuta_map_ssm_tol(dt_ms, order, amplitude, RESONANCE_TOL)
 }
 
-/// [`furuta_map_ssm`] keeping in the reduced map every non-structural term whose divisor is
-/// below `resonance_tol` (`f64::MAX`: all of them, the graph-style parametrization).
-fn furuta_map_ssm_tol(dt_ms: f64, order: u32, amplitude: Amplitude, resonance_tol: f64) -> Result<(Scene, Arc<PeriodMap>, PolynomialMap, MapSsm, f64, f64), Error> {
+/// The period map of the paper's loop at `dt_ms` (the `furuta-dt30.5` scene at that period)
+/// to `order` (3..=9), from the per-process cache of [`furuta_equation_ssm`]: asking for the
+/// highest order first at a dt lets the lower orders there be its truncations (the report
+/// does, before its equation-driven sections).
+pub fn furuta_period_map(dt_ms: f64, order: u32) -> Result<Arc<PeriodMap>, Error> {
     check_order(order)?;
-    let scene = furuta_scene(dt_ms)?;
+    cached_period_map(&furuta_scene(dt_ms)?, dt_ms, order)
+}
+
+/// [`furuta_period_map`] for `scene`, the paper's loop at `dt_ms`.
+fn cached_period_map(scene: &Scene, dt_ms: f64, order: u32) -> Result<Arc<PeriodMap>, Error> {
     static MAPS: OnceLock<Mutex<Vec<((u64, u32), MapSlot)>>> = OnceLock::new();
     let key = (dt_ms.to_bits(), order);
-    let slot = {
+    let (slot, higher) = {
         let mut maps = match MAPS.get_or_init(|| Mutex::new(Vec::new())).lock() {
             Ok(g) => g,
             Err(poisoned) => poisoned.into_inner(),
         };
-        match maps.iter().find(|(k, _)| *k == key) {
+        // A higher order's expansion at this dt (the highest asked for so far), truncated:
+        // the same coefficients bit for bit while both orders are at most MESH_ORDER.
+        let higher: Option<(u32, MapSlot)> = maps
+            .iter()
+            .filter(|((d, o), _)| *d == key.0 && *o > order && *o <= MESH_ORDER)
+            .max_by_key(|((_, o), _)| *o)
+            .map(|((_, o), s)| (*o, s.clone()));
+        let slot = match maps.iter().find(|(k, _)| *k == key) {
             Some((_, slot)) => Some(slot.clone()),
             None if maps.len() < MAX_CACHED_MAPS => {
                 let slot = MapSlot::default();
@@ -171,14 +186,35 @@ fn furuta_map_ssm_tol(dt_ms: f64, order: u32, amplitude: Amplitude, resonance_to
                 Some(slot)
             }
             None => None,
+        };
+        (slot, higher)
+    };
+    let expand = || -> Option<Arc<PeriodMap>> {
+        // The higher order's slot is being filled by its caller, or was: wait for it (or
+        // fill it) and truncate; if it failed, expand this order.
+        if let Some((o, h)) = &higher {
+            let cut = h.get_or_init(|| scene_period_map(scene, *o, &FlowOptions::default()).ok().map(Arc::new)).as_ref().and_then(|p| p.truncated(order).ok());
+            if let Some(pm) = cut {
+                return Some(Arc::new(pm));
+            }
         }
+        scene_period_map(scene, order, &FlowOptions::default()).ok().map(Arc::new)
     };
-    let t0 = Instant::now();
     // A failed expansion is cached as `None` and recomputed here, for its error.
-    let pm = match slot.as_ref().and_then(|s| s.get_or_init(|| scene_period_map(&scene, order, &FlowOptions::default()).ok().map(Arc::new)).clone()) {
+    let pm = match slot.as_ref().and_then(|s| s.get_or_init(expand).clone()) {
         Some(pm) => pm,
-        None => Arc::new(scene_period_map(&scene, order, &FlowOptions::default())?),
+        None => Arc::new(scene_period_map(scene, order, &FlowOptions::default())?),
     };
+    Ok(pm)
+}
+
+/// [`furuta_map_ssm`] keeping in the reduced map every non-structural term whose divisor is
+/// below `resonance_tol` (`f64::MAX`: all of them, the graph-style parametrization).
+fn furuta_map_ssm_tol(dt_ms: f64, order: u32, amplitude: Amplitude, resonance_tol: f64) -> Result<(Scene, Arc<PeriodMap>, PolynomialMap, MapSsm, f64, f64), Error> {
+    check_order(order)?;
+    let scene = furuta_scene(dt_ms)?;
+    let t0 = Instant::now();
+    let pm = cached_period_map(&scene, dt_ms, order)?;
     let (pm, map, s, e, t) = map_ssm_of(pm, order, amplitude, resonance_tol, t0.elapsed().as_secs_f64())?;
     Ok((scene, pm, map, s, e, t))
 }

@@ -22,6 +22,28 @@ pub trait Scalar:
     fn re(self) -> f64;
     /// `(sin x, cos x)`.
     fn sin_cos(self) -> (Self, Self);
+    /// `self * o` by reference: `*`'s value bit for bit. A large scalar (a truncated power
+    /// series, [`crate::taylor::Tps`], 5.7 kB) overrides these four so its operands are
+    /// not copied; for `f64` they are the operators.
+    #[inline(always)]
+    fn mul_ref(&self, o: &Self) -> Self {
+        *self * *o
+    }
+    /// `self + o` by reference (`+`'s value).
+    #[inline(always)]
+    fn add_ref(&self, o: &Self) -> Self {
+        *self + *o
+    }
+    /// `self - o` by reference (`-`'s value).
+    #[inline(always)]
+    fn sub_ref(&self, o: &Self) -> Self {
+        *self - *o
+    }
+    /// `self * f` by reference (`*`'s value).
+    #[inline(always)]
+    fn scaled(&self, f: f64) -> Self {
+        *self * f
+    }
 }
 
 impl Scalar for f64 {

@@ -15,7 +15,8 @@
 //! Classical RK4 on a graded mesh: the input jump at the period start excites the fast
 //! mode, whose transient `e^{lambda t}` forces every higher-degree coefficient, the
 //! degree-`K` ones through products decaying like `e^{K lambda t}` (K times stiffer). The
-//! step starts at `h K |lambda| = 0.05` and grows like `e^{|lambda| t / 5}` (the transient's
+//! step starts at `h K |lambda| = 0.05` (`K` the order, at least [`MESH_ORDER`]: the
+//! coefficients of a degree do not depend on the order the series is truncated at) and grows like `e^{|lambda| t / 5}` (the transient's
 //! local error `e^{lambda t} (h K lambda)^5` stays level) up to `h |lambda| = 0.5` (RK4 is
 //! stable up to 2.78, but the slaved fast components of the high degrees need the smaller
 //! step: 1.5 left 1e-4 relative errors in degree 7; the stability bound holds for every degree
@@ -43,8 +44,13 @@ use crate::plant::{Plant, Scalar, linearize};
 
 pub use tps::{TPS_CAPACITY, Tps, TpsTable, monomial_count};
 
-/// Step size at the period start, times the linearization's spectral radius and the order.
+/// Step size at the period start, times the linearization's spectral radius and the order
+/// (at least [`MESH_ORDER`]).
 pub const FIRST_STEP: f64 = 0.05;
+/// Every order up to this one is integrated on this order's mesh, so an expansion to a
+/// lower order is the truncation of this order's, bit for bit ([`FlowExpansion::truncated`]):
+/// the report's orders 5, 7 and 9 share one expansion.
+pub const MESH_ORDER: u32 = 9;
 /// Largest step, times the linearization's spectral radius (RK4 is stable below 2.78;
 /// accuracy of the slaved fast components asks for less).
 pub const MAX_STEP: f64 = 0.5;
@@ -118,6 +124,20 @@ impl FlowExpansion {
     /// Number of variables (plant states but the secondary, then `u`).
     pub fn nvar(&self) -> usize {
         self.table.nvar()
+    }
+
+    /// The expansion to `order` (at most its own): the coefficients of degree <= `order`,
+    /// a prefix in the graded order. Bit for bit [`flow_expansion`] to `order` when both
+    /// orders are at most [`MESH_ORDER`] (the same mesh, and a truncated product's
+    /// coefficients are the same sums in the same order at any truncation).
+    pub fn truncated(&self, order: u32) -> Result<FlowExpansion, TaylorError> {
+        let nvar = self.nvar();
+        if order > self.order {
+            return Err(TaylorError::Order { order, nvar });
+        }
+        let table = TpsTable::get(nvar, order).ok_or(TaylorError::Order { order, nvar })?;
+        let n = table.len();
+        Ok(FlowExpansion { order, table, outputs: self.outputs.iter().map(|c| c[..n].to_vec()).collect(), ..self.clone() })
     }
 
     /// Evaluates the expansion at the variables `v` (states but the secondary, then `u`).
@@ -203,16 +223,28 @@ pub fn flow_expansion<P: Plant<N>, const N: usize>(
     let (a, _) = linearize(plant);
     let am = DMatrix::from_fn(N, N, |i, j| a[(i, j)]);
     let stiff_rate = eigenvalues(&am)?.iter().map(|z| z.norm()).fold(0.0, f64::max);
-    let steps = mesh(dt, stiff_rate, order, opts.refine);
+    let steps = mesh(dt, stiff_rate, order.max(MESH_ORDER), opts.refine);
+    // Classical RK4, the stages and the update in place (a `Tps` is 5.7 kB: no copies of
+    // the operands), with the roundings of `x + k * (h / 2)` and
+    // `x + (k1 + (k2 + k3) * 2 + k4) * (h / 6)`.
+    let mut xs = x;
     for &h in &steps {
         let k1 = plant.rhs(&x, u);
-        let x2: [Tps; N] = core::array::from_fn(|i| x[i] + k1[i] * (0.5 * h));
-        let k2 = plant.rhs(&x2, u);
-        let x3: [Tps; N] = core::array::from_fn(|i| x[i] + k2[i] * (0.5 * h));
-        let k3 = plant.rhs(&x3, u);
-        let x4: [Tps; N] = core::array::from_fn(|i| x[i] + k3[i] * h);
-        let k4 = plant.rhs(&x4, u);
-        x = core::array::from_fn(|i| x[i] + (k1[i] + (k2[i] + k3[i]) * 2.0 + k4[i]) * (h / 6.0));
+        for ((s, xi), k) in xs.iter_mut().zip(&x).zip(&k1) {
+            s.assign_axpy(xi, k, 0.5 * h);
+        }
+        let k2 = plant.rhs(&xs, u);
+        for ((s, xi), k) in xs.iter_mut().zip(&x).zip(&k2) {
+            s.assign_axpy(xi, k, 0.5 * h);
+        }
+        let k3 = plant.rhs(&xs, u);
+        for ((s, xi), k) in xs.iter_mut().zip(&x).zip(&k3) {
+            s.assign_axpy(xi, k, h);
+        }
+        let k4 = plant.rhs(&xs, u);
+        for (i, xi) in x.iter_mut().enumerate() {
+            xi.rk4_update([&k1[i], &k2[i], &k3[i], &k4[i]], h / 6.0);
+        }
     }
     let outputs: Vec<Vec<f64>> = x.iter().map(|j| j.coefficients().to_vec()).collect();
     for (component, c) in outputs.iter().enumerate() {
@@ -372,6 +404,21 @@ pub fn period_map<P: Plant<N>, const N: usize>(
 }
 
 impl PeriodMap {
+    /// The map to `order` (at most its own): the nonlinear monomials of degree <= `order`
+    /// (a prefix of [`PeriodMap::exps`]) and the truncated flow; bit for bit [`period_map`]
+    /// to `order` when both orders are at most [`MESH_ORDER`].
+    pub fn truncated(&self, order: u32) -> Result<PeriodMap, TaylorError> {
+        let flow = self.flow.truncated(order)?;
+        let keep = flow.table.len() - flow.table.degree_range(2).start;
+        Ok(PeriodMap {
+            order,
+            exps: self.exps[..keep].to_vec(),
+            coef: self.coef.iter().map(|row| row[..keep].to_vec()).collect(),
+            flow,
+            ..self.clone()
+        })
+    }
+
     /// Dimension of the state.
     pub fn dim(&self) -> usize {
         self.linear.nrows()

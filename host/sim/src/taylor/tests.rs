@@ -191,3 +191,57 @@ fn bad_inputs_are_named() {
     let c = Cart::reference();
     assert!(flow_expansion(&c, 0.02, 3, &FlowOptions::default()).is_ok());
 }
+
+/// The order-9 expansion truncated to orders 5 and 7 is the direct expansion to that order
+/// (the same mesh, [`MESH_ORDER`]), `==` on every coefficient, flow and period map, at two
+/// dts; a truncation above the own order is refused.
+#[test]
+fn truncated_order_nine_is_the_lower_order_expansion() {
+    let p = Furuta::paper();
+    for dt in [0.031, 0.0325] {
+        let cfg = paper_cfg(dt);
+        let pm9 = period_map(&p, &cfg, 9, &FlowOptions::default()).unwrap();
+        for k in [5u32, 7] {
+            let direct = period_map(&p, &cfg, k, &FlowOptions::default()).unwrap();
+            let cut = pm9.truncated(k).unwrap();
+            assert_eq!((cut.order, cut.flow.order, cut.flow.steps), (k, k, direct.flow.steps));
+            assert!(core::ptr::eq(cut.flow.table, direct.flow.table));
+            assert_eq!(cut.flow.outputs, direct.flow.outputs, "dt {dt} order {k}: flow");
+            assert_eq!((&cut.exps, &cut.coef), (&direct.exps, &direct.coef), "dt {dt} order {k}: map");
+            assert_eq!(cut.linear, direct.linear);
+            assert_eq!(cut.proj, direct.proj);
+        }
+        assert!(matches!(pm9.truncated(7).unwrap().truncated(9), Err(TaylorError::Order { order: 9, .. })));
+    }
+}
+
+/// The expansion's RK4 (stages and update in place, the right-hand side by reference)
+/// against the former by-value loop on the same mesh, bit for bit (`==` on every
+/// coefficient), at order 5, dt = 31 ms.
+#[test]
+fn in_place_rk4_is_the_by_value_loop() {
+    let p = Furuta::paper();
+    let (dt, order) = (0.031, 5);
+    let f = flow_expansion(&p, dt, order, &FlowOptions::default()).unwrap();
+    let table = f.table;
+    let mut x: [Tps; 4] = core::array::from_fn(|_| Tps::constant(table, 0.0));
+    for (k, &i) in f.state_of_var.iter().enumerate() {
+        x[i] = Tps::var(table, k, 0.0);
+    }
+    let u = Tps::var(table, 3, 0.0);
+    let steps = mesh(dt, f.stiff_rate, order.max(MESH_ORDER), FlowOptions::default().refine);
+    assert_eq!(steps.len(), f.steps);
+    for &h in &steps {
+        let k1 = p.rhs(&x, u);
+        let x2: [Tps; 4] = core::array::from_fn(|i| x[i] + k1[i] * (0.5 * h));
+        let k2 = p.rhs(&x2, u);
+        let x3: [Tps; 4] = core::array::from_fn(|i| x[i] + k2[i] * (0.5 * h));
+        let k3 = p.rhs(&x3, u);
+        let x4: [Tps; 4] = core::array::from_fn(|i| x[i] + k3[i] * h);
+        let k4 = p.rhs(&x4, u);
+        x = core::array::from_fn(|i| x[i] + (k1[i] + (k2[i] + k3[i]) * 2.0 + k4[i]) * (h / 6.0));
+    }
+    for (i, xi) in x.iter().enumerate() {
+        assert!(xi.coefficients() == f.outputs[i].as_slice(), "component {i}");
+    }
+}

@@ -11,7 +11,9 @@ use crate::report::{Report, num, par_map};
 use crate::report::tasks::task;
 use furuta::basin::{Agreement, BasinOptions, FullBasin, ModelBasin, ModelFate, TorusContinuation, agreement, full_basin, model_basin, torus_continuation_with};
 use furuta::bifurcations::{ModelBifurcations, RHO_MAX};
-use furuta::equation_ssm::{EquationBifurcations, EquationModel, EquationSsm, INVARIANCE_RADII, equation_bifurcations, furuta_equation_polar, furuta_equation_polar_with, furuta_equation_ssm};
+use furuta::equation_ssm::{
+    EquationBifurcations, EquationModel, EquationSsm, INVARIANCE_RADII, equation_bifurcations, furuta_equation_polar, furuta_equation_polar_with, furuta_equation_ssm, furuta_period_map,
+};
 use ssm::map_ssm::Amplitude;
 use furuta::bifurcations::MapSwitch;
 use furuta::equation_map::{EquationMapFamily, EquationMapGlobal, MapStyle, equation_map_global, equation_map_switch};
@@ -106,7 +108,14 @@ fn model_at(m: &SharedParametricModel, interp: Interp) -> impl Fn(f64) -> Result
 fn compute(pm: &ParametricModel, sm: &SharedParametricModel, runs: &TrainingRuns, quick: bool) -> Result<Computed, Box<dyn Error + Send + Sync>> {
     let (nodes, orders, diag_dts, diag_order, bopts, torus_dts, torus_periods) = settings(quick);
     let popts = PortraitOptions { rho_max: RHO_MAX, ..PortraitOptions::default() };
+    // The highest order asked for at each dt, expanded first (global/equation and
+    // global/equation-map share furuta::equation_ssm's cache): the lower orders at that dt are
+    // its truncations, bit for bit the direct expansions.
+    let top_order = orders.iter().copied().chain([EQUATION_ORDER]).max().unwrap_or(EQUATION_ORDER);
+    let highest: Vec<(f64, u32)> = nodes.iter().map(|&dt| (dt, if diag_dts.contains(&dt) { top_order.max(diag_order) } else { top_order })).collect();
+    let expand_highest = || par_map(&highest, |&(dt, order)| furuta_period_map(dt, order).map(drop));
     let equation = || -> Result<(Vec<EquationSsm>, Vec<EquationBifurcations>, Vec<(f64, PolarNormalForm)>), furuta::Error> {
+        expand_highest()?;
         let (diag, models) = rayon::join(
             || par_map(&diag_dts, |&dt| furuta_equation_ssm(dt, diag_order)),
             || {
@@ -199,6 +208,7 @@ fn compute(pm: &ParametricModel, sm: &SharedParametricModel, runs: &TrainingRuns
         // The table order's graph map also gets the small-start switch (the fitted map's range,
         // starts, horizon and escape rule).
         type Job = (EquationMapGlobal, Option<(Result<MapSwitch, String>, f64)>);
+        expand_highest()?;
         let out = par_map(&jobs, |&(order, style)| -> Result<Job, furuta::Error> {
             let fam = EquationMapFamily::furuta_styled(&nodes, order, style)?;
             let switch = || {
