@@ -1638,7 +1638,7 @@ mod tests {
             st = st.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
             ((st >> 11) as f64) / ((1u64 << 53) as f64) - 0.5
         };
-        let cond = crate::backbone::tests::cond();
+        let cond = Conditioning { rows: 0, cols: 0, s_max: 1.0, s_min: 1.0, cond: 1.0, alpha: 0.0, cond_regularized: 1.0, rel_residual: 0.0 };
         let mut poly = |d: usize, order: u32, gain: f64| {
             let exps = poly::exponents(d, 1, order);
             let coef: Vec<f64> = (0..exps.len() * d).map(|k| if k < d * d { -0.02 * r() } else { gain * r() }).collect();
