@@ -1633,11 +1633,7 @@ mod tests {
     /// an RBF map (stepped the plain way), with one scratch per path.
     #[test]
     fn prepared_step_is_the_same_bits() {
-        let mut st = 5u64;
-        let mut r = || {
-            st = st.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
-            ((st >> 11) as f64) / ((1u64 << 53) as f64) - 0.5
-        };
+        let mut r = crate::testing::lcg_centered(5);
         let cond = Conditioning { rows: 0, cols: 0, s_max: 1.0, s_min: 1.0, cond: 1.0, alpha: 0.0, cond_regularized: 1.0, rel_residual: 0.0 };
         let mut poly = |d: usize, order: u32, gain: f64| {
             let exps = poly::exponents(d, 1, order);

@@ -400,11 +400,7 @@ mod tests {
     /// orders and a single degree block.
     #[test]
     fn design_matrix_equals_the_row_by_row_monomials() {
-        let mut st = 9u64;
-        let mut r = || {
-            st = st.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
-            ((st >> 11) as f64) / ((1u64 << 53) as f64) - 0.5
-        };
+        let mut r = crate::testing::lcg_centered(9);
         for (d, lo, hi, n) in [(4usize, 1u32, 7u32, 257usize), (4, 4, 7, 100), (2, 1, 3, 31), (3, 2, 2, 10)] {
             let eta = Mat::from_fn(n, d, |_, _| r());
             let scale: Vec<f64> = (0..d).map(|_| 0.3 + r().abs()).collect();

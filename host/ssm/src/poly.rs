@@ -403,11 +403,7 @@ mod tests {
     /// scratch reused across polynomials of other degrees; out of range: NaN.
     #[test]
     fn one_output_is_the_same_bits() {
-        let mut st = 3u64;
-        let mut r = || {
-            st = st.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
-            ((st >> 11) as f64) / ((1u64 << 53) as f64) - 0.5
-        };
+        let mut r = crate::testing::lcg_centered(3);
         let mut sc = PolyScratch::default();
         for (d, max, q) in [(4usize, 7u32, 4usize), (4, 3, 21), (2, 5, 3)] {
             let exps = exponents(d, 1, max);
@@ -433,11 +429,7 @@ mod tests {
     /// general sum). A scratch is shared with the plain path, as a caller may.
     #[test]
     fn prepared_is_the_same_bits() {
-        let mut st = 11u64;
-        let mut r = || {
-            st = st.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
-            ((st >> 11) as f64) / ((1u64 << 53) as f64) - 0.5
-        };
+        let mut r = crate::testing::lcg_centered(11);
         let mut shuffled = exponents(3, 1, 4);
         shuffled.reverse();
         shuffled.swap(2, 17);

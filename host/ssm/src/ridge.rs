@@ -558,11 +558,7 @@ mod tests {
     /// ridge; so does `fit_owned` against `fit`.
     #[test]
     fn factored_solve_is_bit_identical_to_thin_svd() {
-        let mut st = 7u64;
-        let mut r = || {
-            st = st.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
-            ((st >> 11) as f64) / ((1u64 << 53) as f64) - 0.5
-        };
+        let mut r = crate::testing::lcg_centered(7);
         for (m, n, q) in [(400, 30, 3), (3000, 35, 21), (4000, 200, 4), (2500, 330, 4)] {
             let a = Mat::from_fn(m, n, |_, _| r());
             let b = Mat::from_fn(m, q, |_, _| r());
@@ -594,11 +590,7 @@ mod tests {
             assert!(blocks.windows(2).all(|w| w[0].end == w[1].start && w[0].len() == U_BLOCK), "{n}: {blocks:?}");
             assert!(blocks.iter().all(|r| r.len() > 48 && r.len() <= U_BLOCK + U_BLOCK / 2), "{n}: {blocks:?}");
         }
-        let mut st = 11u64;
-        let mut r = || {
-            st = st.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
-            ((st >> 11) as f64) / ((1u64 << 53) as f64) - 0.5
-        };
+        let mut r = crate::testing::lcg_centered(11);
         for (m, n, q) in [(2600, 241, 4), (2000, 290, 4), (3000, 505, 6), (1200, 193, 1)] {
             let a = Mat::from_fn(m, n, |_, _| r());
             let b = Mat::from_fn(m, q, |_, _| r());
@@ -626,11 +618,7 @@ mod tests {
     /// QR-first SVD: `solve_owned` itself; bad right-hand side refused.
     #[test]
     fn qtb_solve_matches_the_u_solve_to_rounding() {
-        let mut st = 5u64;
-        let mut r = || {
-            st = st.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
-            ((st >> 11) as f64) / ((1u64 << 53) as f64) - 0.5
-        };
+        let mut r = crate::testing::lcg_centered(5);
         for (m, n, q, graded) in [(2600, 241, 4, false), (4000, 120, 3, false), (3000, 200, 4, true), (60, 40, 2, false)] {
             // graded: column j scaled by 10^(-6 j / n), condition number ~1e6.
             let a = Mat::from_fn(m, n, |_, j| r() * if graded { 10f64.powf(-6.0 * j as f64 / n as f64) } else { 1.0 });

@@ -59,3 +59,13 @@ mod tests {
         }
     }
 }
+
+/// A second generator for the tests that were written with it: a 64-bit LCG (Knuth's MMIX
+/// constants), its top 53 bits as a uniform value in [-0.5, 0.5), from `seed`.
+pub fn lcg_centered(seed: u64) -> impl FnMut() -> f64 {
+    let mut st = seed;
+    move || {
+        st = st.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+        ((st >> 11) as f64) / ((1u64 << 53) as f64) - 0.5
+    }
+}
