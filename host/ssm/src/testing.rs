@@ -1,5 +1,5 @@
-//! Test support: one small deterministic random generator for the tests of this crate and of
-//! the crates above it (xorshift64, shifts 13, 7, 17). Reproducible inputs for known-answer
+//! Test support: small deterministic random generators for the tests of this crate and of
+//! the crates above it (xorshift64, shifts 13, 7, 17; and an LCG, [`lcg_centered`]). Reproducible inputs for known-answer
 //! and bit-for-bit tests, no statistical quality claimed; library code draws its noise
 //! elsewhere.
 
