@@ -25,7 +25,7 @@ use crate::Error;
 use crate::flag_pipeline::PipelineRow;
 use crate::flag_pipeline_fit::{FlagRow, variant};
 use crate::microchaos::reduce_series;
-use crate::model_selection::{Candidate, DataStats, EvalSettings, Targets, data_stats, phase_subsamples, subsample};
+use crate::model_selection::{Candidate, DataStats, EvalSettings, Targets, best_of, data_stats, phase_subsamples, score_of, subsample};
 
 /// Map step of the flag's candidates, in samples.
 pub const STEP: usize = 4;
@@ -238,13 +238,7 @@ pub fn row_score(r: &PipelineRow) -> f64 {
     if r.failed.is_some() {
         return f64::INFINITY;
     }
-    let t = Targets::default();
-    let l = r.data_rosenstein.abs();
-    let e = |v: Option<f64>, x: f64, tol: f64| v.map_or(f64::INFINITY, |v| (v - x).abs() / tol);
-    e(r.benettin, r.data_rosenstein, t.benettin_rel * l)
-        + e(r.rosenstein, r.data_rosenstein, t.rosenstein_rel * l)
-        + e(r.corr_dim, r.data_corr_dim, r.data_corr_dim_err.max(1e-12))
-        + r.js.map_or(f64::INFINITY, |j| j / t.js_max)
+    score_of([r.benettin, r.rosenstein, r.corr_dim, r.js], (r.data_rosenstein, r.data_corr_dim, r.data_corr_dim_err), &Targets::default())
 }
 
 /// Rows of committed `rows` against the data `data`.
@@ -260,17 +254,7 @@ pub fn rows_against(rows: &[FlagRow], data: DataRef) -> Vec<PipelineRow> {
 /// The pick among `rows` by [`crate::model_selection::select`]'s rule: most targets met,
 /// ties by the smallest [`row_score`]; failed rows are never picked. Index into `rows`.
 pub fn pick(rows: &[PipelineRow]) -> Option<usize> {
-    let mut best: Option<(usize, usize, f64)> = None;
-    for (i, r) in rows.iter().enumerate() {
-        if r.failed.is_some() {
-            continue;
-        }
-        let (n, sc) = (r.passes.iter().filter(|&&p| p).count(), row_score(r));
-        if best.is_none_or(|(_, bn, bs)| n > bn || (n == bn && sc < bs)) {
-            best = Some((i, n, sc));
-        }
-    }
-    best.map(|b| b.0)
+    best_of(rows.iter().map(|r| (r.failed.is_some(), r.passes.iter().filter(|&&p| p).count(), row_score(r)))).map(|b| b.0)
 }
 
 /// The validation run traj_3 at step 4 with its own settings (lag 12, Theiler window 38, as

@@ -181,13 +181,31 @@ impl CandidateResult {
         if self.failed.is_some() {
             return f64::INFINITY;
         }
-        let l = self.data.lle.abs();
-        let e = |v: Option<f64>, r: f64, tol: f64| v.map_or(f64::INFINITY, |v| (v - r).abs() / tol);
-        e(self.benettin, self.data.lle, t.benettin_rel * l)
-            + e(self.rosenstein, self.data.lle, t.rosenstein_rel * l)
-            + e(self.corr_dim, self.data.corr_dim, self.data.corr_dim_err.max(1e-12))
-            + self.js.map_or(f64::INFINITY, |j| j / t.js_max)
+        score_of([self.benettin, self.rosenstein, self.corr_dim, self.js], (self.data.lle, self.data.corr_dim, self.data.corr_dim_err), t)
     }
+}
+
+/// [`CandidateResult::score`] of measured `(Benettin, Rosenstein, D2, JS)` against the data's
+/// `(Rosenstein exponent, D2, D2 error bar)`: each error over its tolerance, summed; infinite
+/// when a value is missing.
+pub fn score_of(m: [Option<f64>; 4], data: (f64, f64, f64), t: &Targets) -> f64 {
+    let [benettin, rosenstein, corr_dim, js] = m;
+    let (lle, d2, d2_err) = data;
+    let l = lle.abs();
+    let e = |v: Option<f64>, r: f64, tol: f64| v.map_or(f64::INFINITY, |v| (v - r).abs() / tol);
+    e(benettin, lle, t.benettin_rel * l) + e(rosenstein, lle, t.rosenstein_rel * l) + e(corr_dim, d2, d2_err.max(1e-12)) + js.map_or(f64::INFINITY, |j| j / t.js_max)
+}
+
+/// The best of rows given as (failed, targets met, score): most targets met, ties by the
+/// smallest score, the first of equals; failed rows are never picked. (index, met, score).
+pub fn best_of(rows: impl IntoIterator<Item = (bool, usize, f64)>) -> Option<(usize, usize, f64)> {
+    let mut best: Option<(usize, usize, f64)> = None;
+    for (i, (failed, n, sc)) in rows.into_iter().enumerate() {
+        if !failed && best.is_none_or(|(_, bn, bs)| n > bn || (n == bn && sc < bs)) {
+            best = Some((i, n, sc));
+        }
+    }
+    best
 }
 
 /// Every `k`-th sample of `ts` from sample `offset`.
@@ -627,21 +645,7 @@ pub struct Selection {
 /// when their Rosenstein exponent is positive and larger than `chaos_margin` (1/s); a pick
 /// counts as chaotic when its Benettin exponent exceeds twice its block error.
 pub fn select(results: &[CandidateResult], t: &Targets, chaos_margin: f64) -> Selection {
-    let mut best: Option<(usize, usize, f64)> = None;
-    for (i, r) in results.iter().enumerate() {
-        if r.failed.is_some() {
-            continue;
-        }
-        let n = r.passes(t).iter().filter(|p| **p).count();
-        let sc = r.score(t);
-        let better = match best {
-            None => true,
-            Some((_, bn, bs)) => n > bn || (n == bn && sc < bs),
-        };
-        if better {
-            best = Some((i, n, sc));
-        }
-    }
+    let best = best_of(results.iter().map(|r| (r.failed.is_some(), r.passes(t).iter().filter(|p| **p).count(), r.score(t))));
     let failed = results.iter().filter(|r| r.failed.is_some()).count();
     let Some((i, n, sc)) = best else {
         return Selection {
