@@ -258,7 +258,8 @@ pub fn fit_line(x: &[f64], y: &[f64]) -> Result<LineFit> {
     Ok(LineFit { slope, intercept, slope_stderr })
 }
 
-pub(crate) fn mean_std(v: &[f64]) -> (f64, f64) {
+/// Mean and sample standard deviation (over `n - 1`; 0 for one value) of `v`.
+pub fn mean_std(v: &[f64]) -> (f64, f64) {
     let n = v.len() as f64;
     let m = v.iter().sum::<f64>() / n;
     let var = if v.len() > 1 { v.iter().map(|x| (x - m) * (x - m)).sum::<f64>() / (n - 1.0) } else { 0.0 };

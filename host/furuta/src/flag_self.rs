@@ -178,11 +178,7 @@ pub fn self_counts(rows: &[&SelfRow], data: (f64, f64, f64)) -> (usize, usize, u
 
 /// Mean and sample sd of `v` (`None` with fewer than two values).
 pub fn mean_sd(v: &[f64]) -> Option<(f64, f64)> {
-    if v.len() < 2 {
-        return None;
-    }
-    let m = v.iter().sum::<f64>() / v.len() as f64;
-    Some((m, (v.iter().map(|x| (x - m) * (x - m)).sum::<f64>() / (v.len() - 1) as f64).sqrt()))
+    (v.len() >= 2).then(|| chaos::mean_std(v))
 }
 
 /// Where `x` falls among the values `v`: (share of `v` below `x`, ties counting half; the
