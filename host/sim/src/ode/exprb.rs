@@ -59,15 +59,53 @@ const INV_FACT: [f64; DEG + 5] = {
     t
 };
 
-/// All `phi_k(a)`, `k = 0..=4`, of a matrix `a`, plus `phi1(a/2)`. `None` if `a` is not
-/// finite or too large to scale.
-pub(crate) fn phis_of<const N: usize>(a: &M<N>) -> Option<(M<N>, [M<N>; 5])> {
-    if a.iter().any(|v| !v.is_finite()) {
+/// A matrix as its columns (nalgebra's storage order): `m[j][i]` is row `i`, column `j`.
+type Cols<const N: usize> = [[f64; N]; N];
+
+/// `a * b` with nalgebra's operations in nalgebra's order (its `gemm` for fixed sizes: column
+/// `j` of the product is `a[:,0] b[0,j]`, then `a[:,k] b[k,j] + (sum so far)` for `k = 1..N`),
+/// so bit for bit nalgebra's product, inlined, with no zero fill or dispatch.
+#[inline(always)]
+fn mm<const N: usize>(a: &Cols<N>, b: &Cols<N>) -> Cols<N> {
+    core::array::from_fn(|j| {
+        let bj = &b[j];
+        let mut y: [f64; N] = core::array::from_fn(|i| a[0][i] * bj[0]);
+        for k in 1..N {
+            for i in 0..N {
+                y[i] = a[k][i] * bj[k] + y[i];
+            }
+        }
+        y
+    })
+}
+
+/// `f(i, j, x[j][i])` for every entry (column-major, like nalgebra's element-wise operations).
+#[inline(always)]
+fn map<const N: usize>(x: &Cols<N>, f: impl Fn(usize, usize, f64) -> f64) -> Cols<N> {
+    core::array::from_fn(|j| core::array::from_fn(|i| f(i, j, x[j][i])))
+}
+
+/// `s I + m` entry by entry, as nalgebra's `id * s + m` (`s` on the diagonal, `0.0` off it:
+/// `0.0 + m` is kept, which turns `-0.0` into `+0.0` as there).
+#[inline(always)]
+fn diag_plus<const N: usize>(s: f64, m: &Cols<N>) -> Cols<N> {
+    map(m, |i, j, v| if i == j { s } else { 0.0 } + v)
+}
+
+#[inline(always)]
+fn to_m<const N: usize>(x: &Cols<N>) -> M<N> {
+    M::<N>::from_fn(|i, j| x[j][i])
+}
+
+/// `phi_k(a/2)`, `k = 0..=4` (the level before the last doubling): the Taylor polynomial at
+/// `a / 2^s` and `s - 1` doublings. `None` if `a` is not finite or too large to scale.
+fn phis_before_last<const N: usize>(a: &Cols<N>) -> Option<[Cols<N>; 5]> {
+    if a.iter().flatten().any(|v| !v.is_finite()) {
         return None;
     }
     // 1-norm: largest absolute column sum.
     let mut norm = 0.0f64;
-    for c in a.column_iter() {
+    for c in a {
         norm = norm.max(c.iter().map(|v| v.abs()).sum());
     }
     if !norm.is_finite() {
@@ -78,47 +116,65 @@ pub(crate) fn phis_of<const N: usize>(a: &M<N>) -> Option<(M<N>, [M<N>; 5])> {
     if s > MAX_DOUBLINGS {
         return None;
     }
-    let x = a * 0.5f64.powi(s);
-    let id = M::<N>::identity();
+    let f = 0.5f64.powi(s);
+    let x = map(a, |_, _, v| v * f);
     // phi4(x) = sum_{j=0..DEG} x^j / (j+4)!
-    let mut p4 = id * INV_FACT[DEG + 4];
+    let mut p4 = map(&x, |i, j, _| if i == j { INV_FACT[DEG + 4] } else { 0.0 });
     for j in (0..DEG).rev() {
-        p4 = id * INV_FACT[j + 4] + x * p4;
+        p4 = diag_plus(INV_FACT[j + 4], &mm(&x, &p4));
     }
-    let p3 = id * INV_FACT[3] + x * p4;
-    let p2 = id * INV_FACT[2] + x * p3;
-    let p1 = id + x * p2;
-    let e = id + x * p1;
+    let p3 = diag_plus(INV_FACT[3], &mm(&x, &p4));
+    let p2 = diag_plus(INV_FACT[2], &mm(&x, &p3));
+    let p1 = diag_plus(1.0, &mm(&x, &p2));
+    let e = diag_plus(1.0, &mm(&x, &p1));
     let mut p = [e, p1, p2, p3, p4];
-    let mut half = p[1];
-    for level in 0..s {
-        if level == s - 1 {
-            half = p[1];
-        }
+    for _ in 1..s {
         p = double(&p);
     }
-    Some((half, p))
+    Some(p)
+}
+
+/// All `phi_k(a)`, `k = 0..=4`, of a matrix `a`, plus `phi1(a/2)`. `None` if `a` is not
+/// finite or too large to scale.
+#[cfg(test)]
+pub(crate) fn phis_of<const N: usize>(a: &M<N>) -> Option<(M<N>, [M<N>; 5])> {
+    let a: Cols<N> = core::array::from_fn(|j| core::array::from_fn(|i| a[(i, j)]));
+    let p = phis_before_last(&a)?;
+    Some((to_m(&p[1]), double(&p).map(|m| to_m(&m))))
+}
+
+/// `q1 = (e p1 + p1) / 2`, `q3 = (e p3 + p1/2 + p2 + p3) / 8`,
+/// `q4 = (e p4 + p1/6 + p2/2 + p3 + p4) / 16`: [`double`]'s `phi_1`, `phi_3`, `phi_4`.
+#[inline(always)]
+fn double_134<const N: usize>(p: &[Cols<N>; 5]) -> [Cols<N>; 3] {
+    let [e, p1, p2, p3, p4] = p;
+    let (ep1, ep3, ep4) = (mm(e, p1), mm(e, p3), mm(e, p4));
+    let q1 = map(&ep1, |i, j, v| (v + p1[j][i]) * 0.5);
+    let q3 = map(&ep3, |i, j, v| (((v + p1[j][i] * 0.5) + p2[j][i]) + p3[j][i]) * 0.125);
+    let q4 = map(&ep4, |i, j, v| ((((v + p1[j][i] * INV_FACT[3]) + p2[j][i] * 0.5) + p3[j][i]) + p4[j][i]) * 0.0625);
+    [q1, q3, q4]
 }
 
 /// `phi_k(2X)` from `phi_k(X)`, `k = 0..=4`.
-#[inline]
-fn double<const N: usize>(p: &[M<N>; 5]) -> [M<N>; 5] {
-    let [e, p1, p2, p3, p4] = p;
-    let e2 = e * e;
-    let q1 = (e * p1 + p1) * 0.5;
-    let q2 = (e * p2 + p1 + p2) * 0.25;
-    let q3 = (e * p3 + p1 * 0.5 + p2 + p3) * 0.125;
-    let q4 = (e * p4 + p1 * INV_FACT[3] + p2 * 0.5 + p3 + p4) * 0.0625;
+#[inline(always)]
+fn double<const N: usize>(p: &[Cols<N>; 5]) -> [Cols<N>; 5] {
+    let [e, p1, p2, _, _] = p;
+    let e2 = mm(e, e);
+    let ep2 = mm(e, p2);
+    let q2 = map(&ep2, |i, j, v| ((v + p1[j][i]) + p2[j][i]) * 0.25);
+    let [q1, q3, q4] = double_134(p);
     [e2, q1, q2, q3, q4]
 }
 
-/// The matrix functions one `exprb43` step of size `h` needs, at Jacobian `jac`.
+/// The matrix functions one `exprb43` step of size `h` needs, at Jacobian `jac`: the
+/// doublings on plain arrays with nalgebra's operations in its order (bit for bit the former
+/// nalgebra code), the last doubling only for `phi1`, `phi3` and `phi4`.
 #[inline]
 pub(crate) fn phis<const N: usize>(jac: &[[f64; N]; N], h: f64) -> Option<Phis<N>> {
-    let a = M::<N>::from_fn(|i, j| h * jac[i][j]);
-    let (p1_half, p) = phis_of(&a)?;
-    let [_, p1, _, p3, p4] = p;
-    Some(Phis { p1_half, p1, p3, p4 })
+    let a: Cols<N> = core::array::from_fn(|j| core::array::from_fn(|i| h * jac[i][j]));
+    let p = phis_before_last(&a)?;
+    let [p1, p3, p4] = double_134(&p);
+    Some(Phis { p1_half: to_m(&p[1]), p1: to_m(&p1), p3: to_m(&p3), p4: to_m(&p4) })
 }
 
 #[inline(always)]
@@ -164,6 +220,146 @@ pub(crate) fn step<const N: usize>(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    // ---- The former nalgebra code, the reference for bit equality. ----
+    /// All `phi_k(a)`, `k = 0..=4`, of a matrix `a`, plus `phi1(a/2)`. `None` if `a` is not
+    /// finite or too large to scale.
+    fn phis_of_old<const N: usize>(a: &M<N>) -> Option<(M<N>, [M<N>; 5])> {
+        if a.iter().any(|v| !v.is_finite()) {
+            return None;
+        }
+        // 1-norm: largest absolute column sum.
+        let mut norm = 0.0f64;
+        for c in a.column_iter() {
+            norm = norm.max(c.iter().map(|v| v.abs()).sum());
+        }
+        if !norm.is_finite() {
+            return None;
+        }
+        // At least one doubling, so that the level before the last is phi(a/2).
+        let s = if norm > THETA { (norm / THETA).log2().ceil() as i32 } else { 1 }.max(1);
+        if s > MAX_DOUBLINGS {
+            return None;
+        }
+        let x = a * 0.5f64.powi(s);
+        let id = M::<N>::identity();
+        // phi4(x) = sum_{j=0..DEG} x^j / (j+4)!
+        let mut p4 = id * INV_FACT[DEG + 4];
+        for j in (0..DEG).rev() {
+            p4 = id * INV_FACT[j + 4] + x * p4;
+        }
+        let p3 = id * INV_FACT[3] + x * p4;
+        let p2 = id * INV_FACT[2] + x * p3;
+        let p1 = id + x * p2;
+        let e = id + x * p1;
+        let mut p = [e, p1, p2, p3, p4];
+        let mut half = p[1];
+        for level in 0..s {
+            if level == s - 1 {
+                half = p[1];
+            }
+            p = double_old(&p);
+        }
+        Some((half, p))
+    }
+
+    /// `phi_k(2X)` from `phi_k(X)`, `k = 0..=4`.
+    #[inline]
+    fn double_old<const N: usize>(p: &[M<N>; 5]) -> [M<N>; 5] {
+        let [e, p1, p2, p3, p4] = p;
+        let e2 = e * e;
+        let q1 = (e * p1 + p1) * 0.5;
+        let q2 = (e * p2 + p1 + p2) * 0.25;
+        let q3 = (e * p3 + p1 * 0.5 + p2 + p3) * 0.125;
+        let q4 = (e * p4 + p1 * INV_FACT[3] + p2 * 0.5 + p3 + p4) * 0.0625;
+        [e2, q1, q2, q3, q4]
+    }
+
+    /// The matrix functions one `exprb43` step of size `h` needs, at Jacobian `jac`.
+    #[inline]
+    fn phis_old<const N: usize>(jac: &[[f64; N]; N], h: f64) -> Option<Phis<N>> {
+        let a = M::<N>::from_fn(|i, j| h * jac[i][j]);
+        let (p1_half, p) = phis_of_old(&a)?;
+        let [_, p1, _, p3, p4] = p;
+        Some(Phis { p1_half, p1, p3, p4 })
+    }
+
+    /// xorshift64 draws: entries of random sign over many scales, with `+-0.0` and small
+    /// integers mixed in (exact products and cancellations to `+-0.0`).
+    fn draw(seed: &mut u64) -> f64 {
+        let mut next = || {
+            *seed ^= *seed << 13;
+            *seed ^= *seed >> 7;
+            *seed ^= *seed << 17;
+            *seed
+        };
+        let r = next();
+        let u = (next() >> 11) as f64 / (1u64 << 53) as f64;
+        let sign = if r & 1 == 0 { 1.0 } else { -1.0 };
+        match (r >> 1) % 16 {
+            0 => 0.0,
+            1 => -0.0,
+            2 => sign * ((r >> 8) % 4) as f64,
+            _ => sign * u * 10f64.powi(((r >> 8) % 13) as i32 - 6),
+        }
+    }
+
+    fn same<const N: usize>(a: &M<N>, b: &M<N>) -> bool {
+        a.iter().zip(b.iter()).all(|(x, y)| x.to_bits() == y.to_bits())
+    }
+
+    #[test]
+    fn products_are_nalgebras_bit_for_bit() {
+        let mut seed = 0x2545f4914f6cdd1du64;
+        for _ in 0..2_000_000 {
+            let a = M::<4>::from_fn(|_, _| draw(&mut seed));
+            let b = M::<4>::from_fn(|_, _| draw(&mut seed));
+            let ca: Cols<4> = core::array::from_fn(|j| core::array::from_fn(|i| a[(i, j)]));
+            let cb: Cols<4> = core::array::from_fn(|j| core::array::from_fn(|i| b[(i, j)]));
+            let want = a * b;
+            assert!(same(&to_m(&mm(&ca, &cb)), &want), "{a} * {b}");
+        }
+    }
+
+    /// The array code against the former nalgebra code on random Jacobians and steps over
+    /// many scales (1 to ~50 doublings, signed zeros in the Jacobian): every output bit for bit,
+    /// for `phis` (4 x 4) and `phis_of` (2 x 2, 3 x 3, 4 x 4), and the same refusals.
+    #[test]
+    fn phis_are_the_former_nalgebra_code_bit_for_bit() {
+        fn check<const N: usize>(seed: &mut u64, n: usize) -> (usize, usize) {
+            let mut refused = 0;
+            for r in 0..n {
+                let jac: [[f64; N]; N] = core::array::from_fn(|_| core::array::from_fn(|_| draw(seed)));
+                let h = 10f64.powi((r % 11) as i32 - 8) * (1.0 + (r % 7) as f64 / 7.0);
+                let (new, old) = (phis(&jac, h), phis_old(&jac, h));
+                match (new, old) {
+                    (Some(x), Some(y)) => {
+                        assert!(same(&x.p1_half, &y.p1_half) && same(&x.p1, &y.p1) && same(&x.p3, &y.p3) && same(&x.p4, &y.p4), "{jac:?} h {h}");
+                    }
+                    (None, None) => refused += 1,
+                    _ => panic!("refusal differs: {jac:?} h {h}"),
+                }
+                let a = M::<N>::from_fn(|i, j| h * jac[i][j]);
+                match (phis_of(&a), phis_of_old(&a)) {
+                    (Some((h1, p)), Some((h2, q))) => assert!(same(&h1, &h2) && p.iter().zip(&q).all(|(x, y)| same(x, y))),
+                    (None, None) => {}
+                    _ => panic!("refusal differs: {a}"),
+                }
+            }
+            (n, refused)
+        }
+        let mut seed = 0x9e3779b97f4a7c15u64;
+        let n4 = check::<4>(&mut seed, 300_000);
+        let n3 = check::<3>(&mut seed, 50_000);
+        let n2 = check::<2>(&mut seed, 50_000);
+        eprintln!("4x4 {n4:?}, 3x3 {n3:?}, 2x2 {n2:?} (cases, refused)");
+        // Non-finite and huge arguments are refused by both.
+        let mut jac = [[0.0; 4]; 4];
+        jac[1][2] = f64::NAN;
+        assert!(phis(&jac, 1.0).is_none() && phis_old(&jac, 1.0).is_none());
+        jac[1][2] = 1e30;
+        assert!(phis(&jac, 1.0).is_none() && phis_old(&jac, 1.0).is_none());
+    }
 
     /// `phi_k(a)` for diagonalizable `a` with real eigenvalues via `V phi_k(Lambda) V^-1`,
     /// the scalar `phi_k` from its series (small |z|) or its closed form.
