@@ -67,22 +67,30 @@ type Cols<const N: usize> = [[f64; N]; N];
 /// so bit for bit nalgebra's product, inlined, with no zero fill or dispatch.
 #[inline(always)]
 fn mm<const N: usize>(a: &Cols<N>, b: &Cols<N>) -> Cols<N> {
-    core::array::from_fn(|j| {
-        let bj = &b[j];
-        let mut y: [f64; N] = core::array::from_fn(|i| a[0][i] * bj[0]);
+    let mut c = [[0.0; N]; N];
+    for (y, bj) in c.iter_mut().zip(b) {
+        for i in 0..N {
+            y[i] = a[0][i] * bj[0];
+        }
         for k in 1..N {
             for i in 0..N {
                 y[i] = a[k][i] * bj[k] + y[i];
             }
         }
-        y
-    })
+    }
+    c
 }
 
 /// `f(i, j, x[j][i])` for every entry (column-major, like nalgebra's element-wise operations).
 #[inline(always)]
 fn map<const N: usize>(x: &Cols<N>, f: impl Fn(usize, usize, f64) -> f64) -> Cols<N> {
-    core::array::from_fn(|j| core::array::from_fn(|i| f(i, j, x[j][i])))
+    let mut c = [[0.0; N]; N];
+    for (j, (cj, xj)) in c.iter_mut().zip(x).enumerate() {
+        for (i, (o, &v)) in cj.iter_mut().zip(xj).enumerate() {
+            *o = f(i, j, v);
+        }
+    }
+    c
 }
 
 /// `s I + m` entry by entry, as nalgebra's `id * s + m` (`s` on the diagonal, `0.0` off it:
