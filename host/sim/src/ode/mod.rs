@@ -398,10 +398,6 @@ impl<const N: usize> Integrator<N> {
             Scheme::ExprbLean { .. } => self.pair = split::dominant_pair_lean(&jac, self.pair.as_ref(), pair_tol),
             _ => {}
         }
-        // exprb-lean: the step compiled for AVX where the CPU has it (same bits, fewer
-        // instructions).
-        #[cfg_attr(not(target_arch = "x86_64"), allow(unused_variables))]
-        let avx = lean && split::has_avx();
         let mut first = true;
         let mut rejected_last = false;
         let mut n_tries: u64 = 0;
@@ -438,9 +434,6 @@ impl<const N: usize> Integrator<N> {
                     None => exprb::phis(&jac, h_try).map(|phis| exprb::step(&mut rhs, &jac, &phis, x, &f0, h_try)),
                 },
                 Scheme::ExprbLean { .. } => match self.pair.as_ref().and_then(|pr| split::Split::with_cut(&jac, pr, h_try, &cut)) {
-                    #[cfg(target_arch = "x86_64")]
-                    // SAFETY: `avx` says the CPU has AVX.
-                    Some(sp) if avx => Some(unsafe { split::step_avx(&mut rhs, &jac, &sp, x, &f0, h_try) }),
                     Some(sp) => Some(split::step(&mut rhs, &jac, &sp, x, &f0, h_try)),
                     None => exprb::phis(&jac, h_try).map(|phis| exprb::step(&mut rhs, &jac, &phis, x, &f0, h_try)),
                 },

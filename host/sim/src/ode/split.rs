@@ -538,50 +538,6 @@ pub(crate) fn step<const N: usize>(
     f0: &[f64; N],
     h: f64,
 ) -> ([f64; N], [f64; N]) {
-    step_body(rhs, jac, sp, y, f0, h)
-}
-
-/// Whether [`step_avx`] may be called (the CPU has AVX). Checked once per period.
-#[inline]
-pub(crate) fn has_avx() -> bool {
-    #[cfg(target_arch = "x86_64")]
-    {
-        std::arch::is_x86_feature_detected!("avx")
-    }
-    #[cfg(not(target_arch = "x86_64"))]
-    {
-        false
-    }
-}
-
-/// [`step`] compiled for AVX: the same operations in the same order (no FMA: separate IEEE
-/// multiplies and adds, four lanes at a time instead of two), so the same bits. Issue 13:
-/// measured at (callgrind, simspeed exprb-filtered 3e-11 basin run) ... .
-///
-/// # Safety
-/// Only where [`has_avx`] is true.
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx")]
-pub(crate) unsafe fn step_avx<const N: usize>(
-    rhs: &mut impl FnMut(&[f64; N]) -> [f64; N],
-    jac: &[[f64; N]; N],
-    sp: &Split<N>,
-    y: &[f64; N],
-    f0: &[f64; N],
-    h: f64,
-) -> ([f64; N], [f64; N]) {
-    step_body(rhs, jac, sp, y, f0, h)
-}
-
-#[inline(always)]
-fn step_body<const N: usize>(
-    rhs: &mut impl FnMut(&[f64; N]) -> [f64; N],
-    jac: &[[f64; N]; N],
-    sp: &Split<N>,
-    y: &[f64; N],
-    f0: &[f64; N],
-    h: f64,
-) -> ([f64; N], [f64; N]) {
     let remainder = |fu: [f64; N], du: &[f64; N]| -> [f64; N] {
         let jd = matvec(jac, du);
         core::array::from_fn(|i| fu[i] - f0[i] - jd[i])
