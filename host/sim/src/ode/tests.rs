@@ -806,3 +806,105 @@ fn exprb_filtered_validation_describe_and_blow_up() {
     let mut integ = Integrator::new(Method::ExprbFiltered { rtol: 1e-8, atol: 1e-10 }).unwrap().with_max_steps(10_000);
     drive_to_an_absurd_voltage(&mut integ);
 }
+
+// ---------------------------------------------------------------------------------------------
+// Bit-for-bit golden values of the split schemes (issue 13, stepfast): recorded at 996c38d
+// before the per-step work was cut; any change to the operations of a step shows here.
+
+/// FNV-1a over the bits of every state of a closed-loop run and its counters.
+fn golden_hash(method: Method, x0: [f64; 4], dt: f64, periods: usize) -> (u64, OdeStats, [f64; 4]) {
+    let plant = Furuta::paper();
+    let mut integ = Integrator::new(method).unwrap();
+    let mut x = x0;
+    let (mut s1, mut s2) = ((x0[0], x0[2]), (x0[0], x0[2]));
+    let mut hash = 0xcbf2_9ce4_8422_2325u64;
+    let mut eat = |v: f64| {
+        for b in v.to_bits().to_le_bytes() {
+            hash = (hash ^ u64::from(b)).wrapping_mul(0x0100_0000_01b3);
+        }
+    };
+    for _ in 0..periods {
+        let u = -KP * s1.0 - KD * (s1.0 - s2.0) / dt + KPHI_D * (s1.1 - s2.1) / dt;
+        s2 = s1;
+        s1 = (x[0], x[2]);
+        integ.advance(&plant, &mut x, u, dt).unwrap();
+        x.iter().for_each(|&v| eat(v));
+        // An escaping start: stop before the far-from-upright region (no fast mode there).
+        if x[0].abs() > 1.0 {
+            break;
+        }
+    }
+    (hash, integ.stats(), x)
+}
+
+fn golden_cases() -> Vec<(Method, [f64; 4], f64)> {
+    let mut v = Vec::new();
+    for tol in [3e-11, 4e-9] {
+        for m in [
+            Method::ExprbLean { rtol: tol, atol: tol },
+            Method::ExprbFiltered { rtol: tol, atol: tol },
+            Method::ExprbFiltered { rtol: tol, atol: 1e-2 * tol },
+            Method::ExprbSplit { rtol: tol, atol: tol },
+        ] {
+            for (x0, dt) in [
+                ([0.05, 0.0, 0.0, 0.0], DT),
+                ([0.15, -1.0, 0.3, 2.0], 0.0313),
+                ([-0.1, 0.5, 0.0, -3.0], 0.025),
+                ([0.2, 1.0, -1.0, 3.0], 0.0315),
+            ] {
+                v.push((m, x0, dt));
+            }
+        }
+    }
+    v
+}
+
+#[test]
+fn split_schemes_match_their_golden_values_bit_for_bit() {
+    let got: Vec<_> = golden_cases().into_iter().map(|(m, x0, dt)| golden_hash(m, x0, dt, 400)).collect();
+    if std::env::var_os("PRINT_GOLDEN").is_some() {
+        for (h, s, _) in &got {
+            println!("    ({h:#018x}, [{}, {}, {}, {}]),", s.steps, s.rejected, s.rhs_evals, s.jac_evals);
+        }
+    }
+    for (k, ((h, s, x), (wh, ws))) in got.iter().zip(GOLDEN.iter()).enumerate() {
+        assert_eq!((*h, [s.steps, s.rejected, s.rhs_evals, s.jac_evals]), (*wh, *ws), "case {k}: {:?}, final state {x:?}", golden_cases()[k]);
+    }
+    assert_eq!(got.len(), GOLDEN.len());
+}
+
+/// `golden_cases()` in order: (hash, [steps, rejected, rhs_evals, jac_evals]).
+const GOLDEN: [(u64, [u64; 4]); 32] = [
+    (0x8ce047145a386f4e, [62490, 379, 125738, 62490]),
+    (0x29e9623b3d9a49f9, [39609, 175, 79568, 39609]),
+    (0xe01dec2fb934c804, [100678, 416, 202188, 100678]),
+    (0x2f130b25bc9831ce, [21318, 105, 42846, 21318]),
+    (0xc0fb40679e91080e, [28164, 135, 56598, 28164]),
+    (0xc1c6bb74e6a0dd6a, [18108, 115, 36446, 18108]),
+    (0x84d6521c716acaf3, [41210, 166, 82752, 41210]),
+    (0x6e81e21e5575545b, [10515, 72, 21174, 10515]),
+    (0xfb93506b63a9b378, [35934, 168, 72204, 35934]),
+    (0x8ef7991ac7e77075, [22411, 143, 45108, 22411]),
+    (0x954beeb053bc13d1, [48751, 191, 97884, 48751]),
+    (0x4daa76615f4a79b5, [13430, 71, 27002, 13430]),
+    (0x3b7e6e1b2213a84a, [62439, 550, 125978, 62439]),
+    (0xb11a215dfe78925f, [39518, 240, 79516, 39518]),
+    (0xe1723606c8798f7e, [100543, 628, 202342, 100543]),
+    (0x03f61f6f522c8286, [21280, 136, 42832, 21280]),
+    (0xd0f7e2de4c2cd946, [18421, 294, 37430, 18421]),
+    (0x7f92b78d37bf553d, [11435, 130, 23130, 11435]),
+    (0x15e554560f3e37af, [29228, 369, 59194, 29228]),
+    (0x57347d9f08b116e5, [6190, 81, 12542, 6190]),
+    (0xfbf1a133a5fdf7b6, [9748, 61, 19618, 9748]),
+    (0xba00d8ac4f04da87, [6146, 89, 12470, 6146]),
+    (0x0a5f5ef9468e1472, [14161, 131, 28584, 14161]),
+    (0x11848e1d027f7f53, [3525, 43, 7136, 3525]),
+    (0x8ef5d0d6711326f7, [12111, 117, 24456, 12111]),
+    (0x8d87173f9fd1c465, [7492, 112, 15208, 7492]),
+    (0x00ae9cf2f08c4d4d, [16523, 218, 33482, 16523]),
+    (0x6abfbdb8f6729a45, [4443, 58, 9002, 4443]),
+    (0x4407d370cda33294, [18355, 463, 37636, 18355]),
+    (0xba988b2f916bbcb4, [11353, 202, 23110, 11353]),
+    (0x870d682e07183469, [29092, 559, 59302, 29092]),
+    (0x6add2e18db26e7e0, [6147, 105, 12504, 6147]),
+];
