@@ -15,7 +15,9 @@
 //! the pendulum takes.
 //!
 //! The pair comes from power iteration on `J` and `J^T` (convergence factor
-//! `|lambda_2 / lambda_1|`, about 1e-3 here), checked by its residuals. Where there is no such
+//! `|lambda_2 / lambda_1|`, about 1e-3 here), checked by its residuals (`exprb-lean`: from the
+//! last step's pair, in closed form where `J` has the second-order layout of a state `(q, q')`,
+//! by Rayleigh quotient iteration otherwise; [`dominant_pair_lean`]). Where there is no such
 //! dominant eigenvalue, or `h J_s` is too large for the Taylor sum, [`Split::new`] returns
 //! `None` and the caller uses the full matrix functions ([`super::exprb::phis`]).
 
@@ -234,9 +236,10 @@ pub(crate) fn dominant_pair_lean<const N: usize>(
 
 /// Newton iterations on the quartic of [`second_order_pair`] at most.
 const MAX_NEWTON_ITERS: usize = 8;
-/// Newton stops after a correction below this (relative): the root's error is then about its
-/// square (quadratic convergence), far below rounding.
-const NEWTON_TOL: f64 = 1e-10;
+/// Newton stops after a correction below this (relative): the root's error is then about
+/// `3 d^2` (quadratic convergence at a root about `|lambda|` from the others), below rounding.
+/// From the last step's eigenvalue: corrections of about 1e-5, 1e-9 (two iterations).
+const NEWTON_TOL: f64 = 1e-8;
 
 /// The second-order layout of a 4-state Jacobian: `[(p0, v0), (p1, v1)]` with rows `p0`, `p1`
 /// exactly the unit rows `e_v0`, `e_v1` (`d x_p / dt = x_v`: a position and its velocity) and
@@ -246,6 +249,11 @@ const NEWTON_TOL: f64 = 1e-10;
 fn second_order_layout<const N: usize>(jac: &[[f64; N]; N]) -> Option<[(usize, usize); 2]> {
     if N != 4 {
         return None;
+    }
+    let unit = |row: &[f64; N], k: usize| row.iter().enumerate().all(|(j, &x)| x == if j == k { 1.0 } else { 0.0 });
+    // The Furuta and cart plants' layout first (8 comparisons), then any other.
+    if unit(&jac[0], 1) && unit(&jac[2], 3) {
+        return Some([(0, 1), (2, 3)]);
     }
     // The column of row i's single exact 1 (all else exactly 0), N if none.
     let target = |row: &[f64; N]| -> usize {
