@@ -47,8 +47,8 @@ pub enum Method {
     /// step. Falls back to the full matrix functions where there is no dominant eigenvalue.
     ExprbSplit { rtol: f64, atol: f64 },
     /// [`Method::ExprbSplit`] made lean: the plant's closed-form Jacobian
-    /// ([`Plant::rhs_and_jacobian`]), the eigenpair by Rayleigh quotient iteration from the
-    /// last step's (one iteration, residual checked at `1e-2 rtol`), the Taylor sums and
+    /// ([`Plant::rhs_and_jacobian`]), the eigenpair from the last step's (in closed form for a
+    /// second-order Jacobian, else by Rayleigh quotient iteration; residual checked at `1e-2 rtol`), the Taylor sums and
     /// scalar `phi`-functions cut at a term below `1e-3 rtol` instead of `1e-18`, and the
     /// first step of a period the last accepted first step. The same error test and
     /// controller; nearly the same steps as `exprb43` and the same accuracy for a given `rtol`.

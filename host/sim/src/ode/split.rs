@@ -15,7 +15,9 @@
 //! the pendulum takes.
 //!
 //! The pair comes from power iteration on `J` and `J^T` (convergence factor
-//! `|lambda_2 / lambda_1|`, about 1e-3 here), checked by its residuals. Where there is no such
+//! `|lambda_2 / lambda_1|`, about 1e-3 here), checked by its residuals (`exprb-lean`: from the
+//! last step's pair, in closed form where `J` has the second-order layout of a state `(q, q')`,
+//! by Rayleigh quotient iteration otherwise; [`dominant_pair_lean`]). Where there is no such
 //! dominant eigenvalue, or `h J_s` is too large for the Taylor sum, [`Split::new`] returns
 //! `None` and the caller uses the full matrix functions ([`super::exprb::phis`]).
 
@@ -233,14 +235,138 @@ pub(crate) fn dominant_pair<const N: usize>(jac: &[[f64; N]; N], start: Option<&
 /// second both at rounding; the residual test `tol` (relative, as [`PAIR_TOL`]) is applied
 /// after each. Power iteration takes four to six iterations to 1e-14. The pair found is an eigenpair
 /// of `J` checked by its residuals (the split is exact for any eigenpair; a pair that is not
-/// the dominant one shows as a large `|h J_s|` and the step falls back). Without a start, or
-/// if the iteration fails, power iteration from the cold start ([`dominant_pair`] with `tol`).
+/// the dominant one shows as a large `|h J_s|` and the step falls back). Where the Jacobian has
+/// the second-order layout of a state `(q, q')` (the Furuta and cart plants), the pair comes
+/// first in closed form from the start's eigenvalue ([`second_order_pair`]: Newton on a quartic,
+/// the same residual test; 220 instructions a step against the Rayleigh quotient iteration's
+/// 383, callgrind on a basin run, `simspeed exprb-filtered 3e-11 3000 1 noref 1 furuta-dt30.5
+/// 0.02 31.5`) and the Rayleigh quotient
+/// iteration only where it fails. Without a start, or if both fail, power iteration from the
+/// cold start ([`dominant_pair`] with `tol`).
 pub(crate) fn dominant_pair_lean<const N: usize>(
     jac: &[[f64; N]; N],
     start: Option<&Pair<N>>,
     tol: f64,
 ) -> Option<Pair<N>> {
-    start.and_then(|s| rayleigh_iteration(jac, s, tol)).or_else(|| power_iteration(jac, None, 2, tol))
+    start
+        .and_then(|s| second_order_pair(jac, s, tol).or_else(|| rayleigh_iteration(jac, s, tol)))
+        .or_else(|| power_iteration(jac, None, 2, tol))
+}
+
+/// Newton iterations on the quartic of [`second_order_pair`] at most.
+const MAX_NEWTON_ITERS: usize = 8;
+/// Newton stops after a correction below this (relative): the root's error is then about
+/// `3 d^2` (quadratic convergence at a root about `|lambda|` from the others), below rounding.
+/// From the last step's eigenvalue: corrections of about 1e-5, 1e-9 (two iterations).
+const NEWTON_TOL: f64 = 1e-8;
+
+/// The second-order layout of a 4-state Jacobian: `[(p0, v0), (p1, v1)]` with rows `p0`, `p1`
+/// exactly the unit rows `e_v0`, `e_v1` (`d x_p / dt = x_v`: a position and its velocity) and
+/// `{p0, p1, v0, v1} = {0, 1, 2, 3}`; `None` for any other `N` or Jacobian. Read from the
+/// exact zeros and ones that both the dual-number Jacobian and a closed form give for a state
+/// `(q, q')` (the Furuta and cart plants: `(theta, w_theta, phi, w_phi)`, rows 0 and 2).
+fn second_order_layout<const N: usize>(jac: &[[f64; N]; N]) -> Option<[(usize, usize); 2]> {
+    if N != 4 {
+        return None;
+    }
+    let unit = |row: &[f64; N], k: usize| row.iter().enumerate().all(|(j, &x)| x == if j == k { 1.0 } else { 0.0 });
+    // The Furuta and cart plants' layout first (8 comparisons), then any other.
+    if unit(&jac[0], 1) && unit(&jac[2], 3) {
+        return Some([(0, 1), (2, 3)]);
+    }
+    // The column of row i's single exact 1 (all else exactly 0), N if none.
+    let target = |row: &[f64; N]| -> usize {
+        let mut k = N;
+        for (j, &x) in row.iter().enumerate() {
+            if x == 1.0 && k == N {
+                k = j;
+            } else if x != 0.0 {
+                return N;
+            }
+        }
+        k
+    };
+    let t: [usize; N] = core::array::from_fn(|i| target(&jac[i]));
+    for p0 in 0..N {
+        for p1 in p0 + 1..N {
+            let (v0, v1) = (t[p0], t[p1]);
+            if v0 < N && v1 < N && v0 != v1 && v0 != p0 && v0 != p1 && v1 != p0 && v1 != p1 {
+                return Some([(p0, v0), (p1, v1)]);
+            }
+        }
+    }
+    None
+}
+
+/// `exprb-lean`'s eigenpair where the Jacobian has the second-order layout
+/// ([`second_order_layout`]): `J = [[0, I], [A, B]]` in (positions, velocities), so
+/// `J v = lambda v` is `v = (q, lambda q)` with `M(lambda) q = 0`, `M(lambda) = lambda^2 I -
+/// lambda B - A` (2x2), and `w^T J = lambda w^T` is `w = (A^T r / lambda, r)` with `r^T M(lambda)
+/// = 0`. `lambda` is the root of the quartic `det M` by Newton from the start's eigenvalue
+/// (quadratic convergence; a root more than half the start's modulus away is refused), `q` and
+/// `r` the null vectors of `M` from its larger row and column. The pair then passes the same
+/// test as [`rayleigh_iteration`]'s (each vector scaled to inf-norm 1, the two-sided Rayleigh
+/// quotient as `lambda`, both residuals below `tol |lambda|`), or `None`: the caller falls back
+/// to the Rayleigh quotient iteration.
+fn second_order_pair<const N: usize>(jac: &[[f64; N]; N], start: &Pair<N>, tol: f64) -> Option<Pair<N>> {
+    let [(p0, v0), (p1, v1)] = second_order_layout(jac)?;
+    let (a11, a12, a21, a22) = (jac[v0][p0], jac[v0][p1], jac[v1][p0], jac[v1][p1]);
+    let (b11, b12, b21, b22) = (jac[v0][v0], jac[v0][v1], jac[v1][v0], jac[v1][v1]);
+    let m = |l: f64| [l * (l - b11) - a11, -(l * b12 + a12), -(l * b21 + a21), l * (l - b22) - a22];
+    let l0 = start.0;
+    let mut l = l0;
+    let mut converged = false;
+    for _ in 0..MAX_NEWTON_ITERS {
+        let [m11, m12, m21, m22] = m(l);
+        let p = m11 * m22 - m12 * m21;
+        let dp = (2.0 * l - b11) * m22 + m11 * (2.0 * l - b22) + b12 * m21 + m12 * b21;
+        let d = p / dp;
+        l -= d;
+        if !l.is_finite() {
+            return None;
+        }
+        if d.abs() <= NEWTON_TOL * l.abs() {
+            converged = true;
+            break;
+        }
+    }
+    if !(converged && l != 0.0 && (l - l0).abs() <= 0.5 * l0.abs()) {
+        return None;
+    }
+    let [m11, m12, m21, m22] = m(l);
+    // Right null vector from the larger row, left from the larger column.
+    let (q0, q1) = if m11.abs().max(m12.abs()) >= m21.abs().max(m22.abs()) { (m12, -m11) } else { (m22, -m21) };
+    let (r0, r1) = if m11.abs().max(m21.abs()) >= m12.abs().max(m22.abs()) { (m21, -m11) } else { (m22, -m12) };
+    let il = 1.0 / l;
+    let mut v = [0.0; N];
+    let mut w = [0.0; N];
+    (v[p0], v[p1], v[v0], v[v1]) = (q0, q1, l * q0, l * q1);
+    (w[p0], w[p1], w[v0], w[v1]) = ((a11 * r0 + a21 * r1) * il, (a12 * r0 + a22 * r1) * il, r0, r1);
+    let (v, w) = normalized_pair(&v, &w)?;
+    checked_pair(jac, &v, &w, tol).ok()
+}
+
+/// The acceptance test of [`rayleigh_iteration`] and [`second_order_pair`] for `v` and `w` of
+/// inf-norm 1: `lambda = w^T J v / w^T v`, then `Ok((lambda, v, w / (w^T v)))` if both
+/// residuals `|J v - lambda v|`, `|J^T w - lambda w|` (inf norms) are at most `tol |lambda|`;
+/// `Err(Some(lambda))` if not, `Err(None)` if `|w^T v| <= 1e-8` (nearly orthogonal vectors).
+#[inline]
+fn checked_pair<const N: usize>(jac: &[[f64; N]; N], v: &[f64; N], w: &[f64; N], tol: f64) -> Result<Pair<N>, Option<f64>> {
+    let wv = dot(w, v);
+    if !(wv.abs() > 1e-8) {
+        return Err(None);
+    }
+    let jv = matvec(jac, v);
+    let lambda = dot(w, &jv) / wv;
+    let jw = matvec_t(jac, w);
+    let tol_abs = tol * lambda.abs();
+    let rv = (0..N).map(|i| (jv[i] - lambda * v[i]).abs()).fold(0.0, f64::max);
+    let rw = (0..N).map(|i| (jw[i] - lambda * w[i]).abs()).fold(0.0, f64::max);
+    if rv <= tol_abs && rw <= tol_abs && lambda.is_finite() {
+        let iwv = 1.0 / wv;
+        return Ok((lambda, *v, w.map(|x| x * iwv)));
+    }
+    Err(Some(lambda))
 }
 
 /// Iterations of [`dominant_pair_lean`]'s Rayleigh quotient iteration at most.
@@ -261,21 +387,11 @@ fn rayleigh_iteration<const N: usize>(jac: &[[f64; N]; N], start: &Pair<N>, tol:
         v = lu.solve(&v);
         w = lu.solve_t(&w);
         (v, w) = normalized_pair(&v, &w)?;
-        let wv = dot(&w, &v);
-        if !(wv.abs() > 1e-8) {
-            return None;
+        match checked_pair(jac, &v, &w, tol) {
+            Ok(pair) => return Some(pair),
+            Err(None) => return None,
+            Err(Some(lambda)) => mu = lambda,
         }
-        let jv = matvec(jac, &v);
-        let lambda = dot(&w, &jv) / wv;
-        let jw = matvec_t(jac, &w);
-        let tol_abs = tol * lambda.abs();
-        let rv = (0..N).map(|i| (jv[i] - lambda * v[i]).abs()).fold(0.0, f64::max);
-        let rw = (0..N).map(|i| (jw[i] - lambda * w[i]).abs()).fold(0.0, f64::max);
-        if rv <= tol_abs && rw <= tol_abs && lambda.is_finite() {
-            let iwv = 1.0 / wv;
-            return Some((lambda, v, w.map(|x| x * iwv)));
-        }
-        mu = lambda;
     }
     None
 }
@@ -718,6 +834,167 @@ mod tests {
         assert!(x.iter().all(|v| v.is_finite()) && x[0].abs() > 1e10 * x[1].abs(), "{x:?}");
         let x = lu.solve_t(&[1.0, 1.0]);
         assert!(x.iter().all(|v| v.is_finite()) && x[0].abs() > 1e10 * x[1].abs(), "{x:?}");
+    }
+
+    /// The relative residuals `(|J v - lambda v|, |J^T w - lambda w| / |w|)` of a pair (inf
+    /// norms, over `|lambda|`).
+    fn residuals(jac: &[[f64; 4]; 4], (l, v, w): &Pair<4>) -> (f64, f64) {
+        let (jv, jw) = (matvec(jac, v), matvec_t(jac, w));
+        let rv = (0..4).map(|i| (jv[i] - l * v[i]).abs()).fold(0.0, f64::max) / (l.abs() * norm_inf(v));
+        let rw = (0..4).map(|i| (jw[i] - l * w[i]).abs()).fold(0.0, f64::max) / (l.abs() * norm_inf(w));
+        (rv, rw)
+    }
+
+    /// `(lambda, v, w)` of two pairs with the same normalization (`|v| = 1`, `w^T v = 1`):
+    /// the largest relative differences of `lambda`, `v` and `w` (`w` relative to its norm),
+    /// signs aligned.
+    fn pair_diff(a: &Pair<4>, b: &Pair<4>) -> [f64; 3] {
+        let sign = if dot(&a.1, &b.1) < 0.0 { -1.0 } else { 1.0 };
+        let dv = (0..4).map(|i| (sign * a.1[i] - b.1[i]).abs()).fold(0.0, f64::max);
+        let dw = (0..4).map(|i| (sign * a.2[i] - b.2[i]).abs()).fold(0.0, f64::max) / norm_inf(&b.2);
+        [(a.0 - b.0).abs() / b.0.abs(), dv, dw]
+    }
+
+    /// The closed-form pair of a second-order Jacobian (the Furuta plant's closed form, random
+    /// states from the upright to 0.6 rad, fast arm) from the eigenvalue of a nearby state's
+    /// pair against power iteration from a cold start (accepted at residuals of 1e-14): the
+    /// closed form's residuals at rounding (below 1e-15; measured 3.0e-16 for `v`, 6.9e-16 for
+    /// `w`, power iteration's up to 9.7e-15), the same eigenvalue to 1e-15 (measured 4.5e-16),
+    /// `v` to 1e-14 (9.9e-15) and `w` to 3e-14 (2.0e-14: power iteration's own error), and
+    /// `dominant_pair_lean` takes it.
+    #[test]
+    fn second_order_pair_matches_power_iteration_on_the_furuta_jacobian() {
+        use crate::plant::Plant;
+        let plant = Furuta::paper();
+        let mut seed: u64 = 0x9e37_79b9_7f4a_7c15;
+        let mut uniform = |lo: f64, hi: f64| {
+            seed = seed.wrapping_mul(6_364_136_223_846_793_005).wrapping_add(1_442_695_040_888_963_407);
+            lo + (hi - lo) * ((seed >> 11) as f64 / (1u64 << 53) as f64)
+        };
+        let (mut worst, mut worst_res, mut used) = ([0.0f64; 3], [0.0f64; 2], 0);
+        for k in 0..400 {
+            let r = if k < 200 { 0.1 } else { 0.6 };
+            let x = [uniform(-1.0, 1.0) * r, uniform(-10.0, 10.0) * r, uniform(-10.0, 10.0), uniform(-30.0, 30.0) * r];
+            let u = uniform(-12.0, 12.0);
+            let (_, jac) = plant.rhs_and_jacobian(&x, u);
+            assert_eq!(second_order_layout(&jac), Some([(0, 1), (2, 3)]));
+            let Some(want) = dominant_pair(&jac, None) else { continue };
+            // The start: the pair at a state a step away (1e-3 of the state's scale).
+            let near: [f64; 4] = core::array::from_fn(|i| x[i] + 1e-3 * uniform(-1.0, 1.0) * [1.0, 10.0, 1.0, 30.0][i]);
+            let start = dominant_pair(&plant.rhs_and_jacobian(&near, u).1, None).unwrap_or(want);
+            let got = second_order_pair(&jac, &start, 1e-14).expect("the closed-form pair passes the residual test");
+            let lean = dominant_pair_lean(&jac, Some(&start), 1e-14).unwrap();
+            assert_eq!(lean.0.to_bits(), got.0.to_bits(), "dominant_pair_lean takes the closed form");
+            let d = pair_diff(&got, &want);
+            for i in 0..3 {
+                worst[i] = worst[i].max(d[i]);
+                let r = residuals(&jac, &got);
+                assert!(r.0 <= 1e-15 && r.1 <= 1e-15, "x {x:?} u {u}: residuals {r:?}");
+                worst_res = [worst_res[0].max(r.0), worst_res[1].max(r.1)];
+                assert!(d[0] <= 1e-15 && d[1] <= 1e-14 && d[2] <= 3e-14, "x {x:?} u {u}: [lambda, v, w] differ by {d:?}");
+            }
+            used += 1;
+        }
+        eprintln!("second-order pair vs power iteration, {used} Jacobians: [lambda, v, w] worst {worst:?}, residuals (v, w) {worst_res:?}");
+        assert!(used >= 300, "{used} Jacobians with a dominant pair");
+    }
+
+    /// The pairs of the Jacobians met along a closed-loop run (the paper's delayed PD loop
+    /// from 0.05 rad, 100 periods of 30.8 ms, each advanced by exprb-filtered in 20 pieces, a
+    /// Jacobian at each piece's end), each from the last one's pair: the closed-form chain
+    /// against the Rayleigh chain (the old `dominant_pair_lean`) at the tolerances of the
+    /// report's integrators (`pair_tol` 3e-13) and the tightest (1e-14): every closed-form pair
+    /// passes with residuals (relative, inf norms) at rounding, below 1e-15 (measured 2.8e-16
+    /// for `v`, 2.9e-16 for `w`), the Rayleigh pairs' up to `tol` (5.3e-15 and 2.9e-13 at
+    /// 3e-13); the eigenvalues agree to 1e-15 (2.9e-16), the vectors to `1.5 tol` (the Rayleigh
+    /// pair's error: 2.9e-13 at 3e-13, 9.8e-15 at 1e-14).
+    #[test]
+    fn second_order_pair_along_a_run_matches_the_rayleigh_pair() {
+        use crate::ode::{Integrator, Method};
+        use crate::plant::Plant;
+        let plant = Furuta::paper();
+        let (dt, kp, kd, kphi) = (0.0308, 15.5, 5.45, 1.5);
+        for tol in [3e-13, 1e-14] {
+            let mut integ = Integrator::<4>::new(Method::ExprbFiltered { rtol: 3e-11, atol: 3e-11 }).unwrap();
+            let mut x = [0.05, 0.0, 0.0, 0.0];
+            let (mut s1, mut s2) = ((x[0], x[2]), (x[0], x[2]));
+            let (mut old, mut new): (Option<Pair<4>>, Option<Pair<4>>) = (None, None);
+            let (mut worst_res, mut worst_diff, mut n) = ([0.0f64; 4], [0.0f64; 3], 0);
+            for _ in 0..100 {
+                let u = -kp * s1.0 - kd * (s1.0 - s2.0) / dt + kphi * (s1.1 - s2.1) / dt;
+                s2 = s1;
+                s1 = (x[0], x[2]);
+                for _ in 0..20 {
+                    integ.advance(&plant, &mut x, u, dt / 20.0).unwrap();
+                    let (_, jac) = plant.rhs_and_jacobian(&x, u);
+                    let o = old.as_ref().and_then(|s| rayleigh_iteration(&jac, s, tol)).or_else(|| power_iteration(&jac, None, 2, tol));
+                    // Every pair after the first (cold, power iteration) is the closed form's.
+                    let w = match new.as_ref() {
+                        Some(s) => second_order_pair(&jac, s, tol),
+                        None => power_iteration(&jac, None, 2, tol),
+                    };
+                    let (o, w) = (o.expect("a Rayleigh pair"), w.expect("a closed-form pair"));
+                    let cold = new.is_none();
+                    (old, new) = (Some(o), Some(w));
+                    if cold {
+                        continue;
+                    }
+                    let (ro, rn) = (residuals(&jac, &o), residuals(&jac, &w));
+                    for (k, r) in [ro.0, ro.1, rn.0, rn.1].into_iter().enumerate() {
+                        worst_res[k] = worst_res[k].max(r);
+                    }
+                    let d = pair_diff(&w, &o);
+                    for k in 0..3 {
+                        worst_diff[k] = worst_diff[k].max(d[k]);
+                    }
+                    assert!(rn.0 <= 1e-15 && rn.1 <= 1e-15, "x {x:?}: closed-form residuals {rn:?}");
+                    assert!(ro.0 <= tol && ro.1 <= tol, "x {x:?}: Rayleigh residuals {ro:?}");
+                    assert!(d[0] <= 1e-15 && d[1] <= 1.5 * tol && d[2] <= 1.5 * tol, "x {x:?}: [lambda, v, w] differ by {d:?}");
+                    n += 1;
+                }
+            }
+            eprintln!(
+                "tol {tol:e}, {n} Jacobians along the run: residuals (v, w) rayleigh {:?} closed form {:?}; [lambda, v, w] differ by {worst_diff:?}",
+                &worst_res[..2],
+                &worst_res[2..]
+            );
+        }
+    }
+
+    /// Without the second-order layout (a unit row off by one ulp, rows pointing at each
+    /// other, a 3-state Jacobian) there is no closed-form pair and `dominant_pair_lean` is the
+    /// Rayleigh quotient iteration's, bit for bit.
+    #[test]
+    fn without_the_second_order_layout_the_rayleigh_pair_is_used() {
+        use crate::plant::Plant;
+        let plant = Furuta::paper();
+        let (_, jac) = plant.rhs_and_jacobian(&[0.05, 1.0, 0.3, 0.5], 0.7);
+        let start = dominant_pair(&plant.rhs_and_jacobian(&[0.051, 1.0, 0.3, 0.6], 0.7).1, None).unwrap();
+        let mut off = jac;
+        off[0][1] = 1.0 + f64::EPSILON;
+        let mut swapped = jac;
+        swapped[0] = [0.0, 0.0, 1.0, 0.0];
+        swapped[2] = [1.0, 0.0, 0.0, 0.0];
+        for j in [off, swapped] {
+            assert_eq!(second_order_layout(&j), None);
+            assert!(second_order_pair(&j, &start, 1e-14).is_none());
+            let want = rayleigh_iteration(&j, &start, 1e-14);
+            let got = dominant_pair_lean(&j, Some(&start), 1e-14);
+            assert_eq!(format!("{got:?}"), format!("{want:?}"));
+        }
+        // The blocked layout (q, q') is found as well.
+        let perm = [0, 2, 1, 3];
+        let blocked: [[f64; 4]; 4] = core::array::from_fn(|i| core::array::from_fn(|k| jac[perm[i]][perm[k]]));
+        assert_eq!(second_order_layout(&blocked), Some([(0, 2), (1, 3)]));
+        let s = (start.0, perm.map(|i| start.1[i]), perm.map(|i| start.2[i]));
+        let (a, b) = (second_order_pair(&blocked, &s, 1e-14).unwrap(), second_order_pair(&jac, &start, 1e-14).unwrap());
+        assert!((a.0 - b.0).abs() <= 1e-15 * b.0.abs(), "{a:?} vs {b:?}");
+        let j3 = [[1.0, 2.0, 0.5], [-4.0, 0.3, 1.0], [2.0, -1.0, 3.0]];
+        assert_eq!(second_order_layout(&j3), None);
+        // A start far from every eigenvalue: Newton's root is refused, not taken.
+        if let Some(p) = second_order_pair(&jac, &(-3.0, start.1, start.2), 1e-14) {
+            assert!((p.0 + 3.0).abs() <= 1.5, "{p:?}");
+        }
     }
 
     #[test]
