@@ -193,13 +193,36 @@ impl SortedAxis {
     /// Rosenstein's partner of reference `i`: the point `j` outside the Theiler window at the
     /// smallest non-zero distance, the smallest such `j` on ties; `None` when there is none.
     fn nearest(&self, points: &Points, i: usize, p: &DivergenceParams) -> Option<usize> {
+        // Euclidean distances of 2..8 coordinates by a loop of known length: the same
+        // expression as `Norm::dist2`, so the same operations in the same order.
+        fn euclid<const D: usize>(a: &[f64], b: &[f64]) -> f64 {
+            match (<&[f64; D]>::try_from(a), <&[f64; D]>::try_from(b)) {
+                (Ok(a), Ok(b)) => a.iter().zip(b).map(|(x, y)| (x - y) * (x - y)).sum(),
+                _ => Norm::Euclidean.dist2(a, b),
+            }
+        }
+        match (p.norm, points.dim()) {
+            (Norm::Euclidean, 2) => self.nearest_by(points, i, p, euclid::<2>),
+            (Norm::Euclidean, 3) => self.nearest_by(points, i, p, euclid::<3>),
+            (Norm::Euclidean, 4) => self.nearest_by(points, i, p, euclid::<4>),
+            (Norm::Euclidean, 5) => self.nearest_by(points, i, p, euclid::<5>),
+            (Norm::Euclidean, 6) => self.nearest_by(points, i, p, euclid::<6>),
+            (Norm::Euclidean, 7) => self.nearest_by(points, i, p, euclid::<7>),
+            (Norm::Euclidean, 8) => self.nearest_by(points, i, p, euclid::<8>),
+            _ => self.nearest_by(points, i, p, |a, b| p.norm.dist2(a, b)),
+        }
+    }
+
+    /// [`SortedAxis::nearest`] with the squared distance `dist2` (that of `p.norm`).
+    #[inline(always)]
+    fn nearest_by(&self, points: &Points, i: usize, p: &DivergenceParams, dist2: impl Fn(&[f64], &[f64]) -> f64) -> Option<usize> {
         let pi = points.point(i);
         let x0 = pi[0];
         let r = self.rank[i];
         let mut best: Option<(usize, f64)> = None;
         let consider = |j: usize, best: &mut Option<(usize, f64)>| {
             if j.abs_diff(i) > p.theiler {
-                let d2 = p.norm.dist2(pi, points.point(j));
+                let d2 = dist2(pi, points.point(j));
                 if d2 > 0.0 && best.is_none_or(|(bj, b)| d2 < b || (d2 == b && j < bj)) {
                     *best = Some((j, d2));
                 }
@@ -484,7 +507,8 @@ mod tests {
 
     /// The sorted-axis search against the plain scan over all points in index order
     /// (Rosenstein: nearest non-zero distance, smallest index on ties): the same picks on a
-    /// quantized Henon-like embedding (many exact ties and zero distances) in both norms.
+    /// quantized Henon-like embedding (many exact ties and zero distances) in both norms and
+    /// embedding dimensions 1 to 9.
     #[test]
     fn sorted_axis_search_equals_the_full_scan() {
         let (mut a, mut b) = (0.1_f64, 0.0_f64);
@@ -493,8 +517,9 @@ mod tests {
             (a, b) = (1.0 - 1.4 * a * a + b, 0.3 * a);
             x.push((a * 20.0).round() / 20.0);
         }
-        let pts = crate::delay_embed(&x, 3, 1).unwrap();
-        for norm in [Norm::Euclidean, Norm::Max] {
+        // Embedding dimensions 1..9: the fixed-length distance loops (2..8) and the slice loop.
+        for (m, norm) in (1..=9).flat_map(|m| [(m, Norm::Euclidean), (m, Norm::Max)]) {
+            let pts = crate::delay_embed(&x, m, 1).unwrap();
             let p = DivergenceParams { theiler: 3, max_steps: 10, norm, ..Default::default() };
             let nc = pts.len() - p.max_steps;
             let axis = SortedAxis::new(&pts, nc);
@@ -506,7 +531,7 @@ mod tests {
                         best = Some((j, d2));
                     }
                 }
-                assert_eq!(axis.nearest(&pts, i, &p), best.map(|(j, _)| j), "reference {i}, {norm:?}");
+                assert_eq!(axis.nearest(&pts, i, &p), best.map(|(j, _)| j), "reference {i}, m {m}, {norm:?}");
             }
         }
     }

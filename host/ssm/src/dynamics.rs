@@ -191,15 +191,36 @@ impl RbfMap {
         for ((z, e), s) in z.iter_mut().zip(eta).zip(&self.scale) {
             *z = e / s;
         }
-        for i in 0..k {
-            let c = &self.centers[i * d..(i + 1) * d];
-            let r = c.iter().zip(z.iter()).map(|(c, z)| (z - c).powi(2)).sum::<f64>().sqrt();
-            out[i] = self.kernel.phi(r);
+        match d {
+            2 => self.centre_features::<2>(z, &mut out[..k]),
+            4 => self.centre_features::<4>(z, &mut out[..k]),
+            6 => self.centre_features::<6>(z, &mut out[..k]),
+            _ => {
+                for i in 0..k {
+                    let c = &self.centers[i * d..(i + 1) * d];
+                    let r = c.iter().zip(z.iter()).map(|(c, z)| (z - c).powi(2)).sum::<f64>().sqrt();
+                    out[i] = self.kernel.phi(r);
+                }
+            }
         }
         for j in 0..d {
             out[k + j] = eta[j] / self.scale[j];
         }
         out[k + d] = 1.0;
+    }
+
+    /// The centre features of [`RbfMap::features`] for `D` coordinates (`z` the scaled
+    /// state): the same expression per centre with the length known at compile time, so the
+    /// same operations in the same order.
+    #[inline]
+    fn centre_features<const D: usize>(&self, z: &[f64], out: &mut [f64]) {
+        let mut zz = [0.0; D];
+        zz.copy_from_slice(&z[..D]);
+        for (c, o) in self.centers.chunks_exact(D).zip(out.iter_mut()) {
+            let c: &[f64; D] = c.try_into().unwrap_or(&[0.0; D]);
+            let r = c.iter().zip(zz.iter()).map(|(c, z)| (z - c).powi(2)).sum::<f64>().sqrt();
+            *o = self.kernel.phi(r);
+        }
     }
 
     /// Next state `eta_{n+1}` in place.
@@ -1196,6 +1217,58 @@ fn fit_rbf_with(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The features as computed before the per-dimension loops (kept here): every centre's
+    /// distance by the slice loop.
+    fn features_plain(m: &RbfMap, eta: &[f64], out: &mut [f64]) {
+        let d = m.dim;
+        let k = m.n_centers();
+        let z: Vec<f64> = eta.iter().zip(&m.scale).map(|(e, s)| e / s).collect();
+        for i in 0..k {
+            let c = &m.centers[i * d..(i + 1) * d];
+            let r = c.iter().zip(z.iter()).map(|(c, z)| (z - c).powi(2)).sum::<f64>().sqrt();
+            out[i] = m.kernel.phi(r);
+        }
+        for j in 0..d {
+            out[k + j] = eta[j] / m.scale[j];
+        }
+        out[k + d] = 1.0;
+    }
+
+    /// `RbfMap::features` (dimensions 2, 4, 6 by the fixed-length loops, others by the slice
+    /// loop) equals the plain loop bit for bit, for every kernel, at centres too (r = 0).
+    #[test]
+    fn features_match_the_plain_loop() {
+        let mut u = 0.3_f64;
+        let mut next = move || {
+            u = (u * 3.7 + 0.11).fract();
+            u - 0.5
+        };
+        for d in 1..=7 {
+            for kernel in [Kernel::Linear, Kernel::Cubic, Kernel::ThinPlate, Kernel::Gaussian { eps: 0.7 }] {
+                let k = 37;
+                let centers: Vec<f64> = (0..k * d).map(|_| next()).collect();
+                let m = RbfMap {
+                    dim: d,
+                    kernel,
+                    dt: 0.1,
+                    scale: vec![0.8; d],
+                    coef: vec![0.0; (k + d + 1) * d],
+                    centers: centers.clone(),
+                    conditioning: Conditioning { rows: 0, cols: 0, s_max: 1.0, s_min: 1.0, cond: 1.0, alpha: 0.0, cond_regularized: 1.0, rel_residual: 0.0 },
+                };
+                for p in 0..20 {
+                    // The last point sits on a centre (scaled): r = 0 exactly.
+                    let eta: Vec<f64> = if p == 19 { centers[..d].iter().map(|c| c * 0.8).collect() } else { (0..d).map(|_| next()).collect() };
+                    let (mut got, mut want) = (vec![0.0; k + d + 1], vec![0.0; k + d + 1]);
+                    m.features(&eta, &mut got);
+                    features_plain(&m, &eta, &mut want);
+                    let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+                    assert_eq!(bits(&got), bits(&want), "d {d}, {kernel:?}, point {p}");
+                }
+            }
+        }
+    }
 
     /// Linear oscillator eta' = A eta sampled exactly: flow, map and RBF must all recover
     /// the eigenvalues -0.3 +- 2i.
