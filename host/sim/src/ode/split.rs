@@ -152,25 +152,19 @@ fn phi_lean(z: f64, cut: &Cut) -> ([f64; 5], f64) {
 
 #[inline(always)]
 fn matvec<const N: usize>(a: &[[f64; N]; N], x: &[f64; N]) -> [f64; N] {
-    core::array::from_fn(|i| {
-        let mut s = 0.0;
-        for j in 0..N {
-            s += a[i][j] * x[j];
-        }
-        s
-    })
+    matvec_from(a, x, 0.0)
 }
 
-/// [`matvec`] for the Taylor sums of [`Split::apply`]: the sums start from `-0.0`, the
-/// identity of `+` (`-0.0 + x` is `x` for every `x`, so the compiler drops it), not `+0.0`
-/// (`+0.0 + x` is `x` except for `x = -0.0`): one dependent add fewer per term on the step's
-/// critical path. The two can differ only in the sign of an exact zero component of `t`, which
-/// no output sees: `t` goes only into further products and into sums that start from `+0.0`
-/// (`out`), where a zero of either sign leaves the sum as it is.
+/// `a x` with each row's sum started from `s0`: `0.0` for [`matvec`]; `-0.0` for the Taylor
+/// sums of [`Split::apply`]. `-0.0` is the identity of `+` (`-0.0 + x` is `x` for every `x`,
+/// so the compiler drops it), `+0.0` is not (`+0.0 + -0.0` is `+0.0`): one dependent add
+/// fewer per term on the step's critical path. The two can differ only in the sign of an exact
+/// zero component of `t`, which no output sees: `t` goes only into further products and into
+/// sums that start from `+0.0` (`out`), where a zero of either sign leaves the sum as it is.
 #[inline(always)]
-fn matvec_taylor<const N: usize>(a: &[[f64; N]; N], x: &[f64; N]) -> [f64; N] {
+fn matvec_from<const N: usize>(a: &[[f64; N]; N], x: &[f64; N], s0: f64) -> [f64; N] {
     core::array::from_fn(|i| {
-        let mut s = -0.0;
+        let mut s = s0;
         for j in 0..N {
             s += a[i][j] * x[j];
         }
@@ -627,7 +621,7 @@ impl<const N: usize> Split<N> {
         let mut half_pow = 1.0;
         for j in 0..self.terms {
             if j > 0 {
-                t = matvec_taylor(&self.a, &t);
+                t = matvec_from(&self.a, &t, -0.0);
                 half_pow *= 0.5;
             }
             for i in 0..N {
@@ -888,11 +882,11 @@ mod tests {
             let d = pair_diff(&got, &want);
             for i in 0..3 {
                 worst[i] = worst[i].max(d[i]);
-                let r = residuals(&jac, &got);
-                assert!(r.0 <= 1e-15 && r.1 <= 1e-15, "x {x:?} u {u}: residuals {r:?}");
-                worst_res = [worst_res[0].max(r.0), worst_res[1].max(r.1)];
-                assert!(d[0] <= 1e-15 && d[1] <= 1e-14 && d[2] <= 3e-14, "x {x:?} u {u}: [lambda, v, w] differ by {d:?}");
             }
+            let r = residuals(&jac, &got);
+            assert!(r.0 <= 1e-15 && r.1 <= 1e-15, "x {x:?} u {u}: residuals {r:?}");
+            worst_res = [worst_res[0].max(r.0), worst_res[1].max(r.1)];
+            assert!(d[0] <= 1e-15 && d[1] <= 1e-14 && d[2] <= 3e-14, "x {x:?} u {u}: [lambda, v, w] differ by {d:?}");
             used += 1;
         }
         eprintln!("second-order pair vs power iteration, {used} Jacobians: [lambda, v, w] worst {worst:?}, residuals (v, w) {worst_res:?}");
