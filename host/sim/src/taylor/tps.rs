@@ -36,6 +36,13 @@ pub struct TpsTable {
     /// for every `j` with `deg(i) + deg(j) <= order` (a prefix of the graded order).
     flat: Vec<u16>,
     row_start: Vec<u32>,
+    /// The table's rows restricted to the `j` of even (`[0]`) or odd (`[1]`) degree, in the
+    /// same order: `par_flat[q][par_row_start[q][i]..par_row_start[q][i + 1]]`.
+    par_flat: [Vec<u16>; 2],
+    par_row_start: [Vec<u32>; 2],
+    /// `par_start[d]`: number of monomials of degree below `d` and of `d`'s parity (the offset
+    /// of degree `d` in a row of `par_flat`; length `order + 2`).
+    par_start: Vec<usize>,
 }
 
 /// Number of monomials of degree `<= order` in `nvar` variables, `C(nvar + order, nvar)`;
@@ -100,7 +107,20 @@ impl TpsTable {
             flat.extend_from_slice(row);
         }
         row_start.push(flat.len() as u32);
-        Self { nvar, order, exps, deg_start, flat, row_start }
+        let deg_of = |j: usize| deg_start.partition_point(|&s| s <= j) - 1;
+        let par_start: Vec<usize> = (0..deg_start.len()).map(|d| (0..d).filter(|e| (d - e) % 2 == 0).map(|e| deg_start[e + 1] - deg_start[e]).sum()).collect();
+        let mut par_flat: [Vec<u16>; 2] = [Vec::new(), Vec::new()];
+        let mut par_row_start: [Vec<u32>; 2] = [Vec::with_capacity(prod.len() + 1), Vec::with_capacity(prod.len() + 1)];
+        for row in &prod {
+            for q in 0..2 {
+                par_row_start[q].push(par_flat[q].len() as u32);
+                par_flat[q].extend(row.iter().enumerate().filter(|&(j, _)| deg_of(j) % 2 == q).map(|(_, &k)| k));
+            }
+        }
+        for q in 0..2 {
+            par_row_start[q].push(par_flat[q].len() as u32);
+        }
+        Self { nvar, order, exps, deg_start, flat, row_start, par_flat, par_row_start, par_start }
     }
 
     /// The shared table of `(nvar, order)`, built on first use. `None` if it would not fit a
@@ -264,9 +284,32 @@ impl Tps {
         // 1/b = (1/b0) sum_n x^n, x = -(b - b0)/b0, Horner: s = 1 + x s.
         let x = self.nilpotent().scaled(-1.0 / b0);
         let mut s = Self::constant(t, 1.0);
-        for _ in 0..t.order {
-            s = x.mul_ref(&s);
-            s.c[0] += 1.0;
+        let xmask = nonzero_degrees(t, &x.c);
+        if xmask & 1 == 1 {
+            // A constant term (`b0` zero or not finite): the plain Horner loop.
+            for _ in 0..t.order {
+                s = x.mul_ref(&s);
+                s.c[0] += 1.0;
+            }
+        } else if xmask != 0 {
+            // With `m >= 1` the lowest nonzero degree of `x`, the Horner iterates `s_n` and
+            // `s_(n-1)` are the same bits below degree `m n` (degree `d` of `x s` reads the
+            // degrees `<= d - m` of `s` only, in the same terms and order), so iteration `n`
+            // forms the degrees `>= m n` only and the iterations past `m n > order` change
+            // nothing: the loop above bit for bit, at about a third of its products
+            // (`m = 2`, order 9: degrees >= 2, 4, 6, 8 of four products instead of nine full).
+            // `x == 0` leaves `s = 1`, as the loop does.
+            let m = xmask.trailing_zeros();
+            let n = t.len();
+            for k in 1..=t.order {
+                let dmin = m * k;
+                if dmin > t.order {
+                    break;
+                }
+                let lo = t.deg_start[dmin as usize];
+                let p = mul_flat_from(t, &x.c, &s.c, dmin as usize);
+                s.c[lo..n].copy_from_slice(&p[lo..n]);
+            }
         }
         s *= 1.0 / b0;
         s
@@ -429,15 +472,105 @@ impl Mul for Tps {
 /// odd or only even degrees: about half the terms (order-9 expansion 1.9x faster).
 #[inline]
 fn mul_flat(t: &TpsTable, a: &[f64; TPS_CAPACITY], b: &[f64; TPS_CAPACITY]) -> [f64; TPS_CAPACITY] {
+    mul_flat_from(t, a, b, 0)
+}
+
+/// Bit `d` set: degree `d` of `c` has a nonzero (or NaN) coefficient (the bits without the
+/// sign are nonzero; an OR over the block, which vectorizes, not an early exit).
+fn nonzero_degrees(t: &TpsTable, c: &[f64; TPS_CAPACITY]) -> u32 {
+    let ds = &t.deg_start;
+    (0..=t.order as usize).filter(|&d| c[ds[d]..ds[d + 1]].iter().fold(0u64, |m, v| m | v.to_bits() << 1) != 0).fold(0u32, |m, d| m | 1 << d)
+}
+
+/// [`mul_flat`]'s coefficients of degree `>= dmin` (the same sums in the same order; the
+/// lower ones are `+0.0`): its loop without the terms of lower degrees.
+///
+/// When the nonzero degrees of `b` are one run `lo..=hi` (a dense series, or one from
+/// degree `lo` on) or every other degree of one (an odd or an even jet), the degrees of `b`
+/// a row reads are one contiguous slice of it (of its even or odd degrees packed, for the
+/// jets): one inner loop per row, not one per degree of `b` (0.75x the CPU of the loop per
+/// degree on order-9 odd and dense products). The same terms (`a[i]` nonzero, degrees of
+/// `b` nonzero) in the same order, so the same bits for every input. Other masks take the
+/// loop per degree.
+#[inline]
+fn mul_flat_from(t: &TpsTable, a: &[f64; TPS_CAPACITY], b: &[f64; TPS_CAPACITY], dmin: usize) -> [f64; TPS_CAPACITY] {
     let mut acc = [0.0; SCRATCH];
+    let (amask, bmask) = (nonzero_degrees(t, a), nonzero_degrees(t, b));
+    if bmask != 0 {
+        let (lo, hi) = (bmask.trailing_zeros() as usize, 31 - bmask.leading_zeros() as usize);
+        let run = (u32::MAX >> (31 - hi)) & (u32::MAX << lo);
+        let every_other = run & if lo % 2 == 0 { 0x5555_5555 } else { 0xaaaa_aaaa };
+        if bmask == run {
+            mul_rows(t, a, amask, b, &t.flat, &t.row_start, &t.deg_start, 1, lo, hi, dmin, &mut acc);
+        } else if bmask == every_other {
+            let q = lo % 2;
+            let (ds, ps) = (&t.deg_start, &t.par_start);
+            let mut packed = [0.0; TPS_CAPACITY];
+            for d in (lo..=hi).step_by(2) {
+                packed[ps[d]..ps[d] + ds[d + 1] - ds[d]].copy_from_slice(&b[ds[d]..ds[d + 1]]);
+            }
+            mul_rows(t, a, amask, &packed, &t.par_flat[q], &t.par_row_start[q], ps, 2, lo, hi, dmin, &mut acc);
+        } else {
+            mul_blocks(t, a, amask, b, bmask, dmin, &mut acc);
+        }
+    }
+    let mut c = [0.0; TPS_CAPACITY];
+    c.copy_from_slice(&acc[..TPS_CAPACITY]);
+    c
+}
+
+/// The product's terms by rows of `a` (degrees in `amask`, `a[i] == 0` skipped) against the
+/// degrees `lo, lo + step, ..= hi` of `b`, above `dmin` in total, as one slice per row:
+/// `flat`/`row_start` the rows over those degrees, `b` and the rows indexed through `start`
+/// (`start[d]`: where degree `d` begins in them).
+#[allow(clippy::too_many_arguments)]
+#[inline(always)]
+fn mul_rows(
+    t: &TpsTable,
+    a: &[f64; TPS_CAPACITY],
+    amask: u32,
+    b: &[f64; TPS_CAPACITY],
+    flat: &[u16],
+    row_start: &[u32],
+    start: &[usize],
+    step: usize,
+    lo: usize,
+    hi: usize,
+    dmin: usize,
+    acc: &mut [f64; SCRATCH],
+) {
     let order = t.order as usize;
     let ds = &t.deg_start;
-    // Bit `d` set: degree `d` has a nonzero (or NaN) coefficient (the bits without the sign
-    // are nonzero; an OR over the block, which vectorizes, not an early exit).
-    let nonzero_degrees = |c: &[f64; TPS_CAPACITY]| -> u32 {
-        (0..=order).filter(|&d| c[ds[d]..ds[d + 1]].iter().fold(0u64, |m, v| m | v.to_bits() << 1) != 0).fold(0u32, |m, d| m | 1 << d)
-    };
-    let (amask, bmask) = (nonzero_degrees(a), nonzero_degrees(b));
+    for da in (0..=order.saturating_sub(lo)).filter(|&d| amask >> d & 1 == 1) {
+        // Degrees of `b` this block reads: from the first of the run at or above
+        // `dmin - da` to the last at or below `min(hi, order - da)`.
+        let first = lo.max(dmin.saturating_sub(da));
+        let first = first + (first - lo) % step;
+        let top = hi.min(order - da);
+        let top = top - (top - lo) % step;
+        if first > top {
+            continue;
+        }
+        let (s, e) = (start[first], start[top] + ds[top + 1] - ds[top]);
+        let bs = &b[s..e];
+        for i in ds[da]..ds[da + 1] {
+            let ai = a[i];
+            if ai == 0.0 {
+                continue;
+            }
+            let r = row_start[i] as usize;
+            for (x, &k) in bs.iter().zip(&flat[r + s..r + e]) {
+                acc[usize::from(k) & (SCRATCH - 1)] += ai * x;
+            }
+        }
+    }
+}
+
+/// The product's terms by rows of `a` (degrees in `amask`, `a[i] == 0` skipped) and, in a
+/// row, by degrees of `b` (those in `bmask`, at or above `dmin` in total).
+fn mul_blocks(t: &TpsTable, a: &[f64; TPS_CAPACITY], amask: u32, b: &[f64; TPS_CAPACITY], bmask: u32, dmin: usize, acc: &mut [f64; SCRATCH]) {
+    let order = t.order as usize;
+    let ds = &t.deg_start;
     for da in (0..=order).filter(|&d| amask >> d & 1 == 1) {
         for i in ds[da]..ds[da + 1] {
             let ai = a[i];
@@ -446,7 +579,7 @@ fn mul_flat(t: &TpsTable, a: &[f64; TPS_CAPACITY], b: &[f64; TPS_CAPACITY]) -> [
             }
             let row = &t.flat[t.row_start[i] as usize..t.row_start[i + 1] as usize];
             // The row holds every `j` of degree <= order - da, in graded order.
-            for db in (0..=order - da).filter(|&d| bmask >> d & 1 == 1) {
+            for db in (dmin.saturating_sub(da)..=order - da).filter(|&d| bmask >> d & 1 == 1) {
                 let (lo, hi) = (ds[db], ds[db + 1]);
                 for (s, &k) in b[lo..hi].iter().zip(&row[lo..hi]) {
                     acc[usize::from(k) & (SCRATCH - 1)] += ai * s;
@@ -454,9 +587,6 @@ fn mul_flat(t: &TpsTable, a: &[f64; TPS_CAPACITY], b: &[f64; TPS_CAPACITY]) -> [
             }
         }
     }
-    let mut c = [0.0; TPS_CAPACITY];
-    c.copy_from_slice(&acc[..TPS_CAPACITY]);
-    c
 }
 
 /// [`mul_flat`]'s scratch: a power of two, at least [`TPS_CAPACITY`] (every index of a
@@ -709,6 +839,163 @@ mod tests {
                 eprintln!("order {order}: {reps} {kind} products ({acc:.1e})");
             }
         }
+    }
+
+    /// `mul_flat` as of e794cbf (one inner loop per nonzero degree of `b`), kept as the
+    /// reference of the one-slice-per-row paths.
+    fn mul_flat_e794cbf(t: &TpsTable, a: &[f64; TPS_CAPACITY], b: &[f64; TPS_CAPACITY]) -> [f64; TPS_CAPACITY] {
+        let mut acc = [0.0; SCRATCH];
+        let order = t.order as usize;
+        let ds = &t.deg_start;
+        let nonzero_degrees = |c: &[f64; TPS_CAPACITY]| -> u32 {
+            (0..=order).filter(|&d| c[ds[d]..ds[d + 1]].iter().fold(0u64, |m, v| m | v.to_bits() << 1) != 0).fold(0u32, |m, d| m | 1 << d)
+        };
+        let (amask, bmask) = (nonzero_degrees(a), nonzero_degrees(b));
+        for da in (0..=order).filter(|&d| amask >> d & 1 == 1) {
+            for i in ds[da]..ds[da + 1] {
+                let ai = a[i];
+                if ai == 0.0 {
+                    continue;
+                }
+                let row = &t.flat[t.row_start[i] as usize..t.row_start[i + 1] as usize];
+                for db in (0..=order - da).filter(|&d| bmask >> d & 1 == 1) {
+                    let (lo, hi) = (ds[db], ds[db + 1]);
+                    for (s, &k) in b[lo..hi].iter().zip(&row[lo..hi]) {
+                        acc[usize::from(k) & (SCRATCH - 1)] += ai * s;
+                    }
+                }
+            }
+        }
+        let mut c = [0.0; TPS_CAPACITY];
+        c.copy_from_slice(&acc[..TPS_CAPACITY]);
+        c
+    }
+
+    /// `recip` as of e794cbf (nine full Horner products at order 9).
+    fn recip_e794cbf(b: &Tps) -> Tps {
+        let (b0, t) = (b.c[0], b.t.unwrap());
+        let x = b.nilpotent().scaled(-1.0 / b0);
+        let mut s = Tps::constant(t, 1.0);
+        for _ in 0..t.order {
+            s = Tps { c: mul_flat_e794cbf(t, &x.c, &s.c), t: Some(t) };
+            s.c[0] += 1.0;
+        }
+        s *= 1.0 / b0;
+        s
+    }
+
+    /// Operands of every shape the product's paths tell apart, at every table the tests and
+    /// the study use (and more: 1..=5 variables, orders 0..=12 where a table fits): dense,
+    /// odd and even jets, jets from a degree on (powers of a nilpotent series, odd or even
+    /// from there), random zero degrees (masks neither a run nor every other degree), single
+    /// zeros, `-0.0` entries, and NaN, +inf, -inf entries in otherwise zero or nonzero degrees
+    /// (where skipping a zero term and forming it differ).
+    fn product_operands(t: &TpsTable, rnd: &mut dyn FnMut() -> f64) -> Vec<[f64; TPS_CAPACITY]> {
+        let n = t.len();
+        let order = t.order();
+        let deg = |i: usize| -> u32 { t.exponents()[i].iter().sum() };
+        let mut ops = Vec::new();
+        for kind in 0..16u32 {
+            let holes = (rnd() * 4096.0) as u32 | 1 << (rnd() * 13.0) as u32;
+            let from = ((rnd() + 0.5) * (order as f64 + 1.0)) as u32;
+            let mut c = [0.0; TPS_CAPACITY];
+            for (i, v) in c[..n].iter_mut().enumerate() {
+                let d = deg(i);
+                let x = rnd() * 10f64.powi((i % 5) as i32 - 2);
+                *v = match kind {
+                    0 => x,
+                    1 if d % 2 == 0 => 0.0,
+                    2 if d % 2 == 1 => -0.0,
+                    3 if d < from => 0.0,
+                    4 if d < from || (d - from) % 2 == 1 => 0.0,
+                    5 if d == 0 || d % 2 == 1 => 0.0,
+                    6 if holes >> d & 1 == 0 => 0.0,
+                    7 if i % 3 == 0 => 0.0,
+                    8 if i % 4 == 1 => -0.0,
+                    _ => x,
+                };
+            }
+            // Non-finite entries: in a zero degree of an odd jet, in a nonzero one, in a
+            // dense series, at the constant term.
+            let put = |c: &mut [f64; TPS_CAPACITY], v: f64, i: usize| {
+                if i < n {
+                    c[i] = v;
+                }
+            };
+            match kind {
+                9 => {
+                    c = ops[1];
+                    put(&mut c, f64::NAN, t.degree_range(2).start);
+                }
+                10 => {
+                    c = ops[1];
+                    put(&mut c, f64::INFINITY, t.degree_range(3).start + 1);
+                }
+                11 => put(&mut c, f64::NEG_INFINITY, n / 2),
+                12 => put(&mut c, f64::NAN, 0),
+                13 => {
+                    c = ops[2];
+                    put(&mut c, f64::INFINITY, n - 1);
+                }
+                14 => {
+                    c = [0.0; TPS_CAPACITY];
+                    put(&mut c, -0.0, n - 1);
+                }
+                15 => c = [0.0; TPS_CAPACITY],
+                _ => {}
+            }
+            ops.push(c);
+        }
+        ops
+    }
+
+    /// The same bits, a NaN matching any NaN: Rust leaves a NaN's sign and payload to the
+    /// compiler (an `addsd` of two NaNs returns its first operand's, and which one is first is
+    /// codegen's choice: e794cbf's own NaN signs change with inlining), so only where the NaNs
+    /// are is the result's. (The study never has one: `flow_expansion` rejects non-finite
+    /// coefficients.)
+    fn same_bits(x: &[f64], y: &[f64]) -> bool {
+        x.len() == y.len() && x.iter().zip(y).all(|(p, q)| p.to_bits() == q.to_bits() || p.is_nan() && q.is_nan())
+    }
+
+    /// The product (one slice of `b` per row when `b`'s nonzero degrees are a run or every
+    /// other degree of one, else a loop per degree) and `1 / x` (Horner forming only the
+    /// degrees that change) against e794cbf's loops kept above, bit for bit, on
+    /// [`product_operands`] (all pairs, and each operand's reciprocal with its constant term
+    /// as drawn, set to 0, 1.5 and -inf).
+    #[test]
+    fn products_and_reciprocals_are_e794cbf_bit_for_bit() {
+        let mut seed = 0x853c_49e6_748f_ea9bu64;
+        let mut rnd = move || {
+            seed ^= seed << 13;
+            seed ^= seed >> 7;
+            seed ^= seed << 17;
+            (seed >> 11) as f64 / (1u64 << 53) as f64 - 0.5
+        };
+        let mut tables = 0;
+        for nvar in 1..=5 {
+            for order in 0..=TPS_MAX_ORDER {
+                let Some(t) = TpsTable::get(nvar, order) else { continue };
+                tables += 1;
+                let n = t.len();
+                let ops = product_operands(t, &mut rnd);
+                for (p, a) in ops.iter().enumerate() {
+                    for (q, b) in ops.iter().enumerate() {
+                        let (got, want) = (mul_flat(t, a, b), mul_flat_e794cbf(t, a, b));
+                        assert!(same_bits(&got, &want), "nvar {nvar} order {order} operands {p} x {q}");
+                        let got = Tps { c: *a, t: Some(t) }.mul_ref(&Tps { c: *b, t: Some(t) });
+                        assert!(same_bits(got.coefficients(), &want[..n]), "mul_ref nvar {nvar} order {order} operands {p} x {q}");
+                    }
+                    for c0 in [a[0], 0.0, 1.5, f64::NEG_INFINITY] {
+                        let mut c = *a;
+                        c[0] = c0;
+                        let x = Tps { c, t: Some(t) };
+                        assert!(same_bits(x.recip().coefficients(), recip_e794cbf(&x).coefficients()), "recip nvar {nvar} order {order} operand {p} c0 {c0}");
+                    }
+                }
+            }
+        }
+        assert!(tables >= 40, "{tables} tables");
     }
 
     /// `sin_cos` and `1 / x` (in place, by reference) against their former by-value loops,
