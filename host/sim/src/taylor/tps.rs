@@ -479,7 +479,13 @@ fn mul_flat(t: &TpsTable, a: &[f64; TPS_CAPACITY], b: &[f64; TPS_CAPACITY]) -> [
 /// sign are nonzero; an OR over the block, which vectorizes, not an early exit).
 fn nonzero_degrees(t: &TpsTable, c: &[f64; TPS_CAPACITY]) -> u32 {
     let ds = &t.deg_start;
-    (0..=t.order as usize).filter(|&d| c[ds[d]..ds[d + 1]].iter().fold(0u64, |m, v| m | v.to_bits() << 1) != 0).fold(0u32, |m, d| m | 1 << d)
+    let mut mask = 0;
+    for d in 0..=t.order as usize {
+        // The OR of the bits, then the sign shifted out (the same as ORing the shifted bits).
+        let bits = c[ds[d]..ds[d + 1]].iter().fold(0u64, |m, v| m | v.to_bits());
+        mask |= u32::from(bits << 1 != 0) << d;
+    }
+    mask
 }
 
 /// [`mul_flat`]'s coefficients of degree `>= dmin` (the same sums in the same order; the
@@ -689,12 +695,21 @@ impl Scalar for Tps {
         for n in 1..=t.order {
             p = p.mul_ref(&y);
             fact *= n as f64;
-            let term = p.scaled(1.0 / fact);
-            match n % 4 {
-                1 => sin_y += &term,
-                2 => cos_y -= &term,
-                3 => sin_y -= &term,
-                _ => cos_y += &term,
+            // `sin_y += p * (1 / fact)` etc. in place: the product rounded, then the sum.
+            let f = 1.0 / fact;
+            let len = t.len();
+            let (sum, add) = match n % 4 {
+                1 => (&mut sin_y, true),
+                2 => (&mut cos_y, false),
+                3 => (&mut sin_y, false),
+                _ => (&mut cos_y, true),
+            };
+            for (o, v) in sum.c[..len].iter_mut().zip(&p.c[..len]) {
+                if add {
+                    *o += v * f;
+                } else {
+                    *o -= v * f;
+                }
             }
         }
         // (sin_y c0 + cos_y s0, cos_y c0 - sin_y s0), each product rounded, then the sum.
