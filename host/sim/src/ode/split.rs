@@ -737,6 +737,14 @@ impl<const N: usize> Split<N> {
     }
 }
 
+/// `f(u) - f0 - J du` of [`step`] (a function, not a closure: the closure, called twice, was
+/// not inlined once the unit-row case was added).
+#[inline(always)]
+fn remainder<const N: usize>(jac: &[[f64; N]; N], unit_rows: bool, f0: &[f64; N], fu: [f64; N], du: &[f64; N]) -> [f64; N] {
+    let jd = if unit_rows { matvec_unit_rows(jac, du) } else { matvec(jac, du) };
+    core::array::from_fn(|i| fu[i] - f0[i] - jd[i])
+}
+
 /// One `exprb43` step with split `phi`-functions: the same formulas as [`super::exprb::step`]
 /// (see `exprb.rs`). Returns the new state and the error estimate.
 #[inline]
@@ -748,10 +756,7 @@ pub(crate) fn step<const N: usize>(
     f0: &[f64; N],
     h: f64,
 ) -> ([f64; N], [f64; N]) {
-    let remainder = |fu: [f64; N], du: &[f64; N]| -> [f64; N] {
-        let jd = if sp.unit_rows { matvec_unit_rows(jac, du) } else { matvec(jac, du) };
-        core::array::from_fn(|i| fu[i] - f0[i] - jd[i])
-    };
+    let remainder = |fu: [f64; N], du: &[f64; N]| remainder(jac, sp.unit_rows, f0, fu, du);
     let [pf_half, pf1, _, _] = sp.apply::<true, true, false, false>(f0);
     let du2: [f64; N] = core::array::from_fn(|i| 0.5 * h * pf_half[i]);
     let u2: [f64; N] = core::array::from_fn(|i| y[i] + du2[i]);
