@@ -172,6 +172,20 @@ fn matvec_from<const N: usize>(a: &[[f64; N]; N], x: &[f64; N], s0: f64) -> [f64
     })
 }
 
+/// [`matvec`] for a Jacobian with [`unit_rows`] (`N = 4`): rows 0 and 2 as `0.0 + x_1`,
+/// `0.0 + x_3`. For finite `x` that is `matvec`'s sum bit for bit (each `0 x_j` is `+-0` and
+/// leaves the running sum, never `-0`, as it is; see [`checked_pair_furuta`]). For `x` with a
+/// non-finite component `x_k` the two differ (`0 x_k` is NaN), but [`step`]'s trial is then
+/// non-finite in every component either way: rows 1 and 3 hold `J_1k x_k` (NaN or infinite,
+/// also for `J_1k = 0`), so the remainder's component 1 is, and with it `w^T d`, every Taylor
+/// term and the new state; the driver rejects the trial the same way.
+#[inline(always)]
+fn matvec_unit_rows<const N: usize>(a: &[[f64; N]; N], x: &[f64; N]) -> [f64; N] {
+    let mut s = matvec(a, x);
+    (s[0], s[2]) = (0.0 + x[1], 0.0 + x[3]);
+    s
+}
+
 #[inline(always)]
 fn matvec_t<const N: usize>(a: &[[f64; N]; N], x: &[f64; N]) -> [f64; N] {
     let mut s = [0.0; N];
@@ -237,13 +251,26 @@ pub(crate) fn dominant_pair<const N: usize>(jac: &[[f64; N]; N], start: Option<&
 /// 0.02 31.5`) and the Rayleigh quotient
 /// iteration only where it fails. Without a start, or if both fail, power iteration from the
 /// cold start ([`dominant_pair`] with `tol`).
+#[cfg(test)]
 pub(crate) fn dominant_pair_lean<const N: usize>(
     jac: &[[f64; N]; N],
     start: Option<&Pair<N>>,
     tol: f64,
 ) -> Option<Pair<N>> {
+    dominant_pair_lean_with(jac, start, tol, unit_rows(jac))
+}
+
+/// [`dominant_pair_lean`] with `unit_rows(jac)` known to the caller ([`unit_rows`], once per
+/// Jacobian: the layout test of [`second_order_layout`] then passes without a comparison).
+#[inline]
+pub(crate) fn dominant_pair_lean_with<const N: usize>(
+    jac: &[[f64; N]; N],
+    start: Option<&Pair<N>>,
+    tol: f64,
+    unit_rows: bool,
+) -> Option<Pair<N>> {
     start
-        .and_then(|s| second_order_pair(jac, s, tol).or_else(|| rayleigh_iteration(jac, s, tol)))
+        .and_then(|s| second_order_pair(jac, s, tol, unit_rows).or_else(|| rayleigh_iteration(jac, s, tol)))
         .or_else(|| power_iteration(jac, None, 2, tol))
 }
 
@@ -302,8 +329,8 @@ fn second_order_layout<const N: usize>(jac: &[[f64; N]; N]) -> Option<[(usize, u
 /// test as [`rayleigh_iteration`]'s (each vector scaled to inf-norm 1, the two-sided Rayleigh
 /// quotient as `lambda`, both residuals below `tol |lambda|`), or `None`: the caller falls back
 /// to the Rayleigh quotient iteration.
-fn second_order_pair<const N: usize>(jac: &[[f64; N]; N], start: &Pair<N>, tol: f64) -> Option<Pair<N>> {
-    let [(p0, v0), (p1, v1)] = second_order_layout(jac)?;
+fn second_order_pair<const N: usize>(jac: &[[f64; N]; N], start: &Pair<N>, tol: f64, unit_rows: bool) -> Option<Pair<N>> {
+    let [(p0, v0), (p1, v1)] = if unit_rows && N == 4 { [(0, 1), (2, 3)] } else { second_order_layout(jac)? };
     let (a11, a12, a21, a22) = (jac[v0][p0], jac[v0][p1], jac[v1][p0], jac[v1][p1]);
     let (b11, b12, b21, b22) = (jac[v0][v0], jac[v0][v1], jac[v1][v0], jac[v1][v1]);
     let m = |l: f64| [l * (l - b11) - a11, -(l * b12 + a12), -(l * b21 + a21), l * (l - b22) - a22];
@@ -337,7 +364,52 @@ fn second_order_pair<const N: usize>(jac: &[[f64; N]; N], start: &Pair<N>, tol: 
     (v[p0], v[p1], v[v0], v[v1]) = (q0, q1, l * q0, l * q1);
     (w[p0], w[p1], w[v0], w[v1]) = ((a11 * r0 + a21 * r1) * il, (a12 * r0 + a22 * r1) * il, r0, r1);
     let (v, w) = normalized_pair(&v, &w)?;
+    if N == 4 && [(p0, v0), (p1, v1)] == [(0, 1), (2, 3)] {
+        return checked_pair_furuta(jac, &v, &w, tol).ok();
+    }
     checked_pair(jac, &v, &w, tol).ok()
+}
+
+/// [`checked_pair`] for a Jacobian with the Furuta and cart plants' layout (rows 0 and 2 the
+/// unit rows `e_1`, `e_3`, [`second_order_layout`]) and finite `v`, `w` (as
+/// [`normalized_pair`] gives): the same result bit for bit, the products with the exact zeros
+/// and ones left out. In `matvec`'s and `matvec_t`'s sums, which start from `+0.0` and add in
+/// row (column) order, a term `0 x` is `+-0` for finite `x` and leaves the running sum as it
+/// is (the sum is never `-0`: `+0.0 + a` is `+0` for `a = -0`, and `+0 + -0 = +0`), and a term
+/// `1 x` is `x`; so `(J v)_0 = 0.0 + v_1`, `(J^T w)_1 = ((0.0 + w_0) + J_11 w_1) + J_31 w_3`,
+/// and so on. Checked against [`checked_pair`] in the tests.
+#[inline]
+fn checked_pair_furuta<const N: usize>(jac: &[[f64; N]; N], v: &[f64; N], w: &[f64; N], tol: f64) -> Result<Pair<N>, Option<f64>> {
+    let wv = dot(w, v);
+    if !(wv.abs() > 1e-8) {
+        return Err(None);
+    }
+    let row = |i: usize| {
+        let mut s = 0.0;
+        for j in 0..N {
+            s += jac[i][j] * v[j];
+        }
+        s
+    };
+    let mut jv = [0.0; N];
+    (jv[0], jv[1], jv[2], jv[3]) = (0.0 + v[1], row(1), 0.0 + v[3], row(3));
+    let lambda = dot(w, &jv) / wv;
+    let (j1, j3) = (&jac[1], &jac[3]);
+    let mut jw = [0.0; N];
+    (jw[0], jw[1], jw[2], jw[3]) = (
+        (0.0 + j1[0] * w[1]) + j3[0] * w[3],
+        ((0.0 + w[0]) + j1[1] * w[1]) + j3[1] * w[3],
+        (0.0 + j1[2] * w[1]) + j3[2] * w[3],
+        ((0.0 + j1[3] * w[1]) + w[2]) + j3[3] * w[3],
+    );
+    let tol_abs = tol * lambda.abs();
+    let rv = (0..N).map(|i| (jv[i] - lambda * v[i]).abs()).fold(0.0, f64::max);
+    let rw = (0..N).map(|i| (jw[i] - lambda * w[i]).abs()).fold(0.0, f64::max);
+    if rv <= tol_abs && rw <= tol_abs && lambda.is_finite() {
+        let iwv = 1.0 / wv;
+        return Ok((lambda, *v, w.map(|x| x * iwv)));
+    }
+    Err(Some(lambda))
 }
 
 /// The acceptance test of [`rayleigh_iteration`] and [`second_order_pair`] for `v` and `w` of
@@ -558,6 +630,16 @@ pub(crate) struct Split<const N: usize> {
     fast_half: f64,
     /// Taylor terms needed for `phi_k(h J_s)`, `k >= 1`.
     terms: usize,
+    /// `J`'s rows 0 and 2 are the unit rows `e_1`, `e_3` ([`unit_rows`]): [`step`]'s `J du`
+    /// without the products by the exact zeros and ones.
+    unit_rows: bool,
+}
+
+/// Whether `jac` (`N = 4`) has rows 0 and 2 exactly the unit rows `e_1`, `e_3`: the layout of
+/// the Furuta and cart plants' state `(theta, w_theta, phi, w_phi)` ([`second_order_layout`]).
+#[inline]
+pub(crate) fn unit_rows<const N: usize>(jac: &[[f64; N]; N]) -> bool {
+    N == 4 && (0..N).all(|j| jac[0][j] == if j == 1 { 1.0 } else { 0.0 } && jac[2][j] == if j == 3 { 1.0 } else { 0.0 })
 }
 
 impl<const N: usize> Split<N> {
@@ -565,18 +647,19 @@ impl<const N: usize> Split<N> {
     /// `|h J_s|_1` exceeds [`RHO_MAX`].
     #[inline]
     pub(crate) fn new(jac: &[[f64; N]; N], pair: &Pair<N>, h: f64) -> Option<Self> {
-        Self::build(jac, pair, h, TERM_TOL, None)
+        Self::build(jac, pair, h, TERM_TOL, None, false)
     }
 
     /// [`Split::new`] with the Taylor sums (matrix and scalar) stopped at a first dropped term
     /// below `cut` (relative) instead of [`TERM_TOL`]: `exprb-lean` ties it to the tolerance.
+    /// `unit_rows`: [`unit_rows`]`(jac)`, known to the caller (once per Jacobian).
     #[inline]
-    pub(crate) fn with_cut(jac: &[[f64; N]; N], pair: &Pair<N>, h: f64, cut: &Cut) -> Option<Self> {
-        Self::build(jac, pair, h, cut.term, Some(cut))
+    pub(crate) fn with_cut(jac: &[[f64; N]; N], pair: &Pair<N>, h: f64, cut: &Cut, unit_rows: bool) -> Option<Self> {
+        Self::build(jac, pair, h, cut.term, Some(cut), unit_rows)
     }
 
     #[inline(always)]
-    fn build(jac: &[[f64; N]; N], pair: &Pair<N>, h: f64, cut: f64, lean: Option<&Cut>) -> Option<Self> {
+    fn build(jac: &[[f64; N]; N], pair: &Pair<N>, h: f64, cut: f64, lean: Option<&Cut>, unit_rows: bool) -> Option<Self> {
         let &(lambda, v, w) = pair;
         let hl = h * lambda;
         let a: [[f64; N]; N] = core::array::from_fn(|i| {
@@ -608,7 +691,7 @@ impl<const N: usize> Split<N> {
             Some(c) => phi_lean(hl, c),
             None => phi_scalar_and_half_cut(hl, cut),
         };
-        Some(Self { v, w, a, fast, fast_half, terms })
+        Some(Self { v, w, a, fast, fast_half, terms, unit_rows: unit_rows && N == 4 })
     }
 
     /// `[phi_1(hJ/2) y, phi_1(hJ) y, phi_3(hJ) y, phi_4(hJ) y]`, each computed only where its
@@ -654,6 +737,14 @@ impl<const N: usize> Split<N> {
     }
 }
 
+/// `f(u) - f0 - J du` of [`step`] (a function, not a closure: the closure, called twice, was
+/// not inlined once the unit-row case was added).
+#[inline(always)]
+fn remainder<const N: usize>(jac: &[[f64; N]; N], unit_rows: bool, f0: &[f64; N], fu: [f64; N], du: &[f64; N]) -> [f64; N] {
+    let jd = if unit_rows { matvec_unit_rows(jac, du) } else { matvec(jac, du) };
+    core::array::from_fn(|i| fu[i] - f0[i] - jd[i])
+}
+
 /// One `exprb43` step with split `phi`-functions: the same formulas as [`super::exprb::step`]
 /// (see `exprb.rs`). Returns the new state and the error estimate.
 #[inline]
@@ -665,10 +756,7 @@ pub(crate) fn step<const N: usize>(
     f0: &[f64; N],
     h: f64,
 ) -> ([f64; N], [f64; N]) {
-    let remainder = |fu: [f64; N], du: &[f64; N]| -> [f64; N] {
-        let jd = matvec(jac, du);
-        core::array::from_fn(|i| fu[i] - f0[i] - jd[i])
-    };
+    let remainder = |fu: [f64; N], du: &[f64; N]| remainder(jac, sp.unit_rows, f0, fu, du);
     let [pf_half, pf1, _, _] = sp.apply::<true, true, false, false>(f0);
     let du2: [f64; N] = core::array::from_fn(|i| 0.5 * h * pf_half[i]);
     let u2: [f64; N] = core::array::from_fn(|i| y[i] + du2[i]);
@@ -876,7 +964,7 @@ mod tests {
             // The start: the pair at a state a step away (1e-3 of the state's scale).
             let near: [f64; 4] = core::array::from_fn(|i| x[i] + 1e-3 * uniform(-1.0, 1.0) * [1.0, 10.0, 1.0, 30.0][i]);
             let start = dominant_pair(&plant.rhs_and_jacobian(&near, u).1, None).unwrap_or(want);
-            let got = second_order_pair(&jac, &start, 1e-14).expect("the closed-form pair passes the residual test");
+            let got = second_order_pair(&jac, &start, 1e-14, unit_rows(&jac)).expect("the closed-form pair passes the residual test");
             let lean = dominant_pair_lean(&jac, Some(&start), 1e-14).unwrap();
             assert_eq!(lean.0.to_bits(), got.0.to_bits(), "dominant_pair_lean takes the closed form");
             let d = pair_diff(&got, &want);
@@ -924,7 +1012,7 @@ mod tests {
                     let o = old.as_ref().and_then(|s| rayleigh_iteration(&jac, s, tol)).or_else(|| power_iteration(&jac, None, 2, tol));
                     // Every pair after the first (cold, power iteration) is the closed form's.
                     let w = match new.as_ref() {
-                        Some(s) => second_order_pair(&jac, s, tol),
+                        Some(s) => second_order_pair(&jac, s, tol, unit_rows(&jac)),
                         None => power_iteration(&jac, None, 2, tol),
                     };
                     let (o, w) = (o.expect("a Rayleigh pair"), w.expect("a closed-form pair"));
@@ -971,7 +1059,7 @@ mod tests {
         swapped[2] = [1.0, 0.0, 0.0, 0.0];
         for j in [off, swapped] {
             assert_eq!(second_order_layout(&j), None);
-            assert!(second_order_pair(&j, &start, 1e-14).is_none());
+            assert!(second_order_pair(&j, &start, 1e-14, unit_rows(&j)).is_none());
             let want = rayleigh_iteration(&j, &start, 1e-14);
             let got = dominant_pair_lean(&j, Some(&start), 1e-14);
             assert_eq!(format!("{got:?}"), format!("{want:?}"));
@@ -981,14 +1069,119 @@ mod tests {
         let blocked: [[f64; 4]; 4] = core::array::from_fn(|i| core::array::from_fn(|k| jac[perm[i]][perm[k]]));
         assert_eq!(second_order_layout(&blocked), Some([(0, 2), (1, 3)]));
         let s = (start.0, perm.map(|i| start.1[i]), perm.map(|i| start.2[i]));
-        let (a, b) = (second_order_pair(&blocked, &s, 1e-14).unwrap(), second_order_pair(&jac, &start, 1e-14).unwrap());
+        let (a, b) = (second_order_pair(&blocked, &s, 1e-14, unit_rows(&blocked)).unwrap(), second_order_pair(&jac, &start, 1e-14, unit_rows(&jac)).unwrap());
         assert!((a.0 - b.0).abs() <= 1e-15 * b.0.abs(), "{a:?} vs {b:?}");
         let j3 = [[1.0, 2.0, 0.5], [-4.0, 0.3, 1.0], [2.0, -1.0, 3.0]];
         assert_eq!(second_order_layout(&j3), None);
         // A start far from every eigenvalue: Newton's root is refused, not taken.
-        if let Some(p) = second_order_pair(&jac, &(-3.0, start.1, start.2), 1e-14) {
+        if let Some(p) = second_order_pair(&jac, &(-3.0, start.1, start.2), 1e-14, unit_rows(&jac)) {
             assert!((p.0 + 3.0).abs() <= 1.5, "{p:?}");
         }
+    }
+
+    /// `checked_pair_furuta` is `checked_pair` bit for bit on Jacobians with the Furuta layout:
+    /// the closed form's pairs (which pass), the same pairs perturbed (which fail, `Err(Some)`,
+    /// the Rayleigh quotient compared by its bits), vectors with exact and negative zeros, and
+    /// nearly orthogonal ones (`Err(None)`); on the plant's closed-form Jacobians at random
+    /// states and on Jacobians with random entries (and zeros) in rows 1 and 3.
+    #[test]
+    fn checked_pair_furuta_equals_checked_pair_bit_for_bit() {
+        use crate::plant::Plant;
+        let plant = Furuta::paper();
+        let mut seed: u64 = 0x1234_5678_9abc_def1;
+        let mut uniform = |lo: f64, hi: f64| {
+            seed = seed.wrapping_mul(6_364_136_223_846_793_005).wrapping_add(1_442_695_040_888_963_407);
+            lo + (hi - lo) * ((seed >> 11) as f64 / (1u64 << 53) as f64)
+        };
+        let key = |r: Result<Pair<4>, Option<f64>>| -> Vec<u64> {
+            match r {
+                Ok((l, v, w)) => [l].iter().chain(&v).chain(&w).map(|x| x.to_bits()).collect(),
+                Err(Some(l)) => vec![1, l.to_bits()],
+                Err(None) => vec![2],
+            }
+        };
+        let (mut ok, mut fail, mut none) = (0, 0, 0);
+        for k in 0..3000 {
+            let r = if k % 2 == 0 { 0.1 } else { 1.0 };
+            let x = [uniform(-1.0, 1.0) * r, uniform(-10.0, 10.0) * r, uniform(-10.0, 10.0), uniform(-30.0, 30.0) * r];
+            let u = uniform(-12.0, 12.0);
+            let (_, mut jac) = plant.rhs_and_jacobian(&x, u);
+            if k % 3 == 2 {
+                // Random rows 1 and 3, some entries exactly zero or negative zero.
+                for i in [1, 3] {
+                    for j in 0..4 {
+                        jac[i][j] = match (k + i + j) % 7 {
+                            0 => 0.0,
+                            1 => -0.0,
+                            _ => uniform(-1e4, 1e4),
+                        };
+                    }
+                }
+            }
+            assert_eq!(second_order_layout(&jac), Some([(0, 1), (2, 3)]));
+            let start = dominant_pair(&jac, None).map_or((-1.5e4, [0.0; 4], [0.0; 4]), |p| p);
+            let (mut v, mut w) = match second_order_pair(&jac, &start, 1e-14, unit_rows(&jac)) {
+                Some((_, v, w)) => (v, w),
+                None => (core::array::from_fn(|_| uniform(-1.0, 1.0)), core::array::from_fn(|_| uniform(-1.0, 1.0))),
+            };
+            match k % 5 {
+                1 => v[(k / 5) % 4] += 1e-9 * uniform(-1.0, 1.0),
+                2 => w[(k / 5) % 4] = -0.0,
+                3 => (v[0], w[2]) = (0.0, -0.0),
+                4 => (v, w) = ([1.0, 0.0, -0.0, 0.0], [0.0, 1.0, 0.0, -0.0]),
+                _ => {}
+            }
+            for tol in [1e-14, 3e-13, 1e-2] {
+                let want = key(checked_pair(&jac, &v, &w, tol));
+                let got = key(checked_pair_furuta(&jac, &v, &w, tol));
+                assert_eq!(got, want, "k {k} tol {tol:e}: jac {jac:?} v {v:?} w {w:?}");
+                match want[..] {
+                    [2] => none += 1,
+                    [1, _] => fail += 1,
+                    _ => ok += 1,
+                }
+            }
+        }
+        eprintln!("checked_pair_furuta vs checked_pair: {ok} accepted, {fail} refused, {none} orthogonal, all bit for bit");
+        assert!(ok >= 1000 && fail >= 1000 && none >= 100, "{ok} {fail} {none}");
+    }
+
+    /// `matvec_unit_rows` is `matvec` bit for bit on Jacobians with [`unit_rows`] and finite
+    /// vectors (random entries, exact and negative zeros); `unit_rows` finds exactly that layout.
+    #[test]
+    fn matvec_unit_rows_equals_matvec_bit_for_bit() {
+        use crate::plant::Plant;
+        let plant = Furuta::paper();
+        let mut seed: u64 = 0x0bad_cafe_f00d_1234;
+        let mut uniform = |lo: f64, hi: f64| {
+            seed = seed.wrapping_mul(6_364_136_223_846_793_005).wrapping_add(1_442_695_040_888_963_407);
+            lo + (hi - lo) * ((seed >> 11) as f64 / (1u64 << 53) as f64)
+        };
+        for k in 0..5000 {
+            let x = [uniform(-1.0, 1.0), uniform(-10.0, 10.0), uniform(-10.0, 10.0), uniform(-30.0, 30.0)];
+            let (_, jac) = plant.rhs_and_jacobian(&x, uniform(-12.0, 12.0));
+            assert!(unit_rows(&jac));
+            let mut y: [f64; 4] = core::array::from_fn(|_| uniform(-1.0, 1.0) * 10f64.powi((k % 13) as i32 - 6));
+            match k % 4 {
+                1 => y[(k / 4) % 4] = 0.0,
+                2 => (y[1], y[3]) = (-0.0, -0.0),
+                3 => y = [-0.0, -0.0, 0.0, -0.0],
+                _ => {}
+            }
+            let (a, b) = (matvec_unit_rows(&jac, &y), matvec(&jac, &y));
+            assert_eq!(a.map(f64::to_bits), b.map(f64::to_bits), "y {y:?}: {a:?} vs {b:?}");
+        }
+        let (_, jac) = plant.rhs_and_jacobian(&[0.1, 0.2, 0.3, 0.4], 1.0);
+        for (i, j, x) in [(0, 1, 1.0 + f64::EPSILON), (2, 2, 1e-300), (2, 3, -1.0)] {
+            let mut off = jac;
+            off[i][j] = x;
+            assert!(!unit_rows(&off), "{i} {j} {x}");
+        }
+        // A negative zero is a zero, as in `second_order_layout` (its products are zeros too).
+        let mut neg = jac;
+        neg[0][0] = -0.0;
+        assert!(unit_rows(&neg) && second_order_layout(&neg) == Some([(0, 1), (2, 3)]));
+        assert!(!unit_rows(&[[0.0, 1.0], [2.0, 3.0]]));
     }
 
     #[test]

@@ -163,7 +163,7 @@ impl Plant<4> for Furuta {
     /// dual-number evaluation). With `N1 = Ja_eff b + mrl c a`, `N2 = Jp a + mrl c b`:
     /// `d(N/Delta)/dq = (dN/dq - (N/Delta) dDelta/dq) / Delta` for `q` in `theta, w_theta,
     /// w_phi` (`phi` does not appear). Checked against the dual numbers in the tests.
-    #[inline]
+    #[inline(always)]
     fn rhs_and_jacobian(&self, x: &[f64; 4], u: f64) -> ([f64; 4], [[f64; 4]; 4]) {
         let p = &self.params;
         let [th, wt, _phi, wp] = *x;
