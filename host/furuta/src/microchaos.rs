@@ -700,6 +700,27 @@ mod tests {
     /// A run served by [`simulate_shared`] equals a plain `simulate` bit for bit: the same
     /// length again (kept run), a shorter one (prefix of the kept run), and a longer one
     /// (simulated afresh, then kept).
+    /// The runs [`analyse_held_out_runs`] returns are what the report drew before it shared
+    /// them: each model's fresh `predict` over the held-out series and `reduce_series` of it
+    /// under the first model, bit for bit.
+    #[test]
+    fn held_out_runs_equal_fresh_predictions_bit_for_bit() {
+        let runs: Vec<TimeSeries> = [0.02, 0.035].iter().enumerate().map(|(i, th)| simulate_quantized(2500, *th, &format!("quant #{i}")).unwrap()).collect();
+        let o = ChaosOptions { centers: 60, ssm_dim: Some(4), ..ChaosOptions::default() };
+        let (_, models, held) = analyse_held_out_runs(&runs[..1], Some(&runs[1]), &o).unwrap();
+        assert_eq!(models.len(), 2);
+        assert_eq!(held.len(), models.len());
+        let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+        for ((kind, m), h) in models.iter().zip(&held) {
+            let p = m.predict(&runs[1]).unwrap();
+            assert_eq!(bits(&h.prediction.x), bits(&p.x), "{kind} x");
+            assert_eq!(bits(&h.prediction.eta), bits(&p.eta), "{kind} eta");
+            assert_eq!(bits(&h.prediction.t), bits(&p.t), "{kind} t");
+            assert_eq!(h.prediction.stop.is_some(), p.stop.is_some(), "{kind} stop");
+            assert_eq!(bits(&h.eta_data), bits(&reduce_series(m, &runs[1]).unwrap()), "{kind} eta_data");
+        }
+    }
+
     #[test]
     fn shared_runs_equal_fresh_runs_bit_for_bit() {
         let scene = |periods: u64| SceneBuilder::load("furuta-quant-dt25").unwrap().periods(periods).initial_state(&[0.0312, 0.0, 0.0, 0.0]).build().unwrap();
