@@ -153,26 +153,28 @@ pub fn sensitivity_row(variant: &str, o: &FurutaOptions) -> Result<SensitivityRo
 /// The bifurcation values of `pm`, fitted with options `o` (`fit_seconds`: its fit time,
 /// `None` when it was fitted elsewhere).
 pub fn model_row(variant: &str, o: &FurutaOptions, pm: &ParametricModel, fit_seconds: Option<f64>) -> Result<SensitivityRow, Error> {
-    let (lo, hi) = pm.range();
-    let sopts = ScanOptions { portrait: PortraitOptions { rho_max: RHO_MAX, ..ScanOptions::default().portrait }, ..ScanOptions::default() };
-    let nf_at = |dt: f64| pm.normal_form_at(dt);
-    let het = heteroclinic_dt(nf_at, lo, hi, &sopts)?;
-    let hopf = torus_hopf_dt(nf_at, lo, hi, &sopts)?;
+    let (_, hi) = pm.range();
+    let bif = model_bifurcations(pm)?;
     let sw = model_small_start_switch(pm, 30.8, hi.min(32.3), 76)?;
-    let popts = PortraitOptions { rho_max: RHO_MAX, ..PortraitOptions::default() };
-    let torus = fixed_points(&pm.normal_form_at(30.8)?, &popts)?.into_iter().find(|f| f.kind == PointKind::Torus2).map(|f| f.rho);
-    Ok(SensitivityRow {
+    Ok(row_from(variant, o, &bif, sw, fit_seconds))
+}
+
+/// [`model_row`] of a model whose [`model_bifurcations`] and small-start switch
+/// (`model_small_start_switch(pm, 30.8, min(hi, 32.3), 76)`, `hi` the end of its range) were
+/// computed already (the report's own model: the portraits and full-system sections), the
+/// same row without computing them again.
+pub fn row_from(variant: &str, o: &FurutaOptions, bif: &ModelBifurcations, switch: Option<(f64, f64)>, fit_seconds: Option<f64>) -> SensitivityRow {
+    SensitivityRow {
         variant: variant.to_string(),
         dts_ms: o.dts_ms.clone(),
         max_theta: o.max_theta,
-        heteroclinic_dt_ms: het.map(|h| h.dt),
-        torus_hopf_dt_ms: hopf.map(|h| h.dt),
-        small_start_switch_dt_ms: sw.map(|b| 0.5 * (b.0 + b.1)),
-        torus_30p8_rho: torus,
+        heteroclinic_dt_ms: bif.heteroclinic.as_ref().map(|h| h.dt),
+        torus_hopf_dt_ms: bif.hopf.as_ref().map(|h| h.dt),
+        small_start_switch_dt_ms: switch.map(|b| 0.5 * (b.0 + b.1)),
+        torus_30p8_rho: bif.torus_30p8.as_ref().map(|f| f.rho),
         fit_seconds,
-    })
+    }
 }
-
 
 /// The training variants of the sensitivity study (besides the default options): the
 /// amplitude cut of the training runs (0.3, 0.15 rad) and seven training periods instead of

@@ -330,6 +330,20 @@ pub struct ModelStats {
 /// measures: Rosenstein exponent of the model series (settings of `ctx`), PDF divergence
 /// against the data's reduced coordinates, Benettin exponent of the map.
 pub fn evaluate_model(m: &SsmModel, data: &TimeSeries, ctx: &Context, o: &ChaosOptions, name: &str) -> Result<ModelStats, Error> {
+    evaluate_model_run(m, data, ctx, o, name).map(|(s, _)| s)
+}
+
+/// A model's run over held-out data as [`evaluate_model`] made it: the prediction from the
+/// data's first embedded point and the data's reduced coordinates under the model
+/// ([`reduce_series`]), for callers that draw them (the same values, not computed again).
+#[derive(Clone, Debug)]
+pub struct HeldOutRun {
+    pub prediction: ssm::Prediction,
+    pub eta_data: Vec<f64>,
+}
+
+/// [`evaluate_model`] that also returns the model's run ([`HeldOutRun`]).
+pub fn evaluate_model_run(m: &SsmModel, data: &TimeSeries, ctx: &Context, o: &ChaosOptions, name: &str) -> Result<(ModelStats, HeldOutRun), Error> {
     let d = m.options.dim;
     let eta_data = reduce_series(m, data)?;
     let eta0 = eta_data[..d].to_vec();
@@ -343,9 +357,9 @@ pub fn evaluate_model(m: &SsmModel, data: &TimeSeries, ctx: &Context, o: &ChaosO
     if let Some(s) = &p.stop {
         notes.push(format!("{name} model stopped at t = {:.2} s: {:?}", s.t, s.reason));
     }
-    (out.lle_rosenstein, out.js) = series_statistics(ctx, d, &p.x, p.eta, eta_data, name, &format!("{name} model"), &mut notes);
+    (out.lle_rosenstein, out.js) = series_statistics(ctx, d, &p.x, p.eta.clone(), eta_data.clone(), name, &format!("{name} model"), &mut notes);
     out.notes = notes;
-    Ok(out)
+    Ok((out, HeldOutRun { prediction: p, eta_data }))
 }
 
 /// Rosenstein exponent (settings of `ctx`) of a model's observable series `x`, and the mean
@@ -482,6 +496,18 @@ pub fn analyse_held_out(train: &[TimeSeries], test: Option<&TimeSeries>, o: &Cha
 /// that order (a model whose fit failed, reported in the notes, is left out): callers that
 /// draw the models' series reuse them instead of fitting them again.
 pub fn analyse_held_out_models(train: &[TimeSeries], test: Option<&TimeSeries>, o: &ChaosOptions) -> Result<(ChaosSummary, Vec<(&'static str, SsmModel)>), Error> {
+    analyse_held_out_runs(train, test, o).map(|(s, m, _)| (s, m))
+}
+
+/// [`analyse_held_out_models`] that also returns each returned model's run over the held-out
+/// data ([`HeldOutRun`], in the models' order): callers that draw the model series reuse
+/// them instead of predicting again.
+#[allow(clippy::type_complexity)]
+pub fn analyse_held_out_runs(
+    train: &[TimeSeries],
+    test: Option<&TimeSeries>,
+    o: &ChaosOptions,
+) -> Result<(ChaosSummary, Vec<(&'static str, SsmModel)>, Vec<HeldOutRun>), Error> {
     o.validate()?;
     let t0 = std::time::Instant::now();
     let longest = train.iter().max_by_key(|s| s.x.len()).ok_or(Error::BadInput { what: "training", why: "no training series".into() })?;
@@ -541,7 +567,7 @@ pub fn analyse_held_out_models(train: &[TimeSeries], test: Option<&TimeSeries>, 
     // pool (the kicked runs draw from seed 1 in each); notes and values are merged in this
     // order. A failed fit is a note, not an error.
     let kinds = [("rbf", Dynamics::Rbf { centers: o.centers }), ("poly", Dynamics::Map)];
-    let evals = crate::par_map(&kinds, |&(name, dynamics)| -> Result<Result<(ModelStats, KickedStats, SsmModel), String>, Error> {
+    let evals = crate::par_map(&kinds, |&(name, dynamics)| -> Result<Result<(ModelStats, HeldOutRun, KickedStats, SsmModel), String>, Error> {
         let mut opts = base;
         opts.dynamics = dynamics;
         let m = match fit(train, &opts) {
@@ -550,13 +576,14 @@ pub fn analyse_held_out_models(train: &[TimeSeries], test: Option<&TimeSeries>, 
             Err(e @ ssm::FitError::TooLarge { .. }) => return Err(e.into()),
             Err(e) => return Ok(Err(format!("{name} fit failed: {e}"))),
         };
-        let s = evaluate_model(&m, data, &ctx, o, name)?;
+        let (s, run) = evaluate_model_run(&m, data, &ctx, o, name)?;
         let k = evaluate_kicked(&m, train, data, &ctx, 1, name)?;
-        Ok(Ok((s, k, m)))
+        Ok(Ok((s, run, k, m)))
     })?;
     let mut models = Vec::new();
+    let mut runs = Vec::new();
     for (&(name, _), eval) in kinds.iter().zip(evals) {
-        let (s, k, m) = match eval {
+        let (s, run, k, m) = match eval {
             Ok(sk) => sk,
             Err(note) => {
                 notes.push(note);
@@ -564,6 +591,7 @@ pub fn analyse_held_out_models(train: &[TimeSeries], test: Option<&TimeSeries>, 
             }
         };
         models.push((name, m));
+        runs.push(run);
         notes.extend(s.notes);
         let b = s.benettin.as_ref().map(|b| b.exponent);
         if name == "rbf" {
@@ -580,7 +608,7 @@ pub fn analyse_held_out_models(train: &[TimeSeries], test: Option<&TimeSeries>, 
     }
     out.notes = notes;
     out.seconds = t0.elapsed().as_secs_f64();
-    Ok((out, models))
+    Ok((out, models, runs))
 }
 
 /// `periods` sampling periods of the quantized scene `furuta-quant-dt25` from
@@ -672,6 +700,27 @@ mod tests {
     /// A run served by [`simulate_shared`] equals a plain `simulate` bit for bit: the same
     /// length again (kept run), a shorter one (prefix of the kept run), and a longer one
     /// (simulated afresh, then kept).
+    /// The runs [`analyse_held_out_runs`] returns are what the report drew before it shared
+    /// them: each model's fresh `predict` over the held-out series and `reduce_series` of it
+    /// under the first model, bit for bit.
+    #[test]
+    fn held_out_runs_equal_fresh_predictions_bit_for_bit() {
+        let runs: Vec<TimeSeries> = [0.02, 0.035].iter().enumerate().map(|(i, th)| simulate_quantized(2500, *th, &format!("quant #{i}")).unwrap()).collect();
+        let o = ChaosOptions { centers: 60, ssm_dim: Some(4), ..ChaosOptions::default() };
+        let (_, models, held) = analyse_held_out_runs(&runs[..1], Some(&runs[1]), &o).unwrap();
+        assert_eq!(models.len(), 2);
+        assert_eq!(held.len(), models.len());
+        let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+        for ((kind, m), h) in models.iter().zip(&held) {
+            let p = m.predict(&runs[1]).unwrap();
+            assert_eq!(bits(&h.prediction.x), bits(&p.x), "{kind} x");
+            assert_eq!(bits(&h.prediction.eta), bits(&p.eta), "{kind} eta");
+            assert_eq!(bits(&h.prediction.t), bits(&p.t), "{kind} t");
+            assert_eq!(h.prediction.stop.is_some(), p.stop.is_some(), "{kind} stop");
+            assert_eq!(bits(&h.eta_data), bits(&reduce_series(m, &runs[1]).unwrap()), "{kind} eta_data");
+        }
+    }
+
     #[test]
     fn shared_runs_equal_fresh_runs_bit_for_bit() {
         let scene = |periods: u64| SceneBuilder::load("furuta-quant-dt25").unwrap().periods(periods).initial_state(&[0.0312, 0.0, 0.0, 0.0]).build().unwrap();

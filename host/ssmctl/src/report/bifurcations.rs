@@ -12,7 +12,7 @@ use ssm::portrait::{Fate, PointKind, PortraitOptions, fixed_points, portrait, tr
 use ssm::interp::Interp;
 use furuta::shared_tangent::{PredictOptions, PredictionResult, predictions_on, shared_parametric_from, test_series_all};
 use crate::draw::portrait::plot_portrait;
-use furuta::bifurcations::{ModelBifurcations, RHO_MAX, SensitivityRow, model_bifurcations, model_row, model_small_start_switch, sensitivity_variants};
+use furuta::bifurcations::{ModelBifurcations, RHO_MAX, SensitivityRow, model_bifurcations, model_row, model_small_start_switch, row_from, sensitivity_variants};
 use plotters::style::RGBColor;
 use serde_json::{Value, json};
 use std::error::Error;
@@ -256,8 +256,10 @@ pub fn portraits_section(rep: &mut Report, pm: &ParametricModel) -> Result<Model
 
 /// Full-system checks of the model's predictions: where small starts switch from bounded to
 /// escape, the 2-torus at 30.8 ms, the domain of attraction at 31.55 ms (three starts, paper
-/// fig. 5), and the transient spectrum near the 3-torus (paper fig. 6).
-pub fn fullsystem_section(rep: &mut Report, pm: &ParametricModel, bif: &ModelBifurcations, quick: bool) -> Result<(), Box<dyn Error>> {
+/// fig. 5), and the transient spectrum near the 3-torus (paper fig. 6). Returns the model's
+/// small-start switch bracket (`model_small_start_switch(pm, 30.8, min(hi, 32.3), 76)`), which
+/// the sensitivity section's default row reuses.
+pub fn fullsystem_section(rep: &mut Report, pm: &ParametricModel, bif: &ModelBifurcations, quick: bool) -> Result<Option<(f64, f64)>, Box<dyn Error>> {
     use furuta::full_system::{
         DEFAULT_SCAN_PERIODS, ESCAPE_THETA, default_ics, default_switch_scan, fate_from, start_from_rho, switch_scan_per_dt, torus_full,
         transient_analysis,
@@ -475,15 +477,23 @@ pub fn fullsystem_section(rep: &mut Report, pm: &ParametricModel, bif: &ModelBif
                "sideband_spacing_hz": ta.sideband_spacing_hz, "envelope_freq_hz": ta.envelope_freq_hz,
                "model_3torus_freq_hz": model_orbit}),
     );
-    Ok(())
+    Ok(model_switch)
 }
 
 /// How the model's bifurcation values depend on the training data: the amplitude cut of
 /// the training runs and the density of training periods (full report only: four more
 /// parametric fits). `default` is the report's model, fitted with `FurutaOptions::default()`;
 /// `runs` its training runs, which cover the variants (simulated once); the variants share
-/// the fits of their common (period, cut) pairs and reuse `default`'s.
-pub fn sensitivity_section(rep: &mut Report, default: &ParametricModel, runs: &TrainingRuns) -> Result<(), Box<dyn Error>> {
+/// the fits of their common (period, cut) pairs and reuse `default`'s. `default`'s row is
+/// made from `bif` (its [`model_bifurcations`]) and `switch` (its small-start switch, the
+/// full-system section's), the values [`model_row`] would compute again.
+pub fn sensitivity_section(
+    rep: &mut Report,
+    default: &ParametricModel,
+    bif: &ModelBifurcations,
+    switch: Option<(f64, f64)>,
+    runs: &TrainingRuns,
+) -> Result<(), Box<dyn Error>> {
     rep.section(
         "bifsensitivity",
         "Model bifurcations vs training choices",
@@ -497,8 +507,8 @@ pub fn sensitivity_section(rep: &mut Report, default: &ParametricModel, runs: &T
     let mut rows = Vec::new();
     let mut list = Vec::new();
     let f = |v: Option<f64>| v.map_or("none".to_string(), |x| format!("{x:.3}"));
-    // The default model's row, one refit per variant and the full system's torus across dt
-    // (below) run together on the pool; rows are kept in this order.
+    // The refits per variant and the full system's torus across dt (below) run together on
+    // the pool; rows are kept in this order, the default model's first.
     let dts = [30.8, 31.2, 31.4, 31.6, 31.8, 31.9];
     let tori = || {
         par_map(&dts, |&dt| {
@@ -506,21 +516,17 @@ pub fn sensitivity_section(rep: &mut Report, default: &ParametricModel, runs: &T
             Ok::<_, furuta::Error>(furuta::full_system::torus_full(dt, &(x, Some(h)), 16_000, 125.0))
         })
     };
-    let ((first, rest), tori) = rayon::join(
-        || {
-            rayon::join(
-                || task("bifsensitivity/default-row", || model_row("default (paper's periods, cut 0.2 rad)", &base, default, None)),
-                || -> Result<Vec<SensitivityRow>, furuta::Error> {
-                    let sets: Vec<&FurutaOptions> = variants.iter().map(|(_, o)| o).collect();
-                    let models = task("bifsensitivity/family", || furuta_parametric_family(&base, default, &sets, runs))?;
-                    let items: Vec<(&(&str, FurutaOptions), (ParametricModel, f64))> = variants.iter().zip(models).collect();
-                    task("bifsensitivity/rows", || par_map(&items, |((name, o), (pm, secs))| model_row(name, o, pm, Some(*secs))))
-                },
-            )
+    let first = row_from("default (paper's periods, cut 0.2 rad)", &base, bif, switch, None);
+    let (rest, tori) = rayon::join(
+        || -> Result<Vec<SensitivityRow>, furuta::Error> {
+            let sets: Vec<&FurutaOptions> = variants.iter().map(|(_, o)| o).collect();
+            let models = task("bifsensitivity/family", || furuta_parametric_family(&base, default, &sets, runs))?;
+            let items: Vec<(&(&str, FurutaOptions), (ParametricModel, f64))> = variants.iter().zip(models).collect();
+            task("bifsensitivity/rows", || par_map(&items, |((name, o), (pm, secs))| model_row(name, o, pm, Some(*secs))))
         },
         || task("bifsensitivity/tori", tori),
     );
-    let mut all = vec![first?];
+    let mut all = vec![first];
     all.extend(rest?);
     let tori = tori?;
     for r in all {

@@ -41,13 +41,15 @@ pub fn pil_plant_theta(path: &std::path::Path) -> Result<TimeSeries, Box<dyn Err
 /// Figures of one data set: the PDF of each reduced coordinate (held-out data vs the RBF and
 /// polynomial models, on the models' common grids), the attractor projected on
 /// `(eta_1, eta_2)`, and the amplitude spectra of the observable. `models` are the ones
-/// [`analyse_held_out_models`] fitted (`"rbf"` / `"poly"`, in that order).
+/// [`analyse_held_out_runs`] fitted (`"rbf"` / `"poly"`, in that order), `held` their runs over
+/// `test` it made (the predictions and the data's reduced coordinates, drawn as they are).
 pub fn chaos_figures(
     rep: &mut crate::report::Report,
     tag: &str,
     title: &str,
     test: &TimeSeries,
     models: &[(&str, SsmModel)],
+    held: &[HeldOutRun],
     o: &ChaosOptions,
 ) -> Result<(), Box<dyn Error>> {
     use crate::plot::{Panel, Series, grid};
@@ -55,16 +57,18 @@ pub fn chaos_figures(
     let colors = [RGBColor(0, 0, 0), RGBColor(200, 30, 30), RGBColor(30, 90, 200)];
     let dt = test.dt().ok_or("held-out series has no sampling step")?;
     let ctx = Context::from_series(&test.x, dt, o.gp_embed)?;
-    // The predictions as tasks on the rayon pool, kept in this order.
-    let predicted = crate::report::par_map(models, |(_, m)| m.predict(test))?;
-    let runs: Vec<(&str, &SsmModel, ssm::Prediction)> = models
+    if held.len() != models.len() {
+        return Err(format!("{tag}: {} model runs for {} models", held.len(), models.len()).into());
+    }
+    let runs: Vec<(&str, &SsmModel, &ssm::Prediction)> = models
         .iter()
-        .zip(predicted)
-        .map(|((kind, m), p)| (if *kind == "rbf" { "RBF model" } else { "polynomial model" }, m, p))
+        .zip(held)
+        .map(|((kind, m), h)| (if *kind == "rbf" { "RBF model" } else { "polynomial model" }, m, &h.prediction))
         .collect();
-    let Some((_, m0, _)) = runs.first() else { return Ok(()) };
+    let (Some((_, m0, _)), Some(h0)) = (runs.first(), held.first()) else { return Ok(()) };
     let d = m0.options.dim;
-    let eta_data = reduce_series(m0, test)?;
+    // The data's reduced coordinates under the first model (`reduce_series(m0, test)`).
+    let eta_data = &h0.eta_data;
     let data_pts = Points::from_flat(d, eta_data.clone())?;
     // PDFs per coordinate.
     let mut pdf_lines: Vec<Vec<Vec<(f64, f64)>>> = vec![Vec::new(); d];
@@ -103,7 +107,7 @@ pub fn chaos_figures(
         let step = (n / 20_000).max(1);
         (0..n).step_by(step).map(|i| (eta[i * d], eta[i * d + 1])).collect()
     };
-    let mut projs = vec![("data (held out)".to_string(), proj(&eta_data))];
+    let mut projs = vec![("data (held out)".to_string(), proj(eta_data))];
     projs.extend(runs.iter().map(|(n, _, p)| (n.to_string(), proj(&p.eta))));
     let panels: Vec<Panel<'_>> = projs
         .iter()
@@ -184,7 +188,7 @@ pub fn section(rep: &mut crate::report::Report, data_dir: &std::path::Path, quic
     let mut selections = Vec::new();
     for (name, train, test) in &sets {
         let label = format!("{name}; train {}, test {}", train.iter().map(|t| t.name.as_str()).collect::<Vec<_>>().join(" + "), test.name);
-        let (r, models) = match analyse_held_out_models(train, Some(test), &ChaosOptions::default()) {
+        let (r, models, held) = match analyse_held_out_runs(train, Some(test), &ChaosOptions::default()) {
             Ok(r) => r,
             Err(e) => {
                 // One data set failing an estimator's precondition is reported, not fatal.
@@ -227,7 +231,7 @@ pub fn section(rep: &mut crate::report::Report, data_dir: &std::path::Path, quic
         selections.push((name.clone(), results, sel));
         list.insert(name.clone(), value);
         let tag: String = name.split(':').next().unwrap_or("set").chars().filter(|c| c.is_ascii_alphanumeric()).collect();
-        figs.push((tag, name.clone(), test.clone(), r, models));
+        figs.push((tag, name.clone(), test.clone(), r, models, held));
     }
     rep.table(
         &["data", "corr. dim", "SSM dim", "LLE data [1/s]", "LLE RBF", "LLE poly", "LLE RBF Benettin", "LLE poly Benettin", "JS RBF [bits]", "JS poly [bits]", "notes"],
@@ -245,7 +249,7 @@ pub fn section(rep: &mut crate::report::Report, data_dir: &std::path::Path, quic
          start.",
     );
     let mut grows = Vec::new();
-    for (_, name, _, r, _) in &figs {
+    for (_, name, _, r, _, _) in &figs {
         let w = &r.growth_windows_data;
         let opt = |v: Option<f64>| v.map_or("-".to_string(), num);
         let spec = |b: &Option<ModelLyapunov>| {
@@ -273,8 +277,8 @@ pub fn section(rep: &mut crate::report::Report, data_dir: &std::path::Path, quic
         ],
         &grows,
     );
-    for (tag, name, test, _, models) in &figs {
-        chaos_figures(rep, tag, name, test, models, &ChaosOptions::default())?;
+    for (tag, name, test, _, models, held) in &figs {
+        chaos_figures(rep, tag, name, test, models, held, &ChaosOptions::default())?;
     }
     selection_tables(rep, &selections, quick)?;
     let flag_runs: Option<Vec<TimeSeries>> = (0..10).map(|k| ssm::load_csv(flag.join(format!("traj_{k}.csv"))).ok()).collect();

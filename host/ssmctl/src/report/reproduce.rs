@@ -47,10 +47,10 @@ pub fn run(out: &Path, data_dir: &Path, quick: bool, quiet: bool) -> Result<(), 
                 let rep = &mut part;
                 let (parametric, runs) = t.time("parametric", || crate::report::normal_form::section(rep, quick))?;
                 let bif = t.time("portraits", || crate::report::bifurcations::portraits_section(rep, &parametric))?;
-                t.time("fullsystem", || crate::report::bifurcations::fullsystem_section(rep, &parametric, &bif, quick))?;
+                let switch = t.time("fullsystem", || crate::report::bifurcations::fullsystem_section(rep, &parametric, &bif, quick))?;
                 let shared = t.time("predictions", || crate::report::bifurcations::predictions_section(rep, &runs))?;
                 if !quick {
-                    t.time("bifsensitivity", || crate::report::bifurcations::sensitivity_section(rep, &parametric, &runs))?;
+                    t.time("bifsensitivity", || crate::report::bifurcations::sensitivity_section(rep, &parametric, &bif, switch, &runs))?;
                 }
                 t.time("global", || crate::report::global::global_sections(rep, &parametric, &shared, &runs, &bif, quick))?;
                 Ok(())
