@@ -488,6 +488,36 @@ fn forecast_error(best: &[(f64, usize)], x: &[f64], target: usize, ahead: usize)
 /// the prediction sums the same values in the same order.
 #[allow(clippy::too_many_arguments)]
 fn prediction_sse_sorted(x: &[f64], m: usize, tau: usize, horizon: usize, neighbours: usize, theiler: usize, nv: usize, refs: &[usize]) -> (f64, usize) {
+    // The distance with its length fixed for the usual embeddings (the same sum in the same
+    // order as `delay_dist2`).
+    macro_rules! fixed {
+        ($($m:literal)*) => {
+            match m {
+                $($m => prediction_sse_sorted_by(x, m, tau, horizon, neighbours, theiler, nv, refs, |i, j| delay_dist2_fixed::<$m>(x, i, j, tau)),)*
+                _ => prediction_sse_sorted_by(x, m, tau, horizon, neighbours, theiler, nv, refs, |i, j| delay_dist2(x, i, j, m, tau)),
+            }
+        };
+    }
+    fixed!(2 3 4 5 6 7 8)
+}
+
+/// [`delay_dist2`] for `M` components.
+#[inline(always)]
+fn delay_dist2_fixed<const M: usize>(x: &[f64], i: usize, j: usize, tau: usize) -> f64 {
+    let w = (M - 1) * tau;
+    let (a, b) = (&x[i..=i + w], &x[j..=j + w]);
+    let mut d2 = 0.0;
+    for k in 0..M {
+        let e = a[k * tau] - b[k * tau];
+        d2 += e * e;
+    }
+    d2
+}
+
+/// [`prediction_sse_sorted`] with the squared distance `dist(i, j)`.
+#[allow(clippy::too_many_arguments)]
+#[inline(always)]
+fn prediction_sse_sorted_by(x: &[f64], m: usize, tau: usize, horizon: usize, neighbours: usize, theiler: usize, nv: usize, refs: &[usize], dist: impl Fn(usize, usize) -> f64) -> (f64, usize) {
     let w = (m - 1) * tau;
     let mut order: Vec<usize> = (0..nv).collect();
     order.sort_unstable_by(|&a, &b| x[a].total_cmp(&x[b]).then(a.cmp(&b)));
@@ -505,7 +535,7 @@ fn prediction_sse_sorted(x: &[f64], m: usize, tau: usize, horizon: usize, neighb
             if j.abs_diff(i) <= theiler {
                 return;
             }
-            let d2 = delay_dist2(x, i, j, m, tau);
+            let d2 = dist(i, j);
             // `b` comes before `(d2, j)`; `j` is new, so never equal.
             let before = |b: &(f64, usize)| b.0 < d2 || (b.0 == d2 && b.1 < j);
             if best.len() < neighbours || !before(&best[best.len() - 1]) {
@@ -852,7 +882,7 @@ mod tests {
         sorted.sort_by(f64::total_cmp);
         let (surr, _) = iaaft_plain(&sorted, &fft_amplitudes(&ar), 50, &mut SplitMix::new(4));
         for (name, x) in [("henon", &h), ("ar2", &ar), ("iaaft", &surr)] {
-            for (m, tau, horizon, neighbours, theiler, refs) in [(4, 1, 1, 5, 10, 500), (2, 3, 2, 1, 0, 300), (5, 2, 4, 8, 3, 2000), (1, 1, 1, 3, 20, 100)] {
+            for (m, tau, horizon, neighbours, theiler, refs) in [(4, 1, 1, 5, 10, 500), (2, 3, 2, 1, 0, 300), (5, 2, 4, 8, 3, 2000), (1, 1, 1, 3, 20, 100), (6, 10, 10, 5, 40, 500), (3, 4, 1, 2, 5, 200), (7, 2, 3, 5, 10, 300), (8, 1, 2, 4, 6, 300), (9, 2, 1, 5, 10, 200)] {
                 let w = (m - 1) * tau;
                 let nv = x.len() - w - horizon;
                 let refs = strided(nv, refs);
