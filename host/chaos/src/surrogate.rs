@@ -98,15 +98,15 @@ pub fn surrogate_tests(x: &[f64], stats: &[Statistic], p: &SurrogateParams) -> R
     let data: Vec<f64> = stats.iter().map(|s| statistic(seg, s)).collect::<Result<_>>()?;
     let mut sorted = seg.to_vec();
     sorted.sort_by(f64::total_cmp);
-    let amp = fft_amplitudes(seg);
+    let mut work = IaaftWork::new(len);
+    let amp = work.amplitudes(seg);
     let mut rng = SplitMix::new(p.seed);
     let mut surr: Vec<Vec<f64>> = vec![Vec::with_capacity(p.surrogates); stats.len()];
     let mut iters = 0usize;
     for _ in 0..p.surrogates {
-        let (s, it) = iaaft(&sorted, &amp, p.max_iter, &mut rng);
-        iters += it;
+        iters += work.iaaft(&sorted, &amp, p.max_iter, &mut rng);
         for (v, st) in surr.iter_mut().zip(stats) {
-            v.push(statistic(&s, st)?);
+            v.push(statistic(&work.s, st)?);
         }
     }
     let m = p.surrogates as f64;
@@ -124,46 +124,241 @@ pub fn surrogate_tests(x: &[f64], stats: &[Statistic], p: &SurrogateParams) -> R
         .collect())
 }
 
-/// One IAAFT surrogate from the data's sorted values and Fourier amplitudes; returns it and
-/// the iterations used.
-pub(crate) fn iaaft(sorted: &[f64], amp: &[f64], max_iter: usize, rng: &mut SplitMix) -> (Vec<f64>, usize) {
-    let n = sorted.len();
-    // Start from a random permutation of the values.
-    let mut s = sorted.to_vec();
-    for i in (1..n).rev() {
-        s.swap(i, rng.below(i + 1));
-    }
-    let mut rank: Vec<usize> = vec![0; n];
-    let mut order: Vec<usize> = (0..n).collect();
-    let mut re = vec![0.0; n];
-    let mut im = vec![0.0; n];
-    for it in 1..=max_iter {
-        // Impose the Fourier amplitudes, keep the phases.
-        re.copy_from_slice(&s);
-        im.iter_mut().for_each(|v| *v = 0.0);
-        fft(&mut re, &mut im, false);
-        for k in 0..n {
-            let a = re[k].hypot(im[k]);
-            let (c, si) = if a > 0.0 { (re[k] / a, im[k] / a) } else { (1.0, 0.0) };
-            re[k] = amp[k] * c;
-            im[k] = amp[k] * si;
-        }
-        fft(&mut re, &mut im, true);
-        // Rank-order remap onto the data's values.
-        order.sort_by(|&a, &b| re[a].total_cmp(&re[b]));
-        let mut changed = false;
-        for (r, &i) in order.iter().enumerate() {
-            if rank[i] != r {
-                changed = true;
-                rank[i] = r;
+/// The IAAFT iteration's transform tables and work arrays for one length `n` (a power of
+/// two), built once per test and reused by every surrogate and iteration (nothing is
+/// allocated inside the iteration). The transforms are the radix-2 FFT's operations in its
+/// order, bit for bit: the bit-reversal permutation as a gather, each stage's twiddles in a
+/// contiguous table (the entries `k n / len` of the largest stage's), so a stage's butterflies
+/// run over contiguous slices.
+pub(crate) struct IaaftWork {
+    /// `rev[i]`: `i` with its `log2 n` bits reversed.
+    rev: Vec<usize>,
+    /// Stage twiddles (cosines, sines; forward, inverse): the stage of half-length `h`
+    /// (`h = 1, 2, 4, .., n/2`) at offsets `h - 1 .. 2h - 1`.
+    fwd: (Vec<f64>, Vec<f64>),
+    inv: (Vec<f64>, Vec<f64>),
+    re: Vec<f64>,
+    im: Vec<f64>,
+    re2: Vec<f64>,
+    im2: Vec<f64>,
+    /// (total-order key of the inverse transform's value, index), in the last rank order.
+    keyed: Vec<(u64, u32)>,
+    keyed_tmp: Vec<(u64, u32)>,
+    rank: Vec<usize>,
+    /// The current surrogate.
+    pub(crate) s: Vec<f64>,
+}
+
+impl IaaftWork {
+    pub(crate) fn new(n: usize) -> Self {
+        let bits = n.trailing_zeros();
+        let rev: Vec<usize> = (0..n).map(|i| if n > 1 { i.reverse_bits() >> (usize::BITS - bits) } else { 0 }).collect();
+        let tables = |sign: f64| {
+            let tw: Vec<(f64, f64)> = (0..n / 2).map(|k| (sign * 2.0 * std::f64::consts::PI * k as f64 / n as f64).sin_cos()).collect();
+            let (mut c, mut s) = (Vec::with_capacity(n), Vec::with_capacity(n));
+            let mut h = 1;
+            while h < n {
+                let stride = n / (2 * h);
+                for k in 0..h {
+                    let (sk, ck) = tw[k * stride];
+                    c.push(ck);
+                    s.push(sk);
+                }
+                h <<= 1;
             }
-            s[i] = sorted[r];
-        }
-        if !changed && it > 1 {
-            return (s, it);
+            (c, s)
+        };
+        Self {
+            rev,
+            fwd: tables(-1.0),
+            inv: tables(1.0),
+            re: vec![0.0; n],
+            im: vec![0.0; n],
+            re2: vec![0.0; n],
+            im2: vec![0.0; n],
+            keyed: Vec::with_capacity(n),
+            keyed_tmp: vec![(0, 0); n],
+            rank: vec![0; n],
+            s: vec![0.0; n],
         }
     }
-    (s, max_iter)
+
+    /// Forward transform of the real `x` into `re`, `im`.
+    fn forward_real(&mut self, x: &[f64]) {
+        for ((r, i), &k) in self.re.iter_mut().zip(self.im.iter_mut()).zip(&self.rev) {
+            *r = x[k];
+            *i = 0.0;
+        }
+        stages(&mut self.re, &mut self.im, &self.fwd.0, &self.fwd.1);
+    }
+
+    /// The Fourier amplitudes of `x` (length `n`).
+    pub(crate) fn amplitudes(&mut self, x: &[f64]) -> Vec<f64> {
+        self.forward_real(x);
+        self.re.iter().zip(&self.im).map(|(a, b)| a.hypot(*b)).collect()
+    }
+
+    /// One IAAFT surrogate (into `self.s`) from the data's sorted values and Fourier
+    /// amplitudes; returns the iterations used. Bit for bit the plain iteration (the test
+    /// module's `iaaft_plain`).
+    pub(crate) fn iaaft(&mut self, sorted: &[f64], amp: &[f64], max_iter: usize, rng: &mut SplitMix) -> usize {
+        let n = sorted.len();
+        // Start from a random permutation of the values.
+        self.s.copy_from_slice(sorted);
+        for i in (1..n).rev() {
+            self.s.swap(i, rng.below(i + 1));
+        }
+        self.rank.iter_mut().for_each(|r| *r = 0);
+        self.keyed.clear();
+        self.keyed.extend((0..n as u32).map(|i| (0, i)));
+        let scale = 1.0 / n as f64;
+        for it in 1..=max_iter {
+            // Impose the Fourier amplitudes, keep the phases; the result goes to the inverse
+            // transform's bit-reversed order directly.
+            let s = std::mem::take(&mut self.s);
+            self.forward_real(&s);
+            self.s = s;
+            for ((r2, i2), &k) in self.re2.iter_mut().zip(self.im2.iter_mut()).zip(&self.rev) {
+                let (re, im) = (self.re[k], self.im[k]);
+                let a = re.hypot(im);
+                let (c, si) = if a > 0.0 { (re / a, im / a) } else { (1.0, 0.0) };
+                *r2 = amp[k] * c;
+                *i2 = amp[k] * si;
+            }
+            stages(&mut self.re2, &mut self.im2, &self.inv.0, &self.inv.1);
+            // Rank-order remap onto the data's values: a stable sort of the last order by
+            // the values (scaled by 1/n as the inverse transform's; the imaginary part is
+            // not used), as a radix sort of their total-order keys.
+            for e in self.keyed.iter_mut() {
+                e.0 = total_order_key(self.re2[e.1 as usize] * scale);
+            }
+            stable_sort_keyed(&mut self.keyed, &mut self.keyed_tmp);
+            let mut changed = false;
+            for (r, &(_, i)) in self.keyed.iter().enumerate() {
+                let i = i as usize;
+                if self.rank[i] != r {
+                    changed = true;
+                    self.rank[i] = r;
+                }
+                self.s[i] = sorted[r];
+            }
+            if !changed && it > 1 {
+                return it;
+            }
+        }
+        max_iter
+    }
+}
+
+/// The radix-2 stages on bit-reversed `re`, `im` with the stage twiddles `c`, `s` of
+/// [`IaaftWork`]: per butterfly `t = x_b w`, `x_b = x_a - t`, `x_a += t`.
+fn stages(re: &mut [f64], im: &mut [f64], c: &[f64], s: &[f64]) {
+    let n = re.len();
+    // The short stages with their length fixed (unrolled, no per-block slice set-up).
+    let mut h = 1;
+    while h < n && h <= 8 {
+        match h {
+            1 => stage_fixed::<1, 2>(re, im, c, s),
+            2 => stage_fixed::<2, 4>(re, im, c, s),
+            4 => stage_fixed::<4, 8>(re, im, c, s),
+            _ => stage_fixed::<8, 16>(re, im, c, s),
+        }
+        h <<= 1;
+    }
+    while h < n {
+        let (tc, ts) = (&c[h - 1..2 * h - 1], &s[h - 1..2 * h - 1]);
+        for (rblk, iblk) in re.chunks_exact_mut(2 * h).zip(im.chunks_exact_mut(2 * h)) {
+            let (ra, rb) = rblk.split_at_mut(h);
+            let (ia, ib) = iblk.split_at_mut(h);
+            for (((((ra, rb), ia), ib), &c), &s) in ra.iter_mut().zip(rb.iter_mut()).zip(ia.iter_mut()).zip(ib.iter_mut()).zip(tc).zip(ts) {
+                let (tr, ti) = (*rb * c - *ib * s, *rb * s + *ib * c);
+                *rb = *ra - tr;
+                *ib = *ia - ti;
+                *ra += tr;
+                *ia += ti;
+            }
+        }
+        h <<= 1;
+    }
+}
+
+/// The stage of half-length `H` (`L = 2H`) of [`stages`], the same operations in the same order.
+#[inline(always)]
+fn stage_fixed<const H: usize, const L: usize>(re: &mut [f64], im: &mut [f64], c: &[f64], s: &[f64]) {
+    let (Ok(tc), Ok(ts)) = (<&[f64; H]>::try_from(&c[H - 1..2 * H - 1]), <&[f64; H]>::try_from(&s[H - 1..2 * H - 1])) else { return };
+    for (rb, ib) in re.chunks_exact_mut(L).zip(im.chunks_exact_mut(L)) {
+        let (Ok(rb), Ok(ib)) = (<&mut [f64; L]>::try_from(rb), <&mut [f64; L]>::try_from(ib)) else { return };
+        for k in 0..H {
+            let (c, s) = (tc[k], ts[k]);
+            let (xr, xi) = (rb[k + H], ib[k + H]);
+            let (tr, ti) = (xr * c - xi * s, xr * s + xi * c);
+            rb[k + H] = rb[k] - tr;
+            ib[k + H] = ib[k] - ti;
+            rb[k] += tr;
+            ib[k] += ti;
+        }
+    }
+}
+
+/// `x`'s position in `f64::total_cmp`'s order as an unsigned key.
+#[inline]
+fn total_order_key(x: f64) -> u64 {
+    let b = x.to_bits() as i64;
+    ((b ^ (((b >> 63) as u64) >> 1) as i64) as u64) ^ (1 << 63)
+}
+
+/// Stable sort by the key: insertion sort on a copy while it moves fewer than `8 n` entries
+/// (the IAAFT order changes little once the iteration settles), else [`radix_sort`].
+fn stable_sort_keyed(v: &mut Vec<(u64, u32)>, tmp: &mut Vec<(u64, u32)>) {
+    let n = v.len();
+    tmp.clear();
+    tmp.extend_from_slice(v);
+    let mut budget = 8 * n;
+    for i in 1..n {
+        let e = tmp[i];
+        let mut j = i;
+        while j > 0 && tmp[j - 1].0 > e.0 {
+            tmp[j] = tmp[j - 1];
+            j -= 1;
+        }
+        tmp[j] = e;
+        let moved = i - j;
+        if moved > budget {
+            radix_sort(v, tmp);
+            return;
+        }
+        budget -= moved;
+    }
+    std::mem::swap(v, tmp);
+}
+
+/// Stable LSD radix sort by the key (bytes; a byte equal in every key is skipped).
+fn radix_sort(v: &mut Vec<(u64, u32)>, tmp: &mut Vec<(u64, u32)>) {
+    let n = v.len();
+    tmp.resize(n, (0, 0));
+    let mut counts = [[0u32; 256]; 8];
+    for &(k, _) in v.iter() {
+        for (d, c) in counts.iter_mut().enumerate() {
+            c[((k >> (8 * d)) & 255) as usize] += 1;
+        }
+    }
+    for (d, c) in counts.iter().enumerate() {
+        if c.iter().any(|&m| m as usize == n) {
+            continue;
+        }
+        let mut pos = [0usize; 256];
+        let mut acc = 0usize;
+        for (p, &m) in pos.iter_mut().zip(c) {
+            *p = acc;
+            acc += m as usize;
+        }
+        for &e in v.iter() {
+            let b = ((e.0 >> (8 * d)) & 255) as usize;
+            tmp[pos[b]] = e;
+            pos[b] += 1;
+        }
+        std::mem::swap(v, tmp);
+    }
 }
 
 /// Offset of the length-`len` segment whose ends match best: squared jump between the last
@@ -176,78 +371,6 @@ fn best_offset(x: &[f64], len: usize) -> usize {
         (b - a) * (b - a) + slope * slope
     };
     strided(last + 1, 2000).into_iter().min_by(|&a, &b| cost(a).total_cmp(&cost(b))).unwrap_or(0)
-}
-
-fn fft_amplitudes(x: &[f64]) -> Vec<f64> {
-    let mut re = x.to_vec();
-    let mut im = vec![0.0; x.len()];
-    fft(&mut re, &mut im, false);
-    re.iter().zip(&im).map(|(a, b)| a.hypot(*b)).collect()
-}
-
-/// The bit-reversal permutation of the radix-2 FFT, in place on both parts.
-fn bit_reverse(re: &mut [f64], im: &mut [f64]) {
-    let n = re.len();
-    let mut j = 0;
-    for i in 1..n {
-        let mut bit = n >> 1;
-        while j & bit != 0 {
-            j ^= bit;
-            bit >>= 1;
-        }
-        j |= bit;
-        if i < j {
-            re.swap(i, j);
-            im.swap(i, j);
-        }
-    }
-}
-
-/// In-place iterative radix-2 FFT (length a power of two); `inverse` divides by n.
-pub(crate) fn fft(re: &mut [f64], im: &mut [f64], inverse: bool) {
-    let n = re.len();
-    bit_reverse(re, im);
-    // Twiddles of the largest stage; stage `len` reads every (n / len)-th. IAAFT transforms
-    // the same length back and forth hundreds of times: the tables of the last length (both
-    // directions) are kept per thread, the same values as computed afresh.
-    thread_local! {
-        static TWIDDLES: std::cell::RefCell<[(usize, Vec<(f64, f64)>); 2]> = const { std::cell::RefCell::new([(0, Vec::new()), (0, Vec::new())]) };
-    }
-    TWIDDLES.with(|t| {
-        let mut t = t.borrow_mut();
-        let slot = &mut t[usize::from(inverse)];
-        if slot.0 != n {
-            let sign = if inverse { 1.0 } else { -1.0 };
-            slot.1 = (0..n / 2).map(|k| (sign * 2.0 * std::f64::consts::PI * k as f64 / n as f64).sin_cos()).collect();
-            slot.0 = n;
-        }
-        butterflies(re, im, &slot.1);
-    });
-    if inverse {
-        let f = 1.0 / n as f64;
-        re.iter_mut().chain(im.iter_mut()).for_each(|v| *v *= f);
-    }
-}
-
-/// The radix-2 stages of [`fft`] on bit-reversed `re`, `im` with the twiddles `tw` of length n.
-fn butterflies(re: &mut [f64], im: &mut [f64], tw: &[(f64, f64)]) {
-    let n = re.len();
-    let mut len = 2;
-    while len <= n {
-        let stride = n / len;
-        for start in (0..n).step_by(len) {
-            for k in 0..len / 2 {
-                let (s, c) = tw[k * stride];
-                let (a, b) = (start + k, start + k + len / 2);
-                let (tr, ti) = (re[b] * c - im[b] * s, re[b] * s + im[b] * c);
-                re[b] = re[a] - tr;
-                im[b] = im[a] - ti;
-                re[a] += tr;
-                im[a] += ti;
-            }
-        }
-        len <<= 1;
-    }
 }
 
 /// The statistic of series `x`.
@@ -365,6 +488,36 @@ fn forecast_error(best: &[(f64, usize)], x: &[f64], target: usize, ahead: usize)
 /// the prediction sums the same values in the same order.
 #[allow(clippy::too_many_arguments)]
 fn prediction_sse_sorted(x: &[f64], m: usize, tau: usize, horizon: usize, neighbours: usize, theiler: usize, nv: usize, refs: &[usize]) -> (f64, usize) {
+    // The distance with its length fixed for the usual embeddings (the same sum in the same
+    // order as `delay_dist2`).
+    macro_rules! fixed {
+        ($($m:literal)*) => {
+            match m {
+                $($m => prediction_sse_sorted_by(x, m, tau, horizon, neighbours, theiler, nv, refs, |i, j| delay_dist2_fixed::<$m>(x, i, j, tau)),)*
+                _ => prediction_sse_sorted_by(x, m, tau, horizon, neighbours, theiler, nv, refs, |i, j| delay_dist2(x, i, j, m, tau)),
+            }
+        };
+    }
+    fixed!(2 3 4 5 6 7 8)
+}
+
+/// [`delay_dist2`] for `M` components.
+#[inline(always)]
+fn delay_dist2_fixed<const M: usize>(x: &[f64], i: usize, j: usize, tau: usize) -> f64 {
+    let w = (M - 1) * tau;
+    let (a, b) = (&x[i..=i + w], &x[j..=j + w]);
+    let mut d2 = 0.0;
+    for k in 0..M {
+        let e = a[k * tau] - b[k * tau];
+        d2 += e * e;
+    }
+    d2
+}
+
+/// [`prediction_sse_sorted`] with the squared distance `dist(i, j)`.
+#[allow(clippy::too_many_arguments)]
+#[inline(always)]
+fn prediction_sse_sorted_by(x: &[f64], m: usize, tau: usize, horizon: usize, neighbours: usize, theiler: usize, nv: usize, refs: &[usize], dist: impl Fn(usize, usize) -> f64) -> (f64, usize) {
     let w = (m - 1) * tau;
     let mut order: Vec<usize> = (0..nv).collect();
     order.sort_unstable_by(|&a, &b| x[a].total_cmp(&x[b]).then(a.cmp(&b)));
@@ -382,7 +535,7 @@ fn prediction_sse_sorted(x: &[f64], m: usize, tau: usize, horizon: usize, neighb
             if j.abs_diff(i) <= theiler {
                 return;
             }
-            let d2 = delay_dist2(x, i, j, m, tau);
+            let d2 = dist(i, j);
             // `b` comes before `(d2, j)`; `j` is new, so never equal.
             let before = |b: &(f64, usize)| b.0 < d2 || (b.0 == d2 && b.1 < j);
             if best.len() < neighbours || !before(&best[best.len() - 1]) {
@@ -438,6 +591,123 @@ mod tests {
     use super::*;
     use crate::reference::Henon;
 
+    // ---- The plain transform and iteration, the reference for bit equality. ----
+
+    fn fft_amplitudes(x: &[f64]) -> Vec<f64> {
+        let mut re = x.to_vec();
+        let mut im = vec![0.0; x.len()];
+        fft(&mut re, &mut im, false);
+        re.iter().zip(&im).map(|(a, b)| a.hypot(*b)).collect()
+    }
+
+    /// The bit-reversal permutation of the radix-2 FFT, in place on both parts.
+    fn bit_reverse(re: &mut [f64], im: &mut [f64]) {
+        let n = re.len();
+        let mut j = 0;
+        for i in 1..n {
+            let mut bit = n >> 1;
+            while j & bit != 0 {
+                j ^= bit;
+                bit >>= 1;
+            }
+            j |= bit;
+            if i < j {
+                re.swap(i, j);
+                im.swap(i, j);
+            }
+        }
+    }
+
+    /// In-place iterative radix-2 FFT (length a power of two); `inverse` divides by n.
+    fn fft(re: &mut [f64], im: &mut [f64], inverse: bool) {
+        let n = re.len();
+        bit_reverse(re, im);
+        // Twiddles of the largest stage; stage `len` reads every (n / len)-th. IAAFT transforms
+        // the same length back and forth hundreds of times: the tables of the last length (both
+        // directions) are kept per thread, the same values as computed afresh.
+        thread_local! {
+            static TWIDDLES: std::cell::RefCell<[(usize, Vec<(f64, f64)>); 2]> = const { std::cell::RefCell::new([(0, Vec::new()), (0, Vec::new())]) };
+        }
+        TWIDDLES.with(|t| {
+            let mut t = t.borrow_mut();
+            let slot = &mut t[usize::from(inverse)];
+            if slot.0 != n {
+                let sign = if inverse { 1.0 } else { -1.0 };
+                slot.1 = (0..n / 2).map(|k| (sign * 2.0 * std::f64::consts::PI * k as f64 / n as f64).sin_cos()).collect();
+                slot.0 = n;
+            }
+            butterflies(re, im, &slot.1);
+        });
+        if inverse {
+            let f = 1.0 / n as f64;
+            re.iter_mut().chain(im.iter_mut()).for_each(|v| *v *= f);
+        }
+    }
+
+    /// The radix-2 stages of [`fft`] on bit-reversed `re`, `im` with the twiddles `tw` of length n.
+    fn butterflies(re: &mut [f64], im: &mut [f64], tw: &[(f64, f64)]) {
+        let n = re.len();
+        let mut len = 2;
+        while len <= n {
+            let stride = n / len;
+            for start in (0..n).step_by(len) {
+                for k in 0..len / 2 {
+                    let (s, c) = tw[k * stride];
+                    let (a, b) = (start + k, start + k + len / 2);
+                    let (tr, ti) = (re[b] * c - im[b] * s, re[b] * s + im[b] * c);
+                    re[b] = re[a] - tr;
+                    im[b] = im[a] - ti;
+                    re[a] += tr;
+                    im[a] += ti;
+                }
+            }
+            len <<= 1;
+        }
+    }
+
+    /// One IAAFT surrogate from the data's sorted values and Fourier amplitudes; returns it and
+    /// the iterations used.
+    fn iaaft_plain(sorted: &[f64], amp: &[f64], max_iter: usize, rng: &mut SplitMix) -> (Vec<f64>, usize) {
+        let n = sorted.len();
+        // Start from a random permutation of the values.
+        let mut s = sorted.to_vec();
+        for i in (1..n).rev() {
+            s.swap(i, rng.below(i + 1));
+        }
+        let mut rank: Vec<usize> = vec![0; n];
+        let mut order: Vec<usize> = (0..n).collect();
+        let mut re = vec![0.0; n];
+        let mut im = vec![0.0; n];
+        for it in 1..=max_iter {
+            // Impose the Fourier amplitudes, keep the phases.
+            re.copy_from_slice(&s);
+            im.iter_mut().for_each(|v| *v = 0.0);
+            fft(&mut re, &mut im, false);
+            for k in 0..n {
+                let a = re[k].hypot(im[k]);
+                let (c, si) = if a > 0.0 { (re[k] / a, im[k] / a) } else { (1.0, 0.0) };
+                re[k] = amp[k] * c;
+                im[k] = amp[k] * si;
+            }
+            fft(&mut re, &mut im, true);
+            // Rank-order remap onto the data's values.
+            order.sort_by(|&a, &b| re[a].total_cmp(&re[b]));
+            let mut changed = false;
+            for (r, &i) in order.iter().enumerate() {
+                if rank[i] != r {
+                    changed = true;
+                    rank[i] = r;
+                }
+                s[i] = sorted[r];
+            }
+            if !changed && it > 1 {
+                return (s, it);
+            }
+        }
+        (s, max_iter)
+    }
+
+
     fn ar2(n: usize, seed: u64) -> Vec<f64> {
         let mut rng = SplitMix::new(seed);
         let (mut a, mut b) = (0.0, 0.0);
@@ -478,6 +748,63 @@ mod tests {
         }
     }
 
+    /// The IAAFT work path (stage tables, gathers, radix-sorted ranks) against the plain
+    /// transform and iteration above, bit for bit: amplitudes, surrogates and iteration counts
+    /// for lengths 2..4096, on data with exact ties, signed zeros, a constant stretch and
+    /// values of both signs, several runs per work (reuse), including runs that converge
+    /// before `max_iter`.
+    #[test]
+    fn iaaft_work_matches_the_plain_iteration() {
+        let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+        for n in [2usize, 4, 8, 64, 256, 1024, 4096] {
+            let ar = ar2(n, n as u64);
+            let cases: Vec<Vec<f64>> = vec![
+                ar.clone(),
+                ar.iter().map(|v| v.powi(3)).collect(),
+                ar.iter().map(|v| (v * 2.0).round() / 2.0).collect(),
+                ar.iter().enumerate().map(|(i, v)| if i % 5 == 0 { 0.0 } else if i % 7 == 0 { -0.0 } else if i < n / 8 { 1.5 } else { *v }).collect(),
+                (0..n).map(|i| (i as f64 * 0.37).sin() * 1e-3 + 2.0).collect(),
+            ];
+            let mut work = IaaftWork::new(n);
+            for (c, x) in cases.iter().enumerate() {
+                let amp = fft_amplitudes(x);
+                assert_eq!(bits(&work.amplitudes(x)), bits(&amp), "n {n} case {c} amplitudes");
+                let mut sorted = x.clone();
+                sorted.sort_by(f64::total_cmp);
+                for (seed, max_iter) in [(1u64, 100usize), (7, 3), (11, 1), (5, 1000)] {
+                    let (mut r1, mut r2) = (SplitMix::new(seed), SplitMix::new(seed));
+                    let (s, it) = iaaft_plain(&sorted, &amp, max_iter, &mut r1);
+                    let it2 = work.iaaft(&sorted, &amp, max_iter, &mut r2);
+                    assert_eq!((bits(&work.s), it2), (bits(&s), it), "n {n} case {c} seed {seed} max_iter {max_iter}");
+                    assert_eq!(r1.next_u64(), r2.next_u64());
+                }
+            }
+        }
+        // The radix sort is the stable comparison sort by total order.
+        let mut rng = SplitMix::new(3);
+        let vals = [0.0, -0.0, 1.0, -1.0, f64::MIN_POSITIVE, -f64::MIN_POSITIVE, 5e-324, -5e-324, 1e300, -1e300, 0.5, -0.5];
+        for len in [1usize, 2, 17, 300, 5000] {
+            let x: Vec<f64> = (0..len).map(|i| if i % 3 == 0 { vals[rng.below(vals.len())] } else { rng.normal() * 10f64.powi(rng.below(20) as i32 - 10) }).collect();
+            let mut order: Vec<usize> = (0..len).rev().collect();
+            let mut keyed: Vec<(u64, u32)> = order.iter().map(|&i| (total_order_key(x[i]), i as u32)).collect();
+            order.sort_by(|&a, &b| x[a].total_cmp(&x[b]));
+            let mut k2 = keyed.clone();
+            radix_sort(&mut keyed, &mut Vec::new());
+            assert_eq!(keyed.iter().map(|e| e.1 as usize).collect::<Vec<_>>(), order, "len {len}");
+            stable_sort_keyed(&mut k2, &mut Vec::new());
+            assert_eq!(k2, keyed, "len {len}");
+            // Nearly sorted (the insertion path): a few entries moved.
+            let mut k3 = keyed.clone();
+            for t in 0..len / 50 {
+                k3.swap((t * 37) % len, (t * 101 + 7) % len);
+            }
+            let mut k4 = k3.clone();
+            k3.sort_by_key(|e| e.0);
+            stable_sort_keyed(&mut k4, &mut Vec::new());
+            assert_eq!(k4, k3, "len {len}");
+        }
+    }
+
     #[test]
     fn fft_round_trip_and_known_transform() {
         let x: Vec<f64> = (0..16).map(|k| (2.0 * std::f64::consts::PI * 3.0 * k as f64 / 16.0).cos()).collect();
@@ -499,8 +826,10 @@ mod tests {
         let x: Vec<f64> = ar2(1024, 5).iter().map(|v| v.powi(3)).collect(); // non-Gaussian values
         let mut sorted = x.clone();
         sorted.sort_by(f64::total_cmp);
-        let amp = fft_amplitudes(&x);
-        let (s, _) = iaaft(&sorted, &amp, 200, &mut SplitMix::new(1));
+        let mut work = IaaftWork::new(x.len());
+        let amp = work.amplitudes(&x);
+        work.iaaft(&sorted, &amp, 200, &mut SplitMix::new(1));
+        let s = work.s.clone();
         let mut ss = s.clone();
         ss.sort_by(f64::total_cmp);
         assert_eq!(ss, sorted);
@@ -551,9 +880,9 @@ mod tests {
         let ar = ar2(2048, 3);
         let mut sorted = ar.clone();
         sorted.sort_by(f64::total_cmp);
-        let (surr, _) = iaaft(&sorted, &fft_amplitudes(&ar), 50, &mut SplitMix::new(4));
+        let (surr, _) = iaaft_plain(&sorted, &fft_amplitudes(&ar), 50, &mut SplitMix::new(4));
         for (name, x) in [("henon", &h), ("ar2", &ar), ("iaaft", &surr)] {
-            for (m, tau, horizon, neighbours, theiler, refs) in [(4, 1, 1, 5, 10, 500), (2, 3, 2, 1, 0, 300), (5, 2, 4, 8, 3, 2000), (1, 1, 1, 3, 20, 100)] {
+            for (m, tau, horizon, neighbours, theiler, refs) in [(4, 1, 1, 5, 10, 500), (2, 3, 2, 1, 0, 300), (5, 2, 4, 8, 3, 2000), (1, 1, 1, 3, 20, 100), (6, 10, 10, 5, 40, 500), (3, 4, 1, 2, 5, 200), (7, 2, 3, 5, 10, 300), (8, 1, 2, 4, 6, 300), (9, 2, 1, 5, 10, 200)] {
                 let w = (m - 1) * tau;
                 let nv = x.len() - w - horizon;
                 let refs = strided(nv, refs);
