@@ -402,14 +402,7 @@ fn checked_pair_furuta<const N: usize>(jac: &[[f64; N]; N], v: &[f64; N], w: &[f
         (0.0 + j1[2] * w[1]) + j3[2] * w[3],
         ((0.0 + j1[3] * w[1]) + w[2]) + j3[3] * w[3],
     );
-    let tol_abs = tol * lambda.abs();
-    let rv = (0..N).map(|i| (jv[i] - lambda * v[i]).abs()).fold(0.0, f64::max);
-    let rw = (0..N).map(|i| (jw[i] - lambda * w[i]).abs()).fold(0.0, f64::max);
-    if rv <= tol_abs && rw <= tol_abs && lambda.is_finite() {
-        let iwv = 1.0 / wv;
-        return Ok((lambda, *v, w.map(|x| x * iwv)));
-    }
-    Err(Some(lambda))
+    residual_verdict(lambda, v, w, wv, &jv, &jw, tol)
 }
 
 /// The acceptance test of [`rayleigh_iteration`] and [`second_order_pair`] for `v` and `w` of
@@ -425,6 +418,14 @@ fn checked_pair<const N: usize>(jac: &[[f64; N]; N], v: &[f64; N], w: &[f64; N],
     let jv = matvec(jac, v);
     let lambda = dot(w, &jv) / wv;
     let jw = matvec_t(jac, w);
+    residual_verdict(lambda, v, w, wv, &jv, &jw, tol)
+}
+
+/// The residual test shared by [`checked_pair`] and [`checked_pair_furuta`]: with
+/// `jv = J v`, `jw = J^T w` and `wv = w^T v`, `Ok((lambda, v, w / wv))` if both residuals
+/// (inf norms) are at most `tol |lambda|` and `lambda` is finite, else `Err(Some(lambda))`.
+#[inline(always)]
+fn residual_verdict<const N: usize>(lambda: f64, v: &[f64; N], w: &[f64; N], wv: f64, jv: &[f64; N], jw: &[f64; N], tol: f64) -> Result<Pair<N>, Option<f64>> {
     let tol_abs = tol * lambda.abs();
     let rv = (0..N).map(|i| (jv[i] - lambda * v[i]).abs()).fold(0.0, f64::max);
     let rw = (0..N).map(|i| (jw[i] - lambda * w[i]).abs()).fold(0.0, f64::max);
