@@ -153,14 +153,21 @@ pub fn sensitivity_row(variant: &str, o: &FurutaOptions) -> Result<SensitivityRo
 /// The bifurcation values of `pm`, fitted with options `o` (`fit_seconds`: its fit time,
 /// `None` when it was fitted elsewhere).
 pub fn model_row(variant: &str, o: &FurutaOptions, pm: &ParametricModel, fit_seconds: Option<f64>) -> Result<SensitivityRow, Error> {
-    let (_, hi) = pm.range();
     let bif = model_bifurcations(pm)?;
-    let sw = model_small_start_switch(pm, 30.8, hi.min(32.3), 76)?;
+    let sw = model_default_switch(pm)?;
     Ok(row_from(variant, o, &bif, sw, fit_seconds))
 }
 
+/// The model's small-start switch on the study's grid: [`model_small_start_switch`] from
+/// 30.8 ms to the end of its range (at most 32.3 ms), 76 points. The report's full-system
+/// section and [`model_row`] both read it, so [`row_from`] may take either's.
+pub fn model_default_switch(pm: &ParametricModel) -> Result<Option<(f64, f64)>, Error> {
+    let (_, hi) = pm.range();
+    model_small_start_switch(pm, 30.8, hi.min(32.3), 76)
+}
+
 /// [`model_row`] of a model whose [`model_bifurcations`] and small-start switch
-/// (`model_small_start_switch(pm, 30.8, min(hi, 32.3), 76)`, `hi` the end of its range) were
+/// ([`model_default_switch`]) were
 /// computed already (the report's own model: the portraits and full-system sections), the
 /// same row without computing them again.
 pub fn row_from(variant: &str, o: &FurutaOptions, bif: &ModelBifurcations, switch: Option<(f64, f64)>, fit_seconds: Option<f64>) -> SensitivityRow {

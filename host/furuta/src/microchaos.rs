@@ -697,9 +697,6 @@ fn prefix(t: &Trajectory, rows: usize) -> Trajectory {
 mod tests {
     use super::*;
 
-    /// A run served by [`simulate_shared`] equals a plain `simulate` bit for bit: the same
-    /// length again (kept run), a shorter one (prefix of the kept run), and a longer one
-    /// (simulated afresh, then kept).
     /// The runs [`analyse_held_out_runs`] returns are what the report drew before it shared
     /// them: each model's fresh `predict` over the held-out series and `reduce_series` of it
     /// under the first model, bit for bit.
@@ -721,6 +718,9 @@ mod tests {
         }
     }
 
+    /// A run served by [`simulate_shared`] equals a plain `simulate` bit for bit: the same
+    /// length again (kept run), a shorter one (prefix of the kept run), and a longer one
+    /// (simulated afresh, then kept).
     #[test]
     fn shared_runs_equal_fresh_runs_bit_for_bit() {
         let scene = |periods: u64| SceneBuilder::load("furuta-quant-dt25").unwrap().periods(periods).initial_state(&[0.0312, 0.0, 0.0, 0.0]).build().unwrap();

@@ -12,7 +12,7 @@ use ssm::portrait::{Fate, PointKind, PortraitOptions, fixed_points, portrait, tr
 use ssm::interp::Interp;
 use furuta::shared_tangent::{PredictOptions, PredictionResult, predictions_on, shared_parametric_from, test_series_all};
 use crate::draw::portrait::plot_portrait;
-use furuta::bifurcations::{ModelBifurcations, RHO_MAX, SensitivityRow, model_bifurcations, model_row, model_small_start_switch, row_from, sensitivity_variants};
+use furuta::bifurcations::{ModelBifurcations, RHO_MAX, SensitivityRow, model_bifurcations, model_default_switch, model_row, row_from, sensitivity_variants};
 use plotters::style::RGBColor;
 use serde_json::{Value, json};
 use std::error::Error;
@@ -257,7 +257,7 @@ pub fn portraits_section(rep: &mut Report, pm: &ParametricModel) -> Result<Model
 /// Full-system checks of the model's predictions: where small starts switch from bounded to
 /// escape, the 2-torus at 30.8 ms, the domain of attraction at 31.55 ms (three starts, paper
 /// fig. 5), and the transient spectrum near the 3-torus (paper fig. 6). Returns the model's
-/// small-start switch bracket (`model_small_start_switch(pm, 30.8, min(hi, 32.3), 76)`), which
+/// small-start switch bracket ([`model_default_switch`]), which
 /// the sensitivity section's default row reuses.
 pub fn fullsystem_section(rep: &mut Report, pm: &ParametricModel, bif: &ModelBifurcations, quick: bool) -> Result<Option<(f64, f64)>, Box<dyn Error>> {
     use furuta::full_system::{
@@ -294,7 +294,7 @@ pub fn fullsystem_section(rep: &mut Report, pm: &ParametricModel, bif: &ModelBif
     let starts: [[f64; 2]; 3] = [[0.08, 0.03], [0.02, 0.03], [0.14, 0.055]];
     let periods = if quick { 2000 } else { 6000 };
     let dt_tr = 31.5;
-    let model_switch = || model_small_start_switch(pm, 30.8, hi.min(32.3), 76);
+    let model_switch = || model_default_switch(pm);
     let scan = || {
         if quick {
             let two = |dt: f64| default_ics(dt).map(|v| v.into_iter().take(2).collect());
