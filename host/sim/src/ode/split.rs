@@ -778,6 +778,15 @@ mod tests {
     use crate::plant::{Furuta, jacobian};
     use nalgebra::SVector;
 
+    /// Uniform draws in `[lo, hi)` from a 64-bit LCG (Knuth's MMIX constants) seeded with
+    /// `seed`: the random Jacobians and states of the pair tests.
+    fn uniform_stream(mut seed: u64) -> impl FnMut(f64, f64) -> f64 {
+        move |lo, hi| {
+            seed = seed.wrapping_mul(6_364_136_223_846_793_005).wrapping_add(1_442_695_040_888_963_407);
+            lo + (hi - lo) * ((seed >> 11) as f64 / (1u64 << 53) as f64)
+        }
+    }
+
     /// `phi_k(z)` by the series `sum_j z^j/(j+k)!` (60 terms) for `|z| <= 1`, the closed form
     /// `(e^z - sum_{j<k} z^j/j!)/z^k` beyond (no cancellation there for `k <= 4`).
     fn phi_ref(k: usize, z: f64) -> f64 {
@@ -949,11 +958,7 @@ mod tests {
     fn second_order_pair_matches_power_iteration_on_the_furuta_jacobian() {
         use crate::plant::Plant;
         let plant = Furuta::paper();
-        let mut seed: u64 = 0x9e37_79b9_7f4a_7c15;
-        let mut uniform = |lo: f64, hi: f64| {
-            seed = seed.wrapping_mul(6_364_136_223_846_793_005).wrapping_add(1_442_695_040_888_963_407);
-            lo + (hi - lo) * ((seed >> 11) as f64 / (1u64 << 53) as f64)
-        };
+        let mut uniform = uniform_stream(0x9e37_79b9_7f4a_7c15);
         let (mut worst, mut worst_res, mut used) = ([0.0f64; 3], [0.0f64; 2], 0);
         for k in 0..400 {
             let r = if k < 200 { 0.1 } else { 0.6 };
@@ -1089,11 +1094,7 @@ mod tests {
     fn checked_pair_furuta_equals_checked_pair_bit_for_bit() {
         use crate::plant::Plant;
         let plant = Furuta::paper();
-        let mut seed: u64 = 0x1234_5678_9abc_def1;
-        let mut uniform = |lo: f64, hi: f64| {
-            seed = seed.wrapping_mul(6_364_136_223_846_793_005).wrapping_add(1_442_695_040_888_963_407);
-            lo + (hi - lo) * ((seed >> 11) as f64 / (1u64 << 53) as f64)
-        };
+        let mut uniform = uniform_stream(0x1234_5678_9abc_def1);
         let key = |r: Result<Pair<4>, Option<f64>>| -> Vec<u64> {
             match r {
                 Ok((l, v, w)) => [l].iter().chain(&v).chain(&w).map(|x| x.to_bits()).collect(),
@@ -1153,11 +1154,7 @@ mod tests {
     fn matvec_unit_rows_equals_matvec_bit_for_bit() {
         use crate::plant::Plant;
         let plant = Furuta::paper();
-        let mut seed: u64 = 0x0bad_cafe_f00d_1234;
-        let mut uniform = |lo: f64, hi: f64| {
-            seed = seed.wrapping_mul(6_364_136_223_846_793_005).wrapping_add(1_442_695_040_888_963_407);
-            lo + (hi - lo) * ((seed >> 11) as f64 / (1u64 << 53) as f64)
-        };
+        let mut uniform = uniform_stream(0x0bad_cafe_f00d_1234);
         for k in 0..5000 {
             let x = [uniform(-1.0, 1.0), uniform(-10.0, 10.0), uniform(-10.0, 10.0), uniform(-30.0, 30.0)];
             let (_, jac) = plant.rhs_and_jacobian(&x, uniform(-12.0, 12.0));
