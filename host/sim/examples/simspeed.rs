@@ -20,7 +20,7 @@ fn scene(periods: u64, kind: MethodKind, arg: f64, atol_factor: f64, at: &(Strin
         b = b.dt_ms(dt);
     }
     let mut s = b.build()?;
-    let adaptive = matches!(kind, MethodKind::Rodas | MethodKind::Exprb | MethodKind::ExprbSplit | MethodKind::ExprbLean | MethodKind::ExprbFiltered);
+    let adaptive = matches!(kind, MethodKind::Rodas | MethodKind::Exprb | MethodKind::ExprbSplit | MethodKind::ExprbLean | MethodKind::ExprbFiltered | MethodKind::Exprb54 | MethodKind::Exprb54Filtered);
     s.integrator = if adaptive {
         IntegratorSpec { method: kind, rtol: Some(arg), atol: Some(arg * atol_factor), steps: None }
     } else {
