@@ -96,7 +96,12 @@ fn phi_fast(z: f64, cut: &Cut) -> [f64; 5] {
     if z.abs() < cut.z_min {
         return split::phi_scalar_cut(z, cut.term);
     }
-    let e = z.exp_m1();
+    phi_from_expm1(z, z.exp_m1())
+}
+
+/// `phi_k(z)`, `k = 0..=4`, from `e = expm1(z)` by the forward recurrence.
+#[inline(always)]
+fn phi_from_expm1(z: f64, e: f64) -> [f64; 5] {
     let iz = 1.0 / z;
     let p1 = e * iz;
     let p2 = (p1 - 1.0) * iz;
@@ -155,7 +160,17 @@ impl<const N: usize> Split54<N> {
             }
             terms += 1;
         }
-        let (q, hf, n, o) = (phi_fast(C2 * hl, cut), phi_fast(C3 * hl, cut), phi_fast(C4 * hl, cut), phi_fast(hl, cut));
+        // Where |h lambda / 4| >= z_min, one expm1 serves c = 1/4, 1/2 and 1: `expm1(2z) =
+        // e (e + 2)`, `e = expm1(z)` (no cancellation; a few ulps relative per doubling).
+        let zq = C2 * hl;
+        let (q, hf, o) = if zq.abs() >= cut.z_min {
+            let eq = zq.exp_m1();
+            let eh = eq * (eq + 2.0);
+            (phi_from_expm1(zq, eq), phi_from_expm1(C3 * hl, eh), phi_from_expm1(hl, eh * (eh + 2.0)))
+        } else {
+            (phi_fast(zq, cut), phi_fast(C3 * hl, cut), phi_fast(hl, cut))
+        };
+        let n = phi_fast(C4 * hl, cut);
         Some(Self { v, w, a, terms, f1: [q[1], hf[1], n[1], o[1]], f3: [hf[3], n[3], o[3]], f4: o[4], unit_rows: unit_rows && N == 4 })
     }
 
@@ -337,6 +352,38 @@ mod tests {
         let d4 = [0.0 + 60.0, -60.0 + 285.0 / 8.0, 500.0 / 27.0 - 125.0 / 8.0];
         for i in 0..3 {
             assert!((e3[i] - d3[i]).abs() < 1e-14 && (e4[i] - d4[i]).abs() < 1e-14);
+        }
+    }
+
+    /// The split's scalar `phi`-functions (the doubled `expm1` included) against the series
+    /// and closed forms, to the cut (or 4e-15 relative) at every `c`.
+    #[test]
+    fn fast_mode_phi_functions_meet_their_cut() {
+        fn phi_ref(k: usize, z: f64) -> f64 {
+            let fact = |n: usize| (1..=n).fold(1.0f64, |a, i| a * i as f64);
+            if z.abs() <= 1.0 {
+                (0..60).map(|j| z.powi(j as i32) / fact(j + k)).sum()
+            } else {
+                let mut s = z.exp();
+                for j in 0..k {
+                    s -= z.powi(j as i32) / fact(j);
+                }
+                s / z.powi(k as i32)
+            }
+        }
+        let jac = [[-1.0]];
+        for rtol in [1e-8, 1e-10, 3e-11, 1e-11, 1e-13] {
+            let cut = Cut::for_rtol(rtol);
+            for hl in [-1e-6, -0.3, -1.0, -2.0, -2.3, -3.0, -7.5, -21.0, -480.0, -1e4, 3.0] {
+                let sp = Split54::<1>::new(&jac, &(-1.0, [1.0], [1.0]), -hl, &cut, false).unwrap();
+                let z = hl;
+                let got = [(sp.f1[0], 1, C2), (sp.f1[1], 1, C3), (sp.f1[2], 1, C4), (sp.f1[3], 1, 1.0), (sp.f3[0], 3, C3), (sp.f3[1], 3, C4), (sp.f3[2], 3, 1.0), (sp.f4, 4, 1.0)];
+                for (g, k, c) in got {
+                    let want = phi_ref(k, c * z);
+                    let tol = cut.term.max(4e-15) * want.abs();
+                    assert!((g - want).abs() <= tol, "rtol {rtol:e}: phi_{k}({c} * {z}) = {g:e}, want {want:e}");
+                }
+            }
         }
     }
 

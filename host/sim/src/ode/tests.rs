@@ -987,6 +987,21 @@ fn exprb54_closed_loop_accuracy_against_the_tight_reference() {
 }
 
 #[test]
+fn fifth_root_is_powf_to_rounding() {
+    let mut q = 1e-310;
+    while q < 1e300 {
+        for m in [1.0, 1.37, 2.0, 3.999, 7.3] {
+            let x = q * m;
+            let (got, want) = (fifth_root(x), x.powf(0.2));
+            assert!((got - want).abs() <= 1e-13 * want, "{x:e}: {got:e} vs {want:e}");
+        }
+        q *= 10.0;
+    }
+    assert_eq!(fifth_root(0.0), 0.0);
+    assert_eq!(fifth_root(f64::INFINITY), f64::INFINITY);
+}
+
+#[test]
 fn exprb54_validation_describe_and_blow_up() {
     let e = Integrator::<4>::new(Method::Exprb54 { rtol: -1.0, atol: 1e-9 }).unwrap_err();
     assert!(matches!(&e, OdeError::BadMethod(m) if m.contains("exprb54") && m.contains("rtol")), "{e}");
