@@ -53,7 +53,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let st = tr.ode_stats;
     let n = (tr.rows() - 1) as f64;
     print!(
-        "{}: {:.1} steps/period ({} rejected), {:.0} periods/s wall",
+        "{}: {:.1} steps/period ({} rejected), {:.0} periods/s wall, {n} periods",
         tr.integrator,
         (st.steps + st.rejected) as f64 / n,
         st.rejected,
