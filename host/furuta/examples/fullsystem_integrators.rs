@@ -58,6 +58,21 @@
 //! So this verdict is decided by the integration error at every tolerance above ~2e-12; the
 //! scene's setting gets it right with the reference, exprb-filtered does not at any tolerance
 //! tried, and the scene keeps exprb-lean at 3e-11.
+//!
+//! The opt-in order-5 method `exprb54-filtered` (exprb54s4, `sim::ode`; no scene uses it), at
+//! exprb5 (one thread each, user CPU-s on a 2-core machine at load 4-8, so +-20 %; exprb-filtered
+//! rerun alongside):
+//!
+//! | runs | exprb-filtered 3e-11 | exprb54-filtered 3e-11 | exprb54-filtered 1e-10 |
+//! |---|---|---|---|
+//! | scan-quick: CPU-s / flips against RODAS4 1e-13 / max theta error, bounded (6) | 1.35 / 0 / 4.9e-10 | 0.88 / 0 / 4.8e-11 | 0.97 / 0 / 1.6e-10 |
+//! | torus-quick: CPU-s / lost bracket / largest error of rho, spreads | 3.00 / same / 1.3e-10, 2.2e-9 | 2.72 / same / 2.3e-12, 1.5e-10 | 1.85 / same / 7.1e-12, 4.2e-10 |
+//! | basin-quick (576): CPU-s / flips and escape times against exprb-filtered 3e-11 | 13.77 / - | 12.66 (10.56 on a quieter run) / 0, identical | 8.43 / 0, identical |
+//! | connection (16): CPU-s / flips against RODAS4 1e-13 / max theta error, bounded (14) | 12.49 / 0 / 3.5e-9 | 11.03 / 0 / 4.6e-10 | 10.32 / 0 / 1.3e-9 |
+//!
+//! scan-full run 36 (the fast-mode start at 31.38 ms, 8,000 periods; RODAS4 B 0.17612):
+//! exprb54-filtered B 0.17612 at 1e-12, 3e-12, 5e-12 and 1e-11 (0.34 CPU-s), B 0.17617 at 3e-11,
+//! E at 2e-11, 5e-11 and 1e-10 (172-181 s); exprb54 (unfiltered) E at 1e-11 and 3e-11, B at 3e-12.
 
 use furuta::basin::{BasinOptions, torus_continuation_with};
 use furuta::map_global::{ConnectionOptions, full_connection_fates_with};

@@ -131,6 +131,8 @@ pub fn method_of(scene: &Scene) -> Method {
         MethodKind::ExprbSplit => Method::ExprbSplit { rtol: i.rtol.unwrap_or(1e-10), atol: i.atol.unwrap_or(1e-12) },
         MethodKind::ExprbLean => Method::ExprbLean { rtol: i.rtol.unwrap_or(1e-10), atol: i.atol.unwrap_or(1e-12) },
         MethodKind::ExprbFiltered => Method::ExprbFiltered { rtol: i.rtol.unwrap_or(1e-10), atol: i.atol.unwrap_or(1e-12) },
+        MethodKind::Exprb54 => Method::Exprb54 { rtol: i.rtol.unwrap_or(1e-10), atol: i.atol.unwrap_or(1e-12) },
+        MethodKind::Exprb54Filtered => Method::Exprb54Filtered { rtol: i.rtol.unwrap_or(1e-10), atol: i.atol.unwrap_or(1e-12) },
     }
 }
 
@@ -345,7 +347,7 @@ pub fn metadata_json(scene: &Scene, traj: &Trajectory, csv_name: &str) -> Result
         controller: scene.controller_config(),
         effects: scene.effect_names(),
         integrator: &traj.integrator,
-        tolerance: matches!(i.method, MethodKind::Rodas | MethodKind::Exprb | MethodKind::ExprbSplit | MethodKind::ExprbLean | MethodKind::ExprbFiltered).then(|| [i.rtol.unwrap_or(1e-10), i.atol.unwrap_or(1e-12)]),
+        tolerance: matches!(i.method, MethodKind::Rodas | MethodKind::Exprb | MethodKind::ExprbSplit | MethodKind::ExprbLean | MethodKind::ExprbFiltered | MethodKind::Exprb54 | MethodKind::Exprb54Filtered).then(|| [i.rtol.unwrap_or(1e-10), i.atol.unwrap_or(1e-12)]),
         steps_per_period: i.steps,
         periods_simulated: traj.rows().saturating_sub(1),
         stopped: traj.stopped.as_deref(),

@@ -45,6 +45,8 @@ fn label(s: &Scene) -> String {
         MethodKind::ExprbLean => format!("exprb43-lean rtol={:e}", i.rtol.unwrap_or_default()),
         MethodKind::ExprbFiltered if i.atol.is_some() && i.atol == i.rtol => format!("exprb43-filtered rtol=atol={:e}", i.rtol.unwrap_or_default()),
         MethodKind::ExprbFiltered => format!("exprb43-filtered rtol={:e}", i.rtol.unwrap_or_default()),
+        MethodKind::Exprb54 => format!("exprb54s4 rtol={:e}", i.rtol.unwrap_or_default()),
+        MethodKind::Exprb54Filtered => format!("exprb54s4-filtered rtol={:e}", i.rtol.unwrap_or_default()),
     }
 }
 

@@ -60,7 +60,7 @@ const INV_FACT: [f64; DEG + 5] = {
 };
 
 /// A matrix as its columns (nalgebra's storage order): `m[j][i]` is row `i`, column `j`.
-type Cols<const N: usize> = [[f64; N]; N];
+pub(crate) type Cols<const N: usize> = [[f64; N]; N];
 
 /// `a * b` with nalgebra's operations in nalgebra's order (its `gemm` for fixed sizes: column
 /// `j` of the product is `a[:,0] b[0,j]`, then `a[:,k] b[k,j] + (sum so far)` for `k = 1..N`),
@@ -107,7 +107,7 @@ fn to_m<const N: usize>(x: &Cols<N>) -> M<N> {
 
 /// `phi_k(a/2)`, `k = 0..=4` (the level before the last doubling): the Taylor polynomial at
 /// `a / 2^s` and `s - 1` doublings. `None` if `a` is not finite or too large to scale.
-fn phis_before_last<const N: usize>(a: &Cols<N>) -> Option<[Cols<N>; 5]> {
+pub(crate) fn phis_before_last<const N: usize>(a: &Cols<N>) -> Option<[Cols<N>; 5]> {
     if a.iter().flatten().any(|v| !v.is_finite()) {
         return None;
     }
@@ -165,7 +165,7 @@ fn double_134<const N: usize>(p: &[Cols<N>; 5]) -> [Cols<N>; 3] {
 
 /// `phi_k(2X)` from `phi_k(X)`, `k = 0..=4`.
 #[inline(always)]
-fn double<const N: usize>(p: &[Cols<N>; 5]) -> [Cols<N>; 5] {
+pub(crate) fn double<const N: usize>(p: &[Cols<N>; 5]) -> [Cols<N>; 5] {
     let [e, p1, p2, _, _] = p;
     let e2 = mm(e, e);
     let ep2 = mm(e, p2);

@@ -12,11 +12,15 @@
 //! dominant (fast) eigenvalue: closed form for it, short Taylor sums for the rest (`split.rs`);
 //! [`Method::ExprbLean`] that split with its work cut to what the tolerance needs;
 //! [`Method::ExprbFiltered`] exprb-lean with the fast-mode part of its error estimate filtered.
+//! [`Method::Exprb54`] (opt-in, not used by any scene) is the order-5 exponential Rosenbrock
+//! method exprb54s4 on exprb-lean's machinery (`exprb54.rs`), [`Method::Exprb54Filtered`] it
+//! with exprb-filtered's error filter.
 //!
 //! This module owns time stepping only: it knows nothing of controllers or sampling beyond
 //! "advance `x` by `h` under the held input `u`". Nothing here allocates per step.
 
 mod exprb;
+mod exprb54;
 mod lu;
 mod rodas;
 mod split;
@@ -63,6 +67,16 @@ pub enum Method {
     /// measured, not derived: weighting the fast error down at large `z` too (where it is
     /// damped within the next step) costs 20x in theta error.
     ExprbFiltered { rtol: f64, atol: f64 },
+    /// The order-5 exponential Rosenbrock method `exprb54s4` (Luan & Ostermann 2014; embedded
+    /// order 4, three right-hand sides a step; `exprb54.rs`) on [`Method::ExprbLean`]'s
+    /// machinery: the plant's closed-form Jacobian, the warm-started eigenpair, the
+    /// `phi`-functions split at the fast eigenvalue with sums cut at `1e-3 rtol`, the period's
+    /// first step learnt. The same error test; the controller takes the fifth root of the error.
+    /// Opt-in: no scene uses it.
+    Exprb54 { rtol: f64, atol: f64 },
+    /// [`Method::Exprb54`] with [`Method::ExprbFiltered`]'s weighting of the error estimate's
+    /// fast-mode component.
+    Exprb54Filtered { rtol: f64, atol: f64 },
 }
 
 /// [`Method::ExprbFiltered`]: `|h lambda|` at which the fast component of the error estimate
@@ -79,6 +93,8 @@ enum Scheme {
     ExprbSplit,
     /// `filtered`: [`Method::ExprbFiltered`]'s error estimate.
     ExprbLean { filtered: bool },
+    /// [`Method::Exprb54`]; `filtered`: [`Method::Exprb54Filtered`].
+    Exprb54 { filtered: bool },
 }
 
 /// Why an integration failed. The state is never left holding NaN or infinity: on error it is
@@ -121,6 +137,8 @@ const FAC_MAX: f64 = 6.0;
 const FAC_MIN: f64 = 0.2;
 /// Embedded order + 1 of RODAS4(3): the error estimate scales as `h^4`.
 const ERR_EXP: f64 = 0.25;
+/// Embedded order + 1 of exprb54s4: the error estimate scales as `h^5`.
+const ERR_EXP_5: f64 = 0.2;
 /// Default bound on the steps of one period.
 const DEFAULT_MAX_STEPS: u64 = 1_000_000;
 /// Consecutive singular-matrix or non-finite rejections before giving up.
@@ -156,12 +174,16 @@ impl<const N: usize> Integrator<N> {
             | Method::Exprb { rtol, atol }
             | Method::ExprbSplit { rtol, atol }
             | Method::ExprbLean { rtol, atol }
-            | Method::ExprbFiltered { rtol, atol } => {
+            | Method::ExprbFiltered { rtol, atol }
+            | Method::Exprb54 { rtol, atol }
+            | Method::Exprb54Filtered { rtol, atol } => {
                 let kind = match method {
                     Method::Rodas { .. } => "rodas",
                     Method::Exprb { .. } => "exprb",
                     Method::ExprbSplit { .. } => "exprb-split",
                     Method::ExprbLean { .. } => "exprb-lean",
+                    Method::Exprb54 { .. } => "exprb54",
+                    Method::Exprb54Filtered { .. } => "exprb54-filtered",
                     _ => "exprb-filtered",
                 };
                 for (name, v) in [("rtol", rtol), ("atol", atol)] {
@@ -228,6 +250,8 @@ impl<const N: usize> Integrator<N> {
             Method::ExprbSplit { .. } => "exprb43-split",
             Method::ExprbLean { .. } => "exprb43-lean",
             Method::ExprbFiltered { .. } => "exprb43-filtered",
+            Method::Exprb54 { .. } => "exprb54s4",
+            Method::Exprb54Filtered { .. } => "exprb54s4-filtered",
         }
     }
 
@@ -239,7 +263,9 @@ impl<const N: usize> Integrator<N> {
             | Method::Exprb { rtol, atol }
             | Method::ExprbSplit { rtol, atol }
             | Method::ExprbLean { rtol, atol }
-            | Method::ExprbFiltered { rtol, atol } => {
+            | Method::ExprbFiltered { rtol, atol }
+            | Method::Exprb54 { rtol, atol }
+            | Method::Exprb54Filtered { rtol, atol } => {
                 format!("{name} rtol={rtol:e} atol={atol:e}")
             }
             Method::RodasFixed { steps } | Method::Rk4 { steps } | Method::ExprbFixed { steps } => {
@@ -279,6 +305,10 @@ impl<const N: usize> Integrator<N> {
             }
             Method::ExprbFiltered { rtol, atol } => {
                 self.adaptive(plant, x, u, h, rtol, atol, Scheme::ExprbLean { filtered: true })
+            }
+            Method::Exprb54 { rtol, atol } => self.adaptive(plant, x, u, h, rtol, atol, Scheme::Exprb54 { filtered: false }),
+            Method::Exprb54Filtered { rtol, atol } => {
+                self.adaptive(plant, x, u, h, rtol, atol, Scheme::Exprb54 { filtered: true })
             }
         };
         self.t = t0 + h;
@@ -344,6 +374,11 @@ impl<const N: usize> Integrator<N> {
                     self.stats.rhs_evals += 2;
                     exprb::step(&mut rhs, &jac, &phis, x, &f0, dt).0
                 }
+                Scheme::Exprb54 { .. } => {
+                    let ph = exprb54::Full54::new(&jac, dt).ok_or(OdeError::NonFinite { t, component: bad_row(&jac) })?;
+                    self.stats.rhs_evals += 3;
+                    exprb54::step(&mut rhs, &jac, &ph, x, &f0, dt).0
+                }
             };
             if let Some(component) = first_non_finite(&y) {
                 return Err(OdeError::NonFinite { t: t + dt, component });
@@ -380,8 +415,8 @@ impl<const N: usize> Integrator<N> {
         };
         let h_min = 1e-14 * h_period.max(t0.abs());
         let mut t = 0.0;
-        let lean = matches!(scheme, Scheme::ExprbLean { .. });
-        let filtered = scheme == Scheme::ExprbLean { filtered: true };
+        let lean = matches!(scheme, Scheme::ExprbLean { .. } | Scheme::Exprb54 { .. });
+        let filtered = matches!(scheme, Scheme::ExprbLean { filtered: true } | Scheme::Exprb54 { filtered: true });
         // exprb-lean: Taylor sums cut at a term below 1e-3 of the tolerance; the eigenpair
         // accepted at a relative residual of 1e-2 of it (at most 1e-10; 1e-14 = exprb-split's).
         // Measured on the bench problem: a residual of 1e-8 moves the error by 1e-3 of itself.
@@ -396,7 +431,7 @@ impl<const N: usize> Integrator<N> {
         }
         match scheme {
             Scheme::ExprbSplit => self.pair = split::dominant_pair(&jac, self.pair.as_ref()),
-            Scheme::ExprbLean { .. } => self.pair = split::dominant_pair_lean_with(&jac, self.pair.as_ref(), pair_tol, unit_rows),
+            Scheme::ExprbLean { .. } | Scheme::Exprb54 { .. } => self.pair = split::dominant_pair_lean_with(&jac, self.pair.as_ref(), pair_tol, unit_rows),
             _ => {}
         }
         let mut first = true;
@@ -438,6 +473,10 @@ impl<const N: usize> Integrator<N> {
                     Some(sp) => Some(split::step(&mut rhs, &jac, &sp, x, &f0, h_try)),
                     None => exprb::phis(&jac, h_try).map(|phis| exprb::step(&mut rhs, &jac, &phis, x, &f0, h_try)),
                 },
+                Scheme::Exprb54 { .. } => match self.pair.as_ref().and_then(|pr| exprb54::Split54::new(&jac, pr, h_try, &cut, unit_rows)) {
+                    Some(sp) => Some(exprb54::step(&mut rhs, &jac, &sp, x, &f0, h_try)),
+                    None => exprb54::Full54::new(&jac, h_try).map(|ph| exprb54::step(&mut rhs, &jac, &ph, x, &f0, h_try)),
+                },
             };
             let Some((y, k6)) = trial else {
                 // RODAS: E = I/(h gamma) - J singular; exprb: h J not finite or too large to
@@ -446,7 +485,7 @@ impl<const N: usize> Integrator<N> {
                 if halvings > MAX_HALVINGS {
                     return Err(match scheme {
                         Scheme::Rodas => OdeError::SingularMatrix { t: t0 + t, h: h_try },
-                        Scheme::Exprb | Scheme::ExprbSplit | Scheme::ExprbLean { .. } => {
+                        Scheme::Exprb | Scheme::ExprbSplit | Scheme::ExprbLean { .. } | Scheme::Exprb54 { .. } => {
                             OdeError::NonFinite { t: t0 + t, component: bad_row(&jac) }
                         }
                     });
@@ -459,6 +498,7 @@ impl<const N: usize> Integrator<N> {
             self.stats.rhs_evals += match scheme {
                 Scheme::Rodas => 5,
                 Scheme::Exprb | Scheme::ExprbSplit | Scheme::ExprbLean { .. } => 2,
+                Scheme::Exprb54 { .. } => 3,
             };
             // exprb-filtered: the estimate's fast component c v (c = w^T k6) weighted by
             // (z / (z + z0))^2, z = |h lambda|.
@@ -494,7 +534,12 @@ impl<const N: usize> Integrator<N> {
             // Step ratio from this step's error: h_new = h / fac, fac in [1/FAC_MAX, 1/FAC_MIN].
             // exprb43-split takes the fourth root as two square roots (a few times cheaper than
             // `powf`, equal to rounding); the older schemes keep `powf` and their exact steps.
-            let root = |q: f64| if matches!(scheme, Scheme::ExprbSplit | Scheme::ExprbLean { .. }) { q.sqrt().sqrt() } else { q.powf(ERR_EXP) };
+            // exprb54s4: the fifth root (an order-4 estimate).
+            let root = |q: f64| match scheme {
+                Scheme::ExprbSplit | Scheme::ExprbLean { .. } => q.sqrt().sqrt(),
+                Scheme::Exprb54 { .. } => fifth_root(q),
+                Scheme::Rodas | Scheme::Exprb => q.powf(ERR_EXP),
+            };
             let fac = (root(err) / SAFETY).clamp(1.0 / FAC_MAX, 1.0 / FAC_MIN);
             let mut h_new = h_try / fac;
             if err <= 1.0 {
@@ -539,7 +584,7 @@ impl<const N: usize> Integrator<N> {
                 // here) starts cold next time.
                 match scheme {
                     Scheme::ExprbSplit => self.pair = split::dominant_pair(&jac, self.pair.as_ref()),
-                    Scheme::ExprbLean { .. } => {
+                    Scheme::ExprbLean { .. } | Scheme::Exprb54 { .. } => {
                         self.pair = split::dominant_pair_lean_with(&jac, self.pair.as_ref(), pair_tol, unit_rows)
                     }
                     _ => {}
@@ -557,6 +602,23 @@ impl<const N: usize> Integrator<N> {
             }
         }
     }
+}
+
+/// `q^(1/5)` for exprb54s4's step-size controller, without `powf` (two a step, about 120
+/// instructions each): a first guess from the bits read as a logarithm (within 7 %), then four
+/// Newton steps `y <- (4 y + q / y^4) / 5` (relative error below 1e-13); `powf` outside
+/// `[1e-300, 1e300]` (zero, subnormal or huge ratios).
+#[inline]
+fn fifth_root(q: f64) -> f64 {
+    if !(1e-300..=1e300).contains(&q) {
+        return q.powf(ERR_EXP_5);
+    }
+    let mut y = f64::from_bits(q.to_bits() / 5 + ((4 * 1023u64) << 52) / 5);
+    for _ in 0..4 {
+        let y2 = y * y;
+        y = 0.8 * y + 0.2 * q / (y2 * y2);
+    }
+    y
 }
 
 #[inline(always)]

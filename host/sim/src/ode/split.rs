@@ -114,9 +114,9 @@ fn phi_scalar_and_half_cut(z: f64, cut: f64) -> ([f64; 5], f64) {
 #[derive(Clone, Copy, Debug)]
 pub(crate) struct Cut {
     /// Taylor sums stop at a first dropped term below `term` (relative).
-    term: f64,
+    pub(crate) term: f64,
     /// Scalar `phi`-functions from `expm1` at `|z| >= z_min`, from their Taylor series below.
-    z_min: f64,
+    pub(crate) z_min: f64,
 }
 
 impl Cut {
@@ -151,7 +151,7 @@ fn phi_lean(z: f64, cut: &Cut) -> ([f64; 5], f64) {
 }
 
 #[inline(always)]
-fn matvec<const N: usize>(a: &[[f64; N]; N], x: &[f64; N]) -> [f64; N] {
+pub(crate) fn matvec<const N: usize>(a: &[[f64; N]; N], x: &[f64; N]) -> [f64; N] {
     matvec_from(a, x, 0.0)
 }
 
@@ -162,7 +162,7 @@ fn matvec<const N: usize>(a: &[[f64; N]; N], x: &[f64; N]) -> [f64; N] {
 /// zero component of `t`, which no output sees: `t` goes only into further products and into
 /// sums that start from `+0.0` (`out`), where a zero of either sign leaves the sum as it is.
 #[inline(always)]
-fn matvec_from<const N: usize>(a: &[[f64; N]; N], x: &[f64; N], s0: f64) -> [f64; N] {
+pub(crate) fn matvec_from<const N: usize>(a: &[[f64; N]; N], x: &[f64; N], s0: f64) -> [f64; N] {
     core::array::from_fn(|i| {
         let mut s = s0;
         for j in 0..N {
@@ -180,7 +180,7 @@ fn matvec_from<const N: usize>(a: &[[f64; N]; N], x: &[f64; N], s0: f64) -> [f64
 /// also for `J_1k = 0`), so the remainder's component 1 is, and with it `w^T d`, every Taylor
 /// term and the new state; the driver rejects the trial the same way.
 #[inline(always)]
-fn matvec_unit_rows<const N: usize>(a: &[[f64; N]; N], x: &[f64; N]) -> [f64; N] {
+pub(crate) fn matvec_unit_rows<const N: usize>(a: &[[f64; N]; N], x: &[f64; N]) -> [f64; N] {
     let mut s = matvec(a, x);
     (s[0], s[2]) = (0.0 + x[1], 0.0 + x[3]);
     s
@@ -741,7 +741,7 @@ impl<const N: usize> Split<N> {
 /// `f(u) - f0 - J du` of [`step`] (a function, not a closure: the closure, called twice, was
 /// not inlined once the unit-row case was added).
 #[inline(always)]
-fn remainder<const N: usize>(jac: &[[f64; N]; N], unit_rows: bool, f0: &[f64; N], fu: [f64; N], du: &[f64; N]) -> [f64; N] {
+pub(crate) fn remainder<const N: usize>(jac: &[[f64; N]; N], unit_rows: bool, f0: &[f64; N], fu: [f64; N], du: &[f64; N]) -> [f64; N] {
     let jd = if unit_rows { matvec_unit_rows(jac, du) } else { matvec(jac, du) };
     core::array::from_fn(|i| fu[i] - f0[i] - jd[i])
 }

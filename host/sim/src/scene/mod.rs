@@ -145,6 +145,12 @@ pub enum MethodKind {
     /// jump): about half the steps of exprb-lean for the same error on the smooth Furuta
     /// loops; error-controlled by rtol/atol.
     ExprbFiltered,
+    /// Adaptive exprb54s4 (order 5, embedded order 4; Luan & Ostermann 2014) on exprb-lean's
+    /// machinery: opt-in, for measuring a higher-order method against exprb-filtered; no
+    /// bundled scene or report section uses it. Error-controlled by rtol/atol.
+    Exprb54,
+    /// exprb54 with exprb-filtered's weighting of the error estimate's fast-mode component.
+    Exprb54Filtered,
 }
 
 impl MethodKind {
@@ -159,6 +165,8 @@ impl MethodKind {
             MethodKind::ExprbSplit => "exprb-split",
             MethodKind::ExprbLean => "exprb-lean",
             MethodKind::ExprbFiltered => "exprb-filtered",
+            MethodKind::Exprb54 => "exprb54",
+            MethodKind::Exprb54Filtered => "exprb54-filtered",
         }
     }
 }
@@ -468,7 +476,13 @@ impl Scene {
         }
         let i = &self.integrator;
         match i.method {
-            MethodKind::Rodas | MethodKind::Exprb | MethodKind::ExprbSplit | MethodKind::ExprbLean | MethodKind::ExprbFiltered => {
+            MethodKind::Rodas
+            | MethodKind::Exprb
+            | MethodKind::ExprbSplit
+            | MethodKind::ExprbLean
+            | MethodKind::ExprbFiltered
+            | MethodKind::Exprb54
+            | MethodKind::Exprb54Filtered => {
                 if i.steps.is_some() {
                     return Err(SceneError::key(s, "integrator.steps", "not used by adaptive methods (set rtol/atol)"));
                 }

@@ -167,7 +167,7 @@ fn controller_fields_are_validated_by_the_controller_check() {
 #[test]
 fn method_keys_parse_back() {
     use super::MethodKind::*;
-    for m in [Rodas, RodasFixed, Rk4, Exprb, ExprbFixed, ExprbSplit, ExprbLean, ExprbFiltered] {
+    for m in [Rodas, RodasFixed, Rk4, Exprb, ExprbFixed, ExprbSplit, ExprbLean, ExprbFiltered, Exprb54, Exprb54Filtered] {
         let v: MethodKind = toml::Value::String(m.key().into()).try_into().unwrap();
         assert_eq!(v, m);
     }

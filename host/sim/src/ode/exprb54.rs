@@ -1,0 +1,413 @@
+//! One step of `exprb54s4`, the four-stage exponential Rosenbrock method of order 5 with an
+//! embedded order-4 solution (Luan & Ostermann, "Exponential Rosenbrock methods of order five
+//! -- construction, analysis and numerical comparisons", J. Comput. Appl. Math. 255:417-431,
+//! 2014, doi:10.1016/j.cam.2013.04.041), opt-in as [`super::Method::Exprb54`].
+//!
+//! With `J = f'(y_n)`, `Z = hJ`, `F = f(y_n)` and `D(U) = f(U) - F - J (U - y_n)` as in
+//! `exprb.rs` (zero on a linear right-hand side, so the method is exact there too):
+//!
+//! ```text
+//! U2 = y_n + (h/4)  phi1(Z/4)   F
+//! U3 = y_n + (h/2)  phi1(Z/2)   F + 4 h phi3(Z/2) D2
+//! U4 = y_n + (9h/10) phi1(9Z/10) F + (729/125) h phi3(9Z/10) D3
+//! y5 = y_n + h phi1(Z) F + h phi3(Z) (18 D3 - 250/81 D4) + h phi4(Z) (-60 D3 + 500/27 D4)
+//! y4 = y_n + h phi1(Z) F + h phi3(Z) (64 D2 - 8 D3) + h phi4(Z) (-60 D2 - 285/8 D3 + 125/8 D4)
+//! ```
+//!
+//! `Di = D(Ui)`. The step goes on with `y5` (local extrapolation); the error estimate is
+//! `y5 - y4 = h phi3(Z) (-64 D2 + 26 D3 - 250/81 D4) + h phi4(Z) (60 D2 - 195/8 D3 + 625/216 D4)`,
+//! formed directly (no cancellation of the two solutions), of order `h^5`: the driver's
+//! controller takes its fifth root. Per step: one Jacobian and three right-hand sides (exprb43:
+//! one and two).
+//!
+//! The stages satisfy the stiff order conditions `psi_{3,i} = 0` (`a_32 c_2^2/2 = c_3^3
+//! phi3(c_3 Z)`, `a_43 c_3^2/2 = c_4^3 phi3(c_4 Z)`), the weights `sum b_i c_i^2 = 2 phi3`,
+//! `sum b_i c_i^3 = 6 phi4`, and `sum b_i c_i^4 = 24 phi5` at `Z = 0` (checked in the tests).
+//!
+//! The `phi`-functions are applied to vectors as in `split.rs`: the dominant (fast) mode in
+//! closed form, the rest (`Z_s = h J_s`) by Taylor sums, each vector's powers `Z_s^j t` formed
+//! once and weighted by `c^j / (j+k)!` for every `(c, k)` the step needs of it (constant
+//! tables). Where there is no dominant eigenpair or `|Z_s|_1` exceeds [`RHO_MAX`], the full
+//! matrix functions by scaling and squaring (`exprb.rs`'s): `phi_k(Z/4)` doubled to `Z/2` and
+//! `Z`, and `phi_k(9Z/10)` separately.
+
+//!
+//! Measured (exprb5; `simspeed`, callgrind Ir and user CPU on a loaded 2-core machine):
+//! per trial step about 4,450 instructions against exprb-filtered's 3,020 (three right-hand
+//! sides, four Taylor sequences). Unfiltered, it takes as many steps as exprb-filtered (the
+//! steps go to the transient after each input jump); with the filter (`exprb54-filtered`) 0.50x
+//! to 0.65x of them at every rtol from 1e-9 to 1e-11, and a 2x to 8x smaller error at the same
+//! rtol. At equal error (exprb54-filtered at 1e-10 against exprb-filtered at 3e-11): basin run
+//! `furuta-dt30.5 0.02 31.5` 173,571 vs 256,163 Ir a period (1.48x), theta error 6.7e-7 vs
+//! 1.0e-6; bench problem 129,539 vs 208,778 (1.61x), theta error 7.4e-12 both. Its step order
+//! on the Furuta plant's smooth regime is 4.7, on a stiff Prothero-Robinson problem 4 (the
+//! weakened fifth-order condition).
+
+use super::exprb::{self, Cols};
+use super::split::{self, Cut, Pair};
+
+/// Largest 1-norm of `h J_s` handled by the Taylor sums (exprb43's split: 1.0; the longer
+/// steps of an order-5 method reach further, and the sums stay well conditioned: every term is
+/// below `2^j / j!` of the vector).
+const RHO_MAX: f64 = 2.0;
+/// Taylor terms at most: `RHO_MAX^j / (j+1)!` is below `1e-18` from `j = 25` on.
+const MAX_TERMS: usize = 25;
+
+/// `c^j / (j+k)!` for `j = 0..MAX_TERMS`.
+const fn weights(c: f64, k: usize) -> [f64; MAX_TERMS] {
+    let mut f = 1.0;
+    let mut i = 1;
+    while i <= k {
+        f /= i as f64;
+        i += 1;
+    }
+    let mut t = [0.0; MAX_TERMS];
+    let mut cp = 1.0;
+    let mut j = 0;
+    while j < MAX_TERMS {
+        t[j] = cp * f;
+        cp *= c;
+        f /= (j + k + 1) as f64;
+        j += 1;
+    }
+    t
+}
+
+/// The stage abscissae `c_2, c_3, c_4` and 1.
+const C2: f64 = 0.25;
+const C3: f64 = 0.5;
+const C4: f64 = 0.9;
+const W1_C2: [f64; MAX_TERMS] = weights(C2, 1);
+const W1_C3: [f64; MAX_TERMS] = weights(C3, 1);
+const W1_C4: [f64; MAX_TERMS] = weights(C4, 1);
+const W1: [f64; MAX_TERMS] = weights(1.0, 1);
+const W3_C3: [f64; MAX_TERMS] = weights(C3, 3);
+const W3_C4: [f64; MAX_TERMS] = weights(C4, 3);
+const W3: [f64; MAX_TERMS] = weights(1.0, 3);
+const W4: [f64; MAX_TERMS] = weights(1.0, 4);
+
+/// The `phi`-function products one step needs, by vector.
+pub(crate) trait Phi54<const N: usize> {
+    /// `phi1(c Z) F` for `c = 1/4, 1/2, 9/10, 1`.
+    fn on_f(&self, f: &[f64; N]) -> [[f64; N]; 4];
+    /// `phi3(Z/2) d`, `phi3(Z) d`, `phi4(Z) d`.
+    fn on_d2(&self, d: &[f64; N]) -> [[f64; N]; 3];
+    /// `phi3(9Z/10) d`, `phi3(Z) d`, `phi4(Z) d`.
+    fn on_d3(&self, d: &[f64; N]) -> [[f64; N]; 3];
+    /// `phi3(Z) d`, `phi4(Z) d`.
+    fn on_d4(&self, d: &[f64; N]) -> [[f64; N]; 2];
+    /// `J`'s rows 0 and 2 are the unit rows `e_1`, `e_3` (`split::unit_rows`).
+    fn unit_rows(&self) -> bool;
+}
+
+/// `phi_k(z)`, `k = 0..=4`, of a real scalar for the split: below `cut.z_min` the Taylor
+/// series cut at `cut.term` (`split::phi_scalar_cut`), above it `expm1(z)` and the forward
+/// recurrence (relative error about `24 eps / |z|^3` in `phi4`, at most `cut.term` there).
+#[inline]
+fn phi_fast(z: f64, cut: &Cut) -> [f64; 5] {
+    if z.abs() < cut.z_min {
+        return split::phi_scalar_cut(z, cut.term);
+    }
+    phi_from_expm1(z, z.exp_m1())
+}
+
+/// `phi_k(z)`, `k = 0..=4`, from `e = expm1(z)` by the forward recurrence.
+#[inline(always)]
+fn phi_from_expm1(z: f64, e: f64) -> [f64; 5] {
+    let iz = 1.0 / z;
+    let p1 = e * iz;
+    let p2 = (p1 - 1.0) * iz;
+    let p3 = (p2 - 0.5) * iz;
+    let p4 = (p3 - 1.0 / 6.0) * iz;
+    [e + 1.0, p1, p2, p3, p4]
+}
+
+/// The split `phi`-functions of one step (see `split.rs`).
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Split54<const N: usize> {
+    v: [f64; N],
+    w: [f64; N],
+    /// `h J_s = h (J - lambda v w^T)`.
+    a: [[f64; N]; N],
+    /// Taylor terms of the sums.
+    terms: usize,
+    /// `phi1(c h lambda)`, `c = 1/4, 1/2, 9/10, 1`.
+    f1: [f64; 4],
+    /// `phi3(c h lambda)`, `c = 1/2, 9/10, 1`.
+    f3: [f64; 3],
+    /// `phi4(h lambda)`.
+    f4: f64,
+    unit_rows: bool,
+}
+
+impl<const N: usize> Split54<N> {
+    /// The split at Jacobian `jac` with its dominant `pair` for the step `h`, the sums cut at
+    /// `cut.term`; `None` if `|h J_s|_1` exceeds [`RHO_MAX`].
+    #[inline]
+    pub(crate) fn new(jac: &[[f64; N]; N], pair: &Pair<N>, h: f64, cut: &Cut, unit_rows: bool) -> Option<Self> {
+        let &(lambda, v, w) = pair;
+        let hl = h * lambda;
+        let a: [[f64; N]; N] = core::array::from_fn(|i| {
+            let hv = hl * v[i];
+            core::array::from_fn(|j| h * jac[i][j] - hv * w[j])
+        });
+        let mut rho = 0.0f64;
+        for j in 0..N {
+            let mut c = 0.0;
+            for row in &a {
+                c += row[j].abs();
+            }
+            rho = rho.max(c);
+        }
+        if !(rho <= RHO_MAX) {
+            return None;
+        }
+        // Terms j = 0..terms-1; the first dropped one, rho^terms / (terms+1)!, below the cut.
+        let mut terms = 1;
+        let mut t = 1.0;
+        while terms < MAX_TERMS {
+            t *= rho / (terms + 1) as f64;
+            if t < cut.term {
+                break;
+            }
+            terms += 1;
+        }
+        // Where |h lambda / 4| >= z_min, one expm1 serves c = 1/4, 1/2 and 1: `expm1(2z) =
+        // e (e + 2)`, `e = expm1(z)` (no cancellation; a few ulps relative per doubling).
+        let zq = C2 * hl;
+        let (q, hf, o) = if zq.abs() >= cut.z_min {
+            let eq = zq.exp_m1();
+            let eh = eq * (eq + 2.0);
+            (phi_from_expm1(zq, eq), phi_from_expm1(C3 * hl, eh), phi_from_expm1(hl, eh * (eh + 2.0)))
+        } else {
+            (phi_fast(zq, cut), phi_fast(C3 * hl, cut), phi_fast(hl, cut))
+        };
+        let n = phi_fast(C4 * hl, cut);
+        Some(Self { v, w, a, terms, f1: [q[1], hf[1], n[1], o[1]], f3: [hf[3], n[3], o[3]], f4: o[4], unit_rows: unit_rows && N == 4 })
+    }
+
+    /// `sum_j wts[m][j] Z_s^j (y - v w^T y) + fast[m] v (w^T y)` for each output `m`.
+    #[inline(always)]
+    fn apply<const K: usize>(&self, y: &[f64; N], wts: [&[f64; MAX_TERMS]; K], fast: [f64; K]) -> [[f64; N]; K] {
+        let c = split::dot(&self.w, y);
+        let mut t: [f64; N] = core::array::from_fn(|i| y[i] - c * self.v[i]);
+        let mut out = [[0.0; N]; K];
+        for j in 0..self.terms {
+            if j > 0 {
+                t = split::matvec_from(&self.a, &t, -0.0);
+            }
+            for m in 0..K {
+                let wj = wts[m][j];
+                for i in 0..N {
+                    out[m][i] += wj * t[i];
+                }
+            }
+        }
+        for m in 0..K {
+            let s = fast[m] * c;
+            for i in 0..N {
+                out[m][i] += s * self.v[i];
+            }
+        }
+        out
+    }
+}
+
+impl<const N: usize> Phi54<N> for Split54<N> {
+    #[inline(always)]
+    fn on_f(&self, f: &[f64; N]) -> [[f64; N]; 4] {
+        self.apply(f, [&W1_C2, &W1_C3, &W1_C4, &W1], self.f1)
+    }
+    #[inline(always)]
+    fn on_d2(&self, d: &[f64; N]) -> [[f64; N]; 3] {
+        self.apply(d, [&W3_C3, &W3, &W4], [self.f3[0], self.f3[2], self.f4])
+    }
+    #[inline(always)]
+    fn on_d3(&self, d: &[f64; N]) -> [[f64; N]; 3] {
+        self.apply(d, [&W3_C4, &W3, &W4], [self.f3[1], self.f3[2], self.f4])
+    }
+    #[inline(always)]
+    fn on_d4(&self, d: &[f64; N]) -> [[f64; N]; 2] {
+        self.apply(d, [&W3, &W4], [self.f3[2], self.f4])
+    }
+    #[inline(always)]
+    fn unit_rows(&self) -> bool {
+        self.unit_rows
+    }
+}
+
+/// The full matrix functions of one step (columns, as `exprb.rs`).
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Full54<const N: usize> {
+    /// `phi1(c Z)`, `c = 1/4, 1/2, 9/10, 1`.
+    p1: [Cols<N>; 4],
+    /// `phi3(c Z)`, `c = 1/2, 9/10, 1`.
+    p3: [Cols<N>; 3],
+    /// `phi4(Z)`.
+    p4: Cols<N>,
+}
+
+impl<const N: usize> Full54<N> {
+    /// `None` if `h J` is not finite or too large to scale.
+    #[inline(never)]
+    pub(crate) fn new(jac: &[[f64; N]; N], h: f64) -> Option<Self> {
+        let scaled = |s: f64| -> Cols<N> { core::array::from_fn(|j| core::array::from_fn(|i| s * jac[i][j])) };
+        // phi_k(Z/4) (the level before the last doubling of Z/2), then Z/2 and Z.
+        let q = exprb::phis_before_last(&scaled(0.5 * h))?;
+        let hf = exprb::double(&q);
+        let o = exprb::double(&hf);
+        let n = exprb::double(&exprb::phis_before_last(&scaled(C4 * h))?);
+        Some(Self { p1: [q[1], hf[1], n[1], o[1]], p3: [hf[3], n[3], o[3]], p4: o[4] })
+    }
+}
+
+#[inline(always)]
+fn mv<const N: usize>(m: &Cols<N>, x: &[f64; N]) -> [f64; N] {
+    let mut s = [0.0; N];
+    for j in 0..N {
+        for i in 0..N {
+            s[i] += m[j][i] * x[j];
+        }
+    }
+    s
+}
+
+impl<const N: usize> Phi54<N> for Full54<N> {
+    fn on_f(&self, f: &[f64; N]) -> [[f64; N]; 4] {
+        self.p1.map(|m| mv(&m, f))
+    }
+    fn on_d2(&self, d: &[f64; N]) -> [[f64; N]; 3] {
+        [mv(&self.p3[0], d), mv(&self.p3[2], d), mv(&self.p4, d)]
+    }
+    fn on_d3(&self, d: &[f64; N]) -> [[f64; N]; 3] {
+        [mv(&self.p3[1], d), mv(&self.p3[2], d), mv(&self.p4, d)]
+    }
+    fn on_d4(&self, d: &[f64; N]) -> [[f64; N]; 2] {
+        [mv(&self.p3[2], d), mv(&self.p4, d)]
+    }
+    fn unit_rows(&self) -> bool {
+        false
+    }
+}
+
+/// One `exprb54s4` step of size `h` from `y` with `f0 = f(y)`, Jacobian `jac` and its
+/// `phi`-functions `ph`. `rhs` evaluates `f` (called three times). Returns the order-5 state
+/// and the error estimate (it minus the embedded order-4 state).
+#[inline]
+pub(crate) fn step<const N: usize, P: Phi54<N>>(
+    rhs: &mut impl FnMut(&[f64; N]) -> [f64; N],
+    jac: &[[f64; N]; N],
+    ph: &P,
+    y: &[f64; N],
+    f0: &[f64; N],
+    h: f64,
+) -> ([f64; N], [f64; N]) {
+    let unit_rows = ph.unit_rows();
+    let remainder = |fu: [f64; N], du: &[f64; N]| split::remainder(jac, unit_rows, f0, fu, du);
+    let [pf2, pf3, pf4, pf1] = ph.on_f(f0);
+    let du2: [f64; N] = core::array::from_fn(|i| (C2 * h) * pf2[i]);
+    let u2: [f64; N] = core::array::from_fn(|i| y[i] + du2[i]);
+    let d2 = remainder(rhs(&u2), &du2);
+    let [a3c, a3, a4] = ph.on_d2(&d2);
+    let du3: [f64; N] = core::array::from_fn(|i| (C3 * h) * pf3[i] + (4.0 * h) * a3c[i]);
+    let u3: [f64; N] = core::array::from_fn(|i| y[i] + du3[i]);
+    let d3 = remainder(rhs(&u3), &du3);
+    let [b3c, b3, b4] = ph.on_d3(&d3);
+    let du4: [f64; N] = core::array::from_fn(|i| (C4 * h) * pf4[i] + (729.0 / 125.0 * h) * b3c[i]);
+    let u4: [f64; N] = core::array::from_fn(|i| y[i] + du4[i]);
+    let d4 = remainder(rhs(&u4), &du4);
+    let [c3, c4] = ph.on_d4(&d4);
+    let err: [f64; N] = core::array::from_fn(|i| {
+        h * ((-64.0 * a3[i] + 26.0 * b3[i] - 250.0 / 81.0 * c3[i]) + (60.0 * a4[i] - 195.0 / 8.0 * b4[i] + 625.0 / 216.0 * c4[i]))
+    });
+    let y1: [f64; N] = core::array::from_fn(|i| {
+        y[i] + h * pf1[i] + h * ((18.0 * b3[i] - 250.0 / 81.0 * c3[i]) + (-60.0 * b4[i] + 500.0 / 27.0 * c4[i]))
+    });
+    (y1, err)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The weights and stages of the method in closed form: the order conditions at `Z = 0`
+    /// (scalar `phi_k(0) = 1/k!`), for both solutions.
+    #[test]
+    fn coefficients_meet_the_order_conditions() {
+        let (c2, c3, c4): (f64, f64, f64) = (C2, C3, C4);
+        // phi_k(0)
+        let (p3, p4, p5) = (1.0 / 6.0, 1.0 / 24.0, 1.0 / 120.0);
+        // b_i(0) of the order-5 solution (b_2 = 0) and the order-4 one.
+        let b5 = [0.0, 18.0 * p3 - 60.0 * p4, -250.0 / 81.0 * p3 + 500.0 / 27.0 * p4];
+        let b4 = [64.0 * p3 - 60.0 * p4, -8.0 * p3 - 285.0 / 8.0 * p4, 125.0 / 8.0 * p4];
+        let c = [c2, c3, c4];
+        let moment = |b: &[f64; 3], k: i32| (0..3).map(|i| b[i] * c[i].powi(k)).sum::<f64>();
+        for (name, b) in [("order 5", &b5), ("order 4", &b4)] {
+            assert!((moment(b, 2) - 2.0 * p3).abs() < 1e-15, "{name}: sum b c^2");
+            assert!((moment(b, 3) - 6.0 * p4).abs() < 1e-15, "{name}: sum b c^3");
+        }
+        assert!((moment(&b5, 4) - 24.0 * p5).abs() < 1e-15, "sum b c^4 = 24 phi5(0)");
+        assert!((moment(&b4, 4) - 24.0 * p5).abs() > 1e-3, "the embedded solution is of order 4 only");
+        // As polynomials in phi3, phi4 (Z != 0): sum b c^2 = 2 phi3, sum b c^3 = 6 phi4.
+        for (b3c, b4c) in [([0.0, 18.0, -250.0 / 81.0], [0.0, -60.0, 500.0 / 27.0]), ([64.0, -8.0, 0.0], [-60.0, -285.0 / 8.0, 125.0 / 8.0])] {
+            let m = |w: &[f64; 3], k: i32| (0..3).map(|i| w[i] * c[i].powi(k)).sum::<f64>();
+            assert!((m(&b3c, 2) - 2.0).abs() < 1e-14 && m(&b4c, 2).abs() < 1e-14);
+            assert!(m(&b3c, 3).abs() < 1e-14 && (m(&b4c, 3) - 6.0).abs() < 1e-14);
+        }
+        // psi_3: a_32 c_2^2 / 2 = c_3^3, a_43 c_3^2 / 2 = c_4^3 (in units of phi3(c_i Z)).
+        assert!((4.0 * c2 * c2 / 2.0 - c3.powi(3)).abs() < 1e-15);
+        assert!((729.0 / 125.0 * c3 * c3 / 2.0 - c4.powi(3)).abs() < 1e-15);
+        // The error estimate's weights are the difference of the two solutions'.
+        let e3: [f64; 3] = [-64.0, 26.0, -250.0 / 81.0];
+        let e4: [f64; 3] = [60.0, -195.0 / 8.0, 625.0 / 216.0];
+        let d3 = [0.0 - 64.0, 18.0 + 8.0, -250.0 / 81.0];
+        let d4 = [0.0 + 60.0, -60.0 + 285.0 / 8.0, 500.0 / 27.0 - 125.0 / 8.0];
+        for i in 0..3 {
+            assert!((e3[i] - d3[i]).abs() < 1e-14 && (e4[i] - d4[i]).abs() < 1e-14);
+        }
+    }
+
+    /// The split's scalar `phi`-functions (the doubled `expm1` included) against the series
+    /// and closed forms, to the cut (or 4e-15 relative) at every `c`.
+    #[test]
+    fn fast_mode_phi_functions_meet_their_cut() {
+        fn phi_ref(k: usize, z: f64) -> f64 {
+            let fact = |n: usize| (1..=n).fold(1.0f64, |a, i| a * i as f64);
+            if z.abs() <= 1.0 {
+                (0..60).map(|j| z.powi(j as i32) / fact(j + k)).sum()
+            } else {
+                let mut s = z.exp();
+                for j in 0..k {
+                    s -= z.powi(j as i32) / fact(j);
+                }
+                s / z.powi(k as i32)
+            }
+        }
+        let jac = [[-1.0]];
+        for rtol in [1e-8, 1e-10, 3e-11, 1e-11, 1e-13] {
+            let cut = Cut::for_rtol(rtol);
+            for hl in [-1e-6, -0.3, -1.0, -2.0, -2.3, -3.0, -7.5, -21.0, -480.0, -1e4, 3.0] {
+                let sp = Split54::<1>::new(&jac, &(-1.0, [1.0], [1.0]), -hl, &cut, false).unwrap();
+                let z = hl;
+                let got = [(sp.f1[0], 1, C2), (sp.f1[1], 1, C3), (sp.f1[2], 1, C4), (sp.f1[3], 1, 1.0), (sp.f3[0], 3, C3), (sp.f3[1], 3, C4), (sp.f3[2], 3, 1.0), (sp.f4, 4, 1.0)];
+                for (g, k, c) in got {
+                    let want = phi_ref(k, c * z);
+                    let tol = cut.term.max(4e-15) * want.abs();
+                    assert!((g - want).abs() <= tol, "rtol {rtol:e}: phi_{k}({c} * {z}) = {g:e}, want {want:e}");
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn weight_tables_are_the_taylor_coefficients() {
+        let fact = |n: usize| (1..=n).fold(1.0f64, |a, i| a * i as f64);
+        for (w, c, k) in [(&W1_C2, C2, 1), (&W1_C4, C4, 1), (&W3_C3, C3, 3), (&W4, 1.0, 4)] {
+            for j in 0..MAX_TERMS {
+                let want = c.powi(j as i32) / fact(j + k);
+                assert!((w[j] - want).abs() <= 1e-14 * want, "c {c} k {k} j {j}: {} vs {want}", w[j]);
+            }
+        }
+        assert!(2f64.powi(MAX_TERMS as i32) / fact(MAX_TERMS + 1) < 1e-18);
+    }
+}
