@@ -270,32 +270,55 @@ fn taylor_and_doublings<const N: usize, const SPARSE: bool>(x: &Cols<N>, doublin
 /// `a / 2^s` and `s - 1` doublings, and whether the [`sparse_layout`] products made them
 /// (then valid for the last doubling too). `None` if `a` is not finite or too large to scale.
 fn phis_before_last<const N: usize>(a: &Cols<N>) -> Option<([Cols<N>; 5], bool)> {
-    if a.iter().flatten().any(|v| !v.is_finite()) {
-        return None;
-    }
-    // 1-norm: largest absolute column sum.
+    // 1-norm: largest absolute column sum. A non-finite entry makes its column's sum
+    // non-finite (sums of magnitudes), as does an overflow: refused either way.
     let mut norm = 0.0f64;
     for c in a {
-        norm = norm.max(c.iter().map(|v| v.abs()).sum());
-    }
-    if !norm.is_finite() {
-        return None;
+        let sum: f64 = c.iter().map(|v| v.abs()).sum();
+        if !sum.is_finite() {
+            return None;
+        }
+        norm = norm.max(sum);
     }
     // At least one doubling, so that the level before the last is phi(a/2).
-    let s = if norm > THETA { (norm / THETA).log2().ceil() as i32 } else { 1 }.max(1);
+    let s = if norm > THETA { ceil_log2(norm / THETA) } else { 1 }.max(1);
     if s > MAX_DOUBLINGS {
         return None;
     }
-    let f = 0.5f64.powi(s);
+    let f = pow2(-s);
     let x = map(a, |_, _, v| v * f);
     if sparse_layout(&x) {
         let p = taylor_and_doublings::<N, true>(&x, s - 1);
-        // Finite (the sum of finite entries may still overflow: then the full products).
-        if p.iter().flatten().flatten().sum::<f64>().is_finite() {
+        // Finite (the sum of finite entries may still overflow: then the full products). The
+        // Taylor stage is; a level's non-finite entry stays in every later level's columns
+        // 0, 1, 3, which the doublings compute in full.
+        if s == 1 || p.iter().flat_map(|m| [&m[0], &m[1], &m[3]]).flatten().sum::<f64>().is_finite() {
             return Some((p, true));
         }
     }
     Some((taylor_and_doublings::<N, false>(&x, s - 1), false))
+}
+
+/// `2^k` for `-1022 <= k <= 1023`: what `0.5f64.powi(-k)` gives (exact squarings and
+/// products of powers of two).
+#[inline(always)]
+fn pow2(k: i32) -> f64 {
+    f64::from_bits(((1023 + k) as u64) << 52)
+}
+
+/// `q.log2().ceil() as i32` for `q > 1`: `e + 1` for `q = m 2^e` with `m` at least `2^-20`
+/// from 1 and 2 (then `log2 q` is at least `1.4e-6` from an integer, far beyond the error of
+/// any `log2`), else the library's `log2`.
+#[inline(always)]
+fn ceil_log2(q: f64) -> i32 {
+    const MARGIN: u64 = 1 << 32;
+    let bits = q.to_bits();
+    let (biased, frac) = ((bits >> 52) & 0x7ff, bits & ((1 << 52) - 1));
+    if biased != 0x7ff && (MARGIN..=(1 << 52) - MARGIN).contains(&frac) {
+        biased as i32 - 1022
+    } else {
+        q.log2().ceil() as i32
+    }
 }
 
 /// All `phi_k(a)`, `k = 0..=4`, of a matrix `a`, plus `phi1(a/2)`. `None` if `a` is not
@@ -613,6 +636,36 @@ mod tests {
         // The layout was tested, with finite and non-finite outputs.
         assert!(layout == 60_000 && plants[0] > 50_000 && plants[1] > 1000, "{plants:?} {layout}");
         assert!(random[0] > 100_000 && random[1] > 1000, "{random:?}");
+    }
+
+    /// The scaling's `2^-s` and `ceil(log2 q)` without the library calls, against them: every
+    /// `s` in range, and `q` over 70 binades, random and at the mantissa margins, powers of two.
+    #[test]
+    fn scaling_without_library_calls_is_exact() {
+        for s in -70..=70 {
+            assert_eq!(pow2(s).to_bits(), 0.5f64.powi(-s).to_bits(), "{s}");
+        }
+        let mut seed = 0x5851f42d4c957f2du64;
+        let want = |q: f64| q.log2().ceil() as i32;
+        for e in 0..70 {
+            let base = 2f64.powi(e);
+            for frac in [0u64, 1, 2, (1 << 32) - 1, 1 << 32, (1 << 32) + 1, (1 << 52) - (1 << 32) - 1, (1 << 52) - (1 << 32), (1 << 52) - (1 << 32) + 1, (1 << 52) - 1] {
+                let q = f64::from_bits(base.to_bits() + frac);
+                if q > 1.0 {
+                    assert_eq!(ceil_log2(q), want(q), "{q:e}");
+                }
+            }
+            for _ in 0..20_000 {
+                seed ^= seed << 13;
+                seed ^= seed >> 7;
+                seed ^= seed << 17;
+                let q = f64::from_bits(base.to_bits() + (seed >> 12));
+                if q > 1.0 {
+                    assert_eq!(ceil_log2(q), want(q), "{q:e}");
+                }
+            }
+        }
+        assert_eq!(ceil_log2(f64::INFINITY), want(f64::INFINITY));
     }
 
     /// `phi_k(a)` for diagonalizable `a` with real eigenvalues via `V phi_k(Lambda) V^-1`,
