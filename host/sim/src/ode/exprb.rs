@@ -226,6 +226,48 @@ fn map_l<const N: usize, const SPARSE: bool>(x: &Cols<N>, f: impl Fn(usize, usiz
     c
 }
 
+/// `double::<N, true>` in place, column by column: column `j` of the products `e m` needs
+/// `e` and column `j` of `m`, column `j` of the `q_k` column `j` of the `p_k`, so each column
+/// is replaced once computed (`e` kept aside); column 2 only on the diagonal (`+0.0` stays
+/// `+0.0` off it). The same operations in the same order.
+#[inline(always)]
+fn double_sparse_in_place<const N: usize>(p: &mut [Cols<N>; 5]) {
+    let e = p[0];
+    // A loop, not unrolled: one column's work at a time.
+    for j in 0..N {
+        if j == 2 {
+            continue;
+        }
+        let col = |m: &[f64; N]| {
+            let mut y = [0.0; N];
+            for i in 0..N {
+                y[i] = e[0][i] * m[0];
+            }
+            for k in 1..N {
+                for i in 0..N {
+                    y[i] = e[k][i] * m[k] + y[i];
+                }
+            }
+            y
+        };
+        let [c0, c1, c2, c3, c4] = [p[0][j], p[1][j], p[2][j], p[3][j], p[4][j]];
+        let (e2, ep1, ep2, ep3, ep4) = (col(&c0), col(&c1), col(&c2), col(&c3), col(&c4));
+        for i in 0..N {
+            p[0][j][i] = e2[i];
+            p[1][j][i] = (ep1[i] + c1[i]) * 0.5;
+            p[2][j][i] = ((ep2[i] + c1[i]) + c2[i]) * 0.25;
+            p[3][j][i] = (((ep3[i] + c1[i] * 0.5) + c2[i]) + c3[i]) * 0.125;
+            p[4][j][i] = ((((ep4[i] + c1[i] * INV_FACT[3]) + c2[i] * 0.5) + c3[i]) + c4[i]) * 0.0625;
+        }
+    }
+    // Column 2 of e m is m[2][2] e_2; e[2][2] = 1 stays.
+    let c: [f64; 5] = core::array::from_fn(|k| p[k][2][2]);
+    p[1][2][2] = (c[1] + c[1]) * 0.5;
+    p[2][2][2] = ((c[2] + c[1]) + c[2]) * 0.25;
+    p[3][2][2] = (((c[3] + c[1] * 0.5) + c[2]) + c[3]) * 0.125;
+    p[4][2][2] = ((((c[4] + c[1] * INV_FACT[3]) + c[2] * 0.5) + c[3]) + c[4]) * 0.0625;
+}
+
 /// `phi_k(x)`, `k = 0..=4`, at the scaled argument, then `doublings` doublings; `SPARSE`:
 /// `x` has the [`sparse_layout`].
 #[inline(always)]
@@ -261,7 +303,11 @@ fn taylor_and_doublings<const N: usize, const SPARSE: bool>(x: &Cols<N>, doublin
         [e, p1, p2, p3, p4]
     };
     for _ in 0..doublings {
-        p = double::<N, SPARSE>(&p);
+        if SPARSE {
+            double_sparse_in_place(&mut p);
+        } else {
+            p = double::<N, false>(&p);
+        }
     }
     p
 }
