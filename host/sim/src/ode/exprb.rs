@@ -116,14 +116,15 @@ fn to_m<const N: usize>(x: &Cols<N>) -> M<N> {
 /// and 3 and one in rows 0 and 2, of columns 0, 1 and 3 only; the doubling products `e m`
 /// (`e`'s column 2 is `e_2`) skip column 2. Bit for bit the full products: a zero term `t`
 /// leaves a sum `a + t` equal to `a` for `a != 0` and changes at most the sign of a zero
-/// sum, and the Horner sums end in `c + .` or `0.0 + .`, which forget that sign; a doubling
-/// product's column 2 is `+0.0` off the diagonal (one `+0.0 * m[2][2]` term, `m[2][2] > 0`,
-/// among zeros) and `m[2][2]` on it. This needs finite operands (`0 * inf` is NaN): the
-/// Horner stage is finite (`|x|_1 <= 1/2`), and a doubling level with a non-finite entry in
-/// a matrix leaves one in the same matrix at every later level (each `q_k` adds `e p_k`,
-/// which spreads it over a column or a row), so finite matrices at the last level mean
-/// finite operands everywhere; [`phis_before_last`] checks that and else recomputes
-/// with the full products.
+/// sum, and the Horner sums end in `c + .` or `0.0 + .`, which forget that sign (see
+/// [`horner_sparse`]); a doubling product's column 2 is `+0.0` off the diagonal (one
+/// `+0.0 * m[2][2]` term, `m[2][2] > 0`, among zeros) and `m[2][2]` on it. This needs finite
+/// operands (`0 * inf` is NaN): the Horner stage is finite (`|x|_1 <= 1/2`), and a doubling
+/// level with a non-finite entry in a matrix leaves one in the same matrix, in columns 0, 1
+/// or 3, at every later level (each `q_k` adds `e p_k`, which spreads it over a column or a
+/// row; column 2 is never computed from it), so finite columns 0, 1, 3 at the last level
+/// mean finite operands everywhere; [`phis_before_last`] checks that (after at least one
+/// doubling) and else recomputes with the full products.
 #[inline(always)]
 fn sparse_layout<const N: usize>(x: &Cols<N>) -> bool {
     N == 4 && [x[0][0], x[2][0], x[3][0], x[0][2], x[1][2], x[2][2], x[2][1], x[2][3]].iter().all(|&v| v == 0.0)
@@ -156,6 +157,13 @@ fn add2(a: [f64; 2], b: [f64; 2]) -> [f64; 2] {
 /// to `+0.0`, is left to [`pairs_to_cols`]). Row 0 is `x01 p1j`, row 2 `x23 p3j`, row
 /// `i = 1, 3` is `xi3 p3j + (xi1 p1j + xi0 p0j)` (mm's order without the `k = 2` term).
 /// Column 2 stays `c e_2` (its products are zero).
+///
+/// The sign of zeros may stay open over the whole Horner stage: products and sums of
+/// operands equal up to the sign of zeros are equal up to the sign of zeros (a term that is
+/// zero, or left out, changes a sum only if the rest is zero, and then only its sign), so
+/// every iterate is the full code's up to the sign of zeros; the full code's iterates hold
+/// no `-0.0` (`0.0 + y` and `c + y`, `c > 0`, never are), so one `0.0 +` at the end gives
+/// them bit for bit.
 #[inline(always)]
 fn horner_sparse(x: &SparseX, p: &Pairs, c: f64) -> Pairs {
     let [v0, v1, v3] = x.vel;
