@@ -253,10 +253,12 @@ impl<const N: usize> Full54<N> {
     pub(crate) fn new(jac: &[[f64; N]; N], h: f64) -> Option<Self> {
         let scaled = |s: f64| -> Cols<N> { core::array::from_fn(|j| core::array::from_fn(|i| s * jac[i][j])) };
         // phi_k(Z/4) (the level before the last doubling of Z/2), then Z/2 and Z.
-        let q = exprb::phis_before_last(&scaled(0.5 * h))?;
-        let hf = exprb::double(&q);
-        let o = exprb::double(&hf);
-        let n = exprb::double(&exprb::phis_before_last(&scaled(C4 * h))?);
+        // The levels before the last are bit for bit the full products' (the sparse layout's
+        // too); the doublings here take the full products (for any level, finite or not).
+        let (q, _) = exprb::phis_before_last(&scaled(0.5 * h))?;
+        let hf = exprb::double::<N, false>(&q);
+        let o = exprb::double::<N, false>(&hf);
+        let n = exprb::double::<N, false>(&exprb::phis_before_last(&scaled(C4 * h))?.0);
         Some(Self { p1: [q[1], hf[1], n[1], o[1]], p3: [hf[3], n[3], o[3]], p4: o[4] })
     }
 }
