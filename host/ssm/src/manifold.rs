@@ -332,7 +332,7 @@ pub fn tangent_space(ys: &[Mat<f64>], dim: usize) -> Result<(Vec<f64>, Vec<f64>)
 /// `1 * z_1^{k_1} * ... * z_d^{k_d}` multiplied left to right. Multiplying by 1 is exact
 /// (the factor `z_j^0` and the leading 1), so the same value is the product, left to right,
 /// of the powers of the non-zero exponents alone: one pass per column writing each entry
-/// once, over blocks of [`DESIGN_BLOCK`] rows whose powers stay in cache. The same bits as
+/// once, over blocks of `DESIGN_BLOCK` (512) rows whose powers stay in cache. The same bits as
 /// the row-by-row evaluation (checked in the tests).
 pub fn design_matrix(eta: MatRef<'_, f64>, scale: &[f64], exps: &[Vec<u32>]) -> Mat<f64> {
     design_matrix_in(Mat::new(), eta, scale, exps)
