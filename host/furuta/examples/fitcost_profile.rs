@@ -52,6 +52,30 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     }
     let runs = TrainingRuns::simulate(&sets)?;
     lap("runs");
+    if has("hash") {
+        // Fingerprints of the fitted models (their JSON, every number in shortest round-trip
+        // form, so equal fingerprints are equal bits): an optimization of the fits is checked
+        // bit for bit against the fingerprints of the code before it.
+        let fp = |v: &dyn erased::Json| {
+            use std::hash::{Hash, Hasher};
+            let s = v.json();
+            let mut h = std::collections::hash_map::DefaultHasher::new();
+            s.hash(&mut h);
+            format!("{:016x} ({} bytes)", h.finish(), s.len())
+        };
+        let pm = furuta_parametric_from(&base, &runs)?;
+        eprintln!("hash parametric: {}", fp(&pm));
+        let family = furuta::parametric::furuta_parametric_family(&base, &pm, &sets, &runs)?;
+        for (i, (m, _)) in family.iter().enumerate() {
+            eprintln!("hash family {i}: {}", fp(m));
+        }
+        eprintln!("hash shared default: {}", fp(&shared_parametric_from(&base, &runs)?));
+        for (name, o) in &variants {
+            eprintln!("hash shared {name}: {}", fp(&shared_parametric_from(o, &runs)?));
+        }
+        lap("hash fits");
+        return Ok(());
+    }
     if has("parametric") {
         let pm = furuta_parametric_from(&base, &runs)?;
         lap("parametric fit");
@@ -149,4 +173,16 @@ fn step_bench(sm: &furuta::shared_tangent::SharedParametricModel) -> Result<(), 
     };
     eprintln!("map step + theta lift, thread CPU ns/step, median of 5: plain {:.0} {old:.0?}, prepared {:.0} {new:.0?}", median(old.clone()), median(new.clone()));
     Ok(())
+}
+
+/// JSON of a serializable value behind a trait object (the fingerprints of `hash`).
+mod erased {
+    pub trait Json {
+        fn json(&self) -> String;
+    }
+    impl<T: serde::Serialize> Json for T {
+        fn json(&self) -> String {
+            serde_json::to_string(self).unwrap_or_default()
+        }
+    }
 }

@@ -30,7 +30,7 @@ use faer::{Mat, MatRef};
 use serde::{Deserialize, Serialize};
 
 use super::error::FitError;
-use super::manifold::design_matrix;
+use super::manifold::{design_matrix, design_matrix_in};
 pub use super::weight::{LowDegreeStage, RowWeight};
 use super::weight::{envelope, scale_rows};
 use super::poly::{self, Poly, PolyScratch, PreparedPoly};
@@ -379,6 +379,7 @@ fn poly_fit(
 ) -> Result<(Mat<f64>, Conditioning), FitError> {
     // A monomial's column depends on nothing else: parts of the matrix are its columns.
     let design = |e: &[Vec<u32>]| design_matrix(x, scale, e);
+    let design_in = |buf: Mat<f64>, e: &[Vec<u32>]| design_matrix_in(buf, x, scale, e);
     let (d, nm) = (x.ncols(), exps.len());
     if let Some(f) = rows {
         if f.len() != x.nrows() {
@@ -409,9 +410,9 @@ fn poly_fit(
         // Furuta models) solve through `Q^T b`.
         None if rows.is_none() => return ridge::fit_owned(design(exps), y, groups, ridge, what, || design(exps)),
         None => {
-            let (w, mut cond) = ridge::fit_owned_qtb_no_residual(weigh(design(exps)), weigh(y.to_owned()).as_ref(), groups, ridge, what)?;
+            let (w, mut cond, buf) = ridge::fit_owned_qtb_keep(weigh(design(exps)), weigh(y.to_owned()).as_ref(), groups, ridge, what)?;
             // The residual reported is the unweighted one.
-            cond.rel_residual = ridge::rel_residual(design(exps).as_ref(), y, w.as_ref());
+            cond.rel_residual = ridge::rel_residual(design_in(buf, exps).as_ref(), y, w.as_ref());
             return Ok((w, cond));
         }
         Some(frac) if !joint && nm > d => frac,
@@ -431,18 +432,27 @@ fn poly_fit(
     place_rows(&mut w, 0, w_lin.as_ref());
     let resid = y - &a_l * &w_lin;
     drop(a_l);
+    // One allocation for the stages' design matrices and the residual's (each factorized
+    // in place and handed back): its pages are mapped once.
+    let mut buf = Mat::<f64>::with_capacity(x.nrows(), nm);
     // The residual reported is the whole fit's (below): the stages' own are not computed.
     let (w_nl, mut cond) = match low {
-        None => ridge::fit_owned_qtb_no_residual(weigh(design(higher)), weigh(resid).as_ref(), groups, ridge, what)?,
+        None => {
+            let (w_nl, cond, back) = ridge::fit_owned_qtb_keep(weigh(design_in(buf, higher)), weigh(resid).as_ref(), groups, ridge, what)?;
+            buf = back;
+            (w_nl, cond)
+        }
         Some((n_low, f)) => {
             // Stage 1: every higher degree on the low-knee weights; keep the low degrees.
-            let (w1, _) = ridge::fit_owned_qtb_no_residual(scale_rows(design(higher), f), scale_rows(resid.clone(), f).as_ref(), groups, ridge, what)?;
+            let (w1, _, back) = ridge::fit_owned_qtb_keep(scale_rows(design_in(buf, higher), f), scale_rows(resid.clone(), f).as_ref(), groups, ridge, what)?;
             let (lo, hi) = higher.split_at(n_low);
             let w_lo = w1.subrows(0, n_low).to_owned();
             place_rows(&mut w, d, w_lo.as_ref());
             // Stage 2: the degrees above on what the low ones leave, main weights.
-            let resid2 = resid - design(lo) * &w_lo;
-            let (w_hi, cond) = ridge::fit_owned_qtb_no_residual(weigh(design(hi)), weigh(resid2).as_ref(), groups, ridge, what)?;
+            let a_lo = design_in(back, lo);
+            let resid2 = resid - &a_lo * &w_lo;
+            let (w_hi, cond, back) = ridge::fit_owned_qtb_keep(weigh(design_in(a_lo, hi)), weigh(resid2).as_ref(), groups, ridge, what)?;
+            buf = back;
             let mut w_nl = Mat::<f64>::zeros(higher.len(), y.ncols());
             place_rows(&mut w_nl, 0, w_lo.as_ref());
             place_rows(&mut w_nl, n_low, w_hi.as_ref());
@@ -451,7 +461,7 @@ fn poly_fit(
     };
     place_rows(&mut w, d, w_nl.as_ref());
     // Residual relative to the whole target (not to the part left by the linear terms).
-    let a = design(exps);
+    let a = design_in(buf, exps);
     cond.rel_residual = ridge::rel_residual(a.as_ref(), y, w.as_ref());
     Ok((w, cond))
 }

@@ -206,16 +206,24 @@ impl RidgeLs {
     /// sums run in another order), so NOT the same bits; the same singular values, bit for
     /// bit. Matrices not tall enough for faer's QR-first SVD take [`RidgeLs::solve_owned`].
     pub fn solve_owned_qtb(a: Mat<f64>, b: MatRef<'_, f64>, alpha: f64, what: &'static str) -> Result<(Mat<f64>, Vec<f64>), FitError> {
+        Self::solve_owned_qtb_keep(a, b, alpha, what).map(|(x, s, _)| (x, s))
+    }
+
+    /// [`RidgeLs::solve_owned_qtb`], also handing back `a`'s storage (its values those of
+    /// the QR factors; empty when `a` was not factorized in place) for the caller's next
+    /// matrix ([`crate::manifold::design_matrix_in`]).
+    fn solve_owned_qtb_keep(a: Mat<f64>, b: MatRef<'_, f64>, alpha: f64, what: &'static str) -> Result<(Mat<f64>, Vec<f64>, Mat<f64>), FitError> {
         Self::check(a.as_ref(), what)?;
         if b.nrows() != a.nrows() {
             return Err(FitError::BadOption { what, why: format!("{} right-hand-side rows for {} matrix rows", b.nrows(), a.nrows()) });
         }
         if !qr_first(a.nrows(), a.ncols()) {
-            return Self::solve_owned(a, b, alpha, what);
+            let (x, s) = Self::solve_owned(a, b, alpha, what)?;
+            return Ok((x, s, Mat::new()));
         }
         let f = TallSvd::new(a, what)?;
         let utb = f.utb_by_qt(b);
-        Ok(f.solve_utb(utb.as_ref(), alpha))
+        Ok(f.solve_utb_keep(utb.as_ref(), alpha))
     }
 
     /// `U^T b` (`cols x q`).
@@ -353,6 +361,14 @@ impl TallSvd {
         let x = ls.solve_utb(utb, alpha);
         (x, ls.s)
     }
+
+    /// [`TallSvd::solve_utb`], handing back the QR factors' storage instead of dropping it.
+    fn solve_utb_keep(self, utb: MatRef<'_, f64>, alpha: f64) -> (Mat<f64>, Vec<f64>, Mat<f64>) {
+        let TallSvd { qr, s, v, .. } = self;
+        let ls = RidgeLs { u: Mat::new(), s, v, rows: qr.nrows() };
+        let x = ls.solve_utb(utb, alpha);
+        (x, ls.s, qr)
+    }
 }
 
 /// The conditioning report from the singular values `s` (descending) of `a`.
@@ -462,10 +478,24 @@ pub fn fit_owned_qtb_no_residual(
     ridge: Ridge,
     what: &'static str,
 ) -> Result<(Mat<f64>, Conditioning), FitError> {
+    fit_owned_qtb_keep(a, b, groups, ridge, what).map(|(x, c, _)| (x, c))
+}
+
+/// [`fit_owned_qtb_no_residual`], also handing back `a`'s storage (overwritten by its QR
+/// factors; empty when not factorized in place), so that the caller's next design matrix of
+/// the same rows reuses it ([`crate::manifold::design_matrix_in`]). The same solution and
+/// report.
+pub(crate) fn fit_owned_qtb_keep(
+    a: Mat<f64>,
+    b: MatRef<'_, f64>,
+    groups: &[std::ops::Range<usize>],
+    ridge: Ridge,
+    what: &'static str,
+) -> Result<(Mat<f64>, Conditioning, Mat<f64>), FitError> {
     let alpha = choose_alpha(a.as_ref(), b, groups, ridge, what)?;
     let (rows, cols) = a.shape();
-    let (x, s) = RidgeLs::solve_owned_qtb(a, b, alpha, what)?;
-    Ok((x, conditioning_from(&s, rows, cols, alpha, f64::NAN)))
+    let (x, s, storage) = RidgeLs::solve_owned_qtb_keep(a, b, alpha, what)?;
+    Ok((x, conditioning_from(&s, rows, cols, alpha, f64::NAN), storage))
 }
 
 /// Picks the alpha on [`CV_GRID`] with the smallest summed validation error over folds
