@@ -267,14 +267,16 @@ impl SortedAxis {
         let x0 = pi[0];
         let r = self.rank[i];
         let mut best: Option<(usize, f64)> = None;
-        let consider = |j: usize, best: &mut Option<(usize, f64)>| {
-            if j.abs_diff(i) > p.theiler {
+        // A function inlined into the walk (a closure here was compiled as a call per point).
+        #[inline(always)]
+        fn consider_with(j: usize, i: usize, theiler: usize, pi: &[f64], points: &Points, dist2: &impl Fn(&[f64], &[f64]) -> f64, best: &mut Option<(usize, f64)>) {
+            if j.abs_diff(i) > theiler {
                 let d2 = dist2(pi, points.point(j));
                 if d2 > 0.0 && best.is_none_or(|(bj, b)| d2 < b || (d2 == b && j < bj)) {
                     *best = Some((j, d2));
                 }
             }
-        };
+        }
         // Walk out from the reference's rank on both sides; a side ends at the first point
         // whose first-coordinate gap alone exceeds the best distance (all later ones do).
         let (mut lo, mut hi) = (r, r + 1);
@@ -291,7 +293,7 @@ impl SortedAxis {
                     if best.is_some_and(|(_, b)| t * t > b) {
                         lo_open = false;
                     } else {
-                        consider(j, &mut best);
+                        consider_with(j, i, p.theiler, pi, points, &dist2, &mut best);
                     }
                 }
             }
@@ -305,7 +307,7 @@ impl SortedAxis {
                     if best.is_some_and(|(_, b)| t * t > b) {
                         hi_open = false;
                     } else {
-                        consider(j, &mut best);
+                        consider_with(j, i, p.theiler, pi, points, &dist2, &mut best);
                     }
                 }
             }
