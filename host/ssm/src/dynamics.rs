@@ -710,6 +710,54 @@ pub fn farthest_points(z: MatRef<'_, f64>, k: usize) -> Vec<usize> {
     chosen
 }
 
+/// The RBF design matrix of [`fit_rbf_with`] (row `i`: [`RbfMap::features`] of row `i` of
+/// `x`), filled column by column for dimensions 2..=6: each entry is the same expression
+/// of the same operands as the row's features (the scaled state `x_ij / s_j`, the distance
+/// to the centre summed over `j` in order, the kernel of it; then `x_ij / s_j` and 1), the
+/// columns written contiguously (rows side by side) instead of one row across all
+/// columns. `None` for other dimensions (filled row by row).
+fn design_by_columns(map: &RbfMap, x: MatRef<'_, f64>) -> Option<Mat<f64>> {
+    match map.dim {
+        2 => Some(design_columns::<2>(map, x)),
+        3 => Some(design_columns::<3>(map, x)),
+        4 => Some(design_columns::<4>(map, x)),
+        5 => Some(design_columns::<5>(map, x)),
+        6 => Some(design_columns::<6>(map, x)),
+        _ => None,
+    }
+}
+
+fn design_columns<const D: usize>(map: &RbfMap, x: MatRef<'_, f64>) -> Mat<f64> {
+    let n = x.nrows();
+    let k = map.n_centers();
+    let mut a = Mat::<f64>::zeros(n, k + D + 1);
+    // The scaled states by coordinate: z[j][i] = x_ij / s_j.
+    let z: Vec<Vec<f64>> = (0..D).map(|j| (0..n).map(|i| x[(i, j)] / map.scale[j]).collect()).collect();
+    let zc: [&[f64]; D] = core::array::from_fn(|j| &z[j][..]);
+    let mut r = vec![0.0; n];
+    for (c, ctr) in map.centers.chunks_exact(D).enumerate() {
+        let ctr: [f64; D] = core::array::from_fn(|j| ctr[j]);
+        for (i, ri) in r.iter_mut().enumerate() {
+            *ri = (0..D).map(|j| (zc[j][i] - ctr[j]).powi(2)).sum::<f64>().sqrt();
+        }
+        let col = a.col_mut(c).try_as_col_major_mut().map(|c| c.as_slice_mut());
+        match col {
+            Some(col) if map.kernel == Kernel::Linear => col.copy_from_slice(&r),
+            Some(col) => col.iter_mut().zip(&r).for_each(|(o, &ri)| *o = map.kernel.phi(ri)),
+            None => (0..n).for_each(|i| a[(i, c)] = map.kernel.phi(r[i])),
+        }
+    }
+    for j in 0..D {
+        for i in 0..n {
+            a[(i, k + j)] = zc[j][i];
+        }
+    }
+    for i in 0..n {
+        a[(i, k + D)] = 1.0;
+    }
+    a
+}
+
 /// The index `(0..n).max_by(|&a, &b| v[a].total_cmp(&v[b]))` picks: the last of the largest
 /// values in `total_cmp`'s order (0 when `v` is empty).
 fn last_max(v: &[f64]) -> usize {
@@ -1306,6 +1354,9 @@ fn fit_rbf_with(
     };
     let nf = map.n_centers() + d + 1;
     let design = || {
+        if let Some(a) = design_by_columns(&map, x) {
+            return a;
+        }
         let mut a = Mat::<f64>::zeros(n, nf);
         let mut feat = vec![0.0; nf];
         let mut eta = vec![0.0; d];
@@ -1946,5 +1997,48 @@ mod tests {
             }
         }
         assert_eq!(cases, 9 * 3 * 6 * 5);
+    }
+
+    /// The RBF design matrix filled by columns (dimensions 2..=6) equals the row-by-row fill
+    /// by `RbfMap::features` (the fit's loop, kept here) bit for bit, for every kernel, with
+    /// rows at centres (r = 0), signed zeros and per-coordinate scales.
+    #[test]
+    fn design_by_columns_equals_the_row_features() {
+        let mut rnd = crate::testing::XorShift64::new(29);
+        let cond = Conditioning { rows: 0, cols: 0, s_max: 1.0, s_min: 1.0, cond: 1.0, alpha: 0.0, cond_regularized: 1.0, rel_residual: 0.0 };
+        for d in 1..=7 {
+            for kernel in [Kernel::Linear, Kernel::Cubic, Kernel::ThinPlate, Kernel::Gaussian { eps: 0.7 }] {
+                let (n, k) = (203, 37);
+                let scale: Vec<f64> = (0..d).map(|_| 0.3 + rnd.open01()).collect();
+                let x = Mat::from_fn(n, d, |i, _| if i % 17 == 5 { -0.0 } else { rnd.centered() });
+                // Centres: scaled rows of x (as the fit picks them), so some distances are 0.
+                let centers: Vec<f64> = (0..k).flat_map(|c| (0..d).map(move |j| (c * 5, j))).map(|(i, j)| x[(i, j)] / scale[j]).collect();
+                let m = RbfMap { dim: d, kernel, dt: 0.1, scale, centers, coef: Vec::new(), conditioning: cond };
+                let nf = k + d + 1;
+                let mut rows = Mat::<f64>::zeros(n, nf);
+                let mut feat = vec![0.0; nf];
+                let mut eta = vec![0.0; d];
+                for i in 0..n {
+                    for j in 0..d {
+                        eta[j] = x[(i, j)];
+                    }
+                    m.features(&eta, &mut feat);
+                    for (c, f) in feat.iter().enumerate() {
+                        rows[(i, c)] = *f;
+                    }
+                }
+                match design_by_columns(&m, x.as_ref()) {
+                    None => assert!(!(2..=6).contains(&d)),
+                    Some(cols) => {
+                        assert!((2..=6).contains(&d));
+                        for i in 0..n {
+                            for c in 0..nf {
+                                assert_eq!(cols[(i, c)].to_bits(), rows[(i, c)].to_bits(), "d {d} {kernel:?} row {i} col {c}");
+                            }
+                        }
+                    }
+                }
+            }
+        }
     }
 }
