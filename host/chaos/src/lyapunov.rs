@@ -221,27 +221,20 @@ impl SortedAxis {
         Self { order, rank }
     }
 
-    /// Calls `visit(j)` for every point `j` of the first `nc` (the reference `i` too) whose
-    /// first-coordinate gap `t = x_i0 - x_j0` has `t * t < lim`, walking out from `i`'s rank;
-    /// every other point has a squared distance of at least `t * t >= lim` in any [`Norm`].
-    /// The order of the calls is the walk's, not the index order.
-    fn within(&self, points: &Points, i: usize, lim: f64, mut visit: impl FnMut(usize)) {
+    /// The points `j` of the first `nc` (the reference `i` too) whose first-coordinate gap
+    /// `t = x_i0 - x_j0` has `t * t < lim`, found by walking out from `i`'s rank: a run of
+    /// `order` (by first coordinate, not by index). Every other point has a squared distance
+    /// of at least `t * t >= lim` in any [`Norm`].
+    fn within(&self, points: &Points, i: usize, lim: f64) -> &[usize] {
         let x0 = points.point(i)[0];
         let r = self.rank[i];
-        for &j in self.order[..=r].iter().rev() {
+        let near = |j: usize| {
             let t = x0 - points.point(j)[0];
-            if t * t >= lim {
-                break;
-            }
-            visit(j);
-        }
-        for &j in &self.order[r + 1..] {
-            let t = x0 - points.point(j)[0];
-            if t * t >= lim {
-                break;
-            }
-            visit(j);
-        }
+            t * t < lim
+        };
+        let lo = r - self.order[..=r].iter().rev().take_while(|&&j| near(j)).count() + 1;
+        let hi = r + 1 + self.order[r + 1..].iter().take_while(|&&j| near(j)).count();
+        &self.order[lo.min(r + 1)..hi]
     }
 
     /// Rosenstein's partner of reference `i`: the point `j` outside the Theiler window at the
@@ -451,14 +444,14 @@ pub fn kantz_curves(
             // whose first-coordinate gap alone reaches `eps_max` is farther), then put back
             // in index order.
             cand.clear();
-            axis.within(points, i, lim, |j| {
+            for &j in axis.within(points, i, lim) {
                 if j.abs_diff(i) > p.theiler {
                     let d2 = dist2(pi, points.point(j));
                     if d2 < lim {
                         cand.push((j, d2));
                     }
                 }
-            });
+            }
             cand.sort_unstable_by_key(|c| c.0);
             need.clear();
             need.resize(cand.len(), false);
