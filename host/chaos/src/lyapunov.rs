@@ -28,6 +28,25 @@
 
 use crate::{ChaosError, LineFit, Norm, Points, Result, at_least, fit_line, positive, strided};
 
+/// Runs `$body` with `$f` bound to the squared distance of norm `$norm` for points of
+/// dimension `$dim`: [`euclid`] (a loop of known length) for the Euclidean norm in 2..8
+/// dimensions, else `Norm::dist2`; `$body` is compiled once per arm, so the distance is
+/// inlined. The same values either way.
+macro_rules! with_dist2 {
+    ($dim:expr, $norm:expr, $f:ident => $body:block) => {
+        match ($norm, $dim) {
+            (Norm::Euclidean, 2) => { let $f = euclid::<2>; $body }
+            (Norm::Euclidean, 3) => { let $f = euclid::<3>; $body }
+            (Norm::Euclidean, 4) => { let $f = euclid::<4>; $body }
+            (Norm::Euclidean, 5) => { let $f = euclid::<5>; $body }
+            (Norm::Euclidean, 6) => { let $f = euclid::<6>; $body }
+            (Norm::Euclidean, 7) => { let $f = euclid::<7>; $body }
+            (Norm::Euclidean, 8) => { let $f = euclid::<8>; $body }
+            (norm, _) => { let $f = move |a: &[f64], b: &[f64]| norm.dist2(a, b); $body }
+        }
+    };
+}
+
 /// Parameters shared by both estimators.
 #[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct DivergenceParams {
@@ -149,20 +168,32 @@ pub fn rosenstein_curve(points: &Points, p: &DivergenceParams) -> Result<Diverge
     let mut zero = 0usize;
     let mut n_ref = 0usize;
     let axis = SortedAxis::new(points, nc);
-    for i in strided(nc, p.max_reference) {
-        let Some(j) = axis.nearest(points, i, p) else { continue };
-        n_ref += 1;
-        for k in 0..k_len {
-            let d2 = p.norm.dist2(points.point(i + k), points.point(j + k));
-            if d2 > 0.0 {
-                sum[k] += 0.5 * d2.ln();
-                n_terms[k] += 1;
-            } else {
-                zero += 1;
+    with_dist2!(points.dim(), p.norm, dist2 => {
+        for i in strided(nc, p.max_reference) {
+            let Some(j) = axis.nearest(points, i, p) else { continue };
+            n_ref += 1;
+            for k in 0..k_len {
+                let d2 = dist2(points.point(i + k), points.point(j + k));
+                if d2 > 0.0 {
+                    sum[k] += 0.5 * d2.ln();
+                    n_terms[k] += 1;
+                } else {
+                    zero += 1;
+                }
             }
         }
-    }
+    });
     finish_curve(sum, n_terms, n_ref, zero, p.dt)
+}
+
+/// Euclidean squared distance of `D` coordinates by a loop of known length: the same
+/// expression as `Norm::dist2`, so the same operations in the same order.
+#[inline(always)]
+fn euclid<const D: usize>(a: &[f64], b: &[f64]) -> f64 {
+    match (<&[f64; D]>::try_from(a), <&[f64; D]>::try_from(b)) {
+        (Ok(a), Ok(b)) => a.iter().zip(b).map(|(x, y)| (x - y) * (x - y)).sum(),
+        _ => Norm::Euclidean.dist2(a, b),
+    }
 }
 
 /// The first `nc` points ordered by their first coordinate (ties by index), for exact
@@ -190,17 +221,26 @@ impl SortedAxis {
         Self { order, rank }
     }
 
+    /// The points `j` of the first `nc` (the reference `i` too) whose first-coordinate gap
+    /// `t = x_i0 - x_j0` has `t * t < lim`, found by walking out from `i`'s rank: a run of
+    /// `order` (by first coordinate, not by index). Every other point has a squared distance
+    /// of at least `t * t >= lim` in any [`Norm`].
+    fn within(&self, points: &Points, i: usize, lim: f64) -> &[usize] {
+        let x0 = points.point(i)[0];
+        let r = self.rank[i];
+        let near = |j: usize| {
+            let t = x0 - points.point(j)[0];
+            t * t < lim
+        };
+        let lo = r - self.order[..=r].iter().rev().take_while(|&&j| near(j)).count() + 1;
+        let hi = r + 1 + self.order[r + 1..].iter().take_while(|&&j| near(j)).count();
+        &self.order[lo.min(r + 1)..hi]
+    }
+
     /// Rosenstein's partner of reference `i`: the point `j` outside the Theiler window at the
     /// smallest non-zero distance, the smallest such `j` on ties; `None` when there is none.
     fn nearest(&self, points: &Points, i: usize, p: &DivergenceParams) -> Option<usize> {
-        // Euclidean distances of 2..8 coordinates by a loop of known length: the same
-        // expression as `Norm::dist2`, so the same operations in the same order.
-        fn euclid<const D: usize>(a: &[f64], b: &[f64]) -> f64 {
-            match (<&[f64; D]>::try_from(a), <&[f64; D]>::try_from(b)) {
-                (Ok(a), Ok(b)) => a.iter().zip(b).map(|(x, y)| (x - y) * (x - y)).sum(),
-                _ => Norm::Euclidean.dist2(a, b),
-            }
-        }
+        // Euclidean distances of 2..8 coordinates by `euclid`, a loop of known length.
         match (p.norm, points.dim()) {
             (Norm::Euclidean, 2) => self.nearest_by(points, i, p, euclid::<2>),
             (Norm::Euclidean, 3) => self.nearest_by(points, i, p, euclid::<3>),
@@ -220,14 +260,16 @@ impl SortedAxis {
         let x0 = pi[0];
         let r = self.rank[i];
         let mut best: Option<(usize, f64)> = None;
-        let consider = |j: usize, best: &mut Option<(usize, f64)>| {
-            if j.abs_diff(i) > p.theiler {
+        // A function inlined into the walk (a closure here was compiled as a call per point).
+        #[inline(always)]
+        fn consider_with(j: usize, i: usize, theiler: usize, pi: &[f64], points: &Points, dist2: &impl Fn(&[f64], &[f64]) -> f64, best: &mut Option<(usize, f64)>) {
+            if j.abs_diff(i) > theiler {
                 let d2 = dist2(pi, points.point(j));
                 if d2 > 0.0 && best.is_none_or(|(bj, b)| d2 < b || (d2 == b && j < bj)) {
                     *best = Some((j, d2));
                 }
             }
-        };
+        }
         // Walk out from the reference's rank on both sides; a side ends at the first point
         // whose first-coordinate gap alone exceeds the best distance (all later ones do).
         let (mut lo, mut hi) = (r, r + 1);
@@ -244,7 +286,7 @@ impl SortedAxis {
                     if best.is_some_and(|(_, b)| t * t > b) {
                         lo_open = false;
                     } else {
-                        consider(j, &mut best);
+                        consider_with(j, i, p.theiler, pi, points, &dist2, &mut best);
                     }
                 }
             }
@@ -258,7 +300,7 @@ impl SortedAxis {
                     if best.is_some_and(|(_, b)| t * t > b) {
                         hi_open = false;
                     } else {
-                        consider(j, &mut best);
+                        consider_with(j, i, p.theiler, pi, points, &dist2, &mut best);
                     }
                 }
             }
@@ -385,42 +427,79 @@ pub fn kantz_curves(
     let mut n_ref = vec![0usize; ne];
     let mut neigh_total = vec![0usize; ne];
     let mut cand: Vec<(usize, f64)> = Vec::new();
-    let mut chosen: Vec<usize> = Vec::new();
-    for i in strided(nc, p.max_reference) {
-        let pi = points.point(i);
-        cand.clear();
-        for j in (0..nc).filter(|&j| j.abs_diff(i) > p.theiler) {
-            let d2 = p.norm.dist2(pi, points.point(j));
-            if d2 < eps_max * eps_max {
-                cand.push((j, d2));
+    // Per scale, the chosen neighbours as positions in `cand`; `need[q]`: some scale chose
+    // `cand[q]`, `used` those positions in order; `dist[q]` the distance of `cand[q]` at
+    // the current step (computed once for all scales that chose it: the same value).
+    let mut chosen: Vec<Vec<usize>> = vec![Vec::new(); ne];
+    let mut need: Vec<bool> = Vec::new();
+    let mut used: Vec<usize> = Vec::new();
+    let mut dist: Vec<f64> = Vec::new();
+    let axis = SortedAxis::new(points, nc);
+    let lim = eps_max * eps_max;
+    with_dist2!(points.dim(), p.norm, dist2 => {
+        for i in strided(nc, p.max_reference) {
+            let pi = points.point(i);
+            // The points within `eps_max` outside the Theiler window: those of the scan over
+            // all `j` in index order, found by the walk over the first coordinate (a point
+            // whose first-coordinate gap alone reaches `eps_max` is farther), then put back
+            // in index order.
+            cand.clear();
+            for &j in axis.within(points, i, lim) {
+                if j.abs_diff(i) > p.theiler {
+                    let d2 = dist2(pi, points.point(j));
+                    if d2 < lim {
+                        cand.push((j, d2));
+                    }
+                }
             }
-        }
-        for (e, &eps_e) in eps.iter().enumerate() {
-            chosen.clear();
-            chosen.extend(cand.iter().filter(|(_, d2)| *d2 < eps_e * eps_e).map(|(j, _)| *j));
-            if chosen.is_empty() {
+            cand.sort_unstable_by_key(|c| c.0);
+            need.clear();
+            need.resize(cand.len(), false);
+            for (e, &eps_e) in eps.iter().enumerate() {
+                let ch = &mut chosen[e];
+                ch.clear();
+                ch.extend(cand.iter().enumerate().filter(|(_, (_, d2))| *d2 < eps_e * eps_e).map(|(q, _)| q));
+                if ch.is_empty() {
+                    continue;
+                }
+                if ch.len() > max_neighbours {
+                    let keep: Vec<usize> = strided(ch.len(), max_neighbours).into_iter().map(|q| ch[q]).collect();
+                    ch.clear();
+                    ch.extend(keep);
+                }
+                n_ref[e] += 1;
+                neigh_total[e] += ch.len();
+                for &q in ch.iter() {
+                    need[q] = true;
+                }
+            }
+            used.clear();
+            used.extend((0..cand.len()).filter(|&q| need[q]));
+            if used.is_empty() {
                 continue;
             }
-            if chosen.len() > max_neighbours {
-                let keep: Vec<usize> = strided(chosen.len(), max_neighbours).into_iter().map(|q| chosen[q]).collect();
-                chosen.clear();
-                chosen.extend(keep);
-            }
-            n_ref[e] += 1;
-            neigh_total[e] += chosen.len();
+            dist.clear();
+            dist.resize(cand.len(), 0.0);
             for k in 0..k_len {
                 let a = points.point(i + k);
-                let mean_d =
-                    chosen.iter().map(|&j| p.norm.dist2(a, points.point(j + k)).sqrt()).sum::<f64>() / chosen.len() as f64;
-                if mean_d > 0.0 {
-                    sum[e][k] += mean_d.ln();
-                    n_terms[e][k] += 1;
-                } else {
-                    zero[e] += 1;
+                for &q in &used {
+                    dist[q] = dist2(a, points.point(cand[q].0 + k)).sqrt();
+                }
+                for (e, ch) in chosen.iter().enumerate() {
+                    if ch.is_empty() {
+                        continue;
+                    }
+                    let mean_d = ch.iter().map(|&q| dist[q]).sum::<f64>() / ch.len() as f64;
+                    if mean_d > 0.0 {
+                        sum[e][k] += mean_d.ln();
+                        n_terms[e][k] += 1;
+                    } else {
+                        zero[e] += 1;
+                    }
                 }
             }
         }
-    }
+    });
     let mut out = Vec::with_capacity(ne);
     for e in 0..ne {
         let mean_neigh = if n_ref[e] > 0 { neigh_total[e] as f64 / n_ref[e] as f64 } else { 0.0 };
@@ -534,5 +613,136 @@ mod tests {
                 assert_eq!(axis.nearest(&pts, i, &p), best.map(|(j, _)| j), "reference {i}, m {m}, {norm:?}");
             }
         }
+    }
+
+    /// Rosenstein's curve as it was before the fixed-length distances (kept here).
+    fn rosenstein_plain(points: &Points, p: &DivergenceParams) -> Result<DivergenceCurve> {
+        let nc = check_params(points, p)?;
+        let k_len = p.max_steps + 1;
+        let mut sum = vec![0.0; k_len];
+        let mut n_terms = vec![0usize; k_len];
+        let mut zero = 0usize;
+        let mut n_ref = 0usize;
+        let axis = SortedAxis::new(points, nc);
+        for i in strided(nc, p.max_reference) {
+            let Some(j) = axis.nearest(points, i, p) else { continue };
+            n_ref += 1;
+            for k in 0..k_len {
+                let d2 = p.norm.dist2(points.point(i + k), points.point(j + k));
+                if d2 > 0.0 {
+                    sum[k] += 0.5 * d2.ln();
+                    n_terms[k] += 1;
+                } else {
+                    zero += 1;
+                }
+            }
+        }
+        finish_curve(sum, n_terms, n_ref, zero, p.dt)
+    }
+
+    /// Kantz's curves as they were before the sorted walk and the shared distances (kept
+    /// here): the candidates by a scan over all points, each scale's distances apart.
+    #[allow(clippy::type_complexity)]
+    fn kantz_plain(points: &Points, eps: &[f64], p: &DivergenceParams, max_neighbours: usize) -> Result<Vec<(f64, f64, std::result::Result<DivergenceCurve, String>)>> {
+        let nc = check_params(points, p)?;
+        let eps_max = eps.iter().copied().fold(0.0, f64::max);
+        let k_len = p.max_steps + 1;
+        let ne = eps.len();
+        let mut sum = vec![vec![0.0; k_len]; ne];
+        let mut n_terms = vec![vec![0usize; k_len]; ne];
+        let mut zero = vec![0usize; ne];
+        let mut n_ref = vec![0usize; ne];
+        let mut neigh_total = vec![0usize; ne];
+        let mut cand: Vec<(usize, f64)> = Vec::new();
+        let mut chosen: Vec<usize> = Vec::new();
+        for i in strided(nc, p.max_reference) {
+            let pi = points.point(i);
+            cand.clear();
+            for j in (0..nc).filter(|&j| j.abs_diff(i) > p.theiler) {
+                let d2 = p.norm.dist2(pi, points.point(j));
+                if d2 < eps_max * eps_max {
+                    cand.push((j, d2));
+                }
+            }
+            for (e, &eps_e) in eps.iter().enumerate() {
+                chosen.clear();
+                chosen.extend(cand.iter().filter(|(_, d2)| *d2 < eps_e * eps_e).map(|(j, _)| *j));
+                if chosen.is_empty() {
+                    continue;
+                }
+                if chosen.len() > max_neighbours {
+                    let keep: Vec<usize> = strided(chosen.len(), max_neighbours).into_iter().map(|q| chosen[q]).collect();
+                    chosen.clear();
+                    chosen.extend(keep);
+                }
+                n_ref[e] += 1;
+                neigh_total[e] += chosen.len();
+                for k in 0..k_len {
+                    let a = points.point(i + k);
+                    let mean_d = chosen.iter().map(|&j| p.norm.dist2(a, points.point(j + k)).sqrt()).sum::<f64>() / chosen.len() as f64;
+                    if mean_d > 0.0 {
+                        sum[e][k] += mean_d.ln();
+                        n_terms[e][k] += 1;
+                    } else {
+                        zero[e] += 1;
+                    }
+                }
+            }
+        }
+        let mut out = Vec::with_capacity(ne);
+        for e in 0..ne {
+            let mean_neigh = if n_ref[e] > 0 { neigh_total[e] as f64 / n_ref[e] as f64 } else { 0.0 };
+            let curve = if n_ref[e] == 0 {
+                Err(format!("no reference point has a neighbour within eps = {:.4e}", eps[e]))
+            } else {
+                finish_curve(std::mem::take(&mut sum[e]), std::mem::take(&mut n_terms[e]), n_ref[e], zero[e], p.dt).map_err(|err| err.to_string())
+            };
+            out.push((eps[e], mean_neigh, curve));
+        }
+        Ok(out)
+    }
+
+    /// Rosenstein (fixed-length distances) and Kantz (candidates by the sorted walk, one
+    /// distance per neighbour and step for all scales) equal the plain versions bit for bit
+    /// (curves, counts, failures) on a Henon series, a quantized one (ties, zero distances,
+    /// signed zeros after the shift) and a Lorenz-like flow sample, both norms, embedding
+    /// dimensions 1..9, scales from none to all neighbours, caps that stride.
+    #[test]
+    fn kantz_and_rosenstein_equal_the_plain_versions() {
+        let (mut a, mut b) = (0.1_f64, 0.0_f64);
+        let mut henon = Vec::new();
+        for _ in 0..700 {
+            (a, b) = (1.0 - 1.4 * a * a + b, 0.3 * a);
+            henon.push(a);
+        }
+        let quant: Vec<f64> = henon.iter().map(|v| (v * 8.0).round() / 8.0 - 0.125).collect();
+        let flow: Vec<f64> = (0..800).map(|k| (0.05 * k as f64).sin() + 0.3 * (0.131 * k as f64).sin() * (0.017 * k as f64).cos()).collect();
+        let mut n_cases = 0;
+        for (name, x) in [("henon", &henon), ("quantized", &quant), ("flow", &flow)] {
+            for (m, norm) in (1..=9).flat_map(|m| [(m, Norm::Euclidean), (m, Norm::Max)]) {
+                let pts = crate::delay_embed(x, m, 2).unwrap();
+                let p = DivergenceParams { theiler: 4, max_steps: 25, max_reference: 150, dt: 0.1, norm };
+                let bits = |c: &DivergenceCurve| (c.mean_log_distance.iter().map(|v| v.to_bits()).collect::<Vec<_>>(), c.n_terms.clone(), c.n_reference, c.zero_distances);
+                match (rosenstein_curve(&pts, &p), rosenstein_plain(&pts, &p)) {
+                    (Ok(a), Ok(b)) => assert_eq!(bits(&a), bits(&b), "{name} m {m} {norm:?}"),
+                    (a, b) => assert_eq!(a.map(|c| bits(&c)), b.map(|c| bits(&c)), "{name} m {m} {norm:?}"),
+                }
+                let eps = log_spaced(1e-3, 3.0, 9).unwrap();
+                for cap in [1, 7, 50, 10_000] {
+                    let new = kantz_curves(&pts, &eps, &p, cap).unwrap();
+                    let old = kantz_plain(&pts, &eps, &p, cap).unwrap();
+                    assert_eq!(new.len(), old.len());
+                    for (u, v) in new.iter().zip(&old) {
+                        assert_eq!((u.0.to_bits(), u.1.to_bits()), (v.0.to_bits(), v.1.to_bits()), "{name} m {m} {norm:?} cap {cap}");
+                        match (&u.2, &v.2) {
+                            (Ok(a), Ok(b)) => assert_eq!(bits(a), bits(b), "{name} m {m} {norm:?} cap {cap} eps {}", u.0),
+                            (a, b) => assert_eq!(a.as_ref().err(), b.as_ref().err(), "{name} m {m} {norm:?} cap {cap}"),
+                        }
+                        n_cases += 1;
+                    }
+                }
+            }
+        }
+        assert_eq!(n_cases, 3 * 18 * 4 * 9);
     }
 }

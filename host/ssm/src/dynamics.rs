@@ -226,6 +226,17 @@ impl RbfMap {
     /// Next state `eta_{n+1}` in place.
     pub fn step(&self, eta: &mut [f64], feat: &mut Vec<f64>) {
         let d = self.dim;
+        let fused = match d {
+            2 => self.step_fixed::<2>(eta),
+            3 => self.step_fixed::<3>(eta),
+            4 => self.step_fixed::<4>(eta),
+            5 => self.step_fixed::<5>(eta),
+            6 => self.step_fixed::<6>(eta),
+            _ => false,
+        };
+        if fused {
+            return;
+        }
         feat.resize(self.n_centers() + d + 1, 0.0);
         self.features(eta, feat);
         for (r, f) in feat.iter().enumerate() {
@@ -233,6 +244,55 @@ impl RbfMap {
                 eta[j] += self.coef[r * d + j] * f;
             }
         }
+    }
+
+    /// [`RbfMap::step`] in dimension `D` known at compile time, in one pass over the centres:
+    /// each feature is added to the state (kept in registers) as soon as it is formed, not
+    /// stored first. Every feature is the same expression as [`RbfMap::features`]' (the
+    /// distance from the scaled state `z = eta / s` of the step's start, the kernel of it,
+    /// then the linear features `eta_j / s_j` of the start and the constant 1), and every
+    /// coordinate adds `coef * feature` feature by feature in the same order: the same bits.
+    /// `false` (nothing done) when the shapes do not fit `D`.
+    #[inline]
+    fn step_fixed<const D: usize>(&self, eta: &mut [f64]) -> bool {
+        let k = self.n_centers();
+        if eta.len() < D || self.scale.len() < D || self.coef.len() < (k + D + 1) * D {
+            return false;
+        }
+        let e0: [f64; D] = core::array::from_fn(|j| eta[j]);
+        let z: [f64; D] = core::array::from_fn(|j| e0[j] / self.scale[j]);
+        let mut nx = e0;
+        let (kern, lin) = self.coef.split_at(k * D);
+        let dist = |c: &[f64]| -> f64 {
+            let c: &[f64; D] = c.try_into().unwrap_or(&[0.0; D]);
+            c.iter().zip(z.iter()).map(|(c, z)| (z - c).powi(2)).sum::<f64>().sqrt()
+        };
+        if self.kernel == Kernel::Linear {
+            for (c, w) in self.centers.chunks_exact(D).zip(kern.chunks_exact(D)) {
+                let f = dist(c);
+                for j in 0..D {
+                    nx[j] += w[j] * f;
+                }
+            }
+        } else {
+            for (c, w) in self.centers.chunks_exact(D).zip(kern.chunks_exact(D)) {
+                let f = self.kernel.phi(dist(c));
+                for j in 0..D {
+                    nx[j] += w[j] * f;
+                }
+            }
+        }
+        for (j2, w) in lin.chunks_exact(D).take(D).enumerate() {
+            let f = e0[j2] / self.scale[j2];
+            for j in 0..D {
+                nx[j] += w[j] * f;
+            }
+        }
+        for j in 0..D {
+            nx[j] += lin[D * D + j] * 1.0;
+        }
+        eta[..D].copy_from_slice(&nx);
+        true
     }
 
     /// Jacobian of the map at the origin (row-major d x d), or `None` if a centre sits at
@@ -623,6 +683,29 @@ pub fn farthest_points(z: MatRef<'_, f64>, k: usize) -> Vec<usize> {
     let first = (0..n).max_by(|&a, &b| norm2(a).total_cmp(&norm2(b))).unwrap_or(0);
     chosen.push(first);
     let mut mind: Vec<f64> = (0..n).map(|i| dist2(i, first)).collect();
+    let update: Option<fn(&[f64], &[f64], &mut [f64]) -> usize> = match d {
+        2 => Some(farthest_update::<2>),
+        3 => Some(farthest_update::<3>),
+        4 => Some(farthest_update::<4>),
+        5 => Some(farthest_update::<5>),
+        6 => Some(farthest_update::<6>),
+        7 => Some(farthest_update::<7>),
+        8 => Some(farthest_update::<8>),
+        _ => None,
+    };
+    if let Some(update) = update {
+        // The same picks by one pass per centre: the distances' update and the next pick.
+        let mut next = last_max(&mind);
+        while chosen.len() < k.min(n) {
+            if mind[next] == 0.0 {
+                break;
+            }
+            chosen.push(next);
+            let c: Vec<f64> = row(next).to_vec();
+            next = update(&rows, &c, &mut mind);
+        }
+        return chosen;
+    }
     while chosen.len() < k.min(n) {
         let next = (0..n).max_by(|&a, &b| mind[a].total_cmp(&mind[b])).unwrap_or(0);
         if mind[next] == 0.0 {
@@ -635,6 +718,84 @@ pub fn farthest_points(z: MatRef<'_, f64>, k: usize) -> Vec<usize> {
         }
     }
     chosen
+}
+
+/// The RBF design matrix of [`fit_rbf_with`] (row `i`: [`RbfMap::features`] of row `i` of
+/// `x`), filled column by column for dimensions 2..=6: each entry is the same expression
+/// of the same operands as the row's features (the scaled state `x_ij / s_j`, the distance
+/// to the centre summed over `j` in order, the kernel of it; then `x_ij / s_j` and 1), the
+/// columns written contiguously (rows side by side) instead of one row across all
+/// columns. `None` for other dimensions (filled row by row).
+fn design_by_columns(map: &RbfMap, x: MatRef<'_, f64>) -> Option<Mat<f64>> {
+    match map.dim {
+        2 => Some(design_columns::<2>(map, x)),
+        3 => Some(design_columns::<3>(map, x)),
+        4 => Some(design_columns::<4>(map, x)),
+        5 => Some(design_columns::<5>(map, x)),
+        6 => Some(design_columns::<6>(map, x)),
+        _ => None,
+    }
+}
+
+fn design_columns<const D: usize>(map: &RbfMap, x: MatRef<'_, f64>) -> Mat<f64> {
+    let n = x.nrows();
+    let k = map.n_centers();
+    let mut a = Mat::<f64>::zeros(n, k + D + 1);
+    // The scaled states by coordinate: z[j][i] = x_ij / s_j.
+    let z: Vec<Vec<f64>> = (0..D).map(|j| (0..n).map(|i| x[(i, j)] / map.scale[j]).collect()).collect();
+    let zc: [&[f64]; D] = core::array::from_fn(|j| &z[j][..]);
+    let mut r = vec![0.0; n];
+    for (c, ctr) in map.centers.chunks_exact(D).enumerate() {
+        let ctr: [f64; D] = core::array::from_fn(|j| ctr[j]);
+        for (i, ri) in r.iter_mut().enumerate() {
+            *ri = (0..D).map(|j| (zc[j][i] - ctr[j]).powi(2)).sum::<f64>().sqrt();
+        }
+        let col = a.col_mut(c).try_as_col_major_mut().map(|c| c.as_slice_mut());
+        match col {
+            Some(col) if map.kernel == Kernel::Linear => col.copy_from_slice(&r),
+            Some(col) => col.iter_mut().zip(&r).for_each(|(o, &ri)| *o = map.kernel.phi(ri)),
+            None => (0..n).for_each(|i| a[(i, c)] = map.kernel.phi(r[i])),
+        }
+    }
+    for j in 0..D {
+        for i in 0..n {
+            a[(i, k + j)] = zc[j][i];
+        }
+    }
+    for i in 0..n {
+        a[(i, k + D)] = 1.0;
+    }
+    a
+}
+
+/// The index `(0..n).max_by(|&a, &b| v[a].total_cmp(&v[b]))` picks: the last of the largest
+/// values in `total_cmp`'s order (0 when `v` is empty).
+fn last_max(v: &[f64]) -> usize {
+    let mut best = 0;
+    for (i, x) in v.iter().enumerate().skip(1) {
+        if v[best].total_cmp(x) != std::cmp::Ordering::Greater {
+            best = i;
+        }
+    }
+    best
+}
+
+/// [`farthest_points`]' update of the distances `mind` to the chosen set after adding the
+/// point `c` (`D` coordinates, rows of `rows`), the same expression per row, and the next
+/// pick of the new distances as [`last_max`] gives it, in the same pass.
+fn farthest_update<const D: usize>(rows: &[f64], c: &[f64], mind: &mut [f64]) -> usize {
+    let c: [f64; D] = core::array::from_fn(|j| c[j]);
+    let mut best = 0;
+    let mut best_v = f64::NAN;
+    for (i, (m, r)) in mind.iter_mut().zip(rows.chunks_exact(D)).enumerate() {
+        let r: &[f64; D] = r.try_into().unwrap_or(&[0.0; D]);
+        *m = m.min(r.iter().zip(&c).map(|(x, y)| (x - y).powi(2)).sum::<f64>());
+        if i == 0 || best_v.total_cmp(m) != std::cmp::Ordering::Greater {
+            best = i;
+            best_v = *m;
+        }
+    }
+    best
 }
 
 /// How the centres of an RBF map are chosen from the scaled training points (issue 12: the
@@ -1203,6 +1364,9 @@ fn fit_rbf_with(
     };
     let nf = map.n_centers() + d + 1;
     let design = || {
+        if let Some(a) = design_by_columns(&map, x) {
+            return a;
+        }
         let mut a = Mat::<f64>::zeros(n, nf);
         let mut feat = vec![0.0; nf];
         let mut eta = vec![0.0; d];
@@ -1745,6 +1909,146 @@ mod tests {
                 assert_eq!(ba, bb, "step {n}: {a:?} vs {b:?}");
             }
             assert!(a.iter().all(|v| v.is_finite() && *v != 0.0), "{a:?}");
+        }
+    }
+
+    /// `RbfMap::step` (dimensions 2..=6 by the one-pass fixed-length loop) equals the step
+    /// as it was (kept here): the features stored by `features_plain`, then added to the
+    /// state feature by feature, bit for bit, for every kernel and dimension 1..=8, per-
+    /// coordinate scales, states at a centre (r = 0) and far out, 40 steps of each orbit.
+    #[test]
+    fn fused_rbf_step_equals_features_then_sum() {
+        let mut rnd = crate::testing::XorShift64::new(17);
+        let cond = Conditioning { rows: 0, cols: 0, s_max: 1.0, s_min: 1.0, cond: 1.0, alpha: 0.0, cond_regularized: 1.0, rel_residual: 0.0 };
+        let mut cases = 0;
+        for d in 1..=8 {
+            for kernel in [Kernel::Linear, Kernel::Cubic, Kernel::ThinPlate, Kernel::Gaussian { eps: 0.7 }] {
+                for &k in &[1usize, 7, 500] {
+                    let scale: Vec<f64> = (0..d).map(|_| 0.3 + rnd.open01()).collect();
+                    let centers: Vec<f64> = (0..k * d).map(|_| rnd.centered()).collect();
+                    let coef: Vec<f64> = (0..(k + d + 1) * d).map(|i| if i < k * d { 1e-3 * rnd.centered() } else { 0.1 * rnd.centered() }).collect();
+                    let m = RbfMap { dim: d, kernel, dt: 0.1, scale, centers, coef, conditioning: cond };
+                    for start in 0..4 {
+                        let mut eta: Vec<f64> = match start {
+                            // exactly at the first centre
+                            0 => (0..d).map(|j| m.centers[j] * m.scale[j]).collect(),
+                            1 => (0..d).map(|_| 30.0 * rnd.centered()).collect(),
+                            _ => (0..d).map(|_| rnd.centered()).collect(),
+                        };
+                        let mut old = eta.clone();
+                        let mut feat = Vec::new();
+                        let mut f = vec![0.0; k + d + 1];
+                        for n in 0..40 {
+                            m.step(&mut eta, &mut feat);
+                            features_plain(&m, &old, &mut f);
+                            for (r, fr) in f.iter().enumerate() {
+                                for j in 0..d {
+                                    old[j] += m.coef[r * d + j] * fr;
+                                }
+                            }
+                            let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+                            assert_eq!(bits(&eta), bits(&old), "d {d} {kernel:?} k {k} start {start} step {n}");
+                            cases += 1;
+                        }
+                    }
+                }
+            }
+        }
+        assert_eq!(cases, 8 * 4 * 3 * 4 * 40);
+    }
+
+    /// `farthest_points` (dimensions 2..=8 by the one-pass update and pick) equals the
+    /// two-pass loop as it was (kept here) on random rows, rows on a coarse grid (ties of
+    /// distances, duplicate rows: the early stop) and signed zeros, for k up to past n.
+    #[test]
+    fn farthest_points_equal_the_two_pass_loop() {
+        fn farthest_plain(z: MatRef<'_, f64>, k: usize) -> Vec<usize> {
+            let n = z.nrows();
+            let d = z.ncols();
+            let rows: Vec<f64> = (0..n).flat_map(|i| (0..d).map(move |j| z[(i, j)])).collect();
+            let row = |a: usize| &rows[a * d..(a + 1) * d];
+            let dist2 = |a: usize, b: usize| row(a).iter().zip(row(b)).map(|(x, y)| (x - y).powi(2)).sum::<f64>();
+            let norm2 = |a: usize| row(a).iter().map(|x| x.powi(2)).sum::<f64>();
+            let mut chosen = Vec::with_capacity(k.min(n));
+            if n == 0 || k == 0 {
+                return chosen;
+            }
+            let first = (0..n).max_by(|&a, &b| norm2(a).total_cmp(&norm2(b))).unwrap_or(0);
+            chosen.push(first);
+            let mut mind: Vec<f64> = (0..n).map(|i| dist2(i, first)).collect();
+            while chosen.len() < k.min(n) {
+                let next = (0..n).max_by(|&a, &b| mind[a].total_cmp(&mind[b])).unwrap_or(0);
+                if mind[next] == 0.0 {
+                    break;
+                }
+                chosen.push(next);
+                let c = row(next);
+                for (m, r) in mind.iter_mut().zip(rows.chunks_exact(d.max(1))) {
+                    *m = m.min(r.iter().zip(c).map(|(x, y)| (x - y).powi(2)).sum::<f64>());
+                }
+            }
+            chosen
+        }
+        let mut rnd = crate::testing::XorShift64::new(3);
+        let mut cases = 0;
+        for d in 1..=9 {
+            for kind in 0..3 {
+                for &n in &[0usize, 1, 2, 5, 60, 400] {
+                    let z = Mat::from_fn(n, d, |_, _| match kind {
+                        0 => rnd.centered(),
+                        1 => (rnd.centered() * 4.0).round() / 4.0,
+                        _ => if rnd.centered() < 0.0 { -0.0 } else { 0.0 },
+                    });
+                    for &k in &[0usize, 1, 3, 50, 500] {
+                        assert_eq!(farthest_points(z.as_ref(), k), farthest_plain(z.as_ref(), k), "d {d} kind {kind} n {n} k {k}");
+                        cases += 1;
+                    }
+                }
+            }
+        }
+        assert_eq!(cases, 9 * 3 * 6 * 5);
+    }
+
+    /// The RBF design matrix filled by columns (dimensions 2..=6) equals the row-by-row fill
+    /// by `RbfMap::features` (the fit's loop, kept here) bit for bit, for every kernel, with
+    /// rows at centres (r = 0), signed zeros and per-coordinate scales.
+    #[test]
+    fn design_by_columns_equals_the_row_features() {
+        let mut rnd = crate::testing::XorShift64::new(29);
+        let cond = Conditioning { rows: 0, cols: 0, s_max: 1.0, s_min: 1.0, cond: 1.0, alpha: 0.0, cond_regularized: 1.0, rel_residual: 0.0 };
+        for d in 1..=7 {
+            for kernel in [Kernel::Linear, Kernel::Cubic, Kernel::ThinPlate, Kernel::Gaussian { eps: 0.7 }] {
+                let (n, k) = (203, 37);
+                let scale: Vec<f64> = (0..d).map(|_| 0.3 + rnd.open01()).collect();
+                let x = Mat::from_fn(n, d, |i, _| if i % 17 == 5 { -0.0 } else { rnd.centered() });
+                // Centres: scaled rows of x (as the fit picks them), so some distances are 0.
+                let centers: Vec<f64> = (0..k).flat_map(|c| (0..d).map(move |j| (c * 5, j))).map(|(i, j)| x[(i, j)] / scale[j]).collect();
+                let m = RbfMap { dim: d, kernel, dt: 0.1, scale, centers, coef: Vec::new(), conditioning: cond };
+                let nf = k + d + 1;
+                let mut rows = Mat::<f64>::zeros(n, nf);
+                let mut feat = vec![0.0; nf];
+                let mut eta = vec![0.0; d];
+                for i in 0..n {
+                    for j in 0..d {
+                        eta[j] = x[(i, j)];
+                    }
+                    m.features(&eta, &mut feat);
+                    for (c, f) in feat.iter().enumerate() {
+                        rows[(i, c)] = *f;
+                    }
+                }
+                match design_by_columns(&m, x.as_ref()) {
+                    None => assert!(!(2..=6).contains(&d)),
+                    Some(cols) => {
+                        assert!((2..=6).contains(&d));
+                        for i in 0..n {
+                            for c in 0..nf {
+                                assert_eq!(cols[(i, c)].to_bits(), rows[(i, c)].to_bits(), "d {d} {kernel:?} row {i} col {c}");
+                            }
+                        }
+                    }
+                }
+            }
         }
     }
 }
