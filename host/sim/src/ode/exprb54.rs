@@ -147,31 +147,7 @@ impl<const N: usize> Split54<N> {
     pub(crate) fn new(jac: &[[f64; N]; N], pair: &Pair<N>, h: f64, cut: &Cut, unit_rows: bool) -> Option<Self> {
         let &(lambda, v, w) = pair;
         let hl = h * lambda;
-        let a: [[f64; N]; N] = core::array::from_fn(|i| {
-            let hv = hl * v[i];
-            core::array::from_fn(|j| h * jac[i][j] - hv * w[j])
-        });
-        let mut rho = 0.0f64;
-        for j in 0..N {
-            let mut c = 0.0;
-            for row in &a {
-                c += row[j].abs();
-            }
-            rho = rho.max(c);
-        }
-        if !(rho <= RHO_MAX) {
-            return None;
-        }
-        // Terms j = 0..terms-1; the first dropped one, rho^terms / (terms+1)!, below the cut.
-        let mut terms = 1;
-        let mut t = 1.0;
-        while terms < MAX_TERMS {
-            t *= rho / (terms + 1) as f64;
-            if t < cut.term {
-                break;
-            }
-            terms += 1;
-        }
+        let (a, terms) = split::deflated(jac, pair, h, RHO_MAX, MAX_TERMS, cut.term)?;
         // Where |h lambda / 4| >= z_min, one expm1 serves c = 1/4, 1/2 and 1: `expm1(2z) =
         // e (e + 2)`, `e = expm1(z)` (no cancellation; a few ulps relative per doubling).
         let zq = C2 * hl;

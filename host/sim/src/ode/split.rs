@@ -643,6 +643,41 @@ pub(crate) fn unit_rows<const N: usize>(jac: &[[f64; N]; N]) -> bool {
     N == 4 && (0..N).all(|j| jac[0][j] == if j == 1 { 1.0 } else { 0.0 } && jac[2][j] == if j == 3 { 1.0 } else { 0.0 })
 }
 
+/// The slow part of a step's matrix, `Z_s = h J - (h lambda) v w^T` for the dominant `pair
+/// = (lambda, v, w)`, and how many Taylor terms its sums take: `None` if `|Z_s|_1` exceeds
+/// `rho_max`; else terms `j = 0..terms-1`, the first dropped one (`rho^terms / (terms+1)!`
+/// bounds it) below `cut`, at most `max_terms` ([`Split`] and exprb54's split share it).
+#[inline(always)]
+pub(crate) fn deflated<const N: usize>(jac: &[[f64; N]; N], pair: &Pair<N>, h: f64, rho_max: f64, max_terms: usize, cut: f64) -> Option<([[f64; N]; N], usize)> {
+    let &(lambda, v, w) = pair;
+    let hl = h * lambda;
+    let a: [[f64; N]; N] = core::array::from_fn(|i| {
+        let hv = hl * v[i];
+        core::array::from_fn(|j| h * jac[i][j] - hv * w[j])
+    });
+    let mut rho = 0.0f64;
+    for j in 0..N {
+        let mut c = 0.0;
+        for row in &a {
+            c += row[j].abs();
+        }
+        rho = rho.max(c);
+    }
+    if !(rho <= rho_max) {
+        return None;
+    }
+    let mut terms = 1;
+    let mut t = 1.0;
+    while terms < max_terms {
+        t *= rho / (terms + 1) as f64;
+        if t < cut {
+            break;
+        }
+        terms += 1;
+    }
+    Some((a, terms))
+}
+
 impl<const N: usize> Split<N> {
     /// The split at Jacobian `jac` with its dominant `pair`, for the step `h`; `None` if
     /// `|h J_s|_1` exceeds [`RHO_MAX`].
@@ -663,31 +698,7 @@ impl<const N: usize> Split<N> {
     fn build(jac: &[[f64; N]; N], pair: &Pair<N>, h: f64, cut: f64, lean: Option<&Cut>, unit_rows: bool) -> Option<Self> {
         let &(lambda, v, w) = pair;
         let hl = h * lambda;
-        let a: [[f64; N]; N] = core::array::from_fn(|i| {
-            let hv = hl * v[i];
-            core::array::from_fn(|j| h * jac[i][j] - hv * w[j])
-        });
-        let mut rho = 0.0f64;
-        for j in 0..N {
-            let mut c = 0.0;
-            for row in &a {
-                c += row[j].abs();
-            }
-            rho = rho.max(c);
-        }
-        if !(rho <= RHO_MAX) {
-            return None;
-        }
-        // Terms j = 0..terms-1; the first dropped one, rho^terms / (terms+1)!, below TERM_TOL.
-        let mut terms = 1;
-        let mut t = 1.0;
-        while terms < MAX_TERMS {
-            t *= rho / (terms + 1) as f64;
-            if t < cut {
-                break;
-            }
-            terms += 1;
-        }
+        let (a, terms) = deflated(jac, pair, h, RHO_MAX, MAX_TERMS, cut)?;
         let (fast, fast_half) = match lean {
             Some(c) => phi_lean(hl, c),
             None => phi_scalar_and_half_cut(hl, cut),
