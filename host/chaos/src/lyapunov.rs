@@ -232,7 +232,8 @@ impl SortedAxis {
             let t = x0 - points.point(j)[0];
             t * t < lim
         };
-        let lo = r - self.order[..=r].iter().rev().take_while(|&&j| near(j)).count() + 1;
+        // At most r + 1 points lie at or below rank r: `lo` from 0 to r + 1, no underflow.
+        let lo = r + 1 - self.order[..=r].iter().rev().take_while(|&&j| near(j)).count();
         let hi = r + 1 + self.order[r + 1..].iter().take_while(|&&j| near(j)).count();
         &self.order[lo.min(r + 1)..hi]
     }
