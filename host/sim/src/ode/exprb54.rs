@@ -349,18 +349,7 @@ mod tests {
     /// and closed forms, to the cut (or 4e-15 relative) at every `c`.
     #[test]
     fn fast_mode_phi_functions_meet_their_cut() {
-        fn phi_ref(k: usize, z: f64) -> f64 {
-            let fact = |n: usize| (1..=n).fold(1.0f64, |a, i| a * i as f64);
-            if z.abs() <= 1.0 {
-                (0..60).map(|j| z.powi(j as i32) / fact(j + k)).sum()
-            } else {
-                let mut s = z.exp();
-                for j in 0..k {
-                    s -= z.powi(j as i32) / fact(j);
-                }
-                s / z.powi(k as i32)
-            }
-        }
+        use crate::ode::split::tests::phi_ref;
         let jac = [[-1.0]];
         for rtol in [1e-8, 1e-10, 3e-11, 1e-11, 1e-13] {
             let cut = Cut::for_rtol(rtol);

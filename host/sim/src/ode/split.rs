@@ -784,7 +784,7 @@ pub(crate) fn step<const N: usize>(
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::*;
     use crate::plant::{Furuta, jacobian};
     use nalgebra::SVector;
@@ -800,7 +800,7 @@ mod tests {
 
     /// `phi_k(z)` by the series `sum_j z^j/(j+k)!` (60 terms) for `|z| <= 1`, the closed form
     /// `(e^z - sum_{j<k} z^j/j!)/z^k` beyond (no cancellation there for `k <= 4`).
-    fn phi_ref(k: usize, z: f64) -> f64 {
+    pub(crate) fn phi_ref(k: usize, z: f64) -> f64 {
         let fact = |n: usize| (1..=n).fold(1.0f64, |a, i| a * i as f64);
         if z.abs() <= 1.0 {
             (0..60).map(|j| z.powi(j as i32) / fact(j + k)).sum()
