@@ -352,14 +352,10 @@ impl TallSvd {
         self.u_r.transpose() * qtb.as_ref().subrows(0, n)
     }
 
-    /// The ridge solution from `U^T b` (the QR factors dropped first) and the singular values.
+    /// The ridge solution from `U^T b` and the singular values (the QR factors dropped).
     fn solve_utb(self, utb: MatRef<'_, f64>, alpha: f64) -> (Mat<f64>, Vec<f64>) {
-        let TallSvd { qr, s, v, .. } = self;
-        let rows = qr.nrows();
-        drop(qr);
-        let ls = RidgeLs { u: Mat::new(), s, v, rows };
-        let x = ls.solve_utb(utb, alpha);
-        (x, ls.s)
+        let (x, s, _) = self.solve_utb_keep(utb, alpha);
+        (x, s)
     }
 
     /// [`TallSvd::solve_utb`], handing back the QR factors' storage instead of dropping it.
