@@ -242,16 +242,7 @@ impl SortedAxis {
     /// smallest non-zero distance, the smallest such `j` on ties; `None` when there is none.
     fn nearest(&self, points: &Points, i: usize, p: &DivergenceParams) -> Option<usize> {
         // Euclidean distances of 2..8 coordinates by `euclid`, a loop of known length.
-        match (p.norm, points.dim()) {
-            (Norm::Euclidean, 2) => self.nearest_by(points, i, p, euclid::<2>),
-            (Norm::Euclidean, 3) => self.nearest_by(points, i, p, euclid::<3>),
-            (Norm::Euclidean, 4) => self.nearest_by(points, i, p, euclid::<4>),
-            (Norm::Euclidean, 5) => self.nearest_by(points, i, p, euclid::<5>),
-            (Norm::Euclidean, 6) => self.nearest_by(points, i, p, euclid::<6>),
-            (Norm::Euclidean, 7) => self.nearest_by(points, i, p, euclid::<7>),
-            (Norm::Euclidean, 8) => self.nearest_by(points, i, p, euclid::<8>),
-            _ => self.nearest_by(points, i, p, |a, b| p.norm.dist2(a, b)),
-        }
+        with_dist2!(points.dim(), p.norm, dist2 => { self.nearest_by(points, i, p, dist2) })
     }
 
     /// [`SortedAxis::nearest`] with the squared distance `dist2` (that of `p.norm`).
