@@ -16,7 +16,10 @@ fn main() {
     for file in ["model.bin", "vectors.rs", "traces.rs", "device_table.rs"] {
         let path = data.join(file);
         if !path.exists() {
-            panic!("{} is missing: run `cargo xtask qemu-test` (it generates the test data, then builds)", path.display());
+            panic!(
+                "{} is missing: run `cargo xtask qemu-test` (it generates the test data, then builds)",
+                path.display()
+            );
         }
         println!("cargo:rerun-if-changed={}", path.display());
     }

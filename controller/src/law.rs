@@ -25,11 +25,9 @@ impl<const H: usize> Law<H> {
         match cfg.quant {
             None => FloatPd::try_new(cfg).map(Law::Exact),
             Some(q) => match q.mode {
-                QuantMode::Counts => Ok(Law::Counts {
-                    pd: IntPd::try_new(cfg)?,
-                    h_adc: q.h_adc,
-                    h_adc_phi: q.h_adc_phi,
-                }),
+                QuantMode::Counts => {
+                    Ok(Law::Counts { pd: IntPd::try_new(cfg)?, h_adc: q.h_adc, h_adc_phi: q.h_adc_phi })
+                }
                 QuantMode::Literal => LiteralPd::try_new(cfg).map(Law::Literal),
             },
         }

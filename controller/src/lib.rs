@@ -1,14 +1,6 @@
 #![doc = include_str!("../README.md")]
 #![cfg_attr(not(any(test, feature = "std")), no_std)]
-#![cfg_attr(
-    not(test),
-    deny(
-        clippy::unwrap_used,
-        clippy::expect_used,
-        clippy::panic,
-        clippy::indexing_slicing
-    )
-)]
+#![cfg_attr(not(test), deny(clippy::unwrap_used, clippy::expect_used, clippy::panic, clippy::indexing_slicing))]
 
 mod history;
 pub mod law;
@@ -90,20 +82,16 @@ impl fmt::Display for ConfigError {
             ConfigError::NonPositive(field) => {
                 write!(f, "controller config: `{field}` must be > 0")
             }
-            ConfigError::DelayTooLong { delay, max } => write!(
-                f,
-                "controller config: `delay` = {delay} samples exceeds this controller's history (max {max})"
-            ),
-            ConfigError::MissingQuantization => {
-                f.write_str("controller config: this path needs `quant`, found none")
+            ConfigError::DelayTooLong { delay, max } => {
+                write!(f, "controller config: `delay` = {delay} samples exceeds this controller's history (max {max})")
             }
+            ConfigError::MissingQuantization => f.write_str("controller config: this path needs `quant`, found none"),
             ConfigError::UnexpectedQuantization => f.write_str(
                 "controller config: the exact floating-point path cannot apply `quant`; use the quantized path",
             ),
-            ConfigError::WrongQuantMode { expected, found } => write!(
-                f,
-                "controller config: `quant.mode` is {found:?}, this path implements {expected:?}"
-            ),
+            ConfigError::WrongQuantMode { expected, found } => {
+                write!(f, "controller config: `quant.mode` is {found:?}, this path implements {expected:?}")
+            }
             ConfigError::OutOfRange(field) => write!(
                 f,
                 "controller config: a quantity derived from `{field}` is not representable in this path's arithmetic"
@@ -177,13 +165,12 @@ impl fmt::Display for InputError {
             InputError::AdcOutOfRange(s) => {
                 write!(f, "controller input: {} is outside the i32 count range", name(s))
             }
-            InputError::NonFiniteOutput => f.write_str(
-                "controller: the control value overflowed (not finite) and no saturation is configured",
-            ),
-            InputError::HistoryLength { expected, found } => write!(
-                f,
-                "controller pre-history: expected {expected} samples (delay + 1), found {found}"
-            ),
+            InputError::NonFiniteOutput => {
+                f.write_str("controller: the control value overflowed (not finite) and no saturation is configured")
+            }
+            InputError::HistoryLength { expected, found } => {
+                write!(f, "controller pre-history: expected {expected} samples (delay + 1), found {found}")
+            }
         }
     }
 }
@@ -204,19 +191,13 @@ pub(crate) fn validate_common(cfg: &ControllerConfig, h: usize) -> Result<usize,
     let max = h.saturating_sub(2);
     let delay = usize::try_from(cfg.delay).unwrap_or(usize::MAX);
     if h < 2 || delay > max {
-        return Err(ConfigError::DelayTooLong {
-            delay: cfg.delay,
-            max: u32::try_from(max).unwrap_or(u32::MAX),
-        });
+        return Err(ConfigError::DelayTooLong { delay: cfg.delay, max: u32::try_from(max).unwrap_or(u32::MAX) });
     }
     Ok(delay)
 }
 
 /// Checks every field of a quantization, used or not by the path, and its mode.
-pub(crate) fn validate_quant(
-    cfg: &ControllerConfig,
-    expected: QuantMode,
-) -> Result<Quantization, ConfigError> {
+pub(crate) fn validate_quant(cfg: &ControllerConfig, expected: QuantMode) -> Result<Quantization, ConfigError> {
     let q = cfg.quant.ok_or(ConfigError::MissingQuantization)?;
     if q.mode != expected {
         return Err(ConfigError::WrongQuantMode { expected, found: q.mode });

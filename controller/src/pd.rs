@@ -193,8 +193,7 @@ impl<T: Real, const H: usize> FloatPd<T, H> {
         if !integral.is_finite() {
             return Err(InputError::NonFiniteOutput);
         }
-        let u = -self.kp * y0 - self.kd * (y0 - y1) / self.dt + self.kphi_d * (z0 - z1) / self.dt
-            - self.ki * integral;
+        let u = -self.kp * y0 - self.kd * (y0 - y1) / self.dt + self.kphi_d * (z0 - z1) / self.dt - self.ki * integral;
         let out = saturate(u, self.u_max)?;
         self.hist.push((y, z));
         self.integral = integral;

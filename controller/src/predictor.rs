@@ -142,15 +142,7 @@ pub struct Predictor<const P: usize, const D: usize, const K: usize, const T: us
 impl<const P: usize, const D: usize, const K: usize, const T: usize, const H: usize> Predictor<P, D, K, T, H> {
     /// A predictor without a model, for a `static`; [`Self::load`] one before use.
     pub const fn empty(sqrt: SqrtFlavour) -> Self {
-        Self {
-            model: Model::empty(),
-            loaded: false,
-            sqrt,
-            history: [0.0; H],
-            head: 0,
-            filled: 0,
-            window: 0,
-        }
+        Self { model: Model::empty(), loaded: false, sqrt, history: [0.0; H], head: 0, filled: 0, window: 0 }
     }
 
     /// Decodes `blob` into this predictor in place (no large stack temporaries) and clears
@@ -470,11 +462,7 @@ mod tests {
             let m = model_ref();
             let y: Vec<f64> = (0..m.p).map(|j| window[j * m.shift]).collect();
             (0..m.d)
-                .map(|j| {
-                    (0..m.p)
-                        .map(|i| V1[i * m.d + j] as f64 * (y[i] - m.offset as f64) / m.scale as f64)
-                        .sum()
-                })
+                .map(|j| (0..m.p).map(|i| V1[i * m.d + j] as f64 * (y[i] - m.offset as f64) / m.scale as f64).sum())
                 .collect()
         }
 
@@ -487,10 +475,7 @@ mod tests {
                         + AFFINE[j * (d + 1) + d] as f64;
                     let rbf: f64 = (0..m.k)
                         .map(|i| {
-                            let r = (0..d)
-                                .map(|l| (eta[l] - CENTRES[i * d + l] as f64).powi(2))
-                                .sum::<f64>()
-                                .sqrt();
+                            let r = (0..d).map(|l| (eta[l] - CENTRES[i * d + l] as f64).powi(2)).sum::<f64>().sqrt();
                             WEIGHTS[i * d + j] as f64 * r
                         })
                         .sum();

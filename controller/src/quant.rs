@@ -170,15 +170,7 @@ impl<const H: usize> IntPd<H> {
         // |p|, |d| <= GAIN_MAX_Q = 2^29 - 1, so p + d fits in i32; the conversion cannot fail.
         let narrow = |v: i64| i32::try_from(v).map_err(|_| ConfigError::OutOfRange(Field::Kd));
         let g32 = [narrow(gains.z)?, narrow(gains.d)?, narrow(gains.p + gains.d)?];
-        Ok(Self {
-            gains,
-            g32,
-            code_max,
-            h_dac: q.h_dac,
-            delay,
-            hist: Delay::new((0, 0)),
-            sum: 0,
-        })
+        Ok(Self { gains, g32, code_max, h_dac: q.h_dac, delay, hist: Delay::new((0, 0)), sum: 0 })
     }
 
     /// The Q16 gains in use.
@@ -381,8 +373,8 @@ impl<const H: usize> LiteralPd<H> {
         let h = self.h;
         let ydot = (y0 - y1) / self.dt;
         let zdot = (z0 - z1) / self.dt;
-        let mut s = -self.kp * libm::floor(y0 / h) - self.kd * libm::floor(ydot / h)
-            + self.kphi_d * libm::floor(zdot / h);
+        let mut s =
+            -self.kp * libm::floor(y0 / h) - self.kd * libm::floor(ydot / h) + self.kphi_d * libm::floor(zdot / h);
         if self.ki != 0.0 {
             s -= self.ki * libm::floor(integral / h);
         }
@@ -448,8 +440,8 @@ mod tests {
                 let s = s0.saturating_add(i64::from(y));
                 assert_eq!(pd.sum, s);
                 let (y, z) = (i128::from(y), i128::from(z));
-                let exact = -i128::from(g.p) * y - i128::from(g.d) * y + i128::from(g.z) * z
-                    - i128::from(g.i) * i128::from(s);
+                let exact =
+                    -i128::from(g.p) * y - i128::from(g.d) * y + i128::from(g.z) * z - i128::from(g.i) * i128::from(s);
                 let raw = exact >> 16;
                 let c = i128::from(pd.code_max());
                 let code = raw.clamp(-c, c);

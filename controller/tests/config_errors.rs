@@ -3,9 +3,7 @@
 mod common;
 
 use common::{H_ADC, paper_counts};
-use controller::{
-    ConfigError, ControllerConfig, Field, FloatPd, IntPd, Law, LiteralPd, QuantMode, Quantization,
-};
+use controller::{ConfigError, ControllerConfig, Field, FloatPd, IntPd, Law, LiteralPd, QuantMode, Quantization};
 
 type Path = fn(ControllerConfig) -> Result<(), ConfigError>;
 
@@ -33,8 +31,13 @@ fn literal_cfg() -> ControllerConfig {
 
 /// Bad values of a common field, for every path.
 fn check_common(set: fn(&mut ControllerConfig, f64), field: Field, positive: bool) {
-    let bases = [ControllerConfig { u_max: Some(10.0), ..ControllerConfig::paper(0.025) }, paper_counts(1.0, 1), literal_cfg()];
-    let mut bad = vec![(f64::NAN, ConfigError::NonFinite(field)), (f64::INFINITY, ConfigError::NonFinite(field)), (f64::NEG_INFINITY, ConfigError::NonFinite(field))];
+    let bases =
+        [ControllerConfig { u_max: Some(10.0), ..ControllerConfig::paper(0.025) }, paper_counts(1.0, 1), literal_cfg()];
+    let mut bad = vec![
+        (f64::NAN, ConfigError::NonFinite(field)),
+        (f64::INFINITY, ConfigError::NonFinite(field)),
+        (f64::NEG_INFINITY, ConfigError::NonFinite(field)),
+    ];
     if positive {
         bad.push((0.0, ConfigError::NonPositive(field)));
         bad.push((-1.0, ConfigError::NonPositive(field)));
@@ -110,13 +113,19 @@ fn delay_and_modes() {
     for (path, base) in cases {
         assert_eq!(path(ControllerConfig { delay: 2, ..base }), Ok(()));
         assert_eq!(path(ControllerConfig { delay: 3, ..base }), Err(ConfigError::DelayTooLong { delay: 3, max: 2 }));
-        assert_eq!(path(ControllerConfig { delay: u32::MAX, ..base }), Err(ConfigError::DelayTooLong { delay: u32::MAX, max: 2 }));
+        assert_eq!(
+            path(ControllerConfig { delay: u32::MAX, ..base }),
+            Err(ConfigError::DelayTooLong { delay: u32::MAX, max: 2 })
+        );
     }
     assert_eq!(
         FloatPd::<f64, 1>::try_new(&ControllerConfig { delay: 0, ..ControllerConfig::paper(0.025) }).map(|_| ()),
         Err(ConfigError::DelayTooLong { delay: 0, max: 0 })
     );
-    assert_eq!(FloatPd::<f64, 2>::try_new(&ControllerConfig { delay: 0, ..ControllerConfig::paper(0.025) }).map(|_| ()), Ok(()));
+    assert_eq!(
+        FloatPd::<f64, 2>::try_new(&ControllerConfig { delay: 0, ..ControllerConfig::paper(0.025) }).map(|_| ()),
+        Ok(())
+    );
     // Quantization presence and mode.
     assert_eq!(float(paper_counts(0.0, 1)), Err(ConfigError::UnexpectedQuantization));
     assert_eq!(int(ControllerConfig::paper(0.025)), Err(ConfigError::MissingQuantization));
@@ -156,7 +165,10 @@ fn representability() {
     assert_eq!(int(ControllerConfig { u_max: Some(0.004), ..c }), Err(ConfigError::OutOfRange(Field::UMax)));
     assert_eq!(int(ControllerConfig { u_max: Some(1e8), ..c }), Err(ConfigError::OutOfRange(Field::UMax)));
     assert_eq!(int(ControllerConfig { u_max: None, ..c }), Ok(()));
-    assert_eq!(literal(ControllerConfig { u_max: Some(1e-3), ..literal_cfg() }), Err(ConfigError::OutOfRange(Field::UMax)));
+    assert_eq!(
+        literal(ControllerConfig { u_max: Some(1e-3), ..literal_cfg() }),
+        Err(ConfigError::OutOfRange(Field::UMax))
+    );
 }
 
 #[test]
@@ -165,5 +177,9 @@ fn errors_display_the_field() {
     assert_eq!(ConfigError::NonPositive(Field::HDac).to_string(), "controller config: `quant.h_dac` must be > 0");
     assert!(ConfigError::DelayTooLong { delay: 9, max: 2 }.to_string().contains("`delay` = 9"));
     assert!(ConfigError::OutOfRange(Field::Ki).to_string().contains("`ki`"));
-    assert!(ConfigError::WrongQuantMode { expected: QuantMode::Counts, found: QuantMode::Literal }.to_string().contains("Literal"));
+    assert!(
+        ConfigError::WrongQuantMode { expected: QuantMode::Counts, found: QuantMode::Literal }
+            .to_string()
+            .contains("Literal")
+    );
 }

@@ -20,12 +20,7 @@ fn reference(cfg: &ControllerConfig, seq: &[(f64, f64)]) -> Vec<(f64, f64)> {
             let (y1, z1) = seq[k - r - 1];
             // x_I = dt * sum_{j=0..=i} y_{j-r}
             let x_i: f64 = (0..=i).map(|j| seq[j + pre - r].0).sum::<f64>() * cfg.dt;
-            let terms = [
-                -cfg.kp * y0,
-                -cfg.kd * (y0 - y1) / cfg.dt,
-                cfg.kphi_d * (z0 - z1) / cfg.dt,
-                -cfg.ki * x_i,
-            ];
+            let terms = [-cfg.kp * y0, -cfg.kd * (y0 - y1) / cfg.dt, cfg.kphi_d * (z0 - z1) / cfg.dt, -cfg.ki * x_i];
             // Rounding of the running sum scales with the sum of magnitudes, not with x_I.
             let x_i_scale: f64 = (0..=i).map(|j| seq[j + pre - r].0.abs()).sum::<f64>() * cfg.dt;
             let scale = terms[..3].iter().map(|t| t.abs()).sum::<f64>() + cfg.ki.abs() * x_i_scale;
@@ -39,17 +34,9 @@ fn gain() -> impl Strategy<Value = f64> {
 }
 
 fn config() -> impl Strategy<Value = ControllerConfig> {
-    (gain(), gain(), gain(), gain(), 1e-3..0.1f64, prop_oneof![Just(0u32), Just(1), Just(3), 0u32..=6])
-        .prop_map(|(kp, kd, kphi_d, ki, dt, delay)| ControllerConfig {
-            kp,
-            kd,
-            kphi_d,
-            ki,
-            dt,
-            delay,
-            u_max: None,
-            quant: None,
-        })
+    (gain(), gain(), gain(), gain(), 1e-3..0.1f64, prop_oneof![Just(0u32), Just(1), Just(3), 0u32..=6]).prop_map(
+        |(kp, kd, kphi_d, ki, dt, delay)| ControllerConfig { kp, kd, kphi_d, ki, dt, delay, u_max: None, quant: None },
+    )
 }
 
 fn samples(n: std::ops::Range<usize>) -> impl Strategy<Value = Vec<(f64, f64)>> {
@@ -118,7 +105,8 @@ proptest! {
 #[test]
 fn delay_zero_one_three_by_hand() {
     // kp = 2, kd = 0.5, kphi_d = 0.25, ki = 4, dt = 0.5: u = -2 y0 - (y0 - y1) + 0.5 (z0 - z1) - 4 x_I
-    let base = ControllerConfig { kp: 2.0, kd: 0.5, kphi_d: 0.25, ki: 4.0, dt: 0.5, delay: 0, u_max: None, quant: None };
+    let base =
+        ControllerConfig { kp: 2.0, kd: 0.5, kphi_d: 0.25, ki: 4.0, dt: 0.5, delay: 0, u_max: None, quant: None };
     // r = 0, pre-history (1, 10): input (3, 14): x_I = 1.5; u = -6 - 2 + 2 - 6 = -12.
     let mut pd = FloatPd::<f64, 2>::try_new(&base).unwrap();
     pd.prime(&[(1.0, 10.0)]).unwrap();

@@ -4,9 +4,9 @@
 mod common;
 
 use common::{H_ADC, H_DAC, paper_counts};
+use controller::AdcError;
 use controller::quant::{GAIN_FRAC_BITS, GAIN_MAX_CODES_PER_COUNT, GAIN_MAX_Q, GAIN_ROUNDING};
 use controller::{ControllerConfig, IntOutput, IntPd, QuantMode, Quantization, adc};
-use controller::AdcError;
 use proptest::prelude::*;
 
 /// Runs `pd` over `inputs` after priming with `pre` (r + 1 samples).
@@ -175,10 +175,25 @@ fn golden_trace_paper_gains() {
     let ys = [5, 9, 12, 10, 4, -3, -8, -6, 0, 7, 60, 20, -20, -70, -65, 0, i32::MAX, i32::MIN, 1, 1];
     let zs = [0, -2, -7, -15, -20, -18, -10, 0, 12, 25, 30, 31, 0, -100, -90, 0, i32::MIN, i32::MAX, 0, 0];
     let inputs: Vec<(i32, i32)> = ys.into_iter().zip(zs).collect();
-    let sat = [false, false, false, false, false, false, false, false, false, false, false, true, true, true, false, false, true, true, true, true];
+    let sat = [
+        false, false, false, false, false, false, false, false, false, false, false, true, true, true, false, false,
+        true, true, true, true,
+    ];
     let golden: [(f64, [i32; 20]); 2] = [
-        (0.0, [-239, -143, -356, -359, -63, 297, 531, 532, 80, -185, -269, -2048, 2048, 2048, 1880, 162, -2048, -2048, 2048, -2048]),
-        (2.0, [-239, -143, -356, -359, -64, 296, 531, 531, 80, -186, -269, -2048, 2048, 2048, 1879, 163, -2048, -2048, 2048, -2048]),
+        (
+            0.0,
+            [
+                -239, -143, -356, -359, -63, 297, 531, 532, 80, -185, -269, -2048, 2048, 2048, 1880, 162, -2048, -2048,
+                2048, -2048,
+            ],
+        ),
+        (
+            2.0,
+            [
+                -239, -143, -356, -359, -64, 296, 531, 531, 80, -186, -269, -2048, 2048, 2048, 1879, 163, -2048, -2048,
+                2048, -2048,
+            ],
+        ),
     ];
     for (ki, codes) in golden {
         let mut pd = IntPd::<4>::try_new(&paper_counts(ki, 1)).unwrap();
@@ -209,10 +224,7 @@ fn step_from_fresh_and_reset_use_zero_history() {
     // x = pi (-7.75 - 109 + 6) - 0.005 pi * 5 = -348.0099 -> -349.
     assert_eq!(a[0], IntOutput { code: 0, saturated: false });
     assert_eq!(a[1], IntOutput { code: -349, saturated: false });
-    assert_eq!(
-        pd.prime(&[(0, 0)]),
-        Err(controller::InputError::HistoryLength { expected: 2, found: 1 })
-    );
+    assert_eq!(pd.prime(&[(0, 0)]), Err(controller::InputError::HistoryLength { expected: 2, found: 1 }));
 }
 
 #[test]

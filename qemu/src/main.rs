@@ -76,7 +76,15 @@ mod board_tests {
         let ram_static = (&raw const IN_RAM) as usize;
         cortex_m_semihosting::hprintln!(
             "  flash {:#010x}+{:#x}: vector table {:#010x}, code {:#010x}; ram {:#010x}+{:#x}: stack top {:#010x}, stack {:#010x}, static {:#010x}",
-            FLASH.0, FLASH.1, vectors, code, RAM.0, RAM.1, stack_top, sp, ram_static
+            FLASH.0,
+            FLASH.1,
+            vectors,
+            code,
+            RAM.0,
+            RAM.1,
+            stack_top,
+            sp,
+            ram_static
         );
         if vectors != FLASH.0 {
             return Err("vector table is not at the board's flash origin");

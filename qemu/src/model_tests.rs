@@ -54,12 +54,47 @@ pub fn rejects_targeted_corruptions() -> Result<(), &'static str> {
     let n = data::MODEL_BLOB.len();
     let m = model();
     let cases: [(&str, fn(&mut [u8]) -> usize, fn(&DecodeError) -> bool); 6] = [
-        ("magic", |b| { b[0] ^= 0x20; b.len() }, |e| matches!(e, DecodeError::BadMagic { .. })),
-        ("version", |b| { b[4] = 0x7f; b.len() }, |e| matches!(e, DecodeError::UnsupportedVersion { found: 0x7f, .. })),
+        (
+            "magic",
+            |b| {
+                b[0] ^= 0x20;
+                b.len()
+            },
+            |e| matches!(e, DecodeError::BadMagic { .. }),
+        ),
+        (
+            "version",
+            |b| {
+                b[4] = 0x7f;
+                b.len()
+            },
+            |e| matches!(e, DecodeError::UnsupportedVersion { found: 0x7f, .. }),
+        ),
         ("truncated", |b| b.len() - 1, |e| matches!(e, DecodeError::Truncated { .. })),
-        ("payload bit", |b| { b[HEADER_LEN + 3] ^= 0x01; b.len() }, |e| matches!(e, DecodeError::Crc { .. })),
-        ("crc bit", |b| { b[18] ^= 0x80; b.len() }, |e| matches!(e, DecodeError::Crc { .. })),
-        ("header d", |b| { b[6] ^= 0x01; b.len() }, |e| matches!(e, DecodeError::ShapeMismatch { what: "d", .. })),
+        (
+            "payload bit",
+            |b| {
+                b[HEADER_LEN + 3] ^= 0x01;
+                b.len()
+            },
+            |e| matches!(e, DecodeError::Crc { .. }),
+        ),
+        (
+            "crc bit",
+            |b| {
+                b[18] ^= 0x80;
+                b.len()
+            },
+            |e| matches!(e, DecodeError::Crc { .. }),
+        ),
+        (
+            "header d",
+            |b| {
+                b[6] ^= 0x01;
+                b.len()
+            },
+            |e| matches!(e, DecodeError::ShapeMismatch { what: "d", .. }),
+        ),
     ];
     for (name, corrupt, expected) in cases {
         let buf = scratch()?;
@@ -154,7 +189,15 @@ fn load(sqrt: SqrtFlavour) -> Result<&'static mut Pred, &'static str> {
 
 fn compare(what: &str, i: usize, got: f32, want_bits: u32) -> Result<(), &'static str> {
     if got.to_bits() != want_bits {
-        hprintln!("{} #{}: got {:e} ({:#010x}), host {:e} ({:#010x})", what, i, got, got.to_bits(), f32::from_bits(want_bits), want_bits);
+        hprintln!(
+            "{} #{}: got {:e} ({:#010x}), host {:e} ({:#010x})",
+            what,
+            i,
+            got,
+            got.to_bits(),
+            f32::from_bits(want_bits),
+            want_bits
+        );
         return Err("output differs from the host's bits");
     }
     Ok(())

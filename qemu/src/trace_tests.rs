@@ -22,7 +22,14 @@ pub fn case<const I: usize>() -> Result<(), &'static str> {
     };
     let g = pd.gains();
     if [g.p, g.d, g.z, g.i] != c.gains || pd.code_max() != c.code_max {
-        hprintln!("{}: gains {:?} range {}, host {:?} range {}", c.name, [g.p, g.d, g.z, g.i], pd.code_max(), c.gains, c.code_max);
+        hprintln!(
+            "{}: gains {:?} range {}, host {:?} range {}",
+            c.name,
+            [g.p, g.d, g.z, g.i],
+            pd.code_max(),
+            c.gains,
+            c.code_max
+        );
         return Err("fixed-point gains differ from the host's");
     }
     let mut clamped = 0u32;
@@ -32,7 +39,14 @@ pub fn case<const I: usize>() -> Result<(), &'static str> {
         if out.code != want || out.saturated != want_sat {
             hprintln!(
                 "{} step {}: input ({}, {}) gave code {} saturated {}, host code {} saturated {}",
-                c.name, j, qy, qz, out.code, out.saturated, want, want_sat
+                c.name,
+                j,
+                qy,
+                qz,
+                out.code,
+                out.saturated,
+                want,
+                want_sat
             );
             return Err("code or saturation flag differs from the host's");
         }

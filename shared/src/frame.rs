@@ -104,8 +104,16 @@ pub enum Kind {
 
 impl Kind {
     /// Every kind, requests first.
-    pub const ALL: [Kind; 8] =
-        [Self::ModelChunk, Self::Load, Self::Prime, Self::Step, Self::Shutdown, Self::Ack, Self::StepReply, Self::Error];
+    pub const ALL: [Kind; 8] = [
+        Self::ModelChunk,
+        Self::Load,
+        Self::Prime,
+        Self::Step,
+        Self::Shutdown,
+        Self::Ack,
+        Self::StepReply,
+        Self::Error,
+    ];
 
     /// The `kind` byte.
     pub const fn code(self) -> u8 {

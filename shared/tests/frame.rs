@@ -110,7 +110,10 @@ fn encode_errors() {
         Err(FrameError::PayloadTooLong { len: MAX_PAYLOAD + 1, max: MAX_PAYLOAD })
     );
     let mut small = [0u8; HEADER_LEN + 3 + CRC_LEN - 1];
-    assert_eq!(frame::encode(Kind::Ack, Seq(1), &[1, 2, 3], &mut small), Err(FrameError::BufferTooSmall { need: 12, got: 11 }));
+    assert_eq!(
+        frame::encode(Kind::Ack, Seq(1), &[1, 2, 3], &mut small),
+        Err(FrameError::BufferTooSmall { need: 12, got: 11 })
+    );
     assert_eq!(frame::encode(Kind::Ack, Seq(1), &[1, 2], &mut small), Ok(11));
 }
 
@@ -129,11 +132,17 @@ fn decode_errors_name_what_is_wrong() {
     let mut unknown = encoded(Kind::Ack, 3, &[]);
     unknown[1] = 0x99;
     reseal(&mut unknown);
-    assert_eq!(frame::decode(&unknown), Err(FrameError::UnknownKind { direction: Direction::Reply, kind: 0x99, seq: Seq(3) }));
+    assert_eq!(
+        frame::decode(&unknown),
+        Err(FrameError::UnknownKind { direction: Direction::Reply, kind: 0x99, seq: Seq(3) })
+    );
     let mut wrong_way = encoded(Kind::Load, 4, &[]);
     wrong_way[0] = REPLY_START;
     reseal(&mut wrong_way);
-    assert_eq!(frame::decode(&wrong_way), Err(FrameError::UnknownKind { direction: Direction::Reply, kind: 2, seq: Seq(4) }));
+    assert_eq!(
+        frame::decode(&wrong_way),
+        Err(FrameError::UnknownKind { direction: Direction::Reply, kind: 2, seq: Seq(4) })
+    );
     let mut start = f.clone();
     start[0] = 0x00;
     assert_eq!(frame::decode(&start), Err(FrameError::BadStart(0)));

@@ -12,14 +12,14 @@ fn hex(bytes: &[u8]) -> String {
 
 /// The tiny model, field by field (header little-endian, payload postcard).
 const TINY_GOLDEN: &[&str] = &[
-    "53534d52", // magic "SSMR"
-    "0100",     // version 1
-    "0100",     // d = 1
-    "0200",     // p = 2
-    "0100",     // k = 1
-    "0100",     // lift terms = 1
-    "62000000", // payload length 98
-    "8f5917e0", // CRC-32 of the payload
+    "53534d52",         // magic "SSMR"
+    "0100",             // version 1
+    "0100",             // d = 1
+    "0200",             // p = 2
+    "0100",             // k = 1
+    "0100",             // lift terms = 1
+    "62000000",         // payload length 98
+    "8f5917e0",         // CRC-32 of the payload
     "0000000000002f40", // config.kp = 15.5 (f64)
     "cdcccccccccc1540", // config.kd = 5.45
     "000000000000f83f", // config.kphi_d = 1.5
@@ -37,11 +37,19 @@ const TINY_GOLDEN: &[&str] = &[
     "02",               // lift_order
     "01",               // n_terms
     "01",               // k
-    "08", "9a99193f", "cdcc4c3f", // v1: 8 bytes, 0.6, 0.8
-    "08", "0000803e", "000000bf", // lift: 0.25, -0.5
-    "04", "0000003e",             // centres: 0.125
-    "04", "cdcc4c3e",             // weights: 0.2
-    "08", "6666663f", "00000000", // affine: 0.9, 0
+    "08",
+    "9a99193f",
+    "cdcc4c3f", // v1: 8 bytes, 0.6, 0.8
+    "08",
+    "0000803e",
+    "000000bf", // lift: 0.25, -0.5
+    "04",
+    "0000003e", // centres: 0.125
+    "04",
+    "cdcc4c3e", // weights: 0.2
+    "08",
+    "6666663f",
+    "00000000", // affine: 0.9, 0
 ];
 
 #[test]
@@ -177,10 +185,7 @@ fn each_decode_error() {
     let bad = common::encode(&ModelRef { p: 3, v1: &short_v1, lift: &common::pinned::LIFT[..21], ..common::pinned() });
     // Claim p = 4 in both header and payload is impossible without the encoder; instead
     // splice: header says p = 4, payload p = 3.
-    check(
-        &with_header(bad, 8, &4u16.to_le_bytes()),
-        DecodeError::ShapeMismatch { what: "p", header: 4, payload: 3 },
-    );
+    check(&with_header(bad, 8, &4u16.to_le_bytes()), DecodeError::ShapeMismatch { what: "p", header: 4, payload: 3 });
     // Non-finite and invalid values are refused by the encoder with the decoder's error ...
     let nan_lift = {
         let mut l = common::pinned::LIFT;
@@ -189,8 +194,14 @@ fn each_decode_error() {
     };
     let nan_lift: &'static [f32] = Box::leak(Box::new(nan_lift));
     assert_eq!(edited(|m| m.lift = nan_lift), Err(EncodeError::Invalid(DecodeError::NonFinite { what: "lift" })));
-    assert_eq!(edited(|m| m.scale = 0.0), Err(EncodeError::Invalid(DecodeError::Invalid { what: "scale must be non-zero" })));
-    assert_eq!(edited(|m| m.shift = 0), Err(EncodeError::Invalid(DecodeError::Invalid { what: "shift must be at least 1 sample" })));
+    assert_eq!(
+        edited(|m| m.scale = 0.0),
+        Err(EncodeError::Invalid(DecodeError::Invalid { what: "scale must be non-zero" }))
+    );
+    assert_eq!(
+        edited(|m| m.shift = 0),
+        Err(EncodeError::Invalid(DecodeError::Invalid { what: "shift must be at least 1 sample" }))
+    );
     assert_eq!(
         edited(|m| m.v1 = &common::pinned::V1[..7]),
         Err(EncodeError::Invalid(DecodeError::ShapeMismatch { what: "v1 length", header: 8, payload: 7 }))

@@ -65,13 +65,19 @@ fn crates_depend_only_downward() {
         let Some(d) = deps.get(*name) else { panic!("workspace member {name} not found by cargo metadata") };
         for (dep, kind) in d {
             if kind.is_none() && members.contains(&dep.as_str()) {
-                assert!(allowed.contains(&dep.as_str()), "{name} depends on {dep}: not an allowed arrow (allowed: {allowed:?})");
+                assert!(
+                    allowed.contains(&dep.as_str()),
+                    "{name} depends on {dep}: not an allowed arrow (allowed: {allowed:?})"
+                );
             }
         }
     }
     // Every workspace member is listed above (a new crate states its place).
     for name in deps.keys() {
-        assert!(members.contains(&name.as_str()) || name == "firmware", "workspace member {name} has no place in ALLOWED");
+        assert!(
+            members.contains(&name.as_str()) || name == "firmware",
+            "workspace member {name} has no place in ALLOWED"
+        );
     }
 }
 
@@ -96,7 +102,10 @@ fn only_the_python_module_binds_python() {
             continue;
         }
         for (dep, _) in d {
-            assert!(!PYTHON_ONLY.contains(&dep.as_str()), "{name} depends on {dep}, which only the Python module (host/python) may use");
+            assert!(
+                !PYTHON_ONLY.contains(&dep.as_str()),
+                "{name} depends on {dep}, which only the Python module (host/python) may use"
+            );
         }
     }
 }
@@ -119,7 +128,8 @@ fn module_graph(src: &std::path::Path) -> BTreeMap<String, std::collections::BTr
             let mut rest = line;
             while let Some(i) = rest.find(prefix) {
                 rest = &rest[i + prefix.len()..];
-                let name: String = rest.chars().take_while(|c| c.is_ascii_lowercase() || c.is_ascii_digit() || *c == '_').collect();
+                let name: String =
+                    rest.chars().take_while(|c| c.is_ascii_lowercase() || c.is_ascii_digit() || *c == '_').collect();
                 if !name.is_empty() {
                     out.insert(name);
                 }

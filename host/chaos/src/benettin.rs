@@ -93,10 +93,7 @@ fn check_params(x0: &[f64], p: &BenettinParams) -> Result<()> {
 
 /// Shared driver: `advance(k)` does `renorm_every` steps and returns the log growth of the
 /// separation (already renormalized), or an error.
-fn drive(
-    p: &BenettinParams,
-    mut advance: impl FnMut(usize) -> Result<f64>,
-) -> Result<BenettinResult> {
+fn drive(p: &BenettinParams, mut advance: impl FnMut(usize) -> Result<f64>) -> Result<BenettinResult> {
     let chunks_per_block = p.steps / (p.renorm_every * p.blocks);
     let block_time = (chunks_per_block * p.renorm_every) as f64 * p.time_step;
     let mut step = p.transient;
@@ -147,17 +144,17 @@ where
         v.iter_mut().for_each(|c| *c /= g);
     }
     let mut res = drive(p, |start| {
-            for k in 0..p.renorm_every {
-                step(&mut x, &mut v);
-                last = check_state(&x, start + k + 1, p.bound, last)?;
-            }
-            let g = norm2(&v);
-            if !(g.is_finite() && g > 0.0) {
-                return Err(ChaosError::Collapsed { step: start + p.renorm_every });
-            }
-            v.iter_mut().for_each(|c| *c /= g);
-            Ok(g.ln())
-        })?;
+        for k in 0..p.renorm_every {
+            step(&mut x, &mut v);
+            last = check_state(&x, start + k + 1, p.bound, last)?;
+        }
+        let g = norm2(&v);
+        if !(g.is_finite() && g > 0.0) {
+            return Err(ChaosError::Collapsed { step: start + p.renorm_every });
+        }
+        v.iter_mut().for_each(|c| *c /= g);
+        Ok(g.ln())
+    })?;
     res.final_state = x;
     Ok(res)
 }
@@ -181,21 +178,21 @@ where
     normalize(&mut dir);
     let mut y: Vec<f64> = x.iter().zip(&dir).map(|(a, e)| a + d0 * e).collect();
     let mut res = drive(p, |start| {
-            for k in 0..p.renorm_every {
-                step(&mut x);
-                step(&mut y);
-                last = check_state(&x, start + k + 1, p.bound, last)?;
-                check_state(&y, start + k + 1, p.bound, last)?;
-            }
-            let sep = x.iter().zip(&y).map(|(a, b)| (b - a) * (b - a)).sum::<f64>().sqrt();
-            if sep == 0.0 {
-                return Err(ChaosError::Collapsed { step: start + p.renorm_every });
-            }
-            for (yc, xc) in y.iter_mut().zip(x.iter()) {
-                *yc = xc + (*yc - xc) * d0 / sep;
-            }
-            Ok((sep / d0).ln())
-        })?;
+        for k in 0..p.renorm_every {
+            step(&mut x);
+            step(&mut y);
+            last = check_state(&x, start + k + 1, p.bound, last)?;
+            check_state(&y, start + k + 1, p.bound, last)?;
+        }
+        let sep = x.iter().zip(&y).map(|(a, b)| (b - a) * (b - a)).sum::<f64>().sqrt();
+        if sep == 0.0 {
+            return Err(ChaosError::Collapsed { step: start + p.renorm_every });
+        }
+        for (yc, xc) in y.iter_mut().zip(x.iter()) {
+            *yc = xc + (*yc - xc) * d0 / sep;
+        }
+        Ok((sep / d0).ln())
+    })?;
     res.final_state = x;
     Ok(res)
 }
@@ -290,13 +287,19 @@ where
     check_params(x0, p)?;
     let d = x0.len();
     if k == 0 || k > d {
-        return Err(ChaosError::BadParameter { name: "k (tangent vectors)", value: k as f64, reason: "need 1 <= k <= state dimension" });
+        return Err(ChaosError::BadParameter {
+            name: "k (tangent vectors)",
+            value: k as f64,
+            reason: "need 1 <= k <= state dimension",
+        });
     }
     let mut x = x0.to_vec();
     let mut next = vec![0.0; d];
     let mut jm = vec![0.0; d * d];
     // Frame: k vectors of length d, row-major; a generic start (not axis aligned).
-    let mut q: Vec<f64> = (0..k * d).map(|i| ((i * 7919 % 101) as f64 / 101.0) - 0.5 + if i % (d + 1) == 0 { 1.0 } else { 0.0 }).collect();
+    let mut q: Vec<f64> = (0..k * d)
+        .map(|i| ((i * 7919 % 101) as f64 / 101.0) - 0.5 + if i % (d + 1) == 0 { 1.0 } else { 0.0 })
+        .collect();
     let mut w = vec![0.0; k * d];
     let mut logs = vec![0.0; k];
     gram_schmidt(&mut q, d, k, &mut logs).ok_or(ChaosError::Collapsed { step: 0 })?;

@@ -267,7 +267,13 @@ fn dist2_fixed<const D: usize, const MAX: bool>(a: &[f64; D], b: &[f64]) -> f64 
 
 /// [`accumulate`] for `D` coordinates: partners two at a time, the first's count in `hist`,
 /// the second's in `hist2`.
-fn accumulate_fixed<const D: usize, const MAX: bool>(a: &[f64], others: &[f64], binner: &Binner, hist: &mut [u64], hist2: &mut [u64]) -> f64 {
+fn accumulate_fixed<const D: usize, const MAX: bool>(
+    a: &[f64],
+    others: &[f64],
+    binner: &Binner,
+    hist: &mut [u64],
+    hist2: &mut [u64],
+) -> f64 {
     let mut p = [0.0; D];
     p.copy_from_slice(&a[..D]);
     let (mut m1, mut m2): (f64, f64) = (0.0, 0.0);
@@ -327,7 +333,13 @@ fn local_slopes(r: &[f64], c: &[f64]) -> Vec<f64> {
             if n < 2 {
                 return 0.0;
             }
-            let (a, b) = if k == 0 { (0, 1) } else if k == n - 1 { (n - 2, n - 1) } else { (k - 1, k + 1) };
+            let (a, b) = if k == 0 {
+                (0, 1)
+            } else if k == n - 1 {
+                (n - 2, n - 1)
+            } else {
+                (k - 1, k + 1)
+            };
             (c[b].ln() - c[a].ln()) / (r[b].ln() - r[a].ln())
         })
         .collect()
@@ -339,9 +351,8 @@ pub fn fit_scaling_range(curve: &CorrelationCurve, rule: &ScalingRule) -> Result
     positive("upper_fraction", rule.upper_fraction)?;
     at_least("min_points", rule.min_points, 2)?;
     let r_upper = rule.upper_fraction * curve.diameter;
-    let eligible: Vec<usize> = (0..curve.radius.len())
-        .filter(|&k| curve.count[k] >= rule.min_pairs && curve.radius[k] <= r_upper)
-        .collect();
+    let eligible: Vec<usize> =
+        (0..curve.radius.len()).filter(|&k| curve.count[k] >= rule.min_pairs && curve.radius[k] <= r_upper).collect();
     if eligible.len() < rule.min_points {
         return Err(ChaosError::NoScalingRange {
             reason: format!(
@@ -384,11 +395,7 @@ pub fn fit_scaling_range(curve: &CorrelationCurve, rule: &ScalingRule) -> Result
 
 /// Correlation sum plus the scaling-range rule. Call [`correlation_sum`] and
 /// [`fit_scaling_range`] separately to keep the curve when no range is found.
-pub fn correlation_dimension(
-    points: &Points,
-    params: &CorrSumParams,
-    rule: &ScalingRule,
-) -> Result<DimensionEstimate> {
+pub fn correlation_dimension(points: &Points, params: &CorrSumParams, rule: &ScalingRule) -> Result<DimensionEstimate> {
     let curve = correlation_sum(points, params)?;
     fit_scaling_range(&curve, rule)
 }
@@ -435,7 +442,13 @@ mod tests {
             let mut probes = vec![0.0, 1e-300, 1e300];
             for k in 0..k_len {
                 let e = b.edges2[k];
-                probes.extend([e, f64::from_bits(e.to_bits() - 1), f64::from_bits(e.to_bits() + 1), e * 1.0001, e * 0.9999]);
+                probes.extend([
+                    e,
+                    f64::from_bits(e.to_bits() - 1),
+                    f64::from_bits(e.to_bits() + 1),
+                    e * 1.0001,
+                    e * 0.9999,
+                ]);
             }
             for i in 0..20_000 {
                 probes.push((ln_r0 - 1.0 + 16.0 * i as f64 / 20_000.0).exp());
@@ -457,7 +470,8 @@ mod tests {
         let b = Binner::new(-4.0, 20.0 / std::f64::consts::LN_10, k_len);
         for dim in 1..=9 {
             for n in [0usize, 1, 2, 3, 7, 64, 501] {
-                let mut data: Vec<f64> = (0..(n + 1) * dim).map(|_| if rng.uniform() < 0.1 { 0.25 } else { rng.normal() }).collect();
+                let mut data: Vec<f64> =
+                    (0..(n + 1) * dim).map(|_| if rng.uniform() < 0.1 { 0.25 } else { rng.normal() }).collect();
                 // A repeat of the reference and a point at a grid edge's distance.
                 if n >= 3 {
                     let a: Vec<f64> = data[..dim].to_vec();

@@ -58,7 +58,11 @@ pub fn jensen_shannon_bits(p: &[f64], q: &[f64]) -> Result<f64> {
     }
     let norm = |h: &[f64], name: &'static str| -> Result<Vec<f64>> {
         if let Some(k) = h.iter().position(|v| !v.is_finite() || *v < 0.0) {
-            return Err(ChaosError::BadParameter { name, value: h[k], reason: "histogram entries must be finite and >= 0" });
+            return Err(ChaosError::BadParameter {
+                name,
+                value: h[k],
+                reason: "histogram entries must be finite and >= 0",
+            });
         }
         let s: f64 = h.iter().sum();
         if s <= 0.0 {

@@ -113,7 +113,11 @@ pub fn first_zero_crossing(x: &[f64], max_lag: usize) -> Result<usize> {
 }
 
 fn no_zero(max_lag: usize) -> ChaosError {
-    ChaosError::BadParameter { name: "max_lag", value: max_lag as f64, reason: "autocorrelation stays positive up to max_lag" }
+    ChaosError::BadParameter {
+        name: "max_lag",
+        value: max_lag as f64,
+        reason: "autocorrelation stays positive up to max_lag",
+    }
 }
 
 /// Dominant period in samples: the lag of the highest autocorrelation maximum after the
@@ -214,8 +218,7 @@ mod tests {
     #[test]
     fn sine_period_and_quarter() {
         // period 40 samples
-        let x: Vec<f64> =
-            (0..2000).map(|i| (2.0 * std::f64::consts::PI * i as f64 / 40.0).sin()).collect();
+        let x: Vec<f64> = (0..2000).map(|i| (2.0 * std::f64::consts::PI * i as f64 / 40.0).sin()).collect();
         assert_eq!(dominant_period(&x, 100).unwrap(), 40);
         let z = first_zero_crossing(&x, 100).unwrap();
         assert!((10..=11).contains(&z), "{z}");

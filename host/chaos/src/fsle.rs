@@ -35,7 +35,11 @@ pub struct FsleRow {
 pub fn thresholds(delta_0: f64, ratio: f64, n: usize) -> Result<Vec<f64>> {
     positive("delta_0 (smallest FSLE threshold)", delta_0)?;
     if !(ratio.is_finite() && ratio > 1.0) {
-        return Err(ChaosError::BadParameter { name: "ratio (FSLE threshold ratio)", value: ratio, reason: "must be finite and > 1" });
+        return Err(ChaosError::BadParameter {
+            name: "ratio (FSLE threshold ratio)",
+            value: ratio,
+            reason: "must be finite and > 1",
+        });
     }
     at_least("n (FSLE thresholds)", n, 2)?;
     Ok((0..n).map(|k| delta_0 * ratio.powi(k as i32)).collect())
@@ -49,7 +53,11 @@ pub fn fsle_from_separations<S: AsRef<[f64]>>(separations: &[S], dt: f64, delta:
     at_least("thresholds", delta.len(), 2)?;
     for (k, w) in delta.windows(2).enumerate() {
         if !(w[0] > 0.0 && w[1] > w[0] && w[1].is_finite()) {
-            return Err(ChaosError::BadParameter { name: "thresholds (positive, increasing)", value: w[1], reason: if k == 0 { "first pair not increasing" } else { "not increasing" } });
+            return Err(ChaosError::BadParameter {
+                name: "thresholds (positive, increasing)",
+                value: w[1],
+                reason: if k == 0 { "first pair not increasing" } else { "not increasing" },
+            });
         }
     }
     let nb = delta.len() - 1;
@@ -131,7 +139,11 @@ pub fn fsle_series(points: &Points, delta: &[f64], p: &FsleSeriesParams) -> Resu
         }
         if let Some((j, d2)) = best.filter(|&(_, d2)| d2.sqrt() < d0) {
             let _ = d2;
-            seps.push((0..p.horizon).map(|k| crate::Norm::Euclidean.dist2(points.point(i + k), points.point(j + k)).sqrt()).collect());
+            seps.push(
+                (0..p.horizon)
+                    .map(|k| crate::Norm::Euclidean.dist2(points.point(i + k), points.point(j + k)).sqrt())
+                    .collect(),
+            );
         }
     }
     let pairs = seps.len();
@@ -141,8 +153,11 @@ pub fn fsle_series(points: &Points, delta: &[f64], p: &FsleSeriesParams) -> Resu
 /// Slope of `ln lambda` against `ln delta` over the rows with a value and at least
 /// `min_pairs` pairs: about 0 on a chaotic plateau, about -2 for diffusion.
 pub fn scaling_slope(rows: &[FsleRow], min_pairs: usize) -> Result<f64> {
-    let (x, y): (Vec<f64>, Vec<f64>) =
-        rows.iter().filter(|r| r.pairs >= min_pairs).filter_map(|r| r.lambda.filter(|&l| l > 0.0).map(|l| (r.delta.ln(), l.ln()))).unzip();
+    let (x, y): (Vec<f64>, Vec<f64>) = rows
+        .iter()
+        .filter(|r| r.pairs >= min_pairs)
+        .filter_map(|r| r.lambda.filter(|&l| l > 0.0).map(|l| (r.delta.ln(), l.ln())))
+        .unzip();
     Ok(fit_line(&x, &y)?.slope)
 }
 
@@ -237,7 +252,9 @@ mod tests {
             .collect();
         let pts = crate::delay_embed(&x, 4, 5).unwrap();
         let delta = thresholds(0.05, 2f64.sqrt(), 8).unwrap();
-        let (rows, pairs) = fsle_series(&pts, &delta, &FsleSeriesParams { theiler: 50, max_refs: 1500, horizon: 3000, dt: 1.0 }).unwrap();
+        let (rows, pairs) =
+            fsle_series(&pts, &delta, &FsleSeriesParams { theiler: 50, max_refs: 1500, horizon: 3000, dt: 1.0 })
+                .unwrap();
         assert!(pairs > 1000, "{pairs}");
         let slope = scaling_slope(&rows, 50).unwrap();
         // Diffusion: -2 in the ideal limit; measured -1.49 (1314 pairs) (first passages from pairs that
@@ -251,8 +268,14 @@ mod tests {
     fn bad_inputs_are_named() {
         assert!(matches!(thresholds(0.0, 2.0, 5), Err(ChaosError::BadParameter { .. })));
         assert!(matches!(thresholds(1.0, 1.0, 5), Err(ChaosError::BadParameter { .. })));
-        assert!(matches!(fsle_from_separations(&[vec![0.0, 1.0]], 1.0, &[1.0, 0.5]), Err(ChaosError::BadParameter { .. })));
-        assert!(matches!(fsle_from_separations(&[vec![0.0, f64::NAN]], 1.0, &[1.0, 2.0]), Err(ChaosError::NonFinite { .. })));
+        assert!(matches!(
+            fsle_from_separations(&[vec![0.0, 1.0]], 1.0, &[1.0, 0.5]),
+            Err(ChaosError::BadParameter { .. })
+        ));
+        assert!(matches!(
+            fsle_from_separations(&[vec![0.0, f64::NAN]], 1.0, &[1.0, 2.0]),
+            Err(ChaosError::NonFinite { .. })
+        ));
         // A separation that starts above the first threshold is not a pair.
         let r = fsle_from_separations(&[vec![3.0, 4.0, 8.0]], 1.0, &[1.0, 2.0]).unwrap();
         assert_eq!(r[0].pairs, 0);

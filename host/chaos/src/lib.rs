@@ -6,31 +6,30 @@ pub mod benettin;
 pub mod corrdim;
 pub mod density;
 pub mod embed;
+pub mod fsle;
 pub mod lyapunov;
 pub mod reference;
 mod rng;
-pub mod fsle;
 pub mod surrogate;
 pub mod zero_one;
 
 pub use benettin::{
-    jacobian_tangent_step, kaplan_yorke,
     BenettinParams, BenettinResult, Orbit, SpectrumResult, benettin_qr, benettin_tangent, benettin_two_trajectory,
-    iterate_map,
+    iterate_map, jacobian_tangent_step, kaplan_yorke,
 };
 pub use corrdim::{
-    CorrSumParams, CorrelationCurve, DimensionEstimate, ScalingRule, correlation_dimension,
-    correlation_sum, fit_scaling_range, ssm_dimension,
+    CorrSumParams, CorrelationCurve, DimensionEstimate, ScalingRule, correlation_dimension, correlation_sum,
+    fit_scaling_range, ssm_dimension,
 };
 pub use density::{Bins, CoordinatePdf, PdfComparison, compare_pdfs, jensen_shannon_bits};
+pub use embed::{autocorrelation, delay_embed, dominant_period, first_zero_crossing, lag_and_period};
 pub use fsle::{FsleRow, FsleSeriesParams, fsle_from_separations, fsle_series, scaling_slope, thresholds};
+pub use lyapunov::{
+    DivergenceCurve, DivergenceFit, DivergenceParams, FitRule, KantzEstimate, LyapunovEstimate, fit_divergence, kantz,
+    kantz_curves, log_spaced, rosenstein, rosenstein_curve,
+};
 pub use surrogate::{Statistic, SurrogateParams, SurrogateResult, surrogate_test, surrogate_tests};
 pub use zero_one::{ZeroOneParams, ZeroOneResult, zero_one_test};
-pub use embed::{autocorrelation, delay_embed, dominant_period, first_zero_crossing, lag_and_period};
-pub use lyapunov::{
-    DivergenceCurve, DivergenceFit, DivergenceParams, FitRule, KantzEstimate, LyapunovEstimate, fit_divergence,
-    kantz, kantz_curves, log_spaced, rosenstein, rosenstein_curve,
-};
 
 /// Everything that can go wrong in this crate. Each variant names the offending input.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
@@ -205,20 +204,12 @@ pub(crate) fn positive(name: &'static str, v: f64) -> Result<()> {
 }
 
 pub(crate) fn at_least(name: &'static str, v: usize, min: usize) -> Result<()> {
-    if v >= min {
-        Ok(())
-    } else {
-        Err(ChaosError::BadParameter { name, value: v as f64, reason: "below its minimum" })
-    }
+    if v >= min { Ok(()) } else { Err(ChaosError::BadParameter { name, value: v as f64, reason: "below its minimum" }) }
 }
 
 /// Evenly strided subset of `0..n` of at most `max` indices (all of them when `n <= max`).
 pub(crate) fn strided(n: usize, max: usize) -> Vec<usize> {
-    if n <= max {
-        (0..n).collect()
-    } else {
-        (0..max).map(|k| k * n / max).collect()
-    }
+    if n <= max { (0..n).collect() } else { (0..max).map(|k| k * n / max).collect() }
 }
 
 /// Ordinary least-squares line `y = intercept + slope * x`.

@@ -35,14 +35,38 @@ use crate::{ChaosError, LineFit, Norm, Points, Result, at_least, fit_line, posit
 macro_rules! with_dist2 {
     ($dim:expr, $norm:expr, $f:ident => $body:block) => {
         match ($norm, $dim) {
-            (Norm::Euclidean, 2) => { let $f = euclid::<2>; $body }
-            (Norm::Euclidean, 3) => { let $f = euclid::<3>; $body }
-            (Norm::Euclidean, 4) => { let $f = euclid::<4>; $body }
-            (Norm::Euclidean, 5) => { let $f = euclid::<5>; $body }
-            (Norm::Euclidean, 6) => { let $f = euclid::<6>; $body }
-            (Norm::Euclidean, 7) => { let $f = euclid::<7>; $body }
-            (Norm::Euclidean, 8) => { let $f = euclid::<8>; $body }
-            (norm, _) => { let $f = move |a: &[f64], b: &[f64]| norm.dist2(a, b); $body }
+            (Norm::Euclidean, 2) => {
+                let $f = euclid::<2>;
+                $body
+            }
+            (Norm::Euclidean, 3) => {
+                let $f = euclid::<3>;
+                $body
+            }
+            (Norm::Euclidean, 4) => {
+                let $f = euclid::<4>;
+                $body
+            }
+            (Norm::Euclidean, 5) => {
+                let $f = euclid::<5>;
+                $body
+            }
+            (Norm::Euclidean, 6) => {
+                let $f = euclid::<6>;
+                $body
+            }
+            (Norm::Euclidean, 7) => {
+                let $f = euclid::<7>;
+                $body
+            }
+            (Norm::Euclidean, 8) => {
+                let $f = euclid::<8>;
+                $body
+            }
+            (norm, _) => {
+                let $f = move |a: &[f64], b: &[f64]| norm.dist2(a, b);
+                $body
+            }
         }
     };
 }
@@ -247,14 +271,28 @@ impl SortedAxis {
 
     /// [`SortedAxis::nearest`] with the squared distance `dist2` (that of `p.norm`).
     #[inline(always)]
-    fn nearest_by(&self, points: &Points, i: usize, p: &DivergenceParams, dist2: impl Fn(&[f64], &[f64]) -> f64) -> Option<usize> {
+    fn nearest_by(
+        &self,
+        points: &Points,
+        i: usize,
+        p: &DivergenceParams,
+        dist2: impl Fn(&[f64], &[f64]) -> f64,
+    ) -> Option<usize> {
         let pi = points.point(i);
         let x0 = pi[0];
         let r = self.rank[i];
         let mut best: Option<(usize, f64)> = None;
         // A function inlined into the walk (a closure here was compiled as a call per point).
         #[inline(always)]
-        fn consider_with(j: usize, i: usize, theiler: usize, pi: &[f64], points: &Points, dist2: &impl Fn(&[f64], &[f64]) -> f64, best: &mut Option<(usize, f64)>) {
+        fn consider_with(
+            j: usize,
+            i: usize,
+            theiler: usize,
+            pi: &[f64],
+            points: &Points,
+            dist2: &impl Fn(&[f64], &[f64]) -> f64,
+            best: &mut Option<(usize, f64)>,
+        ) {
             if j.abs_diff(i) > theiler {
                 let d2 = dist2(pi, points.point(j));
                 if d2 > 0.0 && best.is_none_or(|(bj, b)| d2 < b || (d2 == b && j < bj)) {
@@ -333,13 +371,21 @@ pub fn fit_divergence(curve: &DivergenceCurve, rule: &FitRule) -> Result<Diverge
         });
     }
     if !(rule.min_rise.is_finite() && rule.min_rise >= 0.0) {
-        return Err(ChaosError::BadParameter { name: "min_rise", value: rule.min_rise, reason: "must be finite and >= 0" });
+        return Err(ChaosError::BadParameter {
+            name: "min_rise",
+            value: rule.min_rise,
+            reason: "must be finite and >= 0",
+        });
     }
     at_least("min_points", rule.min_points, 2)?;
     let y = &curve.mean_log_distance;
     let t = &curve.time;
     if y.len() < rule.min_points {
-        return Err(ChaosError::TooShort { param: "divergence curve (min_points)", have: y.len(), need: rule.min_points });
+        return Err(ChaosError::TooShort {
+            param: "divergence curve (min_points)",
+            have: y.len(),
+            need: rule.min_points,
+        });
     }
     let y0 = y[0];
     let ytop = y.iter().copied().fold(f64::NEG_INFINITY, f64::max);
@@ -347,7 +393,15 @@ pub fn fit_divergence(curve: &DivergenceCurve, rule: &FitRule) -> Result<Diverge
     let n = y.len();
     let slope = |a: usize, b: usize| (y[b] - y[a]) / (t[b] - t[a]);
     let local: Vec<f64> = (0..n)
-        .map(|k| if k == 0 { slope(0, 1) } else if k == n - 1 { slope(n - 2, n - 1) } else { slope(k - 1, k + 1) })
+        .map(|k| {
+            if k == 0 {
+                slope(0, 1)
+            } else if k == n - 1 {
+                slope(n - 2, n - 1)
+            } else {
+                slope(k - 1, k + 1)
+            }
+        })
         .collect();
     let (a, b, grew) = if rise < rule.min_rise {
         (0, n - 1, false)
@@ -521,7 +575,9 @@ pub fn kantz(
             Err(why) => KantzEstimate { eps, mean_neighbours, curve: None, fit: None, failure: Some(why) },
             Ok(c) => match fit_divergence(&c, rule) {
                 Ok(f) => KantzEstimate { eps, mean_neighbours, curve: Some(c), fit: Some(f), failure: None },
-                Err(e) => KantzEstimate { eps, mean_neighbours, curve: Some(c), fit: None, failure: Some(e.to_string()) },
+                Err(e) => {
+                    KantzEstimate { eps, mean_neighbours, curve: Some(c), fit: None, failure: Some(e.to_string()) }
+                }
             },
         })
         .collect())
@@ -568,7 +624,8 @@ mod tests {
     fn rejects_short_series_naming_the_parameter() {
         let x: Vec<f64> = (0..50).map(|i| (i as f64 * 0.3).sin()).collect();
         let p = Points::from_series(&x).unwrap();
-        let e = rosenstein_curve(&p, &DivergenceParams { max_steps: 40, theiler: 5, ..Default::default() }).unwrap_err();
+        let e =
+            rosenstein_curve(&p, &DivergenceParams { max_steps: 40, theiler: 5, ..Default::default() }).unwrap_err();
         assert_eq!(e, ChaosError::TooShort { param: "max_steps + 2*(theiler+1)", have: 50, need: 53 });
         assert!(matches!(
             rosenstein_curve(&p, &DivergenceParams { dt: 0.0, ..Default::default() }),
@@ -635,7 +692,12 @@ mod tests {
     /// Kantz's curves as they were before the sorted walk and the shared distances (kept
     /// here): the candidates by a scan over all points, each scale's distances apart.
     #[allow(clippy::type_complexity)]
-    fn kantz_plain(points: &Points, eps: &[f64], p: &DivergenceParams, max_neighbours: usize) -> Result<Vec<(f64, f64, std::result::Result<DivergenceCurve, String>)>> {
+    fn kantz_plain(
+        points: &Points,
+        eps: &[f64],
+        p: &DivergenceParams,
+        max_neighbours: usize,
+    ) -> Result<Vec<(f64, f64, std::result::Result<DivergenceCurve, String>)>> {
         let nc = check_params(points, p)?;
         let eps_max = eps.iter().copied().fold(0.0, f64::max);
         let k_len = p.max_steps + 1;
@@ -663,7 +725,8 @@ mod tests {
                     continue;
                 }
                 if chosen.len() > max_neighbours {
-                    let keep: Vec<usize> = strided(chosen.len(), max_neighbours).into_iter().map(|q| chosen[q]).collect();
+                    let keep: Vec<usize> =
+                        strided(chosen.len(), max_neighbours).into_iter().map(|q| chosen[q]).collect();
                     chosen.clear();
                     chosen.extend(keep);
                 }
@@ -671,7 +734,8 @@ mod tests {
                 neigh_total[e] += chosen.len();
                 for k in 0..k_len {
                     let a = points.point(i + k);
-                    let mean_d = chosen.iter().map(|&j| p.norm.dist2(a, points.point(j + k)).sqrt()).sum::<f64>() / chosen.len() as f64;
+                    let mean_d = chosen.iter().map(|&j| p.norm.dist2(a, points.point(j + k)).sqrt()).sum::<f64>()
+                        / chosen.len() as f64;
                     if mean_d > 0.0 {
                         sum[e][k] += mean_d.ln();
                         n_terms[e][k] += 1;
@@ -687,7 +751,8 @@ mod tests {
             let curve = if n_ref[e] == 0 {
                 Err(format!("no reference point has a neighbour within eps = {:.4e}", eps[e]))
             } else {
-                finish_curve(std::mem::take(&mut sum[e]), std::mem::take(&mut n_terms[e]), n_ref[e], zero[e], p.dt).map_err(|err| err.to_string())
+                finish_curve(std::mem::take(&mut sum[e]), std::mem::take(&mut n_terms[e]), n_ref[e], zero[e], p.dt)
+                    .map_err(|err| err.to_string())
             };
             out.push((eps[e], mean_neigh, curve));
         }
@@ -708,13 +773,22 @@ mod tests {
             henon.push(a);
         }
         let quant: Vec<f64> = henon.iter().map(|v| (v * 8.0).round() / 8.0 - 0.125).collect();
-        let flow: Vec<f64> = (0..800).map(|k| (0.05 * k as f64).sin() + 0.3 * (0.131 * k as f64).sin() * (0.017 * k as f64).cos()).collect();
+        let flow: Vec<f64> = (0..800)
+            .map(|k| (0.05 * k as f64).sin() + 0.3 * (0.131 * k as f64).sin() * (0.017 * k as f64).cos())
+            .collect();
         let mut n_cases = 0;
         for (name, x) in [("henon", &henon), ("quantized", &quant), ("flow", &flow)] {
             for (m, norm) in (1..=9).flat_map(|m| [(m, Norm::Euclidean), (m, Norm::Max)]) {
                 let pts = crate::delay_embed(x, m, 2).unwrap();
                 let p = DivergenceParams { theiler: 4, max_steps: 25, max_reference: 150, dt: 0.1, norm };
-                let bits = |c: &DivergenceCurve| (c.mean_log_distance.iter().map(|v| v.to_bits()).collect::<Vec<_>>(), c.n_terms.clone(), c.n_reference, c.zero_distances);
+                let bits = |c: &DivergenceCurve| {
+                    (
+                        c.mean_log_distance.iter().map(|v| v.to_bits()).collect::<Vec<_>>(),
+                        c.n_terms.clone(),
+                        c.n_reference,
+                        c.zero_distances,
+                    )
+                };
                 match (rosenstein_curve(&pts, &p), rosenstein_plain(&pts, &p)) {
                     (Ok(a), Ok(b)) => assert_eq!(bits(&a), bits(&b), "{name} m {m} {norm:?}"),
                     (a, b) => assert_eq!(a.map(|c| bits(&c)), b.map(|c| bits(&c)), "{name} m {m} {norm:?}"),
@@ -725,9 +799,15 @@ mod tests {
                     let old = kantz_plain(&pts, &eps, &p, cap).unwrap();
                     assert_eq!(new.len(), old.len());
                     for (u, v) in new.iter().zip(&old) {
-                        assert_eq!((u.0.to_bits(), u.1.to_bits()), (v.0.to_bits(), v.1.to_bits()), "{name} m {m} {norm:?} cap {cap}");
+                        assert_eq!(
+                            (u.0.to_bits(), u.1.to_bits()),
+                            (v.0.to_bits(), v.1.to_bits()),
+                            "{name} m {m} {norm:?} cap {cap}"
+                        );
                         match (&u.2, &v.2) {
-                            (Ok(a), Ok(b)) => assert_eq!(bits(a), bits(b), "{name} m {m} {norm:?} cap {cap} eps {}", u.0),
+                            (Ok(a), Ok(b)) => {
+                                assert_eq!(bits(a), bits(b), "{name} m {m} {norm:?} cap {cap} eps {}", u.0)
+                            }
                             (a, b) => assert_eq!(a.as_ref().err(), b.as_ref().err(), "{name} m {m} {norm:?} cap {cap}"),
                         }
                         n_cases += 1;

@@ -75,7 +75,11 @@ pub const MIN_LEN: usize = 64;
 
 /// Runs the surrogate test on `x` (see the module doc).
 pub fn surrogate_test(x: &[f64], p: &SurrogateParams) -> Result<SurrogateResult> {
-    surrogate_tests(x, &[p.statistic], p)?.pop().ok_or(ChaosError::TooShort { param: "surrogate statistics", have: 0, need: 1 })
+    surrogate_tests(x, &[p.statistic], p)?.pop().ok_or(ChaosError::TooShort {
+        param: "surrogate statistics",
+        have: 0,
+        need: 1,
+    })
 }
 
 /// [`surrogate_test`] for several statistics on the same surrogates (`p.statistic` is not
@@ -116,10 +120,21 @@ pub fn surrogate_tests(x: &[f64], stats: &[Statistic], p: &SurrogateParams) -> R
         .zip(surr)
         .map(|((st, statistic_data), statistic_surrogates)| {
             let as_extreme = match st {
-                Statistic::PredictionError { .. } => statistic_surrogates.iter().filter(|&&s| s <= statistic_data).count(),
-                Statistic::TimeReversal { .. } => statistic_surrogates.iter().filter(|&&s| s.abs() >= statistic_data.abs()).count(),
+                Statistic::PredictionError { .. } => {
+                    statistic_surrogates.iter().filter(|&&s| s <= statistic_data).count()
+                }
+                Statistic::TimeReversal { .. } => {
+                    statistic_surrogates.iter().filter(|&&s| s.abs() >= statistic_data.abs()).count()
+                }
             };
-            SurrogateResult { statistic_data, statistic_surrogates, p_value: (1.0 + as_extreme as f64) / (m + 1.0), len, offset, mean_iterations: iters as f64 / m }
+            SurrogateResult {
+                statistic_data,
+                statistic_surrogates,
+                p_value: (1.0 + as_extreme as f64) / (m + 1.0),
+                len,
+                offset,
+                mean_iterations: iters as f64 / m,
+            }
         })
         .collect())
 }
@@ -152,9 +167,11 @@ pub(crate) struct IaaftWork {
 impl IaaftWork {
     pub(crate) fn new(n: usize) -> Self {
         let bits = n.trailing_zeros();
-        let rev: Vec<usize> = (0..n).map(|i| if n > 1 { i.reverse_bits() >> (usize::BITS - bits) } else { 0 }).collect();
+        let rev: Vec<usize> =
+            (0..n).map(|i| if n > 1 { i.reverse_bits() >> (usize::BITS - bits) } else { 0 }).collect();
         let tables = |sign: f64| {
-            let tw: Vec<(f64, f64)> = (0..n / 2).map(|k| (sign * 2.0 * std::f64::consts::PI * k as f64 / n as f64).sin_cos()).collect();
+            let tw: Vec<(f64, f64)> =
+                (0..n / 2).map(|k| (sign * 2.0 * std::f64::consts::PI * k as f64 / n as f64).sin_cos()).collect();
             let (mut c, mut s) = (Vec::with_capacity(n), Vec::with_capacity(n));
             let mut h = 1;
             while h < n {
@@ -270,7 +287,9 @@ fn stages(re: &mut [f64], im: &mut [f64], c: &[f64], s: &[f64]) {
         for (rblk, iblk) in re.chunks_exact_mut(2 * h).zip(im.chunks_exact_mut(2 * h)) {
             let (ra, rb) = rblk.split_at_mut(h);
             let (ia, ib) = iblk.split_at_mut(h);
-            for (((((ra, rb), ia), ib), &c), &s) in ra.iter_mut().zip(rb.iter_mut()).zip(ia.iter_mut()).zip(ib.iter_mut()).zip(tc).zip(ts) {
+            for (((((ra, rb), ia), ib), &c), &s) in
+                ra.iter_mut().zip(rb.iter_mut()).zip(ia.iter_mut()).zip(ib.iter_mut()).zip(tc).zip(ts)
+            {
                 let (tr, ti) = (*rb * c - *ib * s, *rb * s + *ib * c);
                 *rb = *ra - tr;
                 *ib = *ia - ti;
@@ -285,7 +304,10 @@ fn stages(re: &mut [f64], im: &mut [f64], c: &[f64], s: &[f64]) {
 /// The stage of half-length `H` (`L = 2H`) of [`stages`], the same operations in the same order.
 #[inline(always)]
 fn stage_fixed<const H: usize, const L: usize>(re: &mut [f64], im: &mut [f64], c: &[f64], s: &[f64]) {
-    let (Ok(tc), Ok(ts)) = (<&[f64; H]>::try_from(&c[H - 1..2 * H - 1]), <&[f64; H]>::try_from(&s[H - 1..2 * H - 1])) else { return };
+    let (Ok(tc), Ok(ts)) = (<&[f64; H]>::try_from(&c[H - 1..2 * H - 1]), <&[f64; H]>::try_from(&s[H - 1..2 * H - 1]))
+    else {
+        return;
+    };
     for (rb, ib) in re.chunks_exact_mut(L).zip(im.chunks_exact_mut(L)) {
         let (Ok(rb), Ok(ib)) = (<&mut [f64; L]>::try_from(rb), <&mut [f64; L]>::try_from(ib)) else { return };
         for k in 0..H {
@@ -391,12 +413,22 @@ pub fn statistic(x: &[f64], s: &Statistic) -> Result<f64> {
             let v = s2 / n;
             Ok(if v > 0.0 { s3 / n / v.powf(1.5) } else { 0.0 })
         }
-        Statistic::PredictionError { m, tau, horizon, neighbours, theiler, refs } => prediction_error(x, m, tau, horizon, neighbours, theiler, refs),
+        Statistic::PredictionError { m, tau, horizon, neighbours, theiler, refs } => {
+            prediction_error(x, m, tau, horizon, neighbours, theiler, refs)
+        }
     }
 }
 
 /// Zeroth-order nonlinear prediction error (see [`Statistic::PredictionError`]).
-pub fn prediction_error(x: &[f64], m: usize, tau: usize, horizon: usize, neighbours: usize, theiler: usize, refs: usize) -> Result<f64> {
+pub fn prediction_error(
+    x: &[f64],
+    m: usize,
+    tau: usize,
+    horizon: usize,
+    neighbours: usize,
+    theiler: usize,
+    refs: usize,
+) -> Result<f64> {
     at_least("m (prediction embedding)", m, 1)?;
     at_least("tau (prediction lag)", tau, 1)?;
     at_least("horizon (prediction)", horizon, 1)?;
@@ -406,7 +438,11 @@ pub fn prediction_error(x: &[f64], m: usize, tau: usize, horizon: usize, neighbo
     // Delay vectors i = 0..nv (first sample x[i], last x[i + w]) with a target x[i + w + horizon].
     let need = w + horizon + 2 * theiler + neighbours + 2;
     if x.len() < need {
-        return Err(ChaosError::TooShort { param: "prediction error (embedding window + horizon + Theiler)", have: x.len(), need });
+        return Err(ChaosError::TooShort {
+            param: "prediction error (embedding window + horizon + Theiler)",
+            have: x.len(),
+            need,
+        });
     }
     let nv = x.len() - w - horizon;
     let (mean, sd) = crate::mean_std(x);
@@ -442,7 +478,16 @@ fn delay_dist2(x: &[f64], i: usize, j: usize, m: usize, tau: usize) -> f64 {
 /// every delay vector `j` in index order outside the Theiler window, the `neighbours`
 /// nearest kept sorted by distance (the smaller index first among equal distances).
 #[allow(clippy::too_many_arguments)]
-fn prediction_sse_scan(x: &[f64], m: usize, tau: usize, horizon: usize, neighbours: usize, theiler: usize, nv: usize, refs: &[usize]) -> (f64, usize) {
+fn prediction_sse_scan(
+    x: &[f64],
+    m: usize,
+    tau: usize,
+    horizon: usize,
+    neighbours: usize,
+    theiler: usize,
+    nv: usize,
+    refs: &[usize],
+) -> (f64, usize) {
     let w = (m - 1) * tau;
     let mut best: Vec<(f64, usize)> = Vec::with_capacity(neighbours + 1);
     let mut sse = 0.0;
@@ -487,7 +532,16 @@ fn forecast_error(best: &[(f64, usize)], x: &[f64], target: usize, ahead: usize)
 /// order, so an equal distance never displaces an earlier index), in the same order, so
 /// the prediction sums the same values in the same order.
 #[allow(clippy::too_many_arguments)]
-fn prediction_sse_sorted(x: &[f64], m: usize, tau: usize, horizon: usize, neighbours: usize, theiler: usize, nv: usize, refs: &[usize]) -> (f64, usize) {
+fn prediction_sse_sorted(
+    x: &[f64],
+    m: usize,
+    tau: usize,
+    horizon: usize,
+    neighbours: usize,
+    theiler: usize,
+    nv: usize,
+    refs: &[usize],
+) -> (f64, usize) {
     // The distance with its length fixed for the usual embeddings (the same sum in the same
     // order as `delay_dist2`).
     macro_rules! fixed {
@@ -517,7 +571,17 @@ fn delay_dist2_fixed<const M: usize>(x: &[f64], i: usize, j: usize, tau: usize) 
 /// [`prediction_sse_sorted`] with the squared distance `dist(i, j)`.
 #[allow(clippy::too_many_arguments)]
 #[inline(always)]
-fn prediction_sse_sorted_by(x: &[f64], m: usize, tau: usize, horizon: usize, neighbours: usize, theiler: usize, nv: usize, refs: &[usize], dist: impl Fn(usize, usize) -> f64) -> (f64, usize) {
+fn prediction_sse_sorted_by(
+    x: &[f64],
+    m: usize,
+    tau: usize,
+    horizon: usize,
+    neighbours: usize,
+    theiler: usize,
+    nv: usize,
+    refs: &[usize],
+    dist: impl Fn(usize, usize) -> f64,
+) -> (f64, usize) {
     let w = (m - 1) * tau;
     let mut order: Vec<usize> = (0..nv).collect();
     order.sort_unstable_by(|&a, &b| x[a].total_cmp(&x[b]).then(a.cmp(&b)));
@@ -633,7 +697,8 @@ mod tests {
             let slot = &mut t[usize::from(inverse)];
             if slot.0 != n {
                 let sign = if inverse { 1.0 } else { -1.0 };
-                slot.1 = (0..n / 2).map(|k| (sign * 2.0 * std::f64::consts::PI * k as f64 / n as f64).sin_cos()).collect();
+                slot.1 =
+                    (0..n / 2).map(|k| (sign * 2.0 * std::f64::consts::PI * k as f64 / n as f64).sin_cos()).collect();
                 slot.0 = n;
             }
             butterflies(re, im, &slot.1);
@@ -707,7 +772,6 @@ mod tests {
         (s, max_iter)
     }
 
-
     fn ar2(n: usize, seed: u64) -> Vec<f64> {
         let mut rng = SplitMix::new(seed);
         let (mut a, mut b) = (0.0, 0.0);
@@ -730,7 +794,8 @@ mod tests {
             let n = re.len();
             bit_reverse(re, im);
             let sign = if inverse { 1.0 } else { -1.0 };
-            let tw: Vec<(f64, f64)> = (0..n / 2).map(|k| (sign * 2.0 * std::f64::consts::PI * k as f64 / n as f64).sin_cos()).collect();
+            let tw: Vec<(f64, f64)> =
+                (0..n / 2).map(|k| (sign * 2.0 * std::f64::consts::PI * k as f64 / n as f64).sin_cos()).collect();
             butterflies(re, im, &tw);
             if inverse {
                 let f = 1.0 / n as f64;
@@ -762,7 +827,20 @@ mod tests {
                 ar.clone(),
                 ar.iter().map(|v| v.powi(3)).collect(),
                 ar.iter().map(|v| (v * 2.0).round() / 2.0).collect(),
-                ar.iter().enumerate().map(|(i, v)| if i % 5 == 0 { 0.0 } else if i % 7 == 0 { -0.0 } else if i < n / 8 { 1.5 } else { *v }).collect(),
+                ar.iter()
+                    .enumerate()
+                    .map(|(i, v)| {
+                        if i % 5 == 0 {
+                            0.0
+                        } else if i % 7 == 0 {
+                            -0.0
+                        } else if i < n / 8 {
+                            1.5
+                        } else {
+                            *v
+                        }
+                    })
+                    .collect(),
                 (0..n).map(|i| (i as f64 * 0.37).sin() * 1e-3 + 2.0).collect(),
             ];
             let mut work = IaaftWork::new(n);
@@ -782,9 +860,18 @@ mod tests {
         }
         // The radix sort is the stable comparison sort by total order.
         let mut rng = SplitMix::new(3);
-        let vals = [0.0, -0.0, 1.0, -1.0, f64::MIN_POSITIVE, -f64::MIN_POSITIVE, 5e-324, -5e-324, 1e300, -1e300, 0.5, -0.5];
+        let vals =
+            [0.0, -0.0, 1.0, -1.0, f64::MIN_POSITIVE, -f64::MIN_POSITIVE, 5e-324, -5e-324, 1e300, -1e300, 0.5, -0.5];
         for len in [1usize, 2, 17, 300, 5000] {
-            let x: Vec<f64> = (0..len).map(|i| if i % 3 == 0 { vals[rng.below(vals.len())] } else { rng.normal() * 10f64.powi(rng.below(20) as i32 - 10) }).collect();
+            let x: Vec<f64> = (0..len)
+                .map(|i| {
+                    if i % 3 == 0 {
+                        vals[rng.below(vals.len())]
+                    } else {
+                        rng.normal() * 10f64.powi(rng.below(20) as i32 - 10)
+                    }
+                })
+                .collect();
             let mut order: Vec<usize> = (0..len).rev().collect();
             let mut keyed: Vec<(u64, u32)> = order.iter().map(|&i| (total_order_key(x[i]), i as u32)).collect();
             order.sort_by(|&a, &b| x[a].total_cmp(&x[b]));
@@ -862,7 +949,10 @@ mod tests {
         let h: Vec<f64> = Henon::default().orbit(2048, 1000).iter().map(|v| v[0]).collect();
         let he = surrogate_test(&h, &p).unwrap();
         assert_eq!(he.p_value, 0.05, "{he:?}");
-        assert!(he.statistic_data < 0.5 * he.statistic_surrogates.iter().copied().fold(f64::INFINITY, f64::min), "{he:?}");
+        assert!(
+            he.statistic_data < 0.5 * he.statistic_surrogates.iter().copied().fold(f64::INFINITY, f64::min),
+            "{he:?}"
+        );
         let he_t = surrogate_test(&h, &tr).unwrap();
         assert_eq!(he_t.p_value, 0.05, "{he_t:?}");
         // Both statistics on one set of surrogates: the same numbers as one at a time.
@@ -882,13 +972,27 @@ mod tests {
         sorted.sort_by(f64::total_cmp);
         let (surr, _) = iaaft_plain(&sorted, &fft_amplitudes(&ar), 50, &mut SplitMix::new(4));
         for (name, x) in [("henon", &h), ("ar2", &ar), ("iaaft", &surr)] {
-            for (m, tau, horizon, neighbours, theiler, refs) in [(4, 1, 1, 5, 10, 500), (2, 3, 2, 1, 0, 300), (5, 2, 4, 8, 3, 2000), (1, 1, 1, 3, 20, 100), (6, 10, 10, 5, 40, 500), (3, 4, 1, 2, 5, 200), (7, 2, 3, 5, 10, 300), (8, 1, 2, 4, 6, 300), (9, 2, 1, 5, 10, 200)] {
+            for (m, tau, horizon, neighbours, theiler, refs) in [
+                (4, 1, 1, 5, 10, 500),
+                (2, 3, 2, 1, 0, 300),
+                (5, 2, 4, 8, 3, 2000),
+                (1, 1, 1, 3, 20, 100),
+                (6, 10, 10, 5, 40, 500),
+                (3, 4, 1, 2, 5, 200),
+                (7, 2, 3, 5, 10, 300),
+                (8, 1, 2, 4, 6, 300),
+                (9, 2, 1, 5, 10, 200),
+            ] {
                 let w = (m - 1) * tau;
                 let nv = x.len() - w - horizon;
                 let refs = strided(nv, refs);
                 let a = prediction_sse_sorted(x, m, tau, horizon, neighbours, theiler, nv, &refs);
                 let b = prediction_sse_scan(x, m, tau, horizon, neighbours, theiler, nv, &refs);
-                assert_eq!((a.0.to_bits(), a.1), (b.0.to_bits(), b.1), "{name} m={m} tau={tau} h={horizon} k={neighbours} theiler={theiler}");
+                assert_eq!(
+                    (a.0.to_bits(), a.1),
+                    (b.0.to_bits(), b.1),
+                    "{name} m={m} tau={tau} h={horizon} k={neighbours} theiler={theiler}"
+                );
             }
         }
         if let Ok(kind) = std::env::var("PE_BENCH") {
@@ -897,7 +1001,12 @@ mod tests {
             let refs = strided(nv, 500);
             let mut acc = 0.0;
             for _ in 0..40 {
-                acc += if kind == "sorted" { prediction_sse_sorted(&x, 4, 1, 1, 5, 10, nv, &refs) } else { prediction_sse_scan(&x, 4, 1, 1, 5, 10, nv, &refs) }.0;
+                acc += if kind == "sorted" {
+                    prediction_sse_sorted(&x, 4, 1, 1, 5, 10, nv, &refs)
+                } else {
+                    prediction_sse_scan(&x, 4, 1, 1, 5, 10, nv, &refs)
+                }
+                .0;
             }
             eprintln!("40 {kind} prediction errors ({acc:.3e})");
         }
@@ -908,7 +1017,10 @@ mod tests {
         let p = SurrogateParams::default();
         assert!(matches!(surrogate_test(&[1.0; 40], &p), Err(ChaosError::TooShort { .. })));
         assert!(matches!(surrogate_test(&[1.0; 100], &p), Err(ChaosError::ZeroVariance { .. })));
-        assert!(matches!(surrogate_test(&ar2(100, 1), &SurrogateParams { surrogates: 0, ..p }), Err(ChaosError::BadParameter { .. })));
+        assert!(matches!(
+            surrogate_test(&ar2(100, 1), &SurrogateParams { surrogates: 0, ..p }),
+            Err(ChaosError::BadParameter { .. })
+        ));
         let mut x = ar2(100, 1);
         x[7] = f64::INFINITY;
         assert!(matches!(surrogate_test(&x, &p), Err(ChaosError::NonFinite { index: 7, .. })));

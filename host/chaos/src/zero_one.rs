@@ -68,12 +68,20 @@ pub fn zero_one_test(x: &[f64], p: &ZeroOneParams) -> Result<ZeroOneResult> {
     at_least("n_c (0-1 test frequencies)", p.n_c, 1)?;
     at_least("stride (0-1 test coarsening)", p.stride, 1)?;
     if !(p.n_cut_fraction > 0.0 && p.n_cut_fraction <= 0.5) {
-        return Err(ChaosError::BadParameter { name: "n_cut_fraction", value: p.n_cut_fraction, reason: "must lie in (0, 0.5]" });
+        return Err(ChaosError::BadParameter {
+            name: "n_cut_fraction",
+            value: p.n_cut_fraction,
+            reason: "must lie in (0, 0.5]",
+        });
     }
     let phi: Vec<f64> = x.iter().step_by(p.stride).copied().collect();
     let n = phi.len();
     if n < MIN_SAMPLES {
-        return Err(ChaosError::TooShort { param: "0-1 test (after coarsening by stride)", have: n, need: MIN_SAMPLES });
+        return Err(ChaosError::TooShort {
+            param: "0-1 test (after coarsening by stride)",
+            have: n,
+            need: MIN_SAMPLES,
+        });
     }
     if phi.iter().all(|&v| v == phi[0]) {
         return Err(ChaosError::ZeroVariance { coord: 0, value: phi[0] });
@@ -112,7 +120,13 @@ pub fn zero_one_test(x: &[f64], p: &ZeroOneParams) -> Result<ZeroOneResult> {
         ks.push(correlation(&xi, &d));
     }
     ks.sort_by(f64::total_cmp);
-    Ok(ZeroOneResult { k: quantile(&ks, 0.5), k_quartiles: (quantile(&ks, 0.25), quantile(&ks, 0.75)), n_used: n, n_cut, stride: p.stride })
+    Ok(ZeroOneResult {
+        k: quantile(&ks, 0.5),
+        k_quartiles: (quantile(&ks, 0.25), quantile(&ks, 0.75)),
+        n_used: n,
+        n_cut,
+        stride: p.stride,
+    })
 }
 
 /// Pearson correlation; 0 when either side is constant (a bounded, non-growing `D_c`).
@@ -171,7 +185,8 @@ mod tests {
     /// Two incommensurate frequencies (a torus): bounded translation variables, K ~ 0.
     #[test]
     fn quasi_periodic_is_regular() {
-        let x: Vec<f64> = (0..5000).map(|j| (j as f64 * 0.7).sin() + 0.6 * (j as f64 * 0.7 * 2f64.sqrt()).cos()).collect();
+        let x: Vec<f64> =
+            (0..5000).map(|j| (j as f64 * 0.7).sin() + 0.6 * (j as f64 * 0.7 * 2f64.sqrt()).cos()).collect();
         let r = zero_one_test(&x, &ZeroOneParams::default()).unwrap();
         assert!(r.k.abs() < 0.1, "{r:?}");
     }
@@ -221,7 +236,10 @@ mod tests {
         assert!(matches!(zero_one_test(&[0.5; 50], &p), Err(ChaosError::TooShort { have: 50, .. })));
         let x = logistic(3.97, 500);
         assert!(matches!(zero_one_test(&x, &ZeroOneParams { stride: 0, ..p }), Err(ChaosError::BadParameter { .. })));
-        assert!(matches!(zero_one_test(&x, &ZeroOneParams { n_cut_fraction: 0.9, ..p }), Err(ChaosError::BadParameter { name: "n_cut_fraction", .. })));
+        assert!(matches!(
+            zero_one_test(&x, &ZeroOneParams { n_cut_fraction: 0.9, ..p }),
+            Err(ChaosError::BadParameter { name: "n_cut_fraction", .. })
+        ));
         let mut y = x.clone();
         y[3] = f64::NAN;
         assert!(matches!(zero_one_test(&y, &p), Err(ChaosError::NonFinite { index: 3, .. })));

@@ -2,9 +2,9 @@
 
 use chaos::reference::{Henon, Lorenz};
 use chaos::{
-    BenettinParams, ChaosError, CorrSumParams, DivergenceParams, FitRule, Points, ScalingRule,
-    benettin_qr, benettin_tangent, benettin_two_trajectory, correlation_dimension, correlation_sum,
-    delay_embed, iterate_map, kantz, rosenstein,
+    BenettinParams, ChaosError, CorrSumParams, DivergenceParams, FitRule, Points, ScalingRule, benettin_qr,
+    benettin_tangent, benettin_two_trajectory, correlation_dimension, correlation_sum, delay_embed, iterate_map, kantz,
+    rosenstein,
 };
 
 /// Published largest exponent of the Hénon map (a = 1.4, b = 0.3), per iteration.
@@ -42,7 +42,10 @@ fn two_torus_has_dimension_two() {
     let p = delay_embed(&x, 5, 7).unwrap();
     let prm = CorrSumParams { theiler: 40, ..Default::default() };
     let d = correlation_dimension(&p, &prm, &ScalingRule::default()).unwrap();
-    println!("torus: D2 = {:.4} +- {:.4} (fit se {:.4}) over r = {:.3e}..{:.3e}", d.dimension, d.slope_std, d.fit_stderr, d.r_range.0, d.r_range.1);
+    println!(
+        "torus: D2 = {:.4} +- {:.4} (fit se {:.4}) over r = {:.3e}..{:.3e}",
+        d.dimension, d.slope_std, d.fit_stderr, d.r_range.0, d.r_range.1
+    );
     assert!((d.dimension - 2.0).abs() < 0.15, "D2 = {}", d.dimension);
     assert_eq!(chaos::ssm_dimension(d.dimension).unwrap(), if d.dimension < 2.0 { 2 } else { 4 });
 }
@@ -77,7 +80,12 @@ fn henon_benettin_exact_jacobian_and_two_trajectory() {
     let prm = BenettinParams { transient: 1000, steps: 1_000_000, bound: 10.0, ..Default::default() };
     let t0 = std::time::Instant::now();
     let r = benettin_tangent(&[0.1, 0.1], |x, v| h.tangent_step(x, v), &prm).unwrap();
-    println!("henon Benettin tangent: {:.5} +- {:.5} ({:.3} s for 1e6 steps)", r.exponent, r.std_error, t0.elapsed().as_secs_f64());
+    println!(
+        "henon Benettin tangent: {:.5} +- {:.5} ({:.3} s for 1e6 steps)",
+        r.exponent,
+        r.std_error,
+        t0.elapsed().as_secs_f64()
+    );
     assert!((r.exponent - HENON_LAMBDA).abs() < 0.005, "{}", r.exponent);
     assert!(r.std_error < 0.005);
     assert_eq!(r.steps, 1_000_000);
@@ -138,12 +146,22 @@ fn lorenz_benettin_rk4() {
     let prm = BenettinParams { transient: 10_000, steps: 400_000, time_step: h, bound: 1e3, ..Default::default() };
     let t0 = std::time::Instant::now();
     let r = benettin_tangent(&[1.0, 1.0, 1.0], |x, v| lz.rk4_tangent_step(x, v, h), &prm).unwrap();
-    println!("lorenz Benettin: {:.4} +- {:.4} 1/s ({:.3} s for 4e5 RK4 steps)", r.exponent, r.std_error, t0.elapsed().as_secs_f64());
+    println!(
+        "lorenz Benettin: {:.4} +- {:.4} 1/s ({:.3} s for 4e5 RK4 steps)",
+        r.exponent,
+        r.std_error,
+        t0.elapsed().as_secs_f64()
+    );
     // Finite time (4000 s): statistical error ~0.01; accept +-0.03.
     assert!((r.exponent - LORENZ_LAMBDA).abs() < 0.03, "{}", r.exponent);
 
-    let r2 = benettin_two_trajectory(&[1.0, 1.0, 1.0], |x| lz.rk4_step(x, h), 1e-8, &BenettinParams { renorm_every: 10, ..prm })
-        .unwrap();
+    let r2 = benettin_two_trajectory(
+        &[1.0, 1.0, 1.0],
+        |x| lz.rk4_step(x, h),
+        1e-8,
+        &BenettinParams { renorm_every: 10, ..prm },
+    )
+    .unwrap();
     println!("lorenz two-trajectory: {:.4} +- {:.4} 1/s", r2.exponent, r2.std_error);
     assert!((r2.exponent - LORENZ_LAMBDA).abs() < 0.03, "{}", r2.exponent);
 }
@@ -156,10 +174,7 @@ fn lorenz_rosenstein_from_x() {
     let p = delay_embed(&x, 3, 5).unwrap();
     let lp = DivergenceParams { theiler: 40, max_steps: 200, max_reference: 2000, dt, ..Default::default() };
     let l = rosenstein(&p, &lp, &FitRule::default()).unwrap();
-    println!(
-        "lorenz Rosenstein: {:.4} 1/s window {:?} s, rise {:.2}",
-        l.fit.exponent, l.fit.window_time, l.fit.rise
-    );
+    println!("lorenz Rosenstein: {:.4} 1/s window {:?} s, rise {:.2}", l.fit.exponent, l.fit.window_time, l.fit.rise);
     assert!((l.fit.exponent - LORENZ_LAMBDA).abs() < 0.15, "{}", l.fit.exponent);
 }
 
@@ -235,7 +250,14 @@ fn henon_spectrum_by_qr() {
     let e = benettin_qr(
         &[0.0],
         |x, o| o[0] = 0.5 * x[0].abs(),
-        |x, j| if x[0] == 0.0 { Err("kink of |x| at 0") } else { j[0] = 0.5 * x[0].signum(); Ok(()) },
+        |x, j| {
+            if x[0] == 0.0 {
+                Err("kink of |x| at 0")
+            } else {
+                j[0] = 0.5 * x[0].signum();
+                Ok(())
+            }
+        },
         1,
         &BenettinParams { transient: 10, steps: 100, ..Default::default() },
     )

@@ -3,8 +3,8 @@
 //! Run with `--nocapture` (and `--release` for timings) to see the numbers.
 
 use chaos::{
-    Bins, Points, compare_pdfs, CorrSumParams, DivergenceParams, FitRule, ScalingRule, correlation_dimension, delay_embed,
-    dominant_period, first_zero_crossing, kantz, log_spaced, rosenstein, ssm_dimension,
+    Bins, CorrSumParams, DivergenceParams, FitRule, Points, ScalingRule, compare_pdfs, correlation_dimension,
+    delay_embed, dominant_period, first_zero_crossing, kantz, log_spaced, rosenstein, ssm_dimension,
 };
 use std::time::Instant;
 
@@ -42,7 +42,10 @@ fn inverted_flag_statistics_and_timing() {
     println!("inverted flag traj_9: {} samples, dt = {dt:.5} s", x.len());
     let tau = first_zero_crossing(&x, 500).unwrap();
     let period = dominant_period(&x, 500).unwrap();
-    println!("autocorrelation: first zero at {tau} samples, dominant period {period} samples ({:.2} s)", period as f64 * dt);
+    println!(
+        "autocorrelation: first zero at {tau} samples, dominant period {period} samples ({:.2} s)",
+        period as f64 * dt
+    );
 
     // Correlation dimension against the embedding dimension.
     let cprm = CorrSumParams { theiler: period, max_reference: 3000, ..Default::default() };
@@ -97,7 +100,11 @@ fn inverted_flag_statistics_and_timing() {
     let eps = log_spaced(0.05 * sd, 1.0 * sd, 5).unwrap();
     let t0 = Instant::now();
     let k = kantz(&p, &eps, &DivergenceParams { max_reference: 2000, ..lp }, 50, &FitRule::default()).unwrap();
-    println!("Kantz m = 6 ({:.3} s for {} scales), eps in units of the series' sd {sd:.4}:", t0.elapsed().as_secs_f64(), eps.len());
+    println!(
+        "Kantz m = 6 ({:.3} s for {} scales), eps in units of the series' sd {sd:.4}:",
+        t0.elapsed().as_secs_f64(),
+        eps.len()
+    );
     for e in &k {
         match &e.fit {
             Some(f) => println!(

@@ -2,7 +2,9 @@
 //! `cargo run --release -p furuta --example eqcost_profile -- [all|expand|ssm|bif|models] [dt...]`
 use std::time::Instant;
 
-use furuta::equation_ssm::{EquationModel, equation_bifurcations, furuta_equation_ssm, furuta_equation_polar, scene_period_map};
+use furuta::equation_ssm::{
+    EquationModel, equation_bifurcations, furuta_equation_polar, furuta_equation_ssm, scene_period_map,
+};
 use sim::taylor::FlowOptions;
 use ssm::interp::Interp;
 
@@ -22,7 +24,12 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         for order in [5, 7, 9] {
             let t0 = Instant::now();
             let e = furuta_equation_ssm(31.0, order)?;
-            eprintln!("equation_ssm order {order}: {:.3} s total (expansion {:.3}, ssm {:.3})", t0.elapsed().as_secs_f64(), e.expansion_seconds, e.ssm_seconds);
+            eprintln!(
+                "equation_ssm order {order}: {:.3} s total (expansion {:.3}, ssm {:.3})",
+                t0.elapsed().as_secs_f64(),
+                e.expansion_seconds,
+                e.ssm_seconds
+            );
         }
     }
     if what == "bif" || what == "all" {
@@ -62,8 +69,13 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                 nf.amp.iter().flatten().for_each(|&x| eat(&mut h, x));
                 let e = furuta_equation_ssm(dt, order)?;
                 e.invariance.iter().for_each(|v| eat(&mut h, v.abs));
-                let zeros = (0..=order).map(|d| pm.flow.outputs.iter().all(|c| c[pm.flow.table.degree_range(d)].iter().all(|&v| v == 0.0))).collect::<Vec<_>>();
-                println!("dt {dt} order {order}: map {hp:016x} all {h:016x} ({:.2} s) zero degrees {zeros:?}", t0.elapsed().as_secs_f64());
+                let zeros = (0..=order)
+                    .map(|d| pm.flow.outputs.iter().all(|c| c[pm.flow.table.degree_range(d)].iter().all(|&v| v == 0.0)))
+                    .collect::<Vec<_>>();
+                println!(
+                    "dt {dt} order {order}: map {hp:016x} all {h:016x} ({:.2} s) zero degrees {zeros:?}",
+                    t0.elapsed().as_secs_f64()
+                );
             }
         }
     }
@@ -72,20 +84,34 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         // same points and fates, bit for bit, and the time of each.
         use ssm::portrait::{PortraitOptions, PreparedField, trajectory};
         let popts = PortraitOptions { rho_max: furuta::bifurcations::RHO_MAX, ..PortraitOptions::default() };
-        let classify = PortraitOptions { ray_samples: 0, flow_grid: 0, converge_tol: 1e-6, manifold_eps: 1e-5, ..popts };
+        let classify =
+            PortraitOptions { ray_samples: 0, flow_grid: 0, converge_tol: 1e-6, manifold_eps: 1e-5, ..popts };
         let bopts = furuta::basin::BasinOptions::quick();
         let (r1, r2) = bopts.values();
         for dt in [31.3, 31.5] {
             let nf = furuta_equation_polar(dt, 7)?;
             let starts: Vec<[f64; 2]> = r1.iter().flat_map(|&a| r2.iter().map(move |&b| [a, b])).collect();
             let t0 = Instant::now();
-            let old: Vec<_> = starts.iter().map(|&r| trajectory(&nf, r, 2000.0, &classify)).collect::<Result<_, _>>()?;
+            let old: Vec<_> =
+                starts.iter().map(|&r| trajectory(&nf, r, 2000.0, &classify)).collect::<Result<_, _>>()?;
             let t1 = Instant::now();
             let field = PreparedField::new(&nf, &classify)?;
             let new: Vec<_> = starts.iter().map(|&r| field.trajectory(r, 2000.0)).collect::<Result<_, _>>()?;
             let t2 = Instant::now();
-            let same = old.iter().zip(&new).all(|((p, f), (q, g))| f == g && p.len() == q.len() && p.iter().zip(q).all(|(a, b)| a.0.to_bits() == b.0.to_bits() && a.1.to_bits() == b.1.to_bits()));
-            let mb = furuta::basin::model_basin(&nf, ssm::portrait::PointKind::Torus2, &r1, &r2, bopts.periods as f64 * dt * 1e-3, 2000.0, &classify)?;
+            let same = old.iter().zip(&new).all(|((p, f), (q, g))| {
+                f == g
+                    && p.len() == q.len()
+                    && p.iter().zip(q).all(|(a, b)| a.0.to_bits() == b.0.to_bits() && a.1.to_bits() == b.1.to_bits())
+            });
+            let mb = furuta::basin::model_basin(
+                &nf,
+                ssm::portrait::PointKind::Torus2,
+                &r1,
+                &r2,
+                bopts.periods as f64 * dt * 1e-3,
+                2000.0,
+                &classify,
+            )?;
             println!(
                 "basin {dt}: {} starts, per-start trajectory {:.3} s, prepared {:.3} s, bit-identical {same}; model_basin {:.3} s, principal {}",
                 starts.len(),
@@ -109,7 +135,10 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         let models = [5u32, 7].par_iter().map(|&o| EquationModel::furuta(&nodes, o)).collect::<Result<Vec<_>, _>>()?;
         let t2 = Instant::now();
         let jobs = [(5u32, MapStyle::Graph), (7, MapStyle::Graph), (9, MapStyle::Graph), (7, MapStyle::NormalForm)];
-        let fams = jobs.par_iter().map(|&(o, st)| EquationMapFamily::furuta_styled(&nodes, o, st)).collect::<Result<Vec<_>, _>>()?;
+        let fams = jobs
+            .par_iter()
+            .map(|&(o, st)| EquationMapFamily::furuta_styled(&nodes, o, st))
+            .collect::<Result<Vec<_>, _>>()?;
         eprintln!(
             "report: diag (order 9) {:.2} s, models 5/7 {:.2} s, map families {:.2} s wall; {} + {} + {} results",
             (t1 - t0).as_secs_f64(),

@@ -56,18 +56,38 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         let map = polynomial_map(&pm);
         let mut observable = vec![0.0; pm.dim()];
         observable[pm.primary] = 1.0;
-        let s = map_ssm(&map, &MapSsmOptions { order: 3, pairs: 2, resonance_tol: 1e-3, observable, dt: pm.dt, amplitude: Amplitude::Observable })?;
+        let s = map_ssm(
+            &map,
+            &MapSsmOptions {
+                order: 3,
+                pairs: 2,
+                resonance_tol: 1e-3,
+                observable,
+                dt: pm.dt,
+                amplitude: Amplitude::Observable,
+            },
+        )?;
         let mu: Vec<C> = s.multipliers.iter().map(|&(re, im)| C::new(re, im)).collect();
         for forward in [true, false] {
-            let e = |l: C| -> nalgebra::DVector<C> { nalgebra::DVector::from_fn(p, |k, _| if forward { l.powu(k as u32) } else { l.powi(-(k as i32)) }) };
+            let e = |l: C| -> nalgebra::DVector<C> {
+                nalgebra::DVector::from_fn(p, |k, _| if forward { l.powu(k as u32) } else { l.powi(-(k as i32)) })
+            };
             let emat = nalgebra::DMatrix::from_fn(p, 4, |k, j| e(mu[j])[k]);
             let pinv = emat.clone().pseudo_inverse(1e-14)?;
             for j in 0..2 {
                 let lam = C::from_polar(1.0, std::f64::consts::TAU * f[j] * pm.dt);
                 let q = &pinv * e(lam);
                 let ql = &pinv * e(mu[2 * j]);
-                println!("{} embedding p = {p}: mode {} linear f {:.4} Hz |mu| {:.5}; at f = {} Hz: |q_j| = {:.5} (at mu: {:.5})",
-                    if forward { "forward" } else { "backward" }, j + 1, mu[2 * j].arg() / (std::f64::consts::TAU * pm.dt), mu[2 * j].norm(), f[j], q[2 * j].norm(), ql[2 * j].norm());
+                println!(
+                    "{} embedding p = {p}: mode {} linear f {:.4} Hz |mu| {:.5}; at f = {} Hz: |q_j| = {:.5} (at mu: {:.5})",
+                    if forward { "forward" } else { "backward" },
+                    j + 1,
+                    mu[2 * j].arg() / (std::f64::consts::TAU * pm.dt),
+                    mu[2 * j].norm(),
+                    f[j],
+                    q[2 * j].norm(),
+                    ql[2 * j].norm()
+                );
             }
         }
         return Ok(());
@@ -84,16 +104,33 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             observable[pm.primary] = 1.0;
             let t: Vec<_> = [Amplitude::Spectral, Amplitude::Observable]
                 .into_iter()
-                .map(|amplitude| map_ssm(&map, &MapSsmOptions { order: 7, pairs: 2, resonance_tol: 1e-3, observable: observable.clone(), dt: pm.dt, amplitude }).map(|s| s.polar.table()))
+                .map(|amplitude| {
+                    map_ssm(
+                        &map,
+                        &MapSsmOptions {
+                            order: 7,
+                            pairs: 2,
+                            resonance_tol: 1e-3,
+                            observable: observable.clone(),
+                            dt: pm.dt,
+                            amplitude,
+                        },
+                    )
+                    .map(|s| s.polar.table())
+                })
                 .collect::<Result<_, _>>()?;
             for (a, b) in t[0].rows.iter().zip(&t[1].rows) {
-                println!("{dt_ms} rho_{}' {:<18} spectral {:>12.5} observable {:>12.5}", a.mode, a.monomial, a.value, b.value);
+                println!(
+                    "{dt_ms} rho_{}' {:<18} spectral {:>12.5} observable {:>12.5}",
+                    a.mode, a.monomial, a.value, b.value
+                );
             }
         }
         return Ok(());
     }
     let dt_ms: f64 = args.first().map(|s| s.parse()).transpose()?.unwrap_or(30.8);
-    let orders: Vec<u32> = if args.len() > 1 { args[1..].iter().map(|s| s.parse()).collect::<Result<_, _>>()? } else { vec![5, 7, 9] };
+    let orders: Vec<u32> =
+        if args.len() > 1 { args[1..].iter().map(|s| s.parse()).collect::<Result<_, _>>()? } else { vec![5, 7, 9] };
     let scene = SceneBuilder::load("furuta-dt30.5")?.dt_ms(dt_ms).build()?;
     let (periods, tail_s) = (8000usize, 80.0);
     let tf = torus_full(dt_ms, &([0.05, 0.0, 0.0, 0.0], None), periods as u64, tail_s)?;
@@ -104,7 +141,8 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         let p = pm.primary;
         let mut observable = vec![0.0; pm.dim()];
         observable[p] = 1.0;
-        let s = map_ssm(&map, &MapSsmOptions { order, pairs: 2, resonance_tol: 1e-3, observable, dt: pm.dt, amplitude })?;
+        let s =
+            map_ssm(&map, &MapSsmOptions { order, pairs: 2, resonance_tol: 1e-3, observable, dt: pm.dt, amplitude })?;
         let popts = PortraitOptions { rho_max: RHO_MAX, ..PortraitOptions::default() };
         let Some(t) = fixed_points(&s.polar, &popts)?.into_iter().find(|f| f.kind == PointKind::Torus2) else {
             println!("order {order} ({amplitude:?}): no 2-torus");
@@ -124,7 +162,11 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                 }
             }
         }
-        println!("  (a) first harmonic of theta = c.W(z) on the polar torus: [{:.5}, {:.5}]", 2.0 * h[0].norm(), 2.0 * h[1].norm());
+        println!(
+            "  (a) first harmonic of theta = c.W(z) on the polar torus: [{:.5}, {:.5}]",
+            2.0 * h[0].norm(),
+            2.0 * h[1].norm()
+        );
         // (a') the same by the sliding measurement, on the reduced map's orbit.
         let z0 = [C::from_polar(t.rho[0], 0.0), C::from_polar(t.rho[1], 0.0)];
         let mut z = vec![z0[0], z0[0].conj(), z0[1], z0[1].conj()];
@@ -138,9 +180,13 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         }
         let n_tail = (tail_s / pm.dt).round() as usize;
         let (f, m) = measure(&theta_w[theta_w.len() - n_tail..], pm.dt, dt_ms)?;
-        println!("  (b) reduced map R iterated: mean |z| [{:.5}, {:.5}]; theta = c.W(z) measured: rho [{:.5}, {:.5}], freqs {:.4?}", amp_r[0], amp_r[1], m[0], m[1], f);
+        println!(
+            "  (b) reduced map R iterated: mean |z| [{:.5}, {:.5}]; theta = c.W(z) measured: rho [{:.5}, {:.5}], freqs {:.4?}",
+            amp_r[0], amp_r[1], m[0], m[1], f
+        );
         // (c) the Taylor period map iterated from W(z0).
-        let mut x: Vec<f64> = s.manifold_at(&[z0[0], z0[0].conj(), z0[1], z0[1].conj()], order).iter().map(|c| c.re).collect();
+        let mut x: Vec<f64> =
+            s.manifold_at(&[z0[0], z0[0].conj(), z0[1], z0[1].conj()], order).iter().map(|c| c.re).collect();
         let mut theta_f = Vec::with_capacity(periods);
         let mut ok = true;
         for _ in 0..periods {

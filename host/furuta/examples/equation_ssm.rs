@@ -8,15 +8,18 @@
 //! bracket (`--no-direct` skips that; at order 9 it takes minutes); `--nodes 0.125` sets
 //! the node spacing (ms).
 
-use furuta::equation_ssm::{EquationModel, equation_bifurcations, equation_bifurcations_with, scan_options, furuta_equation_ssm, polynomial_map, scene_period_map};
-use ssm::interp::Interp;
-use ssm::portrait::{PortraitOptions, ScanOptions};
+use furuta::equation_ssm::{
+    EquationModel, equation_bifurcations, equation_bifurcations_with, furuta_equation_ssm, polynomial_map,
+    scan_options, scene_period_map,
+};
 use nalgebra::Complex;
 use sim::closed_loop::{AnyPlant, build_plant};
 use sim::ode::Method;
 use sim::scene::SceneBuilder;
 use sim::taylor::FlowOptions;
+use ssm::interp::Interp;
 use ssm::map_ssm::{Amplitude, MapSsmOptions, map_ssm};
+use ssm::portrait::{PortraitOptions, ScanOptions};
 
 /// Invariance error against the exact (integrated, untruncated) period map, on the sphere
 /// of radius `r` (rad of theta), for the truncations of the order-`order` SSM.
@@ -27,7 +30,17 @@ fn exact_invariance(dt: f64, order: u32, r: f64) -> Result<Vec<(u32, f64)>, Box<
     let map = polynomial_map(&pm);
     let mut observable = vec![0.0; pm.dim()];
     observable[pm.primary] = 1.0;
-    let s = map_ssm(&map, &MapSsmOptions { order, pairs: 2, resonance_tol: 1e-3, observable, dt: pm.dt, amplitude: Amplitude::Observable })?;
+    let s = map_ssm(
+        &map,
+        &MapSsmOptions {
+            order,
+            pairs: 2,
+            resonance_tol: 1e-3,
+            observable,
+            dt: pm.dt,
+            amplitude: Amplitude::Observable,
+        },
+    )?;
     let method = Method::Rodas { rtol: 1e-13, atol: 1e-15 };
     let mut out = Vec::new();
     for k in (3..=order).step_by(2) {
@@ -71,11 +84,17 @@ fn bifurcations(args: &[String]) -> Result<(), Box<dyn std::error::Error>> {
     }
     let n = ((32.5 - 30.5) / step).round() as usize;
     let nodes: Vec<f64> = (0..=n).map(|k| 30.5 + 2.0 * k as f64 / n as f64).collect();
-    println!("data-driven model: saddle connection 31.83 ms, torus Hopf 31.86 ms; full system small-start switch [31.32, 31.34] ms");
+    println!(
+        "data-driven model: saddle connection 31.83 ms, torus Hopf 31.86 ms; full system small-start switch [31.32, 31.34] ms"
+    );
     for order in orders {
         let t0 = std::time::Instant::now();
         let model = EquationModel::furuta(&nodes, order)?;
-        println!("\n== order {order}: {} nodes every {step} ms, normal forms in {:.1} s", nodes.len(), t0.elapsed().as_secs_f64());
+        println!(
+            "\n== order {order}: {} nodes every {step} ms, normal forms in {:.1} s",
+            nodes.len(),
+            t0.elapsed().as_secs_f64()
+        );
         // Interpolation error at the midpoints of the first two intervals.
         for k in 0..2.min(nodes.len() - 1) {
             let mid = 0.5 * (nodes[k] + nodes[k + 1]);
@@ -83,9 +102,16 @@ fn bifurcations(args: &[String]) -> Result<(), Box<dyn std::error::Error>> {
             for interp in [Interp::Linear, Interp::Spline] {
                 let nf = model.normal_form_at(mid, interp)?;
                 let rel = |a: &Vec<Vec<f64>>, b: &Vec<Vec<f64>>| {
-                    a.iter().flatten().zip(b.iter().flatten()).map(|(x, y)| (x - y).abs() / y.abs().max(1e-12)).fold(0.0f64, f64::max)
+                    a.iter()
+                        .flatten()
+                        .zip(b.iter().flatten())
+                        .map(|(x, y)| (x - y).abs() / y.abs().max(1e-12))
+                        .fold(0.0f64, f64::max)
                 };
-                println!("  interpolation at {mid:.4} ms ({interp:?}): max rel. error of amplitude coefficients {:.2e}", rel(&nf.amp, &exact.amp));
+                println!(
+                    "  interpolation at {mid:.4} ms ({interp:?}): max rel. error of amplitude coefficients {:.2e}",
+                    rel(&nf.amp, &exact.amp)
+                );
             }
         }
         // Where the fixed points of the amplitude equations sit (truncation matters most at
@@ -106,13 +132,19 @@ fn bifurcations(args: &[String]) -> Result<(), Box<dyn std::error::Error>> {
                 b.heteroclinic.as_ref().map(|h| h.fate_below),
                 b.heteroclinic.as_ref().map(|h| h.fate_above),
                 b.hopf.as_ref().map_or("-".into(), |h| format!("{:.4}", h.dt)),
-                b.hopf.as_ref().map_or("-".into(), |h| format!("complex pair {}, {:.3} Hz, loses stability {}", h.complex_pair, h.frequency_hz, h.loses_stability)),
+                b.hopf.as_ref().map_or("-".into(), |h| format!(
+                    "complex pair {}, {:.3} Hz, loses stability {}",
+                    h.complex_pair, h.frequency_hz, h.loses_stability
+                )),
                 b.torus_30p8.as_ref().map(|t| t.rho),
                 t1.elapsed().as_secs_f64()
             );
             println!("  heteroclinic event: {:?}", b.heteroclinic);
             println!("  small-start switch {:?} ms", b.small_start_switch);
-            let long = ScanOptions { portrait: PortraitOptions { t_max: 50_000.0, max_steps: 2_000_000, ..scan_options().portrait }, ..scan_options() };
+            let long = ScanOptions {
+                portrait: PortraitOptions { t_max: 50_000.0, max_steps: 2_000_000, ..scan_options().portrait },
+                ..scan_options()
+            };
             let bl = equation_bifurcations_with(&model, interp, &long)?;
             println!(
                 "  t_max 50000 s: saddle connection {:?} (exact hit {:?}), torus Hopf {:?}",
@@ -154,7 +186,8 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         args.remove(0);
     }
     let order: u32 = args.first().map(|s| s.parse()).transpose()?.unwrap_or(7);
-    let dts: Vec<f64> = if args.len() > 1 { args[1..].iter().map(|s| s.parse()).collect::<Result<_, _>>()? } else { vec![31.0, 31.5] };
+    let dts: Vec<f64> =
+        if args.len() > 1 { args[1..].iter().map(|s| s.parse()).collect::<Result<_, _>>()? } else { vec![31.0, 31.5] };
     let t0 = std::time::Instant::now();
     let pm = if equation_only { None } else { Some(furuta_parametric(&FurutaOptions::default())?) };
     if pm.is_some() {
@@ -172,10 +205,16 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             e.extra_resonances.len()
         );
         for x in &e.extra_resonances {
-            println!("kept near resonance: equation {} monomial {:?} coefficient {:?} divisor {:.3e}", x.equation, x.exponents, x.coefficient, x.divisor);
+            println!(
+                "kept near resonance: equation {} monomial {:?} coefficient {:?} divisor {:.3e}",
+                x.equation, x.exponents, x.coefficient, x.divisor
+            );
         }
         for inv in &e.invariance {
-            println!("invariance order {}: abs {:.3e}, rel {:.3e} (radius {})", inv.order, inv.abs, inv.rel, inv.radius);
+            println!(
+                "invariance order {}: abs {:.3e}, rel {:.3e} (radius {})",
+                inv.order, inv.abs, inv.rel, inv.radius
+            );
         }
         for r in [0.02, 0.05] {
             for (k, err) in exact_invariance(dt, order, r)? {

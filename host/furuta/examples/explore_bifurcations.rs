@@ -34,8 +34,8 @@ use std::time::Instant;
 use faer::Mat;
 use furuta::bifurcations::{RHO_MAX, model_row, sensitivity_row, sensitivity_variants};
 use furuta::full_system::{
-    AMP_WINDOW_S, ESCAPE_THETA, default_ics, outcome_of, default_switch_scan, fate_from, run, start_from_rho, torus_full,
-    transient_analysis,
+    AMP_WINDOW_S, ESCAPE_THETA, default_ics, default_switch_scan, fate_from, outcome_of, run, start_from_rho,
+    torus_full, transient_analysis,
 };
 use furuta::parametric::{FurutaOptions, exact_modes, furuta_parametric, training_series};
 use furuta::shared_tangent::{PredictOptions, predict_one, shared_parametric, test_series};
@@ -122,7 +122,14 @@ fn furuta_explore() {
     println!("fit time {:.1} s", t0.elapsed().as_secs_f64());
     for t in &pm.trained {
         let (r, e) = (t.normal_form.linear_rates(), t.exact.rates);
-        println!("EXP dt {:5.2}: slow err {:+.3e} ({:+.5} vs {:+.5}), fast err {:+.3e}", t.dt_ms, (r[0] - e[0]) / e[0], r[0], e[0], (r[1] - e[1]) / e[1]);
+        println!(
+            "EXP dt {:5.2}: slow err {:+.3e} ({:+.5} vs {:+.5}), fast err {:+.3e}",
+            t.dt_ms,
+            (r[0] - e[0]) / e[0],
+            r[0],
+            e[0],
+            (r[1] - e[1]) / e[1]
+        );
     }
     for dt in [30.8, 31.4, 31.41, 31.55, 31.68, 32.3] {
         let r = pm.linear_rates_at(dt).unwrap();
@@ -167,10 +174,13 @@ fn furuta_linear_first_explore() {
             let a = Mat::from_fn(n, 4, |i, j| xs[i][j]);
             let b = Mat::from_fn(n, 4, |i, j| ysn[i][j]);
             // One segment: all n pairs.
-            let (w, _) = ssm::ridge::fit(a.as_ref(), b.as_ref(), std::slice::from_ref(&(0..n)), Ridge::Fixed(0.0), "lin").unwrap();
+            let (w, _) =
+                ssm::ridge::fit(a.as_ref(), b.as_ref(), std::slice::from_ref(&(0..n)), Ridge::Fixed(0.0), "lin")
+                    .unwrap();
             let am = nalgebra::Matrix4::from_fn(|i, j| w[(j, i)]);
             let ev = am.complex_eigenvalues();
-            let mut rates: Vec<(f64, f64)> = ev.iter().map(|z| (z.norm().ln() / dt, z.arg().abs() / dt / std::f64::consts::TAU)).collect();
+            let mut rates: Vec<(f64, f64)> =
+                ev.iter().map(|z| (z.norm().ln() / dt, z.arg().abs() / dt / std::f64::consts::TAU)).collect();
             rates.sort_by(|a, b| a.1.total_cmp(&b.1));
             println!(
                 "EXP dt {dt_ms}: r {frac:.2} (n {n}): slow {:+.5} ({:+.2e}) fast {:+.5} ({:+.2e}); freqs {:.4} {:.4}",
@@ -190,7 +200,11 @@ fn shared_explore() {
     let t0 = Instant::now();
     let fo = explore_options();
     let pm = shared_parametric(&fo).unwrap();
-    println!("fit {:.1} s; sv {:?}", t0.elapsed().as_secs_f64(), &pm.singular_values[..6.min(pm.singular_values.len())]);
+    println!(
+        "fit {:.1} s; sv {:?}",
+        t0.elapsed().as_secs_f64(),
+        &pm.singular_values[..6.min(pm.singular_values.len())]
+    );
     for n in &pm.nodes {
         println!(
             "node {:5.2}: slow {:+.5} vs {:+.5} ({:+.2e}), fast {:+.5} vs {:+.5} ({:+.2e}); freqs {:?} vs {:?}",
@@ -302,7 +316,8 @@ fn furcheck(what: Option<String>) {
         "torus" => {
             let dt = envf("FC_DT", 30.8);
             let t0 = Instant::now();
-            let tf = torus_full(dt, &([0.05, 0.0, 0.0, 0.0], None), envf("FC_P", 3000.0) as u64, envf("FC_TAIL", 40.0)).unwrap();
+            let tf = torus_full(dt, &([0.05, 0.0, 0.0, 0.0], None), envf("FC_P", 3000.0) as u64, envf("FC_TAIL", 40.0))
+                .unwrap();
             println!("{tf:?} in {:.2} s", t0.elapsed().as_secs_f64());
         }
         "scan" => {
@@ -353,7 +368,8 @@ fn furcheck(what: Option<String>) {
                 let o = outcome_of(&tr);
                 let fr = exact_modes(dt).unwrap().freqs_hz;
                 let am = mode_amplitudes(&tr.primary(), tr.dt, fr, AMP_WINDOW_S).unwrap();
-                let pts: Vec<String> = am.iter().step_by(320).map(|a| format!("{:.0}:({:.3},{:.3})", a.0, a.1[0], a.1[1])).collect();
+                let pts: Vec<String> =
+                    am.iter().step_by(320).map(|a| format!("{:.0}:({:.3},{:.3})", a.0, a.1[0], a.1[1])).collect();
                 println!("dt {dt} ic {k}: {o:?}\n   {}", pts.join(" "));
             }
         }
@@ -388,8 +404,12 @@ fn furcheck(what: Option<String>) {
 fn fast_cycle_explore() {
     for dt in [30.8, 31.2, 31.4, 31.6] {
         let f = fate_from(dt, [1e-7, 0.005], [0.0, 0.0], 6000).unwrap();
-        let pick: Vec<String> =
-            f.amps.iter().step_by((f.amps.len() / 16).max(1)).map(|(t, r)| format!("{t:.0}:({:.4},{:.4})", r[0], r[1])).collect();
+        let pick: Vec<String> = f
+            .amps
+            .iter()
+            .step_by((f.amps.len() / 16).max(1))
+            .map(|(t, r)| format!("{t:.0}:({:.4},{:.4})", r[0], r[1]))
+            .collect();
         println!("FAST dt {dt}: bounded {} escape {:?}: {}", f.bounded, f.escape_t, pick.join(" "));
     }
 }

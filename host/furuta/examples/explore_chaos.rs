@@ -43,7 +43,10 @@ use std::time::Instant;
 use chaos::{BenettinParams, benettin_qr, delay_embed};
 use furuta::chaos_tables::{CostStudy, ScaleStudy, flag_cost_study, scale_dependence, scale_studies};
 use furuta::lyapunov::{map_jacobian, model_bound};
-use furuta::microchaos::{ChaosOptions, ChaosSummary, Context, analyse, dimension_rule, evaluate_model, fit_options, reduce_series, simulate_scene};
+use furuta::microchaos::{
+    ChaosOptions, ChaosSummary, Context, analyse, dimension_rule, evaluate_model, fit_options, reduce_series,
+    simulate_scene,
+};
 use sim::scene::SceneBuilder;
 use ssm::dynamics::StepScratch;
 use ssm::{Dynamics, SsmModel, TimeSeries, fit};
@@ -104,7 +107,8 @@ fn explore_flag_embedding() {
             s
         };
         let curve: Vec<f64> = (0..=200 / k).map(ami).collect();
-        let first_min = (1..curve.len() - 1).find(|&l| curve[l] < curve[l - 1] && curve[l] <= curve[l + 1]).unwrap_or(0);
+        let first_min =
+            (1..curve.len() - 1).find(|&l| curve[l] < curve[l - 1] && curve[l] <= curve[l + 1]).unwrap_or(0);
         let ctx = Context::from_series(&x, ts.dt().unwrap() * k as f64, 6).unwrap();
         println!(
             "step {k}: AMI first minimum at lag {first_min} ({:.3} s, {:.2} bits); autocorrelation zero at lag {}, dominant period {} samples",
@@ -172,7 +176,9 @@ fn explore_flag_candidates() {
         let mut kernel = ssm::Kernel::Linear;
         let mut centres = ssm::dynamics::CentreChoice::Farthest;
         let mut multistep: Option<ssm::multistep::MultiStep> = None;
-        let ms = |m: Option<ssm::multistep::MultiStep>| m.unwrap_or(ssm::multistep::MultiStep { horizon: 8, stride: 1, iterations: 6 });
+        let ms = |m: Option<ssm::multistep::MultiStep>| {
+            m.unwrap_or(ssm::multistep::MultiStep { horizon: 8, stride: 1, iterations: 6 })
+        };
         for kv in cfg.trim().split(',') {
             let (key, v) = kv.split_once('=').unwrap();
             match key {
@@ -183,7 +189,9 @@ fn explore_flag_candidates() {
                 "kern" => kernel = ssm::Kernel::parse(v).unwrap(),
                 "cs" => centres = ssm::dynamics::CentreChoice::parse(v).unwrap(),
                 "ms" => multistep = Some(ssm::multistep::MultiStep { horizon: v.parse().unwrap(), ..ms(multistep) }),
-                "msit" => multistep = Some(ssm::multistep::MultiStep { iterations: v.parse().unwrap(), ..ms(multistep) }),
+                "msit" => {
+                    multistep = Some(ssm::multistep::MultiStep { iterations: v.parse().unwrap(), ..ms(multistep) })
+                }
                 "msst" => multistep = Some(ssm::multistep::MultiStep { stride: v.parse().unwrap(), ..ms(multistep) }),
                 "o" => o.poly_order = v.parse().unwrap(),
                 "long" => s.long_runs = v.parse().unwrap(),
@@ -199,11 +207,21 @@ fn explore_flag_candidates() {
             (false, ssm::Kernel::Linear) => Dynamics::Rbf { centers: o.centers },
             (false, kernel) => Dynamics::RbfWith { centers: o.centers, kernel },
         };
-        cands.push(Candidate { name: cfg.trim().to_string(), step: k, fit: f, smooth, multistep, denoise_inputs, centres });
+        cands.push(Candidate {
+            name: cfg.trim().to_string(),
+            step: k,
+            fit: f,
+            smooth,
+            multistep,
+            denoise_inputs,
+            centres,
+        });
     }
     let t0 = Instant::now();
     let (res, sel) = evaluate_and_select(&two, &test, &cands, &s, &Targets::default()).unwrap();
-    println!("| candidate | p | shift | data LLE | Benettin (2nd) | Rosenstein (+noise) | D2 (data) | JS | rollout | excursion | s | failed / notes |");
+    println!(
+        "| candidate | p | shift | data LLE | Benettin (2nd) | Rosenstein (+noise) | D2 (data) | JS | rollout | excursion | s | failed / notes |"
+    );
     for r in &res {
         println!(
             "| {} | {} | {} | {:.3} | {} ({}) | {} ({}) | {} ({:.2}+-{:.2}) | {} | {} | {} | {:.0} | {} {} |",
@@ -229,7 +247,13 @@ fn explore_flag_candidates() {
     if let Some(r) = res.first() {
         println!("data noise sd {:.4}", r.data.noise_sd);
     }
-    println!("selected: {:?}\nwhy: {}\nwarnings: {:?}\n({:.0} s)", sel.name, sel.why, sel.warnings, t0.elapsed().as_secs_f64());
+    println!(
+        "selected: {:?}\nwhy: {}\nwarnings: {:?}\n({:.0} s)",
+        sel.name,
+        sel.why,
+        sel.warnings,
+        t0.elapsed().as_secs_f64()
+    );
 }
 
 /// Exploration of model settings on the inverted flag (prints only). Configurations in
@@ -276,7 +300,10 @@ fn bench_scale_and_cost_tables() {
     println!("scale dependence ({:.1} s)", t0.elapsed().as_secs_f64());
     print_scale_rows(&studies);
     for s in &studies {
-        println!("{}: {} samples, lag {}, Theiler {}, curve {} samples", s.name, s.samples, s.lag, s.theiler, s.max_steps);
+        println!(
+            "{}: {} samples, lag {}, Theiler {}, curve {} samples",
+            s.name, s.samples, s.lag, s.theiler, s.max_steps
+        );
     }
     if let Some(st) = flag_cost_study(&data).unwrap() {
         println!("accuracy vs cost, data LLE {:.3} 1/s", st.lle_data);
@@ -400,7 +427,10 @@ fn explore_quantized_models() {
             };
             let fit_s = t1.elapsed().as_secs_f64();
             let s = evaluate_model(&m, &test, &ctx, &o, name).unwrap();
-            let spec = s.benettin.as_ref().map_or("-".into(), |b| b.spectrum.iter().map(|v| format!("{v:.3}")).collect::<Vec<_>>().join(","));
+            let spec = s
+                .benettin
+                .as_ref()
+                .map_or("-".into(), |b| b.spectrum.iter().map(|v| format!("{v:.3}")).collect::<Vec<_>>().join(","));
             let rates: Vec<String> = m.eigenvalues_ct().iter().map(|(re, im)| format!("{re:.2}{:+.1}i", im)).collect();
             println!(
                 "   {name:<4} R {} B {} [{spec}] JS {} | fit {fit_s:.1}s eval {:.1}s | lin {} | {}",
@@ -425,7 +455,12 @@ fn explore_quantized_models() {
             if diag {
                 let p = m.predict(&test).unwrap();
                 if p.x.len() > 20 * ctx.theiler {
-                    println!("        model spectrum {} | sd {:.2e} | D2 slopes {}", spectral_peaks(&p.x, dt), sd_of(&p.x), d2_profile(&p.x, &ctx));
+                    println!(
+                        "        model spectrum {} | sd {:.2e} | D2 slopes {}",
+                        spectral_peaks(&p.x, dt),
+                        sd_of(&p.x),
+                        d2_profile(&p.x, &ctx)
+                    );
                 }
             }
         }
@@ -443,7 +478,18 @@ fn explore_quantized_data_scales() {
     let mut studies = Vec::new();
     for k in [1usize, 3] {
         let x = subsample(&test, k);
-        studies.push(scale_dependence(&format!("quant /{k} (sd)"), &x.x, dt * k as f64, 6, "sd", sd, &[0.01, 0.03, 0.1, 0.2, 0.4]).unwrap());
+        studies.push(
+            scale_dependence(
+                &format!("quant /{k} (sd)"),
+                &x.x,
+                dt * k as f64,
+                6,
+                "sd",
+                sd,
+                &[0.01, 0.03, 0.1, 0.2, 0.4],
+            )
+            .unwrap(),
+        );
     }
     studies.push(scale_dependence("quant (h)", &test.x, dt, 6, "h", h, &[0.1, 0.3, 1.0, 3.0]).unwrap());
     println!("quantized data, sd {sd:.3e}");
@@ -514,7 +560,14 @@ fn print_cost_rows(st: &CostStudy) {
 /// residual rms, the Benettin spectrum along a kicked orbit and the lifted series. Tests
 /// whether the data's exponent is the smooth torus plus the quantization kicks.
 #[allow(clippy::type_complexity)]
-fn kicked_model(m: &SsmModel, train: &[TimeSeries], test: &TimeSeries, ctx: &Context, f: f64, seed: u64) -> (Option<f64>, Option<f64>, f64, Option<Vec<f64>>, Vec<f64>) {
+fn kicked_model(
+    m: &SsmModel,
+    train: &[TimeSeries],
+    test: &TimeSeries,
+    ctx: &Context,
+    f: f64,
+    seed: u64,
+) -> (Option<f64>, Option<f64>, f64, Option<Vec<f64>>, Vec<f64>) {
     let d = m.options.dim;
     let mut sc = StepScratch::default();
     let mut res = Vec::new();
@@ -660,13 +713,19 @@ fn quant_runs(scene: &str, kd: Option<f64>, periods: usize) -> (Vec<TimeSeries>,
 
 /// Every `k`-th sample of `ts` (map step `k dt`).
 fn subsample(ts: &TimeSeries, k: usize) -> TimeSeries {
-    TimeSeries::new(format!("{} /{k}", ts.name), ts.t.iter().step_by(k).copied().collect(), ts.x.iter().step_by(k).copied().collect()).unwrap()
+    TimeSeries::new(
+        format!("{} /{k}", ts.name),
+        ts.t.iter().step_by(k).copied().collect(),
+        ts.x.iter().step_by(k).copied().collect(),
+    )
+    .unwrap()
 }
 
 /// The three largest local maxima of the amplitude spectrum of `x` (Hz, amplitude).
 fn spectral_peaks(x: &[f64], dt: f64) -> String {
     let (f, a) = ssm::metrics::amplitude_spectrum(x, dt);
-    let mut peaks: Vec<(f64, f64)> = (1..a.len().saturating_sub(1)).filter(|&i| a[i] > a[i - 1] && a[i] >= a[i + 1]).map(|i| (f[i], a[i])).collect();
+    let mut peaks: Vec<(f64, f64)> =
+        (1..a.len().saturating_sub(1)).filter(|&i| a[i] > a[i - 1] && a[i] >= a[i + 1]).map(|i| (f[i], a[i])).collect();
     peaks.sort_by(|p, q| q.1.total_cmp(&p.1));
     peaks.iter().take(3).map(|(f, a)| format!("{f:.2}Hz:{a:.1e}")).collect::<Vec<_>>().join(" ")
 }
@@ -675,7 +734,11 @@ fn spectral_peaks(x: &[f64], dt: f64) -> String {
 /// radii spaced by half a decade, largest first, as "r/diam:slope".
 fn d2_profile(x: &[f64], ctx: &Context) -> String {
     let pts = delay_embed(x, ctx.embed, ctx.lag).unwrap();
-    let c = chaos::correlation_sum(&pts, &chaos::CorrSumParams { theiler: ctx.theiler, max_reference: 1500, ..Default::default() }).unwrap();
+    let c = chaos::correlation_sum(
+        &pts,
+        &chaos::CorrSumParams { theiler: ctx.theiler, max_reference: 1500, ..Default::default() },
+    )
+    .unwrap();
     let n = c.radius.len();
     (0..n)
         .rev()

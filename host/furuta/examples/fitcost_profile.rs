@@ -41,7 +41,9 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         // The full-system head of a map-basin cell (the embedding window, 21 periods) against
         // longer runs from the same starts: the cost of a run's start-up.
         let basis = furuta::parametric::ModeBasis::at(31.5)?;
-        let starts: Vec<_> = (0..100).map(|k| furuta::full_system::start_from_rho_in(&basis, [0.005 + 0.002 * k as f64, 0.01], [0.0, 0.0])).collect::<Result<_, _>>()?;
+        let starts: Vec<_> = (0..100)
+            .map(|k| furuta::full_system::start_from_rho_in(&basis, [0.005 + 0.002 * k as f64, 0.01], [0.0, 0.0]))
+            .collect::<Result<_, _>>()?;
         for periods in [1u64, 21, 210] {
             for s in &starts {
                 std::hint::black_box(furuta::full_system::run(31.5, &(s.0, Some(s.1.clone())), periods, 1.0)?);
@@ -144,7 +146,11 @@ fn step_bench(sm: &furuta::shared_tangent::SharedParametricModel) -> Result<(), 
         let mut sum = 0.0;
         let t = thread_ns();
         for _ in 0..n {
-            let th = if prepared { manifold.lift_one(&eta, &mut lsc, p - 1) } else { model.manifold.lift_one(&eta, &mut lsc, p - 1) };
+            let th = if prepared {
+                manifold.lift_one(&eta, &mut lsc, p - 1)
+            } else {
+                model.manifold.lift_one(&eta, &mut lsc, p - 1)
+            };
             if !th.is_finite() || th.abs() > furuta::full_system::ESCAPE_THETA {
                 eta.copy_from_slice(&eta0);
             }
@@ -171,7 +177,11 @@ fn step_bench(sm: &furuta::shared_tangent::SharedParametricModel) -> Result<(), 
         v.sort_by(f64::total_cmp);
         v[v.len() / 2]
     };
-    eprintln!("map step + theta lift, thread CPU ns/step, median of 5: plain {:.0} {old:.0?}, prepared {:.0} {new:.0?}", median(old.clone()), median(new.clone()));
+    eprintln!(
+        "map step + theta lift, thread CPU ns/step, median of 5: plain {:.0} {old:.0?}, prepared {:.0} {new:.0?}",
+        median(old.clone()),
+        median(new.clone())
+    );
     Ok(())
 }
 

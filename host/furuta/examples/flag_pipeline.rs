@@ -30,7 +30,9 @@
 //! - `flag-ensemble [K]`: the top K (default 5) validation-ranked models pooled
 //!   (`furuta::flag_self::ensemble`); `furuta::flag_self::FLAG_ENSEMBLE`.
 
-use furuta::flag_pipeline::{FLAG_LAYOUT, FLAG_LIKE_RBF, KnownSystem, flag_like_candidates, known_stats, pipeline_check};
+use furuta::flag_pipeline::{
+    FLAG_LAYOUT, FLAG_LIKE_RBF, KnownSystem, flag_like_candidates, known_stats, pipeline_check,
+};
 
 fn scan() {
     let mut systems = vec![];
@@ -55,7 +57,9 @@ fn scan() {
             .collect();
     }
     let pick = std::env::var("FLAG4_SYSTEMS").ok();
-    println!("| system | dt | lag / Theiler | D2 | Rosenstein [1/s] | exact [1/s] | nats per lag | D2 over 8 pieces: mean ± sd (values) | Rosenstein / exact over the pieces | s |");
+    println!(
+        "| system | dt | lag / Theiler | D2 | Rosenstein [1/s] | exact [1/s] | nats per lag | D2 over 8 pieces: mean ± sd (values) | Rosenstein / exact over the pieces | s |"
+    );
     println!("|---|---|---|---|---|---|---|---|---|---|");
     for s in systems {
         if let Some(p) = &pick
@@ -70,25 +74,30 @@ fn scan() {
                 let o = |v: Option<f64>| v.map_or("-".to_string(), |v| format!("{v:.2}"));
                 let (d2s, ratios) = match &seg {
                     Ok(g) => (
-                        format!("{} ± {} ({})", o(g.corr_dim_mean), o(g.corr_dim_sd), g.corr_dims.iter().map(|d| o(*d)).collect::<Vec<_>>().join(", ")),
+                        format!(
+                            "{} ± {} ({})",
+                            o(g.corr_dim_mean),
+                            o(g.corr_dim_sd),
+                            g.corr_dims.iter().map(|d| o(*d)).collect::<Vec<_>>().join(", ")
+                        ),
                         g.rosensteins.iter().map(|r| o(r.map(|r| r / k.exact))).collect::<Vec<_>>().join(", "),
                     ),
                     Err(e) => (format!("error: {e}"), String::new()),
                 };
                 println!(
-                "| {} | {:.5} | {} / {} | {:.2} ± {:.2} | {:.3} | {:.4} ± {:.4} | {:.3} | {d2s} | {ratios} | {:.1} |",
-                k.system,
-                k.dt,
-                k.lag,
-                k.theiler,
-                k.corr_dim,
-                k.corr_dim_err,
-                k.rosenstein,
-                k.exact,
-                k.exact_err,
-                k.per_lag,
-                t0.elapsed().as_secs_f64()
-            )
+                    "| {} | {:.5} | {} / {} | {:.2} ± {:.2} | {:.3} | {:.4} ± {:.4} | {:.3} | {d2s} | {ratios} | {:.1} |",
+                    k.system,
+                    k.dt,
+                    k.lag,
+                    k.theiler,
+                    k.corr_dim,
+                    k.corr_dim_err,
+                    k.rosenstein,
+                    k.exact,
+                    k.exact_err,
+                    k.per_lag,
+                    t0.elapsed().as_secs_f64()
+                )
             }
             Err(e) => println!("| {} | error: {e} |", s.name()),
         }
@@ -100,7 +109,8 @@ fn check(scale: usize) {
     let t0 = std::time::Instant::now();
     // RBF sizes whose regression fits the design-matrix limit (10^8 entries) at this scale.
     let rows = scale * (FLAG_LAYOUT.train[0] + FLAG_LAYOUT.train[1]);
-    let rbf: Vec<(usize, f64)> = FLAG_LIKE_RBF.iter().copied().filter(|&(c, _)| rows * (c + 5) <= ssm::limits::MAX_MATRIX_ENTRIES).collect();
+    let rbf: Vec<(usize, f64)> =
+        FLAG_LIKE_RBF.iter().copied().filter(|&(c, _)| rows * (c + 5) <= ssm::limits::MAX_MATRIX_ENTRIES).collect();
     let cands = flag_like_candidates(FLAG_LAYOUT.step, &rbf);
     match pipeline_check(&sys, &FLAG_LAYOUT, scale, &cands, 4000.0) {
         Ok((k, rows)) => {
@@ -130,7 +140,8 @@ fn check(scale: usize) {
 /// `gCHOICE` the RBF centre choice (`ssm::dynamics::CentreChoice::parse`: `grandom@3`,
 /// `gkmeans++@1`, `gkmeans10@2`, `gfarthest@5`).
 fn parse_spec(spec: &str, step: usize) -> Option<furuta::model_selection::Candidate> {
-    let (mut c, mut r, mut d, mut p, mut s, mut h, mut t, mut it, mut w) = (200usize, 3e-9, 4usize, 9usize, 1usize, 0usize, 4usize, 10usize, 0usize);
+    let (mut c, mut r, mut d, mut p, mut s, mut h, mut t, mut it, mut w) =
+        (200usize, 3e-9, 4usize, 9usize, 1usize, 0usize, 4usize, 10usize, 0usize);
     let mut centres = ssm::dynamics::CentreChoice::Farthest;
     for tok in spec.split_whitespace() {
         if let Some(g) = tok.strip_prefix('g') {
@@ -183,12 +194,28 @@ fn flag_rows(specs: &[String]) {
     let (ds, ctx) = &data;
     let d2 = |x: &[f64]| {
         chaos::delay_embed(x, ctx.embed, ctx.lag)
-            .and_then(|p| chaos::correlation_dimension(&p, &chaos::CorrSumParams { theiler: ctx.theiler, ..Default::default() }, &chaos::ScalingRule::default()))
+            .and_then(|p| {
+                chaos::correlation_dimension(
+                    &p,
+                    &chaos::CorrSumParams { theiler: ctx.theiler, ..Default::default() },
+                    &chaos::ScalingRule::default(),
+                )
+            })
             .map(|c| (c.dimension, c.slope_std))
             .ok()
     };
     let o2 = |v: Option<(f64, f64)>| v.map_or("-".to_string(), |(a, b)| format!("{a:.2} ± {b:.2}"));
-    println!("data (traj_8 /4): Rosenstein {:.3}, D2 {:.2} ± {:.2}, noise sd {:.5} (lag {}, Theiler {}, embed {}; {:.1} s)", ds.lle, ds.corr_dim, ds.corr_dim_err, ds.noise_sd, ctx.lag, ctx.theiler, ctx.embed, t0.elapsed().as_secs_f64());
+    println!(
+        "data (traj_8 /4): Rosenstein {:.3}, D2 {:.2} ± {:.2}, noise sd {:.5} (lag {}, Theiler {}, embed {}; {:.1} s)",
+        ds.lle,
+        ds.corr_dim,
+        ds.corr_dim_err,
+        ds.noise_sd,
+        ctx.lag,
+        ctx.theiler,
+        ctx.embed,
+        t0.elapsed().as_secs_f64()
+    );
     if std::env::var("FLAG12_QUIET_DATA").is_err() {
         let x4 = |ts: &ssm::TimeSeries| furuta::model_selection::subsample(ts, 4, 0).map(|t| t.x).unwrap_or_default();
         for w in [1, 2] {
@@ -201,10 +228,13 @@ fn flag_rows(specs: &[String]) {
         println!("data + its noise level again: D2 {}", o2(d2(&add_noise(&x, ds.noise_sd, 7))));
         // Every run of the flag at step 4 through the same estimator (traj_8's lag, Theiler
         // window and embedding): the spread of D2 over runs of the same system.
-        let runs: Vec<String> = (0..10).map(|k| load(k).map_or("-".to_string(), |ts| format!("traj_{k} {}", o2(d2(&x4(&ts)))))).collect();
+        let runs: Vec<String> =
+            (0..10).map(|k| load(k).map_or("-".to_string(), |ts| format!("traj_{k} {}", o2(d2(&x4(&ts)))))).collect();
         println!("D2 of every run: {}", runs.join("; "));
     }
-    println!("| candidate | Benettin | Rosenstein | D2 | JS | KY dim | spectrum | noisy D2 | D2 of 5 pieces of the long run | targets B/R/D2/JS | failed | s |");
+    println!(
+        "| candidate | Benettin | Rosenstein | D2 | JS | KY dim | spectrum | noisy D2 | D2 of 5 pieces of the long run | targets B/R/D2/JS | failed | s |"
+    );
     println!("|---|---|---|---|---|---|---|---|---|---|---|---|");
     let targets = furuta::model_selection::Targets::default();
     for spec in specs {
@@ -220,9 +250,14 @@ fn flag_rows(specs: &[String]) {
                 continue;
             }
         };
-        let (mut ky, mut spec_s, mut noisy, mut pieces) = ("-".to_string(), "-".to_string(), "-".to_string(), "-".to_string());
+        let (mut ky, mut spec_s, mut noisy, mut pieces) =
+            ("-".to_string(), "-".to_string(), "-".to_string(), "-".to_string());
         if let (Some(m), None) = (&m, &r.failed) {
-            let eta = furuta::microchaos::reduce_series(m, &furuta::model_selection::subsample(&test, 4, 0).expect("subsample")).unwrap_or_default();
+            let eta = furuta::microchaos::reduce_series(
+                m,
+                &furuta::model_selection::subsample(&test, 4, 0).expect("subsample"),
+            )
+            .unwrap_or_default();
             let d = m.options.dim;
             if eta.len() >= d {
                 let eta0 = &eta[..d];
@@ -231,8 +266,13 @@ fn flag_rows(specs: &[String]) {
                     spec_s = l.spectrum.iter().map(|v| format!("{v:.2}")).collect::<Vec<_>>().join(" ");
                 }
                 let n = eta.len() / d;
-                if let Ok(orbit) = furuta::lyapunov::iterate_dynamics(&m.dynamics, eta0, n * s.long_runs, furuta::lyapunov::model_bound(m), 1)
-                    && let Some(pts) = orbit.recorded
+                if let Ok(orbit) = furuta::lyapunov::iterate_dynamics(
+                    &m.dynamics,
+                    eta0,
+                    n * s.long_runs,
+                    furuta::lyapunov::model_bound(m),
+                    1,
+                ) && let Some(pts) = orbit.recorded
                 {
                     let mut lifted = vec![0.0; m.manifold.p];
                     let mut ps = ssm::poly::PolyScratch::default();
@@ -243,7 +283,11 @@ fn flag_rows(specs: &[String]) {
                         })
                         .collect();
                     noisy = o2(d2(&add_noise(&x[..n.min(x.len())], ds.noise_sd, 1)));
-                    pieces = x.chunks_exact(n).map(|p| d2(p).map_or("-".to_string(), |(v, _)| format!("{v:.2}"))).collect::<Vec<_>>().join(", ");
+                    pieces = x
+                        .chunks_exact(n)
+                        .map(|p| d2(p).map_or("-".to_string(), |(v, _)| format!("{v:.2}")))
+                        .collect::<Vec<_>>()
+                        .join(", ");
                 }
             }
         }
@@ -290,17 +334,30 @@ fn variants(args: &[String]) {
         Some(v) => v.parse().unwrap_or(FLAG_LAYOUT.noise_rel),
     };
     let layout = furuta::flag_pipeline::FlagLayout { noise_rel: noise, ..FLAG_LAYOUT };
-    let Some(cands) = args[2.min(args.len())..].iter().map(|s| parse_spec(s, layout.step)).collect::<Option<Vec<_>>>() else {
+    let Some(cands) = args[2.min(args.len())..].iter().map(|s| parse_spec(s, layout.step)).collect::<Option<Vec<_>>>()
+    else {
         eprintln!("bad candidate spec");
         return;
     };
     // FLAG4_SEEDS=0,1,2: realizations of the series (`known_stats_seeded`; 0 = the committed one).
-    let seeds: Vec<u64> = std::env::var("FLAG4_SEEDS").ok().map_or(vec![0], |v| v.split(',').filter_map(|s| s.trim().parse().ok()).collect());
+    let seeds: Vec<u64> = std::env::var("FLAG4_SEEDS")
+        .ok()
+        .map_or(vec![0], |v| v.split(',').filter_map(|s| s.trim().parse().ok()).collect());
     for seed in seeds {
         let t0 = std::time::Instant::now();
-        match furuta::flag_pipeline::pipeline_check_seeded(&furuta::flag_pipeline::CHOSEN, &layout, scale, &cands, 4000.0, seed) {
+        match furuta::flag_pipeline::pipeline_check_seeded(
+            &furuta::flag_pipeline::CHOSEN,
+            &layout,
+            scale,
+            &cands,
+            4000.0,
+            seed,
+        ) {
             Ok((k, rows)) => {
-                println!("seed {seed} noise {noise}: data Rosenstein {:.3}, D2 {:.2} ± {:.2}, exact {:.3}", k.rosenstein, k.corr_dim, k.corr_dim_err, k.exact);
+                println!(
+                    "seed {seed} noise {noise}: data Rosenstein {:.3}, D2 {:.2} ± {:.2}, exact {:.3}",
+                    k.rosenstein, k.corr_dim, k.corr_dim_err, k.exact
+                );
                 for r in &rows {
                     print_row(r, t0.elapsed().as_secs_f64());
                 }
@@ -316,7 +373,14 @@ fn state(args: &[String]) {
     let scale: usize = args.first().and_then(|s| s.parse().ok()).unwrap_or(1);
     let noise: f64 = args.get(1).and_then(|s| s.parse().ok()).unwrap_or(0.0);
     for spec in &args[2.min(args.len())..] {
-        let mut f = furuta::flag_pipeline_fit::StateFit { coords: furuta::flag_pipeline_fit::Coords::State, centers: 200, order: 4, ridge: 3e-9, multistep: None, noise_rel: noise };
+        let mut f = furuta::flag_pipeline_fit::StateFit {
+            coords: furuta::flag_pipeline_fit::Coords::State,
+            centers: 200,
+            order: 4,
+            ridge: 3e-9,
+            multistep: None,
+            noise_rel: noise,
+        };
         for tok in spec.split_whitespace() {
             let (k, v) = tok.split_at(1);
             match k {
@@ -324,12 +388,21 @@ fn state(args: &[String]) {
                 "r" => f.ridge = v.parse().unwrap_or(f.ridge),
                 "o" => f.order = v.parse().unwrap_or(f.order),
                 "p" => f.coords = furuta::flag_pipeline_fit::Coords::Delay { embed: v.parse().unwrap_or(9), shift: 1 },
-                "h" => f.multistep = v.parse().ok().map(|h| ssm::multistep::MultiStep { horizon: h, stride: 4, iterations: 10 }),
+                "h" => {
+                    f.multistep =
+                        v.parse().ok().map(|h| ssm::multistep::MultiStep { horizon: h, stride: 4, iterations: 10 })
+                }
                 _ => {}
             }
         }
         let t0 = std::time::Instant::now();
-        match furuta::flag_pipeline_fit::state_model_check(&furuta::flag_pipeline::CHOSEN, &FLAG_LAYOUT, scale, &f, 4000.0) {
+        match furuta::flag_pipeline_fit::state_model_check(
+            &furuta::flag_pipeline::CHOSEN,
+            &FLAG_LAYOUT,
+            scale,
+            &f,
+            4000.0,
+        ) {
             Ok((_, r)) => print_row(&r, t0.elapsed().as_secs_f64()),
             Err(e) => println!("{}: error: {e}", f.name()),
         }
@@ -350,10 +423,21 @@ fn fnn(ratio: f64) {
         let tr = furuta::model_selection::subsample(&series[0], layout.step, 0).expect("train");
         for (name, ts) in [("held-out", &x), ("train #0", &tr)] {
             for (p, s) in [(9, 1), (9, 2), (9, 3), (11, 1), (13, 1)] {
-                match furuta::flag_pipeline_fit::projection_fnn(&ts.x, p, s, k.theiler, &(2..p.min(9)).collect::<Vec<_>>(), ratio, 800) {
+                match furuta::flag_pipeline_fit::projection_fnn(
+                    &ts.x,
+                    p,
+                    s,
+                    k.theiler,
+                    &(2..p.min(9)).collect::<Vec<_>>(),
+                    ratio,
+                    800,
+                ) {
                     Ok(rows) => println!(
                         "noise {noise} {name} p={p} s={s}: {}",
-                        rows.iter().map(|r| format!("d{} sv {:.1e} fnn {:.3}", r.dim, r.singular_rel, r.fnn)).collect::<Vec<_>>().join("; ")
+                        rows.iter()
+                            .map(|r| format!("d{} sv {:.1e} fnn {:.3}", r.dim, r.singular_rel, r.fnn))
+                            .collect::<Vec<_>>()
+                            .join("; ")
                     ),
                     Err(e) => println!("error: {e}"),
                 }
@@ -379,7 +463,10 @@ fn fnn_rule(path: Option<&String>) {
             ts.name,
             ctx.lag,
             ctx.theiler,
-            rows.iter().map(|r| format!("d{} (p {}) fnn {:.4}", r.dim, 2 * r.dim + 1, r.fnn)).collect::<Vec<_>>().join("; ")
+            rows.iter()
+                .map(|r| format!("d{} (p {}) fnn {:.4}", r.dim, 2 * r.dim + 1, r.fnn))
+                .collect::<Vec<_>>()
+                .join("; ")
         ),
         Err(e) => println!("error: {e}"),
     }
@@ -396,14 +483,36 @@ fn flag_self() {
     let (Ok(a), Ok(b), Ok(test)) = (load(9), load(7), load(8)) else {
         return println!("SKIP: inverted-flag data not found under {}", dir.display());
     };
-    let runs: Vec<(usize, ssm::TimeSeries)> = [0, 1, 2, 3, 4, 5, 6, 7, 9].into_iter().filter_map(|k| load(k).ok().map(|t| (k, t))).collect();
+    let runs: Vec<(usize, ssm::TimeSeries)> =
+        [0, 1, 2, 3, 4, 5, 6, 7, 9].into_iter().filter_map(|k| load(k).ok().map(|t| (k, t))).collect();
     let t0 = std::time::Instant::now();
-    match furuta::flag_self::experiment_as_model(&[a, b], &test, &runs, &furuta::model_selection::EvalSettings::default()) {
+    match furuta::flag_self::experiment_as_model(
+        &[a, b],
+        &test,
+        &runs,
+        &furuta::model_selection::EvalSettings::default(),
+    ) {
         Ok((ds, rows)) => {
-            println!("// traj_8 /4: Rosenstein {:.4}, D2 {:.3} ± {:.3}, {} samples ({:.2} s)", ds.lle, ds.corr_dim, ds.corr_dim_err, ds.len, t0.elapsed().as_secs_f64());
+            println!(
+                "// traj_8 /4: Rosenstein {:.4}, D2 {:.3} ± {:.3}, {} samples ({:.2} s)",
+                ds.lle,
+                ds.corr_dim,
+                ds.corr_dim_err,
+                ds.len,
+                t0.elapsed().as_secs_f64()
+            );
             let o = |v: Option<f64>, p: usize| v.map_or("None".to_string(), |v| format!("Some({v:.p$})"));
             for r in rows {
-                println!("    ({}, {}, {}, {}, {}, {}, {}),", r.run, r.start, r.len, o(r.rosenstein, 3), o(r.corr_dim, 2), o(r.corr_dim_err, 2), o(r.js, 4));
+                println!(
+                    "    ({}, {}, {}, {}, {}, {}, {}),",
+                    r.run,
+                    r.start,
+                    r.len,
+                    o(r.rosenstein, 3),
+                    o(r.corr_dim, 2),
+                    o(r.corr_dim_err, 2),
+                    o(r.js, 4)
+                );
             }
         }
         Err(e) => println!("error: {e}"),
@@ -413,7 +522,10 @@ fn flag_self() {
     let s = furuta::model_selection::EvalSettings::default();
     for (k, ts) in runs.iter().chain([(8, test.clone())].iter()) {
         match furuta::model_selection::data_stats(ts, furuta::flag_self::STEP, &s) {
-            Ok((d, _)) => println!("// traj_{k} own settings: lag {}, Theiler {}, Rosenstein {:.3}, D2 {:.2} ± {:.2}, {} samples", d.lag, d.theiler, d.lle, d.corr_dim, d.corr_dim_err, d.len),
+            Ok((d, _)) => println!(
+                "// traj_{k} own settings: lag {}, Theiler {}, Rosenstein {:.3}, D2 {:.2} ± {:.2}, {} samples",
+                d.lag, d.theiler, d.lle, d.corr_dim, d.corr_dim_err, d.len
+            ),
             Err(e) => println!("// traj_{k} own settings: {e}"),
         }
     }
@@ -439,7 +551,10 @@ fn flag_validate(args: &[String]) {
         Ok(d) => d,
         Err(e) => return println!("data: error: {e}"),
     };
-    println!("// traj_{v} /4: Rosenstein {:.4}, D2 {:.3} ± {:.3}, {} samples", data.0.lle, data.0.corr_dim, data.0.corr_dim_err, data.0.len);
+    println!(
+        "// traj_{v} /4: Rosenstein {:.4}, D2 {:.3} ± {:.3}, {} samples",
+        data.0.lle, data.0.corr_dim, data.0.corr_dim_err, data.0.len
+    );
     let o = |v: Option<f64>, p: usize| v.map_or("None".to_string(), |v| format!("Some({v:.p$})"));
     for row in &all[from..to] {
         let t1 = std::time::Instant::now();
@@ -453,7 +568,15 @@ fn flag_validate(args: &[String]) {
         match evaluate_candidate(&train, &val, &c, &data, &s) {
             Ok(r) => {
                 let f = r.failed.as_deref().map_or("", |f| f.split(':').next().unwrap_or(f));
-                println!("    (\"{}\", {}, {}, {}, {}, \"{f}\"), // {:.1} s", r.name, o(r.benettin, 3), o(r.rosenstein, 3), o(r.corr_dim, 2), o(r.js, 4), t1.elapsed().as_secs_f64());
+                println!(
+                    "    (\"{}\", {}, {}, {}, {}, \"{f}\"), // {:.1} s",
+                    r.name,
+                    o(r.benettin, 3),
+                    o(r.rosenstein, 3),
+                    o(r.corr_dim, 2),
+                    o(r.js, 4),
+                    t1.elapsed().as_secs_f64()
+                );
             }
             Err(e) => println!("// {}: error: {e}", row.0),
         }
@@ -488,6 +611,8 @@ fn main() {
         Some("fnn-rule") => fnn_rule(args.get(1)),
         Some("fnn") => fnn(args.get(1).and_then(|s| s.parse().ok()).unwrap_or(10.0)),
         Some("check") => check(args.get(1).and_then(|s| s.parse().ok()).unwrap_or(1)),
-        _ => eprintln!("usage: flag_pipeline scan | check [scale] | fnn | variants SCALE NOISE SPEC.. | state SCALE NOISE SPEC.."),
+        _ => eprintln!(
+            "usage: flag_pipeline scan | check [scale] | fnn | variants SCALE NOISE SPEC.. | state SCALE NOISE SPEC.."
+        ),
     }
 }

@@ -17,7 +17,10 @@
 use std::time::Instant;
 
 use furuta::basin::{BasinOptions, full_basin, torus_continuation_with};
-use furuta::full_system::{DEFAULT_SCAN_PERIODS, ESCAPE_THETA, Start, default_dts, default_ics, default_switch_scan, run_with, start_from_rho, verdict_integrator};
+use furuta::full_system::{
+    DEFAULT_SCAN_PERIODS, ESCAPE_THETA, Start, default_dts, default_ics, default_switch_scan, run_with, start_from_rho,
+    verdict_integrator,
+};
 use furuta::map_global::{ConnectionOptions, full_connection_with};
 use sim::ode::OdeStats;
 
@@ -130,7 +133,8 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                 for &a in &r1 {
                     for &b in &r2 {
                         let (x, h) = timed(&mut t.setup_s, || start_from_rho(dt, [a, b], o.phases))?;
-                        let tr = timed(&mut t.sim_s, || run_with(Some(&vi), dt, &(x, Some(h)), o.periods, ESCAPE_THETA))?;
+                        let tr =
+                            timed(&mut t.sim_s, || run_with(Some(&vi), dt, &(x, Some(h)), o.periods, ESCAPE_THETA))?;
                         t.add(&tr);
                     }
                 }
@@ -145,8 +149,13 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                 let (mut expand, mut circle, mut all) = (0.0, 0.0, 0.0);
                 let scene = furuta::full_system::scene_at(dt)?;
                 timed_p(&mut expand, || furuta::convergence::ExactMap::new(&scene, o.guess_order))?;
-                eprintln!("connection dt {dt}: the order-{} expansion of the period map (ExactMap::new) {expand:.3} s", o.guess_order);
-                let rows = timed_p(&mut circle, || furuta::saddle_cycles::saddle_cycles(&[dt], 2, &[o.guess_order], &o.circle))?;
+                eprintln!(
+                    "connection dt {dt}: the order-{} expansion of the period map (ExactMap::new) {expand:.3} s",
+                    o.guess_order
+                );
+                let rows = timed_p(&mut circle, || {
+                    furuta::saddle_cycles::saddle_cycles(&[dt], 2, &[o.guess_order], &o.circle)
+                })?;
                 let f = timed_p(&mut all, || furuta::map_global::full_connection_fates_with(Some(&vi), dt, &o))?;
                 eprintln!(
                     "connection dt {dt}: circle {circle:.3} s process CPU (newton steps {:?}), circle + runs {all:.3} s; escapes {:?}, escape times {:?}",
@@ -183,10 +192,16 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         }
         ("shared", _) => {
             // The chaos section's held-out quantized run, then the verdict's shorter one.
-            let long = sim::scene::SceneBuilder::load("furuta-quant-dt25")?.periods(30_000).initial_state(&[0.02, 0.0, 0.0, 0.0]).build()?;
+            let long = sim::scene::SceneBuilder::load("furuta-quant-dt25")?
+                .periods(30_000)
+                .initial_state(&[0.02, 0.0, 0.0, 0.0])
+                .build()?;
             let t = furuta::microchaos::simulate_shared(&long)?;
             eprintln!("long: rows {} saturated {} stopped {:?}", t.rows(), t.saturated_samples, t.stopped);
-            let short = sim::scene::SceneBuilder::load("furuta-quant-dt25")?.periods(20_000).initial_state(&[0.02, 0.0, 0.0, 0.0]).build()?;
+            let short = sim::scene::SceneBuilder::load("furuta-quant-dt25")?
+                .periods(20_000)
+                .initial_state(&[0.02, 0.0, 0.0, 0.0])
+                .build()?;
             let (mut c, w) = (0.0, Instant::now());
             let s = timed(&mut c, || furuta::microchaos::simulate_shared(&short))?;
             eprintln!("short: rows {} in {c:.3} s CPU, {:.3} s wall", s.rows(), w.elapsed().as_secs_f64());

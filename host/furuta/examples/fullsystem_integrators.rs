@@ -75,8 +75,8 @@
 //! E at 2e-11, 5e-11 and 1e-10 (172-181 s); exprb54 (unfiltered) E at 1e-11 and 3e-11, B at 3e-12.
 
 use furuta::basin::{BasinOptions, torus_continuation_with};
-use furuta::map_global::{ConnectionOptions, full_connection_fates_with};
 use furuta::full_system::{DEFAULT_SCAN_PERIODS, ESCAPE_THETA, default_dts, default_ics, outcome_of, run_with};
+use furuta::map_global::{ConnectionOptions, full_connection_fates_with};
 use furuta::sweep::Sweep;
 use rayon::prelude::*;
 use sim::scene::{IntegratorSpec, MethodKind};
@@ -131,7 +131,9 @@ fn torus_settings(full: bool) -> (Vec<f64>, u64) {
 }
 
 fn run_part(part: &str, spec: &IntegratorSpec, cells: Option<&[usize]>) -> R<Vec<Row>> {
-    let pick = |n: usize| -> Vec<usize> { cells.map_or_else(|| (0..n).collect(), |c| c.iter().copied().filter(|&k| k < n).collect()) };
+    let pick = |n: usize| -> Vec<usize> {
+        cells.map_or_else(|| (0..n).collect(), |c| c.iter().copied().filter(|&k| k < n).collect())
+    };
     match part {
         "basin-quick" | "basin-full" => {
             let sweep = basin_sweep(part == "basin-full", spec)?;
@@ -143,7 +145,11 @@ fn run_part(part: &str, spec: &IntegratorSpec, cells: Option<&[usize]>) -> R<Vec
                     Ok(Row {
                         index: k,
                         label: format!("dt {} rho ({:.4} {:.4})", v[2], v[0], v[1]),
-                        values: vec![f64::from(u8::from(c.bounded.unwrap_or(false))), c.escape_t.unwrap_or(f64::NAN), c.max_theta.unwrap_or(f64::NAN)],
+                        values: vec![
+                            f64::from(u8::from(c.bounded.unwrap_or(false))),
+                            c.escape_t.unwrap_or(f64::NAN),
+                            c.max_theta.unwrap_or(f64::NAN),
+                        ],
                     })
                 })
                 .collect()
@@ -156,7 +162,11 @@ fn run_part(part: &str, spec: &IntegratorSpec, cells: Option<&[usize]>) -> R<Vec
                     let (dt, j, periods) = runs[k];
                     let ic = default_ics(dt)?.swap_remove(j);
                     let o = outcome_of(&run_with(Some(spec), dt, &ic, periods, ESCAPE_THETA)?);
-                    Ok(Row { index: k, label: format!("dt {dt} start {j}"), values: vec![f64::from(u8::from(o.bounded())), o.escape_t.unwrap_or(f64::NAN), o.max_theta] })
+                    Ok(Row {
+                        index: k,
+                        label: format!("dt {dt} start {j}"),
+                        values: vec![f64::from(u8::from(o.bounded())), o.escape_t.unwrap_or(f64::NAN), o.max_theta],
+                    })
                 })
                 .collect()
         }
@@ -170,7 +180,9 @@ fn run_part(part: &str, spec: &IntegratorSpec, cells: Option<&[usize]>) -> R<Vec
                 .iter()
                 .enumerate()
                 .map(|(i, s)| {
-                    let rho = s["rho"].as_array().map_or([f64::NAN; 2], |r| [r[0].as_f64().unwrap_or(f64::NAN), r[1].as_f64().unwrap_or(f64::NAN)]);
+                    let rho = s["rho"].as_array().map_or([f64::NAN; 2], |r| {
+                        [r[0].as_f64().unwrap_or(f64::NAN), r[1].as_f64().unwrap_or(f64::NAN)]
+                    });
                     Row {
                         index: i,
                         label: format!("dt {}", num(s, "dt_ms")),
@@ -202,12 +214,17 @@ fn run_part(part: &str, spec: &IntegratorSpec, cells: Option<&[usize]>) -> R<Vec
             // and one step beyond each ([`full_connection_fates_with`], default options).
             let o = ConnectionOptions::default();
             let dts = [31.325, 31.328, 31.331, 31.334];
-            let fates: Vec<_> = dts.par_iter().map(|&dt| full_connection_fates_with(Some(spec), dt, &o)).collect::<Result<_, _>>()?;
+            let fates: Vec<_> =
+                dts.par_iter().map(|&dt| full_connection_fates_with(Some(spec), dt, &o)).collect::<Result<_, _>>()?;
             Ok(fates
                 .iter()
                 .flat_map(|f| f.outcomes.iter().enumerate().map(move |(j, o)| (f.dt_ms, j, o.clone())))
                 .enumerate()
-                .map(|(k, (dt, j, o))| Row { index: k, label: format!("dt {dt} push {j}"), values: vec![f64::from(u8::from(o.bounded())), o.escape_t.unwrap_or(f64::NAN), o.max_theta] })
+                .map(|(k, (dt, j, o))| Row {
+                    index: k,
+                    label: format!("dt {dt} push {j}"),
+                    values: vec![f64::from(u8::from(o.bounded())), o.escape_t.unwrap_or(f64::NAN), o.max_theta],
+                })
                 .collect())
         }
         _ => Err(format!("unknown part `{part}`").into()),
@@ -246,7 +263,11 @@ fn compare(part: &str, dir: &str, refc: &str, cands: &[String]) -> R<String> {
             let (label, a) = &reference[k];
             let b = &rows[k].1;
             if a[0] != b[0] {
-                flips.push(format!("{label} ({}: {})", if a[0] == 1.0 { "B -> E" } else { "E -> B" }, if a[0] == 1.0 { b[1] } else { a[1] }));
+                flips.push(format!(
+                    "{label} ({}: {})",
+                    if a[0] == 1.0 { "B -> E" } else { "E -> B" },
+                    if a[0] == 1.0 { b[1] } else { a[1] }
+                ));
             }
             if torus && label != "summary" {
                 for (i, (x, y)) in a.iter().zip(b).enumerate() {
@@ -266,12 +287,19 @@ fn compare(part: &str, dir: &str, refc: &str, cands: &[String]) -> R<String> {
         let bounded = common.iter().filter(|k| rows[k].1[0] == 1.0).count();
         writeln!(out, "  {c:28} runs {:5} bounded {bounded:5} verdict flips {:3}", common.len(), flips.len())?;
         if torus {
-            writeln!(out, "    max |diff| per column (attracting, escape_t, rho1, rho2, spread_mid, spread_last, growth_rate): {:?}", &d_cols[..7])?;
+            writeln!(
+                out,
+                "    max |diff| per column (attracting, escape_t, rho1, rho2, spread_mid, spread_last, growth_rate): {:?}",
+                &d_cols[..7]
+            )?;
             if let (Some(a), Some(b)) = (reference.values().last(), rows.values().last()) {
                 writeln!(out, "    summary (lost bracket, growth onset): ref {:?} cand {:?}", a.1, b.1)?;
             }
         } else {
-            writeln!(out, "    both bounded: max |diff max_theta| {d_max:.3e} rad; both escaped ({n_esc}): max |diff escape_t| {d_esc:.3} s")?;
+            writeln!(
+                out,
+                "    both bounded: max |diff max_theta| {d_max:.3e} rad; both escaped ({n_esc}): max |diff escape_t| {d_esc:.3} s"
+            )?;
         }
         for f in &flips {
             writeln!(out, "    flip: {f}")?;
@@ -288,7 +316,9 @@ fn main() -> R<()> {
             let (part, cand, dir) = (&args[1], &args[2], &args[3]);
             let spec = parse_cand(cand)?;
             let cells: Option<Vec<usize>> = match args.get(4) {
-                Some(f) => Some(std::fs::read_to_string(f)?.split_whitespace().map(str::parse).collect::<Result<_, _>>()?),
+                Some(f) => {
+                    Some(std::fs::read_to_string(f)?.split_whitespace().map(str::parse).collect::<Result<_, _>>()?)
+                }
                 None => None,
             };
             let t0 = Instant::now();

@@ -38,8 +38,8 @@
 //! * `fhmix CUT`: the fitted map's cubic with its manifold and/or its map refitted on runs cut
 //!   at CUT rad (which half bends `rho_1^3`).
 
-use furuta::convergence::furuta_convergence;
 use furuta::bifurcations::{model_row, sensitivity_variants};
+use furuta::convergence::furuta_convergence;
 use furuta::equation_ssm::coefficient_comparison;
 use furuta::parametric::{FurutaOptions, furuta_parametric};
 use furuta::saddle_cycles::{CircleOptions, fitted_map_cycle, model_cycle, saddle_cycles};
@@ -74,7 +74,11 @@ fn cycles(args: &[String]) -> R {
     let t0 = std::time::Instant::now();
     let pm = if data { Some(furuta_parametric(&FurutaOptions::default())?) } else { None };
     let rows = saddle_cycles(&dts, mode, &orders, &opts)?;
-    println!("mode {mode}: full system (invariant circle of the exact period map, n = {}) vs equation-driven orders {orders:?} (rho*, theta first harmonic){}", opts.n, if data { " and data-driven rho*" } else { "" });
+    println!(
+        "mode {mode}: full system (invariant circle of the exact period map, n = {}) vs equation-driven orders {orders:?} (rho*, theta first harmonic){}",
+        opts.n,
+        if data { " and data-driven rho*" } else { "" }
+    );
     for r in rows {
         let f = r.full.as_ref();
         let mut line = format!(
@@ -97,7 +101,11 @@ fn cycles(args: &[String]) -> R {
         }
         if let Some(pm) = &pm {
             let c = model_cycle(&pm.normal_form_at(r.dt_ms)?, mode)?;
-            line.push_str(&format!(" | data rho* {} f {}", c.as_ref().map_or("-".into(), |c| format!("{:.5}", c.rho[mode - 1])), c.as_ref().map_or("-".into(), |c| format!("{:.4}", c.freqs_hz[mode - 1]))));
+            line.push_str(&format!(
+                " | data rho* {} f {}",
+                c.as_ref().map_or("-".into(), |c| format!("{:.5}", c.rho[mode - 1])),
+                c.as_ref().map_or("-".into(), |c| format!("{:.4}", c.freqs_hz[mode - 1]))
+            ));
         }
         if let Some(w) = &r.full_failure {
             line.push_str(&format!(" [{w}]"));
@@ -123,7 +131,11 @@ fn variant(name: &str) -> Result<FurutaOptions, Box<dyn std::error::Error>> {
     let mut o = if base == "default" {
         FurutaOptions::default()
     } else {
-        sensitivity_variants().into_iter().find(|(n, _)| n.replace(' ', "_") == base).ok_or(format!("unknown base variant {base}"))?.1
+        sensitivity_variants()
+            .into_iter()
+            .find(|(n, _)| n.replace(' ', "_") == base)
+            .ok_or(format!("unknown base variant {base}"))?
+            .1
     };
     for m in parts {
         match m {
@@ -135,7 +147,13 @@ fn variant(name: &str) -> Result<FurutaOptions, Box<dyn std::error::Error>> {
             "dyn9" => o.fit.dyn_order = 9,
             "noweight" => o.map_weight = None,
             "noanchor" => o.fit.linear_anchor = None,
-            x if x.starts_with("mknee=") => o.manifold_weight = Some(furuta::parametric::map_row_weight(x[6..].parse()?, o.fit.embed, furuta::parametric::MAP_WEIGHT_POWER)),
+            x if x.starts_with("mknee=") => {
+                o.manifold_weight = Some(furuta::parametric::map_row_weight(
+                    x[6..].parse()?,
+                    o.fit.embed,
+                    furuta::parametric::MAP_WEIGHT_POWER,
+                ))
+            }
             "nomweight" => o.manifold_weight = None,
             "nolow" => {
                 if let Some(w) = o.map_weight.as_mut() {
@@ -145,9 +163,15 @@ fn variant(name: &str) -> Result<FurutaOptions, Box<dyn std::error::Error>> {
             x if x.starts_with("low=") => {
                 // low=DEG:KNEE_THETA[:POWER]: the map's low-degree first stage.
                 let v: Vec<&str> = x[4..].split(':').collect();
-                let knee = furuta::parametric::map_row_weight(v.get(1).ok_or("low=DEG:KNEE")?.parse()?, o.fit.embed, 32.0).knee;
+                let knee =
+                    furuta::parametric::map_row_weight(v.get(1).ok_or("low=DEG:KNEE")?.parse()?, o.fit.embed, 32.0)
+                        .knee;
                 let power = v.get(2).map_or(Ok(32.0), |p| p.parse())?;
-                let w = o.map_weight.get_or_insert(furuta::parametric::map_row_weight(furuta::parametric::MAP_WEIGHT_KNEE_THETA, o.fit.embed, furuta::parametric::MAP_WEIGHT_POWER));
+                let w = o.map_weight.get_or_insert(furuta::parametric::map_row_weight(
+                    furuta::parametric::MAP_WEIGHT_KNEE_THETA,
+                    o.fit.embed,
+                    furuta::parametric::MAP_WEIGHT_POWER,
+                ));
                 w.low_degrees = Some(ssm::LowDegreeStage { max_degree: v[0].parse()?, knee, power });
             }
             x if x.starts_with("ridge=") => o.fit.ridge = ssm::ridge::Ridge::Fixed(x[6..].parse()?),
@@ -158,9 +182,16 @@ fn variant(name: &str) -> Result<FurutaOptions, Box<dyn std::error::Error>> {
             x if x.starts_with("dyn=") => o.fit.dyn_order = x[4..].parse()?,
             x if x.starts_with("knee=") || x.starts_with("pow=") => {
                 let v: f64 = x.split('=').nth(1).unwrap_or("").parse()?;
-                let w = o.map_weight.get_or_insert(furuta::parametric::map_row_weight(furuta::parametric::MAP_WEIGHT_KNEE_THETA, o.fit.embed, furuta::parametric::MAP_WEIGHT_POWER));
+                let w = o.map_weight.get_or_insert(furuta::parametric::map_row_weight(
+                    furuta::parametric::MAP_WEIGHT_KNEE_THETA,
+                    o.fit.embed,
+                    furuta::parametric::MAP_WEIGHT_POWER,
+                ));
                 if x.starts_with("knee=") {
-                    *w = ssm::RowWeight { low_degrees: w.low_degrees, ..furuta::parametric::map_row_weight(v, o.fit.embed, w.power) };
+                    *w = ssm::RowWeight {
+                        low_degrees: w.low_degrees,
+                        ..furuta::parametric::map_row_weight(v, o.fit.embed, w.power)
+                    };
                 } else {
                     w.power = v;
                 }
@@ -176,7 +207,8 @@ const FULL_SLOW_CYCLE: [(f64, f64); 3] = [(31.0, 0.17016), (31.3, 0.16505), (31.
 
 /// Full-system slow saddle cycle at the training periods: (dt ms, theta first harmonic rad,
 /// frequency Hz), from `cycles 1 3,5,7,9 --n 65`.
-const FULL_SLOW_CYCLE_TRAINING: [(f64, f64, f64); 4] = [(30.5, 0.17830, 0.5455), (31.0, 0.17016, 0.5362), (32.0, 0.15231, 0.5173), (32.5, 0.14230, 0.5074)];
+const FULL_SLOW_CYCLE_TRAINING: [(f64, f64, f64); 4] =
+    [(30.5, 0.17830, 0.5455), (31.0, 0.17016, 0.5362), (32.0, 0.15231, 0.5173), (32.5, 0.14230, 0.5074)];
 
 fn fit(args: &[String]) -> R {
     for name in args {
@@ -210,7 +242,15 @@ fn fit(args: &[String]) -> R {
         }
         let rows = coefficient_comparison(&[31.0, 31.5], 5, |dt| pm.normal_form_at(dt))?;
         for r in rows.iter().filter(|r| r.degree >= 3) {
-            println!("  {} ms rho_{}' {:<16} eq {:>10.4} data {:>10.4} rel {:+.3}", r.dt_ms, r.mode, r.monomial, r.equation, r.data.unwrap_or(f64::NAN), r.rel_diff.unwrap_or(f64::NAN));
+            println!(
+                "  {} ms rho_{}' {:<16} eq {:>10.4} data {:>10.4} rel {:+.3}",
+                r.dt_ms,
+                r.mode,
+                r.monomial,
+                r.equation,
+                r.data.unwrap_or(f64::NAN),
+                r.rel_diff.unwrap_or(f64::NAN)
+            );
         }
     }
     Ok(())
@@ -226,7 +266,7 @@ fn cpu_s() -> f64 {
 
 fn mapswitch(args: &[String]) -> R {
     use furuta::bifurcations::{map_outcome, map_small_start_switch};
-    use furuta::full_system::{ESCAPE_THETA, default_ics, DEFAULT_SCAN_PERIODS};
+    use furuta::full_system::{DEFAULT_SCAN_PERIODS, ESCAPE_THETA, default_ics};
     let mut periods = DEFAULT_SCAN_PERIODS;
     let mut names = Vec::new();
     let mut it = args.iter();
@@ -248,14 +288,22 @@ fn mapswitch(args: &[String]) -> R {
             let sw = map_small_start_switch(|dt| sm.model_at(dt, interp), default_ics, 31.0, 32.0, 11, periods, 0.005)?;
             println!(
                 "{name} {interp:?}: map switch {:?} ms (fit {fit_s:.0} s, scan {:.1} s wall {:.1} s CPU, {} runs), grid escapes {:?}, monotone {}",
-                sw.bracket, t1.elapsed().as_secs_f64(), cpu_s() - c1, sw.evaluations, sw.grid.iter().map(|g| g.1).collect::<Vec<_>>(), sw.monotone
+                sw.bracket,
+                t1.elapsed().as_secs_f64(),
+                cpu_s() - c1,
+                sw.evaluations,
+                sw.grid.iter().map(|g| g.1).collect::<Vec<_>>(),
+                sw.monotone
             );
             if let Some((a, b)) = sw.bracket {
                 for dt in [a, b] {
                     let m = sm.model_at(dt, interp)?;
                     let outs: Vec<String> = default_ics(dt)?
                         .iter()
-                        .map(|ic| map_outcome(&m, dt, ic, periods, ESCAPE_THETA).map(|o| o.escape_t.map_or(format!("B({:.3})", o.max_theta), |t| format!("E@{t:.0}s"))))
+                        .map(|ic| {
+                            map_outcome(&m, dt, ic, periods, ESCAPE_THETA)
+                                .map(|o| o.escape_t.map_or(format!("B({:.3})", o.max_theta), |t| format!("E@{t:.0}s")))
+                        })
                         .collect::<Result<_, _>>()?;
                     println!("   direct at {dt:.4} ms: {}", outs.join(" "));
                 }
@@ -281,7 +329,14 @@ fn mapglobal(args: &[String]) -> R {
     if full {
         let (t, c) = (std::time::Instant::now(), cpu_s());
         let f = full_connection(31.0, 32.0, 11, 0.005, &o)?;
-        println!("full system connection {:?} ({:.0} s wall, {:.0} s CPU, {} runs) grid {:?}", f.switch.bracket, t.elapsed().as_secs_f64(), cpu_s() - c, f.switch.evaluations, f.switch.grid);
+        println!(
+            "full system connection {:?} ({:.0} s wall, {:.0} s CPU, {} runs) grid {:?}",
+            f.switch.bracket,
+            t.elapsed().as_secs_f64(),
+            cpu_s() - c,
+            f.switch.evaluations,
+            f.switch.grid
+        );
     }
     let dts: Vec<f64> = (0..=14).map(|k| ((31.3 + 0.05 * k as f64) * 1e4).round() / 1e4).collect();
     for name in &names {
@@ -294,7 +349,12 @@ fn mapglobal(args: &[String]) -> R {
             let tc = map_torus_continuation(|dt| Ok(sm.model_at(dt, interp)?), &dts, [0.097, 0.0277], 16_000)?;
             println!(
                 "{name} {interp:?}: map connection {:?} ({:.1} s wall {:.1} s CPU) grid {:?}; torus lost {:?} ({:.1} s CPU)",
-                m.switch.bracket, t.elapsed().as_secs_f64(), c2 - c, m.switch.grid, tc.lost_between, cpu_s() - c2
+                m.switch.bracket,
+                t.elapsed().as_secs_f64(),
+                c2 - c,
+                m.switch.grid,
+                tc.lost_between,
+                cpu_s() - c2
             );
             let _ = t2;
         }
@@ -321,11 +381,17 @@ fn mapcycles(args: &[String]) -> R {
             let line = match fitted_map_cycle(&m, mode, fc.theta_amplitude, fc.omega, &opts) {
                 Ok(c) => format!(
                     "map theta1 {:.5} f {:.4} Hz (res {:.0e}) rel {:+.4}",
-                    c.theta_amplitude, c.freq_hz, c.residual, c.theta_amplitude / fc.theta_amplitude - 1.0
+                    c.theta_amplitude,
+                    c.freq_hz,
+                    c.residual,
+                    c.theta_amplitude / fc.theta_amplitude - 1.0
                 ),
                 Err(e) => format!("map: not found ({e})"),
             };
-            println!("{:6} mode {mode}: full theta1 {:.5} f {:.4} Hz | {line}", r.dt_ms, fc.theta_amplitude, fc.freq_hz);
+            println!(
+                "{:6} mode {mode}: full theta1 {:.5} f {:.4} Hz | {line}",
+                r.dt_ms, fc.theta_amplitude, fc.freq_hz
+            );
         }
     }
     Ok(())
@@ -338,7 +404,8 @@ fn torus_amps(theta: &[f64], h: f64, dt_ms: f64) -> Result<Vec<(f64, [f64; 2])>,
     let lin = furuta::parametric::exact_modes(dt_ms)?.freqs_hz;
     let split = (lin[0] * lin[1]).sqrt();
     let last = &theta[2 * theta.len() / 3..];
-    let freqs = match (ssm::spectrum::band_peak(last, h, 0.0, split), ssm::spectrum::band_peak(last, h, split, 0.5 / h)) {
+    let freqs = match (ssm::spectrum::band_peak(last, h, 0.0, split), ssm::spectrum::band_peak(last, h, split, 0.5 / h))
+    {
         (Some(a), Some(b)) => [a.freq_hz, b.freq_hz],
         _ => lin,
     };
@@ -354,7 +421,8 @@ fn torus_tenths(label: &str, theta: &[f64], h: f64, dt_ms: f64, escape: Option<f
         for k in 0..10 {
             let seg = &a[k * n / 10..(k + 1) * n / 10];
             let m1 = seg.iter().map(|x| x.1[0]).sum::<f64>() / seg.len() as f64;
-            let (lo, hi) = seg.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), x| (l.min(x.1[0]), h.max(x.1[0])));
+            let (lo, hi) =
+                seg.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), x| (l.min(x.1[0]), h.max(x.1[0])));
             let m2 = seg.iter().map(|x| x.1[1]).sum::<f64>() / seg.len() as f64;
             out += &format!(" | {m1:.4} ±{:.4} {m2:.4}", 0.5 * (hi - lo));
         }
@@ -386,7 +454,12 @@ fn torus(args: &[String]) -> R {
         match a.as_str() {
             "--periods" => periods = it.next().ok_or("--periods N")?.parse()?,
             "--variant" => name = it.next().ok_or("--variant V")?.clone(),
-            "--settle" => settle = Some((it.next().ok_or("--settle DT N")?.parse::<f64>()?, it.next().ok_or("--settle DT N")?.parse::<u64>()?)),
+            "--settle" => {
+                settle = Some((
+                    it.next().ok_or("--settle DT N")?.parse::<f64>()?,
+                    it.next().ok_or("--settle DT N")?.parse::<u64>()?,
+                ))
+            }
             x => dts.push(x.parse::<f64>()?),
         }
     }
@@ -427,7 +500,8 @@ fn torus(args: &[String]) -> R {
                     let h = m.dynamics.map_dt().ok_or("not a map")?;
                     let head = run(dt, &start, p as u64, f64::MAX)?.primary();
                     let mut eta = m.manifold.reduce(&head[..p]);
-                    let (mut scratch, mut sc) = (ssm::dynamics::StepScratch::default(), ssm::poly::PolyScratch::default());
+                    let (mut scratch, mut sc) =
+                        (ssm::dynamics::StepScratch::default(), ssm::poly::PolyScratch::default());
                     let mut y = vec![0.0; p];
                     let mut theta = Vec::with_capacity(periods as usize + 1);
                     let mut esc = None;
@@ -465,7 +539,10 @@ fn fullcont(args: &[String]) -> R {
     let c0 = cpu_s();
     let c = furuta::basin::torus_continuation(&dts, [0.097, 0.0277], periods)?;
     for s in &c.steps {
-        println!("{:6} esc {:?} rho {:?} spread mid {:?} last {:?} lost {}", s.dt_ms, s.escape_t, s.rho, s.spread_mid, s.spread_last, s.lost);
+        println!(
+            "{:6} esc {:?} rho {:?} spread mid {:?} last {:?} lost {}",
+            s.dt_ms, s.escape_t, s.rho, s.spread_mid, s.spread_last, s.lost
+        );
     }
     println!("lost between {:?} ({:.0} s CPU)", c.lost_between, cpu_s() - c0);
     Ok(())
@@ -482,7 +559,15 @@ fn coeffs(args: &[String]) -> R {
         let rows = coefficient_comparison(&v.dts_ms, 7, |dt| pm.normal_form_at(dt))?;
         println!("{name} ({:.0} s CPU)", cpu_s() - c0);
         for r in rows.iter().filter(|r| r.degree >= 1 && r.degree <= 5) {
-            println!("  {} ms rho_{}' {:<16} eq {:>12.5} data {:>12.5} rel {:+.4}", r.dt_ms, r.mode, r.monomial, r.equation, r.data.unwrap_or(f64::NAN), r.rel_diff.unwrap_or(f64::NAN));
+            println!(
+                "  {} ms rho_{}' {:<16} eq {:>12.5} data {:>12.5} rel {:+.4}",
+                r.dt_ms,
+                r.mode,
+                r.monomial,
+                r.equation,
+                r.data.unwrap_or(f64::NAN),
+                r.rel_diff.unwrap_or(f64::NAN)
+            );
         }
     }
     Ok(())
@@ -497,7 +582,8 @@ fn coeffs(args: &[String]) -> R {
 fn fhcoeffs(args: &[String]) -> R {
     use ssm::normal_form::{NormalFormOptions, model_normal_form_first_harmonic};
     let dts = FurutaOptions::default().dts_ms;
-    let eq: Vec<_> = dts.iter().map(|&dt| furuta::equation_ssm::furuta_equation_polar(dt, 7)).collect::<Result<_, _>>()?;
+    let eq: Vec<_> =
+        dts.iter().map(|&dt| furuta::equation_ssm::furuta_equation_polar(dt, 7)).collect::<Result<_, _>>()?;
     for name in args {
         let v = variant(name)?;
         let c0 = cpu_s();
@@ -508,22 +594,44 @@ fn fhcoeffs(args: &[String]) -> R {
         for t in &pm.trained {
             let Some(k) = dts.iter().position(|d| *d == t.dt_ms) else { continue };
             let fh = model_normal_form_first_harmonic(&t.model, &NormalFormOptions::default())?;
-            let smf = model_normal_form_first_harmonic(&sm.model_at(t.dt_ms, ssm::interp::Interp::Linear)?, &NormalFormOptions::default())?;
+            let smf = model_normal_form_first_harmonic(
+                &sm.model_at(t.dt_ms, ssm::interp::Interp::Linear)?,
+                &NormalFormOptions::default(),
+            )?;
             let (row, fht, smt) = (t.normal_form.table(), fh.table(), smf.table());
-            for r in eq[k].table().rows.iter().filter(|r| r.rho_exps.iter().sum::<u32>() == 3 || r.rho_exps.iter().sum::<u32>() == 5) {
+            for r in eq[k]
+                .table()
+                .rows
+                .iter()
+                .filter(|r| r.rho_exps.iter().sum::<u32>() == 3 || r.rho_exps.iter().sum::<u32>() == 5)
+            {
                 let g = |tb: &ssm::normal_form::NormalFormTable| tb.get(r.mode, &r.monomial).unwrap_or(f64::NAN);
                 let (a, b, c) = (g(&row), g(&fht), g(&smt));
                 let rel = |x: f64| x / r.value - 1.0;
                 println!(
                     "  {} ms rho_{}' {:<16} eq {:>11.4} | row {:>11.4} ({:+7.1} %) | fh {:>11.4} ({:+7.1} %) | shared fh {:>11.4} ({:+7.1} %)",
-                    t.dt_ms, r.mode, r.monomial, r.value, a, 100.0 * rel(a), b, 100.0 * rel(b), c, 100.0 * rel(c)
+                    t.dt_ms,
+                    r.mode,
+                    r.monomial,
+                    r.value,
+                    a,
+                    100.0 * rel(a),
+                    b,
+                    100.0 * rel(b),
+                    c,
+                    100.0 * rel(c)
                 );
                 let w = worst.entry(format!("rho_{}' {}", r.mode, r.monomial)).or_insert((0.0, 0.0, 0.0));
                 *w = (w.0.max(rel(a).abs()), w.1.max(rel(b).abs()), w.2.max(rel(c).abs()));
             }
         }
         for (k, (a, b, c)) in &worst {
-            println!("  max |rel| {k:<24} row {:6.1} %  fh {:6.1} %  shared fh {:6.1} %", 100.0 * a, 100.0 * b, 100.0 * c);
+            println!(
+                "  max |rel| {k:<24} row {:6.1} %  fh {:6.1} %  shared fh {:6.1} %",
+                100.0 * a,
+                100.0 * b,
+                100.0 * c
+            );
         }
     }
     Ok(())
@@ -540,7 +648,8 @@ fn fhsplit(args: &[String]) -> R {
     use ssm::manifold::tangent_space;
     use ssm::normal_form::{NormalFormOptions, model_normal_form_first_harmonic};
     let v = variant(args.first().map_or("default", String::as_str))?;
-    let series: Vec<_> = v.dts_ms.iter().map(|&dt| furuta::parametric::training_series(&v, dt)).collect::<Result<_, _>>()?;
+    let series: Vec<_> =
+        v.dts_ms.iter().map(|&dt| furuta::parametric::training_series(&v, dt)).collect::<Result<_, _>>()?;
     let mut pooled = Vec::new();
     for s in &series {
         pooled.extend(embed_training(s, &v.fit)?.0);
@@ -562,7 +671,14 @@ fn fhsplit(args: &[String]) -> R {
                 .rows
                 .iter()
                 .filter(|r| r.rho_exps.iter().sum::<u32>() == 3)
-                .map(|r| format!("rho_{}' {} {:+.1} %", r.mode, r.monomial, 100.0 * (t.get(r.mode, &r.monomial).unwrap_or(f64::NAN) / r.value - 1.0)))
+                .map(|r| {
+                    format!(
+                        "rho_{}' {} {:+.1} %",
+                        r.mode,
+                        r.monomial,
+                        100.0 * (t.get(r.mode, &r.monomial).unwrap_or(f64::NAN) / r.value - 1.0)
+                    )
+                })
                 .collect();
             println!("{dt} ms {name:<14} {}", cells.join(" | "));
         }
@@ -585,18 +701,36 @@ fn eqbasis(args: &[String]) -> R {
         let map = polynomial_map(&pm);
         let mut c = vec![0.0; pm.dim()];
         c[pm.primary] = 1.0;
-        let o = MapSsmOptions { order, pairs: 2, resonance_tol: 1e-3, observable: c.clone(), dt: pm.dt, amplitude: Amplitude::Spectral };
+        let o = MapSsmOptions {
+            order,
+            pairs: 2,
+            resonance_tol: 1e-3,
+            observable: c.clone(),
+            dt: pm.dt,
+            amplitude: Amplitude::Spectral,
+        };
         let spec = map_ssm(&map, &o)?;
         let obs = map_ssm(&map, &MapSsmOptions { amplitude: Amplitude::Observable, ..o })?;
         let (inc, x) = spec.real_form(&c)?;
-        let nf = normal_form_of_poly(&inc, Some(pm.dt), &NormalFormOptions { order: Some(order), small_divisor: 1e-3, normalization: Normalization::FirstHarmonic(x) })?;
+        let nf = normal_form_of_poly(
+            &inc,
+            Some(pm.dt),
+            &NormalFormOptions {
+                order: Some(order),
+                small_divisor: 1e-3,
+                normalization: Normalization::FirstHarmonic(x),
+            },
+        )?;
         let (a, b) = (nf.table(), obs.polar.table());
         let mut worst = 0.0f64;
         for r in &b.rows {
             let got = a.get(r.mode, &r.monomial).unwrap_or(f64::NAN);
             worst = worst.max((got / r.value - 1.0).abs());
             if r.rho_exps.iter().sum::<u32>() <= 5 {
-                println!("  {dt} ms rho_{}' {:<16} observable {:>14.8} first harmonic of the spectral map {:>14.8}", r.mode, r.monomial, r.value, got);
+                println!(
+                    "  {dt} ms rho_{}' {:<16} observable {:>14.8} first harmonic of the spectral map {:>14.8}",
+                    r.mode, r.monomial, r.value, got
+                );
             }
         }
         println!("{dt} ms order {order}: largest relative difference {worst:.2e}");
@@ -615,7 +749,11 @@ fn maptorus(args: &[String]) -> R {
             let c0 = cpu_s();
             let tc = map_torus_continuation(|dt| Ok(sm.model_at(dt, interp)?), &dts, [0.097, 0.0277], 16_000)?;
             let last = tc.steps.last().map(|s| (s.spread_mid, s.spread_last));
-            println!("{name} {interp:?}: torus lost {:?} (last step spreads {last:?}; {:.1} s CPU)", tc.lost_between, cpu_s() - c0);
+            println!(
+                "{name} {interp:?}: torus lost {:?} (last step spreads {last:?}; {:.1} s CPU)",
+                tc.lost_between,
+                cpu_s() - c0
+            );
         }
     }
     Ok(())
@@ -632,14 +770,30 @@ fn ratefun(args: &[String]) -> R {
         let e7 = furuta::equation_ssm::furuta_equation_polar(t.dt_ms, 7)?;
         let e9 = furuta::equation_ssm::furuta_equation_polar(t.dt_ms, 9)?;
         let nl = |f: &ssm::normal_form::PolarNormalForm, mode: usize, r: [f64; 2], maxdeg: u32| -> f64 {
-            f.table().rows.iter().filter(|row| row.mode == mode && (3..=maxdeg).contains(&row.rho_exps.iter().sum::<u32>()))
-                .map(|row| row.value * r[0].powi(row.rho_exps[0] as i32) * r[1].powi(row.rho_exps[1] as i32) / r[mode - 1]).sum()
+            f.table()
+                .rows
+                .iter()
+                .filter(|row| row.mode == mode && (3..=maxdeg).contains(&row.rho_exps.iter().sum::<u32>()))
+                .map(|row| {
+                    row.value * r[0].powi(row.rho_exps[0] as i32) * r[1].powi(row.rho_exps[1] as i32) / r[mode - 1]
+                })
+                .sum()
         };
         for &(a, b) in &pts {
             let r = [a, b];
-            let line: Vec<String> = [1usize, 2].iter().map(|&m| format!(
-                "rho_{m}: cubic data {:+.4} eq {:+.4} | all data {:+.4} eq7 {:+.4} eq9 {:+.4}",
-                nl(&t.normal_form, m, r, 3), nl(&e7, m, r, 3), nl(&t.normal_form, m, r, 99), nl(&e7, m, r, 99), nl(&e9, m, r, 99))).collect();
+            let line: Vec<String> = [1usize, 2]
+                .iter()
+                .map(|&m| {
+                    format!(
+                        "rho_{m}: cubic data {:+.4} eq {:+.4} | all data {:+.4} eq7 {:+.4} eq9 {:+.4}",
+                        nl(&t.normal_form, m, r, 3),
+                        nl(&e7, m, r, 3),
+                        nl(&t.normal_form, m, r, 99),
+                        nl(&e7, m, r, 99),
+                        nl(&e9, m, r, 99)
+                    )
+                })
+                .collect();
             println!("{} ms ({a}, {b}): {}", t.dt_ms, line.join(" || "));
         }
     }
@@ -676,8 +830,16 @@ fn cuts(args: &[String]) -> R {
     let dts: Vec<f64> = (0..=14).map(|k| ((31.3 + 0.05 * k as f64) * 1e4).round() / 1e4).collect();
     // The equation-driven order-7 normal forms at the training periods (cubic comparison).
     let eq_dts = FurutaOptions::default().dts_ms;
-    let eqs: Vec<_> = if cubic { eq_dts.iter().map(|&dt| furuta::equation_ssm::furuta_equation_polar(dt, 7)).collect::<Result<_, _>>()? } else { Vec::new() };
-    let interps: &[ssm::interp::Interp] = if spline { &[ssm::interp::Interp::Linear, ssm::interp::Interp::Spline] } else { &[ssm::interp::Interp::Linear] };
+    let eqs: Vec<_> = if cubic {
+        eq_dts.iter().map(|&dt| furuta::equation_ssm::furuta_equation_polar(dt, 7)).collect::<Result<_, _>>()?
+    } else {
+        Vec::new()
+    };
+    let interps: &[ssm::interp::Interp] = if spline {
+        &[ssm::interp::Interp::Linear, ssm::interp::Interp::Spline]
+    } else {
+        &[ssm::interp::Interp::Linear]
+    };
     for (name, o) in names.iter().zip(&opts) {
         let (t1, c1) = (std::time::Instant::now(), cpu_s());
         let sm = match furuta::shared_tangent::shared_parametric_from(o, &runs) {
@@ -698,7 +860,10 @@ fn cuts(args: &[String]) -> R {
                 if !o.dts_ms.contains(dt) {
                     continue;
                 }
-                let f = model_normal_form_first_harmonic(&sm.model_at(*dt, ssm::interp::Interp::Linear)?, &NormalFormOptions::default())?;
+                let f = model_normal_form_first_harmonic(
+                    &sm.model_at(*dt, ssm::interp::Interp::Linear)?,
+                    &NormalFormOptions::default(),
+                )?;
                 let rows = furuta::equation_ssm::compare_forms(*dt, eq, &f);
                 let mut line = Vec::new();
                 for r in rows.iter().filter(|r| r.degree == 3) {
@@ -713,7 +878,10 @@ fn cuts(args: &[String]) -> R {
                 cells.push(format!("{dt}: {}", line.join(", ")));
             }
             println!("{name:<40} cubic % | {}", cells.join(" | "));
-            println!("{name:<40} cubic max |rel| % {}", worst.iter().map(|w| format!("{} {:.1}", w.0, 100.0 * w.1)).collect::<Vec<_>>().join(", "));
+            println!(
+                "{name:<40} cubic max |rel| % {}",
+                worst.iter().map(|w| format!("{} {:.1}", w.0, 100.0 * w.1)).collect::<Vec<_>>().join(", ")
+            );
         }
         if notorus {
             continue;
@@ -724,8 +892,19 @@ fn cuts(args: &[String]) -> R {
             let tor_s = cpu_s() - c2;
             let c = if conn {
                 let c3 = cpu_s();
-                let m = map_connection(|dt| Ok(sm.model_at(dt, interp)?), 31.0, 32.0, 6, 0.005, &ConnectionOptions::default());
-                format!("connection {:?} ({:.1} s CPU)", m.map(|m| m.switch.bracket).map_err(|e| e.to_string()), cpu_s() - c3)
+                let m = map_connection(
+                    |dt| Ok(sm.model_at(dt, interp)?),
+                    31.0,
+                    32.0,
+                    6,
+                    0.005,
+                    &ConnectionOptions::default(),
+                );
+                format!(
+                    "connection {:?} ({:.1} s CPU)",
+                    m.map(|m| m.switch.bracket).map_err(|e| e.to_string()),
+                    cpu_s() - c3
+                )
             } else {
                 String::new()
             };
@@ -740,7 +919,14 @@ fn cuts(args: &[String]) -> R {
                 for s in &tc.steps {
                     println!(
                         "   {:6.2} rho {:?} spreads {:?} / {:?} rate {:?} noise {:?} lost {} esc {:?}",
-                        s.dt_ms, s.rho.map(|r| [(r[0] * 1e4).round() / 1e4, (r[1] * 1e4).round() / 1e4]), s.spread_mid, s.spread_last, s.growth_rate, s.rate_noise, s.lost, s.escape_t
+                        s.dt_ms,
+                        s.rho.map(|r| [(r[0] * 1e4).round() / 1e4, (r[1] * 1e4).round() / 1e4]),
+                        s.spread_mid,
+                        s.spread_last,
+                        s.growth_rate,
+                        s.rate_noise,
+                        s.lost,
+                        s.escape_t
                     );
                 }
             }

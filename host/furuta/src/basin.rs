@@ -21,9 +21,9 @@ use ssm::portrait::{Fate, FixedPoint, PointKind, PortraitOptions, PreparedField}
 
 use crate::Error;
 use crate::full_system::{AMP_WINDOW_S, ESCAPE_THETA, base_scene, end_start, run_with, start_from_rho};
-use sim::scene::{IntegratorSpec, MethodKind};
 use crate::sweep::shard::{RESULT_FORMAT, SweepResult};
 use crate::sweep::{AxisSpec, BasinSpec, Cell, FORMAT_VERSION, Kind, Shard, SpecFile, Sweep, run_shard};
+use sim::scene::{IntegratorSpec, MethodKind};
 use ssm::spectrum::mode_amplitudes;
 
 /// The basin grid: sampling periods, the two amplitude axes, the phases and the horizon.
@@ -61,16 +61,29 @@ impl BasinOptions {
     /// The quick report's grid: the same box as [`BasinOptions::full`], 12 x 12
     /// starts, 1,500 periods.
     pub fn quick() -> Self {
-        BasinOptions { rho1: Axis { n: 12, ..Self::full().rho1 }, rho2: Axis { n: 12, ..Self::full().rho2 }, periods: 1500, ..Self::full() }
+        BasinOptions {
+            rho1: Axis { n: 12, ..Self::full().rho1 },
+            rho2: Axis { n: 12, ..Self::full().rho2 },
+            periods: 1500,
+            ..Self::full()
+        }
     }
 
     /// The sweep spec of this grid (axes `slow_amp`, `fast_amp`, `dt_ms` in that order, so
     /// `ssmctl sweep` draws one panel per dt).
     pub fn spec(&self, name: &str) -> SpecFile {
-        let range = |name: &str, a: &Axis| AxisSpec { name: name.into(), lo: Some(a.lo), hi: Some(a.hi), n: Some(a.n), values: None };
+        let range = |name: &str, a: &Axis| AxisSpec {
+            name: name.into(),
+            lo: Some(a.lo),
+            hi: Some(a.hi),
+            n: Some(a.n),
+            values: None,
+        };
         SpecFile {
             name: name.into(),
-            description: "bounded vs escape of the full system over slow x fast mode amplitudes near the global bifurcation".into(),
+            description:
+                "bounded vs escape of the full system over slow x fast mode amplitudes near the global bifurcation"
+                    .into(),
             kind: Kind::Basin,
             scene: "furuta-dt30.5".into(),
             set: self.method.iter().map(|m| format!("integrator.method=\"{}\"", m.key())).collect(),
@@ -134,13 +147,22 @@ impl FullBasin {
 /// for every pool size).
 pub fn full_basin(opts: &BasinOptions) -> Result<FullBasin, Error> {
     if opts.dts_ms.is_empty() || opts.dts_ms.windows(2).any(|w| w[1] <= w[0]) {
-        return Err(Error::BadInput { what: "dts_ms", why: format!("need at least one, strictly increasing, got {:?}", opts.dts_ms) });
+        return Err(Error::BadInput {
+            what: "dts_ms",
+            why: format!("need at least one, strictly increasing, got {:?}", opts.dts_ms),
+        });
     }
     let sweep = Sweep::from_spec("basin", opts.spec("basin"), std::path::Path::new("."))?;
     let t0 = Instant::now();
     let cells = run_shard(&sweep, Shard::WHOLE)?;
     let wall_seconds = t0.elapsed().as_secs_f64();
-    let result = SweepResult { format: RESULT_FORMAT.into(), version: FORMAT_VERSION, spec_hash: sweep.hash()?, spec: sweep, cells };
+    let result = SweepResult {
+        format: RESULT_FORMAT.into(),
+        version: FORMAT_VERSION,
+        spec_hash: sweep.hash()?,
+        spec: sweep,
+        cells,
+    };
     Ok(FullBasin { options: opts.clone(), result, wall_seconds, threads: rayon::current_num_threads() })
 }
 
@@ -169,7 +191,11 @@ impl ModelFate {
             Fate::StepLimit | Fate::ApproachesSaddle { .. } => ModelFate::Undecided,
             Fate::TimeLimit => {
                 let near_other = last.is_some_and(|(x, y)| {
-                    fps.iter().any(|f| f.kind != principal && f.stability.is_stable() && (f.rho[0] - x).hypot(f.rho[1] - y) < NEAR_ATTRACTOR)
+                    fps.iter().any(|f| {
+                        f.kind != principal
+                            && f.stability.is_stable()
+                            && (f.rho[0] - x).hypot(f.rho[1] - y) < NEAR_ATTRACTOR
+                    })
                 });
                 if near_other { ModelFate::OtherAttractor } else { ModelFate::Principal }
             }
@@ -224,14 +250,20 @@ pub fn model_basin(
     opts: &PortraitOptions,
 ) -> Result<ModelBasin, Error> {
     if !(horizon_s.is_finite() && t_max.is_finite() && horizon_s > 0.0 && horizon_s <= t_max) {
-        return Err(Error::BadOption { what: "horizon_s", why: format!("need 0 < horizon_s <= t_max, finite; got {horizon_s}, {t_max}") });
+        return Err(Error::BadOption {
+            what: "horizon_s",
+            why: format!("need 0 < horizon_s <= t_max, finite; got {horizon_s}, {t_max}"),
+        });
     }
     for (name, v, m) in [("rho1", rho1, opts.rho_max[0]), ("rho2", rho2, opts.rho_max[1])] {
         if v.is_empty() {
             return Err(Error::BadInput { what: "model basin", why: format!("{name} is empty") });
         }
         if let Some(x) = v.iter().find(|x| !(x.is_finite() && **x >= 0.0 && **x < m)) {
-            return Err(Error::BadInput { what: "model basin", why: format!("{name} value {x} is not in [0, {m}) (the box rho_max)") });
+            return Err(Error::BadInput {
+                what: "model basin",
+                why: format!("{name} value {x} is not in [0, {m}) (the box rho_max)"),
+            });
         }
     }
     // The field and the fixed points `trajectory` numbers its fates by, computed once (the
@@ -248,7 +280,11 @@ pub fn model_basin(
             Fate::LeavesBox { .. } => {
                 let (pts, fate) = field.trajectory(r, horizon_s)?;
                 // Still in the box at the horizon: bounded so far, wherever it heads.
-                if fate == Fate::TimeLimit { ModelFate::Principal } else { ModelFate::of(&fate, pts.last().copied(), fps, principal) }
+                if fate == Fate::TimeLimit {
+                    ModelFate::Principal
+                } else {
+                    ModelFate::of(&fate, pts.last().copied(), fps, principal)
+                }
             }
             _ => asym,
         };
@@ -278,7 +314,13 @@ pub fn agreement(model: &[ModelFate], full_bounded: &[bool]) -> Result<Agreement
     if model.len() != full_bounded.len() {
         return Err(Error::Shape { expected: full_bounded.len(), got: model.len() });
     }
-    let mut a = Agreement { cells: 0, model_bounded_full_escaped: 0, model_escaped_full_bounded: 0, undecided: 0, disagreement: 0.0 };
+    let mut a = Agreement {
+        cells: 0,
+        model_bounded_full_escaped: 0,
+        model_escaped_full_bounded: 0,
+        undecided: 0,
+        disagreement: 0.0,
+    };
     for (m, &f) in model.iter().zip(full_bounded) {
         match m.bounded() {
             None => a.undecided += 1,
@@ -369,7 +411,9 @@ impl TorusContinuation {
         let growth_onset = steps.iter().position(grows).and_then(|i| {
             let j = steps[..i].iter().rposition(decays)?;
             match (steps[j].growth_rate, steps[i].growth_rate) {
-                (Some(a), Some(b)) if a < 0.0 && b > 0.0 => Some(steps[j].dt_ms + (steps[i].dt_ms - steps[j].dt_ms) * (-a) / (b - a)),
+                (Some(a), Some(b)) if a < 0.0 && b > 0.0 => {
+                    Some(steps[j].dt_ms + (steps[i].dt_ms - steps[j].dt_ms) * (-a) / (b - a))
+                }
                 _ => None,
             }
         });
@@ -395,12 +439,24 @@ impl TorusContinuation {
 /// the growth rate is the log ratio of the two spreads over the time between the thirds, its
 /// noise floor the half difference of that rate on the two halves of the measured span.
 pub fn torus_step(dt_ms: f64, theta: &[f64], sample_dt: f64, escape_t: Option<f64>) -> Result<TorusStep, Error> {
-    let mut step = TorusStep { dt_ms, escape_t, rho: None, spread_mid: None, spread_last: None, growth_rate: None, rate_noise: None, lost: true };
+    let mut step = TorusStep {
+        dt_ms,
+        escape_t,
+        rho: None,
+        spread_mid: None,
+        spread_last: None,
+        growth_rate: None,
+        rate_noise: None,
+        lost: true,
+    };
     if escape_t.is_some() {
         return Ok(step);
     }
     if !(sample_dt.is_finite() && sample_dt > 0.0) {
-        return Err(Error::BadInput { what: "sample_dt", why: format!("must be positive and finite, got {sample_dt}") });
+        return Err(Error::BadInput {
+            what: "sample_dt",
+            why: format!("must be positive and finite, got {sample_dt}"),
+        });
     }
     if let Some(v) = theta.iter().find(|v| !v.is_finite()) {
         return Err(Error::BadInput { what: "theta", why: format!("a bounded run must be finite, got {v}") });
@@ -410,17 +466,24 @@ pub fn torus_step(dt_ms: f64, theta: &[f64], sample_dt: f64, escape_t: Option<f6
     let lin = crate::parametric::exact_modes(dt_ms)?.freqs_hz;
     let split = (lin[0] * lin[1]).sqrt();
     let last = third(2);
-    let freqs = match (ssm::spectrum::band_peak(last, sample_dt, 0.0, split), ssm::spectrum::band_peak(last, sample_dt, split, 0.5 / sample_dt)) {
+    let freqs = match (
+        ssm::spectrum::band_peak(last, sample_dt, 0.0, split),
+        ssm::spectrum::band_peak(last, sample_dt, split, 0.5 / sample_dt),
+    ) {
         (Some(a), Some(b)) => [a.freq_hz, b.freq_hz],
         _ => lin,
     };
     let amps = |s: &[f64]| mode_amplitudes(s, sample_dt, freqs, AMP_WINDOW_S);
     let (mid, end) = (amps(third(1))?, amps(last)?);
     if mid.is_empty() || end.is_empty() {
-        return Err(Error::BadInput { what: "periods", why: format!("a third of the {n} samples is shorter than the amplitude window {AMP_WINDOW_S} s") });
+        return Err(Error::BadInput {
+            what: "periods",
+            why: format!("a third of the {n} samples is shorter than the amplitude window {AMP_WINDOW_S} s"),
+        });
     }
     let spread = |a: &[(f64, [f64; 2])]| {
-        let (lo, hi) = a.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), x| (lo.min(x.1[0]), hi.max(x.1[0])));
+        let (lo, hi) =
+            a.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), x| (lo.min(x.1[0]), hi.max(x.1[0])));
         hi - lo
     };
     let k = end.len() as f64;
@@ -460,9 +523,17 @@ pub fn torus_continuation(dts_ms: &[f64], start_rho: [f64; 2], periods: u64) -> 
 
 /// [`torus_continuation`] with the scene's integrator replaced by `integrator` (`None`: the
 /// scene's; [`crate::full_system::run_with`]).
-pub fn torus_continuation_with(integrator: Option<&IntegratorSpec>, dts_ms: &[f64], start_rho: [f64; 2], periods: u64) -> Result<TorusContinuation, Error> {
+pub fn torus_continuation_with(
+    integrator: Option<&IntegratorSpec>,
+    dts_ms: &[f64],
+    start_rho: [f64; 2],
+    periods: u64,
+) -> Result<TorusContinuation, Error> {
     if dts_ms.is_empty() || dts_ms.windows(2).any(|w| w[1] <= w[0]) {
-        return Err(Error::BadInput { what: "dts_ms", why: format!("need at least one, strictly increasing, got {dts_ms:?}") });
+        return Err(Error::BadInput {
+            what: "dts_ms",
+            why: format!("need at least one, strictly increasing, got {dts_ms:?}"),
+        });
     }
     let (x, h) = start_from_rho(dts_ms[0], start_rho, [0.0, 0.0])?;
     let mut start = (x, Some(h));
@@ -530,7 +601,11 @@ mod tests {
                 let r = x.hypot(y);
                 let k = i * v.len() + j;
                 if (r - 1.0).abs() > 0.01 {
-                    assert_eq!(mb.asymptotic[k], if r < 1.0 { ModelFate::Principal } else { ModelFate::LeavesBox }, "({x}, {y}) r = {r}");
+                    assert_eq!(
+                        mb.asymptotic[k],
+                        if r < 1.0 { ModelFate::Principal } else { ModelFate::LeavesBox },
+                        "({x}, {y}) r = {r}"
+                    );
                     checked += 1;
                 }
                 // Within the horizon.
@@ -541,14 +616,20 @@ mod tests {
                     f64::INFINITY
                 };
                 if (t_exit - horizon).abs() > 0.02 {
-                    assert_eq!(mb.horizon[k], if t_exit < horizon { ModelFate::LeavesBox } else { ModelFate::Principal }, "({x}, {y}) exit at {t_exit}");
+                    assert_eq!(
+                        mb.horizon[k],
+                        if t_exit < horizon { ModelFate::LeavesBox } else { ModelFate::Principal },
+                        "({x}, {y}) exit at {t_exit}"
+                    );
                     checked_h += 1;
                 }
             }
         }
         // Most cells are away from the boundaries, and both verdicts occur within the horizon.
         assert!(checked >= 215 && checked_h >= 200, "{checked} {checked_h}");
-        assert!(mb.horizon.contains(&ModelFate::LeavesBox) && mb.horizon.iter().zip(&mb.asymptotic).any(|(h, a)| h != a));
+        assert!(
+            mb.horizon.contains(&ModelFate::LeavesBox) && mb.horizon.iter().zip(&mb.asymptotic).any(|(h, a)| h != a)
+        );
         // Against a "full system" that is the exact disc: no disagreement off the circle.
         let exact: Vec<bool> = v.iter().flat_map(|&x| v.iter().map(move |&y| x.hypot(y) < 1.0)).collect();
         let a = agreement(&mb.asymptotic, &exact).unwrap();
@@ -556,7 +637,11 @@ mod tests {
         assert!(a.disagreement <= 2.0 / 225.0, "{a:?}");
         // A smaller disc (a = -0.81: r = 0.9) disagrees exactly on the ring 0.9 < r < 1.
         let small = model_basin(&radial(-0.81, 1.0), PointKind::Equilibrium, &v, &v, horizon, 200.0, &opts).unwrap();
-        let ring = exact.iter().zip(v.iter().flat_map(|&x| v.iter().map(move |&y| x.hypot(y)))).filter(|(_, r)| *r > 0.9 && *r < 1.0).count();
+        let ring = exact
+            .iter()
+            .zip(v.iter().flat_map(|&x| v.iter().map(move |&y| x.hypot(y))))
+            .filter(|(_, r)| *r > 0.9 && *r < 1.0)
+            .count();
         let a = agreement(&small.asymptotic, &exact).unwrap();
         assert_eq!((a.model_escaped_full_bounded, a.model_bounded_full_escaped), (ring, 0), "{a:?}");
     }
@@ -568,11 +653,34 @@ mod tests {
     #[test]
     fn model_basin_tells_the_principal_attractor_from_another() {
         let pexps = ssm::poly::exponents(2, 0, 2);
-        let a1: Vec<f64> = pexps.iter().map(|e| match (e[0], e[1]) { (0, 0) => -1.0, (1, 0) => 2.5, (2, 0) => -1.0, _ => 0.0 }).collect();
+        let a1: Vec<f64> = pexps
+            .iter()
+            .map(|e| match (e[0], e[1]) {
+                (0, 0) => -1.0,
+                (1, 0) => 2.5,
+                (2, 0) => -1.0,
+                _ => 0.0,
+            })
+            .collect();
         let a2: Vec<f64> = pexps.iter().map(|e| if e[0] + e[1] == 0 { -1.0 } else { 0.0 }).collect();
         let zero = vec![0.0; pexps.len()];
-        let nf = PolarNormalForm { modes: 2, order: 5, eigenvalues: vec![(-1.0, 1.0), (-1.0, 50.0)], pexps, amp: vec![a1, a2], phase: vec![zero.clone(), zero], ..radial(-1.0, 1.0) };
-        let opts = PortraitOptions { rho_max: [2.0, 2.0], ray_samples: 0, flow_grid: 0, converge_tol: 1e-5, manifold_eps: 1e-4, ..PortraitOptions::default() };
+        let nf = PolarNormalForm {
+            modes: 2,
+            order: 5,
+            eigenvalues: vec![(-1.0, 1.0), (-1.0, 50.0)],
+            pexps,
+            amp: vec![a1, a2],
+            phase: vec![zero.clone(), zero],
+            ..radial(-1.0, 1.0)
+        };
+        let opts = PortraitOptions {
+            rho_max: [2.0, 2.0],
+            ray_samples: 0,
+            flow_grid: 0,
+            converge_tol: 1e-5,
+            manifold_eps: 1e-4,
+            ..PortraitOptions::default()
+        };
         let v: Vec<f64> = (0..14).map(|k| 0.05 + 0.1 * k as f64).collect();
         let mb = model_basin(&nf, PointKind::Equilibrium, &v, &v, 1.0, 200.0, &opts).unwrap();
         for (i, &x) in v.iter().enumerate() {
@@ -597,10 +705,13 @@ mod tests {
         let h = dt_ms * 1e-3;
         let f = crate::parametric::exact_modes(dt_ms).unwrap().freqs_hz;
         let series = |a1: &dyn Fn(f64) -> f64| -> Vec<f64> {
-            (0..8000).map(|k| {
-                let t = k as f64 * h;
-                a1(t) * (std::f64::consts::TAU * f[0] * t).cos() + 0.03 * (std::f64::consts::TAU * f[1] * t + 0.3).cos()
-            }).collect()
+            (0..8000)
+                .map(|k| {
+                    let t = k as f64 * h;
+                    a1(t) * (std::f64::consts::TAU * f[0] * t).cos()
+                        + 0.03 * (std::f64::consts::TAU * f[1] * t + 0.3).cos()
+                })
+                .collect()
         };
         let steady = torus_step(dt_ms, &series(&|_| 0.1), h, None).unwrap();
         eprintln!("{steady:?}");
@@ -617,9 +728,20 @@ mod tests {
         // Its halves measure the same rate: the noise floor is a small part of it.
         let gn = growing.rate_noise.unwrap();
         assert!(gn < 0.05 * g, "noise {gn} vs rate {g}");
-        let decaying = torus_step(dt_ms, &series(&|t| 0.1 + 0.03 * (-0.01 * t).exp() * (0.05 * std::f64::consts::TAU * t).sin()), h, None).unwrap();
+        let decaying = torus_step(
+            dt_ms,
+            &series(&|t| 0.1 + 0.03 * (-0.01 * t).exp() * (0.05 * std::f64::consts::TAU * t).sin()),
+            h,
+            None,
+        )
+        .unwrap();
         eprintln!("{decaying:?}");
-        assert!(!decaying.lost && decaying.spread_last.unwrap() < decaying.spread_mid.unwrap() && decaying.spread_last.unwrap() > TORUS_SPREAD_MIN, "{decaying:?}");
+        assert!(
+            !decaying.lost
+                && decaying.spread_last.unwrap() < decaying.spread_mid.unwrap()
+                && decaying.spread_last.unwrap() > TORUS_SPREAD_MIN,
+            "{decaying:?}"
+        );
         // An oscillation of 20 s decaying at 0.01/s: each third's spread is set by its first
         // swing, within a quarter period of the same phase.
         let d = decaying.growth_rate.unwrap();
@@ -630,12 +752,26 @@ mod tests {
         // 2666..5333, 0.006/s in the second): the halves disagree by 0.004/s, the floor is
         // half that.
         let t_half = 5333.0 * h;
-        let kinked = torus_step(dt_ms, &series(&|t| 0.08 * if t < t_half { (0.002 * t).exp() } else { (0.002 * t_half + 0.006 * (t - t_half)).exp() }), h, None).unwrap();
+        let kinked = torus_step(
+            dt_ms,
+            &series(&|t| {
+                0.08 * if t < t_half { (0.002 * t).exp() } else { (0.002 * t_half + 0.006 * (t - t_half)).exp() }
+            }),
+            h,
+            None,
+        )
+        .unwrap();
         eprintln!("{kinked:?}");
         let kn = kinked.rate_noise.unwrap();
         assert!((kn / 0.002 - 1.0).abs() < 0.1, "{kn}");
         let escaped = torus_step(dt_ms, &[0.1; 10], h, Some(12.5)).unwrap();
-        assert!(escaped.lost && escaped.rho.is_none() && escaped.escape_t == Some(12.5) && escaped.growth_rate.is_none() && escaped.rate_noise.is_none());
+        assert!(
+            escaped.lost
+                && escaped.rho.is_none()
+                && escaped.escape_t == Some(12.5)
+                && escaped.growth_rate.is_none()
+                && escaped.rate_noise.is_none()
+        );
         assert!(matches!(torus_step(dt_ms, &[f64::NAN; 3000], h, None), Err(Error::BadInput { what: "theta", .. })));
         assert!(matches!(torus_step(dt_ms, &[0.0; 30], h, None), Err(Error::BadInput { what: "periods", .. })));
     }
@@ -645,29 +781,75 @@ mod tests {
     /// escaped. A rate within its noise floor neither grows nor decays.
     #[test]
     fn growth_onset_interpolates_the_rate_zero() {
-        let step = |dt_ms: f64, g: Option<f64>, lost: bool| TorusStep { dt_ms, escape_t: None, rho: None, spread_mid: None, spread_last: None, growth_rate: g, rate_noise: None, lost };
-        let noisy = |dt_ms: f64, g: f64, noise: f64| TorusStep { rate_noise: Some(noise), ..step(dt_ms, Some(g), false) };
+        let step = |dt_ms: f64, g: Option<f64>, lost: bool| TorusStep {
+            dt_ms,
+            escape_t: None,
+            rho: None,
+            spread_mid: None,
+            spread_last: None,
+            growth_rate: g,
+            rate_noise: None,
+            lost,
+        };
+        let noisy =
+            |dt_ms: f64, g: f64, noise: f64| TorusStep { rate_noise: Some(noise), ..step(dt_ms, Some(g), false) };
         // Without a floor a rate of 1e-9 is growth; with a floor of 1e-5 it decides nothing,
         // and the zero is interpolated between its neighbours (31.65 + 0.1 * 3/7).
-        let tiny = |s: TorusStep| TorusContinuation::from_steps([0.1, 0.03], 100, vec![step(31.6, Some(-5e-4), false), step(31.65, Some(-3e-4), false), s, step(31.75, Some(4e-4), false)]);
-        assert!((tiny(step(31.7, Some(1e-9), false)).growth_onset.unwrap() - (31.65 + 0.05 * 3e-4 / (3e-4 + 1e-9))).abs() < 1e-12);
+        let tiny = |s: TorusStep| {
+            TorusContinuation::from_steps(
+                [0.1, 0.03],
+                100,
+                vec![
+                    step(31.6, Some(-5e-4), false),
+                    step(31.65, Some(-3e-4), false),
+                    s,
+                    step(31.75, Some(4e-4), false),
+                ],
+            )
+        };
+        assert!(
+            (tiny(step(31.7, Some(1e-9), false)).growth_onset.unwrap() - (31.65 + 0.05 * 3e-4 / (3e-4 + 1e-9))).abs()
+                < 1e-12
+        );
         assert!((tiny(noisy(31.7, 1e-9, 1e-5)).growth_onset.unwrap() - (31.65 + 0.1 * 3.0 / 7.0)).abs() < 1e-12);
         // So does a decay within its floor; a decay beyond it counts.
         assert!((tiny(noisy(31.7, -2e-4, 3e-4)).growth_onset.unwrap() - (31.65 + 0.1 * 3.0 / 7.0)).abs() < 1e-12);
         assert!((tiny(noisy(31.7, -2e-4, 1e-4)).growth_onset.unwrap() - (31.7 + 0.05 * 2.0 / 6.0)).abs() < 1e-12);
         // A growth within its floor is not the onset; the next step's is.
-        let c = TorusContinuation::from_steps([0.1, 0.03], 100, vec![step(31.6, Some(-3e-4), false), noisy(31.7, 2e-4, 5e-4), noisy(31.8, 6e-4, 1e-4)]);
+        let c = TorusContinuation::from_steps(
+            [0.1, 0.03],
+            100,
+            vec![step(31.6, Some(-3e-4), false), noisy(31.7, 2e-4, 5e-4), noisy(31.8, 6e-4, 1e-4)],
+        );
         assert!((c.growth_onset.unwrap() - (31.6 + 0.2 * 3.0 / 9.0)).abs() < 1e-12, "{:?}", c.growth_onset);
         // Nothing decays beyond its floor before the growth: no onset.
-        let c = TorusContinuation::from_steps([0.1, 0.03], 100, vec![noisy(31.6, -1e-4, 2e-4), noisy(31.7, 6e-4, 1e-4)]);
+        let c =
+            TorusContinuation::from_steps([0.1, 0.03], 100, vec![noisy(31.6, -1e-4, 2e-4), noisy(31.7, 6e-4, 1e-4)]);
         assert_eq!(c.growth_onset, None);
-        let c = TorusContinuation::from_steps([0.1, 0.03], 100, vec![step(31.6, Some(-3e-4), false), step(31.7, Some(-1e-4), false), step(31.75, Some(3e-4), false), step(31.8, Some(1e-3), true)]);
+        let c = TorusContinuation::from_steps(
+            [0.1, 0.03],
+            100,
+            vec![
+                step(31.6, Some(-3e-4), false),
+                step(31.7, Some(-1e-4), false),
+                step(31.75, Some(3e-4), false),
+                step(31.8, Some(1e-3), true),
+            ],
+        );
         assert_eq!(c.lost_between, Some((31.75, 31.8)));
         let on = c.growth_onset.unwrap();
         assert!((on - 31.7125).abs() < 1e-12, "{on}");
-        let first = TorusContinuation::from_steps([0.1, 0.03], 100, vec![step(31.6, Some(1e-4), false), step(31.7, Some(2e-4), true)]);
+        let first = TorusContinuation::from_steps(
+            [0.1, 0.03],
+            100,
+            vec![step(31.6, Some(1e-4), false), step(31.7, Some(2e-4), true)],
+        );
         assert_eq!(first.growth_onset, None);
-        let escaped = TorusContinuation::from_steps([0.1, 0.03], 100, vec![step(31.6, Some(-1e-4), false), step(31.7, None, true)]);
+        let escaped = TorusContinuation::from_steps(
+            [0.1, 0.03],
+            100,
+            vec![step(31.6, Some(-1e-4), false), step(31.7, None, true)],
+        );
         assert_eq!((escaped.growth_onset, escaped.lost_between), (None, Some((31.6, 31.7))));
     }
 
@@ -693,12 +875,27 @@ mod tests {
     fn bad_inputs_are_refused() {
         let nf = radial(-1.0, 1.0);
         let opts = PortraitOptions { rho_max: [2.0, 2.0], ..PortraitOptions::default() };
-        assert!(matches!(model_basin(&nf, PointKind::Equilibrium, &[0.1], &[0.1], 0.0, 10.0, &opts), Err(Error::BadOption { .. })));
-        assert!(matches!(model_basin(&nf, PointKind::Equilibrium, &[0.1], &[0.1], 20.0, 10.0, &opts), Err(Error::BadOption { .. })));
-        assert!(matches!(model_basin(&nf, PointKind::Equilibrium, &[2.5], &[0.1], 1.0, 10.0, &opts), Err(Error::BadInput { .. })));
-        assert!(matches!(model_basin(&nf, PointKind::Equilibrium, &[], &[0.1], 1.0, 10.0, &opts), Err(Error::BadInput { .. })));
+        assert!(matches!(
+            model_basin(&nf, PointKind::Equilibrium, &[0.1], &[0.1], 0.0, 10.0, &opts),
+            Err(Error::BadOption { .. })
+        ));
+        assert!(matches!(
+            model_basin(&nf, PointKind::Equilibrium, &[0.1], &[0.1], 20.0, 10.0, &opts),
+            Err(Error::BadOption { .. })
+        ));
+        assert!(matches!(
+            model_basin(&nf, PointKind::Equilibrium, &[2.5], &[0.1], 1.0, 10.0, &opts),
+            Err(Error::BadInput { .. })
+        ));
+        assert!(matches!(
+            model_basin(&nf, PointKind::Equilibrium, &[], &[0.1], 1.0, 10.0, &opts),
+            Err(Error::BadInput { .. })
+        ));
         assert!(matches!(agreement(&[ModelFate::Principal], &[true, false]), Err(Error::Shape { .. })));
-        assert!(matches!(torus_continuation(&[31.5, 31.4], [0.1, 0.03], 100), Err(Error::BadInput { what: "dts_ms", .. })));
+        assert!(matches!(
+            torus_continuation(&[31.5, 31.4], [0.1, 0.03], 100),
+            Err(Error::BadInput { what: "dts_ms", .. })
+        ));
         let mut o = BasinOptions::quick();
         o.dts_ms = vec![];
         assert!(matches!(full_basin(&o), Err(Error::BadInput { what: "dts_ms", .. })));
@@ -713,7 +910,10 @@ mod tests {
             let sw = Sweep::from_spec("basin", o.spec("basin"), std::path::Path::new(".")).unwrap();
             assert_eq!(sw.scene.integrator, crate::full_system::verdict_integrator().unwrap());
             assert_eq!(sw.scene.integrator.method, MethodKind::ExprbFiltered);
-            assert_eq!((sw.scene.integrator.rtol, sw.scene.integrator.atol), (scene.integrator.rtol, scene.integrator.atol));
+            assert_eq!(
+                (sw.scene.integrator.rtol, sw.scene.integrator.atol),
+                (scene.integrator.rtol, scene.integrator.atol)
+            );
         }
         let o = BasinOptions { method: None, ..BasinOptions::quick() };
         let sw = Sweep::from_spec("basin", o.spec("basin"), std::path::Path::new(".")).unwrap();
@@ -740,10 +940,16 @@ mod tests {
         for (i, &x) in r1.iter().enumerate() {
             for (j, &y) in r2.iter().enumerate() {
                 let (s, h) = start_from_rho(31.5, [x, y], o.phases).unwrap();
-                let out = crate::full_system::outcome_of(&crate::full_system::run(31.5, &(s, Some(h)), 200, ESCAPE_THETA).unwrap());
+                let out = crate::full_system::outcome_of(
+                    &crate::full_system::run(31.5, &(s, Some(h)), 200, ESCAPE_THETA).unwrap(),
+                );
                 let c = b.cell(i, j, 0);
                 assert_eq!(c.values, vec![x, y, 31.5]);
-                assert_eq!((c.bounded, c.escape_t, c.max_theta), (Some(out.bounded()), out.escape_t, Some(out.max_theta)), "({x}, {y})");
+                assert_eq!(
+                    (c.bounded, c.escape_t, c.max_theta),
+                    (Some(out.bounded()), out.escape_t, Some(out.max_theta)),
+                    "({x}, {y})"
+                );
                 assert_eq!(bounded[i * 2 + j], out.bounded());
             }
         }

@@ -4,15 +4,14 @@
 
 use serde::Serialize;
 use ssm::portrait::{
-    Fate, FixedPoint, HeteroclinicEvent, HopfEvent, PointKind, PortraitOptions, ScanOptions, fixed_points, heteroclinic_dt,
-    torus_hopf_dt, trajectory,
+    Fate, FixedPoint, HeteroclinicEvent, HopfEvent, PointKind, PortraitOptions, ScanOptions, fixed_points,
+    heteroclinic_dt, torus_hopf_dt, trajectory,
 };
 
 use ssm::normal_form::PolarNormalForm;
 
 use crate::Error;
 use crate::parametric::{FurutaOptions, ParametricModel, furuta_parametric};
-
 
 /// Box of the amplitude plane drawn and searched: the fitted models saw |theta| <= 0.3 rad.
 pub const RHO_MAX: [f64; 2] = [0.6, 0.3];
@@ -31,7 +30,10 @@ pub struct ModelBifurcations {
 pub fn model_bifurcations(pm: &ParametricModel) -> Result<ModelBifurcations, Error> {
     let (lo, hi) = pm.range();
     let popts = PortraitOptions { rho_max: RHO_MAX, ..PortraitOptions::default() };
-    let sopts = ScanOptions { portrait: PortraitOptions { rho_max: RHO_MAX, ..ScanOptions::default().portrait }, ..ScanOptions::default() };
+    let sopts = ScanOptions {
+        portrait: PortraitOptions { rho_max: RHO_MAX, ..ScanOptions::default().portrait },
+        ..ScanOptions::default()
+    };
     let nf_at = |dt: f64| pm.normal_form_at(dt);
     let heteroclinic = heteroclinic_dt(nf_at, lo, hi, &sopts)?;
     let hopf = torus_hopf_dt(nf_at, lo, hi, &sopts)?;
@@ -52,11 +54,19 @@ pub enum SmallStartFate {
 
 /// The model's fate of a small start at `dt` (see [`SmallStartFate`]); `principal` is the
 /// continued torus position (updated).
-fn small_start_fate(nf_at: &impl Fn(f64) -> Result<PolarNormalForm, Error>, dt: f64, principal: &mut [f64; 2]) -> Result<SmallStartFate, Error> {
+fn small_start_fate(
+    nf_at: &impl Fn(f64) -> Result<PolarNormalForm, Error>,
+    dt: f64,
+    principal: &mut [f64; 2],
+) -> Result<SmallStartFate, Error> {
     let nf = nf_at(dt)?;
     let o = PortraitOptions { rho_max: RHO_MAX, ray_samples: 0, flow_grid: 0, ..PortraitOptions::default() };
     let fps = fixed_points(&nf, &o)?;
-    let Some(fc) = fps.iter().filter(|f| f.kind == (PointKind::LimitCycle { mode: 2 })).min_by(|a, b| a.rho[1].total_cmp(&b.rho[1])) else {
+    let Some(fc) = fps
+        .iter()
+        .filter(|f| f.kind == (PointKind::LimitCycle { mode: 2 }))
+        .min_by(|a, b| a.rho[1].total_cmp(&b.rho[1]))
+    else {
         return Ok(SmallStartFate::Elsewhere);
     };
     let torus = fps
@@ -73,7 +83,11 @@ fn small_start_fate(nf_at: &impl Fn(f64) -> Result<PolarNormalForm, Error>, dt: 
     Ok(match fate {
         Fate::Converges { .. } => {
             let last = pts.last().copied().unwrap_or((f64::NAN, f64::NAN));
-            if (last.0 - tc[0]).hypot(last.1 - tc[1]) < 1e-3 { SmallStartFate::Principal } else { SmallStartFate::Elsewhere }
+            if (last.0 - tc[0]).hypot(last.1 - tc[1]) < 1e-3 {
+                SmallStartFate::Principal
+            } else {
+                SmallStartFate::Elsewhere
+            }
         }
         Fate::TimeLimit => {
             // On a 3-torus when the last quarter circles the torus point (both sides of it in
@@ -98,7 +112,12 @@ pub fn model_small_start_switch(pm: &ParametricModel, lo: f64, hi: f64, n: usize
 
 /// [`model_small_start_switch`] of any family of normal forms `nf_at(dt)` (e.g. the
 /// equation-driven model's, `crate::equation_ssm`).
-pub fn small_start_switch(nf_at: impl Fn(f64) -> Result<PolarNormalForm, Error>, lo: f64, hi: f64, n: usize) -> Result<Option<(f64, f64)>, Error> {
+pub fn small_start_switch(
+    nf_at: impl Fn(f64) -> Result<PolarNormalForm, Error>,
+    lo: f64,
+    hi: f64,
+    n: usize,
+) -> Result<Option<(f64, f64)>, Error> {
     let pm = &nf_at;
     let mut principal = [0.1, 0.03];
     let mut prev = lo;
@@ -152,7 +171,12 @@ pub fn sensitivity_row(variant: &str, o: &FurutaOptions) -> Result<SensitivityRo
 
 /// The bifurcation values of `pm`, fitted with options `o` (`fit_seconds`: its fit time,
 /// `None` when it was fitted elsewhere).
-pub fn model_row(variant: &str, o: &FurutaOptions, pm: &ParametricModel, fit_seconds: Option<f64>) -> Result<SensitivityRow, Error> {
+pub fn model_row(
+    variant: &str,
+    o: &FurutaOptions,
+    pm: &ParametricModel,
+    fit_seconds: Option<f64>,
+) -> Result<SensitivityRow, Error> {
     let bif = model_bifurcations(pm)?;
     let sw = model_default_switch(pm)?;
     Ok(row_from(variant, o, &bif, sw, fit_seconds))
@@ -170,7 +194,13 @@ pub fn model_default_switch(pm: &ParametricModel) -> Result<Option<(f64, f64)>, 
 /// ([`model_default_switch`]) were
 /// computed already (the report's own model: the portraits and full-system sections), the
 /// same row without computing them again.
-pub fn row_from(variant: &str, o: &FurutaOptions, bif: &ModelBifurcations, switch: Option<(f64, f64)>, fit_seconds: Option<f64>) -> SensitivityRow {
+pub fn row_from(
+    variant: &str,
+    o: &FurutaOptions,
+    bif: &ModelBifurcations,
+    switch: Option<(f64, f64)>,
+    fit_seconds: Option<f64>,
+) -> SensitivityRow {
     SensitivityRow {
         variant: variant.to_string(),
         dts_ms: o.dts_ms.clone(),
@@ -219,7 +249,10 @@ pub fn iterate_outcome(
     for n in 0..=steps {
         let th = obs(&eta);
         if !th.is_finite() || eta.iter().any(|v| !v.is_finite()) || th.abs() > escape_theta {
-            return crate::full_system::Outcome { escape_t: Some(t0 + n as f64 * dt), max_theta: if th.is_finite() { max_theta.max(th.abs()) } else { f64::INFINITY } };
+            return crate::full_system::Outcome {
+                escape_t: Some(t0 + n as f64 * dt),
+                max_theta: if th.is_finite() { max_theta.max(th.abs()) } else { f64::INFINITY },
+            };
         }
         max_theta = max_theta.max(th.abs());
         if n < steps {
@@ -235,22 +268,40 @@ pub fn iterate_outcome(
 /// `eta0 = V1^T y0`, and the map is iterated for the rest of `periods` periods; theta is the
 /// newest coordinate of the lifted point. Escape: |theta| > `escape_theta` (also in the
 /// first `p` samples).
-pub fn map_outcome(model: &ssm::fit::SsmModel, dt_ms: f64, start: &crate::full_system::Start, periods: u64, escape_theta: f64) -> Result<crate::full_system::Outcome, Error> {
+pub fn map_outcome(
+    model: &ssm::fit::SsmModel,
+    dt_ms: f64,
+    start: &crate::full_system::Start,
+    periods: u64,
+    escape_theta: f64,
+) -> Result<crate::full_system::Outcome, Error> {
     use ssm::dynamics::StepScratch;
     let p = model.manifold.p;
     if model.observables != 1 {
-        return Err(Error::BadInput { what: "model", why: format!("needs one observable (theta), has {}", model.observables) });
+        return Err(Error::BadInput {
+            what: "model",
+            why: format!("needs one observable (theta), has {}", model.observables),
+        });
     }
     let dt = model.dynamics.map_dt().ok_or(Error::NotAMap)?;
     if (dt - sim::units::ms_to_s(dt_ms)).abs() > 1e-9 * dt {
-        return Err(Error::BadInput { what: "dt_ms", why: format!("{dt_ms} ms, but the model's map steps {} ms", dt * 1e3) });
+        return Err(Error::BadInput {
+            what: "dt_ms",
+            why: format!("{dt_ms} ms, but the model's map steps {} ms", dt * 1e3),
+        });
     }
     if periods < p as u64 {
-        return Err(Error::BadInput { what: "periods", why: format!("{periods} is shorter than the embedding window ({p} samples)") });
+        return Err(Error::BadInput {
+            what: "periods",
+            why: format!("{periods} is shorter than the embedding window ({p} samples)"),
+        });
     }
     let head = crate::full_system::run(dt_ms, start, p as u64, f64::MAX)?.primary();
     let Some(y0) = head.get(..p) else {
-        return Err(Error::BadInput { what: "start", why: format!("full-system run gave {} samples, need {p}", head.len()) });
+        return Err(Error::BadInput {
+            what: "start",
+            why: format!("full-system run gave {} samples, need {p}", head.len()),
+        });
     };
     let head_max = y0.iter().fold(0.0f64, |m, v| m.max(v.abs()));
     if let Some(k) = y0.iter().position(|v| v.abs() > escape_theta) {
@@ -263,7 +314,15 @@ pub fn map_outcome(model: &ssm::fit::SsmModel, dt_ms: f64, start: &crate::full_s
     let (map, manifold) = (model.dynamics.prepare(), model.manifold.prepare());
     let lift = std::cell::RefCell::new(ssm::poly::PolyScratch::default());
     let obs = |e: &[f64]| manifold.lift_one(e, &mut lift.borrow_mut(), p - 1);
-    let o = iterate_outcome(|e| map.step(e, dt, &mut scratch), obs, &eta0, periods - (p as u64 - 1), (p - 1) as f64 * dt, dt, escape_theta);
+    let o = iterate_outcome(
+        |e| map.step(e, dt, &mut scratch),
+        obs,
+        &eta0,
+        periods - (p as u64 - 1),
+        (p - 1) as f64 * dt,
+        dt,
+        escape_theta,
+    );
     Ok(crate::full_system::Outcome { escape_t: o.escape_t, max_theta: o.max_theta.max(head_max) })
 }
 
@@ -284,9 +343,18 @@ pub struct MapSwitch {
 /// The first `dt` in `[lo, hi]` at which any start escapes: `escapes(dt)` returns the
 /// per-start escape flags; grid of `n` points (rayon pool, input order), then bisection
 /// between the last all-bounded grid point and the first escaping one to `tol` ms.
-pub fn first_escape_switch(escapes: impl Fn(f64) -> Result<Vec<bool>, Error> + Sync, lo: f64, hi: f64, n: usize, tol: f64) -> Result<MapSwitch, Error> {
+pub fn first_escape_switch(
+    escapes: impl Fn(f64) -> Result<Vec<bool>, Error> + Sync,
+    lo: f64,
+    hi: f64,
+    n: usize,
+    tol: f64,
+) -> Result<MapSwitch, Error> {
     if !(lo.is_finite() && hi.is_finite() && lo < hi) || n < 2 {
-        return Err(Error::BadInput { what: "switch range", why: format!("need lo < hi finite and n >= 2, got [{lo}, {hi}], n = {n}") });
+        return Err(Error::BadInput {
+            what: "switch range",
+            why: format!("need lo < hi finite and n >= 2, got [{lo}, {hi}], n = {n}"),
+        });
     }
     if !(tol.is_finite() && tol > 0.0) {
         return Err(Error::BadInput { what: "tol", why: format!("must be positive, got {tol}") });

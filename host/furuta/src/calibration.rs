@@ -16,7 +16,10 @@
 //! the map that produces the series).
 
 use chaos::reference::{Flow, HyperRossler, Lorenz, Lorenz96, Rossler, rk4_flow};
-use chaos::{BenettinParams, CorrSumParams, ScalingRule, benettin_tangent, correlation_dimension, delay_embed, first_zero_crossing};
+use chaos::{
+    BenettinParams, CorrSumParams, ScalingRule, benettin_tangent, correlation_dimension, delay_embed,
+    first_zero_crossing,
+};
 use serde::Serialize;
 
 use crate::Error;
@@ -40,7 +43,8 @@ pub struct FlagSampling {
 /// traj_8 at step 4 (measured by `model_selection::data_stats`; checked against the data in
 /// the tests): 1,973 samples, lag 11, Theiler window 38, noise sd 0.001759 over the series sd
 /// 0.5487 (the tip deflection at the full frame rate), Rosenstein exponent 0.3320 1/s.
-pub const FLAG_SAMPLING: FlagSampling = FlagSampling { dt: 4.0 / 30.0, samples: 1973, lag: 11, theiler: 38, noise_rel: 0.001759 / 0.5487, lle: 0.3320 };
+pub const FLAG_SAMPLING: FlagSampling =
+    FlagSampling { dt: 4.0 / 30.0, samples: 1973, lag: 11, theiler: 38, noise_rel: 0.001759 / 0.5487, lle: 0.3320 };
 
 /// A smooth system sampled at a fixed step: `advance` moves state and tangent one sample.
 trait Sampled: Sync {
@@ -157,8 +161,24 @@ fn lorenz96(n: usize, f: f64, name: &'static str) -> Box<dyn Sampled> {
 /// 0.81, D2 3.5-4.4), the range of the flag (0.49 at its Rosenstein value).
 fn systems() -> Vec<Box<dyn Sampled>> {
     vec![
-        Box::new(FlowSystem { flow: Rossler::default(), name: "Rössler", observable: "x", obs: 0, x0: vec![1.0, 1.0, 1.0], max_h: 0.02, fine_dt: 0.03 }),
-        Box::new(FlowSystem { flow: Lorenz::default(), name: "Lorenz", observable: "z", obs: 2, x0: vec![1.0, 1.0, 1.0], max_h: 0.005, fine_dt: 0.004 }),
+        Box::new(FlowSystem {
+            flow: Rossler::default(),
+            name: "Rössler",
+            observable: "x",
+            obs: 0,
+            x0: vec![1.0, 1.0, 1.0],
+            max_h: 0.02,
+            fine_dt: 0.03,
+        }),
+        Box::new(FlowSystem {
+            flow: Lorenz::default(),
+            name: "Lorenz",
+            observable: "z",
+            obs: 2,
+            x0: vec![1.0, 1.0, 1.0],
+            max_h: 0.005,
+            fine_dt: 0.004,
+        }),
         Box::new(FlowSystem {
             flow: HyperRossler,
             name: "hyperchaotic Rössler",
@@ -258,7 +278,12 @@ fn step_for_lag(sys: &dyn Sampled, lag: usize) -> Result<f64, Error> {
 /// in (system, noise) order.
 pub fn calibration_rows(f: &FlagSampling, noise: &[f64], segments: usize) -> Result<Vec<CalibrationRow>, Error> {
     if f.samples < 200 || f.lag == 0 || segments == 0 || noise.iter().any(|v| !(v.is_finite() && *v >= 0.0)) {
-        return Err(Error::BadOption { what: "calibration", why: format!("need >= 200 samples, lag >= 1, >= 1 segment and finite noise multiples >= 0 (got {f:?}, {segments}, {noise:?})") });
+        return Err(Error::BadOption {
+            what: "calibration",
+            why: format!(
+                "need >= 200 samples, lag >= 1, >= 1 segment and finite noise multiples >= 0 (got {f:?}, {segments}, {noise:?})"
+            ),
+        });
     }
     let sys = systems();
     let per_system = crate::par_map(&sys, |s| {
@@ -280,7 +305,13 @@ pub fn calibration_rows(f: &FlagSampling, noise: &[f64], segments: usize) -> Res
             let (l, lg, th, note) = rosenstein_as_on_data(&y, *dt)?;
             if k == 0 {
                 (lag, theiler) = (lg, th);
-                let cd = delay_embed(seg, EMBED, lg).and_then(|p| correlation_dimension(&p, &CorrSumParams { theiler: th, ..Default::default() }, &ScalingRule::default()));
+                let cd = delay_embed(seg, EMBED, lg).and_then(|p| {
+                    correlation_dimension(
+                        &p,
+                        &CorrSumParams { theiler: th, ..Default::default() },
+                        &ScalingRule::default(),
+                    )
+                });
                 match cd {
                     Ok(cd) => (corr_dim, corr_dim_err) = (Some(cd.dimension), Some(cd.slope_std)),
                     Err(e) => notes.push(format!("correlation dimension: {e}")),
@@ -333,7 +364,6 @@ pub fn calibration_rows(f: &FlagSampling, noise: &[f64], segments: usize) -> Res
     })
 }
 
-
 /// Rows whose exponent per lag time is at most this are the smooth, weakly chaotic regime
 /// (Rössler, Lorenz, hyperchaotic Rössler, Mackey-Glass, Lorenz-96 5/8: 0.10-0.19).
 pub const CALM_PER_LAG: f64 = 0.22;
@@ -372,8 +402,10 @@ fn range(v: impl Iterator<Item = f64>) -> (f64, f64) {
 /// the flag sampled as `f`; `None` when a regime has no fitted row at the flag's noise level.
 pub fn summarize(rows: &[CalibrationRow], f: &FlagSampling) -> Option<CalibrationSummary> {
     let data_lle = f.lle;
-    let at_flag: Vec<&CalibrationRow> = rows.iter().filter(|r| r.noise_rel == f.noise_rel && r.ratio_mean.is_some()).collect();
-    let (calm, chaotic): (Vec<&CalibrationRow>, Vec<&CalibrationRow>) = at_flag.iter().partition(|r| r.per_lag <= CALM_PER_LAG);
+    let at_flag: Vec<&CalibrationRow> =
+        rows.iter().filter(|r| r.noise_rel == f.noise_rel && r.ratio_mean.is_some()).collect();
+    let (calm, chaotic): (Vec<&CalibrationRow>, Vec<&CalibrationRow>) =
+        at_flag.iter().partition(|r| r.per_lag <= CALM_PER_LAG);
     if calm.is_empty() || chaotic.is_empty() {
         return None;
     }

@@ -17,8 +17,8 @@ use chaos::{ChaosError, DivergenceParams, delay_embed, kantz_curves};
 use serde::Serialize;
 
 use crate::lyapunov::model_bound;
+use crate::microchaos::{ChaosOptions, Context, evaluate_model, fit_lle_curve, fit_options};
 use ssm::dynamics::StepScratch;
-use crate::microchaos::{ChaosOptions, Context, evaluate_model, fit_options, fit_lle_curve};
 use ssm::{Dynamics, SsmModel, TimeSeries, fit};
 
 // ---------------------------------------------------------------------------------------
@@ -181,8 +181,17 @@ pub const TIMED_STEPS: usize = 20_000;
 /// other options of `o` (SSM dimension: `o.ssm_dim`, else the paper's rule), and measures
 /// accuracy and cost. Times come from `Instant` around the fit and around [`TIMED_STEPS`]
 /// steps of the reduced map; never asserted anywhere.
-pub fn accuracy_vs_cost(name: &str, train: &[TimeSeries], o: &ChaosOptions, centres: &[usize], orders: &[u32]) -> Result<CostStudy, Error> {
-    let data = train.iter().max_by_key(|s| s.x.len()).ok_or(Error::BadInput { what: "training", why: "no training series".into() })?;
+pub fn accuracy_vs_cost(
+    name: &str,
+    train: &[TimeSeries],
+    o: &ChaosOptions,
+    centres: &[usize],
+    orders: &[u32],
+) -> Result<CostStudy, Error> {
+    let data = train
+        .iter()
+        .max_by_key(|s| s.x.len())
+        .ok_or(Error::BadInput { what: "training", why: "no training series".into() })?;
     let dt = data.dt().ok_or(Error::BadInput { what: "data", why: "the series has no sampling step".into() })?;
     let ctx = Context::from_series(&data.x, dt, o.gp_embed)?;
     let ssm_dim = match o.ssm_dim {
@@ -192,7 +201,9 @@ pub fn accuracy_vs_cost(name: &str, train: &[TimeSeries], o: &ChaosOptions, cent
     let mut notes = Vec::new();
     let (lle_data, _) = ctx.lle(&data.x, &mut notes, "data")?;
     let mut rows: Vec<CostRow> = Vec::new();
-    let configs = centres.iter().map(|&c| ("rbf", c, Dynamics::Rbf { centers: c }, o.poly_order))
+    let configs = centres
+        .iter()
+        .map(|&c| ("rbf", c, Dynamics::Rbf { centers: c }, o.poly_order))
         .chain(orders.iter().map(|&k| ("poly", k as usize, Dynamics::Map, k)));
     for (kind, setting, dynamics, order) in configs {
         let mut opts = fit_options(o, ssm_dim, &ctx);
@@ -273,7 +284,15 @@ pub fn scale_studies(data_dir: &std::path::Path, periods: usize) -> Result<Vec<S
         let sim = crate::microchaos::simulate_quantized(periods, 0.02, "furuta-quant-dt25")?;
         let dt = sim.dt().ok_or(Error::BadInput { what: "simulated series", why: "no sampling step".into() })?;
         let eps = chaos::log_spaced(0.1, 30.0, 8)?;
-        Ok(scale_dependence("simulated: furuta-quant-dt25 (theta)", &sim.x, dt, 6, "encoder step h = pi/1000 rad", H_ADC, &eps)?)
+        Ok(scale_dependence(
+            "simulated: furuta-quant-dt25 (theta)",
+            &sim.x,
+            dt,
+            6,
+            "encoder step h = pi/1000 rad",
+            H_ADC,
+            &eps,
+        )?)
     };
     let measured = || -> Result<Option<ScaleStudy>, Error> {
         let f = data_dir.join("inverted_flag_chaotic").join("traj_9.csv");

@@ -176,7 +176,10 @@ fn point_errors(ex: &ExactMap, s: &MapSsm, z: &[C; 4], order: u32, r: f64) -> Re
 /// map. Points are evaluated on the rayon pool (results independent of the pool size).
 pub fn convergence(scene: &Scene, order: u32, radii: &[f64], phases: usize) -> Result<Convergence, Error> {
     if !(3..=ssm::map_ssm::MAX_ORDER).contains(&order) {
-        return Err(Error::BadOption { what: "order", why: format!("must be 3..={}, got {order}", ssm::map_ssm::MAX_ORDER) });
+        return Err(Error::BadOption {
+            what: "order",
+            why: format!("must be 3..={}, got {order}", ssm::map_ssm::MAX_ORDER),
+        });
     }
     if radii.is_empty() || radii.iter().any(|r| !(r.is_finite() && *r > 0.0)) {
         return Err(Error::BadOption { what: "radii", why: format!("need finite radii > 0, got {radii:?}") });
@@ -188,8 +191,18 @@ pub fn convergence(scene: &Scene, order: u32, radii: &[f64], phases: usize) -> R
     let map = polynomial_map(&ex.pm);
     let mut observable = vec![0.0; ex.dim()];
     observable[ex.pm.primary] = 1.0;
-    let s = map_ssm(&map, &MapSsmOptions { order, pairs: 2, resonance_tol: RESONANCE_TOL, observable, dt: ex.pm.dt, amplitude: Amplitude::Observable })
-        .map_err(|e| Error::from(ssm::Error::from(e)))?;
+    let s = map_ssm(
+        &map,
+        &MapSsmOptions {
+            order,
+            pairs: 2,
+            resonance_tol: RESONANCE_TOL,
+            observable,
+            dt: ex.pm.dt,
+            amplitude: Amplitude::Observable,
+        },
+    )
+    .map_err(|e| Error::from(ssm::Error::from(e)))?;
     let orders: Vec<u32> = (3..=order).step_by(2).collect();
     let mut rows = Vec::new();
     for &r in radii {
@@ -243,7 +256,15 @@ pub fn convergence(scene: &Scene, order: u32, radii: &[f64], phases: usize) -> R
         [.., a, b] => [(a.1 / b.1).sqrt(), (a.2 / b.2).sqrt()],
         _ => [f64::NAN; 2],
     };
-    Ok(Convergence { dt_ms: scene.controller.dt_ms, max_order: order, rows, radius_estimates, validity_radius, axis_growth, axis_radius })
+    Ok(Convergence {
+        dt_ms: scene.controller.dt_ms,
+        max_order: order,
+        rows,
+        radius_estimates,
+        validity_radius,
+        axis_growth,
+        axis_radius,
+    })
 }
 
 /// [`convergence`] of the paper's Furuta loop at `dt_ms` on [`CONVERGENCE_RADII`], 6 phases
@@ -256,23 +277,42 @@ pub fn furuta_convergence(dt_ms: f64, order: u32) -> Result<Convergence, Error> 
 impl Convergence {
     /// Plain-text table, one line per (radius, order).
     pub fn to_text(&self) -> String {
-        let mut out = format!("dt = {} ms: invariance and reduced-dynamics errors against the exact period map\n", self.dt_ms);
+        let mut out =
+            format!("dt = {} ms: invariance and reduced-dynamics errors against the exact period map\n", self.dt_ms);
         out.push_str("radius order  |F(W)-W(R)|_inf   theta      rel        rate err mode1  mode2 (1/s)  unresolved  by direction 0/22.5/45/67.5/90 deg\n");
         for r in &self.rows {
             let dirs: Vec<String> = r.invariance_by_direction.iter().map(|x| format!("{x:.1e}")).collect();
             out.push_str(&format!(
                 "{:<6} {:<5}  {:>12.3e}  {:>10.3e} {:>10.3e}  {:>10.3e}  {:>10.3e}  {}/{}  {}\n",
-                r.radius, r.order, r.invariance, r.invariance_theta, r.invariance_rel, r.rate_error[0], r.rate_error[1], r.unresolved, r.points, dirs.join(" ")
+                r.radius,
+                r.order,
+                r.invariance,
+                r.invariance_theta,
+                r.invariance_rel,
+                r.rate_error[0],
+                r.rate_error[1],
+                r.unresolved,
+                r.points,
+                dirs.join(" ")
             ));
         }
         for (r, k, est) in &self.radius_estimates {
-            out.push_str(&format!("root test at r = {r}, orders {k}/{}: radius of convergence ~ {est:.3} rad\n", k + 2));
+            out.push_str(&format!(
+                "root test at r = {r}, orders {k}/{}: radius of convergence ~ {est:.3} rad\n",
+                k + 2
+            ));
         }
-        out.push_str(&format!("invariance error still falls at the top order up to r = {} rad\n", self.validity_radius));
+        out.push_str(&format!(
+            "invariance error still falls at the top order up to r = {} rad\n",
+            self.validity_radius
+        ));
         for (k, a1, a2) in &self.axis_growth {
             out.push_str(&format!("order {k}: max |W_m| on the mode-1 axis {a1:.3e}, mode-2 axis {a2:.3e}\n"));
         }
-        out.push_str(&format!("axis root test (last two orders): mode 1 {:.3} rad, mode 2 {:.3} rad\n", self.axis_radius[0], self.axis_radius[1]));
+        out.push_str(&format!(
+            "axis root test (last two orders): mode 1 {:.3} rad, mode 2 {:.3} rad\n",
+            self.axis_radius[0], self.axis_radius[1]
+        ));
         out
     }
 }

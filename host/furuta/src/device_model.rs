@@ -8,10 +8,7 @@ use ssm::{Dynamics, FitOptions, Ridge, SsmModel, TimeSeries, fit};
 /// The reference device model: the scene's primary angle over `periods` simulated periods,
 /// a 4D SSM (p = 9, quadratic lift) with a 60-centre RBF map. Returns the model and the
 /// series it was fitted to.
-pub fn fit_scene_rbf(
-    scene: &Scene,
-    periods: u64,
-) -> Result<(SsmModel, TimeSeries), crate::Error> {
+pub fn fit_scene_rbf(scene: &Scene, periods: u64) -> Result<(SsmModel, TimeSeries), crate::Error> {
     let mut s = scene.clone();
     s.run.periods = periods;
     let tr = simulate(&s, None)?;
@@ -24,7 +21,8 @@ pub fn fit_scene_rbf(
         dyn_order: 1,
         dynamics: Dynamics::Rbf { centers: 60 },
         ridge: Ridge::Fixed(1e-10),
-        linear_anchor: None, anchor_joint: false,
+        linear_anchor: None,
+        anchor_joint: false,
     };
     let m = fit(std::slice::from_ref(&ts), &opts)?;
     Ok((m, ts))
@@ -33,15 +31,15 @@ pub fn fit_scene_rbf(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use ssm::device::{encode, to_device_model};
     use controller::predictor::{Predictor, SqrtFlavour};
     use shared::model::Model;
-    
+    use ssm::device::{encode, to_device_model};
+
     /// A fitted RBF model of the Furuta loop at dt = 25 ms (theta series, 4D SSM).
     fn fitted() -> (SsmModel, TimeSeries) {
         fit_scene_rbf(&Scene::load("furuta-dt25", &[]).unwrap(), 1200).unwrap()
     }
-    
+
     #[test]
     fn polynomial_dynamics_are_refused() {
         let (m, ts) = fitted();
@@ -52,7 +50,7 @@ mod tests {
         let e = to_device_model(&poly, shared::ControllerConfig::paper(0.025)).unwrap_err().to_string();
         assert!(e.contains("rbf"), "{e}");
     }
-    
+
     #[test]
     fn device_f32_predictor_matches_host_f64_model() {
         let (m, ts) = fitted();

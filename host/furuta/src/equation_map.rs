@@ -97,7 +97,16 @@ pub fn model_of_ssm(s: &MapSsm, observable: &[f64]) -> Result<SsmModel, Error> {
         exps: keep.iter().map(|&k| obs.exps[k].clone()).collect(),
         coef: keep.iter().map(|&k| obs.coef[k]).collect(),
     });
-    let no_regression = Conditioning { rows: 0, cols: 0, s_max: 0.0, s_min: 0.0, cond: 0.0, alpha: 0.0, cond_regularized: 0.0, rel_residual: 0.0 };
+    let no_regression = Conditioning {
+        rows: 0,
+        cols: 0,
+        s_max: 0.0,
+        s_min: 0.0,
+        cond: 0.0,
+        alpha: 0.0,
+        cond_regularized: 0.0,
+        rel_residual: 0.0,
+    };
     let dynamics = ReducedDynamics::Map { increment, dt: s.dt, conditioning: no_regression };
     let eigenvalues_ct = dynamics.eigenvalues_ct()?;
     Ok(SsmModel {
@@ -113,7 +122,15 @@ pub fn model_of_ssm(s: &MapSsm, observable: &[f64]) -> Result<SsmModel, Error> {
             anchor_joint: false,
         },
         dt: s.dt,
-        manifold: Manifold { dim: d, p: 1, v1, singular_values: Vec::new(), eta_scale: vec![1.0; d], nonlinear, conditioning: None },
+        manifold: Manifold {
+            dim: d,
+            p: 1,
+            v1,
+            singular_values: Vec::new(),
+            eta_scale: vec![1.0; d],
+            nonlinear,
+            conditioning: None,
+        },
         dynamics,
         eigenvalues_ct,
         eta_range: vec![0.0; d],
@@ -188,7 +205,10 @@ impl StartProjection {
         let cfg = scene.controller_config();
         let lin = sim::stability::linear_plant(&scene)?;
         if lin.dim() != 4 || lin.primary() != 0 || lin.secondary() != 2 {
-            return Err(Error::BadInput { what: "plant", why: "the start projection needs the 4-state Furuta plant [theta, w_theta, phi, w_phi]".into() });
+            return Err(Error::BadInput {
+                what: "plant",
+                why: "the start projection needs the 4-state Furuta plant [theta, w_theta, phi, w_phi]".into(),
+            });
         }
         let a = lin.closed_loop(&cfg)?.deflated()?;
         let d = a.nrows();
@@ -202,14 +222,30 @@ impl StartProjection {
         };
         let mut observable = vec![0.0; d];
         observable[0] = 1.0;
-        let opts = ssm::map_ssm::MapSsmOptions { order: 1, pairs: 2, resonance_tol: 0.0, observable, dt: cfg.dt, amplitude: ssm::map_ssm::Amplitude::Spectral };
+        let opts = ssm::map_ssm::MapSsmOptions {
+            order: 1,
+            pairs: 2,
+            resonance_tol: 0.0,
+            observable,
+            dt: cfg.dt,
+            amplitude: ssm::map_ssm::Amplitude::Spectral,
+        };
         let s = ssm::map_ssm::map_ssm(&map, &opts).map_err(|e| Error::from(ssm::Error::from(e)))?;
         let (u1, u2) = match (s.left.first(), s.left.get(2)) {
             (Some(u1), Some(u2)) if u1.len() == d && u2.len() == d => (u1, u2),
-            _ => return Err(Error::BadInput { what: "linear map", why: format!("expected 2 left eigenvectors of length {d}") }),
+            _ => {
+                return Err(Error::BadInput {
+                    what: "linear map",
+                    why: format!("expected 2 left eigenvectors of length {d}"),
+                });
+            }
         };
         let part = |u: &[(f64, f64)], im: bool| u.iter().map(|&(re, i)| if im { i } else { re }).collect::<Vec<f64>>();
-        Ok(StartProjection { dt_ms, delay: cfg.delay as usize, rows: [part(u1, false), part(u1, true), part(u2, false), part(u2, true)] })
+        Ok(StartProjection {
+            dt_ms,
+            delay: cfg.delay as usize,
+            rows: [part(u1, false), part(u1, true), part(u2, false), part(u2, true)],
+        })
     }
 
     /// The start in deflated coordinates (length `3 + 2 (delay + 1)`). A start without
@@ -234,14 +270,29 @@ impl StartProjection {
 /// for `periods` periods (samples `0..=periods`, as a full-system run of `periods` periods),
 /// theta read from `W(z(eta))` (the model's observable); escape at the first sample with
 /// |theta| > `escape_theta` ([`crate::bifurcations::iterate_outcome`]).
-pub fn equation_map_outcome(model: &SsmModel, proj: &StartProjection, start: &crate::full_system::Start, periods: u64, escape_theta: f64) -> Result<crate::full_system::Outcome, Error> {
+pub fn equation_map_outcome(
+    model: &SsmModel,
+    proj: &StartProjection,
+    start: &crate::full_system::Start,
+    periods: u64,
+    escape_theta: f64,
+) -> Result<crate::full_system::Outcome, Error> {
     use ssm::dynamics::StepScratch;
     let dt = model.dynamics.map_dt().ok_or(Error::NotAMap)?;
     if (dt - sim::units::ms_to_s(proj.dt_ms)).abs() > 1e-9 * dt {
-        return Err(Error::BadInput { what: "projection", why: format!("built at {} ms, but the map steps {} ms", proj.dt_ms, dt * 1e3) });
+        return Err(Error::BadInput {
+            what: "projection",
+            why: format!("built at {} ms, but the map steps {} ms", proj.dt_ms, dt * 1e3),
+        });
     }
     if model.manifold.p != 1 || model.manifold.dim != 4 {
-        return Err(Error::BadInput { what: "model", why: format!("needs the equation map's form (4 reduced coordinates, theta alone), got dim {} p {}", model.manifold.dim, model.manifold.p) });
+        return Err(Error::BadInput {
+            what: "model",
+            why: format!(
+                "needs the equation map's form (4 reduced coordinates, theta alone), got dim {} p {}",
+                model.manifold.dim, model.manifold.p
+            ),
+        });
     }
     let eta0 = proj.eta(start)?;
     let mut scratch = StepScratch::default();
@@ -250,7 +301,15 @@ pub fn equation_map_outcome(model: &SsmModel, proj: &StartProjection, start: &cr
     let (map, manifold) = (model.dynamics.prepare(), model.manifold.prepare());
     let lift = std::cell::RefCell::new(ssm::poly::PolyScratch::default());
     let obs = |e: &[f64]| manifold.lift_one(e, &mut lift.borrow_mut(), 0);
-    Ok(crate::bifurcations::iterate_outcome(|e| map.step(e, dt, &mut scratch), obs, &eta0, periods, 0.0, dt, escape_theta))
+    Ok(crate::bifurcations::iterate_outcome(
+        |e| map.step(e, dt, &mut scratch),
+        obs,
+        &eta0,
+        periods,
+        0.0,
+        dt,
+        escape_theta,
+    ))
 }
 
 /// The equation map's small-start switch by the fitted map's and the full system's rules
@@ -267,13 +326,17 @@ pub fn equation_map_switch(
     periods: u64,
 ) -> Result<crate::bifurcations::MapSwitch, Error> {
     if family.style != MapStyle::Graph {
-        return Err(Error::BadInput { what: "family", why: "the start projection U^T s gives the reduced coordinates of the graph-style map only".into() });
+        return Err(Error::BadInput {
+            what: "family",
+            why: "the start projection U^T s gives the reduced coordinates of the graph-style map only".into(),
+        });
     }
     let escapes = |dt: f64| -> Result<Vec<bool>, Error> {
         let m = family.model_at(dt, interp)?;
         let proj = StartProjection::furuta(dt)?;
         let ics = ics_at(dt)?;
-        let outs = crate::par_map(&ics, |ic| equation_map_outcome(&m, &proj, ic, periods, crate::full_system::ESCAPE_THETA))?;
+        let outs =
+            crate::par_map(&ics, |ic| equation_map_outcome(&m, &proj, ic, periods, crate::full_system::ESCAPE_THETA))?;
         Ok(outs.iter().map(|o| !o.bounded()).collect())
     };
     crate::bifurcations::first_escape_switch(escapes, lo, hi, n, tol)
@@ -300,7 +363,10 @@ impl EquationMapFamily {
     /// [`EquationMapFamily::furuta`] in the style `style`.
     pub fn furuta_styled(nodes_ms: &[f64], order: u32, style: MapStyle) -> Result<EquationMapFamily, Error> {
         if nodes_ms.len() < 2 || nodes_ms.iter().any(|x| !x.is_finite()) || nodes_ms.windows(2).any(|w| w[1] <= w[0]) {
-            return Err(Error::BadOption { what: "nodes_ms", why: format!("need at least 2 finite, strictly increasing periods, got {nodes_ms:?}") });
+            return Err(Error::BadOption {
+                what: "nodes_ms",
+                why: format!("need at least 2 finite, strictly increasing periods, got {nodes_ms:?}"),
+            });
         }
         let maps = crate::par_map(nodes_ms, |&dt| furuta_equation_map_styled(dt, order, style))?;
         Ok(EquationMapFamily { order, style, nodes_ms: nodes_ms.to_vec(), maps })
@@ -314,7 +380,10 @@ impl EquationMapFamily {
         mix_models(&maps, &w, 0, V1Mix::Mixed, sim::units::ms_to_s(dt_ms)).map_err(|e| match e {
             ssm::Error::Mix(MixError::Mismatch { index, part, .. }) => Error::BadInput {
                 what: "equation map family",
-                why: format!("node {} ms has other monomials than node {} ms ({part})", self.nodes_ms[index], self.nodes_ms[0]),
+                why: format!(
+                    "node {} ms has other monomials than node {} ms ({part})",
+                    self.nodes_ms[index], self.nodes_ms[0]
+                ),
             },
             ssm::Error::Mix(MixError::NotAMap { .. }) => Error::NotAMap,
             e => e.into(),
@@ -351,9 +420,19 @@ pub fn equation_map_global(
     let at = |dt: f64| family.model_at(dt, interp);
     let (connection, torus) = rayon::join(
         || map_connection(at, lo, hi, n, tol, co).map_err(|e| format!("not found ({e})")),
-        || map_torus_continuation_from(at, torus_dts, start_rho, torus_start(start_rho), periods).map_err(|e| e.to_string()),
+        || {
+            map_torus_continuation_from(at, torus_dts, start_rho, torus_start(start_rho), periods)
+                .map_err(|e| e.to_string())
+        },
     );
-    EquationMapGlobal { order: family.order, style: family.style, nodes_ms: family.nodes_ms.clone(), interp, connection, torus }
+    EquationMapGlobal {
+        order: family.order,
+        style: family.style,
+        nodes_ms: family.nodes_ms.clone(),
+        interp,
+        connection,
+        torus,
+    }
 }
 
 #[cfg(test)]
@@ -388,7 +467,10 @@ mod tests {
         let (pm, s) = furuta_graph_ssm(31.0, 5).unwrap();
         let m = furuta_equation_map(31.0, 5).unwrap();
         assert_eq!((m.manifold.dim, m.manifold.p), (4, 1));
-        assert_eq!(m.manifold.v1.iter().map(|x| (x * 1e12).round() / 1e12).collect::<Vec<_>>(), vec![1.0, 0.0, 1.0, 0.0]);
+        assert_eq!(
+            m.manifold.v1.iter().map(|x| (x * 1e12).round() / 1e12).collect::<Vec<_>>(),
+            vec![1.0, 0.0, 1.0, 0.0]
+        );
         // Graph style: no term removed, U^T W_m = 0.
         assert!(s.min_divisor.is_infinite());
         let map = crate::equation_ssm::polynomial_map(&pm);
@@ -396,7 +478,10 @@ mod tests {
         eprintln!("graph-style invariance error at r = 0.02: {:.3e} (rel {:.3e})", inv.abs, inv.rel);
         let dt = m.dynamics.map_dt().unwrap();
         for (k, eta) in [[0.012, 0.005, 0.01, -0.004], [-0.003, 0.014, 0.006, 0.009]].iter().enumerate() {
-            let z: Vec<Complex<f64>> = [Complex::new(eta[0], eta[1]), Complex::new(eta[2], eta[3])].iter().flat_map(|z| [*z, z.conj()]).collect();
+            let z: Vec<Complex<f64>> = [Complex::new(eta[0], eta[1]), Complex::new(eta[2], eta[3])]
+                .iter()
+                .flat_map(|z| [*z, z.conj()])
+                .collect();
             let w: Vec<f64> = s.manifold_at(&z, 5).iter().map(|x| x.re).collect();
             let rz = s.reduced_at(&z, 5);
             let mut e = eta.to_vec();
@@ -438,10 +523,13 @@ mod tests {
         }
         let (pm, s) = furuta_graph_ssm(dt, 5).unwrap();
         let unorm = s.left.iter().flatten().fold(0.0f64, |m, &(a, b)| m.max(a.hypot(b)));
-        let du = [0usize, 2].iter().flat_map(|&j| s.left[j].iter().enumerate().map(move |(k, &(a, b))| (j, k, a, b))).fold(0.0f64, |m, (j, k, a, b)| {
-            let r = &proj.rows[j];
-            m.max((r[k] - a).abs()).max((proj.rows[j + 1][k] - b).abs())
-        });
+        let du = [0usize, 2]
+            .iter()
+            .flat_map(|&j| s.left[j].iter().enumerate().map(move |(k, &(a, b))| (j, k, a, b)))
+            .fold(0.0f64, |m, (j, k, a, b)| {
+                let r = &proj.rows[j];
+                m.max((r[k] - a).abs()).max((proj.rows[j + 1][k] - b).abs())
+            });
         eprintln!("left eigenvectors: exact linear map vs the SSM's: {:.2e} (relative)", du / unorm);
         assert!(du / unorm < 1e-9);
         // A point on the manifold as a full-system start (phi = 0.3 rad, any: phi is cyclic).
@@ -450,7 +538,8 @@ mod tests {
         let w: Vec<f64> = s.manifold_at(&z, 5).iter().map(|x| x.re).collect();
         assert_eq!(pm.names, ["x0", "x1", "x3", "y[i-1]", "y[i-2]", "z[i-1]-x2", "z[i-2]-x2"]);
         let phi = 0.3;
-        let start: crate::full_system::Start = ([w[0], w[1], phi, w[2]], Some(vec![[w[4], w[6] + phi], [w[3], w[5] + phi]]));
+        let start: crate::full_system::Start =
+            ([w[0], w[1], phi, w[2]], Some(vec![[w[4], w[6] + phi], [w[3], w[5] + phi]]));
         let back = proj.deflated(&start).unwrap();
         assert!(back.iter().zip(&w).all(|(a, b)| (a - b).abs() < 1e-15), "{back:?} vs {w:?}");
         assert_eq!(proj.deflated(&crate::map_global::start_of_deflated(&w).unwrap()).unwrap(), w);
@@ -477,9 +566,15 @@ mod tests {
         eprintln!("theta over {n} periods (max |theta| {amp:.4}): map vs F {d_f:.2e}, map vs full system {d_full:.2e}");
         assert!(d_f < 1e-7 && d_full < 1e-7, "{d_f} {d_full}");
         // Refused: a start with the wrong pre-history length; a map at another dt.
-        assert!(matches!(proj.eta(&([0.01, 0.0, 0.0, 0.0], Some(vec![[0.0, 0.0]]))), Err(Error::BadInput { what: "start", .. })));
+        assert!(matches!(
+            proj.eta(&([0.01, 0.0, 0.0, 0.0], Some(vec![[0.0, 0.0]]))),
+            Err(Error::BadInput { what: "start", .. })
+        ));
         let other = furuta_equation_map(31.5, 5).unwrap();
-        assert!(matches!(equation_map_outcome(&other, &proj, &start, 10, 1.0), Err(Error::BadInput { what: "projection", .. })));
+        assert!(matches!(
+            equation_map_outcome(&other, &proj, &start, 10, 1.0),
+            Err(Error::BadInput { what: "projection", .. })
+        ));
     }
 
     /// Golden value, order 5 on 5 nodes (spline), the fitted map's settings (the full
@@ -490,14 +585,24 @@ mod tests {
     fn golden_order5_small_start_switch() {
         let fam = EquationMapFamily::furuta(&[30.5, 31.0, 31.5, 32.0, 32.5], 5).unwrap();
         let t0 = std::time::Instant::now();
-        let sw = equation_map_switch(&fam, Interp::Spline, crate::full_system::default_ics, (31.0, 32.0, 11, 0.005), crate::full_system::DEFAULT_SCAN_PERIODS).unwrap();
+        let sw = equation_map_switch(
+            &fam,
+            Interp::Spline,
+            crate::full_system::default_ics,
+            (31.0, 32.0, 11, 0.005),
+            crate::full_system::DEFAULT_SCAN_PERIODS,
+        )
+        .unwrap();
         eprintln!("order 5 switch: {sw:?} ({:.1} s)", t0.elapsed().as_secs_f64());
         let (a, b) = sw.bracket.unwrap();
         assert!(b - a <= 0.005 + 1e-12);
         assert!((0.5 * (a + b) - GOLDEN_SWITCH).abs() < 0.005, "{a} {b}");
         assert!(sw.monotone);
         let nf = EquationMapFamily::furuta_styled(&[30.5, 31.0], 5, MapStyle::NormalForm).unwrap();
-        assert!(matches!(equation_map_switch(&nf, Interp::Spline, crate::full_system::default_ics, (30.5, 31.0, 3, 0.005), 10), Err(Error::BadInput { what: "family", .. })));
+        assert!(matches!(
+            equation_map_switch(&nf, Interp::Spline, crate::full_system::default_ics, (30.5, 31.0, 3, 0.005), 10),
+            Err(Error::BadInput { what: "family", .. })
+        ));
     }
 
     /// Measurement (not a check): the equation map's small-start switch at orders 5, 7, 9
@@ -507,11 +612,20 @@ mod tests {
     #[ignore]
     fn measure_equation_map_switch() {
         let nodes: Vec<f64> = (0..=8).map(|k| 30.5 + 0.25 * k as f64).collect();
-        let orders: Vec<u32> = std::env::var("EQMAP_ORDERS").map(|s| s.split(',').map(|x| x.parse().unwrap()).collect()).unwrap_or(vec![5, 7, 9]);
+        let orders: Vec<u32> = std::env::var("EQMAP_ORDERS")
+            .map(|s| s.split(',').map(|x| x.parse().unwrap()).collect())
+            .unwrap_or(vec![5, 7, 9]);
         for order in orders {
             let t0 = std::time::Instant::now();
             let fam = EquationMapFamily::furuta(&nodes, order).unwrap();
-            let sw = equation_map_switch(&fam, Interp::Spline, crate::full_system::default_ics, (31.0, 32.0, 11, 0.005), crate::full_system::DEFAULT_SCAN_PERIODS).unwrap();
+            let sw = equation_map_switch(
+                &fam,
+                Interp::Spline,
+                crate::full_system::default_ics,
+                (31.0, 32.0, 11, 0.005),
+                crate::full_system::DEFAULT_SCAN_PERIODS,
+            )
+            .unwrap();
             eprintln!("order {order}: {sw:?} ({:.1} s)", t0.elapsed().as_secs_f64());
         }
     }
@@ -525,7 +639,9 @@ mod tests {
     fn measure_switch_starts() {
         let nodes: Vec<f64> = (0..=8).map(|k| 30.5 + 0.25 * k as f64).collect();
         let order: u32 = std::env::var("EQMAP_ORDER").map(|s| s.parse().unwrap()).unwrap_or(7);
-        let dts: Vec<f64> = std::env::var("EQMAP_DTS").map(|s| s.split(',').map(|x| x.parse().unwrap()).collect()).unwrap_or(vec![31.33, 31.335, 31.34, 31.3425, 31.345, 31.35, 31.36]);
+        let dts: Vec<f64> = std::env::var("EQMAP_DTS")
+            .map(|s| s.split(',').map(|x| x.parse().unwrap()).collect())
+            .unwrap_or(vec![31.33, 31.335, 31.34, 31.3425, 31.345, 31.35, 31.36]);
         let fam = EquationMapFamily::furuta(&nodes, order).unwrap();
         let periods = crate::full_system::DEFAULT_SCAN_PERIODS;
         for &dt in &dts {
@@ -533,7 +649,10 @@ mod tests {
             let m = fam.model_at(dt, Interp::Spline).unwrap();
             let proj = StartProjection::furuta(dt).unwrap();
             let full = crate::full_system::switch_scan(&[dt], &ics, periods, crate::full_system::ESCAPE_THETA).unwrap();
-            let map: Vec<_> = ics.iter().map(|ic| equation_map_outcome(&m, &proj, ic, periods, crate::full_system::ESCAPE_THETA).unwrap()).collect();
+            let map: Vec<_> = ics
+                .iter()
+                .map(|ic| equation_map_outcome(&m, &proj, ic, periods, crate::full_system::ESCAPE_THETA).unwrap())
+                .collect();
             let t = |e: Option<f64>| e.map_or("-".to_string(), |t| format!("{t:.1}"));
             eprintln!(
                 "dt {dt}: escape t full [{}], map [{}]",
@@ -556,7 +675,16 @@ mod tests {
             let at = fam.model_at(31.0, interp).unwrap();
             let node = &fam.maps[1];
             let err = inc(&at).iter().zip(inc(node)).map(|(a, b)| (a - b).abs()).fold(0.0, f64::max);
-            let err_obs = at.manifold.nonlinear.as_ref().unwrap().coef.iter().zip(&node.manifold.nonlinear.as_ref().unwrap().coef).map(|(a, b)| (a - b).abs()).fold(0.0, f64::max);
+            let err_obs = at
+                .manifold
+                .nonlinear
+                .as_ref()
+                .unwrap()
+                .coef
+                .iter()
+                .zip(&node.manifold.nonlinear.as_ref().unwrap().coef)
+                .map(|(a, b)| (a - b).abs())
+                .fold(0.0, f64::max);
             assert!(err < 1e-12 && err_obs < 1e-12, "{interp:?}: {err} {err_obs}");
             assert_eq!(at.dynamics.map_dt(), node.dynamics.map_dt());
         }
@@ -585,13 +713,24 @@ mod tests {
         let co = ConnectionOptions::default();
         let torus_dts: Vec<f64> = (0..=6).map(|k| ((31.6 + 0.05 * k as f64) * 1e4).round() / 1e4).collect();
         let graph = EquationMapFamily::furuta(&nodes, 5).unwrap();
-        let g = equation_map_global(&graph, Interp::Spline, (31.2, 31.6, 3, 0.005), &co, &torus_dts, [0.097, 0.0277], 16_000);
+        let g = equation_map_global(
+            &graph,
+            Interp::Spline,
+            (31.2, 31.6, 3, 0.005),
+            &co,
+            &torus_dts,
+            [0.097, 0.0277],
+            16_000,
+        );
         let nf = EquationMapFamily::furuta_styled(&nodes, 5, MapStyle::NormalForm).unwrap();
         let n = map_connection(|dt| nf.model_at(dt, Interp::Spline), 31.0, 31.4, 3, 0.005, &co).unwrap();
         let gb = g.connection.as_ref().unwrap().switch.bracket.unwrap();
         let t = g.torus.as_ref().unwrap();
         let nb = n.switch.bracket.unwrap();
-        eprintln!("graph: connection {gb:?}, torus lost {:?}, onset {:?}; normal-form map: connection {nb:?}", t.lost_between, t.growth_onset);
+        eprintln!(
+            "graph: connection {gb:?}, torus lost {:?}, onset {:?}; normal-form map: connection {nb:?}",
+            t.lost_between, t.growth_onset
+        );
         assert!(gb.1 - gb.0 <= 0.005 + 1e-12);
         assert!((0.5 * (gb.0 + gb.1) - GOLDEN_CONNECTION).abs() < 0.01, "{gb:?}");
         assert_eq!(t.lost_between, Some((31.8, 31.85)));
@@ -606,15 +745,34 @@ mod tests {
     fn measure_equation_map_by_order() {
         let nodes: Vec<f64> = (0..=8).map(|k| 30.5 + 0.25 * k as f64).collect();
         let torus_dts: Vec<f64> = (0..=14).map(|k| ((31.3 + 0.05 * k as f64) * 1e4).round() / 1e4).collect();
-        let orders: Vec<u32> = std::env::var("EQMAP_ORDERS").map(|s| s.split(',').map(|x| x.parse().unwrap()).collect()).unwrap_or(vec![5, 7, 9]);
+        let orders: Vec<u32> = std::env::var("EQMAP_ORDERS")
+            .map(|s| s.split(',').map(|x| x.parse().unwrap()).collect())
+            .unwrap_or(vec![5, 7, 9]);
         for order in orders {
             let t0 = std::time::Instant::now();
             let fam = EquationMapFamily::furuta(&nodes, order).unwrap();
             let t1 = t0.elapsed().as_secs_f64();
-            let g = equation_map_global(&fam, Interp::Spline, (31.0, 32.0, 6, 0.005), &ConnectionOptions::default(), &torus_dts, [0.097, 0.0277], 16_000);
+            let g = equation_map_global(
+                &fam,
+                Interp::Spline,
+                (31.0, 32.0, 6, 0.005),
+                &ConnectionOptions::default(),
+                &torus_dts,
+                [0.097, 0.0277],
+                16_000,
+            );
             let c = g.connection.as_ref().map(|c| (c.switch.bracket, c.switch.grid.clone()));
-            let t = g.torus.as_ref().map(|t| (t.lost_between, t.growth_onset, t.steps.iter().map(|s| (s.dt_ms, s.rho, s.growth_rate, s.lost)).collect::<Vec<_>>()));
-            eprintln!("order {order}: family {t1:.1} s, total {:.1} s\n connection {c:?}\n torus {t:?}", t0.elapsed().as_secs_f64());
+            let t = g.torus.as_ref().map(|t| {
+                (
+                    t.lost_between,
+                    t.growth_onset,
+                    t.steps.iter().map(|s| (s.dt_ms, s.rho, s.growth_rate, s.lost)).collect::<Vec<_>>(),
+                )
+            });
+            eprintln!(
+                "order {order}: family {t1:.1} s, total {:.1} s\n connection {c:?}\n torus {t:?}",
+                t0.elapsed().as_secs_f64()
+            );
         }
     }
 
@@ -644,13 +802,23 @@ mod tests {
                 g.theta_amplitude, g.freq_hz, n.theta_amplitude, n.freq_hz, eq.rho, eq.theta_amplitude, eq.freq_hz
             );
             let pf = crate::equation_ssm::furuta_equation_polar(dt, order).unwrap();
-            let popts = ssm::portrait::PortraitOptions { rho_max: crate::bifurcations::RHO_MAX, ..ssm::portrait::PortraitOptions::default() };
+            let popts = ssm::portrait::PortraitOptions {
+                rho_max: crate::bifurcations::RHO_MAX,
+                ..ssm::portrait::PortraitOptions::default()
+            };
             let fps = ssm::portrait::fixed_points(&pf, &popts).unwrap();
             eprintln!("  polar fixed points: {:?}", fps.iter().map(|f| (f.kind, f.rho)).collect::<Vec<_>>());
         }
-        let g = equation_map_global(&nf, Interp::Spline, (31.0, 32.0, 6, 0.005), &co, &torus_dts, [0.097, 0.0277], 16_000);
+        let g =
+            equation_map_global(&nf, Interp::Spline, (31.0, 32.0, 6, 0.005), &co, &torus_dts, [0.097, 0.0277], 16_000);
         let c = g.connection.as_ref().map(|c| (c.switch.bracket, c.switch.grid.clone()));
-        let t = g.torus.as_ref().map(|t| (t.lost_between, t.growth_onset, t.steps.iter().map(|s| (s.dt_ms, s.rho, s.growth_rate, s.lost)).collect::<Vec<_>>()));
+        let t = g.torus.as_ref().map(|t| {
+            (
+                t.lost_between,
+                t.growth_onset,
+                t.steps.iter().map(|s| (s.dt_ms, s.rho, s.growth_rate, s.lost)).collect::<Vec<_>>(),
+            )
+        });
         eprintln!("normal-form map, order {order}:\n connection {c:?}\n torus {t:?}");
     }
 }

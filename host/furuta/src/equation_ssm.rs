@@ -25,10 +25,13 @@ use sim::plant::Plant;
 use sim::scene::Scene;
 use sim::stability::dominant_pairs;
 use sim::taylor::{FlowOptions, MESH_ORDER, PeriodMap, TaylorError, period_map};
-use ssm::map_ssm::{Amplitude, InvarianceError, MapSsm, MapSsmOptions, OrderStats, PolynomialMap, map_ssm};
 use ssm::interp::{Interp, interp_weights};
+use ssm::map_ssm::{Amplitude, InvarianceError, MapSsm, MapSsmOptions, OrderStats, PolynomialMap, map_ssm};
 use ssm::normal_form::{ExtraResonance, NormalFormTable, PolarNormalForm};
-use ssm::portrait::{FixedPoint, HeteroclinicEvent, HopfEvent, PointKind, PortraitOptions, ScanOptions, fixed_points, heteroclinic_dt, torus_hopf_dt};
+use ssm::portrait::{
+    FixedPoint, HeteroclinicEvent, HopfEvent, PointKind, PortraitOptions, ScanOptions, fixed_points, heteroclinic_dt,
+    torus_hopf_dt,
+};
 
 use crate::Error;
 use crate::bifurcations::{RHO_MAX, small_start_switch};
@@ -86,7 +89,12 @@ pub fn polynomial_map(pm: &PeriodMap) -> PolynomialMap {
     }
 }
 
-fn expand<P: Plant<N>, const N: usize>(p: &P, scene: &Scene, order: u32, opts: &FlowOptions) -> Result<PeriodMap, TaylorError> {
+fn expand<P: Plant<N>, const N: usize>(
+    p: &P,
+    scene: &Scene,
+    order: u32,
+    opts: &FlowOptions,
+) -> Result<PeriodMap, TaylorError> {
     period_map(p, &scene.controller_config(), order, opts)
 }
 
@@ -102,14 +110,21 @@ pub fn scene_period_map(scene: &Scene, order: u32, opts: &FlowOptions) -> Result
 
 fn check_order(order: u32) -> Result<(), Error> {
     if !(3..=ssm::map_ssm::MAX_ORDER).contains(&order) {
-        return Err(Error::BadOption { what: "order", why: format!("must be 3..={}, got {order}", ssm::map_ssm::MAX_ORDER) });
+        return Err(Error::BadOption {
+            what: "order",
+            why: format!("must be 3..={}, got {order}", ssm::map_ssm::MAX_ORDER),
+        });
     }
     Ok(())
 }
 
 /// The period map of `scene` to `order`, its SSM (amplitudes normalized by `amplitude`),
 /// and the wall times (s) of both.
-fn scene_map_ssm(scene: &Scene, order: u32, amplitude: Amplitude) -> Result<(Arc<PeriodMap>, PolynomialMap, MapSsm, f64, f64), Error> {
+fn scene_map_ssm(
+    scene: &Scene,
+    order: u32,
+    amplitude: Amplitude,
+) -> Result<(Arc<PeriodMap>, PolynomialMap, MapSsm, f64, f64), Error> {
     check_order(order)?;
     let t0 = Instant::now();
     let pm = Arc::new(scene_period_map(scene, order, &FlowOptions::default())?);
@@ -119,7 +134,13 @@ fn scene_map_ssm(scene: &Scene, order: u32, amplitude: Amplitude) -> Result<(Arc
 /// The SSM of the period map `pm` (amplitudes normalized by `amplitude`, non-structural
 /// terms with divisors below `resonance_tol` kept in the reduced map), with the wall time (s)
 /// of its expansion and of the SSM.
-fn map_ssm_of(pm: Arc<PeriodMap>, order: u32, amplitude: Amplitude, resonance_tol: f64, expansion_seconds: f64) -> Result<(Arc<PeriodMap>, PolynomialMap, MapSsm, f64, f64), Error> {
+fn map_ssm_of(
+    pm: Arc<PeriodMap>,
+    order: u32,
+    amplitude: Amplitude,
+    resonance_tol: f64,
+    expansion_seconds: f64,
+) -> Result<(Arc<PeriodMap>, PolynomialMap, MapSsm, f64, f64), Error> {
     let map = polynomial_map(&pm);
     let mut observable = vec![0.0; pm.dim()];
     observable[pm.primary] = 1.0;
@@ -149,7 +170,11 @@ fn furuta_scene(dt_ms: f64) -> Result<Scene, Error> {
 /// order's at the same `dt_ms` asked for earlier (both at most `sim::taylor::MESH_ORDER`:
 /// bit for bit the direct expansion, [`PeriodMap::truncated`]). The expansion's wall time
 /// is this call's: near zero when the map came from the cache.
-fn furuta_map_ssm(dt_ms: f64, order: u32, amplitude: Amplitude) -> Result<(Scene, Arc<PeriodMap>, PolynomialMap, MapSsm, f64, f64), Error> {
+fn furuta_map_ssm(
+    dt_ms: f64,
+    order: u32,
+    amplitude: Amplitude,
+) -> Result<(Scene, Arc<PeriodMap>, PolynomialMap, MapSsm, f64, f64), Error> {
     furuta_map_ssm_tol(dt_ms, order, amplitude, RESONANCE_TOL)
 }
 
@@ -193,7 +218,10 @@ fn cached_period_map(scene: &Scene, dt_ms: f64, order: u32) -> Result<Arc<Period
         // The higher order's slot is being filled by its caller, or was: wait for it (or
         // fill it) and truncate; if it failed, expand this order.
         if let Some((o, h)) = &higher {
-            let cut = h.get_or_init(|| scene_period_map(scene, *o, &FlowOptions::default()).ok().map(Arc::new)).as_ref().and_then(|p| p.truncated(order).ok());
+            let cut = h
+                .get_or_init(|| scene_period_map(scene, *o, &FlowOptions::default()).ok().map(Arc::new))
+                .as_ref()
+                .and_then(|p| p.truncated(order).ok());
             if let Some(pm) = cut {
                 return Some(Arc::new(pm));
             }
@@ -210,7 +238,12 @@ fn cached_period_map(scene: &Scene, dt_ms: f64, order: u32) -> Result<Arc<Period
 
 /// [`furuta_map_ssm`] keeping in the reduced map every non-structural term whose divisor is
 /// below `resonance_tol` (`f64::MAX`: all of them, the graph-style parametrization).
-fn furuta_map_ssm_tol(dt_ms: f64, order: u32, amplitude: Amplitude, resonance_tol: f64) -> Result<(Scene, Arc<PeriodMap>, PolynomialMap, MapSsm, f64, f64), Error> {
+fn furuta_map_ssm_tol(
+    dt_ms: f64,
+    order: u32,
+    amplitude: Amplitude,
+    resonance_tol: f64,
+) -> Result<(Scene, Arc<PeriodMap>, PolynomialMap, MapSsm, f64, f64), Error> {
     check_order(order)?;
     let scene = furuta_scene(dt_ms)?;
     let t0 = Instant::now();
@@ -246,7 +279,15 @@ pub fn equation_ssm(scene: &Scene, order: u32) -> Result<EquationSsm, Error> {
 }
 
 /// [`equation_ssm`] from the scene's period map, its SSM and their wall times.
-fn equation_ssm_from(scene: &Scene, order: u32, pm: &PeriodMap, map: &PolynomialMap, s: &MapSsm, expansion_seconds: f64, ssm_seconds: f64) -> Result<EquationSsm, Error> {
+fn equation_ssm_from(
+    scene: &Scene,
+    order: u32,
+    pm: &PeriodMap,
+    map: &PolynomialMap,
+    s: &MapSsm,
+    expansion_seconds: f64,
+    ssm_seconds: f64,
+) -> Result<EquationSsm, Error> {
     let dt_ms = scene.controller.dt_ms;
     let mut pairs = dominant_pairs(scene)?;
     if pairs.len() < 2 {
@@ -254,8 +295,11 @@ fn equation_ssm_from(scene: &Scene, order: u32, pm: &PeriodMap, map: &Polynomial
     }
     pairs.truncate(2);
     pairs.sort_by(|a, b| a.freq_hz.total_cmp(&b.freq_hz));
-    let invariance =
-        INVARIANCE_RADII.iter().flat_map(|&r| (3..=order).step_by(2).map(move |k| (r, k))).map(|(r, k)| s.invariance_error(map, k, r, 8)).collect();
+    let invariance = INVARIANCE_RADII
+        .iter()
+        .flat_map(|&r| (3..=order).step_by(2).map(move |k| (r, k)))
+        .map(|(r, k)| s.invariance_error(map, k, r, 8))
+        .collect();
     Ok(EquationSsm {
         scene: scene.name.clone(),
         dt_ms,
@@ -312,7 +356,10 @@ impl EquationModel {
     pub fn furuta(nodes_ms: &[f64], order: u32) -> Result<EquationModel, Error> {
         check_order(order)?;
         if nodes_ms.len() < 2 || nodes_ms.iter().any(|x| !x.is_finite()) || nodes_ms.windows(2).any(|w| w[1] <= w[0]) {
-            return Err(Error::BadOption { what: "nodes_ms", why: format!("need at least 2 finite, strictly increasing periods, got {nodes_ms:?}") });
+            return Err(Error::BadOption {
+                what: "nodes_ms",
+                why: format!("need at least 2 finite, strictly increasing periods, got {nodes_ms:?}"),
+            });
         }
         let forms = crate::par_map(nodes_ms, |&dt| furuta_equation_polar(dt, order))?;
         Ok(EquationModel { order, nodes_ms: nodes_ms.to_vec(), forms })
@@ -327,9 +374,15 @@ impl EquationModel {
     /// `interp`.
     pub fn normal_form_at(&self, dt_ms: f64, interp: Interp) -> Result<PolarNormalForm, Error> {
         let w = interp_weights(&self.nodes_ms, dt_ms, interp)?;
-        let first = self.forms.first().ok_or_else(|| Error::BadInput { what: "equation model", why: "no nodes".into() })?;
-        if let Some((k, _)) = self.forms.iter().enumerate().find(|(_, f)| f.pexps != first.pexps || f.modes != first.modes) {
-            return Err(Error::BadInput { what: "equation model", why: format!("node {} ms has other monomials than node {} ms", self.nodes_ms[k], self.nodes_ms[0]) });
+        let first =
+            self.forms.first().ok_or_else(|| Error::BadInput { what: "equation model", why: "no nodes".into() })?;
+        if let Some((k, _)) =
+            self.forms.iter().enumerate().find(|(_, f)| f.pexps != first.pexps || f.modes != first.modes)
+        {
+            return Err(Error::BadInput {
+                what: "equation model",
+                why: format!("node {} ms has other monomials than node {} ms", self.nodes_ms[k], self.nodes_ms[0]),
+            });
         }
         let forms: Vec<&PolarNormalForm> = self.forms.iter().collect();
         let mut out = crate::parametric::blend_normal_forms(&forms, &w, dt_ms)?;
@@ -363,7 +416,10 @@ pub struct EquationBifurcations {
 
 /// The scan options of the data-driven model's bifurcation values.
 pub fn scan_options() -> ScanOptions {
-    ScanOptions { portrait: PortraitOptions { rho_max: RHO_MAX, ..ScanOptions::default().portrait }, ..ScanOptions::default() }
+    ScanOptions {
+        portrait: PortraitOptions { rho_max: RHO_MAX, ..ScanOptions::default().portrait },
+        ..ScanOptions::default()
+    }
 }
 
 /// The heteroclinic and torus-Hopf values of `model` over its node range (coefficients
@@ -376,19 +432,33 @@ pub fn equation_bifurcations(model: &EquationModel, interp: Interp) -> Result<Eq
 /// [`equation_bifurcations`] with other scan options (e.g. a longer `t_max`, which narrows
 /// the window of `dt` where the saddle's branch is still passing the other saddle when the
 /// time runs out; see `HeteroclinicEvent::exact_hit`).
-pub fn equation_bifurcations_with(model: &EquationModel, interp: Interp, sopts: &ScanOptions) -> Result<EquationBifurcations, Error> {
+pub fn equation_bifurcations_with(
+    model: &EquationModel,
+    interp: Interp,
+    sopts: &ScanOptions,
+) -> Result<EquationBifurcations, Error> {
     let (lo, hi) = model.range();
     let nf_at = |dt: f64| model.normal_form_at(dt, interp);
     let heteroclinic = heteroclinic_dt(nf_at, lo, hi, sopts)?;
     let hopf = torus_hopf_dt(nf_at, lo, hi, sopts)?;
     let (torus_30p8, small_start_switch) = if (lo..hi).contains(&30.8) {
         let popts = PortraitOptions { rho_max: RHO_MAX, ..PortraitOptions::default() };
-        let torus = fixed_points(&model.normal_form_at(30.8, interp)?, &popts)?.into_iter().find(|f| f.kind == PointKind::Torus2);
+        let torus = fixed_points(&model.normal_form_at(30.8, interp)?, &popts)?
+            .into_iter()
+            .find(|f| f.kind == PointKind::Torus2);
         (torus, small_start_switch(nf_at, 30.8, hi.min(32.3), 76)?)
     } else {
         (None, None)
     };
-    Ok(EquationBifurcations { order: model.order, nodes_ms: model.nodes_ms.clone(), interp, heteroclinic, hopf, torus_30p8, small_start_switch })
+    Ok(EquationBifurcations {
+        order: model.order,
+        nodes_ms: model.nodes_ms.clone(),
+        interp,
+        heteroclinic,
+        hopf,
+        torus_30p8,
+        small_start_switch,
+    })
 }
 
 /// The same scans on `[lo, hi]` with the normal form computed afresh at every visited `dt`
@@ -521,7 +591,13 @@ mod tests {
         // Interpolation error at the middle of a 0.5 ms interval.
         let direct = furuta_equation_polar(31.25, 7).unwrap();
         let nf = model.normal_form_at(31.25, Interp::Spline).unwrap();
-        let rel = nf.amp.iter().flatten().zip(direct.amp.iter().flatten()).map(|(x, y)| (x - y).abs() / y.abs()).fold(0.0f64, f64::max);
+        let rel = nf
+            .amp
+            .iter()
+            .flatten()
+            .zip(direct.amp.iter().flatten())
+            .map(|(x, y)| (x - y).abs() / y.abs())
+            .fold(0.0f64, f64::max);
         eprintln!("spline interpolation at 31.25 ms: max rel. error {rel:.2e}");
         assert!(rel < 1e-3, "{rel}"); // measured 9.9e-5
         let b = equation_bifurcations(&model, Interp::Spline).unwrap();

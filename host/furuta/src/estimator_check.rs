@@ -63,7 +63,12 @@ struct Sampling {
 
 /// The exact largest exponent (Benettin with the variational equation, renormalized every
 /// sample, 20 blocks over `steps` samples) and `n` samples of the state after the transient.
-fn exponent_and_series<F: Flow>(f: &F, s: &Sampling, n: usize, steps: usize) -> Result<(f64, f64, Vec<[f64; 3]>), Error> {
+fn exponent_and_series<F: Flow>(
+    f: &F,
+    s: &Sampling,
+    n: usize,
+    steps: usize,
+) -> Result<(f64, f64, Vec<[f64; 3]>), Error> {
     let advance = |x: &mut [f64], v: &mut [f64]| rk4_flow(f, x, v, s.dt, s.substeps);
     let p = BenettinParams { transient: s.transient, steps, time_step: s.dt, renorm_every: 1, bound: 1e6, blocks: 20 };
     let r = benettin_tangent(&s.x0, advance, &p)?;
@@ -210,12 +215,18 @@ fn spread_of(what: &str, step: usize, rows: &[&SpreadRow]) -> Option<Spread> {
 /// of `window` samples (after subsampling) cut from all runs, at each map step of `steps`.
 /// Returns the rows (runs first, then windows, per step) and the spreads (per step: over
 /// runs, over windows).
-pub fn data_spread(runs: &[TimeSeries], steps: &[usize], window: usize) -> Result<(Vec<SpreadRow>, Vec<Spread>), Error> {
+pub fn data_spread(
+    runs: &[TimeSeries],
+    steps: &[usize],
+    window: usize,
+) -> Result<(Vec<SpreadRow>, Vec<Spread>), Error> {
     let mut jobs: Vec<(String, usize, Vec<f64>, f64, bool)> = Vec::new();
     for &k in steps {
         for ts in runs {
             let sub = subsample(ts, k, 0)?;
-            let dt = sub.dt().ok_or(Error::BadInput { what: "data series", why: format!("{}: no sampling step", sub.name) })?;
+            let dt = sub
+                .dt()
+                .ok_or(Error::BadInput { what: "data series", why: format!("{}: no sampling step", sub.name) })?;
             jobs.push((ts.name.clone(), k, sub.x.clone(), dt, false));
             if window >= 100 {
                 for (w, chunk) in sub.x.chunks_exact(window).enumerate() {
@@ -226,11 +237,21 @@ pub fn data_spread(runs: &[TimeSeries], steps: &[usize], window: usize) -> Resul
     }
     let rows = crate::par_map(&jobs, |(name, k, x, dt, _)| {
         let (l, lag, theiler, note) = rosenstein_as_on_data(x, *dt)?;
-        Ok::<_, Error>(SpreadRow { series: name.clone(), step: *k, samples: x.len(), lag, theiler, rosenstein: l, note })
+        Ok::<_, Error>(SpreadRow {
+            series: name.clone(),
+            step: *k,
+            samples: x.len(),
+            lag,
+            theiler,
+            rosenstein: l,
+            note,
+        })
     })?;
     let mut spreads = Vec::new();
     for &k in steps {
-        let of = |win: bool| -> Vec<&SpreadRow> { rows.iter().zip(&jobs).filter(|(r, j)| r.step == k && j.4 == win).map(|(r, _)| r).collect() };
+        let of = |win: bool| -> Vec<&SpreadRow> {
+            rows.iter().zip(&jobs).filter(|(r, j)| r.step == k && j.4 == win).map(|(r, _)| r).collect()
+        };
         spreads.extend(spread_of("runs", k, &of(false)));
         spreads.extend(spread_of(&format!("windows of {window} samples"), k, &of(true)));
     }

@@ -23,7 +23,9 @@ use serde::Serialize;
 use ssm::{FitOptions, TimeSeries};
 
 use crate::Error;
-use crate::model_selection::{Candidate, CandidateResult, EvalSettings, Targets, add_noise, data_stats, evaluate_and_select};
+use crate::model_selection::{
+    Candidate, CandidateResult, EvalSettings, Targets, add_noise, data_stats, evaluate_and_select,
+};
 
 /// The flag's sampling as the pipeline sees it: full-rate lengths of the training series
 /// (traj_9, traj_7) and of the held-out series (traj_8), the map step, the lag the data
@@ -40,8 +42,13 @@ pub struct FlagLayout {
 
 /// The flag's layout (series lengths counted from the data files, lag and noise from
 /// [`crate::calibration::FLAG_SAMPLING`]).
-pub const FLAG_LAYOUT: FlagLayout =
-    FlagLayout { train: [12_922, 12_631], test: 7_890, step: 4, lag: 11, noise_rel: crate::calibration::FLAG_SAMPLING.noise_rel };
+pub const FLAG_LAYOUT: FlagLayout = FlagLayout {
+    train: [12_922, 12_631],
+    test: 7_890,
+    step: 4,
+    lag: 11,
+    noise_rel: crate::calibration::FLAG_SAMPLING.noise_rel,
+};
 
 /// A smooth chaotic flow with a known exact exponent.
 #[derive(Clone, Copy, Debug, Serialize, PartialEq)]
@@ -115,7 +122,10 @@ impl KnownSystem {
     /// first zero of the autocorrelation on a finely sampled series (40,000 samples), scaled.
     pub fn step_for_lag(&self, step: usize, lag: usize) -> Result<f64, Error> {
         if step == 0 || lag == 0 {
-            return Err(Error::BadOption { what: "step_for_lag", why: format!("need step >= 1 and lag >= 1 (got {step}, {lag})") });
+            return Err(Error::BadOption {
+                what: "step_for_lag",
+                why: format!("need step >= 1 and lag >= 1 (got {step}, {lag})"),
+            });
         }
         let h = self.fine_dt();
         let x = self.orbit_from(&mut self.start(), h, 20_000, 40_000);
@@ -135,7 +145,10 @@ impl KnownSystem {
     /// with the same `dt` and `lengths`: one row-major `n x dim` vector per piece.
     pub fn flag_like_states(&self, dt: f64, lengths: &[usize]) -> Result<Vec<Vec<f64>>, Error> {
         if !(dt.is_finite() && dt > 0.0) || lengths.iter().any(|&n| n < 2) {
-            return Err(Error::BadOption { what: "flag-like states", why: format!("need dt > 0 and >= 2 samples per piece (got {dt}, {lengths:?})") });
+            return Err(Error::BadOption {
+                what: "flag-like states",
+                why: format!("need dt > 0 and >= 2 samples per piece (got {dt}, {lengths:?})"),
+            });
         }
         let mut x = self.start();
         let mut v = vec![0.0; x.len()];
@@ -165,19 +178,37 @@ impl KnownSystem {
     /// [`Self::flag_like_series`] for realization `seed` (0: that one exactly): the orbit's
     /// transient is `5,000 + 7,919 seed` samples (another piece of the attractor) and the
     /// noise seeds are offset by `1,000 seed`.
-    pub fn flag_like_series_seeded(&self, dt: f64, lengths: &[usize], noise_rel: f64, seed: u64) -> Result<Vec<TimeSeries>, Error> {
-        let extra = usize::try_from(seed).ok().and_then(|s| s.checked_mul(7_919)).filter(|&e| e <= 100_000_000).ok_or(Error::BadOption {
-            what: "flag-like series seed",
-            why: format!("seed {seed} would skip more than 1e8 samples"),
-        })?;
-        if !(dt.is_finite() && dt > 0.0 && noise_rel.is_finite() && noise_rel >= 0.0) || lengths.iter().any(|&n| n < 2) {
-            return Err(Error::BadOption { what: "flag-like series", why: format!("need dt > 0, noise >= 0 and >= 2 samples per series (got {dt}, {noise_rel}, {lengths:?})") });
+    pub fn flag_like_series_seeded(
+        &self,
+        dt: f64,
+        lengths: &[usize],
+        noise_rel: f64,
+        seed: u64,
+    ) -> Result<Vec<TimeSeries>, Error> {
+        let extra = usize::try_from(seed).ok().and_then(|s| s.checked_mul(7_919)).filter(|&e| e <= 100_000_000).ok_or(
+            Error::BadOption {
+                what: "flag-like series seed",
+                why: format!("seed {seed} would skip more than 1e8 samples"),
+            },
+        )?;
+        if !(dt.is_finite() && dt > 0.0 && noise_rel.is_finite() && noise_rel >= 0.0) || lengths.iter().any(|&n| n < 2)
+        {
+            return Err(Error::BadOption {
+                what: "flag-like series",
+                why: format!(
+                    "need dt > 0, noise >= 0 and >= 2 samples per series (got {dt}, {noise_rel}, {lengths:?})"
+                ),
+            });
         }
         let mut x = self.start();
         let mut out = Vec::with_capacity(lengths.len());
         for (i, &n) in lengths.iter().enumerate() {
             let clean = self.orbit_from(&mut x, dt, if i == 0 { 5_000 + extra } else { 1_000 }, n);
-            let y = if noise_rel > 0.0 { add_noise(&clean, noise_rel * sd(&clean), 31 + i as u64 + 1_000 * seed) } else { clean };
+            let y = if noise_rel > 0.0 {
+                add_noise(&clean, noise_rel * sd(&clean), 31 + i as u64 + 1_000 * seed)
+            } else {
+                clean
+            };
             out.push(TimeSeries::new(format!("{} #{i}", self.name()), (0..n).map(|k| k as f64 * dt).collect(), y)?);
         }
         Ok(out)
@@ -252,20 +283,34 @@ pub struct KnownStats {
 /// held-out series and the series (training, then held-out; the held-out series is the
 /// orbit's first piece, the same at every scale). `benettin_time` sets the exact
 /// exponent's length (s, after 5,000 full-rate steps).
-pub fn known_stats(sys: &KnownSystem, layout: &FlagLayout, scale: usize, benettin_time: f64) -> Result<(KnownStats, Vec<TimeSeries>), Error> {
+pub fn known_stats(
+    sys: &KnownSystem,
+    layout: &FlagLayout,
+    scale: usize,
+    benettin_time: f64,
+) -> Result<(KnownStats, Vec<TimeSeries>), Error> {
     known_stats_seeded(sys, layout, scale, benettin_time, 0)
 }
 
 /// [`known_stats`] on realization `seed` of the series ([`KnownSystem::flag_like_series_seeded`];
 /// 0: [`known_stats`] exactly). The exact exponent is the same for every seed.
-pub fn known_stats_seeded(sys: &KnownSystem, layout: &FlagLayout, scale: usize, benettin_time: f64, seed: u64) -> Result<(KnownStats, Vec<TimeSeries>), Error> {
+pub fn known_stats_seeded(
+    sys: &KnownSystem,
+    layout: &FlagLayout,
+    scale: usize,
+    benettin_time: f64,
+    seed: u64,
+) -> Result<(KnownStats, Vec<TimeSeries>), Error> {
     if scale == 0 {
         return Err(Error::BadOption { what: "scale", why: "the training-data scale must be >= 1".into() });
     }
     let dt = sys.step_for_lag(layout.step, layout.lag)?;
     let steps = (benettin_time / dt).ceil();
     if !(steps.is_finite() && (1.0..=1e9).contains(&steps)) {
-        return Err(Error::BadOption { what: "benettin_time", why: format!("{benettin_time} s at step {dt} s is not 1..1e9 steps") });
+        return Err(Error::BadOption {
+            what: "benettin_time",
+            why: format!("{benettin_time} s at step {dt} s is not 1..1e9 steps"),
+        });
     }
     let (exact, exact_err) = sys.exponent(dt, 5_000, steps as usize)?;
     // The held-out piece first, so that it is the same at every scale.
@@ -309,7 +354,9 @@ pub fn segment_stats(sys: &KnownSystem, dt: f64, layout: &FlagLayout, segments: 
         return Err(Error::BadOption { what: "segments", why: "need at least one segment".into() });
     }
     let series = sys.flag_like_series(dt, &vec![layout.test; segments], layout.noise_rel)?;
-    let per = crate::par_map(&series, |ts| Ok::<_, Error>(data_stats(ts, layout.step, &EvalSettings::default()).ok().map(|(d, _)| d)))?;
+    let per = crate::par_map(&series, |ts| {
+        Ok::<_, Error>(data_stats(ts, layout.step, &EvalSettings::default()).ok().map(|(d, _)| d))
+    })?;
     let corr_dims: Vec<Option<f64>> = per.iter().map(|d| d.as_ref().map(|d| d.corr_dim)).collect();
     let found: Vec<f64> = corr_dims.iter().flatten().copied().collect();
     let (corr_dim_mean, corr_dim_sd) = match found.len() {
@@ -356,7 +403,15 @@ pub fn flag_like_candidates(step: usize, rbf: &[(usize, f64)]) -> Vec<Candidate>
             centres: Default::default(),
         })
         .collect();
-    out.push(Candidate { name: format!("poly 4 /{step}"), step, fit: base, smooth: 0, multistep: None, denoise_inputs: 0, centres: Default::default() });
+    out.push(Candidate {
+        name: format!("poly 4 /{step}"),
+        step,
+        fit: base,
+        smooth: 0,
+        multistep: None,
+        denoise_inputs: 0,
+        centres: Default::default(),
+    });
     out
 }
 
@@ -396,7 +451,16 @@ impl PipelineRow {
     /// A row from measured values: the model's, whether it failed, the held-out data's
     /// Rosenstein exponent and D2 (with its error bar), and the exact exponent.
     #[allow(clippy::too_many_arguments)]
-    pub fn from_values(candidate: &str, scale: usize, m: &Measured, failed: Option<String>, data_lle: f64, data_d2: f64, data_d2_err: f64, exact: f64) -> Self {
+    pub fn from_values(
+        candidate: &str,
+        scale: usize,
+        m: &Measured,
+        failed: Option<String>,
+        data_lle: f64,
+        data_d2: f64,
+        data_d2_err: f64,
+        exact: f64,
+    ) -> Self {
         let ratio = m.benettin.map(|b| b / exact);
         let t = Targets::default();
         let rel = |v: Option<f64>, tol: f64| v.is_some_and(|v| (v - data_lle).abs() <= tol * data_lle.abs());
@@ -437,14 +501,28 @@ pub struct Measured {
 /// The flag's model search on `sys` sampled as `layout`, training data `scale` times the
 /// flag's: the system's statistics and one row per candidate. Candidates and settings as in
 /// [`evaluate_and_select`] with the default settings (those used on the flag).
-pub fn pipeline_check(sys: &KnownSystem, layout: &FlagLayout, scale: usize, candidates: &[Candidate], benettin_time: f64) -> Result<(KnownStats, Vec<PipelineRow>), Error> {
+pub fn pipeline_check(
+    sys: &KnownSystem,
+    layout: &FlagLayout,
+    scale: usize,
+    candidates: &[Candidate],
+    benettin_time: f64,
+) -> Result<(KnownStats, Vec<PipelineRow>), Error> {
     pipeline_check_seeded(sys, layout, scale, candidates, benettin_time, 0)
 }
 
 /// [`pipeline_check`] on realization `seed` of the series ([`known_stats_seeded`]).
-pub fn pipeline_check_seeded(sys: &KnownSystem, layout: &FlagLayout, scale: usize, candidates: &[Candidate], benettin_time: f64, seed: u64) -> Result<(KnownStats, Vec<PipelineRow>), Error> {
+pub fn pipeline_check_seeded(
+    sys: &KnownSystem,
+    layout: &FlagLayout,
+    scale: usize,
+    candidates: &[Candidate],
+    benettin_time: f64,
+    seed: u64,
+) -> Result<(KnownStats, Vec<PipelineRow>), Error> {
     let (stats, series) = known_stats_seeded(sys, layout, scale, benettin_time, seed)?;
-    let (results, _) = evaluate_and_select(&series[..2], &series[2], candidates, &EvalSettings::default(), &Targets::default())?;
+    let (results, _) =
+        evaluate_and_select(&series[..2], &series[2], candidates, &EvalSettings::default(), &Targets::default())?;
     let rows = results.iter().map(|r| PipelineRow::new(r, scale, stats.exact)).collect();
     Ok((stats, rows))
 }
@@ -473,7 +551,8 @@ pub struct PipelineSummary {
 /// [`PipelineSummary`] of the rows of `scale`.
 pub fn summarize(rows: &[PipelineRow], scale: usize) -> PipelineSummary {
     let rows: Vec<&PipelineRow> = rows.iter().filter(|r| r.scale == scale).collect();
-    let chaotic: Vec<&&PipelineRow> = rows.iter().filter(|r| r.failed.is_none() && r.benettin_over_exact.is_some_and(|q| q > 0.01)).collect();
+    let chaotic: Vec<&&PipelineRow> =
+        rows.iter().filter(|r| r.failed.is_none() && r.benettin_over_exact.is_some_and(|q| q > 0.01)).collect();
     let ratios = chaotic.iter().filter_map(|r| r.benettin_over_exact);
     let range = ratios.fold(None, |acc: Option<(f64, f64)>, q| Some(acc.map_or((q, q), |(a, b)| (a.min(q), b.max(q)))));
     let mut target_counts = [0; 4];
@@ -498,7 +577,8 @@ pub fn summarize(rows: &[PipelineRow], scale: usize) -> PipelineSummary {
 /// The held-out data the committed rows ([`PIPELINE_CHECK`]) were measured against
 /// ([`known_stats`] of [`CHOSEN`] at scale 1, 4,000 s of Benettin): Rosenstein (1/s), D2 and
 /// its error bar, exact exponent (1/s).
-pub const PIPELINE_DATA: (f64, f64, f64, f64) = (1.0361580920352271, 2.6482571409064275, 0.1213970107484192, 0.9402785496526412);
+pub const PIPELINE_DATA: (f64, f64, f64, f64) =
+    (1.0361580920352271, 2.6482571409064275, 0.1213970107484192, 0.9402785496526412);
 
 /// One committed row: (candidate, scale, Benettin, Rosenstein, D2, JS, failure).
 pub type CommittedRow = (&'static str, usize, Option<f64>, Option<f64>, Option<f64>, Option<f64>, &'static str);
@@ -533,7 +613,16 @@ pub fn committed_rows() -> Vec<PipelineRow> {
         .iter()
         .map(|&(name, scale, benettin, rosenstein, corr_dim, js, failed)| {
             let m = Measured { benettin, rosenstein, corr_dim, js };
-            PipelineRow::from_values(name, scale, &m, (!failed.is_empty()).then(|| failed.to_string()), lle, d2, d2_err, exact)
+            PipelineRow::from_values(
+                name,
+                scale,
+                &m,
+                (!failed.is_empty()).then(|| failed.to_string()),
+                lle,
+                d2,
+                d2_err,
+                exact,
+            )
         })
         .collect()
 }

@@ -44,9 +44,28 @@ pub struct FnnRow {
 /// window `theiler` samples; a neighbour is false when its distance in the discarded
 /// directions exceeds `ratio` times the projected distance. The singular directions are the
 /// SSM fit's ([`ssm::manifold::tangent_space`]).
-pub fn projection_fnn(x: &[f64], embed: usize, shift: usize, theiler: usize, dims: &[usize], ratio: f64, queries: usize) -> Result<Vec<FnnRow>, Error> {
-    if embed < 2 || shift == 0 || queries == 0 || ratio.is_nan() || ratio <= 0.0 || dims.iter().any(|&d| d == 0 || d >= embed) {
-        return Err(Error::BadOption { what: "projection_fnn", why: format!("need embed >= 2, shift >= 1, queries >= 1, ratio > 0, 1 <= dim < embed (got {embed}, {shift}, {queries}, {ratio}, {dims:?})") });
+pub fn projection_fnn(
+    x: &[f64],
+    embed: usize,
+    shift: usize,
+    theiler: usize,
+    dims: &[usize],
+    ratio: f64,
+    queries: usize,
+) -> Result<Vec<FnnRow>, Error> {
+    if embed < 2
+        || shift == 0
+        || queries == 0
+        || ratio.is_nan()
+        || ratio <= 0.0
+        || dims.iter().any(|&d| d == 0 || d >= embed)
+    {
+        return Err(Error::BadOption {
+            what: "projection_fnn",
+            why: format!(
+                "need embed >= 2, shift >= 1, queries >= 1, ratio > 0, 1 <= dim < embed (got {embed}, {shift}, {queries}, {ratio}, {dims:?})"
+            ),
+        });
     }
     let n = x.len().checked_sub((embed - 1) * shift).filter(|&n| n > 2 * theiler + 2).ok_or(Error::BadInput {
         what: "projection_fnn series",
@@ -56,7 +75,8 @@ pub fn projection_fnn(x: &[f64], embed: usize, shift: usize, theiler: usize, dim
     let (v, sv) = ssm::manifold::tangent_space(std::slice::from_ref(&y), embed - 1).map_err(ssm::Error::from)?;
     // Coordinates in the singular basis (the last one completes it: the residual norm).
     let p = embed;
-    let proj: Vec<Vec<f64>> = (0..n).map(|j| (0..p - 1).map(|c| (0..p).map(|i| v[c * p + i] * y[(i, j)]).sum()).collect()).collect();
+    let proj: Vec<Vec<f64>> =
+        (0..n).map(|j| (0..p - 1).map(|c| (0..p).map(|i| v[c * p + i] * y[(i, j)]).sum()).collect()).collect();
     let full2 = |a: usize, b: usize| (0..p).map(|i| (y[(i, a)] - y[(i, b)]).powi(2)).sum::<f64>();
     let stride = (n / queries).max(1);
     let mut out = Vec::with_capacity(dims.len());
@@ -89,7 +109,15 @@ pub fn projection_fnn(x: &[f64], embed: usize, shift: usize, theiler: usize, dim
 /// `d` in `1..=max_dim` whose projection of the embedding the fit would use (`p = 2 d + 1`
 /// samples `shift` apart, Takens' bound) has at most `max_fnn` false neighbours at `ratio`
 /// ([`projection_fnn`]); `None` if none does. Also the row of every `d` tried.
-pub fn fnn_dimension(x: &[f64], shift: usize, theiler: usize, ratio: f64, max_fnn: f64, max_dim: usize, queries: usize) -> Result<(Option<usize>, Vec<FnnRow>), Error> {
+pub fn fnn_dimension(
+    x: &[f64],
+    shift: usize,
+    theiler: usize,
+    ratio: f64,
+    max_fnn: f64,
+    max_dim: usize,
+    queries: usize,
+) -> Result<(Option<usize>, Vec<FnnRow>), Error> {
     let mut rows = Vec::with_capacity(max_dim);
     for d in 1..=max_dim {
         let r = projection_fnn(x, 2 * d + 1, shift, theiler, &[d], ratio, queries)?.remove(0);
@@ -111,7 +139,16 @@ pub const FNN_RULE: (f64, f64) = (2.0, 0.005);
 /// dimension `dim`, embedding `embed` with `shift`, manifold order 3, optional multistep
 /// refinement and denoised inputs (half-width `denoise`, 0 = off).
 #[allow(clippy::too_many_arguments)]
-pub fn variant(step: usize, centers: usize, ridge: f64, dim: usize, embed: usize, shift: usize, multistep: Option<MultiStep>, denoise: usize) -> Candidate {
+pub fn variant(
+    step: usize,
+    centers: usize,
+    ridge: f64,
+    dim: usize,
+    embed: usize,
+    shift: usize,
+    multistep: Option<MultiStep>,
+    denoise: usize,
+) -> Candidate {
     let dynamics = if centers == 0 { Dynamics::Map } else { Dynamics::Rbf { centers } };
     let kind = if centers == 0 { "poly 4".to_string() } else { format!("RBF {centers}") };
     let mut name = format!("{kind} /{step} r={ridge:e} d={dim} p={embed} s={shift}");
@@ -124,7 +161,17 @@ pub fn variant(step: usize, centers: usize, ridge: f64, dim: usize, embed: usize
     Candidate {
         name,
         step,
-        fit: FitOptions { dim, embed, shift, manifold_order: 3, dyn_order: 4, dynamics, ridge: Ridge::Fixed(ridge), linear_anchor: None, anchor_joint: false },
+        fit: FitOptions {
+            dim,
+            embed,
+            shift,
+            manifold_order: 3,
+            dyn_order: 4,
+            dynamics,
+            ridge: Ridge::Fixed(ridge),
+            linear_anchor: None,
+            anchor_joint: false,
+        },
         smooth: 0,
         multistep,
         denoise_inputs: denoise,
@@ -163,7 +210,8 @@ impl StateFit {
             Coords::State => "state".to_string(),
             Coords::Delay { embed, shift } => format!("delay {embed} x {shift}"),
         };
-        let mut s = if self.centers == 0 { format!("{c} poly {}", self.order) } else { format!("{c} RBF {}", self.centers) };
+        let mut s =
+            if self.centers == 0 { format!("{c} poly {}", self.order) } else { format!("{c} RBF {}", self.centers) };
         s += &format!(" r={:e}", self.ridge);
         if let Some(ms) = &self.multistep {
             s += &format!(" ms h={}", ms.horizon);
@@ -184,7 +232,10 @@ fn state_rows(s: &[f64], dim: usize, step: usize, offset: usize) -> Mat<f64> {
 
 /// Delay vectors (rows) of `x`: `embed` samples `shift` apart, newest last.
 fn delay_rows(x: &[f64], embed: usize, shift: usize) -> Result<Mat<f64>, Error> {
-    let n = x.len().checked_sub((embed - 1) * shift).filter(|&n| n >= 2).ok_or(Error::BadInput { what: "delay coordinates", why: format!("{} samples are too few for {embed} x {shift}", x.len()) })?;
+    let n = x.len().checked_sub((embed - 1) * shift).filter(|&n| n >= 2).ok_or(Error::BadInput {
+        what: "delay coordinates",
+        why: format!("{} samples are too few for {embed} x {shift}", x.len()),
+    })?;
     Ok(Mat::from_fn(n, embed, |r, c| x[r + c * shift]))
 }
 
@@ -195,13 +246,20 @@ fn delay_rows(x: &[f64], embed: usize, shift: usize) -> Result<Mat<f64>, Error> 
 /// its `x_1` (the first coordinate) with the held-out data's settings, JS of the PDFs of
 /// all coordinates against the held-out piece's. The row's references are the held-out
 /// observed series' (as [`known_stats`]).
-pub fn state_model_check(sys: &KnownSystem, layout: &FlagLayout, scale: usize, fit: &StateFit, benettin_time: f64) -> Result<(KnownStats, PipelineRow), Error> {
+pub fn state_model_check(
+    sys: &KnownSystem,
+    layout: &FlagLayout,
+    scale: usize,
+    fit: &StateFit,
+    benettin_time: f64,
+) -> Result<(KnownStats, PipelineRow), Error> {
     let (stats, series) = known_stats(sys, layout, scale, benettin_time)?;
     let s = EvalSettings::default();
     let (_, ctx) = data_stats(&series[2], layout.step, &s)?;
     let (train, test): (Vec<Mat<f64>>, Mat<f64>) = match fit.coords {
         Coords::State => {
-            let mut states = sys.flag_like_states(stats.dt, &[layout.test, layout.train[0] * scale, layout.train[1] * scale])?;
+            let mut states =
+                sys.flag_like_states(stats.dt, &[layout.test, layout.train[0] * scale, layout.train[1] * scale])?;
             states.rotate_left(1);
             let dim = states[0].len() / (layout.train[0] * scale);
             if fit.noise_rel > 0.0 {
@@ -217,12 +275,18 @@ pub fn state_model_check(sys: &KnownSystem, layout: &FlagLayout, scale: usize, f
                     }
                 }
             }
-            let train = states[..2].iter().flat_map(|p| (0..layout.step).map(move |o| state_rows(p, dim, layout.step, o))).collect();
+            let train = states[..2]
+                .iter()
+                .flat_map(|p| (0..layout.step).map(move |o| state_rows(p, dim, layout.step, o)))
+                .collect();
             (train, state_rows(&states[2], dim, layout.step, 0))
         }
         Coords::Delay { embed, shift } => {
             if embed == 0 || shift == 0 {
-                return Err(Error::BadOption { what: "delay coordinates", why: format!("need embed >= 1 and shift >= 1 (got {embed}, {shift})") });
+                return Err(Error::BadOption {
+                    what: "delay coordinates",
+                    why: format!("need embed >= 1 and shift >= 1 (got {embed}, {shift})"),
+                });
             }
             let mut train = Vec::new();
             for ts in &series[..2] {
@@ -244,7 +308,10 @@ pub fn state_model_check(sys: &KnownSystem, layout: &FlagLayout, scale: usize, f
     if let (Some(ms), ReducedDynamics::Rbf(map)) = (&fit.multistep, &mut dynamics) {
         refine_multistep(map, &trajs, ms)?;
     }
-    let data_max = train.iter().flat_map(|m| (0..m.nrows()).flat_map(move |r| (0..dim).map(move |c| m[(r, c)].abs()))).fold(0.0, f64::max);
+    let data_max = train
+        .iter()
+        .flat_map(|m| (0..m.nrows()).flat_map(move |r| (0..dim).map(move |c| m[(r, c)].abs())))
+        .fold(0.0, f64::max);
     let eta0: Vec<f64> = (0..dim).map(|c| test[(0, c)]).collect();
     let bound = ssm::fit::BLOWUP_FACTOR * data_max;
     let mut m = Measured { benettin: None, rosenstein: None, corr_dim: None, js: None };
@@ -265,22 +332,44 @@ pub fn state_model_check(sys: &KnownSystem, layout: &FlagLayout, scale: usize, f
                     let x: Vec<f64> = (0..test.nrows().min(pts.len())).map(|i| pts.point(i)[0]).collect();
                     m.rosenstein = ctx.lle(&x, &mut Vec::new(), "state model").ok().map(|(l, _)| l);
                     m.corr_dim = delay_embed(&x, ctx.embed, ctx.lag)
-                        .and_then(|p| correlation_dimension(&p, &CorrSumParams { theiler: ctx.theiler, ..Default::default() }, &ScalingRule::default()))
+                        .and_then(|p| {
+                            correlation_dimension(
+                                &p,
+                                &CorrSumParams { theiler: ctx.theiler, ..Default::default() },
+                                &ScalingRule::default(),
+                            )
+                        })
                         .ok()
                         .map(|c| c.dimension);
-                    let flat: Vec<f64> = (0..test.nrows()).flat_map(|r| (0..dim).map(move |c| (r, c))).map(|(r, c)| test[(r, c)]).collect();
-                    m.js = Points::from_flat(dim, flat).and_then(|a| chaos::compare_pdfs(&a, &pts, Bins::default())).ok().map(|c| c.mean_js_bits);
+                    let flat: Vec<f64> = (0..test.nrows())
+                        .flat_map(|r| (0..dim).map(move |c| (r, c)))
+                        .map(|(r, c)| test[(r, c)])
+                        .collect();
+                    m.js = Points::from_flat(dim, flat)
+                        .and_then(|a| chaos::compare_pdfs(&a, &pts, Bins::default()))
+                        .ok()
+                        .map(|c| c.mean_js_bits);
                 }
             }
         },
     }
-    let row = PipelineRow::from_values(&fit.name(), scale, &m, failed, stats.rosenstein, stats.corr_dim, stats.corr_dim_err, stats.exact);
+    let row = PipelineRow::from_values(
+        &fit.name(),
+        scale,
+        &m,
+        failed,
+        stats.rosenstein,
+        stats.corr_dim,
+        stats.corr_dim_err,
+        stats.exact,
+    );
     Ok((stats, row))
 }
 
 /// One committed diagnosis row: (what is varied, candidate, training data scale, noise over
 /// the sd, Benettin [1/s], Rosenstein of the model series [1/s], D2, JS (bits), failure).
-pub type DiagRow = (&'static str, &'static str, usize, f64, Option<f64>, Option<f64>, Option<f64>, Option<f64>, &'static str);
+pub type DiagRow =
+    (&'static str, &'static str, usize, f64, Option<f64>, Option<f64>, Option<f64>, Option<f64>, &'static str);
 
 /// The flag's noise level (0.32 % of the sd), as committed in [`DIAGNOSIS`].
 const FN: f64 = crate::calibration::FLAG_SAMPLING.noise_rel;
@@ -322,8 +411,28 @@ pub const DIAGNOSIS: &[DiagRow] = &[
     ("(b) shift", "RBF 300 r=3e-9 d=4 p=9 s=2", 1, FN, Some(0.000), Some(0.298), Some(1.34), Some(0.5470), ""),
     ("(b) shift", "RBF 200 r=3e-9 d=4 p=9 s=3", 1, FN, Some(0.555), Some(0.303), Some(2.12), Some(0.0548), ""),
     ("(b) shift", "RBF 300 r=3e-9 d=4 p=9 s=3", 1, FN, Some(0.715), Some(0.524), Some(2.04), Some(0.0265), ""),
-    ("(b) whole delay vector", "delay 9 x 1 RBF 200 r=3e-9", 1, FN, Some(1.198), Some(0.499), Some(2.99), Some(0.1003), ""),
-    ("(b) whole delay vector", "delay 9 x 1 RBF 300 r=3e-9", 1, FN, Some(1.559), Some(0.471), Some(3.60), Some(0.0655), ""),
+    (
+        "(b) whole delay vector",
+        "delay 9 x 1 RBF 200 r=3e-9",
+        1,
+        FN,
+        Some(1.198),
+        Some(0.499),
+        Some(2.99),
+        Some(0.1003),
+        "",
+    ),
+    (
+        "(b) whole delay vector",
+        "delay 9 x 1 RBF 300 r=3e-9",
+        1,
+        FN,
+        Some(1.559),
+        Some(0.471),
+        Some(3.60),
+        Some(0.0655),
+        "",
+    ),
     ("(b) whole delay vector", "delay 9 x 1 poly 4", 1, FN, None, None, None, None, "escaped in the long run"),
     // A larger ridge (the flag's: 3e-9 and 1e-8).
     ("ridge", "RBF 200 r=1e-7 d=4 p=9", 1, FN, Some(0.535), Some(0.261), Some(1.80), Some(0.0773), ""),
@@ -336,41 +445,251 @@ pub const DIAGNOSIS: &[DiagRow] = &[
     ("ridge", "RBF 200 r=1e-7 d=6 p=13", 1, FN, Some(0.678), Some(0.468), Some(2.03), Some(0.1825), ""),
     ("ridge", "RBF 300 r=1e-7 d=6 p=13", 1, FN, Some(0.000), Some(0.135), Some(1.64), Some(0.3880), ""),
     // Fixes on the fit: denoised inputs (errors in variables), multistep refinement.
-    ("denoised inputs", "RBF 200 r=3e-9 d=4 p=9 denoised 3", 1, FN, Some(1.526), Some(0.493), Some(3.33), Some(0.0414), ""),
-    ("denoised inputs", "RBF 200 r=3e-9 d=4 p=9 denoised 5", 1, FN, Some(1.567), Some(0.427), Some(3.47), Some(0.0275), ""),
+    (
+        "denoised inputs",
+        "RBF 200 r=3e-9 d=4 p=9 denoised 3",
+        1,
+        FN,
+        Some(1.526),
+        Some(0.493),
+        Some(3.33),
+        Some(0.0414),
+        "",
+    ),
+    (
+        "denoised inputs",
+        "RBF 200 r=3e-9 d=4 p=9 denoised 5",
+        1,
+        FN,
+        Some(1.567),
+        Some(0.427),
+        Some(3.47),
+        Some(0.0275),
+        "",
+    ),
     ("denoised inputs", "RBF 300 r=3e-9 d=4 p=9 denoised 3", 1, FN, None, None, None, None, "escaped in the long run"),
-    ("denoised inputs", "RBF 300 r=3e-9 d=4 p=9 denoised 5", 1, FN, Some(1.756), Some(0.430), Some(3.99), Some(0.0265), ""),
-    ("denoised inputs", "RBF 200 r=3e-9 d=4 p=9 denoised 5 ms h=8", 1, FN, Some(1.645), Some(0.552), Some(3.57), Some(0.0777), ""),
-    ("multistep", "RBF 200 r=3e-9 d=4 p=9 ms h=4 stride 8 it 4", 1, FN, Some(0.699), Some(0.439), Some(2.02), Some(0.0756), ""),
-    ("multistep", "RBF 250 r=1e-8 d=6 p=13 ms h=4 stride 8 it 4", 1, FN, Some(0.988), Some(0.460), Some(3.14), Some(0.0138), ""),
+    (
+        "denoised inputs",
+        "RBF 300 r=3e-9 d=4 p=9 denoised 5",
+        1,
+        FN,
+        Some(1.756),
+        Some(0.430),
+        Some(3.99),
+        Some(0.0265),
+        "",
+    ),
+    (
+        "denoised inputs",
+        "RBF 200 r=3e-9 d=4 p=9 denoised 5 ms h=8",
+        1,
+        FN,
+        Some(1.645),
+        Some(0.552),
+        Some(3.57),
+        Some(0.0777),
+        "",
+    ),
+    (
+        "multistep",
+        "RBF 200 r=3e-9 d=4 p=9 ms h=4 stride 8 it 4",
+        1,
+        FN,
+        Some(0.699),
+        Some(0.439),
+        Some(2.02),
+        Some(0.0756),
+        "",
+    ),
+    (
+        "multistep",
+        "RBF 250 r=1e-8 d=6 p=13 ms h=4 stride 8 it 4",
+        1,
+        FN,
+        Some(0.988),
+        Some(0.460),
+        Some(3.14),
+        Some(0.0138),
+        "",
+    ),
     // The scan of multistep refinement at d = 6 (stride 8, 4 iterations per stage; horizons
     // 2, 4, 8; RBF 150, 250, 400), with plain rows of the same sizes; "seed k": realization k of
     // the series (`known_stats_seeded`, FLAG4_SEEDS), otherwise the committed one. The RBF 250
     // h = 4 row of seed 0 is the "multistep" row above.
     ("d = 6 scan", "RBF 150 r=1e-8 d=6 p=13", 1, FN, Some(0.585), Some(0.372), Some(2.08), Some(0.0536), ""),
     ("d = 6 scan", "RBF 400 r=1e-8 d=6 p=13", 1, FN, Some(1.115), Some(0.419), Some(2.78), Some(0.0393), ""),
-    ("d = 6 scan", "RBF 150 r=1e-8 d=6 p=13 ms h=2 stride 8 it 4", 1, FN, Some(0.852), Some(0.281), Some(2.59), Some(0.0456), ""),
-    ("d = 6 scan", "RBF 150 r=1e-8 d=6 p=13 ms h=4 stride 8 it 4", 1, FN, Some(0.824), Some(0.474), Some(2.55), Some(0.0254), ""),
-    ("d = 6 scan", "RBF 150 r=1e-8 d=6 p=13 ms h=8 stride 8 it 4", 1, FN, Some(0.922), Some(0.945), Some(2.94), Some(0.0502), ""),
-    ("d = 6 scan", "RBF 250 r=1e-8 d=6 p=13 ms h=2 stride 8 it 4", 1, FN, None, None, None, None, "escaped in the long run"),
-    ("d = 6 scan", "RBF 250 r=1e-8 d=6 p=13 ms h=8 stride 8 it 4", 1, FN, Some(0.991), Some(0.490), Some(3.38), Some(0.0352), ""),
-    ("d = 6 scan", "RBF 400 r=1e-8 d=6 p=13 ms h=2 stride 8 it 4", 1, FN, Some(1.223), Some(0.433), Some(3.51), Some(0.0209), ""),
-    ("d = 6 scan", "RBF 400 r=1e-8 d=6 p=13 ms h=4 stride 8 it 4", 1, FN, Some(1.077), Some(0.958), Some(3.39), Some(0.0204), ""),
-    ("d = 6 scan", "RBF 400 r=1e-8 d=6 p=13 ms h=8 stride 8 it 4", 1, FN, Some(1.140), Some(0.729), Some(3.27), Some(0.0228), ""),
+    (
+        "d = 6 scan",
+        "RBF 150 r=1e-8 d=6 p=13 ms h=2 stride 8 it 4",
+        1,
+        FN,
+        Some(0.852),
+        Some(0.281),
+        Some(2.59),
+        Some(0.0456),
+        "",
+    ),
+    (
+        "d = 6 scan",
+        "RBF 150 r=1e-8 d=6 p=13 ms h=4 stride 8 it 4",
+        1,
+        FN,
+        Some(0.824),
+        Some(0.474),
+        Some(2.55),
+        Some(0.0254),
+        "",
+    ),
+    (
+        "d = 6 scan",
+        "RBF 150 r=1e-8 d=6 p=13 ms h=8 stride 8 it 4",
+        1,
+        FN,
+        Some(0.922),
+        Some(0.945),
+        Some(2.94),
+        Some(0.0502),
+        "",
+    ),
+    (
+        "d = 6 scan",
+        "RBF 250 r=1e-8 d=6 p=13 ms h=2 stride 8 it 4",
+        1,
+        FN,
+        None,
+        None,
+        None,
+        None,
+        "escaped in the long run",
+    ),
+    (
+        "d = 6 scan",
+        "RBF 250 r=1e-8 d=6 p=13 ms h=8 stride 8 it 4",
+        1,
+        FN,
+        Some(0.991),
+        Some(0.490),
+        Some(3.38),
+        Some(0.0352),
+        "",
+    ),
+    (
+        "d = 6 scan",
+        "RBF 400 r=1e-8 d=6 p=13 ms h=2 stride 8 it 4",
+        1,
+        FN,
+        Some(1.223),
+        Some(0.433),
+        Some(3.51),
+        Some(0.0209),
+        "",
+    ),
+    (
+        "d = 6 scan",
+        "RBF 400 r=1e-8 d=6 p=13 ms h=4 stride 8 it 4",
+        1,
+        FN,
+        Some(1.077),
+        Some(0.958),
+        Some(3.39),
+        Some(0.0204),
+        "",
+    ),
+    (
+        "d = 6 scan",
+        "RBF 400 r=1e-8 d=6 p=13 ms h=8 stride 8 it 4",
+        1,
+        FN,
+        Some(1.140),
+        Some(0.729),
+        Some(3.27),
+        Some(0.0228),
+        "",
+    ),
     // Seed 1 (its held-out piece: Rosenstein 0.382, D2 3.11 ± 0.19; the table's target
     // columns read every row against seed 0's data).
     ("d = 6 scan", "RBF 250 r=1e-8 d=6 p=13 seed 1", 1, FN, Some(0.000), Some(0.120), Some(0.89), Some(0.7077), ""),
-    ("d = 6 scan", "RBF 250 r=1e-8 d=6 p=13 ms h=4 stride 8 it 4 seed 1", 1, FN, Some(0.817), Some(0.580), Some(2.32), Some(0.0356), ""),
-    ("d = 6 scan", "RBF 150 r=1e-8 d=6 p=13 ms h=8 stride 8 it 4 seed 1", 1, FN, Some(0.682), Some(0.597), Some(2.52), Some(0.0395), ""),
+    (
+        "d = 6 scan",
+        "RBF 250 r=1e-8 d=6 p=13 ms h=4 stride 8 it 4 seed 1",
+        1,
+        FN,
+        Some(0.817),
+        Some(0.580),
+        Some(2.32),
+        Some(0.0356),
+        "",
+    ),
+    (
+        "d = 6 scan",
+        "RBF 150 r=1e-8 d=6 p=13 ms h=8 stride 8 it 4 seed 1",
+        1,
+        FN,
+        Some(0.682),
+        Some(0.597),
+        Some(2.52),
+        Some(0.0395),
+        "",
+    ),
     // Seed 2 (held-out piece: Rosenstein 0.306, D2 3.08 ± 0.13).
     ("d = 6 scan", "RBF 250 r=1e-8 d=6 p=13 seed 2", 1, FN, Some(0.000), Some(0.006), Some(1.03), Some(0.6440), ""),
-    ("d = 6 scan", "RBF 250 r=1e-8 d=6 p=13 ms h=4 stride 8 it 4 seed 2", 1, FN, Some(1.112), Some(0.353), Some(3.57), Some(0.0191), ""),
-    ("d = 6 scan", "RBF 150 r=1e-8 d=6 p=13 ms h=8 stride 8 it 4 seed 2", 1, FN, Some(0.816), Some(0.881), Some(3.04), Some(0.0802), ""),
+    (
+        "d = 6 scan",
+        "RBF 250 r=1e-8 d=6 p=13 ms h=4 stride 8 it 4 seed 2",
+        1,
+        FN,
+        Some(1.112),
+        Some(0.353),
+        Some(3.57),
+        Some(0.0191),
+        "",
+    ),
+    (
+        "d = 6 scan",
+        "RBF 150 r=1e-8 d=6 p=13 ms h=8 stride 8 it 4 seed 2",
+        1,
+        FN,
+        Some(0.816),
+        Some(0.881),
+        Some(3.04),
+        Some(0.0802),
+        "",
+    ),
     // Three times the data (the one-step rows are "(b) d = 6" above).
-    ("d = 6 scan", "RBF 250 r=1e-8 d=6 p=13 ms h=4 stride 8 it 4", 3, FN, Some(-0.000), Some(0.001), Some(1.06), Some(0.4670), ""),
+    (
+        "d = 6 scan",
+        "RBF 250 r=1e-8 d=6 p=13 ms h=4 stride 8 it 4",
+        3,
+        FN,
+        Some(-0.000),
+        Some(0.001),
+        Some(1.06),
+        Some(0.4670),
+        "",
+    ),
     // Noise-free data (the one-step rows are "(b) d = 6" above).
-    ("d = 6 scan", "RBF 250 r=1e-8 d=6 p=13 ms h=4 stride 8 it 4", 1, 0.0, Some(-0.000), None, Some(1.28), Some(0.7992), ""),
-    ("d = 6 scan", "RBF 150 r=1e-8 d=6 p=13 ms h=8 stride 8 it 4", 1, 0.0, Some(-0.000), Some(-0.002), Some(1.05), Some(0.6039), ""),
+    (
+        "d = 6 scan",
+        "RBF 250 r=1e-8 d=6 p=13 ms h=4 stride 8 it 4",
+        1,
+        0.0,
+        Some(-0.000),
+        None,
+        Some(1.28),
+        Some(0.7992),
+        "",
+    ),
+    (
+        "d = 6 scan",
+        "RBF 150 r=1e-8 d=6 p=13 ms h=8 stride 8 it 4",
+        1,
+        0.0,
+        Some(-0.000),
+        Some(-0.002),
+        Some(1.05),
+        Some(0.6039),
+        "",
+    ),
     // (c) the model class on the true state x1..x4 (no delays, no projection).
     ("(c) true state", "state RBF 200 r=3e-9", 1, 0.0, Some(0.866), Some(0.406), Some(2.06), Some(0.0060), ""),
     ("(c) true state", "state RBF 300 r=3e-9", 1, 0.0, Some(1.019), Some(0.395), Some(2.32), Some(0.0065), ""),
@@ -390,7 +709,20 @@ pub fn diagnosis_rows() -> Vec<(&'static str, f64, PipelineRow)> {
         .iter()
         .map(|&(what, name, scale, noise, benettin, rosenstein, corr_dim, js, failed)| {
             let m = Measured { benettin, rosenstein, corr_dim, js };
-            (what, noise, PipelineRow::from_values(name, scale, &m, (!failed.is_empty()).then(|| failed.to_string()), lle, d2, d2_err, exact))
+            (
+                what,
+                noise,
+                PipelineRow::from_values(
+                    name,
+                    scale,
+                    &m,
+                    (!failed.is_empty()).then(|| failed.to_string()),
+                    lle,
+                    d2,
+                    d2_err,
+                    exact,
+                ),
+            )
         })
         .collect()
 }
@@ -398,11 +730,22 @@ pub fn diagnosis_rows() -> Vec<(&'static str, f64, PipelineRow)> {
 /// The d = 6 rows of [`diagnosis_rows`] (groups "(b) d = 6", "multistep" and "d = 6 scan",
 /// every seed) with multistep refinement or without (`multistep`), at training-data `scale`
 /// and noise `noise`: (Benettin within 10 % of the exact exponent, that and JS <= 0.01, rows).
-pub fn d6_scan_counts(rows: &[(&'static str, f64, PipelineRow)], multistep: bool, scale: usize, noise: f64) -> (usize, usize, usize) {
+pub fn d6_scan_counts(
+    rows: &[(&'static str, f64, PipelineRow)],
+    multistep: bool,
+    scale: usize,
+    noise: f64,
+) -> (usize, usize, usize) {
     let js_max = crate::model_selection::Targets::default().js_max;
     let sel: Vec<&PipelineRow> = rows
         .iter()
-        .filter(|(w, n, r)| ["(b) d = 6", "multistep", "d = 6 scan"].contains(w) && r.candidate.contains("d=6") && r.candidate.contains(" ms ") == multistep && r.scale == scale && *n == noise)
+        .filter(|(w, n, r)| {
+            ["(b) d = 6", "multistep", "d = 6 scan"].contains(w)
+                && r.candidate.contains("d=6")
+                && r.candidate.contains(" ms ") == multistep
+                && r.scale == scale
+                && *n == noise
+        })
         .map(|(_, _, r)| r)
         .collect();
     let b10 = sel.iter().filter(|r| r.benettin_exact_ok).count();
@@ -564,14 +907,63 @@ pub const FLAG_CENTRES: &[FlagRow] = &[
     ("RBF 300 r=1e-8 d=4 p=9 centres random@4", Some(0.326), Some(0.217), Some(1.72), Some(0.0080), ""),
     ("RBF 300 r=1e-8 d=4 p=9 centres kmeans10@4", Some(0.119), Some(0.146), Some(1.10), Some(0.0475), ""),
     ("RBF 200 r=3e-9 d=4 p=9 ms h=4 stride 8 it 4", Some(0.420), Some(0.241), Some(1.91), Some(0.0092), ""),
-    ("RBF 200 r=3e-9 d=4 p=9 centres farthest@2 ms h=4 stride 8 it 4", Some(0.336), Some(0.141), Some(2.55), Some(0.0255), ""),
-    ("RBF 200 r=3e-9 d=4 p=9 centres kmeans++@4 ms h=4 stride 8 it 4", Some(0.429), Some(0.208), Some(1.32), Some(0.0110), ""),
-    ("RBF 300 r=1e-8 d=4 p=9 centres kmeans++@2 ms h=4 stride 8 it 4", Some(0.359), Some(0.192), Some(2.28), Some(0.0096), ""),
-    ("RBF 300 r=1e-8 d=4 p=9 centres random@3 ms h=4 stride 8 it 4", Some(0.306), Some(0.179), Some(1.56), Some(0.0061), ""),
-    ("RBF 150 r=1e-8 d=4 p=9 centres kmeans++@2 ms h=4 stride 8 it 4", Some(0.472), Some(0.239), Some(2.49), Some(0.0107), ""),
-    ("RBF 300 r=1e-8 d=4 p=9 centres random@1 ms h=4 stride 8 it 4", Some(0.326), Some(0.221), Some(2.12), Some(0.0102), ""),
+    (
+        "RBF 200 r=3e-9 d=4 p=9 centres farthest@2 ms h=4 stride 8 it 4",
+        Some(0.336),
+        Some(0.141),
+        Some(2.55),
+        Some(0.0255),
+        "",
+    ),
+    (
+        "RBF 200 r=3e-9 d=4 p=9 centres kmeans++@4 ms h=4 stride 8 it 4",
+        Some(0.429),
+        Some(0.208),
+        Some(1.32),
+        Some(0.0110),
+        "",
+    ),
+    (
+        "RBF 300 r=1e-8 d=4 p=9 centres kmeans++@2 ms h=4 stride 8 it 4",
+        Some(0.359),
+        Some(0.192),
+        Some(2.28),
+        Some(0.0096),
+        "",
+    ),
+    (
+        "RBF 300 r=1e-8 d=4 p=9 centres random@3 ms h=4 stride 8 it 4",
+        Some(0.306),
+        Some(0.179),
+        Some(1.56),
+        Some(0.0061),
+        "",
+    ),
+    (
+        "RBF 150 r=1e-8 d=4 p=9 centres kmeans++@2 ms h=4 stride 8 it 4",
+        Some(0.472),
+        Some(0.239),
+        Some(2.49),
+        Some(0.0107),
+        "",
+    ),
+    (
+        "RBF 300 r=1e-8 d=4 p=9 centres random@1 ms h=4 stride 8 it 4",
+        Some(0.326),
+        Some(0.221),
+        Some(2.12),
+        Some(0.0102),
+        "",
+    ),
     ("RBF 200 r=3e-9 d=4 p=9 ms h=2 stride 8 it 4", Some(0.450), Some(0.336), Some(2.58), Some(0.0074), ""),
-    ("RBF 300 r=1e-8 d=4 p=9 centres kmeans++@2 ms h=2 stride 8 it 4", Some(0.298), Some(0.140), Some(1.25), Some(0.0133), ""),
+    (
+        "RBF 300 r=1e-8 d=4 p=9 centres kmeans++@2 ms h=2 stride 8 it 4",
+        Some(0.298),
+        Some(0.140),
+        Some(1.25),
+        Some(0.0133),
+        "",
+    ),
     ("RBF 200 r=3e-9 d=4 p=9 centres farthest@5", Some(0.191), Some(0.197), Some(2.19), Some(0.0213), ""),
     ("RBF 200 r=3e-9 d=4 p=9 centres kmeans++@5", None, None, None, None, "escaped in the long run"),
     ("RBF 200 r=3e-9 d=4 p=9 centres random@5", Some(0.057), Some(0.260), Some(2.70), Some(0.0097), ""),
@@ -706,130 +1098,575 @@ pub const FLAG_CENTRES: &[FlagRow] = &[
 /// first being the row's D2).
 pub const FLAG_DIMENSION: &[(&str, Option<f64>, [Option<f64>; 5])] = &[
     ("RBF 200 r=3e-9 d=4 p=9", Some(2.58), [Some(3.29), Some(2.88), Some(3.70), Some(2.63), Some(3.11)]),
-    ("RBF 200 r=3e-9 d=4 p=9 centres farthest@3", Some(2.36), [Some(2.47), Some(2.11), Some(2.76), Some(2.56), Some(1.69)]),
+    (
+        "RBF 200 r=3e-9 d=4 p=9 centres farthest@3",
+        Some(2.36),
+        [Some(2.47), Some(2.11), Some(2.76), Some(2.56), Some(1.69)],
+    ),
     ("RBF 300 r=3e-9 d=4 p=9", Some(2.35), [Some(1.41), Some(2.12), Some(2.15), Some(2.26), Some(2.54)]),
-    ("RBF 200 r=3e-9 d=4 p=9 ms h=4 stride 8 it 4", Some(2.19), [Some(1.91), Some(1.98), Some(2.23), Some(2.15), Some(2.35)]),
-    ("RBF 200 r=3e-9 d=4 p=9 centres farthest@2 ms h=4 stride 8 it 4", Some(2.26), [Some(2.56), Some(1.38), Some(2.37), Some(2.28), Some(2.21)]),
-    ("RBF 200 r=3e-9 d=4 p=9 centres kmeans++@4 ms h=4 stride 8 it 4", Some(2.32), [Some(1.32), Some(1.57), Some(2.30), Some(1.61), Some(2.28)]),
-    ("RBF 300 r=1e-8 d=4 p=9 centres kmeans++@2 ms h=4 stride 8 it 4", Some(2.15), [Some(2.28), Some(1.34), Some(1.46), Some(1.91), Some(2.43)]),
-    ("RBF 300 r=1e-8 d=4 p=9 centres random@3 ms h=4 stride 8 it 4", Some(2.40), [Some(1.57), Some(2.05), Some(1.50), Some(2.46), Some(1.78)]),
-    ("RBF 150 r=1e-8 d=4 p=9 centres kmeans++@2 ms h=4 stride 8 it 4", Some(2.41), [Some(2.49), Some(2.04), Some(2.42), Some(2.50), Some(2.45)]),
-    ("RBF 300 r=1e-8 d=4 p=9 centres random@1 ms h=4 stride 8 it 4", Some(2.29), [Some(2.12), Some(1.46), Some(2.23), Some(2.33), Some(2.53)]),
-    ("RBF 200 r=3e-9 d=4 p=9 ms h=2 stride 8 it 4", Some(2.41), [Some(1.82), Some(2.67), Some(2.63), Some(1.61), Some(2.38)]),
-    ("RBF 300 r=1e-8 d=4 p=9 centres kmeans++@2 ms h=2 stride 8 it 4", Some(2.18), [Some(1.25), Some(1.17), Some(2.28), Some(2.57), Some(1.00)]),
-    ("RBF 200 r=3e-9 d=4 p=9 centres farthest@5", Some(1.74), [Some(2.19), Some(2.01), Some(2.26), Some(2.51), Some(1.94)]),
-    ("RBF 200 r=3e-9 d=4 p=9 centres random@5", Some(2.02), [Some(2.69), Some(2.76), Some(1.93), Some(1.88), Some(2.58)]),
-    ("RBF 200 r=3e-9 d=4 p=9 centres farthest@6", Some(2.49), [Some(2.48), Some(2.49), Some(2.40), Some(1.88), Some(2.48)]),
-    ("RBF 200 r=3e-9 d=4 p=9 centres kmeans++@6", Some(1.00), [Some(2.62), Some(1.05), Some(1.01), Some(1.01), Some(1.01)]),
-    ("RBF 200 r=3e-9 d=4 p=9 centres farthest@7", Some(2.46), [Some(2.51), Some(2.73), Some(2.56), Some(1.72), Some(2.18)]),
-    ("RBF 200 r=3e-9 d=4 p=9 centres kmeans++@7", Some(2.39), [Some(2.83), Some(2.81), Some(2.40), Some(2.75), Some(1.93)]),
-    ("RBF 200 r=3e-9 d=4 p=9 centres farthest@8", Some(2.08), [Some(2.74), Some(2.73), Some(2.05), Some(1.78), Some(1.88)]),
-    ("RBF 200 r=3e-9 d=4 p=9 centres kmeans++@8", Some(2.57), [Some(3.16), Some(1.30), Some(3.19), Some(3.63), Some(2.72)]),
-    ("RBF 200 r=3e-9 d=4 p=9 centres random@8", Some(2.61), [Some(2.97), Some(2.68), Some(3.38), Some(2.83), Some(2.61)]),
-    ("RBF 200 r=3e-9 d=4 p=9 centres farthest@9", Some(2.37), [Some(2.41), Some(2.17), Some(2.41), Some(2.44), Some(2.47)]),
-    ("RBF 200 r=3e-9 d=4 p=9 centres kmeans++@9", Some(1.56), [Some(2.13), Some(2.08), Some(2.48), Some(1.97), Some(1.83)]),
-    ("RBF 200 r=3e-9 d=4 p=9 centres random@9", Some(1.00), [Some(1.04), Some(1.01), Some(1.01), Some(1.01), Some(1.01)]),
-    ("RBF 200 r=3e-9 d=4 p=9 centres farthest@10", Some(2.42), [Some(2.50), Some(2.24), Some(3.01), Some(1.41), Some(2.54)]),
-    ("RBF 200 r=3e-9 d=4 p=9 centres kmeans++@10", Some(2.50), [Some(2.61), Some(1.77), Some(3.02), Some(3.01), Some(3.32)]),
-    ("RBF 200 r=3e-9 d=4 p=9 centres farthest@11", Some(2.45), [Some(2.78), Some(3.39), Some(2.69), Some(2.23), Some(1.59)]),
-    ("RBF 200 r=3e-9 d=4 p=9 centres kmeans++@11", Some(2.50), [Some(2.91), Some(2.56), Some(2.88), Some(3.06), Some(2.59)]),
-    ("RBF 200 r=3e-9 d=4 p=9 centres random@11", Some(2.53), [Some(2.31), Some(2.59), Some(1.88), Some(2.73), Some(1.92)]),
-    ("RBF 200 r=3e-9 d=4 p=9 centres farthest@12", Some(2.54), [Some(2.49), Some(2.49), Some(2.48), Some(2.45), Some(2.64)]),
-    ("RBF 200 r=3e-9 d=4 p=9 centres kmeans++@12", Some(2.52), [Some(2.77), Some(1.83), Some(2.82), Some(2.52), Some(2.96)]),
-    ("RBF 300 r=1e-8 d=4 p=9 centres farthest@5", Some(2.10), [Some(2.01), Some(1.71), Some(1.84), Some(2.05), Some(2.19)]),
-    ("RBF 300 r=1e-8 d=4 p=9 centres kmeans++@5", Some(2.33), [Some(1.70), Some(2.06), Some(2.54), Some(2.18), Some(1.46)]),
-    ("RBF 300 r=1e-8 d=4 p=9 centres random@5", Some(2.45), [Some(1.65), Some(2.86), Some(2.59), Some(2.57), Some(2.60)]),
-    ("RBF 300 r=1e-8 d=4 p=9 centres farthest@6", Some(2.20), [Some(2.10), Some(2.11), Some(2.62), Some(2.20), Some(2.40)]),
-    ("RBF 300 r=1e-8 d=4 p=9 centres kmeans++@6", Some(2.22), [Some(2.72), Some(2.18), Some(2.59), Some(2.39), Some(2.31)]),
-    ("RBF 300 r=1e-8 d=4 p=9 centres farthest@7", Some(2.25), [Some(1.32), Some(2.46), Some(2.58), Some(2.15), Some(1.31)]),
-    ("RBF 300 r=1e-8 d=4 p=9 centres kmeans++@7", Some(2.25), [Some(2.45), Some(2.27), Some(2.13), Some(2.17), Some(2.61)]),
-    ("RBF 300 r=1e-8 d=4 p=9 centres random@7", Some(2.52), [Some(2.93), Some(2.74), Some(2.70), Some(2.53), Some(2.83)]),
-    ("RBF 300 r=1e-8 d=4 p=9 centres farthest@8", Some(2.28), [Some(2.14), Some(2.19), Some(2.39), Some(2.03), Some(2.08)]),
-    ("RBF 300 r=1e-8 d=4 p=9 centres kmeans++@8", Some(2.25), [Some(1.60), Some(2.02), Some(2.13), Some(1.10), Some(2.34)]),
-    ("RBF 300 r=1e-8 d=4 p=9 centres random@8", Some(2.57), [Some(2.98), Some(3.02), Some(2.79), Some(2.71), Some(3.05)]),
-    ("RBF 300 r=1e-8 d=4 p=9 centres farthest@9", Some(2.20), [Some(2.06), Some(1.42), Some(2.00), Some(2.46), Some(2.16)]),
-    ("RBF 300 r=1e-8 d=4 p=9 centres kmeans++@9", Some(2.50), [Some(1.72), Some(2.41), Some(2.66), Some(2.11), Some(2.75)]),
-    ("RBF 300 r=1e-8 d=4 p=9 centres random@9", Some(2.49), [Some(2.33), Some(2.59), Some(2.51), Some(2.51), Some(2.66)]),
-    ("RBF 300 r=1e-8 d=4 p=9 centres farthest@10", Some(2.17), [Some(2.01), Some(2.16), Some(1.91), Some(1.46), Some(1.93)]),
-    ("RBF 300 r=1e-8 d=4 p=9 centres kmeans++@10", Some(2.32), [Some(2.67), Some(2.04), Some(1.97), Some(2.34), Some(2.40)]),
-    ("RBF 300 r=1e-8 d=4 p=9 centres random@10", Some(2.48), [Some(2.46), Some(2.47), Some(2.36), Some(2.72), Some(2.62)]),
-    ("RBF 300 r=1e-8 d=4 p=9 centres farthest@11", Some(2.24), [Some(2.84), Some(1.27), Some(1.52), Some(1.43), Some(2.40)]),
-    ("RBF 300 r=1e-8 d=4 p=9 centres kmeans++@11", Some(2.35), [Some(2.53), Some(1.75), Some(1.96), Some(2.16), Some(2.48)]),
-    ("RBF 300 r=1e-8 d=4 p=9 centres random@11", Some(2.47), [Some(2.54), Some(1.96), Some(2.37), Some(1.81), Some(2.88)]),
-    ("RBF 300 r=1e-8 d=4 p=9 centres farthest@12", Some(2.36), [Some(2.70), Some(1.75), Some(2.50), Some(1.89), Some(2.22)]),
-    ("RBF 300 r=1e-8 d=4 p=9 centres kmeans++@12", Some(2.29), [Some(2.09), Some(2.18), Some(2.41), Some(2.23), Some(2.24)]),
-    ("RBF 300 r=1e-8 d=4 p=9 centres random@12", Some(2.60), [Some(3.13), Some(3.11), Some(2.54), Some(3.07), Some(3.01)]),
-    ("RBF 250 r=1e-8 d=4 p=9 centres farthest@5", Some(2.25), [Some(1.85), Some(2.17), Some(2.55), Some(2.52), Some(2.48)]),
-    ("RBF 250 r=1e-8 d=4 p=9 centres kmeans++@5", Some(2.40), [Some(2.82), Some(2.60), Some(2.76), Some(2.70), Some(2.65)]),
-    ("RBF 250 r=1e-8 d=4 p=9 centres random@5", Some(2.46), [Some(2.62), Some(2.48), Some(3.15), Some(2.54), Some(2.37)]),
-    ("RBF 250 r=1e-8 d=4 p=9 centres farthest@6", Some(2.27), [Some(2.11), Some(2.37), Some(2.02), Some(2.66), Some(2.35)]),
-    ("RBF 250 r=1e-8 d=4 p=9 centres kmeans++@6", Some(2.26), [Some(2.03), Some(2.91), Some(2.56), Some(2.33), Some(2.23)]),
-    ("RBF 250 r=1e-8 d=4 p=9 centres farthest@7", Some(2.27), [Some(2.58), Some(1.42), Some(2.49), Some(2.64), Some(2.45)]),
-    ("RBF 250 r=1e-8 d=4 p=9 centres kmeans++@7", Some(2.33), [Some(1.61), Some(2.23), Some(2.74), Some(2.27), Some(2.32)]),
-    ("RBF 250 r=1e-8 d=4 p=9 centres random@7", Some(2.49), [Some(2.21), Some(2.63), Some(2.76), Some(1.70), Some(2.38)]),
-    ("RBF 250 r=1e-8 d=4 p=9 centres farthest@8", Some(2.21), [Some(1.99), Some(2.47), Some(1.40), Some(2.44), Some(1.51)]),
-    ("RBF 250 r=1e-8 d=4 p=9 centres kmeans++@8", Some(2.25), [Some(1.36), Some(1.47), Some(1.75), Some(1.91), Some(1.55)]),
-    ("RBF 250 r=1e-8 d=4 p=9 centres random@8", Some(2.54), [Some(2.94), Some(2.70), Some(2.59), Some(2.57), Some(2.94)]),
-    ("RBF 250 r=1e-8 d=4 p=9 centres farthest@9", Some(2.30), [Some(2.26), Some(2.19), Some(2.48), Some(2.60), Some(2.21)]),
-    ("RBF 250 r=1e-8 d=4 p=9 centres kmeans++@9", Some(2.38), [Some(2.07), Some(2.59), Some(2.12), Some(2.46), Some(2.25)]),
-    ("RBF 250 r=1e-8 d=4 p=9 centres random@9", Some(2.61), [Some(2.54), Some(2.27), Some(2.79), Some(2.52), Some(2.44)]),
-    ("RBF 250 r=1e-8 d=4 p=9 centres farthest@10", Some(2.24), [Some(2.03), Some(2.77), Some(2.48), Some(2.47), Some(2.51)]),
-    ("RBF 250 r=1e-8 d=4 p=9 centres kmeans++@10", Some(2.35), [Some(2.98), Some(2.67), Some(2.92), Some(2.52), Some(1.96)]),
-    ("RBF 250 r=1e-8 d=4 p=9 centres random@10", Some(2.66), [Some(2.85), Some(2.59), Some(2.47), Some(2.46), Some(2.57)]),
-    ("RBF 250 r=1e-8 d=4 p=9 centres farthest@11", Some(2.35), [Some(2.38), Some(2.47), Some(1.60), Some(2.47), Some(2.50)]),
-    ("RBF 250 r=1e-8 d=4 p=9 centres kmeans++@11", Some(2.43), [Some(1.64), Some(1.75), Some(1.60), Some(2.03), Some(2.06)]),
-    ("RBF 250 r=1e-8 d=4 p=9 centres random@11", Some(2.51), [Some(2.36), Some(2.20), Some(2.56), Some(2.56), Some(2.41)]),
-    ("RBF 250 r=1e-8 d=4 p=9 centres farthest@12", Some(2.38), [Some(1.91), Some(2.36), Some(2.19), Some(2.49), Some(2.45)]),
-    ("RBF 250 r=1e-8 d=4 p=9 centres kmeans++@12", Some(2.39), [Some(2.59), Some(2.43), Some(2.75), Some(2.57), Some(2.63)]),
-    ("RBF 250 r=1e-8 d=4 p=9 centres random@12", Some(2.54), [Some(3.11), Some(2.69), Some(3.01), Some(2.87), Some(2.77)]),
+    (
+        "RBF 200 r=3e-9 d=4 p=9 ms h=4 stride 8 it 4",
+        Some(2.19),
+        [Some(1.91), Some(1.98), Some(2.23), Some(2.15), Some(2.35)],
+    ),
+    (
+        "RBF 200 r=3e-9 d=4 p=9 centres farthest@2 ms h=4 stride 8 it 4",
+        Some(2.26),
+        [Some(2.56), Some(1.38), Some(2.37), Some(2.28), Some(2.21)],
+    ),
+    (
+        "RBF 200 r=3e-9 d=4 p=9 centres kmeans++@4 ms h=4 stride 8 it 4",
+        Some(2.32),
+        [Some(1.32), Some(1.57), Some(2.30), Some(1.61), Some(2.28)],
+    ),
+    (
+        "RBF 300 r=1e-8 d=4 p=9 centres kmeans++@2 ms h=4 stride 8 it 4",
+        Some(2.15),
+        [Some(2.28), Some(1.34), Some(1.46), Some(1.91), Some(2.43)],
+    ),
+    (
+        "RBF 300 r=1e-8 d=4 p=9 centres random@3 ms h=4 stride 8 it 4",
+        Some(2.40),
+        [Some(1.57), Some(2.05), Some(1.50), Some(2.46), Some(1.78)],
+    ),
+    (
+        "RBF 150 r=1e-8 d=4 p=9 centres kmeans++@2 ms h=4 stride 8 it 4",
+        Some(2.41),
+        [Some(2.49), Some(2.04), Some(2.42), Some(2.50), Some(2.45)],
+    ),
+    (
+        "RBF 300 r=1e-8 d=4 p=9 centres random@1 ms h=4 stride 8 it 4",
+        Some(2.29),
+        [Some(2.12), Some(1.46), Some(2.23), Some(2.33), Some(2.53)],
+    ),
+    (
+        "RBF 200 r=3e-9 d=4 p=9 ms h=2 stride 8 it 4",
+        Some(2.41),
+        [Some(1.82), Some(2.67), Some(2.63), Some(1.61), Some(2.38)],
+    ),
+    (
+        "RBF 300 r=1e-8 d=4 p=9 centres kmeans++@2 ms h=2 stride 8 it 4",
+        Some(2.18),
+        [Some(1.25), Some(1.17), Some(2.28), Some(2.57), Some(1.00)],
+    ),
+    (
+        "RBF 200 r=3e-9 d=4 p=9 centres farthest@5",
+        Some(1.74),
+        [Some(2.19), Some(2.01), Some(2.26), Some(2.51), Some(1.94)],
+    ),
+    (
+        "RBF 200 r=3e-9 d=4 p=9 centres random@5",
+        Some(2.02),
+        [Some(2.69), Some(2.76), Some(1.93), Some(1.88), Some(2.58)],
+    ),
+    (
+        "RBF 200 r=3e-9 d=4 p=9 centres farthest@6",
+        Some(2.49),
+        [Some(2.48), Some(2.49), Some(2.40), Some(1.88), Some(2.48)],
+    ),
+    (
+        "RBF 200 r=3e-9 d=4 p=9 centres kmeans++@6",
+        Some(1.00),
+        [Some(2.62), Some(1.05), Some(1.01), Some(1.01), Some(1.01)],
+    ),
+    (
+        "RBF 200 r=3e-9 d=4 p=9 centres farthest@7",
+        Some(2.46),
+        [Some(2.51), Some(2.73), Some(2.56), Some(1.72), Some(2.18)],
+    ),
+    (
+        "RBF 200 r=3e-9 d=4 p=9 centres kmeans++@7",
+        Some(2.39),
+        [Some(2.83), Some(2.81), Some(2.40), Some(2.75), Some(1.93)],
+    ),
+    (
+        "RBF 200 r=3e-9 d=4 p=9 centres farthest@8",
+        Some(2.08),
+        [Some(2.74), Some(2.73), Some(2.05), Some(1.78), Some(1.88)],
+    ),
+    (
+        "RBF 200 r=3e-9 d=4 p=9 centres kmeans++@8",
+        Some(2.57),
+        [Some(3.16), Some(1.30), Some(3.19), Some(3.63), Some(2.72)],
+    ),
+    (
+        "RBF 200 r=3e-9 d=4 p=9 centres random@8",
+        Some(2.61),
+        [Some(2.97), Some(2.68), Some(3.38), Some(2.83), Some(2.61)],
+    ),
+    (
+        "RBF 200 r=3e-9 d=4 p=9 centres farthest@9",
+        Some(2.37),
+        [Some(2.41), Some(2.17), Some(2.41), Some(2.44), Some(2.47)],
+    ),
+    (
+        "RBF 200 r=3e-9 d=4 p=9 centres kmeans++@9",
+        Some(1.56),
+        [Some(2.13), Some(2.08), Some(2.48), Some(1.97), Some(1.83)],
+    ),
+    (
+        "RBF 200 r=3e-9 d=4 p=9 centres random@9",
+        Some(1.00),
+        [Some(1.04), Some(1.01), Some(1.01), Some(1.01), Some(1.01)],
+    ),
+    (
+        "RBF 200 r=3e-9 d=4 p=9 centres farthest@10",
+        Some(2.42),
+        [Some(2.50), Some(2.24), Some(3.01), Some(1.41), Some(2.54)],
+    ),
+    (
+        "RBF 200 r=3e-9 d=4 p=9 centres kmeans++@10",
+        Some(2.50),
+        [Some(2.61), Some(1.77), Some(3.02), Some(3.01), Some(3.32)],
+    ),
+    (
+        "RBF 200 r=3e-9 d=4 p=9 centres farthest@11",
+        Some(2.45),
+        [Some(2.78), Some(3.39), Some(2.69), Some(2.23), Some(1.59)],
+    ),
+    (
+        "RBF 200 r=3e-9 d=4 p=9 centres kmeans++@11",
+        Some(2.50),
+        [Some(2.91), Some(2.56), Some(2.88), Some(3.06), Some(2.59)],
+    ),
+    (
+        "RBF 200 r=3e-9 d=4 p=9 centres random@11",
+        Some(2.53),
+        [Some(2.31), Some(2.59), Some(1.88), Some(2.73), Some(1.92)],
+    ),
+    (
+        "RBF 200 r=3e-9 d=4 p=9 centres farthest@12",
+        Some(2.54),
+        [Some(2.49), Some(2.49), Some(2.48), Some(2.45), Some(2.64)],
+    ),
+    (
+        "RBF 200 r=3e-9 d=4 p=9 centres kmeans++@12",
+        Some(2.52),
+        [Some(2.77), Some(1.83), Some(2.82), Some(2.52), Some(2.96)],
+    ),
+    (
+        "RBF 300 r=1e-8 d=4 p=9 centres farthest@5",
+        Some(2.10),
+        [Some(2.01), Some(1.71), Some(1.84), Some(2.05), Some(2.19)],
+    ),
+    (
+        "RBF 300 r=1e-8 d=4 p=9 centres kmeans++@5",
+        Some(2.33),
+        [Some(1.70), Some(2.06), Some(2.54), Some(2.18), Some(1.46)],
+    ),
+    (
+        "RBF 300 r=1e-8 d=4 p=9 centres random@5",
+        Some(2.45),
+        [Some(1.65), Some(2.86), Some(2.59), Some(2.57), Some(2.60)],
+    ),
+    (
+        "RBF 300 r=1e-8 d=4 p=9 centres farthest@6",
+        Some(2.20),
+        [Some(2.10), Some(2.11), Some(2.62), Some(2.20), Some(2.40)],
+    ),
+    (
+        "RBF 300 r=1e-8 d=4 p=9 centres kmeans++@6",
+        Some(2.22),
+        [Some(2.72), Some(2.18), Some(2.59), Some(2.39), Some(2.31)],
+    ),
+    (
+        "RBF 300 r=1e-8 d=4 p=9 centres farthest@7",
+        Some(2.25),
+        [Some(1.32), Some(2.46), Some(2.58), Some(2.15), Some(1.31)],
+    ),
+    (
+        "RBF 300 r=1e-8 d=4 p=9 centres kmeans++@7",
+        Some(2.25),
+        [Some(2.45), Some(2.27), Some(2.13), Some(2.17), Some(2.61)],
+    ),
+    (
+        "RBF 300 r=1e-8 d=4 p=9 centres random@7",
+        Some(2.52),
+        [Some(2.93), Some(2.74), Some(2.70), Some(2.53), Some(2.83)],
+    ),
+    (
+        "RBF 300 r=1e-8 d=4 p=9 centres farthest@8",
+        Some(2.28),
+        [Some(2.14), Some(2.19), Some(2.39), Some(2.03), Some(2.08)],
+    ),
+    (
+        "RBF 300 r=1e-8 d=4 p=9 centres kmeans++@8",
+        Some(2.25),
+        [Some(1.60), Some(2.02), Some(2.13), Some(1.10), Some(2.34)],
+    ),
+    (
+        "RBF 300 r=1e-8 d=4 p=9 centres random@8",
+        Some(2.57),
+        [Some(2.98), Some(3.02), Some(2.79), Some(2.71), Some(3.05)],
+    ),
+    (
+        "RBF 300 r=1e-8 d=4 p=9 centres farthest@9",
+        Some(2.20),
+        [Some(2.06), Some(1.42), Some(2.00), Some(2.46), Some(2.16)],
+    ),
+    (
+        "RBF 300 r=1e-8 d=4 p=9 centres kmeans++@9",
+        Some(2.50),
+        [Some(1.72), Some(2.41), Some(2.66), Some(2.11), Some(2.75)],
+    ),
+    (
+        "RBF 300 r=1e-8 d=4 p=9 centres random@9",
+        Some(2.49),
+        [Some(2.33), Some(2.59), Some(2.51), Some(2.51), Some(2.66)],
+    ),
+    (
+        "RBF 300 r=1e-8 d=4 p=9 centres farthest@10",
+        Some(2.17),
+        [Some(2.01), Some(2.16), Some(1.91), Some(1.46), Some(1.93)],
+    ),
+    (
+        "RBF 300 r=1e-8 d=4 p=9 centres kmeans++@10",
+        Some(2.32),
+        [Some(2.67), Some(2.04), Some(1.97), Some(2.34), Some(2.40)],
+    ),
+    (
+        "RBF 300 r=1e-8 d=4 p=9 centres random@10",
+        Some(2.48),
+        [Some(2.46), Some(2.47), Some(2.36), Some(2.72), Some(2.62)],
+    ),
+    (
+        "RBF 300 r=1e-8 d=4 p=9 centres farthest@11",
+        Some(2.24),
+        [Some(2.84), Some(1.27), Some(1.52), Some(1.43), Some(2.40)],
+    ),
+    (
+        "RBF 300 r=1e-8 d=4 p=9 centres kmeans++@11",
+        Some(2.35),
+        [Some(2.53), Some(1.75), Some(1.96), Some(2.16), Some(2.48)],
+    ),
+    (
+        "RBF 300 r=1e-8 d=4 p=9 centres random@11",
+        Some(2.47),
+        [Some(2.54), Some(1.96), Some(2.37), Some(1.81), Some(2.88)],
+    ),
+    (
+        "RBF 300 r=1e-8 d=4 p=9 centres farthest@12",
+        Some(2.36),
+        [Some(2.70), Some(1.75), Some(2.50), Some(1.89), Some(2.22)],
+    ),
+    (
+        "RBF 300 r=1e-8 d=4 p=9 centres kmeans++@12",
+        Some(2.29),
+        [Some(2.09), Some(2.18), Some(2.41), Some(2.23), Some(2.24)],
+    ),
+    (
+        "RBF 300 r=1e-8 d=4 p=9 centres random@12",
+        Some(2.60),
+        [Some(3.13), Some(3.11), Some(2.54), Some(3.07), Some(3.01)],
+    ),
+    (
+        "RBF 250 r=1e-8 d=4 p=9 centres farthest@5",
+        Some(2.25),
+        [Some(1.85), Some(2.17), Some(2.55), Some(2.52), Some(2.48)],
+    ),
+    (
+        "RBF 250 r=1e-8 d=4 p=9 centres kmeans++@5",
+        Some(2.40),
+        [Some(2.82), Some(2.60), Some(2.76), Some(2.70), Some(2.65)],
+    ),
+    (
+        "RBF 250 r=1e-8 d=4 p=9 centres random@5",
+        Some(2.46),
+        [Some(2.62), Some(2.48), Some(3.15), Some(2.54), Some(2.37)],
+    ),
+    (
+        "RBF 250 r=1e-8 d=4 p=9 centres farthest@6",
+        Some(2.27),
+        [Some(2.11), Some(2.37), Some(2.02), Some(2.66), Some(2.35)],
+    ),
+    (
+        "RBF 250 r=1e-8 d=4 p=9 centres kmeans++@6",
+        Some(2.26),
+        [Some(2.03), Some(2.91), Some(2.56), Some(2.33), Some(2.23)],
+    ),
+    (
+        "RBF 250 r=1e-8 d=4 p=9 centres farthest@7",
+        Some(2.27),
+        [Some(2.58), Some(1.42), Some(2.49), Some(2.64), Some(2.45)],
+    ),
+    (
+        "RBF 250 r=1e-8 d=4 p=9 centres kmeans++@7",
+        Some(2.33),
+        [Some(1.61), Some(2.23), Some(2.74), Some(2.27), Some(2.32)],
+    ),
+    (
+        "RBF 250 r=1e-8 d=4 p=9 centres random@7",
+        Some(2.49),
+        [Some(2.21), Some(2.63), Some(2.76), Some(1.70), Some(2.38)],
+    ),
+    (
+        "RBF 250 r=1e-8 d=4 p=9 centres farthest@8",
+        Some(2.21),
+        [Some(1.99), Some(2.47), Some(1.40), Some(2.44), Some(1.51)],
+    ),
+    (
+        "RBF 250 r=1e-8 d=4 p=9 centres kmeans++@8",
+        Some(2.25),
+        [Some(1.36), Some(1.47), Some(1.75), Some(1.91), Some(1.55)],
+    ),
+    (
+        "RBF 250 r=1e-8 d=4 p=9 centres random@8",
+        Some(2.54),
+        [Some(2.94), Some(2.70), Some(2.59), Some(2.57), Some(2.94)],
+    ),
+    (
+        "RBF 250 r=1e-8 d=4 p=9 centres farthest@9",
+        Some(2.30),
+        [Some(2.26), Some(2.19), Some(2.48), Some(2.60), Some(2.21)],
+    ),
+    (
+        "RBF 250 r=1e-8 d=4 p=9 centres kmeans++@9",
+        Some(2.38),
+        [Some(2.07), Some(2.59), Some(2.12), Some(2.46), Some(2.25)],
+    ),
+    (
+        "RBF 250 r=1e-8 d=4 p=9 centres random@9",
+        Some(2.61),
+        [Some(2.54), Some(2.27), Some(2.79), Some(2.52), Some(2.44)],
+    ),
+    (
+        "RBF 250 r=1e-8 d=4 p=9 centres farthest@10",
+        Some(2.24),
+        [Some(2.03), Some(2.77), Some(2.48), Some(2.47), Some(2.51)],
+    ),
+    (
+        "RBF 250 r=1e-8 d=4 p=9 centres kmeans++@10",
+        Some(2.35),
+        [Some(2.98), Some(2.67), Some(2.92), Some(2.52), Some(1.96)],
+    ),
+    (
+        "RBF 250 r=1e-8 d=4 p=9 centres random@10",
+        Some(2.66),
+        [Some(2.85), Some(2.59), Some(2.47), Some(2.46), Some(2.57)],
+    ),
+    (
+        "RBF 250 r=1e-8 d=4 p=9 centres farthest@11",
+        Some(2.35),
+        [Some(2.38), Some(2.47), Some(1.60), Some(2.47), Some(2.50)],
+    ),
+    (
+        "RBF 250 r=1e-8 d=4 p=9 centres kmeans++@11",
+        Some(2.43),
+        [Some(1.64), Some(1.75), Some(1.60), Some(2.03), Some(2.06)],
+    ),
+    (
+        "RBF 250 r=1e-8 d=4 p=9 centres random@11",
+        Some(2.51),
+        [Some(2.36), Some(2.20), Some(2.56), Some(2.56), Some(2.41)],
+    ),
+    (
+        "RBF 250 r=1e-8 d=4 p=9 centres farthest@12",
+        Some(2.38),
+        [Some(1.91), Some(2.36), Some(2.19), Some(2.49), Some(2.45)],
+    ),
+    (
+        "RBF 250 r=1e-8 d=4 p=9 centres kmeans++@12",
+        Some(2.39),
+        [Some(2.59), Some(2.43), Some(2.75), Some(2.57), Some(2.63)],
+    ),
+    (
+        "RBF 250 r=1e-8 d=4 p=9 centres random@12",
+        Some(2.54),
+        [Some(3.11), Some(2.69), Some(3.01), Some(2.87), Some(2.77)],
+    ),
     ("RBF 200 r=3e-9 d=5 p=11", Some(2.42), [Some(2.38), Some(2.29), Some(2.21), Some(2.20), Some(2.17)]),
-    ("RBF 200 r=3e-9 d=5 p=11 centres random@1", Some(2.62), [Some(2.89), Some(2.99), Some(3.09), Some(2.92), Some(2.76)]),
+    (
+        "RBF 200 r=3e-9 d=5 p=11 centres random@1",
+        Some(2.62),
+        [Some(2.89), Some(2.99), Some(3.09), Some(2.92), Some(2.76)],
+    ),
     ("RBF 300 r=1e-8 d=5 p=11", Some(0.00), [None, Some(0.00), Some(-0.00), Some(-0.00), Some(0.00)]),
-    ("RBF 300 r=1e-8 d=5 p=11 centres kmeans++@1", Some(1.54), [Some(1.07), Some(1.05), Some(1.06), Some(1.20), Some(1.05)]),
-    ("RBF 300 r=1e-8 d=5 p=11 centres random@1", Some(0.00), [Some(1.55), Some(0.34), Some(-0.00), Some(0.00), Some(0.00)]),
-    ("RBF 300 r=1e-8 d=5 p=11 centres kmeans++@2", Some(0.00), [None, Some(-0.00), Some(0.00), Some(-0.00), Some(-0.00)]),
-    ("RBF 300 r=1e-8 d=5 p=11 centres kmeans++@3", Some(0.00), [Some(1.12), Some(0.00), Some(0.00), Some(-0.00), Some(0.00)]),
-    ("RBF 300 r=1e-8 d=5 p=11 centres random@3", Some(2.06), [Some(2.03), Some(1.06), Some(1.99), Some(1.87), Some(1.88)]),
+    (
+        "RBF 300 r=1e-8 d=5 p=11 centres kmeans++@1",
+        Some(1.54),
+        [Some(1.07), Some(1.05), Some(1.06), Some(1.20), Some(1.05)],
+    ),
+    (
+        "RBF 300 r=1e-8 d=5 p=11 centres random@1",
+        Some(0.00),
+        [Some(1.55), Some(0.34), Some(-0.00), Some(0.00), Some(0.00)],
+    ),
+    (
+        "RBF 300 r=1e-8 d=5 p=11 centres kmeans++@2",
+        Some(0.00),
+        [None, Some(-0.00), Some(0.00), Some(-0.00), Some(-0.00)],
+    ),
+    (
+        "RBF 300 r=1e-8 d=5 p=11 centres kmeans++@3",
+        Some(0.00),
+        [Some(1.12), Some(0.00), Some(0.00), Some(-0.00), Some(0.00)],
+    ),
+    (
+        "RBF 300 r=1e-8 d=5 p=11 centres random@3",
+        Some(2.06),
+        [Some(2.03), Some(1.06), Some(1.99), Some(1.87), Some(1.88)],
+    ),
     ("RBF 200 r=3e-9 d=6 p=13", Some(2.49), [Some(2.45), Some(2.15), Some(2.27), Some(1.35), Some(2.29)]),
-    ("RBF 200 r=3e-9 d=6 p=13 centres kmeans++@1", Some(2.43), [Some(2.29), Some(2.00), Some(1.14), Some(2.02), Some(2.83)]),
-    ("RBF 200 r=3e-9 d=6 p=13 centres random@1", Some(1.18), [Some(2.24), Some(1.65), Some(2.23), Some(2.08), Some(2.42)]),
-    ("RBF 200 r=3e-9 d=6 p=13 centres random@2", Some(1.00), [Some(1.06), Some(1.01), Some(1.01), Some(1.01), Some(1.01)]),
-    ("RBF 200 r=3e-9 d=6 p=13 centres random@3", Some(2.32), [Some(2.20), Some(1.98), Some(2.08), Some(2.12), Some(2.22)]),
+    (
+        "RBF 200 r=3e-9 d=6 p=13 centres kmeans++@1",
+        Some(2.43),
+        [Some(2.29), Some(2.00), Some(1.14), Some(2.02), Some(2.83)],
+    ),
+    (
+        "RBF 200 r=3e-9 d=6 p=13 centres random@1",
+        Some(1.18),
+        [Some(2.24), Some(1.65), Some(2.23), Some(2.08), Some(2.42)],
+    ),
+    (
+        "RBF 200 r=3e-9 d=6 p=13 centres random@2",
+        Some(1.00),
+        [Some(1.06), Some(1.01), Some(1.01), Some(1.01), Some(1.01)],
+    ),
+    (
+        "RBF 200 r=3e-9 d=6 p=13 centres random@3",
+        Some(2.32),
+        [Some(2.20), Some(1.98), Some(2.08), Some(2.12), Some(2.22)],
+    ),
     ("RBF 300 r=1e-8 d=6 p=13", Some(0.00), [None, Some(0.00), Some(0.00), Some(0.00), Some(0.00)]),
-    ("RBF 300 r=1e-8 d=6 p=13 centres kmeans++@1", Some(0.00), [Some(0.81), Some(0.00), Some(0.00), Some(0.00), Some(0.00)]),
-    ("RBF 300 r=1e-8 d=6 p=13 centres random@1", Some(2.08), [Some(1.69), Some(1.90), Some(1.44), Some(1.54), Some(2.03)]),
-    ("RBF 300 r=1e-8 d=6 p=13 centres kmeans++@2", Some(1.08), [Some(0.51), Some(1.00), Some(1.00), Some(1.00), Some(1.00)]),
-    ("RBF 300 r=1e-8 d=6 p=13 centres random@2", Some(2.23), [Some(1.07), Some(1.56), Some(1.05), Some(1.57), Some(1.83)]),
-    ("RBF 300 r=1e-8 d=6 p=13 centres kmeans++@3", Some(1.49), [Some(1.48), Some(1.11), Some(1.20), Some(1.12), Some(1.23)]),
-    ("RBF 300 r=1e-8 d=6 p=13 centres random@3", Some(0.00), [Some(1.95), Some(1.94), Some(1.94), Some(1.97), Some(1.95)]),
+    (
+        "RBF 300 r=1e-8 d=6 p=13 centres kmeans++@1",
+        Some(0.00),
+        [Some(0.81), Some(0.00), Some(0.00), Some(0.00), Some(0.00)],
+    ),
+    (
+        "RBF 300 r=1e-8 d=6 p=13 centres random@1",
+        Some(2.08),
+        [Some(1.69), Some(1.90), Some(1.44), Some(1.54), Some(2.03)],
+    ),
+    (
+        "RBF 300 r=1e-8 d=6 p=13 centres kmeans++@2",
+        Some(1.08),
+        [Some(0.51), Some(1.00), Some(1.00), Some(1.00), Some(1.00)],
+    ),
+    (
+        "RBF 300 r=1e-8 d=6 p=13 centres random@2",
+        Some(2.23),
+        [Some(1.07), Some(1.56), Some(1.05), Some(1.57), Some(1.83)],
+    ),
+    (
+        "RBF 300 r=1e-8 d=6 p=13 centres kmeans++@3",
+        Some(1.49),
+        [Some(1.48), Some(1.11), Some(1.20), Some(1.12), Some(1.23)],
+    ),
+    (
+        "RBF 300 r=1e-8 d=6 p=13 centres random@3",
+        Some(0.00),
+        [Some(1.95), Some(1.94), Some(1.94), Some(1.97), Some(1.95)],
+    ),
     ("RBF 250 r=5e-9 d=4 p=9", Some(2.47), [Some(2.37), Some(1.73), Some(2.64), Some(2.17), Some(2.74)]),
-    ("RBF 250 r=5e-9 d=4 p=9 centres kmeans++@1", Some(2.44), [Some(2.61), Some(2.37), Some(2.57), Some(2.62), Some(2.84)]),
-    ("RBF 250 r=5e-9 d=4 p=9 centres kmeans++@2", Some(2.45), [Some(2.48), Some(1.91), Some(2.17), Some(2.68), Some(2.55)]),
-    ("RBF 250 r=5e-9 d=4 p=9 centres random@2", Some(2.51), [Some(2.54), Some(2.05), Some(2.10), Some(3.02), Some(1.51)]),
-    ("RBF 250 r=5e-9 d=4 p=9 centres kmeans++@3", Some(2.47), [Some(2.89), Some(2.63), Some(2.51), Some(2.04), Some(2.87)]),
-    ("RBF 250 r=5e-9 d=4 p=9 centres random@3", Some(2.69), [Some(2.63), Some(2.84), Some(2.88), Some(2.95), Some(1.88)]),
-    ("RBF 250 r=5e-9 d=4 p=9 centres kmeans++@4", Some(2.28), [Some(1.95), Some(1.89), Some(2.19), Some(2.27), Some(2.13)]),
-    ("RBF 250 r=5e-9 d=4 p=9 centres kmeans++@5", Some(2.39), [Some(2.22), Some(2.10), Some(2.16), Some(2.08), Some(2.22)]),
-    ("RBF 250 r=5e-9 d=4 p=9 centres random@5", Some(2.46), [Some(2.31), Some(2.53), Some(2.21), Some(2.77), Some(2.59)]),
-    ("RBF 250 r=5e-9 d=4 p=9 centres kmeans++@6", Some(2.37), [Some(2.62), Some(2.44), Some(2.63), Some(2.60), Some(2.55)]),
+    (
+        "RBF 250 r=5e-9 d=4 p=9 centres kmeans++@1",
+        Some(2.44),
+        [Some(2.61), Some(2.37), Some(2.57), Some(2.62), Some(2.84)],
+    ),
+    (
+        "RBF 250 r=5e-9 d=4 p=9 centres kmeans++@2",
+        Some(2.45),
+        [Some(2.48), Some(1.91), Some(2.17), Some(2.68), Some(2.55)],
+    ),
+    (
+        "RBF 250 r=5e-9 d=4 p=9 centres random@2",
+        Some(2.51),
+        [Some(2.54), Some(2.05), Some(2.10), Some(3.02), Some(1.51)],
+    ),
+    (
+        "RBF 250 r=5e-9 d=4 p=9 centres kmeans++@3",
+        Some(2.47),
+        [Some(2.89), Some(2.63), Some(2.51), Some(2.04), Some(2.87)],
+    ),
+    (
+        "RBF 250 r=5e-9 d=4 p=9 centres random@3",
+        Some(2.69),
+        [Some(2.63), Some(2.84), Some(2.88), Some(2.95), Some(1.88)],
+    ),
+    (
+        "RBF 250 r=5e-9 d=4 p=9 centres kmeans++@4",
+        Some(2.28),
+        [Some(1.95), Some(1.89), Some(2.19), Some(2.27), Some(2.13)],
+    ),
+    (
+        "RBF 250 r=5e-9 d=4 p=9 centres kmeans++@5",
+        Some(2.39),
+        [Some(2.22), Some(2.10), Some(2.16), Some(2.08), Some(2.22)],
+    ),
+    (
+        "RBF 250 r=5e-9 d=4 p=9 centres random@5",
+        Some(2.46),
+        [Some(2.31), Some(2.53), Some(2.21), Some(2.77), Some(2.59)],
+    ),
+    (
+        "RBF 250 r=5e-9 d=4 p=9 centres kmeans++@6",
+        Some(2.37),
+        [Some(2.62), Some(2.44), Some(2.63), Some(2.60), Some(2.55)],
+    ),
     ("RBF 300 r=5e-9 d=4 p=9", Some(2.29), [Some(2.23), Some(1.36), Some(2.18), Some(1.40), Some(2.04)]),
-    ("RBF 300 r=5e-9 d=4 p=9 centres kmeans++@1", Some(1.21), [Some(1.21), Some(1.52), Some(1.24), Some(0.99), Some(-0.00)]),
-    ("RBF 300 r=5e-9 d=4 p=9 centres random@1", Some(2.64), [Some(2.15), Some(2.36), Some(2.77), Some(2.53), Some(2.57)]),
-    ("RBF 300 r=5e-9 d=4 p=9 centres kmeans++@2", Some(2.42), [Some(2.62), Some(2.63), Some(2.41), Some(2.33), Some(2.25)]),
-    ("RBF 300 r=5e-9 d=4 p=9 centres random@2", Some(2.59), [Some(2.34), Some(1.49), Some(1.49), Some(2.53), Some(2.62)]),
-    ("RBF 300 r=5e-9 d=4 p=9 centres kmeans++@3", Some(2.39), [Some(2.68), Some(2.46), Some(1.63), Some(1.95), Some(2.47)]),
-    ("RBF 300 r=5e-9 d=4 p=9 centres random@3", Some(2.60), [Some(3.07), Some(2.36), Some(1.52), Some(3.12), Some(2.47)]),
-    ("RBF 300 r=5e-9 d=4 p=9 centres kmeans++@4", Some(2.13), [Some(2.20), Some(2.11), Some(1.04), Some(2.28), Some(2.14)]),
-    ("RBF 300 r=5e-9 d=4 p=9 centres random@4", Some(2.45), [Some(1.45), Some(2.18), Some(1.84), Some(2.14), Some(2.73)]),
-    ("RBF 300 r=5e-9 d=4 p=9 centres kmeans++@5", Some(2.34), [Some(2.58), Some(1.36), Some(1.40), Some(2.51), Some(2.30)]),
-    ("RBF 300 r=5e-9 d=4 p=9 centres random@5", Some(2.42), [Some(2.22), Some(1.53), Some(2.14), Some(2.34), Some(2.80)]),
-    ("RBF 300 r=5e-9 d=4 p=9 centres kmeans++@6", Some(2.26), [Some(2.27), Some(2.71), Some(2.63), Some(2.46), Some(2.40)]),
+    (
+        "RBF 300 r=5e-9 d=4 p=9 centres kmeans++@1",
+        Some(1.21),
+        [Some(1.21), Some(1.52), Some(1.24), Some(0.99), Some(-0.00)],
+    ),
+    (
+        "RBF 300 r=5e-9 d=4 p=9 centres random@1",
+        Some(2.64),
+        [Some(2.15), Some(2.36), Some(2.77), Some(2.53), Some(2.57)],
+    ),
+    (
+        "RBF 300 r=5e-9 d=4 p=9 centres kmeans++@2",
+        Some(2.42),
+        [Some(2.62), Some(2.63), Some(2.41), Some(2.33), Some(2.25)],
+    ),
+    (
+        "RBF 300 r=5e-9 d=4 p=9 centres random@2",
+        Some(2.59),
+        [Some(2.34), Some(1.49), Some(1.49), Some(2.53), Some(2.62)],
+    ),
+    (
+        "RBF 300 r=5e-9 d=4 p=9 centres kmeans++@3",
+        Some(2.39),
+        [Some(2.68), Some(2.46), Some(1.63), Some(1.95), Some(2.47)],
+    ),
+    (
+        "RBF 300 r=5e-9 d=4 p=9 centres random@3",
+        Some(2.60),
+        [Some(3.07), Some(2.36), Some(1.52), Some(3.12), Some(2.47)],
+    ),
+    (
+        "RBF 300 r=5e-9 d=4 p=9 centres kmeans++@4",
+        Some(2.13),
+        [Some(2.20), Some(2.11), Some(1.04), Some(2.28), Some(2.14)],
+    ),
+    (
+        "RBF 300 r=5e-9 d=4 p=9 centres random@4",
+        Some(2.45),
+        [Some(1.45), Some(2.18), Some(1.84), Some(2.14), Some(2.73)],
+    ),
+    (
+        "RBF 300 r=5e-9 d=4 p=9 centres kmeans++@5",
+        Some(2.34),
+        [Some(2.58), Some(1.36), Some(1.40), Some(2.51), Some(2.30)],
+    ),
+    (
+        "RBF 300 r=5e-9 d=4 p=9 centres random@5",
+        Some(2.42),
+        [Some(2.22), Some(1.53), Some(2.14), Some(2.34), Some(2.80)],
+    ),
+    (
+        "RBF 300 r=5e-9 d=4 p=9 centres kmeans++@6",
+        Some(2.26),
+        [Some(2.27), Some(2.71), Some(2.63), Some(2.46), Some(2.40)],
+    ),
 ];
 
 /// D2 of every run of the flag (traj_0 .. traj_9 at map step 4) through the held-out run's
 /// estimator and settings (lag 11, Theiler window 38, embedding 6; example `flag_pipeline --
 /// flag`); traj_1 has no scaling range. traj_8 is [`FLAG_DATA`]'s 3.36.
-pub const FLAG_D2_RUNS: [Option<f64>; 10] = [Some(3.68), None, Some(3.47), Some(3.70), Some(3.05), Some(2.13), Some(3.74), Some(4.38), Some(3.36), Some(4.00)];
+pub const FLAG_D2_RUNS: [Option<f64>; 10] =
+    [Some(3.68), None, Some(3.47), Some(3.70), Some(3.05), Some(2.13), Some(3.74), Some(4.38), Some(3.36), Some(4.00)];
 
 /// The held-out run's D2 after a centred moving average of 3 and of 5 samples at the full
 /// rate, and with white noise of its own noise level (sd 0.00176) added again: measurement
@@ -874,11 +1711,19 @@ pub fn flag_multistep_rows() -> Vec<PipelineRow> {
 
 fn flag_rows(rows: &[FlagRow]) -> Vec<PipelineRow> {
     let (lle, d2, d2_err) = FLAG_DATA;
-    rows
-        .iter()
+    rows.iter()
         .map(|&(name, benettin, rosenstein, corr_dim, js, failed)| {
             let m = Measured { benettin, rosenstein, corr_dim, js };
-            PipelineRow::from_values(name, 1, &m, (!failed.is_empty()).then(|| failed.to_string()), lle, d2, d2_err, lle)
+            PipelineRow::from_values(
+                name,
+                1,
+                &m,
+                (!failed.is_empty()).then(|| failed.to_string()),
+                lle,
+                d2,
+                d2_err,
+                lle,
+            )
         })
         .collect()
 }

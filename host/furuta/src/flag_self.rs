@@ -25,7 +25,9 @@ use crate::Error;
 use crate::flag_pipeline::PipelineRow;
 use crate::flag_pipeline_fit::{FlagRow, variant};
 use crate::microchaos::reduce_series;
-use crate::model_selection::{Candidate, DataStats, EvalSettings, Targets, best_of, data_stats, phase_subsamples, score_of, subsample};
+use crate::model_selection::{
+    Candidate, DataStats, EvalSettings, Targets, best_of, data_stats, phase_subsamples, score_of, subsample,
+};
 
 /// Map step of the flag's candidates, in samples.
 pub const STEP: usize = 4;
@@ -74,7 +76,12 @@ pub fn flag_manifold(train: &[TimeSeries]) -> Result<ssm::SsmModel, Error> {
 /// `test` at map step [`STEP`] ([`data_stats`]) and one [`SelfRow`] per piece. The reduced
 /// coordinates are those of [`flag_manifold`] on `train`. A statistic that cannot be
 /// measured on a piece is `None`.
-pub fn experiment_as_model(train: &[TimeSeries], test: &TimeSeries, runs: &[(usize, TimeSeries)], s: &EvalSettings) -> Result<(DataStats, Vec<SelfRow>), Error> {
+pub fn experiment_as_model(
+    train: &[TimeSeries],
+    test: &TimeSeries,
+    runs: &[(usize, TimeSeries)],
+    s: &EvalSettings,
+) -> Result<(DataStats, Vec<SelfRow>), Error> {
     let (ds, ctx) = data_stats(test, STEP, s)?;
     let m = flag_manifold(train)?;
     let d = m.options.dim;
@@ -83,18 +90,36 @@ pub fn experiment_as_model(train: &[TimeSeries], test: &TimeSeries, runs: &[(usi
     for (run, ts) in runs {
         let k = subsample(ts, STEP, 0)?;
         for (run, start, len) in pieces(*run, k.x.len(), ds.len) {
-            let piece = TimeSeries::new(format!("traj_{run} /{STEP} [{start}, {})", start + len), k.t[start..start + len].to_vec(), k.x[start..start + len].to_vec())?;
+            let piece = TimeSeries::new(
+                format!("traj_{run} /{STEP} [{start}, {})", start + len),
+                k.t[start..start + len].to_vec(),
+                k.x[start..start + len].to_vec(),
+            )?;
             let x = &piece.x;
             let rosenstein = ctx.lle(x, &mut Vec::new(), "run").ok().map(|(l, _)| l);
             let cd = delay_embed(x, ctx.embed, ctx.lag)
-                .and_then(|p| correlation_dimension(&p, &CorrSumParams { theiler: ctx.theiler, ..Default::default() }, &ScalingRule::default()))
+                .and_then(|p| {
+                    correlation_dimension(
+                        &p,
+                        &CorrSumParams { theiler: ctx.theiler, ..Default::default() },
+                        &ScalingRule::default(),
+                    )
+                })
                 .ok();
             let js = reduce_series(&m, &piece)
                 .ok()
                 .and_then(|e| Points::from_flat(d, e).ok())
                 .and_then(|p| chaos::compare_pdfs(&eta_test, &p, Bins::default()).ok())
                 .map(|c| c.mean_js_bits);
-            rows.push(SelfRow { run, start, len, rosenstein, corr_dim: cd.as_ref().map(|c| c.dimension), corr_dim_err: cd.map(|c| c.slope_std), js });
+            rows.push(SelfRow {
+                run,
+                start,
+                len,
+                rosenstein,
+                corr_dim: cd.as_ref().map(|c| c.dimension),
+                corr_dim_err: cd.map(|c| c.slope_std),
+                js,
+            });
         }
     }
     Ok((ds, rows))
@@ -103,7 +128,12 @@ pub fn experiment_as_model(train: &[TimeSeries], test: &TimeSeries, runs: &[(usi
 /// Which of the three targets a model's (or a run's) statistics meet against the held-out
 /// data `(Rosenstein, D2, D2 error bar)` ([`Targets::default`]): Rosenstein within 5 %, D2
 /// within the error bar, JS <= 0.01.
-pub fn self_passes(rosenstein: Option<f64>, corr_dim: Option<f64>, js: Option<f64>, data: (f64, f64, f64)) -> [bool; 3] {
+pub fn self_passes(
+    rosenstein: Option<f64>,
+    corr_dim: Option<f64>,
+    js: Option<f64>,
+    data: (f64, f64, f64),
+) -> [bool; 3] {
     let t = Targets::default();
     let (lle, d2, d2_err) = data;
     [
@@ -161,7 +191,18 @@ pub const FLAG_RUNS_OWN: &[(usize, usize, usize, f64, f64, f64)] = &[
 
 /// [`FLAG_SELF`] as [`SelfRow`]s.
 pub fn flag_self_rows() -> Vec<SelfRow> {
-    FLAG_SELF.iter().map(|&(run, start, len, rosenstein, corr_dim, corr_dim_err, js)| SelfRow { run, start, len, rosenstein, corr_dim, corr_dim_err, js }).collect()
+    FLAG_SELF
+        .iter()
+        .map(|&(run, start, len, rosenstein, corr_dim, corr_dim_err, js)| SelfRow {
+            run,
+            start,
+            len,
+            rosenstein,
+            corr_dim,
+            corr_dim_err,
+            js,
+        })
+        .collect()
 }
 
 /// Whether a row is a whole run (not a piece of one).
@@ -173,7 +214,13 @@ pub fn is_whole(r: &SelfRow, rows: &[SelfRow]) -> bool {
 /// Rosenstein, D2, JS, all three).
 pub fn self_counts(rows: &[&SelfRow], data: (f64, f64, f64)) -> (usize, usize, usize, usize, usize) {
     let p: Vec<[bool; 3]> = rows.iter().map(|r| self_passes(r.rosenstein, r.corr_dim, r.js, data)).collect();
-    (rows.len(), p.iter().filter(|p| p[0]).count(), p.iter().filter(|p| p[1]).count(), p.iter().filter(|p| p[2]).count(), p.iter().filter(|p| p.iter().all(|&b| b)).count())
+    (
+        rows.len(),
+        p.iter().filter(|p| p[0]).count(),
+        p.iter().filter(|p| p[1]).count(),
+        p.iter().filter(|p| p[2]).count(),
+        p.iter().filter(|p| p.iter().all(|&b| b)).count(),
+    )
 }
 
 /// Mean and sample sd of `v` (`None` with fewer than two values).
@@ -185,7 +232,18 @@ pub fn mean_sd(v: &[f64]) -> Option<(f64, f64)> {
 /// z-score `(x - mean) / sd`). `None` with fewer than two values or no spread.
 pub fn placement(x: f64, v: &[f64]) -> Option<(f64, f64)> {
     let (m, sd) = mean_sd(v).filter(|&(_, sd)| sd > 0.0)?;
-    let below = v.iter().map(|&y| if y < x { 1.0 } else if y == x { 0.5 } else { 0.0 }).sum::<f64>();
+    let below = v
+        .iter()
+        .map(|&y| {
+            if y < x {
+                1.0
+            } else if y == x {
+                0.5
+            } else {
+                0.0
+            }
+        })
+        .sum::<f64>();
     Some((below / v.len() as f64, (x - m) / sd))
 }
 
@@ -200,7 +258,10 @@ pub fn candidate_from_name(name: &str) -> Result<Candidate, Error> {
     }
     let num = |t: Option<&str>, key: &str| -> Result<f64, Error> {
         let t = t.ok_or_else(|| bad(&format!("{key} missing")))?;
-        t.strip_prefix(key).ok_or_else(|| bad(&format!("expected {key}.., got `{t}`")))?.parse::<f64>().map_err(|_| bad(&format!("`{t}` is not {key}NUMBER")))
+        t.strip_prefix(key)
+            .ok_or_else(|| bad(&format!("expected {key}.., got `{t}`")))?
+            .parse::<f64>()
+            .map_err(|_| bad(&format!("`{t}` is not {key}NUMBER")))
     };
     let centers = num(tok.next(), "")? as usize;
     let ridge = num(tok.next(), "r=")?;
@@ -209,11 +270,18 @@ pub fn candidate_from_name(name: &str) -> Result<Candidate, Error> {
     let (mut centres, mut ms) = (ssm::dynamics::CentreChoice::Farthest, None);
     while let Some(t) = tok.next() {
         match t {
-            "centres" => centres = ssm::dynamics::CentreChoice::parse(tok.next().ok_or_else(|| bad("centre choice missing"))?).map_err(ssm::Error::from)?,
+            "centres" => {
+                centres = ssm::dynamics::CentreChoice::parse(tok.next().ok_or_else(|| bad("centre choice missing"))?)
+                    .map_err(ssm::Error::from)?
+            }
             "ms" => {
                 let horizon = num(tok.next(), "h=")? as usize;
-                let stride = (tok.next() == Some("stride")).then(|| num(tok.next(), "")).ok_or_else(|| bad("expected stride"))?? as usize;
-                let iterations = (tok.next() == Some("it")).then(|| num(tok.next(), "")).ok_or_else(|| bad("expected it"))?? as usize;
+                let stride = (tok.next() == Some("stride"))
+                    .then(|| num(tok.next(), ""))
+                    .ok_or_else(|| bad("expected stride"))?? as usize;
+                let iterations = (tok.next() == Some("it"))
+                    .then(|| num(tok.next(), ""))
+                    .ok_or_else(|| bad("expected it"))?? as usize;
                 ms = Some(ssm::multistep::MultiStep { horizon, stride, iterations });
             }
             _ => return Err(bad(&format!("unknown token `{t}`"))),
@@ -234,7 +302,11 @@ pub fn row_score(r: &PipelineRow) -> f64 {
     if r.failed.is_some() {
         return f64::INFINITY;
     }
-    score_of([r.benettin, r.rosenstein, r.corr_dim, r.js], (r.data_rosenstein, r.data_corr_dim, r.data_corr_dim_err), &Targets::default())
+    score_of(
+        [r.benettin, r.rosenstein, r.corr_dim, r.js],
+        (r.data_rosenstein, r.data_corr_dim, r.data_corr_dim_err),
+        &Targets::default(),
+    )
 }
 
 /// Rows of committed `rows` against the data `data`.
@@ -242,7 +314,16 @@ pub fn rows_against(rows: &[FlagRow], data: DataRef) -> Vec<PipelineRow> {
     rows.iter()
         .map(|&(name, benettin, rosenstein, corr_dim, js, failed)| {
             let m = crate::flag_pipeline::Measured { benettin, rosenstein, corr_dim, js };
-            PipelineRow::from_values(name, 1, &m, (!failed.is_empty()).then(|| failed.to_string()), data.0, data.1, data.2, data.0)
+            PipelineRow::from_values(
+                name,
+                1,
+                &m,
+                (!failed.is_empty()).then(|| failed.to_string()),
+                data.0,
+                data.1,
+                data.2,
+                data.0,
+            )
         })
         .collect()
 }
@@ -250,7 +331,8 @@ pub fn rows_against(rows: &[FlagRow], data: DataRef) -> Vec<PipelineRow> {
 /// The pick among `rows` by [`crate::model_selection::select`]'s rule: most targets met,
 /// ties by the smallest [`row_score`]; failed rows are never picked. Index into `rows`.
 pub fn pick(rows: &[PipelineRow]) -> Option<usize> {
-    best_of(rows.iter().map(|r| (r.failed.is_some(), r.passes.iter().filter(|&&p| p).count(), row_score(r)))).map(|b| b.0)
+    best_of(rows.iter().map(|r| (r.failed.is_some(), r.passes.iter().filter(|&&p| p).count(), row_score(r))))
+        .map(|b| b.0)
 }
 
 /// The validation run traj_3 at step 4 with its own settings (lag 12, Theiler window 38, as
@@ -367,14 +449,63 @@ pub const FLAG_VALIDATION: &[FlagRow] = &[
     ("RBF 300 r=1e-8 d=4 p=9 centres random@4", Some(0.326), Some(0.151), Some(2.09), Some(0.0070), ""),
     ("RBF 300 r=1e-8 d=4 p=9 centres kmeans10@4", Some(0.126), Some(0.158), Some(2.51), Some(0.0307), ""),
     ("RBF 200 r=3e-9 d=4 p=9 ms h=4 stride 8 it 4", Some(0.418), Some(0.218), Some(1.72), Some(0.0101), ""),
-    ("RBF 200 r=3e-9 d=4 p=9 centres farthest@2 ms h=4 stride 8 it 4", Some(0.320), Some(0.176), Some(2.20), Some(0.0303), ""),
-    ("RBF 200 r=3e-9 d=4 p=9 centres kmeans++@4 ms h=4 stride 8 it 4", Some(0.436), Some(0.199), Some(2.40), Some(0.0110), ""),
-    ("RBF 300 r=1e-8 d=4 p=9 centres kmeans++@2 ms h=4 stride 8 it 4", Some(0.354), Some(0.151), Some(1.35), Some(0.0120), ""),
-    ("RBF 300 r=1e-8 d=4 p=9 centres random@3 ms h=4 stride 8 it 4", Some(0.316), Some(0.212), Some(2.25), Some(0.0070), ""),
-    ("RBF 150 r=1e-8 d=4 p=9 centres kmeans++@2 ms h=4 stride 8 it 4", Some(0.466), Some(0.256), Some(2.16), Some(0.0126), ""),
-    ("RBF 300 r=1e-8 d=4 p=9 centres random@1 ms h=4 stride 8 it 4", Some(0.327), Some(0.105), Some(2.85), Some(0.0156), ""),
+    (
+        "RBF 200 r=3e-9 d=4 p=9 centres farthest@2 ms h=4 stride 8 it 4",
+        Some(0.320),
+        Some(0.176),
+        Some(2.20),
+        Some(0.0303),
+        "",
+    ),
+    (
+        "RBF 200 r=3e-9 d=4 p=9 centres kmeans++@4 ms h=4 stride 8 it 4",
+        Some(0.436),
+        Some(0.199),
+        Some(2.40),
+        Some(0.0110),
+        "",
+    ),
+    (
+        "RBF 300 r=1e-8 d=4 p=9 centres kmeans++@2 ms h=4 stride 8 it 4",
+        Some(0.354),
+        Some(0.151),
+        Some(1.35),
+        Some(0.0120),
+        "",
+    ),
+    (
+        "RBF 300 r=1e-8 d=4 p=9 centres random@3 ms h=4 stride 8 it 4",
+        Some(0.316),
+        Some(0.212),
+        Some(2.25),
+        Some(0.0070),
+        "",
+    ),
+    (
+        "RBF 150 r=1e-8 d=4 p=9 centres kmeans++@2 ms h=4 stride 8 it 4",
+        Some(0.466),
+        Some(0.256),
+        Some(2.16),
+        Some(0.0126),
+        "",
+    ),
+    (
+        "RBF 300 r=1e-8 d=4 p=9 centres random@1 ms h=4 stride 8 it 4",
+        Some(0.327),
+        Some(0.105),
+        Some(2.85),
+        Some(0.0156),
+        "",
+    ),
     ("RBF 200 r=3e-9 d=4 p=9 ms h=2 stride 8 it 4", Some(0.448), Some(0.221), Some(2.25), Some(0.0081), ""),
-    ("RBF 300 r=1e-8 d=4 p=9 centres kmeans++@2 ms h=2 stride 8 it 4", Some(0.273), Some(0.256), Some(1.73), Some(0.0145), ""),
+    (
+        "RBF 300 r=1e-8 d=4 p=9 centres kmeans++@2 ms h=2 stride 8 it 4",
+        Some(0.273),
+        Some(0.256),
+        Some(1.73),
+        Some(0.0145),
+        "",
+    ),
     ("RBF 200 r=3e-9 d=4 p=9 centres farthest@5", Some(0.372), Some(0.188), Some(1.13), Some(0.0222), ""),
     ("RBF 200 r=3e-9 d=4 p=9 centres kmeans++@5", None, None, None, None, "escaped in the long run"),
     ("RBF 200 r=3e-9 d=4 p=9 centres random@5", Some(0.204), Some(0.312), Some(1.74), Some(0.0142), ""),
@@ -613,14 +744,63 @@ pub const FLAG_VALIDATION_0: &[FlagRow] = &[
     ("RBF 300 r=1e-8 d=4 p=9 centres random@4", Some(0.329), Some(0.206), Some(1.53), Some(0.0068), ""),
     ("RBF 300 r=1e-8 d=4 p=9 centres kmeans10@4", Some(0.120), Some(0.112), Some(1.79), Some(0.0587), ""),
     ("RBF 200 r=3e-9 d=4 p=9 ms h=4 stride 8 it 4", Some(0.413), Some(0.216), Some(1.50), Some(0.0182), ""),
-    ("RBF 200 r=3e-9 d=4 p=9 centres farthest@2 ms h=4 stride 8 it 4", Some(0.315), Some(0.215), Some(1.94), Some(0.0385), ""),
-    ("RBF 200 r=3e-9 d=4 p=9 centres kmeans++@4 ms h=4 stride 8 it 4", Some(0.441), Some(0.268), Some(2.62), Some(0.0155), ""),
-    ("RBF 300 r=1e-8 d=4 p=9 centres kmeans++@2 ms h=4 stride 8 it 4", Some(0.353), Some(0.213), Some(1.20), Some(0.0180), ""),
-    ("RBF 300 r=1e-8 d=4 p=9 centres random@3 ms h=4 stride 8 it 4", Some(0.323), Some(0.294), Some(2.20), Some(0.0068), ""),
-    ("RBF 150 r=1e-8 d=4 p=9 centres kmeans++@2 ms h=4 stride 8 it 4", Some(0.476), Some(0.317), Some(2.81), Some(0.0096), ""),
-    ("RBF 300 r=1e-8 d=4 p=9 centres random@1 ms h=4 stride 8 it 4", Some(0.165), Some(0.191), Some(1.20), Some(0.0209), ""),
+    (
+        "RBF 200 r=3e-9 d=4 p=9 centres farthest@2 ms h=4 stride 8 it 4",
+        Some(0.315),
+        Some(0.215),
+        Some(1.94),
+        Some(0.0385),
+        "",
+    ),
+    (
+        "RBF 200 r=3e-9 d=4 p=9 centres kmeans++@4 ms h=4 stride 8 it 4",
+        Some(0.441),
+        Some(0.268),
+        Some(2.62),
+        Some(0.0155),
+        "",
+    ),
+    (
+        "RBF 300 r=1e-8 d=4 p=9 centres kmeans++@2 ms h=4 stride 8 it 4",
+        Some(0.353),
+        Some(0.213),
+        Some(1.20),
+        Some(0.0180),
+        "",
+    ),
+    (
+        "RBF 300 r=1e-8 d=4 p=9 centres random@3 ms h=4 stride 8 it 4",
+        Some(0.323),
+        Some(0.294),
+        Some(2.20),
+        Some(0.0068),
+        "",
+    ),
+    (
+        "RBF 150 r=1e-8 d=4 p=9 centres kmeans++@2 ms h=4 stride 8 it 4",
+        Some(0.476),
+        Some(0.317),
+        Some(2.81),
+        Some(0.0096),
+        "",
+    ),
+    (
+        "RBF 300 r=1e-8 d=4 p=9 centres random@1 ms h=4 stride 8 it 4",
+        Some(0.165),
+        Some(0.191),
+        Some(1.20),
+        Some(0.0209),
+        "",
+    ),
     ("RBF 200 r=3e-9 d=4 p=9 ms h=2 stride 8 it 4", Some(0.446), Some(0.262), Some(2.95), Some(0.0121), ""),
-    ("RBF 300 r=1e-8 d=4 p=9 centres kmeans++@2 ms h=2 stride 8 it 4", Some(0.285), Some(0.259), Some(2.04), Some(0.0207), ""),
+    (
+        "RBF 300 r=1e-8 d=4 p=9 centres kmeans++@2 ms h=2 stride 8 it 4",
+        Some(0.285),
+        Some(0.259),
+        Some(2.04),
+        Some(0.0207),
+        "",
+    ),
     ("RBF 200 r=3e-9 d=4 p=9 centres farthest@5", Some(0.364), Some(0.148), Some(2.09), Some(0.0383), ""),
     ("RBF 200 r=3e-9 d=4 p=9 centres kmeans++@5", None, None, None, None, "escaped in the long run"),
     ("RBF 200 r=3e-9 d=4 p=9 centres random@5", Some(-0.018), Some(0.175), Some(2.69), Some(0.6052), ""),
@@ -802,7 +982,10 @@ pub fn ensemble(train: &[TimeSeries], test: &TimeSeries, names: &[&str], s: &Eva
     for name in names {
         let c = candidate_from_name(name)?;
         if c.fit.dim != d || c.fit.embed != m0.options.embed {
-            return Err(Error::BadInput { what: "ensemble member", why: format!("`{name}`: members need d = {d}, p = {} (shared reduced coordinates)", m0.options.embed) });
+            return Err(Error::BadInput {
+                what: "ensemble member",
+                why: format!("`{name}`: members need d = {d}, p = {} (shared reduced coordinates)", m0.options.embed),
+            });
         }
         out.members.push(name.to_string());
         let (r, m) = crate::model_selection::evaluate_candidate_fitted(train, test, &c, &data, s)?;
@@ -812,18 +995,25 @@ pub fn ensemble(train: &[TimeSeries], test: &TimeSeries, names: &[&str], s: &Eva
             continue;
         };
         let eta = reduce_series(&m, &test_k)?;
-        if eta.len() != eta_test.len() || eta.iter().zip(&eta_test).any(|(a, b)| (a - b).abs() > 1e-9 * data_max.max(1.0)) {
-            return Err(Error::BadInput { what: "ensemble member", why: format!("`{name}`: its reduced coordinates differ from the shared ones") });
+        if eta.len() != eta_test.len()
+            || eta.iter().zip(&eta_test).any(|(a, b)| (a - b).abs() > 1e-9 * data_max.max(1.0))
+        {
+            return Err(Error::BadInput {
+                what: "ensemble member",
+                why: format!("`{name}`: its reduced coordinates differ from the shared ones"),
+            });
         }
         out.js_members.push(r.js);
         let n_long = test_k.x.len() * s.long_runs.max(1);
-        let orbit = crate::lyapunov::iterate_dynamics(&m.dynamics, &eta[..d], n_long, crate::lyapunov::model_bound(&m), 1)?;
+        let orbit =
+            crate::lyapunov::iterate_dynamics(&m.dynamics, &eta[..d], n_long, crate::lyapunov::model_bound(&m), 1)?;
         if let Some(p) = orbit.recorded {
             pooled.extend_from_slice(p.as_flat());
         }
     }
     if !pooled.is_empty() {
-        out.js_pooled = Some(chaos::compare_pdfs(&reference, &Points::from_flat(d, pooled)?, Bins::default())?.mean_js_bits);
+        out.js_pooled =
+            Some(chaos::compare_pdfs(&reference, &Points::from_flat(d, pooled)?, Bins::default())?.mean_js_bits);
     }
     Ok(out)
 }

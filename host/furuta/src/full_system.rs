@@ -14,15 +14,14 @@
 use sim::units::ms_to_s;
 use std::time::Instant;
 
-use serde::Serialize;
 use crate::Error;
+use serde::Serialize;
 
-use sim::scene::{IntegratorSpec, MethodKind, Scene};
-use sim::closed_loop::{Trajectory, simulate};
-use std::sync::OnceLock;
 use crate::parametric::{ModeBasis, check_mode_amplitudes, exact_modes, mode_start};
+use sim::closed_loop::{Trajectory, simulate};
+use sim::scene::{IntegratorSpec, MethodKind, Scene};
 use ssm::spectrum::{PEAK_REL_THRESHOLD, Peak, band_peak, mode_amplitudes, sideband_spacing, spectral_peaks};
-
+use std::sync::OnceLock;
 
 /// A full-system start: plant state `[theta, w_theta, phi, w_phi]` and optionally the
 /// controller pre-history (`delay + 1` samples `[theta, phi]`, oldest first; `None` = the
@@ -91,10 +90,19 @@ pub fn run(dt_ms: f64, start: &Start, periods: u64, escape_theta: f64) -> Result
 
 /// [`run`] with the scene's integrator replaced by `integrator` (`None`: the scene's), for
 /// comparing integrators on the study's runs (`examples/fullsystem_integrators.rs`).
-pub fn run_with(integrator: Option<&IntegratorSpec>, dt_ms: f64, start: &Start, periods: u64, escape_theta: f64) -> Result<Trajectory, Error> {
+pub fn run_with(
+    integrator: Option<&IntegratorSpec>,
+    dt_ms: f64,
+    start: &Start,
+    periods: u64,
+    escape_theta: f64,
+) -> Result<Trajectory, Error> {
     check_dt(dt_ms)?;
     if !(escape_theta.is_finite() && escape_theta > 0.0) {
-        return Err(Error::BadInput { what: "escape_theta", why: format!("must be positive and finite, got {escape_theta}") });
+        return Err(Error::BadInput {
+            what: "escape_theta",
+            why: format!("must be positive and finite, got {escape_theta}"),
+        });
     }
     if periods == 0 {
         return Err(Error::BadInput { what: "periods", why: "must be at least 1".into() });
@@ -108,7 +116,14 @@ pub fn run_with(integrator: Option<&IntegratorSpec>, dt_ms: f64, start: &Start, 
             return Err(Error::BadInput { what: "start", why: "pre-history must be finite".into() });
         }
     }
-    let mut b = base_scene()?.clone().builder().dt_ms(dt_ms).periods(periods).initial_state(x).escape_theta(escape_theta).history(hist.as_deref());
+    let mut b = base_scene()?
+        .clone()
+        .builder()
+        .dt_ms(dt_ms)
+        .periods(periods)
+        .initial_state(x)
+        .escape_theta(escape_theta)
+        .history(hist.as_deref());
     if let Some(i) = integrator {
         b = b.integrator(i.clone());
     }
@@ -205,7 +220,9 @@ pub fn switch_scan(dts_ms: &[f64], ics: &[Start], periods: u64, escape_theta: f6
     }
     let t0 = Instant::now();
     // Every (dt, start) run on the rayon pool, collected in input order.
-    let outcomes = crate::par_map(dts_ms, |&dt| crate::par_map(ics, |ic| run(dt, ic, periods, escape_theta).map(|tr| outcome_of(&tr))))?;
+    let outcomes = crate::par_map(dts_ms, |&dt| {
+        crate::par_map(ics, |ic| run(dt, ic, periods, escape_theta).map(|tr| outcome_of(&tr)))
+    })?;
     Ok(SwitchScan {
         dts_ms: dts_ms.to_vec(),
         outcomes,
@@ -228,7 +245,10 @@ pub fn end_start(tr: &Trajectory, delay: usize) -> Result<Start, Error> {
         return Err(Error::Shape { expected: 4, got: tr.n_states() });
     }
     if rows < delay + 2 {
-        return Err(Error::BadInput { what: "trajectory", why: format!("{rows} rows are fewer than the delay + 2 = {} a continuation needs", delay + 2) });
+        return Err(Error::BadInput {
+            what: "trajectory",
+            why: format!("{rows} rows are fewer than the delay + 2 = {} a continuation needs", delay + 2),
+        });
     }
     let last = rows - 1;
     let state = [tr.state(last, 0), tr.state(last, 1), tr.state(last, 2), tr.state(last, 3)];
@@ -294,7 +314,14 @@ pub fn switch_scan_per_dt(
     let rows = crate::par_map(dts_ms, |&dt| switch_scan(&[dt], &ics_at(dt)?, periods, ESCAPE_THETA))?;
     let runs = rows.iter().map(|r| r.runs).sum();
     let outcomes = rows.into_iter().flat_map(|r| r.outcomes).collect();
-    Ok(SwitchScan { dts_ms: dts_ms.to_vec(), outcomes, periods, escape_theta: ESCAPE_THETA, runs, wall_seconds: t0.elapsed().as_secs_f64() })
+    Ok(SwitchScan {
+        dts_ms: dts_ms.to_vec(),
+        outcomes,
+        periods,
+        escape_theta: ESCAPE_THETA,
+        runs,
+        wall_seconds: t0.elapsed().as_secs_f64(),
+    })
 }
 
 // ---------------------------------------------------------------------------------------
@@ -333,7 +360,10 @@ pub fn torus_full(dt_ms: f64, start: &Start, periods: u64, tail_s: f64) -> Resul
     let x = tr.primary();
     let n_tail = (tail_s / dt).round() as usize;
     if !(tail_s.is_finite() && n_tail >= 64 && n_tail < x.len()) {
-        return Err(Error::BadInput { what: "tail_s", why: format!("need at least 64 samples and fewer than the run's {}, got {tail_s} s", x.len()) });
+        return Err(Error::BadInput {
+            what: "tail_s",
+            why: format!("need at least 64 samples and fewer than the run's {}, got {tail_s} s", x.len()),
+        });
     }
     let tail = &x[x.len() - n_tail..];
     let lin = exact_modes(dt_ms)?.freqs_hz;
@@ -347,12 +377,16 @@ pub fn torus_full(dt_ms: f64, start: &Start, periods: u64, tail_s: f64) -> Resul
     let freqs_hz = [slow.freq_hz, fast.freq_hz];
     let amps = mode_amplitudes(tail, dt, freqs_hz, AMP_WINDOW_S)?;
     if amps.is_empty() {
-        return Err(Error::BadInput { what: "tail_s", why: format!("shorter than the amplitude window {AMP_WINDOW_S} s") });
+        return Err(Error::BadInput {
+            what: "tail_s",
+            why: format!("shorter than the amplitude window {AMP_WINDOW_S} s"),
+        });
     }
     let k = amps.len() as f64;
     let rho = [amps.iter().map(|a| a.1[0]).sum::<f64>() / k, amps.iter().map(|a| a.1[1]).sum::<f64>() / k];
     let spread = |j: usize| {
-        let (lo, hi) = amps.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), a| (lo.min(a.1[j]), hi.max(a.1[j])));
+        let (lo, hi) =
+            amps.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), a| (lo.min(a.1[j]), hi.max(a.1[j])));
         hi - lo
     };
     let rho_spread = [spread(0), spread(1)];
@@ -398,7 +432,11 @@ pub fn start_from_rho(dt_ms: f64, rho: [f64; 2], phases: [f64; 2]) -> Result<([f
 
 /// [`start_from_rho`] from the eigenvectors of its sampling period computed once
 /// ([`ModeBasis::at`]): the same start, bit for bit, for a grid of starts at one dt.
-pub fn start_from_rho_in(basis: &ModeBasis, rho: [f64; 2], phases: [f64; 2]) -> Result<([f64; 4], Vec<[f64; 2]>), Error> {
+pub fn start_from_rho_in(
+    basis: &ModeBasis,
+    rho: [f64; 2],
+    phases: [f64; 2],
+) -> Result<([f64; 4], Vec<[f64; 2]>), Error> {
     let [slow, fast] = rho_modes(rho, phases)?;
     check_mode_amplitudes(slow, fast)?;
     basis.start(slow, fast)
@@ -407,7 +445,10 @@ pub fn start_from_rho_in(basis: &ModeBasis, rho: [f64; 2], phases: [f64; 2]) -> 
 /// The mode amplitudes and phases of [`start_from_rho`] (a zero amplitude leaves the mode out).
 fn rho_modes(rho: [f64; 2], phases: [f64; 2]) -> Result<[Option<(f64, f64)>; 2], Error> {
     if rho.iter().any(|r| !(r.is_finite() && *r >= 0.0)) || rho == [0.0, 0.0] {
-        return Err(Error::BadInput { what: "rho", why: format!("need finite non-negative amplitudes, not both zero, got {rho:?}") });
+        return Err(Error::BadInput {
+            what: "rho",
+            why: format!("need finite non-negative amplitudes, not both zero, got {rho:?}"),
+        });
     }
     let m = |k: usize| (rho[k] > 0.0).then_some((rho[k], phases[k]));
     Ok([m(0), m(1)])

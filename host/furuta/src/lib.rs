@@ -34,7 +34,10 @@ pub use error::Error;
 /// `f` over `items` on the rayon pool, collected in input order: the values are the serial
 /// loop's, whatever the pool size (each task depends only on its item), and the error is the
 /// first in input order, as the serial loop's would be.
-pub(crate) fn par_map<T: Sync, U: Send, E: Send>(items: &[T], f: impl Fn(&T) -> Result<U, E> + Sync + Send) -> Result<Vec<U>, E> {
+pub(crate) fn par_map<T: Sync, U: Send, E: Send>(
+    items: &[T],
+    f: impl Fn(&T) -> Result<U, E> + Sync + Send,
+) -> Result<Vec<U>, E> {
     use rayon::prelude::*;
     let out: Vec<Result<U, E>> = items.par_iter().map(f).collect();
     out.into_iter().collect()

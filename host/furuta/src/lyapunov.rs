@@ -8,16 +8,14 @@
 //!
 //! The scale and accuracy-vs-cost studies that use these are in [`crate::chaos_tables`].
 
-
 use crate::Error;
 use chaos::{BenettinParams, Orbit, benettin_qr, iterate_map};
 use serde::Serialize;
 
+use ssm::SsmModel;
 use ssm::dynamics::{Kernel, RbfMap, ReducedDynamics, StepScratch};
 use ssm::fit::BLOWUP_FACTOR;
 use ssm::poly::Poly;
-use ssm::SsmModel;
-
 
 /// Message for the non-differentiable points of the linear kernel.
 pub const RBF_KINK: &str = "state exactly at an RBF centre (the linear kernel has a kink there)";
@@ -93,7 +91,12 @@ fn rbf_jacobian_linear<const D: usize>(m: &RbfMap, eta: &[f64], jac: &mut [f64])
 /// anyway (the same sum in the same order), then the scaled state and 1, and `next` adds
 /// `coef * feature` to `eta` feature by feature in the step's order. At a kink (a state
 /// exactly at a centre) the error is the Jacobian's and `next` is not set.
-fn rbf_step_and_jacobian_linear<const D: usize>(m: &RbfMap, eta: &[f64], jac: &mut [f64], next: &mut [f64]) -> Result<(), &'static str> {
+fn rbf_step_and_jacobian_linear<const D: usize>(
+    m: &RbfMap,
+    eta: &[f64],
+    jac: &mut [f64],
+    next: &mut [f64],
+) -> Result<(), &'static str> {
     let k = m.n_centers();
     let z: [f64; D] = core::array::from_fn(|j| eta[j] / m.scale[j]);
     let scale: [f64; D] = core::array::from_fn(|j| m.scale[j]);
@@ -153,7 +156,12 @@ fn rbf_step_and_jacobian_linear<const D: usize>(m: &RbfMap, eta: &[f64], jac: &m
 
 /// [`rbf_step_and_jacobian_linear`] for the dimension of `m`; `None` when `m` is not a
 /// linear-kernel map of dimension 2..=6 (then the step and the Jacobian are computed apart).
-fn rbf_step_and_jacobian(m: &RbfMap, eta: &[f64], jac: &mut [f64], next: &mut [f64]) -> Option<Result<(), &'static str>> {
+fn rbf_step_and_jacobian(
+    m: &RbfMap,
+    eta: &[f64],
+    jac: &mut [f64],
+    next: &mut [f64],
+) -> Option<Result<(), &'static str>> {
     if m.kernel != Kernel::Linear {
         return None;
     }
@@ -502,7 +510,6 @@ fn dim_of(dynamics: &ReducedDynamics) -> usize {
     }
 }
 
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -569,7 +576,10 @@ mod tests {
                         pj.eval(&eta, &mut a);
                         poly_map_jacobian_plain(&p, &eta, &mut b);
                         poly_map_jacobian(&p, &eta, &mut c);
-                        assert!(a.iter().zip(&b).all(|(x, y)| x.to_bits() == y.to_bits()), "d {d} order {order}: {a:?} vs {b:?}");
+                        assert!(
+                            a.iter().zip(&b).all(|(x, y)| x.to_bits() == y.to_bits()),
+                            "d {d} order {order}: {a:?} vs {b:?}"
+                        );
                         assert!(c.iter().zip(&b).all(|(x, y)| x.to_bits() == y.to_bits()), "d {d} order {order}");
                     }
                 }
@@ -580,7 +590,16 @@ mod tests {
     /// A random linear-kernel RBF map in dimension `d` with `k` centres: a contraction
     /// (0.9 eta plus small terms) when `small`, so Benettin runs stay bounded.
     fn random_rbf(d: usize, k: usize, small: bool, rnd: &mut impl FnMut() -> f64) -> RbfMap {
-        let cond = Conditioning { rows: 0, cols: 0, s_max: 1.0, s_min: 1.0, cond: 1.0, alpha: 0.0, cond_regularized: 1.0, rel_residual: 0.0 };
+        let cond = Conditioning {
+            rows: 0,
+            cols: 0,
+            s_max: 1.0,
+            s_min: 1.0,
+            cond: 1.0,
+            alpha: 0.0,
+            cond_regularized: 1.0,
+            rel_residual: 0.0,
+        };
         let scale: Vec<f64> = (0..d).map(|_| 0.5 + rnd().abs()).collect();
         let mut coef: Vec<f64> = (0..(k + d + 1) * d).map(|_| rnd() * if small { 0.002 } else { 10.0 }).collect();
         if small {
@@ -588,7 +607,15 @@ mod tests {
                 coef[(k + j) * d + j] = -0.1 * scale[j];
             }
         }
-        RbfMap { dim: d, kernel: Kernel::Linear, dt: 0.03, scale, centers: (0..k * d).map(|_| rnd()).collect(), coef, conditioning: cond }
+        RbfMap {
+            dim: d,
+            kernel: Kernel::Linear,
+            dt: 0.03,
+            scale,
+            centers: (0..k * d).map(|_| rnd()).collect(),
+            coef,
+            conditioning: cond,
+        }
     }
 
     /// The fused step and Jacobian against `RbfMap::step` and [`rbf_jacobian`], bit for bit,
@@ -604,7 +631,11 @@ mod tests {
             let (mut ja, mut jb, mut next) = (vec![0.0; d * d], vec![0.0; d * d], vec![0.0; d]);
             let mut feat = Vec::new();
             for t in 0..40 {
-                let eta: Vec<f64> = if t == 0 { (0..d).map(|j| m.centers[40 * d + j] * m.scale[j]).collect() } else { (0..d).map(|_| rnd()).collect() };
+                let eta: Vec<f64> = if t == 0 {
+                    (0..d).map(|j| m.centers[40 * d + j] * m.scale[j]).collect()
+                } else {
+                    (0..d).map(|_| rnd()).collect()
+                };
                 let ra = rbf_step_and_jacobian(&m, &eta, &mut ja, &mut next).unwrap();
                 let rb = rbf_jacobian(&m, &eta, &mut jb);
                 assert_eq!(ra, rb, "d {d} state {t}");
@@ -612,19 +643,36 @@ mod tests {
                 if ra.is_ok() {
                     let mut stepped = eta.clone();
                     m.step(&mut stepped, &mut feat);
-                    assert!(next.iter().zip(&stepped).all(|(x, y)| x.to_bits() == y.to_bits()), "d {d} state {t}: {next:?} vs {stepped:?}");
+                    assert!(
+                        next.iter().zip(&stepped).all(|(x, y)| x.to_bits() == y.to_bits()),
+                        "d {d} state {t}: {next:?} vs {stepped:?}"
+                    );
                 }
             }
             let m = random_rbf(d, 100, true, &mut rnd);
             let dynamics = ReducedDynamics::Rbf(m.clone());
             let eta0: Vec<f64> = (0..d).map(|_| 0.2 * rnd()).collect();
             let fused = dynamics_lyapunov(&dynamics, &eta0, 1e3, 100, 2000).unwrap();
-            let p = BenettinParams { transient: 100, steps: 2000, time_step: 0.03, renorm_every: 1, bound: 1e3, blocks: 20 };
+            let p = BenettinParams {
+                transient: 100,
+                steps: 2000,
+                time_step: 0.03,
+                renorm_every: 1,
+                bound: 1e3,
+                blocks: 20,
+            };
             let mut feat = Vec::new();
-            let apart = benettin_qr(&eta0, |x, out| {
-                out.copy_from_slice(x);
-                m.step(out, &mut feat);
-            }, |x, j| rbf_jacobian(&m, x, j), d, &p).unwrap();
+            let apart = benettin_qr(
+                &eta0,
+                |x, out| {
+                    out.copy_from_slice(x);
+                    m.step(out, &mut feat);
+                },
+                |x, j| rbf_jacobian(&m, x, j),
+                d,
+                &p,
+            )
+            .unwrap();
             let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
             assert_eq!(bits(&fused.spectrum), bits(&apart.exponents), "d {d}");
             assert_eq!(fused.std_error.to_bits(), apart.std_error[0].to_bits());
@@ -639,7 +687,16 @@ mod tests {
     fn fixed_dimension_jacobian_equals_the_general_loop() {
         let mut rng = ssm::testing::XorShift64::new(0x853c_49e6_748f_ea9b);
         let mut rnd = move || rng.centered();
-        let cond = Conditioning { rows: 0, cols: 0, s_max: 1.0, s_min: 1.0, cond: 1.0, alpha: 0.0, cond_regularized: 1.0, rel_residual: 0.0 };
+        let cond = Conditioning {
+            rows: 0,
+            cols: 0,
+            s_max: 1.0,
+            s_min: 1.0,
+            cond: 1.0,
+            alpha: 0.0,
+            cond_regularized: 1.0,
+            rel_residual: 0.0,
+        };
         for d in 2..=6 {
             let k = 300;
             let m = RbfMap {
@@ -653,7 +710,11 @@ mod tests {
             };
             let (mut a, mut b) = (vec![7.0; d * d], vec![-7.0; d * d]);
             for t in 0..50 {
-                let eta: Vec<f64> = if t == 0 { (0..d).map(|j| m.centers[40 * d + j] * m.scale[j]).collect() } else { (0..d).map(|_| rnd()).collect() };
+                let eta: Vec<f64> = if t == 0 {
+                    (0..d).map(|j| m.centers[40 * d + j] * m.scale[j]).collect()
+                } else {
+                    (0..d).map(|_| rnd()).collect()
+                };
                 let ra = rbf_jacobian(&m, &eta, &mut a);
                 let rb = rbf_jacobian_any(&m, &eta, &mut b);
                 assert_eq!(ra, rb, "d {d} state {t}");
@@ -663,7 +724,11 @@ mod tests {
                 let eta: Vec<f64> = (0..d).map(|_| rnd()).collect();
                 let t0 = std::time::Instant::now();
                 for _ in 0..20_000 {
-                    let _ = if kind == "fixed" { rbf_jacobian(&m, &eta, &mut a) } else { rbf_jacobian_any(&m, &eta, &mut a) };
+                    let _ = if kind == "fixed" {
+                        rbf_jacobian(&m, &eta, &mut a)
+                    } else {
+                        rbf_jacobian_any(&m, &eta, &mut a)
+                    };
                 }
                 eprintln!("d {d}: 20000 {kind} Jacobians of 300 centres: {:?}", t0.elapsed());
             }

@@ -84,10 +84,16 @@ impl ConnectionOptions {
             return Err(Error::BadOption { what: "periods", why: "must be at least 1".into() });
         }
         if !(3..=ssm::map_ssm::MAX_ORDER).contains(&self.guess_order) {
-            return Err(Error::BadOption { what: "guess_order", why: format!("need 3..={}, got {}", ssm::map_ssm::MAX_ORDER, self.guess_order) });
+            return Err(Error::BadOption {
+                what: "guess_order",
+                why: format!("need 3..={}, got {}", ssm::map_ssm::MAX_ORDER, self.guess_order),
+            });
         }
         if !(self.fast_guess.is_finite() && self.fast_guess > 0.0) {
-            return Err(Error::BadOption { what: "fast_guess", why: format!("must be positive, got {}", self.fast_guess) });
+            return Err(Error::BadOption {
+                what: "fast_guess",
+                why: format!("must be positive, got {}", self.fast_guess),
+            });
         }
         Ok(())
     }
@@ -124,10 +130,14 @@ pub struct Connection {
 /// iteration, [`crate::parametric::eigenvector_near`]), scaled so that `row . v = 1/2`: then `2 Re(v z)` has
 /// theta (`row . x`) equal to `Re z`.
 fn eigenvector(a: &DMatrix<f64>, mu: C, row: &[f64]) -> Result<Vec<C>, Error> {
-    let v = crate::parametric::eigenvector_near(a, mu).ok_or_else(|| Error::BadInput { what: "eigenvector", why: format!("singular shifted matrix at mu = {mu}") })?;
+    let v = crate::parametric::eigenvector_near(a, mu)
+        .ok_or_else(|| Error::BadInput { what: "eigenvector", why: format!("singular shifted matrix at mu = {mu}") })?;
     let c: C = row.iter().zip(v.iter()).map(|(r, x)| x * *r).sum();
     if !(c.norm() > 1e-12) {
-        return Err(Error::BadInput { what: "eigenvector", why: format!("the slow mode does not show in theta (|row . v| = {:.1e})", c.norm()) });
+        return Err(Error::BadInput {
+            what: "eigenvector",
+            why: format!("the slow mode does not show in theta (|row . v| = {:.1e})", c.norm()),
+        });
     }
     Ok(v.iter().map(|x| x * C::new(0.5, 0.0) / c).collect())
 }
@@ -139,7 +149,10 @@ fn slow_multiplier(a: &DMatrix<f64>) -> Result<C, Error> {
     ev.sort_by(|x, y| y.norm().total_cmp(&x.norm()));
     ev.truncate(2);
     if ev.len() < 2 {
-        return Err(Error::BadInput { what: "linear part", why: format!("needs two oscillatory pairs, has {}", ev.len()) });
+        return Err(Error::BadInput {
+            what: "linear part",
+            why: format!("needs two oscillatory pairs, has {}", ev.len()),
+        });
     }
     ev.sort_by(|x, y| x.arg().abs().total_cmp(&y.arg().abs()));
     Ok(ev[0])
@@ -165,7 +178,10 @@ pub fn map_fast_circle(model: &SsmModel, o: &ConnectionOptions) -> Result<Invari
     let dt = model.dynamics.map_dt().ok_or(Error::NotAMap)?;
     let mut up: Vec<(f64, f64)> = model.eigenvalues_ct.iter().copied().filter(|e| e.1 > 0.0).collect();
     up.sort_by(|a, b| b.1.total_cmp(&a.1));
-    let omega0 = up.first().map(|e| e.1 * dt).ok_or_else(|| Error::BadInput { what: "fitted map", why: "no oscillatory pair".into() })?;
+    let omega0 = up
+        .first()
+        .map(|e| e.1 * dt)
+        .ok_or_else(|| Error::BadInput { what: "fitted map", why: "no oscillatory pair".into() })?;
     crate::saddle_cycles::fitted_map_cycle(model, 2, o.fast_guess, omega0, &o.circle)
 }
 
@@ -177,11 +193,17 @@ pub fn map_connection_fates(model: &SsmModel, dt_ms: f64, o: &ConnectionOptions)
     o.check()?;
     let dt = model.dynamics.map_dt().ok_or(Error::NotAMap)?;
     if (dt - sim::units::ms_to_s(dt_ms)).abs() > 1e-9 * dt {
-        return Err(Error::BadInput { what: "dt_ms", why: format!("{dt_ms} ms, but the model's map steps {} ms", dt * 1e3) });
+        return Err(Error::BadInput {
+            what: "dt_ms",
+            why: format!("{dt_ms} ms, but the model's map steps {} ms", dt * 1e3),
+        });
     }
     let circle = map_fast_circle(model, o)?;
     if !(circle.residual <= o.circle.tol) {
-        return Err(Error::BadInput { what: "fast circle", why: format!("dt = {dt_ms} ms: Newton stopped at residual {:.1e}", circle.residual) });
+        return Err(Error::BadInput {
+            what: "fast circle",
+            why: format!("dt = {dt_ms} ms: Newton stopped at residual {:.1e}", circle.residual),
+        });
     }
     let d = model.manifold.dim;
     let a = DMatrix::from_row_slice(d, d, &model.dynamics.linear_part()?);
@@ -197,7 +219,13 @@ pub fn map_connection_fates(model: &SsmModel, dt_ms: f64, o: &ConnectionOptions)
             iterate_outcome(|e| map.step(e, dt, &mut scratch), obs, eta0, o.periods, 0.0, dt, ESCAPE_THETA)
         })
         .collect();
-    Ok(ConnectionFates { dt_ms, circle_theta_amplitude: circle.theta_amplitude, circle_freq_hz: circle.freq_hz, circle_residual: circle.residual, outcomes })
+    Ok(ConnectionFates {
+        dt_ms,
+        circle_theta_amplitude: circle.theta_amplitude,
+        circle_freq_hz: circle.freq_hz,
+        circle_residual: circle.residual,
+        outcomes,
+    })
 }
 
 /// [`map_connection_fates`] over dt on the family `model_at`, switch located on `[lo, hi]`
@@ -222,7 +250,10 @@ pub fn map_connection(
 pub fn start_of_deflated(s: &[f64]) -> Result<Start, Error> {
     let n = s.len();
     if n < 5 || (n - 3) % 2 != 0 {
-        return Err(Error::BadInput { what: "deflated state", why: format!("need 3 + 2 (delay + 1) entries, got {n}") });
+        return Err(Error::BadInput {
+            what: "deflated state",
+            why: format!("need 3 + 2 (delay + 1) entries, got {n}"),
+        });
     }
     let k = (n - 3) / 2;
     let hist = (0..k).rev().map(|j| [s[3 + j], s[3 + k + j]]).collect();
@@ -237,7 +268,10 @@ pub fn deflated_of_start(start: &Start, delay: usize) -> Result<Vec<f64>, Error>
     let rest = vec![[x[0], x[2]]; delay + 1];
     let h = hist.as_deref().unwrap_or(&rest);
     if h.len() != delay + 1 {
-        return Err(Error::BadInput { what: "start", why: format!("pre-history has {} samples, the delay {delay} needs {}", h.len(), delay + 1) });
+        return Err(Error::BadInput {
+            what: "start",
+            why: format!("pre-history has {} samples, the delay {delay} needs {}", h.len(), delay + 1),
+        });
     }
     if x.iter().chain(h.iter().flatten()).any(|v| !v.is_finite()) {
         return Err(Error::BadInput { what: "start", why: format!("state and pre-history must be finite, got {x:?}") });
@@ -259,17 +293,26 @@ pub fn full_connection_fates(dt_ms: f64, o: &ConnectionOptions) -> Result<Connec
 
 /// [`full_connection_fates`] with the scene's integrator replaced by `integrator` (`None`: the
 /// scene's; [`crate::full_system::run_with`]).
-pub fn full_connection_fates_with(integrator: Option<&sim::scene::IntegratorSpec>, dt_ms: f64, o: &ConnectionOptions) -> Result<ConnectionFates, Error> {
+pub fn full_connection_fates_with(
+    integrator: Option<&sim::scene::IntegratorSpec>,
+    dt_ms: f64,
+    o: &ConnectionOptions,
+) -> Result<ConnectionFates, Error> {
     o.check()?;
     let rows = saddle_cycles(&[dt_ms], 2, &[o.guess_order], &o.circle)?;
-    let row = rows.first().ok_or_else(|| Error::BadInput { what: "fast circle", why: format!("dt = {dt_ms} ms: no row") })?;
-    let circle = row
-        .full
-        .clone()
-        .ok_or_else(|| Error::BadInput { what: "fast circle", why: format!("dt = {dt_ms} ms: {}", row.full_failure.clone().unwrap_or_default()) })?;
+    let row =
+        rows.first().ok_or_else(|| Error::BadInput { what: "fast circle", why: format!("dt = {dt_ms} ms: no row") })?;
+    let circle = row.full.clone().ok_or_else(|| Error::BadInput {
+        what: "fast circle",
+        why: format!("dt = {dt_ms} ms: {}", row.full_failure.clone().unwrap_or_default()),
+    })?;
     let scene = crate::full_system::scene_at(dt_ms)?;
     let le = |source| sim::stability::StabilityError::Linear { scene: scene.name.clone(), source };
-    let a = sim::stability::linear_plant(&scene)?.closed_loop(&scene.controller_config()).map_err(le)?.deflated().map_err(le)?;
+    let a = sim::stability::linear_plant(&scene)?
+        .closed_loop(&scene.controller_config())
+        .map_err(le)?
+        .deflated()
+        .map_err(le)?;
     if a.nrows() != circle.points.first().map_or(0, Vec::len) {
         return Err(Error::Shape { expected: circle.points.first().map_or(0, Vec::len), got: a.nrows() });
     }
@@ -277,8 +320,22 @@ pub fn full_connection_fates_with(integrator: Option<&sim::scene::IntegratorSpec
     row[0] = 1.0;
     let v = eigenvector(&a, slow_multiplier(&a)?, &row)?;
     let starts = pushed_starts(&circle, &v, o);
-    let outcomes = crate::par_map(&starts, |s| -> Result<Outcome, Error> { Ok(outcome_of(&crate::full_system::run_with(integrator, dt_ms, &start_of_deflated(s)?, o.periods, ESCAPE_THETA)?)) })?;
-    Ok(ConnectionFates { dt_ms, circle_theta_amplitude: circle.theta_amplitude, circle_freq_hz: circle.freq_hz, circle_residual: circle.residual, outcomes })
+    let outcomes = crate::par_map(&starts, |s| -> Result<Outcome, Error> {
+        Ok(outcome_of(&crate::full_system::run_with(
+            integrator,
+            dt_ms,
+            &start_of_deflated(s)?,
+            o.periods,
+            ESCAPE_THETA,
+        )?))
+    })?;
+    Ok(ConnectionFates {
+        dt_ms,
+        circle_theta_amplitude: circle.theta_amplitude,
+        circle_freq_hz: circle.freq_hz,
+        circle_residual: circle.residual,
+        outcomes,
+    })
 }
 
 /// [`full_connection_fates`] over dt, switch located on `[lo, hi]` (grid of `n`, bisection
@@ -289,9 +346,17 @@ pub fn full_connection(lo: f64, hi: f64, n: usize, tol: f64, o: &ConnectionOptio
 
 /// [`full_connection`] with the scene's integrator replaced by `integrator` (`None`: the
 /// scene's; the report passes [`crate::full_system::verdict_integrator`]).
-pub fn full_connection_with(integrator: Option<&sim::scene::IntegratorSpec>, lo: f64, hi: f64, n: usize, tol: f64, o: &ConnectionOptions) -> Result<Connection, Error> {
+pub fn full_connection_with(
+    integrator: Option<&sim::scene::IntegratorSpec>,
+    lo: f64,
+    hi: f64,
+    n: usize,
+    tol: f64,
+    o: &ConnectionOptions,
+) -> Result<Connection, Error> {
     o.check()?;
-    let switch = first_escape_switch(|dt| Ok(full_connection_fates_with(integrator, dt, o)?.escapes()), lo, hi, n, tol)?;
+    let switch =
+        first_escape_switch(|dt| Ok(full_connection_fates_with(integrator, dt, o)?.escapes()), lo, hi, n, tol)?;
     Ok(Connection { switch, options: *o })
 }
 
@@ -312,7 +377,10 @@ pub fn map_torus_continuation(
     let p = first.manifold.p;
     let (x, h) = start_from_rho(dts_ms[0], start_rho, [0.0, 0.0])?;
     let head = run(dts_ms[0], &(x, Some(h)), p as u64, f64::MAX)?.primary();
-    let y0 = head.get(..p).ok_or_else(|| Error::BadInput { what: "start", why: format!("full-system run gave {} samples, need {p}", head.len()) })?;
+    let y0 = head.get(..p).ok_or_else(|| Error::BadInput {
+        what: "start",
+        why: format!("full-system run gave {} samples, need {p}", head.len()),
+    })?;
     let eta = first.manifold.reduce(y0);
     map_torus_continuation_from(model_at, dts_ms, start_rho, eta, periods)
 }
@@ -320,7 +388,10 @@ pub fn map_torus_continuation(
 /// The continuation's inputs: at least one dt, strictly increasing; at least 3 periods.
 fn check_continuation(dts_ms: &[f64], periods: u64) -> Result<(), Error> {
     if dts_ms.is_empty() || dts_ms.windows(2).any(|w| w[1] <= w[0]) {
-        return Err(Error::BadInput { what: "dts_ms", why: format!("need at least one, strictly increasing, got {dts_ms:?}") });
+        return Err(Error::BadInput {
+            what: "dts_ms",
+            why: format!("need at least one, strictly increasing, got {dts_ms:?}"),
+        });
     }
     if periods < 3 {
         return Err(Error::BadInput { what: "periods", why: format!("need at least 3, got {periods}") });
@@ -377,9 +448,15 @@ pub fn map_torus_continuation_from(
 /// the starts `(rho1[i], rho2[j])`, `rho_1`-major as [`crate::basin::FullBasin::bounded_at`]
 /// (each from the full system's first delay vector of the mode start, [`map_outcome`], for
 /// `opts.periods` periods, escape at [`ESCAPE_THETA`]). Every cell on the rayon pool.
-pub fn map_basin(model_at: impl Fn(f64) -> Result<SsmModel, Error> + Sync, opts: &BasinOptions) -> Result<Vec<Vec<bool>>, Error> {
+pub fn map_basin(
+    model_at: impl Fn(f64) -> Result<SsmModel, Error> + Sync,
+    opts: &BasinOptions,
+) -> Result<Vec<Vec<bool>>, Error> {
     if opts.dts_ms.is_empty() || opts.dts_ms.windows(2).any(|w| w[1] <= w[0]) {
-        return Err(Error::BadInput { what: "dts_ms", why: format!("need at least one, strictly increasing, got {:?}", opts.dts_ms) });
+        return Err(Error::BadInput {
+            what: "dts_ms",
+            why: format!("need at least one, strictly increasing, got {:?}", opts.dts_ms),
+        });
     }
     // The model and the linear eigenvectors of the starts once per dt (not per cell).
     let models = crate::par_map(&opts.dts_ms, |&dt| Ok::<_, Error>((model_at(dt)?, ModeBasis::at(dt)?)))?;

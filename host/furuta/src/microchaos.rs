@@ -16,17 +16,17 @@
 //! data series and start from the data's first point; Benettin runs 5,000 transient and
 //! 50,000 measured steps from the same point.
 
+use crate::Error;
 use crate::lyapunov::{ModelLyapunov, model_lyapunov};
-use ssm::embed::delay_embed as ssm_embed;
-use ssm::{Dynamics, FitOptions, Ridge, SsmModel, TimeSeries, fit};
 use chaos::{
-    Bins, ChaosError, CorrSumParams, DivergenceCurve, DivergenceParams, FitRule, Points, ScalingRule, correlation_dimension,
-    delay_embed, fit_divergence, lag_and_period, rosenstein_curve, ssm_dimension,
+    Bins, ChaosError, CorrSumParams, DivergenceCurve, DivergenceParams, FitRule, Points, ScalingRule,
+    correlation_dimension, delay_embed, fit_divergence, lag_and_period, rosenstein_curve, ssm_dimension,
 };
 use serde::Serialize;
 use sim::closed_loop::Trajectory;
 use sim::scene::{Scene, SceneBuilder};
-use crate::Error;
+use ssm::embed::delay_embed as ssm_embed;
+use ssm::{Dynamics, FitOptions, Ridge, SsmModel, TimeSeries, fit};
 
 #[derive(Clone, Debug)]
 pub struct ChaosOptions {
@@ -84,7 +84,10 @@ impl ChaosOptions {
             range("shift", s, MAX_SHIFT)?;
         }
         if !(self.ridge.is_finite() && self.ridge >= 0.0) {
-            return Err(Error::BadOption { what: "ridge", why: format!("must be finite and >= 0, got {}", self.ridge) });
+            return Err(Error::BadOption {
+                what: "ridge",
+                why: format!("must be finite and >= 0, got {}", self.ridge),
+            });
         }
         if let Some(d) = self.ssm_dim {
             // Everything the SSM options imply (monomial counts, p > 2d) before any estimate.
@@ -96,7 +99,8 @@ impl ChaosOptions {
                 dyn_order: self.poly_order,
                 dynamics: Dynamics::Map,
                 ridge: Ridge::Fixed(self.ridge),
-                linear_anchor: None, anchor_joint: false,
+                linear_anchor: None,
+                anchor_joint: false,
             };
             ctx_free.validate()?;
         }
@@ -185,13 +189,22 @@ impl Context {
 
     /// Rosenstein/Kantz settings: curve length 3 Theiler windows within 30..1000 samples.
     pub fn divergence_params(&self) -> DivergenceParams {
-        DivergenceParams { theiler: self.theiler, max_steps: (3 * self.theiler).clamp(30, 1000), dt: self.dt, ..Default::default() }
+        DivergenceParams {
+            theiler: self.theiler,
+            max_steps: (3 * self.theiler).clamp(30, 1000),
+            dt: self.dt,
+            ..Default::default()
+        }
     }
 
     /// SSM dimension by the paper's rule from the correlation dimension of `x`.
     pub fn ssm_dim_from_data(&self, x: &[f64], embed: usize) -> Result<usize, ChaosError> {
         let pts = delay_embed(x, embed, self.lag)?;
-        let cd = correlation_dimension(&pts, &CorrSumParams { theiler: self.theiler, ..Default::default() }, &ScalingRule::default())?;
+        let cd = correlation_dimension(
+            &pts,
+            &CorrSumParams { theiler: self.theiler, ..Default::default() },
+            &ScalingRule::default(),
+        )?;
         dimension_rule(cd.dimension, cd.slope_std)
     }
 
@@ -221,7 +234,10 @@ pub fn fit_lle_curve(curve: &DivergenceCurve) -> Result<(chaos::DivergenceFit, O
         Err(ChaosError::NoFitWindow { .. }) => match fit_divergence(curve, &FitRule { tolerance: 0.5, ..rule }) {
             Ok(f) => Ok((f, Some("Lyapunov fit window found only at +-50 % slope tolerance".into()))),
             Err(ChaosError::NoFitWindow { .. }) => match fit_divergence(curve, &FitRule { tolerance: 1e6, ..rule }) {
-                Ok(f) => Ok((f, Some("divergence curve has no straight section; slope fitted over its first 70 % rise".into()))),
+                Ok(f) => Ok((
+                    f,
+                    Some("divergence curve has no straight section; slope fitted over its first 70 % rise".into()),
+                )),
                 Err(ChaosError::NoFitWindow { .. }) => after_noise_jump(curve, &rule),
                 Err(e) => Err(e),
             },
@@ -235,12 +251,17 @@ pub fn fit_lle_curve(curve: &DivergenceCurve) -> Result<(chaos::DivergenceFit, O
 /// happen at the first step and no window of 5 samples exists. Drop the initial jump (the
 /// steps before the first one whose increment is below a tenth of the total rise) and fit the
 /// first 70 % of the rest; the note gives the share of the rise the jump took.
-fn after_noise_jump(curve: &DivergenceCurve, rule: &FitRule) -> Result<(chaos::DivergenceFit, Option<String>), ChaosError> {
+fn after_noise_jump(
+    curve: &DivergenceCurve,
+    rule: &FitRule,
+) -> Result<(chaos::DivergenceFit, Option<String>), ChaosError> {
     let y = &curve.mean_log_distance;
     let rise = y.iter().copied().fold(f64::NEG_INFINITY, f64::max) - y.first().copied().unwrap_or(0.0);
     let skip = (1..y.len()).find(|&k| y[k] - y[k - 1] < 0.1 * rise).unwrap_or(y.len()).saturating_sub(1);
     if skip == 0 || y.len() - skip < 2 * rule.min_points {
-        return Err(ChaosError::NoFitWindow { reason: format!("no straight section and no noise jump to skip (rise {rise:.3} nats)") });
+        return Err(ChaosError::NoFitWindow {
+            reason: format!("no straight section and no noise jump to skip (rise {rise:.3} nats)"),
+        });
     }
     let cut = |v: &[f64]| v[skip..].to_vec();
     let tail = DivergenceCurve {
@@ -309,7 +330,8 @@ pub fn fit_options(o: &ChaosOptions, ssm_dim: usize, ctx: &Context) -> FitOption
         dyn_order: o.poly_order,
         dynamics: Dynamics::Map,
         ridge: Ridge::Fixed(o.ridge),
-        linear_anchor: None, anchor_joint: false,
+        linear_anchor: None,
+        anchor_joint: false,
     }
 }
 
@@ -329,7 +351,13 @@ pub struct ModelStats {
 /// Runs model `m` from the data's first embedded point over the data's length, then
 /// measures: Rosenstein exponent of the model series (settings of `ctx`), PDF divergence
 /// against the data's reduced coordinates, Benettin exponent of the map.
-pub fn evaluate_model(m: &SsmModel, data: &TimeSeries, ctx: &Context, o: &ChaosOptions, name: &str) -> Result<ModelStats, Error> {
+pub fn evaluate_model(
+    m: &SsmModel,
+    data: &TimeSeries,
+    ctx: &Context,
+    o: &ChaosOptions,
+    name: &str,
+) -> Result<ModelStats, Error> {
     evaluate_model_run(m, data, ctx, o, name).map(|(s, _)| s)
 }
 
@@ -343,7 +371,13 @@ pub struct HeldOutRun {
 }
 
 /// [`evaluate_model`] that also returns the model's run ([`HeldOutRun`]).
-pub fn evaluate_model_run(m: &SsmModel, data: &TimeSeries, ctx: &Context, o: &ChaosOptions, name: &str) -> Result<(ModelStats, HeldOutRun), Error> {
+pub fn evaluate_model_run(
+    m: &SsmModel,
+    data: &TimeSeries,
+    ctx: &Context,
+    o: &ChaosOptions,
+    name: &str,
+) -> Result<(ModelStats, HeldOutRun), Error> {
     let d = m.options.dim;
     let eta_data = reduce_series(m, data)?;
     let eta0 = eta_data[..d].to_vec();
@@ -357,7 +391,8 @@ pub fn evaluate_model_run(m: &SsmModel, data: &TimeSeries, ctx: &Context, o: &Ch
     if let Some(s) = &p.stop {
         notes.push(format!("{name} model stopped at t = {:.2} s: {:?}", s.t, s.reason));
     }
-    (out.lle_rosenstein, out.js) = series_statistics(ctx, d, &p.x, p.eta.clone(), eta_data.clone(), name, &format!("{name} model"), &mut notes);
+    (out.lle_rosenstein, out.js) =
+        series_statistics(ctx, d, &p.x, p.eta.clone(), eta_data.clone(), name, &format!("{name} model"), &mut notes);
     out.notes = notes;
     Ok((out, HeldOutRun { prediction: p, eta_data }))
 }
@@ -390,7 +425,9 @@ fn series_statistics(
             None
         }
     };
-    let js = match Points::from_flat(d, eta_data).and_then(|a| chaos::compare_pdfs(&a, &Points::from_flat(d, eta)?, Bins::default())) {
+    let js = match Points::from_flat(d, eta_data)
+        .and_then(|a| chaos::compare_pdfs(&a, &Points::from_flat(d, eta)?, Bins::default()))
+    {
         Ok(c) => Some(c.mean_js_bits),
         Err(e) => {
             notes.push(format!("{who} PDFs: {e}"));
@@ -430,7 +467,14 @@ pub struct KickedStats {
 /// quantized loop has the loop's mean dynamics but not its kicks; this puts them back as a
 /// bootstrap noise, so its statistics show how much of the data's "chaos" the kicks alone
 /// explain. Same estimators and settings as [`evaluate_model`].
-pub fn evaluate_kicked(m: &SsmModel, train: &[TimeSeries], data: &TimeSeries, ctx: &Context, seed: u64, name: &str) -> Result<KickedStats, Error> {
+pub fn evaluate_kicked(
+    m: &SsmModel,
+    train: &[TimeSeries],
+    data: &TimeSeries,
+    ctx: &Context,
+    seed: u64,
+    name: &str,
+) -> Result<KickedStats, Error> {
     let res = kick_residuals(m, train)?;
     evaluate_kicked_on(m, res, reduce_series(m, data)?, ctx, seed, name)
 }
@@ -458,13 +502,23 @@ fn kick_residuals(m: &SsmModel, train: &[TimeSeries]) -> Result<Vec<f64>, Error>
 
 /// [`evaluate_kicked`] from the residuals ([`kick_residuals`]) and the data's reduced
 /// coordinates `eta_data` ([`reduce_series`] of the data) already formed.
-fn evaluate_kicked_on(m: &SsmModel, res: Vec<f64>, eta_data: Vec<f64>, ctx: &Context, seed: u64, name: &str) -> Result<KickedStats, Error> {
+fn evaluate_kicked_on(
+    m: &SsmModel,
+    res: Vec<f64>,
+    eta_data: Vec<f64>,
+    ctx: &Context,
+    seed: u64,
+    name: &str,
+) -> Result<KickedStats, Error> {
     use ssm::dynamics::StepScratch;
     let d = m.options.dim;
     let mut sc = StepScratch::default();
     let nres = res.len() / d;
     if nres == 0 {
-        return Err(Error::BadInput { what: "kicked model", why: format!("{name}: no training pairs for the residuals") });
+        return Err(Error::BadInput {
+            what: "kicked model",
+            why: format!("{name}: no training pairs for the residuals"),
+        });
     }
     let residual_rms = (res.iter().map(|v| v * v).sum::<f64>() / nres as f64).sqrt();
     let n = eta_data.len() / d;
@@ -494,7 +548,16 @@ fn evaluate_kicked_on(m: &SsmModel, res: Vec<f64>, eta_data: Vec<f64>, ctx: &Con
             *e += r;
         }
     }
-    let (lle_rosenstein, js) = series_statistics(ctx, d, &x, etas, eta_data, &format!("{name} kicked"), &format!("{name} kicked model"), &mut notes);
+    let (lle_rosenstein, js) = series_statistics(
+        ctx,
+        d,
+        &x,
+        etas,
+        eta_data,
+        &format!("{name} kicked"),
+        &format!("{name} kicked model"),
+        &mut notes,
+    );
     Ok(KickedStats { lle_rosenstein, js, residual_rms, notes })
 }
 
@@ -506,14 +569,22 @@ pub fn analyse(train: &[TimeSeries], o: &ChaosOptions) -> Result<ChaosSummary, E
 /// [`analyse`] with a held-out trajectory: the models are fitted on `train` only, and the
 /// data statistics (dimension, Lyapunov exponent, PDFs) and the model series' starting point
 /// come from `test` (the longest training series when `None`).
-pub fn analyse_held_out(train: &[TimeSeries], test: Option<&TimeSeries>, o: &ChaosOptions) -> Result<ChaosSummary, Error> {
+pub fn analyse_held_out(
+    train: &[TimeSeries],
+    test: Option<&TimeSeries>,
+    o: &ChaosOptions,
+) -> Result<ChaosSummary, Error> {
     analyse_held_out_models(train, test, o).map(|(s, _)| s)
 }
 
 /// [`analyse_held_out`] that also returns the fitted models, `("rbf" | "poly", model)` in
 /// that order (a model whose fit failed, reported in the notes, is left out): callers that
 /// draw the models' series reuse them instead of fitting them again.
-pub fn analyse_held_out_models(train: &[TimeSeries], test: Option<&TimeSeries>, o: &ChaosOptions) -> Result<(ChaosSummary, Vec<(&'static str, SsmModel)>), Error> {
+pub fn analyse_held_out_models(
+    train: &[TimeSeries],
+    test: Option<&TimeSeries>,
+    o: &ChaosOptions,
+) -> Result<(ChaosSummary, Vec<(&'static str, SsmModel)>), Error> {
     analyse_held_out_runs(train, test, o).map(|(s, m, _)| (s, m))
 }
 
@@ -528,12 +599,19 @@ pub fn analyse_held_out_runs(
 ) -> Result<(ChaosSummary, Vec<(&'static str, SsmModel)>, Vec<HeldOutRun>), Error> {
     o.validate()?;
     let t0 = std::time::Instant::now();
-    let longest = train.iter().max_by_key(|s| s.x.len()).ok_or(Error::BadInput { what: "training", why: "no training series".into() })?;
+    let longest = train
+        .iter()
+        .max_by_key(|s| s.x.len())
+        .ok_or(Error::BadInput { what: "training", why: "no training series".into() })?;
     let data = test.unwrap_or(longest);
     let dt = data.dt().ok_or(Error::BadInput { what: "data", why: "the series has no sampling step".into() })?;
     let ctx = Context::from_series(&data.x, dt, o.gp_embed)?;
     let pts = delay_embed(&data.x, o.gp_embed, ctx.lag)?;
-    let cd = correlation_dimension(&pts, &CorrSumParams { theiler: ctx.theiler, ..Default::default() }, &ScalingRule::default())?;
+    let cd = correlation_dimension(
+        &pts,
+        &CorrSumParams { theiler: ctx.theiler, ..Default::default() },
+        &ScalingRule::default(),
+    )?;
     let ssm_dim = match o.ssm_dim {
         Some(d) => d,
         None => dimension_rule(cd.dimension, cd.slope_std)?,
@@ -585,20 +663,23 @@ pub fn analyse_held_out_runs(
     // pool (the kicked runs draw from seed 1 in each); notes and values are merged in this
     // order. A failed fit is a note, not an error.
     let kinds = [("rbf", Dynamics::Rbf { centers: o.centers }), ("poly", Dynamics::Map)];
-    let evals = crate::par_map(&kinds, |&(name, dynamics)| -> Result<Result<(ModelStats, HeldOutRun, KickedStats, SsmModel), String>, Error> {
-        let mut opts = base;
-        opts.dynamics = dynamics;
-        let m = match fit(train, &opts) {
-            Ok(m) => m,
-            // A size beyond the stated limits is the caller's to fix, not a finding.
-            Err(e @ ssm::FitError::TooLarge { .. }) => return Err(e.into()),
-            Err(e) => return Ok(Err(format!("{name} fit failed: {e}"))),
-        };
-        let (s, run) = evaluate_model_run(&m, data, &ctx, o, name)?;
-        // The kicked run from the data's reduced coordinates the model's run just formed.
-        let k = evaluate_kicked_on(&m, kick_residuals(&m, train)?, run.eta_data.clone(), &ctx, 1, name)?;
-        Ok(Ok((s, run, k, m)))
-    })?;
+    let evals = crate::par_map(
+        &kinds,
+        |&(name, dynamics)| -> Result<Result<(ModelStats, HeldOutRun, KickedStats, SsmModel), String>, Error> {
+            let mut opts = base;
+            opts.dynamics = dynamics;
+            let m = match fit(train, &opts) {
+                Ok(m) => m,
+                // A size beyond the stated limits is the caller's to fix, not a finding.
+                Err(e @ ssm::FitError::TooLarge { .. }) => return Err(e.into()),
+                Err(e) => return Ok(Err(format!("{name} fit failed: {e}"))),
+            };
+            let (s, run) = evaluate_model_run(&m, data, &ctx, o, name)?;
+            // The kicked run from the data's reduced coordinates the model's run just formed.
+            let k = evaluate_kicked_on(&m, kick_residuals(&m, train)?, run.eta_data.clone(), &ctx, 1, name)?;
+            Ok(Ok((s, run, k, m)))
+        },
+    )?;
     let mut models = Vec::new();
     let mut runs = Vec::new();
     for (&(name, _), eval) in kinds.iter().zip(evals) {
@@ -614,9 +695,11 @@ pub fn analyse_held_out_runs(
         notes.extend(s.notes);
         let b = s.benettin.as_ref().map(|b| b.exponent);
         if name == "rbf" {
-            (out.lle_model_rbf, out.pdf_divergence_rbf, out.lle_model_rbf_benettin, out.benettin_rbf) = (s.lle_rosenstein, s.js, b, s.benettin);
+            (out.lle_model_rbf, out.pdf_divergence_rbf, out.lle_model_rbf_benettin, out.benettin_rbf) =
+                (s.lle_rosenstein, s.js, b, s.benettin);
         } else {
-            (out.lle_model_poly, out.pdf_divergence_poly, out.lle_model_poly_benettin, out.benettin_poly) = (s.lle_rosenstein, s.js, b, s.benettin);
+            (out.lle_model_poly, out.pdf_divergence_poly, out.lle_model_poly_benettin, out.benettin_poly) =
+                (s.lle_rosenstein, s.js, b, s.benettin);
         }
         notes.extend(k.notes);
         if name == "rbf" {
@@ -643,7 +726,10 @@ pub fn simulate_scene(scene: SceneBuilder, periods: usize, theta0: f64, name: &s
     let tr = simulate_shared(&s)?;
     let skip = (20.0 / tr.dt) as usize;
     if skip >= tr.t.len() {
-        return Err(Error::BadInput { what: "periods", why: format!("{periods} periods are shorter than the 20 s transient") });
+        return Err(Error::BadInput {
+            what: "periods",
+            why: format!("{periods} periods are shorter than the 20 s transient"),
+        });
     }
     Ok(TimeSeries::new(name, tr.t[skip..].to_vec(), tr.primary()[skip..].to_vec())?)
 }
@@ -721,7 +807,11 @@ mod tests {
     /// under the first model, bit for bit.
     #[test]
     fn held_out_runs_equal_fresh_predictions_bit_for_bit() {
-        let runs: Vec<TimeSeries> = [0.02, 0.035].iter().enumerate().map(|(i, th)| simulate_quantized(2500, *th, &format!("quant #{i}")).unwrap()).collect();
+        let runs: Vec<TimeSeries> = [0.02, 0.035]
+            .iter()
+            .enumerate()
+            .map(|(i, th)| simulate_quantized(2500, *th, &format!("quant #{i}")).unwrap())
+            .collect();
         let o = ChaosOptions { centers: 60, ssm_dim: Some(4), ..ChaosOptions::default() };
         let (_, models, held) = analyse_held_out_runs(&runs[..1], Some(&runs[1]), &o).unwrap();
         assert_eq!(models.len(), 2);
@@ -739,7 +829,14 @@ mod tests {
 
     /// [`evaluate_kicked`] as it was (kept here): residuals by the plain step, the data's
     /// reduced coordinates formed again.
-    fn evaluate_kicked_plain(m: &SsmModel, train: &[TimeSeries], data: &TimeSeries, ctx: &Context, seed: u64, name: &str) -> Result<KickedStats, Error> {
+    fn evaluate_kicked_plain(
+        m: &SsmModel,
+        train: &[TimeSeries],
+        data: &TimeSeries,
+        ctx: &Context,
+        seed: u64,
+        name: &str,
+    ) -> Result<KickedStats, Error> {
         use ssm::dynamics::StepScratch;
         let d = m.options.dim;
         let mut sc = StepScratch::default();
@@ -754,7 +851,10 @@ mod tests {
         }
         let nres = res.len() / d;
         if nres == 0 {
-            return Err(Error::BadInput { what: "kicked model", why: format!("{name}: no training pairs for the residuals") });
+            return Err(Error::BadInput {
+                what: "kicked model",
+                why: format!("{name}: no training pairs for the residuals"),
+            });
         }
         let residual_rms = (res.iter().map(|v| v * v).sum::<f64>() / nres as f64).sqrt();
         let eta_data = reduce_series(m, data)?;
@@ -785,7 +885,16 @@ mod tests {
                 *e += r;
             }
         }
-        let (lle_rosenstein, js) = series_statistics(ctx, d, &x, etas, eta_data, &format!("{name} kicked"), &format!("{name} kicked model"), &mut notes);
+        let (lle_rosenstein, js) = series_statistics(
+            ctx,
+            d,
+            &x,
+            etas,
+            eta_data,
+            &format!("{name} kicked"),
+            &format!("{name} kicked model"),
+            &mut notes,
+        );
         Ok(KickedStats { lle_rosenstein, js, residual_rms, notes })
     }
 
@@ -794,7 +903,11 @@ mod tests {
     /// bit for bit, RBF and polynomial, and so does [`evaluate_kicked`].
     #[test]
     fn kicked_runs_equal_the_plain_evaluation() {
-        let runs: Vec<TimeSeries> = [0.02, 0.035].iter().enumerate().map(|(i, th)| simulate_quantized(2500, *th, &format!("quant #{i}")).unwrap()).collect();
+        let runs: Vec<TimeSeries> = [0.02, 0.035]
+            .iter()
+            .enumerate()
+            .map(|(i, th)| simulate_quantized(2500, *th, &format!("quant #{i}")).unwrap())
+            .collect();
         let o = ChaosOptions { centers: 60, ssm_dim: Some(4), ..ChaosOptions::default() };
         let (s, models, _) = analyse_held_out_runs(&runs[..1], Some(&runs[1]), &o).unwrap();
         let ctx = Context::from_series(&runs[1].x, runs[1].dt().unwrap(), o.gp_embed).unwrap();
@@ -803,9 +916,17 @@ mod tests {
         for (kind, m) in &models {
             let old = evaluate_kicked_plain(m, &runs[..1], &runs[1], &ctx, 1, kind).unwrap();
             let new = evaluate_kicked(m, &runs[..1], &runs[1], &ctx, 1, kind).unwrap();
-            let (l, j) = if *kind == "rbf" { (s.lle_model_rbf_kicked, s.pdf_divergence_rbf_kicked) } else { (s.lle_model_poly_kicked, s.pdf_divergence_poly_kicked) };
+            let (l, j) = if *kind == "rbf" {
+                (s.lle_model_rbf_kicked, s.pdf_divergence_rbf_kicked)
+            } else {
+                (s.lle_model_poly_kicked, s.pdf_divergence_poly_kicked)
+            };
             assert_eq!((bits(l), bits(j)), (bits(old.lle_rosenstein), bits(old.js)), "{kind}");
-            assert_eq!((bits(new.lle_rosenstein), bits(new.js), new.residual_rms.to_bits(), &new.notes), (bits(old.lle_rosenstein), bits(old.js), old.residual_rms.to_bits(), &old.notes), "{kind}");
+            assert_eq!(
+                (bits(new.lle_rosenstein), bits(new.js), new.residual_rms.to_bits(), &new.notes),
+                (bits(old.lle_rosenstein), bits(old.js), old.residual_rms.to_bits(), &old.notes),
+                "{kind}"
+            );
             assert!(old.lle_rosenstein.is_some() || old.js.is_some(), "{kind}: {:?}", old.notes);
         }
     }
@@ -815,7 +936,14 @@ mod tests {
     /// (simulated afresh, then kept).
     #[test]
     fn shared_runs_equal_fresh_runs_bit_for_bit() {
-        let scene = |periods: u64| SceneBuilder::load("furuta-quant-dt25").unwrap().periods(periods).initial_state(&[0.0312, 0.0, 0.0, 0.0]).build().unwrap();
+        let scene = |periods: u64| {
+            SceneBuilder::load("furuta-quant-dt25")
+                .unwrap()
+                .periods(periods)
+                .initial_state(&[0.0312, 0.0, 0.0, 0.0])
+                .build()
+                .unwrap()
+        };
         let same = |a: &Trajectory, b: &Trajectory| {
             assert_eq!(a.rows(), b.rows());
             let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
@@ -842,7 +970,10 @@ mod tests {
             same(&shared, &fresh);
             assert_eq!(shared.saturated_rows, fresh.saturated_rows);
             assert_eq!(fresh.saturated_rows.len() as u64, fresh.saturated_samples);
-            eprintln!("furuta-saturation, {periods} periods: {} saturated samples (of {} in 400)", fresh.saturated_samples, long.saturated_samples);
+            eprintln!(
+                "furuta-saturation, {periods} periods: {} saturated samples (of {} in 400)",
+                fresh.saturated_samples, long.saturated_samples
+            );
         }
         let s120 = sim::closed_loop::simulate(&sat(120), None).unwrap().saturated_samples;
         assert!(s120 > 0 && s120 < long.saturated_samples, "{s120} of {}", long.saturated_samples);
@@ -878,7 +1009,13 @@ mod tests {
         let dt = 0.05;
         let curve = |f: &dyn Fn(f64) -> f64| {
             let time: Vec<f64> = (0..=80).map(|k| k as f64 * dt).collect();
-            DivergenceCurve { mean_log_distance: time.iter().map(|&t| f(t)).collect(), n_terms: vec![10; time.len()], time, n_reference: 10, zero_distances: 0 }
+            DivergenceCurve {
+                mean_log_distance: time.iter().map(|&t| f(t)).collect(),
+                n_terms: vec![10; time.len()],
+                time,
+                n_reference: 10,
+                zero_distances: 0,
+            }
         };
         let e = growth_windows(&curve(&|t| -5.0 + 0.3 * t));
         assert_eq!(e.len(), 6, "{e:?}"); // 0.05..0.1, ..., 1.6..3.2 (the curve ends at 4.0)

@@ -11,21 +11,20 @@
 //! `rho_j` is the amplitude of mode `j` in theta (rad). Mode 1 = slow (about 0.44 Hz),
 //! mode 2 = fast (about 8.45 Hz), as in the paper's table.
 
-use sim::units::ms_to_s;
-use serde::{Deserialize, Serialize};
 use crate::Error;
+use serde::{Deserialize, Serialize};
+use sim::units::ms_to_s;
 
+use sim::closed_loop::simulate;
+use sim::scene::SceneBuilder;
+use sim::stability::{StabilityError, dominant_pairs};
+use ssm::RowWeight;
 use ssm::data::TimeSeries;
 use ssm::dynamics::Dynamics;
 use ssm::fit::{FitOptions, SsmModel, fit, fit_with_linear_normal};
 use ssm::interp::{Interp, interp_weights};
 use ssm::normal_form::{NormalFormOptions, NormalFormTable, PolarNormalForm, model_normal_form};
 use ssm::ridge::Ridge;
-use ssm::RowWeight;
-use sim::scene::SceneBuilder;
-use sim::closed_loop::simulate;
-use sim::stability::{StabilityError, dominant_pairs};
-
 
 /// Options of [`furuta_parametric`].
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -135,7 +134,8 @@ impl Default for FurutaOptions {
             // Linear part from the pairs within 1 % of the largest |eta|: over the whole
             // range the rates trade against the order-7 terms (slow rate -3.5 % at 32 ms,
             // -14 % at 32.5 ms without, runs cut at 0.3 rad; within 0.05 % with).
-            linear_anchor: Some(0.01), anchor_joint: false,
+            linear_anchor: Some(0.01),
+            anchor_joint: false,
         };
         FurutaOptions {
             dts_ms: vec![30.5, 31.0, 32.0, 32.5],
@@ -209,7 +209,10 @@ pub struct ParametricModel {
 /// controller pre-history (`delay + 1` samples `[theta, phi]`, oldest first) for `Scene`.
 pub fn slow_mode_start(dt_ms: f64, theta_amp: f64, phase: f64) -> Result<([f64; 4], Vec<[f64; 2]>), Error> {
     if !(theta_amp > 0.0 && theta_amp.is_finite() && phase.is_finite()) {
-        return Err(Error::BadOption { what: "slow_starts", why: format!("amplitude must be positive and finite, phase finite; got ({theta_amp}, {phase})") });
+        return Err(Error::BadOption {
+            what: "slow_starts",
+            why: format!("amplitude must be positive and finite, phase finite; got ({theta_amp}, {phase})"),
+        });
     }
     mode_start(dt_ms, Some((theta_amp, phase)), None)
 }
@@ -222,9 +225,16 @@ pub fn slow_mode_start(dt_ms: f64, theta_amp: f64, phase: f64) -> Result<([f64; 
 /// `None` leaves that mode unexcited (at least one must be given). Returns the plant state
 /// `[theta, w_theta, phi, w_phi]` and the controller pre-history (`delay + 1` samples
 /// `[theta, phi]`, oldest first) for `Scene`.
-pub fn mode_start(dt_ms: f64, slow: Option<(f64, f64)>, fast: Option<(f64, f64)>) -> Result<([f64; 4], Vec<[f64; 2]>), Error> {
+pub fn mode_start(
+    dt_ms: f64,
+    slow: Option<(f64, f64)>,
+    fast: Option<(f64, f64)>,
+) -> Result<([f64; 4], Vec<[f64; 2]>), Error> {
     if slow.is_none() && fast.is_none() {
-        return Err(Error::BadOption { what: "mode_start", why: "give at least one of the slow and the fast mode".into() });
+        return Err(Error::BadOption {
+            what: "mode_start",
+            why: "give at least one of the slow and the fast mode".into(),
+        });
     }
     let scene = SceneBuilder::load("furuta-dt30.5")?.dt_ms(dt_ms).build()?;
     mode_start_in(&scene, slow, fast)
@@ -232,7 +242,11 @@ pub fn mode_start(dt_ms: f64, slow: Option<(f64, f64)>, fast: Option<(f64, f64)>
 
 /// [`mode_start`] on the linearized closed loop of any 4-state Furuta scene without integral
 /// action (its gains, delay and sampling period), e.g. a sweep's cell.
-pub fn mode_start_in(scene: &sim::scene::Scene, slow: Option<(f64, f64)>, fast: Option<(f64, f64)>) -> Result<([f64; 4], Vec<[f64; 2]>), Error> {
+pub fn mode_start_in(
+    scene: &sim::scene::Scene,
+    slow: Option<(f64, f64)>,
+    fast: Option<(f64, f64)>,
+) -> Result<([f64; 4], Vec<[f64; 2]>), Error> {
     check_mode_amplitudes(slow, fast)?;
     ModeBasis::of(scene)?.start(slow, fast)
 }
@@ -240,12 +254,18 @@ pub fn mode_start_in(scene: &sim::scene::Scene, slow: Option<(f64, f64)>, fast: 
 /// The amplitudes of [`mode_start`]: at least one mode, each positive and finite, phases finite.
 pub(crate) fn check_mode_amplitudes(slow: Option<(f64, f64)>, fast: Option<(f64, f64)>) -> Result<(), Error> {
     if slow.is_none() && fast.is_none() {
-        return Err(Error::BadOption { what: "mode_start", why: "give at least one of the slow and the fast mode".into() });
+        return Err(Error::BadOption {
+            what: "mode_start",
+            why: "give at least one of the slow and the fast mode".into(),
+        });
     }
     for (name, m) in [("slow", slow), ("fast", fast)] {
         if let Some((a, p)) = m {
             if !(a > 0.0 && a.is_finite() && p.is_finite()) {
-                return Err(Error::BadOption { what: "mode_start", why: format!("{name} mode: amplitude must be positive and finite, phase finite; got ({a}, {p})") });
+                return Err(Error::BadOption {
+                    what: "mode_start",
+                    why: format!("{name} mode: amplitude must be positive and finite, phase finite; got ({a}, {p})"),
+                });
             }
         }
     }
@@ -283,7 +303,10 @@ impl ModeBasis {
         let map = sim::stability::linear_plant(scene)?.closed_loop(&scene.controller_config()).map_err(le)?;
         let lay = map.layout;
         if lay.n_plant != 4 || lay.integral.is_some() {
-            return Err(Error::BadOption { what: "mode_start", why: "needs the 4-state Furuta plant without integral action".into() });
+            return Err(Error::BadOption {
+                what: "mode_start",
+                why: "needs the 4-state Furuta plant without integral action".into(),
+            });
         }
         let mut pairs = dominant_pairs(scene)?;
         if pairs.len() < 2 {
@@ -292,19 +315,33 @@ impl ModeBasis {
         pairs.truncate(2);
         pairs.sort_by(|a, b| a.freq_hz.total_cmp(&b.freq_hz));
         let v = |k: usize| eigenvector_near(&map.matrix, Complex::new(pairs[k].re, pairs[k].im));
-        Ok(ModeBasis { dt_ms, n: map.matrix.nrows(), delay: lay.delay, y_start: lay.y_start, z_start: lay.z_start, vectors: [v(0), v(1)] })
+        Ok(ModeBasis {
+            dt_ms,
+            n: map.matrix.nrows(),
+            delay: lay.delay,
+            y_start: lay.y_start,
+            z_start: lay.z_start,
+            vectors: [v(0), v(1)],
+        })
     }
 
     /// The start of [`mode_start`] from this basis: the sum over the given modes of the real
     /// part of `e^{i phase} v_j`, theta's component of modulus `theta_amp` (amplitudes not
     /// checked here: [`mode_start_in`] does). Plant state and controller pre-history.
-    pub fn start(&self, slow: Option<(f64, f64)>, fast: Option<(f64, f64)>) -> Result<([f64; 4], Vec<[f64; 2]>), Error> {
+    pub fn start(
+        &self,
+        slow: Option<(f64, f64)>,
+        fast: Option<(f64, f64)>,
+    ) -> Result<([f64; 4], Vec<[f64; 2]>), Error> {
         use nalgebra::{Complex, DVector};
         let n = self.n;
         let mut total = DVector::<f64>::zeros(n);
         for (v, m) in self.vectors.iter().zip([slow, fast]) {
             let Some((theta_amp, phase)) = m else { continue };
-            let v = v.as_ref().ok_or_else(|| Error::BadOption { what: "mode_start", why: format!("singular shifted map at dt = {} ms", self.dt_ms) })?;
+            let v = v.as_ref().ok_or_else(|| Error::BadOption {
+                what: "mode_start",
+                why: format!("singular shifted map at dt = {} ms", self.dt_ms),
+            })?;
             let th = v[0];
             let scale = Complex::from_polar(theta_amp / th.norm(), phase - th.arg());
             for k in 0..n {
@@ -320,11 +357,17 @@ impl ModeBasis {
 /// Unit eigenvector of the real matrix `a` for its eigenvalue `mu`: three steps of inverse
 /// iteration on `a - mu (1 + 1e-9)` from the all-ones vector. `None` if the shifted matrix is
 /// singular.
-pub(crate) fn eigenvector_near(a: &nalgebra::DMatrix<f64>, mu: nalgebra::Complex<f64>) -> Option<nalgebra::DVector<nalgebra::Complex<f64>>> {
+pub(crate) fn eigenvector_near(
+    a: &nalgebra::DMatrix<f64>,
+    mu: nalgebra::Complex<f64>,
+) -> Option<nalgebra::DVector<nalgebra::Complex<f64>>> {
     use nalgebra::{Complex, DMatrix, DVector};
     let n = a.nrows();
     let shift = mu * (1.0 + 1e-9);
-    let lu = DMatrix::<Complex<f64>>::from_fn(n, n, |i, j| Complex::new(a[(i, j)], 0.0) - if i == j { shift } else { Complex::new(0.0, 0.0) }).lu();
+    let lu = DMatrix::<Complex<f64>>::from_fn(n, n, |i, j| {
+        Complex::new(a[(i, j)], 0.0) - if i == j { shift } else { Complex::new(0.0, 0.0) }
+    })
+    .lu();
     let mut v = DVector::<Complex<f64>>::from_element(n, Complex::new(1.0, 0.0));
     for _ in 0..3 {
         v = lu.solve(&v)?;
@@ -351,7 +394,10 @@ pub fn furuta_series_with_history(
     max_theta: f64,
 ) -> Result<TimeSeries, Error> {
     if !(max_theta > 0.0 && max_theta.is_finite()) {
-        return Err(Error::BadOption { what: "max_theta", why: format!("must be positive and finite, got {max_theta}") });
+        return Err(Error::BadOption {
+            what: "max_theta",
+            why: format!("must be positive and finite, got {max_theta}"),
+        });
     }
     let scene = SceneBuilder::load("furuta-dt30.5")?
         .dt_ms(dt_ms)
@@ -389,7 +435,8 @@ pub(crate) fn validate_options(opts: &FurutaOptions) -> Result<(), Error> {
 /// slow-mode start (see [`FurutaOptions`]).
 pub fn training_series(opts: &FurutaOptions, dt_ms: f64) -> Result<Vec<TimeSeries>, Error> {
     // The runs on the rayon pool, in this order: initial states, then slow-mode starts.
-    let mut train = crate::par_map(&opts.initial_states, |&ic| furuta_series(dt_ms, ic, opts.periods, opts.skip, opts.max_theta))?;
+    let mut train =
+        crate::par_map(&opts.initial_states, |&ic| furuta_series(dt_ms, ic, opts.periods, opts.skip, opts.max_theta))?;
     train.extend(crate::par_map(&opts.slow_starts, |&(amp, phase)| {
         let (ic, hist) = slow_mode_start(dt_ms, amp, phase)?;
         furuta_series_with_history(dt_ms, ic, Some(&hist), opts.periods, opts.skip, opts.max_theta)
@@ -432,11 +479,20 @@ impl TrainingRuns {
         };
         for o in sets {
             validate_options(o)?;
-            if o.initial_states != first.initial_states || o.slow_starts != first.slow_starts || o.periods != first.periods {
-                return Err(Error::BadOption { what: "training runs", why: "the option sets must share initial_states, slow_starts and periods".into() });
+            if o.initial_states != first.initial_states
+                || o.slow_starts != first.slow_starts
+                || o.periods != first.periods
+            {
+                return Err(Error::BadOption {
+                    what: "training runs",
+                    why: "the option sets must share initial_states, slow_starts and periods".into(),
+                });
             }
             if !(o.max_theta > 0.0 && o.max_theta.is_finite()) {
-                return Err(Error::BadOption { what: "max_theta", why: format!("must be positive and finite, got {}", o.max_theta) });
+                return Err(Error::BadOption {
+                    what: "max_theta",
+                    why: format!("must be positive and finite, got {}", o.max_theta),
+                });
             }
         }
         let max_theta = sets.iter().map(|o| o.max_theta).fold(0.0, f64::max);
@@ -474,7 +530,13 @@ impl TrainingRuns {
         })?;
         let mut it = runs.into_iter();
         let runs = dts.iter().map(|&d| (d, it.by_ref().take(per_dt).collect())).collect();
-        Ok(TrainingRuns { initial_states: first.initial_states.clone(), slow_starts: first.slow_starts.clone(), periods: first.periods, max_theta, runs })
+        Ok(TrainingRuns {
+            initial_states: first.initial_states.clone(),
+            slow_starts: first.slow_starts.clone(),
+            periods: first.periods,
+            max_theta,
+            runs,
+        })
     }
 
     /// The training series of `opts` at `dt_ms`, the same as [`training_series`]: cut from
@@ -497,8 +559,12 @@ impl TrainingRuns {
             if opts.skip + 100 > end {
                 return training_series(opts, dt_ms);
             }
-            let ts = TimeSeries::new(format!("furuta dt={dt_ms} ic={:?}", r.ic), r.t[opts.skip..end].to_vec(), r.x[opts.skip..end].to_vec())
-                .map_err(|e| Error::from(ssm::FitError::from(e)))?;
+            let ts = TimeSeries::new(
+                format!("furuta dt={dt_ms} ic={:?}", r.ic),
+                r.t[opts.skip..end].to_vec(),
+                r.x[opts.skip..end].to_vec(),
+            )
+            .map_err(|e| Error::from(ssm::FitError::from(e)))?;
             out.push(ts);
         }
         Ok(out)
@@ -524,7 +590,8 @@ pub fn furuta_parametric_from(opts: &FurutaOptions, runs: &TrainingRuns) -> Resu
 /// The fit and normal form of one training period.
 fn fit_period(opts: &FurutaOptions, dt_ms: f64, train: &[TimeSeries]) -> Result<TrainedDt, Error> {
     let model = if opts.linear_normal { fit_with_linear_normal(train, &opts.fit)? } else { fit(train, &opts.fit)? };
-    let normal_form = model_normal_form(&model, &NormalFormOptions::default()).map_err(|source| Error::NormalForm { dt: dt_ms, source })?;
+    let normal_form = model_normal_form(&model, &NormalFormOptions::default())
+        .map_err(|source| Error::NormalForm { dt: dt_ms, source })?;
     Ok(TrainedDt { dt_ms, model, normal_form, exact: exact_modes(dt_ms)? })
 }
 
@@ -554,7 +621,8 @@ pub fn furuta_parametric_family(
         }
         for &d in &o.dts_ms {
             let k = key(d, o);
-            let have = known.trained.iter().any(|t| known_key(t.dt_ms) == k) || todo.iter().any(|(d2, o2, _)| key(*d2, o2) == k);
+            let have = known.trained.iter().any(|t| known_key(t.dt_ms) == k)
+                || todo.iter().any(|(d2, o2, _)| key(*d2, o2) == k);
             if !have {
                 todo.push((d, o, i));
             }
@@ -579,7 +647,9 @@ pub fn furuta_parametric_family(
             let k = key(d, o);
             if let Some(t) = known.trained.iter().find(|t| known_key(t.dt_ms) == k) {
                 trained.push(t.clone());
-            } else if let Some(((t, s), (_, _, first))) = fits.iter().zip(&todo).find(|(_, (d2, o2, _))| key(*d2, o2) == k) {
+            } else if let Some(((t, s), (_, _, first))) =
+                fits.iter().zip(&todo).find(|(_, (d2, o2, _))| key(*d2, o2) == k)
+            {
                 trained.push(t.clone());
                 if *first == i {
                     secs += s;
@@ -664,8 +734,13 @@ impl ParametricModel {
         let nodes: Vec<f64> = self.trained.iter().map(|t| t.dt_ms).collect();
         let w = interp_weights(&nodes, dt_ms, interp)?;
         let forms: Vec<&PolarNormalForm> = self.trained.iter().map(|t| &t.normal_form).collect();
-        if let Some(t) = self.trained.iter().find(|t| t.normal_form.pexps != forms[0].pexps || t.normal_form.modes != forms[0].modes) {
-            return Err(Error::BadOption { what: "normal forms", why: format!("dt = {} ms has other monomials than dt = {} ms", t.dt_ms, nodes[0]) });
+        if let Some(t) =
+            self.trained.iter().find(|t| t.normal_form.pexps != forms[0].pexps || t.normal_form.modes != forms[0].modes)
+        {
+            return Err(Error::BadOption {
+                what: "normal forms",
+                why: format!("dt = {} ms has other monomials than dt = {} ms", t.dt_ms, nodes[0]),
+            });
         }
         blend_normal_forms(&forms, &w, dt_ms)
     }
@@ -699,7 +774,13 @@ mod tests {
             let err = [(r[0] - e[0]) / e[0], (r[1] - e[1]) / e[1]];
             eprintln!(
                 "dt {:5.2}: slow {:+.5} vs {:+.5} ({:+.2e}), fast {:+.5} vs {:+.5} ({:+.2e}); freqs {:?} vs {:?}",
-                t.dt_ms, r[0], e[0], err[0], r[1], e[1], err[1],
+                t.dt_ms,
+                r[0],
+                e[0],
+                err[0],
+                r[1],
+                e[1],
+                err[1],
                 t.normal_form.eigenvalues.iter().map(|x| x.1 / std::f64::consts::TAU).collect::<Vec<_>>(),
                 t.exact.freqs_hz
             );
@@ -710,7 +791,10 @@ mod tests {
             let r = pm.linear_rates_at(dt).unwrap();
             let e = exact_modes(dt).unwrap().rates;
             let err = [(r[0] - e[0]) / e[0], (r[1] - e[1]) / e[1]];
-            eprintln!("interp dt {dt:5.2}: slow {:+.5} vs {:+.5} ({:+.2e}), fast {:+.5} vs {:+.5} ({:+.2e})", r[0], e[0], err[0], r[1], e[1], err[1]);
+            eprintln!(
+                "interp dt {dt:5.2}: slow {:+.5} vs {:+.5} ({:+.2e}), fast {:+.5} vs {:+.5} ({:+.2e})",
+                r[0], e[0], err[0], r[1], e[1], err[1]
+            );
             worst_interp = worst_interp.max(err[0].abs()).max(err[1].abs());
         }
         eprintln!("table at 30.8 ms:\n{}", pm.coefficients_at(30.8).unwrap().to_text());
@@ -768,7 +852,11 @@ mod tests {
     #[test]
     fn family_fit_equals_separate_fits() {
         let base = small_opts(vec![30.5, 32.5], 0.2);
-        let sets = [small_opts(vec![30.5, 31.5, 32.5], 0.2), small_opts(vec![30.5, 32.5], 0.15), small_opts(vec![30.5, 31.5, 32.5], 0.15)];
+        let sets = [
+            small_opts(vec![30.5, 31.5, 32.5], 0.2),
+            small_opts(vec![30.5, 32.5], 0.15),
+            small_opts(vec![30.5, 31.5, 32.5], 0.15),
+        ];
         let refs: Vec<&FurutaOptions> = std::iter::once(&base).chain(sets.iter()).collect();
         let runs = TrainingRuns::simulate(&refs).unwrap();
         let known = furuta_parametric_from(&base, &runs).unwrap();

@@ -103,7 +103,12 @@ fn first_harmonic(values: &[f64]) -> f64 {
 
 /// The invariant circle of `ex` near `guess` (`opts.n` states at `theta_i = 2 pi i / n`)
 /// with rotation near `omega0` (rad per period).
-pub fn invariant_circle(ex: &ExactMap, guess: &[Vec<f64>], omega0: f64, opts: &CircleOptions) -> Result<InvariantCircle, Error> {
+pub fn invariant_circle(
+    ex: &ExactMap,
+    guess: &[Vec<f64>],
+    omega0: f64,
+    opts: &CircleOptions,
+) -> Result<InvariantCircle, Error> {
     let p = ex.pm.primary;
     let mut row = vec![0.0; ex.dim()];
     row[p] = 1.0;
@@ -135,7 +140,10 @@ pub fn invariant_circle_of(
         return Err(Error::BadInput { what: "guess", why: format!("need {n} finite states of {d} entries") });
     }
     if !(opts.tol > 0.0 && opts.fd_step > 0.0 && omega0.is_finite()) {
-        return Err(Error::BadOption { what: "circle options", why: format!("tol and fd_step must be > 0, omega finite: {opts:?}, omega {omega0}") });
+        return Err(Error::BadOption {
+            what: "circle options",
+            why: format!("tol and fd_step must be > 0, omega finite: {opts:?}, omega {omega0}"),
+        });
     }
     let th = |i: usize| std::f64::consts::TAU * i as f64 / n as f64;
     let ph = |s: &[f64]| -> f64 { phase_row.iter().zip(s).map(|(a, b)| a * b).sum() };
@@ -195,11 +203,15 @@ pub fn invariant_circle_of(
                 jm[(n * d, i * d + c)] = phase_row[c] * th(i).sin();
             }
         }
-        let step = jm.lu().solve(&(-&r)).ok_or_else(|| Error::BadInput { what: "invariant circle", why: format!("singular Newton matrix at step {steps}") })?;
+        let step = jm.lu().solve(&(-&r)).ok_or_else(|| Error::BadInput {
+            what: "invariant circle",
+            why: format!("singular Newton matrix at step {steps}"),
+        })?;
         // Damped update: halve until the residual falls.
         let mut lambda = 1.0;
         loop {
-            let kt: Vec<Vec<f64>> = (0..n).map(|i| (0..d).map(|c| k[i][c] + lambda * step[i * d + c]).collect()).collect();
+            let kt: Vec<Vec<f64>> =
+                (0..n).map(|i| (0..d).map(|c| k[i][c] + lambda * step[i * d + c]).collect()).collect();
             let ot = omega + lambda * step[n * d];
             let (rt, wt) = residual(&kt, ot)?;
             if wt < worst || lambda < 1e-3 {
@@ -218,7 +230,8 @@ pub fn invariant_circle_of(
     // Discretization error: the residual at the midpoints.
     let (smid, _) = shift_matrix(n, 0.0, std::f64::consts::PI / n as f64);
     let (smid_om, _) = shift_matrix(n, omega, std::f64::consts::PI / n as f64);
-    let mid: Vec<Vec<f64>> = (0..n).map(|i| (0..d).map(|c| (0..n).map(|j| smid[(i, j)] * k[j][c]).sum()).collect()).collect();
+    let mid: Vec<Vec<f64>> =
+        (0..n).map(|i| (0..d).map(|c| (0..n).map(|j| smid[(i, j)] * k[j][c]).sum()).collect()).collect();
     let fmid = crate::par_map(&mid, |s| f(s))?;
     let mut residual_midpoints = 0.0f64;
     for i in 0..n {
@@ -290,13 +303,21 @@ pub struct SaddleCycleRow {
 /// The mode-`mode` saddle cycles of the full system over `dts_ms` (continuation in the
 /// given order), next to the equation-driven model's at `orders` (each 3..=9; the period
 /// map is expanded once, to the highest).
-pub fn saddle_cycles(dts_ms: &[f64], mode: usize, orders: &[u32], opts: &CircleOptions) -> Result<Vec<SaddleCycleRow>, Error> {
+pub fn saddle_cycles(
+    dts_ms: &[f64],
+    mode: usize,
+    orders: &[u32],
+    opts: &CircleOptions,
+) -> Result<Vec<SaddleCycleRow>, Error> {
     if !(mode == 1 || mode == 2) {
         return Err(Error::BadOption { what: "mode", why: format!("must be 1 or 2, got {mode}") });
     }
     let top = orders.iter().copied().max().unwrap_or(0);
     if orders.iter().any(|k| !(3..=ssm::map_ssm::MAX_ORDER).contains(k)) || orders.is_empty() {
-        return Err(Error::BadOption { what: "orders", why: format!("need orders in 3..={}, got {orders:?}", ssm::map_ssm::MAX_ORDER) });
+        return Err(Error::BadOption {
+            what: "orders",
+            why: format!("need orders in 3..={}, got {orders:?}", ssm::map_ssm::MAX_ORDER),
+        });
     }
     let mut out = Vec::new();
     let mut prev: Option<InvariantCircle> = None;
@@ -310,8 +331,18 @@ pub fn saddle_cycles(dts_ms: &[f64], mode: usize, orders: &[u32], opts: &CircleO
         let mut equation = Vec::new();
         let mut start = None;
         for &order in orders {
-            let s = map_ssm(&map, &MapSsmOptions { order, pairs: 2, resonance_tol: RESONANCE_TOL, observable: observable.clone(), dt: ex.pm.dt, amplitude: Amplitude::Observable })
-                .map_err(|e| Error::from(ssm::Error::from(e)))?;
+            let s = map_ssm(
+                &map,
+                &MapSsmOptions {
+                    order,
+                    pairs: 2,
+                    resonance_tol: RESONANCE_TOL,
+                    observable: observable.clone(),
+                    dt: ex.pm.dt,
+                    amplitude: Amplitude::Observable,
+                },
+            )
+            .map_err(|e| Error::from(ssm::Error::from(e)))?;
             let mut row = EquationCycle { order, rho: None, theta_amplitude: None, freq_hz: None };
             if let Some(f) = model_cycle(&s.polar, mode)? {
                 let rho = f.rho[mode - 1];
@@ -341,7 +372,10 @@ pub fn saddle_cycles(dts_ms: &[f64], mode: usize, orders: &[u32], opts: &CircleO
                     full = Some(c);
                     break;
                 }
-                Ok(c) => failure = Some(format!("Newton stopped at residual {:.2e} after {} steps", c.residual, c.newton_steps)),
+                Ok(c) => {
+                    failure =
+                        Some(format!("Newton stopped at residual {:.2e} after {} steps", c.residual, c.newton_steps))
+                }
                 Err(e) => failure = Some(e.to_string()),
             }
         }
@@ -362,7 +396,13 @@ pub fn saddle_cycles(dts_ms: &[f64], mode: usize, orders: &[u32], opts: &CircleO
 /// `theta_amp`, turning by about `omega0` rad per period; amplitudes in the lifted
 /// observable (the first embedding coordinate). Tells whether the fitted map, before its
 /// normal form, has the full system's saddle cycle.
-pub fn fitted_map_cycle(model: &ssm::fit::SsmModel, mode: usize, theta_amp: f64, omega0: f64, opts: &CircleOptions) -> Result<InvariantCircle, Error> {
+pub fn fitted_map_cycle(
+    model: &ssm::fit::SsmModel,
+    mode: usize,
+    theta_amp: f64,
+    omega0: f64,
+    opts: &CircleOptions,
+) -> Result<InvariantCircle, Error> {
     use ssm::dynamics::StepScratch;
     let dyn_ = &model.dynamics;
     let dt = dyn_.map_dt().ok_or(Error::NotAMap)?;
@@ -373,8 +413,11 @@ pub fn fitted_map_cycle(model: &ssm::fit::SsmModel, mode: usize, theta_amp: f64,
     let am = nalgebra::DMatrix::from_row_slice(d, d, &a);
     let mut ev: Vec<C> = am.complex_eigenvalues().iter().copied().filter(|z| z.im > 0.0).collect();
     ev.sort_by(|x, y| x.arg().abs().total_cmp(&y.arg().abs()));
-    let mu = *ev.get(mode - 1).ok_or_else(|| Error::BadInput { what: "fitted map", why: format!("no oscillatory pair {mode}") })?;
-    let shifted = nalgebra::DMatrix::from_fn(d, d, |i, j| C::new(a[i * d + j], 0.0) - if i == j { mu } else { C::new(0.0, 0.0) });
+    let mu = *ev
+        .get(mode - 1)
+        .ok_or_else(|| Error::BadInput { what: "fitted map", why: format!("no oscillatory pair {mode}") })?;
+    let shifted =
+        nalgebra::DMatrix::from_fn(d, d, |i, j| C::new(a[i * d + j], 0.0) - if i == j { mu } else { C::new(0.0, 0.0) });
     let svd = shifted.svd(false, true);
     let vt = svd.v_t.ok_or_else(|| Error::BadInput { what: "fitted map", why: "SVD failed".into() })?;
     let kmin = (0..d).min_by(|&x, &y| svd.singular_values[x].total_cmp(&svd.singular_values[y])).unwrap_or(0);
@@ -436,7 +479,10 @@ mod tests {
         let rows = saddle_cycles(&[31.0], 1, &[7], &opts).unwrap();
         let r = &rows[0];
         let c = r.full.as_ref().unwrap();
-        eprintln!("full: theta1 {} f {} Hz res {:e} mid {:e}; {:?}", c.theta_amplitude, c.freq_hz, c.residual, c.residual_midpoints, r.equation);
+        eprintln!(
+            "full: theta1 {} f {} Hz res {:e} mid {:e}; {:?}",
+            c.theta_amplitude, c.freq_hz, c.residual, c.residual_midpoints, r.equation
+        );
         assert!(c.residual <= 1e-10 && c.residual_midpoints <= 1e-8, "{} {}", c.residual, c.residual_midpoints); // measured 5e-12, 3e-10
         assert!((c.theta_amplitude - 0.17016).abs() < 2e-4, "{}", c.theta_amplitude);
         assert!((c.freq_hz - 0.5362).abs() < 1e-3, "{}", c.freq_hz);
@@ -460,10 +506,12 @@ mod tests {
         };
         let n = 21;
         // A perturbed start: radius 1.05, w = 0.
-        let guess: Vec<Vec<f64>> = (0..n).map(|i| {
-            let t = std::f64::consts::TAU * i as f64 / n as f64;
-            vec![1.05 * t.cos(), 1.05 * t.sin(), 0.0]
-        }).collect();
+        let guess: Vec<Vec<f64>> = (0..n)
+            .map(|i| {
+                let t = std::f64::consts::TAU * i as f64 / n as f64;
+                vec![1.05 * t.cos(), 1.05 * t.sin(), 0.0]
+            })
+            .collect();
         let opts = CircleOptions { n, ..CircleOptions::default() };
         let c = invariant_circle_of(&f, &|s: &[f64]| s[0], &[1.0, 0.0, 0.0], 0.01, &guess, 0.65, &opts).unwrap();
         let a = 0.5 / 0.99;
@@ -482,7 +530,13 @@ mod tests {
 
     #[test]
     fn bad_circle_inputs_are_refused() {
-        assert!(matches!(saddle_cycles(&[31.0], 3, &[7], &CircleOptions::default()), Err(Error::BadOption { what: "mode", .. })));
-        assert!(matches!(saddle_cycles(&[31.0], 1, &[11], &CircleOptions::default()), Err(Error::BadOption { what: "orders", .. })));
+        assert!(matches!(
+            saddle_cycles(&[31.0], 3, &[7], &CircleOptions::default()),
+            Err(Error::BadOption { what: "mode", .. })
+        ));
+        assert!(matches!(
+            saddle_cycles(&[31.0], 1, &[11], &CircleOptions::default()),
+            Err(Error::BadOption { what: "orders", .. })
+        ));
     }
 }

@@ -22,21 +22,21 @@
 //! [`SsmModel::predict`].
 
 use crate::Error;
-use sim::units::ms_to_s;
 use serde::{Deserialize, Serialize};
+use sim::units::ms_to_s;
 
-use ssm::data::TimeSeries;
-use ssm::dynamics::ReducedDynamics;
-use ssm::fit::{Prediction, SsmModel, Stop, embed_training, fit_with_tangent_weights};
 use crate::parametric::{
     ExactModes, FurutaOptions, TrainingRuns, exact_modes, furuta_series_with_history, slow_mode_start, training_series,
     validate_options,
 };
+use ssm::data::TimeSeries;
+use ssm::dynamics::ReducedDynamics;
+use ssm::fit::{Prediction, SsmModel, Stop, embed_training, fit_with_tangent_weights};
+use ssm::interp::{Interp, MixError, V1Mix, interp_weights, mix_models};
 use ssm::manifold::tangent_space;
 use ssm::metrics::amplitude_spectrum;
 use ssm::normal_form::{NormalFormOptions, Normalization, PolarNormalForm, normal_form};
 use ssm::poly::Poly;
-use ssm::interp::{Interp, MixError, V1Mix, interp_weights, mix_models};
 
 /// One training period of the shared-tangent model.
 #[derive(Clone, Debug, Serialize, Deserialize)]
@@ -93,7 +93,10 @@ fn rescale(poly: &Poly, to: &[f64]) -> Poly {
 pub fn shared_parametric(opts: &FurutaOptions) -> Result<SharedParametricModel, Error> {
     validate_options(opts)?;
     if opts.fit.dynamics != ssm::dynamics::Dynamics::Map {
-        return Err(Error::BadOption { what: "fit.dynamics", why: "the shared-tangent model interpolates polynomial maps; use Dynamics::Map".into() });
+        return Err(Error::BadOption {
+            what: "fit.dynamics",
+            why: "the shared-tangent model interpolates polynomial maps; use Dynamics::Map".into(),
+        });
     }
     // Training runs and fits per period on the rayon pool, collected in order.
     let series = crate::par_map(&opts.dts_ms, |&dt_ms| training_series(opts, dt_ms))?;
@@ -105,7 +108,10 @@ pub fn shared_parametric(opts: &FurutaOptions) -> Result<SharedParametricModel, 
 pub fn shared_parametric_from(opts: &FurutaOptions, runs: &TrainingRuns) -> Result<SharedParametricModel, Error> {
     validate_options(opts)?;
     if opts.fit.dynamics != ssm::dynamics::Dynamics::Map {
-        return Err(Error::BadOption { what: "fit.dynamics", why: "the shared-tangent model interpolates polynomial maps; use Dynamics::Map".into() });
+        return Err(Error::BadOption {
+            what: "fit.dynamics",
+            why: "the shared-tangent model interpolates polynomial maps; use Dynamics::Map".into(),
+        });
     }
     let series = crate::par_map(&opts.dts_ms, |&dt_ms| runs.series(opts, dt_ms))?;
     shared_parametric_on(opts, series)
@@ -120,9 +126,15 @@ fn shared_parametric_on(opts: &FurutaOptions, series: Vec<Vec<TimeSeries>>) -> R
     let (v1, singular_values) = tangent_space(&pooled, opts.fit.dim)?;
     drop(pooled);
     let tasks: Vec<(&Vec<TimeSeries>, f64)> = series.iter().zip(opts.dts_ms.iter().copied()).collect();
-    let fits = crate::par_map(&tasks, |&(train, dt_ms)| Ok::<_, Error>((dt_ms, fit_with_tangent_weights(train, &opts.fit, &v1, opts.map_weight.as_ref(), opts.manifold_weight.as_ref())?)))?;
+    let fits = crate::par_map(&tasks, |&(train, dt_ms)| {
+        Ok::<_, Error>((
+            dt_ms,
+            fit_with_tangent_weights(train, &opts.fit, &v1, opts.map_weight.as_ref(), opts.manifold_weight.as_ref())?,
+        ))
+    })?;
     let d = opts.fit.dim;
-    let scale: Vec<f64> = (0..d).map(|j| fits.iter().map(|(_, m)| m.manifold.eta_scale[j]).fold(0.0, f64::max)).collect();
+    let scale: Vec<f64> =
+        (0..d).map(|j| fits.iter().map(|(_, m)| m.manifold.eta_scale[j]).fold(0.0, f64::max)).collect();
     let mut nodes = Vec::with_capacity(fits.len());
     for (dt_ms, mut model) in fits {
         if let Some(nl) = &model.manifold.nonlinear {
@@ -150,19 +162,24 @@ impl SharedParametricModel {
     pub fn model_at(&self, dt_ms: f64, interp: Interp) -> Result<SsmModel, Error> {
         let dts = self.dts_ms();
         let w = interp_weights(&dts, dt_ms, interp)?;
-        let nearest = (0..dts.len()).min_by(|&a, &b| (dts[a] - dt_ms).abs().total_cmp(&(dts[b] - dt_ms).abs())).unwrap_or(0);
+        let nearest =
+            (0..dts.len()).min_by(|&a, &b| (dts[a] - dt_ms).abs().total_cmp(&(dts[b] - dt_ms).abs())).unwrap_or(0);
         let models: Vec<&SsmModel> = self.nodes.iter().map(|n| &n.model).collect();
         // One tangent space: V1 is the nearest node's, copied (bit-identical), not mixed.
         let mut out = mix_models(&models, &w, nearest, V1Mix::Shared, ms_to_s(dt_ms)).map_err(|e| match e {
             ssm::Error::Mix(MixError::Mismatch { index, .. }) => Error::BadOption {
                 what: "shared fits",
-                why: format!("dt = {} ms has other monomials or scales than dt = {} ms", self.nodes[index].dt_ms, dts[nearest]),
+                why: format!(
+                    "dt = {} ms has other monomials or scales than dt = {} ms",
+                    self.nodes[index].dt_ms, dts[nearest]
+                ),
             },
             e => e.into(),
         })?;
         out.manifold.singular_values = self.singular_values.clone();
-        out.eta_range =
-            (0..self.scale.len()).map(|j| self.nodes.iter().map(|n| n.model.eta_range[j]).fold(0.0, f64::max)).collect();
+        out.eta_range = (0..self.scale.len())
+            .map(|j| self.nodes.iter().map(|n| n.model.eta_range[j]).fold(0.0, f64::max))
+            .collect();
         out.n_points = self.nodes.iter().map(|n| n.model.n_points).sum();
         Ok(out)
     }
@@ -182,7 +199,10 @@ impl SharedParametricModel {
     /// theta (linear observable row including the manifold's degree-1 normal part).
     pub fn normal_form_at(&self, dt_ms: f64, interp: Interp) -> Result<PolarNormalForm, Error> {
         let m = self.model_at(dt_ms, interp)?;
-        let o = NormalFormOptions { normalization: Normalization::Observable(m.manifold.observable_row()), ..NormalFormOptions::default() };
+        let o = NormalFormOptions {
+            normalization: Normalization::Observable(m.manifold.observable_row()),
+            ..NormalFormOptions::default()
+        };
         normal_form(&m.dynamics, &o).map_err(|source| Error::NormalForm { dt: dt_ms, source })
     }
 }
@@ -266,14 +286,21 @@ pub fn test_series(dt_ms: f64, o: &PredictOptions) -> Result<TimeSeries, Error> 
     ic[0] += o.theta0;
     hist.iter_mut().for_each(|h| h[0] += o.theta0);
     if !(o.horizon_s > 0.0 && o.horizon_s.is_finite()) {
-        return Err(Error::BadOption { what: "horizon_s", why: format!("must be positive and finite, got {}", o.horizon_s) });
+        return Err(Error::BadOption {
+            what: "horizon_s",
+            why: format!("must be positive and finite, got {}", o.horizon_s),
+        });
     }
     let periods = (o.horizon_s / (ms_to_s(dt_ms))).ceil() as u64;
     furuta_series_with_history(dt_ms, ic, Some(&hist), periods, o.skip, o.max_theta)
 }
 
 /// Predictions at every period of `o.dts_ms` with interpolation `interp`.
-pub fn predictions(model: &SharedParametricModel, o: &PredictOptions, interp: Interp) -> Result<Vec<PredictionResult>, Error> {
+pub fn predictions(
+    model: &SharedParametricModel,
+    o: &PredictOptions,
+    interp: Interp,
+) -> Result<Vec<PredictionResult>, Error> {
     crate::par_map(&o.dts_ms, |&dt_ms| predict_one(model, dt_ms, &test_series(dt_ms, o)?, o, interp))
 }
 
@@ -286,7 +313,12 @@ pub fn test_series_all(o: &PredictOptions) -> Result<Vec<TimeSeries>, Error> {
 
 /// [`predictions`] against test series already simulated (`tests[i]` the series at
 /// `o.dts_ms[i]`, as [`test_series_all`] gives): the same results.
-pub fn predictions_on(model: &SharedParametricModel, o: &PredictOptions, tests: &[TimeSeries], interp: Interp) -> Result<Vec<PredictionResult>, Error> {
+pub fn predictions_on(
+    model: &SharedParametricModel,
+    o: &PredictOptions,
+    tests: &[TimeSeries],
+    interp: Interp,
+) -> Result<Vec<PredictionResult>, Error> {
     if tests.len() != o.dts_ms.len() {
         return Err(Error::Shape { expected: o.dts_ms.len(), got: tests.len() });
     }
@@ -305,7 +337,10 @@ pub fn predict_one(
     let pred = model.predict_at(dt_ms, test, interp)?;
     let n = pred.x.len();
     let truth = &test.x[..n];
-    let bad = |what: &str| Error::BadOption { what: "prediction", why: format!("dt = {dt_ms} ms: {what} undefined ({n} samples)") };
+    let bad = |what: &str| Error::BadOption {
+        what: "prediction",
+        why: format!("dt = {dt_ms} ms: {what} undefined ({n} samples)"),
+    };
     let nmte = ssm::metrics::nmte(&pred.x, truth, 1).ok_or_else(|| bad("NMTE"))?;
     let dtw_nmte = pred.nmte_dtw(test, o.dtw_band);
     if !dtw_nmte.is_finite() {
@@ -342,23 +377,40 @@ mod tests {
         //    linear part; measured: slow -0.9e-4 / -1.2e-4 / -2.5e-4 / -3.1e-4, fast -3.0e-4 /
         //    -3.3e-4 / -5.0e-4 / -4.7e-4 at 30.5 / 31 / 32 / 32.5 ms).
         for n in &pm.nodes {
-            let err = [(n.rates[0] - n.exact.rates[0]) / n.exact.rates[0], (n.rates[1] - n.exact.rates[1]) / n.exact.rates[1]];
+            let err = [
+                (n.rates[0] - n.exact.rates[0]) / n.exact.rates[0],
+                (n.rates[1] - n.exact.rates[1]) / n.exact.rates[1],
+            ];
             eprintln!("node {:5.2}: rate errors slow {:+.2e}, fast {:+.2e}", n.dt_ms, err[0], err[1]);
             assert!(err[0].abs() < 0.01 && err[1].abs() < 0.01, "dt {}: {:?} vs {:?}", n.dt_ms, n.rates, n.exact.rates);
-            let f = [(n.freqs_hz[0] - n.exact.freqs_hz[0]) / n.exact.freqs_hz[0], (n.freqs_hz[1] - n.exact.freqs_hz[1]) / n.exact.freqs_hz[1]];
+            let f = [
+                (n.freqs_hz[0] - n.exact.freqs_hz[0]) / n.exact.freqs_hz[0],
+                (n.freqs_hz[1] - n.exact.freqs_hz[1]) / n.exact.freqs_hz[1],
+            ];
             if n.dt_ms <= 31.0 {
-                assert!(f[0].abs() < 1e-3 && f[1].abs() < 1e-4, "dt {}: freqs {:?} vs {:?}", n.dt_ms, n.freqs_hz, n.exact.freqs_hz);
+                assert!(
+                    f[0].abs() < 1e-3 && f[1].abs() < 1e-4,
+                    "dt {}: freqs {:?} vs {:?}",
+                    n.dt_ms,
+                    n.freqs_hz,
+                    n.exact.freqs_hz
+                );
             }
         }
         // 2. At a training period both interpolants return that period's model exactly.
         let node = &pm.nodes[1];
         for interp in [Interp::Linear, Interp::Spline] {
             let m = pm.model_at(node.dt_ms, interp).unwrap();
-            let (ReducedDynamics::Map { increment: a, .. }, ReducedDynamics::Map { increment: b, .. }) = (&m.dynamics, &node.model.dynamics) else {
+            let (ReducedDynamics::Map { increment: a, .. }, ReducedDynamics::Map { increment: b, .. }) =
+                (&m.dynamics, &node.model.dynamics)
+            else {
                 panic!("map dynamics expected")
             };
             assert_eq!(a.coef, b.coef, "{interp:?}");
-            assert_eq!(m.manifold.nonlinear.as_ref().unwrap().coef, node.model.manifold.nonlinear.as_ref().unwrap().coef);
+            assert_eq!(
+                m.manifold.nonlinear.as_ref().unwrap().coef,
+                node.model.manifold.nonlinear.as_ref().unwrap().coef
+            );
         }
         // 3. Normal-form spline interpolation (ParametricModel::normal_form_at_with) on
         //    normal forms of the shared nodes: nodes reproduced, Linear = normal_form_at.
@@ -382,7 +434,11 @@ mod tests {
             // linear rates of the shared normal form = ln|mu|/dt of the map
             let r = t.normal_form.linear_rates();
             let node = pm.nodes.iter().find(|n| n.dt_ms == t.dt_ms).unwrap();
-            assert!((r[0] - node.rates[0]).abs() < 1e-9 && (r[1] - node.rates[1]).abs() < 1e-9, "{r:?} vs {:?}", node.rates);
+            assert!(
+                (r[0] - node.rates[0]).abs() < 1e-9 && (r[1] - node.rates[1]).abs() < 1e-9,
+                "{r:?} vs {:?}",
+                node.rates
+            );
         }
         assert_eq!(pmod.normal_form_at_with(30.8, Interp::Linear).unwrap().amp, pmod.normal_form_at(30.8).unwrap().amp);
         // 4. Predictions at the six unseen periods, both interpolants: full horizon, no
@@ -400,14 +456,39 @@ mod tests {
             // the same results, bit for bit.
             let shared = predictions_on(&pm, &o, &tests, interp).unwrap();
             for (a, b) in res.iter().zip(&shared) {
-                assert!(a.dt_ms == b.dt_ms && a.nmte == b.nmte && a.dtw_nmte == b.dtw_nmte && a.t == b.t && a.x_true == b.x_true && a.x_pred == b.x_pred, "dt {}", a.dt_ms);
+                assert!(
+                    a.dt_ms == b.dt_ms
+                        && a.nmte == b.nmte
+                        && a.dtw_nmte == b.dtw_nmte
+                        && a.t == b.t
+                        && a.x_true == b.x_true
+                        && a.x_pred == b.x_pred,
+                    "dt {}",
+                    a.dt_ms
+                );
             }
             for r in &res {
-                let zero = r.x_true.iter().map(|v| v.abs()).sum::<f64>() / r.x_true.len() as f64 / r.x_true.iter().fold(0.0f64, |m, v| m.max(v.abs()));
-                let peak = r.spectrum_true.amp.iter().zip(&r.spectrum_true.freq_hz).skip(1).fold((0.0, 0.0), |m, (a, f)| if *a > m.0 { (*a, *f) } else { m });
+                let zero = r.x_true.iter().map(|v| v.abs()).sum::<f64>()
+                    / r.x_true.len() as f64
+                    / r.x_true.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+                let peak = r
+                    .spectrum_true
+                    .amp
+                    .iter()
+                    .zip(&r.spectrum_true.freq_hz)
+                    .skip(1)
+                    .fold((0.0, 0.0), |m, (a, f)| if *a > m.0 { (*a, *f) } else { m });
                 eprintln!(
                     "{interp:?} dt {:5.2}: NMTE {:.4}, DTW-NMTE {:.4} (zero predictor {:.3}), {} samples, stop {:?}, cut {:?}, true peak {:.2e} rad at {:.2} Hz",
-                    r.dt_ms, r.nmte, r.dtw_nmte, zero, r.x_pred.len(), r.stop, r.test_cut, peak.0, peak.1
+                    r.dt_ms,
+                    r.nmte,
+                    r.dtw_nmte,
+                    zero,
+                    r.x_pred.len(),
+                    r.stop,
+                    r.test_cut,
+                    peak.0,
+                    peak.1
                 );
                 assert!(r.stop.is_none() && r.x_pred.len() == r.x_true.len(), "dt {}: {:?}", r.dt_ms, r.stop);
                 assert!(r.t.last().unwrap() - r.t[0] > 20.0, "dt {}: horizon", r.dt_ms);
@@ -434,7 +515,11 @@ mod tests {
         use crate::full_system::{DEFAULT_SCAN_PERIODS, ESCAPE_THETA, default_ics};
         for (dt, escapes) in [(31.25, false), (31.3, true)] {
             let m = pm.model_at(dt, Interp::Linear).unwrap();
-            let outs: Vec<_> = default_ics(dt).unwrap().iter().map(|ic| map_outcome(&m, dt, ic, DEFAULT_SCAN_PERIODS, ESCAPE_THETA).unwrap()).collect();
+            let outs: Vec<_> = default_ics(dt)
+                .unwrap()
+                .iter()
+                .map(|ic| map_outcome(&m, dt, ic, DEFAULT_SCAN_PERIODS, ESCAPE_THETA).unwrap())
+                .collect();
             eprintln!("map at {dt} ms: {outs:?}");
             assert_eq!(outs.iter().any(|o| !o.bounded()), escapes, "dt {dt}: {outs:?}");
             if !escapes {
@@ -447,5 +532,4 @@ mod tests {
         assert!(matches!(map_outcome(&m, 31.1, ic, 100, ESCAPE_THETA), Err(Error::BadInput { what: "dt_ms", .. })));
         assert!(matches!(map_outcome(&m, 31.0, ic, 5, ESCAPE_THETA), Err(Error::BadInput { what: "periods", .. })));
     }
-
 }

@@ -62,22 +62,45 @@ pub struct VerdictOptions {
 impl VerdictOptions {
     /// The report's quick settings (a few seconds of CPU).
     pub fn quick() -> Self {
-        Self { periods: 6000, theta0: 0.02, tangent_periods: 800, twin_starts: 6, twin_periods: 320, twin_deltas: vec![1e-9, 1e-6, 1e-3], surrogates: 19, zero_one_c: 100 }
+        Self {
+            periods: 6000,
+            theta0: 0.02,
+            tangent_periods: 800,
+            twin_starts: 6,
+            twin_periods: 320,
+            twin_deltas: vec![1e-9, 1e-6, 1e-3],
+            surrogates: 19,
+            zero_one_c: 100,
+        }
     }
     /// The full report's settings.
     pub fn full() -> Self {
-        Self { periods: 20000, tangent_periods: 6000, twin_starts: 16, twin_periods: 600, twin_deltas: vec![1e-9, 1e-7, 1e-5, 1e-3], surrogates: 39, ..Self::quick() }
+        Self {
+            periods: 20000,
+            tangent_periods: 6000,
+            twin_starts: 16,
+            twin_periods: 600,
+            twin_deltas: vec![1e-9, 1e-7, 1e-5, 1e-3],
+            surrogates: 39,
+            ..Self::quick()
+        }
     }
     fn validate(&self) -> Result<(), Error> {
         let bad = |what: &'static str, why: String| Err(Error::BadOption { what, why });
         if self.periods < 2000 {
-            return bad("periods", format!("{} < 2000 (the series tests need about 1000 samples after the transient)", self.periods));
+            return bad(
+                "periods",
+                format!("{} < 2000 (the series tests need about 1000 samples after the transient)", self.periods),
+            );
         }
         if self.tangent_periods < 100 {
             return bad("tangent_periods", format!("{} < 100", self.tangent_periods));
         }
         if self.twin_starts == 0 || self.twin_periods < 10 {
-            return bad("twin_starts / twin_periods", format!("{} starts of {} periods (need >= 1 and >= 10)", self.twin_starts, self.twin_periods));
+            return bad(
+                "twin_starts / twin_periods",
+                format!("{} starts of {} periods (need >= 1 and >= 10)", self.twin_starts, self.twin_periods),
+            );
         }
         if let Some(d) = self.twin_deltas.iter().find(|d| !(d.is_finite() && **d > 0.0 && **d < 1e-2)) {
             return bad("twin_deltas", format!("{d} is not in (0, 1e-2) rad"));
@@ -117,17 +140,30 @@ pub fn series_tests(name: &str, x: &[f64], ctx: &Context, o: &VerdictOptions) ->
     let n = x.len() as f64;
     let mean = x.iter().sum::<f64>() / n;
     let std = (x.iter().map(|v| (v - mean) * (v - mean)).sum::<f64>() / n).sqrt();
-    let zero_one = chaos::zero_one_test(x, &ZeroOneParams { n_c: o.zero_one_c, stride: ctx.lag, ..Default::default() })?;
+    let zero_one =
+        chaos::zero_one_test(x, &ZeroOneParams { n_c: o.zero_one_c, stride: ctx.lag, ..Default::default() })?;
     let pts = chaos::delay_embed(x, ctx.embed, ctx.lag)?;
     // Scales from a tenth of the standard deviation (times sqrt(m): distances in the
     // embedding) up by sqrt(2) to about the attractor's size.
     let unit = std * (ctx.embed as f64).sqrt();
     let delta = chaos::thresholds(0.1 * unit, 2f64.sqrt(), 9)?;
-    let fp = FsleSeriesParams { theiler: ctx.theiler, max_refs: 1000, horizon: (10 * ctx.theiler).min(x.len() / 4), dt: ctx.dt };
+    let fp = FsleSeriesParams {
+        theiler: ctx.theiler,
+        max_refs: 1000,
+        horizon: (10 * ctx.theiler).min(x.len() / 4),
+        dt: ctx.dt,
+    };
     let (fsle, fsle_pairs) = chaos::fsle_series(&pts, &delta, &fp)?;
     let fsle_slope = chaos::scaling_slope(&fsle, 30).ok();
     let sp = SurrogateParams { surrogates: o.surrogates, max_len: 4096, max_iter: 100, seed: 1, ..Default::default() };
-    let pe = Statistic::PredictionError { m: ctx.embed, tau: ctx.lag, horizon: ctx.lag, neighbours: 5, theiler: ctx.theiler, refs: 500 };
+    let pe = Statistic::PredictionError {
+        m: ctx.embed,
+        tau: ctx.lag,
+        horizon: ctx.lag,
+        neighbours: 5,
+        theiler: ctx.theiler,
+        refs: 500,
+    };
     let mut tests = chaos::surrogate_tests(x, &[pe, Statistic::TimeReversal { lag: ctx.lag }], &sp)?.into_iter();
     let (Some(surrogate_prediction), Some(surrogate_time_reversal)) = (tests.next(), tests.next()) else {
         return Err(Error::BadInput { what: "surrogate test", why: "fewer results than statistics".into() });
@@ -151,7 +187,13 @@ pub fn series_tests(name: &str, x: &[f64], ctx: &Context, o: &VerdictOptions) ->
 /// One period of the plant's flow under held input `u` by classical RK4 in dual numbers:
 /// the end state and the Jacobians `d x(dt) / d x(0)` (row-major 4 x 4) and `d x(dt) / d u`.
 /// `steps` RK4 steps (the exact derivative of the RK4 map).
-pub fn flow_jacobian<P: Plant<4>>(p: &P, x: &[f64; 4], u: f64, dt: f64, steps: usize) -> ([f64; 4], [[f64; 4]; 4], [f64; 4]) {
+pub fn flow_jacobian<P: Plant<4>>(
+    p: &P,
+    x: &[f64; 4],
+    u: f64,
+    dt: f64,
+    steps: usize,
+) -> ([f64; 4], [[f64; 4]; 4], [f64; 4]) {
     type D = Dual<5>;
     let mut s: [D; 4] = std::array::from_fn(|i| D::var(x[i], i));
     let ud = D::var(u, 4);
@@ -200,7 +242,12 @@ pub struct PeriodMapExponents {
 /// it was built from: rows `0..n` of the map are `[Phi 0] + Gamma g^T`.
 fn law_row(m: &DMatrix<f64>, phi: &DMatrix<f64>, gamma: &nalgebra::DVector<f64>) -> Result<Vec<f64>, Error> {
     let n = phi.nrows();
-    let (r, gr) = gamma.iter().copied().enumerate().max_by(|a, b| a.1.abs().total_cmp(&b.1.abs())).ok_or(Error::BadInput { what: "ZOH", why: "empty input column".into() })?;
+    let (r, gr) = gamma
+        .iter()
+        .copied()
+        .enumerate()
+        .max_by(|a, b| a.1.abs().total_cmp(&b.1.abs()))
+        .ok_or(Error::BadInput { what: "ZOH", why: "empty input column".into() })?;
     if gr == 0.0 {
         return Err(Error::BadInput { what: "ZOH", why: "the input does not reach the plant".into() });
     }
@@ -208,21 +255,39 @@ fn law_row(m: &DMatrix<f64>, phi: &DMatrix<f64>, gamma: &nalgebra::DVector<f64>)
 }
 
 /// [`PeriodMapExponents`] of a quantized scene along `traj` (rows `skip..skip + periods`).
-pub fn period_map_exponents(scene: &Scene, traj: &Trajectory, skip: usize, periods: usize) -> Result<PeriodMapExponents, Error> {
+pub fn period_map_exponents(
+    scene: &Scene,
+    traj: &Trajectory,
+    skip: usize,
+    periods: usize,
+) -> Result<PeriodMapExponents, Error> {
     let AnyPlant::Furuta(plant) = build_plant(scene)? else {
-        return Err(Error::BadInput { what: "scene", why: format!("{}: the period-map exponents are for the Furuta plant", scene.name) });
+        return Err(Error::BadInput {
+            what: "scene",
+            why: format!("{}: the period-map exponents are for the Furuta plant", scene.name),
+        });
     };
     if traj.rows() < skip + periods + 1 {
-        return Err(Error::BadInput { what: "trajectory", why: format!("{} rows < {} needed", traj.rows(), skip + periods + 1) });
+        return Err(Error::BadInput {
+            what: "trajectory",
+            why: format!("{} rows < {} needed", traj.rows(), skip + periods + 1),
+        });
     }
     let cfg = scene.controller_config();
     let dt = cfg.dt;
     let (a, b) = sim::plant::linearize(&plant);
-    let lp = sim::linear::LinearPlant::new(&a, &b, <sim::plant::Furuta as Plant<4>>::PRIMARY, <sim::plant::Furuta as Plant<4>>::SECONDARY)?;
+    let lp = sim::linear::LinearPlant::new(
+        &a,
+        &b,
+        <sim::plant::Furuta as Plant<4>>::PRIMARY,
+        <sim::plant::Furuta as Plant<4>>::SECONDARY,
+    )?;
     let zoh = lp.discretize(dt)?;
     let cl = zoh.closed_loop(&cfg)?;
     let g = law_row(&cl.matrix, &zoh.phi, &zoh.gamma)?;
-    let rho = |m: &DMatrix<f64>| -> Result<f64, Error> { Ok(sim::linear::eigenvalues(m)?.iter().map(|c| c.norm()).fold(0.0, f64::max)) };
+    let rho = |m: &DMatrix<f64>| -> Result<f64, Error> {
+        Ok(sim::linear::eigenvalues(m)?.iter().map(|c| c.norm()).fold(0.0, f64::max))
+    };
     let open_loop_rate = rho(&zoh.phi)?.ln() / dt;
     let linear_closed_loop_rate = rho(&cl.matrix)?.ln() / dt;
     let a_norm = (0..4).map(|j| (0..4).map(|i| a[(i, j)].abs()).sum::<f64>()).fold(0.0, f64::max);
@@ -306,14 +371,27 @@ pub struct TwinStudy {
 /// Twin runs of `scene` restarted from `starts` points on `traj` (row, state and the
 /// controller's pre-history), unperturbed and with theta moved by each of `deltas0`, followed
 /// for `periods`; FSLE over thresholds from the smallest initial separation up to 0.2 rad.
-pub fn twin_divergence(scene: &Scene, traj: &Trajectory, skip: usize, starts: usize, periods: usize, deltas0: &[f64]) -> Result<TwinStudy, Error> {
+pub fn twin_divergence(
+    scene: &Scene,
+    traj: &Trajectory,
+    skip: usize,
+    starts: usize,
+    periods: usize,
+    deltas0: &[f64],
+) -> Result<TwinStudy, Error> {
     let dt = traj.dt;
     let rows = traj.rows();
     if rows < skip + 3 {
-        return Err(Error::BadInput { what: "trajectory", why: format!("{rows} rows, the twins start after row {skip}") });
+        return Err(Error::BadInput {
+            what: "trajectory",
+            why: format!("{rows} rows, the twins start after row {skip}"),
+        });
     }
     let starts_at: Vec<usize> = (0..starts).map(|k| skip + 2 + k * (rows - skip - 3) / starts.max(1)).collect();
-    let tasks: Vec<(usize, Option<f64>)> = starts_at.iter().flat_map(|&r| std::iter::once((r, None)).chain(deltas0.iter().map(move |&d| (r, Some(d))))).collect();
+    let tasks: Vec<(usize, Option<f64>)> = starts_at
+        .iter()
+        .flat_map(|&r| std::iter::once((r, None)).chain(deltas0.iter().map(move |&d| (r, Some(d)))))
+        .collect();
     let runs = crate::par_map(&tasks, |&(r, d)| -> Result<Vec<[f64; 3]>, Error> {
         let mut x: Vec<f64> = (0..4).map(|i| traj.state(r, i)).collect();
         x[0] += d.unwrap_or(0.0);
@@ -333,7 +411,11 @@ pub fn twin_divergence(scene: &Scene, traj: &Trajectory, skip: usize, starts: us
             hi = hi.max(p[0]);
         });
         for (k, twin) in chunk[1..].iter().enumerate() {
-            let d: Vec<f64> = base.iter().zip(twin).map(|(a, b)| ((a[0] - b[0]).powi(2) + (a[1] - b[1]).powi(2) + (a[2] - b[2]).powi(2)).sqrt()).collect();
+            let d: Vec<f64> = base
+                .iter()
+                .zip(twin)
+                .map(|(a, b)| ((a[0] - b[0]).powi(2) + (a[1] - b[1]).powi(2) + (a[2] - b[2]).powi(2)).sqrt())
+                .collect();
             if let Some(i) = d.iter().position(|&v| v >= H_ADC) {
                 time_to_h[k].0 += i as f64 * dt;
                 time_to_h[k].1 += 1.0;
@@ -357,7 +439,11 @@ pub fn twin_divergence(scene: &Scene, traj: &Trajectory, skip: usize, starts: us
     Ok(TwinStudy {
         deltas0: deltas0.to_vec(),
         fsle,
-        time_to_h: deltas0.iter().zip(&time_to_h).map(|(&d, &(t, c, n))| (d, (c > 0.0).then(|| t / c), c / n.max(1) as f64)).collect(),
+        time_to_h: deltas0
+            .iter()
+            .zip(&time_to_h)
+            .map(|(&d, &(t, c, n))| (d, (c > 0.0).then(|| t / c), c / n.max(1) as f64))
+            .collect(),
         theta_range: hi - lo,
         starts,
         periods,
@@ -460,7 +546,12 @@ impl From<&Verdict> for MicrochaosVerdictSummary {
 /// Mean twin FSLE over the bands inside `[lo, hi]` (lower and upper thresholds) with a value
 /// and at least 3 pairs, and the slope of ln lambda against ln delta over them.
 fn band_rate(rows: &[FsleRow], lo: f64, hi: f64) -> (Option<f64>, Option<f64>) {
-    let inside: Vec<&FsleRow> = rows.windows(2).filter(|w| w[0].delta >= lo * (1.0 - 1e-9) && w[1].delta <= hi * (1.0 + 1e-9)).map(|w| &w[0]).filter(|r| r.pairs >= 3 && r.lambda.is_some()).collect();
+    let inside: Vec<&FsleRow> = rows
+        .windows(2)
+        .filter(|w| w[0].delta >= lo * (1.0 - 1e-9) && w[1].delta <= hi * (1.0 + 1e-9))
+        .map(|w| &w[0])
+        .filter(|r| r.pairs >= 3 && r.lambda.is_some())
+        .collect();
     let lam: Vec<f64> = inside.iter().filter_map(|r| r.lambda).collect();
     let mean = (!lam.is_empty()).then(|| lam.iter().sum::<f64>() / lam.len() as f64);
     let owned: Vec<FsleRow> = inside.into_iter().copied().collect();
@@ -475,22 +566,32 @@ pub fn microchaos_verdict(pil: Option<&TimeSeries>, o: &VerdictOptions) -> Resul
     let scenes = ["furuta-quant-dt25", "furuta-dt25", "furuta-quant-dt25-noise"];
     let built: Vec<Scene> = scenes
         .iter()
-        .map(|name| Ok(SceneBuilder::load(name)?.periods(o.periods as u64).initial_state(&[o.theta0, 0.0, 0.0, 0.0]).build()?))
+        .map(|name| {
+            Ok(SceneBuilder::load(name)?.periods(o.periods as u64).initial_state(&[o.theta0, 0.0, 0.0, 0.0]).build()?)
+        })
         .collect::<Result<_, Error>>()?;
     let sims = crate::par_map(&built, crate::microchaos::simulate_shared)?;
     let quant_traj = &sims[0];
     let dt = quant_traj.dt;
     let skip = (20.0 / dt) as usize;
     if skip + 1000 >= quant_traj.rows() {
-        return Err(Error::BadOption { what: "periods", why: format!("{} periods leave fewer than 1000 after the 20 s transient", o.periods) });
+        return Err(Error::BadOption {
+            what: "periods",
+            why: format!("{} periods leave fewer than 1000 after the 20 s transient", o.periods),
+        });
     }
-    let mut named: Vec<(String, Vec<f64>)> = scenes.iter().zip(&sims).map(|(n, t)| (format!("{n} (simulated theta)"), t.primary()[skip..].to_vec())).collect();
+    let mut named: Vec<(String, Vec<f64>)> = scenes
+        .iter()
+        .zip(&sims)
+        .map(|(n, t)| (format!("{n} (simulated theta)"), t.primary()[skip..].to_vec()))
+        .collect();
     let noisy_source = match pil {
         Some(ts) => {
             named.push((format!("PIL recording: {}", ts.name), ts.x.clone()));
             format!("the PIL recording {} and the simulated noisy scene", ts.name)
         }
-        None => "no PIL recording: the simulated scene furuta-quant-dt25-noise (same noise settings) stands in for it".into(),
+        None => "no PIL recording: the simulated scene furuta-quant-dt25-noise (same noise settings) stands in for it"
+            .into(),
     };
     // One set of estimator settings, from the noise-free quantized series, for every series.
     let ctx = Context::from_series(&named[0].1, dt, 6)?;
@@ -498,16 +599,22 @@ pub fn microchaos_verdict(pil: Option<&TimeSeries>, o: &VerdictOptions) -> Resul
     let tangent_periods = o.tangent_periods.min(quant_traj.rows() - skip - 1);
     let period_map = period_map_exponents(&built[0], quant_traj, skip, tangent_periods)?;
     let twin_sets = [(0usize, &built[0]), (2, &built[2])];
-    let mut tw = crate::par_map(&twin_sets, |&(k, s)| twin_divergence(s, &sims[k], skip, o.twin_starts, o.twin_periods, &o.twin_deltas))?.into_iter();
+    let mut tw = crate::par_map(&twin_sets, |&(k, s)| {
+        twin_divergence(s, &sims[k], skip, o.twin_starts, o.twin_periods, &o.twin_deltas)
+    })?
+    .into_iter();
     let (Some(twins), Some(twins_noisy)) = (tw.next(), tw.next()) else {
         return Err(Error::BadInput { what: "twin runs", why: "fewer studies than scenes".into() });
     };
     let (rate_below_step, _) = band_rate(&twins.fsle, 0.0, H_ADC / 100.0);
-    let chaotic = rate_below_step.is_some_and(|r| r > 0.0 && (r - period_map.quantized_tangent).abs() <= 0.3 * period_map.quantized_tangent.abs());
+    let chaotic = rate_below_step.is_some_and(|r| {
+        r > 0.0 && (r - period_map.quantized_tangent).abs() <= 0.3 * period_map.quantized_tangent.abs()
+    });
     let attractor_scales = (5.0 * H_ADC, 0.3 * twins.theta_range);
     let (attractor_rate, attractor_slope) = band_rate(&twins.fsle, attractor_scales.0, attractor_scales.1);
     let q = &series[0];
-    let chaotic_at_attractor_scale = attractor_rate.is_some_and(|r| r > 0.0) && attractor_slope.is_some_and(|s| s > -0.5) && q.zero_one.k > 0.5;
+    let chaotic_at_attractor_scale =
+        attractor_rate.is_some_and(|r| r > 0.0) && attractor_slope.is_some_and(|s| s > -0.5) && q.zero_one.k > 0.5;
     let f2 = |v: Option<f64>| v.map_or("-".to_string(), |v| format!("{v:.2}"));
     let noisy = &series[2];
     let smooth = &series[1];
@@ -591,9 +698,19 @@ mod tests {
         assert_eq!(end, [0.0; 4]);
         for i in 0..4 {
             for j in 0..4 {
-                assert!((jx[i][j] - zoh.phi[(i, j)]).abs() < 1e-7 * zoh.phi[(i, j)].abs().max(1.0), "{i} {j}: {} vs {}", jx[i][j], zoh.phi[(i, j)]);
+                assert!(
+                    (jx[i][j] - zoh.phi[(i, j)]).abs() < 1e-7 * zoh.phi[(i, j)].abs().max(1.0),
+                    "{i} {j}: {} vs {}",
+                    jx[i][j],
+                    zoh.phi[(i, j)]
+                );
             }
-            assert!((ju[i] - zoh.gamma[i]).abs() < 1e-7 * zoh.gamma[i].abs().max(1e-3), "{i}: {} vs {}", ju[i], zoh.gamma[i]);
+            assert!(
+                (ju[i] - zoh.gamma[i]).abs() < 1e-7 * zoh.gamma[i].abs().max(1e-3),
+                "{i}: {} vs {}",
+                ju[i],
+                zoh.gamma[i]
+            );
         }
     }
 
@@ -632,7 +749,8 @@ mod tests {
         let plant = sim::plant::Furuta::paper();
         let (a, b) = sim::plant::linearize(&plant);
         let cl = sim::linear::LinearPlant::new(&a, &b, 0, 2).unwrap().closed_loop(&s.controller_config()).unwrap();
-        let mut mu: Vec<f64> = sim::linear::eigenvalues(&cl.matrix).unwrap().iter().map(|c| c.norm().ln() / 0.025).collect();
+        let mut mu: Vec<f64> =
+            sim::linear::eigenvalues(&cl.matrix).unwrap().iter().map(|c| c.norm().ln() / 0.025).collect();
         mu.sort_by(|x, y| y.total_cmp(x));
         assert!((e.linear_closed_loop_rate - mu[0]).abs() < 1e-9);
         for k in 0..3 {
@@ -651,7 +769,9 @@ mod tests {
         let r = 1000;
         let x: Vec<f64> = (0..4).map(|i| t.state(r, i)).collect();
         let hist = [[t.state(r - 2, 0), t.state(r - 2, 2)], [t.state(r - 1, 0), t.state(r - 1, 2)]];
-        let re = simulate(&s.clone().builder().periods(100).initial_state(&x).history(Some(&hist)).build().unwrap(), None).unwrap();
+        let re =
+            simulate(&s.clone().builder().periods(100).initial_state(&x).history(Some(&hist)).build().unwrap(), None)
+                .unwrap();
         let (c0, c1) = (t.codes.as_ref().unwrap(), re.codes.as_ref().unwrap());
         for k in 0..=40 {
             assert_eq!(c0[r + k].code, c1[k].code, "period {k}");

@@ -39,11 +39,14 @@ pub fn windows(obj: Option<&Bound<'_, PyAny>>, n: usize, what: &str) -> PyResult
     if let Ok(v) = obj.extract::<f64>() {
         return Ok(vec![Some(v); n]);
     }
-    let v: Vec<Option<f64>> = obj
-        .extract()
-        .map_err(|_| value_error(format!("{what}: expected None, a number or a sequence of numbers/None, one per trajectory")))?;
+    let v: Vec<Option<f64>> = obj.extract().map_err(|_| {
+        value_error(format!("{what}: expected None, a number or a sequence of numbers/None, one per trajectory"))
+    })?;
     if v.len() != n {
-        return Err(value_error(format!("{what}: {} values for {n} trajectories; give one for all, or one per trajectory", v.len())));
+        return Err(value_error(format!(
+            "{what}: {} values for {n} trajectories; give one for all, or one per trajectory",
+            v.len()
+        )));
     }
     Ok(v)
 }
@@ -65,7 +68,9 @@ pub fn observable_names(obj: Option<&Bound<'_, PyAny>>) -> PyResult<Option<Vec<S
         return Ok(Some(vec![one(obj)?]));
     }
     let mut out = Vec::new();
-    for item in obj.try_iter().map_err(|_| value_error("observables: expected a name, a row number or a sequence of them"))? {
+    for item in
+        obj.try_iter().map_err(|_| value_error("observables: expected a name, a row number or a sequence of them"))?
+    {
         out.push(one(&item?)?);
     }
     if out.is_empty() {

@@ -38,7 +38,9 @@ fn trajectories(obj: &Bound<'_, PyAny>, what: &str) -> PyResult<Vec<MultiSeries>
     let it = obj.try_iter().map_err(|_| value_error(format!("{what}: expected a Trajectory or a list of them")))?;
     for item in it {
         let item = item?;
-        let t = item.cast::<Trajectory>().map_err(|_| value_error(format!("{what}: `{item}` is not a Trajectory (ssm_ctl.Trajectory(t, x), load_csv, load_mat)")))?;
+        let t = item.cast::<Trajectory>().map_err(|_| {
+            value_error(format!("{what}: `{item}` is not a Trajectory (ssm_ctl.Trajectory(t, x), load_csv, load_mat)"))
+        })?;
         out.push(t.get().inner.clone());
     }
     if out.is_empty() {
@@ -53,15 +55,23 @@ fn parse_dynamics(s: &str, centers: usize) -> PyResult<Dynamics> {
         "map" => Ok(Dynamics::Map),
         "rbf" => Ok(Dynamics::Rbf { centers }),
         _ => match s.strip_prefix("rbf:") {
-            Some(k) => ssm::Kernel::parse(k).map(|kernel| Dynamics::RbfWith { centers, kernel }).map_err(|e| value_error(format!("dynamics `{s}`: {e}"))),
-            None => Err(value_error(format!("dynamics `{s}`: expected flow, map or rbf (or rbf:KERNEL, KERNEL: linear, cubic, thin-plate, gaussian:EPS)"))),
+            Some(k) => ssm::Kernel::parse(k)
+                .map(|kernel| Dynamics::RbfWith { centers, kernel })
+                .map_err(|e| value_error(format!("dynamics `{s}`: {e}"))),
+            None => Err(value_error(format!(
+                "dynamics `{s}`: expected flow, map or rbf (or rbf:KERNEL, KERNEL: linear, cubic, thin-plate, gaussian:EPS)"
+            ))),
         },
     }
 }
 
 fn parse_ridge(obj: &Bound<'_, PyAny>) -> PyResult<Ridge> {
     if let Ok(s) = obj.extract::<String>() {
-        return if s == "cv" { Ok(Ridge::CrossValidated) } else { Err(value_error(format!("ridge `{s}`: expected a number >= 0 or \"cv\""))) };
+        return if s == "cv" {
+            Ok(Ridge::CrossValidated)
+        } else {
+            Err(value_error(format!("ridge `{s}`: expected a number >= 0 or \"cv\"")))
+        };
     }
     match obj.extract::<f64>() {
         Ok(a) if a.is_finite() && a >= 0.0 => Ok(Ridge::Fixed(a)),
@@ -122,11 +132,12 @@ pub fn fit(
         linear_anchor,
         anchor_joint,
     };
-    let (model, secs) = py.detach(|| {
-        let t0 = std::time::Instant::now();
-        fit_multi(&train, &opts).map(|m| (m, t0.elapsed().as_secs_f64()))
-    })
-    .map_err(value_error)?;
+    let (model, secs) = py
+        .detach(|| {
+            let t0 = std::time::Instant::now();
+            fit_multi(&train, &opts).map(|m| (m, t0.elapsed().as_secs_f64()))
+        })
+        .map_err(value_error)?;
     Ok(Model { inner: model, fit_seconds: Some(secs) })
 }
 
@@ -149,14 +160,16 @@ pub fn inspect_blob<'py>(py: Python<'py>, blob: &[u8]) -> PyResult<Bound<'py, Py
     let bytes = blob.to_vec();
     // The fixed-capacity decoder is several MB: decoded on a thread with room for it.
     let decoded = py.detach(move || {
-        std::thread::Builder::new().stack_size(64 << 20).spawn(move || {
-            let mut m = Box::new(HostModel::empty());
-            m.decode_into(&bytes).map(|_| (m.p(), m.d(), m.k(), m.lift_order(), m.sample_period(), m.config().dt))
-        })
-        .map_err(|e| format!("blob: cannot start the decoder: {e}"))?
-        .join()
-        .map_err(|_| "blob: the decoder failed".to_string())?
-        .map_err(|e| format!("blob: {e}"))
+        std::thread::Builder::new()
+            .stack_size(64 << 20)
+            .spawn(move || {
+                let mut m = Box::new(HostModel::empty());
+                m.decode_into(&bytes).map(|_| (m.p(), m.d(), m.k(), m.lift_order(), m.sample_period(), m.config().dt))
+            })
+            .map_err(|e| format!("blob: cannot start the decoder: {e}"))?
+            .join()
+            .map_err(|_| "blob: the decoder failed".to_string())?
+            .map_err(|e| format!("blob: {e}"))
     });
     let (p, d, k, lift_order, sample_period, dt) = decoded.map_err(value_error)?;
     let out = PyDict::new(py);
@@ -254,7 +267,13 @@ impl Model {
     /// `freq_rad_s`, `damping_ratio` (`-Re lambda/|lambda|`), `rate`, `rho`, from 0 to
     /// `amplitude` in `points` steps.
     #[pyo3(signature = (amplitude, observable=0, points=101))]
-    fn backbone<'py>(&self, py: Python<'py>, amplitude: f64, observable: usize, points: usize) -> PyResult<Bound<'py, PyList>> {
+    fn backbone<'py>(
+        &self,
+        py: Python<'py>,
+        amplitude: f64,
+        observable: usize,
+        points: usize,
+    ) -> PyResult<Bound<'py, PyList>> {
         let opts = BackboneOptions { points, ..BackboneOptions::new(observable, amplitude) };
         let curves = py.detach(|| backbone(&self.inner, &opts)).map_err(value_error)?;
         let out = PyList::empty(py);
@@ -262,7 +281,8 @@ impl Model {
             let d = PyDict::new(py);
             d.set_item("mode", c.mode)?;
             d.set_item("observable", c.observable)?;
-            let col = |f: fn(&ssm::backbone::BackbonePoint) -> f64| PyArray1::from_vec(py, c.points.iter().map(f).collect());
+            let col =
+                |f: fn(&ssm::backbone::BackbonePoint) -> f64| PyArray1::from_vec(py, c.points.iter().map(f).collect());
             d.set_item("amplitude", col(|p| p.amplitude))?;
             d.set_item("freq_rad_s", col(|p| p.freq_rad_s))?;
             d.set_item("damping_ratio", col(|p| p.damping_ratio))?;
@@ -326,7 +346,8 @@ impl Model {
     /// The device blob (bytes) of an RBF model of one observable, for the paper's controller
     /// at the model's sampling step (what `ssmctl export` writes without `--scene`).
     fn device_blob<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyBytes>> {
-        let owned = ssm::device::to_device_model(&self.inner, shared::ControllerConfig::paper(self.inner.dt)).map_err(value_error)?;
+        let owned = ssm::device::to_device_model(&self.inner, shared::ControllerConfig::paper(self.inner.dt))
+            .map_err(value_error)?;
         let blob = ssm::device::encode(&owned).map_err(value_error)?;
         Ok(PyBytes::new(py, &blob))
     }
@@ -354,7 +375,10 @@ impl Model {
     fn load(path: std::path::PathBuf) -> PyResult<Model> {
         let text = ssm::limits::read_text_limited(&path, ssm::limits::MAX_MODEL_FILE_BYTES)
             .map_err(|e| value_error(format!("reading {}: {e}", path.display())))?;
-        Ok(Model { inner: SsmModel::from_json(&text).map_err(|e| value_error(format!("{}: {e}", path.display())))?, fit_seconds: None })
+        Ok(Model {
+            inner: SsmModel::from_json(&text).map_err(|e| value_error(format!("{}: {e}", path.display())))?,
+            fit_seconds: None,
+        })
     }
 
     fn __repr__(&self) -> String {

@@ -47,7 +47,11 @@ impl Trajectory {
                     "{name}: x is {q} x {m} for {n} times: samples go along the first axis, shape ({n}, q) (x.T for SSMLearn's X)"
                 )));
             }
-            _ => return Err(value_error(format!("{name}: x has shape {xs:?}; expected ({n},) or ({n}, q) for {n} times"))),
+            _ => {
+                return Err(value_error(format!(
+                    "{name}: x has shape {xs:?}; expected ({n},) or ({n}, q) for {n} times"
+                )));
+            }
         };
         let observables = observables.unwrap_or_else(|| (1..=q).map(|i| i.to_string()).collect());
         if observables.len() != q {
@@ -91,8 +95,14 @@ impl Trajectory {
     }
 
     fn __repr__(&self) -> String {
-        let (a, b) = (self.inner.t.first().copied().unwrap_or(f64::NAN), self.inner.t.last().copied().unwrap_or(f64::NAN));
-        format!("Trajectory({:?}, {} samples, t = {a} .. {b} s, observables {:?})", self.inner.name, self.inner.len(), self.inner.observables)
+        let (a, b) =
+            (self.inner.t.first().copied().unwrap_or(f64::NAN), self.inner.t.last().copied().unwrap_or(f64::NAN));
+        format!(
+            "Trajectory({:?}, {} samples, t = {a} .. {b} s, observables {:?})",
+            self.inner.name,
+            self.inner.len(),
+            self.inner.observables
+        )
     }
 
     /// The samples with `start <= t <= end` (either may be None), as SSMLearn's
@@ -119,7 +129,12 @@ fn all(o: &[String]) -> bool {
 /// `"all"`, or column names (several observables).
 #[pyfunction]
 #[pyo3(signature = (path, observables=None, column=None))]
-pub fn load_csv(py: Python<'_>, path: std::path::PathBuf, observables: Option<&Bound<'_, PyAny>>, column: Option<String>) -> PyResult<Trajectory> {
+pub fn load_csv(
+    py: Python<'_>,
+    path: std::path::PathBuf,
+    observables: Option<&Bound<'_, PyAny>>,
+    column: Option<String>,
+) -> PyResult<Trajectory> {
     let names = observable_names(observables)?;
     if names.is_some() && column.is_some() {
         return Err(value_error("load_csv: give observables or column, not both"));
@@ -141,7 +156,12 @@ pub fn load_csv(py: Python<'_>, path: std::path::PathBuf, observables: Option<&B
 /// `ValueError` saying how to convert it.
 #[pyfunction]
 #[pyo3(signature = (path, var="xData", observables=None))]
-pub fn load_mat(py: Python<'_>, path: std::path::PathBuf, var: &str, observables: Option<&Bound<'_, PyAny>>) -> PyResult<Vec<Trajectory>> {
+pub fn load_mat(
+    py: Python<'_>,
+    path: std::path::PathBuf,
+    var: &str,
+    observables: Option<&Bound<'_, PyAny>>,
+) -> PyResult<Vec<Trajectory>> {
     let names = observable_names(observables)?;
     let trajs = py.detach(|| ssm::load_mat(&path, var)).map_err(value_error)?;
     let trajs = match &names {

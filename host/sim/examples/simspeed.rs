@@ -15,13 +15,29 @@ use sim::closed_loop::simulate;
 use sim::scene::{IntegratorSpec, MethodKind, Scene, SceneBuilder, Task};
 use std::time::Instant;
 
-fn scene(periods: u64, kind: MethodKind, arg: f64, atol_factor: f64, at: &(String, f64, Option<f64>)) -> Result<Scene, Box<dyn std::error::Error>> {
-    let mut b = SceneBuilder::load(&at.0)?.periods(periods).initial_state(&[at.1, 0.0, 0.0, 0.0]).tasks(&[Task::Simulate]);
+fn scene(
+    periods: u64,
+    kind: MethodKind,
+    arg: f64,
+    atol_factor: f64,
+    at: &(String, f64, Option<f64>),
+) -> Result<Scene, Box<dyn std::error::Error>> {
+    let mut b =
+        SceneBuilder::load(&at.0)?.periods(periods).initial_state(&[at.1, 0.0, 0.0, 0.0]).tasks(&[Task::Simulate]);
     if let Some(dt) = at.2 {
         b = b.dt_ms(dt);
     }
     let mut s = b.build()?;
-    let adaptive = matches!(kind, MethodKind::Rodas | MethodKind::Exprb | MethodKind::ExprbSplit | MethodKind::ExprbLean | MethodKind::ExprbFiltered | MethodKind::Exprb54 | MethodKind::Exprb54Filtered);
+    let adaptive = matches!(
+        kind,
+        MethodKind::Rodas
+            | MethodKind::Exprb
+            | MethodKind::ExprbSplit
+            | MethodKind::ExprbLean
+            | MethodKind::ExprbFiltered
+            | MethodKind::Exprb54
+            | MethodKind::Exprb54Filtered
+    );
     s.integrator = if adaptive {
         IntegratorSpec { method: kind, rtol: Some(arg), atol: Some(arg * atol_factor), steps: None }
     } else {
@@ -32,7 +48,8 @@ fn scene(periods: u64, kind: MethodKind, arg: f64, atol_factor: f64, at: &(Strin
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let args: Vec<String> = std::env::args().collect();
-    let kind: MethodKind = toml::Value::String(args.get(1).cloned().unwrap_or_else(|| "exprb-split".into())).try_into()?;
+    let kind: MethodKind =
+        toml::Value::String(args.get(1).cloned().unwrap_or_else(|| "exprb-split".into())).try_into()?;
     let arg: f64 = args.get(2).map_or(Ok(1e-8), |a| a.parse())?;
     let periods: u64 = args.get(3).map_or(Ok(200), |a| a.parse())?;
     let repeats: usize = args.get(4).map_or(Ok(1), |a| a.parse())?;

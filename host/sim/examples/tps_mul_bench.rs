@@ -17,7 +17,9 @@ fn main() {
         let Some(t) = TpsTable::get(4, order) else { continue };
         for odd in [false, true] {
             let coef = |r: &mut dyn FnMut() -> f64| -> Vec<f64> {
-                (0..t.len()).map(|i| if odd && t.exponents()[i].iter().sum::<u32>() % 2 == 0 { 0.0 } else { r() }).collect()
+                (0..t.len())
+                    .map(|i| if odd && t.exponents()[i].iter().sum::<u32>() % 2 == 0 { 0.0 } else { r() })
+                    .collect()
             };
             let a = Tps::from_coefficients(t, &coef(&mut rnd));
             let b = Tps::from_coefficients(t, &coef(&mut rnd));

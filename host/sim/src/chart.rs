@@ -177,7 +177,8 @@ pub fn compute_chart(
         return Err(ChartError::BadPeriod(dt));
     }
     // Panels in parallel, collected in input order; the first error in that order wins.
-    let panels: Vec<Result<Panel, ChartError>> = dts_s.par_iter().map(|&dt| compute_panel(plant, base, dt, kp, kd)).collect();
+    let panels: Vec<Result<Panel, ChartError>> =
+        dts_s.par_iter().map(|&dt| compute_panel(plant, base, dt, kp, kd)).collect();
     let panels = panels.into_iter().collect::<Result<Vec<_>, _>>()?;
     Ok(Chart { kp, kd, base: *base, panels })
 }
@@ -221,7 +222,10 @@ pub fn assemble_panel(
         return Err(ChartError::BadPeriod(dt));
     }
     if points.len() != kp.n * kd.n {
-        return Err(ChartError::BadAxis { axis: "KP x KD", reason: format!("{} points given for a {} x {} grid", points.len(), kp.n, kd.n) });
+        return Err(ChartError::BadAxis {
+            axis: "KP x KD",
+            reason: format!("{} points given for a {} x {} grid", points.len(), kp.n, kd.n),
+        });
     }
     let zoh = plant.discretize(dt)?;
     let (radius, unstable_kind): (Vec<f64>, Vec<Option<Crossing>>) = points.iter().copied().unzip();
@@ -245,10 +249,8 @@ fn compute_panel(
     let row = |i: usize| -> Result<Vec<(f64, Option<Crossing>)>, LinearError> {
         (0..kp.n).map(|j| classify(&zoh, &ControllerConfig { kp: kp.at(j), kd: kd.at(i), dt, ..*base })).collect()
     };
-    let (rows, curves) = rayon::join(
-        || (0..kd.n).into_par_iter().map(row).collect::<Vec<_>>(),
-        || d_curves(&zoh, base, kp, kd),
-    );
+    let (rows, curves) =
+        rayon::join(|| (0..kd.n).into_par_iter().map(row).collect::<Vec<_>>(), || d_curves(&zoh, base, kp, kd));
     let mut radius = Vec::with_capacity(n);
     let mut unstable_kind = Vec::with_capacity(n);
     for r in rows {
@@ -384,9 +386,7 @@ fn d_curves(zoh: &Zoh, base: &ControllerConfig, kp: Axis, kd: Axis) -> Result<Ve
         samples.push((omega, solve(omega)?));
     }
     // Refine where consecutive points inside the (extended) window are far apart.
-    let near = |p: (f64, f64)| {
-        p.0 > kp.lo - w && p.0 < kp.hi + w && p.1 > kd.lo - h && p.1 < kd.hi + h
-    };
+    let near = |p: (f64, f64)| p.0 > kp.lo - w && p.0 < kp.hi + w && p.1 > kd.lo - h && p.1 < kd.hi + h;
     let far = |a: (f64, f64), b: (f64, f64)| ((a.0 - b.0) / w).hypot((a.1 - b.1) / h) > 0.004;
     for _ in 0..12 {
         let mut refined = Vec::with_capacity(samples.len());
@@ -424,9 +424,7 @@ fn d_curves(zoh: &Zoh, base: &ControllerConfig, kp: Axis, kd: Axis) -> Result<Ve
     }
     pieces.push(piece);
     for piece in pieces {
-        curves.extend(
-            clip_polyline(&piece, kp, kd).into_iter().map(|pts| Curve::from_clipped(Crossing::Dynamic, pts)),
-        );
+        curves.extend(clip_polyline(&piece, kp, kd).into_iter().map(|pts| Curve::from_clipped(Crossing::Dynamic, pts)));
     }
     Ok(curves)
 }

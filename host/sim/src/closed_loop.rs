@@ -130,9 +130,13 @@ pub fn method_of(scene: &Scene) -> Method {
         MethodKind::ExprbFixed => Method::ExprbFixed { steps: i.steps.unwrap_or(1) },
         MethodKind::ExprbSplit => Method::ExprbSplit { rtol: i.rtol.unwrap_or(1e-10), atol: i.atol.unwrap_or(1e-12) },
         MethodKind::ExprbLean => Method::ExprbLean { rtol: i.rtol.unwrap_or(1e-10), atol: i.atol.unwrap_or(1e-12) },
-        MethodKind::ExprbFiltered => Method::ExprbFiltered { rtol: i.rtol.unwrap_or(1e-10), atol: i.atol.unwrap_or(1e-12) },
+        MethodKind::ExprbFiltered => {
+            Method::ExprbFiltered { rtol: i.rtol.unwrap_or(1e-10), atol: i.atol.unwrap_or(1e-12) }
+        }
         MethodKind::Exprb54 => Method::Exprb54 { rtol: i.rtol.unwrap_or(1e-10), atol: i.atol.unwrap_or(1e-12) },
-        MethodKind::Exprb54Filtered => Method::Exprb54Filtered { rtol: i.rtol.unwrap_or(1e-10), atol: i.atol.unwrap_or(1e-12) },
+        MethodKind::Exprb54Filtered => {
+            Method::Exprb54Filtered { rtol: i.rtol.unwrap_or(1e-10), atol: i.atol.unwrap_or(1e-12) }
+        }
     }
 }
 
@@ -183,7 +187,9 @@ impl Law {
         Ok(match cfg.quant {
             None => Law::Float(FloatPd::try_new(cfg).map_err(err)?),
             Some(q) => match q.mode {
-                QuantMode::Counts => Law::Counts { pd: IntPd::try_new(cfg).map_err(err)?, h_y: q.h_adc, h_z: q.h_adc_phi },
+                QuantMode::Counts => {
+                    Law::Counts { pd: IntPd::try_new(cfg).map_err(err)?, h_y: q.h_adc, h_z: q.h_adc_phi }
+                }
                 QuantMode::Literal => Law::Literal(LiteralPd::try_new(cfg).map_err(err)?),
             },
         })
@@ -203,7 +209,12 @@ pub fn simulate_with<P: Plant<N>, const N: usize>(
     let mut x = [0.0; N];
     if !scene.initial.state.is_empty() {
         if scene.initial.state.len() != N {
-            return Err(SimError::StateLength { scene: name.into(), plant: plant.name(), got: scene.initial.state.len(), need: N });
+            return Err(SimError::StateLength {
+                scene: name.into(),
+                plant: plant.name(),
+                got: scene.initial.state.len(),
+                need: N,
+            });
         }
         x.copy_from_slice(&scene.initial.state);
     }
@@ -213,7 +224,10 @@ pub fn simulate_with<P: Plant<N>, const N: usize>(
     };
     let mut law = Law::new(&cfg, name)?;
     let sensor_err = |t: f64, e: String| SimError::Sensor { scene: name.into(), t, message: e };
-    let prime_err = |e: controller::InputError| SimError::Controller { scene: name.into(), message: format!("initial.history: {e}") };
+    let prime_err = |e: controller::InputError| SimError::Controller {
+        scene: name.into(),
+        message: format!("initial.history: {e}"),
+    };
     match &mut law {
         Law::Float(pd) => pd.prime(&history).map_err(prime_err)?,
         Law::Literal(pd) => pd.prime(&history).map_err(prime_err)?,
@@ -231,13 +245,15 @@ pub fn simulate_with<P: Plant<N>, const N: usize>(
     let mut noise = match &scene.effects.noise {
         Some(n) => {
             let normal = |sigma: f64| {
-                Normal::new(0.0, sigma).map_err(|e| SimError::Controller { scene: name.into(), message: format!("noise: {e}") })
+                Normal::new(0.0, sigma)
+                    .map_err(|e| SimError::Controller { scene: name.into(), message: format!("noise: {e}") })
             };
             Some((ChaCha8Rng::seed_from_u64(n.seed), normal(n.sigma_theta)?, normal(n.sigma_phi)?))
         }
         None => None,
     };
-    let mut ode = Integrator::<N>::new(method_of(scene)).map_err(|source| SimError::Ode { scene: name.into(), source })?;
+    let mut ode =
+        Integrator::<N>::new(method_of(scene)).map_err(|source| SimError::Ode { scene: name.into(), source })?;
     let periods = scene.run.periods as usize;
     let mut traj = Trajectory {
         scene: name.into(),
@@ -347,7 +363,17 @@ pub fn metadata_json(scene: &Scene, traj: &Trajectory, csv_name: &str) -> Result
         controller: scene.controller_config(),
         effects: scene.effect_names(),
         integrator: &traj.integrator,
-        tolerance: matches!(i.method, MethodKind::Rodas | MethodKind::Exprb | MethodKind::ExprbSplit | MethodKind::ExprbLean | MethodKind::ExprbFiltered | MethodKind::Exprb54 | MethodKind::Exprb54Filtered).then(|| [i.rtol.unwrap_or(1e-10), i.atol.unwrap_or(1e-12)]),
+        tolerance: matches!(
+            i.method,
+            MethodKind::Rodas
+                | MethodKind::Exprb
+                | MethodKind::ExprbSplit
+                | MethodKind::ExprbLean
+                | MethodKind::ExprbFiltered
+                | MethodKind::Exprb54
+                | MethodKind::Exprb54Filtered
+        )
+        .then(|| [i.rtol.unwrap_or(1e-10), i.atol.unwrap_or(1e-12)]),
         steps_per_period: i.steps,
         periods_simulated: traj.rows().saturating_sub(1),
         stopped: traj.stopped.as_deref(),
@@ -371,7 +397,8 @@ mod tests {
     #[test]
     fn quantized_1e5_periods_finite_and_bitwise_reproducible() {
         let mut s = scene("furuta-quant-dt25", &["run.periods=100000"]);
-        s.integrator = crate::scene::IntegratorSpec { method: MethodKind::RodasFixed, rtol: None, atol: None, steps: Some(8) };
+        s.integrator =
+            crate::scene::IntegratorSpec { method: MethodKind::RodasFixed, rtol: None, atol: None, steps: Some(8) };
         let a = simulate(&s, None).unwrap();
         let b = simulate(&s, None).unwrap();
         assert_eq!(a.rows(), 100_001);
@@ -416,13 +443,21 @@ mod tests {
         assert!(plain.codes.is_none(), "unquantized scene touched the integer path");
         assert_eq!(plain.saturated_samples, 0);
         let noisy = |seed: &str| {
-            simulate(&scene("furuta-noise-pid", &["run.periods=200", &format!("effects.noise.seed={seed}")]), None).unwrap()
+            simulate(&scene("furuta-noise-pid", &["run.periods=200", &format!("effects.noise.seed={seed}")]), None)
+                .unwrap()
         };
         let (a, b, c) = (noisy("1"), noisy("1"), noisy("2"));
         assert_eq!(a.states, b.states, "same seed, same run");
         assert_ne!(a.states, c.states, "another seed, another run");
         // Noise off: the run equals the noiseless scene exactly.
-        let quiet = simulate(&scene("furuta-noise-pid", &["run.periods=200", "effects.noise.sigma_theta=0", "effects.noise.sigma_phi=0"]), None).unwrap();
+        let quiet = simulate(
+            &scene(
+                "furuta-noise-pid",
+                &["run.periods=200", "effects.noise.sigma_theta=0", "effects.noise.sigma_phi=0"],
+            ),
+            None,
+        )
+        .unwrap();
         let mut s = scene("furuta-noise-pid", &["run.periods=200"]);
         s.effects.noise = None;
         let none = simulate(&s, None).unwrap();

@@ -417,7 +417,9 @@ impl ClosedLoopMap {
         if !(error <= MULTIPLIER_ERROR_MAX) {
             let biggest = self.gains.iter().copied().max_by(|a, b| a.2.total_cmp(&b.2));
             let cause = match biggest {
-                Some((name, value, size)) if !(size <= 0.5 * norm) || !size.is_finite() => format!("controller gain {name} = {value:e}"),
+                Some((name, value, size)) if !(size <= 0.5 * norm) || !size.is_finite() => {
+                    format!("controller gain {name} = {value:e}")
+                }
                 _ => format!("sampling period dt = {:e} s (e^(A dt) is large)", self.dt),
             };
             return Err(LinearError::MultipliersInaccurate { cause, norm, error });
@@ -469,7 +471,8 @@ impl ClosedLoopMap {
             row -= &row_s;
         }
         let scale = mt.iter().fold(1.0f64, |m, v| m.max(v.abs()));
-        let residual = mt.column(s).iter().enumerate().filter(|(i, _)| *i != s).fold(0.0f64, |m, (_, v)| m.max(v.abs()));
+        let residual =
+            mt.column(s).iter().enumerate().filter(|(i, _)| *i != s).fold(0.0f64, |m, (_, v)| m.max(v.abs()));
         if residual > 1e-10 * scale || (mt[(s, s)] - 1.0).abs() > 1e-10 * scale {
             return Err(LinearError::Deflation { col: s, residual });
         }

@@ -4,10 +4,10 @@
 //! the delay and the sampling period do.
 
 use crate::chart::{Axis, Chart, ChartError, Crossing, Panel, assemble_panel, classify, plant_chart};
+use crate::closed_loop::{AnyPlant, SimError, build_plant};
 use crate::linear::{LinearError, LinearPlant, Multiplier};
 use crate::plant::{Plant, linearize};
 use crate::scene::Scene;
-use crate::closed_loop::{AnyPlant, SimError, build_plant};
 
 #[derive(Debug, thiserror::Error)]
 pub enum StabilityError {
@@ -43,7 +43,8 @@ pub fn scene_multipliers(scene: &Scene) -> Result<Vec<Multiplier>, StabilityErro
 /// im >= 0), largest modulus first.
 pub fn dominant_pairs(scene: &Scene) -> Result<Vec<Multiplier>, StabilityError> {
     let le = |source| StabilityError::Linear { scene: scene.name.clone(), source };
-    let all = linear_plant(scene)?.closed_loop(&scene.controller_config()).map_err(le)?.dominant_multipliers().map_err(le)?;
+    let all =
+        linear_plant(scene)?.closed_loop(&scene.controller_config()).map_err(le)?.dominant_multipliers().map_err(le)?;
     Ok(all.into_iter().filter(|m| m.im >= 0.0).collect())
 }
 
@@ -87,7 +88,13 @@ pub fn scene_point(scene: &Scene) -> Result<(f64, Option<Crossing>), StabilityEr
 /// A chart panel of the scene's plant at `dt_ms` from grid points computed elsewhere
 /// ([`scene_point`] per point, e.g. by a sharded sweep; `points[i * kp.n + j]` at
 /// `(kp.at(j), kd.at(i))`): the D-curves and the summary are computed here.
-pub fn scene_panel(scene: &Scene, dt_ms: f64, kp: Axis, kd: Axis, points: &[(f64, Option<Crossing>)]) -> Result<Panel, StabilityError> {
+pub fn scene_panel(
+    scene: &Scene,
+    dt_ms: f64,
+    kp: Axis,
+    kd: Axis,
+    points: &[(f64, Option<Crossing>)],
+) -> Result<Panel, StabilityError> {
     let ce = |source| StabilityError::Chart { scene: scene.name.clone(), source };
     let plant = linear_plant(scene)?;
     assemble_panel(&plant, &scene.controller_config(), crate::units::ms_to_s(dt_ms), kp, kd, points).map_err(ce)
@@ -107,7 +114,10 @@ mod tests {
     #[test]
     fn small_amplitude_run_follows_the_exact_linear_map() {
         for dt in ["25", "30.8", "32.3"] {
-            let s = scene(&format!("furuta-dt{dt}"), &["run.periods=80", "initial.state=[1e-6,0,0,0]", "integrator.rtol=1e-12", "integrator.atol=1e-18"]);
+            let s = scene(
+                &format!("furuta-dt{dt}"),
+                &["run.periods=80", "initial.state=[1e-6,0,0,0]", "integrator.rtol=1e-12", "integrator.atol=1e-18"],
+            );
             let tr = simulate(&s, None).unwrap();
             let map = linear_plant(&s).unwrap().closed_loop(&s.controller_config()).unwrap();
             let l = &map.layout;

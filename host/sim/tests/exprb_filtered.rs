@@ -39,7 +39,10 @@ fn exprb_filtered_matches_the_reference_on_the_furuta_scenes() {
                 assert_eq!(got.rows(), reference.rows(), "{name}");
                 let err = got.primary().iter().zip(reference.primary()).map(|(a, b)| (a - b).abs()).fold(0.0, f64::max);
                 let st = got.ode_stats;
-                errs.push(format!("{method:?} {tol:e}: {err:.2e} rad, {:.1} steps/period", (st.steps + st.rejected) as f64 / periods as f64));
+                errs.push(format!(
+                    "{method:?} {tol:e}: {err:.2e} rad, {:.1} steps/period",
+                    (st.steps + st.rejected) as f64 / periods as f64
+                ));
                 if method == MethodKind::ExprbLean {
                     continue;
                 }

@@ -34,7 +34,10 @@ fn exprb_lean_matches_the_reference_on_the_furuta_scenes() {
                 assert_eq!(got.codes, reference.codes, "{name}: integer codes differ");
             }
             let st = got.ode_stats;
-            errs.push(format!("rtol {rtol:e}: {err:.2e} rad, {:.1} steps/period", (st.steps + st.rejected) as f64 / periods as f64));
+            errs.push(format!(
+                "rtol {rtol:e}: {err:.2e} rad, {:.1} steps/period",
+                (st.steps + st.rejected) as f64 / periods as f64
+            ));
         }
         eprintln!("{name} ({periods} periods): {}", errs.join("; "));
     }

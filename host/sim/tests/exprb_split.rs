@@ -33,7 +33,10 @@ fn exprb_split_matches_the_reference_on_the_furuta_scenes() {
         assert_eq!(got.u.len(), reference.u.len());
         let amp = reference.primary().iter().fold(0.0f64, |a, v| a.max(v.abs()));
         assert!(amp > 1e-3, "{name}: the loop does nothing (max theta {amp})");
-        eprintln!("{name}: max theta error {err:.2e}, state {rel:.2e}, {:.1} steps/period", (got.ode_stats.steps + got.ode_stats.rejected) as f64 / periods as f64);
+        eprintln!(
+            "{name}: max theta error {err:.2e}, state {rel:.2e}, {:.1} steps/period",
+            (got.ode_stats.steps + got.ode_stats.rejected) as f64 / periods as f64
+        );
     }
 }
 

@@ -87,7 +87,8 @@ fn value() -> impl Strategy<Value = String> {
         Just("[\"stability\"]".to_string()),
         Just("[]".to_string()),
         prop::collection::vec(float(), 0..6).prop_map(|v| format!("[{}]", v.join(","))),
-        prop::collection::vec((float(), float()), 0..4).prop_map(|v| format!("[{}]", v.iter().map(|(a, b)| format!("[{a},{b}]")).collect::<Vec<_>>().join(","))),
+        prop::collection::vec((float(), float()), 0..4)
+            .prop_map(|v| format!("[{}]", v.iter().map(|(a, b)| format!("[{a},{b}]")).collect::<Vec<_>>().join(","))),
         "[ -~]{0,12}",
     ]
 }

@@ -37,9 +37,36 @@ fn main() {
     let k = 500;
     match what {
         "step" | "step-old" => {
-            let cond = Conditioning { rows: 0, cols: 0, s_max: 1.0, s_min: 1.0, cond: 1.0, alpha: 0.0, cond_regularized: 1.0, rel_residual: 0.0 };
-            let coef: Vec<f64> = (0..(k + d + 1) * d).map(|i| if i < k * d { 1e-4 * rnd.centered() } else if i < (k + d) * d { if (i - k * d) % (d + 1) == 0 { -0.01 } else { 0.0 } } else { 0.0 }).collect();
-            let m = RbfMap { dim: d, kernel: Kernel::Linear, dt: 0.1, scale: vec![0.7; d], centers: (0..k * d).map(|_| rnd.centered()).collect(), coef, conditioning: cond };
+            let cond = Conditioning {
+                rows: 0,
+                cols: 0,
+                s_max: 1.0,
+                s_min: 1.0,
+                cond: 1.0,
+                alpha: 0.0,
+                cond_regularized: 1.0,
+                rel_residual: 0.0,
+            };
+            let coef: Vec<f64> = (0..(k + d + 1) * d)
+                .map(|i| {
+                    if i < k * d {
+                        1e-4 * rnd.centered()
+                    } else if i < (k + d) * d {
+                        if (i - k * d) % (d + 1) == 0 { -0.01 } else { 0.0 }
+                    } else {
+                        0.0
+                    }
+                })
+                .collect();
+            let m = RbfMap {
+                dim: d,
+                kernel: Kernel::Linear,
+                dt: 0.1,
+                scale: vec![0.7; d],
+                centers: (0..k * d).map(|_| rnd.centered()).collect(),
+                coef,
+                conditioning: cond,
+            };
             let mut eta: Vec<f64> = (0..d).map(|_| 0.3 * rnd.centered()).collect();
             let mut feat = Vec::new();
             let mut f = vec![0.0; k + d + 1];

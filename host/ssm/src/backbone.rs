@@ -27,7 +27,9 @@ use serde::{Deserialize, Serialize};
 use thiserror::Error;
 
 use crate::fit::SsmModel;
-use crate::normal_form::{NormalFormError, NormalFormOptions, NormalFormTransform, PolarNormalForm, model_normal_form_with_transform};
+use crate::normal_form::{
+    NormalFormError, NormalFormOptions, NormalFormTransform, PolarNormalForm, model_normal_form_with_transform,
+};
 use crate::poly::PolyScratch;
 
 /// Errors of the backbone computation.
@@ -221,13 +223,24 @@ pub fn backbone_of(
     }
     let mut amplitude = |rho: f64| amplitude_at(tr, observe, nf.modes, mode, rho, opts.phases);
     let target = opts.amplitude_max;
-    let hi = first_rho_reaching(&mut amplitude, target)
-        .map_err(|(reached, rho)| BackboneError::Unreached { mode: mode + 1, observable: opts.observable, target, reached, rho })?;
+    let hi = first_rho_reaching(&mut amplitude, target).map_err(|(reached, rho)| BackboneError::Unreached {
+        mode: mode + 1,
+        observable: opts.observable,
+        target,
+        reached,
+        rho,
+    })?;
     let points = (0..opts.points)
         .map(|k| {
             let rho = hi * k as f64 / (opts.points - 1) as f64;
             let (a, omega) = instantaneous(nf, mode, rho);
-            BackbonePoint { amplitude: amplitude(rho), freq_rad_s: omega, damping_ratio: damping_ratio(a, omega), rate: a, rho }
+            BackbonePoint {
+                amplitude: amplitude(rho),
+                freq_rad_s: omega,
+                damping_ratio: damping_ratio(a, omega),
+                rate: a,
+                rho,
+            }
         })
         .collect();
     Ok(Backbone { mode: mode + 1, observable: opts.observable, points })
@@ -289,7 +302,16 @@ pub(crate) mod tests {
     }
 
     pub(crate) fn cond() -> Conditioning {
-        Conditioning { rows: 0, cols: 0, s_max: 1.0, s_min: 1.0, cond: 1.0, alpha: 0.0, cond_regularized: 1.0, rel_residual: 0.0 }
+        Conditioning {
+            rows: 0,
+            cols: 0,
+            s_max: 1.0,
+            s_min: 1.0,
+            cond: 1.0,
+            alpha: 0.0,
+            cond_regularized: 1.0,
+            rel_residual: 0.0,
+        }
     }
 
     /// A hand-built model: the synthetic field above and three observables, linear in eta
@@ -318,9 +340,19 @@ pub(crate) mod tests {
             dyn_order: 3,
             dynamics: Dynamics::Flow,
             ridge: Ridge::Fixed(0.0),
-            linear_anchor: None, anchor_joint: false,
+            linear_anchor: None,
+            anchor_joint: false,
         };
-        SsmModel { options, dt: 0.01, manifold, dynamics, eigenvalues_ct: vec![], eta_range: vec![1.0, 1.0], n_points: 0, observables: 3 }
+        SsmModel {
+            options,
+            dt: 0.01,
+            manifold,
+            dynamics,
+            eigenvalues_ct: vec![],
+            eta_range: vec![1.0, 1.0],
+            n_points: 0,
+            observables: 3,
+        }
     }
 
     /// The analytic backbone of `rho' = (A + B rho^2) rho`, `theta' = W + CC rho^2`:
@@ -349,13 +381,21 @@ pub(crate) mod tests {
             let bb = backbone(&m, &BackboneOptions::new(obs, target)).unwrap();
             assert_eq!(bb.len(), 1);
             let pts = &bb[0].points;
-            assert!((pts.last().unwrap().rho - 1.0).abs() < 1e-9, "observable {obs}: rho_max {}", pts.last().unwrap().rho);
+            assert!(
+                (pts.last().unwrap().rho - 1.0).abs() < 1e-9,
+                "observable {obs}: rho_max {}",
+                pts.last().unwrap().rho
+            );
             for p in pts {
                 let (a, om) = (A + B * p.rho * p.rho, W + CC * p.rho * p.rho);
                 assert!((p.freq_rad_s - om).abs() < 1e-12, "{p:?}");
                 assert!((p.damping_ratio - (-a / (a * a + om * om).sqrt())).abs() < 1e-12, "{p:?}");
                 assert!((p.rate - a).abs() < 1e-12, "{p:?}");
-                assert!((p.amplitude - amp_of(p.rho)).abs() < 1e-12 * target.max(1.0), "observable {obs}: {p:?} vs {}", amp_of(p.rho));
+                assert!(
+                    (p.amplitude - amp_of(p.rho)).abs() < 1e-12 * target.max(1.0),
+                    "observable {obs}: {p:?} vs {}",
+                    amp_of(p.rho)
+                );
             }
         }
         let e = backbone(&m, &BackboneOptions::new(3, 1.0)).unwrap_err();
@@ -416,7 +456,9 @@ pub(crate) mod tests {
         m.manifold = Manifold {
             dim: 4,
             p: 5,
-            v1: vec![1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0],
+            v1: vec![
+                1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0,
+            ],
             singular_values: vec![1.0; 5],
             eta_scale: vec![1.0; 4],
             nonlinear: None,
@@ -431,7 +473,11 @@ pub(crate) mod tests {
         for (curve, (lam, bs, _)) in bb.iter().zip([slow, fast]) {
             for p in &curve.points {
                 let (a, om) = (lam.0 + bs.0 * p.rho * p.rho, lam.1 + bs.1 * p.rho * p.rho);
-                assert!((p.freq_rad_s - om).abs() < 1e-12 && (p.damping_ratio - damping_ratio(a, om)).abs() < 1e-12, "mode {}: {p:?}", curve.mode);
+                assert!(
+                    (p.freq_rad_s - om).abs() < 1e-12 && (p.damping_ratio - damping_ratio(a, om)).abs() < 1e-12,
+                    "mode {}: {p:?}",
+                    curve.mode
+                );
                 assert!((p.amplitude - p.rho).abs() < 1e-12, "mode {}: {p:?}", curve.mode);
             }
             assert!((curve.points.last().unwrap().amplitude - 0.8).abs() < 1e-12);

@@ -54,11 +54,15 @@ pub enum DataError {
     },
     #[error("{file}: empty file, expected a header line `t,x`")]
     NoHeader { file: String },
-    #[error("{file}: line 1 `{line}` holds numbers, not column names: the file needs a header line (e.g. `t,x`) before the data")]
+    #[error(
+        "{file}: line 1 `{line}` holds numbers, not column names: the file needs a header line (e.g. `t,x`) before the data"
+    )]
     NumericHeader { file: String, line: String },
     #[error("{file}: line {line}: expected {expected} comma-separated columns (as the header), found {found}")]
     Columns { file: String, line: usize, expected: usize, found: usize },
-    #[error("{file}: {found} columns ({available}); name the observable column (`--column NAME`), the first is the time")]
+    #[error(
+        "{file}: {found} columns ({available}); name the observable column (`--column NAME`), the first is the time"
+    )]
     ManyColumns { file: String, found: usize, available: String },
     #[error("{file}: no column `{column}` in the header (columns: {available}); the first column is the time")]
     UnknownColumn { file: String, column: String, available: String },
@@ -86,7 +90,9 @@ pub enum DataError {
     ConstantObservable { name: String, observable: String, value: f64 },
     #[error("{name}: no observables (a trajectory needs at least one besides the time)")]
     NoObservables { name: String },
-    #[error("{name}: observables [{got}] differ from those of {first} [{expected}]; every trajectory needs the same observables")]
+    #[error(
+        "{name}: observables [{got}] differ from those of {first} [{expected}]; every trajectory needs the same observables"
+    )]
     ObservableMismatch { name: String, got: String, first: String, expected: String },
     #[error("{name}: time window [{from}, {to}]: {why} (the data span t = {t_first} .. {t_last} s)")]
     Window { name: String, from: String, to: String, t_first: f64, t_last: f64, why: String },
@@ -117,7 +123,13 @@ pub(crate) fn check_time(name: &str, t: &[f64]) -> Result<(), DataError> {
     for (i, (&t_prev, &t_next)) in pairs().enumerate() {
         let step = t_next - t_prev;
         if (step - typical).abs() > SAMPLING_RTOL * typical {
-            return Err(DataError::UnevenSampling { name: name.to_string(), row: i + 2, step, typical, rtol: SAMPLING_RTOL });
+            return Err(DataError::UnevenSampling {
+                name: name.to_string(),
+                row: i + 2,
+                step,
+                typical,
+                rtol: SAMPLING_RTOL,
+            });
         }
     }
     Ok(())
@@ -156,11 +168,7 @@ impl TimeSeries {
     pub fn validate(&self) -> Result<(), DataError> {
         let name = &self.name;
         if self.t.len() != self.x.len() {
-            return Err(DataError::LengthMismatch {
-                name: name.clone(),
-                nt: self.t.len(),
-                nx: self.x.len(),
-            });
+            return Err(DataError::LengthMismatch { name: name.clone(), nt: self.t.len(), nx: self.x.len() });
         }
         self.require_len(2, "a sampling step")?;
         for (i, (&t, &x)) in self.t.iter().zip(&self.x).enumerate() {
@@ -245,16 +253,21 @@ pub fn parse_csv_column(file: &str, name: String, text: &str, column: Option<&st
     let (ncols, xcol) = match column {
         None => (2, 1),
         Some(c) => {
-            let idx = header.iter().position(|h| *h == c).filter(|&i| i > 0).ok_or_else(|| DataError::UnknownColumn {
-                file: file.to_string(),
-                column: c.to_string(),
-                available: header.get(1..).unwrap_or_default().join(", "),
-            })?;
+            let idx =
+                header.iter().position(|h| *h == c).filter(|&i| i > 0).ok_or_else(|| DataError::UnknownColumn {
+                    file: file.to_string(),
+                    column: c.to_string(),
+                    available: header.get(1..).unwrap_or_default().join(", "),
+                })?;
             (header.len(), idx)
         }
     };
     if column.is_none() && header.len() > 2 {
-        return Err(DataError::ManyColumns { file: file.to_string(), found: header.len(), available: header.join(", ") });
+        return Err(DataError::ManyColumns {
+            file: file.to_string(),
+            found: header.len(),
+            available: header.join(", "),
+        });
     }
     let mut t = Vec::new();
     let mut x = Vec::new();

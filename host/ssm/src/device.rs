@@ -16,7 +16,9 @@ use shared::model::OwnedModel;
 
 #[derive(Debug, thiserror::Error)]
 pub enum ExportError {
-    #[error("only RBF reduced dynamics can be exported to the device (this model has {0} dynamics); fit with --dynamics rbf")]
+    #[error(
+        "only RBF reduced dynamics can be exported to the device (this model has {0} dynamics); fit with --dynamics rbf"
+    )]
     NotRbf(&'static str),
     #[error(
         "the device predictor implements the linear RBF kernel phi(r) = r only; this model's kernel is {0} (refit with --dynamics rbf to export)"
@@ -114,10 +116,17 @@ pub fn to_device_model(m: &SsmModel, cfg: ControllerConfig) -> Result<OwnedModel
             v1.push(f32_of("v1", at("manifold.v1", &man.v1, j * p + i)?)?);
         }
     }
-    let order = man.nonlinear.as_ref().map_or(1, |poly| poly.exps.iter().map(|e| e.iter().sum::<u32>()).max().unwrap_or(1) as usize);
+    let order = man
+        .nonlinear
+        .as_ref()
+        .map_or(1, |poly| poly.exps.iter().map(|e| e.iter().sum::<u32>()).max().unwrap_or(1) as usize);
     let n_terms = shared::model::lift_terms(d, order).unwrap_or(usize::MAX);
     if d == 0 || n_terms > crate::limits::MAX_TERMS {
-        return Err(ExportError::Size { what: "lift monomials (d, lift order)", got: n_terms, max: crate::limits::MAX_TERMS });
+        return Err(ExportError::Size {
+            what: "lift monomials (d, lift order)",
+            got: n_terms,
+            max: crate::limits::MAX_TERMS,
+        });
     }
     let exps = device_exponents(d, order);
     let mut lift = vec![0.0f32; p * exps.len()];
@@ -127,7 +136,8 @@ pub fn to_device_model(m: &SsmModel, cfg: ControllerConfig) -> Result<OwnedModel
             // monomial of eta/s_m = monomial(eta) / prod s_m^e
             let div: f64 = e.iter().zip(&poly.scale).map(|(&ej, sj)| sj.powi(ej as i32)).product();
             for (i, row) in lift.chunks_exact_mut(exps.len().max(1)).enumerate() {
-                let slot = row.get_mut(col).ok_or(ExportError::Shape { what: "lift column", index: col, len: exps.len() })?;
+                let slot =
+                    row.get_mut(col).ok_or(ExportError::Shape { what: "lift column", index: col, len: exps.len() })?;
                 *slot = f32_of("lift", at("manifold.nonlinear.coef", &poly.coef, kk * p + i)? / div)?;
             }
         }

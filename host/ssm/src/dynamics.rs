@@ -31,10 +31,10 @@ use serde::{Deserialize, Serialize};
 
 use super::error::FitError;
 use super::manifold::{design_matrix, design_matrix_in};
-pub use super::weight::{LowDegreeStage, RowWeight};
-use super::weight::{envelope, scale_rows};
 use super::poly::{self, Poly, PolyScratch, PreparedPoly};
 use super::ridge::{self, Conditioning, Ridge};
+pub use super::weight::{LowDegreeStage, RowWeight};
+use super::weight::{envelope, scale_rows};
 
 /// RK4 steps per sampling interval when integrating a flow.
 pub const RK4_SUBSTEPS: usize = 4;
@@ -86,7 +86,11 @@ impl Kernel {
             Kernel::Linear => r,
             Kernel::Cubic => r * r * r,
             Kernel::ThinPlate => {
-                if r > 0.0 { r * r * r.ln() } else { 0.0 }
+                if r > 0.0 {
+                    r * r * r.ln()
+                } else {
+                    0.0
+                }
             }
             Kernel::Gaussian { eps } => (-(eps * r) * (eps * r)).exp(),
         }
@@ -99,7 +103,11 @@ impl Kernel {
     pub fn dphi_over_r(&self, r: f64) -> Option<f64> {
         match *self {
             Kernel::Linear => {
-                if r > 0.0 { Some(1.0 / r) } else { None }
+                if r > 0.0 {
+                    Some(1.0 / r)
+                } else {
+                    None
+                }
             }
             Kernel::Cubic => Some(3.0 * r),
             Kernel::ThinPlate => Some(if r > 0.0 { 2.0 * r.ln() + 1.0 } else { 0.0 }),
@@ -110,9 +118,10 @@ impl Kernel {
     /// Checks the kernel's parameter (Gaussian: `eps` finite and positive).
     pub fn validate(&self) -> Result<(), FitError> {
         match *self {
-            Kernel::Gaussian { eps } if !(eps.is_finite() && eps > 0.0) => {
-                Err(FitError::BadOption { what: "rbf kernel", why: format!("the Gaussian shape parameter eps must be finite and > 0, got {eps}") })
-            }
+            Kernel::Gaussian { eps } if !(eps.is_finite() && eps > 0.0) => Err(FitError::BadOption {
+                what: "rbf kernel",
+                why: format!("the Gaussian shape parameter eps must be finite and > 0, got {eps}"),
+            }),
             _ => Ok(()),
         }
     }
@@ -135,7 +144,9 @@ impl Kernel {
             "cubic" => Kernel::Cubic,
             "thin-plate" => Kernel::ThinPlate,
             _ => match s.strip_prefix("gaussian:") {
-                Some(e) => Kernel::Gaussian { eps: e.parse().map_err(|_| bad(format!("`{e}` in `{s}` is not a number (gaussian:EPS)")))? },
+                Some(e) => Kernel::Gaussian {
+                    eps: e.parse().map_err(|_| bad(format!("`{e}` in `{s}` is not a number (gaussian:EPS)")))?,
+                },
                 None => return Err(bad(format!("`{s}` is not one of linear, cubic, thin-plate, gaussian:EPS"))),
             },
         };
@@ -397,7 +408,10 @@ fn anchor_rows(x: MatRef<'_, f64>, frac: f64) -> Result<Vec<usize>, FitError> {
     if rows.len() < need {
         return Err(FitError::BadOption {
             what: "linear_anchor",
-            why: format!("{} training pairs within {frac} of the largest |eta| ({r:.3e}), need at least {need}; raise the fraction or add small-amplitude data", rows.len()),
+            why: format!(
+                "{} training pairs within {frac} of the largest |eta| ({r:.3e}), need at least {need}; raise the fraction or add small-amplitude data",
+                rows.len()
+            ),
         });
     }
     Ok(rows)
@@ -443,10 +457,16 @@ fn poly_fit(
     let (d, nm) = (x.ncols(), exps.len());
     if let Some(f) = rows {
         if f.len() != x.nrows() {
-            return Err(FitError::BadOption { what: "row weights", why: format!("{} factors for {} rows", f.len(), x.nrows()) });
+            return Err(FitError::BadOption {
+                what: "row weights",
+                why: format!("{} factors for {} rows", f.len(), x.nrows()),
+            });
         }
         if anchor.is_some() && joint {
-            return Err(FitError::BadOption { what: "row weights", why: "not supported with the joint anchor (anchor_joint)".into() });
+            return Err(FitError::BadOption {
+                what: "row weights",
+                why: "not supported with the joint anchor (anchor_joint)".into(),
+            });
         }
     }
     // Weighted least squares: the regression's rows scaled by the factors (without: as is).
@@ -455,10 +475,19 @@ fn poly_fit(
         None => m,
     };
     if let Some((n_low, f)) = low {
-        if rows.is_none() || anchor.is_none() || joint || n_low == 0 || n_low >= nm.saturating_sub(d) || f.len() != x.nrows() {
+        if rows.is_none()
+            || anchor.is_none()
+            || joint
+            || n_low == 0
+            || n_low >= nm.saturating_sub(d)
+            || f.len() != x.nrows()
+        {
             return Err(FitError::BadOption {
                 what: "row weight low-degree stage",
-                why: format!("needs row weights, the plain linear anchor and 2 <= max_degree < the order ({n_low} low monomials of {})", nm.saturating_sub(d)),
+                why: format!(
+                    "needs row weights, the plain linear anchor and 2 <= max_degree < the order ({n_low} low monomials of {})",
+                    nm.saturating_sub(d)
+                ),
             });
         }
     }
@@ -470,7 +499,8 @@ fn poly_fit(
         // Furuta models) solve through `Q^T b`.
         None if rows.is_none() => return ridge::fit_owned(design(exps), y, groups, ridge, what, || design(exps)),
         None => {
-            let (w, mut cond, buf) = ridge::fit_owned_qtb_keep(weigh(design(exps)), weigh(y.to_owned()).as_ref(), groups, ridge, what)?;
+            let (w, mut cond, buf) =
+                ridge::fit_owned_qtb_keep(weigh(design(exps)), weigh(y.to_owned()).as_ref(), groups, ridge, what)?;
             // The residual reported is the unweighted one.
             cond.rel_residual = ridge::rel_residual(design_in(buf, exps).as_ref(), y, w.as_ref());
             return Ok((w, cond));
@@ -487,7 +517,8 @@ fn poly_fit(
     let a_l = design(lin);
     let a_lin = ridge::take_rows(a_l.as_ref(), &rows);
     let y_lin = ridge::take_rows(y, &rows);
-    let (w_lin, _) = ridge::fit(a_lin.as_ref(), y_lin.as_ref(), &[0..rows.len()], Ridge::Fixed(0.0), "anchored linear part")?;
+    let (w_lin, _) =
+        ridge::fit(a_lin.as_ref(), y_lin.as_ref(), &[0..rows.len()], Ridge::Fixed(0.0), "anchored linear part")?;
     let mut w = Mat::<f64>::zeros(nm, y.ncols());
     place_rows(&mut w, 0, w_lin.as_ref());
     let resid = y - &a_l * &w_lin;
@@ -498,20 +529,28 @@ fn poly_fit(
     // The residual reported is the whole fit's (below): the stages' own are not computed.
     let (w_nl, mut cond) = match low {
         None => {
-            let (w_nl, cond, back) = ridge::fit_owned_qtb_keep(weigh(design_in(buf, higher)), weigh(resid).as_ref(), groups, ridge, what)?;
+            let (w_nl, cond, back) =
+                ridge::fit_owned_qtb_keep(weigh(design_in(buf, higher)), weigh(resid).as_ref(), groups, ridge, what)?;
             buf = back;
             (w_nl, cond)
         }
         Some((n_low, f)) => {
             // Stage 1: every higher degree on the low-knee weights; keep the low degrees.
-            let (w1, _, back) = ridge::fit_owned_qtb_keep(scale_rows(design_in(buf, higher), f), scale_rows(resid.clone(), f).as_ref(), groups, ridge, what)?;
+            let (w1, _, back) = ridge::fit_owned_qtb_keep(
+                scale_rows(design_in(buf, higher), f),
+                scale_rows(resid.clone(), f).as_ref(),
+                groups,
+                ridge,
+                what,
+            )?;
             let (lo, hi) = higher.split_at(n_low);
             let w_lo = w1.subrows(0, n_low).to_owned();
             place_rows(&mut w, d, w_lo.as_ref());
             // Stage 2: the degrees above on what the low ones leave, main weights.
             let a_lo = design_in(back, lo);
             let resid2 = resid - &a_lo * &w_lo;
-            let (w_hi, cond, back) = ridge::fit_owned_qtb_keep(weigh(design_in(a_lo, hi)), weigh(resid2).as_ref(), groups, ridge, what)?;
+            let (w_hi, cond, back) =
+                ridge::fit_owned_qtb_keep(weigh(design_in(a_lo, hi)), weigh(resid2).as_ref(), groups, ridge, what)?;
             buf = back;
             let mut w_nl = Mat::<f64>::zeros(higher.len(), y.ncols());
             place_rows(&mut w_nl, 0, w_lo.as_ref());
@@ -551,7 +590,8 @@ fn poly_regression(
     let rows = anchor_rows(x, frac)?;
     let a_lin = ridge::take_rows(a.subcols(0, d), &rows);
     let y_lin = ridge::take_rows(y, &rows);
-    let (w_lin, _) = ridge::fit(a_lin.as_ref(), y_lin.as_ref(), &[0..rows.len()], Ridge::Fixed(0.0), "anchored linear part")?;
+    let (w_lin, _) =
+        ridge::fit(a_lin.as_ref(), y_lin.as_ref(), &[0..rows.len()], Ridge::Fixed(0.0), "anchored linear part")?;
     let mut w = Mat::<f64>::zeros(nm, y.ncols());
     place_rows(&mut w, 0, w_lin.as_ref());
     if nm == d {
@@ -569,12 +609,16 @@ fn poly_regression(
 
 /// The low-degree stage of `weight` (if any) on the pairs `x`: the number of monomials of
 /// degrees `2..=max_degree` in `d` variables and the stage's row factors.
-fn low_stage(weight: Option<&RowWeight>, x: MatRef<'_, f64>, groups: &[std::ops::Range<usize>], d: usize) -> Option<(usize, Vec<f64>)> {
+fn low_stage(
+    weight: Option<&RowWeight>,
+    x: MatRef<'_, f64>,
+    groups: &[std::ops::Range<usize>],
+    d: usize,
+) -> Option<(usize, Vec<f64>)> {
     let st = weight?.low_degrees?;
     let n = poly::count(d, 2, st.max_degree).unwrap_or(usize::MAX);
     Some((n, st.weight().row_factors(x, groups)))
 }
-
 
 /// The joint anchored fit (see [`FitOptions::anchor_joint`](super::fit::FitOptions::anchor_joint)).
 /// Envelope of row `i`: the max `||x||` over the rows of its trajectory (group) within one
@@ -600,13 +644,18 @@ fn joint_anchored(
     if rows.len() < need {
         return Err(FitError::BadOption {
             what: "linear_anchor",
-            why: format!("{} training pairs with an envelope within {frac} of the largest ({:.3e}), need at least {need}; raise the fraction or add small-amplitude data", rows.len(), frac * top),
+            why: format!(
+                "{} training pairs with an envelope within {frac} of the largest ({:.3e}), need at least {need}; raise the fraction or add small-amplitude data",
+                rows.len(),
+                frac * top
+            ),
         });
     }
     if nm == d {
         let a_s = ridge::take_rows(a, &rows);
         let y_s = ridge::take_rows(y, &rows);
-        let (w, _) = ridge::fit(a_s.as_ref(), y_s.as_ref(), &[0..rows.len()], Ridge::Fixed(0.0), "anchored linear part")?;
+        let (w, _) =
+            ridge::fit(a_s.as_ref(), y_s.as_ref(), &[0..rows.len()], Ridge::Fixed(0.0), "anchored linear part")?;
         let cond = ridge::RidgeLs::new(a, what)?.conditioning(a, y, w.as_ref(), 0.0);
         return Ok((w, cond));
     }
@@ -647,7 +696,10 @@ fn joint_anchored(
     }
     let w = m.partial_piv_lu().solve(&rhs);
     if w.col_iter().any(|c| c.iter().any(|v| !v.is_finite())) {
-        return Err(FitError::BadOption { what: "linear_anchor", why: "the joint anchored system is singular (too few distinct small-amplitude pairs)".into() });
+        return Err(FitError::BadOption {
+            what: "linear_anchor",
+            why: "the joint anchored system is singular (too few distinct small-amplitude pairs)".into(),
+        });
     }
     let mut cond = c0;
     cond.rel_residual = ridge::rel_residual(a, y, w.as_ref());
@@ -834,7 +886,12 @@ impl CentreChoice {
 
     /// Parses [`CentreChoice::name`]'s forms; anything else is an error saying what is read.
     pub fn parse(s: &str) -> Result<Self, FitError> {
-        let bad = || FitError::BadOption { what: "rbf centres", why: format!("`{s}` is not one of farthest, farthest@SEED, kmeans++@SEED, random@SEED, kmeansITERATIONS@SEED") };
+        let bad = || FitError::BadOption {
+            what: "rbf centres",
+            why: format!(
+                "`{s}` is not one of farthest, farthest@SEED, kmeans++@SEED, random@SEED, kmeansITERATIONS@SEED"
+            ),
+        };
         if s == "farthest" {
             return Ok(CentreChoice::Farthest);
         }
@@ -844,7 +901,10 @@ impl CentreChoice {
             "farthest" => CentreChoice::FarthestFrom { seed },
             "kmeans++" => CentreChoice::KMeansPP { seed },
             "random" => CentreChoice::Random { seed },
-            _ => CentreChoice::KMeans { seed, iterations: kind.strip_prefix("kmeans").and_then(|i| i.parse().ok()).ok_or_else(bad)? },
+            _ => CentreChoice::KMeans {
+                seed,
+                iterations: kind.strip_prefix("kmeans").and_then(|i| i.parse().ok()).ok_or_else(bad)?,
+            },
         })
     }
 }
@@ -953,7 +1013,9 @@ pub fn choose_centres(z: MatRef<'_, f64>, k: usize, choice: CentreChoice) -> Vec
                 counts.iter_mut().for_each(|s| *s = 0);
                 for i in 0..n {
                     let p = row(i);
-                    let best = (0..kc).min_by(|&a, &b| dist2(p, &c[a * d..(a + 1) * d]).total_cmp(&dist2(p, &c[b * d..(b + 1) * d]))).unwrap_or(0);
+                    let best = (0..kc)
+                        .min_by(|&a, &b| dist2(p, &c[a * d..(a + 1) * d]).total_cmp(&dist2(p, &c[b * d..(b + 1) * d])))
+                        .unwrap_or(0);
                     counts[best] += 1;
                     for j in 0..d {
                         sums[best * d + j] += p[j];
@@ -975,7 +1037,12 @@ pub fn choose_centres(z: MatRef<'_, f64>, k: usize, choice: CentreChoice) -> Vec
 impl ReducedDynamics {
     /// An RBF map (`kind` an RBF kind) fitted as [`Self::fit`] fits it, with the centres
     /// chosen by `choice` ([`CentreChoice::Farthest`]: the same map as [`Self::fit`]).
-    pub fn fit_rbf_centres(trajs: &[EtaTrajectory<'_>], kind: Dynamics, ridge: Ridge, choice: CentreChoice) -> Result<Self, FitError> {
+    pub fn fit_rbf_centres(
+        trajs: &[EtaTrajectory<'_>],
+        kind: Dynamics,
+        ridge: Ridge,
+        choice: CentreChoice,
+    ) -> Result<Self, FitError> {
         let Some((centers, kernel)) = kind.rbf() else {
             return Err(FitError::BadOption { what: "dynamics", why: "a centre choice is for RBF maps only".into() });
         };
@@ -985,7 +1052,11 @@ impl ReducedDynamics {
         let mut ys = Vec::new();
         for t in trajs {
             if t.eta.ncols() != d {
-                return Err(FitError::DimMismatch { name: "training trajectory (reduced dimension)".into(), got: t.eta.ncols(), expected: d });
+                return Err(FitError::DimMismatch {
+                    name: "training trajectory (reduced dimension)".into(),
+                    got: t.eta.ncols(),
+                    expected: d,
+                });
             }
             let m = t.eta.nrows().saturating_sub(1);
             xs.push(Mat::from_fn(m, d, |i, j| t.eta[(i, j)]));
@@ -993,9 +1064,12 @@ impl ReducedDynamics {
         }
         let (x, groups) = stack(&xs);
         let (y, _) = stack(&ys);
-        let _reserved = ridge::reserve(x.nrows().saturating_mul(centers.saturating_add(d + 1)).saturating_mul(2 * std::mem::size_of::<f64>()));
+        let _reserved = ridge::reserve(
+            x.nrows().saturating_mul(centers.saturating_add(d + 1)).saturating_mul(2 * std::mem::size_of::<f64>()),
+        );
         let common = eta_scale(trajs).iter().fold(0.0_f64, |m, v| m.max(*v));
-        fit_rbf_with(x.as_ref(), y.as_ref(), &groups, vec![common; d], centers, kernel, dt, ridge, choice).map(ReducedDynamics::Rbf)
+        fit_rbf_with(x.as_ref(), y.as_ref(), &groups, vec![common; d], centers, kernel, dt, ridge, choice)
+            .map(ReducedDynamics::Rbf)
     }
 
     /// Fits the requested dynamics of polynomial order `order` (ignored for RBF).
@@ -1049,15 +1123,24 @@ impl ReducedDynamics {
         if let Some(wt) = weight {
             wt.validate()?;
             if kind.rbf().is_some() {
-                return Err(FitError::BadOption { what: "row weights", why: "apply to polynomial flow or map dynamics, not to RBF".into() });
+                return Err(FitError::BadOption {
+                    what: "row weights",
+                    why: "apply to polynomial flow or map dynamics, not to RBF".into(),
+                });
             }
         }
         if let Some(f) = anchor {
             if !(f > 0.0 && f <= 1.0) {
-                return Err(FitError::BadOption { what: "linear_anchor", why: format!("the radius fraction must be in (0, 1], got {f}") });
+                return Err(FitError::BadOption {
+                    what: "linear_anchor",
+                    why: format!("the radius fraction must be in (0, 1], got {f}"),
+                });
             }
             if kind.rbf().is_some() {
-                return Err(FitError::BadOption { what: "linear_anchor", why: "applies to polynomial flow or map dynamics, not to RBF".into() });
+                return Err(FitError::BadOption {
+                    what: "linear_anchor",
+                    why: "applies to polynomial flow or map dynamics, not to RBF".into(),
+                });
             }
         }
         let d = trajs.first().map(|t| t.eta.ncols()).ok_or(FitError::NoTrainingData)?;
@@ -1078,12 +1161,24 @@ impl ReducedDynamics {
                 let (y, _) = stack(&ys);
                 let nm = poly::count(d, 1, order).unwrap_or(usize::MAX);
                 crate::limits::check_matrix("flow regression", x.nrows(), nm, true)?;
-                let _reserved = ridge::reserve(x.nrows().saturating_mul(nm).saturating_mul(2 * std::mem::size_of::<f64>()));
+                let _reserved =
+                    ridge::reserve(x.nrows().saturating_mul(nm).saturating_mul(2 * std::mem::size_of::<f64>()));
                 let exps = poly::exponents(d, 1, order);
                 let rows = weight.map(|wt| wt.row_factors(x.as_ref(), &groups));
                 let low = low_stage(weight, x.as_ref(), &groups, d);
-                let (w, conditioning) =
-                    poly_fit(x.as_ref(), &scale, &exps, y.as_ref(), &groups, ridge, anchor, joint, rows.as_deref(), low.as_ref().map(|(n, f)| (*n, f.as_slice())), "flow regression")?;
+                let (w, conditioning) = poly_fit(
+                    x.as_ref(),
+                    &scale,
+                    &exps,
+                    y.as_ref(),
+                    &groups,
+                    ridge,
+                    anchor,
+                    joint,
+                    rows.as_deref(),
+                    low.as_ref().map(|(n, f)| (*n, f.as_slice())),
+                    "flow regression",
+                )?;
                 Ok(ReducedDynamics::Flow { field: to_poly(&w, exps, scale), conditioning })
             }
             Dynamics::Map | Dynamics::Rbf { .. } | Dynamics::RbfWith { .. } => {
@@ -1102,22 +1197,45 @@ impl ReducedDynamics {
                     Some((centers, _)) => centers.saturating_add(d + 1),
                     None => poly::count(d, 1, order).unwrap_or(usize::MAX),
                 };
-                let _reserved = ridge::reserve(x.nrows().saturating_mul(cols).saturating_mul(2 * std::mem::size_of::<f64>()));
+                let _reserved =
+                    ridge::reserve(x.nrows().saturating_mul(cols).saturating_mul(2 * std::mem::size_of::<f64>()));
                 if let Some((centers, kernel)) = kind.rbf() {
                     // One common scale for all coordinates: the kernel then stays a Euclidean
                     // distance in eta itself (||eta/s - c|| = ||eta - s c|| / s), which is what
                     // the exported device model evaluates.
                     let common = scale.iter().fold(0.0_f64, |m, v| m.max(*v));
                     let uniform = vec![common; scale.len()];
-                    return fit_rbf_with(x.as_ref(), y.as_ref(), &groups, uniform, centers, kernel, dt, ridge, CentreChoice::Farthest).map(ReducedDynamics::Rbf);
+                    return fit_rbf_with(
+                        x.as_ref(),
+                        y.as_ref(),
+                        &groups,
+                        uniform,
+                        centers,
+                        kernel,
+                        dt,
+                        ridge,
+                        CentreChoice::Farthest,
+                    )
+                    .map(ReducedDynamics::Rbf);
                 }
                 let nm = poly::count(d, 1, order).unwrap_or(usize::MAX);
                 crate::limits::check_matrix("map regression", x.nrows(), nm, true)?;
                 let exps = poly::exponents(d, 1, order);
                 let rows = weight.map(|wt| wt.row_factors(x.as_ref(), &groups));
                 let low = low_stage(weight, x.as_ref(), &groups, d);
-                let (w, conditioning) =
-                    poly_fit(x.as_ref(), &scale, &exps, y.as_ref(), &groups, ridge, anchor, joint, rows.as_deref(), low.as_ref().map(|(n, f)| (*n, f.as_slice())), "map regression")?;
+                let (w, conditioning) = poly_fit(
+                    x.as_ref(),
+                    &scale,
+                    &exps,
+                    y.as_ref(),
+                    &groups,
+                    ridge,
+                    anchor,
+                    joint,
+                    rows.as_deref(),
+                    low.as_ref().map(|(n, f)| (*n, f.as_slice())),
+                    "map regression",
+                )?;
                 Ok(ReducedDynamics::Map { increment: to_poly(&w, exps, scale), dt, conditioning })
             }
         }
@@ -1130,20 +1248,40 @@ impl ReducedDynamics {
     /// regressors, where ordinary least squares shrinks the map towards its mean; the noise
     /// left in the targets only adds variance. Centres, scale and ridge are chosen from the
     /// inputs as in [`Self::fit`]. Every target trajectory must have its input's shape.
-    pub fn fit_rbf_pairs(inputs: &[EtaTrajectory<'_>], targets: &[EtaTrajectory<'_>], kind: Dynamics, ridge: Ridge) -> Result<Self, FitError> {
+    pub fn fit_rbf_pairs(
+        inputs: &[EtaTrajectory<'_>],
+        targets: &[EtaTrajectory<'_>],
+        kind: Dynamics,
+        ridge: Ridge,
+    ) -> Result<Self, FitError> {
         let Some((centers, kernel)) = kind.rbf() else {
-            return Err(FitError::BadOption { what: "dynamics", why: "pair fitting (denoised inputs, raw targets) is for RBF maps only".into() });
+            return Err(FitError::BadOption {
+                what: "dynamics",
+                why: "pair fitting (denoised inputs, raw targets) is for RBF maps only".into(),
+            });
         };
         let d = inputs.first().map(|t| t.eta.ncols()).ok_or(FitError::NoTrainingData)?;
         if inputs.len() != targets.len() {
-            return Err(FitError::DimMismatch { name: "pair-fit target trajectories".into(), got: targets.len(), expected: inputs.len() });
+            return Err(FitError::DimMismatch {
+                name: "pair-fit target trajectories".into(),
+                got: targets.len(),
+                expected: inputs.len(),
+            });
         }
         for (k, (a, b)) in inputs.iter().zip(targets).enumerate() {
             if a.eta.ncols() != d || b.eta.ncols() != d {
-                return Err(FitError::DimMismatch { name: format!("pair-fit trajectory {k} (reduced dimension)"), got: a.eta.ncols().max(b.eta.ncols()), expected: d });
+                return Err(FitError::DimMismatch {
+                    name: format!("pair-fit trajectory {k} (reduced dimension)"),
+                    got: a.eta.ncols().max(b.eta.ncols()),
+                    expected: d,
+                });
             }
             if a.eta.nrows() != b.eta.nrows() {
-                return Err(FitError::DimMismatch { name: format!("pair-fit trajectory {k} (points)"), got: b.eta.nrows(), expected: a.eta.nrows() });
+                return Err(FitError::DimMismatch {
+                    name: format!("pair-fit trajectory {k} (points)"),
+                    got: b.eta.nrows(),
+                    expected: a.eta.nrows(),
+                });
             }
         }
         let dt = common_dt(inputs)?;
@@ -1156,9 +1294,22 @@ impl ReducedDynamics {
         }
         let (x, groups) = stack(&xs);
         let (y, _) = stack(&ys);
-        let _reserved = ridge::reserve(x.nrows().saturating_mul(centers.saturating_add(d + 1)).saturating_mul(2 * std::mem::size_of::<f64>()));
+        let _reserved = ridge::reserve(
+            x.nrows().saturating_mul(centers.saturating_add(d + 1)).saturating_mul(2 * std::mem::size_of::<f64>()),
+        );
         let common = eta_scale(inputs).iter().fold(0.0_f64, |m, v| m.max(*v));
-        fit_rbf_with(x.as_ref(), y.as_ref(), &groups, vec![common; d], centers, kernel, dt, ridge, CentreChoice::Farthest).map(ReducedDynamics::Rbf)
+        fit_rbf_with(
+            x.as_ref(),
+            y.as_ref(),
+            &groups,
+            vec![common; d],
+            centers,
+            kernel,
+            dt,
+            ridge,
+            CentreChoice::Farthest,
+        )
+        .map(ReducedDynamics::Rbf)
     }
 
     /// Conditioning of the dynamics regression.
@@ -1317,7 +1468,12 @@ fn common_dt(trajs: &[EtaTrajectory<'_>]) -> Result<f64, FitError> {
     let dt0 = trajs[0].dt;
     for (i, t) in trajs.iter().enumerate() {
         if (t.dt - dt0).abs() > MAP_DT_RTOL * dt0 {
-            return Err(FitError::StepMismatch { name: format!("training trajectory {i}"), dt: t.dt, dt_model: dt0, rtol: MAP_DT_RTOL });
+            return Err(FitError::StepMismatch {
+                name: format!("training trajectory {i}"),
+                dt: t.dt,
+                dt_model: dt0,
+                rtol: MAP_DT_RTOL,
+            });
         }
     }
     Ok(trajs.iter().map(|t| t.dt).sum::<f64>() / trajs.len() as f64)
@@ -1429,11 +1585,24 @@ mod tests {
                     scale: vec![0.8; d],
                     coef: vec![0.0; (k + d + 1) * d],
                     centers: centers.clone(),
-                    conditioning: Conditioning { rows: 0, cols: 0, s_max: 1.0, s_min: 1.0, cond: 1.0, alpha: 0.0, cond_regularized: 1.0, rel_residual: 0.0 },
+                    conditioning: Conditioning {
+                        rows: 0,
+                        cols: 0,
+                        s_max: 1.0,
+                        s_min: 1.0,
+                        cond: 1.0,
+                        alpha: 0.0,
+                        cond_regularized: 1.0,
+                        rel_residual: 0.0,
+                    },
                 };
                 for p in 0..20 {
                     // The last point sits on a centre (scaled): r = 0 exactly.
-                    let eta: Vec<f64> = if p == 19 { centers[..d].iter().map(|c| c * 0.8).collect() } else { (0..d).map(|_| next()).collect() };
+                    let eta: Vec<f64> = if p == 19 {
+                        centers[..d].iter().map(|c| c * 0.8).collect()
+                    } else {
+                        (0..d).map(|_| next()).collect()
+                    };
                     let (mut got, mut want) = (vec![0.0; k + d + 1], vec![0.0; k + d + 1]);
                     m.features(&eta, &mut got);
                     features_plain(&m, &eta, &mut want);
@@ -1516,7 +1685,10 @@ mod tests {
             (Dynamics::Map, 1e-9, "training pairs within"),
         ] {
             let e = ReducedDynamics::fit_anchored(&et, kind, 3, Ridge::Fixed(0.0), Some(f)).unwrap_err();
-            assert!(matches!(e, FitError::BadOption { what: "linear_anchor", .. }) && e.to_string().contains(what), "{f}: {e}");
+            assert!(
+                matches!(e, FitError::BadOption { what: "linear_anchor", .. }) && e.to_string().contains(what),
+                "{f}: {e}"
+            );
         }
     }
 
@@ -1539,15 +1711,18 @@ mod tests {
             [g * (c * x[0] - s * x[1]), g * (s * x[0] + c * x[1])]
         };
         let runs = |c7: f64| -> Vec<Mat<f64>> {
-            [0.02, 0.1, 0.3, 0.5, 0.7].iter().map(|&a: &f64| {
-                let mut x = [a, 0.0];
-                let mut rows = Vec::new();
-                for _ in 0..400 {
-                    rows.push(x);
-                    x = f(x, c7);
-                }
-                Mat::from_fn(400, 2, |i, j| rows[i][j])
-            }).collect()
+            [0.02, 0.1, 0.3, 0.5, 0.7]
+                .iter()
+                .map(|&a: &f64| {
+                    let mut x = [a, 0.0];
+                    let mut rows = Vec::new();
+                    for _ in 0..400 {
+                        rows.push(x);
+                        x = f(x, c7);
+                    }
+                    Mat::from_fn(400, 2, |i, j| rows[i][j])
+                })
+                .collect()
         };
         let fit = |ms: &[Mat<f64>], order: u32, wt: &RowWeight| {
             let t: Vec<EtaTrajectory> = ms.iter().map(|m| EtaTrajectory { eta: m.as_ref(), dt: 0.01 }).collect();
@@ -1561,25 +1736,36 @@ mod tests {
         let small = RowWeight { knee: 0.25, power: 32.0, low_degrees: None };
         let staged = RowWeight { low_degrees: Some(LowDegreeStage { max_degree: 3, knee: 0.25, power: 32.0 }), ..main };
         let data = runs(0.5);
-        let (a, b, c) = (coef(&fit(&data, 5, &staged).unwrap()), coef(&fit(&data, 5, &small).unwrap()), coef(&fit(&data, 5, &main).unwrap()));
+        let (a, b, c) = (
+            coef(&fit(&data, 5, &staged).unwrap()),
+            coef(&fit(&data, 5, &small).unwrap()),
+            coef(&fit(&data, 5, &main).unwrap()),
+        );
         // Degrees 1..=3 in 2 variables: 2 + 3 + 4 monomials, 2 outputs each.
         let n_low = 2 * 9;
         assert_eq!(a[..n_low], b[..n_low], "low degrees = the small-knee fit's");
         let differs = a[n_low..].iter().zip(&b[n_low..]).map(|(u, v)| (u - v).abs()).fold(0.0, f64::max);
         let from_main = a[..n_low].iter().zip(&c[..n_low]).map(|(u, v)| (u - v).abs()).fold(0.0, f64::max);
-        println!("degrees 4..5 staged vs small-knee fit: {differs:.1e}; degrees 2..3 staged vs main fit: {from_main:.1e}");
+        println!(
+            "degrees 4..5 staged vs small-knee fit: {differs:.1e}; degrees 2..3 staged vs main fit: {from_main:.1e}"
+        );
         assert!(differs > 1e-6 && from_main > 1e-6, "{differs} {from_main}");
         // Refused: without the plain anchor, max_degree below 2 or not below the order.
         let t: Vec<EtaTrajectory> = data.iter().map(|m| EtaTrajectory { eta: m.as_ref(), dt: 0.01 }).collect();
-        let e = ReducedDynamics::fit_weighted(&t, Dynamics::Map, 5, Ridge::Fixed(0.0), None, false, Some(&staged)).unwrap_err();
+        let e = ReducedDynamics::fit_weighted(&t, Dynamics::Map, 5, Ridge::Fixed(0.0), None, false, Some(&staged))
+            .unwrap_err();
         assert!(matches!(e, FitError::BadOption { what: "row weight low-degree stage", .. }), "{e}");
         for (deg, order) in [(1, 5), (5, 5), (3, 3)] {
-            let w = RowWeight { low_degrees: Some(LowDegreeStage { max_degree: deg, knee: 0.25, power: 32.0 }), ..main };
+            let w =
+                RowWeight { low_degrees: Some(LowDegreeStage { max_degree: deg, knee: 0.25, power: 32.0 }), ..main };
             let e = fit(&data, order, &w).unwrap_err();
             assert!(matches!(e, FitError::BadOption { what: "row weight low-degree stage", .. }), "{deg} {order}: {e}");
         }
         let w = RowWeight { low_degrees: Some(LowDegreeStage { max_degree: 3, knee: -1.0, power: 32.0 }), ..main };
-        assert!(matches!(fit(&data, 5, &w).unwrap_err(), FitError::BadOption { what: "row weight low-degree stage", .. }));
+        assert!(matches!(
+            fit(&data, 5, &w).unwrap_err(),
+            FitError::BadOption { what: "row weight low-degree stage", .. }
+        ));
     }
 
     #[test]
@@ -1587,7 +1773,8 @@ mod tests {
         // The twist map scaled by 0.55 (not polynomial): inner runs from r <= 0.5, and an
         // outer run kept for 60 steps from r = 2.5 (r >= 1.85, weight below (0.6 / 1.85)^32
         // = 2e-16).
-        let inner: Vec<Mat<f64>> = twist_trajectories().into_iter().map(|m| Mat::from_fn(m.nrows(), 2, |i, j| 0.55 * m[(i, j)])).collect();
+        let inner: Vec<Mat<f64>> =
+            twist_trajectories().into_iter().map(|m| Mat::from_fn(m.nrows(), 2, |i, j| 0.55 * m[(i, j)])).collect();
         let outer = {
             let mut x: [f64; 2] = [2.5 / 0.55, 0.0];
             let mut rows = Vec::new();
@@ -1610,14 +1797,22 @@ mod tests {
             e
         };
         let gap = |a: &ReducedDynamics, b: &ReducedDynamics| {
-            [[0.3, 0.0], [0.0, -0.2], [0.15, 0.25], [-0.4, 0.1]].iter().map(|&x| {
-                let (u, v) = (image(a, x), image(b, x));
-                (u[0] - v[0]).abs().max((u[1] - v[1]).abs())
-            }).fold(0.0, f64::max)
+            [[0.3, 0.0], [0.0, -0.2], [0.15, 0.25], [-0.4, 0.1]]
+                .iter()
+                .map(|&x| {
+                    let (u, v) = (image(a, x), image(b, x));
+                    (u[0] - v[0]).abs().max((u[1] - v[1]).abs())
+                })
+                .fold(0.0, f64::max)
         };
         let wt = RowWeight { knee: 0.6, power: 32.0, low_degrees: None };
-        let (g_w, g_u) = (gap(&fit(&inner, Some(&wt)), &fit(&with_outer, Some(&wt))), gap(&fit(&inner, None), &fit(&with_outer, None)));
-        println!("one-step images inside r = 0.45, fits with vs without the outer run: weighted {g_w:.1e}, unweighted {g_u:.1e}");
+        let (g_w, g_u) = (
+            gap(&fit(&inner, Some(&wt)), &fit(&with_outer, Some(&wt))),
+            gap(&fit(&inner, None), &fit(&with_outer, None)),
+        );
+        println!(
+            "one-step images inside r = 0.45, fits with vs without the outer run: weighted {g_w:.1e}, unweighted {g_u:.1e}"
+        );
         // Measured: weighted 6.9e-15, unweighted 0.20.
         assert!(g_w < 1e-10 && g_u > 1e-4, "weighted {g_w}, unweighted {g_u}");
         // Exact data of a cubic map: recovered with and without weights.
@@ -1625,34 +1820,50 @@ mod tests {
             let r2 = x[0] * x[0] + x[1] * x[1];
             [0.99 * x[0] - 0.1 * x[1] - 0.3 * r2 * x[0], 0.1 * x[0] + 0.99 * x[1] - 0.2 * r2 * x[1]]
         };
-        let runs: Vec<Mat<f64>> = [[0.5, 0.0], [0.0, 0.4], [0.3, -0.3]].iter().map(|&s| {
-            let mut x = s;
-            let mut rows = Vec::new();
-            for _ in 0..200 {
-                rows.push(x);
-                x = cubic(x);
-            }
-            Mat::from_fn(200, 2, |i, j| rows[i][j])
-        }).collect();
+        let runs: Vec<Mat<f64>> = [[0.5, 0.0], [0.0, 0.4], [0.3, -0.3]]
+            .iter()
+            .map(|&s| {
+                let mut x = s;
+                let mut rows = Vec::new();
+                for _ in 0..200 {
+                    rows.push(x);
+                    x = cubic(x);
+                }
+                Mat::from_fn(200, 2, |i, j| rows[i][j])
+            })
+            .collect();
         for w in [None, Some(&wt), Some(&RowWeight { knee: 0.2, power: 4.0, low_degrees: None })] {
             let d = fit(&runs, w);
-            let err = [[0.2, 0.1], [-0.3, 0.2]].iter().map(|&x| {
-                let (u, v) = (image(&d, x), cubic(x));
-                (u[0] - v[0]).abs().max((u[1] - v[1]).abs())
-            }).fold(0.0, f64::max);
+            let err = [[0.2, 0.1], [-0.3, 0.2]]
+                .iter()
+                .map(|&x| {
+                    let (u, v) = (image(&d, x), cubic(x));
+                    (u[0] - v[0]).abs().max((u[1] - v[1]).abs())
+                })
+                .fold(0.0, f64::max);
             assert!(err < 1e-10, "{w:?}: {err}");
         }
         // None is fit_with itself.
         let t: Vec<EtaTrajectory> = inner.iter().map(|m| EtaTrajectory { eta: m.as_ref(), dt: 0.01 }).collect();
-        let (a, b) = (ReducedDynamics::fit_with(&t, Dynamics::Map, 3, Ridge::Fixed(0.0), Some(0.2), false).unwrap(), ReducedDynamics::fit_weighted(&t, Dynamics::Map, 3, Ridge::Fixed(0.0), Some(0.2), false, None).unwrap());
+        let (a, b) = (
+            ReducedDynamics::fit_with(&t, Dynamics::Map, 3, Ridge::Fixed(0.0), Some(0.2), false).unwrap(),
+            ReducedDynamics::fit_weighted(&t, Dynamics::Map, 3, Ridge::Fixed(0.0), Some(0.2), false, None).unwrap(),
+        );
         assert_eq!(gap(&a, &b), 0.0);
         // The plain anchor with weights: linear part unweighted on the anchor rows.
-        let aw = ReducedDynamics::fit_weighted(&t, Dynamics::Map, 3, Ridge::Fixed(0.0), Some(0.2), false, Some(&wt)).unwrap();
+        let aw = ReducedDynamics::fit_weighted(&t, Dynamics::Map, 3, Ridge::Fixed(0.0), Some(0.2), false, Some(&wt))
+            .unwrap();
         assert_eq!(aw.linear_part().unwrap(), a.linear_part().unwrap());
         // Errors.
         for (w, anchor, joint, kind, what) in [
             (RowWeight { knee: 0.0, power: 8.0, low_degrees: None }, None, false, Dynamics::Map, "row weight knee"),
-            (RowWeight { knee: f64::NAN, power: 8.0, low_degrees: None }, None, false, Dynamics::Map, "row weight knee"),
+            (
+                RowWeight { knee: f64::NAN, power: 8.0, low_degrees: None },
+                None,
+                false,
+                Dynamics::Map,
+                "row weight knee",
+            ),
             (RowWeight { knee: 0.5, power: 0.5, low_degrees: None }, None, false, Dynamics::Map, "row weight power"),
             (RowWeight { knee: 0.5, power: 100.0, low_degrees: None }, None, false, Dynamics::Map, "row weight power"),
             (wt, Some(0.05), true, Dynamics::Map, "row weights"),
@@ -1687,10 +1898,18 @@ mod tests {
     fn linear_kernel_is_the_default_bit_for_bit() {
         let trajs = twist_trajectories();
         let et: Vec<EtaTrajectory> = trajs.iter().map(|m| EtaTrajectory { eta: m.as_ref(), dt: 0.1 }).collect();
-        let ReducedDynamics::Rbf(a) = ReducedDynamics::fit(&et, Dynamics::Rbf { centers: 30 }, 1, Ridge::Fixed(1e-10)).unwrap() else { panic!() };
-        let ReducedDynamics::Rbf(b) =
-            ReducedDynamics::fit(&et, Dynamics::RbfWith { centers: 30, kernel: Kernel::Linear }, 1, Ridge::Fixed(1e-10)).unwrap()
+        let ReducedDynamics::Rbf(a) =
+            ReducedDynamics::fit(&et, Dynamics::Rbf { centers: 30 }, 1, Ridge::Fixed(1e-10)).unwrap()
         else {
+            panic!()
+        };
+        let ReducedDynamics::Rbf(b) = ReducedDynamics::fit(
+            &et,
+            Dynamics::RbfWith { centers: 30, kernel: Kernel::Linear },
+            1,
+            Ridge::Fixed(1e-10),
+        )
+        .unwrap() else {
             panic!()
         };
         assert_eq!(a.kernel, Kernel::Linear);
@@ -1716,7 +1935,8 @@ mod tests {
         let trajs = twist_trajectories();
         let et: Vec<EtaTrajectory> = trajs.iter().map(|m| EtaTrajectory { eta: m.as_ref(), dt: 0.1 }).collect();
         for kernel in [Kernel::Linear, Kernel::Cubic, Kernel::ThinPlate, Kernel::Gaussian { eps: 1.5 }] {
-            let dynm = ReducedDynamics::fit(&et, Dynamics::RbfWith { centers: 40, kernel }, 1, Ridge::Fixed(1e-10)).unwrap();
+            let dynm =
+                ReducedDynamics::fit(&et, Dynamics::RbfWith { centers: 40, kernel }, 1, Ridge::Fixed(1e-10)).unwrap();
             let ReducedDynamics::Rbf(m) = &dynm else { panic!() };
             assert_eq!(m.kernel, kernel);
             let rr = dynm.conditioning().rel_residual;
@@ -1736,7 +1956,9 @@ mod tests {
                 }
             }
         }
-        for (k, what) in [("gaussian:0", "eps must be finite and > 0"), ("gaussian:x", "not a number"), ("quintic", "not one of")] {
+        for (k, what) in
+            [("gaussian:0", "eps must be finite and > 0"), ("gaussian:x", "not a number"), ("quintic", "not one of")]
+        {
             let e = Kernel::parse(k).unwrap_err().to_string();
             assert!(e.contains(what) && e.contains("rbf kernel"), "{k}: {e}");
         }
@@ -1744,7 +1966,13 @@ mod tests {
         for k in [Kernel::Linear, Kernel::Cubic, Kernel::ThinPlate, Kernel::Gaussian { eps: 0.75 }] {
             assert_eq!(Kernel::parse(&k.name()).unwrap(), k);
         }
-        let e = ReducedDynamics::fit(&et, Dynamics::RbfWith { centers: 5, kernel: Kernel::Gaussian { eps: f64::NAN } }, 1, Ridge::Fixed(0.0)).unwrap_err();
+        let e = ReducedDynamics::fit(
+            &et,
+            Dynamics::RbfWith { centers: 5, kernel: Kernel::Gaussian { eps: f64::NAN } },
+            1,
+            Ridge::Fixed(0.0),
+        )
+        .unwrap_err();
         assert!(e.to_string().contains("Gaussian shape parameter"), "{e}");
     }
 
@@ -1773,14 +2001,33 @@ mod tests {
     fn centre_choices() {
         let et_m = twist_trajectories();
         let et: Vec<_> = et_m.iter().map(|e| EtaTrajectory { eta: e.as_ref(), dt: 0.1 }).collect();
-        let ReducedDynamics::Rbf(a) = ReducedDynamics::fit(&et, Dynamics::Rbf { centers: 30 }, 1, Ridge::Fixed(1e-10)).unwrap() else { panic!() };
-        let ReducedDynamics::Rbf(b) = ReducedDynamics::fit_rbf_centres(&et, Dynamics::Rbf { centers: 30 }, Ridge::Fixed(1e-10), CentreChoice::Farthest).unwrap() else { panic!() };
+        let ReducedDynamics::Rbf(a) =
+            ReducedDynamics::fit(&et, Dynamics::Rbf { centers: 30 }, 1, Ridge::Fixed(1e-10)).unwrap()
+        else {
+            panic!()
+        };
+        let ReducedDynamics::Rbf(b) = ReducedDynamics::fit_rbf_centres(
+            &et,
+            Dynamics::Rbf { centers: 30 },
+            Ridge::Fixed(1e-10),
+            CentreChoice::Farthest,
+        )
+        .unwrap() else {
+            panic!()
+        };
         assert_eq!(a.centers, b.centers);
         assert_eq!(a.coef, b.coef);
         let z = Mat::from_fn(200, 2, |i, j| ((i * 7 + j * 13) % 37) as f64 / 37.0 + 0.01 * i as f64);
         let rows: Vec<Vec<f64>> = (0..200).map(|i| vec![z[(i, 0)], z[(i, 1)]]).collect();
-        assert_eq!(choose_centres(z.as_ref(), 12, CentreChoice::Farthest), farthest_points(z.as_ref(), 12).iter().flat_map(|&i| rows[i].clone()).collect::<Vec<_>>());
-        for ch in [CentreChoice::FarthestFrom { seed: 3 }, CentreChoice::KMeansPP { seed: 3 }, CentreChoice::Random { seed: 3 }] {
+        assert_eq!(
+            choose_centres(z.as_ref(), 12, CentreChoice::Farthest),
+            farthest_points(z.as_ref(), 12).iter().flat_map(|&i| rows[i].clone()).collect::<Vec<_>>()
+        );
+        for ch in [
+            CentreChoice::FarthestFrom { seed: 3 },
+            CentreChoice::KMeansPP { seed: 3 },
+            CentreChoice::Random { seed: 3 },
+        ] {
             let c = choose_centres(z.as_ref(), 12, ch);
             assert_eq!(c.len(), 24, "{ch:?}");
             assert_eq!(c, choose_centres(z.as_ref(), 12, ch), "{ch:?} reproducible");
@@ -1795,16 +2042,28 @@ mod tests {
             assert!((0..12).all(|i| (0..i).all(|j| pts[i] != pts[j])), "{ch:?}: distinct");
         }
         // Two clusters of 4 points each around (0, 0) and (10, 0) (means exactly these).
-        let pts = [[0.5, 0.0], [-0.5, 0.0], [0.0, 0.5], [0.0, -0.5], [10.5, 0.0], [9.5, 0.0], [10.0, 0.5], [10.0, -0.5]];
+        let pts =
+            [[0.5, 0.0], [-0.5, 0.0], [0.0, 0.5], [0.0, -0.5], [10.5, 0.0], [9.5, 0.0], [10.0, 0.5], [10.0, -0.5]];
         let z2 = Mat::from_fn(8, 2, |i, j| pts[i][j]);
         for seed in 0..5 {
-            let mut c: Vec<Vec<f64>> = choose_centres(z2.as_ref(), 2, CentreChoice::KMeans { seed, iterations: 5 }).chunks(2).map(|p| p.to_vec()).collect();
+            let mut c: Vec<Vec<f64>> = choose_centres(z2.as_ref(), 2, CentreChoice::KMeans { seed, iterations: 5 })
+                .chunks(2)
+                .map(|p| p.to_vec())
+                .collect();
             c.sort_by(|a, b| a[0].total_cmp(&b[0]));
             assert_eq!(c, vec![vec![0.0, 0.0], vec![10.0, 0.0]], "seed {seed}");
         }
-        let e = ReducedDynamics::fit_rbf_centres(&et, Dynamics::Map, Ridge::Fixed(0.0), CentreChoice::Random { seed: 1 }).unwrap_err();
+        let e =
+            ReducedDynamics::fit_rbf_centres(&et, Dynamics::Map, Ridge::Fixed(0.0), CentreChoice::Random { seed: 1 })
+                .unwrap_err();
         assert!(matches!(e, FitError::BadOption { what: "dynamics", .. }), "{e}");
-        for c in [CentreChoice::Farthest, CentreChoice::FarthestFrom { seed: 7 }, CentreChoice::KMeansPP { seed: 0 }, CentreChoice::Random { seed: 9 }, CentreChoice::KMeans { seed: 2, iterations: 10 }] {
+        for c in [
+            CentreChoice::Farthest,
+            CentreChoice::FarthestFrom { seed: 7 },
+            CentreChoice::KMeansPP { seed: 0 },
+            CentreChoice::Random { seed: 9 },
+            CentreChoice::KMeans { seed: 2, iterations: 10 },
+        ] {
             assert_eq!(CentreChoice::parse(&c.name()).unwrap(), c);
         }
         assert_eq!(CentreChoice::KMeans { seed: 2, iterations: 10 }.name(), "kmeans10@2");
@@ -1869,9 +2128,13 @@ mod tests {
         let (ReducedDynamics::Rbf(x), ReducedDynamics::Rbf(y)) = (&same, &plain) else { unreachable!() };
         assert_eq!(x.coef, y.coef);
         // Bad input names what is wrong.
-        let e = ReducedDynamics::fit_rbf_pairs(&tr(&clean), &tr(&clean[..10]), kind, Ridge::Fixed(1e-10)).unwrap_err().to_string();
+        let e = ReducedDynamics::fit_rbf_pairs(&tr(&clean), &tr(&clean[..10]), kind, Ridge::Fixed(1e-10))
+            .unwrap_err()
+            .to_string();
         assert!(e.contains("pair-fit target trajectories"), "{e}");
-        let e = ReducedDynamics::fit_rbf_pairs(&tr(&clean), &tr(&clean), Dynamics::Map, Ridge::Fixed(1e-10)).unwrap_err().to_string();
+        let e = ReducedDynamics::fit_rbf_pairs(&tr(&clean), &tr(&clean), Dynamics::Map, Ridge::Fixed(1e-10))
+            .unwrap_err()
+            .to_string();
         assert!(e.contains("RBF maps only"), "{e}");
     }
 
@@ -1881,17 +2144,38 @@ mod tests {
     #[test]
     fn prepared_step_is_the_same_bits() {
         let mut r = crate::testing::lcg_centered(5);
-        let cond = Conditioning { rows: 0, cols: 0, s_max: 1.0, s_min: 1.0, cond: 1.0, alpha: 0.0, cond_regularized: 1.0, rel_residual: 0.0 };
+        let cond = Conditioning {
+            rows: 0,
+            cols: 0,
+            s_max: 1.0,
+            s_min: 1.0,
+            cond: 1.0,
+            alpha: 0.0,
+            cond_regularized: 1.0,
+            rel_residual: 0.0,
+        };
         let mut poly = |d: usize, order: u32, gain: f64| {
             let exps = poly::exponents(d, 1, order);
-            let coef: Vec<f64> = (0..exps.len() * d).map(|k| if k < d * d { -0.02 * r() } else { gain * r() }).collect();
+            let coef: Vec<f64> =
+                (0..exps.len() * d).map(|k| if k < d * d { -0.02 * r() } else { gain * r() }).collect();
             Poly { dim_in: d, dim_out: d, scale: (0..d).map(|i| 0.5 + 0.1 * i as f64).collect(), exps, coef }
         };
         let centers = vec![0.1, -0.2, 0.3, 0.05, -0.25, 0.15];
         let cases = [
             (ReducedDynamics::Map { increment: poly(4, 7, 1e-3), dt: 0.03, conditioning: cond }, 0.03),
             (ReducedDynamics::Flow { field: poly(3, 5, 1e-2), conditioning: cond }, 0.01),
-            (ReducedDynamics::Rbf(RbfMap { dim: 2, kernel: Kernel::Linear, dt: 1.0, scale: vec![1.0; 2], centers, coef: (0..12).map(|k| 0.01 * (k as f64 - 5.0)).collect(), conditioning: cond }), 1.0),
+            (
+                ReducedDynamics::Rbf(RbfMap {
+                    dim: 2,
+                    kernel: Kernel::Linear,
+                    dt: 1.0,
+                    scale: vec![1.0; 2],
+                    centers,
+                    coef: (0..12).map(|k| 0.01 * (k as f64 - 5.0)).collect(),
+                    conditioning: cond,
+                }),
+                1.0,
+            ),
         ];
         for (dynamics, dt) in &cases {
             let d = match dynamics {
@@ -1900,12 +2184,14 @@ mod tests {
             };
             let prepared = dynamics.prepare();
             assert_eq!(prepared.poly.is_some(), !matches!(dynamics, ReducedDynamics::Rbf(_)));
-            let (mut a, mut b): (Vec<f64>, Vec<f64>) = ((0..d).map(|i| 0.3 - 0.1 * i as f64).collect(), (0..d).map(|i| 0.3 - 0.1 * i as f64).collect());
+            let (mut a, mut b): (Vec<f64>, Vec<f64>) =
+                ((0..d).map(|i| 0.3 - 0.1 * i as f64).collect(), (0..d).map(|i| 0.3 - 0.1 * i as f64).collect());
             let (mut sa, mut sb) = (StepScratch::default(), StepScratch::default());
             for n in 0..300 {
                 dynamics.step(&mut a, *dt, &mut sa);
                 prepared.step(&mut b, *dt, &mut sb);
-                let (ba, bb): (Vec<u64>, Vec<u64>) = (a.iter().map(|v| v.to_bits()).collect(), b.iter().map(|v| v.to_bits()).collect());
+                let (ba, bb): (Vec<u64>, Vec<u64>) =
+                    (a.iter().map(|v| v.to_bits()).collect(), b.iter().map(|v| v.to_bits()).collect());
                 assert_eq!(ba, bb, "step {n}: {a:?} vs {b:?}");
             }
             assert!(a.iter().all(|v| v.is_finite() && *v != 0.0), "{a:?}");
@@ -1919,14 +2205,25 @@ mod tests {
     #[test]
     fn fused_rbf_step_equals_features_then_sum() {
         let mut rnd = crate::testing::XorShift64::new(17);
-        let cond = Conditioning { rows: 0, cols: 0, s_max: 1.0, s_min: 1.0, cond: 1.0, alpha: 0.0, cond_regularized: 1.0, rel_residual: 0.0 };
+        let cond = Conditioning {
+            rows: 0,
+            cols: 0,
+            s_max: 1.0,
+            s_min: 1.0,
+            cond: 1.0,
+            alpha: 0.0,
+            cond_regularized: 1.0,
+            rel_residual: 0.0,
+        };
         let mut cases = 0;
         for d in 1..=8 {
             for kernel in [Kernel::Linear, Kernel::Cubic, Kernel::ThinPlate, Kernel::Gaussian { eps: 0.7 }] {
                 for &k in &[1usize, 7, 500] {
                     let scale: Vec<f64> = (0..d).map(|_| 0.3 + rnd.open01()).collect();
                     let centers: Vec<f64> = (0..k * d).map(|_| rnd.centered()).collect();
-                    let coef: Vec<f64> = (0..(k + d + 1) * d).map(|i| if i < k * d { 1e-3 * rnd.centered() } else { 0.1 * rnd.centered() }).collect();
+                    let coef: Vec<f64> = (0..(k + d + 1) * d)
+                        .map(|i| if i < k * d { 1e-3 * rnd.centered() } else { 0.1 * rnd.centered() })
+                        .collect();
                     let m = RbfMap { dim: d, kernel, dt: 0.1, scale, centers, coef, conditioning: cond };
                     for start in 0..4 {
                         let mut eta: Vec<f64> = match start {
@@ -1997,10 +2294,20 @@ mod tests {
                     let z = Mat::from_fn(n, d, |_, _| match kind {
                         0 => rnd.centered(),
                         1 => (rnd.centered() * 4.0).round() / 4.0,
-                        _ => if rnd.centered() < 0.0 { -0.0 } else { 0.0 },
+                        _ => {
+                            if rnd.centered() < 0.0 {
+                                -0.0
+                            } else {
+                                0.0
+                            }
+                        }
                     });
                     for &k in &[0usize, 1, 3, 50, 500] {
-                        assert_eq!(farthest_points(z.as_ref(), k), farthest_plain(z.as_ref(), k), "d {d} kind {kind} n {n} k {k}");
+                        assert_eq!(
+                            farthest_points(z.as_ref(), k),
+                            farthest_plain(z.as_ref(), k),
+                            "d {d} kind {kind} n {n} k {k}"
+                        );
                         cases += 1;
                     }
                 }
@@ -2015,14 +2322,24 @@ mod tests {
     #[test]
     fn design_by_columns_equals_the_row_features() {
         let mut rnd = crate::testing::XorShift64::new(29);
-        let cond = Conditioning { rows: 0, cols: 0, s_max: 1.0, s_min: 1.0, cond: 1.0, alpha: 0.0, cond_regularized: 1.0, rel_residual: 0.0 };
+        let cond = Conditioning {
+            rows: 0,
+            cols: 0,
+            s_max: 1.0,
+            s_min: 1.0,
+            cond: 1.0,
+            alpha: 0.0,
+            cond_regularized: 1.0,
+            rel_residual: 0.0,
+        };
         for d in 1..=7 {
             for kernel in [Kernel::Linear, Kernel::Cubic, Kernel::ThinPlate, Kernel::Gaussian { eps: 0.7 }] {
                 let (n, k) = (203, 37);
                 let scale: Vec<f64> = (0..d).map(|_| 0.3 + rnd.open01()).collect();
                 let x = Mat::from_fn(n, d, |i, _| if i % 17 == 5 { -0.0 } else { rnd.centered() });
                 // Centres: scaled rows of x (as the fit picks them), so some distances are 0.
-                let centers: Vec<f64> = (0..k).flat_map(|c| (0..d).map(move |j| (c * 5, j))).map(|(i, j)| x[(i, j)] / scale[j]).collect();
+                let centers: Vec<f64> =
+                    (0..k).flat_map(|c| (0..d).map(move |j| (c * 5, j))).map(|(i, j)| x[(i, j)] / scale[j]).collect();
                 let m = RbfMap { dim: d, kernel, dt: 0.1, scale, centers, coef: Vec::new(), conditioning: cond };
                 let nf = k + d + 1;
                 let mut rows = Mat::<f64>::zeros(n, nf);
@@ -2043,7 +2360,11 @@ mod tests {
                         assert!((2..=6).contains(&d));
                         for i in 0..n {
                             for c in 0..nf {
-                                assert_eq!(cols[(i, c)].to_bits(), rows[(i, c)].to_bits(), "d {d} {kernel:?} row {i} col {c}");
+                                assert_eq!(
+                                    cols[(i, c)].to_bits(),
+                                    rows[(i, c)].to_bits(),
+                                    "d {d} {kernel:?} row {i} col {c}"
+                                );
                             }
                         }
                     }

@@ -60,7 +60,9 @@ mod tests {
         // column 1 = [a1, b1, a3, b3, a5, b5]
         assert_eq!((0..6).map(|r| y[(r, 1)]).collect::<Vec<_>>(), [1.0, 10.0, 3.0, 30.0, 5.0, 50.0]);
         // One observable: the scalar embedding, entry for entry.
-        let ts = TimeSeries::new("s", (0..9).map(|i| i as f64).collect(), (0..9).map(|i| (i * i) as f64 - 3.0).collect()).unwrap();
+        let ts =
+            TimeSeries::new("s", (0..9).map(|i| i as f64).collect(), (0..9).map(|i| (i * i) as f64 - 3.0).collect())
+                .unwrap();
         let (a, b) = (delay_embed(&ts, 4, 2, 1).unwrap(), delay_embed_multi(&MultiSeries::from(&ts), 4, 2, 1).unwrap());
         assert_eq!((a.nrows(), a.ncols()), (b.nrows(), b.ncols()));
         assert!((0..a.nrows()).all(|r| (0..a.ncols()).all(|c| a[(r, c)] == b[(r, c)])));
@@ -70,7 +72,8 @@ mod tests {
 
     #[test]
     fn embeds_with_shift() {
-        let ts = TimeSeries::new("a", (0..7).map(|i| i as f64).collect(), (0..7).map(|i| (i * i) as f64).collect()).unwrap();
+        let ts =
+            TimeSeries::new("a", (0..7).map(|i| i as f64).collect(), (0..7).map(|i| (i * i) as f64).collect()).unwrap();
         let y = delay_embed(&ts, 3, 2, 1).unwrap();
         assert_eq!((y.nrows(), y.ncols()), (3, 3));
         assert_eq!(embedded_len(7, 3, 2), Some(3));

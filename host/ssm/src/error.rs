@@ -16,7 +16,9 @@ pub enum FitError {
     TooLarge { what: &'static str, value: String, limit: String },
     #[error("no training trajectories given")]
     NoTrainingData,
-    #[error("{what}: least-squares problem is underdetermined ({rows} rows < {cols} unknowns); use more data or lower orders")]
+    #[error(
+        "{what}: least-squares problem is underdetermined ({rows} rows < {cols} unknowns); use more data or lower orders"
+    )]
     Underdetermined { what: &'static str, rows: usize, cols: usize },
     #[error("{what}: design matrix or data contains non-finite values")]
     NonFinite { what: &'static str },

@@ -89,7 +89,12 @@ impl FitOptions {
         if self.embed == 0 || q * self.embed <= 2 * self.dim {
             return bad(
                 "embed",
-                format!("p = {} copies of {q} observables = {} coordinates must exceed 2 d = {} (Takens)", self.embed, q * self.embed, 2 * self.dim),
+                format!(
+                    "p = {} copies of {q} observables = {} coordinates must exceed 2 d = {} (Takens)",
+                    self.embed,
+                    q * self.embed,
+                    2 * self.dim
+                ),
             );
         }
         if self.shift == 0 {
@@ -291,7 +296,12 @@ pub fn fit_with_tangent(train: &[TimeSeries], opts: &FitOptions, v1: &[f64]) -> 
 /// [`fit_with_tangent`] with the reduced dynamics' regression rows weighted by `weight`
 /// ([`ReducedDynamics::fit_weighted`]; `None`: [`fit_with_tangent`]). The weight is training
 /// metadata: the model's `options` do not record it.
-pub fn fit_with_tangent_weighted(train: &[TimeSeries], opts: &FitOptions, v1: &[f64], weight: Option<&RowWeight>) -> Result<SsmModel, FitError> {
+pub fn fit_with_tangent_weighted(
+    train: &[TimeSeries],
+    opts: &FitOptions,
+    v1: &[f64],
+    weight: Option<&RowWeight>,
+) -> Result<SsmModel, FitError> {
     fit_with_tangent_weights(train, opts, v1, weight, None)
 }
 
@@ -313,7 +323,10 @@ pub fn embed_training(train: &[TimeSeries], opts: &FitOptions) -> Result<(Vec<fa
 }
 
 /// Embeddings (`q p x M_i`) and sampling steps of validated trajectories of q observables.
-pub fn embed_training_multi(train: &[MultiSeries], opts: &FitOptions) -> Result<(Vec<faer::Mat<f64>>, Vec<f64>), FitError> {
+pub fn embed_training_multi(
+    train: &[MultiSeries],
+    opts: &FitOptions,
+) -> Result<(Vec<faer::Mat<f64>>, Vec<f64>), FitError> {
     opts.validate_for(train.first().map_or(1, MultiSeries::dim))?;
     if train.is_empty() {
         return Err(FitError::NoTrainingData);
@@ -327,7 +340,12 @@ pub fn embed_training_multi(train: &[MultiSeries], opts: &FitOptions) -> Result<
     for ts in train {
         ts.validate()?;
         total = total.saturating_add(embedded_len(ts.len(), opts.embed, opts.shift).unwrap_or(0));
-        crate::limits::check_matrix("delay embedding of the training data", opts.embed.saturating_mul(ts.dim()), total, false)?;
+        crate::limits::check_matrix(
+            "delay embedding of the training data",
+            opts.embed.saturating_mul(ts.dim()),
+            total,
+            false,
+        )?;
         ys.push(delay_embed_multi(ts, opts.embed, opts.shift, min_points)?);
         dts.push(ts.dt().unwrap_or(0.0));
     }
@@ -346,17 +364,32 @@ enum Tangent<'a> {
     Given(&'a [f64], Option<&'a RowWeight>),
 }
 
-fn fit_impl(train: &[MultiSeries], opts: &FitOptions, tangent: Tangent<'_>, weight: Option<&RowWeight>) -> Result<SsmModel, FitError> {
+fn fit_impl(
+    train: &[MultiSeries],
+    opts: &FitOptions,
+    tangent: Tangent<'_>,
+    weight: Option<&RowWeight>,
+) -> Result<SsmModel, FitError> {
     let (ys, dts) = embed_training_multi(train, opts)?;
     let manifold = match tangent {
         Tangent::Own => Manifold::fit(&ys, opts.dim, opts.manifold_order, opts.ridge)?,
         Tangent::OwnLinearNormal => Manifold::fit_with_linear_normal(&ys, opts.dim, opts.manifold_order, opts.ridge)?,
-        Tangent::Given(v1, w) => Manifold::fit_with_tangent_weighted(&ys, v1, opts.dim, opts.manifold_order, opts.ridge, w)?,
+        Tangent::Given(v1, w) => {
+            Manifold::fit_with_tangent_weighted(&ys, v1, opts.dim, opts.manifold_order, opts.ridge, w)?
+        }
     };
     let etas: Vec<_> = ys.iter().map(|y| manifold.reduce_points(y.as_ref())).collect();
     let trajs: Vec<EtaTrajectory> =
         etas.iter().zip(&dts).map(|(e, &dt)| EtaTrajectory { eta: e.as_ref(), dt }).collect();
-    let dynamics = ReducedDynamics::fit_weighted(&trajs, opts.dynamics, opts.dyn_order, opts.ridge, opts.linear_anchor, opts.anchor_joint, weight)?;
+    let dynamics = ReducedDynamics::fit_weighted(
+        &trajs,
+        opts.dynamics,
+        opts.dyn_order,
+        opts.ridge,
+        opts.linear_anchor,
+        opts.anchor_joint,
+        weight,
+    )?;
     let eigenvalues_ct = dynamics.eigenvalues_ct()?;
     let eta_range = super::dynamics::eta_scale(&trajs);
     let dt = dts.iter().sum::<f64>() / dts.len() as f64;
@@ -396,7 +429,12 @@ impl SsmModel {
         }
         let (copies, s, d) = (self.options.embed, self.options.shift, self.options.dim);
         let p = self.manifold.p;
-        crate::limits::check_matrix("delay embedding of the test data", p, embedded_len(test.len(), copies, s).unwrap_or(0), false)?;
+        crate::limits::check_matrix(
+            "delay embedding of the test data",
+            p,
+            embedded_len(test.len(), copies, s).unwrap_or(0),
+            false,
+        )?;
         // At least `s` embedded points: every sample is then some coordinate of a produced
         // point (with fewer, samples between the last point's coordinates have none).
         let y = delay_embed_multi(test, copies, s, s)?;
@@ -489,11 +527,15 @@ impl SsmModel {
         let v: serde_json::Value = serde_json::from_str(text).map_err(ModelFileError::Json)?;
         let format = v.get("format").and_then(serde_json::Value::as_str);
         if format != Some(MODEL_FORMAT) {
-            return Err(ModelFileError::NotAModel(format.map_or_else(|| "no \"format\" key".into(), |f| format!("format \"{f}\""))));
+            return Err(ModelFileError::NotAModel(
+                format.map_or_else(|| "no \"format\" key".into(), |f| format!("format \"{f}\"")),
+            ));
         }
         match v.get("version").and_then(serde_json::Value::as_u64) {
             Some(n) if n == u64::from(MODEL_FORMAT_VERSION) => {}
-            found => return Err(ModelFileError::Version { found: found.map_or_else(|| "none".into(), |n| n.to_string()) }),
+            found => {
+                return Err(ModelFileError::Version { found: found.map_or_else(|| "none".into(), |n| n.to_string()) });
+            }
         }
         let model = v.get("model").ok_or(ModelFileError::NotAModel("no \"model\" key".into()))?;
         let m: SsmModel = serde_json::from_value(model.clone()).map_err(ModelFileError::Json)?;
@@ -547,11 +589,17 @@ impl SsmModel {
                 positive("dynamics.Rbf.dt", r.dt)?;
                 positive_vec("dynamics.Rbf.scale", &r.scale, d)?;
                 if r.centers.is_empty() || r.centers.len() % d != 0 {
-                    return inv("dynamics.Rbf.centers", format!("length {} is not a positive multiple of dim = {d}", r.centers.len()));
+                    return inv(
+                        "dynamics.Rbf.centers",
+                        format!("length {} is not a positive multiple of dim = {d}", r.centers.len()),
+                    );
                 }
                 let k = r.centers.len() / d;
                 if k > crate::limits::MAX_CENTERS {
-                    return inv("dynamics.Rbf.centers", format!("{k} centres exceed the limit of {}", crate::limits::MAX_CENTERS));
+                    return inv(
+                        "dynamics.Rbf.centers",
+                        format!("{k} centres exceed the limit of {}", crate::limits::MAX_CENTERS),
+                    );
                 }
                 finite_vec("dynamics.Rbf.centers", &r.centers, k * d)?;
                 finite_vec("dynamics.Rbf.coef", &r.coef, (k + d + 1) * d)?;
@@ -559,7 +607,10 @@ impl SsmModel {
                     return inv("dynamics.Rbf.kernel", e.to_string());
                 }
                 if self.options.dynamics.rbf().is_some_and(|(_, k)| k != r.kernel) {
-                    return inv("dynamics.Rbf.kernel", format!("{} differs from the options' kernel {:?}", r.kernel.name(), self.options.dynamics));
+                    return inv(
+                        "dynamics.Rbf.kernel",
+                        format!("{} differs from the options' kernel {:?}", r.kernel.name(), self.options.dynamics),
+                    );
                 }
             }
         }
@@ -586,7 +637,10 @@ fn positive(field: &str, v: f64) -> Result<(), ModelFileError> {
 /// `field` must hold exactly `len` finite values.
 fn finite_vec(field: &str, v: &[f64], len: usize) -> Result<(), ModelFileError> {
     if v.len() != len {
-        return Err(ModelFileError::Invalid { field: field.to_string(), why: format!("length {}, expected {len}", v.len()) });
+        return Err(ModelFileError::Invalid {
+            field: field.to_string(),
+            why: format!("length {}, expected {len}", v.len()),
+        });
     }
     if let Some((i, x)) = v.iter().enumerate().find(|(_, x)| !x.is_finite()) {
         return Err(ModelFileError::Invalid { field: format!("{field}[{i}]"), why: format!("not finite ({x})") });

@@ -47,7 +47,9 @@ use thiserror::Error;
 
 use crate::backbone::{amplitude_at, first_rho_reaching};
 use crate::fit::SsmModel;
-use crate::normal_form::{NormalFormError, NormalFormOptions, NormalFormTransform, PolarNormalForm, model_normal_form_with_transform};
+use crate::normal_form::{
+    NormalFormError, NormalFormOptions, NormalFormTransform, PolarNormalForm, model_normal_form_with_transform,
+};
 use crate::poly::PolyScratch;
 
 /// Largest number of points per frequency range of a curve (the `points` of [`ForcedResponse::curve`]).
@@ -62,9 +64,13 @@ pub enum FrcError {
     Observable { index: usize, count: usize },
     #[error("forced response option {what}: {why}")]
     BadOption { what: &'static str, why: String },
-    #[error("calibration point (forcing frequency {freq_rad_s} rad/s, amplitude {amplitude}) is off the forced response curve: {why}")]
+    #[error(
+        "calibration point (forcing frequency {freq_rad_s} rad/s, amplitude {amplitude}) is off the forced response curve: {why}"
+    )]
     OffCurve { freq_rad_s: f64, amplitude: f64, why: String },
-    #[error("mode {mode}: {what} is not reached (largest {reached} up to rho = {rho}); give a smaller largest amplitude")]
+    #[error(
+        "mode {mode}: {what} is not reached (largest {reached} up to rho = {rho}); give a smaller largest amplitude"
+    )]
     Unreached { mode: usize, what: String, reached: f64, rho: f64 },
 }
 
@@ -317,7 +323,12 @@ impl<'m> ForcedResponse<'m> {
             modes: nf.modes,
             opts: *opts,
             forced: ForcedMode::of(&nf, opts.mode, 0.0),
-            calibration: FrcCalibration { freq_rad_s: cal.freq_rad_s, amplitude: cal.amplitude, rho: 0.0, forcing: 0.0 },
+            calibration: FrcCalibration {
+                freq_rad_s: cal.freq_rad_s,
+                amplitude: cal.amplitude,
+                rho: 0.0,
+                forcing: 0.0,
+            },
             amplitude_max: 0.0,
             rho_max: 0.0,
         };
@@ -336,11 +347,19 @@ impl<'m> ForcedResponse<'m> {
                 let range = &model.eta_range;
                 let (tr, modes, m, phases) = (&me.tr, me.modes, opts.mode, opts.phases);
                 let mut rel = |rho: f64| {
-                    amplitude_at(tr, &mut |eta: &[f64]| eta.iter().zip(range).map(|(e, r)| (e / r).abs()).fold(0.0, f64::max), modes, m, rho, phases)
+                    amplitude_at(
+                        tr,
+                        &mut |eta: &[f64]| eta.iter().zip(range).map(|(e, r)| (e / r).abs()).fold(0.0, f64::max),
+                        modes,
+                        m,
+                        rho,
+                        phases,
+                    )
                 };
                 let r = first_rho_reaching(&mut rel, 1.0).map_err(|(reached, rho)| FrcError::Unreached {
                     mode,
-                    what: "the edge of the training range of the reduced coordinates (max |eta_i| / eta_range_i = 1)".into(),
+                    what: "the edge of the training range of the reduced coordinates (max |eta_i| / eta_range_i = 1)"
+                        .into(),
                     reached,
                     rho,
                 })?;
@@ -394,13 +413,21 @@ impl<'m> ForcedResponse<'m> {
     /// increasing amplitude.
     pub fn at(&self, omega: f64) -> Result<Vec<FrcPoint>, FrcError> {
         if !(omega > 0.0 && omega.is_finite()) {
-            return Err(FrcError::BadOption { what: "forcing frequency", why: format!("must be a positive number of rad/s, got {omega}") });
+            return Err(FrcError::BadOption {
+                what: "forcing frequency",
+                why: format!("must be a positive number of rad/s, got {omega}"),
+            });
         }
         Ok(self
             .forced
             .amplitudes_at(omega, self.rho_max, 4000)
             .into_iter()
-            .map(|rho| FrcPoint { freq_rad_s: omega, amplitude: self.amplitude(rho), rho, stable: self.forced.is_stable(rho, omega) })
+            .map(|rho| FrcPoint {
+                freq_rad_s: omega,
+                amplitude: self.amplitude(rho),
+                rho,
+                stable: self.forced.is_stable(rho, omega),
+            })
             .collect())
     }
 
@@ -410,10 +437,16 @@ impl<'m> ForcedResponse<'m> {
     pub fn curve(&self, freq_min: f64, freq_max: f64, points: usize) -> Result<Frc, FrcError> {
         let bad = |what, why: String| Err(FrcError::BadOption { what, why });
         if !(freq_min > 0.0 && freq_min.is_finite()) {
-            return bad("frequency range", format!("forcing frequencies must be > 0 rad/s, got a lower end of {freq_min}"));
+            return bad(
+                "frequency range",
+                format!("forcing frequencies must be > 0 rad/s, got a lower end of {freq_min}"),
+            );
         }
         if !(freq_max > freq_min && freq_max.is_finite()) {
-            return bad("frequency range", format!("the upper end ({freq_max}) must be a number above the lower end ({freq_min})"));
+            return bad(
+                "frequency range",
+                format!("the upper end ({freq_max}) must be a number above the lower end ({freq_min})"),
+            );
         }
         if points < 2 {
             return bad("points", format!("need >= 2, got {points}"));
@@ -424,7 +457,14 @@ impl<'m> ForcedResponse<'m> {
         let chains = self.chains(freq_max);
         let mut samplers = Vec::new();
         for legs in chains {
-            let c = Chain { fm: &self.forced, legs, lo: freq_min, hi: freq_max, tol: 1.0 / points as f64, rho_max: self.rho_max };
+            let c = Chain {
+                fm: &self.forced,
+                legs,
+                lo: freq_min,
+                hi: freq_max,
+                tol: 1.0 / points as f64,
+                rho_max: self.rho_max,
+            };
             samplers.push(c.branches());
         }
         let branches = samplers
@@ -567,7 +607,10 @@ impl Chain<'_> {
 
     fn refine(&self, a: Sample, b: Sample, depth: u32, out: &mut Vec<Sample>) {
         let span = self.hi - self.lo;
-        let relevant = self.inside(&a) || self.inside(&b) || (a.omega < self.lo) != (b.omega < self.lo) || (a.omega > self.hi) != (b.omega > self.hi);
+        let relevant = self.inside(&a)
+            || self.inside(&b)
+            || (a.omega < self.lo) != (b.omega < self.lo)
+            || (a.omega > self.hi) != (b.omega > self.hi);
         let far = ((a.omega - b.omega).abs() / span).max((a.rho - b.rho).abs() / self.rho_max) > self.tol;
         if depth < 40 && relevant && far {
             let m = self.eval(0.5 * (a.s + b.s));
@@ -639,7 +682,14 @@ impl Chain<'_> {
 
 /// Forced response curve of `model`'s mode `opts.mode` calibrated at `cal`, over
 /// `[freq_min, freq_max]` rad/s (see [`ForcedResponse`]).
-pub fn frc(model: &SsmModel, opts: &FrcOptions, cal: Calibration, freq_min: f64, freq_max: f64, points: usize) -> Result<Frc, FrcError> {
+pub fn frc(
+    model: &SsmModel,
+    opts: &FrcOptions,
+    cal: Calibration,
+    freq_min: f64,
+    freq_max: f64,
+    points: usize,
+) -> Result<Frc, FrcError> {
     ForcedResponse::calibrate(model, opts, cal)?.curve(freq_min, freq_max, points)
 }
 
@@ -707,7 +757,8 @@ mod tests {
     /// positive roots the middle one is unstable (a saddle between the folds).
     fn harmonic_balance(omega: f64) -> Vec<(f64, bool)> {
         let d = W - omega;
-        let p: Vec<f64> = cubic_roots([-F * F, A * A + d * d, 2.0 * C * d, C * C]).into_iter().filter(|&p| p > 0.0).collect();
+        let p: Vec<f64> =
+            cubic_roots([-F * F, A * A + d * d, 2.0 * C * d, C * C]).into_iter().filter(|&p| p > 0.0).collect();
         let n = p.len();
         p.into_iter().enumerate().map(|(i, p)| (p.sqrt(), !(n == 3 && i == 1))).collect()
     }
@@ -768,10 +819,18 @@ mod tests {
         let (lo, hi) = (W - 0.3, W + 0.5);
         let curve = fr.curve(lo, hi, 400).unwrap();
         let st: Vec<bool> = curve.branches.iter().map(|b| b.stable).collect();
-        assert_eq!(st, [true, false, true], "{:?}", curve.branches.iter().map(|b| (b.stable, b.freq_rad_s.len())).collect::<Vec<_>>());
+        assert_eq!(
+            st,
+            [true, false, true],
+            "{:?}",
+            curve.branches.iter().map(|b| (b.stable, b.freq_rad_s.len())).collect::<Vec<_>>()
+        );
         let b = &curve.branches;
         let (f_hi, f_lo) = (*b[0].freq_rad_s.last().unwrap(), *b[1].freq_rad_s.last().unwrap());
-        assert!((f_hi - fold_hi).abs() < 1e-9 && (f_lo - fold_lo).abs() < 1e-9, "folds {f_lo} {f_hi} vs {fold_lo} {fold_hi}");
+        assert!(
+            (f_hi - fold_hi).abs() < 1e-9 && (f_lo - fold_lo).abs() < 1e-9,
+            "folds {f_lo} {f_hi} vs {fold_lo} {fold_hi}"
+        );
         assert!((b[0].freq_rad_s[0] - lo).abs() < 1e-12 && (b[2].freq_rad_s.last().unwrap() - hi).abs() < 1e-12);
         assert_eq!(b[0].freq_rad_s.last(), b[1].freq_rad_s.first().map(|_| b[0].freq_rad_s.last().unwrap()));
         // Every point is a steady state with the forcing, and the peak is at rho = F / |A|.
@@ -783,7 +842,10 @@ mod tests {
             }
             // Resolution: steps of at most 1/400 of the range in frequency and of rho_max in rho.
             for w in br.freq_rad_s.windows(2).zip(br.rho.windows(2)) {
-                assert!((w.0[1] - w.0[0]).abs() <= (hi - lo) / 400.0 + 1e-12 && (w.1[1] - w.1[0]).abs() <= fr.rho_max / 400.0 + 1e-12);
+                assert!(
+                    (w.0[1] - w.0[0]).abs() <= (hi - lo) / 400.0 + 1e-12
+                        && (w.1[1] - w.1[0]).abs() <= fr.rho_max / 400.0 + 1e-12
+                );
             }
         }
         assert!((top - F / A.abs()).abs() < 1e-4, "peak {top}");
@@ -794,12 +856,20 @@ mod tests {
         let m = model(A, W, 0.0, C);
         let opts = FrcOptions { amplitude_max: Some(1.0), ..FrcOptions::new(0) };
         let cal = |freq_rad_s, amplitude| ForcedResponse::calibrate(&m, &opts, Calibration { freq_rad_s, amplitude });
-        for (f, a, what) in [(0.0, 0.1, "forcing frequency"), (-1.0, 0.1, "forcing frequency"), (2.0, 0.0, "positive number"), (2.0, f64::NAN, "positive number")] {
+        for (f, a, what) in [
+            (0.0, 0.1, "forcing frequency"),
+            (-1.0, 0.1, "forcing frequency"),
+            (2.0, 0.0, "positive number"),
+            (2.0, f64::NAN, "positive number"),
+        ] {
             let e = cal(f, a).err().unwrap();
             assert!(matches!(e, FrcError::OffCurve { .. }) && e.to_string().contains(what), "{e}");
         }
         let e = cal(2.0, 1.5).err().unwrap();
-        assert!(e.to_string().contains("above the largest the model covers (1") && e.to_string().contains("amplitude 1.5"), "{e}");
+        assert!(
+            e.to_string().contains("above the largest the model covers (1") && e.to_string().contains("amplitude 1.5"),
+            "{e}"
+        );
         // The middle (saddle) solution in the hysteresis window.
         let (fold_lo, fold_hi) = folds();
         let om = 0.5 * (fold_lo + fold_hi);
@@ -809,15 +879,35 @@ mod tests {
         assert!(e.to_string().contains("unstable steady state"), "{e}");
         let ok = cal(om, hb[2].0).unwrap();
         assert!((ok.forced.forcing - F).abs() < 1e-9);
-        for (lo, hi, what) in [(0.0, 3.0, "must be > 0"), (-1.0, 3.0, "must be > 0"), (2.0, 2.0, "above the lower end"), (2.0, f64::INFINITY, "above")] {
+        for (lo, hi, what) in [
+            (0.0, 3.0, "must be > 0"),
+            (-1.0, 3.0, "must be > 0"),
+            (2.0, 2.0, "above the lower end"),
+            (2.0, f64::INFINITY, "above"),
+        ] {
             let e = ok.curve(lo, hi, 100).unwrap_err();
-            assert!(matches!(e, FrcError::BadOption { what: "frequency range", .. }) && e.to_string().contains(what), "{e}");
+            assert!(
+                matches!(e, FrcError::BadOption { what: "frequency range", .. }) && e.to_string().contains(what),
+                "{e}"
+            );
         }
         assert!(ok.at(0.0).is_err());
         assert!(matches!(ok.curve(1.0, 3.0, 1).unwrap_err(), FrcError::BadOption { what: "points", .. }));
-        let e = ForcedResponse::calibrate(&m, &FrcOptions { observable: 3, ..opts }, Calibration { freq_rad_s: 2.0, amplitude: 0.1 }).err().unwrap();
+        let e = ForcedResponse::calibrate(
+            &m,
+            &FrcOptions { observable: 3, ..opts },
+            Calibration { freq_rad_s: 2.0, amplitude: 0.1 },
+        )
+        .err()
+        .unwrap();
         assert!(matches!(e, FrcError::Observable { index: 3, count: 3 }), "{e}");
-        let e = ForcedResponse::calibrate(&m, &FrcOptions { mode: 1, ..opts }, Calibration { freq_rad_s: 2.0, amplitude: 0.1 }).err().unwrap();
+        let e = ForcedResponse::calibrate(
+            &m,
+            &FrcOptions { mode: 1, ..opts },
+            Calibration { freq_rad_s: 2.0, amplitude: 0.1 },
+        )
+        .err()
+        .unwrap();
         assert!(e.to_string().contains("mode 2 of a normal form with 1 mode"), "{e}");
     }
 
@@ -828,10 +918,17 @@ mod tests {
     #[test]
     fn default_range_is_the_training_range_of_eta() {
         let m = model(A, W, -0.5, C);
-        let fr = ForcedResponse::calibrate(&m, &FrcOptions::new(0), Calibration { freq_rad_s: W - 1.0, amplitude: 0.5 }).unwrap();
+        let fr =
+            ForcedResponse::calibrate(&m, &FrcOptions::new(0), Calibration { freq_rad_s: W - 1.0, amplitude: 0.5 })
+                .unwrap();
         assert!(fr.forced.forcing > 0.55, "f {} > max rho |A(rho)| = 0.55: open curve", fr.forced.forcing);
         // eta_range = (1, 1) and y_0 = Re z: amplitude 1 at rho = 1.
-        assert!((fr.rho_max - 1.0).abs() < 1e-9 && (fr.amplitude_max - 1.0).abs() < 1e-9, "{} {}", fr.rho_max, fr.amplitude_max);
+        assert!(
+            (fr.rho_max - 1.0).abs() < 1e-9 && (fr.amplitude_max - 1.0).abs() < 1e-9,
+            "{} {}",
+            fr.rho_max,
+            fr.amplitude_max
+        );
         let c = fr.curve(0.5, 4.0, 200).unwrap();
         assert!(c.branches.len() >= 2);
         let top = c.branches.iter().flat_map(|b| b.amplitude.iter()).fold(0.0_f64, |a, &b| a.max(b));

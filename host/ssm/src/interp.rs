@@ -92,7 +92,13 @@ pub enum MixError {
 /// dimension (manifold and increment) and, when mixed, the base's `V1` length. The rest
 /// (fit records, `eta_range`, ...) is the base's. The weights come from
 /// [`interp_weights`] over the models' parameter values.
-pub fn mix_models(models: &[&SsmModel], weights: &[f64], base: usize, v1_mix: V1Mix, dt: f64) -> Result<SsmModel, crate::Error> {
+pub fn mix_models(
+    models: &[&SsmModel],
+    weights: &[f64],
+    base: usize,
+    v1_mix: V1Mix,
+    dt: f64,
+) -> Result<SsmModel, crate::Error> {
     let Some(first) = models.get(base).filter(|_| models.len() == weights.len()) else {
         return Err(MixError::Count { models: models.len(), weights: weights.len(), base }.into());
     };
@@ -102,10 +108,14 @@ pub fn mix_models(models: &[&SsmModel], weights: &[f64], base: usize, v1_mix: V1
             _ => None,
         }
     }
-    let same = |p: &Poly, q: &Poly| p.exps == q.exps && p.scale == q.scale && p.dim_out == q.dim_out && p.coef.len() == q.coef.len();
+    let same = |p: &Poly, q: &Poly| {
+        p.exps == q.exps && p.scale == q.scale && p.dim_out == q.dim_out && p.coef.len() == q.coef.len()
+    };
     for (index, m) in models.iter().enumerate() {
         let mismatch = |part| MixError::Mismatch { index, base, part };
-        let (Some(p), Some(q)) = (increment(m), increment(first)) else { return Err(MixError::NotAMap { index }.into()) };
+        let (Some(p), Some(q)) = (increment(m), increment(first)) else {
+            return Err(MixError::NotAMap { index }.into());
+        };
         if !same(p, q) {
             return Err(mismatch("map increment").into());
         }
@@ -193,7 +203,11 @@ mod tests {
         let mut m = crate::backbone::tests::model(0.3, 1.0 + a);
         let exps = crate::poly::exponents(2, 1, 3);
         let coef = (0..exps.len() * 2).map(|k| 0.01 * (k as f64 + 1.0) * (1.0 - 0.5 * a) + 0.001 * a).collect();
-        m.dynamics = ReducedDynamics::Map { increment: Poly { dim_in: 2, dim_out: 2, scale: vec![1.0, 1.0], exps, coef }, dt: 0.01, conditioning: crate::backbone::tests::cond() };
+        m.dynamics = ReducedDynamics::Map {
+            increment: Poly { dim_in: 2, dim_out: 2, scale: vec![1.0, 1.0], exps, coef },
+            dt: 0.01,
+            conditioning: crate::backbone::tests::cond(),
+        };
         m.manifold.v1.iter_mut().for_each(|v| *v *= 1.0 + a);
         m
     }
@@ -218,14 +232,23 @@ mod tests {
         assert_eq!(shared.manifold.v1, m1.manifold.v1);
         assert_eq!(inc(&shared).0, inc(&mixed).0);
         // Refused: counts, other monomials, not a map.
-        assert!(matches!(mix_models(&[&m0, &m1], &[1.0], 0, V1Mix::Mixed, 0.02), Err(crate::Error::Mix(MixError::Count { .. }))));
+        assert!(matches!(
+            mix_models(&[&m0, &m1], &[1.0], 0, V1Mix::Mixed, 0.02),
+            Err(crate::Error::Mix(MixError::Count { .. }))
+        ));
         let mut other = map_model(1.0);
         if let ReducedDynamics::Map { increment, .. } = &mut other.dynamics {
             increment.scale[0] = 2.0;
         }
-        assert!(matches!(mix_models(&[&m0, &other], &w, 0, V1Mix::Mixed, 0.02), Err(crate::Error::Mix(MixError::Mismatch { index: 1, base: 0, part: "map increment" }))));
+        assert!(matches!(
+            mix_models(&[&m0, &other], &w, 0, V1Mix::Mixed, 0.02),
+            Err(crate::Error::Mix(MixError::Mismatch { index: 1, base: 0, part: "map increment" }))
+        ));
         let flow = crate::backbone::tests::model(0.3, 1.0);
-        assert!(matches!(mix_models(&[&m0, &flow], &w, 0, V1Mix::Mixed, 0.02), Err(crate::Error::Mix(MixError::NotAMap { index: 1 }))));
+        assert!(matches!(
+            mix_models(&[&m0, &flow], &w, 0, V1Mix::Mixed, 0.02),
+            Err(crate::Error::Mix(MixError::NotAMap { index: 1 }))
+        ));
     }
 
     #[test]
@@ -244,7 +267,8 @@ mod tests {
         // S(x) = -x^3/2 + 3x/2, and by symmetry S(2-x) = S(x).
         let n3 = [0.0, 1.0, 2.0];
         let y3 = [0.0, 1.0, 0.0];
-        let ev = |x: f64| interp_weights(&n3, x, Interp::Spline).unwrap().iter().zip(&y3).map(|(w, y)| w * y).sum::<f64>();
+        let ev =
+            |x: f64| interp_weights(&n3, x, Interp::Spline).unwrap().iter().zip(&y3).map(|(w, y)| w * y).sum::<f64>();
         for x in [0.1, 0.25, 0.5, 0.9] {
             let s = -x * x * x / 2.0 + 1.5 * x;
             assert!((ev(x) - s).abs() < 1e-14 && (ev(2.0 - x) - s).abs() < 1e-14, "x {x}: {} vs {s}", ev(x));
@@ -254,7 +278,9 @@ mod tests {
         // interpolant is C2 with zero end curvature: check by finite differences.
         let f = |x: f64| 2.0 - 0.3 * x;
         let yc: Vec<f64> = nodes.iter().map(|&x| (x - 31.0f64).powi(3)).collect();
-        let s = |x: f64, y: &[f64]| interp_weights(&nodes, x, Interp::Spline).unwrap().iter().zip(y).map(|(w, v)| w * v).sum::<f64>();
+        let s = |x: f64, y: &[f64]| {
+            interp_weights(&nodes, x, Interp::Spline).unwrap().iter().zip(y).map(|(w, v)| w * v).sum::<f64>()
+        };
         let yl: Vec<f64> = nodes.iter().map(|&x| f(x)).collect();
         for x in [30.6, 30.9, 31.3, 31.77, 32.2, 32.45] {
             assert!((s(x, &yl) - f(x)).abs() < 1e-12, "line at {x}");
@@ -262,14 +288,23 @@ mod tests {
         let h = 1e-4;
         let d2 = |x: f64| (s(x + h, &yc) - 2.0 * s(x, &yc) + s(x - h, &yc)) / (h * h);
         let d1 = |x: f64, side: f64| (s(x + side * h, &yc) - s(x, &yc)) / (side * h);
-        assert!(d2(30.5 + h).abs() < 5e-3 && d2(32.5 - h).abs() < 5e-3 && d2(31.5).abs() > 0.5, "end curvature {} {}", d2(30.5 + h), d2(32.5 - h));
+        assert!(
+            d2(30.5 + h).abs() < 5e-3 && d2(32.5 - h).abs() < 5e-3 && d2(31.5).abs() > 0.5,
+            "end curvature {} {}",
+            d2(30.5 + h),
+            d2(32.5 - h)
+        );
         for &xi in &nodes[1..3] {
             // one-sided slopes agree to O(h), second derivatives on both sides too
             assert!((d1(xi, 1.0) - d1(xi, -1.0)).abs() < 1e-2, "C1 at {xi}");
-            assert!((d2(xi + 2.0 * h) - d2(xi - 2.0 * h)).abs() < 0.1, "C2 at {xi}: {} vs {}", d2(xi + 2.0 * h), d2(xi - 2.0 * h));
+            assert!(
+                (d2(xi + 2.0 * h) - d2(xi - 2.0 * h)).abs() < 0.1,
+                "C2 at {xi}: {} vs {}",
+                d2(xi + 2.0 * h),
+                d2(xi - 2.0 * h)
+            );
         }
         assert!(matches!(interp_weights(&nodes, 32.6, Interp::Spline), Err(InterpError::OutOfRange { .. })));
         assert!(matches!(interp_weights(&[1.0, 1.0], 1.0, Interp::Linear), Err(InterpError::BadNodes(_))));
     }
-
 }

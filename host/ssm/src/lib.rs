@@ -25,8 +25,8 @@
 
 pub mod backbone;
 pub mod data;
-pub mod dynamics;
 pub mod device;
+pub mod dynamics;
 pub mod embed;
 pub mod error;
 pub mod fit;
@@ -49,7 +49,10 @@ pub mod weight;
 pub use data::{DataError, MultiSeries, TimeSeries, load_csv, load_csv_column, load_csv_observables, load_mat};
 pub use dynamics::{Dynamics, Kernel, LowDegreeStage, ReducedDynamics, RowWeight};
 pub use error::FitError;
-pub use fit::{FitOptions, MODEL_FORMAT, MODEL_FORMAT_VERSION, ModelFileError, Prediction, SsmModel, Stop, StopReason, fit, fit_multi};
+pub use fit::{
+    FitOptions, MODEL_FORMAT, MODEL_FORMAT_VERSION, ModelFileError, Prediction, SsmModel, Stop, StopReason, fit,
+    fit_multi,
+};
 pub use ridge::{Conditioning, Ridge};
 
 #[cfg(test)]

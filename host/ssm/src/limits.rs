@@ -56,7 +56,8 @@ pub fn check_matrix(what: &'static str, rows: usize, cols: usize, need_rows: boo
 /// that never ends, such as `/dev/zero`) is an error naming the limit, read no further.
 pub fn read_text_limited(path: &std::path::Path, limit: u64) -> std::io::Result<String> {
     let bytes = read_limited(path, limit)?;
-    String::from_utf8(bytes).map_err(|e| std::io::Error::new(std::io::ErrorKind::InvalidData, format!("not UTF-8 text: {e}")))
+    String::from_utf8(bytes)
+        .map_err(|e| std::io::Error::new(std::io::ErrorKind::InvalidData, format!("not UTF-8 text: {e}")))
 }
 
 /// Reads a whole file of at most `limit` bytes.

@@ -15,10 +15,10 @@
 use faer::{Mat, MatRef};
 use serde::{Deserialize, Serialize};
 
-use super::weight::{RowWeight, scale_rows};
 use super::error::FitError;
 use super::poly::{self, Poly, PolyScratch, PreparedPoly};
 use super::ridge::{self, Conditioning, Ridge};
+use super::weight::{RowWeight, scale_rows};
 
 /// A fitted SSM parametrization.
 #[derive(Clone, Debug, Serialize, Deserialize)]
@@ -66,7 +66,13 @@ impl Manifold {
     /// degree-1 terms (`order >= 1` always fits them): `v1` is in general not the tangent
     /// space of this data set, and the linear normal part `W_1 eta` (with `V1^T W_1 = 0`)
     /// absorbs the tilt. `singular_values` are those of this data set.
-    pub fn fit_with_tangent(ys: &[Mat<f64>], v1: &[f64], dim: usize, order: u32, ridge: Ridge) -> Result<Self, FitError> {
+    pub fn fit_with_tangent(
+        ys: &[Mat<f64>],
+        v1: &[f64],
+        dim: usize,
+        order: u32,
+        ridge: Ridge,
+    ) -> Result<Self, FitError> {
         Self::fit_with_tangent_weighted(ys, v1, dim, order, ridge, None)
     }
 
@@ -76,34 +82,59 @@ impl Manifold {
     /// amplitude cut for the graph's truncated polynomial: points far past the knee no longer
     /// bend its low-degree terms. `None` is [`Manifold::fit_with_tangent`]. The conditioning's
     /// residual is the unweighted one.
-    pub fn fit_with_tangent_weighted(ys: &[Mat<f64>], v1: &[f64], dim: usize, order: u32, ridge: Ridge, weight: Option<&RowWeight>) -> Result<Self, FitError> {
+    pub fn fit_with_tangent_weighted(
+        ys: &[Mat<f64>],
+        v1: &[f64],
+        dim: usize,
+        order: u32,
+        ridge: Ridge,
+        weight: Option<&RowWeight>,
+    ) -> Result<Self, FitError> {
         if let Some(wt) = weight {
             wt.validate()?;
             if wt.low_degrees.is_some() {
-                return Err(FitError::BadOption { what: "manifold row weight", why: "the low-degree stage applies to the dynamics regression only".into() });
+                return Err(FitError::BadOption {
+                    what: "manifold row weight",
+                    why: "the low-degree stage applies to the dynamics regression only".into(),
+                });
             }
         }
         let p = ys.first().map(|y| y.nrows()).ok_or(FitError::NoTrainingData)?;
         if v1.len() != p * dim {
-            return Err(FitError::BadOption { what: "v1", why: format!("need p x dim = {p} x {dim} entries, got {}", v1.len()) });
+            return Err(FitError::BadOption {
+                what: "v1",
+                why: format!("need p x dim = {p} x {dim} entries, got {}", v1.len()),
+            });
         }
         for a in 0..dim {
             for b in 0..dim {
                 let dot: f64 = v1[a * p..(a + 1) * p].iter().zip(&v1[b * p..(b + 1) * p]).map(|(x, y)| x * y).sum();
                 let want = if a == b { 1.0 } else { 0.0 };
                 if (dot - want).abs() >= 1e-9 || !dot.is_finite() {
-                    return Err(FitError::BadOption { what: "v1", why: format!("columns not orthonormal: v{a} . v{b} = {dot}") });
+                    return Err(FitError::BadOption {
+                        what: "v1",
+                        why: format!("columns not orthonormal: v{a} . v{b} = {dot}"),
+                    });
                 }
             }
         }
         let all = stack_points(ys, p)?.0;
-        let singular_values: Vec<f64> = all.singular_values().map_err(|_| FitError::Svd { what: "embedded data SVD" })?;
+        let singular_values: Vec<f64> =
+            all.singular_values().map_err(|_| FitError::Svd { what: "embedded data SVD" })?;
         Self::fit_on(ys, v1.to_vec(), singular_values, order, 1, ridge, weight)
     }
 
     /// The graph fit over `v1`, normal-part degrees `min_deg..=order`, rows weighted by
     /// `weight` if given.
-    fn fit_on(ys: &[Mat<f64>], v1: Vec<f64>, singular_values: Vec<f64>, order: u32, min_deg: u32, ridge: Ridge, weight: Option<&RowWeight>) -> Result<Self, FitError> {
+    fn fit_on(
+        ys: &[Mat<f64>],
+        v1: Vec<f64>,
+        singular_values: Vec<f64>,
+        order: u32,
+        min_deg: u32,
+        ridge: Ridge,
+        weight: Option<&RowWeight>,
+    ) -> Result<Self, FitError> {
         let p = ys.first().map(|y| y.nrows()).ok_or(FitError::NoTrainingData)?;
         let dim = v1.len() / p;
         if dim == 0 || dim >= p {
@@ -277,7 +308,10 @@ impl Manifold {
 /// Embedded points of all trajectories as rows of one matrix, with the row range of each.
 fn stack_points(ys: &[Mat<f64>], p: usize) -> Result<(Mat<f64>, Vec<std::ops::Range<usize>>), FitError> {
     if let Some(y) = ys.iter().find(|y| y.nrows() != p) {
-        return Err(FitError::BadOption { what: "embedded data", why: format!("mixed embedding dimensions {} and {p}", y.nrows()) });
+        return Err(FitError::BadOption {
+            what: "embedded data",
+            why: format!("mixed embedding dimensions {} and {p}", y.nrows()),
+        });
     }
     let total: usize = ys.iter().map(|y| y.ncols()).sum();
     crate::limits::check_matrix("tangent space SVD", total, p, true)?;
@@ -350,7 +384,17 @@ pub fn design_matrix_in(mut buf: Mat<f64>, eta: MatRef<'_, f64>, scale: &[f64], 
     let nb = DESIGN_BLOCK;
     // Per monomial, the powers of its non-zero exponents in variable order, as offsets
     // `(j * stride + m) * nb` into a block's powers.
-    let plan: Vec<Vec<usize>> = exps.iter().map(|e| e.iter().enumerate().take(d).filter(|&(_, &m)| m != 0).map(|(j, &m)| (j * stride + m as usize) * nb).collect()).collect();
+    let plan: Vec<Vec<usize>> = exps
+        .iter()
+        .map(|e| {
+            e.iter()
+                .enumerate()
+                .take(d)
+                .filter(|&(_, &m)| m != 0)
+                .map(|(j, &m)| (j * stride + m as usize) * nb)
+                .collect()
+        })
+        .collect();
     // A buffer of another column stride (made for another row count) would lay the matrix
     // out otherwise: start afresh then.
     if buf.col_stride() != Mat::<f64>::with_capacity(n, 0).col_stride() {
@@ -513,7 +557,14 @@ mod tests {
     #[test]
     fn design_matrix_equals_the_column_at_a_time_one() {
         let mut r = crate::testing::lcg_centered(17);
-        for (d, lo, hi, n) in [(4usize, 1u32, 7u32, 36_001usize), (4, 1, 3, 5_000), (4, 2, 3, 1_300), (2, 1, 3, 513), (6, 1, 6, 700), (3, 0, 2, 40)] {
+        for (d, lo, hi, n) in [
+            (4usize, 1u32, 7u32, 36_001usize),
+            (4, 1, 3, 5_000),
+            (4, 2, 3, 1_300),
+            (2, 1, 3, 513),
+            (6, 1, 6, 700),
+            (3, 0, 2, 40),
+        ] {
             let eta = Mat::from_fn(n, d, |i, _| {
                 let v = r();
                 if i % 7 == 3 { v * 1e-9 } else { v }
@@ -525,7 +576,11 @@ mod tests {
             assert_eq!((a.nrows(), a.ncols()), (b.nrows(), b.ncols()));
             for k in 0..a.ncols() {
                 for i in 0..n {
-                    assert_eq!(a[(i, k)].to_bits(), b[(i, k)].to_bits(), "d {d} degrees {lo}..={hi}: row {i} monomial {k}");
+                    assert_eq!(
+                        a[(i, k)].to_bits(),
+                        b[(i, k)].to_bits(),
+                        "d {d} degrees {lo}..={hi}: row {i} monomial {k}"
+                    );
                 }
             }
         }
@@ -566,11 +621,19 @@ mod tests {
                 assert!((out[i] - yj[i]).abs() < 1e-12, "point {j} coord {i}: {} vs {}", out[i], yj[i]);
                 // One coordinate alone, plain and prepared: the same bits.
                 assert_eq!(m.lift_one(&m.reduce(&yj), &mut sc, i).to_bits(), out[i].to_bits(), "point {j} coord {i}");
-                assert_eq!(prepared.lift_one(&m.reduce(&yj), &mut sc, i).to_bits(), out[i].to_bits(), "prepared: point {j} coord {i}");
+                assert_eq!(
+                    prepared.lift_one(&m.reduce(&yj), &mut sc, i).to_bits(),
+                    out[i].to_bits(),
+                    "prepared: point {j} coord {i}"
+                );
             }
             let mut all = vec![0.0; 5];
             prepared.lift_into(&m.reduce(&yj), &mut sc, &mut all);
-            assert_eq!(all.iter().map(|v| v.to_bits()).collect::<Vec<_>>(), out.iter().map(|v| v.to_bits()).collect::<Vec<_>>(), "prepared lift_into: point {j}");
+            assert_eq!(
+                all.iter().map(|v| v.to_bits()).collect::<Vec<_>>(),
+                out.iter().map(|v| v.to_bits()).collect::<Vec<_>>(),
+                "prepared lift_into: point {j}"
+            );
         }
         assert!(m.lift_one(&[0.1, 0.2], &mut sc, 5).is_nan());
         assert!(prepared.lift_one(&[0.1, 0.2], &mut sc, 5).is_nan());
@@ -635,7 +698,8 @@ mod tests {
         let coef: Vec<f64> = (0..exps.len() * p).map(|k| 0.1 * ((k * 7 % 11) as f64 - 5.0)).collect();
         let scale = vec![0.5, 2.0];
         let nonlinear = Some(Poly { dim_in: d, dim_out: p, scale: scale.clone(), exps, coef });
-        let m = Manifold { dim: d, p, v1, singular_values: vec![1.0; p], eta_scale: scale, nonlinear, conditioning: None };
+        let m =
+            Manifold { dim: d, p, v1, singular_values: vec![1.0; p], eta_scale: scale, nonlinear, conditioning: None };
         let x = m.observable_poly();
         let mut sc = PolyScratch::default();
         let mut out = vec![0.0; p];
@@ -695,9 +759,12 @@ mod tests {
         let wt = RowWeight { knee: 0.3, power: 8.0, low_degrees: None };
         let exact = graph(0.0);
         let a = Manifold::fit_with_tangent(std::slice::from_ref(&exact), &v1, 2, 2, Ridge::Fixed(0.0)).unwrap();
-        let b = Manifold::fit_with_tangent_weighted(std::slice::from_ref(&exact), &v1, 2, 2, Ridge::Fixed(0.0), None).unwrap();
+        let b = Manifold::fit_with_tangent_weighted(std::slice::from_ref(&exact), &v1, 2, 2, Ridge::Fixed(0.0), None)
+            .unwrap();
         assert_eq!(a.nonlinear.as_ref().unwrap().coef, b.nonlinear.as_ref().unwrap().coef);
-        let w = Manifold::fit_with_tangent_weighted(std::slice::from_ref(&exact), &v1, 2, 2, Ridge::Fixed(0.0), Some(&wt)).unwrap();
+        let w =
+            Manifold::fit_with_tangent_weighted(std::slice::from_ref(&exact), &v1, 2, 2, Ridge::Fixed(0.0), Some(&wt))
+                .unwrap();
         let (mut sc, mut out) = (PolyScratch::default(), vec![0.0; 4]);
         for j in (0..exact.ncols()).step_by(13) {
             let yj: Vec<f64> = (0..4).map(|i| exact[(i, j)]).collect();
@@ -710,12 +777,31 @@ mod tests {
         let off = graph(2.0);
         let (u, v) = (
             Manifold::fit_with_tangent(std::slice::from_ref(&off), &v1, 2, 2, Ridge::Fixed(0.0)).unwrap(),
-            Manifold::fit_with_tangent_weighted(std::slice::from_ref(&off), &v1, 2, 2, Ridge::Fixed(0.0), Some(&wt)).unwrap(),
+            Manifold::fit_with_tangent_weighted(std::slice::from_ref(&off), &v1, 2, 2, Ridge::Fixed(0.0), Some(&wt))
+                .unwrap(),
         );
-        let gap = u.nonlinear.unwrap().coef.iter().zip(&v.nonlinear.unwrap().coef).map(|(x, y)| (x - y).abs()).fold(0.0, f64::max);
+        let gap = u
+            .nonlinear
+            .unwrap()
+            .coef
+            .iter()
+            .zip(&v.nonlinear.unwrap().coef)
+            .map(|(x, y)| (x - y).abs())
+            .fold(0.0, f64::max);
         assert!(gap > 1e-4, "weights changed nothing: {gap}");
-        let staged = RowWeight { low_degrees: Some(crate::weight::LowDegreeStage { max_degree: 3, knee: 0.1, power: 8.0 }), ..wt };
-        let e = Manifold::fit_with_tangent_weighted(std::slice::from_ref(&exact), &v1, 2, 2, Ridge::Fixed(0.0), Some(&staged)).unwrap_err();
+        let staged = RowWeight {
+            low_degrees: Some(crate::weight::LowDegreeStage { max_degree: 3, knee: 0.1, power: 8.0 }),
+            ..wt
+        };
+        let e = Manifold::fit_with_tangent_weighted(
+            std::slice::from_ref(&exact),
+            &v1,
+            2,
+            2,
+            Ridge::Fixed(0.0),
+            Some(&staged),
+        )
+        .unwrap_err();
         assert!(matches!(e, FitError::BadOption { what: "manifold row weight", .. }), "{e}");
     }
 }

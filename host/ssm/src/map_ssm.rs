@@ -61,7 +61,9 @@ pub enum MapSsmError {
     BadOption { what: &'static str, why: String },
     #[error("eigen-decomposition of the linear part failed: {0}")]
     Eigen(String),
-    #[error("the {index}-th largest multiplier {re:.6e} + {im:.3e} i is real: the master subspace must be complex pairs")]
+    #[error(
+        "the {index}-th largest multiplier {re:.6e} + {im:.3e} i is real: the master subspace must be complex pairs"
+    )]
     RealMaster { index: usize, re: f64, im: f64 },
     #[error("the bordered system of monomial {monomial:?} is singular")]
     Singular { monomial: Vec<u32> },
@@ -107,7 +109,9 @@ impl PolynomialMap {
                 return bad(format!("monomial {k} {e:?}: want {m} exponents of total degree >= 2"));
             }
         }
-        if let Some(i) = self.linear.iter().chain(&self.proj).chain(self.coef.iter().flatten()).position(|v| !v.is_finite()) {
+        if let Some(i) =
+            self.linear.iter().chain(&self.proj).chain(self.coef.iter().flatten()).position(|v| !v.is_finite())
+        {
             return bad(format!("non-finite entry (flattened index {i})"));
         }
         Ok(())
@@ -322,16 +326,28 @@ pub fn map_ssm(map: &PolynomialMap, opts: &MapSsmOptions) -> Result<MapSsm, MapS
     map.validate()?;
     let d = map.dim;
     if opts.order == 0 || opts.order > MAX_ORDER {
-        return Err(MapSsmError::BadOption { what: "order", why: format!("must be 1..={MAX_ORDER}, got {}", opts.order) });
+        return Err(MapSsmError::BadOption {
+            what: "order",
+            why: format!("must be 1..={MAX_ORDER}, got {}", opts.order),
+        });
     }
     if opts.pairs == 0 || 2 * opts.pairs > d {
-        return Err(MapSsmError::BadOption { what: "pairs", why: format!("need 1..={} pairs for dimension {d}, got {}", d / 2, opts.pairs) });
+        return Err(MapSsmError::BadOption {
+            what: "pairs",
+            why: format!("need 1..={} pairs for dimension {d}, got {}", d / 2, opts.pairs),
+        });
     }
     if !(opts.resonance_tol >= 0.0 && opts.resonance_tol.is_finite()) {
-        return Err(MapSsmError::BadOption { what: "resonance_tol", why: format!("must be finite and >= 0, got {}", opts.resonance_tol) });
+        return Err(MapSsmError::BadOption {
+            what: "resonance_tol",
+            why: format!("must be finite and >= 0, got {}", opts.resonance_tol),
+        });
     }
     if opts.observable.len() != d || opts.observable.iter().any(|v| !v.is_finite()) {
-        return Err(MapSsmError::BadOption { what: "observable", why: format!("need {d} finite entries, got {}", opts.observable.len()) });
+        return Err(MapSsmError::BadOption {
+            what: "observable",
+            why: format!("need {d} finite entries, got {}", opts.observable.len()),
+        });
     }
     if !(opts.dt > 0.0 && opts.dt.is_finite()) {
         return Err(MapSsmError::BadOption { what: "dt", why: format!("must be finite and > 0, got {}", opts.dt) });
@@ -341,12 +357,19 @@ pub fn map_ssm(map: &PolynomialMap, opts: &MapSsmOptions) -> Result<MapSsm, MapS
     if terms > crate::limits::MAX_TERMS {
         return Err(MapSsmError::BadOption {
             what: "pairs",
-            why: format!("{} pairs at order {k_max} need {terms} monomials, above ssm::limits::MAX_TERMS = {}", opts.pairs, crate::limits::MAX_TERMS),
+            why: format!(
+                "{} pairs at order {k_max} need {terms} monomials, above ssm::limits::MAX_TERMS = {}",
+                opts.pairs,
+                crate::limits::MAX_TERMS
+            ),
         });
     }
     let g_terms = map.exps.len().saturating_mul(map.dim);
     if d > crate::limits::MAX_DIM * 8 || g_terms > crate::limits::MAX_MATRIX_ENTRIES {
-        return Err(MapSsmError::BadMap(format!("dimension {d} with {} monomials exceeds the size limits (ssm::limits)", map.exps.len())));
+        return Err(MapSsmError::BadMap(format!(
+            "dimension {d} with {} monomials exceeds the size limits (ssm::limits)",
+            map.exps.len()
+        )));
     }
     let a = DMatrix::from_row_slice(d, d, &map.linear);
     let am = Mat::from_fn(d, d, |i, j| a[(i, j)]);
@@ -378,7 +401,10 @@ pub fn map_ssm(map: &PolynomialMap, opts: &MapSsmOptions) -> Result<MapSsm, MapS
         let mut v = eigvec(&a, l)?;
         let cv: C = opts.observable.iter().zip(v.iter()).map(|(c, x)| x * *c).sum();
         if cv.norm() < 1e-12 * opts.observable.iter().map(|x| x.abs()).fold(0.0, f64::max) {
-            return Err(MapSsmError::BadOption { what: "observable", why: "it does not see a master mode (c . v = 0)".into() });
+            return Err(MapSsmError::BadOption {
+                what: "observable",
+                why: "it does not see a master mode (c . v = 0)".into(),
+            });
         }
         v *= C::new(0.5, 0.0) / cv;
         let mut u = eigvec(&at, l)?;
@@ -410,7 +436,11 @@ pub fn map_ssm(map: &PolynomialMap, opts: &MapSsmOptions) -> Result<MapSsm, MapS
     let mut extra = Vec::new();
     let mut min_div = f64::INFINITY;
     let mut min_comp = f64::INFINITY;
-    let mut stats = vec![OrderStats { order: 1, w_max: vmat.iter().fold(0.0, |m, x| m.max(x.norm())), r_max: mu.iter().fold(0.0, |m, x| m.max(x.norm())) }];
+    let mut stats = vec![OrderStats {
+        order: 1,
+        w_max: vmat.iter().fold(0.0, |m, x| m.max(x.norm())),
+        r_max: mu.iter().fold(0.0, |m, x| m.max(x.norm())),
+    }];
     let m_proj = map.nproj;
     for k in 2..=k_max {
         // [G(P W_{<k})]_k
@@ -430,7 +460,8 @@ pub fn map_ssm(map: &PolynomialMap, opts: &MapSsmOptions) -> Result<MapSsm, MapS
             .collect();
         let gm = tab.monomials(&map.exps, &pw, k);
         // [W_{2..k-1}(R_{<k})]_k
-        let wexps: Vec<Vec<u32>> = tab.exps.iter().filter(|e| (2..k).contains(&e.iter().sum::<u32>())).cloned().collect();
+        let wexps: Vec<Vec<u32>> =
+            tab.exps.iter().filter(|e| (2..k).contains(&e.iter().sum::<u32>())).cloned().collect();
         let rm = tab.monomials(&wexps, &r, k);
         let range = tab.deg_start[k as usize]..tab.deg_start[k as usize + 1];
         let mut w_max = 0.0f64;
@@ -468,7 +499,12 @@ pub fn map_ssm(map: &PolynomialMap, opts: &MapSsmOptions) -> Result<MapSsm, MapS
                         structural_j = Some(j);
                     } else {
                         r_max = r_max.max(proj[j].norm());
-                        extra.push(ExtraResonance { equation: j, exponents: m.clone(), coefficient: (-proj[j].re, -proj[j].im), divisor: div.norm() });
+                        extra.push(ExtraResonance {
+                            equation: j,
+                            exponents: m.clone(),
+                            coefficient: (-proj[j].re, -proj[j].im),
+                            divisor: div.norm(),
+                        });
                     }
                 } else {
                     min_div = min_div.min(div.norm());
@@ -496,7 +532,8 @@ pub fn map_ssm(map: &PolynomialMap, opts: &MapSsmOptions) -> Result<MapSsm, MapS
                 rhs[i] = rhs_top[i];
             }
             let sol = bm.lu().solve(&rhs).ok_or_else(|| MapSsmError::Singular { monomial: m.clone() })?;
-            let mut wm: Vec<C> = (0..d).map(|row| sol[row] + (0..n).map(|j| vmat[(row, j)] * coords[j]).sum::<C>()).collect();
+            let mut wm: Vec<C> =
+                (0..d).map(|row| sol[row] + (0..n).map(|j| vmat[(row, j)] * coords[j]).sum::<C>()).collect();
             if let Some(j) = structural_j {
                 if opts.amplitude == Amplitude::Observable {
                     // The resonant freedom: W_m += alpha v_j, R_m,j += (mu_j - mu^m) alpha,
@@ -629,7 +666,10 @@ impl MapSsm {
     pub fn real_form(&self, observable: &[f64]) -> Result<(poly::Poly, poly::Poly), MapSsmError> {
         let n = self.multipliers.len();
         if observable.len() != self.w.len() || observable.iter().any(|v| !v.is_finite()) {
-            return Err(MapSsmError::BadOption { what: "observable", why: format!("need {} finite entries, got {}", self.w.len(), observable.len()) });
+            return Err(MapSsmError::BadOption {
+                what: "observable",
+                why: format!("need {} finite entries, got {}", self.w.len(), observable.len()),
+            });
         }
         let tab = Table::new(n, self.order);
         let nt = tab.len();
@@ -697,7 +737,9 @@ impl MapSsm {
         if s.len() != self.w.len() || n == 0 {
             return None;
         }
-        let proj = |x: &[C]| -> Vec<C> { (0..modes).map(|j| self.left[2 * j].iter().zip(x).map(|(&(re, im), y)| C::new(re, im) * y).sum()).collect() };
+        let proj = |x: &[C]| -> Vec<C> {
+            (0..modes).map(|j| self.left[2 * j].iter().zip(x).map(|(&(re, im), y)| C::new(re, im) * y).sum()).collect()
+        };
         let sc: Vec<C> = s.iter().map(|&x| C::new(x, 0.0)).collect();
         let target = proj(&sc);
         let full = |h: &[C]| -> Vec<C> { h.iter().flat_map(|x| [*x, x.conj()]).collect() };

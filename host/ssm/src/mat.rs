@@ -171,7 +171,11 @@ impl<'a> Cursor<'a> {
         }
         let n = second as usize;
         let Some(data) = rest.get(8..).and_then(|r| r.get(..n)) else {
-            return Err(format!("element of {n} bytes at offset {} but only {} left", self.pos, rest.len().saturating_sub(8)));
+            return Err(format!(
+                "element of {n} bytes at offset {} but only {} left",
+                self.pos,
+                rest.len().saturating_sub(8)
+            ));
         };
         let ty = first;
         let advance = if ty == MI_COMPRESSED { 8 + n } else { 8 + n.div_ceil(8) * 8 };
@@ -251,7 +255,10 @@ impl MatFile {
     pub fn parse(file: &str, bytes: &[u8]) -> Result<Self, MatError> {
         let not = |why: &str| MatError::NotMat { file: file.to_string(), why: why.to_string() };
         let v73 = || MatError::V73 { file: file.to_string() };
-        if bytes.starts_with(b"MATLAB 7.3") || bytes.get(512..520) == Some(b"\x89HDF\r\n\x1a\n") || bytes.starts_with(b"\x89HDF") {
+        if bytes.starts_with(b"MATLAB 7.3")
+            || bytes.get(512..520) == Some(b"\x89HDF\r\n\x1a\n")
+            || bytes.starts_with(b"\x89HDF")
+        {
             return Err(v73());
         }
         // The text is descriptive (MATLAB, Octave, scipy and matio word it differently): the
@@ -267,7 +274,11 @@ impl MatFile {
             (b"IM", 0x0200) => return Err(v73()),
             (b"MI", _) => return Err(MatError::BigEndian { file: file.to_string() }),
             (b"IM", v) => return Err(not(&format!("version {v:#06x}, expected 0x0100"))),
-            (other, _) => return Err(not(&format!("endian indicator {other:?} at byte 126, expected \"IM\"; a v4 file or not a .mat file"))),
+            (other, _) => {
+                return Err(not(&format!(
+                    "endian indicator {other:?} at byte 126, expected \"IM\"; a v4 file or not a .mat file"
+                )));
+            }
         }
         let mut vars = Vec::new();
         let mut top = Cursor::new(rest);
@@ -278,18 +289,27 @@ impl MatFile {
             let (ty, data) = top.element().map_err(malformed)?;
             let body = match ty {
                 MI_COMPRESSED => {
-                    let inflated = miniz_oxide::inflate::decompress_to_vec_zlib_with_limit(data, MAX_INFLATED_BYTES).map_err(|e| {
-                        MatError::Inflate { file: file.to_string(), var: where_(), why: format!("{:?}", e.status) }
-                    })?;
+                    let inflated = miniz_oxide::inflate::decompress_to_vec_zlib_with_limit(data, MAX_INFLATED_BYTES)
+                        .map_err(|e| MatError::Inflate {
+                            file: file.to_string(),
+                            var: where_(),
+                            why: format!("{:?}", e.status),
+                        })?;
                     let mut inner = Cursor::new(&inflated);
                     let (ty, payload) = inner.element().map_err(malformed)?;
                     if ty != MI_MATRIX {
-                        return Err(malformed(format!("compressed element holds data type {ty}, expected miMATRIX (14)")));
+                        return Err(malformed(format!(
+                            "compressed element holds data type {ty}, expected miMATRIX (14)"
+                        )));
                     }
                     payload.to_vec()
                 }
                 MI_MATRIX => data.to_vec(),
-                t => return Err(malformed(format!("top-level data type {t}, expected miMATRIX (14) or miCOMPRESSED (15)"))),
+                t => {
+                    return Err(malformed(format!(
+                        "top-level data type {t}, expected miMATRIX (14) or miCOMPRESSED (15)"
+                    )));
+                }
             };
             if body.is_empty() {
                 continue;
@@ -347,9 +367,17 @@ impl MatFile {
                 let mut cells = Vec::with_capacity(n);
                 for k in 0..n {
                     let sub = format!("{path}{{{},{}}}", k % dims[0].max(1) + 1, k / dims[0].max(1) + 1);
-                    let (ty, payload) = c.element().map_err(|w| MatError::Malformed { file: self.file.clone(), var: sub.clone(), why: w })?;
+                    let (ty, payload) = c.element().map_err(|w| MatError::Malformed {
+                        file: self.file.clone(),
+                        var: sub.clone(),
+                        why: w,
+                    })?;
                     if ty != MI_MATRIX {
-                        return Err(MatError::Malformed { file: self.file.clone(), var: sub, why: format!("data type {ty}, expected miMATRIX") });
+                        return Err(MatError::Malformed {
+                            file: self.file.clone(),
+                            var: sub,
+                            why: format!("data type {ty}, expected miMATRIX"),
+                        });
                     }
                     cells.push(self.value(payload, &sub)?);
                 }
@@ -419,7 +447,13 @@ mod tests {
             let e = MatFile::parse("m.mat", bytes).and_then(|m| m.get(var).map(|_| ())).unwrap_err();
             assert!(e.to_string().contains(want), "{e} (want {want})");
         };
-        let cplx = matrix(MX_DOUBLE, FLAG_COMPLEX, &[1, 1], "", &[element(MI_DOUBLE, &1f64.to_le_bytes()), element(MI_DOUBLE, &2f64.to_le_bytes())].concat());
+        let cplx = matrix(
+            MX_DOUBLE,
+            FLAG_COMPLEX,
+            &[1, 1],
+            "",
+            &[element(MI_DOUBLE, &1f64.to_le_bytes()), element(MI_DOUBLE, &2f64.to_le_bytes())].concat(),
+        );
         let chr = matrix(4, 0, &[1, 2], "", &element(16, b"ab"));
         let ok = matrix(MX_DOUBLE, 0, &[1, 1], "", &element(MI_DOUBLE, &1f64.to_le_bytes()));
         let cell = matrix(MX_CELL, 0, &[1, 3], "xData", &[ok.clone(), cplx, chr.clone()].concat());
@@ -445,7 +479,8 @@ mod tests {
         let mut other_text = file(&ok);
         other_text[..6].copy_from_slice(b"Octave");
         assert!(MatFile::parse("m.mat", &other_text).is_ok());
-        let mut v73 = b"MATLAB 7.3 MAT-file, Platform: GLNXA64, Created on: Mon Jan  1 00:00:00 2024 HDF5 schema 1.00 .".to_vec();
+        let mut v73 =
+            b"MATLAB 7.3 MAT-file, Platform: GLNXA64, Created on: Mon Jan  1 00:00:00 2024 HDF5 schema 1.00 .".to_vec();
         v73.resize(512, b' ');
         v73.extend_from_slice(b"\x89HDF\r\n\x1a\n");
         check(&v73, "", "v7.3 (HDF5)");

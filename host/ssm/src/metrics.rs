@@ -76,7 +76,12 @@ pub fn dtw(a: &[f64], b: &[f64], dim: usize, band: Option<usize>) -> Option<DtwC
     }
     let (n, m) = (a.len() / dim, b.len() / dim);
     let dist = |i: usize, j: usize| {
-        a[i * dim..(i + 1) * dim].iter().zip(&b[j * dim..(j + 1) * dim]).map(|(x, y)| (x - y) * (x - y)).sum::<f64>().sqrt()
+        a[i * dim..(i + 1) * dim]
+            .iter()
+            .zip(&b[j * dim..(j + 1) * dim])
+            .map(|(x, y)| (x - y) * (x - y))
+            .sum::<f64>()
+            .sqrt()
     };
     let window = |i: usize| -> (usize, usize) {
         match band {

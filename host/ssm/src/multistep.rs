@@ -171,7 +171,12 @@ const BLOCK_ROWS: usize = 512;
 
 /// Gauss-Newton normal matrix (lower triangle) and gradient of the data term, unscaled:
 /// `J^T J`, `J^T e`.
-fn normal_equations(map: &RbfMap, trajs: &[EtaTrajectory<'_>], win: &[(usize, usize)], h: usize) -> (Mat<f64>, Vec<f64>) {
+fn normal_equations(
+    map: &RbfMap,
+    trajs: &[EtaTrajectory<'_>],
+    win: &[(usize, usize)],
+    h: usize,
+) -> (Mat<f64>, Vec<f64>) {
     let d = map.dim;
     let nf = map.n_centers() + d + 1;
     let p = nf * d;
@@ -188,7 +193,17 @@ fn normal_equations(map: &RbfMap, trajs: &[EtaTrajectory<'_>], win: &[(usize, us
             return;
         }
         let b = block.as_ref().subrows(0, rows);
-        matmul(jtj.as_mut(), BlockStructure::TriangularLower, Accum::Add, b.transpose(), BlockStructure::Rectangular, b, BlockStructure::Rectangular, 1.0, Par::Seq);
+        matmul(
+            jtj.as_mut(),
+            BlockStructure::TriangularLower,
+            Accum::Add,
+            b.transpose(),
+            BlockStructure::Rectangular,
+            b,
+            BlockStructure::Rectangular,
+            1.0,
+            Par::Seq,
+        );
         for r in 0..rows {
             let e = res[r];
             if e != 0.0 {
@@ -246,7 +261,11 @@ fn normal_equations(map: &RbfMap, trajs: &[EtaTrajectory<'_>], win: &[(usize, us
 /// what each stage did. Bad options, trajectories of the wrong dimension, too few windows
 /// or a too large problem are errors naming what is wrong; a stage whose every step is
 /// refused leaves the coefficients as they were.
-pub fn refine_multistep(map: &mut RbfMap, trajs: &[EtaTrajectory<'_>], opts: &MultiStep) -> Result<Vec<StageReport>, FitError> {
+pub fn refine_multistep(
+    map: &mut RbfMap,
+    trajs: &[EtaTrajectory<'_>],
+    opts: &MultiStep,
+) -> Result<Vec<StageReport>, FitError> {
     opts.validate()?;
     let d = map.dim;
     let nf = map.n_centers() + d + 1;
@@ -255,13 +274,23 @@ pub fn refine_multistep(map: &mut RbfMap, trajs: &[EtaTrajectory<'_>], opts: &Mu
         return Err(FitError::NoTrainingData);
     }
     if let Some(t) = trajs.iter().position(|t| t.eta.ncols() != d) {
-        return Err(FitError::DimMismatch { name: format!("multistep training trajectory {t}"), got: trajs[t].eta.ncols(), expected: d });
+        return Err(FitError::DimMismatch {
+            name: format!("multistep training trajectory {t}"),
+            got: trajs[t].eta.ncols(),
+            expected: d,
+        });
     }
     if map.coef.len() != p || map.scale.len() != d {
-        return Err(FitError::BadOption { what: "multistep", why: format!("the RBF map has {} coefficients, {p} expected", map.coef.len()) });
+        return Err(FitError::BadOption {
+            what: "multistep",
+            why: format!("the RBF map has {} coefficients, {p} expected", map.coef.len()),
+        });
     }
     crate::limits::check_matrix("multistep normal matrix", p, p, false)?;
-    let data_max = trajs.iter().flat_map(|t| (0..t.eta.nrows()).flat_map(move |i| (0..d).map(move |j| t.eta[(i, j)].abs()))).fold(0.0, f64::max);
+    let data_max = trajs
+        .iter()
+        .flat_map(|t| (0..t.eta.nrows()).flat_map(move |i| (0..d).map(move |j| t.eta[(i, j)].abs())))
+        .fold(0.0, f64::max);
     let bound = ESCAPE_FACTOR * data_max;
     let c = map.conditioning;
     let n1 = c.rows.max(1) as f64;
@@ -272,14 +301,33 @@ pub fn refine_multistep(map: &mut RbfMap, trajs: &[EtaTrajectory<'_>], opts: &Mu
         let win = windows(trajs, h, opts.stride);
         let r_entries = (win.len() * h * d) as f64;
         if win.len() * h * d < p {
-            return Err(FitError::Underdetermined { what: "multistep refinement (residual entries vs coefficients)", rows: win.len() * h * d, cols: p });
+            return Err(FitError::Underdetermined {
+                what: "multistep refinement (residual entries vs coefficients)",
+                rows: win.len() * h * d,
+                cols: p,
+            });
         }
         let norm2 = |m: &RbfMap| m.coef.iter().map(|v| v * v).sum::<f64>();
-        let loss = |m: &RbfMap| rollout_sse(m, trajs, &win, h, bound).map(|sse| (sse / r_entries + ridge * norm2(m), sse));
+        let loss =
+            |m: &RbfMap| rollout_sse(m, trajs, &win, h, bound).map(|sse| (sse / r_entries + ridge * norm2(m), sse));
         let Some((mut l, sse0)) = loss(map) else {
-            return Err(FitError::BadOption { what: "multistep", why: format!("the starting map's {h}-step rollouts escape the data (beyond {ESCAPE_FACTOR} x max |eta_i|)") });
+            return Err(FitError::BadOption {
+                what: "multistep",
+                why: format!(
+                    "the starting map's {h}-step rollouts escape the data (beyond {ESCAPE_FACTOR} x max |eta_i|)"
+                ),
+            });
         };
-        let mut rep = StageReport { horizon: h, windows: win.len(), rms_before: (sse0 / r_entries).sqrt(), rms_after: 0.0, loss_before: l, loss_after: l, accepted: 0, tried: 0 };
+        let mut rep = StageReport {
+            horizon: h,
+            windows: win.len(),
+            rms_before: (sse0 / r_entries).sqrt(),
+            rms_after: 0.0,
+            loss_before: l,
+            loss_after: l,
+            accepted: 0,
+            tried: 0,
+        };
         let mut sse = sse0;
         let mut mu = 1e-3;
         let mut fresh = true;
@@ -340,13 +388,22 @@ pub fn refine_multistep(map: &mut RbfMap, trajs: &[EtaTrajectory<'_>], opts: &Mu
 /// the training series `train` (the series the model was fitted to, through its own
 /// embedding and manifold); the linear-part eigenvalues are updated. Polynomial dynamics
 /// are an error.
-pub fn refine_model(model: &mut crate::SsmModel, train: &[crate::TimeSeries], opts: &MultiStep) -> Result<Vec<StageReport>, FitError> {
+pub fn refine_model(
+    model: &mut crate::SsmModel,
+    train: &[crate::TimeSeries],
+    opts: &MultiStep,
+) -> Result<Vec<StageReport>, FitError> {
     let crate::ReducedDynamics::Rbf(map) = &mut model.dynamics else {
         return Err(FitError::BadOption { what: "multistep", why: "applies to RBF map dynamics only".into() });
     };
     let (ys, dts) = crate::fit::embed_training(train, &model.options)?;
     if let Some(&dt) = dts.iter().find(|&&dt| (dt - map.dt).abs() > crate::dynamics::MAP_DT_RTOL * map.dt) {
-        return Err(FitError::StepMismatch { name: "multistep training series".into(), dt, dt_model: map.dt, rtol: crate::dynamics::MAP_DT_RTOL });
+        return Err(FitError::StepMismatch {
+            name: "multistep training series".into(),
+            dt,
+            dt_model: map.dt,
+            rtol: crate::dynamics::MAP_DT_RTOL,
+        });
     }
     let etas: Vec<Mat<f64>> = ys.iter().map(|y| model.manifold.reduce_points(y.as_ref())).collect();
     let trajs: Vec<EtaTrajectory> = etas.iter().map(|e| EtaTrajectory { eta: e.as_ref(), dt: map.dt }).collect();
@@ -390,7 +447,11 @@ mod tests {
 
     fn rbf_fit(trajs: &[Mat<f64>], centers: usize, alpha: f64) -> RbfMap {
         let et: Vec<EtaTrajectory> = trajs.iter().map(|m| EtaTrajectory { eta: m.as_ref(), dt: 0.1 }).collect();
-        let ReducedDynamics::Rbf(m) = ReducedDynamics::fit(&et, Dynamics::Rbf { centers }, 1, Ridge::Fixed(alpha)).unwrap() else { panic!() };
+        let ReducedDynamics::Rbf(m) =
+            ReducedDynamics::fit(&et, Dynamics::Rbf { centers }, 1, Ridge::Fixed(alpha)).unwrap()
+        else {
+            panic!()
+        };
         m
     }
 
@@ -477,7 +538,12 @@ mod tests {
             assert!(e.contains(what), "{o:?}: {e}");
         }
         let wide = Mat::<f64>::zeros(50, 3);
-        let e = refine_multistep(&mut m0.clone(), &[EtaTrajectory { eta: wide.as_ref(), dt: 0.1 }], &MultiStep { horizon: 2, stride: 1, iterations: 1 }).unwrap_err();
+        let e = refine_multistep(
+            &mut m0.clone(),
+            &[EtaTrajectory { eta: wide.as_ref(), dt: 0.1 }],
+            &MultiStep { horizon: 2, stride: 1, iterations: 1 },
+        )
+        .unwrap_err();
         assert!(e.to_string().contains("embedded dimension 3 does not match the model's 2"), "{e}");
         assert_eq!(MultiStep { horizon: 23, stride: 1, iterations: 1 }.stages(), vec![2, 4, 8, 16, 23]);
         assert_eq!(MultiStep { horizon: 1, stride: 1, iterations: 1 }.stages(), vec![1]);

@@ -73,7 +73,9 @@ pub enum NormalFormError {
     OddDimension(usize),
     #[error("normal form order {0} unsupported (need 1..=9)")]
     Order(u32),
-    #[error("the linear part has a real eigenvalue {re:.6e} (+ {im:.3e} i); the polar normal form needs oscillatory modes")]
+    #[error(
+        "the linear part has a real eigenvalue {re:.6e} (+ {im:.3e} i); the polar normal form needs oscillatory modes"
+    )]
     RealEigenvalue { re: f64, im: f64 },
     #[error("eigen-decomposition of the linear part failed: {0}")]
     Eigen(&'static str),
@@ -220,8 +222,10 @@ impl PolarNormalForm {
     /// Evaluates `(rho', theta')` at amplitudes `rho`.
     pub fn eval(&self, rho: &[f64]) -> (Vec<f64>, Vec<f64>) {
         let p: Vec<f64> = rho.iter().map(|r| r * r).collect();
-        let mono: Vec<f64> = self.pexps.iter().map(|e| e.iter().zip(&p).map(|(&k, x)| x.powi(k as i32)).product()).collect();
-        let dr = (0..self.modes).map(|i| rho[i] * self.amp[i].iter().zip(&mono).map(|(a, m)| a * m).sum::<f64>()).collect();
+        let mono: Vec<f64> =
+            self.pexps.iter().map(|e| e.iter().zip(&p).map(|(&k, x)| x.powi(k as i32)).product()).collect();
+        let dr =
+            (0..self.modes).map(|i| rho[i] * self.amp[i].iter().zip(&mono).map(|(a, m)| a * m).sum::<f64>()).collect();
         let dth = (0..self.modes).map(|i| self.phase[i].iter().zip(&mono).map(|(a, m)| a * m).sum::<f64>()).collect();
         (dr, dth)
     }
@@ -251,7 +255,9 @@ fn mul(a: &SPoly, b: &SPoly, maxdeg: u32) -> SPoly {
         return SPoly::new();
     };
     let bits = u32::BITS - maxdeg.leading_zeros();
-    let packable = nvar > 0 && (nvar as u32).saturating_mul(bits.max(1)) <= u64::BITS && a.keys().chain(b.keys()).all(|e| e.len() == nvar);
+    let packable = nvar > 0
+        && (nvar as u32).saturating_mul(bits.max(1)) <= u64::BITS
+        && a.keys().chain(b.keys()).all(|e| e.len() == nvar);
     if !packable {
         return mul_btree(a, b, maxdeg);
     }
@@ -468,10 +474,15 @@ fn modal(
                 )));
             }
             if let Some(k) = x.exps.iter().position(|e| e.len() != d || e.iter().sum::<u32>() == 0) {
-                return Err(NormalFormError::Normalization(format!("first-harmonic observable monomial {k} {:?}: want {d} exponents of degree >= 1", x.exps[k])));
+                return Err(NormalFormError::Normalization(format!(
+                    "first-harmonic observable monomial {k} {:?}: want {d} exponents of degree >= 1",
+                    x.exps[k]
+                )));
             }
             if x.scale.iter().chain(&x.coef).any(|v| !v.is_finite()) || x.scale.iter().any(|&v| v == 0.0) {
-                return Err(NormalFormError::Normalization("first-harmonic observable: non-finite coefficient or zero scale".into()));
+                return Err(NormalFormError::Normalization(
+                    "first-harmonic observable: non-finite coefficient or zero scale".into(),
+                ));
             }
             Some(x.linear_part())
         }
@@ -490,7 +501,10 @@ fn modal(
             Normalization::Observable(_) | Normalization::FirstHarmonic(_) => {
                 let c = row.as_deref().unwrap_or(&[]);
                 if c.len() != d {
-                    return Err(NormalFormError::Normalization(format!("observable row has {} entries, d = {d}", c.len())));
+                    return Err(NormalFormError::Normalization(format!(
+                        "observable row has {} entries, d = {d}",
+                        c.len()
+                    )));
                 }
                 let cw: C = c.iter().zip(w.iter()).map(|(ci, wi)| wi * *ci).sum();
                 if cw.norm() < 1e-12 * c.iter().map(|x| x * x).sum::<f64>().sqrt() {
@@ -640,7 +654,12 @@ fn normalize(md: &Modal, order: u32, is_map: bool, small: f64) -> Normalized {
                 if structural(i, m) {
                     resonant.push((i, m.clone(), *c));
                 } else if rel < small {
-                    extra.push(ExtraResonance { equation: i, exponents: m.clone(), coefficient: (c.re, c.im), divisor: rel });
+                    extra.push(ExtraResonance {
+                        equation: i,
+                        exponents: m.clone(),
+                        coefficient: (c.re, c.im),
+                        divisor: rel,
+                    });
                     n[i].insert(m.clone(), *c);
                 } else {
                     min_div = min_div.min(rel);
@@ -751,7 +770,8 @@ fn polar_flow_map(a: &[SPoly], om: &[SPoly], dt: f64, kmax: u32) -> (Vec<SPoly>,
                 .collect()
         })
         .collect();
-    let th: Vec<SPoly> = (0..m).map(|i| series(om[i].clone(), 1).into_iter().filter(|(e, _)| deg(e) <= kmax).collect()).collect();
+    let th: Vec<SPoly> =
+        (0..m).map(|i| series(om[i].clone(), 1).into_iter().filter(|(e, _)| deg(e) <= kmax).collect()).collect();
     (pm, th)
 }
 
@@ -776,7 +796,8 @@ pub(crate) fn map_to_flow(
     let mut targ_p = Vec::with_capacity(m);
     let mut targ_th = Vec::with_capacity(m);
     for i in 0..m {
-        let mi: SPoly = pexps.iter().zip(&beta[i]).map(|(e, &b)| (e.clone(), if deg(e) == 0 { mu[i] } else { b })).collect();
+        let mi: SPoly =
+            pexps.iter().zip(&beta[i]).map(|(e, &b)| (e.clone(), if deg(e) == 0 { mu[i] } else { b })).collect();
         let mic: SPoly = mi.iter().map(|(e, c)| (e.clone(), c.conj())).collect();
         targ_p.push(to_dense(&mul(&mi, &mic, kmax), pexps));
         // arg M = Im log M = arg mu + Im sum (-1)^(k+1) x^k / k, x = (M - mu)/mu
@@ -920,10 +941,14 @@ fn normal_form_parts(
         map_to_flow(&beta, &mu, &pexps, dt)?
     } else {
         let amp = (0..modes)
-            .map(|i| pexps.iter().zip(&beta[i]).map(|(e, b)| if deg(e) == 0 { md.lam[2 * i].re } else { b.re }).collect())
+            .map(|i| {
+                pexps.iter().zip(&beta[i]).map(|(e, b)| if deg(e) == 0 { md.lam[2 * i].re } else { b.re }).collect()
+            })
             .collect();
         let phase = (0..modes)
-            .map(|i| pexps.iter().zip(&beta[i]).map(|(e, b)| if deg(e) == 0 { md.lam[2 * i].im } else { b.im }).collect())
+            .map(|i| {
+                pexps.iter().zip(&beta[i]).map(|(e, b)| if deg(e) == 0 { md.lam[2 * i].im } else { b.im }).collect()
+            })
             .collect();
         (amp, phase)
     };
@@ -962,8 +987,14 @@ pub fn model_normal_form_with_transform(
 /// `Manifold::observable_poly`): `rho_j` is the measured signal's first-harmonic amplitude
 /// of mode `j` on an invariant torus, at every order (as the equation-driven
 /// `map_ssm::Amplitude::Observable`). `opts.normalization` is overridden.
-pub fn model_normal_form_first_harmonic(model: &SsmModel, opts: &NormalFormOptions) -> Result<PolarNormalForm, NormalFormError> {
-    let o = NormalFormOptions { normalization: Normalization::FirstHarmonic(model.manifold.observable_poly()), ..opts.clone() };
+pub fn model_normal_form_first_harmonic(
+    model: &SsmModel,
+    opts: &NormalFormOptions,
+) -> Result<PolarNormalForm, NormalFormError> {
+    let o = NormalFormOptions {
+        normalization: Normalization::FirstHarmonic(model.manifold.observable_poly()),
+        ..opts.clone()
+    };
     normal_form(&model.dynamics, &o)
 }
 
@@ -999,7 +1030,12 @@ mod tests {
             }
             p
         };
-        let same = |x: &SPoly, y: &SPoly| x.len() == y.len() && x.iter().zip(y).all(|((ea, ca), (eb, cb))| ea == eb && ca.re.to_bits() == cb.re.to_bits() && ca.im.to_bits() == cb.im.to_bits());
+        let same = |x: &SPoly, y: &SPoly| {
+            x.len() == y.len()
+                && x.iter().zip(y).all(|((ea, ca), (eb, cb))| {
+                    ea == eb && ca.re.to_bits() == cb.re.to_bits() && ca.im.to_bits() == cb.im.to_bits()
+                })
+        };
         for nvar in 1..=6 {
             for maxdeg in 0..=9 {
                 for _ in 0..3 {
@@ -1008,7 +1044,10 @@ mod tests {
                     assert!(same(&mul(&a, &b, maxdeg), &mul_btree(&a, &b, maxdeg)), "nvar {nvar} maxdeg {maxdeg}");
                     // Products of products (sums of many terms per key).
                     let ab = mul_btree(&a, &b, maxdeg);
-                    assert!(same(&mul(&ab, &a, maxdeg), &mul_btree(&ab, &a, maxdeg)), "nvar {nvar} maxdeg {maxdeg} (ab a)");
+                    assert!(
+                        same(&mul(&ab, &a, maxdeg), &mul_btree(&ab, &a, maxdeg)),
+                        "nvar {nvar} maxdeg {maxdeg} (ab a)"
+                    );
                 }
             }
         }
@@ -1083,16 +1122,11 @@ mod tests {
         let m = DMatrix::from_row_slice(2, 2, &[1.3, -0.4, 0.2, 0.9]);
         let obs: Vec<f64> = m.clone().try_inverse().unwrap().row(0).iter().copied().collect();
         for g11 in [C::new(0.0, 0.0), C::new(0.5, -0.3)] {
-            let zdot: SPoly = [
-                term(&[1, 0], lam),
-                term(&[1, 1], g11),
-                term(&[2, 1], b),
-                term(&[3, 2], c),
-            ]
-            .into_iter()
-            .collect();
+            let zdot: SPoly =
+                [term(&[1, 0], lam), term(&[1, 1], g11), term(&[2, 1], b), term(&[3, 2], c)].into_iter().collect();
             let p = real_field(&[zdot], &m, &[0.6, 1.7], 5);
-            let opts = NormalFormOptions { normalization: Normalization::Observable(obs.clone()), ..Default::default() };
+            let opts =
+                NormalFormOptions { normalization: Normalization::Observable(obs.clone()), ..Default::default() };
             let nf = normal_form_of_poly(&p, None, &opts).unwrap();
             assert_eq!(nf.modes, 1);
             assert_eq!(nf.pexps, vec![vec![0], vec![1], vec![2]]);
@@ -1115,8 +1149,10 @@ mod tests {
     fn flow_d4_cross_terms_recovered() {
         let (l1, l2) = (C::new(-0.11, 2.7), C::new(0.27, 53.0));
         // z1' = z1 (l1 + b1 P1 + c1 P2 + ...), z2' likewise; P = |z|^2.
-        let b = [[C::new(0.04, 0.1), C::new(11.65, -2.0), C::new(1.2, 0.3), C::new(41.0, 1.0), C::new(110.0, -5.0)],
-                 [C::new(-2.1, 0.7), C::new(-8.2, 1.1), C::new(-2.2, 0.0), C::new(-27.4, 2.0), C::new(-22.5, 3.0)]];
+        let b = [
+            [C::new(0.04, 0.1), C::new(11.65, -2.0), C::new(1.2, 0.3), C::new(41.0, 1.0), C::new(110.0, -5.0)],
+            [C::new(-2.1, 0.7), C::new(-8.2, 1.1), C::new(-2.2, 0.0), C::new(-27.4, 2.0), C::new(-22.5, 3.0)],
+        ];
         // exponents of (P1, P2) in that order: P1, P2, P1^2, P1 P2, P2^2 (for mode 2: P1, P2, P1^2, P1 P2, P2^2)
         let pe = [[1u32, 0], [0, 1], [2, 0], [1, 1], [0, 2]];
         // variable order in x: fast mode first.
@@ -1129,7 +1165,11 @@ mod tests {
             z_slow.insert(vec![e[1], e[1], e[0] + 1, e[0]], b[0][k]);
             z_fast.insert(vec![e[1] + 1, e[1], e[0], e[0]], b[1][k]);
         }
-        let m = DMatrix::from_row_slice(4, 4, &[1.0, 0.2, -0.1, 0.3, 0.1, 0.9, 0.2, -0.2, -0.3, 0.1, 1.1, 0.2, 0.2, -0.3, 0.1, 0.8]);
+        let m = DMatrix::from_row_slice(
+            4,
+            4,
+            &[1.0, 0.2, -0.1, 0.3, 0.1, 0.9, 0.2, -0.2, -0.3, 0.1, 1.1, 0.2, 0.2, -0.3, 0.1, 0.8],
+        );
         let minv = m.clone().try_inverse().unwrap();
         let obs: Vec<f64> = (0..4).map(|j| minv[(0, j)] + minv[(2, j)]).collect();
         let p = real_field(&[z_fast, z_slow], &m, &[0.5, 0.8, 1.2, 2.0], 5);
@@ -1144,8 +1184,18 @@ mod tests {
                 let want = b[i][k];
                 // roundoff of the order-5 expansion through a generic 4x4 mixing: ~1e-9 relative
                 let tol = 1e-7 * want.norm().max(1.0);
-                assert!((nf.amp[i][k + 1] - want.re).abs() < tol, "mode {i} k {k}: {} vs {}", nf.amp[i][k + 1], want.re);
-                assert!((nf.phase[i][k + 1] - want.im).abs() < tol, "mode {i} k {k}: {} vs {}", nf.phase[i][k + 1], want.im);
+                assert!(
+                    (nf.amp[i][k + 1] - want.re).abs() < tol,
+                    "mode {i} k {k}: {} vs {}",
+                    nf.amp[i][k + 1],
+                    want.re
+                );
+                assert!(
+                    (nf.phase[i][k + 1] - want.im).abs() < tol,
+                    "mode {i} k {k}: {} vs {}",
+                    nf.phase[i][k + 1],
+                    want.im
+                );
             }
         }
         let t = nf.table();
@@ -1153,8 +1203,18 @@ mod tests {
         assert_eq!(
             names,
             [
-                "rho_1", "rho_1^3", "rho_1 rho_2^2", "rho_1^5", "rho_1^3 rho_2^2", "rho_1 rho_2^4", "rho_2", "rho_1^2 rho_2",
-                "rho_2^3", "rho_1^4 rho_2", "rho_1^2 rho_2^3", "rho_2^5"
+                "rho_1",
+                "rho_1^3",
+                "rho_1 rho_2^2",
+                "rho_1^5",
+                "rho_1^3 rho_2^2",
+                "rho_1 rho_2^4",
+                "rho_2",
+                "rho_1^2 rho_2",
+                "rho_2^3",
+                "rho_1^4 rho_2",
+                "rho_1^2 rho_2^3",
+                "rho_2^5"
             ]
         );
         assert!((t.get(1, "rho_1 rho_2^2").unwrap() - 11.65).abs() < 1e-8);
@@ -1310,13 +1370,23 @@ mod tests {
         ]
         .into_iter()
         .collect();
-        for (e, c) in [([2u32, 0, 0, 0], C::new(0.3, 0.2)), ([1, 0, 1, 0], C::new(-0.2, 0.4)), ([3, 0, 0, 0], C::new(-0.4, 0.1)), ([2, 0, 0, 1], C::new(0.5, -0.3)), ([3, 0, 0, 2], C::new(0.2, 0.2))] {
+        for (e, c) in [
+            ([2u32, 0, 0, 0], C::new(0.3, 0.2)),
+            ([1, 0, 1, 0], C::new(-0.2, 0.4)),
+            ([3, 0, 0, 0], C::new(-0.4, 0.1)),
+            ([2, 0, 0, 1], C::new(0.5, -0.3)),
+            ([3, 0, 0, 2], C::new(0.2, 0.2)),
+        ] {
             let p: SPoly = [term(&e, c)].into_iter().collect();
             add_into(&mut xu, &p, C::new(1.0, 0.0));
             add_into(&mut xu, &conj_poly(&p), C::new(1.0, 0.0));
         }
         let xq = compose(std::slice::from_ref(&xu), &inv, d, order).pop().unwrap();
-        let m = DMatrix::from_row_slice(4, 4, &[1.0, 0.2, -0.1, 0.3, 0.1, 0.9, 0.2, -0.2, -0.3, 0.1, 1.1, 0.2, 0.2, -0.3, 0.1, 0.8]);
+        let m = DMatrix::from_row_slice(
+            4,
+            4,
+            &[1.0, 0.2, -0.1, 0.3, 0.1, 0.9, 0.2, -0.2, -0.3, 0.1, 1.1, 0.2, 0.2, -0.3, 0.1, 0.8],
+        );
         let scale = [0.5, 0.8, 1.2, 2.0];
         let mut p = real_field(&fz, &m, &scale, order);
         // increment = F - identity (a degree-1 coefficient multiplies eta_i / scale_i)
@@ -1328,16 +1398,32 @@ mod tests {
         }
         let x = real_scalar(&xq, &m, &[0.7, 1.3, 0.9, 1.1], order);
         let pexps = poly::exponents(2, 0, 2);
-        let bfull: Vec<Vec<C>> = (0..2).map(|i| std::iter::once(C::new(0.0, 0.0)).chain(beta[i].iter().map(|b| mu[i] * b)).collect()).collect();
+        let bfull: Vec<Vec<C>> = (0..2)
+            .map(|i| std::iter::once(C::new(0.0, 0.0)).chain(beta[i].iter().map(|b| mu[i] * b)).collect())
+            .collect();
         let (want_amp, want_phase) = map_to_flow(&bfull, &mu, &pexps, dt).unwrap();
-        let fh = NormalFormOptions { order: Some(order), normalization: Normalization::FirstHarmonic(x.clone()), ..Default::default() };
+        let fh = NormalFormOptions {
+            order: Some(order),
+            normalization: Normalization::FirstHarmonic(x.clone()),
+            ..Default::default()
+        };
         let nf = normal_form_of_poly(&p, Some(dt), &fh).unwrap();
         assert!(nf.extra_resonances.is_empty());
         for i in 0..2 {
             for k in 0..pexps.len() {
                 let sc = want_amp[i][k].abs().max(want_phase[i][k].abs()).max(1.0);
-                assert!((nf.amp[i][k] - want_amp[i][k]).abs() < 1e-9 * sc, "amp {i} {k}: {} vs {}", nf.amp[i][k], want_amp[i][k]);
-                assert!((nf.phase[i][k] - want_phase[i][k]).abs() < 1e-9 * sc, "phase {i} {k}: {} vs {}", nf.phase[i][k], want_phase[i][k]);
+                assert!(
+                    (nf.amp[i][k] - want_amp[i][k]).abs() < 1e-9 * sc,
+                    "amp {i} {k}: {} vs {}",
+                    nf.amp[i][k],
+                    want_amp[i][k]
+                );
+                assert!(
+                    (nf.phase[i][k] - want_phase[i][k]).abs() < 1e-9 * sc,
+                    "phase {i} {k}: {} vs {}",
+                    nf.phase[i][k],
+                    want_phase[i][k]
+                );
             }
         }
         // The transform's observable has exactly the first harmonic rho_j on a torus.
@@ -1355,11 +1441,25 @@ mod tests {
         }
         for j in 0..2 {
             // O(rho^6) from the truncation of x(W(u + h(u))) at the order.
-            assert!((2.0 * h1[j].norm() - rho[j]).abs() < 1e-8 * rho[j], "mode {j}: first harmonic {} vs rho {}", 2.0 * h1[j].norm(), rho[j]);
+            assert!(
+                (2.0 * h1[j].norm() - rho[j]).abs() < 1e-8 * rho[j],
+                "mode {j}: first harmonic {} vs rho {}",
+                2.0 * h1[j].norm(),
+                rho[j]
+            );
         }
-        let lin = NormalFormOptions { order: Some(order), normalization: Normalization::Observable(x.linear_part()), ..Default::default() };
+        let lin = NormalFormOptions {
+            order: Some(order),
+            normalization: Normalization::Observable(x.linear_part()),
+            ..Default::default()
+        };
         let nl = normal_form_of_poly(&p, Some(dt), &lin).unwrap();
-        assert!((nl.amp[0][1] - want_amp[0][1]).abs() > 1e-3, "{} vs {}: the test needs a resonant k", nl.amp[0][1], want_amp[0][1]);
+        assert!(
+            (nl.amp[0][1] - want_amp[0][1]).abs() > 1e-3,
+            "{} vs {}: the test needs a resonant k",
+            nl.amp[0][1],
+            want_amp[0][1]
+        );
     }
 
     #[test]
@@ -1370,6 +1470,9 @@ mod tests {
         assert!(matches!(e, NormalFormError::RealEigenvalue { .. }), "{e}");
         let exps = poly::exponents(3, 1, 1);
         let p3 = Poly { dim_in: 3, dim_out: 3, scale: vec![1.0; 3], exps, coef: vec![0.0; 9] };
-        assert!(matches!(normal_form_of_poly(&p3, None, &NormalFormOptions::default()), Err(NormalFormError::OddDimension(3))));
+        assert!(matches!(
+            normal_form_of_poly(&p3, None, &NormalFormOptions::default()),
+            Err(NormalFormError::OddDimension(3))
+        ));
     }
 }

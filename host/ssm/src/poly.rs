@@ -215,7 +215,10 @@ impl<'a> PreparedPoly<'a> {
     /// dim_out`) or too large to index with `u32`: use [`Poly::eval_into`] then.
     pub fn new(p: &'a Poly) -> Option<Self> {
         let d = p.dim_in;
-        if p.exps.iter().any(|e| e.len() != d) || p.scale.len() < d || Some(p.coef.len()) != p.exps.len().checked_mul(p.dim_out) {
+        if p.exps.iter().any(|e| e.len() != d)
+            || p.scale.len() < d
+            || Some(p.coef.len()) != p.exps.len().checked_mul(p.dim_out)
+        {
             return None;
         }
         let stride = usize::try_from(max_degree(&p.exps)).ok()?.checked_add(1)?;
@@ -233,7 +236,12 @@ impl<'a> PreparedPoly<'a> {
     }
 
     /// The value index of exponent vector `e`, formed (with its missing parents) when new.
-    fn value_of(e: &[u32], stride: usize, nodes: &mut Vec<(u32, u32)>, index: &mut std::collections::HashMap<Vec<u32>, u32>) -> Option<u32> {
+    fn value_of(
+        e: &[u32],
+        stride: usize,
+        nodes: &mut Vec<(u32, u32)>,
+        index: &mut std::collections::HashMap<Vec<u32>, u32>,
+    ) -> Option<u32> {
         if let Some(&n) = index.get(e) {
             return Some(n);
         }
@@ -451,7 +459,12 @@ mod tests {
             let p = Poly { dim_in: d, dim_out: q, scale, exps, coef };
             let pp = PreparedPoly::new(&p).unwrap();
             // A full degree range from 1 is formed in monomial order (one pass), others not.
-            assert_eq!(pp.in_order(), p.exps.first().is_some_and(|e| e.iter().sum::<u32>() == 1) && p.exps == exponents(d, 1, max_degree(&p.exps)), "d {d} q {q}");
+            assert_eq!(
+                pp.in_order(),
+                p.exps.first().is_some_and(|e| e.iter().sum::<u32>() == 1)
+                    && p.exps == exponents(d, 1, max_degree(&p.exps)),
+                "d {d} q {q}"
+            );
             let (mut want, mut got) = (vec![0.0; q], vec![1.0; q]);
             let mut points: Vec<Vec<f64>> = (0..20).map(|_| (0..d).map(|_| 3.0 * r()).collect()).collect();
             points.push((0..d).map(|i| if i % 2 == 0 { 1e80 } else { -1e-80 }).collect());
@@ -460,8 +473,18 @@ mod tests {
                 p.eval_into(eta, &mut plain, &mut want);
                 pp.eval_into(eta, &mut prep, &mut got);
                 for i in 0..q {
-                    assert_eq!(got[i].to_bits(), want[i].to_bits(), "d {d} q {q} at {eta:?}: output {i} {} vs {}", got[i], want[i]);
-                    assert_eq!(pp.eval_one(eta, &mut plain, i).to_bits(), want[i].to_bits(), "d {d} q {q} eval_one {i}");
+                    assert_eq!(
+                        got[i].to_bits(),
+                        want[i].to_bits(),
+                        "d {d} q {q} at {eta:?}: output {i} {} vs {}",
+                        got[i],
+                        want[i]
+                    );
+                    assert_eq!(
+                        pp.eval_one(eta, &mut plain, i).to_bits(),
+                        want[i].to_bits(),
+                        "d {d} q {q} eval_one {i}"
+                    );
                 }
             }
             assert!(pp.eval_one(&vec![0.1; d], &mut prep, q).is_nan());
@@ -469,14 +492,20 @@ mod tests {
             let (mut w2, mut g2) = (vec![7.0; q + 2], vec![7.0; q + 2]);
             p.eval_into(&points[0], &mut plain, &mut w2);
             pp.eval_into(&points[0], &mut prep, &mut g2);
-            assert_eq!(w2.iter().map(|v| v.to_bits()).collect::<Vec<_>>(), g2.iter().map(|v| v.to_bits()).collect::<Vec<_>>());
+            assert_eq!(
+                w2.iter().map(|v| v.to_bits()).collect::<Vec<_>>(),
+                g2.iter().map(|v| v.to_bits()).collect::<Vec<_>>()
+            );
         }
         // Inconsistent shapes are refused, not evaluated.
         let good = Poly { dim_in: 2, dim_out: 1, scale: vec![1.0; 2], exps: exponents(2, 1, 2), coef: vec![1.0; 5] };
         assert!(PreparedPoly::new(&good).is_some());
         assert!(PreparedPoly::new(&Poly { coef: vec![1.0; 4], ..good.clone() }).is_none());
         assert!(PreparedPoly::new(&Poly { scale: vec![1.0], ..good.clone() }).is_none());
-        assert!(PreparedPoly::new(&Poly { exps: vec![vec![1, 0], vec![1], vec![0, 1], vec![2, 0], vec![0, 2]], ..good }).is_none());
+        assert!(
+            PreparedPoly::new(&Poly { exps: vec![vec![1, 0], vec![1], vec![0, 1], vec![2, 0], vec![0, 2]], ..good })
+                .is_none()
+        );
     }
 
     #[test]

@@ -319,13 +319,21 @@ impl Field {
                 }
                 for (k, &v) in r.iter().enumerate() {
                     if !v.is_finite() {
-                        return Err(PortraitError::NonFinite { what: format!("{name}[{i}][{k}] (P^{:?})", nf.pexps[k]), value: v });
+                        return Err(PortraitError::NonFinite {
+                            what: format!("{name}[{i}][{k}] (P^{:?})", nf.pexps[k]),
+                            value: v,
+                        });
                     }
                 }
             }
         }
         let top = [0, 1].map(|j| pexps.iter().map(|e: &[i32; 2]| e[j] as usize).max().unwrap_or(0));
-        Ok(Field { pexps, amp: [nf.amp[0].clone(), nf.amp[1].clone()], phase: [nf.phase[0].clone(), nf.phase[1].clone()], top })
+        Ok(Field {
+            pexps,
+            amp: [nf.amp[0].clone(), nf.amp[1].clone()],
+            phase: [nf.phase[0].clone(), nf.phase[1].clone()],
+            top,
+        })
     }
 
     /// The powers of `P` the monomials use, each computed once (`powi` per monomial gave
@@ -414,7 +422,11 @@ fn check_opts(o: &PortraitOptions) -> Result<(), PortraitError> {
         return Err(PortraitError::BadBox(o.rho_max[0], o.rho_max[1]));
     }
     let pos = |name: &'static str, v: f64| {
-        if v.is_finite() && v > 0.0 { Ok(()) } else { Err(PortraitError::BadOption { name, value: v, why: "must be finite and positive" }) }
+        if v.is_finite() && v > 0.0 {
+            Ok(())
+        } else {
+            Err(PortraitError::BadOption { name, value: v, why: "must be finite and positive" })
+        }
     };
     pos("dedup_tol", o.dedup_tol)?;
     pos("manifold_eps", o.manifold_eps)?;
@@ -425,10 +437,18 @@ fn check_opts(o: &PortraitOptions) -> Result<(), PortraitError> {
     pos("atol", o.atol)?;
     pos("max_step", o.max_step)?;
     if o.converge_tol >= o.manifold_eps {
-        return Err(PortraitError::BadOption { name: "converge_tol", value: o.converge_tol, why: "must be below manifold_eps" });
+        return Err(PortraitError::BadOption {
+            name: "converge_tol",
+            value: o.converge_tol,
+            why: "must be below manifold_eps",
+        });
     }
     if o.axis_samples < 2 {
-        return Err(PortraitError::BadOption { name: "axis_samples", value: o.axis_samples as f64, why: "need at least 2" });
+        return Err(PortraitError::BadOption {
+            name: "axis_samples",
+            value: o.axis_samples as f64,
+            why: "need at least 2",
+        });
     }
     if o.grid < 1 {
         return Err(PortraitError::BadOption { name: "grid", value: 0.0, why: "need at least 1" });
@@ -673,7 +693,10 @@ fn dp_step(field: &Field, sign: f64, x: [f64; 2], h: f64) -> ([f64; 2], [f64; 2]
     let k3 = f(add(&[3.0 / 40.0, 9.0 / 40.0], &[k1, k2]));
     let k4 = f(add(&[44.0 / 45.0, -56.0 / 15.0, 32.0 / 9.0], &[k1, k2, k3]));
     let k5 = f(add(&[19372.0 / 6561.0, -25360.0 / 2187.0, 64448.0 / 6561.0, -212.0 / 729.0], &[k1, k2, k3, k4]));
-    let k6 = f(add(&[9017.0 / 3168.0, -355.0 / 33.0, 46732.0 / 5247.0, 49.0 / 176.0, -5103.0 / 18656.0], &[k1, k2, k3, k4, k5]));
+    let k6 = f(add(
+        &[9017.0 / 3168.0, -355.0 / 33.0, 46732.0 / 5247.0, 49.0 / 176.0, -5103.0 / 18656.0],
+        &[k1, k2, k3, k4, k5],
+    ));
     let b = [35.0 / 384.0, 0.0, 500.0 / 1113.0, 125.0 / 192.0, -2187.0 / 6784.0, 11.0 / 84.0];
     let y = add(&b, &[k1, k2, k3, k4, k5, k6]);
     let k7 = f(y);
@@ -803,7 +826,11 @@ fn integrate(
             }
         }
         if let Some(k) = hit {
-            break End::Fate(if fps[k].stability == Stability::Saddle { Fate::ApproachesSaddle { point: k } } else { Fate::Converges { point: k } });
+            break End::Fate(if fps[k].stability == Stability::Saddle {
+                Fate::ApproachesSaddle { point: k }
+            } else {
+                Fate::Converges { point: k }
+            });
         }
     };
     Traj { points, t, end, min_distance }
@@ -811,7 +838,12 @@ fn integrate(
 
 /// The forward trajectory of the amplitude equations from `rho0` for at most `t_max` s, and
 /// its fate (reaches a fixed point within `converge_tol`, leaves the box, or a limit).
-pub fn trajectory(nf: &PolarNormalForm, rho0: [f64; 2], t_max: f64, opts: &PortraitOptions) -> Result<(Vec<(f64, f64)>, Fate), PortraitError> {
+pub fn trajectory(
+    nf: &PolarNormalForm,
+    rho0: [f64; 2],
+    t_max: f64,
+    opts: &PortraitOptions,
+) -> Result<(Vec<(f64, f64)>, Fate), PortraitError> {
     check_opts(opts)?;
     check_start(rho0, t_max)?;
     PreparedField::new(nf, opts)?.trajectory(rho0, t_max)
@@ -870,7 +902,13 @@ fn fate_of(end: &End) -> Fate {
 
 // ------------------------------------------------------------------------ manifolds
 
-fn saddle_branches(field: &Field, fps: &[FixedPoint], s: usize, opts: &PortraitOptions, only: Option<Direction>) -> Vec<ManifoldBranch> {
+fn saddle_branches(
+    field: &Field,
+    fps: &[FixedPoint],
+    s: usize,
+    opts: &PortraitOptions,
+    only: Option<Direction>,
+) -> Vec<ManifoldBranch> {
     let fp = &fps[s];
     let Some(vecs) = fp.eigenvectors else { return Vec::new() };
     let mut out = Vec::new();
@@ -895,7 +933,16 @@ fn saddle_branches(field: &Field, fps: &[FixedPoint], s: usize, opts: &PortraitO
                 continue; // this half-branch lies outside the amplitude quadrant
             }
             let sign = if dir == Direction::Unstable { 1.0 } else { -1.0 };
-            let tr = integrate(field, x0, sign, opts.t_max, fps, Some((s, 10.0 * opts.manifold_eps)), opts, &mut |_, _, _, _| Step::Go);
+            let tr = integrate(
+                field,
+                x0,
+                sign,
+                opts.t_max,
+                fps,
+                Some((s, 10.0 * opts.manifold_eps)),
+                opts,
+                &mut |_, _, _, _| Step::Go,
+            );
             let mut points = vec![(fp.rho[0], fp.rho[1])];
             points.extend(tr.points);
             out.push(ManifoldBranch {
@@ -984,7 +1031,8 @@ fn find_orbits(field: &Field, fps: &[FixedPoint], opts: &PortraitOptions) -> Vec
         ss.sort_by(f64::total_cmp);
         ss.dedup();
         let n = ss.len();
-        let ds: Vec<Option<f64>> = ss.iter().map(|&s| ray_return(field, c, s, fps, opts).map(|(r, _, _)| r - s)).collect();
+        let ds: Vec<Option<f64>> =
+            ss.iter().map(|&s| ray_return(field, c, s, fps, opts).map(|(r, _, _)| r - s)).collect();
         // Brackets of sign changes of D: between neighbouring samples with a return, and
         // between a sample with a return and the edge of the returning set next to it
         // (located by bisection on "returns": an unstable orbit next to an escape region has
@@ -1041,10 +1089,11 @@ fn find_orbits(field: &Field, fps: &[FixedPoint], opts: &PortraitOptions) -> Vec
             let s = 0.5 * (lo + hi);
             let Some((_, period, pts)) = ray_return(field, c, s, fps, opts) else { continue };
             let hstep = 1e-4 * len;
-            let multiplier = match (ray_return(field, c, s + hstep, fps, opts), ray_return(field, c, s - hstep, fps, opts)) {
-                (Some((rp, _, _)), Some((rm, _, _))) => (rp - rm) / (2.0 * hstep),
-                _ => f64::NAN,
-            };
+            let multiplier =
+                match (ray_return(field, c, s + hstep, fps, opts), ray_return(field, c, s - hstep, fps, opts)) {
+                    (Some((rp, _, _)), Some((rm, _, _))) => (rp - rm) / (2.0 * hstep),
+                    _ => f64::NAN,
+                };
             if !multiplier.is_finite() {
                 continue;
             }
@@ -1108,7 +1157,11 @@ pub struct ScanOptions {
 
 impl Default for ScanOptions {
     fn default() -> Self {
-        ScanOptions { portrait: PortraitOptions { ray_samples: 0, flow_grid: 0, ..PortraitOptions::default() }, grid: 41, tol: 1e-4 }
+        ScanOptions {
+            portrait: PortraitOptions { ray_samples: 0, flow_grid: 0, ..PortraitOptions::default() },
+            grid: 41,
+            tol: 1e-4,
+        }
     }
 }
 
@@ -1154,7 +1207,11 @@ fn check_range(lo: f64, hi: f64, s: &ScanOptions) -> Result<(), PortraitError> {
         return Err(PortraitError::BadRange { lo, hi, why: "need finite lo < hi" });
     }
     if s.grid < 2 {
-        return Err(PortraitError::BadOption { name: "grid", value: s.grid as f64, why: "scan needs at least 2 points" });
+        return Err(PortraitError::BadOption {
+            name: "grid",
+            value: s.grid as f64,
+            why: "scan needs at least 2 points",
+        });
     }
     if !(s.tol.is_finite() && s.tol > 0.0) {
         return Err(PortraitError::BadOption { name: "tol", value: s.tol, why: "must be finite and positive" });
@@ -1162,7 +1219,10 @@ fn check_range(lo: f64, hi: f64, s: &ScanOptions) -> Result<(), PortraitError> {
     check_opts(&s.portrait)
 }
 
-fn field_at<E: std::fmt::Display>(nf_at: &impl Fn(f64) -> Result<PolarNormalForm, E>, dt: f64) -> Result<Field, PortraitError> {
+fn field_at<E: std::fmt::Display>(
+    nf_at: &impl Fn(f64) -> Result<PolarNormalForm, E>,
+    dt: f64,
+) -> Result<Field, PortraitError> {
     let nf = nf_at(dt).map_err(|e| PortraitError::NormalForm { dt, message: e.to_string() })?;
     Field::new(&nf)
 }
@@ -1262,7 +1322,10 @@ pub fn heteroclinic_dt<E: std::fmt::Display>(
     }
     let Some((key, mut a, ca, mut b, cb)) = found else { return Ok(None) };
     let info_at = |dt: f64| -> Result<BranchInfo, PortraitError> {
-        interior_unstable(&field_at(&nf_at, dt)?, po).into_iter().find(|i| i.key == key).ok_or(PortraitError::NoSaddle { dt })
+        interior_unstable(&field_at(&nf_at, dt)?, po)
+            .into_iter()
+            .find(|i| i.key == key)
+            .ok_or(PortraitError::NoSaddle { dt })
     };
     let mut near_a = info_at(a)?.nearest;
     let mut near_b = info_at(b)?.nearest;
@@ -1302,7 +1365,12 @@ pub fn heteroclinic_dt<E: std::fmt::Display>(
 
 /// The torus followed along the scan: the interior fixed point nearest to `prev` (the first
 /// interior point when `prev` is `None`).
-fn torus_at(field: &Field, opts: &PortraitOptions, prev: Option<[f64; 2]>, dt: f64) -> Result<FixedPoint, PortraitError> {
+fn torus_at(
+    field: &Field,
+    opts: &PortraitOptions,
+    prev: Option<[f64; 2]>,
+    dt: f64,
+) -> Result<FixedPoint, PortraitError> {
     let fps = fixed_points_field(field, opts);
     let mut tori: Vec<FixedPoint> = fps.into_iter().filter(|p| p.kind == PointKind::Torus2).collect();
     if tori.is_empty() {

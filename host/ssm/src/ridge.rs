@@ -174,10 +174,18 @@ impl RidgeLs {
     /// the same kernels in the same order (blocks start at multiples of [`U_BLOCK`], a multiple
     /// of every register-tile size of faer's x86 kernels, and are wider than 48 columns, where
     /// those kernels switch). Returns the solution and the singular values (descending).
-    pub fn solve_owned(a: Mat<f64>, b: MatRef<'_, f64>, alpha: f64, what: &'static str) -> Result<(Mat<f64>, Vec<f64>), FitError> {
+    pub fn solve_owned(
+        a: Mat<f64>,
+        b: MatRef<'_, f64>,
+        alpha: f64,
+        what: &'static str,
+    ) -> Result<(Mat<f64>, Vec<f64>), FitError> {
         Self::check(a.as_ref(), what)?;
         if b.nrows() != a.nrows() {
-            return Err(FitError::BadOption { what, why: format!("{} right-hand-side rows for {} matrix rows", b.nrows(), a.nrows()) });
+            return Err(FitError::BadOption {
+                what,
+                why: format!("{} right-hand-side rows for {} matrix rows", b.nrows(), a.nrows()),
+            });
         }
         let n = a.ncols();
         if !qr_first(a.nrows(), n) || n <= 2 * U_BLOCK {
@@ -205,17 +213,30 @@ impl RidgeLs {
     /// factorization itself). The same solution up to rounding (both are backward stable; the
     /// sums run in another order), so NOT the same bits; the same singular values, bit for
     /// bit. Matrices not tall enough for faer's QR-first SVD take [`RidgeLs::solve_owned`].
-    pub fn solve_owned_qtb(a: Mat<f64>, b: MatRef<'_, f64>, alpha: f64, what: &'static str) -> Result<(Mat<f64>, Vec<f64>), FitError> {
+    pub fn solve_owned_qtb(
+        a: Mat<f64>,
+        b: MatRef<'_, f64>,
+        alpha: f64,
+        what: &'static str,
+    ) -> Result<(Mat<f64>, Vec<f64>), FitError> {
         Self::solve_owned_qtb_keep(a, b, alpha, what).map(|(x, s, _)| (x, s))
     }
 
     /// [`RidgeLs::solve_owned_qtb`], also handing back `a`'s storage (its values those of
     /// the QR factors; empty when `a` was not factorized in place) for the caller's next
     /// matrix ([`crate::manifold::design_matrix_in`]).
-    fn solve_owned_qtb_keep(a: Mat<f64>, b: MatRef<'_, f64>, alpha: f64, what: &'static str) -> Result<(Mat<f64>, Vec<f64>, Mat<f64>), FitError> {
+    fn solve_owned_qtb_keep(
+        a: Mat<f64>,
+        b: MatRef<'_, f64>,
+        alpha: f64,
+        what: &'static str,
+    ) -> Result<(Mat<f64>, Vec<f64>, Mat<f64>), FitError> {
         Self::check(a.as_ref(), what)?;
         if b.nrows() != a.nrows() {
-            return Err(FitError::BadOption { what, why: format!("{} right-hand-side rows for {} matrix rows", b.nrows(), a.nrows()) });
+            return Err(FitError::BadOption {
+                what,
+                why: format!("{} right-hand-side rows for {} matrix rows", b.nrows(), a.nrows()),
+            });
         }
         if !qr_first(a.nrows(), a.ncols()) {
             let (x, s) = Self::solve_owned(a, b, alpha, what)?;
@@ -314,8 +335,16 @@ impl TallSvd {
         {
             let thin = svd::ComputeSvdVectors::Thin;
             let mut mem = MemBuffer::new(svd::svd_scratch::<f64>(n, n, thin, thin, par, Default::default()));
-            svd::svd(r.as_ref(), s.as_mut(), Some(u_r.as_mut()), Some(v.as_mut()), par, MemStack::new(&mut mem), Default::default())
-                .map_err(|_| FitError::Svd { what })?;
+            svd::svd(
+                r.as_ref(),
+                s.as_mut(),
+                Some(u_r.as_mut()),
+                Some(v.as_mut()),
+                par,
+                MemStack::new(&mut mem),
+                Default::default(),
+            )
+            .map_err(|_| FitError::Svd { what })?;
         }
         let s: Vec<f64> = (0..n).map(|i| s[i]).collect();
         Ok(TallSvd { qr, hh, bs, u_r, s, v })
@@ -333,8 +362,17 @@ impl TallSvd {
                 u[(i, c)] = self.u_r[(i, j)];
             }
         }
-        let mut mem = MemBuffer::new(householder::apply_block_householder_sequence_on_the_left_in_place_scratch::<f64>(m, self.bs, u.ncols()));
-        householder::apply_block_householder_sequence_on_the_left_in_place_with_conj(self.qr.as_ref(), self.hh.as_ref(), faer::Conj::No, u.as_mut(), par, MemStack::new(&mut mem));
+        let mut mem = MemBuffer::new(
+            householder::apply_block_householder_sequence_on_the_left_in_place_scratch::<f64>(m, self.bs, u.ncols()),
+        );
+        householder::apply_block_householder_sequence_on_the_left_in_place_with_conj(
+            self.qr.as_ref(),
+            self.hh.as_ref(),
+            faer::Conj::No,
+            u.as_mut(),
+            par,
+            MemStack::new(&mut mem),
+        );
         u
     }
 }
@@ -347,8 +385,21 @@ impl TallSvd {
         let n = self.qr.ncols();
         let par = faer::get_global_parallelism();
         let mut qtb = b.to_owned();
-        let mut mem = MemBuffer::new(householder::apply_block_householder_sequence_transpose_on_the_left_in_place_scratch::<f64>(self.qr.nrows(), self.bs, qtb.ncols()));
-        householder::apply_block_householder_sequence_transpose_on_the_left_in_place_with_conj(self.qr.as_ref(), self.hh.as_ref(), faer::Conj::No, qtb.as_mut(), par, MemStack::new(&mut mem));
+        let mut mem = MemBuffer::new(
+            householder::apply_block_householder_sequence_transpose_on_the_left_in_place_scratch::<f64>(
+                self.qr.nrows(),
+                self.bs,
+                qtb.ncols(),
+            ),
+        );
+        householder::apply_block_householder_sequence_transpose_on_the_left_in_place_with_conj(
+            self.qr.as_ref(),
+            self.hh.as_ref(),
+            faer::Conj::No,
+            qtb.as_mut(),
+            par,
+            MemStack::new(&mut mem),
+        );
         self.u_r.transpose() * qtb.as_ref().subrows(0, n)
     }
 
@@ -412,11 +463,20 @@ pub(crate) fn take_rows(a: MatRef<'_, f64>, rows: &[usize]) -> Mat<f64> {
 
 /// The ridge parameter `ridge` asks for: a fixed value (checked finite and >= 0) or the
 /// cross-validated one over the trajectory folds `groups`.
-fn choose_alpha(a: MatRef<'_, f64>, b: MatRef<'_, f64>, groups: &[std::ops::Range<usize>], ridge: Ridge, what: &'static str) -> Result<f64, FitError> {
+fn choose_alpha(
+    a: MatRef<'_, f64>,
+    b: MatRef<'_, f64>,
+    groups: &[std::ops::Range<usize>],
+    ridge: Ridge,
+    what: &'static str,
+) -> Result<f64, FitError> {
     match ridge {
         Ridge::Fixed(alpha) => {
             if !(alpha >= 0.0 && alpha.is_finite()) {
-                return Err(FitError::BadOption { what: "ridge alpha", why: format!("{alpha} is not a finite number >= 0") });
+                return Err(FitError::BadOption {
+                    what: "ridge alpha",
+                    why: format!("{alpha} is not a finite number >= 0"),
+                });
             }
             Ok(alpha)
         }
@@ -594,7 +654,11 @@ mod tests {
                 let owned = RidgeLs::from_owned(a.clone(), "t").unwrap().solve(b.as_ref(), alpha);
                 for i in 0..n {
                     for j in 0..q {
-                        assert_eq!(owned[(i, j)].to_bits(), want[(i, j)].to_bits(), "{m}x{n} alpha {alpha}: x[{i},{j}]");
+                        assert_eq!(
+                            owned[(i, j)].to_bits(),
+                            want[(i, j)].to_bits(),
+                            "{m}x{n} alpha {alpha}: x[{i},{j}]"
+                        );
                     }
                 }
             }
@@ -625,7 +689,11 @@ mod tests {
                 let ls = RidgeLs::from_owned(a.clone(), "t").unwrap();
                 let want = ls.solve(b.as_ref(), alpha);
                 let (got, s) = RidgeLs::solve_owned(a.clone(), b.as_ref(), alpha, "t").unwrap();
-                assert_eq!(s.iter().map(|v| v.to_bits()).collect::<Vec<_>>(), ls.s.iter().map(|v| v.to_bits()).collect::<Vec<_>>(), "{m}x{n}: singular values");
+                assert_eq!(
+                    s.iter().map(|v| v.to_bits()).collect::<Vec<_>>(),
+                    ls.s.iter().map(|v| v.to_bits()).collect::<Vec<_>>(),
+                    "{m}x{n}: singular values"
+                );
                 for i in 0..n {
                     for j in 0..q {
                         assert_eq!(got[(i, j)].to_bits(), want[(i, j)].to_bits(), "{m}x{n} alpha {alpha}: x[{i},{j}]");
@@ -634,7 +702,10 @@ mod tests {
             }
         }
         let a = Mat::from_fn(300, 200, |_, _| r());
-        assert!(matches!(RidgeLs::solve_owned(a, Mat::<f64>::zeros(299, 1).as_ref(), 0.0, "t"), Err(FitError::BadOption { .. })));
+        assert!(matches!(
+            RidgeLs::solve_owned(a, Mat::<f64>::zeros(299, 1).as_ref(), 0.0, "t"),
+            Err(FitError::BadOption { .. })
+        ));
     }
 
     /// `solve_owned_qtb` (`U^T b` as `U_R^T (Q^T b)`, no `U`): the singular values of
@@ -645,17 +716,32 @@ mod tests {
     #[test]
     fn qtb_solve_matches_the_u_solve_to_rounding() {
         let mut r = crate::testing::lcg_centered(5);
-        for (m, n, q, graded) in [(2600, 241, 4, false), (4000, 120, 3, false), (3000, 200, 4, true), (60, 40, 2, false)] {
+        for (m, n, q, graded) in
+            [(2600, 241, 4, false), (4000, 120, 3, false), (3000, 200, 4, true), (60, 40, 2, false)]
+        {
             // graded: column j scaled by 10^(-6 j / n), condition number ~1e6.
             let a = Mat::from_fn(m, n, |_, j| r() * if graded { 10f64.powf(-6.0 * j as f64 / n as f64) } else { 1.0 });
             let b = Mat::from_fn(m, q, |_, _| r());
             for alpha in [0.0, 1e-8] {
                 let (want, sw) = RidgeLs::solve_owned(a.clone(), b.as_ref(), alpha, "t").unwrap();
                 let (got, sg) = RidgeLs::solve_owned_qtb(a.clone(), b.as_ref(), alpha, "t").unwrap();
-                assert_eq!(sg.iter().map(|v| v.to_bits()).collect::<Vec<_>>(), sw.iter().map(|v| v.to_bits()).collect::<Vec<_>>(), "{m}x{n}: singular values");
-                let top = (0..n).flat_map(|i| (0..q).map(move |j| (i, j))).map(|(i, j)| want[(i, j)].abs()).fold(0.0, f64::max);
-                let diff = (0..n).flat_map(|i| (0..q).map(move |j| (i, j))).map(|(i, j)| (got[(i, j)] - want[(i, j)]).abs()).fold(0.0, f64::max);
-                eprintln!("{m}x{n} q {q} graded {graded} alpha {alpha}: max |x_qtb - x_u| / max |x| = {:.1e}", diff / top);
+                assert_eq!(
+                    sg.iter().map(|v| v.to_bits()).collect::<Vec<_>>(),
+                    sw.iter().map(|v| v.to_bits()).collect::<Vec<_>>(),
+                    "{m}x{n}: singular values"
+                );
+                let top = (0..n)
+                    .flat_map(|i| (0..q).map(move |j| (i, j)))
+                    .map(|(i, j)| want[(i, j)].abs())
+                    .fold(0.0, f64::max);
+                let diff = (0..n)
+                    .flat_map(|i| (0..q).map(move |j| (i, j)))
+                    .map(|(i, j)| (got[(i, j)] - want[(i, j)]).abs())
+                    .fold(0.0, f64::max);
+                eprintln!(
+                    "{m}x{n} q {q} graded {graded} alpha {alpha}: max |x_qtb - x_u| / max |x| = {:.1e}",
+                    diff / top
+                );
                 assert!(diff <= 1e-13 * top, "{m}x{n} alpha {alpha}: {diff} vs {top}");
                 if !qr_first(m, n) {
                     assert!(got == want, "{m}x{n}: not tall, the U solve itself");
@@ -663,7 +749,10 @@ mod tests {
             }
         }
         let a = Mat::from_fn(300, 20, |_, _| r());
-        assert!(matches!(RidgeLs::solve_owned_qtb(a, Mat::<f64>::zeros(299, 1).as_ref(), 0.0, "t"), Err(FitError::BadOption { .. })));
+        assert!(matches!(
+            RidgeLs::solve_owned_qtb(a, Mat::<f64>::zeros(299, 1).as_ref(), 0.0, "t"),
+            Err(FitError::BadOption { .. })
+        ));
     }
 
     /// Reservations beyond the budget take turns; one alone goes ahead whatever its size;

@@ -36,17 +36,28 @@ pub enum SpectrumError {
 /// Returns an empty vector when the series is shorter than one window. Errors on a bad
 /// `dt`, bad frequencies (non-positive, not below Nyquist, equal), a window under 5 samples
 /// or one too short to separate the two tones from the constant (singular fit).
-pub fn mode_amplitudes(theta: &[f64], dt: f64, freqs_hz: [f64; 2], window_s: f64) -> Result<Vec<(f64, [f64; 2])>, SpectrumError> {
+pub fn mode_amplitudes(
+    theta: &[f64],
+    dt: f64,
+    freqs_hz: [f64; 2],
+    window_s: f64,
+) -> Result<Vec<(f64, [f64; 2])>, SpectrumError> {
     if !(dt.is_finite() && dt > 0.0) {
         return Err(SpectrumError::BadInput { what: "dt", why: format!("must be positive and finite, got {dt}") });
     }
     let nyq = 0.5 / dt;
     if freqs_hz.iter().any(|f| !(f.is_finite() && *f > 0.0 && *f < nyq)) || freqs_hz[0] == freqs_hz[1] {
-        return Err(SpectrumError::BadInput { what: "freqs_hz", why: format!("need two distinct frequencies in (0, {nyq}) Hz, got {freqs_hz:?}") });
+        return Err(SpectrumError::BadInput {
+            what: "freqs_hz",
+            why: format!("need two distinct frequencies in (0, {nyq}) Hz, got {freqs_hz:?}"),
+        });
     }
     let w = (window_s / dt).round() as usize;
     if !(window_s.is_finite()) || w < 5 {
-        return Err(SpectrumError::BadInput { what: "window_s", why: format!("needs at least 5 samples, got {window_s} s at dt {dt} s") });
+        return Err(SpectrumError::BadInput {
+            what: "window_s",
+            why: format!("needs at least 5 samples, got {window_s} s at dt {dt} s"),
+        });
     }
     if theta.len() < w {
         return Ok(Vec::new());
@@ -181,10 +192,16 @@ fn interpolate(f: &[f64], a: &[f64], k: usize) -> (f64, f64) {
 /// frequency.
 pub fn spectral_peaks(x: &[f64], dt: f64, rel: f64) -> Result<Vec<Peak>, SpectrumError> {
     if x.len() < 16 {
-        return Err(SpectrumError::BadInput { what: "series", why: format!("need at least 16 samples, got {}", x.len()) });
+        return Err(SpectrumError::BadInput {
+            what: "series",
+            why: format!("need at least 16 samples, got {}", x.len()),
+        });
     }
     if !(dt.is_finite() && dt > 0.0) || !(rel.is_finite() && rel > 0.0 && rel < 1.0) {
-        return Err(SpectrumError::BadInput { what: "spectral_peaks", why: format!("dt {dt} must be positive, rel {rel} in (0, 1)") });
+        return Err(SpectrumError::BadInput {
+            what: "spectral_peaks",
+            why: format!("dt {dt} must be positive, rel {rel} in (0, 1)"),
+        });
     }
     let (f, a, bin) = hann_spectrum(x, dt);
     // Skip the DC lobe (the Hann main lobe is 2 bins wide each side).
@@ -216,7 +233,8 @@ pub fn band_peak(x: &[f64], dt: f64, lo: f64, hi: f64) -> Option<Peak> {
         return None;
     }
     let (f, a, _) = hann_spectrum(x, dt);
-    let k = (1..a.len().saturating_sub(1)).filter(|&k| f[k] >= lo && f[k] < hi).max_by(|&i, &j| a[i].total_cmp(&a[j]))?;
+    let k =
+        (1..a.len().saturating_sub(1)).filter(|&k| f[k] >= lo && f[k] < hi).max_by(|&i, &j| a[i].total_cmp(&a[j]))?;
     let (freq_hz, amplitude) = interpolate(&f, &a, k);
     Some(Peak { freq_hz, amplitude })
 }
@@ -224,7 +242,10 @@ pub fn band_peak(x: &[f64], dt: f64, lo: f64, hi: f64) -> Option<Peak> {
 /// Median of the adjacent-peak spacings within each of the two clusters split at `split` Hz.
 pub fn sideband_spacing(peaks: &[Peak], split: f64) -> Option<f64> {
     let mut d: Vec<f64> = Vec::new();
-    for cluster in [peaks.iter().filter(|p| p.freq_hz < split).collect::<Vec<_>>(), peaks.iter().filter(|p| p.freq_hz >= split).collect()] {
+    for cluster in [
+        peaks.iter().filter(|p| p.freq_hz < split).collect::<Vec<_>>(),
+        peaks.iter().filter(|p| p.freq_hz >= split).collect(),
+    ] {
         d.extend(cluster.windows(2).map(|w| w[1].freq_hz - w[0].freq_hz));
     }
     if d.is_empty() {
@@ -247,7 +268,7 @@ mod tests {
             })
             .collect()
     }
-    
+
     /// Constant amplitudes lie in the fitted span: recovered to round-off in every window.
     /// Linearly varying amplitudes: the fit is a phase-dependent weighted mean of the envelope
     /// over the window (`tau sin(w tau)` is even and leaks into the cosine term), so the error is
@@ -268,7 +289,7 @@ mod tests {
         }
         worst
     }
-    
+
     #[test]
     fn mode_amplitudes_recovers_known_envelopes() {
         let (dt, f) = (0.0315, [0.44, 8.4]);
@@ -280,13 +301,19 @@ mod tests {
             assert!((r[0] - 0.08).abs() < 1e-10 && (r[1] - 0.03).abs() < 1e-10, "{r:?}");
         }
         let lin = envelope_errors(|t| 0.08 + 5e-4 * t, |t| 0.03 - 2e-4 * t);
-        eprintln!("linear envelopes: worst absolute errors {lin:?}, ratios {:?}", [lin[0] / (5e-4 * 2.5), lin[1] / (2e-4 * 2.5)]);
+        eprintln!(
+            "linear envelopes: worst absolute errors {lin:?}, ratios {:?}",
+            [lin[0] / (5e-4 * 2.5), lin[1] / (2e-4 * 2.5)]
+        );
         assert!(lin[0] < 0.1 * 5e-4 * 2.5 && lin[1] < 0.1 * 2e-4 * 2.5, "{lin:?}");
         let om = TAU * 0.02;
         let curved = envelope_errors(|t| 0.08 * (1.0 + 0.3 * (om * t).sin()), |t| 0.03 * (0.05 * (t - 50.0)).exp());
         let w2 = 2.5f64 * 2.5;
         let max_curv = [0.08 * 0.3 * om * om, 0.03 * 0.0025 * (0.05f64 * (3000.0 * dt - 50.0)).exp()];
-        eprintln!("curved envelopes: worst absolute errors {curved:?}, ratios {:?}", [curved[0] / (max_curv[0] * w2), curved[1] / (max_curv[1] * w2)]);
+        eprintln!(
+            "curved envelopes: worst absolute errors {curved:?}, ratios {:?}",
+            [curved[0] / (max_curv[0] * w2), curved[1] / (max_curv[1] * w2)]
+        );
         assert!(curved[0] < 0.3 * max_curv[0] * w2 && curved[1] < 0.3 * max_curv[1] * w2, "{curved:?}");
         // Bad inputs are named, not clamped.
         assert!(mode_amplitudes(&x, dt, [0.44, 20.0], 2.5).is_err());
@@ -294,7 +321,7 @@ mod tests {
         assert!(mode_amplitudes(&x, dt, f, 0.1).is_err());
         assert!(mode_amplitudes(&x[..10], dt, f, 2.5).unwrap().is_empty());
     }
-    
+
     /// Off-bin tones: the log-quadratic interpolation of the zero-padded Hann spectrum reads
     /// frequency and amplitude; a 40 % amplitude modulation at 0.03 Hz shows as sidebands whose
     /// spacing is the modulation frequency. The sidebands must be resolved: 0.03 Hz is 5.7 bins
@@ -319,7 +346,10 @@ mod tests {
         let p = spectral_peaks(&x, dt, PEAK_REL_THRESHOLD).unwrap();
         eprintln!("{p:?}");
         assert_eq!(p.len(), 4, "{p:?}");
-        assert!((p[0].amplitude - 0.014).abs() < 0.02 * 0.014 && (p[2].amplitude - 0.014).abs() < 0.02 * 0.014, "{p:?}");
+        assert!(
+            (p[0].amplitude - 0.014).abs() < 0.02 * 0.014 && (p[2].amplitude - 0.014).abs() < 0.02 * 0.014,
+            "{p:?}"
+        );
         let s = sideband_spacing(&p, 2.0).unwrap();
         assert!((s - 0.03).abs() < 0.05 * bin, "spacing {s}");
     }

@@ -48,7 +48,8 @@ pub fn sloshing_options() -> FitOptions {
         dyn_order: 5,
         dynamics: Dynamics::Map,
         ridge: Ridge::Fixed(0.0),
-        linear_anchor: None, anchor_joint: false,
+        linear_anchor: None,
+        anchor_joint: false,
     }
 }
 
@@ -60,9 +61,18 @@ fn sloshing_sweep_table() {
     for (p, shift) in [(5, 1), (7, 1), (5, 3), (9, 2)] {
         for (km, kd) in [(1, 3), (1, 5), (3, 3), (3, 5), (5, 5), (3, 7), (7, 7)] {
             for dynm in [Dynamics::Flow, Dynamics::Map] {
-                let opts = FitOptions { embed: p, shift, manifold_order: km, dyn_order: kd, dynamics: dynm, ..sloshing_options() };
+                let opts = FitOptions {
+                    embed: p,
+                    shift,
+                    manifold_order: km,
+                    dyn_order: kd,
+                    dynamics: dynm,
+                    ..sloshing_options()
+                };
                 let (ms, tr, te, _) = run(&data, &opts, 3);
-                rows.push(format!("p={p} s={shift} K={km} R={kd} {dynm:?}: fit {ms:.2} ms, train NMTE {tr:.4}, test NMTE {te:.4}"));
+                rows.push(format!(
+                    "p={p} s={shift} K={km} R={kd} {dynm:?}: fit {ms:.2} ms, train NMTE {tr:.4}, test NMTE {te:.4}"
+                ));
             }
         }
     }
@@ -70,7 +80,9 @@ fn sloshing_sweep_table() {
         let opts = FitOptions { dynamics: dynm, ridge: Ridge::CrossValidated, ..sloshing_options() };
         let (ms, tr, te, m) = run(&data, &opts, 3);
         let a = m.dynamics.conditioning().alpha;
-        rows.push(format!("p=5 s=1 K=3 R=5 {dynm:?} ridge CV (alpha {a:e}): fit {ms:.2} ms, train NMTE {tr:.4}, test NMTE {te:.4}"));
+        rows.push(format!(
+            "p=5 s=1 K=3 R=5 {dynm:?} ridge CV (alpha {a:e}): fit {ms:.2} ms, train NMTE {tr:.4}, test NMTE {te:.4}"
+        ));
     }
     for c in [50, 150] {
         let opts = FitOptions { dynamics: Dynamics::Rbf { centers: c }, ..sloshing_options() };
@@ -162,11 +174,24 @@ fn exact_solution_satisfies_ode() {
 #[test]
 fn synthetic_known_eigenvalues() {
     let dt = 0.05;
-    let train: Vec<TimeSeries> =
-        [(0.6, 0.0), (0.5, 2.0), (0.55, 4.0)].iter().enumerate().map(|(i, &(r, th))| synthetic(&format!("train{i}"), r, th, dt, 800)).collect();
+    let train: Vec<TimeSeries> = [(0.6, 0.0), (0.5, 2.0), (0.55, 4.0)]
+        .iter()
+        .enumerate()
+        .map(|(i, &(r, th))| synthetic(&format!("train{i}"), r, th, dt, 800))
+        .collect();
     let test = synthetic("test", 0.45, 1.0, dt, 800);
     for (dynm, kd, tol) in [(Dynamics::Flow, 5, 5e-4), (Dynamics::Map, 5, 5e-4)] {
-        let opts = FitOptions { dim: 2, embed: 5, shift: 2, manifold_order: 5, dyn_order: kd, dynamics: dynm, ridge: Ridge::Fixed(0.0), linear_anchor: None, anchor_joint: false };
+        let opts = FitOptions {
+            dim: 2,
+            embed: 5,
+            shift: 2,
+            manifold_order: 5,
+            dyn_order: kd,
+            dynamics: dynm,
+            ridge: Ridge::Fixed(0.0),
+            linear_anchor: None,
+            anchor_joint: false,
+        };
         let model = fit(&train, &opts).unwrap();
         let ev = model.eigenvalues_ct();
         println!("{dynm:?}: eigenvalues {ev:?}");
@@ -186,10 +211,23 @@ fn synthetic_known_eigenvalues() {
 #[test]
 fn high_order_engages_ridge_and_reports_conditioning() {
     let dt = 0.05;
-    let train: Vec<TimeSeries> =
-        [(0.6, 0.0), (0.5, 2.0)].iter().enumerate().map(|(i, &(r, th))| synthetic(&format!("train{i}"), r, th, dt, 600)).collect();
+    let train: Vec<TimeSeries> = [(0.6, 0.0), (0.5, 2.0)]
+        .iter()
+        .enumerate()
+        .map(|(i, &(r, th))| synthetic(&format!("train{i}"), r, th, dt, 600))
+        .collect();
     let test = synthetic("test", 0.45, 1.0, dt, 600);
-    let opts = FitOptions { dim: 2, embed: 5, shift: 2, manifold_order: 9, dyn_order: 9, dynamics: Dynamics::Flow, ridge: Ridge::CrossValidated, linear_anchor: None, anchor_joint: false };
+    let opts = FitOptions {
+        dim: 2,
+        embed: 5,
+        shift: 2,
+        manifold_order: 9,
+        dyn_order: 9,
+        dynamics: Dynamics::Flow,
+        ridge: Ridge::CrossValidated,
+        linear_anchor: None,
+        anchor_joint: false,
+    };
     let model = fit(&train, &opts).unwrap();
     let pred = model.predict(&test).unwrap();
     let mc = pred.manifold_conditioning.unwrap();
@@ -221,7 +259,17 @@ fn blow_up_is_detected_and_truncated() {
         TimeSeries::new(name, t, x).unwrap()
     };
     let train = [grow("a", 0.1, 200), grow("b", 0.15, 200)];
-    let opts = FitOptions { dim: 2, embed: 5, shift: 1, manifold_order: 1, dyn_order: 1, dynamics: Dynamics::Map, ridge: Ridge::Fixed(0.0), linear_anchor: None, anchor_joint: false };
+    let opts = FitOptions {
+        dim: 2,
+        embed: 5,
+        shift: 1,
+        manifold_order: 1,
+        dyn_order: 1,
+        dynamics: Dynamics::Map,
+        ridge: Ridge::Fixed(0.0),
+        linear_anchor: None,
+        anchor_joint: false,
+    };
     let model = fit(&train, &opts).unwrap();
     assert!(model.eigenvalues_ct()[0].0 > 0.19 && model.eigenvalues_ct()[0].0 < 0.21, "{:?}", model.eigenvalues_ct());
     let test = grow("long", 0.1, 1000);
@@ -239,7 +287,17 @@ fn blow_up_is_detected_and_truncated() {
 fn bad_options_and_inputs_are_reported() {
     let dt = 0.05;
     let train = [synthetic("a", 0.5, 0.0, dt, 300)];
-    let base = FitOptions { dim: 2, embed: 5, shift: 1, manifold_order: 2, dyn_order: 3, dynamics: Dynamics::Map, ridge: Ridge::Fixed(0.0), linear_anchor: None, anchor_joint: false };
+    let base = FitOptions {
+        dim: 2,
+        embed: 5,
+        shift: 1,
+        manifold_order: 2,
+        dyn_order: 3,
+        dynamics: Dynamics::Map,
+        ridge: Ridge::Fixed(0.0),
+        linear_anchor: None,
+        anchor_joint: false,
+    };
     let e = fit(&train, &FitOptions { embed: 4, ..base }).unwrap_err();
     assert!(matches!(e, FitError::BadOption { what: "embed", .. }), "{e}");
     let e = fit(&train, &FitOptions { shift: 0, ..base }).unwrap_err();
@@ -300,7 +358,8 @@ fn nf_series(name: &str, s0: [f64; 4], dt: f64, n: usize) -> TimeSeries {
         t.push(i as f64 * dt);
         x.push(u + v + 0.2 * u * u - 0.1 * u * w + 0.05 * v * v * v);
         for _ in 0..100 {
-            let add = |a: [f64; 4], k: [f64; 4], c: f64| [a[0] + c * k[0], a[1] + c * k[1], a[2] + c * k[2], a[3] + c * k[3]];
+            let add =
+                |a: [f64; 4], k: [f64; 4], c: f64| [a[0] + c * k[0], a[1] + c * k[1], a[2] + c * k[2], a[3] + c * k[3]];
             let k1 = nf_field(s);
             let k2 = nf_field(add(s, k1, h / 2.0));
             let k3 = nf_field(add(s, k2, h / 2.0));
@@ -326,9 +385,22 @@ fn synthetic_known_normal_form_is_recovered() {
         [0.4, 0.2, 5.5, 0.2],
     ];
     // Amplitudes up to 0.42, 1000 samples (50 s) each.
-    let train: Vec<TimeSeries> =
-        starts.iter().enumerate().map(|(i, s)| nf_series(&format!("nf{i}"), [0.7 * s[0], 0.7 * s[1], s[2], s[3]], dt, 1000)).collect();
-    let opts = FitOptions { dim: 4, embed: 11, shift: 1, manifold_order: 3, dyn_order: 5, dynamics: Dynamics::Map, ridge: Ridge::Fixed(0.0), linear_anchor: None, anchor_joint: false };
+    let train: Vec<TimeSeries> = starts
+        .iter()
+        .enumerate()
+        .map(|(i, s)| nf_series(&format!("nf{i}"), [0.7 * s[0], 0.7 * s[1], s[2], s[3]], dt, 1000))
+        .collect();
+    let opts = FitOptions {
+        dim: 4,
+        embed: 11,
+        shift: 1,
+        manifold_order: 3,
+        dyn_order: 5,
+        dynamics: Dynamics::Map,
+        ridge: Ridge::Fixed(0.0),
+        linear_anchor: None,
+        anchor_joint: false,
+    };
     let model = fit(&train, &opts).unwrap();
     let nf = model_normal_form(&model, &NormalFormOptions::default()).unwrap();
     let t = nf.table();
@@ -374,15 +446,33 @@ fn option_sizes_are_checked_against_the_stated_limits() {
     use crate::limits::{MAX_CENTERS, MAX_DIM, MAX_EMBED, MAX_ORDER, MAX_TERMS};
     let dt = 0.05;
     let train = [synthetic("a", 0.5, 0.0, dt, 300)];
-    let base = FitOptions { dim: 2, embed: 5, shift: 1, manifold_order: 2, dyn_order: 3, dynamics: Dynamics::Map, ridge: Ridge::Fixed(0.0), linear_anchor: None, anchor_joint: false };
+    let base = FitOptions {
+        dim: 2,
+        embed: 5,
+        shift: 1,
+        manifold_order: 2,
+        dyn_order: 3,
+        dynamics: Dynamics::Map,
+        ridge: Ridge::Fixed(0.0),
+        linear_anchor: None,
+        anchor_joint: false,
+    };
     let cases: Vec<(FitOptions, &str, String)> = vec![
         (FitOptions { dim: 100, embed: 201, ..base }, "dim: 100", MAX_DIM.to_string()),
         (FitOptions { embed: 5000, ..base }, "embed: 5000", MAX_EMBED.to_string()),
         (FitOptions { manifold_order: 1000, ..base }, "manifold_order: 1000", MAX_ORDER.to_string()),
         (FitOptions { dyn_order: u32::MAX, ..base }, "dyn_order", MAX_ORDER.to_string()),
         (FitOptions { dim: 20, embed: 41, manifold_order: 6, ..base }, "manifold monomials", MAX_TERMS.to_string()),
-        (FitOptions { dim: 12, embed: 25, manifold_order: 1, dyn_order: 9, ..base }, "dynamics monomials", MAX_TERMS.to_string()),
-        (FitOptions { dynamics: Dynamics::Rbf { centers: usize::MAX }, ..base }, "rbf centers", MAX_CENTERS.to_string()),
+        (
+            FitOptions { dim: 12, embed: 25, manifold_order: 1, dyn_order: 9, ..base },
+            "dynamics monomials",
+            MAX_TERMS.to_string(),
+        ),
+        (
+            FitOptions { dynamics: Dynamics::Rbf { centers: usize::MAX }, ..base },
+            "rbf centers",
+            MAX_CENTERS.to_string(),
+        ),
     ];
     for (o, what, limit) in cases {
         let t0 = std::time::Instant::now();
@@ -405,7 +495,17 @@ fn option_sizes_are_checked_against_the_stated_limits() {
 fn saved_rbf_model() -> serde_json::Value {
     let dt = 0.05;
     let train = [synthetic("a", 0.5, 0.0, dt, 300), synthetic("b", 0.4, 1.0, dt, 300)];
-    let o = FitOptions { dim: 2, embed: 5, shift: 1, manifold_order: 3, dyn_order: 3, dynamics: Dynamics::Rbf { centers: 10 }, ridge: Ridge::Fixed(1e-8), linear_anchor: None, anchor_joint: false };
+    let o = FitOptions {
+        dim: 2,
+        embed: 5,
+        shift: 1,
+        manifold_order: 3,
+        dyn_order: 3,
+        dynamics: Dynamics::Rbf { centers: 10 },
+        ridge: Ridge::Fixed(1e-8),
+        linear_anchor: None,
+        anchor_joint: false,
+    };
     serde_json::from_str(&fit(&train, &o).unwrap().to_json().unwrap()).unwrap()
 }
 
@@ -419,16 +519,40 @@ fn saved_model_shapes_are_validated_on_load() {
     type Edit = fn(&mut serde_json::Value);
     let cases: [(Edit, &str, &str); 14] = [
         (|m| m["manifold"]["v1"].as_array_mut().unwrap().truncate(3), "`manifold.v1`", "length 3, expected 10"),
-        (|m| { m["options"]["dim"] = 0.into(); m["manifold"]["dim"] = 0.into(); m["dynamics"]["Rbf"]["dim"] = 0.into(); }, "`options`", "dim"),
+        (
+            |m| {
+                m["options"]["dim"] = 0.into();
+                m["manifold"]["dim"] = 0.into();
+                m["dynamics"]["Rbf"]["dim"] = 0.into();
+            },
+            "`options`",
+            "dim",
+        ),
         (|m| m["manifold"]["dim"] = 3.into(), "`manifold.dim`", "differs from options.dim = 2"),
         (|m| m["manifold"]["p"] = 7.into(), "`manifold.p`", "differs from options.embed x observables = 5"),
         (|m| m["dynamics"]["Rbf"]["scale"] = serde_json::json!([]), "`dynamics.Rbf.scale`", "length 0, expected 2"),
         (|m| m["dynamics"]["Rbf"]["scale"][1] = (-1.0).into(), "`dynamics.Rbf.scale[1]`", "must be > 0"),
-        (|m| m["dynamics"]["Rbf"]["centers"].as_array_mut().unwrap().truncate(3), "`dynamics.Rbf.centers`", "not a positive multiple of dim = 2"),
-        (|m| m["dynamics"]["Rbf"]["coef"].as_array_mut().unwrap().pop().map(|_| ()).unwrap(), "`dynamics.Rbf.coef`", "expected 26"),
+        (
+            |m| m["dynamics"]["Rbf"]["centers"].as_array_mut().unwrap().truncate(3),
+            "`dynamics.Rbf.centers`",
+            "not a positive multiple of dim = 2",
+        ),
+        (
+            |m| m["dynamics"]["Rbf"]["coef"].as_array_mut().unwrap().pop().map(|_| ()).unwrap(),
+            "`dynamics.Rbf.coef`",
+            "expected 26",
+        ),
         (|m| m["dynamics"]["Rbf"]["dt"] = (-0.05).into(), "`dynamics.Rbf.dt`", "must be finite and > 0"),
-        (|m| m["manifold"]["nonlinear"]["exps"][0] = serde_json::json!([4000000000u32, 0]), "`manifold.nonlinear.exps[0]`", "total degree 4000000000, expected 1..=32"),
-        (|m| m["manifold"]["nonlinear"]["exps"][0] = serde_json::json!([1, 1, 0]), "`manifold.nonlinear.exps[0]`", "length 3"),
+        (
+            |m| m["manifold"]["nonlinear"]["exps"][0] = serde_json::json!([4000000000u32, 0]),
+            "`manifold.nonlinear.exps[0]`",
+            "total degree 4000000000, expected 1..=32",
+        ),
+        (
+            |m| m["manifold"]["nonlinear"]["exps"][0] = serde_json::json!([1, 1, 0]),
+            "`manifold.nonlinear.exps[0]`",
+            "length 3",
+        ),
         (|m| m["manifold"]["nonlinear"]["dim_out"] = 4.into(), "`manifold.nonlinear.dim_out`", "expected 5"),
         (|m| m["manifold"]["eta_scale"] = serde_json::json!([1.0]), "`manifold.eta_scale`", "length 1, expected 2"),
         (|m| m["dt"] = 0.0.into(), "`dt`", "must be finite and > 0"),
@@ -450,7 +574,17 @@ fn saved_model_shapes_are_validated_on_load() {
 fn rbf_kernel_saves_validates_and_exports_only_linear() {
     let dt = 0.05;
     let train = [synthetic("a", 0.5, 0.0, dt, 300), synthetic("b", 0.4, 1.0, dt, 300)];
-    let base = FitOptions { dim: 2, embed: 5, shift: 1, manifold_order: 3, dyn_order: 3, dynamics: Dynamics::Rbf { centers: 10 }, ridge: Ridge::Fixed(1e-8), linear_anchor: None, anchor_joint: false };
+    let base = FitOptions {
+        dim: 2,
+        embed: 5,
+        shift: 1,
+        manifold_order: 3,
+        dyn_order: 3,
+        dynamics: Dynamics::Rbf { centers: 10 },
+        ridge: Ridge::Fixed(1e-8),
+        linear_anchor: None,
+        anchor_joint: false,
+    };
     let cfg = shared::ControllerConfig::paper(dt);
     // The linear default exports, also when the saved file has no kernel field.
     let mut old = saved_rbf_model();
@@ -458,7 +592,10 @@ fn rbf_kernel_saves_validates_and_exports_only_linear() {
     old["model"]["dynamics"]["Rbf"].as_object_mut().unwrap().remove("kernel");
     let m = SsmModel::from_json(&old.to_string()).unwrap();
     assert!(crate::device::to_device_model(&m, cfg).is_ok());
-    let o = FitOptions { dynamics: Dynamics::RbfWith { centers: 10, kernel: crate::Kernel::Gaussian { eps: 0.8 } }, ..base };
+    let o = FitOptions {
+        dynamics: Dynamics::RbfWith { centers: 10, kernel: crate::Kernel::Gaussian { eps: 0.8 } },
+        ..base
+    };
     let m = fit(&train, &o).unwrap();
     let back = SsmModel::from_json(&m.to_json().unwrap()).unwrap();
     let ReducedDynamics::Rbf(r) = &back.dynamics else { panic!() };
@@ -467,15 +604,27 @@ fn rbf_kernel_saves_validates_and_exports_only_linear() {
     let (p1, p2) = (m.predict(&test).unwrap(), back.predict(&test).unwrap());
     // (serde_json's float parsing is not exactly round-trip: equal to 1e-12.)
     let dmax = p1.x.iter().zip(&p2.x).map(|(a, b)| (a - b).abs()).fold(0.0, f64::max);
-    assert!(p1.x.len() == p2.x.len() && dmax <= 1e-12, "{} / {} samples, max difference {dmax:e}, stop {:?}", p1.x.len(), p2.x.len(), p1.stop);
+    assert!(
+        p1.x.len() == p2.x.len() && dmax <= 1e-12,
+        "{} / {} samples, max difference {dmax:e}, stop {:?}",
+        p1.x.len(),
+        p2.x.len(),
+        p1.stop
+    );
     let e = crate::device::to_device_model(&back, cfg).unwrap_err().to_string();
     assert!(e.contains("linear RBF kernel") && e.contains("gaussian:0.8"), "{e}");
     let good: serde_json::Value = serde_json::from_str(&m.to_json().unwrap()).unwrap();
     type Edit = fn(&mut serde_json::Value);
     let cases: [(Edit, &str); 3] = [
-        (|m| m["dynamics"]["Rbf"]["kernel"] = serde_json::json!({"Gaussian": {"eps": -1.0}}), "eps must be finite and > 0"),
+        (
+            |m| m["dynamics"]["Rbf"]["kernel"] = serde_json::json!({"Gaussian": {"eps": -1.0}}),
+            "eps must be finite and > 0",
+        ),
         (|m| m["dynamics"]["Rbf"]["kernel"] = serde_json::json!("Cubic"), "differs from the options' kernel"),
-        (|m| m["options"]["dynamics"] = serde_json::json!({"Rbf": {"centers": 10}}), "differs from the options' kernel"),
+        (
+            |m| m["options"]["dynamics"] = serde_json::json!({"Rbf": {"centers": 10}}),
+            "differs from the options' kernel",
+        ),
     ];
     for (edit, why) in cases {
         let mut v = good.clone();

@@ -18,7 +18,9 @@ pub(crate) fn envelope(x: MatRef<'_, f64>, groups: &[std::ops::Range<usize>]) ->
     for g in groups {
         let r = g.clone();
         // local maxima of ||x|| in the group; the window is the largest gap between them
-        let peaks: Vec<usize> = (r.start + 1..r.end.saturating_sub(1)).filter(|&i| norm[i] >= norm[i - 1] && norm[i] > norm[i + 1]).collect();
+        let peaks: Vec<usize> = (r.start + 1..r.end.saturating_sub(1))
+            .filter(|&i| norm[i] >= norm[i - 1] && norm[i] > norm[i + 1])
+            .collect();
         let half = peaks.windows(2).map(|w| w[1] - w[0]).max().unwrap_or(r.len()).max(1);
         for i in r.clone() {
             let (lo, hi) = (i.saturating_sub(half).max(r.start), (i + half + 1).min(r.end));
@@ -75,10 +77,16 @@ impl RowWeight {
     /// Checks `knee > 0` and `1 <= power <= 64`, both finite.
     pub fn validate(&self) -> Result<(), FitError> {
         if !(self.knee.is_finite() && self.knee > 0.0) {
-            return Err(FitError::BadOption { what: "row weight knee", why: format!("must be positive and finite, got {}", self.knee) });
+            return Err(FitError::BadOption {
+                what: "row weight knee",
+                why: format!("must be positive and finite, got {}", self.knee),
+            });
         }
         if !(self.power.is_finite() && (1.0..=64.0).contains(&self.power)) {
-            return Err(FitError::BadOption { what: "row weight power", why: format!("must be in [1, 64], got {}", self.power) });
+            return Err(FitError::BadOption {
+                what: "row weight power",
+                why: format!("must be in [1, 64], got {}", self.power),
+            });
         }
         if let Some(st) = &self.low_degrees {
             st.weight().validate().map_err(|e| match e {
@@ -86,7 +94,10 @@ impl RowWeight {
                 e => e,
             })?;
             if st.max_degree < 2 {
-                return Err(FitError::BadOption { what: "row weight low-degree stage", why: format!("max_degree must be >= 2, got {}", st.max_degree) });
+                return Err(FitError::BadOption {
+                    what: "row weight low-degree stage",
+                    why: format!("max_degree must be >= 2, got {}", st.max_degree),
+                });
             }
         }
         Ok(())

@@ -57,7 +57,8 @@ fn fitted_backbone_matches_the_analytic_one() {
             dyn_order,
             dynamics,
             ridge: Ridge::Fixed(0.0),
-            linear_anchor: None, anchor_joint: false,
+            linear_anchor: None,
+            anchor_joint: false,
         };
         let t0 = Instant::now();
         let model = fit_multi(&train, &opts).unwrap();

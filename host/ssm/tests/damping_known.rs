@@ -41,10 +41,24 @@ fn trajectory(name: &str, rho0: f64, theta0: f64, dt: f64, t_end: f64) -> MultiS
 fn fit_re(dynamics: Dynamics, dyn_order: u32, anchor: Option<f64>, joint: bool) -> f64 {
     let dt = 0.01;
     let train = [trajectory("a", 1.0, 0.0, dt, 20.0), trajectory("b", 0.9, 2.0, dt, 20.0)];
-    let opts = FitOptions { dim: 2, embed: 3, shift: 1, manifold_order: 3, dyn_order, dynamics, ridge: Ridge::Fixed(0.0), linear_anchor: anchor, anchor_joint: joint };
+    let opts = FitOptions {
+        dim: 2,
+        embed: 3,
+        shift: 1,
+        manifold_order: 3,
+        dyn_order,
+        dynamics,
+        ridge: Ridge::Fixed(0.0),
+        linear_anchor: anchor,
+        anchor_joint: joint,
+    };
     let m = fit_multi(&train, &opts).unwrap();
     let e = m.eigenvalues_ct()[0];
-    assert!((e.1 - W).abs() / W < 5e-3, "{dynamics:?} order {dyn_order} anchor {anchor:?} joint {joint}: frequency {}", e.1);
+    assert!(
+        (e.1 - W).abs() / W < 5e-3,
+        "{dynamics:?} order {dyn_order} anchor {anchor:?} joint {joint}: frequency {}",
+        e.1
+    );
     (e.0 - A).abs() / A.abs()
 }
 
@@ -55,7 +69,9 @@ fn joint_anchor_recovers_the_linear_damping() {
         let plain = fit_re(dynamics, 3, Some(0.2), false);
         let joint = fit_re(dynamics, 3, Some(0.2), true);
         let joint5 = fit_re(dynamics, 5, Some(0.2), true);
-        eprintln!("{dynamics:?}: relative damping error, order 3: whole range {whole:.2e}, plain anchor {plain:.2e}, joint anchor {joint:.2e}; order 5 joint {joint5:.2e}");
+        eprintln!(
+            "{dynamics:?}: relative damping error, order 3: whole range {whole:.2e}, plain anchor {plain:.2e}, joint anchor {joint:.2e}; order 5 joint {joint5:.2e}"
+        );
         assert!(whole > 0.02 && plain > 0.1, "the biased fits this test is about: {whole} {plain}");
         assert!(joint < 1e-3, "{dynamics:?}: joint anchor, order 3: {joint}");
         assert!(joint5 < 1e-4, "{dynamics:?}: joint anchor, order 5: {joint5}");

@@ -116,7 +116,8 @@ fn predicted_forced_response_matches_the_simulated_duffing_oscillator() {
         dyn_order: 7,
         dynamics: Dynamics::Map,
         ridge: Ridge::Fixed(0.0),
-        linear_anchor: None, anchor_joint: false,
+        linear_anchor: None,
+        anchor_joint: false,
     };
     let t0 = Instant::now();
     let model = fit_multi(&train, &opts).unwrap();
@@ -179,7 +180,8 @@ fn predicted_forced_response_matches_the_simulated_duffing_oscillator() {
     let jump_sim = simulated_jump_down(up[k_top], up[k_top + 1], s, 0.5 * (a_up[k_top] + a_up[k_top + 1]));
     let jump_model = *curve.branches[0].freq_rad_s.last().unwrap();
     let peak_sim = a_up.iter().fold(0.0_f64, |m, &a| m.max(a));
-    let peak_model = curve.branches.iter().filter(|b| b.stable).flat_map(|b| b.amplitude.iter()).fold(0.0_f64, |m, &a| m.max(a));
+    let peak_model =
+        curve.branches.iter().filter(|b| b.stable).flat_map(|b| b.amplitude.iter()).fold(0.0_f64, |m, &a| m.max(a));
     eprintln!(
         "max relative amplitude error on the stable branches {worst:.2e}, within 0.3 rad/s of w0 {worst_near:.2e} ({bistable} \
          frequencies with two stable states, {mismatched} not compared); jump-down \
@@ -188,9 +190,16 @@ fn predicted_forced_response_matches_the_simulated_duffing_oscillator() {
         (jump_model - jump_sim).abs() / jump_sim,
         (peak_model - peak_sim).abs() / peak_sim
     );
-    assert!(bistable >= 4 && mismatched <= 2, "hysteresis window: {bistable} bistable frequencies, {mismatched} with other counts");
+    assert!(
+        bistable >= 4 && mismatched <= 2,
+        "hysteresis window: {bistable} bistable frequencies, {mismatched} with other counts"
+    );
     assert!(curve.branches.iter().any(|b| !b.stable), "the model's curve has an unstable branch");
-    assert!((fr.forced.forcing - f_expected).abs() < 0.05 * f_expected, "forcing {} vs {f_expected}", fr.forced.forcing);
+    assert!(
+        (fr.forced.forcing - f_expected).abs() < 0.05 * f_expected,
+        "forcing {} vs {f_expected}",
+        fr.forced.forcing
+    );
     // Measured: 1.3e-2 within 0.3 rad/s of w0; 6.8e-2 on the single-valued part above
     // resonance (the leading-order forcing's error grows off resonance, see the test's doc);
     // 1.15e-1 on the lower branch next to the jump up, where the amplitude is steep in

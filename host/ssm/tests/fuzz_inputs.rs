@@ -17,7 +17,10 @@ fn cases() -> u32 {
 
 fn series(name: &str, a: f64, n: usize) -> TimeSeries {
     let t: Vec<f64> = (0..n).map(|i| i as f64 * 0.05).collect();
-    let x = t.iter().map(|&t| a * (-0.1 * t).exp() * (2.0 * t).cos() + 0.1 * a * a * (-0.2 * t).exp() * (4.0 * t).sin()).collect();
+    let x = t
+        .iter()
+        .map(|&t| a * (-0.1 * t).exp() * (2.0 * t).cos() + 0.1 * a * a * (-0.2 * t).exp() * (4.0 * t).sin())
+        .collect();
     TimeSeries::new(name, t, x).unwrap()
 }
 
@@ -29,7 +32,17 @@ fn models() -> &'static Vec<Value> {
         [Dynamics::Rbf { centers: 12 }, Dynamics::Map, Dynamics::Flow]
             .into_iter()
             .map(|dynamics| {
-                let o = FitOptions { dim: 2, embed: 5, shift: 1, manifold_order: 3, dyn_order: 3, dynamics, ridge: Ridge::Fixed(1e-8), linear_anchor: None, anchor_joint: false };
+                let o = FitOptions {
+                    dim: 2,
+                    embed: 5,
+                    shift: 1,
+                    manifold_order: 3,
+                    dyn_order: 3,
+                    dynamics,
+                    ridge: Ridge::Fixed(1e-8),
+                    linear_anchor: None,
+                    anchor_joint: false,
+                };
                 serde_json::from_str(&fit(&train, &o).unwrap().to_json().unwrap()).unwrap()
             })
             .collect()

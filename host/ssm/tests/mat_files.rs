@@ -50,7 +50,10 @@ fn mat_errors_name_variable_cell_and_trajectory() {
     let e = err("notcell.mat", "xData").to_string();
     assert!(e.contains("xData: a double array; expected a cell array"), "{e}");
     let e = err("duffing.mat", "yData");
-    assert!(matches!(&e, DataError::Mat(MatError::NoVariable { .. })) && e.to_string().contains("variables: xData"), "{e}");
+    assert!(
+        matches!(&e, DataError::Mat(MatError::NoVariable { .. })) && e.to_string().contains("variables: xData"),
+        "{e}"
+    );
     let e = err("v73.mat", "xData");
     assert!(matches!(&e, DataError::Mat(MatError::V73 { .. })), "{e}");
     assert!(e.to_string().contains("v7.3 (HDF5)") && e.to_string().contains("'-v7'"), "{e}");
@@ -78,7 +81,8 @@ fn fits_several_observables_from_a_mat_file() {
         dyn_order: 5,
         dynamics: Dynamics::Map,
         ridge: Ridge::Fixed(0.0),
-        linear_anchor: None, anchor_joint: false,
+        linear_anchor: None,
+        anchor_joint: false,
     };
     let t0 = Instant::now();
     let model = fit_multi(&train, &opts).unwrap();
@@ -94,7 +98,9 @@ fn fits_several_observables_from_a_mat_file() {
             ssm::metrics::nmte(&p, &trajs[1].observable(i).unwrap().x, 1).unwrap()
         })
         .collect();
-    eprintln!("duffing.mat, 3 observables x 2 copies, map order 5: fit {fit_ms:.2} ms, test NMTE {nmte:.2e} (per observable {per_obs:?})");
+    eprintln!(
+        "duffing.mat, 3 observables x 2 copies, map order 5: fit {fit_ms:.2} ms, test NMTE {nmte:.2e} (per observable {per_obs:?})"
+    );
     assert!(nmte < 1e-2, "test NMTE {nmte}");
     // A one-observable test series does not fit a three-observable model.
     let e = model.predict(&trajs[1].observable(0).unwrap()).unwrap_err();

@@ -12,7 +12,11 @@ fn main() -> Result<(), Box<dyn Error>> {
     let name = args.first().ok_or("usage: section NAME OUT_DIR [--quick] [--data-dir DIR]")?.clone();
     let out = PathBuf::from(args.get(1).ok_or("missing OUT_DIR")?);
     let quick = args.iter().any(|a| a == "--quick");
-    let data_dir = args.iter().position(|a| a == "--data-dir").and_then(|i| args.get(i + 1)).map_or_else(|| PathBuf::from("../shared/data"), PathBuf::from);
+    let data_dir = args
+        .iter()
+        .position(|a| a == "--data-dir")
+        .and_then(|i| args.get(i + 1))
+        .map_or_else(|| PathBuf::from("../shared/data"), PathBuf::from);
     ssm::ridge::set_memory_budget(ssmctl::report::reproduce::REGRESSION_MEMORY_MB << 20);
     let mut rep = ssmctl::report::Report::new(&out)?;
     std::fs::create_dir_all(out.join("fig"))?;

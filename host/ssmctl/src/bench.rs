@@ -2,10 +2,10 @@
 //! error versus a tight reference, for the project's integrator at several accuracies and a
 //! plain RK4 baseline, all measured in the same run. Ratios are against that baseline.
 
-use sim::units::s_to_ms;
-use sim::scene::{IntegratorSpec, MethodKind, Scene, SceneBuilder, Task};
-use sim::closed_loop::{SimError, Trajectory, simulate};
 use serde::Serialize;
+use sim::closed_loop::{SimError, Trajectory, simulate};
+use sim::scene::{IntegratorSpec, MethodKind, Scene, SceneBuilder, Task};
+use sim::units::s_to_ms;
 use std::time::Instant;
 
 /// One row of the table.
@@ -22,7 +22,11 @@ pub struct BenchRow {
 
 /// The benchmark problem: `furuta-dt30.8`, 200 periods from theta0 = 0.05 rad, the rest at rest.
 pub fn problem(periods: u64) -> Result<Scene, SimError> {
-    Ok(SceneBuilder::load("furuta-dt30.8")?.periods(periods).initial_state(&[0.05, 0.0, 0.0, 0.0]).tasks(&[Task::Simulate]).build()?)
+    Ok(SceneBuilder::load("furuta-dt30.8")?
+        .periods(periods)
+        .initial_state(&[0.05, 0.0, 0.0, 0.0])
+        .tasks(&[Task::Simulate])
+        .build()?)
 }
 
 fn with(scene: &Scene, method: MethodKind, rtol: Option<f64>, steps: Option<u32>) -> Scene {
@@ -41,9 +45,13 @@ fn label(s: &Scene) -> String {
         MethodKind::ExprbFixed => format!("exprb43 fixed {} steps/period", i.steps.unwrap_or_default()),
         MethodKind::ExprbSplit => format!("exprb43-split rtol={:e}", i.rtol.unwrap_or_default()),
         // atol = rtol (not rtol / 100): the tolerance the full-system scene uses.
-        MethodKind::ExprbLean if i.atol.is_some() && i.atol == i.rtol => format!("exprb43-lean rtol=atol={:e}", i.rtol.unwrap_or_default()),
+        MethodKind::ExprbLean if i.atol.is_some() && i.atol == i.rtol => {
+            format!("exprb43-lean rtol=atol={:e}", i.rtol.unwrap_or_default())
+        }
         MethodKind::ExprbLean => format!("exprb43-lean rtol={:e}", i.rtol.unwrap_or_default()),
-        MethodKind::ExprbFiltered if i.atol.is_some() && i.atol == i.rtol => format!("exprb43-filtered rtol=atol={:e}", i.rtol.unwrap_or_default()),
+        MethodKind::ExprbFiltered if i.atol.is_some() && i.atol == i.rtol => {
+            format!("exprb43-filtered rtol=atol={:e}", i.rtol.unwrap_or_default())
+        }
         MethodKind::ExprbFiltered => format!("exprb43-filtered rtol={:e}", i.rtol.unwrap_or_default()),
         MethodKind::Exprb54 => format!("exprb54s4 rtol={:e}", i.rtol.unwrap_or_default()),
         MethodKind::Exprb54Filtered => format!("exprb54s4-filtered rtol={:e}", i.rtol.unwrap_or_default()),
@@ -85,12 +93,21 @@ fn time(scene: &Scene, min_seconds: f64) -> Result<(f64, Trajectory), SimError> 
 pub const TIMING_WINDOW_S: f64 = 0.1;
 
 /// Runs the table. `quick` uses fewer configurations and shorter timing windows (tests).
-pub fn bench_simulate(periods: u64, quick: bool, progress: impl FnMut(&str)) -> Result<(Vec<BenchRow>, String), SimError> {
+pub fn bench_simulate(
+    periods: u64,
+    quick: bool,
+    progress: impl FnMut(&str),
+) -> Result<(Vec<BenchRow>, String), SimError> {
     bench_simulate_window(periods, quick, if quick { 0.02 } else { TIMING_WINDOW_S }, progress)
 }
 
 /// [`bench_simulate`] with the timing window `window` (s) per configuration.
-pub fn bench_simulate_window(periods: u64, quick: bool, window: f64, mut progress: impl FnMut(&str)) -> Result<(Vec<BenchRow>, String), SimError> {
+pub fn bench_simulate_window(
+    periods: u64,
+    quick: bool,
+    window: f64,
+    mut progress: impl FnMut(&str),
+) -> Result<(Vec<BenchRow>, String), SimError> {
     let base = problem(periods)?;
     progress("reference: rodas4 rtol=1e-13");
     let reference = simulate(&with(&base, MethodKind::Rodas, Some(1e-13), None), None)?;
@@ -171,7 +188,17 @@ pub fn sloshing_fit_options() -> ssm::FitOptions {
 }
 
 fn fit_opts(p: usize, k: u32, r: u32, dynamics: ssm::Dynamics) -> ssm::FitOptions {
-    ssm::FitOptions { dim: 2, embed: p, shift: 1, manifold_order: k, dyn_order: r, dynamics, ridge: ssm::Ridge::Fixed(0.0), linear_anchor: None, anchor_joint: false }
+    ssm::FitOptions {
+        dim: 2,
+        embed: p,
+        shift: 1,
+        manifold_order: k,
+        dyn_order: r,
+        dynamics,
+        ridge: ssm::Ridge::Fixed(0.0),
+        linear_anchor: None,
+        anchor_joint: false,
+    }
 }
 
 /// Best-of-`reps` fit time (s) and the last model.
@@ -220,7 +247,11 @@ pub fn bench_fit(
     for a in [0.01, 0.2] {
         // Measured data decay into sensor noise: the small-amplitude pairs are noise
         // dominated, so anchoring the linear part there costs accuracy (the row shows how much).
-        configs.push((format!("linear part anchored within {:.0} %", a * 100.0), ssm::FitOptions { linear_anchor: Some(a), anchor_joint: false, ..sloshing_fit_options() }, 1.0));
+        configs.push((
+            format!("linear part anchored within {:.0} %", a * 100.0),
+            ssm::FitOptions { linear_anchor: Some(a), anchor_joint: false, ..sloshing_fit_options() },
+            1.0,
+        ));
     }
     for c in [25, 50, 100] {
         configs.push((format!("RBF map, {c} centres"), fit_opts(5, 3, 1, Dynamics::Rbf { centers: c }), 1.0));

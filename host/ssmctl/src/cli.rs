@@ -1,13 +1,13 @@
 //! The `ssmctl` command line: argument parsing and output formatting only; the work is in
 //! the library modules.
 
-use sim::scene::{BUNDLED, Scene};
 use crate::bench;
 use crate::report::reproduce;
-use sim::closed_loop;
-use sim::stability;
 use clap::{Args, Parser, Subcommand};
 use indicatif::{ProgressBar, ProgressStyle};
+use sim::closed_loop;
+use sim::scene::{BUNDLED, Scene};
+use sim::stability;
 use std::io::Write as _;
 use std::path::PathBuf;
 
@@ -24,7 +24,11 @@ macro_rules! outln {
 }
 
 #[derive(Parser)]
-#[command(name = "ssmctl", version, about = "Simulate, analyse and reduce a mechanical system under delayed, sampled, quantized PD control")]
+#[command(
+    name = "ssmctl",
+    version,
+    about = "Simulate, analyse and reduce a mechanical system under delayed, sampled, quantized PD control"
+)]
 pub struct Cli {
     /// No progress bars.
     #[arg(long, global = true)]
@@ -548,15 +552,25 @@ pub fn check_options(cli: &Cli) -> Result<(), Box<dyn std::error::Error>> {
             one_based(*mode, "--mode")?;
         }
         Cmd::Chaos { gp_embed, ssm_dim, centers, poly_order, shift, ridge, .. } => {
-            furuta::microchaos::ChaosOptions { gp_embed: *gp_embed, ssm_dim: *ssm_dim, centers: *centers, poly_order: *poly_order, shift: *shift, ridge: *ridge, ..Default::default() }
-                .validate()?;
+            furuta::microchaos::ChaosOptions {
+                gp_embed: *gp_embed,
+                ssm_dim: *ssm_dim,
+                centers: *centers,
+                poly_order: *poly_order,
+                shift: *shift,
+                ridge: *ridge,
+                ..Default::default()
+            }
+            .validate()?;
         }
         Cmd::Pil { scene, periods, timeout, .. } => {
             if *periods == 0 {
                 return Err("--periods must be >= 1 (a PIL run of 0 periods compares nothing)".into());
             }
             if *periods > sim::scene::MAX_PERIODS {
-                return Err(format!("--periods {periods} exceeds the limit of {} periods", sim::scene::MAX_PERIODS).into());
+                return Err(
+                    format!("--periods {periods} exceeds the limit of {} periods", sim::scene::MAX_PERIODS).into()
+                );
             }
             crate::pil::reply_timeout(*timeout)?;
             bundled(scene)?;
@@ -564,7 +578,13 @@ pub fn check_options(cli: &Cli) -> Result<(), Box<dyn std::error::Error>> {
         Cmd::Bench { what: BenchCmd::Simulate { periods, .. } } => {
             bench::problem(*periods)?;
         }
-        Cmd::Scenes { .. } | Cmd::Reproduce { .. } | Cmd::Sweep { .. } | Cmd::SweepMerge { .. } | Cmd::Export { .. } | Cmd::Inspect { .. } | Cmd::Bench { .. } => {}
+        Cmd::Scenes { .. }
+        | Cmd::Reproduce { .. }
+        | Cmd::Sweep { .. }
+        | Cmd::SweepMerge { .. }
+        | Cmd::Export { .. }
+        | Cmd::Inspect { .. }
+        | Cmd::Bench { .. } => {}
     }
     Ok(())
 }
@@ -590,7 +610,11 @@ pub fn run(cli: Cli) -> Result<(), Box<dyn std::error::Error>> {
         Cmd::Simulate { scene, out } => {
             let s = scene.load()?;
             if !s.wants(sim::scene::Task::Simulate) {
-                return Err(format!("scene {} asks only for {:?} (run.tasks); it runs no simulation", s.name, s.run.tasks).into());
+                return Err(format!(
+                    "scene {} asks only for {:?} (run.tasks); it runs no simulation",
+                    s.name, s.run.tasks
+                )
+                .into());
             }
             let pb = spinner(quiet, Some(s.run.periods), &s.name);
             let report = |i: u64| {
@@ -603,7 +627,8 @@ pub fn run(cli: Cli) -> Result<(), Box<dyn std::error::Error>> {
                 pb.finish_and_clear();
             }
             let scene_file = std::path::Path::new(&scene.scene);
-            let csv = crate::output::write_scene_outputs(&s, &tr, &out, &[("--scene", scene_file)]).map_err(|e| -> Box<dyn std::error::Error> { e })?;
+            let csv = crate::output::write_scene_outputs(&s, &tr, &out, &[("--scene", scene_file)])
+                .map_err(|e| -> Box<dyn std::error::Error> { e })?;
             eprintln!(
                 "{}: {} periods in {:.3} s ({}){}; wrote {}",
                 s.name,
@@ -645,8 +670,19 @@ pub fn run(cli: Cli) -> Result<(), Box<dyn std::error::Error>> {
                 rayon::ThreadPoolBuilder::new().num_threads(n.into()).build_global()?;
             }
             let r = crate::sweep::run(&spec, &out, shard.as_deref(), shards, force)?;
-            let what = if r.computed { format!("{} cells in {:.3} s on {} threads", r.cells, r.wall_seconds, r.threads) } else { "already complete, kept".into() };
-            eprintln!("shard {} ({:?}) of {} cells, spec hash {}: {what}; {}", r.shard, r.source, r.cells_total, r.spec_hash, r.file.display());
+            let what = if r.computed {
+                format!("{} cells in {:.3} s on {} threads", r.cells, r.wall_seconds, r.threads)
+            } else {
+                "already complete, kept".into()
+            };
+            eprintln!(
+                "shard {} ({:?}) of {} cells, spec hash {}: {what}; {}",
+                r.shard,
+                r.source,
+                r.cells_total,
+                r.spec_hash,
+                r.file.display()
+            );
         }
         Cmd::SweepMerge { dir, out } => {
             let m = crate::sweep::merge_dir(&dir, &out)?;
@@ -700,7 +736,10 @@ pub fn run(cli: Cli) -> Result<(), Box<dyn std::error::Error>> {
                 let cal = crate::fit_command::parse_calibration(calibrate)?;
                 let names = &r.summary.observables;
                 let index = match &frc_observable {
-                    Some(o) => names.iter().position(|n| n == o).ok_or_else(|| format!("--backbone-observable {o}: observables are {}", names.join(", ")))?,
+                    Some(o) => names
+                        .iter()
+                        .position(|n| n == o)
+                        .ok_or_else(|| format!("--backbone-observable {o}: observables are {}", names.join(", ")))?,
                     None => 0,
                 };
                 let name = names.get(index).cloned().unwrap_or_else(|| (index + 1).to_string());
@@ -756,7 +795,8 @@ pub fn run(cli: Cli) -> Result<(), Box<dyn std::error::Error>> {
                 Some(s) => {
                     let sc = Scene::load(&s, &[])?;
                     // The device predicts one sample ahead per controller period.
-                    ssm::device::check_loop_dt(m.dt, sc.dt()).map_err(|e| format!("{} for scene {}: {e}", model.display(), sc.name))?;
+                    ssm::device::check_loop_dt(m.dt, sc.dt())
+                        .map_err(|e| format!("{} for scene {}: {e}", model.display(), sc.name))?;
                     sc.controller_config()
                 }
                 None => shared::ControllerConfig::paper(m.dt),
@@ -766,9 +806,18 @@ pub fn run(cli: Cli) -> Result<(), Box<dyn std::error::Error>> {
             let blob = ssm::device::encode(&owned)?;
             // What is written must be what `inspect` and the device accept: decode it again
             // with the host decoder and validate its configuration before writing.
-            crate::fit_command::inspect(&blob).map_err(|e| format!("{}: the exported blob would be refused: {e}", model.display()))?;
+            crate::fit_command::inspect(&blob)
+                .map_err(|e| format!("{}: the exported blob would be refused: {e}", model.display()))?;
             crate::output::write_atomic(&out, &blob)?;
-            eprintln!("wrote {} ({} bytes): p={} d={} K={} lift order {}", out.display(), blob.len(), owned.p, owned.d, owned.k, owned.lift_order);
+            eprintln!(
+                "wrote {} ({} bytes): p={} d={} K={} lift order {}",
+                out.display(),
+                blob.len(),
+                owned.p,
+                owned.d,
+                owned.k,
+                owned.lift_order
+            );
         }
         Cmd::Inspect { blob, json } => {
             let bytes = ssm::limits::read_limited(&blob, crate::fit_command::MAX_BLOB_BYTES)
@@ -787,9 +836,18 @@ pub fn run(cli: Cli) -> Result<(), Box<dyn std::error::Error>> {
             if steps.is_empty() || steps.contains(&0) {
                 return Err(format!("--steps: every map step must be >= 1 sample, got {steps:?}").into());
             }
-            let train = data.iter().map(|p| ssm::load_csv_column(p, column.as_deref())).collect::<Result<Vec<_>, _>>()?;
+            let train =
+                data.iter().map(|p| ssm::load_csv_column(p, column.as_deref())).collect::<Result<Vec<_>, _>>()?;
             let held_out = test.as_ref().map(|p| ssm::load_csv_column(p, column.as_deref())).transpose()?;
-            let o = furuta::microchaos::ChaosOptions { gp_embed, ssm_dim, centers, poly_order, shift, ridge, ..Default::default() };
+            let o = furuta::microchaos::ChaosOptions {
+                gp_embed,
+                ssm_dim,
+                centers,
+                poly_order,
+                shift,
+                ridge,
+                ..Default::default()
+            };
             let r = furuta::microchaos::analyse_held_out(&train, held_out.as_ref(), &o)?;
             let reference = match &held_out {
                 Some(t) => t,
@@ -797,7 +855,13 @@ pub fn run(cli: Cli) -> Result<(), Box<dyn std::error::Error>> {
             };
             let cands = furuta::model_selection::standard_candidates(&o, r.ssm_dim, &steps, reference)?;
             let settings = furuta::model_selection::EvalSettings { gp_embed, ..Default::default() };
-            let (results, sel) = furuta::model_selection::evaluate_and_select(&train, reference, &cands, &settings, &Default::default())?;
+            let (results, sel) = furuta::model_selection::evaluate_and_select(
+                &train,
+                reference,
+                &cands,
+                &settings,
+                &Default::default(),
+            )?;
             if json {
                 let mut v = serde_json::to_value(&r)?;
                 if let Some(m) = v.as_object_mut() {
@@ -808,10 +872,28 @@ pub fn run(cli: Cli) -> Result<(), Box<dyn std::error::Error>> {
                 outln!("{}", serde_json::to_string_pretty(&v)?);
             } else {
                 let opt = |v: Option<f64>| v.map_or("-".to_string(), |x| format!("{x:.4}"));
-                outln!("correlation dimension {:.3} +- {:.3} -> SSM dimension {}", r.corr_dim, r.corr_dim_err, r.ssm_dim);
-                outln!("largest Lyapunov exponent [1/s]: data {:.4}, RBF model {}, polynomial model {}", r.lle_data, opt(r.lle_model_rbf), opt(r.lle_model_poly));
-                outln!("Benettin exponent of the reduced maps [1/s]: RBF {}, polynomial {}", opt(r.lle_model_rbf_benettin), opt(r.lle_model_poly_benettin));
-                outln!("PDF Jensen-Shannon divergence [bits]: RBF {}, polynomial {}", opt(r.pdf_divergence_rbf), opt(r.pdf_divergence_poly));
+                outln!(
+                    "correlation dimension {:.3} +- {:.3} -> SSM dimension {}",
+                    r.corr_dim,
+                    r.corr_dim_err,
+                    r.ssm_dim
+                );
+                outln!(
+                    "largest Lyapunov exponent [1/s]: data {:.4}, RBF model {}, polynomial model {}",
+                    r.lle_data,
+                    opt(r.lle_model_rbf),
+                    opt(r.lle_model_poly)
+                );
+                outln!(
+                    "Benettin exponent of the reduced maps [1/s]: RBF {}, polynomial {}",
+                    opt(r.lle_model_rbf_benettin),
+                    opt(r.lle_model_poly_benettin)
+                );
+                outln!(
+                    "PDF Jensen-Shannon divergence [bits]: RBF {}, polynomial {}",
+                    opt(r.pdf_divergence_rbf),
+                    opt(r.pdf_divergence_poly)
+                );
                 outln!(
                     "residual-kicked models: LLE RBF {}, polynomial {}; JS RBF {}, polynomial {}",
                     opt(r.lle_model_rbf_kicked),
@@ -841,7 +923,10 @@ pub fn run(cli: Cli) -> Result<(), Box<dyn std::error::Error>> {
             // Options were checked first (`check_options`), then anything that runs or writes.
             let reply_timeout = crate::pil::reply_timeout(timeout)?;
             if fit_model {
-                crate::output::check_not_input(&model, &[("--scene", std::path::Path::new(&scene.scene)), ("--elf", elf.as_path())])?;
+                crate::output::check_not_input(
+                    &model,
+                    &[("--scene", std::path::Path::new(&scene.scene)), ("--elf", elf.as_path())],
+                )?;
                 let blob = crate::pil::fit_model(&scene.load()?)?;
                 crate::output::write_atomic(&model, &blob)?;
                 eprintln!("pil: fitted model written to {} ({} bytes)", model.display(), blob.len());
@@ -878,14 +963,20 @@ pub fn run(cli: Cli) -> Result<(), Box<dyn std::error::Error>> {
         }
         Cmd::Bench { what: BenchCmd::Fit { json, data_dir, quick } } => {
             let dir = data_dir.join("sloshing");
-            let series: Vec<ssm::TimeSeries> = (0..3)
-                .map(|i| ssm::load_csv(dir.join(format!("decay_{i}.csv"))))
-                .collect::<Result<_, _>>()?;
+            let series: Vec<ssm::TimeSeries> =
+                (0..3).map(|i| ssm::load_csv(dir.join(format!("decay_{i}.csv")))).collect::<Result<_, _>>()?;
             let (rows, _) = with_spinner(quiet, "bench fit", |p| bench::bench_fit(&series[..2], &series[2], quick, p))?;
             if json {
                 outln!("{}", serde_json::to_string_pretty(&rows)?);
             } else {
-                outln!("{:<36} {:>9} {:>10} {:>10} {:>10}  stopped", "setting", "fit ms", "x baseline", "NMTE", "DTW-NMTE");
+                outln!(
+                    "{:<36} {:>9} {:>10} {:>10} {:>10}  stopped",
+                    "setting",
+                    "fit ms",
+                    "x baseline",
+                    "NMTE",
+                    "DTW-NMTE"
+                );
                 for r in &rows {
                     outln!(
                         "{:<36} {:>9.3} {:>10.2} {:>10.4} {:>10.4}  {}",
@@ -914,11 +1005,22 @@ pub fn run(cli: Cli) -> Result<(), Box<dyn std::error::Error>> {
                 outln!("{}", serde_json::to_string_pretty(&rows)?);
             } else {
                 outln!("baseline: {baseline}");
-                outln!("{:<34} {:>14} {:>12} {:>10} {:>12}", "method", "periods/s", "max err rad", "x baseline", "steps/period");
+                outln!(
+                    "{:<34} {:>14} {:>12} {:>10} {:>12}",
+                    "method",
+                    "periods/s",
+                    "max err rad",
+                    "x baseline",
+                    "steps/period"
+                );
                 for r in &rows {
                     outln!(
                         "{:<34} {:>14.0} {:>12.2e} {:>10.2} {:>12.1}",
-                        r.method, r.periods_per_s, r.max_err_rad, r.ratio_vs_baseline, r.steps_per_period
+                        r.method,
+                        r.periods_per_s,
+                        r.max_err_rad,
+                        r.ratio_vs_baseline,
+                        r.steps_per_period
                     );
                 }
             }

@@ -35,7 +35,10 @@ pub fn to_text(e: &EquationSsm) -> String {
     );
     s.push_str(&e.table.to_text());
     for inv in &e.invariance {
-        s.push_str(&format!("invariance error, order {} on |rho| = {} rad: {:.3e} (relative {:.3e})\n", inv.order, inv.radius, inv.abs, inv.rel));
+        s.push_str(&format!(
+            "invariance error, order {} on |rho| = {} rad: {:.3e} (relative {:.3e})\n",
+            inv.order, inv.radius, inv.abs, inv.rel
+        ));
     }
     s.push_str(&format!(
         "smallest divisor removed {:.3e}; near resonances kept (< {:e}): {}\n",

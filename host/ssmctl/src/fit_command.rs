@@ -2,10 +2,12 @@
 //! (CSV or SSMLearn `.mat` trajectories of one or several observables, time windows, backbone
 //! curves), its JSON summary, and forced response curves of a saved model.
 
-use ssm::backbone::{Backbone, BackboneOptions, backbone};
-use ssm::{Dynamics, FitOptions, MultiSeries, Ridge, SsmModel, fit_multi, load_csv_column, load_csv_observables, load_mat};
 use serde::Serialize;
 use serde_json::{Value, json};
+use ssm::backbone::{Backbone, BackboneOptions, backbone};
+use ssm::{
+    Dynamics, FitOptions, MultiSeries, Ridge, SsmModel, fit_multi, load_csv_column, load_csv_observables, load_mat,
+};
 use std::error::Error;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -101,8 +103,12 @@ pub(crate) fn parse_dynamics(s: &str, centers: usize) -> Result<Dynamics, String
         "rbf" => Ok(Dynamics::Rbf { centers }),
         _ => match s.strip_prefix("rbf:") {
             // `rbf:KERNEL`: linear (the default), cubic, thin-plate, gaussian:EPS.
-            Some(k) => ssm::Kernel::parse(k).map(|kernel| Dynamics::RbfWith { centers, kernel }).map_err(|e| format!("--dynamics `{s}`: {e}")),
-            None => Err(format!("--dynamics `{s}`: expected flow, map or rbf (or rbf:KERNEL, KERNEL: linear, cubic, thin-plate, gaussian:EPS)")),
+            Some(k) => ssm::Kernel::parse(k)
+                .map(|kernel| Dynamics::RbfWith { centers, kernel })
+                .map_err(|e| format!("--dynamics `{s}`: {e}")),
+            None => Err(format!(
+                "--dynamics `{s}`: expected flow, map or rbf (or rbf:KERNEL, KERNEL: linear, cubic, thin-plate, gaussian:EPS)"
+            )),
         },
     }
 }
@@ -155,7 +161,13 @@ pub fn load_sets(r: &FitRequest) -> Result<(Vec<MultiSeries>, Vec<MultiSeries>),
     if let Some(path) = &r.mat {
         let trajs = load_file(r, path)?;
         if let Some(bad) = r.test_rows.iter().find(|&&k| k == 0 || k > trajs.len()) {
-            return Err(format!("--test-rows {bad}: {} has {} trajectories (rows 1..={})", path.display(), trajs.len(), trajs.len()).into());
+            return Err(format!(
+                "--test-rows {bad}: {} has {} trajectories (rows 1..={})",
+                path.display(),
+                trajs.len(),
+                trajs.len()
+            )
+            .into());
         }
         for (i, t) in trajs.into_iter().enumerate() {
             if r.test_rows.contains(&(i + 1)) { test.push(t) } else { train.push(t) }
@@ -169,7 +181,9 @@ pub fn load_sets(r: &FitRequest) -> Result<(Vec<MultiSeries>, Vec<MultiSeries>),
             0 => Ok(vec![None; n]),
             1 => Ok(vec![v[0]; n]),
             k if k == n => Ok(v.to_vec()),
-            k => Err(format!("{flag}: {k} values for {n} trajectories (training, then test); give one for all, or one per trajectory")),
+            k => Err(format!(
+                "{flag}: {k} values for {n} trajectories (training, then test); give one for all, or one per trajectory"
+            )),
         }
     };
     let (from, to) = (bounds(&r.from, "--from")?, bounds(&r.to, "--to")?);
@@ -183,15 +197,24 @@ pub fn load_sets(r: &FitRequest) -> Result<(Vec<MultiSeries>, Vec<MultiSeries>),
 
 /// Backbone curves of `model` as asked; `train` gives the observable names and the default
 /// largest amplitude.
-pub fn run_backbone(model: &SsmModel, train: &[MultiSeries], b: &BackboneRequest) -> Result<(Vec<Backbone>, Value), Box<dyn Error>> {
+pub fn run_backbone(
+    model: &SsmModel,
+    train: &[MultiSeries],
+    b: &BackboneRequest,
+) -> Result<(Vec<Backbone>, Value), Box<dyn Error>> {
     let names = &train.first().ok_or("no training data")?.observables;
     let index = match &b.observable {
         None => 0,
-        Some(o) => names.iter().position(|n| n == o).ok_or_else(|| format!("--backbone-observable {o}: observables are {}", names.join(", ")))?,
+        Some(o) => names
+            .iter()
+            .position(|n| n == o)
+            .ok_or_else(|| format!("--backbone-observable {o}: observables are {}", names.join(", ")))?,
     };
     let amplitude = match b.amplitude {
         Some(a) => a,
-        None => train.iter().flat_map(|t| t.x.iter().skip(index).step_by(t.dim())).fold(0.0, |m: f64, v| m.max(v.abs())),
+        None => {
+            train.iter().flat_map(|t| t.x.iter().skip(index).step_by(t.dim())).fold(0.0, |m: f64, v| m.max(v.abs()))
+        }
     };
     let curves = backbone(model, &BackboneOptions::new(index, amplitude))?;
     let json = backbone_json(&curves, &names[index]);
@@ -215,17 +238,30 @@ pub fn backbone_json(curves: &[Backbone], observable: &str) -> Value {
 pub fn write_backbone(dir: &Path, curves: &[Backbone], json: &Value, observable: &str) -> Result<(), Box<dyn Error>> {
     std::fs::create_dir_all(dir).map_err(|e| format!("{}: {e}", dir.display()))?;
     std::fs::write(dir.join("backbone.json"), serde_json::to_string_pretty(json)?)?;
-    crate::draw::backbone::backbone_figure(&dir.join("backbone.png"), "backbone", curves, &format!("amplitude of {observable}"))?;
+    crate::draw::backbone::backbone_figure(
+        &dir.join("backbone.png"),
+        "backbone",
+        curves,
+        &format!("amplitude of {observable}"),
+    )?;
     Ok(())
 }
 
 /// `--freq-range A:B[:N]`: forcing frequencies in rad/s, `0 < A < B`, N points (default 400).
 pub fn parse_freq_range(s: &str) -> Result<(f64, f64, usize), String> {
     let parts: Vec<&str> = s.split(':').collect();
-    let num = |x: &str| x.trim().parse::<f64>().map_err(|_| format!("--freq-range `{s}`: `{x}` is not a number (expected A:B or A:B:N, rad/s)"));
+    let num = |x: &str| {
+        x.trim()
+            .parse::<f64>()
+            .map_err(|_| format!("--freq-range `{s}`: `{x}` is not a number (expected A:B or A:B:N, rad/s)"))
+    };
     let (a, b, n) = match parts.as_slice() {
         [a, b] => (num(a)?, num(b)?, 400),
-        [a, b, n] => (num(a)?, num(b)?, n.trim().parse::<usize>().map_err(|_| format!("--freq-range `{s}`: N = `{n}` is not a count"))?),
+        [a, b, n] => (
+            num(a)?,
+            num(b)?,
+            n.trim().parse::<usize>().map_err(|_| format!("--freq-range `{s}`: N = `{n}` is not a count"))?,
+        ),
         _ => return Err(format!("--freq-range `{s}`: expected A:B or A:B:N (forcing frequencies in rad/s)")),
     };
     if !(a > 0.0 && a.is_finite() && b.is_finite()) {
@@ -239,7 +275,11 @@ pub fn parse_freq_range(s: &str) -> Result<(f64, f64, usize), String> {
 
 /// `--calibrate FREQ,AMP`: a measured steady state (rad/s, observable units).
 pub fn parse_calibration(s: &str) -> Result<ssm::frc::Calibration, String> {
-    let v: Vec<f64> = s.split(',').map(|x| x.trim().parse::<f64>()).collect::<Result<_, _>>().map_err(|_| format!("--calibrate `{s}`: expected FREQ,AMP (two numbers)"))?;
+    let v: Vec<f64> = s
+        .split(',')
+        .map(|x| x.trim().parse::<f64>())
+        .collect::<Result<_, _>>()
+        .map_err(|_| format!("--calibrate `{s}`: expected FREQ,AMP (two numbers)"))?;
     match v.as_slice() {
         [f, a] => Ok(ssm::frc::Calibration { freq_rad_s: *f, amplitude: *a }),
         _ => Err(format!("--calibrate `{s}`: expected FREQ,AMP (forcing frequency in rad/s, steady-state amplitude)")),
@@ -263,7 +303,13 @@ pub fn write_frc(dir: &Path, model: &SsmModel, frc: &ssm::frc::Frc, observable: 
     crate::output::write_atomic(&dir.join("frc.json"), serde_json::to_string_pretty(&json)?.as_bytes())?;
     let bb = backbone(model, &BackboneOptions::new(frc.observable, frc.amplitude_max)).ok();
     let mode_bb = bb.as_ref().and_then(|c| c.iter().find(|b| b.mode == frc.mode));
-    crate::draw::frc::frc_figure(&dir.join("frc.png"), "forced response", frc, mode_bb, &format!("amplitude of {observable}"))?;
+    crate::draw::frc::frc_figure(
+        &dir.join("frc.png"),
+        "forced response",
+        frc,
+        mode_bb,
+        &format!("amplitude of {observable}"),
+    )?;
     Ok(())
 }
 
@@ -275,7 +321,9 @@ pub fn frc_text(frc: &ssm::frc::Frc) -> String {
         c.freq_rad_s, c.amplitude, c.forcing, c.rho, frc.amplitude_max
     );
     for b in &frc.branches {
-        let span = |v: &[f64]| (v.iter().copied().fold(f64::INFINITY, f64::min), v.iter().copied().fold(f64::NEG_INFINITY, f64::max));
+        let span = |v: &[f64]| {
+            (v.iter().copied().fold(f64::INFINITY, f64::min), v.iter().copied().fold(f64::NEG_INFINITY, f64::max))
+        };
         let ((f0, f1), (a0, a1)) = (span(&b.freq_rad_s), span(&b.amplitude));
         out.push_str(&format!(
             "{:<8} {:>4} points: frequency {f0:.4} .. {f1:.4} rad/s, amplitude {a0:.5} .. {a1:.5}\n",
@@ -465,7 +513,10 @@ mod tests {
     fn dynamics_with_kernels_parse() {
         assert_eq!(parse_dynamics("rbf", 7), Ok(Dynamics::Rbf { centers: 7 }));
         assert_eq!(parse_dynamics("rbf:cubic", 7), Ok(Dynamics::RbfWith { centers: 7, kernel: ssm::Kernel::Cubic }));
-        assert_eq!(parse_dynamics("rbf:gaussian:2", 7), Ok(Dynamics::RbfWith { centers: 7, kernel: ssm::Kernel::Gaussian { eps: 2.0 } }));
+        assert_eq!(
+            parse_dynamics("rbf:gaussian:2", 7),
+            Ok(Dynamics::RbfWith { centers: 7, kernel: ssm::Kernel::Gaussian { eps: 2.0 } })
+        );
         for bad in ["rbf:quartic", "rbf:gaussian:-1", "spline"] {
             let e = parse_dynamics(bad, 7).unwrap_err();
             assert!(e.contains(&format!("--dynamics `{bad}`")), "{e}");
@@ -479,7 +530,13 @@ mod tests {
     #[test]
     fn inspect_runs_on_a_small_stack() {
         let blob = std::fs::read(concat!(env!("CARGO_MANIFEST_DIR"), "/../../shared/tests/data/model_v1.bin")).unwrap();
-        let v = std::thread::Builder::new().stack_size(256 << 10).spawn(move || inspect(&blob).map_err(|e| e.to_string())).unwrap().join().unwrap().unwrap();
+        let v = std::thread::Builder::new()
+            .stack_size(256 << 10)
+            .spawn(move || inspect(&blob).map_err(|e| e.to_string()))
+            .unwrap()
+            .join()
+            .unwrap()
+            .unwrap();
         assert_eq!(v["format_version"], 1);
         assert!(v["p"].as_u64().unwrap() >= 1, "{v}");
     }

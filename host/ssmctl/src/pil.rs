@@ -21,10 +21,6 @@
 //!
 //! Frame layout, kinds and fault codes: [`shared::frame`].
 
-use sim::ode::Integrator;
-use sim::plant::Plant;
-use sim::scene::{Scene, SceneError};
-use sim::closed_loop::{AnyPlant, HISTORY, SimError, build_plant, method_of};
 use controller::IntPd;
 use controller::predictor::{Predictor, SqrtFlavour};
 use rand::SeedableRng;
@@ -32,6 +28,10 @@ use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, Normal};
 use serde::Serialize;
 use shared::frame::{self, Fault, FrameError, HEADER_LEN, Header, Kind, MAX_FRAME, REPLY_START, Seq};
+use sim::closed_loop::{AnyPlant, HISTORY, SimError, build_plant, method_of};
+use sim::ode::Integrator;
+use sim::plant::Plant;
+use sim::scene::{Scene, SceneError};
 use std::io::{Read, Write};
 use std::net::{TcpListener, TcpStream};
 use std::path::{Path, PathBuf};
@@ -51,9 +51,13 @@ pub enum PilError {
     Sim(#[from] SimError),
     #[error("scene {0}: PIL needs `effects.quantization.mode = \"counts\"`")]
     NotCounts(String),
-    #[error("scene {0}: an explicit initial.history is not supported by PIL (the device primes from one constant pair)")]
+    #[error(
+        "scene {0}: an explicit initial.history is not supported by PIL (the device primes from one constant pair)"
+    )]
     History(String),
-    #[error("the model blob's controller configuration differs from scene {scene}'s:\n  blob:  {blob}\n  scene: {scene_cfg}")]
+    #[error(
+        "the model blob's controller configuration differs from scene {scene}'s:\n  blob:  {blob}\n  scene: {scene_cfg}"
+    )]
     ConfigMismatch { scene: String, blob: String, scene_cfg: String },
     #[error("model blob: {0}")]
     Blob(String),
@@ -89,7 +93,8 @@ struct Outgoing {
 impl Outgoing {
     fn new(kind: Kind, seq: Seq, payload: &[u8]) -> Result<Self, PilError> {
         let mut buf = [0u8; MAX_FRAME];
-        let len = frame::encode(kind, seq, payload, &mut buf).map_err(|e| PilError::Link { seq: seq.0, what: e.to_string() })?;
+        let len = frame::encode(kind, seq, payload, &mut buf)
+            .map_err(|e| PilError::Link { seq: seq.0, what: e.to_string() })?;
         Ok(Outgoing { buf, len })
     }
 
@@ -259,7 +264,9 @@ impl Recorder {
     pub fn create(dir: &Path) -> Result<Self, PilError> {
         let theta_path = dir.join("theta.csv");
         let record_path = dir.join("record.csv");
-        let open = |p: &Path| -> Result<AtomicFile, PilError> { AtomicFile::create(p).map_err(io(format!("creating {}", p.display()))) };
+        let open = |p: &Path| -> Result<AtomicFile, PilError> {
+            AtomicFile::create(p).map_err(io(format!("creating {}", p.display())))
+        };
         let mut r = Recorder { theta: open(&theta_path)?, record: open(&record_path)?, theta_path, record_path };
         writeln!(r.theta, "{THETA_HEADER}").map_err(io(r.theta_path.display().to_string()))?;
         writeln!(r.record, "{RECORD_HEADER}").map_err(io(r.record_path.display().to_string()))?;
@@ -294,7 +301,10 @@ impl Link {
         let (rk, rseq, p) = self.receive(seq.0)?;
         let (seq, code) = (seq.0, kind.code());
         if rseq.0 != seq {
-            return Err(PilError::Link { seq, what: format!("reply carries sequence number {rseq} (a frame was lost or duplicated)") });
+            return Err(PilError::Link {
+                seq,
+                what: format!("reply carries sequence number {rseq} (a frame was lost or duplicated)"),
+            });
         }
         if rk == Kind::Error {
             return Err(PilError::Device { seq, kind: code, fault: fault_name(p.first().copied().unwrap_or(0)) });
@@ -304,7 +314,10 @@ impl Link {
         };
         if rk != want {
             let (rk, want) = (rk.code(), want.code());
-            return Err(PilError::Link { seq, what: format!("reply of kind {rk:#x} to a request of kind {code}, expected {want:#x}") });
+            return Err(PilError::Link {
+                seq,
+                what: format!("reply of kind {rk:#x} to a request of kind {code}, expected {want:#x}"),
+            });
         }
         Ok((rk, p))
     }
@@ -316,7 +329,12 @@ impl Link {
         let (k, s, p) = self.receive(u16::MAX)?;
         if (k, s, p.as_slice()) != (Kind::Ack, Seq(u16::MAX), &[][..]) {
             let k = k.code();
-            return Err(PilError::Link { seq: u16::MAX, what: format!("the device's first frame is kind {k:#x} seq {s} payload {p:?}, not the hello (empty ack numbered 65535)") });
+            return Err(PilError::Link {
+                seq: u16::MAX,
+                what: format!(
+                    "the device's first frame is kind {k:#x} seq {s} payload {p:?}, not the hello (empty ack numbered 65535)"
+                ),
+            });
         }
         Ok(())
     }
@@ -328,7 +346,9 @@ impl Link {
     fn read_exact(&mut self, buf: &mut [u8], seq: u16) -> Result<(), PilError> {
         self.stream.read_exact(buf).map_err(|e| {
             let what = match e.kind() {
-                std::io::ErrorKind::WouldBlock | std::io::ErrorKind::TimedOut => "no reply within the timeout (device hung or frame lost)".to_string(),
+                std::io::ErrorKind::WouldBlock | std::io::ErrorKind::TimedOut => {
+                    "no reply within the timeout (device hung or frame lost)".to_string()
+                }
                 std::io::ErrorKind::UnexpectedEof => "the device closed the link (QEMU exited?)".to_string(),
                 _ => format!("receive failed: {e}"),
             };
@@ -341,16 +361,20 @@ impl Link {
         let mut buf = [0u8; MAX_FRAME];
         self.read_exact(&mut buf[..1], seq)?;
         if buf[0] != REPLY_START {
-            return Err(PilError::Link { seq, what: format!("reply starts with byte {:#04x}, not {REPLY_START:#04x} (corrupt stream)", buf[0]) });
+            return Err(PilError::Link {
+                seq,
+                what: format!("reply starts with byte {:#04x}, not {REPLY_START:#04x} (corrupt stream)", buf[0]),
+            });
         }
         self.read_exact(&mut buf[1..HEADER_LEN], seq)?;
         let n = Header::parse(&buf).map_err(|e| PilError::Link { seq, what: format!("reply: {e}") })?.frame_len();
         self.read_exact(&mut buf[HEADER_LEN..n], seq)?;
         match frame::decode(&buf[..n]) {
             Ok(f) => Ok((f.kind, f.seq, f.payload.to_vec())),
-            Err(FrameError::Crc { stated, computed, .. }) => {
-                Err(PilError::Link { seq, what: format!("reply CRC {stated:#010x} != computed {computed:#010x} (corrupt frame)") })
-            }
+            Err(FrameError::Crc { stated, computed, .. }) => Err(PilError::Link {
+                seq,
+                what: format!("reply CRC {stated:#010x} != computed {computed:#010x} (corrupt frame)"),
+            }),
             Err(e) => Err(PilError::Link { seq, what: format!("reply: {e}") }),
         }
     }
@@ -365,14 +389,22 @@ impl Link {
         let (k, s, p) = self.receive(seq.0)?;
         if (k, s, p.as_slice()) != (Kind::Error, seq, &[Fault::Crc.code()][..]) {
             let k = k.code();
-            return Err(PilError::Link { seq: seq.0, what: format!("a corrupted frame got reply kind {k:#x} seq {s} payload {p:?}, not a CRC error") });
+            return Err(PilError::Link {
+                seq: seq.0,
+                what: format!("a corrupted frame got reply kind {k:#x} seq {s} payload {p:?}, not a CRC error"),
+            });
         }
         let ahead = Seq(seq.0.wrapping_add(7));
         self.send_raw(Outgoing::new(Kind::Prime, ahead, &[0; 8])?.bytes(), ahead.0)?;
         let (k, s, p) = self.receive(ahead.0)?;
         if (k, s, p.as_slice()) != (Kind::Error, ahead, &[Fault::Seq.code()][..]) {
             let k = k.code();
-            return Err(PilError::Link { seq: seq.0, what: format!("an out-of-sequence frame got reply kind {k:#x} seq {s} payload {p:?}, not a sequence error") });
+            return Err(PilError::Link {
+                seq: seq.0,
+                what: format!(
+                    "an out-of-sequence frame got reply kind {k:#x} seq {s} payload {p:?}, not a sequence error"
+                ),
+            });
         }
         Ok(())
     }
@@ -386,7 +418,10 @@ fn qemu_program() -> std::ffi::OsString {
 
 fn start(elf: &Path, machine: Machine, out: &Path) -> Result<(crate::child::Tied, TcpStream), PilError> {
     if !elf.exists() {
-        return Err(PilError::Qemu(format!("{} does not exist: build it with `cargo xtask pil` (or `cargo build --release --bin pil` in qemu/)", elf.display())));
+        return Err(PilError::Qemu(format!(
+            "{} does not exist: build it with `cargo xtask pil` (or `cargo build --release --bin pil` in qemu/)",
+            elf.display()
+        )));
     }
     let listener = TcpListener::bind("127.0.0.1:0").map_err(io("bind 127.0.0.1:0"))?;
     let port = listener.local_addr().map_err(io("local address"))?.port();
@@ -397,18 +432,20 @@ fn start(elf: &Path, machine: Machine, out: &Path) -> Result<(crate::child::Tied
     // reaped when the run returns (`crate::child`).
     let mut qemu = crate::child::spawn_tied(
         Command::new(&program)
-        .args(machine.qemu_args())
-        .args(["-nographic", "-monitor", "none"])
-        .args(["-semihosting-config", "enable=on,target=native"])
-        .arg("-serial")
-        .arg(format!("tcp:127.0.0.1:{port},nodelay=on"))
-        .arg("-kernel")
-        .arg(elf)
-        .stdin(Stdio::null())
-        .stdout(log.try_clone().map_err(io("log"))?)
-        .stderr(log),
+            .args(machine.qemu_args())
+            .args(["-nographic", "-monitor", "none"])
+            .args(["-semihosting-config", "enable=on,target=native"])
+            .arg("-serial")
+            .arg(format!("tcp:127.0.0.1:{port},nodelay=on"))
+            .arg("-kernel")
+            .arg(elf)
+            .stdin(Stdio::null())
+            .stdout(log.try_clone().map_err(io("log"))?)
+            .stderr(log),
     )
-    .map_err(|e| PilError::Qemu(format!("cannot start {} (run `cargo xtask install`): {e}", program.to_string_lossy())))?;
+    .map_err(|e| {
+        PilError::Qemu(format!("cannot start {} (run `cargo xtask install`): {e}", program.to_string_lossy()))
+    })?;
     listener.set_nonblocking(true).map_err(io("listener"))?;
     let t0 = Instant::now();
     let stream = loop {
@@ -416,7 +453,10 @@ fn start(elf: &Path, machine: Machine, out: &Path) -> Result<(crate::child::Tied
             Ok((s, _)) => break s,
             Err(e) if e.kind() == std::io::ErrorKind::WouldBlock => {
                 if let Ok(Some(st)) = qemu.0.try_wait() {
-                    return Err(PilError::Qemu(format!("exited with {st} before connecting (see {})", log_path.display())));
+                    return Err(PilError::Qemu(format!(
+                        "exited with {st} before connecting (see {})",
+                        log_path.display()
+                    )));
                 }
                 if t0.elapsed() > Duration::from_secs(10) {
                     return Err(PilError::Qemu("did not connect to the UART socket within 10 s".into()));
@@ -435,7 +475,8 @@ fn start(elf: &Path, machine: Machine, out: &Path) -> Result<(crate::child::Tied
 /// returns the device blob carrying the scene's controller configuration.
 pub fn fit_model(scene: &Scene) -> Result<Vec<u8>, PilError> {
     let (m, _) = furuta::device_model::fit_scene_rbf(scene, 1200).map_err(|e| PilError::Fit(e.to_string()))?;
-    let owned = ssm::device::to_device_model(&m, scene.controller_config()).map_err(|e| PilError::Fit(e.to_string()))?;
+    let owned =
+        ssm::device::to_device_model(&m, scene.controller_config()).map_err(|e| PilError::Fit(e.to_string()))?;
     ssm::device::encode(&owned).map_err(|e| PilError::Fit(e.to_string()))
 }
 
@@ -443,7 +484,11 @@ pub fn fit_model(scene: &Scene) -> Result<Vec<u8>, PilError> {
 /// `opts.out`.
 pub fn run(opts: &PilOptions) -> Result<PilSummary, PilError> {
     if opts.periods == 0 || opts.periods > sim::scene::MAX_PERIODS {
-        return Err(PilError::Options(format!("periods must be in 1..={}, got {}", sim::scene::MAX_PERIODS, opts.periods)));
+        return Err(PilError::Options(format!(
+            "periods must be in 1..={}, got {}",
+            sim::scene::MAX_PERIODS,
+            opts.periods
+        )));
     }
     let scene = Scene::load(&opts.scene, &opts.overrides)?;
     match build_plant(&scene)? {
@@ -465,31 +510,48 @@ fn run_with<P: Plant<N>, const N: usize>(plant: &P, scene: &Scene, opts: &PilOpt
     let outputs = ["pil.csv", "theta.csv", "record.csv", "summary.json"].map(|f| opts.out.join(f));
     let scene_file = PathBuf::from(&opts.scene);
     for o in &outputs {
-        crate::output::check_not_input(o, &[("--model", &opts.model), ("--scene", &scene_file), ("--elf", &opts.elf)]).map_err(PilError::Options)?;
+        crate::output::check_not_input(o, &[("--model", &opts.model), ("--scene", &scene_file), ("--elf", &opts.elf)])
+            .map_err(PilError::Options)?;
     }
     let blob = ssm::limits::read_limited(&opts.model, crate::fit_command::MAX_BLOB_BYTES)
         .map_err(io(format!("reading {}", opts.model.display())))?;
     let mut pred = Box::new(PilPredictor::empty(SqrtFlavour::Libm));
     pred.load(&blob).map_err(|e| PilError::Blob(format!("{}: {e}", opts.model.display())))?;
     if *pred.model().config() != cfg {
-        return Err(PilError::ConfigMismatch { scene: name, blob: format!("{:?}", pred.model().config()), scene_cfg: format!("{cfg:?}") });
+        return Err(PilError::ConfigMismatch {
+            scene: name,
+            blob: format!("{:?}", pred.model().config()),
+            scene_cfg: format!("{cfg:?}"),
+        });
     }
     // The predictor runs one step per controller period: the model must be sampled at it.
     ssm::device::check_loop_dt(f64::from(pred.model().sample_period()), cfg.dt)
         .map_err(|e| PilError::Blob(format!("{}: {e}", opts.model.display())))?;
-    let mut pd = IntPd::<HISTORY>::try_new(&cfg).map_err(|e| PilError::Blob(format!("controller configuration: {e}")))?;
+    let mut pd =
+        IntPd::<HISTORY>::try_new(&cfg).map_err(|e| PilError::Blob(format!("controller configuration: {e}")))?;
 
     let mut x = [0.0; N];
     if !scene.initial.state.is_empty() {
         if scene.initial.state.len() != N {
-            return Err(SimError::StateLength { scene: name, plant: plant.name(), got: scene.initial.state.len(), need: N }.into());
+            return Err(SimError::StateLength {
+                scene: name,
+                plant: plant.name(),
+                got: scene.initial.state.len(),
+                need: N,
+            }
+            .into());
         }
         x.copy_from_slice(&scene.initial.state);
     }
-    let sensor = |t: f64, what: &str, v: f64, e: controller::AdcError| PilError::Sensor { t, message: format!("{what} {v}: {e}") };
+    let sensor = |t: f64, what: &str, v: f64, e: controller::AdcError| PilError::Sensor {
+        t,
+        message: format!("{what} {v}: {e}"),
+    };
     let q0 = (
-        controller::adc(x[P::PRIMARY], q.h_adc).map_err(|e| sensor(0.0, "pre-history primary angle", x[P::PRIMARY], e))?,
-        controller::adc(x[P::SECONDARY], q.h_adc_phi).map_err(|e| sensor(0.0, "pre-history secondary angle", x[P::SECONDARY], e))?,
+        controller::adc(x[P::PRIMARY], q.h_adc)
+            .map_err(|e| sensor(0.0, "pre-history primary angle", x[P::PRIMARY], e))?,
+        controller::adc(x[P::SECONDARY], q.h_adc_phi)
+            .map_err(|e| sensor(0.0, "pre-history secondary angle", x[P::SECONDARY], e))?,
     );
     pd.prime_constant(q0.0, q0.1);
     let mut noise = match &scene.effects.noise {
@@ -499,7 +561,8 @@ fn run_with<P: Plant<N>, const N: usize>(plant: &P, scene: &Scene, opts: &PilOpt
         }
         None => None,
     };
-    let mut ode = Integrator::<N>::new(method_of(scene)).map_err(|source| SimError::Ode { scene: name.clone(), source })?;
+    let mut ode =
+        Integrator::<N>::new(method_of(scene)).map_err(|source| SimError::Ode { scene: name.clone(), source })?;
 
     std::fs::create_dir_all(&opts.out).map_err(io(format!("creating {}", opts.out.display())))?;
     let (mut qemu, stream) = start(&opts.elf, opts.machine, &opts.out)?;
@@ -511,7 +574,10 @@ fn run_with<P: Plant<N>, const N: usize>(plant: &P, scene: &Scene, opts: &PilOpt
     }
     let (_, delay) = link.transact(Kind::Load, &[])?;
     if delay.first().copied() != Some(pd.delay().min(255) as u8) {
-        return Err(PilError::Link { seq: link.seq.0.wrapping_sub(1), what: format!("device reports delay {delay:?}, host {}", pd.delay()) });
+        return Err(PilError::Link {
+            seq: link.seq.0.wrapping_sub(1),
+            what: format!("device reports delay {delay:?}, host {}", pd.delay()),
+        });
     }
     link.check_error_paths()?;
     let mut p = q0.0.to_le_bytes().to_vec();
@@ -559,7 +625,10 @@ fn run_with<P: Plant<N>, const N: usize>(plant: &P, scene: &Scene, opts: &PilOpt
         let (k, r) = link.transact(Kind::Step, &p)?;
         link_secs += t_rt.elapsed().as_secs_f64();
         if k != Kind::StepReply || r.len() != 10 {
-            return Err(PilError::Link { seq, what: format!("step reply of kind {:#x} with {} bytes", k.code(), r.len()) });
+            return Err(PilError::Link {
+                seq,
+                what: format!("step reply of kind {:#x} with {} bytes", k.code(), r.len()),
+            });
         }
         let code = i32::from_le_bytes([r[0], r[1], r[2], r[3]]);
         let saturated = r[4] != 0;
@@ -590,8 +659,16 @@ fn run_with<P: Plant<N>, const N: usize>(plant: &P, scene: &Scene, opts: &PilOpt
         s.saturated_samples += u64::from(saturated);
         let hp = host_pred.map_or(String::new(), |v| v.to_string());
         let dp = if ready { dev_pred.to_string() } else { String::new() };
-        writeln!(csv, "{t},{},{},{qy},{qz},{code},{},{},{},{dp},{hp}", x[P::PRIMARY], x[P::SECONDARY], host.code, u8::from(saturated), u8::from(ready))
-            .map_err(wr)?;
+        writeln!(
+            csv,
+            "{t},{},{},{qy},{qz},{code},{},{},{},{dp},{hp}",
+            x[P::PRIMARY],
+            x[P::SECONDARY],
+            host.code,
+            u8::from(saturated),
+            u8::from(ready)
+        )
+        .map_err(wr)?;
         rec.row(&RecordRow {
             t,
             theta: x[P::PRIMARY],
@@ -841,7 +918,10 @@ mod tests {
             let c: Vec<&str> = line.split(',').collect();
             assert_eq!(c.len(), 6, "{line}");
             let f = |k: usize| c[k].parse::<f64>().unwrap();
-            assert_eq!([f(0), f(1), f(2), f(3)].map(f64::to_bits), [row.t, row.theta, row.phi, row.theta_meas].map(f64::to_bits));
+            assert_eq!(
+                [f(0), f(1), f(2), f(3)].map(f64::to_bits),
+                [row.t, row.theta, row.phi, row.theta_meas].map(f64::to_bits)
+            );
             assert_eq!(c[4].parse::<i32>().unwrap(), row.code);
             match row.prediction {
                 Some(p) => assert_eq!(c[5].parse::<f32>().unwrap().to_bits(), p.to_bits()),

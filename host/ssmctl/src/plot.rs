@@ -91,7 +91,14 @@ pub struct Series<'a> {
 }
 
 /// Draws polylines into a PNG of `size` pixels; the ranges cover all finite points.
-pub fn lines(path: &Path, title: &str, xlabel: &str, ylabel: &str, series: &[Series<'_>], size: (u32, u32)) -> Result<(), PlotError> {
+pub fn lines(
+    path: &Path,
+    title: &str,
+    xlabel: &str,
+    ylabel: &str,
+    series: &[Series<'_>],
+    size: (u32, u32),
+) -> Result<(), PlotError> {
     ensure_font();
     let e = |m: &dyn std::fmt::Display| PlotError::new(path, m);
     let finite = series.iter().flat_map(|s| s.points.iter()).filter(|p| p.0.is_finite() && p.1.is_finite());
@@ -118,7 +125,13 @@ pub fn lines(path: &Path, title: &str, xlabel: &str, ylabel: &str, series: &[Ser
             .y_label_area_size(64)
             .build_cartesian_2d(x0..x1, (y0 - pad)..(y1 + pad))
             .map_err(|x| e(&x))?;
-        chart.configure_mesh().x_desc(xlabel).y_desc(ylabel).label_style(("sans-serif", 13)).draw().map_err(|x| e(&x))?;
+        chart
+            .configure_mesh()
+            .x_desc(xlabel)
+            .y_desc(ylabel)
+            .label_style(("sans-serif", 13))
+            .draw()
+            .map_err(|x| e(&x))?;
         draw_lines(&mut chart, series, path)?;
         if series.len() > 1 {
             draw_legend(&mut chart, 13, SeriesLabelPosition::MiddleRight, path)?;
@@ -137,7 +150,10 @@ pub fn draw_lines(chart: &mut Chart<'_, '_>, series: &[Series<'_>], path: &Path)
     for s in series {
         let color = s.color;
         chart
-            .draw_series(LineSeries::new(s.points.iter().copied().filter(|q| q.0.is_finite() && q.1.is_finite()), color.stroke_width(1)))
+            .draw_series(LineSeries::new(
+                s.points.iter().copied().filter(|q| q.0.is_finite() && q.1.is_finite()),
+                color.stroke_width(1),
+            ))
             .map_err(|x| PlotError::new(path, x))?
             .label(s.name)
             .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 16, y)], color.stroke_width(2)));
@@ -146,7 +162,12 @@ pub fn draw_lines(chart: &mut Chart<'_, '_>, series: &[Series<'_>], path: &Path)
 }
 
 /// The legend box of the reports' charts (white, framed, labels at `font` px) at `position`.
-pub fn draw_legend<'a, 'b: 'a>(chart: &mut Chart<'a, 'b>, font: u32, position: SeriesLabelPosition, path: &Path) -> Result<(), PlotError> {
+pub fn draw_legend<'a, 'b: 'a>(
+    chart: &mut Chart<'a, 'b>,
+    font: u32,
+    position: SeriesLabelPosition,
+    path: &Path,
+) -> Result<(), PlotError> {
     chart
         .configure_series_labels()
         .position(position)
@@ -196,7 +217,8 @@ pub fn grid(path: &Path, panels: &[Panel<'_>], cols: usize, size: (u32, u32)) ->
         let areas = root.split_evenly((rows, cols));
         for (k, (p, area)) in panels.iter().zip(areas.iter()).enumerate() {
             let pts = || p.series.iter().flat_map(|s| s.points.iter());
-            let (Some((x0, x1)), Some((y0, y1))) = (finite_range(pts().map(|q| q.0)), finite_range(pts().map(|q| q.1))) else {
+            let (Some((x0, x1)), Some((y0, y1))) = (finite_range(pts().map(|q| q.0)), finite_range(pts().map(|q| q.1)))
+            else {
                 return Err(e(&format!("panel `{}`: no finite points", p.title)));
             };
             let mut chart = ChartBuilder::on(area)
@@ -206,7 +228,13 @@ pub fn grid(path: &Path, panels: &[Panel<'_>], cols: usize, size: (u32, u32)) ->
                 .y_label_area_size(52)
                 .build_cartesian_2d(x0..x1, y0..y1)
                 .map_err(|x| e(&x))?;
-            chart.configure_mesh().x_desc(p.xlabel).y_desc(p.ylabel).label_style(("sans-serif", 11)).draw().map_err(|x| e(&x))?;
+            chart
+                .configure_mesh()
+                .x_desc(p.xlabel)
+                .y_desc(p.ylabel)
+                .label_style(("sans-serif", 11))
+                .draw()
+                .map_err(|x| e(&x))?;
             draw_lines(&mut chart, &p.series, path)?;
             if k == 0 && p.series.len() > 1 {
                 draw_legend(&mut chart, 11, SeriesLabelPosition::MiddleRight, path)?;
@@ -219,7 +247,14 @@ pub fn grid(path: &Path, panels: &[Panel<'_>], cols: usize, size: (u32, u32)) ->
 
 /// Horizontal bars, one per `(label, value)`, top to bottom in the given order; the value
 /// (`{:.1}`) is written after each bar. Values must be finite and >= 0.
-pub fn bars(path: &Path, title: &str, xlabel: &str, bars: &[(String, f64)], color: RGBColor, size: (u32, u32)) -> Result<(), PlotError> {
+pub fn bars(
+    path: &Path,
+    title: &str,
+    xlabel: &str,
+    bars: &[(String, f64)],
+    color: RGBColor,
+    size: (u32, u32),
+) -> Result<(), PlotError> {
     use plotters::style::text_anchor::{HPos, Pos, VPos};
     ensure_font();
     let e = |m: &dyn std::fmt::Display| PlotError::new(path, m);
@@ -259,14 +294,19 @@ pub fn bars(path: &Path, title: &str, xlabel: &str, bars: &[(String, f64)], colo
         chart
             .draw_series(bars.iter().enumerate().map(|(i, (_, v))| {
                 let k = n - 1 - i;
-                let mut r = Rectangle::new([(0.0, SegmentValue::Exact(k)), (*v, SegmentValue::Exact(k + 1))], color.filled());
+                let mut r =
+                    Rectangle::new([(0.0, SegmentValue::Exact(k)), (*v, SegmentValue::Exact(k + 1))], color.filled());
                 r.set_margin(3, 3, 0, 0);
                 r
             }))
             .map_err(|x| e(&x))?;
         chart
             .draw_series(bars.iter().enumerate().map(|(i, (_, v))| {
-                Text::new(format!(" {v:.1}"), (*v, SegmentValue::CenterOf(n - 1 - i)), TextStyle::from(("sans-serif", 12).into_font()).pos(Pos::new(HPos::Left, VPos::Center)))
+                Text::new(
+                    format!(" {v:.1}"),
+                    (*v, SegmentValue::CenterOf(n - 1 - i)),
+                    TextStyle::from(("sans-serif", 12).into_font()).pos(Pos::new(HPos::Left, VPos::Center)),
+                )
             }))
             .map_err(|x| e(&x))?;
         root.present().map_err(|x| e(&x))?;

@@ -29,26 +29,40 @@ pub enum ShardSource {
 /// 0; a step other than 1 is refused); else `JOB_COMPLETION_INDEX` with the count from
 /// `shards` (`--shards`, else the spec's `shards`); else the whole grid. `env` reads a
 /// variable (the process environment, or a map in tests).
-pub fn pick_shard(flag: Option<&str>, shards: Option<u32>, env: &dyn Fn(&str) -> Option<String>) -> Result<(Shard, ShardSource), BoxError> {
+pub fn pick_shard(
+    flag: Option<&str>,
+    shards: Option<u32>,
+    env: &dyn Fn(&str) -> Option<String>,
+) -> Result<(Shard, ShardSource), BoxError> {
     if let Some(s) = flag {
         return Ok((Shard::parse(s)?, ShardSource::Flag));
     }
     let num = |name: &str| -> Result<Option<u64>, BoxError> {
         match env(name) {
             None => Ok(None),
-            Some(v) => v.trim().parse::<u64>().map(Some).map_err(|_| format!("{name}={v}: not a non-negative integer").into()),
+            Some(v) => {
+                v.trim().parse::<u64>().map(Some).map_err(|_| format!("{name}={v}: not a non-negative integer").into())
+            }
         }
     };
     if let Some(id) = num("SLURM_ARRAY_TASK_ID")? {
-        let count = num("SLURM_ARRAY_TASK_COUNT")?.ok_or("SLURM_ARRAY_TASK_ID is set but SLURM_ARRAY_TASK_COUNT is not (submit with sbatch --array=0-(N-1))")?;
+        let count = num("SLURM_ARRAY_TASK_COUNT")?.ok_or(
+            "SLURM_ARRAY_TASK_ID is set but SLURM_ARRAY_TASK_COUNT is not (submit with sbatch --array=0-(N-1))",
+        )?;
         let min = num("SLURM_ARRAY_TASK_MIN")?.unwrap_or(0);
         if let Some(step) = num("SLURM_ARRAY_TASK_STEP")? {
             if step != 1 {
-                return Err(format!("SLURM_ARRAY_TASK_STEP={step}: the array must be contiguous (sbatch --array=0-{})", count.saturating_sub(1)).into());
+                return Err(format!(
+                    "SLURM_ARRAY_TASK_STEP={step}: the array must be contiguous (sbatch --array=0-{})",
+                    count.saturating_sub(1)
+                )
+                .into());
             }
         }
-        let i = id.checked_sub(min).ok_or_else(|| format!("SLURM_ARRAY_TASK_ID={id} below SLURM_ARRAY_TASK_MIN={min}"))?;
-        let shard = Shard::new(i, count).map_err(|e| format!("Slurm array task {id} (min {min}, count {count}): {e}"))?;
+        let i =
+            id.checked_sub(min).ok_or_else(|| format!("SLURM_ARRAY_TASK_ID={id} below SLURM_ARRAY_TASK_MIN={min}"))?;
+        let shard =
+            Shard::new(i, count).map_err(|e| format!("Slurm array task {id} (min {min}, count {count}): {e}"))?;
         return Ok((shard, ShardSource::Slurm));
     }
     if let Some(i) = num("JOB_COMPLETION_INDEX")? {
@@ -84,7 +98,13 @@ pub struct SweepRun {
 /// Computes one shard of `spec` into `out` (created if needed). An existing complete file
 /// of the same shard and spec is kept (idempotent re-runs); one of another spec is an
 /// error unless `force`.
-pub fn run(spec: &Path, out: &Path, shard: Option<&str>, shards: Option<u32>, force: bool) -> Result<SweepRun, BoxError> {
+pub fn run(
+    spec: &Path,
+    out: &Path,
+    shard: Option<&str>,
+    shards: Option<u32>,
+    force: bool,
+) -> Result<SweepRun, BoxError> {
     let sweep = load_spec(spec)?;
     let (shard, source) = pick_shard(shard, shards.or(sweep.shards), &|k| std::env::var(k).ok())?;
     let hash = sweep.hash()?;
@@ -96,7 +116,17 @@ pub fn run(spec: &Path, out: &Path, shard: Option<&str>, shards: Option<u32>, fo
         let text = std::fs::read_to_string(&file).map_err(|e| format!("cannot read {label}: {e}"))?;
         match ShardFile::parse(&label, &text) {
             Ok(f) if f.completes(&sweep, &hash, shard) => {
-                return Ok(SweepRun { file, shard, source, spec_hash: hash, cells: f.cells.len(), cells_total: sweep.cells(), computed: false, wall_seconds: f.wall_seconds, threads: f.threads });
+                return Ok(SweepRun {
+                    file,
+                    shard,
+                    source,
+                    spec_hash: hash,
+                    cells: f.cells.len(),
+                    cells_total: sweep.cells(),
+                    computed: false,
+                    wall_seconds: f.wall_seconds,
+                    threads: f.threads,
+                });
             }
             Ok(f) if f.spec_hash != hash => {
                 return Err(format!("{label} holds shard {} of spec `{}` (hash {}), not of this spec `{}` (hash {hash}): use another --out folder, or --force to replace it", f.shard, f.spec.name, f.spec_hash, sweep.name).into());
@@ -111,7 +141,17 @@ pub fn run(spec: &Path, out: &Path, shard: Option<&str>, shards: Option<u32>, fo
     let n = cells.len();
     let f = ShardFile::new(&sweep, shard, cells, wall_seconds, threads)?;
     write_atomic(&file, serde_json::to_string(&f)?.as_bytes())?;
-    Ok(SweepRun { file, shard, source, spec_hash: hash, cells: n, cells_total: sweep.cells(), computed: true, wall_seconds, threads })
+    Ok(SweepRun {
+        file,
+        shard,
+        source,
+        spec_hash: hash,
+        cells: n,
+        cells_total: sweep.cells(),
+        computed: true,
+        wall_seconds,
+        threads,
+    })
 }
 
 /// What `ssmctl sweep-merge` wrote.
@@ -137,7 +177,9 @@ pub fn merge_dir(dir: &Path, out: &Path) -> Result<MergeSummary, BoxError> {
     let mut names: Vec<PathBuf> = std::fs::read_dir(dir)
         .map_err(|e| format!("cannot read shard folder {}: {e}", dir.display()))?
         .filter_map(|e| e.ok().map(|e| e.path()))
-        .filter(|p| p.file_name().and_then(|n| n.to_str()).is_some_and(|n| n.starts_with("shard-") && n.ends_with(".json")))
+        .filter(|p| {
+            p.file_name().and_then(|n| n.to_str()).is_some_and(|n| n.starts_with("shard-") && n.ends_with(".json"))
+        })
         .collect();
     names.sort();
     if names.is_empty() {

@@ -84,9 +84,17 @@ fn controller_configuration_is_refused_alike_in_scenes_and_blobs() {
     let cases: [(Edit, &str, &str); 6] = [
         (|c| c.dt = 0.0, "controller.dt_ms=0", "controller config: `dt` must be > 0"),
         (|c| c.dt = -0.025, "controller.dt_ms=-25", "controller config: `dt` must be > 0"),
-        (|c| c.delay = 7, "controller.delay=7", "controller config: `delay` = 7 samples exceeds this controller's history (max 6)"),
+        (
+            |c| c.delay = 7,
+            "controller.delay=7",
+            "controller config: `delay` = 7 samples exceeds this controller's history (max 6)",
+        ),
         (|c| c.u_max = Some(-1.0), "effects.saturation.u_max=-1", "controller config: `u_max` must be > 0"),
-        (|c| c.quant = c.quant.map(|q| Quantization { h_dac: 0.0, ..q }), "effects.quantization.h_dac=0", "controller config: `quant.h_dac` must be > 0"),
+        (
+            |c| c.quant = c.quant.map(|q| Quantization { h_dac: 0.0, ..q }),
+            "effects.quantization.h_dac=0",
+            "controller config: `quant.h_dac` must be > 0",
+        ),
         (|c| c.kp = f64::NAN, "controller.kp=nan", "controller config: `kp` is not finite"),
     ];
     for (edit, set, message) in cases {
@@ -105,15 +113,41 @@ fn controller_configuration_is_refused_alike_in_scenes_and_blobs() {
 fn data_and_model(dir: &Path, dt_ms: &str) -> (PathBuf, PathBuf) {
     let sim = dir.join(format!("sim{dt_ms}"));
     let (code, _, err) = ssmctl(&[
-        "simulate", "--scene", "furuta-quant-dt25", "--out", s(&sim),
-        "--set", "run.periods=600", "--set", &format!("controller.dt_ms={dt_ms}"), "--set", "initial.state=[0.05,0,0,0]",
+        "simulate",
+        "--scene",
+        "furuta-quant-dt25",
+        "--out",
+        s(&sim),
+        "--set",
+        "run.periods=600",
+        "--set",
+        &format!("controller.dt_ms={dt_ms}"),
+        "--set",
+        "initial.state=[0.05,0,0,0]",
     ]);
     assert_eq!(code, Some(0), "{err}");
     let csv = sim.join("furuta-quant-dt25.csv");
     let model = dir.join(format!("model{dt_ms}.json"));
     let (code, _, err) = ssmctl(&[
-        "fit", "--data", s(&csv), "--column", "theta", "--dim", "2", "--embed", "5", "--order", "2",
-        "--dynamics", "rbf", "--centers", "20", "--ridge", "1e-8", "--save", s(&model),
+        "fit",
+        "--data",
+        s(&csv),
+        "--column",
+        "theta",
+        "--dim",
+        "2",
+        "--embed",
+        "5",
+        "--order",
+        "2",
+        "--dynamics",
+        "rbf",
+        "--centers",
+        "20",
+        "--ridge",
+        "1e-8",
+        "--save",
+        s(&model),
     ]);
     assert_eq!(code, Some(0), "{err}");
     (csv, model)
@@ -136,9 +170,15 @@ fn export_refuses_inconsistent_models_other_periods_and_its_own_input() {
     let v: Value = serde_json::from_str(&out_json).unwrap();
     assert_eq!((v["p"].as_u64(), v["d"].as_u64()), (Some(5), Some(2)));
     // Another loop period: refused, naming both.
-    refused(&["export", "--model", s(&model), "--out", s(&dir.join("x.bin")), "--scene", "furuta-dt30.8"], &["sampling step 0.025", "controller dt 0.0308"]);
+    refused(
+        &["export", "--model", s(&model), "--out", s(&dir.join("x.bin")), "--scene", "furuta-dt30.8"],
+        &["sampling step 0.025", "controller dt 0.0308"],
+    );
     let (_, model28) = data_and_model(&dir, "28");
-    refused(&["export", "--model", s(&model28), "--out", s(&dir.join("x.bin")), "--scene", "furuta-quant-dt25"], &["sampling step 0.028", "controller dt 0.025"]);
+    refused(
+        &["export", "--model", s(&model28), "--out", s(&dir.join("x.bin")), "--scene", "furuta-quant-dt25"],
+        &["sampling step 0.028", "controller dt 0.025"],
+    );
     assert!(!dir.join("x.bin").exists());
     // Writing onto its own input.
     refused(&["export", "--model", s(&model), "--out", s(&model)], &["refusing to write", "--model"]);
@@ -152,9 +192,18 @@ fn export_refuses_inconsistent_models_other_periods_and_its_own_input() {
     type Edit = fn(&mut Value);
     let cases: [(Edit, &str); 5] = [
         (|m| m["manifold"]["v1"].as_array_mut().unwrap().truncate(4), "`manifold.v1`: length 4, expected 10"),
-        (|m| { m["options"]["dim"] = 0.into(); m["manifold"]["dim"] = 0.into(); }, "`options`"),
+        (
+            |m| {
+                m["options"]["dim"] = 0.into();
+                m["manifold"]["dim"] = 0.into();
+            },
+            "`options`",
+        ),
         (|m| m["dynamics"]["Rbf"]["scale"] = serde_json::json!([]), "`dynamics.Rbf.scale`: length 0, expected 2"),
-        (|m| m["manifold"]["nonlinear"]["exps"][0] = serde_json::json!([4000000000u32, 0]), "`manifold.nonlinear.exps[0]`: total degree 4000000000"),
+        (
+            |m| m["manifold"]["nonlinear"]["exps"][0] = serde_json::json!([4000000000u32, 0]),
+            "`manifold.nonlinear.exps[0]`: total degree 4000000000",
+        ),
         (|m| m["dynamics"]["Rbf"]["centers"] = serde_json::json!([]), "`dynamics.Rbf.centers`"),
     ];
     for (edit, message) in cases {
@@ -179,14 +228,27 @@ fn scene_names_cannot_escape_the_output_folder() {
         let file = dir.join("scene.toml");
         std::fs::write(&file, base.replace("name = \"furuta-dt25\"", &format!("name = \"{name}\""))).unwrap();
         let out = dir.join("out");
-        refused(&["simulate", "--scene", s(&file), "--out", s(&out), "--set", "run.periods=3"], &["`name`", "ASCII letters"]);
+        refused(
+            &["simulate", "--scene", s(&file), "--out", s(&out), "--set", "run.periods=3"],
+            &["`name`", "ASCII letters"],
+        );
         assert!(!out.exists());
     }
     assert!(!std::env::temp_dir().join("escaped-abs.csv").exists());
     // A run that fails midway (the sensor leaves the encoder range) writes nothing.
     let out = dir.join("fail");
     refused(
-        &["simulate", "--scene", "furuta-quant-dt25", "--out", s(&out), "--set", "initial.state=[1e300,0,0,0]", "--set", "run.periods=5"],
+        &[
+            "simulate",
+            "--scene",
+            "furuta-quant-dt25",
+            "--out",
+            s(&out),
+            "--set",
+            "initial.state=[1e300,0,0,0]",
+            "--set",
+            "run.periods=5",
+        ],
         &["sensor"],
     );
     let left: Vec<_> = std::fs::read_dir(&out).map(|d| d.count()).into_iter().collect();
@@ -199,20 +261,53 @@ fn scene_names_cannot_escape_the_output_folder() {
 #[test]
 fn sizes_are_refused_before_allocation_with_the_limit() {
     let dir = tmp("sizes");
-    refused(&["stability", "--scene", "furuta-dt25", "--set", "run.periods=1000000000000"], &["`run.periods`", "limit of 10000000"]);
-    refused(&["simulate", "--scene", "furuta-dt25", "--out", s(&dir), "--set", "run.periods=9223372036854775807"], &["limit of 10000000"]);
+    refused(
+        &["stability", "--scene", "furuta-dt25", "--set", "run.periods=1000000000000"],
+        &["`run.periods`", "limit of 10000000"],
+    );
+    refused(
+        &["simulate", "--scene", "furuta-dt25", "--out", s(&dir), "--set", "run.periods=9223372036854775807"],
+        &["limit of 10000000"],
+    );
     refused(&["inspect", "/dev/zero"], &["/dev/zero", "larger than the limit of 16777216 bytes"]);
     let (csv, _) = {
         let sim = dir.join("sim");
-        let (code, _, err) = ssmctl(&["simulate", "--scene", "furuta-quant-dt25", "--out", s(&sim), "--set", "run.periods=400"]);
+        let (code, _, err) =
+            ssmctl(&["simulate", "--scene", "furuta-quant-dt25", "--out", s(&sim), "--set", "run.periods=400"]);
         assert_eq!(code, Some(0), "{err}");
         (sim.join("furuta-quant-dt25.csv"), ())
     };
     let c = s(&csv);
-    refused(&["fit", "--data", c, "--column", "theta", "--dim", "100", "--embed", "201"], &["dim: 100 exceeds the limit of 32"]);
-    refused(&["fit", "--data", c, "--column", "theta", "--dim", "2", "--embed", "5", "--order", "40"], &["manifold_order: 40 exceeds the limit of 32"]);
-    refused(&["fit", "--data", c, "--column", "theta", "--dim", "12", "--embed", "25", "--order", "8"], &["manifold monomials", "limit of 20000"]);
-    refused(&["fit", "--data", c, "--column", "theta", "--dim", "2", "--embed", "5", "--dynamics", "rbf", "--centers", "1000000"], &["rbf centers: 1000000 exceeds the limit of 100000"]);
+    refused(
+        &["fit", "--data", c, "--column", "theta", "--dim", "100", "--embed", "201"],
+        &["dim: 100 exceeds the limit of 32"],
+    );
+    refused(
+        &["fit", "--data", c, "--column", "theta", "--dim", "2", "--embed", "5", "--order", "40"],
+        &["manifold_order: 40 exceeds the limit of 32"],
+    );
+    refused(
+        &["fit", "--data", c, "--column", "theta", "--dim", "12", "--embed", "25", "--order", "8"],
+        &["manifold monomials", "limit of 20000"],
+    );
+    refused(
+        &[
+            "fit",
+            "--data",
+            c,
+            "--column",
+            "theta",
+            "--dim",
+            "2",
+            "--embed",
+            "5",
+            "--dynamics",
+            "rbf",
+            "--centers",
+            "1000000",
+        ],
+        &["rbf centers: 1000000 exceeds the limit of 100000"],
+    );
     // chaos: zero and huge options are errors (exit 1), not notes.
     for (opt, val, message) in [
         ("--ssm-dim", "0", "invalid option ssm_dim: must be >= 1"),
@@ -232,14 +327,27 @@ fn sizes_are_refused_before_allocation_with_the_limit() {
     }
     // PIL options are checked before QEMU starts or anything is read.
     let pil = |extra: &[&str]| {
-        let mut a = vec!["pil", "--scene", "furuta-quant-dt25", "--model", "/nonexistent.bin", "--out", s(&dir), "--elf", "/nonexistent.elf"];
+        let mut a = vec![
+            "pil",
+            "--scene",
+            "furuta-quant-dt25",
+            "--model",
+            "/nonexistent.bin",
+            "--out",
+            s(&dir),
+            "--elf",
+            "/nonexistent.elf",
+        ];
         a.extend_from_slice(extra);
         a.into_iter().map(String::from).collect::<Vec<_>>()
     };
     for (extra, message) in [
         (vec!["--periods", "0"], "--periods must be >= 1"),
         (vec!["--periods", "100000000"], "exceeds the limit of 10000000 periods"),
-        (vec!["--timeout", "1e30"], "--timeout must be a number of seconds in (0, 3600], got 1000000000000000000000000000000"),
+        (
+            vec!["--timeout", "1e30"],
+            "--timeout must be a number of seconds in (0, 3600], got 1000000000000000000000000000000",
+        ),
         (vec!["--timeout", "0"], "--timeout must be a number of seconds in (0, 3600]"),
         (vec!["--timeout", "NaN"], "got NaN"),
     ] {
@@ -253,8 +361,14 @@ fn sizes_are_refused_before_allocation_with_the_limit() {
 /// without a header are errors naming the file.
 #[test]
 fn untrustworthy_numbers_and_headerless_data_are_errors() {
-    refused(&["stability", "--scene", "furuta-dt25", "--set", "controller.kp=1e200"], &["controller gain kp = 1e200", "refusing"]);
-    refused(&["stability", "--scene", "furuta-dt25", "--set", "controller.dt_ms=1e-300"], &["sampling period dt = 1", "e-303 s: the rates ln|mu|/dt are only known", "refusing"]);
+    refused(
+        &["stability", "--scene", "furuta-dt25", "--set", "controller.kp=1e200"],
+        &["controller gain kp = 1e200", "refusing"],
+    );
+    refused(
+        &["stability", "--scene", "furuta-dt25", "--set", "controller.dt_ms=1e-300"],
+        &["sampling period dt = 1", "e-303 s: the rates ln|mu|/dt are only known", "refusing"],
+    );
     let dir = tmp("numbers");
     // Data scaled by 1e-300 (squares subnormal: the fit loses its digits and the NMTE was
     // `inf` with exit 0) are refused, naming the file and the magnitude.
@@ -270,7 +384,20 @@ fn untrustworthy_numbers_and_headerless_data_are_errors() {
         p
     };
     let nmte = |p: &Path| {
-        let (code, out, err) = ssmctl(&["fit", "--data", s(p), "--dim", "2", "--embed", "5", "--order", "1", "--dyn-order", "1", "--json"]);
+        let (code, out, err) = ssmctl(&[
+            "fit",
+            "--data",
+            s(p),
+            "--dim",
+            "2",
+            "--embed",
+            "5",
+            "--order",
+            "1",
+            "--dyn-order",
+            "1",
+            "--json",
+        ]);
         assert_eq!(code, Some(0), "{err}");
         serde_json::from_str::<Value>(&out).unwrap()["nmte_train"].as_f64().unwrap()
     };
@@ -278,7 +405,10 @@ fn untrustworthy_numbers_and_headerless_data_are_errors() {
     assert!(plain.is_finite() && plain < 1e-6, "{plain}");
     assert!(nmte(&write("small.csv", &x(1e-80), true)) < 1e-6);
     let tiny = write("tiny.csv", &x(1e-300), true);
-    refused(&["fit", "--data", s(&tiny), "--dim", "2", "--embed", "5"], &["tiny", "the largest |x| is 1e-300", "rescale the data"]);
+    refused(
+        &["fit", "--data", s(&tiny), "--dim", "2", "--embed", "5"],
+        &["tiny", "the largest |x| is 1e-300", "rescale the data"],
+    );
     // No header line: an error naming the file, not a lost first row.
     let nohdr = write("nohdr.csv", &x(1.0), false);
     refused(&["fit", "--data", s(&nohdr), "--dim", "2", "--embed", "5"], &["nohdr.csv: line 1", "header line"]);
@@ -297,7 +427,19 @@ fn pil_refuses_a_model_sampled_at_another_period() {
     std::fs::write(&path, m.encode().unwrap()).unwrap();
     let out = dir.join("out");
     refused(
-        &["pil", "--scene", "furuta-quant-dt25", "--model", s(&path), "--out", s(&out), "--elf", "/nonexistent.elf", "--periods", "10"],
+        &[
+            "pil",
+            "--scene",
+            "furuta-quant-dt25",
+            "--model",
+            s(&path),
+            "--out",
+            s(&out),
+            "--elf",
+            "/nonexistent.elf",
+            "--periods",
+            "10",
+        ],
         &["m33.bin", "sampling step 0.03299", "controller dt 0.025"],
     );
     assert!(!out.join("theta.csv").exists());

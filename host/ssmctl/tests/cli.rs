@@ -20,7 +20,14 @@ fn scenes_lists_the_paper_sweep() {
     assert!(ok);
     let v: Value = serde_json::from_str(&out).unwrap();
     let names: Vec<&str> = v.as_array().unwrap().iter().map(|s| s["name"].as_str().unwrap()).collect();
-    for n in ["furuta-dt30.5", "furuta-dt31.41", "furuta-dt25", "furuta-quant-dt25", "furuta-microchaos", "furuta-saturation"] {
+    for n in [
+        "furuta-dt30.5",
+        "furuta-dt31.41",
+        "furuta-dt25",
+        "furuta-quant-dt25",
+        "furuta-microchaos",
+        "furuta-saturation",
+    ] {
         assert!(names.contains(&n), "{n} missing from {names:?}");
     }
 }
@@ -58,11 +65,14 @@ fn simulate_writes_csv_and_metadata_and_overrides_apply() {
     let mut lines = csv.lines();
     assert_eq!(lines.next().unwrap(), "t,theta,w_theta,phi,w_phi,u,q_theta,q_phi,code");
     assert_eq!(lines.count(), 51);
-    let meta: Value = serde_json::from_str(&std::fs::read_to_string(dir.join("furuta-quant-dt25.json")).unwrap()).unwrap();
+    let meta: Value =
+        serde_json::from_str(&std::fs::read_to_string(dir.join("furuta-quant-dt25.json")).unwrap()).unwrap();
     assert_eq!(meta["scene"], "furuta-quant-dt25");
     assert!(meta["integrator"].as_str().unwrap().contains("exprb43"));
     assert_eq!(meta["tolerance"][0].as_f64(), Some(1e-9));
-    assert!(meta["effects"].as_array().unwrap().iter().any(|e| e.as_str().unwrap().starts_with("quantization (counts)")));
+    assert!(
+        meta["effects"].as_array().unwrap().iter().any(|e| e.as_str().unwrap().starts_with("quantization (counts)"))
+    );
     // An unquantized scene has no code columns.
     let (ok, _, err) = ssmctl(&["simulate", "--scene", "furuta-dt31", "--out", d, "--set", "run.periods=5"]);
     assert!(ok, "{err}");
@@ -74,11 +84,13 @@ fn simulate_writes_csv_and_metadata_and_overrides_apply() {
 fn bad_input_is_a_clear_error() {
     let (ok, _, err) = ssmctl(&["simulate", "--scene", "furuta-dt25", "--out", "/tmp/x", "--set", "controller.kq=1"]);
     assert!(!ok && err.contains("controller") && err.contains("kq"), "{err}");
-    let (ok, _, err) = ssmctl(&["simulate", "--scene", "furuta-dt25", "--out", "/tmp/x", "--set", "plant.params.jp=-1"]);
+    let (ok, _, err) =
+        ssmctl(&["simulate", "--scene", "furuta-dt25", "--out", "/tmp/x", "--set", "plant.params.jp=-1"]);
     assert!(!ok && err.contains("jp"), "{err}");
     let (ok, _, err) = ssmctl(&["stability", "--scene", "nope"]);
     assert!(!ok && err.contains("nope"), "{err}");
-    let (ok, _, err) = ssmctl(&["simulate", "--scene", "furuta-dt25", "--out", "/tmp/x", "--set", "run.tasks=[\"stability\"]"]);
+    let (ok, _, err) =
+        ssmctl(&["simulate", "--scene", "furuta-dt25", "--out", "/tmp/x", "--set", "run.tasks=[\"stability\"]"]);
     assert!(!ok && err.contains("runs no simulation"), "{err}");
 }
 
@@ -118,8 +130,22 @@ fn reproduce_quick_writes_the_report() {
     }
     assert!(dir.join("fig/timings.png").is_file());
     for k in [
-        "scenes", "stability", "stability_chart", "bench_simulate", "linear_nf", "chaos", "device", "pil", "predictions", "heteroclinic_dt_ms",
-        "torus_30p8", "portraits", "fast_cycle", "backbone", "equation_ssm", "basin",
+        "scenes",
+        "stability",
+        "stability_chart",
+        "bench_simulate",
+        "linear_nf",
+        "chaos",
+        "device",
+        "pil",
+        "predictions",
+        "heteroclinic_dt_ms",
+        "torus_30p8",
+        "portraits",
+        "fast_cycle",
+        "backbone",
+        "equation_ssm",
+        "basin",
     ] {
         assert!(s.get(k).is_some(), "summary.json lacks {k}");
     }
@@ -182,7 +208,13 @@ fn reproduce_quick_writes_the_report() {
             let c = coef.iter().find(|c| c["mode"] == mode && c["monomial"] == format!("rho_{mode}")).unwrap();
             assert!((c["value"].as_f64().unwrap() - rate.as_f64().unwrap()).abs() < 1e-9, "{d}");
         }
-        let inv: Vec<f64> = d["invariance"].as_array().unwrap().iter().filter(|x| x["radius"] == 0.02).map(|x| x["abs"].as_f64().unwrap()).collect();
+        let inv: Vec<f64> = d["invariance"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .filter(|x| x["radius"] == 0.02)
+            .map(|x| x["abs"].as_f64().unwrap())
+            .collect();
         assert!(inv.len() >= 3 && inv.windows(2).all(|w| w[1] < w[0]), "{d}");
     }
     let b = &s["basin"];
@@ -233,12 +265,37 @@ fn fit_on_simulated_furuta_runs_matches_exact_multipliers() {
     for (k, ic) in ["[0.002,0,0,0.3]", "[0.01,0,0,0]", "[0.05,0,0,-0.5]", "[0.003,0,0,1.0]"].iter().enumerate() {
         let d = dir.join(format!("r{k}"));
         let set = format!("initial.state={ic}");
-        let (ok, _, err) = ssmctl(&["simulate", "--scene", "furuta-dt31", "--out", d.to_str().unwrap(), "--set", "run.periods=3000", "--set", &set]);
+        let (ok, _, err) = ssmctl(&[
+            "simulate",
+            "--scene",
+            "furuta-dt31",
+            "--out",
+            d.to_str().unwrap(),
+            "--set",
+            "run.periods=3000",
+            "--set",
+            &set,
+        ]);
         assert!(ok, "{err}");
         files.push(d.join("furuta-dt31.csv").to_str().unwrap().to_string());
     }
     let train = files[..3].join(",");
-    let base = ["fit", "--data", &train, "--test", &files[3], "--dim", "4", "--embed", "21", "--order", "3", "--dyn-order", "7", "--json"];
+    let base = [
+        "fit",
+        "--data",
+        &train,
+        "--test",
+        &files[3],
+        "--dim",
+        "4",
+        "--embed",
+        "21",
+        "--order",
+        "3",
+        "--dyn-order",
+        "7",
+        "--json",
+    ];
     let (ok, _, err) = ssmctl(&base);
     assert!(!ok && err.contains("--column"), "{err}");
     let mut args = base.to_vec();
@@ -250,8 +307,12 @@ fn fit_on_simulated_furuta_runs_matches_exact_multipliers() {
     assert!(ok, "{err}");
     let s: Value = serde_json::from_str(&sout).unwrap();
     // Exact: the pair of largest modulus (fast, ~8.4 Hz) and the slow ~0.44 Hz pair.
-    let exact: Vec<(f64, f64)> =
-        s["multipliers"].as_array().unwrap().iter().map(|m| (m["rate"].as_f64().unwrap(), m["freq_hz"].as_f64().unwrap())).collect();
+    let exact: Vec<(f64, f64)> = s["multipliers"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|m| (m["rate"].as_f64().unwrap(), m["freq_hz"].as_f64().unwrap()))
+        .collect();
     let fast = exact.iter().copied().find(|e| e.1 > 1.0).unwrap();
     let slow = exact.iter().copied().find(|e| e.1 > 0.1 && e.1 < 1.0).unwrap();
     let ev: Vec<(f64, f64)> = v["eigenvalues"]
@@ -309,7 +370,17 @@ fn fit_mat_with_observables_windows_and_backbone() {
     let (ok, _, err) = ssmctl(&args);
     assert!(ok, "{err}");
     let out2 = dir.join("bb2");
-    let (ok, _, err) = ssmctl(&["backbone", "--model", model.to_str().unwrap(), "--out", out2.to_str().unwrap(), "--observable", "2", "--amplitude", "0.5"]);
+    let (ok, _, err) = ssmctl(&[
+        "backbone",
+        "--model",
+        model.to_str().unwrap(),
+        "--out",
+        out2.to_str().unwrap(),
+        "--observable",
+        "2",
+        "--amplitude",
+        "0.5",
+    ]);
     assert!(ok, "{err}");
     let j: Value = serde_json::from_str(&std::fs::read_to_string(out2.join("backbone.json")).unwrap()).unwrap();
     assert!((j[0]["points"][100]["amplitude"].as_f64().unwrap() - 0.5).abs() < 1e-9, "{j}");
@@ -319,7 +390,10 @@ fn fit_mat_with_observables_windows_and_backbone() {
     assert!(!ok && err.contains("embeds one observable; this model has 2"), "{err}");
     // Errors name what is wrong.
     for (extra, want) in [
-        (vec!["--mat", mat, "--from", "100"], "duffing.mat xData{1,:}: time window [100, end]: the window lies outside the data"),
+        (
+            vec!["--mat", mat, "--from", "100"],
+            "duffing.mat xData{1,:}: time window [100, end]: the window lies outside the data",
+        ),
         (vec!["--mat", mat, "--from", "1,2"], "--from: 2 values for 3 trajectories"),
         (vec!["--mat", mat, "--test-rows", "5"], "--test-rows 5"),
         (vec!["--mat", mat, "--observables", "4"], "no observable `4`"),
@@ -369,16 +443,50 @@ fn frc_from_fit_and_from_a_saved_model_agree() {
     let (model, d1, d2) = (dir.join("m.json"), dir.join("fit"), dir.join("frc"));
     std::fs::create_dir_all(&dir).unwrap();
     let (ok, _, err) = ssmctl(&[
-        "fit", "--mat", mat, "--test-rows", "2", "--from", "0.5", "--dim", "2", "--embed", "2", "--order", "3", "--dyn-order", "5",
-        "--save", model.to_str().unwrap(), "--frc", d1.to_str().unwrap(), "--frc-range", "5.8:6.9", "--frc-calibrate", "6.25,0.32",
+        "fit",
+        "--mat",
+        mat,
+        "--test-rows",
+        "2",
+        "--from",
+        "0.5",
+        "--dim",
+        "2",
+        "--embed",
+        "2",
+        "--order",
+        "3",
+        "--dyn-order",
+        "5",
+        "--save",
+        model.to_str().unwrap(),
+        "--frc",
+        d1.to_str().unwrap(),
+        "--frc-range",
+        "5.8:6.9",
+        "--frc-calibrate",
+        "6.25,0.32",
     ]);
     assert!(ok, "{err}");
-    let read = |d: &std::path::Path| -> Value { serde_json::from_str(&std::fs::read_to_string(d.join("frc.json")).unwrap()).unwrap() };
+    let read = |d: &std::path::Path| -> Value {
+        serde_json::from_str(&std::fs::read_to_string(d.join("frc.json")).unwrap()).unwrap()
+    };
     let a = read(&d1);
     let forcing = a["calibration"]["forcing"].as_f64().unwrap();
     assert!((forcing / 6.37119e-2 - 1.0).abs() < 1e-5, "{}", a["calibration"]);
     assert!(d1.join("frc.png").metadata().unwrap().len() > 5_000);
-    let (ok, out, err) = ssmctl(&["frc", "--model", model.to_str().unwrap(), "--out", d2.to_str().unwrap(), "--freq-range", "5.8:6.9", "--calibrate", "6.25,0.32", "--json"]);
+    let (ok, out, err) = ssmctl(&[
+        "frc",
+        "--model",
+        model.to_str().unwrap(),
+        "--out",
+        d2.to_str().unwrap(),
+        "--freq-range",
+        "5.8:6.9",
+        "--calibrate",
+        "6.25,0.32",
+        "--json",
+    ]);
     assert!(ok, "{err}");
     let b: Value = serde_json::from_str(&out).unwrap();
     assert_eq!(a["branches"], b["branches"], "fit --frc and frc differ");
@@ -388,7 +496,9 @@ fn frc_from_fit_and_from_a_saved_model_agree() {
     let on_stable = b["branches"].as_array().unwrap().iter().filter(|x| x["stable"] == true).any(|x| {
         let f = x["freq_rad_s"].as_array().unwrap();
         let amp = x["amplitude"].as_array().unwrap();
-        f.iter().zip(amp).any(|(f, amp)| (f.as_f64().unwrap() - 6.25).abs() < 2e-3 && (amp.as_f64().unwrap() - 0.32).abs() < 5e-3)
+        f.iter()
+            .zip(amp)
+            .any(|(f, amp)| (f.as_f64().unwrap() - 6.25).abs() < 2e-3 && (amp.as_f64().unwrap() - 0.32).abs() < 5e-3)
     });
     assert!(on_stable, "the calibration point is not on a stable branch");
     for (range, cal, want) in [
@@ -398,7 +508,8 @@ fn frc_from_fit_and_from_a_saved_model_agree() {
         ("0:6.9", "6.25,0.32", "--freq-range `0:6.9`: forcing frequencies must be > 0"),
     ] {
         let (range, cal) = (format!("--freq-range={range}"), format!("--calibrate={cal}"));
-        let (ok, _, err) = ssmctl(&["frc", "--model", model.to_str().unwrap(), "--out", d2.to_str().unwrap(), &range, &cal]);
+        let (ok, _, err) =
+            ssmctl(&["frc", "--model", model.to_str().unwrap(), "--out", d2.to_str().unwrap(), &range, &cal]);
         assert!(!ok && err.contains(want), "{range} {cal}: {err}");
     }
     let _ = std::fs::remove_dir_all(&dir);

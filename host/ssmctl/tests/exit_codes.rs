@@ -41,12 +41,28 @@ fn fixture() -> &'static Fixture {
         let _ = std::fs::remove_dir_all(&dir);
         std::fs::create_dir_all(&dir).unwrap();
         let sim = dir.join("sim");
-        let (code, err) = ssmctl(&["simulate", "--scene", "furuta-quant-dt25", "--out", s(&sim), "--set", "run.periods=400"]);
+        let (code, err) =
+            ssmctl(&["simulate", "--scene", "furuta-quant-dt25", "--out", s(&sim), "--set", "run.periods=400"]);
         assert_eq!(code, Some(0), "{err}");
         let csv_path = sim.join("furuta-quant-dt25.csv");
         let model_path = dir.join("model.json");
-        let (code, err) =
-            ssmctl(&["fit", "--data", s(&csv_path), "--column", "theta", "--dim", "2", "--embed", "5", "--dynamics", "rbf", "--centers", "20", "--save", s(&model_path)]);
+        let (code, err) = ssmctl(&[
+            "fit",
+            "--data",
+            s(&csv_path),
+            "--column",
+            "theta",
+            "--dim",
+            "2",
+            "--embed",
+            "5",
+            "--dynamics",
+            "rbf",
+            "--centers",
+            "20",
+            "--save",
+            s(&model_path),
+        ]);
         assert_eq!(code, Some(0), "{err}");
         let blob_path = dir.join("model.bin");
         let (code, err) = ssmctl(&["export", "--model", s(&model_path), "--out", s(&blob_path)]);
@@ -106,7 +122,12 @@ fn case() -> impl Strategy<Value = Case> {
     ];
     prop_oneof![
         (any::<usize>(), bad_number()).prop_map(|(line, value)| Case::Scene { line, value }),
-        (any::<usize>(), 0usize..4, bad_number(), any::<bool>()).prop_map(|(line, field, value, drop)| Case::Csv { line, field, value, drop }),
+        (any::<usize>(), 0usize..4, bad_number(), any::<bool>()).prop_map(|(line, field, value, drop)| Case::Csv {
+            line,
+            field,
+            value,
+            drop
+        }),
         (any::<usize>(), json_value).prop_map(|(at, value)| Case::Model { at, value }),
         (prop::collection::vec((any::<usize>(), any::<u8>()), 1..6), any::<bool>(), prop::option::of(any::<usize>()))
             .prop_map(|(edits, fix_crc, cut)| Case::Blob { edits, fix_crc, cut }),
@@ -117,13 +138,44 @@ fn case() -> impl Strategy<Value = Case> {
 /// Commands with one numeric option (the last argument's value is the case's); what the
 /// message must name.
 const OPTIONS: &[(&[&str], &str)] = &[
-    (&["pil", "--scene", "furuta-quant-dt25", "--model", "/nonexistent.bin", "--out", "/nonexistent", "--elf", "/nonexistent", "--periods"], "periods"),
-    (&["pil", "--scene", "furuta-quant-dt25", "--model", "/nonexistent.bin", "--out", "/nonexistent", "--elf", "/nonexistent", "--timeout"], "timeout"),
+    (
+        &[
+            "pil",
+            "--scene",
+            "furuta-quant-dt25",
+            "--model",
+            "/nonexistent.bin",
+            "--out",
+            "/nonexistent",
+            "--elf",
+            "/nonexistent",
+            "--periods",
+        ],
+        "periods",
+    ),
+    (
+        &[
+            "pil",
+            "--scene",
+            "furuta-quant-dt25",
+            "--model",
+            "/nonexistent.bin",
+            "--out",
+            "/nonexistent",
+            "--elf",
+            "/nonexistent",
+            "--timeout",
+        ],
+        "timeout",
+    ),
     (&["fit", "--data", "CSV", "--column", "theta", "--embed", "9", "--dim"], "dim"),
     (&["fit", "--data", "CSV", "--column", "theta", "--dim", "2", "--embed"], "embed"),
     (&["fit", "--data", "CSV", "--column", "theta", "--dim", "2", "--embed", "5", "--order"], "order"),
     (&["fit", "--data", "CSV", "--column", "theta", "--dim", "2", "--embed", "5", "--ridge"], "ridge"),
-    (&["fit", "--data", "CSV", "--column", "theta", "--dim", "2", "--embed", "5", "--dynamics", "rbf", "--centers"], "centers"),
+    (
+        &["fit", "--data", "CSV", "--column", "theta", "--dim", "2", "--embed", "5", "--dynamics", "rbf", "--centers"],
+        "centers",
+    ),
     (&["chaos", "--data", "CSV", "--column", "theta", "--ssm-dim"], "ssm"),
     (&["chaos", "--data", "CSV", "--column", "theta", "--poly-order"], "poly"),
     (&["stability-chart", "--scene", "furuta-dt25", "--out", "/nonexistent/x.png", "--kp"], "kp"),
@@ -151,16 +203,25 @@ fn run_case(c: &Case, n: usize) -> (Vec<String>, Option<i32>, String, Vec<String
     let (args, names): (Vec<String>, Vec<String>) = match c {
         Case::Scene { line, value } => {
             let lines: Vec<&str> = f.scene.lines().collect();
-            let numeric: Vec<usize> = (0..lines.len()).filter(|&i| lines[i].split_once('=').is_some_and(|(_, v)| v.trim().parse::<f64>().is_ok())).collect();
+            let numeric: Vec<usize> = (0..lines.len())
+                .filter(|&i| lines[i].split_once('=').is_some_and(|(_, v)| v.trim().parse::<f64>().is_ok()))
+                .collect();
             let i = numeric[line % numeric.len()];
             let key = lines[i].split_once('=').unwrap().0.trim().to_string();
-            let text: Vec<String> = lines.iter().enumerate().map(|(j, l)| if j == i { format!("{key} = {value}") } else { l.to_string() }).collect();
+            let text: Vec<String> = lines
+                .iter()
+                .enumerate()
+                .map(|(j, l)| if j == i { format!("{key} = {value}") } else { l.to_string() })
+                .collect();
             let p = path("toml");
             std::fs::write(&p, text.join("\n")).unwrap();
             // The message names the file (TOML syntax) or the scene and the key of the value
             // refused (a configuration error names the key of the field it is about, e.g. a
             // fixed-point gain from kp and h_adc names kp).
-            (vec!["stability".into(), "--scene".into(), s(&p).into()], vec![s(&p).into(), key, "scene furuta-quant-dt25: `".into()])
+            (
+                vec!["stability".into(), "--scene".into(), s(&p).into()],
+                vec![s(&p).into(), key, "scene furuta-quant-dt25: `".into()],
+            )
         }
         Case::Csv { line, field, value, drop } => {
             let mut lines: Vec<String> = f.csv.lines().map(String::from).collect();
@@ -183,21 +244,37 @@ fn run_case(c: &Case, n: usize) -> (Vec<String>, Option<i32>, String, Vec<String
         Case::Model { at, value } => {
             // Replace the JSON value (number or array) starting at the at-th `: ` of the text.
             let t = &f.model;
-            let starts: Vec<usize> = t.match_indices(": ").map(|(i, _)| i + 2).filter(|&i| t[i..].starts_with(['-', '0', '1', '2', '3', '4', '5', '6', '7', '8', '9', '['])).collect();
+            let starts: Vec<usize> = t
+                .match_indices(": ")
+                .map(|(i, _)| i + 2)
+                .filter(|&i| t[i..].starts_with(['-', '0', '1', '2', '3', '4', '5', '6', '7', '8', '9', '[']))
+                .collect();
             let i = starts[at % starts.len()];
             let end = if t[i..].starts_with('[') {
                 let mut depth = 0;
-                i + t[i..].char_indices().find(|&(_, ch)| {
-                    depth += match ch { '[' => 1, ']' => -1, _ => 0 };
-                    depth == 0
-                }).unwrap().0 + 1
+                i + t[i..]
+                    .char_indices()
+                    .find(|&(_, ch)| {
+                        depth += match ch {
+                            '[' => 1,
+                            ']' => -1,
+                            _ => 0,
+                        };
+                        depth == 0
+                    })
+                    .unwrap()
+                    .0
+                    + 1
             } else {
                 i + t[i..].find([',', '\n', '}']).unwrap()
             };
             let text = format!("{}{}{}", &t[..i], value, &t[end..]);
             let p = path("json");
             std::fs::write(&p, text).unwrap();
-            (vec!["export".into(), "--model".into(), s(&p).into(), "--out".into(), s(&path("out.bin")).into()], vec![s(&p).into()])
+            (
+                vec!["export".into(), "--model".into(), s(&p).into(), "--out".into(), s(&path("out.bin")).into()],
+                vec![s(&p).into()],
+            )
         }
         Case::Blob { edits, fix_crc, cut } => {
             let mut b = f.blob.clone();
@@ -218,7 +295,8 @@ fn run_case(c: &Case, n: usize) -> (Vec<String>, Option<i32>, String, Vec<String
         }
         Case::Option { which, value } => {
             let (cmd, name) = OPTIONS[*which];
-            let mut a: Vec<String> = cmd.iter().map(|x| if *x == "CSV" { s(&csv_path).to_string() } else { x.to_string() }).collect();
+            let mut a: Vec<String> =
+                cmd.iter().map(|x| if *x == "CSV" { s(&csv_path).to_string() } else { x.to_string() }).collect();
             match *a.last().unwrap() {
                 ref l if l == "--set" => a.push(format!("controller.kp={value}")),
                 ref l if l == "--kp" => a.push(format!("0:{value}:3")),
@@ -243,19 +321,29 @@ fn run_case(c: &Case, n: usize) -> (Vec<String>, Option<i32>, String, Vec<String
 #[test]
 fn every_refusal_exits_1_or_2_naming_the_input_never_a_panic() {
     let f = fixture();
-    let mut runner = proptest::test_runner::TestRunner::new(ProptestConfig { cases: cases(), failure_persistence: None, ..ProptestConfig::default() });
+    let mut runner = proptest::test_runner::TestRunner::new(ProptestConfig {
+        cases: cases(),
+        failure_persistence: None,
+        ..ProptestConfig::default()
+    });
     let counter = std::sync::atomic::AtomicUsize::new(0);
     runner
         .run(&case(), |c| {
             let n = counter.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
             let (args, code, err, names) = run_case(&c, n);
-            prop_assert!(matches!(code, Some(0..=2)), "{c:?} {args:?}: exit {code:?} (101 is a panic, 134 an abort, None a signal)\n{err}");
+            prop_assert!(
+                matches!(code, Some(0..=2)),
+                "{c:?} {args:?}: exit {code:?} (101 is a panic, 134 an abort, None a signal)\n{err}"
+            );
             if code != Some(0) {
                 prop_assert!(!err.trim().is_empty(), "{args:?}: failed without a message");
                 // clap's usage error (2) for a value that reads as flags (`-inf` as `-i`) names
                 // the flag and shows the usage.
                 let usage = code == Some(2) && err.contains("Usage: ssmctl");
-                prop_assert!(usage || names.iter().any(|x| err.contains(x.as_str())), "{c:?} {args:?}: exit {code:?}, the message names none of {names:?}:\n{err}");
+                prop_assert!(
+                    usage || names.iter().any(|x| err.contains(x.as_str())),
+                    "{c:?} {args:?}: exit {code:?}, the message names none of {names:?}:\n{err}"
+                );
             } else if let Case::Model { .. } = c {
                 // An export that succeeds wrote a blob that inspect accepts.
                 let out = f.dir.join(format!("case{n}.out.bin"));

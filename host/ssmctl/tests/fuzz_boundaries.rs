@@ -52,15 +52,34 @@ fn any_f64() -> impl Strategy<Value = f64> {
 }
 
 fn any_config() -> impl Strategy<Value = ControllerConfig> {
-    let quant = prop::option::of((prop::bool::ANY, any_f64(), any_f64(), any_f64()).prop_map(|(counts, h_adc, h_adc_phi, h_dac)| Quantization {
-        mode: if counts { QuantMode::Counts } else { QuantMode::Literal },
-        h_adc,
-        h_adc_phi,
-        h_dac,
-    }));
-    (any_f64(), any_f64(), any_f64(), any_f64(), any_f64(), prop_oneof![0u32..10, any::<u32>()], prop::option::of(any_f64()), quant).prop_map(
-        |(kp, kd, kphi_d, ki, dt, delay, u_max, quant)| ControllerConfig { kp, kd, kphi_d, ki, dt, delay, u_max, quant },
+    let quant = prop::option::of((prop::bool::ANY, any_f64(), any_f64(), any_f64()).prop_map(
+        |(counts, h_adc, h_adc_phi, h_dac)| Quantization {
+            mode: if counts { QuantMode::Counts } else { QuantMode::Literal },
+            h_adc,
+            h_adc_phi,
+            h_dac,
+        },
+    ));
+    (
+        any_f64(),
+        any_f64(),
+        any_f64(),
+        any_f64(),
+        any_f64(),
+        prop_oneof![0u32..10, any::<u32>()],
+        prop::option::of(any_f64()),
+        quant,
     )
+        .prop_map(|(kp, kd, kphi_d, ki, dt, delay, u_max, quant)| ControllerConfig {
+            kp,
+            kd,
+            kphi_d,
+            ki,
+            dt,
+            delay,
+            u_max,
+            quant,
+        })
 }
 
 /// The CRC-32 the blob header carries (ISO-HDLC, as `shared::model`).
@@ -146,11 +165,46 @@ fn command(which: usize, v: &str, csv: &str, dir: &str) -> Vec<String> {
         1 => vec!["fit", "--data", csv, "--column", "theta", "--embed", "9", "--dim"],
         2 => vec!["fit", "--data", csv, "--column", "theta", "--dim", "2", "--embed"],
         3 => vec!["fit", "--data", csv, "--column", "theta", "--dim", "2", "--embed", "5", "--order"],
-        4 => vec!["fit", "--data", csv, "--column", "theta", "--dim", "2", "--embed", "5", "--dynamics", "rbf", "--centers"],
+        4 => vec![
+            "fit",
+            "--data",
+            csv,
+            "--column",
+            "theta",
+            "--dim",
+            "2",
+            "--embed",
+            "5",
+            "--dynamics",
+            "rbf",
+            "--centers",
+        ],
         5 => vec!["chaos", "--data", csv, "--column", "theta", "--ssm-dim", "2", "--centers", "20", "--poly-order"],
         6 => vec!["chaos", "--data", csv, "--column", "theta", "--ssm-dim"],
-        7 => vec!["pil", "--scene", "furuta-quant-dt25", "--model", "/nonexistent.bin", "--out", dir, "--elf", "/nonexistent", "--timeout"],
-        8 => vec!["pil", "--scene", "furuta-quant-dt25", "--model", "/nonexistent.bin", "--out", dir, "--elf", "/nonexistent", "--periods"],
+        7 => vec![
+            "pil",
+            "--scene",
+            "furuta-quant-dt25",
+            "--model",
+            "/nonexistent.bin",
+            "--out",
+            dir,
+            "--elf",
+            "/nonexistent",
+            "--timeout",
+        ],
+        8 => vec![
+            "pil",
+            "--scene",
+            "furuta-quant-dt25",
+            "--model",
+            "/nonexistent.bin",
+            "--out",
+            dir,
+            "--elf",
+            "/nonexistent",
+            "--periods",
+        ],
         _ => vec!["simulate", "--scene", "furuta-dt25", "--out", dir, "--set"],
     };
     let mut a: Vec<String> = args.into_iter().map(String::from).collect();
@@ -170,12 +224,25 @@ fn cli_numeric_options_exit_0_1_or_2_never_a_panic() {
     let sim = dir.join("sim");
     let bin = env!("CARGO_BIN_EXE_ssmctl");
     let o = Command::new(bin)
-        .args(["--quiet", "simulate", "--scene", "furuta-quant-dt25", "--out", sim.to_str().unwrap(), "--set", "run.periods=300"])
+        .args([
+            "--quiet",
+            "simulate",
+            "--scene",
+            "furuta-quant-dt25",
+            "--out",
+            sim.to_str().unwrap(),
+            "--set",
+            "run.periods=300",
+        ])
         .output()
         .unwrap();
     assert!(o.status.success());
     let csv = sim.join("furuta-quant-dt25.csv");
-    let mut runner = proptest::test_runner::TestRunner::new(ProptestConfig { cases: (cases() / 5).max(10), failure_persistence: None, ..ProptestConfig::default() });
+    let mut runner = proptest::test_runner::TestRunner::new(ProptestConfig {
+        cases: (cases() / 5).max(10),
+        failure_persistence: None,
+        ..ProptestConfig::default()
+    });
     runner
         .run(&(0usize..10, number()), |(which, v)| {
             let args = command(which, &v, csv.to_str().unwrap(), dir.join("out").to_str().unwrap());

@@ -107,7 +107,11 @@ fn stand_in_dies_with_ssmctl(dir: &Path, signal: i32) -> Duration {
     let status = ssmctl.wait().unwrap();
     assert!(!status.success(), "ssmctl ended by signal {signal}: {status}");
     while !gone(child) {
-        assert!(t0.elapsed() < Duration::from_secs(1), "the stand-in (pid {child}) still runs 1 s after signal {signal} to ssmctl: {:?}", stat(child));
+        assert!(
+            t0.elapsed() < Duration::from_secs(1),
+            "the stand-in (pid {child}) still runs 1 s after signal {signal} to ssmctl: {:?}",
+            stat(child)
+        );
         std::thread::sleep(Duration::from_millis(5));
     }
     t0.elapsed()

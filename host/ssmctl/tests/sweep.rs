@@ -8,7 +8,13 @@ use std::process::{Command, Output};
 fn cmd(args: &[&str]) -> Command {
     let mut c = Command::new(env!("CARGO_BIN_EXE_ssmctl"));
     c.arg("--quiet").args(args);
-    for k in ["SLURM_ARRAY_TASK_ID", "SLURM_ARRAY_TASK_COUNT", "SLURM_ARRAY_TASK_MIN", "SLURM_ARRAY_TASK_STEP", "JOB_COMPLETION_INDEX"] {
+    for k in [
+        "SLURM_ARRAY_TASK_ID",
+        "SLURM_ARRAY_TASK_COUNT",
+        "SLURM_ARRAY_TASK_MIN",
+        "SLURM_ARRAY_TASK_STEP",
+        "JOB_COMPLETION_INDEX",
+    ] {
         c.env_remove(k);
     }
     c
@@ -79,7 +85,10 @@ fn merge(dir: &Path, out: &Path) -> String {
 
 fn same_files(a: &Path, b: &Path, name: &str) {
     for ext in ["json", "csv", "png"] {
-        let (x, y) = (std::fs::read(a.join(format!("{name}.{ext}"))).unwrap(), std::fs::read(b.join(format!("{name}.{ext}"))).unwrap());
+        let (x, y) = (
+            std::fs::read(a.join(format!("{name}.{ext}"))).unwrap(),
+            std::fs::read(b.join(format!("{name}.{ext}"))).unwrap(),
+        );
         assert!(x == y, "{name}.{ext} differs between {} and {}", a.display(), b.display());
     }
 }
@@ -97,7 +106,13 @@ fn shards_as_separate_processes_merge_to_the_single_process_run() {
         merge(&one, &one_out);
         // Three processes at once, one thread each.
         let three = d.join(format!("{name}-three"));
-        let kids: Vec<_> = (0..3).map(|i| cmd(&["sweep", s(&spec), "--out", s(&three), "--shard", &format!("{i}/3"), "--jobs", "1"]).spawn().unwrap()).collect();
+        let kids: Vec<_> = (0..3)
+            .map(|i| {
+                cmd(&["sweep", s(&spec), "--out", s(&three), "--shard", &format!("{i}/3"), "--jobs", "1"])
+                    .spawn()
+                    .unwrap()
+            })
+            .collect();
         for k in kids {
             ok(k.wait_with_output().unwrap());
         }
@@ -123,7 +138,10 @@ fn shards_as_separate_processes_merge_to_the_single_process_run() {
     let spec = d.join("chart.toml");
     let k8s = d.join("chart-k8s");
     ok(cmd(&["sweep", s(&spec), "--out", s(&k8s)]).env("JOB_COMPLETION_INDEX", "0").output().unwrap());
-    let err = ok(cmd(&["sweep", s(&spec), "--out", s(&k8s), "--shards", "2"]).env("JOB_COMPLETION_INDEX", "1").output().unwrap());
+    let err = ok(cmd(&["sweep", s(&spec), "--out", s(&k8s), "--shards", "2"])
+        .env("JOB_COMPLETION_INDEX", "1")
+        .output()
+        .unwrap());
     assert!(err.contains("shard 1/2 (Kubernetes)"), "{err}");
     let k8s_out = d.join("chart-k8s-merged");
     merge(&k8s, &k8s_out);
@@ -164,10 +182,17 @@ fn bad_inputs_are_errors_naming_them() {
     let chart = spec("chart.toml", CHART);
     let e = run(&chart, &["--shard", "3/3"]);
     assert!(e.contains("shard index 3 outside 0..3"), "{e}");
-    let e = fails(cmd(&["sweep", s(&chart), "--out", s(&d.join("o"))]).env("SLURM_ARRAY_TASK_ID", "4").env("SLURM_ARRAY_TASK_COUNT", "4").output().unwrap());
+    let e = fails(
+        cmd(&["sweep", s(&chart), "--out", s(&d.join("o"))])
+            .env("SLURM_ARRAY_TASK_ID", "4")
+            .env("SLURM_ARRAY_TASK_COUNT", "4")
+            .output()
+            .unwrap(),
+    );
     assert!(e.contains("Slurm array task 4") && e.contains("outside 0..4"), "{e}");
     let basin = spec("basin.toml", BASIN);
-    let e = fails(cmd(&["sweep", s(&basin), "--out", s(&d.join("o"))]).env("JOB_COMPLETION_INDEX", "1").output().unwrap());
+    let e =
+        fails(cmd(&["sweep", s(&basin), "--out", s(&d.join("o"))]).env("JOB_COMPLETION_INDEX", "1").output().unwrap());
     assert!(e.contains("JOB_COMPLETION_INDEX=1 is set but no shard count"), "{e}");
     // Merges: a missing shard, a duplicated one, shards of two specs.
     let m = d.join("m");

@@ -1,7 +1,7 @@
 //! The decoded model in fixed-capacity storage: what the device keeps in RAM.
 
-use super::wire::{BytesIn, check};
 use super::DecodeError;
+use super::wire::{BytesIn, check};
 use crate::config::ControllerConfig;
 
 /// A decoded, validated model with capacities `P` (embedding dimension), `D` (reduced
@@ -96,11 +96,8 @@ impl<const P: usize, const D: usize, const K: usize, const T: usize> Model<P, D,
         fill(&mut self.weights, pl.weights.0, d);
         // affine is d x (d+1): split into the linear block and the constant column.
         if d > 0 {
-            for ((lin, bias), chunk) in self
-                .affine_lin
-                .iter_mut()
-                .zip(self.affine_bias.iter_mut())
-                .zip(pl.affine.0.chunks_exact(4 * (d + 1)))
+            for ((lin, bias), chunk) in
+                self.affine_lin.iter_mut().zip(self.affine_bias.iter_mut()).zip(pl.affine.0.chunks_exact(4 * (d + 1)))
             {
                 let mut vals = chunk.chunks_exact(4).map(|b| {
                     let mut a = [0u8; 4];
@@ -193,9 +190,8 @@ impl<const P: usize, const D: usize, const K: usize, const T: usize> Model<P, D,
     /// Copies the model out as the host's owned form (round trips through `encode`).
     #[cfg(feature = "std")]
     pub fn to_owned_model(&self) -> super::OwnedModel {
-        let rows = |m: &[[f32; D]], cols: usize| -> Vec<f32> {
-            m.iter().flat_map(|r| r.iter().take(cols).copied()).collect()
-        };
+        let rows =
+            |m: &[[f32; D]], cols: usize| -> Vec<f32> { m.iter().flat_map(|r| r.iter().take(cols).copied()).collect() };
         let (d, t) = (self.d, self.n_terms);
         super::OwnedModel {
             config: self.config,

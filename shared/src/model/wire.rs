@@ -4,10 +4,7 @@ use serde::de::{Deserializer, Visitor};
 use serde::ser::{SerializeSeq, Serializer};
 use serde::{Deserialize, Serialize};
 
-use super::{
-    CRC32, DecodeError, EncodeError, FORMAT_VERSION, HEADER_LEN, Header, Scalars, check_scalars,
-    lift_terms,
-};
+use super::{CRC32, DecodeError, EncodeError, FORMAT_VERSION, HEADER_LEN, Header, Scalars, check_scalars, lift_terms};
 use crate::config::ControllerConfig;
 
 /// A model whose matrices are borrowed `f32` slices (row-major): what an encoder reads.
@@ -125,12 +122,9 @@ pub(crate) fn check(blob: &[u8], caps: [usize; 4]) -> Result<Checked<'_>, Decode
         return Err(DecodeError::Crc { expected: h.crc, found });
     }
     let [max_p, max_d, max_k, max_t] = caps;
-    for (what, max, got) in [
-        ("p", max_p, h.p),
-        ("d", max_d, h.d),
-        ("k", max_k, h.k),
-        ("lift terms", max_t, h.lift_terms),
-    ] {
+    for (what, max, got) in
+        [("p", max_p, h.p), ("d", max_d, h.d), ("k", max_k, h.k), ("lift terms", max_t, h.lift_terms)]
+    {
         if usize::from(got) > max {
             return Err(DecodeError::Capacity { what, max, got: usize::from(got) });
         }
@@ -145,8 +139,8 @@ pub(crate) fn check(blob: &[u8], caps: [usize; 4]) -> Result<Checked<'_>, Decode
     shape("d", usize::from(h.d), d)?;
     shape("k", usize::from(h.k), k)?;
     shape("lift terms", usize::from(h.lift_terms), usize::from(payload.n_terms))?;
-    let n_terms = lift_terms(d, usize::from(payload.lift_order))
-        .ok_or(DecodeError::Invalid { what: "lift order too high" })?;
+    let n_terms =
+        lift_terms(d, usize::from(payload.lift_order)).ok_or(DecodeError::Invalid { what: "lift order too high" })?;
     shape("lift terms for d and lift_order", usize::from(h.lift_terms), n_terms)?;
     check_scalars(&Scalars {
         p,
@@ -266,7 +260,8 @@ impl ModelRef<'_> {
             p: payload.p,
             k: payload.k,
             lift_terms: payload.n_terms,
-            payload_len: u32::try_from(used).map_err(|_| EncodeError::TooLarge { what: "payload length", got: used })?,
+            payload_len: u32::try_from(used)
+                .map_err(|_| EncodeError::TooLarge { what: "payload length", got: used })?,
             crc: CRC32.checksum(written),
         };
         head.copy_from_slice(&header.to_bytes());

@@ -42,7 +42,12 @@ pub mod pinned {
         dt: 0.002,
         delay: 1,
         u_max: Some(10.0),
-        quant: Some(Quantization { mode: QuantMode::Counts, h_adc: 0.0015339807878856412, h_adc_phi: 0.0015339807878856412, h_dac: 0.0048828125 }),
+        quant: Some(Quantization {
+            mode: QuantMode::Counts,
+            h_adc: 0.0015339807878856412,
+            h_adc_phi: 0.0015339807878856412,
+            h_dac: 0.0048828125,
+        }),
     };
     pub const V1: [f32; 8] = [0.5, 0.5, 0.5, -0.5, 0.5, 0.5, 0.5, -0.5];
     pub const LIFT: [f32; 28] = [

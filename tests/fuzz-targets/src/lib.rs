@@ -58,10 +58,18 @@ pub fn scene_toml(data: &[u8]) {
         Err(e) => return check_message("scene", &e.to_string()),
     };
     assert_eq!(scene.validate().map_err(|e| e.to_string()), Ok(()), "an accepted scene fails its own validation");
-    assert!(sim::scene::check_name(&scene.name).is_ok(), "accepted scene name {:?} is not a safe file name", scene.name);
+    assert!(
+        sim::scene::check_name(&scene.name).is_ok(),
+        "accepted scene name {:?} is not a safe file name",
+        scene.name
+    );
     assert!(scene.run.periods <= sim::scene::MAX_PERIODS, "run.periods {} above the limit", scene.run.periods);
     let cfg = scene.controller_config();
-    assert_eq!(controller::validate_config::<{ controller::HISTORY }>(&cfg), Ok(()), "accepted scene, refused configuration {cfg:?}");
+    assert_eq!(
+        controller::validate_config::<{ controller::HISTORY }>(&cfg),
+        Ok(()),
+        "accepted scene, refused configuration {cfg:?}"
+    );
     assert!(scene.dt().is_finite() && scene.dt() > 0.0, "accepted scene with dt = {}", scene.dt());
     // Round trip: what the scene serializes to is a scene file that parses to the same scene.
     let again = toml::to_string(&scene).unwrap_or_else(|e| panic!("accepted scene does not serialize: {e}\n{scene:?}"));
@@ -131,7 +139,10 @@ pub fn csv_data(data: &[u8]) {
                 if m.observables.iter().filter(|o| **o == name).count() == 1 {
                     let one = m.select(std::slice::from_ref(&name)).unwrap_or_else(|e| panic!("select {name}: {e}"));
                     let col = m.observable(i).unwrap_or_else(|| panic!("observable {i}"));
-                    assert_eq!(one.x.iter().map(|v| v.to_bits()).collect::<Vec<_>>(), col.x.iter().map(|v| v.to_bits()).collect::<Vec<_>>());
+                    assert_eq!(
+                        one.x.iter().map(|v| v.to_bits()).collect::<Vec<_>>(),
+                        col.x.iter().map(|v| v.to_bits()).collect::<Vec<_>>()
+                    );
                 }
             }
         }
@@ -161,7 +172,8 @@ pub fn model_json(data: &[u8]) {
         Some(b'{' | b' ' | b'\n' | b'\t' | b'\r') | None => model_json_text(&String::from_utf8_lossy(data)),
         Some(&pick) => {
             let base = MODELS[usize::from(pick) % MODELS.len()];
-            let mut v: serde_json::Value = serde_json::from_str(base).unwrap_or_else(|e| panic!("bundled seed model: {e}"));
+            let mut v: serde_json::Value =
+                serde_json::from_str(base).unwrap_or_else(|e| panic!("bundled seed model: {e}"));
             for rec in data[1..].chunks_exact(8) {
                 edit_model(&mut v, rec);
             }
@@ -207,7 +219,9 @@ fn edit_model(v: &mut serde_json::Value, rec: &[u8]) {
         (0, _) => *x = serde_json::json!(arg),
         (1, _) => *x = serde_json::json!(i64::from(small) - 2),
         (2, _) => *x = serde_json::json!(10f64.powi(i32::from(small as i8) * 3)),
-        (3, serde_json::Value::Number(n)) => *x = serde_json::json!(n.as_f64().unwrap_or(0.0) * (f64::from(small as i8) / 8.0)),
+        (3, serde_json::Value::Number(n)) => {
+            *x = serde_json::json!(n.as_f64().unwrap_or(0.0) * (f64::from(small as i8) / 8.0))
+        }
         (4, serde_json::Value::Array(a)) => a.truncate(usize::from(small) % (a.len() + 1)),
         (5, serde_json::Value::Array(a)) => {
             if let Some(last) = a.last().cloned() {
@@ -318,7 +332,11 @@ pub fn model_blob(data: &[u8]) {
         (Ok(_), Err(e)) => panic!("inspect accepts a blob the decoder refuses: {e}"),
         (Ok(_), Ok(h)) => h,
     };
-    assert_eq!(controller::validate_config::<{ controller::HISTORY }>(host.config()), Ok(()), "accepted blob, invalid configuration");
+    assert_eq!(
+        controller::validate_config::<{ controller::HISTORY }>(host.config()),
+        Ok(()),
+        "accepted blob, invalid configuration"
+    );
     let owned = host.to_owned_model();
     let again = owned.encode().unwrap_or_else(|e| panic!("a decoded model does not re-encode: {e}"));
     let host2 = decode_host(&again).unwrap_or_else(|e| panic!("a re-encoded model does not decode: {e}"));
@@ -336,7 +354,8 @@ pub fn pil_frames(data: &[u8]) {
     if mode < 2 {
         if let Ok(f) = frame::decode(rest) {
             let mut buf = [0u8; frame::MAX_FRAME];
-            let n = frame::encode(f.kind, f.seq, f.payload, &mut buf).unwrap_or_else(|e| panic!("decoded frame does not encode: {e}"));
+            let n = frame::encode(f.kind, f.seq, f.payload, &mut buf)
+                .unwrap_or_else(|e| panic!("decoded frame does not encode: {e}"));
             assert_eq!(&buf[..n], rest, "decode/encode round trip changed the frame");
         } else if let Err(e) = frame::decode(rest) {
             check_message("frame", &e.to_string());
@@ -390,7 +409,9 @@ fn stream_matches_reference(dir: Direction, bytes: &[u8]) {
         }
         let expected = start.and_then(|s| {
             let window = &bytes[s..=i];
-            (window.len() >= frame::HEADER_LEN && window.len() == frame::frame_len(usize::from(window[frame::HEADER_LEN - 1]))).then_some(window)
+            (window.len() >= frame::HEADER_LEN
+                && window.len() == frame::frame_len(usize::from(window[frame::HEADER_LEN - 1])))
+            .then_some(window)
         });
         let got = rx.push(b).map(|r| r.map(|f| (f.kind, f.seq, f.payload.to_vec())));
         match (expected, got) {
@@ -440,11 +461,17 @@ fn assert_within_limits(cmd: &ssmctl::cli::Cmd) {
             assert!((1..=sim::scene::MAX_PERIODS).contains(periods), "--periods {periods} accepted");
             assert!(timeout.is_finite() && *timeout > 0.0, "--timeout {timeout} accepted");
         }
-        Cmd::Bench { what: BenchCmd::Simulate { periods, .. } } => assert!(*periods <= sim::scene::MAX_PERIODS, "--periods {periods} accepted"),
+        Cmd::Bench { what: BenchCmd::Simulate { periods, .. } } => {
+            assert!(*periods <= sim::scene::MAX_PERIODS, "--periods {periods} accepted")
+        }
         Cmd::StabilityChart { kp, kd, dt_ms, .. } => {
             for (r, what) in [(kp, "kp"), (kd, "kd")] {
-                let (lo, hi, n) = ssmctl::cli::parse_range(r, what).unwrap_or_else(|e| panic!("accepted, then refused: {e}"));
-                assert!(lo.is_finite() && hi.is_finite() && lo < hi && (2..=4000).contains(&n), "--{what} {r} accepted");
+                let (lo, hi, n) =
+                    ssmctl::cli::parse_range(r, what).unwrap_or_else(|e| panic!("accepted, then refused: {e}"));
+                assert!(
+                    lo.is_finite() && hi.is_finite() && lo < hi && (2..=4000).contains(&n),
+                    "--{what} {r} accepted"
+                );
             }
             assert!(dt_ms.iter().all(|d| d.is_finite() && *d > 0.0), "--dt-ms {dt_ms:?} accepted");
         }

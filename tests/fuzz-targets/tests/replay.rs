@@ -11,7 +11,9 @@ fn fuzz_dir() -> PathBuf {
 }
 
 fn files(dir: &Path) -> Vec<PathBuf> {
-    let mut v: Vec<PathBuf> = std::fs::read_dir(dir).map(|d| d.flatten().map(|e| e.path()).filter(|p| p.is_file()).collect()).unwrap_or_default();
+    let mut v: Vec<PathBuf> = std::fs::read_dir(dir)
+        .map(|d| d.flatten().map(|e| e.path()).filter(|p| p.is_file()).collect())
+        .unwrap_or_default();
     v.sort();
     v
 }
@@ -26,7 +28,11 @@ fn replay(kind: &str) -> (usize, Vec<String>) {
             let data = std::fs::read(&f).unwrap();
             n += 1;
             if let Err(p) = std::panic::catch_unwind(|| body(&data)) {
-                let msg = p.downcast_ref::<String>().cloned().or_else(|| p.downcast_ref::<&str>().map(|s| s.to_string())).unwrap_or_default();
+                let msg = p
+                    .downcast_ref::<String>()
+                    .cloned()
+                    .or_else(|| p.downcast_ref::<&str>().map(|s| s.to_string()))
+                    .unwrap_or_default();
                 failures.push(format!("{name}/{}: {msg}", f.file_name().unwrap().to_string_lossy()));
             }
         }
@@ -39,7 +45,10 @@ fn every_target_has_seeds_and_they_pass() {
     for (name, _) in fuzz_targets::TARGETS {
         let n = files(&fuzz_dir().join("seeds").join(name)).len();
         assert!(n >= 5, "target {name}: {n} seed files in tests/fuzz/seeds/{name}");
-        assert!(fuzz_dir().join("fuzz_targets").join(format!("{name}.rs")).is_file(), "target {name} has no libFuzzer harness");
+        assert!(
+            fuzz_dir().join("fuzz_targets").join(format!("{name}.rs")).is_file(),
+            "target {name} has no libFuzzer harness"
+        );
     }
     let (n, failures) = replay("seeds");
     assert!(failures.is_empty(), "{} of {n} seed files fail:\n{}", failures.len(), failures.join("\n"));

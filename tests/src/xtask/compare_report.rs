@@ -297,7 +297,11 @@ impl Comparer {
             self.out.identical_files += 1;
         } else {
             let at = a.iter().zip(b).position(|(x, y)| x != y).unwrap_or(a.len().min(b.len()));
-            self.mismatch(format!("{name}: files differ ({} vs {} bytes, first difference at byte {at})", a.len(), b.len()));
+            self.mismatch(format!(
+                "{name}: files differ ({} vs {} bytes, first difference at byte {at})",
+                a.len(),
+                b.len()
+            ));
         }
     }
 
@@ -323,9 +327,11 @@ impl Comparer {
     /// Paths inside the report directories are equal when they are after their prefixes.
     fn same_string(&self, a: &str, b: &str) -> bool {
         a == b
-            || self.base_prefixes.iter().filter_map(|p| strip_dir(a, p)).any(|ra| {
-                self.new_prefixes.iter().filter_map(|p| strip_dir(b, p)).any(|rb| ra == rb)
-            })
+            || self
+                .base_prefixes
+                .iter()
+                .filter_map(|p| strip_dir(a, p))
+                .any(|ra| self.new_prefixes.iter().filter_map(|p| strip_dir(b, p)).any(|rb| ra == rb))
     }
 
     fn json(&mut self, name: &str, path: &str, a: &Value, b: &Value) {
@@ -373,7 +379,13 @@ impl Comparer {
                     self.mismatch(format!("{name} {path}: {a} vs {b}"));
                 }
             }
-            _ => self.mismatch(format!("{name} {path}: {} vs {} ({} vs {})", type_name(a), type_name(b), clip(&a.to_string()), clip(&b.to_string()))),
+            _ => self.mismatch(format!(
+                "{name} {path}: {} vs {} ({} vs {})",
+                type_name(a),
+                type_name(b),
+                clip(&a.to_string()),
+                clip(&b.to_string())
+            )),
         }
     }
 
@@ -457,11 +469,17 @@ mod tests {
     /// A small report in `dir`: 8 numbers compared in its JSON files, 3 byte-compared files.
     fn report(dir: &Path) {
         write(&dir.join("summary.json"), serde_json::to_string_pretty(&summary(dir)).unwrap().as_bytes());
-        write(&dir.join("scenes/a.json"), br#"{"scene": "a", "periods_simulated": 300, "wall_seconds": 0.0109, "csv": "a.csv"}"#);
+        write(
+            &dir.join("scenes/a.json"),
+            br#"{"scene": "a", "periods_simulated": 300, "wall_seconds": 0.0109, "csv": "a.csv"}"#,
+        );
         write(&dir.join("scenes/a.csv"), b"t,theta\n0,0.1\n");
         write(&dir.join("fig/x.png"), b"\x89PNG\r\n\x1a\n0123");
         write(&dir.join("model.bin"), &[1, 2, 3, 4]);
-        write(&dir.join("index.html"), b"<p>furuta-dt25: 300 periods, max 0.0279 rad, 27362 periods/s, fit 12.5 ms</p>\n");
+        write(
+            &dir.join("index.html"),
+            b"<p>furuta-dt25: 300 periods, max 0.0279 rad, 27362 periods/s, fit 12.5 ms</p>\n",
+        );
     }
 
     fn pair(tag: &str) -> (PathBuf, PathBuf) {
@@ -501,7 +519,11 @@ mod tests {
         edit_summary(&b, |v| v["chaos"]["measured: flag"]["spectrum"][1] = (-0.384 * (1.0 + 1e-9)).into());
         let o = compare(&a, &b).unwrap();
         assert_eq!(o.mismatches.len(), 1, "{:?}", o.mismatches);
-        assert!(o.mismatches[0].starts_with(r#"summary.json $.chaos["measured: flag"].spectrum[1]: -0.384 vs"#), "{}", o.mismatches[0]);
+        assert!(
+            o.mismatches[0].starts_with(r#"summary.json $.chaos["measured: flag"].spectrum[1]: -0.384 vs"#),
+            "{}",
+            o.mismatches[0]
+        );
         assert!(o.mismatches[0].contains("relative difference 1.000e-9"), "{}", o.mismatches[0]);
         assert!(o.summary().ends_with(", 1 mismatches"));
         cleanup(&[&a, &b]);
@@ -515,8 +537,14 @@ mod tests {
             v["bench_simulate"][1]["ratio_vs_baseline"] = 7.0.into();
             v["stability_chart"]["wall_seconds"] = 99.0.into();
         });
-        write(&b.join("scenes/a.json"), br#"{"scene": "a", "periods_simulated": 300, "wall_seconds": 0.5, "csv": "a.csv"}"#);
-        write(&b.join("index.html"), b"<p>furuta-dt25: 300 periods, max 0.0279 rad, 9,361 periods/s, fit 1.1e-3 ms</p>\n");
+        write(
+            &b.join("scenes/a.json"),
+            br#"{"scene": "a", "periods_simulated": 300, "wall_seconds": 0.5, "csv": "a.csv"}"#,
+        );
+        write(
+            &b.join("index.html"),
+            b"<p>furuta-dt25: 300 periods, max 0.0279 rad, 9,361 periods/s, fit 1.1e-3 ms</p>\n",
+        );
         let o = compare(&a, &b).unwrap();
         assert!(o.mismatches.is_empty(), "{:?}", o.mismatches);
         assert_eq!(o.numbers, 8);
@@ -644,7 +672,10 @@ mod tests {
 
     #[test]
     fn numbers_are_masked() {
-        assert_eq!(mask_numbers("dt30.5: 27362 periods/s, 1.5e-7 s, -0.25, x-1, 5,000-9,000/s, rk4"), "dt#: # periods/s, # s, #, x-#, #-#/s, rk#");
+        assert_eq!(
+            mask_numbers("dt30.5: 27362 periods/s, 1.5e-7 s, -0.25, x-1, 5,000-9,000/s, rk4"),
+            "dt#: # periods/s, # s, #, x-#, #-#/s, rk#"
+        );
         assert_eq!(mask_numbers("3 edges, 2e, v1.2.3, 1E+5"), "# edges, #e, v#.#, #");
     }
 }

@@ -2,8 +2,8 @@
 //! windows, an independent `f64` evaluation of every model's prediction, and the parser of
 //! the firmware's `dt ...` lines (`qemu/src/bin/device_table.rs`).
 
-use shared::ControllerConfig;
 use crate::rng::{Rng, orthonormal_v1};
+use shared::ControllerConfig;
 use shared::model::OwnedModel;
 use std::collections::BTreeMap;
 use std::fmt::Write as _;
@@ -186,7 +186,10 @@ pub fn generate() -> Result<Data, String> {
     let _ = writeln!(s, "/// (K, blob) of the table models, d = {D}, p = {P}, lift order {ORDER}.");
     let _ = writeln!(s, "pub static MODELS: [(usize, &[u8]); {}] = [", CENTRES.len());
     for k in CENTRES {
-        let _ = writeln!(s, "    ({k}, include_bytes!(concat!(env!(\"CARGO_MANIFEST_DIR\"), \"/target-data/dt_k{k}.bin\")) as &[u8]),");
+        let _ = writeln!(
+            s,
+            "    ({k}, include_bytes!(concat!(env!(\"CARGO_MANIFEST_DIR\"), \"/target-data/dt_k{k}.bin\")) as &[u8]),"
+        );
     }
     let _ = writeln!(s, "];");
     let _ = writeln!(s, "pub static WINDOWS: [[u32; {WINDOW}]; {WINDOWS}] = [");
@@ -272,7 +275,8 @@ pub fn parse(text: &str) -> Result<Parsed, String> {
                 } else {
                     key.to_string()
                 };
-                let m = Measure { reps: num(&tokens, "reps")?, ticks: num(&tokens, "ticks")?, base: num(&tokens, "base")? };
+                let m =
+                    Measure { reps: num(&tokens, "reps")?, ticks: num(&tokens, "ticks")?, base: num(&tokens, "base")? };
                 if m.reps == 0 || m.ticks < m.base {
                     return Err(format!("device-table line: implausible measurement {line}"));
                 }
@@ -324,7 +328,9 @@ pub struct Table {
 /// `rel_error = max_w |device_w - ref_w| / max_w |ref_w|` over the input windows, the
 /// device's `predict(HORIZON)` against the host's f64 evaluation of the same model.
 pub fn table(parsed: &Parsed, reference: &[Vec<f64>]) -> Result<Table, String> {
-    let get = |key: &str| parsed.measures.get(key).map(Measure::per_call).ok_or_else(|| format!("device table: no `{key}` measurement"));
+    let get = |key: &str| {
+        parsed.measures.get(key).map(Measure::per_call).ok_or_else(|| format!("device table: no `{key}` measurement"))
+    };
     let calib = get("calib_nops1000")?;
     if (calib - 1000.0).abs() > 2.0 {
         return Err(format!(
@@ -346,7 +352,13 @@ pub fn table(parsed: &Parsed, reference: &[Vec<f64>]) -> Result<Table, String> {
                 err = err.max((f64::from(*got) - r).abs());
                 norm = norm.max(r.abs());
             }
-            rows.push(PredRow { centers: k, sqrt, instructions, per_center: instructions / k as f64, rel_error: err / norm });
+            rows.push(PredRow {
+                centers: k,
+                sqrt,
+                instructions,
+                per_center: instructions / k as f64,
+                rel_error: err / norm,
+            });
         }
     }
     let mut scalar = Vec::new();
@@ -364,7 +376,13 @@ pub fn table(parsed: &Parsed, reference: &[Vec<f64>]) -> Result<Table, String> {
                 err = err.max((got - r).abs());
                 norm = norm.max(r.abs());
             }
-            scalar.push(ScalarRow { centers: k, scalar: s, instructions, per_center: instructions / k as f64, rel_error: err / norm });
+            scalar.push(ScalarRow {
+                centers: k,
+                scalar: s,
+                instructions,
+                per_center: instructions / k as f64,
+                rel_error: err / norm,
+            });
         }
     }
     Ok(Table {
@@ -392,13 +410,19 @@ pub fn check(t: &Table) -> Result<(), String> {
     for r in &t.predictor {
         let bound = if r.sqrt == "fast" { REL_ERROR_FAST } else { REL_ERROR_EXACT };
         if !(r.rel_error <= bound && r.instructions.is_finite() && r.instructions > 0.0) {
-            return Err(format!("K = {} {}: rel_error {:e} (bound {bound:e}), {} instructions", r.centers, r.sqrt, r.rel_error, r.instructions));
+            return Err(format!(
+                "K = {} {}: rel_error {:e} (bound {bound:e}), {} instructions",
+                r.centers, r.sqrt, r.rel_error, r.instructions
+            ));
         }
     }
     for r in &t.scalar {
         let bound = if r.scalar == "f64" { REL_ERROR_F64 } else { REL_ERROR_EXACT };
         if !(r.rel_error <= bound && r.instructions.is_finite() && r.instructions > 0.0) {
-            return Err(format!("generic kernel K = {} {}: rel_error {:e} (bound {bound:e}), {} instructions", r.centers, r.scalar, r.rel_error, r.instructions));
+            return Err(format!(
+                "generic kernel K = {} {}: rel_error {:e} (bound {bound:e}), {} instructions",
+                r.centers, r.scalar, r.rel_error, r.instructions
+            ));
         }
     }
     if t.scalar.len() != GENERIC_CENTRES.len() * SCALARS.len() {
@@ -424,7 +448,8 @@ mod tests {
     fn monomial_enumeration_matches_documented_order() {
         // d = 2, order 3: eta0^2, eta0 eta1, eta1^2, eta0^3, eta0^2 eta1, eta0 eta1^2, eta1^3.
         let m = reference::monomials(2, 3);
-        let want: Vec<Vec<usize>> = vec![vec![0, 0], vec![0, 1], vec![1, 1], vec![0, 0, 0], vec![0, 0, 1], vec![0, 1, 1], vec![1, 1, 1]];
+        let want: Vec<Vec<usize>> =
+            vec![vec![0, 0], vec![0, 1], vec![1, 1], vec![0, 0, 0], vec![0, 0, 1], vec![0, 1, 1], vec![1, 1, 1]];
         assert_eq!(m, want);
         assert_eq!(reference::monomials(D, ORDER).len(), shared::model::lift_terms(D, ORDER).unwrap());
     }

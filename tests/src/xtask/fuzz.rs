@@ -17,7 +17,11 @@ pub fn fuzz(args: &[String]) -> Result<()> {
     while let Some(a) = it.next() {
         match a.as_str() {
             "--seconds" => {
-                seconds = it.next().and_then(|v| v.parse().ok()).filter(|&s| s >= 1).ok_or("fuzz: --seconds needs a number of seconds >= 1")?;
+                seconds = it
+                    .next()
+                    .and_then(|v| v.parse().ok())
+                    .filter(|&s| s >= 1)
+                    .ok_or("fuzz: --seconds needs a number of seconds >= 1")?;
             }
             t if TARGETS.contains(&t) => targets.push(t),
             other => return Err(format!("fuzz: unknown argument `{other}` (targets: {})", TARGETS.join(", "))),

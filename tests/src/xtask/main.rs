@@ -56,9 +56,9 @@ mod child;
 mod compare_report;
 mod device_table;
 mod elf;
-mod python;
 mod files;
 mod fuzz;
+mod python;
 mod rng;
 mod slurm;
 mod traces;
@@ -185,7 +185,8 @@ fn main() -> ExitCode {
 fn cmd(program: impl AsRef<std::ffi::OsStr>) -> Command {
     let mut c = Command::new(program);
     child::tie(&mut c);
-    for var in ["CARGO_TARGET_DIR", "RUSTFLAGS", "CARGO_ENCODED_RUSTFLAGS", "CARGO_BUILD_TARGET", "CARGO_MANIFEST_DIR"] {
+    for var in ["CARGO_TARGET_DIR", "RUSTFLAGS", "CARGO_ENCODED_RUSTFLAGS", "CARGO_BUILD_TARGET", "CARGO_MANIFEST_DIR"]
+    {
         c.env_remove(var);
     }
     c
@@ -213,11 +214,7 @@ fn install() -> Result<()> {
     } else {
         let root = output(cmd("id").arg("-u")).is_some_and(|u| u.trim() == "0");
         let apt = |args: &[&str]| {
-            if root {
-                run(cmd("apt-get").args(args))
-            } else {
-                run(cmd("sudo").arg("apt-get").args(args))
-            }
+            if root { run(cmd("apt-get").args(args)) } else { run(cmd("sudo").arg("apt-get").args(args)) }
         };
         apt(&["update"])?;
         apt(&["install", "-y", "qemu-system-arm"])?;
@@ -284,25 +281,33 @@ fn build_firmware(board: Board) -> Result<PathBuf> {
 
 /// Runs `elf` under QEMU as `board`'s machine with `extra` arguments, output into `log`;
 /// `None` on timeout. Returns the exit status and the output.
-fn run_qemu(elf: &Path, board: Board, extra: &[&str], log: &str, timeout: Duration) -> Result<(Option<std::process::ExitStatus>, String)> {
+fn run_qemu(
+    elf: &Path,
+    board: Board,
+    extra: &[&str],
+    log: &str,
+    timeout: Duration,
+) -> Result<(Option<std::process::ExitStatus>, String)> {
     let start = Instant::now();
     let log = qemu_dir().join("target").join(log);
     if let Some(dir) = log.parent() {
         std::fs::create_dir_all(dir).map_err(|e| format!("{}: {e}", dir.display()))?;
     }
     let log_file = std::fs::File::create(&log).map_err(|e| format!("{}: {e}", log.display()))?;
-    let mut child = child::Tied(cmd("qemu-system-arm")
-        .args(board.machine())
-        .arg("-nographic")
-        .args(["-semihosting-config", "enable=on,target=native"])
-        .args(extra)
-        .arg("-kernel")
-        .arg(elf)
-        .stdin(Stdio::null())
-        .stdout(log_file.try_clone().map_err(|e| e.to_string())?)
-        .stderr(log_file)
-        .spawn()
-        .map_err(|e| format!("cannot start qemu-system-arm (run `cargo xtask install`): {e}"))?);
+    let mut child = child::Tied(
+        cmd("qemu-system-arm")
+            .args(board.machine())
+            .arg("-nographic")
+            .args(["-semihosting-config", "enable=on,target=native"])
+            .args(extra)
+            .arg("-kernel")
+            .arg(elf)
+            .stdin(Stdio::null())
+            .stdout(log_file.try_clone().map_err(|e| e.to_string())?)
+            .stderr(log_file)
+            .spawn()
+            .map_err(|e| format!("cannot start qemu-system-arm (run `cargo xtask install`): {e}"))?,
+    );
     // Any return from here kills and reaps QEMU (`Tied`); a timeout does it explicitly.
     let status = loop {
         if let Some(s) = child.0.try_wait().map_err(|e| e.to_string())? {
@@ -339,12 +344,19 @@ fn qemu_test(board: Board) -> Result<TargetResult> {
     }
     let secs = start.elapsed().as_secs_f64();
     match status {
-        None => Err(format!("QEMU timed out after {}s ({} passed, {} failed so far)", QEMU_TIMEOUT.as_secs(), r.passed, r.failed)),
+        None => Err(format!(
+            "QEMU timed out after {}s ({} passed, {} failed so far)",
+            QEMU_TIMEOUT.as_secs(),
+            r.passed,
+            r.failed
+        )),
         Some(s) if s.success() && r.failed == 0 && r.passed > 0 => {
             println!("qemu-test: PASS on {} ({} passed, 0 failed, {secs:.1} s in QEMU)", board.name(), r.passed);
             Ok(r)
         }
-        Some(s) => Err(format!("qemu-test: FAIL on {} (exit {s}, {} passed, {} failed)", board.name(), r.passed, r.failed)),
+        Some(s) => {
+            Err(format!("qemu-test: FAIL on {} (exit {s}, {} passed, {} failed)", board.name(), r.passed, r.failed))
+        }
     }
 }
 
@@ -355,7 +367,8 @@ fn device_table_run() -> Result<(device_table::Table, elf::Sizes)> {
     let firmware = build_firmware(Board::Mps2An386)?;
     let elf_path = firmware.with_file_name("device_table");
     let start = Instant::now();
-    let (status, text) = run_qemu(&elf_path, Board::Mps2An386, &["-icount", "shift=7"], "device-table.log", QEMU_TIMEOUT)?;
+    let (status, text) =
+        run_qemu(&elf_path, Board::Mps2An386, &["-icount", "shift=7"], "device-table.log", QEMU_TIMEOUT)?;
     match status {
         None => return Err(format!("device-table: QEMU timed out after {}s", QEMU_TIMEOUT.as_secs())),
         Some(s) if !s.success() => return Err(format!("device-table: firmware exited with {s}:\n{text}")),
@@ -405,19 +418,36 @@ fn device_table_json(t: &device_table::Table, s: &elf::Sizes) -> serde_json::Val
 }
 
 fn print_table(t: &device_table::Table, s: &elf::Sizes) {
-    println!("device-table: instructions per call (QEMU -icount shift=7, SysTick; 1,000 nops measure {:.1})", t.calib_nops1000);
+    println!(
+        "device-table: instructions per call (QEMU -icount shift=7, SysTick; 1,000 nops measure {:.1})",
+        t.calib_nops1000
+    );
     println!("  IntPd step            {:8.1}", t.ctrl_int);
     println!("  FloatPd<f32> step     {:8.1}", t.ctrl_f32);
     println!("  FloatPd<f64> step     {:8.1}", t.ctrl_f64);
     println!("  predictor project     {:8.1}  (p = {}, d = {})", t.project, device_table::P, device_table::D);
     println!("  predictor lift        {:8.1}  (lift order {})", t.lift, device_table::ORDER);
-    println!("  predictor step (d = {}):   K  sqrt       instructions  per centre  rel_error (predict({}))", device_table::D, device_table::HORIZON);
+    println!(
+        "  predictor step (d = {}):   K  sqrt       instructions  per centre  rel_error (predict({}))",
+        device_table::D,
+        device_table::HORIZON
+    );
     for r in &t.predictor {
-        println!("  {:>28} {:<10} {:>12.1} {:>11.2}  {:.2e}", r.centers, r.sqrt, r.instructions, r.per_center, r.rel_error);
+        println!(
+            "  {:>28} {:<10} {:>12.1} {:>11.2}  {:.2e}",
+            r.centers, r.sqrt, r.instructions, r.per_center, r.rel_error
+        );
     }
-    println!("  RBF step, generic kernel (d = {}, vsqrt.f32 / libm::sqrt): K  scalar  instructions  per centre  rel_error (predict({}))", device_table::D, device_table::HORIZON);
+    println!(
+        "  RBF step, generic kernel (d = {}, vsqrt.f32 / libm::sqrt): K  scalar  instructions  per centre  rel_error (predict({}))",
+        device_table::D,
+        device_table::HORIZON
+    );
     for r in &t.scalar {
-        println!("  {:>45} {:<7} {:>12.1} {:>11.2}  {:.2e}", r.centers, r.scalar, r.instructions, r.per_center, r.rel_error);
+        println!(
+            "  {:>45} {:<7} {:>12.1} {:>11.2}  {:.2e}",
+            r.centers, r.scalar, r.instructions, r.per_center, r.rel_error
+        );
     }
     println!("  device_table binary: flash {} B, static RAM {} B", s.flash, s.ram);
 }
@@ -553,10 +583,18 @@ struct PilRun<'a> {
 /// (`fresh`: never reused).
 fn ssmctl_pil(tools: &PilTools, r: &PilRun<'_>, fresh: bool) -> Result<(serde_json::Value, bool)> {
     let (elf, host) = (tools.elf.as_path(), tools.host.as_path());
-    let model_bytes = if r.fit { Vec::new() } else { std::fs::read(&r.model).map_err(|e| format!("{}: {e}", r.model.display()))? };
+    let model_bytes =
+        if r.fit { Vec::new() } else { std::fs::read(&r.model).map_err(|e| format!("{}: {e}", r.model.display()))? };
     let periods_arg = r.periods.to_string();
     let set = r.set.join("\n");
-    let key = cache::key(&[tools.fingerprint.as_bytes(), r.scene.as_bytes(), set.as_bytes(), periods_arg.as_bytes(), &[u8::from(r.fit)], &model_bytes]);
+    let key = cache::key(&[
+        tools.fingerprint.as_bytes(),
+        r.scene.as_bytes(),
+        set.as_bytes(),
+        periods_arg.as_bytes(),
+        &[u8::from(r.fit)],
+        &model_bytes,
+    ]);
     let summary = |out: &Path| -> Result<serde_json::Value> {
         let path = out.join("summary.json");
         let text = std::fs::read_to_string(&path).map_err(|e| format!("{}: {e}", path.display()))?;
@@ -616,7 +654,10 @@ fn pil_stm32(scene: &str, periods: u64) -> Result<serde_json::Value> {
     let model = qemu_dir().join("target").join("pil").join("model.bin");
     let run = PilRun { scene, set: Vec::new(), model, fit: false, periods, out: out.clone() };
     let (v, _) = ssmctl_pil(&tools, &run, true)?;
-    println!("pil: PASS on netduinoplus2 (the STM32F407 image over USART1: {periods} periods of {scene}, codes and predictions identical to the host's; {})", out.display());
+    println!(
+        "pil: PASS on netduinoplus2 (the STM32F407 image over USART1: {periods} periods of {scene}, codes and predictions identical to the host's; {})",
+        out.display()
+    );
     Ok(v)
 }
 
@@ -656,7 +697,14 @@ struct RecordArgs {
 }
 
 fn record_args(rest: &[String]) -> Result<RecordArgs> {
-    let mut r = RecordArgs { out: PathBuf::new(), runs: 3, periods: 20_000, scene: PIL_SCENE.to_string(), seed: 1, fresh: false };
+    let mut r = RecordArgs {
+        out: PathBuf::new(),
+        runs: 3,
+        periods: 20_000,
+        scene: PIL_SCENE.to_string(),
+        seed: 1,
+        fresh: false,
+    };
     let mut out = None;
     let mut it = rest.iter();
     while let Some(a) = it.next() {
@@ -666,7 +714,10 @@ fn record_args(rest: &[String]) -> Result<RecordArgs> {
             "--out" => out = Some(PathBuf::from(value("--out")?)),
             "--runs" => {
                 let v = int("--runs", value("--runs")?)?;
-                r.runs = u32::try_from(v).ok().filter(|&n| (1..=100).contains(&n)).ok_or(format!("pil-record: --runs {v}: between 1 and 100"))?;
+                r.runs = u32::try_from(v)
+                    .ok()
+                    .filter(|&n| (1..=100).contains(&n))
+                    .ok_or(format!("pil-record: --runs {v}: between 1 and 100"))?;
             }
             "--periods" => {
                 r.periods = int("--periods", value("--periods")?)?;
@@ -677,7 +728,11 @@ fn record_args(rest: &[String]) -> Result<RecordArgs> {
             "--scene" => r.scene = value("--scene")?,
             "--seed" => r.seed = int("--seed", value("--seed")?)?,
             "--fresh" => r.fresh = true,
-            other => return Err(format!("pil-record: unknown option `{other}` (expected --out DIR, --runs N, --periods P, --scene NAME, --seed S, --fresh)")),
+            other => {
+                return Err(format!(
+                    "pil-record: unknown option `{other}` (expected --out DIR, --runs N, --periods P, --scene NAME, --seed S, --fresh)"
+                ));
+            }
         }
     }
     r.out = out.ok_or("pil-record: --out DIR is required")?;
@@ -705,7 +760,14 @@ fn pil_record(a: &RecordArgs) -> Result<bool> {
         let seed = a.seed.checked_add(u64::from(r - 1)).ok_or("pil-record: seed overflows")?;
         let theta0 = record_theta0(r);
         let set = vec![format!("effects.noise.seed={seed}"), format!("initial.state=[{theta0},0.0,0.0,0.0]")];
-        let run = PilRun { scene: &a.scene, set, model: model.clone(), fit: r == 1, periods: a.periods, out: a.out.join(format!("run{r}")) };
+        let run = PilRun {
+            scene: &a.scene,
+            set,
+            model: model.clone(),
+            fit: r == 1,
+            periods: a.periods,
+            out: a.out.join(format!("run{r}")),
+        };
         specs.push((r, seed, theta0, run));
     }
     let one = |(r, seed, theta0, run): &(u32, u64, f64, PilRun<'_>)| -> Result<serde_json::Value> {
@@ -716,7 +778,11 @@ fn pil_record(a: &RecordArgs) -> Result<bool> {
             "pil-record: run {r}/{}: seed {seed}, theta0 {theta0} rad, {} periods {}, identical to the host-only simulation; {}",
             a.runs,
             a.periods,
-            if cached { "reused (same fingerprint)".to_string() } else { format!("in {secs:.1} s ({:.0} periods/s)", v["periods_per_s"].as_f64().unwrap_or(0.0)) },
+            if cached {
+                "reused (same fingerprint)".to_string()
+            } else {
+                format!("in {secs:.1} s ({:.0} periods/s)", v["periods_per_s"].as_f64().unwrap_or(0.0))
+            },
             run.out.join("theta.csv").display()
         );
         Ok(serde_json::json!({
@@ -725,13 +791,21 @@ fn pil_record(a: &RecordArgs) -> Result<bool> {
         }))
     };
     let mut runs = vec![one(&specs[0])?];
-    let rest: Vec<Result<serde_json::Value>> =
-        std::thread::scope(|s| specs[1..].iter().map(|spec| s.spawn(|| one(spec))).collect::<Vec<_>>().into_iter().map(|h| h.join().unwrap_or_else(|_| Err("pil-record: a run's thread panicked".into()))).collect());
+    let rest: Vec<Result<serde_json::Value>> = std::thread::scope(|s| {
+        specs[1..]
+            .iter()
+            .map(|spec| s.spawn(|| one(spec)))
+            .collect::<Vec<_>>()
+            .into_iter()
+            .map(|h| h.join().unwrap_or_else(|_| Err("pil-record: a run's thread panicked".into())))
+            .collect()
+    });
     for r in rest {
         runs.push(r?);
     }
     let total = start.elapsed().as_secs_f64();
-    let index = serde_json::json!({ "scene": a.scene, "model": "model.bin", "runs": runs, "total_wall_seconds": total });
+    let index =
+        serde_json::json!({ "scene": a.scene, "model": "model.bin", "runs": runs, "total_wall_seconds": total });
     let path = a.out.join("runs.json");
     let text = serde_json::to_string_pretty(&index).map_err(|e| e.to_string())?;
     files::write_atomic(&path, text.as_bytes())?;
@@ -754,7 +828,9 @@ fn pil_check(v: &serde_json::Value, periods: u64) -> Result<()> {
     if v["predictions_compared"].as_u64().unwrap_or(0) == 0 {
         return Err("pil: no prediction was compared (window never filled)".into());
     }
-    if v["host_sim_codes_identical"] != serde_json::Value::Bool(true) || v["host_sim_max_state_diff"].as_f64() != Some(0.0) {
+    if v["host_sim_codes_identical"] != serde_json::Value::Bool(true)
+        || v["host_sim_max_state_diff"].as_f64() != Some(0.0)
+    {
         return Err(format!(
             "pil: the run differs from the host-only simulation of the scene (first period {}, max state difference {})",
             v["host_sim_first_mismatch"], v["host_sim_max_state_diff"]
@@ -820,7 +896,8 @@ fn clippy_lints() -> Result<()> {
     }
     // Only the policy's lints (denied in the crates); the style lints stay a local matter.
     c.args(["--", "-A", "clippy::all"]);
-    run(&mut c).map_err(|e| format!("clippy (unwrap/expect/panic/indexing policy of {}): {e}", LINTED_CRATES.join(", ")))?;
+    run(&mut c)
+        .map_err(|e| format!("clippy (unwrap/expect/panic/indexing policy of {}): {e}", LINTED_CRATES.join(", ")))?;
     println!("clippy: lint policy holds in {}", LINTED_CRATES.join(", "));
     Ok(())
 }
@@ -922,7 +999,10 @@ mod tests {
     #[test]
     fn pil_record_options() {
         let r = record_args(&args(&["--out", "d", "--runs", "2", "--periods", "500", "--seed", "7"])).unwrap();
-        assert_eq!(r, RecordArgs { out: "d".into(), runs: 2, periods: 500, scene: PIL_SCENE.into(), seed: 7, fresh: false });
+        assert_eq!(
+            r,
+            RecordArgs { out: "d".into(), runs: 2, periods: 500, scene: PIL_SCENE.into(), seed: 7, fresh: false }
+        );
         let d = record_args(&args(&["--out", "x"])).unwrap();
         assert_eq!((d.runs, d.periods, d.seed), (3, 20_000, 1));
         for (bad, says) in [

@@ -37,12 +37,24 @@ pub fn python_test() -> Result<()> {
         run(cmd(&py).args(["-m", "pip", "install", "-q", "--disable-pip-version-check"]).args(NEEDS))?;
     }
     // The build backend runs `maturin` by name: the venv's bin first, as activation does.
-    let path = std::env::join_paths(std::iter::once(bin.clone()).chain(std::env::split_paths(&std::env::var_os("PATH").unwrap_or_default())))
-        .map_err(|e| format!("PATH: {e}"))?;
+    let path = std::env::join_paths(
+        std::iter::once(bin.clone()).chain(std::env::split_paths(&std::env::var_os("PATH").unwrap_or_default())),
+    )
+    .map_err(|e| format!("PATH: {e}"))?;
     let t_build = Instant::now();
     run(cmd(&py)
         .current_dir(root())
-        .args(["-m", "pip", "install", "-q", "--disable-pip-version-check", "--no-build-isolation", "--no-deps", "--force-reinstall", "./host/python"])
+        .args([
+            "-m",
+            "pip",
+            "install",
+            "-q",
+            "--disable-pip-version-check",
+            "--no-build-isolation",
+            "--no-deps",
+            "--force-reinstall",
+            "./host/python",
+        ])
         .env("PATH", &path)
         .env("MATURIN_PEP517_ARGS", "--profile dev"))?;
     let build_s = t_build.elapsed().as_secs_f64();

@@ -36,7 +36,13 @@ pub fn install() -> Result<()> {
     }
     let is_root = output(cmd("id").arg("-u")).is_some_and(|u| u.trim() == "0");
     let apt = |args: &[&str]| {
-        let mut c = if is_root { cmd("apt-get") } else { let mut c = cmd("sudo"); c.arg("apt-get"); c };
+        let mut c = if is_root {
+            cmd("apt-get")
+        } else {
+            let mut c = cmd("sudo");
+            c.arg("apt-get");
+            c
+        };
         c.env("DEBIAN_FRONTEND", "noninteractive").args(args);
         run(&mut c)
     };
@@ -62,16 +68,24 @@ impl Cluster {
         let key = munge.join("munge.key");
         let mut bytes = vec![0u8; 1024];
         use std::io::Read as _;
-        std::fs::File::open("/dev/urandom").and_then(|mut f| f.read_exact(&mut bytes)).map_err(|e| format!("munge key: {e}"))?;
+        std::fs::File::open("/dev/urandom")
+            .and_then(|mut f| f.read_exact(&mut bytes))
+            .map_err(|e| format!("munge key: {e}"))?;
         std::fs::write(&key, &bytes).map_err(|e| format!("{}: {e}", key.display()))?;
         #[cfg(unix)]
         {
             use std::os::unix::fs::PermissionsExt;
-            let set = |p: &Path, m: u32| std::fs::set_permissions(p, std::fs::Permissions::from_mode(m)).map_err(|e| format!("{}: {e}", p.display()));
+            let set = |p: &Path, m: u32| {
+                std::fs::set_permissions(p, std::fs::Permissions::from_mode(m))
+                    .map_err(|e| format!("{}: {e}", p.display()))
+            };
             set(&key, 0o600)?;
             set(&munge, 0o755)?;
         }
-        let host = output(cmd("hostname").arg("-s")).map(|h| h.trim().to_string()).filter(|h| !h.is_empty()).ok_or("slurm-test: `hostname -s` gave nothing")?;
+        let host = output(cmd("hostname").arg("-s"))
+            .map(|h| h.trim().to_string())
+            .filter(|h| !h.is_empty())
+            .ok_or("slurm-test: `hostname -s` gave nothing")?;
         let cpus = std::thread::available_parallelism().map_or(1, |n| n.get());
         let d = |s: &str| dir.join(s).display().to_string();
         let conf_text = format!(
@@ -96,7 +110,8 @@ impl Cluster {
         let conf = dir.join("slurm.conf");
         std::fs::write(&conf, conf_text).map_err(|e| format!("{}: {e}", conf.display()))?;
         let mut cluster = Cluster { dir: dir.clone(), conf: conf.clone(), children: Vec::new() };
-        let log = |name: &str| std::fs::File::create(dir.join("log").join(name)).map_err(|e| format!("log {name}: {e}"));
+        let log =
+            |name: &str| std::fs::File::create(dir.join("log").join(name)).map_err(|e| format!("log {name}: {e}"));
         let munged = cmd("munged")
             .args(["-F", "-f"])
             .arg(format!("--key-file={}", key.display()))
@@ -123,7 +138,11 @@ impl Cluster {
             cluster.children.push((name, child));
         }
         cluster.wait_for("the node to be idle", Duration::from_secs(60), |c| {
-            c.slurm("sinfo").args(["-h", "-o", "%T"]).output().ok().is_some_and(|o| String::from_utf8_lossy(&o.stdout).trim() == "idle")
+            c.slurm("sinfo")
+                .args(["-h", "-o", "%T"])
+                .output()
+                .ok()
+                .is_some_and(|o| String::from_utf8_lossy(&o.stdout).trim() == "idle")
         })?;
         Ok(cluster)
     }
@@ -147,11 +166,17 @@ impl Cluster {
             }
             for (name, child) in &mut self.children {
                 if let Ok(Some(status)) = child.try_wait() {
-                    return Err(format!("slurm-test: {name} exited ({status}) while waiting for {what}\n{}", self_logs(&self.dir)));
+                    return Err(format!(
+                        "slurm-test: {name} exited ({status}) while waiting for {what}\n{}",
+                        self_logs(&self.dir)
+                    ));
                 }
             }
             if t0.elapsed() > limit {
-                return Err(format!("slurm-test: timed out after {limit:?} waiting for {what}\n{}", self_logs(&self.dir)));
+                return Err(format!(
+                    "slurm-test: timed out after {limit:?} waiting for {what}\n{}",
+                    self_logs(&self.dir)
+                ));
             }
             std::thread::sleep(Duration::from_millis(200));
         }
@@ -201,7 +226,10 @@ fn ssmctl_release() -> Result<PathBuf> {
 fn states(cluster: &Cluster, id: &str) -> Result<Vec<String>> {
     let o = cluster.slurm("scontrol").args(["show", "job", "-o", id]).output().map_err(|e| format!("scontrol: {e}"))?;
     let text = String::from_utf8_lossy(&o.stdout);
-    Ok(text.lines().filter_map(|l| l.split_whitespace().find_map(|w| w.strip_prefix("JobState=")).map(str::to_string)).collect())
+    Ok(text
+        .lines()
+        .filter_map(|l| l.split_whitespace().find_map(|w| w.strip_prefix("JobState=")).map(str::to_string))
+        .collect())
 }
 
 fn same_result(a: &Path, b: &Path, name: &str) -> Result<()> {
@@ -209,7 +237,11 @@ fn same_result(a: &Path, b: &Path, name: &str) -> Result<()> {
         let f = format!("{name}.{ext}");
         let read = |d: &Path| std::fs::read(d.join(&f)).map_err(|e| format!("{}: {e}", d.join(&f).display()));
         if read(a)? != read(b)? {
-            return Err(format!("slurm-test: {f} of the Slurm run ({}) differs from the local run ({})", a.display(), b.display()));
+            return Err(format!(
+                "slurm-test: {f} of the Slurm run ({}) differs from the local run ({})",
+                a.display(),
+                b.display()
+            ));
         }
     }
     Ok(())
@@ -256,15 +288,33 @@ pub fn slurm_test(ssmctl: Option<PathBuf>) -> Result<()> {
     for (spec, _) in SPECS {
         let name = Path::new(spec).file_stem().and_then(|s| s.to_str()).unwrap_or("sweep");
         let shards = local.join(name);
-        run(cmd(ssmctl.to_str().unwrap_or("ssmctl")).args(["--quiet", "sweep"]).arg(root().join(spec)).arg("--out").arg(&shards).env_remove("SLURM_ARRAY_TASK_ID").env_remove("JOB_COMPLETION_INDEX"))?;
-        run(cmd(ssmctl.to_str().unwrap_or("ssmctl")).args(["--quiet", "sweep-merge"]).arg(&shards).arg("--out").arg(local.join(format!("{name}-merged"))).stdout(Stdio::null()))?;
+        run(cmd(ssmctl.to_str().unwrap_or("ssmctl"))
+            .args(["--quiet", "sweep"])
+            .arg(root().join(spec))
+            .arg("--out")
+            .arg(&shards)
+            .env_remove("SLURM_ARRAY_TASK_ID")
+            .env_remove("JOB_COMPLETION_INDEX"))?;
+        run(cmd(ssmctl.to_str().unwrap_or("ssmctl"))
+            .args(["--quiet", "sweep-merge"])
+            .arg(&shards)
+            .arg("--out")
+            .arg(local.join(format!("{name}-merged")))
+            .stdout(Stdio::null()))?;
     }
     let t_wait = Instant::now();
     for (name, id, n, _) in &jobs {
         loop {
             let s = states(&cluster, id)?;
-            if let Some(bad) = s.iter().find(|s| ["FAILED", "CANCELLED", "TIMEOUT", "NODE_FAIL", "OUT_OF_MEMORY", "BOOT_FAIL", "DEADLINE"].contains(&s.as_str())) {
-                return Err(format!("slurm-test: a task of {name} (job {id}) ended {bad}; see {}\n{}", cluster.dir.join("jobs").display(), self_logs(&cluster.dir)));
+            if let Some(bad) = s.iter().find(|s| {
+                ["FAILED", "CANCELLED", "TIMEOUT", "NODE_FAIL", "OUT_OF_MEMORY", "BOOT_FAIL", "DEADLINE"]
+                    .contains(&s.as_str())
+            }) {
+                return Err(format!(
+                    "slurm-test: a task of {name} (job {id}) ended {bad}; see {}\n{}",
+                    cluster.dir.join("jobs").display(),
+                    self_logs(&cluster.dir)
+                ));
             }
             if s.len() == *n as usize && s.iter().all(|s| s == "COMPLETED") {
                 break;
@@ -278,9 +328,16 @@ pub fn slurm_test(ssmctl: Option<PathBuf>) -> Result<()> {
     let t_jobs = t0.elapsed();
     for (name, id, n, shards) in &jobs {
         let merged = cluster.dir.join("jobs").join(format!("{name}-merged"));
-        run(cmd(ssmctl.to_str().unwrap_or("ssmctl")).args(["--quiet", "sweep-merge"]).arg(shards).arg("--out").arg(&merged).stdout(Stdio::null()))?;
+        run(cmd(ssmctl.to_str().unwrap_or("ssmctl"))
+            .args(["--quiet", "sweep-merge"])
+            .arg(shards)
+            .arg("--out")
+            .arg(&merged)
+            .stdout(Stdio::null()))?;
         same_result(&merged, &local.join(format!("{name}-merged")), name)?;
-        println!("slurm-test: {name}: {n} array tasks of job {id} merged; equal to the local run bit for bit (json, csv, png)");
+        println!(
+            "slurm-test: {name}: {n} array tasks of job {id} merged; equal to the local run bit for bit (json, csv, png)"
+        );
     }
     drop(cluster);
     println!(

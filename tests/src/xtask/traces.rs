@@ -33,7 +33,12 @@ pub fn paper_counts(ki: f64, delay: u32, u_max: Option<f64>) -> ControllerConfig
         dt: 0.025,
         delay,
         u_max,
-        quant: Some(Quantization { mode: QuantMode::Counts, h_adc: PI / 1000.0, h_adc_phi: PI / 1000.0, h_dac: 10.0 / 2048.0 }),
+        quant: Some(Quantization {
+            mode: QuantMode::Counts,
+            h_adc: PI / 1000.0,
+            h_adc_phi: PI / 1000.0,
+            h_dac: 10.0 / 2048.0,
+        }),
     }
 }
 
@@ -178,7 +183,10 @@ pub fn generate() -> Result<Generated, String> {
             t.code_max
         ));
     }
-    let _ = writeln!(s, "/// One configuration: the host's Q16 gains [p, d, z, i], DAC range, codes and saturation bitmap (bit j%32 of word j/32).");
+    let _ = writeln!(
+        s,
+        "/// One configuration: the host's Q16 gains [p, d, z, i], DAC range, codes and saturation bitmap (bit j%32 of word j/32)."
+    );
     let _ = writeln!(
         s,
         "pub struct TraceCase {{ pub name: &'static str, pub config: shared::ControllerConfig, pub gains: [i64; 4], pub code_max: i32, pub codes: &'static [i32; {n}], pub saturated: &'static [u32] }}"
@@ -205,7 +213,14 @@ mod tests {
             check_live(case.name, &t).unwrap();
             let r = case.config.delay as usize;
             let [p, d, z, i] = t.gains.map(i128::from);
-            let at = |j: isize| if j < 0 { (0i128, 0i128) } else { let (a, b) = input[j as usize]; (a as i128, b as i128) };
+            let at = |j: isize| {
+                if j < 0 {
+                    (0i128, 0i128)
+                } else {
+                    let (a, b) = input[j as usize];
+                    (a as i128, b as i128)
+                }
+            };
             let mut s = 0i128;
             for (j, (&code, &sat)) in t.codes.iter().zip(&t.saturated).enumerate() {
                 let (y0, z0) = at(j as isize - r as isize);
@@ -226,7 +241,15 @@ mod tests {
         let t = run(&paper_counts(0.5, 1, Some(10.0)), &[]).unwrap();
         let per = |g: f64| (g * 65536.0).round() as i64;
         let (h_adc, h_dac, dt) = (PI / 1000.0, 10.0 / 2048.0, 0.025);
-        assert_eq!(t.gains, [per(15.5 * h_adc / h_dac), per(5.45 * h_adc / dt / h_dac), per(1.5 * h_adc / dt / h_dac), per(0.5 * dt * h_adc / h_dac)]);
+        assert_eq!(
+            t.gains,
+            [
+                per(15.5 * h_adc / h_dac),
+                per(5.45 * h_adc / dt / h_dac),
+                per(1.5 * h_adc / dt / h_dac),
+                per(0.5 * dt * h_adc / h_dac)
+            ]
+        );
         assert_eq!(t.code_max, 2048);
     }
 }

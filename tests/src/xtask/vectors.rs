@@ -2,9 +2,9 @@
 //! samples and the predictor outputs the device must reproduce bit for bit, computed here
 //! with the same `controller::predictor` code.
 
+use crate::rng::{Rng, orthonormal_v1};
 use controller::predictor::{Predictor, SqrtFlavour};
 use shared::ControllerConfig;
-use crate::rng::{Rng, orthonormal_v1};
 use shared::model::{Model, OwnedModel};
 use std::fmt::Write as _;
 
@@ -127,7 +127,8 @@ pub fn generate() -> Result<Vectors, String> {
     let _ = writeln!(s, "pub const HORIZON: u32 = {HORIZON};");
     let _ = writeln!(s, "pub const CORRUPT_CASES: u32 = {CORRUPT_CASES};");
     let _ = writeln!(s, "pub static INPUTS: [u32; {}] = [{}];", input.len(), bits_list(&input));
-    let _ = writeln!(s, "/// predict(HORIZON) after each push once the window is full; per flavour Libm, Fast, Hardware.");
+    let _ =
+        writeln!(s, "/// predict(HORIZON) after each push once the window is full; per flavour Libm, Fast, Hardware.");
     let _ = writeln!(s, "pub static ROLLING: [[u32; {rolling_len}]; 3] = [");
     for r in &rolling {
         let _ = writeln!(s, "    [{}],", bits_list(r));

@@ -5,7 +5,8 @@ use crate::model_selection::{EvalSettings, data_stats};
 /// the data are there).
 #[test]
 fn flag_sampling_constants_match_the_data() {
-    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared/data/inverted_flag_chaotic/traj_8.csv");
+    let path =
+        std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared/data/inverted_flag_chaotic/traj_8.csv");
     if !path.is_file() {
         println!("inverted-flag data not found at {}: skipped", path.display());
         return;
@@ -34,7 +35,8 @@ fn calibration_on_known_answers_sampled_like_the_flag() {
     let get = |sys: &str, noisy: bool| rows.iter().find(|r| r.system == sys && (r.noise_rel > 0.0) == noisy).unwrap();
     // Exact side: Rössler 0.0714, Lorenz 0.906, hyperchaotic Rössler 0.112 (literature);
     // measured 0.0710 +- 0.0051, 0.881 +- 0.030, 0.112 +- 0.005.
-    for (sys, lit, tol) in [("Rössler", 0.0714, 0.005), ("Lorenz", 0.906, 0.04), ("hyperchaotic Rössler", 0.112, 0.01)] {
+    for (sys, lit, tol) in [("Rössler", 0.0714, 0.005), ("Lorenz", 0.906, 0.04), ("hyperchaotic Rössler", 0.112, 0.01)]
+    {
         let r = get(sys, false);
         assert!((r.exact - lit).abs() < tol, "{r:?}");
     }

@@ -4,11 +4,11 @@ use super::*;
 use crate::lyapunov::*;
 use crate::microchaos::*;
 use chaos::BenettinParams;
-use ssm::dynamics::ReducedDynamics;
-use ssm::Ridge;
-use ssm::dynamics::EtaTrajectory;
 use chaos::reference::Henon;
 use faer::Mat;
+use ssm::Ridge;
+use ssm::dynamics::EtaTrajectory;
+use ssm::dynamics::ReducedDynamics;
 
 /// Published largest exponent of the Hénon map (a = 1.4, b = 0.3), per iteration.
 const HENON_LAMBDA: f64 = 0.41922;
@@ -69,7 +69,9 @@ fn analytic_jacobians_match_finite_differences() {
     for (kind, order) in [(Dynamics::Rbf { centers: 100 }, 1), (Dynamics::Map, 3)] {
         let dynm = fit_henon(kind, order, 2000);
         let near_centre = |p: &[f64]| match &dynm {
-            ReducedDynamics::Rbf(m) => m.centers.chunks(2).any(|c| (p[0] / m.scale[0] - c[0]).hypot(p[1] / m.scale[1] - c[1]) < 1e-2),
+            ReducedDynamics::Rbf(m) => {
+                m.centers.chunks(2).any(|c| (p[0] / m.scale[0] - c[0]).hypot(p[1] / m.scale[1] - c[1]) < 1e-2)
+            }
             _ => false,
         };
         // Points on the attractor at least 1e-2 (scaled) from every centre: the kernel's
@@ -118,7 +120,10 @@ fn benettin_of_maps_fitted_to_henon() {
     // (d0 = 1e-8, no Jacobian) must agree with the tangent method within 0.01.
     let rbf = fit_henon(Dynamics::Rbf { centers: 200 }, 1, 4000);
     let r = dynamics_lyapunov(&rbf, &start(), 10.0, 1000, 100_000).unwrap();
-    println!("rbf-200 Henon fit: {:.4} +- {:.4}, spectrum {:?}, KY {:?}", r.exponent, r.std_error, r.spectrum, r.kaplan_yorke);
+    println!(
+        "rbf-200 Henon fit: {:.4} +- {:.4}, spectrum {:?}, KY {:?}",
+        r.exponent, r.std_error, r.spectrum, r.kaplan_yorke
+    );
     assert!((r.exponent - HENON_LAMBDA).abs() < 0.03, "{}", r.exponent);
     let mut s = StepScratch::default();
     let two = chaos::benettin_two_trajectory(
@@ -226,21 +231,29 @@ fn quantized_loop_data_diffuse_and_smooth_model_is_a_torus() {
     let r = crate::microchaos::analyse_held_out(&runs[..1], Some(&runs[1]), &o).unwrap();
     let w: Vec<_> = r.growth_windows_data.iter().filter(|g| g.t0 >= 0.45 && g.t1 <= 4.5).collect();
     println!("data LLE {:.3}; windows {:?}", r.lle_data, r.growth_windows_data);
-    println!("Benettin poly {:?}\nBenettin rbf {:?}", r.benettin_poly.as_ref().map(|b| &b.spectrum), r.benettin_rbf.as_ref().map(|b| &b.spectrum));
+    println!(
+        "Benettin poly {:?}\nBenettin rbf {:?}",
+        r.benettin_poly.as_ref().map(|b| &b.spectrum),
+        r.benettin_rbf.as_ref().map(|b| &b.spectrum)
+    );
     assert!(w.len() >= 2, "{w:?}");
     for g in &w {
         assert!(g.power > 0.3 && g.power < 1.0, "{g:?}");
     }
     assert!(w.last().unwrap().slope < 0.7 * w[0].slope, "slope does not fall: {w:?}");
-    println!("kicked: RBF {:?} / {:?}, poly {:?} / {:?}", r.lle_model_rbf_kicked, r.pdf_divergence_rbf_kicked, r.lle_model_poly_kicked, r.pdf_divergence_poly_kicked);
+    println!(
+        "kicked: RBF {:?} / {:?}, poly {:?} / {:?}",
+        r.lle_model_rbf_kicked, r.pdf_divergence_rbf_kicked, r.lle_model_poly_kicked, r.pdf_divergence_poly_kicked
+    );
     let b = r.benettin_poly.as_ref().expect("polynomial model Benettin");
     assert!(b.spectrum[0].abs() < 0.01 && b.spectrum[1].abs() < 0.01 && b.spectrum[2] < -0.05, "{:?}", b.spectrum);
     // Driven by their own residuals the models get the data's PDFs and a positive
     // Rosenstein value (measured: RBF 0.47 / JS 0.0086, poly 1.04 / JS 0.0019).
-    for (lle, js) in [(r.lle_model_rbf_kicked, r.pdf_divergence_rbf_kicked), (r.lle_model_poly_kicked, r.pdf_divergence_poly_kicked)] {
+    for (lle, js) in
+        [(r.lle_model_rbf_kicked, r.pdf_divergence_rbf_kicked), (r.lle_model_poly_kicked, r.pdf_divergence_poly_kicked)]
+    {
         assert!(lle.unwrap() > 0.1 && js.unwrap() < 0.05, "{lle:?} {js:?}");
     }
     let k = r.lle_model_rbf_kicked.unwrap();
     assert!(k > 0.5 * r.lle_data && k < 2.0 * r.lle_data, "kicked RBF {k} vs data {}", r.lle_data);
 }
-

@@ -88,7 +88,9 @@ fn flag_data_spread_over_runs() {
 #[test]
 fn longer_series_rows() {
     let rows = known_answer_rows(false).unwrap();
-    let get = |sys: &str, obs: &str| rows.iter().find(|r| r.system == sys && r.observable == obs && r.samples == 8000).unwrap();
+    let get = |sys: &str, obs: &str| {
+        rows.iter().find(|r| r.system == sys && r.observable == obs && r.samples == 8000).unwrap()
+    };
     let ratio = |r: &CheckRow| r.ratio.unwrap_or(f64::NAN);
     // Measured: Rössler x 0.838, Lorenz z 0.988, Lorenz x 3.44 (fallback fit).
     let (ro, lz, lx) = (get("Rössler", "x"), get("Lorenz", "z"), get("Lorenz", "x"));
@@ -109,7 +111,8 @@ fn rbf_kernels_on_lorenz_tangent_maps_and_exponents() {
     let trajs = lorenz_training(dt);
     let et: Vec<EtaTrajectory> = trajs.iter().map(|m| EtaTrajectory { eta: m.as_ref(), dt }).collect();
     for kernel in [Kernel::Cubic, Kernel::ThinPlate, Kernel::Gaussian { eps: 2.0 }] {
-        let dynm = ReducedDynamics::fit(&et, Dynamics::RbfWith { centers: 300, kernel }, 1, Ridge::Fixed(1e-8)).unwrap();
+        let dynm =
+            ReducedDynamics::fit(&et, Dynamics::RbfWith { centers: 300, kernel }, 1, Ridge::Fixed(1e-8)).unwrap();
         let ReducedDynamics::Rbf(m) = &dynm else { panic!() };
         let mut f = Vec::new();
         for i in [10, 1234, 4000] {
@@ -125,7 +128,11 @@ fn rbf_kernels_on_lorenz_tangent_maps_and_exponents() {
                 m.step(&mut q, &mut f);
                 for o in 0..3 {
                     let fd = (p[o] - q[o]) / (2.0 * h);
-                    assert!((fd - jac[o * 3 + j]).abs() < 1e-5 * (1.0 + fd.abs()), "{kernel:?} J[{o}][{j}] at {x:?}: {fd} vs {}", jac[o * 3 + j]);
+                    assert!(
+                        (fd - jac[o * 3 + j]).abs() < 1e-5 * (1.0 + fd.abs()),
+                        "{kernel:?} J[{o}][{j}] at {x:?}: {fd} vs {}",
+                        jac[o * 3 + j]
+                    );
                 }
             }
         }

@@ -4,7 +4,13 @@ use super::*;
 /// differences, step 1e-6, at a generic state).
 #[test]
 fn tangent_is_the_derivative_of_the_rhs() {
-    for sys in [KnownSystem::Lorenz96 { n: 4, f: 18.0 }, KnownSystem::Lorenz96 { n: 5, f: 8.0 }, KnownSystem::CoupledLorenz { c: 1.5 }, KnownSystem::LorenzX { rho: 28.0 }, KnownSystem::Rossler { a: 0.2, b: 0.2, c: 5.7 }] {
+    for sys in [
+        KnownSystem::Lorenz96 { n: 4, f: 18.0 },
+        KnownSystem::Lorenz96 { n: 5, f: 8.0 },
+        KnownSystem::CoupledLorenz { c: 1.5 },
+        KnownSystem::LorenzX { rho: 28.0 },
+        KnownSystem::Rossler { a: 0.2, b: 0.2, c: 5.7 },
+    ] {
         let n = sys.start().len();
         let x: Vec<f64> = (0..n).map(|i| 1.3 + 0.7 * (i as f64 * 1.9).sin()).collect();
         let v: Vec<f64> = (0..n).map(|i| 0.4 - 0.3 * (i as f64 * 0.8).cos()).collect();
@@ -54,7 +60,10 @@ fn chosen_system_sampled_like_the_flag() {
     let seg = segment_stats(&CHOSEN, k.dt, &FLAG_LAYOUT, 8).unwrap();
     assert!((seg.corr_dims[0].unwrap() - k.corr_dim).abs() < 1e-12, "{seg:?}");
     let m = seg.corr_dim_mean.unwrap();
-    assert!((2.9..=3.5).contains(&m) && (m - 3.04).abs() < 0.05 && seg.corr_dims.iter().all(|d| d.is_some()), "{seg:?}");
+    assert!(
+        (2.9..=3.5).contains(&m) && (m - 3.04).abs() < 0.05 && seg.corr_dims.iter().all(|d| d.is_some()),
+        "{seg:?}"
+    );
     let (l4, e4) = CHOSEN.exponent(4.0 * k.dt, 2_000, 70_000).unwrap();
     assert!((l4 - k.exact).abs() < 0.03 * k.exact && e4 < 0.03, "{l4} ± {e4} vs {}", k.exact);
 }
@@ -70,14 +79,22 @@ fn pipeline_reproduces_a_committed_row() {
     let r = &rows[0];
     let committed = committed_rows().into_iter().find(|c| c.scale == 1 && c.candidate == r.candidate).unwrap();
     // Committed to 3, 3, 2 and 4 decimals.
-    for (a, b, tol) in [(r.benettin, committed.benettin, 5e-4), (r.rosenstein, committed.rosenstein, 5e-4), (r.corr_dim, committed.corr_dim, 5e-3), (r.js, committed.js, 5e-5)] {
+    for (a, b, tol) in [
+        (r.benettin, committed.benettin, 5e-4),
+        (r.rosenstein, committed.rosenstein, 5e-4),
+        (r.corr_dim, committed.corr_dim, 5e-3),
+        (r.js, committed.js, 5e-5),
+    ] {
         let (a, b) = (a.unwrap(), b.unwrap());
         assert!((a - b).abs() <= tol, "{r:?} vs {committed:?}");
     }
     let all = committed_rows();
     for s in [1, 3, 10] {
         let sum = summarize(&all, s);
-        assert!(sum.candidates >= 4 && sum.benettin_within_10pct_of_exact == 0 && sum.all_four == 0 && sum.exact_d2_js == 0, "{sum:?}");
+        assert!(
+            sum.candidates >= 4 && sum.benettin_within_10pct_of_exact == 0 && sum.all_four == 0 && sum.exact_d2_js == 0,
+            "{sum:?}"
+        );
     }
     let s1 = summarize(&all, 1);
     assert_eq!((s1.candidates, s1.failed, s1.chaotic), (6, 3, 1), "{s1:?}");
@@ -124,7 +141,8 @@ fn flag_like_series_lengths_and_noise() {
     let long = sys.flag_like_series(0.01, &[3000 + 7_919], 0.0).unwrap();
     assert_eq!(c1[0].x[..], long[0].x[7_919..]);
     let s1 = sys.flag_like_series_seeded(0.01, &[3000, 2000], 0.02, 1).unwrap();
-    let (e0, e1): (Vec<f64>, Vec<f64>) = (0..3000).map(|k| (noisy[0].x[k] - clean[0].x[k], s1[0].x[k] - c1[0].x[k])).unzip();
+    let (e0, e1): (Vec<f64>, Vec<f64>) =
+        (0..3000).map(|k| (noisy[0].x[k] - clean[0].x[k], s1[0].x[k] - c1[0].x[k])).unzip();
     assert!(e0.iter().zip(&e1).any(|(a, b)| (a - b).abs() > 1e-9) && (sd(&e1) / sd(&c1[0].x) - 0.02).abs() < 0.001);
     assert!(sys.flag_like_series_seeded(0.01, &[100], 0.0, u64::MAX).unwrap_err().to_string().contains("seed"));
 }
@@ -148,7 +166,11 @@ fn bad_options_are_errors() {
 fn flag_like_candidates_have_the_flag_options() {
     let c = flag_like_candidates(4, &FLAG_LIKE_RBF);
     assert_eq!(c.len(), FLAG_LIKE_RBF.len() + 1);
-    assert!(c.iter().all(|c| c.step == 4 && c.fit.dim == 4 && c.fit.embed == 9 && c.fit.shift == 1 && c.fit.manifold_order == 3));
+    assert!(c.iter().all(|c| c.step == 4
+        && c.fit.dim == 4
+        && c.fit.embed == 9
+        && c.fit.shift == 1
+        && c.fit.manifold_order == 3));
     assert_eq!(c[0].fit.dynamics, ssm::Dynamics::Rbf { centers: 200 });
     assert_eq!(c.last().unwrap().fit.dynamics, ssm::Dynamics::Map);
 }

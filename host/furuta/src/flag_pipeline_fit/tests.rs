@@ -5,14 +5,18 @@ use super::*;
 /// singular directions most nearest neighbours are false, on four none (ratio 10).
 #[test]
 fn projection_fnn_finds_the_torus_dimension() {
-    let x: Vec<f64> = (0..4000).map(|i| (0.21 * i as f64).sin() + 0.6 * (0.21 * 0.5f64.sqrt() * 5.1 * i as f64).cos()).collect();
+    let x: Vec<f64> =
+        (0..4000).map(|i| (0.21 * i as f64).sin() + 0.6 * (0.21 * 0.5f64.sqrt() * 5.1 * i as f64).cos()).collect();
     let rows = projection_fnn(&x, 8, 2, 30, &[1, 2, 4, 6], 10.0, 400).unwrap();
     println!("{rows:?}");
     assert_eq!(rows.iter().map(|r| r.dim).collect::<Vec<_>>(), vec![1, 2, 4, 6]);
     assert!(rows[0].fnn > 0.5 && rows[1].fnn > 0.2, "{rows:?}");
     assert_eq!(rows[2].fnn, 0.0, "{rows:?}");
     assert_eq!(rows[3].fnn, 0.0, "{rows:?}");
-    assert!((rows[0].singular_rel - 1.0).abs() < 1e-12 && rows.windows(2).all(|w| w[1].singular_rel <= w[0].singular_rel), "{rows:?}");
+    assert!(
+        (rows[0].singular_rel - 1.0).abs() < 1e-12 && rows.windows(2).all(|w| w[1].singular_rel <= w[0].singular_rel),
+        "{rows:?}"
+    );
     assert!(projection_fnn(&x, 8, 2, 30, &[8], 10.0, 400).is_err());
     assert!(projection_fnn(&x[..50], 8, 2, 30, &[2], 10.0, 400).is_err());
 }
@@ -21,7 +25,8 @@ fn projection_fnn_finds_the_torus_dimension() {
 /// no false neighbours (ratio 2); a sine (a circle) needs 2.
 #[test]
 fn fnn_dimension_rule() {
-    let x: Vec<f64> = (0..4000).map(|i| (0.21 * i as f64).sin() + 0.6 * (0.21 * 0.5f64.sqrt() * 5.1 * i as f64).cos()).collect();
+    let x: Vec<f64> =
+        (0..4000).map(|i| (0.21 * i as f64).sin() + 0.6 * (0.21 * 0.5f64.sqrt() * 5.1 * i as f64).cos()).collect();
     let (d, rows) = fnn_dimension(&x, 2, 30, 2.0, 0.005, 6, 400).unwrap();
     println!("{rows:?}");
     assert_eq!(rows.len(), d.unwrap());
@@ -40,15 +45,26 @@ fn fnn_dimension_rule() {
 #[test]
 fn state_model_reproduces_its_committed_row() {
     let fit = StateFit { coords: Coords::State, centers: 0, order: 4, ridge: 3e-9, multistep: None, noise_rel: 0.0 };
-    let (k, r) = state_model_check(&crate::flag_pipeline::CHOSEN, &crate::flag_pipeline::FLAG_LAYOUT, 1, &fit, 4000.0).unwrap();
+    let (k, r) =
+        state_model_check(&crate::flag_pipeline::CHOSEN, &crate::flag_pipeline::FLAG_LAYOUT, 1, &fit, 4000.0).unwrap();
     let committed = diagnosis_rows().into_iter().find(|(_, _, c)| c.candidate == "state poly 4").unwrap().2;
-    for (a, b, tol) in [(r.benettin, committed.benettin, 5e-4), (r.rosenstein, committed.rosenstein, 5e-4), (r.corr_dim, committed.corr_dim, 5e-3), (r.js, committed.js, 5e-5)] {
+    for (a, b, tol) in [
+        (r.benettin, committed.benettin, 5e-4),
+        (r.rosenstein, committed.rosenstein, 5e-4),
+        (r.corr_dim, committed.corr_dim, 5e-3),
+        (r.js, committed.js, 5e-5),
+    ] {
         let (a, b) = (a.unwrap(), b.unwrap());
         assert!((a - b).abs() <= tol, "{r:?} vs {committed:?}");
     }
     assert!(r.failed.is_none() && r.benettin_exact_ok && (k.exact - 0.940).abs() < 0.02, "{r:?}");
     let bad = StateFit { coords: Coords::Delay { embed: 0, shift: 1 }, ..fit };
-    assert!(state_model_check(&crate::flag_pipeline::CHOSEN, &crate::flag_pipeline::FLAG_LAYOUT, 1, &bad, 100.0).unwrap_err().to_string().contains("delay"));
+    assert!(
+        state_model_check(&crate::flag_pipeline::CHOSEN, &crate::flag_pipeline::FLAG_LAYOUT, 1, &bad, 100.0)
+            .unwrap_err()
+            .to_string()
+            .contains("delay")
+    );
 }
 
 /// What the committed diagnosis says: with the flag's settings on noise-free data no
@@ -61,7 +77,8 @@ fn state_model_reproduces_its_committed_row() {
 fn diagnosis_counts() {
     let rows = diagnosis_rows();
     let within = |what: &str, noise: Option<f64>, scale: usize| {
-        let sel: Vec<_> = rows.iter().filter(|(w, n, r)| *w == what && noise.is_none_or(|x| *n == x) && r.scale == scale).collect();
+        let sel: Vec<_> =
+            rows.iter().filter(|(w, n, r)| *w == what && noise.is_none_or(|x| *n == x) && r.scale == scale).collect();
         (sel.iter().filter(|(_, _, r)| r.benettin_exact_ok).count(), sel.len())
     };
     assert_eq!(within("(a) noise-free", None, 1), (0, 6));
@@ -121,11 +138,19 @@ fn flag_centre_rows_meet_benettin_and_js_but_not_d2() {
     assert_eq!(target_counts(&rows), (237, 38, 30, 1, 105, 20, 0));
     let names = |i: usize| rows.iter().filter(|r| r.passes[i]).map(|r| r.candidate.as_str()).collect::<Vec<_>>();
     assert_eq!(names(2), vec!["RBF 200 r=3e-9 d=4 p=9"]);
-    let best = rows.iter().filter(|r| r.passes[0] && r.passes[3]).max_by(|a, b| a.corr_dim.unwrap_or(0.0).total_cmp(&b.corr_dim.unwrap_or(0.0))).unwrap();
+    let best = rows
+        .iter()
+        .filter(|r| r.passes[0] && r.passes[3])
+        .max_by(|a, b| a.corr_dim.unwrap_or(0.0).total_cmp(&b.corr_dim.unwrap_or(0.0)))
+        .unwrap();
     assert_eq!(best.candidate, "RBF 250 r=5e-9 d=4 p=9 centres kmeans++@3");
     assert_eq!((best.benettin, best.corr_dim, best.js), (Some(0.346), Some(2.91), Some(0.0090)));
     // Multistep with seeded centres: two rows meet Benettin and JS (D2 2.28 and 1.56).
-    let ms: Vec<_> = rows.iter().filter(|r| r.passes[0] && r.passes[3] && r.candidate.contains(" ms ")).map(|r| r.corr_dim).collect();
+    let ms: Vec<_> = rows
+        .iter()
+        .filter(|r| r.passes[0] && r.passes[3] && r.candidate.contains(" ms "))
+        .map(|r| r.corr_dim)
+        .collect();
     assert_eq!(ms, vec![Some(2.28), Some(1.56)]);
     // Every candidate name is unique and every dimension row names a row.
     assert!(rows.iter().enumerate().all(|(i, r)| rows[..i].iter().all(|q| q.candidate != r.candidate)));
@@ -140,7 +165,10 @@ fn flag_centre_rows_meet_benettin_and_js_but_not_d2() {
 #[test]
 fn flag_dimension_diagnosis() {
     let rows = flag_centre_rows();
-    let chaotic = |name: &str| rows.iter().any(|r| r.candidate == name && r.failed.is_none() && r.benettin.is_some_and(|b| b > 0.1 * FLAG_DATA.0));
+    let chaotic = |name: &str| {
+        rows.iter()
+            .any(|r| r.candidate == name && r.failed.is_none() && r.benettin.is_some_and(|b| b > 0.1 * FLAG_DATA.0))
+    };
     let ky: Vec<f64> = FLAG_DIMENSION.iter().filter(|d| chaotic(d.0)).filter_map(|d| d.1).collect();
     assert_eq!(ky.len(), 106);
     let (lo, hi) = (ky.iter().copied().fold(f64::MAX, f64::min), ky.iter().copied().fold(f64::MIN, f64::max));
@@ -183,7 +211,10 @@ fn flag_centre_row_reproduces() {
     let (train, test) = ([load(9), load(7)], load(8));
     let s = EvalSettings::default();
     let data = data_stats(&test, 4, &s).unwrap();
-    let c = crate::model_selection::Candidate { centres: ssm::dynamics::CentreChoice::KMeansPP { seed: 3 }, ..variant(4, 250, 5e-9, 4, 9, 1, None, 0) };
+    let c = crate::model_selection::Candidate {
+        centres: ssm::dynamics::CentreChoice::KMeansPP { seed: 3 },
+        ..variant(4, 250, 5e-9, 4, 9, 1, None, 0)
+    };
     let r = evaluate_candidate(&train, &test, &c, &data, &s).unwrap();
     let row = FLAG_CENTRES.iter().find(|r| r.0 == "RBF 250 r=5e-9 d=4 p=9 centres kmeans++@3").unwrap();
     let close = |a: Option<f64>, b: Option<f64>, tol: f64| matches!((a, b), (Some(a), Some(b)) if (a - b).abs() <= tol);

@@ -59,7 +59,13 @@ fn flag_self_counts() {
     assert_eq!(self_counts(&part, FLAG_DATA), (6, 2, 1, 6, 0));
     let all: Vec<&SelfRow> = rows.iter().collect();
     assert_eq!(self_counts(&all, FLAG_DATA), (15, 4, 2, 14, 0));
-    let meets = |i: usize| whole.iter().filter(|r| self_passes(r.rosenstein, r.corr_dim, r.js, FLAG_DATA)[i]).map(|r| r.run).collect::<Vec<_>>();
+    let meets = |i: usize| {
+        whole
+            .iter()
+            .filter(|r| self_passes(r.rosenstein, r.corr_dim, r.js, FLAG_DATA)[i])
+            .map(|r| r.run)
+            .collect::<Vec<_>>()
+    };
     assert_eq!((meets(0), meets(1), meets(2)), (vec![1, 3], vec![2], vec![0, 1, 3, 4, 5, 6, 7, 9]));
     let t3: Vec<f64> = part.iter().filter(|r| r.run == 3).filter_map(|r| r.rosenstein).collect();
     assert_eq!(t3, vec![0.162, 0.326]);
@@ -76,7 +82,8 @@ fn best_row_among_the_runs() {
     let col = |f: &dyn Fn(&SelfRow) -> Option<f64>| whole.iter().filter_map(|r| f(r)).collect::<Vec<f64>>();
     let (ros, d2, js) = (col(&|r| r.rosenstein), col(&|r| r.corr_dim), col(&|r| r.js));
     assert_eq!((ros.len(), d2.len(), js.len()), (9, 8, 9));
-    let best = flag_centre_rows().into_iter().find(|r| r.candidate == "RBF 250 r=5e-9 d=4 p=9 centres kmeans++@3").unwrap();
+    let best =
+        flag_centre_rows().into_iter().find(|r| r.candidate == "RBF 250 r=5e-9 d=4 p=9 centres kmeans++@3").unwrap();
     let (pr, zr) = placement(best.rosenstein.unwrap(), &ros).unwrap();
     let (pd, zd) = placement(best.corr_dim.unwrap(), &d2).unwrap();
     let (pj, zj) = placement(best.js.unwrap(), &js).unwrap();
@@ -101,12 +108,22 @@ fn candidate_names_parse() {
     assert_eq!(cands.len(), 237);
     let c = candidate_from_name("RBF 250 r=5e-9 d=4 p=9 centres kmeans++@3").unwrap();
     let hand = variant(4, 250, 5e-9, 4, 9, 1, None, 0);
-    assert_eq!((c.fit, c.step, c.centres, c.multistep.is_none()), (hand.fit, 4, ssm::dynamics::CentreChoice::KMeansPP { seed: 3 }, true));
+    assert_eq!(
+        (c.fit, c.step, c.centres, c.multistep.is_none()),
+        (hand.fit, 4, ssm::dynamics::CentreChoice::KMeansPP { seed: 3 }, true)
+    );
     let ms = candidate_from_name("RBF 300 r=1e-8 d=4 p=9 centres kmeans++@2 ms h=4 stride 8 it 4").unwrap();
     let m = ms.multistep.unwrap();
     assert_eq!((m.horizon, m.stride, m.iterations, ms.fit.ridge), (4, 8, 4, ssm::Ridge::Fixed(1e-8)));
     assert_eq!(ms.fit.dynamics, Dynamics::Rbf { centers: 300 });
-    for bad in ["poly 4 d=4", "RBF x r=1 d=4 p=9", "RBF 200 r=3e-9 d=4", "RBF 200 r=3e-9 d=4 p=9 centres", "RBF 200 r=3e-9 d=4 p=9 ms h=4", "RBF 200 r=3e-9 d=4 p=9 foo"] {
+    for bad in [
+        "poly 4 d=4",
+        "RBF x r=1 d=4 p=9",
+        "RBF 200 r=3e-9 d=4",
+        "RBF 200 r=3e-9 d=4 p=9 centres",
+        "RBF 200 r=3e-9 d=4 p=9 ms h=4",
+        "RBF 200 r=3e-9 d=4 p=9 foo",
+    ] {
         let e = candidate_from_name(bad).unwrap_err().to_string();
         assert!(e.contains("flag row name") && e.contains(bad), "{e}");
     }
@@ -118,10 +135,10 @@ fn candidate_names_parse() {
 fn pick_rule() {
     let data = (0.3, 3.0, 0.2);
     let rows: &[FlagRow] = &[
-        ("a", Some(0.31), Some(0.2), Some(2.0), Some(0.02), ""),      // Benettin only: 1
-        ("b", Some(0.31), Some(0.305), Some(2.0), Some(0.005), ""),   // B, R, JS: 3
+        ("a", Some(0.31), Some(0.2), Some(2.0), Some(0.02), ""), // Benettin only: 1
+        ("b", Some(0.31), Some(0.305), Some(2.0), Some(0.005), ""), // B, R, JS: 3
         ("c", Some(0.30), Some(0.30), Some(3.0), Some(0.001), "esc"), // failed
-        ("d", Some(0.32), Some(0.31), Some(2.0), Some(0.009), ""),    // B, R, JS: 3, larger score
+        ("d", Some(0.32), Some(0.31), Some(2.0), Some(0.009), ""), // B, R, JS: 3, larger score
     ];
     let r = rows_against(rows, data);
     assert_eq!(r.iter().map(|r| r.passes.iter().filter(|&&p| p).count()).collect::<Vec<_>>(), vec![1, 3, 0, 3]);
@@ -146,17 +163,31 @@ fn flag_self_reproduces() {
     let s = EvalSettings::default();
     let (ds, rows) = experiment_as_model(&[load(9), load(7)], &load(8), &runs, &s).unwrap();
     assert_eq!(ds.len, FLAG_TEST_LEN);
-    assert!((ds.lle - FLAG_DATA.0).abs() <= 5e-4 && (ds.corr_dim - FLAG_DATA.1).abs() <= 5e-3 && (ds.corr_dim_err - FLAG_DATA.2).abs() <= 5e-3, "{ds:?}");
+    assert!(
+        (ds.lle - FLAG_DATA.0).abs() <= 5e-4
+            && (ds.corr_dim - FLAG_DATA.1).abs() <= 5e-3
+            && (ds.corr_dim_err - FLAG_DATA.2).abs() <= 5e-3,
+        "{ds:?}"
+    );
     let committed = flag_self_rows();
     assert_eq!(rows.len(), committed.len());
     for (a, b) in rows.iter().zip(&committed) {
         assert_eq!((a.run, a.start, a.len), (b.run, b.start, b.len));
-        assert!(close(a.rosenstein, b.rosenstein, 5e-4) && close(a.corr_dim, b.corr_dim, 5e-3) && close(a.corr_dim_err, b.corr_dim_err, 5e-3) && close(a.js, b.js, 5e-5), "{a:?} vs {b:?}");
+        assert!(
+            close(a.rosenstein, b.rosenstein, 5e-4)
+                && close(a.corr_dim, b.corr_dim, 5e-3)
+                && close(a.corr_dim_err, b.corr_dim_err, 5e-3)
+                && close(a.js, b.js, 5e-5),
+            "{a:?} vs {b:?}"
+        );
     }
     for &(k, lag, theiler, lle, d2, d2_err) in FLAG_RUNS_OWN {
         let (d, _) = data_stats(&load(k), STEP, &s).unwrap();
         assert_eq!((d.lag, d.theiler), (lag, theiler), "traj_{k}");
-        assert!((d.lle - lle).abs() <= 5e-4 && (d.corr_dim - d2).abs() <= 5e-3 && (d.corr_dim_err - d2_err).abs() <= 5e-3, "traj_{k}: {d:?}");
+        assert!(
+            (d.lle - lle).abs() <= 5e-4 && (d.corr_dim - d2).abs() <= 5e-3 && (d.corr_dim_err - d2_err).abs() <= 5e-3,
+            "traj_{k}: {d:?}"
+        );
     }
     assert!(data_stats(&load(1), STEP, &s).is_err());
 }
@@ -197,8 +228,14 @@ fn validation_pick_on_traj3() {
     assert_eq!(target_counts(&val0), (237, 38, 32, 3, 44, 16, 0));
     let (v0, t0) = validation_pick_on(FLAG_VALIDATION_0, FLAG_VALIDATION_0_DATA).unwrap();
     assert_eq!(v0.candidate, "RBF 200 r=3e-9 d=4 p=9 centres random@8");
-    assert_eq!((v0.benettin, v0.rosenstein, v0.corr_dim, v0.js, v0.passes), (Some(0.495), Some(0.387), Some(2.94), Some(0.0081), [true, false, false, true]));
-    assert_eq!((t0.benettin, t0.rosenstein, t0.corr_dim, t0.js, t0.passes), (Some(0.495), Some(0.244), Some(2.95), Some(0.0064), [false, false, false, true]));
+    assert_eq!(
+        (v0.benettin, v0.rosenstein, v0.corr_dim, v0.js, v0.passes),
+        (Some(0.495), Some(0.387), Some(2.94), Some(0.0081), [true, false, false, true])
+    );
+    assert_eq!(
+        (t0.benettin, t0.rosenstein, t0.corr_dim, t0.js, t0.passes),
+        (Some(0.495), Some(0.244), Some(2.95), Some(0.0064), [false, false, false, true])
+    );
     // The same model's Rosenstein exponent on its own series, started from each run: 0.163
     // (traj_3), 0.387 (traj_0), 0.244 (traj_8).
     let r3 = val.iter().find(|r| r.candidate == v0.candidate).unwrap().rosenstein;
@@ -216,8 +253,13 @@ fn validation_pick_on_traj3() {
 #[test]
 fn ensemble_statistics() {
     let test = flag_centre_rows();
-    let rows: Vec<_> = ensemble_members(FLAG_ENSEMBLE.0).iter().map(|n| test.iter().find(|r| r.candidate == *n).unwrap().clone()).collect();
-    let col = |f: &dyn Fn(&PipelineRow) -> Option<f64>| mean_sd(&rows.iter().filter_map(|r| f(r)).collect::<Vec<_>>()).unwrap();
+    let rows: Vec<_> = ensemble_members(FLAG_ENSEMBLE.0)
+        .iter()
+        .map(|n| test.iter().find(|r| r.candidate == *n).unwrap().clone())
+        .collect();
+    let col = |f: &dyn Fn(&PipelineRow) -> Option<f64>| {
+        mean_sd(&rows.iter().filter_map(|r| f(r)).collect::<Vec<_>>()).unwrap()
+    };
     let (b, r, d) = (col(&|r| r.benettin), col(&|r| r.rosenstein), col(&|r| r.corr_dim));
     println!("{b:?} {r:?} {d:?}");
     assert!((b.0 - 0.3282).abs() < 5e-5 && (b.1 - 0.0471).abs() < 5e-5, "{b:?}");
@@ -242,11 +284,30 @@ fn validation_pick_and_ensemble_reproduce() {
     let s = EvalSettings::default();
     let val = load(VALIDATION_RUN);
     let data = data_stats(&val, STEP, &s).unwrap();
-    assert!((data.0.lle - FLAG_VALIDATION_DATA.0).abs() <= 5e-4 && (data.0.corr_dim - FLAG_VALIDATION_DATA.1).abs() <= 5e-3 && (data.0.corr_dim_err - FLAG_VALIDATION_DATA.2).abs() <= 5e-3, "{:?}", data.0);
+    assert!(
+        (data.0.lle - FLAG_VALIDATION_DATA.0).abs() <= 5e-4
+            && (data.0.corr_dim - FLAG_VALIDATION_DATA.1).abs() <= 5e-3
+            && (data.0.corr_dim_err - FLAG_VALIDATION_DATA.2).abs() <= 5e-3,
+        "{:?}",
+        data.0
+    );
     let (v, _) = validation_pick().unwrap();
-    let r = crate::model_selection::evaluate_candidate(&train, &val, &candidate_from_name(&v.candidate).unwrap(), &data, &s).unwrap();
+    let r = crate::model_selection::evaluate_candidate(
+        &train,
+        &val,
+        &candidate_from_name(&v.candidate).unwrap(),
+        &data,
+        &s,
+    )
+    .unwrap();
     assert!(r.failed.is_none(), "{r:?}");
-    assert!(close(r.benettin, v.benettin, 5e-4) && close(r.rosenstein, v.rosenstein, 5e-4) && close(r.corr_dim, v.corr_dim, 5e-3) && close(r.js, v.js, 5e-5), "{r:?} vs {v:?}");
+    assert!(
+        close(r.benettin, v.benettin, 5e-4)
+            && close(r.rosenstein, v.rosenstein, 5e-4)
+            && close(r.corr_dim, v.corr_dim, 5e-3)
+            && close(r.js, v.js, 5e-5),
+        "{r:?} vs {v:?}"
+    );
     let e = ensemble(&train, &load(8), &ensemble_members(FLAG_ENSEMBLE.0), &s).unwrap();
     assert!(e.failed.is_empty(), "{e:?}");
     assert!(close(e.js_pooled, Some(FLAG_ENSEMBLE.1), 5e-5), "{e:?}");

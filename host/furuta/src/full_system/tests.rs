@@ -50,7 +50,12 @@ fn near_saddle_verdict_agrees_with_a_tight_reference() {
         .unwrap();
     let reference = simulate(&reference, None).unwrap();
     assert!(scene_run.integrator.contains("lean"), "{}", scene_run.integrator);
-    assert!(scene_run.stopped.is_none() && reference.stopped.is_none(), "{:?} {:?}", scene_run.stopped, reference.stopped);
+    assert!(
+        scene_run.stopped.is_none() && reference.stopped.is_none(),
+        "{:?} {:?}",
+        scene_run.stopped,
+        reference.stopped
+    );
     let theta = |t: &Trajectory| t.states.chunks(t.state_names.len()).map(|r| r[0]).collect::<Vec<f64>>();
     let (a, b) = (theta(&scene_run), theta(&reference));
     assert_eq!(a.len(), b.len());
@@ -112,9 +117,11 @@ fn transient_near_three_torus_shows_third_frequency() {
     assert!((s - e).abs() < 0.02 * e, "sideband {s} vs envelope {e}");
     assert!((0.01..0.05).contains(&e), "{e}");
     let lin = exact_modes(31.5).unwrap().freqs_hz;
-    assert!(((a.fast.freq_hz - lin[1]) / lin[1]).abs() < 0.03 && ((a.slow.freq_hz - lin[0]) / lin[0]).abs() < 0.2, "{a:?}");
+    assert!(
+        ((a.fast.freq_hz - lin[1]) / lin[1]).abs() < 0.03 && ((a.slow.freq_hz - lin[0]) / lin[0]).abs() < 0.2,
+        "{a:?}"
+    );
 }
-
 
 /// `mode_start` on the fast mode alone: theta's envelope grows at the exact fast rate
 /// (`ln|mu|/dt`, +0.27 1/s) and its first sample is the requested amplitude times
@@ -174,10 +181,16 @@ fn starts_from_one_mode_basis_equal_the_per_start_ones() {
         let history = (0..=lay.delay).rev().map(|k| [total[lay.y_start + k], total[lay.z_start + k]]).collect();
         (state, history)
     }
-    let bits = |s: &([f64; 4], Vec<[f64; 2]>)| s.0.iter().chain(s.1.iter().flatten()).map(|v| v.to_bits()).collect::<Vec<_>>();
+    let bits =
+        |s: &([f64; 4], Vec<[f64; 2]>)| s.0.iter().chain(s.1.iter().flatten()).map(|v| v.to_bits()).collect::<Vec<_>>();
     for dt_ms in [31.3, 31.6] {
         let basis = crate::parametric::ModeBasis::at(dt_ms).unwrap();
-        for (rho, phases) in [([0.005, 0.0], [0.0, 0.0]), ([0.0, 0.12], [0.0, 0.3]), ([0.1, 0.03], [0.0, 0.0]), ([0.25, 0.004], [1.0, -2.0])] {
+        for (rho, phases) in [
+            ([0.005, 0.0], [0.0, 0.0]),
+            ([0.0, 0.12], [0.0, 0.3]),
+            ([0.1, 0.03], [0.0, 0.0]),
+            ([0.25, 0.004], [1.0, -2.0]),
+        ] {
             let m = |k: usize| (rho[k] > 0.0).then_some((rho[k], phases[k]));
             let want = per_start(dt_ms, m(0), m(1));
             let got = start_from_rho_in(&basis, rho, phases).unwrap();
@@ -185,24 +198,31 @@ fn starts_from_one_mode_basis_equal_the_per_start_ones() {
             assert_eq!(bits(&start_from_rho(dt_ms, rho, phases).unwrap()), bits(&want), "dt {dt_ms} rho {rho:?}");
         }
         for rho in [[0.0, 0.0], [-0.1, 0.1], [f64::NAN, 0.1]] {
-            assert!(matches!(start_from_rho_in(&basis, rho, [0.0, 0.0]), Err(Error::BadInput { what: "rho", .. })), "{rho:?}");
+            assert!(
+                matches!(start_from_rho_in(&basis, rho, [0.0, 0.0]), Err(Error::BadInput { what: "rho", .. })),
+                "{rho:?}"
+            );
         }
-        assert!(matches!(start_from_rho_in(&basis, [0.1, 0.0], [f64::NAN, 0.0]), Err(Error::BadOption { what: "mode_start", .. })));
+        assert!(matches!(
+            start_from_rho_in(&basis, [0.1, 0.0], [f64::NAN, 0.0]),
+            Err(Error::BadOption { what: "mode_start", .. })
+        ));
     }
 }
-
 
 /// The switch scan runs every (dt, start) on the rayon pool: a 1-thread and a 2-thread pool
 /// give the same outcomes, bit for bit, in the same order; so does the per-dt variant.
 #[test]
 fn switch_scan_is_bit_identical_on_one_and_two_threads() {
-    let ics: Vec<Start> = vec![([0.05, 0.0, 0.0, 0.0], None), ([0.01, 0.0, 0.0, 0.0], None), ([0.3, 0.0, 0.0, 0.0], None)];
+    let ics: Vec<Start> =
+        vec![([0.05, 0.0, 0.0, 0.0], None), ([0.01, 0.0, 0.0, 0.0], None), ([0.3, 0.0, 0.0, 0.0], None)];
     let dts = [31.2, 31.6, 33.0];
     let on = |threads: usize| {
         let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
         pool.install(|| {
             let a = switch_scan(&dts, &ics, 400, 0.2).unwrap();
-            let b = switch_scan_per_dt(&dts, |dt| default_ics(dt).map(|v| v.into_iter().take(3).collect()), 300).unwrap();
+            let b =
+                switch_scan_per_dt(&dts, |dt| default_ics(dt).map(|v| v.into_iter().take(3).collect()), 300).unwrap();
             (a, b)
         })
     };
@@ -254,7 +274,15 @@ fn end_start_continues_a_run() {
 fn run_on_the_cached_scene_equals_a_freshly_parsed_scene_bit_for_bit() {
     let (x, h) = mode_start(31.5, Some((0.05, 0.0)), Some((0.02, 0.0))).unwrap();
     let start: Start = (x, Some(h.clone()));
-    let fresh = SceneBuilder::load("furuta-dt30.5").unwrap().dt_ms(31.5).periods(300).initial_state(&x).escape_theta(ESCAPE_THETA).history(Some(&h)).build().unwrap();
+    let fresh = SceneBuilder::load("furuta-dt30.5")
+        .unwrap()
+        .dt_ms(31.5)
+        .periods(300)
+        .initial_state(&x)
+        .escape_theta(ESCAPE_THETA)
+        .history(Some(&h))
+        .build()
+        .unwrap();
     let old = simulate(&fresh, None).unwrap();
     let new = run(31.5, &start, 300, ESCAPE_THETA).unwrap();
     let spec = fresh.integrator.clone();

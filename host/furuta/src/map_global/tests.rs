@@ -86,14 +86,25 @@ fn connection_rule_brackets_on_the_map_and_the_full_system() {
         assert!(m.escapes().iter().all(|&e| e != bounded), "map at {dt}: {m:?}");
         assert!(f.escapes().iter().all(|&e| e != bounded), "full at {dt}: {f:?}");
         assert!(m.circle_residual <= 1e-10 && f.circle_residual <= 1e-10);
-        assert!((m.circle_theta_amplitude / f.circle_theta_amplitude - 1.0).abs() < 0.02, "{} {}", m.circle_theta_amplitude, f.circle_theta_amplitude);
+        assert!(
+            (m.circle_theta_amplitude / f.circle_theta_amplitude - 1.0).abs() < 0.02,
+            "{} {}",
+            m.circle_theta_amplitude,
+            f.circle_theta_amplitude
+        );
         amps.push(f.circle_theta_amplitude);
     }
     // The full system's fast cycle at 31.3 ms is 0.0695 rad (saddle_cycles' test); it grows with dt.
     assert!(amps[0] < 0.0695 && amps[1] > 0.0695, "{amps:?}");
     let bad = ConnectionOptions { push: 0.0, ..o };
-    assert!(matches!(map_connection_fates(&sm.model_at(31.3, Interp::Linear).unwrap(), 31.3, &bad), Err(Error::BadOption { what: "push", .. })));
-    assert!(matches!(map_connection_fates(&sm.model_at(31.3, Interp::Linear).unwrap(), 31.4, &o), Err(Error::BadInput { what: "dt_ms", .. })));
+    assert!(matches!(
+        map_connection_fates(&sm.model_at(31.3, Interp::Linear).unwrap(), 31.3, &bad),
+        Err(Error::BadOption { what: "push", .. })
+    ));
+    assert!(matches!(
+        map_connection_fates(&sm.model_at(31.3, Interp::Linear).unwrap(), 31.4, &o),
+        Err(Error::BadInput { what: "dt_ms", .. })
+    ));
 }
 
 /// The map's verdict on a small basin grid at 31.5 ms against the full system's: the same
@@ -101,7 +112,14 @@ fn connection_rule_brackets_on_the_map_and_the_full_system() {
 /// one cell of nine.
 #[test]
 fn map_basin_agrees_with_the_full_system_on_a_small_grid() {
-    let o = BasinOptions { dts_ms: vec![31.5], rho1: Axis { lo: 0.02, hi: 0.2, n: 3 }, rho2: Axis { lo: 0.01, hi: 0.1, n: 3 }, phases: [0.0, 0.0], periods: 1500, method: None };
+    let o = BasinOptions {
+        dts_ms: vec![31.5],
+        rho1: Axis { lo: 0.02, hi: 0.2, n: 3 },
+        rho2: Axis { lo: 0.01, hi: 0.1, n: 3 },
+        phases: [0.0, 0.0],
+        periods: 1500,
+        method: None,
+    };
     let at = |dt: f64| Ok(model().model_at(dt, Interp::Linear)?);
     let mb = map_basin(at, &o).unwrap();
     let full = full_basin(&o).unwrap().bounded_at(0);
@@ -114,7 +132,10 @@ fn map_basin_agrees_with_the_full_system_on_a_small_grid() {
             assert_eq!(mb[0][i * 3 + j], map_outcome(&m, 31.5, &(s, Some(h)), 1500, ESCAPE_THETA).unwrap().bounded());
         }
     }
-    let fates: Vec<crate::basin::ModelFate> = mb[0].iter().map(|&b| if b { crate::basin::ModelFate::Principal } else { crate::basin::ModelFate::LeavesBox }).collect();
+    let fates: Vec<crate::basin::ModelFate> = mb[0]
+        .iter()
+        .map(|&b| if b { crate::basin::ModelFate::Principal } else { crate::basin::ModelFate::LeavesBox })
+        .collect();
     let a = agreement(&fates, &full).unwrap();
     eprintln!("map {:?}\nfull {full:?}\n{a:?}", mb[0]);
     assert!(full.contains(&true) && full.contains(&false), "{full:?}");
@@ -137,7 +158,10 @@ fn map_torus_continuation_loses_the_torus_on_the_grid() {
     // (0.0085 -> 0.0117 rad); the full system's 8,000-period continuation loses it at 31.6-31.7.
     let (a, b) = c.lost_between.unwrap();
     assert!(31.5 <= a && b <= 31.9, "{a} {b}");
-    assert!(matches!(map_torus_continuation(at, &[31.5, 31.4], [0.1, 0.03], 100), Err(Error::BadInput { what: "dts_ms", .. })));
+    assert!(matches!(
+        map_torus_continuation(at, &[31.5, 31.4], [0.1, 0.03], 100),
+        Err(Error::BadInput { what: "dts_ms", .. })
+    ));
 }
 
 /// Issue 11: the fitted map's torus does not depend on the training cut. Runs cut at 0.3
@@ -160,7 +184,12 @@ fn map_torus_does_not_depend_on_the_training_cut() {
     };
     let (b, c, r) = (cont(&base), cont(&cut), cont(&raw));
     for (name, t) in [("default", &b), ("cut 0.3", &c), ("cut 0.3 unweighted", &r)] {
-        eprintln!("{name}: onset {:?}, lost {:?}, first dt lost {}", t.growth_onset, t.lost_between, t.lost_at_first_dt());
+        eprintln!(
+            "{name}: onset {:?}, lost {:?}, first dt lost {}",
+            t.growth_onset,
+            t.lost_between,
+            t.lost_at_first_dt()
+        );
     }
     let (ob, oc) = (b.growth_onset.unwrap(), c.growth_onset.unwrap());
     assert!((ob - oc).abs() <= 0.1, "onsets {ob} vs {oc}");
@@ -181,7 +210,13 @@ fn bad_connection_options_are_refused() {
         (ConnectionOptions { guess_order: 11, ..o }, "guess_order"),
         (ConnectionOptions { fast_guess: -0.1, ..o }, "fast_guess"),
     ] {
-        assert!(matches!(full_connection_fates(31.3, &bad), Err(Error::BadOption { what: w, .. }) if w == what), "{what}");
-        assert!(matches!(full_connection(31.0, 32.0, 6, 0.005, &bad), Err(Error::BadOption { what: w, .. }) if w == what), "{what}");
+        assert!(
+            matches!(full_connection_fates(31.3, &bad), Err(Error::BadOption { what: w, .. }) if w == what),
+            "{what}"
+        );
+        assert!(
+            matches!(full_connection(31.0, 32.0, 6, 0.005, &bad), Err(Error::BadOption { what: w, .. }) if w == what),
+            "{what}"
+        );
     }
 }

@@ -271,8 +271,12 @@ impl Sweep {
     /// Parses and validates a spec; `label` names it in errors, `base_dir` resolves a
     /// relative scene file.
     pub fn parse(label: &str, text: &str, base_dir: &Path) -> Result<Self, Error> {
-        let value: toml::Value = text.parse::<toml::Table>().map(toml::Value::Table).map_err(|e| bad(format!("spec {label}"), format!("TOML syntax: {}", e.message())))?;
-        let spec: SpecFile = serde_path_to_error::deserialize(value).map_err(|e| bad(format!("spec {label}: `{}`", e.path()), e.inner().to_string()))?;
+        let value: toml::Value = text
+            .parse::<toml::Table>()
+            .map(toml::Value::Table)
+            .map_err(|e| bad(format!("spec {label}"), format!("TOML syntax: {}", e.message())))?;
+        let spec: SpecFile = serde_path_to_error::deserialize(value)
+            .map_err(|e| bad(format!("spec {label}: `{}`", e.path()), e.inner().to_string()))?;
         Self::from_spec(label, spec, base_dir)
     }
 
@@ -280,7 +284,8 @@ impl Sweep {
     pub fn from_spec(label: &str, spec: SpecFile, base_dir: &Path) -> Result<Self, Error> {
         let key = |k: &str| format!("spec {label}: `{k}`");
         sim::scene::check_name(&spec.name).map_err(|e| bad(key("name"), e.to_string()))?;
-        let scene_ref = if sim::scene::bundled_names().any(|n| n == spec.scene) || Path::new(&spec.scene).is_absolute() {
+        let scene_ref = if sim::scene::bundled_names().any(|n| n == spec.scene) || Path::new(&spec.scene).is_absolute()
+        {
             spec.scene.clone()
         } else {
             let p = base_dir.join(&spec.scene);
@@ -300,7 +305,15 @@ impl Sweep {
             })?;
             if !AxisName::allowed(spec.kind).contains(&name) {
                 let names: Vec<&str> = AxisName::allowed(spec.kind).iter().map(|a| a.as_str()).collect();
-                return Err(bad(&k, format!("axis `{}` does not apply to a {:?} sweep (it knows {})", a.name, spec.kind, names.join(", "))));
+                return Err(bad(
+                    &k,
+                    format!(
+                        "axis `{}` does not apply to a {:?} sweep (it knows {})",
+                        a.name,
+                        spec.kind,
+                        names.join(", ")
+                    ),
+                ));
             }
             if axes.iter().any(|g| g.name == name) {
                 return Err(bad(&k, format!("axis `{}` given twice", a.name)));
@@ -326,7 +339,12 @@ impl Sweep {
                         return Err(bad(&k, format!("bounds {lo} .. {hi} must be finite")));
                     }
                     if n == 0 || lo > hi || (lo == hi && n > 1) || (lo < hi && n < 2) {
-                        return Err(bad(&k, format!("empty range: lo = {lo}, hi = {hi}, n = {n} (need lo < hi and n >= 2, or lo = hi and n = 1)")));
+                        return Err(bad(
+                            &k,
+                            format!(
+                                "empty range: lo = {lo}, hi = {hi}, n = {n} (need lo < hi and n >= 2, or lo = hi and n = 1)"
+                            ),
+                        ));
                     }
                     if lo == hi {
                         (vec![lo], None)
@@ -338,15 +356,21 @@ impl Sweep {
                 _ => return Err(bad(&k, "give either `values = [...]` or all of `lo`, `hi`, `n`")),
             };
             let sign = match name {
-                AxisName::SlowAmp | AxisName::FastAmp => values.iter().find(|x| **x < 0.0).map(|x| format!("amplitude {x} is negative")),
-                AxisName::DtMs | AxisName::HAdc => values.iter().find(|x| **x <= 0.0).map(|x| format!("{x} must be positive")),
+                AxisName::SlowAmp | AxisName::FastAmp => {
+                    values.iter().find(|x| **x < 0.0).map(|x| format!("amplitude {x} is negative"))
+                }
+                AxisName::DtMs | AxisName::HAdc => {
+                    values.iter().find(|x| **x <= 0.0).map(|x| format!("{x} must be positive"))
+                }
                 _ => None,
             };
             if let Some(why) = sign {
                 return Err(bad(&k, why));
             }
             if name == AxisName::Seed {
-                if let Some(x) = values.iter().find(|x| !(x.fract() == 0.0 && **x >= 0.0 && **x < 9.007_199_254_740_992e15)) {
+                if let Some(x) =
+                    values.iter().find(|x| !(x.fract() == 0.0 && **x >= 0.0 && **x < 9.007_199_254_740_992e15))
+                {
                     return Err(bad(&k, format!("seed {x} is not a non-negative integer below 2^53")));
                 }
             }
@@ -365,7 +389,15 @@ impl Sweep {
                 for (j, x) in r.iter().enumerate() {
                     if !Record::for_kind(spec.kind).contains(x) {
                         let names: Vec<&str> = Record::for_kind(spec.kind).iter().map(|r| r.as_str()).collect();
-                        return Err(bad(key("record"), format!("`{}` is not recorded by a {:?} sweep (it records {})", x.as_str(), spec.kind, names.join(", "))));
+                        return Err(bad(
+                            key("record"),
+                            format!(
+                                "`{}` is not recorded by a {:?} sweep (it records {})",
+                                x.as_str(),
+                                spec.kind,
+                                names.join(", ")
+                            ),
+                        ));
                     }
                     if r[..j].contains(x) {
                         return Err(bad(key("record"), format!("`{}` given twice", x.as_str())));
@@ -388,7 +420,12 @@ impl Sweep {
                 for a in [AxisName::Kp, AxisName::Kd] {
                     match axes.iter().find(|g| g.name == a) {
                         Some(g) if g.range.is_some() => {}
-                        _ => return Err(bad(key("axes"), format!("a chart sweep needs `{}` as a range (lo, hi, n >= 2)", a.as_str()))),
+                        _ => {
+                            return Err(bad(
+                                key("axes"),
+                                format!("a chart sweep needs `{}` as a range (lo, hi, n >= 2)", a.as_str()),
+                            ));
+                        }
                     }
                 }
                 None
@@ -397,35 +434,59 @@ impl Sweep {
                 let b = spec.basin.unwrap_or_default();
                 let periods = b.periods.unwrap_or(scene.run.periods);
                 if periods == 0 || periods > sim::scene::MAX_PERIODS {
-                    return Err(bad(key("basin.periods"), format!("{periods}; need 1 ..= {}", sim::scene::MAX_PERIODS)));
+                    return Err(bad(
+                        key("basin.periods"),
+                        format!("{periods}; need 1 ..= {}", sim::scene::MAX_PERIODS),
+                    ));
                 }
                 let escape_theta = b.escape_theta.or(scene.run.escape_theta).unwrap_or(ESCAPE_THETA);
                 if !(escape_theta.is_finite() && escape_theta > 0.0) {
                     return Err(bad(key("basin.escape_theta"), format!("{escape_theta} must be positive and finite")));
                 }
-                for (n, v) in [("slow_amp", b.slow_amp), ("fast_amp", b.fast_amp), ("slow_phase", b.slow_phase), ("fast_phase", b.fast_phase)] {
+                for (n, v) in [
+                    ("slow_amp", b.slow_amp),
+                    ("fast_amp", b.fast_amp),
+                    ("slow_phase", b.slow_phase),
+                    ("fast_phase", b.fast_phase),
+                ] {
                     if let Some(v) = v {
                         if !v.is_finite() || (n.ends_with("amp") && v < 0.0) {
-                            return Err(bad(key(&format!("basin.{n}")), format!("{v} must be finite{}", if n.ends_with("amp") { " and >= 0" } else { "" })));
+                            return Err(bad(
+                                key(&format!("basin.{n}")),
+                                format!("{v} must be finite{}", if n.ends_with("amp") { " and >= 0" } else { "" }),
+                            ));
                         }
                         if has(AxisName::parse(n).unwrap_or(AxisName::Seed)) {
-                            return Err(bad(key(&format!("basin.{n}")), format!("`{n}` is also an axis; give it in one place")));
+                            return Err(bad(
+                                key(&format!("basin.{n}")),
+                                format!("`{n}` is also an axis; give it in one place"),
+                            ));
                         }
                     }
                 }
-                let modes = has(AxisName::SlowAmp) || has(AxisName::FastAmp) || b.slow_amp.is_some() || b.fast_amp.is_some();
+                let modes =
+                    has(AxisName::SlowAmp) || has(AxisName::FastAmp) || b.slow_amp.is_some() || b.fast_amp.is_some();
                 let phases = has(AxisName::SlowPhase) || has(AxisName::FastPhase);
                 if phases && !modes {
-                    return Err(bad(key("axes"), "a phase axis needs a mode start: a `slow_amp` / `fast_amp` axis or [basin] value"));
+                    return Err(bad(
+                        key("axes"),
+                        "a phase axis needs a mode start: a `slow_amp` / `fast_amp` axis or [basin] value",
+                    ));
                 }
                 if modes && has(AxisName::Theta0) {
                     return Err(bad(key("axes"), "`theta0` and mode amplitudes both set the start; use one"));
                 }
                 if has(AxisName::HAdc) && scene.effects.quantization.is_none() {
-                    return Err(bad(key("axes"), format!("axis `h_adc` needs a scene with [effects.quantization]; {} has none", scene.name)));
+                    return Err(bad(
+                        key("axes"),
+                        format!("axis `h_adc` needs a scene with [effects.quantization]; {} has none", scene.name),
+                    ));
                 }
                 if has(AxisName::Seed) && scene.effects.noise.is_none() {
-                    return Err(bad(key("axes"), format!("axis `seed` needs a scene with [effects.noise]; {} has none", scene.name)));
+                    return Err(bad(
+                        key("axes"),
+                        format!("axis `seed` needs a scene with [effects.noise]; {} has none", scene.name),
+                    ));
                 }
                 Some(BasinSettings {
                     periods,
@@ -532,7 +593,10 @@ impl Sweep {
                 if slow.is_some() || fast.is_some() {
                     let (sa, fa) = (slow.unwrap_or(0.0), fast.unwrap_or(0.0));
                     if !(sa.is_finite() && fa.is_finite() && sa >= 0.0 && fa >= 0.0) {
-                        return Err(ce(Error::BadInput { what: "mode amplitudes", why: format!("need finite non-negative amplitudes, got ({sa}, {fa})") }));
+                        return Err(ce(Error::BadInput {
+                            what: "mode amplitudes",
+                            why: format!("need finite non-negative amplitudes, got ({sa}, {fa})"),
+                        }));
                     }
                     if sa == 0.0 && fa == 0.0 {
                         // Neither mode excited: the loop at rest at the equilibrium.
@@ -541,7 +605,8 @@ impl Sweep {
                         let sp = get(AxisName::SlowPhase).unwrap_or(bs.slow_phase);
                         let fp = get(AxisName::FastPhase).unwrap_or(bs.fast_phase);
                         let at = b.clone().build().map_err(|e| ce(e.into()))?;
-                        let (x, h) = mode_start_in(&at, (sa > 0.0).then_some((sa, sp)), (fa > 0.0).then_some((fa, fp))).map_err(ce)?;
+                        let (x, h) = mode_start_in(&at, (sa > 0.0).then_some((sa, sp)), (fa > 0.0).then_some((fa, fp)))
+                            .map_err(ce)?;
                         b = b.initial_state(&x).history(Some(&h));
                     }
                 } else if let Some(t0) = get(AxisName::Theta0) {
@@ -568,7 +633,8 @@ impl Sweep {
 
     /// `(dt_ms = 31, theta0 = 0.05)`.
     pub fn describe(&self, values: &[f64]) -> String {
-        let parts: Vec<String> = self.axes.iter().zip(values).map(|(a, v)| format!("{} = {v}", a.name.as_str())).collect();
+        let parts: Vec<String> =
+            self.axes.iter().zip(values).map(|(a, v)| format!("{} = {v}", a.name.as_str())).collect();
         format!("({})", parts.join(", "))
     }
 }

@@ -40,7 +40,13 @@ impl ShardFile {
     }
 
     /// A computed shard.
-    pub fn new(sweep: &Sweep, shard: Shard, cells: Vec<Cell>, wall_seconds: f64, threads: usize) -> Result<Self, Error> {
+    pub fn new(
+        sweep: &Sweep,
+        shard: Shard,
+        cells: Vec<Cell>,
+        wall_seconds: f64,
+        threads: usize,
+    ) -> Result<Self, Error> {
         Ok(ShardFile {
             format: SHARD_FORMAT.into(),
             version: super::FORMAT_VERSION,
@@ -57,20 +63,34 @@ impl ShardFile {
     /// Parses a shard file's JSON (`label` names it in errors) and checks its format,
     /// version and that its spec hashes to its stated hash.
     pub fn parse(label: &str, text: &str) -> Result<Self, Error> {
-        let v: serde_json::Value = serde_json::from_str(text).map_err(|e| Error::Sweep(format!("{label}: not a shard file (JSON: {e})")))?;
+        let v: serde_json::Value =
+            serde_json::from_str(text).map_err(|e| Error::Sweep(format!("{label}: not a shard file (JSON: {e})")))?;
         match (v.get("format").and_then(|f| f.as_str()), v.get("version").and_then(|f| f.as_u64())) {
             (Some(SHARD_FORMAT), Some(ver)) if ver == u64::from(super::FORMAT_VERSION) => {}
-            (Some(SHARD_FORMAT), ver) => return Err(Error::Sweep(format!("{label}: shard file version {ver:?}; this build reads version {}", super::FORMAT_VERSION))),
+            (Some(SHARD_FORMAT), ver) => {
+                return Err(Error::Sweep(format!(
+                    "{label}: shard file version {ver:?}; this build reads version {}",
+                    super::FORMAT_VERSION
+                )));
+            }
             (f, _) => return Err(Error::Sweep(format!("{label}: format {f:?} is not `{SHARD_FORMAT}`"))),
         }
-        let f: ShardFile = serde_path_to_error::deserialize(v).map_err(|e| Error::Sweep(format!("{label}: `{}`: {}", e.path(), e.inner())))?;
+        let f: ShardFile = serde_path_to_error::deserialize(v)
+            .map_err(|e| Error::Sweep(format!("{label}: `{}`: {}", e.path(), e.inner())))?;
         let h = hash_value(&f.spec.canonical()?);
         if h != f.spec_hash {
-            return Err(Error::Sweep(format!("{label}: its spec hashes to {h}, the file says {} (edited by hand?)", f.spec_hash)));
+            return Err(Error::Sweep(format!(
+                "{label}: its spec hashes to {h}, the file says {} (edited by hand?)",
+                f.spec_hash
+            )));
         }
         Shard::new(f.shard.index.into(), f.shard.count.into()).map_err(|e| Error::Sweep(format!("{label}: {e}")))?;
         if f.cells_total != f.spec.cells() {
-            return Err(Error::Sweep(format!("{label}: cells_total {} but its spec has {} cells", f.cells_total, f.spec.cells())));
+            return Err(Error::Sweep(format!(
+                "{label}: cells_total {} but its spec has {} cells",
+                f.cells_total,
+                f.spec.cells()
+            )));
         }
         Ok(f)
     }
@@ -99,7 +119,11 @@ fn check_cells(sweep: &Sweep, shard: Shard, cells: &[Cell], label: &str) -> Resu
         }
         let v = sweep.values(k);
         if v.len() != c.values.len() || v.iter().zip(&c.values).any(|(a, b)| a.to_bits() != b.to_bits()) {
-            return Err(Error::Sweep(format!("{label}: cell {k} has values {:?}, its grid point is {}", c.values, sweep.describe(&v))));
+            return Err(Error::Sweep(format!(
+                "{label}: cell {k} has values {:?}, its grid point is {}",
+                c.values,
+                sweep.describe(&v)
+            )));
         }
     }
     if let Some(k) = expect.next() {
@@ -157,11 +181,16 @@ pub fn merge(files: Vec<(String, ShardFile)>) -> Result<(SweepResult, MergeStats
         }
         *slot = Some(i);
     }
-    let missing: Vec<String> = by_index.iter().enumerate().filter(|(_, s)| s.is_none()).map(|(i, _)| format!("{i}/{count}")).collect();
+    let missing: Vec<String> =
+        by_index.iter().enumerate().filter(|(_, s)| s.is_none()).map(|(i, _)| format!("{i}/{count}")).collect();
     if !missing.is_empty() {
         let shown = missing.iter().take(10).cloned().collect::<Vec<_>>().join(", ");
         let more = if missing.len() > 10 { format!(" and {} more", missing.len() - 10) } else { String::new() };
-        return Err(Error::Sweep(format!("missing shard{} {shown}{more} of spec `{}` (hash {hash})", if missing.len() > 1 { "s" } else { "" }, first.spec.name)));
+        return Err(Error::Sweep(format!(
+            "missing shard{} {shown}{more} of spec `{}` (hash {hash})",
+            if missing.len() > 1 { "s" } else { "" },
+            first.spec.name
+        )));
     }
     let sweep = first.spec.clone();
     for (label, f) in &files {
@@ -181,10 +210,21 @@ pub fn merge(files: Vec<(String, ShardFile)>) -> Result<(SweepResult, MergeStats
     }
     let mut cells = Vec::with_capacity(usize::try_from(total).unwrap_or(0));
     for k in 0..total {
-        let c = order[(k % u64::from(count)) as usize].next().ok_or_else(|| Error::Sweep(format!("cell {k} is missing")))?;
+        let c = order[(k % u64::from(count)) as usize]
+            .next()
+            .ok_or_else(|| Error::Sweep(format!("cell {k} is missing")))?;
         cells.push(c);
     }
-    Ok((SweepResult { format: RESULT_FORMAT.into(), version: super::FORMAT_VERSION, spec_hash: hash, spec: sweep, cells }, stats))
+    Ok((
+        SweepResult {
+            format: RESULT_FORMAT.into(),
+            version: super::FORMAT_VERSION,
+            spec_hash: hash,
+            spec: sweep,
+            cells,
+        },
+        stats,
+    ))
 }
 
 impl SweepResult {
@@ -218,8 +258,16 @@ impl SweepResult {
     pub fn counts(&self) -> (usize, Option<usize>) {
         let n = self.cells.len();
         let good = match self.spec.kind {
-            super::Kind::Basin => self.spec.record.contains(&super::Record::Bounded).then(|| self.cells.iter().filter(|c| c.bounded == Some(true)).count()),
-            super::Kind::Chart => self.spec.record.contains(&super::Record::Radius).then(|| self.cells.iter().filter(|c| c.radius.is_some_and(|r| r < 1.0)).count()),
+            super::Kind::Basin => self
+                .spec
+                .record
+                .contains(&super::Record::Bounded)
+                .then(|| self.cells.iter().filter(|c| c.bounded == Some(true)).count()),
+            super::Kind::Chart => self
+                .spec
+                .record
+                .contains(&super::Record::Radius)
+                .then(|| self.cells.iter().filter(|c| c.radius.is_some_and(|r| r < 1.0)).count()),
         };
         (n, good)
     }

@@ -1,6 +1,6 @@
 use super::shard::{ShardFile, merge};
-use sim::scene::SceneBuilder;
 use super::*;
+use sim::scene::SceneBuilder;
 use std::path::Path;
 
 fn parse(text: &str) -> Result<Sweep, Error> {
@@ -105,7 +105,8 @@ fn basin_cells_are_full_system_outcomes() {
     let (one, _) = merge(shard_files(&s, 1)).unwrap();
     assert_eq!(one.cells.len(), 6);
     for c in &one.cells {
-        let tr = crate::full_system::run(c.values[0], &([c.values[1], 0.0, 0.0, 0.0], None), 300, ESCAPE_THETA).unwrap();
+        let tr =
+            crate::full_system::run(c.values[0], &([c.values[1], 0.0, 0.0, 0.0], None), 300, ESCAPE_THETA).unwrap();
         let o = outcome_of(&tr);
         assert_eq!(c.bounded, Some(o.bounded()));
         assert_eq!(c.escape_t, o.escape_t);
@@ -137,9 +138,17 @@ values = [0.05, 0.1]
     let (one, _) = merge(shard_files(&s, 1)).unwrap();
     let (two, _) = merge(shard_files(&s, 3)).unwrap();
     assert_eq!(one, two);
-    let seeded = parse(&spec.replace("name = \"theta0\"\nvalues = [0.05, 0.1]", "name = \"seed\"\nvalues = [1, 2]")).unwrap();
+    let seeded =
+        parse(&spec.replace("name = \"theta0\"\nvalues = [0.05, 0.1]", "name = \"seed\"\nvalues = [1, 2]")).unwrap();
     let c = seeded.compute(1).unwrap();
-    let scene = SceneBuilder::load("furuta-quant-dt25-noise").unwrap().periods(200).quant_step(1e-3).noise_seed(2).escape_theta(ESCAPE_THETA).build().unwrap();
+    let scene = SceneBuilder::load("furuta-quant-dt25-noise")
+        .unwrap()
+        .periods(200)
+        .quant_step(1e-3)
+        .noise_seed(2)
+        .escape_theta(ESCAPE_THETA)
+        .build()
+        .unwrap();
     let o = outcome_of(&simulate(&scene, None).unwrap());
     assert_eq!(c.max_theta.map(f64::to_bits), Some(o.max_theta.to_bits()));
 }
@@ -167,11 +176,20 @@ fn mode_starts_use_the_cells_own_loop() {
     // Neither mode: the loop at rest stays exactly at the equilibrium.
     let rest = s.compute(0).unwrap();
     assert_eq!((rest.bounded, rest.max_theta), (Some(true), Some(0.0)));
-    let err = parse(&spec_modes().replace("values = [0.0, 0.01]\n[[axes]]", "values = [-0.01]\n[[axes]]")).unwrap_err().to_string();
+    let err = parse(&spec_modes().replace("values = [0.0, 0.01]\n[[axes]]", "values = [-0.01]\n[[axes]]"))
+        .unwrap_err()
+        .to_string();
     assert!(err.contains("`axes[0]` (slow_amp): amplitude -0.01 is negative"), "{err}");
     let c = s.compute(3).unwrap();
     let (x, h) = crate::parametric::mode_start(30.5, Some((0.01, 0.0)), Some((0.01, 0.0))).unwrap();
-    let scene = SceneBuilder::load("furuta-dt30.5").unwrap().periods(100).initial_state(&x).history(Some(&h)).escape_theta(ESCAPE_THETA).build().unwrap();
+    let scene = SceneBuilder::load("furuta-dt30.5")
+        .unwrap()
+        .periods(100)
+        .initial_state(&x)
+        .history(Some(&h))
+        .escape_theta(ESCAPE_THETA)
+        .build()
+        .unwrap();
     let o = outcome_of(&simulate(&scene, None).unwrap());
     assert_eq!(c.max_theta.map(f64::to_bits), Some(o.max_theta.to_bits()));
 }
@@ -263,6 +281,10 @@ fn bundled_example_specs_parse() {
     seen.sort_by(|a, b| a.0.cmp(&b.0));
     assert_eq!(
         seen,
-        [("basin-dt-theta0".to_string(), Kind::Basin, 72), ("basin-modes".into(), Kind::Basin, 81), ("chart-kp-kd".into(), Kind::Chart, 2 * 33 * 41)]
+        [
+            ("basin-dt-theta0".to_string(), Kind::Basin, 72),
+            ("basin-modes".into(), Kind::Basin, 81),
+            ("chart-kp-kd".into(), Kind::Chart, 2 * 33 * 41)
+        ]
     );
 }

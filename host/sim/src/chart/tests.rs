@@ -135,7 +135,8 @@ fn pendulum(a: f64, b: f64) -> LinearPlant {
 #[test]
 fn static_boundary_of_a_pendulum_is_at_kp_a_over_b() {
     let p = pendulum(100.0, 10.0);
-    let base = ControllerConfig { kp: 15.0, kd: 1.0, kphi_d: 0.0, ki: 0.0, dt: 0.01, delay: 1, u_max: None, quant: None };
+    let base =
+        ControllerConfig { kp: 15.0, kd: 1.0, kphi_d: 0.0, ki: 0.0, dt: 0.01, delay: 1, u_max: None, quant: None };
     let kp = Axis { lo: 0.0, hi: 30.0, n: 61 };
     let kd = Axis { lo: 0.0, hi: 3.0, n: 61 };
     let zoh = p.discretize(0.01).unwrap();

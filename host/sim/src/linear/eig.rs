@@ -18,8 +18,9 @@ pub fn eigenvalues(m: &DMatrix<f64>) -> Result<Vec<Complex<f64>>, LinearError> {
     {
         return Err(LinearError::NonFinite { what: "closed-loop map", row, col, value });
     }
-    let schur = nalgebra::linalg::Schur::try_new(m.clone(), f64::EPSILON, 200 * n.max(1))
-        .ok_or_else(|| LinearError::Eigen { n, reason: format!("Schur QR did not converge in {} iterations", 200 * n) })?;
+    let schur = nalgebra::linalg::Schur::try_new(m.clone(), f64::EPSILON, 200 * n.max(1)).ok_or_else(|| {
+        LinearError::Eigen { n, reason: format!("Schur QR did not converge in {} iterations", 200 * n) }
+    })?;
     Ok(schur.complex_eigenvalues().iter().copied().collect())
 }
 

@@ -1,9 +1,9 @@
 //! Tests of the exact linear stability against independent routes and the physics of
 //! `shared/MODEL.md`.
 
-use crate::units::ms_to_s;
 use super::eig::eigenvalues_faer;
 use super::*;
+use crate::units::ms_to_s;
 use nalgebra::{Complex, Matrix4, Vector4};
 
 /// Paper parameters (MODEL.md).
@@ -29,10 +29,22 @@ pub(crate) fn furuta_ab() -> (Matrix4<f64>, Vector4<f64>) {
     let d0 = JP * JA - mrl * mrl;
     let kb = K + B2;
     let a = Matrix4::new(
-        0.0, 1.0, 0.0, 0.0,
-        JA * mgl / d0, -JA * B1 / d0, 0.0, -mrl * kb / d0,
-        0.0, 0.0, 0.0, 1.0,
-        mrl * mgl / d0, -mrl * B1 / d0, 0.0, -JP * kb / d0,
+        0.0,
+        1.0,
+        0.0,
+        0.0,
+        JA * mgl / d0,
+        -JA * B1 / d0,
+        0.0,
+        -mrl * kb / d0,
+        0.0,
+        0.0,
+        0.0,
+        1.0,
+        mrl * mgl / d0,
+        -mrl * B1 / d0,
+        0.0,
+        -JP * kb / d0,
     );
     let b = Vector4::new(0.0, mrl * NM / d0, 0.0, JP * NM / d0);
     (a, b)
@@ -187,8 +199,7 @@ fn faer_and_nalgebra_eigenvalues_agree() {
         let cfg = ControllerConfig { kp, kd, ..ControllerConfig::paper(dt) };
         let m = p.closed_loop(&cfg).unwrap();
         let a: Vec<_> = eigenvalues(&m.matrix).unwrap().iter().map(|c| Multiplier::new(c.re, c.im, dt)).collect();
-        let b: Vec<_> =
-            eigenvalues_faer(&m.matrix).unwrap().iter().map(|c| Multiplier::new(c.re, c.im, dt)).collect();
+        let b: Vec<_> = eigenvalues_faer(&m.matrix).unwrap().iter().map(|c| Multiplier::new(c.re, c.im, dt)).collect();
         let d = multiplier_distance(&a, &b, 1e-3);
         assert!(d < 1e-11, "dt {dt} kp {kp} kd {kd}: {d:e}");
     }
@@ -293,10 +304,7 @@ fn bad_inputs_are_named() {
     let cfg = ControllerConfig::paper(0.025);
     let mut an = a;
     an[(3, 1)] = f64::NAN;
-    assert!(matches!(
-        multipliers(&an, &b, 0, 2, &cfg),
-        Err(LinearError::NonFinite { what: "A", row: 3, col: 1, .. })
-    ));
+    assert!(matches!(multipliers(&an, &b, 0, 2, &cfg), Err(LinearError::NonFinite { what: "A", row: 3, col: 1, .. })));
     let mut bn = b;
     bn[1] = f64::INFINITY;
     assert!(matches!(multipliers(&a, &bn, 0, 2, &cfg), Err(LinearError::NonFinite { what: "B", row: 1, .. })));
@@ -394,9 +402,7 @@ fn experimental_gains_are_unstable_at_20_ms() {
     let dom = dominant_multipliers(&a, &b, 0, 2, &cfg).unwrap();
     assert!(spectral_radius(&dom) > 1.0, "{dom:?}");
     // MODEL.md: KD must be below about 5.3 at 20 ms.
-    let at = |kd: f64| {
-        spectral_radius(&dominant_multipliers(&a, &b, 0, 2, &ControllerConfig { kd, ..cfg }).unwrap())
-    };
+    let at = |kd: f64| spectral_radius(&dominant_multipliers(&a, &b, 0, 2, &ControllerConfig { kd, ..cfg }).unwrap());
     assert!(at(5.2) < 1.0 && at(5.4) > 1.0, "{} {}", at(5.2), at(5.4));
 }
 
@@ -430,7 +436,13 @@ fn untrustworthy_multipliers_are_refused_naming_the_cause() {
     let e = p.closed_loop(&cfg(15.5, 5.45, 1e5)).unwrap_err();
     assert!(matches!(e, LinearError::ExponentTooLarge { .. }) && e.to_string().contains("dt = 100000 s"), "{e}");
     // What the study and the charts use passes, as do large but resolvable values.
-    for c in [cfg(15.5, 5.45, 0.025), cfg(40.0, 8.0, 0.001), cfg(1e5, 1e3, 1e-4), cfg(15.5, 5.45, 1e-7), cfg(15.5, 5.45, 0.1)] {
+    for c in [
+        cfg(15.5, 5.45, 0.025),
+        cfg(40.0, 8.0, 0.001),
+        cfg(1e5, 1e3, 1e-4),
+        cfg(15.5, 5.45, 1e-7),
+        cfg(15.5, 5.45, 0.1),
+    ] {
         let m = p.closed_loop(&c).unwrap();
         assert!(m.multipliers().is_ok() && m.dominant_multipliers().is_ok(), "{c:?}: {:?}", m.check_accuracy());
     }

@@ -393,7 +393,9 @@ fn double_134<const N: usize, const SPARSE: bool>(p: &[Cols<N>; 5]) -> [Cols<N>;
     let (ep1, ep3, ep4) = (mm_l::<N, SPARSE>(e, p1), mm_l::<N, SPARSE>(e, p3), mm_l::<N, SPARSE>(e, p4));
     let q1 = map_l::<N, SPARSE>(&ep1, |i, j, v| (v + p1[j][i]) * 0.5);
     let q3 = map_l::<N, SPARSE>(&ep3, |i, j, v| (((v + p1[j][i] * 0.5) + p2[j][i]) + p3[j][i]) * 0.125);
-    let q4 = map_l::<N, SPARSE>(&ep4, |i, j, v| ((((v + p1[j][i] * INV_FACT[3]) + p2[j][i] * 0.5) + p3[j][i]) + p4[j][i]) * 0.0625);
+    let q4 = map_l::<N, SPARSE>(&ep4, |i, j, v| {
+        ((((v + p1[j][i] * INV_FACT[3]) + p2[j][i] * 0.5) + p3[j][i]) + p4[j][i]) * 0.0625
+    });
     [q1, q3, q4]
 }
 
@@ -576,14 +578,22 @@ mod tests {
                 let (new, old) = (phis(&jac, h), phis_old(&jac, h));
                 match (new, old) {
                     (Some(x), Some(y)) => {
-                        assert!(same(&x.p1_half, &y.p1_half) && same(&x.p1, &y.p1) && same(&x.p3, &y.p3) && same(&x.p4, &y.p4), "{jac:?} h {h}");
+                        assert!(
+                            same(&x.p1_half, &y.p1_half)
+                                && same(&x.p1, &y.p1)
+                                && same(&x.p3, &y.p3)
+                                && same(&x.p4, &y.p4),
+                            "{jac:?} h {h}"
+                        );
                     }
                     (None, None) => refused += 1,
                     _ => panic!("refusal differs: {jac:?} h {h}"),
                 }
                 let a = M::<N>::from_fn(|i, j| h * jac[i][j]);
                 match (phis_of(&a), phis_of_old(&a)) {
-                    (Some((h1, p)), Some((h2, q))) => assert!(same(&h1, &h2) && p.iter().zip(&q).all(|(x, y)| same(x, y))),
+                    (Some((h1, p)), Some((h2, q))) => {
+                        assert!(same(&h1, &h2) && p.iter().zip(&q).all(|(x, y)| same(x, y)))
+                    }
                     (None, None) => {}
                     _ => panic!("refusal differs: {a}"),
                 }
@@ -608,7 +618,10 @@ mod tests {
     fn check_same(jac: &[[f64; 4]; 4], h: f64) -> Option<bool> {
         let r = match (phis(jac, h), phis_old(jac, h)) {
             (Some(x), Some(y)) => {
-                assert!(same(&x.p1_half, &y.p1_half) && same(&x.p1, &y.p1) && same(&x.p3, &y.p3) && same(&x.p4, &y.p4), "{jac:?} h {h:e}");
+                assert!(
+                    same(&x.p1_half, &y.p1_half) && same(&x.p1, &y.p1) && same(&x.p3, &y.p3) && same(&x.p4, &y.p4),
+                    "{jac:?} h {h:e}"
+                );
                 Some([x.p1_half, x.p1, x.p3, x.p4].iter().flatten().any(|v| !v.is_finite()))
             }
             (None, None) => None,
@@ -616,7 +629,9 @@ mod tests {
         };
         let a = M::<4>::from_fn(|i, j| h * jac[i][j]);
         match (phis_of(&a), phis_of_old(&a)) {
-            (Some((h1, p)), Some((h2, q))) => assert!(same(&h1, &h2) && p.iter().zip(&q).all(|(x, y)| same(x, y)), "{a}"),
+            (Some((h1, p)), Some((h2, q))) => {
+                assert!(same(&h1, &h2) && p.iter().zip(&q).all(|(x, y)| same(x, y)), "{a}")
+            }
             (None, None) => {}
             _ => panic!("refusal differs: {a}"),
         }
@@ -652,7 +667,12 @@ mod tests {
         let mut layout = 0usize;
         for r in 0..60_000 {
             let sc = if r % 3 == 0 { 0.05 } else { 1.0 };
-            let x = [uniform(-3.2, 3.2, &mut seed) * sc, uniform(-20.0, 20.0, &mut seed) * sc, uniform(-10.0, 10.0, &mut seed), uniform(-40.0, 40.0, &mut seed) * sc];
+            let x = [
+                uniform(-3.2, 3.2, &mut seed) * sc,
+                uniform(-20.0, 20.0, &mut seed) * sc,
+                uniform(-10.0, 10.0, &mut seed),
+                uniform(-40.0, 40.0, &mut seed) * sc,
+            ];
             let u = uniform(-24.0, 24.0, &mut seed);
             let h = 10f64.powf(uniform(-9.0, 3.0, &mut seed));
             let jac = if r % 2 == 0 { jacobian(&furuta, &x, u).1 } else { jacobian(&cart, &x, u).1 };
@@ -703,7 +723,18 @@ mod tests {
         let want = |q: f64| q.log2().ceil() as i32;
         for e in 0..70 {
             let base = 2f64.powi(e);
-            for frac in [0u64, 1, 2, (1 << 32) - 1, 1 << 32, (1 << 32) + 1, (1 << 52) - (1 << 32) - 1, (1 << 52) - (1 << 32), (1 << 52) - (1 << 32) + 1, (1 << 52) - 1] {
+            for frac in [
+                0u64,
+                1,
+                2,
+                (1 << 32) - 1,
+                1 << 32,
+                (1 << 32) + 1,
+                (1 << 52) - (1 << 32) - 1,
+                (1 << 52) - (1 << 32),
+                (1 << 52) - (1 << 32) + 1,
+                (1 << 52) - 1,
+            ] {
                 let q = f64::from_bits(base.to_bits() + frac);
                 if q > 1.0 {
                     assert_eq!(ceil_log2(q), want(q), "{q:e}");

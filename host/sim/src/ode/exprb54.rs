@@ -159,7 +159,16 @@ impl<const N: usize> Split54<N> {
             (phi_fast(zq, cut), phi_fast(C3 * hl, cut), phi_fast(hl, cut))
         };
         let n = phi_fast(C4 * hl, cut);
-        Some(Self { v, w, a, terms, f1: [q[1], hf[1], n[1], o[1]], f3: [hf[3], n[3], o[3]], f4: o[4], unit_rows: unit_rows && N == 4 })
+        Some(Self {
+            v,
+            w,
+            a,
+            terms,
+            f1: [q[1], hf[1], n[1], o[1]],
+            f3: [hf[3], n[3], o[3]],
+            f4: o[4],
+            unit_rows: unit_rows && N == 4,
+        })
     }
 
     /// `sum_j wts[m][j] Z_s^j (y - v w^T y) + fast[m] v (w^T y)` for each output `m`.
@@ -296,7 +305,8 @@ pub(crate) fn step<const N: usize, P: Phi54<N>>(
     let d4 = remainder(rhs(&u4), &du4);
     let [c3, c4] = ph.on_d4(&d4);
     let err: [f64; N] = core::array::from_fn(|i| {
-        h * ((-64.0 * a3[i] + 26.0 * b3[i] - 250.0 / 81.0 * c3[i]) + (60.0 * a4[i] - 195.0 / 8.0 * b4[i] + 625.0 / 216.0 * c4[i]))
+        h * ((-64.0 * a3[i] + 26.0 * b3[i] - 250.0 / 81.0 * c3[i])
+            + (60.0 * a4[i] - 195.0 / 8.0 * b4[i] + 625.0 / 216.0 * c4[i]))
     });
     let y1: [f64; N] = core::array::from_fn(|i| {
         y[i] + h * pf1[i] + h * ((18.0 * b3[i] - 250.0 / 81.0 * c3[i]) + (-60.0 * b4[i] + 500.0 / 27.0 * c4[i]))
@@ -327,7 +337,10 @@ mod tests {
         assert!((moment(&b5, 4) - 24.0 * p5).abs() < 1e-15, "sum b c^4 = 24 phi5(0)");
         assert!((moment(&b4, 4) - 24.0 * p5).abs() > 1e-3, "the embedded solution is of order 4 only");
         // As polynomials in phi3, phi4 (Z != 0): sum b c^2 = 2 phi3, sum b c^3 = 6 phi4.
-        for (b3c, b4c) in [([0.0, 18.0, -250.0 / 81.0], [0.0, -60.0, 500.0 / 27.0]), ([64.0, -8.0, 0.0], [-60.0, -285.0 / 8.0, 125.0 / 8.0])] {
+        for (b3c, b4c) in [
+            ([0.0, 18.0, -250.0 / 81.0], [0.0, -60.0, 500.0 / 27.0]),
+            ([64.0, -8.0, 0.0], [-60.0, -285.0 / 8.0, 125.0 / 8.0]),
+        ] {
             let m = |w: &[f64; 3], k: i32| (0..3).map(|i| w[i] * c[i].powi(k)).sum::<f64>();
             assert!((m(&b3c, 2) - 2.0).abs() < 1e-14 && m(&b4c, 2).abs() < 1e-14);
             assert!(m(&b3c, 3).abs() < 1e-14 && (m(&b4c, 3) - 6.0).abs() < 1e-14);
@@ -356,7 +369,16 @@ mod tests {
             for hl in [-1e-6, -0.3, -1.0, -2.0, -2.3, -3.0, -7.5, -21.0, -480.0, -1e4, 3.0] {
                 let sp = Split54::<1>::new(&jac, &(-1.0, [1.0], [1.0]), -hl, &cut, false).unwrap();
                 let z = hl;
-                let got = [(sp.f1[0], 1, C2), (sp.f1[1], 1, C3), (sp.f1[2], 1, C4), (sp.f1[3], 1, 1.0), (sp.f3[0], 3, C3), (sp.f3[1], 3, C4), (sp.f3[2], 3, 1.0), (sp.f4, 4, 1.0)];
+                let got = [
+                    (sp.f1[0], 1, C2),
+                    (sp.f1[1], 1, C3),
+                    (sp.f1[2], 1, C4),
+                    (sp.f1[3], 1, 1.0),
+                    (sp.f3[0], 3, C3),
+                    (sp.f3[1], 3, C4),
+                    (sp.f3[2], 3, 1.0),
+                    (sp.f4, 4, 1.0),
+                ];
                 for (g, k, c) in got {
                     let want = phi_ref(k, c * z);
                     let tol = cut.term.max(4e-15) * want.abs();

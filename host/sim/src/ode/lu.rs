@@ -71,12 +71,7 @@ mod tests {
     #[test]
     fn solves_against_nalgebra() {
         // A matrix that needs pivoting (zero leading entry) and is badly scaled.
-        let a = [
-            [0.0, 2.0, -1.0, 3.0],
-            [1e4, 1.0, 0.5, -2.0],
-            [3.0, -7.0, 1e-3, 4.0],
-            [-1.0, 0.25, 6.0, 1.0],
-        ];
+        let a = [[0.0, 2.0, -1.0, 3.0], [1e4, 1.0, 0.5, -2.0], [3.0, -7.0, 1e-3, 4.0], [-1.0, 0.25, 6.0, 1.0]];
         let b = [1.0, -2.0, 3.5, 0.125];
         let x = Lu::new(a).unwrap().solve(&b);
         let m = nalgebra::Matrix4::from_fn(|i, j| a[i][j]);

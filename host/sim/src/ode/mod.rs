@@ -92,9 +92,13 @@ enum Scheme {
     Exprb,
     ExprbSplit,
     /// `filtered`: [`Method::ExprbFiltered`]'s error estimate.
-    ExprbLean { filtered: bool },
+    ExprbLean {
+        filtered: bool,
+    },
     /// [`Method::Exprb54`]; `filtered`: [`Method::Exprb54Filtered`].
-    Exprb54 { filtered: bool },
+    Exprb54 {
+        filtered: bool,
+    },
 }
 
 /// Why an integration failed. The state is never left holding NaN or infinity: on error it is
@@ -276,13 +280,7 @@ impl<const N: usize> Integrator<N> {
 
     /// Advances `x` by exactly `h` seconds under the held input `u`. On error `x` holds the
     /// last state that was finite (the state at the failing step's start).
-    pub fn advance<P: Plant<N>>(
-        &mut self,
-        plant: &P,
-        x: &mut [f64; N],
-        u: f64,
-        h: f64,
-    ) -> Result<(), OdeError> {
+    pub fn advance<P: Plant<N>>(&mut self, plant: &P, x: &mut [f64; N], u: f64, h: f64) -> Result<(), OdeError> {
         if !(h.is_finite() && h > 0.0) {
             return Err(OdeError::BadArgument(format!("period h must be finite and positive, got {h}")));
         }
@@ -306,7 +304,9 @@ impl<const N: usize> Integrator<N> {
             Method::ExprbFiltered { rtol, atol } => {
                 self.adaptive(plant, x, u, h, rtol, atol, Scheme::ExprbLean { filtered: true })
             }
-            Method::Exprb54 { rtol, atol } => self.adaptive(plant, x, u, h, rtol, atol, Scheme::Exprb54 { filtered: false }),
+            Method::Exprb54 { rtol, atol } => {
+                self.adaptive(plant, x, u, h, rtol, atol, Scheme::Exprb54 { filtered: false })
+            }
             Method::Exprb54Filtered { rtol, atol } => {
                 self.adaptive(plant, x, u, h, rtol, atol, Scheme::Exprb54 { filtered: true })
             }
@@ -332,8 +332,7 @@ impl<const N: usize> Integrator<N> {
             let k3 = p.rhs(&axpy(x, 0.5 * dt, &k2), u);
             let k4 = p.rhs(&axpy(x, dt, &k3), u);
             self.stats.rhs_evals += 4;
-            let y: [f64; N] =
-                core::array::from_fn(|j| x[j] + dt / 6.0 * (k1[j] + 2.0 * (k2[j] + k3[j]) + k4[j]));
+            let y: [f64; N] = core::array::from_fn(|j| x[j] + dt / 6.0 * (k1[j] + 2.0 * (k2[j] + k3[j]) + k4[j]));
             if let Some(component) = first_non_finite(&y) {
                 return Err(OdeError::NonFinite { t: t + dt, component });
             }
@@ -375,7 +374,8 @@ impl<const N: usize> Integrator<N> {
                     exprb::step(&mut rhs, &jac, &phis, x, &f0, dt).0
                 }
                 Scheme::Exprb54 { .. } => {
-                    let ph = exprb54::Full54::new(&jac, dt).ok_or(OdeError::NonFinite { t, component: bad_row(&jac) })?;
+                    let ph =
+                        exprb54::Full54::new(&jac, dt).ok_or(OdeError::NonFinite { t, component: bad_row(&jac) })?;
                     self.stats.rhs_evals += 3;
                     exprb54::step(&mut rhs, &jac, &ph, x, &f0, dt).0
                 }
@@ -431,7 +431,9 @@ impl<const N: usize> Integrator<N> {
         }
         match scheme {
             Scheme::ExprbSplit => self.pair = split::dominant_pair(&jac, self.pair.as_ref()),
-            Scheme::ExprbLean { .. } | Scheme::Exprb54 { .. } => self.pair = split::dominant_pair_lean_with(&jac, self.pair.as_ref(), pair_tol, unit_rows),
+            Scheme::ExprbLean { .. } | Scheme::Exprb54 { .. } => {
+                self.pair = split::dominant_pair_lean_with(&jac, self.pair.as_ref(), pair_tol, unit_rows)
+            }
             _ => {}
         }
         let mut first = true;
@@ -462,21 +464,24 @@ impl<const N: usize> Integrator<N> {
             let mut rhs = |y: &[f64; N]| p.rhs(y, u);
             let trial = match scheme {
                 Scheme::Rodas => rodas::factor(&jac, h_try).map(|lu| rodas::step(&mut rhs, &lu, x, &f0, h_try)),
-                Scheme::Exprb => {
-                    exprb::phis(&jac, h_try).map(|phis| exprb::step(&mut rhs, &jac, &phis, x, &f0, h_try))
-                }
+                Scheme::Exprb => exprb::phis(&jac, h_try).map(|phis| exprb::step(&mut rhs, &jac, &phis, x, &f0, h_try)),
                 Scheme::ExprbSplit => match self.pair.as_ref().and_then(|pr| split::Split::new(&jac, pr, h_try)) {
                     Some(sp) => Some(split::step(&mut rhs, &jac, &sp, x, &f0, h_try)),
                     None => exprb::phis(&jac, h_try).map(|phis| exprb::step(&mut rhs, &jac, &phis, x, &f0, h_try)),
                 },
-                Scheme::ExprbLean { .. } => match self.pair.as_ref().and_then(|pr| split::Split::with_cut(&jac, pr, h_try, &cut, unit_rows)) {
-                    Some(sp) => Some(split::step(&mut rhs, &jac, &sp, x, &f0, h_try)),
-                    None => exprb::phis(&jac, h_try).map(|phis| exprb::step(&mut rhs, &jac, &phis, x, &f0, h_try)),
-                },
-                Scheme::Exprb54 { .. } => match self.pair.as_ref().and_then(|pr| exprb54::Split54::new(&jac, pr, h_try, &cut, unit_rows)) {
-                    Some(sp) => Some(exprb54::step(&mut rhs, &jac, &sp, x, &f0, h_try)),
-                    None => exprb54::Full54::new(&jac, h_try).map(|ph| exprb54::step(&mut rhs, &jac, &ph, x, &f0, h_try)),
-                },
+                Scheme::ExprbLean { .. } => {
+                    match self.pair.as_ref().and_then(|pr| split::Split::with_cut(&jac, pr, h_try, &cut, unit_rows)) {
+                        Some(sp) => Some(split::step(&mut rhs, &jac, &sp, x, &f0, h_try)),
+                        None => exprb::phis(&jac, h_try).map(|phis| exprb::step(&mut rhs, &jac, &phis, x, &f0, h_try)),
+                    }
+                }
+                Scheme::Exprb54 { .. } => {
+                    match self.pair.as_ref().and_then(|pr| exprb54::Split54::new(&jac, pr, h_try, &cut, unit_rows)) {
+                        Some(sp) => Some(exprb54::step(&mut rhs, &jac, &sp, x, &f0, h_try)),
+                        None => exprb54::Full54::new(&jac, h_try)
+                            .map(|ph| exprb54::step(&mut rhs, &jac, &ph, x, &f0, h_try)),
+                    }
+                }
             };
             let Some((y, k6)) = trial else {
                 // RODAS: E = I/(h gamma) - J singular; exprb: h J not finite or too large to
@@ -553,8 +558,8 @@ impl<const N: usize> Integrator<N> {
                     first = false;
                 }
                 if n_acc > 0 {
-                    let fac_gus = ((h_acc / h_try) * root(err * err / err_acc) / SAFETY)
-                        .clamp(1.0 / FAC_MAX, 1.0 / FAC_MIN);
+                    let fac_gus =
+                        ((h_acc / h_try) * root(err * err / err_acc) / SAFETY).clamp(1.0 / FAC_MAX, 1.0 / FAC_MIN);
                     h_new = h_try / fac.max(fac_gus);
                 }
                 n_acc += 1;

@@ -96,22 +96,14 @@ pub(crate) fn step<const N: usize>(
 
     let y5 = comb(Some(y), [(A51, &k1), (A52, &k2), (A53, &k3), (A54, &k4)]);
     let f = rhs(&y5);
-    let k5 = lu.solve(&comb(
-        Some(&f),
-        [(C51 * inv_h, &k1), (C52 * inv_h, &k2), (C53 * inv_h, &k3), (C54 * inv_h, &k4)],
-    ));
+    let k5 =
+        lu.solve(&comb(Some(&f), [(C51 * inv_h, &k1), (C52 * inv_h, &k2), (C53 * inv_h, &k3), (C54 * inv_h, &k4)]));
 
     let y6 = comb(Some(&y5), [(1.0, &k5)]);
     let f = rhs(&y6);
     let k6 = lu.solve(&comb(
         Some(&f),
-        [
-            (C61 * inv_h, &k1),
-            (C62 * inv_h, &k2),
-            (C63 * inv_h, &k3),
-            (C64 * inv_h, &k4),
-            (C65 * inv_h, &k5),
-        ],
+        [(C61 * inv_h, &k1), (C62 * inv_h, &k2), (C63 * inv_h, &k3), (C64 * inv_h, &k4), (C65 * inv_h, &k5)],
     ));
     (comb(Some(&y6), [(1.0, &k6)]), k6)
 }

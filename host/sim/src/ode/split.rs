@@ -329,7 +329,12 @@ fn second_order_layout<const N: usize>(jac: &[[f64; N]; N]) -> Option<[(usize, u
 /// test as [`rayleigh_iteration`]'s (each vector scaled to inf-norm 1, the two-sided Rayleigh
 /// quotient as `lambda`, both residuals below `tol |lambda|`), or `None`: the caller falls back
 /// to the Rayleigh quotient iteration.
-fn second_order_pair<const N: usize>(jac: &[[f64; N]; N], start: &Pair<N>, tol: f64, unit_rows: bool) -> Option<Pair<N>> {
+fn second_order_pair<const N: usize>(
+    jac: &[[f64; N]; N],
+    start: &Pair<N>,
+    tol: f64,
+    unit_rows: bool,
+) -> Option<Pair<N>> {
     let [(p0, v0), (p1, v1)] = if unit_rows && N == 4 { [(0, 1), (2, 3)] } else { second_order_layout(jac)? };
     let (a11, a12, a21, a22) = (jac[v0][p0], jac[v0][p1], jac[v1][p0], jac[v1][p1]);
     let (b11, b12, b21, b22) = (jac[v0][v0], jac[v0][v1], jac[v1][v0], jac[v1][v1]);
@@ -379,7 +384,12 @@ fn second_order_pair<const N: usize>(jac: &[[f64; N]; N], start: &Pair<N>, tol: 
 /// `1 x` is `x`; so `(J v)_0 = 0.0 + v_1`, `(J^T w)_1 = ((0.0 + w_0) + J_11 w_1) + J_31 w_3`,
 /// and so on. Checked against [`checked_pair`] in the tests.
 #[inline]
-fn checked_pair_furuta<const N: usize>(jac: &[[f64; N]; N], v: &[f64; N], w: &[f64; N], tol: f64) -> Result<Pair<N>, Option<f64>> {
+fn checked_pair_furuta<const N: usize>(
+    jac: &[[f64; N]; N],
+    v: &[f64; N],
+    w: &[f64; N],
+    tol: f64,
+) -> Result<Pair<N>, Option<f64>> {
     let wv = dot(w, v);
     if !(wv.abs() > 1e-8) {
         return Err(None);
@@ -410,7 +420,12 @@ fn checked_pair_furuta<const N: usize>(jac: &[[f64; N]; N], v: &[f64; N], w: &[f
 /// residuals `|J v - lambda v|`, `|J^T w - lambda w|` (inf norms) are at most `tol |lambda|`;
 /// `Err(Some(lambda))` if not, `Err(None)` if `|w^T v| <= 1e-8` (nearly orthogonal vectors).
 #[inline]
-fn checked_pair<const N: usize>(jac: &[[f64; N]; N], v: &[f64; N], w: &[f64; N], tol: f64) -> Result<Pair<N>, Option<f64>> {
+fn checked_pair<const N: usize>(
+    jac: &[[f64; N]; N],
+    v: &[f64; N],
+    w: &[f64; N],
+    tol: f64,
+) -> Result<Pair<N>, Option<f64>> {
     let wv = dot(w, v);
     if !(wv.abs() > 1e-8) {
         return Err(None);
@@ -425,7 +440,15 @@ fn checked_pair<const N: usize>(jac: &[[f64; N]; N], v: &[f64; N], w: &[f64; N],
 /// `jv = J v`, `jw = J^T w` and `wv = w^T v`, `Ok((lambda, v, w / wv))` if both residuals
 /// (inf norms) are at most `tol |lambda|` and `lambda` is finite, else `Err(Some(lambda))`.
 #[inline(always)]
-fn residual_verdict<const N: usize>(lambda: f64, v: &[f64; N], w: &[f64; N], wv: f64, jv: &[f64; N], jw: &[f64; N], tol: f64) -> Result<Pair<N>, Option<f64>> {
+fn residual_verdict<const N: usize>(
+    lambda: f64,
+    v: &[f64; N],
+    w: &[f64; N],
+    wv: f64,
+    jv: &[f64; N],
+    jw: &[f64; N],
+    tol: f64,
+) -> Result<Pair<N>, Option<f64>> {
     let tol_abs = tol * lambda.abs();
     let rv = (0..N).map(|i| (jv[i] - lambda * v[i]).abs()).fold(0.0, f64::max);
     let rw = (0..N).map(|i| (jw[i] - lambda * w[i]).abs()).fold(0.0, f64::max);
@@ -648,7 +671,14 @@ pub(crate) fn unit_rows<const N: usize>(jac: &[[f64; N]; N]) -> bool {
 /// `rho_max`; else terms `j = 0..terms-1`, the first dropped one (`rho^terms / (terms+1)!`
 /// bounds it) below `cut`, at most `max_terms` ([`Split`] and exprb54's split share it).
 #[inline(always)]
-pub(crate) fn deflated<const N: usize>(jac: &[[f64; N]; N], pair: &Pair<N>, h: f64, rho_max: f64, max_terms: usize, cut: f64) -> Option<([[f64; N]; N], usize)> {
+pub(crate) fn deflated<const N: usize>(
+    jac: &[[f64; N]; N],
+    pair: &Pair<N>,
+    h: f64,
+    rho_max: f64,
+    max_terms: usize,
+    cut: f64,
+) -> Option<([[f64; N]; N], usize)> {
     let &(lambda, v, w) = pair;
     let hl = h * lambda;
     let a: [[f64; N]; N] = core::array::from_fn(|i| {
@@ -695,7 +725,14 @@ impl<const N: usize> Split<N> {
     }
 
     #[inline(always)]
-    fn build(jac: &[[f64; N]; N], pair: &Pair<N>, h: f64, cut: f64, lean: Option<&Cut>, unit_rows: bool) -> Option<Self> {
+    fn build(
+        jac: &[[f64; N]; N],
+        pair: &Pair<N>,
+        h: f64,
+        cut: f64,
+        lean: Option<&Cut>,
+        unit_rows: bool,
+    ) -> Option<Self> {
         let &(lambda, v, w) = pair;
         let hl = h * lambda;
         let (a, terms) = deflated(jac, pair, h, RHO_MAX, MAX_TERMS, cut)?;
@@ -752,7 +789,13 @@ impl<const N: usize> Split<N> {
 /// `f(u) - f0 - J du` of [`step`] (a function, not a closure: the closure, called twice, was
 /// not inlined once the unit-row case was added).
 #[inline(always)]
-pub(crate) fn remainder<const N: usize>(jac: &[[f64; N]; N], unit_rows: bool, f0: &[f64; N], fu: [f64; N], du: &[f64; N]) -> [f64; N] {
+pub(crate) fn remainder<const N: usize>(
+    jac: &[[f64; N]; N],
+    unit_rows: bool,
+    f0: &[f64; N],
+    fu: [f64; N],
+    du: &[f64; N],
+) -> [f64; N] {
     let jd = if unit_rows { matvec_unit_rows(jac, du) } else { matvec(jac, du) };
     core::array::from_fn(|i| fu[i] - f0[i] - jd[i])
 }
@@ -829,7 +872,10 @@ pub(crate) mod tests {
     fn lean_scalar_phi_functions_meet_their_cut() {
         for rtol in [1e-6, 1e-8, 1e-10, 1e-12, 1e-15] {
             let cut = Cut::for_rtol(rtol);
-            for z in [0.0, 1e-9, -1e-4, -0.01, -0.05, 0.07, -0.1, -0.3, -0.99, 1.5, -1.99, -2.0, -3.0, -7.5, -21.0, -480.0, -1e4, 6.0] {
+            for z in [
+                0.0, 1e-9, -1e-4, -0.01, -0.05, 0.07, -0.1, -0.3, -0.99, 1.5, -1.99, -2.0, -3.0, -7.5, -21.0, -480.0,
+                -1e4, 6.0,
+            ] {
                 let (p, half) = phi_lean(z, &cut);
                 for (k, got) in p.iter().enumerate() {
                     let want = phi_ref(k, z);
@@ -837,7 +883,10 @@ pub(crate) mod tests {
                     assert!((got - want).abs() <= tol, "rtol {rtol:e}: phi_{k}({z}) = {got:e}, want {want:e}");
                 }
                 let want = phi_ref(1, 0.5 * z);
-                assert!((half - want).abs() <= 4e-15 * want.abs(), "rtol {rtol:e}: phi_1({z}/2) = {half:e}, want {want:e}");
+                assert!(
+                    (half - want).abs() <= 4e-15 * want.abs(),
+                    "rtol {rtol:e}: phi_1({z}/2) = {half:e}, want {want:e}"
+                );
             }
         }
     }
@@ -862,9 +911,15 @@ pub(crate) mod tests {
     fn split_phi_functions_match_the_matrix_functions_on_the_furuta_jacobian() {
         let p = Furuta::paper();
         let mut used = 0;
-        for (x, u) in [([0.0, 0.0, 0.0, 0.0], 0.0), ([0.05, 1.0, 0.3, 0.5], 0.7), ([-0.1, -2.0, 1.0, 3.0], -2.0), ([0.15, -3.0, 0.0, 2.0], -2.0)] {
+        for (x, u) in [
+            ([0.0, 0.0, 0.0, 0.0], 0.0),
+            ([0.05, 1.0, 0.3, 0.5], 0.7),
+            ([-0.1, -2.0, 1.0, 3.0], -2.0),
+            ([0.15, -3.0, 0.0, 2.0], -2.0),
+        ] {
             let (_, jac) = jacobian(&p, &x, u);
-            let pair = dominant_pair(&jac, None).expect("the Furuta Jacobian has a dominant eigenvalue near the upright");
+            let pair =
+                dominant_pair(&jac, None).expect("the Furuta Jacobian has a dominant eigenvalue near the upright");
             // The back-EMF mode: about -K Jp / Delta(theta).
             let delta = p.delta(x[0]);
             let want_lambda = -p.params().k * p.params().jp / delta;
@@ -905,7 +960,12 @@ pub(crate) mod tests {
     #[test]
     fn rayleigh_pair_from_a_warm_start_matches_power_iteration() {
         let p = Furuta::paper();
-        let states = [([0.0, 0.0, 0.0, 0.0], 0.0), ([0.05, 1.0, 0.3, 0.5], 0.7), ([0.05, 1.05, 0.3, 0.8], 0.7), ([-0.1, -2.0, 1.0, 3.0], -2.0)];
+        let states = [
+            ([0.0, 0.0, 0.0, 0.0], 0.0),
+            ([0.05, 1.0, 0.3, 0.5], 0.7),
+            ([0.05, 1.05, 0.3, 0.8], 0.7),
+            ([-0.1, -2.0, 1.0, 3.0], -2.0),
+        ];
         let mut prev: Option<Pair<4>> = None;
         for (x, u) in states {
             let (_, jac) = jacobian(&p, &x, u);
@@ -916,7 +976,12 @@ pub(crate) mod tests {
             let sign = if dot(&got.1, &want.1) < 0.0 { -1.0 } else { 1.0 };
             for i in 0..4 {
                 assert!((sign * got.1[i] - want.1[i]).abs() <= 1e-12, "v: {:?} vs {:?}", got.1, want.1);
-                assert!((sign * got.2[i] - want.2[i]).abs() <= 1e-12 * norm_inf(&want.2), "w: {:?} vs {:?}", got.2, want.2);
+                assert!(
+                    (sign * got.2[i] - want.2[i]).abs() <= 1e-12 * norm_inf(&want.2),
+                    "w: {:?} vs {:?}",
+                    got.2,
+                    want.2
+                );
             }
             prev = Some(got);
         }
@@ -981,7 +1046,8 @@ pub(crate) mod tests {
             // The start: the pair at a state a step away (1e-3 of the state's scale).
             let near: [f64; 4] = core::array::from_fn(|i| x[i] + 1e-3 * uniform(-1.0, 1.0) * [1.0, 10.0, 1.0, 30.0][i]);
             let start = dominant_pair(&plant.rhs_and_jacobian(&near, u).1, None).unwrap_or(want);
-            let got = second_order_pair(&jac, &start, 1e-14, unit_rows(&jac)).expect("the closed-form pair passes the residual test");
+            let got = second_order_pair(&jac, &start, 1e-14, unit_rows(&jac))
+                .expect("the closed-form pair passes the residual test");
             let lean = dominant_pair_lean(&jac, Some(&start), 1e-14).unwrap();
             assert_eq!(lean.0.to_bits(), got.0.to_bits(), "dominant_pair_lean takes the closed form");
             let d = pair_diff(&got, &want);
@@ -994,7 +1060,9 @@ pub(crate) mod tests {
             assert!(d[0] <= 1e-15 && d[1] <= 1e-14 && d[2] <= 3e-14, "x {x:?} u {u}: [lambda, v, w] differ by {d:?}");
             used += 1;
         }
-        eprintln!("second-order pair vs power iteration, {used} Jacobians: [lambda, v, w] worst {worst:?}, residuals (v, w) {worst_res:?}");
+        eprintln!(
+            "second-order pair vs power iteration, {used} Jacobians: [lambda, v, w] worst {worst:?}, residuals (v, w) {worst_res:?}"
+        );
         assert!(used >= 300, "{used} Jacobians with a dominant pair");
     }
 
@@ -1026,7 +1094,10 @@ pub(crate) mod tests {
                 for _ in 0..20 {
                     integ.advance(&plant, &mut x, u, dt / 20.0).unwrap();
                     let (_, jac) = plant.rhs_and_jacobian(&x, u);
-                    let o = old.as_ref().and_then(|s| rayleigh_iteration(&jac, s, tol)).or_else(|| power_iteration(&jac, None, 2, tol));
+                    let o = old
+                        .as_ref()
+                        .and_then(|s| rayleigh_iteration(&jac, s, tol))
+                        .or_else(|| power_iteration(&jac, None, 2, tol));
                     // Every pair after the first (cold, power iteration) is the closed form's.
                     let w = match new.as_ref() {
                         Some(s) => second_order_pair(&jac, s, tol, unit_rows(&jac)),
@@ -1048,7 +1119,10 @@ pub(crate) mod tests {
                     }
                     assert!(rn.0 <= 1e-15 && rn.1 <= 1e-15, "x {x:?}: closed-form residuals {rn:?}");
                     assert!(ro.0 <= tol && ro.1 <= tol, "x {x:?}: Rayleigh residuals {ro:?}");
-                    assert!(d[0] <= 1e-15 && d[1] <= 1.5 * tol && d[2] <= 1.5 * tol, "x {x:?}: [lambda, v, w] differ by {d:?}");
+                    assert!(
+                        d[0] <= 1e-15 && d[1] <= 1.5 * tol && d[2] <= 1.5 * tol,
+                        "x {x:?}: [lambda, v, w] differ by {d:?}"
+                    );
                     n += 1;
                 }
             }
@@ -1086,7 +1160,10 @@ pub(crate) mod tests {
         let blocked: [[f64; 4]; 4] = core::array::from_fn(|i| core::array::from_fn(|k| jac[perm[i]][perm[k]]));
         assert_eq!(second_order_layout(&blocked), Some([(0, 2), (1, 3)]));
         let s = (start.0, perm.map(|i| start.1[i]), perm.map(|i| start.2[i]));
-        let (a, b) = (second_order_pair(&blocked, &s, 1e-14, unit_rows(&blocked)).unwrap(), second_order_pair(&jac, &start, 1e-14, unit_rows(&jac)).unwrap());
+        let (a, b) = (
+            second_order_pair(&blocked, &s, 1e-14, unit_rows(&blocked)).unwrap(),
+            second_order_pair(&jac, &start, 1e-14, unit_rows(&jac)).unwrap(),
+        );
         assert!((a.0 - b.0).abs() <= 1e-15 * b.0.abs(), "{a:?} vs {b:?}");
         let j3 = [[1.0, 2.0, 0.5], [-4.0, 0.3, 1.0], [2.0, -1.0, 3.0]];
         assert_eq!(second_order_layout(&j3), None);
@@ -1155,7 +1232,9 @@ pub(crate) mod tests {
                 }
             }
         }
-        eprintln!("checked_pair_furuta vs checked_pair: {ok} accepted, {fail} refused, {none} orthogonal, all bit for bit");
+        eprintln!(
+            "checked_pair_furuta vs checked_pair: {ok} accepted, {fail} refused, {none} orthogonal, all bit for bit"
+        );
         assert!(ok >= 1000 && fail >= 1000 && none >= 100, "{ok} {fail} {none}");
     }
 

@@ -36,8 +36,7 @@ fn closed_loop<P: Plant<4>>(
 
 fn paper_loop(method: Method, periods: usize) -> Vec<f64> {
     let mut integ = Integrator::new(method).unwrap();
-    closed_loop(&mut integ, &Furuta::paper(), [0.05, 0.0, 0.0, 0.0], (KP, KD, KPHI_D), DT, periods)
-        .unwrap()
+    closed_loop(&mut integ, &Furuta::paper(), [0.05, 0.0, 0.0, 0.0], (KP, KD, KPHI_D), DT, periods).unwrap()
 }
 
 fn max_diff(a: &[f64], b: &[f64]) -> f64 {
@@ -282,12 +281,8 @@ fn loop_radius<P: Plant<4>>(p: &P, (kp, kd, kphi): (f64, f64, f64), dt: f64) -> 
     m[(6, 4)] = 1.0;
     m[(7, 5)] = 1.0;
     let mut r: Vec<f64> = m.complex_eigenvalues().iter().map(|z| z.norm()).collect();
-    let shift = r
-        .iter()
-        .enumerate()
-        .min_by(|a, b| (a.1 - 1.0).abs().total_cmp(&(b.1 - 1.0).abs()))
-        .map(|(i, _)| i)
-        .unwrap();
+    let shift =
+        r.iter().enumerate().min_by(|a, b| (a.1 - 1.0).abs().total_cmp(&(b.1 - 1.0).abs())).map(|(i, _)| i).unwrap();
     assert!((r[shift] - 1.0).abs() < 1e-9, "no shift multiplier: {r:?}");
     r.remove(shift);
     r.into_iter().fold(0.0, f64::max)
@@ -322,8 +317,6 @@ fn cart_is_stabilized_by_the_same_law() {
     let x = run(Method::Rodas { rtol: 1e-10, atol: 1e-12 }, &p, [0.1, 0.0, 0.0, 0.0], 0.0, DT, 30).unwrap();
     assert!(x[0].abs() > 0.5, "{x:?}");
 }
-
-
 
 // ---------------------------------------------------------------------------------------------
 // exprb43
@@ -553,7 +546,6 @@ fn exprb_validation_and_describe() {
     assert_eq!(integ.stats(), OdeStats { steps: 3, rejected: 0, rhs_evals: 6, jac_evals: 3 });
 }
 
-
 // ---------------------------------------------------------------------------------------------
 // exprb43-split
 
@@ -608,7 +600,8 @@ fn exprb_split_closed_loop_accuracy_against_the_tight_reference() {
         // The same steps as exprb43 (the same error estimates to rounding) and the same
         // trajectory to far below the tolerance.
         let mut full = Integrator::new(Method::Exprb { rtol, atol: rtol * 1e-2 }).unwrap();
-        let out_full = closed_loop(&mut full, &Furuta::paper(), [0.05, 0.0, 0.0, 0.0], (KP, KD, KPHI_D), DT, 200).unwrap();
+        let out_full =
+            closed_loop(&mut full, &Furuta::paper(), [0.05, 0.0, 0.0, 0.0], (KP, KD, KPHI_D), DT, 200).unwrap();
         assert!(max_diff(&out, &out_full) < 1e-12, "{:e}", max_diff(&out, &out_full));
         let (a, b) = (integ.stats(), full.stats());
         assert!(a.steps.abs_diff(b.steps) <= 2 && a.jac_evals.abs_diff(b.jac_evals) <= 2, "{a:?} vs {b:?}");
@@ -813,7 +806,14 @@ fn exprb_filtered_validation_describe_and_blow_up() {
 /// `n` equal `exprb54s4` steps over `h_total` from `x0` (the scheme alone, no error control),
 /// with the full matrix functions (`split = false`) or the split ones at the dominant pair
 /// (`split = true`; `None` if a step has no split).
-fn exprb54_fixed<const N: usize, P: Plant<N>>(p: &P, x0: [f64; N], u: f64, h_total: f64, n: u32, split: bool) -> Option<[f64; N]> {
+fn exprb54_fixed<const N: usize, P: Plant<N>>(
+    p: &P,
+    x0: [f64; N],
+    u: f64,
+    h_total: f64,
+    n: u32,
+    split: bool,
+) -> Option<[f64; N]> {
     let dt = h_total / f64::from(n);
     let cut = split::Cut::for_rtol(1e-15);
     let mut x = x0;
@@ -888,7 +888,10 @@ fn exprb54_converges_with_order_five_on_nonlinear_problems_with_closed_forms() {
     let (a, x0, t): (f64, f64, f64) = (3.0, 0.1, 1.0);
     let exact = x0 * (a * t).exp() / (1.0 - x0 + x0 * (a * t).exp());
     let steps = [4u32, 8, 16, 32];
-    let errs: Vec<f64> = steps.iter().map(|&n| (exprb54_fixed(&Logistic(a), [x0], 0.0, t, n, false).unwrap()[0] - exact).abs()).collect();
+    let errs: Vec<f64> = steps
+        .iter()
+        .map(|&n| (exprb54_fixed(&Logistic(a), [x0], 0.0, t, n, false).unwrap()[0] - exact).abs())
+        .collect();
     let order = observed_order(&errs, &steps);
     eprintln!("logistic: exprb54s4 errors at {steps:?} steps: {errs:?}, order {order:.2}");
     assert!((order - 5.0).abs() < 0.3, "errors {errs:?}, order {order}");
@@ -906,12 +909,17 @@ fn exprb54_converges_with_order_five_on_nonlinear_problems_with_closed_forms() {
             let full = exprb54_fixed(&p, [s0.sin(), s0], 0.0, t, n, false).unwrap();
             if lambda < -100.0 {
                 let split = exprb54_fixed(&p, [s0.sin(), s0], 0.0, t, n, true).unwrap();
-                assert!((full[0] - split[0]).abs() < 1e-13 && (full[1] - split[1]).abs() < 1e-13, "n {n}: {full:?} vs {split:?}");
+                assert!(
+                    (full[0] - split[0]).abs() < 1e-13 && (full[1] - split[1]).abs() < 1e-13,
+                    "n {n}: {full:?} vs {split:?}"
+                );
             }
             errs.push((full[0] - (s0 + t).sin()).abs());
         }
         let order = observed_order(&errs, &steps);
-        eprintln!("prothero-robinson lambda {lambda:e}: exprb54s4 errors at {steps:?} steps: {errs:?}, order {order:.2}");
+        eprintln!(
+            "prothero-robinson lambda {lambda:e}: exprb54s4 errors at {steps:?} steps: {errs:?}, order {order:.2}"
+        );
         assert!((order - want).abs() < 0.3, "lambda {lambda}: errors {errs:?}, order {order}");
     }
 }
@@ -970,7 +978,9 @@ fn exprb54_closed_loop_accuracy_against_the_tight_reference() {
         for m in [Method::Exprb54 { rtol: tol, atol: tol }, Method::Exprb54Filtered { rtol: tol, atol: tol }] {
             let (err, steps) = bench_error_and_steps(m, &reference);
             let (err43, steps43) = bench_error_and_steps(Method::ExprbFiltered { rtol: tol, atol: tol }, &reference);
-            eprintln!("{m:?}: bench theta error {err:.3e}, {steps:.1} steps/period (exprb-filtered {err43:.3e}, {steps43:.1})");
+            eprintln!(
+                "{m:?}: bench theta error {err:.3e}, {steps:.1} steps/period (exprb-filtered {err43:.3e}, {steps43:.1})"
+            );
             assert!(err > 0.0 && err < 2.0 * tol, "{m:?}: max theta error {err:e}");
         }
         let p = Furuta::paper();
@@ -980,7 +990,13 @@ fn exprb54_closed_loop_accuracy_against_the_tight_reference() {
             let got = run(m, &p, x0, -2.0, DT, 1).unwrap();
             for i in 0..4 {
                 let sk = tol + tol * want[i].abs();
-                assert!((got[i] - want[i]).abs() < 10.0 * sk, "{m:?}: component {i}: {} vs {} ({:e})", got[i], want[i], (got[i] - want[i]).abs());
+                assert!(
+                    (got[i] - want[i]).abs() < 10.0 * sk,
+                    "{m:?}: component {i}: {} vs {} ({:e})",
+                    got[i],
+                    want[i],
+                    (got[i] - want[i]).abs()
+                );
             }
         }
     }
@@ -1091,7 +1107,12 @@ fn split_schemes_match_their_golden_values_bit_for_bit() {
         }
     }
     for (k, ((h, s, x), (wh, ws))) in got.iter().zip(GOLDEN.iter()).enumerate() {
-        assert_eq!((*h, [s.steps, s.rejected, s.rhs_evals, s.jac_evals]), (*wh, *ws), "case {k}: {:?}, final state {x:?}", golden_cases()[k]);
+        assert_eq!(
+            (*h, [s.steps, s.rejected, s.rhs_evals, s.jac_evals]),
+            (*wh, *ws),
+            "case {k}: {:?}, final state {x:?}",
+            golden_cases()[k]
+        );
     }
     assert_eq!(got.len(), GOLDEN.len());
 }

@@ -229,8 +229,7 @@ mod tests {
         let e = Cart::new(CartParams { mc: f64::NAN, ..base }).unwrap_err();
         assert!(matches!(e, PlantError::NotFinite { field: "mc", .. }), "{e}");
         // A pendulum inertia below m l^2 with a massless cart: Jp*m < (m l)^2.
-        let e = Cart::new(CartParams { mc: 1e-6, jp: 0.5 * base.m * base.l * base.l, ..base })
-            .unwrap_err();
+        let e = Cart::new(CartParams { mc: 1e-6, jp: 0.5 * base.m * base.l * base.l, ..base }).unwrap_err();
         assert!(matches!(e, PlantError::SingularMassMatrix { delta_min, .. } if delta_min < 0.0), "{e}");
     }
 }

@@ -88,14 +88,7 @@ impl Furuta {
         let mrl = p.m * p.r * p.l;
         let delta0 = p.jp * p.ja - mrl * mrl;
         check_delta(delta0, p.jp * p.ja, "Jp*Ja - (m*r*l)^2")?;
-        Ok(Self {
-            params,
-            mrl,
-            mgl: p.m * p.g * p.l,
-            two_jp: 2.0 * p.jp,
-            delta0,
-            delta_s2: p.jp * p.jp + mrl * mrl,
-        })
+        Ok(Self { params, mrl, mgl: p.m * p.g * p.l, two_jp: 2.0 * p.jp, delta0, delta_s2: p.jp * p.jp + mrl * mrl })
     }
 
     /// The paper's plant.
@@ -200,12 +193,8 @@ impl Plant<4> for Furuta {
             0.0,
             (ja_eff * b_wp + mrl_c * a_wp) * inv,
         ];
-        let j3 = [
-            (n2_th - ph_dd * d_th) * inv,
-            (p.jp * a_wt + mrl_c * b_wt) * inv,
-            0.0,
-            (p.jp * a_wp + mrl_c * b_wp) * inv,
-        ];
+        let j3 =
+            [(n2_th - ph_dd * d_th) * inv, (p.jp * a_wt + mrl_c * b_wt) * inv, 0.0, (p.jp * a_wp + mrl_c * b_wp) * inv];
         ([wt, th_dd, wp, ph_dd], [[0.0, 1.0, 0.0, 0.0], j1, [0.0, 0.0, 0.0, 1.0], j3])
     }
 

@@ -9,11 +9,7 @@ use super::{Dual, Plant, Scalar};
 /// `f(x, u)` and `df/dx` at `(x, u)`, from one evaluation of the right-hand side in
 /// `Dual<N>`; `jac[i][j] = d f_i / d x_j`.
 #[inline]
-pub fn jacobian<P: Plant<N>, const N: usize>(
-    p: &P,
-    x: &[f64; N],
-    u: f64,
-) -> ([f64; N], [[f64; N]; N]) {
+pub fn jacobian<P: Plant<N>, const N: usize>(p: &P, x: &[f64; N], u: f64) -> ([f64; N], [[f64; N]; N]) {
     let xd: [Dual<N>; N] = core::array::from_fn(|i| Dual::var(x[i], i));
     let fd = p.rhs(&xd, Dual::cst(u));
     let f = core::array::from_fn(|i| fd[i].v);
@@ -77,11 +73,7 @@ mod tests {
     fn jacobian_matches_central_differences() {
         let f = Furuta::paper();
         let c = Cart::reference();
-        for (x, u) in [
-            ([0.0, 0.0, 0.0, 0.0], 0.0),
-            ([0.3, -1.2, 4.0, 2.5], 1.7),
-            ([-2.0, 3.0, -1.0, -7.0], -12.0),
-        ] {
+        for (x, u) in [([0.0, 0.0, 0.0, 0.0], 0.0), ([0.3, -1.2, 4.0, 2.5], 1.7), ([-2.0, 3.0, -1.0, -7.0], -12.0)] {
             fd_check(&f, &x, u, 1e-7);
             fd_check(&c, &x, u, 1e-7);
         }

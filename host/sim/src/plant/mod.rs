@@ -57,11 +57,7 @@ pub(crate) fn check_fields(fields: &[(&'static str, f64, Sign)]) -> Result<(), P
 }
 
 /// Rejects a mass-matrix determinant minimum that is not positive, or below `1e-9 * reference`.
-pub(crate) fn check_delta(
-    delta_min: f64,
-    reference: f64,
-    formula: &'static str,
-) -> Result<(), PlantError> {
+pub(crate) fn check_delta(delta_min: f64, reference: f64, formula: &'static str) -> Result<(), PlantError> {
     if !(delta_min > 0.0) {
         return Err(PlantError::SingularMassMatrix { delta_min, formula });
     }

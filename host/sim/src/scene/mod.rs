@@ -375,7 +375,11 @@ impl SceneBuilder {
     /// The validated scene.
     pub fn build(self) -> Result<Scene, SceneError> {
         if let Some(path) = self.missing {
-            return Err(SceneError::key(&self.scene.name, path, "the scene has no such table to set (it does not simulate this effect)"));
+            return Err(SceneError::key(
+                &self.scene.name,
+                path,
+                "the scene has no such table to set (it does not simulate this effect)",
+            ));
         }
         self.scene.validate()?;
         Ok(self.scene)
@@ -406,9 +410,8 @@ impl Scene {
         for o in overrides {
             apply_override(label, &mut table, o)?;
         }
-        let scene: Scene = serde_path_to_error::deserialize(toml::Value::Table(table)).map_err(|e| {
-            SceneError::key(label, e.path().to_string(), e.inner().to_string())
-        })?;
+        let scene: Scene = serde_path_to_error::deserialize(toml::Value::Table(table))
+            .map_err(|e| SceneError::key(label, e.path().to_string(), e.inner().to_string()))?;
         scene.validate()?;
         Ok(scene)
     }
@@ -491,7 +494,11 @@ impl Scene {
             }
             MethodKind::RodasFixed | MethodKind::Rk4 | MethodKind::ExprbFixed => {
                 if i.rtol.is_some() || i.atol.is_some() {
-                    return Err(SceneError::key(s, "integrator.rtol", "fixed-step methods take `steps`, not tolerances"));
+                    return Err(SceneError::key(
+                        s,
+                        "integrator.rtol",
+                        "fixed-step methods take `steps`, not tolerances",
+                    ));
                 }
                 match i.steps {
                     Some(n) if n >= 1 => {}
@@ -571,10 +578,13 @@ impl Scene {
         let e = &self.effects;
         let mut v = vec![format!("sampling/zoh dt={} ms, delay r={}", self.controller.dt_ms, self.controller.delay)];
         if let Some(q) = &e.quantization {
-            v.push(format!("quantization ({})", match q.mode {
-                QuantModeSpec::Counts => "counts",
-                QuantModeSpec::Literal => "literal",
-            }));
+            v.push(format!(
+                "quantization ({})",
+                match q.mode {
+                    QuantModeSpec::Counts => "counts",
+                    QuantModeSpec::Literal => "literal",
+                }
+            ));
         }
         if let Some(s) = &e.saturation {
             v.push(format!("saturation |u| <= {} V", s.u_max));
@@ -620,7 +630,9 @@ pub fn check_name(name: &str) -> Result<(), SceneError> {
         Some(why) => Err(SceneError::key(
             &name.chars().take(MAX_NAME_LEN).collect::<String>(),
             "name",
-            format!("{why}: a scene name becomes a file name and may hold only ASCII letters, digits, `-`, `_` and `.` (not first)"),
+            format!(
+                "{why}: a scene name becomes a file name and may hold only ASCII letters, digits, `-`, `_` and `.` (not first)"
+            ),
         )),
     }
 }

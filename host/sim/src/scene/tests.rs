@@ -31,7 +31,10 @@ fn every_bundled_scene_parses_and_is_named_after_its_file() {
 
 #[test]
 fn paper_sweep_and_test_values_are_bundled() {
-    for dt in ["30.5", "31", "32", "32.5", "30.8", "31.2", "31.4", "31.41", "31.55", "31.6", "31.68", "31.8", "32.2", "32.3", "25"] {
+    for dt in [
+        "30.5", "31", "32", "32.5", "30.8", "31.2", "31.4", "31.41", "31.55", "31.6", "31.68", "31.8", "32.2", "32.3",
+        "25",
+    ] {
         let name = format!("furuta-dt{dt}");
         let s = Scene::load(&name, &[]).unwrap();
         assert_eq!(s.controller.dt_ms, dt.parse::<f64>().unwrap());
@@ -142,13 +145,48 @@ fn controller_fields_are_validated_by_the_controller_check() {
     let quant = "\n[effects.quantization]\nmode = \"counts\"\nh_adc = 0.001\n";
     for (text, o, key, msg) in [
         (MINIMAL.to_string(), "controller.kp=inf", "controller.kp", "controller config: `kp` is not finite"),
-        (MINIMAL.to_string(), "controller.kphi_d=nan", "controller.kphi_d", "controller config: `kphi_d` is not finite"),
-        (MINIMAL.to_string(), "controller.delay=7", "controller.delay", "controller config: `delay` = 7 samples exceeds this controller's history (max 6)"),
-        (MINIMAL.to_string(), "effects.saturation.u_max=-2", "effects.saturation.u_max", "controller config: `u_max` must be > 0"),
-        (MINIMAL.to_string(), "effects.integral.ki=nan", "effects.integral.ki", "controller config: `ki` is not finite"),
-        (format!("{MINIMAL}{quant}"), "effects.quantization.h_dac=0", "effects.quantization.h_dac", "controller config: `quant.h_dac` must be > 0"),
-        (format!("{MINIMAL}{quant}"), "effects.quantization.h_adc=-1", "effects.quantization.h_adc", "controller config: `quant.h_adc` must be > 0"),
-        (format!("{MINIMAL}{quant}"), "effects.quantization.h_adc_phi=0", "effects.quantization.h_adc_phi", "must be > 0"),
+        (
+            MINIMAL.to_string(),
+            "controller.kphi_d=nan",
+            "controller.kphi_d",
+            "controller config: `kphi_d` is not finite",
+        ),
+        (
+            MINIMAL.to_string(),
+            "controller.delay=7",
+            "controller.delay",
+            "controller config: `delay` = 7 samples exceeds this controller's history (max 6)",
+        ),
+        (
+            MINIMAL.to_string(),
+            "effects.saturation.u_max=-2",
+            "effects.saturation.u_max",
+            "controller config: `u_max` must be > 0",
+        ),
+        (
+            MINIMAL.to_string(),
+            "effects.integral.ki=nan",
+            "effects.integral.ki",
+            "controller config: `ki` is not finite",
+        ),
+        (
+            format!("{MINIMAL}{quant}"),
+            "effects.quantization.h_dac=0",
+            "effects.quantization.h_dac",
+            "controller config: `quant.h_dac` must be > 0",
+        ),
+        (
+            format!("{MINIMAL}{quant}"),
+            "effects.quantization.h_adc=-1",
+            "effects.quantization.h_adc",
+            "controller config: `quant.h_adc` must be > 0",
+        ),
+        (
+            format!("{MINIMAL}{quant}"),
+            "effects.quantization.h_adc_phi=0",
+            "effects.quantization.h_adc_phi",
+            "must be > 0",
+        ),
         (format!("{MINIMAL}{quant}"), "controller.kp=1e30", "controller.kp", "not representable"),
     ] {
         let e = err(&text, &[o]);
@@ -167,7 +205,8 @@ fn controller_fields_are_validated_by_the_controller_check() {
 #[test]
 fn method_keys_parse_back() {
     use super::MethodKind::*;
-    for m in [Rodas, RodasFixed, Rk4, Exprb, ExprbFixed, ExprbSplit, ExprbLean, ExprbFiltered, Exprb54, Exprb54Filtered] {
+    for m in [Rodas, RodasFixed, Rk4, Exprb, ExprbFixed, ExprbSplit, ExprbLean, ExprbFiltered, Exprb54, Exprb54Filtered]
+    {
         let v: MethodKind = toml::Value::String(m.key().into()).try_into().unwrap();
         assert_eq!(v, m);
     }

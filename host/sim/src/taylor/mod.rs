@@ -137,12 +137,18 @@ impl FlowExpansion {
         }
         let table = TpsTable::get(nvar, order).ok_or(TaylorError::Order { order, nvar })?;
         let n = table.len();
-        Ok(FlowExpansion { order, table, outputs: self.outputs.iter().map(|c| c[..n].to_vec()).collect(), ..self.clone() })
+        Ok(FlowExpansion {
+            order,
+            table,
+            outputs: self.outputs.iter().map(|c| c[..n].to_vec()).collect(),
+            ..self.clone()
+        })
     }
 
     /// Evaluates the expansion at the variables `v` (states but the secondary, then `u`).
     pub fn eval(&self, v: &[f64]) -> Vec<f64> {
-        let mono: Vec<f64> = self.table.exponents().iter().map(|e| e.iter().zip(v).map(|(&k, x)| x.powi(k as i32)).product()).collect();
+        let mono: Vec<f64> =
+            self.table.exponents().iter().map(|e| e.iter().zip(v).map(|(&k, x)| x.powi(k as i32)).product()).collect();
         self.outputs.iter().map(|c| c.iter().zip(&mono).map(|(a, b)| a * b).sum()).collect()
     }
 }
@@ -252,7 +258,17 @@ pub fn flow_expansion<P: Plant<N>, const N: usize>(
             return Err(TaylorError::NonFinite { component, degree: table.exponents()[i].iter().sum() });
         }
     }
-    Ok(FlowExpansion { dt, order, n_plant: N, secondary: s, state_of_var, table, outputs, steps: steps.len(), stiff_rate })
+    Ok(FlowExpansion {
+        dt,
+        order,
+        n_plant: N,
+        secondary: s,
+        state_of_var,
+        table,
+        outputs,
+        steps: steps.len(),
+        stiff_rate,
+    })
 }
 
 /// The closed loop's one-period map in deflated coordinates, `F(s) = M s + G(P s)`:
@@ -400,7 +416,18 @@ pub fn period_map<P: Plant<N>, const N: usize>(
     let mut names: Vec<String> = (0..N).filter(|&i| i != s).map(|i| format!("x{i}")).collect();
     names.extend((0..=lay.delay).map(|k| format!("y[i-{}]", k + 1)));
     names.extend((0..=lay.delay).map(|k| format!("z[i-{}]-x{s}", k + 1)));
-    Ok(PeriodMap { dt: cfg.dt, order, names, linear, proj, exps, coef, primary: lay.plant(P::PRIMARY), flow, cfg: *cfg })
+    Ok(PeriodMap {
+        dt: cfg.dt,
+        order,
+        names,
+        linear,
+        proj,
+        exps,
+        coef,
+        primary: lay.plant(P::PRIMARY),
+        flow,
+        cfg: *cfg,
+    })
 }
 
 impl PeriodMap {
@@ -431,7 +458,8 @@ impl PeriodMap {
             return Err(TaylorError::Dimension { got: s.len(), want: dim });
         }
         let v: Vec<f64> = (0..self.proj.nrows()).map(|k| (0..dim).map(|j| self.proj[(k, j)] * s[j]).sum()).collect();
-        let mono: Vec<f64> = self.exps.iter().map(|e| e.iter().zip(&v).map(|(&k, x)| x.powi(k as i32)).product()).collect();
+        let mono: Vec<f64> =
+            self.exps.iter().map(|e| e.iter().zip(&v).map(|(&k, x)| x.powi(k as i32)).product()).collect();
         Ok((0..dim)
             .map(|r| {
                 let lin: f64 = (0..dim).map(|j| self.linear[(r, j)] * s[j]).sum();
@@ -442,7 +470,12 @@ impl PeriodMap {
 
     /// The exact one-period map (no truncation) at a state, by integrating the plant with
     /// `method` in `f64`: the reference the expansion is checked against.
-    pub fn exact<P: Plant<N>, const N: usize>(&self, plant: &P, s: &[f64], method: Method) -> Result<Vec<f64>, TaylorError> {
+    pub fn exact<P: Plant<N>, const N: usize>(
+        &self,
+        plant: &P,
+        s: &[f64],
+        method: Method,
+    ) -> Result<Vec<f64>, TaylorError> {
         let dim = self.dim();
         if s.len() != dim {
             return Err(TaylorError::Dimension { got: s.len(), want: dim });

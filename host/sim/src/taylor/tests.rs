@@ -172,7 +172,8 @@ fn order_nine_is_finite() {
     let p = Furuta::paper();
     let f = flow_expansion(&p, 0.0315, 9, &FlowOptions { refine: 1 }).unwrap();
     for (i, c) in f.outputs.iter().enumerate() {
-        let norms: Vec<f64> = (1..=9).map(|d| f.table.degree_range(d).map(|k| c[k].abs()).fold(0.0, f64::max)).collect();
+        let norms: Vec<f64> =
+            (1..=9).map(|d| f.table.degree_range(d).map(|k| c[k].abs()).fold(0.0, f64::max)).collect();
         let text: Vec<String> = norms.iter().map(|v| format!("{v:.2e}")).collect();
         eprintln!("x{i}: max |coef| by degree 1..9 {}", text.join(" "));
         assert!(c.iter().all(|v| v.is_finite()));
@@ -184,7 +185,10 @@ fn bad_inputs_are_named() {
     let p = Furuta::paper();
     assert!(matches!(flow_expansion(&p, 0.0, 3, &FlowOptions::default()), Err(TaylorError::BadDt(_))));
     assert!(matches!(flow_expansion(&p, 0.03, 3, &FlowOptions { refine: 0 }), Err(TaylorError::Refine)));
-    assert!(matches!(flow_expansion(&p, 0.03, 10, &FlowOptions::default()), Err(TaylorError::Order { order: 10, nvar: 4 })));
+    assert!(matches!(
+        flow_expansion(&p, 0.03, 10, &FlowOptions::default()),
+        Err(TaylorError::Order { order: 10, nvar: 4 })
+    ));
     let cfg = ControllerConfig { ki: 1.0, ..paper_cfg(0.03) };
     assert!(matches!(period_map(&p, &cfg, 3, &FlowOptions::default()), Err(TaylorError::Integral(_))));
     // The cart's position is cyclic too: its expansion builds.
@@ -296,7 +300,8 @@ fn rhs_by_reference_is_the_by_value_formula() {
             let got = f.rhs(&x, u);
             let want = by_value(&f, &x, u);
             for i in 0..4 {
-                let same = got[i].coefficients().iter().zip(want[i].coefficients()).all(|(a, b)| a.to_bits() == b.to_bits());
+                let same =
+                    got[i].coefficients().iter().zip(want[i].coefficients()).all(|(a, b)| a.to_bits() == b.to_bits());
                 assert!(same && got[i].coefficients().len() == t.len(), "order {order} odd {odd} component {i}");
             }
         }

@@ -108,7 +108,9 @@ impl TpsTable {
         }
         row_start.push(flat.len() as u32);
         let deg_of = |j: usize| deg_start.partition_point(|&s| s <= j) - 1;
-        let par_start: Vec<usize> = (0..deg_start.len()).map(|d| (0..d).filter(|e| (d - e) % 2 == 0).map(|e| deg_start[e + 1] - deg_start[e]).sum()).collect();
+        let par_start: Vec<usize> = (0..deg_start.len())
+            .map(|d| (0..d).filter(|e| (d - e) % 2 == 0).map(|e| deg_start[e + 1] - deg_start[e]).sum())
+            .collect();
         let mut par_flat: [Vec<u16>; 2] = [Vec::new(), Vec::new()];
         let mut par_row_start: [Vec<u32>; 2] = [Vec::with_capacity(prod.len() + 1), Vec::with_capacity(prod.len() + 1)];
         for row in &prod {
@@ -574,7 +576,15 @@ fn mul_rows(
 
 /// The product's terms by rows of `a` (degrees in `amask`, `a[i] == 0` skipped) and, in a
 /// row, by degrees of `b` (those in `bmask`, at or above `dmin` in total).
-fn mul_blocks(t: &TpsTable, a: &[f64; TPS_CAPACITY], amask: u32, b: &[f64; TPS_CAPACITY], bmask: u32, dmin: usize, acc: &mut [f64; SCRATCH]) {
+fn mul_blocks(
+    t: &TpsTable,
+    a: &[f64; TPS_CAPACITY],
+    amask: u32,
+    b: &[f64; TPS_CAPACITY],
+    bmask: u32,
+    dmin: usize,
+    acc: &mut [f64; SCRATCH],
+) {
     let order = t.order as usize;
     let ds = &t.deg_start;
     for da in (0..=order).filter(|&d| amask >> d & 1 == 1) {
@@ -729,7 +739,11 @@ mod tests {
     use super::*;
 
     fn eval(t: &TpsTable, c: &[f64], x: &[f64]) -> f64 {
-        t.exponents().iter().zip(c).map(|(e, c)| c * e.iter().zip(x).map(|(&k, v)| v.powi(k as i32)).product::<f64>()).sum()
+        t.exponents()
+            .iter()
+            .zip(c)
+            .map(|(e, c)| c * e.iter().zip(x).map(|(&k, v)| v.powi(k as i32)).product::<f64>())
+            .sum()
     }
 
     #[test]
@@ -819,7 +833,9 @@ mod tests {
                 .map(|ei| {
                     t.exponents()
                         .iter()
-                        .map_while(|ej| t.index(&ei.iter().zip(ej).map(|(x, y)| x + y).collect::<Vec<u32>>()).map(|k| k as u16))
+                        .map_while(|ej| {
+                            t.index(&ei.iter().zip(ej).map(|(x, y)| x + y).collect::<Vec<u32>>()).map(|k| k as u16)
+                        })
                         .collect()
                 })
                 .collect();
@@ -849,7 +865,11 @@ mod tests {
                 let reps = 200_000 / order as usize;
                 let mut acc = 0.0;
                 for r in 0..reps {
-                    acc += if kind == "flat" { mul_flat(t, &ops[r % 4], &ops[0]) } else { mul_plain(&ops[r % 4], &ops[0]) }[n - 1];
+                    acc += if kind == "flat" {
+                        mul_flat(t, &ops[r % 4], &ops[0])
+                    } else {
+                        mul_plain(&ops[r % 4], &ops[0])
+                    }[n - 1];
                 }
                 eprintln!("order {order}: {reps} {kind} products ({acc:.1e})");
             }
@@ -863,7 +883,9 @@ mod tests {
         let order = t.order as usize;
         let ds = &t.deg_start;
         let nonzero_degrees = |c: &[f64; TPS_CAPACITY]| -> u32 {
-            (0..=order).filter(|&d| c[ds[d]..ds[d + 1]].iter().fold(0u64, |m, v| m | v.to_bits() << 1) != 0).fold(0u32, |m, d| m | 1 << d)
+            (0..=order)
+                .filter(|&d| c[ds[d]..ds[d + 1]].iter().fold(0u64, |m, v| m | v.to_bits() << 1) != 0)
+                .fold(0u32, |m, d| m | 1 << d)
         };
         let (amask, bmask) = (nonzero_degrees(a), nonzero_degrees(b));
         for da in (0..=order).filter(|&d| amask >> d & 1 == 1) {
@@ -999,13 +1021,19 @@ mod tests {
                         let (got, want) = (mul_flat(t, a, b), mul_flat_e794cbf(t, a, b));
                         assert!(same_bits(&got, &want), "nvar {nvar} order {order} operands {p} x {q}");
                         let got = Tps { c: *a, t: Some(t) }.mul_ref(&Tps { c: *b, t: Some(t) });
-                        assert!(same_bits(got.coefficients(), &want[..n]), "mul_ref nvar {nvar} order {order} operands {p} x {q}");
+                        assert!(
+                            same_bits(got.coefficients(), &want[..n]),
+                            "mul_ref nvar {nvar} order {order} operands {p} x {q}"
+                        );
                     }
                     for c0 in [a[0], 0.0, 1.5, f64::NEG_INFINITY] {
                         let mut c = *a;
                         c[0] = c0;
                         let x = Tps { c, t: Some(t) };
-                        assert!(same_bits(x.recip().coefficients(), recip_e794cbf(&x).coefficients()), "recip nvar {nvar} order {order} operand {p} c0 {c0}");
+                        assert!(
+                            same_bits(x.recip().coefficients(), recip_e794cbf(&x).coefficients()),
+                            "recip nvar {nvar} order {order} operand {p} c0 {c0}"
+                        );
                     }
                 }
             }
@@ -1045,7 +1073,10 @@ mod tests {
             }
             s * (1.0 / b0)
         }
-        let bits = |a: &Tps, b: &Tps| a.coefficients().len() == b.coefficients().len() && a.coefficients().iter().zip(b.coefficients()).all(|(x, y)| x.to_bits() == y.to_bits());
+        let bits = |a: &Tps, b: &Tps| {
+            a.coefficients().len() == b.coefficients().len()
+                && a.coefficients().iter().zip(b.coefficients()).all(|(x, y)| x.to_bits() == y.to_bits())
+        };
         let mut seed = 0x2545_f491_4f6c_dd1du64;
         for order in [5, 9] {
             let t = TpsTable::get(4, order).unwrap();
@@ -1063,7 +1094,9 @@ mod tests {
                 assert!(bits(&(Tps::cst(1.0) / b), &(recip_by_value(b) * 1.0)), "recip order {order} c0 {c0}");
                 // The by-reference operators against the by-value ones.
                 let y = x.scaled(-0.3) + 0.1;
-                assert!(bits(&x.mul_ref(&y), &(x * y)) && bits(&x.add_ref(&y), &(x + y)) && bits(&x.sub_ref(&y), &(x - y)));
+                assert!(
+                    bits(&x.mul_ref(&y), &(x * y)) && bits(&x.add_ref(&y), &(x + y)) && bits(&x.sub_ref(&y), &(x - y))
+                );
                 let mut z = Tps::constant(t, 0.0);
                 z.assign_axpy(&x, &y, 0.37);
                 assert!(bits(&z, &(x + y * 0.37)));

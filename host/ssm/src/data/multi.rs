@@ -90,7 +90,12 @@ impl MultiSeries {
             return Err(DataError::LengthMismatch { name: name.clone(), nt: self.t.len(), nx: self.x.len() / q });
         }
         if self.t.len() < 2 {
-            return Err(DataError::TooShort { name: name.clone(), have: self.t.len(), need: 2, why: "a sampling step".into() });
+            return Err(DataError::TooShort {
+                name: name.clone(),
+                have: self.t.len(),
+                need: 2,
+                why: "a sampling step".into(),
+            });
         }
         for (n, (&t, row)) in self.t.iter().zip(self.x.chunks_exact(q)).enumerate() {
             if !t.is_finite() {
@@ -140,7 +145,12 @@ impl MultiSeries {
         let start = from.map_or(0, |a| self.t.partition_point(|&t| t < a));
         let end = to.map_or(self.t.len(), |b| self.t.partition_point(|&t| t <= b));
         let q = self.dim();
-        let label = format!("{}[t in {}..{}]", self.name, from.map_or(String::new(), |v| v.to_string()), to.map_or(String::new(), |v| v.to_string()));
+        let label = format!(
+            "{}[t in {}..{}]",
+            self.name,
+            from.map_or(String::new(), |v| v.to_string()),
+            to.map_or(String::new(), |v| v.to_string())
+        );
         let end = end.max(start);
         let t = self.t.get(start..end).unwrap_or_default().to_vec();
         let x = self.x.get(start * q..end * q).unwrap_or_default().to_vec();
@@ -163,7 +173,11 @@ impl MultiSeries {
                 })
             })
             .collect::<Result<_, _>>()?;
-        let x = self.x.chunks_exact(q.max(1)).flat_map(|row| idx.iter().filter_map(move |&i| row.get(i).copied())).collect();
+        let x = self
+            .x
+            .chunks_exact(q.max(1))
+            .flat_map(|row| idx.iter().filter_map(move |&i| row.get(i).copied()))
+            .collect();
         MultiSeries::new(self.name.clone(), self.t.clone(), names.to_vec(), x)
     }
 }
@@ -197,7 +211,12 @@ pub fn load_csv_observables(path: impl AsRef<Path>, columns: Option<&[String]>) 
 }
 
 /// Parses CSV text (see [`load_csv_observables`]); `file` is used in error messages.
-pub fn parse_csv_observables(file: &str, name: String, text: &str, columns: Option<&[String]>) -> Result<MultiSeries, DataError> {
+pub fn parse_csv_observables(
+    file: &str,
+    name: String,
+    text: &str,
+    columns: Option<&[String]>,
+) -> Result<MultiSeries, DataError> {
     let mut lines = text.lines().enumerate();
     let header: Vec<&str> = match lines.next() {
         Some((_, h)) if !h.trim().is_empty() => h.split(',').map(str::trim).collect(),
@@ -265,11 +284,17 @@ pub fn load_mat(path: impl AsRef<Path>, var: &str) -> Result<Vec<MultiSeries>, D
 pub fn mat_trajectories(file: &str, var: &str, value: &MatValue) -> Result<Vec<MultiSeries>, DataError> {
     let layout = |at: String, why: String| DataError::MatLayout { file: file.to_string(), var: at, why };
     let MatValue::Cell { dims, cells } = value else {
-        return Err(layout(var.into(), "a double array; expected a cell array with one row {t, X} per trajectory".into()));
+        return Err(layout(
+            var.into(),
+            "a double array; expected a cell array with one row {t, X} per trajectory".into(),
+        ));
     };
     let [n, cols] = *dims;
     if cols != 2 || n == 0 {
-        return Err(layout(var.into(), format!("a {n} x {cols} cell array; expected N x 2, one row {{t, X}} per trajectory")));
+        return Err(layout(
+            var.into(),
+            format!("a {n} x {cols} cell array; expected N x 2, one row {{t, X}} per trajectory"),
+        ));
     }
     let mut out = Vec::with_capacity(n);
     for i in 0..n {
@@ -288,7 +313,11 @@ pub fn mat_trajectories(file: &str, var: &str, value: &MatValue) -> Result<Vec<M
         let len = t.len();
         let [q, nx] = *xd;
         if nx != len {
-            let hint = if q == len { " (one column per observable: SSMLearn's layout has one ROW per observable, transpose X)" } else { "" };
+            let hint = if q == len {
+                " (one column per observable: SSMLearn's layout has one ROW per observable, transpose X)"
+            } else {
+                ""
+            };
             return Err(layout(at(2), format!("X is {q} x {nx} but t has {len} samples; expected q x {len}{hint}")));
         }
         // X column-major q x len: sample n, observable r is xs[n * q + r], already row-major
@@ -318,7 +347,10 @@ mod tests {
         assert_eq!(all.observables, ["a", "b", "c"]);
         assert_eq!(all.x, [1.0, 5.0, 9.0, 2.0, 6.0, 8.0, 3.0, 7.0, 9.0]);
         let picked = parse_csv_observables("f.csv", "f".into(), text, Some(&["c".into(), "a".into()])).unwrap();
-        assert_eq!((picked.observables.clone(), picked.x.clone()), (vec!["c".to_string(), "a".into()], vec![9.0, 1.0, 8.0, 2.0, 9.0, 3.0]));
+        assert_eq!(
+            (picked.observables.clone(), picked.x.clone()),
+            (vec!["c".to_string(), "a".into()], vec![9.0, 1.0, 8.0, 2.0, 9.0, 3.0])
+        );
         assert_eq!(picked.observable(1).unwrap().x, [1.0, 2.0, 3.0]);
         let e = parse_csv_observables("f.csv", "f".into(), text, Some(&["d".into()])).unwrap_err();
         assert!(matches!(e, DataError::UnknownColumn { .. }) && e.to_string().contains("a, b, c"), "{e}");
@@ -348,7 +380,13 @@ mod tests {
         ] {
             let e = s.window(from, to).unwrap_err();
             let msg = e.to_string();
-            assert!(matches!(e, DataError::Window { .. }) && msg.contains(why) && msg.contains("m:") && msg.contains("0 .. 5"), "{msg}");
+            assert!(
+                matches!(e, DataError::Window { .. })
+                    && msg.contains(why)
+                    && msg.contains("m:")
+                    && msg.contains("0 .. 5"),
+                "{msg}"
+            );
         }
         // Inside the span but holding a single sample.
         let e = s.window(Some(4.9), None).unwrap_err();

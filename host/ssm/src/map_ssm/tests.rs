@@ -21,7 +21,11 @@ fn linear_x() -> DMatrix<f64> {
             d[(2 + i, 2 + j)] = b2[i][j];
         }
     }
-    let m = DMatrix::from_row_slice(4, 4, &[1.0, 0.2, -0.1, 0.3, 0.1, 0.9, 0.2, -0.2, -0.3, 0.1, 1.1, 0.2, 0.2, -0.3, 0.1, 0.8]);
+    let m = DMatrix::from_row_slice(
+        4,
+        4,
+        &[1.0, 0.2, -0.1, 0.3, 0.1, 0.9, 0.2, -0.2, -0.3, 0.1, 1.1, 0.2, 0.2, -0.3, 0.1, 0.8],
+    );
     &m * d * m.try_inverse().unwrap()
 }
 
@@ -40,7 +44,12 @@ fn q_terms() -> Vec<(Vec<u32>, [f64; 4])> {
 
 /// `h(x)`: two quadratic components.
 fn h_terms() -> Vec<(Vec<u32>, [f64; 2])> {
-    vec![(vec![1, 1, 0, 0], [0.5, 0.0]), (vec![0, 0, 2, 0], [-0.3, 0.0]), (vec![1, 0, 0, 1], [0.0, 0.2]), (vec![0, 2, 0, 0], [0.0, 1.0])]
+    vec![
+        (vec![1, 1, 0, 0], [0.5, 0.0]),
+        (vec![0, 0, 2, 0], [-0.3, 0.0]),
+        (vec![1, 0, 0, 1], [0.0, 0.2]),
+        (vec![0, 2, 0, 0], [0.0, 1.0]),
+    ]
 }
 
 const B: [f64; 2] = [0.3, -0.2];
@@ -136,7 +145,14 @@ fn system() -> (PolynomialMap, Poly) {
 }
 
 fn opts(order: u32) -> MapSsmOptions {
-    MapSsmOptions { order, pairs: 2, resonance_tol: 1e-3, observable: vec![1.0, 0.0, 0.5, 0.0, 0.0, 0.0], dt: DT, amplitude: Amplitude::Spectral }
+    MapSsmOptions {
+        order,
+        pairs: 2,
+        resonance_tol: 1e-3,
+        observable: vec![1.0, 0.0, 0.5, 0.0, 0.0, 0.0],
+        dt: DT,
+        amplitude: Amplitude::Spectral,
+    }
 }
 
 #[test]
@@ -157,8 +173,18 @@ fn polar_coefficients_equal_the_normal_form_of_the_reduced_map() {
         assert!((got.amp[i][0] - r).abs() < 1e-11, "mode {i}: {} vs {r}", got.amp[i][0]);
         for k in 0..got.pexps.len() {
             let scale = want.amp[i][k].abs().max(want.phase[i][k].abs()).max(1.0);
-            assert!((got.amp[i][k] - want.amp[i][k]).abs() < 1e-8 * scale, "amp {i} {k}: {} vs {}", got.amp[i][k], want.amp[i][k]);
-            assert!((got.phase[i][k] - want.phase[i][k]).abs() < 1e-8 * scale, "phase {i} {k}: {} vs {}", got.phase[i][k], want.phase[i][k]);
+            assert!(
+                (got.amp[i][k] - want.amp[i][k]).abs() < 1e-8 * scale,
+                "amp {i} {k}: {} vs {}",
+                got.amp[i][k],
+                want.amp[i][k]
+            );
+            assert!(
+                (got.phase[i][k] - want.phase[i][k]).abs() < 1e-8 * scale,
+                "phase {i} {k}: {} vs {}",
+                got.phase[i][k],
+                want.phase[i][k]
+            );
         }
     }
     assert!(ssm.extra_resonances.is_empty());
@@ -177,7 +203,12 @@ fn manifold_is_the_known_graph_and_real() {
     assert!(s.iter().all(|v| v.im.abs() < 1e-15), "{s:?}");
     let x: Vec<f64> = s[..4].iter().map(|v| v.re).collect();
     let h: Vec<f64> = (0..2)
-        .map(|o| h_terms().iter().map(|(e, c)| c[o] * e.iter().zip(&x).map(|(&k, v)| v.powi(k as i32)).product::<f64>()).sum())
+        .map(|o| {
+            h_terms()
+                .iter()
+                .map(|(e, c)| c[o] * e.iter().zip(&x).map(|(&k, v)| v.powi(k as i32)).product::<f64>())
+                .sum()
+        })
         .collect();
     for o in 0..2 {
         // Truncation at order 6 of the graph: O(|z|^7) (|z|^7 ~ 1e-12, times coefficients
@@ -228,7 +259,8 @@ fn cached_power_evaluation_is_bit_identical() {
     let old_map = |s: &[C]| -> Vec<C> {
         let (d, m) = (map.dim, map.nproj);
         let v: Vec<C> = (0..m).map(|k| (0..d).map(|j| s[j] * map.proj[k * d + j]).sum()).collect();
-        let mono: Vec<C> = map.exps.iter().map(|e| e.iter().zip(&v).fold(C::new(1.0, 0.0), |a, (&k, x)| a * x.powu(k))).collect();
+        let mono: Vec<C> =
+            map.exps.iter().map(|e| e.iter().zip(&v).fold(C::new(1.0, 0.0), |a, (&k, x)| a * x.powu(k))).collect();
         (0..d)
             .map(|r| {
                 let lin: C = (0..d).map(|j| s[j] * map.linear[r * d + j]).sum();
@@ -242,8 +274,16 @@ fn cached_power_evaluation_is_bit_identical() {
         let z2 = C::from_polar(0.6 * r, 2.0 * th + 0.1);
         let z = [z1, z1.conj(), z2, z2.conj()];
         for order in [1, 3, 6, 9, 12] {
-            assert_eq!(bits(&ssm.manifold_at(&z, order)), bits(&old_eval(&ssm.w, &z, order)), "W at r = {r}, order {order}");
-            assert_eq!(bits(&ssm.reduced_at(&z, order)), bits(&old_eval(&ssm.r, &z, order)), "R at r = {r}, order {order}");
+            assert_eq!(
+                bits(&ssm.manifold_at(&z, order)),
+                bits(&old_eval(&ssm.w, &z, order)),
+                "W at r = {r}, order {order}"
+            );
+            assert_eq!(
+                bits(&ssm.reduced_at(&z, order)),
+                bits(&old_eval(&ssm.r, &z, order)),
+                "R at r = {r}, order {order}"
+            );
         }
         let s = ssm.manifold_at(&z, 9);
         assert_eq!(bits(&map.eval_c(&s)), bits(&old_map(&s)), "F at r = {r}");
@@ -359,7 +399,12 @@ fn observable_amplitude_is_the_first_harmonic() {
         }
     }
     for j in 0..2 {
-        assert!((2.0 * h[j].norm() - rho[j]).abs() < 1e-14, "mode {j}: first harmonic {} vs rho {}", 2.0 * h[j].norm(), rho[j]);
+        assert!(
+            (2.0 * h[j].norm() - rho[j]).abs() < 1e-14,
+            "mode {j}: first harmonic {} vs rho {}",
+            2.0 * h[j].norm(),
+            rho[j]
+        );
     }
     let errs: Vec<f64> = [3, 5, 7].iter().map(|&k| ssm.invariance_error(&map, k, 0.05, 6).abs).collect();
     assert!(errs[1] < errs[0] / 5.0 && errs[2] < errs[1] / 5.0, "{errs:?}");
@@ -390,7 +435,10 @@ fn cubic_coefficients_move_by_two_kappa_lambda() {
             let col = spec.polar.pexps.iter().position(|e| e[..] == p[..]).unwrap();
             let (b_s, b_o) = (spec.polar.amp[i][col], obs.polar.amp[i][col]);
             let want = b_s + 2.0 * kappa * spec.polar.amp[j][0];
-            assert!((b_o - want).abs() < 1e-9 * want.abs().max(1.0), "b_{i}{j}: observable {b_o}, spectral {b_s} + 2 kappa a_j = {want}");
+            assert!(
+                (b_o - want).abs() < 1e-9 * want.abs().max(1.0),
+                "b_{i}{j}: observable {b_o}, spectral {b_s} + 2 kappa a_j = {want}"
+            );
             assert!((b_o - b_s).abs() > 1e-6, "b_{i}{j} unchanged: the test needs kappa != 0");
         }
     }
@@ -409,21 +457,38 @@ fn first_harmonic_normal_form_of_the_reduced_map_is_the_observable_amplitude() {
     for amplitude in [Amplitude::Spectral, Amplitude::Observable] {
         let ssm = map_ssm(&map, &MapSsmOptions { amplitude, ..opts(order) }).unwrap();
         let (inc, x) = ssm.real_form(&c).unwrap();
-        let fh = NormalFormOptions { order: Some(order), small_divisor: 1e-3, normalization: Normalization::FirstHarmonic(x.clone()) };
+        let fh = NormalFormOptions {
+            order: Some(order),
+            small_divisor: 1e-3,
+            normalization: Normalization::FirstHarmonic(x.clone()),
+        };
         let nf = normal_form_of_poly(&inc, Some(DT), &fh).unwrap();
         let want = &obs.polar;
         assert_eq!(nf.pexps, want.pexps);
         for i in 0..2 {
             for k in 0..want.pexps.len() {
                 let scale = want.amp[i][k].abs().max(want.phase[i][k].abs()).max(1.0);
-                assert!((nf.amp[i][k] - want.amp[i][k]).abs() < 1e-9 * scale, "{amplitude:?} amp {i} {k}: {} vs {}", nf.amp[i][k], want.amp[i][k]);
-                assert!((nf.phase[i][k] - want.phase[i][k]).abs() < 1e-9 * scale, "{amplitude:?} phase {i} {k}: {} vs {}", nf.phase[i][k], want.phase[i][k]);
+                assert!(
+                    (nf.amp[i][k] - want.amp[i][k]).abs() < 1e-9 * scale,
+                    "{amplitude:?} amp {i} {k}: {} vs {}",
+                    nf.amp[i][k],
+                    want.amp[i][k]
+                );
+                assert!(
+                    (nf.phase[i][k] - want.phase[i][k]).abs() < 1e-9 * scale,
+                    "{amplitude:?} phase {i} {k}: {} vs {}",
+                    nf.phase[i][k],
+                    want.phase[i][k]
+                );
             }
         }
         if amplitude == Amplitude::Spectral {
             let lin = NormalFormOptions { normalization: Normalization::Observable(x.linear_part()), ..fh.clone() };
             let nl = normal_form_of_poly(&inc, Some(DT), &lin).unwrap();
-            assert!((nl.amp[0][1] - want.amp[0][1]).abs() > 1e-6, "linear-row normal form equals the observable one: the test sees nothing");
+            assert!(
+                (nl.amp[0][1] - want.amp[0][1]).abs() > 1e-6,
+                "linear-row normal form equals the observable one: the test sees nothing"
+            );
         }
     }
     assert!(map_ssm(&map, &opts(3)).unwrap().real_form(&[1.0]).is_err());

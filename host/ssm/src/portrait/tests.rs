@@ -77,7 +77,11 @@ fn lv_coexistence_positions_and_stability_are_exact() {
     assert!((c2[0].rho[1] - 0.5f64.sqrt()).abs() < 1e-9 && c2[0].rho[0] == 0.0, "{:?}", c2[0].rho);
     assert_eq!(c1[0].stability, Stability::Saddle);
     assert_eq!(c2[0].stability, Stability::Saddle);
-    assert!((c1[0].eigenvalues[0].0 - (-2.0)).abs() < 1e-9 && (c1[0].eigenvalues[1].0 - 0.5).abs() < 1e-9, "{:?}", c1[0].eigenvalues);
+    assert!(
+        (c1[0].eigenvalues[0].0 - (-2.0)).abs() < 1e-9 && (c1[0].eigenvalues[1].0 - 0.5).abs() < 1e-9,
+        "{:?}",
+        c1[0].eigenvalues
+    );
     // Interior point: closed form.
     let (r, j) = lv_interior(a, b);
     let t = find(fps, PointKind::Torus2);
@@ -99,7 +103,12 @@ fn lv_coexistence_positions_and_stability_are_exact() {
     // stable branches lie on the axes, between the origin (backward limit) and the box edge.
     let ti = p.of_kind(PointKind::Torus2)[0];
     let un: Vec<_> = p.manifolds.iter().filter(|m| m.direction == Direction::Unstable && !m.on_axis).collect();
-    assert_eq!(un.len(), 2, "{:?}", p.manifolds.iter().map(|m| (m.saddle, m.direction, m.on_axis, m.fate)).collect::<Vec<_>>());
+    assert_eq!(
+        un.len(),
+        2,
+        "{:?}",
+        p.manifolds.iter().map(|m| (m.saddle, m.direction, m.on_axis, m.fate)).collect::<Vec<_>>()
+    );
     for m in un {
         assert_eq!(m.fate, Fate::Converges { point: ti });
     }
@@ -128,12 +137,23 @@ fn lv_bistable_interior_saddle_has_the_diagonal_as_separatrix() {
     assert!((t[0].rho[0] - r[0]).abs() < 1e-9 && (t[0].rho[1] - r[1]).abs() < 1e-9);
     assert_eq!(t[0].stability, Stability::Saddle);
     // J = 2 R B R = (2/3) B: eigenvalues (2/3)(-1 -+ 2) = -2, 2/3.
-    assert!((t[0].eigenvalues[0].0 + 2.0).abs() < 1e-9 && (t[0].eigenvalues[1].0 - 2.0 / 3.0).abs() < 1e-9, "{:?}", t[0].eigenvalues);
-    for m in find(&p.fixed_points, PointKind::LimitCycle { mode: 1 }).iter().chain(&find(&p.fixed_points, PointKind::LimitCycle { mode: 2 })) {
+    assert!(
+        (t[0].eigenvalues[0].0 + 2.0).abs() < 1e-9 && (t[0].eigenvalues[1].0 - 2.0 / 3.0).abs() < 1e-9,
+        "{:?}",
+        t[0].eigenvalues
+    );
+    for m in find(&p.fixed_points, PointKind::LimitCycle { mode: 1 })
+        .iter()
+        .chain(&find(&p.fixed_points, PointKind::LimitCycle { mode: 2 }))
+    {
         assert_eq!(m.stability, Stability::StableNode);
     }
     let ts = p.of_kind(PointKind::Torus2)[0];
-    let nodes: Vec<usize> = p.of_kind(PointKind::LimitCycle { mode: 1 }).into_iter().chain(p.of_kind(PointKind::LimitCycle { mode: 2 })).collect();
+    let nodes: Vec<usize> = p
+        .of_kind(PointKind::LimitCycle { mode: 1 })
+        .into_iter()
+        .chain(p.of_kind(PointKind::LimitCycle { mode: 2 }))
+        .collect();
     let mine: Vec<_> = p.manifolds.iter().filter(|m| m.saddle == ts).collect();
     assert_eq!(mine.len(), 4);
     for m in mine {
@@ -310,7 +330,11 @@ fn paper_30_80_has_a_stable_torus_and_two_saddle_cycles() {
     assert!((t[0].freqs_hz[0] - 0.44).abs() < 1e-12 && (t[0].freqs_hz[1] - 8.4).abs() < 1e-12);
     // Manifolds: the interior unstable branch of the fast cycle ends on the torus; the origin
     // connects to both cycles along the axes; no 3-torus.
-    let (ti, s1, s2) = (p.of_kind(PointKind::Torus2)[0], p.of_kind(PointKind::LimitCycle { mode: 1 })[0], p.of_kind(PointKind::LimitCycle { mode: 2 })[0]);
+    let (ti, s1, s2) = (
+        p.of_kind(PointKind::Torus2)[0],
+        p.of_kind(PointKind::LimitCycle { mode: 1 })[0],
+        p.of_kind(PointKind::LimitCycle { mode: 2 })[0],
+    );
     let br = |s: usize, d: Direction, axis: bool| -> Vec<Fate> {
         p.manifolds.iter().filter(|m| m.saddle == s && m.direction == d && m.on_axis == axis).map(|m| m.fate).collect()
     };
@@ -347,7 +371,8 @@ fn paper_heteroclinic_connection_of_the_saddle_cycles() {
     let side = |dt: f64| {
         let p = portrait(&paper_nf(dt).unwrap(), &paper_opts()).unwrap();
         let s2 = p.of_kind(PointKind::LimitCycle { mode: 2 })[0];
-        let m = p.manifolds.iter().find(|m| m.saddle == s2 && m.direction == Direction::Unstable && !m.on_axis).unwrap();
+        let m =
+            p.manifolds.iter().find(|m| m.saddle == s2 && m.direction == Direction::Unstable && !m.on_axis).unwrap();
         (p.fate_class(&m.fate), p.orbits.len())
     };
     assert_eq!(side(ev.dt - 0.005), (FateClass::ConvergesTo(PointKind::Torus2), 0));
@@ -406,7 +431,11 @@ fn paper_three_torus_shrinks_then_hopf_of_the_torus() {
     // Subcritical: a small unstable 3-torus around the stable torus just below, none above.
     assert_eq!(before.0.len(), 1);
     let earlier = orbit(ev.dt - 0.06).0;
-    assert!(!before.0[0].stable && w(&before.0[0]) < 0.1 && w(&before.0[0]) < 0.5 * w(&earlier[0]), "{:?}", before.0[0].rho_range);
+    assert!(
+        !before.0[0].stable && w(&before.0[0]) < 0.1 && w(&before.0[0]) < 0.5 * w(&earlier[0]),
+        "{:?}",
+        before.0[0].rho_range
+    );
     assert!(after.0.is_empty());
     assert!(orbit(32.30).0.is_empty());
     assert_eq!(orbit(32.30).1.stability, Stability::UnstableFocus);
@@ -528,7 +557,6 @@ fn bad_input_gives_typed_errors() {
     assert!(torus_hopf_dt(calm, 1.0, 2.0, &ScanOptions { grid: 3, ..s }).unwrap().is_none());
 }
 
-
 /// The field from powers computed once per point against `powi` per monomial (the former
 /// evaluation), bit for bit: `g`, its gradient, `g_scale`, `f`, the Jacobian and the
 /// frequencies, on the paper's table and on a random degree-4 field, at points with zero,
@@ -545,7 +573,8 @@ fn field_from_cached_powers_equals_powi_per_monomial() {
     let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
     for nf in [paper_nf(30.8).unwrap(), rnd_nf] {
         let field = Field::new(&nf).unwrap();
-        let monos_old = |p: [f64; 2]| field.pexps.iter().map(|e| p[0].powi(e[0]) * p[1].powi(e[1])).collect::<Vec<f64>>();
+        let monos_old =
+            |p: [f64; 2]| field.pexps.iter().map(|e| p[0].powi(e[0]) * p[1].powi(e[1])).collect::<Vec<f64>>();
         for x in [[0.0, 0.0], [0.0, 0.3], [1e-3, -2e-2], [0.7, 1.3], [-2.5, 11.0], [1e-160, 3.0]] {
             let p = [x[0] * x[0], x[1] * x[1]];
             let m = monos_old(p);

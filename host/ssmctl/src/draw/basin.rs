@@ -51,7 +51,9 @@ pub fn draw_basin(out: &Path, r: &SweepResult) -> Result<Option<String>, PlotErr
     }
     let extra: usize = s.axes.iter().skip(2).map(|a| a.values.len()).product();
     if extra > MAX_PANELS {
-        return Ok(Some(format!("{extra} panels (the axes after the first two); the figure shows at most {MAX_PANELS}")));
+        return Ok(Some(format!(
+            "{extra} panels (the axes after the first two); the figure shows at most {MAX_PANELS}"
+        )));
     }
     ensure_font();
     let cols = extra.min(3);
@@ -95,7 +97,8 @@ fn draw_into<DB: DrawingBackend>(
             *k = q % a.values.len();
             q /= a.values.len();
         }
-        let caption: Vec<String> = s.axes.iter().skip(2).zip(&rest).map(|(a, &k)| format!("{} = {}", a.name.as_str(), a.values[k])).collect();
+        let caption: Vec<String> =
+            s.axes.iter().skip(2).zip(&rest).map(|(a, &k)| format!("{} = {}", a.name.as_str(), a.values[k])).collect();
         let (x0, x1) = (xe[0].0, xe[xe.len() - 1].1);
         let (y0, y1) = (ye[0].0, ye[ny - 1].1);
         let mut cc = ChartBuilder::on(area)
@@ -171,7 +174,13 @@ fn inside_parts(line: &[(f64, f64)], (x0, x1): (f64, f64), (y0, y1): (f64, f64))
 /// Writes panels of full-system basin grids (green bounded, red escaped) with the reduced
 /// models' curves (e.g. saddle manifolds) and marked cells (e.g. where a model disagrees)
 /// drawn over them: up to 2 panels a row, a legend in each.
-pub fn draw_basin_overlay(out: &Path, title: &str, xdesc: &str, ydesc: &str, panels: &[OverlayPanel]) -> Result<(), PlotError> {
+pub fn draw_basin_overlay(
+    out: &Path,
+    title: &str,
+    xdesc: &str,
+    ydesc: &str,
+    panels: &[OverlayPanel],
+) -> Result<(), PlotError> {
     let err = |e: &dyn std::fmt::Display| PlotError::new(out, e);
     if panels.is_empty() || panels.len() > MAX_PANELS {
         return Err(err(&format!("{} panels; need 1 ..= {MAX_PANELS}", panels.len())));
@@ -179,7 +188,13 @@ pub fn draw_basin_overlay(out: &Path, title: &str, xdesc: &str, ydesc: &str, pan
     for p in panels {
         let n = p.x.len() * p.y.len();
         if n == 0 || p.bounded.len() != n || p.marks.iter().any(|m| m.2.len() != n) {
-            return Err(err(&format!("panel `{}`: {} x {} grid with {} cells", p.caption, p.x.len(), p.y.len(), p.bounded.len())));
+            return Err(err(&format!(
+                "panel `{}`: {} x {} grid with {} cells",
+                p.caption,
+                p.x.len(),
+                p.y.len(),
+                p.bounded.len()
+            )));
         }
         if [p.x, p.y].iter().any(|v| v.windows(2).any(|w| !(w[1] > w[0]))) {
             return Err(err(&format!("panel `{}`: grid values must increase", p.caption)));
@@ -203,7 +218,14 @@ pub fn draw_basin_overlay(out: &Path, title: &str, xdesc: &str, ydesc: &str, pan
                 .y_label_area_size(60)
                 .build_cartesian_2d(bx.0..bx.1, by.0..by.1)
                 .map_err(|e| err(&e))?;
-            cc.configure_mesh().x_desc(xdesc).y_desc(ydesc).label_style(("sans-serif", 14)).axis_desc_style(("sans-serif", 16)).disable_mesh().draw().map_err(|e| err(&e))?;
+            cc.configure_mesh()
+                .x_desc(xdesc)
+                .y_desc(ydesc)
+                .label_style(("sans-serif", 14))
+                .axis_desc_style(("sans-serif", 16))
+                .disable_mesh()
+                .draw()
+                .map_err(|e| err(&e))?;
             let ny = p.y.len();
             let mut rects = Vec::with_capacity(p.bounded.len());
             for (i, &(xlo, xhi)) in xe.iter().enumerate() {
@@ -220,13 +242,15 @@ pub fn draw_basin_overlay(out: &Path, title: &str, xdesc: &str, ydesc: &str, pan
                     let s = cc.draw_series(LineSeries::new(part, color.stroke_width(3))).map_err(|e| err(&e))?;
                     if first {
                         first = false;
-                        s.label(label.as_str()).legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 16, y)], color.stroke_width(3)));
+                        s.label(label.as_str())
+                            .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 16, y)], color.stroke_width(3)));
                     }
                 }
             }
             for (m, (label, color, which)) in p.marks.iter().enumerate() {
                 let color = *color;
-                let at: Vec<(f64, f64)> = which.iter().enumerate().filter(|(_, w)| **w).map(|(k, _)| (p.x[k / ny], p.y[k % ny])).collect();
+                let at: Vec<(f64, f64)> =
+                    which.iter().enumerate().filter(|(_, w)| **w).map(|(k, _)| (p.x[k / ny], p.y[k % ny])).collect();
                 if at.is_empty() {
                     continue;
                 }
@@ -238,7 +262,8 @@ pub fn draw_basin_overlay(out: &Path, title: &str, xdesc: &str, ydesc: &str, pan
                 }
                 .map_err(|e| err(&e))?;
                 let shape = ["x", "o", "triangle"][m % 3];
-                s.label(format!("{label} ({shape})")).legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 16, y)], style));
+                s.label(format!("{label} ({shape})"))
+                    .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 16, y)], style));
             }
             cc.configure_series_labels()
                 .position(SeriesLabelPosition::UpperRight)
@@ -264,7 +289,11 @@ mod tests {
         let c = escape_color(0.0);
         assert_eq!((c.0, c.1, c.2), (150, 20, 20));
         let box_ = ((0.0, 1.0), (0.0, 1.0));
-        let parts = inside_parts(&[(0.1, 0.1), (0.2, 0.2), (1.5, 0.3), (0.5, 0.5), (0.6, 0.6), (0.7, f64::NAN), (0.8, 0.8)], box_.0, box_.1);
+        let parts = inside_parts(
+            &[(0.1, 0.1), (0.2, 0.2), (1.5, 0.3), (0.5, 0.5), (0.6, 0.6), (0.7, f64::NAN), (0.8, 0.8)],
+            box_.0,
+            box_.1,
+        );
         assert_eq!(parts, vec![vec![(0.1, 0.1), (0.2, 0.2)], vec![(0.5, 0.5), (0.6, 0.6)]]);
     }
 
@@ -279,7 +308,11 @@ mod tests {
             y: &y,
             bounded: &bounded,
             marks: vec![("model disagrees".into(), RGBColor(0, 0, 0), vec![false, true, false, false, true, false])],
-            curves: vec![("separatrix".into(), RGBColor(30, 80, 220), vec![vec![(0.05, 0.0), (0.25, 0.03), (0.4, 0.05)]])],
+            curves: vec![(
+                "separatrix".into(),
+                RGBColor(30, 80, 220),
+                vec![vec![(0.05, 0.0), (0.25, 0.03), (0.4, 0.05)]],
+            )],
         };
         let dir = std::env::temp_dir().join(format!("basin-overlay-{}", std::process::id()));
         std::fs::create_dir_all(&dir).unwrap();

@@ -58,11 +58,7 @@ fn draw_panel<DB: DrawingBackend>(
 ) -> Result<(), DrawingAreaErrorKind<DB::ErrorType>> {
     let (kp, kd) = (chart.kp, chart.kd);
     let s = &panel.summary;
-    let caption = format!(
-        "dt = {:.1} ms: stable {:.1} % of the grid",
-        s_to_ms(panel.dt_s),
-        100.0 * s.stable_fraction
-    );
+    let caption = format!("dt = {:.1} ms: stable {:.1} % of the grid", s_to_ms(panel.dt_s), 100.0 * s.stable_fraction);
     let mut cc = ChartBuilder::on(area)
         .caption(caption, ("sans-serif", 20))
         .margin(12)

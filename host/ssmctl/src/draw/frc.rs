@@ -13,7 +13,13 @@ const BACKBONE: RGBColor = RGBColor(120, 120, 120);
 
 /// Writes the PNG: `frc`'s branches (frequency in rad/s), the backbone of the forced mode
 /// within the plotted frequencies when given, and the calibration point.
-pub fn frc_figure(path: &Path, title: &str, frc: &Frc, backbone: Option<&Backbone>, amplitude_label: &str) -> Result<(), PlotError> {
+pub fn frc_figure(
+    path: &Path,
+    title: &str,
+    frc: &Frc,
+    backbone: Option<&Backbone>,
+    amplitude_label: &str,
+) -> Result<(), PlotError> {
     plot::ensure_font();
     let e = |m: &dyn std::fmt::Display| PlotError::new(path, m);
     let pts = || frc.branches.iter().flat_map(|b| b.freq_rad_s.iter().copied().zip(b.amplitude.iter().copied()));
@@ -43,7 +49,12 @@ pub fn frc_figure(path: &Path, title: &str, frc: &Frc, backbone: Option<&Backbon
             .draw()
             .map_err(|x| e(&x))?;
         if let Some(bb) = backbone {
-            let line: Vec<(f64, f64)> = bb.points.iter().map(|p| (p.freq_rad_s, p.amplitude)).filter(|p| p.0 >= x0 && p.0 <= x1 && p.1 <= 1.05 * y1).collect();
+            let line: Vec<(f64, f64)> = bb
+                .points
+                .iter()
+                .map(|p| (p.freq_rad_s, p.amplitude))
+                .filter(|p| p.0 >= x0 && p.0 <= x1 && p.1 <= 1.05 * y1)
+                .collect();
             chart
                 .draw_series(LineSeries::new(line, BACKBONE.stroke_width(1)))
                 .map_err(|x| e(&x))?
@@ -56,12 +67,16 @@ pub fn frc_figure(path: &Path, title: &str, frc: &Frc, backbone: Option<&Backbon
             if b.stable {
                 let s = chart.draw_series(LineSeries::new(line, STABLE.stroke_width(2))).map_err(|x| e(&x))?;
                 if std::mem::take(&mut first_stable) {
-                    s.label("stable").legend(|(x, y)| PathElement::new(vec![(x, y), (x + 16, y)], STABLE.stroke_width(2)));
+                    s.label("stable")
+                        .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 16, y)], STABLE.stroke_width(2)));
                 }
             } else {
-                let s = chart.draw_series(DashedLineSeries::new(line, 6, 4, UNSTABLE.stroke_width(2))).map_err(|x| e(&x))?;
+                let s = chart
+                    .draw_series(DashedLineSeries::new(line, 6, 4, UNSTABLE.stroke_width(2)))
+                    .map_err(|x| e(&x))?;
                 if std::mem::take(&mut first_unstable) {
-                    s.label("unstable").legend(|(x, y)| PathElement::new(vec![(x, y), (x + 16, y)], UNSTABLE.stroke_width(2)));
+                    s.label("unstable")
+                        .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 16, y)], UNSTABLE.stroke_width(2)));
                 }
             }
         }

@@ -26,11 +26,19 @@ pub fn plot_portrait(path: &Path, p: &Portrait, title: &str, extra: &[(&str, &[(
             .y_label_area_size(60)
             .build_cartesian_2d(0.0..p.rho_max[0], 0.0..p.rho_max[1])
             .map_err(|x| e(&x))?;
-        chart.configure_mesh().x_desc("rho_1 (slow mode)").y_desc("rho_2 (fast mode)").label_style(("sans-serif", 13)).draw().map_err(|x| e(&x))?;
+        chart
+            .configure_mesh()
+            .x_desc("rho_1 (slow mode)")
+            .y_desc("rho_2 (fast mode)")
+            .label_style(("sans-serif", 13))
+            .draw()
+            .map_err(|x| e(&x))?;
         let inside = |q: &(f64, f64)| q.0.is_finite() && q.1.is_finite();
         let grey = RGBColor(190, 190, 190);
         for (k, tr) in p.flow.iter().enumerate() {
-            let s = chart.draw_series(LineSeries::new(tr.iter().copied().filter(inside), grey.stroke_width(1))).map_err(|x| e(&x))?;
+            let s = chart
+                .draw_series(LineSeries::new(tr.iter().copied().filter(inside), grey.stroke_width(1)))
+                .map_err(|x| e(&x))?;
             if k == 0 {
                 s.label("flow").legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 16, y)], grey.stroke_width(2)));
             }
@@ -43,7 +51,9 @@ pub fn plot_portrait(path: &Path, p: &Portrait, title: &str, extra: &[(&str, &[(
                 Direction::Stable => (blue, &mut st_label),
                 Direction::Unstable => (red, &mut un_label),
             };
-            let s = chart.draw_series(LineSeries::new(b.points.iter().copied().filter(inside), color.stroke_width(2))).map_err(|x| e(&x))?;
+            let s = chart
+                .draw_series(LineSeries::new(b.points.iter().copied().filter(inside), color.stroke_width(2)))
+                .map_err(|x| e(&x))?;
             if !*labelled {
                 *labelled = true;
                 let name = if b.direction == Direction::Stable { "stable manifold" } else { "unstable manifold" };
@@ -52,12 +62,22 @@ pub fn plot_portrait(path: &Path, p: &Portrait, title: &str, extra: &[(&str, &[(
         }
         let green = RGBColor(20, 150, 40);
         for (k, o) in p.orbits.iter().enumerate() {
-            let s = chart.draw_series(LineSeries::new(o.points.iter().copied().filter(inside), green.stroke_width(3))).map_err(|x| e(&x))?;
+            let s = chart
+                .draw_series(LineSeries::new(o.points.iter().copied().filter(inside), green.stroke_width(3)))
+                .map_err(|x| e(&x))?;
             if k == 0 {
-                s.label("3-torus").legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 16, y)], green.stroke_width(3)));
+                s.label("3-torus")
+                    .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 16, y)], green.stroke_width(3)));
             }
         }
-        let palette = [RGBColor(230, 140, 0), RGBColor(140, 60, 170), RGBColor(0, 150, 160), RGBColor(120, 80, 40), RGBColor(230, 60, 150), BLACK];
+        let palette = [
+            RGBColor(230, 140, 0),
+            RGBColor(140, 60, 170),
+            RGBColor(0, 150, 160),
+            RGBColor(120, 80, 40),
+            RGBColor(230, 60, 150),
+            BLACK,
+        ];
         for (k, (name, pts)) in extra.iter().enumerate() {
             let color = palette[k % palette.len()];
             chart
@@ -85,7 +105,6 @@ pub fn plot_portrait(path: &Path, p: &Portrait, title: &str, extra: &[(&str, &[(
         Ok(())
     })
 }
-
 
 #[cfg(test)]
 mod tests {
@@ -119,7 +138,8 @@ mod tests {
         let dir = std::env::temp_dir().join(format!("portrait-test-{}-plot", std::process::id()));
         std::fs::create_dir_all(&dir).unwrap();
         let path = dir.join("portrait.png");
-        let extra: Vec<(f64, f64)> = (0..200).map(|k| (0.1 + 0.002 * k as f64, 0.05 + 0.1 * (k as f64 * 0.1).sin().abs())).collect();
+        let extra: Vec<(f64, f64)> =
+            (0..200).map(|k| (0.1 + 0.002 * k as f64, 0.05 + 0.1 * (k as f64 * 0.1).sin().abs())).collect();
         plot_portrait(&path, &p, "bistable", &[("full system", &extra)]).unwrap();
         let bytes = std::fs::read(&path).unwrap();
         assert_eq!(&bytes[..8], b"\x89PNG\r\n\x1a\n");

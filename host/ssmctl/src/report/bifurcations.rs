@@ -3,18 +3,23 @@
 //! spectra, from a parametric model whose manifold and map coefficients are interpolated
 //! in dt (linearly, and by a natural cubic spline for comparison).
 
-use crate::plot::{self, Series};
-use crate::report::{Report, num, par_map};
-use crate::report::tasks::task;
-use crate::report::normal_form::PAPER_DTS;
-use furuta::parametric::{FurutaOptions, ParametricModel, TrainingRuns, furuta_parametric_family};
-use ssm::portrait::{Fate, PointKind, PortraitOptions, fixed_points, portrait, trajectory};
-use ssm::interp::Interp;
-use furuta::shared_tangent::{PredictOptions, PredictionResult, predictions_on, shared_parametric_from, test_series_all};
 use crate::draw::portrait::plot_portrait;
-use furuta::bifurcations::{ModelBifurcations, RHO_MAX, SensitivityRow, model_bifurcations, model_default_switch, model_row, row_from, sensitivity_variants};
+use crate::plot::{self, Series};
+use crate::report::normal_form::PAPER_DTS;
+use crate::report::tasks::task;
+use crate::report::{Report, num, par_map};
+use furuta::bifurcations::{
+    ModelBifurcations, RHO_MAX, SensitivityRow, model_bifurcations, model_default_switch, model_row, row_from,
+    sensitivity_variants,
+};
+use furuta::parametric::{FurutaOptions, ParametricModel, TrainingRuns, furuta_parametric_family};
+use furuta::shared_tangent::{
+    PredictOptions, PredictionResult, predictions_on, shared_parametric_from, test_series_all,
+};
 use plotters::style::RGBColor;
 use serde_json::{Value, json};
+use ssm::interp::Interp;
+use ssm::portrait::{Fate, PointKind, PortraitOptions, fixed_points, portrait, trajectory};
 use std::error::Error;
 
 const BLACK: RGBColor = RGBColor(0, 0, 0);
@@ -32,7 +37,10 @@ fn prediction_figures(rep: &Report, r: &PredictionResult) -> Result<(String, Str
         &format!("dt = {} ms: full system vs parametric SSM model", r.dt_ms),
         "t [s]",
         "theta [rad]",
-        &[Series { name: "full system", points: &tp, color: BLACK }, Series { name: "SSM model (interpolated)", points: &pp, color: RED }],
+        &[
+            Series { name: "full system", points: &tp, color: BLACK },
+            Series { name: "SSM model (interpolated)", points: &pp, color: RED },
+        ],
         (760, 260),
     )?;
     let band = |s: &furuta::shared_tangent::Spectrum| -> Vec<(f64, f64)> {
@@ -44,7 +52,10 @@ fn prediction_figures(rep: &Report, r: &PredictionResult) -> Result<(String, Str
         &format!("dt = {} ms: amplitude spectra", r.dt_ms),
         "f [Hz]",
         "amplitude [rad]",
-        &[Series { name: "full system", points: &st, color: BLACK }, Series { name: "SSM model", points: &sp, color: RED }],
+        &[
+            Series { name: "full system", points: &st, color: BLACK },
+            Series { name: "SSM model", points: &sp, color: RED },
+        ],
         (520, 260),
     )?;
     Ok((traj, spec))
@@ -54,7 +65,10 @@ fn prediction_figures(rep: &Report, r: &PredictionResult) -> Result<(String, Str
 /// (linear interpolation, the paper's choice) and `predictions_spline`.
 /// `runs`: the training runs of the parametric section (the same series, simulated once).
 /// Returns the shared-tangent model it predicted with (the fitted map of the global sections).
-pub fn predictions_section(rep: &mut Report, runs: &TrainingRuns) -> Result<furuta::shared_tangent::SharedParametricModel, Box<dyn Error>> {
+pub fn predictions_section(
+    rep: &mut Report,
+    runs: &TrainingRuns,
+) -> Result<furuta::shared_tangent::SharedParametricModel, Box<dyn Error>> {
     let po = PredictOptions::default();
     rep.section(
         "predictions",
@@ -82,7 +96,9 @@ pub fn predictions_section(rep: &mut Report, runs: &TrainingRuns) -> Result<furu
     let (lin, spl) = (lin?, spl?);
     let mut rows = Vec::new();
     for (a, b) in lin.iter().zip(&spl) {
-        let stop = |r: &PredictionResult| r.stop.as_ref().map_or("-".to_string(), |s| format!("model left range at {:.1} s", s.t));
+        let stop = |r: &PredictionResult| {
+            r.stop.as_ref().map_or("-".to_string(), |s| format!("model left range at {:.1} s", s.t))
+        };
         rows.push(vec![
             format!("{}", a.dt_ms),
             num(a.nmte),
@@ -95,14 +111,26 @@ pub fn predictions_section(rep: &mut Report, runs: &TrainingRuns) -> Result<furu
         ]);
     }
     rep.table(
-        &["dt [ms]", "NMTE (linear)", "DTW-NMTE (linear)", "NMTE (spline)", "DTW-NMTE (spline)", "test length [s]", "test run cut", "model stop"],
+        &[
+            "dt [ms]",
+            "NMTE (linear)",
+            "DTW-NMTE (linear)",
+            "NMTE (spline)",
+            "DTW-NMTE (spline)",
+            "test length [s]",
+            "test run cut",
+            "model stop",
+        ],
         &rows,
     );
     let mut sorted: Vec<&PredictionResult> = lin.iter().collect();
     sorted.sort_by(|a, b| a.dt_ms.total_cmp(&b.dt_ms));
     for r in sorted {
         let (traj, spec) = prediction_figures(rep, r)?;
-        rep.figure(&traj, &format!("dt = {} ms: test trajectory and the linearly interpolated model's prediction", r.dt_ms));
+        rep.figure(
+            &traj,
+            &format!("dt = {} ms: test trajectory and the linearly interpolated model's prediction", r.dt_ms),
+        );
         rep.figure(&spec, &format!("dt = {} ms: FFT amplitude spectra over the compared samples", r.dt_ms));
     }
     let list = |v: &[PredictionResult]| -> Value {
@@ -121,11 +149,27 @@ pub(crate) const MAP_SWITCH_RANGE_MS: (f64, f64, usize, f64) = (31.0, 32.0, 11, 
 /// mode-shaped starts as the full system's scan (`full_system::default_ics`), the same horizon
 /// and escape rule, iterated on the shared-tangent model's map at each dt; grid, then
 /// bisection. Summary key `map_switch_dt_ms`.
-fn map_switch_part(rep: &mut Report, model: &furuta::shared_tangent::SharedParametricModel) -> Result<(), Box<dyn Error>> {
+fn map_switch_part(
+    rep: &mut Report,
+    model: &furuta::shared_tangent::SharedParametricModel,
+) -> Result<(), Box<dyn Error>> {
     use furuta::full_system::{DEFAULT_SCAN_PERIODS, ESCAPE_THETA, default_ics};
     let (lo, hi, n, tol) = MAP_SWITCH_RANGE_MS;
-    let scan = |interp: Interp| furuta::bifurcations::map_small_start_switch(|dt| model.model_at(dt, interp), default_ics, lo, hi, n, DEFAULT_SCAN_PERIODS, tol);
-    let (ml, ms) = rayon::join(|| task("predictions/map-switch-linear", || scan(Interp::Linear)), || task("predictions/map-switch-spline", || scan(Interp::Spline)));
+    let scan = |interp: Interp| {
+        furuta::bifurcations::map_small_start_switch(
+            |dt| model.model_at(dt, interp),
+            default_ics,
+            lo,
+            hi,
+            n,
+            DEFAULT_SCAN_PERIODS,
+            tol,
+        )
+    };
+    let (ml, ms) = rayon::join(
+        || task("predictions/map-switch-linear", || scan(Interp::Linear)),
+        || task("predictions/map-switch-spline", || scan(Interp::Spline)),
+    );
     let (ml, ms) = (ml?, ms?);
     rep.para(&format!(
         "The global bifurcation read off the fitted map itself, without a normal form: the model above (its maps \
@@ -150,11 +194,13 @@ fn map_switch_part(rep: &mut Report, model: &furuta::shared_tangent::SharedParam
         })
         .collect();
     rep.table(&["interpolation", "switch bracket [ms]", "escaping starts per grid dt", "monotone", "map runs"], &rows);
-    let js = |sw: &furuta::bifurcations::MapSwitch| json!({
-        "bracket": sw.bracket.map(|(a, b)| vec![a, b]),
-        "grid": sw.grid.iter().map(|g| json!([g.0, g.1])).collect::<Vec<_>>(),
-        "monotone": sw.monotone,
-    });
+    let js = |sw: &furuta::bifurcations::MapSwitch| {
+        json!({
+            "bracket": sw.bracket.map(|(a, b)| vec![a, b]),
+            "grid": sw.grid.iter().map(|g| json!([g.0, g.1])).collect::<Vec<_>>(),
+            "monotone": sw.monotone,
+        })
+    };
     rep.summary.insert(
         "map_switch_dt_ms".into(),
         json!({"linear": js(&ml), "spline": js(&ms), "full_system": full, "periods": DEFAULT_SCAN_PERIODS, "range_ms": [lo, hi], "tol_ms": tol}),
@@ -196,7 +242,10 @@ pub fn portraits_section(rep: &mut Report, pm: &ParametricModel) -> Result<Model
                 kind_text(f.kind),
                 format!("({:.4}, {:.4})", f.rho[0], f.rho[1]),
                 format!("{:?}", f.stability),
-                format!("{:+.4} {:+.4}i, {:+.4} {:+.4}i", f.eigenvalues[0].0, f.eigenvalues[0].1, f.eigenvalues[1].0, f.eigenvalues[1].1),
+                format!(
+                    "{:+.4} {:+.4}i, {:+.4} {:+.4}i",
+                    f.eigenvalues[0].0, f.eigenvalues[0].1, f.eigenvalues[1].0, f.eigenvalues[1].1
+                ),
                 format!("{:.3}, {:.3}", f.freqs_hz[0], f.freqs_hz[1]),
             ]);
         }
@@ -204,7 +253,10 @@ pub fn portraits_section(rep: &mut Report, pm: &ParametricModel) -> Result<Model
             rows.push(vec![
                 format!("{dt}"),
                 format!("3-torus ({})", if o.stable { "stable" } else { "unstable" }),
-                format!("rho_1 {:.3}..{:.3}, rho_2 {:.3}..{:.3}", o.rho_range[0][0], o.rho_range[0][1], o.rho_range[1][0], o.rho_range[1][1]),
+                format!(
+                    "rho_1 {:.3}..{:.3}, rho_2 {:.3}..{:.3}",
+                    o.rho_range[0][0], o.rho_range[0][1], o.rho_range[1][0], o.rho_range[1][1]
+                ),
                 format!("multiplier {:.4}", o.multiplier),
                 format!("period {:.2} s", o.period),
                 String::new(),
@@ -239,7 +291,11 @@ pub fn portraits_section(rep: &mut Report, pm: &ParametricModel) -> Result<Model
             "The 2-torus {} at dt = {:.4} ms ({}; the 3-torus frequency there is {:.4} Hz).",
             if h.loses_stability { "loses stability" } else { "gains stability" },
             h.dt,
-            if h.complex_pair { "a complex pair crosses: a Hopf bifurcation of the amplitude equations" } else { "a real eigenvalue crosses" },
+            if h.complex_pair {
+                "a complex pair crosses: a Hopf bifurcation of the amplitude equations"
+            } else {
+                "a real eigenvalue crosses"
+            },
             h.frequency_hz
         ),
         None => format!("The 2-torus does not change stability in {lo}..{hi} ms."),
@@ -259,10 +315,15 @@ pub fn portraits_section(rep: &mut Report, pm: &ParametricModel) -> Result<Model
 /// fig. 5), and the transient spectrum near the 3-torus (paper fig. 6). Returns the model's
 /// small-start switch bracket ([`model_default_switch`]), which
 /// the sensitivity section's default row reuses.
-pub fn fullsystem_section(rep: &mut Report, pm: &ParametricModel, bif: &ModelBifurcations, quick: bool) -> Result<Option<(f64, f64)>, Box<dyn Error>> {
+pub fn fullsystem_section(
+    rep: &mut Report,
+    pm: &ParametricModel,
+    bif: &ModelBifurcations,
+    quick: bool,
+) -> Result<Option<(f64, f64)>, Box<dyn Error>> {
     use furuta::full_system::{
-        DEFAULT_SCAN_PERIODS, ESCAPE_THETA, default_ics, default_switch_scan, fate_from, start_from_rho, switch_scan_per_dt, torus_full,
-        transient_analysis,
+        DEFAULT_SCAN_PERIODS, ESCAPE_THETA, default_ics, default_switch_scan, fate_from, start_from_rho,
+        switch_scan_per_dt, torus_full, transient_analysis,
     };
     // The integrator of the full-system runs here: the scene's (`furuta-dt30.5`); the basin,
     // torus-continuation and connection runs of the global section take the verdict method.
@@ -303,7 +364,14 @@ pub fn fullsystem_section(rep: &mut Report, pm: &ParametricModel, bif: &ModelBif
             default_switch_scan(DEFAULT_SCAN_PERIODS)
         }
     };
-    let torus = || torus_full(30.8, &([0.05, 0.0, 0.0, 0.0], None), if quick { 4000 } else { 8000 }, if quick { 40.0 } else { 80.0 });
+    let torus = || {
+        torus_full(
+            30.8,
+            &([0.05, 0.0, 0.0, 0.0], None),
+            if quick { 4000 } else { 8000 },
+            if quick { 40.0 } else { 80.0 },
+        )
+    };
     let fast_fates = || par_map(&fast_dts, |&dt| fate_from(dt, [1e-7, 0.005], [0.0, 0.0], 3000));
     let doa_fates = || par_map(&starts, |&rho| fate_from(dt_doa, rho, [0.0, 0.0], periods));
     let transient = || {
@@ -358,7 +426,14 @@ pub fn fullsystem_section(rep: &mut Report, pm: &ParametricModel, bif: &ModelBif
     let tm = bif.torus_30p8.as_ref();
     let amp_model = tm.map(|t| t.rho[0] + t.rho[1]);
     rep.table(
-        &["2-torus at 30.8 ms", "max |theta| [rad]", "rho_1 (slow) [rad]", "rho_2 (fast) [rad]", "slow [Hz]", "fast [Hz]"],
+        &[
+            "2-torus at 30.8 ms",
+            "max |theta| [rad]",
+            "rho_1 (slow) [rad]",
+            "rho_2 (fast) [rad]",
+            "slow [Hz]",
+            "fast [Hz]",
+        ],
         &[
             vec![
                 "model (fixed point of the amplitude equations; max |theta| = rho_1 + rho_2)".into(),
@@ -420,8 +495,10 @@ pub fn fullsystem_section(rep: &mut Report, pm: &ParametricModel, bif: &ModelBif
         crows.push(vec![format!("{dt}"), o(model), o(full), rel]);
         clist.push(json!({"dt_ms": dt, "rho2_model": model, "rho2_full": full}));
     }
-    rep.para("The fast-mode cycle (the saddle every small start passes first): the model's limit cycle against the full \
-              system started on the fast mode (slow part 1e-7 rad), mean rho_2 while rho_1 < 1e-3 after 15 s.");
+    rep.para(
+        "The fast-mode cycle (the saddle every small start passes first): the model's limit cycle against the full \
+              system started on the fast mode (slow part 1e-7 rad), mean rho_2 while rho_1 < 1e-3 after 15 s.",
+    );
     rep.table(&["dt [ms]", "model rho_2 [rad]", "full system rho_2 [rad]", "model - full"], &crows);
     rep.summary.insert("fast_cycle".into(), Value::Array(clist));
 
@@ -436,23 +513,38 @@ pub fn fullsystem_section(rep: &mut Report, pm: &ParametricModel, bif: &ModelBif
         let (mpts, mfate) = trajectory(&nf, rho, 2000.0, &popts)?;
         let model_class = match mfate {
             Fate::LeavesBox { .. } => "leaves the box (escape)".to_string(),
-            Fate::Converges { point } => format!("converges to the {}", kind_text(p.fixed_points.get(point).map_or(PointKind::Torus2, |x| x.kind))),
+            Fate::Converges { point } => format!(
+                "converges to the {}",
+                kind_text(p.fixed_points.get(point).map_or(PointKind::Torus2, |x| x.kind))
+            ),
             Fate::TimeLimit => "stays bounded (3-torus)".to_string(),
             other => format!("{other:?}"),
         };
         rows.push(vec![
             format!("({}, {})", rho[0], rho[1]),
             model_class.clone(),
-            if f.bounded { format!("bounded for {:.0} s", periods as f64 * dt_doa * 1e-3) } else { format!("escapes at {:.1} s", f.escape_t.unwrap_or(f64::NAN)) },
+            if f.bounded {
+                format!("bounded for {:.0} s", periods as f64 * dt_doa * 1e-3)
+            } else {
+                format!("escapes at {:.1} s", f.escape_t.unwrap_or(f64::NAN))
+            },
         ]);
         doa.push(json!({"rho": rho, "model": model_class, "full_bounded": f.bounded, "full_escape_t": f.escape_t}));
         curves.push((format!("full ({}, {})", rho[0], rho[1]), f.amps.iter().map(|(_, r)| (r[0], r[1])).collect()));
         let _ = mpts;
     }
     let extra: Vec<(&str, &[(f64, f64)])> = curves.iter().map(|(n, c)| (n.as_str(), c.as_slice())).collect();
-    plot_portrait(&rep.dir().join("fig/domain_31p55.png"), &p, "dt = 31.55 ms: model portrait, full-system runs", &extra)?;
+    plot_portrait(
+        &rep.dir().join("fig/domain_31p55.png"),
+        &p,
+        "dt = 31.55 ms: model portrait, full-system runs",
+        &extra,
+    )?;
     rep.table(&["start (rho_1, rho_2) [rad]", "model", "full system"], &rows);
-    rep.figure("fig/domain_31p55.png", "Domain of attraction at 31.55 ms: the model's portrait with three full-system runs in amplitude coordinates");
+    rep.figure(
+        "fig/domain_31p55.png",
+        "Domain of attraction at 31.55 ms: the model's portrait with three full-system runs in amplitude coordinates",
+    );
     rep.summary.insert("domain_of_attraction".into(), json!({"dt_ms": dt_doa, "starts": doa}));
 
     // 4. Transient spectrum near the 3-torus (paper fig. 6).
@@ -522,7 +614,9 @@ pub fn sensitivity_section(
             let sets: Vec<&FurutaOptions> = variants.iter().map(|(_, o)| o).collect();
             let models = task("bifsensitivity/family", || furuta_parametric_family(&base, default, &sets, runs))?;
             let items: Vec<(&(&str, FurutaOptions), (ParametricModel, f64))> = variants.iter().zip(models).collect();
-            task("bifsensitivity/rows", || par_map(&items, |((name, o), (pm, secs))| model_row(name, o, pm, Some(*secs))))
+            task("bifsensitivity/rows", || {
+                par_map(&items, |((name, o), (pm, secs))| model_row(name, o, pm, Some(*secs)))
+            })
         },
         || task("bifsensitivity/tori", tori),
     );
@@ -541,7 +635,14 @@ pub fn sensitivity_section(
         list.push(r);
     }
     rep.table(
-        &["training", "torus Hopf [ms]", "saddle connection [ms]", "small-start switch [ms]", "torus at 30.8 ms (rho_1, rho_2)", "fit [s]"],
+        &[
+            "training",
+            "torus Hopf [ms]",
+            "saddle connection [ms]",
+            "small-start switch [ms]",
+            "torus at 30.8 ms (rho_1, rho_2)",
+            "fit [s]",
+        ],
         &rows,
     );
     // The full system's torus across dt: started on it, 16,000 periods (~500 s), measured

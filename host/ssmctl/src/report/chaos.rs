@@ -5,13 +5,11 @@
 
 use std::error::Error;
 
-use furuta::chaos_tables::*;
-use furuta::microchaos::*;
-use furuta::lyapunov::ModelLyapunov;
 use chaos::Points;
+use furuta::chaos_tables::*;
+use furuta::lyapunov::ModelLyapunov;
+use furuta::microchaos::*;
 use ssm::{SsmModel, TimeSeries};
-
-
 
 /// The plant angle `theta_rad` of a PIL `record.csv` (`t_s,theta_rad,phi_rad,theta_meas_rad,
 /// code,prediction`). The chaos study uses it rather than the encoder reading `theta.csv`:
@@ -22,7 +20,9 @@ pub fn pil_plant_theta(path: &std::path::Path) -> Result<TimeSeries, Box<dyn Err
     let mut lines = text.lines();
     let header = lines.next().ok_or_else(|| format!("{}: empty file", path.display()))?;
     if !header.starts_with("t_s,theta_rad,") {
-        return Err(format!("{}: header `{header}` is not a PIL record (expected t_s,theta_rad,...)", path.display()).into());
+        return Err(
+            format!("{}: header `{header}` is not a PIL record (expected t_s,theta_rad,...)", path.display()).into()
+        );
     }
     let (mut t, mut x) = (Vec::new(), Vec::new());
     for (i, l) in lines.enumerate() {
@@ -34,7 +34,10 @@ pub fn pil_plant_theta(path: &std::path::Path) -> Result<TimeSeries, Box<dyn Err
         t.push(num("t_s")?);
         x.push(num("theta_rad")?);
     }
-    let name = format!("run {} plant theta", path.parent().and_then(|p| p.file_name()).map_or("?".into(), |n| n.to_string_lossy()));
+    let name = format!(
+        "run {} plant theta",
+        path.parent().and_then(|p| p.file_name()).map_or("?".into(), |n| n.to_string_lossy())
+    );
     Ok(TimeSeries::new(name, t, x)?)
 }
 
@@ -93,7 +96,11 @@ pub fn chaos_figures(
             title: format!("PDF of eta_{}", c + 1),
             xlabel: "eta",
             ylabel: "density",
-            series: lines.iter().enumerate().map(|(k, pts)| Series { name: names[k.min(names.len() - 1)], points: pts, color: colors[k % 3] }).collect(),
+            series: lines
+                .iter()
+                .enumerate()
+                .map(|(k, pts)| Series { name: names[k.min(names.len() - 1)], points: pts, color: colors[k % 3] })
+                .collect(),
         })
         .collect();
     if !panels.is_empty() {
@@ -112,7 +119,12 @@ pub fn chaos_figures(
     let panels: Vec<Panel<'_>> = projs
         .iter()
         .enumerate()
-        .map(|(k, (n, pts))| Panel { title: n.clone(), xlabel: "eta_1", ylabel: "eta_2", series: vec![Series { name: n, points: pts, color: colors[k % 3] }] })
+        .map(|(k, (n, pts))| Panel {
+            title: n.clone(),
+            xlabel: "eta_1",
+            ylabel: "eta_2",
+            series: vec![Series { name: n, points: pts, color: colors[k % 3] }],
+        })
         .collect();
     let path = format!("fig/chaos_{tag}_attractor.png");
     grid(&rep.dir().join(&path), &panels, 3, (1050, 330))?;
@@ -125,9 +137,15 @@ pub fn chaos_figures(
     let n = runs.iter().map(|r| r.2.x.len()).min().unwrap_or(test.x.len()).min(test.x.len());
     let mut specs = vec![("data (held out)".to_string(), spec(&test.x[..n]))];
     specs.extend(runs.iter().map(|(nm, _, p)| (nm.to_string(), spec(&p.x[..n]))));
-    let series: Vec<Series<'_>> = specs.iter().enumerate().map(|(k, (nm, pts))| Series { name: nm, points: pts, color: colors[k % 3] }).collect();
+    let series: Vec<Series<'_>> =
+        specs.iter().enumerate().map(|(k, (nm, pts))| Series { name: nm, points: pts, color: colors[k % 3] }).collect();
     let path = format!("fig/chaos_{tag}_spectrum.png");
-    grid(&rep.dir().join(&path), &[Panel { title: format!("{title}: amplitude spectra"), xlabel: "f [Hz]", ylabel: "amplitude", series }], 1, (760, 300))?;
+    grid(
+        &rep.dir().join(&path),
+        &[Panel { title: format!("{title}: amplitude spectra"), xlabel: "f [Hz]", ylabel: "amplitude", series }],
+        1,
+        (760, 300),
+    )?;
     rep.figure(&path, &format!("{title}: amplitude spectra of the observable over the same {n} samples"));
     Ok(())
 }
@@ -154,7 +172,9 @@ pub fn section(rep: &mut crate::report::Report, data_dir: &std::path::Path, quic
     let mut sets: Vec<(String, Vec<TimeSeries>, TimeSeries)> = Vec::new();
     let periods = if quick { 6000 } else { 30000 };
     let starts: Vec<(usize, f64)> = [0.02, 0.035, 0.05].into_iter().enumerate().collect();
-    let mut sim = crate::report::par_map(&starts, |&(i, th)| simulate_quantized(periods, th, &format!("furuta-quant-dt25 #{i}")))?;
+    let mut sim = crate::report::par_map(&starts, |&(i, th)| {
+        simulate_quantized(periods, th, &format!("furuta-quant-dt25 #{i}"))
+    })?;
     let sim_test = sim.pop().ok_or("no simulated series")?;
     sets.push(("simulated: furuta-quant-dt25 (theta)".into(), sim, sim_test));
     // The "experiment": processor-in-the-loop recordings with sensor noise
@@ -187,7 +207,11 @@ pub fn section(rep: &mut crate::report::Report, data_dir: &std::path::Path, quic
     let mut figs = Vec::new();
     let mut selections = Vec::new();
     for (name, train, test) in &sets {
-        let label = format!("{name}; train {}, test {}", train.iter().map(|t| t.name.as_str()).collect::<Vec<_>>().join(" + "), test.name);
+        let label = format!(
+            "{name}; train {}, test {}",
+            train.iter().map(|t| t.name.as_str()).collect::<Vec<_>>().join(" + "),
+            test.name
+        );
         let (r, models, held) = match analyse_held_out_runs(train, Some(test), &ChaosOptions::default()) {
             Ok(r) => r,
             Err(e) => {
@@ -222,7 +246,14 @@ pub fn section(rep: &mut crate::report::Report, data_dir: &std::path::Path, quic
         }
         // The step-1 candidates are the models just fitted, on the same data statistics.
         let known = furuta::model_selection::Known::from_analysis(test, &ChaosOptions::default(), &r, &models)?;
-        let (results, sel) = furuta::model_selection::evaluate_and_select_known(train, test, &cands, &Default::default(), &Default::default(), &known)?;
+        let (results, sel) = furuta::model_selection::evaluate_and_select_known(
+            train,
+            test,
+            &cands,
+            &Default::default(),
+            &Default::default(),
+            &known,
+        )?;
         drop(known);
         if let Some(m) = value.as_object_mut() {
             m.insert("chosen_model".into(), furuta::model_selection::chosen_json(&results, &sel));
@@ -230,11 +261,24 @@ pub fn section(rep: &mut crate::report::Report, data_dir: &std::path::Path, quic
         }
         selections.push((name.clone(), results, sel));
         list.insert(name.clone(), value);
-        let tag: String = name.split(':').next().unwrap_or("set").chars().filter(|c| c.is_ascii_alphanumeric()).collect();
+        let tag: String =
+            name.split(':').next().unwrap_or("set").chars().filter(|c| c.is_ascii_alphanumeric()).collect();
         figs.push((tag, name.clone(), test.clone(), r, models, held));
     }
     rep.table(
-        &["data", "corr. dim", "SSM dim", "LLE data [1/s]", "LLE RBF", "LLE poly", "LLE RBF Benettin", "LLE poly Benettin", "JS RBF [bits]", "JS poly [bits]", "notes"],
+        &[
+            "data",
+            "corr. dim",
+            "SSM dim",
+            "LLE data [1/s]",
+            "LLE RBF",
+            "LLE poly",
+            "LLE RBF Benettin",
+            "LLE poly Benettin",
+            "JS RBF [bits]",
+            "JS poly [bits]",
+            "notes",
+        ],
         &rows,
     );
     rep.summary.insert("chaos".into(), serde_json::Value::Object(list));
@@ -253,7 +297,9 @@ pub fn section(rep: &mut crate::report::Report, data_dir: &std::path::Path, quic
         let w = &r.growth_windows_data;
         let opt = |v: Option<f64>| v.map_or("-".to_string(), num);
         let spec = |b: &Option<ModelLyapunov>| {
-            b.as_ref().map_or("-".to_string(), |b| b.spectrum.iter().take(2).map(|v| format!("{v:+.4}")).collect::<Vec<_>>().join(", "))
+            b.as_ref().map_or("-".to_string(), |b| {
+                b.spectrum.iter().take(2).map(|v| format!("{v:+.4}")).collect::<Vec<_>>().join(", ")
+            })
         };
         grows.push(vec![
             name.clone(),
@@ -281,7 +327,8 @@ pub fn section(rep: &mut crate::report::Report, data_dir: &std::path::Path, quic
         chaos_figures(rep, tag, name, test, models, held, &ChaosOptions::default())?;
     }
     selection_tables(rep, &selections, quick)?;
-    let flag_runs: Option<Vec<TimeSeries>> = (0..10).map(|k| ssm::load_csv(flag.join(format!("traj_{k}.csv"))).ok()).collect();
+    let flag_runs: Option<Vec<TimeSeries>> =
+        (0..10).map(|k| ssm::load_csv(flag.join(format!("traj_{k}.csv"))).ok()).collect();
     estimator_check_tables(rep, &selections, flag_runs.as_deref(), quick)?;
     Ok(())
 }
@@ -327,7 +374,20 @@ fn estimator_check_tables(
             ]
         })
         .collect();
-    rep.table(&["system", "observable", "samples", "dt [s]", "lag / Theiler [samples]", "exact (Benettin) [1/s]", "Rosenstein [1/s]", "ratio", "notes"], &table);
+    rep.table(
+        &[
+            "system",
+            "observable",
+            "samples",
+            "dt [s]",
+            "lag / Theiler [samples]",
+            "exact (Benettin) [1/s]",
+            "Rosenstein [1/s]",
+            "ratio",
+            "notes",
+        ],
+        &table,
+    );
     let ratios: Vec<f64> = rows[n_known..].iter().filter_map(|r| r.ratio).collect();
     let (lo, hi) = ratios.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), v| (a.min(*v), b.max(*v)));
     let mut json = serde_json::json!({ "known_answer": &rows[..n_known], "models": &rows[n_known..] });
@@ -358,9 +418,21 @@ fn estimator_check_tables(
         let short = |n: &str| n.split(" (").next().unwrap_or(n).to_string() + n.rsplit_once(')').map_or("", |(_, w)| w);
         let mut t: Vec<Vec<String>> = spreads
             .iter()
-            .map(|s| vec![format!("{} (k = {})", s.what, s.step), s.n.to_string(), format!("{:.3} ± {:.3}", s.mean, s.sd), format!("{:.0} %", 100.0 * s.cv), format!("{:.3} .. {:.3}", s.min, s.max)])
+            .map(|s| {
+                vec![
+                    format!("{} (k = {})", s.what, s.step),
+                    s.n.to_string(),
+                    format!("{:.3} ± {:.3}", s.mean, s.sd),
+                    format!("{:.0} %", 100.0 * s.cv),
+                    format!("{:.3} .. {:.3}", s.min, s.max),
+                ]
+            })
             .collect();
-        let per_run: Vec<String> = all_rows.iter().filter(|r| !r.series.contains(" window ")).map(|r| format!("{} k={}: {}", short(&r.series), r.step, f(r.rosenstein, 3))).collect();
+        let per_run: Vec<String> = all_rows
+            .iter()
+            .filter(|r| !r.series.contains(" window "))
+            .map(|r| format!("{} k={}: {}", short(&r.series), r.step, f(r.rosenstein, 3)))
+            .collect();
         t.push(vec!["per run".into(), per_run.len().to_string(), per_run.join("; "), String::new(), String::new()]);
         rep.table(&["estimates", "n", "mean ± sd [1/s]", "CV", "range [1/s]"], &t);
         json["data_spread"] = serde_json::json!({ "spreads": spreads, "rows": all_rows });
@@ -413,11 +485,22 @@ fn selection_tables(
         }
     }
     rep.table(
-        &["data", "candidate", "Benettin [1/s]", "2nd Benettin", "Rosenstein model / data [1/s]", "D2 model / data", "JS [bits]", "rollout error (horizon)", "long run"],
+        &[
+            "data",
+            "candidate",
+            "Benettin [1/s]",
+            "2nd Benettin",
+            "Rosenstein model / data [1/s]",
+            "D2 model / data",
+            "JS [bits]",
+            "rollout error (horizon)",
+            "long run",
+        ],
         &rows,
     );
     for (name, _, sel) in selections {
-        let mut text = format!("{}: picked {}. {}", esc(name), esc(sel.name.as_deref().unwrap_or("none")), esc(&sel.why));
+        let mut text =
+            format!("{}: picked {}. {}", esc(name), esc(sel.name.as_deref().unwrap_or("none")), esc(&sel.why));
         for w in &sel.warnings {
             text.push_str(&format!(" <b>Warning:</b> {}.", esc(w)));
         }
@@ -429,7 +512,8 @@ fn selection_tables(
          k = map step in samples, d = SSM dimension, p = embedding dimension, s = shift (samples of the subsampled \
          series), m = manifold order, c = RBF centres, r = relative ridge.",
     );
-    let rows: Vec<Vec<String>> = furuta::model_selection::FLAG_SEARCH.iter().map(|row| row.iter().map(|c| c.to_string()).collect()).collect();
+    let rows: Vec<Vec<String>> =
+        furuta::model_selection::FLAG_SEARCH.iter().map(|row| row.iter().map(|c| c.to_string()).collect()).collect();
     rep.table(&furuta::model_selection::FLAG_SEARCH_HEADER, &rows);
     rep.para(
         "What the search shows. (1) The map step decides chaos: every model with a one-sample step (the table above's \
@@ -483,7 +567,9 @@ fn selection_tables(
 /// sampled like the flag ([`furuta::calibration`]). Summary key `flag_estimator_bias`
 /// (`calibration`: the sampling, the rows and their summary).
 fn estimator_bias(rep: &mut crate::report::Report, quick: bool) -> Result<(), Box<dyn Error>> {
-    use furuta::model_selection::{BEST_MATCH_D2, BEST_MATCH_JS, Targets, best_matching, flag_search_ratios, joint_ratio_range};
+    use furuta::model_selection::{
+        BEST_MATCH_D2, BEST_MATCH_JS, Targets, best_matching, flag_search_ratios, joint_ratio_range,
+    };
     let rows = flag_search_ratios();
     let (lo, hi) = joint_ratio_range(&Targets::default());
     let best = best_matching(&rows);
@@ -572,7 +658,19 @@ fn estimator_calibration(rep: &mut crate::report::Report, quick: bool) -> Result
         })
         .collect();
     rep.table(
-        &["system", "dt", "lag / Theiler", "exact [1/s]", "nats per lag", "D2", "noise [% sd]", "ratio mean ± sd", "median", "range", "fitted"],
+        &[
+            "system",
+            "dt",
+            "lag / Theiler",
+            "exact [1/s]",
+            "nats per lag",
+            "D2",
+            "noise [% sd]",
+            "ratio mean ± sd",
+            "median",
+            "range",
+            "fitted",
+        ],
         &table,
     );
     let summary = summarize(&rows, &f);
@@ -614,9 +712,10 @@ fn fmt_opt(v: Option<f64>, prec: usize) -> String {
 
 /// Report table of scale studies: header, rows (one per series and scale) and JSON.
 pub fn scale_table(studies: &[ScaleStudy]) -> (Vec<String>, Vec<Vec<String>>, serde_json::Value) {
-    let header = ["data", "eps", "eps / unit", "unit", "LLE Kantz [1/s]", "fit window [s]", "rise [nats]", "neighbours", "note"]
-        .map(String::from)
-        .to_vec();
+    let header =
+        ["data", "eps", "eps / unit", "unit", "LLE Kantz [1/s]", "fit window [s]", "rise [nats]", "neighbours", "note"]
+            .map(String::from)
+            .to_vec();
     let mut rows = Vec::new();
     for s in studies {
         for r in &s.rows {
@@ -677,7 +776,11 @@ pub fn cost_table(study: &CostStudy) -> (Vec<String>, Vec<Vec<String>>, serde_js
 }
 
 /// Report section with the scale table.
-pub fn scale_section(rep: &mut crate::report::Report, data_dir: &std::path::Path, quick: bool) -> Result<(), Box<dyn Error>> {
+pub fn scale_section(
+    rep: &mut crate::report::Report,
+    data_dir: &std::path::Path,
+    quick: bool,
+) -> Result<(), Box<dyn Error>> {
     rep.section(
         "chaos-scale",
         "Scale dependence of the time-series Lyapunov exponent",
@@ -716,7 +819,6 @@ pub fn cost_section(rep: &mut crate::report::Report, data_dir: &std::path::Path)
     Ok(())
 }
 
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -750,7 +852,9 @@ mod tests {
 /// ([`furuta::flag_pipeline::PIPELINE_CHECK`], from the example `flag_pipeline`). Summary key
 /// `flag_pipeline_check`.
 fn flag_pipeline_check(rep: &mut crate::report::Report, quick: bool) -> Result<(), Box<dyn Error>> {
-    use furuta::flag_pipeline::{CHOSEN, FLAG_LAYOUT, PIPELINE_DATA, committed_rows, known_stats, segment_stats, summarize};
+    use furuta::flag_pipeline::{
+        CHOSEN, FLAG_LAYOUT, PIPELINE_DATA, committed_rows, known_stats, segment_stats, summarize,
+    };
     let (k, series) = known_stats(&CHOSEN, &FLAG_LAYOUT, 1, if quick { 1000.0 } else { 4000.0 })?;
     let seg = segment_stats(&CHOSEN, k.dt, &FLAG_LAYOUT, 8)?;
     let o = |v: Option<f64>, p: usize| v.map_or("-".to_string(), |v| format!("{v:.p$}"));
@@ -865,7 +969,10 @@ fn flag_pipeline_check(rep: &mut crate::report::Report, quick: bool) -> Result<(
 /// ([`furuta::flag_pipeline_fit::FLAG_FIT`]). Summary key `flag_pipeline_fit`.
 fn flag_pipeline_fit(rep: &mut crate::report::Report, series: &[ssm::TimeSeries]) -> Result<(), Box<dyn Error>> {
     use furuta::flag_pipeline::FLAG_LAYOUT;
-    use furuta::flag_pipeline_fit::{FLAG_DATA, FNN_RULE, d6_scan_counts, diagnosis_rows, flag_fit_rows, flag_multistep_rows, fnn_dimension, projection_fnn};
+    use furuta::flag_pipeline_fit::{
+        FLAG_DATA, FNN_RULE, d6_scan_counts, diagnosis_rows, flag_fit_rows, flag_multistep_rows, fnn_dimension,
+        projection_fnn,
+    };
     let train = furuta::model_selection::subsample(&series[0], FLAG_LAYOUT.step, 0)?;
     let ctx = furuta::microchaos::Context::from_series(&train.x, train.dt().unwrap_or(1.0), 6)?;
     let (ratio, max_fnn) = FNN_RULE;
@@ -886,7 +993,11 @@ fn flag_pipeline_fit(rep: &mut crate::report::Report, series: &[ssm::TimeSeries]
         proj.iter().map(|r| pct(r.fnn)).collect::<Vec<_>>().join(", "),
         pct(max_fnn),
         rule_dim.map_or("no d up to 8".to_string(), |d| format!("d = {d}")),
-        rule_rows.iter().map(|r| format!("d = {} (p = {}) {}", r.dim, 2 * r.dim + 1, pct(r.fnn))).collect::<Vec<_>>().join(", "),
+        rule_rows
+            .iter()
+            .map(|r| format!("d = {} (p = {}) {}", r.dim, 2 * r.dim + 1, pct(r.fnn)))
+            .collect::<Vec<_>>()
+            .join(", "),
     ));
     let diag = diagnosis_rows();
     let yes = |b: bool| if b { "yes" } else { "no" };
@@ -908,7 +1019,18 @@ fn flag_pipeline_fit(rep: &mut crate::report::Report, series: &[ssm::TimeSeries]
         })
         .collect();
     rep.table(
-        &["varied", "model", "training data (x flag)", "noise / sd", "Benettin [1/s] (/ exact)", "Rosenstein [1/s]", "D2", "JS [bits]", "Benettin within 10 % of exact", "failed"],
+        &[
+            "varied",
+            "model",
+            "training data (x flag)",
+            "noise / sd",
+            "Benettin [1/s] (/ exact)",
+            "Rosenstein [1/s]",
+            "D2",
+            "JS [bits]",
+            "Benettin within 10 % of exact",
+            "failed",
+        ],
         &table,
     );
     let count = |f: &dyn Fn(&str, f64, usize) -> bool| {
@@ -1004,7 +1126,11 @@ fn flag_pipeline_fit(rep: &mut crate::report::Report, series: &[ssm::TimeSeries]
         })
         .collect();
     let fms = flag_multistep_rows();
-    let best_js = fms.iter().filter(|r| r.failed.is_none()).filter_map(|r| r.js.map(|j| (j, r))).min_by(|a, b| a.0.total_cmp(&b.0));
+    let best_js = fms
+        .iter()
+        .filter(|r| r.failed.is_none())
+        .filter_map(|r| r.js.map(|j| (j, r)))
+        .min_by(|a, b| a.0.total_cmp(&b.0));
     rep.para(&format!(
         "Multistep refinement scanned at d = 6 on the known system (example <code>flag_pipeline -- variants</code>, \
          <code>FLAG4_SEEDS</code> for other realizations of the series; RBF 150, 250, 400 with ridge 1e-8, horizon 2, 4, 8 \
@@ -1038,16 +1164,28 @@ fn flag_pipeline_fit(rep: &mut crate::report::Report, series: &[ssm::TimeSeries]
         best_js.and_then(|(_, r)| r.corr_dim.map(|d| (FLAG_DATA.1 - d) / FLAG_DATA.2)).unwrap_or(f64::NAN),
     ));
     // Other RBF centre sets on the flag, and why D2 stays low (committed rows).
-    use furuta::flag_pipeline_fit::{FLAG_D2_NOISE, FLAG_D2_NOISY_MODEL, FLAG_D2_RUNS, FLAG_DIMENSION, flag_centre_rows, target_counts};
+    use furuta::flag_pipeline_fit::{
+        FLAG_D2_NOISE, FLAG_D2_NOISY_MODEL, FLAG_D2_RUNS, FLAG_DIMENSION, flag_centre_rows, target_counts,
+    };
     let fcs = flag_centre_rows();
     let (cn, cfail, cb, cd, cj, cbj, cbdj) = target_counts(&fcs);
     let d2_b10 = fcs.iter().filter(|r| r.passes[0]).filter_map(|r| r.corr_dim).fold(f64::MIN, f64::max);
-    let high_d2: Vec<f64> = fcs.iter().filter(|r| r.failed.is_none() && r.corr_dim.is_some_and(|d| d >= FLAG_DATA.1 - 3.0 * FLAG_DATA.2)).filter_map(|r| r.benettin).collect();
+    let high_d2: Vec<f64> = fcs
+        .iter()
+        .filter(|r| r.failed.is_none() && r.corr_dim.is_some_and(|d| d >= FLAG_DATA.1 - 3.0 * FLAG_DATA.2))
+        .filter_map(|r| r.benettin)
+        .collect();
     let range = |v: &[f64]| (v.iter().copied().fold(f64::MAX, f64::min), v.iter().copied().fold(f64::MIN, f64::max));
     let (hb_lo, hb_hi) = range(&high_d2);
-    let best_bj = fcs.iter().filter(|r| r.passes[0] && r.passes[3]).max_by(|a, b| a.corr_dim.unwrap_or(0.0).total_cmp(&b.corr_dim.unwrap_or(0.0)));
+    let best_bj = fcs
+        .iter()
+        .filter(|r| r.passes[0] && r.passes[3])
+        .max_by(|a, b| a.corr_dim.unwrap_or(0.0).total_cmp(&b.corr_dim.unwrap_or(0.0)));
     // Chaotic: Benettin above 10 % of the data's exponent.
-    let chaotic = |name: &str| fcs.iter().any(|r| r.candidate == name && r.failed.is_none() && r.benettin.is_some_and(|b| b > 0.1 * FLAG_DATA.0));
+    let chaotic = |name: &str| {
+        fcs.iter()
+            .any(|r| r.candidate == name && r.failed.is_none() && r.benettin.is_some_and(|b| b > 0.1 * FLAG_DATA.0))
+    };
     let kys: Vec<f64> = FLAG_DIMENSION.iter().filter(|r| chaotic(r.0)).filter_map(|r| r.1).collect();
     let (ky_lo, ky_hi) = range(&kys);
     let spread = FLAG_DIMENSION
@@ -1138,15 +1276,17 @@ fn flag_self_paragraphs(
 ) -> (serde_json::Value, serde_json::Value, serde_json::Value) {
     use furuta::flag_pipeline_fit::FLAG_DATA;
     use furuta::flag_self::{
-        FLAG_ENSEMBLE, FLAG_RUNS_OWN, FLAG_VALIDATION, FLAG_VALIDATION_0, FLAG_VALIDATION_0_DATA, FLAG_VALIDATION_DATA, SelfRow, VALIDATION_RUN, ensemble_members, flag_self_rows, is_whole, mean_sd, placement,
-        rows_against, self_counts, self_passes, validation_pick, validation_pick_on,
+        FLAG_ENSEMBLE, FLAG_RUNS_OWN, FLAG_VALIDATION, FLAG_VALIDATION_0, FLAG_VALIDATION_0_DATA, FLAG_VALIDATION_DATA,
+        SelfRow, VALIDATION_RUN, ensemble_members, flag_self_rows, is_whole, mean_sd, placement, rows_against,
+        self_counts, self_passes, validation_pick, validation_pick_on,
     };
     let rows = flag_self_rows();
     let whole: Vec<&SelfRow> = rows.iter().filter(|r| is_whole(r, &rows)).collect();
     let part: Vec<&SelfRow> = rows.iter().filter(|r| !is_whole(r, &rows)).collect();
     let (cw, cp) = (self_counts(&whole, FLAG_DATA), self_counts(&part, FLAG_DATA));
     let col = |f: &dyn Fn(&SelfRow) -> Option<f64>| whole.iter().filter_map(|r| f(r)).collect::<Vec<f64>>();
-    let stats: [(&str, Vec<f64>, usize); 3] = [("rosenstein", col(&|r| r.rosenstein), 3), ("corr_dim", col(&|r| r.corr_dim), 2), ("js", col(&|r| r.js), 4)];
+    let stats: [(&str, Vec<f64>, usize); 3] =
+        [("rosenstein", col(&|r| r.rosenstein), 3), ("corr_dim", col(&|r| r.corr_dim), 2), ("js", col(&|r| r.js), 4)];
     let best = test_rows.iter().find(|r| r.candidate == "RBF 250 r=5e-9 d=4 p=9 centres kmeans++@3");
     let model_vals = |r: &furuta::flag_pipeline::PipelineRow| [r.rosenstein, r.corr_dim, r.js];
     let place = |r: Option<&furuta::flag_pipeline::PipelineRow>| -> Vec<Option<(f64, f64)>> {
@@ -1155,8 +1295,11 @@ fn flag_self_paragraphs(
     };
     let best_place = place(best);
     let ms = |v: &[f64], p: usize| mean_sd(v).map_or("-".to_string(), |(m, s)| format!("{m:.p$} ± {s:.p$}"));
-    let pl = |p: Option<(f64, f64)>| p.map_or("-".to_string(), |(q, z)| format!("percentile {:.0}, z {z:+.2}", 100.0 * q));
-    let own_d2 = |k: usize| FLAG_RUNS_OWN.iter().find(|r| r.0 == k).map_or("-".to_string(), |r| format!("{:.2} (lag {})", r.4, r.1));
+    let pl =
+        |p: Option<(f64, f64)>| p.map_or("-".to_string(), |(q, z)| format!("percentile {:.0}, z {z:+.2}", 100.0 * q));
+    let own_d2 = |k: usize| {
+        FLAG_RUNS_OWN.iter().find(|r| r.0 == k).map_or("-".to_string(), |r| format!("{:.2} (lag {})", r.4, r.1))
+    };
     let d2_of = |k: usize| whole.iter().find(|r| r.run == k).map_or("-".to_string(), |r| o(r.corr_dim, 2));
     let t3: Vec<String> = part.iter().filter(|r| r.run == 3).map(|r| o(r.rosenstein, 3)).collect();
     rep.para(&format!(
@@ -1216,7 +1359,10 @@ fn flag_self_paragraphs(
             ]
         })
         .collect();
-    rep.table(&["run (as a model of traj_8)", "samples at step 4", "Rosenstein [1/s]", "D2", "JS [bits]", "targets R/D2/JS"], &table);
+    rep.table(
+        &["run (as a model of traj_8)", "samples at step 4", "Rosenstein [1/s]", "D2", "JS [bits]", "targets R/D2/JS"],
+        &table,
+    );
     // The pick on the validation run, and the ensemble.
     let val = rows_against(FLAG_VALIDATION, FLAG_VALIDATION_DATA);
     let (vn, vfail, vb, vd, vj, vbj, vbdj) = furuta::flag_pipeline_fit::target_counts(&val);
@@ -1225,13 +1371,27 @@ fn flag_self_paragraphs(
     let picked = validation_pick();
     let picked0 = validation_pick_on(FLAG_VALIDATION_0, FLAG_VALIDATION_0_DATA);
     let pick_place = place(picked.as_ref().map(|(_, t)| t));
-    let pick_place_json: serde_json::Map<String, serde_json::Value> =
-        ["rosenstein", "corr_dim", "js"].iter().zip(&pick_place).map(|(k, p)| (k.to_string(), serde_json::json!(p.map(|p| [p.0, p.1])))).collect();
+    let pick_place_json: serde_json::Map<String, serde_json::Value> = ["rosenstein", "corr_dim", "js"]
+        .iter()
+        .zip(&pick_place)
+        .map(|(k, p)| (k.to_string(), serde_json::json!(p.map(|p| [p.0, p.1]))))
+        .collect();
     let members = ensemble_members(FLAG_ENSEMBLE.0);
-    let mrows: Vec<&furuta::flag_pipeline::PipelineRow> = members.iter().filter_map(|n| test_rows.iter().find(|r| r.candidate == *n)).collect();
-    let mcol = |f: &dyn Fn(&furuta::flag_pipeline::PipelineRow) -> Option<f64>| mrows.iter().filter_map(|r| f(r)).collect::<Vec<f64>>();
+    let mrows: Vec<&furuta::flag_pipeline::PipelineRow> =
+        members.iter().filter_map(|n| test_rows.iter().find(|r| r.candidate == *n)).collect();
+    let mcol = |f: &dyn Fn(&furuta::flag_pipeline::PipelineRow) -> Option<f64>| {
+        mrows.iter().filter_map(|r| f(r)).collect::<Vec<f64>>()
+    };
     let (eb, er, ed, ej) = (mcol(&|r| r.benettin), mcol(&|r| r.rosenstein), mcol(&|r| r.corr_dim), mcol(&|r| r.js));
-    let row4 = |r: &furuta::flag_pipeline::PipelineRow| format!("Benettin {}, Rosenstein {}, D2 {}, JS {}", o(r.benettin, 3), o(r.rosenstein, 3), o(r.corr_dim, 2), o(r.js, 4));
+    let row4 = |r: &furuta::flag_pipeline::PipelineRow| {
+        format!(
+            "Benettin {}, Rosenstein {}, D2 {}, JS {}",
+            o(r.benettin, 3),
+            o(r.rosenstein, 3),
+            o(r.corr_dim, 2),
+            o(r.js, 4)
+        )
+    };
     let met = |r: &furuta::flag_pipeline::PipelineRow| r.passes.iter().filter(|&&p| p).count();
     rep.para(&format!(
         "Selection on a validation run, not the test run: the {vn} centre-set rows fitted again on traj_9 + traj_7 and measured on \

@@ -7,23 +7,29 @@
 //! `map_disagreement` and `map_figure`).
 
 use crate::draw::basin::{OverlayPanel, draw_basin_overlay};
-use crate::report::{Report, num, par_map};
 use crate::report::tasks::task;
-use furuta::basin::{Agreement, BasinOptions, FullBasin, ModelBasin, ModelFate, TorusContinuation, agreement, full_basin, model_basin, torus_continuation_with};
-use furuta::bifurcations::{ModelBifurcations, RHO_MAX};
-use furuta::equation_ssm::{
-    EquationBifurcations, EquationModel, EquationSsm, INVARIANCE_RADII, equation_bifurcations, furuta_equation_polar, furuta_equation_polar_with, furuta_equation_ssm, furuta_period_map,
+use crate::report::{Report, num, par_map};
+use furuta::basin::{
+    Agreement, BasinOptions, FullBasin, ModelBasin, ModelFate, TorusContinuation, agreement, full_basin, model_basin,
+    torus_continuation_with,
 };
-use ssm::map_ssm::Amplitude;
 use furuta::bifurcations::MapSwitch;
+use furuta::bifurcations::{ModelBifurcations, RHO_MAX};
 use furuta::equation_map::{EquationMapFamily, EquationMapGlobal, MapStyle, equation_map_global, equation_map_switch};
-use furuta::map_global::{Connection, ConnectionOptions, full_connection_with, map_basin, map_connection, map_torus_continuation};
+use furuta::equation_ssm::{
+    EquationBifurcations, EquationModel, EquationSsm, INVARIANCE_RADII, equation_bifurcations, furuta_equation_polar,
+    furuta_equation_polar_with, furuta_equation_ssm, furuta_period_map,
+};
 use furuta::full_system::verdict_integrator;
+use furuta::map_global::{
+    Connection, ConnectionOptions, full_connection_with, map_basin, map_connection, map_torus_continuation,
+};
 use furuta::parametric::{ParametricModel, TrainingRuns};
 use furuta::shared_tangent::SharedParametricModel;
 use plotters::style::RGBColor;
 use serde_json::{Value, json};
 use ssm::interp::Interp;
+use ssm::map_ssm::Amplitude;
 use ssm::normal_form::{NormalFormOptions, PolarNormalForm, model_normal_form_first_harmonic};
 use ssm::portrait::{Direction, PointKind, Portrait, PortraitOptions, portrait};
 use std::error::Error;
@@ -93,52 +99,94 @@ fn settings(quick: bool) -> (Vec<f64>, Vec<u32>, Vec<f64>, u32, BasinOptions, Ve
     // the torus continuation's dts and periods.
     if quick {
         let nodes = vec![30.5, 31.0, 31.5, 32.0, 32.5];
-        (nodes, vec![7], vec![31.0, 31.5], 9, BasinOptions::quick(), (0..=6).map(|k| ((31.4 + 0.1 * k as f64) * 1e4).round() / 1e4).collect(), 8000)
+        (
+            nodes,
+            vec![7],
+            vec![31.0, 31.5],
+            9,
+            BasinOptions::quick(),
+            (0..=6).map(|k| ((31.4 + 0.1 * k as f64) * 1e4).round() / 1e4).collect(),
+            8000,
+        )
     } else {
         let nodes: Vec<f64> = (0..=8).map(|k| 30.5 + 0.25 * k as f64).collect();
-        (nodes.clone(), vec![5, 7, 9], nodes, 9, BasinOptions::full(), (0..=14).map(|k| ((31.3 + 0.05 * k as f64) * 1e4).round() / 1e4).collect(), 16_000)
+        (
+            nodes.clone(),
+            vec![5, 7, 9],
+            nodes,
+            9,
+            BasinOptions::full(),
+            (0..=14).map(|k| ((31.3 + 0.05 * k as f64) * 1e4).round() / 1e4).collect(),
+            16_000,
+        )
     }
 }
 
 /// The fitted map at any dt, interpolated by `interp`.
-fn model_at(m: &SharedParametricModel, interp: Interp) -> impl Fn(f64) -> Result<ssm::fit::SsmModel, furuta::Error> + Sync + '_ {
+fn model_at(
+    m: &SharedParametricModel,
+    interp: Interp,
+) -> impl Fn(f64) -> Result<ssm::fit::SsmModel, furuta::Error> + Sync + '_ {
     move |dt| m.model_at(dt, interp)
 }
 
-fn compute(pm: &ParametricModel, sm: &SharedParametricModel, runs: &TrainingRuns, quick: bool) -> Result<Computed, Box<dyn Error + Send + Sync>> {
+fn compute(
+    pm: &ParametricModel,
+    sm: &SharedParametricModel,
+    runs: &TrainingRuns,
+    quick: bool,
+) -> Result<Computed, Box<dyn Error + Send + Sync>> {
     let (nodes, orders, diag_dts, diag_order, bopts, torus_dts, torus_periods) = settings(quick);
     let popts = PortraitOptions { rho_max: RHO_MAX, ..PortraitOptions::default() };
     // The highest order asked for at each dt, expanded first (global/equation and
     // global/equation-map share furuta::equation_ssm's cache): the lower orders at that dt are
     // its truncations, bit for bit the direct expansions.
     let top_order = orders.iter().copied().chain([EQUATION_ORDER]).max().unwrap_or(EQUATION_ORDER);
-    let highest: Vec<(f64, u32)> = nodes.iter().map(|&dt| (dt, if diag_dts.contains(&dt) { top_order.max(diag_order) } else { top_order })).collect();
+    let highest: Vec<(f64, u32)> = nodes
+        .iter()
+        .map(|&dt| (dt, if diag_dts.contains(&dt) { top_order.max(diag_order) } else { top_order }))
+        .collect();
     let expand_highest = || par_map(&highest, |&(dt, order)| furuta_period_map(dt, order).map(drop));
-    let equation = || -> Result<(Vec<EquationSsm>, Vec<EquationBifurcations>, Vec<(f64, PolarNormalForm)>), furuta::Error> {
-        expand_highest()?;
-        let (diag, models) = rayon::join(
-            || par_map(&diag_dts, |&dt| furuta_equation_ssm(dt, diag_order)),
-            || {
-                par_map(&orders, |&order| {
-                    // The diagnostics' normal forms when they are the same nodes and order.
-                    if order == diag_order && diag_dts == nodes { Ok(None) } else { EquationModel::furuta(&nodes, order).map(Some) }
+    let equation =
+        || -> Result<(Vec<EquationSsm>, Vec<EquationBifurcations>, Vec<(f64, PolarNormalForm)>), furuta::Error> {
+            expand_highest()?;
+            let (diag, models) = rayon::join(
+                || par_map(&diag_dts, |&dt| furuta_equation_ssm(dt, diag_order)),
+                || {
+                    par_map(&orders, |&order| {
+                        // The diagnostics' normal forms when they are the same nodes and order.
+                        if order == diag_order && diag_dts == nodes {
+                            Ok(None)
+                        } else {
+                            EquationModel::furuta(&nodes, order).map(Some)
+                        }
+                    })
+                },
+            );
+            let diag = diag?;
+            let models: Vec<EquationModel> = models?
+                .into_iter()
+                .zip(&orders)
+                .map(|(m, &order)| {
+                    m.unwrap_or_else(|| EquationModel {
+                        order,
+                        nodes_ms: nodes.clone(),
+                        forms: diag.iter().map(|d| d.polar.clone()).collect(),
+                    })
                 })
-            },
-        );
-        let diag = diag?;
-        let models: Vec<EquationModel> = models?
-            .into_iter()
-            .zip(&orders)
-            .map(|(m, &order)| m.unwrap_or_else(|| EquationModel { order, nodes_ms: nodes.clone(), forms: diag.iter().map(|d| d.polar.clone()).collect() }))
-            .collect();
-        let bifs = par_map(&models, |m| equation_bifurcations(m, Interp::Spline))?;
-        let forms = models.iter().find(|m| m.order == EQUATION_ORDER).map_or_else(Vec::new, |m| m.nodes_ms.iter().copied().zip(m.forms.iter().cloned()).collect());
-        Ok((diag, bifs, forms))
-    };
+                .collect();
+            let bifs = par_map(&models, |m| equation_bifurcations(m, Interp::Spline))?;
+            let forms = models
+                .iter()
+                .find(|m| m.order == EQUATION_ORDER)
+                .map_or_else(Vec::new, |m| m.nodes_ms.iter().copied().zip(m.forms.iter().cloned()).collect());
+            Ok((diag, bifs, forms))
+        };
     // Verdicts only: no orbit search or sample flow; a fixed point counts as reached within
     // 1e-6 rad (not 1e-8: the torus is a weakly damped focus), the start offset of manifolds
     // (unused here) above it.
-    let classify = PortraitOptions { ray_samples: 0, flow_grid: 0, converge_tol: 1e-6, manifold_eps: 1e-5, ..popts.clone() };
+    let classify =
+        PortraitOptions { ray_samples: 0, flow_grid: 0, converge_tol: 1e-6, manifold_eps: 1e-5, ..popts.clone() };
     let models = || -> Result<Vec<[(Portrait, ModelBasin); 2]>, furuta::Error> {
         let (r1, r2) = bopts.values();
         par_map(&bopts.dts_ms, |&dt| -> Result<[(Portrait, ModelBasin); 2], furuta::Error> {
@@ -146,7 +194,15 @@ fn compute(pm: &ParametricModel, sm: &SharedParametricModel, runs: &TrainingRuns
             let [a, b] = nfs;
             let one = |nf: &PolarNormalForm| -> Result<(Portrait, ModelBasin), furuta::Error> {
                 let p = portrait(nf, &popts).map_err(ssm::Error::from)?;
-                let mb = model_basin(nf, PointKind::Torus2, &r1, &r2, bopts.periods as f64 * dt * 1e-3, MODEL_T_MAX, &classify)?;
+                let mb = model_basin(
+                    nf,
+                    PointKind::Torus2,
+                    &r1,
+                    &r2,
+                    bopts.periods as f64 * dt * 1e-3,
+                    MODEL_T_MAX,
+                    &classify,
+                )?;
                 Ok((p, mb))
             };
             let (x, y) = rayon::join(|| one(&a), || one(&b));
@@ -159,14 +215,26 @@ fn compute(pm: &ParametricModel, sm: &SharedParametricModel, runs: &TrainingRuns
     // One fitted map read by both rules, linear and spline in dt: the default's and each
     // training variant's.
     let reads = |m: &SharedParametricModel| {
-        let conn = |i: Interp| task(&format!("global/map-connection-{i:?}"), || map_connection(model_at(m, i), clo, chi, cn, ctol, &co).map_err(|e| format!("not found ({e})")));
-        let tor = |i: Interp| task(&format!("global/map-torus-{i:?}"), || map_torus_continuation(model_at(m, i), &torus_dts, [0.097, 0.0277], torus_periods));
-        let ((cl, cs), (tl, ts)) = rayon::join(|| rayon::join(|| conn(Interp::Linear), || conn(Interp::Spline)), || rayon::join(|| tor(Interp::Linear), || tor(Interp::Spline)));
+        let conn = |i: Interp| {
+            task(&format!("global/map-connection-{i:?}"), || {
+                map_connection(model_at(m, i), clo, chi, cn, ctol, &co).map_err(|e| format!("not found ({e})"))
+            })
+        };
+        let tor = |i: Interp| {
+            task(&format!("global/map-torus-{i:?}"), || {
+                map_torus_continuation(model_at(m, i), &torus_dts, [0.097, 0.0277], torus_periods)
+            })
+        };
+        let ((cl, cs), (tl, ts)) = rayon::join(
+            || rayon::join(|| conn(Interp::Linear), || conn(Interp::Spline)),
+            || rayon::join(|| tor(Interp::Linear), || tor(Interp::Spline)),
+        );
         ([cl, cs], [tl, ts])
     };
     let map_part = || -> Result<_, furuta::Error> {
         let t0 = std::time::Instant::now();
-        let ((connection, [tl, ts]), mb) = rayon::join(|| reads(sm), || task("global/map-basin", || map_basin(model_at(sm, Interp::Linear), &bopts)));
+        let ((connection, [tl, ts]), mb) =
+            rayon::join(|| reads(sm), || task("global/map-basin", || map_basin(model_at(sm, Interp::Linear), &bopts)));
         Ok((connection, [tl?, ts?], mb?, t0.elapsed().as_secs_f64()))
     };
     // The training variants' fitted maps (full report only: the quick report's runs hold
@@ -177,14 +245,20 @@ fn compute(pm: &ParametricModel, sm: &SharedParametricModel, runs: &TrainingRuns
         }
         let list = furuta::bifurcations::sensitivity_variants();
         let one = |(name, o): &(&'static str, furuta::parametric::FurutaOptions)| -> MapVariant {
-            match task(&format!("global/variant-fit {name}"), || furuta::shared_tangent::shared_parametric_from(o, runs)) {
+            match task(&format!("global/variant-fit {name}"), || {
+                furuta::shared_tangent::shared_parametric_from(o, runs)
+            }) {
                 Ok(m) => {
                     let (connection, torus) = reads(&m);
                     MapVariant { name, connection, torus: torus.map(|t| t.map_err(|e| e.to_string())) }
                 }
                 Err(e) => {
                     let why = format!("model not fitted ({e})");
-                    MapVariant { name, connection: [Err(why.clone()), Err(why.clone())], torus: [Err(why.clone()), Err(why)] }
+                    MapVariant {
+                        name,
+                        connection: [Err(why.clone()), Err(why.clone())],
+                        torus: [Err(why.clone()), Err(why)],
+                    }
                 }
             }
         };
@@ -194,52 +268,112 @@ fn compute(pm: &ParametricModel, sm: &SharedParametricModel, runs: &TrainingRuns
     // The full system's connection (about 40 s CPU) in the full report only.
     let full_conn = || {
         let t0 = std::time::Instant::now();
-        let r = if quick { Err("full report only".to_string()) } else { verdict_integrator().map_err(|e| format!("not found ({e})")).and_then(|vi| full_connection_with(Some(&vi), clo, chi, cn, ctol, &co).map_err(|e| format!("not found ({e})"))) };
+        let r = if quick {
+            Err("full report only".to_string())
+        } else {
+            verdict_integrator().map_err(|e| format!("not found ({e})")).and_then(|vi| {
+                full_connection_with(Some(&vi), clo, chi, cn, ctol, &co).map_err(|e| format!("not found ({e})"))
+            })
+        };
         (r, t0.elapsed().as_secs_f64())
     };
     // The equation-driven reduced map at every order (its period maps' expansions are the
     // equation-driven model's, cached per (dt, order)).
-    let eq_map = || -> Result<(Vec<EquationMapGlobal>, f64, Option<(Result<MapSwitch, String>, f64)>), furuta::Error> {
-        let t0 = std::time::Instant::now();
-        // Every order in graph style (the faithful map), and the table order's normal-form
-        // style (the same SSM's reduced map with only its structural terms: the polar normal
-        // form without the map-to-flow step), which locates the normal form's error.
-        let jobs: Vec<(u32, MapStyle)> = orders.iter().map(|&o| (o, MapStyle::Graph)).chain(std::iter::once((EQUATION_ORDER, MapStyle::NormalForm))).collect();
-        // The table order's graph map also gets the small-start switch (the fitted map's range,
-        // starts, horizon and escape rule).
-        type Job = (EquationMapGlobal, Option<(Result<MapSwitch, String>, f64)>);
-        expand_highest()?;
-        let out = par_map(&jobs, |&(order, style)| -> Result<Job, furuta::Error> {
-            let fam = EquationMapFamily::furuta_styled(&nodes, order, style)?;
-            let switch = || {
-                (order == EQUATION_ORDER && style == MapStyle::Graph).then(|| {
-                    let t0 = std::time::Instant::now();
-                    let sw = task("global/equation-map-switch", || {
-                        equation_map_switch(&fam, Interp::Spline, furuta::full_system::default_ics, crate::report::bifurcations::MAP_SWITCH_RANGE_MS, furuta::full_system::DEFAULT_SCAN_PERIODS)
-                    });
-                    (sw.map_err(|e| e.to_string()), t0.elapsed().as_secs_f64())
-                })
-            };
-            let (g, sw) = rayon::join(|| equation_map_global(&fam, Interp::Spline, CONNECTION_RANGE_MS, &co, &torus_dts, [0.097, 0.0277], torus_periods), switch);
-            Ok((g, sw))
-        })?;
-        let switch = out.iter().find_map(|(_, sw)| sw.clone());
-        Ok((out.into_iter().map(|(g, _)| g).collect(), t0.elapsed().as_secs_f64(), switch))
-    };
-    let (((eq, basin), (models, torus)), (map, ((full_connection, full_connection_seconds), (map_variants, eq_map)))) = rayon::join(
-        || {
-            rayon::join(
-                || rayon::join(|| task("global/equation", equation), || task("global/full-basin", || full_basin(&bopts))),
-                || rayon::join(|| task("global/models", models), || task("global/full-torus", || torus_continuation_with(Some(&verdict_integrator()?), &torus_dts, [0.097, 0.0277], torus_periods))),
-            )
-        },
-        || {
-            rayon::join(
-                || task("global/map", map_part),
-                || rayon::join(|| task("global/full-connection", full_conn), || rayon::join(|| task("global/variants", variants), || task("global/equation-map", eq_map))),
-            )
-        },
-    );
+    let eq_map =
+        || -> Result<(Vec<EquationMapGlobal>, f64, Option<(Result<MapSwitch, String>, f64)>), furuta::Error> {
+            let t0 = std::time::Instant::now();
+            // Every order in graph style (the faithful map), and the table order's normal-form
+            // style (the same SSM's reduced map with only its structural terms: the polar normal
+            // form without the map-to-flow step), which locates the normal form's error.
+            let jobs: Vec<(u32, MapStyle)> = orders
+                .iter()
+                .map(|&o| (o, MapStyle::Graph))
+                .chain(std::iter::once((EQUATION_ORDER, MapStyle::NormalForm)))
+                .collect();
+            // The table order's graph map also gets the small-start switch (the fitted map's range,
+            // starts, horizon and escape rule).
+            type Job = (EquationMapGlobal, Option<(Result<MapSwitch, String>, f64)>);
+            expand_highest()?;
+            let out = par_map(&jobs, |&(order, style)| -> Result<Job, furuta::Error> {
+                let fam = EquationMapFamily::furuta_styled(&nodes, order, style)?;
+                let switch = || {
+                    (order == EQUATION_ORDER && style == MapStyle::Graph).then(|| {
+                        let t0 = std::time::Instant::now();
+                        let sw = task("global/equation-map-switch", || {
+                            equation_map_switch(
+                                &fam,
+                                Interp::Spline,
+                                furuta::full_system::default_ics,
+                                crate::report::bifurcations::MAP_SWITCH_RANGE_MS,
+                                furuta::full_system::DEFAULT_SCAN_PERIODS,
+                            )
+                        });
+                        (sw.map_err(|e| e.to_string()), t0.elapsed().as_secs_f64())
+                    })
+                };
+                let (g, sw) = rayon::join(
+                    || {
+                        equation_map_global(
+                            &fam,
+                            Interp::Spline,
+                            CONNECTION_RANGE_MS,
+                            &co,
+                            &torus_dts,
+                            [0.097, 0.0277],
+                            torus_periods,
+                        )
+                    },
+                    switch,
+                );
+                Ok((g, sw))
+            })?;
+            let switch = out.iter().find_map(|(_, sw)| sw.clone());
+            Ok((out.into_iter().map(|(g, _)| g).collect(), t0.elapsed().as_secs_f64(), switch))
+        };
+    let (((eq, basin), (models, torus)), (map, ((full_connection, full_connection_seconds), (map_variants, eq_map)))) =
+        rayon::join(
+            || {
+                rayon::join(
+                    || {
+                        rayon::join(
+                            || task("global/equation", equation),
+                            || task("global/full-basin", || full_basin(&bopts)),
+                        )
+                    },
+                    || {
+                        rayon::join(
+                            || task("global/models", models),
+                            || {
+                                task("global/full-torus", || {
+                                    torus_continuation_with(
+                                        Some(&verdict_integrator()?),
+                                        &torus_dts,
+                                        [0.097, 0.0277],
+                                        torus_periods,
+                                    )
+                                })
+                            },
+                        )
+                    },
+                )
+            },
+            || {
+                rayon::join(
+                    || task("global/map", map_part),
+                    || {
+                        rayon::join(
+                            || task("global/full-connection", full_conn),
+                            || {
+                                rayon::join(
+                                    || task("global/variants", variants),
+                                    || task("global/equation-map", eq_map),
+                                )
+                            },
+                        )
+                    },
+                )
+            },
+        );
     let (eq_map, eq_map_seconds, eq_map_switch) = eq_map?;
     let (diag, by_order, eq_forms) = eq?;
     let (map_connection, map_torus, map_basin, map_seconds) = map?;
@@ -269,11 +403,18 @@ fn compute(pm: &ParametricModel, sm: &SharedParametricModel, runs: &TrainingRuns
 /// fitted map against the equation-driven reduced map and the full system (the issue's 0.05 ms
 /// target).
 fn where_the_normal_form_errs(rep: &mut Report, c: &Computed) {
-    let mid = |r: &Result<Connection, String>| r.as_ref().ok().and_then(|c| c.switch.bracket).map(|(a, b)| 0.5 * (a + b));
+    let mid =
+        |r: &Result<Connection, String>| r.as_ref().ok().and_then(|c| c.switch.bracket).map(|(a, b)| 0.5 * (a + b));
     let onset = |g: &EquationMapGlobal| g.torus.as_ref().ok().and_then(|t| t.growth_onset);
-    let gap = |a: Option<f64>, b: Option<f64>| a.zip(b).map_or("-".to_string(), |(a, b)| format!("{:.3}", (a - b).abs()));
-    let graph: Vec<String> = c.by_order.iter().map(|b| format!("{}: {}", b.order, f4(c.graph_map(b.order).and_then(|g| mid(&g.connection))))).collect();
-    let polar: Vec<String> = c.by_order.iter().map(|b| format!("{}: {}", b.order, f4(b.heteroclinic.as_ref().map(|h| h.dt)))).collect();
+    let gap =
+        |a: Option<f64>, b: Option<f64>| a.zip(b).map_or("-".to_string(), |(a, b)| format!("{:.3}", (a - b).abs()));
+    let graph: Vec<String> = c
+        .by_order
+        .iter()
+        .map(|b| format!("{}: {}", b.order, f4(c.graph_map(b.order).and_then(|g| mid(&g.connection)))))
+        .collect();
+    let polar: Vec<String> =
+        c.by_order.iter().map(|b| format!("{}: {}", b.order, f4(b.heteroclinic.as_ref().map(|h| h.dt)))).collect();
     let nf = c.eq_map.iter().find(|g| g.style == MapStyle::NormalForm);
     let polar_t = c.by_order.iter().find(|b| b.order == EQUATION_ORDER);
     let (nf_conn, nf_onset) = (nf.and_then(|g| mid(&g.connection)), nf.and_then(onset));
@@ -314,7 +455,14 @@ fn f4(v: Option<f64>) -> String {
 /// invariance) and `basin`. `bif` is the data-driven model's bifurcations (portraits section);
 /// the full system's small-start scan and torus are read from the summary keys the
 /// fullsystem section wrote.
-pub fn global_sections(rep: &mut Report, pm: &ParametricModel, sm: &SharedParametricModel, runs: &TrainingRuns, bif: &ModelBifurcations, quick: bool) -> Result<(), Box<dyn Error>> {
+pub fn global_sections(
+    rep: &mut Report,
+    pm: &ParametricModel,
+    sm: &SharedParametricModel,
+    runs: &TrainingRuns,
+    bif: &ModelBifurcations,
+    quick: bool,
+) -> Result<(), Box<dyn Error>> {
     let c = compute(pm, sm, runs, quick).map_err(|e| e.to_string())?;
     equation_section(rep, pm, sm, bif, &c, quick)?;
     if !quick {
@@ -329,19 +477,42 @@ pub fn global_sections(rep: &mut Report, pm: &ParametricModel, sm: &SharedParame
 /// Summary key `map_sensitivity`.
 fn map_variants_table(rep: &mut Report, c: &Computed) {
     let tor = |r: &Result<TorusContinuation, String>| r.as_ref().map_or_else(|e| e.clone(), lost_text);
-    let default_torus: [Result<TorusContinuation, String>; 2] = [Ok(c.map_torus[0].clone()), Ok(c.map_torus[1].clone())];
+    let default_torus: [Result<TorusContinuation, String>; 2] =
+        [Ok(c.map_torus[0].clone()), Ok(c.map_torus[1].clone())];
     let mut all: Vec<(&str, &[Result<Connection, String>; 2], &[Result<TorusContinuation, String>; 2])> =
         vec![("default (paper's periods, cut 0.2 rad)", &c.map_connection, &default_torus)];
     all.extend(c.map_variants.iter().map(|v| (v.name, &v.connection, &v.torus)));
-    let rows: Vec<Vec<String>> = all.iter().map(|(n, cs, ts)| vec![n.to_string(), connection_text(&cs[0]), connection_text(&cs[1]), tor(&ts[0]), tor(&ts[1])]).collect();
+    let rows: Vec<Vec<String>> = all
+        .iter()
+        .map(|(n, cs, ts)| {
+            vec![n.to_string(), connection_text(&cs[0]), connection_text(&cs[1]), tor(&ts[0]), tor(&ts[1])]
+        })
+        .collect();
     // Spread (max - min) of each value over the rows where it exists: bracket midpoints,
     // growth onsets; with the number of rows it was found in.
     let mid = |b: Option<(f64, f64)>| b.map(|(lo, hi)| 0.5 * (lo + hi));
     let mut spreads = serde_json::Map::new();
     for (k, i) in [("linear", 0), ("spline", 1)] {
-        spreads.insert(format!("connection_{k}"), value_spread(&all.iter().map(|(_, cs, _)| cs[i].as_ref().ok().and_then(|c| mid(c.switch.bracket))).collect::<Vec<_>>()));
-        spreads.insert(format!("torus_lost_{k}"), value_spread(&all.iter().map(|(_, _, ts)| ts[i].as_ref().ok().and_then(|t| mid(t.lost_between))).collect::<Vec<_>>()));
-        spreads.insert(format!("torus_onset_{k}"), value_spread(&all.iter().map(|(_, _, ts)| ts[i].as_ref().ok().and_then(|t| t.growth_onset)).collect::<Vec<_>>()));
+        spreads.insert(
+            format!("connection_{k}"),
+            value_spread(
+                &all.iter()
+                    .map(|(_, cs, _)| cs[i].as_ref().ok().and_then(|c| mid(c.switch.bracket)))
+                    .collect::<Vec<_>>(),
+            ),
+        );
+        spreads.insert(
+            format!("torus_lost_{k}"),
+            value_spread(
+                &all.iter().map(|(_, _, ts)| ts[i].as_ref().ok().and_then(|t| mid(t.lost_between))).collect::<Vec<_>>(),
+            ),
+        );
+        spreads.insert(
+            format!("torus_onset_{k}"),
+            value_spread(
+                &all.iter().map(|(_, _, ts)| ts[i].as_ref().ok().and_then(|t| t.growth_onset)).collect::<Vec<_>>(),
+            ),
+        );
     }
     let sp = |k: &str| spreads[k]["spread_ms"].as_f64().map_or("-".to_string(), |x| format!("{x:.3}"));
     rep.para(&format!(
@@ -359,7 +530,16 @@ fn map_variants_table(rep: &mut Report, c: &Computed) {
         sp("torus_lost_linear"),
         sp("torus_lost_spline"),
     ));
-    rep.table(&["training", "saddle connection, linear [ms]", "saddle connection, spline [ms]", "torus, linear [ms]", "torus, spline [ms]"], &rows);
+    rep.table(
+        &[
+            "training",
+            "saddle connection, linear [ms]",
+            "saddle connection, spline [ms]",
+            "torus, linear [ms]",
+            "torus, spline [ms]",
+        ],
+        &rows,
+    );
     let list: Vec<Value> = all
         .iter()
         .map(|(n, cs, ts)| {
@@ -425,7 +605,8 @@ fn eq_map_switch_text(c: &Computed) -> String {
 /// system's and the fitted map's) and the summary key `map_switch_dt_ms.equation_map`.
 fn eq_map_switch_part(rep: &mut Report, c: &Computed, nodes: &[f64]) {
     let Some((sw, seconds)) = &c.eq_map_switch else { return };
-    let mid2 = |v: &Value| v.as_array().filter(|a| a.len() == 2).and_then(|a| Some(0.5 * (a[0].as_f64()? + a[1].as_f64()?)));
+    let mid2 =
+        |v: &Value| v.as_array().filter(|a| a.len() == 2).and_then(|a| Some(0.5 * (a[0].as_f64()? + a[1].as_f64()?)));
     let ms = rep.summary.get("map_switch_dt_ms").cloned().unwrap_or(Value::Null);
     let full = mid2(&ms["full_system"]);
     let fitted = mid2(&ms["linear"]["bracket"]);
@@ -449,9 +630,11 @@ fn eq_map_switch_part(rep: &mut Report, c: &Computed, nodes: &[f64]) {
         gap(own, fitted),
     ));
     let v = match sw {
-        Ok(sw) => json!({"bracket": sw.bracket.map(|(a, b)| vec![a, b]), "grid": sw.grid.iter().map(|g| json!([g.0, g.1])).collect::<Vec<_>>(), "monotone": sw.monotone,
+        Ok(sw) => {
+            json!({"bracket": sw.bracket.map(|(a, b)| vec![a, b]), "grid": sw.grid.iter().map(|g| json!([g.0, g.1])).collect::<Vec<_>>(), "monotone": sw.monotone,
                          "order": EQUATION_ORDER, "style": "graph", "interp": "spline", "nodes_ms": nodes,
-                         "start": "the full system's start (state and pre-history) in the period map's deflated coordinates s, projected to z = U^T s (exact linear map's left eigenvectors)"}),
+                         "start": "the full system's start (state and pre-history) in the period map's deflated coordinates s, projected to z = U^T s (exact linear map's left eigenvectors)"})
+        }
         Err(e) => json!({"error": e}),
     };
     if let Some(Value::Object(m)) = rep.summary.get_mut("map_switch_dt_ms") {
@@ -473,7 +656,14 @@ fn map_switch(v: Option<&Value>) -> String {
     format!("{} / {}", one("linear"), one("spline"))
 }
 
-fn equation_section(rep: &mut Report, pm: &ParametricModel, sm: &SharedParametricModel, bif: &ModelBifurcations, c: &Computed, quick: bool) -> Result<(), Box<dyn Error>> {
+fn equation_section(
+    rep: &mut Report,
+    pm: &ParametricModel,
+    sm: &SharedParametricModel,
+    bif: &ModelBifurcations,
+    c: &Computed,
+    quick: bool,
+) -> Result<(), Box<dyn Error>> {
     let (nodes, orders, diag_dts, diag_order, _, _, torus_periods) = settings(quick);
     rep.section(
         "equation",
@@ -498,11 +688,14 @@ fn equation_section(rep: &mut Report, pm: &ParametricModel, sm: &SharedParametri
             furuta::basin::TORUS_SPREAD_MIN,
         ),
     );
-    let eb = c.by_order.iter().find(|b| b.order == EQUATION_ORDER).ok_or("no equation-driven model at the table's order")?;
+    let eb =
+        c.by_order.iter().find(|b| b.order == EQUATION_ORDER).ok_or("no equation-driven model at the table's order")?;
     let het = rep.summary.get("heteroclinic_dt_ms").cloned().unwrap_or(Value::Null);
     let torus = rep.summary.get("torus_30p8").cloned().unwrap_or(Value::Null);
     let full_switch = het["full_system"].as_array().map(|a| a.iter().filter_map(Value::as_f64).collect::<Vec<_>>());
-    let bracket = |b: Option<&Vec<f64>>| b.filter(|v| v.len() == 2).map_or("none".to_string(), |v| format!("[{:.3}, {:.3}]", v[0], v[1]));
+    let bracket = |b: Option<&Vec<f64>>| {
+        b.filter(|v| v.len() == 2).map_or("none".to_string(), |v| format!("[{:.3}, {:.3}]", v[0], v[1]))
+    };
     let eq_switch = eb.small_start_switch.map(|b| 0.5 * (b.0 + b.1));
     let lost = c.torus.lost_between;
     let rho = |r: Option<[f64; 2]>| r.map_or("none".into(), |r| format!("({:.4}, {:.4})", r[0], r[1]));
@@ -513,7 +706,8 @@ fn equation_section(rep: &mut Report, pm: &ParametricModel, sm: &SharedParametri
     let em_torus = em.map_or("not computed".into(), |g| eq_map_torus_text(&g.torus));
     let rows = vec![
         vec![
-            "saddle connection: fast saddle cycle's pushed unstable branch switches from the torus to escape [ms]".into(),
+            "saddle connection: fast saddle cycle's pushed unstable branch switches from the torus to escape [ms]"
+                .into(),
             format!("{} / {}", connection_text(&c.map_connection[0]), connection_text(&c.map_connection[1])),
             f4(bif.heteroclinic.as_ref().map(|h| h.dt)),
             em_conn,
@@ -526,7 +720,11 @@ fn equation_section(rep: &mut Report, pm: &ParametricModel, sm: &SharedParametri
             f4(het["model"].as_f64()),
             eq_map_switch_text(c),
             f4(eq_switch),
-            format!("{} (all escape from {})", bracket(full_switch.as_ref()), f4(het["full_system_all_escape_from"].as_f64())),
+            format!(
+                "{} (all escape from {})",
+                bracket(full_switch.as_ref()),
+                f4(het["full_system_all_escape_from"].as_f64())
+            ),
         ],
         vec![
             "torus Hopf: the 2-torus stops attracting [ms] (lost by the continuation rule; growth onset)".into(),
@@ -629,7 +827,18 @@ fn equation_section(rep: &mut Report, pm: &ParametricModel, sm: &SharedParametri
         })
         .collect();
     rep.para("The full system's 2-torus continued across dt:");
-    rep.table(&["dt [ms]", "mean (rho_1, rho_2), last third", "rho_1 spread, middle third", "rho_1 spread, last third", "growth rate [1/s]", "run", "torus"], &trow);
+    rep.table(
+        &[
+            "dt [ms]",
+            "mean (rho_1, rho_2), last third",
+            "rho_1 spread, middle third",
+            "rho_1 spread, last third",
+            "growth rate [1/s]",
+            "run",
+            "torus",
+        ],
+        &trow,
+    );
     // Coefficients and invariance by order.
     rep.para(&format!(
         "Equation-driven SSM at order {diag_order}: invariance error max |F(W(z)) - W(R(z))| of the truncations at orders 3, \
@@ -710,7 +919,9 @@ fn equation_section(rep: &mut Report, pm: &ParametricModel, sm: &SharedParametri
         h.insert("equation_saddle_connection".into(), json!(eb.heteroclinic.as_ref().map(|h| h.dt)));
         h.insert("equation_order".into(), json!(EQUATION_ORDER));
         let cj = |r: &Result<Connection, String>| match r {
-            Ok(c) => json!({"bracket": c.switch.bracket.map(|(a, b)| [a, b]), "grid": c.switch.grid, "monotone": c.switch.monotone, "evaluations": c.switch.evaluations}),
+            Ok(c) => {
+                json!({"bracket": c.switch.bracket.map(|(a, b)| [a, b]), "grid": c.switch.grid, "monotone": c.switch.monotone, "evaluations": c.switch.evaluations})
+            }
             Err(e) => json!({"error": e}),
         };
         let (lo, hi, n, tol) = CONNECTION_RANGE_MS;
@@ -720,8 +931,17 @@ fn equation_section(rep: &mut Report, pm: &ParametricModel, sm: &SharedParametri
                    "rule": "first dt at which a start on the fast saddle cycle pushed along the slow eigenvector escapes (|theta| > 1 rad) within the periods"}),
         );
         h.insert("full_system_connection".into(), cj(&c.full_connection));
-        let by_order: Vec<Value> = c.eq_map.iter().filter(|g| g.style == MapStyle::Graph).map(|g| json!({"order": g.order, "connection": cj(&g.connection)})).collect();
-        let nf = c.eq_map.iter().find(|g| g.style == MapStyle::NormalForm).map(|g| json!({"order": g.order, "connection": cj(&g.connection)}));
+        let by_order: Vec<Value> = c
+            .eq_map
+            .iter()
+            .filter(|g| g.style == MapStyle::Graph)
+            .map(|g| json!({"order": g.order, "connection": cj(&g.connection)}))
+            .collect();
+        let nf = c
+            .eq_map
+            .iter()
+            .find(|g| g.style == MapStyle::NormalForm)
+            .map(|g| json!({"order": g.order, "connection": cj(&g.connection)}));
         h.insert(
             "equation_map".into(),
             json!({"style": "graph", "interp": "spline", "nodes_ms": nodes, "table_order": EQUATION_ORDER, "seconds": c.eq_map_seconds, "by_order": by_order,
@@ -749,7 +969,9 @@ fn equation_section(rep: &mut Report, pm: &ParametricModel, sm: &SharedParametri
                    "linear_steps": c.map_torus[0].steps, "spline_steps": c.map_torus[1].steps}),
         );
         let torus_json = |g: &EquationMapGlobal| match &g.torus {
-            Ok(t) => json!({"order": g.order, "lost_between": t.lost_between.map(|(a, b)| [a, b]), "growth_onset": t.growth_onset, "steps": t.steps}),
+            Ok(t) => {
+                json!({"order": g.order, "lost_between": t.lost_between.map(|(a, b)| [a, b]), "growth_onset": t.growth_onset, "steps": t.steps})
+            }
             Err(e) => json!({"order": g.order, "error": e}),
         };
         let by_order: Vec<Value> = c.eq_map.iter().filter(|g| g.style == MapStyle::Graph).map(torus_json).collect();
@@ -782,14 +1004,24 @@ pub const CHART_ROBUST: f64 = 0.01;
 /// The table of the data-driven polar coefficients of degree 3 and 5 at each training period
 /// that is a node of the equation-driven model, against the equation-driven ones (order
 /// [`EQUATION_ORDER`]); returns the `cubic_comparison` summary value.
-fn cubic_comparison(rep: &mut Report, pm: &ParametricModel, sm: &SharedParametricModel, c: &Computed) -> Result<Value, Box<dyn Error>> {
+fn cubic_comparison(
+    rep: &mut Report,
+    pm: &ParametricModel,
+    sm: &SharedParametricModel,
+    c: &Computed,
+) -> Result<Value, Box<dyn Error>> {
     let mut rows = Vec::new();
     let mut spectral_rows = Vec::new();
-    let both: Vec<_> = pm.trained.iter().filter_map(|t| c.eq_forms.iter().find(|(d, _)| (d - t.dt_ms).abs() < 1e-9).map(|(_, eq)| (t, eq))).collect();
+    let both: Vec<_> = pm
+        .trained
+        .iter()
+        .filter_map(|t| c.eq_forms.iter().find(|(d, _)| (d - t.dt_ms).abs() < 1e-9).map(|(_, eq)| (t, eq)))
+        .collect();
     let spectral = par_map(&both, |(t, _)| furuta_equation_polar_with(t.dt_ms, EQUATION_ORDER, Amplitude::Spectral))?;
     // The data-driven normal form on the first-harmonic basis (rho the observable's first
     // harmonic at every order, the equation-driven model's definition).
-    let first_harmonic = par_map(&both, |(t, _)| model_normal_form_first_harmonic(&t.model, &NormalFormOptions::default()))?;
+    let first_harmonic =
+        par_map(&both, |(t, _)| model_normal_form_first_harmonic(&t.model, &NormalFormOptions::default()))?;
     // The same for the fitted map (shared tangent, weighted regression) at its node.
     let shared_fh = par_map(&both, |(t, _)| -> Result<PolarNormalForm, Box<dyn Error + Send + Sync>> {
         Ok(model_normal_form_first_harmonic(&sm.model_at(t.dt_ms, Interp::Linear)?, &NormalFormOptions::default())?)
@@ -825,12 +1057,16 @@ fn cubic_comparison(rep: &mut Report, pm: &ParametricModel, sm: &SharedParametri
     let mut fh_terms = Vec::new();
     let mut sm_terms = Vec::new();
     for (mode, mono, degree) in &keys {
-        let mine: Vec<&furuta::equation_ssm::CoefficientRow> = rows.iter().filter(|r| r.mode == *mode && &r.monomial == mono).collect();
+        let mine: Vec<&furuta::equation_ssm::CoefficientRow> =
+            rows.iter().filter(|r| r.mode == *mode && &r.monomial == mono).collect();
         let worst = mine.iter().filter_map(|r| r.rel_diff).fold(0.0f64, |m, x| m.max(x.abs()));
         let within = mine.iter().all(|r| r.rel_diff.is_some_and(|x| x.abs() <= CUBIC_TARGET));
         // max |Observable / Spectral - 1| over the periods.
-        let chart_shift =
-            spectral_rows.iter().filter(|r| r.mode == *mode && &r.monomial == mono).filter_map(|r| r.rel_diff).fold(0.0f64, |m, x| m.max(x.abs()));
+        let chart_shift = spectral_rows
+            .iter()
+            .filter(|r| r.mode == *mode && &r.monomial == mono)
+            .filter_map(|r| r.rel_diff)
+            .fold(0.0f64, |m, x| m.max(x.abs()));
         let mut row = vec![format!("rho_{mode}'"), mono.clone()];
         row.extend(dts.iter().map(|d| {
             mine.iter().find(|r| r.dt_ms == *d).map_or("-".into(), |r| match (r.data, r.rel_diff) {
@@ -841,11 +1077,15 @@ fn cubic_comparison(rep: &mut Report, pm: &ParametricModel, sm: &SharedParametri
         row.push(if within { "yes".into() } else { format!("no ({:.0} %)", 100.0 * worst) });
         row.push(format!("{:.1} %", 100.0 * chart_shift));
         // First-harmonic basis: the data-driven value per period (relative difference).
-        let fh: Vec<&furuta::equation_ssm::CoefficientRow> = fh_rows.iter().filter(|r| r.mode == *mode && &r.monomial == mono).collect();
+        let fh: Vec<&furuta::equation_ssm::CoefficientRow> =
+            fh_rows.iter().filter(|r| r.mode == *mode && &r.monomial == mono).collect();
         let fh_worst = fh.iter().filter_map(|r| r.rel_diff).fold(0.0f64, |m, x| m.max(x.abs()));
         let fh_within = fh.iter().all(|r| r.rel_diff.is_some_and(|x| x.abs() <= CUBIC_TARGET));
-        let basis_shift =
-            basis_rows.iter().filter(|r| r.mode == *mode && &r.monomial == mono).filter_map(|r| r.rel_diff).fold(0.0f64, |m, x| m.max(x.abs()));
+        let basis_shift = basis_rows
+            .iter()
+            .filter(|r| r.mode == *mode && &r.monomial == mono)
+            .filter_map(|r| r.rel_diff)
+            .fold(0.0f64, |m, x| m.max(x.abs()));
         row.push(
             dts.iter()
                 .map(|d| {
@@ -858,12 +1098,18 @@ fn cubic_comparison(rep: &mut Report, pm: &ParametricModel, sm: &SharedParametri
                 .join("; "),
         );
         row.push(if fh_within { "yes".into() } else { format!("no ({:.0} %)", 100.0 * fh_worst) });
-        let smr: Vec<&furuta::equation_ssm::CoefficientRow> = sm_rows.iter().filter(|r| r.mode == *mode && &r.monomial == mono).collect();
+        let smr: Vec<&furuta::equation_ssm::CoefficientRow> =
+            sm_rows.iter().filter(|r| r.mode == *mode && &r.monomial == mono).collect();
         let sm_worst = smr.iter().filter_map(|r| r.rel_diff).fold(0.0f64, |m, x| m.max(x.abs()));
         let sm_within = smr.iter().all(|r| r.rel_diff.is_some_and(|x| x.abs() <= CUBIC_TARGET));
         row.push(
             dts.iter()
-                .map(|d| smr.iter().find(|r| r.dt_ms == *d).and_then(|r| r.rel_diff).map_or("-".into(), |e| format!("{:+.1} %", 100.0 * e)))
+                .map(|d| {
+                    smr.iter()
+                        .find(|r| r.dt_ms == *d)
+                        .and_then(|r| r.rel_diff)
+                        .map_or("-".into(), |e| format!("{:+.1} %", 100.0 * e))
+                })
                 .collect::<Vec<_>>()
                 .join("; "),
         );
@@ -871,8 +1117,10 @@ fn cubic_comparison(rep: &mut Report, pm: &ParametricModel, sm: &SharedParametri
         sm_terms.push(json!({"mode": mode, "monomial": mono, "degree": degree, "max_abs_rel_diff": sm_worst, "within_target": sm_within}));
         fh_terms.push(json!({"mode": mode, "monomial": mono, "degree": degree, "max_abs_rel_diff": fh_worst, "within_target": fh_within,
                              "basis_shift": basis_shift}));
-        terms.push(json!({"mode": mode, "monomial": mono, "degree": degree, "max_abs_rel_diff": worst, "within_target": within,
-                          "chart_shift": chart_shift, "chart_robust": chart_shift <= CHART_ROBUST}));
+        terms.push(
+            json!({"mode": mode, "monomial": mono, "degree": degree, "max_abs_rel_diff": worst, "within_target": within,
+                          "chart_shift": chart_shift, "chart_robust": chart_shift <= CHART_ROBUST}),
+        );
     }
     rep.para(&format!(
         "Data-driven vs equation-driven polar coefficients (1/s; rho in rad of theta) at the training periods that are \
@@ -908,9 +1156,11 @@ fn cubic_comparison(rep: &mut Report, pm: &ParametricModel, sm: &SharedParametri
     head.push("fitted map, first harmonic".into());
     let head_ref: Vec<&str> = head.iter().map(String::as_str).collect();
     rep.table(&head_ref, &table);
-    Ok(json!({"target_rel": CUBIC_TARGET, "chart_robust_rel": CHART_ROBUST, "amplitude": "observable", "equation_order": EQUATION_ORDER, "dts_ms": dts, "terms": terms, "rows": rows,
+    Ok(
+        json!({"target_rel": CUBIC_TARGET, "chart_robust_rel": CHART_ROBUST, "amplitude": "observable", "equation_order": EQUATION_ORDER, "dts_ms": dts, "terms": terms, "rows": rows,
               "first_harmonic": {"terms": fh_terms, "rows": fh_rows},
-              "first_harmonic_fitted_map": {"terms": sm_terms, "rows": sm_rows}}))
+              "first_harmonic_fitted_map": {"terms": sm_terms, "rows": sm_rows}}),
+    )
 }
 
 fn basin_section(rep: &mut Report, c: &Computed) -> Result<(), Box<dyn Error>> {
@@ -939,7 +1189,12 @@ fn basin_section(rep: &mut Report, c: &Computed) -> Result<(), Box<dyn Error>> {
     let blue = RGBColor(30, 80, 220);
     let purple = RGBColor(150, 40, 170);
     let separatrices = |p: &Portrait| -> Vec<Vec<(f64, f64)>> {
-        let mut v: Vec<Vec<(f64, f64)>> = p.manifolds.iter().filter(|m| m.direction == Direction::Stable && !m.on_axis).map(|m| m.points.clone()).collect();
+        let mut v: Vec<Vec<(f64, f64)>> = p
+            .manifolds
+            .iter()
+            .filter(|m| m.direction == Direction::Stable && !m.on_axis)
+            .map(|m| m.points.clone())
+            .collect();
         v.extend(p.orbits.iter().map(|o| o.points.clone()));
         v
     };
@@ -950,24 +1205,53 @@ fn basin_section(rep: &mut Report, c: &Computed) -> Result<(), Box<dyn Error>> {
     let mut map_panels: Vec<(String, Vec<bool>, Vec<bool>)> = Vec::new();
     for (p, (dt, m)) in o.dts_ms.iter().zip(&c.models).enumerate() {
         let full = b.bounded_at(p);
-        let ag = |mb: &ModelBasin| -> Result<(Agreement, Agreement), furuta::Error> { Ok((agreement(&mb.asymptotic, &full)?, agreement(&mb.horizon, &full)?)) };
+        let ag = |mb: &ModelBasin| -> Result<(Agreement, Agreement), furuta::Error> {
+            Ok((agreement(&mb.asymptotic, &full)?, agreement(&mb.horizon, &full)?))
+        };
         let (data, data_h) = ag(&m[0].1)?;
         let (eq, eq_h) = ag(&m[1].1)?;
         let esc = b.escape_fraction(p);
         let pct = |a: &Agreement| {
             let und = if a.undecided > 0 { format!(", {} undecided", a.undecided) } else { String::new() };
-            format!("{:.1} % ({} / {}{und})", 100.0 * a.disagreement, a.model_bounded_full_escaped, a.model_escaped_full_bounded)
+            format!(
+                "{:.1} % ({} / {}{und})",
+                100.0 * a.disagreement,
+                a.model_bounded_full_escaped,
+                a.model_escaped_full_bounded
+            )
         };
         let map_b = c.map_basin.get(p).ok_or("no map basin at this dt")?;
-        let map_fates: Vec<ModelFate> = map_b.iter().map(|&b| if b { ModelFate::Principal } else { ModelFate::LeavesBox }).collect();
+        let map_fates: Vec<ModelFate> =
+            map_b.iter().map(|&b| if b { ModelFate::Principal } else { ModelFate::LeavesBox }).collect();
         let map_ag = agreement(&map_fates, &full)?;
-        rows.push(vec![format!("{dt}"), format!("{:.1} %", 100.0 * esc), pct(&map_ag), pct(&data), pct(&data_h), pct(&eq), pct(&eq_h)]);
+        rows.push(vec![
+            format!("{dt}"),
+            format!("{:.1} %", 100.0 * esc),
+            pct(&map_ag),
+            pct(&data),
+            pct(&data_h),
+            pct(&eq),
+            pct(&eq_h),
+        ]);
         list.push(json!({"dt_ms": dt, "escape_fraction": esc, "map": map_ag, "data_driven": data, "data_driven_horizon": data_h, "equation": eq, "equation_horizon": eq_h}));
         map_disagreement.push(map_ag.disagreement);
-        map_panels.push((format!("dt = {dt} ms: fitted map differs on {:.1} %", 100.0 * map_ag.disagreement), full.clone(), map_b.iter().zip(&full).map(|(a, b)| a != b).collect::<Vec<bool>>()));
-        let differs = |mb: &ModelBasin| -> Vec<bool> { mb.asymptotic.iter().zip(&full).map(|(f, &x)| f.bounded().is_some_and(|y| y != x)).collect() };
+        map_panels.push((
+            format!("dt = {dt} ms: fitted map differs on {:.1} %", 100.0 * map_ag.disagreement),
+            full.clone(),
+            map_b.iter().zip(&full).map(|(a, b)| a != b).collect::<Vec<bool>>(),
+        ));
+        let differs = |mb: &ModelBasin| -> Vec<bool> {
+            mb.asymptotic.iter().zip(&full).map(|(f, &x)| f.bounded().is_some_and(|y| y != x)).collect()
+        };
         let (d0, d1) = (differs(&m[0].1), differs(&m[1].1));
-        panels_data.push((format!("dt = {dt} ms: {:.0} % escape", 100.0 * esc), full, d0, d1, separatrices(&m[0].0), separatrices(&m[1].0)));
+        panels_data.push((
+            format!("dt = {dt} ms: {:.0} % escape", 100.0 * esc),
+            full,
+            d0,
+            d1,
+            separatrices(&m[0].0),
+            separatrices(&m[1].0),
+        ));
     }
     let panels: Vec<OverlayPanel> = panels_data
         .iter()
@@ -976,18 +1260,37 @@ fn basin_section(rep: &mut Report, c: &Computed) -> Result<(), Box<dyn Error>> {
             x: &r1,
             y: &r2,
             bounded: full,
-            marks: vec![("data-driven model differs".into(), blue, d0.clone()), ("equation-driven model differs".into(), purple, d1.clone())],
-            curves: vec![("data-driven separatrices".into(), blue, s0.clone()), (format!("equation-driven (order {EQUATION_ORDER}) separatrices"), purple, s1.clone())],
+            marks: vec![
+                ("data-driven model differs".into(), blue, d0.clone()),
+                ("equation-driven model differs".into(), purple, d1.clone()),
+            ],
+            curves: vec![
+                ("data-driven separatrices".into(), blue, s0.clone()),
+                (format!("equation-driven (order {EQUATION_ORDER}) separatrices"), purple, s1.clone()),
+            ],
         })
         .collect();
     let fig = "fig/basin_global.png";
-    draw_basin_overlay(&rep.dir().join(fig), &format!("Full system: bounded (green) / escape (red) within {} periods", o.periods), "rho_1 (slow) [rad]", "rho_2 (fast) [rad]", &panels)?;
+    draw_basin_overlay(
+        &rep.dir().join(fig),
+        &format!("Full system: bounded (green) / escape (red) within {} periods", o.periods),
+        "rho_1 (slow) [rad]",
+        "rho_2 (fast) [rad]",
+        &panels,
+    )?;
     rep.figure(fig, "The full system's basin with the reduced models' separatrices; markers: cells where a model's asymptotic verdict differs");
     let orange = RGBColor(230, 120, 0);
     let map_fig = "fig/basin_map.png";
     let mpanels: Vec<OverlayPanel> = map_panels
         .iter()
-        .map(|(cap, full, d)| OverlayPanel { caption: cap.clone(), x: &r1, y: &r2, bounded: full, marks: vec![("fitted map differs".into(), orange, d.clone())], curves: Vec::new() })
+        .map(|(cap, full, d)| OverlayPanel {
+            caption: cap.clone(),
+            x: &r1,
+            y: &r2,
+            bounded: full,
+            marks: vec![("fitted map differs".into(), orange, d.clone())],
+            curves: Vec::new(),
+        })
         .collect();
     draw_basin_overlay(
         &rep.dir().join(map_fig),
@@ -1013,7 +1316,18 @@ fn basin_section(rep: &mut Report, c: &Computed) -> Result<(), Box<dyn Error>> {
         b.threads,
         1e3 * b.wall_seconds * b.threads as f64 / b.result.cells.len().max(1) as f64,
     ));
-    rep.table(&["dt [ms]", "full system: escape", "fitted map: differs", "normal form (data-driven): differs", "data-driven, horizon", "equation-driven: differs", "equation-driven, horizon"], &rows);
+    rep.table(
+        &[
+            "dt [ms]",
+            "full system: escape",
+            "fitted map: differs",
+            "normal form (data-driven): differs",
+            "data-driven, horizon",
+            "equation-driven: differs",
+            "equation-driven, horizon",
+        ],
+        &rows,
+    );
     rep.summary.insert(
         "basin".into(),
         json!({

@@ -28,7 +28,10 @@ pub fn esc(s: &str) -> String {
 /// `f` over `items` on the rayon pool, collected in input order: the serial loop's values
 /// whatever the pool size (each task depends only on its item), and the first error in input
 /// order.
-pub fn par_map<T: Sync, U: Send, E: Send>(items: &[T], f: impl Fn(&T) -> Result<U, E> + Sync + Send) -> Result<Vec<U>, E> {
+pub fn par_map<T: Sync, U: Send, E: Send>(
+    items: &[T],
+    f: impl Fn(&T) -> Result<U, E> + Sync + Send,
+) -> Result<Vec<U>, E> {
     use rayon::prelude::*;
     let out: Vec<Result<U, E>> = items.par_iter().map(f).collect();
     out.into_iter().collect()
@@ -37,7 +40,13 @@ pub fn par_map<T: Sync, U: Send, E: Send>(items: &[T], f: impl Fn(&T) -> Result<
 /// Formats a number compactly for tables (4 significant digits, exponent when needed).
 pub fn num(v: f64) -> String {
     if !v.is_finite() {
-        return if v.is_nan() { "NaN".into() } else if v > 0.0 { "inf".into() } else { "-inf".into() };
+        return if v.is_nan() {
+            "NaN".into()
+        } else if v > 0.0 {
+            "inf".into()
+        } else {
+            "-inf".into()
+        };
     }
     let a = v.abs();
     if a != 0.0 && !(1e-3..1e5).contains(&a) { format!("{v:.3e}") } else { format!("{}", (v * 1e4).round() / 1e4) }
@@ -154,11 +163,11 @@ figcaption{{font-size:85%;color:#444}}code{{background:#f4f4f4}}</style></head><
 pub mod bifurcations;
 pub mod chaos;
 pub mod global;
-pub mod verdict;
 pub mod normal_form;
 pub mod reproduce;
 pub mod sloshing;
 pub mod tasks;
+pub mod verdict;
 
 #[cfg(test)]
 mod tests {
@@ -187,8 +196,15 @@ mod tests {
         let html = std::fs::read_to_string(dir.join("index.html")).unwrap();
         let (ia, ib) = (html.find("<h2 id=\"a\"").unwrap(), html.find("<h2 id=\"b\"").unwrap());
         assert!(ia < ib);
-        assert!(html.contains(&format!("{TIMINGS_BEGIN}<li><a href=\"#timings\">Where the time goes</a></li>{TIMINGS_END}")));
-        assert!(html.contains(&format!("{TIMINGS_BEGIN}\n<h2 id=\"timings\">")) && html.contains(&format!("<p>1.0 s</p>\n{TIMINGS_END}\n")));
+        assert!(
+            html.contains(&format!(
+                "{TIMINGS_BEGIN}<li><a href=\"#timings\">Where the time goes</a></li>{TIMINGS_END}"
+            ))
+        );
+        assert!(
+            html.contains(&format!("{TIMINGS_BEGIN}\n<h2 id=\"timings\">"))
+                && html.contains(&format!("<p>1.0 s</p>\n{TIMINGS_END}\n"))
+        );
         assert_eq!(rep.summary["a"], 1);
         std::fs::remove_dir_all(&dir).unwrap();
     }

@@ -71,10 +71,7 @@ pub fn section(rep: &mut Report, quick: bool) -> Result<(ParametricModel, Traini
         list.push(json!({"dt_ms": dt, "training": training, "fast_rate_fit": fast, "fast_rate_exact": ex.rates[1],
                          "slow_rate_fit": slow, "slow_rate_exact": ex.rates[0]}));
     }
-    rep.table(
-        &["dt [ms]", "", "fast rate fit", "fast exact", "error", "slow rate fit", "slow exact", "error"],
-        &rows,
-    );
+    rep.table(&["dt [ms]", "", "fast rate fit", "fast exact", "error", "slow rate fit", "slow exact", "error"], &rows);
     // Coefficient table at the paper's unseen dt.
     let tables: Vec<_> = PAPER_DTS.iter().map(|d| model.coefficients_at(*d)).collect::<Result<_, _>>()?;
     let mut header = vec!["equation".to_string(), "monomial".to_string()];

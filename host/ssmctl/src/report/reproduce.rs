@@ -4,12 +4,12 @@
 use crate::bench;
 use crate::plot::{self, Series};
 use crate::report::{Report, num, par_map};
-use sim::scene::{BUNDLED, Scene, SceneBuilder, Task};
-use sim::closed_loop;
-use sim::stability;
 use indicatif::{ProgressBar, ProgressStyle};
 use plotters::style::RGBColor;
 use serde_json::{Value, json};
+use sim::closed_loop;
+use sim::scene::{BUNDLED, Scene, SceneBuilder, Task};
+use sim::stability;
 use std::error::Error;
 use std::path::Path;
 use std::time::Instant;
@@ -47,12 +47,18 @@ pub fn run(out: &Path, data_dir: &Path, quick: bool, quiet: bool) -> Result<(), 
                 let rep = &mut part;
                 let (parametric, runs) = t.time("parametric", || crate::report::normal_form::section(rep, quick))?;
                 let bif = t.time("portraits", || crate::report::bifurcations::portraits_section(rep, &parametric))?;
-                let switch = t.time("fullsystem", || crate::report::bifurcations::fullsystem_section(rep, &parametric, &bif, quick))?;
+                let switch = t.time("fullsystem", || {
+                    crate::report::bifurcations::fullsystem_section(rep, &parametric, &bif, quick)
+                })?;
                 let shared = t.time("predictions", || crate::report::bifurcations::predictions_section(rep, &runs))?;
                 if !quick {
-                    t.time("bifsensitivity", || crate::report::bifurcations::sensitivity_section(rep, &parametric, &bif, switch, &runs))?;
+                    t.time("bifsensitivity", || {
+                        crate::report::bifurcations::sensitivity_section(rep, &parametric, &bif, switch, &runs)
+                    })?;
                 }
-                t.time("global", || crate::report::global::global_sections(rep, &parametric, &shared, &runs, &bif, quick))?;
+                t.time("global", || {
+                    crate::report::global::global_sections(rep, &parametric, &shared, &runs, &bif, quick)
+                })?;
                 Ok(())
             })();
             sendable(r).map(|()| (part, t))
@@ -62,7 +68,9 @@ pub fn run(out: &Path, data_dir: &Path, quick: bool, quiet: bool) -> Result<(), 
             let mut t = Timings::default();
             let r = (|| -> Result<(), Box<dyn Error>> {
                 let rep = &mut part;
-                t.time("device", || crate::report::sloshing::device_section(rep, Path::new("qemu/target/device-table.json")))?;
+                t.time("device", || {
+                    crate::report::sloshing::device_section(rep, Path::new("qemu/target/device-table.json"))
+                })?;
                 t.time("chaos", || crate::report::chaos::section(rep, data_dir, quick))?;
                 t.time("chaos-scale", || crate::report::chaos::scale_section(rep, data_dir, quick))?;
                 t.time("chaos-verdict", || crate::report::verdict::microchaos_verdict_section(rep, quick))?;
@@ -155,7 +163,8 @@ struct RssWatch {
 }
 
 /// The open watches, and whether the sampling thread runs.
-static WATCHES: std::sync::Mutex<(Vec<std::sync::Weak<std::sync::atomic::AtomicU64>>, bool)> = std::sync::Mutex::new((Vec::new(), false));
+static WATCHES: std::sync::Mutex<(Vec<std::sync::Weak<std::sync::atomic::AtomicU64>>, bool)> =
+    std::sync::Mutex::new((Vec::new(), false));
 
 impl RssWatch {
     fn start() -> Self {
@@ -165,14 +174,16 @@ impl RssWatch {
         w.0.push(std::sync::Arc::downgrade(&peak));
         if !w.1 && rss_kb().is_some() {
             // The sampler stops when no watch is open (and is restarted by the next one).
-            let spawned = std::thread::Builder::new().name("rss-sampler".into()).spawn(|| loop {
-                std::thread::sleep(std::time::Duration::from_millis(RSS_SAMPLE_MS));
-                let kb = rss_kb().unwrap_or(0);
-                let mut w = WATCHES.lock().unwrap_or_else(|e| e.into_inner());
-                w.0.retain(|p| p.upgrade().map(|p| p.fetch_max(kb, Ordering::Relaxed)).is_some());
-                if w.0.is_empty() {
-                    w.1 = false;
-                    return;
+            let spawned = std::thread::Builder::new().name("rss-sampler".into()).spawn(|| {
+                loop {
+                    std::thread::sleep(std::time::Duration::from_millis(RSS_SAMPLE_MS));
+                    let kb = rss_kb().unwrap_or(0);
+                    let mut w = WATCHES.lock().unwrap_or_else(|e| e.into_inner());
+                    w.0.retain(|p| p.upgrade().map(|p| p.fetch_max(kb, Ordering::Relaxed)).is_some());
+                    if w.0.is_empty() {
+                        w.1 = false;
+                        return;
+                    }
                 }
             });
             w.1 = spawned.is_ok();
@@ -258,9 +269,14 @@ fn timings_section(rep: &mut Report, t: &Timings, total_seconds: f64) -> Result<
     // before this report and names their timings file in SSMCTL_XTASK_STEPS.
     let steps: Vec<Value> = match std::env::var_os("SSMCTL_XTASK_STEPS") {
         Some(path) => {
-            let text = std::fs::read_to_string(&path).map_err(|e| format!("SSMCTL_XTASK_STEPS {}: {e}", path.to_string_lossy()))?;
-            let v: Value = serde_json::from_str(&text).map_err(|e| format!("SSMCTL_XTASK_STEPS {}: {e}", path.to_string_lossy()))?;
-            v["steps"].as_array().cloned().ok_or_else(|| format!("SSMCTL_XTASK_STEPS {}: no `steps` array", path.to_string_lossy()))?
+            let text = std::fs::read_to_string(&path)
+                .map_err(|e| format!("SSMCTL_XTASK_STEPS {}: {e}", path.to_string_lossy()))?;
+            let v: Value = serde_json::from_str(&text)
+                .map_err(|e| format!("SSMCTL_XTASK_STEPS {}: {e}", path.to_string_lossy()))?;
+            v["steps"]
+                .as_array()
+                .cloned()
+                .ok_or_else(|| format!("SSMCTL_XTASK_STEPS {}: no `steps` array", path.to_string_lossy()))?
         }
         None => Vec::new(),
     };
@@ -278,11 +294,19 @@ fn timings_section(rep: &mut Report, t: &Timings, total_seconds: f64) -> Result<
             .collect();
         rep.table(&["xtask step", "wall [s]", ""], &rows);
     }
-    let cached: Vec<Value> = steps.iter().filter(|st| st["cached"] == Value::Bool(true)).map(|st| st["name"].clone()).collect();
+    let cached: Vec<Value> =
+        steps.iter().filter(|st| st["cached"] == Value::Bool(true)).map(|st| st["name"].clone()).collect();
     let fig = "fig/timings.png";
     let bars: Vec<(String, f64)> = t.sections.iter().map(|(n, s, _)| (n.to_string(), *s)).collect();
     let height = 80 + 26 * bars.len() as u32;
-    plot::bars(&rep.dir().join(fig), &format!("wall time per section ({jobs} threads)"), "wall [s]", &bars, RGBColor(20, 60, 160), (760, height))?;
+    plot::bars(
+        &rep.dir().join(fig),
+        &format!("wall time per section ({jobs} threads)"),
+        "wall [s]",
+        &bars,
+        RGBColor(20, 60, 160),
+        (760, height),
+    )?;
     rep.figure(fig, "Wall time per section of this run");
     rep.end_timings();
     rep.summary.insert(
@@ -303,7 +327,8 @@ fn timings_section(rep: &mut Report, t: &Timings, total_seconds: f64) -> Result<
 fn bar(quiet: bool, len: u64, msg: &str) -> Option<ProgressBar> {
     (!quiet).then(|| {
         let pb = ProgressBar::new(len).with_style(
-            ProgressStyle::with_template("{msg:<28} [{bar:30}] {pos}/{len}").unwrap_or_else(|_| ProgressStyle::default_bar()),
+            ProgressStyle::with_template("{msg:<28} [{bar:30}] {pos}/{len}")
+                .unwrap_or_else(|_| ProgressStyle::default_bar()),
         );
         pb.set_message(msg.to_string());
         pb
@@ -334,7 +359,10 @@ fn scenes_section(rep: &mut Report, quick: bool, quiet: bool) -> Result<(), Box<
         pb.finish_and_clear();
     }
     let (rows, list): (Vec<Vec<String>>, Vec<Value>) = done.into_iter().flatten().unzip();
-    rep.table(&["scene", "effects", "periods", "max |theta| late [rad]", "stopped", "saturated samples", "periods/s"], &rows);
+    rep.table(
+        &["scene", "effects", "periods", "max |theta| late [rad]", "stopped", "saturated samples", "periods/s"],
+        &rows,
+    );
     for (name, _) in BUNDLED {
         rep.figure(&format!("fig/{name}.png"), &format!("{name}: theta(t)"));
     }
@@ -404,7 +432,11 @@ fn stability_section(rep: &mut Report) -> Result<(), Box<dyn Error>> {
             continue;
         }
         let dom = stability::dominant_pairs(&s)?;
-        let mut row = vec![name.to_string(), format!("{}", s.controller.dt_ms), format!("{} / {}", s.controller.kp, s.controller.kd)];
+        let mut row = vec![
+            name.to_string(),
+            format!("{}", s.controller.dt_ms),
+            format!("{} / {}", s.controller.kp, s.controller.kd),
+        ];
         for m in dom.iter().take(2) {
             row.push(format!("{:.6}", m.abs));
             row.push(format!("{:.3}", m.freq_hz));
@@ -432,7 +464,13 @@ fn chart_section(rep: &mut Report, quick: bool) -> Result<(), Box<dyn Error>> {
     let s = Scene::load("furuta-dt25", &[])?;
     let n = if quick { 61 } else { 201 };
     let fig = "fig/stability_chart.png";
-    let summary = crate::draw::chart::chart_for_scene(&s, &rep.dir().join(fig), &[20.0, 25.0, 30.8], (0.0, 40.0, n), (0.0, 8.0, n))?;
+    let summary = crate::draw::chart::chart_for_scene(
+        &s,
+        &rep.dir().join(fig),
+        &[20.0, 25.0, 30.8],
+        (0.0, 40.0, n),
+        (0.0, 8.0, n),
+    )?;
     rep.figure(fig, "Stability chart: stable regions and boundaries for dt = 20, 25, 30.8 ms");
     rep.summary.insert("stability_chart".into(), serde_json::to_value(&summary)?);
     Ok(())
@@ -517,7 +555,11 @@ mod tests {
                 let (a, b) = (std::fs::read(d1.join(&rel)).unwrap(), std::fs::read(d2.join(&rel)).unwrap());
                 assert!(a == b, "{rel} differs between 1 and 2 threads");
             }
-            let meta = |d: &Path| without_wall(serde_json::from_slice(&std::fs::read(d.join(format!("scenes/{name}.json"))).unwrap()).unwrap());
+            let meta = |d: &Path| {
+                without_wall(
+                    serde_json::from_slice(&std::fs::read(d.join(format!("scenes/{name}.json"))).unwrap()).unwrap(),
+                )
+            };
             assert_eq!(meta(&d1), meta(&d2), "{name}.json");
         }
         for d in [d1, d2] {

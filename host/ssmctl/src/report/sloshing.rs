@@ -1,17 +1,17 @@
 //! Report section: SSM fitting on real measured data (sloshing decay), its backbone curve
 //! and forced response curve (illustrative calibration), the fit accuracy-vs-time table, and the device blobs exported from fitted RBF models.
 
-use sim::units::s_to_ms;
-use ssm::device::{encode, to_device_model};
 use crate::plot::{self, Series};
 use crate::report::{Report, esc, num};
-use sim::scene::SceneBuilder;
-use sim::closed_loop::simulate;
-use ssm::backbone::{BackboneOptions, backbone};
-use ssm::metrics::amplitude_spectrum;
-use ssm::{Dynamics, FitOptions, Ridge, TimeSeries, fit, load_csv};
 use plotters::style::RGBColor;
 use serde_json::{Value, json};
+use sim::closed_loop::simulate;
+use sim::scene::SceneBuilder;
+use sim::units::s_to_ms;
+use ssm::backbone::{BackboneOptions, backbone};
+use ssm::device::{encode, to_device_model};
+use ssm::metrics::amplitude_spectrum;
+use ssm::{Dynamics, FitOptions, Ridge, TimeSeries, fit, load_csv};
 use std::error::Error;
 use std::path::Path;
 
@@ -59,7 +59,10 @@ pub fn sloshing_section(rep: &mut Report, data_dir: &Path, quick: bool) -> Resul
         "sloshing decay_2: measured vs SSM prediction",
         "t [s]",
         "x [% tank width]",
-        &[Series { name: "measured", points: &tp, color: BLACK }, Series { name: "SSM model", points: &pp, color: RED }],
+        &[
+            Series { name: "measured", points: &tp, color: BLACK },
+            Series { name: "SSM model", points: &pp, color: RED },
+        ],
         (760, 320),
     )?;
     let (f1, a1) = amplitude_spectrum(&test.x[..pred.x.len()], m.dt);
@@ -71,10 +74,16 @@ pub fn sloshing_section(rep: &mut Report, data_dir: &Path, quick: bool) -> Resul
         "amplitude spectra",
         "f [Hz]",
         "amplitude",
-        &[Series { name: "measured", points: &s1, color: BLACK }, Series { name: "SSM model", points: &s2, color: RED }],
+        &[
+            Series { name: "measured", points: &s1, color: BLACK },
+            Series { name: "SSM model", points: &s2, color: RED },
+        ],
         (520, 320),
     )?;
-    rep.figure("fig/sloshing_prediction.png", "Test trajectory decay_2 and the model's prediction from its first point");
+    rep.figure(
+        "fig/sloshing_prediction.png",
+        "Test trajectory decay_2 and the model's prediction from its first point",
+    );
     rep.figure("fig/sloshing_spectrum.png", "FFT amplitude spectra of the test trajectory and the prediction");
     backbone_paragraph(rep, &m, train)?;
     frc_paragraph(rep, &m, train)?;
@@ -104,7 +113,10 @@ pub fn sloshing_section(rep: &mut Report, data_dir: &Path, quick: bool) -> Resul
     if let Some(m) = rbf50 {
         let blob = encode(&to_device_model(&m, shared::ControllerConfig::paper(m.dt))?)?;
         crate::output::write_atomic(&rep.dir().join("sloshing-rbf50.bin"), &blob)?;
-        rep.para(&format!("Exported the 50-centre RBF model as <code>sloshing-rbf50.bin</code> ({} bytes).", blob.len()));
+        rep.para(&format!(
+            "Exported the 50-centre RBF model as <code>sloshing-rbf50.bin</code> ({} bytes).",
+            blob.len()
+        ));
     }
     rep.summary.insert(
         "fit_sloshing".into(),
@@ -137,8 +149,10 @@ fn backbone_paragraph(rep: &mut Report, m: &ssm::SsmModel, train: &[TimeSeries])
         num(100.0 * last.damping_ratio)
     ));
     rep.figure(fig, "Backbone curve of the sloshing model: amplitude of x against damping ratio and against frequency");
-    let list: Vec<Value> =
-        pts.iter().map(|p| json!({"amplitude": p.amplitude, "freq_rad_s": p.freq_rad_s, "damping_ratio": p.damping_ratio})).collect();
+    let list: Vec<Value> = pts
+        .iter()
+        .map(|p| json!({"amplitude": p.amplitude, "freq_rad_s": p.freq_rad_s, "damping_ratio": p.damping_ratio}))
+        .collect();
     rep.summary.insert("backbone".into(), json!({ "sloshing": list }));
     Ok(())
 }
@@ -158,7 +172,13 @@ fn frc_paragraph(rep: &mut Report, m: &ssm::SsmModel, train: &[TimeSeries]) -> R
     let curve = frc(m, &opts, cal, 0.9 * w0, 1.06 * w0, 200)?;
     let bb = backbone(m, &BackboneOptions { points: 51, ..BackboneOptions::new(0, amp_max) })?;
     let fig = "fig/sloshing_frc.png";
-    crate::draw::frc::frc_figure(&rep.dir().join(fig), "sloshing: forced response", &curve, bb.first(), "amplitude of x [% tank width]")?;
+    crate::draw::frc::frc_figure(
+        &rep.dir().join(fig),
+        "sloshing: forced response",
+        &curve,
+        bb.first(),
+        "amplitude of x [% tank width]",
+    )?;
     let (mut peak_f, mut peak_a) = (0.0, 0.0);
     for b in curve.branches.iter().filter(|b| b.stable) {
         for (f, a) in b.freq_rad_s.iter().zip(&b.amplitude) {
@@ -194,7 +214,17 @@ pub fn furuta_blob(rep: &mut Report, quick: bool) -> Result<(), Box<dyn Error>> 
     let s = SceneBuilder::load("furuta-quant-dt25")?.periods(if quick { 1500 } else { 4000 }).build()?;
     let tr = simulate(&s, None)?;
     let ts = TimeSeries::new("theta", tr.t.clone(), tr.primary())?;
-    let o = FitOptions { dim: 4, embed: 9, shift: 1, manifold_order: 2, dyn_order: 1, dynamics: Dynamics::Rbf { centers: 100 }, ridge: Ridge::Fixed(1e-10), linear_anchor: None, anchor_joint: false };
+    let o = FitOptions {
+        dim: 4,
+        embed: 9,
+        shift: 1,
+        manifold_order: 2,
+        dyn_order: 1,
+        dynamics: Dynamics::Rbf { centers: 100 },
+        ridge: Ridge::Fixed(1e-10),
+        linear_anchor: None,
+        anchor_joint: false,
+    };
     let m = fit(std::slice::from_ref(&ts), &o)?;
     let blob = encode(&to_device_model(&m, s.controller_config())?)?;
     crate::output::write_atomic(&rep.dir().join("furuta-quant-dt25-rbf100.bin"), &blob)?;
@@ -255,7 +285,9 @@ pub fn device_section(rep: &mut Report, table: &Path) -> Result<(), Box<dyn Erro
             .iter()
             .map(|r| {
                 let n = |k: &str| r.get(k).and_then(Value::as_u64).unwrap_or(0);
-                let pct = |a: u64, b: u64| if b > 0 { format!("{a} ({:.1} %)", 100.0 * a as f64 / b as f64) } else { a.to_string() };
+                let pct = |a: u64, b: u64| {
+                    if b > 0 { format!("{a} ({:.1} %)", 100.0 * a as f64 / b as f64) } else { a.to_string() }
+                };
                 vec![
                     r.get("config").and_then(Value::as_str).unwrap_or("?").to_string(),
                     pct(n("flash_bytes"), n("flash_capacity")),
@@ -273,7 +305,11 @@ pub fn device_section(rep: &mut Report, table: &Path) -> Result<(), Box<dyn Erro
         .map(|a| {
             a.iter()
                 .map(|r| {
-                    let f = |k: &str| r.get(k).filter(|x| !x.is_null()).map_or("-".to_string(), |x| x.to_string().trim_matches('"').to_string());
+                    let f = |k: &str| {
+                        r.get(k)
+                            .filter(|x| !x.is_null())
+                            .map_or("-".to_string(), |x| x.to_string().trim_matches('"').to_string())
+                    };
                     vec![f("centers"), f("scalar"), f("instructions"), f("per_center"), f("vs_f32"), f("rel_error")]
                 })
                 .collect()
@@ -286,21 +322,29 @@ pub fn device_section(rep: &mut Report, table: &Path) -> Result<(), Box<dyn Erro
              operation order, generic scalar) counted both ways; the error is that of <code>predict(12)</code> against \
              the host's f64 evaluation of the same model.",
         );
-        rep.table(&["centres", "scalar", "instructions / step", "per centre", "x f32", "rel. error vs f64"], &scalar_rows);
+        rep.table(
+            &["centres", "scalar", "instructions / step", "per centre", "x f32", "rel. error vs f64"],
+            &scalar_rows,
+        );
     }
     // Plot: instructions per predictor step against centres, one line per sqrt flavour.
     let mut by: std::collections::BTreeMap<String, Vec<(f64, f64)>> = Default::default();
     for r in v.get("predictor").and_then(Value::as_array).into_iter().flatten() {
-        if let (Some(k), Some(sq), Some(n)) =
-            (r.get("centers").and_then(Value::as_f64), r.get("sqrt").and_then(Value::as_str), r.get("instructions").and_then(Value::as_f64))
-        {
+        if let (Some(k), Some(sq), Some(n)) = (
+            r.get("centers").and_then(Value::as_f64),
+            r.get("sqrt").and_then(Value::as_str),
+            r.get("instructions").and_then(Value::as_f64),
+        ) {
             by.entry(sq.to_string()).or_default().push((k, n));
         }
     }
     if !by.is_empty() {
         let colors = [RGBColor(20, 60, 160), RED, RGBColor(30, 140, 60), BLACK];
-        let series: Vec<Series<'_>> =
-            by.iter().zip(colors.iter().cycle()).map(|((name, pts), c)| Series { name, points: pts, color: *c }).collect();
+        let series: Vec<Series<'_>> = by
+            .iter()
+            .zip(colors.iter().cycle())
+            .map(|((name, pts), c)| Series { name, points: pts, color: *c })
+            .collect();
         plot::lines(
             &rep.dir().join("fig/device_predictor.png"),
             "RBF predictor step on the Cortex-M4F (d = 6)",
@@ -309,7 +353,10 @@ pub fn device_section(rep: &mut Report, table: &Path) -> Result<(), Box<dyn Erro
             &series,
             (620, 340),
         )?;
-        rep.figure("fig/device_predictor.png", "Instructions per predictor step against the number of centres, per sqrt flavour");
+        rep.figure(
+            "fig/device_predictor.png",
+            "Instructions per predictor step against the number of centres, per sqrt flavour",
+        );
     }
     rep.summary.insert("device".into(), v);
     pil_paragraph(rep, &table.with_file_name("pil").join("summary.json"))
@@ -318,7 +365,10 @@ pub fn device_section(rep: &mut Report, table: &Path) -> Result<(), Box<dyn Erro
 /// The processor-in-the-loop result (`cargo xtask pil` writes `qemu/target/pil/summary.json`).
 fn pil_paragraph(rep: &mut Report, path: &Path) -> Result<(), Box<dyn Error>> {
     let Ok(text) = std::fs::read_to_string(path) else {
-        rep.para(&format!("No processor-in-the-loop run at {}: run <code>cargo xtask pil</code>.", esc(&path.display().to_string())));
+        rep.para(&format!(
+            "No processor-in-the-loop run at {}: run <code>cargo xtask pil</code>.",
+            esc(&path.display().to_string())
+        ));
         rep.summary.insert("pil".into(), json!({"missing": path.display().to_string()}));
         return Ok(());
     };
@@ -387,7 +437,10 @@ mod tests {
         assert!(html.contains("<th>x f32</th>"), "no f32/f64 table");
         assert!(html.contains("<td>f64</td><td>23456.5</td><td>469.13</td><td>19.0</td><td>2e-16</td>"), "{html}");
         assert_eq!(rep.summary["device"]["predictor_f32_vs_f64"][1]["vs_f32"], 19.0);
-        assert!(html.contains("<td>stm32f407: on-target tests</td><td>262144 (25.0 %)</td><td>32768 (25.0 %)</td>"), "{html}");
+        assert!(
+            html.contains("<td>stm32f407: on-target tests</td><td>262144 (25.0 %)</td><td>32768 (25.0 %)</td>"),
+            "{html}"
+        );
         std::fs::remove_dir_all(&dir).unwrap();
     }
 }

@@ -36,11 +36,26 @@ pub fn microchaos_verdict_section(rep: &mut Report, quick: bool) -> Result<(), B
         &["exponent [1/s]", "value"],
         &[
             vec!["open-loop ZOH map at the equilibrium, ln rho(Phi)/dt".into(), num(pm.open_loop_rate)],
-            vec![format!("quantized period map's tangent (Q' = 0) along {} periods", pm.periods), num(pm.quantized_tangent)],
-            vec!["linearized smooth closed loop at the equilibrium, ln rho(M)/dt".into(), num(pm.linear_closed_loop_rate)],
-            vec!["smooth closed loop's tangent along the quantized orbit (3 leading, QR)".into(), pm.smooth_tangent.iter().map(|v| num(*v)).collect::<Vec<_>>().join(", ")],
+            vec![
+                format!("quantized period map's tangent (Q' = 0) along {} periods", pm.periods),
+                num(pm.quantized_tangent),
+            ],
+            vec![
+                "linearized smooth closed loop at the equilibrium, ln rho(M)/dt".into(),
+                num(pm.linear_closed_loop_rate),
+            ],
+            vec![
+                "smooth closed loop's tangent along the quantized orbit (3 leading, QR)".into(),
+                pm.smooth_tangent.iter().map(|v| num(*v)).collect::<Vec<_>>().join(", "),
+            ],
             vec!["twin FSLE below h/100 (noise-free quantized)".into(), v.rate_below_step.map_or("-".into(), num)],
-            vec![format!("twin FSLE over the attractor's scales {:.1e}..{:.1e} rad: mean / slope", v.attractor_scales.0, v.attractor_scales.1), format!("{} / {}", v.attractor_rate.map_or("-".into(), num), v.attractor_slope.map_or("-".into(), num))],
+            vec![
+                format!(
+                    "twin FSLE over the attractor's scales {:.1e}..{:.1e} rad: mean / slope",
+                    v.attractor_scales.0, v.attractor_scales.1
+                ),
+                format!("{} / {}", v.attractor_rate.map_or("-".into(), num), v.attractor_slope.map_or("-".into(), num)),
+            ],
         ],
     );
     let opt = |r: Option<&chaos::FsleRow>| r.map_or("-".to_string(), |r| r.lambda.map_or("jump (0 s)".into(), num));
@@ -50,7 +65,13 @@ pub fn microchaos_verdict_section(rep: &mut Report, quick: bool) -> Result<(), B
         .iter()
         .map(|r| {
             let noisy = v.twins_noisy.fsle.iter().find(|n| n.delta == r.delta);
-            vec![format!("{:.2e}", r.delta), opt(Some(r)), r.pairs.to_string(), opt(noisy), noisy.map_or("-".into(), |n| n.pairs.to_string())]
+            vec![
+                format!("{:.2e}", r.delta),
+                opt(Some(r)),
+                r.pairs.to_string(),
+                opt(noisy),
+                noisy.map_or("-".into(), |n| n.pairs.to_string()),
+            ]
         })
         .collect();
     rep.para(&format!(
@@ -69,13 +90,33 @@ pub fn microchaos_verdict_section(rep: &mut Report, quick: bool) -> Result<(), B
                 esc(&s.name),
                 format!("{} (stride {})", num(s.zero_one.k), s.zero_one.stride),
                 s.fsle_slope.map_or("-".into(), num),
-                s.fsle.iter().filter_map(|r| r.lambda.map(|l| format!("{:.3}: {}", r.delta, num(l)))).collect::<Vec<_>>().join("; "),
-                format!("{} ({} vs {}..{})", num(s.surrogate_prediction.p_value), num(s.surrogate_prediction.statistic_data), num(min(&s.surrogate_prediction.statistic_surrogates)), num(max(&s.surrogate_prediction.statistic_surrogates))),
+                s.fsle
+                    .iter()
+                    .filter_map(|r| r.lambda.map(|l| format!("{:.3}: {}", r.delta, num(l))))
+                    .collect::<Vec<_>>()
+                    .join("; "),
+                format!(
+                    "{} ({} vs {}..{})",
+                    num(s.surrogate_prediction.p_value),
+                    num(s.surrogate_prediction.statistic_data),
+                    num(min(&s.surrogate_prediction.statistic_surrogates)),
+                    num(max(&s.surrogate_prediction.statistic_surrogates))
+                ),
                 num(s.surrogate_time_reversal.p_value),
             ]
         })
         .collect();
-    rep.table(&["series", "0-1 test K", "data FSLE slope", "data FSLE delta [rad]: lambda [1/s]", "surrogates: prediction error p (data vs surrogates)", "time reversal p"], &srows);
+    rep.table(
+        &[
+            "series",
+            "0-1 test K",
+            "data FSLE slope",
+            "data FSLE delta [rad]: lambda [1/s]",
+            "surrogates: prediction error p (data vs surrogates)",
+            "time reversal p",
+        ],
+        &srows,
+    );
     // What the smooth reduced models of the chaos section did on the same loop.
     let models = rep.summary.get("chaos").and_then(|c| c.get("simulated: furuta-quant-dt25 (theta)")).map(|c| {
         let g = |k: &str| c.get(k).cloned().unwrap_or(serde_json::Value::Null);
