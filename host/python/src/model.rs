@@ -361,7 +361,8 @@ impl Model {
     /// Writes the saved-model JSON to `path`.
     fn save(&self, path: std::path::PathBuf) -> PyResult<()> {
         let text = self.to_json()?;
-        std::fs::write(&path, text).map_err(|e| value_error(format!("{}: {e}", path.display())))
+        // The tool's one writer: complete or absent, never through a link or into a device.
+        fileio::write_atomic(&path, text.as_bytes()).map_err(|e| value_error(e.to_string()))
     }
 
     /// A model from its saved JSON text (other formats and versions are refused).

@@ -589,9 +589,98 @@ pub fn check_options(cli: &Cli) -> Result<(), Box<dyn std::error::Error>> {
     Ok(())
 }
 
-/// Runs the CLI; the error is printed by `main`.
+/// Where a command writes (output folders and files) and what it reads that must never be
+/// overwritten: the one place each command's outputs are declared, for its [`Outputs`]
+/// transaction.
+///
+/// [`Outputs`]: crate::output::Outputs
+pub fn output_plan(cmd: &Cmd) -> (Vec<PathBuf>, Vec<(&'static str, PathBuf)>) {
+    let scene_file = |s: &SceneArgs| {
+        let p = PathBuf::from(&s.scene);
+        if p.is_file() { vec![("--scene", p)] } else { Vec::new() }
+    };
+    match cmd {
+        Cmd::Simulate { scene, out } | Cmd::StabilityChart { scene, out, .. } => (vec![out.clone()], scene_file(scene)),
+        Cmd::Reproduce { out, .. } => (vec![out.clone()], Vec::new()),
+        Cmd::Sweep { spec, out, .. } => (vec![out.clone()], vec![("the sweep spec", spec.clone())]),
+        Cmd::SweepMerge { dir, out } => {
+            let mut shards: Vec<(&'static str, PathBuf)> = std::fs::read_dir(dir)
+                .into_iter()
+                .flatten()
+                .flatten()
+                .map(|e| e.path())
+                .filter(|p| p.extension().is_some_and(|x| x == "json"))
+                .map(|p| ("a shard file", p))
+                .collect();
+            shards.sort();
+            (vec![out.clone()], shards)
+        }
+        Cmd::Fit(a) => {
+            let roots = a.save.iter().chain(a.backbone.iter()).chain(a.frc.iter()).cloned().collect();
+            let inputs = a
+                .data
+                .iter()
+                .map(|p| ("--data", p.clone()))
+                .chain(a.test.iter().map(|p| ("--test", p.clone())))
+                .chain(a.mat.iter().map(|p| ("--mat", p.clone())))
+                .collect();
+            (roots, inputs)
+        }
+        Cmd::Backbone { model, out, .. } | Cmd::Frc { model, out, .. } => {
+            (vec![out.clone()], vec![("--model", model.clone())])
+        }
+        Cmd::Export { model, out, scene } => {
+            let mut inputs = vec![("--model", model.clone())];
+            if let Some(s) = scene.as_ref().map(PathBuf::from).filter(|p| p.is_file()) {
+                inputs.push(("--scene", s));
+            }
+            (vec![out.clone()], inputs)
+        }
+        Cmd::Pil { scene, model, fit_model, out, elf, .. } => {
+            let mut roots = vec![out.clone()];
+            let mut inputs = scene_file(scene);
+            inputs.push(("--elf", elf.clone()));
+            if *fit_model {
+                roots.push(model.clone());
+            } else {
+                inputs.push(("--model", model.clone()));
+            }
+            (roots, inputs)
+        }
+        Cmd::Scenes { .. }
+        | Cmd::Stability { .. }
+        | Cmd::SsmEquations { .. }
+        | Cmd::Inspect { .. }
+        | Cmd::Chaos { .. }
+        | Cmd::Bench { .. } => (Vec::new(), Vec::new()),
+    }
+}
+
+/// Runs the CLI; the error is printed by `main`. The command's files are staged in one
+/// [`Outputs`](crate::output::Outputs) transaction and appear only when it succeeds.
 pub fn run(cli: Cli) -> Result<(), Box<dyn std::error::Error>> {
     check_options(&cli)?;
+    let (roots, inputs) = output_plan(&cli.cmd);
+    let roots: Vec<&std::path::Path> = roots.iter().map(PathBuf::as_path).collect();
+    let inputs: Vec<(&str, &std::path::Path)> = inputs.iter().map(|(w, p)| (*w, p.as_path())).collect();
+    let tx = crate::output::Outputs::begin(&roots, &inputs);
+    for r in &roots {
+        // An output folder (or a link to one) is fine; anything else must be writable as a file.
+        if !std::fs::metadata(r).is_ok_and(|m| m.is_dir()) {
+            tx.check(r)?;
+        }
+    }
+    run_command(cli)?;
+    // Lets a test deliver a signal while a finished command's files are staged.
+    if let Some(ms) = std::env::var("SSMCTL_HOLD_BEFORE_COMMIT_MS").ok().and_then(|v| v.parse::<u64>().ok()) {
+        eprintln!("holding the staged outputs for {ms} ms");
+        std::thread::sleep(std::time::Duration::from_millis(ms));
+    }
+    tx.commit()?;
+    Ok(())
+}
+
+fn run_command(cli: Cli) -> Result<(), Box<dyn std::error::Error>> {
     let quiet = cli.quiet;
     match cli.cmd {
         Cmd::Scenes { json } => {

@@ -236,8 +236,8 @@ pub fn backbone_json(curves: &[Backbone], observable: &str) -> Value {
 
 /// Writes DIR/backbone.json and DIR/backbone.png.
 pub fn write_backbone(dir: &Path, curves: &[Backbone], json: &Value, observable: &str) -> Result<(), Box<dyn Error>> {
-    std::fs::create_dir_all(dir).map_err(|e| format!("{}: {e}", dir.display()))?;
-    std::fs::write(dir.join("backbone.json"), serde_json::to_string_pretty(json)?)?;
+    crate::output::create_dir(dir)?;
+    crate::output::write_atomic(&dir.join("backbone.json"), serde_json::to_string_pretty(json)?.as_bytes())?;
     crate::draw::backbone::backbone_figure(
         &dir.join("backbone.png"),
         "backbone",
@@ -298,7 +298,7 @@ pub fn frc_json(frc: &ssm::frc::Frc, observable: &str) -> Result<Value, serde_js
 
 /// Writes DIR/frc.json and DIR/frc.png (with the forced mode's backbone when it is computable).
 pub fn write_frc(dir: &Path, model: &SsmModel, frc: &ssm::frc::Frc, observable: &str) -> Result<(), Box<dyn Error>> {
-    std::fs::create_dir_all(dir).map_err(|e| format!("{}: {e}", dir.display()))?;
+    crate::output::create_dir(dir)?;
     let json = frc_json(frc, observable)?;
     crate::output::write_atomic(&dir.join("frc.json"), serde_json::to_string_pretty(&json)?.as_bytes())?;
     let bb = backbone(model, &BackboneOptions::new(frc.observable, frc.amplitude_max)).ok();

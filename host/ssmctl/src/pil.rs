@@ -426,7 +426,7 @@ fn start(elf: &Path, machine: Machine, out: &Path) -> Result<(crate::child::Tied
     let listener = TcpListener::bind("127.0.0.1:0").map_err(io("bind 127.0.0.1:0"))?;
     let port = listener.local_addr().map_err(io("local address"))?.port();
     let log_path = out.join("qemu.log");
-    let log = std::fs::File::create(&log_path).map_err(io(log_path.display().to_string()))?;
+    let log = crate::output::open_log(&log_path).map_err(|e| PilError::Options(e.to_string()))?;
     let program = qemu_program();
     // Tied: QEMU dies with ssmctl whatever ends it (signals included) and is killed and
     // reaped when the run returns (`crate::child`).
@@ -511,7 +511,7 @@ fn run_with<P: Plant<N>, const N: usize>(plant: &P, scene: &Scene, opts: &PilOpt
     let scene_file = PathBuf::from(&opts.scene);
     for o in &outputs {
         crate::output::check_not_input(o, &[("--model", &opts.model), ("--scene", &scene_file), ("--elf", &opts.elf)])
-            .map_err(PilError::Options)?;
+            .map_err(|e| PilError::Options(e.to_string()))?;
     }
     let blob = ssm::limits::read_limited(&opts.model, crate::fit_command::MAX_BLOB_BYTES)
         .map_err(io(format!("reading {}", opts.model.display())))?;
@@ -564,7 +564,7 @@ fn run_with<P: Plant<N>, const N: usize>(plant: &P, scene: &Scene, opts: &PilOpt
     let mut ode =
         Integrator::<N>::new(method_of(scene)).map_err(|source| SimError::Ode { scene: name.clone(), source })?;
 
-    std::fs::create_dir_all(&opts.out).map_err(io(format!("creating {}", opts.out.display())))?;
+    crate::output::create_dir(&opts.out).map_err(|e| PilError::Options(e.to_string()))?;
     let (mut qemu, stream) = start(&opts.elf, opts.machine, &opts.out)?;
     stream.set_read_timeout(Some(opts.reply_timeout)).map_err(io("read timeout"))?;
     let mut link = Link { stream, seq: Seq(0) };

@@ -108,7 +108,7 @@ pub fn run(
     let sweep = load_spec(spec)?;
     let (shard, source) = pick_shard(shard, shards.or(sweep.shards), &|k| std::env::var(k).ok())?;
     let hash = sweep.hash()?;
-    std::fs::create_dir_all(out).map_err(|e| format!("cannot create {}: {e}", out.display()))?;
+    crate::output::create_dir(out).map_err(|e| e.to_string())?;
     let file = out.join(ShardFile::file_name(shard));
     let threads = rayon::current_num_threads();
     if file.exists() && !force {
@@ -192,7 +192,7 @@ pub fn merge_dir(dir: &Path, out: &Path) -> Result<MergeSummary, BoxError> {
         files.push((label.clone(), ShardFile::parse(&label, &text)?));
     }
     let (result, stats) = merge(files)?;
-    std::fs::create_dir_all(out).map_err(|e| format!("cannot create {}: {e}", out.display()))?;
+    crate::output::create_dir(out).map_err(|e| e.to_string())?;
     let name = &result.spec.name;
     let json = out.join(format!("{name}.json"));
     let csv = out.join(format!("{name}.csv"));

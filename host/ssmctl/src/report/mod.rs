@@ -54,7 +54,7 @@ pub fn num(v: f64) -> String {
 
 impl Report {
     pub fn new(dir: &Path) -> std::io::Result<Self> {
-        std::fs::create_dir_all(dir)?;
+        crate::output::create_dir(dir)?;
         Ok(Self { dir: dir.to_path_buf(), body: String::new(), toc: Vec::new(), summary: Map::new() })
     }
 

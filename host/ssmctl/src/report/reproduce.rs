@@ -30,7 +30,7 @@ pub fn run(out: &Path, data_dir: &Path, quick: bool, quiet: bool) -> Result<(), 
     fixed_mmap_threshold(MMAP_THRESHOLD_BYTES);
     ssm::ridge::set_memory_budget(REGRESSION_MEMORY_MB << 20);
     let mut rep = Report::new(out)?;
-    std::fs::create_dir_all(out.join("fig"))?;
+    crate::output::create_dir(&out.join("fig"))?;
     rep.summary.insert("quick".into(), Value::Bool(quick));
     let mut t = Timings::default();
     t.time("scenes", || scenes_section(&mut rep, quick, quiet))?;
