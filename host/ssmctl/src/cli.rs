@@ -778,17 +778,8 @@ fn run_command(cli: Cli) -> Result<(), Box<dyn std::error::Error>> {
             outln!("{}", serde_json::to_string_pretty(&m)?);
         }
         Cmd::Fit(a) => {
+            // `--save` onto an input is refused before the fit by `run` (see `output_plan`).
             let a = *a;
-            if let Some(path) = &a.save {
-                let inputs: Vec<(&str, &std::path::Path)> = a
-                    .data
-                    .iter()
-                    .map(|p| ("--data", p.as_path()))
-                    .chain(a.test.iter().map(|p| ("--test", p.as_path())))
-                    .chain(a.mat.iter().map(|p| ("--mat", p.as_path())))
-                    .collect();
-                crate::output::check_not_input(path, &inputs)?;
-            }
             let frc_observable = a.backbone_observable.clone();
             let r = crate::fit_command::run_fit(&crate::fit_command::FitRequest {
                 data: a.data,
@@ -872,11 +863,7 @@ fn run_command(cli: Cli) -> Result<(), Box<dyn std::error::Error>> {
             eprintln!("wrote {} and {}", out.join("frc.json").display(), out.join("frc.png").display());
         }
         Cmd::Export { model, out, scene } => {
-            let mut inputs = vec![("--model", model.as_path())];
-            if let Some(s) = &scene {
-                inputs.push(("--scene", std::path::Path::new(s)));
-            }
-            crate::output::check_not_input(&out, &inputs)?;
+            // `--out` onto `--model` or the scene file is refused by `run` (see `output_plan`).
             let text = ssm::limits::read_text_limited(&model, ssm::limits::MAX_MODEL_FILE_BYTES)
                 .map_err(|e| format!("reading {}: {e}", model.display()))?;
             let m = ssm::SsmModel::from_json(&text).map_err(|e| format!("{}: {e}", model.display()))?;
