@@ -20,6 +20,8 @@
 //! a final name; the next run that writes into that folder removes the leftovers of processes
 //! that no longer exist.
 
+#![cfg_attr(not(test), deny(clippy::unwrap_used, clippy::expect_used, clippy::panic, clippy::indexing_slicing))]
+
 use std::collections::BTreeMap;
 use std::fs::{File, OpenOptions};
 use std::io::{self, BufWriter, Write};
@@ -69,8 +71,8 @@ impl From<OutputError> for io::Error {
 /// An I/O error in words, without the trailing `(os error N)`.
 pub fn words(e: &io::Error) -> String {
     let s = e.to_string();
-    match s.rfind(" (os error ") {
-        Some(i) if s.ends_with(')') => s[..i].to_string(),
+    match s.rfind(" (os error ").and_then(|i| s.get(..i)) {
+        Some(head) if s.ends_with(')') => head.to_string(),
         _ => s,
     }
 }
@@ -89,9 +91,10 @@ fn resolve(p: &Path) -> PathBuf {
     };
     let comps: Vec<Component<'_>> = abs.components().collect();
     for split in (0..=comps.len()).rev() {
-        let head: PathBuf = comps[..split].iter().collect();
+        let (head, tail) = comps.split_at(split);
+        let head: PathBuf = head.iter().collect();
         if let Ok(mut base) = head.canonicalize() {
-            for c in &comps[split..] {
+            for c in tail {
                 match c {
                     Component::CurDir => {}
                     Component::ParentDir => {
@@ -279,8 +282,8 @@ fn clean_stale(dir: &Path) {
         let Some(name) = name.to_str() else { continue };
         let pid_str = if let Some(rest) = name.strip_prefix(STAGE_PREFIX) {
             rest.split('-').next()
-        } else if let Some(i) = name.find(TMP_INFIX) {
-            name[i + TMP_INFIX.len()..].split('-').next()
+        } else if let Some((_, rest)) = name.split_once(TMP_INFIX) {
+            rest.split('-').next()
         } else {
             continue;
         };
@@ -457,8 +460,8 @@ fn commit_txn(txn: &mut Txn) -> Result<Vec<PathBuf>, OutputError> {
     }
     for (k, s) in txn.staged.iter().enumerate() {
         if let Err(e) = std::fs::rename(&s.tmp, &s.target) {
-            for (j, done) in txn.staged.iter().enumerate().take(k) {
-                match &backups[j] {
+            for (done, backup) in txn.staged.iter().zip(&backups).take(k) {
+                match backup {
                     Some(b) => {
                         let _ = std::fs::rename(b, &done.target);
                     }
@@ -519,9 +522,8 @@ impl AtomicFile {
         let me = std::thread::current().id();
         let best =
             reg.txns.iter().enumerate().filter_map(|(i, t)| t.covers(&resolved).map(|d| (t.thread == me, d, i))).max();
-        let (tmp, dest) = match best {
-            Some((_, _, i)) => {
-                let txn = &mut reg.txns[i];
+        let (tmp, dest) = match best.and_then(|(_, _, i)| reg.txns.get_mut(i)) {
+            Some(txn) => {
                 for inp in &txn.inputs {
                     inp.check(target, &resolved)?;
                 }

@@ -916,7 +916,7 @@ fn doc_links() -> Result<()> {
 }
 
 /// Library crates under the clippy policy of [`clippy_lints`].
-const LINTED_CRATES: [&str; 6] = ["shared", "controller", "sim", "ssm", "chaos", "furuta"];
+const LINTED_CRATES: [&str; 7] = ["shared", "controller", "fileio", "sim", "ssm", "chaos", "furuta"];
 
 fn test_all() -> Result<()> {
     install()?;
