@@ -30,7 +30,7 @@
 //! - `flag-candidates`: candidate models of the flag judged by held-out long-term statistics
 //!   (`furuta::model_selection`), configurations in `CHAOS_CAND` (see
 //!   [`explore_flag_candidates`]); prints a markdown table and the selection. The rows of
-//!   `furuta::model_selection::FLAG_SEARCH` come from it.
+//!   `studies/results/flag/search.json` come from it.
 //! - `flag-embedding`: the embedding from the data: average mutual information against the
 //!   lag and false nearest neighbours against the dimension (traj_8, steps 1 and 4).
 //!

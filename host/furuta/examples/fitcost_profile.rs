@@ -1,4 +1,4 @@
-//! Profiling driver for the report's fitted-model tasks (issue 13): each stage timed in
+//! Profiling driver for the report's fitted-model tasks (docs/decisions/0003): each stage timed in
 //! thread CPU, to run under `perf record -g` (build with `--profile profiling`).
 //!
 //! `cargo run --profile profiling -p furuta --example fitcost_profile -- STAGE...` with

@@ -1,4 +1,4 @@
-//! The flag pipeline on a known chaotic system (`furuta::flag_pipeline`, issue 12). Prints
+//! The flag pipeline on a known chaotic system (`furuta::flag_pipeline`, docs/decisions/0002). Prints
 //! only (timings are printed, never asserted). Run with
 //!
 //! ```text
@@ -11,24 +11,19 @@
 //!   substring of their names; `FLAG4_L96=n:f,n:f` scans those Lorenz-96 systems instead.
 //! - `fnn [ratio]`, `fnn-rule [csv]`: false nearest neighbours of the SSM projection and the
 //!   dimension rule (`furuta::flag_pipeline_fit`); `variants SCALE NOISE SPEC..` and `state SCALE
-//!   NOISE SPEC..`: the rows of `furuta::flag_pipeline_fit::DIAGNOSIS` (see `parse_spec`);
+//!   NOISE SPEC..`: the `diagnosis` rows of `studies/results/flag/known_system.json` (see `parse_spec`);
 //!   `FLAG4_SEEDS=0,1,2` runs `variants` on those realizations of the series
 //!   (`furuta::flag_pipeline::known_stats_seeded`; 0, the default, is the committed one). A row
 //!   marked `B10+JS` has Benettin within 10 % of the exact exponent and JS <= 0.01.
 //! - `check [scale]`: the flag's candidate search on the chosen system
 //!   ([`furuta::flag_pipeline::CHOSEN`]) with training data `scale` times the flag's (default
 //!   1; RBF sizes whose regression would exceed the design-matrix limit are left out); one
-//!   row per candidate. The rows of `furuta::flag_pipeline::PIPELINE_CHECK`
+//!   row per candidate. The `pipeline_check` rows of `studies/results/flag/known_system.json`
 //!   come from `check 1`, `check 3` and `check 10`.
 //! - `flag SPEC..`: the specs on the inverted flag itself (train traj_9 + traj_7, held out
 //!   traj_8, map step 4) with the Kaplan-Yorke dimension of each model and D2 of its series
-//!   with the data's noise added; the rows of `furuta::flag_pipeline_fit::FLAG_CENTRES`.
-//! - `flag-self`: every other run of the flag as a perfect model of traj_8
-//!   (`furuta::flag_self::experiment_as_model`); the rows of `furuta::flag_self::FLAG_SELF`.
-//! - `flag-validate RUN [FROM TO]`: the rows of `FLAG_CENTRES` (index FROM..TO) fitted again and
-//!   measured on the validation run traj_RUN; the rows of `furuta::flag_self::FLAG_VALIDATION`.
-//! - `flag-ensemble [K]`: the top K (default 5) validation-ranked models pooled
-//!   (`furuta::flag_self::ensemble`); `furuta::flag_self::FLAG_ENSEMBLE`.
+//!   with the data's noise added (exploration; `ssmctl study studies/flag.toml` computes the
+//!   study's rows, `studies/README.md`).
 
 use furuta::flag_pipeline::{
     FLAG_LAYOUT, FLAG_LIKE_RBF, KnownSystem, flag_like_candidates, known_stats, pipeline_check,
@@ -472,132 +467,6 @@ fn fnn_rule(path: Option<&String>) {
     }
 }
 
-fn flag_dir() -> std::path::PathBuf {
-    std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared/data/inverted_flag_chaotic")
-}
-
-/// `flag-self`: the flag's runs as perfect models of traj_8, as committed rows.
-fn flag_self() {
-    let dir = flag_dir();
-    let load = |k: usize| ssm::load_csv(dir.join(format!("traj_{k}.csv")));
-    let (Ok(a), Ok(b), Ok(test)) = (load(9), load(7), load(8)) else {
-        return println!("SKIP: inverted-flag data not found under {}", dir.display());
-    };
-    let runs: Vec<(usize, ssm::TimeSeries)> =
-        [0, 1, 2, 3, 4, 5, 6, 7, 9].into_iter().filter_map(|k| load(k).ok().map(|t| (k, t))).collect();
-    let t0 = std::time::Instant::now();
-    match furuta::flag_self::experiment_as_model(
-        &[a, b],
-        &test,
-        &runs,
-        &furuta::model_selection::EvalSettings::default(),
-    ) {
-        Ok((ds, rows)) => {
-            println!(
-                "// traj_8 /4: Rosenstein {:.4}, D2 {:.3} ± {:.3}, {} samples ({:.2} s)",
-                ds.lle,
-                ds.corr_dim,
-                ds.corr_dim_err,
-                ds.len,
-                t0.elapsed().as_secs_f64()
-            );
-            let o = |v: Option<f64>, p: usize| v.map_or("None".to_string(), |v| format!("Some({v:.p$})"));
-            for r in rows {
-                println!(
-                    "    ({}, {}, {}, {}, {}, {}, {}),",
-                    r.run,
-                    r.start,
-                    r.len,
-                    o(r.rosenstein, 3),
-                    o(r.corr_dim, 2),
-                    o(r.corr_dim_err, 2),
-                    o(r.js, 4)
-                );
-            }
-        }
-        Err(e) => println!("error: {e}"),
-    }
-    // Each run through the estimator with its own settings (lag and Theiler window from its
-    // own series), as a held-out run of the pipeline would be measured.
-    let s = furuta::model_selection::EvalSettings::default();
-    for (k, ts) in runs.iter().chain([(8, test.clone())].iter()) {
-        match furuta::model_selection::data_stats(ts, furuta::flag_self::STEP, &s) {
-            Ok((d, _)) => println!(
-                "// traj_{k} own settings: lag {}, Theiler {}, Rosenstein {:.3}, D2 {:.2} ± {:.2}, {} samples",
-                d.lag, d.theiler, d.lle, d.corr_dim, d.corr_dim_err, d.len
-            ),
-            Err(e) => println!("// traj_{k} own settings: {e}"),
-        }
-    }
-}
-
-/// `flag-validate RUN [FROM TO]`: rows of `FLAG_CENTRES` measured on traj_RUN.
-fn flag_validate(args: &[String]) {
-    use furuta::model_selection::{EvalSettings, data_stats, evaluate_candidate};
-    let Some(v) = args.first().and_then(|s| s.parse::<usize>().ok()) else {
-        return eprintln!("usage: flag-validate RUN [FROM TO]");
-    };
-    let all = furuta::flag_pipeline_fit::FLAG_CENTRES;
-    let from = args.get(1).and_then(|s| s.parse().ok()).unwrap_or(0usize).min(all.len());
-    let to = args.get(2).and_then(|s| s.parse().ok()).unwrap_or(all.len()).clamp(from, all.len());
-    let dir = flag_dir();
-    let load = |k: usize| ssm::load_csv(dir.join(format!("traj_{k}.csv")));
-    let (Ok(a), Ok(b), Ok(val)) = (load(9), load(7), load(v)) else {
-        return println!("SKIP: inverted-flag data not found under {}", dir.display());
-    };
-    let train = [a, b];
-    let s = EvalSettings::default();
-    let data = match data_stats(&val, furuta::flag_self::STEP, &s) {
-        Ok(d) => d,
-        Err(e) => return println!("data: error: {e}"),
-    };
-    println!(
-        "// traj_{v} /4: Rosenstein {:.4}, D2 {:.3} ± {:.3}, {} samples",
-        data.0.lle, data.0.corr_dim, data.0.corr_dim_err, data.0.len
-    );
-    let o = |v: Option<f64>, p: usize| v.map_or("None".to_string(), |v| format!("Some({v:.p$})"));
-    for row in &all[from..to] {
-        let t1 = std::time::Instant::now();
-        let c = match furuta::flag_self::candidate_from_name(row.0) {
-            Ok(c) => c,
-            Err(e) => {
-                println!("// {}: {e}", row.0);
-                continue;
-            }
-        };
-        match evaluate_candidate(&train, &val, &c, &data, &s) {
-            Ok(r) => {
-                let f = r.failed.as_deref().map_or("", |f| f.split(':').next().unwrap_or(f));
-                println!(
-                    "    (\"{}\", {}, {}, {}, {}, \"{f}\"), // {:.1} s",
-                    r.name,
-                    o(r.benettin, 3),
-                    o(r.rosenstein, 3),
-                    o(r.corr_dim, 2),
-                    o(r.js, 4),
-                    t1.elapsed().as_secs_f64()
-                );
-            }
-            Err(e) => println!("// {}: error: {e}", row.0),
-        }
-    }
-}
-
-/// `flag-ensemble K`: the top K d = 4 validation-ranked models' long runs pooled.
-fn flag_ensemble(k: usize) {
-    let dir = flag_dir();
-    let load = |k: usize| ssm::load_csv(dir.join(format!("traj_{k}.csv")));
-    let (Ok(a), Ok(b), Ok(test)) = (load(9), load(7), load(8)) else {
-        return println!("SKIP: inverted-flag data not found under {}", dir.display());
-    };
-    let names = furuta::flag_self::ensemble_members(k);
-    let t0 = std::time::Instant::now();
-    match furuta::flag_self::ensemble(&[a, b], &test, &names, &furuta::model_selection::EvalSettings::default()) {
-        Ok(e) => println!("{e:?} ({:.1} s)", t0.elapsed().as_secs_f64()),
-        Err(e) => println!("error: {e}"),
-    }
-}
-
 fn main() {
     let args: Vec<String> = std::env::args().skip(1).collect();
     match args.first().map(String::as_str) {
@@ -605,9 +474,6 @@ fn main() {
         Some("variants") => variants(&args[1..]),
         Some("state") => state(&args[1..]),
         Some("flag") => flag_rows(&args[1..]),
-        Some("flag-self") => flag_self(),
-        Some("flag-validate") => flag_validate(&args[1..]),
-        Some("flag-ensemble") => flag_ensemble(args.get(1).and_then(|s| s.parse().ok()).unwrap_or(5)),
         Some("fnn-rule") => fnn_rule(args.get(1)),
         Some("fnn") => fnn(args.get(1).and_then(|s| s.parse().ok()).unwrap_or(10.0)),
         Some("check") => check(args.get(1).and_then(|s| s.parse().ok()).unwrap_or(1)),

@@ -1,4 +1,4 @@
-//! Run-level cost of the report's full-system tasks (issue 13; profiling aid, prints, not a
+//! Run-level cost of the report's full-system tasks (docs/decisions/0003; profiling aid, prints, not a
 //! test): one task at full settings, for `perf record`, and the integrator's work counters
 //! per period of its runs.
 //!

@@ -121,7 +121,7 @@ fn cycles(args: &[String]) -> R {
 /// starts 0.06-0.14 rad, inside the slow saddle cycle), `slowcycle` (0.12-0.135 rad, just inside it at 32.5 ms), `joint` (anchor_joint), `man5` (manifold order 5), `dyn5`,
 /// `dyn9` (dynamics order), `noweight` (the fitted map's regression unweighted), `knee=THETA`,
 /// `pow=P` (its row weight, see `furuta::parametric::map_row_weight`), `nolow` (the map
-/// without its low-degree first stage, the default before issue 11's cubic fix),
+/// without its low-degree first stage, the default before docs/decisions/0001's cubic fix),
 /// `low=DEG:KNEE[:POWER]` (that stage's degrees and knee in rad of theta), `mknee=THETA` /
 /// `nomweight` (the shared model's manifold regression weighted at that knee / unweighted),
 /// `ridge=ALPHA` (a fixed relative ridge).
@@ -800,7 +800,7 @@ fn ratefun(args: &[String]) -> R {
     Ok(())
 }
 
-/// `cuts [--conn] [--steps] [--spline] VARIANT...`: issue 11's cut sensitivity in one process:
+/// `cuts [--conn] [--steps] [--spline] VARIANT...`: docs/decisions/0001's cut sensitivity in one process:
 /// the training runs of every variant simulated once (`TrainingRuns`, as the report), then
 /// per variant the shared-tangent map's torus continuation on the full report's grid
 /// (31.3-32.0 ms by 0.05, 16,000 periods; linear in dt, `--spline` also spline): growth onset

@@ -1,4 +1,4 @@
-//! The full system's basin near the global bifurcation (issue 11, item 4), and where the
+//! The full system's basin near the global bifurcation (docs/decisions/0001), and where the
 //! reduced models put its boundary.
 //!
 //! - [`full_basin`]: bounded vs escape of the full closed loop over a grid of mode-shaped

@@ -1,5 +1,5 @@
 //! The Rosenstein estimator calibrated on known answers sampled like the inverted flag
-//! (issue 12): smooth chaotic systems whose largest exponent is known exactly (Benettin with
+//! (docs/decisions/0002): smooth chaotic systems whose largest exponent is known exactly (Benettin with
 //! the exact tangent dynamics of the equations that produce the series), sampled so that the
 //! data settings choose the flag's lag (the first zero of the autocorrelation: 11 samples at
 //! the model step 4), cut to the flag's held-out length (1,973 samples), observed with white

@@ -1,4 +1,4 @@
-//! Convergence of the equation-driven SSM where the global bifurcations live (issue 11):
+//! Convergence of the equation-driven SSM where the global bifurcations live (docs/decisions/0001):
 //! the SSM and its reduced map, truncated at orders 3, 5, ..., checked against the *exact*
 //! one-period map of the unquantized loop (the plant integrated in `f64`, no Taylor
 //! truncation), on spheres of normal-form amplitude up to the saddle cycles' 0.15-0.2 rad.

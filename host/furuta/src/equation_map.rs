@@ -1,4 +1,4 @@
-//! The equation-driven reduced MAP (issue 11): the SSM of the loop's exact one-period map
+//! The equation-driven reduced MAP (docs/decisions/0001): the SSM of the loop's exact one-period map
 //! ([`crate::equation_ssm`]) iterated as a map, no polar normal form, in the form of a fitted
 //! model so that [`crate::map_global`]'s rules read it exactly as they read the fitted map.
 //!

@@ -1,5 +1,5 @@
 //! The equation-driven reduced model: the SSM of the sampled-data loop's exact one-period
-//! map, the ground truth the data-driven model is compared with (issue 11).
+//! map, the ground truth the data-driven model is compared with (docs/decisions/0001).
 //!
 //! `sim::taylor::period_map` expands the unquantized, unsaturated closed loop's one-period
 //! map at the upright equilibrium (plant flow in Taylor arithmetic, deflated coordinates

@@ -1,4 +1,4 @@
-//! The flag pipeline on a known chaotic system (issue 12): can our pipeline recover a chaotic
+//! The flag pipeline on a known chaotic system (docs/decisions/0002): can our pipeline recover a chaotic
 //! model from data like the inverted flag's at all?
 //!
 //! A smooth chaotic system whose largest exponent is known exactly (Benettin with the exact
@@ -273,8 +273,8 @@ pub struct KnownStats {
     /// Exact largest exponent, 1/s, and its block error.
     pub exact: f64,
     pub exact_err: f64,
-    /// `exact x lag x step_dt`: exact exponent per lag time (the flag reads 0.49-0.52 at its
-    /// Rosenstein value).
+    /// `exact x lag x step_dt`: exact exponent per lag time (the flag's, at its Rosenstein
+    /// value: docs/flag-study.md).
     pub per_lag: f64,
     pub noise_rel: f64,
 }
@@ -415,7 +415,7 @@ pub fn flag_like_candidates(step: usize, rbf: &[(usize, f64)]) -> Vec<Candidate>
     out
 }
 
-/// The RBF (centres, ridge) of the flag search's one-step rows ([`crate::model_selection::FLAG_SEARCH`]).
+/// The RBF (centres, ridge) of the flag search's one-step rows (`studies/results/flag/search.json`).
 pub const FLAG_LIKE_RBF: [(usize, f64); 5] = [(200, 3e-9), (250, 1e-8), (300, 3e-9), (500, 1e-8), (1000, 1e-8)];
 
 /// One candidate of the pipeline check, against the exact exponent and the held-out data.
@@ -574,79 +574,9 @@ pub fn summarize(rows: &[PipelineRow], scale: usize) -> PipelineSummary {
     }
 }
 
-/// The held-out data the committed rows ([`PIPELINE_CHECK`]) were measured against
-/// ([`known_stats`] of [`CHOSEN`] at scale 1, 4,000 s of Benettin): Rosenstein (1/s), D2 and
-/// its error bar, exact exponent (1/s).
-pub const PIPELINE_DATA: (f64, f64, f64, f64) =
-    (1.0361580920352271, 2.6482571409064275, 0.1213970107484192, 0.9402785496526412);
-
-/// One committed row: (candidate, scale, Benettin, Rosenstein, D2, JS, failure).
-pub type CommittedRow = (&'static str, usize, Option<f64>, Option<f64>, Option<f64>, Option<f64>, &'static str);
-
-/// The flag's candidate search on [`CHOSEN`] (example `flag_pipeline check 1`, `check 3` and
-/// `check 10`): (candidate, training-data scale, Benettin [1/s], Rosenstein of the model
-/// series [1/s], D2, JS (bits), failure). At scale 3 and 10 only the RBF sizes whose
-/// regression stays within the design-matrix limit.
-pub const PIPELINE_CHECK: &[CommittedRow] = &[
-    ("RBF 200 /4 r=3e-9", 1, None, None, None, None, "escaped in the long run"),
-    ("RBF 250 /4 r=1e-8", 1, None, None, None, None, "escaped in the long run"),
-    ("RBF 300 /4 r=3e-9", 1, Some(1.232), Some(0.438), Some(2.43), Some(0.0401), ""),
-    ("RBF 500 /4 r=1e-8", 1, None, None, None, None, "escaped in the long run"),
-    ("RBF 1000 /4 r=1e-8", 1, Some(-0.210), Some(0.304), Some(1.70), Some(0.1096), ""),
-    ("poly 4 /4", 1, Some(-1.183), Some(-1.191), None, Some(0.9439), ""),
-    ("RBF 200 /4 r=3e-9", 3, Some(0.739), Some(0.365), Some(1.94), Some(0.0530), ""),
-    ("RBF 250 /4 r=1e-8", 3, Some(-0.136), Some(-0.113), Some(0.44), Some(0.0947), ""),
-    ("RBF 300 /4 r=3e-9", 3, Some(0.060), Some(0.062), Some(0.83), Some(0.0923), ""),
-    ("RBF 500 /4 r=1e-8", 3, Some(-0.126), Some(0.273), Some(1.41), Some(0.0843), ""),
-    ("RBF 1000 /4 r=1e-8", 3, None, None, None, None, "escaped in the long run"),
-    ("poly 4 /4", 3, Some(-1.163), Some(-1.162), Some(0.00), Some(0.9429), ""),
-    ("RBF 200 /4 r=3e-9", 10, Some(-0.098), Some(0.198), Some(0.58), Some(0.0684), ""),
-    ("RBF 250 /4 r=1e-8", 10, Some(0.517), Some(0.387), Some(1.73), Some(0.0578), ""),
-    ("RBF 300 /4 r=3e-9", 10, None, None, None, None, "escaped in the long run"),
-    ("poly 4 /4", 10, Some(-1.064), Some(-1.064), Some(0.01), Some(0.9433), ""),
-];
-
-/// [`PIPELINE_CHECK`] as rows against [`PIPELINE_DATA`].
-pub fn committed_rows() -> Vec<PipelineRow> {
-    let (lle, d2, d2_err, exact) = PIPELINE_DATA;
-    PIPELINE_CHECK
-        .iter()
-        .map(|&(name, scale, benettin, rosenstein, corr_dim, js, failed)| {
-            let m = Measured { benettin, rosenstein, corr_dim, js };
-            PipelineRow::from_values(
-                name,
-                scale,
-                &m,
-                (!failed.is_empty()).then(|| failed.to_string()),
-                lle,
-                d2,
-                d2_err,
-                exact,
-            )
-        })
-        .collect()
-}
-
-/// The conclusion drawn from [`PIPELINE_CHECK`] (report text).
-pub const CONCLUSION: &str = "So on data made by a smooth system of exactly four dimensions, with the flag's \
-    sampling, lengths, noise, D2 (3.0 over pieces) and chaos per lag, the flag's pipeline does not recover the system: \
-    most candidates escape or are not chaotic (5 of 6, 4 of 6 and 3 of 4 at 1x, 3x and 10x the flag's training \
-    data), the chaotic ones read 0.06 to 1.31 times the exact exponent (a different attractor at every RBF size and \
-    data amount), none has its exponent within 10 % together with the data's D2 and PDFs, and none meets the four \
-    targets. Three and ten times more training data do not make it better (the chaotic models' Benettin / exact: \
-    1.31 at 1x; 0.79 and 0.06 at 3x; 0.55 at 10x). The Rosenstein number of one held-out series is no \
-    firmer a reference here than on the flag: 1.10 of the exact exponent on the held-out piece, 0.29 to 0.85 on the \
-    others. What this measures: the failure on the flag is what this pipeline does on data like the flag's even when \
-    a smooth four-dimensional model of the data exists (the system itself, a 4-D flow, seen in a delay embedding \
-    of 9 = 2 x 4 + 1 samples, Takens' bound, with SSM dimension 4: the flag settings); it is a limit of the fit (one-step ridge regression on \
-    data this sparse and chaotic lands on a fragile, size-dependent attractor), not evidence that no smooth reduced \
-    model of the flag exists, and not cured by the amount of data.";
-
 /// The known system of the report's pipeline check, chosen by the `scan` of the example
-/// (Lorenz-96 with 4 sites, F = 17.7-18.5; see the report): sampled like the flag its exact
-/// exponent is 0.940 1/s, 0.54 nats per lag; D2 over eight held-out-length pieces 3.04 ± 0.50
-/// (2.58-3.94; the flag: 3.13-3.36), lag 10-11 and Theiler window 38 on the first piece (the
-/// flag: 11 and 38).
+/// (Lorenz-96 with 4 sites) because sampled like the flag its chaos per lag, D2, lag and
+/// Theiler window are the flag's (the numbers: docs/flag-study.md and the report).
 pub const CHOSEN: KnownSystem = KnownSystem::Lorenz96 { n: 4, f: 17.7 };
 
 #[cfg(test)]

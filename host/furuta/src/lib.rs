@@ -18,6 +18,7 @@ pub mod estimator_check;
 pub mod flag_pipeline;
 pub mod flag_pipeline_fit;
 pub mod flag_self;
+pub mod flag_study;
 pub mod full_system;
 pub mod lyapunov;
 pub mod map_global;
@@ -26,6 +27,7 @@ pub mod model_selection;
 pub mod parametric;
 pub mod saddle_cycles;
 pub mod shared_tangent;
+pub mod study_results;
 pub mod sweep;
 pub mod verdict;
 

@@ -1,6 +1,6 @@
 //! The global bifurcations read off the fitted reduced *map* itself (the shared-tangent SSM
 //! model iterated, no normal form), each next to the full system's under the same rule
-//! (issue 11):
+//! (docs/decisions/0001):
 //!
 //! - [`map_connection`] / [`full_connection`]: the saddle connection as the fate of the
 //!   interior unstable branch of the FAST saddle cycle. The cycle is an invariant circle of

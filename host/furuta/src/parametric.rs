@@ -51,7 +51,7 @@ pub struct FurutaOptions {
     /// ([`ssm::fit::fit_with_linear_normal`]; the shared-tangent model always has one).
     /// Without it the normal part's cubic terms absorb the tilt of the SVD tangent and the
     /// normal form's `rho_1^2 rho_2` is 10-26 % off the equation-driven one on the
-    /// first-harmonic basis (issue 11); with it 0.0-2.3 %. The tangent, the reduced
+    /// first-harmonic basis (docs/decisions/0001); with it 0.0-2.3 %. The tangent, the reduced
     /// coordinates and the fitted map are the same either way, and `model_normal_form`
     /// scales `rho` by `V1`'s first row: the linear-row normal forms (portraits,
     /// bifurcations, torus, sensitivity) do not change, only theta on the manifold (the
@@ -86,7 +86,7 @@ pub fn map_row_weight(knee_theta: f64, embed: usize, power: f64) -> RowWeight {
 /// The default fitted map's weight knee (rad of theta): where the training runs at 32 and
 /// 32.5 ms leave the slow saddle cycle (theta first harmonic 0.15-0.18 rad at 30.5-32.5 ms,
 /// plus the fast mode) on their way out. Pairs beyond it weigh `(knee / env)^32`: runs cut at
-/// 0.3 rad instead of 0.2 then fit nearly the same map (issue 11; `MAP_WEIGHT_POWER`).
+/// 0.3 rad instead of 0.2 then fit nearly the same map (docs/decisions/0001; `MAP_WEIGHT_POWER`).
 pub const MAP_WEIGHT_KNEE_THETA: f64 = 0.2;
 
 /// Steepness of the default fitted map's weight (power 16 at the same knee left the runs cut
@@ -101,7 +101,7 @@ pub const MAP_WEIGHT_POWER: f64 = 32.0;
 /// basis was -8 / -10 / -16 / -15 % off the equation-driven one at 30.5 / 31 / 32 / 32.5 ms,
 /// with the stage -1.9 / -2.5 / -4.1 / -3.5 %; the saddle connection moved from
 /// [31.322, 31.325] to [31.309, 31.313] ms (full system [31.328, 31.331]), the torus growth
-/// onset from 31.680 to 31.690 ms (equation reduced map 31.709); see issue 11 in the report.
+/// onset from 31.680 to 31.690 ms (equation reduced map 31.709); see docs/decisions/0001 and the report.
 pub const MAP_LOW_DEGREE: u32 = 3;
 
 /// Knee (rad of theta) of the default fitted map's low-degree stage (see [`MAP_LOW_DEGREE`];

@@ -1,6 +1,6 @@
 //! The saddle cycles of the full (unquantized) system, computed on the exact period map,
 //! against the fixed points of the equation-driven and data-driven amplitude equations
-//! (issue 11 item 2).
+//! (docs/decisions/0001).
 //!
 //! A limit cycle of mode `j` of the amplitude equations (`rho_j = rho*`, the other amplitude
 //! 0) is, in the sampled loop, an invariant circle of the one-period map `F` on which `F`

@@ -1,4 +1,4 @@
-//! A verdict on the Furuta microchaos (issue 12, item 3): is the quantized loop at the
+//! A verdict on the Furuta microchaos (docs/decisions/0002): is the quantized loop at the
 //! paper's settings (`furuta-quant-dt25`, 25 ms) chaotic, at which scales, or a torus shaken
 //! by quantization (and, in the recordings, by sensor noise)?
 //!

@@ -1,4 +1,4 @@
-//! Runs one section of `ssmctl reproduce` alone, for profiling (issue 13):
+//! Runs one section of `ssmctl reproduce` alone, for profiling (docs/decisions/0003):
 //! `cargo run --release -p ssmctl --example section -- NAME OUT_DIR [--quick] [--data-dir DIR]`,
 //! NAME one of accuracy-time-sim, chaos, chaos-scale, chaos-verdict, chaos-cost, or chain (the first
 //! three in one process, as the report runs them).
@@ -21,7 +21,7 @@ fn main() -> Result<(), Box<dyn Error>> {
     let mut rep = ssmctl::report::Report::new(&out)?;
     std::fs::create_dir_all(out.join("fig"))?;
     if name == "bench-window" {
-        // The simulation bench at a given timing window, as JSON rows (issue 13: how short
+        // The simulation bench at a given timing window, as JSON rows (docs/decisions/0003: how short
         // can the windows be with the same ratios).
         let w: f64 = args.get(2).ok_or("missing window")?.parse()?;
         let (rows, _) = ssmctl::bench::bench_simulate_window(200, false, w, |_| {})?;

@@ -87,7 +87,7 @@ fn time(scene: &Scene, min_seconds: f64) -> Result<(f64, Trajectory), SimError> 
 /// Each configuration repeats until this much wall time has passed (at least 3 runs) and
 /// keeps its fastest run; the baseline gets a second window after the others (its faster
 /// one counts), so one disturbed window cannot move every ratio. Was 0.5 s: on the loaded
-/// 2-core machine (issue 13) two tables at 0.5 s already differ by up to 2x in single rows,
+/// 2-core machine (docs/decisions/0003) two tables at 0.5 s already differ by up to 2x in single rows,
 /// and 0.1 s windows give the same rows within that spread in about half the wall time
 /// and half the CPU (the timing loop is most of the section).
 pub const TIMING_WINDOW_S: f64 = 0.1;

@@ -132,6 +132,26 @@ pub enum Cmd {
         #[arg(long)]
         force: bool,
     },
+    /// Run a study spec (`studies/flag.toml`) on measured data: writes its results files
+    /// (the report reads them from studies/results/flag) and OUT/study.json (the spec, the
+    /// data files' CRC-64 and the code version).
+    Study {
+        /// The study spec (TOML).
+        spec: PathBuf,
+        /// Folder of the measured data sets (the spec's `data.folder` is under it).
+        #[arg(long, default_value = "../shared/data")]
+        data_dir: PathBuf,
+        /// Folder of the results files (created if needed).
+        #[arg(long)]
+        out: PathBuf,
+        /// Budget: only the first N candidates of each of the spec's lists (a quick, partial run).
+        #[arg(long, value_name = "N", value_parser = clap::value_parser!(u32).range(1..))]
+        candidates: Option<u32>,
+        /// Threads of the pool (default: RAYON_NUM_THREADS, else one per core). The results
+        /// do not depend on it.
+        #[arg(long, value_parser = clap::value_parser!(u16).range(1..))]
+        jobs: Option<u16>,
+    },
     /// Merge a folder of sweep shard files: checks every cell is there once, from one spec;
     /// writes `OUT/<name>.json`, `OUT/<name>.csv` and the figure `OUT/<name>.png`.
     SweepMerge {
@@ -581,6 +601,7 @@ pub fn check_options(cli: &Cli) -> Result<(), Box<dyn std::error::Error>> {
         Cmd::Scenes { .. }
         | Cmd::Reproduce { .. }
         | Cmd::Sweep { .. }
+        | Cmd::Study { .. }
         | Cmd::SweepMerge { .. }
         | Cmd::Export { .. }
         | Cmd::Inspect { .. }
@@ -771,6 +792,21 @@ fn run_command(cli: Cli) -> Result<(), Box<dyn std::error::Error>> {
                 r.cells_total,
                 r.spec_hash,
                 r.file.display()
+            );
+        }
+        Cmd::Study { spec, data_dir, out, candidates, jobs } => {
+            if let Some(n) = jobs {
+                rayon::ThreadPoolBuilder::new().num_threads(n.into()).build_global()?;
+            }
+            let r = crate::study::study(&spec, &data_dir, &out, candidates.map(|n| n as usize), quiet)?;
+            eprintln!(
+                "study {} on {} data files in {:.1} s: wrote {} and {} under {}",
+                spec.display(),
+                r.data.len(),
+                r.wall_seconds,
+                r.files.join(", "),
+                crate::study::STUDY_FILE,
+                out.display()
             );
         }
         Cmd::SweepMerge { dir, out } => {

@@ -13,4 +13,5 @@ pub mod output;
 pub mod pil;
 pub mod plot;
 pub mod report;
+pub mod study;
 pub mod sweep;

@@ -1,4 +1,4 @@
-//! Fuzzing the app's boundaries (issue 14, item 5): device blobs through `inspect` (the
+//! Fuzzing the app's boundaries (docs/decisions/0004): device blobs through `inspect` (the
 //! host decoder plus the controller-configuration check), and the CLI's numeric options:
 //! every run exits 0, 1 (an error naming the input) or 2 (clap's usage error), never 101
 //! (panic) or 134 (abort), and within a bounded time.

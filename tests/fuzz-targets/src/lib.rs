@@ -1,4 +1,4 @@
-//! The bodies of the coverage-guided fuzz targets (issue 14): one function per input
+//! The bodies of the coverage-guided fuzz targets (docs/decisions/0004): one function per input
 //! boundary, taking arbitrary bytes. The libFuzzer harness (`tests/fuzz`, nightly and
 //! cargo-fuzz) calls them under coverage guidance; `tests/replay.rs` replays every seed,
 //! corpus and regression file through the same functions on stable, so CI keeps what the

@@ -1,4 +1,4 @@
-//! Stable replay of the fuzz corpora (issue 14): every file of `tests/fuzz/seeds/<target>`
+//! Stable replay of the fuzz corpora (docs/decisions/0004): every file of `tests/fuzz/seeds/<target>`
 //! (inputs built from the bundled scenes, data and blobs and the issue's bad cases),
 //! `tests/fuzz/regressions/<target>` (what the fuzzers found, kept after the fix) and, when
 //! present, a local `tests/fuzz/corpus/<target>` (what a libFuzzer run grew) goes through the

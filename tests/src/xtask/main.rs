@@ -881,7 +881,7 @@ fn firmware_size() -> Result<()> {
     Ok(())
 }
 
-/// The library crates' lint policy (issue 14): no `unwrap`/`expect`/`panic` outside tests,
+/// The library crates' lint policy (docs/decisions/0004): no `unwrap`/`expect`/`panic` outside tests,
 /// and no panicking indexing in the crates and modules that parse input (`shared`,
 /// `controller`, `ssm::{mat, data, device}`, `sim::scene`); the `deny` attributes live in
 /// the crates, this runs clippy over them (installing the component when missing).

@@ -19,7 +19,7 @@ fn flag_sampling_constants_match_the_data() {
     assert!((d.lle - FLAG_SAMPLING.lle).abs() < 1e-3 && (d.dt - FLAG_SAMPLING.dt).abs() < 1e-9, "{d:?}");
 }
 
-/// The calibration (issue 12, flag3): known exponents on the exact side; then the Rosenstein
+/// The calibration (docs/decisions/0002): known exponents on the exact side; then the Rosenstein
 /// estimator with the flag's settings, sampling, length and noise. Measured (8 segments, the
 /// flag's noise): the five systems with at most 0.21 nats per lag time (D2 2.1-2.7) read
 /// 0.89-1.02 of the exact exponent on average, but a single segment of the flag's length

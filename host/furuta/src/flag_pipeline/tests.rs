@@ -42,7 +42,7 @@ fn lorenz_exponent_is_the_published_one() {
 /// 0.940 ± 0.013 1/s (0.54 nats per lag, in [0.4, 0.6]); D2 over eight held-out-length
 /// pieces 3.04 (in [2.9, 3.5]; one piece reads 2.58-3.94); on the held-out piece lag 10 and
 /// Theiler window 38 (the flag: 11, 38), D2 2.65 ± 0.12, Rosenstein 1.036 1/s: the values the
-/// committed rows were measured against ([`PIPELINE_DATA`]), reproduced exactly. The exact
+/// committed rows were measured against (`studies/results/flag/known_system.json`), reproduced exactly. The exact
 /// exponent does not depend on the renormalization step: at the map step (4 times longer)
 /// it agrees within 3 %.
 #[test]
@@ -53,7 +53,8 @@ fn chosen_system_sampled_like_the_flag() {
     assert!((k.exact - 0.940).abs() < 0.02 && k.exact_err < 0.02, "{k:?}");
     assert!((0.4..=0.6).contains(&k.per_lag), "{k:?}");
     assert!((k.step_dt - 4.0 * k.dt).abs() < 1e-12, "{k:?}");
-    let (lle, d2, d2_err, exact) = PIPELINE_DATA;
+    let d = crate::study_results::FlagResults::bundled().unwrap().known.data;
+    let (lle, d2, d2_err, exact) = (d.rosenstein, d.corr_dim, d.corr_dim_err, d.exact);
     for (a, b) in [(k.rosenstein, lle), (k.corr_dim, d2), (k.corr_dim_err, d2_err), (k.exact, exact)] {
         assert!((a - b).abs() < 1e-9 * b.abs(), "{a} vs committed {b}");
     }
@@ -77,7 +78,8 @@ fn pipeline_reproduces_a_committed_row() {
     let cands: Vec<Candidate> = flag_like_candidates(4, &[(300, 3e-9)]).into_iter().take(1).collect();
     let (_, rows) = pipeline_check(&CHOSEN, &FLAG_LAYOUT, 1, &cands, 4000.0).unwrap();
     let r = &rows[0];
-    let committed = committed_rows().into_iter().find(|c| c.scale == 1 && c.candidate == r.candidate).unwrap();
+    let known = crate::study_results::FlagResults::bundled().unwrap().known;
+    let committed = known.check_rows().into_iter().find(|c| c.scale == 1 && c.candidate == r.candidate).unwrap();
     // Committed to 3, 3, 2 and 4 decimals.
     for (a, b, tol) in [
         (r.benettin, committed.benettin, 5e-4),
@@ -88,7 +90,7 @@ fn pipeline_reproduces_a_committed_row() {
         let (a, b) = (a.unwrap(), b.unwrap());
         assert!((a - b).abs() <= tol, "{r:?} vs {committed:?}");
     }
-    let all = committed_rows();
+    let all = known.check_rows();
     for s in [1, 3, 10] {
         let sum = summarize(&all, s);
         assert!(
@@ -99,7 +101,7 @@ fn pipeline_reproduces_a_committed_row() {
     let s1 = summarize(&all, 1);
     assert_eq!((s1.candidates, s1.failed, s1.chaotic), (6, 3, 1), "{s1:?}");
     let (lo, hi) = s1.benettin_over_exact.unwrap();
-    assert!((lo - 1.232 / PIPELINE_DATA.3).abs() < 1e-12 && lo == hi, "{s1:?}");
+    assert!((lo - 1.232 / known.data.exact).abs() < 1e-12 && lo == hi, "{s1:?}");
 }
 
 /// PipelineRow's flags on constructed values: Benettin within 10 % of the exact exponent,

@@ -1,4 +1,13 @@
 use super::*;
+use crate::study_results::FlagResults;
+
+/// The flag's noise level over the sd, as the diagnosis rows carry it.
+const FN: f64 = crate::calibration::FLAG_SAMPLING.noise_rel;
+
+/// The bundled results of the flag study.
+fn res() -> FlagResults {
+    FlagResults::bundled().unwrap()
+}
 
 /// A quasi-periodic signal (two incommensurate frequencies: a 2-torus, whose delay
 /// embeddings need 4 dimensions to be one-to-one in general): projected on its first two
@@ -47,7 +56,7 @@ fn state_model_reproduces_its_committed_row() {
     let fit = StateFit { coords: Coords::State, centers: 0, order: 4, ridge: 3e-9, multistep: None, noise_rel: 0.0 };
     let (k, r) =
         state_model_check(&crate::flag_pipeline::CHOSEN, &crate::flag_pipeline::FLAG_LAYOUT, 1, &fit, 4000.0).unwrap();
-    let committed = diagnosis_rows().into_iter().find(|(_, _, c)| c.candidate == "state poly 4").unwrap().2;
+    let committed = res().known.diagnosis_rows().into_iter().find(|(_, _, c)| c.candidate == "state poly 4").unwrap().2;
     for (a, b, tol) in [
         (r.benettin, committed.benettin, 5e-4),
         (r.rosenstein, committed.rosenstein, 5e-4),
@@ -75,7 +84,8 @@ fn state_model_reproduces_its_committed_row() {
 /// denoised inputs none of five; on the flag no d = 5 or 6 row meets a target.
 #[test]
 fn diagnosis_counts() {
-    let rows = diagnosis_rows();
+    let res = res();
+    let rows = res.known.diagnosis_rows();
     let within = |what: &str, noise: Option<f64>, scale: usize| {
         let sel: Vec<_> =
             rows.iter().filter(|(w, n, r)| *w == what && noise.is_none_or(|x| *n == x) && r.scale == scale).collect();
@@ -102,7 +112,7 @@ fn diagnosis_counts() {
     assert_eq!(d6_scan_counts(&rows, true, 1, 0.0), (0, 0, 2));
     assert_eq!(d6_scan_counts(&rows, false, 1, 0.0), (0, 0, 3));
     // On the flag, SSM dimension 5 and 6 meet none of the four targets.
-    let flag = flag_fit_rows();
+    let flag = res.held_out.fit_rows();
     assert_eq!(flag.len(), 9);
     assert!(flag.iter().all(|r| r.passes == [false; 4]), "{flag:?}");
 }
@@ -113,8 +123,9 @@ fn diagnosis_counts() {
 /// most 0.241 against 0.332.
 #[test]
 fn flag_multistep_rows_meet_at_most_one_target() {
-    let rows = flag_multistep_rows();
-    assert_eq!(rows.len(), FLAG_MULTISTEP.len());
+    let res = res();
+    let rows = res.held_out.multistep_rows();
+    assert_eq!(rows.len(), res.held_out.multistep.len());
     assert!(rows.iter().all(|r| r.passes.iter().filter(|&&p| p).count() <= 1), "{rows:?}");
     let meets = |i: usize| rows.iter().filter(|r| r.passes[i]).map(|r| r.candidate.as_str()).collect::<Vec<_>>();
     assert_eq!(meets(0), vec!["RBF 300 r=3e-9 d=4 p=9 ms h=4 stride 8 it 4"]);
@@ -133,8 +144,9 @@ fn flag_multistep_rows_meet_at_most_one_target() {
 /// 0.0090), 2.6 error bars low.
 #[test]
 fn flag_centre_rows_meet_benettin_and_js_but_not_d2() {
-    let rows = flag_centre_rows();
-    assert_eq!(rows.len(), FLAG_CENTRES.len());
+    let res = res();
+    let rows = res.held_out.centre_rows();
+    assert_eq!(rows.len(), res.held_out.centres.len());
     assert_eq!(target_counts(&rows), (237, 38, 30, 1, 105, 20, 0));
     let names = |i: usize| rows.iter().filter(|r| r.passes[i]).map(|r| r.candidate.as_str()).collect::<Vec<_>>();
     assert_eq!(names(2), vec!["RBF 200 r=3e-9 d=4 p=9"]);
@@ -154,7 +166,10 @@ fn flag_centre_rows_meet_benettin_and_js_but_not_d2() {
     assert_eq!(ms, vec![Some(2.28), Some(1.56)]);
     // Every candidate name is unique and every dimension row names a row.
     assert!(rows.iter().enumerate().all(|(i, r)| rows[..i].iter().all(|q| q.candidate != r.candidate)));
-    assert!(FLAG_DIMENSION.iter().all(|d| rows.iter().any(|r| r.candidate == d.0)), "unknown dimension row");
+    assert!(
+        res.held_out.dimension.iter().all(|d| rows.iter().any(|r| r.candidate == d.candidate)),
+        "unknown dimension row"
+    );
 }
 
 /// Why D2 stays low: the Kaplan-Yorke dimension of every chaotic model (Benettin above 10 %
@@ -164,38 +179,43 @@ fn flag_centre_rows_meet_benettin_and_js_but_not_d2() {
 /// 2.13-4.38, sd 0.64: 3.8 times the one-run error bar 0.17.
 #[test]
 fn flag_dimension_diagnosis() {
-    let rows = flag_centre_rows();
+    let res = res();
+    let h = &res.held_out;
+    let data = h.data;
+    let rows = h.centre_rows();
     let chaotic = |name: &str| {
         rows.iter()
-            .any(|r| r.candidate == name && r.failed.is_none() && r.benettin.is_some_and(|b| b > 0.1 * FLAG_DATA.0))
+            .any(|r| r.candidate == name && r.failed.is_none() && r.benettin.is_some_and(|b| b > 0.1 * data.rosenstein))
     };
-    let ky: Vec<f64> = FLAG_DIMENSION.iter().filter(|d| chaotic(d.0)).filter_map(|d| d.1).collect();
+    let ky: Vec<f64> = h.dimension.iter().filter(|d| chaotic(&d.candidate)).filter_map(|d| d.kaplan_yorke).collect();
     assert_eq!(ky.len(), 106);
     let (lo, hi) = (ky.iter().copied().fold(f64::MAX, f64::min), ky.iter().copied().fold(f64::MIN, f64::max));
     assert_eq!((lo, hi), (1.49, 2.69));
-    assert!(hi < FLAG_DATA.1 - 3.0 * FLAG_DATA.2);
-    let spread = FLAG_DIMENSION
+    assert!(hi < data.corr_dim - 3.0 * data.corr_dim_err);
+    let spread = h
+        .dimension
         .iter()
-        .filter(|d| d.2.iter().all(Option::is_some))
+        .filter(|d| d.corr_dim_pieces.iter().all(Option::is_some))
         .map(|d| {
-            let v: Vec<f64> = d.2.iter().flatten().copied().collect();
+            let v: Vec<f64> = d.corr_dim_pieces.iter().flatten().copied().collect();
             v.iter().copied().fold(f64::MIN, f64::max) - v.iter().copied().fold(f64::MAX, f64::min)
         })
         .fold(f64::MIN, f64::max);
     assert!((spread - 2.33).abs() < 1e-9, "{spread}");
     // Within 0.01 (the printed precision) of the raw data's D2.
-    let near = |v: f64| (v - FLAG_DATA.1).abs() <= 0.01 + 1e-12;
-    assert!(near(FLAG_D2_NOISE.0) && near(FLAG_D2_NOISE.1) && near(FLAG_D2_NOISE.2), "{FLAG_D2_NOISE:?}");
-    let runs: Vec<f64> = FLAG_D2_RUNS.iter().flatten().copied().collect();
+    let near = |v: f64| (v - data.corr_dim).abs() <= 0.01 + 1e-12;
+    let sm = h.corr_dim_smoothed;
+    assert!(near(sm.smoothed_3) && near(sm.smoothed_5) && near(sm.noise_added), "{sm:?}");
+    let runs: Vec<f64> = h.corr_dim_runs.iter().filter_map(|r| r.corr_dim).collect();
     assert_eq!(runs.len(), 9);
-    assert_eq!(FLAG_D2_RUNS[8], Some(FLAG_DATA.1));
+    assert_eq!(h.corr_dim_of_run(8), Some(data.corr_dim));
     let mean = runs.iter().sum::<f64>() / 9.0;
     let sd = (runs.iter().map(|v| (v - mean) * (v - mean)).sum::<f64>() / 8.0).sqrt();
     assert!((mean - 3.501).abs() < 1e-3 && (sd - 0.638).abs() < 1e-3, "{mean} {sd}");
-    assert!(sd > 3.5 * FLAG_DATA.2);
+    assert!(sd > 3.5 * data.corr_dim_err);
 }
 
-/// A live re-run of the best seeded row of [`FLAG_CENTRES`] on the flag (skipped when the
+/// A live re-run of the best seeded centre-set row on the flag (skipped when the
 /// data are absent): RBF 250 r=5e-9, k-means++ centres with seed 3, fitted on traj_9 +
 /// traj_7 and measured on traj_8 at step 4, gives the committed numbers to their printed
 /// precision (about 10 s).
@@ -204,7 +224,7 @@ fn flag_centre_row_reproduces() {
     use crate::model_selection::{EvalSettings, data_stats, evaluate_candidate};
     let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared/data/inverted_flag_chaotic");
     if !dir.join("traj_8.csv").is_file() {
-        println!("inverted-flag data not found under {}: skipped", dir.display());
+        eprintln!("SKIPPED (needs ../shared/data): inverted-flag data not found under {}", dir.display());
         return;
     }
     let load = |k: usize| ssm::load_csv(dir.join(format!("traj_{k}.csv"))).unwrap();
@@ -216,9 +236,13 @@ fn flag_centre_row_reproduces() {
         ..variant(4, 250, 5e-9, 4, 9, 1, None, 0)
     };
     let r = evaluate_candidate(&train, &test, &c, &data, &s).unwrap();
-    let row = FLAG_CENTRES.iter().find(|r| r.0 == "RBF 250 r=5e-9 d=4 p=9 centres kmeans++@3").unwrap();
+    let res = res();
+    let row = res.held_out.centres.iter().find(|r| r.candidate == "RBF 250 r=5e-9 d=4 p=9 centres kmeans++@3").unwrap();
     let close = |a: Option<f64>, b: Option<f64>, tol: f64| matches!((a, b), (Some(a), Some(b)) if (a - b).abs() <= tol);
     assert!(r.failed.is_none(), "{r:?}");
-    assert!(close(r.benettin, row.1, 5e-4 + 1e-12) && close(r.rosenstein, row.2, 5e-4 + 1e-12), "{r:?}");
-    assert!(close(r.corr_dim, row.3, 5e-3 + 1e-12) && close(r.js, row.4, 5e-5 + 1e-12), "{r:?}");
+    assert!(
+        close(r.benettin, row.benettin, 5e-4 + 1e-12) && close(r.rosenstein, row.rosenstein, 5e-4 + 1e-12),
+        "{r:?}"
+    );
+    assert!(close(r.corr_dim, row.corr_dim, 5e-3 + 1e-12) && close(r.js, row.js, 5e-5 + 1e-12), "{r:?}");
 }

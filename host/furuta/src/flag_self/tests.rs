@@ -1,5 +1,10 @@
 use super::*;
-use crate::flag_pipeline_fit::{FLAG_CENTRES, FLAG_D2_RUNS, FLAG_DATA, flag_centre_rows};
+use crate::study_results::{FlagResults, ModelRow, RunStats, rows_against};
+
+/// The bundled results of the flag study.
+fn res() -> FlagResults {
+    FlagResults::bundled().unwrap()
+}
 
 fn flag_dir() -> std::path::PathBuf {
     std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared/data/inverted_flag_chaotic")
@@ -38,7 +43,7 @@ fn placement_known_answer() {
     assert_eq!(placement(1.0, &[2.0, 2.0]), None);
 }
 
-/// The committed rows: the whole runs' D2 are the committed [`FLAG_D2_RUNS`] (the same
+/// The committed rows: the whole runs' D2 are the committed D2 of every run (the same
 /// estimator, traj_8's settings); of the nine whole runs, treated as perfect models of
 /// traj_8, two meet the Rosenstein target (traj_1 0.342, traj_3 0.320 against 0.332 ± 5 %),
 /// one the D2 target (traj_2 3.47 against 3.36 ± 0.17), eight JS (traj_2: 0.0195) and none
@@ -46,25 +51,23 @@ fn placement_known_answer() {
 /// exponent of two pieces of traj_3 that share 88 % of their samples reads 0.162 and 0.326.
 #[test]
 fn flag_self_counts() {
-    let rows = flag_self_rows();
+    let res = res();
+    let data = res.held_out.data.tuple();
+    let rows = res.experiment.rows.clone();
     assert_eq!(rows.len(), 15);
     let whole: Vec<&SelfRow> = rows.iter().filter(|r| is_whole(r, &rows)).collect();
     let part: Vec<&SelfRow> = rows.iter().filter(|r| !is_whole(r, &rows)).collect();
     assert_eq!(whole.iter().map(|r| r.run).collect::<Vec<_>>(), vec![0, 1, 2, 3, 4, 5, 6, 7, 9]);
-    assert!(part.iter().all(|r| r.len == FLAG_TEST_LEN) && part.len() == 6);
+    assert!(part.iter().all(|r| r.len == res.held_out.test_len) && part.len() == 6);
     for r in &whole {
-        assert_eq!(r.corr_dim, FLAG_D2_RUNS[r.run], "traj_{}", r.run);
+        assert_eq!(r.corr_dim, res.held_out.corr_dim_of_run(r.run), "traj_{}", r.run);
     }
-    assert_eq!(self_counts(&whole, FLAG_DATA), (9, 2, 1, 8, 0));
-    assert_eq!(self_counts(&part, FLAG_DATA), (6, 2, 1, 6, 0));
+    assert_eq!(self_counts(&whole, data), (9, 2, 1, 8, 0));
+    assert_eq!(self_counts(&part, data), (6, 2, 1, 6, 0));
     let all: Vec<&SelfRow> = rows.iter().collect();
-    assert_eq!(self_counts(&all, FLAG_DATA), (15, 4, 2, 14, 0));
+    assert_eq!(self_counts(&all, data), (15, 4, 2, 14, 0));
     let meets = |i: usize| {
-        whole
-            .iter()
-            .filter(|r| self_passes(r.rosenstein, r.corr_dim, r.js, FLAG_DATA)[i])
-            .map(|r| r.run)
-            .collect::<Vec<_>>()
+        whole.iter().filter(|r| self_passes(r.rosenstein, r.corr_dim, r.js, data)[i]).map(|r| r.run).collect::<Vec<_>>()
     };
     assert_eq!((meets(0), meets(1), meets(2)), (vec![1, 3], vec![2], vec![0, 1, 3, 4, 5, 6, 7, 9]));
     let t3: Vec<f64> = part.iter().filter(|r| r.run == 3).filter_map(|r| r.rosenstein).collect();
@@ -77,13 +80,18 @@ fn flag_self_counts() {
 /// the 89th (z +0.70: runs 0.0052 ± 0.0054; eight of nine runs lower).
 #[test]
 fn best_row_among_the_runs() {
-    let rows = flag_self_rows();
+    let res = res();
+    let rows = res.experiment.rows.clone();
     let whole: Vec<&SelfRow> = rows.iter().filter(|r| is_whole(r, &rows)).collect();
     let col = |f: &dyn Fn(&SelfRow) -> Option<f64>| whole.iter().filter_map(|r| f(r)).collect::<Vec<f64>>();
     let (ros, d2, js) = (col(&|r| r.rosenstein), col(&|r| r.corr_dim), col(&|r| r.js));
     assert_eq!((ros.len(), d2.len(), js.len()), (9, 8, 9));
-    let best =
-        flag_centre_rows().into_iter().find(|r| r.candidate == "RBF 250 r=5e-9 d=4 p=9 centres kmeans++@3").unwrap();
+    let best = res
+        .held_out
+        .centre_rows()
+        .into_iter()
+        .find(|r| r.candidate == "RBF 250 r=5e-9 d=4 p=9 centres kmeans++@3")
+        .unwrap();
     let (pr, zr) = placement(best.rosenstein.unwrap(), &ros).unwrap();
     let (pd, zd) = placement(best.corr_dim.unwrap(), &d2).unwrap();
     let (pj, zj) = placement(best.js.unwrap(), &js).unwrap();
@@ -104,7 +112,8 @@ fn best_row_among_the_runs() {
 /// refinement; a bad name is an error naming it.
 #[test]
 fn candidate_names_parse() {
-    let cands: Vec<Candidate> = FLAG_CENTRES.iter().map(|r| candidate_from_name(r.0).unwrap()).collect();
+    let cands: Vec<Candidate> =
+        res().held_out.centres.iter().map(|r| candidate_from_name(&r.candidate).unwrap()).collect();
     assert_eq!(cands.len(), 237);
     let c = candidate_from_name("RBF 250 r=5e-9 d=4 p=9 centres kmeans++@3").unwrap();
     let hand = variant(4, 250, 5e-9, 4, 9, 1, None, 0);
@@ -133,14 +142,22 @@ fn candidate_names_parse() {
 /// score; a failed row never.
 #[test]
 fn pick_rule() {
-    let data = (0.3, 3.0, 0.2);
-    let rows: &[FlagRow] = &[
-        ("a", Some(0.31), Some(0.2), Some(2.0), Some(0.02), ""), // Benettin only: 1
-        ("b", Some(0.31), Some(0.305), Some(2.0), Some(0.005), ""), // B, R, JS: 3
-        ("c", Some(0.30), Some(0.30), Some(3.0), Some(0.001), "esc"), // failed
-        ("d", Some(0.32), Some(0.31), Some(2.0), Some(0.009), ""), // B, R, JS: 3, larger score
+    let data = RunStats { rosenstein: 0.3, corr_dim: 3.0, corr_dim_err: 0.2 };
+    let row = |n: &str, b: f64, r: f64, d: f64, j: f64, failed: &str| ModelRow {
+        candidate: n.into(),
+        benettin: Some(b),
+        rosenstein: Some(r),
+        corr_dim: Some(d),
+        js: Some(j),
+        failed: (!failed.is_empty()).then(|| failed.into()),
+    };
+    let rows = [
+        row("a", 0.31, 0.2, 2.0, 0.02, ""),      // Benettin only: 1
+        row("b", 0.31, 0.305, 2.0, 0.005, ""),   // B, R, JS: 3
+        row("c", 0.30, 0.30, 3.0, 0.001, "esc"), // failed
+        row("d", 0.32, 0.31, 2.0, 0.009, ""),    // B, R, JS: 3, larger score
     ];
-    let r = rows_against(rows, data);
+    let r = rows_against(&rows, &data);
     assert_eq!(r.iter().map(|r| r.passes.iter().filter(|&&p| p).count()).collect::<Vec<_>>(), vec![1, 3, 0, 3]);
     assert!(row_score(&r[1]) < row_score(&r[3]) && row_score(&r[2]).is_infinite());
     // b: 0.01/0.03 + 0.005/0.015 + 1/0.2 + 0.5 = 6.1667.
@@ -149,29 +166,31 @@ fn pick_rule() {
     assert_eq!(pick(&r[2..3]), None);
 }
 
-/// A live re-run of [`FLAG_SELF`] and [`FLAG_RUNS_OWN`] on the flag (skipped when the data
+/// A live re-run of the experiment-as-model rows and of every run's own statistics on the flag (skipped when the data
 /// are absent; about 2 s): every committed number to its printed precision.
 #[test]
 fn flag_self_reproduces() {
     let dir = flag_dir();
     if !dir.join("traj_8.csv").is_file() {
-        println!("inverted-flag data not found under {}: skipped", dir.display());
+        eprintln!("SKIPPED (needs ../shared/data): inverted-flag data not found under {}", dir.display());
         return;
     }
     let load = |k: usize| ssm::load_csv(dir.join(format!("traj_{k}.csv"))).unwrap();
     let runs: Vec<(usize, TimeSeries)> = [0, 1, 2, 3, 4, 5, 6, 7, 9].into_iter().map(|k| (k, load(k))).collect();
     let s = EvalSettings::default();
     let (ds, rows) = experiment_as_model(&[load(9), load(7)], &load(8), &runs, &s).unwrap();
-    assert_eq!(ds.len, FLAG_TEST_LEN);
+    let res = res();
+    let data = res.held_out.data;
+    assert_eq!(ds.len, res.held_out.test_len);
     assert!(
-        (ds.lle - FLAG_DATA.0).abs() <= 5e-4
-            && (ds.corr_dim - FLAG_DATA.1).abs() <= 5e-3
-            && (ds.corr_dim_err - FLAG_DATA.2).abs() <= 5e-3,
+        (ds.lle - data.rosenstein).abs() <= 5e-4
+            && (ds.corr_dim - data.corr_dim).abs() <= 5e-3
+            && (ds.corr_dim_err - data.corr_dim_err).abs() <= 5e-3,
         "{ds:?}"
     );
-    let committed = flag_self_rows();
+    let committed = &res.experiment.rows;
     assert_eq!(rows.len(), committed.len());
-    for (a, b) in rows.iter().zip(&committed) {
+    for (a, b) in rows.iter().zip(committed) {
         assert_eq!((a.run, a.start, a.len), (b.run, b.start, b.len));
         assert!(
             close(a.rosenstein, b.rosenstein, 5e-4)
@@ -181,7 +200,8 @@ fn flag_self_reproduces() {
             "{a:?} vs {b:?}"
         );
     }
-    for &(k, lag, theiler, lle, d2, d2_err) in FLAG_RUNS_OWN {
+    for o in &res.experiment.runs_own {
+        let (k, lag, theiler, lle, d2, d2_err) = (o.run, o.lag, o.theiler, o.rosenstein, o.corr_dim, o.corr_dim_err);
         let (d, _) = data_stats(&load(k), STEP, &s).unwrap();
         assert_eq!((d.lag, d.theiler), (lag, theiler), "traj_{k}");
         assert!(
@@ -201,19 +221,23 @@ fn flag_self_reproduces() {
 #[test]
 fn validation_pick_on_traj3() {
     use crate::flag_pipeline_fit::target_counts;
-    let val = rows_against(FLAG_VALIDATION, FLAG_VALIDATION_DATA);
-    assert_eq!(val.len(), FLAG_CENTRES.len());
-    assert!(val.iter().zip(FLAG_CENTRES).all(|(v, c)| v.candidate == c.0));
+    let res = res();
+    let centres = &res.held_out.centres;
+    let v3 = res.validation.primary().unwrap();
+    assert_eq!(v3.run, 3);
+    let val = v3.pipeline_rows();
+    assert_eq!(val.len(), centres.len());
+    assert!(val.iter().zip(centres).all(|(v, c)| v.candidate == c.candidate));
     assert_eq!(target_counts(&val), (237, 45, 27, 19, 92, 17, 1));
     assert_eq!(val.iter().filter(|r| r.passes[1]).count(), 7);
     assert_eq!(val.iter().filter(|r| r.passes[0] && r.passes[2] && r.passes[3]).count(), 1);
-    let (v, t) = validation_pick().unwrap();
+    let (v, t) = validation_pick(&res).unwrap().unwrap();
     assert_eq!(v.candidate, "RBF 250 r=1e-8 d=4 p=9 centres kmeans++@11");
     assert_eq!(v.passes, [true, false, true, true]);
     assert_eq!((v.benettin, v.rosenstein, v.corr_dim, v.js), (Some(0.300), Some(0.213), Some(1.96), Some(0.0067)));
     assert_eq!((t.benettin, t.rosenstein, t.corr_dim, t.js), (Some(0.287), Some(0.155), Some(1.64), Some(0.0070)));
     assert_eq!(t.passes, [false, false, false, true]);
-    let test = flag_centre_rows();
+    let test = res.held_out.centre_rows();
     let tp = &test[pick(&test).unwrap()];
     assert_eq!(tp.candidate, "RBF 250 r=5e-9 d=4 p=9 centres kmeans++@3");
     let best = val.iter().find(|r| r.candidate == "RBF 250 r=5e-9 d=4 p=9 centres kmeans++@3").unwrap();
@@ -221,12 +245,13 @@ fn validation_pick_on_traj3() {
     // On the second validation run traj_0 (Rosenstein 0.481, D2 3.56 ± 0.23) the pick is
     // another row, RBF 200 r=3e-9 random@8 (there Benettin 0.495, Rosenstein 0.387, D2 2.94,
     // JS 0.0081: Benettin and JS), which on traj_8 meets JS only (Benettin 0.495, +49 %).
-    let own = |k: usize| FLAG_RUNS_OWN.iter().find(|r| r.0 == k).map(|r| (r.3, r.4, r.5)).unwrap();
-    assert_eq!((own(0), own(3)), (FLAG_VALIDATION_0_DATA, FLAG_VALIDATION_DATA));
-    let val0 = rows_against(FLAG_VALIDATION_0, FLAG_VALIDATION_0_DATA);
-    assert!(val0.iter().zip(FLAG_CENTRES).all(|(v, c)| v.candidate == c.0) && val0.len() == 237);
+    let v0run = res.validation.run(0).unwrap();
+    let own = |k: usize| res.experiment.own(k).unwrap().stats();
+    assert_eq!((own(0), own(3)), (v0run.data, v3.data));
+    let val0 = v0run.pipeline_rows();
+    assert!(val0.iter().zip(centres).all(|(v, c)| v.candidate == c.candidate) && val0.len() == 237);
     assert_eq!(target_counts(&val0), (237, 38, 32, 3, 44, 16, 0));
-    let (v0, t0) = validation_pick_on(FLAG_VALIDATION_0, FLAG_VALIDATION_0_DATA).unwrap();
+    let (v0, t0) = validation_pick_on(v0run, &res.held_out).unwrap();
     assert_eq!(v0.candidate, "RBF 200 r=3e-9 d=4 p=9 centres random@8");
     assert_eq!(
         (v0.benettin, v0.rosenstein, v0.corr_dim, v0.js, v0.passes),
@@ -241,7 +266,7 @@ fn validation_pick_on_traj3() {
     let r3 = val.iter().find(|r| r.candidate == v0.candidate).unwrap().rosenstein;
     assert_eq!(r3, Some(0.163));
     // The ensemble's members: the five best-ranked d = 4 rows.
-    let m = ensemble_members(5);
+    let m = ensemble_members(v3, 5);
     assert_eq!(m[0], v.candidate);
     assert_eq!(m.len(), 5);
 }
@@ -252,8 +277,10 @@ fn validation_pick_on_traj3() {
 /// (0.0037-0.0079).
 #[test]
 fn ensemble_statistics() {
-    let test = flag_centre_rows();
-    let rows: Vec<_> = ensemble_members(FLAG_ENSEMBLE.0)
+    let res = res();
+    let test = res.held_out.centre_rows();
+    let ens = res.validation.ensemble;
+    let rows: Vec<_> = ensemble_members(res.validation.primary().unwrap(), ens.members)
         .iter()
         .map(|n| test.iter().find(|r| r.candidate == *n).unwrap().clone())
         .collect();
@@ -267,7 +294,7 @@ fn ensemble_statistics() {
     assert!((d.0 - 2.136).abs() < 5e-4 && (d.1 - 0.574).abs() < 5e-4, "{d:?}");
     let js: Vec<f64> = rows.iter().filter_map(|r| r.js).collect();
     assert_eq!(js, vec![0.0070, 0.0050, 0.0037, 0.0079, 0.0051]);
-    assert!(js.iter().all(|&j| FLAG_ENSEMBLE.1 <= j));
+    assert!(js.iter().all(|&j| ens.js_pooled <= j));
 }
 
 /// Live re-runs (skipped without the data): the validation pick on traj_3 gives its committed
@@ -276,22 +303,24 @@ fn ensemble_statistics() {
 fn validation_pick_and_ensemble_reproduce() {
     let dir = flag_dir();
     if !dir.join("traj_8.csv").is_file() {
-        println!("inverted-flag data not found under {}: skipped", dir.display());
+        eprintln!("SKIPPED (needs ../shared/data): inverted-flag data not found under {}", dir.display());
         return;
     }
     let load = |k: usize| ssm::load_csv(dir.join(format!("traj_{k}.csv"))).unwrap();
     let train = [load(9), load(7)];
     let s = EvalSettings::default();
-    let val = load(VALIDATION_RUN);
+    let res = res();
+    let v3 = res.validation.primary().unwrap();
+    let val = load(v3.run);
     let data = data_stats(&val, STEP, &s).unwrap();
     assert!(
-        (data.0.lle - FLAG_VALIDATION_DATA.0).abs() <= 5e-4
-            && (data.0.corr_dim - FLAG_VALIDATION_DATA.1).abs() <= 5e-3
-            && (data.0.corr_dim_err - FLAG_VALIDATION_DATA.2).abs() <= 5e-3,
+        (data.0.lle - v3.data.rosenstein).abs() <= 5e-4
+            && (data.0.corr_dim - v3.data.corr_dim).abs() <= 5e-3
+            && (data.0.corr_dim_err - v3.data.corr_dim_err).abs() <= 5e-3,
         "{:?}",
         data.0
     );
-    let (v, _) = validation_pick().unwrap();
+    let (v, _) = validation_pick(&res).unwrap().unwrap();
     let r = crate::model_selection::evaluate_candidate(
         &train,
         &val,
@@ -308,10 +337,13 @@ fn validation_pick_and_ensemble_reproduce() {
             && close(r.js, v.js, 5e-5),
         "{r:?} vs {v:?}"
     );
-    let e = ensemble(&train, &load(8), &ensemble_members(FLAG_ENSEMBLE.0), &s).unwrap();
+    let ens = res.validation.ensemble;
+    let names = ensemble_members(v3, ens.members);
+    let names: Vec<&str> = names.iter().map(String::as_str).collect();
+    let e = ensemble(&train, &load(8), &names, &s).unwrap();
     assert!(e.failed.is_empty(), "{e:?}");
-    assert!(close(e.js_pooled, Some(FLAG_ENSEMBLE.1), 5e-5), "{e:?}");
-    let test = flag_centre_rows();
+    assert!(close(e.js_pooled, Some(ens.js_pooled), 5e-5), "{e:?}");
+    let test = res.held_out.centre_rows();
     for (n, j) in e.members.iter().zip(&e.js_members) {
         assert!(close(*j, test.iter().find(|r| &r.candidate == n).unwrap().js, 5e-5), "{n}: {j:?}");
     }

@@ -1,4 +1,4 @@
-//! Report sections on the global bifurcations (issue 11, items 4 and 5): the equation-driven
+//! Report sections on the global bifurcations (docs/decisions/0001): the equation-driven
 //! reduced model (its reduced map iterated, and its polar normal form) next to the data-driven
 //! one (the fitted map itself and its normal form) and the full system, every bifurcation value
 //! in five columns (`summary.json` keys `equation_ssm`, and `equation*` / `full_system*` /
@@ -473,7 +473,7 @@ pub fn global_sections(
 }
 
 /// The fitted map's saddle connection and torus loss over the training variants (the
-/// sensitivity study's), next to the default's: issue 11's spread target (<= 0.1 ms).
+/// sensitivity study's), next to the default's: docs/decisions/0001's spread target (<= 0.1 ms).
 /// Summary key `map_sensitivity`.
 fn map_variants_table(rep: &mut Report, c: &Computed) {
     let tor = |r: &Result<TorusContinuation, String>| r.as_ref().map_or_else(|e| e.clone(), lost_text);

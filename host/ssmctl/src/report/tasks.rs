@@ -1,5 +1,5 @@
 //! Wall and CPU time of the report's inner tasks, for finding the critical path of
-//! `ssmctl reproduce` (issue 13 item 6). Off unless the environment variable
+//! `ssmctl reproduce` (docs/decisions/0003). Off unless the environment variable
 //! [`TASK_TIMES_ENV`] is set: then every [`task`] prints one line to stderr when it ends,
 //! `task NAME: start S s, wall W s, thread cpu T s, process cpu P s`, where `start` is the
 //! offset from the first task of the process, `thread cpu` the CPU time of the thread that

@@ -1,4 +1,4 @@
-//! The report's verdict on the Furuta microchaos (issue 12, item 3): the numbers come from
+//! The report's verdict on the Furuta microchaos (docs/decisions/0002): the numbers come from
 //! [`furuta::verdict`]; this writes the subsection and the `summary.json` key
 //! `microchaos_verdict`.
 

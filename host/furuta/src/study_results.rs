@@ -1,0 +1,506 @@
+//! The measured results of the flag study, read from data files: the library computes them
+//! (`ssmctl study studies/flag.toml` writes the flag data's files, see `studies/README.md`),
+//! the report reads them here. Nothing measured lives in source.
+//!
+//! One JSON file per group under [`default_dir`]:
+//! - [`KNOWN_SYSTEM`]: the flag pipeline on the known system ([`crate::flag_pipeline::CHOSEN`]):
+//!   its held-out statistics, the candidate rows at 1, 3 and 10 times the flag's training
+//!   data and the diagnosis rows;
+//! - [`SEARCH`]: the inverted flag's candidate search as printed (strings);
+//! - [`HELD_OUT`]: every candidate on the held-out run (traj_8): the fits at d = 5 and 6, the
+//!   multistep rows, the centre-set rows, the models' dimensions and D2 of every run;
+//! - [`EXPERIMENT`]: the flag's runs as perfect models of the held-out run and each run
+//!   through the estimator with its own settings;
+//! - [`VALIDATION`]: the centre-set candidates on the validation runs and the ensemble.
+//!
+//! Every file names the command that writes it (`produced_by`); a missing file, a missing or
+//! unknown key or a wrong type is an error naming the file and the key.
+
+use std::path::{Path, PathBuf};
+
+use serde::de::DeserializeOwned;
+use serde::{Deserialize, Serialize};
+
+use crate::Error;
+use crate::flag_pipeline::{Measured, PipelineRow};
+use crate::flag_self::SelfRow;
+
+/// File of [`KnownSystemResults`].
+pub const KNOWN_SYSTEM: &str = "known_system.json";
+/// File of [`SearchResults`].
+pub const SEARCH: &str = "search.json";
+/// File of [`HeldOutResults`].
+pub const HELD_OUT: &str = "held_out.json";
+/// File of [`ExperimentResults`].
+pub const EXPERIMENT: &str = "experiment_as_model.json";
+/// File of [`ValidationResults`].
+pub const VALIDATION: &str = "validation.json";
+
+/// The bundled results of the flag study: `studies/results/flag` of the workspace.
+pub fn default_dir() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("../../studies/results/flag")
+}
+
+/// The statistics of a held-out (or validation) run that model rows are judged against.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RunStats {
+    /// Rosenstein exponent, 1/s.
+    pub rosenstein: f64,
+    /// Correlation dimension and its error bar.
+    pub corr_dim: f64,
+    pub corr_dim_err: f64,
+}
+
+impl RunStats {
+    /// `(Rosenstein, D2, D2 error bar)`, as the row functions take them.
+    pub fn tuple(&self) -> (f64, f64, f64) {
+        (self.rosenstein, self.corr_dim, self.corr_dim_err)
+    }
+}
+
+/// One candidate measured on a run: its name (as [`crate::flag_self::candidate_from_name`]
+/// reads it), the model's Benettin exponent, the Rosenstein exponent and D2 of its series
+/// (1/s), the JS divergence of its reduced-coordinate densities (bits), or why it failed.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ModelRow {
+    pub candidate: String,
+    pub benettin: Option<f64>,
+    pub rosenstein: Option<f64>,
+    pub corr_dim: Option<f64>,
+    pub js: Option<f64>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub failed: Option<String>,
+}
+
+impl ModelRow {
+    /// The row's measured values.
+    pub fn measured(&self) -> Measured {
+        Measured { benettin: self.benettin, rosenstein: self.rosenstein, corr_dim: self.corr_dim, js: self.js }
+    }
+
+    /// The row against the run statistics `data` (the exponent's reference is the data's
+    /// Rosenstein value: the flag has no exact one).
+    pub fn against(&self, data: &RunStats) -> PipelineRow {
+        PipelineRow::from_values(
+            &self.candidate,
+            1,
+            &self.measured(),
+            self.failed.clone(),
+            data.rosenstein,
+            data.corr_dim,
+            data.corr_dim_err,
+            data.rosenstein,
+        )
+    }
+}
+
+/// `rows` against `data` ([`ModelRow::against`]).
+pub fn rows_against(rows: &[ModelRow], data: &RunStats) -> Vec<PipelineRow> {
+    rows.iter().map(|r| r.against(data)).collect()
+}
+
+/// The held-out statistics of the known system's series at the flag's layout, with its exact
+/// exponent (1/s).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct KnownData {
+    pub rosenstein: f64,
+    pub corr_dim: f64,
+    pub corr_dim_err: f64,
+    pub exact: f64,
+}
+
+/// One candidate of the pipeline check at `scale` times the flag's training data.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct CheckRow {
+    pub candidate: String,
+    pub scale: usize,
+    pub benettin: Option<f64>,
+    pub rosenstein: Option<f64>,
+    pub corr_dim: Option<f64>,
+    pub js: Option<f64>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub failed: Option<String>,
+}
+
+/// One diagnosis row: what is varied (`group`), the candidate, the training data scale and
+/// the noise over the series sd, and the row's measured values.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct DiagRow {
+    pub group: String,
+    pub candidate: String,
+    pub scale: usize,
+    pub noise_rel: f64,
+    pub benettin: Option<f64>,
+    pub rosenstein: Option<f64>,
+    pub corr_dim: Option<f64>,
+    pub js: Option<f64>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub failed: Option<String>,
+}
+
+/// [`KNOWN_SYSTEM`]: the flag pipeline on the known system.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct KnownSystemResults {
+    pub produced_by: String,
+    /// The held-out data the rows were measured against (scale 1, 4,000 s of Benettin).
+    pub data: KnownData,
+    /// The flag's candidate search on the system (RBF sizes within the design-matrix limit
+    /// at each scale).
+    pub pipeline_check: Vec<CheckRow>,
+    /// Variants of the flag's candidates: noise-free data, SSM dimension, shift, the whole
+    /// delay vector, multistep refinement, denoised inputs and fits on the true state.
+    pub diagnosis: Vec<DiagRow>,
+}
+
+impl KnownSystemResults {
+    /// [`Self::pipeline_check`] as rows against [`Self::data`].
+    pub fn check_rows(&self) -> Vec<PipelineRow> {
+        let k = &self.data;
+        self.pipeline_check
+            .iter()
+            .map(|r| {
+                let m = Measured { benettin: r.benettin, rosenstein: r.rosenstein, corr_dim: r.corr_dim, js: r.js };
+                PipelineRow::from_values(
+                    &r.candidate,
+                    r.scale,
+                    &m,
+                    r.failed.clone(),
+                    k.rosenstein,
+                    k.corr_dim,
+                    k.corr_dim_err,
+                    k.exact,
+                )
+            })
+            .collect()
+    }
+
+    /// [`Self::diagnosis`] as (group, noise over the sd, row) against [`Self::data`] (the
+    /// noise-free rows' own held-out series reads Rosenstein 1.030 and the same D2).
+    pub fn diagnosis_rows(&self) -> Vec<(String, f64, PipelineRow)> {
+        let k = &self.data;
+        self.diagnosis
+            .iter()
+            .map(|r| {
+                let m = Measured { benettin: r.benettin, rosenstein: r.rosenstein, corr_dim: r.corr_dim, js: r.js };
+                let row = PipelineRow::from_values(
+                    &r.candidate,
+                    r.scale,
+                    &m,
+                    r.failed.clone(),
+                    k.rosenstein,
+                    k.corr_dim,
+                    k.corr_dim_err,
+                    k.exact,
+                );
+                (r.group.clone(), r.noise_rel, row)
+            })
+            .collect()
+    }
+}
+
+/// [`SEARCH`]: the inverted flag's candidate search (train traj_9 + traj_7, held out
+/// traj_8) as printed, one string per cell.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SearchResults {
+    pub produced_by: String,
+    pub header: [String; 9],
+    pub rows: Vec<[String; 9]>,
+}
+
+/// The dimension of one model: the Kaplan-Yorke dimension of its Lyapunov spectrum from the
+/// held-out run's first point, and D2 of the five held-out-length pieces of its long run
+/// (the first being the row's D2).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct DimensionRow {
+    pub candidate: String,
+    pub kaplan_yorke: Option<f64>,
+    pub corr_dim_pieces: [Option<f64>; 5],
+}
+
+/// D2 of one run through the held-out run's estimator and settings (`None`: no scaling range).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RunCorrDim {
+    pub run: usize,
+    pub corr_dim: Option<f64>,
+}
+
+/// The held-out run's D2 after centred moving averages of 3 and 5 samples at the full rate,
+/// and with white noise of its own level added again.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SmoothedCorrDim {
+    pub smoothed_3: f64,
+    pub smoothed_5: f64,
+    pub noise_added: f64,
+}
+
+/// The model side of the noise check: over the centre-set rows with both values, the rows,
+/// the mean of D2 with the data's noise added minus D2 without, and the rows where the two
+/// differ by more than 0.2 either way.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct NoisyModelCorrDim {
+    pub rows: usize,
+    pub mean_change: f64,
+    pub changed_over_0_2: usize,
+}
+
+/// [`HELD_OUT`]: candidates fitted on the training runs and measured on the held-out run.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct HeldOutResults {
+    pub produced_by: String,
+    /// The held-out run and the training runs, by name.
+    pub test_run: String,
+    pub train_runs: Vec<String>,
+    /// The held-out run's length at the map step, samples.
+    pub test_len: usize,
+    /// The held-out run's statistics at the map step.
+    pub data: RunStats,
+    /// SSM dimensions 5 and 6 (the known system's rule).
+    pub fit: Vec<ModelRow>,
+    /// With multistep refinement at d = 4, 5, 6.
+    pub multistep: Vec<ModelRow>,
+    /// Centre sets, ridges and sizes at d = 4, 5, 6.
+    pub centres: Vec<ModelRow>,
+    pub dimension: Vec<DimensionRow>,
+    pub corr_dim_runs: Vec<RunCorrDim>,
+    pub corr_dim_smoothed: SmoothedCorrDim,
+    pub model_noisy_corr_dim: NoisyModelCorrDim,
+}
+
+impl HeldOutResults {
+    /// [`Self::centres`] as rows against [`Self::data`].
+    pub fn centre_rows(&self) -> Vec<PipelineRow> {
+        rows_against(&self.centres, &self.data)
+    }
+
+    /// [`Self::fit`] as rows against [`Self::data`].
+    pub fn fit_rows(&self) -> Vec<PipelineRow> {
+        rows_against(&self.fit, &self.data)
+    }
+
+    /// [`Self::multistep`] as rows against [`Self::data`].
+    pub fn multistep_rows(&self) -> Vec<PipelineRow> {
+        rows_against(&self.multistep, &self.data)
+    }
+
+    /// D2 of run `run` ([`Self::corr_dim_runs`]); `None` when it has none or is not listed.
+    pub fn corr_dim_of_run(&self, run: usize) -> Option<f64> {
+        self.corr_dim_runs.iter().find(|r| r.run == run).and_then(|r| r.corr_dim)
+    }
+}
+
+/// One run through the held-out estimator with its own settings (lag and Theiler window
+/// from its own series).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RunOwnStats {
+    pub run: usize,
+    pub lag: usize,
+    pub theiler: usize,
+    pub rosenstein: f64,
+    pub corr_dim: f64,
+    pub corr_dim_err: f64,
+}
+
+impl RunOwnStats {
+    /// The run's statistics.
+    pub fn stats(&self) -> RunStats {
+        RunStats { rosenstein: self.rosenstein, corr_dim: self.corr_dim, corr_dim_err: self.corr_dim_err }
+    }
+}
+
+/// [`EXPERIMENT`]: the flag's runs as perfect models of the held-out run
+/// ([`crate::flag_self::experiment_as_model`]).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ExperimentResults {
+    pub produced_by: String,
+    pub rows: Vec<SelfRow>,
+    /// Every run but one without a scaling range, with its own settings.
+    pub runs_own: Vec<RunOwnStats>,
+}
+
+impl ExperimentResults {
+    /// The own-settings statistics of run `run`.
+    pub fn own(&self, run: usize) -> Option<&RunOwnStats> {
+        self.runs_own.iter().find(|r| r.run == run)
+    }
+}
+
+/// The candidates measured on one validation run (neither training nor test).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ValidationRun {
+    pub run: usize,
+    /// The run's statistics with its own settings.
+    pub data: RunStats,
+    /// The rows of [`HeldOutResults::centres`], in their order.
+    pub rows: Vec<ModelRow>,
+}
+
+impl ValidationRun {
+    /// [`Self::rows`] as rows against [`Self::data`].
+    pub fn pipeline_rows(&self) -> Vec<PipelineRow> {
+        rows_against(&self.rows, &self.data)
+    }
+}
+
+/// The ensemble of the best validation-ranked d = 4 models: how many, and the JS of their
+/// pooled long runs against the held-out run (bits).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct EnsembleResult {
+    pub members: usize,
+    pub js_pooled: f64,
+}
+
+/// [`VALIDATION`]: the pick on validation runs.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ValidationResults {
+    pub produced_by: String,
+    /// The first run picks; the others show how much the pick depends on the run.
+    pub runs: Vec<ValidationRun>,
+    pub ensemble: EnsembleResult,
+}
+
+impl ValidationResults {
+    /// The validation run that picks (the first).
+    pub fn primary(&self) -> Result<&ValidationRun, Error> {
+        self.runs
+            .first()
+            .ok_or_else(|| Error::BadInput { what: "study results", why: format!("{VALIDATION}: `runs` is empty") })
+    }
+
+    /// The validation run `run`.
+    pub fn run(&self, run: usize) -> Result<&ValidationRun, Error> {
+        self.runs.iter().find(|r| r.run == run).ok_or_else(|| Error::BadInput {
+            what: "study results",
+            why: format!("{VALIDATION}: no validation run {run} in `runs`"),
+        })
+    }
+}
+
+/// All the flag study's results.
+#[derive(Clone, Debug, PartialEq)]
+pub struct FlagResults {
+    pub known: KnownSystemResults,
+    pub search: SearchResults,
+    pub held_out: HeldOutResults,
+    pub experiment: ExperimentResults,
+    pub validation: ValidationResults,
+}
+
+impl FlagResults {
+    /// Every file of the study's results from `dir`.
+    pub fn load(dir: &Path) -> Result<Self, Error> {
+        let out = Self {
+            known: read(&dir.join(KNOWN_SYSTEM))?,
+            search: read(&dir.join(SEARCH))?,
+            held_out: read(&dir.join(HELD_OUT))?,
+            experiment: read(&dir.join(EXPERIMENT))?,
+            validation: read(&dir.join(VALIDATION))?,
+        };
+        out.check()
+            .map_err(|why| Error::BadInput { what: "study results", why: format!("{}: {why}", dir.display()) })?;
+        Ok(out)
+    }
+
+    /// The bundled results ([`default_dir`]).
+    pub fn bundled() -> Result<Self, Error> {
+        Self::load(&default_dir())
+    }
+
+    /// The files agree with each other: every validation run measures the centre-set
+    /// candidates in their order.
+    fn check(&self) -> Result<(), String> {
+        for v in &self.validation.runs {
+            let same = v.rows.len() == self.held_out.centres.len()
+                && v.rows.iter().zip(&self.held_out.centres).all(|(a, b)| a.candidate == b.candidate);
+            if !same {
+                return Err(format!(
+                    "{VALIDATION}: run {} does not list the candidates of {HELD_OUT} `centres` in their order",
+                    v.run
+                ));
+            }
+        }
+        Ok(())
+    }
+}
+
+/// One results file: `T` from the JSON at `path`, the error naming the file and the key.
+pub fn read<T: DeserializeOwned>(path: &Path) -> Result<T, Error> {
+    let bad = |why: String| Error::BadInput { what: "study results", why: format!("{}: {why}", path.display()) };
+    let text = std::fs::read_to_string(path).map_err(|e| {
+        bad(format!("{e} (the study's results; `ssmctl study studies/flag.toml` writes them, see studies/README.md)"))
+    })?;
+    let de = &mut serde_json::Deserializer::from_str(&text);
+    serde_path_to_error::deserialize(de).map_err(|e| {
+        let at = e.path().to_string();
+        bad(format!("at `{at}`: {}", e.into_inner()))
+    })
+}
+
+/// `value` as the pretty JSON of a results file (with a final newline).
+pub fn to_json<T: Serialize>(value: &T) -> Result<String, Error> {
+    serde_json::to_string_pretty(value)
+        .map(|s| s + "\n")
+        .map_err(|e| Error::BadInput { what: "study results", why: format!("cannot serialize: {e}") })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn tmp(name: &str, text: &str) -> PathBuf {
+        let dir = std::env::temp_dir().join(format!("furuta-study-results-{}-{name}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let p = dir.join(name);
+        std::fs::write(&p, text).unwrap();
+        p
+    }
+
+    #[test]
+    fn bundled_results_load_and_agree() {
+        let r = FlagResults::bundled().unwrap();
+        assert_eq!(r.validation.primary().unwrap().run, 3);
+        assert_eq!(r.validation.run(0).unwrap().rows.len(), r.held_out.centres.len());
+    }
+
+    #[test]
+    fn errors_name_the_file_and_the_key() {
+        let p = tmp("stats.json", r#"{"rosenstein": 0.3, "corr_dim": "x", "corr_dim_err": 0.1}"#);
+        let e = read::<RunStats>(&p).unwrap_err().to_string();
+        assert!(e.contains("stats.json") && e.contains("corr_dim"), "{e}");
+        let p = tmp("extra.json", r#"{"rosenstein": 0.3, "corr_dim": 1.0, "corr_dim_err": 0.1, "lag": 3}"#);
+        let e = read::<RunStats>(&p).unwrap_err().to_string();
+        assert!(e.contains("extra.json") && e.contains("lag"), "{e}");
+        let e = read::<RunStats>(&p.with_file_name("absent.json")).unwrap_err().to_string();
+        assert!(e.contains("absent.json") && e.contains("ssmctl study"), "{e}");
+    }
+
+    #[test]
+    fn rows_round_trip_bit_for_bit() {
+        let row = ModelRow {
+            candidate: "RBF 200 r=3e-9 d=4 p=9".into(),
+            benettin: Some(0.497),
+            rosenstein: Some(-0.000),
+            corr_dim: None,
+            js: Some(0.0041),
+            failed: None,
+        };
+        let p = tmp("row.json", &to_json(&row).unwrap());
+        assert_eq!(read::<ModelRow>(&p).unwrap(), row);
+    }
+}
