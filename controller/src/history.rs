@@ -50,6 +50,32 @@ impl<S: Copy + Default, const H: usize> Delay<S, H> {
     }
 }
 
+impl<const H: usize> Delay<[i32; crate::MAX_GAINS], H> {
+    /// Push `s`, of which only the first `N` entries are ever read (only those are written),
+    /// and return the samples pushed `r` and `r + 1` pushes before the newest (`r + 2 <= H`,
+    /// the owners' invariant): what [`back_after_push`](Self::back_after_push) gives for `r`
+    /// and `r + 1` before the push.
+    #[inline(always)]
+    pub(crate) fn push_first_and_back<const N: usize>(
+        &mut self,
+        s: &[i32; crate::MAX_GAINS],
+        r: usize,
+    ) -> (&[i32; crate::MAX_GAINS], &[i32; crate::MAX_GAINS]) {
+        const ZERO: [i32; crate::MAX_GAINS] = [0; crate::MAX_GAINS];
+        let head = self.head.wrapping_add(1) % H;
+        if let Some(slot) = self.buf.get_mut(head) {
+            for (d, v) in slot.iter_mut().zip(s).take(N) {
+                *d = *v;
+            }
+        }
+        self.head = head;
+        // head < H and r + 1 < H: neither index expression wraps below zero.
+        let i0 = head.wrapping_add(H).wrapping_sub(r) % H;
+        let i1 = head.wrapping_add(H).wrapping_sub(r.wrapping_add(1)) % H;
+        (self.buf.get(i0).unwrap_or(&ZERO), self.buf.get(i1).unwrap_or(&ZERO))
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::Delay;

@@ -156,14 +156,14 @@ fn to_q16(codes_per_count: f64, source: f64, field: Field) -> Result<i64, Config
 
 /// The `n` counts of `q` as one history sample (the rest zero).
 fn counts(q: &[i32], n: usize) -> Result<[i32; MAX_GAINS], InputError> {
-    let mut s = [0; MAX_GAINS];
-    match (q.len() == n, s.get_mut(..n)) {
-        (true, Some(dst)) => {
-            dst.copy_from_slice(q);
-            Ok(s)
-        }
-        _ => Err(InputError::Measurements { expected: n, found: q.len() }),
+    if q.len() != n {
+        return Err(InputError::Measurements { expected: n, found: q.len() });
     }
+    let mut s = [0; MAX_GAINS];
+    for (d, &v) in s.iter_mut().zip(q) {
+        *d = v;
+    }
+    Ok(s)
 }
 
 impl<const H: usize> IntPd<H> {
@@ -291,22 +291,32 @@ impl<const H: usize> IntPd<H> {
         Ok(self.step_counts(&new))
     }
 
-    /// [`step`](Self::step) on a whole sample (entries past the gain vector's length are
-    /// ignored).
+    /// [`step`](Self::step) on a whole sample of [`MAX_GAINS`] slots, of which the first
+    /// [`coordinates`](Self::coordinates) are the counts (the others are padding, never read):
+    /// what a device calls once it has checked the number of counts it received.
     pub fn step_counts(&mut self, new: &[i32; MAX_GAINS]) -> IntOutput {
-        let c0 = *self.hist.back_after_push(new, self.delay);
-        let c1 = *self.hist.back_after_push(new, self.delay.saturating_add(1));
-        self.hist.push(*new);
-        self.sum = self.sum.saturating_add(i64::from(c0[0]));
+        // One straight-line step per number of coordinates (n is fixed for a controller).
+        match self.n {
+            1 => self.step_n::<1>(new),
+            2 => self.step_n::<2>(new),
+            3 => self.step_n::<3>(new),
+            _ => self.step_n::<4>(new),
+        }
+    }
+
+    #[inline(always)]
+    fn step_n<const N: usize>(&mut self, new: &[i32; MAX_GAINS]) -> IntOutput {
+        let (c0, c1) = self.hist.push_first_and_back::<N>(new, self.delay);
         // Per coordinate `-(P + D) c0 + D c1`: two 32 x 32 -> 64-bit products (one SMLAL
         // each on the M4). Every factor is below 2^31 (counts) and the gains' magnitudes sum
         // to at most GAIN_SUM_MAX_Q < 2^32, so every partial sum is below 2^63: exact, no
         // wrap, no saturation needed.
         let m = |a: i32, b: i32| i64::from(a) * i64::from(b);
         let mut pd: i64 = 0;
-        for ((&[gpd, gd], &a), &b) in self.g32.iter().zip(&c0).zip(&c1).take(self.n) {
+        for ((&[gpd, gd], &a), &b) in self.g32.iter().zip(c0).zip(c1).take(N) {
             pd += m(gpd, a) + m(gd, b);
         }
+        self.sum = self.sum.saturating_add(i64::from(c0[0]));
         let g = self.gains;
         // The integral product is exact below |S| < 2^33 (then < 2^62); beyond, saturate.
         let integral = if g.i == 0 {
