@@ -329,7 +329,15 @@ impl<const H: usize> IntPd<H> {
         let acc = pd.saturating_sub(integral);
         // Arithmetic shift: floor division by 2^16.
         let raw = acc >> GAIN_FRAC_BITS;
-        let code = raw.clamp(self.code_max.saturating_neg(), self.code_max);
+        // The clamp to [-C, C] (C >= 1 by try_new), without clamp's own check of its bounds.
+        let c = self.code_max;
+        let code = if raw > c {
+            c
+        } else if raw < -c {
+            -c
+        } else {
+            raw
+        };
         IntOutput {
             // |code| <= code_max <= i32::MAX.
             code: i32::try_from(code).unwrap_or(0),
