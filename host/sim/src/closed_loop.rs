@@ -41,7 +41,9 @@ pub enum SimError {
     Io { path: String, source: std::io::Error },
 }
 
-/// Integer-path values of one sample: encoder counts in, DAC code out.
+/// Integer-path values of one sample: encoder counts in, DAC code out. `q_theta` and
+/// `q_phi` are the counts of the first and second measured coordinates (0 when the
+/// controller measures only one).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
 pub struct Codes {
     pub q_theta: i32,
@@ -177,7 +179,7 @@ pub fn simulate(scene: &Scene, progress: Option<&dyn Fn(u64)>) -> Result<Traject
 /// The law the scene's effects select.
 enum Law {
     Float(FloatPd<f64, HISTORY>),
-    Counts { pd: IntPd<HISTORY>, h_y: f64, h_z: f64 },
+    Counts { pd: IntPd<HISTORY>, h: Vec<f64> },
     Literal(LiteralPd<HISTORY>),
 }
 
@@ -187,13 +189,41 @@ impl Law {
         Ok(match cfg.quant {
             None => Law::Float(FloatPd::try_new(cfg).map_err(err)?),
             Some(q) => match q.mode {
-                QuantMode::Counts => {
-                    Law::Counts { pd: IntPd::try_new(cfg).map_err(err)?, h_y: q.h_adc, h_z: q.h_adc_phi }
-                }
+                QuantMode::Counts => Law::Counts {
+                    pd: IntPd::try_new(cfg).map_err(err)?,
+                    h: cfg.gains.iter().map(|g| g.h_adc).collect(),
+                },
                 QuantMode::Literal => Law::Literal(LiteralPd::try_new(cfg).map_err(err)?),
             },
         })
     }
+}
+
+/// Names a measured coordinate in messages: the shorthand's two angles as before.
+fn coordinate_name(i: usize) -> String {
+    match i {
+        0 => "primary angle".into(),
+        1 => "secondary angle".into(),
+        _ => format!("measured coordinate {i}"),
+    }
+}
+
+/// The state indices the controller measures, each checked against the plant's `n` states.
+pub fn measured_indices(cfg: &ControllerConfig, n: usize, scene: &str) -> Result<Vec<usize>, SimError> {
+    cfg.gains
+        .iter()
+        .map(|g| {
+            let i = usize::from(g.index);
+            if i < n {
+                Ok(i)
+            } else {
+                Err(SimError::Controller {
+                    scene: scene.into(),
+                    message: format!("a gain measures state index {i}, the plant has {n} states"),
+                })
+            }
+        })
+        .collect()
 }
 
 /// Runs the closed loop on a given plant.
@@ -218,9 +248,12 @@ pub fn simulate_with<P: Plant<N>, const N: usize>(
         }
         x.copy_from_slice(&scene.initial.state);
     }
-    let history: Vec<(f64, f64)> = match &scene.initial.history {
-        Some(h) => h.iter().map(|p| (p[0], p[1])).collect(),
-        None => vec![(x[P::PRIMARY], x[P::SECONDARY]); cfg.delay as usize + 1],
+    let idx = measured_indices(&cfg, N, name)?;
+    let m = idx.len();
+    // Flattened pre-history, oldest sample first, one value per measured coordinate.
+    let history: Vec<f64> = match &scene.initial.history {
+        Some(h) => h.iter().flat_map(|p| p.iter().copied().take(m)).collect(),
+        None => (0..=cfg.delay as usize).flat_map(|_| idx.iter().map(|&i| x[i])).collect(),
     };
     let mut law = Law::new(&cfg, name)?;
     let sensor_err = |t: f64, e: String| SimError::Sensor { scene: name.into(), t, message: e };
@@ -231,12 +264,13 @@ pub fn simulate_with<P: Plant<N>, const N: usize>(
     match &mut law {
         Law::Float(pd) => pd.prime(&history).map_err(prime_err)?,
         Law::Literal(pd) => pd.prime(&history).map_err(prime_err)?,
-        Law::Counts { pd, h_y, h_z } => {
+        Law::Counts { pd, h } => {
             let mut q = Vec::with_capacity(history.len());
-            for &(y, z) in &history {
-                let qy = adc(y, *h_y).map_err(|e| sensor_err(0.0, format!("pre-history primary angle {y}: {e}")))?;
-                let qz = adc(z, *h_z).map_err(|e| sensor_err(0.0, format!("pre-history secondary angle {z}: {e}")))?;
-                q.push((qy, qz));
+            for (k, &v) in history.iter().enumerate() {
+                let j = k % m;
+                let c = adc(v, h[j])
+                    .map_err(|e| sensor_err(0.0, format!("pre-history {} {v}: {e}", coordinate_name(j))))?;
+                q.push(c);
             }
             pd.prime(&q).map_err(prime_err)?;
         }
@@ -244,11 +278,19 @@ pub fn simulate_with<P: Plant<N>, const N: usize>(
     // Only a scene that names noise gets a generator: a noiseless run draws no random numbers.
     let mut noise = match &scene.effects.noise {
         Some(n) => {
+            if m > 2 {
+                return Err(SimError::Controller {
+                    scene: name.into(),
+                    message: format!(
+                        "effects.noise gives sigma_theta and sigma_phi (two measured coordinates), the controller measures {m}"
+                    ),
+                });
+            }
             let normal = |sigma: f64| {
                 Normal::new(0.0, sigma)
                     .map_err(|e| SimError::Controller { scene: name.into(), message: format!("noise: {e}") })
             };
-            Some((ChaCha8Rng::seed_from_u64(n.seed), normal(n.sigma_theta)?, normal(n.sigma_phi)?))
+            Some((ChaCha8Rng::seed_from_u64(n.seed), [normal(n.sigma_theta)?, normal(n.sigma_phi)?]))
         }
         None => None,
     };
@@ -273,26 +315,34 @@ pub fn simulate_with<P: Plant<N>, const N: usize>(
     let escape = scene.run.escape_theta;
     for i in 0..=periods {
         let t = i as f64 * dt;
-        let (mut y, mut z) = (x[P::PRIMARY], x[P::SECONDARY]);
-        if let Some((rng, ny, nz)) = &mut noise {
-            y += ny.sample(rng);
-            z += nz.sample(rng);
+        // The measured coordinates, noise added in gain order.
+        let mut y = [0.0; controller::MAX_GAINS];
+        for (v, &i) in y.iter_mut().zip(&idx) {
+            *v = x[i];
         }
+        if let Some((rng, normal)) = &mut noise {
+            for (v, nd) in y.iter_mut().zip(normal.iter()).take(m) {
+                *v += nd.sample(rng);
+            }
+        }
+        let y = &y[..m];
         let (u, saturated) = match &mut law {
             Law::Float(pd) => {
-                let o = pd.step(y, z).map_err(|e| sensor_err(t, e.to_string()))?;
+                let o = pd.step(y).map_err(|e| sensor_err(t, e.to_string()))?;
                 (o.u, o.saturated)
             }
             Law::Literal(pd) => {
-                let o = pd.step(y, z).map_err(|e| sensor_err(t, e.to_string()))?;
+                let o = pd.step(y).map_err(|e| sensor_err(t, e.to_string()))?;
                 (o.u, o.saturated)
             }
-            Law::Counts { pd, h_y, h_z } => {
-                let qy = adc(y, *h_y).map_err(|e| sensor_err(t, format!("primary angle {y}: {e}")))?;
-                let qz = adc(z, *h_z).map_err(|e| sensor_err(t, format!("secondary angle {z}: {e}")))?;
-                let o = pd.step(qy, qz);
+            Law::Counts { pd, h } => {
+                let mut q = [0i32; controller::MAX_GAINS];
+                for (j, (c, (&v, &hj))) in q.iter_mut().zip(y.iter().zip(h.iter())).enumerate() {
+                    *c = adc(v, hj).map_err(|e| sensor_err(t, format!("{} {v}: {e}", coordinate_name(j))))?;
+                }
+                let o = pd.step(&q[..m]).map_err(|e| sensor_err(t, e.to_string()))?;
                 if let Some(c) = &mut traj.codes {
-                    c.push(Codes { q_theta: qy, q_phi: qz, code: o.code });
+                    c.push(Codes { q_theta: q[0], q_phi: q[1], code: o.code });
                 }
                 (pd.volts(o.code), o.saturated)
             }

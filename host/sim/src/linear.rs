@@ -71,6 +71,11 @@ pub enum LinearError {
     BadDt(f64),
     #[error("controller gain {name} = {value} is not finite")]
     BadGain { name: &'static str, value: f64 },
+    #[error(
+        "controller gains {0}: the linear analysis takes the shorthand law (kp, kd on the primary angle, \
+         kphi_d on the secondary one)"
+    )]
+    NotShorthand(String),
     #[error("delay r = {0} samples exceeds the supported maximum {MAX_DELAY}")]
     DelayTooLarge(u32),
     #[error("controller dt = {config} s differs from the discretization dt = {zoh} s")]
@@ -307,8 +312,15 @@ impl AugmentedLayout {
     }
 }
 
-fn check_gains(cfg: &ControllerConfig) -> Result<(), LinearError> {
-    for (name, value) in [("kp", cfg.kp), ("kd", cfg.kd), ("kphi_d", cfg.kphi_d), ("ki", cfg.ki)] {
+/// `(kp, kd, kphi_d)` of a configuration with the shorthand gains (read on the plant's
+/// primary and secondary coordinates).
+pub fn shorthand_gains(cfg: &ControllerConfig) -> Result<(f64, f64, f64), LinearError> {
+    cfg.as_shorthand().ok_or_else(|| LinearError::NotShorthand(format!("{:?}", cfg.gains)))
+}
+
+fn check_gains(cfg: &ControllerConfig) -> Result<(f64, f64, f64), LinearError> {
+    let (kp, kd, kphi_d) = shorthand_gains(cfg)?;
+    for (name, value) in [("kp", kp), ("kd", kd), ("kphi_d", kphi_d), ("ki", cfg.ki)] {
         if !value.is_finite() {
             return Err(LinearError::BadGain { name, value });
         }
@@ -319,14 +331,14 @@ fn check_gains(cfg: &ControllerConfig) -> Result<(), LinearError> {
     if cfg.delay > MAX_DELAY {
         return Err(LinearError::DelayTooLarge(cfg.delay));
     }
-    Ok(())
+    Ok((kp, kd, kphi_d))
 }
 
 impl Zoh {
     /// The closed-loop one-period map of the delayed law of `cfg` (`cfg.dt` must equal
     /// the discretization period).
     pub fn closed_loop(&self, cfg: &ControllerConfig) -> Result<ClosedLoopMap, LinearError> {
-        check_gains(cfg)?;
+        let (kp, kd, kphi_d) = check_gains(cfg)?;
         if cfg.dt != self.dt {
             return Err(LinearError::DtMismatch { config: cfg.dt, zoh: self.dt });
         }
@@ -339,10 +351,10 @@ impl Zoh {
         let z_at = |d: usize| if d == 0 { self.secondary } else { lay.z_start + d - 1 };
         // The law as a row: u_i = g . state_i.
         let mut g = DVector::<f64>::zeros(lay.dim);
-        g[y_at(r)] += -(cfg.kp + cfg.kd / dt);
-        g[y_at(r + 1)] += cfg.kd / dt;
-        g[z_at(r)] += cfg.kphi_d / dt;
-        g[z_at(r + 1)] -= cfg.kphi_d / dt;
+        g[y_at(r)] += -(kp + kd / dt);
+        g[y_at(r + 1)] += kd / dt;
+        g[z_at(r)] += kphi_d / dt;
+        g[z_at(r + 1)] -= kphi_d / dt;
         if let Some(s) = lay.integral {
             g[y_at(r)] -= cfg.ki * dt;
             g[s] -= cfg.ki;
@@ -365,9 +377,9 @@ impl Zoh {
         // to name the one responsible when the map is too large to be trusted.
         let gn = self.gamma.norm();
         let gains = vec![
-            ("kp", cfg.kp, cfg.kp.abs() * gn),
-            ("kd", cfg.kd, (cfg.kd / dt).abs() * 2.0 * gn),
-            ("kphi_d", cfg.kphi_d, (cfg.kphi_d / dt).abs() * 2.0 * gn),
+            ("kp", kp, kp.abs() * gn),
+            ("kd", kd, (kd / dt).abs() * 2.0 * gn),
+            ("kphi_d", kphi_d, (kphi_d / dt).abs() * 2.0 * gn),
             ("ki", cfg.ki, (cfg.ki.abs() * dt + cfg.ki.abs()) * gn),
         ];
         Ok(ClosedLoopMap {

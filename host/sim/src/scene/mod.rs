@@ -15,7 +15,7 @@ mod bundled;
 pub use bundled::{BUNDLED, bundled_names};
 
 use serde::{Deserialize, Serialize};
-use shared::{ControllerConfig, QuantMode, Quantization};
+use shared::{ControllerConfig, Gains, QuantMode, Quantization};
 use std::path::Path;
 
 /// A fully parsed and validated scene.
@@ -522,17 +522,19 @@ impl Scene {
         use controller::Field;
         let q = self.effects.quantization.as_ref();
         match e.field() {
-            Some(Field::Kp) => "controller.kp",
-            Some(Field::Kd) => "controller.kd",
-            Some(Field::KphiD) => "controller.kphi_d",
+            // The shorthand gains: theta (kp, kd) first, phi (d = -kphi_d) second.
+            Some(Field::P(0)) => "controller.kp",
+            Some(Field::D(0)) => "controller.kd",
+            Some(Field::D(1)) => "controller.kphi_d",
+            Some(Field::P(_) | Field::D(_)) => "controller",
             Some(Field::Ki) => "effects.integral.ki",
             Some(Field::Dt) => "controller.dt_ms",
             Some(Field::UMax) => "effects.saturation.u_max",
-            Some(Field::HAdc) => "effects.quantization.h_adc",
+            Some(Field::HAdc(0)) => "effects.quantization.h_adc",
             // Defaults come from h_adc: name the key the value came from.
-            Some(Field::HAdcPhi) if q.is_some_and(|q| q.h_adc_phi.is_some()) => "effects.quantization.h_adc_phi",
+            Some(Field::HAdc(_)) if q.is_some_and(|q| q.h_adc_phi.is_some()) => "effects.quantization.h_adc_phi",
             Some(Field::HDac) if q.is_some_and(|q| q.h_dac.is_some()) => "effects.quantization.h_dac",
-            Some(Field::HAdcPhi | Field::HDac) => "effects.quantization.h_adc",
+            Some(Field::HAdc(_) | Field::HDac) => "effects.quantization.h_adc",
             None => match e {
                 controller::ConfigError::DelayTooLong { .. } => "controller.delay",
                 _ => "effects.quantization",
@@ -553,21 +555,20 @@ impl Scene {
     /// The controller configuration this scene runs (what a device would be flashed with).
     pub fn controller_config(&self) -> ControllerConfig {
         let c = &self.controller;
+        let q = self.effects.quantization.as_ref();
+        // Resolutions only with quantization (exact control reads no encoder).
+        let (h_adc, h_adc_phi) = q.map_or((0.0, 0.0), |q| (q.h_adc, q.h_adc_phi.unwrap_or(q.h_adc)));
         ControllerConfig {
-            kp: c.kp,
-            kd: c.kd,
-            kphi_d: c.kphi_d,
+            gains: Gains::shorthand(c.kp, c.kd, c.kphi_d, h_adc, h_adc_phi),
             ki: self.effects.integral.as_ref().map_or(0.0, |i| i.ki),
             dt: self.dt(),
             delay: c.delay,
             u_max: self.effects.saturation.as_ref().map(|s| s.u_max),
-            quant: self.effects.quantization.as_ref().map(|q| Quantization {
+            quant: q.map(|q| Quantization {
                 mode: match q.mode {
                     QuantModeSpec::Counts => QuantMode::Counts,
                     QuantModeSpec::Literal => QuantMode::Literal,
                 },
-                h_adc: q.h_adc,
-                h_adc_phi: q.h_adc_phi.unwrap_or(q.h_adc),
                 h_dac: q.h_dac.unwrap_or(q.h_adc),
             }),
         }

@@ -322,6 +322,8 @@ impl Deflated {
     }
     /// The law `u = g . s`.
     fn law(&self, cfg: &ControllerConfig, primary: usize) -> Vec<f64> {
+        // period_map checked the shorthand layout before building the layout.
+        let (kp, kd, kphi_d) = cfg.as_shorthand().unwrap_or((0.0, 0.0, 0.0));
         let r = self.delay;
         let dt = cfg.dt;
         let mut g = vec![0.0; self.dim];
@@ -329,16 +331,16 @@ impl Deflated {
         // z_{i-d} - x_i[secondary]: zero for d = 0.
         let w_at = |d: usize| if d == 0 { None } else { Some(self.w_start + d - 1) };
         if let Some(k) = y_at(r) {
-            g[k] += -(cfg.kp + cfg.kd / dt);
+            g[k] += -(kp + kd / dt);
         }
         if let Some(k) = y_at(r + 1) {
-            g[k] += cfg.kd / dt;
+            g[k] += kd / dt;
         }
         if let Some(k) = w_at(r) {
-            g[k] += cfg.kphi_d / dt;
+            g[k] += kphi_d / dt;
         }
         if let Some(k) = w_at(r + 1) {
-            g[k] -= cfg.kphi_d / dt;
+            g[k] -= kphi_d / dt;
         }
         g
     }
@@ -355,7 +357,8 @@ pub fn period_map<P: Plant<N>, const N: usize>(
     if cfg.ki != 0.0 {
         return Err(TaylorError::Integral(cfg.ki));
     }
-    for (name, value) in [("kp", cfg.kp), ("kd", cfg.kd), ("kphi_d", cfg.kphi_d)] {
+    let (kp, kd, kphi_d) = crate::linear::shorthand_gains(cfg).map_err(TaylorError::Linear)?;
+    for (name, value) in [("kp", kp), ("kd", kd), ("kphi_d", kphi_d)] {
         if !value.is_finite() {
             return Err(TaylorError::Linear(LinearError::BadGain { name, value }));
         }
