@@ -7,7 +7,8 @@
 //! controller configuration. Must not implement control law arithmetic itself.
 
 use crate::ode::{Integrator, Method, OdeError, OdeStats};
-use crate::plant::{Cart, CartParams, Furuta, FurutaParams, Plant, PlantError};
+use crate::plant::equations::MAX_COORDINATES;
+use crate::plant::{Cart, CartParams, EquationsPlant, Furuta, FurutaParams, Plant, PlantError};
 use crate::scene::{MethodKind, PlantKind, Scene, SceneError};
 use controller::{FloatPd, IntPd, LiteralPd, adc};
 use rand::SeedableRng;
@@ -16,6 +17,7 @@ use rand_distr::{Distribution, Normal};
 use serde::Serialize;
 use shared::{ControllerConfig, QuantMode};
 use std::io::Write;
+use std::sync::Arc;
 use std::time::Instant;
 
 /// History capacity of the controllers the simulator instantiates (delay r <= 6): the
@@ -151,10 +153,33 @@ fn params<T: serde::de::DeserializeOwned>(scene: &Scene) -> Result<T, SimError> 
     })
 }
 
-/// A plant built from a scene, one variant per kind.
+/// A plant built from a scene, one variant per kind (an equations plant per coordinate
+/// count: its state count is a type parameter). [`with_plant!`](crate::with_plant) runs
+/// code generic over [`Plant`] on any of them.
+#[derive(Debug)]
 pub enum AnyPlant {
     Furuta(Furuta),
     Cart(Cart),
+    Equations1(EquationsPlant<2>),
+    Equations2(EquationsPlant<4>),
+    Equations3(EquationsPlant<6>),
+    Equations4(EquationsPlant<8>),
+}
+
+/// `with_plant!(plant, p => body)`: evaluates `body` with `p` bound to the concrete plant
+/// inside an [`AnyPlant`] (by value or by reference, as `plant` is given).
+#[macro_export]
+macro_rules! with_plant {
+    ($plant:expr, $p:ident => $body:expr) => {
+        match $plant {
+            $crate::closed_loop::AnyPlant::Furuta($p) => $body,
+            $crate::closed_loop::AnyPlant::Cart($p) => $body,
+            $crate::closed_loop::AnyPlant::Equations1($p) => $body,
+            $crate::closed_loop::AnyPlant::Equations2($p) => $body,
+            $crate::closed_loop::AnyPlant::Equations3($p) => $body,
+            $crate::closed_loop::AnyPlant::Equations4($p) => $body,
+        }
+    };
 }
 
 /// Builds the plant a scene names, validating its parameters.
@@ -163,15 +188,36 @@ pub fn build_plant(scene: &Scene) -> Result<AnyPlant, SimError> {
     Ok(match scene.plant.kind {
         PlantKind::Furuta => AnyPlant::Furuta(Furuta::new(params::<FurutaParams>(scene)?).map_err(plant_err)?),
         PlantKind::Cart => AnyPlant::Cart(Cart::new(params::<CartParams>(scene)?).map_err(plant_err)?),
+        PlantKind::Equations => {
+            let Some(model) = scene.plant.equations_model(&scene.name)? else {
+                return Err(SimError::Scene(SceneError::Key {
+                    scene: scene.name.clone(),
+                    path: "plant.kind".into(),
+                    message: "an equations plant without equations".into(),
+                }));
+            };
+            let model = Arc::new(model);
+            let n = model.coordinates();
+            let plant = match n {
+                1 => EquationsPlant::new(model).map(AnyPlant::Equations1),
+                2 => EquationsPlant::new(model).map(AnyPlant::Equations2),
+                3 => EquationsPlant::new(model).map(AnyPlant::Equations3),
+                _ => EquationsPlant::new(model).map(AnyPlant::Equations4),
+            };
+            plant.ok_or_else(|| {
+                SimError::Scene(SceneError::Key {
+                    scene: scene.name.clone(),
+                    path: "plant.coordinates".into(),
+                    message: format!("{n} coordinates: at most {MAX_COORDINATES} are supported"),
+                })
+            })?
+        }
     })
 }
 
 /// Runs a scene's closed-loop simulation.
 pub fn simulate(scene: &Scene, progress: Option<&dyn Fn(u64)>) -> Result<Trajectory, SimError> {
-    match build_plant(scene)? {
-        AnyPlant::Furuta(p) => simulate_with(&p, scene, progress),
-        AnyPlant::Cart(p) => simulate_with(&p, scene, progress),
-    }
+    crate::with_plant!(build_plant(scene)?, p => simulate_with(&p, scene, progress))
 }
 
 /// The law the scene's effects select.

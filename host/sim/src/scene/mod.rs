@@ -14,6 +14,7 @@ mod bundled;
 
 pub use bundled::{BUNDLED, bundled_names};
 
+use crate::plant::equations::{EquationsModel, EquationsSpec, Form};
 use serde::{Deserialize, Serialize};
 use shared::{ControllerConfig, QuantMode, Quantization};
 use std::path::Path;
@@ -47,6 +48,134 @@ pub struct PlantSpec {
     /// built (unknown names are errors there, with the path `plant.params.NAME`).
     #[serde(default)]
     pub params: toml::Table,
+    /// `kind = "equations"`: the generalized coordinates (velocities are `<name>_dot`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub coordinates: Option<Vec<String>>,
+    /// `kind = "equations"`: named constants the expressions use.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub parameters: Option<toml::Table>,
+    /// `kind = "equations"`: the mass matrix `M(q)`, one row of expressions per coordinate.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub mass: Option<Vec<Vec<String>>>,
+    /// `kind = "equations"`: the forces `f(q, q', u)` of `M(q) q'' = f`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub forces: Option<Vec<String>>,
+    /// `kind = "equations"`: a Lagrangian `L(q, q')` instead of `mass` and `forces`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub lagrangian: Option<String>,
+    /// `kind = "equations"`: the generalized forces `Q(q, q', u)` beside the Lagrangian.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub generalized_forces: Option<Vec<String>>,
+    /// `kind = "equations"`: the equilibrium to stabilize (coordinates); default the origin.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub equilibrium: Option<Vec<f64>>,
+}
+
+impl PlantSpec {
+    /// The equations of a `kind = "equations"` plant (keys checked for presence and
+    /// consistency; the expressions are checked by [`EquationsModel::new`]). `None` for a
+    /// built-in plant, which must not carry the equation keys.
+    pub fn equations(&self, scene: &str) -> Result<Option<EquationsSpec>, SceneError> {
+        let given: Vec<&str> = [
+            ("coordinates", self.coordinates.is_some()),
+            ("parameters", self.parameters.is_some()),
+            ("mass", self.mass.is_some()),
+            ("forces", self.forces.is_some()),
+            ("lagrangian", self.lagrangian.is_some()),
+            ("generalized_forces", self.generalized_forces.is_some()),
+            ("equilibrium", self.equilibrium.is_some()),
+        ]
+        .into_iter()
+        .filter(|(_, g)| *g)
+        .map(|(k, _)| k)
+        .collect();
+        if self.kind != PlantKind::Equations {
+            return match given.first() {
+                Some(k) => Err(SceneError::key(
+                    scene,
+                    format!("plant.{k}"),
+                    "only a plant of kind = \"equations\" takes equations (built-in plants take `params`)",
+                )),
+                None => Ok(None),
+            };
+        }
+        if let Some(k) = self.params.keys().next() {
+            return Err(SceneError::key(
+                scene,
+                format!("plant.params.{k}"),
+                "an equations plant takes its constants in `plant.parameters`",
+            ));
+        }
+        let Some(coordinates) = self.coordinates.clone() else {
+            return Err(SceneError::key(
+                scene,
+                "plant.coordinates",
+                "missing: an equations plant names its coordinates",
+            ));
+        };
+        let mut parameters = Vec::new();
+        for (name, v) in self.parameters.iter().flatten() {
+            let x = match v {
+                toml::Value::Float(x) => *x,
+                toml::Value::Integer(i) => *i as f64,
+                other => {
+                    return Err(SceneError::key(
+                        scene,
+                        format!("plant.parameters.{name}"),
+                        format!("must be a number, got a {}", other.type_str()),
+                    ));
+                }
+            };
+            parameters.push((name.clone(), x));
+        }
+        let mass_form = self.mass.is_some() || self.forces.is_some();
+        let lagrange_form = self.lagrangian.is_some() || self.generalized_forces.is_some();
+        let form = match (mass_form, lagrange_form) {
+            (true, true) => {
+                return Err(SceneError::key(
+                    scene,
+                    "plant.lagrangian",
+                    "give either `mass` and `forces` or `lagrangian` and `generalized_forces`, not both",
+                ));
+            }
+            (false, false) => {
+                return Err(SceneError::key(
+                    scene,
+                    "plant.mass",
+                    "missing: give `mass` and `forces`, or `lagrangian` and `generalized_forces`",
+                ));
+            }
+            (true, false) => match (&self.mass, &self.forces) {
+                (Some(mass), Some(forces)) => Form::Mass { mass: mass.clone(), forces: forces.clone() },
+                (None, _) => {
+                    return Err(SceneError::key(scene, "plant.mass", "missing: `forces` needs the mass matrix"));
+                }
+                (_, None) => return Err(SceneError::key(scene, "plant.forces", "missing: `mass` needs the forces")),
+            },
+            (false, true) => match (&self.lagrangian, &self.generalized_forces) {
+                (Some(l), Some(q)) => Form::Lagrangian { lagrangian: l.clone(), generalized_forces: q.clone() },
+                (None, _) => {
+                    return Err(SceneError::key(scene, "plant.lagrangian", "missing: `generalized_forces` needs it"));
+                }
+                (_, None) => {
+                    return Err(SceneError::key(
+                        scene,
+                        "plant.generalized_forces",
+                        "missing: a Lagrangian needs its generalized forces (one per coordinate; \"0\" where none)",
+                    ));
+                }
+            },
+        };
+        Ok(Some(EquationsSpec { coordinates, parameters, form, equilibrium: self.equilibrium.clone() }))
+    }
+
+    /// The compiled, checked equations of a `kind = "equations"` plant.
+    pub fn equations_model(&self, scene: &str) -> Result<Option<EquationsModel>, SceneError> {
+        match self.equations(scene)? {
+            None => Ok(None),
+            Some(spec) => EquationsModel::new(&spec).map(Some).map_err(|e| SceneError::key(scene, e.key, e.message)),
+        }
+    }
 }
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
@@ -56,6 +185,9 @@ pub enum PlantKind {
     Furuta,
     /// A planar inverted pendulum on a motor-driven cart.
     Cart,
+    /// A plant written as equations in the scene (`coordinates`, `parameters`, `mass` and
+    /// `forces` or `lagrangian` and `generalized_forces`).
+    Equations,
 }
 
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -412,12 +544,18 @@ impl Scene {
         }
         let scene: Scene = serde_path_to_error::deserialize(toml::Value::Table(table))
             .map_err(|e| SceneError::key(label, e.path().to_string(), e.inner().to_string()))?;
-        scene.validate()?;
+        scene.validate_as(label)?;
         Ok(scene)
     }
 
     /// Checks values the types cannot: finiteness, signs, lengths.
     pub fn validate(&self) -> Result<(), SceneError> {
+        self.validate_as(&self.name)
+    }
+
+    /// [`Scene::validate`], with the plant's equations reported under `label` (the scene
+    /// file's path when loaded from a file).
+    fn validate_as(&self, label: &str) -> Result<(), SceneError> {
         let s = self.name.as_str();
         let finite = |path: &str, v: f64| {
             if v.is_finite() { Ok(()) } else { Err(SceneError::key(s, path, format!("must be finite, got {v}"))) }
@@ -430,6 +568,7 @@ impl Scene {
             }
         };
         check_name(&self.name)?;
+        self.plant.equations_model(label)?;
         let c = &self.controller;
         if let Some(q) = &self.effects.quantization {
             if q.mode == QuantModeSpec::Literal && q.h_dac.is_some() {
