@@ -458,8 +458,13 @@ impl Graph {
                 Node::Mul(a, b) => g(a) * g(b),
                 Node::Div(a, b) => g(a) / g(b),
                 Node::Neg(a) => -g(a),
-                Node::PowI(a, m) => g(a).powi(m),
-                Node::PowC(a, b) => g(a).powf(f64::from_bits(b)),
+                // The tape's own power functions, so that both evaluations agree bit for bit.
+                Node::PowI(a, m) => tape::powi(g(a), m),
+                Node::PowC(a, b) => {
+                    let mut c = [0.0];
+                    tape::power_coefficients(g(a), f64::from_bits(b), &mut c);
+                    c[0]
+                }
                 Node::Fn1(f, a) => f.eval(g(a)),
                 Node::Atan2(y, x) => g(y).atan2(g(x)),
                 Node::Sel(a, b, t, f) => {

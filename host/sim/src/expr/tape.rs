@@ -257,7 +257,7 @@ fn with2<S: Scalar>(regs: &[S], a: u16, b: u16, f: impl FnOnce(&S, &S) -> S) -> 
 }
 
 /// `x^m` by binary powering (`x*x` for `m = 2`); a negative power is `1 / x^|m|`.
-fn powi<S: Scalar>(x: S, m: i32) -> S {
+pub(super) fn powi<S: Scalar>(x: S, m: i32) -> S {
     let mut e = m.unsigned_abs();
     let mut base = x;
     let mut acc: Option<S> = None;
@@ -278,7 +278,7 @@ fn powi<S: Scalar>(x: S, m: i32) -> S {
 }
 
 /// Taylor coefficients of `x^p` at `x0`: `c_k = c_{k-1} (p - k + 1) / (k x0)`.
-fn power_coefficients(x0: f64, p: f64, out: &mut [f64]) {
+pub(super) fn power_coefficients(x0: f64, p: f64, out: &mut [f64]) {
     let mut c = if p == 0.5 { x0.sqrt() } else { x0.powf(p) };
     for (k, o) in out.iter_mut().enumerate() {
         if k > 0 {
@@ -369,10 +369,15 @@ fn fn1<S: Scalar>(f: F1, x: S) -> S {
 
 /// `atan2(y, x) = atan2(y0, x0) + atan(s)`, `s = (x0 y - y0 x) / (x0 x + y0 y)`, whose value
 /// is exactly 0 (so `f64` gets `atan2(y0, x0)` itself).
+/// Where `s` is undefined (at the origin, or with an infinite argument) atan2 is not
+/// differentiable: the value alone, `atan2(y0, x0)`.
 fn atan2<S: Scalar>(y: S, x: S) -> S {
     let (y0, x0) = (y.re(), x.re());
     let base = y0.atan2(x0);
     let s = (y * x0 - x * y0) / (x * x0 + y * y0);
+    if !s.re().is_finite() {
+        return S::cst(base);
+    }
     s.apply(atan_coefficients) + base
 }
 

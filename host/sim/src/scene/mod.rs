@@ -215,7 +215,8 @@ fn one() -> u32 {
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct InitialSpec {
-    /// Plant state at t = 0 (its length must match the plant); default: all zero.
+    /// Plant state at t = 0 (its length must match the plant); default: all zero. A scene
+    /// file may give it by name, `state = { theta = 0.05 }` (unnamed entries 0).
     #[serde(default)]
     pub state: Vec<f64>,
     /// The r + 1 samples (primary, secondary) before t = 0, oldest first; default: the plant
@@ -542,6 +543,7 @@ impl Scene {
         for o in overrides {
             apply_override(label, &mut table, o)?;
         }
+        resolve_named_state(label, &mut table)?;
         let scene: Scene = serde_path_to_error::deserialize(toml::Value::Table(table))
             .map_err(|e| SceneError::key(label, e.path().to_string(), e.inner().to_string()))?;
         scene.validate_as(label)?;
@@ -774,6 +776,53 @@ pub fn check_name(name: &str) -> Result<(), SceneError> {
             ),
         )),
     }
+}
+
+/// `[initial] state = { theta = 0.05 }`: a state given by name becomes the array of the
+/// plant's state order (unnamed entries 0), so that no ordering needs to be remembered.
+/// Names are the plant's state names: for an equations plant each coordinate and its
+/// `<coord>_dot`; for the built-in plants their CSV columns.
+fn resolve_named_state(label: &str, table: &mut toml::Table) -> Result<(), SceneError> {
+    let Some(toml::Value::Table(named)) = table.get("initial").and_then(|i| i.get("state")).cloned() else {
+        return Ok(());
+    };
+    let plant = table.get("plant");
+    let kind = plant.and_then(|p| p.get("kind")).and_then(toml::Value::as_str);
+    let names: Vec<String> = match kind {
+        Some("furuta") => ["theta", "w_theta", "phi", "w_phi"].map(String::from).to_vec(),
+        Some("cart") => ["theta", "w_theta", "x", "v"].map(String::from).to_vec(),
+        Some("equations") => {
+            let coords = plant.and_then(|p| p.get("coordinates")).and_then(toml::Value::as_array);
+            let Some(coords) = coords else {
+                return Err(SceneError::key(label, "initial.state", "named states need `plant.coordinates`"));
+            };
+            coords.iter().filter_map(toml::Value::as_str).flat_map(|c| [c.to_string(), format!("{c}_dot")]).collect()
+        }
+        _ => return Err(SceneError::key(label, "initial.state", "named states need a known `plant.kind`")),
+    };
+    let mut state = vec![toml::Value::Float(0.0); names.len()];
+    for (name, v) in &named {
+        let key = format!("initial.state.{name}");
+        let Some(i) = names.iter().position(|n| n == name) else {
+            return Err(SceneError::key(
+                label,
+                key,
+                format!("not a state of this plant (states: {})", names.join(", ")),
+            ));
+        };
+        let x = match v {
+            toml::Value::Float(x) => *x,
+            toml::Value::Integer(k) => *k as f64,
+            other => return Err(SceneError::key(label, key, format!("must be a number, got a {}", other.type_str()))),
+        };
+        if let Some(slot) = state.get_mut(i) {
+            *slot = toml::Value::Float(x);
+        }
+    }
+    if let Some(toml::Value::Table(init)) = table.get_mut("initial") {
+        init.insert("state".into(), toml::Value::Array(state));
+    }
+    Ok(())
 }
 
 /// Applies `a.b.c=value` to the table, creating intermediate tables as needed.

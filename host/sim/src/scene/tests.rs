@@ -323,3 +323,15 @@ mod equations {
         }
     }
 }
+
+#[test]
+fn initial_state_by_name() {
+    let pend = bundled::get("pendulum-pd").unwrap().replace("state = [0.05, 0.0]", "state = { theta_dot = -0.2 }");
+    let s = Scene::parse("t", &pend, &[]).unwrap();
+    assert_eq!(s.initial.state, vec![0.0, -0.2]);
+    let e = Scene::parse("t", &pend.replace("theta_dot = -0.2", "omega = 1"), &[]).unwrap_err().to_string();
+    assert!(e.contains("`initial.state.omega`") && e.contains("theta, theta_dot"), "{e}");
+    let s = Scene::parse("t", &MINIMAL.replace("[run]", "[initial]\nstate = { phi = 0.5, theta = 0.1 }\n[run]"), &[])
+        .unwrap();
+    assert_eq!(s.initial.state, vec![0.1, 0.0, 0.5, 0.0]);
+}
