@@ -29,19 +29,50 @@ impl<S: Copy + Default, const H: usize> Delay<S, H> {
     }
 
     /// What `back(k)` would return after `push(new)`, without pushing.
-    pub(crate) fn back_after_push(&self, new: S, k: usize) -> S {
+    pub(crate) fn back_after_push<'a>(&'a self, new: &'a S, k: usize) -> &'a S {
         match k.checked_sub(1) {
             None => new,
-            Some(k1) => self.back(k1),
+            Some(k1) => self.back_ref(k1).unwrap_or(new),
         }
     }
 
     /// The sample pushed `k` pushes before the newest (`back(0)` is the newest).
+    #[cfg(test)]
     pub(crate) fn back(&self, k: usize) -> S {
+        self.back_ref(k).copied().unwrap_or_default()
+    }
+
+    /// [`back`](Self::back) by reference; `None` only if `k >= H`, which the owners exclude.
+    fn back_ref(&self, k: usize) -> Option<&S> {
         // head < H and k < H: head + H - k neither overflows nor underflows.
         let idx = self.head.wrapping_add(H).wrapping_sub(k) % H;
-        // `k < H` by the owners' invariant, so the slot exists; the default is unreachable.
-        self.buf.get(idx).copied().unwrap_or_default()
+        self.buf.get(idx)
+    }
+}
+
+impl<const H: usize> Delay<[i32; crate::MAX_GAINS], H> {
+    /// Push `s`, of which only the first `N` entries are ever read (only those are written),
+    /// and return the samples pushed `r` and `r + 1` pushes before the newest (`r + 2 <= H`,
+    /// the owners' invariant): what [`back_after_push`](Self::back_after_push) gives for `r`
+    /// and `r + 1` before the push.
+    #[inline(always)]
+    pub(crate) fn push_first_and_back<const N: usize>(
+        &mut self,
+        s: &[i32; crate::MAX_GAINS],
+        r: usize,
+    ) -> (&[i32; crate::MAX_GAINS], &[i32; crate::MAX_GAINS]) {
+        const ZERO: [i32; crate::MAX_GAINS] = [0; crate::MAX_GAINS];
+        let head = self.head.wrapping_add(1) % H;
+        if let Some(slot) = self.buf.get_mut(head) {
+            for (d, v) in slot.iter_mut().zip(s).take(N) {
+                *d = *v;
+            }
+        }
+        self.head = head;
+        // head < H and r + 1 < H: neither index expression wraps below zero.
+        let i0 = head.wrapping_add(H).wrapping_sub(r) % H;
+        let i1 = head.wrapping_add(H).wrapping_sub(r.wrapping_add(1)) % H;
+        (self.buf.get(i0).unwrap_or(&ZERO), self.buf.get(i1).unwrap_or(&ZERO))
     }
 }
 
@@ -53,13 +84,13 @@ mod tests {
     fn back_returns_pushed_samples_in_order_across_wraps() {
         let mut d: Delay<i32, 4> = Delay::new(-1);
         for i in 0..11 {
-            assert_eq!(d.back_after_push(i, 0), i);
+            assert_eq!(*d.back_after_push(&i, 0), i);
             d.push(i);
             for k in 0..4 {
                 let expected = if i >= k as i32 { i - k as i32 } else { -1 };
                 assert_eq!(d.back(k), expected, "after pushing {i}, back({k})");
                 if k + 1 < 4 {
-                    assert_eq!(d.back_after_push(i + 1, k + 1), expected);
+                    assert_eq!(*d.back_after_push(&(i + 1), k + 1), expected);
                 }
             }
         }

@@ -8,47 +8,43 @@ pub mod pd;
 pub mod predictor;
 pub mod quant;
 
+#[cfg(test)]
+mod legacy_tests;
+
 use core::fmt;
 
 pub use law::Law;
 pub use pd::{FloatPd, Output, Real};
 pub use quant::{AdcError, IntOutput, IntPd, LiteralPd, adc};
-pub use shared::{ControllerConfig, QuantMode, Quantization};
+pub use shared::{ControllerConfig, Gain, Gains, MAX_GAINS, QuantMode, Quantization};
 
-/// A field of [`ControllerConfig`] (or of its [`Quantization`]), named in errors.
+/// A field of [`ControllerConfig`] (or of its [`Quantization`]), named in errors. The gain
+/// fields carry the position of the coordinate in the gain vector.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Field {
-    Kp,
-    Kd,
-    KphiD,
+    /// `gains[i].p`.
+    P(u8),
+    /// `gains[i].d`.
+    D(u8),
+    /// `gains[i].h_adc`, the coordinate's encoder resolution.
+    HAdc(u8),
     Ki,
     Dt,
     UMax,
-    HAdc,
-    HAdcPhi,
     HDac,
-}
-
-impl Field {
-    /// The field's name as written in the configuration.
-    pub const fn name(self) -> &'static str {
-        match self {
-            Field::Kp => "kp",
-            Field::Kd => "kd",
-            Field::KphiD => "kphi_d",
-            Field::Ki => "ki",
-            Field::Dt => "dt",
-            Field::UMax => "u_max",
-            Field::HAdc => "quant.h_adc",
-            Field::HAdcPhi => "quant.h_adc_phi",
-            Field::HDac => "quant.h_dac",
-        }
-    }
 }
 
 impl fmt::Display for Field {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        f.write_str(self.name())
+        match *self {
+            Field::P(i) => write!(f, "gains[{i}].p"),
+            Field::D(i) => write!(f, "gains[{i}].d"),
+            Field::HAdc(i) => write!(f, "gains[{i}].h_adc"),
+            Field::Ki => f.write_str("ki"),
+            Field::Dt => f.write_str("dt"),
+            Field::UMax => f.write_str("u_max"),
+            Field::HDac => f.write_str("quant.h_dac"),
+        }
     }
 }
 
@@ -73,6 +69,13 @@ pub enum ConfigError {
     /// count) exceeds [`quant::GAIN_MAX_CODES_PER_COUNT`] or rounds to zero although the field
     /// is not zero, or `u_max / h_dac` is below 1 or above `i32::MAX` codes.
     OutOfRange(Field),
+    /// The gain vector is empty: at least one coordinate must be measured.
+    NoGains,
+    /// Two entries of the gain vector measure the same state index.
+    DuplicateIndex { index: u8 },
+    /// The integer path: the fixed-point gains' magnitudes `sum_i |P_i + D_i| + |D_i|`
+    /// exceed [`quant::GAIN_SUM_MAX_Q`] (the bound that keeps every step exact in `i64`).
+    GainSum,
 }
 
 impl fmt::Display for ConfigError {
@@ -96,6 +99,16 @@ impl fmt::Display for ConfigError {
                 f,
                 "controller config: a quantity derived from `{field}` is not representable in this path's arithmetic"
             ),
+            ConfigError::NoGains => f.write_str("controller config: `gains` is empty; measure at least one coordinate"),
+            ConfigError::DuplicateIndex { index } => {
+                write!(f, "controller config: two entries of `gains` measure the same state index {index}")
+            }
+            ConfigError::GainSum => write!(
+                f,
+                "controller config: the fixed-point gains sum to more than {} codes per count over all coordinates \
+                 (sum of |p_i + d_i/dt| + |d_i/dt| in codes per count); lower the gains or the resolutions",
+                quant::GAIN_SUM_MAX_CODES_PER_COUNT
+            ),
         }
     }
 }
@@ -109,6 +122,9 @@ impl ConfigError {
         match *self {
             ConfigError::NonFinite(f) | ConfigError::NonPositive(f) | ConfigError::OutOfRange(f) => Some(f),
             ConfigError::DelayTooLong { .. }
+            | ConfigError::NoGains
+            | ConfigError::DuplicateIndex { .. }
+            | ConfigError::GainSum
             | ConfigError::MissingQuantization
             | ConfigError::UnexpectedQuantization
             | ConfigError::WrongQuantMode { .. } => None,
@@ -130,13 +146,15 @@ pub fn validate_config<const H: usize>(cfg: &ControllerConfig) -> Result<(), Con
     Law::<H>::try_new(cfg).map(|_| ())
 }
 
-/// Which measured signal an [`InputError`] concerns.
+/// Which measured signal an [`InputError`] concerns: the position of the coordinate in the
+/// gain vector.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Signal {
-    /// The primary (stabilized) angle, theta.
-    Y,
-    /// The secondary angle, phi.
-    Z,
+pub struct Signal(pub u8);
+
+impl fmt::Display for Signal {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "measured coordinate {} (gains[{}])", self.0, self.0)
+    }
 }
 
 /// Why a sample or a pre-history was rejected. When a call returns an error the controller's
@@ -145,44 +163,58 @@ pub enum Signal {
 pub enum InputError {
     /// The sample is NaN or infinite.
     NonFinite(Signal),
-    /// The angle's encoder count `floor(angle / h)` is outside `i32`.
+    /// The coordinate's encoder count `floor(q / h_adc)` is outside `i32`.
     AdcOutOfRange(Signal),
     /// The control value is NaN, or infinite with no saturation configured (finite inputs
     /// whose products overflow the float type), or the integral overflowed.
     NonFiniteOutput,
-    /// A pre-history must hold exactly `delay + 1` samples.
+    /// A sample must hold one value per measured coordinate.
+    Measurements { expected: usize, found: usize },
+    /// A pre-history must hold exactly `delay + 1` samples of one value per measured
+    /// coordinate (`expected` values, oldest sample first).
     HistoryLength { expected: usize, found: usize },
 }
 
 impl fmt::Display for InputError {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        let name = |s: Signal| match s {
-            Signal::Y => "primary angle (y)",
-            Signal::Z => "secondary angle (z)",
-        };
         match *self {
-            InputError::NonFinite(s) => write!(f, "controller input: {} is not finite", name(s)),
+            InputError::NonFinite(s) => write!(f, "controller input: {s} is not finite"),
             InputError::AdcOutOfRange(s) => {
-                write!(f, "controller input: {} is outside the i32 count range", name(s))
+                write!(f, "controller input: {s} is outside the i32 count range")
             }
             InputError::NonFiniteOutput => {
                 f.write_str("controller: the control value overflowed (not finite) and no saturation is configured")
             }
-            InputError::HistoryLength { expected, found } => {
-                write!(f, "controller pre-history: expected {expected} samples (delay + 1), found {found}")
+            InputError::Measurements { expected, found } => {
+                write!(f, "controller input: expected {expected} measured values (one per gain), found {found}")
             }
+            InputError::HistoryLength { expected, found } => write!(
+                f,
+                "controller pre-history: expected {expected} values ((delay + 1) samples x measured coordinates), found {found}"
+            ),
         }
     }
 }
 
 impl core::error::Error for InputError {}
 
-/// Checks shared by every path: gains finite, `dt` finite and positive, `u_max` finite and
+/// Checks shared by every path: a gain vector of one to [`MAX_GAINS`] coordinates on
+/// distinct state indices, gains finite, `dt` finite and positive, `u_max` finite and
 /// positive when present, `delay + 2 <= h`. Returns the delay as `usize`.
 pub(crate) fn validate_common(cfg: &ControllerConfig, h: usize) -> Result<usize, ConfigError> {
-    finite(cfg.kp, Field::Kp)?;
-    finite(cfg.kd, Field::Kd)?;
-    finite(cfg.kphi_d, Field::KphiD)?;
+    let gains = cfg.gains.as_slice();
+    if gains.is_empty() {
+        return Err(ConfigError::NoGains);
+    }
+    for (i, g) in gains.iter().enumerate() {
+        // At most MAX_GAINS (4) entries: the position fits u8.
+        let at = i as u8;
+        finite(g.p, Field::P(at))?;
+        finite(g.d, Field::D(at))?;
+        if gains.iter().take(i).any(|o| o.index == g.index) {
+            return Err(ConfigError::DuplicateIndex { index: g.index });
+        }
+    }
     finite(cfg.ki, Field::Ki)?;
     positive(cfg.dt, Field::Dt)?;
     if let Some(u_max) = cfg.u_max {
@@ -202,8 +234,9 @@ pub(crate) fn validate_quant(cfg: &ControllerConfig, expected: QuantMode) -> Res
     if q.mode != expected {
         return Err(ConfigError::WrongQuantMode { expected, found: q.mode });
     }
-    positive(q.h_adc, Field::HAdc)?;
-    positive(q.h_adc_phi, Field::HAdcPhi)?;
+    for (i, g) in cfg.gains.iter().enumerate() {
+        positive(g.h_adc, Field::HAdc(i as u8))?;
+    }
     positive(q.h_dac, Field::HDac)?;
     Ok(q)
 }

@@ -4,21 +4,22 @@
 //!
 //! Fixed-point format of [`IntPd`]: each gain is converted once to codes per count and
 //! rounded to nearest (ties away from zero) in Q16 ([`GAIN_FRAC_BITS`] fractional bits),
-//! stored in an `i64`; `|gain| <= GAIN_MAX_Q` (`2^29 - 1`, about 8192 codes per count).
+//! stored in an `i64`; `|gain| <= GAIN_MAX_Q` (`2^29 - 1`, about 8192 codes per count), and
+//! over the coordinates `sum_i |P_i + D_i| + |D_i| <= GAIN_SUM_MAX_Q` (`2^32 - 1`).
 //! The step sums `gain * count` products exactly in an `i64` and floors with an arithmetic
 //! right shift by 16, then clamps to the DAC range. Each gain is off by at most
 //! `2^-17` codes per count (plus the `f64` rounding of the conversion, a few `1e-16` relative),
 //! so the code differs from the exact `floor(u / h_dac)` only when `u / h_dac` lies within
-//! `2^-17 * (|q_y| + |dq_y| + |dq_z| + |S|)` codes of an integer (`S` only with integral action),
-//! and then by at most the ceiling of that bound.
+//! `2^-17 * (sum_i |c_i| [P_i != 0] + |dc_i| + |S|)` codes of an integer (`S` only with
+//! integral action), and then by at most the ceiling of that bound.
 //!
 //! This module does not own the float law ([`crate::pd`]) or the predictor.
 
 use shared::{ControllerConfig, QuantMode};
 
 use crate::history::Delay;
-use crate::pd::{Output, saturate};
-use crate::{ConfigError, Field, InputError, Signal, validate_common, validate_quant};
+use crate::pd::{Output, check_history, sample, saturate};
+use crate::{ConfigError, Field, InputError, MAX_GAINS, Signal, validate_common, validate_quant};
 
 /// Fractional bits of the fixed-point gains (Q16: one unit is `2^-16` codes per count).
 pub const GAIN_FRAC_BITS: u32 = 16;
@@ -27,6 +28,14 @@ pub const GAIN_FRAC_BITS: u32 = 16;
 /// exact in `i64`; only the integral product can saturate, and then the sum still has the
 /// right sign and a magnitude far beyond any DAC code, so the clamp gives the exact result.
 pub const GAIN_MAX_Q: i64 = (1 << 29) - 1;
+/// Largest sum over the coordinates of `|P_i + D_i| + |D_i|` (Q16 units), the magnitudes of
+/// the two gains each coordinate's counts are multiplied by: with every count at most `2^31`
+/// in magnitude, the step's sum of products stays below `(2^32 - 1) * 2^31 < 2^63`, exact in
+/// `i64`. The shorthand (two coordinates, no P on the second) stays below it for any gains
+/// within [`GAIN_MAX_Q`]: `(2^30 + 2^29 + 2 * 2^29) < 2^32`.
+pub const GAIN_SUM_MAX_Q: i64 = (1 << 32) - 1;
+/// [`GAIN_SUM_MAX_Q`] in codes per count (about 65536).
+pub const GAIN_SUM_MAX_CODES_PER_COUNT: f64 = GAIN_SUM_MAX_Q as f64 / (1u64 << GAIN_FRAC_BITS) as f64;
 /// [`GAIN_MAX_Q`] in codes per count (about 8192).
 pub const GAIN_MAX_CODES_PER_COUNT: f64 = GAIN_MAX_Q as f64 / (1u64 << GAIN_FRAC_BITS) as f64;
 /// Worst-case rounding of one fixed-point gain, codes per count (half a Q16 unit).
@@ -90,13 +99,12 @@ pub(crate) fn count(angle: f64, h: f64, signal: Signal) -> Result<i32, InputErro
 /// The fixed-point gains of an [`IntPd`], Q16 codes per count.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct IntGains {
-    /// `round(2^16 * kp * h_adc / h_dac)`, on `q_y`.
-    pub p: i64,
-    /// `round(2^16 * kd * h_adc / (dt * h_dac))`, on `q_y - q_y_prev`.
-    pub d: i64,
-    /// `round(2^16 * kphi_d * h_adc_phi / (dt * h_dac))`, on `q_z - q_z_prev`.
-    pub z: i64,
-    /// `round(2^16 * ki * dt * h_adc / h_dac)`, on the count sum `S`.
+    /// `round(2^16 * p_i * h_i / h_dac)` per measured coordinate, on its count `c_i`
+    /// (entries past the gain vector's length are zero).
+    pub p: [i64; MAX_GAINS],
+    /// `round(2^16 * d_i * h_i / (dt * h_dac))`, on `c_i - c_i_prev`.
+    pub d: [i64; MAX_GAINS],
+    /// `round(2^16 * ki * dt * h_0 / h_dac)`, on the count sum `S` of the first coordinate.
     pub i: i64,
 }
 
@@ -108,24 +116,28 @@ pub struct IntOutput {
     pub saturated: bool,
 }
 
-/// The integer control law of `QuantMode::Counts`, with delay `r = cfg.delay`:
+/// The integer control law of `QuantMode::Counts`, with delay `r = cfg.delay`, on the counts
+/// `c_i` of the measured coordinates:
 ///
-/// `code_i = clamp(floor((-P*q_y[i-r] - D*(q_y[i-r] - q_y[i-r-1]) + Z*(q_z[i-r] - q_z[i-r-1])
-/// - I*S_i) / 2^16), -C, C)`, `S_i = S_{i-1} + q_y[i-r]` (saturating `i64`, `S_{-1} = 0`)
+/// `code_k = clamp(floor((-sum_i [P_i*c_i[k-r] + D_i*(c_i[k-r] - c_i[k-r-1])] - I*S_k) / 2^16),
+/// -C, C)`, `S_k = S_{k-1} + c_0[k-r]` (saturating `i64`, `S_{-1} = 0`)
 ///
 /// with the Q16 gains of [`IntGains`] and `C = floor(u_max / h_dac)` (or [`CODE_MAX`]).
 /// Only integer arithmetic with `i64` accumulators; never panics, never overflows (see
-/// [`GAIN_MAX_Q`]); `saturated` is set exactly when the clamp changed the code.
+/// [`GAIN_MAX_Q`] and [`GAIN_SUM_MAX_Q`]); `saturated` is set exactly when the clamp changed
+/// the code.
 #[derive(Clone, Copy, Debug)]
 pub struct IntPd<const H: usize> {
     gains: IntGains,
-    /// The gains as `i32` for the step's 32x32 -> 64-bit products: `z`, `d`, and `p + d`
-    /// (all below `2^30` in magnitude by [`GAIN_MAX_Q`]).
-    g32: [i32; 3],
+    /// Per coordinate the gains as `i32` for the step's 32x32 -> 64-bit products:
+    /// `-(P_i + D_i)` on the delayed count and `D_i` on the one before (both below `2^30`
+    /// in magnitude by [`GAIN_MAX_Q`]).
+    g32: [[i32; 2]; MAX_GAINS],
+    n: usize,
     code_max: i64,
     h_dac: f64,
     delay: usize,
-    hist: Delay<(i32, i32), H>,
+    hist: Delay<[i32; MAX_GAINS], H>,
     sum: i64,
 }
 
@@ -142,21 +154,47 @@ fn to_q16(codes_per_count: f64, source: f64, field: Field) -> Result<i64, Config
     Ok(scaled as i64)
 }
 
+/// The `n` counts of `q` as one history sample (the rest zero).
+fn counts(q: &[i32], n: usize) -> Result<[i32; MAX_GAINS], InputError> {
+    if q.len() != n {
+        return Err(InputError::Measurements { expected: n, found: q.len() });
+    }
+    let mut s = [0; MAX_GAINS];
+    for (d, &v) in s.iter_mut().zip(q) {
+        *d = v;
+    }
+    Ok(s)
+}
+
 impl<const H: usize> IntPd<H> {
-    /// Validate `cfg` once (quantization present with mode `Counts`; every step finite and
-    /// positive; gains finite; `dt` positive; `delay + 2 <= H`; every Q16 gain within
-    /// [`GAIN_MAX_Q`] and non-zero when its field is; `1 <= u_max / h_dac <= i32::MAX`) and
-    /// convert the gains to Q16 codes per count.
+    /// Validate `cfg` once (quantization present with mode `Counts`; one to [`MAX_GAINS`]
+    /// gains on distinct indices; every step finite and positive; gains finite; `dt`
+    /// positive; `delay + 2 <= H`; every Q16 gain within [`GAIN_MAX_Q`] and non-zero when its
+    /// field is; their magnitudes' sum within [`GAIN_SUM_MAX_Q`]; `1 <= u_max / h_dac <=
+    /// i32::MAX`) and convert the gains to Q16 codes per count.
     pub fn try_new(cfg: &ControllerConfig) -> Result<Self, ConfigError> {
         let delay = validate_common(cfg, H)?;
         let q = validate_quant(cfg, QuantMode::Counts)?;
         let per_volt = 1.0 / q.h_dac;
-        let gains = IntGains {
-            p: to_q16(cfg.kp * q.h_adc * per_volt, cfg.kp, Field::Kp)?,
-            d: to_q16(cfg.kd * q.h_adc / cfg.dt * per_volt, cfg.kd, Field::Kd)?,
-            z: to_q16(cfg.kphi_d * q.h_adc_phi / cfg.dt * per_volt, cfg.kphi_d, Field::KphiD)?,
-            i: to_q16(cfg.ki * cfg.dt * q.h_adc * per_volt, cfg.ki, Field::Ki)?,
-        };
+        let mut gains = IntGains { p: [0; MAX_GAINS], d: [0; MAX_GAINS], i: 0 };
+        let mut g32 = [[0i32; 2]; MAX_GAINS];
+        let mut total: i64 = 0;
+        for (k, (g, ((p, d), w))) in
+            cfg.gains.iter().zip(gains.p.iter_mut().zip(gains.d.iter_mut()).zip(g32.iter_mut())).enumerate()
+        {
+            let at = k as u8;
+            *p = to_q16(g.p * g.h_adc * per_volt, g.p, Field::P(at))?;
+            *d = to_q16(g.d * g.h_adc / cfg.dt * per_volt, g.d, Field::D(at))?;
+            // |p|, |d| <= GAIN_MAX_Q = 2^29 - 1, so p + d fits in i32; the conversion cannot fail.
+            let narrow = |v: i64| i32::try_from(v).map_err(|_| ConfigError::OutOfRange(Field::D(at)));
+            *w = [narrow(-(*p + *d))?, narrow(*d)?];
+            total = total.saturating_add((*p + *d).abs()).saturating_add(d.abs());
+        }
+        if total > GAIN_SUM_MAX_Q {
+            return Err(ConfigError::GainSum);
+        }
+        let h0 = cfg.gains.first().map_or(0.0, |g| g.h_adc);
+        gains.i = to_q16(cfg.ki * cfg.dt * h0 * per_volt, cfg.ki, Field::Ki)?;
         let code_max = match cfg.u_max {
             Some(u_max) => {
                 let c = libm::floor(u_max / q.h_dac);
@@ -167,15 +205,26 @@ impl<const H: usize> IntPd<H> {
             }
             None => i64::from(CODE_MAX),
         };
-        // |p|, |d| <= GAIN_MAX_Q = 2^29 - 1, so p + d fits in i32; the conversion cannot fail.
-        let narrow = |v: i64| i32::try_from(v).map_err(|_| ConfigError::OutOfRange(Field::Kd));
-        let g32 = [narrow(gains.z)?, narrow(gains.d)?, narrow(gains.p + gains.d)?];
-        Ok(Self { gains, g32, code_max, h_dac: q.h_dac, delay, hist: Delay::new((0, 0)), sum: 0 })
+        Ok(Self {
+            gains,
+            g32,
+            n: cfg.gains.len(),
+            code_max,
+            h_dac: q.h_dac,
+            delay,
+            hist: Delay::new([0; MAX_GAINS]),
+            sum: 0,
+        })
     }
 
     /// The Q16 gains in use.
     pub fn gains(&self) -> IntGains {
         self.gains
+    }
+
+    /// The number of measured coordinates (counts per sample).
+    pub fn coordinates(&self) -> usize {
+        self.n
     }
 
     /// The DAC range: `|code| <= code_max()`.
@@ -188,7 +237,7 @@ impl<const H: usize> IntPd<H> {
         self.delay
     }
 
-    /// The integral state `S`, the saturating sum of the delayed counts `q_y[j-r]`.
+    /// The integral state `S`, the saturating sum of the delayed counts `c_0[j-r]`.
     pub fn integral_counts(&self) -> i64 {
         self.sum
     }
@@ -200,31 +249,34 @@ impl<const H: usize> IntPd<H> {
 
     /// Zero pre-history and zero integral, as after `try_new`.
     pub fn reset(&mut self) {
-        self.hist.fill((0, 0));
+        self.hist.fill([0; MAX_GAINS]);
         self.sum = 0;
     }
 
-    /// Start a run: load the `r + 1` count pairs `(q_y, q_z)` before `t_0`, oldest first,
-    /// and clear the integral. On error nothing changes.
-    pub fn prime(&mut self, history: &[(i32, i32)]) -> Result<(), InputError> {
-        let expected = self.delay.saturating_add(1);
-        if history.len() != expected {
+    /// Start a run: load the `r + 1` samples of counts before `t_0`, oldest first, each one
+    /// count per measured coordinate (flattened: `(r + 1) * n` values), and clear the
+    /// integral. On error nothing changes.
+    pub fn prime(&mut self, history: &[i32]) -> Result<(), InputError> {
+        let expected = self.delay.saturating_add(1).saturating_mul(self.n);
+        if history.len() != expected || self.n == 0 {
             return Err(InputError::HistoryLength { expected, found: history.len() });
         }
-        for &s in history {
-            self.hist.push(s);
+        for s in history.chunks_exact(self.n) {
+            self.hist.push(counts(s, self.n)?);
         }
         self.sum = 0;
         Ok(())
     }
 
-    /// Start a run from rest at `(q_y, q_z)`: every pre-history sample equal, integral cleared.
-    pub fn prime_constant(&mut self, q_y: i32, q_z: i32) {
-        self.hist.fill((q_y, q_z));
+    /// Start a run from rest at the counts `q`: every pre-history sample equal, integral
+    /// cleared. On error nothing changes.
+    pub fn prime_constant(&mut self, q: &[i32]) -> Result<(), InputError> {
+        self.hist.fill(counts(q, self.n)?);
         self.sum = 0;
+        Ok(())
     }
 
-    pub(crate) fn push_history(&mut self, s: (i32, i32)) {
+    pub(crate) fn push_history(&mut self, s: [i32; MAX_GAINS]) {
         self.hist.push(s);
     }
 
@@ -232,20 +284,40 @@ impl<const H: usize> IntPd<H> {
         self.sum = 0;
     }
 
-    /// Push the counts read at `t_i` and return the DAC code to hold over `[t_i, t_i + dt)`.
-    pub fn step(&mut self, q_y: i32, q_z: i32) -> IntOutput {
-        let (y0, z0) = self.hist.back_after_push((q_y, q_z), self.delay);
-        let (y1, z1) = self.hist.back_after_push((q_y, q_z), self.delay.saturating_add(1));
-        self.hist.push((q_y, q_z));
-        let g = self.gains;
-        self.sum = self.sum.saturating_add(i64::from(y0));
-        // The law `z (z0 - z1) - p y0 - d (y0 - y1)` expanded into four 32 x 32 -> 64-bit
-        // products (one SMULL each on the M4): `z z0 - z z1 - (p + d) y0 + d y1`. Each factor
-        // is below 2^31 (counts) and 2^30 (gains), so each product is below 2^61 and the sum
-        // below 2^63: exact, no wrap, no saturation needed.
-        let [gz, gd, gpd] = self.g32;
+    /// Push the counts `q` (one per measured coordinate) read at `t_k` and return the DAC
+    /// code to hold over `[t_k, t_k + dt)`. On error nothing changes.
+    pub fn step(&mut self, q: &[i32]) -> Result<IntOutput, InputError> {
+        let new = counts(q, self.n)?;
+        Ok(self.step_counts(&new))
+    }
+
+    /// [`step`](Self::step) on a whole sample of [`MAX_GAINS`] slots, of which the first
+    /// [`coordinates`](Self::coordinates) are the counts (the others are padding, never read):
+    /// what a device calls once it has checked the number of counts it received.
+    pub fn step_counts(&mut self, new: &[i32; MAX_GAINS]) -> IntOutput {
+        // One straight-line step per number of coordinates (n is fixed for a controller).
+        match self.n {
+            1 => self.step_n::<1>(new),
+            2 => self.step_n::<2>(new),
+            3 => self.step_n::<3>(new),
+            _ => self.step_n::<4>(new),
+        }
+    }
+
+    #[inline(always)]
+    fn step_n<const N: usize>(&mut self, new: &[i32; MAX_GAINS]) -> IntOutput {
+        let (c0, c1) = self.hist.push_first_and_back::<N>(new, self.delay);
+        // Per coordinate `-(P + D) c0 + D c1`: two 32 x 32 -> 64-bit products (one SMLAL
+        // each on the M4). Every factor is below 2^31 (counts) and the gains' magnitudes sum
+        // to at most GAIN_SUM_MAX_Q < 2^32, so every partial sum is below 2^63: exact, no
+        // wrap, no saturation needed.
         let m = |a: i32, b: i32| i64::from(a) * i64::from(b);
-        let pdz = m(gz, z0) - m(gz, z1) - m(gpd, y0) + m(gd, y1);
+        let mut pd: i64 = 0;
+        for ((&[gpd, gd], &a), &b) in self.g32.iter().zip(c0).zip(c1).take(N) {
+            pd += m(gpd, a) + m(gd, b);
+        }
+        self.sum = self.sum.saturating_add(i64::from(c0[0]));
+        let g = self.gains;
         // The integral product is exact below |S| < 2^33 (then < 2^62); beyond, saturate.
         let integral = if g.i == 0 {
             0
@@ -254,7 +326,7 @@ impl<const H: usize> IntPd<H> {
         } else {
             g.i.saturating_mul(self.sum)
         };
-        let acc = pdz.saturating_sub(integral);
+        let acc = pd.saturating_sub(integral);
         // Arithmetic shift: floor division by 2^16.
         let raw = acc >> GAIN_FRAC_BITS;
         let code = raw.clamp(self.code_max.saturating_neg(), self.code_max);
@@ -267,39 +339,42 @@ impl<const H: usize> IntPd<H> {
 }
 
 /// The paper's quantized formula read literally (`QuantMode::Literal`), in `f64`, with one
-/// step `h = h_adc`:
+/// step `h`, the first measured coordinate's `h_adc`:
 ///
-/// `u = h * floor(-kp*floor(y/h) - kd*floor(ydot/h) + kphi_d*floor(zdot/h) - ki*floor(x_I/h))`
+/// `u = h * floor(-sum_i [p_i*floor(q_i/h) + d_i*floor(qdot_i/h)] - ki*floor(x_I/h))`
 ///
-/// with `y = y_{i-r}`, `ydot = (y_{i-r} - y_{i-r-1})/dt`, `zdot` likewise and `x_I` the running
-/// sum of `y_{i-r}*dt` (the `ki` term only when `ki != 0`). The formula is dimensionally loose
-/// (volts per radian times radians per step); it is the paper's reading, kept for comparison.
-/// `h_adc_phi` and `h_dac` are validated but not used. With `u_max`, the integer in the outer
-/// floor is clamped to `|n| <= floor(u_max / h)` so `u` stays on the grid, flagged.
-/// Non-finite inputs are rejected as in [`crate::FloatPd`] (state unchanged).
+/// with `q_i = q_i[k-r]`, `qdot_i = (q_i[k-r] - q_i[k-r-1])/dt` and `x_I` the running sum of
+/// `q_0[k-r]*dt` (the `ki` term only when `ki != 0`); the sum in gain order as in
+/// [`crate::FloatPd`]. For the shorthand gains this is
+/// `h * floor(-kp*floor(y/h) - kd*floor(ydot/h) + kphi_d*floor(zdot/h) - ...)`. The formula is
+/// dimensionally loose (volts per radian times radians per step); it is the paper's reading,
+/// kept for comparison. The other coordinates' `h_adc` and `h_dac` are validated but not
+/// used. With `u_max`, the integer in the outer floor is clamped to `|n| <= floor(u_max / h)`
+/// so `u` stays on the grid, flagged. Non-finite inputs are rejected as in
+/// [`crate::FloatPd`] (state unchanged).
 #[derive(Clone, Copy, Debug)]
 pub struct LiteralPd<const H: usize> {
-    kp: f64,
-    kd: f64,
-    kphi_d: f64,
+    gains: [(f64, f64); MAX_GAINS],
+    n: usize,
     ki: f64,
     dt: f64,
     h: f64,
     n_max: Option<f64>,
     delay: usize,
-    hist: Delay<(f64, f64), H>,
+    hist: Delay<[f64; MAX_GAINS], H>,
     integral: f64,
 }
 
 impl<const H: usize> LiteralPd<H> {
     /// Validate `cfg` (quantization present with mode `Literal`, every step finite and > 0,
-    /// gains finite, `dt` > 0, `delay + 2 <= H`, `u_max / h_adc >= 1`).
+    /// gains finite, `dt` > 0, `delay + 2 <= H`, `u_max / h >= 1`).
     pub fn try_new(cfg: &ControllerConfig) -> Result<Self, ConfigError> {
         let delay = validate_common(cfg, H)?;
-        let q = validate_quant(cfg, QuantMode::Literal)?;
+        validate_quant(cfg, QuantMode::Literal)?;
+        let h = cfg.gains.first().map_or(0.0, |g| g.h_adc);
         let n_max = match cfg.u_max {
             Some(u_max) => {
-                let n = libm::floor(u_max / q.h_adc);
+                let n = libm::floor(u_max / h);
                 if !(n.is_finite() && n >= 1.0) {
                     return Err(ConfigError::OutOfRange(Field::UMax));
                 }
@@ -307,16 +382,19 @@ impl<const H: usize> LiteralPd<H> {
             }
             None => None,
         };
+        let mut gains = [(0.0, 0.0); MAX_GAINS];
+        for (slot, g) in gains.iter_mut().zip(cfg.gains.iter()) {
+            *slot = (g.p, g.d);
+        }
         Ok(Self {
-            kp: cfg.kp,
-            kd: cfg.kd,
-            kphi_d: cfg.kphi_d,
+            gains,
+            n: cfg.gains.len(),
             ki: cfg.ki,
             dt: cfg.dt,
-            h: q.h_adc,
+            h,
             n_max,
             delay,
-            hist: Delay::new((0.0, 0.0)),
+            hist: Delay::new([0.0; MAX_GAINS]),
             integral: 0.0,
         })
     }
@@ -326,6 +404,11 @@ impl<const H: usize> LiteralPd<H> {
         self.delay
     }
 
+    /// The number of measured coordinates (values per sample).
+    pub fn coordinates(&self) -> usize {
+        self.n
+    }
+
     /// The integral state `x_I`.
     pub fn integral(&self) -> f64 {
         self.integral
@@ -333,48 +416,52 @@ impl<const H: usize> LiteralPd<H> {
 
     /// Zero pre-history and zero integral, as after `try_new`.
     pub fn reset(&mut self) {
-        self.hist.fill((0.0, 0.0));
+        self.hist.fill([0.0; MAX_GAINS]);
         self.integral = 0.0;
     }
 
-    /// Start a run: load the `r + 1` samples before `t_0`, oldest first; clear the integral.
-    pub fn prime(&mut self, history: &[(f64, f64)]) -> Result<(), InputError> {
-        let expected = self.delay.saturating_add(1);
-        if history.len() != expected {
-            return Err(InputError::HistoryLength { expected, found: history.len() });
-        }
-        for &(y, z) in history {
-            check(y, z)?;
-        }
-        for &s in history {
-            self.hist.push(s);
+    /// Start a run: load the `r + 1` samples before `t_0`, oldest first, one value per
+    /// measured coordinate each (flattened); clear the integral.
+    pub fn prime(&mut self, history: &[f64]) -> Result<(), InputError> {
+        check_history(history, self.n, self.delay)?;
+        for s in history.chunks_exact(self.n) {
+            self.hist.push(sample(s, self.n)?);
         }
         self.integral = 0.0;
         Ok(())
     }
 
-    /// Start a run from rest at `(y, z)`.
-    pub fn prime_constant(&mut self, y: f64, z: f64) -> Result<(), InputError> {
-        check(y, z)?;
-        self.hist.fill((y, z));
+    /// Start a run from rest at `q`.
+    pub fn prime_constant(&mut self, q: &[f64]) -> Result<(), InputError> {
+        let s = sample(q, self.n)?;
+        self.hist.fill(s);
         self.integral = 0.0;
         Ok(())
     }
 
-    /// Push the sample taken at `t_i` and return the `u_i` to hold over `[t_i, t_i + dt)`.
-    pub fn step(&mut self, y: f64, z: f64) -> Result<Output<f64>, InputError> {
-        check(y, z)?;
-        let (y0, z0) = self.hist.back_after_push((y, z), self.delay);
-        let (y1, z1) = self.hist.back_after_push((y, z), self.delay.saturating_add(1));
-        let integral = if self.ki == 0.0 { self.integral } else { self.integral + y0 * self.dt };
+    /// Push the sample taken at `t_k` and return the `u_k` to hold over `[t_k, t_k + dt)`.
+    pub fn step(&mut self, q: &[f64]) -> Result<Output<f64>, InputError> {
+        let new = sample(q, self.n)?;
+        let q0 = *self.hist.back_after_push(&new, self.delay);
+        let q1 = *self.hist.back_after_push(&new, self.delay.saturating_add(1));
+        let integral = if self.ki == 0.0 { self.integral } else { self.integral + q0[0] * self.dt };
         if !integral.is_finite() {
             return Err(InputError::NonFiniteOutput);
         }
         let h = self.h;
-        let ydot = (y0 - y1) / self.dt;
-        let zdot = (z0 - z1) / self.dt;
-        let mut s =
-            -self.kp * libm::floor(y0 / h) - self.kd * libm::floor(ydot / h) + self.kphi_d * libm::floor(zdot / h);
+        let mut s = 0.0;
+        for (i, ((&(p, d), &a), &b)) in self.gains.iter().zip(&q0).zip(&q1).take(self.n).enumerate() {
+            let qdot = (a - b) / self.dt;
+            // As in FloatPd: the first P term starts the sum, later zero ones are left out.
+            s = if i == 0 {
+                -(p * libm::floor(a / h))
+            } else if p != 0.0 {
+                s - p * libm::floor(a / h)
+            } else {
+                s
+            };
+            s -= d * libm::floor(qdot / h);
+        }
         if self.ki != 0.0 {
             s -= self.ki * libm::floor(integral / h);
         }
@@ -383,38 +470,26 @@ impl<const H: usize> LiteralPd<H> {
         if !u.is_finite() {
             return Err(InputError::NonFiniteOutput);
         }
-        self.hist.push((y, z));
+        self.hist.push(new);
         self.integral = integral;
         Ok(Output { u, saturated: n.saturated })
     }
 }
 
-fn check(y: f64, z: f64) -> Result<(), InputError> {
-    if !y.is_finite() {
-        return Err(InputError::NonFinite(Signal::Y));
-    }
-    if !z.is_finite() {
-        return Err(InputError::NonFinite(Signal::Z));
-    }
-    Ok(())
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
-    use shared::Quantization;
+    use shared::{Gain, Gains, Quantization};
 
     fn extreme_cfg(u_max: Option<f64>) -> ControllerConfig {
         let g = GAIN_MAX_CODES_PER_COUNT;
         ControllerConfig {
-            kp: -g,
-            kd: g,
-            kphi_d: -g,
+            gains: Gains::shorthand(-g, g, -g, 1.0, 1.0),
             ki: g,
             dt: 1.0,
             delay: 0,
             u_max,
-            quant: Some(Quantization { mode: QuantMode::Counts, h_adc: 1.0, h_adc_phi: 1.0, h_dac: 1.0 }),
+            quant: Some(Quantization { mode: QuantMode::Counts, h_dac: 1.0 }),
         }
     }
 
@@ -426,7 +501,7 @@ mod tests {
             let mut pd = IntPd::<4>::try_new(&extreme_cfg(u_max)).expect("valid");
             let g = pd.gains();
             assert_eq!(g.i, GAIN_MAX_Q);
-            assert_eq!(g.p, -GAIN_MAX_Q);
+            assert_eq!(g.p[0], -GAIN_MAX_Q);
             for (s0, y, z) in [
                 (i64::MAX - 5, i32::MAX, i32::MIN),
                 (i64::MAX, i32::MIN, i32::MAX),
@@ -434,14 +509,16 @@ mod tests {
                 (i64::MIN, i32::MAX, i32::MAX),
                 (-1, 0, 0),
             ] {
-                pd.prime_constant(0, 0);
+                pd.prime_constant(&[0, 0]).expect("two counts");
                 pd.sum = s0;
-                let out = pd.step(y, z);
+                let out = pd.step(&[y, z]).expect("two counts");
                 let s = s0.saturating_add(i64::from(y));
                 assert_eq!(pd.sum, s);
                 let (y, z) = (i128::from(y), i128::from(z));
-                let exact =
-                    -i128::from(g.p) * y - i128::from(g.d) * y + i128::from(g.z) * z - i128::from(g.i) * i128::from(s);
+                let exact = -i128::from(g.p[0]) * y
+                    - i128::from(g.d[0]) * y
+                    - i128::from(g.d[1]) * z
+                    - i128::from(g.i) * i128::from(s);
                 let raw = exact >> 16;
                 let c = i128::from(pd.code_max());
                 let code = raw.clamp(-c, c);
@@ -449,5 +526,29 @@ mod tests {
                 assert_eq!(out.saturated, code != raw);
             }
         }
+    }
+
+    /// Four coordinates at the largest gains the sum bound allows, and one Q16 unit more.
+    #[test]
+    fn gain_sum_bound_is_enforced_at_its_edge() {
+        // P = D = q per coordinate: |P + D| + |D| = 3q, 12q in all, within 3 units of the bound.
+        let q = (GAIN_SUM_MAX_Q / 12) as f64 / 65536.0;
+        let mut gains = Gains::new();
+        for i in 0..4u8 {
+            gains.push(Gain { index: i, p: q, d: q, h_adc: 1.0 }).expect("capacity 4");
+        }
+        let cfg = ControllerConfig {
+            gains,
+            ki: 0.0,
+            dt: 1.0,
+            delay: 0,
+            u_max: None,
+            quant: Some(Quantization { mode: QuantMode::Counts, h_dac: 1.0 }),
+        };
+        assert!(IntPd::<4>::try_new(&cfg).is_ok());
+        let mut over = cfg;
+        // Two units more on one D add four to the sum: past the bound.
+        over.gains[3].d += 2.0 / 65536.0;
+        assert_eq!(IntPd::<4>::try_new(&over).map(|_| ()), Err(ConfigError::GainSum));
     }
 }

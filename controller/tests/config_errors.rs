@@ -3,7 +3,7 @@
 mod common;
 
 use common::{H_ADC, paper_counts};
-use controller::{ConfigError, ControllerConfig, Field, FloatPd, IntPd, Law, LiteralPd, QuantMode, Quantization};
+use controller::{ConfigError, ControllerConfig, Field, FloatPd, Gain, IntPd, Law, LiteralPd, QuantMode, Quantization};
 
 type Path = fn(ControllerConfig) -> Result<(), ConfigError>;
 
@@ -62,9 +62,10 @@ fn check_common(set: fn(&mut ControllerConfig, f64), field: Field, positive: boo
 
 #[test]
 fn common_fields() {
-    check_common(|c, v| c.kp = v, Field::Kp, false);
-    check_common(|c, v| c.kd = v, Field::Kd, false);
-    check_common(|c, v| c.kphi_d = v, Field::KphiD, false);
+    check_common(|c, v| c.gains[0].p = v, Field::P(0), false);
+    check_common(|c, v| c.gains[0].d = v, Field::D(0), false);
+    check_common(|c, v| c.gains[1].d = v, Field::D(1), false);
+    check_common(|c, v| c.gains[1].p = v, Field::P(1), false);
     check_common(|c, v| c.ki = v, Field::Ki, false);
     check_common(|c, v| c.dt = v, Field::Dt, true);
     check_common(|c, v| c.u_max = Some(v), Field::UMax, true);
@@ -72,11 +73,11 @@ fn common_fields() {
 
 #[test]
 fn quantization_fields() {
-    type Set = fn(&mut Quantization, f64);
+    type Set = fn(&mut ControllerConfig, f64);
     let sets: [(Set, Field); 3] = [
-        (|q, v| q.h_adc = v, Field::HAdc),
-        (|q, v| q.h_adc_phi = v, Field::HAdcPhi),
-        (|q, v| q.h_dac = v, Field::HDac),
+        (|c, v| c.gains[0].h_adc = v, Field::HAdc(0)),
+        (|c, v| c.gains[1].h_adc = v, Field::HAdc(1)),
+        (|c, v| c.quant.as_mut().unwrap().h_dac = v, Field::HDac),
     ];
     for base in [paper_counts(1.0, 1), literal_cfg()] {
         for (set, field) in sets {
@@ -87,11 +88,9 @@ fn quantization_fields() {
                 (-H_ADC, ConfigError::NonPositive(field)),
             ] {
                 let mut cfg = base;
-                let mut q = cfg.quant.unwrap();
-                set(&mut q, v);
-                cfg.quant = Some(q);
+                set(&mut cfg, v);
                 assert_eq!(law(cfg), Err(expected), "{field} = {v}");
-                let direct = match q.mode {
+                let direct = match cfg.quant.unwrap().mode {
                     QuantMode::Counts => int(cfg),
                     QuantMode::Literal => literal(cfg),
                 };
@@ -144,18 +143,23 @@ fn delay_and_modes() {
 fn representability() {
     // f32: 1e39 overflows, 1e-50 flushes to zero.
     let f = ControllerConfig::paper(0.025);
-    assert_eq!(float32(ControllerConfig { kp: 1e39, ..f }), Err(ConfigError::OutOfRange(Field::Kp)));
-    assert_eq!(float32(ControllerConfig { kd: -1e-50, ..f }), Err(ConfigError::OutOfRange(Field::Kd)));
+    let with = |c: ControllerConfig, set: fn(&mut ControllerConfig)| {
+        let mut c = c;
+        set(&mut c);
+        c
+    };
+    assert_eq!(float32(with(f, |c| c.gains[0].p = 1e39)), Err(ConfigError::OutOfRange(Field::P(0))));
+    assert_eq!(float32(with(f, |c| c.gains[0].d = -1e-50)), Err(ConfigError::OutOfRange(Field::D(0))));
     assert_eq!(float32(ControllerConfig { dt: 1e-50, ..f }), Err(ConfigError::OutOfRange(Field::Dt)));
     assert_eq!(float32(ControllerConfig { u_max: Some(1e40), ..f }), Err(ConfigError::OutOfRange(Field::UMax)));
-    assert_eq!(float(ControllerConfig { kp: 1e39, ..f }), Ok(()));
+    assert_eq!(float(with(f, |c| c.gains[0].p = 1e39)), Ok(()));
     // Q16: the D gain is 21.8 pi ~ 68.5 codes/count at dt = 25 ms; at dt = 0.2 ms it is
     // ~8560 > 8192: out of range, named by the gain's field.
     let c = paper_counts(1.0, 1);
-    assert_eq!(int(ControllerConfig { dt: 2e-4, ki: 0.0, ..c }), Err(ConfigError::OutOfRange(Field::Kd)));
+    assert_eq!(int(ControllerConfig { dt: 2e-4, ki: 0.0, ..c }), Err(ConfigError::OutOfRange(Field::D(0))));
     assert_eq!(int(ControllerConfig { dt: 2.5e-4, ki: 0.0, ..c }), Ok(()));
-    assert_eq!(int(ControllerConfig { kp: 3e4, ..c }), Err(ConfigError::OutOfRange(Field::Kp)));
-    assert_eq!(int(ControllerConfig { kphi_d: -700.0, ..c }), Err(ConfigError::OutOfRange(Field::KphiD)));
+    assert_eq!(int(with(c, |c| c.gains[0].p = 3e4)), Err(ConfigError::OutOfRange(Field::P(0))));
+    assert_eq!(int(with(c, |c| c.gains[1].d = 700.0)), Err(ConfigError::OutOfRange(Field::D(1))));
     // A non-zero gain that rounds to zero in Q16 would vanish silently: rejected.
     // I = ki * 0.0025 pi codes per count; below 2^-17 for ki < 9.7e-4.
     assert_eq!(int(ControllerConfig { ki: 9e-4, ..c }), Err(ConfigError::OutOfRange(Field::Ki)));
@@ -172,8 +176,36 @@ fn representability() {
 }
 
 #[test]
+fn gain_vector_shape() {
+    // Empty, and two entries on one state index.
+    let mut c = ControllerConfig::paper(0.025);
+    c.gains.truncate(0);
+    for path in [float, float32, law] {
+        assert_eq!(path(c), Err(ConfigError::NoGains));
+    }
+    let mut c = paper_counts(0.0, 1);
+    c.gains[1].index = c.gains[0].index;
+    for path in [int, law] {
+        assert_eq!(path(c), Err(ConfigError::DuplicateIndex { index: 0 }));
+    }
+    // One to four coordinates are valid on every path.
+    let mut c = paper_counts(1.0, 1);
+    for n in 1..=4u8 {
+        c.gains.truncate(usize::from(n) - 1);
+        c.gains.push(Gain { index: 10 + n, p: 1.0, d: 0.5, h_adc: H_ADC }).unwrap();
+        assert_eq!(int(c), Ok(()), "{n} coordinates");
+        assert_eq!(float(ControllerConfig { quant: None, ..c }), Ok(()), "{n} coordinates");
+        assert_eq!(literal(ControllerConfig { quant: literal_cfg().quant, ..c }), Ok(()), "{n} coordinates");
+    }
+    assert!(c.gains.push(Gain { index: 20, p: 1.0, d: 0.5, h_adc: H_ADC }).is_err());
+}
+
+#[test]
 fn errors_display_the_field() {
-    assert_eq!(ConfigError::NonFinite(Field::KphiD).to_string(), "controller config: `kphi_d` is not finite");
+    assert_eq!(ConfigError::NonFinite(Field::D(1)).to_string(), "controller config: `gains[1].d` is not finite");
+    assert!(ConfigError::NoGains.to_string().contains("`gains` is empty"));
+    assert!(ConfigError::DuplicateIndex { index: 3 }.to_string().contains("state index 3"));
+    assert!(ConfigError::GainSum.to_string().contains("codes per count"));
     assert_eq!(ConfigError::NonPositive(Field::HDac).to_string(), "controller config: `quant.h_dac` must be > 0");
     assert!(ConfigError::DelayTooLong { delay: 9, max: 2 }.to_string().contains("`delay` = 9"));
     assert!(ConfigError::OutOfRange(Field::Ki).to_string().contains("`ki`"));

@@ -5,33 +5,36 @@ mod common;
 
 use common::{H_ADC, H_DAC, paper_counts};
 use controller::AdcError;
-use controller::quant::{GAIN_FRAC_BITS, GAIN_MAX_CODES_PER_COUNT, GAIN_MAX_Q, GAIN_ROUNDING};
-use controller::{ControllerConfig, IntOutput, IntPd, QuantMode, Quantization, adc};
+use controller::quant::{GAIN_FRAC_BITS, GAIN_MAX_CODES_PER_COUNT, GAIN_MAX_Q, GAIN_ROUNDING, GAIN_SUM_MAX_Q};
+use controller::{ControllerConfig, Gain, Gains, IntOutput, IntPd, QuantMode, Quantization, adc};
 use proptest::prelude::*;
 
 /// Runs `pd` over `inputs` after priming with `pre` (r + 1 samples).
 fn run<const H: usize>(pd: &mut IntPd<H>, pre: &[(i32, i32)], inputs: &[(i32, i32)]) -> Vec<IntOutput> {
-    pd.prime(pre).unwrap();
-    inputs.iter().map(|&(y, z)| pd.step(y, z)).collect()
+    let flat: Vec<i32> = pre.iter().flat_map(|&(y, z)| [y, z]).collect();
+    pd.prime(&flat).unwrap();
+    inputs.iter().map(|&(y, z)| pd.step(&[y, z]).unwrap()).collect()
 }
 
 /// The integer law evaluated exactly in i128 from the Q16 gains, with the documented
-/// saturating-i64 integral state: what the i64 implementation must reproduce bit for bit.
-fn exact_q16(pd: &IntPd<8>, pre: &[(i32, i32)], inputs: &[(i32, i32)]) -> Vec<(i32, bool)> {
+/// saturating-i64 integral state, on samples of `n` counts (`pre` the r + 1 before):
+/// what the i64 implementation must reproduce bit for bit.
+fn exact_vec(pd: &IntPd<8>, pre: &[Vec<i32>], inputs: &[Vec<i32>]) -> Vec<(i32, bool)> {
     let r = pd.delay();
     let g = pd.gains();
     let c = i128::from(pd.code_max());
-    let seq: Vec<(i32, i32)> = pre.iter().chain(inputs).copied().collect();
+    let seq: Vec<&Vec<i32>> = pre.iter().chain(inputs).collect();
     let mut s: i64 = 0;
     (0..inputs.len())
         .map(|i| {
             let k = i + r + 1;
-            let (y0, z0) = seq[k - r];
-            let (y1, z1) = seq[k - r - 1];
-            s = s.saturating_add(i64::from(y0));
-            let (y0, y1, z0, z1) = (i128::from(y0), i128::from(y1), i128::from(z0), i128::from(z1));
-            let acc = -i128::from(g.p) * y0 - i128::from(g.d) * (y0 - y1) + i128::from(g.z) * (z0 - z1)
-                - i128::from(g.i) * i128::from(s);
+            let (q0, q1) = (seq[k - r], seq[k - r - 1]);
+            s = s.saturating_add(i64::from(q0[0]));
+            let mut acc = -i128::from(g.i) * i128::from(s);
+            for j in 0..q0.len() {
+                let (a, b) = (i128::from(q0[j]), i128::from(q1[j]));
+                acc -= i128::from(g.p[j]) * a + i128::from(g.d[j]) * (a - b);
+            }
             let raw = acc >> GAIN_FRAC_BITS; // floor
             let code = raw.clamp(-c, c);
             (i32::try_from(code).unwrap(), code != raw)
@@ -39,18 +42,54 @@ fn exact_q16(pd: &IntPd<8>, pre: &[(i32, i32)], inputs: &[(i32, i32)]) -> Vec<(i
         .collect()
 }
 
-/// A config whose gains are codes per count directly (h_adc = h_adc_phi = h_dac = dt = 1).
+/// [`exact_vec`] on two-angle samples.
+fn exact_q16(pd: &IntPd<8>, pre: &[(i32, i32)], inputs: &[(i32, i32)]) -> Vec<(i32, bool)> {
+    let v = |s: &[(i32, i32)]| s.iter().map(|&(y, z)| vec![y, z]).collect::<Vec<_>>();
+    exact_vec(pd, &v(pre), &v(inputs))
+}
+
+/// A config whose gains are codes per count directly (every resolution, h_dac and dt 1).
 fn unit_cfg(kp: f64, kd: f64, kphi_d: f64, ki: f64, delay: u32, u_max: Option<f64>) -> ControllerConfig {
     ControllerConfig {
-        kp,
-        kd,
-        kphi_d,
+        gains: Gains::shorthand(kp, kd, kphi_d, 1.0, 1.0),
         ki,
         dt: 1.0,
         delay,
         u_max,
-        quant: Some(Quantization { mode: QuantMode::Counts, h_adc: 1.0, h_adc_phi: 1.0, h_dac: 1.0 }),
+        quant: Some(Quantization { mode: QuantMode::Counts, h_dac: 1.0 }),
     }
+}
+
+/// One to four coordinates with unit resolutions and Q16-exact gains whose magnitudes sum
+/// to at most [`GAIN_SUM_MAX_Q`] (drawn up to each coordinate's share, often at it).
+fn vector_cfg() -> impl Strategy<Value = ControllerConfig> {
+    let unit = 1.0 / 65536.0;
+    (1usize..=4)
+        .prop_flat_map(|n| {
+            let share = GAIN_SUM_MAX_Q / n as i64;
+            let one = move || {
+                // |P + D| + |D| <= |P| + 2 |D| <= share with |P|, |D| <= share / 3: the
+                // extremes sum to the bound itself.
+                let m = (share / 3).min(GAIN_MAX_Q);
+                let g = prop_oneof![Just(m), Just(-m), Just(0), -m..=m];
+                (g.clone(), g)
+            };
+            (prop::collection::vec(one(), n), prop_oneof![Just(0i64), Just(GAIN_MAX_Q), -GAIN_MAX_Q..=GAIN_MAX_Q])
+        })
+        .prop_map(move |(pd, i)| {
+            let mut gains = Gains::new();
+            for (k, (p, d)) in pd.into_iter().enumerate() {
+                gains.push(Gain { index: k as u8, p: p as f64 * unit, d: d as f64 * unit, h_adc: 1.0 }).unwrap();
+            }
+            ControllerConfig {
+                gains,
+                ki: i as f64 * unit,
+                dt: 1.0,
+                delay: 0,
+                u_max: None,
+                quant: Some(Quantization { mode: QuantMode::Counts, h_dac: 1.0 }),
+            }
+        })
 }
 
 fn extreme_gain() -> impl Strategy<Value = f64> {
@@ -78,13 +117,41 @@ proptest! {
         let cfg = unit_cfg(kp, kd, kphi_d, ki, delay, u_max);
         let mut pd = IntPd::<8>::try_new(&cfg).unwrap();
         let g = pd.gains();
-        prop_assert!([g.p, g.d, g.z, g.i].iter().all(|x| x.abs() <= GAIN_MAX_Q));
+        prop_assert!(g.p.iter().chain(&g.d).chain([&g.i]).all(|x| x.abs() <= GAIN_MAX_Q));
         let c = pd.code_max();
         prop_assert_eq!(c, u_max.map_or(i32::MAX, |m| m.floor() as i32));
         let pre = &pre[..=delay as usize];
         let expected = exact_q16(&pd, pre, &inputs);
         let got = run(&mut pd, pre, &inputs);
         for (i, (o, &(code, sat))) in got.iter().zip(&expected).enumerate() {
+            prop_assert!(o.code.abs() <= c, "step {i}: {} outside +-{c}", o.code);
+            prop_assert_eq!((o.code, o.saturated), (code, sat), "step {}", i);
+        }
+    }
+
+    /// (c') The gain vector: one to four coordinates at gains up to the sum bound, whole i32
+    /// range, every delay: exact against i128, no overflow (overflow checks are on here).
+    #[test]
+    fn gain_vector_whole_i32_range_matches_exact_i128(
+        cfg in vector_cfg(),
+        delay in 0u32..=6,
+        u_max in prop_oneof![Just(None), (1u32..=u32::MAX / 2).prop_map(|c| Some(f64::from(c) + 0.5))],
+        pre in prop::collection::vec(prop::collection::vec(count(), 4), 7),
+        inputs in prop::collection::vec(prop::collection::vec(count(), 4), 1..48),
+    ) {
+        let cfg = ControllerConfig { delay, u_max, ..cfg };
+        let n = cfg.gains.len();
+        let mut pd = IntPd::<8>::try_new(&cfg).unwrap();
+        let g = pd.gains();
+        let total: i64 = (0..n).map(|j| (g.p[j] + g.d[j]).abs() + g.d[j].abs()).sum();
+        prop_assert!(total <= GAIN_SUM_MAX_Q);
+        let cut = |v: &Vec<Vec<i32>>| v.iter().map(|s| s[..n].to_vec()).collect::<Vec<_>>();
+        let (pre, inputs) = (cut(&pre[..=delay as usize].to_vec()), cut(&inputs));
+        let expected = exact_vec(&pd, &pre, &inputs);
+        pd.prime(&pre.concat()).unwrap();
+        let c = pd.code_max();
+        for (i, (q, &(code, sat))) in inputs.iter().zip(&expected).enumerate() {
+            let o = pd.step(q).unwrap();
             prop_assert!(o.code.abs() <= c, "step {i}: {} outside +-{c}", o.code);
             prop_assert_eq!((o.code, o.saturated), (code, sat), "step {}", i);
         }
@@ -100,7 +167,11 @@ proptest! {
         pre in prop::collection::vec((-3000..3000i32, -3000..3000i32), 4),
         inputs in prop::collection::vec((-3000..3000i32, -3000..3000i32), 1..50),
     ) {
-        let cfg = ControllerConfig { kp, kd, kphi_d, dt, ..paper_counts(ki, delay) };
+        let cfg = ControllerConfig {
+            gains: Gains::shorthand(kp, kd, kphi_d, H_ADC, H_ADC),
+            dt,
+            ..paper_counts(ki, delay)
+        };
         let mut pd = IntPd::<8>::try_new(&cfg).unwrap();
         let g = pd.gains();
         let r = delay as usize;
@@ -128,7 +199,7 @@ proptest! {
             let i_part = if ki != 0.0 { (s as f64).abs() } else { 0.0 };
             let e = GAIN_ROUNDING * (y0.abs() + (y0 - y1).abs() + (z0 - z1).abs() + i_part);
             // The Q16 value before the floor is within e of x (the documented bound) ...
-            let acc = -(g.p as f64) * y0 - g.d as f64 * (y0 - y1) + g.z as f64 * (z0 - z1) - g.i as f64 * s as f64;
+            let acc = -(g.p[0] as f64) * y0 - g.d[0] as f64 * (y0 - y1) - g.d[1] as f64 * (z0 - z1) - g.i as f64 * s as f64;
             let xq = acc / 65536.0;
             prop_assert!((xq - x).abs() <= e * (1.0 + 1e-9) + f64_err, "step {i}: |{xq} - {x}| > {e}");
             // ... so the code lies between the floors of x -+ e, and equals floor(x) when that
@@ -208,23 +279,24 @@ fn golden_trace_paper_gains() {
     }
     // The Q16 gains themselves: round(2^16 * {1.55, 21.8, 6, 0.005} * pi).
     let g = IntPd::<4>::try_new(&paper_counts(2.0, 1)).unwrap().gains();
-    assert_eq!((g.p, g.d, g.z, g.i), (319_125, 4_488_346, 1_235_324, 1_029));
+    assert_eq!((g.p[0], g.d[0], g.p[1], -g.d[1], g.i), (319_125, 4_488_346, 0, 1_235_324, 1_029));
 }
 
 #[test]
 fn step_from_fresh_and_reset_use_zero_history() {
     let mut pd = IntPd::<4>::try_new(&paper_counts(2.0, 1)).unwrap();
-    let a: Vec<IntOutput> = [(5, 1), (7, 2), (-3, 0)].iter().map(|&(y, z)| pd.step(y, z)).collect();
+    let a: Vec<IntOutput> = [(5, 1), (7, 2), (-3, 0)].iter().map(|&(y, z)| pd.step(&[y, z]).unwrap()).collect();
     assert_eq!(pd.integral_counts(), 12);
     pd.reset();
     assert_eq!(pd.integral_counts(), 0);
-    let b: Vec<IntOutput> = [(5, 1), (7, 2), (-3, 0)].iter().map(|&(y, z)| pd.step(y, z)).collect();
+    let b: Vec<IntOutput> = [(5, 1), (7, 2), (-3, 0)].iter().map(|&(y, z)| pd.step(&[y, z]).unwrap()).collect();
     assert_eq!(a, b);
     // r = 1 from zero history: the first output is 0, the second sees q_y = 5, dq = (5, 1):
     // x = pi (-7.75 - 109 + 6) - 0.005 pi * 5 = -348.0099 -> -349.
     assert_eq!(a[0], IntOutput { code: 0, saturated: false });
     assert_eq!(a[1], IntOutput { code: -349, saturated: false });
-    assert_eq!(pd.prime(&[(0, 0)]), Err(controller::InputError::HistoryLength { expected: 2, found: 1 }));
+    assert_eq!(pd.prime(&[0, 0]), Err(controller::InputError::HistoryLength { expected: 4, found: 2 }));
+    assert_eq!(pd.step(&[0, 0, 0]), Err(controller::InputError::Measurements { expected: 2, found: 3 }));
 }
 
 #[test]

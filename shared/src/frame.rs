@@ -11,10 +11,15 @@
 //! xor all ones) over header + payload. The kinds ([`Kind`]) of each direction:
 //!
 //! - requests: 1 model chunk (appended to the device's blob buffer), 2 load (decode the blob;
-//!   reply payload = controller delay `u8`), 3 prime (`q_y i32, q_z i32`), 4 step
-//!   (`q_y i32, q_z i32, sample f32`), 5 shutdown;
-//! - replies: `0x81` ack, `0x84` step (`code i32, saturated u8, ready u8, prediction f32`),
-//!   `0xEE` error (payload one [`Fault`] code).
+//!   reply payload [`LoadReply`]: controller delay `u8`, measured coordinates `u8`), 3 prime
+//!   ([`Prime`]: one `i32` count per measured coordinate), 4 step ([`Step`]: one `i32` count
+//!   per measured coordinate, then the predictor's sample `f32`), 5 shutdown;
+//! - replies: `0x81` ack, `0x84` step ([`StepReply`]: `code i32, saturated u8, ready u8,
+//!   prediction f32`), `0xEE` error (payload one [`Fault`] code).
+//!
+//! All numbers little-endian. The payloads of load, prime and step are defined here once
+//! ([`LoadReply`], [`Prime`], [`Step`], [`StepReply`]: `encode` into a buffer, `decode` with
+//! an error naming what is wrong); the host and the firmware both use them.
 //!
 //! Requests are numbered ([`Seq`]) 0, 1, 2, ... (wrapping); a reply carries its request's
 //! number.
@@ -26,6 +31,7 @@
 
 use core::fmt;
 
+use crate::config::MAX_GAINS;
 use crate::model::CRC32;
 
 /// First byte of a request (host to device).
@@ -88,15 +94,15 @@ pub enum Kind {
     /// Request (empty): decode the blob (predictor and controller configuration); the ack
     /// carries the controller's delay (`u8`).
     Load = 2,
-    /// Request: prime the controller with a constant pair (`q_y i32, q_z i32`).
+    /// Request: prime the controller at rest ([`Prime`]: one count per coordinate).
     Prime = 3,
-    /// Request: one period (`q_y i32, q_z i32, sample f32`).
+    /// Request: one period ([`Step`]: one count per coordinate, then the sample `f32`).
     Step = 4,
     /// Request (empty): the device acks and exits.
     Shutdown = 5,
     /// Reply: done (payload as the request defines).
     Ack = 0x81,
-    /// Reply to [`Kind::Step`]: `code i32, saturated u8, ready u8, prediction f32`.
+    /// Reply to [`Kind::Step`] ([`StepReply`]): `code i32, saturated u8, ready u8, prediction f32`.
     StepReply = 0x84,
     /// Reply: the request was refused; payload one [`Fault`] code.
     Error = 0xEE,
@@ -172,12 +178,14 @@ pub enum Fault {
     BlobFull = 6,
     /// The blob's controller configuration is invalid.
     Config = 7,
+    /// A prime or step carries a number of counts other than the controller's coordinates.
+    Counts = 8,
 }
 
 impl Fault {
     /// Every fault, by code.
-    pub const ALL: [Fault; 7] =
-        [Self::Crc, Self::Seq, Self::Kind, Self::Load, Self::NotLoaded, Self::BlobFull, Self::Config];
+    pub const ALL: [Fault; 8] =
+        [Self::Crc, Self::Seq, Self::Kind, Self::Load, Self::NotLoaded, Self::BlobFull, Self::Config, Self::Counts];
 
     /// The payload byte.
     pub const fn code(self) -> u8 {
@@ -194,6 +202,7 @@ impl Fault {
             5 => Self::NotLoaded,
             6 => Self::BlobFull,
             7 => Self::Config,
+            8 => Self::Counts,
             _ => return None,
         })
     }
@@ -208,6 +217,7 @@ impl Fault {
             Self::NotLoaded => "no model loaded",
             Self::BlobFull => "model blob exceeds the device buffer",
             Self::Config => "the blob's controller configuration is invalid",
+            Self::Counts => "the number of counts differs from the controller's measured coordinates",
         }
     }
 }
@@ -426,5 +436,217 @@ impl Receiver {
         }
         self.complete = true;
         Some(decode(self.buf.get(..self.filled).unwrap_or_default()))
+    }
+}
+
+/// Why a payload of a load, prime or step frame does not decode (or encode).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum PayloadError {
+    /// The payload length is not one this kind takes (`min..=max` in steps of `step`).
+    Length { kind: Kind, len: usize, min: usize, max: usize, step: usize },
+    /// A flag byte is neither 0 nor 1.
+    Flag { what: &'static str, value: u8 },
+    /// [`Prime::encode`] / [`Step::encode`]: no counts, or more than [`MAX_GAINS`].
+    Counts { got: usize, max: usize },
+    /// The output buffer cannot hold the payload.
+    BufferTooSmall { need: usize, got: usize },
+}
+
+impl fmt::Display for PayloadError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match *self {
+            Self::Length { kind, len, min, max, step } => {
+                write!(f, "{kind:?} payload of {len} bytes: this kind takes {min} to {max} bytes in steps of {step}")
+            }
+            Self::Flag { what, value } => write!(f, "{what} flag byte is {value}, not 0 or 1"),
+            Self::Counts { got, max } => write!(f, "{got} counts: a frame carries 1 to {max}"),
+            Self::BufferTooSmall { need, got } => write!(f, "payload needs {need} bytes, buffer has {got}"),
+        }
+    }
+}
+
+#[cfg(feature = "std")]
+impl std::error::Error for PayloadError {}
+
+/// The counts of one sample: one `i32` per measured coordinate, 1 to [`MAX_GAINS`].
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Counts {
+    n: u8,
+    c: [i32; MAX_GAINS],
+}
+
+impl Counts {
+    /// The counts `c` (1 to [`MAX_GAINS`] of them).
+    pub fn new(c: &[i32]) -> Result<Self, PayloadError> {
+        let mut all = [0; MAX_GAINS];
+        match all.get_mut(..c.len()) {
+            Some(dst) if !c.is_empty() => {
+                dst.copy_from_slice(c);
+                // 1..=MAX_GAINS: fits u8.
+                Ok(Self { n: c.len() as u8, c: all })
+            }
+            _ => Err(PayloadError::Counts { got: c.len(), max: MAX_GAINS }),
+        }
+    }
+
+    /// The counts, in gain order.
+    pub fn as_slice(&self) -> &[i32] {
+        self.c.get(..usize::from(self.n)).unwrap_or_default()
+    }
+
+    /// All [`MAX_GAINS`] slots, unused ones zero (what `controller::IntPd::step_counts` takes).
+    pub fn padded(&self) -> &[i32; MAX_GAINS] {
+        &self.c
+    }
+
+    fn write(&self, out: &mut [u8]) {
+        for (dst, c) in out.chunks_exact_mut(4).zip(self.as_slice()) {
+            dst.copy_from_slice(&c.to_le_bytes());
+        }
+    }
+
+    fn read(bytes: &[u8]) -> Self {
+        let mut c = [0; MAX_GAINS];
+        let mut n = 0u8;
+        for (dst, src) in c.iter_mut().zip(bytes.chunks_exact(4)) {
+            if let Some(w) = src.first_chunk::<4>() {
+                *dst = i32::from_le_bytes(*w);
+                n += 1;
+            }
+        }
+        Self { n, c }
+    }
+}
+
+fn out(buf: &mut [u8], need: usize) -> Result<&mut [u8], PayloadError> {
+    let got = buf.len();
+    buf.get_mut(..need).ok_or(PayloadError::BufferTooSmall { need, got })
+}
+
+/// The payload of a [`Kind::Prime`] request: the controller starts at rest at these counts
+/// (`4 n` bytes, `n` = the coordinates).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Prime(pub Counts);
+
+impl Prime {
+    /// Largest payload, bytes.
+    pub const MAX_LEN: usize = 4 * MAX_GAINS;
+
+    /// Writes the payload into `buf`; returns its length.
+    pub fn encode(&self, buf: &mut [u8]) -> Result<usize, PayloadError> {
+        let n = 4 * self.0.as_slice().len();
+        self.0.write(out(buf, n)?);
+        Ok(n)
+    }
+
+    /// Reads a payload of 4 to [`Prime::MAX_LEN`] bytes, a multiple of 4.
+    pub fn decode(p: &[u8]) -> Result<Self, PayloadError> {
+        if p.is_empty() || p.len() > Self::MAX_LEN || !p.len().is_multiple_of(4) {
+            return Err(PayloadError::Length { kind: Kind::Prime, len: p.len(), min: 4, max: Self::MAX_LEN, step: 4 });
+        }
+        Ok(Self(Counts::read(p)))
+    }
+}
+
+/// The payload of a [`Kind::Step`] request: the counts read at this sample (`4 n` bytes), then
+/// the predictor's sample `f32` (4 bytes).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Step {
+    pub counts: Counts,
+    pub sample: f32,
+}
+
+impl Step {
+    /// Largest payload, bytes.
+    pub const MAX_LEN: usize = 4 * MAX_GAINS + 4;
+
+    /// Writes the payload into `buf`; returns its length.
+    pub fn encode(&self, buf: &mut [u8]) -> Result<usize, PayloadError> {
+        let n = 4 * self.counts.as_slice().len();
+        let (c, s) = out(buf, n + 4)?.split_at_mut(n);
+        self.counts.write(c);
+        s.copy_from_slice(&self.sample.to_le_bytes());
+        Ok(n + 4)
+    }
+
+    /// Reads a payload of 8 to [`Step::MAX_LEN`] bytes, a multiple of 4.
+    pub fn decode(p: &[u8]) -> Result<Self, PayloadError> {
+        let bad = PayloadError::Length { kind: Kind::Step, len: p.len(), min: 8, max: Self::MAX_LEN, step: 4 };
+        if p.len() < 8 || p.len() > Self::MAX_LEN || !p.len().is_multiple_of(4) {
+            return Err(bad);
+        }
+        let (c, s) = p.split_at(p.len() - 4);
+        let sample = f32::from_le_bytes(*s.first_chunk::<4>().ok_or(bad)?);
+        Ok(Self { counts: Counts::read(c), sample })
+    }
+}
+
+/// The payload of the [`Kind::Ack`] to a [`Kind::Load`]: the loaded controller's delay and
+/// number of measured coordinates (2 bytes).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct LoadReply {
+    /// Delay `r` in samples (saturated at 255).
+    pub delay: u8,
+    pub coordinates: u8,
+}
+
+impl LoadReply {
+    pub const LEN: usize = 2;
+
+    pub fn encode(&self, buf: &mut [u8]) -> Result<usize, PayloadError> {
+        out(buf, Self::LEN)?.copy_from_slice(&[self.delay, self.coordinates]);
+        Ok(Self::LEN)
+    }
+
+    pub fn decode(p: &[u8]) -> Result<Self, PayloadError> {
+        match *p {
+            [delay, coordinates] => Ok(Self { delay, coordinates }),
+            _ => Err(PayloadError::Length { kind: Kind::Ack, len: p.len(), min: 2, max: 2, step: 1 }),
+        }
+    }
+}
+
+/// The payload of a [`Kind::StepReply`]: `code i32, saturated u8, ready u8, prediction f32`
+/// (10 bytes); the prediction is 0 and `ready` false until the predictor's window is full.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct StepReply {
+    pub code: i32,
+    pub saturated: bool,
+    pub ready: bool,
+    pub prediction: f32,
+}
+
+impl StepReply {
+    pub const LEN: usize = 10;
+
+    pub fn encode(&self, buf: &mut [u8]) -> Result<usize, PayloadError> {
+        let o = out(buf, Self::LEN)?;
+        let [c0, c1, c2, c3] = self.code.to_le_bytes();
+        let [p0, p1, p2, p3] = self.prediction.to_le_bytes();
+        o.copy_from_slice(&[c0, c1, c2, c3, u8::from(self.saturated), u8::from(self.ready), p0, p1, p2, p3]);
+        Ok(Self::LEN)
+    }
+
+    pub fn decode(p: &[u8]) -> Result<Self, PayloadError> {
+        let &[c0, c1, c2, c3, sat, ready, p0, p1, p2, p3] = p else {
+            return Err(PayloadError::Length {
+                kind: Kind::StepReply,
+                len: p.len(),
+                min: Self::LEN,
+                max: Self::LEN,
+                step: 1,
+            });
+        };
+        let flag = |what, value| match value {
+            0 => Ok(false),
+            1 => Ok(true),
+            _ => Err(PayloadError::Flag { what, value }),
+        };
+        Ok(Self {
+            code: i32::from_le_bytes([c0, c1, c2, c3]),
+            saturated: flag("saturated", sat)?,
+            ready: flag("ready", ready)?,
+            prediction: f32::from_le_bytes([p0, p1, p2, p3]),
+        })
     }
 }

@@ -12,4 +12,4 @@ pub mod config;
 pub mod frame;
 pub mod model;
 
-pub use config::{ControllerConfig, QuantMode, Quantization};
+pub use config::{ControllerConfig, Gain, Gains, MAX_GAINS, QuantMode, Quantization};

@@ -26,7 +26,12 @@
 //!
 //! All matrices are `f32`, row-major.
 //!
-//! # Blob layout (format version 1)
+//! # Blob layout (format version 2)
+//!
+//! Version 2 carries the controller's gain vector (`ControllerConfig::gains`: per measured
+//! coordinate its state index, `p`, `d` and encoder resolution) where version 1 had the
+//! Furuta's `kp`, `kd`, `kphi_d` and two resolutions; a version-1 blob is refused with an
+//! error naming both versions (re-export it).
 //!
 //! A fixed little-endian header of [`HEADER_LEN`] bytes:
 //!
@@ -67,9 +72,9 @@ pub use wire::ModelRef;
 /// The four bytes every model blob starts with.
 pub const MAGIC: [u8; 4] = *b"SSMR";
 /// The format version this crate writes.
-pub const FORMAT_VERSION: u16 = 1;
+pub const FORMAT_VERSION: u16 = 2;
 /// The format versions this crate reads.
-pub const SUPPORTED_VERSIONS: &[u16] = &[1];
+pub const SUPPORTED_VERSIONS: &[u16] = &[2];
 /// Length of the fixed header in bytes.
 pub const HEADER_LEN: usize = 22;
 

@@ -94,7 +94,7 @@ fn codes_and_directions() {
         assert_eq!(usize::from(f.code()), i + 1);
         assert_eq!(Fault::from_code(f.code()), Some(*f));
     }
-    assert_eq!((Fault::from_code(0), Fault::from_code(8)), (None, None));
+    assert_eq!((Fault::from_code(0), Fault::from_code(9)), (None, None));
     assert_eq!(Fault::Crc.description(), "bad CRC (corrupt frame)");
     assert_eq!(Direction::from_start_byte(REQUEST_START), Some(Direction::Request));
     assert_eq!(Direction::from_start_byte(REPLY_START), Some(Direction::Reply));
@@ -318,5 +318,90 @@ proptest! {
         }
         let mut buf = [0u8; 8];
         let _ = frame::encode(Kind::Ack, Seq(0), &body, &mut buf);
+    }
+}
+
+// Payloads of the load, prime and step frames (`frame::{LoadReply, Prime, Step, StepReply}`).
+
+/// Golden payloads: the Furuta's two counts (the layout before the gain vector, unchanged
+/// for two coordinates), one and four counts, and the replies.
+#[test]
+fn golden_payloads() {
+    use frame::{Counts, LoadReply, Prime, Step, StepReply};
+    let mut buf = [0u8; 32];
+    let enc = |r: Result<usize, frame::PayloadError>, buf: &[u8]| hex(&buf[..r.unwrap()]);
+    let two = Counts::new(&[0x4030_2010, -2]).unwrap();
+    let step = Step { counts: two, sample: 1.0 };
+    let n = step.encode(&mut buf);
+    assert_eq!(enc(n, &buf), "10203040feffffff0000803f");
+    // The whole request frame: the golden step request above, byte for byte.
+    let payload = buf[..12].to_vec();
+    assert_eq!(hex(&encoded(Kind::Step, 0x0102, &payload)), unspaced(STEP_REQUEST));
+    assert_eq!(Step::decode(&payload), Ok(step));
+    let one = Step { counts: Counts::new(&[-1]).unwrap(), sample: -0.5 };
+    let n = one.encode(&mut buf);
+    assert_eq!(enc(n, &buf), "ffffffff000000bf");
+    assert_eq!(Step::decode(&buf[..8]), Ok(one));
+    let four = Counts::new(&[1, -1, i32::MAX, i32::MIN]).unwrap();
+    let n = Prime(four).encode(&mut buf);
+    assert_eq!(enc(n, &buf), "01000000ffffffffffffff7f00000080");
+    assert_eq!(Prime::decode(&buf[..16]), Ok(Prime(four)));
+    let p = Prime::decode(&buf[..16]).unwrap();
+    assert_eq!(p.0.as_slice(), &[1, -1, i32::MAX, i32::MIN]);
+    assert_eq!(p.0.padded(), &[1, -1, i32::MAX, i32::MIN]);
+    let n = LoadReply { delay: 3, coordinates: 2 }.encode(&mut buf);
+    assert_eq!(enc(n, &buf), "0302");
+    assert_eq!(LoadReply::decode(&[3, 2]), Ok(LoadReply { delay: 3, coordinates: 2 }));
+    let r = StepReply { code: 5, saturated: true, ready: true, prediction: 1.5 };
+    let n = r.encode(&mut buf);
+    assert_eq!(enc(n, &buf), "0500000001010000c03f");
+    assert_eq!(StepReply::decode(&buf[..10]), Ok(r));
+    assert_eq!(hex(&encoded(Kind::StepReply, 0x0102, &buf[..10])), unspaced(STEP_REPLY));
+}
+
+#[test]
+fn payload_errors_name_what_is_wrong() {
+    use frame::{Counts, LoadReply, PayloadError, Prime, Step, StepReply};
+    assert_eq!(Counts::new(&[]), Err(PayloadError::Counts { got: 0, max: 4 }));
+    assert_eq!(Counts::new(&[0; 5]), Err(PayloadError::Counts { got: 5, max: 4 }));
+    for len in [0, 3, 5, 20] {
+        let e = Prime::decode(&vec![0; len]).unwrap_err();
+        assert_eq!(e, PayloadError::Length { kind: Kind::Prime, len, min: 4, max: 16, step: 4 });
+    }
+    for len in [0, 4, 7, 13, 24] {
+        assert!(matches!(Step::decode(&vec![0; len]), Err(PayloadError::Length { kind: Kind::Step, .. })), "{len}");
+    }
+    assert!(LoadReply::decode(&[1]).is_err());
+    let e = StepReply::decode(&[0, 0, 0, 0, 2, 0, 0, 0, 0, 0]).unwrap_err();
+    assert_eq!(e, PayloadError::Flag { what: "saturated", value: 2 });
+    assert_eq!(e.to_string(), "saturated flag byte is 2, not 0 or 1");
+    let mut small = [0u8; 7];
+    let s = Step { counts: Counts::new(&[1]).unwrap(), sample: 0.0 };
+    assert_eq!(s.encode(&mut small), Err(PayloadError::BufferTooSmall { need: 8, got: 7 }));
+    assert!(
+        Prime::decode(&[0; 5]).unwrap_err().to_string().contains("Prime payload of 5 bytes: this kind takes 4 to 16")
+    );
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig { cases: 2000, ..ProptestConfig::default() })]
+
+    /// Every count vector and sample round-trips; any byte string decodes or is refused
+    /// without panicking.
+    #[test]
+    fn payloads_round_trip(c in proptest::collection::vec(any::<i32>(), 1..=4), sample in any::<f32>(),
+                           junk in proptest::collection::vec(any::<u8>(), 0..40)) {
+        use frame::{Counts, Prime, Step, StepReply, LoadReply};
+        let counts = Counts::new(&c).unwrap();
+        let mut buf = [0u8; 32];
+        let n = Step { counts, sample }.encode(&mut buf).unwrap();
+        prop_assert_eq!(n, 4 * c.len() + 4);
+        let back = Step::decode(&buf[..n]).unwrap();
+        prop_assert_eq!(back.counts.as_slice(), &c[..]);
+        prop_assert_eq!(back.sample.to_bits(), sample.to_bits());
+        let n = Prime(counts).encode(&mut buf).unwrap();
+        let p = Prime::decode(&buf[..n]).unwrap();
+        prop_assert_eq!(p.0.as_slice(), &c[..]);
+        let _ = (Step::decode(&junk), Prime::decode(&junk), StepReply::decode(&junk), LoadReply::decode(&junk));
     }
 }

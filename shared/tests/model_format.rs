@@ -1,4 +1,5 @@
-//! Golden bytes, the pinned version-1 blob, and one check per decode error.
+//! Golden bytes, the pinned version-2 blob, the refused version-1 blob, and one check per
+//! decode error.
 
 mod common;
 
@@ -13,16 +14,22 @@ fn hex(bytes: &[u8]) -> String {
 /// The tiny model, field by field (header little-endian, payload postcard).
 const TINY_GOLDEN: &[&str] = &[
     "53534d52",         // magic "SSMR"
-    "0100",             // version 1
+    "0200",             // version 2
     "0100",             // d = 1
     "0200",             // p = 2
     "0100",             // k = 1
     "0100",             // lift terms = 1
-    "62000000",         // payload length 98
-    "8f5917e0",         // CRC-32 of the payload
-    "0000000000002f40", // config.kp = 15.5 (f64)
-    "cdcccccccccc1540", // config.kd = 5.45
-    "000000000000f83f", // config.kphi_d = 1.5
+    "7d000000",         // payload length 125
+    "31403ae7",         // CRC-32 of the payload
+    "02",               // config.gains: 2 entries (varint)
+    "00",               // gains[0].index = 0 (theta, u8)
+    "0000000000002f40", // gains[0].p = kp = 15.5 (f64)
+    "cdcccccccccc1540", // gains[0].d = kd = 5.45
+    "0000000000000000", // gains[0].h_adc = 0 (no quantization)
+    "02",               // gains[1].index = 2 (phi)
+    "0000000000000000", // gains[1].p = 0
+    "000000000000f8bf", // gains[1].d = -kphi_d = -1.5
+    "0000000000000000", // gains[1].h_adc = 0
     "0000000000000000", // config.ki = 0
     "7b14ae47e17a843f", // config.dt = 0.01
     "01",               // config.delay = 1 (varint)
@@ -56,7 +63,7 @@ const TINY_GOLDEN: &[&str] = &[
 fn golden_bytes_tiny() {
     let blob = common::encode(&common::tiny());
     assert_eq!(hex(&blob), TINY_GOLDEN.concat());
-    assert_eq!(blob.len(), HEADER_LEN + 98);
+    assert_eq!(blob.len(), HEADER_LEN + 125);
 }
 
 #[test]
@@ -76,11 +83,22 @@ fn tiny_round_trips() {
     assert!(m.v1()[1][1..].iter().all(|&x| x == 0.0));
 }
 
-const PINNED: &[u8] = include_bytes!("data/model_v1.bin");
+const PINNED: &[u8] = include_bytes!("data/model_v2.bin");
+/// The same model written by the version-1 writer (kp, kd, kphi_d and two resolutions).
+const PINNED_V1: &[u8] = include_bytes!("data/model_v1.bin");
 
-/// Every later reader must decode this version-1 blob to exactly these values.
+/// A version-1 blob is refused, and the message names its version and the one read here.
 #[test]
-fn pinned_v1_blob_decodes() {
+fn pinned_v1_blob_is_refused_naming_both_versions() {
+    let e = Small::decode(PINNED_V1).unwrap_err();
+    assert_eq!(e, DecodeError::UnsupportedVersion { found: 1, supported: &[2] });
+    let msg = e.to_string();
+    assert!(msg.contains("format version 1") && msg.contains("[2]"), "{msg}");
+}
+
+/// Every later reader of version 2 must decode this blob to exactly these values.
+#[test]
+fn pinned_v2_blob_decodes() {
     use common::pinned as pin;
     let m = Small::decode(PINNED).unwrap();
     assert_eq!(*m.config(), pin::CONFIG);
@@ -98,13 +116,13 @@ fn pinned_v1_blob_decodes() {
     assert_eq!(m.affine_bias(), &[0.001, -0.002]);
 }
 
-/// While version 1 is the current writer, encoding the pinned model reproduces the file.
+/// While version 2 is the current writer, encoding the pinned model reproduces the file.
 /// Set `SSMR_WRITE_PINNED=1` once to (re)create it when a new pinned file is introduced.
 #[test]
-fn pinned_v1_blob_matches_current_encoder() {
+fn pinned_v2_blob_matches_current_encoder() {
     let blob = common::encode(&common::pinned());
     if std::env::var_os("SSMR_WRITE_PINNED").is_some() {
-        std::fs::write(concat!(env!("CARGO_MANIFEST_DIR"), "/tests/data/model_v1.bin"), &blob).unwrap();
+        std::fs::write(concat!(env!("CARGO_MANIFEST_DIR"), "/tests/data/model_v2.bin"), &blob).unwrap();
     }
     assert_eq!(blob, PINNED);
 }
@@ -218,10 +236,15 @@ fn each_decode_error() {
     nan_affine[n - 4..].copy_from_slice(&f32::NAN.to_le_bytes());
     check(&fix_crc(nan_affine), DecodeError::NonFinite { what: "affine" });
     // A broken option tag in the config: postcard's own error.
-    let u_max_tag = HEADER_LEN + 5 * 8 + 1;
+    // Config: gains (length byte, 2 x [index u8, p, d, h_adc f64]), ki, dt, delay, u_max tag.
+    let u_max_tag = HEADER_LEN + 1 + 2 * 25 + 2 * 8 + 1;
     let mut bad_tag = good.clone();
     bad_tag[u_max_tag] = 7;
     check(&fix_crc(bad_tag), DecodeError::Postcard { reason: "bad option tag" });
+    // More gains than the vector holds: refused by the gain vector's own decoder.
+    let mut five = good.clone();
+    five[HEADER_LEN] = 5;
+    check(&fix_crc(five), DecodeError::Postcard { reason: "other postcard error" });
 }
 
 /// Position of the first `x` (LE f32) at or after `from`.
@@ -235,5 +258,8 @@ fn errors_display_what_is_wrong() {
     let e = DecodeError::Capacity { what: "k", max: 2, got: 3 };
     assert_eq!(e.to_string(), "k = 3 exceeds this build's capacity 2");
     let e = DecodeError::UnsupportedVersion { found: 7, supported: SUPPORTED_VERSIONS };
-    assert_eq!(e.to_string(), "format version 7 not supported (this reader accepts [1])");
+    assert_eq!(
+        e.to_string(),
+        "format version 7 not supported (this reader accepts [2]); re-export the model with this version"
+    );
 }

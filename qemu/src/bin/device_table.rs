@@ -97,48 +97,61 @@ fn nops_0() {
 
 const CTRL_REPS: usize = 1000;
 
+/// The integer controller's step on the coordinates of `cfg`: the call the PIL firmware
+/// makes per period, `IntPd::step_counts` on the received counts (padded to four).
+fn bench_int(key: &str, cfg: &shared::ControllerConfig, inputs: &[[i32; 4]]) {
+    let base = ticks(|| {
+        for q in inputs {
+            black_box(black_box(q));
+        }
+    });
+    let mut pd = IntPd::<{ data::TRACE_H }>::try_new(cfg).unwrap_or_else(|_| fail("IntPd config"));
+    let t = ticks(|| {
+        for q in inputs {
+            black_box(pd.step_counts(black_box(q)));
+        }
+    });
+    report(key, CTRL_REPS, t, base);
+}
+
 fn bench_controllers() {
     let inputs = data::TRACE_INPUTS.get(..CTRL_REPS).unwrap_or_else(|| fail("too few trace inputs"));
-    let base = ticks(|| {
-        for &(qy, qz) in inputs {
-            black_box((black_box(qy), black_box(qz)));
-        }
-    });
-    let cfg = data::TRACE_CASES.get(1).unwrap_or_else(|| fail("no pid trace case")).config;
-    let mut pd = IntPd::<{ data::TRACE_H }>::try_new(&cfg).unwrap_or_else(|_| fail("IntPd config"));
-    let t = ticks(|| {
-        for &(qy, qz) in inputs {
-            black_box(pd.step(black_box(qy), black_box(qz)));
-        }
-    });
-    report("ctrl_int", CTRL_REPS, t, base);
+    // The Furuta's configuration (two coordinates), and one and four coordinates: the
+    // golden-trace cases of the same gains.
+    let case = |i: usize| data::TRACE_CASES.get(i).unwrap_or_else(|| fail("no such trace case")).config;
+    let cfg = case(1);
+    bench_int("ctrl_int", &cfg, inputs);
+    bench_int("ctrl_int_n1", &case(5), inputs);
+    bench_int("ctrl_int_n4", &case(6), inputs);
 
-    let q = cfg.quant.unwrap_or_else(|| fail("trace config without quant"));
+    let (hy, hz) = match cfg.gains.as_slice() {
+        [a, b] => (a.h_adc, b.h_adc),
+        _ => fail("trace config is not the two-angle shorthand"),
+    };
     let float_cfg = shared::ControllerConfig { quant: None, ..cfg };
-    let (hy, hz) = (q.h_adc as f32, q.h_adc_phi as f32);
+    let (fy, fz) = (hy as f32, hz as f32);
     let base = ticks(|| {
-        for &(qy, qz) in inputs {
-            black_box((black_box(qy as f32 * hy), black_box(qz as f32 * hz)));
+        for q in inputs {
+            black_box(black_box([q[0] as f32 * fy, q[1] as f32 * fz]));
         }
     });
     let mut f32pd = FloatPd::<f32, 8>::try_new(&float_cfg).unwrap_or_else(|_| fail("FloatPd<f32> config"));
     let t = ticks(|| {
-        for &(qy, qz) in inputs {
-            let _ = black_box(f32pd.step(black_box(qy as f32 * hy), black_box(qz as f32 * hz)));
+        for q in inputs {
+            let _ = black_box(f32pd.step(&black_box([q[0] as f32 * fy, q[1] as f32 * fz])));
         }
     });
     report("ctrl_f32", CTRL_REPS, t, base);
 
-    let (hy, hz) = (q.h_adc, q.h_adc_phi);
     let base = ticks(|| {
-        for &(qy, qz) in inputs {
-            black_box((black_box(f64::from(qy) * hy), black_box(f64::from(qz) * hz)));
+        for q in inputs {
+            black_box(black_box([f64::from(q[0]) * hy, f64::from(q[1]) * hz]));
         }
     });
     let mut f64pd = FloatPd::<f64, 8>::try_new(&float_cfg).unwrap_or_else(|_| fail("FloatPd<f64> config"));
     let t = ticks(|| {
-        for &(qy, qz) in inputs {
-            let _ = black_box(f64pd.step(black_box(f64::from(qy) * hy), black_box(f64::from(qz) * hz)));
+        for q in inputs {
+            let _ = black_box(f64pd.step(&black_box([f64::from(q[0]) * hy, f64::from(q[1]) * hz])));
         }
     });
     report("ctrl_f64", CTRL_REPS, t, base);

@@ -4,14 +4,16 @@
 //!
 //! Frames, kinds and fault codes: `shared::frame` (the host uses the same definition).
 //! Request kinds: model chunk (appended to the blob buffer), load (decode the blob:
-//! predictor + controller config; reply payload = delay u8), prime (`q_y i32, q_z i32`),
-//! step (`q_y i32, q_z i32, sample f32`), shutdown (reply, then semihosting exit 0).
+//! predictor + controller config; reply [`frame::LoadReply`]: delay and measured
+//! coordinates), prime ([`frame::Prime`]: one count per coordinate), step ([`frame::Step`]:
+//! the counts and the predictor's sample), shutdown (reply, then semihosting exit 0).
 //! After enabling its serial port the device sends a hello: an empty ack numbered 0xFFFF.
-//! The step reply is `code i32, saturated u8, ready u8, prediction f32`; the prediction is 0
-//! and `ready` 0 until the predictor's window is full. Requests are numbered 0, 1, 2, ...:
-//! a frame with a bad CRC or an unexpected number is answered with an error reply
-//! ([`Fault`]) and changes nothing; an unknown kind or a payload length the kind does not
-//! take is answered with [`Fault::Kind`] (its number counts).
+//! The step reply is [`frame::StepReply`]; the prediction is 0 and `ready` 0 until the
+//! predictor's window is full. Requests are numbered 0, 1, 2, ...: a frame with a bad CRC or
+//! an unexpected number is answered with an error reply ([`Fault`]) and changes nothing; an
+//! unknown kind or a payload length the kind does not take is answered with [`Fault::Kind`]
+//! (its number counts), a number of counts other than the controller's coordinates with
+//! [`Fault::Counts`].
 #![no_std]
 #![no_main]
 
@@ -20,7 +22,7 @@ use controller::predictor::{Predictor, SqrtFlavour};
 use cortex_m_rt::{ExceptionFrame, entry, exception};
 use cortex_m_semihosting::{debug, hprintln};
 use panic_semihosting as _;
-use shared::frame::{self, Direction, Fault, FrameError, Kind, Receiver, Seq};
+use shared::frame::{self, Direction, Fault, FrameError, Kind, LoadReply, Prime, Receiver, Seq, Step, StepReply};
 
 /// Capacities: p <= 16, d <= 6, K <= 256, lift terms <= 84, window <= 64.
 type Pred = Predictor<16, 6, 256, 84, 64>;
@@ -50,14 +52,6 @@ fn reply(kind: Kind, seq: Seq, payload: &[u8]) {
 
 fn fault(seq: Seq, f: Fault) {
     reply(Kind::Error, seq, &[f.code()]);
-}
-
-fn word(p: &[u8], at: usize) -> [u8; 4] {
-    let mut w = [0u8; 4];
-    if let Some(s) = p.get(at..at + 4) {
-        w.copy_from_slice(s);
-    }
-    w
 }
 
 #[entry]
@@ -111,38 +105,44 @@ fn main() -> ! {
             (Kind::Load, 0) => match pred.load(&blob[..blob_len]) {
                 Ok(()) => match IntPd::<8>::try_new(pred.model().config()) {
                     Ok(p) => {
-                        let delay = p.delay().min(255) as u8;
+                        let r = LoadReply { delay: p.delay().min(255) as u8, coordinates: p.coordinates() as u8 };
                         pd = Some(p);
-                        reply(Kind::Ack, seq, &[delay]);
+                        let mut b = [0u8; LoadReply::LEN];
+                        let n = r.encode(&mut b).unwrap_or(0);
+                        reply(Kind::Ack, seq, &b[..n]);
                     }
                     Err(_) => fault(seq, Fault::Config),
                 },
                 Err(_) => fault(seq, Fault::Load),
             },
-            (Kind::Prime, 8) => match &mut pd {
-                Some(p) => {
-                    p.prime_constant(i32::from_le_bytes(word(payload, 0)), i32::from_le_bytes(word(payload, 4)));
-                    pred.reset();
-                    reply(Kind::Ack, seq, &[]);
-                }
-                None => fault(seq, Fault::NotLoaded),
+            (Kind::Prime, _) => match (Prime::decode(payload), &mut pd) {
+                (Err(_), _) => fault(seq, Fault::Kind),
+                (Ok(_), None) => fault(seq, Fault::NotLoaded),
+                (Ok(Prime(c)), Some(p)) => match p.prime_constant(c.as_slice()) {
+                    Ok(()) => {
+                        pred.reset();
+                        reply(Kind::Ack, seq, &[]);
+                    }
+                    Err(_) => fault(seq, Fault::Counts),
+                },
             },
-            (Kind::Step, 12) => match &mut pd {
-                Some(p) => {
-                    let out = p.step(i32::from_le_bytes(word(payload, 0)), i32::from_le_bytes(word(payload, 4)));
-                    let sample = f32::from_le_bytes(word(payload, 8));
-                    let (ready, y) = match pred.push(sample).and_then(|()| pred.predict(1)) {
-                        Ok(y) => (1u8, y),
-                        Err(_) => (0u8, 0.0),
-                    };
-                    let mut r = [0u8; 10];
-                    r[0..4].copy_from_slice(&out.code.to_le_bytes());
-                    r[4] = u8::from(out.saturated);
-                    r[5] = ready;
-                    r[6..10].copy_from_slice(&y.to_le_bytes());
-                    reply(Kind::StepReply, seq, &r);
-                }
-                None => fault(seq, Fault::NotLoaded),
+            (Kind::Step, _) => match (Step::decode(payload), &mut pd) {
+                (Err(_), _) => fault(seq, Fault::Kind),
+                (Ok(_), None) => fault(seq, Fault::NotLoaded),
+                (Ok(s), Some(p)) => match (s.counts.as_slice().len() == p.coordinates()).then_some(s) {
+                    Some(s) => {
+                        let out = p.step_counts(s.counts.padded());
+                        let (ready, prediction) = match pred.push(s.sample).and_then(|()| pred.predict(1)) {
+                            Ok(y) => (true, y),
+                            Err(_) => (false, 0.0),
+                        };
+                        let r = StepReply { code: out.code, saturated: out.saturated, ready, prediction };
+                        let mut b = [0u8; StepReply::LEN];
+                        let n = r.encode(&mut b).unwrap_or(0);
+                        reply(Kind::StepReply, seq, &b[..n]);
+                    }
+                    None => fault(seq, Fault::Counts),
+                },
             },
             (Kind::Shutdown, 0) => {
                 reply(Kind::Ack, seq, &[]);

@@ -34,7 +34,10 @@ impl fmt::Display for DecodeError {
         match *self {
             Self::BadMagic { found } => write!(f, "bad magic {found:02x?}, expected \"SSMR\""),
             Self::UnsupportedVersion { found, supported } => {
-                write!(f, "format version {found} not supported (this reader accepts {supported:?})")
+                write!(
+                    f,
+                    "format version {found} not supported (this reader accepts {supported:?}); re-export the model with this version"
+                )
             }
             Self::Truncated { needed, got } => write!(f, "blob truncated: need {needed} bytes, got {got}"),
             Self::TrailingBytes { expected, got } => {

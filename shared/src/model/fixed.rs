@@ -2,7 +2,7 @@
 
 use super::DecodeError;
 use super::wire::{BytesIn, check};
-use crate::config::ControllerConfig;
+use crate::config::{ControllerConfig, Gains};
 
 /// A decoded, validated model with capacities `P` (embedding dimension), `D` (reduced
 /// dimension), `K` (RBF centres) and `T` (lift monomials). Actual sizes are at most these;
@@ -46,16 +46,7 @@ impl<const P: usize, const D: usize, const K: usize, const T: usize> Model<P, D,
     /// Not a valid model: nothing reads it before a successful [`Self::decode_into`].
     pub const fn empty() -> Self {
         Self {
-            config: ControllerConfig {
-                kp: 0.0,
-                kd: 0.0,
-                kphi_d: 0.0,
-                ki: 0.0,
-                dt: 0.0,
-                delay: 0,
-                u_max: None,
-                quant: None,
-            },
+            config: ControllerConfig { gains: Gains::new(), ki: 0.0, dt: 0.0, delay: 0, u_max: None, quant: None },
             p: 0,
             d: 0,
             k: 0,

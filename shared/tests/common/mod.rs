@@ -30,24 +30,18 @@ pub fn tiny() -> ModelRef<'static> {
     }
 }
 
-/// The pinned model of `data/model_v1.bin`: p = 4, shift 2, d = 2, lift order 3 (7 terms),
+/// The pinned model of `data/model_v2.bin` (`data/model_v1.bin` is the same model in the
+/// format before the gain vector): p = 4, shift 2, d = 2, lift order 3 (7 terms),
 /// k = 3, with quantization and saturation in its config.
 pub mod pinned {
-    use shared::{ControllerConfig, QuantMode, Quantization};
+    use shared::{ControllerConfig, Gains, QuantMode, Quantization};
     pub const CONFIG: ControllerConfig = ControllerConfig {
-        kp: 15.5,
-        kd: 5.45,
-        kphi_d: 1.5,
+        gains: Gains::shorthand(15.5, 5.45, 1.5, 0.0015339807878856412, 0.0015339807878856412),
         ki: 0.25,
         dt: 0.002,
         delay: 1,
         u_max: Some(10.0),
-        quant: Some(Quantization {
-            mode: QuantMode::Counts,
-            h_adc: 0.0015339807878856412,
-            h_adc_phi: 0.0015339807878856412,
-            h_dac: 0.0048828125,
-        }),
+        quant: Some(Quantization { mode: QuantMode::Counts, h_dac: 0.0048828125 }),
     };
     pub const V1: [f32; 8] = [0.5, 0.5, 0.5, -0.5, 0.5, 0.5, 0.5, -0.5];
     pub const LIFT: [f32; 28] = [

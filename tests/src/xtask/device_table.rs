@@ -315,7 +315,11 @@ pub struct ScalarRow {
 #[derive(Debug, Clone)]
 pub struct Table {
     pub calib_nops1000: f64,
+    /// The Furuta's configuration (two coordinates).
     pub ctrl_int: f64,
+    /// The same gains on one and on four coordinates.
+    pub ctrl_int_n1: f64,
+    pub ctrl_int_n4: f64,
     pub ctrl_f32: f64,
     pub ctrl_f64: f64,
     pub project: f64,
@@ -388,6 +392,8 @@ pub fn table(parsed: &Parsed, reference: &[Vec<f64>]) -> Result<Table, String> {
     Ok(Table {
         calib_nops1000: calib,
         ctrl_int: get("ctrl_int")?,
+        ctrl_int_n1: get("ctrl_int_n1")?,
+        ctrl_int_n4: get("ctrl_int_n4")?,
         ctrl_f32: get("ctrl_f32")?,
         ctrl_f64: get("ctrl_f64")?,
         project: get("project")?,
@@ -428,7 +434,13 @@ pub fn check(t: &Table) -> Result<(), String> {
     if t.scalar.len() != GENERIC_CENTRES.len() * SCALARS.len() {
         return Err(format!("{} f32/f64 rows, expected {}", t.scalar.len(), GENERIC_CENTRES.len() * SCALARS.len()));
     }
-    for (what, v) in [("IntPd", t.ctrl_int), ("FloatPd<f32>", t.ctrl_f32), ("FloatPd<f64>", t.ctrl_f64)] {
+    for (what, v) in [
+        ("IntPd", t.ctrl_int),
+        ("IntPd (1 coordinate)", t.ctrl_int_n1),
+        ("IntPd (4 coordinates)", t.ctrl_int_n4),
+        ("FloatPd<f32>", t.ctrl_f32),
+        ("FloatPd<f64>", t.ctrl_f64),
+    ] {
         if !(v.is_finite() && v > 0.0) {
             return Err(format!("{what} step measured as {v} instructions"));
         }

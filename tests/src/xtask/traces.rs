@@ -5,7 +5,7 @@
 
 use crate::rng::Rng;
 use controller::IntPd;
-use shared::{ControllerConfig, QuantMode, Quantization};
+use shared::{ControllerConfig, Gain, Gains, MAX_GAINS, QuantMode, Quantization};
 use std::f64::consts::PI;
 use std::fmt::Write as _;
 
@@ -26,20 +26,32 @@ pub struct Case {
 /// and saturation.
 pub fn paper_counts(ki: f64, delay: u32, u_max: Option<f64>) -> ControllerConfig {
     ControllerConfig {
-        kp: 15.5,
-        kd: 5.45,
-        kphi_d: 1.5,
+        gains: Gains::shorthand(15.5, 5.45, 1.5, PI / 1000.0, PI / 1000.0),
         ki,
         dt: 0.025,
         delay,
         u_max,
-        quant: Some(Quantization {
-            mode: QuantMode::Counts,
-            h_adc: PI / 1000.0,
-            h_adc_phi: PI / 1000.0,
-            h_dac: 10.0 / 2048.0,
-        }),
+        quant: Some(Quantization { mode: QuantMode::Counts, h_dac: 10.0 / 2048.0 }),
     }
+}
+
+/// The paper's loop measuring only theta (one coordinate, P and D).
+pub fn one_coordinate(ki: f64, delay: u32) -> ControllerConfig {
+    let mut c = paper_counts(ki, delay, Some(10.0));
+    c.gains.truncate(1);
+    c
+}
+
+/// Four coordinates: the paper's two angles and two more encoders (state indices 1 and 3,
+/// resolutions pi/2000 and pi/500) with gains of the same order.
+pub fn four_coordinates(ki: f64, delay: u32) -> ControllerConfig {
+    let mut c = paper_counts(ki, delay, Some(10.0));
+    for g in
+        [Gain { index: 1, p: -2.0, d: 0.8, h_adc: PI / 2000.0 }, Gain { index: 3, p: 1.5, d: -0.3, h_adc: PI / 500.0 }]
+    {
+        c.gains.push(g).expect("two of four entries used");
+    }
+    c
 }
 
 pub fn cases() -> Vec<Case> {
@@ -49,13 +61,25 @@ pub fn cases() -> Vec<Case> {
         Case { name: "pd_delay3", config: paper_counts(0.0, 3, Some(10.0)) },
         Case { name: "pid_delay3", config: paper_counts(0.5, 3, Some(10.0)) },
         Case { name: "pid_delay1_no_umax", config: paper_counts(0.5, 1, None) },
+        Case { name: "pd_one_coordinate_delay1", config: one_coordinate(0.0, 1) },
+        Case { name: "pid_four_coordinates_delay2", config: four_coordinates(0.5, 2) },
     ]
 }
 
+/// The counts of every measured coordinate at one sample: the walk's two angles, then two
+/// more coordinates formed from them (for the four-coordinate case).
+pub type Sample = [i32; MAX_GAINS];
+
 /// `WALK` steps of a mean-reverting random walk in counts (small steps, occasional jumps of
 /// up to a few hundred counts, so the codes cover the linear range and both saturations),
-/// then `EXTREME` steps drawn from the `i32` extremes and their neighbours.
-pub fn inputs() -> Vec<(i32, i32)> {
+/// then `EXTREME` steps drawn from the `i32` extremes and their neighbours. The third and
+/// fourth counts are `z - y` and `y / 2 + z / 3` (wrapping at the extremes), so they move
+/// with the walk without drawing more random numbers.
+pub fn inputs() -> Vec<Sample> {
+    pairs().into_iter().map(|(y, z)| [y, z, z.wrapping_sub(y), (y / 2).wrapping_add(z / 3)]).collect()
+}
+
+fn pairs() -> Vec<(i32, i32)> {
     let mut rng = Rng(0x4950_4454_5241_4345);
     let (mut y, mut z) = (0i64, 0i64);
     let mut out = Vec::with_capacity(WALK + EXTREME);
@@ -81,22 +105,32 @@ pub fn inputs() -> Vec<(i32, i32)> {
 
 /// The host's codes and flags for one case.
 pub struct Trace {
-    pub gains: [i64; 4],
+    /// The Q16 gains: `p[0..4]`, `d[0..4]`, `i`.
+    pub gains: [i64; 2 * MAX_GAINS + 1],
     pub code_max: i32,
     pub codes: Vec<i32>,
     pub saturated: Vec<bool>,
 }
 
-pub fn run(config: &ControllerConfig, inputs: &[(i32, i32)]) -> Result<Trace, String> {
+/// The Q16 gains of a controller as one array: `p[0..4]`, `d[0..4]`, `i`.
+pub fn gain_array(g: &controller::quant::IntGains) -> [i64; 2 * MAX_GAINS + 1] {
+    let mut a = [0; 2 * MAX_GAINS + 1];
+    a[..MAX_GAINS].copy_from_slice(&g.p);
+    a[MAX_GAINS..2 * MAX_GAINS].copy_from_slice(&g.d);
+    a[2 * MAX_GAINS] = g.i;
+    a
+}
+
+pub fn run(config: &ControllerConfig, inputs: &[Sample]) -> Result<Trace, String> {
     let mut pd = IntPd::<H>::try_new(config).map_err(|e| e.to_string())?;
-    let g = pd.gains();
+    let n = pd.coordinates();
     let (mut codes, mut saturated) = (Vec::new(), Vec::new());
-    for &(qy, qz) in inputs {
-        let o = pd.step(qy, qz);
+    for q in inputs {
+        let o = pd.step(&q[..n]).map_err(|e| e.to_string())?;
         codes.push(o.code);
         saturated.push(o.saturated);
     }
-    Ok(Trace { gains: [g.p, g.d, g.z, g.i], code_max: pd.code_max(), codes, saturated })
+    Ok(Trace { gains: gain_array(&pd.gains()), code_max: pd.code_max(), codes, saturated })
 }
 
 /// A trace that does not exercise both signs, the linear range and the clamp would let a
@@ -127,17 +161,26 @@ fn config_lit(c: &ControllerConfig) -> String {
         Some(u) => format!("Some({})", f64_lit(u)),
         None => "None".into(),
     };
+    let gains: Vec<String> = c
+        .gains
+        .iter()
+        .map(|g| {
+            format!(
+                "shared::Gain {{ index: {}, p: {}, d: {}, h_adc: {} }}",
+                g.index,
+                f64_lit(g.p),
+                f64_lit(g.d),
+                f64_lit(g.h_adc)
+            )
+        })
+        .collect();
     format!(
-        "shared::ControllerConfig {{ kp: {}, kd: {}, kphi_d: {}, ki: {}, dt: {}, delay: {}, u_max: {u_max}, \
-         quant: Some(shared::Quantization {{ mode: shared::QuantMode::Counts, h_adc: {}, h_adc_phi: {}, h_dac: {} }}) }}",
-        f64_lit(c.kp),
-        f64_lit(c.kd),
-        f64_lit(c.kphi_d),
+        "shared::ControllerConfig {{ gains: shared::Gains::from_array([{}]), ki: {}, dt: {}, delay: {}, u_max: {u_max}, \
+         quant: Some(shared::Quantization {{ mode: shared::QuantMode::Counts, h_dac: {} }}) }}",
+        gains.join(", "),
         f64_lit(c.ki),
         f64_lit(c.dt),
         c.delay,
-        f64_lit(q.h_adc),
-        f64_lit(q.h_adc_phi),
         f64_lit(q.h_dac)
     )
 }
@@ -156,9 +199,10 @@ pub fn generate() -> Result<Generated, String> {
     let _ = writeln!(s, "// Generated by `cargo xtask qemu-test` (tests/src/xtask/traces.rs). Do not edit.");
     let _ = writeln!(s, "pub const TRACE_H: usize = {H};");
     let _ = writeln!(s, "pub const TRACE_LEN: usize = {n};");
-    let list: Vec<String> = input.iter().map(|(a, b)| format!("({a}, {b})")).collect();
-    let _ = writeln!(s, "/// Encoder counts (q_y, q_z) fed to every case, in order.");
-    let _ = writeln!(s, "pub static TRACE_INPUTS: [(i32, i32); {n}] = [{}];", list.join(", "));
+    let list: Vec<String> = input.iter().map(|q| format!("{q:?}")).collect();
+    let _ = writeln!(s, "/// Encoder counts of four coordinates fed to every case, in order (a case with n");
+    let _ = writeln!(s, "/// coordinates reads the first n).");
+    let _ = writeln!(s, "pub static TRACE_INPUTS: [[i32; {MAX_GAINS}]; {n}] = [{}];", list.join(", "));
     let mut summary = Vec::new();
     let mut case_lits = Vec::new();
     for (i, case) in cases().iter().enumerate() {
@@ -185,11 +229,12 @@ pub fn generate() -> Result<Generated, String> {
     }
     let _ = writeln!(
         s,
-        "/// One configuration: the host's Q16 gains [p, d, z, i], DAC range, codes and saturation bitmap (bit j%32 of word j/32)."
+        "/// One configuration: the host's Q16 gains [p0..p3, d0..d3, i], DAC range, codes and saturation bitmap (bit j%32 of word j/32)."
     );
     let _ = writeln!(
         s,
-        "pub struct TraceCase {{ pub name: &'static str, pub config: shared::ControllerConfig, pub gains: [i64; 4], pub code_max: i32, pub codes: &'static [i32; {n}], pub saturated: &'static [u32] }}"
+        "pub struct TraceCase {{ pub name: &'static str, pub config: shared::ControllerConfig, pub gains: [i64; {}], pub code_max: i32, pub codes: &'static [i32; {n}], pub saturated: &'static [u32] }}",
+        2 * MAX_GAINS + 1
     );
     let _ = writeln!(s, "pub static TRACE_CASES: [TraceCase; {}] = [", case_lits.len());
     for l in case_lits {
@@ -212,21 +257,19 @@ mod tests {
             let t = run(&case.config, &input).unwrap();
             check_live(case.name, &t).unwrap();
             let r = case.config.delay as usize;
-            let [p, d, z, i] = t.gains.map(i128::from);
-            let at = |j: isize| {
-                if j < 0 {
-                    (0i128, 0i128)
-                } else {
-                    let (a, b) = input[j as usize];
-                    (a as i128, b as i128)
-                }
-            };
+            let n = case.config.gains.len();
+            let g = t.gains.map(i128::from);
+            let (p, d, i) = (&g[..MAX_GAINS], &g[MAX_GAINS..2 * MAX_GAINS], g[2 * MAX_GAINS]);
+            let at = |j: isize| if j < 0 { [0i128; MAX_GAINS] } else { input[j as usize].map(i128::from) };
             let mut s = 0i128;
             for (j, (&code, &sat)) in t.codes.iter().zip(&t.saturated).enumerate() {
-                let (y0, z0) = at(j as isize - r as isize);
-                let (y1, z1) = at(j as isize - r as isize - 1);
-                s += y0;
-                let acc = -p * y0 - d * (y0 - y1) + z * (z0 - z1) - i * s;
+                let q0 = at(j as isize - r as isize);
+                let q1 = at(j as isize - r as isize - 1);
+                s += q0[0];
+                let mut acc = -i * s;
+                for k in 0..n {
+                    acc -= p[k] * q0[k] + d[k] * (q0[k] - q1[k]);
+                }
                 let raw = acc >> 16;
                 let c = i128::from(t.code_max);
                 let want = raw.clamp(-c, c);
@@ -241,12 +284,18 @@ mod tests {
         let t = run(&paper_counts(0.5, 1, Some(10.0)), &[]).unwrap();
         let per = |g: f64| (g * 65536.0).round() as i64;
         let (h_adc, h_dac, dt) = (PI / 1000.0, 10.0 / 2048.0, 0.025);
+        let z = per(1.5 * h_adc / dt / h_dac);
         assert_eq!(
             t.gains,
             [
                 per(15.5 * h_adc / h_dac),
+                0,
+                0,
+                0,
                 per(5.45 * h_adc / dt / h_dac),
-                per(1.5 * h_adc / dt / h_dac),
+                -z,
+                0,
+                0,
                 per(0.5 * dt * h_adc / h_dac)
             ]
         );
