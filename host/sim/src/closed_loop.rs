@@ -223,7 +223,7 @@ pub fn simulate(scene: &Scene, progress: Option<&dyn Fn(u64)>) -> Result<Traject
 /// The law the scene's effects select.
 enum Law {
     Float(FloatPd<f64, HISTORY>),
-    Counts { pd: IntPd<HISTORY>, h_y: f64, h_z: f64 },
+    Counts { pd: IntPd<HISTORY>, h: Vec<f64> },
     Literal(LiteralPd<HISTORY>),
 }
 
@@ -233,9 +233,10 @@ impl Law {
         Ok(match cfg.quant {
             None => Law::Float(FloatPd::try_new(cfg).map_err(err)?),
             Some(q) => match q.mode {
-                QuantMode::Counts => {
-                    Law::Counts { pd: IntPd::try_new(cfg).map_err(err)?, h_y: q.h_adc, h_z: q.h_adc_phi }
-                }
+                QuantMode::Counts => Law::Counts {
+                    pd: IntPd::try_new(cfg).map_err(err)?,
+                    h: cfg.gains.iter().map(|g| g.h_adc).collect(),
+                },
                 QuantMode::Literal => Law::Literal(LiteralPd::try_new(cfg).map_err(err)?),
             },
         })
@@ -264,37 +265,63 @@ pub fn simulate_with<P: Plant<N>, const N: usize>(
         }
         x.copy_from_slice(&scene.initial.state);
     }
-    let history: Vec<(f64, f64)> = match &scene.initial.history {
-        Some(h) => h.iter().map(|p| (p[0], p[1])).collect(),
-        None => vec![(x[P::PRIMARY], x[P::SECONDARY]); cfg.delay as usize + 1],
+    // The measured coordinates' state indices, in gain order.
+    let idx: Vec<usize> = cfg.gains.iter().map(|g| usize::from(g.index)).collect();
+    if let Some(&i) = idx.iter().find(|&&i| i >= N) {
+        return Err(SimError::Controller {
+            scene: name.into(),
+            message: format!("a gain reads state {i}, the {} plant has {N} states", plant.name()),
+        });
+    }
+    let n = idx.len();
+    let sample = |x: &[f64; N]| -> Vec<f64> { idx.iter().map(|&i| x[i]).collect() };
+    let history: Vec<f64> = match &scene.initial.history {
+        Some(h) => h.iter().flatten().copied().collect(),
+        None => sample(&x).repeat(cfg.delay as usize + 1),
     };
     let mut law = Law::new(&cfg, name)?;
+    if matches!(law, Law::Counts { .. }) && n > 2 {
+        return Err(SimError::Controller {
+            scene: name.into(),
+            message: format!(
+                "a quantized run records the counts of at most 2 measured coordinates (q_theta, q_phi columns); this scene measures {n}"
+            ),
+        });
+    }
     let sensor_err = |t: f64, e: String| SimError::Sensor { scene: name.into(), t, message: e };
     let prime_err = |e: controller::InputError| SimError::Controller {
         scene: name.into(),
         message: format!("initial.history: {e}"),
     };
+    let counts = |q: &[f64], h: &[f64], t: f64, what: &str| -> Result<Vec<i32>, SimError> {
+        q.iter()
+            .zip(h)
+            .enumerate()
+            .map(|(k, (&v, &hk))| {
+                adc(v, hk).map_err(|e| sensor_err(t, format!("{what}measured coordinate {k} = {v}: {e}")))
+            })
+            .collect()
+    };
     match &mut law {
         Law::Float(pd) => pd.prime(&history).map_err(prime_err)?,
         Law::Literal(pd) => pd.prime(&history).map_err(prime_err)?,
-        Law::Counts { pd, h_y, h_z } => {
+        Law::Counts { pd, h } => {
             let mut q = Vec::with_capacity(history.len());
-            for &(y, z) in &history {
-                let qy = adc(y, *h_y).map_err(|e| sensor_err(0.0, format!("pre-history primary angle {y}: {e}")))?;
-                let qz = adc(z, *h_z).map_err(|e| sensor_err(0.0, format!("pre-history secondary angle {z}: {e}")))?;
-                q.push((qy, qz));
+            for s in history.chunks(n.max(1)) {
+                q.extend(counts(s, h, 0.0, "pre-history ")?);
             }
             pd.prime(&q).map_err(prime_err)?;
         }
     }
     // Only a scene that names noise gets a generator: a noiseless run draws no random numbers.
+    // sigma_theta applies to the first measured coordinate, sigma_phi to the second.
     let mut noise = match &scene.effects.noise {
-        Some(n) => {
+        Some(ns) => {
             let normal = |sigma: f64| {
                 Normal::new(0.0, sigma)
                     .map_err(|e| SimError::Controller { scene: name.into(), message: format!("noise: {e}") })
             };
-            Some((ChaCha8Rng::seed_from_u64(n.seed), normal(n.sigma_theta)?, normal(n.sigma_phi)?))
+            Some((ChaCha8Rng::seed_from_u64(ns.seed), normal(ns.sigma_theta)?, normal(ns.sigma_phi)?))
         }
         None => None,
     };
@@ -316,29 +343,36 @@ pub fn simulate_with<P: Plant<N>, const N: usize>(
         ode_stats: OdeStats::default(),
         wall_seconds: 0.0,
     };
+    let mut q = vec![0.0; n];
     let escape = scene.run.escape_theta;
     for i in 0..=periods {
         let t = i as f64 * dt;
-        let (mut y, mut z) = (x[P::PRIMARY], x[P::SECONDARY]);
+        for (qk, &i) in q.iter_mut().zip(&idx) {
+            *qk = x[i];
+        }
         if let Some((rng, ny, nz)) = &mut noise {
-            y += ny.sample(rng);
-            z += nz.sample(rng);
+            if let Some(v) = q.get_mut(0) {
+                *v += ny.sample(rng);
+            }
+            if let Some(v) = q.get_mut(1) {
+                *v += nz.sample(rng);
+            }
         }
         let (u, saturated) = match &mut law {
             Law::Float(pd) => {
-                let o = pd.step(y, z).map_err(|e| sensor_err(t, e.to_string()))?;
+                let o = pd.step(&q).map_err(|e| sensor_err(t, e.to_string()))?;
                 (o.u, o.saturated)
             }
             Law::Literal(pd) => {
-                let o = pd.step(y, z).map_err(|e| sensor_err(t, e.to_string()))?;
+                let o = pd.step(&q).map_err(|e| sensor_err(t, e.to_string()))?;
                 (o.u, o.saturated)
             }
-            Law::Counts { pd, h_y, h_z } => {
-                let qy = adc(y, *h_y).map_err(|e| sensor_err(t, format!("primary angle {y}: {e}")))?;
-                let qz = adc(z, *h_z).map_err(|e| sensor_err(t, format!("secondary angle {z}: {e}")))?;
-                let o = pd.step(qy, qz);
-                if let Some(c) = &mut traj.codes {
-                    c.push(Codes { q_theta: qy, q_phi: qz, code: o.code });
+            Law::Counts { pd, h } => {
+                let c = counts(&q, h, t, "")?;
+                let o = pd.step(&c).map_err(|e| sensor_err(t, e.to_string()))?;
+                if let Some(codes) = &mut traj.codes {
+                    let at = |k: usize| c.get(k).copied().unwrap_or(0);
+                    codes.push(Codes { q_theta: at(0), q_phi: at(1), code: o.code });
                 }
                 (pd.volts(o.code), o.saturated)
             }

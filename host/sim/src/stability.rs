@@ -43,9 +43,10 @@ pub fn dominant_pairs(scene: &Scene) -> Result<Vec<Multiplier>, StabilityError> 
     let le = |source| StabilityError::Linear { scene: scene.name.clone(), source };
     let map = linear_plant(scene)?.closed_loop(&scene.controller_config()).map_err(le)?;
     // A secondary coordinate that enters the dynamics (a plant written as equations whose
-    // second coordinate is not cyclic) has no structural multiplier 1 to remove.
+    // second coordinate is not cyclic), or that the law feeds back with a P gain, has no
+    // structural multiplier 1 to remove.
     let all = match map.dominant_multipliers() {
-        Err(LinearError::SecondaryCouples { .. }) => map.multipliers(),
+        Err(LinearError::SecondaryCouples { .. } | LinearError::SecondaryControlled { .. }) => map.multipliers(),
         other => other,
     }
     .map_err(le)?;

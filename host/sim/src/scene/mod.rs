@@ -16,7 +16,7 @@ pub use bundled::{BUNDLED, bundled_names};
 
 use crate::plant::equations::{EquationsModel, EquationsSpec, Form};
 use serde::{Deserialize, Serialize};
-use shared::{ControllerConfig, QuantMode, Quantization};
+use shared::{ControllerConfig, Gain, Gains, QuantMode, Quantization};
 use std::path::Path;
 
 /// A fully parsed and validated scene.
@@ -193,18 +193,57 @@ pub enum PlantKind {
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct ControllerSpec {
-    /// V/rad.
-    pub kp: f64,
-    /// V s/rad.
-    pub kd: f64,
-    /// V s/rad, derivative gain on the secondary angle.
+    /// Shorthand: P gain on the first coordinate (the primary angle), V/rad.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub kp: Option<f64>,
+    /// Shorthand: D gain on the first coordinate, V s/rad.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub kd: Option<f64>,
+    /// Shorthand: derivative gain on the second coordinate (the secondary angle), V s/rad,
+    /// with the opposite sign: its `d` is `-kphi_d`.
     #[serde(default)]
     pub kphi_d: f64,
+    /// Per-coordinate gains by coordinate name, `{ theta = { p = -45.0, d = -7.0 } }`:
+    /// `u = -sum_i [p_i q_i + d_i dq_i/dt]` on the delayed samples. Coordinates without an
+    /// entry are not measured. Instead of `kp`, `kd`, `kphi_d`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub gains: Option<std::collections::BTreeMap<String, GainSpec>>,
     /// Sampling period, ms.
     pub dt_ms: f64,
     /// Feedback delay r in samples.
     #[serde(default = "one")]
     pub delay: u32,
+}
+
+/// The gains of one measured coordinate.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct GainSpec {
+    /// Proportional gain, V per unit of the coordinate.
+    #[serde(default)]
+    pub p: f64,
+    /// Derivative gain, V s per unit of the coordinate.
+    #[serde(default)]
+    pub d: f64,
+    /// Encoder resolution of this coordinate (units per count) when the scene quantizes;
+    /// default `effects.quantization.h_adc`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub h_adc: Option<f64>,
+}
+
+/// One measured coordinate of a scene's controller.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Measured {
+    /// The coordinate's name (`theta`, `x`, ...).
+    pub name: String,
+    /// Its index in the plant state.
+    pub index: u8,
+    pub p: f64,
+    pub d: f64,
+    /// Its encoder resolution (0 when the scene does not quantize).
+    pub h_adc: f64,
+    /// The scene key the resolution came from.
+    pub h_key: &'static str,
 }
 
 fn one() -> u32 {
@@ -219,10 +258,10 @@ pub struct InitialSpec {
     /// file may give it by name, `state = { theta = 0.05 }` (unnamed entries 0).
     #[serde(default)]
     pub state: Vec<f64>,
-    /// The r + 1 samples (primary, secondary) before t = 0, oldest first; default: the plant
-    /// at rest at the initial angles.
+    /// The r + 1 samples before t = 0, oldest first, one value per measured coordinate (in
+    /// coordinate order); default: the plant at rest at the initial coordinates.
     #[serde(default)]
-    pub history: Option<Vec<[f64; 2]>>,
+    pub history: Option<Vec<Vec<f64>>>,
 }
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
@@ -437,16 +476,31 @@ impl SceneBuilder {
         self
     }
 
-    /// Proportional gain on the primary angle, V/rad.
+    /// Proportional gain on the primary angle, V/rad (the first measured coordinate's `p`
+    /// when the scene gives `gains`).
     pub fn kp(mut self, kp: f64) -> Self {
-        self.scene.controller.kp = kp;
+        match self.first_gain() {
+            Some(g) => g.p = kp,
+            None => self.scene.controller.kp = Some(kp),
+        }
         self
     }
 
-    /// Derivative gain on the primary angle, V s/rad.
+    /// Derivative gain on the primary angle, V s/rad (the first measured coordinate's `d`
+    /// when the scene gives `gains`).
     pub fn kd(mut self, kd: f64) -> Self {
-        self.scene.controller.kd = kd;
+        match self.first_gain() {
+            Some(g) => g.d = kd,
+            None => self.scene.controller.kd = Some(kd),
+        }
         self
+    }
+
+    /// The gains of the first measured coordinate (in coordinate order) of a scene with
+    /// `gains`.
+    fn first_gain(&mut self) -> Option<&mut GainSpec> {
+        let first = self.scene.measured().ok()?.into_iter().next()?.name;
+        self.scene.controller.gains.as_mut()?.get_mut(&first)
     }
 
     /// Number of sampling periods to simulate.
@@ -464,7 +518,7 @@ impl SceneBuilder {
     /// The `delay + 1` samples `[primary, secondary]` before t = 0, oldest first (`None`: the
     /// plant at rest at the initial angles).
     pub fn history(mut self, history: Option<&[[f64; 2]]>) -> Self {
-        self.scene.initial.history = history.map(<[[f64; 2]]>::to_vec);
+        self.scene.initial.history = history.map(|h| h.iter().map(|s| s.to_vec()).collect());
         self
     }
 
@@ -583,6 +637,14 @@ impl Scene {
         }
         // The controller configuration: the one validation every boundary uses (scene,
         // decoded blob, export), with the controller's message under the scene's key path.
+        let measured = self.measured()?;
+        if measured.len() > shared::MAX_GAINS {
+            return Err(SceneError::key(
+                s,
+                "controller.gains",
+                format!("measures {} coordinates; the controller takes at most {}", measured.len(), shared::MAX_GAINS),
+            ));
+        }
         controller::validate_config::<{ controller::HISTORY }>(&self.controller_config())
             .map_err(|e| SceneError::key(s, self.config_key(&e), e.to_string()))?;
         if self.run.periods > MAX_PERIODS {
@@ -597,16 +659,28 @@ impl Scene {
         }
         if let Some(h) = &self.initial.history {
             let need = c.delay as usize + 1;
+            let n = self.measured()?.len();
             if h.len() != need {
                 return Err(SceneError::key(
                     s,
                     "initial.history",
-                    format!("needs delay + 1 = {need} samples [primary, secondary], oldest first; got {}", h.len()),
+                    format!(
+                        "needs delay + 1 = {need} samples (one value per measured coordinate each), oldest first; got {}",
+                        h.len()
+                    ),
                 ));
             }
-            for (i, pair) in h.iter().enumerate() {
-                finite(&format!("initial.history[{i}][0]"), pair[0])?;
-                finite(&format!("initial.history[{i}][1]"), pair[1])?;
+            for (i, sample) in h.iter().enumerate() {
+                if sample.len() != n {
+                    return Err(SceneError::key(
+                        s,
+                        format!("initial.history[{i}]"),
+                        format!("has {} values for {n} measured coordinates", sample.len()),
+                    ));
+                }
+                for (k, v) in sample.iter().enumerate() {
+                    finite(&format!("initial.history[{i}][{k}]"), *v)?;
+                }
             }
         }
         if self.run.periods == 0 && self.run.tasks.contains(&Task::Simulate) {
@@ -659,26 +733,137 @@ impl Scene {
     }
 
     /// The scene key path of the field a controller configuration error is about.
-    fn config_key(&self, e: &controller::ConfigError) -> &'static str {
+    fn config_key(&self, e: &controller::ConfigError) -> String {
         use controller::Field;
         let q = self.effects.quantization.as_ref();
+        let measured = self.measured().unwrap_or_default();
+        let gains = self.controller.gains.is_some();
+        let name = |i: u8| measured.get(usize::from(i)).map_or_else(|| format!("#{i}"), |m| m.name.clone());
         match e.field() {
-            Some(Field::Kp) => "controller.kp",
-            Some(Field::Kd) => "controller.kd",
-            Some(Field::KphiD) => "controller.kphi_d",
-            Some(Field::Ki) => "effects.integral.ki",
-            Some(Field::Dt) => "controller.dt_ms",
-            Some(Field::UMax) => "effects.saturation.u_max",
-            Some(Field::HAdc) => "effects.quantization.h_adc",
+            Some(Field::P(i)) if gains => format!("controller.gains.{}.p", name(i)),
+            Some(Field::D(i)) if gains => format!("controller.gains.{}.d", name(i)),
+            Some(Field::P(_)) => "controller.kp".into(),
+            Some(Field::D(0)) => "controller.kd".into(),
+            Some(Field::D(_)) => "controller.kphi_d".into(),
+            Some(Field::HAdc(i)) => {
+                measured.get(usize::from(i)).map_or("effects.quantization.h_adc".to_string(), |m| match m.h_key {
+                    "gain" => format!("controller.gains.{}.h_adc", m.name),
+                    k => k.to_string(),
+                })
+            }
+            Some(Field::Ki) => "effects.integral.ki".into(),
+            Some(Field::Dt) => "controller.dt_ms".into(),
+            Some(Field::UMax) => "effects.saturation.u_max".into(),
             // Defaults come from h_adc: name the key the value came from.
-            Some(Field::HAdcPhi) if q.is_some_and(|q| q.h_adc_phi.is_some()) => "effects.quantization.h_adc_phi",
-            Some(Field::HDac) if q.is_some_and(|q| q.h_dac.is_some()) => "effects.quantization.h_dac",
-            Some(Field::HAdcPhi | Field::HDac) => "effects.quantization.h_adc",
+            Some(Field::HDac) if q.is_some_and(|q| q.h_dac.is_some()) => "effects.quantization.h_dac".into(),
+            Some(Field::HDac) => "effects.quantization.h_adc".into(),
             None => match e {
-                controller::ConfigError::DelayTooLong { .. } => "controller.delay",
-                _ => "effects.quantization",
+                controller::ConfigError::DelayTooLong { .. } => "controller.delay".into(),
+                controller::ConfigError::NoGains
+                | controller::ConfigError::DuplicateIndex { .. }
+                | controller::ConfigError::GainSum => if gains { "controller.gains" } else { "controller.kp" }.into(),
+                _ => "effects.quantization".into(),
             },
         }
+    }
+
+    /// The names of the plant's generalized coordinates, in state order (state index `2 i`).
+    pub fn coordinate_names(&self) -> Vec<String> {
+        match self.plant.kind {
+            PlantKind::Furuta => vec!["theta".into(), "phi".into()],
+            PlantKind::Cart => vec!["theta".into(), "x".into()],
+            PlantKind::Equations => self.plant.coordinates.clone().unwrap_or_default(),
+        }
+    }
+
+    /// The measured coordinates, in coordinate order, with their gains: from `gains`, or
+    /// from the shorthand `kp`, `kd` (first coordinate) and `kphi_d` (second coordinate,
+    /// `d = -kphi_d`), which for the built-in plants is exactly `Gains::shorthand`.
+    pub fn measured(&self) -> Result<Vec<Measured>, SceneError> {
+        let s = self.name.as_str();
+        let c = &self.controller;
+        let coords = self.coordinate_names();
+        let q = self.effects.quantization.as_ref();
+        let mut out = Vec::new();
+        match &c.gains {
+            Some(gains) => {
+                for (key, what) in [("kp", c.kp.is_some()), ("kd", c.kd.is_some()), ("kphi_d", c.kphi_d != 0.0)] {
+                    if what {
+                        return Err(SceneError::key(
+                            s,
+                            format!("controller.{key}"),
+                            "give either `gains` or the shorthand kp, kd, kphi_d, not both",
+                        ));
+                    }
+                }
+                if let Some(name) = gains.keys().find(|k| !coords.contains(k)) {
+                    return Err(SceneError::key(
+                        s,
+                        format!("controller.gains.{name}"),
+                        format!("not a coordinate of the plant (coordinates: {})", coords.join(", ")),
+                    ));
+                }
+                if q.is_some_and(|q| q.h_adc_phi.is_some()) {
+                    return Err(SceneError::key(
+                        s,
+                        "effects.quantization.h_adc_phi",
+                        "with `gains`, give each coordinate's resolution as `controller.gains.NAME.h_adc`",
+                    ));
+                }
+                for (i, name) in coords.iter().enumerate() {
+                    if let Some(g) = gains.get(name) {
+                        let (h_adc, h_key) = match (g.h_adc, q) {
+                            (Some(h), _) => (h, "gain"),
+                            (None, Some(q)) => (q.h_adc, "effects.quantization.h_adc"),
+                            (None, None) => (0.0, "effects.quantization.h_adc"),
+                        };
+                        out.push(Measured { name: name.clone(), index: (2 * i) as u8, p: g.p, d: g.d, h_adc, h_key });
+                    }
+                }
+                if out.is_empty() {
+                    return Err(SceneError::key(s, "controller.gains", "names no coordinate: nothing is measured"));
+                }
+            }
+            None => {
+                let Some(kp) = c.kp else {
+                    return Err(SceneError::key(s, "controller.kp", "missing: give kp and kd, or `gains`"));
+                };
+                let Some(kd) = c.kd else {
+                    return Err(SceneError::key(s, "controller.kd", "missing: give kp and kd, or `gains`"));
+                };
+                let h0 = q.map_or(0.0, |q| q.h_adc);
+                let first = coords.first().cloned().unwrap_or_default();
+                out.push(Measured {
+                    name: first,
+                    index: 0,
+                    p: kp,
+                    d: kd,
+                    h_adc: h0,
+                    h_key: "effects.quantization.h_adc",
+                });
+                match coords.get(1) {
+                    Some(second) => {
+                        let (h1, key) = match q.and_then(|q| q.h_adc_phi) {
+                            Some(h) => (h, "effects.quantization.h_adc_phi"),
+                            None => (h0, "effects.quantization.h_adc"),
+                        };
+                        out.push(Measured {
+                            name: second.clone(),
+                            index: 2,
+                            p: 0.0,
+                            d: -c.kphi_d,
+                            h_adc: h1,
+                            h_key: key,
+                        });
+                    }
+                    None if c.kphi_d != 0.0 => {
+                        return Err(SceneError::key(s, "controller.kphi_d", "the plant has a single coordinate"));
+                    }
+                    None => {}
+                }
+            }
+        }
+        Ok(out)
     }
 
     /// Sampling period in seconds (the one place the scene's millisecond field is converted).
@@ -692,12 +877,18 @@ impl Scene {
     }
 
     /// The controller configuration this scene runs (what a device would be flashed with).
+    /// A scene whose gains do not resolve ([`Scene::measured`], which validation reports)
+    /// gets an empty gain vector, which the controller refuses.
     pub fn controller_config(&self) -> ControllerConfig {
         let c = &self.controller;
+        let mut gains = Gains::new();
+        for m in self.measured().unwrap_or_default() {
+            if gains.push(Gain { index: m.index, p: m.p, d: m.d, h_adc: m.h_adc }).is_err() {
+                break;
+            }
+        }
         ControllerConfig {
-            kp: c.kp,
-            kd: c.kd,
-            kphi_d: c.kphi_d,
+            gains,
             ki: self.effects.integral.as_ref().map_or(0.0, |i| i.ki),
             dt: self.dt(),
             delay: c.delay,
@@ -707,8 +898,6 @@ impl Scene {
                     QuantModeSpec::Counts => QuantMode::Counts,
                     QuantModeSpec::Literal => QuantMode::Literal,
                 },
-                h_adc: q.h_adc,
-                h_adc_phi: q.h_adc_phi.unwrap_or(q.h_adc),
                 h_dac: q.h_dac.unwrap_or(q.h_adc),
             }),
         }

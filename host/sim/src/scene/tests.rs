@@ -38,7 +38,7 @@ fn paper_sweep_and_test_values_are_bundled() {
         let name = format!("furuta-dt{dt}");
         let s = Scene::load(&name, &[]).unwrap();
         assert_eq!(s.controller.dt_ms, dt.parse::<f64>().unwrap());
-        assert_eq!((s.controller.kp, s.controller.kd), (15.5, 5.45));
+        assert_eq!((s.controller.kp, s.controller.kd), (Some(15.5), Some(5.45)));
         assert!(s.effects.quantization.is_none() && s.effects.noise.is_none());
     }
 }
@@ -144,12 +144,12 @@ fn run_periods_are_limited_before_allocation() {
 fn controller_fields_are_validated_by_the_controller_check() {
     let quant = "\n[effects.quantization]\nmode = \"counts\"\nh_adc = 0.001\n";
     for (text, o, key, msg) in [
-        (MINIMAL.to_string(), "controller.kp=inf", "controller.kp", "controller config: `kp` is not finite"),
+        (MINIMAL.to_string(), "controller.kp=inf", "controller.kp", "controller config: `gains[0].p` is not finite"),
         (
             MINIMAL.to_string(),
             "controller.kphi_d=nan",
             "controller.kphi_d",
-            "controller config: `kphi_d` is not finite",
+            "controller config: `gains[1].d` is not finite",
         ),
         (
             MINIMAL.to_string(),
@@ -179,7 +179,7 @@ fn controller_fields_are_validated_by_the_controller_check() {
             format!("{MINIMAL}{quant}"),
             "effects.quantization.h_adc=-1",
             "effects.quantization.h_adc",
-            "controller config: `quant.h_adc` must be > 0",
+            "controller config: `gains[0].h_adc` must be > 0",
         ),
         (
             format!("{MINIMAL}{quant}"),

@@ -58,6 +58,11 @@ pub const MAX_STEP: f64 = 0.5;
 /// Why an expansion could not be made.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum TaylorError {
+    #[error(
+        "the period map's expansion takes the shorthand controller (P and D on the first coordinate, D on \
+         the second): other gain vectors are not supported by the equation-driven SSM yet"
+    )]
+    Gains,
     #[error("sampling period dt = {0} s must be finite and > 0")]
     BadDt(f64),
     #[error(
@@ -328,17 +333,19 @@ impl Deflated {
         let y_at = |d: usize| if d == 0 { Some(self.plant(primary)) } else { Some(self.y_start + d - 1) };
         // z_{i-d} - x_i[secondary]: zero for d = 0.
         let w_at = |d: usize| if d == 0 { None } else { Some(self.w_start + d - 1) };
+        // The shorthand gains (checked by `period_map`).
+        let (kp, kd, kphi_d) = cfg.as_shorthand().unwrap_or((f64::NAN, f64::NAN, f64::NAN));
         if let Some(k) = y_at(r) {
-            g[k] += -(cfg.kp + cfg.kd / dt);
+            g[k] += -(kp + kd / dt);
         }
         if let Some(k) = y_at(r + 1) {
-            g[k] += cfg.kd / dt;
+            g[k] += kd / dt;
         }
         if let Some(k) = w_at(r) {
-            g[k] += cfg.kphi_d / dt;
+            g[k] += kphi_d / dt;
         }
         if let Some(k) = w_at(r + 1) {
-            g[k] -= cfg.kphi_d / dt;
+            g[k] -= kphi_d / dt;
         }
         g
     }
@@ -355,7 +362,10 @@ pub fn period_map<P: Plant<N>, const N: usize>(
     if cfg.ki != 0.0 {
         return Err(TaylorError::Integral(cfg.ki));
     }
-    for (name, value) in [("kp", cfg.kp), ("kd", cfg.kd), ("kphi_d", cfg.kphi_d)] {
+    let Some((kp, kd, kphi_d)) = cfg.as_shorthand() else {
+        return Err(TaylorError::Gains);
+    };
+    for (name, value) in [("kp", kp), ("kd", kd), ("kphi_d", kphi_d)] {
         if !value.is_finite() {
             return Err(TaylorError::Linear(LinearError::BadGain { name, value }));
         }

@@ -3,7 +3,7 @@ use crate::linear::LinearPlant;
 use crate::plant::{Cart, Furuta, Scalar};
 
 fn paper_cfg(dt: f64) -> ControllerConfig {
-    ControllerConfig { kp: 15.5, kd: 5.45, kphi_d: 1.5, ki: 0.0, dt, delay: 1, u_max: None, quant: None }
+    ControllerConfig::paper(dt)
 }
 
 /// Largest relative difference per degree of two coefficient lists (relative to the first's

@@ -153,8 +153,19 @@ fn lagrangian_form_equals_mass_form() {
     assert_rhs_close(&plant::<4>(&furuta_spec(false)), &plant::<4>(&furuta_spec(true)), 1e-12, "furuta");
 }
 
-fn cfg(kp: f64, kd: f64, kphi_d: f64, dt: f64) -> ControllerConfig {
-    ControllerConfig { kp, kd, kphi_d, ki: 0.0, dt, delay: 1, u_max: None, quant: None }
+/// P and D on state `primary`, D (`-kphi_d`, the shorthand's sign) on state `secondary`.
+fn cfg_at(primary: u8, secondary: u8, kp: f64, kd: f64, kphi_d: f64, dt: f64) -> ControllerConfig {
+    let gains = shared::Gains::from_array([
+        shared::Gain { index: primary, p: kp, d: kd, h_adc: 0.0 },
+        shared::Gain { index: secondary, p: 0.0, d: -kphi_d, h_adc: 0.0 },
+    ]);
+    ControllerConfig { gains, ..ControllerConfig::shorthand(kp, kd, kphi_d, dt) }
+}
+
+/// P and D on the single coordinate of a one-coordinate plant.
+fn cfg1(kp: f64, kd: f64, dt: f64) -> ControllerConfig {
+    let gains = shared::Gains::from_array([shared::Gain { index: 0, p: kp, d: kd, h_adc: 0.0 }]);
+    ControllerConfig { gains, ..ControllerConfig::shorthand(kp, kd, 0.0, dt) }
 }
 
 fn code_multipliers<const N: usize>(
@@ -288,7 +299,7 @@ fn cart_pole_multipliers_match_a_closed_form_zoh() {
         mm[(7, 6)] = 1.0;
         let reference = sorted(&mm, dt);
         // Equations plant states (x, x', theta, theta'): primary theta = 2, secondary x = 0.
-        let code = code_multipliers(&eq, 2, 0, &cfg(kp, kd, kx_d, dt));
+        let code = code_multipliers(&eq, 2, 0, &cfg_at(2, 0, kp, kd, kx_d, dt));
         assert_same_nonzero(&code, &reference, 1e-11, &format!("cart-pole dt {dt}"));
     }
 }
@@ -323,7 +334,7 @@ fn pendulum_multipliers_match_the_closed_form_zoh() {
         }
         mm[(2, 0)] = 1.0;
         mm[(3, 2)] = 1.0;
-        let code = code_multipliers(&eq, 0, 1, &cfg(kp, kd, 0.0, dt));
+        let code = code_multipliers(&eq, 0, 1, &cfg1(kp, kd, dt));
         assert_same_nonzero(&code, &sorted(&mm, dt), 1e-11, &format!("pendulum dt {dt}"));
     }
 }
@@ -354,7 +365,7 @@ fn pendulum_stability_boundary_matches_the_analytic_d_curves() {
     let ch = (w * dt).cosh();
     let k = bb * (ch - 1.0) / a;
     let radius = |p: f64, d: f64| -> f64 {
-        code_multipliers(&eq, 0, 1, &cfg(p, d, 0.0, dt)).iter().fold(0.0f64, |r, m| r.max(m.abs))
+        code_multipliers(&eq, 0, 1, &cfg1(p, d, dt)).iter().fold(0.0f64, |r, m| r.max(m.abs))
     };
     // The D-curve: k P w1 + k (D/dt) w2 = -z^2 (z^2 - 2 ch z + 1) at z = e^{i phi}.
     let curve = |phi: f64| -> (f64, f64) {
@@ -376,7 +387,7 @@ fn pendulum_stability_boundary_matches_the_analytic_d_curves() {
         if !(p.is_finite() && d.is_finite()) {
             continue;
         }
-        let ms = code_multipliers(&eq, 0, 1, &cfg(p, d, 0.0, dt));
+        let ms = code_multipliers(&eq, 0, 1, &cfg1(p, d, dt));
         let best = ms.iter().map(|m| (m.re - phi.cos()).hypot(m.im - phi.sin())).fold(f64::INFINITY, f64::min);
         assert!(best < 1e-9, "phi {phi}: (P, D) = ({p}, {d}): no multiplier at e^(i phi) (closest {best:e}) in {ms:?}");
         on_curve += 1;
@@ -384,7 +395,7 @@ fn pendulum_stability_boundary_matches_the_analytic_d_curves() {
     assert!(on_curve > 30);
     // The static line: a multiplier 1 at P = a/b for any D.
     for d in [0.0, 0.1, 0.3] {
-        let ms = code_multipliers(&eq, 0, 1, &cfg(p_static, d, 0.0, dt));
+        let ms = code_multipliers(&eq, 0, 1, &cfg1(p_static, d, dt));
         let best = ms.iter().map(|m| (m.re - 1.0).hypot(m.im)).fold(f64::INFINITY, f64::min);
         assert!(best < 1e-9, "D {d}: closest to 1 is {best:e}");
     }
