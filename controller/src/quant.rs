@@ -133,6 +133,8 @@ pub struct IntPd<const H: usize> {
     /// `-(P_i + D_i)` on the delayed count and `D_i` on the one before (both below `2^30`
     /// in magnitude by [`GAIN_MAX_Q`]).
     g32: [[i32; 2]; MAX_GAINS],
+    /// The integral gain `I` as `i32` (`|I| <= GAIN_MAX_Q < 2^29`).
+    gi: i32,
     n: usize,
     code_max: i64,
     h_dac: f64,
@@ -205,9 +207,12 @@ impl<const H: usize> IntPd<H> {
             }
             None => i64::from(CODE_MAX),
         };
+        // |I| <= GAIN_MAX_Q < 2^29: fits i32.
+        let gi = i32::try_from(gains.i).map_err(|_| ConfigError::OutOfRange(Field::Ki))?;
         Ok(Self {
             gains,
             g32,
+            gi,
             n: cfg.gains.len(),
             code_max,
             h_dac: q.h_dac,
@@ -297,8 +302,8 @@ impl<const H: usize> IntPd<H> {
     pub fn step_counts(&mut self, new: &[i32; MAX_GAINS]) -> IntOutput {
         // One straight-line step per number of coordinates (n is fixed for a controller).
         match self.n {
-            1 => self.step_n::<1>(new),
             2 => self.step_n::<2>(new),
+            1 => self.step_n::<1>(new),
             3 => self.step_n::<3>(new),
             _ => self.step_n::<4>(new),
         }
@@ -317,24 +322,30 @@ impl<const H: usize> IntPd<H> {
             pd += m(gpd, a) + m(gd, b);
         }
         self.sum = self.sum.saturating_add(i64::from(c0[0]));
-        let g = self.gains;
-        // The integral product is exact below |S| < 2^33 (then < 2^62); beyond, saturate.
-        let integral = if g.i == 0 {
+        // The integral product is exact for -2^33 <= S < 2^33 (|I| < 2^29: below 2^62), the
+        // range where `S >> 33` is 0 or -1; beyond, saturate.
+        let gi = self.gi;
+        let integral = if gi == 0 {
             0
-        } else if self.sum.unsigned_abs() < 1 << 33 {
-            g.i.wrapping_mul(self.sum)
+        } else if ((self.sum >> 33) as i32).wrapping_add(1) as u32 <= 1 {
+            i64::from(gi).wrapping_mul(self.sum)
         } else {
-            g.i.saturating_mul(self.sum)
+            i64::from(gi).saturating_mul(self.sum)
         };
         let acc = pd.saturating_sub(integral);
         // Arithmetic shift: floor division by 2^16.
         let raw = acc >> GAIN_FRAC_BITS;
-        let code = raw.clamp(self.code_max.saturating_neg(), self.code_max);
-        IntOutput {
-            // |code| <= code_max <= i32::MAX.
-            code: i32::try_from(code).unwrap_or(0),
-            saturated: code != raw,
-        }
+        // The clamp to [-C, C] (C >= 1 by try_new), without clamp's own check of its bounds.
+        let c = self.code_max;
+        let code = if raw > c {
+            c
+        } else if raw < -c {
+            -c
+        } else {
+            raw
+        };
+        // |code| <= code_max <= i32::MAX: the cast is exact.
+        IntOutput { code: code as i32, saturated: code != raw }
     }
 }
 

@@ -238,6 +238,16 @@ impl ControllerConfig {
         self.gains.as_shorthand()
     }
 
+    /// The same configuration with the first coordinate's gains `p`, `d` (the shorthand's
+    /// `kp`, `kd`); unchanged when there is no coordinate.
+    pub fn with_primary(mut self, p: f64, d: f64) -> Self {
+        if let Some(g) = self.gains.first_mut() {
+            g.p = p;
+            g.d = d;
+        }
+        self
+    }
+
     /// The same configuration with the encoder resolutions `h[i]` on the gains, in order
     /// (extra entries of `h` are ignored, missing ones leave the gain's resolution).
     pub fn with_resolutions(mut self, h: &[f64]) -> Self {

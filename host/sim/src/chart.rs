@@ -247,7 +247,7 @@ fn compute_panel(
     // Grid rows (one KD each) in parallel with the D-curves; every point is computed
     // alone, and the rows are put together in order, so the result is the serial one.
     let row = |i: usize| -> Result<Vec<(f64, Option<Crossing>)>, LinearError> {
-        (0..kp.n).map(|j| classify(&zoh, &with_pd(&ControllerConfig { dt, ..*base }, kp.at(j), kd.at(i)))).collect()
+        (0..kp.n).map(|j| classify(&zoh, &ControllerConfig { dt, ..*base }.with_primary(kp.at(j), kd.at(i)))).collect()
     };
     let (rows, curves) =
         rayon::join(|| (0..kd.n).into_par_iter().map(row).collect::<Vec<_>>(), || d_curves(&zoh, base, kp, kd));
@@ -335,7 +335,7 @@ fn affine_det(
     kd_span: f64,
 ) -> Result<(Complex<f64>, Complex<f64>, Complex<f64>), LinearError> {
     let det = |kp: f64, kd: f64| -> Result<Complex<f64>, LinearError> {
-        let r = zoh.closed_loop(&with_pd(&ControllerConfig { dt: zoh.dt, ..*base }, kp, kd))?.deflated()?;
+        let r = zoh.closed_loop(&ControllerConfig { dt: zoh.dt, ..*base }.with_primary(kp, kd))?.deflated()?;
         let n = r.nrows();
         let c = DMatrix::<Complex<f64>>::from_fn(n, n, |i, j| {
             Complex::new(r[(i, j)], 0.0) - if i == j { lambda } else { Complex::new(0.0, 0.0) }
@@ -501,14 +501,4 @@ pub fn plant_chart<const N: usize>(
     let t0 = Instant::now();
     let chart = compute_chart(&plant, base, dts_s, kp.into(), kd.into())?;
     Ok((chart, t0.elapsed().as_secs_f64()))
-}
-
-/// `base` with the first measured coordinate's gains set to `(kp, kd)`: the chart's axes.
-pub fn with_pd(base: &ControllerConfig, kp: f64, kd: f64) -> ControllerConfig {
-    let mut c = *base;
-    if let Some(g) = c.gains.first_mut() {
-        g.p = kp;
-        g.d = kd;
-    }
-    c
 }

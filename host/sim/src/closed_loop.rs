@@ -243,6 +243,33 @@ impl Law {
     }
 }
 
+/// Names a measured coordinate in messages: the shorthand's two angles as before.
+fn coordinate_name(i: usize) -> String {
+    match i {
+        0 => "primary angle".into(),
+        1 => "secondary angle".into(),
+        _ => format!("measured coordinate {i}"),
+    }
+}
+
+/// The state indices the controller measures, each checked against the plant's `n` states.
+pub fn measured_indices(cfg: &ControllerConfig, n: usize, scene: &str) -> Result<Vec<usize>, SimError> {
+    cfg.gains
+        .iter()
+        .map(|g| {
+            let i = usize::from(g.index);
+            if i < n {
+                Ok(i)
+            } else {
+                Err(SimError::Controller {
+                    scene: scene.into(),
+                    message: format!("a gain measures state index {i}, the plant has {n} states"),
+                })
+            }
+        })
+        .collect()
+}
+
 /// Runs the closed loop on a given plant.
 pub fn simulate_with<P: Plant<N>, const N: usize>(
     plant: &P,
@@ -266,13 +293,7 @@ pub fn simulate_with<P: Plant<N>, const N: usize>(
         x.copy_from_slice(&scene.initial.state);
     }
     // The measured coordinates' state indices, in gain order.
-    let idx: Vec<usize> = cfg.gains.iter().map(|g| usize::from(g.index)).collect();
-    if let Some(&i) = idx.iter().find(|&&i| i >= N) {
-        return Err(SimError::Controller {
-            scene: name.into(),
-            message: format!("a gain reads state {i}, the {} plant has {N} states", plant.name()),
-        });
-    }
+    let idx = measured_indices(&cfg, N, name)?;
     let n = idx.len();
     let sample = |x: &[f64; N]| -> Vec<f64> { idx.iter().map(|&i| x[i]).collect() };
     let history: Vec<f64> = match &scene.initial.history {
@@ -298,7 +319,7 @@ pub fn simulate_with<P: Plant<N>, const N: usize>(
             .zip(h)
             .enumerate()
             .map(|(k, (&v, &hk))| {
-                adc(v, hk).map_err(|e| sensor_err(t, format!("{what}measured coordinate {k} = {v}: {e}")))
+                adc(v, hk).map_err(|e| sensor_err(t, format!("{what}{} {v}: {e}", coordinate_name(k))))
             })
             .collect()
     };

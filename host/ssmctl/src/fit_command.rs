@@ -498,8 +498,13 @@ pub fn inspect(bytes: &[u8]) -> Result<Value, BlobError> {
         "p": m.p(), "d": m.d(), "shift": m.shift(), "sample_period_s": m.sample_period(),
         "offset": m.offset(), "scale": m.scale(),
         "lift_order": m.lift_order(), "lift_terms": m.lift_terms(), "centres": m.k(),
-        "controller": {"kp": c.kp, "kd": c.kd, "kphi_d": c.kphi_d, "ki": c.ki, "dt": c.dt, "delay": c.delay,
-                        "u_max": c.u_max, "quantized": c.quant.is_some()},
+        "controller": {
+            "gains": c.gains.iter().map(|g| serde_json::json!({"index": g.index, "p": g.p, "d": g.d, "h_adc": g.h_adc}))
+                .collect::<Vec<_>>(),
+            // The shorthand's keys when the gains have its layout (null otherwise).
+            "kp": c.as_shorthand().map(|s| s.0), "kd": c.as_shorthand().map(|s| s.1),
+            "kphi_d": c.as_shorthand().map(|s| s.2),
+            "ki": c.ki, "dt": c.dt, "delay": c.delay, "u_max": c.u_max, "quantized": c.quant.is_some()},
     }))
 }
 

@@ -27,7 +27,9 @@ use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, Normal};
 use serde::Serialize;
-use shared::frame::{self, Fault, FrameError, HEADER_LEN, Header, Kind, MAX_FRAME, REPLY_START, Seq};
+use shared::frame::{
+    self, Fault, FrameError, HEADER_LEN, Header, Kind, LoadReply, MAX_FRAME, REPLY_START, Seq, StepReply,
+};
 use sim::closed_loop::{HISTORY, SimError, build_plant, method_of};
 use sim::ode::Integrator;
 use sim::plant::Plant;
@@ -497,10 +499,10 @@ pub fn run(opts: &PilOptions) -> Result<PilSummary, PilError> {
 fn run_with<P: Plant<N>, const N: usize>(plant: &P, scene: &Scene, opts: &PilOptions) -> Result<PilSummary, PilError> {
     let name = scene.name.clone();
     let cfg = scene.controller_config();
-    let q = match cfg.quant {
-        Some(q) if q.mode == shared::QuantMode::Counts => q,
+    match cfg.quant {
+        Some(q) if q.mode == shared::QuantMode::Counts => {}
         _ => return Err(PilError::NotCounts(name)),
-    };
+    }
     if scene.initial.history.is_some() {
         return Err(PilError::History(name));
     }
@@ -544,17 +546,36 @@ fn run_with<P: Plant<N>, const N: usize>(plant: &P, scene: &Scene, opts: &PilOpt
         t,
         message: format!("{what} {v}: {e}"),
     };
-    let q0 = (
-        controller::adc(x[P::PRIMARY], q.h_adc)
-            .map_err(|e| sensor(0.0, "pre-history primary angle", x[P::PRIMARY], e))?,
-        controller::adc(x[P::SECONDARY], q.h_adc_phi)
-            .map_err(|e| sensor(0.0, "pre-history secondary angle", x[P::SECONDARY], e))?,
-    );
-    pd.prime_constant(q0.0, q0.1);
+    // The measured coordinates (state indices) and their encoder resolutions, in gain order.
+    let idx = sim::closed_loop::measured_indices(&cfg, N, &name)?;
+    let h: Vec<f64> = cfg.gains.iter().map(|g| g.h_adc).collect();
+    let what = |j: usize, pre: bool| {
+        let c = match j {
+            0 => "primary angle".to_string(),
+            1 => "secondary angle".to_string(),
+            _ => format!("measured coordinate {j}"),
+        };
+        if pre { format!("pre-history {c}") } else { c }
+    };
+    let counts_at = |t: f64, y: &[f64], pre: bool| -> Result<Vec<i32>, PilError> {
+        y.iter()
+            .zip(&h)
+            .enumerate()
+            .map(|(j, (&v, &hj))| controller::adc(v, hj).map_err(|e| sensor(t, &what(j, pre), v, e)))
+            .collect()
+    };
+    let q0 = counts_at(0.0, &idx.iter().map(|&i| x[i]).collect::<Vec<_>>(), true)?;
+    pd.prime_constant(&q0).map_err(|e| PilError::Blob(format!("controller: {e}")))?;
     let mut noise = match &scene.effects.noise {
         Some(n) => {
+            if idx.len() > 2 {
+                return Err(PilError::Fit(format!(
+                    "effects.noise gives sigma_theta and sigma_phi (two measured coordinates), the controller measures {}",
+                    idx.len()
+                )));
+            }
             let normal = |sigma: f64| Normal::new(0.0, sigma).map_err(|e| PilError::Fit(format!("noise: {e}")));
-            Some((ChaCha8Rng::seed_from_u64(n.seed), normal(n.sigma_theta)?, normal(n.sigma_phi)?))
+            Some((ChaCha8Rng::seed_from_u64(n.seed), [normal(n.sigma_theta)?, normal(n.sigma_phi)?]))
         }
         None => None,
     };
@@ -569,17 +590,26 @@ fn run_with<P: Plant<N>, const N: usize>(plant: &P, scene: &Scene, opts: &PilOpt
     for chunk in blob.chunks(240) {
         link.transact(Kind::ModelChunk, chunk)?;
     }
-    let (_, delay) = link.transact(Kind::Load, &[])?;
-    if delay.first().copied() != Some(pd.delay().min(255) as u8) {
-        return Err(PilError::Link {
-            seq: link.seq.0.wrapping_sub(1),
-            what: format!("device reports delay {delay:?}, host {}", pd.delay()),
-        });
+    let (_, load) = link.transact(Kind::Load, &[])?;
+    let want = LoadReply { delay: pd.delay().min(255) as u8, coordinates: pd.coordinates() as u8 };
+    match LoadReply::decode(&load) {
+        Ok(r) if r == want => {}
+        got => {
+            return Err(PilError::Link {
+                seq: link.seq.0.wrapping_sub(1),
+                what: format!(
+                    "device reports {got:?} for the loaded controller, host delay {} and {} coordinates",
+                    pd.delay(),
+                    pd.coordinates()
+                ),
+            });
+        }
     }
     link.check_error_paths()?;
-    let mut p = q0.0.to_le_bytes().to_vec();
-    p.extend_from_slice(&q0.1.to_le_bytes());
-    link.transact(Kind::Prime, &p)?;
+    let counts = |c: &[i32]| frame::Counts::new(c).map_err(|e| PilError::Blob(format!("controller counts: {e}")));
+    let mut p = [0u8; frame::Prime::MAX_LEN];
+    let n = frame::Prime(counts(&q0)?).encode(&mut p).map_err(|e| PilError::Blob(e.to_string()))?;
+    link.transact(Kind::Prime, &p[..n])?;
 
     let csv_path = opts.out.join("pil.csv");
     let mut csv = AtomicFile::create(&csv_path).map_err(io(csv_path.display().to_string()))?;
@@ -591,7 +621,7 @@ fn run_with<P: Plant<N>, const N: usize>(plant: &P, scene: &Scene, opts: &PilOpt
     let mut run_states: Vec<[f64; N]> = Vec::new();
     let observable = format!(
         "theta.csv: measured primary angle q_theta * h_adc (h_adc = {} rad){}",
-        q.h_adc,
+        h[0],
         scene.effects.noise.as_ref().map_or(String::new(), |n| format!(
             ", Gaussian sensor noise sigma {} rad (seed {}) added before the encoder",
             n.sigma_theta, n.seed
@@ -603,35 +633,36 @@ fn run_with<P: Plant<N>, const N: usize>(plant: &P, scene: &Scene, opts: &PilOpt
     let mut link_secs = 0.0f64;
     for i in 0..opts.periods {
         let t = i as f64 * dt;
-        let (mut y, mut z) = (x[P::PRIMARY], x[P::SECONDARY]);
-        if let Some((rng, ny, nz)) = &mut noise {
-            y += ny.sample(rng);
-            z += nz.sample(rng);
+        // The measured coordinates, noise added in gain order (as the host simulation does).
+        let mut y: Vec<f64> = idx.iter().map(|&i| x[i]).collect();
+        if let Some((rng, normal)) = &mut noise {
+            for (v, nd) in y.iter_mut().zip(normal.iter()) {
+                *v += nd.sample(rng);
+            }
         }
-        let qy = controller::adc(y, q.h_adc).map_err(|e| sensor(t, "primary angle", y, e))?;
-        let qz = controller::adc(z, q.h_adc_phi).map_err(|e| sensor(t, "secondary angle", z, e))?;
+        let q = counts_at(t, &y, false)?;
+        let (qy, qz) = (q[0], q.get(1).copied().unwrap_or(0));
         // The measured angle: what the counts stand for (the controller's own view).
-        let theta_meas = f64::from(qy) * q.h_adc;
+        let theta_meas = f64::from(qy) * h[0];
         let sample = theta_meas as f32;
-        let mut p = Vec::with_capacity(12);
-        p.extend_from_slice(&qy.to_le_bytes());
-        p.extend_from_slice(&qz.to_le_bytes());
-        p.extend_from_slice(&sample.to_le_bytes());
+        let mut p = [0u8; frame::Step::MAX_LEN];
+        let n =
+            frame::Step { counts: counts(&q)?, sample }.encode(&mut p).map_err(|e| PilError::Blob(e.to_string()))?;
         let seq = link.seq.0;
         let t_rt = Instant::now();
-        let (k, r) = link.transact(Kind::Step, &p)?;
+        let (k, r) = link.transact(Kind::Step, &p[..n])?;
         link_secs += t_rt.elapsed().as_secs_f64();
-        if k != Kind::StepReply || r.len() != 10 {
-            return Err(PilError::Link {
-                seq,
-                what: format!("step reply of kind {:#x} with {} bytes", k.code(), r.len()),
-            });
-        }
-        let code = i32::from_le_bytes([r[0], r[1], r[2], r[3]]);
-        let saturated = r[4] != 0;
-        let ready = r[5] != 0;
-        let dev_pred = f32::from_le_bytes([r[6], r[7], r[8], r[9]]);
-        let host = pd.step(qy, qz);
+        let reply = match (k, StepReply::decode(&r)) {
+            (Kind::StepReply, Ok(reply)) => reply,
+            (_, e) => {
+                return Err(PilError::Link {
+                    seq,
+                    what: format!("step reply of kind {:#x} with {} bytes: {e:?}", k.code(), r.len()),
+                });
+            }
+        };
+        let StepReply { code, saturated, ready, prediction: dev_pred } = reply;
+        let host = pd.step(&q).map_err(|e| PilError::Sensor { t, message: e.to_string() })?;
         let host_pred = pred.push(sample).and_then(|()| pred.predict(1)).ok();
         if host.code != code || host.saturated != saturated {
             s.codes_identical = false;

@@ -3,7 +3,7 @@
 
 use serde_json::Value;
 use shared::model::OwnedModel;
-use shared::{ControllerConfig, QuantMode, Quantization};
+use shared::{ControllerConfig, Quantization};
 use std::path::{Path, PathBuf};
 use std::process::Command;
 use std::time::{Duration, Instant};
@@ -61,11 +61,7 @@ fn blob(config: ControllerConfig) -> Vec<u8> {
 
 fn counts_config() -> ControllerConfig {
     let h = 2.0 * std::f64::consts::PI / 2000.0;
-    ControllerConfig {
-        u_max: Some(10.0),
-        quant: Some(Quantization { mode: QuantMode::Counts, h_adc: h, h_adc_phi: h, h_dac: 4.8828125e-3 }),
-        ..ControllerConfig::paper(0.025)
-    }
+    ControllerConfig { u_max: Some(10.0), ..ControllerConfig::paper(0.025).with_counts(h, h, 4.8828125e-3) }
 }
 
 /// Class 1: the controller configuration is validated by one check wherever it crosses: a
@@ -95,7 +91,7 @@ fn controller_configuration_is_refused_alike_in_scenes_and_blobs() {
             "effects.quantization.h_dac=0",
             "controller config: `quant.h_dac` must be > 0",
         ),
-        (|c| c.kp = f64::NAN, "controller.kp=nan", "controller config: `kp` is not finite"),
+        (|c| c.gains[0].p = f64::NAN, "controller.kp=nan", "controller config: `gains[0].p` is not finite"),
     ];
     for (edit, set, message) in cases {
         let mut c = counts_config();

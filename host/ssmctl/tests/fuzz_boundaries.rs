@@ -9,7 +9,7 @@
 
 use proptest::prelude::*;
 use shared::model::OwnedModel;
-use shared::{ControllerConfig, QuantMode, Quantization};
+use shared::{ControllerConfig, Gain, Gains, QuantMode, Quantization};
 use ssmctl::fit_command::{BlobError, inspect};
 use std::process::Command;
 use std::time::{Duration, Instant};
@@ -52,33 +52,26 @@ fn any_f64() -> impl Strategy<Value = f64> {
 }
 
 fn any_config() -> impl Strategy<Value = ControllerConfig> {
-    let quant = prop::option::of((prop::bool::ANY, any_f64(), any_f64(), any_f64()).prop_map(
-        |(counts, h_adc, h_adc_phi, h_dac)| Quantization {
-            mode: if counts { QuantMode::Counts } else { QuantMode::Literal },
-            h_adc,
-            h_adc_phi,
-            h_dac,
-        },
-    ));
+    let quant = prop::option::of((prop::bool::ANY, any_f64()).prop_map(|(counts, h_dac)| Quantization {
+        mode: if counts { QuantMode::Counts } else { QuantMode::Literal },
+        h_dac,
+    }));
+    // Zero to four gains (zero and duplicate indices are invalid configurations too).
+    let gain = (0u8..5, any_f64(), any_f64(), any_f64()).prop_map(|(index, p, d, h_adc)| Gain { index, p, d, h_adc });
     (
-        any_f64(),
-        any_f64(),
-        any_f64(),
+        prop::collection::vec(gain, 0..=4),
         any_f64(),
         any_f64(),
         prop_oneof![0u32..10, any::<u32>()],
         prop::option::of(any_f64()),
         quant,
     )
-        .prop_map(|(kp, kd, kphi_d, ki, dt, delay, u_max, quant)| ControllerConfig {
-            kp,
-            kd,
-            kphi_d,
-            ki,
-            dt,
-            delay,
-            u_max,
-            quant,
+        .prop_map(|(g, ki, dt, delay, u_max, quant)| {
+            let mut gains = Gains::new();
+            for x in g {
+                let _ = gains.push(x);
+            }
+            ControllerConfig { gains, ki, dt, delay, u_max, quant }
         })
 }
 

@@ -98,7 +98,11 @@ fn nops_0() {
 const CTRL_REPS: usize = 1000;
 
 /// The integer controller's step on the coordinates of `cfg`: the call the PIL firmware
-/// makes per period, `IntPd::step_counts` on the received counts (padded to four).
+/// makes per period, `IntPd::step_counts` on the received counts (padded to four). Inlined
+/// at each call with its configuration from the static trace data, as the controller rows
+/// were measured before the gain vector (the compiler may fold the configuration in);
+/// `bench_int_opaque` measures the same step with a configuration it cannot see.
+#[inline(always)]
 fn bench_int(key: &str, cfg: &shared::ControllerConfig, inputs: &[[i32; 4]]) {
     let base = ticks(|| {
         for q in inputs {
@@ -114,6 +118,11 @@ fn bench_int(key: &str, cfg: &shared::ControllerConfig, inputs: &[[i32; 4]]) {
     report(key, CTRL_REPS, t, base);
 }
 
+#[inline(never)]
+fn bench_int_opaque(key: &str, cfg: &shared::ControllerConfig, inputs: &[[i32; 4]]) {
+    bench_int(key, cfg, inputs);
+}
+
 fn bench_controllers() {
     let inputs = data::TRACE_INPUTS.get(..CTRL_REPS).unwrap_or_else(|| fail("too few trace inputs"));
     // The Furuta's configuration (two coordinates), and one and four coordinates: the
@@ -123,6 +132,10 @@ fn bench_controllers() {
     bench_int("ctrl_int", &cfg, inputs);
     bench_int("ctrl_int_n1", &case(5), inputs);
     bench_int("ctrl_int_n4", &case(6), inputs);
+    // The configuration as the PIL firmware has it: decoded at run time, opaque here.
+    bench_int_opaque("ctrl_int_rt", &black_box(cfg), inputs);
+    bench_int_opaque("ctrl_int_rt_n1", &black_box(case(5)), inputs);
+    bench_int_opaque("ctrl_int_rt_n4", &black_box(case(6)), inputs);
 
     let (hy, hz) = match cfg.gains.as_slice() {
         [a, b] => (a.h_adc, b.h_adc),

@@ -269,11 +269,11 @@ fn bits(m: &OwnedModel) -> String {
     let c = &m.config;
     format!(
         "{:?} {:?} {:?} {:?} {:?} {} {} {} {} {} {} {} {:?} {:?} {:?} {:?} {:?}",
-        c.kp.to_bits(),
-        c.kd.to_bits(),
-        (c.kphi_d.to_bits(), c.ki.to_bits(), c.dt.to_bits(), c.delay),
+        c.gains.iter().map(|g| (g.index, g.p.to_bits(), g.d.to_bits(), g.h_adc.to_bits())).collect::<Vec<_>>(),
+        c.gains.len(),
+        (c.ki.to_bits(), c.dt.to_bits(), c.delay),
         c.u_max.map(f64::to_bits),
-        c.quant.map(|q| (q.mode, q.h_adc.to_bits(), q.h_adc_phi.to_bits(), q.h_dac.to_bits())),
+        c.quant.map(|q| (q.mode, q.h_dac.to_bits())),
         m.p,
         m.shift,
         m.sample_period.to_bits(),

@@ -388,6 +388,8 @@ fn device_table_json(t: &device_table::Table, s: &elf::Sizes) -> serde_json::Val
         "controller_step_instructions_int": r1(t.ctrl_int),
         // The integer step by number of measured coordinates (2: the Furuta's, the row above).
         "controller_step_instructions_int_by_coordinates": { "1": r1(t.ctrl_int_n1), "2": r1(t.ctrl_int), "4": r1(t.ctrl_int_n4) },
+        // The same with the configuration opaque to the compiler (as decoded by the PIL firmware).
+        "controller_step_instructions_int_runtime_config": { "1": r1(t.ctrl_int_rt[0]), "2": r1(t.ctrl_int_rt[1]), "4": r1(t.ctrl_int_rt[2]) },
         "controller_step_instructions_float": r1(t.ctrl_f32),
         "controller_step_instructions_f64": r1(t.ctrl_f64),
         "predictor": t.predictor.iter().map(|r| serde_json::json!({
@@ -427,6 +429,10 @@ fn print_table(t: &device_table::Table, s: &elf::Sizes) {
     println!("  IntPd step            {:8.1}  (2 coordinates, the Furuta's configuration)", t.ctrl_int);
     println!("  IntPd step            {:8.1}  (1 coordinate)", t.ctrl_int_n1);
     println!("  IntPd step            {:8.1}  (4 coordinates)", t.ctrl_int_n4);
+    println!(
+        "  IntPd step, run-time configuration: {:.1} / {:.1} / {:.1}  (1 / 2 / 4 coordinates)",
+        t.ctrl_int_rt[0], t.ctrl_int_rt[1], t.ctrl_int_rt[2]
+    );
     println!("  FloatPd<f32> step     {:8.1}", t.ctrl_f32);
     println!("  FloatPd<f64> step     {:8.1}", t.ctrl_f64);
     println!("  predictor project     {:8.1}  (p = {}, d = {})", t.project, device_table::P, device_table::D);

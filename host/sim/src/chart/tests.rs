@@ -54,7 +54,7 @@ fn d_curve_points_have_a_multiplier_on_the_unit_circle() {
         for c in &curves {
             kinds[c.kind as usize] += 1;
             for (&(x, y), &f) in c.points.iter().zip(&c.freq_hz).step_by(7) {
-                let cfg = crate::chart::with_pd(&ControllerConfig { dt, ..base }, x, y);
+                let cfg = ControllerConfig { dt, ..base }.with_primary(x, y);
                 let dom = zoh.closed_loop(&cfg).unwrap().dominant_multipliers().unwrap();
                 let target = match c.kind {
                     Crossing::Static => Complex::new(1.0, 0.0),
@@ -88,7 +88,7 @@ fn check_grid_boundaries(p: &LinearPlant, base: &ControllerConfig, kp: Axis, kd:
     let chart = compute_chart(p, base, &[dt], kp, kd).unwrap();
     let panel = &chart.panels[0];
     let zoh = p.discretize(dt).unwrap();
-    let radius = |x: f64, y: f64| spectral_radius_of(&zoh, &crate::chart::with_pd(base, x, y));
+    let radius = |x: f64, y: f64| spectral_radius_of(&zoh, &base.with_primary(x, y));
     let mut checked = [0; 3];
     for i in 0..kd.n {
         for j in 0..kp.n - 1 {
@@ -104,7 +104,7 @@ fn check_grid_boundaries(p: &LinearPlant, base: &ControllerConfig, kp: Axis, kd:
                 let mid = 0.5 * (lo + hi);
                 if (radius(mid, y) < 1.0) == sa { lo = mid } else { hi = mid }
             }
-            let cfg = crate::chart::with_pd(base, hi, y);
+            let cfg = base.with_primary(hi, y);
             let dom = zoh.closed_loop(&cfg).unwrap().dominant_multipliers().unwrap();
             let crossing = dom[0];
             assert!((crossing.abs - 1.0).abs() < 1e-9, "{crossing:?}");
@@ -163,7 +163,10 @@ fn furuta_has_no_static_boundary() {
     assert!(fa.norm() * 40.0 < 1e-9 * f0.norm() && fb.norm() * 8.0 < 1e-9 * f0.norm(), "{f0} {fa} {fb}");
     // ... and it vanishes at N KphiD = K + b2.
     use crate::linear::tests::furuta::{B2, K, NM};
-    let at = ControllerConfig::shorthand(15.5, 5.45, (K + B2) / NM, base.dt);
+    let at = {
+        let (kp, kd, _) = base.as_shorthand().unwrap();
+        ControllerConfig { gains: shared::Gains::shorthand(kp, kd, (K + B2) / NM, 0.0, 0.0), ..base }
+    };
     let (g0, _, _) = affine_det(&zoh, &at, Complex::new(1.0, 0.0), 40.0, 8.0).unwrap();
     assert!(g0.norm() < 1e-9 * f0.norm(), "{g0} vs {f0}");
 }

@@ -403,8 +403,7 @@ fn experimental_gains_are_unstable_at_20_ms() {
     let dom = dominant_multipliers(&a, &b, 0, 2, &cfg).unwrap();
     assert!(spectral_radius(&dom) > 1.0, "{dom:?}");
     // MODEL.md: KD must be below about 5.3 at 20 ms.
-    let at =
-        |kd: f64| spectral_radius(&dominant_multipliers(&a, &b, 0, 2, &crate::chart::with_pd(&cfg, 25.0, kd)).unwrap());
+    let at = |kd: f64| spectral_radius(&dominant_multipliers(&a, &b, 0, 2, &cfg.with_primary(25.0, kd)).unwrap());
     assert!(at(5.2) < 1.0 && at(5.4) > 1.0, "{} {}", at(5.2), at(5.4));
 }
 

@@ -39,7 +39,8 @@ pub fn draw_chart(out: &Path, chart: &Chart) -> Result<(), PlotError> {
         let integral = if b.ki != 0.0 { format!(", KI = {} V/(rad s)", b.ki) } else { String::new() };
         let title = format!(
             "Linear stability of the sampled PD loop with ZOH, delay r = {}, KphiD = {} V s/rad{integral}",
-            b.delay, b.kphi_d
+            b.delay,
+            b.as_shorthand().map_or(0.0, |s| s.2)
         );
         let (top, body) = root.split_vertically(TITLE_H);
         top.titled(&title, ("sans-serif", 24)).map_err(|e| err(&e))?;
@@ -108,7 +109,7 @@ fn draw_panel<DB: DrawingBackend>(
     });
     cc.draw_series(freq_labels)?;
     // The base gains.
-    let (bx, by) = (chart.base.kp, chart.base.kd);
+    let (bx, by) = chart.base.as_shorthand().map_or((f64::NAN, f64::NAN), |s| (s.0, s.1));
     if bx >= kp.lo && bx <= kp.hi && by >= kd.lo && by <= kd.hi {
         cc.draw_series(std::iter::once(Cross::new((bx, by), 7, BLACK.stroke_width(3))))?
             .label(format!("KP = {bx} V/rad, KD = {by} V s/rad (|mu|max = {:.4})", s.base_radius))
@@ -157,7 +158,7 @@ fn summarize(out: &Path, chart: &Chart, compute_seconds: f64) -> Result<ChartSum
         png: out.to_path_buf(),
         kp: chart.kp,
         kd: chart.kd,
-        base_point: (chart.base.kp, chart.base.kd),
+        base_point: chart.base.as_shorthand().map_or((f64::NAN, f64::NAN), |s| (s.0, s.1)),
         panels: chart.panels.iter().map(|p| p.summary.clone()).collect(),
         compute_seconds,
         draw_seconds,
