@@ -58,10 +58,7 @@ impl ExactMap {
 
     /// `F(s)` integrated.
     pub fn eval(&self, s: &[f64]) -> Result<Vec<f64>, Error> {
-        let r = match &self.plant {
-            AnyPlant::Furuta(p) => self.pm.exact(p, s, self.method),
-            AnyPlant::Cart(p) => self.pm.exact(p, s, self.method),
-        };
+        let r = sim::with_plant!(&self.plant, p => self.pm.exact(p, s, self.method));
         r.map_err(|e| Error::from(sim::Error::from(e)))
     }
 }

@@ -20,7 +20,7 @@ use std::sync::{Arc, Mutex, OnceLock};
 use std::time::Instant;
 
 use serde::{Deserialize, Serialize};
-use sim::closed_loop::{AnyPlant, build_plant};
+use sim::closed_loop::build_plant;
 use sim::plant::Plant;
 use sim::scene::Scene;
 use sim::stability::dominant_pairs;
@@ -101,10 +101,7 @@ fn expand<P: Plant<N>, const N: usize>(
 /// The period map of `scene` (quantization and saturation, if any, are left out: they have
 /// no Taylor expansion / are inactive near the equilibrium), expanded to `order`.
 pub fn scene_period_map(scene: &Scene, order: u32, opts: &FlowOptions) -> Result<PeriodMap, Error> {
-    let pm = match build_plant(scene)? {
-        AnyPlant::Furuta(p) => expand(&p, scene, order, opts),
-        AnyPlant::Cart(p) => expand(&p, scene, order, opts),
-    };
+    let pm = sim::with_plant!(build_plant(scene)?, p => expand(&p, scene, order, opts));
     pm.map_err(|e| Error::from(sim::Error::from(e)))
 }
 

@@ -7,7 +7,8 @@
 //! controller configuration. Must not implement control law arithmetic itself.
 
 use crate::ode::{Integrator, Method, OdeError, OdeStats};
-use crate::plant::{Cart, CartParams, Furuta, FurutaParams, Plant, PlantError};
+use crate::plant::equations::MAX_COORDINATES;
+use crate::plant::{Cart, CartParams, EquationsPlant, Furuta, FurutaParams, Plant, PlantError};
 use crate::scene::{MethodKind, PlantKind, Scene, SceneError};
 use controller::{FloatPd, IntPd, LiteralPd, adc};
 use rand::SeedableRng;
@@ -16,6 +17,7 @@ use rand_distr::{Distribution, Normal};
 use serde::Serialize;
 use shared::{ControllerConfig, QuantMode};
 use std::io::Write;
+use std::sync::Arc;
 use std::time::Instant;
 
 /// History capacity of the controllers the simulator instantiates (delay r <= 6): the
@@ -41,9 +43,7 @@ pub enum SimError {
     Io { path: String, source: std::io::Error },
 }
 
-/// Integer-path values of one sample: encoder counts in, DAC code out. `q_theta` and
-/// `q_phi` are the counts of the first and second measured coordinates (0 when the
-/// controller measures only one).
+/// Integer-path values of one sample: encoder counts in, DAC code out.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
 pub struct Codes {
     pub q_theta: i32,
@@ -153,10 +153,33 @@ fn params<T: serde::de::DeserializeOwned>(scene: &Scene) -> Result<T, SimError> 
     })
 }
 
-/// A plant built from a scene, one variant per kind.
+/// A plant built from a scene, one variant per kind (an equations plant per coordinate
+/// count: its state count is a type parameter). [`with_plant!`](crate::with_plant) runs
+/// code generic over [`Plant`] on any of them.
+#[derive(Debug)]
 pub enum AnyPlant {
     Furuta(Furuta),
     Cart(Cart),
+    Equations1(EquationsPlant<2>),
+    Equations2(EquationsPlant<4>),
+    Equations3(EquationsPlant<6>),
+    Equations4(EquationsPlant<8>),
+}
+
+/// `with_plant!(plant, p => body)`: evaluates `body` with `p` bound to the concrete plant
+/// inside an [`AnyPlant`] (by value or by reference, as `plant` is given).
+#[macro_export]
+macro_rules! with_plant {
+    ($plant:expr, $p:ident => $body:expr) => {
+        match $plant {
+            $crate::closed_loop::AnyPlant::Furuta($p) => $body,
+            $crate::closed_loop::AnyPlant::Cart($p) => $body,
+            $crate::closed_loop::AnyPlant::Equations1($p) => $body,
+            $crate::closed_loop::AnyPlant::Equations2($p) => $body,
+            $crate::closed_loop::AnyPlant::Equations3($p) => $body,
+            $crate::closed_loop::AnyPlant::Equations4($p) => $body,
+        }
+    };
 }
 
 /// Builds the plant a scene names, validating its parameters.
@@ -165,15 +188,36 @@ pub fn build_plant(scene: &Scene) -> Result<AnyPlant, SimError> {
     Ok(match scene.plant.kind {
         PlantKind::Furuta => AnyPlant::Furuta(Furuta::new(params::<FurutaParams>(scene)?).map_err(plant_err)?),
         PlantKind::Cart => AnyPlant::Cart(Cart::new(params::<CartParams>(scene)?).map_err(plant_err)?),
+        PlantKind::Equations => {
+            let Some(model) = scene.plant.equations_model(&scene.name)? else {
+                return Err(SimError::Scene(SceneError::Key {
+                    scene: scene.name.clone(),
+                    path: "plant.kind".into(),
+                    message: "an equations plant without equations".into(),
+                }));
+            };
+            let model = Arc::new(model);
+            let n = model.coordinates();
+            let plant = match n {
+                1 => EquationsPlant::new(model).map(AnyPlant::Equations1),
+                2 => EquationsPlant::new(model).map(AnyPlant::Equations2),
+                3 => EquationsPlant::new(model).map(AnyPlant::Equations3),
+                _ => EquationsPlant::new(model).map(AnyPlant::Equations4),
+            };
+            plant.ok_or_else(|| {
+                SimError::Scene(SceneError::Key {
+                    scene: scene.name.clone(),
+                    path: "plant.coordinates".into(),
+                    message: format!("{n} coordinates: at most {MAX_COORDINATES} are supported"),
+                })
+            })?
+        }
     })
 }
 
 /// Runs a scene's closed-loop simulation.
 pub fn simulate(scene: &Scene, progress: Option<&dyn Fn(u64)>) -> Result<Trajectory, SimError> {
-    match build_plant(scene)? {
-        AnyPlant::Furuta(p) => simulate_with(&p, scene, progress),
-        AnyPlant::Cart(p) => simulate_with(&p, scene, progress),
-    }
+    crate::with_plant!(build_plant(scene)?, p => simulate_with(&p, scene, progress))
 }
 
 /// The law the scene's effects select.
@@ -248,49 +292,57 @@ pub fn simulate_with<P: Plant<N>, const N: usize>(
         }
         x.copy_from_slice(&scene.initial.state);
     }
+    // The measured coordinates' state indices, in gain order.
     let idx = measured_indices(&cfg, N, name)?;
-    let m = idx.len();
-    // Flattened pre-history, oldest sample first, one value per measured coordinate.
+    let n = idx.len();
+    let sample = |x: &[f64; N]| -> Vec<f64> { idx.iter().map(|&i| x[i]).collect() };
     let history: Vec<f64> = match &scene.initial.history {
-        Some(h) => h.iter().flat_map(|p| p.iter().copied().take(m)).collect(),
-        None => (0..=cfg.delay as usize).flat_map(|_| idx.iter().map(|&i| x[i])).collect(),
+        Some(h) => h.iter().flatten().copied().collect(),
+        None => sample(&x).repeat(cfg.delay as usize + 1),
     };
     let mut law = Law::new(&cfg, name)?;
+    if matches!(law, Law::Counts { .. }) && n > 2 {
+        return Err(SimError::Controller {
+            scene: name.into(),
+            message: format!(
+                "a quantized run records the counts of at most 2 measured coordinates (q_theta, q_phi columns); this scene measures {n}"
+            ),
+        });
+    }
     let sensor_err = |t: f64, e: String| SimError::Sensor { scene: name.into(), t, message: e };
     let prime_err = |e: controller::InputError| SimError::Controller {
         scene: name.into(),
         message: format!("initial.history: {e}"),
+    };
+    let counts = |q: &[f64], h: &[f64], t: f64, what: &str| -> Result<Vec<i32>, SimError> {
+        q.iter()
+            .zip(h)
+            .enumerate()
+            .map(|(k, (&v, &hk))| {
+                adc(v, hk).map_err(|e| sensor_err(t, format!("{what}{} {v}: {e}", coordinate_name(k))))
+            })
+            .collect()
     };
     match &mut law {
         Law::Float(pd) => pd.prime(&history).map_err(prime_err)?,
         Law::Literal(pd) => pd.prime(&history).map_err(prime_err)?,
         Law::Counts { pd, h } => {
             let mut q = Vec::with_capacity(history.len());
-            for (k, &v) in history.iter().enumerate() {
-                let j = k % m;
-                let c = adc(v, h[j])
-                    .map_err(|e| sensor_err(0.0, format!("pre-history {} {v}: {e}", coordinate_name(j))))?;
-                q.push(c);
+            for s in history.chunks(n.max(1)) {
+                q.extend(counts(s, h, 0.0, "pre-history ")?);
             }
             pd.prime(&q).map_err(prime_err)?;
         }
     }
     // Only a scene that names noise gets a generator: a noiseless run draws no random numbers.
+    // sigma_theta applies to the first measured coordinate, sigma_phi to the second.
     let mut noise = match &scene.effects.noise {
-        Some(n) => {
-            if m > 2 {
-                return Err(SimError::Controller {
-                    scene: name.into(),
-                    message: format!(
-                        "effects.noise gives sigma_theta and sigma_phi (two measured coordinates), the controller measures {m}"
-                    ),
-                });
-            }
+        Some(ns) => {
             let normal = |sigma: f64| {
                 Normal::new(0.0, sigma)
                     .map_err(|e| SimError::Controller { scene: name.into(), message: format!("noise: {e}") })
             };
-            Some((ChaCha8Rng::seed_from_u64(n.seed), [normal(n.sigma_theta)?, normal(n.sigma_phi)?]))
+            Some((ChaCha8Rng::seed_from_u64(ns.seed), normal(ns.sigma_theta)?, normal(ns.sigma_phi)?))
         }
         None => None,
     };
@@ -312,37 +364,36 @@ pub fn simulate_with<P: Plant<N>, const N: usize>(
         ode_stats: OdeStats::default(),
         wall_seconds: 0.0,
     };
+    let mut q = vec![0.0; n];
     let escape = scene.run.escape_theta;
     for i in 0..=periods {
         let t = i as f64 * dt;
-        // The measured coordinates, noise added in gain order.
-        let mut y = [0.0; controller::MAX_GAINS];
-        for (v, &i) in y.iter_mut().zip(&idx) {
-            *v = x[i];
+        for (qk, &i) in q.iter_mut().zip(&idx) {
+            *qk = x[i];
         }
-        if let Some((rng, normal)) = &mut noise {
-            for (v, nd) in y.iter_mut().zip(normal.iter()).take(m) {
-                *v += nd.sample(rng);
+        if let Some((rng, ny, nz)) = &mut noise {
+            if let Some(v) = q.get_mut(0) {
+                *v += ny.sample(rng);
+            }
+            if let Some(v) = q.get_mut(1) {
+                *v += nz.sample(rng);
             }
         }
-        let y = &y[..m];
         let (u, saturated) = match &mut law {
             Law::Float(pd) => {
-                let o = pd.step(y).map_err(|e| sensor_err(t, e.to_string()))?;
+                let o = pd.step(&q).map_err(|e| sensor_err(t, e.to_string()))?;
                 (o.u, o.saturated)
             }
             Law::Literal(pd) => {
-                let o = pd.step(y).map_err(|e| sensor_err(t, e.to_string()))?;
+                let o = pd.step(&q).map_err(|e| sensor_err(t, e.to_string()))?;
                 (o.u, o.saturated)
             }
             Law::Counts { pd, h } => {
-                let mut q = [0i32; controller::MAX_GAINS];
-                for (j, (c, (&v, &hj))) in q.iter_mut().zip(y.iter().zip(h.iter())).enumerate() {
-                    *c = adc(v, hj).map_err(|e| sensor_err(t, format!("{} {v}: {e}", coordinate_name(j))))?;
-                }
-                let o = pd.step(&q[..m]).map_err(|e| sensor_err(t, e.to_string()))?;
-                if let Some(c) = &mut traj.codes {
-                    c.push(Codes { q_theta: q[0], q_phi: q[1], code: o.code });
+                let c = counts(&q, h, t, "")?;
+                let o = pd.step(&c).map_err(|e| sensor_err(t, e.to_string()))?;
+                if let Some(codes) = &mut traj.codes {
+                    let at = |k: usize| c.get(k).copied().unwrap_or(0);
+                    codes.push(Codes { q_theta: at(0), q_phi: at(1), code: o.code });
                 }
                 (pd.volts(o.code), o.saturated)
             }

@@ -10,6 +10,7 @@
 pub mod chart;
 pub mod closed_loop;
 pub mod error;
+pub mod expr;
 pub mod linear;
 pub mod ode;
 pub mod plant;

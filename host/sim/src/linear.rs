@@ -71,11 +71,6 @@ pub enum LinearError {
     BadDt(f64),
     #[error("controller gain {name} = {value} is not finite")]
     BadGain { name: &'static str, value: f64 },
-    #[error(
-        "controller gains {0}: the linear analysis takes the shorthand law (kp, kd on the primary angle, \
-         kphi_d on the secondary one)"
-    )]
-    NotShorthand(String),
     #[error("delay r = {0} samples exceeds the supported maximum {MAX_DELAY}")]
     DelayTooLarge(u32),
     #[error("controller dt = {config} s differs from the discretization dt = {zoh} s")]
@@ -94,6 +89,13 @@ pub enum LinearError {
         "sampling period dt = {dt:e} s: the rates ln|mu|/dt are only known to +-{error:e} 1/s (n eps ||M|| / dt), more than {RATE_ERROR_MAX:e} of the plant's rate scale {scale:e} 1/s; refusing to report them"
     )]
     RatesInaccurate { dt: f64, error: f64, scale: f64 },
+    #[error("the controller measures no coordinate (empty gain vector)")]
+    NoGains,
+    #[error(
+        "the secondary coordinate {index} is fed back with a P gain or integral action: there is no \
+         structural multiplier 1 to remove"
+    )]
+    SecondaryControlled { index: usize },
     #[error("eigenvalue computation failed for the {n}x{n} closed-loop map: {reason}")]
     Eigen { n: usize, reason: String },
     #[error(
@@ -292,10 +294,15 @@ pub struct AugmentedLayout {
     pub n_plant: usize,
     /// Delay r.
     pub delay: usize,
-    /// Index of `y_{i-1}`; `y_{i-1-k}` is at `y_start + k`, `k = 0..=r`.
+    /// Index of `y_{i-1}` (the first measured coordinate); `y_{i-1-k}` is at `y_start + k`,
+    /// `k = 0..=r`.
     pub y_start: usize,
-    /// Index of `z_{i-1}`; `z_{i-1-k}` is at `z_start + k`, `k = 0..=r`.
+    /// Index of `z_{i-1}` (the second measured coordinate, if any; else the end of the
+    /// sample registers); `z_{i-1-k}` is at `z_start + k`, `k = 0..=r`.
     pub z_start: usize,
+    /// Number of measured coordinates; coordinate `j`'s samples start at
+    /// `y_start + j (r + 1)`.
+    pub measured: usize,
     /// Index of the integral sum `x_I,i-1`, if `ki != 0`.
     pub integral: Option<usize>,
     /// Total dimension.
@@ -303,27 +310,49 @@ pub struct AugmentedLayout {
 }
 
 impl AugmentedLayout {
-    fn new(n_plant: usize, delay: usize, integral: bool) -> Self {
+    fn new(n_plant: usize, delay: usize, measured: usize, integral: bool) -> Self {
         let y_start = n_plant;
         let z_start = y_start + delay + 1;
-        let end = z_start + delay + 1;
+        let end = y_start + measured * (delay + 1);
         let integral = integral.then_some(end);
-        Self { n_plant, delay, y_start, z_start, integral, dim: end + usize::from(integral.is_some()) }
+        Self { n_plant, delay, y_start, z_start, measured, integral, dim: end + usize::from(integral.is_some()) }
+    }
+
+    /// Index of the samples of measured coordinate `j`, `q_j,{i-1}`.
+    pub fn start(&self, j: usize) -> usize {
+        self.y_start + j * (self.delay + 1)
     }
 }
 
-/// `(kp, kd, kphi_d)` of a configuration with the shorthand gains (read on the plant's
-/// primary and secondary coordinates).
-pub fn shorthand_gains(cfg: &ControllerConfig) -> Result<(f64, f64, f64), LinearError> {
-    cfg.as_shorthand().ok_or_else(|| LinearError::NotShorthand(format!("{:?}", cfg.gains)))
-}
+/// Names of the gains in errors: the shorthand's, or `p0`, `d1`, ...
+const P_NAMES: [&str; shared::MAX_GAINS] = ["p0", "p1", "p2", "p3"];
+const D_NAMES: [&str; shared::MAX_GAINS] = ["d0", "d1", "d2", "d3"];
 
-fn check_gains(cfg: &ControllerConfig) -> Result<(f64, f64, f64), LinearError> {
-    let (kp, kd, kphi_d) = shorthand_gains(cfg)?;
-    for (name, value) in [("kp", kp), ("kd", kd), ("kphi_d", kphi_d), ("ki", cfg.ki)] {
-        if !value.is_finite() {
-            return Err(LinearError::BadGain { name, value });
+fn check_gains(cfg: &ControllerConfig, n: usize) -> Result<(), LinearError> {
+    if let Some((kp, kd, kphi_d)) = cfg.as_shorthand() {
+        for (name, value) in [("kp", kp), ("kd", kd), ("kphi_d", kphi_d)] {
+            if !value.is_finite() {
+                return Err(LinearError::BadGain { name, value });
+            }
         }
+    }
+    for (j, g) in cfg.gains.iter().enumerate() {
+        for (name, value) in
+            [(P_NAMES.get(j).copied().unwrap_or("p"), g.p), (D_NAMES.get(j).copied().unwrap_or("d"), g.d)]
+        {
+            if !value.is_finite() {
+                return Err(LinearError::BadGain { name, value });
+            }
+        }
+        if usize::from(g.index) >= n {
+            return Err(LinearError::IndexOutOfRange { which: "measured", index: usize::from(g.index), n });
+        }
+    }
+    if cfg.gains.is_empty() {
+        return Err(LinearError::NoGains);
+    }
+    if !cfg.ki.is_finite() {
+        return Err(LinearError::BadGain { name: "ki", value: cfg.ki });
     }
     if !(cfg.dt.is_finite() && cfg.dt > 0.0) {
         return Err(LinearError::BadDt(cfg.dt));
@@ -331,62 +360,85 @@ fn check_gains(cfg: &ControllerConfig) -> Result<(f64, f64, f64), LinearError> {
     if cfg.delay > MAX_DELAY {
         return Err(LinearError::DelayTooLarge(cfg.delay));
     }
-    Ok((kp, kd, kphi_d))
+    Ok(())
 }
 
 impl Zoh {
     /// The closed-loop one-period map of the delayed law of `cfg` (`cfg.dt` must equal
-    /// the discretization period).
+    /// the discretization period): `u_i = -sum_j [p_j q_j,{i-r} + d_j (q_j,{i-r} -
+    /// q_j,{i-r-1}) / dt] - ki x_I,i` over the measured coordinates `q_j = x[index_j]`.
     pub fn closed_loop(&self, cfg: &ControllerConfig) -> Result<ClosedLoopMap, LinearError> {
-        let (kp, kd, kphi_d) = check_gains(cfg)?;
+        let n = self.phi.nrows();
+        check_gains(cfg, n)?;
         if cfg.dt != self.dt {
             return Err(LinearError::DtMismatch { config: cfg.dt, zoh: self.dt });
         }
-        let n = self.phi.nrows();
         let r = cfg.delay as usize;
-        let lay = AugmentedLayout::new(n, r, cfg.ki != 0.0);
+        let lay = AugmentedLayout::new(n, r, cfg.gains.len(), cfg.ki != 0.0);
         let dt = self.dt;
-        // Index of the delayed sample y_{i-d} / z_{i-d} in the augmented state.
-        let y_at = |d: usize| if d == 0 { self.primary } else { lay.y_start + d - 1 };
-        let z_at = |d: usize| if d == 0 { self.secondary } else { lay.z_start + d - 1 };
+        // Index of the delayed sample q_j,{i-d} in the augmented state.
+        let at = |j: usize, d: usize| {
+            if d == 0 { cfg.gains.get(j).map_or(0, |g| usize::from(g.index)) } else { lay.start(j) + d - 1 }
+        };
         // The law as a row: u_i = g . state_i.
         let mut g = DVector::<f64>::zeros(lay.dim);
-        g[y_at(r)] += -(kp + kd / dt);
-        g[y_at(r + 1)] += kd / dt;
-        g[z_at(r)] += kphi_d / dt;
-        g[z_at(r + 1)] -= kphi_d / dt;
+        for (j, gain) in cfg.gains.iter().enumerate() {
+            g[at(j, r)] += -(gain.p + gain.d / dt);
+            g[at(j, r + 1)] += gain.d / dt;
+        }
         if let Some(s) = lay.integral {
-            g[y_at(r)] -= cfg.ki * dt;
+            g[at(0, r)] -= cfg.ki * dt;
             g[s] -= cfg.ki;
         }
         let mut m = DMatrix::<f64>::zeros(lay.dim, lay.dim);
         m.view_mut((0, 0), (n, n)).copy_from(&self.phi);
         m.view_mut((0, 0), (n, lay.dim)).ger(1.0, &self.gamma, &g, 1.0);
-        // Shift registers: the new y_{i} (stored as y_{(i+1)-1}) is x_i[primary].
-        m[(lay.y_start, self.primary)] = 1.0;
-        m[(lay.z_start, self.secondary)] = 1.0;
-        for k in 1..=r {
-            m[(lay.y_start + k, lay.y_start + k - 1)] = 1.0;
-            m[(lay.z_start + k, lay.z_start + k - 1)] = 1.0;
+        // Shift registers: the new q_j,i (stored as q_j,{(i+1)-1}) is x_i[index_j].
+        for (j, gain) in cfg.gains.iter().enumerate() {
+            m[(lay.start(j), usize::from(gain.index))] = 1.0;
+            for k in 1..=r {
+                m[(lay.start(j) + k, lay.start(j) + k - 1)] = 1.0;
+            }
         }
         if let Some(s) = lay.integral {
             m[(s, s)] = 1.0;
-            m[(s, y_at(r))] += dt;
+            m[(s, at(0, r))] += dt;
         }
         // What each gain puts into the map (its coefficients in the law row times |Gamma|),
         // to name the one responsible when the map is too large to be trusted.
         let gn = self.gamma.norm();
-        let gains = vec![
-            ("kp", kp, kp.abs() * gn),
-            ("kd", kd, (kd / dt).abs() * 2.0 * gn),
-            ("kphi_d", kphi_d, (kphi_d / dt).abs() * 2.0 * gn),
-            ("ki", cfg.ki, (cfg.ki.abs() * dt + cfg.ki.abs()) * gn),
-        ];
+        let mut gains = Vec::new();
+        match cfg.as_shorthand() {
+            Some((kp, kd, kphi_d)) => {
+                gains.push(("kp", kp, kp.abs() * gn));
+                gains.push(("kd", kd, (kd / dt).abs() * 2.0 * gn));
+                gains.push(("kphi_d", kphi_d, (kphi_d / dt).abs() * 2.0 * gn));
+            }
+            None => {
+                for (j, gain) in cfg.gains.iter().enumerate() {
+                    gains.push((P_NAMES.get(j).copied().unwrap_or("p"), gain.p, gain.p.abs() * gn));
+                    gains.push((D_NAMES.get(j).copied().unwrap_or("d"), gain.d, (gain.d / dt).abs() * 2.0 * gn));
+                }
+            }
+        }
+        gains.push(("ki", cfg.ki, (cfg.ki.abs() * dt + cfg.ki.abs()) * gn));
+        // The registers of the secondary coordinate, if it is measured (the structural
+        // multiplier 1 shifts it and its stored copies together).
+        let secondary_block =
+            cfg.gains.iter().position(|g| usize::from(g.index) == self.secondary).map(|j| lay.start(j));
+        // A P term (or the integral) on the secondary coordinate makes its shift visible to the law.
+        let secondary_controlled = cfg
+            .gains
+            .iter()
+            .enumerate()
+            .any(|(j, g)| usize::from(g.index) == self.secondary && (g.p != 0.0 || (j == 0 && cfg.ki != 0.0)));
         Ok(ClosedLoopMap {
             matrix: m,
             layout: lay,
             dt,
             secondary: self.secondary,
+            secondary_block,
+            secondary_controlled,
             secondary_coupling: self.secondary_coupling,
             rate_scale: self.rate_scale,
             gains,
@@ -401,6 +453,10 @@ pub struct ClosedLoopMap {
     pub layout: AugmentedLayout,
     pub dt: f64,
     secondary: usize,
+    /// Start of the secondary coordinate's sample registers, if it is measured.
+    secondary_block: Option<usize>,
+    /// The law feeds the secondary coordinate itself back (P gain or integral).
+    secondary_controlled: bool,
     secondary_coupling: Option<(usize, f64)>,
     /// The plant's rate scale (see [`RATE_ERROR_MAX`]).
     rate_scale: f64,
@@ -449,8 +505,10 @@ impl ClosedLoopMap {
     pub fn structural_eigenvector(&self) -> DVector<f64> {
         let mut v = DVector::zeros(self.layout.dim);
         v[self.secondary] = 1.0;
-        for k in 0..=self.layout.delay {
-            v[self.layout.z_start + k] = 1.0;
+        if let Some(z) = self.secondary_block {
+            for k in 0..=self.layout.delay {
+                v[z + k] = 1.0;
+            }
         }
         v
     }
@@ -466,20 +524,25 @@ impl ClosedLoopMap {
         if let Some((row, value)) = self.secondary_coupling {
             return Err(LinearError::SecondaryCouples { index: self.secondary, row, value });
         }
+        if self.secondary_controlled {
+            return Err(LinearError::SecondaryControlled { index: self.secondary });
+        }
         let lay = &self.layout;
         let s = self.secondary;
+        // The secondary's registers (none when it is not measured: then T = I).
+        let zs: Vec<usize> = self.secondary_block.map(|z| (z..=z + lay.delay).collect()).unwrap_or_default();
         // M' = T M T^{-1}, T = I - sum_k e_{z_k} e_s^T, T^{-1} = I + sum_k e_{z_k} e_s^T.
         // M T^{-1}: column s gains the sum of the z columns.
         let mut mt = self.matrix.clone();
-        for k in 0..=lay.delay {
-            let zc = self.matrix.column(lay.z_start + k).clone_owned();
+        for &z in &zs {
+            let zc = self.matrix.column(z).clone_owned();
             let mut col_s = mt.column_mut(s);
             col_s += zc;
         }
         // T (M T^{-1}): each z row loses row s.
         let row_s = mt.row(s).clone_owned();
-        for k in 0..=lay.delay {
-            let mut row = mt.row_mut(lay.z_start + k);
+        for &z in &zs {
+            let mut row = mt.row_mut(z);
             row -= &row_s;
         }
         let scale = mt.iter().fold(1.0f64, |m, v| m.max(v.abs()));

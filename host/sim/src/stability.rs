@@ -4,7 +4,7 @@
 //! the delay and the sampling period do.
 
 use crate::chart::{Axis, Chart, ChartError, Crossing, Panel, assemble_panel, classify, plant_chart};
-use crate::closed_loop::{AnyPlant, SimError, build_plant};
+use crate::closed_loop::{SimError, build_plant};
 use crate::linear::{LinearError, LinearPlant, Multiplier};
 use crate::plant::{Plant, linearize};
 use crate::scene::Scene;
@@ -27,10 +27,7 @@ fn lin<P: Plant<N>, const N: usize>(p: &P) -> Result<LinearPlant, LinearError> {
 /// The continuous linearization of the scene's plant at the origin.
 pub fn linear_plant(scene: &Scene) -> Result<LinearPlant, StabilityError> {
     let le = |source| StabilityError::Linear { scene: scene.name.clone(), source };
-    match build_plant(scene)? {
-        AnyPlant::Furuta(p) => lin(&p).map_err(le),
-        AnyPlant::Cart(p) => lin(&p).map_err(le),
-    }
+    crate::with_plant!(build_plant(scene)?, p => lin(&p).map_err(le))
 }
 
 /// Every closed-loop multiplier (structural 1 included), largest modulus first.
@@ -40,11 +37,19 @@ pub fn scene_multipliers(scene: &Scene) -> Result<Vec<Multiplier>, StabilityErro
 }
 
 /// The non-structural multipliers with one entry per complex-conjugate pair (the one with
-/// im >= 0), largest modulus first.
+/// im >= 0), largest modulus first (all multipliers when the secondary coordinate enters the
+/// dynamics: then there is no structural one).
 pub fn dominant_pairs(scene: &Scene) -> Result<Vec<Multiplier>, StabilityError> {
     let le = |source| StabilityError::Linear { scene: scene.name.clone(), source };
-    let all =
-        linear_plant(scene)?.closed_loop(&scene.controller_config()).map_err(le)?.dominant_multipliers().map_err(le)?;
+    let map = linear_plant(scene)?.closed_loop(&scene.controller_config()).map_err(le)?;
+    // A secondary coordinate that enters the dynamics (a plant written as equations whose
+    // second coordinate is not cyclic), or that the law feeds back with a P gain, has no
+    // structural multiplier 1 to remove.
+    let all = match map.dominant_multipliers() {
+        Err(LinearError::SecondaryCouples { .. } | LinearError::SecondaryControlled { .. }) => map.multipliers(),
+        other => other,
+    }
+    .map_err(le)?;
     Ok(all.into_iter().filter(|m| m.im >= 0.0).collect())
 }
 
@@ -69,10 +74,7 @@ pub fn scene_chart(
         let (a, b) = linearize(p);
         plant_chart(&a, &b, P::PRIMARY, P::SECONDARY, cfg, dts, kp, kd)
     }
-    match build_plant(scene)? {
-        AnyPlant::Furuta(p) => go(&p, &cfg, &dts, kp, kd).map_err(ce),
-        AnyPlant::Cart(p) => go(&p, &cfg, &dts, kp, kd).map_err(ce),
-    }
+    crate::with_plant!(build_plant(scene)?, p => go(&p, &cfg, &dts, kp, kd).map_err(ce))
 }
 
 /// One point of a stability chart at the scene's own gains and sampling period: the

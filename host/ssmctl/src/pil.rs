@@ -30,7 +30,7 @@ use serde::Serialize;
 use shared::frame::{
     self, Fault, FrameError, HEADER_LEN, Header, Kind, LoadReply, MAX_FRAME, REPLY_START, Seq, StepReply,
 };
-use sim::closed_loop::{AnyPlant, HISTORY, SimError, build_plant, method_of};
+use sim::closed_loop::{HISTORY, SimError, build_plant, method_of};
 use sim::ode::Integrator;
 use sim::plant::Plant;
 use sim::scene::{Scene, SceneError};
@@ -493,10 +493,7 @@ pub fn run(opts: &PilOptions) -> Result<PilSummary, PilError> {
         )));
     }
     let scene = Scene::load(&opts.scene, &opts.overrides)?;
-    match build_plant(&scene)? {
-        AnyPlant::Furuta(p) => run_with(&p, &scene, opts),
-        AnyPlant::Cart(p) => run_with(&p, &scene, opts),
-    }
+    sim::with_plant!(build_plant(&scene)?, p => run_with(&p, &scene, opts))
 }
 
 fn run_with<P: Plant<N>, const N: usize>(plant: &P, scene: &Scene, opts: &PilOptions) -> Result<PilSummary, PilError> {
@@ -967,7 +964,7 @@ mod tests {
     #[test]
     fn host_sim_comparison_finds_the_first_mismatch() {
         let scene = SceneBuilder::load("furuta-quant-dt25-noise").unwrap().periods(120).build().unwrap();
-        let AnyPlant::Furuta(plant) = build_plant(&scene).unwrap() else { panic!("furuta scene") };
+        let sim::closed_loop::AnyPlant::Furuta(plant) = build_plant(&scene).unwrap() else { panic!("furuta scene") };
         let tr = sim::closed_loop::simulate(&scene, None).unwrap();
         let mut codes = tr.codes.clone().unwrap();
         let states: Vec<[f64; 4]> = (0..tr.rows()).map(|i| std::array::from_fn(|k| tr.state(i, k))).collect();

@@ -26,6 +26,7 @@ pub const TARGETS: &[Target] = &[
     ("model_blob", model_blob),
     ("pil_frames", pil_frames),
     ("cli_options", cli_options),
+    ("plant_expressions", plant_expressions),
 ];
 
 /// The target called `name`.
@@ -492,5 +493,45 @@ fn assert_within_limits(cmd: &ssmctl::cli::Cmd) {
         Cmd::Backbone { observable, .. } => assert!(*observable >= 1),
         Cmd::Frc { observable, mode, .. } => assert!(*observable >= 1 && *mode >= 1),
         _ => {}
+    }
+}
+
+/// The plant expression language (`sim::expr`): parse, compile to a tape, evaluate. Input:
+/// the expression text. A refusal names a column within the text (or one past its end); an
+/// accepted expression compiles, and its tape evaluates in `f64` bit for bit as the graph
+/// does (or both NaN), and in dual numbers to the same value.
+pub fn plant_expressions(data: &[u8]) {
+    use sim::expr::{Graph, Names, Tape, parse};
+    use sim::plant::{Dual, Scalar};
+    let text = String::from_utf8_lossy(data);
+    let names = Names {
+        vars: ["x", "theta", "x_dot", "theta_dot", "u"].iter().map(|s| s.to_string()).collect(),
+        params: vec![("m".into(), 0.2), ("g".into(), 9.81), ("l".into(), 0.3)],
+    };
+    let mut g = Graph::new();
+    let p = match parse(&text, &names, &mut g) {
+        Ok(p) => p,
+        Err(e) => {
+            check_message("expression", &e.message);
+            assert!(e.col >= 1 && e.col <= text.chars().count() + 1, "column {} outside {:?}", e.col, text);
+            return;
+        }
+    };
+    let tape = match Tape::compile(&g, &[p.root], 5) {
+        Ok(t) => t,
+        Err(e) => return check_message("tape", &e.to_string()),
+    };
+    for point in [[0.3, -1.2, 0.7, 2.5, -0.4], [0.0, 0.0, 0.0, 0.0, 0.0], [-2.0, 3.1, -5.0, 0.01, 12.0]] {
+        let v = tape.eval_f64(&point)[0];
+        let r = g.eval_f64(p.root, &point);
+        assert!(
+            v.to_bits() == r.to_bits() || (v.is_nan() && r.is_nan()) || v == r,
+            "tape {v} vs graph {r} at {point:?}"
+        );
+        let inputs: Vec<Dual<5>> = point.iter().enumerate().map(|(i, &x)| Dual::var(x, i)).collect();
+        let mut regs = vec![Dual::<5>::cst(0.0); tape.n_regs];
+        tape.eval(&inputs, &mut regs);
+        let d = regs[tape.outputs[0] as usize].re();
+        assert!(d == v || (d.is_nan() && v.is_nan()), "dual value {d} vs f64 {v} at {point:?}");
     }
 }

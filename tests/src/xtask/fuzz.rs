@@ -8,7 +8,8 @@
 use super::{Result, cmd, output, root, run};
 
 /// The targets (tests/fuzz/fuzz_targets/*.rs, bodies in tests/fuzz-targets).
-const TARGETS: [&str; 6] = ["scene_toml", "csv_data", "model_json", "model_blob", "pil_frames", "cli_options"];
+const TARGETS: [&str; 7] =
+    ["scene_toml", "csv_data", "model_json", "model_blob", "pil_frames", "cli_options", "plant_expressions"];
 
 pub fn fuzz(args: &[String]) -> Result<()> {
     let mut seconds = 60u64;

@@ -196,7 +196,7 @@ fn multipliers_match_those_of_independent_discretizations() {
 fn faer_and_nalgebra_eigenvalues_agree() {
     let p = plant();
     for (dt, kp, kd) in [(0.025, 15.5, 5.45), (0.02, 25.0, 6.0), (0.0308, 15.5, 5.45), (0.03, 0.0, 0.0)] {
-        let cfg = ControllerConfig::paper(dt).with_primary(kp, kd);
+        let cfg = ControllerConfig::shorthand(kp, kd, 1.5, dt);
         let m = p.closed_loop(&cfg).unwrap();
         let a: Vec<_> = eigenvalues(&m.matrix).unwrap().iter().map(|c| Multiplier::new(c.re, c.im, dt)).collect();
         let b: Vec<_> = eigenvalues_faer(&m.matrix).unwrap().iter().map(|c| Multiplier::new(c.re, c.im, dt)).collect();
@@ -311,7 +311,8 @@ fn bad_inputs_are_named() {
     for dt in [0.0, -0.01, f64::NAN] {
         assert!(matches!(multipliers(&a, &b, 0, 2, &ControllerConfig::paper(dt)), Err(LinearError::BadDt(_))));
     }
-    let bad = cfg.with_primary(cfg.as_shorthand().unwrap().0, f64::NAN);
+    let mut bad = cfg;
+    bad.gains[0].d = f64::NAN;
     assert!(matches!(multipliers(&a, &b, 0, 2, &bad), Err(LinearError::BadGain { name: "kd", .. })));
     assert_eq!(multipliers(&a, &b, 0, 0, &cfg), Err(LinearError::SameIndex(0)));
     assert!(matches!(
@@ -398,7 +399,7 @@ fn rates_reproduce_the_normal_form_linear_coefficients() {
 #[test]
 fn experimental_gains_are_unstable_at_20_ms() {
     let (a, b) = furuta_ab();
-    let cfg = ControllerConfig::paper(0.02).with_primary(25.0, 6.0);
+    let cfg = ControllerConfig::shorthand(25.0, 6.0, 1.5, 0.02);
     let dom = dominant_multipliers(&a, &b, 0, 2, &cfg).unwrap();
     assert!(spectral_radius(&dom) > 1.0, "{dom:?}");
     // MODEL.md: KD must be below about 5.3 at 20 ms.
@@ -412,7 +413,7 @@ fn experimental_gains_are_unstable_at_20_ms() {
 #[test]
 fn untrustworthy_multipliers_are_refused_naming_the_cause() {
     let p = plant();
-    let cfg = |kp: f64, kd: f64, dt: f64| ControllerConfig::paper(dt).with_primary(kp, kd);
+    let cfg = |kp: f64, kd: f64, dt: f64| ControllerConfig::shorthand(kp, kd, 1.5, dt);
     for (c, cause) in [
         (cfg(1e200, 5.45, 0.025), "controller gain kp = 1e200"),
         (cfg(1e12, 5.45, 0.025), "controller gain kp = 1e12"),

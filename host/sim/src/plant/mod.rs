@@ -4,11 +4,13 @@
 //! sampling, quantization or the controller: the simulator composes those.
 
 pub mod cart;
+pub mod equations;
 pub mod furuta;
 pub mod linearize;
 pub mod scalar;
 
 pub use cart::{Cart, CartParams};
+pub use equations::{EquationsModel, EquationsPlant, EquationsSpec};
 pub use furuta::{Furuta, FurutaParams};
 pub use linearize::{jacobian, linearize};
 pub use scalar::{Dual, Scalar};

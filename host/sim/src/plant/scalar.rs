@@ -22,6 +22,11 @@ pub trait Scalar:
     fn re(self) -> f64;
     /// `(sin x, cos x)`.
     fn sin_cos(self) -> (Self, Self);
+    /// `g(self)` for a smooth function `g` given by its Taylor coefficients at the value:
+    /// `coef(x0, out)` fills `out[k] = g^(k)(x0) / k!` for every `k < out.len()`. Each type
+    /// asks for as many as it carries (one for `f64`, two for [`Dual`], the order plus one
+    /// for a truncated power series), so one coefficient rule serves every scalar.
+    fn apply<F: Fn(f64, &mut [f64])>(self, coef: F) -> Self;
     /// `self * o` by reference: `*`'s value bit for bit. A large scalar (a truncated power
     /// series, [`crate::taylor::Tps`], 5.7 kB) overrides these four so its operands are
     /// not copied; for `f64` they are the operators.
@@ -58,6 +63,12 @@ impl Scalar for f64 {
     #[inline(always)]
     fn sin_cos(self) -> (Self, Self) {
         f64::sin_cos(self)
+    }
+    #[inline(always)]
+    fn apply<F: Fn(f64, &mut [f64])>(self, coef: F) -> Self {
+        let mut c = [0.0];
+        coef(self, &mut c);
+        c[0]
     }
 }
 
@@ -181,6 +192,12 @@ impl<const M: usize> Scalar for Dual<M> {
     fn sin_cos(self) -> (Self, Self) {
         let (s, c) = self.v.sin_cos();
         (Self { v: s, d: self.map_d(|x| x * c) }, Self { v: c, d: self.map_d(|x| -x * s) })
+    }
+    #[inline(always)]
+    fn apply<F: Fn(f64, &mut [f64])>(self, coef: F) -> Self {
+        let mut c = [0.0; 2];
+        coef(self.v, &mut c);
+        Self { v: c[0], d: self.map_d(|x| x * c[1]) }
     }
 }
 

@@ -23,6 +23,10 @@ pub const BUNDLED: &[(&str, &str)] = &[
     ("furuta-quant-dt25", include_str!("../../../../scenes/furuta-quant-dt25.toml")),
     ("furuta-quant-dt25-noise", include_str!("../../../../scenes/furuta-quant-dt25-noise.toml")),
     ("furuta-saturation", include_str!("../../../../scenes/furuta-saturation.toml")),
+    ("furuta-equations", include_str!("../../../../scenes/furuta-equations.toml")),
+    ("cartpole-pd", include_str!("../../../../scenes/cartpole-pd.toml")),
+    ("pendulum-pd", include_str!("../../../../scenes/pendulum-pd.toml")),
+    ("duffing-chain", include_str!("../../../../scenes/duffing-chain.toml")),
 ];
 
 /// The TOML text of a bundled scene.

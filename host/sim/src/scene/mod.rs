@@ -14,8 +14,9 @@ mod bundled;
 
 pub use bundled::{BUNDLED, bundled_names};
 
+use crate::plant::equations::{EquationsModel, EquationsSpec, Form};
 use serde::{Deserialize, Serialize};
-use shared::{ControllerConfig, Gains, QuantMode, Quantization};
+use shared::{ControllerConfig, Gain, Gains, QuantMode, Quantization};
 use std::path::Path;
 
 /// A fully parsed and validated scene.
@@ -47,6 +48,134 @@ pub struct PlantSpec {
     /// built (unknown names are errors there, with the path `plant.params.NAME`).
     #[serde(default)]
     pub params: toml::Table,
+    /// `kind = "equations"`: the generalized coordinates (velocities are `<name>_dot`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub coordinates: Option<Vec<String>>,
+    /// `kind = "equations"`: named constants the expressions use.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub parameters: Option<toml::Table>,
+    /// `kind = "equations"`: the mass matrix `M(q)`, one row of expressions per coordinate.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub mass: Option<Vec<Vec<String>>>,
+    /// `kind = "equations"`: the forces `f(q, q', u)` of `M(q) q'' = f`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub forces: Option<Vec<String>>,
+    /// `kind = "equations"`: a Lagrangian `L(q, q')` instead of `mass` and `forces`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub lagrangian: Option<String>,
+    /// `kind = "equations"`: the generalized forces `Q(q, q', u)` beside the Lagrangian.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub generalized_forces: Option<Vec<String>>,
+    /// `kind = "equations"`: the equilibrium to stabilize (coordinates); default the origin.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub equilibrium: Option<Vec<f64>>,
+}
+
+impl PlantSpec {
+    /// The equations of a `kind = "equations"` plant (keys checked for presence and
+    /// consistency; the expressions are checked by [`EquationsModel::new`]). `None` for a
+    /// built-in plant, which must not carry the equation keys.
+    pub fn equations(&self, scene: &str) -> Result<Option<EquationsSpec>, SceneError> {
+        let given: Vec<&str> = [
+            ("coordinates", self.coordinates.is_some()),
+            ("parameters", self.parameters.is_some()),
+            ("mass", self.mass.is_some()),
+            ("forces", self.forces.is_some()),
+            ("lagrangian", self.lagrangian.is_some()),
+            ("generalized_forces", self.generalized_forces.is_some()),
+            ("equilibrium", self.equilibrium.is_some()),
+        ]
+        .into_iter()
+        .filter(|(_, g)| *g)
+        .map(|(k, _)| k)
+        .collect();
+        if self.kind != PlantKind::Equations {
+            return match given.first() {
+                Some(k) => Err(SceneError::key(
+                    scene,
+                    format!("plant.{k}"),
+                    "only a plant of kind = \"equations\" takes equations (built-in plants take `params`)",
+                )),
+                None => Ok(None),
+            };
+        }
+        if let Some(k) = self.params.keys().next() {
+            return Err(SceneError::key(
+                scene,
+                format!("plant.params.{k}"),
+                "an equations plant takes its constants in `plant.parameters`",
+            ));
+        }
+        let Some(coordinates) = self.coordinates.clone() else {
+            return Err(SceneError::key(
+                scene,
+                "plant.coordinates",
+                "missing: an equations plant names its coordinates",
+            ));
+        };
+        let mut parameters = Vec::new();
+        for (name, v) in self.parameters.iter().flatten() {
+            let x = match v {
+                toml::Value::Float(x) => *x,
+                toml::Value::Integer(i) => *i as f64,
+                other => {
+                    return Err(SceneError::key(
+                        scene,
+                        format!("plant.parameters.{name}"),
+                        format!("must be a number, got a {}", other.type_str()),
+                    ));
+                }
+            };
+            parameters.push((name.clone(), x));
+        }
+        let mass_form = self.mass.is_some() || self.forces.is_some();
+        let lagrange_form = self.lagrangian.is_some() || self.generalized_forces.is_some();
+        let form = match (mass_form, lagrange_form) {
+            (true, true) => {
+                return Err(SceneError::key(
+                    scene,
+                    "plant.lagrangian",
+                    "give either `mass` and `forces` or `lagrangian` and `generalized_forces`, not both",
+                ));
+            }
+            (false, false) => {
+                return Err(SceneError::key(
+                    scene,
+                    "plant.mass",
+                    "missing: give `mass` and `forces`, or `lagrangian` and `generalized_forces`",
+                ));
+            }
+            (true, false) => match (&self.mass, &self.forces) {
+                (Some(mass), Some(forces)) => Form::Mass { mass: mass.clone(), forces: forces.clone() },
+                (None, _) => {
+                    return Err(SceneError::key(scene, "plant.mass", "missing: `forces` needs the mass matrix"));
+                }
+                (_, None) => return Err(SceneError::key(scene, "plant.forces", "missing: `mass` needs the forces")),
+            },
+            (false, true) => match (&self.lagrangian, &self.generalized_forces) {
+                (Some(l), Some(q)) => Form::Lagrangian { lagrangian: l.clone(), generalized_forces: q.clone() },
+                (None, _) => {
+                    return Err(SceneError::key(scene, "plant.lagrangian", "missing: `generalized_forces` needs it"));
+                }
+                (_, None) => {
+                    return Err(SceneError::key(
+                        scene,
+                        "plant.generalized_forces",
+                        "missing: a Lagrangian needs its generalized forces (one per coordinate; \"0\" where none)",
+                    ));
+                }
+            },
+        };
+        Ok(Some(EquationsSpec { coordinates, parameters, form, equilibrium: self.equilibrium.clone() }))
+    }
+
+    /// The compiled, checked equations of a `kind = "equations"` plant.
+    pub fn equations_model(&self, scene: &str) -> Result<Option<EquationsModel>, SceneError> {
+        match self.equations(scene)? {
+            None => Ok(None),
+            Some(spec) => EquationsModel::new(&spec).map(Some).map_err(|e| SceneError::key(scene, e.key, e.message)),
+        }
+    }
 }
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
@@ -56,23 +185,65 @@ pub enum PlantKind {
     Furuta,
     /// A planar inverted pendulum on a motor-driven cart.
     Cart,
+    /// A plant written as equations in the scene (`coordinates`, `parameters`, `mass` and
+    /// `forces` or `lagrangian` and `generalized_forces`).
+    Equations,
 }
 
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct ControllerSpec {
-    /// V/rad.
-    pub kp: f64,
-    /// V s/rad.
-    pub kd: f64,
-    /// V s/rad, derivative gain on the secondary angle.
+    /// Shorthand: P gain on the first coordinate (the primary angle), V/rad.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub kp: Option<f64>,
+    /// Shorthand: D gain on the first coordinate, V s/rad.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub kd: Option<f64>,
+    /// Shorthand: derivative gain on the second coordinate (the secondary angle), V s/rad,
+    /// with the opposite sign: its `d` is `-kphi_d`.
     #[serde(default)]
     pub kphi_d: f64,
+    /// Per-coordinate gains by coordinate name, `{ theta = { p = -45.0, d = -7.0 } }`:
+    /// `u = -sum_i [p_i q_i + d_i dq_i/dt]` on the delayed samples. Coordinates without an
+    /// entry are not measured. Instead of `kp`, `kd`, `kphi_d`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub gains: Option<std::collections::BTreeMap<String, GainSpec>>,
     /// Sampling period, ms.
     pub dt_ms: f64,
     /// Feedback delay r in samples.
     #[serde(default = "one")]
     pub delay: u32,
+}
+
+/// The gains of one measured coordinate.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct GainSpec {
+    /// Proportional gain, V per unit of the coordinate.
+    #[serde(default)]
+    pub p: f64,
+    /// Derivative gain, V s per unit of the coordinate.
+    #[serde(default)]
+    pub d: f64,
+    /// Encoder resolution of this coordinate (units per count) when the scene quantizes;
+    /// default `effects.quantization.h_adc`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub h_adc: Option<f64>,
+}
+
+/// One measured coordinate of a scene's controller.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Measured {
+    /// The coordinate's name (`theta`, `x`, ...).
+    pub name: String,
+    /// Its index in the plant state.
+    pub index: u8,
+    pub p: f64,
+    pub d: f64,
+    /// Its encoder resolution (0 when the scene does not quantize).
+    pub h_adc: f64,
+    /// The scene key the resolution came from.
+    pub h_key: &'static str,
 }
 
 fn one() -> u32 {
@@ -83,13 +254,14 @@ fn one() -> u32 {
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct InitialSpec {
-    /// Plant state at t = 0 (its length must match the plant); default: all zero.
+    /// Plant state at t = 0 (its length must match the plant); default: all zero. A scene
+    /// file may give it by name, `state = { theta = 0.05 }` (unnamed entries 0).
     #[serde(default)]
     pub state: Vec<f64>,
-    /// The r + 1 samples (primary, secondary) before t = 0, oldest first; default: the plant
-    /// at rest at the initial angles.
+    /// The r + 1 samples before t = 0, oldest first, one value per measured coordinate (in
+    /// coordinate order); default: the plant at rest at the initial coordinates.
     #[serde(default)]
-    pub history: Option<Vec<[f64; 2]>>,
+    pub history: Option<Vec<Vec<f64>>>,
 }
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
@@ -304,16 +476,31 @@ impl SceneBuilder {
         self
     }
 
-    /// Proportional gain on the primary angle, V/rad.
+    /// Proportional gain on the primary angle, V/rad (the first measured coordinate's `p`
+    /// when the scene gives `gains`).
     pub fn kp(mut self, kp: f64) -> Self {
-        self.scene.controller.kp = kp;
+        match self.first_gain() {
+            Some(g) => g.p = kp,
+            None => self.scene.controller.kp = Some(kp),
+        }
         self
     }
 
-    /// Derivative gain on the primary angle, V s/rad.
+    /// Derivative gain on the primary angle, V s/rad (the first measured coordinate's `d`
+    /// when the scene gives `gains`).
     pub fn kd(mut self, kd: f64) -> Self {
-        self.scene.controller.kd = kd;
+        match self.first_gain() {
+            Some(g) => g.d = kd,
+            None => self.scene.controller.kd = Some(kd),
+        }
         self
+    }
+
+    /// The gains of the first measured coordinate (in coordinate order) of a scene with
+    /// `gains`.
+    fn first_gain(&mut self) -> Option<&mut GainSpec> {
+        let first = self.scene.measured().ok()?.into_iter().next()?.name;
+        self.scene.controller.gains.as_mut()?.get_mut(&first)
     }
 
     /// Number of sampling periods to simulate.
@@ -331,7 +518,7 @@ impl SceneBuilder {
     /// The `delay + 1` samples `[primary, secondary]` before t = 0, oldest first (`None`: the
     /// plant at rest at the initial angles).
     pub fn history(mut self, history: Option<&[[f64; 2]]>) -> Self {
-        self.scene.initial.history = history.map(<[[f64; 2]]>::to_vec);
+        self.scene.initial.history = history.map(|h| h.iter().map(|s| s.to_vec()).collect());
         self
     }
 
@@ -410,14 +597,21 @@ impl Scene {
         for o in overrides {
             apply_override(label, &mut table, o)?;
         }
+        resolve_named_state(label, &mut table)?;
         let scene: Scene = serde_path_to_error::deserialize(toml::Value::Table(table))
             .map_err(|e| SceneError::key(label, e.path().to_string(), e.inner().to_string()))?;
-        scene.validate()?;
+        scene.validate_as(label)?;
         Ok(scene)
     }
 
     /// Checks values the types cannot: finiteness, signs, lengths.
     pub fn validate(&self) -> Result<(), SceneError> {
+        self.validate_as(&self.name)
+    }
+
+    /// [`Scene::validate`], with the plant's equations reported under `label` (the scene
+    /// file's path when loaded from a file).
+    fn validate_as(&self, label: &str) -> Result<(), SceneError> {
         let s = self.name.as_str();
         let finite = |path: &str, v: f64| {
             if v.is_finite() { Ok(()) } else { Err(SceneError::key(s, path, format!("must be finite, got {v}"))) }
@@ -430,6 +624,7 @@ impl Scene {
             }
         };
         check_name(&self.name)?;
+        self.plant.equations_model(label)?;
         let c = &self.controller;
         if let Some(q) = &self.effects.quantization {
             if q.mode == QuantModeSpec::Literal && q.h_dac.is_some() {
@@ -442,6 +637,14 @@ impl Scene {
         }
         // The controller configuration: the one validation every boundary uses (scene,
         // decoded blob, export), with the controller's message under the scene's key path.
+        let measured = self.measured()?;
+        if measured.len() > shared::MAX_GAINS {
+            return Err(SceneError::key(
+                s,
+                "controller.gains",
+                format!("measures {} coordinates; the controller takes at most {}", measured.len(), shared::MAX_GAINS),
+            ));
+        }
         controller::validate_config::<{ controller::HISTORY }>(&self.controller_config())
             .map_err(|e| SceneError::key(s, self.config_key(&e), e.to_string()))?;
         if self.run.periods > MAX_PERIODS {
@@ -456,16 +659,28 @@ impl Scene {
         }
         if let Some(h) = &self.initial.history {
             let need = c.delay as usize + 1;
+            let n = self.measured()?.len();
             if h.len() != need {
                 return Err(SceneError::key(
                     s,
                     "initial.history",
-                    format!("needs delay + 1 = {need} samples [primary, secondary], oldest first; got {}", h.len()),
+                    format!(
+                        "needs delay + 1 = {need} samples (one value per measured coordinate each), oldest first; got {}",
+                        h.len()
+                    ),
                 ));
             }
-            for (i, pair) in h.iter().enumerate() {
-                finite(&format!("initial.history[{i}][0]"), pair[0])?;
-                finite(&format!("initial.history[{i}][1]"), pair[1])?;
+            for (i, sample) in h.iter().enumerate() {
+                if sample.len() != n {
+                    return Err(SceneError::key(
+                        s,
+                        format!("initial.history[{i}]"),
+                        format!("has {} values for {n} measured coordinates", sample.len()),
+                    ));
+                }
+                for (k, v) in sample.iter().enumerate() {
+                    finite(&format!("initial.history[{i}][{k}]"), *v)?;
+                }
             }
         }
         if self.run.periods == 0 && self.run.tasks.contains(&Task::Simulate) {
@@ -518,28 +733,137 @@ impl Scene {
     }
 
     /// The scene key path of the field a controller configuration error is about.
-    fn config_key(&self, e: &controller::ConfigError) -> &'static str {
+    fn config_key(&self, e: &controller::ConfigError) -> String {
         use controller::Field;
         let q = self.effects.quantization.as_ref();
+        let measured = self.measured().unwrap_or_default();
+        let gains = self.controller.gains.is_some();
+        let name = |i: u8| measured.get(usize::from(i)).map_or_else(|| format!("#{i}"), |m| m.name.clone());
         match e.field() {
-            // The shorthand gains: theta (kp, kd) first, phi (d = -kphi_d) second.
-            Some(Field::P(0)) => "controller.kp",
-            Some(Field::D(0)) => "controller.kd",
-            Some(Field::D(1)) => "controller.kphi_d",
-            Some(Field::P(_) | Field::D(_)) => "controller",
-            Some(Field::Ki) => "effects.integral.ki",
-            Some(Field::Dt) => "controller.dt_ms",
-            Some(Field::UMax) => "effects.saturation.u_max",
-            Some(Field::HAdc(0)) => "effects.quantization.h_adc",
+            Some(Field::P(i)) if gains => format!("controller.gains.{}.p", name(i)),
+            Some(Field::D(i)) if gains => format!("controller.gains.{}.d", name(i)),
+            Some(Field::P(_)) => "controller.kp".into(),
+            Some(Field::D(0)) => "controller.kd".into(),
+            Some(Field::D(_)) => "controller.kphi_d".into(),
+            Some(Field::HAdc(i)) => {
+                measured.get(usize::from(i)).map_or("effects.quantization.h_adc".to_string(), |m| match m.h_key {
+                    "gain" => format!("controller.gains.{}.h_adc", m.name),
+                    k => k.to_string(),
+                })
+            }
+            Some(Field::Ki) => "effects.integral.ki".into(),
+            Some(Field::Dt) => "controller.dt_ms".into(),
+            Some(Field::UMax) => "effects.saturation.u_max".into(),
             // Defaults come from h_adc: name the key the value came from.
-            Some(Field::HAdc(_)) if q.is_some_and(|q| q.h_adc_phi.is_some()) => "effects.quantization.h_adc_phi",
-            Some(Field::HDac) if q.is_some_and(|q| q.h_dac.is_some()) => "effects.quantization.h_dac",
-            Some(Field::HAdc(_) | Field::HDac) => "effects.quantization.h_adc",
+            Some(Field::HDac) if q.is_some_and(|q| q.h_dac.is_some()) => "effects.quantization.h_dac".into(),
+            Some(Field::HDac) => "effects.quantization.h_adc".into(),
             None => match e {
-                controller::ConfigError::DelayTooLong { .. } => "controller.delay",
-                _ => "effects.quantization",
+                controller::ConfigError::DelayTooLong { .. } => "controller.delay".into(),
+                controller::ConfigError::NoGains
+                | controller::ConfigError::DuplicateIndex { .. }
+                | controller::ConfigError::GainSum => if gains { "controller.gains" } else { "controller.kp" }.into(),
+                _ => "effects.quantization".into(),
             },
         }
+    }
+
+    /// The names of the plant's generalized coordinates, in state order (state index `2 i`).
+    pub fn coordinate_names(&self) -> Vec<String> {
+        match self.plant.kind {
+            PlantKind::Furuta => vec!["theta".into(), "phi".into()],
+            PlantKind::Cart => vec!["theta".into(), "x".into()],
+            PlantKind::Equations => self.plant.coordinates.clone().unwrap_or_default(),
+        }
+    }
+
+    /// The measured coordinates, in coordinate order, with their gains: from `gains`, or
+    /// from the shorthand `kp`, `kd` (first coordinate) and `kphi_d` (second coordinate,
+    /// `d = -kphi_d`), which for the built-in plants is exactly `Gains::shorthand`.
+    pub fn measured(&self) -> Result<Vec<Measured>, SceneError> {
+        let s = self.name.as_str();
+        let c = &self.controller;
+        let coords = self.coordinate_names();
+        let q = self.effects.quantization.as_ref();
+        let mut out = Vec::new();
+        match &c.gains {
+            Some(gains) => {
+                for (key, what) in [("kp", c.kp.is_some()), ("kd", c.kd.is_some()), ("kphi_d", c.kphi_d != 0.0)] {
+                    if what {
+                        return Err(SceneError::key(
+                            s,
+                            format!("controller.{key}"),
+                            "give either `gains` or the shorthand kp, kd, kphi_d, not both",
+                        ));
+                    }
+                }
+                if let Some(name) = gains.keys().find(|k| !coords.contains(k)) {
+                    return Err(SceneError::key(
+                        s,
+                        format!("controller.gains.{name}"),
+                        format!("not a coordinate of the plant (coordinates: {})", coords.join(", ")),
+                    ));
+                }
+                if q.is_some_and(|q| q.h_adc_phi.is_some()) {
+                    return Err(SceneError::key(
+                        s,
+                        "effects.quantization.h_adc_phi",
+                        "with `gains`, give each coordinate's resolution as `controller.gains.NAME.h_adc`",
+                    ));
+                }
+                for (i, name) in coords.iter().enumerate() {
+                    if let Some(g) = gains.get(name) {
+                        let (h_adc, h_key) = match (g.h_adc, q) {
+                            (Some(h), _) => (h, "gain"),
+                            (None, Some(q)) => (q.h_adc, "effects.quantization.h_adc"),
+                            (None, None) => (0.0, "effects.quantization.h_adc"),
+                        };
+                        out.push(Measured { name: name.clone(), index: (2 * i) as u8, p: g.p, d: g.d, h_adc, h_key });
+                    }
+                }
+                if out.is_empty() {
+                    return Err(SceneError::key(s, "controller.gains", "names no coordinate: nothing is measured"));
+                }
+            }
+            None => {
+                let Some(kp) = c.kp else {
+                    return Err(SceneError::key(s, "controller.kp", "missing: give kp and kd, or `gains`"));
+                };
+                let Some(kd) = c.kd else {
+                    return Err(SceneError::key(s, "controller.kd", "missing: give kp and kd, or `gains`"));
+                };
+                let h0 = q.map_or(0.0, |q| q.h_adc);
+                let first = coords.first().cloned().unwrap_or_default();
+                out.push(Measured {
+                    name: first,
+                    index: 0,
+                    p: kp,
+                    d: kd,
+                    h_adc: h0,
+                    h_key: "effects.quantization.h_adc",
+                });
+                match coords.get(1) {
+                    Some(second) => {
+                        let (h1, key) = match q.and_then(|q| q.h_adc_phi) {
+                            Some(h) => (h, "effects.quantization.h_adc_phi"),
+                            None => (h0, "effects.quantization.h_adc"),
+                        };
+                        out.push(Measured {
+                            name: second.clone(),
+                            index: 2,
+                            p: 0.0,
+                            d: -c.kphi_d,
+                            h_adc: h1,
+                            h_key: key,
+                        });
+                    }
+                    None if c.kphi_d != 0.0 => {
+                        return Err(SceneError::key(s, "controller.kphi_d", "the plant has a single coordinate"));
+                    }
+                    None => {}
+                }
+            }
+        }
+        Ok(out)
     }
 
     /// Sampling period in seconds (the one place the scene's millisecond field is converted).
@@ -553,18 +877,23 @@ impl Scene {
     }
 
     /// The controller configuration this scene runs (what a device would be flashed with).
+    /// A scene whose gains do not resolve ([`Scene::measured`], which validation reports)
+    /// gets an empty gain vector, which the controller refuses.
     pub fn controller_config(&self) -> ControllerConfig {
         let c = &self.controller;
-        let q = self.effects.quantization.as_ref();
-        // Resolutions only with quantization (exact control reads no encoder).
-        let (h_adc, h_adc_phi) = q.map_or((0.0, 0.0), |q| (q.h_adc, q.h_adc_phi.unwrap_or(q.h_adc)));
+        let mut gains = Gains::new();
+        for m in self.measured().unwrap_or_default() {
+            if gains.push(Gain { index: m.index, p: m.p, d: m.d, h_adc: m.h_adc }).is_err() {
+                break;
+            }
+        }
         ControllerConfig {
-            gains: Gains::shorthand(c.kp, c.kd, c.kphi_d, h_adc, h_adc_phi),
+            gains,
             ki: self.effects.integral.as_ref().map_or(0.0, |i| i.ki),
             dt: self.dt(),
             delay: c.delay,
             u_max: self.effects.saturation.as_ref().map(|s| s.u_max),
-            quant: q.map(|q| Quantization {
+            quant: self.effects.quantization.as_ref().map(|q| Quantization {
                 mode: match q.mode {
                     QuantModeSpec::Counts => QuantMode::Counts,
                     QuantModeSpec::Literal => QuantMode::Literal,
@@ -636,6 +965,53 @@ pub fn check_name(name: &str) -> Result<(), SceneError> {
             ),
         )),
     }
+}
+
+/// `[initial] state = { theta = 0.05 }`: a state given by name becomes the array of the
+/// plant's state order (unnamed entries 0), so that no ordering needs to be remembered.
+/// Names are the plant's state names: for an equations plant each coordinate and its
+/// `<coord>_dot`; for the built-in plants their CSV columns.
+fn resolve_named_state(label: &str, table: &mut toml::Table) -> Result<(), SceneError> {
+    let Some(toml::Value::Table(named)) = table.get("initial").and_then(|i| i.get("state")).cloned() else {
+        return Ok(());
+    };
+    let plant = table.get("plant");
+    let kind = plant.and_then(|p| p.get("kind")).and_then(toml::Value::as_str);
+    let names: Vec<String> = match kind {
+        Some("furuta") => ["theta", "w_theta", "phi", "w_phi"].map(String::from).to_vec(),
+        Some("cart") => ["theta", "w_theta", "x", "v"].map(String::from).to_vec(),
+        Some("equations") => {
+            let coords = plant.and_then(|p| p.get("coordinates")).and_then(toml::Value::as_array);
+            let Some(coords) = coords else {
+                return Err(SceneError::key(label, "initial.state", "named states need `plant.coordinates`"));
+            };
+            coords.iter().filter_map(toml::Value::as_str).flat_map(|c| [c.to_string(), format!("{c}_dot")]).collect()
+        }
+        _ => return Err(SceneError::key(label, "initial.state", "named states need a known `plant.kind`")),
+    };
+    let mut state = vec![toml::Value::Float(0.0); names.len()];
+    for (name, v) in &named {
+        let key = format!("initial.state.{name}");
+        let Some(i) = names.iter().position(|n| n == name) else {
+            return Err(SceneError::key(
+                label,
+                key,
+                format!("not a state of this plant (states: {})", names.join(", ")),
+            ));
+        };
+        let x = match v {
+            toml::Value::Float(x) => *x,
+            toml::Value::Integer(k) => *k as f64,
+            other => return Err(SceneError::key(label, key, format!("must be a number, got a {}", other.type_str()))),
+        };
+        if let Some(slot) = state.get_mut(i) {
+            *slot = toml::Value::Float(x);
+        }
+    }
+    if let Some(toml::Value::Table(init)) = table.get_mut("initial") {
+        init.insert("state".into(), toml::Value::Array(state));
+    }
+    Ok(())
 }
 
 /// Applies `a.b.c=value` to the table, creating intermediate tables as needed.

@@ -38,7 +38,7 @@ fn paper_sweep_and_test_values_are_bundled() {
         let name = format!("furuta-dt{dt}");
         let s = Scene::load(&name, &[]).unwrap();
         assert_eq!(s.controller.dt_ms, dt.parse::<f64>().unwrap());
-        assert_eq!((s.controller.kp, s.controller.kd), (15.5, 5.45));
+        assert_eq!((s.controller.kp, s.controller.kd), (Some(15.5), Some(5.45)));
         assert!(s.effects.quantization.is_none() && s.effects.noise.is_none());
     }
 }
@@ -210,4 +210,128 @@ fn method_keys_parse_back() {
         let v: MethodKind = toml::Value::String(m.key().into()).try_into().unwrap();
         assert_eq!(v, m);
     }
+}
+
+mod equations {
+    use super::*;
+    use crate::closed_loop::{AnyPlant, build_plant, simulate};
+
+    fn load(name: &str, o: &[&str]) -> Result<Scene, SceneError> {
+        Scene::load(name, &o.iter().map(|s| s.to_string()).collect::<Vec<_>>())
+    }
+
+    fn load_err(name: &str, o: &[&str]) -> String {
+        match load(name, o) {
+            Ok(_) => panic!("{name} {o:?} loaded"),
+            Err(e) => e.to_string(),
+        }
+    }
+
+    #[test]
+    fn bundled_equation_scenes_build_their_plants() {
+        for (name, coords) in [("furuta-equations", 2), ("cartpole-pd", 2), ("pendulum-pd", 1), ("duffing-chain", 2)] {
+            let s = load(name, &[]).unwrap();
+            assert_eq!(s.plant.kind, PlantKind::Equations);
+            let p = build_plant(&s).unwrap();
+            let n = match p {
+                AnyPlant::Equations1(_) => 1,
+                AnyPlant::Equations2(_) => 2,
+                AnyPlant::Equations3(_) => 3,
+                AnyPlant::Equations4(_) => 4,
+                _ => 0,
+            };
+            assert_eq!(n, coords, "{name}");
+        }
+    }
+
+    /// `--set plant.parameters.NAME=...` overrides a parameter like every other key.
+    #[test]
+    fn parameter_overrides_apply() {
+        let a = simulate(&load("pendulum-pd", &["run.periods=50"]).unwrap(), None).unwrap();
+        let b = simulate(&load("pendulum-pd", &["run.periods=50", "plant.parameters.m=0.25"]).unwrap(), None).unwrap();
+        assert_ne!(a.states, b.states);
+        assert_eq!(a.state_names, ["theta", "theta_dot"]);
+        // A new name is a new parameter, unknown to the expressions: accepted, unused.
+        load("pendulum-pd", &["plant.parameters.unused=1.0"]).unwrap();
+        let e = load_err("pendulum-pd", &["plant.parameters.m=\"heavy\""]);
+        assert!(e.contains("`plant.parameters.m`") && e.contains("must be a number"), "{e}");
+    }
+
+    /// Errors name the scene, the key and the column.
+    #[test]
+    fn errors_name_scene_key_and_column() {
+        let e = load_err("cartpole-pd", &["plant.forces=[\"m*g*l*sin(thetaa)\", \"u\"]"]);
+        assert!(e.starts_with("scene cartpole-pd: `plant.forces[0]`: column 11: unknown name `thetaa`"), "{e}");
+        let e = load_err("pendulum-pd", &["plant.mass=[[\"m*l^2\", \"0\"]]"]);
+        assert!(e.contains("`plant.mass[0]`") && e.contains("square"), "{e}");
+        let e = load_err("pendulum-pd", &["plant.parameters.m=-0.3"]);
+        assert!(e.contains("`plant.mass`") && e.contains("positive definite"), "{e}");
+        let e = load_err("pendulum-pd", &["plant.lagrangian=\"0.5*m*l^2*theta_dot^2\""]);
+        assert!(e.contains("not both"), "{e}");
+        let e = load_err("furuta-dt25", &["plant.coordinates=[\"theta\"]"]);
+        assert!(e.contains("`plant.coordinates`") && e.contains("only a plant of kind = \"equations\""), "{e}");
+        let e = load_err("pendulum-pd", &["plant.params.m=1"]);
+        assert!(e.contains("`plant.params.m`") && e.contains("plant.parameters"), "{e}");
+        let e = load_err("pendulum-pd", &["plant.forces=[\"m*g*l*cos(theta) + u\"]"]);
+        assert!(e.contains("`plant.forces[0]`") && e.contains("not zero") && e.contains("plant.equilibrium"), "{e}");
+        // A scene file names itself by its path.
+        let dir = std::env::temp_dir().join(format!("sim-eq-scene-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let path = dir.join("bad.toml");
+        let text = bundled::get("pendulum-pd").unwrap().replace("m*g*l*sin(theta)", "m*g*l*sin(theta))");
+        std::fs::write(&path, text).unwrap();
+        let e = Scene::load(path.to_str().unwrap(), &[]).unwrap_err().to_string();
+        assert!(e.contains("bad.toml") && e.contains("`plant.forces[0]`: column 17: unmatched `)`"), "{e}");
+        let _ = std::fs::remove_dir_all(&dir);
+    }
+
+    /// The Furuta written as equations runs the bench scene's 200 periods as the built-in
+    /// plant does, to 1e-9 rad (a tight integrator on both: the difference is the plants').
+    #[test]
+    fn furuta_equations_trajectory_equals_the_builtin() {
+        let o = ["run.periods=200", "integrator.method=\"rodas\"", "integrator.rtol=1e-12", "integrator.atol=1e-14"];
+        let a = simulate(&load("furuta-dt30.8", &o).unwrap(), None).unwrap();
+        let b = simulate(&load("furuta-equations", &o).unwrap(), None).unwrap();
+        assert_eq!(a.rows(), 201);
+        assert_eq!(b.rows(), 201);
+        let mut worst = 0.0f64;
+        for i in 0..a.rows() {
+            for k in [0, 2] {
+                worst = worst.max((a.state(i, k) - b.state(i, k)).abs());
+            }
+        }
+        println!("furuta equations vs built-in, 200 periods: max angle difference {worst:e} rad");
+        assert!(worst < 1e-9, "{worst:e}");
+        let ma = crate::stability::scene_multipliers(&load("furuta-dt30.8", &[]).unwrap()).unwrap();
+        let mb = crate::stability::scene_multipliers(&load("furuta-equations", &[]).unwrap()).unwrap();
+        crate::plant::equations::tests::assert_same_multipliers(&ma, &mb, 1e-10 * ma[0].abs.max(1.0), "furuta");
+    }
+
+    /// The bundled equation scenes are linearly stable where they say so, and their runs stay
+    /// bounded (the pendulum and the cart-pole settle, the chain's vibration decays).
+    #[test]
+    fn bundled_equation_scenes_are_stable_and_settle() {
+        for name in ["cartpole-pd", "pendulum-pd", "duffing-chain"] {
+            let s = load(name, &[]).unwrap();
+            let dom = crate::stability::dominant_pairs(&s).unwrap();
+            println!("{name}: dominant {:?}", dom.first());
+            let tr = simulate(&s, None).unwrap();
+            assert!(tr.stopped.is_none(), "{name}: {:?}", tr.stopped);
+            let first = tr.state(0, 0).abs().max(1e-12);
+            let last = tr.state(tr.rows() - 1, 0).abs();
+            assert!(last < 0.1 * first, "{name}: |q0| {first} -> {last}");
+        }
+    }
+}
+
+#[test]
+fn initial_state_by_name() {
+    let pend = bundled::get("pendulum-pd").unwrap().replace("state = [0.05, 0.0]", "state = { theta_dot = -0.2 }");
+    let s = Scene::parse("t", &pend, &[]).unwrap();
+    assert_eq!(s.initial.state, vec![0.0, -0.2]);
+    let e = Scene::parse("t", &pend.replace("theta_dot = -0.2", "omega = 1"), &[]).unwrap_err().to_string();
+    assert!(e.contains("`initial.state.omega`") && e.contains("theta, theta_dot"), "{e}");
+    let s = Scene::parse("t", &MINIMAL.replace("[run]", "[initial]\nstate = { phi = 0.5, theta = 0.1 }\n[run]"), &[])
+        .unwrap();
+    assert_eq!(s.initial.state, vec![0.1, 0.0, 0.5, 0.0]);
 }

@@ -58,6 +58,11 @@ pub const MAX_STEP: f64 = 0.5;
 /// Why an expansion could not be made.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum TaylorError {
+    #[error(
+        "the period map's expansion takes the shorthand controller (P and D on the first coordinate, D on \
+         the second): other gain vectors are not supported by the equation-driven SSM yet"
+    )]
+    Gains,
     #[error("sampling period dt = {0} s must be finite and > 0")]
     BadDt(f64),
     #[error(
@@ -322,14 +327,14 @@ impl Deflated {
     }
     /// The law `u = g . s`.
     fn law(&self, cfg: &ControllerConfig, primary: usize) -> Vec<f64> {
-        // period_map checked the shorthand layout before building the layout.
-        let (kp, kd, kphi_d) = cfg.as_shorthand().unwrap_or((0.0, 0.0, 0.0));
         let r = self.delay;
         let dt = cfg.dt;
         let mut g = vec![0.0; self.dim];
         let y_at = |d: usize| if d == 0 { Some(self.plant(primary)) } else { Some(self.y_start + d - 1) };
         // z_{i-d} - x_i[secondary]: zero for d = 0.
         let w_at = |d: usize| if d == 0 { None } else { Some(self.w_start + d - 1) };
+        // The shorthand gains (checked by `period_map`).
+        let (kp, kd, kphi_d) = cfg.as_shorthand().unwrap_or((f64::NAN, f64::NAN, f64::NAN));
         if let Some(k) = y_at(r) {
             g[k] += -(kp + kd / dt);
         }
@@ -357,7 +362,9 @@ pub fn period_map<P: Plant<N>, const N: usize>(
     if cfg.ki != 0.0 {
         return Err(TaylorError::Integral(cfg.ki));
     }
-    let (kp, kd, kphi_d) = crate::linear::shorthand_gains(cfg).map_err(TaylorError::Linear)?;
+    let Some((kp, kd, kphi_d)) = cfg.as_shorthand() else {
+        return Err(TaylorError::Gains);
+    };
     for (name, value) in [("kp", kp), ("kd", kd), ("kphi_d", kphi_d)] {
         if !value.is_finite() {
             return Err(TaylorError::Linear(LinearError::BadGain { name, value }));

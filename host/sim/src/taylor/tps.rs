@@ -690,6 +690,24 @@ impl Scalar for Tps {
         Tps::scaled(self, f)
     }
 
+    /// `g(x0 + y) = sum_k g_k y^k` over the nilpotent part `y` (which vanishes beyond the
+    /// order), summed by Horner from the highest degree.
+    fn apply<F: Fn(f64, &mut [f64])>(self, coef: F) -> Self {
+        let mut g = [0.0; TPS_MAX_ORDER as usize + 1];
+        let Some(t) = self.t else {
+            coef(self.c[0], &mut g[..1]);
+            return Self::cst(g[0]);
+        };
+        let k = (t.order as usize).min(TPS_MAX_ORDER as usize);
+        coef(self.c[0], &mut g[..=k]);
+        let y = self.nilpotent();
+        let mut s = Self::constant(t, g[k]);
+        for &gk in g[..k].iter().rev() {
+            s = s.mul_ref(&y) + gk;
+        }
+        s
+    }
+
     /// `sin(x0 + y) = sin x0 cos y + cos x0 sin y` (likewise cos), with the series of the
     /// nilpotent part `y` summed to the order.
     fn sin_cos(self) -> (Self, Self) {

@@ -435,7 +435,10 @@ fn stability_section(rep: &mut Report) -> Result<(), Box<dyn Error>> {
         let mut row = vec![
             name.to_string(),
             format!("{}", s.controller.dt_ms),
-            format!("{} / {}", s.controller.kp, s.controller.kd),
+            match (s.controller.kp, s.controller.kd) {
+                (Some(kp), Some(kd)) => format!("{kp} / {kd}"),
+                _ => "gains".to_string(),
+            },
         ];
         for m in dom.iter().take(2) {
             row.push(format!("{:.6}", m.abs));

@@ -1,0 +1,701 @@
+//! A plant written as equations in a scene: `M(q) q'' = f(q, q', u)` from a mass matrix and
+//! forces, or from a Lagrangian `L(q, q')` and generalized forces `Q(q, q', u)` by symbolic
+//! differentiation (`M = d2L/dq'2`, `f = Q + dL/dq - d2L/dq'dq q'`).
+//!
+//! State ordering: `(q_1, q_1', q_2, q_2', ...)`, named `x, x_dot, ...`: the coordinate
+//! first, then its velocity, as the built-in plants lay out `(theta, w_theta, phi, w_phi)`,
+//! so a controller reading coordinates reads states `0, 2, 4, ...`. The states are
+//! deviations from the equilibrium (zero unless the scene names one with `equilibrium`): a
+//! controller's encoders read zero there, and the linearization is taken at the origin.
+//!
+//! All expressions are compiled once into one [`Tape`] (shared subexpressions computed
+//! once); the right-hand side evaluates it and solves `M a = f` by LU with partial pivoting,
+//! generically over [`Scalar`]. The register file and the matrix live on the stack for
+//! small scalars (`f64`, dual numbers): no allocation per evaluation.
+
+use std::collections::HashSet;
+use std::sync::{Arc, Mutex, OnceLock};
+
+use super::{Plant, Scalar};
+use crate::expr::{self, ExprError, Graph, Id, Names, Parsed, Tape};
+
+/// Largest number of generalized coordinates of an equations plant (states `N = 2n <= 8`).
+pub const MAX_COORDINATES: usize = 4;
+
+/// Grid points per coordinate over `[-pi, pi]` (around the equilibrium) at which the mass
+/// matrix is checked: symmetric, positive definite and not near-singular.
+pub const MASS_GRID: usize = 9;
+
+/// How an equations plant is written.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Form {
+    /// `mass[i][j]` (expressions in the coordinates) and `forces[i]`.
+    Mass { mass: Vec<Vec<String>>, forces: Vec<String> },
+    /// A Lagrangian and the generalized (non-conservative) forces.
+    Lagrangian { lagrangian: String, generalized_forces: Vec<String> },
+}
+
+/// Everything that defines an equations plant (what the scene's `[plant]` table gives).
+#[derive(Clone, Debug, PartialEq)]
+pub struct EquationsSpec {
+    pub coordinates: Vec<String>,
+    pub parameters: Vec<(String, f64)>,
+    pub form: Form,
+    /// The equilibrium (absolute coordinates); `None` is the origin.
+    pub equilibrium: Option<Vec<f64>>,
+}
+
+/// A bad equations plant: the scene key (`plant.forces[1]`) and what is wrong (with the
+/// column in the expression where there is one).
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+#[error("`{key}`: {message}")]
+pub struct EquationsError {
+    pub key: String,
+    pub message: String,
+}
+
+fn fail<T>(key: impl Into<String>, message: impl Into<String>) -> Result<T, EquationsError> {
+    Err(EquationsError { key: key.into(), message: message.into() })
+}
+
+/// A name as a `&'static str` (state names of the [`Plant`] trait), each distinct name
+/// leaked once for the process.
+fn intern(s: &str) -> &'static str {
+    static NAMES: OnceLock<Mutex<HashSet<&'static str>>> = OnceLock::new();
+    let set = NAMES.get_or_init(|| Mutex::new(HashSet::new()));
+    let mut set = match set.lock() {
+        Ok(g) => g,
+        Err(p) => p.into_inner(),
+    };
+    if let Some(&n) = set.get(s) {
+        return n;
+    }
+    let leaked: &'static str = Box::leak(s.to_string().into_boxed_str());
+    set.insert(leaked);
+    leaked
+}
+
+/// The compiled model shared by every [`EquationsPlant`] of one spec.
+#[derive(Debug)]
+pub struct EquationsModel {
+    n: usize,
+    coordinates: Vec<String>,
+    state_names: Vec<&'static str>,
+    /// Outputs: the upper triangle of `M` row by row (`n(n+1)/2`), then `f` (`n`).
+    tape: Tape,
+    /// `sum q'_i dL/dq'_i - L` (Lagrangian form only).
+    energy: Option<Tape>,
+    equilibrium: Vec<f64>,
+}
+
+impl EquationsModel {
+    /// Parses, differentiates, compiles and checks the spec.
+    pub fn new(spec: &EquationsSpec) -> Result<Self, EquationsError> {
+        let n = spec.coordinates.len();
+        if n == 0 {
+            return fail("plant.coordinates", "lists no coordinates");
+        }
+        if n > MAX_COORDINATES {
+            return fail(
+                "plant.coordinates",
+                format!(
+                    "lists {n} coordinates; at most {MAX_COORDINATES} are supported (states = 2 x coordinates <= {})",
+                    2 * MAX_COORDINATES
+                ),
+            );
+        }
+        let names = names(spec)?;
+        let mut g = Graph::new();
+        let parse = |g: &mut Graph, key: &str, src: &str| -> Result<Parsed, EquationsError> {
+            expr::parse(src, &names, g).map_err(|e| expr_error(key, src, &e))
+        };
+        let (mass, forces, energy): (Vec<Vec<(Id, String, Option<Parsed>)>>, Vec<Id>, Option<Id>) = match &spec.form {
+            Form::Mass { mass, forces } => {
+                if mass.len() != n {
+                    return fail(
+                        "plant.mass",
+                        format!("has {} rows; the mass matrix must be {n} x {n}, one row per coordinate", mass.len()),
+                    );
+                }
+                let mut rows = Vec::with_capacity(n);
+                for (i, row) in mass.iter().enumerate() {
+                    if row.len() != n {
+                        return fail(
+                            format!("plant.mass[{i}]"),
+                            format!("has {} entries; the mass matrix must be {n} x {n} (square)", row.len()),
+                        );
+                    }
+                    let mut r = Vec::with_capacity(n);
+                    for (j, src) in row.iter().enumerate() {
+                        let key = format!("plant.mass[{i}][{j}]");
+                        let p = parse(&mut g, &key, src)?;
+                        // The mass matrix is M(q): no velocity, no input.
+                        for &(v, col) in &p.uses {
+                            if v as usize >= n {
+                                return fail(
+                                    key,
+                                    format!(
+                                        "column {col}: the mass matrix may depend on the coordinates only, not on `{}`",
+                                        names.vars.get(v as usize).map_or("?", String::as_str)
+                                    ),
+                                );
+                            }
+                        }
+                        r.push((p.root, key, Some(p)));
+                    }
+                    rows.push(r);
+                }
+                if forces.len() != n {
+                    return fail(
+                        "plant.forces",
+                        format!("has {} entries for {n} coordinates; give one force per coordinate", forces.len()),
+                    );
+                }
+                let mut f = Vec::with_capacity(n);
+                for (i, src) in forces.iter().enumerate() {
+                    f.push(parse(&mut g, &format!("plant.forces[{i}]"), src)?.root);
+                }
+                (rows, f, None)
+            }
+            Form::Lagrangian { lagrangian, generalized_forces } => {
+                let l = parse(&mut g, "plant.lagrangian", lagrangian)?.root;
+                if generalized_forces.len() != n {
+                    return fail(
+                        "plant.generalized_forces",
+                        format!(
+                            "has {} entries for {n} coordinates; give one generalized force per coordinate",
+                            generalized_forces.len()
+                        ),
+                    );
+                }
+                let mut q = Vec::with_capacity(n);
+                for (i, src) in generalized_forces.iter().enumerate() {
+                    q.push(parse(&mut g, &format!("plant.generalized_forces[{i}]"), src)?.root);
+                }
+                // p_i = dL/dq'_i; M_ij = dp_i/dq'_j; f_i = Q_i + dL/dq_i - sum_j dp_i/dq_j q'_j.
+                let p: Vec<Id> = (0..n).map(|i| g.diff(l, (n + i) as u16)).collect();
+                let mut rows = Vec::with_capacity(n);
+                for (i, &pi) in p.iter().enumerate() {
+                    let mut r = Vec::with_capacity(n);
+                    for j in 0..n {
+                        let m = g.diff(pi, (n + j) as u16);
+                        if g.deps(m) >> n != 0 {
+                            return fail(
+                                "plant.lagrangian",
+                                format!(
+                                    "d2L/d{}d{} depends on the velocities or the input: only kinetic energies \
+                                     quadratic in the velocities are supported",
+                                    names.vars.get(n + i).map_or("?", String::as_str),
+                                    names.vars.get(n + j).map_or("?", String::as_str)
+                                ),
+                            );
+                        }
+                        r.push((m, "plant.lagrangian".to_string(), None));
+                    }
+                    rows.push(r);
+                }
+                let mut f = Vec::with_capacity(n);
+                for (i, &pi) in p.iter().enumerate() {
+                    let dl = g.diff(l, i as u16);
+                    let mut fi = g.add(q.get(i).copied().unwrap_or(0), dl);
+                    for j in 0..n {
+                        let d = g.diff(pi, j as u16);
+                        let v = g.var((n + j) as u16);
+                        let t = g.mul(d, v);
+                        fi = g.sub(fi, t);
+                    }
+                    f.push(fi);
+                }
+                let mut e = g.neg(l);
+                for (i, &pi) in p.iter().enumerate() {
+                    let v = g.var((n + i) as u16);
+                    let t = g.mul(v, pi);
+                    e = g.add(e, t);
+                }
+                (rows, f, Some(e))
+            }
+        };
+        if g.too_large() {
+            return fail(
+                "plant",
+                format!("the equations' expression graph exceeds {} nodes after differentiation", expr::MAX_NODES),
+            );
+        }
+        let n_inputs = 2 * n + 1;
+        let mut roots = Vec::with_capacity(n * (n + 1) / 2 + n);
+        for i in 0..n {
+            for j in i..n {
+                roots.push(mass.get(i).and_then(|r| r.get(j)).map_or(0, |e| e.0));
+            }
+        }
+        roots.extend_from_slice(&forces);
+        let compile = |roots: &[Id]| {
+            Tape::compile(&g, roots, n_inputs)
+                .map_err(|e| EquationsError { key: "plant".into(), message: e.to_string() })
+        };
+        let tape = compile(&roots)?;
+        let energy = match energy {
+            Some(e) => Some(compile(&[e])?),
+            None => None,
+        };
+        let equilibrium = match &spec.equilibrium {
+            None => vec![0.0; n],
+            Some(e) => {
+                if e.len() != n {
+                    return fail(
+                        "plant.equilibrium",
+                        format!("has {} values for {n} coordinates (one per coordinate, in order)", e.len()),
+                    );
+                }
+                if let Some((i, v)) = e.iter().enumerate().find(|(_, v)| !v.is_finite()) {
+                    return fail(format!("plant.equilibrium[{i}]"), format!("must be finite, got {v}"));
+                }
+                e.clone()
+            }
+        };
+        let mut state_names = Vec::with_capacity(2 * n);
+        for c in &spec.coordinates {
+            state_names.push(intern(c));
+            state_names.push(intern(&format!("{c}_dot")));
+        }
+        let model = Self { n, coordinates: spec.coordinates.clone(), state_names, tape, energy, equilibrium };
+        model.check_mass(&g, &mass)?;
+        model.check_equilibrium(&spec.form)?;
+        Ok(model)
+    }
+
+    /// Number of generalized coordinates.
+    pub fn coordinates(&self) -> usize {
+        self.n
+    }
+
+    /// Names of the generalized coordinates, in order.
+    pub fn coordinate_names(&self) -> &[String] {
+        &self.coordinates
+    }
+
+    /// The compiled tape (mass upper triangle, then forces).
+    pub fn tape(&self) -> &Tape {
+        &self.tape
+    }
+
+    pub fn equilibrium(&self) -> &[f64] {
+        &self.equilibrium
+    }
+
+    /// The coordinates' values at grid point `k` of the mass check (only the coordinates
+    /// the mass matrix depends on vary).
+    fn describe_point(&self, q: &[f64]) -> String {
+        self.coordinates.iter().zip(q).map(|(c, v)| format!("{c} = {v:.4}")).collect::<Vec<_>>().join(", ")
+    }
+
+    /// Mass matrix checks over the grid: symmetric (mass form), positive definite, and its
+    /// determinant not below `1e-9` of the product of its diagonal (Hadamard's bound: the
+    /// ratio is 1 for a diagonal matrix and 0 for a singular one), as the built-in plants
+    /// check `Delta`.
+    fn check_mass(&self, g: &Graph, mass: &[Vec<(Id, String, Option<Parsed>)>]) -> Result<(), EquationsError> {
+        let n = self.n;
+        let mut dep = 0u32;
+        for row in mass {
+            for e in row {
+                dep |= g.deps(e.0);
+            }
+        }
+        let varying: Vec<usize> = (0..n).filter(|&i| dep & (1 << i) != 0).collect();
+        let points = MASS_GRID.pow(varying.len() as u32);
+        let mut lower = Vec::new();
+        for (i, row) in mass.iter().enumerate() {
+            for (j, e) in row.iter().enumerate() {
+                if j < i {
+                    lower.push((i, j, e.0, e.1.clone()));
+                }
+            }
+        }
+        let lower_roots: Vec<Id> = lower.iter().map(|e| e.2).collect();
+        let lower_tape = Tape::compile(g, &lower_roots, 2 * n + 1)
+            .map_err(|e| EquationsError { key: "plant.mass".into(), message: e.to_string() })?;
+        let key = match mass.first().and_then(|r| r.first()) {
+            Some((_, _, Some(_))) => "plant.mass",
+            _ => "plant.lagrangian",
+        };
+        let what = if key == "plant.mass" { "the mass matrix" } else { "d2L/dqdot2 (the mass matrix)" };
+        for k in 0..points {
+            let mut q = self.equilibrium.clone();
+            let mut rest = k;
+            for &i in &varying {
+                let step = rest % MASS_GRID;
+                rest /= MASS_GRID;
+                let angle = -std::f64::consts::PI + 2.0 * std::f64::consts::PI * step as f64 / (MASS_GRID - 1) as f64;
+                if let Some(v) = q.get_mut(i) {
+                    *v += angle;
+                }
+            }
+            let mut inputs = vec![0.0; 2 * n + 1];
+            inputs.get_mut(..n).unwrap_or_default().copy_from_slice(&q);
+            let out = self.tape.eval_f64(&inputs);
+            let m = |i: usize, j: usize| -> f64 {
+                let (a, b) = if i <= j { (i, j) } else { (j, i) };
+                out.get(upper_index(n, a, b)).copied().unwrap_or(f64::NAN)
+            };
+            if !lower.is_empty() {
+                let lo = lower_tape.eval_f64(&inputs);
+                for ((i, j, _, lkey), v) in lower.iter().zip(&lo) {
+                    let u = m(*j, *i);
+                    if !(v.is_finite() && u.is_finite()) {
+                        return fail(
+                            lkey.clone(),
+                            format!(
+                                "{what} is not finite at {}: M[{j}][{i}] = {u}, M[{i}][{j}] = {v}",
+                                self.describe_point(&q)
+                            ),
+                        );
+                    }
+                    if (v - u).abs() > 1e-12 * (v.abs() + u.abs()) && (v - u).abs() > 1e-300 {
+                        return fail(
+                            lkey.clone(),
+                            format!(
+                                "{what} is not symmetric: M[{i}][{j}] = {v:e} but M[{j}][{i}] = {u:e} at {}",
+                                self.describe_point(&q)
+                            ),
+                        );
+                    }
+                }
+            }
+            // Cholesky: positive definite, and the determinant against the diagonal.
+            let mut l = vec![0.0; n * n];
+            let mut det = 1.0;
+            let mut diag = 1.0;
+            for i in 0..n {
+                let mii = m(i, i);
+                if !mii.is_finite() {
+                    return fail(key, format!("{what} has M[{i}][{i}] = {mii} at {}", self.describe_point(&q)));
+                }
+                diag *= mii;
+                for j in 0..=i {
+                    let mut s = m(i, j);
+                    for k2 in 0..j {
+                        s -= l.get(i * n + k2).copied().unwrap_or(0.0) * l.get(j * n + k2).copied().unwrap_or(0.0);
+                    }
+                    if i == j {
+                        if !(s > 0.0) {
+                            return fail(
+                                key,
+                                format!(
+                                    "{what} is singular or not positive definite at {} (pivot {i} of its Cholesky \
+                                     factorization is {s:e}); a mass matrix must be positive definite",
+                                    self.describe_point(&q)
+                                ),
+                            );
+                        }
+                        det *= s;
+                        if let Some(x) = l.get_mut(i * n + i) {
+                            *x = s.sqrt();
+                        }
+                    } else {
+                        let d = l.get(j * n + j).copied().unwrap_or(f64::NAN);
+                        if let Some(x) = l.get_mut(i * n + j) {
+                            *x = s / d;
+                        }
+                    }
+                }
+            }
+            if det < 1e-9 * diag {
+                return fail(
+                    key,
+                    format!(
+                        "{what} is nearly singular at {}: its determinant {det:e} is below 1e-9 of the product of \
+                         its diagonal terms ({diag:e})",
+                        self.describe_point(&q)
+                    ),
+                );
+            }
+        }
+        Ok(())
+    }
+
+    /// At the equilibrium at rest with `u = 0`: every output finite, the forces zero (to
+    /// rounding against their derivatives), and the Jacobian finite.
+    fn check_equilibrium(&self, form: &Form) -> Result<(), EquationsError> {
+        let n = self.n;
+        let force_key = |i: usize| match form {
+            Form::Mass { .. } => format!("plant.forces[{i}]"),
+            Form::Lagrangian { .. } => format!("plant.generalized_forces[{i}] (with the Lagrangian's terms)"),
+        };
+        let at = self.describe_point(&self.equilibrium);
+        let mut inputs = vec![crate::plant::Dual::<9>::cst(0.0); 2 * n + 1];
+        for (i, v) in inputs.iter_mut().enumerate() {
+            let base = if i < n { self.equilibrium.get(i).copied().unwrap_or(0.0) } else { 0.0 };
+            *v = crate::plant::Dual::var(base, i);
+        }
+        let mut regs = vec![crate::plant::Dual::<9>::cst(0.0); self.tape.n_regs];
+        self.tape.eval(&inputs, &mut regs);
+        let nm = n * (n + 1) / 2;
+        for (k, &o) in self.tape.outputs.iter().enumerate() {
+            let v = regs.get(o as usize).copied().unwrap_or(crate::plant::Dual::cst(f64::NAN));
+            let key = if k < nm {
+                match form {
+                    Form::Mass { .. } => "plant.mass".to_string(),
+                    Form::Lagrangian { .. } => "plant.lagrangian".to_string(),
+                }
+            } else {
+                force_key(k - nm)
+            };
+            if !v.v.is_finite() {
+                return fail(key, format!("is {} (not finite) at the equilibrium ({at}, at rest, u = 0)", v.v));
+            }
+            if let Some(d) = v.d.iter().take(2 * n + 1).find(|d| !d.is_finite()) {
+                return fail(
+                    key,
+                    format!("has a derivative {d} (not finite) at the equilibrium ({at}, at rest, u = 0)"),
+                );
+            }
+            if k >= nm {
+                let scale: f64 = v.d.iter().take(2 * n + 1).map(|d| d.abs()).sum();
+                if !(v.v.abs() <= 1e-10 * scale) && v.v != 0.0 {
+                    return fail(
+                        key,
+                        format!(
+                            "is {:e} at rest at the equilibrium ({at}, u = 0), not zero: the plant would not stay \
+                             there; name the equilibrium to stabilize with `plant.equilibrium = [...]` (one value \
+                             per coordinate)",
+                            v.v
+                        ),
+                    );
+                }
+            }
+        }
+        Ok(())
+    }
+
+    /// `dx/dt` for `N = 2n` states (`N` is checked by [`EquationsPlant::new`]).
+    #[inline]
+    fn rhs<S: Scalar, const N: usize>(&self, x: &[S; N], u: S) -> [S; N] {
+        let n = self.n;
+        let need = self.tape.n_regs + n * n + n;
+        let mut out = [S::cst(0.0); N];
+        // 2n + 1 inputs: the coordinates (deviation plus equilibrium), velocities, u.
+        let mut inputs = [S::cst(0.0); 9];
+        for i in 0..n {
+            let q = x.get(2 * i).copied().unwrap_or(S::cst(f64::NAN));
+            let e = self.equilibrium.get(i).copied().unwrap_or(0.0);
+            if let Some(s) = inputs.get_mut(i) {
+                *s = if e == 0.0 { q } else { q + e };
+            }
+            if let Some(s) = inputs.get_mut(n + i) {
+                *s = x.get(2 * i + 1).copied().unwrap_or(S::cst(f64::NAN));
+            }
+        }
+        if let Some(s) = inputs.get_mut(2 * n) {
+            *s = u;
+        }
+        with_scratch::<S, _>(need, |scratch| {
+            let (regs, rest) = scratch.split_at_mut(self.tape.n_regs.min(scratch.len()));
+            self.tape.eval(&inputs, regs);
+            let (a, b) = rest.split_at_mut((n * n).min(rest.len()));
+            let nm = n * (n + 1) / 2;
+            let reg = |k: usize| {
+                self.tape.outputs.get(k).and_then(|&o| regs.get(o as usize)).copied().unwrap_or(S::cst(f64::NAN))
+            };
+            for i in 0..n {
+                for j in 0..n {
+                    let (p, q) = if i <= j { (i, j) } else { (j, i) };
+                    if let Some(s) = a.get_mut(i * n + j) {
+                        *s = reg(upper_index(n, p, q));
+                    }
+                }
+                if let Some(s) = b.get_mut(i) {
+                    *s = reg(nm + i);
+                }
+            }
+            lu_solve(a, b, n);
+            for i in 0..n {
+                if let Some(s) = out.get_mut(2 * i) {
+                    *s = inputs.get(n + i).copied().unwrap_or(S::cst(f64::NAN));
+                }
+                if let Some(s) = out.get_mut(2 * i + 1) {
+                    *s = b.get(i).copied().unwrap_or(S::cst(f64::NAN));
+                }
+            }
+        });
+        out
+    }
+}
+
+/// Index of `M[a][b]` (`a <= b`) in the upper triangle stored row by row.
+fn upper_index(n: usize, a: usize, b: usize) -> usize {
+    a * n - a * a.saturating_sub(1) / 2 - a + b
+}
+
+/// Solves `A x = b` in place (`b` becomes `x`) by LU with partial pivoting on the values.
+#[inline]
+fn lu_solve<S: Scalar>(a: &mut [S], b: &mut [S], n: usize) {
+    let nan = S::cst(f64::NAN);
+    let at = |a: &[S], i: usize, j: usize| a.get(i * n + j).copied().unwrap_or(nan);
+    for k in 0..n {
+        let mut p = k;
+        let mut best = at(a, k, k).re().abs();
+        for i in k + 1..n {
+            let v = at(a, i, k).re().abs();
+            if v > best {
+                best = v;
+                p = i;
+            }
+        }
+        if p != k {
+            for j in 0..n {
+                a.swap(k * n + j, p * n + j);
+            }
+            b.swap(k, p);
+        }
+        let piv = at(a, k, k);
+        for i in k + 1..n {
+            let l = at(a, i, k) / piv;
+            for j in k + 1..n {
+                let v = at(a, i, j).sub_ref(&l.mul_ref(&at(a, k, j)));
+                if let Some(s) = a.get_mut(i * n + j) {
+                    *s = v;
+                }
+            }
+            let bk = b.get(k).copied().unwrap_or(nan);
+            if let Some(s) = b.get_mut(i) {
+                *s = s.sub_ref(&l.mul_ref(&bk));
+            }
+        }
+    }
+    for k in (0..n).rev() {
+        let mut s = b.get(k).copied().unwrap_or(nan);
+        for j in k + 1..n {
+            s = s.sub_ref(&at(a, k, j).mul_ref(&b.get(j).copied().unwrap_or(nan)));
+        }
+        if let Some(x) = b.get_mut(k) {
+            *x = s / at(a, k, k);
+        }
+    }
+}
+
+/// Runs `f` on `len` scalars of scratch: on the stack for small scalars (no allocation),
+/// on the heap for large ones (a truncated power series is kilobytes).
+#[inline]
+fn with_scratch<S: Scalar, R>(len: usize, f: impl FnOnce(&mut [S]) -> R) -> R {
+    if core::mem::size_of::<S>() <= 128 {
+        match len {
+            0..=32 => return on_stack::<S, R, 32>(len, f),
+            33..=96 => return on_stack::<S, R, 96>(len, f),
+            97..=256 => return on_stack::<S, R, 256>(len, f),
+            _ => {}
+        }
+    }
+    let mut v = vec![S::cst(0.0); len];
+    f(&mut v)
+}
+
+#[inline(never)]
+fn on_stack<S: Scalar, R, const K: usize>(len: usize, f: impl FnOnce(&mut [S]) -> R) -> R {
+    let mut a = [S::cst(0.0); K];
+    f(a.get_mut(..len).unwrap_or_default())
+}
+
+fn expr_error(key: &str, src: &str, e: &ExprError) -> EquationsError {
+    EquationsError { key: key.into(), message: format!("{e} in \"{src}\"") }
+}
+
+/// The variables (coordinates, velocities, `u`) and parameters of a spec, with the names
+/// checked: identifiers, distinct, no function names.
+fn names(spec: &EquationsSpec) -> Result<Names, EquationsError> {
+    let mut vars: Vec<String> = spec.coordinates.clone();
+    for (i, c) in spec.coordinates.iter().enumerate() {
+        let key = format!("plant.coordinates[{i}]");
+        if !expr::is_identifier(c) {
+            return fail(key, format!("`{c}` is not a name (letters, digits and `_`, not starting with a digit)"));
+        }
+        if expr::is_function(c) || c == "u" {
+            return fail(key, format!("`{c}` is reserved (a function or the input `u`)"));
+        }
+    }
+    for c in &spec.coordinates {
+        vars.push(format!("{c}_dot"));
+    }
+    vars.push("u".into());
+    for (i, a) in vars.iter().enumerate() {
+        if vars.iter().skip(i + 1).any(|b| b == a) {
+            return fail(
+                "plant.coordinates",
+                format!("the name `{a}` occurs twice among the coordinates and velocities"),
+            );
+        }
+    }
+    for (p, v) in &spec.parameters {
+        let key = format!("plant.parameters.{p}");
+        if !expr::is_identifier(p) {
+            return fail(key, format!("`{p}` is not a name (letters, digits and `_`, not starting with a digit)"));
+        }
+        if expr::is_function(p) {
+            return fail(key, format!("`{p}` is a function name"));
+        }
+        if vars.contains(p) {
+            return fail(key, format!("`{p}` is also a coordinate, a velocity or the input `u`"));
+        }
+        if !v.is_finite() {
+            return fail(key, format!("must be finite, got {v}"));
+        }
+    }
+    Ok(Names { vars, params: spec.parameters.clone() })
+}
+
+/// A plant written as equations with `N = 2n` states.
+#[derive(Clone, Debug)]
+pub struct EquationsPlant<const N: usize> {
+    model: Arc<EquationsModel>,
+}
+
+impl<const N: usize> EquationsPlant<N> {
+    /// The plant of a model with `N / 2` coordinates, `None` if the counts differ.
+    pub fn new(model: Arc<EquationsModel>) -> Option<Self> {
+        (2 * model.n == N).then_some(Self { model })
+    }
+
+    pub fn model(&self) -> &EquationsModel {
+        &self.model
+    }
+}
+
+impl<const N: usize> Plant<N> for EquationsPlant<N> {
+    /// The first coordinate.
+    const PRIMARY: usize = 0;
+    /// The second coordinate; with one coordinate, its velocity (a controller with no gain
+    /// on the secondary angle reads it and ignores it).
+    const SECONDARY: usize = if N >= 4 { 2 } else { 1 };
+
+    fn name(&self) -> &'static str {
+        "equations"
+    }
+
+    fn state_names(&self) -> [&'static str; N] {
+        core::array::from_fn(|i| self.model.state_names.get(i).copied().unwrap_or("?"))
+    }
+
+    #[inline]
+    fn rhs<S: Scalar>(&self, x: &[S; N], u: S) -> [S; N] {
+        self.model.rhs(x, u)
+    }
+
+    /// The Lagrangian form's energy function `sum q'_i dL/dq'_i - L`; NaN for the
+    /// mass-matrix form, which does not give the potential.
+    fn energy(&self, x: &[f64; N]) -> f64 {
+        let Some(t) = &self.model.energy else { return f64::NAN };
+        let n = self.model.n;
+        let mut inputs = vec![0.0; 2 * n + 1];
+        for i in 0..n {
+            if let Some(s) = inputs.get_mut(i) {
+                *s = x.get(2 * i).copied().unwrap_or(f64::NAN) + self.model.equilibrium.get(i).copied().unwrap_or(0.0);
+            }
+            if let Some(s) = inputs.get_mut(n + i) {
+                *s = x.get(2 * i + 1).copied().unwrap_or(f64::NAN);
+            }
+        }
+        t.eval_f64(&inputs).first().copied().unwrap_or(f64::NAN)
+    }
+}
+
+#[cfg(test)]
+pub(crate) mod tests;
