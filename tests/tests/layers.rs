@@ -10,17 +10,19 @@ use std::process::Command;
 /// Normal (non-dev) workspace dependencies each crate may have.
 const ALLOWED: &[(&str, &[&str])] = &[
     ("shared", &[]),
+    // The one bounded reader of input files, below every crate that reads files.
+    ("infile", &[]),
     ("controller", &["shared"]),
     ("chaos", &[]),
-    ("sim", &["controller", "shared"]),
-    ("ssm", &["shared"]),
-    ("furuta", &["sim", "ssm", "chaos", "shared", "controller"]),
-    ("ssmctl", &["sim", "ssm", "chaos", "furuta", "shared", "controller"]),
+    ("sim", &["controller", "shared", "infile"]),
+    ("ssm", &["shared", "infile"]),
+    ("furuta", &["sim", "ssm", "chaos", "shared", "controller", "infile"]),
+    ("ssmctl", &["sim", "ssm", "chaos", "furuta", "shared", "controller", "infile"]),
     // The Python module `ssm_ctl` (host/python): an app layer beside ssmctl, on the learner.
-    ("python", &["ssm", "shared"]),
+    ("python", &["ssm", "shared", "infile"]),
     ("tests", &["controller", "shared"]),
     // The fuzz targets' bodies (tests/fuzz-targets): above the app, whose parser they drive.
-    ("fuzz-targets", &["sim", "ssm", "furuta", "controller", "shared", "ssmctl"]),
+    ("fuzz-targets", &["sim", "ssm", "furuta", "controller", "shared", "ssmctl", "infile"]),
 ];
 
 /// External crates only the app may depend on.

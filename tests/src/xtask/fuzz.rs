@@ -8,7 +8,17 @@
 use super::{Result, cmd, output, root, run};
 
 /// The targets (tests/fuzz/fuzz_targets/*.rs, bodies in tests/fuzz-targets).
-const TARGETS: [&str; 6] = ["scene_toml", "csv_data", "model_json", "model_blob", "pil_frames", "cli_options"];
+const TARGETS: [&str; 9] = [
+    "scene_toml",
+    "csv_data",
+    "model_json",
+    "model_blob",
+    "pil_frames",
+    "cli_options",
+    "mat_file",
+    "sweep_spec",
+    "shard_file",
+];
 
 pub fn fuzz(args: &[String]) -> Result<()> {
     let mut seconds = 60u64;
