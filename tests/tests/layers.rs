@@ -10,19 +10,22 @@ use std::process::Command;
 /// Normal (non-dev) workspace dependencies each crate may have.
 const ALLOWED: &[(&str, &[&str])] = &[
     ("shared", &[]),
+    // The one bounded reader of input files, below every crate that reads files.
+    ("infile", &[]),
     ("controller", &["shared"]),
     ("chaos", &[]),
-    // The one output writer, under every app that writes files.
+    // The one output writer and the one bounded reader, under every crate that writes or reads files.
     ("fileio", &[]),
-    ("sim", &["controller", "shared"]),
-    ("ssm", &["shared"]),
-    ("furuta", &["sim", "ssm", "chaos", "shared", "controller"]),
-    ("ssmctl", &["sim", "ssm", "chaos", "furuta", "shared", "controller", "fileio"]),
+    ("infile", &[]),
+    ("sim", &["controller", "shared", "infile"]),
+    ("ssm", &["shared", "infile"]),
+    ("furuta", &["sim", "ssm", "chaos", "shared", "controller", "infile"]),
+    ("ssmctl", &["sim", "ssm", "chaos", "furuta", "shared", "controller", "infile", "fileio"]),
     // The Python module `ssm_ctl` (host/python): an app layer beside ssmctl, on the learner.
-    ("python", &["ssm", "shared", "fileio"]),
+    ("python", &["ssm", "shared", "infile", "fileio"]),
     ("tests", &["controller", "shared"]),
     // The fuzz targets' bodies (tests/fuzz-targets): above the app, whose parser they drive.
-    ("fuzz-targets", &["sim", "ssm", "furuta", "controller", "shared", "ssmctl", "fileio"]),
+    ("fuzz-targets", &["sim", "ssm", "furuta", "controller", "shared", "ssmctl", "infile", "fileio"]),
 ];
 
 /// External crates only the app may depend on.

@@ -10,7 +10,7 @@ use ssm::backbone::{BackboneOptions, backbone};
 use ssm::frc::{Calibration, FrcOptions, frc};
 use ssm::{Dynamics, FitOptions, MultiSeries, Ridge, SsmModel, fit_multi};
 
-use crate::convert::{to_python, value_error, windows};
+use crate::convert::{guard, to_python, type_error, value_error, windows};
 use crate::trajectory::{Trajectory, matrix};
 
 /// A fitted SSM model: manifold, reduced dynamics and the options it was fitted with.
@@ -35,11 +35,11 @@ fn trajectories(obj: &Bound<'_, PyAny>, what: &str) -> PyResult<Vec<MultiSeries>
         return Ok(vec![t.get().inner.clone()]);
     }
     let mut out = Vec::new();
-    let it = obj.try_iter().map_err(|_| value_error(format!("{what}: expected a Trajectory or a list of them")))?;
+    let it = obj.try_iter().map_err(|_| type_error(format!("{what}: expected a Trajectory or a list of them")))?;
     for item in it {
         let item = item?;
         let t = item.cast::<Trajectory>().map_err(|_| {
-            value_error(format!("{what}: `{item}` is not a Trajectory (ssm_ctl.Trajectory(t, x), load_csv, load_mat)"))
+            type_error(format!("{what}: `{item}` is not a Trajectory (ssm_ctl.Trajectory(t, x), load_csv, load_mat)"))
         })?;
         out.push(t.get().inner.clone());
     }
@@ -75,7 +75,8 @@ fn parse_ridge(obj: &Bound<'_, PyAny>) -> PyResult<Ridge> {
     }
     match obj.extract::<f64>() {
         Ok(a) if a.is_finite() && a >= 0.0 => Ok(Ridge::Fixed(a)),
-        _ => Err(value_error(format!("ridge `{obj}`: expected a number >= 0 or \"cv\""))),
+        Ok(_) => Err(value_error(format!("ridge `{obj}`: expected a number >= 0 or \"cv\""))),
+        Err(_) => Err(type_error(format!("ridge `{obj}`: expected a number >= 0 or \"cv\""))),
     }
 }
 
@@ -110,41 +111,43 @@ pub fn fit(
     t_from: Option<&Bound<'_, PyAny>>,
     t_to: Option<&Bound<'_, PyAny>>,
 ) -> PyResult<Model> {
-    let mut train = trajectories(train, "train")?;
-    let n = train.len();
-    let (from, to) = (windows(t_from, n, "t_from")?, windows(t_to, n, "t_to")?);
-    for (k, t) in train.iter_mut().enumerate() {
-        if from[k].is_some() || to[k].is_some() {
-            *t = t.window(from[k], to[k]).map_err(value_error)?;
+    guard(|| {
+        let mut train = trajectories(train, "train")?;
+        let n = train.len();
+        let (from, to) = (windows(t_from, n, "t_from")?, windows(t_to, n, "t_to")?);
+        for (k, t) in train.iter_mut().enumerate() {
+            if from[k].is_some() || to[k].is_some() {
+                *t = t.window(from[k], to[k]).map_err(value_error)?;
+            }
         }
-    }
-    let opts = FitOptions {
-        dim,
-        embed,
-        shift,
-        manifold_order: order,
-        dyn_order,
-        dynamics: parse_dynamics(dynamics, centers)?,
-        ridge: match ridge {
-            None => Ridge::Fixed(0.0),
-            Some(r) => parse_ridge(r)?,
-        },
-        linear_anchor,
-        anchor_joint,
-    };
-    let (model, secs) = py
-        .detach(|| {
-            let t0 = std::time::Instant::now();
-            fit_multi(&train, &opts).map(|m| (m, t0.elapsed().as_secs_f64()))
-        })
-        .map_err(value_error)?;
-    Ok(Model { inner: model, fit_seconds: Some(secs) })
+        let opts = FitOptions {
+            dim,
+            embed,
+            shift,
+            manifold_order: order,
+            dyn_order,
+            dynamics: parse_dynamics(dynamics, centers)?,
+            ridge: match ridge {
+                None => Ridge::Fixed(0.0),
+                Some(r) => parse_ridge(r)?,
+            },
+            linear_anchor,
+            anchor_joint,
+        };
+        let (model, secs) = py
+            .detach(|| {
+                let t0 = std::time::Instant::now();
+                fit_multi(&train, &opts).map(|m| (m, t0.elapsed().as_secs_f64()))
+            })
+            .map_err(value_error)?;
+        Ok(Model { inner: model, fit_seconds: Some(secs) })
+    })
 }
 
 /// `load_model(path)`: a model saved by `Model.save` or `ssmctl fit --save`.
 #[pyfunction]
 pub fn load_model(path: std::path::PathBuf) -> PyResult<Model> {
-    Model::load(path)
+    guard(|| Model::load(path))
 }
 
 /// Capacities (p, d, RBF centres, lift monomials) of the host's blob decoder: those of
@@ -156,34 +159,37 @@ type HostModel = shared::model::Model<256, { ssm::limits::MAX_DIM }, 8192, 4096>
 /// wrong.
 #[pyfunction]
 pub fn inspect_blob<'py>(py: Python<'py>, blob: &[u8]) -> PyResult<Bound<'py, PyDict>> {
-    let (h, _) = shared::model::Header::parse(blob).map_err(|e| value_error(format!("blob: {e}")))?;
-    let bytes = blob.to_vec();
-    // The fixed-capacity decoder is several MB: decoded on a thread with room for it.
-    let decoded = py.detach(move || {
-        std::thread::Builder::new()
-            .stack_size(64 << 20)
-            .spawn(move || {
-                let mut m = Box::new(HostModel::empty());
-                m.decode_into(&bytes).map(|_| (m.p(), m.d(), m.k(), m.lift_order(), m.sample_period(), m.config().dt))
-            })
-            .map_err(|e| format!("blob: cannot start the decoder: {e}"))?
-            .join()
-            .map_err(|_| "blob: the decoder failed".to_string())?
-            .map_err(|e| format!("blob: {e}"))
-    });
-    let (p, d, k, lift_order, sample_period, dt) = decoded.map_err(value_error)?;
-    let out = PyDict::new(py);
-    out.set_item("format_version", h.version)?;
-    out.set_item("bytes", blob.len())?;
-    out.set_item("payload_bytes", h.payload_len)?;
-    out.set_item("crc32", h.crc)?;
-    out.set_item("p", p)?;
-    out.set_item("d", d)?;
-    out.set_item("centres", k)?;
-    out.set_item("lift_order", lift_order)?;
-    out.set_item("sample_period_s", sample_period)?;
-    out.set_item("controller_dt_s", dt)?;
-    Ok(out)
+    guard(|| {
+        let (h, _) = shared::model::Header::parse(blob).map_err(|e| value_error(format!("blob: {e}")))?;
+        let bytes = blob.to_vec();
+        // The fixed-capacity decoder is several MB: decoded on a thread with room for it.
+        let decoded = py.detach(move || {
+            std::thread::Builder::new()
+                .stack_size(64 << 20)
+                .spawn(move || {
+                    let mut m = Box::new(HostModel::empty());
+                    m.decode_into(&bytes)
+                        .map(|_| (m.p(), m.d(), m.k(), m.lift_order(), m.sample_period(), m.config().dt))
+                })
+                .map_err(|e| format!("blob: cannot start the decoder: {e}"))?
+                .join()
+                .map_err(|_| "blob: the decoder failed".to_string())?
+                .map_err(|e| format!("blob: {e}"))
+        });
+        let (p, d, k, lift_order, sample_period, dt) = decoded.map_err(value_error)?;
+        let out = PyDict::new(py);
+        out.set_item("format_version", h.version)?;
+        out.set_item("bytes", blob.len())?;
+        out.set_item("payload_bytes", h.payload_len)?;
+        out.set_item("crc32", h.crc)?;
+        out.set_item("p", p)?;
+        out.set_item("d", d)?;
+        out.set_item("centres", k)?;
+        out.set_item("lift_order", lift_order)?;
+        out.set_item("sample_period_s", sample_period)?;
+        out.set_item("controller_dt_s", dt)?;
+        Ok(out)
+    })
 }
 
 #[pymethods]
@@ -191,24 +197,31 @@ impl Model {
     /// Predicts `traj` (same observables as the training data) from its first embedded
     /// point; a prediction that leaves the training range stops early (see `stopped`).
     fn predict(&self, py: Python<'_>, traj: PyRef<'_, Trajectory>) -> PyResult<Prediction> {
-        let ts = traj.inner.clone();
-        let p = py.detach(|| self.inner.predict_multi(&ts)).map_err(value_error)?;
-        Ok(Prediction { inner: p, q: self.inner.observables, d: self.inner.manifold.dim })
+        guard(|| {
+            let ts = traj.inner.clone();
+            let p = py.detach(|| self.inner.predict_multi(&ts)).map_err(value_error)?;
+            Ok(Prediction { inner: p, q: self.inner.observables, d: self.inner.manifold.dim })
+        })
     }
 
     /// NMTE over all observables of the prediction of `traj` (SSMLearn's definition);
     /// infinite when the prediction stopped early.
     fn nmte(&self, py: Python<'_>, traj: PyRef<'_, Trajectory>) -> PyResult<f64> {
-        let ts = traj.inner.clone();
-        let p = py.detach(|| self.inner.predict_multi(&ts)).map_err(value_error)?;
-        Ok(p.nmte_multi(&ts))
+        guard(|| {
+            let ts = traj.inner.clone();
+            let p = py.detach(|| self.inner.predict_multi(&ts)).map_err(value_error)?;
+            Ok(p.nmte_multi(&ts))
+        })
     }
 
     /// Eigenvalues of the linear part, continuous time (1/s): complex numpy array.
     #[getter]
-    fn eigenvalues<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray1<Complex64>> {
-        let v: Vec<Complex64> = self.inner.eigenvalues_ct().iter().map(|&(re, im)| Complex64::new(re, im)).collect();
-        PyArray1::from_vec(py, v)
+    fn eigenvalues<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray1<Complex64>>> {
+        guard(|| {
+            let v: Vec<Complex64> =
+                self.inner.eigenvalues_ct().iter().map(|&(re, im)| Complex64::new(re, im)).collect();
+            Ok(PyArray1::from_vec(py, v))
+        })
     }
 
     /// Sampling step of the training data (s).
@@ -233,7 +246,7 @@ impl Model {
     /// `dynamics`, `ridge`, `linear_anchor`).
     #[getter]
     fn options<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
-        to_python(py, &self.inner.options)
+        guard(|| to_python(py, &self.inner.options))
     }
 
     /// Wall time of the fit (s); None for a loaded model.
@@ -255,11 +268,13 @@ impl Model {
     /// rho_exps, value}` of the `rho_i'` equations, as `ssmctl fit --normal-form`).
     #[pyo3(signature = (order=None))]
     fn normal_form<'py>(&self, py: Python<'py>, order: Option<u32>) -> PyResult<Bound<'py, PyAny>> {
-        let opts = ssm::normal_form::NormalFormOptions { order, ..Default::default() };
-        let nf = py.detach(|| ssm::normal_form::model_normal_form(&self.inner, &opts)).map_err(value_error)?;
-        let out = to_python(py, &nf)?;
-        out.set_item("table", to_python(py, &nf.table().rows)?)?;
-        Ok(out)
+        guard(|| {
+            let opts = ssm::normal_form::NormalFormOptions { order, ..Default::default() };
+            let nf = py.detach(|| ssm::normal_form::model_normal_form(&self.inner, &opts)).map_err(value_error)?;
+            let out = to_python(py, &nf)?;
+            out.set_item("table", to_python(py, &nf.table().rows)?)?;
+            Ok(out)
+        })
     }
 
     /// Backbone curves, one dict per mode: `mode` (1-based), `observable` (0-based index),
@@ -274,23 +289,26 @@ impl Model {
         observable: usize,
         points: usize,
     ) -> PyResult<Bound<'py, PyList>> {
-        let opts = BackboneOptions { points, ..BackboneOptions::new(observable, amplitude) };
-        let curves = py.detach(|| backbone(&self.inner, &opts)).map_err(value_error)?;
-        let out = PyList::empty(py);
-        for c in &curves {
-            let d = PyDict::new(py);
-            d.set_item("mode", c.mode)?;
-            d.set_item("observable", c.observable)?;
-            let col =
-                |f: fn(&ssm::backbone::BackbonePoint) -> f64| PyArray1::from_vec(py, c.points.iter().map(f).collect());
-            d.set_item("amplitude", col(|p| p.amplitude))?;
-            d.set_item("freq_rad_s", col(|p| p.freq_rad_s))?;
-            d.set_item("damping_ratio", col(|p| p.damping_ratio))?;
-            d.set_item("rate", col(|p| p.rate))?;
-            d.set_item("rho", col(|p| p.rho))?;
-            out.append(d)?;
-        }
-        Ok(out)
+        guard(|| {
+            let opts = BackboneOptions { points, ..BackboneOptions::new(observable, amplitude) };
+            let curves = py.detach(|| backbone(&self.inner, &opts)).map_err(value_error)?;
+            let out = PyList::empty(py);
+            for c in &curves {
+                let d = PyDict::new(py);
+                d.set_item("mode", c.mode)?;
+                d.set_item("observable", c.observable)?;
+                let col = |f: fn(&ssm::backbone::BackbonePoint) -> f64| {
+                    PyArray1::from_vec(py, c.points.iter().map(f).collect())
+                };
+                d.set_item("amplitude", col(|p| p.amplitude))?;
+                d.set_item("freq_rad_s", col(|p| p.freq_rad_s))?;
+                d.set_item("damping_ratio", col(|p| p.damping_ratio))?;
+                d.set_item("rate", col(|p| p.rate))?;
+                d.set_item("rho", col(|p| p.rho))?;
+                out.append(d)?;
+            }
+            Ok(out)
+        })
     }
 
     /// The forced response curve (SSMLearn's `calibrateFRC`; `ssmctl frc`): harmonic forcing
@@ -315,70 +333,78 @@ impl Model {
         points: usize,
         amplitude_max: Option<f64>,
     ) -> PyResult<Bound<'py, PyDict>> {
-        let opts = FrcOptions { mode, amplitude_max, ..FrcOptions::new(observable) };
-        let cal = Calibration { freq_rad_s: calibrate_freq, amplitude: calibrate_amplitude };
-        let curve = py.detach(|| frc(&self.inner, &opts, cal, freq_min, freq_max, points)).map_err(value_error)?;
-        let out = PyDict::new(py);
-        let c = curve.calibration;
-        let cal_d = PyDict::new(py);
-        cal_d.set_item("freq_rad_s", c.freq_rad_s)?;
-        cal_d.set_item("amplitude", c.amplitude)?;
-        cal_d.set_item("rho", c.rho)?;
-        cal_d.set_item("forcing", c.forcing)?;
-        out.set_item("calibration", cal_d)?;
-        out.set_item("mode", curve.mode)?;
-        out.set_item("observable", curve.observable)?;
-        out.set_item("amplitude_max", curve.amplitude_max)?;
-        out.set_item("rho_max", curve.rho_max)?;
-        let branches = PyList::empty(py);
-        for b in &curve.branches {
-            let d = PyDict::new(py);
-            d.set_item("stable", b.stable)?;
-            d.set_item("freq_rad_s", PyArray1::from_slice(py, &b.freq_rad_s))?;
-            d.set_item("amplitude", PyArray1::from_slice(py, &b.amplitude))?;
-            d.set_item("rho", PyArray1::from_slice(py, &b.rho))?;
-            branches.append(d)?;
-        }
-        out.set_item("branches", branches)?;
-        Ok(out)
+        guard(|| {
+            let opts = FrcOptions { mode, amplitude_max, ..FrcOptions::new(observable) };
+            let cal = Calibration { freq_rad_s: calibrate_freq, amplitude: calibrate_amplitude };
+            let curve = py.detach(|| frc(&self.inner, &opts, cal, freq_min, freq_max, points)).map_err(value_error)?;
+            let out = PyDict::new(py);
+            let c = curve.calibration;
+            let cal_d = PyDict::new(py);
+            cal_d.set_item("freq_rad_s", c.freq_rad_s)?;
+            cal_d.set_item("amplitude", c.amplitude)?;
+            cal_d.set_item("rho", c.rho)?;
+            cal_d.set_item("forcing", c.forcing)?;
+            out.set_item("calibration", cal_d)?;
+            out.set_item("mode", curve.mode)?;
+            out.set_item("observable", curve.observable)?;
+            out.set_item("amplitude_max", curve.amplitude_max)?;
+            out.set_item("rho_max", curve.rho_max)?;
+            let branches = PyList::empty(py);
+            for b in &curve.branches {
+                let d = PyDict::new(py);
+                d.set_item("stable", b.stable)?;
+                d.set_item("freq_rad_s", PyArray1::from_slice(py, &b.freq_rad_s))?;
+                d.set_item("amplitude", PyArray1::from_slice(py, &b.amplitude))?;
+                d.set_item("rho", PyArray1::from_slice(py, &b.rho))?;
+                branches.append(d)?;
+            }
+            out.set_item("branches", branches)?;
+            Ok(out)
+        })
     }
 
     /// The device blob (bytes) of an RBF model of one observable, for the paper's controller
     /// at the model's sampling step (what `ssmctl export` writes without `--scene`).
     fn device_blob<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyBytes>> {
-        let owned = ssm::device::to_device_model(&self.inner, shared::ControllerConfig::paper(self.inner.dt))
-            .map_err(value_error)?;
-        let blob = ssm::device::encode(&owned).map_err(value_error)?;
-        Ok(PyBytes::new(py, &blob))
+        guard(|| {
+            let owned = ssm::device::to_device_model(&self.inner, shared::ControllerConfig::paper(self.inner.dt))
+                .map_err(value_error)?;
+            let blob = ssm::device::encode(&owned).map_err(value_error)?;
+            Ok(PyBytes::new(py, &blob))
+        })
     }
 
     /// The saved-model JSON (`{"format": "ssm-model", "version": 1, "model": ...}`), the
     /// format of `ssmctl fit --save`.
     fn to_json(&self) -> PyResult<String> {
-        self.inner.to_json().map_err(value_error)
+        guard(|| self.inner.to_json().map_err(value_error))
     }
 
     /// Writes the saved-model JSON to `path`.
     fn save(&self, path: std::path::PathBuf) -> PyResult<()> {
-        let text = self.to_json()?;
-        // The tool's one writer: complete or absent, never through a link or into a device.
-        fileio::write_atomic(&path, text.as_bytes()).map_err(|e| value_error(e.to_string()))
+        guard(|| {
+            let text = self.to_json()?;
+            // The tool's one writer: complete or absent, never through a link or into a device.
+            fileio::write_atomic(&path, text.as_bytes()).map_err(|e| value_error(e.to_string()))
+        })
     }
 
     /// A model from its saved JSON text (other formats and versions are refused).
     #[staticmethod]
     fn from_json(text: &str) -> PyResult<Model> {
-        Ok(Model { inner: SsmModel::from_json(text).map_err(value_error)?, fit_seconds: None })
+        guard(|| Ok(Model { inner: SsmModel::from_json(text).map_err(value_error)?, fit_seconds: None }))
     }
 
     /// A model from a saved-model file.
     #[staticmethod]
     fn load(path: std::path::PathBuf) -> PyResult<Model> {
-        let text = ssm::limits::read_text_limited(&path, ssm::limits::MAX_MODEL_FILE_BYTES)
-            .map_err(|e| value_error(format!("reading {}: {e}", path.display())))?;
-        Ok(Model {
-            inner: SsmModel::from_json(&text).map_err(|e| value_error(format!("{}: {e}", path.display())))?,
-            fit_seconds: None,
+        guard(|| {
+            let text = ssm::limits::read_text_limited(&path, ssm::limits::MAX_MODEL_FILE_BYTES)
+                .map_err(|e| value_error(format!("{}: cannot read: {e}", path.display())))?;
+            Ok(Model {
+                inner: SsmModel::from_json(&text).map_err(|e| value_error(format!("{}: {e}", path.display())))?,
+                fit_seconds: None,
+            })
         })
     }
 
@@ -419,14 +445,14 @@ impl Prediction {
     }
 
     /// NMTE over all observables against `traj` (infinite when stopped early).
-    fn nmte(&self, traj: PyRef<'_, Trajectory>) -> f64 {
-        self.inner.nmte_multi(&traj.inner)
+    fn nmte(&self, traj: PyRef<'_, Trajectory>) -> PyResult<f64> {
+        guard(|| Ok(self.inner.nmte_multi(&traj.inner)))
     }
 
     /// NMTE after DTW alignment (Sakoe-Chiba band of `band` samples, None: no band).
     #[pyo3(signature = (traj, band=None))]
-    fn nmte_dtw(&self, traj: PyRef<'_, Trajectory>, band: Option<usize>) -> f64 {
-        self.inner.nmte_dtw_multi(&traj.inner, band)
+    fn nmte_dtw(&self, traj: PyRef<'_, Trajectory>, band: Option<usize>) -> PyResult<f64> {
+        guard(|| Ok(self.inner.nmte_dtw_multi(&traj.inner, band)))
     }
 
     fn __len__(&self) -> usize {

@@ -7,7 +7,7 @@ use numpy::{PyArray1, PyArray2, PyArrayMethods};
 use pyo3::prelude::*;
 use ssm::MultiSeries;
 
-use crate::convert::{float_array, observable_names, value_error};
+use crate::convert::{float_array, guard, observable_names, value_error};
 
 /// One trajectory: times `t` (s, strictly increasing, uniform) and samples `x`, one row per
 /// time and one column per observable.
@@ -33,31 +33,36 @@ impl Trajectory {
     #[new]
     #[pyo3(signature = (t, x, observables=None, name="array"))]
     fn new(t: &Bound<'_, PyAny>, x: &Bound<'_, PyAny>, observables: Option<Vec<String>>, name: &str) -> PyResult<Self> {
-        let (ts, t) = float_array(t, "t")?;
-        if ts.len() != 1 {
-            return Err(value_error(format!("{name}: t has shape {ts:?}; expected a 1-D array of times")));
-        }
-        let n = t.len();
-        let (xs, x) = float_array(x, "x")?;
-        let q = match xs.as_slice() {
-            [m] if *m == n => 1,
-            [m, q] if *m == n => *q,
-            [q, m] if *m == n => {
+        guard(|| {
+            let (ts, t) = float_array(t, "t")?;
+            if ts.len() != 1 {
+                return Err(value_error(format!("{name}: t has shape {ts:?}; expected a 1-D array of times")));
+            }
+            let n = t.len();
+            let (xs, x) = float_array(x, "x")?;
+            let q = match xs.as_slice() {
+                [m] if *m == n => 1,
+                [m, q] if *m == n => *q,
+                [q, m] if *m == n => {
+                    return Err(value_error(format!(
+                        "{name}: x is {q} x {m} for {n} times: samples go along the first axis, shape ({n}, q) (x.T for SSMLearn's X)"
+                    )));
+                }
+                _ => {
+                    return Err(value_error(format!(
+                        "{name}: x has shape {xs:?}; expected ({n},) or ({n}, q) for {n} times"
+                    )));
+                }
+            };
+            let observables = observables.unwrap_or_else(|| (1..=q).map(|i| i.to_string()).collect());
+            if observables.len() != q {
                 return Err(value_error(format!(
-                    "{name}: x is {q} x {m} for {n} times: samples go along the first axis, shape ({n}, q) (x.T for SSMLearn's X)"
+                    "{name}: {} observable names for {q} columns of x",
+                    observables.len()
                 )));
             }
-            _ => {
-                return Err(value_error(format!(
-                    "{name}: x has shape {xs:?}; expected ({n},) or ({n}, q) for {n} times"
-                )));
-            }
-        };
-        let observables = observables.unwrap_or_else(|| (1..=q).map(|i| i.to_string()).collect());
-        if observables.len() != q {
-            return Err(value_error(format!("{name}: {} observable names for {q} columns of x", observables.len())));
-        }
-        Ok(Trajectory { inner: MultiSeries::new(name, t, observables, x).map_err(value_error)? })
+            Ok(Trajectory { inner: MultiSeries::new(name, t, observables, x).map_err(value_error)? })
+        })
     }
 
     /// Sample times (s), shape `(n,)`.
@@ -110,13 +115,15 @@ impl Trajectory {
     /// trajectory and its time span.
     #[pyo3(signature = (start=None, end=None))]
     fn window(&self, start: Option<f64>, end: Option<f64>) -> PyResult<Self> {
-        Ok(Trajectory { inner: self.inner.window(start, end).map_err(value_error)? })
+        guard(|| Ok(Trajectory { inner: self.inner.window(start, end).map_err(value_error)? }))
     }
 
     /// The observables named (a name, a `.mat` row number, or a list of them), in that order.
     fn select(&self, observables: &Bound<'_, PyAny>) -> PyResult<Self> {
-        let names = observable_names(Some(observables))?.unwrap_or_default();
-        Ok(Trajectory { inner: self.inner.select(&names).map_err(value_error)? })
+        guard(|| {
+            let names = observable_names(Some(observables))?.unwrap_or_default();
+            Ok(Trajectory { inner: self.inner.select(&names).map_err(value_error)? })
+        })
     }
 }
 
@@ -135,18 +142,20 @@ pub fn load_csv(
     observables: Option<&Bound<'_, PyAny>>,
     column: Option<String>,
 ) -> PyResult<Trajectory> {
-    let names = observable_names(observables)?;
-    if names.is_some() && column.is_some() {
-        return Err(value_error("load_csv: give observables or column, not both"));
-    }
-    let inner = py
-        .detach(|| match &names {
-            None => ssm::load_csv_column(&path, column.as_deref()).map(|ts| MultiSeries::from(&ts)),
-            Some(o) if all(o) => ssm::load_csv_observables(&path, None),
-            Some(o) => ssm::load_csv_observables(&path, Some(o)),
-        })
-        .map_err(value_error)?;
-    Ok(Trajectory { inner })
+    guard(|| {
+        let names = observable_names(observables)?;
+        if names.is_some() && column.is_some() {
+            return Err(value_error("load_csv: give observables or column, not both"));
+        }
+        let inner = py
+            .detach(|| match &names {
+                None => ssm::load_csv_column(&path, column.as_deref()).map(|ts| MultiSeries::from(&ts)),
+                Some(o) if all(o) => ssm::load_csv_observables(&path, None),
+                Some(o) => ssm::load_csv_observables(&path, Some(o)),
+            })
+            .map_err(value_error)?;
+        Ok(Trajectory { inner })
+    })
 }
 
 /// `load_mat(path, var="xData", observables=None)`: every trajectory of an SSMLearn `.mat`
@@ -162,11 +171,15 @@ pub fn load_mat(
     var: &str,
     observables: Option<&Bound<'_, PyAny>>,
 ) -> PyResult<Vec<Trajectory>> {
-    let names = observable_names(observables)?;
-    let trajs = py.detach(|| ssm::load_mat(&path, var)).map_err(value_error)?;
-    let trajs = match &names {
-        Some(o) if !all(o) => trajs.iter().map(|t| t.select(o)).collect::<Result<Vec<_>, _>>().map_err(value_error)?,
-        _ => trajs,
-    };
-    Ok(trajs.into_iter().map(|inner| Trajectory { inner }).collect())
+    guard(|| {
+        let names = observable_names(observables)?;
+        let trajs = py.detach(|| ssm::load_mat(&path, var)).map_err(value_error)?;
+        let trajs = match &names {
+            Some(o) if !all(o) => {
+                trajs.iter().map(|t| t.select(o)).collect::<Result<Vec<_>, _>>().map_err(value_error)?
+            }
+            _ => trajs,
+        };
+        Ok(trajs.into_iter().map(|inner| Trajectory { inner }).collect())
+    })
 }

@@ -36,9 +36,14 @@ pub enum ChartError {
     BadAxis { axis: &'static str, reason: String },
     #[error("no sampling periods given")]
     NoPeriods,
+    #[error("{0} sampling periods (panels); a chart has at most {MAX_PANELS}")]
+    TooManyPanels(usize),
     #[error("sampling period {0} s must be finite and > 0")]
     BadPeriod(f64),
 }
+
+/// Most panels (sampling periods) of one chart: each is a figure panel and a full grid.
+pub const MAX_PANELS: usize = 64;
 
 /// A grid axis: `n` points evenly from `lo` to `hi` inclusive.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, serde::Deserialize)]
@@ -172,6 +177,9 @@ pub fn compute_chart(
     let kd = kd.check("KD")?;
     if dts_s.is_empty() {
         return Err(ChartError::NoPeriods);
+    }
+    if dts_s.len() > MAX_PANELS {
+        return Err(ChartError::TooManyPanels(dts_s.len()));
     }
     if let Some(&dt) = dts_s.iter().find(|dt| !(dt.is_finite() && **dt > 0.0)) {
         return Err(ChartError::BadPeriod(dt));

@@ -47,6 +47,11 @@ pub enum BackboneError {
     Unreached { mode: usize, observable: usize, target: f64, reached: f64, rho: f64 },
 }
 
+/// Most points of one backbone curve.
+pub const MAX_BACKBONE_POINTS: usize = 100_000;
+/// Most phases sampled per amplitude.
+pub const MAX_BACKBONE_PHASES: usize = 4096;
+
 /// Options of [`backbone`].
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct BackboneOptions {
@@ -212,11 +217,11 @@ pub fn backbone_of(
     if !(opts.amplitude_max > 0.0 && opts.amplitude_max.is_finite()) {
         return bad("amplitude_max", format!("must be a positive number, got {}", opts.amplitude_max));
     }
-    if opts.points < 2 {
-        return bad("points", format!("need >= 2, got {}", opts.points));
+    if !(2..=MAX_BACKBONE_POINTS).contains(&opts.points) {
+        return bad("points", format!("need 2 ..= {MAX_BACKBONE_POINTS}, got {}", opts.points));
     }
-    if opts.phases < 8 {
-        return bad("phases", format!("need >= 8, got {}", opts.phases));
+    if !(8..=MAX_BACKBONE_PHASES).contains(&opts.phases) {
+        return bad("phases", format!("need 8 ..= {MAX_BACKBONE_PHASES}, got {}", opts.phases));
     }
     if mode >= nf.modes {
         return bad("mode", format!("mode {} of a normal form with {} modes", mode + 1, nf.modes));

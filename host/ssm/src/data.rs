@@ -98,11 +98,19 @@ pub enum DataError {
     Window { name: String, from: String, to: String, t_first: f64, t_last: f64, why: String },
     #[error("{name}: no observable `{observable}` (observables: {available})")]
     UnknownObservable { name: String, observable: String, available: String },
+    #[error(
+        "{name}: sampling step {step:e} s cannot be resolved on the time axis near t = {t:e} s (a step must be a normal number and at least {ULPS_PER_STEP} times the spacing of f64 times there)"
+    )]
+    TinyStep { name: String, step: f64, t: f64 },
     #[error(transparent)]
     Mat(#[from] crate::mat::MatError),
     #[error("{file}: {var}: {why}")]
     MatLayout { file: String, var: String, why: String },
 }
+
+/// A sampling step must span at least this many f64 spacings of the largest time, so the
+/// rounding of the times is far below the uniformity tolerance.
+pub const ULPS_PER_STEP: f64 = 1024.0;
 
 /// Time strictly increasing and uniformly sampled (finite values and >= 2 samples checked
 /// before). The typical step is the median: one missing or repeated sample changes the mean
@@ -120,6 +128,10 @@ pub(crate) fn check_time(name: &str, t: &[f64]) -> Result<(), DataError> {
     let Some(&typical) = steps.get(steps.len() / 2) else {
         return Ok(()); // fewer than 2 samples: checked by the callers
     };
+    let t_max = t.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+    if !typical.is_normal() || typical < ULPS_PER_STEP * f64::EPSILON * t_max {
+        return Err(DataError::TinyStep { name: name.to_string(), step: typical, t: t_max });
+    }
     for (i, (&t_prev, &t_next)) in pairs().enumerate() {
         let step = t_next - t_prev;
         if (step - typical).abs() > SAMPLING_RTOL * typical {

@@ -180,7 +180,7 @@ pub fn to_device_model(m: &SsmModel, cfg: ControllerConfig) -> Result<OwnedModel
 
 /// Encodes the device blob.
 pub fn encode(model: &OwnedModel) -> Result<Vec<u8>, ExportError> {
-    model.encode().map_err(|e| ExportError::Encode(format!("{e:?}")))
+    model.encode().map_err(|e| ExportError::Encode(e.to_string()))
 }
 
 #[cfg(test)]

@@ -559,7 +559,7 @@ impl SsmModel {
         }
         // The embedding holds `embed` delayed copies of every observable.
         let (d, p) = (self.options.dim, self.options.embed * self.observables);
-        positive("dt", self.dt)?;
+        time_step("dt", self.dt, None)?;
         let man = &self.manifold;
         if man.dim != d {
             return inv("manifold.dim", format!("{} differs from options.dim = {d}", man.dim));
@@ -580,13 +580,13 @@ impl SsmModel {
             ReducedDynamics::Flow { field, .. } => check_poly("dynamics.Flow.field", field, d, d)?,
             ReducedDynamics::Map { increment, dt, .. } => {
                 check_poly("dynamics.Map.increment", increment, d, d)?;
-                positive("dynamics.Map.dt", *dt)?;
+                time_step("dynamics.Map.dt", *dt, Some(self.dt))?;
             }
             ReducedDynamics::Rbf(r) => {
                 if r.dim != d {
                     return inv("dynamics.Rbf.dim", format!("{} differs from options.dim = {d}", r.dim));
                 }
-                positive("dynamics.Rbf.dt", r.dt)?;
+                time_step("dynamics.Rbf.dt", r.dt, Some(self.dt))?;
                 positive_vec("dynamics.Rbf.scale", &r.scale, d)?;
                 if r.centers.is_empty() || r.centers.len() % d != 0 {
                     return inv(
@@ -626,6 +626,24 @@ impl SsmModel {
 }
 
 /// `field` must be finite and > 0.
+/// A time step: positive, finite and a normal number, and (for a part of the model) the
+/// model's own `dt` within [`crate::dynamics::MAP_DT_RTOL`].
+fn time_step(field: &str, v: f64, model_dt: Option<f64>) -> Result<(), ModelFileError> {
+    positive(field, v)?;
+    if !v.is_normal() {
+        return Err(ModelFileError::Invalid { field: field.to_string(), why: format!("{v:e} s is subnormal") });
+    }
+    if let Some(dt) = model_dt {
+        if (v - dt).abs() > crate::dynamics::MAP_DT_RTOL * dt {
+            return Err(ModelFileError::Invalid {
+                field: field.to_string(),
+                why: format!("{v} s differs from the model's dt = {dt} s"),
+            });
+        }
+    }
+    Ok(())
+}
+
 fn positive(field: &str, v: f64) -> Result<(), ModelFileError> {
     if v.is_finite() && v > 0.0 {
         Ok(())

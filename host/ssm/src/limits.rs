@@ -24,9 +24,11 @@ pub const MAX_CENTERS: usize = 100_000;
 /// matrix (10^8 f64 = 800 MB).
 pub const MAX_MATRIX_ENTRIES: usize = 100_000_000;
 /// Largest data (CSV) file read, bytes.
-pub const MAX_DATA_FILE_BYTES: u64 = 512 * 1024 * 1024;
+pub const MAX_DATA_FILE_BYTES: u64 = infile::MAX_DATA_BYTES;
 /// Largest saved-model (JSON) file read, bytes.
-pub const MAX_MODEL_FILE_BYTES: u64 = 256 * 1024 * 1024;
+pub const MAX_MODEL_FILE_BYTES: u64 = infile::MAX_MODEL_BYTES;
+/// Deepest nesting of cell arrays in a `.mat` file (SSMLearn's `xData` is one level).
+pub const MAX_MAT_DEPTH: usize = 16;
 
 /// `Err(TooLarge)` naming `what` and the limit when `value > limit`.
 pub fn check(what: &'static str, value: usize, limit: usize) -> Result<(), FitError> {
@@ -52,25 +54,13 @@ pub fn check_matrix(what: &'static str, rows: usize, cols: usize, need_rows: boo
     }
 }
 
-/// Reads a whole file of at most `limit` bytes as UTF-8 text; a larger file (or a device
-/// that never ends, such as `/dev/zero`) is an error naming the limit, read no further.
+/// Reads a whole regular file of at most `limit` bytes as UTF-8 text ([`infile::read_text`]:
+/// a device, FIFO or directory, or a larger file, is an error in words, read no further).
 pub fn read_text_limited(path: &std::path::Path, limit: u64) -> std::io::Result<String> {
-    let bytes = read_limited(path, limit)?;
-    String::from_utf8(bytes)
-        .map_err(|e| std::io::Error::new(std::io::ErrorKind::InvalidData, format!("not UTF-8 text: {e}")))
+    infile::read_text(path, limit)
 }
 
-/// Reads a whole file of at most `limit` bytes.
+/// Reads a whole regular file of at most `limit` bytes ([`infile::read_bytes`]).
 pub fn read_limited(path: &std::path::Path, limit: u64) -> std::io::Result<Vec<u8>> {
-    use std::io::Read;
-    let f = std::fs::File::open(path)?;
-    let mut bytes = Vec::new();
-    f.take(limit.saturating_add(1)).read_to_end(&mut bytes)?;
-    if bytes.len() as u64 > limit {
-        return Err(std::io::Error::new(
-            std::io::ErrorKind::InvalidData,
-            format!("file larger than the limit of {limit} bytes"),
-        ));
-    }
-    Ok(bytes)
+    infile::read_bytes(path, limit)
 }

@@ -30,9 +30,22 @@ use std::path::Path;
 
 use thiserror::Error;
 
-/// Upper bound on a decompressed variable (1 GiB): a corrupt or hostile stream cannot make
-/// the reader allocate without bound.
-pub const MAX_INFLATED_BYTES: usize = 1 << 30;
+/// Upper bound on what the compressed variables of one file inflate to, together: a corrupt
+/// or hostile stream cannot make the reader allocate without bound.
+pub const MAX_INFLATED_BYTES: usize = infile::MAX_MAT_BYTES as usize;
+
+/// A zlib failure in words.
+fn inflate_why(status: miniz_oxide::inflate::TINFLStatus) -> String {
+    use miniz_oxide::inflate::TINFLStatus as S;
+    match status {
+        S::HasMoreOutput => {
+            format!("the variables inflate to more than {MAX_INFLATED_BYTES} bytes together, the limit for a .mat file")
+        }
+        S::FailedCannotMakeProgress | S::NeedsMoreInput => "the compressed stream ends early (truncated)".into(),
+        S::Adler32Mismatch => "checksum mismatch (corrupt data)".into(),
+        _ => "corrupt compressed data".into(),
+    }
+}
 
 /// A value this reader understands.
 #[derive(Clone, Debug, PartialEq)]
@@ -75,6 +88,8 @@ pub enum MatError {
     Inflate { file: String, var: String, why: String },
     #[error("{file}: {var}: {what} is not supported (this reader takes real 2D double arrays and cell arrays of them)")]
     Unsupported { file: String, var: String, what: String },
+    #[error("{file}: {var}: {why}")]
+    Limit { file: String, var: String, why: String },
     #[error("{file}: no variable `{var}` (variables: {available})")]
     NoVariable { file: String, var: String, available: String },
 }
@@ -193,6 +208,17 @@ fn convert<const N: usize>(data: &[u8], f: fn([u8; N]) -> f64) -> Result<Vec<f64
     Ok(chunks.map(|c| f(c.try_into().unwrap_or([0; N]))).collect())
 }
 
+/// Bytes per value of numeric storage type `ty` (`None` when not numeric).
+fn type_size(ty: u32) -> Option<usize> {
+    match ty {
+        MI_INT8 | MI_UINT8 => Some(1),
+        MI_INT16 | MI_UINT16 => Some(2),
+        MI_INT32 | MI_UINT32 | MI_SINGLE => Some(4),
+        MI_DOUBLE | MI_INT64 | MI_UINT64 => Some(8),
+        _ => None,
+    }
+}
+
 /// Numbers of storage type `ty` as f64 (little-endian).
 fn numbers(ty: u32, data: &[u8]) -> Result<Vec<f64>, String> {
     match ty {
@@ -247,7 +273,8 @@ impl MatFile {
     pub fn open(path: impl AsRef<Path>) -> Result<Self, MatError> {
         let path = path.as_ref();
         let file = path.display().to_string();
-        let bytes = std::fs::read(path).map_err(|source| MatError::Io { file: file.clone(), source })?;
+        let bytes = infile::read_bytes(path, infile::MAX_MAT_BYTES)
+            .map_err(|source| MatError::Io { file: file.clone(), source })?;
         Self::parse(&file, &bytes)
     }
 
@@ -282,6 +309,7 @@ impl MatFile {
         }
         let mut vars = Vec::new();
         let mut top = Cursor::new(rest);
+        let mut inflated_total = 0usize;
         while !top.at_end() {
             let index = vars.len() + 1;
             let where_ = || format!("variable #{index}");
@@ -289,12 +317,12 @@ impl MatFile {
             let (ty, data) = top.element().map_err(malformed)?;
             let body = match ty {
                 MI_COMPRESSED => {
-                    let inflated = miniz_oxide::inflate::decompress_to_vec_zlib_with_limit(data, MAX_INFLATED_BYTES)
-                        .map_err(|e| MatError::Inflate {
-                            file: file.to_string(),
-                            var: where_(),
-                            why: format!("{:?}", e.status),
+                    let budget = MAX_INFLATED_BYTES.saturating_sub(inflated_total);
+                    let inflated =
+                        miniz_oxide::inflate::decompress_to_vec_zlib_with_limit(data, budget).map_err(|e| {
+                            MatError::Inflate { file: file.to_string(), var: where_(), why: inflate_why(e.status) }
                         })?;
+                    inflated_total = inflated_total.saturating_add(inflated.len());
                     let mut inner = Cursor::new(&inflated);
                     let (ty, payload) = inner.element().map_err(malformed)?;
                     if ty != MI_MATRIX {
@@ -332,13 +360,17 @@ impl MatFile {
             var: name.to_string(),
             available: if self.vars.is_empty() { "none".into() } else { self.names().join(", ") },
         })?;
-        self.value(&v.body, name)
+        let mut entries = 0usize;
+        self.value(&v.body, name, 0, &mut entries)
     }
 
-    /// Parses one `miMATRIX` payload; `path` names it in errors.
-    fn value(&self, body: &[u8], path: &str) -> Result<MatValue, MatError> {
+    /// Parses one `miMATRIX` payload; `path` names it in errors, `depth` counts the cells
+    /// around it ([`crate::limits::MAX_MAT_DEPTH`]), `entries` the doubles and cells read so
+    /// far ([`crate::limits::MAX_MATRIX_ENTRIES`] for the whole variable).
+    fn value(&self, body: &[u8], path: &str, depth: usize, entries: &mut usize) -> Result<MatValue, MatError> {
         let malformed = |why: String| MatError::Malformed { file: self.file.clone(), var: path.to_string(), why };
         let unsupported = |what: String| MatError::Unsupported { file: self.file.clone(), var: path.to_string(), what };
+        let limit = |why: String| MatError::Limit { file: self.file.clone(), var: path.to_string(), why };
         if body.is_empty() {
             // `[]` inside a cell.
             return Ok(MatValue::Double { dims: [0, 0], data: Vec::new() });
@@ -350,13 +382,29 @@ impl MatFile {
             return Err(unsupported(format!("a {}-dimensional {class} array ({:?})", h.dims.len(), h.dims)));
         };
         let dims = [rows, cols];
-        let n = rows.checked_mul(cols).ok_or_else(|| malformed(format!("dimensions {dims:?} overflow")))?;
+        let n = rows.checked_mul(cols).ok_or_else(|| malformed(format!("dimensions {rows}x{cols} overflow")))?;
+        // Checked against the limit before anything of that size is allocated.
+        *entries = entries.saturating_add(n);
+        if *entries > crate::limits::MAX_MATRIX_ENTRIES {
+            return Err(limit(format!(
+                "a {rows}x{cols} {class} array: {} entries with those before it, over the limit of {}",
+                *entries,
+                crate::limits::MAX_MATRIX_ENTRIES
+            )));
+        }
         match h.class {
             MX_DOUBLE => {
                 if h.flags & FLAG_COMPLEX != 0 {
                     return Err(unsupported("a complex double array".into()));
                 }
                 let (ty, re) = c.element().map_err(malformed)?;
+                // The count is checked before the conversion allocates (a byte per value
+                // would become eight).
+                if let Some(size) = type_size(ty) {
+                    if re.len() / size != n {
+                        return Err(malformed(format!("{} values for dimensions {rows}x{cols}", re.len() / size)));
+                    }
+                }
                 let data = numbers(ty, re).map_err(|w| malformed(format!("real part: {w}")))?;
                 if data.len() != n {
                     return Err(malformed(format!("{} values for dimensions {rows}x{cols}", data.len())));
@@ -364,6 +412,17 @@ impl MatFile {
                 Ok(MatValue::Double { dims, data })
             }
             MX_CELL => {
+                if depth >= crate::limits::MAX_MAT_DEPTH {
+                    return Err(limit(format!("cell arrays nested more than {} deep", crate::limits::MAX_MAT_DEPTH)));
+                }
+                // Every element takes at least an 8-byte tag: a count the bytes cannot hold is
+                // refused before the list is allocated.
+                let left = body.len().saturating_sub(c.pos);
+                if n > left / 8 {
+                    return Err(malformed(format!(
+                        "a {rows}x{cols} cell array claims {n} elements but only {left} bytes follow"
+                    )));
+                }
                 let mut cells = Vec::with_capacity(n);
                 for k in 0..n {
                     let sub = format!("{path}{{{},{}}}", k % dims[0].max(1) + 1, k / dims[0].max(1) + 1);
@@ -379,7 +438,7 @@ impl MatFile {
                             why: format!("data type {ty}, expected miMATRIX"),
                         });
                     }
-                    cells.push(self.value(payload, &sub)?);
+                    cells.push(self.value(payload, &sub, depth + 1, entries)?);
                 }
                 Ok(MatValue::Cell { dims, cells })
             }

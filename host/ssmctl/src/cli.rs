@@ -537,6 +537,14 @@ pub fn check_options(cli: &Cli) -> Result<(), Box<dyn std::error::Error>> {
             if let Some(dt) = dt_ms.iter().find(|dt| !(dt.is_finite() && **dt > 0.0)) {
                 return Err(format!("--dt-ms {dt}: a sampling period must be finite and > 0 ms").into());
             }
+            if dt_ms.len() > sim::chart::MAX_PANELS {
+                return Err(format!(
+                    "--dt-ms: {} sampling periods; a chart has at most {} panels",
+                    dt_ms.len(),
+                    sim::chart::MAX_PANELS
+                )
+                .into());
+            }
             bundled(scene)?;
         }
         Cmd::Fit(a) => {
@@ -870,7 +878,11 @@ fn run_command(cli: Cli) -> Result<(), Box<dyn std::error::Error>> {
             }
         }
         Cmd::Backbone { model, out, observable, amplitude } => {
-            let text = std::fs::read_to_string(&model).map_err(|e| format!("reading {}: {e}", model.display()))?;
+            for f in ["backbone.json", "backbone.png"] {
+                crate::output::check_not_input(&out.join(f), &[("--model", model.as_path())])?;
+            }
+            let text = infile::read_text(&model, infile::MAX_MODEL_BYTES)
+                .map_err(|e| format!("--model {}: cannot read: {e}", model.display()))?;
             let m = ssm::SsmModel::from_json(&text).map_err(|e| format!("{}: {e}", model.display()))?;
             let index = observable.checked_sub(1).ok_or("--observable is 1-based")?;
             let curves = ssm::backbone::backbone(&m, &ssm::backbone::BackboneOptions::new(index, amplitude))?;
@@ -881,7 +893,8 @@ fn run_command(cli: Cli) -> Result<(), Box<dyn std::error::Error>> {
         }
         Cmd::Frc { model, out, freq_range, calibrate, observable, mode, amplitude_max, json } => {
             crate::output::check_not_input(&out.join("frc.json"), &[("--model", model.as_path())])?;
-            let text = std::fs::read_to_string(&model).map_err(|e| format!("reading {}: {e}", model.display()))?;
+            let text = infile::read_text(&model, infile::MAX_MODEL_BYTES)
+                .map_err(|e| format!("--model {}: cannot read: {e}", model.display()))?;
             let m = ssm::SsmModel::from_json(&text).map_err(|e| format!("{}: {e}", model.display()))?;
             let (lo, hi, n) = crate::fit_command::parse_freq_range(&freq_range)?;
             let cal = crate::fit_command::parse_calibration(&calibrate)?;
@@ -900,8 +913,8 @@ fn run_command(cli: Cli) -> Result<(), Box<dyn std::error::Error>> {
         }
         Cmd::Export { model, out, scene } => {
             // `--out` onto `--model` or the scene file is refused by `run` (see `output_plan`).
-            let text = ssm::limits::read_text_limited(&model, ssm::limits::MAX_MODEL_FILE_BYTES)
-                .map_err(|e| format!("reading {}: {e}", model.display()))?;
+            let text = infile::read_text(&model, infile::MAX_MODEL_BYTES)
+                .map_err(|e| format!("--model {}: cannot read: {e}", model.display()))?;
             let m = ssm::SsmModel::from_json(&text).map_err(|e| format!("{}: {e}", model.display()))?;
             let cfg = match scene {
                 Some(s) => {
@@ -932,8 +945,8 @@ fn run_command(cli: Cli) -> Result<(), Box<dyn std::error::Error>> {
             );
         }
         Cmd::Inspect { blob, json } => {
-            let bytes = ssm::limits::read_limited(&blob, crate::fit_command::MAX_BLOB_BYTES)
-                .map_err(|e| format!("reading {}: {e}", blob.display()))?;
+            let bytes = infile::read_bytes(&blob, infile::MAX_BLOB_BYTES)
+                .map_err(|e| format!("{}: cannot read: {e}", blob.display()))?;
             let v = crate::fit_command::inspect(&bytes).map_err(|e| format!("{}: {e}", blob.display()))?;
             if json {
                 outln!("{}", serde_json::to_string_pretty(&v)?);

@@ -270,6 +270,9 @@ pub fn parse_freq_range(s: &str) -> Result<(f64, f64, usize), String> {
     if b <= a {
         return Err(format!("--freq-range `{s}`: the upper end must exceed the lower end"));
     }
+    if !(2..=ssm::frc::MAX_FRC_POINTS).contains(&n) {
+        return Err(format!("--freq-range `{s}`: N = {n} points; need 2 ..= {}", ssm::frc::MAX_FRC_POINTS));
+    }
     Ok((a, b, n))
 }
 
@@ -448,7 +451,7 @@ pub type HostModel = shared::model::Model<256, { ssm::limits::MAX_DIM }, 8192, 4
 
 /// Largest blob file `inspect` reads: header plus the largest payload [`HostModel`] holds,
 /// with room to spare (the decoder then names what is wrong).
-pub const MAX_BLOB_BYTES: u64 = 16 * 1024 * 1024;
+pub const MAX_BLOB_BYTES: u64 = infile::MAX_BLOB_BYTES;
 
 /// Why a blob is refused: its format, or its controller configuration.
 #[derive(Debug, thiserror::Error)]

@@ -65,7 +65,7 @@ pub enum PilError {
     Blob(String),
     #[error("{0}")]
     Options(String),
-    #[error("{what}: {source}")]
+    #[error("{what}: {}", infile::describe(.source))]
     Io { what: String, source: std::io::Error },
     #[error("QEMU: {0}")]
     Qemu(String),
@@ -418,13 +418,33 @@ fn qemu_program() -> std::ffi::OsString {
     std::env::var_os("SSMCTL_QEMU").unwrap_or_else(|| "qemu-system-arm".into())
 }
 
+/// Checks that `elf` is ARM firmware (a 32-bit little-endian ELF image for machine ARM)
+/// before QEMU is asked to boot it; `log` is where QEMU's own messages go.
+fn check_firmware(elf: &Path, log: &Path) -> Result<(), PilError> {
+    let head = infile::read_prefix(elf, 20).map_err(|e| {
+        let hint = if e.kind() == std::io::ErrorKind::NotFound {
+            ": build it with `cargo xtask pil` (or `cargo build --release --bin pil` in qemu/)"
+        } else {
+            ""
+        };
+        PilError::Options(format!("--elf {}: cannot read: {e}{hint}", elf.display()))
+    })?;
+    let what = match head.as_slice() {
+        [0x7f, b'E', b'L', b'F', 1, 1, _, _, _, _, _, _, _, _, _, _, _, _, 40, 0] => return Ok(()),
+        [0x7f, b'E', b'L', b'F', ..] if head.len() < 20 => "a truncated ELF file",
+        [0x7f, b'E', b'L', b'F', 2, ..] => "a 64-bit ELF file (a host program?)",
+        [0x7f, b'E', b'L', b'F', ..] => "an ELF file for another machine than 32-bit little-endian ARM",
+        [] => "an empty file",
+        _ => "not an ELF file",
+    };
+    Err(PilError::Options(format!(
+        "--elf {}: {what}, not the firmware; build it with `cargo xtask pil` (QEMU's messages go to {})",
+        elf.display(),
+        log.display()
+    )))
+}
+
 fn start(elf: &Path, machine: Machine, out: &Path) -> Result<(crate::child::Tied, TcpStream), PilError> {
-    if !elf.exists() {
-        return Err(PilError::Qemu(format!(
-            "{} does not exist: build it with `cargo xtask pil` (or `cargo build --release --bin pil` in qemu/)",
-            elf.display()
-        )));
-    }
     let listener = TcpListener::bind("127.0.0.1:0").map_err(io("bind 127.0.0.1:0"))?;
     let port = listener.local_addr().map_err(io("local address"))?.port();
     let log_path = out.join("qemu.log");
@@ -461,7 +481,10 @@ fn start(elf: &Path, machine: Machine, out: &Path) -> Result<(crate::child::Tied
                     )));
                 }
                 if t0.elapsed() > Duration::from_secs(10) {
-                    return Err(PilError::Qemu("did not connect to the UART socket within 10 s".into()));
+                    return Err(PilError::Qemu(format!(
+                        "did not connect to the UART socket within 10 s (see {})",
+                        log_path.display()
+                    )));
                 }
                 std::thread::sleep(Duration::from_millis(5));
             }
@@ -492,6 +515,7 @@ pub fn run(opts: &PilOptions) -> Result<PilSummary, PilError> {
             opts.periods
         )));
     }
+    check_firmware(&opts.elf, &opts.out.join("qemu.log"))?;
     let scene = Scene::load(&opts.scene, &opts.overrides)?;
     sim::with_plant!(build_plant(&scene)?, p => run_with(&p, &scene, opts))
 }
@@ -512,8 +536,8 @@ fn run_with<P: Plant<N>, const N: usize>(plant: &P, scene: &Scene, opts: &PilOpt
         crate::output::check_not_input(o, &[("--model", &opts.model), ("--scene", &scene_file), ("--elf", &opts.elf)])
             .map_err(|e| PilError::Options(e.to_string()))?;
     }
-    let blob = ssm::limits::read_limited(&opts.model, crate::fit_command::MAX_BLOB_BYTES)
-        .map_err(io(format!("reading {}", opts.model.display())))?;
+    let blob = infile::read_bytes(&opts.model, infile::MAX_BLOB_BYTES)
+        .map_err(io(format!("--model {}: cannot read", opts.model.display())))?;
     let mut pred = Box::new(PilPredictor::empty(SqrtFlavour::Libm));
     pred.load(&blob).map_err(|e| PilError::Blob(format!("{}: {e}", opts.model.display())))?;
     if *pred.model().config() != cfg {

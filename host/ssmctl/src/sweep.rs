@@ -75,7 +75,8 @@ pub fn pick_shard(
 
 /// Reads and validates a spec file.
 pub fn load_spec(path: &Path) -> Result<Sweep, BoxError> {
-    let text = std::fs::read_to_string(path).map_err(|e| format!("cannot read sweep spec {}: {e}", path.display()))?;
+    let text = infile::read_text(path, infile::MAX_SPEC_BYTES)
+        .map_err(|e| format!("cannot read sweep spec {}: {e}", path.display()))?;
     let dir = path.parent().filter(|d| !d.as_os_str().is_empty()).unwrap_or(Path::new("."));
     Ok(Sweep::parse(&path.display().to_string(), &text, dir)?)
 }
@@ -113,7 +114,8 @@ pub fn run(
     let threads = rayon::current_num_threads();
     if file.exists() && !force {
         let label = file.display().to_string();
-        let text = std::fs::read_to_string(&file).map_err(|e| format!("cannot read {label}: {e}"))?;
+        let text =
+            infile::read_text(&file, infile::MAX_SHARD_BYTES).map_err(|e| format!("cannot read {label}: {e}"))?;
         match ShardFile::parse(&label, &text) {
             Ok(f) if f.completes(&sweep, &hash, shard) => {
                 return Ok(SweepRun {
@@ -175,7 +177,7 @@ pub struct MergeSummary {
 /// Merges every `shard-*.json` of `dir` into `out` (a folder, created if needed).
 pub fn merge_dir(dir: &Path, out: &Path) -> Result<MergeSummary, BoxError> {
     let mut names: Vec<PathBuf> = std::fs::read_dir(dir)
-        .map_err(|e| format!("cannot read shard folder {}: {e}", dir.display()))?
+        .map_err(|e| format!("cannot read shard folder {}: {}", dir.display(), infile::describe(&e)))?
         .filter_map(|e| e.ok().map(|e| e.path()))
         .filter(|p| {
             p.file_name().and_then(|n| n.to_str()).is_some_and(|n| n.starts_with("shard-") && n.ends_with(".json"))
@@ -188,7 +190,7 @@ pub fn merge_dir(dir: &Path, out: &Path) -> Result<MergeSummary, BoxError> {
     let mut files = Vec::with_capacity(names.len());
     for p in &names {
         let label = p.display().to_string();
-        let text = std::fs::read_to_string(p).map_err(|e| format!("cannot read {label}: {e}"))?;
+        let text = infile::read_text(p, infile::MAX_SHARD_BYTES).map_err(|e| format!("cannot read {label}: {e}"))?;
         files.push((label.clone(), ShardFile::parse(&label, &text)?));
     }
     let (result, stats) = merge(files)?;
@@ -241,6 +243,13 @@ fn chart_figure(r: &SweepResult, png: &Path) -> Result<Option<String>, BoxError>
     };
     let idt = s.axis(AxisName::DtMs);
     let dts: Vec<f64> = idt.map_or_else(|| vec![s.scene.controller.dt_ms], |i| s.axes[i].values.clone());
+    if dts.len() > sim::chart::MAX_PANELS {
+        return Ok(Some(format!(
+            "{} dt_ms values: a chart figure has at most {} panels (the cells are in the JSON and CSV)",
+            dts.len(),
+            sim::chart::MAX_PANELS
+        )));
+    }
     let mut panels = Vec::with_capacity(dts.len());
     for (d, &dt_ms) in dts.iter().enumerate() {
         let mut points = Vec::with_capacity(kp.n * kd.n);

@@ -1,7 +1,8 @@
 //! Issue 14, item 5: every library `Err` that reaches `main` becomes exit code 1 (or clap's 2)
 //! with a message naming the input, never 101 (panic) or 134 (abort). One property over
 //! generated bad inputs of each boundary kind, run through the test-built `ssmctl`: a scene
-//! file, a CSV data file, a saved model (JSON), a device blob, a numeric option. A run that
+//! file, a CSV data file, a saved model (JSON), a device blob, a numeric option, and (issue
+//! 37) a `.mat` file, a sweep spec and a sweep shard file. A run that
 //! succeeds is allowed (a mutation may leave the input valid); then what it wrote must be
 //! accepted downstream (an exported blob passes `inspect`).
 //!
@@ -32,6 +33,8 @@ struct Fixture {
     model: String,
     blob: Vec<u8>,
     scene: String,
+    /// The shard file of [`SPEC`], one shard (pretty JSON: one value per line).
+    shard: String,
 }
 
 fn fixture() -> &'static Fixture {
@@ -67,7 +70,15 @@ fn fixture() -> &'static Fixture {
         let blob_path = dir.join("model.bin");
         let (code, err) = ssmctl(&["export", "--model", s(&model_path), "--out", s(&blob_path)]);
         assert_eq!(code, Some(0), "{err}");
+        let spec = dir.join("tiny.toml");
+        std::fs::write(&spec, SPEC).unwrap();
+        let (code, err) = ssmctl(&["sweep", s(&spec), "--out", s(&dir.join("shards"))]);
+        assert_eq!(code, Some(0), "{err}");
+        let shard: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(dir.join("shards/shard-000000-of-000001.json")).unwrap())
+                .unwrap();
         Fixture {
+            shard: serde_json::to_string_pretty(&shard).unwrap(),
             csv: std::fs::read_to_string(&csv_path).unwrap(),
             model: std::fs::read_to_string(&model_path).unwrap(),
             blob: std::fs::read(&blob_path).unwrap(),
@@ -109,6 +120,13 @@ enum Case {
     Blob { edits: Vec<(usize, u8)>, fix_crc: bool, cut: Option<usize> },
     /// A numeric option of a command with a bad value.
     Option { which: usize, value: String },
+    /// A `.mat` file (SSMLearn's duffing data) with bytes changed, or a header-size field
+    /// (a dimension or a byte count) set to a huge value.
+    Mat { edits: Vec<(usize, u8)>, huge: Option<usize> },
+    /// A small chart sweep spec with the numeric value of one line replaced.
+    Spec { line: usize, value: String },
+    /// A shard file of that sweep with one number or array (by position) replaced.
+    Shard { at: usize, value: String },
 }
 
 fn case() -> impl Strategy<Value = Case> {
@@ -132,8 +150,20 @@ fn case() -> impl Strategy<Value = Case> {
         (prop::collection::vec((any::<usize>(), any::<u8>()), 1..6), any::<bool>(), prop::option::of(any::<usize>()))
             .prop_map(|(edits, fix_crc, cut)| Case::Blob { edits, fix_crc, cut }),
         (0usize..OPTIONS.len(), bad_number()).prop_map(|(which, value)| Case::Option { which, value }),
+        (prop::collection::vec((any::<usize>(), any::<u8>()), 0..6), prop::option::of(any::<usize>()))
+            .prop_map(|(edits, huge)| Case::Mat { edits, huge }),
+        (any::<usize>(), bad_number()).prop_map(|(line, value)| Case::Spec { line, value }),
+        (any::<usize>(), json_value2()).prop_map(|(at, value)| Case::Shard { at, value }),
     ]
 }
+
+/// Bad JSON values for the shard file (the model's list, without its long vector).
+fn json_value2() -> impl Strategy<Value = String> {
+    prop_oneof![bad_number(), Just("[]".to_string()), Just("null".to_string()), Just("\"../x\"".to_string())]
+}
+
+/// The sweep spec of [`Case::Spec`] and [`Case::Shard`]: 6 chart cells.
+const SPEC: &str = "name = \"tiny\"\nkind = \"chart\"\nscene = \"furuta-dt25\"\n[[axes]]\nname = \"kd\"\nlo = 0.0\nhi = 8.0\nn = 2\n[[axes]]\nname = \"kp\"\nlo = 0.0\nhi = 40.0\nn = 3\n";
 
 /// Commands with one numeric option (the last argument's value is the case's); what the
 /// message must name.
@@ -192,6 +222,35 @@ fn crc32(bytes: &[u8]) -> u32 {
         }
     }
     !c
+}
+
+/// Replaces the JSON value (number or array) starting at the `at`-th `: ` or `:` of `t`.
+fn replace_json_value(t: &str, at: usize, value: &str) -> String {
+    let starts: Vec<usize> = t
+        .match_indices(':')
+        .map(|(i, _)| if t[i + 1..].starts_with(' ') { i + 2 } else { i + 1 })
+        .filter(|&i| t[i..].starts_with(['-', '0', '1', '2', '3', '4', '5', '6', '7', '8', '9', '[']))
+        .collect();
+    let i = starts[at % starts.len()];
+    let end = if t[i..].starts_with('[') {
+        let mut depth = 0;
+        i + t[i..]
+            .char_indices()
+            .find(|&(_, ch)| {
+                depth += match ch {
+                    '[' => 1,
+                    ']' => -1,
+                    _ => 0,
+                };
+                depth == 0
+            })
+            .unwrap()
+            .0
+            + 1
+    } else {
+        i + t[i..].find([',', '\n', '}', ']']).unwrap()
+    };
+    format!("{}{}{}", &t[..i], value, &t[end..])
 }
 
 /// Writes the case's input, runs its command; returns (args, exit code, stderr, what the
@@ -292,6 +351,50 @@ fn run_case(c: &Case, n: usize) -> (Vec<String>, Option<i32>, String, Vec<String
             let p = path("bin");
             std::fs::write(&p, b).unwrap();
             (vec!["inspect".into(), s(&p).into()], vec![s(&p).into()])
+        }
+        Case::Mat { edits, huge } => {
+            let mut b =
+                std::fs::read(Path::new(env!("CARGO_MANIFEST_DIR")).join("../ssm/tests/data/duffing_plain.mat"))
+                    .unwrap();
+            for &(at, v) in edits {
+                let i = 128 + at % (b.len() - 128);
+                b[i] = v;
+            }
+            if let Some(at) = huge {
+                // A u32 field at an 8-byte boundary after the header: a tag's byte count or
+                // a dimension, set to 2^31 - 1.
+                let i = 128 + 4 + 8 * (at % ((b.len() - 136) / 8));
+                b[i..i + 4].copy_from_slice(&i32::MAX.to_le_bytes());
+            }
+            let p = path("mat");
+            std::fs::write(&p, b).unwrap();
+            (["fit", "--mat", s(&p), "--dim", "2", "--embed", "2"].map(String::from).to_vec(), vec![s(&p).into()])
+        }
+        Case::Spec { line, value } => {
+            let lines: Vec<&str> = SPEC.lines().collect();
+            let numeric: Vec<usize> = (0..lines.len())
+                .filter(|&i| lines[i].split_once('=').is_some_and(|(_, v)| v.trim().parse::<f64>().is_ok()))
+                .collect();
+            let i = numeric[line % numeric.len()];
+            let key = lines[i].split_once('=').unwrap().0.trim().to_string();
+            let text: Vec<String> = lines
+                .iter()
+                .enumerate()
+                .map(|(j, l)| if j == i { format!("{key} = {value}") } else { l.to_string() })
+                .collect();
+            let p = path("spec.toml");
+            std::fs::write(&p, text.join("\n")).unwrap();
+            let out = f.dir.join(format!("case{n}-sweep"));
+            (vec!["sweep".into(), s(&p).into(), "--out".into(), s(&out).into()], vec![s(&p).into()])
+        }
+        Case::Shard { at, value } => {
+            let text = replace_json_value(&f.shard, *at, value);
+            let dir = f.dir.join(format!("case{n}-shards"));
+            std::fs::create_dir_all(&dir).unwrap();
+            let p = dir.join("shard-000000-of-000001.json");
+            std::fs::write(&p, text).unwrap();
+            let out = f.dir.join(format!("case{n}-merged"));
+            (vec!["sweep-merge".into(), s(&dir).into(), "--out".into(), s(&out).into()], vec![s(&p).into()])
         }
         Case::Option { which, value } => {
             let (cmd, name) = OPTIONS[*which];

@@ -83,12 +83,19 @@ fn stand_in_dies_with_ssmctl(dir: &Path, signal: i32) -> Duration {
     std::fs::set_permissions(&script, std::os::unix::fs::PermissionsExt::from_mode(0o755)).unwrap();
     let model = dir.join("model.bin");
     std::fs::write(&model, blob("furuta-quant-dt25")).unwrap();
+    // The stand-in boots nothing, but ssmctl checks that --elf is ARM firmware: an ELF
+    // header (32-bit, little-endian, machine ARM) is enough.
+    let elf = dir.join("fake.elf");
+    let mut header = vec![0x7f, b'E', b'L', b'F', 1, 1, 1];
+    header.resize(18, 0);
+    header.extend_from_slice(&40u16.to_le_bytes());
+    std::fs::write(&elf, header).unwrap();
     let out = dir.join(format!("out-{signal}"));
     let mut ssmctl = Command::new(env!("CARGO_BIN_EXE_ssmctl"))
         .args(["pil", "--scene", "furuta-quant-dt25", "--periods", "10", "--model"])
         .arg(&model)
         .arg("--elf")
-        .arg(&script)
+        .arg(&elf)
         .arg("--out")
         .arg(&out)
         .env("SSMCTL_QEMU", &script)

@@ -27,6 +27,9 @@ pub const TARGETS: &[Target] = &[
     ("pil_frames", pil_frames),
     ("cli_options", cli_options),
     ("plant_expressions", plant_expressions),
+    ("mat_file", mat_file),
+    ("sweep_spec", sweep_spec),
+    ("shard_file", shard_file),
 ];
 
 /// The target called `name`.
@@ -475,6 +478,7 @@ fn assert_within_limits(cmd: &ssmctl::cli::Cmd) {
                 );
             }
             assert!(dt_ms.iter().all(|d| d.is_finite() && *d > 0.0), "--dt-ms {dt_ms:?} accepted");
+            assert!(dt_ms.len() <= sim::chart::MAX_PANELS, "{} panels accepted", dt_ms.len());
         }
         Cmd::Fit(a) => {
             assert!((1..=MAX_DIM).contains(&a.dim), "--dim {} accepted", a.dim);
@@ -535,3 +539,154 @@ pub fn plant_expressions(data: &[u8]) {
         assert!(d == v || (d.is_nan() && v.is_nan()), "dual value {d} vs f64 {v} at {point:?}");
     }
 }
+/// An error message must name `label` (the file or spec it is about) and be words, not a
+/// Rust `Debug` dump or a bare OS error number.
+fn check_named(what: &str, label: &str, msg: &str) {
+    check_message(what, msg);
+    assert!(msg.contains(label), "{what}: error does not name {label}: {msg}");
+    for debug in ["Some(", "None", "Err(", "Ok(", " { ", "os error"] {
+        assert!(!msg.contains(debug), "{what}: error with Rust debug text `{debug}`: {msg}");
+    }
+}
+
+/// The file name fuzzed `.mat` bytes are parsed under.
+const MAT_FILE: &str = "fuzz.mat";
+
+/// `.mat` files (`ssm::mat::MatFile::parse`, every variable's `get`, then SSMLearn's
+/// trajectory layout `ssm::data::mat_trajectories`). Input: the file's bytes when they start
+/// with `M` (the header's text), else the bytes after a valid v5 little-endian header (so
+/// mutations reach the data elements). An error names the file and is words; an accepted
+/// value has exactly the elements its dimensions say, cells nested at most
+/// [`ssm::limits::MAX_MAT_DEPTH`] deep and at most [`ssm::limits::MAX_MATRIX_ENTRIES`]
+/// entries; accepted trajectories validate.
+pub fn mat_file(data: &[u8]) {
+    let bytes: Vec<u8> = if data.first() == Some(&b'M') {
+        data.to_vec()
+    } else {
+        let mut b = b"MATLAB 5.0 MAT-file, fuzz".to_vec();
+        b.resize(124, b' ');
+        b.extend_from_slice(&0x0100u16.to_le_bytes());
+        b.extend_from_slice(b"IM");
+        b.extend_from_slice(data);
+        b
+    };
+    let m = match ssm::mat::MatFile::parse(MAT_FILE, &bytes) {
+        Ok(m) => m,
+        Err(e) => return check_named("mat", MAT_FILE, &e.to_string()),
+    };
+    let names: Vec<String> = m.names().iter().map(|s| s.to_string()).collect();
+    for name in names.iter().take(4) {
+        match m.get(name) {
+            Ok(v) => {
+                let entries = mat_shape_ok(&v, 0);
+                assert!(entries <= ssm::limits::MAX_MATRIX_ENTRIES, "{entries} entries accepted");
+                match ssm::data::mat_trajectories(MAT_FILE, name, &v) {
+                    Ok(ts) => {
+                        for t in &ts {
+                            assert_eq!(t.validate().map_err(|e| e.to_string()), Ok(()), "accepted trajectory");
+                            check_series(&t.t, &t.x);
+                        }
+                    }
+                    Err(e) => check_named("mat layout", MAT_FILE, &e.to_string()),
+                }
+            }
+            Err(e) => check_named("mat get", MAT_FILE, &e.to_string()),
+        }
+    }
+}
+
+/// Checks that every array of `v` has the elements its dimensions say; returns the entries.
+fn mat_shape_ok(v: &ssm::mat::MatValue, depth: usize) -> usize {
+    use ssm::mat::MatValue;
+    assert!(depth <= ssm::limits::MAX_MAT_DEPTH, "cells nested {depth} deep accepted");
+    match v {
+        MatValue::Double { dims, data } => {
+            assert_eq!(dims[0] * dims[1], data.len(), "a {dims:?} double array with {} values", data.len());
+            data.len()
+        }
+        MatValue::Cell { dims, cells } => {
+            assert_eq!(dims[0] * dims[1], cells.len(), "a {dims:?} cell with {} elements", cells.len());
+            cells.iter().map(|c| mat_shape_ok(c, depth + 1)).sum::<usize>() + cells.len()
+        }
+    }
+}
+
+/// The label fuzzed sweep specs are parsed under.
+const SPEC_LABEL: &str = "fuzz-spec.toml";
+
+/// Sweep specs (`furuta::sweep::Sweep::parse`: TOML, the scene with its `set` overrides,
+/// axes, records, basin settings). Input: the TOML text. An error names the spec; an
+/// accepted sweep has a safe name, at most `MAX_CELLS` cells with every axis's values
+/// present, passes the check a shard file's embedded spec gets (its grid recomputed from
+/// its parts), and survives the JSON round trip shard files make, hash included.
+pub fn sweep_spec(data: &[u8]) {
+    let text = String::from_utf8_lossy(data);
+    let dir = std::env::temp_dir().join("fuzz-sweep-spec-no-such-dir");
+    let s = match furuta::sweep::Sweep::parse(SPEC_LABEL, &text, &dir) {
+        Ok(s) => s,
+        Err(e) => return check_named("sweep spec", SPEC_LABEL, &e.to_string()),
+    };
+    assert!(sim::scene::check_name(&s.name).is_ok(), "accepted sweep name {:?} is not a safe file name", s.name);
+    assert!(s.cells() >= 1 && s.cells() <= furuta::sweep::MAX_CELLS, "{} cells accepted", s.cells());
+    for a in &s.axes {
+        if let Some(r) = a.range {
+            assert_eq!(a.values.len(), r.n, "axis {} of {} values for n = {}", a.name.as_str(), a.values.len(), r.n);
+        }
+    }
+    if let Err(e) = s.check_embedded("fuzz") {
+        panic!("an accepted spec fails the shard file's check of its own spec: {e}");
+    }
+    let json = serde_json::to_string(&s).unwrap_or_else(|e| panic!("accepted sweep does not serialize: {e}"));
+    let back: furuta::sweep::Sweep =
+        serde_json::from_str(&json).unwrap_or_else(|e| panic!("accepted sweep, serialized, is refused: {e}"));
+    assert_eq!(back.hash().ok(), s.hash().ok(), "the spec hash changed in a JSON round trip");
+}
+
+/// The label fuzzed shard files are parsed under.
+const SHARD_LABEL: &str = "shard-fuzz.json";
+
+/// Sweep shard files (`ShardFile::parse`, then `merge` when the file is a whole run).
+/// Input: JSON text (starting with `{` or white space), or else edits of a bundled shard
+/// file (the first byte picks it, then 8-byte records as in [`model_json`]). An error names
+/// the file; an accepted file's embedded spec passes its own check, its cells are its
+/// shard's with their grid values, and a merged whole run has one cell per grid point, a
+/// safe name and a CSV row per cell.
+pub fn shard_file(data: &[u8]) {
+    let text = match data.first() {
+        Some(b'{' | b' ' | b'\n' | b'\t' | b'\r') | None => String::from_utf8_lossy(data).into_owned(),
+        Some(&pick) => {
+            let base = SHARDS[usize::from(pick) % SHARDS.len()];
+            let mut v: serde_json::Value =
+                serde_json::from_str(base).unwrap_or_else(|e| panic!("bundled seed shard: {e}"));
+            for rec in data[1..].chunks_exact(8) {
+                edit_model(&mut v, rec);
+            }
+            v.to_string()
+        }
+    };
+    use furuta::sweep::shard::{ShardFile, merge};
+    let f = match ShardFile::parse(SHARD_LABEL, &text) {
+        Ok(f) => f,
+        Err(e) => return check_named("shard", SHARD_LABEL, &e.to_string()),
+    };
+    if let Err(e) = f.spec.check_embedded(SHARD_LABEL) {
+        panic!("an accepted shard's spec fails its check: {e}");
+    }
+    assert!(sim::scene::check_name(&f.spec.name).is_ok(), "accepted shard spec name {:?}", f.spec.name);
+    let count = f.shard.count;
+    match merge(vec![(SHARD_LABEL.to_string(), f)]) {
+        Ok((r, _)) => {
+            assert_eq!(count, 1, "a merge of one shard of {count}");
+            assert_eq!(r.cells.len() as u64, r.spec.cells(), "merged cells");
+            for (k, c) in r.cells.iter().enumerate() {
+                assert_eq!(c.index, k as u64, "merged cell order");
+            }
+            assert_eq!(r.to_csv().lines().count(), r.cells.len() + 1, "CSV rows");
+        }
+        Err(e) => check_message("merge", &e.to_string()),
+    }
+}
+
+/// Shard files the structure-aware mode of [`shard_file`] edits (its seeds).
+const SHARDS: [&str; 2] =
+    [include_str!("../../fuzz/seeds/shard_file/chart-whole"), include_str!("../../fuzz/seeds/shard_file/basin-whole")];

@@ -8,8 +8,18 @@
 use super::{Result, cmd, output, root, run};
 
 /// The targets (tests/fuzz/fuzz_targets/*.rs, bodies in tests/fuzz-targets).
-const TARGETS: [&str; 7] =
-    ["scene_toml", "csv_data", "model_json", "model_blob", "pil_frames", "cli_options", "plant_expressions"];
+const TARGETS: [&str; 10] = [
+    "scene_toml",
+    "csv_data",
+    "model_json",
+    "model_blob",
+    "pil_frames",
+    "cli_options",
+    "mat_file",
+    "sweep_spec",
+    "shard_file",
+    "plant_expressions",
+];
 
 pub fn fuzz(args: &[String]) -> Result<()> {
     let mut seconds = 60u64;

@@ -55,6 +55,16 @@ pub enum Kind {
     Chart,
 }
 
+impl Kind {
+    /// The spec's name of the kind.
+    pub fn as_str(self) -> &'static str {
+        match self {
+            Kind::Basin => "basin",
+            Kind::Chart => "chart",
+        }
+    }
+}
+
 /// A grid axis: what it sets in each cell's run.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
@@ -271,6 +281,7 @@ impl Sweep {
     /// Parses and validates a spec; `label` names it in errors, `base_dir` resolves a
     /// relative scene file.
     pub fn parse(label: &str, text: &str, base_dir: &Path) -> Result<Self, Error> {
+        infile::check_nesting(text, infile::MAX_NESTING).map_err(|e| bad(format!("spec {label}"), e))?;
         let value: toml::Value = text
             .parse::<toml::Table>()
             .map(toml::Value::Table)
@@ -292,6 +303,14 @@ impl Sweep {
             if p.is_file() { p.to_string_lossy().into_owned() } else { spec.scene.clone() }
         };
         let scene = Scene::load(&scene_ref, &spec.set).map_err(|e| bad(key("scene"), e.to_string()))?;
+        Self::from_parts(label, spec, scene)
+    }
+
+    /// Validates a spec whose scene is already resolved (`spec.scene` and `spec.set` are not
+    /// read again): the grid, what is recorded and the basin settings.
+    fn from_parts(label: &str, spec: SpecFile, scene: Scene) -> Result<Self, Error> {
+        let key = |k: &str| format!("spec {label}: `{k}`");
+        sim::scene::check_name(&spec.name).map_err(|e| bad(key("name"), e.to_string()))?;
         if spec.axes.is_empty() {
             return Err(bad(key("axes"), "no axes: give at least one [[axes]] table"));
         }
@@ -301,16 +320,19 @@ impl Sweep {
             let k = key(&format!("axes[{i}]"));
             let name = AxisName::parse(&a.name).ok_or_else(|| {
                 let names: Vec<&str> = AxisName::allowed(spec.kind).iter().map(|a| a.as_str()).collect();
-                bad(&k, format!("unknown axis `{}` (a {:?} sweep knows {})", a.name, spec.kind, names.join(", ")))
+                bad(
+                    &k,
+                    format!("unknown axis `{}` (a {} sweep knows {})", a.name, spec.kind.as_str(), names.join(", ")),
+                )
             })?;
             if !AxisName::allowed(spec.kind).contains(&name) {
                 let names: Vec<&str> = AxisName::allowed(spec.kind).iter().map(|a| a.as_str()).collect();
                 return Err(bad(
                     &k,
                     format!(
-                        "axis `{}` does not apply to a {:?} sweep (it knows {})",
+                        "axis `{}` does not apply to a {} sweep (it knows {})",
                         a.name,
-                        spec.kind,
+                        spec.kind.as_str(),
                         names.join(", ")
                     ),
                 ));
@@ -327,10 +349,9 @@ impl Sweep {
                     if let Some(x) = v.iter().find(|x| !x.is_finite()) {
                         return Err(bad(&k, format!("value {x} is not finite")));
                     }
-                    for (j, x) in v.iter().enumerate() {
-                        if v[..j].iter().any(|y| y.to_bits() == x.to_bits()) {
-                            return Err(bad(&k, format!("value {x} given twice")));
-                        }
+                    let mut seen = std::collections::HashSet::with_capacity(v.len());
+                    if let Some(x) = v.iter().find(|x| !seen.insert(x.to_bits())) {
+                        return Err(bad(&k, format!("value {x} given twice")));
                     }
                     (v.clone(), None)
                 }
@@ -344,6 +365,13 @@ impl Sweep {
                             format!(
                                 "empty range: lo = {lo}, hi = {hi}, n = {n} (need lo < hi and n >= 2, or lo = hi and n = 1)"
                             ),
+                        ));
+                    }
+                    // The grid's size is checked before its values are allocated.
+                    if cells.checked_mul(n as u64).is_none_or(|c| c > MAX_CELLS) {
+                        return Err(bad(
+                            &k,
+                            format!("n = {n}: the grid would have more than {MAX_CELLS} cells (the limit)"),
                         ));
                     }
                     if lo == hi {
@@ -376,7 +404,7 @@ impl Sweep {
             }
             cells = cells.saturating_mul(values.len() as u64);
             if cells > MAX_CELLS {
-                return Err(bad(key("axes"), format!("more than {MAX_CELLS} cells")));
+                return Err(bad(key("axes"), format!("more than {MAX_CELLS} cells (the limit)")));
             }
             axes.push(GridAxis { name, values, range });
         }
@@ -392,9 +420,9 @@ impl Sweep {
                         return Err(bad(
                             key("record"),
                             format!(
-                                "`{}` is not recorded by a {:?} sweep (it records {})",
+                                "`{}` is not recorded by a {} sweep (it records {})",
                                 x.as_str(),
-                                spec.kind,
+                                spec.kind.as_str(),
                                 names.join(", ")
                             ),
                         ));
@@ -510,6 +538,87 @@ impl Sweep {
             basin,
             shards: spec.shards,
         })
+    }
+
+    /// Checks a sweep read from a file (a shard's embedded spec) as the spec it claims to be:
+    /// the spec is rebuilt from its own parts (name, kind, scene, the axes as written, what
+    /// is recorded, the basin settings), its grid recomputed, and the result must be this
+    /// sweep exactly. A file edited by hand (grid values off their range, a name with a
+    /// path in it, a record the kind does not make) is refused, naming what differs.
+    pub fn check_embedded(&self, label: &str) -> Result<(), Error> {
+        let key = |k: &str| format!("{label}: spec `{k}`");
+        if self.format != "ssm-sweep-spec" || self.version != FORMAT_VERSION {
+            return Err(bad(
+                key("format"),
+                format!("{} version {}; expected ssm-sweep-spec version {FORMAT_VERSION}", self.format, self.version),
+            ));
+        }
+        self.scene.validate().map_err(|e| bad(key("scene"), e.to_string()))?;
+        let is_axis = |a: AxisName| self.axes.iter().any(|g| g.name == a);
+        let axes = self
+            .axes
+            .iter()
+            .map(|g| match g.range {
+                Some(r) => AxisSpec {
+                    name: g.name.as_str().into(),
+                    lo: Some(r.lo),
+                    hi: Some(r.hi),
+                    n: Some(r.n),
+                    values: None,
+                },
+                None => AxisSpec {
+                    name: g.name.as_str().into(),
+                    lo: None,
+                    hi: None,
+                    n: None,
+                    values: Some(g.values.clone()),
+                },
+            })
+            .collect();
+        let basin = self.basin.as_ref().map(|b| BasinSpec {
+            periods: Some(b.periods),
+            escape_theta: Some(b.escape_theta),
+            slow_amp: b.slow_amp,
+            fast_amp: b.fast_amp,
+            slow_phase: (!is_axis(AxisName::SlowPhase)).then_some(b.slow_phase),
+            fast_phase: (!is_axis(AxisName::FastPhase)).then_some(b.fast_phase),
+        });
+        let spec = SpecFile {
+            name: self.name.clone(),
+            description: self.description.clone(),
+            kind: self.kind,
+            scene: self.scene.name.clone(),
+            set: Vec::new(),
+            axes,
+            record: Some(self.record.clone()),
+            shards: None,
+            basin: (self.kind == Kind::Basin).then(|| basin.unwrap_or_default()),
+        };
+        if self.kind == Kind::Chart && self.basin.is_some() {
+            return Err(bad(key("basin"), "a chart sweep has no basin settings"));
+        }
+        if self.kind == Kind::Basin && self.basin.is_none() {
+            return Err(bad(key("basin"), "a basin sweep without its basin settings"));
+        }
+        let rebuilt = Self::from_parts(label, spec, self.scene.clone())?;
+        for (i, (a, b)) in self.axes.iter().zip(&rebuilt.axes).enumerate() {
+            if a.values.len() != b.values.len()
+                || a.values.iter().zip(&b.values).any(|(x, y)| x.to_bits() != y.to_bits())
+            {
+                return Err(bad(
+                    key(&format!("axes[{i}]")),
+                    format!(
+                        "axis `{}` lists {} values that are not the grid of its range (edited by hand?)",
+                        a.name.as_str(),
+                        a.values.len()
+                    ),
+                ));
+            }
+        }
+        if rebuilt.canonical()? != self.canonical()? {
+            return Err(bad(key("basin"), "settings that the spec does not resolve to (edited by hand?)"));
+        }
+        Ok(())
     }
 
     /// The canonical JSON of the sweep (what the hash covers and shard files embed).

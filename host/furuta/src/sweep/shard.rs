@@ -84,6 +84,8 @@ impl ShardFile {
                 f.spec_hash
             )));
         }
+        // The spec is data too: rebuilt from its parts and its grid recomputed.
+        f.spec.check_embedded(label)?;
         Shard::new(f.shard.index.into(), f.shard.count.into()).map_err(|e| Error::Sweep(format!("{label}: {e}")))?;
         if f.cells_total != f.spec.cells() {
             return Err(Error::Sweep(format!(
@@ -117,6 +119,7 @@ fn check_cells(sweep: &Sweep, shard: Shard, cells: &[Cell], label: &str) -> Resu
             }
             return Err(Error::Sweep(format!("{label}: cell {k} {} is missing", sweep.describe(&sweep.values(k)))));
         }
+        check_record(sweep, c, label)?;
         let v = sweep.values(k);
         if v.len() != c.values.len() || v.iter().zip(&c.values).any(|(a, b)| a.to_bits() != b.to_bits()) {
             return Err(Error::Sweep(format!(
@@ -128,6 +131,37 @@ fn check_cells(sweep: &Sweep, shard: Shard, cells: &[Cell], label: &str) -> Resu
     }
     if let Some(k) = expect.next() {
         return Err(Error::Sweep(format!("{label}: cell {k} {} is missing", sweep.describe(&sweep.values(k)))));
+    }
+    Ok(())
+}
+
+/// Checks that cell `c` holds exactly what `sweep` records (a chart cell in a basin sweep,
+/// or a field the spec does not record, is refused).
+fn check_record(sweep: &Sweep, c: &Cell, label: &str) -> Result<(), Error> {
+    use super::Record;
+    let has = |r: Record| sweep.record.contains(&r);
+    let fields = [
+        (Record::Bounded, c.bounded.is_some()),
+        (Record::MaxTheta, c.max_theta.is_some()),
+        (Record::Radius, c.radius.is_some()),
+        (Record::Kind, c.kind.is_some()),
+    ];
+    for (r, present) in fields {
+        if present != has(r) {
+            let why = if present {
+                "holds `{r}`, which this {kind} sweep does not record"
+            } else {
+                "lacks `{r}`, which this {kind} sweep records"
+            };
+            let why = why.replace("{r}", r.as_str()).replace("{kind}", sweep.kind.as_str());
+            return Err(Error::Sweep(format!("{label}: cell {} {why}", c.index)));
+        }
+    }
+    if c.escape_t.is_some() && (!has(Record::EscapeT) || c.bounded == Some(true)) {
+        return Err(Error::Sweep(format!(
+            "{label}: cell {} holds `escape_t`, which this sweep does not record for it",
+            c.index
+        )));
     }
     Ok(())
 }

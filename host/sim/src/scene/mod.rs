@@ -580,7 +580,7 @@ impl Scene {
         let (label, text) = if let Some(text) = bundled::get(name_or_file) {
             (name_or_file.to_string(), text.to_string())
         } else if name_or_file.ends_with(".toml") || Path::new(name_or_file).is_file() {
-            let text = std::fs::read_to_string(name_or_file)
+            let text = infile::read_text(Path::new(name_or_file), infile::MAX_SCENE_BYTES)
                 .map_err(|source| SceneError::Io { path: name_or_file.into(), source })?;
             (name_or_file.to_string(), text)
         } else {
@@ -591,6 +591,8 @@ impl Scene {
 
     /// Parses scene TOML text (`label` names it in errors).
     pub fn parse(label: &str, text: &str, overrides: &[String]) -> Result<Self, SceneError> {
+        infile::check_nesting(text, infile::MAX_NESTING)
+            .map_err(|message| SceneError::Syntax { scene: label.into(), message })?;
         let mut table: toml::Table = text
             .parse()
             .map_err(|e: toml::de::Error| SceneError::Syntax { scene: label.into(), message: e.message().into() })?;
@@ -635,6 +637,19 @@ impl Scene {
                 ));
             }
         }
+        // A sampling period too small for the time axis: subnormal seconds, or one whose run
+        // end cannot tell the periods apart.
+        let dt = self.dt();
+        if dt.is_finite() && dt > 0.0 {
+            let t_end = dt * self.run.periods.max(1) as f64;
+            if !dt.is_normal() || !(dt > 16.0 * f64::EPSILON * t_end) {
+                return Err(SceneError::key(
+                    s,
+                    "controller.dt_ms",
+                    format!("{} ms is too small a sampling period for a time axis up to {t_end:e} s", c.dt_ms),
+                ));
+            }
+        }
         // The controller configuration: the one validation every boundary uses (scene,
         // decoded blob, export), with the controller's message under the scene's key path.
         let measured = self.measured()?;
@@ -646,7 +661,7 @@ impl Scene {
             ));
         }
         controller::validate_config::<{ controller::HISTORY }>(&self.controller_config())
-            .map_err(|e| SceneError::key(s, self.config_key(&e), e.to_string()))?;
+            .map_err(|e| self.config_error(&e))?;
         if self.run.periods > MAX_PERIODS {
             return Err(SceneError::key(
                 s,
@@ -704,8 +719,21 @@ impl Scene {
                 if i.steps.is_some() {
                     return Err(SceneError::key(s, "integrator.steps", "not used by adaptive methods (set rtol/atol)"));
                 }
-                positive("integrator.rtol", i.rtol.unwrap_or(1e-10))?;
-                positive("integrator.atol", i.atol.unwrap_or(1e-12))?;
+                for (key, v, (lo, hi)) in [
+                    ("integrator.rtol", i.rtol.unwrap_or(1e-10), RTOL_RANGE),
+                    ("integrator.atol", i.atol.unwrap_or(1e-12), ATOL_RANGE),
+                ] {
+                    positive(key, v)?;
+                    if !(lo..=hi).contains(&v) {
+                        return Err(SceneError::key(
+                            s,
+                            key,
+                            format!(
+                                "{v} is outside {lo:e} ..= {hi:e}: a tolerance the integrator cannot meet in bounded work, or one that means nothing"
+                            ),
+                        ));
+                    }
+                }
             }
             MethodKind::RodasFixed | MethodKind::Rk4 | MethodKind::ExprbFixed => {
                 if i.rtol.is_some() || i.atol.is_some() {
@@ -716,7 +744,29 @@ impl Scene {
                     ));
                 }
                 match i.steps {
-                    Some(n) if n >= 1 => {}
+                    Some(n) if n >= 1 => {
+                        if u64::from(n) > MAX_STEPS_PER_PERIOD {
+                            return Err(SceneError::key(
+                                s,
+                                "integrator.steps",
+                                format!("{n} exceeds the limit of {MAX_STEPS_PER_PERIOD} steps per period"),
+                            ));
+                        }
+                        // The step must be resolvable on the time axis at the run's end.
+                        let dt = self.dt();
+                        let t_end = dt * self.run.periods.max(1) as f64;
+                        let h = dt / f64::from(n);
+                        let spacing = f64::EPSILON * t_end;
+                        if !(h > 16.0 * spacing) {
+                            return Err(SceneError::key(
+                                s,
+                                "integrator.steps",
+                                format!(
+                                    "{n} steps per period make the step {h:e} s, below the time axis's resolution near t = {t_end:e} s ({spacing:e} s): the steps would not advance the time"
+                                ),
+                            ));
+                        }
+                    }
                     _ => return Err(SceneError::key(s, "integrator.steps", "fixed-step methods need steps >= 1")),
                 }
             }
@@ -730,6 +780,43 @@ impl Scene {
             }
         }
         Ok(())
+    }
+
+    /// A controller configuration error under the key it is about. A fixed-point gain (or
+    /// `u_max` in DAC codes) that is out of range only because of a quantization step (the
+    /// same value is representable with the paper's steps of pi/1000) is the step's error,
+    /// not the gain's.
+    fn config_error(&self, e: &controller::ConfigError) -> SceneError {
+        use controller::Field;
+        let s = self.name.as_str();
+        if let (
+            controller::ConfigError::OutOfRange(f @ (Field::Kp | Field::Kd | Field::KphiD | Field::Ki | Field::UMax)),
+            Some(q),
+        ) = (e, &self.effects.quantization)
+        {
+            let cfg = self.controller_config();
+            let paper = 1e-3 * std::f64::consts::PI;
+            let reference = ControllerConfig {
+                quant: cfg.quant.map(|q| Quantization { h_adc: paper, h_adc_phi: paper, h_dac: paper, ..q }),
+                ..cfg
+            };
+            if controller::validate_config::<{ controller::HISTORY }>(&reference).is_ok() {
+                let step = match (f, q.h_adc_phi.is_some()) {
+                    (Field::KphiD, true) => "effects.quantization.h_adc_phi",
+                    _ => "effects.quantization.h_adc",
+                };
+                let dac = if q.h_dac.is_some() { " (or effects.quantization.h_dac)" } else { "" };
+                return SceneError::key(
+                    s,
+                    step,
+                    format!(
+                        "with this step{dac}, `{}` is not representable in the integer controller (in DAC codes per encoder count, or DAC codes, it is out of range or rounds to zero), though it is with the paper's steps: {e}",
+                        f.name()
+                    ),
+                );
+            }
+        }
+        SceneError::key(s, self.config_key(e), e.to_string())
     }
 
     /// The scene key path of the field a controller configuration error is about.
@@ -1015,14 +1102,34 @@ fn resolve_named_state(label: &str, table: &mut toml::Table) -> Result<(), Scene
 }
 
 /// Applies `a.b.c=value` to the table, creating intermediate tables as needed.
+/// Relative tolerances an adaptive integrator accepts: tighter than 1e-14 cannot be met in
+/// f64 in bounded work, looser than 0.1 means nothing.
+pub const RTOL_RANGE: (f64, f64) = (1e-14, 0.1);
+/// Absolute tolerances an adaptive integrator accepts (the states are O(1) rad, rad/s).
+pub const ATOL_RANGE: (f64, f64) = (1e-20, 1.0);
+/// Most steps per sampling period of a fixed-step integrator.
+pub const MAX_STEPS_PER_PERIOD: u64 = 1_000_000;
+
+/// Deepest dotted key of a `--set` override (the scene's own keys are at most 3 deep).
+pub const MAX_KEY_DEPTH: usize = 8;
+
 fn apply_override(label: &str, table: &mut toml::Table, o: &str) -> Result<(), SceneError> {
     let (path, raw) = o.split_once('=').ok_or_else(|| SceneError::BadOverride(o.into()))?;
     let path = path.trim();
     if path.is_empty() || path.split('.').any(str::is_empty) {
         return Err(SceneError::BadOverride(o.into()));
     }
-    let value = parse_value(raw.trim());
     let keys: Vec<&str> = path.split('.').collect();
+    if keys.len() > MAX_KEY_DEPTH {
+        return Err(SceneError::key(
+            label,
+            path,
+            format!("{} dotted keys; a scene key has at most {MAX_KEY_DEPTH}", keys.len()),
+        ));
+    }
+    infile::check_nesting(raw, infile::MAX_NESTING)
+        .map_err(|e| SceneError::key(label, path, format!("value: {}", e.trim_start_matches("line 1: "))))?;
+    let value = parse_value(raw.trim());
     let (last, parents) = keys.split_last().ok_or_else(|| SceneError::BadOverride(o.into()))?;
     let mut cur = table;
     let mut walked = String::new();

@@ -72,6 +72,10 @@ pub enum TaylorError {
     Order { order: u32, nvar: usize },
     #[error("refine must be at least 1")]
     Refine,
+    #[error(
+        "sampling period dt = {dt} s: the expansion over one period needs more than {limit} RK4 steps (the linearization's spectral radius is {rate:.4e} 1/s, so a step is at most {max_h:.3e} s); refused rather than run without bound: use a shorter sampling period"
+    )]
+    TooManySteps { dt: f64, rate: f64, max_h: f64, limit: usize },
     #[error("the origin is not an equilibrium: component {component} of the right-hand side is {value:e} there")]
     NotEquilibrium { component: usize, value: f64 },
     #[error(
@@ -158,8 +162,13 @@ impl FlowExpansion {
     }
 }
 
-/// The base mesh refined `refine` times: step sizes summing to `dt`.
-fn mesh(dt: f64, rate: f64, order: u32, refine: u32) -> Vec<f64> {
+/// Most RK4 steps (after refinement) of one expansion: the work (and the mesh's memory) is
+/// bounded before it starts; the report's periods take a few thousand.
+pub const MAX_FLOW_STEPS: usize = 200_000;
+
+/// The base mesh refined `refine` times: step sizes summing to `dt`; `Err` when it would
+/// take more than [`MAX_FLOW_STEPS`] steps (checked as it is built).
+fn mesh(dt: f64, rate: f64, order: u32, refine: u32) -> Result<Vec<f64>, TaylorError> {
     let mut steps = Vec::new();
     let rate = rate.max(1e-300);
     let mut t = 0.0;
@@ -174,13 +183,16 @@ fn mesh(dt: f64, rate: f64, order: u32, refine: u32) -> Vec<f64> {
         if last {
             h = rem;
         }
+        if steps.len().saturating_add(refine as usize) > MAX_FLOW_STEPS {
+            return Err(TaylorError::TooManySteps { dt, rate, max_h: MAX_STEP / rate, limit: MAX_FLOW_STEPS });
+        }
         steps.extend(std::iter::repeat_n(h / refine as f64, refine as usize));
         if last {
             break;
         }
         t += h;
     }
-    steps
+    Ok(steps)
 }
 
 fn check_dt(dt: f64) -> Result<(), TaylorError> {
@@ -234,7 +246,7 @@ pub fn flow_expansion<P: Plant<N>, const N: usize>(
     let (a, _) = linearize(plant);
     let am = DMatrix::from_fn(N, N, |i, j| a[(i, j)]);
     let stiff_rate = eigenvalues(&am)?.iter().map(|z| z.norm()).fold(0.0, f64::max);
-    let steps = mesh(dt, stiff_rate, order.max(MESH_ORDER), opts.refine);
+    let steps = mesh(dt, stiff_rate, order.max(MESH_ORDER), opts.refine)?;
     // Classical RK4, the stages and the update in place (a `Tps` is 5.7 kB: no copies of
     // the operands), with the roundings of `x + k * (h / 2)` and
     // `x + (k1 + (k2 + k3) * 2 + k4) * (h / 6)`.

@@ -233,7 +233,7 @@ fn in_place_rk4_is_the_by_value_loop() {
         x[i] = Tps::var(table, k, 0.0);
     }
     let u = Tps::var(table, 3, 0.0);
-    let steps = mesh(dt, f.stiff_rate, order.max(MESH_ORDER), FlowOptions::default().refine);
+    let steps = mesh(dt, f.stiff_rate, order.max(MESH_ORDER), FlowOptions::default().refine).unwrap();
     assert_eq!(steps.len(), f.steps);
     for &h in &steps {
         let k1 = p.rhs(&x, u);

@@ -205,7 +205,8 @@ pub fn check_same_observables(set: &[MultiSeries], names: bool) -> Result<(), Da
 pub fn load_csv_observables(path: impl AsRef<Path>, columns: Option<&[String]>) -> Result<MultiSeries, DataError> {
     let path = path.as_ref();
     let file = path.display().to_string();
-    let text = std::fs::read_to_string(path).map_err(|source| DataError::Io { file: file.clone(), source })?;
+    let text = crate::limits::read_text_limited(path, crate::limits::MAX_DATA_FILE_BYTES)
+        .map_err(|source| DataError::Io { file: file.clone(), source })?;
     let name = path.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_else(|| file.clone());
     parse_csv_observables(&file, name, &text, columns)
 }

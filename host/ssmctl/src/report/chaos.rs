@@ -16,7 +16,8 @@ use ssm::{SsmModel, TimeSeries};
 /// the reading is quantized to whole counts, so delay vectors tie exactly and the Lyapunov
 /// estimators' log-distances are undefined at their first steps.
 pub fn pil_plant_theta(path: &std::path::Path) -> Result<TimeSeries, Box<dyn Error>> {
-    let text = std::fs::read_to_string(path).map_err(|e| format!("{}: {e}", path.display()))?;
+    let text =
+        infile::read_text(path, infile::MAX_DATA_BYTES).map_err(|e| format!("{}: cannot read: {e}", path.display()))?;
     let mut lines = text.lines();
     let header = lines.next().ok_or_else(|| format!("{}: empty file", path.display()))?;
     if !header.starts_with("t_s,theta_rad,") {

@@ -269,8 +269,8 @@ fn timings_section(rep: &mut Report, t: &Timings, total_seconds: f64) -> Result<
     // before this report and names their timings file in SSMCTL_XTASK_STEPS.
     let steps: Vec<Value> = match std::env::var_os("SSMCTL_XTASK_STEPS") {
         Some(path) => {
-            let text = std::fs::read_to_string(&path)
-                .map_err(|e| format!("SSMCTL_XTASK_STEPS {}: {e}", path.to_string_lossy()))?;
+            let text = infile::read_text(Path::new(&path), infile::MAX_REPORT_INPUT_BYTES)
+                .map_err(|e| format!("SSMCTL_XTASK_STEPS {}: cannot read: {e}", path.to_string_lossy()))?;
             let v: Value = serde_json::from_str(&text)
                 .map_err(|e| format!("SSMCTL_XTASK_STEPS {}: {e}", path.to_string_lossy()))?;
             v["steps"]

@@ -248,7 +248,7 @@ pub fn device_section(rep: &mut Report, table: &Path) -> Result<(), Box<dyn Erro
          and repeatable counts, not cycles), and the prediction error of each sqrt flavour against the host's f64 \
          evaluation of the same model.",
     );
-    let Ok(text) = std::fs::read_to_string(table) else {
+    let Ok(text) = infile::read_text(table, infile::MAX_REPORT_INPUT_BYTES) else {
         rep.para(&format!(
             "No device table at {}: run <code>cargo xtask device-table</code> (builds the firmware, runs it in QEMU) and \
              rerun the report.",
@@ -364,7 +364,7 @@ pub fn device_section(rep: &mut Report, table: &Path) -> Result<(), Box<dyn Erro
 
 /// The processor-in-the-loop result (`cargo xtask pil` writes `qemu/target/pil/summary.json`).
 fn pil_paragraph(rep: &mut Report, path: &Path) -> Result<(), Box<dyn Error>> {
-    let Ok(text) = std::fs::read_to_string(path) else {
+    let Ok(text) = infile::read_text(path, infile::MAX_REPORT_INPUT_BYTES) else {
         rep.para(&format!(
             "No processor-in-the-loop run at {}: run <code>cargo xtask pil</code>.",
             esc(&path.display().to_string())
