@@ -19,6 +19,10 @@ pub struct Model {
     pub inner: SsmModel,
     /// Wall time of the fit (s); None for a loaded model.
     pub fit_seconds: Option<f64>,
+    /// With `fit(..., auto=True)`: the chosen settings, the runner-up and why.
+    pub selection: Option<ssm::auto::AutoChoice>,
+    /// With intervals: the bootstrap intervals.
+    pub intervals: Option<ssm::auto::Intervals>,
 }
 
 /// A prediction of a trajectory from its first embedded point.
@@ -80,8 +84,10 @@ fn parse_ridge(obj: &Bound<'_, PyAny>) -> PyResult<Ridge> {
     }
 }
 
-/// `fit(train, dim, embed, *, shift=1, order=3, dyn_order=5, dynamics="map", centers=100,
-/// ridge=0.0, linear_anchor=None, anchor_joint=False, t_from=None, t_to=None)`: fits an SSM model to the
+/// `fit(train, dim=None, embed=None, *, shift=1, order=3, dyn_order=5, dynamics="map",
+/// centers=100, ridge=0.0, linear_anchor=None, anchor_joint=False, t_from=None, t_to=None,
+/// auto=False, budget=40, intervals=None, replicates=200, seed=1, backbone_amplitude=None,
+/// backbone_observable=0)`: fits an SSM model to the
 /// training trajectories (a `Trajectory` or a list; every one with the same observables),
 /// with the options and defaults of `ssmctl fit`: SSM dimension `dim`, `embed` delayed
 /// copies of every observable (SSMLearn's `OverEmbedding` is `embed - 1`), manifold
@@ -92,14 +98,21 @@ fn parse_ridge(obj: &Bound<'_, PyAny>) -> PyResult<Ridge> {
 /// the higher orders, `ssmctl fit --anchor-joint`). `t_from`/`t_to`: time
 /// windows (SSMLearn's `sliceTrajectories`): one number for all, or one per trajectory
 /// (None entries leave that side open).
+///
+/// `auto=True` (`ssmctl fit --auto`): the settings are chosen by cross-validation (`dim`,
+/// when given, fixes the dimension; `embed`, `shift`, the orders, `ridge` and the anchor must
+/// stay at their defaults); `model.selection` holds the choice, the runner-up and why.
+/// `intervals` (default: on with `auto`): bootstrap 95 % intervals in `model.intervals`
+/// (eigenvalues, damping ratios, and backbone bands of observable `backbone_observable`
+/// up to `backbone_amplitude`, when given).
 #[pyfunction]
-#[pyo3(signature = (train, dim, embed, *, shift=1, order=3, dyn_order=5, dynamics="map", centers=100, ridge=None, linear_anchor=None, anchor_joint=false, t_from=None, t_to=None))]
+#[pyo3(signature = (train, dim=None, embed=None, *, shift=1, order=3, dyn_order=5, dynamics="map", centers=100, ridge=None, linear_anchor=None, anchor_joint=false, t_from=None, t_to=None, auto=false, budget=40, intervals=None, replicates=200, seed=1, backbone_amplitude=None, backbone_observable=0))]
 #[allow(clippy::too_many_arguments)]
 pub fn fit(
     py: Python<'_>,
     train: &Bound<'_, PyAny>,
-    dim: usize,
-    embed: usize,
+    dim: Option<usize>,
+    embed: Option<usize>,
     shift: usize,
     order: u32,
     dyn_order: u32,
@@ -110,6 +123,13 @@ pub fn fit(
     anchor_joint: bool,
     t_from: Option<&Bound<'_, PyAny>>,
     t_to: Option<&Bound<'_, PyAny>>,
+    auto: bool,
+    budget: usize,
+    intervals: Option<bool>,
+    replicates: usize,
+    seed: u64,
+    backbone_amplitude: Option<f64>,
+    backbone_observable: usize,
 ) -> PyResult<Model> {
     guard(|| {
         let mut train = trajectories(train, "train")?;
@@ -120,27 +140,73 @@ pub fn fit(
                 *t = t.window(from[k], to[k]).map_err(value_error)?;
             }
         }
-        let opts = FitOptions {
-            dim,
-            embed,
-            shift,
-            manifold_order: order,
-            dyn_order,
-            dynamics: parse_dynamics(dynamics, centers)?,
-            ridge: match ridge {
-                None => Ridge::Fixed(0.0),
-                Some(r) => parse_ridge(r)?,
-            },
-            linear_anchor,
-            anchor_joint,
-        };
-        let (model, secs) = py
-            .detach(|| {
-                let t0 = std::time::Instant::now();
-                fit_multi(&train, &opts).map(|m| (m, t0.elapsed().as_secs_f64()))
+        let dynamics = parse_dynamics(dynamics, centers)?;
+        if auto {
+            let fixed = [
+                ("embed", embed.is_some()),
+                ("shift", shift != 1),
+                ("order", order != 3),
+                ("dyn_order", dyn_order != 5),
+                ("ridge", ridge.is_some()),
+                ("linear_anchor", linear_anchor.is_some()),
+                ("t_from", t_from.is_some()),
+            ];
+            if let Some((name, _)) = fixed.iter().find(|(_, set)| *set) {
+                return Err(value_error(format!("{name}: auto=True chooses it; leave it at its default")));
+            }
+        }
+        let setting = if auto {
+            None
+        } else {
+            let (Some(dim), Some(embed)) = (dim, embed) else {
+                return Err(value_error("dim and embed are required without auto=True"));
+            };
+            Some(ssm::auto::Setting {
+                cut: 0.0,
+                options: FitOptions {
+                    dim,
+                    embed,
+                    shift,
+                    manifold_order: order,
+                    dyn_order,
+                    dynamics,
+                    ridge: match ridge {
+                        None => Ridge::Fixed(0.0),
+                        Some(r) => parse_ridge(r)?,
+                    },
+                    linear_anchor,
+                    anchor_joint,
+                },
             })
-            .map_err(value_error)?;
-        Ok(Model { inner: model, fit_seconds: Some(secs) })
+        };
+        let want_intervals = intervals.unwrap_or(auto);
+        let backbone = match backbone_amplitude {
+            Some(a) => Some((BackboneOptions::new(backbone_observable, a), 41)),
+            None => None,
+        };
+        let run = || -> Result<_, ssm::Error> {
+            let t0 = std::time::Instant::now();
+            let (setting, selection) = match setting {
+                Some(s) => (s, None),
+                None => {
+                    let o = ssm::auto::AutoOptions { dynamics, dim, budget, ..Default::default() };
+                    let c = ssm::auto::select(&train, &o)?;
+                    (c.best.setting, Some(c))
+                }
+            };
+            let cut = ssm::auto::cut(&train, setting.cut);
+            let model = fit_multi(&cut, &setting.options)?;
+            let secs = t0.elapsed().as_secs_f64();
+            let iv = if want_intervals {
+                let o = ssm::auto::IntervalOptions { replicates, seed, backbone, ..Default::default() };
+                Some(ssm::auto::intervals(&train, &setting, &o)?)
+            } else {
+                None
+            };
+            Ok((model, secs, selection, iv))
+        };
+        let (model, secs, selection, iv) = py.detach(run).map_err(value_error)?;
+        Ok(Model { inner: model, fit_seconds: Some(secs), selection, intervals: iv })
     })
 }
 
@@ -253,6 +319,24 @@ impl Model {
     #[getter]
     fn fit_seconds(&self) -> Option<f64> {
         self.fit_seconds
+    }
+
+    /// With `fit(..., auto=True)`: a dict with `dim` (the SSM dimension, the singular values
+    /// and how it was chosen), `best` and `runner_up` (`setting` with `cut` and `options`,
+    /// held-out `nmte`, eigenvalue `spread`, `score`), `folds`, `evaluated` and `reasons`;
+    /// None otherwise.
+    #[getter]
+    fn selection<'py>(&self, py: Python<'py>) -> PyResult<Option<Bound<'py, PyAny>>> {
+        self.selection.as_ref().map(|s| to_python(py, s)).transpose()
+    }
+
+    /// With intervals: a dict with `method`, `level`, `replicates`, `failed`,
+    /// `eigenvalues` (per eigenvalue, sorted by decreasing imaginary part: `re`, `im`,
+    /// `damping_ratio`, each `{estimate, lo, hi}`) and `backbone` (bands: `amplitude`,
+    /// `freq_rad_s`, `damping_ratio`); None otherwise.
+    #[getter]
+    fn intervals<'py>(&self, py: Python<'py>) -> PyResult<Option<Bound<'py, PyAny>>> {
+        self.intervals.as_ref().map(|s| to_python(py, s)).transpose()
     }
 
     /// Condition numbers of the manifold (None when linear) and dynamics regressions.
@@ -392,7 +476,14 @@ impl Model {
     /// A model from its saved JSON text (other formats and versions are refused).
     #[staticmethod]
     fn from_json(text: &str) -> PyResult<Model> {
-        guard(|| Ok(Model { inner: SsmModel::from_json(text).map_err(value_error)?, fit_seconds: None }))
+        guard(|| {
+            Ok(Model {
+                inner: SsmModel::from_json(text).map_err(value_error)?,
+                fit_seconds: None,
+                selection: None,
+                intervals: None,
+            })
+        })
     }
 
     /// A model from a saved-model file.
@@ -404,6 +495,8 @@ impl Model {
             Ok(Model {
                 inner: SsmModel::from_json(&text).map_err(|e| value_error(format!("{}: {e}", path.display())))?,
                 fit_seconds: None,
+                selection: None,
+                intervals: None,
             })
         })
     }

@@ -262,3 +262,42 @@ def test_bad_input_is_a_value_error_naming_it():
         model.predict(test.select(1))
     with pytest.raises(ValueError):
         model.backbone(-1.0)
+
+
+def test_auto_fit_chooses_settings_and_gives_intervals():
+    # The three trajectories of x alone; auto=True chooses the settings (dimension 2 from the
+    # singular values) and bootstraps intervals that are narrow around the exact damping.
+    t = [x.select(1) for x in mat()]
+    model = sc.fit(t, auto=True, budget=12, replicates=40, backbone_amplitude=0.3)
+    sel = model.selection
+    assert sel["dim"]["dim"] == 2
+    assert sel["evaluated"] <= 12
+    assert sel["best"]["score"] <= sel["runner_up"]["score"]
+    assert any(r.startswith("dimension 2") for r in sel["reasons"])
+    iv = model.intervals
+    assert iv["replicates"] == 40 and iv["failed"] == 0
+    lam = iv["eigenvalues"][0]
+    assert lam["re"]["lo"] <= lam["re"]["estimate"] <= lam["re"]["hi"]
+    assert abs(lam["re"]["estimate"] - EXACT.real) / abs(EXACT.real) < 0.01, lam
+    assert abs(lam["damping_ratio"]["estimate"] - ZETA) / ZETA < 0.01, lam
+    band = iv["backbone"][0]
+    assert len(band["amplitude"]) == len(band["freq_rad_s"]) == 41
+    assert all(b["lo"] <= b["hi"] for b in band["freq_rad_s"])
+    # The same data give the same choice.
+    again = sc.fit(t, auto=True, budget=12, intervals=False)
+    assert again.selection["best"] == sel["best"] and again.intervals is None
+    # Without auto the intervals are opt-in.
+    plain = sc.fit(t, dim=2, embed=5, intervals=True, replicates=20)
+    assert plain.selection is None and plain.intervals["replicates"] == 20
+
+
+def test_auto_bad_input_is_a_value_error_naming_it():
+    t = [x.select(1) for x in mat()]
+    with pytest.raises(ValueError, match="embed: auto=True chooses it"):
+        sc.fit(t, auto=True, embed=5)
+    with pytest.raises(ValueError, match="dim and embed are required"):
+        sc.fit(t)
+    with pytest.raises(ValueError, match="too little data for the cross-validation folds"):
+        sc.fit(t[0].window(0.0, 1.0), auto=True)
+    with pytest.raises(ValueError, match="replicates"):
+        sc.fit(t, dim=2, embed=5, intervals=True, replicates=3)

@@ -8,7 +8,7 @@
 //! (options, fitted model, prediction with blow-up detection); [`metrics`] holds NMTE,
 //! DTW-aligned NMTE and FFT amplitude spectra; [`spectrum`] sliding two-tone amplitudes and
 //! interpolated spectral peaks. Linear least squares go through [`ridge`]. On top of a fit:
-//! [`normal_form`] (polar normal forms of flows and maps, with their change of
+//! [`auto`] (settings chosen by cross-validation, bootstrap intervals). [`normal_form`] (polar normal forms of flows and maps, with their change of
 //! coordinates), [`map_ssm`] (the SSM of a given polynomial map by the parametrization
 //! method, reduced map in extended normal form: the equation-driven reference), [`backbone`] (instantaneous damping and frequency against the amplitude of
 //! an observable), [`frc`] (forced response curves from the normal form, calibrated at one
@@ -23,6 +23,7 @@
 // Library code returns errors: no unwrap/expect/panic outside tests (CI runs clippy).
 #![cfg_attr(not(test), deny(clippy::unwrap_used, clippy::expect_used, clippy::panic))]
 
+pub mod auto;
 pub mod backbone;
 pub mod data;
 pub mod device;
@@ -86,4 +87,6 @@ pub enum Error {
     Frc(#[from] crate::frc::FrcError),
     #[error(transparent)]
     MapSsm(#[from] crate::map_ssm::MapSsmError),
+    #[error(transparent)]
+    Auto(#[from] crate::auto::AutoError),
 }

@@ -356,12 +356,13 @@ pub struct FitArgs {
     /// End of the time window in s (as --from).
     #[arg(long, value_delimiter = ',', allow_hyphen_values = true)]
     pub to: Vec<String>,
-    /// SSM dimension d.
-    #[arg(long)]
-    pub dim: usize,
+    /// SSM dimension d (with --auto: fixes the dimension instead of choosing it from the
+    /// singular values).
+    #[arg(long, required_unless_present = "auto")]
+    pub dim: Option<usize>,
     /// Delay-embedding dimension p (> 2d).
-    #[arg(long)]
-    pub embed: usize,
+    #[arg(long, required_unless_present = "auto")]
+    pub embed: Option<usize>,
     /// Delay between embedding components, in samples.
     #[arg(long, default_value_t = 1)]
     pub shift: usize,
@@ -391,6 +392,31 @@ pub struct FitArgs {
     /// jointly with the higher orders (unbiased by them; see ssm::FitOptions::anchor_joint).
     #[arg(long, requires = "linear_anchor")]
     pub anchor_joint: bool,
+    /// Choose the settings from the data (ssm::auto): the SSM dimension from the singular
+    /// values of the delay-embedded data, then the transient cut, embedding size and shift,
+    /// manifold and dynamics orders, ridge and joint linear anchor (or none) by
+    /// cross-validation (leave one trajectory out; blocks in time of a single trajectory),
+    /// scored by held-out NMTE and the spread of the linear part across folds. Prints the
+    /// choice, the runner-up and why; --intervals is on unless --no-intervals.
+    #[arg(long, conflicts_with_all = ["embed", "shift", "order", "dyn_order", "ridge", "linear_anchor", "from"])]
+    pub auto: bool,
+    /// Most settings --auto scores (each costs one fit per fold).
+    #[arg(long, default_value_t = 40, requires = "auto")]
+    pub budget: usize,
+    /// Bootstrap 95 % intervals of the eigenvalues (real and imaginary parts, damping ratio)
+    /// and of the backbone curves (bands in backbone.json and backbone.png): over
+    /// trajectories, or over segments of them when there are fewer than 4.
+    #[arg(long)]
+    pub intervals: bool,
+    /// No intervals with --auto.
+    #[arg(long, conflicts_with = "intervals")]
+    pub no_intervals: bool,
+    /// Bootstrap replicates of --intervals.
+    #[arg(long, default_value_t = 200)]
+    pub replicates: usize,
+    /// Seed of the bootstrap resampling.
+    #[arg(long, default_value_t = 1)]
+    pub seed: u64,
     /// Print JSON.
     #[arg(long)]
     pub json: bool,
@@ -550,13 +576,31 @@ pub fn check_options(cli: &Cli) -> Result<(), Box<dyn std::error::Error>> {
         Cmd::Fit(a) => {
             parse_bounds(&a.from, "--from")?;
             parse_bounds(&a.to, "--to")?;
+            let dynamics = crate::fit_command::parse_dynamics(&a.dynamics, a.centers)?;
+            if a.auto {
+                if let Some(d) = a.dim {
+                    if d == 0 || d > ssm::limits::MAX_DIM {
+                        return Err(format!("--dim {d}: expected 1..={}", ssm::limits::MAX_DIM).into());
+                    }
+                }
+                if a.budget == 0 {
+                    return Err("--budget must be >= 1 setting".into());
+                }
+                if !matches!(dynamics, ssm::Dynamics::Flow | ssm::Dynamics::Map) {
+                    return Err(format!("--auto fits polynomial flows or maps, not --dynamics {}", a.dynamics).into());
+                }
+            }
+            if (a.intervals || a.auto) && !a.no_intervals && a.replicates < 20 {
+                return Err(format!("--replicates {}: the bootstrap needs at least 20", a.replicates).into());
+            }
+            let (dim, embed) = (a.dim.unwrap_or(2), a.embed.unwrap_or(5));
             let opts = ssm::FitOptions {
-                dim: a.dim,
-                embed: a.embed,
+                dim,
+                embed,
                 shift: a.shift,
                 manifold_order: a.order,
                 dyn_order: a.dyn_order,
-                dynamics: crate::fit_command::parse_dynamics(&a.dynamics, a.centers)?,
+                dynamics,
                 ridge: crate::fit_command::parse_ridge(&a.ridge)?,
                 linear_anchor: a.linear_anchor,
                 anchor_joint: a.anchor_joint,
@@ -564,7 +608,9 @@ pub fn check_options(cli: &Cli) -> Result<(), Box<dyn std::error::Error>> {
             // Ranges and size limits here; the embedding's count against the observables
             // (Takens) where the data are known, after their own errors: checked with the
             // fewest observables the embedding needs (the fit checks again with the data's).
-            opts.validate_for((2 * a.dim.min(ssm::limits::MAX_DIM) + 1).div_ceil(a.embed.max(1)))?;
+            if !a.auto {
+                opts.validate_for((2 * dim.min(ssm::limits::MAX_DIM) + 1).div_ceil(embed.max(1)))?;
+            }
             if let Some(r) = &a.frc_range {
                 crate::fit_command::parse_freq_range(r)?;
             }
@@ -839,8 +885,8 @@ fn run_command(cli: Cli) -> Result<(), Box<dyn std::error::Error>> {
                     observable: a.backbone_observable,
                     amplitude: a.backbone_amplitude,
                 }),
-                dim: a.dim,
-                embed: a.embed,
+                dim: a.dim.unwrap_or(0),
+                embed: a.embed.unwrap_or(0),
                 shift: a.shift,
                 order: a.order,
                 dyn_order: a.dyn_order,
@@ -851,6 +897,9 @@ fn run_command(cli: Cli) -> Result<(), Box<dyn std::error::Error>> {
                 linear_anchor: a.linear_anchor,
                 anchor_joint: a.anchor_joint,
                 normal_form: a.normal_form,
+                auto: a.auto.then_some(crate::fit_command::AutoRequest { budget: a.budget, dim: a.dim }),
+                intervals: ((a.intervals || a.auto) && !a.no_intervals)
+                    .then_some(crate::fit_command::IntervalRequest { replicates: a.replicates, seed: a.seed }),
             })?;
             if let Some(path) = &a.save {
                 crate::output::write_atomic(path, r.model.to_json()?.as_bytes())?;
@@ -887,8 +936,8 @@ fn run_command(cli: Cli) -> Result<(), Box<dyn std::error::Error>> {
             let index = observable.checked_sub(1).ok_or("--observable is 1-based")?;
             let curves = ssm::backbone::backbone(&m, &ssm::backbone::BackboneOptions::new(index, amplitude))?;
             let name = observable.to_string();
-            let json = crate::fit_command::backbone_json(&curves, &name);
-            crate::fit_command::write_backbone(&out, &curves, &json, &name)?;
+            let json = crate::fit_command::backbone_json(&curves, &name, &[]);
+            crate::fit_command::write_backbone(&out, &curves, &json, &name, &[])?;
             eprintln!("wrote {} and {}", out.join("backbone.json").display(), out.join("backbone.png").display());
         }
         Cmd::Frc { model, out, freq_range, calibrate, observable, mode, amplitude_max, json } => {

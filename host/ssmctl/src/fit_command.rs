@@ -4,6 +4,7 @@
 
 use serde::Serialize;
 use serde_json::{Value, json};
+use ssm::auto::{AutoOptions, BackboneBand, IntervalOptions, Setting};
 use ssm::backbone::{Backbone, BackboneOptions, backbone};
 use ssm::{
     Dynamics, FitOptions, MultiSeries, Ridge, SsmModel, fit_multi, load_csv_column, load_csv_observables, load_mat,
@@ -48,6 +49,26 @@ pub struct FitRequest {
     /// See [`FitOptions::anchor_joint`].
     pub anchor_joint: bool,
     pub normal_form: bool,
+    /// `--auto`: the settings above (but `dynamics`) chosen by cross-validation.
+    pub auto: Option<AutoRequest>,
+    /// `--intervals`: bootstrap intervals of the eigenvalues and the backbone.
+    pub intervals: Option<IntervalRequest>,
+}
+
+/// `--auto` and its options.
+pub struct AutoRequest {
+    /// Most settings scored (`--budget`).
+    pub budget: usize,
+    /// A fixed SSM dimension (`--dim` with `--auto`); `None`: from the singular values.
+    pub dim: Option<usize>,
+}
+
+/// `--intervals` and its options.
+pub struct IntervalRequest {
+    /// Bootstrap replicates (`--replicates`).
+    pub replicates: usize,
+    /// Resampling seed (`--seed`).
+    pub seed: u64,
 }
 
 /// `--backbone DIR` and its options.
@@ -87,8 +108,17 @@ pub struct FitSummary {
     /// Numbers of training and test trajectories.
     pub trajectories: [usize; 2],
     /// Backbone curves (with `--backbone`): `[{"mode", "observable", "points": [{"amplitude",
-    /// "freq_rad_s", "damping_ratio", "rate", "rho"}, ...]}, ...]`.
+    /// "freq_rad_s", "damping_ratio", "rate", "rho"}, ...]}, ...]`; with `--intervals` each
+    /// curve also has `"band": {"amplitude": [...], "freq_rad_s": [{estimate, lo, hi}, ...],
+    /// "damping_ratio": [...]}`.
     pub backbone: Option<Value>,
+    /// With `--auto`: the chosen settings, the runner-up and why (see [`ssm::auto::AutoChoice`]),
+    /// and the seconds the search took.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub auto: Option<Value>,
+    /// With `--intervals`: bootstrap intervals (see [`ssm::auto::Intervals`]).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub intervals: Option<Value>,
 }
 
 pub struct FitResult {
@@ -195,13 +225,12 @@ pub fn load_sets(r: &FitRequest) -> Result<(Vec<MultiSeries>, Vec<MultiSeries>),
     Ok((train, test))
 }
 
-/// Backbone curves of `model` as asked; `train` gives the observable names and the default
-/// largest amplitude.
-pub fn run_backbone(
-    model: &SsmModel,
+/// The observable index and the curve options of a backbone request; `train` gives the
+/// observable names and the default largest amplitude.
+pub fn backbone_options(
     train: &[MultiSeries],
     b: &BackboneRequest,
-) -> Result<(Vec<Backbone>, Value), Box<dyn Error>> {
+) -> Result<(String, BackboneOptions), Box<dyn Error>> {
     let names = &train.first().ok_or("no training data")?.observables;
     let index = match &b.observable {
         None => 0,
@@ -216,26 +245,55 @@ pub fn run_backbone(
             train.iter().flat_map(|t| t.x.iter().skip(index).step_by(t.dim())).fold(0.0, |m: f64, v| m.max(v.abs()))
         }
     };
-    let curves = backbone(model, &BackboneOptions::new(index, amplitude))?;
-    let json = backbone_json(&curves, &names[index]);
+    Ok((names[index].clone(), BackboneOptions::new(index, amplitude)))
+}
+
+/// Backbone curves of `model` as asked, with the bootstrap `bands` (possibly none); `train`
+/// gives the observable names and the default largest amplitude.
+pub fn run_backbone(
+    model: &SsmModel,
+    train: &[MultiSeries],
+    b: &BackboneRequest,
+    bands: &[BackboneBand],
+) -> Result<(Vec<Backbone>, Value), Box<dyn Error>> {
+    let (name, opts) = backbone_options(train, b)?;
+    let curves = backbone(model, &opts)?;
+    let json = backbone_json(&curves, &name, bands);
     if let Some(dir) = &b.out {
-        write_backbone(dir, &curves, &json, &names[index])?;
+        write_backbone(dir, &curves, &json, &name, bands)?;
     }
     Ok((curves, json))
 }
 
-/// The curves as JSON, the observable named.
-pub fn backbone_json(curves: &[Backbone], observable: &str) -> Value {
+/// The curves as JSON, the observable named; a curve with a band of the same mode gets it
+/// as `"band"`.
+pub fn backbone_json(curves: &[Backbone], observable: &str, bands: &[BackboneBand]) -> Value {
     Value::Array(
         curves
             .iter()
-            .map(|b| json!({"mode": b.mode, "observable": observable, "points": serde_json::to_value(&b.points).unwrap_or(Value::Null)}))
+            .map(|b| {
+                let mut v = json!({"mode": b.mode, "observable": observable, "points": serde_json::to_value(&b.points).unwrap_or(Value::Null)});
+                if let Some(band) = bands.iter().find(|x| x.mode == b.mode) {
+                    v["band"] = json!({
+                        "amplitude": band.amplitude,
+                        "freq_rad_s": serde_json::to_value(&band.freq_rad_s).unwrap_or(Value::Null),
+                        "damping_ratio": serde_json::to_value(&band.damping_ratio).unwrap_or(Value::Null),
+                    });
+                }
+                v
+            })
             .collect(),
     )
 }
 
-/// Writes DIR/backbone.json and DIR/backbone.png.
-pub fn write_backbone(dir: &Path, curves: &[Backbone], json: &Value, observable: &str) -> Result<(), Box<dyn Error>> {
+/// Writes DIR/backbone.json and DIR/backbone.png (with the bands, if any).
+pub fn write_backbone(
+    dir: &Path,
+    curves: &[Backbone],
+    json: &Value,
+    observable: &str,
+    bands: &[BackboneBand],
+) -> Result<(), Box<dyn Error>> {
     crate::output::create_dir(dir)?;
     crate::output::write_atomic(&dir.join("backbone.json"), serde_json::to_string_pretty(json)?.as_bytes())?;
     crate::draw::backbone::backbone_figure(
@@ -243,6 +301,7 @@ pub fn write_backbone(dir: &Path, curves: &[Backbone], json: &Value, observable:
         "backbone",
         curves,
         &format!("amplitude of {observable}"),
+        bands,
     )?;
     Ok(())
 }
@@ -337,19 +396,54 @@ pub fn frc_text(frc: &ssm::frc::Frc) -> String {
     out
 }
 
-/// Loads, fits and scores.
+/// Loads, fits and scores; with `auto`, chooses the settings first; with `intervals`,
+/// bootstraps them.
 pub fn run_fit(r: &FitRequest) -> Result<FitResult, Box<dyn std::error::Error>> {
-    let (train, test) = load_sets(r)?;
-    let opts = FitOptions {
-        dim: r.dim,
-        embed: r.embed,
-        shift: r.shift,
-        manifold_order: r.order,
-        dyn_order: r.dyn_order,
-        dynamics: parse_dynamics(&r.dynamics, r.centers)?,
-        ridge: parse_ridge(&r.ridge)?,
-        linear_anchor: r.linear_anchor,
-        anchor_joint: r.anchor_joint,
+    let (raw, test) = load_sets(r)?;
+    let dynamics = parse_dynamics(&r.dynamics, r.centers)?;
+    let (setting, auto) = match &r.auto {
+        Some(a) => {
+            let t0 = Instant::now();
+            let o = AutoOptions { dynamics, dim: a.dim, budget: a.budget, ..Default::default() };
+            let choice = ssm::auto::select(&raw, &o)?;
+            let seconds = t0.elapsed().as_secs_f64();
+            let setting = choice.best.setting;
+            (setting, Some(json!({"seconds": seconds, "choice": serde_json::to_value(&choice)?})))
+        }
+        None => (
+            Setting {
+                cut: 0.0,
+                options: FitOptions {
+                    dim: r.dim,
+                    embed: r.embed,
+                    shift: r.shift,
+                    manifold_order: r.order,
+                    dyn_order: r.dyn_order,
+                    dynamics,
+                    ridge: parse_ridge(&r.ridge)?,
+                    linear_anchor: r.linear_anchor,
+                    anchor_joint: r.anchor_joint,
+                },
+            },
+            None,
+        ),
+    };
+    let opts = setting.options;
+    let train = ssm::auto::cut(&raw, setting.cut);
+    let bb_opts = r.backbone.as_ref().map(|b| backbone_options(&train, b)).transpose()?;
+    let intervals = match &r.intervals {
+        Some(i) => {
+            let o = IntervalOptions {
+                replicates: i.replicates,
+                seed: i.seed,
+                backbone: bb_opts.as_ref().map(|(_, o)| (*o, 41)),
+                ..Default::default()
+            };
+            let t0 = Instant::now();
+            let iv = ssm::auto::intervals(&raw, &setting, &o)?;
+            Some((iv, t0.elapsed().as_secs_f64()))
+        }
+        None => None,
     };
     let t0 = Instant::now();
     let model = fit_multi(&train, &opts)?;
@@ -398,7 +492,23 @@ pub fn run_fit(r: &FitRequest) -> Result<FitResult, Box<dyn std::error::Error>> 
         observables: train[0].observables.clone(),
         trajectories: [train.len(), test.len()],
         backbone: match &r.backbone {
-            Some(b) => Some(run_backbone(&model, &train, b)?.1),
+            Some(b) => {
+                let bands = intervals.as_ref().map_or(&[][..], |(iv, _)| &iv.backbone[..]);
+                Some(run_backbone(&model, &train, b, bands)?.1)
+            }
+            None => None,
+        },
+        auto,
+        intervals: match &intervals {
+            Some((iv, secs)) => {
+                let mut v = serde_json::to_value(iv)?;
+                v["seconds"] = json!(secs);
+                // The bands are in `backbone` (each curve's `band`).
+                if let Some(o) = v.as_object_mut() {
+                    o.remove("backbone");
+                }
+                Some(v)
+            }
             None => None,
         },
     };
@@ -407,9 +517,60 @@ pub fn run_fit(r: &FitRequest) -> Result<FitResult, Box<dyn std::error::Error>> 
 
 /// A human-readable summary.
 pub fn text_summary(s: &FitSummary) -> String {
-    let mut out = String::from("eigenvalues (continuous time, 1/s):\n");
+    let mut out = String::new();
+    if let Some(a) = &s.auto {
+        let c = &a["choice"];
+        let describe = |v: &Value| -> String {
+            serde_json::from_value::<Setting>(v["setting"].clone()).map_or_else(|_| "?".into(), |x| x.describe())
+        };
+        out.push_str(&format!(
+            "auto: chose {}\n  ({} settings scored in {:.2} s, {}{})\n",
+            describe(&c["best"]),
+            c["evaluated"],
+            a["seconds"].as_f64().unwrap_or(f64::NAN),
+            c["folds"].as_str().unwrap_or("?"),
+            if c["budget_exhausted"].as_bool() == Some(true) { "; the budget stopped the search" } else { "" }
+        ));
+        if !c["runner_up"].is_null() {
+            out.push_str(&format!("  runner-up: {}\n", describe(&c["runner_up"])));
+        }
+        for line in c["reasons"].as_array().map(Vec::as_slice).unwrap_or_default() {
+            out.push_str(&format!("  why: {}\n", line.as_str().unwrap_or("?")));
+        }
+    }
+    out.push_str("eigenvalues (continuous time, 1/s):\n");
+    let ivs = s.intervals.as_ref().and_then(|v| v["eigenvalues"].as_array());
     for e in &s.eigenvalues {
         out.push_str(&format!("  {:+.6} {:+.6}i  ({:.4} Hz)\n", e.re, e.im, e.im.abs() / (2.0 * std::f64::consts::PI)));
+        // The intervals list the eigenvalues sorted by decreasing imaginary part: the nearest.
+        let dist = |x: &Value| {
+            let g = |k: &str| x[k]["estimate"].as_f64().unwrap_or(f64::INFINITY);
+            (g("re") - e.re).hypot(g("im") - e.im)
+        };
+        let iv = ivs.and_then(|v| v.iter().min_by(|a, b| dist(a).total_cmp(&dist(b))));
+        if let Some(iv) = iv {
+            let f = |k: &str, b: &str| iv[k][b].as_f64().unwrap_or(f64::NAN);
+            out.push_str(&format!(
+                "    95 %: re [{:+.6}, {:+.6}], im [{:+.6}, {:+.6}], damping ratio {:.5} [{:.5}, {:.5}]\n",
+                f("re", "lo"),
+                f("re", "hi"),
+                f("im", "lo"),
+                f("im", "hi"),
+                f("damping_ratio", "estimate"),
+                f("damping_ratio", "lo"),
+                f("damping_ratio", "hi")
+            ));
+        }
+    }
+    if let Some(iv) = &s.intervals {
+        out.push_str(&format!(
+            "intervals: bootstrap over {}, {} replicates ({} failed, {} backbones failed), {:.2} s\n",
+            iv["method"].as_str().unwrap_or("?"),
+            iv["replicates"],
+            iv["failed"],
+            iv["backbone_failed"],
+            iv["seconds"].as_f64().unwrap_or(f64::NAN)
+        ));
     }
     out.push_str(&format!("nmte_train {:.5}\n", s.nmte_train));
     if let Some(t) = s.nmte_test {

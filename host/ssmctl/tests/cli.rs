@@ -514,3 +514,41 @@ fn frc_from_fit_and_from_a_saved_model_agree() {
     }
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// `fit --auto` on the Duffing CSVs (observable x): the choice, the runner-up and why in
+/// `--json`, intervals around the exact damping, bands in backbone.json and a backbone.png;
+/// fixed settings with --auto and too little data are named errors.
+#[test]
+fn fit_auto_prints_its_choice_and_intervals() {
+    let data = concat!(env!("CARGO_MANIFEST_DIR"), "/../ssm/tests/data");
+    let files: Vec<String> = (1..=3).map(|i| format!("{data}/duffing_{i}.csv")).collect();
+    let train = files.join(",");
+    let dir = tmp("auto");
+    let d = dir.to_str().unwrap();
+    let args =
+        ["fit", "--data", &train, "--column", "x", "--auto", "--budget", "12", "--replicates", "40", "--backbone", d];
+    let (ok, out, err) = ssmctl(&[&args[..], &["--json"]].concat());
+    assert!(ok, "{err}");
+    let v: Value = serde_json::from_str(&out).unwrap();
+    let c = &v["auto"]["choice"];
+    assert_eq!(c["dim"]["dim"], 2, "{c}");
+    assert!(c["evaluated"].as_u64().unwrap() <= 12, "{c}");
+    assert!(c["best"]["score"].as_f64().unwrap() <= c["runner_up"]["score"].as_f64().unwrap(), "{c}");
+    let zeta = &v["intervals"]["eigenvalues"][0]["damping_ratio"];
+    let (lo, hi) = (zeta["lo"].as_f64().unwrap(), zeta["hi"].as_f64().unwrap());
+    assert!(lo <= hi && (zeta["estimate"].as_f64().unwrap() - 0.02).abs() < 2e-4, "{zeta}");
+    let bb: Value = serde_json::from_str(&std::fs::read_to_string(dir.join("backbone.json")).unwrap()).unwrap();
+    assert_eq!(bb[0]["band"]["freq_rad_s"].as_array().unwrap().len(), 41, "{bb}");
+    assert!(dir.join("backbone.png").is_file());
+    // The text names the choice, the runner-up and the reasons.
+    let (ok, out, err) = ssmctl(&args);
+    assert!(ok, "{err}");
+    for want in ["auto: chose dim 2", "runner-up:", "why: dimension 2", "95 %: re [", "intervals: bootstrap over"] {
+        assert!(out.contains(want), "{want} missing from {out}");
+    }
+    let (ok, _, err) = ssmctl(&["fit", "--data", &train, "--column", "x", "--auto", "--embed", "5"]);
+    assert!(!ok && err.contains("--embed"), "{err}");
+    let (ok, _, err) = ssmctl(&["fit", "--data", &files[0], "--column", "x", "--auto", "--to", "1.0"]);
+    assert!(!ok && err.contains("too little data for the cross-validation folds"), "{err}");
+    let _ = std::fs::remove_dir_all(&dir);
+}

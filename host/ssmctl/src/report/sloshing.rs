@@ -134,7 +134,13 @@ fn backbone_paragraph(rep: &mut Report, m: &ssm::SsmModel, train: &[TimeSeries])
     let opts = BackboneOptions { points: 51, ..BackboneOptions::new(0, amp_max) };
     let curves = backbone(m, &opts)?;
     let fig = "fig/sloshing_backbone.png";
-    crate::draw::backbone::backbone_figure(&rep.dir().join(fig), "sloshing", &curves, "amplitude of x [% tank width]")?;
+    crate::draw::backbone::backbone_figure(
+        &rep.dir().join(fig),
+        "sloshing",
+        &curves,
+        "amplitude of x [% tank width]",
+        &[],
+    )?;
     let pts = &curves[0].points;
     let (first, last) = (pts[0], pts[pts.len() - 1]);
     rep.para(&format!(
