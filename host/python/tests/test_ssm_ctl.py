@@ -264,3 +264,11 @@ def test_bad_input_is_a_value_error_naming_it():
         model.predict(test.select(1))
     with pytest.raises(ValueError):
         model.backbone(-1.0)
+
+
+def test_build_info_says_how_the_module_was_compiled():
+    b = sc.__build__
+    assert set(b) == {"opt_level", "debug", "profile", "debug_assertions"}
+    assert b["opt_level"] in {"0", "1", "2", "3", "s", "z"}
+    assert b["profile"] in {"debug", "release"}
+    assert isinstance(b["debug_assertions"], bool)
