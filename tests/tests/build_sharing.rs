@@ -24,7 +24,8 @@ fn features(args: &[&str]) -> BTreeMap<String, BTreeSet<String>> {
         .expect("cargo tree runs");
     assert!(out.status.success(), "cargo tree {args:?}: {}", String::from_utf8_lossy(&out.stderr));
     let mut map: BTreeMap<String, BTreeSet<String>> = BTreeMap::new();
-    for line in String::from_utf8(out.stdout).unwrap().lines() {
+    // One line per package; cargo tree separates the trees of several roots with blank lines.
+    for line in String::from_utf8(out.stdout).unwrap().lines().filter(|l| !l.trim().is_empty()) {
         let (package, feats) = line.split_once('|').unwrap_or_else(|| panic!("unexpected line {line:?}"));
         let key = package.split_whitespace().take(2).collect::<Vec<_>>().join(" ");
         let feats = feats.trim_end_matches(" (*)").trim().to_string();
