@@ -231,7 +231,7 @@ mod tests {
         let log = std::env::temp_dir().join(format!("xtask-steps-{}.log", std::process::id()));
         let e = run_logged(Command::new("sh").args(["-c", "echo out; echo err >&2; exit 3"]), &log).unwrap_err();
         assert!(e.contains("out") && e.contains("err") && e.contains(&log.display().to_string()), "{e}");
-        assert!(run_logged(Command::new("true"), &log).is_ok());
+        assert!(run_logged(&mut Command::new("true"), &log).is_ok());
         std::fs::remove_file(&log).unwrap();
     }
 }
