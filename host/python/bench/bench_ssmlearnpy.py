@@ -94,6 +94,11 @@ def main():
     ap.add_argument("--data-dir", type=Path, default=ROOT.parent / "shared" / "data")
     ap.add_argument("--repeat", type=int, default=5)
     a = ap.parse_args()
+    b = sc.__build__
+    print(f"ssm_ctl module: opt-level {b['opt_level']}, debug assertions "
+          f"{'on' if b['debug_assertions'] else 'off'}, cargo profile folder `{b['profile']}`"
+          + (" (UNOPTIMIZED: these times are not the library's; build with opt-level 2 or release)"
+             if b["opt_level"] == "0" else ""))
     try:
         import ssmlearnpy  # noqa: F401
     except ImportError as e:

@@ -17,10 +17,22 @@ pub mod trajectory;
 
 use pyo3::prelude::*;
 
+/// How this module was compiled: `opt_level` and `debug` (cargo's values), `profile` (the
+/// profile's output folder, `debug` or `release`), `debug_assertions`.
+fn build_info(py: Python<'_>) -> PyResult<Bound<'_, pyo3::types::PyDict>> {
+    let d = pyo3::types::PyDict::new(py);
+    d.set_item("opt_level", env!("SSM_CTL_BUILD_OPT_LEVEL"))?;
+    d.set_item("debug", env!("SSM_CTL_BUILD_DEBUG"))?;
+    d.set_item("profile", env!("SSM_CTL_BUILD_PROFILE"))?;
+    d.set_item("debug_assertions", cfg!(debug_assertions))?;
+    Ok(d)
+}
+
 /// The module: classes and functions listed in `host/python/README.md`.
 #[pymodule]
 fn ssm_ctl(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
+    m.add("__build__", build_info(m.py())?)?;
     m.add("MODEL_FORMAT", ssm::MODEL_FORMAT)?;
     m.add("MODEL_FORMAT_VERSION", ssm::MODEL_FORMAT_VERSION)?;
     m.add_class::<trajectory::Trajectory>()?;

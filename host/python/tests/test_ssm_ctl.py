@@ -301,3 +301,11 @@ def test_auto_bad_input_is_a_value_error_naming_it():
         sc.fit(t[0].window(0.0, 1.0), auto=True)
     with pytest.raises(ValueError, match="replicates"):
         sc.fit(t, dim=2, embed=5, intervals=True, replicates=3)
+
+
+def test_build_info_says_how_the_module_was_compiled():
+    b = sc.__build__
+    assert set(b) == {"opt_level", "debug", "profile", "debug_assertions"}
+    assert b["opt_level"] in {"0", "1", "2", "3", "s", "z"}
+    assert b["profile"] in {"debug", "release"}
+    assert isinstance(b["debug_assertions"], bool)

@@ -29,11 +29,15 @@
 //!   model, periods: `cache.rs`) is reused and says so; `--fresh` redoes it.
 //! - `python-test`: the Python module (`host/python`) built into a venv (`target/pyvenv`,
 //!   made and given maturin, pytest and numpy when missing) and its pytest tests (`python.rs`).
-//! - `test`: install + `cargo test --workspace` + clippy lint policy + doc links + python-test + qemu-test
-//!   + device-table (counted as one on-target test, see `device_table::check`) + a
-//!   2,000-period PIL run (one more) + the STM32F407 image's on-target suite on
-//!   `netduinoplus2` + a 500-period PIL run of the STM32F407 image there, over USART1 (one
-//!   more) + `slurm-test` with the test-profile `ssmctl`.
+//! - `test`: everything, as steps that start as soon as what they need is there (`test_all`):
+//!   the installs (rustup, apt, the Python venv), `cargo fmt --check` (workspace, `qemu/`,
+//!   `tests/fuzz/`), the firmware builds and clippy + `cargo doc` run while cargo builds the
+//!   host tests; then `cargo test --workspace`, the Python module and pytest, qemu-test on both
+//!   machines side by side, device-table (counted as one on-target test, see
+//!   `device_table::check`), a 2,000-period PIL run (one more), a 500-period PIL run of the
+//!   STM32F407 image on `netduinoplus2` over USART1 (one more) and `slurm-test`, all with the
+//!   host build's test-profile `ssmctl`. Ends with the table of steps and wall times (also
+//!   `target/xtask-test-steps.json`) and `on-target: N passed, M failed`.
 //! - `reproduce --out DIR [--fresh] [...]`: install + device-table + a PIL run + the PIL
 //!   recordings of the chaos study (both reused when unchanged, `--fresh` redoes them), then
 //!   `ssmctl reproduce` with the remaining arguments (the report).
@@ -61,6 +65,7 @@ mod fuzz;
 mod python;
 mod rng;
 mod slurm;
+mod steps;
 mod traces;
 mod vectors;
 
@@ -203,22 +208,83 @@ fn output(c: &mut Command) -> Option<String> {
 }
 
 fn install() -> Result<()> {
-    let installed = output(cmd("rustup").args(["target", "list", "--installed"])).unwrap_or_default();
-    if installed.lines().any(|l| l.trim() == TARGET) {
-        println!("install: target {TARGET} present");
-    } else {
-        run(cmd("rustup").args(["target", "add", TARGET]))?;
-    }
+    rust_target()?;
     if output(cmd("qemu-system-arm").arg("--version")).is_some() {
         println!("install: qemu-system-arm present");
     } else {
-        let root = output(cmd("id").arg("-u")).is_some_and(|u| u.trim() == "0");
-        let apt = |args: &[&str]| {
-            if root { run(cmd("apt-get").args(args)) } else { run(cmd("sudo").arg("apt-get").args(args)) }
-        };
-        apt(&["update"])?;
-        apt(&["install", "-y", "qemu-system-arm"])?;
+        apt(&["update"], None)?;
+        apt(&["install", "-y", "qemu-system-arm"], None)?;
     }
+    Ok(())
+}
+
+fn rust_target() -> Result<()> {
+    let installed = output(cmd("rustup").args(["target", "list", "--installed"])).unwrap_or_default();
+    if installed.lines().any(|l| l.trim() == TARGET) {
+        println!("install: target {TARGET} present");
+        Ok(())
+    } else {
+        run(cmd("rustup").args(["target", "add", TARGET]))
+    }
+}
+
+/// `apt-get ARGS` (through sudo unless root), its output into `log` when given.
+fn apt(args: &[&str], log: Option<&Path>) -> Result<()> {
+    let is_root = output(cmd("id").arg("-u")).is_some_and(|u| u.trim() == "0");
+    let mut c = if is_root {
+        cmd("apt-get")
+    } else {
+        let mut c = cmd("sudo");
+        c.arg("apt-get");
+        c
+    };
+    c.env("DEBIAN_FRONTEND", "noninteractive").args(args);
+    match log {
+        Some(log) => steps::run_logged(&mut c, log),
+        None => run(&mut c),
+    }
+}
+
+/// What `cargo xtask test` needs from rustup: the firmware's target, clippy, rustfmt.
+fn rust_tools() -> Result<()> {
+    rust_target()?;
+    for (probe, component) in [("clippy", "clippy"), ("fmt", "rustfmt")] {
+        if output(cmd("cargo").args([probe, "--version"])).is_none() {
+            run(cmd("rustup").args(["component", "add", component]))?;
+        }
+    }
+    Ok(())
+}
+
+/// What `cargo xtask test` needs from apt-get (QEMU; Slurm and munge), with one package
+/// index update for both; apt's output goes to `log`.
+fn apt_packages(log: &Path) -> Result<()> {
+    let qemu = output(cmd("qemu-system-arm").arg("--version")).is_none();
+    let slurm = slurm::missing();
+    if !qemu && !slurm {
+        println!("install: qemu-system-arm, slurm-wlm and munge present");
+        return Ok(());
+    }
+    apt(&["update"], Some(log))?;
+    if qemu {
+        apt(&["install", "-y", "qemu-system-arm"], Some(log))?;
+    }
+    if slurm {
+        apt(&slurm::APT_INSTALL, Some(log))?;
+    }
+    Ok(())
+}
+
+/// `cargo fmt --check` of the workspace and of the two folders with their own workspace
+/// (`qemu/`, `tests/fuzz/`); the root `rustfmt.toml` applies to all three.
+fn fmt_check(log_dir: &Path) -> Result<()> {
+    for (dir, log) in [(root(), "fmt.log"), (qemu_dir(), "fmt-qemu.log"), (root().join("tests/fuzz"), "fmt-fuzz.log")] {
+        steps::run_logged(cmd("cargo").current_dir(&dir).args(["fmt", "--all", "--check"]), &log_dir.join(log))
+            .map_err(|e| {
+                format!("formatting differs from rustfmt in {} (run `cargo fmt --all` there): {e}", dir.display())
+            })?;
+    }
+    println!("fmt: the workspace, qemu/ and tests/fuzz/ are formatted");
     Ok(())
 }
 
@@ -270,12 +336,24 @@ fn write_target_data() -> Result<Vec<Vec<f64>>> {
 /// Builds the firmware's binaries for `board`; returns the test binary's path (the others
 /// are beside it).
 fn build_firmware(board: Board) -> Result<PathBuf> {
+    build_firmware_with(board, None)
+}
+
+/// [`build_firmware`]; with `log`, as a step beside the host build: cargo's output into the
+/// log, at a lower priority.
+fn build_firmware_with(board: Board, log: Option<&Path>) -> Result<PathBuf> {
     let mut c = cmd("cargo");
     c.current_dir(qemu_dir()).args(["build", "--release"]);
     if board == Board::Stm32f407 {
         c.args(["--features", "stm32f407", "--target-dir", board.target_dir()]);
     }
-    run(&mut c)?;
+    match log {
+        Some(log) => {
+            steps::lower_priority(&mut c);
+            steps::run_logged(&mut c, log)?;
+        }
+        None => run(&mut c)?,
+    }
     Ok(qemu_dir().join(board.target_dir()).join(TARGET).join("release").join("firmware"))
 }
 
@@ -327,12 +405,17 @@ fn run_qemu(
 fn qemu_test(board: Board) -> Result<TargetResult> {
     write_target_data()?;
     let elf = build_firmware(board)?;
+    qemu_suite(board, &elf)
+}
+
+/// Runs the built on-target suite `elf` in `board`'s QEMU machine (see [`qemu_test`]).
+fn qemu_suite(board: Board, elf: &Path) -> Result<TargetResult> {
     let start = Instant::now();
     let log = match board {
         Board::Mps2An386 => "qemu-test.log".to_string(),
         other => format!("qemu-test-{}.log", other.name()),
     };
-    let (status, text) = run_qemu(&elf, board, &[], &log, QEMU_TIMEOUT)?;
+    let (status, text) = run_qemu(elf, board, &[], &log, QEMU_TIMEOUT)?;
     print!("{text}");
     let mut r = TargetResult::default();
     for line in text.lines() {
@@ -365,6 +448,12 @@ fn qemu_test(board: Board) -> Result<TargetResult> {
 fn device_table_run() -> Result<(device_table::Table, elf::Sizes)> {
     let reference = write_target_data()?;
     let firmware = build_firmware(Board::Mps2An386)?;
+    device_table_measure(&reference, &firmware)
+}
+
+/// [`device_table_run`] with the target data's `reference` written and the mps2-an386
+/// firmware (`firmware`, the test binary beside `device_table`) built.
+fn device_table_measure(reference: &[Vec<f64>], firmware: &Path) -> Result<(device_table::Table, elf::Sizes)> {
     let elf_path = firmware.with_file_name("device_table");
     let start = Instant::now();
     let (status, text) =
@@ -375,7 +464,7 @@ fn device_table_run() -> Result<(device_table::Table, elf::Sizes)> {
         Some(_) => {}
     }
     let parsed = device_table::parse(&text)?;
-    let table = device_table::table(&parsed, &reference)?;
+    let table = device_table::table(&parsed, reference)?;
     let bytes = std::fs::read(&elf_path).map_err(|e| format!("{}: {e}", elf_path.display()))?;
     let sizes = elf::sizes(&bytes, RAM_ORIGIN)?;
     eprintln!("device-table: {:.1} s in QEMU", start.elapsed().as_secs_f64());
@@ -550,14 +639,20 @@ fn pil_firmware(board: Board) -> Result<PathBuf> {
     Ok(build_firmware(board)?.with_file_name("pil"))
 }
 
-/// The host's `ssmctl` in the test profile (which optimizes the host crates and shares the
-/// dependencies `cargo test` built), built if needed; PIL runs call the binary directly so
-/// several can run at once.
+/// The host's `ssmctl` in the test profile (which optimizes the host crates), built if
+/// needed, once per xtask process; PIL runs call the binary directly so several can run at
+/// once. `--workspace` resolves features as `cargo test --workspace` does (dev-dependencies
+/// change no feature of the build graph: `tests/tests/build_sharing.rs`), so after the host
+/// tests' build this is that build's binary and nothing is compiled again.
 fn ssmctl_bin() -> Result<PathBuf> {
+    static BIN: std::sync::OnceLock<PathBuf> = std::sync::OnceLock::new();
+    if let Some(p) = BIN.get() {
+        return Ok(p.clone());
+    }
     let mut c = cmd("cargo");
-    c.current_dir(root()).args(["build", "--profile", "test", "-q", "-p", "ssmctl", "--bin", "ssmctl"]);
+    c.current_dir(root()).args(["build", "--profile", "test", "-q", "--workspace", "--bin", "ssmctl"]);
     run(&mut c)?;
-    Ok(root().join("target").join("debug").join("ssmctl"))
+    Ok(BIN.get_or_init(|| root().join("target").join("debug").join("ssmctl")).clone())
 }
 
 /// The two programs of a PIL run, built, and the fingerprint of their images (read and
@@ -891,36 +986,46 @@ fn firmware_size() -> Result<()> {
     Ok(())
 }
 
-/// The library crates' lint policy (docs/decisions/0004): no `unwrap`/`expect`/`panic` outside tests,
-/// and no panicking indexing in the crates and modules that parse input (`shared`,
-/// `controller`, `ssm::{mat, data, device}`, `sim::scene`); the `deny` attributes live in
-/// the crates, this runs clippy over them (installing the component when missing).
-fn clippy_lints() -> Result<()> {
-    if output(cmd("cargo").args(["clippy", "--version"])).is_none() {
-        run(cmd("rustup").args(["component", "add", "clippy"]))?;
-    }
+/// The library crates' lint policy (docs/decisions/0004): no `unwrap`/`expect`/`panic` outside tests, and no
+/// panicking indexing in the crates and modules that parse input (`shared`, `controller`,
+/// `ssm::{mat, data, device}`, `sim::scene`); the `deny` attributes live in the crates, this
+/// runs clippy over them. Checks go to `target/lint` ([`LINT_TARGET_DIR`]), with cargo's
+/// output into `log_dir`.
+fn clippy_lints(log_dir: &Path) -> Result<()> {
     let mut c = cmd("cargo");
-    c.current_dir(root()).args(["clippy", "-q", "--lib"]);
-    for p in LINTED_CRATES {
+    c.current_dir(root()).args(["clippy", "--lib", "--target-dir", LINT_TARGET_DIR]);
+    // With `ssmctl` (whose lib denies none of these lints) the packages are doc's, so the
+    // dependencies are checked with the same features once for both: without it num-traits,
+    // and with it nalgebra, faer and gemm, would be checked a second time for the docs.
+    for p in DOCUMENTED_CRATES {
         c.args(["-p", p]);
     }
     // Only the policy's lints (denied in the crates); the style lints stay a local matter.
     c.args(["--", "-A", "clippy::all"]);
-    run(&mut c)
+    steps::lower_priority(&mut c);
+    steps::run_logged(&mut c, &log_dir.join("clippy.log"))
         .map_err(|e| format!("clippy (unwrap/expect/panic/indexing policy of {}): {e}", LINTED_CRATES.join(", ")))?;
     println!("clippy: lint policy holds in {}", LINTED_CRATES.join(", "));
     Ok(())
 }
 
 /// The API documentation builds without a warning (broken or ambiguous intra-doc links,
-/// stray HTML in doc comments) for the crates a user reads: the library crates and `ssmctl`.
-fn doc_links() -> Result<()> {
+/// stray HTML in doc comments) for the crates a user reads: the library crates and `ssmctl`
+/// (`--no-deps`; into `target/lint/doc`, reusing the dependencies' checks clippy made).
+fn doc_links(log_dir: &Path) -> Result<()> {
     let mut c = cmd("cargo");
-    c.current_dir(root()).env("RUSTDOCFLAGS", "-D warnings").args(["doc", "-q", "--no-deps"]);
-    for p in LINTED_CRATES.iter().chain(&["ssmctl"]) {
+    c.current_dir(root()).env("RUSTDOCFLAGS", "-D warnings").args([
+        "doc",
+        "--no-deps",
+        "--target-dir",
+        LINT_TARGET_DIR,
+    ]);
+    for p in DOCUMENTED_CRATES {
         c.args(["-p", p]);
     }
-    run(&mut c).map_err(|e| format!("cargo doc (-D warnings) of {}, ssmctl: {e}", LINTED_CRATES.join(", ")))?;
+    steps::lower_priority(&mut c);
+    steps::run_logged(&mut c, &log_dir.join("doc.log"))
+        .map_err(|e| format!("cargo doc (-D warnings) of {}, ssmctl: {e}", LINTED_CRATES.join(", ")))?;
     println!("doc: the API documentation of {}, ssmctl builds without warnings", LINTED_CRATES.join(", "));
     Ok(())
 }
@@ -928,74 +1033,193 @@ fn doc_links() -> Result<()> {
 /// Library crates under the clippy policy of [`clippy_lints`].
 const LINTED_CRATES: [&str; 7] = ["shared", "controller", "fileio", "sim", "ssm", "chaos", "furuta"];
 
+/// The crates whose API documentation [`doc_links`] builds: the library crates and `ssmctl`.
+const DOCUMENTED_CRATES: [&str; 7] = ["shared", "controller", "sim", "ssm", "chaos", "furuta", "ssmctl"];
+
+/// The target dir of clippy and doc (relative to the workspace root): their check builds
+/// share nothing with the test build, and in their own folder they run beside it instead of
+/// waiting for its lock.
+const LINT_TARGET_DIR: &str = "target/lint";
+
+/// Where `cargo xtask test` writes its step table.
+fn steps_json_path() -> PathBuf {
+    root().join("target").join("xtask-test-steps.json")
+}
+
+/// The host build of `cargo xtask test`: every test binary of the workspace in the test
+/// profile (`--timings`: what each crate cost, in `target/cargo-timings/`), then the
+/// `ssmctl` the PIL and Slurm steps run, from that build.
+fn host_build() -> Result<PathBuf> {
+    run(cmd("cargo").current_dir(root()).args(["test", "--workspace", "--no-run", "--timings"]))?;
+    ssmctl_bin()
+}
+
+/// Waits for `gate`; `Err` naming `what` when the step behind it failed.
+fn after<T: Clone>(gate: &steps::Gate<Result<T>>, what: &str) -> Result<T> {
+    gate.wait().map_err(|_| format!("not run: {what} failed"))
+}
+
+/// `cargo xtask test`. Steps start as soon as what they need is there: the rustup and apt
+/// installs, the Python venv, rustfmt, the firmware builds and clippy + doc run while cargo
+/// compiles the host tests (the builds beside it at a lower priority, their output in
+/// `target/xtask-logs/`); the two QEMU machines' suites run side by side; the Python module
+/// (reusing the host build's dependencies), the PIL runs and Slurm (with the test build's
+/// `ssmctl`) follow the host build. Every step runs even when another failed (unless it
+/// needs that one); the command ends with the step table (also in
+/// `target/xtask-test-steps.json`) and the on-target count, and fails if any step failed.
 fn test_all() -> Result<()> {
-    install()?;
-    let mut host = cmd("cargo");
-    host.current_dir(root()).args(["test", "--workspace"]);
-    let host_result = run(&mut host);
-    let lints = clippy_lints();
-    let docs = doc_links();
-    let python_result = python::python_test();
-    let target = qemu_test(Board::Mps2An386);
-    // The STM32F407 image (the one flashed to a board) runs the same suite in QEMU's
-    // netduinoplus2 (STM32F405); its build and run time is printed for CI's budget.
-    let t = Instant::now();
-    let stm32 = qemu_test(Board::Stm32f407);
-    println!("qemu-test: stm32f407 build + netduinoplus2 run: {:.1} s", t.elapsed().as_secs_f64());
-    // The cost table (about 1 s in QEMU): it must run, calibrate (1,000 nops = 1,000
-    // instructions) and its f32 predictions must agree with the host's f64 evaluation.
-    let table = device_table_run().and_then(|(t, s)| {
-        print_table(&t, &s);
-        device_table::check(&t)
-    });
-    let pil_run = pil(PIL_SCENE, PIL_TEST_PERIODS, true);
-    let t = Instant::now();
-    let pil_stm32_run = match &pil_run {
-        Ok(_) => pil_stm32(PIL_SCENE, PIL_STM32_PERIODS),
-        Err(_) => Err("pil (stm32f407): not run, it needs the model of the mps2-an386 PIL run".to_string()),
+    use steps::Gate;
+    let steps = steps::Steps::new();
+    let logs = root().join("target").join("xtask-logs");
+    let tools: Gate<Result<()>> = Gate::new();
+    let apt_done: Gate<Result<()>> = Gate::new();
+    let venv: Gate<Result<PathBuf>> = Gate::new();
+    let data: Gate<Result<Vec<Vec<f64>>>> = Gate::new();
+    let host: Gate<Result<PathBuf>> = Gate::new();
+    let pil_done: Gate<Result<()>> = Gate::new();
+    let results = std::sync::Mutex::new(Vec::<(&str, Result<()>)>::new());
+    let on_target = std::sync::Mutex::new((0u32, 0u32));
+    let record = |name: &'static str, r: Result<()>| results.lock().unwrap_or_else(|p| p.into_inner()).push((name, r));
+    let count = |passed: u32, failed: u32| {
+        let mut c = on_target.lock().unwrap_or_else(|p| p.into_inner());
+        *c = (c.0 + passed, c.1 + failed);
     };
-    println!("pil: stm32f407 PIL run on netduinoplus2: {:.1} s", t.elapsed().as_secs_f64());
-    // The sweeps under a real Slurm (about 11 s once installed), with the test-profile
-    // ssmctl the host tests built.
-    let slurm = ssmctl_bin().and_then(|b| slurm::slurm_test(Some(b)));
-    let (mut passed, mut failed) = (0, 0);
-    for r in [&target, &stm32] {
-        match r {
-            Ok(r) => (passed, failed) = (passed + r.passed, failed + r.failed),
-            Err(_) => failed += 1,
-        }
-    }
-    match &table {
-        Ok(()) => passed += 1,
-        Err(e) => {
-            eprintln!("device-table: {e}");
-            failed += 1;
-        }
-    }
-    for (name, r) in [("pil", &pil_run), ("pil (stm32f407 on netduinoplus2)", &pil_stm32_run)] {
-        match r {
-            Ok(_) => passed += 1,
-            Err(e) => {
-                eprintln!("{name}: {e}");
-                failed += 1;
+    std::thread::scope(|s| {
+        s.spawn(|| tools.set(steps.run("rustup: thumbv7em target, clippy, rustfmt", rust_tools)));
+        s.spawn(|| {
+            apt_done.set(steps.run("apt: qemu-system-arm, slurm-wlm, munge", || apt_packages(&logs.join("apt.log"))))
+        });
+        s.spawn(|| venv.set(steps.run("python: venv (maturin, pytest, numpy)", python::venv)));
+        s.spawn(|| data.set(steps.run("firmware: target data (vectors, traces, device table)", write_target_data)));
+        s.spawn(|| {
+            let r = after(&tools, "rustup")
+                .and_then(|()| steps.run("rustfmt --check (workspace, qemu/, tests/fuzz/)", || fmt_check(&logs)));
+            record("rustfmt", r);
+        });
+        s.spawn(|| {
+            let r = after(&tools, "rustup").and_then(|()| steps.run("clippy: lint policy", || clippy_lints(&logs)));
+            record("clippy", r);
+            let r =
+                after(&tools, "rustup").and_then(|()| steps.run("doc: API docs, warnings denied", || doc_links(&logs)));
+            record("doc", r);
+        });
+        // mps2-an386: build, on-target suite, device table, then (with the host's ssmctl) PIL.
+        s.spawn(|| {
+            let board = Board::Mps2An386;
+            let built = after(&tools, "rustup").and_then(|()| after(&data, "target data")).and_then(|reference| {
+                let elf = steps.run("firmware build (mps2-an386)", || {
+                    build_firmware_with(board, Some(&logs.join("firmware-mps2-an386.log")))
+                })?;
+                Ok((reference, elf))
+            });
+            let suite = built.clone().and_then(|(_, elf)| {
+                after(&apt_done, "apt")?;
+                steps.run("qemu: on-target suite (mps2-an386)", || qemu_suite(board, &elf))
+            });
+            match &suite {
+                Ok(r) => count(r.passed, r.failed),
+                Err(_) => count(0, 1),
             }
+            record("qemu-test (mps2-an386)", suite.map(|_| ()));
+            let table = built.clone().and_then(|(reference, elf)| {
+                after(&apt_done, "apt")?;
+                steps.run("qemu: device table", || {
+                    let (t, s) = device_table_measure(&reference, &elf)?;
+                    print_table(&t, &s);
+                    device_table::check(&t)
+                })
+            });
+            count(u32::from(table.is_ok()), u32::from(table.is_err()));
+            record("device-table", table);
+            let pil_run = built.and_then(|_| {
+                after(&apt_done, "apt")?;
+                after(&host, "host build")?;
+                steps.run("pil: 2,000 periods (mps2-an386)", || pil(PIL_SCENE, PIL_TEST_PERIODS, true).map(|_| ()))
+            });
+            count(u32::from(pil_run.is_ok()), u32::from(pil_run.is_err()));
+            pil_done.set(pil_run.clone());
+            record("pil", pil_run);
+        });
+        // The STM32F407 image (the one flashed to a board) runs the same suite in QEMU's
+        // netduinoplus2 (STM32F405), then a PIL run with the model the mps2-an386 run fitted.
+        s.spawn(|| {
+            let board = Board::Stm32f407;
+            let t = Instant::now();
+            let suite = after(&tools, "rustup").and_then(|()| after(&data, "target data")).and_then(|_| {
+                let elf = steps.run("firmware build (stm32f407)", || {
+                    build_firmware_with(board, Some(&logs.join("firmware-stm32f407.log")))
+                })?;
+                after(&apt_done, "apt")?;
+                steps.run("qemu: on-target suite (stm32f407 on netduinoplus2)", || qemu_suite(board, &elf))
+            });
+            println!("qemu-test: stm32f407 build + netduinoplus2 run: {:.1} s", t.elapsed().as_secs_f64());
+            match &suite {
+                Ok(r) => count(r.passed, r.failed),
+                Err(_) => count(0, 1),
+            }
+            record("qemu-test (stm32f407)", suite.map(|_| ()));
+            let pil_run = after(&pil_done, "pil (mps2-an386), whose model it runs").and_then(|()| {
+                steps.run("pil: 500 periods (stm32f407 on netduinoplus2)", || {
+                    pil_stm32(PIL_SCENE, PIL_STM32_PERIODS).map(|_| ())
+                })
+            });
+            count(u32::from(pil_run.is_ok()), u32::from(pil_run.is_err()));
+            record("pil (stm32f407 on netduinoplus2)", pil_run);
+        });
+        // The Python module, built after the host build so it reuses its dependencies.
+        s.spawn(|| {
+            let r = after(&venv, "python venv")
+                .and_then(|_| after(&host, "host build"))
+                .and_then(|_| steps.run("python: module build + pytest", python::module_and_tests));
+            record("python-test", r);
+        });
+        // The sweeps under a real Slurm, with the test-profile ssmctl the host tests built.
+        s.spawn(|| {
+            let r = after(&apt_done, "apt")
+                .and_then(|()| after(&host, "host build"))
+                .and_then(|bin| steps.run("slurm: sweeps as array jobs", || slurm::slurm_test(Some(bin))));
+            record("slurm-test", r);
+        });
+        // The host build and tests, on this thread.
+        let built = steps.run("host build (cargo test --no-run, test profile)", host_build);
+        host.set(built.clone());
+        let tests = after(&host, "host build").and_then(|_| {
+            steps.run("host tests (cargo test --workspace)", || {
+                run(cmd("cargo").current_dir(root()).args(["test", "--workspace"]))
+            })
+        });
+        record("host tests", tests);
+    });
+    for (gate, name) in [(&tools, "rustup"), (&apt_done, "apt")] {
+        record(name, gate.wait());
+    }
+    record("python venv", venv.wait().map(|_| ()));
+    record("target data", data.wait().map(|_| ()));
+    record("host build", host.wait().map(|_| ()));
+    let results = results.into_inner().unwrap_or_else(|p| p.into_inner());
+    let failed: Vec<&str> = results.iter().filter(|(_, r)| r.is_err()).map(|(n, _)| *n).collect();
+    for (name, r) in &results {
+        if let Err(e) = r {
+            eprintln!("{name}: {e}");
         }
     }
-    println!("on-target: {passed} passed, {failed} failed");
-    if let Err(e) = &slurm {
-        eprintln!("slurm-test: {e}");
+    println!("\n{}", steps.table());
+    let extra = steps::cpu_and_load();
+    println!(
+        "cpu: children user {:.0} s, system {:.0} s; load average (1, 5, 15 min) at the end: {}",
+        extra["children_cpu_user_seconds"].as_f64().unwrap_or(f64::NAN),
+        extra["children_cpu_system_seconds"].as_f64().unwrap_or(f64::NAN),
+        extra["load_average_1_5_15_min"].as_str().unwrap_or("?")
+    );
+    let json = steps_json_path();
+    if let Err(e) = steps.write_json(&json, extra) {
+        eprintln!("steps: {e}");
+    } else {
+        println!("steps: {}", json.display());
     }
-    host_result?;
-    lints?;
-    docs?;
-    python_result.map_err(|e| format!("python-test: {e}"))?;
-    slurm?;
-    target?;
-    table?;
-    pil_run?;
-    stm32?;
-    pil_stm32_run?;
-    Ok(())
+    let (passed, failed_on_target) = on_target.into_inner().unwrap_or_else(|p| p.into_inner());
+    println!("on-target: {passed} passed, {failed_on_target} failed");
+    if failed.is_empty() { Ok(()) } else { Err(format!("failed: {}", failed.join(", "))) }
 }
 
 #[cfg(test)]

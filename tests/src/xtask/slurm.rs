@@ -28,26 +28,22 @@ fn have(program: &str) -> bool {
     output(cmd("sh").args(["-c", &format!("command -v {program}")])).is_some()
 }
 
+/// Whether a program of slurm-wlm or munge is missing.
+pub fn missing() -> bool {
+    !["slurmctld", "slurmd", "sbatch", "scontrol", "munged"].iter().all(|p| have(p))
+}
+
+/// The apt-get arguments that install them.
+pub const APT_INSTALL: [&str; 5] = ["install", "-y", "--no-install-recommends", "slurm-wlm", "munge"];
+
 /// slurm-wlm and munge from Debian, if any of their programs is missing.
 pub fn install() -> Result<()> {
-    if ["slurmctld", "slurmd", "sbatch", "scontrol", "munged"].iter().all(|p| have(p)) {
+    if !missing() {
         println!("slurm-test: slurm-wlm and munge present");
         return Ok(());
     }
-    let is_root = output(cmd("id").arg("-u")).is_some_and(|u| u.trim() == "0");
-    let apt = |args: &[&str]| {
-        let mut c = if is_root {
-            cmd("apt-get")
-        } else {
-            let mut c = cmd("sudo");
-            c.arg("apt-get");
-            c
-        };
-        c.env("DEBIAN_FRONTEND", "noninteractive").args(args);
-        run(&mut c)
-    };
-    apt(&["update"])?;
-    apt(&["install", "-y", "--no-install-recommends", "slurm-wlm", "munge"])
+    crate::apt(&["update"], None)?;
+    crate::apt(&APT_INSTALL, None)
 }
 
 /// The daemons of the test cluster; dropping it shuts them down.
