@@ -678,6 +678,7 @@ pub fn output_plan(cmd: &Cmd) -> (Vec<PathBuf>, Vec<(&'static str, PathBuf)>) {
         Cmd::Simulate { scene, out } | Cmd::StabilityChart { scene, out, .. } => (vec![out.clone()], scene_file(scene)),
         Cmd::Reproduce { out, .. } => (vec![out.clone()], Vec::new()),
         Cmd::Sweep { spec, out, .. } => (vec![out.clone()], vec![("the sweep spec", spec.clone())]),
+        Cmd::Study { spec, out, .. } => (vec![out.clone()], vec![("the study spec", spec.clone())]),
         Cmd::SweepMerge { dir, out } => {
             let mut shards: Vec<(&'static str, PathBuf)> = std::fs::read_dir(dir)
                 .into_iter()

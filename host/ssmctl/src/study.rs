@@ -93,7 +93,7 @@ pub fn study(
         }
     };
     let r = run(&spec, data_dir, &say)?;
-    std::fs::create_dir_all(out).map_err(|e| format!("{}: {e}", out.display()))?;
+    crate::output::create_dir(out)?;
     let files = [
         (HELD_OUT, to_json(&r.held_out)?),
         (EXPERIMENT, to_json(&r.experiment)?),

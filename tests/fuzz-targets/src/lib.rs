@@ -481,8 +481,10 @@ fn assert_within_limits(cmd: &ssmctl::cli::Cmd) {
             assert!(dt_ms.len() <= sim::chart::MAX_PANELS, "{} panels accepted", dt_ms.len());
         }
         Cmd::Fit(a) => {
-            assert!((1..=MAX_DIM).contains(&a.dim), "--dim {} accepted", a.dim);
-            assert!(a.embed > 0 && a.embed <= MAX_EMBED, "--embed {} accepted", a.embed);
+            // Without --auto both are required; with it they are chosen (or --dim fixed).
+            assert!(a.auto || (a.dim.is_some() && a.embed.is_some()), "--dim/--embed missing without --auto accepted");
+            assert!(a.dim.is_none_or(|d| (1..=MAX_DIM).contains(&d)), "--dim {:?} accepted", a.dim);
+            assert!(a.embed.is_none_or(|e| e > 0 && e <= MAX_EMBED), "--embed {:?} accepted", a.embed);
             assert!((1..=MAX_SHIFT).contains(&a.shift), "--shift {} accepted", a.shift);
             assert!((1..=MAX_ORDER).contains(&a.order), "--order {} accepted", a.order);
             assert!(a.dynamics != "rbf" || (1..=MAX_CENTERS).contains(&a.centers), "--centers {} accepted", a.centers);

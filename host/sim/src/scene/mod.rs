@@ -790,28 +790,29 @@ impl Scene {
         use controller::Field;
         let s = self.name.as_str();
         if let (
-            controller::ConfigError::OutOfRange(f @ (Field::Kp | Field::Kd | Field::KphiD | Field::Ki | Field::UMax)),
+            controller::ConfigError::OutOfRange(f @ (Field::P(_) | Field::D(_) | Field::Ki | Field::UMax)),
             Some(q),
         ) = (e, &self.effects.quantization)
         {
-            let cfg = self.controller_config();
             let paper = 1e-3 * std::f64::consts::PI;
-            let reference = ControllerConfig {
-                quant: cfg.quant.map(|q| Quantization { h_adc: paper, h_adc_phi: paper, h_dac: paper, ..q }),
-                ..cfg
-            };
+            let mut reference = self.controller_config();
+            for g in reference.gains.as_mut_slice() {
+                g.h_adc = paper;
+            }
+            reference.quant = reference.quant.map(|q| Quantization { h_dac: paper, ..q });
             if controller::validate_config::<{ controller::HISTORY }>(&reference).is_ok() {
-                let step = match (f, q.h_adc_phi.is_some()) {
-                    (Field::KphiD, true) => "effects.quantization.h_adc_phi",
-                    _ => "effects.quantization.h_adc",
+                // The step of the coordinate the gain acts on (the DAC step for ki and u_max).
+                let step = match f {
+                    Field::P(i) | Field::D(i) => self.config_key(&controller::ConfigError::NonFinite(Field::HAdc(*i))),
+                    _ => "effects.quantization.h_adc".to_string(),
                 };
                 let dac = if q.h_dac.is_some() { " (or effects.quantization.h_dac)" } else { "" };
                 return SceneError::key(
                     s,
-                    step,
+                    &step,
                     format!(
                         "with this step{dac}, `{}` is not representable in the integer controller (in DAC codes per encoder count, or DAC codes, it is out of range or rounds to zero), though it is with the paper's steps: {e}",
-                        f.name()
+                        self.config_key(e)
                     ),
                 );
             }
