@@ -150,8 +150,9 @@ pub fn run_logged(c: &mut Command, log: &Path) -> Result<()> {
     }
 }
 
-/// Asks the kernel to run `c`'s process tree at a lower priority (nice 10): steps beside the
-/// host build take the cores it leaves idle instead of slowing it.
+/// Asks the kernel to run `c`'s process tree at a lower priority (nice 5: a third of a normal
+/// process's CPU share when they compete): steps beside the host build take mostly the cores
+/// it leaves idle, and still progress on a machine loaded by other work.
 pub fn lower_priority(c: &mut Command) {
     #[cfg(target_os = "linux")]
     {
@@ -161,7 +162,7 @@ pub fn lower_priority(c: &mut Command) {
         unsafe {
             c.pre_exec(|| {
                 // A failure leaves the default priority: only the scheduling changes.
-                let _ = libc::setpriority(libc::PRIO_PROCESS, 0, 10);
+                let _ = libc::setpriority(libc::PRIO_PROCESS, 0, 5);
                 Ok(())
             });
         }
