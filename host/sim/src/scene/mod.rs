@@ -448,7 +448,7 @@ impl Scene {
             return Err(SceneError::key(
                 s,
                 "controller.dt_ms",
-                format!("{} ms is too small a sampling period ({dt:e} s is subnormal)", c.dt_ms),
+                format!("{:e} ms is too small a sampling period ({dt:e} s is subnormal)", c.dt_ms),
             ));
         }
         // The controller configuration: the one validation every boundary uses (scene,
