@@ -224,15 +224,7 @@ fn meaningless_numbers_are_refused_naming_their_key() {
     refused(&set("integrator.rtol=0.5"), &["`integrator.rtol`"]);
     refused(&set("integrator.atol=1e-300"), &["`integrator.atol`"]);
     refused(
-        &[
-            "stability",
-            "--scene",
-            "furuta-dt25",
-            "--set",
-            "integrator.method=\"rk4\"",
-            "--set",
-            "integrator.steps=4000000000",
-        ],
+        &["stability", "--scene", "furuta-dt25", "--set", "integrator={method=\"rk4\", steps=4000000000}"],
         &["`integrator.steps`", "limit of 1000000 steps per period"],
     );
     refused(&set("controller.dt_ms=1e-310"), &["`controller.dt_ms`", "too small a sampling period"]);

@@ -203,7 +203,7 @@ fn bad_specs_are_errors_naming_the_problem() {
     let e = err(&BASIN.replace("name = \"theta0\"", "name = \"theta9\""));
     assert!(e.contains("axes[1]") && e.contains("unknown axis `theta9`") && e.contains("dt_ms, kp"), "{e}");
     let e = err(&CHART.replace("name = \"kd\"", "name = \"theta0\""));
-    assert!(e.contains("axis `theta0` does not apply to a Chart sweep"), "{e}");
+    assert!(e.contains("axis `theta0` does not apply to a chart sweep"), "{e}");
     let e = err(&BASIN.replace("n = 3", "n = 0"));
     assert!(e.contains("`axes[1]` (theta0)") && e.contains("empty range"), "{e}");
     let e = err(&BASIN.replace("lo = 0.02", "lo = 0.5"));
@@ -221,7 +221,7 @@ fn bad_specs_are_errors_naming_the_problem() {
     let e = err(&BASIN.replace("name = \"dt_ms\"\nvalues = [30.5, 31.8]", "name = \"seed\"\nvalues = [1]"));
     assert!(e.contains("axis `seed` needs a scene with [effects.noise]"), "{e}");
     let e = err(&BASIN.replace("kind = \"basin\"", "kind = \"basin\"\nrecord = [\"radius\"]"));
-    assert!(e.contains("`radius` is not recorded by a Basin sweep"), "{e}");
+    assert!(e.contains("`radius` is not recorded by a basin sweep"), "{e}");
     let e = err(&BASIN.replace("kind = \"basin\"", "kind = \"basin\"\nshards = 0"));
     assert!(e.contains("`shards`"), "{e}");
     assert!(Shard::parse("8/8").unwrap_err().to_string().contains("shard index 8 outside 0..8"));
