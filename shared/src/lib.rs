@@ -5,7 +5,7 @@
 //! This crate must not depend on `host` or `controller`, never allocates and never panics on
 //! bad input: every decoder returns an error naming what is wrong.
 #![cfg_attr(not(any(test, feature = "std")), no_std)]
-// Input-parsing, device-side code: no unwrap/expect/panic/indexing (issue 14; CI runs clippy).
+// Input-parsing, device-side code: no unwrap/expect/panic/indexing (docs/decisions/0004; CI runs clippy).
 #![cfg_attr(not(test), deny(clippy::unwrap_used, clippy::expect_used, clippy::panic, clippy::indexing_slicing))]
 
 pub mod config;

@@ -131,9 +131,22 @@ fn tables(src: &[u8]) -> Vec<(String, usize, usize)> {
             }
             let rest = &text[from..];
             let name: String = rest.chars().take_while(|c| c.is_alphanumeric() || *c == '_').collect();
-            let Some(eq) = rest.find('=') else { continue };
+            // The `=` of the item: the first outside brackets, unless a `;` ends the item first.
+            let mut depth = 0i32;
+            let Some(eq) = rest.char_indices().find_map(|(k, c)| {
+                match c {
+                    '[' | '(' | '<' => depth += 1,
+                    ']' | ')' | '>' => depth -= 1,
+                    '=' | ';' if depth == 0 => return Some((k, c)),
+                    _ => {}
+                }
+                None
+            }) else {
+                continue;
+            };
             // Only items whose initializer opens with an array (`= [` or `= &[`).
-            if rest.find(';').is_some_and(|sc| sc < eq) || name.is_empty() || name == "fn" {
+            let (eq, c) = eq;
+            if c == ';' || name.is_empty() || name == "fn" {
                 continue;
             }
             let init = rest[eq + 1..].trim_start();

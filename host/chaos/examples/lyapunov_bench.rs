@@ -1,4 +1,4 @@
-//! Instruction counts of the time-series exponents (issue 13): `lyapunov_bench rosenstein|kantz`
+//! Instruction counts of the time-series exponents (docs/decisions/0003): `lyapunov_bench rosenstein|kantz`
 //! on a Lorenz x series of 20,000 samples embedded in 6 dimensions with the report's settings
 //! (Rosenstein: 3000 references, curve of 450 steps; Kantz: 2000 references, 8 scales, 50
 //! neighbours each), for `valgrind --tool=callgrind`. Prints a checksum of the curves.

@@ -1,4 +1,4 @@
-//! Fuzzing the scene boundary (issue 14, item 5): random `--set` overrides of every kind of
+//! Fuzzing the scene boundary (docs/decisions/0004): random `--set` overrides of every kind of
 //! value on the bundled scenes, and byte-mutated scene files. Nothing may panic; every
 //! accepted scene is valid (safe name, bounded periods, a controller configuration the
 //! controller accepts), its exact stability computation and a short simulation of it return

@@ -1,4 +1,4 @@
-//! Instruction counts of the RBF map step and the farthest-point centres (issue 13):
+//! Instruction counts of the RBF map step and the farthest-point centres (docs/decisions/0003):
 //! `rbfstep step|step-old|farthest|farthest-old [D]`, a 500-centre linear-kernel map of
 //! dimension D (default 6) stepped 20,000 times, or 500 centres picked from 29,000 rows.
 //! `*-old` runs the loops as they were before the one-pass versions (kept here), for

@@ -850,7 +850,7 @@ fn farthest_update<const D: usize>(rows: &[f64], c: &[f64], mind: &mut [f64]) ->
     best
 }
 
-/// How the centres of an RBF map are chosen from the scaled training points (issue 12: the
+/// How the centres of an RBF map are chosen from the scaled training points (docs/decisions/0002: the
 /// centre set as a model choice). [`CentreChoice::Farthest`], the default, is what
 /// [`ReducedDynamics::fit`] does; the others are seeded (the same seed gives the same
 /// centres) and used through [`ReducedDynamics::fit_rbf_centres`].
@@ -1693,7 +1693,7 @@ mod tests {
     }
 
     /// Row weights: with a steep knee the fitted map does not depend on data far beyond it
-    /// (issue 11: training runs cut at 0.3 instead of 0.2 rad), while the unweighted fit
+    /// (docs/decisions/0001: training runs cut at 0.3 instead of 0.2 rad), while the unweighted fit
     /// does; exact polynomial data are fitted exactly with or without weights; bad weights
     /// and unsupported combinations are errors naming the option.
     /// The low-degree first stage ([`LowDegreeStage`]): its degrees are exactly those of a

@@ -436,10 +436,10 @@ fn synthetic_known_normal_form_is_recovered() {
     println!("worst relative coefficient error {worst:.2e}");
 }
 
-// ------------------------------------------------------------------ issue 14: limits and saved models
+// ------------------------------------------------------------------ docs/decisions/0004: limits and saved models
 
 /// Sizes implied by the options are checked against `limits` before anything of that size
-/// is allocated (issue 14: `fit --dim 100 --embed 201` allocated 6-9 GB before failing);
+/// is allocated (docs/decisions/0004: `fit --dim 100 --embed 201` allocated 6-9 GB before failing);
 /// the error names the option and the limit.
 #[test]
 fn option_sizes_are_checked_against_the_stated_limits() {

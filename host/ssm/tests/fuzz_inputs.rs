@@ -1,4 +1,4 @@
-//! Fuzzing the learner's input boundaries (issue 14, item 5): CSV data files and saved-model
+//! Fuzzing the learner's input boundaries (docs/decisions/0004): CSV data files and saved-model
 //! JSON. Nothing may panic; an accepted series is valid; an accepted model can be used
 //! (prediction, conversion to the device blob) without panicking.
 //!

@@ -1044,7 +1044,7 @@ fn exprb54_validation_describe_and_blow_up() {
 }
 
 // ---------------------------------------------------------------------------------------------
-// Bit-for-bit golden values of the split schemes (issue 13, stepfast): recorded at 996c38d
+// Bit-for-bit golden values of the split schemes (docs/decisions/0003): recorded at 996c38d
 // before the per-step work was cut; any change to the operations of a step shows here.
 // The exprb-lean and exprb-filtered rows were re-recorded when their eigenpair became the
 // closed-form second-order pair (pairqep: the same steps but one in case 9, other rounding);
