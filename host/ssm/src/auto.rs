@@ -668,7 +668,7 @@ fn reasons(grid: &AutoGrid, dim: &DimChoice, best: &Scored, runner: Option<&Scor
             100.0 * (r.score / best.score - 1.0)
         ));
     }
-    for k in 0..7 {
+    for (k, knob) in KNOBS.iter().enumerate() {
         let mut vals = Vec::new();
         for s in memo {
             if (0..7).all(|j| j == k || s.index[j] == best.index[j]) {
@@ -679,7 +679,7 @@ fn reasons(grid: &AutoGrid, dim: &DimChoice, best: &Scored, runner: Option<&Scor
         if vals.len() > 1 {
             let list: Vec<String> =
                 vals.iter().map(|(i, sc)| format!("{} -> {}", grid.value(k, *i), fmt_score(*sc))).collect();
-            out.push(format!("{}: {}", KNOBS[k], list.join(", ")));
+            out.push(format!("{knob}: {}", list.join(", ")));
         }
     }
     out
@@ -784,10 +784,8 @@ fn interval(estimate: f64, mut v: Vec<f64>, level: f64) -> Interval {
 /// The curve's frequency and damping at `amp` (linear between its points; `None` beyond).
 fn at_amplitude(b: &Backbone, amp: f64) -> Option<(f64, f64)> {
     let pts = &b.points;
-    if let Some(p0) = pts.first() {
-        if amp <= p0.amplitude {
-            return Some((p0.freq_rad_s, p0.damping_ratio));
-        }
+    if let Some(p0) = pts.first().filter(|p0| amp <= p0.amplitude) {
+        return Some((p0.freq_rad_s, p0.damping_ratio));
     }
     for w in pts.windows(2) {
         let (a, c) = (&w[0], &w[1]);
@@ -843,6 +841,9 @@ fn units(
     Ok((out, format!("segments ({n} blocks of the trajectories drawn with replacement)")))
 }
 
+/// One bootstrap replicate: its sorted eigenvalues and, if asked, its backbone curves.
+type Replicate = (Vec<(f64, f64)>, Option<Result<Vec<Backbone>, String>>);
+
 /// Bootstrap intervals of the fit of `train` with `setting` (see the module docs).
 pub fn intervals(train: &[MultiSeries], setting: &Setting, o: &IntervalOptions) -> Result<Intervals, AutoError> {
     if o.replicates < 20 {
@@ -860,7 +861,7 @@ pub fn intervals(train: &[MultiSeries], setting: &Setting, o: &IntervalOptions) 
     };
     let (units, method) = units(train, setting, o)?;
     let n = units.len();
-    let reps: Vec<Result<(Vec<(f64, f64)>, Option<Result<Vec<Backbone>, String>>), String>> = (0..o.replicates)
+    let reps: Vec<Result<Replicate, String>> = (0..o.replicates)
         .into_par_iter()
         .map(|r| {
             let mut rng = ChaCha8Rng::seed_from_u64(o.seed.wrapping_mul(0x9E37_79B9_7F4A_7C15).wrapping_add(r as u64));
@@ -870,8 +871,7 @@ pub fn intervals(train: &[MultiSeries], setting: &Setting, o: &IntervalOptions) 
             Ok((sorted_eigs(&m), bb))
         })
         .collect();
-    let ok: Vec<&(Vec<(f64, f64)>, Option<Result<Vec<Backbone>, String>>)> =
-        reps.iter().filter_map(|r| r.as_ref().ok()).collect();
+    let ok: Vec<&Replicate> = reps.iter().filter_map(|r| r.as_ref().ok()).collect();
     let first_err = |it: &mut dyn Iterator<Item = String>| it.next().unwrap_or_default();
     if ok.len() * 10 < o.replicates * 9 {
         return Err(AutoError::Bootstrap {

@@ -159,6 +159,6 @@ fn bad_input_is_a_named_error() {
         cut: 0.0,
         options: select(&duffing_x(), &AutoOptions { budget: 1, ..Default::default() }).unwrap().best.setting.options,
     };
-    let e = ssm::auto::intervals(&[series("lone", osc(150))], &s, &Default::default()).unwrap_err();
+    let e = ssm::auto::intervals(&[series("lone", osc(100))], &s, &Default::default()).unwrap_err();
     assert!(matches!(e, AutoError::TooLittleData { .. }), "{e}");
 }
