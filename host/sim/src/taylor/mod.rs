@@ -164,7 +164,7 @@ impl FlowExpansion {
 
 /// Most RK4 steps (after refinement) of one expansion: the work (and the mesh's memory) is
 /// bounded before it starts; the report's periods take a few thousand.
-pub const MAX_FLOW_STEPS: usize = 200_000;
+pub const MAX_FLOW_STEPS: usize = 50_000;
 
 /// The base mesh refined `refine` times: step sizes summing to `dt`; `Err` when it would
 /// take more than [`MAX_FLOW_STEPS`] steps (checked as it is built).
