@@ -579,5 +579,106 @@ pub fn summarize(rows: &[PipelineRow], scale: usize) -> PipelineSummary {
 /// Theiler window are the flag's (the numbers: docs/flag-study.md and the report).
 pub const CHOSEN: KnownSystem = KnownSystem::Lorenz96 { n: 4, f: 17.7 };
 
+// The study's results files as pipeline rows (the conversions live here so that
+// `study_results` depends on no other module of the crate).
+use crate::study_results::{HeldOutResults, KnownSystemResults, ModelRow, RunStats, ValidationRun};
+
+impl ModelRow {
+    /// The row's measured values.
+    pub fn measured(&self) -> Measured {
+        Measured { benettin: self.benettin, rosenstein: self.rosenstein, corr_dim: self.corr_dim, js: self.js }
+    }
+
+    /// The row against the run statistics `data` (the exponent's reference is the data's
+    /// Rosenstein value: the flag has no exact one).
+    pub fn against(&self, data: &RunStats) -> PipelineRow {
+        PipelineRow::from_values(
+            &self.candidate,
+            1,
+            &self.measured(),
+            self.failed.clone(),
+            data.rosenstein,
+            data.corr_dim,
+            data.corr_dim_err,
+            data.rosenstein,
+        )
+    }
+}
+
+/// `rows` against `data` ([`ModelRow::against`]).
+pub fn rows_against(rows: &[ModelRow], data: &RunStats) -> Vec<PipelineRow> {
+    rows.iter().map(|r| r.against(data)).collect()
+}
+
+impl KnownSystemResults {
+    /// [`Self::pipeline_check`] as rows against [`Self::data`].
+    pub fn check_rows(&self) -> Vec<PipelineRow> {
+        let k = &self.data;
+        self.pipeline_check
+            .iter()
+            .map(|r| {
+                let m = Measured { benettin: r.benettin, rosenstein: r.rosenstein, corr_dim: r.corr_dim, js: r.js };
+                PipelineRow::from_values(
+                    &r.candidate,
+                    r.scale,
+                    &m,
+                    r.failed.clone(),
+                    k.rosenstein,
+                    k.corr_dim,
+                    k.corr_dim_err,
+                    k.exact,
+                )
+            })
+            .collect()
+    }
+
+    /// [`Self::diagnosis`] as (group, noise over the sd, row) against [`Self::data`] (the
+    /// noise-free rows' own held-out series reads Rosenstein 1.030 and the same D2).
+    pub fn diagnosis_rows(&self) -> Vec<(String, f64, PipelineRow)> {
+        let k = &self.data;
+        self.diagnosis
+            .iter()
+            .map(|r| {
+                let m = Measured { benettin: r.benettin, rosenstein: r.rosenstein, corr_dim: r.corr_dim, js: r.js };
+                let row = PipelineRow::from_values(
+                    &r.candidate,
+                    r.scale,
+                    &m,
+                    r.failed.clone(),
+                    k.rosenstein,
+                    k.corr_dim,
+                    k.corr_dim_err,
+                    k.exact,
+                );
+                (r.group.clone(), r.noise_rel, row)
+            })
+            .collect()
+    }
+}
+
+impl HeldOutResults {
+    /// [`Self::centres`] as rows against [`Self::data`].
+    pub fn centre_rows(&self) -> Vec<PipelineRow> {
+        rows_against(&self.centres, &self.data)
+    }
+
+    /// [`Self::fit`] as rows against [`Self::data`].
+    pub fn fit_rows(&self) -> Vec<PipelineRow> {
+        rows_against(&self.fit, &self.data)
+    }
+
+    /// [`Self::multistep`] as rows against [`Self::data`].
+    pub fn multistep_rows(&self) -> Vec<PipelineRow> {
+        rows_against(&self.multistep, &self.data)
+    }
+}
+
+impl ValidationRun {
+    /// [`Self::rows`] as rows against [`Self::data`].
+    pub fn pipeline_rows(&self) -> Vec<PipelineRow> {
+        rows_against(&self.rows, &self.data)
+    }
+}
+
 #[cfg(test)]
 mod tests;

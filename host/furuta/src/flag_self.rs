@@ -17,7 +17,7 @@
 //!   test row. The rows are the study's results files ([`crate::study_results`]).
 
 use chaos::{Bins, CorrSumParams, Points, ScalingRule, correlation_dimension, delay_embed};
-use serde::{Deserialize, Serialize};
+use serde::Serialize;
 use ssm::{Dynamics, FitOptions, TimeSeries, fit};
 
 use crate::Error;
@@ -32,24 +32,7 @@ use crate::study_results::{FlagResults, HeldOutResults, ValidationRun};
 /// Map step of the flag's candidates, in samples.
 pub const STEP: usize = 4;
 
-/// One run (or piece of a run) of the flag measured as if it were a model's output: which
-/// run, the first sample and the length of the piece at map step [`STEP`], and its
-/// statistics against the held-out run.
-#[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
-#[serde(deny_unknown_fields)]
-pub struct SelfRow {
-    pub run: usize,
-    pub start: usize,
-    pub len: usize,
-    /// Rosenstein exponent of the piece (held-out settings), 1/s.
-    pub rosenstein: Option<f64>,
-    /// Correlation dimension of the piece and its error bar (held-out settings).
-    pub corr_dim: Option<f64>,
-    pub corr_dim_err: Option<f64>,
-    /// Mean JS divergence of the reduced-coordinate densities of the piece against the
-    /// held-out run's, bits.
-    pub js: Option<f64>,
-}
+pub use crate::study_results::SelfRow;
 
 /// The pieces of a run `run` that is `len` samples long at map step [`STEP`]: the whole run,
 /// and when it is longer than `piece` samples (the held-out run's length) its first and its

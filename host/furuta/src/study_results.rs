@@ -22,8 +22,6 @@ use serde::de::DeserializeOwned;
 use serde::{Deserialize, Serialize};
 
 use crate::Error;
-use crate::flag_pipeline::{Measured, PipelineRow};
-use crate::flag_self::SelfRow;
 
 /// File of [`KnownSystemResults`].
 pub const KNOWN_SYSTEM: &str = "known_system.json";
@@ -72,33 +70,6 @@ pub struct ModelRow {
     pub js: Option<f64>,
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub failed: Option<String>,
-}
-
-impl ModelRow {
-    /// The row's measured values.
-    pub fn measured(&self) -> Measured {
-        Measured { benettin: self.benettin, rosenstein: self.rosenstein, corr_dim: self.corr_dim, js: self.js }
-    }
-
-    /// The row against the run statistics `data` (the exponent's reference is the data's
-    /// Rosenstein value: the flag has no exact one).
-    pub fn against(&self, data: &RunStats) -> PipelineRow {
-        PipelineRow::from_values(
-            &self.candidate,
-            1,
-            &self.measured(),
-            self.failed.clone(),
-            data.rosenstein,
-            data.corr_dim,
-            data.corr_dim_err,
-            data.rosenstein,
-        )
-    }
-}
-
-/// `rows` against `data` ([`ModelRow::against`]).
-pub fn rows_against(rows: &[ModelRow], data: &RunStats) -> Vec<PipelineRow> {
-    rows.iter().map(|r| r.against(data)).collect()
 }
 
 /// The held-out statistics of the known system's series at the flag's layout, with its exact
@@ -156,52 +127,6 @@ pub struct KnownSystemResults {
     /// Variants of the flag's candidates: noise-free data, SSM dimension, shift, the whole
     /// delay vector, multistep refinement, denoised inputs and fits on the true state.
     pub diagnosis: Vec<DiagRow>,
-}
-
-impl KnownSystemResults {
-    /// [`Self::pipeline_check`] as rows against [`Self::data`].
-    pub fn check_rows(&self) -> Vec<PipelineRow> {
-        let k = &self.data;
-        self.pipeline_check
-            .iter()
-            .map(|r| {
-                let m = Measured { benettin: r.benettin, rosenstein: r.rosenstein, corr_dim: r.corr_dim, js: r.js };
-                PipelineRow::from_values(
-                    &r.candidate,
-                    r.scale,
-                    &m,
-                    r.failed.clone(),
-                    k.rosenstein,
-                    k.corr_dim,
-                    k.corr_dim_err,
-                    k.exact,
-                )
-            })
-            .collect()
-    }
-
-    /// [`Self::diagnosis`] as (group, noise over the sd, row) against [`Self::data`] (the
-    /// noise-free rows' own held-out series reads Rosenstein 1.030 and the same D2).
-    pub fn diagnosis_rows(&self) -> Vec<(String, f64, PipelineRow)> {
-        let k = &self.data;
-        self.diagnosis
-            .iter()
-            .map(|r| {
-                let m = Measured { benettin: r.benettin, rosenstein: r.rosenstein, corr_dim: r.corr_dim, js: r.js };
-                let row = PipelineRow::from_values(
-                    &r.candidate,
-                    r.scale,
-                    &m,
-                    r.failed.clone(),
-                    k.rosenstein,
-                    k.corr_dim,
-                    k.corr_dim_err,
-                    k.exact,
-                );
-                (r.group.clone(), r.noise_rel, row)
-            })
-            .collect()
-    }
 }
 
 /// [`SEARCH`]: the inverted flag's candidate search (train traj_9 + traj_7, held out
@@ -279,21 +204,6 @@ pub struct HeldOutResults {
 }
 
 impl HeldOutResults {
-    /// [`Self::centres`] as rows against [`Self::data`].
-    pub fn centre_rows(&self) -> Vec<PipelineRow> {
-        rows_against(&self.centres, &self.data)
-    }
-
-    /// [`Self::fit`] as rows against [`Self::data`].
-    pub fn fit_rows(&self) -> Vec<PipelineRow> {
-        rows_against(&self.fit, &self.data)
-    }
-
-    /// [`Self::multistep`] as rows against [`Self::data`].
-    pub fn multistep_rows(&self) -> Vec<PipelineRow> {
-        rows_against(&self.multistep, &self.data)
-    }
-
     /// D2 of run `run` ([`Self::corr_dim_runs`]); `None` when it has none or is not listed.
     pub fn corr_dim_of_run(&self, run: usize) -> Option<f64> {
         self.corr_dim_runs.iter().find(|r| r.run == run).and_then(|r| r.corr_dim)
@@ -318,6 +228,25 @@ impl RunOwnStats {
     pub fn stats(&self) -> RunStats {
         RunStats { rosenstein: self.rosenstein, corr_dim: self.corr_dim, corr_dim_err: self.corr_dim_err }
     }
+}
+
+/// One run (or piece of a run) of the flag measured as if it were a model's output: which
+/// run, the first sample and the length of the piece at map step the flag's map step, and its
+/// statistics against the held-out run.
+#[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct SelfRow {
+    pub run: usize,
+    pub start: usize,
+    pub len: usize,
+    /// Rosenstein exponent of the piece (held-out settings), 1/s.
+    pub rosenstein: Option<f64>,
+    /// Correlation dimension of the piece and its error bar (held-out settings).
+    pub corr_dim: Option<f64>,
+    pub corr_dim_err: Option<f64>,
+    /// Mean JS divergence of the reduced-coordinate densities of the piece against the
+    /// held-out run's, bits.
+    pub js: Option<f64>,
 }
 
 /// [`EXPERIMENT`]: the flag's runs as perfect models of the held-out run
@@ -347,13 +276,6 @@ pub struct ValidationRun {
     pub data: RunStats,
     /// The rows of [`HeldOutResults::centres`], in their order.
     pub rows: Vec<ModelRow>,
-}
-
-impl ValidationRun {
-    /// [`Self::rows`] as rows against [`Self::data`].
-    pub fn pipeline_rows(&self) -> Vec<PipelineRow> {
-        rows_against(&self.rows, &self.data)
-    }
 }
 
 /// The ensemble of the best validation-ranked d = 4 models: how many, and the JS of their

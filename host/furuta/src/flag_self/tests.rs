@@ -1,5 +1,6 @@
 use super::*;
-use crate::study_results::{FlagResults, ModelRow, RunStats, rows_against};
+use crate::flag_pipeline::rows_against;
+use crate::study_results::{FlagResults, ModelRow, RunStats};
 
 /// The bundled results of the flag study.
 fn res() -> FlagResults {
