@@ -212,3 +212,42 @@ fn no_module_import_circles() {
     g.entry("c".into()).or_default().insert("a".into());
     assert_eq!(cycle(&g), Some(vec!["a".into(), "b".into(), "c".into(), "a".into()]));
 }
+
+/// Calls that would write a file behind the one output writer's back (`fileio`): no
+/// symlink/device checks, no staging, no transaction.
+const RAW_WRITES: [&str; 6] =
+    ["fs::write(", " File::create(", "(File::create(", "fs::File::create(", "OpenOptions::new(", "fs::copy("];
+
+/// The non-test part of a source file: the text before its first `#[cfg(test)]`.
+fn non_test_part(text: &str) -> &str {
+    text.split("#[cfg(test)]").next().unwrap_or(text)
+}
+
+/// Every file the command line and the Python module write goes through `fileio`.
+#[test]
+fn apps_write_only_through_the_one_writer() {
+    let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).parent().unwrap().to_path_buf();
+    let mut offenders = Vec::new();
+    for krate in ["host/ssmctl/src", "host/python/src"] {
+        let mut stack = vec![root.join(krate)];
+        while let Some(dir) = stack.pop() {
+            for e in std::fs::read_dir(&dir).unwrap().flatten() {
+                let p = e.path();
+                if p.is_dir() {
+                    stack.push(p);
+                } else if p.extension().is_some_and(|x| x == "rs") && !p.ends_with("tests.rs") {
+                    let text = std::fs::read_to_string(&p).unwrap();
+                    for (n, line) in non_test_part(&text).lines().enumerate() {
+                        if !line.trim_start().starts_with("//") && RAW_WRITES.iter().any(|w| line.contains(w)) {
+                            offenders.push(format!("{}:{}: {}", p.display(), n + 1, line.trim()));
+                        }
+                    }
+                }
+            }
+        }
+    }
+    assert!(offenders.is_empty(), "writes outside fileio:\n{}", offenders.join("\n"));
+    // The scan sees a raw write when there is one, and not in a test module.
+    assert!(RAW_WRITES.iter().any(|w| non_test_part("let _ = std::fs::write(p, b);").contains(w)));
+    assert!(!RAW_WRITES.iter().any(|w| non_test_part("#[cfg(test)]\nfn t() { std::fs::write(p, b); }").contains(w)));
+}

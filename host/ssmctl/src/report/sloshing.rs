@@ -400,7 +400,9 @@ fn pil_paragraph(rep: &mut Report, path: &Path) -> Result<(), Box<dyn Error>> {
     // The blob the run flashed is part of the report's exported models.
     let blob = path.with_file_name("model.bin");
     if blob.is_file() {
-        std::fs::copy(&blob, rep.dir().join("pil-model.bin")).map_err(|e| format!("{}: {e}", blob.display()))?;
+        let bytes =
+            infile::read_bytes(&blob, infile::MAX_BLOB_BYTES).map_err(|e| format!("{}: {e}", blob.display()))?;
+        crate::output::write_atomic(&rep.dir().join("pil-model.bin"), &bytes)?;
         rep.para("The model blob of this run is <code>pil-model.bin</code>.");
         if let Some(Value::Array(list)) = rep.summary.get_mut("exported_blobs") {
             list.push(json!("pil-model.bin"));
