@@ -214,7 +214,7 @@ def test_device_blob_round_trip():
     assert isinstance(blob, bytes) and blob[:4] == b"SSMR"
     info = sc.inspect_blob(blob)
     assert info["bytes"] == len(blob) == 22 + info["payload_bytes"]
-    assert (info["p"], info["d"], info["centres"], info["format_version"]) == (5, 2, 40, 1)
+    assert (info["p"], info["d"], info["centres"], info["format_version"]) == (5, 2, 40, 2)
     assert info["sample_period_s"] == pytest.approx(0.02, rel=1e-6)
     bad = bytearray(blob)
     bad[-1] ^= 0xFF

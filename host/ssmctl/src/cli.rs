@@ -716,6 +716,7 @@ pub fn output_plan(cmd: &Cmd) -> (Vec<PathBuf>, Vec<(&'static str, PathBuf)>) {
             let mut roots = vec![out.clone()];
             let mut inputs = scene_file(scene);
             inputs.push(("--elf", elf.clone()));
+            // A fitted model is committed by itself before the run reads it (see `Cmd::Pil`).
             if *fit_model {
                 roots.push(model.clone());
             } else {
@@ -1103,7 +1104,11 @@ fn run_command(cli: Cli) -> Result<(), Box<dyn std::error::Error>> {
                     &[("--scene", std::path::Path::new(&scene.scene)), ("--elf", elf.as_path())],
                 )?;
                 let blob = crate::pil::fit_model(&scene.load()?)?;
+                // Its own transaction (the deepest root wins), committed now: the run reads it.
+                let inputs = [("--scene", std::path::Path::new(&scene.scene)), ("--elf", elf.as_path())];
+                let tx = crate::output::Outputs::begin(&[model.as_path()], &inputs);
                 crate::output::write_atomic(&model, &blob)?;
+                tx.commit()?;
                 eprintln!("pil: fitted model written to {} ({} bytes)", model.display(), blob.len());
             }
             let opts = crate::pil::PilOptions {
