@@ -698,7 +698,7 @@ mod tests {
     /// dev profile).
     #[test]
     fn inspect_runs_on_a_small_stack() {
-        let blob = std::fs::read(concat!(env!("CARGO_MANIFEST_DIR"), "/../../shared/tests/data/model_v1.bin")).unwrap();
+        let blob = std::fs::read(concat!(env!("CARGO_MANIFEST_DIR"), "/../../shared/tests/data/model_v2.bin")).unwrap();
         let v = std::thread::Builder::new()
             .stack_size(256 << 10)
             .spawn(move || inspect(&blob).map_err(|e| e.to_string()))
@@ -706,7 +706,7 @@ mod tests {
             .join()
             .unwrap()
             .unwrap();
-        assert_eq!(v["format_version"], 1);
+        assert_eq!(v["format_version"], 2);
         assert!(v["p"].as_u64().unwrap() >= 1, "{v}");
     }
 }
