@@ -14,6 +14,7 @@ pub mod expr;
 pub mod linear;
 pub mod ode;
 pub mod plant;
+pub mod scalar;
 pub mod scene;
 pub mod stability;
 pub mod taylor;

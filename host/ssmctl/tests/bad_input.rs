@@ -265,7 +265,7 @@ fn sizes_are_refused_before_allocation_with_the_limit() {
         &["simulate", "--scene", "furuta-dt25", "--out", s(&dir), "--set", "run.periods=9223372036854775807"],
         &["limit of 10000000"],
     );
-    refused(&["inspect", "/dev/zero"], &["/dev/zero", "larger than the limit of 16777216 bytes"]);
+    refused(&["inspect", "/dev/zero"], &["/dev/zero", "a character device, not a regular file"]);
     let (csv, _) = {
         let sim = dir.join("sim");
         let (code, _, err) =
@@ -421,6 +421,13 @@ fn pil_refuses_a_model_sampled_at_another_period() {
     m.sample_period = 0.033;
     let path = dir.join("m33.bin");
     std::fs::write(&path, m.encode().unwrap()).unwrap();
+    // ssmctl checks first that --elf is ARM firmware: an ELF header (32-bit, little-endian,
+    // machine ARM) passes that check, and the model is refused before QEMU starts.
+    let elf = dir.join("fake.elf");
+    let mut header = vec![0x7f, b'E', b'L', b'F', 1, 1, 1];
+    header.resize(18, 0);
+    header.extend_from_slice(&40u16.to_le_bytes());
+    std::fs::write(&elf, header).unwrap();
     let out = dir.join("out");
     refused(
         &[
@@ -432,7 +439,7 @@ fn pil_refuses_a_model_sampled_at_another_period() {
             "--out",
             s(&out),
             "--elf",
-            "/nonexistent.elf",
+            s(&elf),
             "--periods",
             "10",
         ],

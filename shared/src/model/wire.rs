@@ -191,8 +191,9 @@ impl ModelRef<'_> {
         let floats = [self.v1, self.lift, self.centres, self.weights, self.affine]
             .iter()
             .fold(0usize, |acc, m| acc.saturating_add(m.len()));
-        // Header, config (<= 5*8 + 5 + 2 + 3*8 + 2 tags), scalars and varints: < 160 bytes.
-        floats.saturating_mul(4).saturating_add(HEADER_LEN + 160)
+        // Header, scalars, varints and the config without its gains: < 160 bytes; each gain
+        // (index, p, d, h_adc) at most 1 + 3*8 bytes, bounded by 32.
+        floats.saturating_mul(4).saturating_add(HEADER_LEN + 160 + crate::config::MAX_GAINS * 32)
     }
 
     /// Checks the model as the decoder would and writes the blob into `buf`; returns the

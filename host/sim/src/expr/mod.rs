@@ -1,12 +1,12 @@
 //! Expressions of a plant written as equations: a lexer and Pratt parser with column
 //! positions, a hash-consed expression graph with constant folding and symbolic
 //! differentiation (for the Lagrangian form), and compilation of a set of expressions to one
-//! flat instruction tape ([`Tape`]) evaluated generically over [`Scalar`](crate::plant::Scalar) (`f64`, dual
+//! flat instruction tape ([`Tape`]) evaluated generically over [`Scalar`](crate::scalar::Scalar) (`f64`, dual
 //! numbers for exact Jacobians, truncated power series for the equation-driven SSM).
 //!
 //! Why hand-written: the expression crates (`meval`, `fasteval`, `evalexpr`) evaluate in
 //! `f64` only, have no symbolic derivative and report positions loosely; what a plant needs
-//! (one grammar, derivatives, evaluation over any [`Scalar`](crate::plant::Scalar), shared subexpressions between
+//! (one grammar, derivatives, evaluation over any [`Scalar`](crate::scalar::Scalar), shared subexpressions between
 //! the mass matrix and the forces) is a few hundred lines on top of `std`.
 //!
 //! Grammar: numbers (`2`, `0.5`, `1e-3`), names (parameters, coordinates, `<coord>_dot`,

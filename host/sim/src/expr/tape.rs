@@ -5,7 +5,7 @@
 //! it neither allocates nor touches strings.
 
 use super::{F1, Graph, Id, Node, children};
-use crate::plant::Scalar;
+use crate::scalar::Scalar;
 
 /// One operation; register indices are `u16`.
 #[derive(Clone, Copy, Debug, PartialEq)]

@@ -1,5 +1,5 @@
 use super::*;
-use crate::plant::{Dual, Scalar};
+use crate::scalar::{Dual, Scalar};
 use crate::taylor::tps::{Tps, TpsTable};
 
 fn names() -> Names {

@@ -7,7 +7,8 @@ pub mod cart;
 pub mod equations;
 pub mod furuta;
 pub mod linearize;
-pub mod scalar;
+/// Re-exported from the crate root, where the expression tape also uses it.
+pub use crate::scalar;
 
 pub use cart::{Cart, CartParams};
 pub use equations::{EquationsModel, EquationsPlant, EquationsSpec};

@@ -807,7 +807,7 @@ impl Scene {
                     s,
                     &step,
                     format!(
-                        "with this step{dac}, `{}` is not representable in the integer controller (in DAC codes per encoder count, or DAC codes, it is out of range or rounds to zero), though it is with the paper's steps: {e}",
+                        "with this step{dac}, the gain {} is not representable in the integer controller (in DAC codes per encoder count, or DAC codes, it is out of range or rounds to zero), though it is with the paper's steps: {e}",
                         self.config_key(e)
                     ),
                 );
