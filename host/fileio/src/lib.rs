@@ -28,6 +28,8 @@ use std::io::{self, BufWriter, Write};
 use std::path::{Component, Path, PathBuf};
 use std::sync::{Mutex, MutexGuard, OnceLock};
 
+pub mod store;
+
 /// Prefix of the staging folders a transaction creates inside each output folder.
 const STAGE_PREFIX: &str = ".ssmctl-stage-";
 /// Infix of the temporary file of a write outside any transaction.

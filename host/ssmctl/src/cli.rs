@@ -106,6 +106,18 @@ pub enum Cmd {
         /// core). The results do not depend on it.
         #[arg(long, value_parser = clap::value_parser!(u16).range(1..))]
         jobs: Option<u16>,
+        /// Folder of the section cache (default: `.ssmctl-cache` beside the `--out` folder).
+        /// A section whose code, options and input files are unchanged is replayed from it.
+        #[arg(long, conflicts_with = "no_cache")]
+        cache: Option<PathBuf>,
+        /// Compute every section; read and keep nothing in the cache.
+        #[arg(long)]
+        no_cache: bool,
+    },
+    /// Manage the report's section cache.
+    Cache {
+        #[command(subcommand)]
+        what: CacheCmd,
     },
     /// Run a sweep spec (basin map, stability chart) or one shard of it; writes
     /// DIR/shard-I-of-N.json. The shard: --shard, else the Slurm array task
@@ -462,6 +474,19 @@ fn parse_bounds(v: &[String], flag: &str) -> Result<Vec<Option<f64>>, String> {
 }
 
 #[derive(Subcommand)]
+pub enum CacheCmd {
+    /// Removes the entries the last `reproduce` with this cache did not use (with `--all`:
+    /// every entry) and scratch folders of processes that no longer run; prints what it
+    /// removed.
+    Gc {
+        /// The cache folder.
+        dir: PathBuf,
+        #[arg(long)]
+        all: bool,
+    },
+}
+
+#[derive(Subcommand)]
 pub enum BenchCmd {
     /// Periods simulated per second vs max theta error against a tight reference.
     Simulate {
@@ -653,6 +678,7 @@ pub fn check_options(cli: &Cli) -> Result<(), Box<dyn std::error::Error>> {
             bench::problem(*periods)?;
         }
         Cmd::Scenes { .. }
+        | Cmd::Cache { .. }
         | Cmd::Reproduce { .. }
         | Cmd::Sweep { .. }
         | Cmd::Study { .. }
@@ -725,12 +751,21 @@ pub fn output_plan(cmd: &Cmd) -> (Vec<PathBuf>, Vec<(&'static str, PathBuf)>) {
             (roots, inputs)
         }
         Cmd::Scenes { .. }
+        | Cmd::Cache { .. }
         | Cmd::Stability { .. }
         | Cmd::SsmEquations { .. }
         | Cmd::Inspect { .. }
         | Cmd::Chaos { .. }
         | Cmd::Bench { .. } => (Vec::new(), Vec::new()),
     }
+}
+
+/// The report cache's default folder: `.ssmctl-cache` in the folder that holds `out`.
+fn default_cache_dir(out: &std::path::Path) -> Result<PathBuf, String> {
+    let abs = std::path::absolute(out).map_err(|e| format!("--out {}: {e}", out.display()))?;
+    abs.parent()
+        .map(|p| p.join(".ssmctl-cache"))
+        .ok_or_else(|| format!("--out {}: no parent folder for the cache; give --cache DIR", out.display()))
 }
 
 /// Runs the CLI; the error is printed by `main`. The command's files are staged in one
@@ -824,12 +859,27 @@ fn run_command(cli: Cli) -> Result<(), Box<dyn std::error::Error>> {
             let summary = crate::draw::chart::chart_for_scene(&s, &out, &dt_ms, kp, kd)?;
             outln!("{}", serde_json::to_string_pretty(&summary)?);
         }
-        Cmd::Reproduce { out, quick, data_dir, jobs } => {
+        Cmd::Reproduce { out, quick, data_dir, jobs, cache, no_cache } => {
             if let Some(n) = jobs {
                 rayon::ThreadPoolBuilder::new().num_threads(n.into()).build_global()?;
             }
-            reproduce::run(&out, &data_dir, quick, quiet)?;
+            let cache = if no_cache { None } else { Some(cache.map_or_else(|| default_cache_dir(&out), Ok)?) };
+            reproduce::run(&out, &data_dir, quick, quiet, cache.as_deref())?;
             eprintln!("wrote {}", out.join("index.html").display());
+        }
+        Cmd::Cache { what: CacheCmd::Gc { dir, all } } => {
+            if !dir.is_dir() {
+                return Err(format!("cache gc: {} is not a folder", dir.display()).into());
+            }
+            let r = fileio::store::Store::open(&dir)?.gc(all)?;
+            outln!(
+                "{}: removed {} entries ({:.1} MB){}, kept {}",
+                dir.display(),
+                r.removed,
+                r.removed_bytes as f64 / 1e6,
+                if all { "" } else { " not used by the last reproduce" },
+                r.kept
+            );
         }
         Cmd::Sweep { spec, out, shard, shards, jobs, force } => {
             if let Some(n) = jobs {

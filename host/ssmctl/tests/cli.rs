@@ -552,3 +552,35 @@ fn fit_auto_prints_its_choice_and_intervals() {
     assert!(!ok && err.contains("too little data for the cross-validation folds"), "{err}");
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// `cache gc` keeps what the last run used, says what it removed, and names a missing folder;
+/// `reproduce` refuses a cache inside its own output folder.
+#[test]
+fn cache_gc_and_cache_placement() {
+    let d = tmp("cache-gc");
+    let cache = d.join("cache");
+    for (name, used) in [("scenes-0123456789abcdef", true), ("chart-fedcba9876543210", false)] {
+        std::fs::create_dir_all(cache.join(name).join("files")).unwrap();
+        std::fs::write(cache.join(name).join("meta"), b"{}").unwrap();
+        if used {
+            std::fs::write(cache.join("last-run.json"), format!("[\n  \"{name}\"\n]\n")).unwrap();
+        }
+    }
+    let c = cache.to_str().unwrap();
+    let (ok, out, err) = ssmctl(&["cache", "gc", c]);
+    assert!(ok, "{err}");
+    assert!(out.contains("removed 1 entries") && out.contains("kept 1"), "{out}");
+    assert!(cache.join("scenes-0123456789abcdef").is_dir() && !cache.join("chart-fedcba9876543210").exists());
+    let (ok, out, _) = ssmctl(&["cache", "gc", c, "--all"]);
+    assert!(ok && out.contains("removed 1 entries"), "{out}");
+    let (ok, _, err) = ssmctl(&["cache", "gc", d.join("none").to_str().unwrap()]);
+    assert!(!ok && err.contains("none") && err.contains("not a folder"), "{err}");
+    let out_dir = d.join("report");
+    let inside = out_dir.join("c");
+    let (ok, _, err) =
+        ssmctl(&["reproduce", "--quick", "--out", out_dir.to_str().unwrap(), "--cache", inside.to_str().unwrap()]);
+    assert!(!ok && err.contains("inside this command's output"), "{err}");
+    let (ok, _, err) = ssmctl(&["reproduce", "--out", out_dir.to_str().unwrap(), "--cache", c, "--no-cache"]);
+    assert!(!ok && err.contains("--no-cache"), "{err}");
+    std::fs::remove_dir_all(&d).unwrap();
+}

@@ -68,6 +68,24 @@ impl Report {
         Self { dir: self.dir.clone(), body: String::new(), toc: Vec::new(), summary: Map::new() }
     }
 
+    /// An empty report writing its files into `dir` (a cache unit's scratch folder, see
+    /// [`cache`]), to be appended to this one.
+    pub fn part_in(&self, dir: &Path) -> Self {
+        Self { dir: dir.to_path_buf(), body: String::new(), toc: Vec::new(), summary: Map::new() }
+    }
+
+    /// The HTML, contents entries and summary keys of a part (as [`cache`] stores them).
+    pub fn into_parts(self) -> (String, Vec<(String, String, bool)>, Map<String, Value>) {
+        (self.body, self.toc, self.summary)
+    }
+
+    /// Sets what [`Report::into_parts`] returned, on an empty part.
+    pub fn set_parts(&mut self, body: String, toc: Vec<(String, String, bool)>, summary: Map<String, Value>) {
+        self.body = body;
+        self.toc = toc;
+        self.summary = summary;
+    }
+
     /// Appends a [`Report::part`]: its HTML after this report's, its contents entries, its
     /// summary keys (a key both already have is an error: no section overwrites another's).
     pub fn append(&mut self, part: Report) -> Result<(), String> {
@@ -161,6 +179,7 @@ figcaption{{font-size:85%;color:#444}}code{{background:#f4f4f4}}</style></head><
 }
 
 pub mod bifurcations;
+pub mod cache;
 pub mod chaos;
 pub mod global;
 pub mod normal_form;

@@ -3,6 +3,7 @@
 
 use crate::bench;
 use crate::plot::{self, Series};
+use crate::report::cache::{Outcome, SectionCache, Unit};
 use crate::report::{Report, num, par_map};
 use indicatif::{ProgressBar, ProgressStyle};
 use plotters::style::RGBColor;
@@ -11,12 +12,16 @@ use sim::closed_loop;
 use sim::scene::{BUNDLED, Scene, SceneBuilder, Task};
 use sim::stability;
 use std::error::Error;
-use std::path::Path;
+use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 /// Runs the whole report into `out`, on the current rayon pool (`ssmctl reproduce --jobs N`
 /// sizes the global one). The sections' wall times, the pool size and the peak resident
 /// memory go into a last, timing-only section and `summary.json` key `timings`.
+///
+/// Each section (the model chain as one) is a cached unit ([`SectionCache`]) in `cache_dir`
+/// (`None`: a temporary cache, nothing reused or kept): a unit whose code, options and input
+/// files are unchanged is replayed, with the same page, summary keys and files.
 ///
 /// Sweeps inside the sections run on the pool. Besides, two chains of sections that share
 /// nothing run concurrently (`rayon::join`), each into its own [`Report::part`], appended in
@@ -25,26 +30,55 @@ use std::time::Instant;
 /// that measure speed (accuracy-time-sim, the fit bench of fit-sloshing, chaos-cost) run
 /// alone, so nothing else competes for the cores while they time. The large regressions
 /// share a memory budget ([`REGRESSION_MEMORY_MB`]).
-pub fn run(out: &Path, data_dir: &Path, quick: bool, quiet: bool) -> Result<(), Box<dyn Error>> {
+pub fn run(
+    out: &Path,
+    data_dir: &Path,
+    quick: bool,
+    quiet: bool,
+    cache_dir: Option<&Path>,
+) -> Result<(), Box<dyn Error>> {
     let t0 = Instant::now();
     fixed_mmap_threshold(MMAP_THRESHOLD_BYTES);
     ssm::ridge::set_memory_budget(REGRESSION_MEMORY_MB << 20);
+    let cache = SectionCache::open(cache_dir, quick)?;
     let mut rep = Report::new(out)?;
     crate::output::create_dir(&out.join("fig"))?;
     rep.summary.insert("quick".into(), Value::Bool(quick));
     let mut t = Timings::default();
-    t.time("scenes", || scenes_section(&mut rep, quick, quiet))?;
-    t.time("stability", || stability_section(&mut rep))?;
-    t.time("chart", || chart_section(&mut rep, quick))?;
-    t.time("accuracy-time-sim", || bench_section(&mut rep, quick, quiet))?;
-    t.time("fit-sloshing", || crate::report::sloshing::sloshing_section(&mut rep, data_dir, quick))?;
-    t.time("furuta-blob", || crate::report::sloshing::furuta_blob(&mut rep, quick))?;
+    let sim_unit = |name| Unit { name, crates: &["sim"], files: &["reproduce.rs"], inputs: Vec::new() };
+    t.unit(&cache, &mut rep, sim_unit("scenes"), |rep| scenes_section(rep, quick, quiet))?;
+    t.unit(&cache, &mut rep, sim_unit("stability"), stability_section)?;
+    t.unit(&cache, &mut rep, sim_unit("chart"), |rep| chart_section(rep, quick))?;
+    t.unit(&cache, &mut rep, sim_unit("accuracy-time-sim"), |rep| bench_section(rep, quick, quiet))?;
+    let sloshing = Unit {
+        name: "fit-sloshing",
+        crates: &["ssm"],
+        files: &["sloshing.rs"],
+        inputs: vec![("sloshing data", data_dir.join("sloshing"))],
+    };
+    t.unit(&cache, &mut rep, sloshing, |rep| crate::report::sloshing::sloshing_section(rep, data_dir, quick))?;
+    let blob = Unit { name: "furuta-blob", crates: &["sim", "ssm"], files: &["sloshing.rs"], inputs: Vec::new() };
+    t.unit(&cache, &mut rep, blob, |rep| crate::report::sloshing::furuta_blob(rep, quick))?;
+    let pil_record = Path::new(crate::report::chaos::PIL_RECORD_DIR);
+    let chaos_inputs = || {
+        vec![
+            ("PIL recordings", pil_record.to_path_buf()),
+            ("flag data", data_dir.join("inverted_flag_chaotic")),
+            ("flag study results", furuta::study_results::default_dir()),
+        ]
+    };
     let (model_chain, chaos_chain) = rayon::join(
         || {
             let mut part = rep.part();
             let mut t = Timings::default();
-            let r = (|| -> Result<(), Box<dyn Error>> {
-                let rep = &mut part;
+            // The model sections hand their models to each other: one unit.
+            let models = Unit {
+                name: "models",
+                crates: &["furuta"],
+                files: &["normal_form.rs", "bifurcations.rs", "global.rs", "tasks.rs"],
+                inputs: Vec::new(),
+            };
+            let r = cache.run(&mut part, models, |rep| {
                 let (parametric, runs) = t.time("parametric", || crate::report::normal_form::section(rep, quick))?;
                 let bif = t.time("portraits", || crate::report::bifurcations::portraits_section(rep, &parametric))?;
                 let switch = t.time("fullsystem", || {
@@ -58,22 +92,43 @@ pub fn run(out: &Path, data_dir: &Path, quick: bool, quiet: bool) -> Result<(), 
                 }
                 t.time("global", || {
                     crate::report::global::global_sections(rep, &parametric, &shared, &runs, &bif, quick)
-                })?;
-                Ok(())
-            })();
-            sendable(r).map(|()| (part, t))
+                })
+            });
+            if let Ok(Outcome::Reused) = r {
+                t.reused.push("models");
+            }
+            sendable(r.map(|_| ())).map(|()| (part, t))
         },
         || {
             let mut part = rep.part();
             let mut t = Timings::default();
             let r = (|| -> Result<(), Box<dyn Error>> {
                 let rep = &mut part;
-                t.time("device", || {
+                let device = Unit {
+                    name: "device",
+                    crates: &["shared"],
+                    files: &["sloshing.rs"],
+                    inputs: vec![
+                        ("device table", PathBuf::from("qemu/target/device-table.json")),
+                        ("PIL summary", PathBuf::from("qemu/target/pil/summary.json")),
+                        ("PIL model", PathBuf::from("qemu/target/pil/model.bin")),
+                    ],
+                };
+                t.unit(&cache, rep, device, |rep| {
                     crate::report::sloshing::device_section(rep, Path::new("qemu/target/device-table.json"))
                 })?;
-                t.time("chaos", || crate::report::chaos::section(rep, data_dir, quick))?;
-                t.time("chaos-scale", || crate::report::chaos::scale_section(rep, data_dir, quick))?;
-                t.time("chaos-verdict", || crate::report::verdict::microchaos_verdict_section(rep, quick))?;
+                let chaos = |name| Unit { name, crates: &["furuta"], files: &["chaos.rs"], inputs: chaos_inputs() };
+                t.unit(&cache, rep, chaos("chaos"), |rep| crate::report::chaos::section(rep, data_dir, quick))?;
+                t.unit(&cache, rep, chaos("chaos-scale"), |rep| {
+                    crate::report::chaos::scale_section(rep, data_dir, quick)
+                })?;
+                let verdict = Unit {
+                    name: "chaos-verdict",
+                    crates: &["furuta"],
+                    files: &["verdict.rs", "chaos.rs"],
+                    inputs: chaos_inputs(),
+                };
+                t.unit(&cache, rep, verdict, |rep| crate::report::verdict::microchaos_verdict_section(rep, quick))?;
                 Ok(())
             })();
             sendable(r).map(|()| (part, t))
@@ -83,10 +138,13 @@ pub fn run(out: &Path, data_dir: &Path, quick: bool, quiet: bool) -> Result<(), 
         let (part, times) = chain.map_err(|e| e as Box<dyn Error>)?;
         rep.append(part)?;
         t.sections.extend(times.sections);
+        t.reused.extend(times.reused);
     }
     if !quick {
-        t.time("chaos-cost", || crate::report::chaos::cost_section(&mut rep, data_dir))?;
+        let cost = Unit { name: "chaos-cost", crates: &["furuta"], files: &["chaos.rs"], inputs: chaos_inputs() };
+        t.unit(&cache, &mut rep, cost, |rep| crate::report::chaos::cost_section(rep, data_dir))?;
     }
+    cache.finish()?;
     timings_section(&mut rep, &t, t0.elapsed().as_secs_f64())?;
     rep.finish("ssmctl reproduce: delayed, sampled, quantized PD control of the Furuta pendulum")?;
     Ok(())
@@ -135,6 +193,8 @@ fn sendable<T>(r: Result<T, Box<dyn Error>>) -> Result<T, SendError> {
 #[derive(Default)]
 struct Timings {
     sections: Vec<(&'static str, f64, Option<f64>)>,
+    /// The units replayed from the cache.
+    reused: Vec<&'static str>,
 }
 
 impl Timings {
@@ -146,6 +206,21 @@ impl Timings {
         let r = crate::report::tasks::task(name, f);
         self.sections.push((name, t0.elapsed().as_secs_f64(), watch.finish()));
         r
+    }
+
+    /// Runs a cached unit ([`SectionCache::run`]) under its name.
+    fn unit(
+        &mut self,
+        cache: &SectionCache,
+        rep: &mut Report,
+        unit: Unit,
+        f: impl FnOnce(&mut Report) -> Result<(), Box<dyn Error>>,
+    ) -> Result<(), Box<dyn Error>> {
+        let name = unit.name;
+        if self.time(name, || cache.run(rep, unit, f))? == Outcome::Reused {
+            self.reused.push(name);
+        }
+        Ok(())
     }
 }
 
@@ -261,10 +336,11 @@ fn timings_section(rep: &mut Report, t: &Timings, total_seconds: f64) -> Result<
                 format!("{s:.2}"),
                 format!("{:.1} %", 100.0 * s / total_seconds.max(1e-9)),
                 m.map_or("-".into(), |m| format!("{m:.0}")),
+                if t.reused.contains(name) { "reused from the cache".into() } else { "computed".into() },
             ]
         })
         .collect();
-    rep.table(&["section", "wall [s]", "of total", "peak memory while running [MB]"], &rows);
+    rep.table(&["section", "wall [s]", "of total", "peak memory while running [MB]", ""], &rows);
     // `cargo xtask reproduce` runs the device table and the processor-in-the-loop steps
     // before this report and names their timings file in SSMCTL_XTASK_STEPS.
     let steps: Vec<Value> = match std::env::var_os("SSMCTL_XTASK_STEPS") {
@@ -316,7 +392,7 @@ fn timings_section(rep: &mut Report, t: &Timings, total_seconds: f64) -> Result<
             "jobs": jobs,
             "cached": cached,
             "xtask_steps": steps,
-            "sections": t.sections.iter().map(|(n, s, m)| json!({"name": n, "seconds": s, "peak_rss_mb": m})).collect::<Vec<_>>(),
+            "sections": t.sections.iter().map(|(n, s, m)| json!({"name": n, "seconds": s, "peak_rss_mb": m, "reused": t.reused.contains(n)})).collect::<Vec<_>>(),
             "peak_rss_mb": peak,
             "rss_sample_ms": RSS_SAMPLE_MS,
         }),

@@ -1,0 +1,268 @@
+//! The report's cache: each expensive section (or chain of sections that hand values to each
+//! other) is a [`Unit`] stored in a content-addressed [`Store`] under a key made of everything
+//! it depends on: the fingerprints of the workspace crates and of the `ssmctl` source files it
+//! runs (computed by `build.rs`), the toolchain, `--quick`, and the bytes of the files it reads.
+//! A section computes into a scratch folder of the store; its HTML, contents entries, summary
+//! keys and files are then stored and replayed into the report, so a reused section gives the
+//! same page and files as a computed one. A change to one section's source file recomputes
+//! only the units that list it; a change to a library crate recomputes the units that use it.
+
+use super::Report;
+use fileio::store::{Entry, Key, KeyBuilder, Store};
+use serde::{Deserialize, Serialize};
+use serde_json::{Map, Value};
+use std::error::Error;
+use std::path::{Path, PathBuf};
+
+mod fingerprints {
+    include!(concat!(env!("OUT_DIR"), "/fingerprints.rs"));
+}
+
+/// Workspace crates and the workspace crates they depend on (checked against the manifests
+/// by a test), so a unit names only the crates it calls.
+const CRATE_DEPS: &[(&str, &[&str])] = &[
+    ("shared", &[]),
+    ("controller", &["shared"]),
+    ("infile", &[]),
+    ("fileio", &[]),
+    ("sim", &["controller", "shared", "infile"]),
+    ("ssm", &["shared", "infile"]),
+    ("chaos", &[]),
+    ("furuta", &["sim", "ssm", "chaos", "shared", "infile"]),
+];
+
+/// One cached piece of the report.
+pub struct Unit {
+    /// Its name (also the store entry's prefix and the timings' row).
+    pub name: &'static str,
+    /// The workspace crates it calls (their dependencies are added).
+    pub crates: &'static [&'static str],
+    /// Its source files under `ssmctl/src/report/` (every other `ssmctl` file counts for every
+    /// unit).
+    pub files: &'static [&'static str],
+    /// The files and folders it reads, by name.
+    pub inputs: Vec<(&'static str, PathBuf)>,
+}
+
+/// The HTML, contents entries and summary keys of a section, as stored.
+#[derive(Serialize, Deserialize)]
+struct PartMeta {
+    body: String,
+    toc: Vec<(String, String, bool)>,
+    summary: Map<String, Value>,
+}
+
+/// The report's store and the options that are part of every key.
+pub struct SectionCache {
+    store: Store,
+    quick: bool,
+}
+
+/// Whether a unit was reused or computed.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Outcome {
+    Reused,
+    Computed,
+}
+
+fn crate_hash(name: &str) -> Option<u64> {
+    fingerprints::CRATES.iter().find(|(n, _)| *n == name).map(|(_, h)| *h)
+}
+
+/// The unit's crates with their workspace dependencies, sorted.
+fn closure(crates: &[&str]) -> Result<Vec<&'static str>, String> {
+    let mut out: Vec<&'static str> = Vec::new();
+    let mut todo: Vec<&str> = crates.to_vec();
+    while let Some(c) = todo.pop() {
+        let (name, deps) =
+            CRATE_DEPS.iter().find(|(n, _)| *n == c).ok_or_else(|| format!("report cache: unknown crate `{c}`"))?;
+        if !out.contains(name) {
+            out.push(name);
+            todo.extend(deps.iter());
+        }
+    }
+    out.sort_unstable();
+    Ok(out)
+}
+
+impl Unit {
+    /// The key of this unit: code fingerprints, options and inputs.
+    pub fn key(&self, quick: bool) -> Result<Key, Box<dyn Error>> {
+        let mut k = KeyBuilder::new(self.name)
+            .part("toolchain", &fingerprints::TOOLCHAIN.to_le_bytes())
+            .part("quick", &[u8::from(quick)]);
+        for c in closure(self.crates)? {
+            let h = crate_hash(c).ok_or_else(|| format!("report cache: no fingerprint of crate `{c}`"))?;
+            k = k.part(c, &h.to_le_bytes());
+        }
+        for f in self.files {
+            let rel = format!("report/{f}");
+            if !fingerprints::FILES.iter().any(|(n, _)| *n == rel) {
+                return Err(
+                    format!("report cache: unit `{}` names `{rel}`, which is not a source file", self.name).into()
+                );
+            }
+        }
+        // Every ssmctl file outside report/ counts, and of report/ the unit's own and the shared ones.
+        for (n, h) in fingerprints::FILES {
+            let own = n
+                .strip_prefix("report/")
+                .is_none_or(|f| ["mod.rs", "cache.rs"].contains(&f) || self.files.contains(&f));
+            if own {
+                k = k.part(n, &h.to_le_bytes());
+            }
+        }
+        for (name, path) in &self.inputs {
+            k = k.tree(name, path)?;
+        }
+        Ok(k.finish())
+    }
+}
+
+impl SectionCache {
+    /// The cache in `dir`, or with `dir = None` a temporary one that is removed when this is
+    /// dropped (`--no-cache`: every unit computed, nothing kept).
+    pub fn open(dir: Option<&Path>, quick: bool) -> Result<Self, Box<dyn Error>> {
+        let store = match dir {
+            Some(d) => Store::open(d)?,
+            None => Store::temporary()?,
+        };
+        Ok(Self { store, quick })
+    }
+
+    pub fn dir(&self) -> &Path {
+        self.store.dir()
+    }
+
+    /// Runs `unit` into `rep`: replays the stored result when its key matches, else computes
+    /// it with `f` (into a part writing under a scratch folder), stores it and replays it.
+    pub fn run(
+        &self,
+        rep: &mut Report,
+        unit: Unit,
+        f: impl FnOnce(&mut Report) -> Result<(), Box<dyn Error>>,
+    ) -> Result<Outcome, Box<dyn Error>> {
+        let key = unit.key(self.quick)?;
+        let (entry, outcome) = match self.store.get(unit.name, &key) {
+            Some(e) => (e, Outcome::Reused),
+            None => {
+                let e = self
+                    .store
+                    .put(unit.name, &key, |dir| -> Result<Vec<u8>, String> {
+                        // The report folder's `fig/` exists before any section runs.
+                        crate::output::create_dir(&dir.join("fig")).map_err(|e| e.to_string())?;
+                        let mut part = rep.part_in(dir);
+                        f(&mut part).map_err(|e| e.to_string())?;
+                        let (body, toc, summary) = part.into_parts();
+                        serde_json::to_vec(&PartMeta { body, toc, summary }).map_err(|e| e.to_string())
+                    })
+                    .map_err(|e| e.to_string())?;
+                (e, Outcome::Computed)
+            }
+        };
+        replay(&entry, rep).map_err(|e| format!("report cache: entry {}: {e}", unit.name))?;
+        Ok(outcome)
+    }
+
+    /// Records the entries this run used (kept by `ssmctl cache gc`).
+    pub fn finish(&self) -> Result<(), Box<dyn Error>> {
+        Ok(self.store.finish_run()?)
+    }
+}
+
+/// Copies a stored unit's files into the report folder (through the command's transaction)
+/// and appends its HTML, contents entries and summary keys.
+fn replay(entry: &Entry, rep: &mut Report) -> Result<(), Box<dyn Error>> {
+    let meta: PartMeta = serde_json::from_slice(&entry.meta()?)?;
+    let from = entry.files_dir();
+    for rel in entry.files()? {
+        let dest = rep.dir().join(&rel);
+        if let Some(parent) = dest.parent() {
+            crate::output::create_dir(parent)?;
+        }
+        let bytes = infile::read_bytes(&from.join(&rel), infile::MAX_REPORT_INPUT_BYTES)?;
+        crate::output::write_atomic(&dest, &bytes)?;
+    }
+    let mut part = rep.part();
+    part.set_parts(meta.body, meta.toc, meta.summary);
+    rep.append(part)?;
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The dependency table above matches the crates' manifests.
+    #[test]
+    fn crate_deps_match_the_manifests() {
+        let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("../..");
+        let names: Vec<&str> = CRATE_DEPS.iter().map(|(n, _)| *n).collect();
+        for (name, deps) in CRATE_DEPS {
+            let dir =
+                if ["shared", "controller"].contains(name) { root.join(name) } else { root.join("host").join(name) };
+            let text = std::fs::read_to_string(dir.join("Cargo.toml")).unwrap();
+            let manifest: toml::Table = toml::from_str(&text).unwrap();
+            let mut found: Vec<&str> = manifest
+                .get("dependencies")
+                .and_then(|d| d.as_table())
+                .map(|d| names.iter().copied().filter(|n| d.contains_key(*n)).collect())
+                .unwrap_or_default();
+            let mut want = deps.to_vec();
+            found.sort_unstable();
+            want.sort_unstable();
+            assert_eq!(found, want, "{name}'s workspace dependencies");
+        }
+        assert_eq!(closure(&["furuta"]).unwrap(), ["chaos", "controller", "furuta", "infile", "shared", "sim", "ssm"]);
+        assert!(closure(&["nope"]).is_err());
+    }
+
+    fn unit(name: &'static str, files: &'static [&'static str], inputs: Vec<(&'static str, PathBuf)>) -> Unit {
+        Unit { name, crates: &["ssm"], files, inputs }
+    }
+
+    /// A second run replays the first's page, summary and files without computing; a changed
+    /// input, `--quick` or source file changes the key.
+    #[test]
+    fn a_unit_is_computed_once_and_replayed() {
+        let d = std::env::temp_dir().join(format!("ssmctl-report-cache-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&d);
+        std::fs::create_dir_all(d.join("data")).unwrap();
+        std::fs::write(d.join("data/x.csv"), "1\n").unwrap();
+        let cache = SectionCache::open(Some(&d.join("cache")), true).unwrap();
+        let mut calls = 0;
+        let mut render = |out: &str| {
+            let mut rep = Report::new(&d.join(out)).unwrap();
+            let o = cache
+                .run(&mut rep, unit("demo", &["sloshing.rs"], vec![("data", d.join("data"))]), |r| {
+                    calls += 1;
+                    r.section("demo", "Demo", "intro");
+                    r.summary.insert("demo".into(), Value::from(1.5));
+                    crate::output::create_dir(&r.dir().join("fig")).unwrap();
+                    crate::output::write_atomic(&r.dir().join("fig/demo.png"), b"png").unwrap();
+                    r.figure("fig/demo.png", "a figure");
+                    Ok(())
+                })
+                .unwrap();
+            rep.finish("t").unwrap();
+            o
+        };
+        assert_eq!(render("a"), Outcome::Computed);
+        assert_eq!(render("b"), Outcome::Reused);
+        for f in ["index.html", "summary.json", "fig/demo.png"] {
+            assert_eq!(std::fs::read(d.join("a").join(f)).unwrap(), std::fs::read(d.join("b").join(f)).unwrap(), "{f}");
+        }
+        std::fs::write(d.join("data/x.csv"), "2\n").unwrap();
+        assert_eq!(render("c"), Outcome::Computed);
+        assert_eq!(calls, 2);
+        let k = |quick, files| unit("demo", files, vec![]).key(quick).unwrap();
+        assert_ne!(k(true, &["sloshing.rs"]), k(false, &["sloshing.rs"]));
+        assert_ne!(k(true, &["sloshing.rs"]), k(true, &["chaos.rs"]));
+        assert!(unit("demo", &["nope.rs"], vec![]).key(true).is_err());
+        // A failing section stores nothing and its error comes through.
+        let mut rep = Report::new(&d.join("e")).unwrap();
+        let e = cache.run(&mut rep, unit("fails", &[], vec![]), |_| Err("no data".into())).unwrap_err();
+        assert!(e.to_string().contains("no data"), "{e}");
+        std::fs::remove_dir_all(&d).unwrap();
+    }
+}
