@@ -19,6 +19,7 @@ const CRATES: &[(&str, &str, &[&str])] = &[
     ("ssm", "../ssm", &[]),
     ("chaos", "../chaos", &[]),
     ("furuta", "../furuta", &[]),
+    ("chaos_study", "../chaos_study", &[]),
 ];
 
 fn files(dir: &Path, out: &mut Vec<PathBuf>) {

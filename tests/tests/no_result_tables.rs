@@ -1,7 +1,7 @@
 //! No measured results in library source: a `const` or `static` table of more than
 //! [`MAX_ROWS`] rows with numbers in them, outside `#[cfg(test)]`, fails here with its file
 //! and name. Tables of results belong in data files (`studies/results/`), written by the
-//! program that computes them and read at run time (`furuta::study_results`).
+//! program that computes them and read at run time (`chaos_study::study_results`).
 
 use std::path::{Path, PathBuf};
 

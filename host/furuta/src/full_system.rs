@@ -68,7 +68,7 @@ pub fn scene_at(dt_ms: f64) -> Result<Scene, Error> {
 
 /// The method of the report's basin, torus-continuation and connection runs: exprb-filtered
 /// at the scene's tolerances ([`verdict_integrator`]). Measured against RODAS4 at rtol 1e-13
-/// and against the scene's exprb-lean (`examples/fullsystem_integrators.rs`): on the full
+/// and against the scene's exprb-lean (`host/lab/examples/fullsystem_integrators.rs`): on the full
 /// basin (1,600 runs) no verdict flips and every escape time is identical, at 0.49x the CPU;
 /// on the basin's edge, the torus continuation and the connection runs no verdict flips
 /// against RODAS4 and the torus-lost bracket is the same. The default-start switch scans keep
@@ -89,7 +89,7 @@ pub fn run(dt_ms: f64, start: &Start, periods: u64, escape_theta: f64) -> Result
 }
 
 /// [`run`] with the scene's integrator replaced by `integrator` (`None`: the scene's), for
-/// comparing integrators on the study's runs (`examples/fullsystem_integrators.rs`).
+/// comparing integrators on the study's runs (`host/lab/examples/fullsystem_integrators.rs`).
 pub fn run_with(
     integrator: Option<&IntegratorSpec>,
     dt_ms: f64,

@@ -1,35 +1,24 @@
-//! The paper's study, where the simulator, the SSM learner and the chaos estimators meet:
-//! the parametric Furuta model (normal forms and shared-tangent maps interpolated in the
-//! sampling period), full-system checks of its bifurcations, and the chaotic-statistics study
-//! of data against reduced models. Library only: returns data, draws nothing.
+//! The pendulum study, where the simulator and the SSM learner meet: the parametric Furuta
+//! model (normal forms and shared-tangent maps interpolated in the sampling period), the
+//! equation-driven SSM of the period map, full-system checks of the local and global
+//! bifurcations, basins and the sweep machinery. The chaotic-data study is `chaos_study`.
+//! Library only: returns data, draws nothing.
 // Library code returns errors: no unwrap/expect/panic outside tests (CI runs clippy).
 #![cfg_attr(not(test), deny(clippy::unwrap_used, clippy::expect_used, clippy::panic))]
 
 pub mod basin;
 pub mod bifurcations;
-pub mod calibration;
-pub mod chaos_tables;
 pub mod convergence;
 pub mod device_model;
 pub mod equation_map;
 pub mod equation_ssm;
 pub mod error;
-pub mod estimator_check;
-pub mod flag_pipeline;
-pub mod flag_pipeline_fit;
-pub mod flag_self;
-pub mod flag_study;
 pub mod full_system;
-pub mod lyapunov;
 pub mod map_global;
-pub mod microchaos;
-pub mod model_selection;
 pub mod parametric;
 pub mod saddle_cycles;
 pub mod shared_tangent;
-pub mod study_results;
 pub mod sweep;
-pub mod verdict;
 
 pub use error::Error;
 

@@ -651,7 +651,7 @@ pub fn check_options(cli: &Cli) -> Result<(), Box<dyn std::error::Error>> {
             one_based(*mode, "--mode")?;
         }
         Cmd::Chaos { gp_embed, ssm_dim, centers, poly_order, shift, ridge, .. } => {
-            furuta::microchaos::ChaosOptions {
+            chaos_study::microchaos::ChaosOptions {
                 gp_embed: *gp_embed,
                 ssm_dim: *ssm_dim,
                 centers: *centers,
@@ -1065,7 +1065,7 @@ fn run_command(cli: Cli) -> Result<(), Box<dyn std::error::Error>> {
             let train =
                 data.iter().map(|p| ssm::load_csv_column(p, column.as_deref())).collect::<Result<Vec<_>, _>>()?;
             let held_out = test.as_ref().map(|p| ssm::load_csv_column(p, column.as_deref())).transpose()?;
-            let o = furuta::microchaos::ChaosOptions {
+            let o = chaos_study::microchaos::ChaosOptions {
                 gp_embed,
                 ssm_dim,
                 centers,
@@ -1074,14 +1074,14 @@ fn run_command(cli: Cli) -> Result<(), Box<dyn std::error::Error>> {
                 ridge,
                 ..Default::default()
             };
-            let r = furuta::microchaos::analyse_held_out(&train, held_out.as_ref(), &o)?;
+            let r = chaos_study::microchaos::analyse_held_out(&train, held_out.as_ref(), &o)?;
             let reference = match &held_out {
                 Some(t) => t,
                 None => train.iter().max_by_key(|s| s.x.len()).ok_or("no training series")?,
             };
-            let cands = furuta::model_selection::standard_candidates(&o, r.ssm_dim, &steps, reference)?;
-            let settings = furuta::model_selection::EvalSettings { gp_embed, ..Default::default() };
-            let (results, sel) = furuta::model_selection::evaluate_and_select(
+            let cands = chaos_study::model_selection::standard_candidates(&o, r.ssm_dim, &steps, reference)?;
+            let settings = chaos_study::model_selection::EvalSettings { gp_embed, ..Default::default() };
+            let (results, sel) = chaos_study::model_selection::evaluate_and_select(
                 &train,
                 reference,
                 &cands,
@@ -1136,7 +1136,7 @@ fn run_command(cli: Cli) -> Result<(), Box<dyn std::error::Error>> {
                     if held_out.is_some() { "held out" } else { "a training series: nothing held out" }
                 );
                 for c in &results {
-                    outln!("  {}", furuta::model_selection::describe(c));
+                    outln!("  {}", chaos_study::model_selection::describe(c));
                 }
                 outln!("picked: {}", sel.name.as_deref().unwrap_or("none"));
                 outln!("why: {}", sel.why);

@@ -1,13 +1,13 @@
 //! `ssmctl study SPEC.toml --data-dir DIR --out DIR`: the command-line side of
-//! [`furuta::flag_study`]. Runs the spec on the data, writes its results files (the ones
-//! [`furuta::study_results`] reads) and `study.json`: the spec's text, the CRC-64 of every
+//! [`chaos_study::flag_study`]. Runs the spec on the data, writes its results files (the ones
+//! [`chaos_study::study_results`] reads) and `study.json`: the spec's text, the CRC-64 of every
 //! data file read and the code version, so that a result names what made it.
 
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
-use furuta::flag_study::{FlagStudySpec, run};
-use furuta::study_results::{EXPERIMENT, HELD_OUT, VALIDATION, to_json};
+use chaos_study::flag_study::{FlagStudySpec, run};
+use chaos_study::study_results::{EXPERIMENT, HELD_OUT, VALIDATION, to_json};
 use serde::Serialize;
 
 use crate::output::write_atomic;

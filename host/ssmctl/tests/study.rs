@@ -6,7 +6,7 @@
 
 use std::path::{Path, PathBuf};
 
-use furuta::study_results::{
+use chaos_study::study_results::{
     EXPERIMENT, ExperimentResults, FlagResults, HELD_OUT, HeldOutResults, VALIDATION, ValidationResults, read,
 };
 

@@ -490,7 +490,7 @@ fn assert_within_limits(cmd: &ssmctl::cli::Cmd) {
             assert!(a.dynamics != "rbf" || (1..=MAX_CENTERS).contains(&a.centers), "--centers {} accepted", a.centers);
         }
         Cmd::Chaos { gp_embed, ssm_dim, centers, poly_order, shift, .. } => {
-            assert!((1..=furuta::microchaos::MAX_GP_EMBED).contains(gp_embed), "--gp-embed {gp_embed} accepted");
+            assert!((1..=chaos_study::microchaos::MAX_GP_EMBED).contains(gp_embed), "--gp-embed {gp_embed} accepted");
             assert!(ssm_dim.is_none_or(|d| (1..=MAX_DIM).contains(&d)), "--ssm-dim {ssm_dim:?} accepted");
             assert!((1..=MAX_CENTERS).contains(centers), "--centers {centers} accepted");
             assert!((1..=MAX_ORDER).contains(poly_order), "--poly-order {poly_order} accepted");

@@ -650,7 +650,17 @@ fn ssmctl_bin() -> Result<PathBuf> {
         return Ok(p.clone());
     }
     let mut c = cmd("cargo");
-    c.current_dir(root()).args(["build", "--profile", "test", "-q", "--workspace", "--bin", "ssmctl"]);
+    c.current_dir(root()).args([
+        "build",
+        "--profile",
+        "test",
+        "-q",
+        "--workspace",
+        "--exclude",
+        "lab",
+        "--bin",
+        "ssmctl",
+    ]);
     run(&mut c)?;
     Ok(BIN.get_or_init(|| root().join("target").join("debug").join("ssmctl")).clone())
 }
@@ -1030,6 +1040,18 @@ fn doc_links(log_dir: &Path) -> Result<()> {
     Ok(())
 }
 
+/// The research and profiling programs of `host/lab` compile (checked, not linked: nothing
+/// runs them in the suite), reusing the checks of the crates below them that clippy made.
+fn lab_check(log_dir: &Path) -> Result<()> {
+    let mut c = cmd("cargo");
+    c.current_dir(root()).args(["clippy", "-p", "lab", "--lib", "--examples", "--target-dir", LINT_TARGET_DIR]);
+    c.args(["--", "-A", "clippy::all"]);
+    steps::lower_priority(&mut c);
+    steps::run_logged(&mut c, &log_dir.join("lab.log")).map_err(|e| format!("lab programs: {e}"))?;
+    println!("lab: the research and profiling programs compile");
+    Ok(())
+}
+
 /// Library crates under the clippy policy of [`clippy_lints`].
 const LINTED_CRATES: [&str; 7] = ["shared", "controller", "fileio", "sim", "ssm", "chaos", "furuta"];
 
@@ -1050,7 +1072,7 @@ fn steps_json_path() -> PathBuf {
 /// profile (`--timings`: what each crate cost, in `target/cargo-timings/`), then the
 /// `ssmctl` the PIL and Slurm steps run, from that build.
 fn host_build() -> Result<PathBuf> {
-    run(cmd("cargo").current_dir(root()).args(["test", "--workspace", "--no-run", "--timings"]))?;
+    run(cmd("cargo").current_dir(root()).args(["test", "--workspace", "--exclude", "lab", "--no-run", "--timings"]))?;
     ssmctl_bin()
 }
 
@@ -1102,6 +1124,9 @@ fn test_all() -> Result<()> {
             let r =
                 after(&tools, "rustup").and_then(|()| steps.run("doc: API docs, warnings denied", || doc_links(&logs)));
             record("doc", r);
+            let r = after(&tools, "rustup")
+                .and_then(|()| steps.run("lab: research programs compile (check)", || lab_check(&logs)));
+            record("lab", r);
         });
         // mps2-an386: build, on-target suite, device table, then (with the host's ssmctl) PIL.
         s.spawn(|| {
@@ -1184,8 +1209,8 @@ fn test_all() -> Result<()> {
         let built = steps.run("host build (cargo test --no-run, test profile)", host_build);
         host.set(built.clone());
         let tests = after(&host, "host build").and_then(|_| {
-            steps.run("host tests (cargo test --workspace)", || {
-                run(cmd("cargo").current_dir(root()).args(["test", "--workspace"]))
+            steps.run("host tests (cargo test --workspace --exclude lab)", || {
+                run(cmd("cargo").current_dir(root()).args(["test", "--workspace", "--exclude", "lab"]))
             })
         });
         record("host tests", tests);

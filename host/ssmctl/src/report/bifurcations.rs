@@ -342,7 +342,7 @@ pub fn fullsystem_section(
              those runs (on the full basin, 1,600 runs, every escape time is the scene integrator's) at about half the \
              CPU; the scans from the default starts keep the scene's integrator, because one of their runs (the fast-mode \
              start at 31.38 ms) is decided by the integration error at every tolerance above about 2e-12 \
-             (host/furuta/examples/fullsystem_integrators.rs).",
+             (host/lab/examples/fullsystem_integrators.rs).",
             scene.name,
             verdict.method.key()
         ),

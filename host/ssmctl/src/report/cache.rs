@@ -29,6 +29,7 @@ const CRATE_DEPS: &[(&str, &[&str])] = &[
     ("ssm", &["shared", "infile"]),
     ("chaos", &[]),
     ("furuta", &["sim", "ssm", "chaos", "shared", "infile"]),
+    ("chaos_study", &["sim", "ssm", "chaos"]),
 ];
 
 /// One cached piece of the report.

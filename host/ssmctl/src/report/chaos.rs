@@ -1,14 +1,14 @@
 //! The report's chaos sections: the chaos analysis of the simulated quantized loop, the PIL
 //! recordings and the inverted flag (figures and tables), the scale dependence of the
 //! time-series exponent and the accuracy-vs-cost table. The numbers come from
-//! [`furuta::microchaos`] and [`furuta::chaos_tables`].
+//! [`chaos_study::microchaos`] and [`chaos_study::chaos_tables`].
 
 use std::error::Error;
 
 use chaos::Points;
-use furuta::chaos_tables::*;
-use furuta::lyapunov::ModelLyapunov;
-use furuta::microchaos::*;
+use chaos_study::chaos_tables::*;
+use chaos_study::lyapunov::ModelLyapunov;
+use chaos_study::microchaos::*;
 use ssm::{SsmModel, TimeSeries};
 
 /// The plant angle `theta_rad` of a PIL `record.csv` (`t_s,theta_rad,phi_rad,theta_meas_rad,
@@ -241,13 +241,14 @@ pub fn section(rep: &mut crate::report::Report, data_dir: &std::path::Path, quic
         let mut value = serde_json::to_value(&r)?;
         // Model selection by held-out long-term statistics (new keys `chosen_model` and
         // `model_candidates`; the values above are unchanged).
-        let mut cands = furuta::model_selection::standard_candidates(&ChaosOptions::default(), r.ssm_dim, &[1], test)?;
+        let mut cands =
+            chaos_study::model_selection::standard_candidates(&ChaosOptions::default(), r.ssm_dim, &[1], test)?;
         if name.starts_with("measured: inverted flag") {
-            cands.extend(furuta::model_selection::flag_candidates());
+            cands.extend(chaos_study::model_selection::flag_candidates());
         }
         // The step-1 candidates are the models just fitted, on the same data statistics.
-        let known = furuta::model_selection::Known::from_analysis(test, &ChaosOptions::default(), &r, &models)?;
-        let (results, sel) = furuta::model_selection::evaluate_and_select_known(
+        let known = chaos_study::model_selection::Known::from_analysis(test, &ChaosOptions::default(), &r, &models)?;
+        let (results, sel) = chaos_study::model_selection::evaluate_and_select_known(
             train,
             test,
             &cands,
@@ -257,7 +258,7 @@ pub fn section(rep: &mut crate::report::Report, data_dir: &std::path::Path, quic
         )?;
         drop(known);
         if let Some(m) = value.as_object_mut() {
-            m.insert("chosen_model".into(), furuta::model_selection::chosen_json(&results, &sel));
+            m.insert("chosen_model".into(), chaos_study::model_selection::chosen_json(&results, &sel));
             m.insert("model_candidates".into(), serde_json::to_value(&results)?);
         }
         selections.push((name.clone(), results, sel));
@@ -328,7 +329,7 @@ pub fn section(rep: &mut crate::report::Report, data_dir: &std::path::Path, quic
         chaos_figures(rep, tag, name, test, models, held, &ChaosOptions::default())?;
     }
     // The flag study's measured results (studies/results/flag, written by `ssmctl study`).
-    let results = furuta::study_results::FlagResults::bundled()?;
+    let results = chaos_study::study_results::FlagResults::bundled()?;
     selection_tables(rep, &selections, &results, quick)?;
     let flag_runs: Option<Vec<TimeSeries>> =
         (0..10).map(|k| ssm::load_csv(flag.join(format!("traj_{k}.csv"))).ok()).collect();
@@ -337,15 +338,19 @@ pub fn section(rep: &mut crate::report::Report, data_dir: &std::path::Path, quic
 }
 
 /// The Rosenstein estimator against exact exponents (ROSENSTEIN_CHECK) and the spread of the
-/// flag data's own estimate over its runs and windows ([`furuta::estimator_check`]); summary
+/// flag data's own estimate over its runs and windows ([`chaos_study::estimator_check`]); summary
 /// key `rosenstein_check`.
 fn estimator_check_tables(
     rep: &mut crate::report::Report,
-    selections: &[(String, Vec<furuta::model_selection::CandidateResult>, furuta::model_selection::Selection)],
+    selections: &[(
+        String,
+        Vec<chaos_study::model_selection::CandidateResult>,
+        chaos_study::model_selection::Selection,
+    )],
     flag_runs: Option<&[TimeSeries]>,
     quick: bool,
 ) -> Result<(), Box<dyn Error>> {
-    use furuta::estimator_check::{CheckRow, data_spread, known_answer_rows, model_rows};
+    use chaos_study::estimator_check::{CheckRow, data_spread, known_answer_rows, model_rows};
     let f = |v: Option<f64>, p: usize| v.map_or("-".to_string(), |v| format!("{v:.p$}"));
     let mut rows: Vec<CheckRow> = known_answer_rows(quick)?;
     let n_known = rows.len();
@@ -446,11 +451,15 @@ fn estimator_check_tables(
 
 /// The model-selection tables: the candidates of each data set with their held-out long-term
 /// statistics and the pick, then the inverted-flag candidate search behind the flag's
-/// candidates (`explore_chaos flag-candidates`, committed in `furuta::model_selection`).
+/// candidates (`explore_chaos flag-candidates`, committed in `chaos_study::model_selection`).
 fn selection_tables(
     rep: &mut crate::report::Report,
-    selections: &[(String, Vec<furuta::model_selection::CandidateResult>, furuta::model_selection::Selection)],
-    results: &furuta::study_results::FlagResults,
+    selections: &[(
+        String,
+        Vec<chaos_study::model_selection::CandidateResult>,
+        chaos_study::model_selection::Selection,
+    )],
+    results: &chaos_study::study_results::FlagResults,
     quick: bool,
 ) -> Result<(), Box<dyn Error>> {
     use crate::report::esc;
@@ -483,7 +492,11 @@ fn selection_tables(
                 format!("{} / {:.3}", f(r.rosenstein, 3), r.data.lle),
                 format!("{} / {:.2} ± {:.2}", f(r.corr_dim, 2), r.data.corr_dim, r.data.corr_dim_err),
                 f(r.js, 4),
-                format!("{} ({} steps)", f(r.rollout, 3), furuta::model_selection::rollout_horizon(r.data.theiler)),
+                format!(
+                    "{} ({} steps)",
+                    f(r.rollout, 3),
+                    chaos_study::model_selection::rollout_horizon(r.data.theiler)
+                ),
                 r.failed.clone().map_or_else(|| "ok".to_string(), |w| format!("FAILED: {w}")),
             ]);
         }
@@ -512,7 +525,7 @@ fn selection_tables(
     }
     rep.para(
         "Inverted flag: the candidate search behind the flag's candidates (train traj_9 + traj_7, held out traj_8; \
-         <code>cargo run --release -p furuta --example explore_chaos -- flag-candidates</code>). Columns as above; \
+         <code>cargo run --release -p lab --example explore_chaos -- flag-candidates</code>). Columns as above; \
          k = map step in samples, d = SSM dimension, p = embedding dimension, s = shift (samples of the subsampled \
          series), m = manifold order, c = RBF centres, r = relative ridge.",
     );
@@ -565,23 +578,23 @@ fn selection_tables(
 }
 
 /// The Rosenstein estimator's bias on the chaotic candidates of the flag search
-/// ([`furuta::model_selection::flag_search_ratios`]): the ratio on the models that match the
+/// ([`chaos_study::model_selection::flag_search_ratios`]): the ratio on the models that match the
 /// data's D2 and PDFs best, the data's exponent it implies, and the ratio range in which the
 /// two exponent targets can hold together; then the estimator calibrated on known answers
-/// sampled like the flag ([`furuta::calibration`]). Summary key `flag_estimator_bias`
+/// sampled like the flag ([`chaos_study::calibration`]). Summary key `flag_estimator_bias`
 /// (`calibration`: the sampling, the rows and their summary).
 fn estimator_bias(
     rep: &mut crate::report::Report,
-    results: &furuta::study_results::FlagResults,
+    results: &chaos_study::study_results::FlagResults,
     quick: bool,
 ) -> Result<(), Box<dyn Error>> {
-    use furuta::model_selection::{
+    use chaos_study::model_selection::{
         BEST_MATCH_D2, BEST_MATCH_JS, Targets, best_matching, flag_search_ratios, joint_ratio_range,
     };
     let rows = flag_search_ratios(&results.search);
     let (lo, hi) = joint_ratio_range(&Targets::default());
     let best = best_matching(&rows);
-    let range = |f: &dyn Fn(&&furuta::model_selection::RatioRow) -> f64| {
+    let range = |f: &dyn Fn(&&chaos_study::model_selection::RatioRow) -> f64| {
         best.iter().map(f).fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), v| (a.min(v), b.max(v)))
     };
     let (r_lo, r_hi) = range(&|r| r.ratio);
@@ -629,7 +642,7 @@ fn estimator_bias(
 /// table and paragraph; returns the summary's `calibration` value. Quick: 4 segments per
 /// system, else 8.
 fn estimator_calibration(rep: &mut crate::report::Report, quick: bool) -> Result<serde_json::Value, Box<dyn Error>> {
-    use furuta::calibration::{CALM_PER_LAG, FLAG_SAMPLING, calibration_rows, summarize};
+    use chaos_study::calibration::{CALM_PER_LAG, FLAG_SAMPLING, calibration_rows, summarize};
     let f = FLAG_SAMPLING;
     let rows = calibration_rows(&f, &[0.0, 1.0], if quick { 4 } else { 8 })?;
     let o = |v: Option<f64>, p: usize| v.map_or("-".to_string(), |v| format!("{v:.p$}"));
@@ -857,8 +870,8 @@ mod tests {
     /// statistics, reads as the paragraph the report printed when it was pasted into source.
     #[test]
     fn pipeline_conclusion_follows_the_values() {
-        use furuta::flag_pipeline::{CHOSEN, FLAG_LAYOUT, known_stats, segment_stats, summarize};
-        let results = furuta::study_results::FlagResults::bundled().unwrap();
+        use chaos_study::flag_pipeline::{CHOSEN, FLAG_LAYOUT, known_stats, segment_stats, summarize};
+        let results = chaos_study::study_results::FlagResults::bundled().unwrap();
         let (k, _) = known_stats(&CHOSEN, &FLAG_LAYOUT, 1, 4000.0).unwrap();
         let seg = segment_stats(&CHOSEN, k.dt, &FLAG_LAYOUT, 8).unwrap();
         let rows = results.known.check_rows();
@@ -892,16 +905,16 @@ mod tests {
 }
 
 /// The flag's model search on a known chaotic system sampled like the flag
-/// ([`furuta::flag_pipeline`]): the system as the data settings read it (computed here, over 8
+/// ([`chaos_study::flag_pipeline`]): the system as the data settings read it (computed here, over 8
 /// held-out-length pieces; quick: a shorter Benettin run) and the committed candidate rows
 /// (`studies/results/flag/known_system.json`, from the example `flag_pipeline`). Summary key
 /// `flag_pipeline_check`.
 fn flag_pipeline_check(
     rep: &mut crate::report::Report,
-    results: &furuta::study_results::FlagResults,
+    results: &chaos_study::study_results::FlagResults,
     quick: bool,
 ) -> Result<(), Box<dyn Error>> {
-    use furuta::flag_pipeline::{CHOSEN, FLAG_LAYOUT, known_stats, segment_stats, summarize};
+    use chaos_study::flag_pipeline::{CHOSEN, FLAG_LAYOUT, known_stats, segment_stats, summarize};
     let (k, series) = known_stats(&CHOSEN, &FLAG_LAYOUT, 1, if quick { 1000.0 } else { 4000.0 })?;
     let seg = segment_stats(&CHOSEN, k.dt, &FLAG_LAYOUT, 8)?;
     let o = |v: Option<f64>, p: usize| v.map_or("-".to_string(), |v| format!("{v:.p$}"));
@@ -911,7 +924,7 @@ fn flag_pipeline_check(
          series and one held-out series of the flag's lengths ({} + {} and {} samples, or 3 and 10 times longer \
          training series), white noise at the flag's level ({:.2} % of each series' sd); then exactly the flag's \
          candidate search (SSM dimension 4, embedding 9, shift 1, manifold order 3, RBF maps with the flag search's \
-         centres and ridges, the quartic map) and estimators. Example: <code>cargo run --release -p furuta --example \
+         centres and ridges, the quartic map) and estimators. Example: <code>cargo run --release -p lab --example \
          flag_pipeline -- scan</code> (the systems) and <code>-- check 1</code> / <code>check 3</code> / \
          <code>check 10</code> (the rows below). The system, held-out series: lag {} / Theiler window {} (the flag: \
          11 / 38), D2 {:.2} ± {:.2}, Rosenstein {:.3} 1/s; exact exponent {:.3} ± {:.3} 1/s, {:.2} nats per lag \
@@ -1012,13 +1025,13 @@ fn flag_pipeline_check(
 /// What the pipeline check concludes, from its rows (`rows`, their per-scale `summaries`)
 /// and the system's statistics (`k`, over pieces `seg`).
 fn pipeline_conclusion(
-    rows: &[furuta::flag_pipeline::PipelineRow],
-    summaries: &[furuta::flag_pipeline::PipelineSummary],
-    k: &furuta::flag_pipeline::KnownStats,
-    seg: &furuta::flag_pipeline::SegmentStats,
+    rows: &[chaos_study::flag_pipeline::PipelineRow],
+    summaries: &[chaos_study::flag_pipeline::PipelineSummary],
+    k: &chaos_study::flag_pipeline::KnownStats,
+    seg: &chaos_study::flag_pipeline::SegmentStats,
 ) -> String {
     let f2 = |v: f64| format!("{v:.2}");
-    let scales = |f: &dyn Fn(&furuta::flag_pipeline::PipelineSummary) -> String| {
+    let scales = |f: &dyn Fn(&chaos_study::flag_pipeline::PipelineSummary) -> String| {
         let v: Vec<String> = summaries.iter().map(f).collect();
         match v.split_last() {
             Some((last, rest)) if !rest.is_empty() => format!("{} and {last}", rest.join(", ")),
@@ -1028,8 +1041,9 @@ fn pipeline_conclusion(
     let not_chaotic = scales(&|s| format!("{} of {}", s.candidates - s.chaotic, s.candidates));
     let at = scales(&|s| format!("{}x", s.scale));
     // The chaotic rows' Benettin / exact (chaotic as in `summarize`), per scale in row order.
-    let chaotic_ratio =
-        |r: &&furuta::flag_pipeline::PipelineRow| r.failed.is_none() && r.benettin_over_exact.is_some_and(|q| q > 0.01);
+    let chaotic_ratio = |r: &&chaos_study::flag_pipeline::PipelineRow| {
+        r.failed.is_none() && r.benettin_over_exact.is_some_and(|q| q > 0.01)
+    };
     let ratios: Vec<f64> = rows.iter().filter(chaotic_ratio).filter_map(|r| r.benettin_over_exact).collect();
     let (lo, hi) = ratios.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &q| (a.min(q), b.max(q)));
     let per_scale = summaries
@@ -1078,22 +1092,22 @@ fn pipeline_conclusion(
     )
 }
 
-/// Why the flag's fit misses the known system's chaos ([`furuta::flag_pipeline_fit`]): the
+/// Why the flag's fit misses the known system's chaos ([`chaos_study::flag_pipeline_fit`]): the
 /// projection's false nearest neighbours and the dimension rule (computed here on the
 /// known system's series), the committed diagnosis rows (`known_system.json` `diagnosis`;
 /// one re-run by a test) and the flag's search at the rule's dimension
 /// (`held_out.json` `fit`). Summary key `flag_pipeline_fit`.
 fn flag_pipeline_fit(
     rep: &mut crate::report::Report,
-    results: &furuta::study_results::FlagResults,
+    results: &chaos_study::study_results::FlagResults,
     series: &[ssm::TimeSeries],
 ) -> Result<(), Box<dyn Error>> {
-    use furuta::flag_pipeline::FLAG_LAYOUT;
-    use furuta::flag_pipeline_fit::{FNN_RULE, d6_scan_counts, fnn_dimension, projection_fnn};
+    use chaos_study::flag_pipeline::FLAG_LAYOUT;
+    use chaos_study::flag_pipeline_fit::{FNN_RULE, d6_scan_counts, fnn_dimension, projection_fnn};
     let held = &results.held_out;
     let flag_data = held.data.tuple();
-    let train = furuta::model_selection::subsample(&series[0], FLAG_LAYOUT.step, 0)?;
-    let ctx = furuta::microchaos::Context::from_series(&train.x, train.dt().unwrap_or(1.0), 6)?;
+    let train = chaos_study::model_selection::subsample(&series[0], FLAG_LAYOUT.step, 0)?;
+    let ctx = chaos_study::microchaos::Context::from_series(&train.x, train.dt().unwrap_or(1.0), 6)?;
     let (ratio, max_fnn) = FNN_RULE;
     let proj = projection_fnn(&train.x, 9, 1, ctx.theiler, &[3, 4, 5, 6], ratio, 800)?;
     let (rule_dim, rule_rows) = fnn_dimension(&train.x, 1, ctx.theiler, ratio, max_fnn, 8, 800)?;
@@ -1156,7 +1170,7 @@ fn flag_pipeline_fit(
         let sel: Vec<_> = diag.iter().filter(|(w, n, r)| f(w, *n, r.scale)).collect();
         (sel.iter().filter(|(_, _, r)| r.benettin_exact_ok).count(), sel.len())
     };
-    let fnoise = furuta::calibration::FLAG_SAMPLING.noise_rel;
+    let fnoise = chaos_study::calibration::FLAG_SAMPLING.noise_rel;
     let groups = [
         ("noise_free_d4", count(&|w, _, _| w == "(a) noise-free")),
         ("d5", count(&|w, _, _| w == "(b) d = 5")),
@@ -1283,7 +1297,7 @@ fn flag_pipeline_fit(
         best_js.and_then(|(_, r)| r.corr_dim.map(|d| (flag_data.1 - d) / flag_data.2)).unwrap_or(f64::NAN),
     ));
     // Other RBF centre sets on the flag, and why D2 stays low (committed rows).
-    use furuta::flag_pipeline_fit::target_counts;
+    use chaos_study::flag_pipeline_fit::target_counts;
     let fcs = held.centre_rows();
     let (cn, cfail, cb, cd, cj, cbj, cbdj) = target_counts(&fcs);
     let d2_b10 = fcs.iter().filter(|r| r.passes[0]).filter_map(|r| r.corr_dim).fold(f64::MIN, f64::max);
@@ -1386,17 +1400,17 @@ fn flag_pipeline_fit(
 }
 
 /// The flag's experiment as its own model, the candidate pick on the validation run and the
-/// ensemble of the validation-ranked models ([`furuta::flag_self`], committed rows): two
+/// ensemble of the validation-ranked models ([`chaos_study::flag_self`], committed rows): two
 /// paragraphs, a table, and the summary values (experiment as model, validation pick,
 /// ensemble) under `flag_pipeline_fit.flag`.
 #[allow(clippy::type_complexity)]
 fn flag_self_paragraphs(
     rep: &mut crate::report::Report,
-    results: &furuta::study_results::FlagResults,
-    test_rows: &[furuta::flag_pipeline::PipelineRow],
+    results: &chaos_study::study_results::FlagResults,
+    test_rows: &[chaos_study::flag_pipeline::PipelineRow],
     o: &dyn Fn(Option<f64>, usize) -> String,
 ) -> Result<(serde_json::Value, serde_json::Value, serde_json::Value), Box<dyn Error>> {
-    use furuta::flag_self::{
+    use chaos_study::flag_self::{
         SelfRow, ensemble_members, is_whole, mean_sd, placement, self_counts, self_passes, validation_pick,
         validation_pick_on,
     };
@@ -1405,7 +1419,7 @@ fn flag_self_paragraphs(
     let primary = results.validation.primary()?;
     let validation_run = primary.run;
     let second = results.validation.runs.get(1).ok_or_else(|| {
-        format!("{}: a second validation run is missing in `runs`", furuta::study_results::VALIDATION)
+        format!("{}: a second validation run is missing in `runs`", chaos_study::study_results::VALIDATION)
     })?;
     let ensemble_result = results.validation.ensemble;
     let whole: Vec<&SelfRow> = rows.iter().filter(|r| is_whole(r, rows)).collect();
@@ -1415,8 +1429,8 @@ fn flag_self_paragraphs(
     let stats: [(&str, Vec<f64>, usize); 3] =
         [("rosenstein", col(&|r| r.rosenstein), 3), ("corr_dim", col(&|r| r.corr_dim), 2), ("js", col(&|r| r.js), 4)];
     let best = test_rows.iter().find(|r| r.candidate == "RBF 250 r=5e-9 d=4 p=9 centres kmeans++@3");
-    let model_vals = |r: &furuta::flag_pipeline::PipelineRow| [r.rosenstein, r.corr_dim, r.js];
-    let place = |r: Option<&furuta::flag_pipeline::PipelineRow>| -> Vec<Option<(f64, f64)>> {
+    let model_vals = |r: &chaos_study::flag_pipeline::PipelineRow| [r.rosenstein, r.corr_dim, r.js];
+    let place = |r: Option<&chaos_study::flag_pipeline::PipelineRow>| -> Vec<Option<(f64, f64)>> {
         let v = r.map(model_vals).unwrap_or([None; 3]);
         stats.iter().zip(v).map(|((_, runs, _), x)| x.and_then(|x| placement(x, runs))).collect()
     };
@@ -1429,7 +1443,7 @@ fn flag_self_paragraphs(
     let d2_of = |k: usize| whole.iter().find(|r| r.run == k).map_or("-".to_string(), |r| o(r.corr_dim, 2));
     let t3: Vec<String> = part.iter().filter(|r| r.run == 3).map(|r| o(r.rosenstein, 3)).collect();
     rep.para(&format!(
-        "The experiment as its own model (<code>furuta::flag_self</code>; <code>ssmctl study studies/flag.toml</code>, results in <code>studies/results/flag</code>): \
+        "The experiment as its own model (<code>chaos_study::flag_self</code>; <code>ssmctl study studies/flag.toml</code>, results in <code>studies/results/flag</code>): \
          each of the other nine runs of the flag, whole, and the first and last traj_8-length pieces ({} samples at step 4) of the three \
          longer ones, is treated as the output of a perfect model and measured against traj_8 exactly as a model row is: Rosenstein \
          exponent and D2 of the series with traj_8's lag, Theiler window and embedding, JS of the densities in the SSM's reduced \
@@ -1491,9 +1505,9 @@ fn flag_self_paragraphs(
     );
     // The pick on the validation run, and the ensemble.
     let val = primary.pipeline_rows();
-    let (vn, vfail, vb, vd, vj, vbj, vbdj) = furuta::flag_pipeline_fit::target_counts(&val);
+    let (vn, vfail, vb, vd, vj, vbj, vbdj) = chaos_study::flag_pipeline_fit::target_counts(&val);
     let vr = val.iter().filter(|r| r.passes[1]).count();
-    let test_pick = furuta::flag_self::pick(test_rows).map(|i| &test_rows[i]);
+    let test_pick = chaos_study::flag_self::pick(test_rows).map(|i| &test_rows[i]);
     let picked = validation_pick(results)?;
     let picked0 = validation_pick_on(second, &results.held_out);
     let pick_place = place(picked.as_ref().map(|(_, t)| t));
@@ -1503,13 +1517,13 @@ fn flag_self_paragraphs(
         .map(|(k, p)| (k.to_string(), serde_json::json!(p.map(|p| [p.0, p.1]))))
         .collect();
     let members = ensemble_members(primary, ensemble_result.members);
-    let mrows: Vec<&furuta::flag_pipeline::PipelineRow> =
+    let mrows: Vec<&chaos_study::flag_pipeline::PipelineRow> =
         members.iter().filter_map(|n| test_rows.iter().find(|r| r.candidate == *n)).collect();
-    let mcol = |f: &dyn Fn(&furuta::flag_pipeline::PipelineRow) -> Option<f64>| {
+    let mcol = |f: &dyn Fn(&chaos_study::flag_pipeline::PipelineRow) -> Option<f64>| {
         mrows.iter().filter_map(|r| f(r)).collect::<Vec<f64>>()
     };
     let (eb, er, ed, ej) = (mcol(&|r| r.benettin), mcol(&|r| r.rosenstein), mcol(&|r| r.corr_dim), mcol(&|r| r.js));
-    let row4 = |r: &furuta::flag_pipeline::PipelineRow| {
+    let row4 = |r: &chaos_study::flag_pipeline::PipelineRow| {
         format!(
             "Benettin {}, Rosenstein {}, D2 {}, JS {}",
             o(r.benettin, 3),
@@ -1518,7 +1532,7 @@ fn flag_self_paragraphs(
             o(r.js, 4)
         )
     };
-    let met = |r: &furuta::flag_pipeline::PipelineRow| r.passes.iter().filter(|&&p| p).count();
+    let met = |r: &chaos_study::flag_pipeline::PipelineRow| r.passes.iter().filter(|&&p| p).count();
     rep.para(&format!(
         "Selection on a validation run, not the test run: the {vn} centre-set rows fitted again on traj_9 + traj_7 and measured on \
          traj_{validation_run} (neither training nor test; its own settings: Rosenstein {:.3}, D2 {:.2} ± {:.2}; example \

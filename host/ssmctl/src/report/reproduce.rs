@@ -64,7 +64,7 @@ pub fn run(
         vec![
             ("PIL recordings", pil_record.to_path_buf()),
             ("flag data", data_dir.join("inverted_flag_chaotic")),
-            ("flag study results", furuta::study_results::default_dir()),
+            ("flag study results", chaos_study::study_results::default_dir()),
         ]
     };
     let (model_chain, chaos_chain) = rayon::join(
@@ -117,14 +117,15 @@ pub fn run(
                 t.unit(&cache, rep, device, |rep| {
                     crate::report::sloshing::device_section(rep, Path::new("qemu/target/device-table.json"))
                 })?;
-                let chaos = |name| Unit { name, crates: &["furuta"], files: &["chaos.rs"], inputs: chaos_inputs() };
+                let chaos =
+                    |name| Unit { name, crates: &["chaos_study"], files: &["chaos.rs"], inputs: chaos_inputs() };
                 t.unit(&cache, rep, chaos("chaos"), |rep| crate::report::chaos::section(rep, data_dir, quick))?;
                 t.unit(&cache, rep, chaos("chaos-scale"), |rep| {
                     crate::report::chaos::scale_section(rep, data_dir, quick)
                 })?;
                 let verdict = Unit {
                     name: "chaos-verdict",
-                    crates: &["furuta"],
+                    crates: &["chaos_study"],
                     files: &["verdict.rs", "chaos.rs"],
                     inputs: chaos_inputs(),
                 };
@@ -141,7 +142,7 @@ pub fn run(
         t.reused.extend(times.reused);
     }
     if !quick {
-        let cost = Unit { name: "chaos-cost", crates: &["furuta"], files: &["chaos.rs"], inputs: chaos_inputs() };
+        let cost = Unit { name: "chaos-cost", crates: &["chaos_study"], files: &["chaos.rs"], inputs: chaos_inputs() };
         t.unit(&cache, &mut rep, cost, |rep| crate::report::chaos::cost_section(rep, data_dir))?;
     }
     cache.finish()?;

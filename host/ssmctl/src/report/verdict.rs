@@ -1,10 +1,10 @@
 //! The report's verdict on the Furuta microchaos (docs/decisions/0002): the numbers come from
-//! [`furuta::verdict`]; this writes the subsection and the `summary.json` key
+//! [`chaos_study::verdict`]; this writes the subsection and the `summary.json` key
 //! `microchaos_verdict`.
 
 use std::error::Error;
 
-use furuta::verdict::{MicrochaosVerdictSummary, VerdictOptions, microchaos_verdict};
+use chaos_study::verdict::{MicrochaosVerdictSummary, VerdictOptions, microchaos_verdict};
 use serde_json::json;
 
 use crate::report::{Report, esc, num};

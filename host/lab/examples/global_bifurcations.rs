@@ -1,5 +1,5 @@
-//! Issue 11 items 1-3, the science of the global bifurcations: prints, not a test.
-//! `cargo run --profile test -p furuta --example global_bifurcations -- SUBCOMMAND ...`:
+//! The science of the global bifurcations: prints, not a test.
+//! `cargo run --profile test -p lab --example global_bifurcations -- SUBCOMMAND ...`:
 //! * `convergence ORDER DT...`: invariance and reduced-dynamics errors of the
 //!   equation-driven SSM against the exact period map on spheres of 0.05-0.2 rad
 //!   (`furuta::convergence`).

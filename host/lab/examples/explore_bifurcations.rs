@@ -3,7 +3,7 @@
 //! recorded in the doc comments below and in MODEL.md. Run with
 //!
 //! ```text
-//! cargo run --release -p furuta --example explore_bifurcations -- <subcommand>
+//! cargo run --release -p lab --example explore_bifurcations -- <subcommand>
 //! ```
 //!
 //! Subcommands (the former `#[ignore]` test names):

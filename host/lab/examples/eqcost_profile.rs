@@ -1,5 +1,5 @@
 //! Cost split of the equation-driven report tasks (profiling aid; prints, not a test).
-//! `cargo run --release -p furuta --example eqcost_profile -- [all|expand|ssm|bif|models] [dt...]`
+//! `cargo run --release -p lab --example eqcost_profile -- [all|expand|ssm|bif|models] [dt...]`
 use std::time::Instant;
 
 use furuta::equation_ssm::{

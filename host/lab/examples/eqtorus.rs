@@ -1,11 +1,11 @@
-//! Issue 11: why is the equation-driven model's 2-torus at 30.8 ms 5 % off the full
+//! Why is the equation-driven model's 2-torus at 30.8 ms 5 % off the full
 //! system's in rho_1? Measures the torus of each truncation the way the full system's is
 //! measured (`full_system::torus_full`: first-harmonic amplitudes of sampled theta by
 //! sliding least squares at the spectral peaks): (a) the polar fixed point mapped through
 //! the manifold `W` (theta = c . W(z)); (b) the reduced 4D map `R` iterated; (c) the
 //! order-K Taylor period map `F` iterated in the full state; each for both amplitude
 //! normalizations (`ssm::map_ssm::Amplitude`). Prints; not a test.
-//! Run: `cargo run --release -p furuta --example eqtorus -- [dt_ms] [orders...]`;
+//! Run: `cargo run --release -p lab --example eqtorus -- [dt_ms] [orders...]`;
 //! `-- --table DT...` the order-7 polar coefficients of both normalizations;
 //! `-- --embed DT P F1 F2` how a P-sample delay embedding's modal projection (span of the
 //! linear modes) reads a pure tone at F1 / F2 Hz (the data-driven chart, idealized).

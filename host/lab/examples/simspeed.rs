@@ -4,7 +4,7 @@
 //! steps per period and CPU-independent work counters.
 //!
 //! ```text
-//! cargo run --release -p sim --example simspeed -- exprb-split 1e-8 [periods] [repeats] [noref]
+//! cargo run --release -p lab --example simspeed -- exprb-split 1e-8 [periods] [repeats] [noref]
 //! valgrind --tool=callgrind target/release/examples/simspeed exprb-split 1e-8 201 1 noref
 //! ```
 //! The second argument is rtol (adaptive methods, atol = rtol/100, or rtol times the sixth

@@ -1,9 +1,9 @@
-//! Explorations of the chaos study (`furuta::microchaos`, `furuta::chaos_tables`): model
+//! Explorations of the chaos study (`chaos_study::microchaos`, `chaos_study::chaos_tables`): model
 //! settings on the measured inverted flag and on the simulated quantized Furuta loop. They
 //! print only (nothing is checked; timings are printed, never asserted). Run with
 //!
 //! ```text
-//! cargo run --release -p furuta --example explore_chaos -- <subcommand>
+//! cargo run --release -p lab --example explore_chaos -- <subcommand>
 //! ```
 //!
 //! Subcommands (the former `#[ignore]` test names):
@@ -28,7 +28,7 @@
 //!   `CHAOS_Q_N` periods (default 30,000).
 //! - `flag-window-slopes`: windowed Rosenstein slopes of the inverted flag's traj_8.
 //! - `flag-candidates`: candidate models of the flag judged by held-out long-term statistics
-//!   (`furuta::model_selection`), configurations in `CHAOS_CAND` (see
+//!   (`chaos_study::model_selection`), configurations in `CHAOS_CAND` (see
 //!   [`explore_flag_candidates`]); prints a markdown table and the selection. The rows of
 //!   `studies/results/flag/search.json` come from it.
 //! - `flag-embedding`: the embedding from the data: average mutual information against the
@@ -41,9 +41,9 @@
 use std::time::Instant;
 
 use chaos::{BenettinParams, benettin_qr, delay_embed};
-use furuta::chaos_tables::{CostStudy, ScaleStudy, flag_cost_study, scale_dependence, scale_studies};
-use furuta::lyapunov::{map_jacobian, model_bound};
-use furuta::microchaos::{
+use chaos_study::chaos_tables::{CostStudy, ScaleStudy, flag_cost_study, scale_dependence, scale_studies};
+use chaos_study::lyapunov::{map_jacobian, model_bound};
+use chaos_study::microchaos::{
     ChaosOptions, ChaosSummary, Context, analyse, dimension_rule, evaluate_model, fit_options, reduce_series,
     simulate_scene,
 };
@@ -150,7 +150,7 @@ fn explore_flag_embedding() {
 }
 
 /// Candidate models of the inverted flag judged by held-out long-term statistics
-/// ([`furuta::model_selection`]): train traj_9 + traj_7, test traj_8. Candidates in
+/// ([`chaos_study::model_selection`]): train traj_9 + traj_7, test traj_8. Candidates in
 /// `CHAOS_CAND` separated by `;`, each a comma list of `key=value`: `k` map step (samples),
 /// `d` SSM dim, `p` embedding, `s` shift (samples of the subsampled series), `c` RBF centres
 /// (`dyn=poly` for the polynomial map), `o` map order, `sm` moving-average half-width of the
@@ -161,7 +161,7 @@ fn explore_flag_embedding() {
 /// long-run length in data lengths. One line per candidate (a markdown table row), then the
 /// selection.
 fn explore_flag_candidates() {
-    use furuta::model_selection::{Candidate, EvalSettings, Targets, evaluate_and_select};
+    use chaos_study::model_selection::{Candidate, EvalSettings, Targets, evaluate_and_select};
     let Some(two) = flag(&[9, 7]) else { return };
     let test = flag(&[8]).unwrap().pop().unwrap();
     let spec = std::env::var("CHAOS_CAND").unwrap_or_else(|_| "k=1,d=4,c=500".into());
@@ -199,7 +199,7 @@ fn explore_flag_candidates() {
             }
         }
         let d = o.ssm_dim.unwrap_or(4);
-        let ts = furuta::model_selection::subsample(&test, k, 0).unwrap();
+        let ts = chaos_study::model_selection::subsample(&test, k, 0).unwrap();
         let ctx = Context::from_series(&ts.x, ts.dt().unwrap(), 6).unwrap();
         let mut f = fit_options(&o, d, &ctx);
         f.dynamics = match (poly, kernel) {
@@ -320,7 +320,7 @@ fn explore_simulated_quantized() {
     let train: Vec<TimeSeries> = [0.02, 0.035]
         .iter()
         .enumerate()
-        .map(|(i, th)| furuta::microchaos::simulate_quantized(30000, *th, &format!("sim #{i}")).unwrap())
+        .map(|(i, th)| chaos_study::microchaos::simulate_quantized(30000, *th, &format!("sim #{i}")).unwrap())
         .collect();
     let mut o = ChaosOptions::default();
     if let Ok(v) = std::env::var("CHAOS_SIM_DIM") {

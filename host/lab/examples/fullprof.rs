@@ -3,7 +3,7 @@
 //! per period of its runs.
 //!
 //! ```text
-//! cargo run --release -p furuta --example fullprof -- TASK [count]
+//! cargo run --release -p lab --example fullprof -- TASK [count]
 //! RAYON_NUM_THREADS=1 perf record -g target/profiling/examples/fullprof basin
 //! ```
 //! TASK: `scan` (fullsystem/scan: 21 dt x 8 default starts, 8,000 periods, the scene's
@@ -196,14 +196,14 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                 .periods(30_000)
                 .initial_state(&[0.02, 0.0, 0.0, 0.0])
                 .build()?;
-            let t = furuta::microchaos::simulate_shared(&long)?;
+            let t = chaos_study::microchaos::simulate_shared(&long)?;
             eprintln!("long: rows {} saturated {} stopped {:?}", t.rows(), t.saturated_samples, t.stopped);
             let short = sim::scene::SceneBuilder::load("furuta-quant-dt25")?
                 .periods(20_000)
                 .initial_state(&[0.02, 0.0, 0.0, 0.0])
                 .build()?;
             let (mut c, w) = (0.0, Instant::now());
-            let s = timed(&mut c, || furuta::microchaos::simulate_shared(&short))?;
+            let s = timed(&mut c, || chaos_study::microchaos::simulate_shared(&short))?;
             eprintln!("short: rows {} in {c:.3} s CPU, {:.3} s wall", s.rows(), w.elapsed().as_secs_f64());
         }
         _ => return Err(format!("unknown task {what}").into()),

@@ -1,6 +1,6 @@
 //! The equation-driven SSM's polar coefficients next to the data-driven parametric model's
 //! (default training options), with timings and invariance errors by order. Prints; not a
-//! test. Run: `cargo run --profile test -p furuta --example equation_ssm -- 7 31.0 31.5`
+//! test. Run: `cargo run --profile test -p lab --example equation_ssm -- 7 31.0 31.5`
 //! (`--equation-only` first skips training the data-driven model).
 //! `-- --bifurcations 7 9 5` instead prints the equation-driven model's heteroclinic and
 //! torus-Hopf values at orders 7, 9, 5 (nodes every 0.25 ms over 30.5-32.5 ms, linear and

@@ -1,8 +1,8 @@
-//! The flag pipeline on a known chaotic system (`furuta::flag_pipeline`, docs/decisions/0002). Prints
+//! The flag pipeline on a known chaotic system (`chaos_study::flag_pipeline`, docs/decisions/0002). Prints
 //! only (timings are printed, never asserted). Run with
 //!
 //! ```text
-//! cargo run --release -p furuta --example flag_pipeline -- <subcommand>
+//! cargo run --release -p lab --example flag_pipeline -- <subcommand>
 //! ```
 //!
 //! - `scan`: known systems sampled like the flag (lag 11 at map step 4, the flag's lengths and
@@ -10,13 +10,13 @@
 //!   exponent, the exact exponent and the nats per lag. `FLAG4_SYSTEMS` selects systems by
 //!   substring of their names; `FLAG4_L96=n:f,n:f` scans those Lorenz-96 systems instead.
 //! - `fnn [ratio]`, `fnn-rule [csv]`: false nearest neighbours of the SSM projection and the
-//!   dimension rule (`furuta::flag_pipeline_fit`); `variants SCALE NOISE SPEC..` and `state SCALE
+//!   dimension rule (`chaos_study::flag_pipeline_fit`); `variants SCALE NOISE SPEC..` and `state SCALE
 //!   NOISE SPEC..`: the `diagnosis` rows of `studies/results/flag/known_system.json` (see `parse_spec`);
 //!   `FLAG4_SEEDS=0,1,2` runs `variants` on those realizations of the series
-//!   (`furuta::flag_pipeline::known_stats_seeded`; 0, the default, is the committed one). A row
+//!   (`chaos_study::flag_pipeline::known_stats_seeded`; 0, the default, is the committed one). A row
 //!   marked `B10+JS` has Benettin within 10 % of the exact exponent and JS <= 0.01.
 //! - `check [scale]`: the flag's candidate search on the chosen system
-//!   ([`furuta::flag_pipeline::CHOSEN`]) with training data `scale` times the flag's (default
+//!   ([`chaos_study::flag_pipeline::CHOSEN`]) with training data `scale` times the flag's (default
 //!   1; RBF sizes whose regression would exceed the design-matrix limit are left out); one
 //!   row per candidate. The `pipeline_check` rows of `studies/results/flag/known_system.json`
 //!   come from `check 1`, `check 3` and `check 10`.
@@ -25,7 +25,7 @@
 //!   with the data's noise added (exploration; `ssmctl study studies/flag.toml` computes the
 //!   study's rows, `studies/README.md`).
 
-use furuta::flag_pipeline::{
+use chaos_study::flag_pipeline::{
     FLAG_LAYOUT, FLAG_LIKE_RBF, KnownSystem, flag_like_candidates, known_stats, pipeline_check,
 };
 
@@ -65,7 +65,7 @@ fn scan() {
         let t0 = std::time::Instant::now();
         match known_stats(&s, &FLAG_LAYOUT, 1, 4000.0) {
             Ok((k, _)) => {
-                let seg = furuta::flag_pipeline::segment_stats(&s, k.dt, &FLAG_LAYOUT, 8);
+                let seg = chaos_study::flag_pipeline::segment_stats(&s, k.dt, &FLAG_LAYOUT, 8);
                 let o = |v: Option<f64>| v.map_or("-".to_string(), |v| format!("{v:.2}"));
                 let (d2s, ratios) = match &seg {
                     Ok(g) => (
@@ -100,7 +100,7 @@ fn scan() {
 }
 
 fn check(scale: usize) {
-    let sys = furuta::flag_pipeline::CHOSEN;
+    let sys = chaos_study::flag_pipeline::CHOSEN;
     let t0 = std::time::Instant::now();
     // RBF sizes whose regression fits the design-matrix limit (10^8 entries) at this scale.
     let rows = scale * (FLAG_LAYOUT.train[0] + FLAG_LAYOUT.train[1]);
@@ -134,7 +134,7 @@ fn check(scale: usize) {
 /// horizon (with `tN` window stride, `iN` LM iterations per stage), `wN` denoised inputs,
 /// `gCHOICE` the RBF centre choice (`ssm::dynamics::CentreChoice::parse`: `grandom@3`,
 /// `gkmeans++@1`, `gkmeans10@2`, `gfarthest@5`).
-fn parse_spec(spec: &str, step: usize) -> Option<furuta::model_selection::Candidate> {
+fn parse_spec(spec: &str, step: usize) -> Option<chaos_study::model_selection::Candidate> {
     let (mut c, mut r, mut d, mut p, mut s, mut h, mut t, mut it, mut w) =
         (200usize, 3e-9, 4usize, 9usize, 1usize, 0usize, 4usize, 10usize, 0usize);
     let mut centres = ssm::dynamics::CentreChoice::Farthest;
@@ -158,7 +158,7 @@ fn parse_spec(spec: &str, step: usize) -> Option<furuta::model_selection::Candid
         }
     }
     let ms = (h > 0).then_some(ssm::multistep::MultiStep { horizon: h, stride: t, iterations: it });
-    let mut cand = furuta::flag_pipeline_fit::variant(step, c, r, d, p, s, ms, w);
+    let mut cand = chaos_study::flag_pipeline_fit::variant(step, c, r, d, p, s, ms, w);
     if centres != ssm::dynamics::CentreChoice::Farthest {
         cand.name += &format!(" centres {}", centres.name());
         cand.centres = centres;
@@ -173,7 +173,9 @@ fn parse_spec(spec: &str, step: usize) -> Option<furuta::model_selection::Candid
 /// (`noisy D2`); first the data's D2 raw and after 3- and 5-point moving averages.
 /// `FLAG12_QUIET_DATA=1` skips the data lines.
 fn flag_rows(specs: &[String]) {
-    use furuta::model_selection::{EvalSettings, add_noise, data_stats, evaluate_candidate_fitted, moving_average};
+    use chaos_study::model_selection::{
+        EvalSettings, add_noise, data_stats, evaluate_candidate_fitted, moving_average,
+    };
     let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared/data/inverted_flag_chaotic");
     let load = |k: usize| ssm::load_csv(dir.join(format!("traj_{k}.csv")));
     let (Ok(a), Ok(b), Ok(test)) = (load(9), load(7), load(8)) else {
@@ -212,7 +214,8 @@ fn flag_rows(specs: &[String]) {
         t0.elapsed().as_secs_f64()
     );
     if std::env::var("FLAG12_QUIET_DATA").is_err() {
-        let x4 = |ts: &ssm::TimeSeries| furuta::model_selection::subsample(ts, 4, 0).map(|t| t.x).unwrap_or_default();
+        let x4 =
+            |ts: &ssm::TimeSeries| chaos_study::model_selection::subsample(ts, 4, 0).map(|t| t.x).unwrap_or_default();
         for w in [1, 2] {
             if let Ok(sm) = moving_average(&test, w) {
                 println!("data smoothed ({} points, full rate): D2 {}", 2 * w + 1, o2(d2(&x4(&sm))));
@@ -231,7 +234,7 @@ fn flag_rows(specs: &[String]) {
         "| candidate | Benettin | Rosenstein | D2 | JS | KY dim | spectrum | noisy D2 | D2 of 5 pieces of the long run | targets B/R/D2/JS | failed | s |"
     );
     println!("|---|---|---|---|---|---|---|---|---|---|---|---|");
-    let targets = furuta::model_selection::Targets::default();
+    let targets = chaos_study::model_selection::Targets::default();
     for spec in specs {
         let Some(c) = parse_spec(spec, 4) else {
             println!("bad spec `{spec}`");
@@ -248,24 +251,24 @@ fn flag_rows(specs: &[String]) {
         let (mut ky, mut spec_s, mut noisy, mut pieces) =
             ("-".to_string(), "-".to_string(), "-".to_string(), "-".to_string());
         if let (Some(m), None) = (&m, &r.failed) {
-            let eta = furuta::microchaos::reduce_series(
+            let eta = chaos_study::microchaos::reduce_series(
                 m,
-                &furuta::model_selection::subsample(&test, 4, 0).expect("subsample"),
+                &chaos_study::model_selection::subsample(&test, 4, 0).expect("subsample"),
             )
             .unwrap_or_default();
             let d = m.options.dim;
             if eta.len() >= d {
                 let eta0 = &eta[..d];
-                if let Ok(l) = furuta::lyapunov::model_lyapunov(m, eta0, s.benettin_transient, s.benettin_steps) {
+                if let Ok(l) = chaos_study::lyapunov::model_lyapunov(m, eta0, s.benettin_transient, s.benettin_steps) {
                     ky = l.kaplan_yorke.map_or("-".into(), |v| format!("{v:.2}"));
                     spec_s = l.spectrum.iter().map(|v| format!("{v:.2}")).collect::<Vec<_>>().join(" ");
                 }
                 let n = eta.len() / d;
-                if let Ok(orbit) = furuta::lyapunov::iterate_dynamics(
+                if let Ok(orbit) = chaos_study::lyapunov::iterate_dynamics(
                     &m.dynamics,
                     eta0,
                     n * s.long_runs,
-                    furuta::lyapunov::model_bound(m),
+                    chaos_study::lyapunov::model_bound(m),
                     1,
                 ) && let Some(pts) = orbit.recorded
                 {
@@ -301,7 +304,7 @@ fn flag_rows(specs: &[String]) {
     }
 }
 
-fn print_row(r: &furuta::flag_pipeline::PipelineRow, secs: f64) {
+fn print_row(r: &chaos_study::flag_pipeline::PipelineRow, secs: f64) {
     let o = |v: Option<f64>, p: usize| v.map_or("-".to_string(), |v| format!("{v:.p$}"));
     println!(
         "| {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {:.0} |",
@@ -328,7 +331,7 @@ fn variants(args: &[String]) {
         None | Some("flag") => FLAG_LAYOUT.noise_rel,
         Some(v) => v.parse().unwrap_or(FLAG_LAYOUT.noise_rel),
     };
-    let layout = furuta::flag_pipeline::FlagLayout { noise_rel: noise, ..FLAG_LAYOUT };
+    let layout = chaos_study::flag_pipeline::FlagLayout { noise_rel: noise, ..FLAG_LAYOUT };
     let Some(cands) = args[2.min(args.len())..].iter().map(|s| parse_spec(s, layout.step)).collect::<Option<Vec<_>>>()
     else {
         eprintln!("bad candidate spec");
@@ -340,8 +343,8 @@ fn variants(args: &[String]) {
         .map_or(vec![0], |v| v.split(',').filter_map(|s| s.trim().parse().ok()).collect());
     for seed in seeds {
         let t0 = std::time::Instant::now();
-        match furuta::flag_pipeline::pipeline_check_seeded(
-            &furuta::flag_pipeline::CHOSEN,
+        match chaos_study::flag_pipeline::pipeline_check_seeded(
+            &chaos_study::flag_pipeline::CHOSEN,
             &layout,
             scale,
             &cands,
@@ -368,8 +371,8 @@ fn state(args: &[String]) {
     let scale: usize = args.first().and_then(|s| s.parse().ok()).unwrap_or(1);
     let noise: f64 = args.get(1).and_then(|s| s.parse().ok()).unwrap_or(0.0);
     for spec in &args[2.min(args.len())..] {
-        let mut f = furuta::flag_pipeline_fit::StateFit {
-            coords: furuta::flag_pipeline_fit::Coords::State,
+        let mut f = chaos_study::flag_pipeline_fit::StateFit {
+            coords: chaos_study::flag_pipeline_fit::Coords::State,
             centers: 200,
             order: 4,
             ridge: 3e-9,
@@ -382,7 +385,9 @@ fn state(args: &[String]) {
                 "c" => f.centers = v.parse().unwrap_or(f.centers),
                 "r" => f.ridge = v.parse().unwrap_or(f.ridge),
                 "o" => f.order = v.parse().unwrap_or(f.order),
-                "p" => f.coords = furuta::flag_pipeline_fit::Coords::Delay { embed: v.parse().unwrap_or(9), shift: 1 },
+                "p" => {
+                    f.coords = chaos_study::flag_pipeline_fit::Coords::Delay { embed: v.parse().unwrap_or(9), shift: 1 }
+                }
                 "h" => {
                     f.multistep =
                         v.parse().ok().map(|h| ssm::multistep::MultiStep { horizon: h, stride: 4, iterations: 10 })
@@ -391,8 +396,8 @@ fn state(args: &[String]) {
             }
         }
         let t0 = std::time::Instant::now();
-        match furuta::flag_pipeline_fit::state_model_check(
-            &furuta::flag_pipeline::CHOSEN,
+        match chaos_study::flag_pipeline_fit::state_model_check(
+            &chaos_study::flag_pipeline::CHOSEN,
             &FLAG_LAYOUT,
             scale,
             &f,
@@ -408,17 +413,17 @@ fn state(args: &[String]) {
 /// for embeddings (9, 1), (9, 2), (9, 3), (11, 1), (13, 1); neighbours false beyond `ratio` (default 10).
 fn fnn(ratio: f64) {
     for noise in [0.0, FLAG_LAYOUT.noise_rel] {
-        let layout = furuta::flag_pipeline::FlagLayout { noise_rel: noise, ..FLAG_LAYOUT };
-        let (k, series) = match known_stats(&furuta::flag_pipeline::CHOSEN, &layout, 1, 100.0) {
+        let layout = chaos_study::flag_pipeline::FlagLayout { noise_rel: noise, ..FLAG_LAYOUT };
+        let (k, series) = match known_stats(&chaos_study::flag_pipeline::CHOSEN, &layout, 1, 100.0) {
             Ok(v) => v,
             Err(e) => return println!("error: {e}"),
         };
-        let x = furuta::flag_pipeline_fit::held_out_at_step(&series, layout.step).expect("held-out");
+        let x = chaos_study::flag_pipeline_fit::held_out_at_step(&series, layout.step).expect("held-out");
         // The first training piece at phase 0 (3,231 points) as well.
-        let tr = furuta::model_selection::subsample(&series[0], layout.step, 0).expect("train");
+        let tr = chaos_study::model_selection::subsample(&series[0], layout.step, 0).expect("train");
         for (name, ts) in [("held-out", &x), ("train #0", &tr)] {
             for (p, s) in [(9, 1), (9, 2), (9, 3), (11, 1), (13, 1)] {
-                match furuta::flag_pipeline_fit::projection_fnn(
+                match chaos_study::flag_pipeline_fit::projection_fnn(
                     &ts.x,
                     p,
                     s,
@@ -441,18 +446,18 @@ fn fnn(ratio: f64) {
     }
 }
 
-/// `fnn-rule [CSV]`: the dimension rule ([`furuta::flag_pipeline_fit::fnn_dimension`] with
-/// [`furuta::flag_pipeline_fit::FNN_RULE`]) at map step 4 on the known system's first
+/// `fnn-rule [CSV]`: the dimension rule ([`chaos_study::flag_pipeline_fit::fnn_dimension`] with
+/// [`chaos_study::flag_pipeline_fit::FNN_RULE`]) at map step 4 on the known system's first
 /// training series, or on the series in CSV (the flag: traj_9).
 fn fnn_rule(path: Option<&String>) {
     let ts = match path {
         Some(p) => ssm::load_csv(p).expect("csv"),
-        None => known_stats(&furuta::flag_pipeline::CHOSEN, &FLAG_LAYOUT, 1, 100.0).expect("series").1.remove(0),
+        None => known_stats(&chaos_study::flag_pipeline::CHOSEN, &FLAG_LAYOUT, 1, 100.0).expect("series").1.remove(0),
     };
-    let x = furuta::model_selection::subsample(&ts, FLAG_LAYOUT.step, 0).expect("subsample");
-    let ctx = furuta::microchaos::Context::from_series(&x.x, x.dt().unwrap_or(1.0), 6).expect("context");
-    let (ratio, max_fnn) = furuta::flag_pipeline_fit::FNN_RULE;
-    match furuta::flag_pipeline_fit::fnn_dimension(&x.x, 1, ctx.theiler, ratio, max_fnn, 8, 800) {
+    let x = chaos_study::model_selection::subsample(&ts, FLAG_LAYOUT.step, 0).expect("subsample");
+    let ctx = chaos_study::microchaos::Context::from_series(&x.x, x.dt().unwrap_or(1.0), 6).expect("context");
+    let (ratio, max_fnn) = chaos_study::flag_pipeline_fit::FNN_RULE;
+    match chaos_study::flag_pipeline_fit::fnn_dimension(&x.x, 1, ctx.theiler, ratio, max_fnn, 8, 800) {
         Ok((d, rows)) => println!(
             "{}: lag {} Theiler {}; chosen d = {d:?}; {}",
             ts.name,

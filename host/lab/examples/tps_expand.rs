@@ -1,6 +1,6 @@
 //! One period map of the paper's loop expanded at order 9 (profiling aid for the Taylor
 //! arithmetic: `sim::taylor::tps`; prints a hash of the coefficients and the time, not a test).
-//! `cargo run --release -p furuta --example tps_expand -- [dt_ms] [order] [reps]`
+//! `cargo run --release -p lab --example tps_expand -- [dt_ms] [order] [reps]`
 use std::time::Instant;
 
 use furuta::equation_ssm::scene_period_map;

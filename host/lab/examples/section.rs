@@ -1,5 +1,5 @@
 //! Runs one section of `ssmctl reproduce` alone, for profiling (docs/decisions/0003):
-//! `cargo run --release -p ssmctl --example section -- NAME OUT_DIR [--quick] [--data-dir DIR]`,
+//! `cargo run --release -p lab --example section -- NAME OUT_DIR [--quick] [--data-dir DIR]`,
 //! NAME one of accuracy-time-sim, chaos, chaos-scale, chaos-verdict, chaos-cost, or chain (the first
 //! three in one process, as the report runs them).
 //! Writes OUT_DIR/index.html and OUT_DIR/summary.json with that section only.

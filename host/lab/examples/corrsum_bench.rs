@@ -1,5 +1,5 @@
 //! Times chaos's correlation sum and Rosenstein curve on a quasi-periodic series like the
-//! report's (29,000 samples, embedding 6): `cargo run --release -p chaos --example corrsum_bench`.
+//! report's (29,000 samples, embedding 6): `cargo run --release -p lab --example corrsum_bench`.
 //! Prints a hash of the results (bit for bit checks across versions).
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let n = 29_000;

@@ -1,7 +1,7 @@
 //! Profiling driver for the report's fitted-model tasks (docs/decisions/0003): each stage timed in
 //! thread CPU, to run under `perf record -g` (build with `--profile profiling`).
 //!
-//! `cargo run --profile profiling -p furuta --example fitcost_profile -- STAGE...` with
+//! `cargo run --profile profiling -p lab --example fitcost_profile -- STAGE...` with
 //! STAGE among `runs` (the training runs of the default and the variants), `default` (the
 //! default shared-tangent fit), `variant` (the 7-period, cut 0.3 rad variant's fit),
 //! `parametric` (the per-period normal-form fits), `basin` (the fitted map's verdict on the

@@ -4,8 +4,8 @@
 //! sets candidates against a reference (RODAS4 at rtol 1e-13) and the scene's setting.
 //!
 //! ```text
-//! cargo run --release -p furuta --example fullsystem_integrators -- run PART CAND DIR [CELLS]
-//! cargo run --release -p furuta --example fullsystem_integrators -- compare PART DIR REF CAND...
+//! cargo run --release -p lab --example fullsystem_integrators -- run PART CAND DIR [CELLS]
+//! cargo run --release -p lab --example fullsystem_integrators -- compare PART DIR REF CAND...
 //! ```
 //! PART: `basin-quick` / `basin-full` (the report's basin grids, every dt), `scan-quick` /
 //! `scan-full` (the default-start switch scans), `torus-quick` / `torus-full` (the torus

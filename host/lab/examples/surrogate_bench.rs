@@ -1,6 +1,6 @@
 //! Times the IAAFT surrogate test on a quasi-periodic series like the verdict's (4096 samples
 //! used, 19 surrogates, prediction error and time reversal):
-//! `cargo run --release -p chaos --example surrogate_bench [surrogates]`. Prints a hash of
+//! `cargo run --release -p lab --example surrogate_bench [surrogates]`. Prints a hash of
 //! the results (bit for bit checks across versions) and the mean IAAFT iterations.
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let surrogates: usize = std::env::args().nth(1).map_or(Ok(19), |s| s.parse())?;

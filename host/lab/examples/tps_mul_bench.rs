@@ -1,5 +1,5 @@
 //! Cost of `Tps` products (profiling aid; prints a checksum, not a test).
-//! `cargo run --release -p sim --example tps_mul_bench -- [reps]`: order 5, 7 and 9 series in
+//! `cargo run --release -p lab --example tps_mul_bench -- [reps]`: order 5, 7 and 9 series in
 //! four variables, dense and odd-only (the Furuta jets), `reps` products each.
 use sim::taylor::{Tps, TpsTable};
 

@@ -2,7 +2,7 @@
 //! 1e-3 rad at 31.38 and 31.4 ms run for N periods with several integrators, against RODAS4
 //! at rtol 1e-13 (verdict, max |theta|, theta difference to the reference over the run, CPU).
 //!
-//!     cargo run --release -p furuta --example scene_tolerance -- [PERIODS]
+//!     cargo run --release -p lab --example scene_tolerance -- [PERIODS]
 use furuta::parametric::mode_start;
 use sim::closed_loop::simulate;
 use sim::scene::{IntegratorSpec, MethodKind, SceneBuilder};
