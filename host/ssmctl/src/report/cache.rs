@@ -43,6 +43,23 @@ pub struct Unit {
     pub files: &'static [&'static str],
     /// The files and folders it reads, by name.
     pub inputs: Vec<(&'static str, PathBuf)>,
+    /// The summary keys of earlier sections it reads (their values are part of the key and
+    /// are given to it; it must not change them).
+    pub reads: &'static [&'static str],
+    /// Whether it measures speed: then the processor model and the number of cores are part of
+    /// the key, so its timings are never replayed on another machine.
+    pub timed: bool,
+}
+
+/// The processor model (`model name` of `/proc/cpuinfo`, where there is one) and the number
+/// of cores this process may use.
+fn machine() -> String {
+    let model = std::fs::read_to_string("/proc/cpuinfo")
+        .ok()
+        .and_then(|t| t.lines().find(|l| l.starts_with("model name")).map(str::to_string))
+        .unwrap_or_default();
+    let cores = std::thread::available_parallelism().map_or(0, usize::from);
+    format!("{model}; {cores} cores")
 }
 
 /// The HTML, contents entries and summary keys of a section, as stored.
@@ -87,8 +104,8 @@ fn closure(crates: &[&str]) -> Result<Vec<&'static str>, String> {
 }
 
 impl Unit {
-    /// The key of this unit: code fingerprints, options and inputs.
-    pub fn key(&self, quick: bool) -> Result<Key, Box<dyn Error>> {
+    /// The key of this unit: code fingerprints, options, inputs and the summary values it reads.
+    pub fn key(&self, quick: bool, given: &Map<String, Value>) -> Result<Key, Box<dyn Error>> {
         let mut k = KeyBuilder::new(self.name)
             .part("toolchain", &fingerprints::TOOLCHAIN.to_le_bytes())
             .part("quick", &[u8::from(quick)]);
@@ -115,6 +132,12 @@ impl Unit {
         }
         for (name, path) in &self.inputs {
             k = k.tree(name, path)?;
+        }
+        for (name, v) in given {
+            k = k.part(&format!("summary {name}"), &serde_json::to_vec(v)?);
+        }
+        if self.timed {
+            k = k.part("machine", machine().as_bytes());
         }
         Ok(k.finish())
     }
@@ -143,7 +166,9 @@ impl SectionCache {
         unit: Unit,
         f: impl FnOnce(&mut Report) -> Result<(), Box<dyn Error>>,
     ) -> Result<Outcome, Box<dyn Error>> {
-        let key = unit.key(self.quick)?;
+        let given: Map<String, Value> =
+            unit.reads.iter().filter_map(|k| rep.summary.get(*k).map(|v| (k.to_string(), v.clone()))).collect();
+        let key = unit.key(self.quick, &given)?;
         let (entry, outcome) = match self.store.get(unit.name, &key) {
             Some(e) => (e, Outcome::Reused),
             None => {
@@ -153,8 +178,14 @@ impl SectionCache {
                         // The report folder's `fig/` exists before any section runs.
                         crate::output::create_dir(&dir.join("fig")).map_err(|e| e.to_string())?;
                         let mut part = rep.part_in(dir);
+                        part.summary.extend(given.clone());
                         f(&mut part).map_err(|e| e.to_string())?;
-                        let (body, toc, summary) = part.into_parts();
+                        let (body, toc, mut summary) = part.into_parts();
+                        for (k, v) in &given {
+                            if summary.remove(k).as_ref() != Some(v) {
+                                return Err(format!("section `{}` changed the summary key `{k}` it reads", unit.name));
+                            }
+                        }
                         serde_json::to_vec(&PartMeta { body, toc, summary }).map_err(|e| e.to_string())
                     })
                     .map_err(|e| e.to_string())?;
@@ -219,7 +250,7 @@ mod tests {
     }
 
     fn unit(name: &'static str, files: &'static [&'static str], inputs: Vec<(&'static str, PathBuf)>) -> Unit {
-        Unit { name, crates: &["ssm"], files, inputs }
+        Unit { name, crates: &["ssm"], files, inputs, reads: &[], timed: false }
     }
 
     /// A second run replays the first's page, summary and files without computing; a changed
@@ -256,10 +287,38 @@ mod tests {
         std::fs::write(d.join("data/x.csv"), "2\n").unwrap();
         assert_eq!(render("c"), Outcome::Computed);
         assert_eq!(calls, 2);
-        let k = |quick, files| unit("demo", files, vec![]).key(quick).unwrap();
+        let none = Map::new();
+        let k = |quick, files| unit("demo", files, vec![]).key(quick, &none).unwrap();
         assert_ne!(k(true, &["sloshing.rs"]), k(false, &["sloshing.rs"]));
         assert_ne!(k(true, &["sloshing.rs"]), k(true, &["chaos.rs"]));
-        assert!(unit("demo", &["nope.rs"], vec![]).key(true).is_err());
+        assert!(unit("demo", &["nope.rs"], vec![]).key(true, &none).is_err());
+        let timed = Unit { timed: true, ..unit("demo", &["sloshing.rs"], vec![]) };
+        assert_ne!(timed.key(true, &none).unwrap(), k(true, &["sloshing.rs"]));
+        // A section reading an earlier section's summary key sees it, keyed by its value, and
+        // the key stays the earlier section's.
+        let reader = |rep: &mut Report| {
+            let u = Unit {
+                name: "reader",
+                crates: &["ssm"],
+                files: &[],
+                inputs: Vec::new(),
+                reads: &["demo"],
+                timed: false,
+            };
+            cache.run(rep, u, |r| {
+                let seen = r.summary.get("demo").cloned().unwrap_or(Value::Null);
+                r.summary.insert("reader".into(), seen);
+                Ok(())
+            })
+        };
+        let mut rep = Report::new(&d.join("r")).unwrap();
+        rep.summary.insert("demo".into(), Value::from(2.5));
+        assert_eq!(reader(&mut rep).unwrap(), Outcome::Computed);
+        assert_eq!((rep.summary["reader"].clone(), rep.summary["demo"].clone()), (Value::from(2.5), Value::from(2.5)));
+        let mut rep = Report::new(&d.join("r2")).unwrap();
+        rep.summary.insert("demo".into(), Value::from(3.5));
+        assert_eq!(reader(&mut rep).unwrap(), Outcome::Computed);
+        assert_eq!(rep.summary["reader"], Value::from(3.5));
         // A failing section stores nothing and its error comes through.
         let mut rep = Report::new(&d.join("e")).unwrap();
         let e = cache.run(&mut rep, unit("fails", &[], vec![]), |_| Err("no data".into())).unwrap_err();

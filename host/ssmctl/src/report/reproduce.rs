@@ -45,19 +45,29 @@ pub fn run(
     crate::output::create_dir(&out.join("fig"))?;
     rep.summary.insert("quick".into(), Value::Bool(quick));
     let mut t = Timings::default();
-    let sim_unit = |name| Unit { name, crates: &["sim"], files: &["reproduce.rs"], inputs: Vec::new() };
-    t.unit(&cache, &mut rep, sim_unit("scenes"), |rep| scenes_section(rep, quick, quiet))?;
-    t.unit(&cache, &mut rep, sim_unit("stability"), stability_section)?;
-    t.unit(&cache, &mut rep, sim_unit("chart"), |rep| chart_section(rep, quick))?;
-    t.unit(&cache, &mut rep, sim_unit("accuracy-time-sim"), |rep| bench_section(rep, quick, quiet))?;
+    let sim_unit =
+        |name, timed| Unit { name, crates: &["sim"], files: &["reproduce.rs"], inputs: Vec::new(), reads: &[], timed };
+    t.unit(&cache, &mut rep, sim_unit("scenes", false), |rep| scenes_section(rep, quick, quiet))?;
+    t.unit(&cache, &mut rep, sim_unit("stability", false), stability_section)?;
+    t.unit(&cache, &mut rep, sim_unit("chart", false), |rep| chart_section(rep, quick))?;
+    t.unit(&cache, &mut rep, sim_unit("accuracy-time-sim", true), |rep| bench_section(rep, quick, quiet))?;
     let sloshing = Unit {
         name: "fit-sloshing",
         crates: &["ssm"],
         files: &["sloshing.rs"],
         inputs: vec![("sloshing data", data_dir.join("sloshing"))],
+        reads: &[],
+        timed: true,
     };
     t.unit(&cache, &mut rep, sloshing, |rep| crate::report::sloshing::sloshing_section(rep, data_dir, quick))?;
-    let blob = Unit { name: "furuta-blob", crates: &["sim", "ssm"], files: &["sloshing.rs"], inputs: Vec::new() };
+    let blob = Unit {
+        name: "furuta-blob",
+        crates: &["sim", "ssm"],
+        files: &["sloshing.rs"],
+        inputs: Vec::new(),
+        reads: &[],
+        timed: false,
+    };
     t.unit(&cache, &mut rep, blob, |rep| crate::report::sloshing::furuta_blob(rep, quick))?;
     let pil_record = Path::new(crate::report::chaos::PIL_RECORD_DIR);
     let chaos_inputs = || {
@@ -77,6 +87,8 @@ pub fn run(
                 crates: &["furuta"],
                 files: &["normal_form.rs", "bifurcations.rs", "global.rs", "tasks.rs"],
                 inputs: Vec::new(),
+                reads: &[],
+                timed: false,
             };
             let r = cache.run(&mut part, models, |rep| {
                 let (parametric, runs) = t.time("parametric", || crate::report::normal_form::section(rep, quick))?;
@@ -113,12 +125,20 @@ pub fn run(
                         ("PIL summary", PathBuf::from("qemu/target/pil/summary.json")),
                         ("PIL model", PathBuf::from("qemu/target/pil/model.bin")),
                     ],
+                    reads: &[],
+                    timed: false,
                 };
                 t.unit(&cache, rep, device, |rep| {
                     crate::report::sloshing::device_section(rep, Path::new("qemu/target/device-table.json"))
                 })?;
-                let chaos =
-                    |name| Unit { name, crates: &["chaos_study"], files: &["chaos.rs"], inputs: chaos_inputs() };
+                let chaos = |name| Unit {
+                    name,
+                    crates: &["chaos_study"],
+                    files: &["chaos.rs"],
+                    inputs: chaos_inputs(),
+                    reads: &[],
+                    timed: false,
+                };
                 t.unit(&cache, rep, chaos("chaos"), |rep| crate::report::chaos::section(rep, data_dir, quick))?;
                 t.unit(&cache, rep, chaos("chaos-scale"), |rep| {
                     crate::report::chaos::scale_section(rep, data_dir, quick)
@@ -128,6 +148,8 @@ pub fn run(
                     crates: &["chaos_study"],
                     files: &["verdict.rs", "chaos.rs"],
                     inputs: chaos_inputs(),
+                    reads: &["chaos"],
+                    timed: false,
                 };
                 t.unit(&cache, rep, verdict, |rep| crate::report::verdict::microchaos_verdict_section(rep, quick))?;
                 Ok(())
@@ -142,7 +164,14 @@ pub fn run(
         t.reused.extend(times.reused);
     }
     if !quick {
-        let cost = Unit { name: "chaos-cost", crates: &["chaos_study"], files: &["chaos.rs"], inputs: chaos_inputs() };
+        let cost = Unit {
+            name: "chaos-cost",
+            crates: &["chaos_study"],
+            files: &["chaos.rs"],
+            inputs: chaos_inputs(),
+            reads: &[],
+            timed: true,
+        };
         t.unit(&cache, &mut rep, cost, |rep| crate::report::chaos::cost_section(rep, data_dir))?;
     }
     cache.finish()?;
@@ -552,7 +581,10 @@ fn chart_section(rep: &mut Report, quick: bool) -> Result<(), Box<dyn Error>> {
         (0.0, 8.0, n),
     )?;
     rep.figure(fig, "Stability chart: stable regions and boundaries for dt = 20, 25, 30.8 ms");
-    rep.summary.insert("stability_chart".into(), serde_json::to_value(&summary)?);
+    // The figure's path relative to the report (the section may be computed in a cache folder).
+    let mut v = serde_json::to_value(&summary)?;
+    v["png"] = json!(fig);
+    rep.summary.insert("stability_chart".into(), v);
     Ok(())
 }
 
