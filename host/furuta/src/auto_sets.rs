@@ -187,7 +187,7 @@ pub struct GridResults {
 }
 
 /// The command that refreshes [`grid_file`].
-pub const GRID_COMMAND: &str = "nice cargo run --release -p furuta --example auto_table -- --write";
+pub const GRID_COMMAND: &str = "nice cargo run --profile test -p furuta --example auto_table -- --write";
 
 /// Where the bundled grid results live.
 pub fn grid_file() -> PathBuf {

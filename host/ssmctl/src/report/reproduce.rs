@@ -39,6 +39,7 @@ pub fn run(out: &Path, data_dir: &Path, quick: bool, quiet: bool) -> Result<(), 
     t.time("accuracy-time-sim", || bench_section(&mut rep, quick, quiet))?;
     t.time("fit-sloshing", || crate::report::sloshing::sloshing_section(&mut rep, data_dir, quick))?;
     t.time("furuta-blob", || crate::report::sloshing::furuta_blob(&mut rep, quick))?;
+    t.time("fit-auto", || crate::report::auto_table::section(&mut rep, data_dir, quick))?;
     let (model_chain, chaos_chain) = rayon::join(
         || {
             let mut part = rep.part();
