@@ -25,7 +25,7 @@ const ALLOWED: &[(&str, &[&str])] = &[
     // The Python module `ssm_ctl` (host/python): an app layer beside ssmctl, on the learner.
     ("python", &["ssm", "shared", "infile", "fileio"]),
     // Research and profiling programs (host/lab): on top of everything, used by nothing.
-    ("lab", &["sim", "ssm", "chaos", "furuta", "chaos_study", "ssmctl"]),
+    ("lab", &["sim", "ssm", "chaos", "furuta", "chaos_study", "ssmctl", "fileio"]),
     ("tests", &["controller", "shared"]),
     // The fuzz targets' bodies (tests/fuzz-targets): above the app, whose parser they drive.
     ("fuzz-targets", &["sim", "ssm", "furuta", "chaos_study", "controller", "shared", "ssmctl", "infile", "fileio"]),

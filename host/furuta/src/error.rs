@@ -58,4 +58,5 @@ lift!(
     ssm::interp::InterpError => ssm::Error,
     ssm::spectrum::SpectrumError => ssm::Error,
     ssm::device::ExportError => ssm::Error,
+    ssm::auto::AutoError => ssm::Error,
 );

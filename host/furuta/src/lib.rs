@@ -6,6 +6,7 @@
 // Library code returns errors: no unwrap/expect/panic outside tests (CI runs clippy).
 #![cfg_attr(not(test), deny(clippy::unwrap_used, clippy::expect_used, clippy::panic))]
 
+pub mod auto_sets;
 pub mod basin;
 pub mod bifurcations;
 pub mod convergence;

@@ -23,11 +23,19 @@
 //!   (not seconds).
 //!
 //! # Intervals
-//! Percentile bootstrap: the fit is repeated on resampled data (whole trajectories drawn
-//! with replacement when there are at least [`MIN_TRAJ_BOOTSTRAP`]; otherwise segments of
-//! the trajectories, cut into blocks after the transient, drawn with replacement), and the
-//! central `level` range of each eigenvalue's real and imaginary part, damping ratio, and of
-//! the backbone curves (frequency and damping at fixed amplitudes) is reported.
+//! Bootstrap: the fit is repeated on resampled data and the central `level` range of each
+//! eigenvalue's real and imaginary part, damping ratio, and of the backbone curves
+//! (frequency and damping at fixed amplitudes) is reported. The data are resampled as
+//! * whole trajectories drawn with replacement when there are at least
+//!   [`MIN_TRAJ_BOOTSTRAP`] (percentile intervals);
+//! * with two or three, segments of the trajectories (blocks after the transient) drawn with
+//!   replacement (percentile intervals);
+//! * a lone trajectory by its residuals: the fitted model's prediction of the trajectory
+//!   plus its residuals (data minus prediction) drawn with replacement in blocks of the
+//!   embedding's span plus one sample (a model-based residual bootstrap, the whole fit
+//!   repeated on each synthetic trajectory). Its replicates come from the fitted model, so
+//!   they carry the estimator's bias once more: the intervals are basic ones,
+//!   `[2 est - q_hi, 2 est - q_lo]`, which take that bias out.
 
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
@@ -701,11 +709,15 @@ pub struct IntervalOptions {
     pub segments: usize,
     /// Backbone bands: the curves' options and the number of amplitudes of the bands.
     pub backbone: Option<(BackboneOptions, usize)>,
+    /// Block length, in samples, of the residual bootstrap of a lone trajectory (`None`:
+    /// the delay embedding's span plus one, so residuals within one embedded point stay
+    /// together).
+    pub residual_block: Option<usize>,
 }
 
 impl Default for IntervalOptions {
     fn default() -> Self {
-        IntervalOptions { replicates: 200, level: 0.95, seed: 1, segments: 8, backbone: None }
+        IntervalOptions { replicates: 200, level: 0.95, seed: 1, segments: 8, backbone: None, residual_block: None }
     }
 }
 
@@ -775,10 +787,18 @@ fn quantile(v: &[f64], p: f64) -> f64 {
     v[i] + f * (v[j] - v[i])
 }
 
-fn interval(estimate: f64, mut v: Vec<f64>, level: f64) -> Interval {
+/// The percentile interval of the replicates `v`, or with `basic` the basic (reverse
+/// percentile) interval `[2 est - q_hi, 2 est - q_lo]`, which removes the bias the
+/// replicates add to the estimate once more when they are simulated from the fitted model.
+fn interval(estimate: f64, mut v: Vec<f64>, level: f64, basic: bool) -> Interval {
     v.sort_by(f64::total_cmp);
     let a = (1.0 - level) / 2.0;
-    Interval { estimate, lo: quantile(&v, a), hi: quantile(&v, 1.0 - a) }
+    let (lo, hi) = (quantile(&v, a), quantile(&v, 1.0 - a));
+    if basic {
+        Interval { estimate, lo: 2.0 * estimate - hi, hi: 2.0 * estimate - lo }
+    } else {
+        Interval { estimate, lo, hi }
+    }
 }
 
 /// The curve's frequency and damping at `amp` (linear between its points; `None` beyond).
@@ -800,22 +820,64 @@ fn at_amplitude(b: &Backbone, amp: f64) -> Option<(f64, f64)> {
     None
 }
 
-/// Resampling units: whole trajectories (after the cut) or blocks of them.
-fn units(
+/// How the bootstrap resamples.
+enum Scheme {
+    /// Whole trajectories or blocks of them, drawn with replacement.
+    Units(Vec<MultiSeries>),
+    /// A lone trajectory: its fitted model's prediction plus blocks of `block` of its
+    /// residuals, each from a random place (drawn with replacement).
+    Residual { base: MultiSeries, pred: Vec<f64>, resid: Vec<f64>, block: usize },
+}
+
+/// Resampling of `train` (already cut): whole trajectories when there are enough, blocks
+/// of them with two or three, the residuals of `model` with a single one.
+fn scheme(
     train: &[MultiSeries],
+    model: &SsmModel,
     setting: &Setting,
     o: &IntervalOptions,
-) -> Result<(Vec<MultiSeries>, String), AutoError> {
-    let cut = cut(train, setting.cut);
+) -> Result<(Scheme, String), AutoError> {
+    let cut = train;
     if cut.len() >= MIN_TRAJ_BOOTSTRAP {
         let n = cut.len();
-        return Ok((cut, format!("trajectories ({n} drawn with replacement)")));
+        return Ok((Scheme::Units(cut.to_vec()), format!("trajectories ({n} drawn with replacement)")));
     }
     let span = (setting.options.embed - 1) * setting.options.shift;
     let need = span + 2 * MIN_POINTS;
+    if let [t] = cut {
+        // As much data as the segment bootstrap asks of several trajectories together.
+        let need_lone = MIN_TRAJ_BOOTSTRAP * need;
+        if t.len() < need_lone {
+            return Err(AutoError::TooLittleData {
+                what: "the residual bootstrap",
+                why: format!(
+                    "{}: {} samples after the cut, need at least {need_lone} ({MIN_TRAJ_BOOTSTRAP} x (embedding span {span} + {})) for an interval from a lone trajectory",
+                    t.name,
+                    t.len(),
+                    2 * MIN_POINTS
+                ),
+            });
+        }
+        let p = model.predict_multi(t)?;
+        if let Some(s) = &p.stop {
+            return Err(AutoError::TooLittleData {
+                what: "the residual bootstrap",
+                why: format!(
+                    "{}: the fitted model's prediction stops at t = {} ({:?}), so it has no residuals to resample; choose other settings",
+                    t.name, s.t, s.reason
+                ),
+            });
+        }
+        let resid: Vec<f64> = t.x.iter().zip(&p.x).map(|(a, b)| a - b).collect();
+        let block = o.residual_block.unwrap_or(span + 1);
+        let method = format!(
+            "residuals (a lone trajectory: its fitted model's prediction plus its residuals drawn with replacement in blocks of {block} samples; basic intervals)"
+        );
+        return Ok((Scheme::Residual { base: t.clone(), pred: p.x, resid, block }, method));
+    }
     let per = o.segments.div_ceil(cut.len()).max(2);
     let mut out = Vec::new();
-    for t in &cut {
+    for t in cut {
         let k = per.min(t.len() / need);
         if k < 1 {
             return Err(AutoError::TooLittleData {
@@ -838,7 +900,32 @@ fn units(
         });
     }
     let n = out.len();
-    Ok((out, format!("segments ({n} blocks of the trajectories drawn with replacement)")))
+    Ok((Scheme::Units(out), format!("segments ({n} blocks of the trajectories drawn with replacement)")))
+}
+
+impl Scheme {
+    /// The data of one replicate.
+    fn draw(&self, rng: &mut ChaCha8Rng) -> Vec<MultiSeries> {
+        match self {
+            Scheme::Units(units) => {
+                let n = units.len();
+                (0..n).map(|_| units[rng.random_range(0..n)].clone()).collect()
+            }
+            Scheme::Residual { base, pred, resid, block } => {
+                let q = base.dim();
+                let n = base.len();
+                let l = (*block).min(n);
+                let mut x = pred.clone();
+                for chunk in x.chunks_mut(l * q) {
+                    let s = rng.random_range(0..=n - l) * q;
+                    for (v, r) in chunk.iter_mut().zip(&resid[s..]) {
+                        *v += r;
+                    }
+                }
+                vec![MultiSeries { x, ..base.clone() }]
+            }
+        }
+    }
 }
 
 /// One bootstrap replicate: its sorted eigenvalues and, if asked, its backbone curves.
@@ -852,6 +939,9 @@ pub fn intervals(train: &[MultiSeries], setting: &Setting, o: &IntervalOptions) 
     if !(o.level > 0.0 && o.level < 1.0) {
         return Err(AutoError::BadOption { what: "level", why: format!("{} is not in (0, 1)", o.level) });
     }
+    if o.residual_block == Some(0) {
+        return Err(AutoError::BadOption { what: "residual_block", why: "0 samples: need at least 1".into() });
+    }
     let full = cut(train, setting.cut);
     let model = fit_multi(&full, &setting.options)?;
     let est_eigs = sorted_eigs(&model);
@@ -859,13 +949,13 @@ pub fn intervals(train: &[MultiSeries], setting: &Setting, o: &IntervalOptions) 
         Some((bo, _)) => Some(backbone(&model, bo)?),
         None => None,
     };
-    let (units, method) = units(train, setting, o)?;
-    let n = units.len();
+    let (scheme, method) = scheme(&full, &model, setting, o)?;
+    let basic = matches!(scheme, Scheme::Residual { .. });
     let reps: Vec<Result<Replicate, String>> = (0..o.replicates)
         .into_par_iter()
         .map(|r| {
             let mut rng = ChaCha8Rng::seed_from_u64(o.seed.wrapping_mul(0x9E37_79B9_7F4A_7C15).wrapping_add(r as u64));
-            let draw: Vec<MultiSeries> = (0..n).map(|_| units[rng.random_range(0..n)].clone()).collect();
+            let draw = scheme.draw(&mut rng);
             let m = fit_multi(&draw, &setting.options).map_err(|e| e.to_string())?;
             let bb = o.backbone.as_ref().map(|(bo, _)| backbone(&m, bo).map_err(|e| e.to_string()));
             Ok((sorted_eigs(&m), bb))
@@ -889,9 +979,9 @@ pub fn intervals(train: &[MultiSeries], setting: &Setting, o: &IntervalOptions) 
             let ims: Vec<f64> = ok.iter().map(|r| r.0[j].1).collect();
             let zs: Vec<f64> = ok.iter().map(|r| -r.0[j].0 / r.0[j].0.hypot(r.0[j].1)).collect();
             EigenInterval {
-                re: interval(re, res, o.level),
-                im: interval(im, ims, o.level),
-                damping_ratio: interval(-re / re.hypot(im), zs, o.level),
+                re: interval(re, res, o.level, basic),
+                im: interval(im, ims, o.level, basic),
+                damping_ratio: interval(-re / re.hypot(im), zs, o.level, basic),
             }
         })
         .collect();
@@ -916,8 +1006,8 @@ pub fn intervals(train: &[MultiSeries], setting: &Setting, o: &IntervalOptions) 
                 let e = at_amplitude(eb, a).unwrap_or((f64::NAN, f64::NAN));
                 let vals: Vec<(f64, f64)> =
                     curves.iter().filter_map(|c| c.get(mi).and_then(|b| at_amplitude(b, a))).collect();
-                fr.push(interval(e.0, vals.iter().map(|v| v.0).collect(), o.level));
-                zr.push(interval(e.1, vals.iter().map(|v| v.1).collect(), o.level));
+                fr.push(interval(e.0, vals.iter().map(|v| v.0).collect(), o.level, basic));
+                zr.push(interval(e.1, vals.iter().map(|v| v.1).collect(), o.level, basic));
             }
             bands.push(BackboneBand {
                 mode: eb.mode,

@@ -417,7 +417,7 @@ pub struct FitArgs {
     pub budget: usize,
     /// Bootstrap 95 % intervals of the eigenvalues (real and imaginary parts, damping ratio)
     /// and of the backbone curves (bands in backbone.json and backbone.png): over
-    /// trajectories, or over segments of them when there are fewer than 4.
+    /// trajectories (4 or more), segments of them (2 or 3), or the residuals of a lone one.
     #[arg(long)]
     pub intervals: bool,
     /// No intervals with --auto.

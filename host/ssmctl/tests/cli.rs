@@ -146,6 +146,7 @@ fn reproduce_quick_writes_the_report() {
         "backbone",
         "equation_ssm",
         "basin",
+        "fit_auto",
     ] {
         assert!(s.get(k).is_some(), "summary.json lacks {k}");
     }

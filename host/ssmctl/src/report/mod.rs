@@ -178,6 +178,7 @@ figcaption{{font-size:85%;color:#444}}code{{background:#f4f4f4}}</style></head><
     }
 }
 
+pub mod auto_table;
 pub mod bifurcations;
 pub mod cache;
 pub mod chaos;

@@ -77,6 +77,19 @@ pub fn run(
             ("flag study results", chaos_study::study_results::default_dir()),
         ]
     };
+    let auto = Unit {
+        name: "fit-auto",
+        crates: &["furuta"],
+        files: &["auto_table.rs"],
+        inputs: vec![
+            ("sloshing data", data_dir.join("sloshing")),
+            ("Duffing data", furuta::auto_sets::duffing_dir()),
+            ("auto results", furuta::auto_sets::grid_file().with_file_name("")),
+        ],
+        reads: &[],
+        timed: false,
+    };
+    t.unit(&cache, &mut rep, auto, |rep| crate::report::auto_table::section(rep, data_dir, quick))?;
     let (model_chain, chaos_chain) = rayon::join(
         || {
             let mut part = rep.part();
