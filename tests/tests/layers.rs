@@ -21,8 +21,9 @@ const ALLOWED: &[(&str, &[&str])] = &[
     ("ssm", &["shared", "infile"]),
     ("furuta", &["sim", "ssm", "chaos", "shared", "controller", "infile"]),
     ("ssmctl", &["sim", "ssm", "chaos", "furuta", "shared", "controller", "infile", "fileio"]),
-    // The Python module `ssm_ctl` (host/python): an app layer beside ssmctl, on the learner.
-    ("python", &["ssm", "shared", "infile", "fileio"]),
+    // The Python module `ssm_ctl` (host/python): an app layer beside ssmctl, on the learner
+    // and the simulator.
+    ("python", &["ssm", "sim", "shared", "infile", "fileio"]),
     ("tests", &["controller", "shared"]),
     // The fuzz targets' bodies (tests/fuzz-targets): above the app, whose parser they drive.
     ("fuzz-targets", &["sim", "ssm", "furuta", "controller", "shared", "ssmctl", "infile", "fileio"]),
