@@ -572,13 +572,16 @@ impl EquationsModel {
                 }
                 a
             };
-            let m = m_of(0);
+            // M factored once; q'' and every column solved with the factors (the same
+            // arithmetic as `lu_solve`, so q'' is the right-hand side's to the bit).
+            let mut lu = m_of(0);
+            let mut perm = [0usize; 4];
+            lu_factor(&mut lu[..n * n], &mut perm, n);
             let mut qdd = [0.0; 4];
             for (i, s) in qdd.iter_mut().enumerate().take(n) {
                 *s = out(nm + i);
             }
-            let mut lu = m;
-            lu_solve(&mut lu[..n * n], &mut qdd[..n], n);
+            lu_apply(&lu[..n * n], &perm, &mut qdd[..n], n);
             for i in 0..n {
                 if let Some(s) = f.get_mut(2 * i) {
                     *s = inputs.get(n + i).copied().unwrap_or(nan);
@@ -593,17 +596,17 @@ impl EquationsModel {
             }
             for state in 0..N {
                 let v = if state % 2 == 0 { state / 2 } else { n + state / 2 };
-                let dm = m_of(1 + v);
+                let base = (1 + v) * block;
                 let mut c = [0.0; 4];
                 for (i, ci) in c.iter_mut().enumerate().take(n) {
-                    let mut s = out((1 + v) * block + nm + i);
+                    let mut s = out(base + nm + i);
                     for (j, qj) in qdd.iter().enumerate().take(n) {
-                        s -= dm.get(i * n + j).copied().unwrap_or(nan) * qj;
+                        let (p, q) = if i <= j { (i, j) } else { (j, i) };
+                        s -= out(base + upper_index(n, p, q)) * qj;
                     }
                     *ci = s;
                 }
-                let mut lu = m;
-                lu_solve(&mut lu[..n * n], &mut c[..n], n);
+                lu_apply(&lu[..n * n], &perm, &mut c[..n], n);
                 for i in 0..n {
                     if let Some(s) = jac.get_mut(2 * i + 1).and_then(|r| r.get_mut(state)) {
                         *s = c.get(i).copied().unwrap_or(nan);
@@ -618,6 +621,71 @@ impl EquationsModel {
 /// Index of `M[a][b]` (`a <= b`) in the upper triangle stored row by row.
 fn upper_index(n: usize, a: usize, b: usize) -> usize {
     a * n - a * a.saturating_sub(1) / 2 - a + b
+}
+
+/// [`lu_solve`]'s elimination of `a` alone: the multipliers stored below the diagonal, the
+/// pivot row of each step in `perm`.
+fn lu_factor(a: &mut [f64], perm: &mut [usize; 4], n: usize) {
+    let at = |a: &[f64], i: usize, j: usize| a.get(i * n + j).copied().unwrap_or(f64::NAN);
+    for k in 0..n {
+        let mut p = k;
+        let mut best = at(a, k, k).abs();
+        for i in k + 1..n {
+            let v = at(a, i, k).abs();
+            if v > best {
+                best = v;
+                p = i;
+            }
+        }
+        if let Some(s) = perm.get_mut(k) {
+            *s = p;
+        }
+        if p != k {
+            for j in 0..n {
+                a.swap(k * n + j, p * n + j);
+            }
+        }
+        let piv = at(a, k, k);
+        for i in k + 1..n {
+            let l = at(a, i, k) / piv;
+            for j in k + 1..n {
+                let v = at(a, i, j) - l * at(a, k, j);
+                if let Some(s) = a.get_mut(i * n + j) {
+                    *s = v;
+                }
+            }
+            if let Some(s) = a.get_mut(i * n + k) {
+                *s = l;
+            }
+        }
+    }
+}
+
+/// Solves `A x = b` in place with the factors of [`lu_factor`], in [`lu_solve`]'s order of
+/// operations (so the result is `lu_solve`'s to the bit).
+fn lu_apply(a: &[f64], perm: &[usize; 4], b: &mut [f64], n: usize) {
+    let at = |i: usize, j: usize| a.get(i * n + j).copied().unwrap_or(f64::NAN);
+    for k in 0..n {
+        let p = perm.get(k).copied().unwrap_or(k);
+        if p != k {
+            b.swap(k, p);
+        }
+        let bk = b.get(k).copied().unwrap_or(f64::NAN);
+        for i in k + 1..n {
+            if let Some(s) = b.get_mut(i) {
+                *s -= at(i, k) * bk;
+            }
+        }
+    }
+    for k in (0..n).rev() {
+        let mut s = b.get(k).copied().unwrap_or(f64::NAN);
+        for j in k + 1..n {
+            s -= at(k, j) * b.get(j).copied().unwrap_or(f64::NAN);
+        }
+        if let Some(x) = b.get_mut(k) {
+            *x = s / at(k, k);
+        }
+    }
 }
 
 /// Solves `A x = b` in place (`b` becomes `x`) by LU with partial pivoting on the values.
