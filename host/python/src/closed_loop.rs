@@ -69,7 +69,12 @@ fn toml_value(v: &Bound<'_, PyAny>, key: &str, depth: usize) -> PyResult<toml::V
         }
         return Ok(toml::Value::Table(t));
     }
-    // numpy scalars and other number types: as a float when Python can make one.
+    // numpy scalars and other number types: integers by `__index__`, else floats.
+    if v.hasattr("__index__")? && !v.hasattr("__len__")? {
+        if let Ok(i) = v.call_method0("__index__").and_then(|i| i.extract::<i64>()) {
+            return Ok(toml::Value::Integer(i));
+        }
+    }
     if v.hasattr("__float__")? && !v.hasattr("__len__")? {
         if let Ok(x) = v.call_method0("__float__").and_then(|f| f.extract::<f64>()) {
             return Ok(toml::Value::Float(x));
