@@ -578,7 +578,7 @@ pub fn chart_ranges<'a>(
             (None, _) => Err(format!("--{flag}: give the range of axis `{name}` as min:max:n (it has no default)")),
         }
     };
-    Ok([(x.as_str(), range(x, x_range, "x-range")?), (y.as_str(), range(y, y_range, "y-range")?)])
+    Ok([(x.as_str(), range(x, x_range, "x-range/--kp")?), (y.as_str(), range(y, y_range, "y-range/--kd")?)])
 }
 
 /// Parses a command line (`args[0]` is the program name) without exiting: clap's error
@@ -611,8 +611,8 @@ pub fn check_options(cli: &Cli) -> Result<(), Box<dyn std::error::Error>> {
                 chart_axes(&s, axes)?;
             }
             let [(x, xr), (y, yr)] = chart_ranges(axes, x_range.as_deref(), y_range.as_deref())?;
-            sim::chart::Axis::from(xr).check(x).map_err(|e| format!("--x-range: {e}"))?;
-            sim::chart::Axis::from(yr).check(y).map_err(|e| format!("--y-range: {e}"))?;
+            sim::chart::Axis::from(xr).check(x).map_err(|e| format!("--x-range/--kp: {e}"))?;
+            sim::chart::Axis::from(yr).check(y).map_err(|e| format!("--y-range/--kd: {e}"))?;
             if let Some(dt) = dt_ms.iter().find(|dt| !(dt.is_finite() && **dt > 0.0)) {
                 return Err(format!("--dt-ms {dt}: a sampling period must be finite and > 0 ms").into());
             }
