@@ -22,8 +22,9 @@ const ALLOWED: &[(&str, &[&str])] = &[
     ("furuta", &["sim", "ssm", "chaos", "shared", "controller", "infile"]),
     ("chaos_study", &["sim", "ssm", "chaos"]),
     ("ssmctl", &["sim", "ssm", "chaos", "furuta", "chaos_study", "shared", "controller", "infile", "fileio"]),
-    // The Python module `ssm_ctl` (host/python): an app layer beside ssmctl, on the learner.
-    ("python", &["ssm", "shared", "infile", "fileio"]),
+    // The Python module `ssm_ctl` (host/python): an app layer beside ssmctl, on the learner
+    // and the simulator.
+    ("python", &["ssm", "sim", "shared", "infile", "fileio"]),
     // Research and profiling programs (host/lab): on top of everything, used by nothing.
     ("lab", &["sim", "ssm", "chaos", "furuta", "chaos_study", "ssmctl", "fileio"]),
     ("tests", &["controller", "shared"]),

@@ -5,12 +5,15 @@
 //!   arrays, a CSV file or an SSMLearn `.mat` file; time windows, observable selection);
 //! - [`model`]: `fit` (the options of `ssmctl fit`), `Model` (prediction, NMTE, eigenvalues,
 //!   normal form, backbone curves, the device blob, saved-model JSON) and `Prediction`;
+//! - [`closed_loop`]: `simulate` and `stability` of a scene (the simulator, `host/sim`), with
+//!   the `--set` overrides of `ssmctl`;
 //! - [`convert`]: errors as Python `ValueError`s carrying the Rust message, JSON-shaped
 //!   values as Python objects, numpy arrays.
 //!
-//! Architecture: an app layer beside `ssmctl`, on `ssm` and `shared` only; it wraps the
-//! library's API (what `ssmctl`'s `fit_command.rs` drives), never the command line.
+//! Architecture: an app layer beside `ssmctl`, on `ssm`, `sim` and `shared` only; it wraps
+//! the libraries' API (what `ssmctl`'s `fit_command.rs` drives), never the command line.
 
+pub mod closed_loop;
 pub mod convert;
 pub mod model;
 pub mod trajectory;
@@ -43,5 +46,7 @@ fn ssm_ctl(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(model::fit, m)?)?;
     m.add_function(wrap_pyfunction!(model::load_model, m)?)?;
     m.add_function(wrap_pyfunction!(model::inspect_blob, m)?)?;
+    m.add_function(wrap_pyfunction!(closed_loop::simulate, m)?)?;
+    m.add_function(wrap_pyfunction!(closed_loop::stability, m)?)?;
     Ok(())
 }

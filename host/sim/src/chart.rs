@@ -33,7 +33,7 @@ pub enum ChartError {
     #[error(transparent)]
     Linear(#[from] LinearError),
     #[error("{axis} axis: {reason}")]
-    BadAxis { axis: &'static str, reason: String },
+    BadAxis { axis: String, reason: String },
     #[error("no sampling periods given")]
     NoPeriods,
     #[error("{0} sampling periods (panels); a chart has at most {MAX_PANELS}")]
@@ -56,8 +56,8 @@ pub struct Axis {
 impl Axis {
     /// The axis if its bounds are finite and ordered and it has 2 ..= 4000 points; else an
     /// error naming `axis`.
-    pub fn check(self, axis: &'static str) -> Result<Self, ChartError> {
-        let bad = |reason: String| Err(ChartError::BadAxis { axis, reason });
+    pub fn check(self, axis: &str) -> Result<Self, ChartError> {
+        let bad = |reason: String| Err(ChartError::BadAxis { axis: axis.into(), reason });
         if !(self.lo.is_finite() && self.hi.is_finite()) {
             return bad(format!("bounds {} .. {} must be finite", self.lo, self.hi));
         }
@@ -151,13 +151,28 @@ pub struct PanelSummary {
     pub edge_flip: usize,
 }
 
-/// A computed chart (all panels), ready to draw.
+/// A computed chart (all panels), ready to draw. `kp` and `kd` are the first and second
+/// axis: the primary coordinate's P and D gains unless `names` says otherwise.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Chart {
     pub kp: Axis,
     pub kd: Axis,
     pub base: ControllerConfig,
     pub panels: Vec<Panel>,
+    /// The names of the two axes (`theta.p`, `plant.parameters.m`, ...); `None` for the
+    /// classic (KP, KD) chart.
+    pub names: Option<[String; 2]>,
+    /// The scene's own values on the two axes (the marked point); `None`: the base
+    /// configuration's shorthand (KP, KD).
+    pub base_point: Option<(f64, f64)>,
+}
+
+/// Sets the two axis values in a controller configuration (gain axes only: the
+/// closed-loop map is then affine in them, which the D-curves use).
+pub type SetGains<'a> = &'a (dyn Fn(&mut ControllerConfig, f64, f64) + Sync);
+
+fn set_primary(c: &mut ControllerConfig, p: f64, d: f64) {
+    *c = c.with_primary(p, d);
 }
 
 /// Number of frequency samples of the dynamic D-curve before adaptive refinement.
@@ -173,8 +188,21 @@ pub fn compute_chart(
     kp: Axis,
     kd: Axis,
 ) -> Result<Chart, ChartError> {
-    let kp = kp.check("KP")?;
-    let kd = kd.check("KD")?;
+    compute_chart_with(plant, base, dts_s, (kp, "KP"), (kd, "KD"), &set_primary)
+}
+
+/// [`compute_chart`] over any two gains: `set` puts the axis values into a configuration,
+/// the names label errors.
+pub fn compute_chart_with(
+    plant: &LinearPlant,
+    base: &ControllerConfig,
+    dts_s: &[f64],
+    (kp, x_name): (Axis, &str),
+    (kd, y_name): (Axis, &str),
+    set: SetGains<'_>,
+) -> Result<Chart, ChartError> {
+    let kp = kp.check(x_name)?;
+    let kd = kd.check(y_name)?;
     if dts_s.is_empty() {
         return Err(ChartError::NoPeriods);
     }
@@ -186,21 +214,34 @@ pub fn compute_chart(
     }
     // Panels in parallel, collected in input order; the first error in that order wins.
     let panels: Vec<Result<Panel, ChartError>> =
-        dts_s.par_iter().map(|&dt| compute_panel(plant, base, dt, kp, kd)).collect();
+        dts_s.par_iter().map(|&dt| compute_panel(plant, base, dt, kp, kd, set)).collect();
     let panels = panels.into_iter().collect::<Result<Vec<_>, _>>()?;
-    Ok(Chart { kp, kd, base: *base, panels })
+    Ok(Chart { kp, kd, base: *base, panels, names: None, base_point: None })
 }
 
 /// Spectral radius of the non-structural multipliers and, if it exceeds 1, the kind of
 /// the largest one: one grid point of a chart.
 pub fn classify(zoh: &Zoh, cfg: &ControllerConfig) -> Result<(f64, Option<Crossing>), LinearError> {
-    let m = zoh.closed_loop(cfg)?.deflated()?;
+    let m = loop_matrix(zoh, cfg, true)?;
     let ev = eigenvalues(&m)?;
     let top = ev.iter().copied().max_by(|a, b| a.norm().total_cmp(&b.norm()));
     let Some(top) = top else { return Ok((0.0, None)) };
     let radius = top.norm();
     let kind = (radius >= 1.0).then(|| kind_of(top));
     Ok((radius, kind))
+}
+
+/// The closed-loop map without its structural multiplier 1 when `deflate` and the loop has
+/// one (a cyclic, unstiffened secondary coordinate), else the whole map.
+fn loop_matrix(zoh: &Zoh, cfg: &ControllerConfig, deflate: bool) -> Result<DMatrix<f64>, LinearError> {
+    let map = zoh.closed_loop(cfg)?;
+    if !deflate {
+        return Ok(map.matrix.clone());
+    }
+    match map.deflated() {
+        Err(LinearError::SecondaryCouples { .. } | LinearError::SecondaryControlled { .. }) => Ok(map.matrix.clone()),
+        other => other,
+    }
 }
 
 fn kind_of(mu: Complex<f64>) -> Crossing {
@@ -224,21 +265,35 @@ pub fn assemble_panel(
     kd: Axis,
     points: &[(f64, Option<Crossing>)],
 ) -> Result<Panel, ChartError> {
-    let kp = kp.check("KP")?;
-    let kd = kd.check("KD")?;
+    assemble_panel_with(plant, base, dt, (kp, "KP"), (kd, "KD"), points, &set_primary)
+}
+
+/// [`assemble_panel`] over any two gains: `set` puts the axis values into a configuration,
+/// the names label errors.
+pub fn assemble_panel_with(
+    plant: &LinearPlant,
+    base: &ControllerConfig,
+    dt: f64,
+    (kp, x_name): (Axis, &str),
+    (kd, y_name): (Axis, &str),
+    points: &[(f64, Option<Crossing>)],
+    set: SetGains<'_>,
+) -> Result<Panel, ChartError> {
+    let kp = kp.check(x_name)?;
+    let kd = kd.check(y_name)?;
     if !(dt.is_finite() && dt > 0.0) {
         return Err(ChartError::BadPeriod(dt));
     }
     if points.len() != kp.n * kd.n {
         return Err(ChartError::BadAxis {
-            axis: "KP x KD",
+            axis: format!("{x_name} x {y_name}"),
             reason: format!("{} points given for a {} x {} grid", points.len(), kp.n, kd.n),
         });
     }
     let zoh = plant.discretize(dt)?;
     let (radius, unstable_kind): (Vec<f64>, Vec<Option<Crossing>>) = points.iter().copied().unzip();
     let (base_radius, _) = classify(&zoh, &ControllerConfig { dt, ..*base })?;
-    let curves = d_curves(&zoh, base, kp, kd)?;
+    let curves = d_curves(&zoh, base, kp, kd, set)?;
     let summary = summarize(dt, kp, kd, &radius, &unstable_kind, base_radius);
     Ok(Panel { dt_s: dt, radius, unstable_kind, curves, summary })
 }
@@ -249,16 +304,23 @@ fn compute_panel(
     dt: f64,
     kp: Axis,
     kd: Axis,
+    set: SetGains<'_>,
 ) -> Result<Panel, ChartError> {
     let zoh = plant.discretize(dt)?;
     let n = kp.n * kd.n;
     // Grid rows (one KD each) in parallel with the D-curves; every point is computed
     // alone, and the rows are put together in order, so the result is the serial one.
     let row = |i: usize| -> Result<Vec<(f64, Option<Crossing>)>, LinearError> {
-        (0..kp.n).map(|j| classify(&zoh, &ControllerConfig { dt, ..*base }.with_primary(kp.at(j), kd.at(i)))).collect()
+        (0..kp.n)
+            .map(|j| {
+                let mut c = ControllerConfig { dt, ..*base };
+                set(&mut c, kp.at(j), kd.at(i));
+                classify(&zoh, &c)
+            })
+            .collect()
     };
     let (rows, curves) =
-        rayon::join(|| (0..kd.n).into_par_iter().map(row).collect::<Vec<_>>(), || d_curves(&zoh, base, kp, kd));
+        rayon::join(|| (0..kd.n).into_par_iter().map(row).collect::<Vec<_>>(), || d_curves(&zoh, base, kp, kd, set));
     let mut radius = Vec::with_capacity(n);
     let mut unstable_kind = Vec::with_capacity(n);
     for r in rows {
@@ -273,7 +335,7 @@ fn compute_panel(
     Ok(Panel { dt_s: dt, radius, unstable_kind, curves, summary })
 }
 
-fn summarize(
+pub(crate) fn summarize(
     dt: f64,
     kp: Axis,
     kd: Axis,
@@ -341,9 +403,12 @@ fn affine_det(
     lambda: Complex<f64>,
     kp_span: f64,
     kd_span: f64,
+    set: SetGains<'_>,
+    deflate: bool,
 ) -> Result<(Complex<f64>, Complex<f64>, Complex<f64>), LinearError> {
+    let at = |kp: f64, kd: f64| gains_at(zoh, base, set, kp, kd);
     let det = |kp: f64, kd: f64| -> Result<Complex<f64>, LinearError> {
-        let r = zoh.closed_loop(&ControllerConfig { dt: zoh.dt, ..*base }.with_primary(kp, kd))?.deflated()?;
+        let r = loop_matrix(zoh, &at(kp, kd), deflate)?;
         let n = r.nrows();
         let c = DMatrix::<Complex<f64>>::from_fn(n, n, |i, j| {
             Complex::new(r[(i, j)], 0.0) - if i == j { lambda } else { Complex::new(0.0, 0.0) }
@@ -356,14 +421,36 @@ fn affine_det(
     Ok((f0, fa, fb))
 }
 
+fn gains_at(zoh: &Zoh, base: &ControllerConfig, set: SetGains<'_>, kp: f64, kd: f64) -> ControllerConfig {
+    let mut c = ControllerConfig { dt: zoh.dt, ..*base };
+    set(&mut c, kp, kd);
+    c
+}
+
 /// The D-curves inside the window `kp x kd`.
-fn d_curves(zoh: &Zoh, base: &ControllerConfig, kp: Axis, kd: Axis) -> Result<Vec<Curve>, LinearError> {
+fn d_curves(
+    zoh: &Zoh,
+    base: &ControllerConfig,
+    kp: Axis,
+    kd: Axis,
+    set: SetGains<'_>,
+) -> Result<Vec<Curve>, LinearError> {
     let (w, h) = (kp.hi - kp.lo, kd.hi - kd.lo);
     let mut curves = Vec::new();
+    // Deflate the maps at the three points of the affine fit all or none, so that their
+    // determinants are of one affine family.
+    let mut deflate = true;
+    for (p, d) in [(0.0, 0.0), (w, 0.0), (0.0, h)] {
+        match zoh.closed_loop(&gains_at(zoh, base, set, p, d))?.deflated() {
+            Ok(_) => {}
+            Err(LinearError::SecondaryCouples { .. } | LinearError::SecondaryControlled { .. }) => deflate = false,
+            Err(e) => return Err(e),
+        }
+    }
     // Real multipliers +1 and -1: one real equation, a straight line.
     let nyquist = 0.5 / zoh.dt;
     for (lambda, kind, f) in [(1.0, Crossing::Static, 0.0), (-1.0, Crossing::Flip, nyquist)] {
-        let (f0, fa, fb) = affine_det(zoh, base, Complex::new(lambda, 0.0), w, h)?;
+        let (f0, fa, fb) = affine_det(zoh, base, Complex::new(lambda, 0.0), w, h, set, deflate)?;
         let (f0, fa, fb) = (f0.re, fa.re, fb.re);
         // Parametrize by the coordinate with the smaller coefficient (weighted by span).
         let line: Vec<(f64, f64, f64)> = if (fa * w).abs() >= (fb * h).abs() {
@@ -378,7 +465,7 @@ fn d_curves(zoh: &Zoh, base: &ControllerConfig, kp: Axis, kd: Axis) -> Result<Ve
     }
     // Complex pair e^{+-iw}: two real equations.
     let solve = |omega: f64| -> Result<Option<(f64, f64)>, LinearError> {
-        let (f0, fa, fb) = affine_det(zoh, base, Complex::from_polar(1.0, omega), w, h)?;
+        let (f0, fa, fb) = affine_det(zoh, base, Complex::from_polar(1.0, omega), w, h, set, deflate)?;
         let det = fa.re * fb.im - fb.re * fa.im;
         if det == 0.0 {
             return Ok(None);

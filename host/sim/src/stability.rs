@@ -3,11 +3,18 @@
 //! and saturation are nonlinear effects and do not enter the linearization; integral action,
 //! the delay and the sampling period do.
 
-use crate::chart::{Axis, Chart, ChartError, Crossing, Panel, assemble_panel, classify, plant_chart};
+use crate::chart::{
+    Axis, Chart, ChartError, Crossing, MAX_PANELS, Panel, assemble_panel, assemble_panel_with, classify,
+    compute_chart_with, plant_chart, summarize,
+};
 use crate::closed_loop::{SimError, build_plant};
 use crate::linear::{LinearError, LinearPlant, Multiplier};
 use crate::plant::{Plant, linearize};
 use crate::scene::Scene;
+use crate::scene::axis::SceneAxis;
+use rayon::prelude::*;
+use shared::ControllerConfig;
+use std::time::Instant;
 
 #[derive(Debug, thiserror::Error)]
 pub enum StabilityError {
@@ -17,6 +24,8 @@ pub enum StabilityError {
     Linear { scene: String, source: LinearError },
     #[error("scene {scene}: chart: {source}")]
     Chart { scene: String, source: ChartError },
+    #[error("at {axis} = {value}: {source}")]
+    AtPoint { axis: String, value: f64, source: Box<StabilityError> },
 }
 
 fn lin<P: Plant<N>, const N: usize>(p: &P) -> Result<LinearPlant, LinearError> {
@@ -75,6 +84,163 @@ pub fn scene_chart(
         plant_chart(&a, &b, P::PRIMARY, P::SECONDARY, cfg, dts, kp, kd)
     }
     crate::with_plant!(build_plant(scene)?, p => go(&p, &cfg, &dts, kp, kd).map_err(ce))
+}
+
+/// The stability chart of the scene over any two of its quantities ([`SceneAxis`]: gains
+/// or plant parameters) for several sampling periods (ms), and the wall time of its
+/// computation in seconds. Over two gains the plant is linearized once and the D-curves are
+/// drawn (the closed-loop map is affine in the gains); over a plant parameter every grid
+/// point has its own linearization and there are no D-curves. The marked point is the
+/// scene's own values.
+pub fn scene_chart_axes(
+    scene: &Scene,
+    dts_ms: &[f64],
+    (xa, xr): (&SceneAxis, Axis),
+    (ya, yr): (&SceneAxis, Axis),
+) -> Result<(Chart, f64), StabilityError> {
+    let t0 = Instant::now();
+    let ce = |source| StabilityError::Chart { scene: scene.name.clone(), source };
+    let xr = xr.check(xa.name()).map_err(ce)?;
+    let yr = yr.check(ya.name()).map_err(ce)?;
+    if xa.same_quantity(ya) {
+        return Err(ce(ChartError::BadAxis {
+            axis: ya.name().into(),
+            reason: "both axes set the same quantity".into(),
+        }));
+    }
+    let dts: Vec<f64> = dts_ms.iter().map(|&d| crate::units::ms_to_s(d)).collect();
+    if dts.is_empty() {
+        return Err(ce(ChartError::NoPeriods));
+    }
+    if dts.len() > MAX_PANELS {
+        return Err(ce(ChartError::TooManyPanels(dts.len())));
+    }
+    if let Some(&dt) = dts.iter().find(|dt| !(dt.is_finite() && **dt > 0.0)) {
+        return Err(ce(ChartError::BadPeriod(dt)));
+    }
+    let base = scene.controller_config();
+    let set = |c: &mut ControllerConfig, a: f64, b: f64| {
+        xa.set_gain(c, a);
+        ya.set_gain(c, b);
+    };
+    let mut chart = if xa.is_gain() && ya.is_gain() {
+        let plant = linear_plant(scene)?;
+        compute_chart_with(&plant, &base, &dts, (xr, xa.name()), (yr, ya.name()), &set).map_err(ce)?
+    } else {
+        let panels =
+            dts.iter().map(|&dt| parameter_panel(scene, &base, dt, (xa, xr), (ya, yr))).collect::<Result<_, _>>()?;
+        Chart { kp: xr, kd: yr, base, panels, names: None, base_point: None }
+    };
+    chart.names = Some([xa.name().into(), ya.name().into()]);
+    chart.base_point = Some((xa.value(scene).map_err(SimError::from)?, ya.value(scene).map_err(SimError::from)?));
+    Ok((chart, t0.elapsed().as_secs_f64()))
+}
+
+/// A chart panel over axes of which at least one is a plant parameter: one linearization
+/// per distinct plant, every point classified as [`classify`] does.
+fn parameter_panel(
+    scene: &Scene,
+    base: &ControllerConfig,
+    dt: f64,
+    (xa, xr): (&SceneAxis, Axis),
+    (ya, yr): (&SceneAxis, Axis),
+) -> Result<Panel, StabilityError> {
+    let le = |source| StabilityError::Linear { scene: scene.name.clone(), source };
+    // The plants: one per value of each parameter axis (a gain axis does not change it).
+    let nx = if xa.is_gain() { 1 } else { xr.n };
+    let ny = if ya.is_gain() { 1 } else { yr.n };
+    let at = |axis: &SceneAxis, s: &Scene, v: f64| {
+        axis.apply(s, v).map_err(|e| StabilityError::AtPoint {
+            axis: axis.name().into(),
+            value: v,
+            source: Box::new(StabilityError::Sim(e.into())),
+        })
+    };
+    let zoh_of = |k: usize| -> Result<crate::linear::Zoh, StabilityError> {
+        let (i, j) = (k / nx, k % nx);
+        let mut s = scene.clone();
+        let mut point = Vec::new();
+        if !xa.is_gain() {
+            s = at(xa, &s, xr.at(j))?;
+            point.push((xa.name(), xr.at(j)));
+        }
+        if !ya.is_gain() {
+            s = at(ya, &s, yr.at(i))?;
+            point.push((ya.name(), yr.at(i)));
+        }
+        let wrap = |e: StabilityError| {
+            point.iter().rev().fold(e, |e, &(axis, value)| StabilityError::AtPoint {
+                axis: axis.into(),
+                value,
+                source: Box::new(e),
+            })
+        };
+        linear_plant(&s).and_then(|p| p.discretize(dt).map_err(le)).map_err(wrap)
+    };
+    let zohs =
+        (0..nx * ny).into_par_iter().map(zoh_of).collect::<Vec<_>>().into_iter().collect::<Result<Vec<_>, _>>()?;
+    let point = |i: usize, j: usize| -> Result<(f64, Option<Crossing>), StabilityError> {
+        let zoh = &zohs[(if ya.is_gain() { 0 } else { i }) * nx + if xa.is_gain() { 0 } else { j }];
+        let mut c = ControllerConfig { dt, ..*base };
+        xa.set_gain(&mut c, xr.at(j));
+        ya.set_gain(&mut c, yr.at(i));
+        classify(zoh, &c).map_err(le)
+    };
+    let rows = (0..yr.n)
+        .into_par_iter()
+        .map(|i| (0..xr.n).map(|j| point(i, j)).collect::<Result<Vec<_>, _>>())
+        .collect::<Vec<_>>();
+    let points = rows.into_iter().collect::<Result<Vec<_>, _>>()?.concat();
+    curveless_panel(scene, base, dt, xr, yr, points)
+}
+
+/// A panel without D-curves (an axis is a plant parameter) from its grid points.
+fn curveless_panel(
+    scene: &Scene,
+    base: &ControllerConfig,
+    dt: f64,
+    xr: Axis,
+    yr: Axis,
+    points: Vec<(f64, Option<Crossing>)>,
+) -> Result<Panel, StabilityError> {
+    let le = |source| StabilityError::Linear { scene: scene.name.clone(), source };
+    let (radius, unstable_kind): (Vec<f64>, Vec<Option<Crossing>>) = points.into_iter().unzip();
+    let zoh = linear_plant(scene)?.discretize(dt).map_err(le)?;
+    let (base_radius, _) = classify(&zoh, &ControllerConfig { dt, ..*base }).map_err(le)?;
+    let summary = summarize(dt, xr, yr, &radius, &unstable_kind, base_radius);
+    Ok(Panel { dt_s: dt, radius, unstable_kind, curves: Vec::new(), summary })
+}
+
+/// A chart panel of the scene over two named axes at `dt_ms` from grid points computed
+/// elsewhere ([`scene_point`] of the scene with the axes set, e.g. by a sharded sweep;
+/// `points[i * x.n + j]` at `(x.at(j), y.at(i))`): the panel [`scene_chart_axes`] computes.
+pub fn scene_panel_axes(
+    scene: &Scene,
+    dt_ms: f64,
+    (xa, xr): (&SceneAxis, Axis),
+    (ya, yr): (&SceneAxis, Axis),
+    points: &[(f64, Option<Crossing>)],
+) -> Result<Panel, StabilityError> {
+    let ce = |source| StabilityError::Chart { scene: scene.name.clone(), source };
+    let base = scene.controller_config();
+    let dt = crate::units::ms_to_s(dt_ms);
+    if xa.is_gain() && ya.is_gain() {
+        let set = |c: &mut ControllerConfig, a: f64, b: f64| {
+            xa.set_gain(c, a);
+            ya.set_gain(c, b);
+        };
+        let plant = linear_plant(scene)?;
+        return assemble_panel_with(&plant, &base, dt, (xr, xa.name()), (yr, ya.name()), points, &set).map_err(ce);
+    }
+    let xr = xr.check(xa.name()).map_err(ce)?;
+    let yr = yr.check(ya.name()).map_err(ce)?;
+    if points.len() != xr.n * yr.n {
+        return Err(ce(ChartError::BadAxis {
+            axis: format!("{} x {}", xa.name(), ya.name()),
+            reason: format!("{} points given for a {} x {} grid", points.len(), xr.n, yr.n),
+        }));
+    }
+    curveless_panel(scene, &base, dt, xr, yr, points.to_vec())
 }
 
 /// One point of a stability chart at the scene's own gains and sampling period: the
@@ -160,5 +326,60 @@ mod tests {
         }
         let short = scene_panel(&base, 25.0, chart.kp, chart.kd, &[(0.5, None)]).unwrap_err().to_string();
         assert!(short.contains("1 points given for a 5 x 4 grid"), "{short}");
+    }
+
+    /// The chart over named axes: `kp`, `kd` by name is the classic chart (same grid and
+    /// D-curves); over a gain pair of the cart-pole and over a plant parameter each grid point
+    /// is the multipliers of the scene with that value set as a `--set` override.
+    #[test]
+    fn named_axes_charts_match_point_by_point_overrides() {
+        let f = scene("furuta-dt25", &[]);
+        let (kp, kd) = ((0.0, 40.0, 5), (0.0, 8.0, 4));
+        let (classic, _) = scene_chart(&f, &[25.0], kp, kd).unwrap();
+        let ax = |s: &Scene, n: &str| SceneAxis::parse(s, n).unwrap();
+        let (named, _) =
+            scene_chart_axes(&f, &[25.0], (&ax(&f, "theta.p"), kp.into()), (&ax(&f, "kd"), kd.into())).unwrap();
+        assert_eq!(named.panels, classic.panels);
+        assert_eq!(named.base_point, Some((15.5, 5.45)));
+
+        let c = scene("cartpole-pd", &[]);
+        let (x, y): (Axis, Axis) = ((-30.0, -10.0, 3).into(), (-20.0, -10.0, 3).into());
+        let (chart, _) = scene_chart_axes(&c, &[10.0], (&ax(&c, "x.p"), x), (&ax(&c, "x.d"), y)).unwrap();
+        let panel = &chart.panels[0];
+        assert!(!panel.curves.is_empty());
+        for i in 0..3 {
+            for j in 0..3 {
+                let o = [format!("controller.gains.x.p={}", x.at(j)), format!("controller.gains.x.d={}", y.at(i))];
+                let (r, _) = scene_point(&Scene::load("cartpole-pd", &o).unwrap()).unwrap();
+                assert_eq!(panel.radius[i * 3 + j], r, "x.p {} x.d {}", x.at(j), y.at(i));
+            }
+        }
+        // On a D-curve a multiplier is on the unit circle.
+        for curve in &panel.curves {
+            let (p, d) = curve.points[curve.points.len() / 2];
+            let o = [format!("controller.gains.x.p={p}"), format!("controller.gains.x.d={d}")];
+            let s = Scene::load("cartpole-pd", &o).unwrap();
+            let ms = scene_multipliers(&s).unwrap();
+            let near = ms.iter().map(|m| (m.abs - 1.0).abs()).fold(f64::INFINITY, f64::min);
+            assert!(near < 1e-6, "{:?} at ({p}, {d}): closest |mu| - 1 = {near:e}", curve.kind);
+        }
+
+        let p = scene("pendulum-pd", &[]);
+        let (m, g): (Axis, Axis) = ((0.1, 0.5, 3).into(), (2.0, 4.0, 3).into());
+        let (chart, _) = scene_chart_axes(&p, &[20.0], (&ax(&p, "plant.parameters.m"), m), (&ax(&p, "kp"), g)).unwrap();
+        assert!(chart.panels[0].curves.is_empty());
+        for i in 0..3 {
+            for j in 0..3 {
+                let o = [format!("plant.parameters.m={}", m.at(j)), format!("controller.kp={}", g.at(i))];
+                let (r, _) = scene_point(&Scene::load("pendulum-pd", &o).unwrap()).unwrap();
+                assert_eq!(chart.panels[0].radius[i * 3 + j], r);
+            }
+        }
+        // A plant that is invalid at a grid point is an error naming the axis value.
+        let e =
+            scene_chart_axes(&c, &[10.0], (&ax(&c, "plant.parameters.M"), (-1.0, 1.0, 3).into()), (&ax(&c, "x.d"), y))
+                .unwrap_err()
+                .to_string();
+        assert!(e.contains("plant.parameters.M = -1"), "{e}");
     }
 }

@@ -164,6 +164,156 @@ pub fn bench_simulate_window(
     Ok((rows, label(&configs[0])))
 }
 
+// ------------------------------------------------------------------------ plant forms
+
+/// One row of the plant-form table: the benchmark problem with one integrator, the plant
+/// built in (Rust) or written as equations in the scene (`furuta-equations`).
+#[derive(Clone, Debug, Serialize)]
+pub struct PlantFormRow {
+    /// `built-in` or `equations`.
+    pub plant: String,
+    pub integrator: String,
+    /// Thread CPU time per sampling period, s (the fastest of the timed runs).
+    pub cpu_s_per_period: f64,
+    /// This row's CPU time per period over the built-in plant's with the same integrator,
+    /// same run.
+    pub cpu_ratio_vs_builtin: f64,
+    /// Max |theta| error against the tight reference (the built-in plant, rodas4 rtol=1e-13).
+    pub max_err_rad: f64,
+    /// Right-hand side evaluations per period (f64, plus dual-number Jacobians).
+    pub rhs_per_period: f64,
+    pub jac_per_period: f64,
+    /// One `f64` right-hand side evaluation, ns (timing loop at a state near the run's).
+    pub ns_per_rhs: f64,
+    /// Instructions per `f64` right-hand side evaluation (hardware counter), when readable.
+    pub instructions_per_rhs: Option<f64>,
+    /// Instructions of the equations plant's tape (one evaluation gives the mass matrix and
+    /// the forces; the solve is on top).
+    pub tape_instructions: Option<usize>,
+}
+
+/// The plant-form table and how the instruction counts were obtained.
+#[derive(Clone, Debug, Serialize)]
+pub struct PlantForms {
+    pub rows: Vec<PlantFormRow>,
+    /// `perf_event_open` instruction counts, or why there are none.
+    pub counters: String,
+}
+
+/// Thread CPU time, s.
+fn thread_cpu_s() -> f64 {
+    let mut ts = libc::timespec { tv_sec: 0, tv_nsec: 0 };
+    // SAFETY: clock_gettime writes one timespec through a valid pointer.
+    let rc = unsafe { libc::clock_gettime(libc::CLOCK_THREAD_CPUTIME_ID, &mut ts) };
+    if rc != 0 {
+        return f64::NAN;
+    }
+    ts.tv_sec as f64 + 1e-9 * ts.tv_nsec as f64
+}
+
+/// Fastest thread-CPU time of one run over a window of `min_seconds` (at least 3 runs).
+fn cpu_time(scene: &Scene, min_seconds: f64) -> Result<(f64, Trajectory), SimError> {
+    let mut best = f64::INFINITY;
+    let mut runs = 0;
+    let start = Instant::now();
+    let mut last = None;
+    while runs < 3 || start.elapsed().as_secs_f64() < min_seconds {
+        let c0 = thread_cpu_s();
+        let tr = simulate(scene, None)?;
+        best = best.min(thread_cpu_s() - c0);
+        last = Some(tr);
+        runs += 1;
+    }
+    Ok((best, last.ok_or_else(|| SimError::Controller { scene: scene.name.clone(), message: "no run".into() })?))
+}
+
+/// ns per `f64` rhs evaluation (fastest of 5 loops of `iters`) and, when the hardware
+/// counter opens, instructions per evaluation.
+fn rhs_cost<P: sim::plant::Plant<N>, const N: usize>(
+    p: &P,
+    iters: u64,
+    counter: Option<&crate::perf::Counter>,
+) -> (f64, Option<f64>) {
+    let mut x = [0.0; N];
+    for (i, v) in x.iter_mut().enumerate() {
+        *v = 0.05 / (1.0 + i as f64);
+    }
+    let run = || {
+        for _ in 0..iters {
+            std::hint::black_box(p.rhs(std::hint::black_box(&x), std::hint::black_box(0.3)));
+        }
+    };
+    let mut best = f64::INFINITY;
+    for _ in 0..5 {
+        let t0 = Instant::now();
+        run();
+        best = best.min(t0.elapsed().as_secs_f64());
+    }
+    let instructions = counter.and_then(|c| c.count(run)).map(|n| n as f64 / iters as f64);
+    (1e9 * best / iters as f64, instructions)
+}
+
+/// The plant-form table: the benchmark problem ([`problem`]) with the built-in Furuta plant
+/// and with the same plant written as equations (`furuta-equations`), for the adaptive
+/// exponential integrator and fixed-step RK4, all timed in one run; errors against one
+/// tight reference.
+pub fn bench_plant_forms(periods: u64, quick: bool, mut progress: impl FnMut(&str)) -> Result<PlantForms, SimError> {
+    let window = if quick { 0.02 } else { TIMING_WINDOW_S };
+    let builtin = problem(periods)?;
+    let equations = SceneBuilder::load("furuta-equations")?
+        .dt_ms(builtin.controller.dt_ms)
+        .periods(periods)
+        .initial_state(&[0.05, 0.0, 0.0, 0.0])
+        .tasks(&[Task::Simulate])
+        .build()?;
+    progress("plant forms: reference rodas4 rtol=1e-13");
+    let reference = simulate(&with(&builtin, MethodKind::Rodas, Some(1e-13), None), None)?;
+    let counter = crate::perf::Counter::instructions();
+    let counters = match &counter {
+        Ok(_) => "instructions per rhs from the hardware counter (perf_event_open, user space)".to_string(),
+        Err(e) => format!("hardware counters not readable in this machine ({e}); ns per rhs from a timing loop"),
+    };
+    let iters = if quick { 20_000 } else { 200_000 };
+    let mut costs = Vec::new();
+    for s in [&builtin, &equations] {
+        let plant = sim::closed_loop::build_plant(s)?;
+        let tape = match &plant {
+            sim::closed_loop::AnyPlant::Equations2(p) => Some(p.model().tape().len()),
+            _ => None,
+        };
+        let (ns, ins) = sim::with_plant!(plant, p => rhs_cost(&p, iters, counter.as_ref().ok()));
+        costs.push((ns, ins, tape));
+    }
+    let mut rows = Vec::new();
+    for (method, rtol, steps) in [(MethodKind::Exprb, Some(1e-9), None), (MethodKind::Rk4, None, Some(175))] {
+        let mut base_cpu = f64::NAN;
+        for ((name, s), &(ns, ins, tape)) in [("built-in", &builtin), ("equations", &equations)].iter().zip(&costs) {
+            let c = with(s, method, rtol, steps);
+            let integrator = label(&c);
+            progress(&format!("plant forms: {name} {integrator}"));
+            let (cpu, tr) = cpu_time(&c, window)?;
+            let n = (tr.rows() - 1) as f64;
+            let per = cpu / n;
+            if *name == "built-in" {
+                base_cpu = per;
+            }
+            rows.push(PlantFormRow {
+                plant: name.to_string(),
+                integrator,
+                cpu_s_per_period: per,
+                cpu_ratio_vs_builtin: per / base_cpu,
+                max_err_rad: max_err(&tr, &reference),
+                rhs_per_period: tr.ode_stats.rhs_evals as f64 / n,
+                jac_per_period: tr.ode_stats.jac_evals as f64 / n,
+                ns_per_rhs: ns,
+                instructions_per_rhs: ins,
+                tape_instructions: tape,
+            });
+        }
+    }
+    Ok(PlantForms { rows, counters })
+}
+
 // ------------------------------------------------------------------------ fitting cost
 
 /// One row of the fitting cost table (second table): one setting varied from the

@@ -75,7 +75,8 @@ pub enum Cmd {
         #[arg(long)]
         json: bool,
     },
-    /// Stability chart over a (KP, KD) grid for several sampling periods, as a PNG.
+    /// Stability chart over two gains or plant parameters (default KP, KD) for several
+    /// sampling periods, as a PNG.
     StabilityChart {
         #[command(flatten)]
         scene: SceneArgs,
@@ -85,12 +86,18 @@ pub enum Cmd {
         /// Sampling periods in ms, comma separated.
         #[arg(long, value_delimiter = ',', default_value = "20,25,30.8")]
         dt_ms: Vec<f64>,
-        /// KP range and points, `min:max:n`.
-        #[arg(long, default_value = "0:40:161")]
-        kp: String,
-        /// KD range and points, `min:max:n`.
-        #[arg(long, default_value = "0:8:161")]
-        kd: String,
+        /// The two axes, comma separated: gains `COORD.p`, `COORD.d` of measured coordinates
+        /// (`theta.p`, `x.d`; the shorthand `kp`, `kd`, `kphi_d`) or plant parameters
+        /// (`plant.parameters.m` of a plant written as equations, `plant.params.b1` of a
+        /// built-in one).
+        #[arg(long, value_delimiter = ',', default_value = "kp,kd")]
+        axes: Vec<String>,
+        /// Range and points of the first axis, `min:max:n` (default for `kp`: 0:40:161).
+        #[arg(long = "x-range", visible_alias = "kp", value_name = "MIN:MAX:N", allow_hyphen_values = true)]
+        x_range: Option<String>,
+        /// Range and points of the second axis, `min:max:n` (default for `kd`: 0:8:161).
+        #[arg(long = "y-range", visible_alias = "kd", value_name = "MIN:MAX:N", allow_hyphen_values = true)]
+        y_range: Option<String>,
     },
     /// Run everything on the bundled scenes; writes DIR/index.html and DIR/summary.json.
     Reproduce {
@@ -557,6 +564,48 @@ pub fn parse_range(s: &str, what: &str) -> Result<(f64, f64, usize), String> {
     Ok((lo, hi, n))
 }
 
+/// The scene quantities of `stability-chart --axes`: `None` for the classic (KP, KD) chart
+/// of a scene with the shorthand gains, else the two named axes (errors name `--axes` and
+/// list the scene's gains and parameters).
+pub fn chart_axes(
+    scene: &Scene,
+    axes: &[String],
+) -> Result<Option<(sim::scene::axis::SceneAxis, sim::scene::axis::SceneAxis)>, String> {
+    let [x, y] = axes else {
+        return Err(format!("--axes: give two axes, e.g. `--axes theta.p,theta.d`; got {}", axes.len()));
+    };
+    if (x.as_str(), y.as_str()) == ("kp", "kd") && scene.controller.gains.is_none() {
+        return Ok(None);
+    }
+    let axis = |name: &str| sim::scene::axis::SceneAxis::parse(scene, name).map_err(|e| format!("--axes: {e}"));
+    Ok(Some((axis(x)?, axis(y)?)))
+}
+
+/// The two axes of `stability-chart --axes` with their ranges: `--x-range`/`--y-range`
+/// (aliases `--kp`/`--kd`), by default 0:40:161 for `kp` and 0:8:161 for `kd`; any other
+/// axis needs its range given.
+pub fn chart_ranges<'a>(
+    axes: &'a [String],
+    x_range: Option<&str>,
+    y_range: Option<&str>,
+) -> Result<[(&'a str, (f64, f64, usize)); 2], String> {
+    let [x, y] = axes else {
+        return Err(format!("--axes: give two axes, e.g. `--axes theta.p,theta.d`; got {}", axes.len()));
+    };
+    if x == y {
+        return Err(format!("--axes: `{x}` given twice"));
+    }
+    let range = |name: &str, given: Option<&str>, flag: &str| -> Result<(f64, f64, usize), String> {
+        match (given, name) {
+            (Some(r), _) => parse_range(r, flag),
+            (None, "kp") => parse_range("0:40:161", flag),
+            (None, "kd") => parse_range("0:8:161", flag),
+            (None, _) => Err(format!("--{flag}: give the range of axis `{name}` as min:max:n (it has no default)")),
+        }
+    };
+    Ok([(x.as_str(), range(x, x_range, "x-range/--kp")?), (y.as_str(), range(y, y_range, "y-range/--kd")?)])
+}
+
 /// Parses a command line (`args[0]` is the program name) without exiting: clap's error
 /// carries the usage message and its exit code (2; 0 for `--help`/`--version`).
 pub fn try_parse(args: &[String]) -> Result<Cli, clap::Error> {
@@ -580,11 +629,15 @@ pub fn check_options(cli: &Cli) -> Result<(), Box<dyn std::error::Error>> {
     };
     match &cli.cmd {
         Cmd::Simulate { scene, .. } | Cmd::Stability { scene, .. } | Cmd::SsmEquations { scene, .. } => bundled(scene)?,
-        Cmd::StabilityChart { scene, dt_ms, kp, kd, .. } => {
-            let (lo, hi, n) = parse_range(kp, "kp")?;
-            sim::chart::Axis { lo, hi, n }.check("KP")?;
-            let (lo, hi, n) = parse_range(kd, "kd")?;
-            sim::chart::Axis { lo, hi, n }.check("KD")?;
+        Cmd::StabilityChart { scene, dt_ms, axes, x_range, y_range, .. } => {
+            // The axis names first (against a bundled scene), then their ranges.
+            if sim::scene::BUNDLED.iter().any(|(n, _)| *n == scene.scene) {
+                let s = scene.load()?;
+                chart_axes(&s, axes)?;
+            }
+            let [(x, xr), (y, yr)] = chart_ranges(axes, x_range.as_deref(), y_range.as_deref())?;
+            sim::chart::Axis::from(xr).check(x).map_err(|e| format!("--x-range/--kp: {e}"))?;
+            sim::chart::Axis::from(yr).check(y).map_err(|e| format!("--y-range/--kd: {e}"))?;
             if let Some(dt) = dt_ms.iter().find(|dt| !(dt.is_finite() && **dt > 0.0)) {
                 return Err(format!("--dt-ms {dt}: a sampling period must be finite and > 0 ms").into());
             }
@@ -596,7 +649,6 @@ pub fn check_options(cli: &Cli) -> Result<(), Box<dyn std::error::Error>> {
                 )
                 .into());
             }
-            bundled(scene)?;
         }
         Cmd::Fit(a) => {
             parse_bounds(&a.from, "--from")?;
@@ -852,11 +904,14 @@ fn run_command(cli: Cli) -> Result<(), Box<dyn std::error::Error>> {
                 }
             }
         }
-        Cmd::StabilityChart { scene, out, dt_ms, kp, kd } => {
+        Cmd::StabilityChart { scene, out, dt_ms, axes, x_range, y_range } => {
             let s = scene.load()?;
-            let kp = parse_range(&kp, "kp")?;
-            let kd = parse_range(&kd, "kd")?;
-            let summary = crate::draw::chart::chart_for_scene(&s, &out, &dt_ms, kp, kd)?;
+            let named = chart_axes(&s, &axes)?;
+            let [(_, xr), (_, yr)] = chart_ranges(&axes, x_range.as_deref(), y_range.as_deref())?;
+            let summary = match named {
+                None => crate::draw::chart::chart_for_scene(&s, &out, &dt_ms, xr, yr)?,
+                Some((xa, ya)) => crate::draw::chart::chart_for_scene_axes(&s, &out, &dt_ms, (&xa, xr), (&ya, yr))?,
+            };
             outln!("{}", serde_json::to_string_pretty(&summary)?);
         }
         Cmd::Reproduce { out, quick, data_dir, jobs, cache, no_cache } => {
@@ -1231,8 +1286,12 @@ fn run_command(cli: Cli) -> Result<(), Box<dyn std::error::Error>> {
         }
         Cmd::Bench { what: BenchCmd::Simulate { json, periods, quick } } => {
             let (rows, baseline) = with_spinner(quiet, "bench", |p| bench::bench_simulate(periods, quick, p))?;
+            let forms = with_spinner(quiet, "bench", |p| bench::bench_plant_forms(periods, quick, p))?;
             if json {
-                outln!("{}", serde_json::to_string_pretty(&rows)?);
+                outln!(
+                    "{}",
+                    serde_json::to_string_pretty(&serde_json::json!({ "integrators": rows, "plant_forms": forms }))?
+                );
             } else {
                 outln!("baseline: {baseline}");
                 outln!(
@@ -1251,6 +1310,34 @@ fn run_command(cli: Cli) -> Result<(), Box<dyn std::error::Error>> {
                         r.max_err_rad,
                         r.ratio_vs_baseline,
                         r.steps_per_period
+                    );
+                }
+                outln!();
+                outln!("plant forms (the same scene, built-in Furuta vs furuta-equations); {}", forms.counters);
+                outln!(
+                    "{:<10} {:<26} {:>12} {:>10} {:>12} {:>10} {:>9} {:>10} {:>6}",
+                    "plant",
+                    "integrator",
+                    "cpu us/per",
+                    "x built-in",
+                    "max err rad",
+                    "rhs/per",
+                    "ns/rhs",
+                    "instr/rhs",
+                    "tape"
+                );
+                for r in &forms.rows {
+                    outln!(
+                        "{:<10} {:<26} {:>12.2} {:>10.2} {:>12.2e} {:>10.1} {:>9.1} {:>10} {:>6}",
+                        r.plant,
+                        r.integrator,
+                        1e6 * r.cpu_s_per_period,
+                        r.cpu_ratio_vs_builtin,
+                        r.max_err_rad,
+                        r.rhs_per_period,
+                        r.ns_per_rhs,
+                        r.instructions_per_rhs.map_or("-".into(), |n| format!("{n:.0}")),
+                        r.tape_instructions.map_or("-".into(), |n| n.to_string())
                     );
                 }
             }

@@ -10,6 +10,7 @@ pub mod draw;
 pub mod equations_command;
 pub mod fit_command;
 pub mod output;
+pub mod perf;
 pub mod pil;
 pub mod plot;
 pub mod report;

@@ -235,12 +235,22 @@ fn chart_figure(r: &SweepResult, png: &Path) -> Result<Option<String>, BoxError>
     if r.cells.iter().any(|c| c.radius.is_none() || c.kind.is_none()) {
         return Ok(Some("the chart figure needs `radius` and `kind` recorded".into()));
     }
-    let (Some(ikp), Some(ikd)) = (s.axis(AxisName::Kp), s.axis(AxisName::Kd)) else {
-        return Ok(Some("the chart figure needs kp and kd axes".into()));
+    // The plane: kp (x) and kd (y), else the two gain or parameter axes given as ranges, the
+    // later one in the spec (the faster-varying) across.
+    let plane: Vec<(usize, sim::scene::axis::SceneAxis)> =
+        s.scene_axes()?.into_iter().filter(|(i, _)| s.axes[*i].range.is_some()).collect();
+    let classic = s.axis(AxisName::Kp).zip(s.axis(AxisName::Kd));
+    let (ikp, ikd, named) = match (classic, plane.as_slice()) {
+        (Some((ikp, ikd)), _) if plane.len() == 2 => (ikp, ikd, None),
+        (_, [(iy, ya), (ix, xa)]) => (*ix, *iy, Some((xa.clone(), ya.clone()))),
+        _ => return Ok(Some("the chart figure needs two gain or parameter axes as ranges, and no third one".into())),
     };
     let (Some(kp), Some(kd)) = (s.axes[ikp].range, s.axes[ikd].range) else {
-        return Ok(Some("the chart figure needs kp and kd as ranges".into()));
+        return Ok(Some("the chart figure needs its two axes as ranges".into()));
     };
+    if s.axes.iter().enumerate().any(|(i, a)| i != ikp && i != ikd && a.name != AxisName::DtMs) {
+        return Ok(Some("the chart figure draws two gain or parameter axes and dt_ms only".into()));
+    }
     let idt = s.axis(AxisName::DtMs);
     let dts: Vec<f64> = idt.map_or_else(|| vec![s.scene.controller.dt_ms], |i| s.axes[i].values.clone());
     if dts.len() > sim::chart::MAX_PANELS {
@@ -265,9 +275,18 @@ fn chart_figure(r: &SweepResult, png: &Path) -> Result<Option<String>, BoxError>
                 points.push((c.radius.unwrap_or(f64::NAN), c.kind.and_then(|k| k.crossing())));
             }
         }
-        panels.push(sim::stability::scene_panel(&s.scene, dt_ms, kp, kd, &points)?);
+        panels.push(match &named {
+            None => sim::stability::scene_panel(&s.scene, dt_ms, kp, kd, &points)?,
+            Some((xa, ya)) => sim::stability::scene_panel_axes(&s.scene, dt_ms, (xa, kp), (ya, kd), &points)?,
+        });
     }
-    let chart = sim::chart::Chart { kp, kd, base: s.scene.controller_config(), panels };
+    let (names, base_point) = match &named {
+        None => (None, None),
+        Some((xa, ya)) => {
+            (Some([xa.name().to_string(), ya.name().to_string()]), Some((xa.value(&s.scene)?, ya.value(&s.scene)?)))
+        }
+    };
+    let chart = sim::chart::Chart { kp, kd, base: s.scene.controller_config(), panels, names, base_point };
     crate::draw::chart::draw_chart(png, &chart)?;
     Ok(None)
 }

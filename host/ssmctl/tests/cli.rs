@@ -99,13 +99,28 @@ fn bench_json_rows_have_the_contract_keys() {
     let (ok, out, err) = ssmctl(&["bench", "simulate", "--json", "--quick", "--periods", "20"]);
     assert!(ok, "{err}");
     let v: Value = serde_json::from_str(&out).unwrap();
-    let rows = v.as_array().unwrap();
+    let rows = v["integrators"].as_array().unwrap();
     assert!(rows.len() >= 3);
     for r in rows {
         assert!(r["method"].is_string() && r["periods_per_s"].as_f64().unwrap() > 0.0);
         assert!(r["max_err_rad"].as_f64().unwrap().is_finite());
     }
     assert_eq!(rows[0]["ratio_vs_baseline"].as_f64(), Some(1.0));
+    // A row per plant form and integrator: the built-in Furuta and the same plant as
+    // equations, ratios against the built-in one, the same error to the integrator's accuracy.
+    let forms = v["plant_forms"]["rows"].as_array().unwrap();
+    assert_eq!(forms.len(), 4, "{forms:?}");
+    for pair in forms.chunks(2) {
+        assert_eq!((pair[0]["plant"].as_str(), pair[1]["plant"].as_str()), (Some("built-in"), Some("equations")));
+        assert_eq!(pair[0]["integrator"], pair[1]["integrator"]);
+        assert_eq!(pair[0]["cpu_ratio_vs_builtin"].as_f64(), Some(1.0));
+        assert!(pair[1]["cpu_ratio_vs_builtin"].as_f64().unwrap() > 0.0);
+        let (a, b) = (pair[0]["max_err_rad"].as_f64().unwrap(), pair[1]["max_err_rad"].as_f64().unwrap());
+        assert!((a - b).abs() <= 1e-9 + 0.5 * a.max(b), "{a:e} vs {b:e}");
+        assert!(pair[1]["tape_instructions"].as_u64().unwrap() > 0 && pair[0]["tape_instructions"].is_null());
+        assert!(pair[0]["ns_per_rhs"].as_f64().unwrap() > 0.0);
+    }
+    assert!(v["plant_forms"]["counters"].is_string());
 }
 
 #[test]

@@ -92,3 +92,101 @@ fn bad_expressions_are_named_errors() {
     let (ok, _, err) = ssmctl(&["stability", "--scene", "pendulum-pd", "--set", "plant.parameters.l=0"]);
     assert!(!ok && err.contains("`plant.mass`") && err.contains("positive definite"), "{err}");
 }
+
+#[test]
+fn stability_chart_over_named_axes() {
+    let dir = tmp("chart");
+    std::fs::create_dir_all(&dir).unwrap();
+    let png = dir.join("c.png");
+    let p = png.to_str().unwrap();
+    // Any two gains of the cart-pole: D-curves and the scene's gains as the marked point.
+    let (ok, out, err) = ssmctl(&[
+        "stability-chart",
+        "--scene",
+        "cartpole-pd",
+        "--out",
+        p,
+        "--dt-ms",
+        "10",
+        "--axes",
+        "theta.p,theta.d",
+        "--x-range",
+        "-80:-10:15",
+        "--y-range",
+        "-14:-2:13",
+    ]);
+    assert!(ok, "{err}");
+    let v: Value = serde_json::from_str(&out).unwrap();
+    assert_eq!(v["axes"], serde_json::json!(["theta.p", "theta.d"]));
+    assert_eq!(v["base_point"], serde_json::json!([-45.0, -7.0]));
+    let panel = &v["panels"][0];
+    let stable = panel["stable_points"].as_u64().unwrap();
+    assert!(stable > 0 && stable < 15 * 13, "{panel}");
+    // The scene's own point is stable, as `stability` says.
+    assert!(panel["base_radius"].as_f64().unwrap() < 1.0, "{panel}");
+    assert_eq!(&std::fs::read(&png).unwrap()[..8], b"\x89PNG\r\n\x1a\n");
+    // A plant parameter against a gain: the radius at the base point is the scene's.
+    let (ok, out, err) = ssmctl(&[
+        "stability-chart",
+        "--scene",
+        "pendulum-pd",
+        "--out",
+        p,
+        "--dt-ms",
+        "20",
+        "--axes",
+        "plant.parameters.m,kd",
+        "--x-range",
+        "0.1:0.5:5",
+        "--y-range",
+        "0.1:0.5:5",
+    ]);
+    assert!(ok, "{err}");
+    let v: Value = serde_json::from_str(&out).unwrap();
+    assert_eq!(v["base_point"], serde_json::json!([0.3, 0.3]));
+    let radius = v["panels"][0]["base_radius"].as_f64().unwrap();
+    let (ok, out, err) = ssmctl(&["stability", "--scene", "pendulum-pd", "--json"]);
+    assert!(ok, "{err}");
+    let m: Value = serde_json::from_str(&out).unwrap();
+    let top = m["multipliers"][0]["abs"].as_f64().unwrap();
+    assert!((radius - top).abs() < 1e-12, "{radius} vs {top}");
+    // Unknown axes name the option and list the scene's gains and parameters; a named axis
+    // without a range names its option.
+    let (ok, _, err) = ssmctl(&["stability-chart", "--scene", "cartpole-pd", "--out", p, "--axes", "theta.p,y.d"]);
+    assert!(!ok && err.contains("--axes") && err.contains("`y.d`"), "{err}");
+    assert!(err.contains("theta.p, theta.d, x.p, x.d") && err.contains("plant.parameters.M"), "{err}");
+    let (ok, _, err) = ssmctl(&["stability-chart", "--scene", "cartpole-pd", "--out", p, "--axes", "x.p,x.d"]);
+    assert!(!ok && err.contains("--x-range") && err.contains("`x.p`"), "{err}");
+    let (ok, _, err) = ssmctl(&[
+        "stability-chart",
+        "--scene",
+        "cartpole-pd",
+        "--out",
+        p,
+        "--axes",
+        "x.p,x.d",
+        "--x-range",
+        "5:1:3",
+        "--y-range",
+        "0:1:3",
+    ]);
+    assert!(!ok && err.contains("--x-range"), "{err}");
+    // The old invocation still works and its axes are KP, KD.
+    let (ok, out, err) = ssmctl(&[
+        "stability-chart",
+        "--scene",
+        "furuta-dt25",
+        "--out",
+        p,
+        "--dt-ms",
+        "25",
+        "--kp",
+        "0:40:9",
+        "--kd",
+        "0:8:9",
+    ]);
+    assert!(ok, "{err}");
+    let v: Value = serde_json::from_str(&out).unwrap();
+    assert!(v.get("axes").is_none() && v["base_point"] == serde_json::json!([15.5, 5.45]), "{v}");
+    let _ = std::fs::remove_dir_all(&dir);
+}

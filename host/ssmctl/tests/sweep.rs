@@ -215,3 +215,32 @@ fn bad_inputs_are_errors_naming_them() {
     assert!(e.contains("cannot read shard folder"), "{e}");
     std::fs::remove_dir_all(&d).unwrap();
 }
+
+/// The bundled cart-pole chart sweep over named gains (`gains.x.p`, `gains.x.d`): two shards
+/// run as separate processes merge to the one-process result (JSON, CSV, figure), and the
+/// figure names its axes.
+#[test]
+fn cartpole_gain_chart_sweep_merges_shards_to_the_whole() {
+    let d = tmp("cartpole");
+    let spec = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../scenes/sweeps/chart-cartpole-x.toml");
+    let (whole, parts) = (d.join("whole"), d.join("parts"));
+    ok(cmd(&["sweep", s(&spec), "--out", s(&whole), "--shard", "0/1"]).output().unwrap());
+    for i in 0..2 {
+        ok(cmd(&["sweep", s(&spec), "--out", s(&parts), "--shard", &format!("{i}/2")]).output().unwrap());
+    }
+    let (a, b) = (d.join("a"), d.join("b"));
+    ok(cmd(&["sweep-merge", s(&whole), "--out", s(&a)]).output().unwrap());
+    let out = cmd(&["sweep-merge", s(&parts), "--out", s(&b)]).output().unwrap();
+    let summary: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert!(summary["figure_note"].is_null(), "{summary}");
+    for f in ["chart-cartpole-x.json", "chart-cartpole-x.csv", "chart-cartpole-x.png"] {
+        assert_eq!(std::fs::read(a.join(f)).unwrap(), std::fs::read(b.join(f)).unwrap(), "{f}");
+    }
+    let v: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(a.join("chart-cartpole-x.json")).unwrap()).unwrap();
+    let cells = v["cells"].as_array().unwrap();
+    assert_eq!(cells.len(), 16 * 21);
+    let stable = cells.iter().filter(|c| c["radius"].as_f64().unwrap() < 1.0).count();
+    assert!(stable > 0 && stable < cells.len(), "{stable} stable cells of {}", cells.len());
+    std::fs::remove_dir_all(&d).unwrap();
+}

@@ -468,13 +468,13 @@ fn assert_within_limits(cmd: &ssmctl::cli::Cmd) {
         Cmd::Bench { what: BenchCmd::Simulate { periods, .. } } => {
             assert!(*periods <= sim::scene::MAX_PERIODS, "--periods {periods} accepted")
         }
-        Cmd::StabilityChart { kp, kd, dt_ms, .. } => {
-            for (r, what) in [(kp, "kp"), (kd, "kd")] {
-                let (lo, hi, n) =
-                    ssmctl::cli::parse_range(r, what).unwrap_or_else(|e| panic!("accepted, then refused: {e}"));
+        Cmd::StabilityChart { axes, x_range, y_range, dt_ms, .. } => {
+            let ranges = ssmctl::cli::chart_ranges(axes, x_range.as_deref(), y_range.as_deref())
+                .unwrap_or_else(|e| panic!("accepted, then refused: {e}"));
+            for (what, (lo, hi, n)) in ranges {
                 assert!(
                     lo.is_finite() && hi.is_finite() && lo < hi && (2..=4000).contains(&n),
-                    "--{what} {r} accepted"
+                    "--axes {what} accepted"
                 );
             }
             assert!(dt_ms.iter().all(|d| d.is_finite() && *d > 0.0), "--dt-ms {dt_ms:?} accepted");

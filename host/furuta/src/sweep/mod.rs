@@ -31,6 +31,7 @@ use serde::{Deserialize, Serialize};
 use sim::chart::{Axis, Crossing};
 use sim::closed_loop::simulate;
 use sim::scene::Scene;
+use sim::scene::axis::SceneAxis;
 
 use crate::Error;
 use crate::full_system::{ESCAPE_THETA, outcome_of};
@@ -66,8 +67,7 @@ impl Kind {
 }
 
 /// A grid axis: what it sets in each cell's run.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
-#[serde(rename_all = "snake_case")]
+#[derive(Clone, Debug, PartialEq, Eq)]
 pub enum AxisName {
     /// Sampling period, ms (`controller.dt_ms`).
     DtMs,
@@ -89,6 +89,10 @@ pub enum AxisName {
     HAdc,
     /// Seed of the sensor noise (`effects.noise.seed`), a non-negative integer.
     Seed,
+    /// Any gain or plant parameter of the scene by its name (`gains.theta.p`, `x.d`,
+    /// `plant.parameters.m`; [`sim::scene::axis::SceneAxis`]), checked against the scene
+    /// when the spec is loaded.
+    Scene(String),
 }
 
 impl AxisName {
@@ -106,30 +110,54 @@ impl AxisName {
     ];
 
     /// The spec's name of the axis.
-    pub fn as_str(self) -> &'static str {
-        Self::ALL.iter().find(|(_, a)| *a == self).map_or("?", |(s, _)| s)
-    }
-
-    fn parse(s: &str) -> Option<Self> {
-        Self::ALL.iter().find(|(n, _)| *n == s).map(|(_, a)| *a)
-    }
-
-    fn allowed(kind: Kind) -> &'static [AxisName] {
-        match kind {
-            Kind::Basin => &[
-                AxisName::DtMs,
-                AxisName::Kp,
-                AxisName::Kd,
-                AxisName::Theta0,
-                AxisName::SlowAmp,
-                AxisName::FastAmp,
-                AxisName::SlowPhase,
-                AxisName::FastPhase,
-                AxisName::HAdc,
-                AxisName::Seed,
-            ],
-            Kind::Chart => &[AxisName::DtMs, AxisName::Kp, AxisName::Kd],
+    pub fn as_str(&self) -> &str {
+        match self {
+            AxisName::Scene(n) => n,
+            a => Self::ALL.iter().find(|(_, b)| b == a).map_or("?", |(s, _)| s),
         }
+    }
+
+    /// A built-in axis by name, else a scene quantity for a dotted name (resolved against
+    /// the scene by [`Sweep::parse`]).
+    fn parse(s: &str) -> Option<Self> {
+        Self::ALL
+            .iter()
+            .find(|(n, _)| *n == s)
+            .map(|(_, a)| a.clone())
+            .or_else(|| (s.contains('.') || s == "kphi_d").then(|| AxisName::Scene(s.into())))
+    }
+
+    fn allowed(&self, kind: Kind) -> bool {
+        match kind {
+            Kind::Basin => true,
+            Kind::Chart => matches!(self, AxisName::DtMs | AxisName::Kp | AxisName::Kd | AxisName::Scene(_)),
+        }
+    }
+
+    fn names(kind: Kind) -> Vec<&'static str> {
+        Self::ALL.iter().filter(|(_, a)| a.allowed(kind)).map(|(n, _)| *n).collect()
+    }
+
+    /// The scene quantity this axis sets, for the gain and parameter axes (`kp`, `kd` and
+    /// the named ones).
+    pub fn scene_axis(&self, scene: &Scene) -> Option<Result<SceneAxis, sim::scene::SceneError>> {
+        match self {
+            AxisName::Kp | AxisName::Kd | AxisName::Scene(_) => Some(SceneAxis::parse(scene, self.as_str())),
+            _ => None,
+        }
+    }
+}
+
+impl Serialize for AxisName {
+    fn serialize<S: serde::Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        s.serialize_str(self.as_str())
+    }
+}
+
+impl<'de> Deserialize<'de> for AxisName {
+    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        let s = String::deserialize(d)?;
+        AxisName::parse(&s).ok_or_else(|| serde::de::Error::custom(format!("unknown axis `{s}`")))
     }
 }
 
@@ -318,27 +346,43 @@ impl Sweep {
         let mut cells: u64 = 1;
         for (i, a) in spec.axes.iter().enumerate() {
             let k = key(&format!("axes[{i}]"));
-            let name = AxisName::parse(&a.name).ok_or_else(|| {
-                let names: Vec<&str> = AxisName::allowed(spec.kind).iter().map(|a| a.as_str()).collect();
-                bad(
-                    &k,
-                    format!("unknown axis `{}` (a {} sweep knows {})", a.name, spec.kind.as_str(), names.join(", ")),
+            let known = || {
+                format!(
+                    "{} and the scene's gains and parameters: {}",
+                    AxisName::names(spec.kind).join(", "),
+                    SceneAxis::names(&scene).join(", ")
                 )
+            };
+            let name = AxisName::parse(&a.name).ok_or_else(|| {
+                bad(&k, format!("unknown axis `{}` (a {} sweep knows {})", a.name, spec.kind.as_str(), known()))
             })?;
-            if !AxisName::allowed(spec.kind).contains(&name) {
-                let names: Vec<&str> = AxisName::allowed(spec.kind).iter().map(|a| a.as_str()).collect();
+            if !name.allowed(spec.kind) {
                 return Err(bad(
                     &k,
                     format!(
                         "axis `{}` does not apply to a {} sweep (it knows {})",
                         a.name,
                         spec.kind.as_str(),
-                        names.join(", ")
+                        known()
                     ),
                 ));
             }
             if axes.iter().any(|g| g.name == name) {
                 return Err(bad(&k, format!("axis `{}` given twice", a.name)));
+            }
+            // A gain or parameter axis names a quantity of this scene, once.
+            if let Some(q) = name.scene_axis(&scene) {
+                let q = q.map_err(|e| bad(&k, e.to_string()))?;
+                for g in &axes {
+                    if let Some(Ok(other)) = g.name.scene_axis(&scene) {
+                        if other.same_quantity(&q) {
+                            return Err(bad(
+                                &k,
+                                format!("axis `{}` sets the same quantity as axis `{}`", a.name, g.name.as_str()),
+                            ));
+                        }
+                    }
+                }
             }
             let k = format!("{k} ({})", a.name);
             let (values, range) = match (&a.values, a.lo, a.hi, a.n) {
@@ -440,21 +484,23 @@ impl Sweep {
             }
         }
         let has = |a: AxisName| axes.iter().any(|g| g.name == a);
+        let plane = axes.iter().filter(|g| g.range.is_some() && g.name.scene_axis(&scene).is_some()).count();
         let basin = match spec.kind {
             Kind::Chart => {
                 if spec.basin.is_some() {
                     return Err(bad(key("basin"), "a chart sweep runs no simulation"));
                 }
-                for a in [AxisName::Kp, AxisName::Kd] {
-                    match axes.iter().find(|g| g.name == a) {
-                        Some(g) if g.range.is_some() => {}
-                        _ => {
-                            return Err(bad(
-                                key("axes"),
-                                format!("a chart sweep needs `{}` as a range (lo, hi, n >= 2)", a.as_str()),
-                            ));
-                        }
-                    }
+                let missing = [AxisName::Kp, AxisName::Kd]
+                    .into_iter()
+                    .find(|a| !axes.iter().any(|g| g.name == *a && g.range.is_some()));
+                if let (Some(a), true) = (missing, plane < 2) {
+                    return Err(bad(
+                        key("axes"),
+                        format!(
+                            "a chart sweep needs `{}` as a range (lo, hi, n >= 2), or two gain or parameter axes as ranges",
+                            a.as_str()
+                        ),
+                    ));
                 }
                 None
             }
@@ -484,7 +530,7 @@ impl Sweep {
                                 format!("{v} must be finite{}", if n.ends_with("amp") { " and >= 0" } else { "" }),
                             ));
                         }
-                        if has(AxisName::parse(n).unwrap_or(AxisName::Seed)) {
+                        if AxisName::parse(n).is_some_and(has) {
                             return Err(bad(
                                 key(&format!("basin.{n}")),
                                 format!("`{n}` is also an axis; give it in one place"),
@@ -663,6 +709,18 @@ impl Sweep {
         self.axes.iter().position(|a| a.name == name)
     }
 
+    /// The gain and parameter axes (`kp`, `kd`, the named ones), with their positions
+    /// among the axes, in spec order.
+    pub fn scene_axes(&self) -> Result<Vec<(usize, SceneAxis)>, Error> {
+        let mut v = Vec::new();
+        for (i, g) in self.axes.iter().enumerate() {
+            if let Some(q) = g.name.scene_axis(&self.scene) {
+                v.push((i, q.map_err(|e| bad(format!("axis `{}`", g.name.as_str()), e.to_string()))?));
+            }
+        }
+        Ok(v)
+    }
+
     /// The cells of shard `shard` (`k mod N = I`), in order.
     pub fn shard_cells(&self, shard: Shard) -> impl Iterator<Item = u64> {
         (u64::from(shard.index)..self.cells()).step_by(shard.count as usize)
@@ -673,7 +731,16 @@ impl Sweep {
         let values = self.values(k);
         let get = |a: AxisName| self.axis(a).map(|i| values[i]);
         let ce = |e: Error| Error::Sweep(format!("cell {k} {}: {e}", self.describe(&values)));
-        let mut b = self.scene.clone().builder();
+        // The named gains and parameters first: the typed setters below then edit that scene.
+        let mut scene = self.scene.clone();
+        for (a, &v) in self.axes.iter().zip(&values) {
+            if let AxisName::Scene(_) = a.name {
+                if let Some(q) = a.name.scene_axis(&scene) {
+                    scene = q.and_then(|q| q.apply(&scene, v)).map_err(|e| ce(e.into()))?;
+                }
+            }
+        }
+        let mut b = scene.builder();
         if let Some(v) = get(AxisName::DtMs) {
             b = b.dt_ms(v);
         }

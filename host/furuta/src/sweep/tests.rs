@@ -284,7 +284,85 @@ fn bundled_example_specs_parse() {
         [
             ("basin-dt-theta0".to_string(), Kind::Basin, 72),
             ("basin-modes".into(), Kind::Basin, 81),
+            ("chart-cartpole-x".into(), Kind::Chart, 16 * 21),
             ("chart-kp-kd".into(), Kind::Chart, 2 * 33 * 41)
         ]
     );
+}
+
+const CARTPOLE: &str = r#"
+name = "cp"
+kind = "chart"
+scene = "cartpole-pd"
+[[axes]]
+name = "gains.theta.d"
+values = [-9.0, -7.0]
+[[axes]]
+name = "plant.parameters.m"
+lo = 0.1
+hi = 0.3
+n = 3
+[[axes]]
+name = "gains.x.p"
+lo = -30.0
+hi = -10.0
+n = 3
+"#;
+
+/// Named gain and parameter axes: each cell is the stability point of the scene with the
+/// same values given as `--set` overrides (an independent path: the scene file's keys).
+#[test]
+fn named_axes_cells_are_the_overridden_scenes_points() {
+    let s = parse(CARTPOLE).unwrap();
+    assert_eq!(s.axes[1].name, AxisName::Scene("plant.parameters.m".into()));
+    for k in 0..s.cells() {
+        let v = s.values(k);
+        let o = [
+            format!("controller.gains.theta.d={}", v[0]),
+            format!("plant.parameters.m={}", v[1]),
+            format!("controller.gains.x.p={}", v[2]),
+        ];
+        let want = sim::stability::scene_point(&Scene::load("cartpole-pd", &o).unwrap()).unwrap();
+        let c = s.compute(k).unwrap();
+        assert_eq!((c.radius, c.kind), (Some(want.0), Some(PointKind::from(want.1))), "cell {k}");
+    }
+    // Basin cells run the overridden scene too.
+    let b = parse(&format!(
+        "{}\n[basin]\nperiods = 50\n",
+        CARTPOLE.replace("kind = \"chart\"", "kind = \"basin\"").replace("values = [-9.0, -7.0]", "values = [-7.0]")
+    ));
+    let b = b.unwrap();
+    let c = b.compute(4).unwrap();
+    let v = b.values(4);
+    let o = [
+        format!("controller.gains.theta.d={}", v[0]),
+        format!("plant.parameters.m={}", v[1]),
+        format!("controller.gains.x.p={}", v[2]),
+        "run.periods=50".to_string(),
+    ];
+    let scene = Scene::load("cartpole-pd", &o).unwrap().builder().escape_theta(b.basin.as_ref().unwrap().escape_theta);
+    let o = outcome_of(&simulate(&scene.build().unwrap(), None).unwrap());
+    assert_eq!(c.max_theta.map(f64::to_bits), Some(o.max_theta.to_bits()));
+    // The shards merge to the one-shard result.
+    let one = merge(shard_files(&s, 1)).unwrap();
+    let three = merge(shard_files(&s, 3)).unwrap();
+    assert_eq!(one.0.cells, three.0.cells);
+}
+
+#[test]
+fn named_axes_are_checked_against_the_scene() {
+    let e = err(&CARTPOLE.replace("gains.x.p", "gains.y.p"));
+    assert!(
+        e.contains("axes[2]") && e.contains("`y` is not a coordinate") && e.contains("theta.p, theta.d, x.p, x.d"),
+        "{e}"
+    );
+    let e = err(&CARTPOLE.replace("plant.parameters.m", "plant.parameters.mass"));
+    assert!(
+        e.contains("axes[1]") && e.contains("`mass` is not a parameter") && e.contains("plant.parameters.M"),
+        "{e}"
+    );
+    let e = err(&CARTPOLE.replace("gains.x.p", "theta.d"));
+    assert!(e.contains("axes[2]") && e.contains("same quantity as axis `gains.theta.d`"), "{e}");
+    let e = err(&CARTPOLE.replace("scene = \"cartpole-pd\"", "scene = \"furuta-dt25\""));
+    assert!(e.contains("axes[1]") && e.contains("`plant.params.NAME`"), "{e}");
 }

@@ -49,7 +49,7 @@ fn d_curve_points_have_a_multiplier_on_the_unit_circle() {
     let kd = Axis { lo: 0.0, hi: 8.0, n: 2 };
     for dt in [0.02, 0.025, 0.0308] {
         let zoh = p.discretize(dt).unwrap();
-        let curves = d_curves(&zoh, &base, kp, kd).unwrap();
+        let curves = d_curves(&zoh, &base, kp, kd, &set_primary).unwrap();
         let mut kinds = [0usize; 3];
         for c in &curves {
             kinds[c.kind as usize] += 1;
@@ -139,7 +139,7 @@ fn static_boundary_of_a_pendulum_is_at_kp_a_over_b() {
     let kp = Axis { lo: 0.0, hi: 30.0, n: 61 };
     let kd = Axis { lo: 0.0, hi: 3.0, n: 61 };
     let zoh = p.discretize(0.01).unwrap();
-    let curves = d_curves(&zoh, &base, kp, kd).unwrap();
+    let curves = d_curves(&zoh, &base, kp, kd, &set_primary).unwrap();
     let statics: Vec<_> = curves.iter().filter(|c| c.kind == Crossing::Static).collect();
     assert_eq!(statics.len(), 1, "{curves:?}");
     for &(x, _) in &statics[0].points {
@@ -158,7 +158,7 @@ fn static_boundary_of_a_pendulum_is_at_kp_a_over_b() {
 fn furuta_has_no_static_boundary() {
     let zoh = plant().discretize(0.025).unwrap();
     let base = ControllerConfig::paper(0.025);
-    let (f0, fa, fb) = affine_det(&zoh, &base, Complex::new(1.0, 0.0), 40.0, 8.0).unwrap();
+    let (f0, fa, fb) = affine_det(&zoh, &base, Complex::new(1.0, 0.0), 40.0, 8.0, &set_primary, true).unwrap();
     assert!(f0.norm() > 0.0);
     assert!(fa.norm() * 40.0 < 1e-9 * f0.norm() && fb.norm() * 8.0 < 1e-9 * f0.norm(), "{f0} {fa} {fb}");
     // ... and it vanishes at N KphiD = K + b2.
@@ -167,7 +167,7 @@ fn furuta_has_no_static_boundary() {
         let (kp, kd, _) = base.as_shorthand().unwrap();
         ControllerConfig { gains: shared::Gains::shorthand(kp, kd, (K + B2) / NM, 0.0, 0.0), ..base }
     };
-    let (g0, _, _) = affine_det(&zoh, &at, Complex::new(1.0, 0.0), 40.0, 8.0).unwrap();
+    let (g0, _, _) = affine_det(&zoh, &at, Complex::new(1.0, 0.0), 40.0, 8.0, &set_primary, true).unwrap();
     assert!(g0.norm() < 1e-9 * f0.norm(), "{g0} vs {f0}");
 }
 
@@ -181,9 +181,9 @@ fn bad_chart_inputs_are_named() {
     let base = ControllerConfig::paper(0.025);
     let ok = Axis { lo: 0.0, hi: 1.0, n: 3 };
     let e = compute_chart(&p, &base, &[0.02], Axis { lo: 1.0, hi: 1.0, n: 3 }, ok).unwrap_err();
-    assert!(matches!(e, ChartError::BadAxis { axis: "KP", .. }), "{e}");
+    assert!(matches!(&e, ChartError::BadAxis { axis, .. } if axis == "KP"), "{e}");
     let e = compute_chart(&p, &base, &[0.02], ok, Axis { lo: 0.0, hi: 1.0, n: 1 }).unwrap_err();
-    assert!(matches!(e, ChartError::BadAxis { axis: "KD", .. }), "{e}");
+    assert!(matches!(&e, ChartError::BadAxis { axis, .. } if axis == "KD"), "{e}");
     let e = compute_chart(&p, &base, &[], ok, ok).unwrap_err();
     assert!(matches!(e, ChartError::NoPeriods), "{e}");
     let e = compute_chart(&p, &base, &[0.02, -1.0], ok, ok).unwrap_err();

@@ -83,6 +83,10 @@ pub struct EquationsModel {
     state_names: Vec<&'static str>,
     /// Outputs: the upper triangle of `M` row by row (`n(n+1)/2`), then `f` (`n`).
     tape: Tape,
+    /// The same outputs, then their derivatives by each input `v` of `0..2n` (coordinates,
+    /// velocities) in the same layout: the symbolic Jacobian (`None` when the derivatives
+    /// outgrow the graph's limits; the Jacobian then comes from dual numbers).
+    jac_tape: Option<Tape>,
     /// `sum q'_i dL/dq'_i - L` (Lagrangian form only).
     energy: Option<Tape>,
     equilibrium: Vec<f64>,
@@ -238,6 +242,13 @@ impl EquationsModel {
             Some(e) => Some(compile(&[e])?),
             None => None,
         };
+        let mut jac_roots = roots.clone();
+        for v in 0..2 * n {
+            for &r in &roots {
+                jac_roots.push(g.diff(r, v as u16));
+            }
+        }
+        let jac_tape = if g.too_large() { None } else { Tape::compile(&g, &jac_roots, n_inputs).ok() };
         let equilibrium = match &spec.equilibrium {
             None => vec![0.0; n],
             Some(e) => {
@@ -258,7 +269,7 @@ impl EquationsModel {
             state_names.push(intern(c));
             state_names.push(intern(&format!("{c}_dot")));
         }
-        let model = Self { n, coordinates: spec.coordinates.clone(), state_names, tape, energy, equilibrium };
+        let model = Self { n, coordinates: spec.coordinates.clone(), state_names, tape, jac_tape, energy, equilibrium };
         model.check_mass(&g, &mass)?;
         model.check_equilibrium(&spec.form)?;
         Ok(model)
@@ -519,11 +530,162 @@ impl EquationsModel {
         });
         out
     }
+
+    /// `f(x, u)` and `df/dx` in `f64` from the symbolic derivatives of `M` and `f`:
+    /// `q'' = M^-1 f`, `dq''/dx_k = M^-1 (df/dx_k - dM/dx_k q'')`; `f` is [`rhs`]'s to the
+    /// bit. `None` without a Jacobian tape.
+    fn jacobian<const N: usize>(&self, x: &[f64; N], u: f64) -> Option<([f64; N], [[f64; N]; N])> {
+        let jt = self.jac_tape.as_ref()?;
+        let n = self.n;
+        let nan = f64::NAN;
+        let mut inputs = [0.0; 9];
+        for i in 0..n {
+            let q = x.get(2 * i).copied().unwrap_or(nan);
+            let e = self.equilibrium.get(i).copied().unwrap_or(0.0);
+            if let Some(s) = inputs.get_mut(i) {
+                *s = if e == 0.0 { q } else { q + e };
+            }
+            if let Some(s) = inputs.get_mut(n + i) {
+                *s = x.get(2 * i + 1).copied().unwrap_or(nan);
+            }
+        }
+        if let Some(s) = inputs.get_mut(2 * n) {
+            *s = u;
+        }
+        let nm = n * (n + 1) / 2;
+        let block = nm + n;
+        let mut f = [0.0; N];
+        let mut jac = [[0.0; N]; N];
+        with_scratch::<f64, _>(jt.n_regs, |regs| {
+            jt.eval(&inputs, regs);
+            let out = |k: usize| jt.outputs.get(k).and_then(|&o| regs.get(o as usize)).copied().unwrap_or(nan);
+            // M and the right-hand side of block `b` (0: values, 1 + v: derivatives by v).
+            let m_of = |b: usize| -> [f64; 16] {
+                let mut a = [0.0; 16];
+                for i in 0..n {
+                    for j in 0..n {
+                        let (p, q) = if i <= j { (i, j) } else { (j, i) };
+                        if let Some(s) = a.get_mut(i * n + j) {
+                            *s = out(b * block + upper_index(n, p, q));
+                        }
+                    }
+                }
+                a
+            };
+            // M factored once; q'' and every column solved with the factors (the same
+            // arithmetic as `lu_solve`, so q'' is the right-hand side's to the bit).
+            let mut lu = m_of(0);
+            let mut perm = [0usize; 4];
+            lu_factor(&mut lu[..n * n], &mut perm, n);
+            let mut qdd = [0.0; 4];
+            for (i, s) in qdd.iter_mut().enumerate().take(n) {
+                *s = out(nm + i);
+            }
+            lu_apply(&lu[..n * n], &perm, &mut qdd[..n], n);
+            for i in 0..n {
+                if let Some(s) = f.get_mut(2 * i) {
+                    *s = inputs.get(n + i).copied().unwrap_or(nan);
+                }
+                if let Some(s) = f.get_mut(2 * i + 1) {
+                    *s = qdd.get(i).copied().unwrap_or(nan);
+                }
+                // d(q'_i)/dx: 1 at the velocity's own state.
+                if let Some(s) = jac.get_mut(2 * i).and_then(|r| r.get_mut(2 * i + 1)) {
+                    *s = 1.0;
+                }
+            }
+            for state in 0..N {
+                let v = if state % 2 == 0 { state / 2 } else { n + state / 2 };
+                let base = (1 + v) * block;
+                let mut c = [0.0; 4];
+                for (i, ci) in c.iter_mut().enumerate().take(n) {
+                    let mut s = out(base + nm + i);
+                    for (j, qj) in qdd.iter().enumerate().take(n) {
+                        let (p, q) = if i <= j { (i, j) } else { (j, i) };
+                        s -= out(base + upper_index(n, p, q)) * qj;
+                    }
+                    *ci = s;
+                }
+                lu_apply(&lu[..n * n], &perm, &mut c[..n], n);
+                for i in 0..n {
+                    if let Some(s) = jac.get_mut(2 * i + 1).and_then(|r| r.get_mut(state)) {
+                        *s = c.get(i).copied().unwrap_or(nan);
+                    }
+                }
+            }
+        });
+        Some((f, jac))
+    }
 }
 
 /// Index of `M[a][b]` (`a <= b`) in the upper triangle stored row by row.
 fn upper_index(n: usize, a: usize, b: usize) -> usize {
     a * n - a * a.saturating_sub(1) / 2 - a + b
+}
+
+/// [`lu_solve`]'s elimination of `a` alone: the multipliers stored below the diagonal, the
+/// pivot row of each step in `perm`.
+fn lu_factor(a: &mut [f64], perm: &mut [usize; 4], n: usize) {
+    let at = |a: &[f64], i: usize, j: usize| a.get(i * n + j).copied().unwrap_or(f64::NAN);
+    for k in 0..n {
+        let mut p = k;
+        let mut best = at(a, k, k).abs();
+        for i in k + 1..n {
+            let v = at(a, i, k).abs();
+            if v > best {
+                best = v;
+                p = i;
+            }
+        }
+        if let Some(s) = perm.get_mut(k) {
+            *s = p;
+        }
+        if p != k {
+            for j in 0..n {
+                a.swap(k * n + j, p * n + j);
+            }
+        }
+        let piv = at(a, k, k);
+        for i in k + 1..n {
+            let l = at(a, i, k) / piv;
+            for j in k + 1..n {
+                let v = at(a, i, j) - l * at(a, k, j);
+                if let Some(s) = a.get_mut(i * n + j) {
+                    *s = v;
+                }
+            }
+            if let Some(s) = a.get_mut(i * n + k) {
+                *s = l;
+            }
+        }
+    }
+}
+
+/// Solves `A x = b` in place with the factors of [`lu_factor`], in [`lu_solve`]'s order of
+/// operations (so the result is `lu_solve`'s to the bit).
+fn lu_apply(a: &[f64], perm: &[usize; 4], b: &mut [f64], n: usize) {
+    let at = |i: usize, j: usize| a.get(i * n + j).copied().unwrap_or(f64::NAN);
+    for k in 0..n {
+        let p = perm.get(k).copied().unwrap_or(k);
+        if p != k {
+            b.swap(k, p);
+        }
+        let bk = b.get(k).copied().unwrap_or(f64::NAN);
+        for i in k + 1..n {
+            if let Some(s) = b.get_mut(i) {
+                *s -= at(i, k) * bk;
+            }
+        }
+    }
+    for k in (0..n).rev() {
+        let mut s = b.get(k).copied().unwrap_or(f64::NAN);
+        for j in k + 1..n {
+            s -= at(k, j) * b.get(j).copied().unwrap_or(f64::NAN);
+        }
+        if let Some(x) = b.get_mut(k) {
+            *x = s / at(k, k);
+        }
+    }
 }
 
 /// Solves `A x = b` in place (`b` becomes `x`) by LU with partial pivoting on the values.
@@ -677,6 +839,12 @@ impl<const N: usize> Plant<N> for EquationsPlant<N> {
     #[inline]
     fn rhs<S: Scalar>(&self, x: &[S; N], u: S) -> [S; N] {
         self.model.rhs(x, u)
+    }
+
+    /// From the compiled symbolic derivatives (one `f64` tape and `2n + 1` small solves),
+    /// else from dual numbers.
+    fn exact_jacobian(&self, x: &[f64; N], u: f64) -> ([f64; N], [[f64; N]; N]) {
+        self.model.jacobian(x, u).unwrap_or_else(|| crate::plant::linearize::dual_jacobian(self, x, u))
     }
 
     /// The Lagrangian form's energy function `sum q'_i dL/dq'_i - L`; NaN for the

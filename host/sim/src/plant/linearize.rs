@@ -6,10 +6,17 @@ use nalgebra::{SMatrix, SVector};
 
 use super::{Dual, Plant, Scalar};
 
-/// `f(x, u)` and `df/dx` at `(x, u)`, from one evaluation of the right-hand side in
-/// `Dual<N>`; `jac[i][j] = d f_i / d x_j`.
+/// `f(x, u)` and `df/dx` at `(x, u)`, `jac[i][j] = d f_i / d x_j`: the plant's
+/// [`Plant::exact_jacobian`] (dual numbers unless the plant has its own exact form).
 #[inline]
 pub fn jacobian<P: Plant<N>, const N: usize>(p: &P, x: &[f64; N], u: f64) -> ([f64; N], [[f64; N]; N]) {
+    p.exact_jacobian(x, u)
+}
+
+/// `f(x, u)` and `df/dx` from one evaluation of the right-hand side in `Dual<N>`: the
+/// default of [`Plant::exact_jacobian`].
+#[inline]
+pub fn dual_jacobian<P: Plant<N>, const N: usize>(p: &P, x: &[f64; N], u: f64) -> ([f64; N], [[f64; N]; N]) {
     let xd: [Dual<N>; N] = core::array::from_fn(|i| Dual::var(x[i], i));
     let fd = p.rhs(&xd, Dual::cst(u));
     let f = core::array::from_fn(|i| fd[i].v);

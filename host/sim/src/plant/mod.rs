@@ -89,8 +89,19 @@ pub trait Plant<const N: usize> {
     fn rhs<S: Scalar>(&self, x: &[S; N], u: S) -> [S; N];
     /// Total mechanical energy (kinetic plus potential), J.
     fn energy(&self, x: &[f64; N]) -> f64;
-    /// `f(x, u)` and `df/dx` at `(x, u)` (`jac[i][j] = d f_i / d x_j`). The default is one
-    /// dual-number evaluation ([`jacobian`]); a plant may override it with a closed form
+    /// The exact `f(x, u)` and `df/dx` at `(x, u)` that [`jacobian`] returns (the
+    /// integrators' and the linearization's): by default one dual-number evaluation
+    /// ([`linearize::dual_jacobian`]); a plant written as equations evaluates its compiled
+    /// symbolic derivatives instead, equal to rounding.
+    #[inline]
+    fn exact_jacobian(&self, x: &[f64; N], u: f64) -> ([f64; N], [[f64; N]; N])
+    where
+        Self: Sized,
+    {
+        linearize::dual_jacobian(self, x, u)
+    }
+    /// `f(x, u)` and `df/dx` at `(x, u)` (`jac[i][j] = d f_i / d x_j`). The default is
+    /// [`jacobian`]; a plant may override it with a closed form
     /// (the Furuta plant does, for `exprb-lean`), which must agree with it to rounding.
     #[inline]
     fn rhs_and_jacobian(&self, x: &[f64; N], u: f64) -> ([f64; N], [[f64; N]; N])

@@ -10,6 +10,7 @@
 // Parses untrusted input: no indexing that can panic (CI runs clippy).
 #![cfg_attr(not(test), deny(clippy::indexing_slicing))]
 
+pub mod axis;
 mod bundled;
 
 pub use bundled::{BUNDLED, bundled_names};
@@ -443,6 +444,8 @@ pub enum SceneError {
     Key { scene: String, path: String, message: String },
     #[error("unknown scene `{0}`: not a bundled scene name (see `ssmctl scenes`) nor a readable .toml file")]
     Unknown(String),
+    #[error("scene {scene}: axis `{axis}`: {message}")]
+    Axis { scene: String, axis: String, message: String },
     #[error("override `{0}`: expected PATH=VALUE, e.g. controller.dt_ms=31.2")]
     BadOverride(String),
 }

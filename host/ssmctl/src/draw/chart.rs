@@ -10,7 +10,8 @@ use serde::Serialize;
 use crate::plot::{PlotError, ensure_font};
 use sim::chart::{Axis, Chart, Crossing, Panel, PanelSummary};
 use sim::scene::Scene;
-use sim::stability::{StabilityError, scene_chart};
+use sim::scene::axis::SceneAxis;
+use sim::stability::{StabilityError, scene_chart, scene_chart_axes};
 
 const STABLE_FILL: RGBColor = RGBColor(170, 220, 170);
 const STATIC_COLOR: RGBColor = RGBColor(30, 80, 200);
@@ -37,11 +38,20 @@ pub fn draw_chart(out: &Path, chart: &Chart) -> Result<(), PlotError> {
         root.fill(&WHITE).map_err(|e| err(&e))?;
         let b = &chart.base;
         let integral = if b.ki != 0.0 { format!(", KI = {} V/(rad s)", b.ki) } else { String::new() };
-        let title = format!(
-            "Linear stability of the sampled PD loop with ZOH, delay r = {}, KphiD = {} V s/rad{integral}",
-            b.delay,
-            b.as_shorthand().map_or(0.0, |s| s.2)
-        );
+        let title = match &chart.names {
+            None => format!(
+                "Linear stability of the sampled PD loop with ZOH, delay r = {}, KphiD = {} V s/rad{integral}",
+                b.delay,
+                b.as_shorthand().map_or(0.0, |s| s.2)
+            ),
+            Some([x, y]) => {
+                let integral = if b.ki != 0.0 { format!(", KI = {}", b.ki) } else { String::new() };
+                format!(
+                    "Linear stability of the sampled loop with ZOH, delay r = {}, over ({x}, {y}){integral}",
+                    b.delay
+                )
+            }
+        };
         let (top, body) = root.split_vertically(TITLE_H);
         top.titled(&title, ("sans-serif", 24)).map_err(|e| err(&e))?;
         for (area, panel) in body.split_evenly((1, n as usize)).iter().zip(&chart.panels) {
@@ -59,6 +69,10 @@ fn draw_panel<DB: DrawingBackend>(
 ) -> Result<(), DrawingAreaErrorKind<DB::ErrorType>> {
     let (kp, kd) = (chart.kp, chart.kd);
     let s = &panel.summary;
+    let (x_desc, y_desc) = match &chart.names {
+        None => ("KP [V/rad]".to_string(), "KD [V s/rad]".to_string()),
+        Some([x, y]) => (x.clone(), y.clone()),
+    };
     let caption = format!("dt = {:.1} ms: stable {:.1} % of the grid", s_to_ms(panel.dt_s), 100.0 * s.stable_fraction);
     let mut cc = ChartBuilder::on(area)
         .caption(caption, ("sans-serif", 20))
@@ -67,8 +81,8 @@ fn draw_panel<DB: DrawingBackend>(
         .y_label_area_size(55)
         .build_cartesian_2d(kp.lo..kp.hi, kd.lo..kd.hi)?;
     cc.configure_mesh()
-        .x_desc("KP [V/rad]")
-        .y_desc("KD [V s/rad]")
+        .x_desc(x_desc.as_str())
+        .y_desc(y_desc.as_str())
         .label_style(("sans-serif", 15))
         .axis_desc_style(("sans-serif", 17))
         .light_line_style(WHITE.mix(0.0))
@@ -109,10 +123,14 @@ fn draw_panel<DB: DrawingBackend>(
     });
     cc.draw_series(freq_labels)?;
     // The base gains.
-    let (bx, by) = chart.base.as_shorthand().map_or((f64::NAN, f64::NAN), |s| (s.0, s.1));
+    let (bx, by) = base_point(chart);
     if bx >= kp.lo && bx <= kp.hi && by >= kd.lo && by <= kd.hi {
+        let text = match &chart.names {
+            None => format!("KP = {bx} V/rad, KD = {by} V s/rad (|mu|max = {:.4})", s.base_radius),
+            Some([x, y]) => format!("{x} = {bx}, {y} = {by} (|mu|max = {:.4})", s.base_radius),
+        };
         cc.draw_series(std::iter::once(Cross::new((bx, by), 7, BLACK.stroke_width(3))))?
-            .label(format!("KP = {bx} V/rad, KD = {by} V s/rad (|mu|max = {:.4})", s.base_radius))
+            .label(text)
             .legend(|(x, y)| Cross::new((x + 9, y), 5, BLACK.stroke_width(2)));
     }
     cc.configure_series_labels()
@@ -124,13 +142,23 @@ fn draw_panel<DB: DrawingBackend>(
     Ok(())
 }
 
+/// The marked point: the scene's values on the axes, else its shorthand (KP, KD).
+fn base_point(chart: &Chart) -> (f64, f64) {
+    chart.base_point.unwrap_or_else(|| chart.base.as_shorthand().map_or((f64::NAN, f64::NAN), |s| (s.0, s.1)))
+}
+
 /// What [`chart_for_scene`] returns.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct ChartSummary {
     pub png: PathBuf,
+    /// The names of the first and second axis (absent: KP and KD).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub axes: Option<[String; 2]>,
+    /// The first axis.
     pub kp: Axis,
+    /// The second axis.
     pub kd: Axis,
-    /// (KP, KD) of the marked base point.
+    /// The scene's values on the two axes: the marked point.
     pub base_point: (f64, f64),
     pub panels: Vec<PanelSummary>,
     /// Wall time of the computation (without drawing), s.
@@ -156,9 +184,10 @@ fn summarize(out: &Path, chart: &Chart, compute_seconds: f64) -> Result<ChartSum
     let draw_seconds = t1.elapsed().as_secs_f64();
     Ok(ChartSummary {
         png: out.to_path_buf(),
+        axes: chart.names.clone(),
         kp: chart.kp,
         kd: chart.kd,
-        base_point: chart.base.as_shorthand().map_or((f64::NAN, f64::NAN), |s| (s.0, s.1)),
+        base_point: base_point(chart),
         panels: chart.panels.iter().map(|p| p.summary.clone()).collect(),
         compute_seconds,
         draw_seconds,
@@ -175,6 +204,19 @@ pub fn chart_for_scene(
     kd: (f64, f64, usize),
 ) -> Result<ChartSummary, ChartDrawError> {
     let (chart, seconds) = scene_chart(scene, dts_ms, kp, kd)?;
+    Ok(summarize(out, &chart, seconds)?)
+}
+
+/// The stability chart of the scene over two named axes (gains or plant parameters,
+/// [`SceneAxis`]) for several sampling periods (ms), written to `out`.
+pub fn chart_for_scene_axes(
+    scene: &Scene,
+    out: &Path,
+    dts_ms: &[f64],
+    x: (&SceneAxis, (f64, f64, usize)),
+    y: (&SceneAxis, (f64, f64, usize)),
+) -> Result<ChartSummary, ChartDrawError> {
+    let (chart, seconds) = scene_chart_axes(scene, dts_ms, (x.0, x.1.into()), (y.0, y.1.into()))?;
     Ok(summarize(out, &chart, seconds)?)
 }
 

@@ -610,3 +610,32 @@ fn power_series_rhs_equals_the_builtin() {
         assert!(err <= 1e-11 * scale, "component {i}: {err:e} of {scale:e}");
     }
 }
+
+/// The Jacobian from the compiled symbolic derivatives equals the dual-number one to
+/// rounding, and its `f` is the right-hand side's to the bit (mass and Lagrangian forms).
+#[test]
+fn symbolic_jacobian_equals_the_dual_number_one() {
+    fn check<const N: usize>(p: &EquationsPlant<N>, what: &str) {
+        assert!(p.model().jac_tape.is_some(), "{what}: no Jacobian tape");
+        for (k, x) in states::<N>(20).into_iter().enumerate() {
+            let u = 0.7 * k as f64 - 5.0;
+            let (f, jac) = p.exact_jacobian(&x, u);
+            let (fd, jd) = crate::plant::linearize::dual_jacobian(p, &x, u);
+            let rhs = p.rhs(&x, u);
+            assert_eq!(f.map(f64::to_bits), rhs.map(f64::to_bits), "{what}: f at {x:?}");
+            let scale = jd.iter().flatten().fold(1.0f64, |m, v| m.max(v.abs()));
+            for i in 0..N {
+                assert!((f[i] - fd[i]).abs() <= 1e-13 * (1.0 + fd[i].abs()), "{what}: f[{i}]");
+                for j in 0..N {
+                    let e = (jac[i][j] - jd[i][j]).abs();
+                    assert!(e <= 1e-12 * scale, "{what}: J[{i}][{j}] {} vs {} at {x:?}", jac[i][j], jd[i][j]);
+                }
+            }
+        }
+    }
+    for lagrangian in [false, true] {
+        check(&plant::<4>(&furuta_spec(lagrangian)), "furuta");
+        check(&plant::<4>(&cart_pole_spec(lagrangian)), "cart-pole");
+    }
+    check(&plant::<2>(&pendulum_spec(0.01)), "pendulum");
+}
