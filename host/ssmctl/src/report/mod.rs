@@ -164,6 +164,7 @@ pub mod bifurcations;
 pub mod chaos;
 pub mod global;
 pub mod normal_form;
+pub mod own_plant;
 pub mod reproduce;
 pub mod sloshing;
 pub mod tasks;

@@ -36,6 +36,7 @@ pub fn run(out: &Path, data_dir: &Path, quick: bool, quiet: bool) -> Result<(), 
     t.time("scenes", || scenes_section(&mut rep, quick, quiet))?;
     t.time("stability", || stability_section(&mut rep))?;
     t.time("chart", || chart_section(&mut rep, quick))?;
+    t.time("own-plant", || crate::report::own_plant::section(&mut rep, quick))?;
     t.time("accuracy-time-sim", || bench_section(&mut rep, quick, quiet))?;
     t.time("fit-sloshing", || crate::report::sloshing::sloshing_section(&mut rep, data_dir, quick))?;
     t.time("furuta-blob", || crate::report::sloshing::furuta_blob(&mut rep, quick))?;
