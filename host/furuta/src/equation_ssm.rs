@@ -54,8 +54,12 @@ pub struct EquationSsm {
     pub polar: PolarNormalForm,
     /// Its `rho_i'` table (the data-driven table's layout).
     pub table: NormalFormTable,
-    /// `ln|mu|/dt` of the slow and fast pair from `sim::stability::dominant_pairs`.
-    pub exact_rates: [f64; 2],
+    /// `ln|mu|/dt` of each master pair from `sim::stability::dominant_pairs`, by frequency
+    /// (the Furuta's: slow, then fast).
+    pub exact_rates: Vec<f64>,
+    /// Frequencies (Hz) of the master pairs, in the same order.
+    #[serde(default)]
+    pub exact_freqs_hz: Vec<f64>,
     /// Invariance error `||F(W(z)) - W(R(z))||_inf` of the truncations at orders 3, 5, ...
     /// (odd, up to `order`) on the spheres of radii [`INVARIANCE_RADII`] (radius-major), `F` the
     /// order-`order` expansion of the period map.
@@ -124,16 +128,19 @@ fn scene_map_ssm(
 ) -> Result<(Arc<PeriodMap>, PolynomialMap, MapSsm, f64, f64), Error> {
     check_order(order)?;
     let t0 = Instant::now();
+    let pairs = master_pairs(scene)?.len();
     let pm = Arc::new(scene_period_map(scene, order, &FlowOptions::default())?);
-    map_ssm_of(pm, order, amplitude, RESONANCE_TOL, t0.elapsed().as_secs_f64())
+    map_ssm_of(pm, order, pairs, amplitude, RESONANCE_TOL, t0.elapsed().as_secs_f64())
 }
 
-/// The SSM of the period map `pm` (amplitudes normalized by `amplitude`, non-structural
-/// terms with divisors below `resonance_tol` kept in the reduced map), with the wall time (s)
-/// of its expansion and of the SSM.
+/// The SSM of the period map `pm` tangent to its `pairs` dominant multiplier pairs
+/// (amplitudes normalized by `amplitude`, non-structural terms with divisors below
+/// `resonance_tol` kept in the reduced map), with the wall time (s) of its expansion and of
+/// the SSM.
 fn map_ssm_of(
     pm: Arc<PeriodMap>,
     order: u32,
+    pairs: usize,
     amplitude: Amplitude,
     resonance_tol: f64,
     expansion_seconds: f64,
@@ -142,7 +149,7 @@ fn map_ssm_of(
     let mut observable = vec![0.0; pm.dim()];
     observable[pm.primary] = 1.0;
     let t1 = Instant::now();
-    let opts = MapSsmOptions { order, pairs: 2, resonance_tol, observable, dt: pm.dt, amplitude };
+    let opts = MapSsmOptions { order, pairs, resonance_tol, observable, dt: pm.dt, amplitude };
     let s: MapSsm = map_ssm(&map, &opts).map_err(|e| Error::from(ssm::Error::from(e)))?;
     let ssm_seconds = t1.elapsed().as_secs_f64();
     Ok((pm, map, s, expansion_seconds, ssm_seconds))
@@ -245,7 +252,7 @@ fn furuta_map_ssm_tol(
     let scene = furuta_scene(dt_ms)?;
     let t0 = Instant::now();
     let pm = cached_period_map(&scene, dt_ms, order)?;
-    let (pm, map, s, e, t) = map_ssm_of(pm, order, amplitude, resonance_tol, t0.elapsed().as_secs_f64())?;
+    let (pm, map, s, e, t) = map_ssm_of(pm, order, 2, amplitude, resonance_tol, t0.elapsed().as_secs_f64())?;
     Ok((scene, pm, map, s, e, t))
 }
 
@@ -269,6 +276,32 @@ pub fn furuta_normal_form_ssm(dt_ms: f64, order: u32) -> Result<(Arc<PeriodMap>,
     Ok((pm, s))
 }
 
+/// Most master pairs of the equation-driven SSM (the Furuta's slow and fast pair).
+pub const MAX_PAIRS: usize = 2;
+
+/// The master multiplier pairs of `scene`'s loop (one entry per pair, `im > 0`), largest
+/// modulus first: the leading complex pairs of the non-structural multipliers, at most
+/// [`MAX_PAIRS`]. An error when the largest multiplier is real (the SSM is tangent to
+/// complex pairs only).
+pub fn master_pairs(scene: &Scene) -> Result<Vec<sim::linear::Multiplier>, Error> {
+    let dt_ms = scene.controller.dt_ms;
+    let all = dominant_pairs(scene)?;
+    let Some(first) = all.first() else {
+        return Err(Error::Multipliers { dt_ms, got: 0 });
+    };
+    let pairs: Vec<_> = all.iter().take_while(|m| m.im > 0.0).take(MAX_PAIRS).cloned().collect();
+    if pairs.is_empty() {
+        return Err(Error::BadInput {
+            what: "scene",
+            why: format!(
+                "scene {}: the largest multiplier {:.6} is real: the equation-driven SSM is tangent to complex pairs only",
+                scene.name, first.re
+            ),
+        });
+    }
+    Ok(pairs)
+}
+
 /// The equation-driven SSM of `scene` at `order` (3..=9).
 pub fn equation_ssm(scene: &Scene, order: u32) -> Result<EquationSsm, Error> {
     let (pm, map, s, expansion_seconds, ssm_seconds) = scene_map_ssm(scene, order, Amplitude::Observable)?;
@@ -286,11 +319,7 @@ fn equation_ssm_from(
     ssm_seconds: f64,
 ) -> Result<EquationSsm, Error> {
     let dt_ms = scene.controller.dt_ms;
-    let mut pairs = dominant_pairs(scene)?;
-    if pairs.len() < 2 {
-        return Err(Error::Multipliers { dt_ms, got: pairs.len() });
-    }
-    pairs.truncate(2);
+    let mut pairs = master_pairs(scene)?;
     pairs.sort_by(|a, b| a.freq_hz.total_cmp(&b.freq_hz));
     let invariance = INVARIANCE_RADII
         .iter()
@@ -303,7 +332,8 @@ fn equation_ssm_from(
         order,
         table: s.polar.table(),
         polar: s.polar.clone(),
-        exact_rates: [pairs[0].rate, pairs[1].rate],
+        exact_rates: pairs.iter().map(|m| m.rate).collect(),
+        exact_freqs_hz: pairs.iter().map(|m| m.freq_hz).collect(),
         invariance,
         extra_resonances: s.extra_resonances.clone(),
         min_divisor: s.min_divisor,
@@ -641,6 +671,59 @@ mod tests {
             }
         }
         assert_eq!(rows.iter().filter(|r| r.degree == 3).count(), 4);
+    }
+
+    /// The Furuta written as equations (`furuta-equations`) has the built-in plant's
+    /// equation-driven SSM: every polar coefficient to 1e-8 relative (cubic and quintic).
+    #[test]
+    fn furuta_as_equations_has_the_builtin_ssm() {
+        let load = |name: &str| Scene::load(name, &[]).unwrap();
+        let a = equation_ssm(&load("furuta-dt30.8"), 5).unwrap();
+        let b = equation_ssm(&load("furuta-equations"), 5).unwrap();
+        assert_eq!(a.table.rows.len(), b.table.rows.len());
+        let mut worst = 0.0f64;
+        for (x, y) in a.table.rows.iter().zip(&b.table.rows) {
+            assert_eq!((x.mode, &x.monomial), (y.mode, &y.monomial));
+            worst = worst.max((x.value - y.value).abs() / x.value.abs());
+        }
+        eprintln!("furuta-equations vs built-in: {} rows, max relative difference {worst:.2e}", a.table.rows.len());
+        assert!(worst < 1e-8, "{worst}");
+        assert_eq!(a.table.rows.iter().filter(|r| r.rho_exps.iter().sum::<u32>() == 3).count(), 4);
+    }
+
+    /// Plants written as equations with any gain vector: the linear rates and frequencies of
+    /// the table are the exact multipliers' (`ln|mu|/dt`, to 1e-9), the invariance error
+    /// falls with the order.
+    #[test]
+    fn equation_scenes_have_an_ssm() {
+        // (scene, overrides, master pairs): the Duffing chain's two modes; the pendulum and
+        // the cart-pole with a softer cart D gain have one dominant pair (the cart's slow
+        // oscillation; with the bundled gains the cart mode is overdamped: refused below).
+        let softer = ["controller.gains.x.d=-10.0".to_string()];
+        for (name, o, pairs) in
+            [("duffing-chain", &[][..], 2), ("cartpole-pd", &softer[..], 1), ("pendulum-pd", &[][..], 1)]
+        {
+            let scene = Scene::load(name, o).unwrap();
+            let e = equation_ssm(&scene, 5).unwrap();
+            eprintln!("{name}: rates {:?} freqs {:?} Hz\n{}", e.exact_rates, e.exact_freqs_hz, e.table.to_text());
+            assert_eq!(e.polar.modes, pairs, "{name}");
+            assert_eq!(e.exact_rates.len(), pairs);
+            for i in 0..pairs {
+                let (got, want) = (e.polar.amp[i][0], e.exact_rates[i]);
+                assert!((got - want).abs() < 1e-9 * want.abs().max(1.0), "{name} mode {i}: {got} vs {want}");
+                let f = e.polar.eigenvalues[i].1 / std::f64::consts::TAU;
+                assert!((f - e.exact_freqs_hz[i]).abs() < 1e-9 * f, "{name} mode {i}: {f} vs {}", e.exact_freqs_hz[i]);
+            }
+            // On the smaller sphere (the larger one, 0.05 in x1, is past the Duffing
+            // chain's hardening springs' convergence radius: k3 x^3 is 1.25 k1 x there).
+            for pair in e.invariance.chunks(2) {
+                eprintln!("{name}: invariance at r = {}: {:.3e} -> {:.3e}", pair[0].radius, pair[0].abs, pair[1].abs);
+            }
+            let small = &e.invariance[..2];
+            assert!(small[1].abs < small[0].abs, "{name}: {small:?}");
+        }
+        let err = equation_ssm(&Scene::load("cartpole-pd", &[]).unwrap(), 5).unwrap_err().to_string();
+        assert!(err.contains("cartpole-pd") && err.contains("is real"), "{err}");
     }
 
     #[test]

@@ -44,11 +44,23 @@ pub enum SimError {
 }
 
 /// Integer-path values of one sample: encoder counts in, DAC code out.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize)]
 pub struct Codes {
+    /// Counts of the first and second measured coordinates (0 when absent).
     pub q_theta: i32,
     pub q_phi: i32,
     pub code: i32,
+    /// Counts of the third and further measured coordinates (0 when absent).
+    pub q_rest: [i32; shared::MAX_GAINS - 2],
+    /// Number of measured coordinates.
+    pub measured: u8,
+}
+
+impl Codes {
+    /// The counts of every measured coordinate, in gain order.
+    pub fn counts(&self) -> impl Iterator<Item = i32> + '_ {
+        [self.q_theta, self.q_phi].into_iter().chain(self.q_rest).take(usize::from(self.measured))
+    }
 }
 
 /// A simulated closed-loop run, one row per sample t_i = i*dt (i = 0..=periods, or until the
@@ -92,8 +104,10 @@ impl Trajectory {
         (0..self.rows()).map(|i| self.state(i, 0)).collect()
     }
 
-    /// Writes `t, <states>, u[, q_theta, q_phi, code]` as CSV to `w` (the application
-    /// decides where: `ssmctl` writes a temporary file and renames it when complete).
+    /// Writes `t, <states>, u[, q_theta, q_phi, code[, q_2, q_3]]` as CSV to `w` (the
+    /// counts of the third and fourth measured coordinates when the controller reads them;
+    /// the application decides where: `ssmctl` writes a temporary file and renames it when
+    /// complete).
     pub fn write_csv_to(&self, w: &mut impl Write) -> std::io::Result<()> {
         let mut header = String::from("t");
         for n in &self.state_names {
@@ -101,8 +115,13 @@ impl Trajectory {
             header.push_str(n);
         }
         header.push_str(",u");
+        let extra =
+            self.codes.as_ref().and_then(|c| c.first()).map_or(0, |c| usize::from(c.measured).saturating_sub(2));
         if self.codes.is_some() {
             header.push_str(",q_theta,q_phi,code");
+            for k in 0..extra {
+                header.push_str(&format!(",q_{}", k + 2));
+            }
         }
         writeln!(w, "{header}")?;
         let n = self.n_states();
@@ -114,6 +133,9 @@ impl Trajectory {
             write!(w, ",{}", self.u[i])?;
             if let Some(c) = &self.codes {
                 write!(w, ",{},{},{}", c[i].q_theta, c[i].q_phi, c[i].code)?;
+                for q in c[i].q_rest.iter().take(extra) {
+                    write!(w, ",{q}")?;
+                }
             }
             writeln!(w)?;
         }
@@ -301,14 +323,6 @@ pub fn simulate_with<P: Plant<N>, const N: usize>(
         None => sample(&x).repeat(cfg.delay as usize + 1),
     };
     let mut law = Law::new(&cfg, name)?;
-    if matches!(law, Law::Counts { .. }) && n > 2 {
-        return Err(SimError::Controller {
-            scene: name.into(),
-            message: format!(
-                "a quantized run records the counts of at most 2 measured coordinates (q_theta, q_phi columns); this scene measures {n}"
-            ),
-        });
-    }
     let sensor_err = |t: f64, e: String| SimError::Sensor { scene: name.into(), t, message: e };
     let prime_err = |e: controller::InputError| SimError::Controller {
         scene: name.into(),
@@ -393,7 +407,13 @@ pub fn simulate_with<P: Plant<N>, const N: usize>(
                 let o = pd.step(&c).map_err(|e| sensor_err(t, e.to_string()))?;
                 if let Some(codes) = &mut traj.codes {
                     let at = |k: usize| c.get(k).copied().unwrap_or(0);
-                    codes.push(Codes { q_theta: at(0), q_phi: at(1), code: o.code });
+                    codes.push(Codes {
+                        q_theta: at(0),
+                        q_phi: at(1),
+                        code: o.code,
+                        q_rest: core::array::from_fn(|k| at(k + 2)),
+                        measured: c.len() as u8,
+                    });
                 }
                 (pd.volts(o.code), o.saturated)
             }
@@ -489,6 +509,100 @@ pub fn metadata_json(scene: &Scene, traj: &Trajectory, csv_name: &str) -> Result
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A three-mass chain with an encoder on every mass, each of its own resolution.
+    const CHAIN3: &str = r#"
+name = "chain3-quant"
+description = "Three-mass Duffing chain, PD on the first mass, D on the others, three encoders"
+
+[plant]
+kind = "equations"
+coordinates = ["x1", "x2", "x3"]
+parameters = { m = 1.0, k = 100.0, k3 = 1.0e4, c = 0.05 }
+mass = [["m", "0", "0"], ["0", "m", "0"], ["0", "0", "m"]]
+forces = ["-k*x1 - k3*x1^3 - k*(x1 - x2) - c*x1_dot + u",
+          "-k*(x2 - x1) - k*(x2 - x3) - c*x2_dot",
+          "-k*(x3 - x2) - c*x3_dot"]
+
+[controller]
+gains = { x1 = { p = 5.0, d = 1.0, h_adc = 1.0e-5 }, x2 = { d = 0.5, h_adc = 2.0e-5 }, x3 = { d = 0.25, h_adc = 5.0e-5 } }
+dt_ms = 5.0
+delay = 1
+
+[initial]
+state = { x1 = 0.02, x2 = -0.01, x3 = 0.005 }
+
+[run]
+periods = 2000
+
+[effects.quantization]
+mode = "counts"
+h_adc = 1.0e-5
+h_dac = 1.0e-4
+
+[integrator]
+method = "rodas"
+rtol = 1e-10
+atol = 1e-12
+"#;
+
+    /// Quantized runs read every measured coordinate through its own encoder: with three,
+    /// the recorded counts are `floor(q_j / h_j)` of the state, each DAC code is the integer
+    /// controller's output on the recorded counts (a fresh `controller::IntPd` replayed, bit
+    /// for bit) and within one DAC step of the float law on the same counts, the held input
+    /// is the code times the DAC step, and the CSV has a column per measured coordinate.
+    #[test]
+    fn quantized_run_with_three_encoders_is_the_integer_controller() {
+        let dir = std::env::temp_dir().join(format!("sim-chain3-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let path = dir.join("chain3-quant.toml");
+        std::fs::write(&path, CHAIN3).unwrap();
+        let s = Scene::load(path.to_str().unwrap(), &[]).unwrap();
+        let tr = simulate(&s, None).unwrap();
+        let cfg = s.controller_config();
+        assert_eq!(cfg.gains.len(), 3);
+        let codes = tr.codes.as_ref().unwrap();
+        assert_eq!(codes.len(), tr.rows());
+        let h: Vec<f64> = cfg.gains.iter().map(|g| g.h_adc).collect();
+        assert_eq!(h, [1.0e-5, 2.0e-5, 5.0e-5]);
+        let idx: Vec<usize> = cfg.gains.iter().map(|g| usize::from(g.index)).collect();
+        let mut pd = controller::IntPd::<HISTORY>::try_new(&cfg).unwrap();
+        let first: Vec<i32> = codes[0].counts().collect();
+        pd.prime(&[first.clone(), first].concat()).unwrap();
+        let h_dac = cfg.quant.unwrap().h_dac;
+        let mut worst = 0.0f64;
+        for (i, c) in codes.iter().enumerate() {
+            let q: Vec<i32> = c.counts().collect();
+            assert_eq!(q.len(), 3);
+            for (j, &k) in idx.iter().enumerate() {
+                assert_eq!(q[j], (tr.state(i, k) / h[j]).floor() as i32, "row {i} coordinate {j}");
+            }
+            let o = pd.step(&q).unwrap();
+            assert_eq!(o.code, c.code, "row {i}");
+            assert_eq!(tr.u[i], pd.volts(c.code), "row {i}");
+            if i >= 2 {
+                let (q1, q2): (Vec<i32>, Vec<i32>) = (codes[i - 1].counts().collect(), codes[i - 2].counts().collect());
+                let u: f64 = -cfg
+                    .gains
+                    .iter()
+                    .enumerate()
+                    .map(|(j, g)| {
+                        let (a, b) = (f64::from(q1[j]) * h[j], f64::from(q2[j]) * h[j]);
+                        g.p * a + g.d * (a - b) / cfg.dt
+                    })
+                    .sum::<f64>();
+                worst = worst.max((f64::from(c.code) * h_dac - u).abs() / h_dac);
+            }
+        }
+        eprintln!("three encoders: {} rows, integer law vs float law on the counts: {worst:.3} DAC steps", tr.rows());
+        assert!(worst <= 1.0, "{worst}");
+        assert!(codes.iter().any(|c| c.q_rest[0] != 0), "the third encoder never moved");
+        let mut csv = Vec::new();
+        tr.write_csv_to(&mut csv).unwrap();
+        let csv = String::from_utf8(csv).unwrap();
+        assert!(csv.starts_with("t,x1,x1_dot,x2,x2_dot,x3,x3_dot,u,q_theta,q_phi,code,q_2\n"), "{}", &csv[..80]);
+        let _ = std::fs::remove_dir_all(&dir);
+    }
 
     fn scene(name: &str, o: &[&str]) -> Scene {
         Scene::load(name, &o.iter().map(|s| s.to_string()).collect::<Vec<_>>()).unwrap()

@@ -184,9 +184,9 @@ pub enum Cmd {
     /// t and observables, or SSMLearn .mat files with a cell array xData of {t, X} rows).
     Fit(Box<FitArgs>),
     /// The equation-driven SSM of the scene's sampled-data loop (no quantization or
-    /// saturation): Taylor expansion of the one-period map, 4D SSM of the two dominant
-    /// multiplier pairs, polar amplitude equations in the data-driven model's conventions,
-    /// invariance error by order.
+    /// saturation), for any plant and gain vector: Taylor expansion of the one-period map,
+    /// SSM tangent to the leading complex multiplier pairs (at most two), polar amplitude
+    /// equations in the data-driven model's conventions, invariance error by order.
     SsmEquations {
         #[command(flatten)]
         scene: SceneArgs,

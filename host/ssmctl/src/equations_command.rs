@@ -12,6 +12,7 @@ pub fn to_json(e: &EquationSsm) -> serde_json::Value {
         "dt_ms": e.dt_ms,
         "order": e.order,
         "exact_rates": e.exact_rates,
+        "exact_freqs_hz": e.exact_freqs_hz,
         "eigenvalues": e.polar.eigenvalues,
         "table": e.table.rows,
         "phase": { "pexps": e.polar.pexps, "coefficients": e.polar.phase },
@@ -30,9 +31,14 @@ pub fn to_json(e: &EquationSsm) -> serde_json::Value {
 /// Plain-text summary.
 pub fn to_text(e: &EquationSsm) -> String {
     let mut s = format!(
-        "{}: dt = {} ms, order {}: expansion {:.2} s ({} RK4 steps), SSM {:.2} s\nexact rates ln|mu|/dt: slow {:.6} 1/s, fast {:.6} 1/s\n",
-        e.scene, e.dt_ms, e.order, e.expansion_seconds, e.flow_steps, e.ssm_seconds, e.exact_rates[0], e.exact_rates[1]
+        "{}: dt = {} ms, order {}: expansion {:.2} s ({} RK4 steps), SSM {:.2} s\n",
+        e.scene, e.dt_ms, e.order, e.expansion_seconds, e.flow_steps, e.ssm_seconds
     );
+    let rates: Vec<String> = match e.exact_rates.as_slice() {
+        [slow, fast] => vec![format!("slow {slow:.6} 1/s"), format!("fast {fast:.6} 1/s")],
+        rates => rates.iter().enumerate().map(|(i, r)| format!("mode {} {r:.6} 1/s", i + 1)).collect(),
+    };
+    s.push_str(&format!("exact rates ln|mu|/dt: {}\n", rates.join(", ")));
     s.push_str(&e.table.to_text());
     for inv in &e.invariance {
         s.push_str(&format!(

@@ -729,7 +729,13 @@ fn run_with<P: Plant<N>, const N: usize>(plant: &P, scene: &Scene, opts: &PilOpt
             code,
             prediction: ready.then_some(dev_pred),
         })?;
-        run_codes.push(sim::closed_loop::Codes { q_theta: qy, q_phi: qz, code });
+        run_codes.push(sim::closed_loop::Codes {
+            q_theta: qy,
+            q_phi: qz,
+            code,
+            q_rest: core::array::from_fn(|k| q.get(k + 2).copied().unwrap_or(0)),
+            measured: q.len() as u8,
+        });
         run_states.push(x);
         s.periods = i + 1;
         if let Some(limit) = scene.run.escape_theta

@@ -190,3 +190,55 @@ fn stability_chart_over_named_axes() {
     assert!(v.get("axes").is_none() && v["base_point"] == serde_json::json!([15.5, 5.45]), "{v}");
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// `ssm-equations` runs on every equation scene whose loop has a complex dominant pair: the
+/// table's linear rates are `stability`'s multipliers (`ln|mu|/dt`); the cart-pole with the
+/// bundled gains (overdamped cart mode, real dominant multiplier) is refused by name.
+#[test]
+fn ssm_equations_on_equation_scenes() {
+    for (scene, set, modes) in [
+        ("duffing-chain", None, 2),
+        ("pendulum-pd", None, 1),
+        ("cartpole-pd", Some("controller.gains.x.d=-10.0"), 1),
+        ("furuta-equations", None, 2),
+    ] {
+        let mut args = vec!["ssm-equations", "--scene", scene, "--order", "5", "--json"];
+        if let Some(s) = set {
+            args.extend(["--set", s]);
+        }
+        let (ok, out, err) = ssmctl(&args);
+        assert!(ok, "{scene}: {err}");
+        let v: Value = serde_json::from_str(&out).unwrap();
+        let rates: Vec<f64> = v["exact_rates"].as_array().unwrap().iter().map(|x| x.as_f64().unwrap()).collect();
+        assert_eq!(rates.len(), modes, "{scene}");
+        let rows = v["table"].as_array().unwrap();
+        for (i, r) in rates.iter().enumerate() {
+            let lin = rows
+                .iter()
+                .find(|row| {
+                    row["mode"] == i + 1
+                        && row["rho_exps"].as_array().unwrap().iter().map(|e| e.as_u64().unwrap()).sum::<u64>() == 1
+                })
+                .unwrap();
+            let got = lin["value"].as_f64().unwrap();
+            assert!((got - r).abs() < 1e-9 * r.abs(), "{scene} mode {}: {got} vs {r}", i + 1);
+        }
+        // The multipliers `stability` reports contain the master pairs.
+        let mut sargs = vec!["stability", "--scene", scene, "--json"];
+        if let Some(s) = set {
+            sargs.extend(["--set", s]);
+        }
+        let (ok, out, err) = ssmctl(&sargs);
+        assert!(ok, "{scene}: {err}");
+        let st: Value = serde_json::from_str(&out).unwrap();
+        let stab: Vec<f64> =
+            st["multipliers"].as_array().unwrap().iter().map(|m| m["rate"].as_f64().unwrap()).collect();
+        for r in &rates {
+            assert!(stab.iter().any(|s| (s - r).abs() < 1e-9 * r.abs()), "{scene}: rate {r} not in {stab:?}");
+        }
+    }
+    let (ok, _, err) = ssmctl(&["ssm-equations", "--scene", "cartpole-pd", "--order", "5"]);
+    assert!(!ok && err.contains("cartpole-pd") && err.contains("is real"), "{err}");
+    let (ok, _, err) = ssmctl(&["ssm-equations", "--scene", "duffing-chain", "--order", "7"]);
+    assert!(!ok && err.contains("lower the order"), "{err}");
+}

@@ -58,11 +58,6 @@ pub const MAX_STEP: f64 = 0.5;
 /// Why an expansion could not be made.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum TaylorError {
-    #[error(
-        "the period map's expansion takes the shorthand controller (P and D on the first coordinate, D on \
-         the second): other gain vectors are not supported by the equation-driven SSM yet"
-    )]
-    Gains,
     #[error("sampling period dt = {0} s must be finite and > 0")]
     BadDt(f64),
     #[error(
@@ -116,8 +111,9 @@ pub struct FlowExpansion {
     pub order: u32,
     /// Number of plant states N.
     pub n_plant: usize,
-    /// The plant state left out of the variables (its output is its increment).
-    pub secondary: usize,
+    /// The plant state left out of the variables (a cyclic coordinate: its output is its
+    /// increment), if any.
+    pub secondary: Option<usize>,
     /// Plant state of each variable but the last, which is the held input `u`.
     pub state_of_var: Vec<usize>,
     pub table: &'static TpsTable,
@@ -130,7 +126,7 @@ pub struct FlowExpansion {
 }
 
 impl FlowExpansion {
-    /// Number of variables (plant states but the secondary, then `u`).
+    /// Number of variables (plant states but the dropped secondary, then `u`).
     pub fn nvar(&self) -> usize {
         self.table.nvar()
     }
@@ -154,7 +150,7 @@ impl FlowExpansion {
         })
     }
 
-    /// Evaluates the expansion at the variables `v` (states but the secondary, then `u`).
+    /// Evaluates the expansion at the variables `v` (states but the dropped secondary, then `u`).
     pub fn eval(&self, v: &[f64]) -> Vec<f64> {
         let mono: Vec<f64> =
             self.table.exponents().iter().map(|e| e.iter().zip(v).map(|(&k, x)| x.powi(k as i32)).product()).collect();
@@ -204,36 +200,50 @@ fn check_dt(dt: f64) -> Result<(), TaylorError> {
 
 /// Taylor expansion to `order` of the flow of `plant` over `dt` under a held input, at the
 /// upright equilibrium (`x = 0`, `u = 0`), in the variables (plant states without
-/// `P::SECONDARY`, then `u`).
+/// `P::SECONDARY`, then `u`); the secondary coordinate must not enter the right-hand side.
 pub fn flow_expansion<P: Plant<N>, const N: usize>(
     plant: &P,
     dt: f64,
     order: u32,
     opts: &FlowOptions,
 ) -> Result<FlowExpansion, TaylorError> {
-    check_dt(dt)?;
-    if opts.refine == 0 {
-        return Err(TaylorError::Refine);
-    }
-    let s = P::SECONDARY;
-    let table = TpsTable::get(N, order).ok_or(TaylorError::Order { order, nvar: N })?;
-    let state_of_var: Vec<usize> = (0..N).filter(|&i| i != s).collect();
+    flow_expansion_dropping(plant, dt, order, opts, Some(P::SECONDARY))
+}
+
+/// The variables' table and the plant state of each variable but `u`, `drop` left out.
+fn flow_variables<const N: usize>(
+    order: u32,
+    drop: Option<usize>,
+) -> Result<(&'static TpsTable, Vec<usize>), TaylorError> {
+    let state_of_var: Vec<usize> = (0..N).filter(|&i| Some(i) != drop).collect();
+    let nvar = state_of_var.len() + 1;
+    let table = TpsTable::get(nvar, order).ok_or(TaylorError::Order { order, nvar })?;
+    Ok((table, state_of_var))
+}
+
+/// The plant's state as jets: the variables at 0, the dropped state the constant 0.
+fn jets<const N: usize>(table: &'static TpsTable, state_of_var: &[usize]) -> [Tps; N] {
     let mut x: [Tps; N] = core::array::from_fn(|_| Tps::constant(table, 0.0));
     for (k, &i) in state_of_var.iter().enumerate() {
-        x[i] = Tps::var(table, k, 0.0);
-    }
-    let u = Tps::var(table, N - 1, 0.0);
-    // Equilibrium and independence of the secondary coordinate, on the jets.
-    let f0 = plant.rhs(&x, u);
-    for (component, f) in f0.iter().enumerate() {
-        let scale = 1.0 + f.degree_norm(1);
-        if !(f.re().abs() <= 1e-12 * scale) {
-            return Err(TaylorError::NotEquilibrium { component, value: f.re() });
+        if let Some(slot) = x.get_mut(i) {
+            *slot = Tps::var(table, k, 0.0);
         }
     }
+    x
+}
+
+/// `Err(SecondaryEnters)` when moving state `s` changes the right-hand side's jet (in the
+/// other states and `u`, to `order`): then it cannot be dropped from the variables.
+fn check_cyclic<P: Plant<N>, const N: usize>(plant: &P, s: usize, order: u32) -> Result<(), TaylorError> {
+    let (table, state_of_var) = flow_variables::<N>(order, Some(s))?;
+    let x = jets::<N>(table, &state_of_var);
+    let u = Tps::var(table, table.nvar() - 1, 0.0);
+    let f0 = plant.rhs(&x, u);
     for shift in [1.2345, -0.731] {
         let mut xs = x;
-        xs[s] = Tps::constant(table, shift);
+        if let Some(slot) = xs.get_mut(s) {
+            *slot = Tps::constant(table, shift);
+        }
         let f1 = plant.rhs(&xs, u);
         for (component, (a, b)) in f0.iter().zip(&f1).enumerate() {
             let scale = a.coefficients().iter().fold(1.0f64, |m, v| m.max(v.abs()));
@@ -242,6 +252,36 @@ pub fn flow_expansion<P: Plant<N>, const N: usize>(
                 return Err(TaylorError::SecondaryEnters { index: s, component, change });
             }
         }
+    }
+    Ok(())
+}
+
+/// [`flow_expansion`] with `drop` (a cyclic coordinate, checked on the jets) left out of the
+/// variables, or every plant state a variable (`None`).
+pub fn flow_expansion_dropping<P: Plant<N>, const N: usize>(
+    plant: &P,
+    dt: f64,
+    order: u32,
+    opts: &FlowOptions,
+    drop: Option<usize>,
+) -> Result<FlowExpansion, TaylorError> {
+    check_dt(dt)?;
+    if opts.refine == 0 {
+        return Err(TaylorError::Refine);
+    }
+    let (table, state_of_var) = flow_variables::<N>(order, drop)?;
+    let mut x = jets::<N>(table, &state_of_var);
+    let u = Tps::var(table, table.nvar() - 1, 0.0);
+    // Equilibrium and independence of the dropped coordinate, on the jets.
+    let f0 = plant.rhs(&x, u);
+    for (component, f) in f0.iter().enumerate() {
+        let scale = 1.0 + f.degree_norm(1);
+        if !(f.re().abs() <= 1e-12 * scale) {
+            return Err(TaylorError::NotEquilibrium { component, value: f.re() });
+        }
+    }
+    if let Some(s) = drop {
+        check_cyclic(plant, s, order)?;
     }
     let (a, _) = linearize(plant);
     let am = DMatrix::from_fn(N, N, |i, j| a[(i, j)]);
@@ -279,7 +319,7 @@ pub fn flow_expansion<P: Plant<N>, const N: usize>(
         dt,
         order,
         n_plant: N,
-        secondary: s,
+        secondary: drop,
         state_of_var,
         table,
         outputs,
@@ -288,15 +328,19 @@ pub fn flow_expansion<P: Plant<N>, const N: usize>(
     })
 }
 
-/// The closed loop's one-period map in deflated coordinates, `F(s) = M s + G(P s)`:
-/// `M` the linear part, `P` the projection onto the flow's variables (plant states but the
-/// secondary, then the held input `u` of the law), `G` the flow expansion's terms of
-/// degree 2..=order placed in the rows they feed.
+/// The closed loop's one-period map, `F(s) = M s + G(P s)`: `M` the linear part, `P` the
+/// projection onto the flow's variables (plant states but a dropped secondary, then the held
+/// input `u` of the law), `G` the flow expansion's terms of degree 2..=order placed in the
+/// rows they feed.
 ///
-/// Coordinates (as [`ClosedLoopMap::deflated`](crate::linear::ClosedLoopMap::deflated)):
-/// the plant states without the secondary, `y_{i-1} .. y_{i-1-r}` (primary angle samples),
-/// `w_k = z_{i-1-k} - x_i[secondary]` for `k = 0..=r` (stored secondary samples relative
-/// to the current value).
+/// Coordinates: the plant states (without the secondary when it is dropped), then for each
+/// measured coordinate `q_j` of the gain vector, in gain order, its samples `q_j,{i-1} ..
+/// q_j,{i-1-r}`. When the secondary coordinate is cyclic (it does not enter the right-hand
+/// side) and the law reads only its differences (no P gain on it), the map is deflated as
+/// [`ClosedLoopMap::deflated`](crate::linear::ClosedLoopMap::deflated): the secondary is
+/// dropped and its stored samples are kept relative to its current value, `w_k = z_{i-1-k} -
+/// x_i[secondary]`, which removes the structural multiplier 1 exactly. For the Furuta's
+/// shorthand law that is `x, y_{i-1} .. y_{i-1-r}, w_0 .. w_r`.
 #[derive(Clone, Debug)]
 pub struct PeriodMap {
     pub dt: f64,
@@ -318,81 +362,145 @@ pub struct PeriodMap {
     cfg: ControllerConfig,
 }
 
-/// Index bookkeeping of the deflated layout.
-struct Deflated {
-    secondary: usize,
+/// Index bookkeeping of the period map's coordinates.
+struct Layout {
+    /// The dropped (deflated) secondary coordinate, if any.
+    dropped: Option<usize>,
     delay: usize,
-    y_start: usize,
-    w_start: usize,
+    /// Plant state of each measured coordinate, in gain order.
+    measured: Vec<usize>,
+    /// Index of the first sample register.
+    reg_start: usize,
     dim: usize,
 }
 
-impl Deflated {
-    fn new(n_plant: usize, secondary: usize, delay: usize) -> Self {
-        let y_start = n_plant - 1;
-        let w_start = y_start + delay + 1;
-        Self { secondary, delay, y_start, w_start, dim: w_start + delay + 1 }
+impl Layout {
+    fn new(n_plant: usize, dropped: Option<usize>, delay: usize, cfg: &ControllerConfig) -> Self {
+        let reg_start = n_plant - usize::from(dropped.is_some());
+        let measured: Vec<usize> = cfg.gains.iter().map(|g| usize::from(g.index)).collect();
+        let dim = reg_start + measured.len() * (delay + 1);
+        Self { dropped, delay, measured, reg_start, dim }
     }
-    /// Index of plant state `i` (not the secondary).
-    fn plant(&self, i: usize) -> usize {
-        if i < self.secondary { i } else { i - 1 }
+    /// Index of plant state `i`, `None` for the dropped one.
+    fn plant(&self, i: usize) -> Option<usize> {
+        match self.dropped {
+            Some(s) if i == s => None,
+            Some(s) if i > s => Some(i - 1),
+            _ => Some(i),
+        }
+    }
+    /// Index of the register of measured coordinate `j`'s sample `q_j,{i-1-k}`.
+    fn reg(&self, j: usize, k: usize) -> usize {
+        self.reg_start + j * (self.delay + 1) + k
+    }
+    /// Index of `q_j,{i-d}` (relative to the current secondary when that is dropped: `None`
+    /// for `d = 0`, which is zero).
+    fn sample(&self, j: usize, d: usize) -> Option<usize> {
+        if d == 0 { self.measured.get(j).and_then(|&i| self.plant(i)) } else { Some(self.reg(j, d - 1)) }
     }
     /// The law `u = g . s`.
-    fn law(&self, cfg: &ControllerConfig, primary: usize) -> Vec<f64> {
+    fn law(&self, cfg: &ControllerConfig) -> Vec<f64> {
         let r = self.delay;
         let dt = cfg.dt;
         let mut g = vec![0.0; self.dim];
-        let y_at = |d: usize| if d == 0 { Some(self.plant(primary)) } else { Some(self.y_start + d - 1) };
-        // z_{i-d} - x_i[secondary]: zero for d = 0.
-        let w_at = |d: usize| if d == 0 { None } else { Some(self.w_start + d - 1) };
-        // The shorthand gains (checked by `period_map`).
-        let (kp, kd, kphi_d) = cfg.as_shorthand().unwrap_or((f64::NAN, f64::NAN, f64::NAN));
-        if let Some(k) = y_at(r) {
-            g[k] += -(kp + kd / dt);
-        }
-        if let Some(k) = y_at(r + 1) {
-            g[k] += kd / dt;
-        }
-        if let Some(k) = w_at(r) {
-            g[k] += kphi_d / dt;
-        }
-        if let Some(k) = w_at(r + 1) {
-            g[k] -= kphi_d / dt;
+        for (j, gain) in cfg.gains.iter().enumerate() {
+            if let Some(k) = self.sample(j, r) {
+                g[k] += -(gain.p + gain.d / dt);
+            }
+            if let Some(k) = self.sample(j, r + 1) {
+                g[k] += gain.d / dt;
+            }
         }
         g
+    }
+    /// Name of register `reg(j, k)`: `y[i-1]` for the first measured coordinate, `z[i-1]-x2`
+    /// for a dropped secondary, `q<state>[i-1]` for others.
+    fn reg_name(&self, j: usize, k: usize) -> String {
+        let i = self.measured.get(j).copied().unwrap_or(0);
+        match self.dropped {
+            Some(s) if i == s => format!("z[i-{}]-x{s}", k + 1),
+            _ if j == 0 => format!("y[i-{}]", k + 1),
+            _ => format!("q{i}[i-{}]", k + 1),
+        }
+    }
+}
+
+/// The gain vector's checks for the expansion: finite gains on existing states, no
+/// integral action, a bounded delay.
+fn check_cfg<const N: usize>(cfg: &ControllerConfig) -> Result<(), TaylorError> {
+    if cfg.ki != 0.0 {
+        return Err(TaylorError::Integral(cfg.ki));
+    }
+    if cfg.gains.is_empty() {
+        return Err(TaylorError::Linear(LinearError::NoGains));
+    }
+    if let Some((kp, kd, kphi_d)) = cfg.as_shorthand() {
+        for (name, value) in [("kp", kp), ("kd", kd), ("kphi_d", kphi_d)] {
+            if !value.is_finite() {
+                return Err(TaylorError::Linear(LinearError::BadGain { name, value }));
+            }
+        }
+    }
+    const P_NAMES: [&str; shared::MAX_GAINS] = ["p0", "p1", "p2", "p3"];
+    const D_NAMES: [&str; shared::MAX_GAINS] = ["d0", "d1", "d2", "d3"];
+    for (j, g) in cfg.gains.iter().enumerate() {
+        for (name, value) in
+            [(P_NAMES.get(j).copied().unwrap_or("p"), g.p), (D_NAMES.get(j).copied().unwrap_or("d"), g.d)]
+        {
+            if !value.is_finite() {
+                return Err(TaylorError::Linear(LinearError::BadGain { name, value }));
+            }
+        }
+        if usize::from(g.index) >= N {
+            return Err(TaylorError::Linear(LinearError::IndexOutOfRange {
+                which: "measured",
+                index: usize::from(g.index),
+                n: N,
+            }));
+        }
+    }
+    if cfg.delay > crate::linear::MAX_DELAY {
+        return Err(TaylorError::Linear(LinearError::DelayTooLarge(cfg.delay)));
+    }
+    Ok(())
+}
+
+/// Whether the period map of the loop `cfg` around `plant` is deflated (see [`PeriodMap`]):
+/// the secondary coordinate is cyclic to `order` and has no P gain.
+fn deflates<P: Plant<N>, const N: usize>(plant: &P, cfg: &ControllerConfig, order: u32) -> Result<bool, TaylorError> {
+    let s = P::SECONDARY;
+    if cfg.gains.iter().any(|g| usize::from(g.index) == s && g.p != 0.0) {
+        return Ok(false);
+    }
+    match check_cyclic(plant, s, order) {
+        Ok(()) => Ok(true),
+        Err(TaylorError::SecondaryEnters { .. }) => Ok(false),
+        Err(e) => Err(e),
     }
 }
 
 /// Taylor expansion to `order` of the one-period map of the loop `cfg` around `plant`
-/// (unquantized, unsaturated; `cfg.ki` must be 0), in deflated coordinates.
+/// (unquantized, unsaturated; `cfg.ki` must be 0), deflated when the secondary coordinate
+/// allows it ([`PeriodMap`]).
 pub fn period_map<P: Plant<N>, const N: usize>(
     plant: &P,
     cfg: &ControllerConfig,
     order: u32,
     opts: &FlowOptions,
 ) -> Result<PeriodMap, TaylorError> {
-    if cfg.ki != 0.0 {
-        return Err(TaylorError::Integral(cfg.ki));
-    }
-    let Some((kp, kd, kphi_d)) = cfg.as_shorthand() else {
-        return Err(TaylorError::Gains);
-    };
-    for (name, value) in [("kp", kp), ("kd", kd), ("kphi_d", kphi_d)] {
-        if !value.is_finite() {
-            return Err(TaylorError::Linear(LinearError::BadGain { name, value }));
-        }
-    }
-    if cfg.delay > crate::linear::MAX_DELAY {
-        return Err(TaylorError::Linear(LinearError::DelayTooLarge(cfg.delay)));
-    }
-    let flow = flow_expansion(plant, cfg.dt, order, opts)?;
-    let lay = Deflated::new(N, P::SECONDARY, cfg.delay as usize);
+    check_cfg::<N>(cfg)?;
+    check_dt(cfg.dt)?;
+    let dropped = deflates(plant, cfg, order)?.then_some(P::SECONDARY);
+    let flow = flow_expansion_dropping(plant, cfg.dt, order, opts, dropped)?;
+    let lay = Layout::new(N, dropped, cfg.delay as usize, cfg);
     let dim = lay.dim;
     let m = flow.nvar();
-    let g = lay.law(cfg, P::PRIMARY);
+    let g = lay.law(cfg);
     let mut proj = DMatrix::<f64>::zeros(m, dim);
     for (k, &i) in flow.state_of_var.iter().enumerate() {
-        proj[(k, lay.plant(i))] = 1.0;
+        if let Some(c) = lay.plant(i) {
+            proj[(k, c)] = 1.0;
+        }
     }
     for (j, gj) in g.iter().enumerate() {
         proj[(m - 1, j)] = *gj;
@@ -408,48 +516,47 @@ pub fn period_map<P: Plant<N>, const N: usize>(
     };
     let mut linear = DMatrix::<f64>::zeros(dim, dim);
     let mut coef = vec![vec![0.0; exps.len()]; dim];
-    let s = P::SECONDARY;
     for &i in &flow.state_of_var {
-        let row = lay.plant(i);
+        let Some(row) = lay.plant(i) else { continue };
         for (j, v) in lin_row(i).into_iter().enumerate() {
             linear[(row, j)] = v;
         }
         coef[row].copy_from_slice(&flow.outputs[i][nl_range.clone()]);
     }
-    // Shift registers of the primary angle.
-    linear[(lay.y_start, lay.plant(P::PRIMARY))] = 1.0;
-    for k in 1..=lay.delay {
-        linear[(lay.y_start + k, lay.y_start + k - 1)] = 1.0;
+    let dphi = dropped.map(lin_row);
+    for (j, &i) in lay.measured.iter().enumerate() {
+        match (lay.plant(i), dropped, &dphi) {
+            // Shift registers: the new q_j,{i+1-1} is the current state.
+            (Some(c), _, _) => {
+                linear[(lay.reg(j, 0), c)] = 1.0;
+                for k in 1..=lay.delay {
+                    linear[(lay.reg(j, k), lay.reg(j, k - 1))] = 1.0;
+                }
+            }
+            // The dropped secondary's registers: w'_0 = -dphi, w'_k = w_{k-1} - dphi.
+            (None, Some(s), Some(dphi)) => {
+                for k in 0..=lay.delay {
+                    let row = lay.reg(j, k);
+                    for (c, v) in dphi.iter().enumerate() {
+                        linear[(row, c)] = -v;
+                    }
+                    if k > 0 {
+                        linear[(row, row - 1)] += 1.0;
+                    }
+                    for (c, d) in coef[row].iter_mut().zip(&flow.outputs[s][nl_range.clone()]) {
+                        *c = -d;
+                    }
+                }
+            }
+            _ => {}
+        }
     }
-    // w'_0 = -dphi, w'_k = w_{k-1} - dphi.
-    let dphi = lin_row(s);
-    for k in 0..=lay.delay {
-        let row = lay.w_start + k;
-        for (j, v) in dphi.iter().enumerate() {
-            linear[(row, j)] = -v;
-        }
-        if k > 0 {
-            linear[(row, row - 1)] += 1.0;
-        }
-        for (c, d) in coef[row].iter_mut().zip(&flow.outputs[s][nl_range.clone()]) {
-            *c = -d;
-        }
+    let mut names: Vec<String> = (0..N).filter(|&i| Some(i) != dropped).map(|i| format!("x{i}")).collect();
+    for j in 0..lay.measured.len() {
+        names.extend((0..=lay.delay).map(|k| lay.reg_name(j, k)));
     }
-    let mut names: Vec<String> = (0..N).filter(|&i| i != s).map(|i| format!("x{i}")).collect();
-    names.extend((0..=lay.delay).map(|k| format!("y[i-{}]", k + 1)));
-    names.extend((0..=lay.delay).map(|k| format!("z[i-{}]-x{s}", k + 1)));
-    Ok(PeriodMap {
-        dt: cfg.dt,
-        order,
-        names,
-        linear,
-        proj,
-        exps,
-        coef,
-        primary: lay.plant(P::PRIMARY),
-        flow,
-        cfg: *cfg,
-    })
+    let primary = lay.plant(P::PRIMARY).ok_or(TaylorError::Dimension { got: 0, want: N })?;
+    Ok(PeriodMap { dt: cfg.dt, order, names, linear, proj, exps, coef, primary, flow, cfg: *cfg })
 }
 
 impl PeriodMap {
@@ -502,27 +609,34 @@ impl PeriodMap {
         if s.len() != dim {
             return Err(TaylorError::Dimension { got: s.len(), want: dim });
         }
-        let lay = Deflated::new(N, P::SECONDARY, self.cfg.delay as usize);
-        let g = lay.law(&self.cfg, P::PRIMARY);
+        let dropped = self.flow.secondary;
+        let lay = Layout::new(N, dropped, self.cfg.delay as usize, &self.cfg);
+        let g = lay.law(&self.cfg);
         let u: f64 = g.iter().zip(s).map(|(a, b)| a * b).sum();
         let mut x = [0.0; N];
-        for i in (0..N).filter(|&i| i != P::SECONDARY) {
-            x[i] = s[lay.plant(i)];
+        for (i, xi) in x.iter_mut().enumerate() {
+            if let Some(c) = lay.plant(i) {
+                *xi = s[c];
+            }
         }
         let mut integ = Integrator::<N>::new(method)?;
         integ.advance(plant, &mut x, u, self.dt)?;
         let mut out = vec![0.0; dim];
-        for i in (0..N).filter(|&i| i != P::SECONDARY) {
-            out[lay.plant(i)] = x[i];
+        for (i, xi) in x.iter().enumerate() {
+            if let Some(c) = lay.plant(i) {
+                out[c] = *xi;
+            }
         }
-        out[lay.y_start] = s[lay.plant(P::PRIMARY)];
-        for k in 1..=lay.delay {
-            out[lay.y_start + k] = s[lay.y_start + k - 1];
-        }
-        let dphi = x[P::SECONDARY];
-        out[lay.w_start] = -dphi;
-        for k in 1..=lay.delay {
-            out[lay.w_start + k] = s[lay.w_start + k - 1] - dphi;
+        for (j, &i) in lay.measured.iter().enumerate() {
+            match lay.plant(i) {
+                Some(c) => out[lay.reg(j, 0)] = s[c],
+                // The dropped secondary (cyclic, started at 0): its increment is x[i].
+                None => out[lay.reg(j, 0)] = -x[i],
+            }
+            for k in 1..=lay.delay {
+                let prev = s[lay.reg(j, k - 1)];
+                out[lay.reg(j, k)] = if lay.plant(i).is_some() { prev } else { prev - x[i] };
+            }
         }
         Ok(out)
     }

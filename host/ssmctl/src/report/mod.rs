@@ -184,6 +184,7 @@ pub mod cache;
 pub mod chaos;
 pub mod global;
 pub mod normal_form;
+pub mod own_plant;
 pub mod reproduce;
 pub mod sloshing;
 pub mod tasks;

@@ -50,6 +50,15 @@ pub fn run(
     t.unit(&cache, &mut rep, sim_unit("scenes", false), |rep| scenes_section(rep, quick, quiet))?;
     t.unit(&cache, &mut rep, sim_unit("stability", false), stability_section)?;
     t.unit(&cache, &mut rep, sim_unit("chart", false), |rep| chart_section(rep, quick))?;
+    let own = Unit {
+        name: "own-plant",
+        crates: &["sim", "furuta"],
+        files: &["own_plant.rs"],
+        inputs: Vec::new(),
+        reads: &[],
+        timed: false,
+    };
+    t.unit(&cache, &mut rep, own, |rep| crate::report::own_plant::section(rep, quick))?;
     t.unit(&cache, &mut rep, sim_unit("accuracy-time-sim", true), |rep| bench_section(rep, quick, quiet))?;
     let sloshing = Unit {
         name: "fit-sloshing",
