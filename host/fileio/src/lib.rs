@@ -70,13 +70,18 @@ impl From<OutputError> for io::Error {
     }
 }
 
-/// An I/O error in words, without the trailing `(os error N)`.
+/// An I/O error in words: without `(os error N)` and without the ` at path P` the `tempfile`
+/// crate appends (P is an internal temporary name; the error names the output instead).
 pub fn words(e: &io::Error) -> String {
-    let s = e.to_string();
-    match s.rfind(" (os error ").and_then(|i| s.get(..i)) {
-        Some(head) if s.ends_with(')') => head.to_string(),
-        _ => s,
+    let mut s = e.to_string();
+    if let Some(i) = s.find(" at path ") {
+        s.truncate(i);
     }
+    while let Some(i) = s.find(" (os error ") {
+        let Some(j) = s.get(i..).and_then(|t| t.find(')')) else { break };
+        s.replace_range(i..i + j + 1, "");
+    }
+    s
 }
 
 fn io_err<'a>(action: &'static str, path: &'a Path) -> impl FnOnce(io::Error) -> OutputError + 'a {

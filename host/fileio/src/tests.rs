@@ -255,4 +255,15 @@ fn an_output_folder_must_be_a_folder() {
 fn io_errors_are_in_words() {
     let e = io::Error::from_raw_os_error(17);
     assert_eq!(words(&e), "File exists");
+    // A single output file in a folder that does not exist, inside a transaction (the
+    // staging folder's error came as "No such file or directory (os error 2) at path
+    // DIR/.ssmctl-stage-...").
+    let d = dir("missing");
+    let target = d.join("no-such-folder").join("m.bin");
+    let t = Outputs::begin(&[target.as_path()], &[]);
+    let e = AtomicFile::create(&target).err().unwrap().to_string();
+    assert!(e.contains("no-such-folder") && e.contains("No such file or directory"), "{e}");
+    assert!(!e.contains("os error") && !e.contains("at path") && !e.contains(STAGE_PREFIX), "{e}");
+    drop(t);
+    std::fs::remove_dir_all(&d).unwrap();
 }

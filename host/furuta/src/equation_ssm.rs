@@ -106,7 +106,42 @@ fn expand<P: Plant<N>, const N: usize>(
 /// no Taylor expansion / are inactive near the equilibrium), expanded to `order`.
 pub fn scene_period_map(scene: &Scene, order: u32, opts: &FlowOptions) -> Result<PeriodMap, Error> {
     let pm = sim::with_plant!(build_plant(scene)?, p => expand(&p, scene, order, opts));
-    pm.map_err(|e| Error::from(sim::Error::from(e)))
+    pm.map_err(|e| match e {
+        // The sampling period sets the expansion's work (the RK4 steps over one period).
+        TaylorError::TooManySteps { .. } | TaylorError::BadDt(_) => {
+            Error::SceneKey { scene: scene.name.clone(), key: "controller.dt_ms", why: e.to_string() }
+        }
+        TaylorError::Linear(l) if l.scene_key().is_some() => {
+            Error::SceneKey { scene: scene.name.clone(), key: l.scene_key().unwrap_or_default(), why: l.to_string() }
+        }
+        e => Error::from(sim::Error::from(e)),
+    })
+}
+
+/// Refuses, before any expansion, a scene whose loop has no 4D SSM of two oscillating modes:
+/// one of its two dominant non-structural multipliers is real (the sampling period, at these
+/// gains, has turned a mode into a real one, e.g. at 300 ms), which `ssm::map_ssm` would find
+/// only after the period map's expansion, the costliest step.
+fn check_master_pairs(scene: &Scene) -> Result<(), Error> {
+    let pairs = dominant_pairs(scene)?;
+    let real = pairs.iter().take(2).find(|m| m.im == 0.0);
+    if pairs.len() < 2 || real.is_some() {
+        let why = match real {
+            Some(m) => format!(
+                "at {} ms the loop's dominant multipliers are not two complex pairs (multiplier {:.6e} is real, \
+                 |mu| = {:.4}): the period map has no SSM of two oscillating modes to expand, so the expansion is \
+                 not started; use a sampling period where both dominant modes oscillate",
+                scene.controller.dt_ms, m.re, m.abs
+            ),
+            None => format!(
+                "at {} ms the loop has {} oscillating multiplier pairs, the SSM needs two",
+                scene.controller.dt_ms,
+                pairs.len()
+            ),
+        };
+        return Err(Error::SceneKey { scene: scene.name.clone(), key: "controller.dt_ms", why });
+    }
+    Ok(())
 }
 
 fn check_order(order: u32) -> Result<(), Error> {
@@ -127,6 +162,7 @@ fn scene_map_ssm(
     amplitude: Amplitude,
 ) -> Result<(Arc<PeriodMap>, PolynomialMap, MapSsm, f64, f64), Error> {
     check_order(order)?;
+    check_master_pairs(scene)?;
     let t0 = Instant::now();
     let pairs = master_pairs(scene)?.len();
     let pm = Arc::new(scene_period_map(scene, order, &FlowOptions::default())?);

@@ -25,6 +25,9 @@ pub enum Error {
     Escaped { dt_ms: f64, ic: [f64; 4], why: String },
     #[error("dt = {dt_ms} ms: the run escaped ({why}); a torus needs a bounded run")]
     TorusEscaped { dt_ms: f64, why: String },
+    /// A value of the scene that the computation cannot use, under its key.
+    #[error("scene {scene}: `{key}`: {why}")]
+    SceneKey { scene: String, key: &'static str, why: String },
     #[error("dt = {dt_ms} ms: expected two oscillatory multiplier pairs, got {got}")]
     Multipliers { dt_ms: f64, got: usize },
     #[error("Benettin's method here needs a discrete map; these reduced dynamics are a continuous flow")]

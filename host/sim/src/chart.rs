@@ -40,6 +40,8 @@ pub enum ChartError {
     TooManyPanels(usize),
     #[error("sampling period {0} s must be finite and > 0")]
     BadPeriod(f64),
+    #[error("panel at dt = {dt:e} s: {source}")]
+    Period { dt: f64, source: LinearError },
 }
 
 /// Most panels (sampling periods) of one chart: each is a figure panel and a full grid.
@@ -290,7 +292,7 @@ pub fn assemble_panel_with(
             reason: format!("{} points given for a {} x {} grid", points.len(), kp.n, kd.n),
         });
     }
-    let zoh = plant.discretize(dt)?;
+    let zoh = plant.discretize(dt).map_err(|source| ChartError::Period { dt, source })?;
     let (radius, unstable_kind): (Vec<f64>, Vec<Option<Crossing>>) = points.iter().copied().unzip();
     let (base_radius, _) = classify(&zoh, &ControllerConfig { dt, ..*base })?;
     let curves = d_curves(&zoh, base, kp, kd, set)?;
@@ -306,7 +308,7 @@ fn compute_panel(
     kd: Axis,
     set: SetGains<'_>,
 ) -> Result<Panel, ChartError> {
-    let zoh = plant.discretize(dt)?;
+    let zoh = plant.discretize(dt).map_err(|source| ChartError::Period { dt, source })?;
     let n = kp.n * kd.n;
     // Grid rows (one KD each) in parallel with the D-curves; every point is computed
     // alone, and the rows are put together in order, so the result is the serial one.

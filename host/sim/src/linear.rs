@@ -69,6 +69,14 @@ pub enum LinearError {
     SameIndex(usize),
     #[error("sampling period dt = {0} s must be finite and > 0")]
     BadDt(f64),
+    #[error(
+        "sampling period dt = {dt:e} s underflows: dt times the plant's rate scale {rate_scale:e} 1/s is {product:e}, \
+         below the spacing of double precision near 1 ({eps:e}), so one period does not move the state (its map \
+         rounds to the identity)",
+        product = .dt * .rate_scale,
+        eps = f64::EPSILON
+    )]
+    StepUnderflow { dt: f64, rate_scale: f64 },
     #[error("controller gain {name} = {value} is not finite")]
     BadGain { name: &'static str, value: f64 },
     #[error("delay r = {0} samples exceeds the supported maximum {MAX_DELAY}")]
@@ -108,6 +116,23 @@ pub enum LinearError {
          magnitude {residual:e} (expected rounding level)"
     )]
     Deflation { col: usize, residual: f64 },
+}
+
+impl LinearError {
+    /// The scene key an error is caused by, when it is one: a sampling period that is not
+    /// positive, underflows, or makes the discretization or the rates meaningless is
+    /// `controller.dt_ms`'s; a delay beyond the maximum is `controller.delay`'s.
+    pub fn scene_key(&self) -> Option<&'static str> {
+        match self {
+            LinearError::BadDt(_)
+            | LinearError::StepUnderflow { .. }
+            | LinearError::Exponential { .. }
+            | LinearError::ExponentTooLarge { .. }
+            | LinearError::RatesInaccurate { .. } => Some("controller.dt_ms"),
+            LinearError::DelayTooLarge(_) => Some("controller.delay"),
+            _ => None,
+        }
+    }
 }
 
 /// One closed-loop multiplier `mu` (eigenvalue of the one-period map).
@@ -227,6 +252,11 @@ impl LinearPlant {
         if !(dt.is_finite() && dt > 0.0) {
             return Err(LinearError::BadDt(dt));
         }
+        // A step too short to move the state on the f64 grid: `Phi = I` to rounding.
+        let rate_scale = one_norm(&self.a).max(1.0);
+        if !(dt * rate_scale >= f64::EPSILON) {
+            return Err(LinearError::StepUnderflow { dt, rate_scale });
+        }
         let n = self.dim();
         let mut aug = DMatrix::<f64>::zeros(n + 1, n + 1);
         aug.view_mut((0, 0), (n, n)).copy_from(&(&self.a * dt));
@@ -243,7 +273,7 @@ impl LinearPlant {
             primary: self.primary,
             secondary: self.secondary,
             secondary_coupling: self.secondary_coupling(),
-            rate_scale: one_norm(&self.a).max(1.0),
+            rate_scale,
         })
     }
 

@@ -20,12 +20,17 @@ use std::time::Instant;
 pub enum StabilityError {
     #[error(transparent)]
     Sim(#[from] SimError),
-    #[error("scene {scene}: {source}")]
+    #[error("scene {scene}: {}{source}", key_prefix(.source))]
     Linear { scene: String, source: LinearError },
     #[error("scene {scene}: chart: {source}")]
     Chart { scene: String, source: ChartError },
     #[error("at {axis} = {value}: {source}")]
     AtPoint { axis: String, value: f64, source: Box<StabilityError> },
+}
+
+/// "`KEY`: " for an error caused by one scene key (see [`LinearError::scene_key`]).
+fn key_prefix(e: &LinearError) -> String {
+    e.scene_key().map(|k| format!("`{k}`: ")).unwrap_or_default()
 }
 
 fn lin<P: Plant<N>, const N: usize>(p: &P) -> Result<LinearPlant, LinearError> {

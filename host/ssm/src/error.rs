@@ -22,7 +22,10 @@ pub enum FitError {
     Underdetermined { what: &'static str, rows: usize, cols: usize },
     #[error("{what}: design matrix or data contains non-finite values")]
     NonFinite { what: &'static str },
-    #[error("{what}: the singular value decomposition did not converge")]
+    #[error(
+        "{what}: the singular value decomposition did not converge (the data are degenerate or too badly scaled for \
+         double precision)"
+    )]
     Svd { what: &'static str },
     #[error("eigenvalue decomposition of the {what} did not converge")]
     Eigen { what: &'static str },

@@ -189,6 +189,18 @@ pub enum StopReason {
     LeftRange { coord: usize, value: f64, limit: f64 },
 }
 
+impl std::fmt::Display for StopReason {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            StopReason::NonFinite => write!(f, "a reduced coordinate became non-finite"),
+            StopReason::LeftRange { coord, value, limit } => write!(
+                f,
+                "reduced coordinate {coord} reached {value:.6e}, beyond {limit:.6e} (the blow-up limit from its training range)"
+            ),
+        }
+    }
+}
+
 /// Where and why a prediction stopped.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Stop {

@@ -276,6 +276,9 @@ fn blow_up_is_detected_and_truncated() {
     let pred = model.predict(&test).unwrap();
     let stop = pred.stop.clone().expect("must stop");
     assert!(matches!(stop.reason, StopReason::LeftRange { .. }), "{stop:?}");
+    // Shown to users in words (the CLI printed the Debug text `LeftRange { coord: 0, ... }`).
+    let words = stop.reason.to_string();
+    assert!(words.starts_with("reduced coordinate ") && words.contains(" reached ") && !words.contains('{'), "{words}");
     // Training amplitude reaches ~0.15 e^2 ~ 1.1; x10 = 11 is reached from 0.1 at t = ln(110) / 0.2 ~ 23.5 s.
     assert!(stop.t > 18.0 && stop.t < 28.0, "{stop:?}");
     assert_eq!(pred.x.len(), stop.index);

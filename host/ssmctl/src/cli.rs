@@ -879,9 +879,8 @@ fn run_command(cli: Cli) -> Result<(), Box<dyn std::error::Error>> {
             if let Some(pb) = pb {
                 pb.finish_and_clear();
             }
-            let scene_file = std::path::Path::new(&scene.scene);
-            let csv = crate::output::write_scene_outputs(&s, &tr, &out, &[("--scene", scene_file)])
-                .map_err(|e| -> Box<dyn std::error::Error> { e })?;
+            let csv =
+                crate::output::write_scene_outputs(&s, &tr, &out).map_err(|e| -> Box<dyn std::error::Error> { e })?;
             eprintln!(
                 "{}: {} periods in {:.3} s ({}){}; wrote {}",
                 s.name,

@@ -446,7 +446,16 @@ pub fn run_fit(r: &FitRequest) -> Result<FitResult, Box<dyn std::error::Error>> 
         None => None,
     };
     let t0 = Instant::now();
-    let model = fit_multi(&train, &opts)?;
+    let model = fit_multi(&train, &opts).map_err(|e| -> Box<dyn Error> {
+        match e {
+            // The decomposition is of all training data at once: name them.
+            ssm::FitError::Svd { .. } => {
+                let names: Vec<&str> = train.iter().map(|t| t.name.as_str()).collect();
+                format!("{}: {e}", names.join(", ")).into()
+            }
+            e => e.into(),
+        }
+    })?;
     let fit_seconds = t0.elapsed().as_secs_f64();
     let mut stopped = Vec::new();
     let mut score = |set: &[MultiSeries], dtw: bool| -> Result<(Vec<f64>, Vec<f64>), Box<dyn std::error::Error>> {
@@ -454,7 +463,7 @@ pub fn run_fit(r: &FitRequest) -> Result<FitResult, Box<dyn std::error::Error>> 
         for ts in set {
             let p = model.predict_multi(ts)?;
             if let Some(s) = &p.stop {
-                stopped.push(format!("{}: stopped at t = {} s: {:?}", ts.name, s.t, s.reason));
+                stopped.push(format!("{}: stopped at t = {} s: {}", ts.name, s.t, s.reason));
             }
             // A stopped prediction's NMTE is infinite by convention (reported in `stopped`);
             // any other non-finite metric is a number that cannot be trusted: an error.

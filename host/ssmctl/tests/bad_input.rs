@@ -361,11 +361,56 @@ fn untrustworthy_numbers_and_headerless_data_are_errors() {
         &["stability", "--scene", "furuta-dt25", "--set", "controller.kp=1e200"],
         &["controller gain kp = 1e200", "refusing"],
     );
+    // A sampling period too short to move the state on the f64 grid, and one whose rates
+    // rounding swamps: both under the key that caused them, for every command computing
+    // multipliers (the equation-driven SSM said "multiplier ... is real").
+    for args in [&["stability"][..], &["ssm-equations", "--order", "3"]] {
+        let mut a = args.to_vec();
+        a.extend(["--scene", "furuta-dt25", "--set", "controller.dt_ms=1e-300"]);
+        refused(&a, &["`controller.dt_ms`", "underflows", "one period does not move the state"]);
+    }
     refused(
-        &["stability", "--scene", "furuta-dt25", "--set", "controller.dt_ms=1e-300"],
-        &["sampling period dt = 1", "e-303 s: the rates ln|mu|/dt are only known", "refusing"],
+        &["stability", "--scene", "furuta-dt25", "--set", "controller.dt_ms=1e-12"],
+        &["`controller.dt_ms`", "the rates ln|mu|/dt are only known", "refusing"],
     );
     let dir = tmp("numbers");
+    let png = dir.join("chart.png");
+    refused(
+        &[
+            "stability-chart",
+            "--scene",
+            "furuta-dt25",
+            "--out",
+            s(&png),
+            "--dt-ms",
+            "25,1e-300",
+            "--kp",
+            "0:40:3",
+            "--kd",
+            "0:8:3",
+        ],
+        &["--dt-ms 1e-300", "underflows"],
+    );
+    assert!(!png.exists(), "a chart was written");
+    // At 300 ms a dominant multiplier is real: refused before the period map's expansion
+    // (which took tens of seconds at order 9 before failing without naming the key).
+    refused(
+        &["ssm-equations", "--scene", "furuta-dt25", "--set", "controller.dt_ms=300", "--order", "9"],
+        &["`controller.dt_ms`", "not two complex pairs", "is real", "not started"],
+    );
+    // A .mat observable beyond the magnitude bound (the SVD did not converge, naming
+    // nothing): refused naming the file, the variable's row and the observable.
+    let mut mat =
+        std::fs::read(Path::new(env!("CARGO_MANIFEST_DIR")).join("../ssm/tests/data/duffing_plain.mat")).unwrap();
+    let at = 14864;
+    assert_eq!(f64::from_le_bytes(mat[at..at + 8].try_into().unwrap()), -1.6164652032898954, "bundled file changed");
+    mat[at..at + 8].copy_from_slice(&(-4.8e197f64).to_le_bytes());
+    let big = dir.join("big.mat");
+    std::fs::write(&big, &mat).unwrap();
+    refused(
+        &["fit", "--mat", s(&big), "--dim", "2", "--embed", "2"],
+        &["big.mat xData{", "observable 2", "the largest |x| is 4.8e197", "rescale the data"],
+    );
     // Data scaled by 1e-300 (squares subnormal: the fit loses its digits and the NMTE was
     // `inf` with exit 0) are refused, naming the file and the magnitude.
     let t: Vec<f64> = (0..600).map(|i| f64::from(i) * 0.02).collect();

@@ -172,6 +172,22 @@ fn a_command_never_overwrites_its_input() {
     assert!(!ok && err.contains("--mat"), "{err}");
     assert_eq!(std::fs::read(&copy).unwrap(), std::fs::read(&mat).unwrap());
     assert_eq!(std::fs::read(&model).unwrap(), before);
+    // simulate's scene file at either of the run's two output paths: the command's
+    // transaction refuses it (there is no second check in the writer), and the other file
+    // of the pair does not appear.
+    let scene = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../scenes/furuta-dt31.toml");
+    let text = std::fs::read(&scene).unwrap();
+    for (own, other) in [("furuta-dt31.csv", "furuta-dt31.json"), ("furuta-dt31.json", "furuta-dt31.csv")] {
+        let out = root.join(format!("sim-{own}"));
+        std::fs::create_dir_all(&out).unwrap();
+        let input = out.join(own);
+        std::fs::write(&input, &text).unwrap();
+        let (ok, _, err) = ssmctl(&["simulate", "--scene", s(&input), "--set", "run.periods=5", "--out", s(&out)]);
+        assert!(!ok && err.contains("this command's input") && err.contains("--scene") && err.contains(own), "{err}");
+        assert_eq!(std::fs::read(&input).unwrap(), text, "{own} overwritten");
+        assert!(!out.join(other).exists(), "{other} appeared without {own}");
+        assert_eq!(leftovers(&out), Vec::<String>::new());
+    }
     std::fs::remove_dir_all(&root).unwrap();
 }
 

@@ -182,6 +182,19 @@ fn the_issue_commands_are_refused_quickly() {
     let t0 = Instant::now();
     refused(&["sweep", s(&spec), "--out", s(&d.join("o"))], &["`axes[0]` (kp)", "n = 1000000000", "100000000 cells"]);
     assert!(t0.elapsed() < Duration::from_secs(20), "took {:?}", t0.elapsed());
+    // A chart sweep of 1000 sampling periods: 1000 figure panels, past the chart's limit
+    // (it was computed and accepted); refused naming the axis, like `stability-chart --dt-ms`.
+    let panels = d.join("panels.toml");
+    let dts: Vec<String> = (0..1000).map(|i| format!("{}", 20.0 + 0.01 * f64::from(i))).collect();
+    std::fs::write(
+        &panels,
+        format!(
+            "name = \"panels\"\nkind = \"chart\"\nscene = \"furuta-dt25\"\n[[axes]]\nname = \"dt_ms\"\nvalues = [{}]\n[[axes]]\nname = \"kp\"\nlo = 0.0\nhi = 40.0\nn = 3\n[[axes]]\nname = \"kd\"\nlo = 0.0\nhi = 8.0\nn = 2\n",
+            dts.join(", ")
+        ),
+    )
+    .unwrap();
+    refused(&["sweep", s(&panels), "--out", s(&d.join("p"))], &["`axes[0]`", "`dt_ms` has 1000 values", "at most 64"]);
     // backbone --model out/backbone.json: a backbone result is not a model, said with its name.
     let out = d.join("out");
     std::fs::create_dir_all(&out).unwrap();
@@ -235,11 +248,12 @@ fn meaningless_numbers_are_refused_naming_their_key() {
     );
     let (_, err) = ssmctl(&["stability", "--scene", "furuta-quant-dt25", "--set", "effects.quantization.h_adc=1e-310"]);
     assert!(!err.contains("`controller.kp`"), "{err}");
-    // ssm-equations at a sampling period whose expansion needs unbounded work.
+    // ssm-equations at a sampling period whose expansion needs unbounded work: refused by
+    // the loop's linear analysis, before the expansion, under the key.
     let t0 = Instant::now();
     refused(
         &["ssm-equations", "--scene", "furuta-dt25", "--set", "controller.dt_ms=100000", "--order", "3"],
-        &["dt = 100 s", "more than 50000 RK4 steps"],
+        &["`controller.dt_ms`", "dt = 100 s", "cannot be trusted"],
     );
     assert!(t0.elapsed() < Duration::from_secs(30), "took {:?}", t0.elapsed());
     // CSV times whose step the time axis cannot resolve.

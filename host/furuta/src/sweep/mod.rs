@@ -490,6 +490,19 @@ impl Sweep {
                 if spec.basin.is_some() {
                     return Err(bad(key("basin"), "a chart sweep runs no simulation"));
                 }
+                // One figure panel per sampling period, as `stability-chart --dt-ms`.
+                if let Some((i, g)) = axes.iter().enumerate().find(|(_, g)| g.name == AxisName::DtMs) {
+                    if g.values.len() > sim::chart::MAX_PANELS {
+                        return Err(bad(
+                            key(&format!("axes[{i}]")),
+                            format!(
+                                "`dt_ms` has {} values: a chart has one panel per sampling period, at most {}",
+                                g.values.len(),
+                                sim::chart::MAX_PANELS
+                            ),
+                        ));
+                    }
+                }
                 let missing = [AxisName::Kp, AxisName::Kd]
                     .into_iter()
                     .find(|a| !axes.iter().any(|g| g.name == *a && g.range.is_some()));

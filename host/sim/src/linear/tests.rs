@@ -428,10 +428,20 @@ fn untrustworthy_multipliers_are_refused_naming_the_cause() {
             assert!(e.to_string().starts_with(cause) && e.to_string().contains("refusing"), "{e}");
         }
     }
-    for dt in [1e-303, 1e-20, 1e-14] {
+    // A step that does not move the state on the f64 grid is refused at the discretization;
+    // a longer one whose rates the rounding swamps, at the multipliers. Both are the
+    // sampling period's error.
+    for dt in [1e-303, 1e-21] {
+        let e = p.closed_loop(&cfg(15.5, 5.45, dt)).unwrap_err();
+        assert!(matches!(e, LinearError::StepUnderflow { .. }), "dt {dt}: {e}");
+        assert!(e.to_string().contains(&format!("dt = {dt:e} s underflows")), "{e}");
+        assert_eq!(e.scene_key(), Some("controller.dt_ms"));
+    }
+    for dt in [1e-18, 1e-14] {
         let e = p.closed_loop(&cfg(15.5, 5.45, dt)).unwrap().multipliers().unwrap_err();
         assert!(matches!(e, LinearError::RatesInaccurate { .. }), "dt {dt}: {e}");
         assert!(e.to_string().contains(&format!("dt = {dt:e} s")), "{e}");
+        assert_eq!(e.scene_key(), Some("controller.dt_ms"));
     }
     // A period so long that e^(A dt) cannot be formed accurately: named by dt.
     let e = p.closed_loop(&cfg(15.5, 5.45, 1e5)).unwrap_err();

@@ -4,7 +4,8 @@
 //! same observables.
 //!
 //! Validation is that of [`TimeSeries`] applied to the shared time and to every observable:
-//! finite values, strictly increasing uniform time, no constant observable.
+//! finite values, strictly increasing uniform time, no constant observable, magnitudes in
+//! range.
 // Parses untrusted input: no indexing that can panic (CI runs clippy).
 #![cfg_attr(not(test), deny(clippy::indexing_slicing))]
 
@@ -12,7 +13,7 @@ use std::path::Path;
 
 use serde::{Deserialize, Serialize};
 
-use super::{DataError, TimeSeries, check_time};
+use super::{DataError, MAX_MAGNITUDE, MIN_MAGNITUDE, TimeSeries, check_time};
 use crate::mat::{MatFile, MatValue};
 
 /// A uniformly sampled trajectory of `q >= 1` observables.
@@ -111,6 +112,12 @@ impl MultiSeries {
         for (i, (obs, &x0)) in self.observables.iter().zip(&self.x).enumerate() {
             if self.x.iter().skip(i).step_by(q).all(|&v| v == x0) {
                 return Err(DataError::ConstantObservable { name: name.clone(), observable: obs.clone(), value: x0 });
+            }
+            // The bound of a single series, per observable: beyond it the SVD and the
+            // regressions square values into overflow (an SVD that does not converge).
+            let max_abs = self.x.iter().skip(i).step_by(q).fold(0.0f64, |m, v| m.max(v.abs()));
+            if !(MIN_MAGNITUDE..=MAX_MAGNITUDE).contains(&max_abs) {
+                return Err(DataError::Magnitude { name: format!("{name}: observable {obs}"), max_abs });
             }
         }
         Ok(())

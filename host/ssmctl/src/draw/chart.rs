@@ -176,6 +176,14 @@ pub enum ChartDrawError {
     Stability(#[from] StabilityError),
     #[error(transparent)]
     Plot(#[from] PlotError),
+    /// A panel's sampling period (`--dt-ms`) the discretization refuses.
+    #[error("--dt-ms {}: {source}", short(*.dt_ms))]
+    Period { dt_ms: f64, source: sim::linear::LinearError },
+}
+
+/// A number as typed, unless that would be a long string of zeros.
+fn short(v: f64) -> String {
+    if v == 0.0 || (1e-4..1e6).contains(&v.abs()) { v.to_string() } else { format!("{v:e}") }
 }
 
 fn summarize(out: &Path, chart: &Chart, compute_seconds: f64) -> Result<ChartSummary, PlotError> {
@@ -203,7 +211,13 @@ pub fn chart_for_scene(
     kp: (f64, f64, usize),
     kd: (f64, f64, usize),
 ) -> Result<ChartSummary, ChartDrawError> {
-    let (chart, seconds) = scene_chart(scene, dts_ms, kp, kd)?;
+    let (chart, seconds) = scene_chart(scene, dts_ms, kp, kd).map_err(|e| match e {
+        StabilityError::Chart { source: sim::chart::ChartError::Period { dt, source }, .. } => {
+            let dt_ms = dts_ms.iter().copied().find(|&ms| sim::units::ms_to_s(ms) == dt).unwrap_or(dt * 1e3);
+            ChartDrawError::Period { dt_ms, source }
+        }
+        e => ChartDrawError::Stability(e),
+    })?;
     Ok(summarize(out, &chart, seconds)?)
 }
 

@@ -511,7 +511,7 @@ fn scene_task(dir: &Path, name: &str, quick: bool) -> Result<Option<(Vec<String>
         return Ok(None);
     }
     let tr = closed_loop::simulate(&s, None)?;
-    crate::output::write_scene_outputs(&s, &tr, &dir.join("scenes"), &[])?;
+    crate::output::write_scene_outputs(&s, &tr, &dir.join("scenes"))?;
     let theta = tr.primary();
     let half = theta.len() / 2;
     let max_late = theta[half..].iter().fold(0.0_f64, |m, v| m.max(v.abs()));
