@@ -34,6 +34,11 @@ pub const TEST_OVER_DEV: &[(&str, &str)] = &[("CARGO_PROFILE_DEV_OPT_LEVEL", "2"
 pub fn venv() -> Result<PathBuf> {
     let venv = venv_dir();
     let py = venv.join("bin").join("python");
+    // A venv without pip is one whose creation was interrupted: make it again.
+    if py.exists() && output(cmd(&py).args(["-m", "pip", "--version"])).is_none() {
+        println!("python-test: {} has no pip (an interrupted creation); making it again", venv.display());
+        std::fs::remove_dir_all(&venv).map_err(|e| format!("removing the broken venv {}: {e}", venv.display()))?;
+    }
     if !py.exists() {
         run(cmd("python3").arg("-m").arg("venv").arg(&venv))
             .map_err(|e| format!("{e}: python3 with its venv module is needed for the Python module's tests (Debian: apt-get install python3-venv)"))?;
