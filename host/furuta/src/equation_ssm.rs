@@ -118,30 +118,25 @@ pub fn scene_period_map(scene: &Scene, order: u32, opts: &FlowOptions) -> Result
     })
 }
 
-/// Refuses, before any expansion, a scene whose loop has no 4D SSM of two oscillating modes:
-/// one of its two dominant non-structural multipliers is real (the sampling period, at these
-/// gains, has turned a mode into a real one, e.g. at 300 ms), which `ssm::map_ssm` would find
-/// only after the period map's expansion, the costliest step.
+/// Refuses, before any expansion, a scene whose loop has no SSM to expand: its largest
+/// non-structural multiplier is real (the sampling period, at these gains, has turned the
+/// dominant mode into a real one, e.g. the Furuta at 300 ms), which [`master_pairs`] would
+/// find only after the period map's expansion, the costliest step.
 fn check_master_pairs(scene: &Scene) -> Result<(), Error> {
     let pairs = dominant_pairs(scene)?;
-    let real = pairs.iter().take(2).find(|m| m.im == 0.0);
-    if pairs.len() < 2 || real.is_some() {
-        let why = match real {
-            Some(m) => format!(
-                "at {} ms the loop's dominant multipliers are not two complex pairs (multiplier {:.6e} is real, \
-                 |mu| = {:.4}): the period map has no SSM of two oscillating modes to expand, so the expansion is \
-                 not started; use a sampling period where both dominant modes oscillate",
-                scene.controller.dt_ms, m.re, m.abs
-            ),
-            None => format!(
-                "at {} ms the loop has {} oscillating multiplier pairs, the SSM needs two",
-                scene.controller.dt_ms,
-                pairs.len()
-            ),
-        };
-        return Err(Error::SceneKey { scene: scene.name.clone(), key: "controller.dt_ms", why });
-    }
-    Ok(())
+    let why = match pairs.first() {
+        Some(m) if m.im == 0.0 => format!(
+            "at {} ms the loop's dominant multiplier is not a complex pair (multiplier {:.6e} is real, |mu| = {:.4}): \
+             the period map has no SSM of an oscillating mode to expand, so the expansion is not started; use a \
+             sampling period or gains where the dominant mode oscillates",
+            scene.controller.dt_ms, m.re, m.abs
+        ),
+        None => {
+            format!("at {} ms the loop has no oscillating multiplier pair: no SSM to expand", scene.controller.dt_ms)
+        }
+        Some(_) => return Ok(()),
+    };
+    Err(Error::SceneKey { scene: scene.name.clone(), key: "controller.dt_ms", why })
 }
 
 fn check_order(order: u32) -> Result<(), Error> {

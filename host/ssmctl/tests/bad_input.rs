@@ -396,7 +396,7 @@ fn untrustworthy_numbers_and_headerless_data_are_errors() {
     // (which took tens of seconds at order 9 before failing without naming the key).
     refused(
         &["ssm-equations", "--scene", "furuta-dt25", "--set", "controller.dt_ms=300", "--order", "9"],
-        &["`controller.dt_ms`", "not two complex pairs", "is real", "not started"],
+        &["`controller.dt_ms`", "not a complex pair", "is real", "not started"],
     );
     // A .mat observable beyond the magnitude bound (the SVD did not converge, naming
     // nothing): refused naming the file, the variable's row and the observable.
