@@ -68,12 +68,16 @@ impl ShardFile {
         match (v.get("format").and_then(|f| f.as_str()), v.get("version").and_then(|f| f.as_u64())) {
             (Some(SHARD_FORMAT), Some(ver)) if ver == u64::from(super::FORMAT_VERSION) => {}
             (Some(SHARD_FORMAT), ver) => {
+                let ver = ver.map_or_else(|| "missing (or not a whole number)".to_string(), |v| v.to_string());
                 return Err(Error::Sweep(format!(
-                    "{label}: shard file version {ver:?}; this build reads version {}",
+                    "{label}: shard file version {ver}; this build reads version {}",
                     super::FORMAT_VERSION
                 )));
             }
-            (f, _) => return Err(Error::Sweep(format!("{label}: format {f:?} is not `{SHARD_FORMAT}`"))),
+            (f, _) => {
+                let f = f.map_or_else(|| "missing (or not a string)".to_string(), |f| format!("`{f}`"));
+                return Err(Error::Sweep(format!("{label}: format {f} is not `{SHARD_FORMAT}`")));
+            }
         }
         let f: ShardFile = serde_path_to_error::deserialize(v)
             .map_err(|e| Error::Sweep(format!("{label}: `{}`: {}", e.path(), e.inner())))?;

@@ -366,3 +366,19 @@ fn named_axes_are_checked_against_the_scene() {
     let e = err(&CARTPOLE.replace("scene = \"cartpole-pd\"", "scene = \"furuta-dt25\""));
     assert!(e.contains("axes[1]") && e.contains("`plant.params.NAME`"), "{e}");
 }
+
+/// A shard file without a version or format is refused in words, naming the file.
+#[test]
+fn shard_files_without_version_or_format_are_named_in_words() {
+    for (text, want) in [
+        (r#"{"format": "ssm-sweep-shard"}"#, "version missing"),
+        (r#"{"format": "ssm-sweep-shard", "version": "1"}"#, "version missing"),
+        (r#"{"format": "ssm-sweep-shard", "version": 99}"#, "version 99;"),
+        (r#"{"version": 1}"#, "format missing"),
+        (r#"{"format": "other", "version": 1}"#, "format `other` is not"),
+    ] {
+        let e = super::shard::ShardFile::parse("s.json", text).unwrap_err().to_string();
+        assert!(e.contains("s.json") && e.contains(want), "{text}: {e}");
+        assert!(!e.contains("Some(") && !e.contains("None"), "{text}: {e}");
+    }
+}
