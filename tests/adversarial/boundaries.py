@@ -422,7 +422,12 @@ for n in fns:
     f = getattr(ssm_ctl, n)
     check(f"{n}(object())", lambda: f(object()), "TypeError")
     check(f"{n}(complex array)", lambda: f(np.zeros((4, 4), complex)), "TypeError")
-    check(f"{n}(nan array)", lambda: f(np.full((4, 4), np.nan)), "ValueError")
+# A float array where a path, a blob or a Trajectory belongs is the wrong type (TypeError,
+# as above); a NaN value goes where arrays are taken, the trajectory's samples: ValueError.
+t4 = np.arange(4.0)
+check("Trajectory(t, nan array)", lambda: ssm_ctl.Trajectory(t4, np.full((4, 2), np.nan)), "ValueError")
+check("Trajectory(nan t, x)", lambda: ssm_ctl.Trajectory(np.full(4, np.nan), np.zeros((4, 2))), "ValueError")
+check("Trajectory(t, inf array)", lambda: ssm_ctl.Trajectory(t4, np.full((4, 2), np.inf)), "ValueError")
 print(json.dumps(out))
 '''
     for name, v in json.loads(subprocess.run([PY, "-c", probe], capture_output=True, text=True, timeout=300).stdout or "[]"):
