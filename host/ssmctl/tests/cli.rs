@@ -126,7 +126,21 @@ fn bench_json_rows_have_the_contract_keys() {
 #[test]
 fn reproduce_quick_writes_the_report() {
     let dir = tmp("rep");
-    let (ok, _, err) = ssmctl(&["reproduce", "--quick", "--jobs", "2", "--out", dir.to_str().unwrap()]);
+    // A cache of its own: every section is computed here, then replayed below.
+    let cache = tmp("rep-cache");
+    let run = |out: &std::path::Path| {
+        ssmctl(&[
+            "reproduce",
+            "--quick",
+            "--jobs",
+            "2",
+            "--out",
+            out.to_str().unwrap(),
+            "--cache",
+            cache.to_str().unwrap(),
+        ])
+    };
+    let (ok, _, err) = run(&dir);
     assert!(ok, "{err}");
     let html = std::fs::read_to_string(dir.join("index.html")).unwrap();
     assert!(html.contains("stability_chart.png") && html.contains("What accuracy costs in time"));
@@ -244,6 +258,24 @@ fn reproduce_quick_writes_the_report() {
         }
     }
     assert!(dir.join(b["figure"].as_str().unwrap()).metadata().unwrap().len() > 20_000);
+    // A second run replays every section from the cache: the same summary (timings aside)
+    // and the same figures.
+    let again = tmp("rep-again");
+    let (ok, _, err) = run(&again);
+    assert!(ok, "{err}");
+    let mut s2: Value = serde_json::from_str(&std::fs::read_to_string(again.join("summary.json")).unwrap()).unwrap();
+    let t2 = s2.as_object_mut().unwrap().remove("timings").unwrap();
+    let reused: Vec<bool> = t2["sections"].as_array().unwrap().iter().map(|x| x["reused"] == true).collect();
+    assert!(!reused.is_empty() && reused.iter().all(|r| *r), "{t2}");
+    let mut s1 = s.clone();
+    s1.as_object_mut().unwrap().remove("timings");
+    assert_eq!(s1, s2);
+    for f in ["fig/stability_chart.png", b["figure"].as_str().unwrap()] {
+        assert_eq!(std::fs::read(dir.join(f)).unwrap(), std::fs::read(again.join(f)).unwrap(), "{f}");
+    }
+    for d in [&dir, &again, &cache] {
+        let _ = std::fs::remove_dir_all(d);
+    }
 }
 
 #[test]
