@@ -158,7 +158,7 @@ fn render(rep: &mut Report, v: &Value) -> Result<(), Box<dyn Error>> {
 /// Writes the section: computes its values, renders its text from them and stores them in the
 /// summary as `own_plant`.
 pub fn section(rep: &mut Report, quick: bool) -> Result<(), Box<dyn Error>> {
-    let v = compute(&rep.dir().to_path_buf(), quick)?;
+    let v = compute(rep.dir(), quick)?;
     render(rep, &v)?;
     rep.summary.insert("own_plant".into(), v);
     Ok(())

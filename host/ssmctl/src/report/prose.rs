@@ -110,7 +110,7 @@ pub fn numbers_in(text: &str) -> Vec<String> {
         }
         let token = text[start..j].trim_end_matches('.');
         let unit = j < b.len() && b[j] == b'/' && b.get(j + 1).is_some_and(|c| c.is_ascii_alphabetic());
-        if !(j < b.len() && name(b[j])) && !unit {
+        if !(unit || j < b.len() && name(b[j])) {
             out.push(token.to_string());
         }
         i = j;
