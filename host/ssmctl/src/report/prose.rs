@@ -82,8 +82,8 @@ impl Prose {
 }
 
 /// The numbers written in `text`: runs of digits (with a decimal point, an exponent and a
-/// leading minus) that are not part of a name (`rho_1`, `x2`, `2D`, a monomial's `^3`) or a
-/// unit (`1/s`).
+/// leading minus) that are not part of a name (`rho_1`, `x2`, `2D`, a monomial's `^3`,
+/// `degree-1`) or a unit (`1/s`).
 pub fn numbers_in(text: &str) -> Vec<String> {
     let b = text.as_bytes();
     let name = |c: u8| c.is_ascii_alphabetic() || c == b'_';
@@ -91,6 +91,11 @@ pub fn numbers_in(text: &str) -> Vec<String> {
     let mut i = 0;
     while i < b.len() {
         if !b[i].is_ascii_digit() || (i > 0 && (name(b[i - 1]) || b[i - 1] == b'^' || b[i - 1].is_ascii_digit())) {
+            i += 1;
+            continue;
+        }
+        // A hyphen after a letter joins a word (`degree-1`), not a sign.
+        if i > 1 && b[i - 1] == b'-' && name(b[i - 2]) {
             i += 1;
             continue;
         }
@@ -156,8 +161,8 @@ mod tests {
 
     #[test]
     fn numbers_are_found_and_names_and_units_skipped() {
-        let t = "rho_1^3 at 0.05 rad, -3.2e-4 1/s, x2 and 2D, 17 x 17 grid; 1.5e3. (12 %) furuta-dt25";
-        assert_eq!(numbers_in(t), ["0.05", "-3.2e-4", "17", "17", "1.5e3", "12"]);
+        let t = "rho_1^3 at 0.05 rad, -3.2e-4 1/s, x2 and 2D, 17 x 17 grid; 1.5e3. (12 %) furuta-dt25, degree-1 (-2)";
+        assert_eq!(numbers_in(t), ["0.05", "-3.2e-4", "17", "17", "1.5e3", "12", "-2"]);
     }
 
     #[test]
