@@ -177,7 +177,7 @@ fn map_switch_part(
          the full system, then the map) for {DEFAULT_SCAN_PERIODS} periods, escape when |theta| exceeds {ESCAPE_THETA} rad, on \
          a grid of {n} values of dt over [{lo}, {hi}] ms, then bisected to {tol} ms. The polar normal form is a Taylor \
          series valid to about 0.1 rad, while the slow saddle cycle lies at 0.14-0.18 rad: the normal form loses that \
-         cycle and its bifurcations come late; the map keeps it (0.1-1.8 % from the full system's cycle)."
+         cycle and its bifurcations come late; the map keeps it."
     ));
     let bracket = |b: Option<(f64, f64)>| b.map_or("none".to_string(), |(a, b)| format!("[{a:.4}, {b:.4}]"));
     let full = rep.summary.get("heteroclinic_dt_ms").and_then(|h| h.get("full_system")).cloned().unwrap_or(Value::Null);

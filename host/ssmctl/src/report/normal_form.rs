@@ -114,7 +114,10 @@ mod tests {
             });
             let a = p.html("parametric/intro", INTRO, &setup).unwrap();
             let b = p.html("parametric/intro", INTRO, &perturbed(&setup)).unwrap();
-            assert!(a.contains("p = 9 of theta") && a.contains("~0.44 Hz") && a.contains("targets 1 % at training"), "{a}");
+            assert!(
+                a.contains("p = 9 of theta") && a.contains("~0.44 Hz") && a.contains("targets 1 % at training"),
+                "{a}"
+            );
             assert_eq!(unmoved(&a, &b).unwrap(), [], "{a}\n{b}");
         }
     }
