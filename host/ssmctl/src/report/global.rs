@@ -678,8 +678,8 @@ fn equation_section(
              spread (max - min over the sliding fit) over the last third of the run is above {} times that over the \
              middle third and above {} rad (a growing oscillation about the torus). Each run starts from the previous \
              one's last state with the controller's samples before it (an earlier version counted the last sample twice, a \
-             one-period shift of the delayed samples that kicked the slow amplitude by up to 0.036 rad and lost the \
-             torus at [31.60, 31.65] ms instead of [31.80, 31.85] ms). The growth onset is where the slow amplitude's \
+             one-period shift of the delayed samples that kicked the slow amplitude and lost the torus early). The \
+             growth onset is where the slow amplitude's \
              oscillation about the torus stops decaying: the zero of its growth rate ln(last spread / middle spread) / \
              (a third of the run), linear in dt between the last decaying and the first growing step.",
             nodes.iter().map(|d| d.to_string()).collect::<Vec<_>>().join(", "),
