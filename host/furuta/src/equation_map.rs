@@ -689,8 +689,8 @@ mod tests {
     }
 
     /// Golden values, order 5 on 5 nodes (spline): the graph-style map's saddle connection
-    /// by the fitted map's rule falls in the full system's bracket region ([31.328, 31.331] ms
-    /// in the full report) and its torus growth onset near the full system's 31.707 ms; the
+    /// by the fitted map's rule falls in the full system's bracket region (the full report's
+    /// bifurcation table) and its torus growth onset near the full system's; the
     /// normal-form-style map of the same SSM (phases averaged) connects more than 0.1 ms away
     /// (the normal form's truncation, not the map). The values are printed.
     #[test]
