@@ -90,7 +90,7 @@ struct MapVariant {
 }
 
 /// Range, grid and tolerance (ms) of the saddle-connection scans (map and full system).
-/// The full system's costs 1.6 s CPU per circle plus its runs at each of the 6 + 6 dt.
+/// The full system's scan is the costly part: its runs on every circle and at each of the 6 + 6 dt.
 pub const CONNECTION_RANGE_MS: (f64, f64, usize, f64) = (31.0, 32.0, 6, 0.005);
 
 fn settings(quick: bool) -> (Vec<f64>, Vec<u32>, Vec<f64>, u32, BasinOptions, Vec<f64>, u64) {
@@ -265,7 +265,7 @@ fn compute(
         use rayon::prelude::*;
         list.par_iter().map(|v| task(&format!("global/variant {}", v.0), || one(v))).collect()
     };
-    // The full system's connection (about 40 s CPU) in the full report only.
+    // The full system's connection (tens of CPU seconds) in the full report only.
     let full_conn = || {
         let t0 = std::time::Instant::now();
         let r = if quick {

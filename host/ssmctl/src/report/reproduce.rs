@@ -216,7 +216,7 @@ pub const MMAP_THRESHOLD_BYTES: usize = 1 << 20;
 /// so freed matrices and series leave the resident memory. glibc otherwise raises that
 /// threshold to the size of each large block freed (up to 32 MB), after which blocks of up to
 /// that size come from the heaps of its arenas (one per thread), where freed memory stays
-/// resident: in the quick report this kept about 75 MB resident that the program no longer
+/// resident: in the quick report this kept much memory resident that the program no longer
 /// held. Only where memory comes from changes, never a result. A no-op off glibc.
 fn fixed_mmap_threshold(bytes: usize) {
     #[cfg(all(target_os = "linux", target_env = "gnu"))]
