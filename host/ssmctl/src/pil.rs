@@ -167,6 +167,8 @@ pub struct PilOptions {
 pub struct PilSummary {
     pub scene: String,
     pub periods: u64,
+    /// Encoder counts per period (the controller's measured coordinates).
+    pub measured_coordinates: usize,
     pub codes_identical: bool,
     pub first_code_mismatch: Option<u64>,
     pub predictions_compared: u64,
@@ -199,6 +201,7 @@ impl PilSummary {
         PilSummary {
             scene,
             periods: 0,
+            measured_coordinates: 0,
             codes_identical: true,
             first_code_mismatch: None,
             predictions_compared: 0,
@@ -652,6 +655,7 @@ fn run_with<P: Plant<N>, const N: usize>(plant: &P, scene: &Scene, opts: &PilOpt
         ))
     );
     let mut s = PilSummary::initial(scene.name.clone(), scene.effects.noise.clone(), observable);
+    s.measured_coordinates = idx.len();
     let dt = cfg.dt;
     let t_start = Instant::now();
     let mut link_secs = 0.0f64;
