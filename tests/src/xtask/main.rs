@@ -19,6 +19,9 @@
 //!   Passes when every period ran, the device's codes equal the host's and its predictions
 //!   are bit-identical to the host's f32 predictor, and the whole run (counts, codes,
 //!   states) equals the host-only simulation of the scene with the same noise seed.
+//! - `pil-equations [--board mps2-an386|stm32f407]`: the PIL runs of the four equation scenes
+//!   that `test` makes (`pil_equations`); the STM32F407 image runs the models the mps2-an386
+//!   runs fitted.
 //! - `pil-record --out DIR [--runs N] [--periods P] [--scene NAME] [--seed S] [--fresh]`: records N
 //!   PIL runs of a noisy quantized scene (default `furuta-quant-dt25-noise`, 3 runs of
 //!   20,000 periods) as data sets `DIR/run{1..N}/theta.csv` (measured angle, format of the
@@ -171,11 +174,16 @@ fn main() -> ExitCode {
         Some("reproduce") => reproduce(&args[1..]),
         // An explicit `pil` always runs (it is a test of the device); reproduce may reuse.
         Some("pil") => pil_args(&args[1..]).and_then(|(scene, periods)| pil(&scene, periods, true)).map(|_| ()),
+        Some("pil-equations") => match (args.get(1).map(String::as_str), args.get(2)) {
+            (None, _) => pil_equations(Board::Mps2An386),
+            (Some("--board"), Some(b)) if args.len() == 3 => Board::parse(b).and_then(pil_equations),
+            _ => Err("pil-equations: expected no option or `--board mps2-an386|stm32f407`".into()),
+        },
         Some("pil-record") => record_args(&args[1..]).and_then(|r| pil_record(&r)).map(|_| ()),
         Some("compare-report") => compare_report::run(&args[1..]),
         Some("slurm-test") => slurm::slurm_test(None),
         Some("fuzz") => fuzz::fuzz(&args[1..]),
-        _ => Err("usage: cargo xtask <install | qemu-test [--board mps2-an386|stm32f407] | firmware-size | device-table [--json] | python-test | pil [--periods N] [--scene NAME] | pil-record --out DIR [--runs N] [--periods P] [--scene NAME] [--seed S] [--fresh] | test | reproduce --out DIR [--fresh] | compare-report BASE NEW | slurm-test | fuzz [--seconds N] [TARGET ...]>".into()),
+        _ => Err("usage: cargo xtask <install | qemu-test [--board mps2-an386|stm32f407] | firmware-size | device-table [--json] | python-test | pil [--periods N] [--scene NAME] | pil-equations [--board mps2-an386|stm32f407] | pil-record --out DIR [--runs N] [--periods P] [--scene NAME] [--seed S] [--fresh] | test | reproduce --out DIR [--fresh] | compare-report BASE NEW | slurm-test | fuzz [--seconds N] [TARGET ...]>".into()),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
