@@ -824,9 +824,9 @@ fn pil_equations(board: Board) -> Result<()> {
         };
         let (v, _) = ssmctl_pil(&tools, &run, true).map_err(|e| format!("{scene} on {}: {e}", board.pil_machine()))?;
         println!(
-            "pil: PASS on {} ({PIL_EQUATION_PERIODS} periods of {scene}, {} measured coordinates: codes identical to the host's controller and to the host-only simulation, {} predictions bit-identical; {})",
+            "pil: PASS on {} ({PIL_EQUATION_PERIODS} periods of {scene}, measured coordinates: {}; codes identical to the host's controller and to the host-only simulation, {} predictions bit-identical; {})",
             board.pil_machine(),
-            v["measured_coordinates"].as_u64().map_or("?".to_string(), |n| n.to_string()),
+            v["measured_coordinates"],
             v["predictions_compared"],
             out.display()
         );
