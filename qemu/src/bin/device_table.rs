@@ -138,6 +138,8 @@ fn bench_controllers() {
     bench_int_opaque("ctrl_int_rt_n1", &black_box(case(5)), inputs);
     bench_int_opaque("ctrl_int_rt_n3", &black_box(case(8)), inputs);
     bench_int_opaque("ctrl_int_rt_n4", &black_box(case(6)), inputs);
+    // The bundled Furuta scenes' law: the same two coordinates without integral action.
+    bench_int_opaque("ctrl_int_rt_pd", &black_box(case(0)), inputs);
 
     let (hy, hz) = match cfg.gains.as_slice() {
         [a, b] => (a.h_adc, b.h_adc),

@@ -489,6 +489,8 @@ fn device_table_json(t: &device_table::Table, s: &elf::Sizes) -> serde_json::Val
         "controller_step_instructions_int_by_coordinates": { "1": r1(t.ctrl_int_n1), "2": r1(t.ctrl_int), "3": r1(t.ctrl_int_n3), "4": r1(t.ctrl_int_n4) },
         // The same with the configuration opaque to the compiler (as decoded by the PIL firmware).
         "controller_step_instructions_int_runtime_config": { "1": r1(t.ctrl_int_rt[0]), "2": r1(t.ctrl_int_rt[1]), "3": r1(t.ctrl_int_rt[2]), "4": r1(t.ctrl_int_rt[3]) },
+        // The bundled Furuta scenes' PD law (no integral action), run-time configuration.
+        "controller_step_instructions_int_pd": r1(t.ctrl_int_rt_pd),
         "controller_step_instructions_float": r1(t.ctrl_f32),
         "controller_step_instructions_f64": r1(t.ctrl_f64),
         "predictor": t.predictor.iter().map(|r| serde_json::json!({
@@ -525,7 +527,7 @@ fn print_table(t: &device_table::Table, s: &elf::Sizes) {
         "device-table: instructions per call (QEMU -icount shift=7, SysTick; 1,000 nops measure {:.1})",
         t.calib_nops1000
     );
-    println!("  IntPd step            {:8.1}  (2 coordinates, the Furuta's configuration)", t.ctrl_int);
+    println!("  IntPd step            {:8.1}  (2 coordinates, the Furuta's gains with ki = 0.5)", t.ctrl_int);
     println!("  IntPd step            {:8.1}  (1 coordinate)", t.ctrl_int_n1);
     println!("  IntPd step            {:8.1}  (3 coordinates)", t.ctrl_int_n3);
     println!("  IntPd step            {:8.1}  (4 coordinates)", t.ctrl_int_n4);
@@ -533,6 +535,7 @@ fn print_table(t: &device_table::Table, s: &elf::Sizes) {
         "  IntPd step, run-time configuration: {:.1} / {:.1} / {:.1} / {:.1}  (1 / 2 / 3 / 4 coordinates)",
         t.ctrl_int_rt[0], t.ctrl_int_rt[1], t.ctrl_int_rt[2], t.ctrl_int_rt[3]
     );
+    println!("  IntPd step            {:8.1}  (PD on 2 coordinates, run-time configuration)", t.ctrl_int_rt_pd);
     println!("  FloatPd<f32> step     {:8.1}", t.ctrl_f32);
     println!("  FloatPd<f64> step     {:8.1}", t.ctrl_f64);
     println!("  predictor project     {:8.1}  (p = {}, d = {})", t.project, device_table::P, device_table::D);

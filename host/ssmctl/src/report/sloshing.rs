@@ -265,8 +265,12 @@ pub fn device_section(rep: &mut Report, table: &Path) -> Result<(), Box<dyn Erro
     };
     let v: Value = serde_json::from_str(&text).map_err(|e| format!("{}: {e}", table.display()))?;
     let g = |k: &str| v.get(k).and_then(Value::as_f64).map_or("-".to_string(), |x| format!("{x:.0}"));
+    let pd = v
+        .get("controller_step_instructions_int_pd")
+        .and_then(Value::as_f64)
+        .map_or(String::new(), |x| format!(" ({x:.0} for PD without integral action)"));
     rep.para(&format!(
-        "Controller step: integer {} instructions, f32 {} , f64 (software double) {}. Firmware flash {} B, static RAM {} B.",
+        "Controller step: integer {}{pd} instructions, f32 {} , f64 (software double) {}. Firmware flash {} B, static RAM {} B.",
         g("controller_step_instructions_int"),
         g("controller_step_instructions_float"),
         g("controller_step_instructions_f64"),
@@ -452,6 +456,7 @@ mod tests {
         let table = dir.join("device-table.json");
         let v = json!({
             "controller_step_instructions_int": 90.5,
+            "controller_step_instructions_int_pd": 72.8,
             "controller_step_instructions_int_by_coordinates": {"1": 60.0, "2": 90.5, "4": 150.3},
             "controller_step_instructions_int_runtime_config": {"1": 70.0, "2": 101.0},
             "predictor_f32_vs_f64": [
@@ -469,6 +474,7 @@ mod tests {
         let html = std::fs::read_to_string(dir.join("out/index.html")).unwrap();
         assert!(html.contains("<th>x f32</th>"), "no f32/f64 table");
         assert!(html.contains("<td>2</td><td>90.5</td><td>101.0</td>"), "{html}");
+        assert!(html.contains("(73 for PD without integral action)"), "{html}");
         assert!(html.contains("<td>4</td><td>150.3</td><td>-</td>"), "{html}");
         assert!(html.find("<td>1</td><td>60.0</td>") < html.find("<td>2</td><td>90.5</td>"), "{html}");
         assert!(html.contains("<td>f64</td><td>23456.5</td><td>469.13</td><td>19.0</td><td>2e-16</td>"), "{html}");
