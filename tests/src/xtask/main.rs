@@ -757,9 +757,10 @@ fn ssmctl_pil(tools: &PilTools, r: &PilRun<'_>, fresh: bool) -> Result<(serde_js
 }
 
 /// The bundled plants written as equations, with the encoders, DAC and saturation a device
-/// needs (`--set` overrides: the scenes themselves control exactly). Resolutions: a 4,000-count
-/// encoder on angles (pi/2000 rad), 0.1 mm on the cart, 1 um on the Duffing masses; DAC steps
-/// and ranges of the order of each loop's inputs.
+/// needs (`--set` overrides: the scenes themselves control exactly). Resolutions: pi/2000 rad
+/// (a 4,000-count encoder) on the cart-pole's and the pendulum's angles, the paper's pi/1000
+/// on the Furuta's, 0.1 mm on the cart, 1 um on the Duffing mass; DAC steps and ranges of the
+/// order of each loop's inputs.
 const PIL_EQUATION_SCENES: [(&str, &[&str]); 4] = [
     (
         "cartpole-pd",
