@@ -15,7 +15,7 @@ use serde::{Deserialize, Serialize};
 use ssm::TimeSeries;
 
 use crate::Error;
-use crate::flag_self::{STEP, candidate_from_name};
+use crate::flag_self::candidate_from_name;
 use crate::flag_study::FlagStudySpec;
 use crate::model_selection::{Candidate, CandidateResult, DataStats, EvalSettings, Selection, data_stats};
 use chaos::Context;
@@ -27,16 +27,57 @@ pub const KIND: &str = "selection";
 const FLAG_SPEC: &str = include_str!("../../../studies/flag.toml");
 
 /// The data: training files and the test file (under the data folder; absolute paths as
-/// they are), and the column of wider CSV files (the first column is the time).
+/// they are) and the column of wider CSV files (the first column is the time); or runs of a
+/// scene simulated here (`simulated`), whose last run is the test.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct SelectionData {
+    #[serde(default)]
     pub training: Vec<String>,
     /// The held-out series; `None`: the longest training series (nothing held out).
     #[serde(default)]
     pub test: Option<String>,
     #[serde(default)]
     pub column: Option<String>,
+    #[serde(default)]
+    pub simulated: Option<SimulatedRuns>,
+}
+
+/// Runs of a scene (bundled name or file) from `theta0` (rad, the other states 0) over
+/// `periods` control periods each, the first 20 s dropped; the observable is the scene's
+/// primary output. The last run is the test run, the others train.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SimulatedRuns {
+    pub scene: String,
+    pub periods: usize,
+    pub theta0: Vec<f64>,
+}
+
+/// The study's standard candidates at each map step of `steps`: the RBF map with `centers`
+/// centres and the polynomial map of order `poly_order`, both with relative ridge `ridge`,
+/// at the SSM dimension of the dimension rule on the test series (or `models.dim`) and the
+/// shift rule ([`crate::model_selection::standard_candidates`]).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct StandardCandidates {
+    pub steps: Vec<usize>,
+    pub centers: usize,
+    pub poly_order: u32,
+    pub ridge: f64,
+}
+
+impl StandardCandidates {
+    fn options(&self, gp_embed: usize, dim: Option<usize>) -> crate::microchaos::ChaosOptions {
+        crate::microchaos::ChaosOptions {
+            gp_embed,
+            ssm_dim: dim,
+            centers: self.centers,
+            poly_order: self.poly_order,
+            ridge: self.ridge,
+            ..Default::default()
+        }
+    }
 }
 
 /// The estimator settings ([`EvalSettings`]).
@@ -74,12 +115,16 @@ impl SelectionStatistics {
     }
 }
 
-/// The candidates by name ([`candidate_from_name`], map step [`STEP`]), in the order the
-/// pick breaks ties; `dim` sets the SSM dimension of every candidate (embedding `2 dim + 1`).
+/// The candidates: the standard ones first (if any), then those by name
+/// ([`candidate_from_name`], map step 4), in the order the pick breaks ties; `dim`
+/// sets the SSM dimension of every candidate (embedding `2 dim + 1` for the named ones).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct SelectionModels {
+    #[serde(default)]
     pub candidates: Vec<String>,
+    #[serde(default)]
+    pub standard: Option<StandardCandidates>,
     #[serde(default)]
     pub dim: Option<usize>,
 }
@@ -138,16 +183,44 @@ impl SelectionSpec {
         if self.kind != KIND {
             return Err(format!("kind = `{}`: expected `{KIND}` (or no kind for a flag study)", self.kind));
         }
-        if self.data.training.is_empty() {
-            return Err("data.training is empty".into());
+        match &self.data.simulated {
+            None if self.data.training.is_empty() => {
+                return Err("data.training is empty (and no data.simulated runs)".into());
+            }
+            None => {}
+            Some(_) if !self.data.training.is_empty() || self.data.test.is_some() || self.data.column.is_some() => {
+                return Err("data.simulated and data files (training, test, column): give one or the other".into());
+            }
+            Some(sim) => {
+                if sim.theta0.len() < 2 {
+                    return Err(format!(
+                        "data.simulated.theta0 has {} start(s): needs a training run and the test run",
+                        sim.theta0.len()
+                    ));
+                }
+                if let Some(t) = sim.theta0.iter().find(|t| !t.is_finite()) {
+                    return Err(format!("data.simulated.theta0: {t} is not a finite angle"));
+                }
+                if sim.periods == 0 {
+                    return Err("data.simulated.periods = 0".into());
+                }
+            }
         }
         if let Some(t) = &self.data.test {
             if self.data.training.contains(t) {
                 return Err(format!("data.test `{t}` is also a training file"));
             }
         }
-        if self.models.candidates.is_empty() {
-            return Err("models.candidates is empty".into());
+        if self.models.candidates.is_empty() && self.models.standard.is_none() {
+            return Err("models: no candidates and no standard candidates".into());
+        }
+        if let Some(st) = &self.models.standard {
+            if st.steps.is_empty() || st.steps.contains(&0) {
+                return Err(format!("models.standard.steps = {:?}: every map step must be >= 1 sample", st.steps));
+            }
+            st.options(self.statistics.gp_embed, self.models.dim)
+                .validate()
+                .map_err(|e| format!("models.standard: {e}"))?;
         }
         if self.models.dim == Some(0) {
             return Err("models.dim = 0: the SSM dimension must be >= 1".into());
@@ -172,7 +245,7 @@ impl SelectionSpec {
         Ok(())
     }
 
-    /// The candidates, in the spec's order, at the spec's dimension.
+    /// The named candidates, in the spec's order, at the spec's dimension.
     pub fn candidates(&self) -> Result<Vec<Candidate>, String> {
         self.candidate_names()
             .iter()
@@ -185,7 +258,7 @@ impl SelectionSpec {
         self.models.candidates.iter().map(|n| self.models.dim.map_or_else(|| n.clone(), |d| with_dim(n, d))).collect()
     }
 
-    /// The spec with its candidate list cut to its first `n`.
+    /// The spec with its named candidate list cut to its first `n`.
     pub fn limited(&self, n: usize) -> Self {
         let mut s = self.clone();
         s.models.candidates.truncate(n);
@@ -214,9 +287,9 @@ impl SelectionSpec {
         let spec = Self {
             kind: KIND.into(),
             name: "chaos".into(),
-            data: SelectionData { training, test, column },
+            data: SelectionData { training, test, column, simulated: None },
             statistics: SelectionStatistics::standard(),
-            models: SelectionModels { candidates, dim },
+            models: SelectionModels { candidates, standard: None, dim },
         };
         spec.check().map_err(|why| Error::BadInput { what: "chaos options", why })?;
         Ok(spec)
@@ -239,7 +312,8 @@ pub struct Prepared {
     pub train: Vec<TimeSeries>,
     pub test: TimeSeries,
     pub held_out: bool,
-    pub data: (DataStats, Context),
+    /// The test series' statistics at each map step of the candidates, ascending.
+    pub data: Vec<(DataStats, Context)>,
     pub candidates: Vec<Candidate>,
     pub settings: EvalSettings,
 }
@@ -249,13 +323,22 @@ fn load(path: &Path, column: Option<&str>) -> Result<TimeSeries, Error> {
         .map_err(|e| Error::BadInput { what: "study data", why: format!("{}: {e}", path.display()) })
 }
 
-/// Loads the spec's data under `data_dir` and measures the test series at the map step.
-pub fn prepare(spec: &SelectionSpec, data_dir: &Path) -> Result<Prepared, Error> {
+/// The spec's series: (training, test, whether the test is held out).
+fn load_series(spec: &SelectionSpec, data_dir: &Path) -> Result<(Vec<TimeSeries>, TimeSeries, bool), Error> {
+    if let Some(sim) = &spec.data.simulated {
+        let runs: Vec<(usize, f64)> = sim.theta0.iter().copied().enumerate().collect();
+        let mut series = crate::par_map(&runs, |&(i, th)| {
+            let scene = sim::scene::SceneBuilder::load(&sim.scene)?;
+            crate::microchaos::simulate_scene(scene, sim.periods, th, &format!("{} #{i}", sim.scene))
+        })?;
+        let test = series.pop().ok_or(Error::BadInput { what: "study spec", why: "no simulated run".into() })?;
+        return Ok((series, test, true));
+    }
     let col = spec.data.column.as_deref();
     let train: Vec<TimeSeries> =
         spec.training_paths(data_dir).iter().map(|p| load(p, col)).collect::<Result<_, _>>()?;
-    let (test, held_out) = match spec.test_path(data_dir) {
-        Some(p) => (load(&p, col)?, true),
+    Ok(match spec.test_path(data_dir) {
+        Some(p) => (train, load(&p, col)?, true),
         None => {
             // The longest training series, the first of equals.
             let mut best = 0;
@@ -264,12 +347,41 @@ pub fn prepare(spec: &SelectionSpec, data_dir: &Path) -> Result<Prepared, Error>
                     best = i;
                 }
             }
-            (train[best].clone(), false)
+            let test = train[best].clone();
+            (train, test, false)
         }
-    };
+    })
+}
+
+/// The SSM dimension of the standard candidates: `models.dim`, else the dimension rule on the
+/// correlation dimension of the test series (as the chaos analysis takes it).
+fn standard_dim(spec: &SelectionSpec, test: &TimeSeries) -> Result<usize, Error> {
+    if let Some(d) = spec.models.dim {
+        return Ok(d);
+    }
+    let dt =
+        test.dt().ok_or(Error::BadInput { what: "test series", why: format!("{}: no sampling step", test.name) })?;
+    let ctx = Context::from_series(&test.x, dt, spec.statistics.gp_embed)?;
+    let cd = ctx.corr_dim(&test.x)?;
+    Ok(chaos::dimension_rule(cd.dimension, cd.slope_std)?)
+}
+
+/// Loads (or simulates) the spec's data and measures the test series at each map step of
+/// the candidates.
+pub fn prepare(spec: &SelectionSpec, data_dir: &Path) -> Result<Prepared, Error> {
+    let (train, test, held_out) = load_series(spec, data_dir)?;
     let settings = spec.statistics.settings();
-    let data = data_stats(&test, STEP, &settings)?;
-    let candidates = spec.candidates().map_err(|why| Error::BadInput { what: "study spec", why })?;
+    let mut candidates = Vec::new();
+    if let Some(st) = &spec.models.standard {
+        let dim = standard_dim(spec, &test)?;
+        let o = st.options(spec.statistics.gp_embed, spec.models.dim);
+        candidates.extend(crate::model_selection::standard_candidates(&o, dim, &st.steps, &test)?);
+    }
+    candidates.extend(spec.candidates().map_err(|why| Error::BadInput { what: "study spec", why })?);
+    let mut steps: Vec<usize> = candidates.iter().map(|c| c.step).collect();
+    steps.sort_unstable();
+    steps.dedup();
+    let data = crate::par_map(&steps, |&k| data_stats(&test, k, &settings))?;
     Ok(Prepared { train, test, held_out, data, candidates, settings })
 }
 
@@ -279,7 +391,11 @@ pub fn evaluate(p: &Prepared, i: usize) -> Result<CandidateResult, Error> {
         what: "candidate index",
         why: format!("{i}: the spec has {} candidates", p.candidates.len()),
     })?;
-    crate::model_selection::evaluate_candidate(&p.train, &p.test, c, &p.data, &p.settings)
+    let data = p.data.iter().find(|d| d.0.step == c.step).ok_or_else(|| Error::BadInput {
+        what: "candidate",
+        why: format!("{}: no data statistics at step {}", c.name, c.step),
+    })?;
+    crate::model_selection::evaluate_candidate(&p.train, &p.test, c, data, &p.settings)
 }
 
 /// The results file of a selection spec (`selection.json`).
@@ -290,6 +406,7 @@ pub struct SelectionResults {
     pub test: String,
     /// Whether the test series is held out (not a training series).
     pub held_out: bool,
+    /// The test series' statistics at each map step of the candidates.
     pub data: serde_json::Value,
     /// Every candidate's result, in the spec's order, without its timing.
     pub candidates: Vec<serde_json::Value>,
@@ -340,7 +457,7 @@ pub fn finish(spec: &SelectionSpec, p: &Prepared, results: Vec<serde_json::Value
         training: p.train.iter().map(|t| t.name.clone()).collect(),
         test: p.test.name.clone(),
         held_out: p.held_out,
-        data: serde_json::to_value(&p.data.0)
+        data: serde_json::to_value(p.data.iter().map(|d| &d.0).collect::<Vec<_>>())
             .map_err(|e| Error::BadInput { what: "data statistics", why: e.to_string() })?,
         candidates: results,
         selection,
@@ -396,5 +513,57 @@ candidates = ["RBF 200 r=3e-9 d=4 p=9", "RBF 300 r=1e-8 d=4 p=9 centres kmeans++
         assert!(e.to_string().contains("budget"), "{e}");
         let e = SelectionSpec::default_search(vec!["a.csv".into()], None, None, 10_000, None).unwrap_err();
         assert!(e.to_string().contains("budget"), "{e}");
+    }
+
+    /// The bundled specs parse; the full flag search is the flag study's centre-set list.
+    #[test]
+    fn bundled_selection_specs_parse() {
+        let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../studies");
+        let read = |f: &str| std::fs::read_to_string(dir.join(f)).unwrap();
+        let search = SelectionSpec::parse("flag-search.toml", &read("flag-search.toml")).unwrap();
+        let flag = FlagStudySpec::parse("flag.toml", &read("flag.toml")).unwrap();
+        assert_eq!(search.models.candidates, flag.models.centres);
+        assert_eq!(search.statistics.settings().benettin_steps, flag.statistics.benettin_steps);
+        let furuta = SelectionSpec::parse("furuta-chaos.toml", &read("furuta-chaos.toml")).unwrap();
+        assert_eq!(furuta.data.simulated.as_ref().unwrap().theta0.len(), 3);
+        assert!(furuta.models.candidates.is_empty() && furuta.models.standard.is_some());
+        let e = SelectionSpec::parse(
+            "f.toml",
+            &read("furuta-chaos.toml").replace("theta0 = [0.02, 0.035, 0.05]", "theta0 = [0.02]"),
+        )
+        .unwrap_err();
+        assert!(e.to_string().contains("data.simulated.theta0"), "{e}");
+        let e = SelectionSpec::parse("f.toml", &read("furuta-chaos.toml").replace("steps = [1]", "steps = [0]"))
+            .unwrap_err();
+        assert!(e.to_string().contains("models.standard.steps"), "{e}");
+    }
+
+    /// The Furuta spec's machinery on short runs: simulated runs (the last held out), the
+    /// standard candidates at the rule's dimension, each measured, one picked.
+    #[test]
+    fn simulated_runs_and_standard_candidates() {
+        let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../studies");
+        let mut spec =
+            SelectionSpec::parse("furuta-chaos.toml", &std::fs::read_to_string(dir.join("furuta-chaos.toml")).unwrap())
+                .unwrap();
+        spec.data.simulated.as_mut().unwrap().periods = 3000;
+        spec.models.standard.as_mut().unwrap().centers = 60;
+        spec.statistics.benettin_transient = 200;
+        spec.statistics.benettin_steps = 2000;
+        spec.statistics.long_runs = 1;
+        let p = prepare(&spec, Path::new("unused")).unwrap();
+        assert_eq!(p.train.len(), 2);
+        assert!(p.held_out && p.test.name == "furuta-quant-dt25 #2", "{}", p.test.name);
+        let names: Vec<&str> = p.candidates.iter().map(|c| c.name.as_str()).collect();
+        assert_eq!(names, ["RBF 60 /1", "poly 4 /1"]);
+        assert_eq!(p.data.len(), 1);
+        let rows: Vec<serde_json::Value> =
+            (0..p.candidates.len()).map(|i| result_json(&evaluate(&p, i).unwrap()).unwrap()).collect();
+        let r = finish(&spec, &p, rows.clone()).unwrap();
+        assert_eq!(r.candidates, rows);
+        assert_eq!(r.training, ["furuta-quant-dt25 #0", "furuta-quant-dt25 #1"]);
+        assert!(r.selection.name.is_some() || r.selection.why.contains("failed"), "{:?}", r.selection);
+        let e = finish(&spec, &p, rows[..1].to_vec()).unwrap_err();
+        assert!(e.to_string().contains("1 results for 2 candidates"), "{e}");
     }
 }

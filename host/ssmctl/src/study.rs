@@ -171,6 +171,11 @@ const CANDIDATE_UNIT: &str = "selection-candidate";
 /// The data files of a selection spec under `data_dir`, checked to exist, with their CRC-64:
 /// the training files, then the test file.
 fn selection_data(spec: &SelectionSpec, data_dir: &Path) -> Result<Vec<DataFile>, BoxError> {
+    if let Some(sim) = &spec.data.simulated {
+        // A bundled scene is part of the code (`sim`'s fingerprint); a scene file is data.
+        let p = Path::new(&sim.scene);
+        return if p.is_file() { Ok(vec![fingerprint(p)?]) } else { Ok(Vec::new()) };
+    }
     let mut files = spec.training_paths(data_dir);
     files.extend(spec.test_path(data_dir));
     files
@@ -189,14 +194,20 @@ fn selection_data(spec: &SelectionSpec, data_dir: &Path) -> Result<Vec<DataFile>
         .collect()
 }
 
-/// The key of candidate `name`'s result: the code of the crates that compute it, the
-/// toolchain, the estimator settings, the column and the data files' bytes (in their roles).
-fn candidate_key(spec: &SelectionSpec, name: &str, data: &[DataFile]) -> Result<fileio::store::Key, BoxError> {
+/// The key of candidate `c`'s result: the code of the crates that compute it, the
+/// toolchain, the estimator settings, the candidate (fit options, step, refits), the column,
+/// the simulated runs and the data files' bytes (in their roles).
+fn candidate_key(
+    spec: &SelectionSpec,
+    c: &chaos_study::model_selection::Candidate,
+    data: &[DataFile],
+) -> Result<fileio::store::Key, BoxError> {
     let mut k = crate::report::cache::code_key(CANDIDATE_UNIT, &["chaos_study"])?
         .part("statistics", serde_json::to_string(&spec.statistics)?.as_bytes())
         .part("column", spec.data.column.as_deref().unwrap_or("").as_bytes())
         .part("test held out", &[u8::from(spec.data.test.is_some())])
-        .part("candidate", name.as_bytes());
+        .part("simulated", serde_json::to_string(&spec.data.simulated)?.as_bytes())
+        .part("candidate", serde_json::to_string(c)?.as_bytes());
     for (i, d) in data.iter().enumerate() {
         k = k.part(&format!("data {i}"), d.crc64.as_bytes()).part(&format!("bytes {i}"), &d.bytes.to_le_bytes());
     }
@@ -248,12 +259,11 @@ pub fn selection_rows(
     say: &dyn Fn(&str),
 ) -> Result<Rows, BoxError> {
     let store = run.cache.as_deref().map(fileio::store::Store::open).transpose()?;
-    let names = spec.candidate_names();
-    let mine: Vec<usize> = (0..names.len())
+    let mine: Vec<usize> = (0..p.candidates.len())
         .filter(|i| run.shard.is_none_or(|s| (*i as u64) % u64::from(s.count) == u64::from(s.index)))
         .collect();
     let keys: Vec<fileio::store::Key> =
-        mine.iter().map(|&i| candidate_key(spec, &names[i], data)).collect::<Result<_, _>>()?;
+        mine.iter().map(|&i| candidate_key(spec, &p.candidates[i], data)).collect::<Result<_, _>>()?;
     let cached = store.as_ref().map_or(0, |s| keys.iter().filter(|k| s.get(CANDIDATE_UNIT, k).is_some()).count());
     say(&format!("{} candidates, {cached} in the cache", mine.len()));
     use rayon::prelude::*;
@@ -283,11 +293,12 @@ pub fn run_selection(
     let spec = run.limit.map_or(spec.clone(), |n| spec.limited(n));
     let data = selection_data(&spec, data_dir)?;
     let p = prepare(&spec, data_dir)?;
-    let (ds, ctx) = &p.data;
-    say(&format!(
-        "test series {}: {} samples at the map step, lag {}, Theiler {}",
-        p.test.name, ds.len, ctx.lag, ctx.theiler
-    ));
+    for (ds, ctx) in &p.data {
+        say(&format!(
+            "test series {}: {} samples at map step {}, lag {}, Theiler {}",
+            p.test.name, ds.len, ds.step, ctx.lag, ctx.theiler
+        ));
+    }
     let whole = SelectionRun { shard: None, ..run.clone() };
     let rows = selection_rows(&spec, &p, &data, &whole, say)?;
     let r = finish(&spec, &p, rows.rows.into_iter().map(|(_, v)| v).collect())?;
