@@ -324,7 +324,7 @@ fn load(path: &Path, column: Option<&str>) -> Result<TimeSeries, Error> {
 }
 
 /// The spec's series: (training, test, whether the test is held out).
-fn load_series(spec: &SelectionSpec, data_dir: &Path) -> Result<(Vec<TimeSeries>, TimeSeries, bool), Error> {
+pub fn load_series(spec: &SelectionSpec, data_dir: &Path) -> Result<(Vec<TimeSeries>, TimeSeries, bool), Error> {
     if let Some(sim) = &spec.data.simulated {
         let runs: Vec<(usize, f64)> = sim.theta0.iter().copied().enumerate().collect();
         let mut series = crate::par_map(&runs, |&(i, th)| {
@@ -370,6 +370,16 @@ fn standard_dim(spec: &SelectionSpec, test: &TimeSeries) -> Result<usize, Error>
 /// the candidates.
 pub fn prepare(spec: &SelectionSpec, data_dir: &Path) -> Result<Prepared, Error> {
     let (train, test, held_out) = load_series(spec, data_dir)?;
+    prepare_series(spec, train, test, held_out)
+}
+
+/// [`prepare`] on series already loaded by [`load_series`] (or read back from a cache).
+pub fn prepare_series(
+    spec: &SelectionSpec,
+    train: Vec<TimeSeries>,
+    test: TimeSeries,
+    held_out: bool,
+) -> Result<Prepared, Error> {
     let settings = spec.statistics.settings();
     let mut candidates = Vec::new();
     if let Some(st) = &spec.models.standard {

@@ -8,7 +8,8 @@ use std::time::Instant;
 
 use chaos_study::flag_study::{FlagStudySpec, run};
 use chaos_study::selection_study::{
-    Prepared, SelectionResults, SelectionSpec, evaluate, finish, prepare, result_from_json, result_json,
+    Prepared, SelectionResults, SelectionSpec, evaluate, finish, load_series, prepare, prepare_series,
+    result_from_json, result_json,
 };
 use chaos_study::study_results::{EXPERIMENT, HELD_OUT, VALIDATION, to_json};
 use furuta::sweep::Shard;
@@ -168,6 +169,43 @@ pub struct SelectionRun {
 /// The store's unit name of one candidate's result.
 const CANDIDATE_UNIT: &str = "selection-candidate";
 
+/// The store's unit name of a spec's simulated runs.
+const RUNS_UNIT: &str = "selection-runs";
+
+/// The spec's prepared series and statistics; simulated runs come from the cache `cache`
+/// when it has them (keyed by the code that simulates them, the runs' definition and a
+/// scene file's bytes) and are stored there when computed.
+fn prepare_cached(
+    spec: &SelectionSpec,
+    data_dir: &Path,
+    data: &[DataFile],
+    cache: Option<&Path>,
+) -> Result<Prepared, BoxError> {
+    let (Some(sim), Some(dir)) = (&spec.data.simulated, cache) else { return Ok(prepare(spec, data_dir)?) };
+    let store = fileio::store::Store::open(dir)?;
+    let mut k = crate::report::cache::code_key(RUNS_UNIT, &["chaos_study"])?
+        .part("simulated", serde_json::to_string(sim)?.as_bytes());
+    for (i, d) in data.iter().enumerate() {
+        k = k.part(&format!("scene file {i}"), d.crc64.as_bytes());
+    }
+    let key = k.finish();
+    type Runs = (Vec<ssm::TimeSeries>, ssm::TimeSeries, bool);
+    let cached: Option<Runs> =
+        store.get(RUNS_UNIT, &key).and_then(|e| e.meta().ok()).and_then(|m| serde_json::from_slice(&m).ok());
+    let (train, test, held_out) = match cached {
+        Some(r) => r,
+        None => {
+            let r: Runs = load_series(spec, data_dir)?;
+            let bytes = serde_json::to_vec(&r)?;
+            store
+                .put(RUNS_UNIT, &key, |_| Ok::<_, std::convert::Infallible>(bytes))
+                .map_err(|e| format!("cache {}: {e}", store.dir().display()))?;
+            r
+        }
+    };
+    Ok(prepare_series(spec, train, test, held_out)?)
+}
+
 /// The data files of a selection spec under `data_dir`, checked to exist, with their CRC-64:
 /// the training files, then the test file.
 fn selection_data(spec: &SelectionSpec, data_dir: &Path) -> Result<Vec<DataFile>, BoxError> {
@@ -292,7 +330,7 @@ pub fn run_selection(
 ) -> Result<(SelectionResults, Vec<DataFile>, usize), BoxError> {
     let spec = run.limit.map_or(spec.clone(), |n| spec.limited(n));
     let data = selection_data(&spec, data_dir)?;
-    let p = prepare(&spec, data_dir)?;
+    let p = prepare_cached(&spec, data_dir, &data, run.cache.as_deref())?;
     for (ds, ctx) in &p.data {
         say(&format!(
             "test series {}: {} samples at map step {}, lag {}, Theiler {}",
@@ -396,7 +434,7 @@ fn selection_study(
     let spec = opts.limit.map_or(spec.clone(), |n| spec.limited(n));
     let data = selection_data(&spec, data_dir)?;
     let hash = selection_hash(&spec, &data)?;
-    let p = prepare(&spec, data_dir)?;
+    let p = prepare_cached(&spec, data_dir, &data, opts.cache.as_deref())?;
     let n = p.candidates.len();
     crate::output::create_dir(out)?;
     let mut computed = 0;
