@@ -206,10 +206,8 @@ impl SelectionSpec {
                 }
             }
         }
-        if let Some(t) = &self.data.test {
-            if self.data.training.contains(t) {
-                return Err(format!("data.test `{t}` is also a training file"));
-            }
+        if let Some(t) = self.data.test.as_ref().filter(|t| self.data.training.contains(t)) {
+            return Err(format!("data.test `{t}` is also a training file"));
         }
         if self.models.candidates.is_empty() && self.models.standard.is_none() {
             return Err("models: no candidates and no standard candidates".into());

@@ -317,8 +317,8 @@ pub enum Cmd {
         /// Candidates of the model selection: the first N of the report's search (the flag
         /// study's centre-set candidates in studies/flag.toml: RBF maps over 4 samples, SSM
         /// dimension 4 or --ssm-dim), run as `ssmctl study` runs a selection spec. Each
-        /// candidate is a fit, a 55,000-step Benettin run and a long run (about 3 s of one
-        /// core on a flag run).
+        /// candidate is a fit, a 55,000-step Benettin run and a long run; studies/README.md
+        /// gives the default's cost.
         #[arg(long, default_value_t = DEFAULT_CHAOS_BUDGET, value_parser = clap::value_parser!(u32).range(1..))]
         budget: u32,
         /// Folder of the per-candidate cache (as `ssmctl study`'s); default: no cache.

@@ -259,14 +259,11 @@ fn candidate_result(
     i: usize,
     key: Option<(&fileio::store::Store, &fileio::store::Key)>,
 ) -> Result<(serde_json::Value, bool), BoxError> {
-    if let Some((store, key)) = key {
-        if let Some(e) = store.get(CANDIDATE_UNIT, key) {
-            // An entry that does not read back as a result is computed again.
-            if let Ok(v) = serde_json::from_slice::<serde_json::Value>(&e.meta()?) {
-                if result_from_json(&v).is_ok() {
-                    return Ok((v, false));
-                }
-            }
+    if let Some(e) = key.and_then(|(store, key)| store.get(CANDIDATE_UNIT, key)) {
+        // An entry that does not read back as a result is computed again.
+        let v = serde_json::from_slice::<serde_json::Value>(&e.meta()?).ok();
+        if let Some(v) = v.filter(|v| result_from_json(v).is_ok()) {
+            return Ok((v, false));
         }
     }
     let v = result_json(&evaluate(p, i)?)?;
