@@ -7,6 +7,7 @@ pub mod corrdim;
 pub mod density;
 pub mod embed;
 pub mod fsle;
+pub mod held_out;
 pub mod lyapunov;
 pub mod reference;
 mod rng;
@@ -24,6 +25,10 @@ pub use corrdim::{
 pub use density::{Bins, CoordinatePdf, PdfComparison, compare_pdfs, jensen_shannon_bits};
 pub use embed::{autocorrelation, delay_embed, dominant_period, first_zero_crossing, lag_and_period};
 pub use fsle::{FsleRow, FsleSeriesParams, fsle_from_separations, fsle_series, scaling_slope, thresholds};
+pub use held_out::{
+    Context, GrowthWindow, Reference, Statistics, Targets, add_noise, best_of, dimension_rule, fit_lle_curve,
+    growth_windows, is_chaotic, moving_average, noise_sd, rollout_error, rollout_horizon,
+};
 pub use lyapunov::{
     DivergenceCurve, DivergenceFit, DivergenceParams, FitRule, KantzEstimate, LyapunovEstimate, fit_divergence, kantz,
     kantz_curves, log_spaced, rosenstein, rosenstein_curve,

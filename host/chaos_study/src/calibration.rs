@@ -24,7 +24,7 @@ use serde::Serialize;
 
 use crate::Error;
 use crate::estimator_check::{EMBED, rosenstein_as_on_data};
-use crate::model_selection::add_noise;
+use chaos::add_noise;
 
 /// How the flag's held-out series at the model step looks to the estimator: its sampling
 /// step (s), length, the lag and Theiler window the data settings choose on it, its

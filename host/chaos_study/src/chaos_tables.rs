@@ -17,7 +17,8 @@ use chaos::{ChaosError, DivergenceParams, delay_embed, kantz_curves};
 use serde::Serialize;
 
 use crate::lyapunov::model_bound;
-use crate::microchaos::{ChaosOptions, Context, evaluate_model, fit_lle_curve, fit_options};
+use crate::microchaos::{ChaosOptions, evaluate_model, fit_options};
+use chaos::{Context, fit_lle_curve};
 use ssm::dynamics::StepScratch;
 use ssm::{Dynamics, SsmModel, TimeSeries, fit};
 

@@ -1,5 +1,5 @@
 //! Does the time-series exponent mean what it says? The Rosenstein estimator with the
-//! settings the chaos study uses on the data ([`crate::microchaos::Context`]: delay embedding
+//! settings the chaos study uses on the data ([`chaos::Context`]: delay embedding
 //! of dimension 6, lag = first zero of the autocorrelation, Theiler window = dominant period,
 //! divergence curve of three Theiler windows, the fit-window rule with its fallbacks) against
 //! exact largest exponents:
@@ -25,8 +25,8 @@ use serde::Serialize;
 use ssm::TimeSeries;
 
 use crate::Error;
-use crate::microchaos::Context;
 use crate::model_selection::{CandidateResult, subsample};
+use chaos::Context;
 
 /// Embedding dimension of the Rosenstein estimate (the study's `gp_embed`).
 pub const EMBED: usize = 6;

@@ -23,9 +23,8 @@ use serde::Serialize;
 use ssm::{FitOptions, TimeSeries};
 
 use crate::Error;
-use crate::model_selection::{
-    Candidate, CandidateResult, EvalSettings, Targets, add_noise, data_stats, evaluate_and_select,
-};
+use crate::model_selection::{Candidate, CandidateResult, EvalSettings, data_stats, evaluate_and_select};
+use chaos::{Reference, Statistics, Targets, add_noise};
 
 /// The flag's sampling as the pipeline sees it: full-rate lengths of the training series
 /// (traj_9, traj_7) and of the held-out series (traj_8), the map step, the lag the data
@@ -462,15 +461,10 @@ impl PipelineRow {
         exact: f64,
     ) -> Self {
         let ratio = m.benettin.map(|b| b / exact);
-        let t = Targets::default();
-        let rel = |v: Option<f64>, tol: f64| v.is_some_and(|v| (v - data_lle).abs() <= tol * data_lle.abs());
         let ok = failed.is_none();
-        let passes = [
-            ok && m.benettin.is_some_and(|b| b > 0.0) && rel(m.benettin, t.benettin_rel),
-            ok && rel(m.rosenstein, t.rosenstein_rel),
-            ok && m.corr_dim.is_some_and(|d| (d - data_d2).abs() <= data_d2_err),
-            ok && m.js.is_some_and(|j| j <= t.js_max),
-        ];
+        let stats = Statistics { benettin: m.benettin, rosenstein: m.rosenstein, corr_dim: m.corr_dim, js: m.js };
+        let data = Reference { lle: data_lle, corr_dim: data_d2, corr_dim_err: data_d2_err };
+        let passes = Targets::default().passes(&stats, &data).map(|p| ok && p);
         PipelineRow {
             candidate: candidate.to_string(),
             scale,

@@ -24,7 +24,8 @@ use ssm::{Dynamics, FitOptions, Ridge, TimeSeries};
 use crate::Error;
 use crate::flag_pipeline::{FlagLayout, KnownStats, KnownSystem, Measured, PipelineRow, known_stats};
 use crate::lyapunov::{dynamics_lyapunov, iterate_dynamics};
-use crate::model_selection::{Candidate, EvalSettings, add_noise, data_stats, subsample};
+use crate::model_selection::{Candidate, EvalSettings, data_stats, subsample};
+use chaos::add_noise;
 
 /// False nearest neighbours of a delay embedding projected on its first `dim` singular
 /// directions.
@@ -375,7 +376,7 @@ pub fn d6_scan_counts(
     scale: usize,
     noise: f64,
 ) -> (usize, usize, usize) {
-    let js_max = crate::model_selection::Targets::default().js_max;
+    let js_max = chaos::Targets::default().js_max;
     let sel: Vec<&PipelineRow> = rows
         .iter()
         .filter(|(w, n, r)| {

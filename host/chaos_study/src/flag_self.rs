@@ -24,10 +24,9 @@ use crate::Error;
 use crate::flag_pipeline::PipelineRow;
 use crate::flag_pipeline_fit::variant;
 use crate::microchaos::reduce_series;
-use crate::model_selection::{
-    Candidate, DataStats, EvalSettings, Targets, best_of, data_stats, phase_subsamples, score_of, subsample,
-};
+use crate::model_selection::{Candidate, DataStats, EvalSettings, data_stats, phase_subsamples, subsample};
 use crate::study_results::{FlagResults, HeldOutResults, ValidationRun};
+use chaos::{Reference, Statistics, Targets, best_of};
 
 /// Map step of the flag's candidates, in samples.
 pub const STEP: usize = 4;
@@ -118,13 +117,10 @@ pub fn self_passes(
     js: Option<f64>,
     data: (f64, f64, f64),
 ) -> [bool; 3] {
-    let t = Targets::default();
-    let (lle, d2, d2_err) = data;
-    [
-        rosenstein.is_some_and(|r| (r - lle).abs() <= t.rosenstein_rel * lle.abs()),
-        corr_dim.is_some_and(|v| (v - d2).abs() <= d2_err),
-        js.is_some_and(|j| j <= t.js_max),
-    ]
+    let (lle, corr_dim_data, corr_dim_err) = data;
+    let m = Statistics { benettin: None, rosenstein, corr_dim, js };
+    let [_, r, d, j] = Targets::default().passes(&m, &Reference { lle, corr_dim: corr_dim_data, corr_dim_err });
+    [r, d, j]
 }
 
 /// Whether a row is a whole run (not a piece of one).
@@ -221,10 +217,9 @@ pub fn row_score(r: &PipelineRow) -> f64 {
     if r.failed.is_some() {
         return f64::INFINITY;
     }
-    score_of(
-        [r.benettin, r.rosenstein, r.corr_dim, r.js],
-        (r.data_rosenstein, r.data_corr_dim, r.data_corr_dim_err),
-        &Targets::default(),
+    Targets::default().score(
+        &Statistics { benettin: r.benettin, rosenstein: r.rosenstein, corr_dim: r.corr_dim, js: r.js },
+        &Reference { lle: r.data_rosenstein, corr_dim: r.data_corr_dim, corr_dim_err: r.data_corr_dim_err },
     )
 }
 

@@ -15,14 +15,15 @@ use ssm::TimeSeries;
 
 use crate::Error;
 use crate::flag_self::{STEP, candidate_from_name, ensemble, ensemble_members, experiment_as_model};
-use crate::microchaos::{Context, reduce_series};
+use crate::microchaos::reduce_series;
 use crate::model_selection::{
-    DataStats, EvalSettings, add_noise, data_stats, evaluate_candidate_fitted, moving_average, subsample,
+    DataStats, EvalSettings, data_stats, evaluate_candidate_fitted, moving_average, subsample,
 };
 use crate::study_results::{
     DimensionRow, EnsembleResult, ExperimentResults, HeldOutResults, ModelRow, NoisyModelCorrDim, RunCorrDim,
     RunOwnStats, RunStats, SmoothedCorrDim, ValidationResults, ValidationRun,
 };
+use chaos::{Context, add_noise};
 
 /// Where the runs are: `folder` under the data directory, `file` the name of run `k` with
 /// `{run}` standing for its number.

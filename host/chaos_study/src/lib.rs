@@ -17,6 +17,7 @@ pub mod flag_study;
 pub mod lyapunov;
 pub mod microchaos;
 pub mod model_selection;
+pub mod selection_study;
 pub mod study_results;
 pub mod verdict;
 

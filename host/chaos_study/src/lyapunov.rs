@@ -1,10 +1,9 @@
-//! Lyapunov exponents of fitted reduced maps themselves (paper section 3.2):
-//!
-//! - [`rbf_jacobian`], [`poly_map_jacobian`]: analytic Jacobians of the fitted reduced maps;
-//!   [`dynamics_lyapunov`] / [`model_lyapunov`]: Benettin's method with these tangent maps and
-//!   QR re-orthonormalization on the model's own attractor (after a transient), so the
-//!   smooth model's exponent is measured directly, not through a time-series estimator.
-//!   [`iterate_dynamics`]: a long bounded iteration of a reduced map that reports escape.
+//! Lyapunov exponents of fitted reduced maps themselves (paper section 3.2): Benettin's
+//! method (`chaos::benettin_qr`, QR re-orthonormalization every step) with the maps' analytic
+//! tangent maps (`ssm::tangent::Tangent`) on the model's own attractor after a transient, so
+//! the smooth model's exponent is measured directly, not through a time-series estimator;
+//! the spectrum gives the Kaplan-Yorke dimension (`chaos::kaplan_yorke`).
+//! [`iterate_dynamics`]: a long bounded iteration of a reduced map that reports escape.
 //!
 //! The scale and accuracy-vs-cost studies that use these are in [`crate::chaos_tables`].
 
@@ -13,372 +12,9 @@ use chaos::{BenettinParams, Orbit, benettin_qr, iterate_map};
 use serde::Serialize;
 
 use ssm::SsmModel;
-use ssm::dynamics::{Kernel, RbfMap, ReducedDynamics, StepScratch};
+use ssm::dynamics::ReducedDynamics;
 use ssm::fit::BLOWUP_FACTOR;
-use ssm::poly::Poly;
-
-/// Message for the non-differentiable points of the linear kernel.
-pub const RBF_KINK: &str = "state exactly at an RBF centre (the linear kernel has a kink there)";
-
-/// Jacobian (row-major `d x d`) of the RBF map `eta -> eta + sum_i C_i phi(||z - c_i||) + A z + b`,
-/// `z = eta / s`: `I + sum_i C_i phi'(r_i) / r_i (z - c_i)^T / s + A / s` (linear kernel:
-/// `phi'(r) / r = 1 / r`). Fails only exactly at a centre of the linear kernel.
-pub fn rbf_jacobian(m: &RbfMap, eta: &[f64], jac: &mut [f64]) -> Result<(), &'static str> {
-    if m.kernel == Kernel::Linear {
-        match m.dim {
-            2 => return rbf_jacobian_linear::<2>(m, eta, jac),
-            3 => return rbf_jacobian_linear::<3>(m, eta, jac),
-            4 => return rbf_jacobian_linear::<4>(m, eta, jac),
-            5 => return rbf_jacobian_linear::<5>(m, eta, jac),
-            6 => return rbf_jacobian_linear::<6>(m, eta, jac),
-            _ => {}
-        }
-    }
-    rbf_jacobian_any(m, eta, jac)
-}
-
-/// [`rbf_jacobian`] of the linear kernel in dimension `D` known at compile time: the same
-/// operations on every entry in the same order (the sum over centres accumulated from the
-/// identity, then the linear rows), with the rows of fixed length so the compiler unrolls
-/// and vectorizes them.
-fn rbf_jacobian_linear<const D: usize>(m: &RbfMap, eta: &[f64], jac: &mut [f64]) -> Result<(), &'static str> {
-    let k = m.n_centers();
-    let z: [f64; D] = core::array::from_fn(|j| eta[j] / m.scale[j]);
-    let scale: [f64; D] = core::array::from_fn(|j| m.scale[j]);
-    let mut acc = [[0.0; D]; D];
-    for (i, row) in acc.iter_mut().enumerate() {
-        row[i] = 1.0;
-    }
-    jac.iter_mut().for_each(|v| *v = 0.0);
-    let mut kink = false;
-    for (ctr, w) in m.centers.chunks_exact(D).zip(m.coef.chunks_exact(D)).take(k) {
-        let mut diff = [0.0; D];
-        let mut r2 = 0.0;
-        for j in 0..D {
-            diff[j] = z[j] - ctr[j];
-            r2 += diff[j] * diff[j];
-        }
-        if r2 == 0.0 {
-            kink = true;
-            break;
-        }
-        let r = r2.sqrt();
-        let den: [f64; D] = core::array::from_fn(|j| r * scale[j]);
-        for (row, &w) in acc.iter_mut().zip(w) {
-            for j in 0..D {
-                row[j] += w * diff[j] / den[j];
-            }
-        }
-    }
-    for (dst, row) in jac.chunks_exact_mut(D).zip(&acc) {
-        dst[..D].copy_from_slice(row);
-    }
-    if kink {
-        return Err(RBF_KINK);
-    }
-    for j in 0..D {
-        for out in 0..D {
-            jac[out * D + j] += m.coef[(k + j) * D + out] / scale[j];
-        }
-    }
-    Ok(())
-}
-
-/// One step of a linear-kernel RBF map in dimension `D` and its Jacobian at `eta`, from one
-/// pass over the centres (a Benettin run needs both at every state): `jac` as
-/// [`rbf_jacobian`] and `next` as `RbfMap::step` would give them, bit for bit. The step's
-/// features are the distances `r_i = sqrt(sum_j (z_j - c_ij)^2)` the Jacobian computes
-/// anyway (the same sum in the same order), then the scaled state and 1, and `next` adds
-/// `coef * feature` to `eta` feature by feature in the step's order. At a kink (a state
-/// exactly at a centre) the error is the Jacobian's and `next` is not set.
-fn rbf_step_and_jacobian_linear<const D: usize>(
-    m: &RbfMap,
-    eta: &[f64],
-    jac: &mut [f64],
-    next: &mut [f64],
-) -> Result<(), &'static str> {
-    let k = m.n_centers();
-    let z: [f64; D] = core::array::from_fn(|j| eta[j] / m.scale[j]);
-    let scale: [f64; D] = core::array::from_fn(|j| m.scale[j]);
-    let mut acc = [[0.0; D]; D];
-    for (i, row) in acc.iter_mut().enumerate() {
-        row[i] = 1.0;
-    }
-    let mut nx: [f64; D] = core::array::from_fn(|j| eta[j]);
-    jac.iter_mut().for_each(|v| *v = 0.0);
-    let mut kink = false;
-    for (ctr, w) in m.centers.chunks_exact(D).zip(m.coef.chunks_exact(D)).take(k) {
-        let mut diff = [0.0; D];
-        let mut r2 = 0.0;
-        for j in 0..D {
-            diff[j] = z[j] - ctr[j];
-            r2 += diff[j] * diff[j];
-        }
-        if r2 == 0.0 {
-            kink = true;
-            break;
-        }
-        let r = r2.sqrt();
-        for j in 0..D {
-            nx[j] += w[j] * r;
-        }
-        let den: [f64; D] = core::array::from_fn(|j| r * scale[j]);
-        for (row, &w) in acc.iter_mut().zip(w) {
-            for j in 0..D {
-                row[j] += w * diff[j] / den[j];
-            }
-        }
-    }
-    for (dst, row) in jac.chunks_exact_mut(D).zip(&acc) {
-        dst[..D].copy_from_slice(row);
-    }
-    if kink {
-        return Err(RBF_KINK);
-    }
-    for j in 0..D {
-        for out in 0..D {
-            jac[out * D + j] += m.coef[(k + j) * D + out] / scale[j];
-        }
-    }
-    // The linear features eta_j / s_j (the step's own quotients), then the constant 1.
-    for j2 in 0..D {
-        let f = eta[j2] / m.scale[j2];
-        for j in 0..D {
-            nx[j] += m.coef[(k + j2) * D + j] * f;
-        }
-    }
-    for j in 0..D {
-        nx[j] += m.coef[(k + D) * D + j] * 1.0;
-    }
-    next[..D].copy_from_slice(&nx);
-    Ok(())
-}
-
-/// [`rbf_step_and_jacobian_linear`] for the dimension of `m`; `None` when `m` is not a
-/// linear-kernel map of dimension 2..=6 (then the step and the Jacobian are computed apart).
-fn rbf_step_and_jacobian(
-    m: &RbfMap,
-    eta: &[f64],
-    jac: &mut [f64],
-    next: &mut [f64],
-) -> Option<Result<(), &'static str>> {
-    if m.kernel != Kernel::Linear {
-        return None;
-    }
-    Some(match m.dim {
-        2 => rbf_step_and_jacobian_linear::<2>(m, eta, jac, next),
-        3 => rbf_step_and_jacobian_linear::<3>(m, eta, jac, next),
-        4 => rbf_step_and_jacobian_linear::<4>(m, eta, jac, next),
-        5 => rbf_step_and_jacobian_linear::<5>(m, eta, jac, next),
-        6 => rbf_step_and_jacobian_linear::<6>(m, eta, jac, next),
-        _ => return None,
-    })
-}
-
-/// [`rbf_jacobian`] for any kernel and dimension.
-fn rbf_jacobian_any(m: &RbfMap, eta: &[f64], jac: &mut [f64]) -> Result<(), &'static str> {
-    let d = m.dim;
-    let k = m.n_centers();
-    jac.iter_mut().for_each(|v| *v = 0.0);
-    for i in 0..d {
-        jac[i * d + i] = 1.0;
-    }
-    // Scratch: the difference to a centre, the scaled state and the linear kernel's
-    // denominators `r s_j` (each the same value as computed per entry, so the same Jacobian).
-    let mut buf = [0.0; 48];
-    let mut buf_v = Vec::new();
-    let buf: &mut [f64] = if d <= 16 {
-        &mut buf[..3 * d]
-    } else {
-        buf_v.resize(3 * d, 0.0);
-        &mut buf_v
-    };
-    let (diff, rest) = buf.split_at_mut(d);
-    let (z, den) = rest.split_at_mut(d);
-    for j in 0..d {
-        z[j] = eta[j] / m.scale[j];
-    }
-    for c in 0..k {
-        let ctr = &m.centers[c * d..(c + 1) * d];
-        let mut r2 = 0.0;
-        for j in 0..d {
-            diff[j] = z[j] - ctr[j];
-            r2 += diff[j] * diff[j];
-        }
-        if m.kernel == Kernel::Linear {
-            if r2 == 0.0 {
-                return Err(RBF_KINK);
-            }
-            let r = r2.sqrt();
-            for j in 0..d {
-                den[j] = r * m.scale[j];
-            }
-            for out in 0..d {
-                let w = m.coef[c * d + out];
-                let row = &mut jac[out * d..(out + 1) * d];
-                for j in 0..d {
-                    row[j] += w * diff[j] / den[j];
-                }
-            }
-            continue;
-        }
-        // Other kernels: d phi(||z - c||) / d z = phi'(r) / r (z - c), smooth everywhere.
-        let g = m.kernel.dphi_over_r(r2.sqrt()).ok_or(RBF_KINK)?;
-        for out in 0..d {
-            let w = m.coef[c * d + out] * g;
-            for j in 0..d {
-                jac[out * d + j] += w * diff[j] / m.scale[j];
-            }
-        }
-    }
-    for j in 0..d {
-        for out in 0..d {
-            jac[out * d + j] += m.coef[(k + j) * d + out] / m.scale[j];
-        }
-    }
-    Ok(())
-}
-
-/// Jacobian (row-major `d x d`) of the polynomial map `eta -> eta + P(eta)`, `P` evaluated
-/// on `z = eta / s`: `I + dP/dz / s`. For many evaluations of one map, [`PolyJacobian`]
-/// prepares the monomials once (the same Jacobian, bit for bit).
-pub fn poly_map_jacobian(p: &Poly, eta: &[f64], jac: &mut [f64]) {
-    PolyJacobian::new(p).eval(eta, jac);
-}
-
-/// [`poly_map_jacobian`] of one polynomial, prepared for repeated evaluation (Benettin runs
-/// take one Jacobian per map step): the largest degree and each monomial's non-zero
-/// exponents are found once, and the powers live in a buffer kept between calls. Every
-/// entry is the same product in the same order as the plain loop over all variables, which
-/// multiplies by `z_i^0 = 1` where this skips (exact), so the Jacobian is the same bit for bit.
-pub struct PolyJacobian<'a> {
-    p: &'a Poly,
-    /// Powers per variable: `pow[i * stride + e] = z_i^e`, `e = 0..stride`.
-    stride: usize,
-    pow: Vec<f64>,
-    /// `dpow[i * stride + e] = e z_i^(e - 1) / s_i`, `e = 1..stride`: the first factor of
-    /// every derivative with respect to `z_i` of a monomial with exponent `e` in it (the
-    /// plain loop formed it per monomial; it is the same quotient of the same operands).
-    dpow: Vec<f64>,
-    /// Non-zero exponents `(variable, exponent)` of every monomial, in variable order;
-    /// monomial `k`'s are `factors[starts[k]..starts[k + 1]]`.
-    factors: Vec<(usize, usize)>,
-    starts: Vec<usize>,
-}
-
-impl<'a> PolyJacobian<'a> {
-    pub fn new(p: &'a Poly) -> Self {
-        let stride = ssm::poly::max_degree(&p.exps) as usize + 1;
-        let mut factors = Vec::new();
-        let mut starts = Vec::with_capacity(p.exps.len() + 1);
-        for e in &p.exps {
-            starts.push(factors.len());
-            factors.extend(e.iter().enumerate().filter(|(_, ei)| **ei != 0).map(|(i, &ei)| (i, ei as usize)));
-        }
-        starts.push(factors.len());
-        Self { p, stride, pow: vec![1.0; p.dim_in * stride], dpow: vec![0.0; p.dim_in * stride], factors, starts }
-    }
-
-    /// The Jacobian at `eta` into `jac` (row-major `d x d`).
-    pub fn eval(&mut self, eta: &[f64], jac: &mut [f64]) {
-        let p = self.p;
-        let d = p.dim_in;
-        let stride = self.stride;
-        jac.iter_mut().for_each(|v| *v = 0.0);
-        for i in 0..d.min(p.dim_out) {
-            jac[i * d + i] = 1.0;
-        }
-        let pow = &mut self.pow;
-        let dpow = &mut self.dpow;
-        for i in 0..d {
-            let z = eta[i] / p.scale[i];
-            for e in 1..stride {
-                pow[i * stride + e] = pow[i * stride + e - 1] * z;
-            }
-            for e in 1..stride {
-                dpow[i * stride + e] = e as f64 * pow[i * stride + e - 1] / p.scale[i];
-            }
-        }
-        let (pow, dpow) = (&self.pow[..], &self.dpow[..]);
-        let fixed = match d {
-            _ if p.dim_out != d || jac.len() < d * d || p.coef.len() < self.starts.len().saturating_sub(1) * d => false,
-            2 => self.terms_fixed::<2>(jac),
-            3 => self.terms_fixed::<3>(jac),
-            4 => self.terms_fixed::<4>(jac),
-            5 => self.terms_fixed::<5>(jac),
-            6 => self.terms_fixed::<6>(jac),
-            _ => false,
-        };
-        if fixed {
-            return;
-        }
-        for (k, w) in self.starts.windows(2).enumerate() {
-            let f = &self.factors[w[0]..w[1]];
-            for &(j, ej) in f {
-                let mut g = dpow[j * stride + ej];
-                for &(i, ei) in f {
-                    if i != j {
-                        g *= pow[i * stride + ei];
-                    }
-                }
-                for out in 0..p.dim_out {
-                    jac[out * d + j] += p.coef[k * p.dim_out + out] * g;
-                }
-            }
-        }
-    }
-
-    /// The monomials' terms of [`PolyJacobian::eval`] for a square map of dimension `D`
-    /// (`jac` already zero with the identity on its diagonal): the sums of every entry in
-    /// the same order (monomial by monomial), kept in a local `D x D` array by column so the
-    /// `D` outputs of one term are added side by side, then written to `jac`.
-    #[inline]
-    fn terms_fixed<const D: usize>(&self, jac: &mut [f64]) -> bool {
-        let stride = self.stride;
-        let (pow, dpow, coef) = (&self.pow[..], &self.dpow[..], &self.p.coef[..]);
-        // acc[j][out] = jac[out * D + j]
-        let mut acc = [[0.0; D]; D];
-        for (j, col) in acc.iter_mut().enumerate() {
-            for (out, v) in col.iter_mut().enumerate() {
-                *v = jac[out * D + j];
-            }
-        }
-        for (w, c) in self.starts.windows(2).zip(coef.chunks_exact(D)) {
-            let f = &self.factors[w[0]..w[1]];
-            let c: &[f64; D] = c.try_into().unwrap_or(&[0.0; D]);
-            for &(j, ej) in f {
-                let mut g = dpow[j * stride + ej];
-                for &(i, ei) in f {
-                    if i != j {
-                        g *= pow[i * stride + ei];
-                    }
-                }
-                let col = &mut acc[j];
-                for out in 0..D {
-                    col[out] += c[out] * g;
-                }
-            }
-        }
-        for (j, col) in acc.iter().enumerate() {
-            for (out, v) in col.iter().enumerate() {
-                jac[out * D + j] = *v;
-            }
-        }
-        true
-    }
-}
-
-/// Jacobian of a discrete reduced map at `eta`.
-pub fn map_jacobian(dynamics: &ReducedDynamics, eta: &[f64], jac: &mut [f64]) -> Result<(), &'static str> {
-    match dynamics {
-        ReducedDynamics::Rbf(m) => rbf_jacobian(m, eta, jac),
-        ReducedDynamics::Map { increment, .. } => {
-            poly_map_jacobian(increment, eta, jac);
-            Ok(())
-        }
-        ReducedDynamics::Flow { .. } => Err("continuous flow: no map Jacobian"),
-    }
-}
+use ssm::tangent::Tangent;
 
 /// Benettin result of a reduced map, in 1/s.
 #[derive(Clone, Debug, Serialize)]
@@ -407,51 +43,13 @@ pub fn dynamics_lyapunov(
     transient: usize,
     steps: usize,
 ) -> Result<ModelLyapunov, Error> {
-    let dt = dynamics.map_dt().ok_or(Error::NotAMap)?;
-    let d = dim_of(dynamics);
+    let tangent = Tangent::new(dynamics).ok_or(Error::NotAMap)?;
+    let (d, dt) = (tangent.dim(), tangent.dt());
     if eta0.len() != d {
         return Err(Error::Shape { expected: d, got: eta0.len() });
     }
     let p = BenettinParams { transient, steps, time_step: dt, renorm_every: 1, bound, blocks: 20 };
-    let mut scratch = StepScratch::default();
-    // Benettin takes the Jacobian at x, then the step from the same x. A linear-kernel RBF
-    // map gives both from one pass over its centres: the Jacobian call keeps the step (and
-    // the state it is for), and the step call uses it when its state is that one, bit for
-    // bit (else it steps as usual).
-    let fused: std::cell::RefCell<Option<(Vec<f64>, Vec<f64>)>> = std::cell::RefCell::new(None);
-    let map = dynamics.prepare();
-    let f = |x: &[f64], out: &mut [f64]| {
-        if let Some((at, next)) = fused.borrow_mut().take() {
-            if at.iter().zip(x).all(|(a, b)| a.to_bits() == b.to_bits()) {
-                out.copy_from_slice(&next);
-                return;
-            }
-        }
-        out.copy_from_slice(x);
-        map.step(out, dt, &mut scratch);
-    };
-    let mut poly_jac = match dynamics {
-        ReducedDynamics::Map { increment, .. } => Some(PolyJacobian::new(increment)),
-        _ => None,
-    };
-    let mut next = vec![0.0; d];
-    let jac = |x: &[f64], j: &mut [f64]| {
-        if let Some(pj) = &mut poly_jac {
-            pj.eval(x, j);
-            return Ok(());
-        }
-        if let ReducedDynamics::Rbf(m) = dynamics {
-            if let Some(r) = rbf_step_and_jacobian(m, x, j, &mut next) {
-                let mut slot = fused.borrow_mut();
-                *slot = None;
-                r?;
-                *slot = Some((x.to_vec(), next.clone()));
-                return Ok(());
-            }
-        }
-        map_jacobian(dynamics, x, j)
-    };
-    let r = benettin_qr(eta0, f, jac, d, &p)?;
+    let r = benettin_qr(eta0, |x, out| tangent.step(x, out), |x, j| tangent.jacobian(x, j), d, &p)?;
     Ok(ModelLyapunov {
         exponent: r.exponents[0],
         std_error: r.std_error[0],
@@ -484,11 +82,11 @@ pub fn iterate_dynamics(
     record_every: usize,
 ) -> Result<Orbit, Error> {
     let dt = dynamics.map_dt().ok_or(Error::NotAMap)?;
-    let d = dim_of(dynamics);
+    let d = ssm::tangent::dynamics_dim(dynamics);
     if eta0.len() != d {
         return Err(Error::Shape { expected: d, got: eta0.len() });
     }
-    let mut scratch = StepScratch::default();
+    let mut scratch = ssm::dynamics::StepScratch::default();
     let map = dynamics.prepare();
     Ok(iterate_map(
         eta0,
@@ -502,95 +100,15 @@ pub fn iterate_dynamics(
     )?)
 }
 
-fn dim_of(dynamics: &ReducedDynamics) -> usize {
-    match dynamics {
-        ReducedDynamics::Rbf(m) => m.dim,
-        ReducedDynamics::Map { increment, .. } => increment.dim_in,
-        ReducedDynamics::Flow { field, .. } => field.dim_in,
-    }
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
-    use ssm::Conditioning;
-
-    /// The plain loop [`poly_map_jacobian`] had before [`PolyJacobian`] (every variable's
-    /// power multiplied in, `z^0 = 1` included; a fresh power table per call).
-    fn poly_map_jacobian_plain(p: &Poly, eta: &[f64], jac: &mut [f64]) {
-        let d = p.dim_in;
-        jac.iter_mut().for_each(|v| *v = 0.0);
-        for i in 0..d.min(p.dim_out) {
-            jac[i * d + i] = 1.0;
-        }
-        let stride = ssm::poly::max_degree(&p.exps) as usize + 1;
-        let mut pow = vec![1.0; d * stride];
-        for i in 0..d {
-            let z = eta[i] / p.scale[i];
-            for e in 1..stride {
-                pow[i * stride + e] = pow[i * stride + e - 1] * z;
-            }
-        }
-        for (k, e) in p.exps.iter().enumerate() {
-            for j in 0..d {
-                if e[j] == 0 {
-                    continue;
-                }
-                let mut g = e[j] as f64 * pow[j * stride + e[j] as usize - 1] / p.scale[j];
-                for (i, &ei) in e.iter().enumerate() {
-                    if i != j {
-                        g *= pow[i * stride + ei as usize];
-                    }
-                }
-                for out in 0..p.dim_out {
-                    jac[out * d + j] += p.coef[k * p.dim_out + out] * g;
-                }
-            }
-        }
-    }
-
-    /// The prepared polynomial Jacobian against the plain loop, bit for bit, in dimensions
-    /// 2..=6 and orders 1..=5 (with and without the constant term) at random states, the
-    /// prepared one reused across states.
-    #[test]
-    fn prepared_poly_jacobian_equals_the_plain_loop() {
-        let mut rng = ssm::testing::XorShift64::new(0x2545_f491_4f6c_dd1d);
-        let mut rnd = move || rng.centered();
-        // d 2..=6 by the fixed-size terms, 1 and 7 by the general loop.
-        for d in 1..=7 {
-            for order in 1..=5u32 {
-                for min_deg in [0u32, 1] {
-                    let exps = ssm::poly::exponents(d, min_deg, order);
-                    let p = Poly {
-                        dim_in: d,
-                        dim_out: d,
-                        scale: (0..d).map(|_| 0.3 + rnd().abs()).collect(),
-                        coef: (0..exps.len() * d).map(|_| rnd() * 3.0).collect(),
-                        exps,
-                    };
-                    let mut pj = PolyJacobian::new(&p);
-                    let (mut a, mut b, mut c) = (vec![7.0; d * d], vec![-7.0; d * d], vec![3.0; d * d]);
-                    for t in 0..20 {
-                        // Exact zeros in some states (zero powers, signed zero products).
-                        let eta: Vec<f64> = (0..d).map(|i| if (t + i) % 7 == 3 { 0.0 } else { rnd() }).collect();
-                        pj.eval(&eta, &mut a);
-                        poly_map_jacobian_plain(&p, &eta, &mut b);
-                        poly_map_jacobian(&p, &eta, &mut c);
-                        assert!(
-                            a.iter().zip(&b).all(|(x, y)| x.to_bits() == y.to_bits()),
-                            "d {d} order {order}: {a:?} vs {b:?}"
-                        );
-                        assert!(c.iter().zip(&b).all(|(x, y)| x.to_bits() == y.to_bits()), "d {d} order {order}");
-                    }
-                }
-            }
-        }
-    }
+    use ssm::tangent::rbf_jacobian;
 
     /// A random linear-kernel RBF map in dimension `d` with `k` centres: a contraction
     /// (0.9 eta plus small terms) when `small`, so Benettin runs stay bounded.
-    fn random_rbf(d: usize, k: usize, small: bool, rnd: &mut impl FnMut() -> f64) -> RbfMap {
-        let cond = Conditioning {
+    fn random_rbf(d: usize, k: usize, small: bool, rnd: &mut impl FnMut() -> f64) -> ssm::dynamics::RbfMap {
+        let cond = ssm::Conditioning {
             rows: 0,
             cols: 0,
             s_max: 1.0,
@@ -607,9 +125,9 @@ mod tests {
                 coef[(k + j) * d + j] = -0.1 * scale[j];
             }
         }
-        RbfMap {
+        ssm::dynamics::RbfMap {
             dim: d,
-            kernel: Kernel::Linear,
+            kernel: ssm::dynamics::Kernel::Linear,
             dt: 0.03,
             scale,
             centers: (0..k * d).map(|_| rnd()).collect(),
@@ -618,37 +136,14 @@ mod tests {
         }
     }
 
-    /// The fused step and Jacobian against `RbfMap::step` and [`rbf_jacobian`], bit for bit,
-    /// in dimensions 2..=6 at random states and exactly at a centre (the same error); and a
-    /// Benettin run through [`dynamics_lyapunov`] (fused) against `benettin_qr` with the
-    /// step and the Jacobian apart: the same spectrum bit for bit.
+    /// A Benettin run through [`dynamics_lyapunov`] (the fused step and Jacobian of
+    /// `ssm::tangent::Tangent`) against `benettin_qr` with the RBF map's step and
+    /// Jacobian apart, in dimensions 2..=6: the same spectrum bit for bit.
     #[test]
-    fn fused_rbf_step_and_jacobian_equal_the_separate_ones() {
+    fn fused_benettin_equals_the_separate_step_and_jacobian() {
         let mut rng = ssm::testing::XorShift64::new(0x9e37_79b9_7f4a_7c15);
         let mut rnd = move || rng.centered();
         for d in 2..=6 {
-            let m = random_rbf(d, 200, false, &mut rnd);
-            let (mut ja, mut jb, mut next) = (vec![0.0; d * d], vec![0.0; d * d], vec![0.0; d]);
-            let mut feat = Vec::new();
-            for t in 0..40 {
-                let eta: Vec<f64> = if t == 0 {
-                    (0..d).map(|j| m.centers[40 * d + j] * m.scale[j]).collect()
-                } else {
-                    (0..d).map(|_| rnd()).collect()
-                };
-                let ra = rbf_step_and_jacobian(&m, &eta, &mut ja, &mut next).unwrap();
-                let rb = rbf_jacobian(&m, &eta, &mut jb);
-                assert_eq!(ra, rb, "d {d} state {t}");
-                assert!(ja.iter().zip(&jb).all(|(x, y)| x.to_bits() == y.to_bits()), "d {d} state {t}");
-                if ra.is_ok() {
-                    let mut stepped = eta.clone();
-                    m.step(&mut stepped, &mut feat);
-                    assert!(
-                        next.iter().zip(&stepped).all(|(x, y)| x.to_bits() == y.to_bits()),
-                        "d {d} state {t}: {next:?} vs {stepped:?}"
-                    );
-                }
-            }
             let m = random_rbf(d, 100, true, &mut rnd);
             let dynamics = ReducedDynamics::Rbf(m.clone());
             let eta0: Vec<f64> = (0..d).map(|_| 0.2 * rnd()).collect();
@@ -676,62 +171,7 @@ mod tests {
             let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
             assert_eq!(bits(&fused.spectrum), bits(&apart.exponents), "d {d}");
             assert_eq!(fused.std_error.to_bits(), apart.std_error[0].to_bits());
-        }
-    }
-
-    /// The fixed-dimension Jacobian of the linear kernel against the general loop, bit for
-    /// bit, in dimensions 2..=6 on random maps (300 centres) at random states, including a
-    /// state exactly at a centre (the kink: the same error and the same partial sums);
-    /// `RBF_JAC_BENCH=fixed` / `any` time one of them.
-    #[test]
-    fn fixed_dimension_jacobian_equals_the_general_loop() {
-        let mut rng = ssm::testing::XorShift64::new(0x853c_49e6_748f_ea9b);
-        let mut rnd = move || rng.centered();
-        let cond = Conditioning {
-            rows: 0,
-            cols: 0,
-            s_max: 1.0,
-            s_min: 1.0,
-            cond: 1.0,
-            alpha: 0.0,
-            cond_regularized: 1.0,
-            rel_residual: 0.0,
-        };
-        for d in 2..=6 {
-            let k = 300;
-            let m = RbfMap {
-                dim: d,
-                kernel: Kernel::Linear,
-                dt: 0.03,
-                scale: (0..d).map(|_| 0.5 + rnd().abs()).collect(),
-                centers: (0..k * d).map(|_| rnd()).collect(),
-                coef: (0..(k + d + 1) * d).map(|_| rnd() * 10.0).collect(),
-                conditioning: cond,
-            };
-            let (mut a, mut b) = (vec![7.0; d * d], vec![-7.0; d * d]);
-            for t in 0..50 {
-                let eta: Vec<f64> = if t == 0 {
-                    (0..d).map(|j| m.centers[40 * d + j] * m.scale[j]).collect()
-                } else {
-                    (0..d).map(|_| rnd()).collect()
-                };
-                let ra = rbf_jacobian(&m, &eta, &mut a);
-                let rb = rbf_jacobian_any(&m, &eta, &mut b);
-                assert_eq!(ra, rb, "d {d} state {t}");
-                assert!(a.iter().zip(&b).all(|(x, y)| x.to_bits() == y.to_bits()), "d {d} state {t}: {a:?} vs {b:?}");
-            }
-            if let Ok(kind) = std::env::var("RBF_JAC_BENCH") {
-                let eta: Vec<f64> = (0..d).map(|_| rnd()).collect();
-                let t0 = std::time::Instant::now();
-                for _ in 0..20_000 {
-                    let _ = if kind == "fixed" {
-                        rbf_jacobian(&m, &eta, &mut a)
-                    } else {
-                        rbf_jacobian_any(&m, &eta, &mut a)
-                    };
-                }
-                eprintln!("d {d}: 20000 {kind} Jacobians of 300 centres: {:?}", t0.elapsed());
-            }
+            assert_eq!(fused.kaplan_yorke.map(f64::to_bits), chaos::kaplan_yorke(&apart.exponents).map(f64::to_bits));
         }
     }
 }

@@ -17,13 +17,16 @@
 //! samples, the rest unchanged), so model and data go through the same estimator with the
 //! same parameters.
 
-use chaos::{Bins, CorrSumParams, Points, ScalingRule, correlation_dimension, delay_embed};
-use serde::Serialize;
+use chaos::{
+    Bins, Context, CorrSumParams, Points, Reference, ScalingRule, Statistics, correlation_dimension, delay_embed,
+};
+use chaos::{Targets, add_noise, best_of, rollout_horizon};
+use serde::{Deserialize, Serialize};
 use ssm::{FitOptions, SsmModel, TimeSeries, fit};
 
 use crate::Error;
 use crate::lyapunov::{iterate_dynamics, model_bound, model_lyapunov};
-use crate::microchaos::{Context, reduce_series};
+use crate::microchaos::reduce_series;
 
 /// One candidate model: SSM fit options and the map step in samples.
 #[derive(Clone, Debug, Serialize)]
@@ -82,24 +85,8 @@ impl Default for EvalSettings {
     }
 }
 
-/// The targets of docs/decisions/0002: Benettin > 0 and within `benettin_rel` of the data's exponent,
-/// Rosenstein of the model series within `rosenstein_rel`, D2 within the data's error bar,
-/// JS at most `js_max` bits.
-#[derive(Clone, Copy, Debug, Serialize)]
-pub struct Targets {
-    pub benettin_rel: f64,
-    pub rosenstein_rel: f64,
-    pub js_max: f64,
-}
-
-impl Default for Targets {
-    fn default() -> Self {
-        Self { benettin_rel: 0.10, rosenstein_rel: 0.05, js_max: 0.01 }
-    }
-}
-
 /// Statistics of the held-out data at one map step.
-#[derive(Clone, Debug, Serialize)]
+#[derive(Clone, Debug, Serialize, Deserialize)]
 pub struct DataStats {
     pub step: usize,
     pub dt: f64,
@@ -119,7 +106,7 @@ pub struct DataStats {
 /// What one candidate gave. `failed` names why a candidate is out (fit error, escape, left
 /// the data's region, a statistic that could not be measured); its values are then those
 /// measured before the failure.
-#[derive(Clone, Debug, Serialize)]
+#[derive(Clone, Debug, Serialize, Deserialize)]
 pub struct CandidateResult {
     pub name: String,
     pub step: usize,
@@ -159,60 +146,33 @@ pub struct CandidateResult {
 }
 
 impl CandidateResult {
-    /// Which targets hold: (Benettin, Rosenstein, D2, JS).
+    /// The measured statistics, as the targets read them.
+    pub fn statistics(&self) -> Statistics {
+        Statistics { benettin: self.benettin, rosenstein: self.rosenstein, corr_dim: self.corr_dim, js: self.js }
+    }
+
+    /// Which targets hold: (Benettin, Rosenstein, D2, JS) ([`Targets::passes`]).
     pub fn passes(&self, t: &Targets) -> [bool; 4] {
         if self.failed.is_some() {
             return [false; 4];
         }
-        let l = self.data.lle;
-        let rel = |v: Option<f64>| v.map(|v| (v - l).abs() / l.abs());
-        [
-            self.benettin.is_some_and(|b| b > 0.0) && rel(self.benettin).is_some_and(|e| e <= t.benettin_rel),
-            rel(self.rosenstein).is_some_and(|e| e <= t.rosenstein_rel),
-            self.corr_dim.is_some_and(|d| (d - self.data.corr_dim).abs() <= self.data.corr_dim_err),
-            self.js.is_some_and(|j| j <= t.js_max),
-        ]
+        t.passes(&self.statistics(), &self.data.reference())
     }
 
-    /// Sum of the errors, each over its tolerance (Benettin and Rosenstein relative to the
-    /// data's exponent, D2 over the data's error bar, JS over its bound); infinite for a
-    /// failed candidate or a missing value.
+    /// [`Targets::score`] of the candidate; infinite for a failed one.
     pub fn score(&self, t: &Targets) -> f64 {
         if self.failed.is_some() {
             return f64::INFINITY;
         }
-        score_of(
-            [self.benettin, self.rosenstein, self.corr_dim, self.js],
-            (self.data.lle, self.data.corr_dim, self.data.corr_dim_err),
-            t,
-        )
+        t.score(&self.statistics(), &self.data.reference())
     }
 }
 
-/// [`CandidateResult::score`] of measured `(Benettin, Rosenstein, D2, JS)` against the data's
-/// `(Rosenstein exponent, D2, D2 error bar)`: each error over its tolerance, summed; infinite
-/// when a value is missing.
-pub fn score_of(m: [Option<f64>; 4], data: (f64, f64, f64), t: &Targets) -> f64 {
-    let [benettin, rosenstein, corr_dim, js] = m;
-    let (lle, d2, d2_err) = data;
-    let l = lle.abs();
-    let e = |v: Option<f64>, r: f64, tol: f64| v.map_or(f64::INFINITY, |v| (v - r).abs() / tol);
-    e(benettin, lle, t.benettin_rel * l)
-        + e(rosenstein, lle, t.rosenstein_rel * l)
-        + e(corr_dim, d2, d2_err.max(1e-12))
-        + js.map_or(f64::INFINITY, |j| j / t.js_max)
-}
-
-/// The best of rows given as (failed, targets met, score): most targets met, ties by the
-/// smallest score, the first of equals; failed rows are never picked. (index, met, score).
-pub fn best_of(rows: impl IntoIterator<Item = (bool, usize, f64)>) -> Option<(usize, usize, f64)> {
-    let mut best: Option<(usize, usize, f64)> = None;
-    for (i, (failed, n, sc)) in rows.into_iter().enumerate() {
-        if !failed && best.is_none_or(|(_, bn, bs)| n > bn || (n == bn && sc < bs)) {
-            best = Some((i, n, sc));
-        }
+impl DataStats {
+    /// What the targets measure a model against.
+    pub fn reference(&self) -> Reference {
+        Reference { lle: self.lle, corr_dim: self.corr_dim, corr_dim_err: self.corr_dim_err }
     }
-    best
 }
 
 /// Every `k`-th sample of `ts` from sample `offset`.
@@ -228,18 +188,12 @@ pub fn subsample(ts: &TimeSeries, k: usize, offset: usize) -> Result<TimeSeries,
     )?)
 }
 
-/// Centred moving average of `2 w + 1` samples (fewer at the ends); `w = 0` copies.
+/// [`chaos::moving_average`] of the series' values, named after it; `w = 0` copies.
 pub fn moving_average(ts: &TimeSeries, w: usize) -> Result<TimeSeries, Error> {
     if w == 0 {
         return Ok(ts.clone());
     }
-    let n = ts.x.len();
-    let x = (0..n)
-        .map(|i| {
-            let (a, b) = (i.saturating_sub(w), (i + w + 1).min(n));
-            ts.x[a..b].iter().sum::<f64>() / (b - a) as f64
-        })
-        .collect();
+    let x = chaos::moving_average(&ts.x, w);
     Ok(TimeSeries::new(format!("{} (moving average {})", ts.name, 2 * w + 1), ts.t.clone(), x)?)
 }
 
@@ -269,7 +223,7 @@ pub fn data_stats(test: &TimeSeries, step: usize, s: &EvalSettings) -> Result<(D
     )?;
     let mut notes = Vec::new();
     let (lle, _) = ctx.lle(&ts.x, &mut notes, "data")?;
-    let noise_sd = noise_level(test)?;
+    let noise_sd = chaos::noise_sd(&test.x);
     Ok((
         DataStats {
             step,
@@ -284,13 +238,6 @@ pub fn data_stats(test: &TimeSeries, step: usize, s: &EvalSettings) -> Result<(D
         },
         ctx,
     ))
-}
-
-/// [`DataStats::noise_sd`] of the full-rate series `test`.
-fn noise_level(test: &TimeSeries) -> Result<f64, Error> {
-    let ma = moving_average(test, 2)?;
-    let n = test.x.len().max(1) as f64;
-    Ok((test.x.iter().zip(&ma.x).map(|(a, b)| (a - b) * (a - b)).sum::<f64>() / n / 0.8).sqrt())
 }
 
 /// What [`crate::microchaos::analyse_held_out_models`] already computed on the same training
@@ -346,7 +293,7 @@ impl<'a> Known<'a> {
             corr_dim_err: summary.corr_dim_err,
             lle: summary.lle_data,
             len: test.x.len(),
-            noise_sd: noise_level(test)?,
+            noise_sd: chaos::noise_sd(&test.x),
         };
         let mut out = Known { step1: Some((stats, ctx)), models: Vec::new() };
         for (kind, m) in models {
@@ -654,19 +601,8 @@ fn measure(
     Ok(())
 }
 
-/// Horizon of the rollout loss, map steps: a quarter of the dominant period (`theiler`
-/// samples), at least one step. Over a whole period a chaotic model's error saturates near
-/// the data's RMS for every flag candidate and tells the candidates apart no more
-/// (docs/flag-study.md).
-pub fn rollout_horizon(theiler: usize) -> usize {
-    theiler.div_ceil(4).max(1)
-}
-
-/// Multi-step loss of a reduced map on a held-out reduced series `eta_data` (`d` values per
-/// point): from `starts` evenly spaced points (each with `horizon` points after it) the map
-/// is run `horizon` steps; the RMS over all starts and steps of the distance to the data's
-/// points, over the RMS norm of the data's points. `None` when the series is shorter than
-/// `horizon + 1` points or a run leaves the finite numbers.
+/// [`chaos::rollout_error`] of a discrete reduced map on a held-out reduced series;
+/// `None` for a continuous flow.
 pub fn rollout_error(
     dynamics: &ssm::ReducedDynamics,
     eta_data: &[f64],
@@ -675,49 +611,13 @@ pub fn rollout_error(
     starts: usize,
 ) -> Option<f64> {
     let dt = dynamics.map_dt()?;
-    let n = eta_data.len() / d.max(1);
-    if d == 0 || horizon == 0 || n < horizon + 1 || starts == 0 {
-        return None;
-    }
-    let stride = ((n - horizon) / starts).max(1);
     let mut scratch = ssm::dynamics::StepScratch::default();
     let map = dynamics.prepare();
-    let (mut err2, mut count) = (0.0, 0usize);
-    let mut eta = vec![0.0; d];
-    for s in (0..n - horizon).step_by(stride) {
-        eta.copy_from_slice(&eta_data[s * d..(s + 1) * d]);
-        for k in 1..=horizon {
-            map.step(&mut eta, dt, &mut scratch);
-            let target = &eta_data[(s + k) * d..(s + k + 1) * d];
-            err2 += eta.iter().zip(target).map(|(a, b)| (a - b) * (a - b)).sum::<f64>();
-            count += 1;
-        }
-    }
-    let norm2 = eta_data.iter().map(|v| v * v).sum::<f64>() / n as f64;
-    let e = (err2 / count.max(1) as f64 / norm2).sqrt();
-    e.is_finite().then_some(e)
-}
-
-/// `x` plus white Gaussian noise of standard deviation `sd` (xorshift64 from `seed`,
-/// Box-Muller), the same for every run with the same seed.
-pub fn add_noise(x: &[f64], sd: f64, seed: u64) -> Vec<f64> {
-    let mut state = seed.wrapping_mul(0x9E37_79B9_7F4A_7C15) | 1;
-    let mut uniform = move || {
-        state ^= state << 13;
-        state ^= state >> 7;
-        state ^= state << 17;
-        ((state >> 11) as f64 + 0.5) / (1u64 << 53) as f64
-    };
-    x.iter()
-        .map(|v| {
-            let (u1, u2) = (uniform(), uniform());
-            v + sd * (-2.0 * u1.ln()).sqrt() * (2.0 * std::f64::consts::PI * u2).cos()
-        })
-        .collect()
+    chaos::rollout_error(|eta| map.step(eta, dt, &mut scratch), eta_data, d, horizon, starts)
 }
 
 /// The pick of [`select`].
-#[derive(Clone, Debug, Serialize)]
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Selection {
     /// Index into the results, `None` when every candidate failed.
     pub index: Option<usize>,
@@ -763,10 +663,7 @@ pub fn select(results: &[CandidateResult], t: &Targets, chaos_margin: f64) -> Se
         results.len()
     );
     let data_chaotic = r.data.lle > chaos_margin;
-    let model_chaotic = match (r.benettin, r.benettin_err) {
-        (Some(b), Some(e)) => b > 2.0 * e && b > 0.0,
-        _ => false,
-    };
+    let model_chaotic = chaos::is_chaotic(r.benettin, r.benettin_err);
     let mut warnings = Vec::new();
     if data_chaotic && !model_chaotic {
         warnings.push(format!(
@@ -906,15 +803,6 @@ pub const FLAG_CHOSEN: [(&str, usize, usize, usize, usize, u32, usize, f64); 3] 
     ("RBF 300 /4 r=3e-9", 4, 4, 9, 1, 3, 300, 3e-9),
     ("RBF 200 /4 r=3e-9", 4, 4, 9, 1, 3, 200, 3e-9),
 ];
-
-/// The Rosenstein/Benettin ratios `rho` between which the Benettin (`benettin_rel`) and
-/// Rosenstein (`rosenstein_rel`) targets can hold together: a model with Benettin `B` within
-/// `B_rel` of the data's Rosenstein value `L` and Rosenstein `rho B` within `R_rel` of it
-/// needs `(1 - R_rel) / (1 + B_rel) <= rho <= (1 + R_rel) / (1 - B_rel)` (0.864 .. 1.167 for
-/// the 10 % and 5 %).
-pub fn joint_ratio_range(t: &Targets) -> (f64, f64) {
-    ((1.0 - t.rosenstein_rel) / (1.0 + t.benettin_rel), (1.0 + t.rosenstein_rel) / (1.0 - t.benettin_rel))
-}
 
 /// One chaotic row of the flag's candidate search with its estimator ratio.
 #[derive(Clone, Debug, Serialize)]
@@ -1165,7 +1053,7 @@ mod tests {
     /// errors-in-variables row 0.27 with D2 and JS far from the data's.
     #[test]
     fn flag_search_ratios_and_the_joint_range() {
-        let (lo, hi) = joint_ratio_range(&Targets::default());
+        let (lo, hi) = Targets::default().joint_ratio_range();
         assert!((lo - 0.95 / 1.1).abs() < 1e-12 && (hi - 1.05 / 0.9).abs() < 1e-12, "{lo} {hi}");
         let rows = flag_search_ratios(&crate::study_results::FlagResults::bundled().unwrap().search);
         assert!(rows.len() >= 30, "{}", rows.len());

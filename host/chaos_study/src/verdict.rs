@@ -22,7 +22,7 @@
 //!
 //! Stated choices: series of `periods` samples after the 20 s transient
 //! ([`crate::microchaos::simulate_scene`]); embedding dimension 6, lag = first zero of the
-//! autocorrelation, Theiler window = dominant period (as [`crate::microchaos::Context`]);
+//! autocorrelation, Theiler window = dominant period (as [`chaos::Context`]);
 //! separation of twin runs in `(theta, dt * theta', dt * phi')` (rad): the arm angle `phi` is
 //! left out, it is a neutral direction of the loop (the law reads only its differences).
 
@@ -35,7 +35,7 @@ use sim::scene::{Scene, SceneBuilder};
 use ssm::TimeSeries;
 
 use crate::Error;
-use crate::microchaos::Context;
+use chaos::Context;
 
 /// Encoder step of the quantized scenes (2000 counts per revolution), rad.
 pub const H_ADC: f64 = std::f64::consts::PI / 1000.0;

@@ -40,15 +40,15 @@
 
 use std::time::Instant;
 
-use chaos::{BenettinParams, benettin_qr, delay_embed};
+use chaos::{BenettinParams, Context, benettin_qr, delay_embed, dimension_rule};
 use chaos_study::chaos_tables::{CostStudy, ScaleStudy, flag_cost_study, scale_dependence, scale_studies};
-use chaos_study::lyapunov::{map_jacobian, model_bound};
+use chaos_study::lyapunov::model_bound;
 use chaos_study::microchaos::{
-    ChaosOptions, ChaosSummary, Context, analyse, dimension_rule, evaluate_model, fit_options, reduce_series,
-    simulate_scene,
+    ChaosOptions, ChaosSummary, analyse, evaluate_model, fit_options, reduce_series, simulate_scene,
 };
 use sim::scene::SceneBuilder;
 use ssm::dynamics::StepScratch;
+use ssm::tangent::map_jacobian;
 use ssm::{Dynamics, SsmModel, TimeSeries, fit};
 
 const USAGE: &str = "usage: explore_chaos <flag-models | scale-and-cost-tables | simulated-quantized | quantized-models | quantized-data-scales | flag-window-slopes | flag-candidates | flag-embedding>";
@@ -161,7 +161,8 @@ fn explore_flag_embedding() {
 /// long-run length in data lengths. One line per candidate (a markdown table row), then the
 /// selection.
 fn explore_flag_candidates() {
-    use chaos_study::model_selection::{Candidate, EvalSettings, Targets, evaluate_and_select};
+    use chaos::Targets;
+    use chaos_study::model_selection::{Candidate, EvalSettings, evaluate_and_select};
     let Some(two) = flag(&[9, 7]) else { return };
     let test = flag(&[8]).unwrap().pop().unwrap();
     let spec = std::env::var("CHAOS_CAND").unwrap_or_else(|_| "k=1,d=4,c=500".into());

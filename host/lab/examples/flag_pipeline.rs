@@ -173,9 +173,8 @@ fn parse_spec(spec: &str, step: usize) -> Option<chaos_study::model_selection::C
 /// (`noisy D2`); first the data's D2 raw and after 3- and 5-point moving averages.
 /// `FLAG12_QUIET_DATA=1` skips the data lines.
 fn flag_rows(specs: &[String]) {
-    use chaos_study::model_selection::{
-        EvalSettings, add_noise, data_stats, evaluate_candidate_fitted, moving_average,
-    };
+    use chaos::add_noise;
+    use chaos_study::model_selection::{EvalSettings, data_stats, evaluate_candidate_fitted, moving_average};
     let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared/data/inverted_flag_chaotic");
     let load = |k: usize| ssm::load_csv(dir.join(format!("traj_{k}.csv")));
     let (Ok(a), Ok(b), Ok(test)) = (load(9), load(7), load(8)) else {
@@ -234,7 +233,7 @@ fn flag_rows(specs: &[String]) {
         "| candidate | Benettin | Rosenstein | D2 | JS | KY dim | spectrum | noisy D2 | D2 of 5 pieces of the long run | targets B/R/D2/JS | failed | s |"
     );
     println!("|---|---|---|---|---|---|---|---|---|---|---|---|");
-    let targets = chaos_study::model_selection::Targets::default();
+    let targets = chaos::Targets::default();
     for spec in specs {
         let Some(c) = parse_spec(spec, 4) else {
             println!("bad spec `{spec}`");
@@ -455,7 +454,7 @@ fn fnn_rule(path: Option<&String>) {
         None => known_stats(&chaos_study::flag_pipeline::CHOSEN, &FLAG_LAYOUT, 1, 100.0).expect("series").1.remove(0),
     };
     let x = chaos_study::model_selection::subsample(&ts, FLAG_LAYOUT.step, 0).expect("subsample");
-    let ctx = chaos_study::microchaos::Context::from_series(&x.x, x.dt().unwrap_or(1.0), 6).expect("context");
+    let ctx = chaos::Context::from_series(&x.x, x.dt().unwrap_or(1.0), 6).expect("context");
     let (ratio, max_fnn) = chaos_study::flag_pipeline_fit::FNN_RULE;
     match chaos_study::flag_pipeline_fit::fnn_dimension(&x.x, 1, ctx.theiler, ratio, max_fnn, 8, 800) {
         Ok((d, rows)) => println!(

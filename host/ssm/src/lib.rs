@@ -15,7 +15,8 @@
 //! measured point), [`portrait`] (analysis of the
 //! two-mode amplitude equations: fixed points, saddle manifolds, heteroclinic and torus-Hopf
 //! detection), [`interp`] (coefficients interpolated in a system parameter) and [`device`]
-//! (a fitted RBF model converted to the device's `shared::model` blob).
+//! (a fitted RBF model converted to the device's `shared::model` blob); [`tangent`] the
+//! analytic Jacobians of the reduced maps, for their Lyapunov spectra.
 //!
 //! Architecture invariant: this crate knows no plant, no scene and no simulator (it does not
 //! depend on `sim`), and draws nothing; its only workspace dependency is `shared`, for the
@@ -44,6 +45,7 @@ pub mod poly;
 pub mod portrait;
 pub mod ridge;
 pub mod spectrum;
+pub mod tangent;
 pub mod testing;
 pub mod weight;
 

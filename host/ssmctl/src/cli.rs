@@ -170,6 +170,27 @@ pub enum Cmd {
         /// do not depend on it.
         #[arg(long, value_parser = clap::value_parser!(u16).range(1..))]
         jobs: Option<u16>,
+        /// Selection specs: folder of the per-candidate cache (default: `.ssmctl-cache` beside
+        /// the --out folder); a candidate whose code, settings and data are unchanged is read
+        /// from it, not computed.
+        #[arg(long, conflicts_with = "no_cache")]
+        cache: Option<PathBuf>,
+        /// Selection specs: compute every candidate; read and keep nothing in the cache.
+        #[arg(long)]
+        no_cache: bool,
+        /// Selection specs: compute shard I of N of the candidates (0-based, candidate k in
+        /// shard k mod N) into OUT/selection-shard-I-of-N.json. Without it, the Slurm array
+        /// task (SLURM_ARRAY_TASK_ID/COUNT/MIN) or Kubernetes' JOB_COMPLETION_INDEX with
+        /// --shards, as `ssmctl sweep`.
+        #[arg(long, value_name = "I/N", conflicts_with = "merge")]
+        shard: Option<String>,
+        /// The shard count for JOB_COMPLETION_INDEX.
+        #[arg(long)]
+        shards: Option<u32>,
+        /// Selection specs: merge the shard files in --out into the results (the same as one
+        /// unsharded run).
+        #[arg(long)]
+        merge: bool,
     },
     /// Merge a folder of sweep shard files: checks every cell is there once, from one spec;
     /// writes `OUT/<name>.json`, `OUT/<name>.csv` and the figure `OUT/<name>.png`.
@@ -293,10 +314,16 @@ pub enum Cmd {
         /// --data series, then nothing is held out).
         #[arg(long)]
         test: Option<PathBuf>,
-        /// Map steps (samples) of the candidate models, comma separated: an RBF and a
-        /// polynomial model at each, chosen by held-out long-term statistics.
-        #[arg(long, value_delimiter = ',', default_value = "1,4")]
-        steps: Vec<usize>,
+        /// Candidates of the model selection: the first N of the report's search (the flag
+        /// study's centre-set candidates in studies/flag.toml: RBF maps over 4 samples, SSM
+        /// dimension 4 or --ssm-dim), run as `ssmctl study` runs a selection spec. Each
+        /// candidate is a fit, a 55,000-step Benettin run and a long run; studies/README.md
+        /// gives the default's cost.
+        #[arg(long, default_value_t = DEFAULT_CHAOS_BUDGET, value_parser = clap::value_parser!(u32).range(1..))]
+        budget: u32,
+        /// Folder of the per-candidate cache (as `ssmctl study`'s); default: no cache.
+        #[arg(long)]
+        cache: Option<PathBuf>,
         #[arg(long)]
         json: bool,
     },
@@ -742,6 +769,10 @@ pub fn check_options(cli: &Cli) -> Result<(), Box<dyn std::error::Error>> {
     Ok(())
 }
 
+/// Candidates `ssmctl chaos` measures by default (`--budget`): the first of the report's
+/// search.
+pub const DEFAULT_CHAOS_BUDGET: u32 = 12;
+
 /// Where a command writes (output folders and files) and what it reads that must never be
 /// overwritten: the one place each command's outputs are declared, for its [`Outputs`]
 /// transaction.
@@ -954,11 +985,15 @@ fn run_command(cli: Cli) -> Result<(), Box<dyn std::error::Error>> {
                 r.file.display()
             );
         }
-        Cmd::Study { spec, data_dir, out, candidates, jobs } => {
+        Cmd::Study { spec, data_dir, out, candidates, jobs, cache, no_cache, shard, shards, merge } => {
             if let Some(n) = jobs {
                 rayon::ThreadPoolBuilder::new().num_threads(n.into()).build_global()?;
             }
-            let r = crate::study::study(&spec, &data_dir, &out, candidates.map(|n| n as usize), quiet)?;
+            let (shard, source) = crate::sweep::pick_shard(shard.as_deref(), shards, &|k| std::env::var(k).ok())?;
+            let shard = (source != crate::sweep::ShardSource::Whole).then_some(shard);
+            let cache = if no_cache { None } else { Some(cache.map_or_else(|| default_cache_dir(&out), Ok)?) };
+            let opts = crate::study::SelectionRun { limit: candidates.map(|n| n as usize), cache, shard, quiet };
+            let r = crate::study::study_with(&spec, &data_dir, &out, &opts, merge)?;
             eprintln!(
                 "study {} on {} data files in {:.1} s: wrote {} and {} under {}",
                 spec.display(),
@@ -1111,11 +1146,20 @@ fn run_command(cli: Cli) -> Result<(), Box<dyn std::error::Error>> {
                 }
             }
         }
-        Cmd::Chaos { data, column, gp_embed, ssm_dim, centers, poly_order, shift, ridge, test, steps, json } => {
-            // Options first (cheap), before any data is read or analysed.
-            if steps.is_empty() || steps.contains(&0) {
-                return Err(format!("--steps: every map step must be >= 1 sample, got {steps:?}").into());
-            }
+        Cmd::Chaos {
+            data,
+            column,
+            gp_embed,
+            ssm_dim,
+            centers,
+            poly_order,
+            shift,
+            ridge,
+            test,
+            budget,
+            cache,
+            json,
+        } => {
             let train =
                 data.iter().map(|p| ssm::load_csv_column(p, column.as_deref())).collect::<Result<Vec<_>, _>>()?;
             let held_out = test.as_ref().map(|p| ssm::load_csv_column(p, column.as_deref())).transpose()?;
@@ -1133,19 +1177,33 @@ fn run_command(cli: Cli) -> Result<(), Box<dyn std::error::Error>> {
                 Some(t) => t,
                 None => train.iter().max_by_key(|s| s.x.len()).ok_or("no training series")?,
             };
-            let cands = chaos_study::model_selection::standard_candidates(&o, r.ssm_dim, &steps, reference)?;
-            let settings = chaos_study::model_selection::EvalSettings { gp_embed, ..Default::default() };
-            let (results, sel) = chaos_study::model_selection::evaluate_and_select(
-                &train,
-                reference,
-                &cands,
-                &settings,
-                &Default::default(),
+            // The model selection: a default selection spec from the arguments, run as
+            // `ssmctl study` runs one (the report's search, cut to --budget, at --ssm-dim when
+            // given).
+            let name = |p: &PathBuf| p.display().to_string();
+            let spec = chaos_study::selection_study::SelectionSpec::default_search(
+                data.iter().map(name).collect(),
+                test.as_ref().map(name),
+                column.clone(),
+                budget as usize,
+                ssm_dim,
             )?;
+            let spec = chaos_study::selection_study::SelectionSpec {
+                statistics: chaos_study::selection_study::SelectionStatistics { gp_embed, ..spec.statistics },
+                ..spec
+            };
+            let run = crate::study::SelectionRun { cache, quiet: true, ..Default::default() };
+            let (sel_results, _, _) = crate::study::run_selection(&spec, std::path::Path::new(""), &run, &|_| {})?;
+            let results: Vec<chaos_study::model_selection::CandidateResult> = sel_results
+                .candidates
+                .iter()
+                .map(chaos_study::selection_study::result_from_json)
+                .collect::<Result<_, _>>()?;
+            let sel = sel_results.selection.clone();
             if json {
                 let mut v = serde_json::to_value(&r)?;
                 if let Some(m) = v.as_object_mut() {
-                    m.insert("candidates".into(), serde_json::to_value(&results)?);
+                    m.insert("candidates".into(), serde_json::Value::Array(sel_results.candidates.clone()));
                     m.insert("selection".into(), serde_json::to_value(&sel)?);
                     m.insert("held_out".into(), serde_json::Value::Bool(held_out.is_some()));
                 }

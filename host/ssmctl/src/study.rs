@@ -7,7 +7,12 @@ use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 use chaos_study::flag_study::{FlagStudySpec, run};
+use chaos_study::selection_study::{
+    Prepared, SelectionResults, SelectionSpec, evaluate, finish, load_series, prepare, prepare_series,
+    result_from_json, result_json,
+};
 use chaos_study::study_results::{EXPERIMENT, HELD_OUT, VALIDATION, to_json};
+use furuta::sweep::Shard;
 use serde::Serialize;
 
 use crate::output::write_atomic;
@@ -41,6 +46,10 @@ pub struct StudyRecord {
     pub code_version: String,
     pub git_commit: Option<String>,
     pub files: Vec<String>,
+    /// Selection specs: how many candidates this run computed (the others came from the
+    /// cache or, in a merge, from the shard files).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub computed: Option<usize>,
     pub wall_seconds: f64,
 }
 
@@ -68,9 +77,36 @@ pub fn study(
     limit: Option<usize>,
     quiet: bool,
 ) -> Result<StudyRecord, BoxError> {
+    study_with(spec_path, data_dir, out, &SelectionRun { limit, quiet, ..Default::default() }, false)
+}
+
+/// [`study`] with a cache and a shard (selection specs): with `run.shard`, only that shard's
+/// candidates are computed, into `out/selection-shard-I-of-N.json`; with `merge`, the shard
+/// files in `out` are merged into the results (each candidate once, all of one spec and data).
+pub fn study_with(
+    spec_path: &Path,
+    data_dir: &Path,
+    out: &Path,
+    opts: &SelectionRun,
+    merge: bool,
+) -> Result<StudyRecord, BoxError> {
     let t0 = Instant::now();
-    let text = std::fs::read_to_string(spec_path).map_err(|e| format!("{}: {e}", spec_path.display()))?;
-    let spec = FlagStudySpec::parse(&spec_path.display().to_string(), &text)?;
+    let text = infile::read_text(spec_path, infile::MAX_SPEC_BYTES)
+        .map_err(|e| format!("{}: cannot read the study spec: {e}", spec_path.display()))?;
+    let origin = spec_path.display().to_string();
+    if chaos_study::selection_study::spec_kind(&origin, &text)?.is_some() {
+        let spec = SelectionSpec::parse(&origin, &text)?;
+        return selection_study(spec_path, &text, &spec, data_dir, out, opts, merge, t0);
+    }
+    // The flag study has no per-candidate cache; a shard or a merge is an error.
+    if opts.shard.is_some() || merge {
+        return Err(format!(
+            "{origin}: --shard (or a Slurm/Kubernetes shard index) and --merge apply to selection specs (kind = \"selection\"); this is a flag study"
+        )
+        .into());
+    }
+    let (limit, quiet) = (opts.limit, opts.quiet);
+    let spec = FlagStudySpec::parse(&origin, &text)?;
     let spec = limit.map_or(spec.clone(), |n| spec.limited(n));
     let mut data = Vec::new();
     for k in spec.all_runs() {
@@ -111,10 +147,337 @@ pub fn study(
         code_version: env!("CARGO_PKG_VERSION").to_string(),
         git_commit: git_commit(),
         files: files.iter().map(|(n, _)| n.to_string()).collect(),
+        computed: None,
         wall_seconds: t0.elapsed().as_secs_f64(),
     };
     let p = out.join(STUDY_FILE);
     write_atomic(&p, (serde_json::to_string_pretty(&record)? + "\n").as_bytes())
         .map_err(|e| format!("{}: {e}", p.display()))?;
+    Ok(record)
+}
+
+/// How a selection study runs: the first `limit` candidates only, a cache of per-candidate
+/// results (`None`: every candidate computed, nothing kept), one shard of the candidates.
+#[derive(Clone, Debug, Default)]
+pub struct SelectionRun {
+    pub limit: Option<usize>,
+    pub cache: Option<PathBuf>,
+    pub shard: Option<furuta::sweep::Shard>,
+    pub quiet: bool,
+}
+
+/// The store's unit name of one candidate's result.
+const CANDIDATE_UNIT: &str = "selection-candidate";
+
+/// The store's unit name of a spec's simulated runs.
+const RUNS_UNIT: &str = "selection-runs";
+
+/// The spec's prepared series and statistics; simulated runs come from the cache `cache`
+/// when it has them (keyed by the code that simulates them, the runs' definition and a
+/// scene file's bytes) and are stored there when computed.
+fn prepare_cached(
+    spec: &SelectionSpec,
+    data_dir: &Path,
+    data: &[DataFile],
+    cache: Option<&Path>,
+) -> Result<Prepared, BoxError> {
+    let (Some(sim), Some(dir)) = (&spec.data.simulated, cache) else { return Ok(prepare(spec, data_dir)?) };
+    let store = fileio::store::Store::open(dir)?;
+    let mut k = crate::report::cache::code_key(RUNS_UNIT, &["chaos_study"])?
+        .part("simulated", serde_json::to_string(sim)?.as_bytes());
+    for (i, d) in data.iter().enumerate() {
+        k = k.part(&format!("scene file {i}"), d.crc64.as_bytes());
+    }
+    let key = k.finish();
+    type Runs = (Vec<ssm::TimeSeries>, ssm::TimeSeries, bool);
+    let cached: Option<Runs> =
+        store.get(RUNS_UNIT, &key).and_then(|e| e.meta().ok()).and_then(|m| serde_json::from_slice(&m).ok());
+    let (train, test, held_out) = match cached {
+        Some(r) => r,
+        None => {
+            let r: Runs = load_series(spec, data_dir)?;
+            let bytes = serde_json::to_vec(&r)?;
+            store
+                .put(RUNS_UNIT, &key, |_| Ok::<_, std::convert::Infallible>(bytes))
+                .map_err(|e| format!("cache {}: {e}", store.dir().display()))?;
+            r
+        }
+    };
+    Ok(prepare_series(spec, train, test, held_out)?)
+}
+
+/// The data files of a selection spec under `data_dir`, checked to exist, with their CRC-64:
+/// the training files, then the test file.
+fn selection_data(spec: &SelectionSpec, data_dir: &Path) -> Result<Vec<DataFile>, BoxError> {
+    if let Some(sim) = &spec.data.simulated {
+        // A bundled scene is part of the code (`sim`'s fingerprint); a scene file is data.
+        let p = Path::new(&sim.scene);
+        return if p.is_file() { Ok(vec![fingerprint(p)?]) } else { Ok(Vec::new()) };
+    }
+    let mut files = spec.training_paths(data_dir);
+    files.extend(spec.test_path(data_dir));
+    files
+        .iter()
+        .map(|p| {
+            if !p.is_file() {
+                return Err(format!(
+                    "{}: data file of the spec not found (--data-dir {})",
+                    p.display(),
+                    data_dir.display()
+                )
+                .into());
+            }
+            fingerprint(p)
+        })
+        .collect()
+}
+
+/// The key of candidate `c`'s result: the code of the crates that compute it, the
+/// toolchain, the estimator settings, the candidate (fit options, step, refits), the column,
+/// the simulated runs and the data files' bytes (in their roles).
+fn candidate_key(
+    spec: &SelectionSpec,
+    c: &chaos_study::model_selection::Candidate,
+    data: &[DataFile],
+) -> Result<fileio::store::Key, BoxError> {
+    let mut k = crate::report::cache::code_key(CANDIDATE_UNIT, &["chaos_study"])?
+        .part("statistics", serde_json::to_string(&spec.statistics)?.as_bytes())
+        .part("column", spec.data.column.as_deref().unwrap_or("").as_bytes())
+        .part("test held out", &[u8::from(spec.data.test.is_some())])
+        .part("simulated", serde_json::to_string(&spec.data.simulated)?.as_bytes())
+        .part("candidate", serde_json::to_string(c)?.as_bytes());
+    for (i, d) in data.iter().enumerate() {
+        k = k.part(&format!("data {i}"), d.crc64.as_bytes()).part(&format!("bytes {i}"), &d.bytes.to_le_bytes());
+    }
+    Ok(k.finish())
+}
+
+/// Candidate `i`'s result as the results file holds it, from the cache when it has it (then
+/// `false`: not computed).
+fn candidate_result(
+    p: &Prepared,
+    i: usize,
+    key: Option<(&fileio::store::Store, &fileio::store::Key)>,
+) -> Result<(serde_json::Value, bool), BoxError> {
+    if let Some(e) = key.and_then(|(store, key)| store.get(CANDIDATE_UNIT, key)) {
+        // An entry that does not read back as a result is computed again.
+        let v = serde_json::from_slice::<serde_json::Value>(&e.meta()?).ok();
+        if let Some(v) = v.filter(|v| result_from_json(v).is_ok()) {
+            return Ok((v, false));
+        }
+    }
+    let v = result_json(&evaluate(p, i)?)?;
+    if let Some((store, key)) = key {
+        let bytes = serde_json::to_vec(&v)?;
+        store
+            .put(CANDIDATE_UNIT, key, |_| Ok::<_, std::convert::Infallible>(bytes))
+            .map_err(|e| format!("cache {}: {e}", store.dir().display()))?;
+    }
+    Ok((v, true))
+}
+
+/// The candidate results of a run: (index, result) in the spec's order, and how many were
+/// computed (the others came from the cache).
+#[derive(Clone, Debug)]
+pub struct Rows {
+    pub rows: Vec<(usize, serde_json::Value)>,
+    pub computed: usize,
+}
+
+/// The candidate results of a selection spec: the candidates of `shard` (all without one),
+/// each from the cache or computed, as (index, result) in the spec's order.
+pub fn selection_rows(
+    spec: &SelectionSpec,
+    p: &Prepared,
+    data: &[DataFile],
+    run: &SelectionRun,
+    say: &dyn Fn(&str),
+) -> Result<Rows, BoxError> {
+    let store = run.cache.as_deref().map(fileio::store::Store::open).transpose()?;
+    let mine: Vec<usize> = (0..p.candidates.len())
+        .filter(|i| run.shard.is_none_or(|s| (*i as u64) % u64::from(s.count) == u64::from(s.index)))
+        .collect();
+    let keys: Vec<fileio::store::Key> =
+        mine.iter().map(|&i| candidate_key(spec, &p.candidates[i], data)).collect::<Result<_, _>>()?;
+    let cached = store.as_ref().map_or(0, |s| keys.iter().filter(|k| s.get(CANDIDATE_UNIT, k).is_some()).count());
+    say(&format!("{} candidates, {cached} in the cache", mine.len()));
+    use rayon::prelude::*;
+    let rows: Vec<Result<(usize, serde_json::Value, bool), String>> = mine
+        .par_iter()
+        .zip(&keys)
+        .map(|(&i, k)| {
+            candidate_result(p, i, store.as_ref().map(|s| (s, k))).map(|(v, c)| (i, v, c)).map_err(|e| e.to_string())
+        })
+        .collect();
+    if let Some(s) = &store {
+        s.finish_run()?;
+    }
+    let rows: Vec<(usize, serde_json::Value, bool)> = rows.into_iter().collect::<Result<_, _>>()?;
+    let computed = rows.iter().filter(|r| r.2).count();
+    Ok(Rows { rows: rows.into_iter().map(|(i, v, _)| (i, v)).collect(), computed })
+}
+
+/// Runs the selection spec on `data_dir` and selects (every candidate; `run.shard` is not
+/// used): the results file, the data files read and how many candidates were computed.
+pub fn run_selection(
+    spec: &SelectionSpec,
+    data_dir: &Path,
+    run: &SelectionRun,
+    say: &dyn Fn(&str),
+) -> Result<(SelectionResults, Vec<DataFile>, usize), BoxError> {
+    let spec = run.limit.map_or(spec.clone(), |n| spec.limited(n));
+    let data = selection_data(&spec, data_dir)?;
+    let p = prepare_cached(&spec, data_dir, &data, run.cache.as_deref())?;
+    for (ds, ctx) in &p.data {
+        say(&format!(
+            "test series {}: {} samples at map step {}, lag {}, Theiler {}",
+            p.test.name, ds.len, ds.step, ctx.lag, ctx.theiler
+        ));
+    }
+    let whole = SelectionRun { shard: None, ..run.clone() };
+    let rows = selection_rows(&spec, &p, &data, &whole, say)?;
+    let r = finish(&spec, &p, rows.rows.into_iter().map(|(_, v)| v).collect())?;
+    Ok((r, data, rows.computed))
+}
+
+/// The prefix of a selection study's shard files.
+const SHARD_PREFIX: &str = "selection-shard-";
+
+/// The results file of a selection study.
+pub const SELECTION_FILE: &str = "selection.json";
+
+/// One shard's candidate results: the spec and data they are of, and (index, result) rows.
+#[derive(Clone, Debug, Serialize, serde::Deserialize)]
+pub struct SelectionShard {
+    pub format: String,
+    /// CRC-64 of the spec (as run) and of the data files.
+    pub spec_hash: String,
+    pub shard: Shard,
+    pub candidates: usize,
+    pub rows: Vec<(usize, serde_json::Value)>,
+}
+
+const SHARD_FORMAT: &str = "ssmctl selection shard v1";
+
+fn selection_hash(spec: &SelectionSpec, data: &[DataFile]) -> Result<String, BoxError> {
+    let mut bytes = serde_json::to_vec(spec)?;
+    for d in data {
+        bytes.extend_from_slice(d.crc64.as_bytes());
+    }
+    Ok(format!("{:016x}", FINGERPRINT.checksum(&bytes)))
+}
+
+/// The shard files in `out` merged: every candidate of `n` once, all of spec hash `hash`.
+fn merge_shards(out: &Path, hash: &str, n: usize) -> Result<Vec<serde_json::Value>, BoxError> {
+    let mut files: Vec<PathBuf> = std::fs::read_dir(out)
+        .map_err(|e| format!("{}: cannot list the shard files: {e}", out.display()))?
+        .flatten()
+        .map(|e| e.path())
+        .filter(|p| p.file_name().and_then(|f| f.to_str()).is_some_and(|f| f.starts_with(SHARD_PREFIX)))
+        .collect();
+    files.sort();
+    if files.is_empty() {
+        return Err(format!("{}: no {SHARD_PREFIX}*.json files to merge", out.display()).into());
+    }
+    let mut slots: Vec<Option<serde_json::Value>> = vec![None; n];
+    for f in &files {
+        let text = infile::read_text(f, infile::MAX_DATA_BYTES).map_err(|e| format!("{}: {e}", f.display()))?;
+        let s: SelectionShard = serde_json::from_str(&text).map_err(|e| format!("{}: {e}", f.display()))?;
+        if s.format != SHARD_FORMAT {
+            return Err(format!("{}: format `{}`, expected `{SHARD_FORMAT}`", f.display(), s.format).into());
+        }
+        if s.spec_hash != hash || s.candidates != n {
+            return Err(format!(
+                "{}: a shard of another spec or data (hash {}, {} candidates; this run: {hash}, {n})",
+                f.display(),
+                s.spec_hash,
+                s.candidates
+            )
+            .into());
+        }
+        for (i, v) in s.rows {
+            let slot = slots.get_mut(i).ok_or_else(|| format!("{}: candidate {i} of {n}", f.display()))?;
+            if slot.replace(v).is_some() {
+                return Err(format!("{}: candidate {i} is in more than one shard file", f.display()).into());
+            }
+        }
+    }
+    let missing: Vec<usize> = slots.iter().enumerate().filter(|(_, v)| v.is_none()).map(|(i, _)| i).collect();
+    if !missing.is_empty() {
+        return Err(format!("{}: candidates {missing:?} are in no shard file", out.display()).into());
+    }
+    Ok(slots.into_iter().flatten().collect())
+}
+
+#[allow(clippy::too_many_arguments)]
+fn selection_study(
+    spec_path: &Path,
+    text: &str,
+    spec: &SelectionSpec,
+    data_dir: &Path,
+    out: &Path,
+    opts: &SelectionRun,
+    merge: bool,
+    t0: Instant,
+) -> Result<StudyRecord, BoxError> {
+    if merge && opts.shard.is_some() {
+        return Err("--merge and --shard: merge the shard files in a run of its own".into());
+    }
+    let say = |s: &str| {
+        if !opts.quiet {
+            eprintln!("[{:7.1} s] {s}", t0.elapsed().as_secs_f64());
+        }
+    };
+    let spec = opts.limit.map_or(spec.clone(), |n| spec.limited(n));
+    let data = selection_data(&spec, data_dir)?;
+    let hash = selection_hash(&spec, &data)?;
+    let p = prepare_cached(&spec, data_dir, &data, opts.cache.as_deref())?;
+    let n = p.candidates.len();
+    crate::output::create_dir(out)?;
+    let mut computed = 0;
+    let file = match (opts.shard, merge) {
+        (Some(shard), _) => {
+            let rows = selection_rows(&spec, &p, &data, opts, &say)?;
+            computed = rows.computed;
+            let s =
+                SelectionShard { format: SHARD_FORMAT.into(), spec_hash: hash, shard, candidates: n, rows: rows.rows };
+            let name = format!("{SHARD_PREFIX}{}-of-{}.json", shard.index, shard.count);
+            let path = out.join(&name);
+            write_atomic(&path, (serde_json::to_string_pretty(&s)? + "\n").as_bytes())
+                .map_err(|e| format!("{}: {e}", path.display()))?;
+            name
+        }
+        (None, merge) => {
+            let rows = if merge {
+                merge_shards(out, &hash, n)?
+            } else {
+                let rows = selection_rows(&spec, &p, &data, opts, &say)?;
+                computed = rows.computed;
+                rows.rows.into_iter().map(|(_, v)| v).collect()
+            };
+            let r = finish(&spec, &p, rows)?;
+            say(&format!("picked: {}", r.selection.name.as_deref().unwrap_or("none")));
+            let path = out.join(SELECTION_FILE);
+            write_atomic(&path, (serde_json::to_string_pretty(&r)? + "\n").as_bytes())
+                .map_err(|e| format!("{}: {e}", path.display()))?;
+            SELECTION_FILE.to_string()
+        }
+    };
+    let record = StudyRecord {
+        spec_file: spec_path.to_path_buf(),
+        spec: text.to_string(),
+        candidates_limit: opts.limit,
+        data,
+        code_version: env!("CARGO_PKG_VERSION").to_string(),
+        git_commit: git_commit(),
+        files: vec![file],
+        computed: Some(computed),
+        wall_seconds: t0.elapsed().as_secs_f64(),
+    };
+    if opts.shard.is_none() {
+        let p = out.join(STUDY_FILE);
+        write_atomic(&p, (serde_json::to_string_pretty(&record)? + "\n").as_bytes())
+            .map_err(|e| format!("{}: {e}", p.display()))?;
+    }
     Ok(record)
 }

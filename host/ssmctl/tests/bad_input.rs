@@ -313,7 +313,6 @@ fn sizes_are_refused_before_allocation_with_the_limit() {
         ("--poly-order", "30", "dynamics monomials"),
         ("--poly-order", "40", "poly_order: 40 exceeds the limit of 32"),
         ("--gp-embed", "0", "gp_embed: must be >= 1"),
-        ("--steps", "1,0", "--steps: every map step must be >= 1 sample"),
     ] {
         let mut a = vec!["chaos", "--data", c, "--column", "theta", opt, val];
         if opt != "--ssm-dim" {

@@ -9,6 +9,7 @@ use faer::Mat;
 use ssm::Ridge;
 use ssm::dynamics::EtaTrajectory;
 use ssm::dynamics::ReducedDynamics;
+use ssm::tangent::{RBF_KINK, map_jacobian, rbf_jacobian};
 
 /// Published largest exponent of the Hénon map (a = 1.4, b = 0.3), per iteration.
 const HENON_LAMBDA: f64 = 0.41922;

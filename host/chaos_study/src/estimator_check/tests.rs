@@ -118,7 +118,7 @@ fn rbf_kernels_on_lorenz_tangent_maps_and_exponents() {
         for i in [10, 1234, 4000] {
             let x = [trajs[1][(i, 0)] + 0.01, trajs[1][(i, 1)], trajs[1][(i, 2)]];
             let mut jac = [0.0; 9];
-            crate::lyapunov::rbf_jacobian(m, &x, &mut jac).unwrap();
+            ssm::tangent::rbf_jacobian(m, &x, &mut jac).unwrap();
             for j in 0..3 {
                 let h = 1e-5;
                 let (mut p, mut q) = (x.to_vec(), x.to_vec());

@@ -62,6 +62,17 @@ fn machine() -> String {
     format!("{model}; {cores} cores")
 }
 
+/// The start of a key for a unit outside the report (a study's candidate): `label`, the
+/// toolchain and the fingerprints of `crates` with their workspace dependencies.
+pub fn code_key(label: &str, crates: &[&str]) -> Result<KeyBuilder, Box<dyn Error>> {
+    let mut k = KeyBuilder::new(label).part("toolchain", &fingerprints::TOOLCHAIN.to_le_bytes());
+    for c in closure(crates)? {
+        let h = crate_hash(c).ok_or_else(|| format!("cache: no fingerprint of crate `{c}`"))?;
+        k = k.part(c, &h.to_le_bytes());
+    }
+    Ok(k)
+}
+
 /// The HTML, contents entries and summary keys of a section, as stored.
 #[derive(Serialize, Deserialize)]
 struct PartMeta {

@@ -5,7 +5,7 @@
 
 use std::error::Error;
 
-use chaos::Points;
+use chaos::{Context, Points};
 use chaos_study::chaos_tables::*;
 use chaos_study::flag_pipeline::PipelineRow;
 use chaos_study::lyapunov::ModelLyapunov;
@@ -506,11 +506,7 @@ fn selection_tables(
                 format!("{} / {:.3}", f(r.rosenstein, 3), r.data.lle),
                 format!("{} / {:.2} ± {:.2}", f(r.corr_dim, 2), r.data.corr_dim, r.data.corr_dim_err),
                 f(r.js, 4),
-                format!(
-                    "{} ({} steps)",
-                    f(r.rollout, 3),
-                    chaos_study::model_selection::rollout_horizon(r.data.theiler)
-                ),
+                format!("{} ({} steps)", f(r.rollout, 3), chaos::rollout_horizon(r.data.theiler)),
                 r.failed.clone().map_or_else(|| "ok".to_string(), |w| format!("FAILED: {w}")),
             ]);
         }
@@ -602,11 +598,10 @@ fn estimator_bias(
     results: &chaos_study::study_results::FlagResults,
     quick: bool,
 ) -> Result<(), Box<dyn Error>> {
-    use chaos_study::model_selection::{
-        BEST_MATCH_D2, BEST_MATCH_JS, Targets, best_matching, flag_search_ratios, joint_ratio_range,
-    };
+    use chaos::Targets;
+    use chaos_study::model_selection::{BEST_MATCH_D2, BEST_MATCH_JS, best_matching, flag_search_ratios};
     let rows = flag_search_ratios(&results.search);
-    let (lo, hi) = joint_ratio_range(&Targets::default());
+    let (lo, hi) = Targets::default().joint_ratio_range();
     let best = best_matching(&rows);
     let range = |f: &dyn Fn(&&chaos_study::model_selection::RatioRow) -> f64| {
         best.iter().map(f).fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), v| (a.min(v), b.max(v)))
@@ -1152,7 +1147,7 @@ fn flag_pipeline_fit(
     let held = &results.held_out;
     let flag_data = held.data.tuple();
     let train = chaos_study::model_selection::subsample(&series[0], FLAG_LAYOUT.step, 0)?;
-    let ctx = chaos_study::microchaos::Context::from_series(&train.x, train.dt().unwrap_or(1.0), 6)?;
+    let ctx = chaos::Context::from_series(&train.x, train.dt().unwrap_or(1.0), 6)?;
     let (ratio, max_fnn) = FNN_RULE;
     let proj = projection_fnn(&train.x, 9, 1, ctx.theiler, &[3, 4, 5, 6], ratio, 800)?;
     let (rule_dim, rule_rows) = fnn_dimension(&train.x, 1, ctx.theiler, ratio, max_fnn, 8, 800)?;

@@ -1,0 +1,577 @@
+//! A model-selection study as a spec (`kind = "selection"`): candidate reduced models fitted
+//! on training series, run on their own from the test series' first point and chosen by
+//! long-term statistics measured on both the same way (docs/decisions/0002,
+//! [`crate::model_selection`]). `ssmctl study` runs such a spec; `ssmctl chaos` builds one
+//! from its arguments ([`SelectionSpec::default_search`]: the flag study's centre-set
+//! search, the report's, cut to a budget).
+//!
+//! The candidates are independent: [`prepare`] loads the data and measures the test series
+//! once, [`evaluate`] measures one candidate (the unit a cache stores and a shard computes),
+//! [`finish`] selects among the results in the spec's order, whatever computed them.
+
+use std::path::{Path, PathBuf};
+
+use serde::{Deserialize, Serialize};
+use ssm::TimeSeries;
+
+use crate::Error;
+use crate::flag_self::candidate_from_name;
+use crate::flag_study::FlagStudySpec;
+use crate::model_selection::{Candidate, CandidateResult, DataStats, EvalSettings, Selection, data_stats};
+use chaos::Context;
+
+/// The value of `kind` that marks a selection spec.
+pub const KIND: &str = "selection";
+
+/// The bundled flag study, whose centre-set search is the default search.
+const FLAG_SPEC: &str = include_str!("../../../studies/flag.toml");
+
+/// The data: training files and the test file (under the data folder; absolute paths as
+/// they are) and the column of wider CSV files (the first column is the time); or runs of a
+/// scene simulated here (`simulated`), whose last run is the test.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SelectionData {
+    #[serde(default)]
+    pub training: Vec<String>,
+    /// The held-out series; `None`: the longest training series (nothing held out).
+    #[serde(default)]
+    pub test: Option<String>,
+    #[serde(default)]
+    pub column: Option<String>,
+    #[serde(default)]
+    pub simulated: Option<SimulatedRuns>,
+}
+
+/// Runs of a scene (bundled name or file) from `theta0` (rad, the other states 0) over
+/// `periods` control periods each, the first 20 s dropped; the observable is the scene's
+/// primary output. The last run is the test run, the others train.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SimulatedRuns {
+    pub scene: String,
+    pub periods: usize,
+    pub theta0: Vec<f64>,
+}
+
+/// The study's standard candidates at each map step of `steps`: the RBF map with `centers`
+/// centres and the polynomial map of order `poly_order`, both with relative ridge `ridge`,
+/// at the SSM dimension of the dimension rule on the test series (or `models.dim`) and the
+/// shift rule ([`crate::model_selection::standard_candidates`]).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct StandardCandidates {
+    pub steps: Vec<usize>,
+    pub centers: usize,
+    pub poly_order: u32,
+    pub ridge: f64,
+}
+
+impl StandardCandidates {
+    fn options(&self, gp_embed: usize, dim: Option<usize>) -> crate::microchaos::ChaosOptions {
+        crate::microchaos::ChaosOptions {
+            gp_embed,
+            ssm_dim: dim,
+            centers: self.centers,
+            poly_order: self.poly_order,
+            ridge: self.ridge,
+            ..Default::default()
+        }
+    }
+}
+
+/// The estimator settings ([`EvalSettings`]).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SelectionStatistics {
+    pub gp_embed: usize,
+    pub long_runs: usize,
+    pub benettin_transient: usize,
+    pub benettin_steps: usize,
+    pub region_factor: f64,
+}
+
+impl SelectionStatistics {
+    /// The settings of [`EvalSettings::default`] (the flag study's).
+    pub fn standard() -> Self {
+        let s = EvalSettings::default();
+        Self {
+            gp_embed: s.gp_embed,
+            long_runs: s.long_runs,
+            benettin_transient: s.benettin_transient,
+            benettin_steps: s.benettin_steps,
+            region_factor: s.region_factor,
+        }
+    }
+
+    pub fn settings(&self) -> EvalSettings {
+        EvalSettings {
+            gp_embed: self.gp_embed,
+            long_runs: self.long_runs,
+            benettin_transient: self.benettin_transient,
+            benettin_steps: self.benettin_steps,
+            region_factor: self.region_factor,
+        }
+    }
+}
+
+/// The candidates: the standard ones first (if any), then those by name
+/// ([`candidate_from_name`], map step 4), in the order the pick breaks ties; `dim`
+/// sets the SSM dimension of every candidate (embedding `2 dim + 1` for the named ones).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SelectionModels {
+    #[serde(default)]
+    pub candidates: Vec<String>,
+    #[serde(default)]
+    pub standard: Option<StandardCandidates>,
+    #[serde(default)]
+    pub dim: Option<usize>,
+}
+
+/// A selection spec.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SelectionSpec {
+    pub kind: String,
+    pub name: String,
+    pub data: SelectionData,
+    pub statistics: SelectionStatistics,
+    pub models: SelectionModels,
+}
+
+/// The `kind` of a spec's TOML text: `None` for a flag study (no `kind` key).
+pub fn spec_kind(origin: &str, text: &str) -> Result<Option<String>, Error> {
+    let bad = |why: String| Error::BadInput { what: "study spec", why: format!("{origin}: {why}") };
+    let table: toml::Table = text.parse().map_err(|e: toml::de::Error| bad(e.to_string()))?;
+    match table.get("kind") {
+        None => Ok(None),
+        Some(toml::Value::String(k)) => Ok(Some(k.clone())),
+        Some(v) => Err(bad(format!("at `kind`: expected a string, got `{v}`"))),
+    }
+}
+
+/// `name` with its SSM dimension set to `dim` and its embedding to `2 dim + 1`.
+pub fn with_dim(name: &str, dim: usize) -> String {
+    name.split_whitespace()
+        .map(|t| {
+            if t.starts_with("d=") {
+                format!("d={dim}")
+            } else if t.starts_with("p=") {
+                format!("p={}", 2 * dim + 1)
+            } else {
+                t.to_string()
+            }
+        })
+        .collect::<Vec<_>>()
+        .join(" ")
+}
+
+impl SelectionSpec {
+    /// The spec in TOML `text` (from `origin`, for the messages); unknown or missing keys and
+    /// bad values are errors naming the key.
+    pub fn parse(origin: &str, text: &str) -> Result<Self, Error> {
+        let bad = |why: String| Error::BadInput { what: "study spec", why: format!("{origin}: {why}") };
+        let de = toml::Deserializer::parse(text).map_err(|e| bad(e.to_string()))?;
+        let spec: Self = serde_path_to_error::deserialize(de)
+            .map_err(|e| bad(format!("at `{}`: {}", e.path(), e.inner().message())))?;
+        spec.check().map_err(bad)?;
+        Ok(spec)
+    }
+
+    fn check(&self) -> Result<(), String> {
+        if self.kind != KIND {
+            return Err(format!("kind = `{}`: expected `{KIND}` (or no kind for a flag study)", self.kind));
+        }
+        match &self.data.simulated {
+            None if self.data.training.is_empty() => {
+                return Err("data.training is empty (and no data.simulated runs)".into());
+            }
+            None => {}
+            Some(_) if !self.data.training.is_empty() || self.data.test.is_some() || self.data.column.is_some() => {
+                return Err("data.simulated and data files (training, test, column): give one or the other".into());
+            }
+            Some(sim) => {
+                if sim.theta0.len() < 2 {
+                    return Err(format!(
+                        "data.simulated.theta0 has {} start(s): needs a training run and the test run",
+                        sim.theta0.len()
+                    ));
+                }
+                if let Some(t) = sim.theta0.iter().find(|t| !t.is_finite()) {
+                    return Err(format!("data.simulated.theta0: {t} is not a finite angle"));
+                }
+                if sim.periods == 0 {
+                    return Err("data.simulated.periods = 0".into());
+                }
+            }
+        }
+        if let Some(t) = self.data.test.as_ref().filter(|t| self.data.training.contains(t)) {
+            return Err(format!("data.test `{t}` is also a training file"));
+        }
+        if self.models.candidates.is_empty() && self.models.standard.is_none() {
+            return Err("models: no candidates and no standard candidates".into());
+        }
+        if let Some(st) = &self.models.standard {
+            if st.steps.is_empty() || st.steps.contains(&0) {
+                return Err(format!("models.standard.steps = {:?}: every map step must be >= 1 sample", st.steps));
+            }
+            st.options(self.statistics.gp_embed, self.models.dim)
+                .validate()
+                .map_err(|e| format!("models.standard: {e}"))?;
+        }
+        if self.models.dim == Some(0) {
+            return Err("models.dim = 0: the SSM dimension must be >= 1".into());
+        }
+        let s = &self.statistics;
+        if s.gp_embed == 0 || s.gp_embed > crate::microchaos::MAX_GP_EMBED {
+            return Err(format!(
+                "statistics.gp_embed = {}: needs 1 ..= {}",
+                s.gp_embed,
+                crate::microchaos::MAX_GP_EMBED
+            ));
+        }
+        if s.long_runs == 0 || s.benettin_steps == 0 {
+            return Err("statistics.long_runs and statistics.benettin_steps must be >= 1".into());
+        }
+        if !(s.region_factor.is_finite() && s.region_factor >= 1.0) {
+            return Err(format!("statistics.region_factor = {}: needs a finite value >= 1", s.region_factor));
+        }
+        for c in self.candidates()? {
+            c.fit.validate().map_err(|e| format!("models.candidates: `{}`: {e}", c.name))?;
+        }
+        Ok(())
+    }
+
+    /// The named candidates, in the spec's order, at the spec's dimension.
+    pub fn candidates(&self) -> Result<Vec<Candidate>, String> {
+        self.candidate_names()
+            .iter()
+            .map(|n| candidate_from_name(n).map_err(|e| format!("models.candidates: {e}")))
+            .collect()
+    }
+
+    /// The candidates' names as they are measured (with `models.dim` applied).
+    pub fn candidate_names(&self) -> Vec<String> {
+        self.models.candidates.iter().map(|n| self.models.dim.map_or_else(|| n.clone(), |d| with_dim(n, d))).collect()
+    }
+
+    /// The spec with its named candidate list cut to its first `n`.
+    pub fn limited(&self, n: usize) -> Self {
+        let mut s = self.clone();
+        s.models.candidates.truncate(n);
+        s
+    }
+
+    /// The default search of `ssmctl chaos`: the bundled flag study's centre-set candidates
+    /// (the report's search), the first `budget` of them, at SSM dimension `dim` (`None`:
+    /// as named, d = 4), with the standard estimator settings.
+    pub fn default_search(
+        training: Vec<String>,
+        test: Option<String>,
+        column: Option<String>,
+        budget: usize,
+        dim: Option<usize>,
+    ) -> Result<Self, Error> {
+        let flag = FlagStudySpec::parse("studies/flag.toml (bundled)", FLAG_SPEC)?;
+        let mut candidates = flag.models.centres;
+        if budget == 0 || budget > candidates.len() {
+            return Err(Error::BadOption {
+                what: "budget",
+                why: format!("{budget}: needs 1 ..= {} (the search's candidates)", candidates.len()),
+            });
+        }
+        candidates.truncate(budget);
+        let spec = Self {
+            kind: KIND.into(),
+            name: "chaos".into(),
+            data: SelectionData { training, test, column, simulated: None },
+            statistics: SelectionStatistics::standard(),
+            models: SelectionModels { candidates, standard: None, dim },
+        };
+        spec.check().map_err(|why| Error::BadInput { what: "chaos options", why })?;
+        Ok(spec)
+    }
+
+    /// The training files under `data_dir`.
+    pub fn training_paths(&self, data_dir: &Path) -> Vec<PathBuf> {
+        self.data.training.iter().map(|f| data_dir.join(f)).collect()
+    }
+
+    /// The test file under `data_dir`, if the spec names one.
+    pub fn test_path(&self, data_dir: &Path) -> Option<PathBuf> {
+        self.data.test.as_ref().map(|f| data_dir.join(f))
+    }
+}
+
+/// What every candidate is measured with: the training series, the test series, whether
+/// it is held out, its statistics at the map step, and the candidates.
+pub struct Prepared {
+    pub train: Vec<TimeSeries>,
+    pub test: TimeSeries,
+    pub held_out: bool,
+    /// The test series' statistics at each map step of the candidates, ascending.
+    pub data: Vec<(DataStats, Context)>,
+    pub candidates: Vec<Candidate>,
+    pub settings: EvalSettings,
+}
+
+fn load(path: &Path, column: Option<&str>) -> Result<TimeSeries, Error> {
+    ssm::load_csv_column(path, column)
+        .map_err(|e| Error::BadInput { what: "study data", why: format!("{}: {e}", path.display()) })
+}
+
+/// The spec's series: (training, test, whether the test is held out).
+pub fn load_series(spec: &SelectionSpec, data_dir: &Path) -> Result<(Vec<TimeSeries>, TimeSeries, bool), Error> {
+    if let Some(sim) = &spec.data.simulated {
+        let runs: Vec<(usize, f64)> = sim.theta0.iter().copied().enumerate().collect();
+        let mut series = crate::par_map(&runs, |&(i, th)| {
+            let scene = sim::scene::SceneBuilder::load(&sim.scene)?;
+            crate::microchaos::simulate_scene(scene, sim.periods, th, &format!("{} #{i}", sim.scene))
+        })?;
+        let test = series.pop().ok_or(Error::BadInput { what: "study spec", why: "no simulated run".into() })?;
+        return Ok((series, test, true));
+    }
+    let col = spec.data.column.as_deref();
+    let train: Vec<TimeSeries> =
+        spec.training_paths(data_dir).iter().map(|p| load(p, col)).collect::<Result<_, _>>()?;
+    Ok(match spec.test_path(data_dir) {
+        Some(p) => (train, load(&p, col)?, true),
+        None => {
+            // The longest training series, the first of equals.
+            let mut best = 0;
+            for (i, t) in train.iter().enumerate() {
+                if t.x.len() > train[best].x.len() {
+                    best = i;
+                }
+            }
+            let test = train[best].clone();
+            (train, test, false)
+        }
+    })
+}
+
+/// The SSM dimension of the standard candidates: `models.dim`, else the dimension rule on the
+/// correlation dimension of the test series (as the chaos analysis takes it).
+fn standard_dim(spec: &SelectionSpec, test: &TimeSeries) -> Result<usize, Error> {
+    if let Some(d) = spec.models.dim {
+        return Ok(d);
+    }
+    let dt =
+        test.dt().ok_or(Error::BadInput { what: "test series", why: format!("{}: no sampling step", test.name) })?;
+    let ctx = Context::from_series(&test.x, dt, spec.statistics.gp_embed)?;
+    let cd = ctx.corr_dim(&test.x)?;
+    Ok(chaos::dimension_rule(cd.dimension, cd.slope_std)?)
+}
+
+/// Loads (or simulates) the spec's data and measures the test series at each map step of
+/// the candidates.
+pub fn prepare(spec: &SelectionSpec, data_dir: &Path) -> Result<Prepared, Error> {
+    let (train, test, held_out) = load_series(spec, data_dir)?;
+    prepare_series(spec, train, test, held_out)
+}
+
+/// [`prepare`] on series already loaded by [`load_series`] (or read back from a cache).
+pub fn prepare_series(
+    spec: &SelectionSpec,
+    train: Vec<TimeSeries>,
+    test: TimeSeries,
+    held_out: bool,
+) -> Result<Prepared, Error> {
+    let settings = spec.statistics.settings();
+    let mut candidates = Vec::new();
+    if let Some(st) = &spec.models.standard {
+        let dim = standard_dim(spec, &test)?;
+        let o = st.options(spec.statistics.gp_embed, spec.models.dim);
+        candidates.extend(crate::model_selection::standard_candidates(&o, dim, &st.steps, &test)?);
+    }
+    candidates.extend(spec.candidates().map_err(|why| Error::BadInput { what: "study spec", why })?);
+    let mut steps: Vec<usize> = candidates.iter().map(|c| c.step).collect();
+    steps.sort_unstable();
+    steps.dedup();
+    let data = crate::par_map(&steps, |&k| data_stats(&test, k, &settings))?;
+    Ok(Prepared { train, test, held_out, data, candidates, settings })
+}
+
+/// Measures candidate `i` of `p`.
+pub fn evaluate(p: &Prepared, i: usize) -> Result<CandidateResult, Error> {
+    let c = p.candidates.get(i).ok_or_else(|| Error::BadInput {
+        what: "candidate index",
+        why: format!("{i}: the spec has {} candidates", p.candidates.len()),
+    })?;
+    let data = p.data.iter().find(|d| d.0.step == c.step).ok_or_else(|| Error::BadInput {
+        what: "candidate",
+        why: format!("{}: no data statistics at step {}", c.name, c.step),
+    })?;
+    crate::model_selection::evaluate_candidate(&p.train, &p.test, c, data, &p.settings)
+}
+
+/// The results file of a selection spec (`selection.json`).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct SelectionResults {
+    pub name: String,
+    pub training: Vec<String>,
+    pub test: String,
+    /// Whether the test series is held out (not a training series).
+    pub held_out: bool,
+    /// The test series' statistics at each map step of the candidates.
+    pub data: serde_json::Value,
+    /// Every candidate's result, in the spec's order, without its timing.
+    pub candidates: Vec<serde_json::Value>,
+    pub selection: Selection,
+}
+
+/// A candidate's result as the results file and the cache hold it: its JSON without the
+/// timing (which differs from run to run).
+pub fn result_json(r: &CandidateResult) -> Result<serde_json::Value, Error> {
+    let mut v = serde_json::to_value(r)
+        .map_err(|e| Error::BadInput { what: "candidate result", why: format!("{}: {e}", r.name) })?;
+    if let Some(m) = v.as_object_mut() {
+        m.remove("seconds");
+    }
+    Ok(v)
+}
+
+/// The result back from [`result_json`] (timing 0).
+pub fn result_from_json(v: &serde_json::Value) -> Result<CandidateResult, Error> {
+    let mut v = v.clone();
+    if let Some(m) = v.as_object_mut() {
+        m.insert("seconds".into(), 0.0.into());
+    }
+    serde_json::from_value(v).map_err(|e| Error::BadInput { what: "candidate result", why: e.to_string() })
+}
+
+/// The pick among `results` (in the spec's order, each as [`result_json`] gives it), by
+/// [`crate::model_selection::select`]; the results file.
+pub fn finish(spec: &SelectionSpec, p: &Prepared, results: Vec<serde_json::Value>) -> Result<SelectionResults, Error> {
+    if results.len() != p.candidates.len() {
+        return Err(Error::BadInput {
+            what: "candidate results",
+            why: format!("{} results for {} candidates", results.len(), p.candidates.len()),
+        });
+    }
+    let rows: Vec<CandidateResult> = results.iter().map(result_from_json).collect::<Result<_, _>>()?;
+    for (r, c) in rows.iter().zip(&p.candidates) {
+        if r.name != c.name {
+            return Err(Error::BadInput {
+                what: "candidate results",
+                why: format!("result of `{}` where `{}` was expected", r.name, c.name),
+            });
+        }
+    }
+    let selection = crate::model_selection::select(&rows, &chaos::Targets::default(), 0.0);
+    Ok(SelectionResults {
+        name: spec.name.clone(),
+        training: p.train.iter().map(|t| t.name.clone()).collect(),
+        test: p.test.name.clone(),
+        held_out: p.held_out,
+        data: serde_json::to_value(p.data.iter().map(|d| &d.0).collect::<Vec<_>>())
+            .map_err(|e| Error::BadInput { what: "data statistics", why: e.to_string() })?,
+        candidates: results,
+        selection,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const SPEC: &str = r#"
+kind = "selection"
+name = "t"
+[data]
+training = ["a.csv"]
+test = "b.csv"
+[statistics]
+gp_embed = 6
+long_runs = 5
+benettin_transient = 5000
+benettin_steps = 50000
+region_factor = 1.5
+[models]
+candidates = ["RBF 200 r=3e-9 d=4 p=9", "RBF 300 r=1e-8 d=4 p=9 centres kmeans++@2"]
+"#;
+
+    #[test]
+    fn spec_parses_and_names_bad_keys() {
+        let s = SelectionSpec::parse("t.toml", SPEC).unwrap();
+        assert_eq!(spec_kind("t.toml", SPEC).unwrap().as_deref(), Some(KIND));
+        assert_eq!(s.candidates().unwrap().len(), 2);
+        let bad = |from: &str, to: &str, want: &str| {
+            let e = SelectionSpec::parse("t.toml", &SPEC.replace(from, to)).unwrap_err().to_string();
+            assert!(e.contains("t.toml") && e.contains(want), "{e}");
+        };
+        bad("region_factor = 1.5", "region_factor = 1.5\nextra = 1", "extra");
+        bad("kind = \"selection\"", "kind = \"sweep\"", "kind");
+        bad("test = \"b.csv\"", "test = \"a.csv\"", "data.test");
+        bad("\"RBF 200", "\"RBX 200", "RBX");
+        bad("gp_embed = 6", "gp_embed = 0", "gp_embed");
+        bad("[models]\n", "[models]\ndim = 0\n", "models.dim");
+        assert!(spec_kind("f.toml", "name = \"flag\"").unwrap().is_none());
+    }
+
+    #[test]
+    fn dimension_and_budget_of_the_default_search() {
+        assert_eq!(with_dim("RBF 200 r=3e-9 d=4 p=9 centres random@3", 6), "RBF 200 r=3e-9 d=6 p=13 centres random@3");
+        let s = SelectionSpec::default_search(vec!["a.csv".into()], None, None, 5, Some(3)).unwrap();
+        assert_eq!(s.models.candidates.len(), 5);
+        let c = s.candidates().unwrap();
+        assert!(c.iter().all(|c| c.fit.dim == 3 && c.fit.embed == 7), "{c:?}");
+        let e = SelectionSpec::default_search(vec!["a.csv".into()], None, None, 0, None).unwrap_err();
+        assert!(e.to_string().contains("budget"), "{e}");
+        let e = SelectionSpec::default_search(vec!["a.csv".into()], None, None, 10_000, None).unwrap_err();
+        assert!(e.to_string().contains("budget"), "{e}");
+    }
+
+    /// The bundled specs parse; the full flag search is the flag study's centre-set list.
+    #[test]
+    fn bundled_selection_specs_parse() {
+        let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../studies");
+        let read = |f: &str| std::fs::read_to_string(dir.join(f)).unwrap();
+        let search = SelectionSpec::parse("flag-search.toml", &read("flag-search.toml")).unwrap();
+        let flag = FlagStudySpec::parse("flag.toml", &read("flag.toml")).unwrap();
+        assert_eq!(search.models.candidates, flag.models.centres);
+        assert_eq!(search.statistics.settings().benettin_steps, flag.statistics.benettin_steps);
+        let furuta = SelectionSpec::parse("furuta-chaos.toml", &read("furuta-chaos.toml")).unwrap();
+        assert_eq!(furuta.data.simulated.as_ref().unwrap().theta0.len(), 3);
+        assert!(furuta.models.candidates.is_empty() && furuta.models.standard.is_some());
+        let e = SelectionSpec::parse(
+            "f.toml",
+            &read("furuta-chaos.toml").replace("theta0 = [0.02, 0.035, 0.05]", "theta0 = [0.02]"),
+        )
+        .unwrap_err();
+        assert!(e.to_string().contains("data.simulated.theta0"), "{e}");
+        let e = SelectionSpec::parse("f.toml", &read("furuta-chaos.toml").replace("steps = [1]", "steps = [0]"))
+            .unwrap_err();
+        assert!(e.to_string().contains("models.standard.steps"), "{e}");
+    }
+
+    /// The Furuta spec's machinery on short runs: simulated runs (the last held out), the
+    /// standard candidates at the rule's dimension, each measured, one picked.
+    #[test]
+    fn simulated_runs_and_standard_candidates() {
+        let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../studies");
+        let mut spec =
+            SelectionSpec::parse("furuta-chaos.toml", &std::fs::read_to_string(dir.join("furuta-chaos.toml")).unwrap())
+                .unwrap();
+        spec.data.simulated.as_mut().unwrap().periods = 3000;
+        spec.models.standard.as_mut().unwrap().centers = 60;
+        spec.statistics.benettin_transient = 200;
+        spec.statistics.benettin_steps = 2000;
+        spec.statistics.long_runs = 1;
+        let p = prepare(&spec, Path::new("unused")).unwrap();
+        assert_eq!(p.train.len(), 2);
+        assert!(p.held_out && p.test.name == "furuta-quant-dt25 #2", "{}", p.test.name);
+        let names: Vec<&str> = p.candidates.iter().map(|c| c.name.as_str()).collect();
+        assert_eq!(names, ["RBF 60 /1", "poly 4 /1"]);
+        assert_eq!(p.data.len(), 1);
+        let rows: Vec<serde_json::Value> =
+            (0..p.candidates.len()).map(|i| result_json(&evaluate(&p, i).unwrap()).unwrap()).collect();
+        let r = finish(&spec, &p, rows.clone()).unwrap();
+        assert_eq!(r.candidates, rows);
+        assert_eq!(r.training, ["furuta-quant-dt25 #0", "furuta-quant-dt25 #1"]);
+        assert!(r.selection.name.is_some() || r.selection.why.contains("failed"), "{:?}", r.selection);
+        let e = finish(&spec, &p, rows[..1].to_vec()).unwrap_err();
+        assert!(e.to_string().contains("1 results for 2 candidates"), "{e}");
+    }
+}
