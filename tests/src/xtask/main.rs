@@ -54,6 +54,9 @@
 //!   single-process run bit for bit; the daemons are shut down on every path (`slurm.rs`).
 //! - `fuzz [--seconds N] [TARGET ...]`: the libFuzzer targets of `tests/fuzz` (nightly +
 //!   cargo-fuzz; says so when missing), N seconds each (`fuzz.rs`).
+//! - `build-times [--steps FILE] [LABEL=TIMINGS.html ...]`: Markdown tables of the last
+//!   `cargo xtask test` (steps, host test binaries) and of cargo `--timings` reports
+//!   (unit-seconds by kind, side by side), for `docs/build-time.md` (`host_tests.rs`).
 
 mod cache;
 mod child;
@@ -62,6 +65,7 @@ mod device_table;
 mod elf;
 mod files;
 mod fuzz;
+mod host_tests;
 mod python;
 mod rng;
 mod slurm;
@@ -173,7 +177,10 @@ fn main() -> ExitCode {
         Some("compare-report") => compare_report::run(&args[1..]),
         Some("slurm-test") => slurm::slurm_test(None),
         Some("fuzz") => fuzz::fuzz(&args[1..]),
-        _ => Err("usage: cargo xtask <install | qemu-test [--board mps2-an386|stm32f407] | firmware-size | device-table [--json] | python-test | pil [--periods N] [--scene NAME] | pil-record --out DIR [--runs N] [--periods P] [--scene NAME] [--seed S] [--fresh] | test | reproduce --out DIR [--fresh] | compare-report BASE NEW | slurm-test | fuzz [--seconds N] [TARGET ...]>".into()),
+        Some("build-times") => {
+            host_tests::build_times(&args[1..], &steps_json_path(), &WORKSPACE_CRATES).map(|md| print!("{md}"))
+        }
+        _ => Err("usage: cargo xtask <install | qemu-test [--board mps2-an386|stm32f407] | firmware-size | device-table [--json] | python-test | pil [--periods N] [--scene NAME] | pil-record --out DIR [--runs N] [--periods P] [--scene NAME] [--seed S] [--fresh] | test | reproduce --out DIR [--fresh] | compare-report BASE NEW | slurm-test | fuzz [--seconds N] [TARGET ...] | build-times [--steps FILE] [LABEL=TIMINGS.html ...]>".into()),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
@@ -1076,6 +1083,47 @@ fn host_build() -> Result<PathBuf> {
     ssmctl_bin()
 }
 
+/// The workspace's crates (package names as cargo's timings report them).
+const WORKSPACE_CRATES: [&str; 14] = [
+    "controller",
+    "shared",
+    "fileio",
+    "infile",
+    "sim",
+    "ssm",
+    "chaos",
+    "furuta",
+    "chaos_study",
+    "ssmctl",
+    "python",
+    "lab",
+    "tests",
+    "fuzz-targets",
+];
+
+/// The host tests' binaries as rows of the step table: each one of at least
+/// [`TABLE_MIN_SECONDS`], the others as one row; `start` is when the step began.
+fn add_test_binaries(steps: &steps::Steps, start: f64, binaries: &[host_tests::Binary]) {
+    let row = |name: String, start_s: f64, seconds: f64, ok: bool| steps::Row {
+        name,
+        start_s,
+        seconds,
+        error: (!ok).then(|| "failed".to_string()),
+    };
+    let (long, short): (Vec<_>, Vec<_>) = binaries.iter().partition(|b| b.seconds >= TABLE_MIN_SECONDS);
+    for b in long {
+        steps.add(row(format!("  host tests: {}", b.name), start + b.start_s, b.seconds, b.ok));
+    }
+    if let Some(first) = short.first() {
+        let seconds = short.iter().map(|b| b.seconds).sum();
+        let name = format!("  host tests: {} binaries under {TABLE_MIN_SECONDS} s each", short.len());
+        steps.add(row(name, start + first.start_s, seconds, short.iter().all(|b| b.ok)));
+    }
+}
+
+/// Test binaries shorter than this share one row of the step table (all are in the JSON).
+const TABLE_MIN_SECONDS: f64 = 2.0;
+
 /// Waits for `gate`; `Err` naming `what` when the step behind it failed.
 fn after<T: Clone>(gate: &steps::Gate<Result<T>>, what: &str) -> Result<T> {
     gate.wait().map_err(|_| format!("not run: {what} failed"))
@@ -1101,6 +1149,7 @@ fn test_all() -> Result<()> {
     let pil_done: Gate<Result<()>> = Gate::new();
     let results = std::sync::Mutex::new(Vec::<(&str, Result<()>)>::new());
     let on_target = std::sync::Mutex::new((0u32, 0u32));
+    let test_binaries = std::sync::Mutex::new(Vec::<host_tests::Binary>::new());
     let record = |name: &'static str, r: Result<()>| results.lock().unwrap_or_else(|p| p.into_inner()).push((name, r));
     let count = |passed: u32, failed: u32| {
         let mut c = on_target.lock().unwrap_or_else(|p| p.into_inner());
@@ -1210,7 +1259,13 @@ fn test_all() -> Result<()> {
         host.set(built.clone());
         let tests = after(&host, "host build").and_then(|_| {
             steps.run("host tests (cargo test --workspace --exclude lab)", || {
-                run(cmd("cargo").current_dir(root()).args(["test", "--workspace", "--exclude", "lab"]))
+                let start = steps.elapsed();
+                let mut c = cmd("cargo");
+                c.current_dir(root()).args(["test", "--workspace", "--exclude", "lab"]);
+                let (binaries, r) = host_tests::run_timed(&mut c);
+                add_test_binaries(&steps, start, &binaries);
+                *test_binaries.lock().unwrap_or_else(|p| p.into_inner()) = binaries;
+                r
             })
         });
         record("host tests", tests);
@@ -1229,7 +1284,24 @@ fn test_all() -> Result<()> {
         }
     }
     println!("\n{}", steps.table());
-    let extra = steps::cpu_and_load();
+    let mut extra = steps::cpu_and_load();
+    if let Some(o) = extra.as_object_mut() {
+        let binaries = test_binaries.into_inner().unwrap_or_else(|p| p.into_inner());
+        let list: Vec<serde_json::Value> = binaries
+            .iter()
+            .map(|b| serde_json::json!({"name": b.name, "start_seconds": b.start_s, "seconds": b.seconds, "passed": b.passed, "ok": b.ok}))
+            .collect();
+        o.insert("host_test_binaries".into(), list.into());
+        // What each crate of the host build cost (all of them when the build started from
+        // scratch, only what was recompiled otherwise).
+        let timings = root().join("target").join("cargo-timings").join("cargo-timing.html");
+        match std::fs::read_to_string(&timings).map_err(|e| e.to_string()).and_then(|h| host_tests::timing_units(&h)) {
+            Ok(units) => {
+                o.insert("host_build_units".into(), host_tests::timing_summary(&units, &WORKSPACE_CRATES, 25));
+            }
+            Err(e) => eprintln!("steps: {}: {e}", timings.display()),
+        }
+    }
     println!(
         "cpu: children user {:.0} s, system {:.0} s; load average (1, 5, 15 min) at the end: {}",
         extra["children_cpu_user_seconds"].as_f64().unwrap_or(f64::NAN),
