@@ -1,13 +1,15 @@
 //! The host tests of `cargo xtask test` with the wall time of each test binary, and what each
 //! crate of the host build cost.
 //!
-//! `cargo test` prints `Running ...` and `Doc-tests ...` on stderr and the harness's results on
-//! stdout; both go through one pipe, so the lines arrive in order. Every line is forwarded as
-//! it arrives, and a binary lasts from its `Running` / `Doc-tests` line to the next one (or the
-//! end): its process start, its tests, and for doc tests their compilation.
-//! [`timing_units`] reads the unit data of the `--timings` report of the host build.
+//! [`run_parallel`] runs the test executables of the host build two at a time (each in its
+//! package folder, as `cargo test` does), its output printed whole when it ends, then the doc
+//! tests through cargo, whose `Doc-tests ...` lines on stderr and results on stdout go through
+//! one pipe so that they arrive in order ([`binaries`] times each crate's doc tests from its
+//! line to the next). [`timing_units`] reads the unit data of the `--timings` report of the
+//! host build.
 
 use std::io::{BufRead, BufReader, Write};
+use std::path::PathBuf;
 use std::process::{Command, Stdio};
 use std::time::Instant;
 
@@ -27,33 +29,31 @@ pub struct Binary {
     pub ok: bool,
 }
 
-/// Runs `c` (a `cargo test`) with stdout and stderr forwarded line by line to this process's
-/// stdout; returns the test binaries with their wall times and the command's own result.
-pub fn run_timed(c: &mut Command) -> (Vec<Binary>, Result<()>) {
-    let (reader, writer) = match pipe() {
+/// Runs `c` with stdout and stderr through one pipe: its lines with their arrival time
+/// (seconds after the start, printed as they come when `forward`), its duration and result.
+fn run_lines(c: &mut Command, forward: bool) -> (Vec<(f64, String)>, f64, Result<()>) {
+    let pipes = pipe().and_then(|(r, w)| Ok((r, w.try_clone()?, w)));
+    let (reader, writer, writer2) = match pipes {
         Ok(p) => p,
-        Err(e) => return (Vec::new(), Err(format!("cannot make a pipe for {c:?}: {e}"))),
-    };
-    let writer2 = match writer.try_clone() {
-        Ok(w) => w,
-        Err(e) => return (Vec::new(), Err(format!("cannot make a pipe for {c:?}: {e}"))),
+        Err(e) => return (Vec::new(), 0.0, Err(format!("cannot make a pipe for {c:?}: {e}"))),
     };
     c.stdin(Stdio::null()).stdout(writer).stderr(writer2);
     let t0 = Instant::now();
     let child = c.spawn();
-    // The command holds the pipe's write ends; drop ours (inside `c`) so the reader sees EOF.
+    // The child holds the pipe's write ends; drop ours (inside `c`) so the reader sees EOF.
     c.stdout(Stdio::null()).stderr(Stdio::null());
     let mut child = match child {
         Ok(ch) => crate::child::Tied(ch),
-        Err(e) => return (Vec::new(), Err(format!("cannot start {c:?}: {e}"))),
+        Err(e) => return (Vec::new(), 0.0, Err(format!("cannot start {c:?}: {e}"))),
     };
     let mut lines = Vec::new();
     let out = std::io::stdout();
     for line in BufReader::new(reader).lines() {
         let Ok(line) = line else { break };
-        let at = t0.elapsed().as_secs_f64();
-        let _ = writeln!(out.lock(), "{line}");
-        lines.push((at, line));
+        if forward {
+            let _ = writeln!(out.lock(), "{line}");
+        }
+        lines.push((t0.elapsed().as_secs_f64(), line));
     }
     let status = child.0.wait();
     let end = t0.elapsed().as_secs_f64();
@@ -62,7 +62,112 @@ pub fn run_timed(c: &mut Command) -> (Vec<Binary>, Result<()>) {
         Ok(s) => Err(format!("{c:?} failed with {s}")),
         Err(e) => Err(format!("{c:?}: {e}")),
     };
-    (binaries(&lines, end), result)
+    (lines, end, result)
+}
+
+/// A test executable of the host build: its label (as [`binaries`] names it) and the
+/// package folder cargo runs it in.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Executable {
+    pub name: String,
+    pub path: PathBuf,
+    pub package_dir: PathBuf,
+    pub package: String,
+}
+
+/// The test executables of `cargo test --no-run --message-format=json` output (one JSON
+/// message a line): every artifact of a test target (libraries' unit tests, integration
+/// tests, binaries' unit tests) with an executable.
+pub fn executables(json_lines: &str) -> Result<Vec<Executable>> {
+    let mut out = Vec::new();
+    for line in json_lines.lines().filter(|l| l.starts_with('{')) {
+        let m: serde_json::Value = serde_json::from_str(line).map_err(|e| format!("cargo's JSON message: {e}"))?;
+        let (Some(exe), true) = (m["executable"].as_str(), m["profile"]["test"].as_bool() == Some(true)) else {
+            continue;
+        };
+        if m["reason"] != "compiler-artifact" {
+            continue;
+        }
+        let manifest = PathBuf::from(m["manifest_path"].as_str().ok_or("an artifact without manifest_path")?);
+        let package_dir = manifest.parent().ok_or("a manifest path without a folder")?.to_path_buf();
+        let src = PathBuf::from(m["target"]["src_path"].as_str().ok_or("an artifact without src_path")?);
+        let src = src.strip_prefix(&package_dir).unwrap_or(&src).display().to_string();
+        // `path+file:///work/ws/host/ssm#0.1.0` or `...#name@0.1.0` (name unlike the folder).
+        let id = m["package_id"].as_str().unwrap_or("");
+        let tail = id.rsplit('#').next().unwrap_or("");
+        let package = match tail.split_once('@') {
+            Some((name, _)) => name.to_string(),
+            None => package_dir.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default(),
+        };
+        out.push(Executable { name: format!("{package} {src}"), path: PathBuf::from(exe), package_dir, package });
+    }
+    Ok(out)
+}
+
+/// Runs the test executables `jobs` at a time, longest first by `previous` (seconds by name
+/// from the last run; unknown ones first), each in its package folder as `cargo test` runs it,
+/// its whole output printed when it ends; then `doc` (the doc tests, through cargo). Returns
+/// every binary's timing (start relative to this call) and the failed ones' names.
+pub fn run_parallel(
+    exes: &[Executable],
+    previous: &std::collections::BTreeMap<String, f64>,
+    jobs: usize,
+    doc: &mut Command,
+) -> (Vec<Binary>, Vec<String>) {
+    let mut order: Vec<&Executable> = exes.iter().collect();
+    order.sort_by(|a, b| {
+        let t = |e: &Executable| previous.get(&e.name).copied().unwrap_or(f64::INFINITY);
+        t(b).total_cmp(&t(a))
+    });
+    let queue = std::sync::Mutex::new(order.into_iter());
+    let results = std::sync::Mutex::new(Vec::<Binary>::new());
+    let t0 = Instant::now();
+    std::thread::scope(|s| {
+        for _ in 0..jobs.max(1) {
+            s.spawn(|| {
+                loop {
+                    let next = queue.lock().unwrap_or_else(|p| p.into_inner()).next();
+                    let Some(e) = next else { break };
+                    let mut c = crate::cmd(&e.path);
+                    c.current_dir(&e.package_dir)
+                        .env("CARGO_MANIFEST_DIR", &e.package_dir)
+                        .env("CARGO_PKG_NAME", &e.package);
+                    let start = t0.elapsed().as_secs_f64();
+                    let (lines, seconds, r) = run_lines(&mut c, false);
+                    let mut b = Binary { name: e.name.clone(), start_s: start, seconds, passed: 0, ok: r.is_ok() };
+                    let mut text = format!("     Running {} ({})\n", e.name, e.path.display());
+                    for (_, l) in &lines {
+                        if let Some(r) = l.trim().strip_prefix("test result: ") {
+                            b.passed += count_before(r, " passed");
+                        }
+                        text.push_str(l);
+                        text.push('\n');
+                    }
+                    if let Err(err) = &r {
+                        text.push_str(&format!("{err}\n"));
+                    }
+                    print!("{text}");
+                    results.lock().unwrap_or_else(|p| p.into_inner()).push(b);
+                }
+            });
+        }
+    });
+    let mut all = results.into_inner().unwrap_or_else(|p| p.into_inner());
+    let start = t0.elapsed().as_secs_f64();
+    let (lines, end, r) = run_lines(doc, true);
+    let doc_ok = r.is_ok();
+    let mut docs = binaries(&lines, end);
+    for d in &mut docs {
+        d.start_s += start;
+        d.ok &= doc_ok;
+    }
+    if docs.is_empty() && !doc_ok {
+        docs.push(Binary { name: "doc tests".into(), start_s: start, seconds: end, passed: 0, ok: false });
+    }
+    all.extend(docs);
+    all.sort_by(|a, b| a.start_s.total_cmp(&b.start_s));
+    let failed = all.iter().filter(|b| !b.ok).map(|b| b.name.clone()).collect();
+    (all, failed)
 }
 
 /// A pipe as two files (read end, write end), close-on-exec.
@@ -388,13 +493,66 @@ const CONCURRENCY_DATA = [];
     }
 
     #[test]
+    fn executables_are_the_test_artifacts_with_their_package() {
+        let json = r#"{"reason":"compiler-artifact","package_id":"path+file:///w/host/ssm#0.1.0","manifest_path":"/w/host/ssm/Cargo.toml","target":{"name":"ssm","kind":["lib"],"src_path":"/w/host/ssm/src/lib.rs"},"profile":{"test":true},"executable":"/w/target/debug/deps/ssm-1"}
+{"reason":"compiler-artifact","package_id":"path+file:///w/host/ssm#0.1.0","manifest_path":"/w/host/ssm/Cargo.toml","target":{"name":"ssm","kind":["lib"],"src_path":"/w/host/ssm/src/lib.rs"},"profile":{"test":false},"executable":null}
+{"reason":"compiler-artifact","package_id":"path+file:///w/tests/fuzz-targets#fuzz-targets@0.1.0","manifest_path":"/w/tests/fuzz-targets/Cargo.toml","target":{"name":"replay","kind":["test"],"src_path":"/w/tests/fuzz-targets/tests/replay.rs"},"profile":{"test":true},"executable":"/w/target/debug/deps/replay-2"}
+{"reason":"build-finished","success":true}"#;
+        let e = executables(json).unwrap();
+        assert_eq!(e.len(), 2);
+        assert_eq!((e[0].name.as_str(), e[0].package.as_str()), ("ssm src/lib.rs", "ssm"));
+        assert_eq!(e[0].package_dir, PathBuf::from("/w/host/ssm"));
+        assert_eq!(e[1].name, "fuzz-targets tests/replay.rs");
+        assert_eq!(e[1].path, PathBuf::from("/w/target/debug/deps/replay-2"));
+        assert!(executables("{not json").is_err());
+    }
+
+    #[test]
+    fn binaries_run_side_by_side_longest_first_and_failures_are_named() {
+        let dir = std::env::temp_dir().join(format!("xtask-host-tests-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&dir);
+        std::fs::create_dir_all(&dir).unwrap();
+        let script = |name: &str, body: &str| {
+            let p = dir.join(name);
+            std::fs::write(&p, format!("#!/bin/sh\n{body}\n")).unwrap();
+            std::fs::set_permissions(&p, std::os::unix::fs::PermissionsExt::from_mode(0o755)).unwrap();
+            Executable { name: format!("p {name}"), path: p, package_dir: dir.clone(), package: "p".into() }
+        };
+        let exes = [
+            script("short", "echo 'test result: ok. 1 passed; 0 failed'"),
+            // Runs in its package folder, with the package's CARGO_MANIFEST_DIR.
+            script(
+                "long",
+                "[ \"$CARGO_MANIFEST_DIR\" = \"$(pwd)\" ] || exit 3; echo 'test result: ok. 5 passed; 0 failed'",
+            ),
+            script("bad", "echo 'test result: FAILED. 0 passed; 1 failed'; exit 101"),
+        ];
+        let previous = [("p long".to_string(), 9.0), ("p short".to_string(), 1.0), ("p bad".to_string(), 2.0)].into();
+        let mut doc = Command::new("sh");
+        doc.args(["-c", "echo '   Doc-tests p' >&2; echo 'test result: ok. 2 passed; 0 failed'"]);
+        let (b, failed) = run_parallel(&exes, &previous, 1, &mut doc);
+        let names: Vec<&str> = b.iter().map(|b| b.name.as_str()).collect();
+        assert_eq!(names, ["p long", "p bad", "p short", "p doc tests"]);
+        assert_eq!(b.iter().map(|b| b.passed).collect::<Vec<_>>(), [5, 0, 1, 2]);
+        assert_eq!(failed, ["p bad"]);
+        let (b, failed) = run_parallel(&exes[..2], &previous, 2, &mut doc);
+        assert_eq!(b.len(), 3);
+        assert!(failed.is_empty(), "{failed:?}");
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    #[test]
     fn a_command_s_two_streams_arrive_in_order() {
-        let (b, r) = run_timed(Command::new("sh").args([
-            "-c",
-            "echo '     Running tests/a.rs (target/debug/deps/a-1)' >&2; \
+        let (lines, end, r) = run_lines(
+            Command::new("sh").args([
+                "-c",
+                "echo '     Running tests/a.rs (target/debug/deps/a-1)' >&2; \
              echo 'test result: ok. 3 passed; 0 failed'; \
              echo '   Doc-tests a' >&2; echo 'test result: ok. 0 passed; 0 failed'; exit 2",
-        ]));
+            ]),
+            false,
+        );
+        let b = binaries(&lines, end);
         assert!(r.unwrap_err().contains("failed"));
         assert_eq!(b.len(), 2, "{b:?}");
         assert_eq!((b[0].name.as_str(), b[0].passed, b[0].ok), ("a tests/a.rs", 3, true));

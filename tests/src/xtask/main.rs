@@ -54,6 +54,7 @@
 //!   single-process run bit for bit; the daemons are shut down on every path (`slurm.rs`).
 //! - `fuzz [--seconds N] [TARGET ...]`: the libFuzzer targets of `tests/fuzz` (nightly +
 //!   cargo-fuzz; says so when missing), N seconds each (`fuzz.rs`).
+//! - `host-tests`: the host build and host tests of `test` alone (`host_tests.rs`).
 //! - `build-times [--steps FILE] [LABEL=TIMINGS.html ...]`: Markdown tables of the last
 //!   `cargo xtask test` (steps, host test binaries) and of cargo `--timings` reports
 //!   (unit-seconds by kind, side by side), for `docs/build-time.md` (`host_tests.rs`).
@@ -177,10 +178,11 @@ fn main() -> ExitCode {
         Some("compare-report") => compare_report::run(&args[1..]),
         Some("slurm-test") => slurm::slurm_test(None),
         Some("fuzz") => fuzz::fuzz(&args[1..]),
+        Some("host-tests") => host_tests_only(),
         Some("build-times") => {
             host_tests::build_times(&args[1..], &steps_json_path(), &WORKSPACE_CRATES).map(|md| print!("{md}"))
         }
-        _ => Err("usage: cargo xtask <install | qemu-test [--board mps2-an386|stm32f407] | firmware-size | device-table [--json] | python-test | pil [--periods N] [--scene NAME] | pil-record --out DIR [--runs N] [--periods P] [--scene NAME] [--seed S] [--fresh] | test | reproduce --out DIR [--fresh] | compare-report BASE NEW | slurm-test | fuzz [--seconds N] [TARGET ...] | build-times [--steps FILE] [LABEL=TIMINGS.html ...]>".into()),
+        _ => Err("usage: cargo xtask <install | qemu-test [--board mps2-an386|stm32f407] | firmware-size | device-table [--json] | python-test | pil [--periods N] [--scene NAME] | pil-record --out DIR [--runs N] [--periods P] [--scene NAME] [--seed S] [--fresh] | test | reproduce --out DIR [--fresh] | compare-report BASE NEW | slurm-test | fuzz [--seconds N] [TARGET ...] | host-tests | build-times [--steps FILE] [LABEL=TIMINGS.html ...]>".into()),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
@@ -1101,6 +1103,72 @@ const WORKSPACE_CRATES: [&str; 14] = [
     "fuzz-targets",
 ];
 
+/// The host tests' step name in the table.
+const HOST_TESTS_STEP: &str = "host tests (the workspace's test binaries, 2 at a time; doc tests)";
+
+/// Test binaries run side by side: most binaries leave a core idle for part of their run
+/// (a last long test, a serial fixture), so two at a time fill both cores of the machine.
+const HOST_TEST_JOBS: usize = 2;
+
+/// The host tests of the workspace (without `lab`): every test executable of the host build
+/// (`cargo test --no-run`'s), [`HOST_TEST_JOBS`] at a time, longest first by `previous`, each
+/// in its package folder as `cargo test` runs it; then the doc tests through cargo. Adds a row
+/// per long binary to `steps`; returns all binaries and an error naming the failed ones.
+fn host_tests_run(
+    steps: &steps::Steps,
+    previous: &std::collections::BTreeMap<String, f64>,
+) -> (Vec<host_tests::Binary>, Result<()>) {
+    let start = steps.elapsed();
+    let mut c = cmd("cargo");
+    c.current_dir(root()).args(["test", "--workspace", "--exclude", "lab", "--no-run", "--message-format=json"]);
+    c.stderr(Stdio::inherit());
+    let exes = match c.output() {
+        Ok(o) if o.status.success() => host_tests::executables(&String::from_utf8_lossy(&o.stdout)),
+        Ok(o) => Err(format!("{c:?} failed with {}", o.status)),
+        Err(e) => Err(format!("cannot start {c:?}: {e}")),
+    };
+    let exes = match exes {
+        Ok(e) if e.is_empty() => Err("cargo test --no-run listed no test executable".to_string()),
+        other => other,
+    };
+    let exes = match exes {
+        Ok(e) => e,
+        Err(e) => return (Vec::new(), Err(e)),
+    };
+    let mut doc = cmd("cargo");
+    doc.current_dir(root()).args(["test", "--workspace", "--exclude", "lab", "--doc"]);
+    let (binaries, failed) = host_tests::run_parallel(&exes, previous, HOST_TEST_JOBS, &mut doc);
+    add_test_binaries(steps, start, &binaries);
+    let passed: u32 = binaries.iter().map(|b| b.passed).sum();
+    println!("host tests: {passed} passed in {} binaries", binaries.len());
+    let r = if failed.is_empty() { Ok(()) } else { Err(format!("failed: {}", failed.join(", "))) };
+    (binaries, r)
+}
+
+/// Seconds per host test binary of the last `cargo xtask test` (its steps JSON), to start the
+/// longest first; empty when there is none.
+fn previous_test_times() -> std::collections::BTreeMap<String, f64> {
+    let text = std::fs::read_to_string(steps_json_path()).unwrap_or_default();
+    let v: serde_json::Value = serde_json::from_str(&text).unwrap_or(serde_json::Value::Null);
+    v["host_test_binaries"]
+        .as_array()
+        .map(|a| a.iter().filter_map(|b| Some((b["name"].as_str()?.to_string(), b["seconds"].as_f64()?))).collect())
+        .unwrap_or_default()
+}
+
+/// `cargo xtask host-tests`: the host build and host tests of `cargo xtask test` alone, with
+/// their step table (the JSON is not written: it stays the last full run's).
+fn host_tests_only() -> Result<()> {
+    let steps = steps::Steps::new();
+    let previous = previous_test_times();
+    steps.run("host build (cargo test --no-run, test profile)", || {
+        run(cmd("cargo").current_dir(root()).args(["test", "--workspace", "--exclude", "lab", "--no-run"]))
+    })?;
+    let r = steps.run(HOST_TESTS_STEP, || host_tests_run(&steps, &previous).1);
+    println!("\n{}", steps.table());
+    r
+}
+
 /// The host tests' binaries as rows of the step table: each one of at least
 /// [`TABLE_MIN_SECONDS`], the others as one row; `start` is when the step began.
 fn add_test_binaries(steps: &steps::Steps, start: f64, binaries: &[host_tests::Binary]) {
@@ -1150,6 +1218,7 @@ fn test_all() -> Result<()> {
     let results = std::sync::Mutex::new(Vec::<(&str, Result<()>)>::new());
     let on_target = std::sync::Mutex::new((0u32, 0u32));
     let test_binaries = std::sync::Mutex::new(Vec::<host_tests::Binary>::new());
+    let previous = previous_test_times();
     let record = |name: &'static str, r: Result<()>| results.lock().unwrap_or_else(|p| p.into_inner()).push((name, r));
     let count = |passed: u32, failed: u32| {
         let mut c = on_target.lock().unwrap_or_else(|p| p.into_inner());
@@ -1258,12 +1327,8 @@ fn test_all() -> Result<()> {
         let built = steps.run("host build (cargo test --no-run, test profile)", host_build);
         host.set(built.clone());
         let tests = after(&host, "host build").and_then(|_| {
-            steps.run("host tests (cargo test --workspace --exclude lab)", || {
-                let start = steps.elapsed();
-                let mut c = cmd("cargo");
-                c.current_dir(root()).args(["test", "--workspace", "--exclude", "lab"]);
-                let (binaries, r) = host_tests::run_timed(&mut c);
-                add_test_binaries(&steps, start, &binaries);
+            steps.run(HOST_TESTS_STEP, || {
+                let (binaries, r) = host_tests_run(&steps, &previous);
                 *test_binaries.lock().unwrap_or_else(|p| p.into_inner()) = binaries;
                 r
             })
