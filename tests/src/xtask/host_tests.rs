@@ -8,7 +8,7 @@
 //! line to the next). [`timing_units`] reads the unit data of the `--timings` report of the
 //! host build.
 
-use std::io::{BufRead, BufReader, Write};
+use std::io::{BufRead, BufReader};
 use std::path::PathBuf;
 use std::process::{Command, Stdio};
 use std::time::Instant;
@@ -27,6 +27,8 @@ pub struct Binary {
     pub passed: u32,
     /// `false` when the harness reported a failure or printed no result (a crash).
     pub ok: bool,
+    /// Each test's seconds, when the harness printed them (`--report-time`).
+    pub tests: Vec<(String, f64)>,
 }
 
 /// Runs `c` with stdout and stderr through one pipe: its lines with their arrival time
@@ -47,11 +49,11 @@ fn run_lines(c: &mut Command, forward: bool) -> (Vec<(f64, String)>, f64, Result
         Err(e) => return (Vec::new(), 0.0, Err(format!("cannot start {c:?}: {e}"))),
     };
     let mut lines = Vec::new();
-    let out = std::io::stdout();
     for line in BufReader::new(reader).lines() {
         let Ok(line) = line else { break };
         if forward {
-            let _ = writeln!(out.lock(), "{line}");
+            // println! (not a handle to stdout): the test harness captures it.
+            println!("{line}");
         }
         lines.push((t0.elapsed().as_secs_f64(), line));
     }
@@ -106,12 +108,14 @@ pub fn executables(json_lines: &str) -> Result<Vec<Executable>> {
 
 /// Runs the test executables `jobs` at a time, longest first by `previous` (seconds by name
 /// from the last run; unknown ones first), each in its package folder as `cargo test` runs it,
-/// its whole output printed when it ends; then `doc` (the doc tests, through cargo). Returns
-/// every binary's timing (start relative to this call) and the failed ones' names.
+/// its whole output printed when it ends (with `test_times`, libtest's time of each test);
+/// then `doc` (the doc tests, through cargo). Returns every binary's timing (start relative to
+/// this call) and the failed ones' names.
 pub fn run_parallel(
     exes: &[Executable],
     previous: &std::collections::BTreeMap<String, f64>,
     jobs: usize,
+    test_times: bool,
     doc: &mut Command,
 ) -> (Vec<Binary>, Vec<String>) {
     let mut order: Vec<&Executable> = exes.iter().collect();
@@ -132,13 +136,27 @@ pub fn run_parallel(
                     c.current_dir(&e.package_dir)
                         .env("CARGO_MANIFEST_DIR", &e.package_dir)
                         .env("CARGO_PKG_NAME", &e.package);
+                    if test_times {
+                        // libtest's per-test times are an unstable option; RUSTC_BOOTSTRAP
+                        // reaches only the test process, so nothing is compiled again.
+                        c.env("RUSTC_BOOTSTRAP", "1").args(["-Z", "unstable-options", "--report-time"]);
+                    }
                     let start = t0.elapsed().as_secs_f64();
                     let (lines, seconds, r) = run_lines(&mut c, false);
-                    let mut b = Binary { name: e.name.clone(), start_s: start, seconds, passed: 0, ok: r.is_ok() };
+                    let mut b = Binary {
+                        name: e.name.clone(),
+                        start_s: start,
+                        seconds,
+                        passed: 0,
+                        ok: r.is_ok(),
+                        tests: Vec::new(),
+                    };
                     let mut text = format!("     Running {} ({})\n", e.name, e.path.display());
                     for (_, l) in &lines {
                         if let Some(r) = l.trim().strip_prefix("test result: ") {
                             b.passed += count_before(r, " passed");
+                        } else if let Some(t) = test_time(l) {
+                            b.tests.push(t);
                         }
                         text.push_str(l);
                         text.push('\n');
@@ -162,7 +180,14 @@ pub fn run_parallel(
         d.ok &= doc_ok;
     }
     if docs.is_empty() && !doc_ok {
-        docs.push(Binary { name: "doc tests".into(), start_s: start, seconds: end, passed: 0, ok: false });
+        docs.push(Binary {
+            name: "doc tests".into(),
+            start_s: start,
+            seconds: end,
+            passed: 0,
+            ok: false,
+            tests: Vec::new(),
+        });
     }
     all.extend(docs);
     all.sort_by(|a, b| a.start_s.total_cmp(&b.start_s));
@@ -214,7 +239,7 @@ pub fn binaries(lines: &[(f64, String)], end: f64) -> Vec<Binary> {
         if let Some(name) = started {
             close(&mut out, *at, results);
             results = 0;
-            out.push(Binary { name, start_s: *at, seconds: 0.0, passed: 0, ok: true });
+            out.push(Binary { name, start_s: *at, seconds: 0.0, passed: 0, ok: true, tests: Vec::new() });
         } else if let Some(r) = l.strip_prefix("test result: ") {
             results += 1;
             if let Some(b) = out.last_mut() {
@@ -225,6 +250,27 @@ pub fn binaries(lines: &[(f64, String)], end: f64) -> Vec<Binary> {
     }
     close(&mut out, end, results);
     out
+}
+
+/// A test's name and seconds from libtest's `--report-time` line
+/// (`test a::b ... ok <1.234s>`).
+fn test_time(line: &str) -> Option<(String, f64)> {
+    let rest = line.trim().strip_prefix("test ")?;
+    let (name, result) = rest.split_once(" ... ")?;
+    let secs = result.rsplit_once('<')?.1.strip_suffix("s>")?.parse().ok()?;
+    Some((name.to_string(), secs))
+}
+
+/// The `n` slowest tests of `binaries` (with `--report-time`) as Markdown rows.
+pub fn slowest_tests(binaries: &[Binary], n: usize) -> String {
+    let mut all: Vec<(&str, &str, f64)> =
+        binaries.iter().flat_map(|b| b.tests.iter().map(|(t, s)| (b.name.as_str(), t.as_str(), *s))).collect();
+    all.sort_by(|a, b| b.2.total_cmp(&a.2));
+    let mut md = String::from("| binary | test | s |\n|---|---|---:|\n");
+    for (b, t, s) in all.iter().take(n) {
+        md.push_str(&format!("| {b} | `{t}` | {s:.1} |\n"));
+    }
+    md
 }
 
 /// The number just before `word` in `s` (`"ok. 34 passed; 0 failed"`, `" passed"` -> 34).
@@ -530,15 +576,36 @@ const CONCURRENCY_DATA = [];
         let previous = [("p long".to_string(), 9.0), ("p short".to_string(), 1.0), ("p bad".to_string(), 2.0)].into();
         let mut doc = Command::new("sh");
         doc.args(["-c", "echo '   Doc-tests p' >&2; echo 'test result: ok. 2 passed; 0 failed'"]);
-        let (b, failed) = run_parallel(&exes, &previous, 1, &mut doc);
+        let (b, failed) = run_parallel(&exes, &previous, 1, false, &mut doc);
         let names: Vec<&str> = b.iter().map(|b| b.name.as_str()).collect();
         assert_eq!(names, ["p long", "p bad", "p short", "p doc tests"]);
         assert_eq!(b.iter().map(|b| b.passed).collect::<Vec<_>>(), [5, 0, 1, 2]);
         assert_eq!(failed, ["p bad"]);
-        let (b, failed) = run_parallel(&exes[..2], &previous, 2, &mut doc);
+        let (b, failed) = run_parallel(&exes[..2], &previous, 2, false, &mut doc);
         assert_eq!(b.len(), 3);
         assert!(failed.is_empty(), "{failed:?}");
         std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    #[test]
+    fn test_times_are_read_and_ranked() {
+        assert_eq!(test_time("test a::b ... ok <1.250s>"), Some(("a::b".to_string(), 1.25)));
+        assert_eq!(test_time("test a::b ... ok"), None);
+        assert_eq!(test_time("test result: ok. 1 passed"), None);
+        let b = |name: &str, tests: &[(&str, f64)]| Binary {
+            name: name.into(),
+            start_s: 0.0,
+            seconds: 0.0,
+            passed: 0,
+            ok: true,
+            tests: tests.iter().map(|(t, s)| (t.to_string(), *s)).collect(),
+        };
+        let md =
+            slowest_tests(&[b("x src/lib.rs", &[("fast", 0.1), ("slow", 9.0)]), b("y tests/t.rs", &[("mid", 2.0)])], 2);
+        assert_eq!(
+            md.lines().skip(2).collect::<Vec<_>>(),
+            ["| x src/lib.rs | `slow` | 9.0 |", "| y tests/t.rs | `mid` | 2.0 |"]
+        );
     }
 
     #[test]

@@ -54,7 +54,8 @@
 //!   single-process run bit for bit; the daemons are shut down on every path (`slurm.rs`).
 //! - `fuzz [--seconds N] [TARGET ...]`: the libFuzzer targets of `tests/fuzz` (nightly +
 //!   cargo-fuzz; says so when missing), N seconds each (`fuzz.rs`).
-//! - `host-tests`: the host build and host tests of `test` alone (`host_tests.rs`).
+//! - `host-tests [--test-times]`: the host build and host tests of `test` alone; with
+//!   `--test-times` the 20 slowest tests (`host_tests.rs`).
 //! - `build-times [--steps FILE] [LABEL=TIMINGS.html ...]`: Markdown tables of the last
 //!   `cargo xtask test` (steps, host test binaries) and of cargo `--timings` reports
 //!   (unit-seconds by kind, side by side), for `docs/build-time.md` (`host_tests.rs`).
@@ -178,11 +179,11 @@ fn main() -> ExitCode {
         Some("compare-report") => compare_report::run(&args[1..]),
         Some("slurm-test") => slurm::slurm_test(None),
         Some("fuzz") => fuzz::fuzz(&args[1..]),
-        Some("host-tests") => host_tests_only(),
+        Some("host-tests") => host_tests_only(&args[1..]),
         Some("build-times") => {
             host_tests::build_times(&args[1..], &steps_json_path(), &WORKSPACE_CRATES).map(|md| print!("{md}"))
         }
-        _ => Err("usage: cargo xtask <install | qemu-test [--board mps2-an386|stm32f407] | firmware-size | device-table [--json] | python-test | pil [--periods N] [--scene NAME] | pil-record --out DIR [--runs N] [--periods P] [--scene NAME] [--seed S] [--fresh] | test | reproduce --out DIR [--fresh] | compare-report BASE NEW | slurm-test | fuzz [--seconds N] [TARGET ...] | host-tests | build-times [--steps FILE] [LABEL=TIMINGS.html ...]>".into()),
+        _ => Err("usage: cargo xtask <install | qemu-test [--board mps2-an386|stm32f407] | firmware-size | device-table [--json] | python-test | pil [--periods N] [--scene NAME] | pil-record --out DIR [--runs N] [--periods P] [--scene NAME] [--seed S] [--fresh] | test | reproduce --out DIR [--fresh] | compare-report BASE NEW | slurm-test | fuzz [--seconds N] [TARGET ...] | host-tests [--test-times] | build-times [--steps FILE] [LABEL=TIMINGS.html ...]>".into()),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
@@ -1117,6 +1118,7 @@ const HOST_TEST_JOBS: usize = 2;
 fn host_tests_run(
     steps: &steps::Steps,
     previous: &std::collections::BTreeMap<String, f64>,
+    test_times: bool,
 ) -> (Vec<host_tests::Binary>, Result<()>) {
     let start = steps.elapsed();
     let mut c = cmd("cargo");
@@ -1137,7 +1139,7 @@ fn host_tests_run(
     };
     let mut doc = cmd("cargo");
     doc.current_dir(root()).args(["test", "--workspace", "--exclude", "lab", "--doc"]);
-    let (binaries, failed) = host_tests::run_parallel(&exes, previous, HOST_TEST_JOBS, &mut doc);
+    let (binaries, failed) = host_tests::run_parallel(&exes, previous, HOST_TEST_JOBS, test_times, &mut doc);
     add_test_binaries(steps, start, &binaries);
     let passed: u32 = binaries.iter().map(|b| b.passed).sum();
     println!("host tests: {passed} passed in {} binaries", binaries.len());
@@ -1156,16 +1158,30 @@ fn previous_test_times() -> std::collections::BTreeMap<String, f64> {
         .unwrap_or_default()
 }
 
-/// `cargo xtask host-tests`: the host build and host tests of `cargo xtask test` alone, with
-/// their step table (the JSON is not written: it stays the last full run's).
-fn host_tests_only() -> Result<()> {
+/// `cargo xtask host-tests [--test-times]`: the host build and host tests of `cargo xtask
+/// test` alone, with their step table (the JSON is not written: it stays the last full
+/// run's); `--test-times` also prints the 20 slowest tests (libtest's `--report-time`).
+fn host_tests_only(args: &[String]) -> Result<()> {
+    let test_times = match args {
+        [] => false,
+        [a] if a == "--test-times" => true,
+        _ => return Err(format!("host-tests: expected no option or --test-times, got {args:?}")),
+    };
     let steps = steps::Steps::new();
     let previous = previous_test_times();
     steps.run("host build (cargo test --no-run, test profile)", || {
         run(cmd("cargo").current_dir(root()).args(["test", "--workspace", "--exclude", "lab", "--no-run"]))
     })?;
-    let r = steps.run(HOST_TESTS_STEP, || host_tests_run(&steps, &previous).1);
+    let mut binaries = Vec::new();
+    let r = steps.run(HOST_TESTS_STEP, || {
+        let (b, r) = host_tests_run(&steps, &previous, test_times);
+        binaries = b;
+        r
+    });
     println!("\n{}", steps.table());
+    if test_times {
+        println!("The 20 slowest tests (wall seconds):\n\n{}", host_tests::slowest_tests(&binaries, 20));
+    }
     r
 }
 
@@ -1328,7 +1344,7 @@ fn test_all() -> Result<()> {
         host.set(built.clone());
         let tests = after(&host, "host build").and_then(|_| {
             steps.run(HOST_TESTS_STEP, || {
-                let (binaries, r) = host_tests_run(&steps, &previous);
+                let (binaries, r) = host_tests_run(&steps, &previous, false);
                 *test_binaries.lock().unwrap_or_else(|p| p.into_inner()) = binaries;
                 r
             })
