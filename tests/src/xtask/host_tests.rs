@@ -342,7 +342,8 @@ pub fn timing_summary(units: &[Unit], workspace: &[&str], top: usize) -> serde_j
         };
         sums[kind] += u.seconds;
     }
-    let mut sorted: Vec<&Unit> = units.iter().collect();
+    // A warm build lists its fresh units too, at 0 s.
+    let mut sorted: Vec<&Unit> = units.iter().filter(|u| u.seconds > 0.0).collect();
     sorted.sort_by(|a, b| b.seconds.total_cmp(&a.seconds));
     let top: Vec<serde_json::Value> = sorted
         .iter()
@@ -351,6 +352,7 @@ pub fn timing_summary(units: &[Unit], workspace: &[&str], top: usize) -> serde_j
         .collect();
     serde_json::json!({
         "units": units.len(),
+        "compiled_units": sorted.len(),
         "unit_seconds": sums.iter().sum::<f64>(),
         "workspace_lib_unit_seconds": sums[0],
         "workspace_lib_test_unit_seconds": sums[1],
@@ -535,6 +537,11 @@ const CONCURRENCY_DATA = [];
         assert_eq!(s["dependency_unit_seconds"], 52.5);
         assert_eq!(s["costliest"][0]["package"], "faer");
         assert_eq!(s["costliest"].as_array().map(Vec::len), Some(2));
+        let fresh =
+            [units.clone(), vec![Unit { package: "ssm".into(), target: "test x".into(), seconds: 0.0 }]].concat();
+        let s = timing_summary(&fresh, &["ssm", "ssmctl"], 10);
+        assert_eq!((s["units"].as_u64(), s["compiled_units"].as_u64()), (Some(6), Some(5)));
+        assert_eq!(s["costliest"].as_array().map(Vec::len), Some(5));
         assert!(timing_units("<html>no data</html>").unwrap_err().contains("UNIT_DATA"));
     }
 
