@@ -20,11 +20,12 @@ use shared::model::{DecodeError, Model, monomial};
 /// How the Euclidean norm's square root is computed in the RBF map.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum SqrtFlavour {
-    /// `libm::sqrtf`: correctly rounded, in software (~47 instructions on the M4F).
+    /// `libm::sqrtf`: correctly rounded, in software (the costliest of the three on the M4F;
+    /// the device table counts each).
     Libm,
-    /// micromath's bit-trick approximation: ~15 instructions, up to ~5 % error.
+    /// micromath's bit-trick approximation: cheap, not correctly rounded (a few percent off).
     Fast,
-    /// The FPU's `vsqrt.f32` on Arm hard-float targets (correctly rounded, ~9 instructions);
+    /// The FPU's `vsqrt.f32` on Arm hard-float targets (correctly rounded, one instruction);
     /// `libm::sqrtf` elsewhere (bit-identical results).
     Hardware,
 }

@@ -136,7 +136,12 @@ pub struct IntPd<const H: usize> {
     /// The integral gain `I` as `i32` (`|I| <= GAIN_MAX_Q < 2^29`).
     gi: i32,
     n: usize,
-    code_max: i64,
+    /// Which straight-line step runs: `n - 1`, plus 4 with integral action (`I != 0`),
+    /// decided once here rather than tested every step.
+    shape: u8,
+    /// The DAC range `C` (`1 <= C <= i32::MAX`) and `-C`.
+    code_max: i32,
+    code_min: i32,
     h_dac: f64,
     delay: usize,
     hist: Delay<[i32; MAX_GAINS], H>,
@@ -203,18 +208,24 @@ impl<const H: usize> IntPd<H> {
                 if !(1.0..=f64::from(CODE_MAX)).contains(&c) {
                     return Err(ConfigError::OutOfRange(Field::UMax));
                 }
-                c as i64
+                // 1 <= c <= i32::MAX and integral: the conversion is exact.
+                c as i32
             }
-            None => i64::from(CODE_MAX),
+            None => CODE_MAX,
         };
         // |I| <= GAIN_MAX_Q < 2^29: fits i32.
         let gi = i32::try_from(gains.i).map_err(|_| ConfigError::OutOfRange(Field::Ki))?;
+        let n = cfg.gains.len();
+        // 1 <= n <= MAX_GAINS = 4 (validate_common): n - 1 is 0..=3.
+        let shape = (n.saturating_sub(1) as u8 & 3) | if gi != 0 { 4 } else { 0 };
         Ok(Self {
             gains,
             g32,
             gi,
-            n: cfg.gains.len(),
+            n,
+            shape,
             code_max,
+            code_min: -code_max,
             h_dac: q.h_dac,
             delay,
             hist: Delay::new([0; MAX_GAINS]),
@@ -234,7 +245,7 @@ impl<const H: usize> IntPd<H> {
 
     /// The DAC range: `|code| <= code_max()`.
     pub fn code_max(&self) -> i32 {
-        i32::try_from(self.code_max).unwrap_or(CODE_MAX)
+        self.code_max
     }
 
     /// The delay `r` in samples.
@@ -300,17 +311,22 @@ impl<const H: usize> IntPd<H> {
     /// [`coordinates`](Self::coordinates) are the counts (the others are padding, never read):
     /// what a device calls once it has checked the number of counts it received.
     pub fn step_counts(&mut self, new: &[i32; MAX_GAINS]) -> IntOutput {
-        // One straight-line step per number of coordinates (n is fixed for a controller).
-        match self.n {
-            2 => self.step_n::<2>(new),
-            1 => self.step_n::<1>(new),
-            3 => self.step_n::<3>(new),
-            _ => self.step_n::<4>(new),
+        // One straight-line step per number of coordinates and presence of integral action
+        // (both fixed for a controller): a jump table, no per-step test of the gains.
+        match self.shape {
+            5 => self.step_n::<2, true>(new),
+            1 => self.step_n::<2, false>(new),
+            0 => self.step_n::<1, false>(new),
+            4 => self.step_n::<1, true>(new),
+            2 => self.step_n::<3, false>(new),
+            6 => self.step_n::<3, true>(new),
+            3 => self.step_n::<4, false>(new),
+            _ => self.step_n::<4, true>(new),
         }
     }
 
     #[inline(always)]
-    fn step_n<const N: usize>(&mut self, new: &[i32; MAX_GAINS]) -> IntOutput {
+    fn step_n<const N: usize, const INTEGRAL: bool>(&mut self, new: &[i32; MAX_GAINS]) -> IntOutput {
         let (c0, c1) = self.hist.push_first_and_back::<N>(new, self.delay);
         // Per coordinate `-(P + D) c0 + D c1`: two 32 x 32 -> 64-bit products (one SMLAL
         // each on the M4). Every factor is below 2^31 (counts) and the gains' magnitudes sum
@@ -321,31 +337,74 @@ impl<const H: usize> IntPd<H> {
         for ((&[gpd, gd], &a), &b) in self.g32.iter().zip(c0).zip(c1).take(N) {
             pd += m(gpd, a) + m(gd, b);
         }
-        self.sum = self.sum.saturating_add(i64::from(c0[0]));
-        // The integral product is exact for -2^33 <= S < 2^33 (|I| < 2^29: below 2^62), the
-        // range where `S >> 33` is 0 or -1; beyond, saturate.
-        let gi = self.gi;
-        let integral = if gi == 0 {
-            0
-        } else if ((self.sum >> 33) as i32).wrapping_add(1) as u32 <= 1 {
-            i64::from(gi).wrapping_mul(self.sum)
-        } else {
-            i64::from(gi).saturating_mul(self.sum)
+        // S + c_0 overflows only with |S| near 2^63 (2^32 full-scale samples at the least):
+        // the saturation is off the straight path.
+        let first = i64::from(c0[0]);
+        self.sum = match self.sum.checked_add(first) {
+            Some(s) => s,
+            None => cold::saturating_add(self.sum, first),
         };
-        let acc = pd.saturating_sub(integral);
-        // Arithmetic shift: floor division by 2^16.
+        let acc = if INTEGRAL { self.with_integral(pd) } else { pd };
+        self.clamp(acc)
+    }
+
+    /// `pd - I*S`, saturating. For `-2^33 <= S < 2^33` (`S >> 33` is 0 or -1) the product is
+    /// exact (`|I| < 2^29`: below 2^62) and only the difference can leave `i64` (when `|pd|`
+    /// is near its bound 2^63); both saturations are off the straight path.
+    #[inline(always)]
+    fn with_integral(&self, pd: i64) -> i64 {
+        let (gi, s) = (self.gi, self.sum);
+        if ((s >> 33) as i32).wrapping_add(1) as u32 <= 1 {
+            match pd.checked_sub(i64::from(gi).wrapping_mul(s)) {
+                Some(acc) => acc,
+                None => cold::saturating_sub(pd, i64::from(gi).wrapping_mul(s)),
+            }
+        } else {
+            cold::integral(pd, gi, s)
+        }
+    }
+
+    /// The code of the accumulator: `floor(acc / 2^16)` (an arithmetic shift) clamped to
+    /// `[-C, C]`, and whether the clamp changed it. `C <= i32::MAX`, so a floor outside `i32`
+    /// is clamped by its sign alone and the clamp itself compares `i32`s.
+    #[inline(always)]
+    fn clamp(&self, acc: i64) -> IntOutput {
         let raw = acc >> GAIN_FRAC_BITS;
-        // The clamp to [-C, C] (C >= 1 by try_new), without clamp's own check of its bounds.
-        let c = self.code_max;
-        let code = if raw > c {
-            c
-        } else if raw < -c {
-            -c
+        // Truncation intended: compared with `raw` right after.
+        let low = raw as i32;
+        let (c, c_min) = (self.code_max, self.code_min);
+        if i64::from(low) != raw {
+            IntOutput { code: if raw < 0 { c_min } else { c }, saturated: true }
+        } else if low > c {
+            IntOutput { code: c, saturated: true }
+        } else if low < c_min {
+            IntOutput { code: c_min, saturated: true }
         } else {
-            raw
-        };
-        // |code| <= code_max <= i32::MAX: the cast is exact.
-        IntOutput { code: code as i32, saturated: code != raw }
+            IntOutput { code: low, saturated: false }
+        }
+    }
+}
+
+/// The rare branches of the integer step, kept out of its straight line.
+mod cold {
+    #[cold]
+    #[inline(never)]
+    pub(super) fn saturating_add(a: i64, b: i64) -> i64 {
+        a.saturating_add(b)
+    }
+
+    #[cold]
+    #[inline(never)]
+    pub(super) fn saturating_sub(a: i64, b: i64) -> i64 {
+        a.saturating_sub(b)
+    }
+
+    /// `pd - I*S` for `|S| >= 2^33`, where the product may leave `i64`: saturated, it still
+    /// has the right sign and a magnitude beyond any code, so the clamp gives the exact code.
+    #[cold]
+    #[inline(never)]
+    pub(super) fn integral(pd: i64, gi: i32, s: i64) -> i64 {
+        pd.saturating_sub(i64::from(gi).saturating_mul(s))
     }
 }
 
@@ -536,6 +595,49 @@ mod tests {
                 assert_eq!(i128::from(out.code), code, "s0 = {s0}");
                 assert_eq!(out.saturated, code != raw);
             }
+        }
+    }
+
+    /// `pd - I*S` outside `i64` with `S` in the range where `I*S` is exact: the step's
+    /// saturating branch gives the clamp of the exact i128 sum.
+    #[test]
+    fn difference_beyond_i64_clamps_like_the_exact_sum() {
+        let q = ((1i64 << 29) - 1) as f64 / 65536.0;
+        let mut gains = Gains::new();
+        for i in 0..2u8 {
+            gains.push(Gain { index: 2 * i, p: -q, d: -q, h_adc: 1.0 }).expect("capacity 4");
+        }
+        for (ki, u_max) in [(-q, None), (q, Some(1000.0))] {
+            let cfg = ControllerConfig {
+                gains,
+                ki,
+                dt: 1.0,
+                delay: 0,
+                u_max,
+                quant: Some(Quantization { mode: QuantMode::Counts, h_dac: 1.0 }),
+            };
+            let mut pd = IntPd::<4>::try_new(&cfg).expect("within the sum bound");
+            let g = pd.gains();
+            // Counts from MIN to MAX (pd near 1.5 * 2^62) for I < 0, the reverse (pd near
+            // -1.5 * 2^62) for I > 0; with S near 2^33, -I*S adds up to 2^62 of the same sign.
+            let (before, now) = if ki < 0.0 { (i32::MIN, i32::MAX) } else { (i32::MAX, i32::MIN) };
+            pd.prime_constant(&[before, before]).expect("two counts");
+            // The new S stays within [-2^33, 2^33): the exact branch of the product.
+            let s0 = if ki < 0.0 { (1i64 << 33) - (1 << 31) - 1 } else { (1i64 << 33) - 1 };
+            pd.sum = s0;
+            let out = pd.step(&[now, now]).expect("two counts");
+            let s = s0 + i64::from(now);
+            assert!((-(1i64 << 33)..(1i64 << 33)).contains(&s));
+            let (a, b) = (i128::from(now), i128::from(before));
+            let mut exact = -i128::from(g.i) * i128::from(s);
+            for k in 0..2 {
+                exact -= i128::from(g.p[k]) * a + i128::from(g.d[k]) * (a - b);
+            }
+            assert!(exact > i128::from(i64::MAX) || exact < i128::from(i64::MIN), "not beyond i64: {exact}");
+            let raw = exact >> 16;
+            let c = i128::from(pd.code_max());
+            assert_eq!(i128::from(out.code), raw.clamp(-c, c), "ki = {ki}");
+            assert!(out.saturated);
         }
     }
 

@@ -46,6 +46,9 @@ const TESTS: &[Test] = &[
     Test { name: "intpd::golden_trace_pid_delay1_no_umax", run: trace_tests::case::<4> },
     Test { name: "intpd::golden_trace_pd_one_coordinate_delay1", run: trace_tests::case::<5> },
     Test { name: "intpd::golden_trace_pid_four_coordinates_delay2", run: trace_tests::case::<6> },
+    Test { name: "intpd::golden_trace_pd_three_coordinates_delay1", run: trace_tests::case::<7> },
+    Test { name: "intpd::golden_trace_pid_three_coordinates_delay4", run: trace_tests::case::<8> },
+    Test { name: "intpd::golden_trace_pd_four_coordinates_delay0_no_umax", run: trace_tests::case::<9> },
     Test { name: "intpd::all_golden_cases_listed", run: trace_tests::all_cases_listed },
 ];
 

@@ -8,7 +8,7 @@ use cortex_m_semihosting::hprintln;
 use crate::data::{TRACE_CASES, TRACE_H, TRACE_INPUTS};
 
 /// Number of cases `main.rs` lists (one test per case).
-pub const LISTED: usize = 7;
+pub const LISTED: usize = 10;
 
 /// Runs case `I`: the same configuration, the Q16 gains and DAC range first, then every step.
 pub fn case<const I: usize>() -> Result<(), &'static str> {

@@ -257,8 +257,9 @@ mod tests {
                 .unwrap();
         assert!(pairs > 1000, "{pairs}");
         let slope = scaling_slope(&rows, 50).unwrap();
-        // Diffusion: -2 in the ideal limit; measured -1.49 (1314 pairs) (first passages from pairs that
-        // start anywhere below delta_0, and the embedding's curvature at the larger scales).
+        eprintln!("noise-driven torus: FSLE slope {slope:.3} over {pairs} pairs");
+        // Diffusion: -2 in the ideal limit; shallower here (first passages from pairs that start
+        // anywhere below delta_0, and the embedding's curvature at the larger scales).
         assert!(slope < -1.2 && slope > -2.4, "slope {slope}: {rows:?}");
         // Against the chaotic plateau: the Henon rows' slope is near 0.
         assert!(henon_slope.abs() < 0.05, "{henon_slope}");

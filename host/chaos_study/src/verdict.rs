@@ -40,6 +40,10 @@ use crate::microchaos::Context;
 /// Encoder step of the quantized scenes (2000 counts per revolution), rad.
 pub const H_ADC: f64 = std::f64::consts::PI / 1000.0;
 
+/// The bundled scenes the verdict compares: the quantized loop, its smooth twin (no
+/// quantization) and its noisy twin.
+pub const SCENES: [&str; 3] = ["furuta-quant-dt25", "furuta-dt25", "furuta-quant-dt25-noise"];
+
 /// Settings of [`microchaos_verdict`] (lengths and counts; the methods are fixed).
 #[derive(Clone, Debug, Serialize)]
 pub struct VerdictOptions {
@@ -563,8 +567,7 @@ fn band_rate(rows: &[FsleRow], lo: f64, hi: f64) -> (Option<f64>, Option<f64>) {
 /// the result says.
 pub fn microchaos_verdict(pil: Option<&TimeSeries>, o: &VerdictOptions) -> Result<Verdict, Error> {
     o.validate()?;
-    let scenes = ["furuta-quant-dt25", "furuta-dt25", "furuta-quant-dt25-noise"];
-    let built: Vec<Scene> = scenes
+    let built: Vec<Scene> = SCENES
         .iter()
         .map(|name| {
             Ok(SceneBuilder::load(name)?.periods(o.periods as u64).initial_state(&[o.theta0, 0.0, 0.0, 0.0]).build()?)
@@ -580,7 +583,7 @@ pub fn microchaos_verdict(pil: Option<&TimeSeries>, o: &VerdictOptions) -> Resul
             why: format!("{} periods leave fewer than 1000 after the 20 s transient", o.periods),
         });
     }
-    let mut named: Vec<(String, Vec<f64>)> = scenes
+    let mut named: Vec<(String, Vec<f64>)> = SCENES
         .iter()
         .zip(&sims)
         .map(|(n, t)| (format!("{n} (simulated theta)"), t.primary()[skip..].to_vec()))

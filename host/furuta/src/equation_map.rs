@@ -23,38 +23,26 @@
 //! are empty or zero; `manifold.reduce` is not the reduced coordinates of a delay vector
 //! (there is none): starts are given in `eta` ([`torus_start`]).
 //!
-//! Measured (9 nodes 30.5..32.5 ms, spline; `measure_equation_map_by_order`,
-//! `measure_polar_vs_map`; full system: connection [31.328, 31.331] ms, torus lost [31.80,
-//! 31.85] ms, growth onset 31.707 ms):
-//!
-//! | order | graph map: connection | onset | normal-form map: connection | onset | polar flow: connection | Hopf |
-//! |---|---|---|---|---|---|---|
-//! | 5 | [31.322, 31.325] | 31.706 | [31.169, 31.172] | 31.580 | 31.082 | 31.541 |
-//! | 7 | [31.328, 31.331] | 31.709 | [31.441, 31.444] | 31.733 | 31.455 | 31.742 |
-//! | 9 | [31.325, 31.328] | 31.709 | [31.384, 31.388] | 31.698 | 31.380 | 31.699 |
-//!
-//! (torus lost [31.80, 31.85] for the graph map at every order). The graph map is converged in
-//! order at the full system's values; the normal-form map of the same SSM is within 0.006-0.014
-//! ms of the polar flow at orders 7 and 9 (the map-to-flow step is small) and carries its
+//! The ignored tests `measure_equation_map_by_order` and `measure_polar_vs_map` print, at
+//! orders 5, 7 and 9 (9 nodes 30.5..32.5 ms, spline), the saddle connection and the torus
+//! growth onset and loss of the graph map, of the normal-form map of the same SSM and of the
+//! polar flow, to set beside the full system's (the report's bifurcation table). What they
+//! show: the graph map is converged in order at the full system's values; the normal-form map
+//! stays close to the polar flow (the map-to-flow step is small) and carries its
 //! non-convergence: the equation-driven model's disagreement is the normal form's truncation
 //! (the phase-dependent terms removed by the near-identity change of coordinates to order K,
 //! which the torus at rho ~ 0.1 rad near the 1:4 resonance does not tolerate), not the SSM. The
-//! fast saddle cycle's theta amplitude agrees among all four (31.3 ms: graph 0.069544,
-//! normal-form map 0.069545, polar 0.069546, full 0.069544 rad); the 2-torus at 31.3 ms: graph
-//! map (0.09671, 0.02823), polar fixed point (0.09669, 0.02829), full (0.09671, 0.02823).
+//! fast saddle cycle's theta amplitude and the 2-torus agree among the graph map, the
+//! normal-form map, the polar form and the full system.
 //!
 //! The small-start switch ([`equation_map_switch`]) uses the fitted map's rules from the full
 //! system's starts, projected onto the reduced coordinates by [`StartProjection`] (`z = U^T s`,
-//! the start's state and pre-history in the period map's deflated coordinates). Measured
-//! (`measure_equation_map_switch`, 9 nodes, spline; full system [31.32, 31.34] ms on its 0.02
-//! ms grid, fitted map [31.359, 31.363] linear): order 5 [31.3375, 31.3406], order 7 and 9
-//! [31.3406, 31.3438] ms. The switch is the pure slow-mode start of 1e-3 rad (it first grows
-//! the fast mode from round-off) in both systems; its escape times (`measure_switch_starts`,
-//! order 7) agree to 0.6 s at 31.345-31.36 ms (132.2 / 132.8, 129.2 / 129.3, 126.5 / 126.5 s,
-//! map / full) and part where they diverge at the threshold: at 31.3425 ms 137.8 / 143.4 s, at
-//! 31.34 ms the full system escapes at 203.7 s (of 250) and the map stays bounded, at 31.335 ms
-//! neither escapes. So the full system's switch is in [31.335, 31.34] ms and the map's at most
-//! 0.009 ms above it.
+//! the start's state and pre-history in the period map's deflated coordinates);
+//! `measure_equation_map_switch` prints its bracket by order. The switch is the pure
+//! slow-mode start of 1e-3 rad (it first grows the fast mode from round-off) in both systems;
+//! its escape times (`measure_switch_starts`) agree above the threshold and part at it, which
+//! places the map's switch just above the full system's, inside the full system's coarse
+//! grid bracket.
 //!
 //! [`EquationMapFamily`] interpolates the node maps' coefficients in dt like
 //! `SharedParametricModel::model_at` (`ssm::interp::mix_models`, `V1` mixed too; the
@@ -442,14 +430,12 @@ mod tests {
     use ssm::dynamics::StepScratch;
     use ssm::poly::PolyScratch;
 
-    /// Measured by [`golden_order5_connection_and_torus`] (ms): connection [31.3219, 31.3250]
-    /// (midpoint), torus lost [31.80, 31.85] with growth onset 31.7072; the normal-form map of
-    /// the same SSM connects at [31.1688, 31.1719].
+    /// Pinned values of [`golden_order5_connection_and_torus`] (ms, printed by it): the
+    /// connection bracket's midpoint and the torus growth onset, against regressions.
     const GOLDEN_CONNECTION: f64 = 31.3234;
     const GOLDEN_ONSET: f64 = 31.7072;
-    /// Measured by [`golden_order5_small_start_switch`] (ms): bracket [31.3344, 31.3375]
-    /// (midpoint), inside the full system's [31.32, 31.34]; escaping starts per grid dt 0 0 0 0 3
-    /// 8 8 8 8 8 8 on [31.0, 32.0] (the fitted map's: the same counts).
+    /// Pinned value of [`golden_order5_small_start_switch`] (ms, printed by it): the
+    /// bracket's midpoint, inside the full system's bracket.
     const GOLDEN_SWITCH: f64 = 31.3359;
 
     fn theta(m: &SsmModel, eta: &[f64]) -> f64 {
@@ -506,8 +492,8 @@ mod tests {
     /// pre-history, projects to `z0`, and the map's theta series from there equals that of
     /// the period map's expansion `F` iterated from `s` and that of the full system run from
     /// the start (the layout of the deflated coordinates) over 100 periods, to the stated
-    /// tolerance 1e-7 rad (measured 1.9e-8 and 1.3e-8 at max |theta| 0.041: the order-5
-    /// truncation; a wrong layout of the pre-history moves theta by O(rho) = 1e-2).
+    /// tolerance 1e-7 rad (the differences, printed, are the order-5 truncation; a wrong
+    /// layout of the pre-history moves theta by O(rho) = 1e-2).
     #[test]
     fn start_projection_known_answers() {
         let dt = 31.0;
@@ -703,10 +689,10 @@ mod tests {
     }
 
     /// Golden values, order 5 on 5 nodes (spline): the graph-style map's saddle connection
-    /// by the fitted map's rule falls in the full system's bracket region ([31.328, 31.331] ms
-    /// in the full report) and its torus growth onset near the full system's 31.707 ms; the
+    /// by the fitted map's rule falls in the full system's bracket region (the full report's
+    /// bifurcation table) and its torus growth onset near the full system's; the
     /// normal-form-style map of the same SSM (phases averaged) connects more than 0.1 ms away
-    /// (the normal form's truncation, not the map). Measured here: see the eprintln.
+    /// (the normal form's truncation, not the map). The values are printed.
     #[test]
     fn golden_order5_connection_and_torus() {
         let nodes = [30.5, 31.0, 31.5, 32.0, 32.5];

@@ -39,27 +39,6 @@ pub enum Error {
     Shape { expected: usize, got: usize },
 }
 
-/// `?` on a module error of a lower layer: lift it through that layer's enum.
-macro_rules! lift {
-    ($($t:ty => $via:ty),* $(,)?) => {$(
-        impl From<$t> for Error {
-            fn from(e: $t) -> Self {
-                <$via>::from(e).into()
-            }
-        }
-    )*};
-}
-
-lift!(
-    sim::scene::SceneError => sim::Error,
-    sim::closed_loop::SimError => sim::Error,
-    sim::stability::StabilityError => sim::Error,
-    sim::linear::LinearError => sim::Error,
-    ssm::FitError => ssm::Error,
-    ssm::DataError => ssm::Error,
-    ssm::portrait::PortraitError => ssm::Error,
-    ssm::interp::InterpError => ssm::Error,
-    ssm::spectrum::SpectrumError => ssm::Error,
-    ssm::device::ExportError => ssm::Error,
-    ssm::auto::AutoError => ssm::Error,
-);
+// `?` on a module error of a lower layer: lift it through that layer's enum.
+sim::lift_sim_errors!(Error);
+ssm::lift_ssm_errors!(Error);

@@ -67,14 +67,14 @@ pub fn scene_at(dt_ms: f64) -> Result<Scene, Error> {
 }
 
 /// The method of the report's basin, torus-continuation and connection runs: exprb-filtered
-/// at the scene's tolerances ([`verdict_integrator`]). Measured against RODAS4 at rtol 1e-13
-/// and against the scene's exprb-lean (`host/lab/examples/fullsystem_integrators.rs`): on the full
-/// basin (1,600 runs) no verdict flips and every escape time is identical, at 0.49x the CPU;
-/// on the basin's edge, the torus continuation and the connection runs no verdict flips
-/// against RODAS4 and the torus-lost bracket is the same. The default-start switch scans keep
-/// the scene's exprb-lean: one of their runs (the fast-mode start at 31.38 ms) is decided by
-/// the integration error at every tolerance above about 2e-12, and exprb-filtered lets it
-/// escape where RODAS4 keeps it bounded.
+/// at the scene's tolerances ([`verdict_integrator`]). Checked against RODAS4 at rtol 1e-13
+/// and against the scene's exprb-lean (`host/lab/examples/fullsystem_integrators.rs`;
+/// `docs/performance.md`): on the full basin (1,600 runs) no verdict flips and every escape
+/// time is identical, at a fraction of the CPU; on the basin's edge, the torus continuation
+/// and the connection runs no verdict flips against RODAS4 and the torus-lost bracket is the
+/// same. The default-start switch scans keep the scene's exprb-lean: one of their runs (the
+/// fast-mode start at 31.38 ms) is decided by the integration error at all but the tightest
+/// tolerances, and exprb-filtered lets it escape where RODAS4 keeps it bounded.
 pub const VERDICT_METHOD: MethodKind = MethodKind::ExprbFiltered;
 
 /// The scene's integrator with its method replaced by [`VERDICT_METHOD`] (tolerances kept).
@@ -292,9 +292,9 @@ pub fn default_dts() -> Vec<f64> {
 
 /// The full default scan (the lead calls this from the report): [`default_dts`] x
 /// [`default_ics`] (starts computed at each dt from its own eigenvectors), escape at
-/// [`ESCAPE_THETA`]. The horizon matters: near the switch the escapes take 100-200 s
-/// (the pure slow-mode start first grows the fast mode from round-off), so use
-/// [`DEFAULT_SCAN_PERIODS`]; 3000 periods (95 s) moves the bracket up by 0.04 ms.
+/// [`ESCAPE_THETA`]. The horizon matters: near the switch the escapes come late (the pure
+/// slow-mode start first grows the fast mode from round-off), so use
+/// [`DEFAULT_SCAN_PERIODS`]; 3000 periods (95 s) moves the bracket up.
 pub fn default_switch_scan(periods: u64) -> Result<SwitchScan, Error> {
     switch_scan_per_dt(&default_dts(), default_ics, periods)
 }
@@ -417,7 +417,7 @@ pub struct Fate {
     pub amps: Vec<(f64, [f64; 2])>,
     /// Frequencies used for `amps`: the slow/fast spectral peaks of the same series when it
     /// is at least 8 windows long (the torus frequencies shift with amplitude, the slow one
-    /// by about +12 %), else the exact linear frequencies.
+    /// markedly), else the exact linear frequencies.
     pub freqs_hz: [f64; 2],
     /// The start used (plant state and pre-history).
     pub start: ([f64; 4], Vec<[f64; 2]>),

@@ -50,15 +50,15 @@ pub struct FurutaOptions {
     /// The per-period manifolds get a degree-1 normal part over their own SVD tangent
     /// ([`ssm::fit::fit_with_linear_normal`]; the shared-tangent model always has one).
     /// Without it the normal part's cubic terms absorb the tilt of the SVD tangent and the
-    /// normal form's `rho_1^2 rho_2` is 10-26 % off the equation-driven one on the
-    /// first-harmonic basis (docs/decisions/0001); with it 0.0-2.3 %. The tangent, the reduced
+    /// normal form's `rho_1^2 rho_2` is far off the equation-driven one on the first-harmonic
+    /// basis (docs/decisions/0001; the report's coefficient table); with it close. The tangent, the reduced
     /// coordinates and the fitted map are the same either way, and `model_normal_form`
     /// scales `rho` by `V1`'s first row: the linear-row normal forms (portraits,
     /// bifurcations, torus, sensitivity) do not change, only theta on the manifold (the
     /// first-harmonic basis). Taking the linear row with the degree-1 part instead
     /// (`Manifold::observable_row`, theta's slope at the fixed point) moved the model's
-    /// torus at 30.8 ms from +1.1 / -3.6 % to +8.5 / -10.3 % of the full system's (quick
-    /// report): `V1`'s row is the data's secant over the training amplitudes. Default
+    /// torus at 30.8 ms much further from the full system's: `V1`'s row is the data's secant
+    /// over the training amplitudes. Default
     /// `true`; `false` (and files written before the option) is the graph without it.
     #[serde(default)]
     pub linear_normal: bool,
@@ -90,7 +90,7 @@ pub fn map_row_weight(knee_theta: f64, embed: usize, power: f64) -> RowWeight {
 pub const MAP_WEIGHT_KNEE_THETA: f64 = 0.2;
 
 /// Steepness of the default fitted map's weight (power 16 at the same knee left the runs cut
-/// at 0.3 rad losing the torus 0.25 ms early).
+/// at 0.3 rad losing the torus early).
 pub const MAP_WEIGHT_POWER: f64 = 32.0;
 
 /// The default fitted map's low-degree first stage ([`ssm::LowDegreeStage`]): its degrees
@@ -98,14 +98,13 @@ pub const MAP_WEIGHT_POWER: f64 = 32.0;
 /// [`MAP_LOW_KNEE_THETA`], the degrees 4..=7 from the fit at [`MAP_WEIGHT_KNEE_THETA`].
 /// With one fit at 0.2 rad the order-7 truncation bends the cubic terms with the data near
 /// the slow saddle cycle (0.14-0.18 rad): the normal form's `rho_1^3` on the first-harmonic
-/// basis was -8 / -10 / -16 / -15 % off the equation-driven one at 30.5 / 31 / 32 / 32.5 ms,
-/// with the stage -1.9 / -2.5 / -4.1 / -3.5 %; the saddle connection moved from
-/// [31.322, 31.325] to [31.309, 31.313] ms (full system [31.328, 31.331]), the torus growth
-/// onset from 31.680 to 31.690 ms (equation reduced map 31.709); see docs/decisions/0001 and the report.
+/// basis was well off the equation-driven one at every training period, and much closer with
+/// the stage, at the price of a small shift of the saddle connection and of the torus growth
+/// onset; see docs/decisions/0001 and the report's tables.
 pub const MAP_LOW_DEGREE: u32 = 3;
 
 /// Knee (rad of theta) of the default fitted map's low-degree stage (see [`MAP_LOW_DEGREE`];
-/// knee 0.12: `rho_1^3` -3.8 % at worst with the manifold also weighted).
+/// a knee of 0.12 fitted `rho_1^3` less well with the manifold also weighted).
 pub const MAP_LOW_KNEE_THETA: f64 = 0.1;
 
 /// The default fitted map's row weight: [`map_row_weight`] at [`MAP_WEIGHT_KNEE_THETA`] with
@@ -132,8 +131,9 @@ impl Default for FurutaOptions {
             dynamics: Dynamics::Map,
             ridge: Ridge::Fixed(0.0),
             // Linear part from the pairs within 1 % of the largest |eta|: over the whole
-            // range the rates trade against the order-7 terms (slow rate -3.5 % at 32 ms,
-            // -14 % at 32.5 ms without, runs cut at 0.3 rad; within 0.05 % with).
+            // range the rates trade against the order-7 terms (the slow rate is then off by
+            // percents at the longest periods; `furuta_rates_match_exact_multipliers` prints
+            // the anchored errors).
             linear_anchor: Some(0.01),
             anchor_joint: false,
         };
@@ -152,10 +152,10 @@ impl Default for FurutaOptions {
             periods: 3000,
             skip: 20,
             // Cut at 0.2 rad: with 0.3 the runs at 32 / 32.5 ms reach far into the escape
-            // before the cut, and the fitted higher orders put the torus Hopf at 31.12 ms,
-            // where the full system's torus is still attracting; with 0.2 the model's torus
-            // Hopf (31.86) and saddle connection (31.83) sit where the full system's torus
-            // stops attracting (between 31.6 and 31.9 ms). See the report's sensitivity table.
+            // before the cut, and the fitted higher orders put the torus Hopf where the full
+            // system's torus is still attracting; with 0.2 the model's torus Hopf and saddle
+            // connection sit where the full system's torus stops attracting. See the report's
+            // sensitivity table.
             max_theta: 0.2,
             // Slow-eigenvector starts: the slow mode is otherwise swamped by the fast one.
             slow_starts: vec![(0.002, 0.0), (0.002, std::f64::consts::FRAC_PI_2), (0.004, 0.7), (0.008, 2.3)],
@@ -762,7 +762,7 @@ mod tests {
     use super::*;
 
     #[test]
-    // ~12-25 s in the test profile (simulates 12 runs at each of the 4 training periods).
+    // Simulates 12 runs at each of the 4 training periods (the fit time is printed).
     fn furuta_rates_match_exact_multipliers() {
         let t0 = std::time::Instant::now();
         let pm = furuta_parametric(&FurutaOptions::default()).unwrap();
@@ -798,10 +798,9 @@ mod tests {
             worst_interp = worst_interp.max(err[0].abs()).max(err[1].abs());
         }
         eprintln!("table at 30.8 ms:\n{}", pm.coefficients_at(30.8).unwrap().to_text());
-        // The targets: within 1 % at the training periods, 2 % interpolated. Measured
-        // with the anchored linear part (FurutaOptions::default): at most 3.1e-4 (slow) and
-        // 5.0e-4 (fast) at training, 1.9e-4 / 9.3e-4 interpolated (without the anchor, runs
-        // cut at 0.3 rad: slow -3.5 % at 32 ms, -14 % at 32.5 ms, -9.4 % interpolated at 32.3).
+        // The targets: within 1 % at the training periods, 2 % interpolated, met with
+        // the anchored linear part (FurutaOptions::default; without the anchor, on runs cut at
+        // 0.3 rad, the slow rate misses them at the longest periods). The errors are printed.
         assert!(worst_train < 0.01, "training rate error {worst_train}");
         assert!(worst_interp < 0.02, "interpolated rate error {worst_interp}");
         // Tighter than the targets, to catch regressions of the anchored fit.
@@ -913,10 +912,9 @@ mod tests {
             let (r, e) = (t.normal_form.linear_rates(), t.exact.rates);
             let err = [(r[0] - e[0]) / e[0], (r[1] - e[1]) / e[1]];
             println!("  rates {r:?} vs exact {e:?}: rel err {err:?}");
-            // Measured with the anchored linear part: slow -2.2e-4 / -2.3e-4, fast -5.0e-4 /
-            // -5.1e-4 at 31.40 / 31.41 ms (without it: slow -9.3 % / -2.5 %, fast -1.9 % / +0.7 %: the runs
-            // leave |theta| < 0.3 early near the bifurcation and the whole-range fit trades the
-            // rates against the higher orders).
+            // Met with the anchored linear part (without it the slow rate misses by percents:
+            // the runs leave |theta| < 0.3 early near the bifurcation and the whole-range fit
+            // trades the rates against the higher orders).
             assert!(err[1].abs() < 0.01 && err[0].abs() < 0.01, "dt {}: {err:?}", t.dt_ms);
         }
     }

@@ -460,8 +460,8 @@ mod tests {
         eprintln!("{r:?}");
         let c = r.full.as_ref().unwrap();
         assert!(c.residual <= 1e-10, "{}", c.residual);
-        assert!(c.residual_midpoints <= 1e-10, "{}", c.residual_midpoints); // measured 3.4e-12
-        // Measured: full 0.06954 rad, 8.31245 Hz; equation-driven theta first harmonic 0.06955.
+        assert!(c.residual_midpoints <= 1e-10, "{}", c.residual_midpoints);
+        // Pinned against regressions (the row is printed above).
         assert!((c.theta_amplitude - 0.06954).abs() < 2e-5, "{}", c.theta_amplitude);
         let e = &r.equation[0];
         assert!((e.theta_amplitude.unwrap() - c.theta_amplitude).abs() < 1e-4, "{e:?}");
@@ -469,10 +469,9 @@ mod tests {
     }
 
     /// The slow (mode-1) saddle cycle at 31 ms, beyond the root-test radius (~0.1 rad) of the
-    /// SSM series on the 0.05 rad sphere: the exact map's circle (theta first harmonic 0.1702
-    /// rad, a fixed point to 1e-10) and the order-7 model's (rho* = its theta first harmonic
-    /// = 0.17036 rad, `Amplitude::Observable`) agree within 0.2 % (with `Amplitude::Spectral`
-    /// rho* was 0.192 and the first harmonic 0.1766 rad, 4 % off).
+    /// SSM series on the 0.05 rad sphere: the exact map's circle (a fixed point to 1e-10) and
+    /// the order-7 model's (rho* = its theta first harmonic, `Amplitude::Observable`) agree
+    /// within 0.2 % (with `Amplitude::Spectral` they did not). Both are printed and pinned.
     #[test]
     fn slow_saddle_cycle_of_the_exact_map_and_the_truncated_model() {
         let opts = CircleOptions { n: 65, ..CircleOptions::default() };
@@ -483,14 +482,14 @@ mod tests {
             "full: theta1 {} f {} Hz res {:e} mid {:e}; {:?}",
             c.theta_amplitude, c.freq_hz, c.residual, c.residual_midpoints, r.equation
         );
-        assert!(c.residual <= 1e-10 && c.residual_midpoints <= 1e-8, "{} {}", c.residual, c.residual_midpoints); // measured 5e-12, 3e-10
+        assert!(c.residual <= 1e-10 && c.residual_midpoints <= 1e-8, "{} {}", c.residual, c.residual_midpoints);
         assert!((c.theta_amplitude - 0.17016).abs() < 2e-4, "{}", c.theta_amplitude);
         assert!((c.freq_hz - 0.5362).abs() < 1e-3, "{}", c.freq_hz);
         let e = &r.equation[0];
         assert!((e.rho.unwrap() - 0.17036).abs() < 1e-4, "{e:?}");
         assert!((e.rho.unwrap() - e.theta_amplitude.unwrap()).abs() < 1e-12, "{e:?}");
         let rel = e.theta_amplitude.unwrap() / c.theta_amplitude - 1.0;
-        assert!(rel.abs() < 2e-3, "{rel}"); // measured 1.2e-3
+        assert!(rel.abs() < 2e-3, "{rel}");
     }
 
     /// Known answer: `z -> z e^{i omega} (1 - 0.1 (1 - |z|^2))` (an unstable circle |z| = 1

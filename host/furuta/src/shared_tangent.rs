@@ -369,13 +369,12 @@ pub fn predict_one(
 mod tests {
     use super::*;
 
-    /// One shared fit (~15 s in the test profile) reused for every check.
+    /// One shared fit (the costly part) reused for every check.
     #[test]
     fn shared_tangent_rates_and_predictions() {
         let pm = shared_parametric(&FurutaOptions::default()).unwrap();
         // 1. The shared-V1 maps keep the exact linear rates like the own-V1 fits (anchored
-        //    linear part; measured: slow -0.9e-4 / -1.2e-4 / -2.5e-4 / -3.1e-4, fast -3.0e-4 /
-        //    -3.3e-4 / -5.0e-4 / -4.7e-4 at 30.5 / 31 / 32 / 32.5 ms).
+        //    linear part; the errors are printed).
         for n in &pm.nodes {
             let err = [
                 (n.rates[0] - n.exact.rates[0]) / n.exact.rates[0],
@@ -442,11 +441,11 @@ mod tests {
         }
         assert_eq!(pmod.normal_form_at_with(30.8, Interp::Linear).unwrap().amp, pmod.normal_form_at(30.8).unwrap().amp);
         // 4. Predictions at the six unseen periods, both interpolants: full horizon, no
-        //    blow-up, finite metrics. At 30.8 ms (linear) the measured NMTE is 9.3e-4; the
-        //    bound 3e-3 leaves room for rounding differences between platforms but fails
-        //    for a model off by a few percent in rate or amplitude over the 30 s run. As an
-        //    independent scale: predicting 0 gives NMTE = mean|theta| / max|theta| (about 0.18
-        //    here); every period must do better than a quarter of that (measured: at most 0.17).
+        //    blow-up, finite metrics (all printed). At 30.8 ms (linear) the bound 3e-3 leaves
+        //    room for rounding differences between platforms but fails for a model off by a
+        //    few percent in rate or amplitude over the 30 s run. As an independent scale:
+        //    predicting 0 gives NMTE = mean|theta| / max|theta|; every period must do better
+        //    than a quarter of that.
         let o = PredictOptions::default();
         let tests = test_series_all(&o).unwrap();
         for interp in [Interp::Linear, Interp::Spline] {
@@ -497,20 +496,17 @@ mod tests {
                 if r.dt_ms == 30.8 && interp == Interp::Linear {
                     assert!(r.nmte < 3e-3, "30.8 ms NMTE {}", r.nmte);
                 }
-                // Measured (training runs cut at 0.2 rad, weighted map): linear 0.0005 / 0.0007 /
-                // 0.0010 / 0.0013 / 0.0009 / 0.0010 at 30.8 / 31.2 / 31.8 / 32.2 / 31.42 / 31.65
-                // ms, spline within 0.0002 of those (unweighted with the 0.3 rad cut: up to 0.045).
+                // A regression bound for the weighted map on runs cut at 0.2 rad (unweighted with
+                // the 0.3 rad cut it fails by far).
                 assert!(r.nmte < 0.005, "dt {}: NMTE {}", r.dt_ms, r.nmte);
             }
         }
         // 5. The fitted map's own small-start switch (crate::bifurcations::map_small_start_switch,
-        //    linear interpolation; measured bracket [31.2844, 31.2875] ms, 8000 periods, against
-        //    the full system's [31.32, 31.34]; [31.3594, 31.3625] before the map's low-degree
-        //    stage (FurutaOptions::map_weight, ssm::LowDegreeStage), [31.2938, 31.2969] before
-        //    the map's regression was weighted): direct runs of the map from the full system's
-        //    starts on both sides of it. At 31.25 ms (a bisection point below the bracket) every
-        //    start stays bounded; at 31.3 ms (the switch scan's grid point after it) one of the
-        //    eight escapes |theta| > 1 (at 31.35 ms one does too).
+        //    linear interpolation, 8000 periods; the report sets its bracket beside the full
+        //    system's): direct runs of the map from the full system's starts on both sides of
+        //    it. At 31.25 ms (a bisection point below the bracket) every start stays bounded;
+        //    at 31.3 ms (the switch scan's grid point after it) one of the eight escapes
+        //    |theta| > 1.
         use crate::bifurcations::map_outcome;
         use crate::full_system::{DEFAULT_SCAN_PERIODS, ESCAPE_THETA, default_ics};
         for (dt, escapes) in [(31.25, false), (31.3, true)] {

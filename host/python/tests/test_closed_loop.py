@@ -8,11 +8,15 @@ delayed-loop companion matrix, whose eigenvalues are the multipliers.
 """
 
 import math
+import tomllib
+from pathlib import Path
 
 import numpy as np
 import pytest
 
 import ssm_ctl as sc
+
+SCENES = Path(__file__).resolve().parents[3] / "scenes"
 
 
 def test_simulate_returns_the_csv_columns_and_obeys_the_control_law():
@@ -22,7 +26,9 @@ def test_simulate_returns_the_csv_columns_and_obeys_the_control_law():
     dt = 0.010
     assert np.allclose(r["t"], dt * np.arange(41), rtol=0, atol=1e-12)
     # u_k = -sum_i [p_i q_i(k-1) + d_i (q_i(k-1) - q_i(k-2)) / dt]: the scene's gains, delay 1.
-    gains = {"theta": (-45.0, -7.0), "x": (-20.0, -15.0)}
+    scene = tomllib.loads((SCENES / "cartpole-pd.toml").read_text())
+    gains = {q: (g["p"], g["d"]) for q, g in scene["controller"]["gains"].items()}
+    assert set(gains) == {"theta", "x"}
     for k in range(2, 41):
         u = -sum(p * r[q][k - 1] + d * (r[q][k - 1] - r[q][k - 2]) / dt for q, (p, d) in gains.items())
         assert r["u"][k] == pytest.approx(u, rel=1e-12, abs=1e-12)

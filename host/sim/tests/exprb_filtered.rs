@@ -4,12 +4,8 @@
 //! first periods, where the integer codes must agree exactly at 1e-10. The errors and steps are
 //! printed next to exprb-lean's.
 //!
-//! Measured (theta error, steps/period; exprb-lean in brackets), rtol = atol = 4e-9:
-//! furuta-dt30.8 5.1e-10, 16.8 (2.8e-10, 31.1); furuta-dt25 delay 3 4.0e-9, 17.4 (2.0e-9,
-//! 30.4); furuta-quant-dt25 2.8e-8, 17.8 (6.3e-9, 33.2); furuta-microchaos 2.2e-8, 10.6
-//! (4.3e-10, 18.2). The filter pays on the smooth loops; on the chaotic ones an error made
-//! anywhere grows, and its steps buy less accuracy there (exprb-lean at 1e-9 reaches
-//! 5.9e-11 on furuta-microchaos in 24.1 steps/period, exprb-filtered at 1e-10 9.8e-10 in 20.3).
+//! The filter pays on the smooth loops; on the chaotic ones an error made anywhere grows, and
+//! its steps buy less accuracy there.
 
 use sim::closed_loop::simulate;
 use sim::scene::{IntegratorSpec, MethodKind};

@@ -494,8 +494,8 @@ fn poly_fit(
     let frac = match anchor {
         // The plain fit keeps the `U` solve, bit for bit as before: the chaos study's map
         // models are fitted this way, and their finite-time Lyapunov and PDF statistics turn a
-        // rounding change of the coefficients into changes of several percent (measured:
-        // the chaos-cost table's poly rows, 2-8 %). The anchored and weighted fits below (the
+        // rounding change of the coefficients into changes of several percent (the chaos-cost
+        // table's poly rows). The anchored and weighted fits below (the
         // Furuta models) solve through `Q^T b`.
         None if rows.is_none() => return ridge::fit_owned(design(exps), y, groups, ridge, what, || design(exps)),
         None => {
@@ -1663,9 +1663,8 @@ mod tests {
             let anchored = ReducedDynamics::fit_anchored(&et, kind, order, Ridge::Fixed(0.0), Some(0.01)).unwrap();
             let (ep, ea) = (err(&plain), err(&anchored));
             println!("{kind:?} order {order}: rate error plain {ep:.2e}, anchored {ea:.2e}");
-            // Measured: map order 1 plain 1.08 / anchored 1.6e-4; map order 3 2.5e-3 / 1.6e-4
-            // (the exact map has all orders); flow order 3 3e-8 / 1.6e-4: the field is
-            // exactly cubic, so the plain fit is exact and the anchor costs the bias of a
+            // The exact map has all orders, so every plain map fit is biased; the flow field is
+            // exactly cubic, so the plain flow fit is exact and the anchor costs the bias of a
             // linear fit within 1 % (c r^2 ~ 1e-4).
             assert!(ea < 2e-4, "{kind:?} {order}: anchored {ea}");
             match (kind, order) {
@@ -1813,7 +1812,7 @@ mod tests {
         println!(
             "one-step images inside r = 0.45, fits with vs without the outer run: weighted {g_w:.1e}, unweighted {g_u:.1e}"
         );
-        // Measured: weighted 6.9e-15, unweighted 0.20.
+        // Weighted: equal to rounding; unweighted: moved by the outer run.
         assert!(g_w < 1e-10 && g_u > 1e-4, "weighted {g_w}, unweighted {g_u}");
         // Exact data of a cubic map: recovered with and without weights.
         let cubic = |x: [f64; 2]| {
@@ -1940,7 +1939,8 @@ mod tests {
             let ReducedDynamics::Rbf(m) = &dynm else { panic!() };
             assert_eq!(m.kernel, kernel);
             let rr = dynm.conditioning().rel_residual;
-            // Measured: 1e-4 .. 1e-3 relative residual of the increments.
+            eprintln!("{kernel:?}: relative residual of the increments {rr:.1e}");
+            // A loose bound on the fit's quality; the Jacobian check below is the sharp one.
             assert!(rr < 2e-2, "{kernel:?}: residual {rr}");
             let jac = dynm.linear_part().unwrap();
             let (h, mut f) = (1e-6, Vec::new());
@@ -2118,9 +2118,9 @@ mod tests {
         // Clean inputs, targets with noise: the clean input rows of `clean`, the targets of `noisy_out`.
         let pairs = ReducedDynamics::fit_rbf_pairs(&tr(&clean), &tr(&noisy_out), kind, Ridge::Fixed(1e-10)).unwrap();
         let (go, gp) = (gain(&ols), gain(&pairs));
-        // Measured: ordinary 0.831 (a linear fit would give 0.787; the kernel terms follow
-        // the nonlinear conditional mean E[p | noisy p] of a uniform p and recover a little),
-        // pair fit 1.004.
+        eprintln!("gain along A: ordinary fit {go:.3}, pair fit {gp:.3}");
+        // The ordinary fit shrinks a little less than a linear fit would (0.787): the kernel
+        // terms follow the nonlinear conditional mean E[p | noisy p] of a uniform p.
         assert!((gp - 1.0).abs() < 0.02, "pair fit gain {gp}");
         assert!((0.78..=0.88).contains(&go), "ordinary fit gain {go}");
         let same = ReducedDynamics::fit_rbf_pairs(&tr(&noisy_in), &tr(&noisy_in), kind, Ridge::Fixed(1e-10)).unwrap();

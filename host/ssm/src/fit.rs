@@ -47,8 +47,8 @@ pub struct FitOptions {
     /// the degree-1 terms otherwise trade accuracy at the fixed point against the
     /// truncated higher orders. `None`: one regression over all pairs. Needs clean data
     /// near the fixed point: on measured decays that end in sensor noise the small pairs are
-    /// noise dominated and the anchor costs accuracy (sloshing: test NMTE 0.068 at 1 %,
-    /// 0.028 at 20 %, against 0.0099 without; `ssmctl bench fit` shows the rows).
+    /// noise dominated and the anchor costs accuracy (on the sloshing decays the anchored
+    /// fits' test NMTE is worse than without; `ssmctl bench fit` shows the rows).
     #[serde(default)]
     pub linear_anchor: Option<f64>,
     /// With `linear_anchor`: fit the anchored linear part JOINTLY with the higher orders
@@ -58,8 +58,8 @@ pub struct FitOptions {
     /// phases instead of amplitudes) and the degree-1 terms are fitted to them with the
     /// higher-order terms' contribution removed, the higher orders to all pairs with the
     /// linear part removed, both at once. The plain anchor fits the degree-1 terms alone to
-    /// the small pairs, so the higher orders present there bias them (on the Duffing data
-    /// at 20 %: damping -0.0627 against -0.1257). `false` keeps the plain anchor.
+    /// the small pairs, so the higher orders present there bias them (the damping most:
+    /// `tests/damping_known.rs` prints the errors of both). `false` keeps the plain anchor.
     #[serde(default)]
     pub anchor_joint: bool,
 }

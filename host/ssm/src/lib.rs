@@ -59,6 +59,81 @@ pub use ridge::{Conditioning, Ridge};
 #[cfg(test)]
 mod tests;
 
+/// `ssm`'s module errors lifted into a higher layer's error.
+/// Implements `From<E>` for `$target` for every module error `E` of this layer, through this
+/// layer's [`Error`]: for a crate above whose error wraps it, since `?` does not chain two
+/// `From` steps. The list lives here, beside the enum, so a new module error is lifted everywhere.
+#[macro_export]
+macro_rules! lift_ssm_errors {
+    ($target:ty) => {
+        impl ::core::convert::From<$crate::error::FitError> for $target {
+            fn from(e: $crate::error::FitError) -> Self {
+                <$target>::from($crate::Error::from(e))
+            }
+        }
+        impl ::core::convert::From<$crate::data::DataError> for $target {
+            fn from(e: $crate::data::DataError) -> Self {
+                <$target>::from($crate::Error::from(e))
+            }
+        }
+        impl ::core::convert::From<$crate::normal_form::NormalFormError> for $target {
+            fn from(e: $crate::normal_form::NormalFormError) -> Self {
+                <$target>::from($crate::Error::from(e))
+            }
+        }
+        impl ::core::convert::From<$crate::portrait::PortraitError> for $target {
+            fn from(e: $crate::portrait::PortraitError) -> Self {
+                <$target>::from($crate::Error::from(e))
+            }
+        }
+        impl ::core::convert::From<$crate::interp::InterpError> for $target {
+            fn from(e: $crate::interp::InterpError) -> Self {
+                <$target>::from($crate::Error::from(e))
+            }
+        }
+        impl ::core::convert::From<$crate::interp::MixError> for $target {
+            fn from(e: $crate::interp::MixError) -> Self {
+                <$target>::from($crate::Error::from(e))
+            }
+        }
+        impl ::core::convert::From<$crate::spectrum::SpectrumError> for $target {
+            fn from(e: $crate::spectrum::SpectrumError) -> Self {
+                <$target>::from($crate::Error::from(e))
+            }
+        }
+        impl ::core::convert::From<$crate::device::ExportError> for $target {
+            fn from(e: $crate::device::ExportError) -> Self {
+                <$target>::from($crate::Error::from(e))
+            }
+        }
+        impl ::core::convert::From<$crate::fit::ModelFileError> for $target {
+            fn from(e: $crate::fit::ModelFileError) -> Self {
+                <$target>::from($crate::Error::from(e))
+            }
+        }
+        impl ::core::convert::From<$crate::backbone::BackboneError> for $target {
+            fn from(e: $crate::backbone::BackboneError) -> Self {
+                <$target>::from($crate::Error::from(e))
+            }
+        }
+        impl ::core::convert::From<$crate::frc::FrcError> for $target {
+            fn from(e: $crate::frc::FrcError) -> Self {
+                <$target>::from($crate::Error::from(e))
+            }
+        }
+        impl ::core::convert::From<$crate::map_ssm::MapSsmError> for $target {
+            fn from(e: $crate::map_ssm::MapSsmError) -> Self {
+                <$target>::from($crate::Error::from(e))
+            }
+        }
+        impl ::core::convert::From<$crate::auto::AutoError> for $target {
+            fn from(e: $crate::auto::AutoError) -> Self {
+                <$target>::from($crate::Error::from(e))
+            }
+        }
+    };
+}
+
 /// Anything the SSM layer refuses or fails at: one enum over the module errors (each names
 /// the option, file, row, dimension or parameter that is wrong); `?` lifts any of them.
 #[derive(Debug, thiserror::Error)]

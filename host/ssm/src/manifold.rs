@@ -52,7 +52,7 @@ impl Manifold {
     /// against the SSM's tangent space at the fixed point (the nonlinear parts of the data
     /// correlate with their linear part), so over it the manifold has a linear normal part;
     /// without one the degree-2.. coefficients absorb it (on the Furuta data the cubic
-    /// `rho_1^2 rho_2` of the map's normal form is then 10-26 % off, within 2.3 % with it).
+    /// `rho_1^2 rho_2` of the map's normal form is then much further off than with it).
     /// Alone (no higher degrees) the degree-1 part is zero: the SVD residual is orthogonal
     /// to `eta`.
     pub fn fit_with_linear_normal(ys: &[Mat<f64>], dim: usize, order: u32, ridge: Ridge) -> Result<Self, FitError> {
@@ -375,7 +375,7 @@ pub fn design_matrix(eta: MatRef<'_, f64>, scale: &[f64], exps: &[Vec<u32>]) -> 
 /// [`design_matrix`] in the storage of `buf` (its values ignored): a fit that builds
 /// several design matrices of the same rows in turn (the stages of an anchored or weighted
 /// regression, the residual's) reuses one allocation, whose pages are then already mapped
-/// (a fresh 95 MB matrix costs about as much in page faults as its values). The same
+/// (the page faults of a fresh large matrix cost about as much as its values). The same
 /// values, and the same layout as a fresh matrix (the column stride depends on the row
 /// count alone), so faer's factorizations of it give the same bits.
 pub fn design_matrix_in(mut buf: Mat<f64>, eta: MatRef<'_, f64>, scale: &[f64], exps: &[Vec<u32>]) -> Mat<f64> {

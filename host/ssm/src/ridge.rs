@@ -710,7 +710,7 @@ mod tests {
 
     /// `solve_owned_qtb` (`U^T b` as `U_R^T (Q^T b)`, no `U`): the singular values of
     /// `solve_owned` bit for bit and the solution within 1e-13 relative (max-norm over the
-    /// solution; measured at most 1.8e-15, the column-scaled shape with cond ~1e6 included),
+    /// solution, printed per shape; the column-scaled shape with cond ~1e6 included),
     /// with and without ridge; not tall enough for the
     /// QR-first SVD: `solve_owned` itself; bad right-hand side refused.
     #[test]

@@ -29,8 +29,8 @@ pub enum SpectrumError {
 /// fit of `c + a_j cos(2 pi f_j t) + b_j sin(2 pi f_j t)` (j = 1, 2) on the window gives
 /// `rho_j = hypot(a_j, b_j)`. Returns `(window centre time measured from the first sample,
 /// [rho_1, rho_2])`. The estimate is a phase-dependent weighted mean of the envelope over the
-/// window: a slope `A'` gives an error up to about `0.05 |A'| window`, a curvature `A''` up
-/// to about `0.2 |A''| window^2` (measured on synthetic envelopes, see the tests), and a
+/// window: a slope `A'` gives an error below `0.1 |A'| window`, a curvature `A''` below
+/// `0.3 |A''| window^2` (the bounds the tests check on synthetic envelopes), and a
 /// mismatch `df` between `f_j` and the true frequency a factor of about `sinc(pi df window)`.
 ///
 /// Returns an empty vector when the series is shorter than one window. Errors on a bad
@@ -272,12 +272,10 @@ mod tests {
     /// Constant amplitudes lie in the fitted span: recovered to round-off in every window.
     /// Linearly varying amplitudes: the fit is a phase-dependent weighted mean of the envelope
     /// over the window (`tau sin(w tau)` is even and leaks into the cosine term), so the error is
-    /// first order in the slope: |error| <= 0.1 |A'| W (measured 0.049 and 0.042 of |A'| W).
-    /// Curved envelopes (a 30 %
-    /// modulation at 0.02 Hz; a growth at 0.05 1/s) are biased by the curvature across the
-    /// window: |error| <= 0.3 max|A''| W^2 (the quadratic term's projection, ~W^2/12, amplified
-    /// by the near-collinearity of the constant and a 1.1-cycle slow tone; measured 0.22 and
-    /// 0.09 of max|A''| W^2).
+    /// first order in the slope: |error| <= 0.1 |A'| W. Curved envelopes (a 30 % modulation
+    /// at 0.02 Hz; a growth at 0.05 1/s) are biased by the curvature across the window:
+    /// |error| <= 0.3 max|A''| W^2 (the quadratic term's projection, ~W^2/12, amplified by the
+    /// near-collinearity of the constant and a 1.1-cycle slow tone). The test prints the ratios.
     fn envelope_errors(a1: impl Fn(f64) -> f64 + Copy, a2: impl Fn(f64) -> f64 + Copy) -> [f64; 2] {
         let (dt, f) = (0.0315, [0.44, 8.4]);
         let x = two_tone(3000, dt, a1, a2, f);
@@ -326,7 +324,7 @@ mod tests {
     /// frequency and amplitude; a 40 % amplitude modulation at 0.03 Hz shows as sidebands whose
     /// spacing is the modulation frequency. The sidebands must be resolved: 0.03 Hz is 5.7 bins
     /// of the 6000-sample series (at 2.8 bins, 3000 samples, the carrier's Hann lobe biases the
-    /// sideband amplitude by 6 % and the spacing by 6 %).
+    /// sideband amplitude and the spacing).
     #[test]
     fn spectral_peaks_read_tones_and_sidebands() {
         let (n, dt) = (3000, 0.0315);

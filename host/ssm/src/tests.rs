@@ -330,9 +330,10 @@ fn bad_options_and_inputs_are_reported() {
 /// coefficients change under a near-identity coordinate change `w = z + c z|z|^2` by
 /// `2 Re(lambda) c` (they are invariant only at `Re lambda = 0`), and the nonlinear observable
 /// and the delay embedding are such changes: the linear rates are therefore kept small
-/// (-0.02, -0.03 1/s; measured: with -0.15 / -0.25 the recovered cubic coefficients were off
-/// by 10-40 %), while the cubic terms make the data span amplitudes 0.42 .. 0.05. The fitted
-/// normal form must then return `A`, `W` and the cubic `B`, `G` (measured: worst 6 %).
+/// (-0.02, -0.03 1/s; with rates several times larger the recovered cubic coefficients are far
+/// off), while the cubic terms make the data span amplitudes 0.42 .. 0.05. The fitted
+/// normal form must then return `A`, `W` and the cubic `B`, `G` (the worst relative error is
+/// printed).
 const NF_A: [f64; 2] = [-0.02, -0.03];
 const NF_W: [f64; 2] = [2.0, 5.3];
 const NF_B: [[f64; 2]; 2] = [[-0.4, 0.3], [-0.5, -0.2]];
@@ -442,7 +443,7 @@ fn synthetic_known_normal_form_is_recovered() {
 // ------------------------------------------------------------------ docs/decisions/0004: limits and saved models
 
 /// Sizes implied by the options are checked against `limits` before anything of that size
-/// is allocated (docs/decisions/0004: `fit --dim 100 --embed 201` allocated 6-9 GB before failing);
+/// is allocated (docs/decisions/0004: `fit --dim 100 --embed 201` allocated gigabytes before failing);
 /// the error names the option and the limit.
 #[test]
 fn option_sizes_are_checked_against_the_stated_limits() {

@@ -200,10 +200,10 @@ fn predicted_forced_response_matches_the_simulated_duffing_oscillator() {
         "forcing {} vs {f_expected}",
         fr.forced.forcing
     );
-    // Measured: 1.3e-2 within 0.3 rad/s of w0; 6.8e-2 on the single-valued part above
-    // resonance (the leading-order forcing's error grows off resonance, see the test's doc);
-    // 1.15e-1 on the lower branch next to the jump up, where the amplitude is steep in
-    // frequency and the model's fold lies 0.3 % higher; jump-down 2.6e-3, peak 3.0e-2.
+    // The errors printed above: smallest near resonance; larger on the single-valued part
+    // above resonance (the leading-order forcing's error grows off resonance, see the test's
+    // doc); largest on the lower branch next to the jump up, where the amplitude is steep in
+    // frequency and the model's fold lies a little higher.
     assert!(worst_near < 0.02, "relative amplitude error near resonance {worst_near}");
     assert!(worst < 0.13, "relative amplitude error {worst}");
     assert!((jump_model - jump_sim).abs() / jump_sim < 5e-3, "jump-down frequency {jump_model} vs {jump_sim}");

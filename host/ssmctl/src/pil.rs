@@ -12,7 +12,9 @@
 //! angle as the controller saw it: sensor noise added, then encoder quantization; the format
 //! of the measured data sets, loadable with [`ssm::data::load_csv`]) and `record.csv`
 //! (`t_s,theta_rad,phi_rad,theta_meas_rad,code,prediction`: true plant angles, measured
-//! angle, the device's DAC code and its `predict(1)`, `NaN` until the window is full).
+//! angle, the device's DAC code and its `predict(1)`, `NaN` until the window is full; for a
+//! plant with one coordinate `phi_rad` is the primary coordinate's velocity, the plant's
+//! `SECONDARY` state component).
 //!
 //! Sensor semantics are those of [`sim::closed_loop::simulate_with`]: the same noise draws (ChaCha8
 //! with the scene's seed, primary then secondary), the same `adc` rounding, the same
@@ -167,6 +169,8 @@ pub struct PilOptions {
 pub struct PilSummary {
     pub scene: String,
     pub periods: u64,
+    /// Encoder counts per period (the controller's measured coordinates).
+    pub measured_coordinates: usize,
     pub codes_identical: bool,
     pub first_code_mismatch: Option<u64>,
     pub predictions_compared: u64,
@@ -199,6 +203,7 @@ impl PilSummary {
         PilSummary {
             scene,
             periods: 0,
+            measured_coordinates: 0,
             codes_identical: true,
             first_code_mismatch: None,
             predictions_compared: 0,
@@ -638,7 +643,11 @@ fn run_with<P: Plant<N>, const N: usize>(plant: &P, scene: &Scene, opts: &PilOpt
     let csv_path = opts.out.join("pil.csv");
     let mut csv = AtomicFile::create(&csv_path).map_err(io(csv_path.display().to_string()))?;
     let wr = |e| io(csv_path.display().to_string())(e);
-    writeln!(csv, "t,theta,phi,q_theta,q_phi,code,code_host,saturated,ready,prediction,prediction_host").map_err(wr)?;
+    // The two recorded state components under the plant's own names (the Furuta's `theta`,
+    // `phi`; a one-coordinate plant's second column is its velocity).
+    let names = plant.state_names();
+    let (n0, n1) = (names.get(P::PRIMARY).copied().unwrap_or("?"), names.get(P::SECONDARY).copied().unwrap_or("?"));
+    writeln!(csv, "t,{n0},{n1},q_theta,q_phi,code,code_host,saturated,ready,prediction,prediction_host").map_err(wr)?;
     let mut rec = Recorder::create(&opts.out)?;
     // What the PIL loop produced, for the comparison with the host-only simulation.
     let mut run_codes: Vec<sim::closed_loop::Codes> = Vec::new();
@@ -652,6 +661,7 @@ fn run_with<P: Plant<N>, const N: usize>(plant: &P, scene: &Scene, opts: &PilOpt
         ))
     );
     let mut s = PilSummary::initial(scene.name.clone(), scene.effects.noise.clone(), observable);
+    s.measured_coordinates = idx.len();
     let dt = cfg.dt;
     let t_start = Instant::now();
     let mut link_secs = 0.0f64;

@@ -393,7 +393,7 @@ fn untrustworthy_numbers_and_headerless_data_are_errors() {
     );
     assert!(!png.exists(), "a chart was written");
     // At 300 ms a dominant multiplier is real: refused before the period map's expansion
-    // (which took tens of seconds at order 9 before failing without naming the key).
+    // (which ran a long expansion at order 9 before failing without naming the key).
     refused(
         &["ssm-equations", "--scene", "furuta-dt25", "--set", "controller.dt_ms=300", "--order", "9"],
         &["`controller.dt_ms`", "not a complex pair", "is real", "not started"],

@@ -125,17 +125,21 @@ fn bench_int_opaque(key: &str, cfg: &shared::ControllerConfig, inputs: &[[i32; 4
 
 fn bench_controllers() {
     let inputs = data::TRACE_INPUTS.get(..CTRL_REPS).unwrap_or_else(|| fail("too few trace inputs"));
-    // The Furuta's configuration (two coordinates), and one and four coordinates: the
-    // golden-trace cases of the same gains.
+    // The Furuta's configuration (two coordinates), and one, three and four coordinates:
+    // the golden-trace cases of the same gains (PID but for the one-coordinate case).
     let case = |i: usize| data::TRACE_CASES.get(i).unwrap_or_else(|| fail("no such trace case")).config;
     let cfg = case(1);
     bench_int("ctrl_int", &cfg, inputs);
     bench_int("ctrl_int_n1", &case(5), inputs);
+    bench_int("ctrl_int_n3", &case(8), inputs);
     bench_int("ctrl_int_n4", &case(6), inputs);
     // The configuration as the PIL firmware has it: decoded at run time, opaque here.
     bench_int_opaque("ctrl_int_rt", &black_box(cfg), inputs);
     bench_int_opaque("ctrl_int_rt_n1", &black_box(case(5)), inputs);
+    bench_int_opaque("ctrl_int_rt_n3", &black_box(case(8)), inputs);
     bench_int_opaque("ctrl_int_rt_n4", &black_box(case(6)), inputs);
+    // The bundled Furuta scenes' law: the same two coordinates without integral action.
+    bench_int_opaque("ctrl_int_rt_pd", &black_box(case(0)), inputs);
 
     let (hy, hz) = match cfg.gains.as_slice() {
         [a, b] => (a.h_adc, b.h_adc),

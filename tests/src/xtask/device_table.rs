@@ -319,10 +319,14 @@ pub struct Table {
     pub ctrl_int: f64,
     /// The same gains on one and on four coordinates.
     pub ctrl_int_n1: f64,
+    pub ctrl_int_n3: f64,
     pub ctrl_int_n4: f64,
-    /// The same three with a configuration the compiler cannot fold in (decoded at run time,
-    /// as in the PIL firmware): 1, 2, 4 coordinates.
-    pub ctrl_int_rt: [f64; 3],
+    /// The same four with a configuration the compiler cannot fold in (decoded at run time,
+    /// as in the PIL firmware): 1, 2, 3, 4 coordinates.
+    pub ctrl_int_rt: [f64; 4],
+    /// The Furuta's two coordinates without integral action (PD, the bundled scenes' law),
+    /// configuration decoded at run time.
+    pub ctrl_int_rt_pd: f64,
     pub ctrl_f32: f64,
     pub ctrl_f64: f64,
     pub project: f64,
@@ -396,8 +400,10 @@ pub fn table(parsed: &Parsed, reference: &[Vec<f64>]) -> Result<Table, String> {
         calib_nops1000: calib,
         ctrl_int: get("ctrl_int")?,
         ctrl_int_n1: get("ctrl_int_n1")?,
+        ctrl_int_n3: get("ctrl_int_n3")?,
         ctrl_int_n4: get("ctrl_int_n4")?,
-        ctrl_int_rt: [get("ctrl_int_rt_n1")?, get("ctrl_int_rt")?, get("ctrl_int_rt_n4")?],
+        ctrl_int_rt: [get("ctrl_int_rt_n1")?, get("ctrl_int_rt")?, get("ctrl_int_rt_n3")?, get("ctrl_int_rt_n4")?],
+        ctrl_int_rt_pd: get("ctrl_int_rt_pd")?,
         ctrl_f32: get("ctrl_f32")?,
         ctrl_f64: get("ctrl_f64")?,
         project: get("project")?,
@@ -441,10 +447,13 @@ pub fn check(t: &Table) -> Result<(), String> {
     for (what, v) in [
         ("IntPd", t.ctrl_int),
         ("IntPd (1 coordinate)", t.ctrl_int_n1),
+        ("IntPd (3 coordinates)", t.ctrl_int_n3),
         ("IntPd (4 coordinates)", t.ctrl_int_n4),
         ("IntPd (run-time configuration, 1 coordinate)", t.ctrl_int_rt[0]),
         ("IntPd (run-time configuration, 2 coordinates)", t.ctrl_int_rt[1]),
-        ("IntPd (run-time configuration, 4 coordinates)", t.ctrl_int_rt[2]),
+        ("IntPd (run-time configuration, 3 coordinates)", t.ctrl_int_rt[2]),
+        ("IntPd (run-time configuration, 4 coordinates)", t.ctrl_int_rt[3]),
+        ("IntPd (run-time configuration, PD on 2 coordinates)", t.ctrl_int_rt_pd),
         ("FloatPd<f32>", t.ctrl_f32),
         ("FloatPd<f64>", t.ctrl_f64),
     ] {

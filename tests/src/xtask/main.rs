@@ -14,10 +14,14 @@
 //! - `pil [--periods N] [--scene NAME]`: processor-in-the-loop. Builds the firmware (its
 //!   `pil` binary), fits a 4D RBF model of the scene and runs `ssmctl pil` (plant on the host,
 //!   integer controller + predictor on the device over UART0 of mps2-an386); output in
-//!   `qemu/target/pil/`.
+//!   `qemu/target/pil/`. The equation scenes run with the encoders and DAC of
+//!   `PIL_EQUATION_SCENES` (they control exactly on their own).
 //!   Passes when every period ran, the device's codes equal the host's and its predictions
 //!   are bit-identical to the host's f32 predictor, and the whole run (counts, codes,
 //!   states) equals the host-only simulation of the scene with the same noise seed.
+//! - `pil-equations [--board mps2-an386|stm32f407]`: the PIL runs of the four equation scenes
+//!   that `test` makes (`pil_equations`); the STM32F407 image runs the models the mps2-an386
+//!   runs fitted.
 //! - `pil-record --out DIR [--runs N] [--periods P] [--scene NAME] [--seed S] [--fresh]`: records N
 //!   PIL runs of a noisy quantized scene (default `furuta-quant-dt25-noise`, 3 runs of
 //!   20,000 periods) as data sets `DIR/run{1..N}/theta.csv` (measured angle, format of the
@@ -35,7 +39,8 @@
 //!   host tests; then `cargo test --workspace`, the Python module and pytest, qemu-test on both
 //!   machines side by side, device-table (counted as one on-target test, see
 //!   `device_table::check`), a 2,000-period PIL run (one more), a 500-period PIL run of the
-//!   STM32F407 image on `netduinoplus2` over USART1 (one more) and `slurm-test`, all with the
+//!   STM32F407 image on `netduinoplus2` over USART1 (one more), 300-period PIL runs of the four
+//!   plants written as equations on each machine (one more per machine) and `slurm-test`, all with the
 //!   host build's test-profile `ssmctl`. Ends with the table of steps and wall times (also
 //!   `target/xtask-test-steps.json`) and `on-target: N passed, M failed`.
 //! - `reproduce --out DIR [--fresh] [...]`: install + device-table + a PIL run + the PIL
@@ -175,6 +180,11 @@ fn main() -> ExitCode {
         Some("reproduce") => reproduce(&args[1..]),
         // An explicit `pil` always runs (it is a test of the device); reproduce may reuse.
         Some("pil") => pil_args(&args[1..]).and_then(|(scene, periods)| pil(&scene, periods, true)).map(|_| ()),
+        Some("pil-equations") => match (args.get(1).map(String::as_str), args.get(2)) {
+            (None, _) => pil_equations(Board::Mps2An386),
+            (Some("--board"), Some(b)) if args.len() == 3 => Board::parse(b).and_then(pil_equations),
+            _ => Err("pil-equations: expected no option or `--board mps2-an386|stm32f407`".into()),
+        },
         Some("pil-record") => record_args(&args[1..]).and_then(|r| pil_record(&r)).map(|_| ()),
         Some("compare-report") => compare_report::run(&args[1..]),
         Some("slurm-test") => slurm::slurm_test(None),
@@ -183,7 +193,7 @@ fn main() -> ExitCode {
         Some("build-times") => {
             host_tests::build_times(&args[1..], &steps_json_path(), &WORKSPACE_CRATES).map(|md| print!("{md}"))
         }
-        _ => Err("usage: cargo xtask <install | qemu-test [--board mps2-an386|stm32f407] | firmware-size | device-table [--json] | python-test | pil [--periods N] [--scene NAME] | pil-record --out DIR [--runs N] [--periods P] [--scene NAME] [--seed S] [--fresh] | test | reproduce --out DIR [--fresh] | compare-report BASE NEW | slurm-test | fuzz [--seconds N] [TARGET ...] | host-tests [--test-times] | build-times [--steps FILE] [LABEL=TIMINGS.html ...]>".into()),
+        _ => Err("usage: cargo xtask <install | qemu-test [--board mps2-an386|stm32f407] | firmware-size | device-table [--json] | python-test | pil [--periods N] [--scene NAME] | pil-equations [--board mps2-an386|stm32f407] | pil-record --out DIR [--runs N] [--periods P] [--scene NAME] [--seed S] [--fresh] | test | reproduce --out DIR [--fresh] | compare-report BASE NEW | slurm-test | fuzz [--seconds N] [TARGET ...] | host-tests [--test-times] | build-times [--steps FILE] [LABEL=TIMINGS.html ...]>".into()),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
@@ -486,9 +496,11 @@ fn device_table_json(t: &device_table::Table, s: &elf::Sizes) -> serde_json::Val
     serde_json::json!({
         "controller_step_instructions_int": r1(t.ctrl_int),
         // The integer step by number of measured coordinates (2: the Furuta's, the row above).
-        "controller_step_instructions_int_by_coordinates": { "1": r1(t.ctrl_int_n1), "2": r1(t.ctrl_int), "4": r1(t.ctrl_int_n4) },
+        "controller_step_instructions_int_by_coordinates": { "1": r1(t.ctrl_int_n1), "2": r1(t.ctrl_int), "3": r1(t.ctrl_int_n3), "4": r1(t.ctrl_int_n4) },
         // The same with the configuration opaque to the compiler (as decoded by the PIL firmware).
-        "controller_step_instructions_int_runtime_config": { "1": r1(t.ctrl_int_rt[0]), "2": r1(t.ctrl_int_rt[1]), "4": r1(t.ctrl_int_rt[2]) },
+        "controller_step_instructions_int_runtime_config": { "1": r1(t.ctrl_int_rt[0]), "2": r1(t.ctrl_int_rt[1]), "3": r1(t.ctrl_int_rt[2]), "4": r1(t.ctrl_int_rt[3]) },
+        // The bundled Furuta scenes' PD law (no integral action), run-time configuration.
+        "controller_step_instructions_int_pd": r1(t.ctrl_int_rt_pd),
         "controller_step_instructions_float": r1(t.ctrl_f32),
         "controller_step_instructions_f64": r1(t.ctrl_f64),
         "predictor": t.predictor.iter().map(|r| serde_json::json!({
@@ -525,13 +537,15 @@ fn print_table(t: &device_table::Table, s: &elf::Sizes) {
         "device-table: instructions per call (QEMU -icount shift=7, SysTick; 1,000 nops measure {:.1})",
         t.calib_nops1000
     );
-    println!("  IntPd step            {:8.1}  (2 coordinates, the Furuta's configuration)", t.ctrl_int);
+    println!("  IntPd step            {:8.1}  (2 coordinates, the Furuta's gains with ki = 0.5)", t.ctrl_int);
     println!("  IntPd step            {:8.1}  (1 coordinate)", t.ctrl_int_n1);
+    println!("  IntPd step            {:8.1}  (3 coordinates)", t.ctrl_int_n3);
     println!("  IntPd step            {:8.1}  (4 coordinates)", t.ctrl_int_n4);
     println!(
-        "  IntPd step, run-time configuration: {:.1} / {:.1} / {:.1}  (1 / 2 / 4 coordinates)",
-        t.ctrl_int_rt[0], t.ctrl_int_rt[1], t.ctrl_int_rt[2]
+        "  IntPd step, run-time configuration: {:.1} / {:.1} / {:.1} / {:.1}  (1 / 2 / 3 / 4 coordinates)",
+        t.ctrl_int_rt[0], t.ctrl_int_rt[1], t.ctrl_int_rt[2], t.ctrl_int_rt[3]
     );
+    println!("  IntPd step            {:8.1}  (PD on 2 coordinates, run-time configuration)", t.ctrl_int_rt_pd);
     println!("  FloatPd<f32> step     {:8.1}", t.ctrl_f32);
     println!("  FloatPd<f64> step     {:8.1}", t.ctrl_f64);
     println!("  predictor project     {:8.1}  (p = {}, d = {})", t.project, device_table::P, device_table::D);
@@ -752,11 +766,94 @@ fn ssmctl_pil(tools: &PilTools, r: &PilRun<'_>, fresh: bool) -> Result<(serde_js
     Ok((v, false))
 }
 
+/// The bundled plants written as equations, with the encoders, DAC and saturation a device
+/// needs (`--set` overrides: the scenes themselves control exactly). Resolutions: pi/2000 rad
+/// (a 4,000-count encoder) on the cart-pole's and the pendulum's angles, the paper's pi/1000
+/// on the Furuta's, 0.1 mm on the cart, 1 um on the Duffing mass; DAC steps and ranges of the
+/// order of each loop's inputs.
+const PIL_EQUATION_SCENES: [(&str, &[&str]); 4] = [
+    (
+        "cartpole-pd",
+        &[
+            "effects.quantization.h_adc=1.5707963267948966e-3",
+            "controller.gains.x.h_adc=1e-4",
+            "effects.quantization.h_dac=0.01",
+            "effects.saturation.u_max=20.0",
+        ],
+    ),
+    (
+        "pendulum-pd",
+        &[
+            "effects.quantization.h_adc=1.5707963267948966e-3",
+            "effects.quantization.h_dac=1e-3",
+            "effects.saturation.u_max=2.0",
+        ],
+    ),
+    (
+        "duffing-chain",
+        &["effects.quantization.h_adc=1e-6", "effects.quantization.h_dac=1e-3", "effects.saturation.u_max=5.0"],
+    ),
+    (
+        "furuta-equations",
+        &[
+            "effects.quantization.h_adc=3.141592653589793e-3",
+            "effects.quantization.h_dac=4.8828125e-3",
+            "effects.saturation.u_max=10.0",
+        ],
+    ),
+];
+
+/// Periods of each equation scene's PIL run inside `cargo xtask test` (a few seconds each).
+const PIL_EQUATION_PERIODS: u64 = 300;
+
+/// The `--set` overrides a PIL run of `scene` needs: counts quantization and the settings of
+/// [`PIL_EQUATION_SCENES`] for the equation scenes, none for the others (quantized already).
+fn pil_overrides(scene: &str) -> Vec<String> {
+    PIL_EQUATION_SCENES.iter().find(|(name, _)| *name == scene).map_or_else(Vec::new, |(_, set)| {
+        std::iter::once("effects.quantization.mode=counts").chain(set.iter().copied()).map(String::from).collect()
+    })
+}
+
+/// PIL runs of every equation scene ([`PIL_EQUATION_SCENES`], [`PIL_EQUATION_PERIODS`]) on
+/// `board`'s machine: on mps2-an386 each fits its model (`qemu/target/pil-equations/SCENE/`),
+/// the STM32F407 image on netduinoplus2 runs those models (`qemu/target/pil-equations-stm32f407/`).
+/// Each run passes the checks of [`pil`]: codes and predictions identical to the host's, and
+/// the whole loop equal to the host-only simulation.
+fn pil_equations(board: Board) -> Result<()> {
+    let tools = pil_tools(board)?;
+    let fitted = qemu_dir().join("target").join("pil-equations");
+    let base = match board {
+        Board::Mps2An386 => fitted.clone(),
+        other => qemu_dir().join("target").join(format!("pil-equations-{}", other.name())),
+    };
+    for (scene, _) in PIL_EQUATION_SCENES {
+        let out = base.join(scene);
+        let run = PilRun {
+            scene,
+            set: pil_overrides(scene),
+            model: fitted.join(scene).join("model.bin"),
+            fit: board == Board::Mps2An386,
+            periods: PIL_EQUATION_PERIODS,
+            out: out.clone(),
+        };
+        let (v, _) = ssmctl_pil(&tools, &run, true).map_err(|e| format!("{scene} on {}: {e}", board.pil_machine()))?;
+        println!(
+            "pil: PASS on {} ({PIL_EQUATION_PERIODS} periods of {scene}, measured coordinates: {}; codes identical to the host's controller and to the host-only simulation, {} predictions bit-identical; {})",
+            board.pil_machine(),
+            v["measured_coordinates"],
+            v["predictions_compared"],
+            out.display()
+        );
+    }
+    Ok(())
+}
+
 /// Builds the PIL firmware, fits a model and runs `ssmctl pil`; checks the summary.
 fn pil(scene: &str, periods: u64, fresh: bool) -> Result<serde_json::Value> {
     let tools = pil_tools(Board::Mps2An386)?;
     let out = qemu_dir().join("target").join("pil");
-    let run = PilRun { scene, set: Vec::new(), model: out.join("model.bin"), fit: true, periods, out: out.clone() };
+    let run =
+        PilRun { scene, set: pil_overrides(scene), model: out.join("model.bin"), fit: true, periods, out: out.clone() };
     let (mut v, cached) = ssmctl_pil(&tools, &run, fresh)?;
     v["cached"] = serde_json::Value::Bool(cached);
     println!(
@@ -1231,6 +1328,7 @@ fn test_all() -> Result<()> {
     let data: Gate<Result<Vec<Vec<f64>>>> = Gate::new();
     let host: Gate<Result<PathBuf>> = Gate::new();
     let pil_done: Gate<Result<()>> = Gate::new();
+    let pil_eq_done: Gate<Result<()>> = Gate::new();
     let results = std::sync::Mutex::new(Vec::<(&str, Result<()>)>::new());
     let on_target = std::sync::Mutex::new((0u32, 0u32));
     let test_binaries = std::sync::Mutex::new(Vec::<host_tests::Binary>::new());
@@ -1298,6 +1396,13 @@ fn test_all() -> Result<()> {
             count(u32::from(pil_run.is_ok()), u32::from(pil_run.is_err()));
             pil_done.set(pil_run.clone());
             record("pil", pil_run);
+            let eq_run = after(&host, "host build").and_then(|_| {
+                after(&apt_done, "apt")?;
+                steps.run("pil: equation scenes, 4 x 300 periods (mps2-an386)", || pil_equations(board))
+            });
+            count(u32::from(eq_run.is_ok()), u32::from(eq_run.is_err()));
+            pil_eq_done.set(eq_run.clone());
+            record("pil equation scenes", eq_run);
         });
         // The STM32F407 image (the one flashed to a board) runs the same suite in QEMU's
         // netduinoplus2 (STM32F405), then a PIL run with the model the mps2-an386 run fitted.
@@ -1324,6 +1429,11 @@ fn test_all() -> Result<()> {
             });
             count(u32::from(pil_run.is_ok()), u32::from(pil_run.is_err()));
             record("pil (stm32f407 on netduinoplus2)", pil_run);
+            let eq_run = after(&pil_eq_done, "pil equation scenes (mps2-an386), whose models it runs").and_then(|()| {
+                steps.run("pil: equation scenes, 4 x 300 periods (stm32f407 on netduinoplus2)", || pil_equations(board))
+            });
+            count(u32::from(eq_run.is_ok()), u32::from(eq_run.is_err()));
+            record("pil equation scenes (stm32f407 on netduinoplus2)", eq_run);
         });
         // The Python module, built after the host build so it reuses its dependencies.
         s.spawn(|| {

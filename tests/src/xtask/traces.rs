@@ -54,6 +54,14 @@ pub fn four_coordinates(ki: f64, delay: u32) -> ControllerConfig {
     c
 }
 
+/// Three coordinates: the first three of [`four_coordinates`] (the paper's two angles and
+/// the encoder on state index 1).
+pub fn three_coordinates(ki: f64, delay: u32) -> ControllerConfig {
+    let mut c = four_coordinates(ki, delay);
+    c.gains.truncate(3);
+    c
+}
+
 pub fn cases() -> Vec<Case> {
     vec![
         Case { name: "pd_delay1", config: paper_counts(0.0, 1, Some(10.0)) },
@@ -63,6 +71,12 @@ pub fn cases() -> Vec<Case> {
         Case { name: "pid_delay1_no_umax", config: paper_counts(0.5, 1, None) },
         Case { name: "pd_one_coordinate_delay1", config: one_coordinate(0.0, 1) },
         Case { name: "pid_four_coordinates_delay2", config: four_coordinates(0.5, 2) },
+        Case { name: "pd_three_coordinates_delay1", config: three_coordinates(0.0, 1) },
+        Case { name: "pid_three_coordinates_delay4", config: three_coordinates(0.5, 4) },
+        Case {
+            name: "pd_four_coordinates_delay0_no_umax",
+            config: ControllerConfig { u_max: None, ..four_coordinates(0.0, 0) },
+        },
     ]
 }
 

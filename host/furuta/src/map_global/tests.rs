@@ -69,8 +69,7 @@ fn slow_eigenvector_of_a_block_matrix() {
     assert!((theta - z.re).abs() < 1e-15, "{theta}");
 }
 
-/// The fitted map's fast circle and the rule's verdicts on both sides of the connection
-/// (measured: the map's connection at 31.317 ms linear in dt, the full system's at 31.330 ms): at 31.1 ms
+/// The fitted map's fast circle and the rule's verdicts on both sides of the connection: at 31.1 ms
 /// every pushed start stays bounded, at 31.6 ms they escape, on the map and on the full
 /// system; the fast circles agree to 2 % in theta amplitude.
 #[test]
@@ -94,7 +93,7 @@ fn connection_rule_brackets_on_the_map_and_the_full_system() {
         );
         amps.push(f.circle_theta_amplitude);
     }
-    // The full system's fast cycle at 31.3 ms is 0.0695 rad (saddle_cycles' test); it grows with dt.
+    // The full system's fast cycle at 31.3 ms (saddle_cycles' test pins it) lies between: it grows with dt.
     assert!(amps[0] < 0.0695 && amps[1] > 0.0695, "{amps:?}");
     let bad = ConnectionOptions { push: 0.0, ..o };
     assert!(matches!(
@@ -154,8 +153,6 @@ fn map_torus_continuation_loses_the_torus_on_the_grid() {
     assert!(!first.lost);
     let rho = first.rho.unwrap();
     assert!((0.05..0.15).contains(&rho[0]) && (0.01..0.05).contains(&rho[1]), "{rho:?}");
-    // Measured: attracting up to 31.8 ms (rho_1 spread 0.0039 -> 0.0045 rad), lost at 31.9
-    // (0.0085 -> 0.0117 rad); the full system's 8,000-period continuation loses it at 31.6-31.7.
     let (a, b) = c.lost_between.unwrap();
     assert!(31.5 <= a && b <= 31.9, "{a} {b}");
     assert!(matches!(

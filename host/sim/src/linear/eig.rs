@@ -2,9 +2,9 @@
 //!
 //! The primary route is nalgebra's real Schur decomposition (Hessenberg QR) with an
 //! iteration cap, so that non-convergence is an error, not a hang; for the 7x7 and 8x8
-//! maps here it is about 4x faster than faer's solver, which matters for the charts.
+//! maps here it is faster than faer's solver, which matters for the charts.
 //! faer's `eigenvalues()` is kept as the independent second route for the tests; the two
-//! agree to ~1e-11 on the closed-loop maps (`linear::tests`).
+//! agree within 1e-11 on the closed-loop maps (`linear::tests`).
 
 use nalgebra::{Complex, DMatrix};
 

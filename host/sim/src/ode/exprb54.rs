@@ -32,16 +32,12 @@
 //! `Z`, and `phi_k(9Z/10)` separately.
 
 //!
-//! Measured (exprb5; `simspeed`, callgrind Ir and user CPU on a loaded 2-core machine):
-//! per trial step about 4,450 instructions against exprb-filtered's 3,020 (three right-hand
-//! sides, four Taylor sequences). Unfiltered, it takes as many steps as exprb-filtered (the
-//! steps go to the transient after each input jump); with the filter (`exprb54-filtered`) 0.50x
-//! to 0.65x of them at every rtol from 1e-9 to 1e-11, and a 2x to 8x smaller error at the same
-//! rtol. At equal error (exprb54-filtered at 1e-10 against exprb-filtered at 3e-11): basin run
-//! `furuta-dt30.5 0.02 31.5` 173,571 vs 256,163 Ir a period (1.48x), theta error 6.7e-7 vs
-//! 1.0e-6; bench problem 129,539 vs 208,778 (1.61x), theta error 7.4e-12 both. Its step order
-//! on the Furuta plant's smooth regime is 4.7, on a stiff Prothero-Robinson problem 4 (the
-//! weakened fifth-order condition).
+//! A trial step costs more than exprb-filtered's (three right-hand sides, four Taylor
+//! sequences). Unfiltered, it takes as many steps as exprb-filtered (the steps go to the
+//! transient after each input jump); with the filter (`exprb54-filtered`) fewer, for a smaller
+//! error at the same rtol (`docs/performance.md`; the tests print errors and steps). Its step
+//! order is 5 on the Furuta plant's smooth regime and 4 on a stiff Prothero-Robinson problem
+//! (the weakened fifth-order condition).
 
 use super::exprb::{self, Cols};
 use super::split::{self, Cut, Pair};

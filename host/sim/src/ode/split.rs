@@ -238,16 +238,16 @@ pub(crate) fn dominant_pair<const N: usize>(jac: &[[f64; N]; N], start: Option<&
 /// previous step's pair). The shift is the Rayleigh quotient `w^T J v / w^T v` of the start at
 /// the new Jacobian (its error is the product of the vectors' errors), then of the improved
 /// pair; each iteration solves `(J - mu I) v' = v` and `(J - mu I)^T w' = w` with one LU.
-/// From the last step's pair (left vector about 1e-2 off, right 1e-7, on the Furuta bench)
-/// the first iteration leaves the right vector at rounding and the left one near 1e-11, the
-/// second both at rounding; the residual test `tol` (relative, as [`PAIR_TOL`]) is applied
-/// after each. Power iteration takes four to six iterations to 1e-14. The pair found is an eigenpair
+/// From the last step's pair (on the Furuta bench the left vector is further off than the
+/// right) the first iteration leaves the right vector at rounding and the left one close to
+/// it, the second both at rounding; the residual test `tol` (relative, as [`PAIR_TOL`]) is
+/// applied after each. Power iteration takes more iterations. The pair found is an eigenpair
 /// of `J` checked by its residuals (the split is exact for any eigenpair; a pair that is not
 /// the dominant one shows as a large `|h J_s|` and the step falls back). Where the Jacobian has
 /// the second-order layout of a state `(q, q')` (the Furuta and cart plants), the pair comes
 /// first in closed form from the start's eigenvalue ([`second_order_pair`]: Newton on a quartic,
-/// the same residual test; 220 instructions a step against the Rayleigh quotient iteration's
-/// 383, callgrind on a basin run, `simspeed exprb-filtered 3e-11 3000 1 noref 1 furuta-dt30.5
+/// the same residual test; fewer instructions a step than the Rayleigh quotient iteration,
+/// callgrind on a basin run, `simspeed exprb-filtered 3e-11 3000 1 noref 1 furuta-dt30.5
 /// 0.02 31.5`) and the Rayleigh quotient
 /// iteration only where it fails. Without a start, or if both fail, power iteration from the
 /// cold start ([`dominant_pair`] with `tol`).
@@ -278,7 +278,7 @@ pub(crate) fn dominant_pair_lean_with<const N: usize>(
 const MAX_NEWTON_ITERS: usize = 8;
 /// Newton stops after a correction below this (relative): the root's error is then about
 /// `3 d^2` (quadratic convergence at a root about `|lambda|` from the others), below rounding.
-/// From the last step's eigenvalue: corrections of about 1e-5, 1e-9 (two iterations).
+/// From the last step's eigenvalue two iterations usually suffice.
 const NEWTON_TOL: f64 = 1e-8;
 
 /// The second-order layout of a 4-state Jacobian: `[(p0, v0), (p1, v1)]` with rows `p0`, `p1`
@@ -612,7 +612,7 @@ fn power_iteration<const N: usize>(
         (v, w) = normalized_pair(&v, &w)?;
         let jv = matvec(jac, &v);
         let jw = matvec_t(jac, &w);
-        // Even from the last step's pair the left vector starts about 1e-1 off (its
+        // Even from the last step's pair the left vector starts far off (its
         // components along slowly varying columns of J move): the first two iterations
         // (factor ~1e-3 each) cannot pass the test, so it is not computed there.
         if it < skip {
@@ -773,7 +773,7 @@ impl<const N: usize> Split<N> {
         }
         let f = [self.fast_half, self.fast[1], self.fast[3], self.fast[4]];
         let on = [H1, P1, P3, P4];
-        #[allow(clippy::needless_range_loop)] // indexed: 3% fewer instructions than the zips
+        #[allow(clippy::needless_range_loop)] // indexed: fewer instructions than the zips
         for k in 0..4 {
             if on[k] {
                 let s = f[k] * c;
@@ -1026,10 +1026,9 @@ pub(crate) mod tests {
     /// The closed-form pair of a second-order Jacobian (the Furuta plant's closed form, random
     /// states from the upright to 0.6 rad, fast arm) from the eigenvalue of a nearby state's
     /// pair against power iteration from a cold start (accepted at residuals of 1e-14): the
-    /// closed form's residuals at rounding (below 1e-15; measured 3.0e-16 for `v`, 6.9e-16 for
-    /// `w`, power iteration's up to 9.7e-15), the same eigenvalue to 1e-15 (measured 4.5e-16),
-    /// `v` to 1e-14 (9.9e-15) and `w` to 3e-14 (2.0e-14: power iteration's own error), and
-    /// `dominant_pair_lean` takes it.
+    /// closed form's residuals at rounding (below 1e-15), the same eigenvalue to 1e-15, `v` to
+    /// 1e-14 and `w` to 3e-14 (power iteration's own error sets these two), and
+    /// `dominant_pair_lean` takes it. The worst values are printed.
     #[test]
     fn second_order_pair_matches_power_iteration_on_the_furuta_jacobian() {
         use crate::plant::Plant;
@@ -1071,10 +1070,9 @@ pub(crate) mod tests {
     /// Jacobian at each piece's end), each from the last one's pair: the closed-form chain
     /// against the Rayleigh chain (the old `dominant_pair_lean`) at the tolerances of the
     /// report's integrators (`pair_tol` 3e-13) and the tightest (1e-14): every closed-form pair
-    /// passes with residuals (relative, inf norms) at rounding, below 1e-15 (measured 2.8e-16
-    /// for `v`, 2.9e-16 for `w`), the Rayleigh pairs' up to `tol` (5.3e-15 and 2.9e-13 at
-    /// 3e-13); the eigenvalues agree to 1e-15 (2.9e-16), the vectors to `1.5 tol` (the Rayleigh
-    /// pair's error: 2.9e-13 at 3e-13, 9.8e-15 at 1e-14).
+    /// passes with residuals (relative, inf norms) at rounding, below 1e-15, the Rayleigh
+    /// pairs' up to `tol`; the eigenvalues agree to 1e-15, the vectors to `1.5 tol` (the
+    /// Rayleigh pair's own error is up to about `tol`). The worst values are printed.
     #[test]
     fn second_order_pair_along_a_run_matches_the_rayleigh_pair() {
         use crate::ode::{Integrator, Method};

@@ -71,8 +71,7 @@ fn step_halving_converges_at_fourth_order() {
         for d in (1..=order as usize).step_by(2) {
             eprintln!("x{i} degree {d}: refine 1 vs 4 {:.2e}, 2 vs 4 {:.2e}", d12[d], d24[d]);
             // Converged (the last refinement gains a factor 8, RK4: 16 in the limit, or is
-            // at the rounding floor) and small. Measured at order 7 (refine 1/2 vs 4): degree 7
-            // of w_theta 2.9e-5 / 1.4e-6, degree 5 5.4e-8 / 2.7e-9, degree 3 3.4e-11 / 1.7e-12.
+            // at the rounding floor) and small.
             if !(d24[d] < 1e-7 && (d24[d] < d12[d] / 8.0 || d24[d] < 1e-8)) {
                 bad.push((i, d, d12[d], d24[d]));
             }

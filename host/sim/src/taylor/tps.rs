@@ -463,15 +463,15 @@ impl Mul for Tps {
 /// The truncated product's coefficients, row by row of the table (`i` ascending, rows with
 /// `a[i] == 0` skipped, `j` ascending in a row: the same sums in the same order as ever). The
 /// rows are one flat array and the sums go to a power-of-two scratch indexed through a mask,
-/// so the inner loop has no bounds check: 25-30 % less CPU per product at order 9 than
-/// indexing the result (`TPS_BENCH` in the tests).
+/// so the inner loop has no bounds check: less CPU per product than indexing the result
+/// (`TPS_BENCH` in the tests compares them).
 ///
 /// Whole degrees of `a` or `b` that are zero are skipped: a term `a[i] b[j]` that is exactly
 /// zero never changes a sum (the scratch starts at `+0.0`, and in round-to-nearest a sum is
 /// `-0.0` only when both terms are, so it never holds `-0.0`: `+0.0 + (+-0.0) = +0.0` and
 /// `x + (+-0.0) = x`), so the result is bit-identical to the full loop for finite operands.
 /// The jets of a plant odd about its equilibrium (the Furuta pendulum upright) have only
-/// odd or only even degrees: about half the terms (order-9 expansion 1.9x faster).
+/// odd or only even degrees: about half the terms.
 #[inline]
 fn mul_flat(t: &TpsTable, a: &[f64; TPS_CAPACITY], b: &[f64; TPS_CAPACITY]) -> [f64; TPS_CAPACITY] {
     mul_flat_from(t, a, b, 0)
@@ -496,7 +496,7 @@ fn nonzero_degrees(t: &TpsTable, c: &[f64; TPS_CAPACITY]) -> u32 {
 /// When the nonzero degrees of `b` are one run `lo..=hi` (a dense series, or one from
 /// degree `lo` on) or every other degree of one (an odd or an even jet), the degrees of `b`
 /// a row reads are one contiguous slice of it (of its even or odd degrees packed, for the
-/// jets): one inner loop per row, not one per degree of `b` (0.75x the CPU of the loop per
+/// jets): one inner loop per row, not one per degree of `b` (less CPU than the loop per
 /// degree on order-9 odd and dense products). The same terms (`a[i]` nonzero, degrees of
 /// `b` nonzero) in the same order, so the same bits for every input. Other masks take the
 /// loop per degree.
@@ -877,8 +877,8 @@ mod tests {
                     assert!(got.iter().zip(&want).all(|(x, y)| x.to_bits() == y.to_bits()), "order {order}");
                 }
             }
-            // `TPS_BENCH=plain` or `flat`: 200,000 / order products of one kind (user CPU
-            // time on a loaded machine: 0.83 s plain, 0.62 s flat at order 9).
+            // `TPS_BENCH=plain` or `flat`: 200,000 / order products of one kind, to compare
+            // the two runs' user CPU time.
             if let Ok(kind) = std::env::var("TPS_BENCH") {
                 let reps = 200_000 / order as usize;
                 let mut acc = 0.0;

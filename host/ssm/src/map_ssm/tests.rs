@@ -227,7 +227,7 @@ fn invariance_error_falls_with_the_order() {
     for w in errs.windows(2) {
         assert!(w[1] < w[0] / 5.0, "{errs:?}");
     }
-    // Measured: 6.5e-5, 1.7e-6, 5.7e-8, 2.2e-9.
+    eprintln!("invariance errors at orders 3, 5, 7, 9: {errs:?}");
     assert!(errs[3] < 1e-8, "{errs:?}");
     assert!(ssm.order_stats.iter().all(|s| s.w_max.is_finite() && s.r_max.is_finite()));
 }

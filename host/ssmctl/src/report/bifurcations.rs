@@ -22,6 +22,14 @@ use ssm::interp::Interp;
 use ssm::portrait::{Fate, PointKind, PortraitOptions, fixed_points, portrait, trajectory};
 use std::error::Error;
 
+/// Start of the transient run near the 3-torus, (rho_1, rho_2) in rad.
+const TRANSIENT_RHO: [f64; 2] = [0.02, 0.035];
+/// The full system's torus across dt: the start (on the torus), the run's length in periods
+/// and the tail (s) its mean and spread are measured over.
+const TORUS_RHO: [f64; 2] = [0.095, 0.028];
+const TORUS_PERIODS: u64 = 16_000;
+const TORUS_TAIL_S: f64 = 125.0;
+
 const BLACK: RGBColor = RGBColor(0, 0, 0);
 const RED: RGBColor = RGBColor(200, 30, 30);
 
@@ -177,7 +185,7 @@ fn map_switch_part(
          the full system, then the map) for {DEFAULT_SCAN_PERIODS} periods, escape when |theta| exceeds {ESCAPE_THETA} rad, on \
          a grid of {n} values of dt over [{lo}, {hi}] ms, then bisected to {tol} ms. The polar normal form is a Taylor \
          series valid to about 0.1 rad, while the slow saddle cycle lies at 0.14-0.18 rad: the normal form loses that \
-         cycle and its bifurcations come late; the map keeps it (0.1-1.8 % from the full system's cycle)."
+         cycle and its bifurcations come late; the map keeps it."
     ));
     let bracket = |b: Option<(f64, f64)>| b.map_or("none".to_string(), |(a, b)| format!("[{a:.4}, {b:.4}]"));
     let full = rep.summary.get("heteroclinic_dt_ms").and_then(|h| h.get("full_system")).cloned().unwrap_or(Value::Null);
@@ -375,7 +383,7 @@ pub fn fullsystem_section(
     let fast_fates = || par_map(&fast_dts, |&dt| fate_from(dt, [1e-7, 0.005], [0.0, 0.0], 3000));
     let doa_fates = || par_map(&starts, |&rho| fate_from(dt_doa, rho, [0.0, 0.0], periods));
     let transient = || {
-        let start = start_from_rho(dt_tr, [0.02, 0.035], [0.0, 0.0])?;
+        let start = start_from_rho(dt_tr, TRANSIENT_RHO, [0.0, 0.0])?;
         transient_analysis(dt_tr, &(start.0, Some(start.1)), if quick { 60.0 } else { 150.0 })
     };
     let ((model_switch, scan), ((tf, fast_fates), (doa_fates, ta))) = rayon::join(
@@ -550,12 +558,15 @@ pub fn fullsystem_section(
     // 4. Transient spectrum near the 3-torus (paper fig. 6).
     let model_orbit = portrait(&pm.normal_form_at(dt_tr)?, &popts)?.orbits.first().map(|o| 1.0 / o.period);
     rep.para(&format!(
-        "Transient at {dt_tr} ms from (rho_1, rho_2) = (0.02, 0.035), {:.0} s analysed{}: {} spectral peaks above 5 % of the \
-         largest ({}); slow {:.4} Hz, fast {:.4} Hz; the third frequency as sideband spacing {} and as the oscillation of \
-         rho_1(t) {}; the model's 3-torus at {dt_tr} ms circles at {}.",
+        "Transient at {dt_tr} ms from (rho_1, rho_2) = ({}, {}), {:.0} s analysed{}: {} spectral peaks above {} % of \
+         the largest ({}); slow {:.4} Hz, fast {:.4} Hz; the third frequency as sideband spacing {} and as the oscillation \
+         of rho_1(t) {}; the model's 3-torus at {dt_tr} ms circles at {}.",
+        TRANSIENT_RHO[0],
+        TRANSIENT_RHO[1],
         ta.analysed_s,
         ta.escape_t.map_or(String::new(), |t| format!(" (escapes at {t:.1} s)")),
         ta.peaks.len(),
+        num(100.0 * ssm::spectrum::PEAK_REL_THRESHOLD),
         ta.peaks.iter().map(|p| format!("{:.4}", p.freq_hz)).collect::<Vec<_>>().join(", "),
         ta.slow.freq_hz,
         ta.fast.freq_hz,
@@ -604,8 +615,8 @@ pub fn sensitivity_section(
     let dts = [30.8, 31.2, 31.4, 31.6, 31.8, 31.9];
     let tori = || {
         par_map(&dts, |&dt| {
-            let (x, h) = furuta::full_system::start_from_rho(dt, [0.095, 0.028], [0.0, 0.0])?;
-            Ok::<_, furuta::Error>(furuta::full_system::torus_full(dt, &(x, Some(h)), 16_000, 125.0))
+            let (x, h) = furuta::full_system::start_from_rho(dt, TORUS_RHO, [0.0, 0.0])?;
+            Ok::<_, furuta::Error>(furuta::full_system::torus_full(dt, &(x, Some(h)), TORUS_PERIODS, TORUS_TAIL_S))
         })
     };
     let first = row_from("default (paper's periods, cut 0.2 rad)", &base, bif, switch, None);
@@ -645,8 +656,7 @@ pub fn sensitivity_section(
         ],
         &rows,
     );
-    // The full system's torus across dt: started on it, 16,000 periods (~500 s), measured
-    // on the last 125 s.
+    // The full system's torus across dt: started on it, measured over the run's tail.
     let mut trows = Vec::new();
     let mut tlist = Vec::new();
     for (dt, torus) in dts.into_iter().zip(tori) {
@@ -667,11 +677,13 @@ pub fn sensitivity_section(
             Err(e) => return Err(e.into()),
         }
     }
-    rep.para(
-        "The full system's torus for comparison: started at (rho_1, rho_2) = (0.095, 0.028), 16,000 periods, mean and \
-         spread (max - min) of the mode amplitudes over the last 125 s. A spread near zero is an attracting 2-torus; it \
-         grows where the torus loses attraction. The full system's small-start switch is in the section above.",
-    );
+    rep.para(&format!(
+        "The full system's torus for comparison: started at (rho_1, rho_2) = ({}, {}), {TORUS_PERIODS} periods, mean and \
+         spread (max - min) of the mode amplitudes over the last {TORUS_TAIL_S} s. A spread near zero is an attracting \
+         2-torus; it grows where the torus loses attraction. The full system's small-start switch is in the section above.",
+        TORUS_RHO[0],
+        TORUS_RHO[1],
+    ));
     rep.table(&["dt [ms]", "mean (rho_1, rho_2)", "rho_1 spread", "rho_2 spread"], &trows);
     rep.summary.insert("torus_full_vs_dt".into(), Value::Array(tlist));
     rep.summary.insert("bifurcation_sensitivity".into(), serde_json::to_value(&list)?);

@@ -7,9 +7,23 @@ use std::error::Error;
 
 use chaos::Points;
 use chaos_study::chaos_tables::*;
+use chaos_study::flag_pipeline::PipelineRow;
 use chaos_study::lyapunov::ModelLyapunov;
 use chaos_study::microchaos::*;
 use ssm::{SsmModel, TimeSeries};
+
+/// `lo to hi` of `v` with `p` decimals (one value when they agree, `-` when there is none).
+fn span(v: &[f64], p: usize) -> String {
+    // `+ 0.0` prints a negative zero as 0.
+    let (lo, hi) = v.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &x| (a.min(x + 0.0), b.max(x + 0.0)));
+    if v.is_empty() {
+        "-".into()
+    } else if format!("{lo:.p$}") == format!("{hi:.p$}") {
+        format!("{lo:.p$}")
+    } else {
+        format!("{lo:.p$} to {hi:.p$}")
+    }
+}
 
 /// The plant angle `theta_rad` of a PIL `record.csv` (`t_s,theta_rad,phi_rad,theta_meas_rad,
 /// code,prediction`). The chaos study uses it rather than the encoder reading `theta.csv`:
@@ -866,6 +880,37 @@ mod tests {
         std::fs::remove_dir_all(&dir).ok();
     }
 
+    /// The diagnosis and multistep paragraphs quote the committed rows' ranges: each range
+    /// printed is the rows' own (no number typed into the text).
+    #[test]
+    fn diagnosis_paragraphs_quote_the_rows() {
+        use chaos_study::flag_pipeline::{CHOSEN, FLAG_LAYOUT, known_stats};
+        let results = chaos_study::study_results::FlagResults::bundled().unwrap();
+        let (_, series) = known_stats(&CHOSEN, &FLAG_LAYOUT, 1, 1000.0).unwrap();
+        let dir = std::env::temp_dir().join(format!("chaos-report-diag-{}", std::process::id()));
+        let mut rep = crate::report::Report::new(&dir).unwrap();
+        flag_pipeline_fit(&mut rep, &results, &series).unwrap();
+        let html = rep.into_parts().0;
+        eprintln!("{html}");
+        let diag = results.known.diagnosis_rows();
+        let state: Vec<f64> = diag
+            .iter()
+            .filter(|(w, n, _)| w == "(c) true state" && *n == 0.0)
+            .filter_map(|(_, _, r)| r.benettin_over_exact)
+            .collect();
+        assert!(html.contains(&format!("noise-free ({} of exact, JS", span(&state, 2))), "{html}");
+        let refined_seeds: Vec<f64> = diag
+            .iter()
+            .filter(|(_, _, r)| {
+                r.candidate.contains("RBF 250") && r.candidate.contains(" ms ") && r.candidate.contains(" seed ")
+            })
+            .filter_map(|(_, _, r)| r.benettin_over_exact)
+            .collect();
+        assert_eq!(refined_seeds.len(), 2);
+        assert!(html.contains(&format!("the refined one gives {} of exact", span(&refined_seeds, 2))), "{html}");
+        std::fs::remove_dir_all(&dir).ok();
+    }
+
     /// The pipeline check's conclusion, built from the bundled rows and the system's
     /// statistics, reads as the paragraph the report printed when it was pasted into source.
     #[test]
@@ -1186,26 +1231,33 @@ fn flag_pipeline_fit(
         ("true_state_noisy", count(&|w, n, _| w == "(c) true state" && n > 0.0)),
     ];
     let g = |k: &str| groups.iter().find(|(n, _)| *n == k).map_or((0, 0), |(_, c)| *c);
+    // Ranges over the rows of a group, of the model's Benettin / exact, JS or Rosenstein.
+    let spread = |sel: &dyn Fn(&str, f64) -> bool, field: &dyn Fn(&PipelineRow) -> Option<f64>, p: usize| {
+        let v: Vec<f64> = diag.iter().filter(|(w, n, _)| sel(w, *n)).filter_map(|(_, _, r)| field(r)).collect();
+        span(&v, p)
+    };
+    let b_e = |r: &PipelineRow| r.benettin_over_exact;
+    let js = |r: &PipelineRow| r.js;
+    let state_free = |w: &str, n: f64| w == "(c) true state" && n == 0.0;
     let flag = held.fit_rows();
     rep.para(&format!(
         "What the diagnosis shows (Benettin within 10 % of the exact exponent, of the rows): (a) noise-free data \
          with the flag's settings: {}/{} (the noise is not the cause); (c) the same RBF and polynomial maps fitted \
-         on the true state x1..x4 sampled at the map step: {}/{} noise-free (0.92-1.08 of exact, JS 0.005-0.007), \
+         on the true state x1..x4 sampled at the map step: {}/{} noise-free ({} of exact, JS {}), \
          {}/{} with the flag's noise on the state: the model class and the data amount suffice; (b) the \
          coordinates are what fails: SSM dimension 5: {}/{}, dimension 6 (the rule's choice): {}/{} at the flag's \
          data amount, {}/{} at three times it, but {}/{} on noise-free data (there the small singular directions \
          are fitted without the noise's regularization and the attractor moves again); wider shifts {}/{}, the \
          whole 9-sample delay vector without projection {}/{}. Fixes on the fit itself: a larger ridge (1e-7, 1e-6 \
-         at d = 4, 5, 6) {}/{} (0 to 0.72 of exact: the regularization removes the chaos before it steadies \
+         at d = 4, 5, 6) {}/{} ({} of exact: the regularization removes the chaos before it steadies \
          the attractor); denoised inputs \
-         (errors in variables, moving average 3 or 5) {}/{} (Benettin 1.6-1.9 of exact: the smoothing steepens \
-         the map), multistep refinement (k = 4) {}/{} (RBF 200 at d = 4 no longer escapes, 0.74 of exact; \
-         RBF 250 at d = 6 stays at 1.05 with JS 0.059 -> 0.014). So a larger reduced dimension brings the \
+         (errors in variables, moving average 3 or 5) {}/{} (Benettin {} of exact: the smoothing steepens \
+         the map), multistep refinement (k = 4) {}/{} (Benettin {} of exact, JS {}). So a larger reduced dimension brings the \
          exponent within 10 % for most RBF sizes at the flag's noise, but the fit in delay coordinates stays \
          fragile (one RBF size or data amount away from a wrong attractor), unlike the same fit on the true \
-         state. The Rosenstein exponent of the model series is 0.33-0.46 1/s even for the models whose own \
-         exponent is exact (state poly 4: Benettin 0.99 of exact, Rosenstein 0.34), against the held-out \
-         piece's 1.036: on one held-out-length piece the estimator reads 0.29-1.10 of the exact exponent, so \
+         state. The Rosenstein exponent of the model series is {} 1/s for the maps fitted on the true state \
+         whose own exponent is within 10 % of exact, against the held-out piece's {:.3}: on one held-out-length piece the estimator is \
+         no firm reference (the pieces above), so \
          the Rosenstein and D2 targets cannot be met reliably even by an exact model. On the flag (train \
          traj_9 + traj_7, held out traj_8, data Rosenstein {:.3} 1/s, D2 {:.2} ± {:.2}) SSM dimension 5 and 6 \
          give Benettin {} 1/s (d = 5: RBF 200, 250, 300, 500; d = 6: RBF 200, 250, 300, 500, 1000), Rosenstein \
@@ -1215,6 +1267,8 @@ fn flag_pipeline_fit(
         g("noise_free_d4").1,
         g("true_state_noise_free").0,
         g("true_state_noise_free").1,
+        spread(&state_free, &b_e, 2),
+        spread(&state_free, &js, 4),
         g("true_state_noisy").0,
         g("true_state_noisy").1,
         g("d5").0,
@@ -1231,10 +1285,23 @@ fn flag_pipeline_fit(
         g("whole_delay_vector").1,
         g("ridge").0,
         g("ridge").1,
+        spread(&|w, _| w == "ridge", &b_e, 2),
         g("denoised_inputs").0,
         g("denoised_inputs").1,
+        spread(&|w, _| w == "denoised inputs", &b_e, 1),
         g("multistep").0,
         g("multistep").1,
+        spread(&|w, _| w == "multistep", &b_e, 2),
+        spread(&|w, _| w == "multistep", &js, 4),
+        span(
+            &diag
+                .iter()
+                .filter(|(w, _, r)| w == "(c) true state" && r.benettin_exact_ok)
+                .filter_map(|(_, _, r)| r.rosenstein)
+                .collect::<Vec<_>>(),
+            2
+        ),
+        results.known.data.rosenstein,
         flag_data.0,
         flag_data.1,
         flag_data.2,
@@ -1258,7 +1325,55 @@ fn flag_pipeline_fit(
             )
         })
         .collect();
+    // The d = 6 rows on other realizations of the series (`seed N` candidates), one-step or refined.
+    let seeds = |ms: bool, field: &dyn Fn(&PipelineRow) -> Option<f64>, p: usize| {
+        let v: Vec<f64> = diag
+            .iter()
+            .filter(|(_, _, r)| r.candidate.contains(" seed ") && r.candidate.contains("RBF 250"))
+            .filter(|(_, _, r)| r.candidate.contains(" ms ") == ms)
+            .filter_map(|(_, _, r)| field(r))
+            .collect();
+        span(&v, p)
+    };
+    let refined_d6 = |r: &PipelineRow| r.candidate.contains("d=6") && r.candidate.contains(" ms ");
+    let refined_3x = span(
+        &diag
+            .iter()
+            .filter(|(w, n, r)| w == "d = 6 scan" && *n > 0.0 && r.scale == 3 && refined_d6(r))
+            .filter_map(|(_, _, r)| r.benettin_over_exact)
+            .collect::<Vec<_>>(),
+        2,
+    );
+    let refined_chaotic: Vec<f64> = diag
+        .iter()
+        .filter(|(_, n, r)| *n > 0.0 && r.scale == 1 && refined_d6(r))
+        .filter_map(|(_, _, r)| r.benettin_over_exact)
+        .filter(|&q| q > 0.1)
+        .collect();
+    let best_refined_js = diag
+        .iter()
+        .filter(|(_, n, r)| *n > 0.0 && refined_d6(r))
+        .filter_map(|(_, _, r)| r.js)
+        .fold(f64::INFINITY, f64::min);
+    let best_refined_js = if best_refined_js.is_finite() { format!("{best_refined_js:.4}") } else { "-".into() };
     let fms = held.multistep_rows();
+    let benettin_ok: Vec<String> = fms
+        .iter()
+        .filter(|r| r.passes[0])
+        .map(|r| {
+            format!(
+                "{} ({} 1/s, JS {}, D2 {})",
+                crate::report::esc(&r.candidate),
+                o(r.benettin, 3),
+                o(r.js, 4),
+                o(r.corr_dim, 2)
+            )
+        })
+        .collect();
+    let benettin_ok = if benettin_ok.is_empty() { "none".to_string() } else { benettin_ok.join("; ") };
+    let both = fms.iter().filter(|r| r.passes[0] && r.passes[3]).count();
+    let ms_d2: Vec<f64> = fms.iter().filter_map(|r| r.corr_dim).collect();
+    let ms_ros: Vec<f64> = fms.iter().filter_map(|r| r.rosenstein).collect();
     let best_js = fms
         .iter()
         .filter(|r| r.failed.is_none())
@@ -1268,19 +1383,25 @@ fn flag_pipeline_fit(
         "Multistep refinement scanned at d = 6 on the known system (example <code>flag_pipeline -- variants</code>, \
          <code>FLAG4_SEEDS</code> for other realizations of the series; RBF 150, 250, 400 with ridge 1e-8, horizon 2, 4, 8 \
          reached by doubling, windows every 8 points, 4 Levenberg-Marquardt iterations per stage; rows \"d = 6 scan\" \
-         above): {}. On two other realizations of the series (seeds 1 and 2) the one-step RBF 250 is not chaotic \
-         (Benettin 0.000, JS 0.64-0.71) where the refined one stays chaotic (0.87 and 1.18 of exact, JS 0.036 and \
-         0.019), while at three times the data the refined RBF 250 is not chaotic (the one-step one reads 0.94 \
-         of exact): the refinement can keep the chaos but does not make the d = 6 fit reliable: its Benettin / exact \
-         moves with the RBF size, the horizon and the realization (0.73-1.30), and JS stays above 0.01 (best \
-         0.0138, the lead row). On the flag \
+         above): {}. On two other realizations of the series (seeds 1 and 2) the one-step RBF 250 gives Benettin \
+         {} of exact (JS {}) where the refined one gives {} of exact (JS {}), while at three times the data the \
+         refined RBF 250 gives {} of exact: the refinement can keep the chaos but does not make the d = 6 fit \
+         reliable: the chaotic refined fits' Benettin / exact moves with the RBF size, the horizon and the \
+         realization ({}), and JS stays above 0.01 (best {}). On the flag \
          (d = 4, the flag's rule; d = 5 and 6, the known system's) multistep rows give Benettin {} 1/s against the \
          data's {:.3}, Rosenstein {}, D2 {} against {:.2} ± {:.2}, JS {}: targets met {}. The refinement lowers the \
-         flag's rollout error by only 2-9 % per stage (on the known system's d = 6 fits it is what moved JS from 0.059 to 0.014). Best by JS: {} (JS {}, Benettin {} 1/s: {} of the data's; D2 {}, \
-         {:.1} error bars low); the one row meeting the Benettin target (RBF 300 at d = 4, 0.326 1/s) has JS 0.0205 and \
-         D2 1.16. No row meets JS and Benettin together, D2 stays 1.2-2.1 against 3.36 ± 0.17 where measured, and \
-         Rosenstein 0.11-0.24 against 0.332: no multistep candidate joins the report's selection.",
+         flag's rollout error only a little per stage (on the known system's d = 6 fits it is what lowered JS). Best by JS: {} (JS {}, Benettin {} 1/s: {} of the data's; D2 {}, \
+         {:.1} error bars low); the rows meeting the Benettin target: {}. Rows meeting JS and Benettin together: {}; \
+         D2 {} against {:.2} ± {:.2} where measured, and Rosenstein {} against {:.3}: no multistep candidate joins \
+         the report's selection.",
         scan_text.join("; "),
+        seeds(false, &b_e, 2),
+        seeds(false, &js, 2),
+        seeds(true, &b_e, 2),
+        seeds(true, &js, 4),
+        refined_3x,
+        span(&refined_chaotic, 2),
+        best_refined_js,
         fms.iter().map(|r| o(r.benettin, 3)).collect::<Vec<_>>().join(", "),
         flag_data.0,
         fms.iter().map(|r| o(r.rosenstein, 3)).collect::<Vec<_>>().join(", "),
@@ -1295,6 +1416,13 @@ fn flag_pipeline_fit(
         best_js.and_then(|(_, r)| r.benettin.map(|b| format!("{:.2}", b / flag_data.0))).unwrap_or_else(|| "-".into()),
         best_js.map_or("-".to_string(), |(_, r)| o(r.corr_dim, 2)),
         best_js.and_then(|(_, r)| r.corr_dim.map(|d| (flag_data.1 - d) / flag_data.2)).unwrap_or(f64::NAN),
+        benettin_ok,
+        both,
+        span(&ms_d2, 1),
+        flag_data.1,
+        flag_data.2,
+        span(&ms_ros, 2),
+        flag_data.0,
     ));
     // Other RBF centre sets on the flag, and why D2 stays low (committed rows).
     use chaos_study::flag_pipeline_fit::target_counts;

@@ -185,6 +185,7 @@ pub mod chaos;
 pub mod global;
 pub mod normal_form;
 pub mod own_plant;
+pub mod prose;
 pub mod reproduce;
 pub mod sloshing;
 pub mod tasks;

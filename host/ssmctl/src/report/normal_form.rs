@@ -2,12 +2,32 @@
 //! normal-form polar dynamics fitted at the training sampling periods, linearly interpolated
 //! in dt, checked against the exact linear multipliers.
 
+use crate::report::prose::Prose;
 use crate::report::{Report, num};
 use furuta::parametric::{FurutaOptions, ParametricModel, TrainingRuns, exact_modes, furuta_parametric_from};
 use serde_json::{Value, json};
 use std::error::Error;
 
 pub const PAPER_DTS: [f64; 6] = [30.8, 31.4, 31.41, 31.55, 31.68, 32.3];
+
+/// The accuracy the fitted linear rates aim at, relative to the exact ones: at the training
+/// sampling periods and interpolated between them.
+pub const RATE_TARGETS: [f64; 2] = [0.01, 0.02];
+
+/// The section's introduction over its setup (the summary entry `parametric_setup`).
+const INTRO: &str = "4D SSMs (delay embedding p = {{ embed }} of theta, manifold order {{ manifold_order }}\
+    {% if linear_normal %} as a graph over the data's own SVD tangent with a degree-1 normal part (the SVD tangent of \
+    finite-amplitude data is tilted against the manifold's tangent at the fixed point; without that part the cubic terms \
+    absorb the tilt, FurutaOptions::linear_normal){% else %} as a graph over the data's own SVD tangent (normal part of \
+    degrees 2 and up){% endif %}, polynomial map of order {{ dyn_order }}) fitted at dt = {{ dts_ms | nums }} ms from \
+    {{ initial_states }} small initial conditions and {{ slow_starts }} starts on the slow eigenvector each \
+    ({% if linear_anchor is none %}one regression over all pairs{% else %}linear part fitted to the pairs within \
+    {{ linear_anchor | pct(0) }} % of the largest reduced amplitude, the higher orders to all pairs \
+    (<code>FitOptions::linear_anchor</code>){% endif %}), reduced to the extended normal form in polar coordinates \
+    (rho_1 the slow ~{{ modes_hz[0] | fixed(2) }} Hz mode, rho_2 the fast ~{{ modes_hz[1] | fixed(1) }} Hz mode; \
+    amplitudes in radians of theta) and interpolated linearly in dt. Exact reference: ln|mu|/dt of the two dominant \
+    multiplier pairs of the exact ZOH map; targets {{ targets[0] | pct(0) }} % at training dt, {{ targets[1] | pct(0) }} \
+    % interpolated.";
 
 /// Writes the section and returns the fitted parametric model (reused by the bifurcation
 /// section) and the training runs it was fitted on: simulated once for the model, the
@@ -19,35 +39,16 @@ pub fn section(rep: &mut Report, quick: bool) -> Result<(ParametricModel, Traini
     let sets: Vec<&FurutaOptions> = std::iter::once(&opts).chain(variants.iter().map(|(_, o)| o)).collect();
     let runs = TrainingRuns::simulate(&sets)?;
     let f = &opts.fit;
-    rep.section(
-        "parametric",
-        "Parametric SSM model of the Furuta loop (normal forms)",
-        &format!(
-            "4D SSMs (delay embedding p = {} of theta, manifold order {}{}, polynomial map of order {}) fitted at dt = {} ms \
-             from {} small initial conditions and {} starts on the slow eigenvector each ({}), reduced to the extended normal \
-             form in polar coordinates (rho_1 the slow ~0.44 Hz mode, rho_2 the fast ~8.4 Hz mode; amplitudes in radians of \
-             theta) and interpolated linearly in dt. Exact reference: ln|mu|/dt of the two dominant multiplier pairs of \
-             the exact ZOH map; targets 1 % at training dt, 2 % interpolated.",
-            f.embed,
-            f.manifold_order,
-            if opts.linear_normal {
-                " as a graph over the data's own SVD tangent with a degree-1 normal part (the SVD tangent of finite-amplitude \
-                 data is tilted against the manifold's tangent at the fixed point; without that part the cubic terms absorb the \
-                 tilt, FurutaOptions::linear_normal)"
-            } else {
-                " as a graph over the data's own SVD tangent (normal part of degrees 2 and up)"
-            },
-            f.dyn_order,
-            opts.dts_ms.iter().map(|d| d.to_string()).collect::<Vec<_>>().join(", "),
-            opts.initial_states.len(),
-            opts.slow_starts.len(),
-            f.linear_anchor.map_or("one regression over all pairs".to_string(), |a| format!(
-                "linear part fitted to the pairs within {} % of the largest reduced amplitude, the higher orders to all pairs \
-                 (`FitOptions::linear_anchor`)",
-                100.0 * a
-            ))
-        ),
-    );
+    let first = *opts.dts_ms.first().ok_or("FurutaOptions::default has no training dt")?;
+    let setup = json!({
+        "embed": f.embed, "manifold_order": f.manifold_order, "dyn_order": f.dyn_order,
+        "linear_normal": opts.linear_normal, "linear_anchor": f.linear_anchor, "dts_ms": opts.dts_ms,
+        "initial_states": opts.initial_states.len(), "slow_starts": opts.slow_starts.len(),
+        "modes_hz": exact_modes(first)?.freqs_hz, "targets": RATE_TARGETS,
+    });
+    let intro = Prose::new().html("parametric/intro", INTRO, &setup)?;
+    rep.section("parametric", "Parametric SSM model of the Furuta loop (normal forms)", &intro);
+    rep.summary.insert("parametric_setup".into(), setup);
     let model = furuta_parametric_from(&opts, &runs)?;
     let mut rows = Vec::new();
     let mut list = Vec::new();
@@ -93,4 +94,31 @@ pub fn section(rep: &mut Report, quick: bool) -> Result<(ParametricModel, Traini
     rep.summary.insert("linear_nf".into(), Value::Array(list));
     rep.summary.insert("normal_form_table".into(), json!({"dt_ms": PAPER_DTS, "rows": tjson}));
     Ok((model, runs))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::report::prose::{perturbed, unmoved};
+
+    /// The introduction's numbers all come from the setup: with every value moved, every
+    /// number of the text moves, with and without the anchored linear part.
+    #[test]
+    fn intro_numbers_follow_the_setup() {
+        let p = Prose::new();
+        for anchor in [json!(0.01), Value::Null] {
+            let setup = json!({
+                "embed": 9, "manifold_order": 3, "dyn_order": 7, "linear_normal": true, "linear_anchor": anchor,
+                "dts_ms": [30.5, 31.0, 32.0, 32.5], "initial_states": 12, "slow_starts": 3,
+                "modes_hz": [0.4412, 8.4513], "targets": RATE_TARGETS,
+            });
+            let a = p.html("parametric/intro", INTRO, &setup).unwrap();
+            let b = p.html("parametric/intro", INTRO, &perturbed(&setup)).unwrap();
+            assert!(
+                a.contains("p = 9 of theta") && a.contains("~0.44 Hz") && a.contains("targets 1 % at training"),
+                "{a}"
+            );
+            assert_eq!(unmoved(&a, &b).unwrap(), [], "{a}\n{b}");
+        }
+    }
 }

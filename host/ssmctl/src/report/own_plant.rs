@@ -4,7 +4,8 @@
 //! SSM of the Duffing chain (`ssm-equations`).
 
 use crate::plot::{self, Series};
-use crate::report::{Report, num};
+use crate::report::Report;
+use crate::report::prose::Prose;
 use plotters::style::RGBColor;
 use serde_json::{Value, json};
 use sim::closed_loop;
@@ -56,18 +57,26 @@ fn stable_region(n: usize) -> Result<(Boundary, usize), Box<dyn Error>> {
     Ok((boundary, count))
 }
 
-/// Writes the section: `n` grid points per gain (fewer when `quick`), the response over
-/// 300 periods when `quick`.
-pub fn section(rep: &mut Report, quick: bool) -> Result<(), Box<dyn Error>> {
-    rep.section(
-        "own-plant",
-        "Your own plant: plants written as equations",
-        "A plant given by its mass matrix and forces in a scene (<code>kind = \"equations\"</code>) goes through \
-         the same exact ZOH stability, simulation and equation-driven SSM as the built-in Furuta pendulum. \
-         Stability region of the cart-pole (<code>cartpole-pd</code>) over its pendulum gains, its simulated \
-         response at the bundled gains, and the SSM of the Duffing chain (<code>duffing-chain</code>) from its \
-         equations.",
-    );
+/// The section's text over its values (the summary entry `own_plant`): every number is a
+/// placeholder.
+const INTRO: &str = "A plant given by its mass matrix and forces in a scene (<code>kind = \"equations\"</code>) goes \
+     through the same exact ZOH stability, simulation and equation-driven SSM as the built-in Furuta pendulum. \
+     Stability region of the cart-pole (<code>{{ chart.scene }}</code>) over its pendulum gains, its simulated response \
+     at the bundled gains, and the SSM of the Duffing chain (<code>{{ ssm.scene }}</code>) from its equations.";
+const CHART_CAPTION: &str =
+    "{{ chart.scene }}: stable d range per p ({{ chart.grid }} x {{ chart.grid }} grid, exact multipliers)";
+const RESPONSE_CAPTION: &str = "{{ chart.scene }}: theta and x from theta = {{ response.initial_theta | num }} rad";
+const RESPONSE: &str = "Bundled gains theta.p = {{ chart.own_gains[0] | num }}, theta.d = {{ chart.own_gains[1] | num }}: \
+     largest multiplier modulus {{ chart.own_radius | num }}; {{ chart.stable_points }} of {{ chart.grid * chart.grid }} \
+     grid points stable. Response over {{ response.periods }} periods: max |theta| over the second half \
+     {{ response.max_abs_theta_late | num }} rad, max |x| {{ response.max_abs_x_late | num }} m.";
+const SSM: &str = "Equation-driven SSM of {{ ssm.scene }} (order {{ ssm.order }}, amplitudes rho in m of x1): exact \
+     rates ln|mu|/dt {{ ssm.exact_rates | nums }} 1/s at {{ ssm.exact_freqs_hz | nums }} Hz; the linear rows equal them.";
+
+/// Computes the section's values (the summary entry `own_plant`) and draws its figures into
+/// `dir`: `n` grid points per gain (fewer when `quick`), the response over 300 periods when
+/// `quick`.
+fn compute(dir: &std::path::Path, quick: bool) -> Result<Value, Box<dyn Error>> {
     let n = if quick { 17 } else { 41 };
     let (boundary, stable_points) = stable_region(n)?;
     let base = Scene::load(CART_POLE, &[])?;
@@ -81,7 +90,7 @@ pub fn section(rep: &mut Report, quick: bool) -> Result<(), Box<dyn Error>> {
         [(gain.p - dp, gain.d), (gain.p + dp, gain.d), (gain.p, gain.d), (gain.p, gain.d - dd), (gain.p, gain.d + dd)];
     let chart = "fig/own_plant_chart.png";
     plot::lines(
-        &rep.dir().join(chart),
+        &dir.join(chart),
         "cartpole-pd: stable region over the pendulum gains",
         "theta.p",
         "theta.d",
@@ -92,7 +101,6 @@ pub fn section(rep: &mut Report, quick: bool) -> Result<(), Box<dyn Error>> {
         ],
         (640, 360),
     )?;
-    rep.figure(chart, &format!("cartpole-pd: stable d range per p ({n} x {n} grid, exact multipliers)"));
     let mut b = SceneBuilder::load(CART_POLE)?;
     if quick {
         b = b.periods(300);
@@ -103,7 +111,7 @@ pub fn section(rep: &mut Report, quick: bool) -> Result<(), Box<dyn Error>> {
     let (theta, x) = (col(0), col(2));
     let response = "fig/own_plant_response.png";
     plot::lines(
-        &rep.dir().join(response),
+        &dir.join(response),
         "cartpole-pd: simulated response",
         "t [s]",
         "theta [rad], x [m]",
@@ -113,43 +121,46 @@ pub fn section(rep: &mut Report, quick: bool) -> Result<(), Box<dyn Error>> {
         ],
         (640, 300),
     )?;
-    rep.figure(response, "cartpole-pd: theta and x from theta = 0.05 rad");
     let late = |v: &[(f64, f64)]| v[v.len() / 2..].iter().fold(0.0f64, |m, p| m.max(p.1.abs()));
-    rep.para(&format!(
-        "Bundled gains theta.p = {}, theta.d = {}: largest multiplier modulus {}; {stable_points} of {} grid points \
-         stable. Response over {} periods: max |theta| over the second half {} rad, max |x| {} m.",
-        gain.p,
-        gain.d,
-        num(own_radius),
-        n * n,
-        tr.rows() - 1,
-        num(late(&theta)),
-        num(late(&x)),
-    ));
     let e = crate::equations_command::compute(&Scene::load(SSM_SCENE, &[])?, SSM_ORDER)?;
-    let rows: Vec<Vec<String>> =
-        e.table.rows.iter().map(|r| vec![format!("rho_{}'", r.mode), r.monomial.clone(), num(r.value)]).collect();
-    rep.para(&format!(
-        "Equation-driven SSM of {SSM_SCENE} (order {SSM_ORDER}, amplitudes rho in m of x1): exact rates ln|mu|/dt {} 1/s \
-         at {} Hz; the linear rows equal them.",
-        e.exact_rates.iter().map(|r| num(*r)).collect::<Vec<_>>().join(", "),
-        e.exact_freqs_hz.iter().map(|f| num(*f)).collect::<Vec<_>>().join(", "),
-    ));
-    rep.table(&["equation", "monomial", "coefficient"], &rows);
     let boundary_json: Vec<Value> =
         boundary.iter().map(|(p, b)| json!({"p": p, "d_stable": b.map(|(lo, hi)| [lo, hi])})).collect();
-    rep.summary.insert(
-        "own_plant".into(),
-        json!({
-            "chart": {"scene": CART_POLE, "grid": n, "p_range": P_RANGE, "d_range": D_RANGE,
-                      "stable_points": stable_points, "columns": boundary_json,
-                      "own_gains": [gain.p, gain.d], "own_radius": own_radius, "figure": chart},
-            "response": {"periods": tr.rows() - 1, "max_abs_theta_late": late(&theta), "max_abs_x_late": late(&x),
-                         "figure": response},
-            "ssm": {"scene": SSM_SCENE, "order": SSM_ORDER, "exact_rates": e.exact_rates,
-                    "exact_freqs_hz": e.exact_freqs_hz, "table": e.table.rows},
-        }),
-    );
+    Ok(json!({
+        "chart": {"scene": CART_POLE, "grid": n, "p_range": P_RANGE, "d_range": D_RANGE,
+                  "stable_points": stable_points, "columns": boundary_json,
+                  "own_gains": [gain.p, gain.d], "own_radius": own_radius, "figure": chart},
+        "response": {"periods": tr.rows() - 1, "initial_theta": tr.state(0, 0), "max_abs_theta_late": late(&theta),
+                     "max_abs_x_late": late(&x), "figure": response},
+        "ssm": {"scene": SSM_SCENE, "order": SSM_ORDER, "exact_rates": e.exact_rates,
+                "exact_freqs_hz": e.exact_freqs_hz, "table": e.table.rows},
+    }))
+}
+
+/// Writes the section's text, figures and table from its values `v` (see [`compute`]).
+fn render(rep: &mut Report, v: &Value) -> Result<(), Box<dyn Error>> {
+    let p = Prose::new();
+    rep.section("own-plant", "Your own plant: plants written as equations", &p.html("own-plant/intro", INTRO, v)?);
+    let fig = |key: &str| v[key]["figure"].as_str().ok_or_else(|| format!("own_plant.{key}.figure is not a string"));
+    rep.figure(fig("chart")?, &p.text("own-plant/chart", CHART_CAPTION, v)?);
+    rep.figure(fig("response")?, &p.text("own-plant/response-caption", RESPONSE_CAPTION, v)?);
+    rep.para(&p.html("own-plant/response", RESPONSE, v)?);
+    rep.para(&p.html("own-plant/ssm", SSM, v)?);
+    let rows = v["ssm"]["table"].as_array().ok_or("own_plant.ssm.table is not a list")?;
+    let cells = ["rho_{{ mode }}'", "{{ monomial }}", "{{ value | num }}"];
+    let rows: Vec<Vec<String>> = rows
+        .iter()
+        .map(|r| cells.iter().map(|c| p.text("own-plant/ssm-row", c, r)).collect())
+        .collect::<Result<_, String>>()?;
+    rep.table(&["equation", "monomial", "coefficient"], &rows);
+    Ok(())
+}
+
+/// Writes the section: computes its values, renders its text from them and stores them in the
+/// summary as `own_plant`.
+pub fn section(rep: &mut Report, quick: bool) -> Result<(), Box<dyn Error>> {
+    let v = compute(rep.dir(), quick)?;
+    render(rep, &v)?;
+    rep.summary.insert("own_plant".into(), v);
     Ok(())
 }
 
@@ -190,6 +201,26 @@ mod tests {
             assert!((a - b).abs() < 1e-9 * b.abs(), "{a} {b}");
         }
         assert!(dir.join("fig/own_plant_chart.png").is_file() && dir.join("fig/own_plant_response.png").is_file());
+
+        // The text follows the values: one value changed changes its number on the page, and
+        // with every value moved, every number on the page moves.
+        let body = |v: &Value| {
+            let mut r = Report::new(&dir).unwrap();
+            render(&mut r, v).unwrap();
+            r.into_parts().0
+        };
+        let v = v.clone();
+        let html = body(&v);
+        let old = crate::report::num(v["chart"]["own_radius"].as_f64().unwrap());
+        assert!(html.contains(&format!("largest multiplier modulus {old};")), "{html}");
+        let mut one = v.clone();
+        one["chart"]["own_radius"] = serde_json::json!(0.8765);
+        let changed = body(&one);
+        assert!(
+            changed.contains("largest multiplier modulus 0.8765;") && !changed.contains(&format!("modulus {old};"))
+        );
+        let moved = crate::report::prose::unmoved(&html, &body(&crate::report::prose::perturbed(&v))).unwrap();
+        assert!(moved.is_empty(), "numbers typed into the text, not from values: {moved:?}\n{html}");
         let _ = std::fs::remove_dir_all(&dir);
     }
 }

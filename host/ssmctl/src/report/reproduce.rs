@@ -216,7 +216,7 @@ pub const MMAP_THRESHOLD_BYTES: usize = 1 << 20;
 /// so freed matrices and series leave the resident memory. glibc otherwise raises that
 /// threshold to the size of each large block freed (up to 32 MB), after which blocks of up to
 /// that size come from the heaps of its arenas (one per thread), where freed memory stays
-/// resident: in the quick report this kept about 75 MB resident that the program no longer
+/// resident: in the quick report this kept much memory resident that the program no longer
 /// held. Only where memory comes from changes, never a result. A no-op off glibc.
 fn fixed_mmap_threshold(bytes: usize) {
     #[cfg(all(target_os = "linux", target_env = "gnu"))]
@@ -585,24 +585,25 @@ fn stability_section(rep: &mut Report) -> Result<(), Box<dyn Error>> {
 }
 
 fn chart_section(rep: &mut Report, quick: bool) -> Result<(), Box<dyn Error>> {
+    let s = Scene::load("furuta-dt25", &[])?;
+    let theta = s.measured()?.into_iter().next().ok_or("furuta-dt25 measures no coordinate")?;
     rep.section(
         "chart",
         "Stability chart in the (KP, KD) plane",
-        "Like the paper's figure 2: the region where every non-structural multiplier lies inside the unit circle, \
-         for several sampling periods, with the static (real multiplier through +1) and dynamic (complex pair \
-         through the unit circle) boundaries. The cross marks the paper's gains (15.5 V, 5.45 V s).",
+        &format!(
+            "Like the paper's figure 2: the region where every non-structural multiplier lies inside the unit circle, \
+             for several sampling periods, with the static (real multiplier through +1) and dynamic (complex pair \
+             through the unit circle) boundaries. The cross marks the scene's gains ({} V, {} V s).",
+            num(theta.p),
+            num(theta.d)
+        ),
     );
-    let s = Scene::load("furuta-dt25", &[])?;
     let n = if quick { 61 } else { 201 };
     let fig = "fig/stability_chart.png";
-    let summary = crate::draw::chart::chart_for_scene(
-        &s,
-        &rep.dir().join(fig),
-        &[20.0, 25.0, 30.8],
-        (0.0, 40.0, n),
-        (0.0, 8.0, n),
-    )?;
-    rep.figure(fig, "Stability chart: stable regions and boundaries for dt = 20, 25, 30.8 ms");
+    let dts = [20.0, 25.0, 30.8];
+    let summary = crate::draw::chart::chart_for_scene(&s, &rep.dir().join(fig), &dts, (0.0, 40.0, n), (0.0, 8.0, n))?;
+    let listed: Vec<String> = dts.iter().map(|d| num(*d)).collect();
+    rep.figure(fig, &format!("Stability chart: stable regions and boundaries for dt = {} ms", listed.join(", ")));
     // The figure's path relative to the report (the section may be computed in a cache folder).
     let mut v = serde_json::to_value(&summary)?;
     v["png"] = json!(fig);

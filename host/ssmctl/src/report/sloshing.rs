@@ -265,14 +265,27 @@ pub fn device_section(rep: &mut Report, table: &Path) -> Result<(), Box<dyn Erro
     };
     let v: Value = serde_json::from_str(&text).map_err(|e| format!("{}: {e}", table.display()))?;
     let g = |k: &str| v.get(k).and_then(Value::as_f64).map_or("-".to_string(), |x| format!("{x:.0}"));
+    let pd = v
+        .get("controller_step_instructions_int_pd")
+        .and_then(Value::as_f64)
+        .map_or(String::new(), |x| format!(" ({x:.0} for PD without integral action)"));
     rep.para(&format!(
-        "Controller step: integer {} instructions, f32 {} , f64 (software double) {}. Firmware flash {} B, static RAM {} B.",
+        "Controller step: integer {}{pd} instructions, f32 {} , f64 (software double) {}. Firmware flash {} B, static RAM {} B.",
         g("controller_step_instructions_int"),
         g("controller_step_instructions_float"),
         g("controller_step_instructions_f64"),
         g("flash_bytes"),
         g("ram_bytes")
     ));
+    let by_n = coordinate_rows(&v);
+    if !by_n.is_empty() {
+        rep.para(
+            "Integer controller step by number of measured coordinates (encoders): with the configuration known when \
+             the firmware is built, and decoded at run time from the model blob as the processor-in-the-loop firmware \
+             has it.",
+        );
+        rep.table(&["coordinates", "instructions / step", "run-time configuration"], &by_n);
+    }
     let rows: Vec<Vec<String>> = v
         .get("predictor")
         .and_then(Value::as_array)
@@ -368,6 +381,20 @@ pub fn device_section(rep: &mut Report, table: &Path) -> Result<(), Box<dyn Erro
     pil_paragraph(rep, &table.with_file_name("pil").join("summary.json"))
 }
 
+/// Rows of the integer step's cost per number of measured coordinates, from the device
+/// table's `controller_step_instructions_int_by_coordinates` and `..._runtime_config` (empty
+/// when the table predates them).
+fn coordinate_rows(v: &Value) -> Vec<Vec<String>> {
+    let Some(fixed) = v.get("controller_step_instructions_int_by_coordinates").and_then(Value::as_object) else {
+        return Vec::new();
+    };
+    let runtime = v.get("controller_step_instructions_int_runtime_config");
+    let cell = |x: Option<&Value>| x.and_then(Value::as_f64).map_or("-".to_string(), |x| format!("{x:.1}"));
+    let mut keys: Vec<(u32, &String)> = fixed.keys().filter_map(|k| k.parse().ok().map(|n| (n, k))).collect();
+    keys.sort();
+    keys.into_iter().map(|(_, k)| vec![k.clone(), cell(fixed.get(k)), cell(runtime.and_then(|r| r.get(k)))]).collect()
+}
+
 /// The processor-in-the-loop result (`cargo xtask pil` writes `qemu/target/pil/summary.json`).
 fn pil_paragraph(rep: &mut Report, path: &Path) -> Result<(), Box<dyn Error>> {
     let Ok(text) = infile::read_text(path, infile::MAX_REPORT_INPUT_BYTES) else {
@@ -429,6 +456,9 @@ mod tests {
         let table = dir.join("device-table.json");
         let v = json!({
             "controller_step_instructions_int": 90.5,
+            "controller_step_instructions_int_pd": 72.8,
+            "controller_step_instructions_int_by_coordinates": {"1": 60.0, "2": 90.5, "4": 150.3},
+            "controller_step_instructions_int_runtime_config": {"1": 70.0, "2": 101.0},
             "predictor_f32_vs_f64": [
                 {"centers": 50, "scalar": "f32", "instructions": 1234.5, "per_center": 24.69, "rel_error": 3e-7, "vs_f32": 1.0},
                 {"centers": 50, "scalar": "f64", "instructions": 23456.5, "per_center": 469.13, "rel_error": 2e-16, "vs_f32": 19.0},
@@ -443,6 +473,10 @@ mod tests {
         rep.finish("t").unwrap();
         let html = std::fs::read_to_string(dir.join("out/index.html")).unwrap();
         assert!(html.contains("<th>x f32</th>"), "no f32/f64 table");
+        assert!(html.contains("<td>2</td><td>90.5</td><td>101.0</td>"), "{html}");
+        assert!(html.contains("(73 for PD without integral action)"), "{html}");
+        assert!(html.contains("<td>4</td><td>150.3</td><td>-</td>"), "{html}");
+        assert!(html.find("<td>1</td><td>60.0</td>") < html.find("<td>2</td><td>90.5</td>"), "{html}");
         assert!(html.contains("<td>f64</td><td>23456.5</td><td>469.13</td><td>19.0</td><td>2e-16</td>"), "{html}");
         assert_eq!(rep.summary["device"]["predictor_f32_vs_f64"][1]["vs_f32"], 19.0);
         assert!(

@@ -7,27 +7,42 @@ use std::error::Error;
 use chaos_study::verdict::{MicrochaosVerdictSummary, VerdictOptions, microchaos_verdict};
 use serde_json::json;
 
+use crate::report::prose::Prose;
 use crate::report::{Report, esc, num};
+
+/// The data FSLE's slope of ln lambda against ln delta for chaos and for diffusion (theory).
+const FSLE_SLOPE_CHAOS: f64 = 0.0;
+const FSLE_SLOPE_DIFFUSION: f64 = -2.0;
+
+/// The introduction over the setup (the options, the scenes and the theory's slopes).
+const INTRO: &str = "The quantized loop at the paper's settings ({{ quantized }}, {{ dt_ms | num }} ms) against its \
+    smooth twin ({{ smooth }}, no quantization) and its noisy twin ({{ noisy }}). The period map's own tangent (the \
+    quantizer's derivative is zero almost everywhere: only the open-loop flow acts), the tangent of the smooth closed loop \
+    along the quantized orbit, twin runs started {{ options.twin_deltas | first | sci(0) }}..{{ options.twin_deltas | last \
+    | sci(0) }} rad apart read as finite-size Lyapunov exponents lambda(delta) = ln(r) / mean passage time from delta to \
+    r delta (separation in theta, dt theta', dt phi'), and on theta series: the 0-1 test (correlation method, median K \
+    over {{ options.zero_one_c }} random c, coarsened to the autocorrelation's first zero), data FSLE (slope of ln lambda \
+    vs ln delta: {{ fsle_slope.chaos | num }} for chaos, {{ fsle_slope.diffusion | num }} for diffusion) and IAAFT \
+    surrogates (prediction error, time reversal; rank p-values).";
 
 /// The subsection "Is the quantized loop chaotic?" and the summary key `microchaos_verdict`.
 /// Reads the third PIL recording (the chaos section's held-out run) when present; the
 /// reduced models' exponents come from the chaos section's summary when it ran before.
 pub fn microchaos_verdict_section(rep: &mut Report, quick: bool) -> Result<(), Box<dyn Error>> {
+    let o = if quick { VerdictOptions::quick() } else { VerdictOptions::full() };
+    let [quantized, smooth, noisy] = chaos_study::verdict::SCENES;
+    let dt_ms = sim::scene::Scene::load(quantized, &[])?.controller.dt_ms;
+    let setup = json!({
+        "options": &o, "dt_ms": dt_ms, "quantized": quantized, "smooth": smooth, "noisy": noisy,
+        "fsle_slope": {"chaos": FSLE_SLOPE_CHAOS, "diffusion": FSLE_SLOPE_DIFFUSION},
+    });
     rep.section(
         "chaos-verdict",
         "Is the quantized loop chaotic? Tests that tell chaos from noise-driven diffusion",
-        "The quantized loop at the paper's settings (furuta-quant-dt25, 25 ms) against its smooth twin (furuta-dt25, \
-         no quantization) and its noisy twin (furuta-quant-dt25-noise). The period map's own tangent (the quantizer's \
-         derivative is zero almost everywhere: only the open-loop flow acts), the tangent of the smooth closed loop along \
-         the quantized orbit, twin runs started 1e-9..1e-3 rad apart read as finite-size Lyapunov exponents \
-         lambda(delta) = ln(r) / mean passage time from delta to r delta (separation in theta, dt theta', dt phi'), and \
-         on theta series: the 0-1 test (correlation method, median K over 100 random c, coarsened to the \
-         autocorrelation's first zero), data FSLE (slope of ln lambda vs ln delta: 0 for chaos, -2 for diffusion) and \
-         IAAFT surrogates (prediction error, time reversal; rank p-values).",
+        &Prose::new().html("chaos-verdict/intro", INTRO, &setup)?,
     );
     let pil_file = std::path::Path::new(crate::report::chaos::PIL_RECORD_DIR).join("run3/record.csv");
     let pil = if pil_file.is_file() { Some(crate::report::chaos::pil_plant_theta(&pil_file)?) } else { None };
-    let o = if quick { VerdictOptions::quick() } else { VerdictOptions::full() };
     let v = microchaos_verdict(pil.as_ref(), &o)?;
     rep.para(&esc(&v.verdict));
     rep.para(&format!("Noisy data: {}.", esc(&v.noisy_source)));
@@ -157,4 +172,27 @@ fn min(v: &[f64]) -> f64 {
 
 fn max(v: &[f64]) -> f64 {
     v.iter().copied().fold(f64::NEG_INFINITY, f64::max)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::report::prose::{perturbed, unmoved};
+
+    /// Every number of the introduction comes from the options, the scene or the theory's
+    /// slopes: with all of them moved, every number of the text moves.
+    #[test]
+    fn intro_numbers_follow_the_setup() {
+        let setup = json!({
+            "options": VerdictOptions::quick(), "dt_ms": 25.0, "quantized": "q", "smooth": "s", "noisy": "n",
+            "fsle_slope": {"chaos": FSLE_SLOPE_CHAOS, "diffusion": FSLE_SLOPE_DIFFUSION},
+        });
+        let p = Prose::new();
+        let a = p.html("chaos-verdict/intro", INTRO, &setup).unwrap();
+        assert!(
+            a.contains("(q, 25 ms)") && a.contains("started 1e-9..1e-3 rad apart") && a.contains("-2 for diffusion")
+        );
+        let b = p.html("chaos-verdict/intro", INTRO, &perturbed(&setup)).unwrap();
+        assert_eq!(unmoved(&a, &b).unwrap(), [], "{a}\n{b}");
+    }
 }
