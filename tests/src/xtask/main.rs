@@ -59,6 +59,11 @@
 //!   single-process run bit for bit; the daemons are shut down on every path (`slurm.rs`).
 //! - `fuzz [--seconds N] [TARGET ...]`: the libFuzzer targets of `tests/fuzz` (nightly +
 //!   cargo-fuzz; says so when missing), N seconds each (`fuzz.rs`).
+//! - `host-tests [--test-times]`: the host build and host tests of `test` alone; with
+//!   `--test-times` the 20 slowest tests (`host_tests.rs`).
+//! - `build-times [--steps FILE] [LABEL=TIMINGS.html ...]`: Markdown tables of the last
+//!   `cargo xtask test` (steps, host test binaries) and of cargo `--timings` reports
+//!   (unit-seconds by kind, side by side), for `docs/build-time.md` (`host_tests.rs`).
 
 mod cache;
 mod child;
@@ -67,6 +72,7 @@ mod device_table;
 mod elf;
 mod files;
 mod fuzz;
+mod host_tests;
 mod python;
 mod rng;
 mod slurm;
@@ -183,7 +189,11 @@ fn main() -> ExitCode {
         Some("compare-report") => compare_report::run(&args[1..]),
         Some("slurm-test") => slurm::slurm_test(None),
         Some("fuzz") => fuzz::fuzz(&args[1..]),
-        _ => Err("usage: cargo xtask <install | qemu-test [--board mps2-an386|stm32f407] | firmware-size | device-table [--json] | python-test | pil [--periods N] [--scene NAME] | pil-equations [--board mps2-an386|stm32f407] | pil-record --out DIR [--runs N] [--periods P] [--scene NAME] [--seed S] [--fresh] | test | reproduce --out DIR [--fresh] | compare-report BASE NEW | slurm-test | fuzz [--seconds N] [TARGET ...]>".into()),
+        Some("host-tests") => host_tests_only(&args[1..]),
+        Some("build-times") => {
+            host_tests::build_times(&args[1..], &steps_json_path(), &WORKSPACE_CRATES).map(|md| print!("{md}"))
+        }
+        _ => Err("usage: cargo xtask <install | qemu-test [--board mps2-an386|stm32f407] | firmware-size | device-table [--json] | python-test | pil [--periods N] [--scene NAME] | pil-equations [--board mps2-an386|stm32f407] | pil-record --out DIR [--runs N] [--periods P] [--scene NAME] [--seed S] [--fresh] | test | reproduce --out DIR [--fresh] | compare-report BASE NEW | slurm-test | fuzz [--seconds N] [TARGET ...] | host-tests [--test-times] | build-times [--steps FILE] [LABEL=TIMINGS.html ...]>".into()),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
@@ -1173,6 +1183,128 @@ fn host_build() -> Result<PathBuf> {
     ssmctl_bin()
 }
 
+/// The workspace's crates (package names as cargo's timings report them).
+const WORKSPACE_CRATES: [&str; 14] = [
+    "controller",
+    "shared",
+    "fileio",
+    "infile",
+    "sim",
+    "ssm",
+    "chaos",
+    "furuta",
+    "chaos_study",
+    "ssmctl",
+    "python",
+    "lab",
+    "tests",
+    "fuzz-targets",
+];
+
+/// The host tests' step name in the table.
+const HOST_TESTS_STEP: &str = "host tests (the workspace's test binaries, 2 at a time; doc tests)";
+
+/// Test binaries run side by side: most binaries leave a core idle for part of their run
+/// (a last long test, a serial fixture), so two at a time fill both cores of the machine.
+const HOST_TEST_JOBS: usize = 2;
+
+/// The host tests of the workspace (without `lab`): every test executable of the host build
+/// (`cargo test --no-run`'s), [`HOST_TEST_JOBS`] at a time, longest first by `previous`, each
+/// in its package folder as `cargo test` runs it; then the doc tests through cargo. Adds a row
+/// per long binary to `steps`; returns all binaries and an error naming the failed ones.
+fn host_tests_run(
+    steps: &steps::Steps,
+    previous: &std::collections::BTreeMap<String, f64>,
+    test_times: bool,
+) -> (Vec<host_tests::Binary>, Result<()>) {
+    let start = steps.elapsed();
+    let mut c = cmd("cargo");
+    c.current_dir(root()).args(["test", "--workspace", "--exclude", "lab", "--no-run", "--message-format=json"]);
+    c.stderr(Stdio::inherit());
+    let exes = match c.output() {
+        Ok(o) if o.status.success() => host_tests::executables(&String::from_utf8_lossy(&o.stdout)),
+        Ok(o) => Err(format!("{c:?} failed with {}", o.status)),
+        Err(e) => Err(format!("cannot start {c:?}: {e}")),
+    };
+    let exes = match exes {
+        Ok(e) if e.is_empty() => Err("cargo test --no-run listed no test executable".to_string()),
+        other => other,
+    };
+    let exes = match exes {
+        Ok(e) => e,
+        Err(e) => return (Vec::new(), Err(e)),
+    };
+    let mut doc = cmd("cargo");
+    doc.current_dir(root()).args(["test", "--workspace", "--exclude", "lab", "--doc"]);
+    let (binaries, failed) = host_tests::run_parallel(&exes, previous, HOST_TEST_JOBS, test_times, &mut doc);
+    add_test_binaries(steps, start, &binaries);
+    let passed: u32 = binaries.iter().map(|b| b.passed).sum();
+    println!("host tests: {passed} passed in {} binaries", binaries.len());
+    let r = if failed.is_empty() { Ok(()) } else { Err(format!("failed: {}", failed.join(", "))) };
+    (binaries, r)
+}
+
+/// Seconds per host test binary of the last `cargo xtask test` (its steps JSON), to start the
+/// longest first; empty when there is none.
+fn previous_test_times() -> std::collections::BTreeMap<String, f64> {
+    let text = std::fs::read_to_string(steps_json_path()).unwrap_or_default();
+    let v: serde_json::Value = serde_json::from_str(&text).unwrap_or(serde_json::Value::Null);
+    v["host_test_binaries"]
+        .as_array()
+        .map(|a| a.iter().filter_map(|b| Some((b["name"].as_str()?.to_string(), b["seconds"].as_f64()?))).collect())
+        .unwrap_or_default()
+}
+
+/// `cargo xtask host-tests [--test-times]`: the host build and host tests of `cargo xtask
+/// test` alone, with their step table (the JSON is not written: it stays the last full
+/// run's); `--test-times` also prints the 20 slowest tests (libtest's `--report-time`).
+fn host_tests_only(args: &[String]) -> Result<()> {
+    let test_times = match args {
+        [] => false,
+        [a] if a == "--test-times" => true,
+        _ => return Err(format!("host-tests: expected no option or --test-times, got {args:?}")),
+    };
+    let steps = steps::Steps::new();
+    let previous = previous_test_times();
+    steps.run("host build (cargo test --no-run, test profile)", || {
+        run(cmd("cargo").current_dir(root()).args(["test", "--workspace", "--exclude", "lab", "--no-run"]))
+    })?;
+    let mut binaries = Vec::new();
+    let r = steps.run(HOST_TESTS_STEP, || {
+        let (b, r) = host_tests_run(&steps, &previous, test_times);
+        binaries = b;
+        r
+    });
+    println!("\n{}", steps.table());
+    if test_times {
+        println!("The 20 slowest tests (wall seconds):\n\n{}", host_tests::slowest_tests(&binaries, 20));
+    }
+    r
+}
+
+/// The host tests' binaries as rows of the step table: each one of at least
+/// [`TABLE_MIN_SECONDS`], the others as one row; `start` is when the step began.
+fn add_test_binaries(steps: &steps::Steps, start: f64, binaries: &[host_tests::Binary]) {
+    let row = |name: String, start_s: f64, seconds: f64, ok: bool| steps::Row {
+        name,
+        start_s,
+        seconds,
+        error: (!ok).then(|| "failed".to_string()),
+    };
+    let (long, short): (Vec<_>, Vec<_>) = binaries.iter().partition(|b| b.seconds >= TABLE_MIN_SECONDS);
+    for b in long {
+        steps.add(row(format!("  host tests: {}", b.name), start + b.start_s, b.seconds, b.ok));
+    }
+    if let Some(first) = short.first() {
+        let seconds = short.iter().map(|b| b.seconds).sum();
+        let name = format!("  host tests: {} binaries under {TABLE_MIN_SECONDS} s each", short.len());
+        steps.add(row(name, start + first.start_s, seconds, short.iter().all(|b| b.ok)));
+    }
+}
+
+/// Test binaries shorter than this share one row of the step table (all are in the JSON).
+const TABLE_MIN_SECONDS: f64 = 2.0;
+
 /// Waits for `gate`; `Err` naming `what` when the step behind it failed.
 fn after<T: Clone>(gate: &steps::Gate<Result<T>>, what: &str) -> Result<T> {
     gate.wait().map_err(|_| format!("not run: {what} failed"))
@@ -1199,6 +1331,8 @@ fn test_all() -> Result<()> {
     let pil_eq_done: Gate<Result<()>> = Gate::new();
     let results = std::sync::Mutex::new(Vec::<(&str, Result<()>)>::new());
     let on_target = std::sync::Mutex::new((0u32, 0u32));
+    let test_binaries = std::sync::Mutex::new(Vec::<host_tests::Binary>::new());
+    let previous = previous_test_times();
     let record = |name: &'static str, r: Result<()>| results.lock().unwrap_or_else(|p| p.into_inner()).push((name, r));
     let count = |passed: u32, failed: u32| {
         let mut c = on_target.lock().unwrap_or_else(|p| p.into_inner());
@@ -1319,8 +1453,10 @@ fn test_all() -> Result<()> {
         let built = steps.run("host build (cargo test --no-run, test profile)", host_build);
         host.set(built.clone());
         let tests = after(&host, "host build").and_then(|_| {
-            steps.run("host tests (cargo test --workspace --exclude lab)", || {
-                run(cmd("cargo").current_dir(root()).args(["test", "--workspace", "--exclude", "lab"]))
+            steps.run(HOST_TESTS_STEP, || {
+                let (binaries, r) = host_tests_run(&steps, &previous, false);
+                *test_binaries.lock().unwrap_or_else(|p| p.into_inner()) = binaries;
+                r
             })
         });
         record("host tests", tests);
@@ -1339,7 +1475,24 @@ fn test_all() -> Result<()> {
         }
     }
     println!("\n{}", steps.table());
-    let extra = steps::cpu_and_load();
+    let mut extra = steps::cpu_and_load();
+    if let Some(o) = extra.as_object_mut() {
+        let binaries = test_binaries.into_inner().unwrap_or_else(|p| p.into_inner());
+        let list: Vec<serde_json::Value> = binaries
+            .iter()
+            .map(|b| serde_json::json!({"name": b.name, "start_seconds": b.start_s, "seconds": b.seconds, "passed": b.passed, "ok": b.ok}))
+            .collect();
+        o.insert("host_test_binaries".into(), list.into());
+        // What each crate of the host build cost (all of them when the build started from
+        // scratch, only what was recompiled otherwise).
+        let timings = root().join("target").join("cargo-timings").join("cargo-timing.html");
+        match std::fs::read_to_string(&timings).map_err(|e| e.to_string()).and_then(|h| host_tests::timing_units(&h)) {
+            Ok(units) => {
+                o.insert("host_build_units".into(), host_tests::timing_summary(&units, &WORKSPACE_CRATES, 25));
+            }
+            Err(e) => eprintln!("steps: {}: {e}", timings.display()),
+        }
+    }
     println!(
         "cpu: children user {:.0} s, system {:.0} s; load average (1, 5, 15 min) at the end: {}",
         extra["children_cpu_user_seconds"].as_f64().unwrap_or(f64::NAN),

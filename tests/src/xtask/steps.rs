@@ -48,6 +48,12 @@ impl Steps {
         r
     }
 
+    /// Records a part of a step (e.g. one test binary of the host tests) timed by the step
+    /// itself, `start_s` seconds after the command began.
+    pub fn add(&self, row: Row) {
+        self.rows.lock().unwrap_or_else(|p| p.into_inner()).push(row);
+    }
+
     /// The finished steps in the order they started.
     pub fn rows(&self) -> Vec<Row> {
         let mut rows = self.rows.lock().unwrap_or_else(|p| p.into_inner()).clone();

@@ -1,0 +1,635 @@
+//! The host tests of `cargo xtask test` with the wall time of each test binary, and what each
+//! crate of the host build cost.
+//!
+//! [`run_parallel`] runs the test executables of the host build two at a time (each in its
+//! package folder, as `cargo test` does), its output printed whole when it ends, then the doc
+//! tests through cargo, whose `Doc-tests ...` lines on stderr and results on stdout go through
+//! one pipe so that they arrive in order ([`binaries`] times each crate's doc tests from its
+//! line to the next). [`timing_units`] reads the unit data of the `--timings` report of the
+//! host build.
+
+use std::io::{BufRead, BufReader};
+use std::path::PathBuf;
+use std::process::{Command, Stdio};
+use std::time::Instant;
+
+use crate::Result;
+
+/// One test binary (or a crate's doc tests) of a `cargo test` run.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Binary {
+    /// `package target`, e.g. `ssmctl tests/cli.rs`, `ssm src/lib.rs`, `ssm doc tests`.
+    pub name: String,
+    /// Seconds after the command started.
+    pub start_s: f64,
+    pub seconds: f64,
+    /// Tests passed, from the harness's `test result:` line(s).
+    pub passed: u32,
+    /// `false` when the harness reported a failure or printed no result (a crash).
+    pub ok: bool,
+    /// Each test's seconds, when the harness printed them (`--report-time`).
+    pub tests: Vec<(String, f64)>,
+}
+
+/// Runs `c` with stdout and stderr through one pipe: its lines with their arrival time
+/// (seconds after the start, printed as they come when `forward`), its duration and result.
+fn run_lines(c: &mut Command, forward: bool) -> (Vec<(f64, String)>, f64, Result<()>) {
+    let pipes = pipe().and_then(|(r, w)| Ok((r, w.try_clone()?, w)));
+    let (reader, writer, writer2) = match pipes {
+        Ok(p) => p,
+        Err(e) => return (Vec::new(), 0.0, Err(format!("cannot make a pipe for {c:?}: {e}"))),
+    };
+    c.stdin(Stdio::null()).stdout(writer).stderr(writer2);
+    let t0 = Instant::now();
+    let child = c.spawn();
+    // The child holds the pipe's write ends; drop ours (inside `c`) so the reader sees EOF.
+    c.stdout(Stdio::null()).stderr(Stdio::null());
+    let mut child = match child {
+        Ok(ch) => crate::child::Tied(ch),
+        Err(e) => return (Vec::new(), 0.0, Err(format!("cannot start {c:?}: {e}"))),
+    };
+    let mut lines = Vec::new();
+    for line in BufReader::new(reader).lines() {
+        let Ok(line) = line else { break };
+        if forward {
+            // println! (not a handle to stdout): the test harness captures it.
+            println!("{line}");
+        }
+        lines.push((t0.elapsed().as_secs_f64(), line));
+    }
+    let status = child.0.wait();
+    let end = t0.elapsed().as_secs_f64();
+    let result = match status {
+        Ok(s) if s.success() => Ok(()),
+        Ok(s) => Err(format!("{c:?} failed with {s}")),
+        Err(e) => Err(format!("{c:?}: {e}")),
+    };
+    (lines, end, result)
+}
+
+/// A test executable of the host build: its label (as [`binaries`] names it) and the
+/// package folder cargo runs it in.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Executable {
+    pub name: String,
+    pub path: PathBuf,
+    pub package_dir: PathBuf,
+    pub package: String,
+}
+
+/// The test executables of `cargo test --no-run --message-format=json` output (one JSON
+/// message a line): every artifact of a test target (libraries' unit tests, integration
+/// tests, binaries' unit tests) with an executable.
+pub fn executables(json_lines: &str) -> Result<Vec<Executable>> {
+    let mut out = Vec::new();
+    for line in json_lines.lines().filter(|l| l.starts_with('{')) {
+        let m: serde_json::Value = serde_json::from_str(line).map_err(|e| format!("cargo's JSON message: {e}"))?;
+        let (Some(exe), true) = (m["executable"].as_str(), m["profile"]["test"].as_bool() == Some(true)) else {
+            continue;
+        };
+        if m["reason"] != "compiler-artifact" {
+            continue;
+        }
+        let manifest = PathBuf::from(m["manifest_path"].as_str().ok_or("an artifact without manifest_path")?);
+        let package_dir = manifest.parent().ok_or("a manifest path without a folder")?.to_path_buf();
+        let src = PathBuf::from(m["target"]["src_path"].as_str().ok_or("an artifact without src_path")?);
+        let src = src.strip_prefix(&package_dir).unwrap_or(&src).display().to_string();
+        // `path+file:///work/ws/host/ssm#0.1.0` or `...#name@0.1.0` (name unlike the folder).
+        let id = m["package_id"].as_str().unwrap_or("");
+        let tail = id.rsplit('#').next().unwrap_or("");
+        let package = match tail.split_once('@') {
+            Some((name, _)) => name.to_string(),
+            None => package_dir.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default(),
+        };
+        out.push(Executable { name: format!("{package} {src}"), path: PathBuf::from(exe), package_dir, package });
+    }
+    Ok(out)
+}
+
+/// Runs the test executables `jobs` at a time, longest first by `previous` (seconds by name
+/// from the last run; unknown ones first), each in its package folder as `cargo test` runs it,
+/// its whole output printed when it ends (with `test_times`, libtest's time of each test);
+/// then `doc` (the doc tests, through cargo). Returns every binary's timing (start relative to
+/// this call) and the failed ones' names.
+pub fn run_parallel(
+    exes: &[Executable],
+    previous: &std::collections::BTreeMap<String, f64>,
+    jobs: usize,
+    test_times: bool,
+    doc: &mut Command,
+) -> (Vec<Binary>, Vec<String>) {
+    let mut order: Vec<&Executable> = exes.iter().collect();
+    order.sort_by(|a, b| {
+        let t = |e: &Executable| previous.get(&e.name).copied().unwrap_or(f64::INFINITY);
+        t(b).total_cmp(&t(a))
+    });
+    let queue = std::sync::Mutex::new(order.into_iter());
+    let results = std::sync::Mutex::new(Vec::<Binary>::new());
+    let t0 = Instant::now();
+    std::thread::scope(|s| {
+        for _ in 0..jobs.max(1) {
+            s.spawn(|| {
+                loop {
+                    let next = queue.lock().unwrap_or_else(|p| p.into_inner()).next();
+                    let Some(e) = next else { break };
+                    let mut c = crate::cmd(&e.path);
+                    c.current_dir(&e.package_dir)
+                        .env("CARGO_MANIFEST_DIR", &e.package_dir)
+                        .env("CARGO_PKG_NAME", &e.package);
+                    if test_times {
+                        // libtest's per-test times are an unstable option; RUSTC_BOOTSTRAP
+                        // reaches only the test process, so nothing is compiled again.
+                        c.env("RUSTC_BOOTSTRAP", "1").args(["-Z", "unstable-options", "--report-time"]);
+                    }
+                    let start = t0.elapsed().as_secs_f64();
+                    let (lines, seconds, r) = run_lines(&mut c, false);
+                    let mut b = Binary {
+                        name: e.name.clone(),
+                        start_s: start,
+                        seconds,
+                        passed: 0,
+                        ok: r.is_ok(),
+                        tests: Vec::new(),
+                    };
+                    let mut text = format!("     Running {} ({})\n", e.name, e.path.display());
+                    for (_, l) in &lines {
+                        if let Some(r) = l.trim().strip_prefix("test result: ") {
+                            b.passed += count_before(r, " passed");
+                        } else if let Some(t) = test_time(l) {
+                            b.tests.push(t);
+                        }
+                        text.push_str(l);
+                        text.push('\n');
+                    }
+                    if let Err(err) = &r {
+                        text.push_str(&format!("{err}\n"));
+                    }
+                    print!("{text}");
+                    results.lock().unwrap_or_else(|p| p.into_inner()).push(b);
+                }
+            });
+        }
+    });
+    let mut all = results.into_inner().unwrap_or_else(|p| p.into_inner());
+    let start = t0.elapsed().as_secs_f64();
+    let (lines, end, r) = run_lines(doc, true);
+    let doc_ok = r.is_ok();
+    let mut docs = binaries(&lines, end);
+    for d in &mut docs {
+        d.start_s += start;
+        d.ok &= doc_ok;
+    }
+    if docs.is_empty() && !doc_ok {
+        docs.push(Binary {
+            name: "doc tests".into(),
+            start_s: start,
+            seconds: end,
+            passed: 0,
+            ok: false,
+            tests: Vec::new(),
+        });
+    }
+    all.extend(docs);
+    all.sort_by(|a, b| a.start_s.total_cmp(&b.start_s));
+    let failed = all.iter().filter(|b| !b.ok).map(|b| b.name.clone()).collect();
+    (all, failed)
+}
+
+/// A pipe as two files (read end, write end), close-on-exec.
+fn pipe() -> std::io::Result<(std::fs::File, std::fs::File)> {
+    use std::os::fd::FromRawFd;
+    let mut fds = [0 as libc::c_int; 2];
+    // SAFETY: pipe2 writes two descriptors into the array it is given.
+    if unsafe { libc::pipe2(fds.as_mut_ptr(), libc::O_CLOEXEC) } != 0 {
+        return Err(std::io::Error::last_os_error());
+    }
+    // SAFETY: both descriptors were just opened and are owned by nothing else.
+    Ok(unsafe { (std::fs::File::from_raw_fd(fds[0]), std::fs::File::from_raw_fd(fds[1])) })
+}
+
+/// The binaries of a `cargo test` output: `lines` with their arrival time (seconds), `end` the
+/// time the command ended.
+pub fn binaries(lines: &[(f64, String)], end: f64) -> Vec<Binary> {
+    let mut out: Vec<Binary> = Vec::new();
+    let mut package = String::new();
+    let mut results = 0u32;
+    let close = |out: &mut Vec<Binary>, at: f64, results: u32| {
+        if let Some(b) = out.last_mut() {
+            b.seconds = at - b.start_s;
+            b.ok &= results > 0;
+        }
+    };
+    for (at, line) in lines {
+        let l = line.trim();
+        let started = if let Some(rest) = l.strip_prefix("Running ") {
+            // `Running unittests src/lib.rs (target/debug/deps/ssm-5a38897a8b496259)` or
+            // `Running tests/cli.rs (target/debug/deps/cli-534d1c05b88c48fe)`.
+            let (src, bin) = rest.split_once(" (").unwrap_or((rest, ""));
+            let src = src.strip_prefix("unittests ").unwrap_or(src);
+            let stem = bin.trim_end_matches(')').rsplit('/').next().unwrap_or("");
+            let crate_name = stem.rsplit_once('-').map_or(stem, |(n, _)| n);
+            // cargo runs a package's library unit tests first, then its other targets.
+            if src == "src/lib.rs" || package.is_empty() {
+                package = crate_name.to_string();
+            }
+            Some(format!("{package} {src}"))
+        } else {
+            l.strip_prefix("Doc-tests ").map(|krate| format!("{krate} doc tests"))
+        };
+        if let Some(name) = started {
+            close(&mut out, *at, results);
+            results = 0;
+            out.push(Binary { name, start_s: *at, seconds: 0.0, passed: 0, ok: true, tests: Vec::new() });
+        } else if let Some(r) = l.strip_prefix("test result: ") {
+            results += 1;
+            if let Some(b) = out.last_mut() {
+                b.ok &= r.starts_with("ok.");
+                b.passed += count_before(r, " passed");
+            }
+        }
+    }
+    close(&mut out, end, results);
+    out
+}
+
+/// A test's name and seconds from libtest's `--report-time` line
+/// (`test a::b ... ok <1.234s>`).
+fn test_time(line: &str) -> Option<(String, f64)> {
+    let rest = line.trim().strip_prefix("test ")?;
+    let (name, result) = rest.split_once(" ... ")?;
+    let secs = result.rsplit_once('<')?.1.strip_suffix("s>")?.parse().ok()?;
+    Some((name.to_string(), secs))
+}
+
+/// The `n` slowest tests of `binaries` (with `--report-time`) as Markdown rows.
+pub fn slowest_tests(binaries: &[Binary], n: usize) -> String {
+    let mut all: Vec<(&str, &str, f64)> =
+        binaries.iter().flat_map(|b| b.tests.iter().map(|(t, s)| (b.name.as_str(), t.as_str(), *s))).collect();
+    all.sort_by(|a, b| b.2.total_cmp(&a.2));
+    let mut md = String::from("| binary | test | s |\n|---|---|---:|\n");
+    for (b, t, s) in all.iter().take(n) {
+        md.push_str(&format!("| {b} | `{t}` | {s:.1} |\n"));
+    }
+    md
+}
+
+/// The number just before `word` in `s` (`"ok. 34 passed; 0 failed"`, `" passed"` -> 34).
+fn count_before(s: &str, word: &str) -> u32 {
+    s.split_once(word)
+        .and_then(|(head, _)| head.rsplit(|c: char| !c.is_ascii_digit()).next())
+        .and_then(|n| n.parse().ok())
+        .unwrap_or(0)
+}
+
+/// One compilation unit of a `cargo --timings` report: package, target (`lib`, `lib (test)`,
+/// `test cli`, ...) and its duration in seconds.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Unit {
+    pub package: String,
+    pub target: String,
+    pub seconds: f64,
+}
+
+/// The units of a `cargo --timings` HTML report (its `UNIT_DATA` array).
+pub fn timing_units(html: &str) -> Result<Vec<Unit>> {
+    let start = html.find("const UNIT_DATA = ").ok_or("no UNIT_DATA in the timings report")? + 18;
+    let value = serde_json::Deserializer::from_str(&html[start..])
+        .into_iter::<serde_json::Value>()
+        .next()
+        .ok_or("UNIT_DATA is empty")?
+        .map_err(|e| format!("UNIT_DATA: {e}"))?;
+    let units = value.as_array().ok_or("UNIT_DATA is not an array")?;
+    units
+        .iter()
+        .map(|u| {
+            let package = u["name"].as_str().ok_or("a unit without a name")?.to_string();
+            let seconds = u["duration"].as_f64().ok_or_else(|| format!("unit {package}: no duration"))?;
+            // ` ssm "lib" (test)` -> `lib (test)`; ` cli "test" (test)` -> `test cli`;
+            // ` ssmctl "bin"` -> `bin ssmctl`; `` -> `lib`.
+            let raw = u["target"].as_str().unwrap_or("").trim();
+            let target = match raw.split_once(" \"") {
+                None if raw.is_empty() => "lib".to_string(),
+                None => raw.to_string(),
+                Some((name, kind)) => {
+                    let kind = kind.replacen('"', "", 1);
+                    match kind.as_str() {
+                        "lib (test)" | "lib" => kind,
+                        "test (test)" => format!("test {name}"),
+                        _ => format!("{kind} {name}"),
+                    }
+                }
+            };
+            Ok(Unit { package, target, seconds })
+        })
+        .collect()
+}
+
+/// Unit-seconds of a build by kind (the workspace's libraries, their unit-test builds, the
+/// integration-test binaries, other workspace targets, dependencies) and the costliest units.
+pub fn timing_summary(units: &[Unit], workspace: &[&str], top: usize) -> serde_json::Value {
+    let mut sums = [0.0f64; 5];
+    for u in units {
+        let kind = if !workspace.contains(&u.package.as_str()) {
+            4
+        } else if u.target == "lib" {
+            0
+        } else if u.target == "lib (test)" {
+            1
+        } else if u.target.starts_with("test ") {
+            2
+        } else {
+            3
+        };
+        sums[kind] += u.seconds;
+    }
+    // A warm build lists its fresh units too, at 0 s.
+    let mut sorted: Vec<&Unit> = units.iter().filter(|u| u.seconds > 0.0).collect();
+    sorted.sort_by(|a, b| b.seconds.total_cmp(&a.seconds));
+    let top: Vec<serde_json::Value> = sorted
+        .iter()
+        .take(top)
+        .map(|u| serde_json::json!({"package": u.package, "target": u.target, "seconds": u.seconds}))
+        .collect();
+    serde_json::json!({
+        "units": units.len(),
+        "compiled_units": sorted.len(),
+        "unit_seconds": sums.iter().sum::<f64>(),
+        "workspace_lib_unit_seconds": sums[0],
+        "workspace_lib_test_unit_seconds": sums[1],
+        "workspace_integration_test_unit_seconds": sums[2],
+        "integration_test_binaries": units.iter().filter(|u| workspace.contains(&u.package.as_str()) && u.target.starts_with("test ")).count(),
+        "workspace_other_unit_seconds": sums[3],
+        "dependency_unit_seconds": sums[4],
+        "costliest": top,
+    })
+}
+
+/// `cargo xtask build-times [--steps FILE] [LABEL=TIMINGS.html ...]`: Markdown tables of the
+/// step table and host test binaries of `cargo xtask test` (from its JSON, default
+/// `target/xtask-test-steps.json`) and, for each `--timings` report given, its unit-seconds by
+/// kind, side by side (the measurements of `docs/build-time.md`).
+pub fn build_times(args: &[String], default_steps: &std::path::Path, workspace: &[&str]) -> Result<String> {
+    let mut steps_path = None;
+    let mut reports = Vec::new();
+    let mut it = args.iter();
+    while let Some(a) = it.next() {
+        if a == "--steps" {
+            steps_path = Some(it.next().ok_or("build-times: --steps needs a file")?.clone());
+        } else if let Some((label, path)) = a.split_once('=') {
+            let html = std::fs::read_to_string(path).map_err(|e| format!("build-times: {path}: {e}"))?;
+            let units = timing_units(&html).map_err(|e| format!("build-times: {path}: {e}"))?;
+            reports.push((label.to_string(), units));
+        } else {
+            return Err(format!("build-times: `{a}` is neither --steps FILE nor LABEL=TIMINGS.html"));
+        }
+    }
+    let mut md = String::new();
+    let path = steps_path.map(std::path::PathBuf::from).unwrap_or_else(|| default_steps.to_path_buf());
+    if path.exists() || !reports.is_empty() {
+        if path.exists() {
+            let text = std::fs::read_to_string(&path).map_err(|e| format!("build-times: {}: {e}", path.display()))?;
+            let v: serde_json::Value =
+                serde_json::from_str(&text).map_err(|e| format!("build-times: {}: {e}", path.display()))?;
+            md.push_str(&steps_markdown(&v));
+        }
+    } else {
+        return Err(format!("build-times: {} is missing (run `cargo xtask test` first)", path.display()));
+    }
+    if !reports.is_empty() {
+        md.push_str(&compare_markdown(&reports, workspace));
+    }
+    Ok(md)
+}
+
+/// The step table and the host test binaries, slowest first, of a steps JSON.
+fn steps_markdown(v: &serde_json::Value) -> String {
+    let mut md = String::from("| step | start s | wall s | result |\n|---|---:|---:|---|\n");
+    let empty = Vec::new();
+    for s in v["steps"].as_array().unwrap_or(&empty) {
+        let ok = if s["ok"].as_bool() == Some(true) { "ok" } else { "FAILED" };
+        md.push_str(&format!(
+            "| {} | {:.1} | {:.1} | {ok} |\n",
+            s["name"].as_str().unwrap_or("?").trim(),
+            s["start_seconds"].as_f64().unwrap_or(f64::NAN),
+            s["seconds"].as_f64().unwrap_or(f64::NAN)
+        ));
+    }
+    md.push_str(&format!("| whole command | | {:.1} | |\n", v["total_seconds"].as_f64().unwrap_or(f64::NAN)));
+    md.push_str(&format!(
+        "\nCPU of the children: user {:.0} s, system {:.0} s; load average at the end {}.\n",
+        v["children_cpu_user_seconds"].as_f64().unwrap_or(f64::NAN),
+        v["children_cpu_system_seconds"].as_f64().unwrap_or(f64::NAN),
+        v["load_average_1_5_15_min"].as_str().unwrap_or("?")
+    ));
+    let mut bins: Vec<&serde_json::Value> = v["host_test_binaries"].as_array().unwrap_or(&empty).iter().collect();
+    if !bins.is_empty() {
+        bins.sort_by(|a, b| b["seconds"].as_f64().unwrap_or(0.0).total_cmp(&a["seconds"].as_f64().unwrap_or(0.0)));
+        let total: f64 = bins.iter().filter_map(|b| b["seconds"].as_f64()).sum();
+        md.push_str(&format!(
+            "\nHost test binaries ({}, {total:.1} s in all), slowest first:\n\n| binary | wall s | tests passed |\n|---|---:|---:|\n",
+            bins.len()
+        ));
+        for b in bins {
+            md.push_str(&format!(
+                "| {} | {:.1} | {} |\n",
+                b["name"].as_str().unwrap_or("?"),
+                b["seconds"].as_f64().unwrap_or(f64::NAN),
+                b["passed"]
+            ));
+        }
+    }
+    md
+}
+
+/// Unit-seconds by kind of several `--timings` reports, one column each.
+fn compare_markdown(reports: &[(String, Vec<Unit>)], workspace: &[&str]) -> String {
+    let sums: Vec<serde_json::Value> = reports.iter().map(|(_, u)| timing_summary(u, workspace, 0)).collect();
+    let mut md = String::from("\n| unit-seconds |");
+    for (label, _) in reports {
+        md.push_str(&format!(" {label} |"));
+    }
+    md.push_str("\n|---|");
+    md.push_str(&"---:|".repeat(reports.len()));
+    md.push('\n');
+    for (key, name) in [
+        ("workspace_lib_unit_seconds", "workspace libraries"),
+        ("workspace_lib_test_unit_seconds", "workspace libraries' unit-test builds"),
+        ("workspace_integration_test_unit_seconds", "integration-test binaries"),
+        ("workspace_other_unit_seconds", "other workspace targets (bins, examples)"),
+        ("dependency_unit_seconds", "dependencies"),
+        ("unit_seconds", "all units"),
+    ] {
+        md.push_str(&format!("| {name} |"));
+        for s in &sums {
+            md.push_str(&format!(" {:.0} |", s[key].as_f64().unwrap_or(f64::NAN)));
+        }
+        md.push('\n');
+    }
+    md.push_str("| integration-test binaries (count) |");
+    for s in &sums {
+        md.push_str(&format!(" {} |", s["integration_test_binaries"]));
+    }
+    md.push('\n');
+    md
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn lines(v: &[(f64, &str)]) -> Vec<(f64, String)> {
+        v.iter().map(|(t, s)| (*t, s.to_string())).collect()
+    }
+
+    #[test]
+    fn binaries_take_their_package_and_last_until_the_next() {
+        let out = lines(&[
+            (0.5, "   Compiling ssm v0.1.0"),
+            (1.0, "     Running unittests src/lib.rs (target/debug/deps/ssm-5a38897a8b496259)"),
+            (1.1, "running 2 tests"),
+            (3.0, "test result: ok. 2 passed; 0 failed; 0 ignored; 0 measured; 0 filtered out; finished in 1.9s"),
+            (3.5, "     Running tests/cli.rs (target/debug/deps/cli-534d1c05b88c48fe)"),
+            (9.0, "test result: FAILED. 12 passed; 1 failed; 0 ignored; 0 measured; 0 filtered out"),
+            (9.5, "     Running unittests src/lib.rs (target/debug/deps/chaos_study-07ec3bf5dcc0f1f2)"),
+            (10.0, "     Running tests/crash.rs (target/debug/deps/crash-0123)"),
+            (11.0, "   Doc-tests ssm"),
+            (11.5, "test result: ok. 1 passed; 0 failed; 0 ignored; 0 measured; 0 filtered out; finished in 0.1s"),
+        ]);
+        let b = binaries(&out, 12.0);
+        let names: Vec<&str> = b.iter().map(|b| b.name.as_str()).collect();
+        assert_eq!(
+            names,
+            [
+                "ssm src/lib.rs",
+                "ssm tests/cli.rs",
+                "chaos_study src/lib.rs",
+                "chaos_study tests/crash.rs",
+                "ssm doc tests"
+            ]
+        );
+        let secs: Vec<f64> = b.iter().map(|b| b.seconds).collect();
+        assert_eq!(secs, [2.5, 6.0, 0.5, 1.0, 1.0]);
+        assert_eq!(b.iter().map(|b| b.passed).collect::<Vec<_>>(), [2, 12, 0, 0, 1]);
+        // A failed harness and binaries without a result line (crashed) are not ok.
+        assert_eq!(b.iter().map(|b| b.ok).collect::<Vec<_>>(), [true, false, false, false, true]);
+    }
+
+    #[test]
+    fn timing_units_are_read_and_summed_by_kind() {
+        let html = r#"<script>
+const UNIT_DATA = [{"i":0,"name":"faer","version":"0.24.4","target":"","duration":52.5},
+ {"i":1,"name":"ssm","version":"0.1.0","target":"","duration":10.0},
+ {"i":2,"name":"ssm","version":"0.1.0","target":" ssm \"lib\" (test)","duration":7.0},
+ {"i":3,"name":"ssm","version":"0.1.0","target":" mat_files \"test\" (test)","duration":2.0},
+ {"i":4,"name":"ssmctl","version":"0.1.0","target":" ssmctl \"bin\"","duration":1.5}];
+const CONCURRENCY_DATA = [];
+</script>"#;
+        let units = timing_units(html).unwrap();
+        let targets: Vec<&str> = units.iter().map(|u| u.target.as_str()).collect();
+        assert_eq!(targets, ["lib", "lib", "lib (test)", "test mat_files", "bin ssmctl"]);
+        let s = timing_summary(&units, &["ssm", "ssmctl"], 2);
+        assert_eq!(s["unit_seconds"], 73.0);
+        assert_eq!(s["workspace_lib_unit_seconds"], 10.0);
+        assert_eq!(s["workspace_lib_test_unit_seconds"], 7.0);
+        assert_eq!(s["workspace_integration_test_unit_seconds"], 2.0);
+        assert_eq!(s["integration_test_binaries"], 1);
+        assert_eq!(s["workspace_other_unit_seconds"], 1.5);
+        assert_eq!(s["dependency_unit_seconds"], 52.5);
+        assert_eq!(s["costliest"][0]["package"], "faer");
+        assert_eq!(s["costliest"].as_array().map(Vec::len), Some(2));
+        let fresh =
+            [units.clone(), vec![Unit { package: "ssm".into(), target: "test x".into(), seconds: 0.0 }]].concat();
+        let s = timing_summary(&fresh, &["ssm", "ssmctl"], 10);
+        assert_eq!((s["units"].as_u64(), s["compiled_units"].as_u64()), (Some(6), Some(5)));
+        assert_eq!(s["costliest"].as_array().map(Vec::len), Some(5));
+        assert!(timing_units("<html>no data</html>").unwrap_err().contains("UNIT_DATA"));
+    }
+
+    #[test]
+    fn executables_are_the_test_artifacts_with_their_package() {
+        let json = r#"{"reason":"compiler-artifact","package_id":"path+file:///w/host/ssm#0.1.0","manifest_path":"/w/host/ssm/Cargo.toml","target":{"name":"ssm","kind":["lib"],"src_path":"/w/host/ssm/src/lib.rs"},"profile":{"test":true},"executable":"/w/target/debug/deps/ssm-1"}
+{"reason":"compiler-artifact","package_id":"path+file:///w/host/ssm#0.1.0","manifest_path":"/w/host/ssm/Cargo.toml","target":{"name":"ssm","kind":["lib"],"src_path":"/w/host/ssm/src/lib.rs"},"profile":{"test":false},"executable":null}
+{"reason":"compiler-artifact","package_id":"path+file:///w/tests/fuzz-targets#fuzz-targets@0.1.0","manifest_path":"/w/tests/fuzz-targets/Cargo.toml","target":{"name":"replay","kind":["test"],"src_path":"/w/tests/fuzz-targets/tests/replay.rs"},"profile":{"test":true},"executable":"/w/target/debug/deps/replay-2"}
+{"reason":"build-finished","success":true}"#;
+        let e = executables(json).unwrap();
+        assert_eq!(e.len(), 2);
+        assert_eq!((e[0].name.as_str(), e[0].package.as_str()), ("ssm src/lib.rs", "ssm"));
+        assert_eq!(e[0].package_dir, PathBuf::from("/w/host/ssm"));
+        assert_eq!(e[1].name, "fuzz-targets tests/replay.rs");
+        assert_eq!(e[1].path, PathBuf::from("/w/target/debug/deps/replay-2"));
+        assert!(executables("{not json").is_err());
+    }
+
+    #[test]
+    fn binaries_run_side_by_side_longest_first_and_failures_are_named() {
+        let dir = std::env::temp_dir().join(format!("xtask-host-tests-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&dir);
+        std::fs::create_dir_all(&dir).unwrap();
+        let script = |name: &str, body: &str| {
+            let p = dir.join(name);
+            std::fs::write(&p, format!("#!/bin/sh\n{body}\n")).unwrap();
+            std::fs::set_permissions(&p, std::os::unix::fs::PermissionsExt::from_mode(0o755)).unwrap();
+            Executable { name: format!("p {name}"), path: p, package_dir: dir.clone(), package: "p".into() }
+        };
+        let exes = [
+            script("short", "echo 'test result: ok. 1 passed; 0 failed'"),
+            // Runs in its package folder, with the package's CARGO_MANIFEST_DIR.
+            script(
+                "long",
+                "[ \"$CARGO_MANIFEST_DIR\" = \"$(pwd)\" ] || exit 3; echo 'test result: ok. 5 passed; 0 failed'",
+            ),
+            script("bad", "echo 'test result: FAILED. 0 passed; 1 failed'; exit 101"),
+        ];
+        let previous = [("p long".to_string(), 9.0), ("p short".to_string(), 1.0), ("p bad".to_string(), 2.0)].into();
+        let mut doc = Command::new("sh");
+        doc.args(["-c", "echo '   Doc-tests p' >&2; echo 'test result: ok. 2 passed; 0 failed'"]);
+        let (b, failed) = run_parallel(&exes, &previous, 1, false, &mut doc);
+        let names: Vec<&str> = b.iter().map(|b| b.name.as_str()).collect();
+        assert_eq!(names, ["p long", "p bad", "p short", "p doc tests"]);
+        assert_eq!(b.iter().map(|b| b.passed).collect::<Vec<_>>(), [5, 0, 1, 2]);
+        assert_eq!(failed, ["p bad"]);
+        let (b, failed) = run_parallel(&exes[..2], &previous, 2, false, &mut doc);
+        assert_eq!(b.len(), 3);
+        assert!(failed.is_empty(), "{failed:?}");
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    #[test]
+    fn test_times_are_read_and_ranked() {
+        assert_eq!(test_time("test a::b ... ok <1.250s>"), Some(("a::b".to_string(), 1.25)));
+        assert_eq!(test_time("test a::b ... ok"), None);
+        assert_eq!(test_time("test result: ok. 1 passed"), None);
+        let b = |name: &str, tests: &[(&str, f64)]| Binary {
+            name: name.into(),
+            start_s: 0.0,
+            seconds: 0.0,
+            passed: 0,
+            ok: true,
+            tests: tests.iter().map(|(t, s)| (t.to_string(), *s)).collect(),
+        };
+        let md =
+            slowest_tests(&[b("x src/lib.rs", &[("fast", 0.1), ("slow", 9.0)]), b("y tests/t.rs", &[("mid", 2.0)])], 2);
+        assert_eq!(
+            md.lines().skip(2).collect::<Vec<_>>(),
+            ["| x src/lib.rs | `slow` | 9.0 |", "| y tests/t.rs | `mid` | 2.0 |"]
+        );
+    }
+
+    #[test]
+    fn a_command_s_two_streams_arrive_in_order() {
+        let (lines, end, r) = run_lines(
+            Command::new("sh").args([
+                "-c",
+                "echo '     Running tests/a.rs (target/debug/deps/a-1)' >&2; \
+             echo 'test result: ok. 3 passed; 0 failed'; \
+             echo '   Doc-tests a' >&2; echo 'test result: ok. 0 passed; 0 failed'; exit 2",
+            ]),
+            false,
+        );
+        let b = binaries(&lines, end);
+        assert!(r.unwrap_err().contains("failed"));
+        assert_eq!(b.len(), 2, "{b:?}");
+        assert_eq!((b[0].name.as_str(), b[0].passed, b[0].ok), ("a tests/a.rs", 3, true));
+        assert_eq!(b[1].name, "a doc tests");
+    }
+}
