@@ -22,7 +22,6 @@ use crate::scalar::Scalar;
 /// One operation; register indices are `u16`.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Op {
-    Const(f64),
     Add(u16, u16),
     Sub(u16, u16),
     Mul(u16, u16),
@@ -65,6 +64,20 @@ pub enum Op {
     MulMul(u16, u16, u16),
     /// `(a*k)*b`.
     MulCMul(u16, f64, u16),
+    /// `a*b + c*d`.
+    DotAdd(u16, u16, u16, u16),
+    /// `a*b - c*d`.
+    DotSub(u16, u16, u16, u16),
+    /// `a*k1 + c*k2`.
+    DotCAdd(u16, f64, u16, f64),
+    /// `a*k1 - c*k2`.
+    DotCSub(u16, f64, u16, f64),
+    /// `a*b + c*k`.
+    DotMCAdd(u16, u16, u16, f64),
+    /// `a*b - c*k`.
+    DotMCSub(u16, u16, u16, f64),
+    /// `a*k - c*d`.
+    DotCMSub(u16, f64, u16, u16),
 }
 
 /// An instruction: an operation and its destination register(s).
@@ -79,6 +92,9 @@ pub struct Instr {
 /// Compiled expressions.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Tape {
+    /// Constants some operation reads from a register (an operand of a two-register
+    /// operation, or an output): loaded into their registers before the instructions run.
+    pub consts: Vec<(u16, f64)>,
     pub instrs: Vec<Instr>,
     /// Registers the evaluation needs, the inputs' included.
     pub n_regs: usize,
@@ -104,7 +120,7 @@ const MAX_EXPANDED_POWER: u32 = 64;
 /// A value of the SSA program before register allocation.
 #[derive(Clone, Copy, Debug, PartialEq)]
 enum Val {
-    /// A constant folded into its users (materialized by `Op::Const` when needed).
+    /// A constant folded into its users (loaded into a register when one must hold it).
     Const(f64),
     /// Input `k` (register `k`).
     In(u16),
@@ -224,48 +240,63 @@ impl Tape {
         self.run(regs);
     }
 
-    /// Evaluates the tape and writes its outputs, in order, to `out` (as many as both
-    /// have). Small scalars use a register array on the stack (no allocation); a large
-    /// scalar (a truncated power series) a register file on the heap.
+    /// Evaluates the tape and hands the result to `f`, which reads the outputs by index
+    /// ([`Evaluated::output`]) straight from the registers. Small scalars use a register
+    /// array on the stack (no allocation); a large scalar (a truncated power series) a
+    /// register file on the heap.
     #[inline]
-    pub fn eval_outputs<S: Scalar>(&self, inputs: &[S], out: &mut [S]) {
+    pub fn eval_with<S: Scalar, T>(&self, inputs: &[S], f: impl FnOnce(&Evaluated<'_, S>) -> T) -> T {
         if core::mem::size_of::<S>() <= 128 {
             match self.n_regs {
-                0..=16 => return self.eval_on::<S, 16>(inputs, out),
-                17..=32 => return self.eval_on::<S, 32>(inputs, out),
-                33..=64 => return self.eval_on::<S, 64>(inputs, out),
-                65..=128 => return self.eval_on::<S, 128>(inputs, out),
-                129..=256 => return self.eval_on::<S, 256>(inputs, out),
+                0..=16 => return self.eval_on::<S, T, 16>(inputs, f),
+                17..=32 => return self.eval_on::<S, T, 32>(inputs, f),
+                33..=64 => return self.eval_on::<S, T, 64>(inputs, f),
+                65..=128 => return self.eval_on::<S, T, 128>(inputs, f),
+                129..=256 => return self.eval_on::<S, T, 256>(inputs, f),
                 _ => {}
             }
         }
         let mut regs = vec![S::cst(0.0); self.n_regs];
         self.eval(inputs, &mut regs);
-        for (o, &r) in out.iter_mut().zip(&self.outputs) {
-            *o = regs.get(usize::from(r)).copied().unwrap_or(S::cst(f64::NAN));
-        }
+        f(&Evaluated { regs: &regs, outputs: &self.outputs })
     }
 
-    /// [`Tape::eval_outputs`] on an array of `R` registers (`R` a power of two, at least
-    /// `n_regs`): every index masked to the array, so no bounds check in the loop.
+    /// Evaluates the tape and writes its outputs, in order, to `out` (as many as both
+    /// have).
     #[inline]
-    fn eval_on<S: Scalar, const R: usize>(&self, inputs: &[S], out: &mut [S]) {
+    pub fn eval_outputs<S: Scalar>(&self, inputs: &[S], out: &mut [S]) {
+        self.eval_with(inputs, |e| {
+            for (k, o) in out.iter_mut().enumerate() {
+                *o = e.output(k);
+            }
+        })
+    }
+
+    /// [`Tape::eval_with`] on an array of `R` registers (`R` a power of two, at least
+    /// `n_regs`): every index masked to the array, so no bounds check in the loop.
+    #[inline(always)]
+    fn eval_on<S: Scalar, T, const R: usize>(&self, inputs: &[S], f: impl FnOnce(&Evaluated<'_, S>) -> T) -> T {
         let mut regs = Masked([S::cst(0.0); R]);
-        for k in 0..self.n_inputs.min(R) {
-            regs.put(k as u16, inputs.get(k).copied().unwrap_or(S::cst(f64::NAN)));
+        // Every input given (those past `n_inputs` land in registers the tape writes before
+        // it reads them), NaN for the missing ones.
+        for (k, x) in inputs.iter().enumerate().take(R) {
+            regs.put(k as u16, *x);
+        }
+        for k in inputs.len()..self.n_inputs.min(R) {
+            regs.put(k as u16, S::cst(f64::NAN));
         }
         self.run(&mut regs);
-        for (o, &r) in out.iter_mut().zip(&self.outputs) {
-            *o = regs.read(r);
-        }
+        f(&Evaluated { regs: &regs.0, outputs: &self.outputs })
     }
 
     /// The instruction loop over any register file.
     #[inline(always)]
     fn run<S: Scalar, F: Regs<S> + ?Sized>(&self, regs: &mut F) {
+        for &(r, c) in &self.consts {
+            regs.put(r, S::cst(c));
+        }
         for ins in &self.instrs {
             let value = match ins.op {
-                Op::Const(c) => S::cst(c),
                 Op::Add(a, b) => regs.with2(a, b, |x, y| x.add_ref(y)),
                 Op::Sub(a, b) => regs.with2(a, b, |x, y| x.sub_ref(y)),
                 Op::Mul(a, b) => regs.with2(a, b, |x, y| x.mul_ref(y)),
@@ -326,6 +357,41 @@ impl Tape {
                     let p = regs.with1(a, |x| x.scaled(k));
                     regs.with1(b, |z| p.mul_ref(z))
                 }
+                Op::DotAdd(a, b, c, d) => {
+                    let p = regs.with2(a, b, |x, y| x.mul_ref(y));
+                    let q = regs.with2(c, d, |x, y| x.mul_ref(y));
+                    p.add_ref(&q)
+                }
+                Op::DotSub(a, b, c, d) => {
+                    let p = regs.with2(a, b, |x, y| x.mul_ref(y));
+                    let q = regs.with2(c, d, |x, y| x.mul_ref(y));
+                    p.sub_ref(&q)
+                }
+                Op::DotCAdd(a, k1, c, k2) => {
+                    let p = regs.with1(a, |x| x.scaled(k1));
+                    let q = regs.with1(c, |x| x.scaled(k2));
+                    p.add_ref(&q)
+                }
+                Op::DotCSub(a, k1, c, k2) => {
+                    let p = regs.with1(a, |x| x.scaled(k1));
+                    let q = regs.with1(c, |x| x.scaled(k2));
+                    p.sub_ref(&q)
+                }
+                Op::DotMCAdd(a, b, c, k) => {
+                    let p = regs.with2(a, b, |x, y| x.mul_ref(y));
+                    let q = regs.with1(c, |x| x.scaled(k));
+                    p.add_ref(&q)
+                }
+                Op::DotMCSub(a, b, c, k) => {
+                    let p = regs.with2(a, b, |x, y| x.mul_ref(y));
+                    let q = regs.with1(c, |x| x.scaled(k));
+                    p.sub_ref(&q)
+                }
+                Op::DotCMSub(a, k, c, d) => {
+                    let p = regs.with1(a, |x| x.scaled(k));
+                    let q = regs.with2(c, d, |x, y| x.mul_ref(y));
+                    p.sub_ref(&q)
+                }
             };
             regs.put(ins.dst, value);
         }
@@ -345,6 +411,20 @@ impl Tape {
 
     pub fn is_empty(&self) -> bool {
         self.instrs.is_empty()
+    }
+}
+
+/// The registers after an evaluation ([`Tape::eval_with`]).
+pub struct Evaluated<'a, S> {
+    regs: &'a [S],
+    outputs: &'a [u16],
+}
+
+impl<S: Scalar> Evaluated<'_, S> {
+    /// Output `k` (NaN past the last).
+    #[inline(always)]
+    pub fn output(&self, k: usize) -> S {
+        self.outputs.get(k).and_then(|&r| self.regs.get(usize::from(r))).copied().unwrap_or(S::cst(f64::NAN))
     }
 }
 
@@ -525,7 +605,13 @@ fn atan2<S: Scalar>(y: S, x: S) -> S {
     if !s.re().is_finite() {
         return S::cst(base);
     }
-    s.apply(atan_coefficients) + base
+    // The value is `base` itself (also a signed zero, as `f64::atan2` gives it).
+    s.apply(|s0, out| {
+        atan_coefficients(s0, out);
+        if let Some(o) = out.first_mut() {
+            *o = if s0 == 0.0 { base } else { *o + base };
+        }
+    })
 }
 
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -562,6 +648,13 @@ enum SsaOp {
     MulCAddC(Val, f64, f64),
     MulMul(Val, Val, Val),
     MulCMul(Val, f64, Val),
+    DotAdd(Val, Val, Val, Val),
+    DotSub(Val, Val, Val, Val),
+    DotCAdd(Val, f64, Val, f64),
+    DotCSub(Val, f64, Val, f64),
+    DotMCAdd(Val, Val, Val, f64),
+    DotMCSub(Val, Val, Val, f64),
+    DotCMSub(Val, f64, Val, Val),
 }
 
 /// Hash key of an operation: a tag and up to four words (values and constants by bits).
@@ -574,7 +667,11 @@ impl SsaOp {
             | SsaOp::MulCAdd(a, _, b)
             | SsaOp::MulCSub(a, _, b)
             | SsaOp::SubMulC(a, b, _)
-            | SsaOp::MulCMul(a, _, b) => vec![a, b],
+            | SsaOp::MulCMul(a, _, b)
+            | SsaOp::DotCAdd(a, _, b, _)
+            | SsaOp::DotCSub(a, _, b, _) => vec![a, b],
+            SsaOp::DotMCAdd(a, b, c, _) | SsaOp::DotMCSub(a, b, c, _) | SsaOp::DotCMSub(a, _, b, c) => vec![a, b, c],
+            SsaOp::DotAdd(a, b, c, d) | SsaOp::DotSub(a, b, c, d) => vec![a, b, c, d],
             SsaOp::Neg(a)
             | SsaOp::AddC(a, _)
             | SsaOp::SubC(a, _)
@@ -626,6 +723,13 @@ impl SsaOp {
             SsaOp::MulCAddC(a, k1, k2) => (28, [v(a), c(k1), c(k2), z]),
             SsaOp::MulMul(a, b, x) => (29, [v(a), v(b), v(x), z]),
             SsaOp::MulCMul(a, k, b) => (30, [v(a), c(k), v(b), z]),
+            SsaOp::DotAdd(a, b, x, y) => (31, [v(a), v(b), v(x), v(y)]),
+            SsaOp::DotSub(a, b, x, y) => (32, [v(a), v(b), v(x), v(y)]),
+            SsaOp::DotCAdd(a, k1, x, k2) => (33, [v(a), c(k1), v(x), c(k2)]),
+            SsaOp::DotCSub(a, k1, x, k2) => (34, [v(a), c(k1), v(x), c(k2)]),
+            SsaOp::DotMCAdd(a, b, x, k) => (35, [v(a), v(b), v(x), c(k)]),
+            SsaOp::DotMCSub(a, b, x, k) => (36, [v(a), v(b), v(x), c(k)]),
+            SsaOp::DotCMSub(a, k, x, y) => (37, [v(a), c(k), v(x), v(y)]),
         }
     }
 }
@@ -665,6 +769,21 @@ impl Ssa {
             SsaOp::Bin(BinOp::Sub, a, b) => match neg_of(self, b) {
                 Some(y) => SsaOp::Bin(BinOp::Add, a, y),
                 None => op,
+            },
+            // a*(-b) = (-a)*b = -(a*b), and likewise for a quotient: the negation moves to
+            // where a sum can absorb it (each product or quotient is the same number up to
+            // its sign, also coefficient by coefficient).
+            SsaOp::Bin(bin @ (BinOp::Mul | BinOp::Div), a, b) => match (neg_of(self, a), neg_of(self, b)) {
+                (Some(x), Some(y)) => SsaOp::Bin(bin, x, y),
+                (Some(x), None) => {
+                    let p = self.push(SsaOp::Bin(bin, x, b));
+                    SsaOp::Neg(p)
+                }
+                (None, Some(y)) => {
+                    let p = self.push(SsaOp::Bin(bin, a, y));
+                    SsaOp::Neg(p)
+                }
+                (None, None) => op,
             },
             // (-a)*k = a*(-k).
             SsaOp::MulC(a, k) => match neg_of(self, a) {
@@ -729,6 +848,9 @@ impl Ssa {
     /// product, then applies the operation, in the operands' original order.
     fn fuse(&mut self, outputs: &[Val]) {
         let np = self.prog.len();
+        // Operations some output still needs (rewrites leave negations nobody reads).
+        self.dead = vec![false; np];
+        self.sweep(outputs);
         let mut uses = vec![0usize; np];
         let count = |v: Val, uses: &mut Vec<usize>| {
             if let Val::Ssa(k, false) = v {
@@ -737,9 +859,11 @@ impl Ssa {
                 }
             }
         };
-        for op in &self.prog {
-            for v in op.operands() {
-                count(v, &mut uses);
+        for (k, op) in self.prog.iter().enumerate() {
+            if !self.dead.get(k).copied().unwrap_or(true) {
+                for v in op.operands() {
+                    count(v, &mut uses);
+                }
             }
         }
         for &v in outputs {
@@ -747,8 +871,10 @@ impl Ssa {
             count(v, &mut uses);
             count(v, &mut uses);
         }
-        self.dead = vec![false; np];
         for j in 0..np {
+            if self.dead.get(j).copied().unwrap_or(true) {
+                continue;
+            }
             let Some(op) = self.prog.get(j).copied() else { continue };
             // `v` is a product used only here and not yet fused: its operands.
             let single = |s: &Ssa, v: Val| -> Option<(usize, SsaOp)> {
@@ -766,6 +892,40 @@ impl Ssa {
                 Some((k, SsaOp::MulC(a, c))) => Some((k, a, c)),
                 _ => None,
             };
+            // A sum or difference of two such products: both fused.
+            let two = match op {
+                SsaOp::Bin(bin @ (BinOp::Add | BinOp::Sub), x, y) if x != y => {
+                    let add = bin == BinOp::Add;
+                    match (mul(self, x), mulc(self, x), mul(self, y), mulc(self, y)) {
+                        (Some((i, a, b)), _, Some((k, c, d)), _) => {
+                            Some((i, k, if add { SsaOp::DotAdd(a, b, c, d) } else { SsaOp::DotSub(a, b, c, d) }))
+                        }
+                        (_, Some((i, a, k1)), _, Some((k, c, k2))) => {
+                            Some((i, k, if add { SsaOp::DotCAdd(a, k1, c, k2) } else { SsaOp::DotCSub(a, k1, c, k2) }))
+                        }
+                        (Some((i, a, b)), _, _, Some((k, c, q))) => {
+                            Some((i, k, if add { SsaOp::DotMCAdd(a, b, c, q) } else { SsaOp::DotMCSub(a, b, c, q) }))
+                        }
+                        // `c*k + a*b` = `a*b + c*k`: a sum is symmetric bit for bit.
+                        (_, Some((i, c, q)), Some((k, a, b)), _) => {
+                            Some((i, k, if add { SsaOp::DotMCAdd(a, b, c, q) } else { SsaOp::DotCMSub(c, q, a, b) }))
+                        }
+                        _ => None,
+                    }
+                }
+                _ => None,
+            };
+            if let Some((i, k, f)) = two {
+                for d in [i, k] {
+                    if let Some(d) = self.dead.get_mut(d) {
+                        *d = true;
+                    }
+                }
+                if let Some(slot) = self.prog.get_mut(j) {
+                    *slot = f;
+                }
+                continue;
+            }
             let fused = match op {
                 SsaOp::Bin(BinOp::Add, x, y) => {
                     if let Some((k, a, b)) = mul(self, x) {
@@ -791,6 +951,8 @@ impl Ssa {
                     }
                 }
                 SsaOp::AddC(x, k2) => mulc(self, x).map(|(k, a, c)| (k, SsaOp::MulCAddC(a, c, k2))),
+                // `x - k2` = `x + (-k2)`.
+                SsaOp::SubC(x, k2) => mulc(self, x).map(|(k, a, c)| (k, SsaOp::MulCAddC(a, c, -k2))),
                 SsaOp::Bin(BinOp::Mul, x, y) => {
                     if let Some((k, a, b)) = mul(self, x) {
                         Some((k, SsaOp::MulMul(a, b, y)))
@@ -809,8 +971,12 @@ impl Ssa {
                 }
             }
         }
-        // Dead code: operations no output depends on any more (a negation folded into its
-        // user, a product fused into it).
+        self.sweep(outputs);
+    }
+
+    /// Marks dead every operation no output depends on (through live operations).
+    fn sweep(&mut self, outputs: &[Val]) {
+        let np = self.prog.len();
         let mut needed = vec![false; np];
         for &v in outputs {
             if let Val::Ssa(k, _) = v {
@@ -897,13 +1063,14 @@ impl Ssa {
             n_regs += 1;
             Ok((n_regs - 1) as u16)
         };
-        let mut instrs = Vec::with_capacity(nc + np);
+        let mut instrs = Vec::with_capacity(np);
+        let mut const_regs = Vec::with_capacity(nc);
         for (c_idx, &c) in consts.iter().enumerate() {
             let r = take(&mut free)?;
             if let Some(s) = reg_of.get_mut(c_idx) {
                 *s = r;
             }
-            instrs.push(Instr { op: Op::Const(c), dst: r, dst2: r });
+            const_regs.push((r, c));
         }
         let reg = |v: Val, reg_of: &Vec<u16>| match v {
             Val::In(k) => k,
@@ -944,6 +1111,13 @@ impl Ssa {
                 SsaOp::MulCAddC(a, q1, q2) => Op::MulCAddC(r(a), q1, q2),
                 SsaOp::MulMul(a, b, c) => Op::MulMul(r(a), r(b), r(c)),
                 SsaOp::MulCMul(a, q, b) => Op::MulCMul(r(a), q, r(b)),
+                SsaOp::DotAdd(a, b, c, d) => Op::DotAdd(r(a), r(b), r(c), r(d)),
+                SsaOp::DotSub(a, b, c, d) => Op::DotSub(r(a), r(b), r(c), r(d)),
+                SsaOp::DotCAdd(a, k1, c, k2) => Op::DotCAdd(r(a), k1, r(c), k2),
+                SsaOp::DotCSub(a, k1, c, k2) => Op::DotCSub(r(a), k1, r(c), k2),
+                SsaOp::DotMCAdd(a, b, c, k) => Op::DotMCAdd(r(a), r(b), r(c), k),
+                SsaOp::DotMCSub(a, b, c, k) => Op::DotMCSub(r(a), r(b), r(c), k),
+                SsaOp::DotCMSub(a, k, c, d) => Op::DotCMSub(r(a), k, r(c), r(d)),
             };
             // Free operands whose last use is here (before choosing the destination: an
             // instruction may overwrite its own operand, the evaluation reads them first).
@@ -987,6 +1161,6 @@ impl Ssa {
         }
         // Constants used by nothing after their definition stay allocated (few, harmless).
         let outputs = outputs.iter().map(|&v| reg(v, &reg_of)).collect();
-        Ok(Tape { instrs, n_regs, n_inputs, outputs })
+        Ok(Tape { consts: const_regs, instrs, n_regs, n_inputs, outputs })
     }
 }

@@ -17,7 +17,7 @@ use std::collections::HashSet;
 use std::sync::{Arc, Mutex, OnceLock};
 
 use super::{Plant, Scalar};
-use crate::expr::{self, ExprError, Graph, Id, Names, Parsed, Tape};
+use crate::expr::{self, Evaluated, ExprError, Graph, Id, Names, Parsed, Tape};
 
 /// Largest number of generalized coordinates of an equations plant (states `N = 2n <= 8`).
 pub const MAX_COORDINATES: usize = 4;
@@ -87,9 +87,13 @@ pub struct EquationsModel {
     /// velocities) in the same layout: the symbolic Jacobian (`None` when the derivatives
     /// outgrow the graph's limits; the Jacobian then comes from dual numbers).
     jac_tape: Option<Tape>,
+    /// Bit `k` set: output `k` of the Jacobian tape is identically zero.
+    jac_zero: u128,
     /// `sum q'_i dL/dq'_i - L` (Lagrangian form only).
     energy: Option<Tape>,
     equilibrium: Vec<f64>,
+    /// `equilibrium` padded with zeros to [`MAX_COORDINATES`] (the right-hand side's copy).
+    equilibrium_pad: [f64; MAX_COORDINATES],
 }
 
 impl EquationsModel {
@@ -249,6 +253,13 @@ impl EquationsModel {
             }
         }
         let jac_tape = if g.too_large() { None } else { Tape::compile(&g, &jac_roots, n_inputs).ok() };
+        // Derivatives that are identically zero (no dependence): skipped by the Jacobian.
+        let mut jac_zero = 0u128;
+        for (k, &r) in jac_roots.iter().enumerate().skip(roots.len()) {
+            if g.constant(r) == Some(0.0) {
+                jac_zero |= 1u128.checked_shl(k as u32).unwrap_or(0);
+            }
+        }
         let equilibrium = match &spec.equilibrium {
             None => vec![0.0; n],
             Some(e) => {
@@ -269,7 +280,21 @@ impl EquationsModel {
             state_names.push(intern(c));
             state_names.push(intern(&format!("{c}_dot")));
         }
-        let model = Self { n, coordinates: spec.coordinates.clone(), state_names, tape, jac_tape, energy, equilibrium };
+        let mut equilibrium_pad = [0.0; MAX_COORDINATES];
+        for (p, e) in equilibrium_pad.iter_mut().zip(&equilibrium) {
+            *p = *e;
+        }
+        let model = Self {
+            n,
+            coordinates: spec.coordinates.clone(),
+            state_names,
+            tape,
+            jac_tape,
+            jac_zero,
+            energy,
+            equilibrium,
+            equilibrium_pad,
+        };
         model.check_mass(&g, &mass)?;
         model.check_equilibrium(&spec.form)?;
         Ok(model)
@@ -288,6 +313,12 @@ impl EquationsModel {
     /// The compiled tape (mass upper triangle, then forces).
     pub fn tape(&self) -> &Tape {
         &self.tape
+    }
+
+    /// The compiled Jacobian tape (the values, then their derivatives by each state), if
+    /// the derivatives stayed within the graph's limits.
+    pub fn jac_tape(&self) -> Option<&Tape> {
+        self.jac_tape.as_ref()
     }
 
     pub fn equilibrium(&self) -> &[f64] {
@@ -479,19 +510,21 @@ impl EquationsModel {
     }
 
     /// The tape's inputs at state `x`: the coordinates (deviation plus equilibrium), the
-    /// velocities, `u` (`2n + 1` of the 9 slots).
+    /// velocities, `u` (`2n + 1` of the 9 slots; the loops run over the `N / 2`
+    /// coordinates the state has, a constant).
     #[inline(always)]
     fn inputs<S: Scalar, const N: usize>(&self, x: &[S; N], u: S) -> [S; 9] {
-        let n = self.n;
+        let n = N / 2;
+        let nan = S::cst(f64::NAN);
         let mut inputs = [S::cst(0.0); 9];
         for i in 0..n {
-            let q = x.get(2 * i).copied().unwrap_or(S::cst(f64::NAN));
-            let e = self.equilibrium.get(i).copied().unwrap_or(0.0);
+            let q = x.get(2 * i).copied().unwrap_or(nan);
+            let e = self.equilibrium_pad.get(i).copied().unwrap_or(0.0);
             if let Some(s) = inputs.get_mut(i) {
                 *s = if e == 0.0 { q } else { q + e };
             }
             if let Some(s) = inputs.get_mut(n + i) {
-                *s = x.get(2 * i + 1).copied().unwrap_or(S::cst(f64::NAN));
+                *s = x.get(2 * i + 1).copied().unwrap_or(nan);
             }
         }
         if let Some(s) = inputs.get_mut(2 * n) {
@@ -503,27 +536,24 @@ impl EquationsModel {
     /// `dx/dt` for `N = 2n` states (`N` is checked by [`EquationsPlant::new`]).
     #[inline]
     fn rhs<S: Scalar, const N: usize>(&self, x: &[S; N], u: S) -> [S; N] {
-        let n = self.n;
+        let n = N / 2;
         let inputs = self.inputs(x, u);
-        let n_in = (2 * n + 1).min(inputs.len());
         let mut out = [S::cst(0.0); N];
         // q'': small scalars on the stack, the solve unrolled for the coordinate count; a
         // power series (kilobytes) through a heap scratch.
         let mut qdd = [S::cst(f64::NAN); MAX_COORDINATES];
         if core::mem::size_of::<S>() <= 128 {
-            let mut outs = [S::cst(0.0); OUTPUTS];
-            self.tape.eval_outputs(inputs.get(..n_in).unwrap_or_default(), &mut outs);
-            qdd = match n {
-                1 => solve_small::<S, 1>(&outs),
-                2 => solve_small::<S, 2>(&outs),
-                3 => solve_small::<S, 3>(&outs),
-                _ => solve_small::<S, 4>(&outs),
-            };
+            qdd = self.tape.eval_with(&inputs, |e| match n {
+                1 => solve_small::<S, 1>(e),
+                2 => solve_small::<S, 2>(e),
+                3 => solve_small::<S, 3>(e),
+                _ => solve_small::<S, 4>(e),
+            });
         } else {
             let nm = n * (n + 1) / 2;
             let mut scratch = vec![S::cst(0.0); nm + n + n * n];
             let (outs, a) = scratch.split_at_mut(nm + n);
-            self.tape.eval_outputs(inputs.get(..n_in).unwrap_or_default(), outs);
+            self.tape.eval_outputs(inputs.get(..2 * n + 1).unwrap_or_default(), outs);
             for i in 0..n {
                 for j in 0..n {
                     let (p, q) = if i <= j { (i, j) } else { (j, i) };
@@ -554,24 +584,46 @@ impl EquationsModel {
     /// bit. `None` without a Jacobian tape.
     fn jacobian<const N: usize>(&self, x: &[f64; N], u: f64) -> Option<([f64; N], [[f64; N]; N])> {
         let jt = self.jac_tape.as_ref()?;
-        Some(match self.n {
-            1 => self.jacobian_c::<N, 1>(jt, x, u),
-            2 => self.jacobian_c::<N, 2>(jt, x, u),
-            3 => self.jacobian_c::<N, 3>(jt, x, u),
-            _ => self.jacobian_c::<N, 4>(jt, x, u),
-        })
+        let mut f = [0.0; N];
+        let mut jac = [[0.0; N]; N];
+        match self.n {
+            1 => self.jacobian_c::<N, 1>(jt, x, u, &mut f, &mut jac),
+            2 => self.jacobian_c::<N, 2>(jt, x, u, &mut f, &mut jac),
+            3 => self.jacobian_c::<N, 3>(jt, x, u, &mut f, &mut jac),
+            _ => self.jacobian_c::<N, 4>(jt, x, u, &mut f, &mut jac),
+        }
+        Some((f, jac))
     }
 
-    /// [`Self::jacobian`] for `C = n` coordinates (the loops unrolled).
+    /// [`Self::jacobian`] for `C = n` coordinates (the loops unrolled), into `f` and `jac`
+    /// (zero on entry).
     #[inline(always)]
-    fn jacobian_c<const N: usize, const C: usize>(&self, jt: &Tape, x: &[f64; N], u: f64) -> ([f64; N], [[f64; N]; N]) {
-        let nan = f64::NAN;
+    fn jacobian_c<const N: usize, const C: usize>(
+        &self,
+        jt: &Tape,
+        x: &[f64; N],
+        u: f64,
+        f: &mut [f64; N],
+        jac: &mut [[f64; N]; N],
+    ) {
         let inputs = self.inputs(x, u);
+        jt.eval_with(&inputs, |e| self.jacobian_from::<N, C>(e, &inputs, f, jac))
+    }
+
+    /// [`Self::jacobian_c`] from the evaluated Jacobian tape.
+    #[inline(always)]
+    fn jacobian_from<const N: usize, const C: usize>(
+        &self,
+        e: &Evaluated<'_, f64>,
+        inputs: &[f64; 9],
+        f: &mut [f64; N],
+        jac: &mut [[f64; N]; N],
+    ) {
+        let nan = f64::NAN;
         let nm = C * (C + 1) / 2;
         let block = nm + C;
-        let mut outs = [0.0; JAC_OUTPUTS];
-        jt.eval_outputs(inputs.get(..2 * C + 1).unwrap_or_default(), &mut outs);
-        let out = |k: usize| outs.get(k).copied().unwrap_or(nan);
+        let out = |k: usize| e.output(k);
+        let zero = |k: usize| self.jac_zero.checked_shr(k as u32).unwrap_or(0) & 1 == 1;
         // M factored once; q'' and every column solved with the factors (the same
         // arithmetic as `solve_small`, so q'' is the right-hand side's to the bit).
         let mut lu = [[0.0; C]; C];
@@ -587,8 +639,6 @@ impl EquationsModel {
             *s = out(nm + i);
         }
         lu_apply(&lu, &perm, &mut qdd);
-        let mut f = [0.0; N];
-        let mut jac = [[0.0; N]; N];
         for i in 0..C {
             if let Some(s) = f.get_mut(2 * i) {
                 *s = inputs.get(C + i).copied().unwrap_or(nan);
@@ -604,12 +654,19 @@ impl EquationsModel {
         for state in 0..N {
             let v = if state % 2 == 0 { state / 2 } else { C + state / 2 };
             let base = (1 + v) * block;
+            // A state neither M nor f depends on: a zero column.
+            if (base..base + block).all(zero) {
+                continue;
+            }
             let mut c = [0.0; C];
             for (i, ci) in c.iter_mut().enumerate() {
-                let mut s = out(base + nm + i);
+                let mut s = if zero(base + nm + i) { 0.0 } else { out(base + nm + i) };
                 for (j, qj) in qdd.iter().enumerate() {
                     let (p, q) = if i <= j { (i, j) } else { (j, i) };
-                    s -= out(base + upper_index(C, p, q)) * qj;
+                    let k = base + upper_index(C, p, q);
+                    if !zero(k) {
+                        s -= out(k) * qj;
+                    }
                 }
                 *ci = s;
             }
@@ -620,14 +677,8 @@ impl EquationsModel {
                 }
             }
         }
-        (f, jac)
     }
 }
-
-/// Outputs of the value tape at most: the mass matrix's upper triangle and the forces.
-const OUTPUTS: usize = MAX_COORDINATES * (MAX_COORDINATES + 1) / 2 + MAX_COORDINATES;
-/// Outputs of the Jacobian tape at most: the values and their derivatives by `2n` states.
-const JAC_OUTPUTS: usize = OUTPUTS * (2 * MAX_COORDINATES + 1);
 
 /// Index of `M[a][b]` (`a <= b`) in the upper triangle stored row by row.
 fn upper_index(n: usize, a: usize, b: usize) -> usize {
@@ -638,19 +689,19 @@ fn upper_index(n: usize, a: usize, b: usize) -> usize {
 /// `f`): LU with partial pivoting on the values, [`lu_solve`]'s arithmetic in its order
 /// (so every scalar type gets its values), on arrays of the coordinate count.
 #[inline(always)]
-fn solve_small<S: Scalar, const C: usize>(outs: &[S; OUTPUTS]) -> [S; MAX_COORDINATES] {
+fn solve_small<S: Scalar, const C: usize>(outs: &Evaluated<'_, S>) -> [S; MAX_COORDINATES] {
     let nan = S::cst(f64::NAN);
     let nm = C * (C + 1) / 2;
     let mut a = [[nan; C]; C];
     for (i, row) in a.iter_mut().enumerate() {
         for (j, s) in row.iter_mut().enumerate() {
             let (p, q) = if i <= j { (i, j) } else { (j, i) };
-            *s = outs.get(upper_index(C, p, q)).copied().unwrap_or(nan);
+            *s = outs.output(upper_index(C, p, q));
         }
     }
     let mut b = [nan; C];
     for (i, s) in b.iter_mut().enumerate() {
-        *s = outs.get(nm + i).copied().unwrap_or(nan);
+        *s = outs.output(nm + i);
     }
     let at = |a: &[[S; C]; C], i: usize, j: usize| a.get(i).and_then(|r| r.get(j)).copied().unwrap_or(nan);
     for k in 0..C {
