@@ -765,8 +765,18 @@ fn lu_factor<const C: usize>(a: &mut [[f64; C]; C]) -> [usize; C] {
         if let Some(s) = perm.get_mut(k) {
             *s = p;
         }
+        // Columns from `k` on only: the multipliers of earlier steps stay with the rows they
+        // were computed for, as `lu_apply` reads them in its interleaved order.
         if p != k {
-            a.swap(k, p);
+            for j in k..C {
+                let (x, y) = (at(a, k, j), at(a, p, j));
+                if let Some(s) = a.get_mut(k).and_then(|r| r.get_mut(j)) {
+                    *s = y;
+                }
+                if let Some(s) = a.get_mut(p).and_then(|r| r.get_mut(j)) {
+                    *s = x;
+                }
+            }
         }
         let piv = at(a, k, k);
         for i in k + 1..C {

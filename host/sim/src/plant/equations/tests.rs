@@ -697,6 +697,12 @@ fn unrolled_solves_equal_the_general_lu_for_every_size() {
             let vd = p.rhs(&xd, Dual::var(u, 0));
             assert_eq!(vd.map(|d| d.v.to_bits()), rhs.map(f64::to_bits), "n = {n}: dual values");
             let (f, jac) = p.exact_jacobian(&x, u);
+            let jo = p.model().jac_tape().unwrap().eval_f64(&inputs);
+            assert_eq!(
+                jo[..outs.len()].iter().map(|v| v.to_bits()).collect::<Vec<_>>(),
+                outs.iter().map(|v| v.to_bits()).collect::<Vec<_>>(),
+                "n = {n}: the Jacobian tape's values {jo:?} vs {outs:?}"
+            );
             assert_eq!(f.map(f64::to_bits), rhs.map(f64::to_bits), "n = {n}: the Jacobian's f");
             let (_, jd) = crate::plant::linearize::dual_jacobian(&p, &x, u);
             let scale = jd.iter().flatten().fold(1.0f64, |m, v| m.max(v.abs()));
