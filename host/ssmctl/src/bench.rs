@@ -200,6 +200,30 @@ pub struct PlantForms {
     pub counters: String,
 }
 
+/// The integrators of the plant-form table: method, rtol (atol = rtol / 100), steps.
+pub const PLANT_FORM_INTEGRATORS: [(MethodKind, Option<f64>, Option<u32>); 2] =
+    [(MethodKind::Exprb, Some(1e-9), None), (MethodKind::Rk4, None, Some(175))];
+
+/// The plant-form table's two scenes: the benchmark problem ([`problem`]) with the built-in
+/// Furuta, and the same problem with the plant written as equations (`furuta-equations`).
+pub fn plant_form_scenes(periods: u64) -> Result<(Scene, Scene), SimError> {
+    let builtin = problem(periods)?;
+    let equations = SceneBuilder::load("furuta-equations")?
+        .dt_ms(builtin.controller.dt_ms)
+        .periods(periods)
+        .initial_state(&[0.05, 0.0, 0.0, 0.0])
+        .tasks(&[Task::Simulate])
+        .build()?;
+    Ok((builtin, equations))
+}
+
+/// `scene` with the integrator `(method, rtol, steps)` (atol = rtol / 100) and its label.
+pub fn with_integrator(scene: &Scene, method: MethodKind, rtol: Option<f64>, steps: Option<u32>) -> (Scene, String) {
+    let s = with(scene, method, rtol, steps);
+    let l = label(&s);
+    (s, l)
+}
+
 /// Thread CPU time, s.
 fn thread_cpu_s() -> f64 {
     let mut ts = libc::timespec { tv_sec: 0, tv_nsec: 0 };
@@ -259,13 +283,7 @@ fn rhs_cost<P: sim::plant::Plant<N>, const N: usize>(
 /// tight reference.
 pub fn bench_plant_forms(periods: u64, quick: bool, mut progress: impl FnMut(&str)) -> Result<PlantForms, SimError> {
     let window = if quick { 0.02 } else { TIMING_WINDOW_S };
-    let builtin = problem(periods)?;
-    let equations = SceneBuilder::load("furuta-equations")?
-        .dt_ms(builtin.controller.dt_ms)
-        .periods(periods)
-        .initial_state(&[0.05, 0.0, 0.0, 0.0])
-        .tasks(&[Task::Simulate])
-        .build()?;
+    let (builtin, equations) = plant_form_scenes(periods)?;
     progress("plant forms: reference rodas4 rtol=1e-13");
     let reference = simulate(&with(&builtin, MethodKind::Rodas, Some(1e-13), None), None)?;
     let counter = crate::perf::Counter::instructions();
@@ -285,7 +303,7 @@ pub fn bench_plant_forms(periods: u64, quick: bool, mut progress: impl FnMut(&st
         costs.push((ns, ins, tape));
     }
     let mut rows = Vec::new();
-    for (method, rtol, steps) in [(MethodKind::Exprb, Some(1e-9), None), (MethodKind::Rk4, None, Some(175))] {
+    for (method, rtol, steps) in PLANT_FORM_INTEGRATORS {
         let mut base_cpu = f64::NAN;
         for ((name, s), &(ns, ins, tape)) in [("built-in", &builtin), ("equations", &equations)].iter().zip(&costs) {
             let c = with(s, method, rtol, steps);

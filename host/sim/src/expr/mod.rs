@@ -21,7 +21,7 @@ mod tape;
 #[cfg(test)]
 mod tests;
 
-pub use tape::{Instr, Op, Tape};
+pub use tape::{Evaluated, Instr, MAX_REGS, Op, Tape, TapeError};
 
 use std::collections::HashMap;
 

@@ -1,8 +1,20 @@
-//! A set of expressions compiled to one flat instruction tape over a register file:
-//! constants folded into the instructions that use them, `sin`/`cos` of one argument one
-//! `sin_cos`, registers reused once a value is dead. Evaluation is a loop over the tape,
-//! generic over [`Scalar`]; it reads inputs and writes registers the caller provides, so
-//! it neither allocates nor touches strings.
+//! A set of expressions compiled to one flat instruction tape over a register file.
+//!
+//! Compilation works on an SSA program built from the hash-consed graph and applies only
+//! rewrites that keep every value bit for bit (for `f64`, dual numbers and power series
+//! alike): constants folded into the instructions that use them, common subexpressions
+//! computed once (also those the graph cannot see: `x*x` from `x^2`, `a + b` and `b + a`),
+//! `sin`/`cos` of one argument one `sin_cos`, negations folded into the operation that
+//! uses them (`a + (-b)` is `a - b`, `(-a)*c` is `a*(-c)`), integer powers as the same
+//! products `powi` forms, and an operation fused with the product feeding it when that
+//! product has no other use (`a*b + c` as one instruction: the same two roundings, one
+//! dispatch). Registers are reused once a value is dead; the inputs occupy the first
+//! registers. Evaluation is a loop over the tape, generic over [`Scalar`]; small scalars
+//! (`f64`, dual numbers) run on a register array on the stack whose size is a power of
+//! two, so that a masked index needs no bounds check and evaluation neither allocates
+//! nor touches strings.
+
+use std::collections::HashMap;
 
 use super::{F1, Graph, Id, Node, children};
 use crate::scalar::Scalar;
@@ -10,8 +22,6 @@ use crate::scalar::Scalar;
 /// One operation; register indices are `u16`.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Op {
-    Const(f64),
-    Var(u16),
     Add(u16, u16),
     Sub(u16, u16),
     Mul(u16, u16),
@@ -36,6 +46,38 @@ pub enum Op {
     SinCos(u16),
     Atan2(u16, u16),
     Sel(u16, u16, u16, u16),
+    /// `a*b + c` (the product rounded, then the sum).
+    MulAdd(u16, u16, u16),
+    /// `a*b - c`.
+    MulSub(u16, u16, u16),
+    /// `c - a*b` (operands `c, a, b`).
+    SubMul(u16, u16, u16),
+    /// `a*k + c`.
+    MulCAdd(u16, f64, u16),
+    /// `a*k - c`.
+    MulCSub(u16, f64, u16),
+    /// `c - a*k` (operands `c, a, k`).
+    SubMulC(u16, u16, f64),
+    /// `a*k1 + k2`.
+    MulCAddC(u16, f64, f64),
+    /// `(a*b)*c`.
+    MulMul(u16, u16, u16),
+    /// `(a*k)*b`.
+    MulCMul(u16, f64, u16),
+    /// `a*b + c*d`.
+    DotAdd(u16, u16, u16, u16),
+    /// `a*b - c*d`.
+    DotSub(u16, u16, u16, u16),
+    /// `a*k1 + c*k2`.
+    DotCAdd(u16, f64, u16, f64),
+    /// `a*k1 - c*k2`.
+    DotCSub(u16, f64, u16, f64),
+    /// `a*b + c*k`.
+    DotMCAdd(u16, u16, u16, f64),
+    /// `a*b - c*k`.
+    DotMCSub(u16, u16, u16, f64),
+    /// `a*k - c*d`.
+    DotCMSub(u16, f64, u16, u16),
 }
 
 /// An instruction: an operation and its destination register(s).
@@ -50,10 +92,13 @@ pub struct Instr {
 /// Compiled expressions.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Tape {
+    /// Constants some operation reads from a register (an operand of a two-register
+    /// operation, or an output): loaded into their registers before the instructions run.
+    pub consts: Vec<(u16, f64)>,
     pub instrs: Vec<Instr>,
-    /// Registers the evaluation needs.
+    /// Registers the evaluation needs, the inputs' included.
     pub n_regs: usize,
-    /// Number of inputs (variables).
+    /// Number of inputs (variables): registers `0..n_inputs` hold them.
     pub n_inputs: usize,
     /// The register holding each output, in the order the roots were given.
     pub outputs: Vec<u16>,
@@ -69,18 +114,37 @@ pub enum TapeError {
 /// Largest register count of a tape.
 pub const MAX_REGS: usize = u16::MAX as usize;
 
+/// Largest integer power computed as products (beyond it, `powi` at run time).
+const MAX_EXPANDED_POWER: u32 = 64;
+
 /// A value of the SSA program before register allocation.
-#[derive(Clone, Copy, Debug)]
+#[derive(Clone, Copy, Debug, PartialEq)]
 enum Val {
-    /// A constant folded into its users (materialized by `Op::Const` when needed).
+    /// A constant folded into its users (loaded into a register when one must hold it).
     Const(f64),
+    /// Input `k` (register `k`).
+    In(u16),
     /// Index of the SSA instruction computing it (and which of its two results).
     Ssa(usize, bool),
+}
+
+impl Val {
+    /// A hashable identity (constants by their bits).
+    fn key(self) -> (u8, u64) {
+        match self {
+            Val::Const(c) => (0, c.to_bits()),
+            Val::In(k) => (1, u64::from(k)),
+            Val::Ssa(k, second) => (2, 2 * k as u64 + u64::from(second)),
+        }
+    }
 }
 
 impl Tape {
     /// Compiles `roots` of `g`, with `n_inputs` variables.
     pub fn compile(g: &Graph, roots: &[Id], n_inputs: usize) -> Result<Tape, TapeError> {
+        if n_inputs > MAX_REGS {
+            return Err(TapeError::TooManyRegisters(MAX_REGS));
+        }
         let n = roots.iter().map(|&r| r as usize + 1).max().unwrap_or(0);
         let mut live = vec![false; n];
         for &r in roots {
@@ -100,8 +164,7 @@ impl Tape {
                 }
             }
         }
-        // SSA program: ops whose operands are SSA indices (u16 placeholders resolved below).
-        let mut prog: Vec<(SsaOp, bool)> = Vec::new();
+        let mut b = Ssa::default();
         let mut val: Vec<Option<Val>> = vec![None; n];
         let get = |val: &Vec<Option<Val>>, c: Id| val.get(c as usize).copied().flatten();
         for i in 0..n {
@@ -113,121 +176,232 @@ impl Tape {
                 continue; // the partner of an earlier sin_cos
             }
             let v = |c: Id| get(&val, c).unwrap_or(Val::Const(f64::NAN));
-            let op = match node {
-                Node::Const(b) => {
-                    if let Some(s) = val.get_mut(i) {
-                        *s = Some(Val::Const(f64::from_bits(b)));
-                    }
-                    continue;
-                }
-                Node::Var(k) => SsaOp::Var(k),
-                Node::Add(a, b) => match (v(a), v(b)) {
-                    (Val::Const(c), x) | (x, Val::Const(c)) => SsaOp::AddC(x, c),
-                    (x, y) => SsaOp::Bin(BinOp::Add, x, y),
+            let out = match node {
+                Node::Const(bits) => Val::Const(f64::from_bits(bits)),
+                // A variable past the inputs reads NaN, as a missing input does.
+                Node::Var(k) if usize::from(k) < n_inputs => Val::In(k),
+                Node::Var(_) => Val::Const(f64::NAN),
+                Node::Add(x, y) => match (v(x), v(y)) {
+                    (Val::Const(c), x) | (x, Val::Const(c)) => b.emit(SsaOp::AddC(x, c)),
+                    (x, y) => b.emit(SsaOp::Bin(BinOp::Add, x, y)),
                 },
-                Node::Sub(a, b) => match (v(a), v(b)) {
-                    (x, Val::Const(c)) => SsaOp::SubC(x, c),
-                    (Val::Const(c), y) => SsaOp::RSubC(c, y),
-                    (x, y) => SsaOp::Bin(BinOp::Sub, x, y),
+                Node::Sub(x, y) => match (v(x), v(y)) {
+                    (x, Val::Const(c)) => b.emit(SsaOp::SubC(x, c)),
+                    (Val::Const(c), y) => b.emit(SsaOp::RSubC(c, y)),
+                    (x, y) => b.emit(SsaOp::Bin(BinOp::Sub, x, y)),
                 },
-                Node::Mul(a, b) => match (v(a), v(b)) {
-                    (Val::Const(c), x) | (x, Val::Const(c)) => SsaOp::MulC(x, c),
-                    (x, y) => SsaOp::Bin(BinOp::Mul, x, y),
+                Node::Mul(x, y) => match (v(x), v(y)) {
+                    (Val::Const(c), x) | (x, Val::Const(c)) => b.emit(SsaOp::MulC(x, c)),
+                    (x, y) => b.emit(SsaOp::Bin(BinOp::Mul, x, y)),
                 },
-                Node::Div(a, b) => match (v(a), v(b)) {
-                    (x, Val::Const(c)) => SsaOp::DivC(x, c),
-                    (Val::Const(c), y) => SsaOp::RDivC(c, y),
-                    (x, y) => SsaOp::Bin(BinOp::Div, x, y),
+                Node::Div(x, y) => match (v(x), v(y)) {
+                    (x, Val::Const(c)) => b.emit(SsaOp::DivC(x, c)),
+                    (Val::Const(c), y) => b.emit(SsaOp::RDivC(c, y)),
+                    (x, y) => b.emit(SsaOp::Bin(BinOp::Div, x, y)),
                 },
-                Node::Neg(a) => SsaOp::Neg(v(a)),
-                Node::PowI(a, m) => SsaOp::PowI(v(a), m),
-                Node::PowC(a, b) => SsaOp::PowC(v(a), f64::from_bits(b)),
-                Node::Fn1(f @ (F1::Sin | F1::Cos), a) => {
+                Node::Neg(x) => b.emit(SsaOp::Neg(v(x))),
+                Node::PowI(x, m) => b.powi(v(x), m),
+                Node::PowC(x, p) => b.emit(SsaOp::PowC(v(x), f64::from_bits(p))),
+                Node::Fn1(f @ (F1::Sin | F1::Cos), x) => {
                     let partner = if f == F1::Sin { F1::Cos } else { F1::Sin };
-                    let other = g.index.get(&Node::Fn1(partner, a)).copied();
+                    let other = g.index.get(&Node::Fn1(partner, x)).copied();
                     match other {
                         Some(o) if live.get(o as usize).copied().unwrap_or(false) => {
-                            let k = prog.len();
-                            prog.push((SsaOp::SinCos(v(a)), true));
-                            let (s, c) = (Val::Ssa(k, false), Val::Ssa(k, true));
-                            let (mine, theirs) = if f == F1::Sin { (s, c) } else { (c, s) };
-                            if let Some(slot) = val.get_mut(i) {
-                                *slot = Some(mine);
-                            }
+                            let (s, c) = b.sin_cos(v(x));
+                            let theirs = if f == F1::Sin { c } else { s };
                             if let Some(slot) = val.get_mut(o as usize) {
                                 *slot = Some(theirs);
                             }
-                            continue;
+                            if f == F1::Sin { s } else { c }
                         }
-                        _ => SsaOp::Fn1(f, v(a)),
+                        _ => b.emit(SsaOp::Fn1(f, v(x))),
                     }
                 }
-                Node::Fn1(f, a) => SsaOp::Fn1(f, v(a)),
-                Node::Atan2(y, x) => SsaOp::Bin(BinOp::Atan2, v(y), v(x)),
-                Node::Sel(a, b, t, f) => SsaOp::Sel(v(a), v(b), v(t), v(f)),
+                Node::Fn1(f, x) => b.emit(SsaOp::Fn1(f, v(x))),
+                Node::Atan2(y, x) => b.emit(SsaOp::Bin(BinOp::Atan2, v(y), v(x))),
+                Node::Sel(x, y, t, f) => b.emit(SsaOp::Sel(v(x), v(y), v(t), v(f))),
             };
-            let k = prog.len();
-            prog.push((op, false));
             if let Some(s) = val.get_mut(i) {
-                *s = Some(Val::Ssa(k, false));
+                *s = Some(out);
             }
         }
-        // Outputs that are constants (or a bare constant operand of a Sel/Bin) get a Const op.
-        let mut b = Builder { prog, consts: Vec::new() };
         let out_vals: Vec<Val> = roots.iter().map(|&r| get(&val, r).unwrap_or(Val::Const(f64::NAN))).collect();
+        b.fuse(&out_vals);
         b.allocate(&out_vals, n_inputs)
     }
 
-    /// Evaluates the tape: `inputs` (at least `n_inputs`) into `regs` (at least
-    /// `n_regs`); the outputs are then `regs[outputs[i]]`.
+    /// Evaluates the tape: `inputs` (`n_inputs` of them; missing ones read NaN) into `regs`
+    /// (at least `n_regs`); the outputs are then `regs[outputs[i]]`.
     #[inline]
     pub fn eval<S: Scalar>(&self, inputs: &[S], regs: &mut [S]) {
+        for (k, r) in regs.iter_mut().enumerate().take(self.n_inputs) {
+            *r = inputs.get(k).copied().unwrap_or(S::cst(f64::NAN));
+        }
+        self.run(regs);
+    }
+
+    /// Evaluates the tape and hands the result to `f`, which reads the outputs by index
+    /// ([`Evaluated::output`]) straight from the registers. Small scalars use a register
+    /// array on the stack (no allocation); a large scalar (a truncated power series) a
+    /// register file on the heap.
+    #[inline]
+    pub fn eval_with<S: Scalar, T>(&self, inputs: &[S], f: impl FnOnce(&Evaluated<'_, S>) -> T) -> T {
+        if core::mem::size_of::<S>() <= 128 {
+            match self.n_regs {
+                0..=16 => return self.eval_on::<S, T, 16>(inputs, f),
+                17..=32 => return self.eval_on::<S, T, 32>(inputs, f),
+                33..=64 => return self.eval_on::<S, T, 64>(inputs, f),
+                65..=128 => return self.eval_on::<S, T, 128>(inputs, f),
+                129..=256 => return self.eval_on::<S, T, 256>(inputs, f),
+                _ => {}
+            }
+        }
+        let mut regs = vec![S::cst(0.0); self.n_regs];
+        self.eval(inputs, &mut regs);
+        f(&Evaluated { regs: &regs, outputs: &self.outputs })
+    }
+
+    /// Evaluates the tape and writes its outputs, in order, to `out` (as many as both
+    /// have).
+    #[inline]
+    pub fn eval_outputs<S: Scalar>(&self, inputs: &[S], out: &mut [S]) {
+        self.eval_with(inputs, |e| {
+            for (k, o) in out.iter_mut().enumerate() {
+                *o = e.output(k);
+            }
+        })
+    }
+
+    /// [`Tape::eval_with`] on an array of `R` registers (`R` a power of two, at least
+    /// `n_regs`): every index masked to the array, so no bounds check in the loop.
+    #[inline(always)]
+    fn eval_on<S: Scalar, T, const R: usize>(&self, inputs: &[S], f: impl FnOnce(&Evaluated<'_, S>) -> T) -> T {
+        let mut regs = Masked([S::cst(0.0); R]);
+        // Every input given (those past `n_inputs` land in registers the tape writes before
+        // it reads them), NaN for the missing ones.
+        for (k, x) in inputs.iter().enumerate().take(R) {
+            regs.put(k as u16, *x);
+        }
+        for k in inputs.len()..self.n_inputs.min(R) {
+            regs.put(k as u16, S::cst(f64::NAN));
+        }
+        self.run(&mut regs);
+        f(&Evaluated { regs: &regs.0, outputs: &self.outputs })
+    }
+
+    /// The instruction loop over any register file.
+    #[inline(always)]
+    fn run<S: Scalar, F: Regs<S> + ?Sized>(&self, regs: &mut F) {
+        for &(r, c) in &self.consts {
+            regs.put(r, S::cst(c));
+        }
         for ins in &self.instrs {
-            let r = |k: u16| regs.get(k as usize).copied().unwrap_or(S::cst(f64::NAN));
             let value = match ins.op {
-                Op::Const(c) => S::cst(c),
-                Op::Var(k) => inputs.get(k as usize).copied().unwrap_or(S::cst(f64::NAN)),
-                Op::Add(a, b) => with2(regs, a, b, |x, y| x.add_ref(y)),
-                Op::Sub(a, b) => with2(regs, a, b, |x, y| x.sub_ref(y)),
-                Op::Mul(a, b) => with2(regs, a, b, |x, y| x.mul_ref(y)),
-                Op::Div(a, b) => r(a) / r(b),
-                Op::Neg(a) => -r(a),
-                Op::AddC(a, c) => r(a) + c,
-                Op::SubC(a, c) => r(a) - c,
-                Op::RSubC(c, a) => -r(a) + c,
-                Op::MulC(a, c) => with1(regs, a, |x| x.scaled(c)),
-                Op::DivC(a, c) => r(a) / c,
-                Op::RDivC(c, a) => S::cst(c) / r(a),
-                Op::PowI(a, m) => powi(r(a), m),
-                Op::PowC(a, p) => r(a).apply(|x0, out| power_coefficients(x0, p, out)),
-                Op::Fn1(f, a) => fn1(f, r(a)),
+                Op::Add(a, b) => regs.with2(a, b, |x, y| x.add_ref(y)),
+                Op::Sub(a, b) => regs.with2(a, b, |x, y| x.sub_ref(y)),
+                Op::Mul(a, b) => regs.with2(a, b, |x, y| x.mul_ref(y)),
+                Op::Div(a, b) => regs.read(a) / regs.read(b),
+                Op::Neg(a) => -regs.read(a),
+                Op::AddC(a, c) => regs.read(a) + c,
+                Op::SubC(a, c) => regs.read(a) - c,
+                Op::RSubC(c, a) => -regs.read(a) + c,
+                Op::MulC(a, c) => regs.with1(a, |x| x.scaled(c)),
+                Op::DivC(a, c) => regs.read(a) / c,
+                Op::RDivC(c, a) => S::cst(c) / regs.read(a),
+                Op::PowI(a, m) => powi(regs.read(a), m),
+                Op::PowC(a, p) => regs.read(a).apply(|x0, out| power_coefficients(x0, p, out)),
+                Op::Fn1(f, a) => fn1(f, regs.read(a)),
                 Op::SinCos(a) => {
-                    let (s, c) = r(a).sin_cos();
-                    if let Some(slot) = regs.get_mut(ins.dst2 as usize) {
-                        *slot = c;
-                    }
+                    let (s, c) = regs.read(a).sin_cos();
+                    regs.put(ins.dst2, c);
                     s
                 }
-                Op::Atan2(y, x) => atan2(r(y), r(x)),
+                Op::Atan2(y, x) => atan2(regs.read(y), regs.read(x)),
                 Op::Sel(a, b, t, f) => {
-                    if r(a).re() <= r(b).re() {
-                        r(t)
+                    if regs.read(a).re() <= regs.read(b).re() {
+                        regs.read(t)
                     } else {
-                        r(f)
+                        regs.read(f)
                     }
                 }
+                Op::MulAdd(a, b, c) => {
+                    let p = regs.with2(a, b, |x, y| x.mul_ref(y));
+                    regs.with1(c, |z| p.add_ref(z))
+                }
+                Op::MulSub(a, b, c) => {
+                    let p = regs.with2(a, b, |x, y| x.mul_ref(y));
+                    regs.with1(c, |z| p.sub_ref(z))
+                }
+                Op::SubMul(c, a, b) => {
+                    let p = regs.with2(a, b, |x, y| x.mul_ref(y));
+                    regs.with1(c, |z| z.sub_ref(&p))
+                }
+                Op::MulCAdd(a, k, c) => {
+                    let p = regs.with1(a, |x| x.scaled(k));
+                    regs.with1(c, |z| p.add_ref(z))
+                }
+                Op::MulCSub(a, k, c) => {
+                    let p = regs.with1(a, |x| x.scaled(k));
+                    regs.with1(c, |z| p.sub_ref(z))
+                }
+                Op::SubMulC(c, a, k) => {
+                    let p = regs.with1(a, |x| x.scaled(k));
+                    regs.with1(c, |z| z.sub_ref(&p))
+                }
+                Op::MulCAddC(a, k1, k2) => regs.with1(a, |x| x.scaled(k1)) + k2,
+                Op::MulMul(a, b, c) => {
+                    let p = regs.with2(a, b, |x, y| x.mul_ref(y));
+                    regs.with1(c, |z| p.mul_ref(z))
+                }
+                Op::MulCMul(a, k, b) => {
+                    let p = regs.with1(a, |x| x.scaled(k));
+                    regs.with1(b, |z| p.mul_ref(z))
+                }
+                Op::DotAdd(a, b, c, d) => {
+                    let p = regs.with2(a, b, |x, y| x.mul_ref(y));
+                    let q = regs.with2(c, d, |x, y| x.mul_ref(y));
+                    p.add_ref(&q)
+                }
+                Op::DotSub(a, b, c, d) => {
+                    let p = regs.with2(a, b, |x, y| x.mul_ref(y));
+                    let q = regs.with2(c, d, |x, y| x.mul_ref(y));
+                    p.sub_ref(&q)
+                }
+                Op::DotCAdd(a, k1, c, k2) => {
+                    let p = regs.with1(a, |x| x.scaled(k1));
+                    let q = regs.with1(c, |x| x.scaled(k2));
+                    p.add_ref(&q)
+                }
+                Op::DotCSub(a, k1, c, k2) => {
+                    let p = regs.with1(a, |x| x.scaled(k1));
+                    let q = regs.with1(c, |x| x.scaled(k2));
+                    p.sub_ref(&q)
+                }
+                Op::DotMCAdd(a, b, c, k) => {
+                    let p = regs.with2(a, b, |x, y| x.mul_ref(y));
+                    let q = regs.with1(c, |x| x.scaled(k));
+                    p.add_ref(&q)
+                }
+                Op::DotMCSub(a, b, c, k) => {
+                    let p = regs.with2(a, b, |x, y| x.mul_ref(y));
+                    let q = regs.with1(c, |x| x.scaled(k));
+                    p.sub_ref(&q)
+                }
+                Op::DotCMSub(a, k, c, d) => {
+                    let p = regs.with1(a, |x| x.scaled(k));
+                    let q = regs.with2(c, d, |x, y| x.mul_ref(y));
+                    p.sub_ref(&q)
+                }
             };
-            if let Some(slot) = regs.get_mut(ins.dst as usize) {
-                *slot = value;
-            }
+            regs.put(ins.dst, value);
         }
     }
 
     /// Evaluates in `f64` and returns the outputs (allocates: for checks, not for the rhs).
     pub fn eval_f64(&self, inputs: &[f64]) -> Vec<f64> {
-        let mut regs = vec![0.0; self.n_regs];
-        self.eval(inputs, &mut regs);
-        self.outputs.iter().map(|&o| regs.get(o as usize).copied().unwrap_or(f64::NAN)).collect()
+        let mut out = vec![0.0; self.outputs.len()];
+        self.eval_outputs(inputs, &mut out);
+        out
     }
 
     /// Number of instructions (the cost of one evaluation, in tape steps).
@@ -240,19 +414,72 @@ impl Tape {
     }
 }
 
-#[inline(always)]
-fn with1<S: Scalar>(regs: &[S], a: u16, f: impl FnOnce(&S) -> S) -> S {
-    match regs.get(a as usize) {
-        Some(x) => f(x),
-        None => S::cst(f64::NAN),
+/// The registers after an evaluation ([`Tape::eval_with`]).
+pub struct Evaluated<'a, S> {
+    regs: &'a [S],
+    outputs: &'a [u16],
+}
+
+impl<S: Scalar> Evaluated<'_, S> {
+    /// Output `k` (NaN past the last).
+    #[inline(always)]
+    pub fn output(&self, k: usize) -> S {
+        self.outputs.get(k).and_then(|&r| self.regs.get(usize::from(r))).copied().unwrap_or(S::cst(f64::NAN))
     }
 }
 
-#[inline(always)]
-fn with2<S: Scalar>(regs: &[S], a: u16, b: u16, f: impl FnOnce(&S, &S) -> S) -> S {
-    match (regs.get(a as usize), regs.get(b as usize)) {
-        (Some(x), Some(y)) => f(x, y),
-        _ => S::cst(f64::NAN),
+/// A register file: a slice (indices checked, NaN outside) or a [`Masked`] array.
+trait Regs<S: Scalar> {
+    fn at(&self, i: u16) -> Option<&S>;
+    fn put(&mut self, i: u16, v: S);
+    #[inline(always)]
+    fn read(&self, i: u16) -> S {
+        self.at(i).copied().unwrap_or(S::cst(f64::NAN))
+    }
+    #[inline(always)]
+    fn with1(&self, a: u16, f: impl FnOnce(&S) -> S) -> S {
+        match self.at(a) {
+            Some(x) => f(x),
+            None => S::cst(f64::NAN),
+        }
+    }
+    #[inline(always)]
+    fn with2(&self, a: u16, b: u16, f: impl FnOnce(&S, &S) -> S) -> S {
+        match (self.at(a), self.at(b)) {
+            (Some(x), Some(y)) => f(x, y),
+            _ => S::cst(f64::NAN),
+        }
+    }
+}
+
+impl<S: Scalar> Regs<S> for [S] {
+    #[inline(always)]
+    fn at(&self, i: u16) -> Option<&S> {
+        self.get(usize::from(i))
+    }
+    #[inline(always)]
+    fn put(&mut self, i: u16, v: S) {
+        if let Some(s) = self.get_mut(usize::from(i)) {
+            *s = v;
+        }
+    }
+}
+
+/// `R` registers (a power of two) indexed modulo `R`: every access is in bounds, so the
+/// compiler drops the checks. The compiled indices are below `n_regs <= R`, so the mask
+/// never changes one.
+struct Masked<S, const R: usize>([S; R]);
+
+impl<S: Scalar, const R: usize> Regs<S> for Masked<S, R> {
+    #[inline(always)]
+    fn at(&self, i: u16) -> Option<&S> {
+        self.0.get(usize::from(i) & (R - 1))
+    }
+    #[inline(always)]
+    fn put(&mut self, i: u16, v: S) {
+        if let Some(s) = self.0.get_mut(usize::from(i) & (R - 1)) {
+            *s = v;
+        }
     }
 }
 
@@ -378,10 +605,16 @@ fn atan2<S: Scalar>(y: S, x: S) -> S {
     if !s.re().is_finite() {
         return S::cst(base);
     }
-    s.apply(atan_coefficients) + base
+    // The value is `base` itself (also a signed zero, as `f64::atan2` gives it).
+    s.apply(|s0, out| {
+        atan_coefficients(s0, out);
+        if let Some(o) = out.first_mut() {
+            *o = if s0 == 0.0 { base } else { *o + base };
+        }
+    })
 }
 
-#[derive(Clone, Copy, Debug)]
+#[derive(Clone, Copy, Debug, PartialEq)]
 enum BinOp {
     Add,
     Sub,
@@ -390,9 +623,9 @@ enum BinOp {
     Atan2,
 }
 
-#[derive(Clone, Copy, Debug)]
+/// An operation of the SSA program (the shapes of [`Op`], over values).
+#[derive(Clone, Copy, Debug, PartialEq)]
 enum SsaOp {
-    Var(u16),
     Bin(BinOp, Val, Val),
     Neg(Val),
     AddC(Val, f64),
@@ -406,13 +639,39 @@ enum SsaOp {
     Fn1(F1, Val),
     SinCos(Val),
     Sel(Val, Val, Val, Val),
+    MulAdd(Val, Val, Val),
+    MulSub(Val, Val, Val),
+    SubMul(Val, Val, Val),
+    MulCAdd(Val, f64, Val),
+    MulCSub(Val, f64, Val),
+    SubMulC(Val, Val, f64),
+    MulCAddC(Val, f64, f64),
+    MulMul(Val, Val, Val),
+    MulCMul(Val, f64, Val),
+    DotAdd(Val, Val, Val, Val),
+    DotSub(Val, Val, Val, Val),
+    DotCAdd(Val, f64, Val, f64),
+    DotCSub(Val, f64, Val, f64),
+    DotMCAdd(Val, Val, Val, f64),
+    DotMCSub(Val, Val, Val, f64),
+    DotCMSub(Val, f64, Val, Val),
 }
+
+/// Hash key of an operation: a tag and up to four words (values and constants by bits).
+type Key = (u8, [(u8, u64); 4]);
 
 impl SsaOp {
     fn operands(&self) -> Vec<Val> {
         match *self {
-            SsaOp::Var(_) => vec![],
-            SsaOp::Bin(_, a, b) => vec![a, b],
+            SsaOp::Bin(_, a, b)
+            | SsaOp::MulCAdd(a, _, b)
+            | SsaOp::MulCSub(a, _, b)
+            | SsaOp::SubMulC(a, b, _)
+            | SsaOp::MulCMul(a, _, b)
+            | SsaOp::DotCAdd(a, _, b, _)
+            | SsaOp::DotCSub(a, _, b, _) => vec![a, b],
+            SsaOp::DotMCAdd(a, b, c, _) | SsaOp::DotMCSub(a, b, c, _) | SsaOp::DotCMSub(a, _, b, c) => vec![a, b, c],
+            SsaOp::DotAdd(a, b, c, d) | SsaOp::DotSub(a, b, c, d) => vec![a, b, c, d],
             SsaOp::Neg(a)
             | SsaOp::AddC(a, _)
             | SsaOp::SubC(a, _)
@@ -423,81 +682,377 @@ impl SsaOp {
             | SsaOp::PowI(a, _)
             | SsaOp::PowC(a, _)
             | SsaOp::Fn1(_, a)
-            | SsaOp::SinCos(a) => vec![a],
+            | SsaOp::SinCos(a)
+            | SsaOp::MulCAddC(a, _, _) => vec![a],
             SsaOp::Sel(a, b, t, f) => vec![a, b, t, f],
+            SsaOp::MulAdd(a, b, c) | SsaOp::MulSub(a, b, c) | SsaOp::SubMul(a, b, c) | SsaOp::MulMul(a, b, c) => {
+                vec![a, b, c]
+            }
+        }
+    }
+
+    fn key(&self) -> Key {
+        let v = |x: Val| x.key();
+        let c = |x: f64| (0u8, x.to_bits());
+        let z = (0u8, 0u64);
+        match *self {
+            // `a + b` is `b + a` bit for bit for every scalar (sums of coefficients).
+            SsaOp::Bin(BinOp::Add, a, b) => {
+                let (p, q) = if v(a) <= v(b) { (a, b) } else { (b, a) };
+                (0, [v(p), v(q), z, z])
+            }
+            SsaOp::Bin(op, a, b) => (1 + op as u8, [v(a), v(b), z, z]),
+            SsaOp::Neg(a) => (10, [v(a), z, z, z]),
+            SsaOp::AddC(a, k) => (11, [v(a), c(k), z, z]),
+            SsaOp::SubC(a, k) => (12, [v(a), c(k), z, z]),
+            SsaOp::RSubC(k, a) => (13, [v(a), c(k), z, z]),
+            SsaOp::MulC(a, k) => (14, [v(a), c(k), z, z]),
+            SsaOp::DivC(a, k) => (15, [v(a), c(k), z, z]),
+            SsaOp::RDivC(k, a) => (16, [v(a), c(k), z, z]),
+            SsaOp::PowI(a, m) => (17, [v(a), (0, u64::from(m as u32)), z, z]),
+            SsaOp::PowC(a, p) => (18, [v(a), c(p), z, z]),
+            SsaOp::Fn1(f, a) => (19, [v(a), (0, f as u64), z, z]),
+            SsaOp::SinCos(a) => (20, [v(a), z, z, z]),
+            SsaOp::Sel(a, b, t, f) => (21, [v(a), v(b), v(t), v(f)]),
+            SsaOp::MulAdd(a, b, x) => (22, [v(a), v(b), v(x), z]),
+            SsaOp::MulSub(a, b, x) => (23, [v(a), v(b), v(x), z]),
+            SsaOp::SubMul(x, a, b) => (24, [v(x), v(a), v(b), z]),
+            SsaOp::MulCAdd(a, k, x) => (25, [v(a), c(k), v(x), z]),
+            SsaOp::MulCSub(a, k, x) => (26, [v(a), c(k), v(x), z]),
+            SsaOp::SubMulC(x, a, k) => (27, [v(x), v(a), c(k), z]),
+            SsaOp::MulCAddC(a, k1, k2) => (28, [v(a), c(k1), c(k2), z]),
+            SsaOp::MulMul(a, b, x) => (29, [v(a), v(b), v(x), z]),
+            SsaOp::MulCMul(a, k, b) => (30, [v(a), c(k), v(b), z]),
+            SsaOp::DotAdd(a, b, x, y) => (31, [v(a), v(b), v(x), v(y)]),
+            SsaOp::DotSub(a, b, x, y) => (32, [v(a), v(b), v(x), v(y)]),
+            SsaOp::DotCAdd(a, k1, x, k2) => (33, [v(a), c(k1), v(x), c(k2)]),
+            SsaOp::DotCSub(a, k1, x, k2) => (34, [v(a), c(k1), v(x), c(k2)]),
+            SsaOp::DotMCAdd(a, b, x, k) => (35, [v(a), v(b), v(x), c(k)]),
+            SsaOp::DotMCSub(a, b, x, k) => (36, [v(a), v(b), v(x), c(k)]),
+            SsaOp::DotCMSub(a, k, x, y) => (37, [v(a), c(k), v(x), v(y)]),
         }
     }
 }
 
-struct Builder {
-    prog: Vec<(SsaOp, bool)>,
-    /// Constants needed in registers (operands of `Bin`/`Sel`, or outputs).
-    consts: Vec<f64>,
+/// The SSA program under construction: operations, their hash index (common
+/// subexpressions) and, after [`Ssa::fuse`], which were absorbed into a later one.
+#[derive(Default)]
+struct Ssa {
+    prog: Vec<SsaOp>,
+    index: HashMap<Key, usize>,
+    dead: Vec<bool>,
 }
 
-impl Builder {
-    /// Linear-scan register allocation: a register is freed after the last use of its value;
-    /// outputs are never freed.
-    fn allocate(&mut self, outputs: &[Val], n_inputs: usize) -> Result<Tape, TapeError> {
-        // Constants that must live in registers: emitted first, as extra SSA values.
-        let mut needed: Vec<f64> = Vec::new();
-        let note = |v: Val, needed: &mut Vec<f64>| {
-            if let Val::Const(c) = v {
-                if !needed.iter().any(|x| x.to_bits() == c.to_bits()) {
-                    needed.push(c);
+impl Ssa {
+    /// The operation computing `v`, if it is the first result of one.
+    fn def(&self, v: Val) -> Option<SsaOp> {
+        match v {
+            Val::Ssa(k, false) => self.prog.get(k).copied(),
+            _ => None,
+        }
+    }
+
+    /// Adds `op` (after the value-preserving rewrites of negations), or returns the value
+    /// of an equal operation already there.
+    fn emit(&mut self, op: SsaOp) -> Val {
+        let neg_of = |s: &Ssa, v: Val| match s.def(v) {
+            Some(SsaOp::Neg(x)) => Some(x),
+            _ => None,
+        };
+        let op = match op {
+            // a + (-b) = a - b; (-a) + b = b - a; a - (-b) = a + b.
+            SsaOp::Bin(BinOp::Add, a, b) => match (neg_of(self, a), neg_of(self, b)) {
+                (_, Some(y)) => SsaOp::Bin(BinOp::Sub, a, y),
+                (Some(x), None) => SsaOp::Bin(BinOp::Sub, b, x),
+                _ => op,
+            },
+            SsaOp::Bin(BinOp::Sub, a, b) => match neg_of(self, b) {
+                Some(y) => SsaOp::Bin(BinOp::Add, a, y),
+                None => op,
+            },
+            // a*(-b) = (-a)*b = -(a*b), and likewise for a quotient: the negation moves to
+            // where a sum can absorb it (each product or quotient is the same number up to
+            // its sign, also coefficient by coefficient).
+            SsaOp::Bin(bin @ (BinOp::Mul | BinOp::Div), a, b) => match (neg_of(self, a), neg_of(self, b)) {
+                (Some(x), Some(y)) => SsaOp::Bin(bin, x, y),
+                (Some(x), None) => {
+                    let p = self.push(SsaOp::Bin(bin, x, b));
+                    SsaOp::Neg(p)
+                }
+                (None, Some(y)) => {
+                    let p = self.push(SsaOp::Bin(bin, a, y));
+                    SsaOp::Neg(p)
+                }
+                (None, None) => op,
+            },
+            // (-a)*k = a*(-k).
+            SsaOp::MulC(a, k) => match neg_of(self, a) {
+                Some(x) => SsaOp::MulC(x, -k),
+                None => op,
+            },
+            // -(-a) = a; -(a*k) = a*(-k).
+            SsaOp::Neg(a) => match self.def(a) {
+                Some(SsaOp::Neg(x)) => return x,
+                Some(SsaOp::MulC(x, k)) => SsaOp::MulC(x, -k),
+                _ => op,
+            },
+            _ => op,
+        };
+        self.push(op)
+    }
+
+    fn push(&mut self, op: SsaOp) -> Val {
+        let key = op.key();
+        if let Some(&k) = self.index.get(&key) {
+            return Val::Ssa(k, false);
+        }
+        let k = self.prog.len();
+        self.prog.push(op);
+        self.index.insert(key, k);
+        Val::Ssa(k, false)
+    }
+
+    /// `(sin x, cos x)` from one operation.
+    fn sin_cos(&mut self, x: Val) -> (Val, Val) {
+        let Val::Ssa(k, _) = self.push(SsaOp::SinCos(x)) else { return (Val::Const(f64::NAN), Val::Const(f64::NAN)) };
+        (Val::Ssa(k, false), Val::Ssa(k, true))
+    }
+
+    /// `x^m` as the products (and reciprocal) [`powi`] forms, in its order: the same value.
+    fn powi(&mut self, x: Val, m: i32) -> Val {
+        let e0 = m.unsigned_abs();
+        if e0 > MAX_EXPANDED_POWER {
+            return self.emit(SsaOp::PowI(x, m));
+        }
+        let mut e = e0;
+        let mut base = x;
+        let mut acc: Option<Val> = None;
+        while e > 0 {
+            if e & 1 == 1 {
+                acc = Some(match acc {
+                    None => base,
+                    Some(a) => self.emit(SsaOp::Bin(BinOp::Mul, a, base)),
+                });
+            }
+            e >>= 1;
+            if e > 0 {
+                base = self.emit(SsaOp::Bin(BinOp::Mul, base, base));
+            }
+        }
+        let p = acc.unwrap_or(Val::Const(1.0));
+        if m < 0 { self.emit(SsaOp::RDivC(1.0, p)) } else { p }
+    }
+
+    /// Fuses a product (`a*b` or `a*k`) into the one operation that uses it, when nothing
+    /// else (no other operation, no output) reads it: the fused instruction rounds the
+    /// product, then applies the operation, in the operands' original order.
+    fn fuse(&mut self, outputs: &[Val]) {
+        let np = self.prog.len();
+        // Operations some output still needs (rewrites leave negations nobody reads).
+        self.dead = vec![false; np];
+        self.sweep(outputs);
+        let mut uses = vec![0usize; np];
+        let count = |v: Val, uses: &mut Vec<usize>| {
+            if let Val::Ssa(k, false) = v {
+                if let Some(u) = uses.get_mut(k) {
+                    *u += 1;
                 }
             }
         };
-        for (op, _) in &self.prog {
-            match op {
-                SsaOp::Bin(_, a, b) => {
-                    note(*a, &mut needed);
-                    note(*b, &mut needed);
-                }
-                SsaOp::Sel(a, b, t, f) => {
-                    for v in [a, b, t, f] {
-                        note(*v, &mut needed);
-                    }
-                }
-                other => {
-                    for v in other.operands() {
-                        note(v, &mut needed);
-                    }
+        for (k, op) in self.prog.iter().enumerate() {
+            if !self.dead.get(k).copied().unwrap_or(true) {
+                for v in op.operands() {
+                    count(v, &mut uses);
                 }
             }
         }
         for &v in outputs {
-            note(v, &mut needed);
+            // Never fused away: an output keeps its own register.
+            count(v, &mut uses);
+            count(v, &mut uses);
         }
-        self.consts = needed;
-        let nc = self.consts.len();
+        for j in 0..np {
+            if self.dead.get(j).copied().unwrap_or(true) {
+                continue;
+            }
+            let Some(op) = self.prog.get(j).copied() else { continue };
+            // `v` is a product used only here and not yet fused: its operands.
+            let single = |s: &Ssa, v: Val| -> Option<(usize, SsaOp)> {
+                let Val::Ssa(k, false) = v else { return None };
+                if uses.get(k).copied() != Some(1) || s.dead.get(k).copied().unwrap_or(true) {
+                    return None;
+                }
+                s.prog.get(k).map(|&d| (k, d))
+            };
+            let mul = |s: &Ssa, v: Val| match single(s, v) {
+                Some((k, SsaOp::Bin(BinOp::Mul, a, b))) => Some((k, a, b)),
+                _ => None,
+            };
+            let mulc = |s: &Ssa, v: Val| match single(s, v) {
+                Some((k, SsaOp::MulC(a, c))) => Some((k, a, c)),
+                _ => None,
+            };
+            // A sum or difference of two such products: both fused.
+            let two = match op {
+                SsaOp::Bin(bin @ (BinOp::Add | BinOp::Sub), x, y) if x != y => {
+                    let add = bin == BinOp::Add;
+                    match (mul(self, x), mulc(self, x), mul(self, y), mulc(self, y)) {
+                        (Some((i, a, b)), _, Some((k, c, d)), _) => {
+                            Some((i, k, if add { SsaOp::DotAdd(a, b, c, d) } else { SsaOp::DotSub(a, b, c, d) }))
+                        }
+                        (_, Some((i, a, k1)), _, Some((k, c, k2))) => {
+                            Some((i, k, if add { SsaOp::DotCAdd(a, k1, c, k2) } else { SsaOp::DotCSub(a, k1, c, k2) }))
+                        }
+                        (Some((i, a, b)), _, _, Some((k, c, q))) => {
+                            Some((i, k, if add { SsaOp::DotMCAdd(a, b, c, q) } else { SsaOp::DotMCSub(a, b, c, q) }))
+                        }
+                        // `c*k + a*b` = `a*b + c*k`: a sum is symmetric bit for bit.
+                        (_, Some((i, c, q)), Some((k, a, b)), _) => {
+                            Some((i, k, if add { SsaOp::DotMCAdd(a, b, c, q) } else { SsaOp::DotCMSub(c, q, a, b) }))
+                        }
+                        _ => None,
+                    }
+                }
+                _ => None,
+            };
+            if let Some((i, k, f)) = two {
+                for d in [i, k] {
+                    if let Some(d) = self.dead.get_mut(d) {
+                        *d = true;
+                    }
+                }
+                if let Some(slot) = self.prog.get_mut(j) {
+                    *slot = f;
+                }
+                continue;
+            }
+            let fused = match op {
+                SsaOp::Bin(BinOp::Add, x, y) => {
+                    if let Some((k, a, b)) = mul(self, x) {
+                        Some((k, SsaOp::MulAdd(a, b, y)))
+                    } else if let Some((k, a, b)) = mul(self, y) {
+                        // `x + a*b` = `a*b + x`: a sum is symmetric bit for bit.
+                        Some((k, SsaOp::MulAdd(a, b, x)))
+                    } else if let Some((k, a, c)) = mulc(self, x) {
+                        Some((k, SsaOp::MulCAdd(a, c, y)))
+                    } else {
+                        mulc(self, y).map(|(k, a, c)| (k, SsaOp::MulCAdd(a, c, x)))
+                    }
+                }
+                SsaOp::Bin(BinOp::Sub, x, y) => {
+                    if let Some((k, a, b)) = mul(self, x) {
+                        Some((k, SsaOp::MulSub(a, b, y)))
+                    } else if let Some((k, a, b)) = mul(self, y) {
+                        Some((k, SsaOp::SubMul(x, a, b)))
+                    } else if let Some((k, a, c)) = mulc(self, x) {
+                        Some((k, SsaOp::MulCSub(a, c, y)))
+                    } else {
+                        mulc(self, y).map(|(k, a, c)| (k, SsaOp::SubMulC(x, a, c)))
+                    }
+                }
+                SsaOp::AddC(x, k2) => mulc(self, x).map(|(k, a, c)| (k, SsaOp::MulCAddC(a, c, k2))),
+                // `x - k2` = `x + (-k2)`.
+                SsaOp::SubC(x, k2) => mulc(self, x).map(|(k, a, c)| (k, SsaOp::MulCAddC(a, c, -k2))),
+                SsaOp::Bin(BinOp::Mul, x, y) => {
+                    if let Some((k, a, b)) = mul(self, x) {
+                        Some((k, SsaOp::MulMul(a, b, y)))
+                    } else {
+                        mulc(self, x).map(|(k, a, c)| (k, SsaOp::MulCMul(a, c, y)))
+                    }
+                }
+                _ => None,
+            };
+            if let Some((k, f)) = fused {
+                if let Some(d) = self.dead.get_mut(k) {
+                    *d = true;
+                }
+                if let Some(slot) = self.prog.get_mut(j) {
+                    *slot = f;
+                }
+            }
+        }
+        self.sweep(outputs);
+    }
+
+    /// Marks dead every operation no output depends on (through live operations).
+    fn sweep(&mut self, outputs: &[Val]) {
         let np = self.prog.len();
-        // Value slots: consts are 0..nc (slot c), SSA k (first) is nc + 2k, (second) nc + 2k + 1.
-        let slot = |v: Val, consts: &[f64]| -> usize {
+        let mut needed = vec![false; np];
+        for &v in outputs {
+            if let Val::Ssa(k, _) = v {
+                if let Some(n) = needed.get_mut(k) {
+                    *n = true;
+                }
+            }
+        }
+        for k in (0..np).rev() {
+            if !needed.get(k).copied().unwrap_or(false) || self.dead.get(k).copied().unwrap_or(true) {
+                continue;
+            }
+            for v in self.prog.get(k).map(SsaOp::operands).unwrap_or_default() {
+                if let Val::Ssa(i, _) = v {
+                    if let Some(n) = needed.get_mut(i) {
+                        *n = true;
+                    }
+                }
+            }
+        }
+        for (d, n) in self.dead.iter_mut().zip(&needed) {
+            *d |= !n;
+        }
+    }
+
+    /// Linear-scan register allocation: the inputs in registers `0..n_inputs`, constants
+    /// that must live in registers next, then a register per value, freed after the value's
+    /// last use (outputs are never freed).
+    fn allocate(&self, outputs: &[Val], n_inputs: usize) -> Result<Tape, TapeError> {
+        let live_ops = || self.prog.iter().enumerate().filter(|(k, _)| !self.dead.get(*k).copied().unwrap_or(false));
+        // Constants that must live in registers (operands of register-only shapes, outputs).
+        let mut consts: Vec<f64> = Vec::new();
+        let note = |v: Val, consts: &mut Vec<f64>| {
+            if let Val::Const(c) = v {
+                if !consts.iter().any(|x| x.to_bits() == c.to_bits()) {
+                    consts.push(c);
+                }
+            }
+        };
+        for (_, op) in live_ops() {
+            for v in op.operands() {
+                note(v, &mut consts);
+            }
+        }
+        for &v in outputs {
+            note(v, &mut consts);
+        }
+        let nc = consts.len();
+        let np = self.prog.len();
+        // Value slots: constants 0..nc, SSA k (first) nc + 2k, (second) nc + 2k + 1.
+        let slot = |v: Val| -> Option<usize> {
             match v {
-                Val::Const(c) => consts.iter().position(|x| x.to_bits() == c.to_bits()).unwrap_or(0),
-                Val::Ssa(k, second) => nc + 2 * k + usize::from(second),
+                Val::Const(c) => consts.iter().position(|x| x.to_bits() == c.to_bits()),
+                Val::In(_) => None,
+                Val::Ssa(k, second) => Some(nc + 2 * k + usize::from(second)),
             }
         };
         let n_slots = nc + 2 * np;
-        // Position (instruction index in the final order: consts first) of each slot's last use.
+        // Position of each slot's last use (instruction index; constants come first).
         let mut last = vec![0usize; n_slots];
         let mut is_output = vec![false; n_slots];
-        for (k, (op, _)) in self.prog.iter().enumerate() {
+        for (k, op) in live_ops() {
             for v in op.operands() {
-                if let Some(l) = last.get_mut(slot(v, &self.consts)) {
+                if let Some(l) = slot(v).and_then(|s| last.get_mut(s)) {
                     *l = nc + k;
                 }
             }
         }
         for &v in outputs {
-            if let Some(o) = is_output.get_mut(slot(v, &self.consts)) {
+            if let Some(o) = slot(v).and_then(|s| is_output.get_mut(s)) {
                 *o = true;
             }
         }
         let mut reg_of = vec![u16::MAX; n_slots];
         let mut free: Vec<u16> = Vec::new();
-        let mut n_regs = 0usize;
+        let mut n_regs = n_inputs;
         let mut take = |free: &mut Vec<u16>| -> Result<u16, TapeError> {
             if let Some(r) = free.pop() {
                 return Ok(r);
@@ -508,21 +1063,25 @@ impl Builder {
             n_regs += 1;
             Ok((n_regs - 1) as u16)
         };
-        let mut instrs = Vec::with_capacity(nc + np);
-        for (c_idx, &c) in self.consts.iter().enumerate() {
+        let mut instrs = Vec::with_capacity(np);
+        let mut const_regs = Vec::with_capacity(nc);
+        for (c_idx, &c) in consts.iter().enumerate() {
             let r = take(&mut free)?;
             if let Some(s) = reg_of.get_mut(c_idx) {
                 *s = r;
             }
-            instrs.push(Instr { op: Op::Const(c), dst: r, dst2: r });
+            const_regs.push((r, c));
         }
-        for (k, (op, two)) in self.prog.iter().enumerate() {
+        let reg = |v: Val, reg_of: &Vec<u16>| match v {
+            Val::In(k) => k,
+            v => slot(v).and_then(|s| reg_of.get(s)).copied().unwrap_or(0),
+        };
+        for (k, op) in live_ops() {
             let pos = nc + k;
-            let reg = |v: Val| reg_of.get(slot(v, &self.consts)).copied().unwrap_or(0);
+            let r = |v: Val| reg(v, &reg_of);
             let op2 = match *op {
-                SsaOp::Var(i) => Op::Var(i),
                 SsaOp::Bin(b, x, y) => {
-                    let (x, y) = (reg(x), reg(y));
+                    let (x, y) = (r(x), r(y));
                     match b {
                         BinOp::Add => Op::Add(x, y),
                         BinOp::Sub => Op::Sub(x, y),
@@ -531,25 +1090,41 @@ impl Builder {
                         BinOp::Atan2 => Op::Atan2(x, y),
                     }
                 }
-                SsaOp::Neg(a) => Op::Neg(reg(a)),
-                SsaOp::AddC(a, c) => Op::AddC(reg(a), c),
-                SsaOp::SubC(a, c) => Op::SubC(reg(a), c),
-                SsaOp::RSubC(c, a) => Op::RSubC(c, reg(a)),
-                SsaOp::MulC(a, c) => Op::MulC(reg(a), c),
-                SsaOp::DivC(a, c) => Op::DivC(reg(a), c),
-                SsaOp::RDivC(c, a) => Op::RDivC(c, reg(a)),
-                SsaOp::PowI(a, m) => Op::PowI(reg(a), m),
-                SsaOp::PowC(a, p) => Op::PowC(reg(a), p),
-                SsaOp::Fn1(f, a) => Op::Fn1(f, reg(a)),
-                SsaOp::SinCos(a) => Op::SinCos(reg(a)),
-                SsaOp::Sel(a, b, t, f) => Op::Sel(reg(a), reg(b), reg(t), reg(f)),
+                SsaOp::Neg(a) => Op::Neg(r(a)),
+                SsaOp::AddC(a, c) => Op::AddC(r(a), c),
+                SsaOp::SubC(a, c) => Op::SubC(r(a), c),
+                SsaOp::RSubC(c, a) => Op::RSubC(c, r(a)),
+                SsaOp::MulC(a, c) => Op::MulC(r(a), c),
+                SsaOp::DivC(a, c) => Op::DivC(r(a), c),
+                SsaOp::RDivC(c, a) => Op::RDivC(c, r(a)),
+                SsaOp::PowI(a, m) => Op::PowI(r(a), m),
+                SsaOp::PowC(a, p) => Op::PowC(r(a), p),
+                SsaOp::Fn1(f, a) => Op::Fn1(f, r(a)),
+                SsaOp::SinCos(a) => Op::SinCos(r(a)),
+                SsaOp::Sel(a, b, t, f) => Op::Sel(r(a), r(b), r(t), r(f)),
+                SsaOp::MulAdd(a, b, c) => Op::MulAdd(r(a), r(b), r(c)),
+                SsaOp::MulSub(a, b, c) => Op::MulSub(r(a), r(b), r(c)),
+                SsaOp::SubMul(c, a, b) => Op::SubMul(r(c), r(a), r(b)),
+                SsaOp::MulCAdd(a, q, c) => Op::MulCAdd(r(a), q, r(c)),
+                SsaOp::MulCSub(a, q, c) => Op::MulCSub(r(a), q, r(c)),
+                SsaOp::SubMulC(c, a, q) => Op::SubMulC(r(c), r(a), q),
+                SsaOp::MulCAddC(a, q1, q2) => Op::MulCAddC(r(a), q1, q2),
+                SsaOp::MulMul(a, b, c) => Op::MulMul(r(a), r(b), r(c)),
+                SsaOp::MulCMul(a, q, b) => Op::MulCMul(r(a), q, r(b)),
+                SsaOp::DotAdd(a, b, c, d) => Op::DotAdd(r(a), r(b), r(c), r(d)),
+                SsaOp::DotSub(a, b, c, d) => Op::DotSub(r(a), r(b), r(c), r(d)),
+                SsaOp::DotCAdd(a, k1, c, k2) => Op::DotCAdd(r(a), k1, r(c), k2),
+                SsaOp::DotCSub(a, k1, c, k2) => Op::DotCSub(r(a), k1, r(c), k2),
+                SsaOp::DotMCAdd(a, b, c, k) => Op::DotMCAdd(r(a), r(b), r(c), k),
+                SsaOp::DotMCSub(a, b, c, k) => Op::DotMCSub(r(a), r(b), r(c), k),
+                SsaOp::DotCMSub(a, k, c, d) => Op::DotCMSub(r(a), k, r(c), r(d)),
             };
             // Free operands whose last use is here (before choosing the destination: an
             // instruction may overwrite its own operand, the evaluation reads them first).
             // SinCos writes two registers, the first after reading: a freed operand may be
             // reused for either.
             for v in op.operands() {
-                let s = slot(v, &self.consts);
+                let Some(s) = slot(v) else { continue };
                 if last.get(s).copied() == Some(pos) && !is_output.get(s).copied().unwrap_or(true) {
                     if let Some(r) = reg_of.get(s).copied() {
                         if r != u16::MAX && !free.contains(&r) {
@@ -558,12 +1133,13 @@ impl Builder {
                     }
                 }
             }
+            let two = matches!(op, SsaOp::SinCos(_));
             let dst = take(&mut free)?;
-            let dst2 = if *two { take(&mut free)? } else { dst };
+            let dst2 = if two { take(&mut free)? } else { dst };
             if let Some(s) = reg_of.get_mut(nc + 2 * k) {
                 *s = dst;
             }
-            if *two {
+            if two {
                 if let Some(s) = reg_of.get_mut(nc + 2 * k + 1) {
                     *s = dst2;
                 }
@@ -571,7 +1147,7 @@ impl Builder {
             instrs.push(Instr { op: op2, dst, dst2 });
             // A result nobody reads (and no output) frees its register at once.
             for (s, is_two) in [(nc + 2 * k, false), (nc + 2 * k + 1, true)] {
-                if is_two && !*two {
+                if is_two && !two {
                     continue;
                 }
                 let unused = last.get(s).copied() == Some(0) && !is_output.get(s).copied().unwrap_or(true);
@@ -584,7 +1160,7 @@ impl Builder {
             }
         }
         // Constants used by nothing after their definition stay allocated (few, harmless).
-        let outputs = outputs.iter().map(|&v| reg_of.get(slot(v, &self.consts)).copied().unwrap_or(0)).collect();
-        Ok(Tape { instrs, n_regs, n_inputs, outputs })
+        let outputs = outputs.iter().map(|&v| reg(v, &reg_of)).collect();
+        Ok(Tape { consts: const_regs, instrs, n_regs, n_inputs, outputs })
     }
 }

@@ -177,3 +177,181 @@ fn constants_fold() {
     let tape = Tape::compile(&g, &[c.root], 3).unwrap();
     assert_eq!(tape.eval_f64(&[0.0; 3]), vec![0.5 * 9.81]);
 }
+
+/// The tape's value in every evaluation path at `vars`: the `f64` register array, the
+/// `f64` slice, and the value part of dual numbers, each checked against the graph's
+/// reference evaluation bit for bit (NaN against NaN).
+fn check_paths(src: &str, g: &Graph, root: Id, tape: &Tape, vars: &[f64; 3]) {
+    let want = g.eval_f64(root, vars);
+    let same = |a: f64, b: f64| a.to_bits() == b.to_bits() || (a.is_nan() && b.is_nan());
+    let fast = tape.eval_f64(vars)[0];
+    assert!(same(fast, want), "{src} at {vars:?}: tape {fast:e} vs graph {want:e}");
+    let mut regs = vec![0.0; tape.n_regs];
+    tape.eval(vars, &mut regs);
+    let slice = regs[tape.outputs[0] as usize];
+    assert!(same(slice, want), "{src} at {vars:?}: slice path {slice:e} vs graph {want:e}");
+    let duals: Vec<Dual<3>> = vars.iter().enumerate().map(|(i, &v)| Dual::var(v, i)).collect();
+    let mut out = [Dual::<3>::cst(0.0)];
+    tape.eval_outputs(&duals, &mut out);
+    assert!(same(out[0].v, want), "{src} at {vars:?}: dual value {:e} vs graph {want:e}", out[0].v);
+}
+
+/// Points with the special values: signed zeros, infinities, NaN, huge and tiny numbers.
+fn special_points() -> Vec<[f64; 3]> {
+    let s = [0.0, -0.0, 1.0, -2.5, 0.3, f64::INFINITY, f64::NEG_INFINITY, f64::NAN, 1e300, -1e-300];
+    let mut pts = Vec::new();
+    for (i, &a) in s.iter().enumerate() {
+        for (j, &b) in s.iter().enumerate() {
+            pts.push([a, b, s[(i + 2 * j) % s.len()]]);
+        }
+    }
+    pts
+}
+
+/// Each rewrite of the compiler fires on its pattern and keeps the value bit for bit.
+#[test]
+fn tape_rewrites_fire_and_keep_every_bit() {
+    let cases: &[(&str, &dyn Fn(&Op) -> bool)] = &[
+        // Integer powers as products, shared with an explicit product (common subexpression).
+        ("x^2 + x*x", &|op| matches!(op, Op::Add(a, b) if a == b)),
+        ("x^5 - y^-3", &|op| matches!(op, Op::RDivC(..))),
+        // `a + b` and `b + a` computed once.
+        ("(x + y)*sin(x_dot) + (y + x)*cos(x_dot)", &|op| matches!(op, Op::DotAdd(a, _, c, _) if a == c)),
+        // Negations folded into their users.
+        ("x + -y", &|op| matches!(op, Op::Sub(..))),
+        ("x - -y", &|op| matches!(op, Op::Add(..))),
+        ("-(2*x) + y", &|op| matches!(op, Op::MulCAdd(_, k, _) if *k == -2.0)),
+        ("(-x)*3 - y", &|op| matches!(op, Op::MulCSub(_, k, _) if *k == -3.0)),
+        // Products fused into their one user.
+        ("x*y + x_dot", &|op| matches!(op, Op::MulAdd(..))),
+        ("x*y - x_dot", &|op| matches!(op, Op::MulSub(..))),
+        ("x_dot - x*y", &|op| matches!(op, Op::SubMul(..))),
+        ("x_dot - m*x", &|op| matches!(op, Op::SubMulC(..))),
+        ("g*x + 1", &|op| matches!(op, Op::MulCAddC(..))),
+        ("g*x - 1", &|op| matches!(op, Op::MulCAddC(_, _, k) if *k == -1.0)),
+        ("x*y*x_dot", &|op| matches!(op, Op::MulMul(..))),
+        ("m*x*y", &|op| matches!(op, Op::MulCMul(..))),
+        // Sums and differences of two products.
+        ("x*y + x_dot*x", &|op| matches!(op, Op::DotAdd(..))),
+        ("x*y - x_dot*x", &|op| matches!(op, Op::DotSub(..))),
+        ("m*x + g*y", &|op| matches!(op, Op::DotCAdd(..))),
+        ("m*x - g*y", &|op| matches!(op, Op::DotCSub(..))),
+        ("x*y + g*x_dot", &|op| matches!(op, Op::DotMCAdd(..))),
+        ("g*x_dot + x*y", &|op| matches!(op, Op::DotMCAdd(..))),
+        ("x*y - g*x_dot", &|op| matches!(op, Op::DotMCSub(..))),
+        ("g*x_dot - x*y", &|op| matches!(op, Op::DotCMSub(..))),
+        ("x*(-y) + x_dot", &|op| matches!(op, Op::SubMul(..))),
+    ];
+    for (src, fired) in cases {
+        let mut g = Graph::new();
+        let p = parse(src, &names(), &mut g).unwrap();
+        let tape = Tape::compile(&g, &[p.root], 3).unwrap();
+        assert!(tape.instrs.iter().any(|i| fired(&i.op)), "{src}: {:?}", tape.instrs);
+        for pt in special_points() {
+            check_paths(src, &g, p.root, &tape, &pt);
+        }
+    }
+    // A product read twice is computed once and not fused.
+    let mut g = Graph::new();
+    let p = parse("x*y + sin(x*y)", &names(), &mut g).unwrap();
+    let tape = Tape::compile(&g, &[p.root], 3).unwrap();
+    assert_eq!(tape.instrs.iter().filter(|i| matches!(i.op, Op::Mul(..))).count(), 1, "{:?}", tape.instrs);
+    assert!(!tape.instrs.iter().any(|i| matches!(i.op, Op::MulAdd(..))), "{:?}", tape.instrs);
+    // A product that is also an output keeps its register.
+    let a = parse("x*y", &names(), &mut g).unwrap();
+    let b = parse("x*y + 1", &names(), &mut g).unwrap();
+    let tape = Tape::compile(&g, &[a.root, b.root], 3).unwrap();
+    let out = tape.eval_f64(&[2.0, 3.0, 0.0]);
+    assert_eq!(out, vec![6.0, 7.0]);
+}
+
+/// Random expressions of the whole language (a fixed-seed generator) at random and special
+/// points: the compiled tape equals the graph's reference evaluation bit for bit in every
+/// path, NaN and infinities included.
+#[test]
+fn random_expressions_evaluate_like_the_graph() {
+    let mut seed: u64 = 0x9e37_79b9_7f4a_7c15;
+    let mut next = move |n: u64| {
+        seed = seed.wrapping_mul(6_364_136_223_846_793_005).wrapping_add(1_442_695_040_888_963_407);
+        (seed >> 33) % n
+    };
+    fn random_expr(next: &mut dyn FnMut(u64) -> u64, depth: u32) -> String {
+        let leaves = ["x", "y", "x_dot", "m", "g", "2", "0.5", "3", "0", "1"];
+        if depth == 0 || next(4) == 0 {
+            return leaves[next(leaves.len() as u64) as usize].to_string();
+        }
+        let k = next(14);
+        let pick = next(8) as usize;
+        let (a, b, c, d) = (
+            random_expr(next, depth - 1),
+            random_expr(next, depth - 1),
+            random_expr(next, depth - 1),
+            random_expr(next, depth - 1),
+        );
+        match k {
+            0 => format!("({a} + {b})"),
+            1 => format!("({a} - {b})"),
+            2 | 3 => format!("{a} * {b}"),
+            4 => format!("({a}) / ({b})"),
+            5 => format!("-({a})"),
+            6 => format!("({a})^{}", ["2", "3", "-2", "5", "0.5", "1.5", "4", "-1"][pick]),
+            7 => format!("{}({a})", ["sin", "cos", "tan", "exp", "log", "sqrt", "abs", "tanh"][pick]),
+            8 => format!("atan2({a}, {b})"),
+            9 => format!("{}({a}, {b})", ["min", "max"][pick % 2]),
+            10 => format!("sin({a})*cos({a}) + {b}"),
+            11 => format!("{a} - {b} * {c}"),
+            _ => format!("{a}*{b} + {c}*{d}"),
+        }
+    }
+    let mut fired = [false; 4];
+    for _ in 0..400 {
+        let src = random_expr(&mut next, 4);
+        let mut g = Graph::new();
+        let p = parse(&src, &names(), &mut g).unwrap_or_else(|e| panic!("{src}: {e}"));
+        let tape = Tape::compile(&g, &[p.root], 3).unwrap();
+        for i in &tape.instrs {
+            match i.op {
+                Op::MulAdd(..) | Op::MulSub(..) | Op::SubMul(..) | Op::DotAdd(..) | Op::DotSub(..) => fired[0] = true,
+                Op::MulCAdd(..)
+                | Op::MulCSub(..)
+                | Op::SubMulC(..)
+                | Op::MulCAddC(..)
+                | Op::DotCAdd(..)
+                | Op::DotCSub(..)
+                | Op::DotMCAdd(..)
+                | Op::DotMCSub(..)
+                | Op::DotCMSub(..) => fired[1] = true,
+                Op::MulMul(..) | Op::MulCMul(..) => fired[2] = true,
+                Op::SinCos(_) => fired[3] = true,
+                _ => {}
+            }
+        }
+        let mut pts = special_points();
+        for _ in 0..10 {
+            pts.push([0.0; 3].map(|_| (next(20_001) as f64 - 10_000.0) / 2_500.0));
+        }
+        for pt in &pts {
+            check_paths(&src, &g, p.root, &tape, pt);
+        }
+    }
+    assert_eq!(fired, [true; 4], "every fused shape and sin_cos occur among the random expressions");
+}
+
+/// Tapes past the stack register arrays (more than 256 registers) evaluate on the heap,
+/// with the same values; the register limit is a named error.
+#[test]
+fn large_tapes_and_the_register_limit() {
+    let mut g = Graph::new();
+    let n = names();
+    let roots: Vec<Id> = (0..300).map(|k| parse(&format!("sin(x + {k})*y + {k}"), &n, &mut g).unwrap().root).collect();
+    let tape = Tape::compile(&g, &roots, 3).unwrap();
+    assert!(tape.n_regs > 256, "{} registers", tape.n_regs);
+    let out = tape.eval_f64(&[0.3, -1.5, 0.0]);
+    for (k, (&r, v)) in roots.iter().zip(&out).enumerate() {
+        assert_eq!(v.to_bits(), g.eval_f64(r, &[0.3, -1.5, 0.0]).to_bits(), "root {k}");
+    }
+    assert_eq!(
+        Tape::compile(&g, &roots, MAX_REGS + 1).unwrap_err().to_string(),
+        format!("the expressions need more than {MAX_REGS} registers")
+    );
+}

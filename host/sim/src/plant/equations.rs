@@ -17,7 +17,7 @@ use std::collections::HashSet;
 use std::sync::{Arc, Mutex, OnceLock};
 
 use super::{Plant, Scalar};
-use crate::expr::{self, ExprError, Graph, Id, Names, Parsed, Tape};
+use crate::expr::{self, Evaluated, ExprError, Graph, Id, Names, Parsed, Tape};
 
 /// Largest number of generalized coordinates of an equations plant (states `N = 2n <= 8`).
 pub const MAX_COORDINATES: usize = 4;
@@ -87,9 +87,13 @@ pub struct EquationsModel {
     /// velocities) in the same layout: the symbolic Jacobian (`None` when the derivatives
     /// outgrow the graph's limits; the Jacobian then comes from dual numbers).
     jac_tape: Option<Tape>,
+    /// Bit `k` set: output `k` of the Jacobian tape is identically zero.
+    jac_zero: u128,
     /// `sum q'_i dL/dq'_i - L` (Lagrangian form only).
     energy: Option<Tape>,
     equilibrium: Vec<f64>,
+    /// `equilibrium` padded with zeros to [`MAX_COORDINATES`] (the right-hand side's copy).
+    equilibrium_pad: [f64; MAX_COORDINATES],
 }
 
 impl EquationsModel {
@@ -249,6 +253,13 @@ impl EquationsModel {
             }
         }
         let jac_tape = if g.too_large() { None } else { Tape::compile(&g, &jac_roots, n_inputs).ok() };
+        // Derivatives that are identically zero (no dependence): skipped by the Jacobian.
+        let mut jac_zero = 0u128;
+        for (k, &r) in jac_roots.iter().enumerate().skip(roots.len()) {
+            if g.constant(r) == Some(0.0) {
+                jac_zero |= 1u128.checked_shl(k as u32).unwrap_or(0);
+            }
+        }
         let equilibrium = match &spec.equilibrium {
             None => vec![0.0; n],
             Some(e) => {
@@ -269,7 +280,21 @@ impl EquationsModel {
             state_names.push(intern(c));
             state_names.push(intern(&format!("{c}_dot")));
         }
-        let model = Self { n, coordinates: spec.coordinates.clone(), state_names, tape, jac_tape, energy, equilibrium };
+        let mut equilibrium_pad = [0.0; MAX_COORDINATES];
+        for (p, e) in equilibrium_pad.iter_mut().zip(&equilibrium) {
+            *p = *e;
+        }
+        let model = Self {
+            n,
+            coordinates: spec.coordinates.clone(),
+            state_names,
+            tape,
+            jac_tape,
+            jac_zero,
+            energy,
+            equilibrium,
+            equilibrium_pad,
+        };
         model.check_mass(&g, &mass)?;
         model.check_equilibrium(&spec.form)?;
         Ok(model)
@@ -288,6 +313,12 @@ impl EquationsModel {
     /// The compiled tape (mass upper triangle, then forces).
     pub fn tape(&self) -> &Tape {
         &self.tape
+    }
+
+    /// The compiled Jacobian tape (the values, then their derivatives by each state), if
+    /// the derivatives stayed within the graph's limits.
+    pub fn jac_tape(&self) -> Option<&Tape> {
+        self.jac_tape.as_ref()
     }
 
     pub fn equilibrium(&self) -> &[f64] {
@@ -478,70 +509,17 @@ impl EquationsModel {
         Ok(())
     }
 
-    /// `dx/dt` for `N = 2n` states (`N` is checked by [`EquationsPlant::new`]).
-    #[inline]
-    fn rhs<S: Scalar, const N: usize>(&self, x: &[S; N], u: S) -> [S; N] {
-        let n = self.n;
-        let need = self.tape.n_regs + n * n + n;
-        let mut out = [S::cst(0.0); N];
-        // 2n + 1 inputs: the coordinates (deviation plus equilibrium), velocities, u.
+    /// The tape's inputs at state `x`: the coordinates (deviation plus equilibrium), the
+    /// velocities, `u` (`2n + 1` of the 9 slots; the loops run over the `N / 2`
+    /// coordinates the state has, a constant).
+    #[inline(always)]
+    fn inputs<S: Scalar, const N: usize>(&self, x: &[S; N], u: S) -> [S; 9] {
+        let n = N / 2;
+        let nan = S::cst(f64::NAN);
         let mut inputs = [S::cst(0.0); 9];
         for i in 0..n {
-            let q = x.get(2 * i).copied().unwrap_or(S::cst(f64::NAN));
-            let e = self.equilibrium.get(i).copied().unwrap_or(0.0);
-            if let Some(s) = inputs.get_mut(i) {
-                *s = if e == 0.0 { q } else { q + e };
-            }
-            if let Some(s) = inputs.get_mut(n + i) {
-                *s = x.get(2 * i + 1).copied().unwrap_or(S::cst(f64::NAN));
-            }
-        }
-        if let Some(s) = inputs.get_mut(2 * n) {
-            *s = u;
-        }
-        with_scratch::<S, _>(need, |scratch| {
-            let (regs, rest) = scratch.split_at_mut(self.tape.n_regs.min(scratch.len()));
-            self.tape.eval(&inputs, regs);
-            let (a, b) = rest.split_at_mut((n * n).min(rest.len()));
-            let nm = n * (n + 1) / 2;
-            let reg = |k: usize| {
-                self.tape.outputs.get(k).and_then(|&o| regs.get(o as usize)).copied().unwrap_or(S::cst(f64::NAN))
-            };
-            for i in 0..n {
-                for j in 0..n {
-                    let (p, q) = if i <= j { (i, j) } else { (j, i) };
-                    if let Some(s) = a.get_mut(i * n + j) {
-                        *s = reg(upper_index(n, p, q));
-                    }
-                }
-                if let Some(s) = b.get_mut(i) {
-                    *s = reg(nm + i);
-                }
-            }
-            lu_solve(a, b, n);
-            for i in 0..n {
-                if let Some(s) = out.get_mut(2 * i) {
-                    *s = inputs.get(n + i).copied().unwrap_or(S::cst(f64::NAN));
-                }
-                if let Some(s) = out.get_mut(2 * i + 1) {
-                    *s = b.get(i).copied().unwrap_or(S::cst(f64::NAN));
-                }
-            }
-        });
-        out
-    }
-
-    /// `f(x, u)` and `df/dx` in `f64` from the symbolic derivatives of `M` and `f`:
-    /// `q'' = M^-1 f`, `dq''/dx_k = M^-1 (df/dx_k - dM/dx_k q'')`; `f` is [`rhs`]'s to the
-    /// bit. `None` without a Jacobian tape.
-    fn jacobian<const N: usize>(&self, x: &[f64; N], u: f64) -> Option<([f64; N], [[f64; N]; N])> {
-        let jt = self.jac_tape.as_ref()?;
-        let n = self.n;
-        let nan = f64::NAN;
-        let mut inputs = [0.0; 9];
-        for i in 0..n {
             let q = x.get(2 * i).copied().unwrap_or(nan);
-            let e = self.equilibrium.get(i).copied().unwrap_or(0.0);
+            let e = self.equilibrium_pad.get(i).copied().unwrap_or(0.0);
             if let Some(s) = inputs.get_mut(i) {
                 *s = if e == 0.0 { q } else { q + e };
             }
@@ -552,69 +530,153 @@ impl EquationsModel {
         if let Some(s) = inputs.get_mut(2 * n) {
             *s = u;
         }
-        let nm = n * (n + 1) / 2;
-        let block = nm + n;
+        inputs
+    }
+
+    /// `dx/dt` for `N = 2n` states (`N` is checked by [`EquationsPlant::new`]).
+    #[inline]
+    fn rhs<S: Scalar, const N: usize>(&self, x: &[S; N], u: S) -> [S; N] {
+        let n = N / 2;
+        let inputs = self.inputs(x, u);
+        let mut out = [S::cst(0.0); N];
+        // q'': small scalars on the stack, the solve unrolled for the coordinate count; a
+        // power series (kilobytes) through a heap scratch.
+        let mut qdd = [S::cst(f64::NAN); MAX_COORDINATES];
+        if core::mem::size_of::<S>() <= 128 {
+            qdd = self.tape.eval_with(&inputs, |e| match n {
+                1 => solve_small::<S, 1>(e),
+                2 => solve_small::<S, 2>(e),
+                3 => solve_small::<S, 3>(e),
+                _ => solve_small::<S, 4>(e),
+            });
+        } else {
+            let nm = n * (n + 1) / 2;
+            let mut scratch = vec![S::cst(0.0); nm + n + n * n];
+            let (outs, a) = scratch.split_at_mut(nm + n);
+            self.tape.eval_outputs(inputs.get(..2 * n + 1).unwrap_or_default(), outs);
+            for i in 0..n {
+                for j in 0..n {
+                    let (p, q) = if i <= j { (i, j) } else { (j, i) };
+                    if let Some(s) = a.get_mut(i * n + j) {
+                        *s = outs.get(upper_index(n, p, q)).copied().unwrap_or(S::cst(f64::NAN));
+                    }
+                }
+            }
+            let (_, b) = outs.split_at_mut(nm.min(outs.len()));
+            lu_solve(a, b, n);
+            for (d, s) in qdd.iter_mut().zip(b.iter()) {
+                *d = *s;
+            }
+        }
+        for i in 0..n {
+            if let Some(s) = out.get_mut(2 * i) {
+                *s = inputs.get(n + i).copied().unwrap_or(S::cst(f64::NAN));
+            }
+            if let Some(s) = out.get_mut(2 * i + 1) {
+                *s = qdd.get(i).copied().unwrap_or(S::cst(f64::NAN));
+            }
+        }
+        out
+    }
+
+    /// `f(x, u)` and `df/dx` in `f64` from the symbolic derivatives of `M` and `f`:
+    /// `q'' = M^-1 f`, `dq''/dx_k = M^-1 (df/dx_k - dM/dx_k q'')`; `f` is [`rhs`]'s to the
+    /// bit. `None` without a Jacobian tape.
+    fn jacobian<const N: usize>(&self, x: &[f64; N], u: f64) -> Option<([f64; N], [[f64; N]; N])> {
+        let jt = self.jac_tape.as_ref()?;
         let mut f = [0.0; N];
         let mut jac = [[0.0; N]; N];
-        with_scratch::<f64, _>(jt.n_regs, |regs| {
-            jt.eval(&inputs, regs);
-            let out = |k: usize| jt.outputs.get(k).and_then(|&o| regs.get(o as usize)).copied().unwrap_or(nan);
-            // M and the right-hand side of block `b` (0: values, 1 + v: derivatives by v).
-            let m_of = |b: usize| -> [f64; 16] {
-                let mut a = [0.0; 16];
-                for i in 0..n {
-                    for j in 0..n {
-                        let (p, q) = if i <= j { (i, j) } else { (j, i) };
-                        if let Some(s) = a.get_mut(i * n + j) {
-                            *s = out(b * block + upper_index(n, p, q));
-                        }
-                    }
-                }
-                a
-            };
-            // M factored once; q'' and every column solved with the factors (the same
-            // arithmetic as `lu_solve`, so q'' is the right-hand side's to the bit).
-            let mut lu = m_of(0);
-            let mut perm = [0usize; 4];
-            lu_factor(&mut lu[..n * n], &mut perm, n);
-            let mut qdd = [0.0; 4];
-            for (i, s) in qdd.iter_mut().enumerate().take(n) {
-                *s = out(nm + i);
-            }
-            lu_apply(&lu[..n * n], &perm, &mut qdd[..n], n);
-            for i in 0..n {
-                if let Some(s) = f.get_mut(2 * i) {
-                    *s = inputs.get(n + i).copied().unwrap_or(nan);
-                }
-                if let Some(s) = f.get_mut(2 * i + 1) {
-                    *s = qdd.get(i).copied().unwrap_or(nan);
-                }
-                // d(q'_i)/dx: 1 at the velocity's own state.
-                if let Some(s) = jac.get_mut(2 * i).and_then(|r| r.get_mut(2 * i + 1)) {
-                    *s = 1.0;
-                }
-            }
-            for state in 0..N {
-                let v = if state % 2 == 0 { state / 2 } else { n + state / 2 };
-                let base = (1 + v) * block;
-                let mut c = [0.0; 4];
-                for (i, ci) in c.iter_mut().enumerate().take(n) {
-                    let mut s = out(base + nm + i);
-                    for (j, qj) in qdd.iter().enumerate().take(n) {
-                        let (p, q) = if i <= j { (i, j) } else { (j, i) };
-                        s -= out(base + upper_index(n, p, q)) * qj;
-                    }
-                    *ci = s;
-                }
-                lu_apply(&lu[..n * n], &perm, &mut c[..n], n);
-                for i in 0..n {
-                    if let Some(s) = jac.get_mut(2 * i + 1).and_then(|r| r.get_mut(state)) {
-                        *s = c.get(i).copied().unwrap_or(nan);
-                    }
-                }
-            }
-        });
+        match self.n {
+            1 => self.jacobian_c::<N, 1>(jt, x, u, &mut f, &mut jac),
+            2 => self.jacobian_c::<N, 2>(jt, x, u, &mut f, &mut jac),
+            3 => self.jacobian_c::<N, 3>(jt, x, u, &mut f, &mut jac),
+            _ => self.jacobian_c::<N, 4>(jt, x, u, &mut f, &mut jac),
+        }
         Some((f, jac))
+    }
+
+    /// [`Self::jacobian`] for `C = n` coordinates (the loops unrolled), into `f` and `jac`
+    /// (zero on entry).
+    #[inline(always)]
+    fn jacobian_c<const N: usize, const C: usize>(
+        &self,
+        jt: &Tape,
+        x: &[f64; N],
+        u: f64,
+        f: &mut [f64; N],
+        jac: &mut [[f64; N]; N],
+    ) {
+        let inputs = self.inputs(x, u);
+        jt.eval_with(&inputs, |e| self.jacobian_from::<N, C>(e, &inputs, f, jac))
+    }
+
+    /// [`Self::jacobian_c`] from the evaluated Jacobian tape.
+    #[inline(always)]
+    fn jacobian_from<const N: usize, const C: usize>(
+        &self,
+        e: &Evaluated<'_, f64>,
+        inputs: &[f64; 9],
+        f: &mut [f64; N],
+        jac: &mut [[f64; N]; N],
+    ) {
+        let nan = f64::NAN;
+        let nm = C * (C + 1) / 2;
+        let block = nm + C;
+        let out = |k: usize| e.output(k);
+        let zero = |k: usize| self.jac_zero.checked_shr(k as u32).unwrap_or(0) & 1 == 1;
+        // M factored once; q'' and every column solved with the factors (the same
+        // arithmetic as `solve_small`, so q'' is the right-hand side's to the bit).
+        let mut lu = [[0.0; C]; C];
+        for (i, row) in lu.iter_mut().enumerate() {
+            for (j, s) in row.iter_mut().enumerate() {
+                let (p, q) = if i <= j { (i, j) } else { (j, i) };
+                *s = out(upper_index(C, p, q));
+            }
+        }
+        let perm = lu_factor(&mut lu);
+        let mut qdd = [0.0; C];
+        for (i, s) in qdd.iter_mut().enumerate() {
+            *s = out(nm + i);
+        }
+        lu_apply(&lu, &perm, &mut qdd);
+        for i in 0..C {
+            if let Some(s) = f.get_mut(2 * i) {
+                *s = inputs.get(C + i).copied().unwrap_or(nan);
+            }
+            if let Some(s) = f.get_mut(2 * i + 1) {
+                *s = qdd.get(i).copied().unwrap_or(nan);
+            }
+            // d(q'_i)/dx: 1 at the velocity's own state.
+            if let Some(s) = jac.get_mut(2 * i).and_then(|r| r.get_mut(2 * i + 1)) {
+                *s = 1.0;
+            }
+        }
+        for state in 0..N {
+            let v = if state % 2 == 0 { state / 2 } else { C + state / 2 };
+            let base = (1 + v) * block;
+            // A state neither M nor f depends on: a zero column.
+            if (base..base + block).all(zero) {
+                continue;
+            }
+            let mut c = [0.0; C];
+            for (i, ci) in c.iter_mut().enumerate() {
+                let mut s = if zero(base + nm + i) { 0.0 } else { out(base + nm + i) };
+                for (j, qj) in qdd.iter().enumerate() {
+                    let (p, q) = if i <= j { (i, j) } else { (j, i) };
+                    let k = base + upper_index(C, p, q);
+                    if !zero(k) {
+                        s -= out(k) * qj;
+                    }
+                }
+                *ci = s;
+            }
+            lu_apply(&lu, &perm, &mut c);
+            for (i, ci) in c.iter().enumerate() {
+                if let Some(s) = jac.get_mut(2 * i + 1).and_then(|r| r.get_mut(state)) {
+                    *s = *ci;
+                }
+            }
+        }
     }
 }
 
@@ -623,14 +685,77 @@ fn upper_index(n: usize, a: usize, b: usize) -> usize {
     a * n - a * a.saturating_sub(1) / 2 - a + b
 }
 
-/// [`lu_solve`]'s elimination of `a` alone: the multipliers stored below the diagonal, the
-/// pivot row of each step in `perm`.
-fn lu_factor(a: &mut [f64], perm: &mut [usize; 4], n: usize) {
-    let at = |a: &[f64], i: usize, j: usize| a.get(i * n + j).copied().unwrap_or(f64::NAN);
-    for k in 0..n {
+/// `M q'' = f` for `C` coordinates from the tape's outputs (`M`'s upper triangle, then
+/// `f`): LU with partial pivoting on the values, [`lu_solve`]'s arithmetic in its order
+/// (so every scalar type gets its values), on arrays of the coordinate count.
+#[inline(always)]
+fn solve_small<S: Scalar, const C: usize>(outs: &Evaluated<'_, S>) -> [S; MAX_COORDINATES] {
+    let nan = S::cst(f64::NAN);
+    let nm = C * (C + 1) / 2;
+    let mut a = [[nan; C]; C];
+    for (i, row) in a.iter_mut().enumerate() {
+        for (j, s) in row.iter_mut().enumerate() {
+            let (p, q) = if i <= j { (i, j) } else { (j, i) };
+            *s = outs.output(upper_index(C, p, q));
+        }
+    }
+    let mut b = [nan; C];
+    for (i, s) in b.iter_mut().enumerate() {
+        *s = outs.output(nm + i);
+    }
+    let at = |a: &[[S; C]; C], i: usize, j: usize| a.get(i).and_then(|r| r.get(j)).copied().unwrap_or(nan);
+    for k in 0..C {
+        let mut p = k;
+        let mut best = at(&a, k, k).re().abs();
+        for i in k + 1..C {
+            let v = at(&a, i, k).re().abs();
+            if v > best {
+                best = v;
+                p = i;
+            }
+        }
+        if p != k {
+            a.swap(k, p);
+            b.swap(k, p);
+        }
+        let piv = at(&a, k, k);
+        let bk = b.get(k).copied().unwrap_or(nan);
+        for i in k + 1..C {
+            let l = at(&a, i, k) / piv;
+            for j in k + 1..C {
+                let v = at(&a, i, j).sub_ref(&l.mul_ref(&at(&a, k, j)));
+                if let Some(s) = a.get_mut(i).and_then(|r| r.get_mut(j)) {
+                    *s = v;
+                }
+            }
+            if let Some(s) = b.get_mut(i) {
+                *s = s.sub_ref(&l.mul_ref(&bk));
+            }
+        }
+    }
+    let mut x = [nan; MAX_COORDINATES];
+    for k in (0..C).rev() {
+        let mut s = b.get(k).copied().unwrap_or(nan);
+        for j in k + 1..C {
+            s = s.sub_ref(&at(&a, k, j).mul_ref(&x.get(j).copied().unwrap_or(nan)));
+        }
+        if let Some(d) = x.get_mut(k) {
+            *d = s / at(&a, k, k);
+        }
+    }
+    x
+}
+
+/// [`solve_small`]'s elimination of `a` alone: the multipliers stored below the diagonal,
+/// the pivot row of each step returned.
+#[inline(always)]
+fn lu_factor<const C: usize>(a: &mut [[f64; C]; C]) -> [usize; C] {
+    let mut perm = [0usize; C];
+    let at = |a: &[[f64; C]; C], i: usize, j: usize| a.get(i).and_then(|r| r.get(j)).copied().unwrap_or(f64::NAN);
+    for k in 0..C {
         let mut p = k;
         let mut best = at(a, k, k).abs();
-        for i in k + 1..n {
+        for i in k + 1..C {
             let v = at(a, i, k).abs();
             if v > best {
                 best = v;
@@ -640,46 +765,56 @@ fn lu_factor(a: &mut [f64], perm: &mut [usize; 4], n: usize) {
         if let Some(s) = perm.get_mut(k) {
             *s = p;
         }
+        // Columns from `k` on only: the multipliers of earlier steps stay with the rows they
+        // were computed for, as `lu_apply` reads them in its interleaved order.
         if p != k {
-            for j in 0..n {
-                a.swap(k * n + j, p * n + j);
+            for j in k..C {
+                let (x, y) = (at(a, k, j), at(a, p, j));
+                if let Some(s) = a.get_mut(k).and_then(|r| r.get_mut(j)) {
+                    *s = y;
+                }
+                if let Some(s) = a.get_mut(p).and_then(|r| r.get_mut(j)) {
+                    *s = x;
+                }
             }
         }
         let piv = at(a, k, k);
-        for i in k + 1..n {
+        for i in k + 1..C {
             let l = at(a, i, k) / piv;
-            for j in k + 1..n {
+            for j in k + 1..C {
                 let v = at(a, i, j) - l * at(a, k, j);
-                if let Some(s) = a.get_mut(i * n + j) {
+                if let Some(s) = a.get_mut(i).and_then(|r| r.get_mut(j)) {
                     *s = v;
                 }
             }
-            if let Some(s) = a.get_mut(i * n + k) {
+            if let Some(s) = a.get_mut(i).and_then(|r| r.get_mut(k)) {
                 *s = l;
             }
         }
     }
+    perm
 }
 
-/// Solves `A x = b` in place with the factors of [`lu_factor`], in [`lu_solve`]'s order of
-/// operations (so the result is `lu_solve`'s to the bit).
-fn lu_apply(a: &[f64], perm: &[usize; 4], b: &mut [f64], n: usize) {
-    let at = |i: usize, j: usize| a.get(i * n + j).copied().unwrap_or(f64::NAN);
-    for k in 0..n {
+/// Solves `A x = b` in place with the factors of [`lu_factor`], in [`solve_small`]'s order
+/// of operations (so the result is its to the bit).
+#[inline(always)]
+fn lu_apply<const C: usize>(a: &[[f64; C]; C], perm: &[usize; C], b: &mut [f64; C]) {
+    let at = |i: usize, j: usize| a.get(i).and_then(|r| r.get(j)).copied().unwrap_or(f64::NAN);
+    for k in 0..C {
         let p = perm.get(k).copied().unwrap_or(k);
-        if p != k {
+        if p != k && p < C {
             b.swap(k, p);
         }
         let bk = b.get(k).copied().unwrap_or(f64::NAN);
-        for i in k + 1..n {
+        for i in k + 1..C {
             if let Some(s) = b.get_mut(i) {
                 *s -= at(i, k) * bk;
             }
         }
     }
-    for k in (0..n).rev() {
+    for k in (0..C).rev() {
         let mut s = b.get(k).copied().unwrap_or(f64::NAN);
-        for j in k + 1..n {
+        for j in k + 1..C {
             s -= at(k, j) * b.get(j).copied().unwrap_or(f64::NAN);
         }
         if let Some(x) = b.get_mut(k) {
@@ -688,8 +823,8 @@ fn lu_apply(a: &[f64], perm: &[usize; 4], b: &mut [f64], n: usize) {
     }
 }
 
-/// Solves `A x = b` in place (`b` becomes `x`) by LU with partial pivoting on the values.
-#[inline]
+/// Solves `A x = b` in place (`b` becomes `x`) by LU with partial pivoting on the values:
+/// [`solve_small`] on slices, for scalars too large for the stack.
 fn lu_solve<S: Scalar>(a: &mut [S], b: &mut [S], n: usize) {
     let nan = S::cst(f64::NAN);
     let at = |a: &[S], i: usize, j: usize| a.get(i * n + j).copied().unwrap_or(nan);
@@ -733,28 +868,6 @@ fn lu_solve<S: Scalar>(a: &mut [S], b: &mut [S], n: usize) {
             *x = s / at(a, k, k);
         }
     }
-}
-
-/// Runs `f` on `len` scalars of scratch: on the stack for small scalars (no allocation),
-/// on the heap for large ones (a truncated power series is kilobytes).
-#[inline]
-fn with_scratch<S: Scalar, R>(len: usize, f: impl FnOnce(&mut [S]) -> R) -> R {
-    if core::mem::size_of::<S>() <= 128 {
-        match len {
-            0..=32 => return on_stack::<S, R, 32>(len, f),
-            33..=96 => return on_stack::<S, R, 96>(len, f),
-            97..=256 => return on_stack::<S, R, 256>(len, f),
-            _ => {}
-        }
-    }
-    let mut v = vec![S::cst(0.0); len];
-    f(&mut v)
-}
-
-#[inline(never)]
-fn on_stack<S: Scalar, R, const K: usize>(len: usize, f: impl FnOnce(&mut [S]) -> R) -> R {
-    let mut a = [S::cst(0.0); K];
-    f(a.get_mut(..len).unwrap_or_default())
 }
 
 fn expr_error(key: &str, src: &str, e: &ExprError) -> EquationsError {
