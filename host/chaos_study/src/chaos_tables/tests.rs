@@ -211,7 +211,8 @@ fn scale_dependence_of_a_microchaos_map() {
 /// exploration above, pinned on shorter runs): over the doubling windows from 0.5 s the
 /// data's power-law reading stays near 0.5 while the secant slope falls, and the smooth
 /// polynomial model's Benettin spectrum starts with two zeros followed by a clearly
-/// negative exponent; the test prints the windows and spectra. The residual-kicked models (`evaluate_kicked`) recover the statistics without chaos.
+/// negative exponent; the test prints the windows and spectra. The residual-kicked models
+/// (`evaluate_kicked`) recover the statistics without chaos.
 #[test]
 fn quantized_loop_data_diffuse_and_smooth_model_is_a_torus() {
     let runs: Vec<TimeSeries> = [0.02, 0.035]
