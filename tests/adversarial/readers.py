@@ -1,5 +1,6 @@
 #!/usr/bin/env python3
-"""Adversarial pass over every reader boundary of ssmctl (issue 37 items 2-5).
+"""Adversarial pass over every reader boundary of ssmctl: bounded reads, sizes checked
+before allocating, bounded nesting, meaningless numbers and bad shard files refused.
 
 usage: tests/adversarial/readers.py SSMCTL WORKDIR [--jobs N]   (REPO=checkout, default .)
 

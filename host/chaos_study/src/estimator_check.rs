@@ -103,9 +103,9 @@ pub fn rosenstein_as_on_data(x: &[f64], dt: f64) -> Result<(Option<f64>, usize, 
 /// The known-answer cases of [`known_answer_rows`]: (system, observable index and name,
 /// sampling step, RK4 substeps, samples).
 fn cases(quick: bool) -> Vec<(&'static str, usize, &'static str, f64, usize, usize)> {
-    // About 12 samples per oscillation (the flag at the model step: 10-12; Rössler turns
-    // in 6.1 s, Lorenz in about 0.75 s), as long as the flag's held-out series at step 4
-    // (1,972 samples) and, in the full report, 4x longer.
+    // About 12 samples per oscillation, as the flag has at the model step (each step is a
+    // system's mean turn time over 12), as long as the flag's held-out series at step 4
+    // and, in the full report, 4x longer.
     let mut out = Vec::new();
     let lengths: &[usize] = if quick { &[2000] } else { &[2000, 8000] };
     for &n in lengths {

@@ -627,7 +627,7 @@ impl KnownSystemResults {
     }
 
     /// [`Self::diagnosis`] as (group, noise over the sd, row) against [`Self::data`] (the
-    /// noise-free rows' own held-out series reads Rosenstein 1.030 and the same D2).
+    /// noise-free rows' own held-out series reads nearly the same Rosenstein and D2).
     pub fn diagnosis_rows(&self) -> Vec<(String, f64, PipelineRow)> {
         let k = &self.data;
         self.diagnosis

@@ -597,10 +597,10 @@ pub const SHARED_RUNS: usize = 8;
 /// loop advances period by period and nothing in it depends on the run's length. A prefix
 /// is served only from a run that did not stop early, so its `stopped` (none) holds for the
 /// prefix too; its `saturated_samples` and `saturated_rows` are the kept run's rows below
-/// the prefix's end (the chaos section's 30,000-period run from 0.02 rad saturates 526
-/// times, and the verdict's 20,000 periods are its prefix: 2.4 s CPU saved); its
-/// `ode_stats` are left zero and its `wall_seconds` is 0 (they are the longer run's, not
-/// measured for the prefix). A longer request simulates afresh and replaces the kept run.
+/// the prefix's end (the verdict's run is a prefix of the chaos section's longer run from the
+/// same start, so it is not simulated twice); its `ode_stats` are left zero and its
+/// `wall_seconds` is 0 (they are the longer run's, not measured for the prefix). A longer
+/// request simulates afresh and replaces the kept run.
 pub fn simulate_shared(scene: &Scene) -> Result<Trajectory, Error> {
     type Kept = Vec<(Scene, std::sync::Arc<Trajectory>)>;
     static RUNS: std::sync::OnceLock<std::sync::Mutex<Kept>> = std::sync::OnceLock::new();

@@ -1,4 +1,4 @@
-"""The Python boundary (issue 37, item 6): wrong types raise TypeError, wrong values
+"""The Python boundary: wrong types raise TypeError, wrong values
 ValueError (as numpy does), complex and object arrays are refused rather than cast, huge
 shapes are refused before anything is copied, hostile files are errors, and no input reaches
 the interpreter as a Rust panic (PanicException) or a crash.

@@ -382,7 +382,7 @@ mod tests {
         assert!(matches!(bad, Err(DataError::UnevenSampling { row: 3, .. })));
     }
 
-    /// Issue 14: a file without a header line lost its first sample silently.
+    /// Regression: a file without a header line lost its first sample silently.
     #[test]
     fn a_file_without_a_header_is_an_error_naming_the_file() {
         for text in ["0,1\n0.5,2\n1.0,3\n", "0, 1e-3\n1,2\n2,3\n", "-1.5,2\n"] {
@@ -398,7 +398,7 @@ mod tests {
         assert!(parse("t1,x2\n0,1\n1,2\n").is_ok());
     }
 
-    /// Issue 14: one missing sample in a long series was reported at row 2 (every step
+    /// Regression: one missing sample in a long series was reported at row 2 (every step
     /// differed from the mean step); it is the row where the step changes.
     #[test]
     fn a_missing_sample_is_reported_where_the_step_changes() {
@@ -419,7 +419,7 @@ mod tests {
         assert!(matches!(e, DataError::UnevenSampling { row: 5, .. }), "{e}");
     }
 
-    /// Issue 14: data scaled by 1e-300 were fitted with subnormal arithmetic and scored
+    /// Regression: data scaled by 1e-300 were fitted with subnormal arithmetic and scored
     /// `inf`: signals outside the magnitudes double precision can square are refused.
     #[test]
     fn signals_too_small_or_large_to_square_are_refused() {

@@ -262,7 +262,7 @@ mod tests {
         assert_eq!(nmte(&pred, &truth[..2], 2), None);
     }
 
-    /// Issue 14: data scaled by 1e-300 gave NMTE = inf (the squares underflow to 0). The NMTE
+    /// Regression: data scaled by 1e-300 gave NMTE = inf (the squares underflow to 0). The NMTE
     /// is scale-invariant; tiny and huge data give the unscaled value.
     #[test]
     fn nmte_is_scale_invariant_down_to_subnormal_squares() {

@@ -513,7 +513,7 @@ fn saved_rbf_model() -> serde_json::Value {
     serde_json::from_str(&fit(&train, &o).unwrap().to_json().unwrap()).unwrap()
 }
 
-/// Issue 14: a saved model with inconsistent shapes indexed out of bounds, divided by a zero
+/// Regression: a saved model with inconsistent shapes indexed out of bounds, divided by a zero
 /// dimension, exported an empty scale vector or allocated gigabytes for a huge exponent.
 /// Every such model is refused on load with the field named.
 #[test]

@@ -1,4 +1,4 @@
-//! Issue 14: every boundary refuses bad input with exit code 1 and a message naming the
+//! Every boundary refuses bad input with exit code 1 and a message naming the
 //! field and the limit, never a panic (101), an abort (134), a hang or a silent success.
 
 use serde_json::Value;

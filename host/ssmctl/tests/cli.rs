@@ -201,7 +201,7 @@ fn reproduce_quick_writes_the_report() {
         let (m, f) = (c["rho2_model"].as_f64().unwrap(), c["rho2_full"].as_f64().unwrap());
         assert!((m - f).abs() < 0.03 * f, "fast cycle: {c}");
     }
-    // Issue 11: the equation-driven model's values next to the data-driven ones, the full
+    // The equation-driven model's values next to the data-driven ones, the full
     // system's torus loss, and the basin near the global bifurcation (new keys only).
     let in_range = |v: &Value| v.as_f64().is_some_and(|x| (30.5..=32.5).contains(&x));
     assert!(in_range(&h["equation"]) && in_range(&h["equation_saddle_connection"]), "{h}");

@@ -1,8 +1,8 @@
-//! Issue 14, item 5: every library `Err` that reaches `main` becomes exit code 1 (or clap's 2)
+//! Every library `Err` that reaches `main` becomes exit code 1 (or clap's 2)
 //! with a message naming the input, never 101 (panic) or 134 (abort). One property over
 //! generated bad inputs of each boundary kind, run through the test-built `ssmctl`: a scene
-//! file, a CSV data file, a saved model (JSON), a device blob, a numeric option, and (issue
-//! 37) a `.mat` file, a sweep spec and a sweep shard file. A run that
+//! file, a CSV data file, a saved model (JSON), a device blob, a numeric option, a
+//! `.mat` file, a sweep spec and a sweep shard file. A run that
 //! succeeds is allowed (a mutation may leave the input valid); then what it wrote must be
 //! accepted downstream (an exported blob passes `inspect`).
 //!

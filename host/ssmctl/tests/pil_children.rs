@@ -1,4 +1,4 @@
-//! Issue 14, processes: QEMU never outlives `ssmctl pil`, whatever ends ssmctl.
+//! Processes: QEMU never outlives `ssmctl pil`, whatever ends ssmctl.
 //!
 //! `SSMCTL_QEMU` puts a stand-in in QEMU's place (a shell script that execs `sleep 30`: it
 //! never connects, so ssmctl waits for it). The test finds the stand-in among ssmctl's

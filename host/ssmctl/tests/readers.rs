@@ -1,4 +1,4 @@
-//! Issue 37, items 2-5: every reader is bounded and refuses what is not a regular file by
+//! Every reader is bounded and refuses what is not a regular file by
 //! name, sizes declared inside a file or an option are checked before allocating, nesting is
 //! bounded, numbers that mean nothing are refused naming their key, shard files are checked
 //! against the spec they embed, and errors are words naming the file, option or key. Each

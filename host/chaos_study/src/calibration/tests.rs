@@ -20,28 +20,28 @@ fn flag_sampling_constants_match_the_data() {
 }
 
 /// The calibration (docs/decisions/0002): known exponents on the exact side; then the Rosenstein
-/// estimator with the flag's settings, sampling, length and noise. Measured (8 segments, the
-/// flag's noise): the five systems with at most 0.21 nats per lag time (D2 2.1-2.7) read
-/// 0.89-1.02 of the exact exponent on average, but a single segment of the flag's length
-/// reads 0.38-1.41 (sd up to 0.38); noise at the flag's level moves a mean by at most 0.06.
-/// Lorenz-96 at 0.24-1.0 nats per lag time (the flag reads 0.49; D2 3.5-5.6) reads 0.18-3.10
-/// on average and 0.02-5.50 per segment. So no bias of about one half holds for attractors
-/// like the flag's: the data's exponent is not pinned to 0.6-0.7 1/s, the two exponent
-/// targets are not shown to exclude each other, and the 5 % Rosenstein target is far inside
-/// the estimator's own scatter on one series of this length.
+/// estimator with the flag's settings, sampling, length and noise. Systems as calm as the flag
+/// (few nats per lag time) read close to their exact exponent on average, but one segment of the
+/// flag's length scatters widely; Lorenz-96 at the flag's nats per lag time reads far below and far
+/// above it. So no bias of about one half holds for attractors like the flag's, the two exponent
+/// targets are not shown to exclude each other, and a 5 % Rosenstein target lies inside the
+/// estimator's own scatter on one series of this length. The rows are printed below.
 #[test]
 fn calibration_on_known_answers_sampled_like_the_flag() {
     let rows = calibration_rows(&FLAG_SAMPLING, &[0.0, 1.0], 8).unwrap();
     let get = |sys: &str, noisy: bool| rows.iter().find(|r| r.system == sys && (r.noise_rel > 0.0) == noisy).unwrap();
-    // Exact side: Rössler 0.0714, Lorenz 0.906, hyperchaotic Rössler 0.112 (literature);
-    // measured 0.0710 +- 0.0051, 0.881 +- 0.030, 0.112 +- 0.005.
+    for r in &rows {
+        eprintln!("{r:?}");
+    }
+    // Exact side: Rössler 0.0714, Lorenz 0.906, hyperchaotic Rössler 0.112 (literature); the
+    // tolerances cover the spread of the exact estimate over the segments.
     for (sys, lit, tol) in [("Rössler", 0.0714, 0.005), ("Lorenz", 0.906, 0.04), ("hyperchaotic Rössler", 0.112, 0.01)]
     {
         let r = get(sys, false);
         assert!((r.exact - lit).abs() < tol, "{r:?}");
     }
     // Sampled like the flag: every row's lag is within 1 sample of the flag's except where
-    // the data settings choose otherwise on the segment (Lorenz-96 6/9: 23).
+    // the data settings choose otherwise on the segment.
     assert!(rows.iter().filter(|r| r.lag.abs_diff(FLAG_SAMPLING.lag) <= 1).count() >= 16, "{rows:?}");
     let calm: Vec<&CalibrationRow> = rows.iter().filter(|r| r.noise_rel > 0.0 && r.per_lag <= CALM_PER_LAG).collect();
     assert_eq!(calm.len(), 5);
@@ -51,6 +51,7 @@ fn calibration_on_known_answers_sampled_like_the_flag() {
         assert!((2.0..=2.9).contains(&r.corr_dim.unwrap()), "{r:?}");
     }
     let s = summarize(&rows, &FLAG_SAMPLING).unwrap();
+    eprintln!("{s:?}");
     assert!((s.data_per_lag - 0.487).abs() < 0.001, "{s:?}");
     assert!(s.calm_noise_shift_max < 0.1, "{s:?}");
     // One series of the flag's length: the scatter dwarfs a 5 % tolerance.

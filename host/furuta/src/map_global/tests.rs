@@ -161,7 +161,7 @@ fn map_torus_continuation_loses_the_torus_on_the_grid() {
     ));
 }
 
-/// Issue 11: the fitted map's torus does not depend on the training cut. Runs cut at 0.3
+/// The fitted map's torus does not depend on the training cut. Runs cut at 0.3
 /// rad (past the slow saddle cycle at 32 and 32.5 ms) fitted with the default row weight
 /// (`FurutaOptions::map_weight`) lose the torus where the default's map does; unweighted they
 /// lose it far earlier. Continuation on the report's quick grid (31.4-32.0 ms by 0.1, 8,000

@@ -104,7 +104,7 @@ fn malformed_overrides_and_unknown_scenes_are_rejected() {
     assert!(e.contains("no-such-scene"), "{e}");
 }
 
-/// Issue 14: a scene name of `../../x` or `/abs/x` made `simulate` write outside `--out`.
+/// Regression: a scene name of `../../x` or `/abs/x` made `simulate` write outside `--out`.
 /// Names become file names and are restricted to a safe set.
 #[test]
 fn scene_names_are_restricted_to_safe_file_names() {
@@ -125,7 +125,7 @@ fn scene_names_are_restricted_to_safe_file_names() {
     assert!(e.contains("`name`"), "{e}");
 }
 
-/// Issue 14: `run.periods` near u64::MAX panicked in `Vec::with_capacity`, 1e12 aborted on
+/// Regression: `run.periods` near u64::MAX panicked in `Vec::with_capacity`, 1e12 aborted on
 /// allocation. The limit is stated and checked before anything is allocated.
 #[test]
 fn run_periods_are_limited_before_allocation() {
@@ -138,7 +138,7 @@ fn run_periods_are_limited_before_allocation() {
     assert!(e.contains("run.periods"), "{e}");
 }
 
-/// Issue 14: the controller configuration is validated by the controller's own check (the
+/// The controller configuration is validated by the controller's own check (the
 /// one `inspect` and `export` use), under the scene's key path with the controller's message.
 #[test]
 fn controller_fields_are_validated_by_the_controller_check() {
