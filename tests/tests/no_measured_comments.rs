@@ -10,15 +10,9 @@
 //! `N instructions`. Numbers that define the code (constants, tolerances, parameters,
 //! targets, known answers) match none of them.
 //!
-//! Skipped: `host/lab/` (research programs, which print what they measure), and the folders
-//! in [`NOT_YET`], which others were changing while the rest was cleaned: the lead cleans
-//! them after the merge and removes them from the list.
+//! Skipped: `host/lab/` (research programs, which print what they measure).
 
 use std::path::{Path, PathBuf};
-
-/// Folders (and files) not scanned yet, relative to the workspace root: cleaned by the lead
-/// after the merge, then removed from this list.
-const NOT_YET: &[&str] = &["host/sim/src/expr", "host/sim/src/plant", "host/ssmctl/src/bench.rs"];
 
 /// Research and profiling programs: they print their measurements, and their notes may
 /// quote them.
@@ -31,11 +25,7 @@ fn source_files(root: &Path, dir: &Path, out: &mut Vec<PathBuf>) {
         let p = entry.expect("folder entry").path();
         let rel = p.strip_prefix(root).unwrap_or(&p).to_string_lossy().replace('\\', "/");
         let name = p.file_name().and_then(|n| n.to_str()).unwrap_or_default();
-        if name.starts_with('.')
-            || name == "target"
-            || NOT_YET.contains(&rel.as_str())
-            || RESEARCH.contains(&rel.as_str())
-        {
+        if name.starts_with('.') || name == "target" || RESEARCH.contains(&rel.as_str()) {
             continue;
         }
         if p.is_dir() {
