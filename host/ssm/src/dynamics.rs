@@ -1585,7 +1585,16 @@ mod tests {
                     scale: vec![0.8; d],
                     coef: vec![0.0; (k + d + 1) * d],
                     centers: centers.clone(),
-                    conditioning: crate::testing::unit_conditioning(),
+                    conditioning: Conditioning {
+                        rows: 0,
+                        cols: 0,
+                        s_max: 1.0,
+                        s_min: 1.0,
+                        cond: 1.0,
+                        alpha: 0.0,
+                        cond_regularized: 1.0,
+                        rel_residual: 0.0,
+                    },
                 };
                 for p in 0..20 {
                     // The last point sits on a centre (scaled): r = 0 exactly.
@@ -2135,7 +2144,16 @@ mod tests {
     #[test]
     fn prepared_step_is_the_same_bits() {
         let mut r = crate::testing::lcg_centered(5);
-        let cond = crate::testing::unit_conditioning();
+        let cond = Conditioning {
+            rows: 0,
+            cols: 0,
+            s_max: 1.0,
+            s_min: 1.0,
+            cond: 1.0,
+            alpha: 0.0,
+            cond_regularized: 1.0,
+            rel_residual: 0.0,
+        };
         let mut poly = |d: usize, order: u32, gain: f64| {
             let exps = poly::exponents(d, 1, order);
             let coef: Vec<f64> =
@@ -2187,7 +2205,16 @@ mod tests {
     #[test]
     fn fused_rbf_step_equals_features_then_sum() {
         let mut rnd = crate::testing::XorShift64::new(17);
-        let cond = crate::testing::unit_conditioning();
+        let cond = Conditioning {
+            rows: 0,
+            cols: 0,
+            s_max: 1.0,
+            s_min: 1.0,
+            cond: 1.0,
+            alpha: 0.0,
+            cond_regularized: 1.0,
+            rel_residual: 0.0,
+        };
         let mut cases = 0;
         for d in 1..=8 {
             for kernel in [Kernel::Linear, Kernel::Cubic, Kernel::ThinPlate, Kernel::Gaussian { eps: 0.7 }] {
@@ -2295,7 +2322,16 @@ mod tests {
     #[test]
     fn design_by_columns_equals_the_row_features() {
         let mut rnd = crate::testing::XorShift64::new(29);
-        let cond = crate::testing::unit_conditioning();
+        let cond = Conditioning {
+            rows: 0,
+            cols: 0,
+            s_max: 1.0,
+            s_min: 1.0,
+            cond: 1.0,
+            alpha: 0.0,
+            cond_regularized: 1.0,
+            rel_residual: 0.0,
+        };
         for d in 1..=7 {
             for kernel in [Kernel::Linear, Kernel::Cubic, Kernel::ThinPlate, Kernel::Gaussian { eps: 0.7 }] {
                 let (n, k) = (203, 37);

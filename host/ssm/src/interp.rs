@@ -206,7 +206,7 @@ mod tests {
         m.dynamics = ReducedDynamics::Map {
             increment: Poly { dim_in: 2, dim_out: 2, scale: vec![1.0, 1.0], exps, coef },
             dt: 0.01,
-            conditioning: crate::testing::unit_conditioning(),
+            conditioning: crate::backbone::tests::cond(),
         };
         m.manifold.v1.iter_mut().for_each(|v| *v *= 1.0 + a);
         m

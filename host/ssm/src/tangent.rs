@@ -465,6 +465,7 @@ pub fn dynamics_dim(dynamics: &ReducedDynamics) -> usize {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::ridge::Conditioning;
     use crate::testing::random_rbf;
 
     /// The plain loop [`poly_map_jacobian`] had before [`PolyJacobian`] (every variable's
@@ -605,7 +606,16 @@ mod tests {
     fn fixed_dimension_jacobian_equals_the_general_loop() {
         let mut rng = crate::testing::XorShift64::new(0x853c_49e6_748f_ea9b);
         let mut rnd = move || rng.centered();
-        let cond = crate::testing::unit_conditioning();
+        let cond = Conditioning {
+            rows: 0,
+            cols: 0,
+            s_max: 1.0,
+            s_min: 1.0,
+            cond: 1.0,
+            alpha: 0.0,
+            cond_regularized: 1.0,
+            rel_residual: 0.0,
+        };
         for d in 2..=6 {
             let k = 300;
             let m = RbfMap {

@@ -74,6 +74,16 @@ pub fn lcg_centered(seed: u64) -> impl FnMut() -> f64 {
 /// A random linear-kernel RBF map in dimension `d` with `k` centres drawn from `rnd`: a
 /// contraction (`0.9 eta` plus small terms) when `small`, so Benettin runs stay bounded.
 pub fn random_rbf(d: usize, k: usize, small: bool, rnd: &mut impl FnMut() -> f64) -> crate::dynamics::RbfMap {
+    let cond = crate::ridge::Conditioning {
+        rows: 0,
+        cols: 0,
+        s_max: 1.0,
+        s_min: 1.0,
+        cond: 1.0,
+        alpha: 0.0,
+        cond_regularized: 1.0,
+        rel_residual: 0.0,
+    };
     let scale: Vec<f64> = (0..d).map(|_| 0.5 + rnd().abs()).collect();
     let mut coef: Vec<f64> = (0..(k + d + 1) * d).map(|_| rnd() * if small { 0.002 } else { 10.0 }).collect();
     if small {
@@ -88,21 +98,6 @@ pub fn random_rbf(d: usize, k: usize, small: bool, rnd: &mut impl FnMut() -> f64
         scale,
         centers: (0..k * d).map(|_| rnd()).collect(),
         coef,
-        conditioning: unit_conditioning(),
-    }
-}
-
-/// The conditioning record of a hand-built model (no regression behind it: a condition
-/// number of 1, no regularization, no residual).
-pub fn unit_conditioning() -> crate::ridge::Conditioning {
-    crate::ridge::Conditioning {
-        rows: 0,
-        cols: 0,
-        s_max: 1.0,
-        s_min: 1.0,
-        cond: 1.0,
-        alpha: 0.0,
-        cond_regularized: 1.0,
-        rel_residual: 0.0,
+        conditioning: cond,
     }
 }
