@@ -1,6 +1,5 @@
 //! Test support: small deterministic random generators for the tests of this crate and of
-//! the crates above it (xorshift64, shifts 13, 7, 17; and an LCG, [`lcg_centered`]), and a
-//! random RBF map built from them ([`random_rbf`]). Reproducible inputs for known-answer
+//! the crates above it (xorshift64, shifts 13, 7, 17; and an LCG, [`lcg_centered`]). Reproducible inputs for known-answer
 //! and bit-for-bit tests, no statistical quality claimed; library code draws its noise
 //! elsewhere.
 
@@ -68,36 +67,5 @@ pub fn lcg_centered(seed: u64) -> impl FnMut() -> f64 {
     move || {
         st = st.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
         ((st >> 11) as f64) / ((1u64 << 53) as f64) - 0.5
-    }
-}
-
-/// A random linear-kernel RBF map in dimension `d` with `k` centres drawn from `rnd`: a
-/// contraction (`0.9 eta` plus small terms) when `small`, so Benettin runs stay bounded.
-pub fn random_rbf(d: usize, k: usize, small: bool, rnd: &mut impl FnMut() -> f64) -> crate::dynamics::RbfMap {
-    let cond = crate::ridge::Conditioning {
-        rows: 0,
-        cols: 0,
-        s_max: 1.0,
-        s_min: 1.0,
-        cond: 1.0,
-        alpha: 0.0,
-        cond_regularized: 1.0,
-        rel_residual: 0.0,
-    };
-    let scale: Vec<f64> = (0..d).map(|_| 0.5 + rnd().abs()).collect();
-    let mut coef: Vec<f64> = (0..(k + d + 1) * d).map(|_| rnd() * if small { 0.002 } else { 10.0 }).collect();
-    if small {
-        for j in 0..d {
-            coef[(k + j) * d + j] = -0.1 * scale[j];
-        }
-    }
-    crate::dynamics::RbfMap {
-        dim: d,
-        kernel: crate::dynamics::Kernel::Linear,
-        dt: 0.03,
-        scale,
-        centers: (0..k * d).map(|_| rnd()).collect(),
-        coef,
-        conditioning: cond,
     }
 }
