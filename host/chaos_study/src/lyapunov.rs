@@ -105,36 +105,7 @@ mod tests {
     use super::*;
     use ssm::tangent::rbf_jacobian;
 
-    /// A random linear-kernel RBF map in dimension `d` with `k` centres: a contraction
-    /// (0.9 eta plus small terms) when `small`, so Benettin runs stay bounded.
-    fn random_rbf(d: usize, k: usize, small: bool, rnd: &mut impl FnMut() -> f64) -> ssm::dynamics::RbfMap {
-        let cond = ssm::Conditioning {
-            rows: 0,
-            cols: 0,
-            s_max: 1.0,
-            s_min: 1.0,
-            cond: 1.0,
-            alpha: 0.0,
-            cond_regularized: 1.0,
-            rel_residual: 0.0,
-        };
-        let scale: Vec<f64> = (0..d).map(|_| 0.5 + rnd().abs()).collect();
-        let mut coef: Vec<f64> = (0..(k + d + 1) * d).map(|_| rnd() * if small { 0.002 } else { 10.0 }).collect();
-        if small {
-            for j in 0..d {
-                coef[(k + j) * d + j] = -0.1 * scale[j];
-            }
-        }
-        ssm::dynamics::RbfMap {
-            dim: d,
-            kernel: ssm::dynamics::Kernel::Linear,
-            dt: 0.03,
-            scale,
-            centers: (0..k * d).map(|_| rnd()).collect(),
-            coef,
-            conditioning: cond,
-        }
-    }
+    use ssm::fixtures::random_rbf;
 
     /// A Benettin run through [`dynamics_lyapunov`] (the fused step and Jacobian of
     /// `ssm::tangent::Tangent`) against `benettin_qr` with the RBF map's step and

@@ -85,16 +85,7 @@ pub fn model_of_ssm(s: &MapSsm, observable: &[f64]) -> Result<SsmModel, Error> {
         exps: keep.iter().map(|&k| obs.exps[k].clone()).collect(),
         coef: keep.iter().map(|&k| obs.coef[k]).collect(),
     });
-    let no_regression = Conditioning {
-        rows: 0,
-        cols: 0,
-        s_max: 0.0,
-        s_min: 0.0,
-        cond: 0.0,
-        alpha: 0.0,
-        cond_regularized: 0.0,
-        rel_residual: 0.0,
-    };
+    let no_regression = Conditioning::NONE;
     let dynamics = ReducedDynamics::Map { increment, dt: s.dt, conditioning: no_regression };
     let eigenvalues_ct = dynamics.eigenvalues_ct()?;
     Ok(SsmModel {

@@ -306,19 +306,6 @@ pub(crate) mod tests {
         Poly { dim_in: 2, dim_out: 2, scale: scale.to_vec(), exps, coef }
     }
 
-    pub(crate) fn cond() -> Conditioning {
-        Conditioning {
-            rows: 0,
-            cols: 0,
-            s_max: 1.0,
-            s_min: 1.0,
-            cond: 1.0,
-            alpha: 0.0,
-            cond_regularized: 1.0,
-            rel_residual: 0.0,
-        }
-    }
-
     /// A hand-built model: the synthetic field above and three observables, linear in eta
     /// with rows `(cos a, -sin a)` (`y_0 = Re(e^{ia} z)`, amplitude |z|) and
     /// `(2 sin a, cos(a) / 2)`, and quadratic `y_2 = kappa eta_0^2`.
@@ -336,7 +323,7 @@ pub(crate) mod tests {
             nonlinear: Some(Poly { dim_in: 2, dim_out: 3, scale: vec![0.5, 0.5], exps, coef }),
             conditioning: None,
         };
-        let dynamics = ReducedDynamics::Flow { field: synthetic_field([0.7, 1.3]), conditioning: cond() };
+        let dynamics = ReducedDynamics::Flow { field: synthetic_field([0.7, 1.3]), conditioning: Conditioning::NONE };
         let options = FitOptions {
             dim: 2,
             embed: 1,
@@ -470,7 +457,7 @@ pub(crate) mod tests {
             conditioning: None,
         };
         // Row 0 of V1 = (1, 0, 1, 0): y_0 = eta_0 + eta_2.
-        m.dynamics = ReducedDynamics::Flow { field, conditioning: cond() };
+        m.dynamics = ReducedDynamics::Flow { field, conditioning: Conditioning::NONE };
         m.options.dim = 4;
         m.observables = 5;
         let bb = backbone(&m, &BackboneOptions::new(0, 0.8)).unwrap();
@@ -501,7 +488,7 @@ pub(crate) mod tests {
         let k11 = field.exps.iter().position(|e| e == &vec![1, 1]).unwrap();
         field.coef[k20 * 2] = 0.4;
         field.coef[k11 * 2 + 1] = -0.3;
-        let dynamics = ReducedDynamics::Flow { field: field.clone(), conditioning: cond() };
+        let dynamics = ReducedDynamics::Flow { field: field.clone(), conditioning: Conditioning::NONE };
         let opts = NormalFormOptions { order: Some(3), ..Default::default() };
         let (nf, tr) = crate::normal_form::normal_form_with_transform(&dynamics, &opts).unwrap();
         let f = |eta: &[f64]| field.eval(eta);

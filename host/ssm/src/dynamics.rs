@@ -1500,24 +1500,7 @@ fn fit_rbf_with(
     crate::limits::check_matrix("rbf regression", n, n_centers + d + 1, true)?;
     let z = Mat::from_fn(n, d, |i, j| x[(i, j)] / scale[j]);
     let centers = choose_centres(z.as_ref(), n_centers, choice);
-    let mut map = RbfMap {
-        dim: d,
-        kernel,
-        dt,
-        scale,
-        centers,
-        coef: Vec::new(),
-        conditioning: Conditioning {
-            rows: 0,
-            cols: 0,
-            s_max: 0.0,
-            s_min: 0.0,
-            cond: 0.0,
-            alpha: 0.0,
-            cond_regularized: 0.0,
-            rel_residual: 0.0,
-        },
-    };
+    let mut map = RbfMap { dim: d, kernel, dt, scale, centers, coef: Vec::new(), conditioning: Conditioning::NONE };
     let nf = map.n_centers() + d + 1;
     let design = || {
         if let Some(a) = design_by_columns(&map, x) {
@@ -1585,16 +1568,7 @@ mod tests {
                     scale: vec![0.8; d],
                     coef: vec![0.0; (k + d + 1) * d],
                     centers: centers.clone(),
-                    conditioning: Conditioning {
-                        rows: 0,
-                        cols: 0,
-                        s_max: 1.0,
-                        s_min: 1.0,
-                        cond: 1.0,
-                        alpha: 0.0,
-                        cond_regularized: 1.0,
-                        rel_residual: 0.0,
-                    },
+                    conditioning: Conditioning::NONE,
                 };
                 for p in 0..20 {
                     // The last point sits on a centre (scaled): r = 0 exactly.
@@ -2144,16 +2118,7 @@ mod tests {
     #[test]
     fn prepared_step_is_the_same_bits() {
         let mut r = crate::testing::lcg_centered(5);
-        let cond = Conditioning {
-            rows: 0,
-            cols: 0,
-            s_max: 1.0,
-            s_min: 1.0,
-            cond: 1.0,
-            alpha: 0.0,
-            cond_regularized: 1.0,
-            rel_residual: 0.0,
-        };
+        let cond = Conditioning::NONE;
         let mut poly = |d: usize, order: u32, gain: f64| {
             let exps = poly::exponents(d, 1, order);
             let coef: Vec<f64> =
@@ -2205,16 +2170,7 @@ mod tests {
     #[test]
     fn fused_rbf_step_equals_features_then_sum() {
         let mut rnd = crate::testing::XorShift64::new(17);
-        let cond = Conditioning {
-            rows: 0,
-            cols: 0,
-            s_max: 1.0,
-            s_min: 1.0,
-            cond: 1.0,
-            alpha: 0.0,
-            cond_regularized: 1.0,
-            rel_residual: 0.0,
-        };
+        let cond = Conditioning::NONE;
         let mut cases = 0;
         for d in 1..=8 {
             for kernel in [Kernel::Linear, Kernel::Cubic, Kernel::ThinPlate, Kernel::Gaussian { eps: 0.7 }] {
@@ -2322,16 +2278,7 @@ mod tests {
     #[test]
     fn design_by_columns_equals_the_row_features() {
         let mut rnd = crate::testing::XorShift64::new(29);
-        let cond = Conditioning {
-            rows: 0,
-            cols: 0,
-            s_max: 1.0,
-            s_min: 1.0,
-            cond: 1.0,
-            alpha: 0.0,
-            cond_regularized: 1.0,
-            rel_residual: 0.0,
-        };
+        let cond = Conditioning::NONE;
         for d in 1..=7 {
             for kernel in [Kernel::Linear, Kernel::Cubic, Kernel::ThinPlate, Kernel::Gaussian { eps: 0.7 }] {
                 let (n, k) = (203, 37);

@@ -726,7 +726,7 @@ mod tests {
 
     fn model(a: f64, w: f64, b: f64, c: f64) -> SsmModel {
         let mut m = crate::backbone::tests::model(0.0, 0.0);
-        m.dynamics = ReducedDynamics::Flow { field: field(a, w, b, c), conditioning: crate::backbone::tests::cond() };
+        m.dynamics = ReducedDynamics::Flow { field: field(a, w, b, c), conditioning: crate::ridge::Conditioning::NONE };
         m
     }
 

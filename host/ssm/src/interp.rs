@@ -206,7 +206,7 @@ mod tests {
         m.dynamics = ReducedDynamics::Map {
             increment: Poly { dim_in: 2, dim_out: 2, scale: vec![1.0, 1.0], exps, coef },
             dt: 0.01,
-            conditioning: crate::backbone::tests::cond(),
+            conditioning: crate::ridge::Conditioning::NONE,
         };
         m.manifold.v1.iter_mut().for_each(|v| *v *= 1.0 + a);
         m

@@ -32,6 +32,7 @@ pub mod dynamics;
 pub mod embed;
 pub mod error;
 pub mod fit;
+pub mod fixtures;
 pub mod frc;
 pub mod interp;
 pub mod limits;

@@ -105,6 +105,21 @@ pub struct Conditioning {
     pub rel_residual: f64,
 }
 
+impl Conditioning {
+    /// The record of a model no regression produced (written from equations or by hand): an
+    /// empty design matrix and every number zero.
+    pub const NONE: Conditioning = Conditioning {
+        rows: 0,
+        cols: 0,
+        s_max: 0.0,
+        s_min: 0.0,
+        cond: 0.0,
+        alpha: 0.0,
+        cond_regularized: 0.0,
+        rel_residual: 0.0,
+    };
+}
+
 /// Thin-SVD factorization of a design matrix, reusable for several ridge parameters.
 ///
 /// A tall design matrix given by value ([`RidgeLs::from_owned`]) is factorized as faer's

@@ -467,36 +467,7 @@ mod tests {
     use super::*;
     use crate::ridge::Conditioning;
 
-    /// A random linear-kernel RBF map in dimension `d` with `k` centres: a contraction
-    /// (0.9 eta plus small terms) when `small`, so Benettin runs stay bounded.
-    fn random_rbf(d: usize, k: usize, small: bool, rnd: &mut impl FnMut() -> f64) -> crate::dynamics::RbfMap {
-        let cond = crate::ridge::Conditioning {
-            rows: 0,
-            cols: 0,
-            s_max: 1.0,
-            s_min: 1.0,
-            cond: 1.0,
-            alpha: 0.0,
-            cond_regularized: 1.0,
-            rel_residual: 0.0,
-        };
-        let scale: Vec<f64> = (0..d).map(|_| 0.5 + rnd().abs()).collect();
-        let mut coef: Vec<f64> = (0..(k + d + 1) * d).map(|_| rnd() * if small { 0.002 } else { 10.0 }).collect();
-        if small {
-            for j in 0..d {
-                coef[(k + j) * d + j] = -0.1 * scale[j];
-            }
-        }
-        crate::dynamics::RbfMap {
-            dim: d,
-            kernel: crate::dynamics::Kernel::Linear,
-            dt: 0.03,
-            scale,
-            centers: (0..k * d).map(|_| rnd()).collect(),
-            coef,
-            conditioning: cond,
-        }
-    }
+    use crate::fixtures::random_rbf;
 
     /// The plain loop [`poly_map_jacobian`] had before [`PolyJacobian`] (every variable's
     /// power multiplied in, `z^0 = 1` included; a fresh power table per call).
@@ -636,16 +607,7 @@ mod tests {
     fn fixed_dimension_jacobian_equals_the_general_loop() {
         let mut rng = crate::testing::XorShift64::new(0x853c_49e6_748f_ea9b);
         let mut rnd = move || rng.centered();
-        let cond = Conditioning {
-            rows: 0,
-            cols: 0,
-            s_max: 1.0,
-            s_min: 1.0,
-            cond: 1.0,
-            alpha: 0.0,
-            cond_regularized: 1.0,
-            rel_residual: 0.0,
-        };
+        let cond = Conditioning::NONE;
         for d in 2..=6 {
             let k = 300;
             let m = RbfMap {
