@@ -64,8 +64,9 @@ fn is_farthest(c: &ssm::dynamics::CentreChoice) -> bool {
     *c == ssm::dynamics::CentreChoice::Farthest
 }
 
-/// Settings of the evaluation (the same for every candidate).
-#[derive(Clone, Copy, Debug, Serialize)]
+/// Settings of the evaluation (the same for every candidate); a selection spec's `statistics`.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
 pub struct EvalSettings {
     /// Delay-embedding dimension of the dimension and Rosenstein estimates.
     pub gp_embed: usize,

@@ -80,41 +80,6 @@ impl StandardCandidates {
     }
 }
 
-/// The estimator settings ([`EvalSettings`]).
-#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct SelectionStatistics {
-    pub gp_embed: usize,
-    pub long_runs: usize,
-    pub benettin_transient: usize,
-    pub benettin_steps: usize,
-    pub region_factor: f64,
-}
-
-impl SelectionStatistics {
-    /// The settings of [`EvalSettings::default`] (the flag study's).
-    pub fn standard() -> Self {
-        let s = EvalSettings::default();
-        Self {
-            gp_embed: s.gp_embed,
-            long_runs: s.long_runs,
-            benettin_transient: s.benettin_transient,
-            benettin_steps: s.benettin_steps,
-            region_factor: s.region_factor,
-        }
-    }
-
-    pub fn settings(&self) -> EvalSettings {
-        EvalSettings {
-            gp_embed: self.gp_embed,
-            long_runs: self.long_runs,
-            benettin_transient: self.benettin_transient,
-            benettin_steps: self.benettin_steps,
-            region_factor: self.region_factor,
-        }
-    }
-}
-
 /// The candidates: the standard ones first (if any), then those by name
 /// ([`candidate_from_name`], map step 4), in the order the pick breaks ties; `dim`
 /// sets the SSM dimension of every candidate (embedding `2 dim + 1` for the named ones).
@@ -136,7 +101,7 @@ pub struct SelectionSpec {
     pub kind: String,
     pub name: String,
     pub data: SelectionData,
-    pub statistics: SelectionStatistics,
+    pub statistics: EvalSettings,
     pub models: SelectionModels,
 }
 
@@ -286,7 +251,7 @@ impl SelectionSpec {
             kind: KIND.into(),
             name: "chaos".into(),
             data: SelectionData { training, test, column, simulated: None },
-            statistics: SelectionStatistics::standard(),
+            statistics: EvalSettings::default(),
             models: SelectionModels { candidates, standard: None, dim },
         };
         spec.check().map_err(|why| Error::BadInput { what: "chaos options", why })?;
@@ -378,7 +343,7 @@ pub fn prepare_series(
     test: TimeSeries,
     held_out: bool,
 ) -> Result<Prepared, Error> {
-    let settings = spec.statistics.settings();
+    let settings = spec.statistics;
     let mut candidates = Vec::new();
     if let Some(st) = &spec.models.standard {
         let dim = standard_dim(spec, &test)?;
@@ -531,7 +496,7 @@ candidates = ["RBF 200 r=3e-9 d=4 p=9", "RBF 300 r=1e-8 d=4 p=9 centres kmeans++
         let search = SelectionSpec::parse("flag-search.toml", &read("flag-search.toml")).unwrap();
         let flag = FlagStudySpec::parse("flag.toml", &read("flag.toml")).unwrap();
         assert_eq!(search.models.candidates, flag.models.centres);
-        assert_eq!(search.statistics.settings().benettin_steps, flag.statistics.benettin_steps);
+        assert_eq!(search.statistics.benettin_steps, flag.statistics.benettin_steps);
         let furuta = SelectionSpec::parse("furuta-chaos.toml", &read("furuta-chaos.toml")).unwrap();
         assert_eq!(furuta.data.simulated.as_ref().unwrap().theta0.len(), 3);
         assert!(furuta.models.candidates.is_empty() && furuta.models.standard.is_some());

@@ -1189,7 +1189,7 @@ fn run_command(cli: Cli) -> Result<(), Box<dyn std::error::Error>> {
                 ssm_dim,
             )?;
             let spec = chaos_study::selection_study::SelectionSpec {
-                statistics: chaos_study::selection_study::SelectionStatistics { gp_embed, ..spec.statistics },
+                statistics: chaos_study::model_selection::EvalSettings { gp_embed, ..spec.statistics },
                 ..spec
             };
             let run = crate::study::SelectionRun { cache, quiet: true, ..Default::default() };
