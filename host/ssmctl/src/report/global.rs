@@ -7,6 +7,7 @@
 //! `map_disagreement` and `map_figure`).
 
 use crate::draw::basin::{OverlayPanel, draw_basin_overlay};
+use crate::report::prose::Prose;
 use crate::report::tasks::task;
 use crate::report::{Report, num, par_map};
 use furuta::basin::{
@@ -1168,31 +1169,94 @@ fn cubic_comparison(
     )
 }
 
+const BASIN_INTRO: &str = "Bounded (green) or escaping (red, |theta| > {{ page.escape_theta | plain }} rad within {{ b.periods }} periods) full-system \
+    runs from {{ b.rho1[2] }} x {{ b.rho2[2] }} starts on the exact linear eigenvectors, slow amplitude rho_1 = {{ \
+    b.rho1[0] | plain }}..{{ b.rho1[1] | plain }} rad x fast amplitude rho_2 = {{ b.rho2[0] | plain }}..{{ b.rho2[1] | \
+    plain }} rad, phases {{ b.phases | dbg }} rad, at dt = {{ b.dts_ms | plain }} ms (a basin sweep: <code>ssmctl \
+    sweep</code> on the same spec gives the same cells). On the main figure, the fitted map's verdict (the best \
+    data-driven model: the cells where it differs from the full system) and the saddle cycles' stable manifolds \
+    (separatrices) and 3-tori of the data-driven normal form (blue) and of the equation-driven model at order {{ \
+    b.equation_order }} (purple); the second figure marks the cells where a normal form's verdict differs. A normal \
+    form's start counts as bounded when its trajectory reaches the 2-torus or still circles in the box after {{ \
+    b.model_t_max_s | plain }} s; reaching another attractor (e.g. a large slow-mode cycle) or leaving the box {{ \
+    page.rho_max | dbg }} counts as escape (asymptotic verdict); the horizon verdict counts leaving the box after the \
+    full runs' horizon as bounded.";
+const BASIN_AGREE: &str = "{{ a.disagreement | pct(1) }} % ({{ a.model_bounded_full_escaped }} / {{ \
+    a.model_escaped_full_bounded }}{% if a.undecided > 0 %}, {{ a.undecided }} undecided{% endif %})";
+const BASIN_TEXT: &str = "Disagreement: the fraction of the {{ b.rho1[2] * b.rho2[2] }} cells where the model's verdict \
+    differs from the full system's (in parentheses: model bounded but full system escaped / model escaped but full \
+    system bounded; undecided: the model's trajectory reached a saddle, not compared); the fitted map's verdict is its \
+    own run of the same horizon from the full system's first delay vector; for the normal forms, asymptotic = the \
+    model's fate within {{ b.model_t_max_s | plain }} s, horizon = within the full runs' {{ b.periods }} periods. {{ \
+    page.runs }} runs in {{ b.wall_seconds | fixed(1) }} s wall on {{ page.threads }} threads ({{ (1000 * b.wall_seconds \
+    * page.threads / [page.runs, 1] | max) | fixed(1) }} ms per cell and thread).";
+const BASIN_MAIN_CAPTION: &str = "The full system's basin with the fitted map's verdict (markers: cells where the fitted \
+    map, the shared-tangent model linear in dt iterated from the full system's first delay vector of each start with the \
+    same horizon and escape rule, disagrees) and the normal forms' separatrices: data-driven (blue), equation-driven at \
+    order {{ b.equation_order }} (purple)";
+const BASIN_NF_CAPTION: &str = "The full system's basin with the normal forms' separatrices; markers: cells where a \
+    normal form's asymptotic verdict differs (data-driven blue, equation-driven purple)";
+
+/// One dt of the basin figures: the full system's cells, where the fitted map and the two
+/// normal forms differ from it, and the normal forms' separatrices.
+struct BasinPanel {
+    caption: String,
+    full: Vec<bool>,
+    map_differs: Vec<bool>,
+    nf_differs: [Vec<bool>; 2],
+    separatrices: [Vec<Vec<(f64, f64)>>; 2],
+}
+
+const BLUE: RGBColor = RGBColor(30, 80, 220);
+const PURPLE: RGBColor = RGBColor(150, 40, 170);
+const ORANGE: RGBColor = RGBColor(230, 120, 0);
+
+/// The normal forms' separatrices as curves (data-driven blue, equation-driven purple).
+fn separatrix_curves(p: &BasinPanel) -> Vec<(String, RGBColor, Vec<Vec<(f64, f64)>>)> {
+    vec![
+        ("data-driven normal form: separatrices".into(), BLUE, p.separatrices[0].clone()),
+        (format!("equation-driven (order {EQUATION_ORDER}) separatrices"), PURPLE, p.separatrices[1].clone()),
+    ]
+}
+
+/// The main figure's panels: the full system's basin, the fitted map's verdict (its
+/// differing cells marked) and the normal forms' separatrices.
+fn main_panels<'a>(panels: &'a [BasinPanel], r1: &'a [f64], r2: &'a [f64]) -> Vec<OverlayPanel<'a>> {
+    panels
+        .iter()
+        .map(|p| OverlayPanel {
+            caption: p.caption.clone(),
+            x: r1,
+            y: r2,
+            bounded: &p.full,
+            marks: vec![("fitted map differs".into(), ORANGE, p.map_differs.clone())],
+            curves: separatrix_curves(p),
+        })
+        .collect()
+}
+
+/// The second figure's panels: the cells where each normal form's verdict differs.
+fn normal_form_panels<'a>(panels: &'a [BasinPanel], r1: &'a [f64], r2: &'a [f64]) -> Vec<OverlayPanel<'a>> {
+    panels
+        .iter()
+        .map(|p| OverlayPanel {
+            caption: p.caption.clone(),
+            x: r1,
+            y: r2,
+            bounded: &p.full,
+            marks: vec![
+                ("data-driven normal form differs".into(), BLUE, p.nf_differs[0].clone()),
+                ("equation-driven normal form differs".into(), PURPLE, p.nf_differs[1].clone()),
+            ],
+            curves: separatrix_curves(p),
+        })
+        .collect()
+}
+
 fn basin_section(rep: &mut Report, c: &Computed) -> Result<(), Box<dyn Error>> {
     let b = &c.basin;
     let o = &b.options;
     let (r1, r2) = o.values();
-    let cells = r1.len() * r2.len();
-    rep.section(
-        "basin",
-        "The full system's basin near the global bifurcation",
-        &format!(
-            "Bounded (green) or escaping (red, |theta| > 1 rad within {} periods) full-system runs from {} x {} starts on the \
-             exact linear eigenvectors, slow amplitude rho_1 = {}..{} rad x fast amplitude rho_2 = {}..{} rad, phases \
-             {:?} rad, at dt = {} ms (a basin sweep: <code>ssmctl sweep</code> on the same spec gives the same cells). Over \
-             it the saddle cycles' stable manifolds (separatrices) and the 3-tori of the data-driven model (blue) and of the \
-             equation-driven model at order {EQUATION_ORDER} (purple), and the cells where a model's verdict differs from \
-             the full system's. A model's start counts as bounded when its trajectory reaches the 2-torus or still circles \
-             in the box after {MODEL_T_MAX} s; reaching another attractor (e.g. a large slow-mode cycle) or leaving the \
-             box {:?} counts as escape (asymptotic verdict); the horizon verdict counts leaving the box after the full \
-             runs' horizon as bounded.",
-            o.periods, o.rho1.n, o.rho2.n, o.rho1.lo, o.rho1.hi, o.rho2.lo, o.rho2.hi, o.phases,
-            o.dts_ms.iter().map(|d| d.to_string()).collect::<Vec<_>>().join(", "),
-            RHO_MAX,
-        ),
-    );
-    let blue = RGBColor(30, 80, 220);
-    let purple = RGBColor(150, 40, 170);
     let separatrices = |p: &Portrait| -> Vec<Vec<(f64, f64)>> {
         let mut v: Vec<Vec<(f64, f64)>> = p
             .manifolds
@@ -1203,11 +1267,9 @@ fn basin_section(rep: &mut Report, c: &Computed) -> Result<(), Box<dyn Error>> {
         v.extend(p.orbits.iter().map(|o| o.points.clone()));
         v
     };
-    let mut rows = Vec::new();
     let mut list = Vec::new();
-    let mut panels_data = Vec::new();
+    let mut panels = Vec::new();
     let mut map_disagreement = Vec::new();
-    let mut map_panels: Vec<(String, Vec<bool>, Vec<bool>)> = Vec::new();
     for (p, (dt, m)) in o.dts_ms.iter().zip(&c.models).enumerate() {
         let full = b.bounded_at(p);
         let ag = |mb: &ModelBasin| -> Result<(Agreement, Agreement), furuta::Error> {
@@ -1216,123 +1278,49 @@ fn basin_section(rep: &mut Report, c: &Computed) -> Result<(), Box<dyn Error>> {
         let (data, data_h) = ag(&m[0].1)?;
         let (eq, eq_h) = ag(&m[1].1)?;
         let esc = b.escape_fraction(p);
-        let pct = |a: &Agreement| {
-            let und = if a.undecided > 0 { format!(", {} undecided", a.undecided) } else { String::new() };
-            format!(
-                "{:.1} % ({} / {}{und})",
-                100.0 * a.disagreement,
-                a.model_bounded_full_escaped,
-                a.model_escaped_full_bounded
-            )
-        };
         let map_b = c.map_basin.get(p).ok_or("no map basin at this dt")?;
         let map_fates: Vec<ModelFate> =
             map_b.iter().map(|&b| if b { ModelFate::Principal } else { ModelFate::LeavesBox }).collect();
         let map_ag = agreement(&map_fates, &full)?;
-        rows.push(vec![
-            format!("{dt}"),
-            format!("{:.1} %", 100.0 * esc),
-            pct(&map_ag),
-            pct(&data),
-            pct(&data_h),
-            pct(&eq),
-            pct(&eq_h),
-        ]);
         list.push(json!({"dt_ms": dt, "escape_fraction": esc, "map": map_ag, "data_driven": data, "data_driven_horizon": data_h, "equation": eq, "equation_horizon": eq_h}));
         map_disagreement.push(map_ag.disagreement);
-        map_panels.push((
-            format!("dt = {dt} ms: fitted map differs on {:.1} %", 100.0 * map_ag.disagreement),
-            full.clone(),
-            map_b.iter().zip(&full).map(|(a, b)| a != b).collect::<Vec<bool>>(),
-        ));
         let differs = |mb: &ModelBasin| -> Vec<bool> {
             mb.asymptotic.iter().zip(&full).map(|(f, &x)| f.bounded().is_some_and(|y| y != x)).collect()
         };
-        let (d0, d1) = (differs(&m[0].1), differs(&m[1].1));
-        panels_data.push((
-            format!("dt = {dt} ms: {:.0} % escape", 100.0 * esc),
+        panels.push(BasinPanel {
+            caption: format!(
+                "dt = {dt} ms: {:.0} % escape, fitted map differs on {:.1} %",
+                100.0 * esc,
+                100.0 * map_ag.disagreement
+            ),
+            map_differs: map_b.iter().zip(&full).map(|(a, b)| a != b).collect(),
+            nf_differs: [differs(&m[0].1), differs(&m[1].1)],
+            separatrices: [separatrices(&m[0].0), separatrices(&m[1].0)],
             full,
-            d0,
-            d1,
-            separatrices(&m[0].0),
-            separatrices(&m[1].0),
-        ));
+        });
     }
-    let panels: Vec<OverlayPanel> = panels_data
-        .iter()
-        .map(|(cap, full, d0, d1, s0, s1)| OverlayPanel {
-            caption: cap.clone(),
-            x: &r1,
-            y: &r2,
-            bounded: full,
-            marks: vec![
-                ("data-driven model differs".into(), blue, d0.clone()),
-                ("equation-driven model differs".into(), purple, d1.clone()),
-            ],
-            curves: vec![
-                ("data-driven separatrices".into(), blue, s0.clone()),
-                (format!("equation-driven (order {EQUATION_ORDER}) separatrices"), purple, s1.clone()),
-            ],
-        })
-        .collect();
     let fig = "fig/basin_global.png";
     draw_basin_overlay(
         &rep.dir().join(fig),
-        &format!("Full system: bounded (green) / escape (red) within {} periods", o.periods),
+        &format!(
+            "Full system: bounded (green) / escape (red) within {} periods, and the fitted map's verdict",
+            o.periods
+        ),
         "rho_1 (slow) [rad]",
         "rho_2 (fast) [rad]",
-        &panels,
+        &main_panels(&panels, &r1, &r2),
     )?;
-    rep.figure(fig, "The full system's basin with the reduced models' separatrices; markers: cells where a model's asymptotic verdict differs");
-    let orange = RGBColor(230, 120, 0);
-    let map_fig = "fig/basin_map.png";
-    let mpanels: Vec<OverlayPanel> = map_panels
-        .iter()
-        .map(|(cap, full, d)| OverlayPanel {
-            caption: cap.clone(),
-            x: &r1,
-            y: &r2,
-            bounded: full,
-            marks: vec![("fitted map differs".into(), orange, d.clone())],
-            curves: Vec::new(),
-        })
-        .collect();
+    let nf_fig = "fig/basin_normal_forms.png";
     draw_basin_overlay(
-        &rep.dir().join(map_fig),
-        &format!("Full system (bounded green / escape red within {} periods) and the fitted map's verdict", o.periods),
+        &rep.dir().join(nf_fig),
+        &format!(
+            "Full system (bounded green / escape red within {} periods) and the normal forms' verdicts",
+            o.periods
+        ),
         "rho_1 (slow) [rad]",
         "rho_2 (fast) [rad]",
-        &mpanels,
+        &normal_form_panels(&panels, &r1, &r2),
     )?;
-    rep.figure(
-        map_fig,
-        "The full system's basin; markers: cells where the fitted map (shared-tangent model, linear in dt, iterated from the full system's first delay vector of each start, same horizon and escape rule) disagrees",
-    );
-    rep.para(&format!(
-        "Disagreement: the fraction of the {cells} cells where the model's verdict differs from the full system's (in \
-         parentheses: model bounded but full system escaped / model escaped but full system bounded; undecided: the model's \
-         trajectory reached a saddle, not compared); the fitted map's verdict is its own run of the same horizon from \
-         the full system's first delay vector; for the normal forms, asymptotic = the \
-         model's fate within {MODEL_T_MAX} s, horizon = within the full runs' {} periods. {} runs in {:.1} s wall on {} \
-         threads ({:.1} ms per cell and thread).",
-        o.periods,
-        b.result.cells.len(),
-        b.wall_seconds,
-        b.threads,
-        1e3 * b.wall_seconds * b.threads as f64 / b.result.cells.len().max(1) as f64,
-    ));
-    rep.table(
-        &[
-            "dt [ms]",
-            "full system: escape",
-            "fitted map: differs",
-            "normal form (data-driven): differs",
-            "data-driven, horizon",
-            "equation-driven: differs",
-            "equation-driven, horizon",
-        ],
-        &rows,
-    );
     rep.summary.insert(
         "basin".into(),
         json!({
@@ -1347,16 +1335,106 @@ fn basin_section(rep: &mut Report, c: &Computed) -> Result<(), Box<dyn Error>> {
             "spec_hash": b.result.spec_hash,
             "per_dt": list,
             "map_disagreement": map_disagreement,
-            "map_figure": map_fig,
+            "map_figure": fig,
             "wall_seconds": b.wall_seconds,
         }),
+    );
+    rep.summary.insert(
+        "page_basin".into(),
+        json!({"rho_max": RHO_MAX, "escape_theta": furuta::full_system::ESCAPE_THETA, "runs": b.result.cells.len(), "threads": b.threads, "normal_form_figure": nf_fig}),
+    );
+    basin_render(rep, &Value::Object(rep.summary.clone()))
+}
+
+/// Writes the basin section from the summary `s` (`basin`, `page_basin`).
+pub fn basin_render(rep: &mut Report, s: &Value) -> Result<(), Box<dyn Error>> {
+    let p = Prose::new();
+    let (b, page) = (
+        s.get("basin").ok_or("report: summary lacks `basin`")?,
+        s.get("page_basin").ok_or("report: summary lacks `page_basin`")?,
+    );
+    let v = json!({"b": b, "page": page});
+    rep.section(
+        "basin",
+        "The full system's basin near the global bifurcation",
+        &p.html("basin/intro", BASIN_INTRO, &v)?,
+    );
+    let fig = |k: &str, o: &Value| o[k].as_str().map(str::to_string).ok_or(format!("report: basin figure `{k}`"));
+    rep.figure(&fig("figure", b)?, &p.text("basin/main-caption", BASIN_MAIN_CAPTION, &v)?);
+    rep.figure(&fig("normal_form_figure", page)?, &p.text("basin/nf-caption", BASIN_NF_CAPTION, &v)?);
+    rep.para(&p.html("basin/text", BASIN_TEXT, &v)?);
+    let agree = BASIN_AGREE.replace("a.", "r.KEY.");
+    let cells: Vec<String> = ["{{ r.dt_ms | plain }}".to_string(), "{{ r.escape_fraction | pct(1) }} %".to_string()]
+        .into_iter()
+        .chain(
+            ["map", "data_driven", "data_driven_horizon", "equation", "equation_horizon"]
+                .iter()
+                .map(|k| agree.replace("KEY", k)),
+        )
+        .collect();
+    let cells: Vec<&str> = cells.iter().map(String::as_str).collect();
+    let items: Vec<Value> =
+        b["per_dt"].as_array().ok_or("report: basin.per_dt is not a list")?.iter().map(|r| json!({ "r": r })).collect();
+    rep.table(
+        &[
+            "dt [ms]",
+            "full system: escape",
+            "fitted map: differs",
+            "normal form (data-driven): differs",
+            "data-driven, horizon",
+            "equation-driven: differs",
+            "equation-driven, horizon",
+        ],
+        &p.rows("basin/row", &cells, &items)?,
     );
     Ok(())
 }
 
 #[cfg(test)]
 mod tests {
-    use super::value_spread;
+    use super::*;
+
+    #[test]
+    fn basin_text_follows_the_values() {
+        let s = crate::report::pages::snapshot_summary();
+        crate::report::pages::check_section(
+            basin_render,
+            &s,
+            "/basin/per_dt/0/map/disagreement",
+            json!(0.4321),
+            "<td>43.2 % (",
+        );
+    }
+
+    /// The main figure carries the fitted map's verdict (its differing cells marked) over the
+    /// full system's basin with the normal forms' separatrices; the normal forms' marks are on
+    /// the second figure; the legend band overlaps no panel.
+    #[test]
+    fn the_main_basin_figure_shows_the_fitted_map_verdict() {
+        let (r1, r2) = ([0.1, 0.2], [0.01, 0.02, 0.03]);
+        let panel = |k: usize| BasinPanel {
+            caption: format!("dt {k}"),
+            full: vec![true, true, false, true, false, false],
+            map_differs: vec![false, false, true, false, false, false],
+            nf_differs: [vec![true; 6], vec![false, true, true, true, true, false]],
+            separatrices: [vec![vec![(0.1, 0.01), (0.2, 0.02)]], vec![]],
+        };
+        let panels = [panel(0), panel(1), panel(2)];
+        let main = main_panels(&panels, &r1, &r2);
+        for (m, p) in main.iter().zip(&panels) {
+            assert_eq!(m.marks.len(), 1);
+            assert!(m.marks[0].0.contains("fitted map"), "{}", m.marks[0].0);
+            assert_eq!(m.marks[0].2, p.map_differs);
+            assert_eq!(m.bounded, p.full.as_slice());
+            assert_eq!(m.curves.len(), 2);
+        }
+        let nf = normal_form_panels(&panels, &r1, &r2);
+        assert!(nf.iter().all(|p| p.marks.len() == 2 && p.marks.iter().all(|m| m.0.contains("normal form"))));
+        for l in [crate::draw::basin::overlay_layout(&main), crate::draw::basin::overlay_layout(&nf)] {
+            assert!(l.panels.iter().all(|r| !r.overlaps(&l.legend)), "{l:?}");
+            assert!(l.entries.iter().any(|e| e.0.contains("fitted map")) || l.entries.len() == 4);
+        }
+    }
 
     #[test]
     fn value_spread_counts_the_values_found_and_spans_them() {
