@@ -426,7 +426,7 @@ pub fn portraits_render(rep: &mut Report, s: &Value) -> Result<(), Box<dyn Error
 
 /// Where the full system's 2-torus is measured (the model's is `ModelBifurcations::torus_30p8`)
 /// and the start of that run (theta, rad).
-const TORUS_DT_MS: f64 = 30.8;
+pub(crate) const TORUS_DT_MS: f64 = 30.8;
 const TORUS_THETA0: f64 = 0.05;
 /// The fast-mode cycle: the start's (slow, fast) amplitudes, and the plateau read after this
 /// time (s) while rho_1 stays below this (rad).
@@ -920,7 +920,7 @@ mod tests {
             portraits_render,
             &s,
             "/page_portraits/hopf",
-            json!({"dt": 31.98765, "bracket": [31.9, 32.0], "rho": [0.1, 0.02], "eigenvalues": [[0.0, 1.0], [0.0, -1.0]],
+            json!({"dt": 31.98766, "bracket": [31.9, 32.0], "rho": [0.1, 0.02], "eigenvalues": [[0.0, 1.0], [0.0, -1.0]],
                    "complex_pair": true, "frequency_hz": 0.5, "loses_stability": true}),
             "loses stability at dt = 31.9877 ms",
         );

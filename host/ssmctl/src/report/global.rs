@@ -7,6 +7,7 @@
 //! `map_disagreement` and `map_figure`).
 
 use crate::draw::basin::{OverlayPanel, draw_basin_overlay};
+use crate::report::bifurcations::TORUS_DT_MS;
 use crate::report::prose::Prose;
 use crate::report::tasks::task;
 use crate::report::{Report, num, par_map};
@@ -25,7 +26,7 @@ use furuta::full_system::verdict_integrator;
 use furuta::map_global::{
     Connection, ConnectionOptions, full_connection_with, map_basin, map_connection, map_torus_continuation,
 };
-use furuta::parametric::{ParametricModel, TrainingRuns};
+use furuta::parametric::{FurutaOptions, ParametricModel, TrainingRuns};
 use furuta::shared_tangent::SharedParametricModel;
 use plotters::style::RGBColor;
 use serde_json::{Value, json};
@@ -430,7 +431,7 @@ fn where_the_normal_form_errs(rep: &mut Report, c: &Computed) {
          z_j |z_1|^2a |z_2|^2b of R, iterated as a map: the polar normal form without the map-to-flow step) connects at \
          {} ms and its torus growth starts at {} ms, {} and {} ms from the polar form's connection and Hopf. So the value \
          moves where the normal form's near-identity change of coordinates is truncated at a finite order (the \
-         phase-dependent terms it removes, at rho ~ 0.1 rad near the 1:4 resonance of the fast pair), hardly at the \
+         phase-dependent terms it removes), hardly at the \
          map-to-flow step, and not in the SSM. Data-driven against equation-driven on the faithful form: the fitted map's \
          connection (linear in dt) is {} ms from the order-{EQUATION_ORDER} equation-driven reduced map's and its torus \
          growth onset {} ms (target {MAP_TARGET_MS} ms); against the full system: connection {} ms, onset {} ms.",
@@ -519,7 +520,7 @@ fn map_variants_table(rep: &mut Report, c: &Computed) {
     rep.para(&format!(
         "The fitted map over the training variants of the sensitivity study: each variant's runs refitted into the \
          shared-tangent model (its regression rows weighted by the default's smooth amplitude cut, FurutaOptions::map_weight, \
-         so runs kept past the slow saddle cycle do not bend the map near the torus, with its degrees 2-3 from a first fit at a 0.1 rad knee) and read by the same rules as the \
+         so runs kept past the slow saddle cycle do not bend the map near the torus, with its degrees 2-{low_degree} from a first fit at a {low_knee} rad knee) and read by the same rules as the \
          default's (saddle connection by the pushed fast cycle; torus continuation, lost bracket and growth onset). Spread (max - min over the rows where found) of the \
          connection: {} ms linear, {} ms spline; of the torus growth onset: {} / {} ms; of the torus-loss bracket's \
          midpoint: {} / {} ms (rows without the value, e.g. a torus already lost at the grid's first dt, are left \
@@ -530,6 +531,8 @@ fn map_variants_table(rep: &mut Report, c: &Computed) {
         sp("torus_onset_spline"),
         sp("torus_lost_linear"),
         sp("torus_lost_spline"),
+        low_degree = furuta::parametric::MAP_LOW_DEGREE,
+        low_knee = furuta::parametric::MAP_LOW_KNEE_THETA,
     ));
     rep.table(
         &[
@@ -736,7 +739,7 @@ fn equation_section(
             lost_text(&c.torus),
         ],
         vec![
-            "2-torus at 30.8 ms (rho_1, rho_2) [rad]".into(),
+            format!("2-torus at {TORUS_DT_MS} ms (rho_1, rho_2) [rad]"),
             "-".into(),
             rho(bif.torus_30p8.as_ref().map(|t| t.rho)),
             "-".into(),
@@ -805,7 +808,7 @@ fn equation_section(
             "normal form: saddle connection [ms]",
             "normal form: small-start switch [ms]",
             "normal form: torus Hopf [ms]",
-            "normal form: 2-torus at 30.8 ms",
+            &format!("normal form: 2-torus at {TORUS_DT_MS} ms"),
         ],
         &orow,
     );
@@ -842,8 +845,21 @@ fn equation_section(
     );
     // Coefficients and invariance by order.
     rep.para(&format!(
-        "Equation-driven SSM at order {diag_order}: invariance error max |F(W(z)) - W(R(z))| of the truncations at orders 3, \
-         5, ... on the spheres of theta amplitude {} rad, and the polar coefficients (1/s; rho in rad of theta).",
+        "Equation-driven SSM at order {diag_order}: invariance error max |F(W(z)) - W(R(z))| of the truncations at orders {} \
+         on the spheres of theta amplitude {} rad, and the polar coefficients (1/s; rho in rad of theta).",
+        c.diag
+            .first()
+            .map(|d| d.invariance.iter().map(|e| e.order).fold(Vec::new(), |mut v, o| {
+                if !v.contains(&o) {
+                    v.push(o);
+                }
+                v
+            }))
+            .unwrap_or_default()
+            .iter()
+            .map(|o| o.to_string())
+            .collect::<Vec<_>>()
+            .join(", "),
         INVARIANCE_RADII.iter().map(|r| r.to_string()).collect::<Vec<_>>().join(" and "),
     ));
     let mut irows = Vec::new();
@@ -1132,7 +1148,7 @@ fn cubic_comparison(
     rep.para(&format!(
         "Data-driven vs equation-driven polar coefficients (1/s; rho in rad of theta) at the training periods that are \
          nodes of the equation-driven model: each cell data / equation (relative difference); the data-driven value is \
-         that training period's own fit (graph over its own SVD tangent with a degree-1 normal part, order-7 map, normal form), the equation-driven one the order-{EQUATION_ORDER} \
+         that training period's own fit (graph over its own SVD tangent with a degree-1 normal part, order-{dyn_order} map, normal form), the equation-driven one the order-{EQUATION_ORDER} \
          normal form; the next column says whether every training period is within the issue's {:.0} % target. \
          Beyond linear order a coefficient depends on what rho means: the equation-driven amplitudes are theta's first \
          harmonic on a torus (what the full system's torus amplitude measures); normalizing the manifold by the spectral \
@@ -1146,12 +1162,18 @@ fn cubic_comparison(
          is within the target. On this basis both sides define rho the same way, so every coefficient compares. The last \
          column is the fitted map's (shared tangent, weighted regression, the model of the map-based results) normal form \
          on the same basis at its node, relative difference to the equation-driven value per period. The fitted map's \
-         degrees 2-3 come from a first order-7 fit weighted with its knee at 0.1 rad of theta, its degrees 4-7 from the \
-         fit at 0.2 rad (ssm::LowDegreeStage, FurutaOptions::map_weight): with one fit at 0.2 rad the order-7 truncation \
+         degrees 2-{low_degree} come from a first order-{dyn_order} fit weighted with its knee at {low_knee} rad of theta, its \
+         degrees {}-{dyn_order} from the fit at {knee} rad (ssm::LowDegreeStage, FurutaOptions::map_weight): with one fit \
+         at {knee} rad the order-{dyn_order} truncation \
          bends the cubic terms with the data near the slow saddle cycle, and a higher map order or a lower knee of the \
          single fit traded the cubic terms against the saddle connection (docs/decisions/0001).",
         100.0 * CUBIC_TARGET,
-        100.0 * CHART_ROBUST
+        100.0 * CHART_ROBUST,
+        furuta::parametric::MAP_LOW_DEGREE + 1,
+        dyn_order = FurutaOptions::default().fit.dyn_order,
+        low_degree = furuta::parametric::MAP_LOW_DEGREE,
+        low_knee = furuta::parametric::MAP_LOW_KNEE_THETA,
+        knee = furuta::parametric::MAP_WEIGHT_KNEE_THETA,
     ));
     let mut head: Vec<String> = vec!["equation".into(), "monomial".into()];
     head.extend(dts.iter().map(|d| format!("{d} ms")));
@@ -1430,9 +1452,12 @@ mod tests {
         }
         let nf = normal_form_panels(&panels, &r1, &r2);
         assert!(nf.iter().all(|p| p.marks.len() == 2 && p.marks.iter().all(|m| m.0.contains("normal form"))));
-        for l in [crate::draw::basin::overlay_layout(&main), crate::draw::basin::overlay_layout(&nf)] {
+        for (l, mark) in [
+            (crate::draw::basin::overlay_layout(&main), "fitted map differs"),
+            (crate::draw::basin::overlay_layout(&nf), "normal form differs"),
+        ] {
             assert!(l.panels.iter().all(|r| !r.overlaps(&l.legend)), "{l:?}");
-            assert!(l.entries.iter().any(|e| e.0.contains("fitted map")) || l.entries.len() == 4);
+            assert!(l.entries.iter().any(|e| e.0.contains(mark)), "{mark}: {:?}", l.entries);
         }
     }
 

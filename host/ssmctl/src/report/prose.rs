@@ -121,8 +121,9 @@ impl Prose {
     }
 }
 
-/// Names written with digits: a method, and the invariant objects named by their dimension.
-const NAMES_WITH_DIGITS: [&str; 5] = ["0-1 test", "2-torus", "3-torus", "2-tori", "3-tori"];
+/// Names written with digits: a method, and the invariant objects named by their dimension;
+/// and the constants of formulas written out in the text.
+const NAMES_WITH_DIGITS: [&str; 6] = ["0-1 test", "2-torus", "3-torus", "2-tori", "3-tori", "x (1 + spread"];
 
 /// The numbers written in `text`: runs of digits (with a decimal point, an exponent and a
 /// leading minus) that are not part of a name (`rho_1`, `x2`, `2D`, a monomial's `^3`,
