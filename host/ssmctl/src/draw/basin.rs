@@ -139,6 +139,9 @@ fn draw_into<DB: DrawingBackend>(
     Ok(())
 }
 
+/// A labelled set of polylines drawn over a panel: `(label, colour, polylines)`.
+pub type Curves = (String, RGBColor, Vec<Vec<(f64, f64)>>);
+
 /// One panel of [`draw_basin_overlay`]: a 2D grid of full-system outcomes with curves and
 /// marked cells drawn over it.
 pub struct OverlayPanel<'a> {
@@ -152,7 +155,7 @@ pub struct OverlayPanel<'a> {
     /// markers of its own shape (cross, circle, triangle, in order; named in the legend).
     pub marks: Vec<(String, RGBColor, Vec<bool>)>,
     /// Curves over the grid: `(label, colour, polylines)`; polylines are cut at the grid's box.
-    pub curves: Vec<(String, RGBColor, Vec<Vec<(f64, f64)>>)>,
+    pub curves: Vec<Curves>,
 }
 
 /// The parts of `line` inside the box `[x0, x1] x [y0, y1]` (points outside end a part).

@@ -3,10 +3,11 @@
 //! one (the fitted map itself and its normal form) and the full system, every bifurcation value
 //! in five columns (`summary.json` keys `equation_ssm`, and `equation*` / `full_system*` /
 //! `map` / `equation_map` added to `heteroclinic_dt_ms` and `torus_hopf_dt_ms`, the equation map's small-start switch as `map_switch_dt_ms.equation_map`), and the full system's basin near the global bifurcation with both
-//! normal forms' saddle manifolds over it and the fitted map's verdict on it (`basin`, with
-//! `map_disagreement` and `map_figure`).
+//! normal forms' saddle manifolds and the fitted map's verdict over it (`basin`, with
+//! `map_disagreement`; `map_figure` is the main figure, which carries the map's verdict; the
+//! normal forms' verdicts are on `page_basin.normal_form_figure`).
 
-use crate::draw::basin::{OverlayPanel, draw_basin_overlay};
+use crate::draw::basin::{Curves, OverlayPanel, draw_basin_overlay};
 use crate::report::bifurcations::TORUS_DT_MS;
 use crate::report::prose::Prose;
 use crate::report::tasks::task;
@@ -605,10 +606,20 @@ fn eq_map_switch_text(c: &Computed) -> String {
     }
 }
 
+const EQ_MAP_SWITCH: &str = "The equation-driven reduced map's small-start switch (order {{ order }}, spline in dt) uses \
+    the fitted map's rules: the full system's small mode-shaped starts (plant state and controller samples) projected \
+    onto its reduced coordinates (z = U^T s, the exact linear map's left eigenvectors, in which the graph-style manifold \
+    has U^T W(z) = z), theta read from W(z), {{ periods }} periods, escape when |theta| exceeds {{ escape_theta | plain \
+    }} rad, a grid of {{ n }} dt over [{{ lo | plain }}, {{ hi | plain }}] ms, then bisected to {{ tol | plain }} ms ({{ \
+    seconds | fixed(1) }} s wall). Its bracket {{ bracket }} has its midpoint {% if to_full is none %}-{% else %}{{ \
+    to_full | signed(3) }}{% endif %} ms from the full system's bracket midpoint (the full system's scan: {% if \
+    scan_periods is none %}unknown{% else %}{{ scan_periods }}{% endif %} periods) and {% if to_fitted is none %}-{% else \
+    %}{{ to_fitted | signed(3) }}{% endif %} ms from the fitted map's (linear in dt).";
+
 /// The equation-driven reduced map's small-start switch: a paragraph (how far from the full
 /// system's and the fitted map's) and the summary key `map_switch_dt_ms.equation_map`.
-fn eq_map_switch_part(rep: &mut Report, c: &Computed, nodes: &[f64]) {
-    let Some((sw, seconds)) = &c.eq_map_switch else { return };
+fn eq_map_switch_part(rep: &mut Report, c: &Computed, nodes: &[f64]) -> Result<(), Box<dyn Error>> {
+    let Some((sw, seconds)) = &c.eq_map_switch else { return Ok(()) };
     let mid2 =
         |v: &Value| v.as_array().filter(|a| a.len() == 2).and_then(|a| Some(0.5 * (a[0].as_f64()? + a[1].as_f64()?)));
     let ms = rep.summary.get("map_switch_dt_ms").cloned().unwrap_or(Value::Null);
@@ -617,22 +628,15 @@ fn eq_map_switch_part(rep: &mut Report, c: &Computed, nodes: &[f64]) {
     let scan_periods = rep.summary.get("heteroclinic_dt_ms").and_then(|h| h["scan_periods"].as_u64());
     let (lo, hi, n, tol) = crate::report::bifurcations::MAP_SWITCH_RANGE_MS;
     let own = sw.as_ref().ok().and_then(|s| s.bracket).map(|(a, b)| 0.5 * (a + b));
-    let gap = |a: Option<f64>, b: Option<f64>| a.zip(b).map_or("-".to_string(), |(a, b)| format!("{:+.3}", a - b));
-    rep.para(&format!(
-        "The equation-driven reduced map's small-start switch (order {EQUATION_ORDER}, spline in dt) uses the fitted map's \
-         rules: the full system's small mode-shaped starts (plant state and controller samples) projected onto its reduced \
-         coordinates (z = U^T s, the exact linear map's left eigenvectors, in which the graph-style manifold has U^T W(z) = z), \
-         theta read from W(z), {} periods, escape when |theta| exceeds {} rad, a grid of {n} dt over [{lo}, {hi}] ms, then \
-         bisected to {tol} ms ({:.1} s wall). Its bracket {} has its midpoint {} ms from the full system's bracket midpoint \
-         (the full system's scan: {} periods) and {} ms from the fitted map's (linear in dt).",
-        furuta::full_system::DEFAULT_SCAN_PERIODS,
-        furuta::full_system::ESCAPE_THETA,
-        seconds,
-        eq_map_switch_text(c),
-        gap(own, full),
-        scan_periods.map_or("unknown".to_string(), |p| p.to_string()),
-        gap(own, fitted),
-    ));
+    let gap = |a: Option<f64>, b: Option<f64>| a.zip(b).map(|(a, b)| a - b);
+    rep.para(&Prose::new().html(
+        "equation/map-switch",
+        EQ_MAP_SWITCH,
+        &json!({"order": EQUATION_ORDER, "periods": furuta::full_system::DEFAULT_SCAN_PERIODS,
+                "escape_theta": furuta::full_system::ESCAPE_THETA, "n": n, "lo": lo, "hi": hi, "tol": tol,
+                "seconds": seconds, "bracket": eq_map_switch_text(c), "to_full": gap(own, full),
+                "scan_periods": scan_periods, "to_fitted": gap(own, fitted)}),
+    )?);
     let v = match sw {
         Ok(sw) => {
             json!({"bracket": sw.bracket.map(|(a, b)| vec![a, b]), "grid": sw.grid.iter().map(|g| json!([g.0, g.1])).collect::<Vec<_>>(), "monotone": sw.monotone,
@@ -644,6 +648,7 @@ fn eq_map_switch_part(rep: &mut Report, c: &Computed, nodes: &[f64]) {
     if let Some(Value::Object(m)) = rep.summary.get_mut("map_switch_dt_ms") {
         m.insert("equation_map".into(), v);
     }
+    Ok(())
 }
 
 /// The fitted map's switch brackets (predictions section, `map_switch_dt_ms`) as table text.
@@ -660,6 +665,39 @@ fn map_switch(v: Option<&Value>) -> String {
     format!("{} / {}", one("linear"), one("spline"))
 }
 
+const EQUATION_INTRO: &str = "The equation-driven model is the SSM of the unquantized loop's exact one-period map \
+    (Taylor expansion at the upright equilibrium, parametrization method, extended normal form with near resonances \
+    kept), in the data-driven model's polar conventions; its normal forms at dt = {{ nodes | plain }} ms (order {{ orders \
+    | plain }}) are interpolated by natural cubic splines and scanned for bifurcations by the same portrait code as the \
+    data-driven model. The full system's torus loss: the 2-torus followed across dt by runs of {{ torus_periods }} periods, \
+    each started from the end of the previous one; it is lost at the first dt where the run escapes or the slow \
+    amplitude's spread (max - min over the sliding fit) over the last third of the run is above {{ growth | plain }} times \
+    that over the middle third and above {{ spread_min | plain }} rad (a growing oscillation about the torus). Each run \
+    starts from the previous one's last state with the controller's samples before it (an earlier version counted the \
+    last sample twice, a one-period shift of the delayed samples that kicked the slow amplitude and lost the torus \
+    early). The growth onset is where the slow amplitude's oscillation about the torus stops decaying: the zero of its \
+    growth rate ln(last spread / middle spread) / (a third of the run), linear in dt between the last decaying and the \
+    first growing step.";
+
+/// The fitted map's and the full system's connection rule and the columns' costs.
+const EQUATION_RULES: &str = "The fitted map column is the shared-tangent SSM model of the predictions section \
+    (manifold and map coefficients interpolated in dt, linearly / by a natural cubic spline), iterated as a map, no \
+    normal form. Its saddle connection and the full system's are read by one rule: the fast saddle cycle (an invariant \
+    circle of the fitted map, of the exact period map for the full system; Fourier collocation and Newton) is pushed \
+    along the slow eigenvector by {{ co.push | plain }} rad of theta at {{ co.phases }} slow phases over half a turn, and \
+    each start is iterated (the full system: simulated) for {{ co.periods }} periods; the connection is the first dt at \
+    which a pushed start escapes (|theta| > {{ escape_theta | plain }} rad) instead of settling on the 2-torus, on a grid \
+    of {{ range[2] }} dt over [{{ range[0] | plain }}, {{ range[1] | plain }}] ms, then bisected to {{ range[3] | plain \
+    }} ms. The map's torus loss uses the full system's continuation rule on the map's own runs (same dt grid, periods \
+    and start). The normal-form column is the data-driven model of the portraits section (per-dt fits' polar normal \
+    forms interpolated in dt): its saddle connection is where the fast cycle's unstable branch lands on the slow cycle's \
+    stable manifold. The equation-driven reduced map column is the equation-driven model's SSM before its polar normal \
+    form: the graph-style reduced map (every term of the order-{{ order }} reduced map kept, no phase averaging; \
+    furuta::equation_map) at the same nodes, coefficients interpolated by a natural cubic spline in dt, iterated as a map \
+    and read by the fitted map's rules (its torus continuation starts from the reduced point of the same linear-mode \
+    start). Fitted map: {{ map_seconds | fixed(1) }} s wall; equation-driven reduced maps (orders {{ orders | plain }}): \
+    {{ eq_map_seconds | fixed(1) }} s wall; the full system's connection: {{ full_seconds | fixed(1) }} s wall.";
+
 fn equation_section(
     rep: &mut Report,
     pm: &ParametricModel,
@@ -672,25 +710,12 @@ fn equation_section(
     rep.section(
         "equation",
         "Data-driven vs equation-driven model vs full system: every bifurcation value",
-        &format!(
-            "The equation-driven model is the SSM of the unquantized loop's exact one-period map (Taylor expansion at the \
-             upright equilibrium, parametrization method, extended normal form with near resonances kept), in the \
-             data-driven model's polar conventions; its normal forms at dt = {} ms (order {}) are interpolated by natural \
-             cubic splines and scanned for bifurcations by the same portrait code as the data-driven model. The full \
-             system's torus loss: the 2-torus followed across dt by runs of {torus_periods} periods, each started from \
-             the end of the previous one; it is lost at the first dt where the run escapes or the slow amplitude's \
-             spread (max - min over the sliding fit) over the last third of the run is above {} times that over the \
-             middle third and above {} rad (a growing oscillation about the torus). Each run starts from the previous \
-             one's last state with the controller's samples before it (an earlier version counted the last sample twice, a \
-             one-period shift of the delayed samples that kicked the slow amplitude and lost the torus early). The \
-             growth onset is where the slow amplitude's \
-             oscillation about the torus stops decaying: the zero of its growth rate ln(last spread / middle spread) / \
-             (a third of the run), linear in dt between the last decaying and the first growing step.",
-            nodes.iter().map(|d| d.to_string()).collect::<Vec<_>>().join(", "),
-            orders.iter().map(|d| d.to_string()).collect::<Vec<_>>().join(", "),
-            furuta::basin::TORUS_GROWTH,
-            furuta::basin::TORUS_SPREAD_MIN,
-        ),
+        &Prose::new().html(
+            "equation/intro",
+            EQUATION_INTRO,
+            &json!({"nodes": nodes, "orders": orders, "torus_periods": torus_periods,
+                    "growth": furuta::basin::TORUS_GROWTH, "spread_min": furuta::basin::TORUS_SPREAD_MIN}),
+        )?,
     );
     let eb =
         c.by_order.iter().find(|b| b.order == EQUATION_ORDER).ok_or("no equation-driven model at the table's order")?;
@@ -747,26 +772,13 @@ fn equation_section(
             rho(rho_full),
         ],
     ];
-    rep.para(&format!(
-        "The fitted map column is the shared-tangent SSM model of the predictions section (manifold and map coefficients \
-         interpolated in dt, linearly / by a natural cubic spline), iterated as a map, no normal form. Its saddle \
-         connection and the full system's are read by one rule: the fast saddle cycle (an invariant circle of the \
-         fitted map, of the exact period map for the full system; Fourier collocation and Newton) is pushed along the \
-         slow eigenvector by {} rad of theta at {} slow phases over half a turn, and each start is iterated (the full \
-         system: simulated) for {} periods; the connection is the first dt at which a pushed start escapes (|theta| > \
-         {} rad) instead of settling on the 2-torus, on a grid of {} dt over [{}, {}] ms, then bisected to {} ms. The \
-         map's torus loss uses the full system's continuation rule on the map's own runs (same dt grid, periods and \
-         start). The normal-form column is the data-driven model of the portraits section (per-dt fits' polar normal \
-         forms interpolated in dt): its saddle connection is where the fast cycle's unstable branch lands on the slow \
-         cycle's stable manifold. The equation-driven reduced map column is the equation-driven model's SSM before its \
-         polar normal form: the graph-style reduced map (every term of the order-{EQUATION_ORDER} reduced map kept, no \
-         phase averaging; furuta::equation_map) at the same nodes, coefficients interpolated by a natural cubic spline in \
-         dt, iterated as a map and read by the fitted map's rules (its torus continuation starts from the reduced point \
-         of the same linear-mode start). Fitted map: {:.1} s wall; equation-driven reduced maps (orders {}): {:.1} s \
-         wall; the full system's connection: {:.1} s wall.",
-        co.push, co.phases, co.periods, furuta::full_system::ESCAPE_THETA, CONNECTION_RANGE_MS.2, CONNECTION_RANGE_MS.0, CONNECTION_RANGE_MS.1, CONNECTION_RANGE_MS.3,
-        c.map_seconds, orders.iter().map(|d| d.to_string()).collect::<Vec<_>>().join(", "), c.eq_map_seconds, c.full_connection_seconds,
-    ));
+    rep.para(&Prose::new().html(
+        "equation/rules",
+        EQUATION_RULES,
+        &json!({"co": co, "escape_theta": furuta::full_system::ESCAPE_THETA, "range": CONNECTION_RANGE_MS,
+                "order": EQUATION_ORDER, "map_seconds": c.map_seconds, "orders": orders,
+                "eq_map_seconds": c.eq_map_seconds, "full_seconds": c.full_connection_seconds}),
+    )?);
     rep.table(
         &[
             "bifurcation",
@@ -778,7 +790,7 @@ fn equation_section(
         ],
         &rows,
     );
-    eq_map_switch_part(rep, c, &nodes);
+    eq_map_switch_part(rep, c, &nodes)?;
     // The equation-driven model's values by order.
     let orow: Vec<Vec<String>> = c
         .by_order
@@ -1234,7 +1246,7 @@ const PURPLE: RGBColor = RGBColor(150, 40, 170);
 const ORANGE: RGBColor = RGBColor(230, 120, 0);
 
 /// The normal forms' separatrices as curves (data-driven blue, equation-driven purple).
-fn separatrix_curves(p: &BasinPanel) -> Vec<(String, RGBColor, Vec<Vec<(f64, f64)>>)> {
+fn separatrix_curves(p: &BasinPanel) -> Vec<Curves> {
     vec![
         ("data-driven normal form: separatrices".into(), BLUE, p.separatrices[0].clone()),
         (format!("equation-driven (order {EQUATION_ORDER}) separatrices"), PURPLE, p.separatrices[1].clone()),
