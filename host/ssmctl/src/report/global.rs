@@ -405,19 +405,18 @@ fn compute(
 /// normal-form-style map (the same SSM's normal form iterated as a map); then the data-driven
 /// fitted map against the equation-driven reduced map and the full system (the issue's 0.05 ms
 /// target).
-fn where_the_normal_form_errs(rep: &mut Report, c: &Computed) {
+fn where_the_normal_form_errs(c: &Computed) -> Result<String, String> {
     let mid =
         |r: &Result<Connection, String>| r.as_ref().ok().and_then(|c| c.switch.bracket).map(|(a, b)| 0.5 * (a + b));
     let onset = |g: &EquationMapGlobal| g.torus.as_ref().ok().and_then(|t| t.growth_onset);
-    let gap =
-        |a: Option<f64>, b: Option<f64>| a.zip(b).map_or("-".to_string(), |(a, b)| format!("{:.3}", (a - b).abs()));
-    let graph: Vec<String> = c
+    let gap = |a: Option<f64>, b: Option<f64>| a.zip(b).map(|(a, b)| (a - b).abs());
+    let graph: Vec<Value> = c
         .by_order
         .iter()
-        .map(|b| format!("{}: {}", b.order, f4(c.graph_map(b.order).and_then(|g| mid(&g.connection)))))
+        .map(|b| json!({"order": b.order, "at": c.graph_map(b.order).and_then(|g| mid(&g.connection))}))
         .collect();
-    let polar: Vec<String> =
-        c.by_order.iter().map(|b| format!("{}: {}", b.order, f4(b.heteroclinic.as_ref().map(|h| h.dt)))).collect();
+    let polar: Vec<Value> =
+        c.by_order.iter().map(|b| json!({"order": b.order, "at": b.heteroclinic.as_ref().map(|h| h.dt)})).collect();
     let nf = c.eq_map.iter().find(|g| g.style == MapStyle::NormalForm);
     let polar_t = c.by_order.iter().find(|b| b.order == EQUATION_ORDER);
     let (nf_conn, nf_onset) = (nf.and_then(|g| mid(&g.connection)), nf.and_then(onset));
@@ -425,30 +424,31 @@ fn where_the_normal_form_errs(rep: &mut Report, c: &Computed) {
     let (g_conn, g_onset) = (g7.and_then(|g| mid(&g.connection)), g7.and_then(onset));
     let (m_conn, m_onset) = (mid(&c.map_connection[0]), c.map_torus[0].growth_onset);
     let (f_conn, f_onset) = (mid(&c.full_connection), c.torus.growth_onset);
-    rep.para(&format!(
-        "Where the equation-driven model's polar normal form departs from the full system, measured. Its reduced map, \
-         iterated with every term kept, connects at {} ms (bracket midpoints by order; full system {}); its polar normal \
-         form at {} ms. The same order-{EQUATION_ORDER} SSM's normal-form-style reduced map (only the structural terms \
-         z_j |z_1|^2a |z_2|^2b of R, iterated as a map: the polar normal form without the map-to-flow step) connects at \
-         {} ms and its torus growth starts at {} ms, {} and {} ms from the polar form's connection and Hopf. So the value \
-         moves where the normal form's near-identity change of coordinates is truncated at a finite order (the \
-         phase-dependent terms it removes), hardly at the \
-         map-to-flow step, and not in the SSM. Data-driven against equation-driven on the faithful form: the fitted map's \
-         connection (linear in dt) is {} ms from the order-{EQUATION_ORDER} equation-driven reduced map's and its torus \
-         growth onset {} ms (target {MAP_TARGET_MS} ms); against the full system: connection {} ms, onset {} ms.",
-        graph.join(", "),
-        c.full_connection.as_ref().map_or_else(|e| e.clone(), |_| f4(f_conn)),
-        polar.join(", "),
-        f4(nf_conn),
-        f4(nf_onset),
-        gap(nf_conn, polar_t.and_then(|b| b.heteroclinic.as_ref().map(|h| h.dt))),
-        gap(nf_onset, polar_t.and_then(|b| b.hopf.as_ref().map(|h| h.dt))),
-        gap(m_conn, g_conn),
-        gap(m_onset, g_onset),
-        gap(m_conn, f_conn),
-        gap(m_onset, f_onset),
-    ));
+    let v = json!({
+        "order": EQUATION_ORDER, "target": MAP_TARGET_MS, "graph": graph, "polar": polar,
+        "full_error": c.full_connection.as_ref().err(), "full": f_conn, "nf_conn": nf_conn, "nf_onset": nf_onset,
+        "gaps": [gap(nf_conn, polar_t.and_then(|b| b.heteroclinic.as_ref().map(|h| h.dt))),
+                 gap(nf_onset, polar_t.and_then(|b| b.hopf.as_ref().map(|h| h.dt))),
+                 gap(m_conn, g_conn), gap(m_onset, g_onset), gap(m_conn, f_conn), gap(m_onset, f_onset)],
+    });
+    Prose::new().html("equation/where", WHERE_THE_NORMAL_FORM_ERRS, &v)
 }
+
+/// A value in ms to 3 decimals or `none` (`F3 x`), a distance or `-` (`GAP x`).
+const WHERE_THE_NORMAL_FORM_ERRS: &str = "Where \
+    the equation-driven model's polar normal form departs from the full system, measured. Its reduced map, iterated \
+    with every term kept, connects at {% for g in graph %}{{ g.order }}: {{ g.at | fixed_or(3, \"none\") }}{% if not loop.last %}, {% endif \
+    %}{% endfor %} ms (bracket midpoints by order; full system {% if full_error is not none %}{{ full_error }}{% else \
+    %}{{ full | fixed_or(3, \"none\") }}{% endif %}); its polar normal form at {% for g in polar %}{{ g.order }}: {{ g.at | fixed_or(3, \"none\") }}{% if not \
+    loop.last %}, {% endif %}{% endfor %} ms. The same order-{{ order }} SSM's normal-form-style reduced map (only the \
+    structural terms z_j |z_1|^2a |z_2|^2b of R, iterated as a map: the polar normal form without the map-to-flow step) \
+    connects at {{ nf_conn | fixed_or(3, \"none\") }} ms and its torus growth starts at {{ nf_onset | fixed_or(3, \"none\") }} ms, {{ gaps[0] | fixed_or(3, \"-\") }} and {{ \
+    gaps[1] | fixed_or(3, \"-\") }} ms from the polar form's connection and Hopf. So the value moves where the normal form's \
+    near-identity change of coordinates is truncated at a finite order (the phase-dependent terms it removes), hardly \
+    at the map-to-flow step, and not in the SSM. Data-driven against equation-driven on the faithful form: the fitted \
+    map's connection (linear in dt) is {{ gaps[2] | fixed_or(3, \"-\") }} ms from the order-{{ order }} equation-driven reduced map's \
+    and its torus growth onset {{ gaps[3] | fixed_or(3, \"-\") }} ms (target {{ target | plain }} ms); against the full system: \
+    connection {{ gaps[4] | fixed_or(3, \"-\") }} ms, onset {{ gaps[5] | fixed_or(3, \"-\") }} ms.";
 
 fn f4(v: Option<f64>) -> String {
     v.map_or("none".into(), |x| format!("{x:.3}"))
@@ -469,7 +469,7 @@ pub fn global_sections(
     let c = compute(pm, sm, runs, quick).map_err(|e| e.to_string())?;
     equation_section(rep, pm, sm, bif, &c, quick)?;
     if !quick {
-        map_variants_table(rep, &c);
+        map_variants_table(rep, &c)?;
     }
     basin_section(rep, &c)?;
     Ok(())
@@ -478,7 +478,7 @@ pub fn global_sections(
 /// The fitted map's saddle connection and torus loss over the training variants (the
 /// sensitivity study's), next to the default's: docs/decisions/0001's spread target (<= 0.1 ms).
 /// Summary key `map_sensitivity`.
-fn map_variants_table(rep: &mut Report, c: &Computed) {
+fn map_variants_table(rep: &mut Report, c: &Computed) -> Result<(), Box<dyn Error>> {
     let tor = |r: &Result<TorusContinuation, String>| r.as_ref().map_or_else(|e| e.clone(), lost_text);
     let default_torus: [Result<TorusContinuation, String>; 2] =
         [Ok(c.map_torus[0].clone()), Ok(c.map_torus[1].clone())];
@@ -517,24 +517,9 @@ fn map_variants_table(rep: &mut Report, c: &Computed) {
             ),
         );
     }
-    let sp = |k: &str| spreads[k]["spread_ms"].as_f64().map_or("-".to_string(), |x| format!("{x:.3}"));
-    rep.para(&format!(
-        "The fitted map over the training variants of the sensitivity study: each variant's runs refitted into the \
-         shared-tangent model (its regression rows weighted by the default's smooth amplitude cut, FurutaOptions::map_weight, \
-         so runs kept past the slow saddle cycle do not bend the map near the torus, with its degrees 2-{low_degree} from a first fit at a {low_knee} rad knee) and read by the same rules as the \
-         default's (saddle connection by the pushed fast cycle; torus continuation, lost bracket and growth onset). Spread (max - min over the rows where found) of the \
-         connection: {} ms linear, {} ms spline; of the torus growth onset: {} / {} ms; of the torus-loss bracket's \
-         midpoint: {} / {} ms (rows without the value, e.g. a torus already lost at the grid's first dt, are left \
-         out). Target: {SPREAD_TARGET_MS} ms.",
-        sp("connection_linear"),
-        sp("connection_spline"),
-        sp("torus_onset_linear"),
-        sp("torus_onset_spline"),
-        sp("torus_lost_linear"),
-        sp("torus_lost_spline"),
-        low_degree = furuta::parametric::MAP_LOW_DEGREE,
-        low_knee = furuta::parametric::MAP_LOW_KNEE_THETA,
-    ));
+    let v = json!({"spreads": spreads, "target": SPREAD_TARGET_MS, "low_degree": furuta::parametric::MAP_LOW_DEGREE,
+                   "low_knee": furuta::parametric::MAP_LOW_KNEE_THETA});
+    rep.para(&Prose::new().html("equation/map-variants", MAP_VARIANTS, &v)?);
     rep.table(
         &[
             "training",
@@ -559,7 +544,19 @@ fn map_variants_table(rep: &mut Report, c: &Computed) {
         })
         .collect();
     rep.summary.insert("map_sensitivity".into(), json!({"variants": list, "spreads": spreads}));
+    Ok(())
 }
+
+const MAP_VARIANTS: &str = "The fitted map over the training variants of the \
+    sensitivity study: each variant's runs refitted into the shared-tangent model (its regression rows weighted by the \
+    default's smooth amplitude cut, FurutaOptions::map_weight, so runs kept past the slow saddle cycle do not bend the \
+    map near the torus, with its nonlinear degrees up to {{ low_degree }} from a first fit at a {{ low_knee | plain }} rad knee) and \
+    read by the same rules as the default's (saddle connection by the pushed fast cycle; torus continuation, lost \
+    bracket and growth onset). Spread (max - min over the rows where found) of the connection: {{ \
+    spreads.connection_linear.spread_ms | fixed_or(3, \"-\") }} ms linear, {{ spreads.connection_spline.spread_ms | fixed_or(3, \"-\") }} ms spline; of the torus growth onset: {{ \
+    spreads.torus_onset_linear.spread_ms | fixed_or(3, \"-\") }} / {{ spreads.torus_onset_spline.spread_ms | fixed_or(3, \"-\") }} ms; of the torus-loss bracket's midpoint: {{ \
+    spreads.torus_lost_linear.spread_ms | fixed_or(3, \"-\") }} / {{ spreads.torus_lost_spline.spread_ms | fixed_or(3, \"-\") }} ms (rows without the value, e.g. a torus already \
+    lost at the grid's first dt, are left out). Target: {{ target | plain }} ms.";
 
 /// A saddle-connection search as table text: its bracket, `none`, or why it failed.
 fn connection_text(r: &Result<Connection, String>) -> String {
@@ -824,7 +821,7 @@ fn equation_section(
         ],
         &orow,
     );
-    where_the_normal_form_errs(rep, c);
+    rep.para(&where_the_normal_form_errs(c)?);
     // The full system's torus across dt.
     let trow: Vec<Vec<String>> = c
         .torus
@@ -1438,6 +1435,34 @@ mod tests {
             json!(0.4321),
             "<td>43.2 % (",
         );
+    }
+
+    /// The equation section's paragraphs over made-up values: every number follows them.
+    #[test]
+    fn equation_paragraphs_follow_their_values() {
+        use crate::report::prose::{perturbed, unmoved};
+        let p = Prose::new();
+        let spread = |x: f64| json!({"found": 3, "of": 5, "min": 31.5, "max": 31.5 + x, "spread_ms": x});
+        let cases = [
+            (
+                WHERE_THE_NORMAL_FORM_ERRS,
+                json!({"order": 7, "target": MAP_TARGET_MS, "graph": [{"order": 5, "at": 31.61}, {"order": 7, "at": null}],
+                       "polar": [{"order": 7, "at": 31.82}], "full_error": null, "full": 31.55, "nf_conn": 31.7,
+                       "nf_onset": 31.66, "gaps": [0.12, null, 0.031, 0.02, 0.05, 0.07]}),
+            ),
+            (
+                MAP_VARIANTS,
+                json!({"spreads": {"connection_linear": spread(0.03), "connection_spline": spread(0.04),
+                                   "torus_onset_linear": spread(0.05), "torus_onset_spline": spread(0.06),
+                                   "torus_lost_linear": spread(0.07), "torus_lost_spline": spread(0.08)},
+                       "target": SPREAD_TARGET_MS, "low_degree": 3, "low_knee": 0.1}),
+            ),
+        ];
+        for (t, v) in cases {
+            let a = p.html("t", t, &v).unwrap();
+            let b = p.html("t", t, &perturbed(&v)).unwrap();
+            assert_eq!(unmoved(&a, &b).unwrap(), [], "{a}");
+        }
     }
 
     /// The main figure carries the fitted map's verdict (its differing cells marked) over the

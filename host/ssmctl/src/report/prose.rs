@@ -13,7 +13,7 @@ use serde_json::Value;
 /// The template environment with the report's number formats as filters:
 /// `num` (4 significant digits, [`crate::report::num`]), `fixed(n)` (n decimals), `sci(n)`
 /// (n decimals, exponent), `pct(n)` (a fraction as a percentage with n decimals, no sign),
-/// `nums` (a list through `num`, comma-separated), `e` (Rust's `{:e}`), `dbg` (Rust's `{:?}` of a number or a list of numbers), `signed(n)` and `ssci(n)` (as `fixed` and
+/// `nums` (a list through `num`, comma-separated), `fixed_or(n, text)` (`fixed(n)`, or `text` for none), `e` (Rust's `{:e}`), `dbg` (Rust's `{:?}` of a number or a list of numbers), `signed(n)` and `ssci(n)` (as `fixed` and
 /// `sci` with a sign always), `plain` (Rust's `Display`: `31` for 31.0; a list joined by `, ` or
 /// the given separator).
 pub struct Prose {
@@ -76,6 +76,9 @@ impl Prose {
             Ok(format!("{:?}", f(&v)?))
         });
         env.add_filter("e", |v: JinjaValue| -> Result<String, minijinja::Error> { Ok(format!("{:e}", f(&v)?)) });
+        env.add_filter("fixed_or", |v: JinjaValue, n: usize, alt: String| -> Result<String, minijinja::Error> {
+            if v.is_none() { Ok(alt) } else { Ok(format!("{:.n$}", f(&v)?)) }
+        });
         env.add_filter("signed", |v: JinjaValue, n: usize| -> Result<String, minijinja::Error> {
             Ok(format!("{:+.n$}", f(&v)?))
         });
