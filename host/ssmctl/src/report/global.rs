@@ -853,24 +853,23 @@ fn equation_section(
         &trow,
     );
     // Coefficients and invariance by order.
-    rep.para(&format!(
-        "Equation-driven SSM at order {diag_order}: invariance error max |F(W(z)) - W(R(z))| of the truncations at orders {} \
-         on the spheres of theta amplitude {} rad, and the polar coefficients (1/s; rho in rad of theta).",
-        c.diag
-            .first()
-            .map(|d| d.invariance.iter().map(|e| e.order).fold(Vec::new(), |mut v, o| {
+    let inv_orders = c
+        .diag
+        .first()
+        .map(|d| {
+            d.invariance.iter().map(|e| e.order).fold(Vec::new(), |mut v, o| {
                 if !v.contains(&o) {
                     v.push(o);
                 }
                 v
-            }))
-            .unwrap_or_default()
-            .iter()
-            .map(|o| o.to_string())
-            .collect::<Vec<_>>()
-            .join(", "),
-        INVARIANCE_RADII.iter().map(|r| r.to_string()).collect::<Vec<_>>().join(" and "),
-    ));
+            })
+        })
+        .unwrap_or_default();
+    rep.para(&Prose::new().html(
+        "equation/invariance",
+        INVARIANCE,
+        &json!({"order": diag_order, "orders": inv_orders, "radii": INVARIANCE_RADII}),
+    )?);
     let mut irows = Vec::new();
     for d in &c.diag {
         for &r in &INVARIANCE_RADII {
@@ -1033,6 +1032,34 @@ pub const CUBIC_TARGET: f64 = 0.05;
 /// not depend on what `rho` means beyond linear order.
 pub const CHART_ROBUST: f64 = 0.01;
 
+const INVARIANCE: &str = "Equation-driven SSM at order {{ order }}: invariance error max |F(W(z)) - W(R(z))| of the \
+    truncations at orders {{ orders | plain }} on the spheres of theta amplitude {{ radii | plain(\" and \") }} rad, and \
+    the polar coefficients (1/s; rho in rad of theta).";
+
+/// What the coefficient table compares, and how the fitted map's low degrees are fitted.
+const CUBIC: &str = "Data-driven vs equation-driven polar coefficients (1/s; rho in rad of theta) at the training \
+    periods that are nodes of the equation-driven model: each cell data / equation (relative difference); the \
+    data-driven value is that training period's own fit (graph over its own SVD tangent with a degree-1 normal part, \
+    order-{{ dyn_order }} map, normal form), the equation-driven one the order-{{ order }} normal form; the next column \
+    says whether every training period is within the issue's {{ target | pct(0) }} % target. Beyond linear order a \
+    coefficient depends on what rho means: the equation-driven amplitudes are theta's first harmonic on a torus (what \
+    the full system's torus amplitude measures); normalizing the manifold by the spectral projection instead (rho_i -> \
+    rho_i (1 + k_ij rho_j^2 + ...)) moves the rho_i rho_j^2 coefficient by 2 k_ij Re lambda_j. The last column is that \
+    move (largest over the periods): a difference to the data below it says nothing about the fit; only the terms that \
+    move less than {{ robust | pct(0) }} % (chart-robust) compare the fit with the equations whatever the data-driven \
+    chart is. The last two columns put the data-driven normal form on the equation-driven model's definition of rho \
+    (the first-harmonic basis: the resonant part of the normal-form transformation chosen so that theta on the fitted \
+    manifold has no nonlinear part at a mode's own frequency, so rho_j is theta's first harmonic at every order): its \
+    value per period (relative difference to the equation-driven value) and whether every period is within the target. \
+    On this basis both sides define rho the same way, so every coefficient compares. The last column is the fitted \
+    map's (shared tangent, weighted regression, the model of the map-based results) normal form on the same basis at \
+    its node, relative difference to the equation-driven value per period. The fitted map's nonlinear degrees up to {{ \
+    low_degree }} come from a first order-{{ dyn_order }} fit weighted with its knee at {{ low_knee | plain }} rad of \
+    theta, its higher degrees from the fit at {{ knee | plain }} rad (ssm::LowDegreeStage, FurutaOptions::map_weight): \
+    with one fit at {{ knee | plain }} rad the order-{{ dyn_order }} truncation bends the cubic terms with the data near \
+    the slow saddle cycle, and a higher map order or a lower knee of the single fit traded the cubic terms against the \
+    saddle connection (docs/decisions/0001).";
+
 /// The table of the data-driven polar coefficients of degree 3 and 5 at each training period
 /// that is a node of the equation-driven model, against the equation-driven ones (order
 /// [`EQUATION_ORDER`]); returns the `cubic_comparison` summary value.
@@ -1154,36 +1181,13 @@ fn cubic_comparison(
                           "chart_shift": chart_shift, "chart_robust": chart_shift <= CHART_ROBUST}),
         );
     }
-    rep.para(&format!(
-        "Data-driven vs equation-driven polar coefficients (1/s; rho in rad of theta) at the training periods that are \
-         nodes of the equation-driven model: each cell data / equation (relative difference); the data-driven value is \
-         that training period's own fit (graph over its own SVD tangent with a degree-1 normal part, order-{dyn_order} map, normal form), the equation-driven one the order-{EQUATION_ORDER} \
-         normal form; the next column says whether every training period is within the issue's {:.0} % target. \
-         Beyond linear order a coefficient depends on what rho means: the equation-driven amplitudes are theta's first \
-         harmonic on a torus (what the full system's torus amplitude measures); normalizing the manifold by the spectral \
-         projection instead (rho_i -> rho_i (1 + k_ij rho_j^2 + ...)) moves the rho_i rho_j^2 coefficient by 2 k_ij Re lambda_j. \
-         The last column is that move (largest over the periods): a difference to the data below it says nothing about \
-         the fit; only the terms that move less than {:.0} % (chart-robust) compare the fit with the equations whatever the \
-         data-driven chart is. The last two columns put the data-driven normal form on the equation-driven model's \
-         definition of rho (the first-harmonic basis: the resonant part of the normal-form transformation chosen so that \
-         theta on the fitted manifold has no nonlinear part at a mode's own frequency, so rho_j is theta's first harmonic \
-         at every order): its value per period (relative difference to the equation-driven value) and whether every period \
-         is within the target. On this basis both sides define rho the same way, so every coefficient compares. The last \
-         column is the fitted map's (shared tangent, weighted regression, the model of the map-based results) normal form \
-         on the same basis at its node, relative difference to the equation-driven value per period. The fitted map's \
-         degrees 2-{low_degree} come from a first order-{dyn_order} fit weighted with its knee at {low_knee} rad of theta, its \
-         degrees {}-{dyn_order} from the fit at {knee} rad (ssm::LowDegreeStage, FurutaOptions::map_weight): with one fit \
-         at {knee} rad the order-{dyn_order} truncation \
-         bends the cubic terms with the data near the slow saddle cycle, and a higher map order or a lower knee of the \
-         single fit traded the cubic terms against the saddle connection (docs/decisions/0001).",
-        100.0 * CUBIC_TARGET,
-        100.0 * CHART_ROBUST,
-        furuta::parametric::MAP_LOW_DEGREE + 1,
-        dyn_order = FurutaOptions::default().fit.dyn_order,
-        low_degree = furuta::parametric::MAP_LOW_DEGREE,
-        low_knee = furuta::parametric::MAP_LOW_KNEE_THETA,
-        knee = furuta::parametric::MAP_WEIGHT_KNEE_THETA,
-    ));
+    rep.para(&Prose::new().html(
+        "equation/cubic",
+        CUBIC,
+        &json!({"target": CUBIC_TARGET, "robust": CHART_ROBUST, "order": EQUATION_ORDER,
+                "dyn_order": FurutaOptions::default().fit.dyn_order, "low_degree": furuta::parametric::MAP_LOW_DEGREE,
+                "low_knee": furuta::parametric::MAP_LOW_KNEE_THETA, "knee": furuta::parametric::MAP_WEIGHT_KNEE_THETA}),
+    )?);
     let mut head: Vec<String> = vec!["equation".into(), "monomial".into()];
     head.extend(dts.iter().map(|d| format!("{d} ms")));
     head.push(format!("within {:.0} %", 100.0 * CUBIC_TARGET));
@@ -1444,6 +1448,12 @@ mod tests {
         let p = Prose::new();
         let spread = |x: f64| json!({"found": 3, "of": 5, "min": 31.5, "max": 31.5 + x, "spread_ms": x});
         let cases = [
+            (INVARIANCE, json!({"order": 9, "orders": [3, 5, 7, 9], "radii": [0.05, 0.1]})),
+            (
+                CUBIC,
+                json!({"target": CUBIC_TARGET, "robust": CHART_ROBUST, "order": 7, "dyn_order": 7, "low_degree": 3,
+                       "low_knee": 0.1, "knee": 0.2}),
+            ),
             (
                 WHERE_THE_NORMAL_FORM_ERRS,
                 json!({"order": 7, "target": MAP_TARGET_MS, "graph": [{"order": 5, "at": 31.61}, {"order": 7, "at": null}],

@@ -126,7 +126,8 @@ impl Prose {
 
 /// Names written with digits: a method, and the invariant objects named by their dimension;
 /// and the constants of formulas written out in the text.
-const NAMES_WITH_DIGITS: [&str; 6] = ["0-1 test", "2-torus", "3-torus", "2-tori", "3-tori", "x (1 + spread"];
+const NAMES_WITH_DIGITS: [&str; 8] =
+    ["0-1 test", "2-torus", "3-torus", "2-tori", "3-tori", "x (1 + spread", "(1 + k_ij", "by 2 k_ij"];
 
 /// The numbers written in `text`: runs of digits (with a decimal point, an exponent and a
 /// leading minus) that are not part of a name (`rho_1`, `x2`, `2D`, a monomial's `^3`,
@@ -139,7 +140,10 @@ pub fn numbers_in(text: &str) -> Vec<String> {
     let mut out = Vec::new();
     let mut i = 0;
     while i < b.len() {
-        if !b[i].is_ascii_digit() || (i > 0 && (name(b[i - 1]) || b[i - 1] == b'^' || b[i - 1].is_ascii_digit())) {
+        // A digit after a letter, `^`, `/` (a path, `docs/decisions/0001`) or a digit is not a number's start.
+        if !b[i].is_ascii_digit()
+            || (i > 0 && (name(b[i - 1]) || b"^/".contains(&b[i - 1]) || b[i - 1].is_ascii_digit()))
+        {
             i += 1;
             continue;
         }
@@ -211,7 +215,7 @@ mod tests {
 
     #[test]
     fn numbers_are_found_and_names_and_units_skipped() {
-        let t = "rho_1^3 at 0.05 rad, -3.2e-4 1/s, x2 and 2D, 17 x 17 grid; 1.5e3. (12 %) furuta-dt25, degree-1 (-2), the 0-1 test";
+        let t = "rho_1^3 at 0.05 rad, -3.2e-4 1/s, x2 and 2D, 17 x 17 grid; 1.5e3. (12 %) furuta-dt25, degree-1 (-2), the 0-1 test, docs/decisions/0001";
         assert_eq!(numbers_in(t), ["0.05", "-3.2e-4", "17", "17", "1.5e3", "12", "-2"]);
     }
 
