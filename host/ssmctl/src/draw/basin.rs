@@ -139,6 +139,9 @@ fn draw_into<DB: DrawingBackend>(
     Ok(())
 }
 
+/// A labelled set of polylines drawn over a panel: `(label, colour, polylines)`.
+pub type Curves = (String, RGBColor, Vec<Vec<(f64, f64)>>);
+
 /// One panel of [`draw_basin_overlay`]: a 2D grid of full-system outcomes with curves and
 /// marked cells drawn over it.
 pub struct OverlayPanel<'a> {
@@ -152,7 +155,7 @@ pub struct OverlayPanel<'a> {
     /// markers of its own shape (cross, circle, triangle, in order; named in the legend).
     pub marks: Vec<(String, RGBColor, Vec<bool>)>,
     /// Curves over the grid: `(label, colour, polylines)`; polylines are cut at the grid's box.
-    pub curves: Vec<(String, RGBColor, Vec<Vec<(f64, f64)>>)>,
+    pub curves: Vec<Curves>,
 }
 
 /// The parts of `line` inside the box `[x0, x1] x [y0, y1]` (points outside end a part).
@@ -171,9 +174,109 @@ fn inside_parts(line: &[(f64, f64)], (x0, x1): (f64, f64), (y0, y1): (f64, f64))
     parts
 }
 
+/// A pixel rectangle `[x0, x1) x [y0, y1)` of a figure.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Rect {
+    pub x0: u32,
+    pub y0: u32,
+    pub x1: u32,
+    pub y1: u32,
+}
+
+impl Rect {
+    /// Whether the two rectangles share a pixel.
+    pub fn overlaps(&self, o: &Rect) -> bool {
+        self.x0 < o.x1 && o.x0 < self.x1 && self.y0 < o.y1 && o.y0 < self.y1
+    }
+}
+
+/// One legend entry of [`draw_basin_overlay`]: a curve's line or a mark set's marker shape.
+#[derive(Clone, Debug, PartialEq)]
+pub enum LegendKey {
+    Line,
+    /// The marker of mark set `m` (cross, circle, triangle, in order).
+    Marker(usize),
+}
+
+/// Where [`draw_basin_overlay`] puts things: the title strip, the legend strip (its own band
+/// between the title and the panels, so no legend sits on the data) and each panel's area
+/// (axes, labels and data).
+#[derive(Clone, Debug)]
+pub struct OverlayLayout {
+    pub size: (u32, u32),
+    pub title: Rect,
+    pub legend: Rect,
+    pub panels: Vec<Rect>,
+    /// Legend entries: label, colour, key, top-left corner of the entry.
+    pub entries: Vec<(String, RGBColor, LegendKey, (u32, u32))>,
+}
+
+const LEGEND_ROW_H: u32 = 22;
+const LEGEND_FONT: u32 = 14;
+/// Width of a legend entry's key (line or marker) and the gaps around its text.
+const LEGEND_KEY_W: u32 = 30;
+const LEGEND_GAP: u32 = 24;
+
+/// The entries of the panels' legends, each label once, in order of first appearance:
+/// curves as lines, mark sets by their marker (cross, circle, triangle by position).
+fn legend_entries(panels: &[OverlayPanel]) -> Vec<(String, RGBColor, LegendKey)> {
+    let mut out: Vec<(String, RGBColor, LegendKey)> = Vec::new();
+    for p in panels {
+        let curves = p.curves.iter().filter(|c| !c.2.is_empty()).map(|(l, c, _)| (l.clone(), *c, LegendKey::Line));
+        let marks =
+            p.marks.iter().enumerate().map(|(m, (l, c, _))| {
+                (format!("{l} ({})", ["x", "o", "triangle"][m % 3]), *c, LegendKey::Marker(m % 3))
+            });
+        for e in curves.chain(marks) {
+            if !out.iter().any(|o| o.0 == e.0) {
+                out.push(e);
+            }
+        }
+    }
+    out
+}
+
+/// The figure's layout for `panels`: up to 2 panels a row under a title and a legend band
+/// wide enough for every entry (entries flow left to right, wrapping into more rows).
+pub fn overlay_layout(panels: &[OverlayPanel]) -> OverlayLayout {
+    let cols = panels.len().clamp(1, 2);
+    let rows = panels.len().div_ceil(cols).max(1);
+    let width = (PANEL_W * cols as u32).max(MIN_W);
+    // DejaVu Sans averages about 0.6 em per character.
+    let text_w = |s: &str| (s.chars().count() as u32 * LEGEND_FONT * 6).div_ceil(10);
+    let mut entries = Vec::new();
+    let (mut x, mut row) = (LEGEND_GAP, 0u32);
+    for (label, color, key) in legend_entries(panels) {
+        let w = LEGEND_KEY_W + text_w(&label) + LEGEND_GAP;
+        if x > LEGEND_GAP && x + w > width {
+            x = LEGEND_GAP;
+            row += 1;
+        }
+        entries.push((label, color, key, (x, TITLE_H + row * LEGEND_ROW_H + 4)));
+        x += w;
+    }
+    let legend_h = if entries.is_empty() { 0 } else { (row + 1) * LEGEND_ROW_H + 8 };
+    let top = TITLE_H + legend_h;
+    let panels = (0..panels.len() as u32)
+        .map(|k| {
+            let (c, r) = (k % cols as u32, k / cols as u32);
+            let w = width / cols as u32;
+            Rect { x0: c * w, y0: top + r * PANEL_H, x1: (c + 1) * w, y1: top + (r + 1) * PANEL_H }
+        })
+        .collect();
+    OverlayLayout {
+        size: (width, top + PANEL_H * rows as u32),
+        title: Rect { x0: 0, y0: 0, x1: width, y1: TITLE_H },
+        legend: Rect { x0: 0, y0: TITLE_H, x1: width, y1: top },
+        panels,
+        entries,
+    }
+}
+
 /// Writes panels of full-system basin grids (green bounded, red escaped) with the reduced
 /// models' curves (e.g. saddle manifolds) and marked cells (e.g. where a model disagrees)
-/// drawn over them: up to 2 panels a row, a legend in each.
+/// drawn over them: up to 2 panels a row, one legend for all of them in a band above the
+/// panels (see [`overlay_layout`]), never over the data.
 pub fn draw_basin_overlay(
     out: &Path,
     title: &str,
@@ -201,17 +304,31 @@ pub fn draw_basin_overlay(
         }
     }
     ensure_font();
-    let cols = panels.len().min(2);
-    let rows = panels.len().div_ceil(cols);
-    let size = ((PANEL_W * cols as u32).max(MIN_W), PANEL_H * rows as u32 + TITLE_H);
-    crate::plot::render_png(out, size, |root| {
+    let layout = overlay_layout(panels);
+    crate::plot::render_png(out, layout.size, |root| {
         root.fill(&WHITE).map_err(|e| err(&e))?;
-        let (top, body) = root.split_vertically(TITLE_H);
+        let (top, _) = root.split_vertically(TITLE_H);
         top.titled(title, ("sans-serif", 18)).map_err(|e| err(&e))?;
-        for (p, area) in panels.iter().zip(body.split_evenly((rows, cols)).iter()) {
+        let font = ("sans-serif", LEGEND_FONT).into_font().color(&BLACK);
+        for (label, color, key, (x, y)) in &layout.entries {
+            let (x, y) = (*x as i32, *y as i32);
+            let mid = (x + LEGEND_KEY_W as i32 / 2 - 4, y + LEGEND_ROW_H as i32 / 2 - 2);
+            let style = color.stroke_width(if *key == LegendKey::Line { 3 } else { 2 });
+            match key {
+                LegendKey::Line => root.draw(&PathElement::new(vec![(x, mid.1), (x + 20, mid.1)], style)),
+                LegendKey::Marker(0) => root.draw(&Cross::new(mid, 4, style)),
+                LegendKey::Marker(1) => root.draw(&Circle::new(mid, 5, style)),
+                LegendKey::Marker(_) => root.draw(&TriangleMarker::new(mid, 5, style)),
+            }
+            .map_err(|e| err(&e))?;
+            root.draw(&Text::new(label.clone(), (x + LEGEND_KEY_W as i32 - 2, y + 3), font.clone()))
+                .map_err(|e| err(&e))?;
+        }
+        for (p, r) in panels.iter().zip(&layout.panels) {
+            let area = root.clone().shrink((r.x0, r.y0), (r.x1 - r.x0, r.y1 - r.y0));
             let (xe, ye) = (edges(p.x), edges(p.y));
             let (bx, by) = ((xe[0].0, xe[xe.len() - 1].1), (ye[0].0, ye[ye.len() - 1].1));
-            let mut cc = ChartBuilder::on(area)
+            let mut cc = ChartBuilder::on(&area)
                 .caption(&p.caption, ("sans-serif", 17))
                 .margin(12)
                 .x_label_area_size(45)
@@ -235,43 +352,22 @@ pub fn draw_basin_overlay(
                 }
             }
             cc.draw_series(rects).map_err(|e| err(&e))?;
-            for (label, color, lines) in &p.curves {
-                let color = *color;
-                let mut first = true;
+            for (_, color, lines) in &p.curves {
                 for part in lines.iter().flat_map(|l| inside_parts(l, bx, by)) {
-                    let s = cc.draw_series(LineSeries::new(part, color.stroke_width(3))).map_err(|e| err(&e))?;
-                    if first {
-                        first = false;
-                        s.label(label.as_str())
-                            .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 16, y)], color.stroke_width(3)));
-                    }
+                    cc.draw_series(LineSeries::new(part, color.stroke_width(3))).map_err(|e| err(&e))?;
                 }
             }
-            for (m, (label, color, which)) in p.marks.iter().enumerate() {
-                let color = *color;
+            for (m, (_, color, which)) in p.marks.iter().enumerate() {
                 let at: Vec<(f64, f64)> =
                     which.iter().enumerate().filter(|(_, w)| **w).map(|(k, _)| (p.x[k / ny], p.y[k % ny])).collect();
-                if at.is_empty() {
-                    continue;
-                }
                 let style = color.stroke_width(2);
-                let s = match m % 3 {
+                match m % 3 {
                     0 => cc.draw_series(at.iter().map(|&c| Cross::new(c, 4, style).into_dyn())),
                     1 => cc.draw_series(at.iter().map(|&c| Circle::new(c, 5, style).into_dyn())),
                     _ => cc.draw_series(at.iter().map(|&c| TriangleMarker::new(c, 5, style).into_dyn())),
                 }
                 .map_err(|e| err(&e))?;
-                let shape = ["x", "o", "triangle"][m % 3];
-                s.label(format!("{label} ({shape})"))
-                    .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 16, y)], style));
             }
-            cc.configure_series_labels()
-                .position(SeriesLabelPosition::UpperRight)
-                .background_style(WHITE.mix(0.85))
-                .border_style(BLACK)
-                .label_font(("sans-serif", 13))
-                .draw()
-                .map_err(|e| err(&e))?;
         }
         root.present().map_err(|e| err(&e))?;
         Ok(())
@@ -324,5 +420,38 @@ mod tests {
         assert!(draw_basin_overlay(&dir.join("c.png"), "t", "x", "y", &[bad]).is_err());
         assert!(draw_basin_overlay(&dir.join("d.png"), "t", "x", "y", &[]).is_err());
         std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    /// The legend has its own band: it overlaps no panel (axes and data) nor the title, holds
+    /// every entry once, and wraps into more rows when the entries do not fit in one.
+    #[test]
+    fn the_legend_band_stays_off_the_panels() {
+        let (x, y) = ([0.1, 0.2, 0.3], [0.01, 0.02]);
+        let bounded = [true; 6];
+        let panel = |c: &str, marks: usize| OverlayPanel {
+            caption: c.into(),
+            x: &x,
+            y: &y,
+            bounded: &bounded,
+            marks: (0..marks).map(|m| (format!("model {m} differs"), RGBColor(0, 0, 0), vec![false; 6])).collect(),
+            curves: vec![("separatrix".into(), RGBColor(30, 80, 220), vec![vec![(0.1, 0.0), (0.2, 0.03)]])],
+        };
+        for (n, marks) in [(1, 1), (2, 3), (5, 12)] {
+            let panels: Vec<OverlayPanel> = (0..n).map(|k| panel(&format!("p{k}"), marks)).collect();
+            let l = overlay_layout(&panels);
+            assert_eq!(l.panels.len(), n);
+            assert_eq!(l.entries.len(), 1 + marks, "each label once");
+            for r in &l.panels {
+                assert!(!r.overlaps(&l.legend) && !r.overlaps(&l.title), "{r:?} vs {:?}", l.legend);
+                assert!(r.x1 <= l.size.0 && r.y1 <= l.size.1);
+            }
+            for (_, _, _, (ex, ey)) in &l.entries {
+                let e = Rect { x0: *ex, y0: *ey, x1: ex + 1, y1: ey + LEGEND_ROW_H - 4 };
+                assert!(e.overlaps(&l.legend) && l.panels.iter().all(|r| !r.overlaps(&e)), "{e:?}");
+            }
+            if marks == 12 {
+                assert!(l.legend.y1 - l.legend.y0 > 2 * LEGEND_ROW_H, "12 entries wrap: {:?}", l.legend);
+            }
+        }
     }
 }

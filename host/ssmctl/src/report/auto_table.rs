@@ -4,7 +4,8 @@
 //! with its example's settings (`studies/results/auto/ssmlearnpy.json`, written by
 //! `host/python/bench/ssmlearnpy_table.py`).
 
-use crate::report::{Report, esc};
+use crate::report::Report;
+use crate::report::prose::Prose;
 use furuta::auto_sets::{AutoSet, GRID_COMMAND, GridResults, all_sets, eigenvalue_error, grid_file};
 use serde::Deserialize;
 use serde_json::{Value, json};
@@ -62,17 +63,12 @@ fn leading_interval(iv: &[EigenInterval]) -> Option<&EigenInterval> {
     iv.iter().filter(|e| e.im.estimate > 0.0).max_by(|a, b| a.re.estimate.total_cmp(&b.re.estimate))
 }
 
-struct Row {
-    cells: Vec<String>,
-    json: Value,
-}
-
 fn row(
     set: &AutoSet,
     grid: Option<&GridResults>,
     py: Option<&PyResults>,
     replicates: usize,
-) -> Result<Row, Box<dyn Error>> {
+) -> Result<Value, Box<dyn Error>> {
     let c = select(&set.train, &AutoOptions::default())?;
     let s = c.best.setting;
     let model = fit_multi(&cut(&set.train, s.cut), &s.options)?;
@@ -98,22 +94,6 @@ fn row(
             None => "not run: the script reads data files only (simulated decays are made here in Rust)".into(),
         },
     };
-    let cells = vec![
-        set.name.clone(),
-        s.describe(),
-        format!("{:.5} [{:.5}, {:.5}]", e.damping_ratio.estimate, e.damping_ratio.lo, e.damping_ratio.hi),
-        format!("{:.4} [{:.4}, {:.4}]", hz(e.im.estimate), hz(e.im.lo), hz(e.im.hi)),
-        exact.map_or("-".into(), |(z, f)| format!("{z:.5}, {f:.4}")),
-        g.map_or_else(grid_missing, |g| format!("{} ({} settings)", g.winner.describe(), g.settings)),
-        winner.map_or("-".into(), |(z, f)| format!("{z:.5}, {f:.4}")),
-        g.map_or("-".into(), |g| format!("{:.2}", c.best.nmte / g.min_nmte)),
-        match (auto_err, g.and_then(|g| g.winner_eig_error)) {
-            (Some(a), Some(w)) => format!("{a:.1e} / {w:.1e}"),
-            (Some(a), None) => format!("{a:.1e} / -"),
-            _ => "-".into(),
-        },
-        py_cell.clone(),
-    ];
     let json = json!({
         "set": set.name,
         "auto": s,
@@ -129,45 +109,85 @@ fn row(
         "eig_error_auto": auto_err,
         "eig_error_grid_winner": g.and_then(|g| g.winner_eig_error),
         "ssmlearnpy": py_cell,
+        "auto_describe": s.describe(),
+        "grid_winner_describe": g.map(|g| g.winner.describe()),
+        "grid_settings": g.map(|g| g.settings),
+        "grid_missing": grid_missing(),
     });
-    Ok(Row { cells, json })
+    Ok(json)
 }
 
+const INTRO: &str = "On every data set the project has, <code>ssmctl fit --auto</code>'s choice (coordinate descent \
+    over the default grid, at most {{ budget }} settings, scored by held-out NMTE x (1 + spread of the linear part across \
+    folds)), the damping ratio and frequency of its leading eigenvalue with {{ level | pct(0) }} % bootstrap intervals \
+    (over trajectories, segments, or the residuals of a lone trajectory), the exact values where known, the winner of \
+    the exhaustive grid (all {{ grid_size }} settings; read from <code>studies/results/auto/grid.json</code>), the ratio \
+    of auto's held-out NMTE to the grid's smallest, the eigenvalue errors (relative to |lambda|) of auto and the grid \
+    winner, and SSMLearnPy with its example's settings (<code>studies/results/auto/ssmlearnpy.json</code>). The Furuta \
+    runs are simulated from {{ furuta_thetas | min | plain }}-{{ furuta_thetas | max | plain }} rad at the paper's gains, \
+    where the loop's leading pair lies just outside the unit circle (negative damping). On noise-free data (Duffing, \
+    Furuta) an interval measures the spread of the estimate over resampled data, not the bias of the truncated model, \
+    which can be larger: the exact value may lie just outside it.";
+const MISSING: &str = "The sloshing decays are left out: {{ sloshing_dir }} not found.";
+const CELLS: [&str; 10] = [
+    "{{ set }}",
+    "{{ auto_describe }}",
+    "{{ damping_ratio.estimate | fixed(5) }} [{{ damping_ratio.lo | fixed(5) }}, {{ damping_ratio.hi | fixed(5) }}]",
+    "{{ freq_hz.estimate | fixed(4) }} [{{ freq_hz.lo | fixed(4) }}, {{ freq_hz.hi | fixed(4) }}]",
+    "{% if exact is none %}-{% else %}{{ exact.damping_ratio | fixed(5) }}, {{ exact.freq_hz | fixed(4) }}{% endif %}",
+    "{% if grid_winner_describe is none %}{{ grid_missing }}{% else %}{{ grid_winner_describe }} ({{ grid_settings }} \
+     settings){% endif %}",
+    "{% if grid_winner_damping_ratio is none %}-{% else %}{{ grid_winner_damping_ratio | fixed(5) }}, {{ \
+     grid_winner_freq_hz | fixed(4) }}{% endif %}",
+    "{% if nmte_auto_over_grid_min is none %}-{% else %}{{ nmte_auto_over_grid_min | fixed(2) }}{% endif %}",
+    "{% if eig_error_auto is none %}-{% else %}{{ eig_error_auto | sci(1) }} / {% if eig_error_grid_winner is none \
+     %}-{% else %}{{ eig_error_grid_winner | sci(1) }}{% endif %}{% endif %}",
+    "{{ ssmlearnpy }}",
+];
+const FOOT: &str = "{{ replicates }} bootstrap replicates per interval. The grid results are refreshed by <code>{{ \
+    grid_command }}</code>; <code>docs/fit-auto.md</code> reads them for the choice of defaults.";
+
 /// The section; the data sets absent from `data_dir` (sloshing) are left out with a note.
+/// Summary key `fit_auto` (with what the text reads besides the rows).
 pub fn section(rep: &mut Report, data_dir: &Path, quick: bool) -> Result<(), Box<dyn Error>> {
-    rep.section(
-        "fit-auto",
-        "Fits that choose their own settings: cross-validation against the exhaustive grid",
-        "On every data set the project has, <code>ssmctl fit --auto</code>'s choice (coordinate descent over the \
-         default grid, at most 40 settings, scored by held-out NMTE x (1 + spread of the linear part across folds)), \
-         the damping ratio and frequency of its leading eigenvalue with 95 % bootstrap intervals (over trajectories, \
-         segments, or the residuals of a lone trajectory), the exact values where known, the winner of the exhaustive \
-         grid (all 2,187 settings; read from <code>studies/results/auto/grid.json</code>), the ratio of auto's held-out \
-         NMTE to the grid's smallest, the eigenvalue errors (relative to |lambda|) of auto and the grid winner, and \
-         SSMLearnPy with its example's settings (<code>studies/results/auto/ssmlearnpy.json</code>). The Furuta runs \
-         are simulated from 0.02-0.04 rad at the paper's gains, where the loop's leading pair lies just outside the \
-         unit circle (negative damping). On noise-free data (Duffing, Furuta) an interval measures the spread of \
-         the estimate over resampled data, not the bias of the truncated model, which can be larger: the exact \
-         value may lie just outside it.",
-    );
     let grid = if grid_file().is_file() { Some(GridResults::load(&grid_file())?) } else { None };
     let py = load_py(&py_file())?;
     let sets = all_sets(data_dir)?;
-    if !sets.iter().any(|s| s.name.starts_with("sloshing")) {
-        rep.para(&format!(
-            "The sloshing decays are left out: {} not found.",
-            esc(&data_dir.join("sloshing").display().to_string())
-        ));
-    }
+    let sloshing_missing = !sets.iter().any(|s| s.name.starts_with("sloshing"));
     let replicates = if quick { 50 } else { 200 };
     let rows =
         crate::report::par_map(&sets, |s| row(s, grid.as_ref(), py.as_ref(), replicates).map_err(|e| e.to_string()))?;
+    let o = AutoOptions::default();
+    rep.summary.insert(
+        "fit_auto".into(),
+        json!({"replicates": replicates, "rows": rows,
+               "budget": o.budget, "level": IntervalOptions::default().level, "grid_size": o.grid.size(),
+               "furuta_thetas": furuta::auto_sets::FURUTA_THETAS, "grid_command": GRID_COMMAND,
+               "sloshing_dir": sloshing_missing.then(|| data_dir.join("sloshing").display().to_string())}),
+    );
+    render(rep, &rep.summary["fit_auto"].clone())
+}
+
+/// Writes the section from its summary value `v` (`fit_auto`).
+pub fn render(rep: &mut Report, v: &Value) -> Result<(), Box<dyn Error>> {
+    let p = Prose::new();
+    rep.section(
+        "fit-auto",
+        "Fits that choose their own settings: cross-validation against the exhaustive grid",
+        &p.html("fit-auto/intro", INTRO, v)?,
+    );
+    if !v["sloshing_dir"].is_null() {
+        rep.para(&p.html("fit-auto/missing", MISSING, v)?);
+    }
+    let rows = v["rows"].as_array().ok_or("report: fit_auto.rows is not a list")?;
+    let zeta = p.text("fit-auto/head", "damping ratio [{{ level | pct(0) }} %]", v)?;
+    let hz = p.text("fit-auto/head", "frequency Hz [{{ level | pct(0) }} %]", v)?;
     rep.table(
         &[
             "data set",
             "auto's choice",
-            "damping ratio [95 %]",
-            "frequency Hz [95 %]",
+            zeta.as_str(),
+            hz.as_str(),
             "exact damping, Hz",
             "exhaustive grid's winner",
             "its damping, Hz",
@@ -175,23 +195,27 @@ pub fn section(rep: &mut Report, data_dir: &Path, quick: bool) -> Result<(), Box
             "eig. error auto / winner",
             "SSMLearnPy (example settings)",
         ],
-        &rows.iter().map(|r| r.cells.clone()).collect::<Vec<_>>(),
+        &p.rows("fit-auto/row", &CELLS, rows)?,
     );
-    rep.para(&format!(
-        "{replicates} bootstrap replicates per interval. The grid results are refreshed by <code>{}</code>; \
-         <code>docs/fit-auto.md</code> reads them for the choice of defaults.",
-        esc(GRID_COMMAND)
-    ));
-    rep.summary.insert(
-        "fit_auto".into(),
-        json!({"replicates": replicates, "rows": rows.iter().map(|r| r.json.clone()).collect::<Vec<_>>()}),
-    );
+    rep.para(&p.html("fit-auto/foot", FOOT, v)?);
     Ok(())
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn auto_table_text_follows_the_values() {
+        let s = crate::report::pages::snapshot_summary();
+        crate::report::pages::check_section(
+            |r, s| render(r, &s["fit_auto"]),
+            &s,
+            "/fit_auto/replicates",
+            json!(77),
+            "77 bootstrap replicates",
+        );
+    }
 
     /// The section on the bundled grid results (quick: fewer replicates): a row per data
     /// set, auto's held-out NMTE within 1.2x of the grid's smallest, each interval ordered

@@ -132,11 +132,12 @@ impl Unit {
                 );
             }
         }
-        // Every ssmctl file outside report/ counts, and of report/ the unit's own and the shared ones.
+        // Every ssmctl file outside report/ counts, and of report/ the unit's own and the shared
+        // ones (the page, the cache, the text templates' filters).
         for (n, h) in fingerprints::FILES {
             let own = n
                 .strip_prefix("report/")
-                .is_none_or(|f| ["mod.rs", "cache.rs"].contains(&f) || self.files.contains(&f));
+                .is_none_or(|f| ["mod.rs", "cache.rs", "prose.rs"].contains(&f) || self.files.contains(&f));
             if own {
                 k = k.part(n, &h.to_le_bytes());
             }

@@ -3,10 +3,13 @@
 //! one (the fitted map itself and its normal form) and the full system, every bifurcation value
 //! in five columns (`summary.json` keys `equation_ssm`, and `equation*` / `full_system*` /
 //! `map` / `equation_map` added to `heteroclinic_dt_ms` and `torus_hopf_dt_ms`, the equation map's small-start switch as `map_switch_dt_ms.equation_map`), and the full system's basin near the global bifurcation with both
-//! normal forms' saddle manifolds over it and the fitted map's verdict on it (`basin`, with
-//! `map_disagreement` and `map_figure`).
+//! normal forms' saddle manifolds and the fitted map's verdict over it (`basin`, with
+//! `map_disagreement`; `map_figure` is the main figure, which carries the map's verdict; the
+//! normal forms' verdicts are on `page_basin.normal_form_figure`).
 
-use crate::draw::basin::{OverlayPanel, draw_basin_overlay};
+use crate::draw::basin::{Curves, OverlayPanel, draw_basin_overlay};
+use crate::report::bifurcations::TORUS_DT_MS;
+use crate::report::prose::Prose;
 use crate::report::tasks::task;
 use crate::report::{Report, num, par_map};
 use furuta::basin::{
@@ -24,7 +27,7 @@ use furuta::full_system::verdict_integrator;
 use furuta::map_global::{
     Connection, ConnectionOptions, full_connection_with, map_basin, map_connection, map_torus_continuation,
 };
-use furuta::parametric::{ParametricModel, TrainingRuns};
+use furuta::parametric::{FurutaOptions, ParametricModel, TrainingRuns};
 use furuta::shared_tangent::SharedParametricModel;
 use plotters::style::RGBColor;
 use serde_json::{Value, json};
@@ -402,19 +405,18 @@ fn compute(
 /// normal-form-style map (the same SSM's normal form iterated as a map); then the data-driven
 /// fitted map against the equation-driven reduced map and the full system (the issue's 0.05 ms
 /// target).
-fn where_the_normal_form_errs(rep: &mut Report, c: &Computed) {
+fn where_the_normal_form_errs(c: &Computed) -> Result<String, String> {
     let mid =
         |r: &Result<Connection, String>| r.as_ref().ok().and_then(|c| c.switch.bracket).map(|(a, b)| 0.5 * (a + b));
     let onset = |g: &EquationMapGlobal| g.torus.as_ref().ok().and_then(|t| t.growth_onset);
-    let gap =
-        |a: Option<f64>, b: Option<f64>| a.zip(b).map_or("-".to_string(), |(a, b)| format!("{:.3}", (a - b).abs()));
-    let graph: Vec<String> = c
+    let gap = |a: Option<f64>, b: Option<f64>| a.zip(b).map(|(a, b)| (a - b).abs());
+    let graph: Vec<Value> = c
         .by_order
         .iter()
-        .map(|b| format!("{}: {}", b.order, f4(c.graph_map(b.order).and_then(|g| mid(&g.connection)))))
+        .map(|b| json!({"order": b.order, "at": c.graph_map(b.order).and_then(|g| mid(&g.connection))}))
         .collect();
-    let polar: Vec<String> =
-        c.by_order.iter().map(|b| format!("{}: {}", b.order, f4(b.heteroclinic.as_ref().map(|h| h.dt)))).collect();
+    let polar: Vec<Value> =
+        c.by_order.iter().map(|b| json!({"order": b.order, "at": b.heteroclinic.as_ref().map(|h| h.dt)})).collect();
     let nf = c.eq_map.iter().find(|g| g.style == MapStyle::NormalForm);
     let polar_t = c.by_order.iter().find(|b| b.order == EQUATION_ORDER);
     let (nf_conn, nf_onset) = (nf.and_then(|g| mid(&g.connection)), nf.and_then(onset));
@@ -422,30 +424,31 @@ fn where_the_normal_form_errs(rep: &mut Report, c: &Computed) {
     let (g_conn, g_onset) = (g7.and_then(|g| mid(&g.connection)), g7.and_then(onset));
     let (m_conn, m_onset) = (mid(&c.map_connection[0]), c.map_torus[0].growth_onset);
     let (f_conn, f_onset) = (mid(&c.full_connection), c.torus.growth_onset);
-    rep.para(&format!(
-        "Where the equation-driven model's polar normal form departs from the full system, measured. Its reduced map, \
-         iterated with every term kept, connects at {} ms (bracket midpoints by order; full system {}); its polar normal \
-         form at {} ms. The same order-{EQUATION_ORDER} SSM's normal-form-style reduced map (only the structural terms \
-         z_j |z_1|^2a |z_2|^2b of R, iterated as a map: the polar normal form without the map-to-flow step) connects at \
-         {} ms and its torus growth starts at {} ms, {} and {} ms from the polar form's connection and Hopf. So the value \
-         moves where the normal form's near-identity change of coordinates is truncated at a finite order (the \
-         phase-dependent terms it removes, at rho ~ 0.1 rad near the 1:4 resonance of the fast pair), hardly at the \
-         map-to-flow step, and not in the SSM. Data-driven against equation-driven on the faithful form: the fitted map's \
-         connection (linear in dt) is {} ms from the order-{EQUATION_ORDER} equation-driven reduced map's and its torus \
-         growth onset {} ms (target {MAP_TARGET_MS} ms); against the full system: connection {} ms, onset {} ms.",
-        graph.join(", "),
-        c.full_connection.as_ref().map_or_else(|e| e.clone(), |_| f4(f_conn)),
-        polar.join(", "),
-        f4(nf_conn),
-        f4(nf_onset),
-        gap(nf_conn, polar_t.and_then(|b| b.heteroclinic.as_ref().map(|h| h.dt))),
-        gap(nf_onset, polar_t.and_then(|b| b.hopf.as_ref().map(|h| h.dt))),
-        gap(m_conn, g_conn),
-        gap(m_onset, g_onset),
-        gap(m_conn, f_conn),
-        gap(m_onset, f_onset),
-    ));
+    let v = json!({
+        "order": EQUATION_ORDER, "target": MAP_TARGET_MS, "graph": graph, "polar": polar,
+        "full_error": c.full_connection.as_ref().err(), "full": f_conn, "nf_conn": nf_conn, "nf_onset": nf_onset,
+        "gaps": [gap(nf_conn, polar_t.and_then(|b| b.heteroclinic.as_ref().map(|h| h.dt))),
+                 gap(nf_onset, polar_t.and_then(|b| b.hopf.as_ref().map(|h| h.dt))),
+                 gap(m_conn, g_conn), gap(m_onset, g_onset), gap(m_conn, f_conn), gap(m_onset, f_onset)],
+    });
+    Prose::new().html("equation/where", WHERE_THE_NORMAL_FORM_ERRS, &v)
 }
+
+/// A value in ms to 3 decimals or `none` (`F3 x`), a distance or `-` (`GAP x`).
+const WHERE_THE_NORMAL_FORM_ERRS: &str = "Where \
+    the equation-driven model's polar normal form departs from the full system, measured. Its reduced map, iterated \
+    with every term kept, connects at {% for g in graph %}{{ g.order }}: {{ g.at | fixed_or(3, \"none\") }}{% if not loop.last %}, {% endif \
+    %}{% endfor %} ms (bracket midpoints by order; full system {% if full_error is not none %}{{ full_error }}{% else \
+    %}{{ full | fixed_or(3, \"none\") }}{% endif %}); its polar normal form at {% for g in polar %}{{ g.order }}: {{ g.at | fixed_or(3, \"none\") }}{% if not \
+    loop.last %}, {% endif %}{% endfor %} ms. The same order-{{ order }} SSM's normal-form-style reduced map (only the \
+    structural terms z_j |z_1|^2a |z_2|^2b of R, iterated as a map: the polar normal form without the map-to-flow step) \
+    connects at {{ nf_conn | fixed_or(3, \"none\") }} ms and its torus growth starts at {{ nf_onset | fixed_or(3, \"none\") }} ms, {{ gaps[0] | fixed_or(3, \"-\") }} and {{ \
+    gaps[1] | fixed_or(3, \"-\") }} ms from the polar form's connection and Hopf. So the value moves where the normal form's \
+    near-identity change of coordinates is truncated at a finite order (the phase-dependent terms it removes), hardly \
+    at the map-to-flow step, and not in the SSM. Data-driven against equation-driven on the faithful form: the fitted \
+    map's connection (linear in dt) is {{ gaps[2] | fixed_or(3, \"-\") }} ms from the order-{{ order }} equation-driven reduced map's \
+    and its torus growth onset {{ gaps[3] | fixed_or(3, \"-\") }} ms (target {{ target | plain }} ms); against the full system: \
+    connection {{ gaps[4] | fixed_or(3, \"-\") }} ms, onset {{ gaps[5] | fixed_or(3, \"-\") }} ms.";
 
 fn f4(v: Option<f64>) -> String {
     v.map_or("none".into(), |x| format!("{x:.3}"))
@@ -466,7 +469,7 @@ pub fn global_sections(
     let c = compute(pm, sm, runs, quick).map_err(|e| e.to_string())?;
     equation_section(rep, pm, sm, bif, &c, quick)?;
     if !quick {
-        map_variants_table(rep, &c);
+        map_variants_table(rep, &c)?;
     }
     basin_section(rep, &c)?;
     Ok(())
@@ -475,7 +478,7 @@ pub fn global_sections(
 /// The fitted map's saddle connection and torus loss over the training variants (the
 /// sensitivity study's), next to the default's: docs/decisions/0001's spread target (<= 0.1 ms).
 /// Summary key `map_sensitivity`.
-fn map_variants_table(rep: &mut Report, c: &Computed) {
+fn map_variants_table(rep: &mut Report, c: &Computed) -> Result<(), Box<dyn Error>> {
     let tor = |r: &Result<TorusContinuation, String>| r.as_ref().map_or_else(|e| e.clone(), lost_text);
     let default_torus: [Result<TorusContinuation, String>; 2] =
         [Ok(c.map_torus[0].clone()), Ok(c.map_torus[1].clone())];
@@ -514,22 +517,9 @@ fn map_variants_table(rep: &mut Report, c: &Computed) {
             ),
         );
     }
-    let sp = |k: &str| spreads[k]["spread_ms"].as_f64().map_or("-".to_string(), |x| format!("{x:.3}"));
-    rep.para(&format!(
-        "The fitted map over the training variants of the sensitivity study: each variant's runs refitted into the \
-         shared-tangent model (its regression rows weighted by the default's smooth amplitude cut, FurutaOptions::map_weight, \
-         so runs kept past the slow saddle cycle do not bend the map near the torus, with its degrees 2-3 from a first fit at a 0.1 rad knee) and read by the same rules as the \
-         default's (saddle connection by the pushed fast cycle; torus continuation, lost bracket and growth onset). Spread (max - min over the rows where found) of the \
-         connection: {} ms linear, {} ms spline; of the torus growth onset: {} / {} ms; of the torus-loss bracket's \
-         midpoint: {} / {} ms (rows without the value, e.g. a torus already lost at the grid's first dt, are left \
-         out). Target: {SPREAD_TARGET_MS} ms.",
-        sp("connection_linear"),
-        sp("connection_spline"),
-        sp("torus_onset_linear"),
-        sp("torus_onset_spline"),
-        sp("torus_lost_linear"),
-        sp("torus_lost_spline"),
-    ));
+    let v = json!({"spreads": spreads, "target": SPREAD_TARGET_MS, "low_degree": furuta::parametric::MAP_LOW_DEGREE,
+                   "low_knee": furuta::parametric::MAP_LOW_KNEE_THETA});
+    rep.para(&Prose::new().html("equation/map-variants", MAP_VARIANTS, &v)?);
     rep.table(
         &[
             "training",
@@ -554,7 +544,19 @@ fn map_variants_table(rep: &mut Report, c: &Computed) {
         })
         .collect();
     rep.summary.insert("map_sensitivity".into(), json!({"variants": list, "spreads": spreads}));
+    Ok(())
 }
+
+const MAP_VARIANTS: &str = "The fitted map over the training variants of the \
+    sensitivity study: each variant's runs refitted into the shared-tangent model (its regression rows weighted by the \
+    default's smooth amplitude cut, FurutaOptions::map_weight, so runs kept past the slow saddle cycle do not bend the \
+    map near the torus, with its nonlinear degrees up to {{ low_degree }} from a first fit at a {{ low_knee | plain }} rad knee) and \
+    read by the same rules as the default's (saddle connection by the pushed fast cycle; torus continuation, lost \
+    bracket and growth onset). Spread (max - min over the rows where found) of the connection: {{ \
+    spreads.connection_linear.spread_ms | fixed_or(3, \"-\") }} ms linear, {{ spreads.connection_spline.spread_ms | fixed_or(3, \"-\") }} ms spline; of the torus growth onset: {{ \
+    spreads.torus_onset_linear.spread_ms | fixed_or(3, \"-\") }} / {{ spreads.torus_onset_spline.spread_ms | fixed_or(3, \"-\") }} ms; of the torus-loss bracket's midpoint: {{ \
+    spreads.torus_lost_linear.spread_ms | fixed_or(3, \"-\") }} / {{ spreads.torus_lost_spline.spread_ms | fixed_or(3, \"-\") }} ms (rows without the value, e.g. a torus already \
+    lost at the grid's first dt, are left out). Target: {{ target | plain }} ms.";
 
 /// A saddle-connection search as table text: its bracket, `none`, or why it failed.
 fn connection_text(r: &Result<Connection, String>) -> String {
@@ -601,10 +603,20 @@ fn eq_map_switch_text(c: &Computed) -> String {
     }
 }
 
+const EQ_MAP_SWITCH: &str = "The equation-driven reduced map's small-start switch (order {{ order }}, spline in dt) uses \
+    the fitted map's rules: the full system's small mode-shaped starts (plant state and controller samples) projected \
+    onto its reduced coordinates (z = U^T s, the exact linear map's left eigenvectors, in which the graph-style manifold \
+    has U^T W(z) = z), theta read from W(z), {{ periods }} periods, escape when |theta| exceeds {{ escape_theta | plain \
+    }} rad, a grid of {{ n }} dt over [{{ lo | plain }}, {{ hi | plain }}] ms, then bisected to {{ tol | plain }} ms ({{ \
+    seconds | fixed(1) }} s wall). Its bracket {{ bracket }} has its midpoint {% if to_full is none %}-{% else %}{{ \
+    to_full | signed(3) }}{% endif %} ms from the full system's bracket midpoint (the full system's scan: {% if \
+    scan_periods is none %}unknown{% else %}{{ scan_periods }}{% endif %} periods) and {% if to_fitted is none %}-{% else \
+    %}{{ to_fitted | signed(3) }}{% endif %} ms from the fitted map's (linear in dt).";
+
 /// The equation-driven reduced map's small-start switch: a paragraph (how far from the full
 /// system's and the fitted map's) and the summary key `map_switch_dt_ms.equation_map`.
-fn eq_map_switch_part(rep: &mut Report, c: &Computed, nodes: &[f64]) {
-    let Some((sw, seconds)) = &c.eq_map_switch else { return };
+fn eq_map_switch_part(rep: &mut Report, c: &Computed, nodes: &[f64]) -> Result<(), Box<dyn Error>> {
+    let Some((sw, seconds)) = &c.eq_map_switch else { return Ok(()) };
     let mid2 =
         |v: &Value| v.as_array().filter(|a| a.len() == 2).and_then(|a| Some(0.5 * (a[0].as_f64()? + a[1].as_f64()?)));
     let ms = rep.summary.get("map_switch_dt_ms").cloned().unwrap_or(Value::Null);
@@ -613,22 +625,15 @@ fn eq_map_switch_part(rep: &mut Report, c: &Computed, nodes: &[f64]) {
     let scan_periods = rep.summary.get("heteroclinic_dt_ms").and_then(|h| h["scan_periods"].as_u64());
     let (lo, hi, n, tol) = crate::report::bifurcations::MAP_SWITCH_RANGE_MS;
     let own = sw.as_ref().ok().and_then(|s| s.bracket).map(|(a, b)| 0.5 * (a + b));
-    let gap = |a: Option<f64>, b: Option<f64>| a.zip(b).map_or("-".to_string(), |(a, b)| format!("{:+.3}", a - b));
-    rep.para(&format!(
-        "The equation-driven reduced map's small-start switch (order {EQUATION_ORDER}, spline in dt) uses the fitted map's \
-         rules: the full system's small mode-shaped starts (plant state and controller samples) projected onto its reduced \
-         coordinates (z = U^T s, the exact linear map's left eigenvectors, in which the graph-style manifold has U^T W(z) = z), \
-         theta read from W(z), {} periods, escape when |theta| exceeds {} rad, a grid of {n} dt over [{lo}, {hi}] ms, then \
-         bisected to {tol} ms ({:.1} s wall). Its bracket {} has its midpoint {} ms from the full system's bracket midpoint \
-         (the full system's scan: {} periods) and {} ms from the fitted map's (linear in dt).",
-        furuta::full_system::DEFAULT_SCAN_PERIODS,
-        furuta::full_system::ESCAPE_THETA,
-        seconds,
-        eq_map_switch_text(c),
-        gap(own, full),
-        scan_periods.map_or("unknown".to_string(), |p| p.to_string()),
-        gap(own, fitted),
-    ));
+    let gap = |a: Option<f64>, b: Option<f64>| a.zip(b).map(|(a, b)| a - b);
+    rep.para(&Prose::new().html(
+        "equation/map-switch",
+        EQ_MAP_SWITCH,
+        &json!({"order": EQUATION_ORDER, "periods": furuta::full_system::DEFAULT_SCAN_PERIODS,
+                "escape_theta": furuta::full_system::ESCAPE_THETA, "n": n, "lo": lo, "hi": hi, "tol": tol,
+                "seconds": seconds, "bracket": eq_map_switch_text(c), "to_full": gap(own, full),
+                "scan_periods": scan_periods, "to_fitted": gap(own, fitted)}),
+    )?);
     let v = match sw {
         Ok(sw) => {
             json!({"bracket": sw.bracket.map(|(a, b)| vec![a, b]), "grid": sw.grid.iter().map(|g| json!([g.0, g.1])).collect::<Vec<_>>(), "monotone": sw.monotone,
@@ -640,6 +645,7 @@ fn eq_map_switch_part(rep: &mut Report, c: &Computed, nodes: &[f64]) {
     if let Some(Value::Object(m)) = rep.summary.get_mut("map_switch_dt_ms") {
         m.insert("equation_map".into(), v);
     }
+    Ok(())
 }
 
 /// The fitted map's switch brackets (predictions section, `map_switch_dt_ms`) as table text.
@@ -656,6 +662,39 @@ fn map_switch(v: Option<&Value>) -> String {
     format!("{} / {}", one("linear"), one("spline"))
 }
 
+const EQUATION_INTRO: &str = "The equation-driven model is the SSM of the unquantized loop's exact one-period map \
+    (Taylor expansion at the upright equilibrium, parametrization method, extended normal form with near resonances \
+    kept), in the data-driven model's polar conventions; its normal forms at dt = {{ nodes | plain }} ms (order {{ orders \
+    | plain }}) are interpolated by natural cubic splines and scanned for bifurcations by the same portrait code as the \
+    data-driven model. The full system's torus loss: the 2-torus followed across dt by runs of {{ torus_periods }} periods, \
+    each started from the end of the previous one; it is lost at the first dt where the run escapes or the slow \
+    amplitude's spread (max - min over the sliding fit) over the last third of the run is above {{ growth | plain }} times \
+    that over the middle third and above {{ spread_min | plain }} rad (a growing oscillation about the torus). Each run \
+    starts from the previous one's last state with the controller's samples before it (an earlier version counted the \
+    last sample twice, a one-period shift of the delayed samples that kicked the slow amplitude and lost the torus \
+    early). The growth onset is where the slow amplitude's oscillation about the torus stops decaying: the zero of its \
+    growth rate ln(last spread / middle spread) / (a third of the run), linear in dt between the last decaying and the \
+    first growing step.";
+
+/// The fitted map's and the full system's connection rule and the columns' costs.
+const EQUATION_RULES: &str = "The fitted map column is the shared-tangent SSM model of the predictions section \
+    (manifold and map coefficients interpolated in dt, linearly / by a natural cubic spline), iterated as a map, no \
+    normal form. Its saddle connection and the full system's are read by one rule: the fast saddle cycle (an invariant \
+    circle of the fitted map, of the exact period map for the full system; Fourier collocation and Newton) is pushed \
+    along the slow eigenvector by {{ co.push | plain }} rad of theta at {{ co.phases }} slow phases over half a turn, and \
+    each start is iterated (the full system: simulated) for {{ co.periods }} periods; the connection is the first dt at \
+    which a pushed start escapes (|theta| > {{ escape_theta | plain }} rad) instead of settling on the 2-torus, on a grid \
+    of {{ range[2] }} dt over [{{ range[0] | plain }}, {{ range[1] | plain }}] ms, then bisected to {{ range[3] | plain \
+    }} ms. The map's torus loss uses the full system's continuation rule on the map's own runs (same dt grid, periods \
+    and start). The normal-form column is the data-driven model of the portraits section (per-dt fits' polar normal \
+    forms interpolated in dt): its saddle connection is where the fast cycle's unstable branch lands on the slow cycle's \
+    stable manifold. The equation-driven reduced map column is the equation-driven model's SSM before its polar normal \
+    form: the graph-style reduced map (every term of the order-{{ order }} reduced map kept, no phase averaging; \
+    furuta::equation_map) at the same nodes, coefficients interpolated by a natural cubic spline in dt, iterated as a map \
+    and read by the fitted map's rules (its torus continuation starts from the reduced point of the same linear-mode \
+    start). Fitted map: {{ map_seconds | fixed(1) }} s wall; equation-driven reduced maps (orders {{ orders | plain }}): \
+    {{ eq_map_seconds | fixed(1) }} s wall; the full system's connection: {{ full_seconds | fixed(1) }} s wall.";
+
 fn equation_section(
     rep: &mut Report,
     pm: &ParametricModel,
@@ -668,25 +707,12 @@ fn equation_section(
     rep.section(
         "equation",
         "Data-driven vs equation-driven model vs full system: every bifurcation value",
-        &format!(
-            "The equation-driven model is the SSM of the unquantized loop's exact one-period map (Taylor expansion at the \
-             upright equilibrium, parametrization method, extended normal form with near resonances kept), in the \
-             data-driven model's polar conventions; its normal forms at dt = {} ms (order {}) are interpolated by natural \
-             cubic splines and scanned for bifurcations by the same portrait code as the data-driven model. The full \
-             system's torus loss: the 2-torus followed across dt by runs of {torus_periods} periods, each started from \
-             the end of the previous one; it is lost at the first dt where the run escapes or the slow amplitude's \
-             spread (max - min over the sliding fit) over the last third of the run is above {} times that over the \
-             middle third and above {} rad (a growing oscillation about the torus). Each run starts from the previous \
-             one's last state with the controller's samples before it (an earlier version counted the last sample twice, a \
-             one-period shift of the delayed samples that kicked the slow amplitude and lost the torus early). The \
-             growth onset is where the slow amplitude's \
-             oscillation about the torus stops decaying: the zero of its growth rate ln(last spread / middle spread) / \
-             (a third of the run), linear in dt between the last decaying and the first growing step.",
-            nodes.iter().map(|d| d.to_string()).collect::<Vec<_>>().join(", "),
-            orders.iter().map(|d| d.to_string()).collect::<Vec<_>>().join(", "),
-            furuta::basin::TORUS_GROWTH,
-            furuta::basin::TORUS_SPREAD_MIN,
-        ),
+        &Prose::new().html(
+            "equation/intro",
+            EQUATION_INTRO,
+            &json!({"nodes": nodes, "orders": orders, "torus_periods": torus_periods,
+                    "growth": furuta::basin::TORUS_GROWTH, "spread_min": furuta::basin::TORUS_SPREAD_MIN}),
+        )?,
     );
     let eb =
         c.by_order.iter().find(|b| b.order == EQUATION_ORDER).ok_or("no equation-driven model at the table's order")?;
@@ -735,7 +761,7 @@ fn equation_section(
             lost_text(&c.torus),
         ],
         vec![
-            "2-torus at 30.8 ms (rho_1, rho_2) [rad]".into(),
+            format!("2-torus at {TORUS_DT_MS} ms (rho_1, rho_2) [rad]"),
             "-".into(),
             rho(bif.torus_30p8.as_ref().map(|t| t.rho)),
             "-".into(),
@@ -743,26 +769,13 @@ fn equation_section(
             rho(rho_full),
         ],
     ];
-    rep.para(&format!(
-        "The fitted map column is the shared-tangent SSM model of the predictions section (manifold and map coefficients \
-         interpolated in dt, linearly / by a natural cubic spline), iterated as a map, no normal form. Its saddle \
-         connection and the full system's are read by one rule: the fast saddle cycle (an invariant circle of the \
-         fitted map, of the exact period map for the full system; Fourier collocation and Newton) is pushed along the \
-         slow eigenvector by {} rad of theta at {} slow phases over half a turn, and each start is iterated (the full \
-         system: simulated) for {} periods; the connection is the first dt at which a pushed start escapes (|theta| > \
-         {} rad) instead of settling on the 2-torus, on a grid of {} dt over [{}, {}] ms, then bisected to {} ms. The \
-         map's torus loss uses the full system's continuation rule on the map's own runs (same dt grid, periods and \
-         start). The normal-form column is the data-driven model of the portraits section (per-dt fits' polar normal \
-         forms interpolated in dt): its saddle connection is where the fast cycle's unstable branch lands on the slow \
-         cycle's stable manifold. The equation-driven reduced map column is the equation-driven model's SSM before its \
-         polar normal form: the graph-style reduced map (every term of the order-{EQUATION_ORDER} reduced map kept, no \
-         phase averaging; furuta::equation_map) at the same nodes, coefficients interpolated by a natural cubic spline in \
-         dt, iterated as a map and read by the fitted map's rules (its torus continuation starts from the reduced point \
-         of the same linear-mode start). Fitted map: {:.1} s wall; equation-driven reduced maps (orders {}): {:.1} s \
-         wall; the full system's connection: {:.1} s wall.",
-        co.push, co.phases, co.periods, furuta::full_system::ESCAPE_THETA, CONNECTION_RANGE_MS.2, CONNECTION_RANGE_MS.0, CONNECTION_RANGE_MS.1, CONNECTION_RANGE_MS.3,
-        c.map_seconds, orders.iter().map(|d| d.to_string()).collect::<Vec<_>>().join(", "), c.eq_map_seconds, c.full_connection_seconds,
-    ));
+    rep.para(&Prose::new().html(
+        "equation/rules",
+        EQUATION_RULES,
+        &json!({"co": co, "escape_theta": furuta::full_system::ESCAPE_THETA, "range": CONNECTION_RANGE_MS,
+                "order": EQUATION_ORDER, "map_seconds": c.map_seconds, "orders": orders,
+                "eq_map_seconds": c.eq_map_seconds, "full_seconds": c.full_connection_seconds}),
+    )?);
     rep.table(
         &[
             "bifurcation",
@@ -774,7 +787,7 @@ fn equation_section(
         ],
         &rows,
     );
-    eq_map_switch_part(rep, c, &nodes);
+    eq_map_switch_part(rep, c, &nodes)?;
     // The equation-driven model's values by order.
     let orow: Vec<Vec<String>> = c
         .by_order
@@ -804,11 +817,11 @@ fn equation_section(
             "normal form: saddle connection [ms]",
             "normal form: small-start switch [ms]",
             "normal form: torus Hopf [ms]",
-            "normal form: 2-torus at 30.8 ms",
+            &format!("normal form: 2-torus at {TORUS_DT_MS} ms"),
         ],
         &orow,
     );
-    where_the_normal_form_errs(rep, c);
+    rep.para(&where_the_normal_form_errs(c)?);
     // The full system's torus across dt.
     let trow: Vec<Vec<String>> = c
         .torus
@@ -840,11 +853,23 @@ fn equation_section(
         &trow,
     );
     // Coefficients and invariance by order.
-    rep.para(&format!(
-        "Equation-driven SSM at order {diag_order}: invariance error max |F(W(z)) - W(R(z))| of the truncations at orders 3, \
-         5, ... on the spheres of theta amplitude {} rad, and the polar coefficients (1/s; rho in rad of theta).",
-        INVARIANCE_RADII.iter().map(|r| r.to_string()).collect::<Vec<_>>().join(" and "),
-    ));
+    let inv_orders = c
+        .diag
+        .first()
+        .map(|d| {
+            d.invariance.iter().map(|e| e.order).fold(Vec::new(), |mut v, o| {
+                if !v.contains(&o) {
+                    v.push(o);
+                }
+                v
+            })
+        })
+        .unwrap_or_default();
+    rep.para(&Prose::new().html(
+        "equation/invariance",
+        INVARIANCE,
+        &json!({"order": diag_order, "orders": inv_orders, "radii": INVARIANCE_RADII}),
+    )?);
     let mut irows = Vec::new();
     for d in &c.diag {
         for &r in &INVARIANCE_RADII {
@@ -1007,6 +1032,34 @@ pub const CUBIC_TARGET: f64 = 0.05;
 /// not depend on what `rho` means beyond linear order.
 pub const CHART_ROBUST: f64 = 0.01;
 
+const INVARIANCE: &str = "Equation-driven SSM at order {{ order }}: invariance error max |F(W(z)) - W(R(z))| of the \
+    truncations at orders {{ orders | plain }} on the spheres of theta amplitude {{ radii | plain(\" and \") }} rad, and \
+    the polar coefficients (1/s; rho in rad of theta).";
+
+/// What the coefficient table compares, and how the fitted map's low degrees are fitted.
+const CUBIC: &str = "Data-driven vs equation-driven polar coefficients (1/s; rho in rad of theta) at the training \
+    periods that are nodes of the equation-driven model: each cell data / equation (relative difference); the \
+    data-driven value is that training period's own fit (graph over its own SVD tangent with a degree-1 normal part, \
+    order-{{ dyn_order }} map, normal form), the equation-driven one the order-{{ order }} normal form; the next column \
+    says whether every training period is within the issue's {{ target | pct(0) }} % target. Beyond linear order a \
+    coefficient depends on what rho means: the equation-driven amplitudes are theta's first harmonic on a torus (what \
+    the full system's torus amplitude measures); normalizing the manifold by the spectral projection instead (rho_i -> \
+    rho_i (1 + k_ij rho_j^2 + ...)) moves the rho_i rho_j^2 coefficient by 2 k_ij Re lambda_j. The last column is that \
+    move (largest over the periods): a difference to the data below it says nothing about the fit; only the terms that \
+    move less than {{ robust | pct(0) }} % (chart-robust) compare the fit with the equations whatever the data-driven \
+    chart is. The last two columns put the data-driven normal form on the equation-driven model's definition of rho \
+    (the first-harmonic basis: the resonant part of the normal-form transformation chosen so that theta on the fitted \
+    manifold has no nonlinear part at a mode's own frequency, so rho_j is theta's first harmonic at every order): its \
+    value per period (relative difference to the equation-driven value) and whether every period is within the target. \
+    On this basis both sides define rho the same way, so every coefficient compares. The last column is the fitted \
+    map's (shared tangent, weighted regression, the model of the map-based results) normal form on the same basis at \
+    its node, relative difference to the equation-driven value per period. The fitted map's nonlinear degrees up to {{ \
+    low_degree }} come from a first order-{{ dyn_order }} fit weighted with its knee at {{ low_knee | plain }} rad of \
+    theta, its higher degrees from the fit at {{ knee | plain }} rad (ssm::LowDegreeStage, FurutaOptions::map_weight): \
+    with one fit at {{ knee | plain }} rad the order-{{ dyn_order }} truncation bends the cubic terms with the data near \
+    the slow saddle cycle, and a higher map order or a lower knee of the single fit traded the cubic terms against the \
+    saddle connection (docs/decisions/0001).";
+
 /// The table of the data-driven polar coefficients of degree 3 and 5 at each training period
 /// that is a node of the equation-driven model, against the equation-driven ones (order
 /// [`EQUATION_ORDER`]); returns the `cubic_comparison` summary value.
@@ -1128,30 +1181,13 @@ fn cubic_comparison(
                           "chart_shift": chart_shift, "chart_robust": chart_shift <= CHART_ROBUST}),
         );
     }
-    rep.para(&format!(
-        "Data-driven vs equation-driven polar coefficients (1/s; rho in rad of theta) at the training periods that are \
-         nodes of the equation-driven model: each cell data / equation (relative difference); the data-driven value is \
-         that training period's own fit (graph over its own SVD tangent with a degree-1 normal part, order-7 map, normal form), the equation-driven one the order-{EQUATION_ORDER} \
-         normal form; the next column says whether every training period is within the issue's {:.0} % target. \
-         Beyond linear order a coefficient depends on what rho means: the equation-driven amplitudes are theta's first \
-         harmonic on a torus (what the full system's torus amplitude measures); normalizing the manifold by the spectral \
-         projection instead (rho_i -> rho_i (1 + k_ij rho_j^2 + ...)) moves the rho_i rho_j^2 coefficient by 2 k_ij Re lambda_j. \
-         The last column is that move (largest over the periods): a difference to the data below it says nothing about \
-         the fit; only the terms that move less than {:.0} % (chart-robust) compare the fit with the equations whatever the \
-         data-driven chart is. The last two columns put the data-driven normal form on the equation-driven model's \
-         definition of rho (the first-harmonic basis: the resonant part of the normal-form transformation chosen so that \
-         theta on the fitted manifold has no nonlinear part at a mode's own frequency, so rho_j is theta's first harmonic \
-         at every order): its value per period (relative difference to the equation-driven value) and whether every period \
-         is within the target. On this basis both sides define rho the same way, so every coefficient compares. The last \
-         column is the fitted map's (shared tangent, weighted regression, the model of the map-based results) normal form \
-         on the same basis at its node, relative difference to the equation-driven value per period. The fitted map's \
-         degrees 2-3 come from a first order-7 fit weighted with its knee at 0.1 rad of theta, its degrees 4-7 from the \
-         fit at 0.2 rad (ssm::LowDegreeStage, FurutaOptions::map_weight): with one fit at 0.2 rad the order-7 truncation \
-         bends the cubic terms with the data near the slow saddle cycle, and a higher map order or a lower knee of the \
-         single fit traded the cubic terms against the saddle connection (docs/decisions/0001).",
-        100.0 * CUBIC_TARGET,
-        100.0 * CHART_ROBUST
-    ));
+    rep.para(&Prose::new().html(
+        "equation/cubic",
+        CUBIC,
+        &json!({"target": CUBIC_TARGET, "robust": CHART_ROBUST, "order": EQUATION_ORDER,
+                "dyn_order": FurutaOptions::default().fit.dyn_order, "low_degree": furuta::parametric::MAP_LOW_DEGREE,
+                "low_knee": furuta::parametric::MAP_LOW_KNEE_THETA, "knee": furuta::parametric::MAP_WEIGHT_KNEE_THETA}),
+    )?);
     let mut head: Vec<String> = vec!["equation".into(), "monomial".into()];
     head.extend(dts.iter().map(|d| format!("{d} ms")));
     head.push(format!("within {:.0} %", 100.0 * CUBIC_TARGET));
@@ -1168,31 +1204,94 @@ fn cubic_comparison(
     )
 }
 
+const BASIN_INTRO: &str = "Bounded (green) or escaping (red, |theta| > {{ page.escape_theta | plain }} rad within {{ b.periods }} periods) full-system \
+    runs from {{ b.rho1[2] }} x {{ b.rho2[2] }} starts on the exact linear eigenvectors, slow amplitude rho_1 = {{ \
+    b.rho1[0] | plain }}..{{ b.rho1[1] | plain }} rad x fast amplitude rho_2 = {{ b.rho2[0] | plain }}..{{ b.rho2[1] | \
+    plain }} rad, phases {{ b.phases | dbg }} rad, at dt = {{ b.dts_ms | plain }} ms (a basin sweep: <code>ssmctl \
+    sweep</code> on the same spec gives the same cells). On the main figure, the fitted map's verdict (the best \
+    data-driven model: the cells where it differs from the full system) and the saddle cycles' stable manifolds \
+    (separatrices) and 3-tori of the data-driven normal form (blue) and of the equation-driven model at order {{ \
+    b.equation_order }} (purple); the second figure marks the cells where a normal form's verdict differs. A normal \
+    form's start counts as bounded when its trajectory reaches the 2-torus or still circles in the box after {{ \
+    b.model_t_max_s | plain }} s; reaching another attractor (e.g. a large slow-mode cycle) or leaving the box {{ \
+    page.rho_max | dbg }} counts as escape (asymptotic verdict); the horizon verdict counts leaving the box after the \
+    full runs' horizon as bounded.";
+const BASIN_AGREE: &str = "{{ a.disagreement | pct(1) }} % ({{ a.model_bounded_full_escaped }} / {{ \
+    a.model_escaped_full_bounded }}{% if a.undecided > 0 %}, {{ a.undecided }} undecided{% endif %})";
+const BASIN_TEXT: &str = "Disagreement: the fraction of the {{ b.rho1[2] * b.rho2[2] }} cells where the model's verdict \
+    differs from the full system's (in parentheses: model bounded but full system escaped / model escaped but full \
+    system bounded; undecided: the model's trajectory reached a saddle, not compared); the fitted map's verdict is its \
+    own run of the same horizon from the full system's first delay vector; for the normal forms, asymptotic = the \
+    model's fate within {{ b.model_t_max_s | plain }} s, horizon = within the full runs' {{ b.periods }} periods. {{ \
+    page.runs }} runs in {{ b.wall_seconds | fixed(1) }} s wall on {{ page.threads }} threads ({{ (1000 * b.wall_seconds \
+    * page.threads / [page.runs, 1] | max) | fixed(1) }} ms per cell and thread).";
+const BASIN_MAIN_CAPTION: &str = "The full system's basin with the fitted map's verdict (markers: cells where the fitted \
+    map, the shared-tangent model linear in dt iterated from the full system's first delay vector of each start with the \
+    same horizon and escape rule, disagrees) and the normal forms' separatrices: data-driven (blue), equation-driven at \
+    order {{ b.equation_order }} (purple)";
+const BASIN_NF_CAPTION: &str = "The full system's basin with the normal forms' separatrices; markers: cells where a \
+    normal form's asymptotic verdict differs (data-driven blue, equation-driven purple)";
+
+/// One dt of the basin figures: the full system's cells, where the fitted map and the two
+/// normal forms differ from it, and the normal forms' separatrices.
+struct BasinPanel {
+    caption: String,
+    full: Vec<bool>,
+    map_differs: Vec<bool>,
+    nf_differs: [Vec<bool>; 2],
+    separatrices: [Vec<Vec<(f64, f64)>>; 2],
+}
+
+const BLUE: RGBColor = RGBColor(30, 80, 220);
+const PURPLE: RGBColor = RGBColor(150, 40, 170);
+const ORANGE: RGBColor = RGBColor(230, 120, 0);
+
+/// The normal forms' separatrices as curves (data-driven blue, equation-driven purple).
+fn separatrix_curves(p: &BasinPanel) -> Vec<Curves> {
+    vec![
+        ("data-driven normal form: separatrices".into(), BLUE, p.separatrices[0].clone()),
+        (format!("equation-driven (order {EQUATION_ORDER}) separatrices"), PURPLE, p.separatrices[1].clone()),
+    ]
+}
+
+/// The main figure's panels: the full system's basin, the fitted map's verdict (its
+/// differing cells marked) and the normal forms' separatrices.
+fn main_panels<'a>(panels: &'a [BasinPanel], r1: &'a [f64], r2: &'a [f64]) -> Vec<OverlayPanel<'a>> {
+    panels
+        .iter()
+        .map(|p| OverlayPanel {
+            caption: p.caption.clone(),
+            x: r1,
+            y: r2,
+            bounded: &p.full,
+            marks: vec![("fitted map differs".into(), ORANGE, p.map_differs.clone())],
+            curves: separatrix_curves(p),
+        })
+        .collect()
+}
+
+/// The second figure's panels: the cells where each normal form's verdict differs.
+fn normal_form_panels<'a>(panels: &'a [BasinPanel], r1: &'a [f64], r2: &'a [f64]) -> Vec<OverlayPanel<'a>> {
+    panels
+        .iter()
+        .map(|p| OverlayPanel {
+            caption: p.caption.clone(),
+            x: r1,
+            y: r2,
+            bounded: &p.full,
+            marks: vec![
+                ("data-driven normal form differs".into(), BLUE, p.nf_differs[0].clone()),
+                ("equation-driven normal form differs".into(), PURPLE, p.nf_differs[1].clone()),
+            ],
+            curves: separatrix_curves(p),
+        })
+        .collect()
+}
+
 fn basin_section(rep: &mut Report, c: &Computed) -> Result<(), Box<dyn Error>> {
     let b = &c.basin;
     let o = &b.options;
     let (r1, r2) = o.values();
-    let cells = r1.len() * r2.len();
-    rep.section(
-        "basin",
-        "The full system's basin near the global bifurcation",
-        &format!(
-            "Bounded (green) or escaping (red, |theta| > 1 rad within {} periods) full-system runs from {} x {} starts on the \
-             exact linear eigenvectors, slow amplitude rho_1 = {}..{} rad x fast amplitude rho_2 = {}..{} rad, phases \
-             {:?} rad, at dt = {} ms (a basin sweep: <code>ssmctl sweep</code> on the same spec gives the same cells). Over \
-             it the saddle cycles' stable manifolds (separatrices) and the 3-tori of the data-driven model (blue) and of the \
-             equation-driven model at order {EQUATION_ORDER} (purple), and the cells where a model's verdict differs from \
-             the full system's. A model's start counts as bounded when its trajectory reaches the 2-torus or still circles \
-             in the box after {MODEL_T_MAX} s; reaching another attractor (e.g. a large slow-mode cycle) or leaving the \
-             box {:?} counts as escape (asymptotic verdict); the horizon verdict counts leaving the box after the full \
-             runs' horizon as bounded.",
-            o.periods, o.rho1.n, o.rho2.n, o.rho1.lo, o.rho1.hi, o.rho2.lo, o.rho2.hi, o.phases,
-            o.dts_ms.iter().map(|d| d.to_string()).collect::<Vec<_>>().join(", "),
-            RHO_MAX,
-        ),
-    );
-    let blue = RGBColor(30, 80, 220);
-    let purple = RGBColor(150, 40, 170);
     let separatrices = |p: &Portrait| -> Vec<Vec<(f64, f64)>> {
         let mut v: Vec<Vec<(f64, f64)>> = p
             .manifolds
@@ -1203,11 +1302,9 @@ fn basin_section(rep: &mut Report, c: &Computed) -> Result<(), Box<dyn Error>> {
         v.extend(p.orbits.iter().map(|o| o.points.clone()));
         v
     };
-    let mut rows = Vec::new();
     let mut list = Vec::new();
-    let mut panels_data = Vec::new();
+    let mut panels = Vec::new();
     let mut map_disagreement = Vec::new();
-    let mut map_panels: Vec<(String, Vec<bool>, Vec<bool>)> = Vec::new();
     for (p, (dt, m)) in o.dts_ms.iter().zip(&c.models).enumerate() {
         let full = b.bounded_at(p);
         let ag = |mb: &ModelBasin| -> Result<(Agreement, Agreement), furuta::Error> {
@@ -1216,123 +1313,49 @@ fn basin_section(rep: &mut Report, c: &Computed) -> Result<(), Box<dyn Error>> {
         let (data, data_h) = ag(&m[0].1)?;
         let (eq, eq_h) = ag(&m[1].1)?;
         let esc = b.escape_fraction(p);
-        let pct = |a: &Agreement| {
-            let und = if a.undecided > 0 { format!(", {} undecided", a.undecided) } else { String::new() };
-            format!(
-                "{:.1} % ({} / {}{und})",
-                100.0 * a.disagreement,
-                a.model_bounded_full_escaped,
-                a.model_escaped_full_bounded
-            )
-        };
         let map_b = c.map_basin.get(p).ok_or("no map basin at this dt")?;
         let map_fates: Vec<ModelFate> =
             map_b.iter().map(|&b| if b { ModelFate::Principal } else { ModelFate::LeavesBox }).collect();
         let map_ag = agreement(&map_fates, &full)?;
-        rows.push(vec![
-            format!("{dt}"),
-            format!("{:.1} %", 100.0 * esc),
-            pct(&map_ag),
-            pct(&data),
-            pct(&data_h),
-            pct(&eq),
-            pct(&eq_h),
-        ]);
         list.push(json!({"dt_ms": dt, "escape_fraction": esc, "map": map_ag, "data_driven": data, "data_driven_horizon": data_h, "equation": eq, "equation_horizon": eq_h}));
         map_disagreement.push(map_ag.disagreement);
-        map_panels.push((
-            format!("dt = {dt} ms: fitted map differs on {:.1} %", 100.0 * map_ag.disagreement),
-            full.clone(),
-            map_b.iter().zip(&full).map(|(a, b)| a != b).collect::<Vec<bool>>(),
-        ));
         let differs = |mb: &ModelBasin| -> Vec<bool> {
             mb.asymptotic.iter().zip(&full).map(|(f, &x)| f.bounded().is_some_and(|y| y != x)).collect()
         };
-        let (d0, d1) = (differs(&m[0].1), differs(&m[1].1));
-        panels_data.push((
-            format!("dt = {dt} ms: {:.0} % escape", 100.0 * esc),
+        panels.push(BasinPanel {
+            caption: format!(
+                "dt = {dt} ms: {:.0} % escape, fitted map differs on {:.1} %",
+                100.0 * esc,
+                100.0 * map_ag.disagreement
+            ),
+            map_differs: map_b.iter().zip(&full).map(|(a, b)| a != b).collect(),
+            nf_differs: [differs(&m[0].1), differs(&m[1].1)],
+            separatrices: [separatrices(&m[0].0), separatrices(&m[1].0)],
             full,
-            d0,
-            d1,
-            separatrices(&m[0].0),
-            separatrices(&m[1].0),
-        ));
+        });
     }
-    let panels: Vec<OverlayPanel> = panels_data
-        .iter()
-        .map(|(cap, full, d0, d1, s0, s1)| OverlayPanel {
-            caption: cap.clone(),
-            x: &r1,
-            y: &r2,
-            bounded: full,
-            marks: vec![
-                ("data-driven model differs".into(), blue, d0.clone()),
-                ("equation-driven model differs".into(), purple, d1.clone()),
-            ],
-            curves: vec![
-                ("data-driven separatrices".into(), blue, s0.clone()),
-                (format!("equation-driven (order {EQUATION_ORDER}) separatrices"), purple, s1.clone()),
-            ],
-        })
-        .collect();
     let fig = "fig/basin_global.png";
     draw_basin_overlay(
         &rep.dir().join(fig),
-        &format!("Full system: bounded (green) / escape (red) within {} periods", o.periods),
+        &format!(
+            "Full system: bounded (green) / escape (red) within {} periods, and the fitted map's verdict",
+            o.periods
+        ),
         "rho_1 (slow) [rad]",
         "rho_2 (fast) [rad]",
-        &panels,
+        &main_panels(&panels, &r1, &r2),
     )?;
-    rep.figure(fig, "The full system's basin with the reduced models' separatrices; markers: cells where a model's asymptotic verdict differs");
-    let orange = RGBColor(230, 120, 0);
-    let map_fig = "fig/basin_map.png";
-    let mpanels: Vec<OverlayPanel> = map_panels
-        .iter()
-        .map(|(cap, full, d)| OverlayPanel {
-            caption: cap.clone(),
-            x: &r1,
-            y: &r2,
-            bounded: full,
-            marks: vec![("fitted map differs".into(), orange, d.clone())],
-            curves: Vec::new(),
-        })
-        .collect();
+    let nf_fig = "fig/basin_normal_forms.png";
     draw_basin_overlay(
-        &rep.dir().join(map_fig),
-        &format!("Full system (bounded green / escape red within {} periods) and the fitted map's verdict", o.periods),
+        &rep.dir().join(nf_fig),
+        &format!(
+            "Full system (bounded green / escape red within {} periods) and the normal forms' verdicts",
+            o.periods
+        ),
         "rho_1 (slow) [rad]",
         "rho_2 (fast) [rad]",
-        &mpanels,
+        &normal_form_panels(&panels, &r1, &r2),
     )?;
-    rep.figure(
-        map_fig,
-        "The full system's basin; markers: cells where the fitted map (shared-tangent model, linear in dt, iterated from the full system's first delay vector of each start, same horizon and escape rule) disagrees",
-    );
-    rep.para(&format!(
-        "Disagreement: the fraction of the {cells} cells where the model's verdict differs from the full system's (in \
-         parentheses: model bounded but full system escaped / model escaped but full system bounded; undecided: the model's \
-         trajectory reached a saddle, not compared); the fitted map's verdict is its own run of the same horizon from \
-         the full system's first delay vector; for the normal forms, asymptotic = the \
-         model's fate within {MODEL_T_MAX} s, horizon = within the full runs' {} periods. {} runs in {:.1} s wall on {} \
-         threads ({:.1} ms per cell and thread).",
-        o.periods,
-        b.result.cells.len(),
-        b.wall_seconds,
-        b.threads,
-        1e3 * b.wall_seconds * b.threads as f64 / b.result.cells.len().max(1) as f64,
-    ));
-    rep.table(
-        &[
-            "dt [ms]",
-            "full system: escape",
-            "fitted map: differs",
-            "normal form (data-driven): differs",
-            "data-driven, horizon",
-            "equation-driven: differs",
-            "equation-driven, horizon",
-        ],
-        &rows,
-    );
     rep.summary.insert(
         "basin".into(),
         json!({
@@ -1347,16 +1370,143 @@ fn basin_section(rep: &mut Report, c: &Computed) -> Result<(), Box<dyn Error>> {
             "spec_hash": b.result.spec_hash,
             "per_dt": list,
             "map_disagreement": map_disagreement,
-            "map_figure": map_fig,
+            "map_figure": fig,
             "wall_seconds": b.wall_seconds,
         }),
+    );
+    rep.summary.insert(
+        "page_basin".into(),
+        json!({"rho_max": RHO_MAX, "escape_theta": furuta::full_system::ESCAPE_THETA, "runs": b.result.cells.len(), "threads": b.threads, "normal_form_figure": nf_fig}),
+    );
+    basin_render(rep, &Value::Object(rep.summary.clone()))
+}
+
+/// Writes the basin section from the summary `s` (`basin`, `page_basin`).
+pub fn basin_render(rep: &mut Report, s: &Value) -> Result<(), Box<dyn Error>> {
+    let p = Prose::new();
+    let (b, page) = (
+        s.get("basin").ok_or("report: summary lacks `basin`")?,
+        s.get("page_basin").ok_or("report: summary lacks `page_basin`")?,
+    );
+    let v = json!({"b": b, "page": page});
+    rep.section(
+        "basin",
+        "The full system's basin near the global bifurcation",
+        &p.html("basin/intro", BASIN_INTRO, &v)?,
+    );
+    let fig = |k: &str, o: &Value| o[k].as_str().map(str::to_string).ok_or(format!("report: basin figure `{k}`"));
+    rep.figure(&fig("figure", b)?, &p.text("basin/main-caption", BASIN_MAIN_CAPTION, &v)?);
+    rep.figure(&fig("normal_form_figure", page)?, &p.text("basin/nf-caption", BASIN_NF_CAPTION, &v)?);
+    rep.para(&p.html("basin/text", BASIN_TEXT, &v)?);
+    let agree = BASIN_AGREE.replace("a.", "r.KEY.");
+    let cells: Vec<String> = ["{{ r.dt_ms | plain }}".to_string(), "{{ r.escape_fraction | pct(1) }} %".to_string()]
+        .into_iter()
+        .chain(
+            ["map", "data_driven", "data_driven_horizon", "equation", "equation_horizon"]
+                .iter()
+                .map(|k| agree.replace("KEY", k)),
+        )
+        .collect();
+    let cells: Vec<&str> = cells.iter().map(String::as_str).collect();
+    let items: Vec<Value> =
+        b["per_dt"].as_array().ok_or("report: basin.per_dt is not a list")?.iter().map(|r| json!({ "r": r })).collect();
+    rep.table(
+        &[
+            "dt [ms]",
+            "full system: escape",
+            "fitted map: differs",
+            "normal form (data-driven): differs",
+            "data-driven, horizon",
+            "equation-driven: differs",
+            "equation-driven, horizon",
+        ],
+        &p.rows("basin/row", &cells, &items)?,
     );
     Ok(())
 }
 
 #[cfg(test)]
 mod tests {
-    use super::value_spread;
+    use super::*;
+
+    #[test]
+    fn basin_text_follows_the_values() {
+        let s = crate::report::pages::snapshot_summary();
+        crate::report::pages::check_section(
+            basin_render,
+            &s,
+            "/basin/per_dt/0/map/disagreement",
+            json!(0.4321),
+            "<td>43.2 % (",
+        );
+    }
+
+    /// The equation section's paragraphs over made-up values: every number follows them.
+    #[test]
+    fn equation_paragraphs_follow_their_values() {
+        use crate::report::prose::{perturbed, unmoved};
+        let p = Prose::new();
+        let spread = |x: f64| json!({"found": 3, "of": 5, "min": 31.5, "max": 31.5 + x, "spread_ms": x});
+        let cases = [
+            (INVARIANCE, json!({"order": 9, "orders": [3, 5, 7, 9], "radii": [0.05, 0.1]})),
+            (
+                CUBIC,
+                json!({"target": CUBIC_TARGET, "robust": CHART_ROBUST, "order": 7, "dyn_order": 7, "low_degree": 3,
+                       "low_knee": 0.1, "knee": 0.2}),
+            ),
+            (
+                WHERE_THE_NORMAL_FORM_ERRS,
+                json!({"order": 7, "target": MAP_TARGET_MS, "graph": [{"order": 5, "at": 31.61}, {"order": 7, "at": null}],
+                       "polar": [{"order": 7, "at": 31.82}], "full_error": null, "full": 31.55, "nf_conn": 31.7,
+                       "nf_onset": 31.66, "gaps": [0.12, null, 0.031, 0.02, 0.05, 0.07]}),
+            ),
+            (
+                MAP_VARIANTS,
+                json!({"spreads": {"connection_linear": spread(0.03), "connection_spline": spread(0.04),
+                                   "torus_onset_linear": spread(0.05), "torus_onset_spline": spread(0.06),
+                                   "torus_lost_linear": spread(0.07), "torus_lost_spline": spread(0.08)},
+                       "target": SPREAD_TARGET_MS, "low_degree": 3, "low_knee": 0.1}),
+            ),
+        ];
+        for (t, v) in cases {
+            let a = p.html("t", t, &v).unwrap();
+            let b = p.html("t", t, &perturbed(&v)).unwrap();
+            assert_eq!(unmoved(&a, &b).unwrap(), [], "{a}");
+        }
+    }
+
+    /// The main figure carries the fitted map's verdict (its differing cells marked) over the
+    /// full system's basin with the normal forms' separatrices; the normal forms' marks are on
+    /// the second figure; the legend band overlaps no panel.
+    #[test]
+    fn the_main_basin_figure_shows_the_fitted_map_verdict() {
+        let (r1, r2) = ([0.1, 0.2], [0.01, 0.02, 0.03]);
+        let panel = |k: usize| BasinPanel {
+            caption: format!("dt {k}"),
+            full: vec![true, true, false, true, false, false],
+            map_differs: vec![false, false, true, false, false, false],
+            nf_differs: [vec![true; 6], vec![false, true, true, true, true, false]],
+            separatrices: [vec![vec![(0.1, 0.01), (0.2, 0.02)]], vec![]],
+        };
+        let panels = [panel(0), panel(1), panel(2)];
+        let main = main_panels(&panels, &r1, &r2);
+        for (m, p) in main.iter().zip(&panels) {
+            assert_eq!(m.marks.len(), 1);
+            assert!(m.marks[0].0.contains("fitted map"), "{}", m.marks[0].0);
+            assert_eq!(m.marks[0].2, p.map_differs);
+            assert_eq!(m.bounded, p.full.as_slice());
+            assert_eq!(m.curves.len(), 2);
+        }
+        let nf = normal_form_panels(&panels, &r1, &r2);
+        assert!(nf.iter().all(|p| p.marks.len() == 2 && p.marks.iter().all(|m| m.0.contains("normal form"))));
+        for (l, mark) in [
+            (crate::draw::basin::overlay_layout(&main), "fitted map differs"),
+            (crate::draw::basin::overlay_layout(&nf), "normal form differs"),
+        ] {
+            assert!(l.panels.iter().all(|r| !r.overlaps(&l.legend)), "{l:?}");
+            assert!(l.entries.iter().any(|e| e.0.contains(mark)), "{mark}: {:?}", l.entries);
+        }
+    }
 
     #[test]
     fn value_spread_counts_the_values_found_and_spans_them() {

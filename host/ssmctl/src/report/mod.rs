@@ -185,6 +185,8 @@ pub mod chaos;
 pub mod global;
 pub mod normal_form;
 pub mod own_plant;
+#[cfg(test)]
+mod pages;
 pub mod prose;
 pub mod reproduce;
 pub mod sloshing;

@@ -137,7 +137,7 @@ fn compute(dir: &std::path::Path, quick: bool) -> Result<Value, Box<dyn Error>> 
 }
 
 /// Writes the section's text, figures and table from its values `v` (see [`compute`]).
-fn render(rep: &mut Report, v: &Value) -> Result<(), Box<dyn Error>> {
+pub(crate) fn render(rep: &mut Report, v: &Value) -> Result<(), Box<dyn Error>> {
     let p = Prose::new();
     rep.section("own-plant", "Your own plant: plants written as equations", &p.html("own-plant/intro", INTRO, v)?);
     let fig = |key: &str| v[key]["figure"].as_str().ok_or_else(|| format!("own_plant.{key}.figure is not a string"));

@@ -13,7 +13,9 @@ use serde_json::Value;
 /// The template environment with the report's number formats as filters:
 /// `num` (4 significant digits, [`crate::report::num`]), `fixed(n)` (n decimals), `sci(n)`
 /// (n decimals, exponent), `pct(n)` (a fraction as a percentage with n decimals, no sign),
-/// `nums` (a list through `num`, comma-separated).
+/// `nums` (a list through `num`, comma-separated), `fixed_or(n, text)` (`fixed(n)`, or `text` for none), `e` (Rust's `{:e}`), `dbg` (Rust's `{:?}` of a number or a list of numbers), `signed(n)` and `ssci(n)` (as `fixed` and
+/// `sci` with a sign always), `plain` (Rust's `Display`: `31` for 31.0; a list joined by `, ` or
+/// the given separator).
 pub struct Prose {
     env: Environment<'static>,
 }
@@ -31,6 +33,15 @@ fn f(v: &JinjaValue) -> Result<f64, minijinja::Error> {
     }
     f64::try_from(v.clone())
         .map_err(|_| minijinja::Error::new(minijinja::ErrorKind::InvalidOperation, format!("{v} is not a number")))
+}
+
+/// A number as Rust's `Display` writes it (`31` for 31.0, `30.8`, `16000`): what `format!("{x}")`
+/// gave before the text was a template.
+fn plain(v: &JinjaValue) -> Result<String, minijinja::Error> {
+    if let Some(i) = v.as_i64() {
+        return Ok(i.to_string());
+    }
+    Ok(format!("{}", f(v)?))
 }
 
 impl Default for Prose {
@@ -55,6 +66,31 @@ impl Prose {
         });
         env.add_filter("pct", |v: JinjaValue, n: usize| -> Result<String, minijinja::Error> {
             Ok(format!("{:.n$}", 100.0 * f(&v)?))
+        });
+        env.add_filter("dbg", |v: JinjaValue| -> Result<String, minijinja::Error> {
+            if v.kind() == minijinja::value::ValueKind::Seq {
+                let items: Vec<String> =
+                    v.try_iter()?.map(|x| f(&x).map(|x| format!("{x:?}"))).collect::<Result<_, minijinja::Error>>()?;
+                return Ok(format!("[{}]", items.join(", ")));
+            }
+            Ok(format!("{:?}", f(&v)?))
+        });
+        env.add_filter("e", |v: JinjaValue| -> Result<String, minijinja::Error> { Ok(format!("{:e}", f(&v)?)) });
+        env.add_filter("fixed_or", |v: JinjaValue, n: usize, alt: String| -> Result<String, minijinja::Error> {
+            if v.is_none() { Ok(alt) } else { Ok(format!("{:.n$}", f(&v)?)) }
+        });
+        env.add_filter("signed", |v: JinjaValue, n: usize| -> Result<String, minijinja::Error> {
+            Ok(format!("{:+.n$}", f(&v)?))
+        });
+        env.add_filter("ssci", |v: JinjaValue, n: usize| -> Result<String, minijinja::Error> {
+            Ok(format!("{:+.n$e}", f(&v)?))
+        });
+        env.add_filter("plain", |v: JinjaValue, sep: Option<String>| -> Result<String, minijinja::Error> {
+            if v.kind() == minijinja::value::ValueKind::Seq {
+                let items: Vec<String> = v.try_iter()?.map(|x| plain(&x)).collect::<Result<_, minijinja::Error>>()?;
+                return Ok(items.join(sep.as_deref().unwrap_or(", ")));
+            }
+            plain(&v)
         });
         env.add_filter("nums", |v: JinjaValue| -> Result<String, minijinja::Error> {
             let items: Vec<String> =
@@ -81,8 +117,17 @@ impl Prose {
     }
 }
 
-/// Names of methods that are written with digits.
-const NAMES_WITH_DIGITS: [&str; 1] = ["0-1 test"];
+impl Prose {
+    /// Table rows: each item of `items` through the cell templates `cells` (plain text).
+    pub fn rows(&self, name: &str, cells: &[&str], items: &[Value]) -> Result<Vec<Vec<String>>, String> {
+        items.iter().map(|r| cells.iter().map(|c| self.text(name, c, r)).collect()).collect()
+    }
+}
+
+/// Names written with digits: a method, and the invariant objects named by their dimension;
+/// and the constants of formulas written out in the text.
+const NAMES_WITH_DIGITS: [&str; 8] =
+    ["0-1 test", "2-torus", "3-torus", "2-tori", "3-tori", "x (1 + spread", "(1 + k_ij", "by 2 k_ij"];
 
 /// The numbers written in `text`: runs of digits (with a decimal point, an exponent and a
 /// leading minus) that are not part of a name (`rho_1`, `x2`, `2D`, a monomial's `^3`,
@@ -95,7 +140,10 @@ pub fn numbers_in(text: &str) -> Vec<String> {
     let mut out = Vec::new();
     let mut i = 0;
     while i < b.len() {
-        if !b[i].is_ascii_digit() || (i > 0 && (name(b[i - 1]) || b[i - 1] == b'^' || b[i - 1].is_ascii_digit())) {
+        // A digit after a letter, `^`, `/` (a path, `docs/decisions/0001`) or a digit is not a number's start.
+        if !b[i].is_ascii_digit()
+            || (i > 0 && (name(b[i - 1]) || b"^/".contains(&b[i - 1]) || b[i - 1].is_ascii_digit()))
+        {
             i += 1;
             continue;
         }
@@ -129,13 +177,14 @@ pub fn numbers_in(text: &str) -> Vec<String> {
 }
 
 /// `values` with every number moved (`x -> 1.2345 x + 0.1`, integers to the next integer up
-/// of that): a rendering of it differs from the original's in every number that comes from a
-/// value, and equals it in every number typed into a template.
+/// of that, an unsigned zero kept, so that a branch on "any of these?" stays): a rendering of
+/// it differs from the original's in every number that comes from a value (but such zeros),
+/// and equals it in every number typed into a template.
 pub fn perturbed(values: &Value) -> Value {
     match values {
         Value::Number(n) => {
             if let Some(u) = n.as_u64() {
-                Value::from(u + 1 + u / 4)
+                Value::from(if u == 0 { 0 } else { u + 1 + u / 4 })
             } else if let Some(i) = n.as_i64() {
                 Value::from(i - 1 - i.abs() / 4)
             } else {
@@ -166,7 +215,7 @@ mod tests {
 
     #[test]
     fn numbers_are_found_and_names_and_units_skipped() {
-        let t = "rho_1^3 at 0.05 rad, -3.2e-4 1/s, x2 and 2D, 17 x 17 grid; 1.5e3. (12 %) furuta-dt25, degree-1 (-2), the 0-1 test";
+        let t = "rho_1^3 at 0.05 rad, -3.2e-4 1/s, x2 and 2D, 17 x 17 grid; 1.5e3. (12 %) furuta-dt25, degree-1 (-2), the 0-1 test, docs/decisions/0001";
         assert_eq!(numbers_in(t), ["0.05", "-3.2e-4", "17", "17", "1.5e3", "12", "-2"]);
     }
 
@@ -181,6 +230,14 @@ mod tests {
         assert!(e.contains("`t`") && e.contains("undefined"), "{e}");
         let e = p.text("t", "{{ name | num }}", &v).unwrap_err();
         assert!(e.contains("not a number"), "{e}");
+    }
+
+    #[test]
+    fn signed_and_plain_numbers_format_as_rust_does() {
+        let p = Prose::new();
+        let v = json!({"a": 0.5, "b": -2.5e-4, "d": 31.0, "e": 30.8, "n": 16000, "l": [31.0, 31.55]});
+        let t = "{{ a | signed(2) }} {{ b | ssci(2) }} {{ d | plain }} {{ e | plain }} {{ n | plain }} {{ l | plain }} {{ l | plain(\" / \") }}";
+        assert_eq!(p.text("t", t, &v).unwrap(), "+0.50 -2.50e-4 31 30.8 16000 31, 31.55 31 / 31.55");
     }
 
     #[test]

@@ -1,0 +1,198 @@
+//! The whole report's text against its values: every section rendered from a snapshot of the
+//! quick report's summary and again with every value moved ([`prose::perturbed`]); a number
+//! that stays put was typed into the text, not filled from a value.
+//!
+//! The snapshot (`tests/snapshots/report_values.json` of this crate: the section ids of the
+//! quick report's page and the summary keys the rendered sections read) is refreshed from a
+//! quick report by `UPDATE_SNAPSHOTS=1 SSMCTL_REPORT_DIR=DIR cargo test -p ssmctl --lib
+//! report::pages`, where `DIR` holds `ssmctl reproduce --quick --out DIR`.
+
+use crate::report::prose::{perturbed, unmoved};
+use crate::report::{Report, auto_table, bifurcations, esc, global, own_plant};
+use serde_json::{Map, Value};
+use std::error::Error;
+use std::path::{Path, PathBuf};
+
+/// A section written from the summary.
+pub(crate) type Render = fn(&mut Report, &Value) -> Result<(), Box<dyn Error>>;
+
+/// The sections written from the summary: id, the summary keys they read, the writer.
+const RENDERED: &[(&str, &[&str], Render)] = &[
+    ("own-plant", &["own_plant"], |r, s| own_plant::render(r, &s["own_plant"])),
+    ("portraits", &["portraits", "page_portraits", "torus_hopf_dt_ms"], bifurcations::portraits_render),
+    (
+        "fullsystem",
+        &["page_fullsystem", "torus_30p8", "fast_cycle", "domain_of_attraction", "transient_3torus"],
+        bifurcations::fullsystem_render,
+    ),
+    (
+        "predictions",
+        &["predictions", "predictions_spline", "page_predictions", "map_switch_dt_ms"],
+        bifurcations::predictions_render,
+    ),
+    ("basin", &["basin", "page_basin"], global::basin_render),
+    ("fit-auto", &["fit_auto"], |r, s| auto_table::render(r, &s["fit_auto"])),
+];
+
+/// Sections another branch converts (chaos.rs, sloshing.rs): the lead empties this list
+/// after merging them, adding them to [`RENDERED`].
+const SKIP_OTHER_BRANCH: &[(&str, &str)] = &[
+    ("fit-sloshing", "sloshing.rs, converted on another branch"),
+    ("demo", "sloshing.rs, converted on another branch"),
+    ("device", "sloshing.rs, converted on another branch"),
+    ("chaos", "chaos.rs, converted on another branch"),
+    ("chaos-scale", "chaos.rs, converted on another branch"),
+    ("chaos-cost", "chaos.rs, converted on another branch"),
+];
+
+/// Sections whose text is not yet written from values, and why.
+const NOT_YET: &[(&str, &str)] = &[
+    ("scenes", "reproduce.rs: tables formatted from computed values, not yet through templates"),
+    ("stability", "reproduce.rs: tables formatted from computed values, not yet through templates"),
+    ("chart", "reproduce.rs: tables formatted from computed values, not yet through templates"),
+    ("accuracy-time-sim", "reproduce.rs: tables formatted from computed values, not yet through templates"),
+    ("parametric", "normal_form.rs: the introduction is a template, the tables are not yet"),
+    ("chaos-verdict", "verdict.rs: the introduction is a template, the tables are not yet"),
+    ("equation", "global.rs: the equation section's tables are formatted from computed values, not yet templates"),
+    ("timings", "wall-clock times, not results: compare-report drops this section"),
+];
+
+/// String values copied into the text as they are (names, settings, messages): their digits
+/// do not move with the numbers. `(summary path, why)`; `[]` stands for every item of a list.
+const VERBATIM: &[(&str, &str)] = &[
+    ("fit_auto.rows[].set", "a data set's name"),
+    ("fit_auto.rows[].auto_describe", "the chosen fit setting, named by ssm::auto::Setting::describe"),
+    ("fit_auto.rows[].grid_winner_describe", "the grid winner's setting, named by Setting::describe"),
+    ("fit_auto.rows[].grid_missing", "a file path and the command that writes it"),
+    ("fit_auto.rows[].ssmlearnpy", "SSMLearnPy's result as read from studies/results/auto/ssmlearnpy.json"),
+    ("fit_auto.grid_command", "a command line"),
+    ("fit_auto.sloshing_dir", "a folder path"),
+    ("page_fullsystem.setup.scene", "a scene's name"),
+    ("own_plant.chart.scene", "a scene's name"),
+    ("own_plant.ssm.scene", "a scene's name"),
+];
+
+/// The numbers that may stay put, and why.
+const STAYS: &[(&str, &str)] = &[("0", "an integer zero stays zero in `perturbed`, so that a branch on a count stays")];
+
+fn snapshot_path() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/snapshots/report_values.json")
+}
+
+/// The snapshot from a quick report in `dir`: its section ids in page order, and the summary
+/// keys [`RENDERED`] reads.
+fn snapshot_from(dir: &Path) -> Value {
+    let html = std::fs::read_to_string(dir.join("index.html")).expect("the report's index.html");
+    let ids: Vec<String> =
+        html.split("<h2 id=\"").skip(1).filter_map(|s| s.split('"').next()).map(str::to_string).collect();
+    let summary: Map<String, Value> =
+        serde_json::from_str(&std::fs::read_to_string(dir.join("summary.json")).expect("summary.json")).unwrap();
+    let keys: Map<String, Value> = RENDERED
+        .iter()
+        .flat_map(|(_, keys, _)| keys.iter())
+        .filter_map(|k| summary.get(*k).map(|v| (k.to_string(), v.clone())))
+        .collect();
+    serde_json::json!({"sections": ids, "summary": keys})
+}
+
+/// The strings at `path` (dot-separated keys, `[]` for every item of a list) in `v`.
+fn strings_at<'a>(v: &'a Value, path: &str, out: &mut Vec<&'a str>) {
+    let (head, rest) = path.split_once('.').map_or((path, None), |(h, r)| (h, Some(r)));
+    let (key, all) = head.strip_suffix("[]").map_or((head, false), |k| (k, true));
+    let Some(x) = v.get(key) else { return };
+    let items: Vec<&Value> = if all { x.as_array().map(|a| a.iter().collect()).unwrap_or_default() } else { vec![x] };
+    for it in items {
+        match rest {
+            Some(r) => strings_at(it, r, out),
+            None => out.extend(it.as_str()),
+        }
+    }
+}
+
+/// `html` with the [`VERBATIM`] strings of `summary` masked.
+fn masked(html: &str, summary: &Value) -> String {
+    let mut strings = Vec::new();
+    for (path, _) in VERBATIM {
+        strings_at(summary, path, &mut strings);
+    }
+    // Longest first, so a string inside another is not masked in part.
+    strings.sort_by_key(|s| std::cmp::Reverse(s.len()));
+    strings
+        .iter()
+        .filter(|s| !s.is_empty())
+        .fold(html.to_string(), |h, s| h.replace(&esc(s), "(verbatim)").replace(*s, "(verbatim)"))
+}
+
+fn render(f: Render, summary: &Value) -> String {
+    let dir = std::env::temp_dir().join(format!("ssmctl-pages-{}", std::process::id()));
+    let mut rep = Report::new(&dir).unwrap();
+    f(&mut rep, summary).unwrap();
+    let html = rep.into_parts().0;
+    masked(&html, summary)
+}
+
+/// The summary of the snapshot.
+pub(crate) fn snapshot_summary() -> Value {
+    let text = std::fs::read_to_string(snapshot_path()).expect("the report values snapshot");
+    serde_json::from_str::<Value>(&text).unwrap()["summary"].clone()
+}
+
+/// The two checks of a section written by `f` from `summary`: the number at `pointer` (a
+/// JSON pointer) changed to `to` puts `expect` on the page (and the old page lacks it), and
+/// with every value moved no number of the page stays put.
+pub(crate) fn check_section(f: Render, summary: &Value, pointer: &str, to: Value, expect: &str) {
+    let a = render(f, summary);
+    assert!(!a.contains(expect), "`{expect}` already on the page:\n{a}");
+    let mut one = summary.clone();
+    *one.pointer_mut(pointer).unwrap_or_else(|| panic!("no {pointer} in the values")) = to;
+    let b = render(f, &one);
+    assert!(b.contains(expect), "`{expect}` not on the page after {pointer} changed:\n{b}");
+    let u: Vec<_> = unmoved(&a, &render(f, &perturbed(summary)))
+        .unwrap()
+        .into_iter()
+        .filter(|(_, n)| !STAYS.iter().any(|s| s.0 == n))
+        .collect();
+    assert!(u.is_empty(), "numbers typed into the text (position, number): {u:?}\n{a}");
+}
+
+/// Every section of the quick report is written from values or named in a list above with
+/// why; with every value moved, no number of a written section stays put.
+#[test]
+fn every_number_of_the_report_follows_its_values() {
+    if std::env::var_os("UPDATE_SNAPSHOTS").is_some() {
+        let dir = std::env::var_os("SSMCTL_REPORT_DIR")
+            .expect("UPDATE_SNAPSHOTS=1 needs SSMCTL_REPORT_DIR, a folder written by `ssmctl reproduce --quick`");
+        let snap = snapshot_from(Path::new(&dir));
+        crate::output::write_atomic(&snapshot_path(), serde_json::to_string_pretty(&snap).unwrap().as_bytes()).unwrap();
+    }
+    let text = std::fs::read_to_string(snapshot_path()).expect("the report values snapshot");
+    let snap: Value = serde_json::from_str(&text).unwrap();
+    let known = |id: &str| {
+        RENDERED.iter().any(|r| r.0 == id)
+            || SKIP_OTHER_BRANCH.iter().any(|r| r.0 == id)
+            || NOT_YET.iter().any(|r| r.0 == id)
+    };
+    let ids: Vec<&str> = snap["sections"].as_array().unwrap().iter().filter_map(Value::as_str).collect();
+    let unknown: Vec<&&str> = ids.iter().filter(|id| !known(id)).collect();
+    assert!(unknown.is_empty(), "sections neither written from values nor listed with why: {unknown:?}");
+    let summary = &snap["summary"];
+    let moved = perturbed(summary);
+    let mut failures = Vec::new();
+    for (id, _, f) in RENDERED {
+        if !ids.contains(id) {
+            failures.push(format!("{id}: not in the quick report's page (stale entry?)"));
+            continue;
+        }
+        let (a, b) = (render(*f, summary), render(*f, &moved));
+        match unmoved(&a, &b) {
+            Err(e) => failures.push(format!("{id}: {e}")),
+            Ok(u) => {
+                let u: Vec<_> = u.into_iter().filter(|(_, n)| !STAYS.iter().any(|s| s.0 == n)).collect();
+                if !u.is_empty() {
+                    failures.push(format!("{id}: numbers typed into the text (position, number): {u:?}\n{a}"));
+                }
+            }
+        }
+    }
+    assert!(failures.is_empty(), "{}", failures.join("\n\n"));
+}
