@@ -768,9 +768,11 @@ fn ssmctl_pil(tools: &PilTools, r: &PilRun<'_>, fresh: bool) -> Result<(serde_js
 
 /// The bundled plants written as equations, with the encoders, DAC and saturation a device
 /// needs (`--set` overrides: the scenes themselves control exactly). Resolutions: pi/2000 rad
-/// (a 4,000-count encoder) on the cart-pole's, the pendulum's and the double pendulum's angles,
-/// the paper's pi/1000 on the Furuta's, 0.1 mm on the carts, 1 um on the Duffing masses; DAC
-/// steps and ranges of the order of each loop's inputs.
+/// (a 4,000-count encoder) on the cart-pole's and the pendulum's angles, the paper's pi/1000
+/// on the Furuta's, 0.1 mm on the cart, 1 um on the Duffing masses; the double pendulum's
+/// stiffer D gains read 16-bit encoders (2 pi/65536 rad) and 10 um on its cart, since one
+/// count of a coarser encoder over 5 ms is a large force. DAC steps and ranges of the order
+/// of each loop's inputs.
 const PIL_EQUATION_SCENES: [(&str, &[&str]); 6] = [
     (
         "cartpole-pd",
@@ -804,8 +806,8 @@ const PIL_EQUATION_SCENES: [(&str, &[&str]); 6] = [
     (
         "double-pendulum-cart",
         &[
-            "effects.quantization.h_adc=1.5707963267948966e-3",
-            "controller.gains.x.h_adc=1e-4",
+            "effects.quantization.h_adc=9.587379924285257e-5",
+            "controller.gains.x.h_adc=1e-5",
             "effects.quantization.h_dac=0.01",
             "effects.saturation.u_max=20.0",
         ],
