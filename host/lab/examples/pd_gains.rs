@@ -18,6 +18,9 @@ use sim::linear::spectral_radius;
 use sim::scene::Scene;
 use sim::stability::linear_plant;
 
+/// rho, the loop's spectral radius and the (p, d) of each measured coordinate.
+type Candidate = (f64, f64, Vec<(f64, f64)>);
+
 /// Solves the discrete algebraic Riccati equation by fixed-point iteration; the gain `K`.
 fn dlqr(a: &DMatrix<f64>, b: &DVector<f64>, q: &DMatrix<f64>, rho: f64) -> Option<DVector<f64>> {
     let mut p = q.clone();
@@ -85,14 +88,15 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     }
     let names = scene.coordinate_names();
     println!("scene {} (dt = {} s, delay {r}), {} measured coordinates", scene.name, cfg0.dt, cfg0.gains.len());
-    let mut best: Option<(f64, f64, Vec<(f64, f64)>)> = None;
+    // (rho, spectral radius, (p, d) per measured coordinate) of the best candidate.
+    let mut best: Option<Candidate> = None;
     for j in -24..=24 {
         let rho = 10f64.powf(f64::from(j) / 4.0);
         let Some(k) = dlqr(&a, &b, &q, rho) else {
             println!("rho = {rho:.3e}: Riccati iteration did not converge");
             continue;
         };
-        let mut cfg = cfg0.clone();
+        let mut cfg = cfg0;
         let mut pd = Vec::new();
         for g in cfg.gains.iter_mut() {
             let i = usize::from(g.index);
