@@ -19,8 +19,8 @@
 //!   Passes when every period ran, the device's codes equal the host's and its predictions
 //!   are bit-identical to the host's f32 predictor, and the whole run (counts, codes,
 //!   states) equals the host-only simulation of the scene with the same noise seed.
-//! - `pil-equations [--board mps2-an386|stm32f407]`: the PIL runs of the four equation scenes
-//!   that `test` makes (`pil_equations`); the STM32F407 image runs the models the mps2-an386
+//! - `pil-equations [--board mps2-an386|stm32f407]`: the PIL runs of the six equation scenes
+//!   (one to four measured coordinates) that `test` makes (`pil_equations`); the STM32F407 image runs the models the mps2-an386
 //!   runs fitted.
 //! - `pil-record --out DIR [--runs N] [--periods P] [--scene NAME] [--seed S] [--fresh]`: records N
 //!   PIL runs of a noisy quantized scene (default `furuta-quant-dt25-noise`, 3 runs of
@@ -769,9 +769,11 @@ fn ssmctl_pil(tools: &PilTools, r: &PilRun<'_>, fresh: bool) -> Result<(serde_js
 /// The bundled plants written as equations, with the encoders, DAC and saturation a device
 /// needs (`--set` overrides: the scenes themselves control exactly). Resolutions: pi/2000 rad
 /// (a 4,000-count encoder) on the cart-pole's and the pendulum's angles, the paper's pi/1000
-/// on the Furuta's, 0.1 mm on the cart, 1 um on the Duffing mass; DAC steps and ranges of the
-/// order of each loop's inputs.
-const PIL_EQUATION_SCENES: [(&str, &[&str]); 4] = [
+/// on the Furuta's, 0.1 mm on the cart, 1 um on the Duffing masses; the double pendulum's
+/// stiffer D gains read 16-bit encoders (2 pi/65536 rad) and 10 um on its cart, since one
+/// count of a coarser encoder over 5 ms is a large force. DAC steps and ranges of the order
+/// of each loop's inputs.
+const PIL_EQUATION_SCENES: [(&str, &[&str]); 6] = [
     (
         "cartpole-pd",
         &[
@@ -800,6 +802,19 @@ const PIL_EQUATION_SCENES: [(&str, &[&str]); 4] = [
             "effects.quantization.h_dac=4.8828125e-3",
             "effects.saturation.u_max=10.0",
         ],
+    ),
+    (
+        "double-pendulum-cart",
+        &[
+            "effects.quantization.h_adc=9.587379924285257e-5",
+            "controller.gains.x.h_adc=1e-5",
+            "effects.quantization.h_dac=0.01",
+            "effects.saturation.u_max=20.0",
+        ],
+    ),
+    (
+        "duffing-chain4",
+        &["effects.quantization.h_adc=1e-6", "effects.quantization.h_dac=1e-3", "effects.saturation.u_max=5.0"],
     ),
 ];
 
@@ -1405,7 +1420,7 @@ fn test_all() -> Result<()> {
             record("pil", pil_run);
             let eq_run = after(&host, "host build").and_then(|_| {
                 after(&apt_done, "apt")?;
-                steps.run("pil: equation scenes, 4 x 300 periods (mps2-an386)", || pil_equations(board))
+                steps.run("pil: equation scenes, 6 x 300 periods (mps2-an386)", || pil_equations(board))
             });
             count(u32::from(eq_run.is_ok()), u32::from(eq_run.is_err()));
             pil_eq_done.set(eq_run.clone());
@@ -1437,7 +1452,7 @@ fn test_all() -> Result<()> {
             count(u32::from(pil_run.is_ok()), u32::from(pil_run.is_err()));
             record("pil (stm32f407 on netduinoplus2)", pil_run);
             let eq_run = after(&pil_eq_done, "pil equation scenes (mps2-an386), whose models it runs").and_then(|()| {
-                steps.run("pil: equation scenes, 4 x 300 periods (stm32f407 on netduinoplus2)", || pil_equations(board))
+                steps.run("pil: equation scenes, 6 x 300 periods (stm32f407 on netduinoplus2)", || pil_equations(board))
             });
             count(u32::from(eq_run.is_ok()), u32::from(eq_run.is_err()));
             record("pil equation scenes (stm32f407 on netduinoplus2)", eq_run);

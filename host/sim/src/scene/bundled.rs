@@ -27,6 +27,8 @@ pub const BUNDLED: &[(&str, &str)] = &[
     ("cartpole-pd", include_str!("../../../../scenes/cartpole-pd.toml")),
     ("pendulum-pd", include_str!("../../../../scenes/pendulum-pd.toml")),
     ("duffing-chain", include_str!("../../../../scenes/duffing-chain.toml")),
+    ("double-pendulum-cart", include_str!("../../../../scenes/double-pendulum-cart.toml")),
+    ("duffing-chain4", include_str!("../../../../scenes/duffing-chain4.toml")),
 ];
 
 /// The TOML text of a bundled scene.
