@@ -314,16 +314,8 @@ pub fn section(rep: &mut crate::report::Report, data_dir: &std::path::Path, quic
         &rows,
     );
     rep.summary.insert("chaos".into(), serde_json::Value::Object(list));
-    rep.para(
-        "How the data separate: the secant slope of each data set's Rosenstein curve over doubling windows [t, 2t], and the \
-         same rise read as a power law d ~ t^a (a = rise / ln 2). Exponential separation (chaos) keeps the slope and lets a \
-         grow with t; diffusion along a neutral direction (a torus shaken by quantization or noise) keeps a near 0.5 while \
-         the slope falls like 1/t, and then the single Rosenstein number depends on its fit window. The models' Benettin \
-         spectra (first two exponents) tell whether the smooth model's own attractor is a torus (two zeros). The kicked \
-         models are the smooth maps driven by their own one-step training residuals, drawn at random and added after \
-         every step (a bootstrap of what the smooth map misses, e.g. the quantization kicks): same estimators, same \
-         start.",
-    );
+    let theory = serde_json::json!({ "window_ratio": WINDOW_RATIO, "diffusion_power": DIFFUSION_POWER });
+    rep.para(&html("chaos/separation", SEPARATION, &theory)?);
     let mut grows = Vec::new();
     for (_, name, _, r, _, _) in &figs {
         let w = &r.growth_windows_data;
@@ -523,6 +515,21 @@ fn estimator_check_tables(
     rep.summary.insert("rosenstein_check".into(), json);
     Ok(())
 }
+
+/// The growth windows' end over their start ([`chaos::held_out::growth_windows`]), and the power
+/// of separation by diffusion along a neutral direction (theory: d ~ t^(1/2)).
+const WINDOW_RATIO: f64 = 2.0;
+const DIFFUSION_POWER: f64 = 0.5;
+
+/// How the data separate, over the windows' ratio and the diffusion's power.
+const SEPARATION: &str = "How the data separate: the secant slope of each data set's Rosenstein curve over doubling \
+    windows [t, {{ window_ratio | num }}t], and the same rise read as a power law d ~ t^a (a = rise / \
+    ln({{ window_ratio | num }})). Exponential separation (chaos) keeps the slope and lets a grow with t; diffusion along \
+    a neutral direction (a torus shaken by quantization or noise) keeps a near {{ diffusion_power | num }} while the \
+    slope falls like 1/t, and then the single Rosenstein number depends on its fit window. The models' Benettin spectra \
+    (first two exponents) tell whether the smooth model's own attractor is a torus (two zeros). The kicked models are \
+    the smooth maps driven by their own one-step training residuals, drawn at random and added after every step (a \
+    bootstrap of what the smooth map misses, e.g. the quantization kicks): same estimators, same start.";
 
 /// The flag study's SSM dimension (its dimension rule's choice; the search's plain rows).
 const FLAG_DIM: usize = 4;
@@ -951,19 +958,32 @@ pub fn cost_table(study: &CostStudy) -> (Vec<String>, Vec<Vec<String>>, serde_js
     (header, rows, serde_json::to_value(study).unwrap_or(serde_json::Value::Null))
 }
 
+/// The scale section's introduction over Kantz's settings ([`chaos_study::chaos_tables`]).
+const SCALE_INTRO: &str = "Kantz's estimator (embedding dimension {{ embed }}, lag = first zero of the \
+    autocorrelation, Theiler window = dominant period, at most {{ references }} references with {{ neighbours }} \
+    neighbours each) at {{ scales }} log-spaced neighbourhood radii. In a quantized loop, states closer than one \
+    quantization step receive the same control codes and separate at the open-loop rate; the microchaotic rate appears \
+    only at scales of a few steps and above.";
+
+/// The accuracy-vs-cost section's introduction over its models' SSM dimension.
+const COST_INTRO: &str = "SSM models of dimension {{ dim }}: |LLE model - LLE data| with the same Rosenstein settings \
+    on both series, the map's own Benettin exponent, mean Jensen-Shannon divergence of the reduced-coordinate PDFs, wall \
+    time of the fit and per reduced-map step (this machine, single run), and the time ratios to the smallest \
+    configuration.";
+
 /// Report section with the scale table.
 pub fn scale_section(
     rep: &mut crate::report::Report,
     data_dir: &std::path::Path,
     quick: bool,
 ) -> Result<(), Box<dyn Error>> {
+    let setup = serde_json::json!({
+        "embed": SCALE_EMBED, "references": KANTZ_REFERENCES, "neighbours": KANTZ_NEIGHBOURS, "scales": SCALES,
+    });
     rep.section(
         "chaos-scale",
         "Scale dependence of the time-series Lyapunov exponent",
-        "Kantz's estimator (embedding dimension 6, lag = first zero of the autocorrelation, Theiler window = \
-         dominant period, at most 2000 references with 50 neighbours each) at 8 log-spaced neighbourhood radii. \
-         In a quantized loop, states closer than one quantization step receive the same control codes and \
-         separate at the open-loop rate; the microchaotic rate appears only at scales of a few steps and above.",
+        &html("chaos-scale/intro", SCALE_INTRO, &setup)?,
     );
     let studies = scale_studies(data_dir, if quick { 6000 } else { 30000 })?;
     let (h, rows, json) = scale_table(&studies);
@@ -978,16 +998,15 @@ pub fn cost_section(rep: &mut crate::report::Report, data_dir: &std::path::Path)
     rep.section(
         "chaos-cost",
         "Model accuracy against cost (inverted flag)",
-        "6D SSM models: |LLE model - LLE data| with the same Rosenstein settings on both series, the map's own \
-         Benettin exponent, mean Jensen-Shannon divergence of the reduced-coordinate PDFs, wall time of the fit \
-         and per reduced-map step (this machine, single run), and the time ratios to the smallest configuration.",
+        &html("chaos-cost/intro", COST_INTRO, &serde_json::json!({ "dim": COST_DIM }))?,
     );
     match flag_cost_study(data_dir)? {
         None => rep.para("Inverted-flag data not found: skipped."),
         Some(st) => {
             let (h, rows, json) = cost_table(&st);
             let hr: Vec<&str> = h.iter().map(String::as_str).collect();
-            rep.para(&format!("Data exponent (Rosenstein): {:.3} 1/s.", st.lle_data));
+            let v = serde_json::json!({ "lle_data": st.lle_data });
+            rep.para(&html("chaos-cost/data", "Data exponent (Rosenstein): {{ lle_data | fixed(3) }} 1/s.", &v)?);
             rep.table(&hr, &rows);
             rep.summary.insert("chaos_cost".into(), json);
         }
@@ -1132,7 +1151,7 @@ fn flag_pipeline_check(
                 format!("{} ({:.2} ± {:.2})", o(r.corr_dim, 2), r.data_corr_dim, r.data_corr_dim_err),
                 o(r.js, 4),
                 yes(r.benettin_exact_ok).to_string(),
-                format!("{}/4", r.passes.iter().filter(|&&p| p).count()),
+                format!("{}/{}", r.passes.iter().filter(|&&p| p).count(), r.passes.len()),
                 r.failed.clone().unwrap_or_default(),
             ]
         })
@@ -1378,12 +1397,20 @@ fn flag_pipeline_fit(
         (sel.iter().filter(|(_, _, r)| r.benettin_exact_ok).count(), sel.len())
     };
     let fnoise = chaos_study::calibration::FLAG_SAMPLING.noise_rel;
+    // The diagnosis groups of the larger SSM dimensions (as `known_system.json` names them) and
+    // the larger training data of the second.
+    const D5: &str = "(b) d = 5";
+    const D6: &str = "(b) d = 6";
+    const D6_SCALE: usize = 3;
+    // Error bars below the data's D2 within which a centre-set row counts as high-D2.
+    const HIGH_D2_BARS: f64 = 3.0;
+    let (bpct, embed) = (100.0 * chaos::Targets::default().benettin_rel, fit.embed);
     let groups = [
         ("noise_free_d4", count(&|w, _, _| w == "(a) noise-free")),
-        ("d5", count(&|w, _, _| w == "(b) d = 5")),
-        ("d6_1x", count(&|w, n, s| w == "(b) d = 6" && n == fnoise && s == 1)),
-        ("d6_3x", count(&|w, n, s| w == "(b) d = 6" && n == fnoise && s == 3)),
-        ("d6_noise_free", count(&|w, n, _| w == "(b) d = 6" && n == 0.0)),
+        ("d5", count(&|w, _, _| w == D5)),
+        ("d6_1x", count(&|w, n, s| w == D6 && n == fnoise && s == 1)),
+        ("d6_3x", count(&|w, n, s| w == D6 && n == fnoise && s == D6_SCALE)),
+        ("d6_noise_free", count(&|w, n, _| w == D6 && n == 0.0)),
         ("shift", count(&|w, _, _| w == "(b) shift")),
         ("whole_delay_vector", count(&|w, _, _| w == "(b) whole delay vector")),
         ("ridge", count(&|w, _, _| w == "ridge")),
@@ -1403,28 +1430,27 @@ fn flag_pipeline_fit(
     let state_free = |w: &str, n: f64| w == "(c) true state" && n == 0.0;
     let flag = held.fit_rows();
     rep.para(&format!(
-        "What the diagnosis shows (Benettin within 10 % of the exact exponent, of the rows): (a) noise-free data \
+        "What the diagnosis shows (Benettin within {bpct:.0} % of the exact exponent, of the rows): (a) noise-free data \
          with the flag's settings: {}/{} (the noise is not the cause); (c) the same RBF and polynomial maps fitted \
          on the true state x1..x4 sampled at the map step: {}/{} noise-free ({} of exact, JS {}), \
          {}/{} with the flag's noise on the state: the model class and the data amount suffice; (b) the \
-         coordinates are what fails: SSM dimension 5: {}/{}, dimension 6 (the rule's choice): {}/{} at the flag's \
-         data amount, {}/{} at three times it, but {}/{} on noise-free data (there the small singular directions \
+         coordinates are what fails: rows \"{D5}\": {}/{}, \"{D6}\" (the rule's choice): {}/{} at the flag's \
+         data amount, {}/{} at {D6_SCALE}x it, but {}/{} on noise-free data (there the small singular directions \
          are fitted without the noise's regularization and the attractor moves again); wider shifts {}/{}, the \
-         whole 9-sample delay vector without projection {}/{}. Fixes on the fit itself: a larger ridge (1e-7, 1e-6 \
-         at d = 4, 5, 6) {}/{} ({} of exact: the regularization removes the chaos before it steadies \
+         whole {embed}-sample delay vector without projection {}/{}. Fixes on the fit itself: a larger ridge (rows \
+         \"ridge\") {}/{} ({} of exact: the regularization removes the chaos before it steadies \
          the attractor); denoised inputs \
-         (errors in variables, moving average 3 or 5) {}/{} (Benettin {} of exact: the smoothing steepens \
-         the map), multistep refinement (k = 4) {}/{} (Benettin {} of exact, JS {}). So a larger reduced dimension brings the \
-         exponent within 10 % for most RBF sizes at the flag's noise, but the fit in delay coordinates stays \
+         (errors in variables, moving averages of the inputs) {}/{} (Benettin {} of exact: the smoothing steepens \
+         the map), multistep refinement {}/{} (Benettin {} of exact, JS {}). So a larger reduced dimension brings the \
+         exponent within {bpct:.0} % for most RBF sizes at the flag's noise, but the fit in delay coordinates stays \
          fragile (one RBF size or data amount away from a wrong attractor), unlike the same fit on the true \
          state. The Rosenstein exponent of the model series is {} 1/s for the maps fitted on the true state \
-         whose own exponent is within 10 % of exact, against the held-out piece's {:.3}: on one held-out-length piece the estimator is \
+         whose own exponent is within {bpct:.0} % of exact, against the held-out piece's {:.3}: on one held-out-length piece the estimator is \
          no firm reference (the pieces above), so \
          the Rosenstein and D2 targets cannot be met reliably even by an exact model. On the flag (train \
-         traj_9 + traj_7, held out traj_8, data Rosenstein {:.3} 1/s, D2 {:.2} ± {:.2}) SSM dimension 5 and 6 \
-         give Benettin {} 1/s (d = 5: RBF 200, 250, 300, 500; d = 6: RBF 200, 250, 300, 500, 1000), Rosenstein \
-         {}, D2 {}, JS {}: targets met {}; \
-         the flag's own dimension rule keeps d = 4, whose rows are the flag search's above.",
+         {}, held out {}, data Rosenstein {:.3} 1/s, D2 {:.2} ± {:.2}) the larger dimensions of the study's \
+         fits ({}) give Benettin {} 1/s, Rosenstein {}, D2 {}, JS {}: targets met {}; \
+         the flag's own dimension rule keeps d = {FLAG_DIM}, whose rows are the flag search's above.",
         g("noise_free_d4").0,
         g("noise_free_d4").1,
         g("true_state_noise_free").0,
@@ -1464,34 +1490,46 @@ fn flag_pipeline_fit(
             2
         ),
         results.known.data.rosenstein,
+        held.train_runs.join(" + "),
+        held.test_run,
         flag_data.0,
         flag_data.1,
         flag_data.2,
+        flag.iter().map(|r| crate::report::esc(&r.candidate)).collect::<Vec<_>>().join("; "),
         flag.iter().map(|r| o(r.benettin, 3)).collect::<Vec<_>>().join(", "),
         flag.iter().map(|r| o(r.rosenstein, 3)).collect::<Vec<_>>().join(", "),
         flag.iter().map(|r| o(r.corr_dim, 2)).collect::<Vec<_>>().join(", "),
         flag.iter().map(|r| o(r.js, 4)).collect::<Vec<_>>().join(", "),
-        flag.iter().map(|r| format!("{}/4", r.passes.iter().filter(|&&p| p).count())).collect::<Vec<_>>().join(", "),
+        flag.iter().map(|r| format!("{}/{}", r.passes.iter().filter(|&&p| p).count(), r.passes.len())).collect::<Vec<_>>().join(", "),
     ));
     // The multistep scan at d = 6 on the known system, and multistep on the flag.
     let scan = |ms: bool, scale: usize, noise: f64| d6_scan_counts(&diag, ms, scale, noise);
-    let scan_cases = [("1x_flag_noise", 1, fnoise), ("3x_flag_noise", 3, fnoise), ("1x_noise_free", 1, 0.0)];
+    let scan_cases = [("1x_flag_noise", 1, fnoise), ("3x_flag_noise", D6_SCALE, fnoise), ("1x_noise_free", 1, 0.0)];
     let scan_text: Vec<String> = scan_cases
         .iter()
         .map(|&(_, scale, noise)| {
             let ((mb, mj, mn), (pb, pj, pn)) = (scan(true, scale, noise), scan(false, scale, noise));
             format!(
-                "{}x the data, {}: multistep {mb}/{mn} within 10 %, {mj}/{mn} with JS <= 0.01 too; one-step {pb}/{pn} and {pj}/{pn}",
+                "{}x the data, {}: multistep {mb}/{mn} within {bpct:.0} %, {mj}/{mn} with JS <= {} too; one-step {pb}/{pn} and {pj}/{pn}",
                 scale,
+                chaos::Targets::default().js_max,
                 if noise > 0.0 { "the flag's noise" } else { "noise-free" }
             )
         })
         .collect();
-    // The d = 6 rows on other realizations of the series (`seed N` candidates), one-step or refined.
+    // The rows on other realizations of the series (`seed N` candidates of one model), one-step
+    // or refined.
+    const SEED_MODEL: &str = "RBF 250";
+    let mut seed_list: Vec<&str> = diag
+        .iter()
+        .filter_map(|(_, _, r)| r.candidate.split_once(" seed ").map(|(_, n)| n.split_whitespace().next().unwrap_or(n)))
+        .collect();
+    seed_list.sort_unstable();
+    seed_list.dedup();
     let seeds = |ms: bool, field: &dyn Fn(&PipelineRow) -> Option<f64>, p: usize| {
         let v: Vec<f64> = diag
             .iter()
-            .filter(|(_, _, r)| r.candidate.contains(" seed ") && r.candidate.contains("RBF 250"))
+            .filter(|(_, _, r)| r.candidate.contains(" seed ") && r.candidate.contains(SEED_MODEL))
             .filter(|(_, _, r)| r.candidate.contains(" ms ") == ms)
             .filter_map(|(_, _, r)| field(r))
             .collect();
@@ -1501,7 +1539,7 @@ fn flag_pipeline_fit(
     let refined_3x = span(
         &diag
             .iter()
-            .filter(|(w, n, r)| w == "d = 6 scan" && *n > 0.0 && r.scale == 3 && refined_d6(r))
+            .filter(|(w, n, r)| w == "d = 6 scan" && *n > 0.0 && r.scale == D6_SCALE && refined_d6(r))
             .filter_map(|(_, _, r)| r.benettin_over_exact)
             .collect::<Vec<_>>(),
         2,
@@ -1543,26 +1581,27 @@ fn flag_pipeline_fit(
         .min_by(|a, b| a.0.total_cmp(&b.0));
     rep.para(&format!(
         "Multistep refinement scanned at d = 6 on the known system (example <code>flag_pipeline -- variants</code>, \
-         <code>FLAG4_SEEDS</code> for other realizations of the series; RBF 150, 250, 400 with ridge 1e-8, horizon 2, 4, 8 \
-         reached by doubling, windows every 8 points, 4 Levenberg-Marquardt iterations per stage; rows \"d = 6 scan\" \
-         above): {}. On two other realizations of the series (seeds 1 and 2) the one-step RBF 250 gives Benettin \
-         {} of exact (JS {}) where the refined one gives {} of exact (JS {}), while at three times the data the \
-         refined RBF 250 gives {} of exact: the refinement can keep the chaos but does not make the d = 6 fit \
+         <code>FLAG4_SEEDS</code> for other realizations of the series; RBF sizes and horizons reached by doubling as \
+         the rows \"d = 6 scan\" above name them): {}. On other realizations of the series (seeds {}) the one-step {SEED_MODEL} gives Benettin \
+         {} of exact (JS {}) where the refined one gives {} of exact (JS {}), while at {D6_SCALE}x the data the \
+         refined {SEED_MODEL} gives {} of exact: the refinement can keep the chaos but does not make the d = 6 fit \
          reliable: the chaotic refined fits' Benettin / exact moves with the RBF size, the horizon and the \
-         realization ({}), and JS stays above 0.01 (best {}). On the flag \
-         (d = 4, the flag's rule; d = 5 and 6, the known system's) multistep rows give Benettin {} 1/s against the \
+         realization ({}), and JS stays above {} (best {}). On the flag \
+         (d = {FLAG_DIM}, the flag's rule, and the known system's larger dimensions) multistep rows give Benettin {} 1/s against the \
          data's {:.3}, Rosenstein {}, D2 {} against {:.2} ± {:.2}, JS {}: targets met {}. The refinement lowers the \
          flag's rollout error only a little per stage (on the known system's d = 6 fits it is what lowered JS). Best by JS: {} (JS {}, Benettin {} 1/s: {} of the data's; D2 {}, \
          {:.1} error bars low); the rows meeting the Benettin target: {}. Rows meeting JS and Benettin together: {}; \
          D2 {} against {:.2} ± {:.2} where measured, and Rosenstein {} against {:.3}: no multistep candidate joins \
          the report's selection.",
         scan_text.join("; "),
+        seed_list.join(" and "),
         seeds(false, &b_e, 2),
         seeds(false, &js, 2),
         seeds(true, &b_e, 2),
         seeds(true, &js, 4),
         refined_3x,
         span(&refined_chaotic, 2),
+        chaos::Targets::default().js_max,
         best_refined_js,
         fms.iter().map(|r| o(r.benettin, 3)).collect::<Vec<_>>().join(", "),
         flag_data.0,
@@ -1571,7 +1610,7 @@ fn flag_pipeline_fit(
         flag_data.1,
         flag_data.2,
         fms.iter().map(|r| o(r.js, 4)).collect::<Vec<_>>().join(", "),
-        fms.iter().map(|r| format!("{}/4", r.passes.iter().filter(|&&p| p).count())).collect::<Vec<_>>().join(", "),
+        fms.iter().map(|r| format!("{}/{}", r.passes.iter().filter(|&&p| p).count(), r.passes.len())).collect::<Vec<_>>().join(", "),
         best_js.map_or("-".to_string(), |(_, r)| crate::report::esc(&r.candidate)),
         best_js.map_or("-".to_string(), |(j, _)| format!("{j:.4}")),
         best_js.map_or("-".to_string(), |(_, r)| o(r.benettin, 3)),
@@ -1593,7 +1632,7 @@ fn flag_pipeline_fit(
     let d2_b10 = fcs.iter().filter(|r| r.passes[0]).filter_map(|r| r.corr_dim).fold(f64::MIN, f64::max);
     let high_d2: Vec<f64> = fcs
         .iter()
-        .filter(|r| r.failed.is_none() && r.corr_dim.is_some_and(|d| d >= flag_data.1 - 3.0 * flag_data.2))
+        .filter(|r| r.failed.is_none() && r.corr_dim.is_some_and(|d| d >= flag_data.1 - HIGH_D2_BARS * flag_data.2))
         .filter_map(|r| r.benettin)
         .collect();
     let range = |v: &[f64]| (v.iter().copied().fold(f64::MAX, f64::min), v.iter().copied().fold(f64::MIN, f64::max));
@@ -1616,28 +1655,30 @@ fn flag_pipeline_fit(
         .filter_map(|r| {
             let v: Vec<f64> = r.corr_dim_pieces.iter().flatten().copied().collect();
             let (lo, hi) = range(&v);
-            (v.len() == 5).then_some((hi - lo, r.candidate.as_str(), lo, hi))
+            (v.len() == r.corr_dim_pieces.len()).then_some((hi - lo, r.candidate.as_str(), lo, hi))
         })
         .max_by(|a, b| a.0.total_cmp(&b.0));
     let runs: Vec<f64> = held.corr_dim_runs.iter().filter_map(|r| r.corr_dim).collect();
+    let no_range = held.corr_dim_runs.len() - runs.len();
+    let pieces = held.dimension.first().map_or(0, |r| r.corr_dim_pieces.len());
+    let js_max = chaos::Targets::default().js_max;
     let mean = runs.iter().sum::<f64>() / runs.len() as f64;
     let sd = (runs.iter().map(|v| (v - mean) * (v - mean)).sum::<f64>() / (runs.len() - 1) as f64).sqrt();
     let (run_lo, run_hi) = range(&runs);
     rep.para(&format!(
         "Other RBF centre sets on the flag (<code>ssm::dynamics::CentreChoice</code>: the farthest-point rule from a \
-         seeded start, k-means++, random subsets, k-means; example <code>flag_pipeline -- flag</code>; RBF 150-300, \
-         ridge 3e-9, 5e-9 and 1e-8, seeds 1-12, one-step and multistep, d = 4 and a few at d = 5, 6): {cn} rows, {cfail} escaped; \
-         Benettin within 10 %: {cb}, D2 within the error bar: {cd}, JS <= 0.01: {cj}, Benettin and JS together: {cbj}{}, \
-         all three: {cbdj}. Among the rows within 10 % on Benettin, D2 is at most {d2_b10:.2} ({:.1} error bars low); the rows \
-         with D2 within 3 error bars of the data's have Benettin {hb_lo:.3}-{hb_hi:.3} 1/s ({:.2}-{:.2} of the data's {:.3}). \
-         Why: the Kaplan-Yorke dimension of every chaotic model's Lyapunov spectrum is {ky_lo:.2}-{ky_hi:.2} (d = 4: \
-         with the largest exponent near the data's and the second near -0.1 1/s the third, -0.5 to -0.7 1/s, keeps \
-         2 + (l1 + l2) / |l3| near 2.4), below the data's 3.36. D2 of one \
-         held-out-length piece scatters around that: over five pieces of one long run up to {} ({}: {}-{}). The data's D2 \
-         is not inflated by measurement noise (moving averages of 3 and 5 samples: {:.2}, {:.2}; its noise added again: \
-         {:.2}; on the model series the data's noise moves D2 by {:+.2} on average over {} rows, though by more than 0.2 \
+         seeded start, k-means++, random subsets, k-means; example <code>flag_pipeline -- flag</code>; the sizes, \
+         ridges and seeds the rows name, one-step and multistep): {cn} rows, {cfail} escaped; \
+         Benettin within {bpct:.0} %: {cb}, D2 within the error bar: {cd}, JS <= {js_max}: {cj}, Benettin and JS together: {cbj}{}, \
+         all three: {cbdj}. Among the rows within {bpct:.0} % on Benettin, D2 is at most {d2_b10:.2} ({:.1} error bars low); the rows \
+         with D2 within {HIGH_D2_BARS} error bars of the data's have Benettin {hb_lo:.3}-{hb_hi:.3} 1/s ({:.2}-{:.2} of the data's {:.3}). \
+         Why: the Kaplan-Yorke dimension of every chaotic model's Lyapunov spectrum is {ky_lo:.2}-{ky_hi:.2}, below the \
+         data's {:.2}. D2 of one \
+         held-out-length piece scatters around that: over {pieces} pieces of one long run up to {} ({}: {}-{}). The data's D2 \
+         is not inflated by measurement noise (two moving averages of the series: {:.2}, {:.2}; its noise added again: \
+         {:.2}; on the model series the data's noise moves D2 by {:+.2} on average over {} rows, though by more than {} \
          on {}, either way: the scaling range the estimator finds is fragile), but it scatters the same way over \
-         the flag's runs: {} ({mean:.2} ± {sd:.2}, {run_lo:.2}-{run_hi:.2}; one run has no scaling range), {:.1} times the \
+         the flag's runs: {} ({mean:.2} ± {sd:.2}, {run_lo:.2}-{run_hi:.2}; {no_range} without a scaling range), {:.1} times the \
          one-run error bar of ± {:.2} that the D2 target uses. No centre set joins the report's selection.",
         best_bj.map_or(String::new(), |r| format!(
             " (highest D2 of these: {}, Benettin {}, D2 {}, JS {})",
@@ -1650,6 +1691,7 @@ fn flag_pipeline_fit(
         hb_lo / flag_data.0,
         hb_hi / flag_data.0,
         flag_data.0,
+        flag_data.1,
         spread.map_or("-".to_string(), |s| format!("{:.2}", s.0)),
         spread.map_or("-".to_string(), |s| crate::report::esc(s.1)),
         spread.map_or("-".to_string(), |s| format!("{:.2}", s.2)),
@@ -1659,8 +1701,13 @@ fn flag_pipeline_fit(
         held.corr_dim_smoothed.noise_added,
         held.model_noisy_corr_dim.mean_change,
         held.model_noisy_corr_dim.rows,
+        chaos_study::flag_study::D2_CHANGE,
         held.model_noisy_corr_dim.changed_over_0_2,
-        held.corr_dim_runs.iter().map(|r| format!("traj_{} {}", r.run, o(r.corr_dim, 2))).collect::<Vec<_>>().join(", "),
+        held.corr_dim_runs
+            .iter()
+            .map(|r| format!("{}{} {}", held.test_run.trim_end_matches(|c: char| c.is_ascii_digit()), r.run, o(r.corr_dim, 2)))
+            .collect::<Vec<_>>()
+            .join(", "),
         sd / flag_data.2,
         flag_data.2,
     ));
@@ -1687,6 +1734,101 @@ fn flag_pipeline_fit(
         }),
     );
     Ok(())
+}
+
+/// The centre-set row the experiment-as-model paragraph places among the runs.
+const BEST_ROW: &str = "RBF 250 r=5e-9 d=4 p=9 centres kmeans++@3";
+
+/// The experiment as its own model, over [`experiment_values`].
+const EXPERIMENT_AS_MODEL: &str = "{% macro o(v, n) %}{% if v is none %}-{% else %}{{ v | fixed(n) }}{% endif %}\
+    {% endmacro %}{% macro pl(p) %}{% if p is none %}-{% else %}percentile {{ p[0] | pct(0) }}, z \
+    {% if p[1] >= 0 %}+{% endif %}{{ p[1] | fixed(2) }}{% endif %}{% endmacro %}{% macro ms(v, n) %}{% if v is none \
+    %}-{% else %}{{ v[0] | fixed(n) }} ± {{ v[1] | fixed(n) }}{% endif %}{% endmacro %}\
+    The experiment as its own model (<code>chaos_study::flag_self</code>; <code>ssmctl study studies/flag.toml</code>, \
+    results in <code>studies/results/flag</code>): each of the other {{ whole.rows }} runs of the flag, whole, and the \
+    first and last {{ test_run }}-length pieces ({{ test_len }} samples at step {{ step }}) of the {{ longer }} longer \
+    ones, is treated as the output of a perfect model and measured against {{ test_run }} exactly as a model row is: \
+    Rosenstein exponent and D2 of the series with {{ test_run }}'s lag, Theiler window and embedding, JS of the \
+    densities in the SSM's reduced coordinates (d = {{ dim }}, p = {{ embed }}, fitted on {{ train_runs | join(' + ') \
+    }}). Benettin needs the equations of a map and has no value for data. Whole runs: Rosenstein within \
+    {{ targets.rosenstein_rel | pct(0) }} % of {{ data.rosenstein | fixed(3) }}: {{ whole.rosenstein }} of \
+    {{ whole.rows }}, D2 within {{ data.corr_dim | fixed(2) }} ± {{ data.corr_dim_err | fixed(2) }}: \
+    {{ whole.corr_dim }}, JS &lt;= {{ targets.js_max | num }}: {{ whole.js }}, all three: {{ whole.all_three }}; \
+    {{ test_run }}-length pieces: Rosenstein {{ pieces.rosenstein }}, D2 {{ pieces.corr_dim }}, JS {{ pieces.js }} of \
+    {{ pieces.rows }}, all three: {{ pieces.all_three }}. {% if whole.all_three + pieces.all_three == 0 %}The real \
+    system meets the three one-run targets together on none of its runs: a perfect model would fail them as the runs \
+    do, so they cannot be required of a model on one run.{% else %}The real system meets the three one-run targets \
+    together on only some of its runs.{% endif %} The estimators are fragile at this length: two pieces of \
+    {{ run_prefix }}{{ fragile.run }} that share {{ fragile.share | pct(0) }} % of their samples read Rosenstein \
+    {% for r in fragile.rosenstein %}{{ o(r, 3) }}{% if not loop.last %} and {% endif %}{% endfor %}; with each run's \
+    own settings (as the pipeline measures a held-out run; lag {{ lags[0] }} to {{ lags[1] }} samples) D2 moves, \
+    {% for r in own %}{{ run_prefix }}{{ r.run }} {{ o(r.corr_dim, 2) }} to {{ r.own_corr_dim | fixed(2) }} (lag \
+    {{ r.lag }}){% if not loop.last %}, {% endif %}{% endfor %}. The best model row ({{ best.name }}) among the \
+    {{ whole.rows }} runs: Rosenstein {{ o(best.rosenstein, 3) }} ({{ pl(best.placement[0]) }}; runs \
+    {{ ms(best.runs[0], 3) }}), D2 {{ o(best.corr_dim, 2) }} ({{ pl(best.placement[1]) }}; runs \
+    {{ ms(best.runs[1], 2) }}), JS {{ o(best.js, 4) }} ({{ pl(best.placement[2]) }}; runs {{ ms(best.runs[2], 4) }}): \
+    its exponent is typical of a run, its D2 low, and its densities further from {{ test_run }}'s than most runs' are.";
+
+/// The values of [`EXPERIMENT_AS_MODEL`]: the runs as models of the held-out run (`whole` runs
+/// and `part`s of the longer ones), the most overlapping pieces, the runs whose D2 moves most
+/// with their own settings, and the best row (`best`, its placement among the runs' `stats`).
+#[allow(clippy::type_complexity)]
+fn experiment_values(
+    results: &chaos_study::study_results::FlagResults,
+    whole: &[&chaos_study::study_results::SelfRow],
+    part: &[&chaos_study::study_results::SelfRow],
+    best: Option<&PipelineRow>,
+    best_place: &[Option<(f64, f64)>],
+    stats: &[(&str, Vec<f64>, usize); 3],
+) -> Result<serde_json::Value, Box<dyn Error>> {
+    use chaos_study::flag_self::{mean_sd, self_counts};
+    let held = &results.held_out;
+    let flag_data = held.data.tuple();
+    let counts = |c: (usize, usize, usize, usize, usize)| serde_json::json!({ "rows": c.0, "rosenstein": c.1, "corr_dim": c.2, "js": c.3, "all_three": c.4 });
+    let mut longer: Vec<usize> = part.iter().map(|r| r.run).collect();
+    longer.dedup();
+    // The two pieces of one run that share the most samples.
+    let fragile = longer
+        .iter()
+        .filter_map(|&run| {
+            let p: Vec<_> = part.iter().filter(|r| r.run == run).collect();
+            let (a, b) = (p.first()?, p.last()?);
+            let shared = (a.start + a.len).saturating_sub(b.start) as f64 / a.len as f64;
+            (p.len() > 1).then(|| (shared, run, p.iter().map(|r| r.rosenstein).collect::<Vec<_>>()))
+        })
+        .max_by(|a, b| a.0.total_cmp(&b.0));
+    let fit = chaos_study::flag_pipeline::flag_like_candidates(chaos_study::flag_self::STEP, &[])
+        .first()
+        .map(|c| c.fit)
+        .ok_or("flag_like_candidates gave no candidate")?;
+    let own = &results.experiment.runs_own;
+    let lags = own.iter().map(|r| r.lag).fold((usize::MAX, 0), |(a, b), l| (a.min(l), b.max(l)));
+    // The two runs whose D2 moves most with their own settings, in run order.
+    let mut moves: Vec<(f64, usize, Option<f64>, f64, usize)> = whole
+        .iter()
+        .filter_map(|r| {
+            let o = results.experiment.own(r.run)?;
+            Some(((r.corr_dim? - o.corr_dim).abs(), r.run, r.corr_dim, o.corr_dim, o.lag))
+        })
+        .collect();
+    moves.sort_by(|a, b| b.0.total_cmp(&a.0));
+    moves.truncate(2);
+    moves.sort_by_key(|m| m.1);
+    let run_prefix = held.test_run.trim_end_matches(|c: char| c.is_ascii_digit());
+    Ok(serde_json::json!({
+        "test_run": held.test_run, "train_runs": held.train_runs, "test_len": held.test_len,
+        "step": chaos_study::flag_self::STEP, "longer": longer.len(), "dim": fit.dim, "embed": fit.embed,
+        "data": held.data, "targets": chaos::Targets::default(), "run_prefix": run_prefix,
+        "whole": counts(self_counts(whole, flag_data)), "pieces": counts(self_counts(part, flag_data)),
+        "fragile": fragile.map(|(share, run, r)| serde_json::json!({ "share": share, "run": run, "rosenstein": r })),
+        "lags": [lags.0, lags.1],
+        "own": moves.iter().map(|m| serde_json::json!({ "run": m.1, "corr_dim": m.2, "own_corr_dim": m.3, "lag": m.4 })).collect::<Vec<_>>(),
+        "best": {
+            "name": BEST_ROW, "rosenstein": best.and_then(|r| r.rosenstein), "corr_dim": best.and_then(|r| r.corr_dim),
+            "js": best.and_then(|r| r.js), "placement": best_place.iter().map(|p| p.map(|p| [p.0, p.1])).collect::<Vec<_>>(),
+            "runs": stats.iter().map(|(_, v, _)| mean_sd(v).map(|(m, s)| [m, s])).collect::<Vec<_>>(),
+        },
+    }))
 }
 
 /// The flag's experiment as its own model, the candidate pick on the validation run and the
@@ -1718,7 +1860,7 @@ fn flag_self_paragraphs(
     let col = |f: &dyn Fn(&SelfRow) -> Option<f64>| whole.iter().filter_map(|r| f(r)).collect::<Vec<f64>>();
     let stats: [(&str, Vec<f64>, usize); 3] =
         [("rosenstein", col(&|r| r.rosenstein), 3), ("corr_dim", col(&|r| r.corr_dim), 2), ("js", col(&|r| r.js), 4)];
-    let best = test_rows.iter().find(|r| r.candidate == "RBF 250 r=5e-9 d=4 p=9 centres kmeans++@3");
+    let best = test_rows.iter().find(|r| r.candidate == BEST_ROW);
     let model_vals = |r: &chaos_study::flag_pipeline::PipelineRow| [r.rosenstein, r.corr_dim, r.js];
     let place = |r: Option<&chaos_study::flag_pipeline::PipelineRow>| -> Vec<Option<(f64, f64)>> {
         let v = r.map(model_vals).unwrap_or([None; 3]);
@@ -1728,59 +1870,18 @@ fn flag_self_paragraphs(
     let ms = |v: &[f64], p: usize| mean_sd(v).map_or("-".to_string(), |(m, s)| format!("{m:.p$} ± {s:.p$}"));
     let pl =
         |p: Option<(f64, f64)>| p.map_or("-".to_string(), |(q, z)| format!("percentile {:.0}, z {z:+.2}", 100.0 * q));
-    let own_d2 =
-        |k: usize| results.experiment.own(k).map_or("-".to_string(), |r| format!("{:.2} (lag {})", r.corr_dim, r.lag));
-    let d2_of = |k: usize| whole.iter().find(|r| r.run == k).map_or("-".to_string(), |r| o(r.corr_dim, 2));
-    let t3: Vec<String> = part.iter().filter(|r| r.run == 3).map(|r| o(r.rosenstein, 3)).collect();
-    rep.para(&format!(
-        "The experiment as its own model (<code>chaos_study::flag_self</code>; <code>ssmctl study studies/flag.toml</code>, results in <code>studies/results/flag</code>): \
-         each of the other nine runs of the flag, whole, and the first and last traj_8-length pieces ({} samples at step 4) of the three \
-         longer ones, is treated as the output of a perfect model and measured against traj_8 exactly as a model row is: Rosenstein \
-         exponent and D2 of the series with traj_8's lag, Theiler window and embedding, JS of the densities in the SSM's reduced \
-         coordinates (d = 4, p = 9, fitted on traj_9 + traj_7). Benettin needs the equations of a map and has no value for data. \
-         Whole runs: Rosenstein within 5 % of {:.3}: {} of {}, D2 within {:.2} ± {:.2}: {}, JS &lt;= 0.01: {}, all three: {}; \
-         traj_8-length pieces: Rosenstein {}, D2 {}, JS {} of {}, all three: {}. The real system meets the three one-run targets \
-         together on none of its runs: a perfect model would fail them as the runs do, so they cannot be required of a model on one \
-         run. The estimators are fragile at this length: two pieces of \
-         traj_3 that share 88 % of their samples read Rosenstein {}; with each run's own settings (as the pipeline measures a \
-         held-out run; lag 11 or 12 samples) D2 moves, traj_2 {} to {}, traj_3 {} to {}. The best model row (RBF 250 r=5e-9 \
-         k-means++@3) among the nine runs: Rosenstein {} ({}; runs {}), D2 {} ({}; runs {}), JS {} ({}; runs {}): its \
-         exponent is typical of a run, its D2 low, and its densities further from traj_8's than most runs' are.",
-        results.held_out.test_len,
-        flag_data.0,
-        cw.1,
-        cw.0,
-        flag_data.1,
-        flag_data.2,
-        cw.2,
-        cw.3,
-        cw.4,
-        cp.1,
-        cp.2,
-        cp.3,
-        cp.0,
-        cp.4,
-        t3.join(" and "),
-        d2_of(2),
-        own_d2(2),
-        d2_of(3),
-        own_d2(3),
-        o(best.and_then(|r| r.rosenstein), 3),
-        pl(best_place[0]),
-        ms(&stats[0].1, 3),
-        o(best.and_then(|r| r.corr_dim), 2),
-        pl(best_place[1]),
-        ms(&stats[1].1, 2),
-        o(best.and_then(|r| r.js), 4),
-        pl(best_place[2]),
-        ms(&stats[2].1, 4),
-    ));
+    let v = experiment_values(results, &whole, &part, best, &best_place, &stats)?;
+    rep.para(&html("chaos/experiment-as-model", EXPERIMENT_AS_MODEL, &v)?);
     let yn = |p: [bool; 3]| p.iter().map(|&b| if b { "y" } else { "n" }).collect::<String>();
+    let held = &results.held_out;
+    let run_prefix = held.test_run.trim_end_matches(|c: char| c.is_ascii_digit());
+    let run_name = |run: usize| format!("{run_prefix}{run}");
     let table: Vec<Vec<String>> = rows
         .iter()
         .map(|r| {
+            let training = held.train_runs.contains(&run_name(r.run));
             vec![
-                format!("traj_{}{}", r.run, if [7, 9].contains(&r.run) { " (training)" } else { "" }),
+                format!("{}{}", run_name(r.run), if training { " (training)" } else { "" }),
                 format!("{}-{}", r.start, r.start + r.len),
                 o(r.rosenstein, 3),
                 format!("{}{}", o(r.corr_dim, 2), r.corr_dim_err.map_or(String::new(), |e| format!(" ± {e:.2}"))),
@@ -1789,10 +1890,9 @@ fn flag_self_paragraphs(
             ]
         })
         .collect();
-    rep.table(
-        &["run (as a model of traj_8)", "samples at step 4", "Rosenstein [1/s]", "D2", "JS [bits]", "targets R/D2/JS"],
-        &table,
-    );
+    let (first, second_col) =
+        (format!("run (as a model of {})", held.test_run), format!("samples at step {}", chaos_study::flag_self::STEP));
+    rep.table(&[&first, &second_col, "Rosenstein [1/s]", "D2", "JS [bits]", "targets R/D2/JS"], &table);
     // The pick on the validation run, and the ensemble.
     let val = primary.pipeline_rows();
     let (vn, vfail, vb, vd, vj, vbj, vbdj) = chaos_study::flag_pipeline_fit::target_counts(&val);
@@ -1823,17 +1923,22 @@ fn flag_self_paragraphs(
         )
     };
     let met = |r: &chaos_study::flag_pipeline::PipelineRow| r.passes.iter().filter(|&&p| p).count();
+    let (train, test) = (results.held_out.train_runs.join(" + "), &results.held_out.test_run);
+    let prefix = test.trim_end_matches(|c: char| c.is_ascii_digit());
+    let t = chaos::Targets::default();
+    let (bpct, rpct, nruns) = (100.0 * t.benettin_rel, 100.0 * t.rosenstein_rel, whole.len());
+    let nt = val.first().map_or(0, |r| r.passes.len());
     rep.para(&format!(
-        "Selection on a validation run, not the test run: the {vn} centre-set rows fitted again on traj_9 + traj_7 and measured on \
-         traj_{validation_run} (neither training nor test; its own settings: Rosenstein {:.3}, D2 {:.2} ± {:.2}; example \
-         <code>ssmctl study studies/flag.toml</code>): {vfail} escaped; Benettin within 10 %: {vb}, Rosenstein within 5 %: {vr}, \
+        "Selection on a validation run, not the test run: the {vn} centre-set rows fitted again on {train} and measured on \
+         {prefix}{validation_run} (neither training nor test; its own settings: Rosenstein {:.3}, D2 {:.2} ± {:.2}; example \
+         <code>ssmctl study studies/flag.toml</code>): {vfail} escaped; Benettin within {bpct:.0} %: {vb}, Rosenstein within {rpct:.0} %: {vr}, \
          D2: {vd}, JS: {vj}, Benettin and JS: {vbj}, Benettin, D2 and JS: {vbdj}. The report's selection rule (most targets, then the \
-         smallest normalized error) picks {} there ({}; {} of 4 targets); on the test run traj_8 it reads {} ({} of 4 targets; among the \
-         nine runs as models of traj_8: Rosenstein {}, D2 {}, JS {}). \
-         The same rule on traj_8 itself picks {} ({}), which reads Rosenstein {} and D2 {} on traj_{validation_run}: the one-run \
-         statistics that the pick rests on move with the run as much as between models. A second validation run, traj_{} \
-         (Rosenstein {:.3}, D2 {:.2} ± {:.2}), picks yet another row, {} ({}), which on traj_8 reads {} ({} of 4 targets). An ensemble of the {} best-ranked d = 4 \
-         models on traj_8: Benettin {} (the data's {:.3}), Rosenstein {}, D2 {}; JS of the pooled long runs {:.4} (members {}).",
+         smallest normalized error) picks {} there ({}; {} of {nt} targets); on the test run {test} it reads {} ({} of {nt} targets; among the \
+         {nruns} runs as models of {test}: Rosenstein {}, D2 {}, JS {}). \
+         The same rule on {test} itself picks {} ({}), which reads Rosenstein {} and D2 {} on {prefix}{validation_run}: the one-run \
+         statistics that the pick rests on move with the run as much as between models. A second validation run, {prefix}{} \
+         (Rosenstein {:.3}, D2 {:.2} ± {:.2}), picks yet another row, {} ({}), which on {test} reads {} ({} of {nt} targets). An ensemble of the {} best-ranked d = {FLAG_DIM} \
+         models on {test}: Benettin {} (the data's {:.3}), Rosenstein {}, D2 {}; JS of the pooled long runs {:.4} (members {}).",
         primary.data.rosenstein,
         primary.data.corr_dim,
         primary.data.corr_dim_err,
