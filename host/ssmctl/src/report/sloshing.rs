@@ -49,6 +49,15 @@ const FIT: &str = "Recommended settings (p = {{ fit.embed }}, shift {{ fit.shift
     {{ reps }}), test NMTE {{ nmte | fixed(4) }}, DTW-NMTE {{ dtw | fixed(4) }}; eigenvalues {% for e in eigenvalues \
     %}{{ signed(e.re, 4) }} {{ signed(e.im, 4) }}i{% if not loop.last %}, {% endif %}{% endfor %}.";
 
+/// The exported sloshing model.
+const EXPORT: &str = "Exported the {% if centres is not none %}{{ centres }}-centre {% endif %}RBF model as \
+    <code>{{ file }}</code> ({{ bytes }} bytes).";
+
+/// The exported Furuta model.
+const FURUTA_EXPORT: &str = "Exported a {{ dim }}D SSM with a {{ centres }}-centre RBF map fitted to the theta \
+    series of {{ scene }}, together with that scene's quantized controller configuration, as <code>{{ file }}</code> \
+    ({{ bytes }} bytes): the blob the firmware runs.";
+
 /// The backbone curve's ends.
 const BACKBONE: &str = "Backbone curve of this model (normal form of the map, <code>ssm::backbone</code>): \
     instantaneous damping ratio -Re&lambda;/|&lambda;| and frequency against the amplitude of x, the max over a period \
@@ -161,9 +170,7 @@ pub fn sloshing_section(rep: &mut Report, data_dir: &Path, quick: bool) -> Resul
             _ => None,
         };
         let v = json!({ "centres": centres, "bytes": blob.len(), "file": "sloshing-rbf50.bin" });
-        let t = "Exported the {% if centres is not none %}{{ centres }}-centre {% endif %}RBF model as \
-                 <code>{{ file }}</code> ({{ bytes }} bytes).";
-        rep.para(&html("fit-sloshing/export", t, &v)?);
+        rep.para(&html("fit-sloshing/export", EXPORT, &v)?);
     }
     rep.summary.insert(
         "fit_sloshing".into(),
@@ -277,10 +284,7 @@ pub fn furuta_blob(rep: &mut Report, quick: bool) -> Result<(), Box<dyn Error>> 
     };
     let v =
         json!({ "dim": o.dim, "centres": centres, "scene": FURUTA_SCENE, "file": FURUTA_BLOB, "bytes": blob.len() });
-    let t = "Exported a {{ dim }}D SSM with a {{ centres }}-centre RBF map fitted to the theta series of {{ scene }}, \
-             together with that scene's quantized controller configuration, as <code>{{ file }}</code> ({{ bytes }} \
-             bytes): the blob the firmware runs.";
-    rep.para(&html("furuta-blob", t, &v)?);
+    rep.para(&html("furuta-blob", FURUTA_EXPORT, &v)?);
     rep.summary.insert("exported_blobs".into(), json!(["sloshing-rbf50.bin", FURUTA_BLOB]));
     Ok(())
 }
@@ -488,6 +492,49 @@ fn pil_paragraph(rep: &mut Report, path: &Path) -> Result<(), Box<dyn Error>> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::report::chaos::assert_numbers_follow;
+
+    /// Every number of the section's paragraphs comes from its values: with all of them
+    /// moved, every number moves (numbers inside names aside), and one value changed shows
+    /// on the page.
+    #[test]
+    fn paragraphs_follow_their_values() {
+        let fo = crate::bench::sloshing_fit_options();
+        let intro = json!({ "dim": fo.dim, "folder": "../shared/data/sloshing", "train": TRAIN, "test": TEST });
+        let a = assert_numbers_follow("fit-sloshing/intro", INTRO, &intro);
+        assert!(a.contains("A 2D SSM") && a.contains("trained on decay_0 and decay_1, tested on decay_2"), "{a}");
+        let fit = json!({
+            "fit": { "embed": fo.embed, "shift": fo.shift, "manifold_order": fo.manifold_order, "dyn_order": fo.dyn_order },
+            "fit_ms": 12.345, "reps": 2, "nmte": 0.01234, "dtw": 0.00567,
+            "eigenvalues": [{ "re": -0.06, "im": 7.8 }, { "re": -0.06, "im": -7.8 }],
+        });
+        let t = format!("{SIGNED}{FIT}");
+        let a = assert_numbers_follow("fit-sloshing/fit", &t, &fit);
+        assert!(a.contains("(p = 5, shift 1, manifold order 3, polynomial map order 5)"), "{a}");
+        assert!(a.contains("eigenvalues -0.0600 +7.8000i, -0.0600 -7.8000i."), "{a}");
+        let mut one = fit.clone();
+        one["nmte"] = json!(0.0421);
+        let b = html("fit-sloshing/fit", &t, &one).unwrap();
+        assert!(b.contains("test NMTE 0.0421,") && !b.contains("0.0123"), "{b}");
+        let bb = json!({
+            "first": { "amplitude": 0.0, "freq_hz": 1.2428, "damping_pct": 0.77 },
+            "last": { "amplitude": 12.5, "freq_hz": 1.19, "damping_pct": 1.4 },
+        });
+        let a = assert_numbers_follow("fit-sloshing/backbone", BACKBONE, &bb);
+        assert!(a.contains("From amplitude 0 to 12.5 %"), "{a}");
+        let frc = json!({
+            "amplitude": CAL_AMPLITUDE, "freq_rad_s": 8.05, "ratio": CAL_RATIO, "forcing": 0.0123,
+            "peak_amplitude": 3.4, "peak_freq_rad_s": 7.9, "unstable": 1,
+        });
+        let a = assert_numbers_follow("fit-sloshing/frc", FRC, &frc);
+        assert!(a.contains("amplitude 1 % at 8.05 rad/s (1.03 times the linear frequency)"), "{a}");
+        let export = json!({ "centres": 50, "bytes": 4321, "file": "sloshing-rbf50.bin" });
+        let a = assert_numbers_follow("fit-sloshing/export", EXPORT, &export);
+        assert!(a.contains("the 50-centre RBF model as <code>sloshing-rbf50.bin</code> (4321 bytes)"), "{a}");
+        let blob = json!({ "dim": 4, "centres": 100, "scene": FURUTA_SCENE, "file": FURUTA_BLOB, "bytes": 9876 });
+        let a = assert_numbers_follow("furuta-blob", FURUTA_EXPORT, &blob);
+        assert!(a.contains("a 100-centre RBF map") && a.contains("(9876 bytes)"), "{a}");
+    }
 
     /// The f32-vs-f64 rows of the device table JSON are rendered as a table.
     #[test]
