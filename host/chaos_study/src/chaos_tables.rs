@@ -79,8 +79,8 @@ pub fn scale_dependence(
     let ctx = Context::from_series(x, dt, embed)?;
     let pts = delay_embed(x, embed, ctx.lag)?;
     let eps: Vec<f64> = eps_units.iter().map(|e| e * unit).collect();
-    let p = DivergenceParams { max_reference: 2000, ..ctx.divergence_params() };
-    let curves = kantz_curves(&pts, &eps, &p, 50)?;
+    let p = DivergenceParams { max_reference: KANTZ_REFERENCES, ..ctx.divergence_params() };
+    let curves = kantz_curves(&pts, &eps, &p, KANTZ_NEIGHBOURS)?;
     let rows = curves
         .into_iter()
         .zip(eps_units)
@@ -276,6 +276,16 @@ fn time_steps(m: &SsmModel, eta0: &[f64]) -> f64 {
 /// Encoder step of `furuta-quant-dt25` (2000 counts per revolution), rad.
 pub const H_ADC: f64 = std::f64::consts::PI / 1000.0;
 
+/// Kantz's estimator in the scale studies: at most this many reference points, each with
+/// this many neighbours.
+pub const KANTZ_REFERENCES: usize = 2000;
+pub const KANTZ_NEIGHBOURS: usize = 50;
+/// Embedding dimension and number of log-spaced radii of the scale studies.
+pub const SCALE_EMBED: usize = 6;
+pub const SCALES: usize = 8;
+/// SSM dimension of the accuracy-vs-cost study's models.
+pub const COST_DIM: usize = 6;
+
 /// The two scale studies of the report: the simulated quantized loop (theta, `periods`
 /// sampling periods, eps = 0.1..30 encoder steps) and, when present, the inverted flag
 /// (traj_9, eps = 0.01..1 series sd); 8 log-spaced scales each, embedding dimension 6.
@@ -284,12 +294,12 @@ pub fn scale_studies(data_dir: &std::path::Path, periods: usize) -> Result<Vec<S
     let simulated = || -> Result<ScaleStudy, Error> {
         let sim = crate::microchaos::simulate_quantized(periods, 0.02, "furuta-quant-dt25")?;
         let dt = sim.dt().ok_or(Error::BadInput { what: "simulated series", why: "no sampling step".into() })?;
-        let eps = chaos::log_spaced(0.1, 30.0, 8)?;
+        let eps = chaos::log_spaced(0.1, 30.0, SCALES)?;
         Ok(scale_dependence(
             "simulated: furuta-quant-dt25 (theta)",
             &sim.x,
             dt,
-            6,
+            SCALE_EMBED,
             "encoder step h = pi/1000 rad",
             H_ADC,
             &eps,
@@ -305,8 +315,8 @@ pub fn scale_studies(data_dir: &std::path::Path, periods: usize) -> Result<Vec<S
         let n = ts.x.len() as f64;
         let m = ts.x.iter().sum::<f64>() / n;
         let sd = (ts.x.iter().map(|v| (v - m) * (v - m)).sum::<f64>() / (n - 1.0)).sqrt();
-        let eps = chaos::log_spaced(0.01, 1.0, 8)?;
-        Ok(Some(scale_dependence("measured: inverted flag traj_9", &ts.x, dt, 6, "series sd", sd, &eps)?))
+        let eps = chaos::log_spaced(0.01, 1.0, SCALES)?;
+        Ok(Some(scale_dependence("measured: inverted flag traj_9", &ts.x, dt, SCALE_EMBED, "series sd", sd, &eps)?))
     };
     let (a, b) = rayon::join(simulated, measured);
     let mut out = vec![a?];
@@ -322,7 +332,7 @@ pub fn flag_cost_study(data_dir: &std::path::Path) -> Result<Option<CostStudy>, 
         return Ok(None);
     }
     let train = vec![ssm::load_csv(d.join("traj_9.csv"))?, ssm::load_csv(d.join("traj_7.csv"))?];
-    let o = ChaosOptions { ssm_dim: Some(6), ..Default::default() };
+    let o = ChaosOptions { ssm_dim: Some(COST_DIM), ..Default::default() };
     Ok(Some(accuracy_vs_cost("inverted flag (traj_9 + traj_7)", &train, &o, &[50, 100, 200, 500], &[2, 3, 4, 5])?))
 }
 

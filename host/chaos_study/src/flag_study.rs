@@ -25,6 +25,10 @@ use crate::study_results::{
 };
 use chaos::{Context, add_noise};
 
+/// A change of a model series' D2 by the data's noise larger than this is counted
+/// (`NoisyModelCorrDim::changed_over_0_2`).
+pub const D2_CHANGE: f64 = 0.2;
+
 /// Where the runs are: `folder` under the data directory, `file` the name of run `k` with
 /// `{run}` standing for its number.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -376,7 +380,7 @@ pub fn run(spec: &FlagStudySpec, data_dir: &Path, progress: &dyn Fn(&str)) -> Re
         model_noisy_corr_dim: NoisyModelCorrDim {
             rows: with_both.len(),
             mean_change: round(Some(mean_change), 2).unwrap_or(f64::NAN),
-            changed_over_0_2: with_both.iter().filter(|v| v.abs() > 0.2).count(),
+            changed_over_0_2: with_both.iter().filter(|v| v.abs() > D2_CHANGE).count(),
         },
         centres: centres.into_iter().map(|c| c.row).collect(),
         corr_dim_runs,

@@ -527,7 +527,7 @@ fn measure(
         return Ok(());
     }
     let eta0 = eta_data[..d].to_vec();
-    r.rollout = rollout_error(&m.dynamics, &eta_data, d, rollout_horizon(ctx.theiler), 200);
+    r.rollout = rollout_error(&m.dynamics, &eta_data, d, rollout_horizon(ctx.theiler), ROLLOUT_STARTS);
     let data_max = eta_data.iter().fold(0.0_f64, |a, v| a.max(v.abs()));
     // A known Benettin run with this start and these lengths is this one.
     let reuse = known.filter(|k| k.eta0 == eta0 && k.transient == s.benettin_transient && k.steps == s.benettin_steps);
@@ -601,6 +601,9 @@ fn measure(
     }
     Ok(())
 }
+
+/// Starts of the rollout loss on the held-out series ([`chaos::rollout_error`]).
+pub const ROLLOUT_STARTS: usize = 200;
 
 /// [`chaos::rollout_error`] of a discrete reduced map on a held-out reduced series;
 /// `None` for a continuous flow.

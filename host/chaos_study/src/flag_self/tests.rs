@@ -45,11 +45,9 @@ fn placement_known_answer() {
 }
 
 /// The committed rows: the whole runs' D2 are the committed D2 of every run (the same
-/// estimator, traj_8's settings); of the nine whole runs, treated as perfect models of
-/// traj_8, two meet the Rosenstein target (traj_1 0.342, traj_3 0.320 against 0.332 ± 5 %),
-/// one the D2 target (traj_2 3.47 against 3.36 ± 0.17), eight JS (traj_2: 0.0195) and none
-/// all three; of the six traj_8-length pieces two, one, six and none. The Rosenstein
-/// exponent of two pieces of traj_3 that share 88 % of their samples reads 0.162 and 0.326.
+/// estimator, the test run's settings); the counts of whole runs and of test-length pieces
+/// meeting each one-run target, which runs meet each, and the Rosenstein exponents of the two
+/// overlapping pieces of one run.
 #[test]
 fn flag_self_counts() {
     let res = res();
@@ -75,10 +73,8 @@ fn flag_self_counts() {
     assert_eq!(t3, vec![0.162, 0.326]);
 }
 
-/// The best committed model row (RBF 250 r=5e-9 k-means++@3) among the nine whole runs:
-/// its Rosenstein 0.291 sits at the 33rd percentile (z -0.48; runs 0.345 ± 0.112), its D2
-/// 2.91 at the 12.5th (z -0.90 over the eight runs with a D2: 3.52 ± 0.68), its JS 0.0090 at
-/// the 89th (z +0.70: runs 0.0052 ± 0.0054; eight of nine runs lower).
+/// The best committed model row placed among the whole runs: the runs' mean and sd of each
+/// statistic and the row's percentile and z-score in each.
 #[test]
 fn best_row_among_the_runs() {
     let res = res();
@@ -108,7 +104,7 @@ fn best_row_among_the_runs() {
     assert!((pj - 8.0 / 9.0).abs() < 1e-12 && (zj - 0.701).abs() < 0.005, "{pj} {zj}");
 }
 
-/// Every committed flag row's name gives its candidate back: 237 names parse, the best row is
+/// Every committed flag row's name gives its candidate back: every name parses, the best row is
 /// the candidate the live re-run test builds by hand, a multistep name carries its
 /// refinement; a bad name is an error naming it.
 #[test]
@@ -161,14 +157,14 @@ fn pick_rule() {
     let r = rows_against(&rows, &data);
     assert_eq!(r.iter().map(|r| r.passes.iter().filter(|&&p| p).count()).collect::<Vec<_>>(), vec![1, 3, 0, 3]);
     assert!(row_score(&r[1]) < row_score(&r[3]) && row_score(&r[2]).is_infinite());
-    // b: 0.01/0.03 + 0.005/0.015 + 1/0.2 + 0.5 = 6.1667.
+    // b: each target's error over its tolerance, summed, plus the unmet targets' penalty.
     assert!((row_score(&r[1]) - (1.0 / 3.0 + 1.0 / 3.0 + 5.0 + 0.5)).abs() < 1e-9);
     assert_eq!(pick(&r), Some(1));
     assert_eq!(pick(&r[2..3]), None);
 }
 
 /// A live re-run of the experiment-as-model rows and of every run's own statistics on the flag (skipped when the data
-/// are absent; about 2 s): every committed number to its printed precision.
+/// are absent): every committed number to its printed precision.
 #[test]
 fn flag_self_reproduces() {
     let dir = flag_dir();
@@ -213,12 +209,9 @@ fn flag_self_reproduces() {
     assert!(data_stats(&load(1), STEP, &s).is_err());
 }
 
-/// The pick on the validation run traj_3 (committed rows, its own settings: Rosenstein 0.291,
-/// D2 1.93 ± 0.10): 237 rows, 45 failed, Benettin 27, Rosenstein 7, D2 19, JS 92, Benettin
-/// and JS 17, Benettin, D2 and JS one: the pick, RBF 250 r=1e-8 k-means++@11, meets them there (0.300, 1.96, 0.0067; Rosenstein 0.213) and on the test
-/// run traj_8 only JS (Benettin 0.287, -14 %; Rosenstein 0.155; D2 1.64; JS 0.0070). The
-/// test-run pick by the same rule is the best test row (k-means++@3), which reads Rosenstein 0.167 and
-/// D2 1.66 on traj_3 against 0.291 and 2.91 on traj_8.
+/// The pick on the first validation run (committed rows, its own settings): the counts of rows
+/// meeting each target there, the picked row's statistics there and on the test run, and the
+/// test run's own pick read on the validation run.
 #[test]
 fn validation_pick_on_traj3() {
     use crate::flag_pipeline_fit::target_counts;
@@ -243,9 +236,7 @@ fn validation_pick_on_traj3() {
     assert_eq!(tp.candidate, "RBF 250 r=5e-9 d=4 p=9 centres kmeans++@3");
     let best = val.iter().find(|r| r.candidate == "RBF 250 r=5e-9 d=4 p=9 centres kmeans++@3").unwrap();
     assert_eq!((best.rosenstein, best.corr_dim), (Some(0.167), Some(1.66)));
-    // On the second validation run traj_0 (Rosenstein 0.481, D2 3.56 ± 0.23) the pick is
-    // another row, RBF 200 r=3e-9 random@8 (there Benettin 0.495, Rosenstein 0.387, D2 2.94,
-    // JS 0.0081: Benettin and JS), which on traj_8 meets JS only (Benettin 0.495, +49 %).
+    // The second validation run picks another row; its statistics there and on the test run.
     let v0run = res.validation.run(0).unwrap();
     let own = |k: usize| res.experiment.own(k).unwrap().stats();
     assert_eq!((own(0), own(3)), (v0run.data, v3.data));
@@ -262,20 +253,18 @@ fn validation_pick_on_traj3() {
         (t0.benettin, t0.rosenstein, t0.corr_dim, t0.js, t0.passes),
         (Some(0.495), Some(0.244), Some(2.95), Some(0.0064), [false, false, false, true])
     );
-    // The same model's Rosenstein exponent on its own series, started from each run: 0.163
-    // (traj_3), 0.387 (traj_0), 0.244 (traj_8).
+    // The same model's Rosenstein exponent on its own series started from the first validation run.
     let r3 = val.iter().find(|r| r.candidate == v0.candidate).unwrap().rosenstein;
     assert_eq!(r3, Some(0.163));
-    // The ensemble's members: the five best-ranked d = 4 rows.
+    // The ensemble's members: the best-ranked rows, the pick first.
     let m = ensemble_members(v3, 5);
     assert_eq!(m[0], v.candidate);
     assert_eq!(m.len(), 5);
 }
 
-/// The ensemble of the five best validation-ranked models on traj_8 (committed test rows):
-/// Benettin 0.328 ± 0.047 (mean within 2 % of the data's 0.332), Rosenstein 0.198 ± 0.032,
-/// D2 2.14 ± 0.57; the pooled density's JS 0.0037 is below every member's but one
-/// (0.0037-0.0079).
+/// The ensemble of the best validation-ranked models on the test run (committed test rows):
+/// the members' mean and sd of Benettin, Rosenstein and D2, their JS, and the pooled density's
+/// JS at most every member's.
 #[test]
 fn ensemble_statistics() {
     let res = res();
@@ -298,8 +287,8 @@ fn ensemble_statistics() {
     assert!(js.iter().all(|&j| ens.js_pooled <= j));
 }
 
-/// Live re-runs (skipped without the data): the validation pick on traj_3 gives its committed
-/// row, and the five-model ensemble its pooled JS (about 15 s).
+/// Live re-runs (skipped without the data): the validation pick on the first validation run
+/// gives its committed row, and the ensemble its pooled JS.
 #[test]
 fn validation_pick_and_ensemble_reproduce() {
     let dir = flag_dir();

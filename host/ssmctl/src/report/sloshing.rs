@@ -2,6 +2,7 @@
 //! and forced response curve (illustrative calibration), the fit accuracy-vs-time table, and the device blobs exported from fitted RBF models.
 
 use crate::plot::{self, Series};
+use crate::report::prose::Prose;
 use crate::report::{Report, esc, num};
 use plotters::style::RGBColor;
 use serde_json::{Value, json};
@@ -18,18 +19,72 @@ use std::path::Path;
 const BLACK: RGBColor = RGBColor(0, 0, 0);
 const RED: RGBColor = RGBColor(200, 30, 30);
 
+/// The training and test runs of the sloshing data set (file stems under its folder).
+const TRAIN: [&str; 2] = ["decay_0", "decay_1"];
+const TEST: &str = "decay_2";
+
+/// The forced response's illustrative calibration: the amplitude (% of the tank width) at this
+/// multiple of the linear frequency, and the frequency range swept (multiples of it).
+const CAL_AMPLITUDE: f64 = 1.0;
+const CAL_RATIO: f64 = 1.03;
+const SWEEP: (f64, f64) = (0.9, 1.06);
+
+/// The HTML template `tpl` (named `name` in errors) over `values` ([`Prose::html`]).
+fn html(name: &str, tpl: &str, values: &Value) -> Result<String, Box<dyn Error>> {
+    Ok(Prose::new().html(name, tpl, values)?)
+}
+
+/// A number with its sign (`{:+.n}`), for the templates below.
+const SIGNED: &str = "{% macro signed(x, n) %}{% if x >= 0 %}+{% endif %}{{ x | fixed(n) }}{% endmacro %}";
+
+/// The section's introduction over the data set's runs and the model's dimension.
+const INTRO: &str = "A {{ dim }}D SSM in a delay embedding of the centre-of-mass signal (SSMLearn's sloshing example \
+    data, read from <code>{{ folder }}</code>): trained on {{ train | join(' and ') }}, tested on {{ test }}. NMTE as \
+    SSMLearn defines it (mean error norm over the max norm of the truth), on the observable; DTW-NMTE after dynamic \
+    time warping.";
+
+/// The fit's settings and accuracy.
+const FIT: &str = "Recommended settings (p = {{ fit.embed }}, shift {{ fit.shift }}, manifold order \
+    {{ fit.manifold_order }}, polynomial map order {{ fit.dyn_order }}): fit {{ fit_ms | fixed(2) }} ms (best of \
+    {{ reps }}), test NMTE {{ nmte | fixed(4) }}, DTW-NMTE {{ dtw | fixed(4) }}; eigenvalues {% for e in eigenvalues \
+    %}{{ signed(e.re, 4) }} {{ signed(e.im, 4) }}i{% if not loop.last %}, {% endif %}{% endfor %}.";
+
+/// The exported sloshing model.
+const EXPORT: &str = "Exported the {% if centres is not none %}{{ centres }}-centre {% endif %}RBF model as \
+    <code>{{ file }}</code> ({{ bytes }} bytes).";
+
+/// The exported Furuta model.
+const FURUTA_EXPORT: &str = "Exported a {{ dim }}D SSM with a {{ centres }}-centre RBF map fitted to the theta \
+    series of {{ scene }}, together with that scene's quantized controller configuration, as <code>{{ file }}</code> \
+    ({{ bytes }} bytes): the blob the firmware runs.";
+
+/// The backbone curve's ends.
+const BACKBONE: &str = "Backbone curve of this model (normal form of the map, <code>ssm::backbone</code>): \
+    instantaneous damping ratio -Re&lambda;/|&lambda;| and frequency against the amplitude of x, the max over a period \
+    of x on the manifold above the normal-form amplitude. From amplitude {{ first.amplitude | num }} to \
+    {{ last.amplitude | num }} % (the largest |x| of the training data) the frequency goes from \
+    {{ first.freq_hz | num }} to {{ last.freq_hz | num }} Hz and the damping ratio from {{ first.damping_pct | num }} to \
+    {{ last.damping_pct | num }} %.";
+
+/// The forced response's calibration and peak.
+const FRC: &str = "Forced response curve of this model (<code>ssm::frc</code>, SSMLearn's calibrateFRC approach): \
+    harmonic forcing added to the polar normal form, steady states and their stability in closed form, amplitudes of x \
+    through the normal-form transformation and the manifold. The calibration point is illustrative (the data hold no \
+    forced measurement): amplitude {{ amplitude | num }} % at {{ freq_rad_s | num }} rad/s ({{ ratio | num }} times the \
+    linear frequency), giving the normal-form forcing {{ forcing | num }}. Largest stable amplitude \
+    {{ peak_amplitude | num }} % at {{ peak_freq_rad_s | num }} rad/s; {{ unstable }} unstable branch(es) (dashed).";
+
 /// The sloshing section; skipped with a note when the data folder is absent.
 pub fn sloshing_section(rep: &mut Report, data_dir: &Path, quick: bool) -> Result<(), Box<dyn Error>> {
+    let dir = data_dir.join("sloshing");
+    let fo = crate::bench::sloshing_fit_options();
+    let setup = json!({ "dim": fo.dim, "folder": dir.display().to_string(), "train": TRAIN, "test": TEST });
     rep.section(
         "fit-sloshing",
         "SSM fit of measured data: water sloshing decay",
-        "A 2D SSM in a delay embedding of the centre-of-mass signal (SSMLearn's sloshing example data, read from \
-         <code>../shared/data/sloshing</code>): trained on decay_0 and decay_1, tested on decay_2. NMTE as SSMLearn \
-         defines it (mean error norm over the max norm of the truth), on the observable; DTW-NMTE after dynamic time \
-         warping. The Python reference implementation reaches test NMTE 0.012.",
+        &html("fit-sloshing/intro", INTRO, &setup)?,
     );
-    let dir = data_dir.join("sloshing");
-    let files = ["decay_0.csv", "decay_1.csv", "decay_2.csv"].map(|f| dir.join(f));
+    let files = [TRAIN[0], TRAIN[1], TEST].map(|f| dir.join(format!("{f}.csv")));
     if !files.iter().all(|f| f.is_file()) {
         rep.para(&format!("Skipped: data folder {} not found.", esc(&dir.display().to_string())));
         rep.summary.insert("fit_sloshing".into(), json!({"skipped": format!("{} not found", dir.display())}));
@@ -40,23 +95,20 @@ pub fn sloshing_section(rep: &mut Report, data_dir: &Path, quick: bool) -> Resul
     let series: Vec<TimeSeries> = files.iter().map(load_csv).collect::<Result<_, _>>()?;
     let (train, test) = (&series[..2], &series[2]);
     let reps = if quick { 2 } else { 10 };
-    let (secs, m) = crate::bench::timed_fit(train, &crate::bench::sloshing_fit_options(), reps)?;
+    let (secs, m) = crate::bench::timed_fit(train, &fo, reps)?;
     let pred = m.predict(test)?;
     let (nmte, dtw) = (pred.nmte(test), pred.nmte_dtw(test, None));
     let eig: Vec<Value> = m.eigenvalues_ct().iter().map(|&(re, im)| json!({"re": re, "im": im})).collect();
-    rep.para(&format!(
-        "Recommended settings (p = 5, shift 1, manifold order 3, polynomial map order 5): fit {:.2} ms (best of {reps}), \
-         test NMTE {:.4}, DTW-NMTE {:.4}; eigenvalues {}.",
-        s_to_ms(secs),
-        nmte,
-        dtw,
-        m.eigenvalues_ct().iter().map(|(a, b)| format!("{a:+.4} {b:+.4}i")).collect::<Vec<_>>().join(", ")
-    ));
+    let v = json!({
+        "fit": { "embed": fo.embed, "shift": fo.shift, "manifold_order": fo.manifold_order, "dyn_order": fo.dyn_order },
+        "fit_ms": s_to_ms(secs), "reps": reps, "nmte": nmte, "dtw": dtw, "eigenvalues": eig,
+    });
+    rep.para(&html("fit-sloshing/fit", &format!("{SIGNED}{FIT}"), &v)?);
     let tp: Vec<(f64, f64)> = test.t.iter().copied().zip(test.x.iter().copied()).collect();
     let pp: Vec<(f64, f64)> = pred.t.iter().copied().zip(pred.x.iter().copied()).collect();
     plot::lines(
         &rep.dir().join("fig/sloshing_prediction.png"),
-        "sloshing decay_2: measured vs SSM prediction",
+        &format!("sloshing {TEST}: measured vs SSM prediction"),
         "t [s]",
         "x [% tank width]",
         &[
@@ -82,7 +134,7 @@ pub fn sloshing_section(rep: &mut Report, data_dir: &Path, quick: bool) -> Resul
     )?;
     rep.figure(
         "fig/sloshing_prediction.png",
-        "Test trajectory decay_2 and the model's prediction from its first point",
+        &format!("Test trajectory {TEST} and the model's prediction from its first point"),
     );
     rep.figure("fig/sloshing_spectrum.png", "FFT amplitude spectra of the test trajectory and the prediction");
     backbone_paragraph(rep, &m, train)?;
@@ -113,10 +165,12 @@ pub fn sloshing_section(rep: &mut Report, data_dir: &Path, quick: bool) -> Resul
     if let Some(m) = rbf50 {
         let blob = encode(&to_device_model(&m, shared::ControllerConfig::paper(m.dt))?)?;
         crate::output::write_atomic(&rep.dir().join("sloshing-rbf50.bin"), &blob)?;
-        rep.para(&format!(
-            "Exported the 50-centre RBF model as <code>sloshing-rbf50.bin</code> ({} bytes).",
-            blob.len()
-        ));
+        let centres = match m.options.dynamics {
+            Dynamics::Rbf { centers } => Some(centers),
+            _ => None,
+        };
+        let v = json!({ "centres": centres, "bytes": blob.len(), "file": "sloshing-rbf50.bin" });
+        rep.para(&html("fit-sloshing/export", EXPORT, &v)?);
     }
     rep.summary.insert(
         "fit_sloshing".into(),
@@ -143,17 +197,12 @@ fn backbone_paragraph(rep: &mut Report, m: &ssm::SsmModel, train: &[TimeSeries])
     )?;
     let pts = &curves[0].points;
     let (first, last) = (pts[0], pts[pts.len() - 1]);
-    rep.para(&format!(
-        "Backbone curve of this model (normal form of the map, <code>ssm::backbone</code>): instantaneous damping ratio \
-         -Re&lambda;/|&lambda;| and frequency against the amplitude of x, the max over a period of x on the manifold \
-         above the normal-form amplitude. From amplitude 0 to {} % (the largest |x| of the training data) the frequency \
-         goes from {} to {} Hz and the damping ratio from {} to {} %.",
-        num(last.amplitude),
-        num(first.freq_rad_s / std::f64::consts::TAU),
-        num(last.freq_rad_s / std::f64::consts::TAU),
-        num(100.0 * first.damping_ratio),
-        num(100.0 * last.damping_ratio)
-    ));
+    let end = |p: &ssm::backbone::BackbonePoint| {
+        json!({ "amplitude": p.amplitude, "freq_hz": p.freq_rad_s / std::f64::consts::TAU,
+                "damping_pct": 100.0 * p.damping_ratio })
+    };
+    let v = json!({ "first": end(&first), "last": end(&last) });
+    rep.para(&html("fit-sloshing/backbone", BACKBONE, &v)?);
     rep.figure(fig, "Backbone curve of the sloshing model: amplitude of x against damping ratio and against frequency");
     let list: Vec<Value> = pts
         .iter()
@@ -173,9 +222,9 @@ fn frc_paragraph(rep: &mut Report, m: &ssm::SsmModel, train: &[TimeSeries]) -> R
     use ssm::frc::{Calibration, FrcOptions, frc};
     let amp_max = train.iter().flat_map(|t| t.x.iter()).fold(0.0_f64, |a, v| a.max(v.abs()));
     let w0 = m.eigenvalues_ct().first().map_or(0.0, |e| e.1.abs());
-    let cal = Calibration { freq_rad_s: 1.03 * w0, amplitude: 1.0 };
+    let cal = Calibration { freq_rad_s: CAL_RATIO * w0, amplitude: CAL_AMPLITUDE };
     let opts = FrcOptions { amplitude_max: Some(amp_max), ..FrcOptions::new(0) };
-    let curve = frc(m, &opts, cal, 0.9 * w0, 1.06 * w0, 200)?;
+    let curve = frc(m, &opts, cal, SWEEP.0 * w0, SWEEP.1 * w0, 200)?;
     let bb = backbone(m, &BackboneOptions { points: 51, ..BackboneOptions::new(0, amp_max) })?;
     let fig = "fig/sloshing_frc.png";
     crate::draw::frc::frc_figure(
@@ -194,20 +243,11 @@ fn frc_paragraph(rep: &mut Report, m: &ssm::SsmModel, train: &[TimeSeries]) -> R
         }
     }
     let unstable = curve.branches.iter().filter(|b| !b.stable).count();
-    rep.para(&format!(
-        "Forced response curve of this model (<code>ssm::frc</code>, SSMLearn's calibrateFRC approach): harmonic forcing \
-         added to the polar normal form, steady states and their stability in closed form, amplitudes of x through the \
-         normal-form transformation and the manifold. The calibration point is illustrative (the data hold no forced \
-         measurement): amplitude {} % at {} rad/s ({} times the linear frequency), giving the normal-form forcing {}. \
-         Largest stable amplitude {} % at {} rad/s; {} unstable branch(es) (dashed).",
-        num(cal.amplitude),
-        num(cal.freq_rad_s),
-        num(1.03),
-        num(curve.calibration.forcing),
-        num(peak_a),
-        num(peak_f),
-        unstable
-    ));
+    let v = json!({
+        "amplitude": cal.amplitude, "freq_rad_s": cal.freq_rad_s, "ratio": CAL_RATIO,
+        "forcing": curve.calibration.forcing, "peak_amplitude": peak_a, "peak_freq_rad_s": peak_f, "unstable": unstable,
+    });
+    rep.para(&html("fit-sloshing/frc", FRC, &v)?);
     rep.figure(fig, "Forced response of the sloshing model (illustrative calibration point): stable solid, unstable dashed, backbone grey");
     let mut v = crate::fit_command::frc_json(&curve, "x")?;
     v["calibration_illustrative"] = json!(true);
@@ -215,9 +255,13 @@ fn frc_paragraph(rep: &mut Report, m: &ssm::SsmModel, train: &[TimeSeries]) -> R
     Ok(())
 }
 
+/// The scene of the exported Furuta model and its blob's file name.
+const FURUTA_SCENE: &str = "furuta-quant-dt25";
+const FURUTA_BLOB: &str = "furuta-quant-dt25-rbf100.bin";
+
 /// Fits an RBF model to a simulated Furuta theta series and writes its device blob.
 pub fn furuta_blob(rep: &mut Report, quick: bool) -> Result<(), Box<dyn Error>> {
-    let s = SceneBuilder::load("furuta-quant-dt25")?.periods(if quick { 1500 } else { 4000 }).build()?;
+    let s = SceneBuilder::load(FURUTA_SCENE)?.periods(if quick { 1500 } else { 4000 }).build()?;
     let tr = simulate(&s, None)?;
     let ts = TimeSeries::new("theta", tr.t.clone(), tr.primary())?;
     let o = FitOptions {
@@ -233,14 +277,15 @@ pub fn furuta_blob(rep: &mut Report, quick: bool) -> Result<(), Box<dyn Error>> 
     };
     let m = fit(std::slice::from_ref(&ts), &o)?;
     let blob = encode(&to_device_model(&m, s.controller_config())?)?;
-    crate::output::write_atomic(&rep.dir().join("furuta-quant-dt25-rbf100.bin"), &blob)?;
-    rep.para(&format!(
-        "Exported a 4D SSM with a 100-centre RBF map fitted to the theta series of furuta-quant-dt25, together with that \
-         scene's quantized controller configuration, as <code>furuta-quant-dt25-rbf100.bin</code> ({} bytes): the blob \
-         the firmware runs.",
-        blob.len()
-    ));
-    rep.summary.insert("exported_blobs".into(), json!(["sloshing-rbf50.bin", "furuta-quant-dt25-rbf100.bin"]));
+    crate::output::write_atomic(&rep.dir().join(FURUTA_BLOB), &blob)?;
+    let centres = match o.dynamics {
+        Dynamics::Rbf { centers } => centers,
+        _ => 0,
+    };
+    let v =
+        json!({ "dim": o.dim, "centres": centres, "scene": FURUTA_SCENE, "file": FURUTA_BLOB, "bytes": blob.len() });
+    rep.para(&html("furuta-blob", FURUTA_EXPORT, &v)?);
+    rep.summary.insert("exported_blobs".into(), json!(["sloshing-rbf50.bin", FURUTA_BLOB]));
     Ok(())
 }
 
@@ -337,8 +382,8 @@ pub fn device_section(rep: &mut Report, table: &Path) -> Result<(), Box<dyn Erro
     if !scalar_rows.is_empty() {
         rep.para(
             "f32 or f64: the Cortex-M4F's FPU is single precision only, so f64 arithmetic runs in software \
-             (compiler-builtins' double routines, <code>libm::sqrt</code>). The same RBF step (d = 6, the library's \
-             operation order, generic scalar) counted both ways; the error is that of <code>predict(12)</code> against \
+             (compiler-builtins' double routines, <code>libm::sqrt</code>). The same RBF step (the library's \
+             operation order, generic scalar, the dimension of the figure below) counted both ways; the error is that of <code>predict(12)</code> against \
              the host's f64 evaluation of the same model.",
         );
         rep.table(
@@ -447,6 +492,49 @@ fn pil_paragraph(rep: &mut Report, path: &Path) -> Result<(), Box<dyn Error>> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::report::chaos::assert_numbers_follow;
+
+    /// Every number of the section's paragraphs comes from its values: with all of them
+    /// moved, every number moves (numbers inside names aside), and one value changed shows
+    /// on the page.
+    #[test]
+    fn paragraphs_follow_their_values() {
+        let fo = crate::bench::sloshing_fit_options();
+        let intro = json!({ "dim": fo.dim, "folder": "../shared/data/sloshing", "train": TRAIN, "test": TEST });
+        let a = assert_numbers_follow("fit-sloshing/intro", INTRO, &intro);
+        assert!(a.contains("A 2D SSM") && a.contains("trained on decay_0 and decay_1, tested on decay_2"), "{a}");
+        let fit = json!({
+            "fit": { "embed": fo.embed, "shift": fo.shift, "manifold_order": fo.manifold_order, "dyn_order": fo.dyn_order },
+            "fit_ms": 12.345, "reps": 2, "nmte": 0.01234, "dtw": 0.00567,
+            "eigenvalues": [{ "re": -0.06, "im": 7.8 }, { "re": -0.06, "im": -7.8 }],
+        });
+        let t = format!("{SIGNED}{FIT}");
+        let a = assert_numbers_follow("fit-sloshing/fit", &t, &fit);
+        assert!(a.contains("(p = 5, shift 1, manifold order 3, polynomial map order 5)"), "{a}");
+        assert!(a.contains("eigenvalues -0.0600 +7.8000i, -0.0600 -7.8000i."), "{a}");
+        let mut one = fit.clone();
+        one["nmte"] = json!(0.0421);
+        let b = html("fit-sloshing/fit", &t, &one).unwrap();
+        assert!(b.contains("test NMTE 0.0421,") && !b.contains("0.0123"), "{b}");
+        let bb = json!({
+            "first": { "amplitude": 0.0, "freq_hz": 1.2428, "damping_pct": 0.77 },
+            "last": { "amplitude": 12.5, "freq_hz": 1.19, "damping_pct": 1.4 },
+        });
+        let a = assert_numbers_follow("fit-sloshing/backbone", BACKBONE, &bb);
+        assert!(a.contains("From amplitude 0 to 12.5 %"), "{a}");
+        let frc = json!({
+            "amplitude": CAL_AMPLITUDE, "freq_rad_s": 8.05, "ratio": CAL_RATIO, "forcing": 0.0123,
+            "peak_amplitude": 3.4, "peak_freq_rad_s": 7.9, "unstable": 1,
+        });
+        let a = assert_numbers_follow("fit-sloshing/frc", FRC, &frc);
+        assert!(a.contains("amplitude 1 % at 8.05 rad/s (1.03 times the linear frequency)"), "{a}");
+        let export = json!({ "centres": 50, "bytes": 4321, "file": "sloshing-rbf50.bin" });
+        let a = assert_numbers_follow("fit-sloshing/export", EXPORT, &export);
+        assert!(a.contains("the 50-centre RBF model as <code>sloshing-rbf50.bin</code> (4321 bytes)"), "{a}");
+        let blob = json!({ "dim": 4, "centres": 100, "scene": FURUTA_SCENE, "file": FURUTA_BLOB, "bytes": 9876 });
+        let a = assert_numbers_follow("furuta-blob", FURUTA_EXPORT, &blob);
+        assert!(a.contains("a 100-centre RBF map") && a.contains("(9876 bytes)"), "{a}");
+    }
 
     /// The f32-vs-f64 rows of the device table JSON are rendered as a table.
     #[test]
