@@ -154,11 +154,10 @@ pub struct Tape {
 pub enum TapeError {
     #[error("the expressions need more than {0} registers")]
     TooManyRegisters(usize),
-    #[error(
-        "the compiled tape names register {reg} of {n_regs} or does not end with its one `End` (an error of \
-         the tape compiler)"
-    )]
-    RegisterOutOfRange { reg: usize, n_regs: usize },
+    /// A compiled tape that breaks the invariants its evaluation relies on (an error of
+    /// the tape compiler, never of the expressions).
+    #[error("the compiled tape is malformed: {0}")]
+    Malformed(String),
 }
 
 /// Largest register count of a tape.
@@ -313,7 +312,7 @@ impl Tape {
         let bad = |r: u16| usize::from(r) >= n_regs;
         let ends = self.instrs.iter().filter(|i| i.op == Op::End).count();
         if ends != 1 || self.instrs.last().map(|i| i.op) != Some(Op::End) {
-            return Err(TapeError::RegisterOutOfRange { reg: 0, n_regs });
+            return Err(TapeError::Malformed(format!("{ends} `End` instructions, and not exactly one at the end")));
         }
         let mut regs: Vec<u16> = Vec::new();
         for ins in self.instrs() {
@@ -322,14 +321,14 @@ impl Tape {
             regs.push(ins.dst);
             regs.push(ins.dst2);
             if let Some(&r) = regs.iter().find(|&&r| bad(r)) {
-                return Err(TapeError::RegisterOutOfRange { reg: usize::from(r), n_regs });
+                return Err(TapeError::Malformed(format!("{ins:?} names register {r} of {n_regs}")));
             }
         }
         if let Some(r) = self.consts.iter().map(|&(r, _)| r).chain(self.outputs.iter().copied()).find(|&r| bad(r)) {
-            return Err(TapeError::RegisterOutOfRange { reg: usize::from(r), n_regs });
+            return Err(TapeError::Malformed(format!("a constant or an output in register {r} of {n_regs}")));
         }
         if self.n_inputs > n_regs {
-            return Err(TapeError::RegisterOutOfRange { reg: self.n_inputs - 1, n_regs });
+            return Err(TapeError::Malformed(format!("{} inputs in {n_regs} registers", self.n_inputs)));
         }
         Ok(self)
     }
@@ -388,8 +387,10 @@ impl Tape {
         for (r, x) in regs.0.iter_mut().zip(inputs) {
             *r = *x;
         }
-        for r in regs.0.iter_mut().take(self.n_inputs).skip(inputs.len()) {
-            *r = S::cst(f64::NAN);
+        if inputs.len() < self.n_inputs {
+            for r in regs.0.iter_mut().take(self.n_inputs).skip(inputs.len()) {
+                *r = S::cst(f64::NAN);
+            }
         }
         self.run(&mut regs);
         f(&Evaluated { regs: &regs.0, outputs: &self.outputs })
@@ -401,13 +402,11 @@ impl Tape {
         for &(r, c) in &self.consts {
             regs.put(r, S::cst(c));
         }
-        let mut k = 0;
+        let mut next = self.instrs.iter();
         loop {
-            debug_assert!(k < self.instrs.len());
             // SAFETY: the last instruction is the only `End` (`Tape::validate`; the fields are
-            // private), and the loop stops there, so `k` never passes it.
-            let ins = unsafe { self.instrs.get_unchecked(k) };
-            k += 1;
+            // private), and the loop stops there, so the iterator never runs out.
+            let ins = unsafe { next.next().unwrap_unchecked() };
             let value = match ins.op {
                 Op::End => break,
                 Op::Add(a, b) => regs.with2(a, b, |x, y| x.add_ref(y)),
