@@ -11,8 +11,9 @@
 //! cargo run --release -p lab --example plant_forms -- [--write] [--quick]
 //! target/release/examples/plant_forms count FORM WHAT N   # what valgrind runs
 //! ```
-//! FORM is `built-in` or `equations`; WHAT is `rhs`, `jacobian` (N evaluations) or `exprb`,
-//! `rk4` (N sampling periods of the bench problem).
+//! FORM is `built-in` or `equations`; WHAT is `rhs`, `jacobian`, `dual-jacobian` (the
+//! dual-number Jacobian whatever the plant's own; N evaluations) or `exprb`, `rk4` (N
+//! sampling periods of the bench problem).
 
 use serde::Serialize;
 use sim::closed_loop::{AnyPlant, build_plant, simulate};
