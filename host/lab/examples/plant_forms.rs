@@ -11,8 +11,9 @@
 //! cargo run --release -p lab --example plant_forms -- [--write] [--quick]
 //! target/release/examples/plant_forms count FORM WHAT N   # what valgrind runs
 //! ```
-//! FORM is `built-in` or `equations`; WHAT is `rhs`, `jacobian` (N evaluations) or `exprb`,
-//! `rk4` (N sampling periods of the bench problem).
+//! FORM is `built-in` or `equations`; WHAT is `rhs`, `jacobian`, `dual-jacobian` (the
+//! dual-number Jacobian whatever the plant's own; N evaluations) or `exprb`, `rk4` (N
+//! sampling periods of the bench problem).
 
 use serde::Serialize;
 use sim::closed_loop::{AnyPlant, build_plant, simulate};
@@ -44,6 +45,13 @@ fn evaluate<P: Plant<4>>(p: &P, what: &str, n: u64) -> Res<()> {
             }
             "jacobian" => {
                 std::hint::black_box(p.exact_jacobian(std::hint::black_box(&X), std::hint::black_box(U)));
+            }
+            "dual-jacobian" => {
+                std::hint::black_box(sim::plant::linearize::dual_jacobian(
+                    p,
+                    std::hint::black_box(&X),
+                    std::hint::black_box(U),
+                ));
             }
             _ => return Err(format!("unknown count `{what}`").into()),
         }
@@ -181,9 +189,15 @@ fn markdown(r: &Report) -> Res<String> {
         "Written by `{}` ({}); do not edit. The bench problem of `ssmctl bench simulate` \
          (furuta-dt30.8, 200 periods from theta0 = 0.05 rad) with the plant built in and \
          written as equations. Instructions are exact counts (valgrind, release build; the \
-         difference of two run lengths); CPU time is the fastest of the bench's timed runs \
-         on a machine shared with other jobs, so its ratios move between runs.\n",
-        r.produced_by, r.valgrind
+         difference of two run lengths). CPU time: {} rounds, each one run of either form \
+         back to back (thread CPU time), on a machine shared with other jobs (load average \
+         {} before, {} after); the CPU ratio is the median of the rounds' ratios (their range \
+         in brackets), the CPU time per period the median of the rounds.\n",
+        r.produced_by,
+        r.valgrind,
+        r.bench.rows.first().map_or(0, |row| row.rounds),
+        r.bench.load_average[0].map_or("-".into(), |l| format!("{l:.2}")),
+        r.bench.load_average[1].map_or("-".into(), |l| format!("{l:.2}")),
     )?;
     writeln!(md, "| plant | instructions / rhs | instructions / Jacobian | tape (value; Jacobian) |")?;
     writeln!(md, "|---|---|---|---|")?;
@@ -224,11 +238,16 @@ fn markdown(r: &Report) -> Res<String> {
         };
         writeln!(
             md,
-            "| {} | {} | {ins} | {ins_ratio} | {:.2} | {:.2} | {:.2e} |",
+            "| {} | {} | {ins} | {ins_ratio} | {:.2} | {:.2}{} | {:.2e} |",
             row.plant,
             row.integrator,
             1e6 * row.cpu_s_per_period,
             row.cpu_ratio_vs_builtin,
+            if row.plant == "built-in" {
+                String::new()
+            } else {
+                format!(" [{:.2}, {:.2}]", row.cpu_ratio_range[0], row.cpu_ratio_range[1])
+            },
             row.max_err_rad
         )?;
     }

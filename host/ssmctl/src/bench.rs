@@ -173,11 +173,16 @@ pub struct PlantFormRow {
     /// `built-in` or `equations`.
     pub plant: String,
     pub integrator: String,
-    /// Thread CPU time per sampling period, s (the fastest of the timed runs).
+    /// Thread CPU time per sampling period, s (the median over the interleaved rounds).
     pub cpu_s_per_period: f64,
-    /// This row's CPU time per period over the built-in plant's with the same integrator,
-    /// same run.
+    /// This row's CPU time per period over the built-in plant's with the same integrator:
+    /// the median of the ratios of the rounds, each round one run of either form back to
+    /// back, so a change of load hits both sides of a ratio alike.
     pub cpu_ratio_vs_builtin: f64,
+    /// The smallest and largest ratio of the rounds.
+    pub cpu_ratio_range: [f64; 2],
+    /// Interleaved rounds timed.
+    pub rounds: usize,
     /// Max |theta| error against the tight reference (the built-in plant, rodas4 rtol=1e-13).
     pub max_err_rad: f64,
     /// Right-hand side evaluations per period (f64, plus dual-number Jacobians).
@@ -198,6 +203,9 @@ pub struct PlantForms {
     pub rows: Vec<PlantFormRow>,
     /// `perf_event_open` instruction counts, or why there are none.
     pub counters: String,
+    /// The machine's 1-minute load average before and after the timed rounds (`/proc/loadavg`;
+    /// `None` where it cannot be read): the CPU ratios were measured under this load.
+    pub load_average: [Option<f64>; 2],
 }
 
 /// The integrators of the plant-form table: method, rtol (atol = rtol / 100), steps.
@@ -235,20 +243,41 @@ fn thread_cpu_s() -> f64 {
     ts.tv_sec as f64 + 1e-9 * ts.tv_nsec as f64
 }
 
-/// Fastest thread-CPU time of one run over a window of `min_seconds` (at least 3 runs).
-fn cpu_time(scene: &Scene, min_seconds: f64) -> Result<(f64, Trajectory), SimError> {
-    let mut best = f64::INFINITY;
-    let mut runs = 0;
+/// Thread CPU time of one run of each scene, back to back, repeated for at least
+/// `min_seconds` (at least 5 rounds): the per-round CPU times of each scene, and each
+/// scene's last trajectory.
+fn cpu_rounds(scenes: &[&Scene], min_seconds: f64) -> Result<(Vec<Vec<f64>>, Vec<Trajectory>), SimError> {
+    let mut times = vec![Vec::new(); scenes.len()];
+    let mut last = Vec::new();
     let start = Instant::now();
-    let mut last = None;
-    while runs < 3 || start.elapsed().as_secs_f64() < min_seconds {
-        let c0 = thread_cpu_s();
-        let tr = simulate(scene, None)?;
-        best = best.min(thread_cpu_s() - c0);
-        last = Some(tr);
-        runs += 1;
+    let mut rounds = 0;
+    while rounds < 5 || start.elapsed().as_secs_f64() < min_seconds {
+        last.clear();
+        for (s, t) in scenes.iter().zip(times.iter_mut()) {
+            let c0 = thread_cpu_s();
+            let tr = simulate(s, None)?;
+            t.push(thread_cpu_s() - c0);
+            last.push(tr);
+        }
+        rounds += 1;
     }
-    Ok((best, last.ok_or_else(|| SimError::Controller { scene: scene.name.clone(), message: "no run".into() })?))
+    Ok((times, last))
+}
+
+/// The median of `v` (NaN when empty).
+fn median(v: &[f64]) -> f64 {
+    let mut s = v.to_vec();
+    s.sort_by(f64::total_cmp);
+    match s.len() {
+        0 => f64::NAN,
+        n if n % 2 == 1 => s[n / 2],
+        n => 0.5 * (s[n / 2 - 1] + s[n / 2]),
+    }
+}
+
+/// The 1-minute load average (`/proc/loadavg`), if readable.
+fn load_average() -> Option<f64> {
+    std::fs::read_to_string("/proc/loadavg").ok()?.split_whitespace().next()?.parse().ok()
 }
 
 /// ns per `f64` rhs evaluation (fastest of 5 loops of `iters`) and, when the hardware
@@ -303,24 +332,31 @@ pub fn bench_plant_forms(periods: u64, quick: bool, mut progress: impl FnMut(&st
         costs.push((ns, ins, tape));
     }
     let mut rows = Vec::new();
+    let load_before = load_average();
     for (method, rtol, steps) in PLANT_FORM_INTEGRATORS {
-        let mut base_cpu = f64::NAN;
-        for ((name, s), &(ns, ins, tape)) in [("built-in", &builtin), ("equations", &equations)].iter().zip(&costs) {
-            let c = with(s, method, rtol, steps);
-            let integrator = label(&c);
-            progress(&format!("plant forms: {name} {integrator}"));
-            let (cpu, tr) = cpu_time(&c, window)?;
+        let configs = [with(&builtin, method, rtol, steps), with(&equations, method, rtol, steps)];
+        let integrator = label(&configs[0]);
+        progress(&format!("plant forms: {integrator}, both forms interleaved"));
+        // Twice the single window: the rounds hold two runs each.
+        let (times, trs) = cpu_rounds(&[&configs[0], &configs[1]], 2.0 * window)?;
+        let ratios: Vec<f64> = times[1].iter().zip(&times[0]).map(|(e, b)| e / b).collect();
+        for (k, ((name, tr), &(ns, ins, tape))) in ["built-in", "equations"].iter().zip(&trs).zip(&costs).enumerate() {
             let n = (tr.rows() - 1) as f64;
-            let per = cpu / n;
-            if *name == "built-in" {
-                base_cpu = per;
-            }
+            let (ratio, range) = if k == 0 {
+                (1.0, [1.0, 1.0])
+            } else {
+                let lo = ratios.iter().copied().fold(f64::INFINITY, f64::min);
+                let hi = ratios.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+                (median(&ratios), [lo, hi])
+            };
             rows.push(PlantFormRow {
                 plant: name.to_string(),
-                integrator,
-                cpu_s_per_period: per,
-                cpu_ratio_vs_builtin: per / base_cpu,
-                max_err_rad: max_err(&tr, &reference),
+                integrator: integrator.clone(),
+                cpu_s_per_period: median(&times[k]) / n,
+                cpu_ratio_vs_builtin: ratio,
+                cpu_ratio_range: range,
+                rounds: ratios.len(),
+                max_err_rad: max_err(tr, &reference),
                 rhs_per_period: tr.ode_stats.rhs_evals as f64 / n,
                 jac_per_period: tr.ode_stats.jac_evals as f64 / n,
                 ns_per_rhs: ns,
@@ -329,7 +365,8 @@ pub fn bench_plant_forms(periods: u64, quick: bool, mut progress: impl FnMut(&st
             });
         }
     }
-    Ok(PlantForms { rows, counters })
+    let load_average = [load_before, load_average()];
+    Ok(PlantForms { rows, counters, load_average })
 }
 
 // ------------------------------------------------------------------------ fitting cost

@@ -1371,6 +1371,13 @@ fn run_command(cli: Cli) -> Result<(), Box<dyn std::error::Error>> {
                 }
                 outln!();
                 outln!("plant forms (the same scene, built-in Furuta vs furuta-equations); {}", forms.counters);
+                let load = |l: Option<f64>| l.map_or("-".to_string(), |v| format!("{v:.2}"));
+                outln!(
+                    "CPU ratios: median of {} interleaved rounds; load average {} before, {} after",
+                    forms.rows.first().map_or(0, |r| r.rounds),
+                    load(forms.load_average[0]),
+                    load(forms.load_average[1])
+                );
                 outln!(
                     "{:<10} {:<26} {:>12} {:>10} {:>12} {:>10} {:>9} {:>10} {:>6}",
                     "plant",

@@ -78,6 +78,49 @@ pub enum Op {
     DotMCSub(u16, u16, u16, f64),
     /// `a*k - c*d`.
     DotCMSub(u16, f64, u16, u16),
+    /// The end of the tape: its last instruction, and only there (the evaluation loop
+    /// stops on it instead of testing for the end at every instruction).
+    End,
+}
+
+impl Op {
+    /// The registers the operation reads, appended to `out`.
+    fn registers(&self, out: &mut Vec<u16>) {
+        match *self {
+            Op::Neg(a)
+            | Op::AddC(a, _)
+            | Op::SubC(a, _)
+            | Op::RSubC(_, a)
+            | Op::MulC(a, _)
+            | Op::DivC(a, _)
+            | Op::RDivC(_, a)
+            | Op::PowI(a, _)
+            | Op::PowC(a, _)
+            | Op::Fn1(_, a)
+            | Op::SinCos(a)
+            | Op::MulCAddC(a, _, _) => out.push(a),
+            Op::Add(a, b)
+            | Op::Sub(a, b)
+            | Op::Mul(a, b)
+            | Op::Div(a, b)
+            | Op::Atan2(a, b)
+            | Op::MulCAdd(a, _, b)
+            | Op::MulCSub(a, _, b)
+            | Op::SubMulC(a, b, _)
+            | Op::MulCMul(a, _, b)
+            | Op::DotCAdd(a, _, b, _)
+            | Op::DotCSub(a, _, b, _) => out.extend([a, b]),
+            Op::MulAdd(a, b, c)
+            | Op::MulSub(a, b, c)
+            | Op::SubMul(a, b, c)
+            | Op::MulMul(a, b, c)
+            | Op::DotMCAdd(a, b, c, _)
+            | Op::DotMCSub(a, b, c, _)
+            | Op::DotCMSub(a, _, b, c) => out.extend([a, b, c]),
+            Op::Sel(a, b, c, d) | Op::DotAdd(a, b, c, d) | Op::DotSub(a, b, c, d) => out.extend([a, b, c, d]),
+            Op::End => {}
+        }
+    }
 }
 
 /// An instruction: an operation and its destination register(s).
@@ -89,19 +132,21 @@ pub struct Instr {
     pub dst2: u16,
 }
 
-/// Compiled expressions.
+/// Compiled expressions. The fields are private and set once by [`Tape::compile`], which
+/// checks that every register index they hold is below `n_regs`: the evaluation on a stack
+/// array of at least `n_regs` registers relies on it to read and write without bounds checks.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Tape {
     /// Constants some operation reads from a register (an operand of a two-register
     /// operation, or an output): loaded into their registers before the instructions run.
-    pub consts: Vec<(u16, f64)>,
-    pub instrs: Vec<Instr>,
+    consts: Vec<(u16, f64)>,
+    instrs: Vec<Instr>,
     /// Registers the evaluation needs, the inputs' included.
-    pub n_regs: usize,
+    n_regs: usize,
     /// Number of inputs (variables): registers `0..n_inputs` hold them.
-    pub n_inputs: usize,
+    n_inputs: usize,
     /// The register holding each output, in the order the roots were given.
-    pub outputs: Vec<u16>,
+    outputs: Vec<u16>,
 }
 
 /// Why a tape could not be built.
@@ -109,6 +154,10 @@ pub struct Tape {
 pub enum TapeError {
     #[error("the expressions need more than {0} registers")]
     TooManyRegisters(usize),
+    /// A compiled tape that breaks the invariants its evaluation relies on (an error of
+    /// the tape compiler, never of the expressions).
+    #[error("the compiled tape is malformed: {0}")]
+    Malformed(String),
 }
 
 /// Largest register count of a tape.
@@ -230,6 +279,60 @@ impl Tape {
         b.allocate(&out_vals, n_inputs)
     }
 
+    /// Constants loaded into registers before the instructions run: `(register, value)`.
+    pub fn consts(&self) -> &[(u16, f64)] {
+        &self.consts
+    }
+
+    /// The instructions, in evaluation order (without the closing [`Op::End`]).
+    pub fn instrs(&self) -> &[Instr] {
+        self.instrs.split_last().map_or(&[], |(_, rest)| rest)
+    }
+
+    /// Registers the evaluation needs, the inputs' included.
+    pub fn n_regs(&self) -> usize {
+        self.n_regs
+    }
+
+    /// Number of inputs: registers `0..n_inputs` hold them.
+    pub fn n_inputs(&self) -> usize {
+        self.n_inputs
+    }
+
+    /// The register holding each output, in the order the roots were given.
+    pub fn outputs(&self) -> &[u16] {
+        &self.outputs
+    }
+
+    /// The invariants the unchecked evaluation relies on: the tape ends with its only
+    /// [`Op::End`], and every register an instruction, a constant or an output names is
+    /// below `n_regs`, and so are the inputs.
+    fn validate(self) -> Result<Tape, TapeError> {
+        let n_regs = self.n_regs;
+        let bad = |r: u16| usize::from(r) >= n_regs;
+        let ends = self.instrs.iter().filter(|i| i.op == Op::End).count();
+        if ends != 1 || self.instrs.last().map(|i| i.op) != Some(Op::End) {
+            return Err(TapeError::Malformed(format!("{ends} `End` instructions, and not exactly one at the end")));
+        }
+        let mut regs: Vec<u16> = Vec::new();
+        for ins in self.instrs() {
+            regs.clear();
+            ins.op.registers(&mut regs);
+            regs.push(ins.dst);
+            regs.push(ins.dst2);
+            if let Some(&r) = regs.iter().find(|&&r| bad(r)) {
+                return Err(TapeError::Malformed(format!("{ins:?} names register {r} of {n_regs}")));
+            }
+        }
+        if let Some(r) = self.consts.iter().map(|&(r, _)| r).chain(self.outputs.iter().copied()).find(|&r| bad(r)) {
+            return Err(TapeError::Malformed(format!("a constant or an output in register {r} of {n_regs}")));
+        }
+        if self.n_inputs > n_regs {
+            return Err(TapeError::Malformed(format!("{} inputs in {n_regs} registers", self.n_inputs)));
+        }
+        Ok(self)
+    }
+
     /// Evaluates the tape: `inputs` (`n_inputs` of them; missing ones read NaN) into `regs`
     /// (at least `n_regs`); the outputs are then `regs[outputs[i]]`.
     #[inline]
@@ -272,18 +375,22 @@ impl Tape {
         })
     }
 
-    /// [`Tape::eval_with`] on an array of `R` registers (`R` a power of two, at least
-    /// `n_regs`): every index masked to the array, so no bounds check in the loop.
+    /// [`Tape::eval_with`] on an array of `R` registers, at least `n_regs`: every index the
+    /// tape holds is below `n_regs` ([`Tape::validate`]), so the loop reads and writes
+    /// without bounds checks.
     #[inline(always)]
     fn eval_on<S: Scalar, T, const R: usize>(&self, inputs: &[S], f: impl FnOnce(&Evaluated<'_, S>) -> T) -> T {
-        let mut regs = Masked([S::cst(0.0); R]);
+        assert!(self.n_regs <= R, "a register file of {R} for a tape of {} registers", self.n_regs);
+        let mut regs = Fixed([S::cst(0.0); R]);
         // Every input given (those past `n_inputs` land in registers the tape writes before
         // it reads them), NaN for the missing ones.
-        for (k, x) in inputs.iter().enumerate().take(R) {
-            regs.put(k as u16, *x);
+        for (r, x) in regs.0.iter_mut().zip(inputs) {
+            *r = *x;
         }
-        for k in inputs.len()..self.n_inputs.min(R) {
-            regs.put(k as u16, S::cst(f64::NAN));
+        if inputs.len() < self.n_inputs {
+            for r in regs.0.iter_mut().take(self.n_inputs).skip(inputs.len()) {
+                *r = S::cst(f64::NAN);
+            }
         }
         self.run(&mut regs);
         f(&Evaluated { regs: &regs.0, outputs: &self.outputs })
@@ -295,8 +402,13 @@ impl Tape {
         for &(r, c) in &self.consts {
             regs.put(r, S::cst(c));
         }
-        for ins in &self.instrs {
+        let mut next = self.instrs.iter();
+        loop {
+            // SAFETY: the last instruction is the only `End` (`Tape::validate`; the fields are
+            // private), and the loop stops there, so the iterator never runs out.
+            let ins = unsafe { next.next().unwrap_unchecked() };
             let value = match ins.op {
+                Op::End => break,
                 Op::Add(a, b) => regs.with2(a, b, |x, y| x.add_ref(y)),
                 Op::Sub(a, b) => regs.with2(a, b, |x, y| x.sub_ref(y)),
                 Op::Mul(a, b) => regs.with2(a, b, |x, y| x.mul_ref(y)),
@@ -406,11 +518,11 @@ impl Tape {
 
     /// Number of instructions (the cost of one evaluation, in tape steps).
     pub fn len(&self) -> usize {
-        self.instrs.len()
+        self.instrs().len()
     }
 
     pub fn is_empty(&self) -> bool {
-        self.instrs.is_empty()
+        self.instrs().is_empty()
     }
 }
 
@@ -424,11 +536,20 @@ impl<S: Scalar> Evaluated<'_, S> {
     /// Output `k` (NaN past the last).
     #[inline(always)]
     pub fn output(&self, k: usize) -> S {
-        self.outputs.get(k).and_then(|&r| self.regs.get(usize::from(r))).copied().unwrap_or(S::cst(f64::NAN))
+        match self.outputs.get(k) {
+            Some(&r) => {
+                debug_assert!(usize::from(r) < self.regs.len());
+                // SAFETY: an `Evaluated` is built only by `Tape::eval_with` over at least the
+                // tape's `n_regs` registers, and every output register is below `n_regs`
+                // (`Tape::validate`).
+                *unsafe { self.regs.get_unchecked(usize::from(r)) }
+            }
+            None => S::cst(f64::NAN),
+        }
     }
 }
 
-/// A register file: a slice (indices checked, NaN outside) or a [`Masked`] array.
+/// A register file: a slice (indices checked, NaN outside) or a [`Fixed`] array.
 trait Regs<S: Scalar> {
     fn at(&self, i: u16) -> Option<&S>;
     fn put(&mut self, i: u16, v: S);
@@ -465,21 +586,23 @@ impl<S: Scalar> Regs<S> for [S] {
     }
 }
 
-/// `R` registers (a power of two) indexed modulo `R`: every access is in bounds, so the
-/// compiler drops the checks. The compiled indices are below `n_regs <= R`, so the mask
-/// never changes one.
-struct Masked<S, const R: usize>([S; R]);
+/// `R` registers, `R >= n_regs` of the tape run on them ([`Tape::eval_on`] asserts it):
+/// every register index of a tape is below its `n_regs` ([`Tape::validate`], and the fields
+/// are private), so every access is in bounds without a check.
+struct Fixed<S, const R: usize>([S; R]);
 
-impl<S: Scalar, const R: usize> Regs<S> for Masked<S, R> {
+impl<S: Scalar, const R: usize> Regs<S> for Fixed<S, R> {
     #[inline(always)]
     fn at(&self, i: u16) -> Option<&S> {
-        self.0.get(usize::from(i) & (R - 1))
+        debug_assert!(usize::from(i) < R);
+        // SAFETY: `i` is a register index of the tape being run (see the type's comment).
+        Some(unsafe { self.0.get_unchecked(usize::from(i)) })
     }
     #[inline(always)]
     fn put(&mut self, i: u16, v: S) {
-        if let Some(s) = self.0.get_mut(usize::from(i) & (R - 1)) {
-            *s = v;
-        }
+        debug_assert!(usize::from(i) < R);
+        // SAFETY: as for `at`.
+        unsafe { *self.0.get_unchecked_mut(usize::from(i)) = v }
     }
 }
 
@@ -1161,6 +1284,50 @@ impl Ssa {
         }
         // Constants used by nothing after their definition stay allocated (few, harmless).
         let outputs = outputs.iter().map(|&v| reg(v, &reg_of)).collect();
-        Ok(Tape { consts: const_regs, instrs, n_regs, n_inputs, outputs })
+        instrs.push(Instr { op: Op::End, dst: 0, dst2: 0 });
+        Tape { consts: const_regs, instrs, n_regs, n_inputs, outputs }.validate()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn tape(instrs: Vec<Instr>, consts: Vec<(u16, f64)>, n_regs: usize, outputs: Vec<u16>) -> Tape {
+        Tape { consts, instrs, n_regs, n_inputs: 2, outputs }
+    }
+
+    fn ins(op: Op, dst: u16) -> Instr {
+        Instr { op, dst, dst2: dst }
+    }
+
+    const END: Instr = Instr { op: Op::End, dst: 0, dst2: 0 };
+
+    /// The invariants the unchecked evaluation relies on are checked: a register past
+    /// `n_regs` anywhere (operand, destination, second destination, constant, output,
+    /// inputs) and a tape without its one closing `End` are refused.
+    #[test]
+    fn validation_refuses_every_out_of_range_register() {
+        let good = || tape(vec![ins(Op::MulAdd(0, 1, 2), 3), END], vec![(2, 1.5)], 4, vec![3]);
+        assert!(good().validate().is_ok());
+        let mut bad = vec![
+            tape(vec![ins(Op::MulAdd(0, 4, 2), 3), END], vec![(2, 1.5)], 4, vec![3]),
+            tape(vec![ins(Op::MulAdd(0, 1, 2), 4), END], vec![(2, 1.5)], 4, vec![3]),
+            tape(vec![Instr { op: Op::SinCos(0), dst: 2, dst2: 9 }, END], vec![], 4, vec![2]),
+            tape(vec![ins(Op::MulAdd(0, 1, 2), 3), END], vec![(7, 1.5)], 4, vec![3]),
+            tape(vec![ins(Op::MulAdd(0, 1, 2), 3), END], vec![(2, 1.5)], 4, vec![5]),
+            tape(vec![ins(Op::DotCMSub(0, 2.0, 1, 8), 3), END], vec![], 4, vec![3]),
+            tape(vec![ins(Op::Sel(0, 1, 2, 300), 3), END], vec![], 4, vec![3]),
+            // No `End`, or one before the last instruction.
+            tape(vec![ins(Op::Add(0, 1), 3)], vec![], 4, vec![3]),
+            tape(vec![END, ins(Op::Add(0, 1), 3), END], vec![], 4, vec![3]),
+            tape(vec![], vec![], 4, vec![]),
+        ];
+        let mut few = good();
+        few.n_inputs = 5;
+        bad.push(few);
+        for (k, t) in bad.into_iter().enumerate() {
+            assert!(t.validate().is_err(), "case {k} passed");
+        }
     }
 }

@@ -96,9 +96,9 @@ fn derivatives_agree_three_ways() {
         let p = parse(src, &names(), &mut g).unwrap();
         let tape = Tape::compile(&g, &[p.root], 3).unwrap();
         let inputs: Vec<Dual<3>> = pt.iter().enumerate().map(|(i, &v)| Dual::var(v, i)).collect();
-        let mut regs = vec![Dual::<3>::cst(0.0); tape.n_regs];
+        let mut regs = vec![Dual::<3>::cst(0.0); tape.n_regs()];
         tape.eval(&inputs, &mut regs);
-        let d = regs[tape.outputs[0] as usize];
+        let d = regs[tape.outputs()[0] as usize];
         assert_eq!(d.v, tape.eval_f64(&pt)[0], "{src}");
         for k in 0..3 {
             let dk = g.diff(p.root, k as u16);
@@ -125,9 +125,9 @@ fn power_series_of_functions_match_identities() {
         let p = parse(src, &names(), &mut g).unwrap();
         let tape = Tape::compile(&g, &[p.root], 3).unwrap();
         let inputs = [Tps::var(t, 0, 0.4), Tps::var(t, 1, 0.9), Tps::constant(t, 0.0)];
-        let mut regs = vec![Tps::constant(t, 0.0); tape.n_regs];
+        let mut regs = vec![Tps::constant(t, 0.0); tape.n_regs()];
         tape.eval(&inputs, &mut regs);
-        regs[tape.outputs[0] as usize]
+        regs[tape.outputs()[0] as usize]
     };
     let close = |a: &Tps, b: &Tps, what: &str| {
         let err = a.coefficients().iter().zip(b.coefficients()).fold(0.0f64, |m, (x, y)| m.max((x - y).abs()));
@@ -150,9 +150,9 @@ fn shared_subexpressions_and_registers() {
     let b = parse("cos(x)^2 + sin(x)*x_dot", &n, &mut g).unwrap();
     let tape = Tape::compile(&g, &[a.root, b.root], 3).unwrap();
     // One sin_cos for both expressions.
-    let sincos = tape.instrs.iter().filter(|i| matches!(i.op, Op::SinCos(_))).count();
-    let single = tape.instrs.iter().filter(|i| matches!(i.op, Op::Fn1(F1::Sin | F1::Cos, _))).count();
-    assert_eq!((sincos, single), (1, 0), "{:?}", tape.instrs);
+    let sincos = tape.instrs().iter().filter(|i| matches!(i.op, Op::SinCos(_))).count();
+    let single = tape.instrs().iter().filter(|i| matches!(i.op, Op::Fn1(F1::Sin | F1::Cos, _))).count();
+    assert_eq!((sincos, single), (1, 0), "{:?}", tape.instrs());
     let out = tape.eval_f64(&[0.3, 0.0, 2.0]);
     assert_eq!(out[0], 0.5 * 0.3f64.sin() * 0.3f64.cos() + 0.3f64.sin());
     assert_eq!(out[1], 0.3f64.cos().powi(2) + 0.3f64.sin() * 2.0);
@@ -161,7 +161,7 @@ fn shared_subexpressions_and_registers() {
     let src = (0..50).map(|k| format!("sin(x + {k})")).collect::<Vec<_>>().join(" + ");
     let p = parse(&src, &n, &mut g).unwrap();
     let tape = Tape::compile(&g, &[p.root], 3).unwrap();
-    assert!(tape.n_regs < 8, "{} registers for {} instructions", tape.n_regs, tape.len());
+    assert!(tape.n_regs() < 8, "{} registers for {} instructions", tape.n_regs(), tape.len());
     let want: f64 = (0..50).fold(0.0, |s, k| s + (0.3 + k as f64).sin());
     assert!((tape.eval_f64(&[0.3, 0.0, 0.0])[0] - want).abs() < 1e-12);
 }
@@ -172,7 +172,7 @@ fn constants_fold() {
     let p = parse("m*g*2 + 0*x + 1*y - (3 - 3)", &names(), &mut g).unwrap();
     let tape = Tape::compile(&g, &[p.root], 3).unwrap();
     assert_eq!(tape.eval_f64(&[5.0, 7.0, 0.0])[0], 9.81 + 7.0);
-    assert!(tape.len() <= 2, "{:?}", tape.instrs);
+    assert!(tape.len() <= 2, "{:?}", tape.instrs());
     let c = parse("m*g", &names(), &mut g).unwrap();
     let tape = Tape::compile(&g, &[c.root], 3).unwrap();
     assert_eq!(tape.eval_f64(&[0.0; 3]), vec![0.5 * 9.81]);
@@ -186,9 +186,9 @@ fn check_paths(src: &str, g: &Graph, root: Id, tape: &Tape, vars: &[f64; 3]) {
     let same = |a: f64, b: f64| a.to_bits() == b.to_bits() || (a.is_nan() && b.is_nan());
     let fast = tape.eval_f64(vars)[0];
     assert!(same(fast, want), "{src} at {vars:?}: tape {fast:e} vs graph {want:e}");
-    let mut regs = vec![0.0; tape.n_regs];
+    let mut regs = vec![0.0; tape.n_regs()];
     tape.eval(vars, &mut regs);
-    let slice = regs[tape.outputs[0] as usize];
+    let slice = regs[tape.outputs()[0] as usize];
     assert!(same(slice, want), "{src} at {vars:?}: slice path {slice:e} vs graph {want:e}");
     let duals: Vec<Dual<3>> = vars.iter().enumerate().map(|(i, &v)| Dual::var(v, i)).collect();
     let mut out = [Dual::<3>::cst(0.0)];
@@ -246,7 +246,7 @@ fn tape_rewrites_fire_and_keep_every_bit() {
         let mut g = Graph::new();
         let p = parse(src, &names(), &mut g).unwrap();
         let tape = Tape::compile(&g, &[p.root], 3).unwrap();
-        assert!(tape.instrs.iter().any(|i| fired(&i.op)), "{src}: {:?}", tape.instrs);
+        assert!(tape.instrs().iter().any(|i| fired(&i.op)), "{src}: {:?}", tape.instrs());
         for pt in special_points() {
             check_paths(src, &g, p.root, &tape, &pt);
         }
@@ -255,8 +255,8 @@ fn tape_rewrites_fire_and_keep_every_bit() {
     let mut g = Graph::new();
     let p = parse("x*y + sin(x*y)", &names(), &mut g).unwrap();
     let tape = Tape::compile(&g, &[p.root], 3).unwrap();
-    assert_eq!(tape.instrs.iter().filter(|i| matches!(i.op, Op::Mul(..))).count(), 1, "{:?}", tape.instrs);
-    assert!(!tape.instrs.iter().any(|i| matches!(i.op, Op::MulAdd(..))), "{:?}", tape.instrs);
+    assert_eq!(tape.instrs().iter().filter(|i| matches!(i.op, Op::Mul(..))).count(), 1, "{:?}", tape.instrs());
+    assert!(!tape.instrs().iter().any(|i| matches!(i.op, Op::MulAdd(..))), "{:?}", tape.instrs());
     // A product that is also an output keeps its register.
     let a = parse("x*y", &names(), &mut g).unwrap();
     let b = parse("x*y + 1", &names(), &mut g).unwrap();
@@ -309,7 +309,7 @@ fn random_expressions_evaluate_like_the_graph() {
         let mut g = Graph::new();
         let p = parse(&src, &names(), &mut g).unwrap_or_else(|e| panic!("{src}: {e}"));
         let tape = Tape::compile(&g, &[p.root], 3).unwrap();
-        for i in &tape.instrs {
+        for i in tape.instrs() {
             match i.op {
                 Op::MulAdd(..) | Op::MulSub(..) | Op::SubMul(..) | Op::DotAdd(..) | Op::DotSub(..) => fired[0] = true,
                 Op::MulCAdd(..)
@@ -337,6 +337,37 @@ fn random_expressions_evaluate_like_the_graph() {
     assert_eq!(fired, [true; 4], "every fused shape and sin_cos occur among the random expressions");
 }
 
+/// Tapes of every stack register array size (up to 16, 32, 64, 128 and 256 registers,
+/// read and written without bounds checks) give the graph's values bit for bit at the
+/// special points, in `f64`, on slices and as the value part of dual numbers.
+#[test]
+fn every_register_array_size_evaluates_like_the_graph() {
+    let n = names();
+    for (count, regs) in [(5, 16), (20, 32), (45, 64), (100, 128), (220, 256)] {
+        let mut g = Graph::new();
+        let roots: Vec<Id> =
+            (0..count).map(|k| parse(&format!("sin(x + {k})*y - x_dot/{}", k + 1), &n, &mut g).unwrap().root).collect();
+        let tape = Tape::compile(&g, &roots, 3).unwrap();
+        assert!(tape.n_regs() <= regs && 2 * tape.n_regs() > regs, "{count} roots: {} registers", tape.n_regs());
+        for pt in special_points() {
+            let fast = tape.eval_f64(&pt);
+            let mut slice = vec![0.0; tape.n_regs()];
+            tape.eval(&pt, &mut slice);
+            let duals: Vec<Dual<3>> = pt.iter().enumerate().map(|(i, &v)| Dual::var(v, i)).collect();
+            let mut dual = vec![Dual::<3>::cst(0.0); count];
+            tape.eval_outputs(&duals, &mut dual);
+            for (k, &r) in roots.iter().enumerate() {
+                let want = g.eval_f64(r, &pt).to_bits();
+                let got = [fast[k], slice[tape.outputs()[k] as usize], dual[k].v];
+                for v in got {
+                    let same = v.to_bits() == want || (v.is_nan() && f64::from_bits(want).is_nan());
+                    assert!(same, "{count} roots, root {k} at {pt:?}: {v:e} vs {:e}", f64::from_bits(want));
+                }
+            }
+        }
+    }
+}
+
 /// Tapes past the stack register arrays (more than 256 registers) evaluate on the heap,
 /// with the same values; the register limit is a named error.
 #[test]
@@ -345,7 +376,7 @@ fn large_tapes_and_the_register_limit() {
     let n = names();
     let roots: Vec<Id> = (0..300).map(|k| parse(&format!("sin(x + {k})*y + {k}"), &n, &mut g).unwrap().root).collect();
     let tape = Tape::compile(&g, &roots, 3).unwrap();
-    assert!(tape.n_regs > 256, "{} registers", tape.n_regs);
+    assert!(tape.n_regs() > 256, "{} registers", tape.n_regs());
     let out = tape.eval_f64(&[0.3, -1.5, 0.0]);
     for (k, (&r, v)) in roots.iter().zip(&out).enumerate() {
         assert_eq!(v.to_bits(), g.eval_f64(r, &[0.3, -1.5, 0.0]).to_bits(), "root {k}");

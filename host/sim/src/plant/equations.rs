@@ -469,10 +469,10 @@ impl EquationsModel {
             let base = if i < n { self.equilibrium.get(i).copied().unwrap_or(0.0) } else { 0.0 };
             *v = crate::plant::Dual::var(base, i);
         }
-        let mut regs = vec![crate::plant::Dual::<9>::cst(0.0); self.tape.n_regs];
+        let mut regs = vec![crate::plant::Dual::<9>::cst(0.0); self.tape.n_regs()];
         self.tape.eval(&inputs, &mut regs);
         let nm = n * (n + 1) / 2;
-        for (k, &o) in self.tape.outputs.iter().enumerate() {
+        for (k, &o) in self.tape.outputs().iter().enumerate() {
             let v = regs.get(o as usize).copied().unwrap_or(crate::plant::Dual::cst(f64::NAN));
             let key = if k < nm {
                 match form {
@@ -581,18 +581,19 @@ impl EquationsModel {
 
     /// `f(x, u)` and `df/dx` in `f64` from the symbolic derivatives of `M` and `f`:
     /// `q'' = M^-1 f`, `dq''/dx_k = M^-1 (df/dx_k - dM/dx_k q'')`; `f` is [`rhs`]'s to the
-    /// bit. `None` without a Jacobian tape.
-    fn jacobian<const N: usize>(&self, x: &[f64; N], u: f64) -> Option<([f64; N], [[f64; N]; N])> {
-        let jt = self.jac_tape.as_ref()?;
+    /// bit. `jt` is the Jacobian tape.
+    #[inline]
+    fn jacobian<const N: usize>(&self, jt: &Tape, x: &[f64; N], u: f64) -> ([f64; N], [[f64; N]; N]) {
         let mut f = [0.0; N];
         let mut jac = [[0.0; N]; N];
-        match self.n {
+        // `N = 2n`: the coordinate count is the state's, known at compile time.
+        match N / 2 {
             1 => self.jacobian_c::<N, 1>(jt, x, u, &mut f, &mut jac),
             2 => self.jacobian_c::<N, 2>(jt, x, u, &mut f, &mut jac),
             3 => self.jacobian_c::<N, 3>(jt, x, u, &mut f, &mut jac),
             _ => self.jacobian_c::<N, 4>(jt, x, u, &mut f, &mut jac),
         }
-        Some((f, jac))
+        (f, jac)
     }
 
     /// [`Self::jacobian`] for `C = n` coordinates (the loops unrolled), into `f` and `jac`
@@ -957,7 +958,10 @@ impl<const N: usize> Plant<N> for EquationsPlant<N> {
     /// From the compiled symbolic derivatives (one `f64` tape and `2n + 1` small solves),
     /// else from dual numbers.
     fn exact_jacobian(&self, x: &[f64; N], u: f64) -> ([f64; N], [[f64; N]; N]) {
-        self.model.jacobian(x, u).unwrap_or_else(|| crate::plant::linearize::dual_jacobian(self, x, u))
+        match self.model.jac_tape.as_ref() {
+            Some(jt) => self.model.jacobian(jt, x, u),
+            None => crate::plant::linearize::dual_jacobian(self, x, u),
+        }
     }
 
     /// The Lagrangian form's energy function `sum q'_i dL/dq'_i - L`; NaN for the
