@@ -5,7 +5,7 @@
 //!
 //! Bounded time: `FUZZ_CASES` cases per in-process property (default 300; the CLI property
 //! runs a fifth of that, each case is a process); a fuzz campaign runs e.g.
-//! `FUZZ_CASES=100000 cargo test -p ssmctl --test fuzz_boundaries --release`.
+//! `FUZZ_CASES=100000 cargo test -p ssmctl --test commands --release fuzz_boundaries::`.
 
 use proptest::prelude::*;
 use shared::model::OwnedModel;

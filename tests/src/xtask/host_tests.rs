@@ -328,7 +328,13 @@ pub fn timing_units(html: &str) -> Result<Vec<Unit>> {
 /// integration-test binaries, other workspace targets, dependencies) and the costliest units.
 pub fn timing_summary(units: &[Unit], workspace: &[&str], top: usize) -> serde_json::Value {
     let mut sums = [0.0f64; 5];
+    // A dependency's unit in a check, clippy or doc build that only checks it (its proc
+    // macros and build scripts are compiled in every kind of build).
+    let mut dependency_checks = 0.0;
     for u in units {
+        if !workspace.contains(&u.package.as_str()) && u.target.contains("(check)") {
+            dependency_checks += u.seconds;
+        }
         let kind = if !workspace.contains(&u.package.as_str()) {
             4
         } else if u.target == "lib" {
@@ -360,6 +366,7 @@ pub fn timing_summary(units: &[Unit], workspace: &[&str], top: usize) -> serde_j
         "integration_test_binaries": units.iter().filter(|u| workspace.contains(&u.package.as_str()) && u.target.starts_with("test ")).count(),
         "workspace_other_unit_seconds": sums[3],
         "dependency_unit_seconds": sums[4],
+        "dependency_check_unit_seconds": dependency_checks,
         "costliest": top,
     })
 }
@@ -457,6 +464,7 @@ fn compare_markdown(reports: &[(String, Vec<Unit>)], workspace: &[&str]) -> Stri
         ("workspace_integration_test_unit_seconds", "integration-test binaries"),
         ("workspace_other_unit_seconds", "other workspace targets (bins, examples)"),
         ("dependency_unit_seconds", "dependencies"),
+        ("dependency_check_unit_seconds", "of which checks only (not compiled)"),
         ("unit_seconds", "all units"),
     ] {
         md.push_str(&format!("| {name} |"));
@@ -521,27 +529,29 @@ const UNIT_DATA = [{"i":0,"name":"faer","version":"0.24.4","target":"","duration
  {"i":1,"name":"ssm","version":"0.1.0","target":"","duration":10.0},
  {"i":2,"name":"ssm","version":"0.1.0","target":" ssm \"lib\" (test)","duration":7.0},
  {"i":3,"name":"ssm","version":"0.1.0","target":" mat_files \"test\" (test)","duration":2.0},
- {"i":4,"name":"ssmctl","version":"0.1.0","target":" ssmctl \"bin\"","duration":1.5}];
+ {"i":4,"name":"ssmctl","version":"0.1.0","target":" ssmctl \"bin\"","duration":1.5},
+ {"i":5,"name":"gemm","version":"0.19.0","target":" gemm \"lib\" (check)","duration":3.0}];
 const CONCURRENCY_DATA = [];
 </script>"#;
         let units = timing_units(html).unwrap();
         let targets: Vec<&str> = units.iter().map(|u| u.target.as_str()).collect();
-        assert_eq!(targets, ["lib", "lib", "lib (test)", "test mat_files", "bin ssmctl"]);
+        assert_eq!(targets, ["lib", "lib", "lib (test)", "test mat_files", "bin ssmctl", "lib (check) gemm"]);
         let s = timing_summary(&units, &["ssm", "ssmctl"], 2);
-        assert_eq!(s["unit_seconds"], 73.0);
+        assert_eq!(s["unit_seconds"], 76.0);
         assert_eq!(s["workspace_lib_unit_seconds"], 10.0);
         assert_eq!(s["workspace_lib_test_unit_seconds"], 7.0);
         assert_eq!(s["workspace_integration_test_unit_seconds"], 2.0);
         assert_eq!(s["integration_test_binaries"], 1);
         assert_eq!(s["workspace_other_unit_seconds"], 1.5);
-        assert_eq!(s["dependency_unit_seconds"], 52.5);
+        assert_eq!(s["dependency_unit_seconds"], 55.5);
+        assert_eq!(s["dependency_check_unit_seconds"], 3.0);
         assert_eq!(s["costliest"][0]["package"], "faer");
         assert_eq!(s["costliest"].as_array().map(Vec::len), Some(2));
         let fresh =
             [units.clone(), vec![Unit { package: "ssm".into(), target: "test x".into(), seconds: 0.0 }]].concat();
         let s = timing_summary(&fresh, &["ssm", "ssmctl"], 10);
-        assert_eq!((s["units"].as_u64(), s["compiled_units"].as_u64()), (Some(6), Some(5)));
-        assert_eq!(s["costliest"].as_array().map(Vec::len), Some(5));
+        assert_eq!((s["units"].as_u64(), s["compiled_units"].as_u64()), (Some(7), Some(6)));
+        assert_eq!(s["costliest"].as_array().map(Vec::len), Some(6));
         assert!(timing_units("<html>no data</html>").unwrap_err().contains("UNIT_DATA"));
     }
 

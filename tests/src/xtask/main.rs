@@ -35,8 +35,9 @@
 //!   made and given maturin, pytest and numpy when missing) and its pytest tests (`python.rs`).
 //! - `test`: everything, as steps that start as soon as what they need is there (`test_all`):
 //!   the installs (rustup, apt, the Python venv), `cargo fmt --check` (workspace, `qemu/`,
-//!   `tests/fuzz/`), the firmware builds and clippy + `cargo doc` run while cargo builds the
-//!   host tests; then `cargo test --workspace`, the Python module and pytest, qemu-test on both
+//!   `tests/fuzz/`) and the firmware builds run while cargo builds the host tests; then
+//!   `cargo test --workspace`, clippy + `cargo doc` (in the host build's target dir, reusing its
+//!   proc macros and build scripts), the Python module and pytest, qemu-test on both
 //!   machines side by side, device-table (counted as one on-target test, see
 //!   `device_table::check`), a 2,000-period PIL run (one more), a 500-period PIL run of the
 //!   STM32F407 image on `netduinoplus2` over USART1 (one more), 300-period PIL runs of the four
@@ -1128,19 +1129,18 @@ fn firmware_size() -> Result<()> {
 /// The library crates' lint policy (docs/decisions/0004): no `unwrap`/`expect`/`panic` outside tests, and no
 /// panicking indexing in the crates and modules that parse input (`shared`, `controller`,
 /// `ssm::{mat, data, device}`, `sim::scene`); the `deny` attributes live in the crates, this
-/// runs clippy over them. Checks go to `target/lint` ([`LINT_TARGET_DIR`]), with cargo's
-/// output into `log_dir`.
+/// runs clippy over them. In the host build's target dir, after it: the dependencies' proc
+/// macros and build scripts it compiled are reused, only their checks are new. Cargo's output
+/// into `log_dir`.
 fn clippy_lints(log_dir: &Path) -> Result<()> {
     let mut c = cmd("cargo");
-    c.current_dir(root()).args(["clippy", "--lib", "--target-dir", LINT_TARGET_DIR]);
+    c.current_dir(root()).args(["check", "--lib"]);
     // With `ssmctl` (whose lib denies none of these lints) the packages are doc's, so the
-    // dependencies are checked with the same features once for both: without it num-traits,
-    // and with it nalgebra, faer and gemm, would be checked a second time for the docs.
+    // workspace's and the dependencies' checks are made once for both.
     for p in DOCUMENTED_CRATES {
         c.args(["-p", p]);
     }
-    // Only the policy's lints (denied in the crates); the style lints stay a local matter.
-    c.args(["--", "-A", "clippy::all"]);
+    clippy_env(&mut c)?;
     steps::lower_priority(&mut c);
     steps::run_logged(&mut c, &log_dir.join("clippy.log"))
         .map_err(|e| format!("clippy (unwrap/expect/panic/indexing policy of {}): {e}", LINTED_CRATES.join(", ")))?;
@@ -1148,20 +1148,32 @@ fn clippy_lints(log_dir: &Path) -> Result<()> {
     Ok(())
 }
 
+/// What `cargo clippy -- -A clippy::all` sets for the `cargo check` it runs: the toolchain's
+/// `clippy-driver` as the compiler wrapper of the workspace's crates, and its arguments in
+/// `CLIPPY_ARGS` (separated by `__CLIPPY_HACKERY__`, as clippy-driver splits them): only the
+/// policy's lints, denied in the crates; the style lints stay a local matter. The wrapper is
+/// part of a workspace crate's artifact hash, so doc and the lab check run with it too and
+/// reuse the checks the lint step made instead of checking every workspace crate again.
+fn clippy_env(c: &mut Command) -> Result<()> {
+    let sysroot = output(cmd("rustc").args(["--print", "sysroot"])).ok_or("`rustc --print sysroot` failed")?;
+    let driver = Path::new(sysroot.trim()).join("bin").join("clippy-driver");
+    if !driver.exists() {
+        return Err(format!("{} is missing (rustup component add clippy)", driver.display()));
+    }
+    c.env("RUSTC_WORKSPACE_WRAPPER", driver).env("CLIPPY_ARGS", "-A__CLIPPY_HACKERY__clippy::all__CLIPPY_HACKERY__");
+    Ok(())
+}
+
 /// The API documentation builds without a warning (broken or ambiguous intra-doc links,
 /// stray HTML in doc comments) for the crates a user reads: the library crates and `ssmctl`
-/// (`--no-deps`; into `target/lint/doc`, reusing the dependencies' checks clippy made).
+/// (`--no-deps`; into `target/doc`, reusing the checks the lint step made).
 fn doc_links(log_dir: &Path) -> Result<()> {
     let mut c = cmd("cargo");
-    c.current_dir(root()).env("RUSTDOCFLAGS", "-D warnings").args([
-        "doc",
-        "--no-deps",
-        "--target-dir",
-        LINT_TARGET_DIR,
-    ]);
+    c.current_dir(root()).env("RUSTDOCFLAGS", "-D warnings").args(["doc", "--no-deps"]);
     for p in DOCUMENTED_CRATES {
         c.args(["-p", p]);
     }
+    clippy_env(&mut c)?;
     steps::lower_priority(&mut c);
     steps::run_logged(&mut c, &log_dir.join("doc.log"))
         .map_err(|e| format!("cargo doc (-D warnings) of {}, ssmctl: {e}", LINTED_CRATES.join(", ")))?;
@@ -1170,11 +1182,11 @@ fn doc_links(log_dir: &Path) -> Result<()> {
 }
 
 /// The research and profiling programs of `host/lab` compile (checked, not linked: nothing
-/// runs them in the suite), reusing the checks of the crates below them that clippy made.
+/// runs them in the suite), reusing the checks of the crates below them that the lint step made.
 fn lab_check(log_dir: &Path) -> Result<()> {
     let mut c = cmd("cargo");
-    c.current_dir(root()).args(["clippy", "-p", "lab", "--lib", "--examples", "--target-dir", LINT_TARGET_DIR]);
-    c.args(["--", "-A", "clippy::all"]);
+    c.current_dir(root()).args(["check", "-p", "lab", "--lib", "--examples"]);
+    clippy_env(&mut c)?;
     steps::lower_priority(&mut c);
     steps::run_logged(&mut c, &log_dir.join("lab.log")).map_err(|e| format!("lab programs: {e}"))?;
     println!("lab: the research and profiling programs compile");
@@ -1186,11 +1198,6 @@ const LINTED_CRATES: [&str; 7] = ["shared", "controller", "fileio", "sim", "ssm"
 
 /// The crates whose API documentation [`doc_links`] builds: the library crates and `ssmctl`.
 const DOCUMENTED_CRATES: [&str; 7] = ["shared", "controller", "sim", "ssm", "chaos", "furuta", "ssmctl"];
-
-/// The target dir of clippy and doc (relative to the workspace root): their check builds
-/// share nothing with the test build, and in their own folder they run beside it instead of
-/// waiting for its lock.
-const LINT_TARGET_DIR: &str = "target/lint";
 
 /// Where `cargo xtask test` writes its step table.
 fn steps_json_path() -> PathBuf {
@@ -1238,6 +1245,7 @@ fn host_tests_run(
     steps: &steps::Steps,
     previous: &std::collections::BTreeMap<String, f64>,
     test_times: bool,
+    listed: &dyn Fn(),
 ) -> (Vec<host_tests::Binary>, Result<()>) {
     let start = steps.elapsed();
     let mut c = cmd("cargo");
@@ -1248,6 +1256,7 @@ fn host_tests_run(
         Ok(o) => Err(format!("{c:?} failed with {}", o.status)),
         Err(e) => Err(format!("cannot start {c:?}: {e}")),
     };
+    listed();
     let exes = match exes {
         Ok(e) if e.is_empty() => Err("cargo test --no-run listed no test executable".to_string()),
         other => other,
@@ -1293,7 +1302,7 @@ fn host_tests_only(args: &[String]) -> Result<()> {
     })?;
     let mut binaries = Vec::new();
     let r = steps.run(HOST_TESTS_STEP, || {
-        let (b, r) = host_tests_run(&steps, &previous, test_times);
+        let (b, r) = host_tests_run(&steps, &previous, test_times, &|| ());
         binaries = b;
         r
     });
@@ -1333,11 +1342,11 @@ fn after<T: Clone>(gate: &steps::Gate<Result<T>>, what: &str) -> Result<T> {
 }
 
 /// `cargo xtask test`. Steps start as soon as what they need is there: the rustup and apt
-/// installs, the Python venv, rustfmt, the firmware builds and clippy + doc run while cargo
-/// compiles the host tests (the builds beside it at a lower priority, their output in
+/// installs, the Python venv, rustfmt and the firmware builds run while cargo compiles the
+/// host tests (the builds beside it at a lower priority, their output in
 /// `target/xtask-logs/`); the two QEMU machines' suites run side by side; the Python module
-/// (reusing the host build's dependencies), the PIL runs and Slurm (with the test build's
-/// `ssmctl`) follow the host build. Every step runs even when another failed (unless it
+/// (reusing the host build's dependencies), clippy + doc (in its target dir), the PIL runs and
+/// Slurm (with the test build's `ssmctl`) follow the host build. Every step runs even when another failed (unless it
 /// needs that one); the command ends with the step table (also in
 /// `target/xtask-test-steps.json`) and the on-target count, and fails if any step failed.
 fn test_all() -> Result<()> {
@@ -1351,6 +1360,10 @@ fn test_all() -> Result<()> {
     let host: Gate<Result<PathBuf>> = Gate::new();
     let pil_done: Gate<Result<()>> = Gate::new();
     let pil_eq_done: Gate<Result<()>> = Gate::new();
+    // The cargo runs on the host build's target dir that the lint step must not hold up (it
+    // takes cargo's lock of the folder for minutes): the host tests' listing, the module build.
+    let listed: Gate<()> = Gate::new();
+    let module_built: Gate<()> = Gate::new();
     let results = std::sync::Mutex::new(Vec::<(&str, Result<()>)>::new());
     let on_target = std::sync::Mutex::new((0u32, 0u32));
     let test_binaries = std::sync::Mutex::new(Vec::<host_tests::Binary>::new());
@@ -1372,7 +1385,12 @@ fn test_all() -> Result<()> {
                 .and_then(|()| steps.run("rustfmt --check (workspace, qemu/, tests/fuzz/)", || fmt_check(&logs)));
             record("rustfmt", r);
         });
+        // Lints, docs and the lab check in the host build's target dir, reusing its proc macros
+        // and build scripts: after the host build and the cargo runs that wait for it.
         s.spawn(|| {
+            let _ = host.wait();
+            listed.wait();
+            module_built.wait();
             let r = after(&tools, "rustup").and_then(|()| steps.run("clippy: lint policy", || clippy_lints(&logs)));
             record("clippy", r);
             let r =
@@ -1459,9 +1477,11 @@ fn test_all() -> Result<()> {
         });
         // The Python module, built after the host build so it reuses its dependencies.
         s.spawn(|| {
-            let r = after(&venv, "python venv")
+            let built = after(&venv, "python venv")
                 .and_then(|_| after(&host, "host build"))
-                .and_then(|_| steps.run("python: module build + pytest", python::module_and_tests));
+                .and_then(|_| steps.run("python: module build (maturin, optimized)", python::module_build));
+            module_built.set(());
+            let r = built.and_then(|()| steps.run("python: pytest", python::pytest));
             record("python-test", r);
         });
         // The sweeps under a real Slurm, with the test-profile ssmctl the host tests built.
@@ -1476,11 +1496,12 @@ fn test_all() -> Result<()> {
         host.set(built.clone());
         let tests = after(&host, "host build").and_then(|_| {
             steps.run(HOST_TESTS_STEP, || {
-                let (binaries, r) = host_tests_run(&steps, &previous, false);
+                let (binaries, r) = host_tests_run(&steps, &previous, false, &|| listed.set(()));
                 *test_binaries.lock().unwrap_or_else(|p| p.into_inner()) = binaries;
                 r
             })
         });
+        listed.set(());
         record("host tests", tests);
     });
     for (gate, name) in [(&tools, "rustup"), (&apt_done, "apt")] {

@@ -2,7 +2,8 @@
 //! (`host/python`) installed into a venv with pip (the maturin build backend) and its pytest
 //! tests run. The venv (`target/pyvenv`) is made when missing and given what it lacks
 //! (maturin, pytest, numpy from PyPI); later runs reuse it. `test` makes the venv ([`venv`])
-//! while cargo compiles, and builds the module ([`module_and_tests`]) after the host build.
+//! while cargo compiles, builds the module ([`module_build`]) after the host build and then runs
+//! [`pytest`].
 //!
 //! The module is built optimized with the test profile's settings in the workspace's target
 //! directory: maturin's `--profile test` would build a test harness (`cargo rustc` treats
@@ -53,6 +54,12 @@ pub fn venv() -> Result<PathBuf> {
 
 /// Builds the module into the venv made by [`venv`] and runs pytest; prints the times.
 pub fn module_and_tests() -> Result<()> {
+    module_build()?;
+    pytest()
+}
+
+/// Builds the module and installs it into the venv made by [`venv`]; prints the time.
+pub fn module_build() -> Result<()> {
     let t0 = Instant::now();
     let bin = venv_dir().join("bin");
     let py = bin.join("python");
@@ -81,10 +88,16 @@ pub fn module_and_tests() -> Result<()> {
         build.env(k, v);
     }
     run(&mut build)?;
-    let build_s = t0.elapsed().as_secs_f64();
-    let t_tests = Instant::now();
+    println!("python-test: module build + install {:.1} s", t0.elapsed().as_secs_f64());
+    Ok(())
+}
+
+/// The module's pytest tests, in the venv it was installed into; prints the time.
+pub fn pytest() -> Result<()> {
+    let t0 = Instant::now();
+    let py = venv_dir().join("bin").join("python");
     run(cmd(&py).current_dir(root()).args(["-m", "pytest", "-q", "-p", "no:cacheprovider", "host/python/tests"]))?;
-    println!("python-test: module build + install {build_s:.1} s, pytest {:.1} s", t_tests.elapsed().as_secs_f64());
+    println!("python-test: pytest {:.1} s", t0.elapsed().as_secs_f64());
     Ok(())
 }
 
