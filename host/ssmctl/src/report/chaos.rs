@@ -539,9 +539,8 @@ fn selection_tables(
          k = map step in samples, d = SSM dimension, p = embedding dimension, s = shift (samples of the subsampled \
          series), m = manifold order, c = RBF centres, r = relative ridge.",
     );
-    let rows: Vec<Vec<String>> = results.search.rows.iter().map(|row| row.to_vec()).collect();
-    let header: Vec<&str> = results.search.header.iter().map(String::as_str).collect();
-    rep.table(&header, &rows);
+    let rows: Vec<Vec<String>> = results.search.rows.iter().map(|row| row.cells().to_vec()).collect();
+    rep.table(&chaos_study::study_results::SearchResults::HEADER, &rows);
     rep.para(
         "What the search shows. (1) The map step decides chaos: every model with a one-sample step (the table above's \
          RBF and polynomial models) settles on a torus or a periodic orbit; with the step of Xu et al. (every 4th frame, \
