@@ -481,12 +481,7 @@ fn selection_study(
                     .iter()
                     .map(|v| result_from_json(v).map(|c| chaos_study::selection_study::search_row(&c)))
                     .collect::<Result<_, _>>()?;
-                let produced_by = format!(
-                    "ssmctl study {} --data-dir {} --out {}",
-                    spec_path.display(),
-                    data_dir.display(),
-                    out.display()
-                );
+                let produced_by = format!("ssmctl study {} --data-dir {}", spec_path.display(), data_dir.display());
                 (SEARCH, to_json(&chaos_study::study_results::SearchResults { produced_by, rows })?)
             } else {
                 (SELECTION_FILE, serde_json::to_string_pretty(&r)? + "\n")
@@ -613,7 +608,8 @@ fn known_system_study(
             .map_err(|e| format!("row: {e}"))?;
         let reference =
             series.iter().find(|s| s.key == spec.reference_series()).ok_or("the reference series was not simulated")?;
-        let produced_by = format!("ssmctl study {} --out {}", spec_path.display(), out.display());
+        // The command without its output folder, so that a rerun elsewhere writes the same bytes.
+        let produced_by = format!("ssmctl study {}", spec_path.display());
         let r = chaos_study::known_system_study::finish(&produced_by, &reference.stats, &units, rows)?;
         let path = out.join(KNOWN_SYSTEM);
         write_atomic(&path, to_json(&r)?.as_bytes()).map_err(|e| format!("{}: {e}", path.display()))?;
