@@ -465,7 +465,7 @@ fn estimator_check_tables(
 
 /// The model-selection tables: the candidates of each data set with their held-out long-term
 /// statistics and the pick, then the inverted-flag candidate search behind the flag's
-/// candidates (`explore_chaos flag-candidates`, committed in `chaos_study::model_selection`).
+/// candidates (`ssmctl study studies/flag-first-search.toml`, read from `search.json`).
 fn selection_tables(
     rep: &mut crate::report::Report,
     selections: &[(
@@ -535,7 +535,7 @@ fn selection_tables(
     }
     rep.para(
         "Inverted flag: the candidate search behind the flag's candidates (train traj_9 + traj_7, held out traj_8; \
-         <code>cargo run --release -p lab --example explore_chaos -- flag-candidates</code>). Columns as above; \
+         <code>ssmctl study studies/flag-first-search.toml --data-dir ../shared/data</code>). Columns as above; \
          k = map step in samples, d = SSM dimension, p = embedding dimension, s = shift (samples of the subsampled \
          series), m = manifold order, c = RBF centres, r = relative ridge.",
     );
@@ -1374,8 +1374,8 @@ fn flag_pipeline_fit(
         .filter_map(|r| r.js.map(|j| (j, r)))
         .min_by(|a, b| a.0.total_cmp(&b.0));
     rep.para(&format!(
-        "Multistep refinement scanned at d = 6 on the known system (example <code>flag_pipeline -- variants</code>, \
-         <code>FLAG4_SEEDS</code> for other realizations of the series; RBF 150, 250, 400 with ridge 1e-8, horizon 2, 4, 8 \
+        "Multistep refinement scanned at d = 6 on the known system (<code>ssmctl study studies/flag-known-system.toml</code>, \
+         names with <code>seed N</code> for other realizations of the series; RBF 150, 250, 400 with ridge 1e-8, horizon 2, 4, 8 \
          reached by doubling, windows every 8 points, 4 Levenberg-Marquardt iterations per stage; rows \"d = 6 scan\" \
          above): {}. On two other realizations of the series (seeds 1 and 2) the one-step RBF 250 gives Benettin \
          {} of exact (JS {}) where the refined one gives {} of exact (JS {}), while at three times the data the \
