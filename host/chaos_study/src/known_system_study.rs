@@ -195,7 +195,7 @@ pub fn parse_name(name: &str, step: usize, d: &NameDefaults) -> Result<(Model, u
                 }
                 "denoised" => {
                     let w = int(num(next(&mut i), "")?, "denoising window")?;
-                    if w < 3 || w % 2 == 0 {
+                    if w < 3 || w.is_multiple_of(2) {
                         return Err(bad(format!("denoised {w}: the window must be odd and >= 3")));
                     }
                     denoise = (w - 1) / 2;

@@ -75,7 +75,11 @@ pub fn search_candidate(name: &str) -> Result<Candidate, Error> {
         .map_err(|_| bad("the ridge is not a number".into()))?;
     i += 1;
     let odd_half = |w: usize| -> Result<usize, Error> {
-        if w < 3 || w % 2 == 0 { Err(bad(format!("window {w}: must be odd and >= 3"))) } else { Ok((w - 1) / 2) }
+        if w < 3 || w.is_multiple_of(2) {
+            Err(bad(format!("window {w}: must be odd and >= 3")))
+        } else {
+            Ok((w - 1) / 2)
+        }
     };
     let (mut smooth, mut kernel, mut multistep, mut denoise, mut centres) =
         (0, ssm::Kernel::Linear, None, 0, ssm::dynamics::CentreChoice::Farthest);
