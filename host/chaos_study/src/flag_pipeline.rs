@@ -19,7 +19,7 @@
 
 use chaos::reference::{Flow, Lorenz, Lorenz96, Rossler, rk4_flow};
 use chaos::{BenettinParams, benettin_tangent, first_zero_crossing};
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 use ssm::{FitOptions, TimeSeries};
 
 use crate::Error;
@@ -30,7 +30,8 @@ use chaos::{Reference, Statistics, Targets, add_noise};
 /// (traj_9, traj_7) and of the held-out series (traj_8), the map step, the lag the data
 /// settings choose at that step, and the measurement noise over the series sd
 /// ([`crate::calibration::FLAG_SAMPLING`]).
-#[derive(Clone, Copy, Debug, Serialize)]
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
 pub struct FlagLayout {
     pub train: [usize; 2],
     pub test: usize,
@@ -50,7 +51,8 @@ pub const FLAG_LAYOUT: FlagLayout = FlagLayout {
 };
 
 /// A smooth chaotic flow with a known exact exponent.
-#[derive(Clone, Copy, Debug, Serialize, PartialEq)]
+#[derive(Clone, Copy, Debug, Serialize, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
 pub enum KnownSystem {
     /// Lorenz-96 with `n` sites and forcing `f`, observed `x_1`.
     Lorenz96 { n: usize, f: f64 },
@@ -300,6 +302,18 @@ pub fn known_stats_seeded(
     benettin_time: f64,
     seed: u64,
 ) -> Result<(KnownStats, Vec<TimeSeries>), Error> {
+    known_stats_with(sys, layout, scale, benettin_time, seed, &EvalSettings::default())
+}
+
+/// [`known_stats_seeded`] with the estimator settings `settings`.
+pub fn known_stats_with(
+    sys: &KnownSystem,
+    layout: &FlagLayout,
+    scale: usize,
+    benettin_time: f64,
+    seed: u64,
+    settings: &EvalSettings,
+) -> Result<(KnownStats, Vec<TimeSeries>), Error> {
     if scale == 0 {
         return Err(Error::BadOption { what: "scale", why: "the training-data scale must be >= 1".into() });
     }
@@ -316,7 +330,7 @@ pub fn known_stats_seeded(
     let lengths = [layout.test, layout.train[0] * scale, layout.train[1] * scale];
     let mut series = sys.flag_like_series_seeded(dt, &lengths, layout.noise_rel, seed)?;
     series.rotate_left(1);
-    let (ds, _) = data_stats(&series[2], layout.step, &EvalSettings::default())?;
+    let (ds, _) = data_stats(&series[2], layout.step, settings)?;
     let stats = KnownStats {
         system: sys.name(),
         dt,

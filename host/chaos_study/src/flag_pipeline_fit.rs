@@ -255,8 +255,28 @@ pub fn state_model_check(
     benettin_time: f64,
 ) -> Result<(KnownStats, PipelineRow), Error> {
     let (stats, series) = known_stats(sys, layout, scale, benettin_time)?;
-    let s = EvalSettings::default();
-    let (_, ctx) = data_stats(&series[2], layout.step, &s)?;
+    let row = state_model_row(sys, layout, scale, fit, &stats, &series, &EvalSettings::default())?;
+    Ok((stats, row))
+}
+
+/// [`state_model_check`] on the series [`known_stats`] gave (`stats`, `series`: training,
+/// then held-out), with the estimator settings `s`.
+pub fn state_model_row(
+    sys: &KnownSystem,
+    layout: &FlagLayout,
+    scale: usize,
+    fit: &StateFit,
+    stats: &KnownStats,
+    series: &[TimeSeries],
+    s: &EvalSettings,
+) -> Result<PipelineRow, Error> {
+    if series.len() != 3 {
+        return Err(Error::BadInput {
+            what: "state model series",
+            why: format!("{} series: need two training series and the held-out one", series.len()),
+        });
+    }
+    let (_, ctx) = data_stats(&series[2], layout.step, s)?;
     let (train, test): (Vec<Mat<f64>>, Mat<f64>) = match fit.coords {
         Coords::State => {
             let mut states =
@@ -364,7 +384,7 @@ pub fn state_model_check(
         stats.corr_dim_err,
         stats.exact,
     );
-    Ok((stats, row))
+    Ok(row)
 }
 
 /// The d = 6 rows of [`crate::study_results::KnownSystemResults::diagnosis_rows`] (groups "(b) d = 6", "multistep" and "d = 6 scan",

@@ -14,6 +14,7 @@ pub mod flag_pipeline;
 pub mod flag_pipeline_fit;
 pub mod flag_self;
 pub mod flag_study;
+pub mod known_system_study;
 pub mod lyapunov;
 pub mod microchaos;
 pub mod model_selection;

@@ -832,24 +832,22 @@ pub struct RatioRow {
 /// The Rosenstein/Benettin ratio of every chaotic row of the flag's candidate search (rows
 /// whose outcome is "chaotic" and whose Benettin and Rosenstein values are numbers).
 pub fn flag_search_ratios(search: &crate::study_results::SearchResults) -> Vec<RatioRow> {
-    let first = |c: &str| c.split_whitespace().next().and_then(|v| v.parse::<f64>().ok());
     search
         .rows
         .iter()
-        .filter(|r| r[7] == "chaotic")
+        .filter(|r| r.chaotic && r.failed.is_none())
         .filter_map(|r| {
-            let (l, b, ro, d2, js) = (first(&r[1])?, first(&r[2])?, first(&r[3])?, first(&r[4])?, first(&r[5])?);
-            let data_d2 = r[4].split_once('(').and_then(|(_, t)| first(t))?;
+            let (b, ro, d2, js) = (r.benettin?, r.rosenstein?, r.corr_dim?, r.js?);
             (b > 0.0).then(|| RatioRow {
-                candidate: r[0].clone(),
+                candidate: r.candidate.clone(),
                 benettin: b,
                 rosenstein: ro,
                 ratio: ro / b,
                 corr_dim: d2,
-                data_corr_dim: data_d2,
+                data_corr_dim: r.data_corr_dim,
                 js,
-                implied_data_exponent: l * b / ro,
-                multistep: r[8].starts_with("multistep"),
+                implied_data_exponent: r.data_rosenstein * b / ro,
+                multistep: r.notes.starts_with("multistep"),
             })
         })
         .collect()

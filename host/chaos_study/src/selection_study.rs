@@ -23,6 +23,159 @@ use chaos::Context;
 /// The value of `kind` that marks a selection spec.
 pub const KIND: &str = "selection";
 
+/// The value of `kind` that marks a search spec: a selection spec whose candidates are named
+/// in the search grammar ([`search_candidate`]) and whose result is the search table
+/// ([`crate::study_results::SEARCH`]).
+pub const SEARCH_KIND: &str = "search";
+
+/// Window stride and Levenberg-Marquardt steps per stage of `multistep h=H` in a search name
+/// that does not give them.
+pub const SEARCH_MULTISTEP_DEFAULTS: (usize, usize) = (4, 10);
+
+/// A candidate of a search spec by its name: `k=K d=D p=P s=S m=M (c=C | polynomial map order
+/// O) r=R [smooth=W] [kernel KERNEL] [multistep h=H [stride S it I]] [denoised inputs W]
+/// [centres CHOICE]`: map step K samples, SSM dimension D, embedding P with shift S (samples of
+/// the subsampled series), manifold order M, an RBF map with C centres (kernel
+/// [`ssm::Kernel::parse`], default linear) or a polynomial map, relative ridge R; the training
+/// series smoothed by a moving average of W (odd) samples, multistep refinement
+/// ([`SEARCH_MULTISTEP_DEFAULTS`]), the map refitted on inputs smoothed over W samples.
+pub fn search_candidate(name: &str) -> Result<Candidate, Error> {
+    let bad = |why: String| Error::BadInput { what: "search candidate", why: format!("`{name}`: {why}") };
+    let toks: Vec<&str> = name.split_whitespace().collect();
+    let mut i = 0;
+    let count = |t: Option<&&str>, key: &str| -> Result<usize, Error> {
+        let t = t.ok_or_else(|| bad(format!("`{key}` missing")))?;
+        t.strip_prefix(key)
+            .ok_or_else(|| bad(format!("expected `{key}N`, got `{t}`")))?
+            .parse::<usize>()
+            .map_err(|_| bad(format!("`{t}` is not {key}COUNT")))
+    };
+    let mut head = [0usize; 5];
+    for (k, key) in ["k=", "d=", "p=", "s=", "m="].iter().enumerate() {
+        head[k] = count(toks.get(i), key)?;
+        i += 1;
+    }
+    let [step, dim, embed, shift, manifold_order] = head;
+    let (mut centers, mut dyn_order) = (None, 4u32);
+    if toks.get(i) == Some(&"polynomial") {
+        if toks.get(i + 1..i + 3) != Some(&["map", "order"][..]) {
+            return Err(bad("expected `polynomial map order O`".into()));
+        }
+        dyn_order = count(toks.get(i + 3), "")? as u32;
+        i += 4;
+    } else {
+        centers = Some(count(toks.get(i), "c=")?);
+        i += 1;
+    }
+    let ridge: f64 = toks
+        .get(i)
+        .and_then(|t| t.strip_prefix("r="))
+        .ok_or_else(|| bad("`r=R` missing".into()))?
+        .parse()
+        .map_err(|_| bad("the ridge is not a number".into()))?;
+    i += 1;
+    let odd_half = |w: usize| -> Result<usize, Error> {
+        if w < 3 || w.is_multiple_of(2) {
+            Err(bad(format!("window {w}: must be odd and >= 3")))
+        } else {
+            Ok((w - 1) / 2)
+        }
+    };
+    let (mut smooth, mut kernel, mut multistep, mut denoise, mut centres) =
+        (0, ssm::Kernel::Linear, None, 0, ssm::dynamics::CentreChoice::Farthest);
+    while let Some(&t) = toks.get(i) {
+        i += 1;
+        match t {
+            _ if t.starts_with("smooth=") => smooth = odd_half(count(Some(&t), "smooth=")?)?,
+            "kernel" => {
+                kernel = ssm::Kernel::parse(toks.get(i).ok_or_else(|| bad("kernel missing".into()))?)
+                    .map_err(|e| bad(e.to_string()))?;
+                i += 1;
+            }
+            "multistep" => {
+                let horizon = count(toks.get(i), "h=")?;
+                i += 1;
+                let (mut stride, mut iterations) = SEARCH_MULTISTEP_DEFAULTS;
+                if toks.get(i) == Some(&"stride") {
+                    stride = count(toks.get(i + 1), "")?;
+                    i += 2;
+                }
+                if toks.get(i) == Some(&"it") {
+                    iterations = count(toks.get(i + 1), "")?;
+                    i += 2;
+                }
+                multistep = Some(ssm::multistep::MultiStep { horizon, stride, iterations });
+            }
+            "denoised" => {
+                if toks.get(i) != Some(&"inputs") {
+                    return Err(bad("expected `denoised inputs W`".into()));
+                }
+                denoise = odd_half(count(toks.get(i + 1), "")?)?;
+                i += 2;
+            }
+            "centres" => {
+                centres =
+                    ssm::dynamics::CentreChoice::parse(toks.get(i).ok_or_else(|| bad("centre choice missing".into()))?)
+                        .map_err(ssm::Error::from)?;
+                i += 1;
+            }
+            _ => return Err(bad(format!("unknown token `{t}`"))),
+        }
+    }
+    if step == 0 {
+        return Err(bad("k=0: the map step must be >= 1".into()));
+    }
+    let dynamics = match (centers, kernel) {
+        (None, _) => ssm::Dynamics::Map,
+        (Some(c), ssm::Kernel::Linear) => ssm::Dynamics::Rbf { centers: c },
+        (Some(c), kernel) => ssm::Dynamics::RbfWith { centers: c, kernel },
+    };
+    if centers.is_none() && kernel != ssm::Kernel::Linear {
+        return Err(bad("a kernel needs an RBF map (c=C)".into()));
+    }
+    let fit = ssm::FitOptions {
+        dim,
+        embed,
+        shift,
+        manifold_order: manifold_order as u32,
+        dyn_order,
+        dynamics,
+        ridge: ssm::Ridge::Fixed(ridge),
+        linear_anchor: None,
+        anchor_joint: false,
+    };
+    fit.validate().map_err(|e| bad(e.to_string()))?;
+    Ok(Candidate { name: name.to_string(), step, fit, smooth, multistep, denoise_inputs: denoise, centres })
+}
+
+fn round(v: Option<f64>, decimals: i32) -> Option<f64> {
+    let f = 10f64.powi(decimals);
+    v.map(|v| (v * f).round() / f)
+}
+
+/// A candidate's result as a row of the search table, rounded as the table carries it
+/// (exponents 3 decimals, D2 2, JS 4, excursion 2; a failed row has no model values).
+pub fn search_row(r: &CandidateResult) -> crate::study_results::SearchRow {
+    let ok = r.failed.is_none();
+    let keep = |v: Option<f64>, d: i32| if ok { round(v, d) } else { None };
+    crate::study_results::SearchRow {
+        candidate: r.name.clone(),
+        data_rosenstein: round(Some(r.data.lle), 3).unwrap_or(f64::NAN),
+        benettin: keep(r.benettin, 3),
+        benettin_2nd: keep(r.benettin_2nd, 3),
+        rosenstein: keep(r.rosenstein, 3),
+        rosenstein_noisy: keep(r.rosenstein_noisy, 3),
+        corr_dim: keep(r.corr_dim, 2),
+        data_corr_dim: round(Some(r.data.corr_dim), 2).unwrap_or(f64::NAN),
+        data_corr_dim_err: round(Some(r.data.corr_dim_err), 2).unwrap_or(f64::NAN),
+        js: keep(r.js, 4),
+        excursion: keep(r.excursion, 2),
+        chaotic: ok && chaos::is_chaotic(r.benettin, r.benettin_err),
+        failed: r.failed.clone(),
+        notes: r.notes.join("; "),
+    }
+}
+
 /// The bundled flag study, whose centre-set search is the default search.
 const FLAG_SPEC: &str = include_str!("../../../studies/flag.toml");
 
@@ -145,8 +298,15 @@ impl SelectionSpec {
     }
 
     fn check(&self) -> Result<(), String> {
-        if self.kind != KIND {
-            return Err(format!("kind = `{}`: expected `{KIND}` (or no kind for a flag study)", self.kind));
+        if self.kind != KIND && self.kind != SEARCH_KIND {
+            return Err(format!(
+                "kind = `{}`: expected `{KIND}`, `{SEARCH_KIND}`, `{}` (or no kind for a flag study)",
+                self.kind,
+                crate::known_system_study::KIND
+            ));
+        }
+        if self.kind == SEARCH_KIND && (self.models.dim.is_some() || self.models.standard.is_some()) {
+            return Err("a search spec names every candidate: no models.dim or models.standard".into());
         }
         match &self.data.simulated {
             None if self.data.training.is_empty() => {
@@ -210,10 +370,8 @@ impl SelectionSpec {
 
     /// The named candidates, in the spec's order, at the spec's dimension.
     pub fn candidates(&self) -> Result<Vec<Candidate>, String> {
-        self.candidate_names()
-            .iter()
-            .map(|n| candidate_from_name(n).map_err(|e| format!("models.candidates: {e}")))
-            .collect()
+        let parse = if self.kind == SEARCH_KIND { search_candidate } else { candidate_from_name };
+        self.candidate_names().iter().map(|n| parse(n).map_err(|e| format!("models.candidates: {e}"))).collect()
     }
 
     /// The candidates' names as they are measured (with `models.dim` applied).

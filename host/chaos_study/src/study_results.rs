@@ -6,7 +6,7 @@
 //! - [`KNOWN_SYSTEM`]: the flag pipeline on the known system ([`crate::flag_pipeline::CHOSEN`]):
 //!   its held-out statistics, the candidate rows at 1, 3 and 10 times the flag's training
 //!   data and the diagnosis rows;
-//! - [`SEARCH`]: the inverted flag's candidate search as printed (strings);
+//! - [`SEARCH`]: the inverted flag's candidate search, one typed row per candidate;
 //! - [`HELD_OUT`]: every candidate on the held-out run (traj_8): the fits at d = 5 and 6, the
 //!   multistep rows, the centre-set rows, the models' dimensions and D2 of every run;
 //! - [`EXPERIMENT`]: the flag's runs as perfect models of the held-out run and each run
@@ -129,14 +129,86 @@ pub struct KnownSystemResults {
     pub diagnosis: Vec<DiagRow>,
 }
 
+/// One candidate of the inverted flag's search measured on the held-out run: the held-out
+/// run's Rosenstein exponent and D2 (with its error bar) at the candidate's map step, the
+/// model's two largest Benettin exponents, the Rosenstein exponent of its series (and with the
+/// data's noise added, where measured), D2, JS (bits), the long run's largest excursion over
+/// the data's, whether the model is chaotic ([`chaos::is_chaotic`]) or why it failed, and the
+/// evaluation's notes.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SearchRow {
+    pub candidate: String,
+    pub data_rosenstein: f64,
+    pub benettin: Option<f64>,
+    pub benettin_2nd: Option<f64>,
+    pub rosenstein: Option<f64>,
+    pub rosenstein_noisy: Option<f64>,
+    pub corr_dim: Option<f64>,
+    pub data_corr_dim: f64,
+    pub data_corr_dim_err: f64,
+    pub js: Option<f64>,
+    pub excursion: Option<f64>,
+    pub chaotic: bool,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub failed: Option<String>,
+    pub notes: String,
+}
+
+impl SearchRow {
+    /// The verdict column: the failure, chaotic, or not.
+    pub fn outcome(&self) -> String {
+        match &self.failed {
+            Some(f) => format!("FAILED: {f}"),
+            None if self.chaotic => "chaotic".into(),
+            None => "not chaotic (torus or periodic)".into(),
+        }
+    }
+
+    /// The row's cells under [`SearchResults::HEADER`] (exponents 3 decimals, D2 2, JS 4,
+    /// excursion 2; `-` where there is no value).
+    pub fn cells(&self) -> [String; 9] {
+        let f = |v: Option<f64>, p: usize| v.map_or("-".to_string(), |v| format!("{v:.p$}"));
+        let rosenstein = match self.rosenstein_noisy {
+            Some(n) => format!("{} ({n:.3})", f(self.rosenstein, 3)),
+            None => f(self.rosenstein, 3),
+        };
+        [
+            self.candidate.clone(),
+            format!("{:.3}", self.data_rosenstein),
+            format!("{} ({})", f(self.benettin, 3), f(self.benettin_2nd, 3)),
+            rosenstein,
+            format!("{} ({:.2} ± {:.2})", f(self.corr_dim, 2), self.data_corr_dim, self.data_corr_dim_err),
+            f(self.js, 4),
+            f(self.excursion, 2),
+            self.outcome(),
+            self.notes.clone(),
+        ]
+    }
+}
+
 /// [`SEARCH`]: the inverted flag's candidate search (train traj_9 + traj_7, held out
-/// traj_8) as printed, one string per cell.
+/// traj_8), one row per candidate in the spec's order.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct SearchResults {
     pub produced_by: String,
-    pub header: [String; 9],
-    pub rows: Vec<[String; 9]>,
+    pub rows: Vec<SearchRow>,
+}
+
+impl SearchResults {
+    /// The columns of [`SearchRow::cells`].
+    pub const HEADER: [&str; 9] = [
+        "candidate",
+        "data Rosenstein at step k [1/s]",
+        "Benettin (2nd) [1/s]",
+        "Rosenstein (with the data's noise) [1/s]",
+        "D2 (data)",
+        "JS [bits]",
+        "excursion",
+        "outcome",
+        "notes",
+    ];
 }
 
 /// The dimension of one model: the Kaplan-Yorke dimension of its Lyapunov spectrum from the

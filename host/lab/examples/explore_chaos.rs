@@ -27,10 +27,8 @@
 //!   scale (multiples of the series sd, subsampled /1 and /3, and of the encoder step h);
 //!   `CHAOS_Q_N` periods (default 30,000).
 //! - `flag-window-slopes`: windowed Rosenstein slopes of the inverted flag's traj_8.
-//! - `flag-candidates`: candidate models of the flag judged by held-out long-term statistics
-//!   (`chaos_study::model_selection`), configurations in `CHAOS_CAND` (see
-//!   [`explore_flag_candidates`]); prints a markdown table and the selection. The rows of
-//!   `studies/results/flag/search.json` come from it.
+//! - The candidate search of `studies/results/flag/search.json` is the spec
+//!   `studies/flag-first-search.toml`, run by `ssmctl study` (`studies/README.md`).
 //! - `flag-embedding`: the embedding from the data: average mutual information against the
 //!   lag and false nearest neighbours against the dimension (traj_8, steps 1 and 4).
 //!
@@ -51,7 +49,7 @@ use ssm::dynamics::StepScratch;
 use ssm::tangent::map_jacobian;
 use ssm::{Dynamics, SsmModel, TimeSeries, fit};
 
-const USAGE: &str = "usage: explore_chaos <flag-models | scale-and-cost-tables | simulated-quantized | quantized-models | quantized-data-scales | flag-window-slopes | flag-candidates | flag-embedding>";
+const USAGE: &str = "usage: explore_chaos <flag-models | scale-and-cost-tables | simulated-quantized | quantized-models | quantized-data-scales | flag-window-slopes | flag-embedding>";
 
 fn main() {
     match std::env::args().nth(1).as_deref() {
@@ -61,7 +59,6 @@ fn main() {
         Some("quantized-models") => explore_quantized_models(),
         Some("quantized-data-scales") => explore_quantized_data_scales(),
         Some("flag-window-slopes") => explore_flag_window_slopes(),
-        Some("flag-candidates") => explore_flag_candidates(),
         Some("flag-embedding") => explore_flag_embedding(),
         _ => {
             eprintln!("{USAGE}");
@@ -147,114 +144,6 @@ fn explore_flag_embedding() {
             println!("{line}");
         }
     }
-}
-
-/// Candidate models of the inverted flag judged by held-out long-term statistics
-/// ([`chaos_study::model_selection`]): train traj_9 + traj_7, test traj_8. Candidates in
-/// `CHAOS_CAND` separated by `;`, each a comma list of `key=value`: `k` map step (samples),
-/// `d` SSM dim, `p` embedding, `s` shift (samples of the subsampled series), `c` RBF centres
-/// (`dyn=poly` for the polynomial map), `o` map order, `sm` moving-average half-width of the
-/// training data, `eiv` moving-average half-width of the map inputs only (errors-in-variables
-/// refit: denoised inputs, raw targets), `ms` multi-step refinement horizon (map steps; `msit` LM iterations per
-/// stage, default 6; `msst` window stride, default 1), `cs` RBF centre choice
-/// (`ssm::dynamics::CentreChoice::parse`: `random@SEED`, `kmeans++@SEED`, ...), `r` ridge, `m` manifold order, `long`
-/// long-run length in data lengths. One line per candidate (a markdown table row), then the
-/// selection.
-fn explore_flag_candidates() {
-    use chaos::Targets;
-    use chaos_study::model_selection::{Candidate, EvalSettings, evaluate_and_select};
-    let Some(two) = flag(&[9, 7]) else { return };
-    let test = flag(&[8]).unwrap().pop().unwrap();
-    let spec = std::env::var("CHAOS_CAND").unwrap_or_else(|_| "k=1,d=4,c=500".into());
-    let mut s = EvalSettings::default();
-    let mut cands = Vec::new();
-    for cfg in spec.split(';').filter(|c| !c.trim().is_empty()) {
-        let mut k = 1;
-        let mut o = ChaosOptions::default();
-        let mut poly = false;
-        let mut smooth = 0;
-        let mut denoise_inputs = 0;
-        let mut kernel = ssm::Kernel::Linear;
-        let mut centres = ssm::dynamics::CentreChoice::Farthest;
-        let mut multistep: Option<ssm::multistep::MultiStep> = None;
-        let ms = |m: Option<ssm::multistep::MultiStep>| {
-            m.unwrap_or(ssm::multistep::MultiStep { horizon: 8, stride: 1, iterations: 6 })
-        };
-        for kv in cfg.trim().split(',') {
-            let (key, v) = kv.split_once('=').unwrap();
-            match key {
-                "k" => k = v.parse().unwrap(),
-                "dyn" => poly = v == "poly",
-                "sm" => smooth = v.parse().unwrap(),
-                "eiv" => denoise_inputs = v.parse().unwrap(),
-                "kern" => kernel = ssm::Kernel::parse(v).unwrap(),
-                "cs" => centres = ssm::dynamics::CentreChoice::parse(v).unwrap(),
-                "ms" => multistep = Some(ssm::multistep::MultiStep { horizon: v.parse().unwrap(), ..ms(multistep) }),
-                "msit" => {
-                    multistep = Some(ssm::multistep::MultiStep { iterations: v.parse().unwrap(), ..ms(multistep) })
-                }
-                "msst" => multistep = Some(ssm::multistep::MultiStep { stride: v.parse().unwrap(), ..ms(multistep) }),
-                "o" => o.poly_order = v.parse().unwrap(),
-                "long" => s.long_runs = v.parse().unwrap(),
-                _ => assert!(model_key(&mut o, key, v), "unknown key {key}"),
-            }
-        }
-        let d = o.ssm_dim.unwrap_or(4);
-        let ts = chaos_study::model_selection::subsample(&test, k, 0).unwrap();
-        let ctx = Context::from_series(&ts.x, ts.dt().unwrap(), 6).unwrap();
-        let mut f = fit_options(&o, d, &ctx);
-        f.dynamics = match (poly, kernel) {
-            (true, _) => Dynamics::Map,
-            (false, ssm::Kernel::Linear) => Dynamics::Rbf { centers: o.centers },
-            (false, kernel) => Dynamics::RbfWith { centers: o.centers, kernel },
-        };
-        cands.push(Candidate {
-            name: cfg.trim().to_string(),
-            step: k,
-            fit: f,
-            smooth,
-            multistep,
-            denoise_inputs,
-            centres,
-        });
-    }
-    let t0 = Instant::now();
-    let (res, sel) = evaluate_and_select(&two, &test, &cands, &s, &Targets::default()).unwrap();
-    println!(
-        "| candidate | p | shift | data LLE | Benettin (2nd) | Rosenstein (+noise) | D2 (data) | JS | rollout | excursion | s | failed / notes |"
-    );
-    for r in &res {
-        println!(
-            "| {} | {} | {} | {:.3} | {} ({}) | {} ({}) | {} ({:.2}+-{:.2}) | {} | {} | {} | {:.0} | {} {} |",
-            r.name,
-            r.options.embed,
-            r.options.shift,
-            r.data.lle,
-            fmt_opt(r.benettin, 3),
-            fmt_opt(r.benettin_2nd, 3),
-            fmt_opt(r.rosenstein, 3),
-            fmt_opt(r.rosenstein_noisy, 3),
-            fmt_opt(r.corr_dim, 2),
-            r.data.corr_dim,
-            r.data.corr_dim_err,
-            fmt_opt(r.js, 4),
-            fmt_opt(r.rollout, 3),
-            fmt_opt(r.excursion, 2),
-            r.seconds,
-            r.failed.clone().unwrap_or_default(),
-            r.notes.join("; ").chars().take(160).collect::<String>()
-        );
-    }
-    if let Some(r) = res.first() {
-        println!("data noise sd {:.4}", r.data.noise_sd);
-    }
-    println!(
-        "selected: {:?}\nwhy: {}\nwarnings: {:?}\n({:.0} s)",
-        sel.name,
-        sel.why,
-        sel.warnings,
-        t0.elapsed().as_secs_f64()
-    );
 }
 
 /// Exploration of model settings on the inverted flag (prints only). Configurations in

@@ -10,24 +10,16 @@
 //!   exponent, the exact exponent and the nats per lag. `FLAG4_SYSTEMS` selects systems by
 //!   substring of their names; `FLAG4_L96=n:f,n:f` scans those Lorenz-96 systems instead.
 //! - `fnn [ratio]`, `fnn-rule [csv]`: false nearest neighbours of the SSM projection and the
-//!   dimension rule (`chaos_study::flag_pipeline_fit`); `variants SCALE NOISE SPEC..` and `state SCALE
-//!   NOISE SPEC..`: the `diagnosis` rows of `studies/results/flag/known_system.json` (see `parse_spec`);
-//!   `FLAG4_SEEDS=0,1,2` runs `variants` on those realizations of the series
-//!   (`chaos_study::flag_pipeline::known_stats_seeded`; 0, the default, is the committed one). A row
-//!   marked `B10+JS` has Benettin within 10 % of the exact exponent and JS <= 0.01.
-//! - `check [scale]`: the flag's candidate search on the chosen system
-//!   ([`chaos_study::flag_pipeline::CHOSEN`]) with training data `scale` times the flag's (default
-//!   1; RBF sizes whose regression would exceed the design-matrix limit are left out); one
-//!   row per candidate. The `pipeline_check` rows of `studies/results/flag/known_system.json`
-//!   come from `check 1`, `check 3` and `check 10`.
+//!   dimension rule (`chaos_study::flag_pipeline_fit`).
+//! - The candidate search on the chosen system at 1, 3 and 10 times the flag's training data and
+//!   the diagnosis variants (`studies/results/flag/known_system.json`) are the spec
+//!   `studies/flag-known-system.toml`, run by `ssmctl study` (`studies/README.md`).
 //! - `flag SPEC..`: the specs on the inverted flag itself (train traj_9 + traj_7, held out
 //!   traj_8, map step 4) with the Kaplan-Yorke dimension of each model and D2 of its series
 //!   with the data's noise added (exploration; `ssmctl study studies/flag.toml` computes the
 //!   study's rows, `studies/README.md`).
 
-use chaos_study::flag_pipeline::{
-    FLAG_LAYOUT, FLAG_LIKE_RBF, KnownSystem, flag_like_candidates, known_stats, pipeline_check,
-};
+use chaos_study::flag_pipeline::{FLAG_LAYOUT, KnownSystem, known_stats};
 
 fn scan() {
     let mut systems = vec![];
@@ -96,36 +88,6 @@ fn scan() {
             }
             Err(e) => println!("| {} | error: {e} |", s.name()),
         }
-    }
-}
-
-fn check(scale: usize) {
-    let sys = chaos_study::flag_pipeline::CHOSEN;
-    let t0 = std::time::Instant::now();
-    // RBF sizes whose regression fits the design-matrix limit (10^8 entries) at this scale.
-    let rows = scale * (FLAG_LAYOUT.train[0] + FLAG_LAYOUT.train[1]);
-    let rbf: Vec<(usize, f64)> =
-        FLAG_LIKE_RBF.iter().copied().filter(|&(c, _)| rows * (c + 5) <= ssm::limits::MAX_MATRIX_ENTRIES).collect();
-    let cands = flag_like_candidates(FLAG_LAYOUT.step, &rbf);
-    match pipeline_check(&sys, &FLAG_LAYOUT, scale, &cands, 4000.0) {
-        Ok((k, rows)) => {
-            println!("{k:?}");
-            let o = |v: Option<f64>, p: usize| v.map_or("None".to_string(), |v| format!("Some({v:.p$})"));
-            for r in rows {
-                println!(
-                    "    (\"{}\", {}, {}, {}, {}, {}, \"{}\"),",
-                    r.candidate,
-                    r.scale,
-                    o(r.benettin, 3),
-                    o(r.rosenstein, 3),
-                    o(r.corr_dim, 2),
-                    o(r.js, 4),
-                    r.failed.as_deref().map_or(String::new(), |f| f.split(':').next().unwrap_or(f).to_string())
-                );
-            }
-            println!("{:.1} s", t0.elapsed().as_secs_f64());
-        }
-        Err(e) => println!("error: {e}"),
     }
 }
 
@@ -303,111 +265,6 @@ fn flag_rows(specs: &[String]) {
     }
 }
 
-fn print_row(r: &chaos_study::flag_pipeline::PipelineRow, secs: f64) {
-    let o = |v: Option<f64>, p: usize| v.map_or("-".to_string(), |v| format!("{v:.p$}"));
-    println!(
-        "| {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {:.0} |",
-        r.candidate,
-        r.scale,
-        o(r.benettin, 3),
-        o(r.benettin_over_exact, 2),
-        o(r.rosenstein, 3),
-        o(r.corr_dim, 2),
-        o(r.js, 4),
-        r.passes.iter().map(|&p| if p { "y" } else { "n" }).collect::<String>(),
-        // Benettin within 10 % of the exact exponent and JS <= 0.01 (the scan's criterion).
-        if r.benettin_exact_ok && r.js.is_some_and(|j| j <= 0.01) { "B10+JS" } else { "-" },
-        r.failed.as_deref().map_or("", |f| f.split(':').next().unwrap_or(f)),
-        secs
-    );
-}
-
-/// `variants SCALE NOISE "spec" ...`: the flag's search with these candidates, noise
-/// `NOISE` over the sd (`flag`: the flag's).
-fn variants(args: &[String]) {
-    let scale: usize = args.first().and_then(|s| s.parse().ok()).unwrap_or(1);
-    let noise = match args.get(1).map(String::as_str) {
-        None | Some("flag") => FLAG_LAYOUT.noise_rel,
-        Some(v) => v.parse().unwrap_or(FLAG_LAYOUT.noise_rel),
-    };
-    let layout = chaos_study::flag_pipeline::FlagLayout { noise_rel: noise, ..FLAG_LAYOUT };
-    let Some(cands) = args[2.min(args.len())..].iter().map(|s| parse_spec(s, layout.step)).collect::<Option<Vec<_>>>()
-    else {
-        eprintln!("bad candidate spec");
-        return;
-    };
-    // FLAG4_SEEDS=0,1,2: realizations of the series (`known_stats_seeded`; 0 = the committed one).
-    let seeds: Vec<u64> = std::env::var("FLAG4_SEEDS")
-        .ok()
-        .map_or(vec![0], |v| v.split(',').filter_map(|s| s.trim().parse().ok()).collect());
-    for seed in seeds {
-        let t0 = std::time::Instant::now();
-        match chaos_study::flag_pipeline::pipeline_check_seeded(
-            &chaos_study::flag_pipeline::CHOSEN,
-            &layout,
-            scale,
-            &cands,
-            4000.0,
-            seed,
-        ) {
-            Ok((k, rows)) => {
-                println!(
-                    "seed {seed} noise {noise}: data Rosenstein {:.3}, D2 {:.2} ± {:.2}, exact {:.3}",
-                    k.rosenstein, k.corr_dim, k.corr_dim_err, k.exact
-                );
-                for r in &rows {
-                    print_row(r, t0.elapsed().as_secs_f64());
-                }
-            }
-            Err(e) => println!("seed {seed}: error: {e}"),
-        }
-    }
-}
-
-/// `state SCALE NOISE "cN rX oN hN pN"`: the map class on the true state (`pN`: on the
-/// whole delay vector of N samples instead).
-fn state(args: &[String]) {
-    let scale: usize = args.first().and_then(|s| s.parse().ok()).unwrap_or(1);
-    let noise: f64 = args.get(1).and_then(|s| s.parse().ok()).unwrap_or(0.0);
-    for spec in &args[2.min(args.len())..] {
-        let mut f = chaos_study::flag_pipeline_fit::StateFit {
-            coords: chaos_study::flag_pipeline_fit::Coords::State,
-            centers: 200,
-            order: 4,
-            ridge: 3e-9,
-            multistep: None,
-            noise_rel: noise,
-        };
-        for tok in spec.split_whitespace() {
-            let (k, v) = tok.split_at(1);
-            match k {
-                "c" => f.centers = v.parse().unwrap_or(f.centers),
-                "r" => f.ridge = v.parse().unwrap_or(f.ridge),
-                "o" => f.order = v.parse().unwrap_or(f.order),
-                "p" => {
-                    f.coords = chaos_study::flag_pipeline_fit::Coords::Delay { embed: v.parse().unwrap_or(9), shift: 1 }
-                }
-                "h" => {
-                    f.multistep =
-                        v.parse().ok().map(|h| ssm::multistep::MultiStep { horizon: h, stride: 4, iterations: 10 })
-                }
-                _ => {}
-            }
-        }
-        let t0 = std::time::Instant::now();
-        match chaos_study::flag_pipeline_fit::state_model_check(
-            &chaos_study::flag_pipeline::CHOSEN,
-            &FLAG_LAYOUT,
-            scale,
-            &f,
-            4000.0,
-        ) {
-            Ok((_, r)) => print_row(&r, t0.elapsed().as_secs_f64()),
-            Err(e) => println!("{}: error: {e}", f.name()),
-        }
-    }
-}
-
 /// `fnn`: false nearest neighbours of the projection, noise-free and at the flag's noise,
 /// for embeddings (9, 1), (9, 2), (9, 3), (11, 1), (13, 1); neighbours false beyond `ratio` (default 10).
 fn fnn(ratio: f64) {
@@ -475,14 +332,11 @@ fn main() {
     let args: Vec<String> = std::env::args().skip(1).collect();
     match args.first().map(String::as_str) {
         Some("scan") => scan(),
-        Some("variants") => variants(&args[1..]),
-        Some("state") => state(&args[1..]),
         Some("flag") => flag_rows(&args[1..]),
         Some("fnn-rule") => fnn_rule(args.get(1)),
         Some("fnn") => fnn(args.get(1).and_then(|s| s.parse().ok()).unwrap_or(10.0)),
-        Some("check") => check(args.get(1).and_then(|s| s.parse().ok()).unwrap_or(1)),
         _ => eprintln!(
-            "usage: flag_pipeline scan | check [scale] | fnn | variants SCALE NOISE SPEC.. | state SCALE NOISE SPEC.."
+            "usage: flag_pipeline scan | fnn [ratio] | fnn-rule [csv] | flag SPEC.. (the check and diagnosis rows: ssmctl study studies/flag-known-system.toml)"
         ),
     }
 }

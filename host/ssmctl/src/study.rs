@@ -7,11 +7,12 @@ use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 use chaos_study::flag_study::{FlagStudySpec, run};
+use chaos_study::known_system_study::{KnownSystemSpec, SeriesData, UnitRow, series_data, series_keys};
 use chaos_study::selection_study::{
     Prepared, SelectionResults, SelectionSpec, evaluate, finish, load_series, prepare, prepare_series,
     result_from_json, result_json,
 };
-use chaos_study::study_results::{EXPERIMENT, HELD_OUT, VALIDATION, to_json};
+use chaos_study::study_results::{EXPERIMENT, HELD_OUT, KNOWN_SYSTEM, SEARCH, VALIDATION, to_json};
 use furuta::sweep::Shard;
 use serde::Serialize;
 
@@ -94,9 +95,16 @@ pub fn study_with(
     let text = infile::read_text(spec_path, infile::MAX_SPEC_BYTES)
         .map_err(|e| format!("{}: cannot read the study spec: {e}", spec_path.display()))?;
     let origin = spec_path.display().to_string();
-    if chaos_study::selection_study::spec_kind(&origin, &text)?.is_some() {
-        let spec = SelectionSpec::parse(&origin, &text)?;
-        return selection_study(spec_path, &text, &spec, data_dir, out, opts, merge, t0);
+    match chaos_study::selection_study::spec_kind(&origin, &text)?.as_deref() {
+        None => {}
+        Some(chaos_study::known_system_study::KIND) => {
+            let spec = KnownSystemSpec::parse(&origin, &text)?;
+            return known_system_study(spec_path, &text, &spec, out, opts, merge, t0);
+        }
+        Some(_) => {
+            let spec = SelectionSpec::parse(&origin, &text)?;
+            return selection_study(spec_path, &text, &spec, data_dir, out, opts, merge, t0);
+        }
     }
     // The flag study has no per-candidate cache; a shard or a merge is an error.
     if opts.shard.is_some() || merge {
@@ -252,36 +260,58 @@ fn candidate_key(
     Ok(k.finish())
 }
 
-/// Candidate `i`'s result as the results file holds it, from the cache when it has it (then
-/// `false`: not computed).
-fn candidate_result(
-    p: &Prepared,
-    i: usize,
-    key: Option<(&fileio::store::Store, &fileio::store::Key)>,
-) -> Result<(serde_json::Value, bool), BoxError> {
-    if let Some(e) = key.and_then(|(store, key)| store.get(CANDIDATE_UNIT, key)) {
-        // An entry that does not read back as a result is computed again.
-        let v = serde_json::from_slice::<serde_json::Value>(&e.meta()?).ok();
-        if let Some(v) = v.filter(|v| result_from_json(v).is_ok()) {
-            return Ok((v, false));
-        }
-    }
-    let v = result_json(&evaluate(p, i)?)?;
-    if let Some((store, key)) = key {
-        let bytes = serde_json::to_vec(&v)?;
-        store
-            .put(CANDIDATE_UNIT, key, |_| Ok::<_, std::convert::Infallible>(bytes))
-            .map_err(|e| format!("cache {}: {e}", store.dir().display()))?;
-    }
-    Ok((v, true))
-}
-
 /// The candidate results of a run: (index, result) in the spec's order, and how many were
 /// computed (the others came from the cache).
 #[derive(Clone, Debug)]
 pub struct Rows {
     pub rows: Vec<(usize, serde_json::Value)>,
     pub computed: usize,
+}
+
+/// The units `mine` of a shard (all without one) in `run.shard`.
+fn shard_units(n: usize, run: &SelectionRun) -> Vec<usize> {
+    (0..n).filter(|i| run.shard.is_none_or(|s| (*i as u64) % u64::from(s.count) == u64::from(s.index))).collect()
+}
+
+/// The values of units `mine` (keys `keys`, in the same order), each read from `store` under
+/// `unit` when it holds one that `valid` accepts, else computed by `compute` (on the rayon
+/// pool) and stored: (index, value) in the given order, and how many were computed.
+fn cached_units(
+    store: Option<&fileio::store::Store>,
+    unit: &str,
+    mine: &[usize],
+    keys: &[fileio::store::Key],
+    valid: &(dyn Fn(&serde_json::Value) -> bool + Sync),
+    compute: &(dyn Fn(usize) -> Result<serde_json::Value, BoxError> + Sync),
+) -> Result<Rows, BoxError> {
+    use rayon::prelude::*;
+    let rows: Vec<Result<(usize, serde_json::Value, bool), String>> = mine
+        .par_iter()
+        .zip(keys)
+        .map(|(&i, key)| {
+            if let Some(e) = store.and_then(|s| s.get(unit, key)) {
+                // An entry that does not read back is computed again.
+                let v = e.meta().ok().and_then(|m| serde_json::from_slice::<serde_json::Value>(&m).ok());
+                if let Some(v) = v.filter(|v| valid(v)) {
+                    return Ok((i, v, false));
+                }
+            }
+            let v = compute(i).map_err(|e| e.to_string())?;
+            if let Some(store) = store {
+                let bytes = serde_json::to_vec(&v).map_err(|e| e.to_string())?;
+                store
+                    .put(unit, key, |_| Ok::<_, std::convert::Infallible>(bytes))
+                    .map_err(|e| format!("cache {}: {e}", store.dir().display()))?;
+            }
+            Ok((i, v, true))
+        })
+        .collect();
+    if let Some(s) = store {
+        s.finish_run()?;
+    }
+    let rows: Vec<(usize, serde_json::Value, bool)> = rows.into_iter().collect::<Result<_, _>>()?;
+    let computed = rows.iter().filter(|r| r.2).count();
+    Ok(Rows { rows: rows.into_iter().map(|(i, v, _)| (i, v)).collect(), computed })
 }
 
 /// The candidate results of a selection spec: the candidates of `shard` (all without one),
@@ -294,27 +324,14 @@ pub fn selection_rows(
     say: &dyn Fn(&str),
 ) -> Result<Rows, BoxError> {
     let store = run.cache.as_deref().map(fileio::store::Store::open).transpose()?;
-    let mine: Vec<usize> = (0..p.candidates.len())
-        .filter(|i| run.shard.is_none_or(|s| (*i as u64) % u64::from(s.count) == u64::from(s.index)))
-        .collect();
+    let mine = shard_units(p.candidates.len(), run);
     let keys: Vec<fileio::store::Key> =
         mine.iter().map(|&i| candidate_key(spec, &p.candidates[i], data)).collect::<Result<_, _>>()?;
     let cached = store.as_ref().map_or(0, |s| keys.iter().filter(|k| s.get(CANDIDATE_UNIT, k).is_some()).count());
     say(&format!("{} candidates, {cached} in the cache", mine.len()));
-    use rayon::prelude::*;
-    let rows: Vec<Result<(usize, serde_json::Value, bool), String>> = mine
-        .par_iter()
-        .zip(&keys)
-        .map(|(&i, k)| {
-            candidate_result(p, i, store.as_ref().map(|s| (s, k))).map(|(v, c)| (i, v, c)).map_err(|e| e.to_string())
-        })
-        .collect();
-    if let Some(s) = &store {
-        s.finish_run()?;
-    }
-    let rows: Vec<(usize, serde_json::Value, bool)> = rows.into_iter().collect::<Result<_, _>>()?;
-    let computed = rows.iter().filter(|r| r.2).count();
-    Ok(Rows { rows: rows.into_iter().map(|(i, v, _)| (i, v)).collect(), computed })
+    cached_units(store.as_ref(), CANDIDATE_UNIT, &mine, &keys, &|v| result_from_json(v).is_ok(), &|i| {
+        Ok(result_json(&evaluate(p, i)?)?)
+    })
 }
 
 /// Runs the selection spec on `data_dir` and selects (every candidate; `run.shard` is not
@@ -368,16 +385,16 @@ fn selection_hash(spec: &SelectionSpec, data: &[DataFile]) -> Result<String, Box
 }
 
 /// The shard files in `out` merged: every candidate of `n` once, all of spec hash `hash`.
-fn merge_shards(out: &Path, hash: &str, n: usize) -> Result<Vec<serde_json::Value>, BoxError> {
+fn merge_shards(out: &Path, prefix: &str, hash: &str, n: usize) -> Result<Vec<serde_json::Value>, BoxError> {
     let mut files: Vec<PathBuf> = std::fs::read_dir(out)
         .map_err(|e| format!("{}: cannot list the shard files: {e}", out.display()))?
         .flatten()
         .map(|e| e.path())
-        .filter(|p| p.file_name().and_then(|f| f.to_str()).is_some_and(|f| f.starts_with(SHARD_PREFIX)))
+        .filter(|p| p.file_name().and_then(|f| f.to_str()).is_some_and(|f| f.starts_with(prefix)))
         .collect();
     files.sort();
     if files.is_empty() {
-        return Err(format!("{}: no {SHARD_PREFIX}*.json files to merge", out.display()).into());
+        return Err(format!("{}: no {prefix}*.json files to merge", out.display()).into());
     }
     let mut slots: Vec<Option<serde_json::Value>> = vec![None; n];
     for f in &files {
@@ -449,7 +466,7 @@ fn selection_study(
         }
         (None, merge) => {
             let rows = if merge {
-                merge_shards(out, &hash, n)?
+                merge_shards(out, SHARD_PREFIX, &hash, n)?
             } else {
                 let rows = selection_rows(&spec, &p, &data, opts, &say)?;
                 computed = rows.computed;
@@ -457,10 +474,21 @@ fn selection_study(
             };
             let r = finish(&spec, &p, rows)?;
             say(&format!("picked: {}", r.selection.name.as_deref().unwrap_or("none")));
-            let path = out.join(SELECTION_FILE);
-            write_atomic(&path, (serde_json::to_string_pretty(&r)? + "\n").as_bytes())
-                .map_err(|e| format!("{}: {e}", path.display()))?;
-            SELECTION_FILE.to_string()
+            // A search spec's result is the search table; a selection spec's, the pick.
+            let (name, json) = if spec.kind == chaos_study::selection_study::SEARCH_KIND {
+                let rows = r
+                    .candidates
+                    .iter()
+                    .map(|v| result_from_json(v).map(|c| chaos_study::selection_study::search_row(&c)))
+                    .collect::<Result<_, _>>()?;
+                let produced_by = format!("ssmctl study {} --data-dir {}", spec_path.display(), data_dir.display());
+                (SEARCH, to_json(&chaos_study::study_results::SearchResults { produced_by, rows })?)
+            } else {
+                (SELECTION_FILE, serde_json::to_string_pretty(&r)? + "\n")
+            };
+            let path = out.join(name);
+            write_atomic(&path, json.as_bytes()).map_err(|e| format!("{}: {e}", path.display()))?;
+            name.to_string()
         }
     };
     let record = StudyRecord {
@@ -472,6 +500,130 @@ fn selection_study(
         git_commit: git_commit(),
         files: vec![file],
         computed: Some(computed),
+        wall_seconds: t0.elapsed().as_secs_f64(),
+    };
+    if opts.shard.is_none() {
+        let p = out.join(STUDY_FILE);
+        write_atomic(&p, (serde_json::to_string_pretty(&record)? + "\n").as_bytes())
+            .map_err(|e| format!("{}: {e}", p.display()))?;
+    }
+    Ok(record)
+}
+
+/// The store's unit name of one known-system row.
+const KNOWN_UNIT: &str = "known-system-row";
+
+/// The prefix of a known-system study's shard files.
+const KNOWN_SHARD_PREFIX: &str = "known-system-shard-";
+
+/// A known-system spec (`kind = "known-system"`): every row of the check and the diagnosis a
+/// unit of the cache and of a shard; the series a computed row needs are simulated and
+/// measured once per run. Writes `known_system.json` (or a shard file) and `study.json`.
+fn known_system_study(
+    spec_path: &Path,
+    text: &str,
+    spec: &KnownSystemSpec,
+    out: &Path,
+    opts: &SelectionRun,
+    merge: bool,
+    t0: Instant,
+) -> Result<StudyRecord, BoxError> {
+    if merge && opts.shard.is_some() {
+        return Err("--merge and --shard: merge the shard files in a run of its own".into());
+    }
+    let say = |s: &str| {
+        if !opts.quiet {
+            eprintln!("[{:7.1} s] {s}", t0.elapsed().as_secs_f64());
+        }
+    };
+    let origin = spec_path.display().to_string();
+    let spec = opts.limit.map_or(spec.clone(), |n| spec.limited(n));
+    let units = spec.units().map_err(|why| format!("{origin}: {why}"))?;
+    let n = units.len();
+    let hash = format!("{:016x}", FINGERPRINT.checksum(&serde_json::to_vec(&spec)?));
+    let store = opts.cache.as_deref().map(fileio::store::Store::open).transpose()?;
+    // A row's key: the code that computes it, the system, its sampling, the settings, the row.
+    let key = |u: &chaos_study::known_system_study::Unit| -> Result<fileio::store::Key, BoxError> {
+        Ok(crate::report::cache::code_key(KNOWN_UNIT, &["chaos_study"])?
+            .part("system", serde_json::to_string(&spec.system)?.as_bytes())
+            .part("layout", serde_json::to_string(&spec.layout)?.as_bytes())
+            .part("benettin time", &spec.benettin_time.to_le_bytes())
+            .part("statistics", serde_json::to_string(&spec.statistics)?.as_bytes())
+            .part("row", serde_json::to_string(u)?.as_bytes())
+            .finish())
+    };
+    let mine = if merge { Vec::new() } else { shard_units(n, opts) };
+    let keys: Vec<fileio::store::Key> = mine.iter().map(|&i| key(&units[i])).collect::<Result<_, _>>()?;
+    let valid = |v: &serde_json::Value| serde_json::from_value::<UnitRow>(v.clone()).is_ok();
+    let missing: Vec<usize> = mine
+        .iter()
+        .zip(&keys)
+        .filter(|(_, k)| store.as_ref().and_then(|s| s.get(KNOWN_UNIT, k)).is_none())
+        .map(|(&i, _)| i)
+        .collect();
+    // The series the computed rows need, and the reference series of the results.
+    let mut needed = series_keys(missing.iter().map(|&i| &units[i]));
+    if opts.shard.is_none() && !needed.contains(&spec.reference_series()) {
+        needed.push(spec.reference_series());
+    }
+    say(&format!(
+        "{} rows, {} in the cache; simulating {} series",
+        mine.len(),
+        mine.len() - missing.len(),
+        needed.len()
+    ));
+    use rayon::prelude::*;
+    let series: Vec<SeriesData> = needed
+        .par_iter()
+        .map(|&k| series_data(&spec, k).map_err(|e| e.to_string()))
+        .collect::<Vec<_>>()
+        .into_iter()
+        .collect::<Result<_, _>>()?;
+    let compute = |i: usize| -> Result<serde_json::Value, BoxError> {
+        let u = &units[i];
+        let s = series.iter().find(|s| s.key == u.series).ok_or_else(|| format!("{}: series not prepared", u.name))?;
+        let row = chaos_study::known_system_study::evaluate(&spec, u, s)?;
+        say(&format!("{} (scale {}): {row:?}", u.name, u.scale));
+        Ok(serde_json::to_value(row)?)
+    };
+    let rows = cached_units(store.as_ref(), KNOWN_UNIT, &mine, &keys, &valid, &compute)?;
+    crate::output::create_dir(out)?;
+    let file = if let Some(shard) = opts.shard {
+        let s = SelectionShard { format: SHARD_FORMAT.into(), spec_hash: hash, shard, candidates: n, rows: rows.rows };
+        let name = format!("{KNOWN_SHARD_PREFIX}{}-of-{}.json", shard.index, shard.count);
+        let path = out.join(&name);
+        write_atomic(&path, (serde_json::to_string_pretty(&s)? + "\n").as_bytes())
+            .map_err(|e| format!("{}: {e}", path.display()))?;
+        name
+    } else {
+        let values = if merge {
+            merge_shards(out, KNOWN_SHARD_PREFIX, &hash, n)?
+        } else {
+            rows.rows.into_iter().map(|(_, v)| v).collect()
+        };
+        let rows: Vec<UnitRow> = values
+            .into_iter()
+            .map(serde_json::from_value)
+            .collect::<Result<_, _>>()
+            .map_err(|e| format!("row: {e}"))?;
+        let reference =
+            series.iter().find(|s| s.key == spec.reference_series()).ok_or("the reference series was not simulated")?;
+        // The command without its output folder, so that a rerun elsewhere writes the same bytes.
+        let produced_by = format!("ssmctl study {}", spec_path.display());
+        let r = chaos_study::known_system_study::finish(&produced_by, &reference.stats, &units, rows)?;
+        let path = out.join(KNOWN_SYSTEM);
+        write_atomic(&path, to_json(&r)?.as_bytes()).map_err(|e| format!("{}: {e}", path.display()))?;
+        KNOWN_SYSTEM.to_string()
+    };
+    let record = StudyRecord {
+        spec_file: spec_path.to_path_buf(),
+        spec: text.to_string(),
+        candidates_limit: opts.limit,
+        data: Vec::new(),
+        code_version: env!("CARGO_PKG_VERSION").to_string(),
+        git_commit: git_commit(),
+        files: vec![file],
+        computed: Some(rows.computed),
         wall_seconds: t0.elapsed().as_secs_f64(),
     };
     if opts.shard.is_none() {

@@ -256,3 +256,131 @@ fn chaos_default_search_picks_a_chaotic_model_on_traj_9() {
     assert!(b > 0.0 && b > 2.0 * e, "picked {}: Benettin {b} +- {e}", sel["name"]);
     assert!(sel["warnings"].as_array().unwrap().is_empty(), "{sel}");
 }
+
+/// The bundled known-system spec cut small (short estimator runs, a 60-centre RBF map and a
+/// polynomial map at scale 1, one delay-embedding and one state diagnosis row), in `dir`.
+fn small_known_system(dir: &Path) -> PathBuf {
+    let full = std::fs::read_to_string(root().join("studies/flag-known-system.toml")).unwrap();
+    let head = &full[..full.find("[statistics]").unwrap()];
+    let text = format!(
+        "{}{}",
+        head.replace("benettin_time = 4000.0", "benettin_time = 100.0"),
+        r#"[statistics]
+gp_embed = 6
+long_runs = 1
+benettin_transient = 200
+benettin_steps = 2000
+region_factor = 1.5
+
+[names]
+ridge = 1e-8
+dim = 4
+embed = 9
+shift = 1
+map_order = 3
+multistep_stride = 4
+multistep_iterations = 10
+
+[check]
+scales = [1]
+rbf = [[60, 1e-8]]
+poly_ridge = 1e-8
+max_matrix_entries = 100000000
+
+[[diagnosis]]
+group = "small"
+scale = 1
+candidates = ["RBF 40 d=4 p=9"]
+
+[[diagnosis]]
+group = "state"
+scale = 1
+noise_rel = 0.0
+candidates = ["state poly 3"]
+"#
+    );
+    let spec = dir.join("known.toml");
+    std::fs::write(&spec, text).unwrap();
+    spec
+}
+
+/// A small known-system spec runs; its file reads back as the report reads it; a second run
+/// computes nothing and writes the same file; two shards merged write it byte for byte; a
+/// bad key is an error naming it.
+#[test]
+fn known_system_spec_runs_cached_and_sharded() {
+    use chaos_study::study_results::{KNOWN_SYSTEM, KnownSystemResults};
+    use ssmctl::study::{SelectionRun, study_with};
+    let dir = std::env::temp_dir().join(format!("ssmctl-known-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    let spec = small_known_system(&dir);
+    let opts = SelectionRun { cache: Some(dir.join("cache")), quiet: true, ..Default::default() };
+    let whole = dir.join("whole");
+    let rec = study_with(&spec, &dir, &whole, &opts, false).unwrap();
+    assert_eq!((rec.computed, rec.files.as_slice()), (Some(4), &[KNOWN_SYSTEM.to_string()][..]), "{rec:?}");
+    let first = std::fs::read(whole.join(KNOWN_SYSTEM)).unwrap();
+    let r: KnownSystemResults = read(&whole.join(KNOWN_SYSTEM)).unwrap();
+    let names: Vec<&str> = r.pipeline_check.iter().map(|c| c.candidate.as_str()).collect();
+    assert_eq!(names, ["RBF 60 /4 r=1e-8", "poly 3 /4"]);
+    let diag: Vec<(&str, &str, f64)> =
+        r.diagnosis.iter().map(|d| (d.group.as_str(), d.candidate.as_str(), d.noise_rel)).collect();
+    assert_eq!(diag, [("small", "RBF 40 d=4 p=9", 0.0032057590668853656), ("state", "state poly 3", 0.0)]);
+    assert!(r.data.exact > 0.5 && r.data.corr_dim > 1.0, "{:?}", r.data);
+    assert_eq!(r.check_rows().len(), 2);
+
+    let again = dir.join("again");
+    assert_eq!(study_with(&spec, &dir, &again, &opts, false).unwrap().computed, Some(0));
+    assert_eq!(std::fs::read(again.join(KNOWN_SYSTEM)).unwrap(), first);
+
+    let sharded = dir.join("sharded");
+    for i in 0..2 {
+        let o =
+            SelectionRun { shard: Some(furuta::sweep::Shard::new(i, 2).unwrap()), quiet: true, ..Default::default() };
+        assert_eq!(study_with(&spec, &dir, &sharded, &o, false).unwrap().computed, Some(2));
+    }
+    study_with(&spec, &dir, &sharded, &SelectionRun { quiet: true, ..Default::default() }, true).unwrap();
+    assert_eq!(std::fs::read(sharded.join(KNOWN_SYSTEM)).unwrap(), first);
+
+    let text = std::fs::read_to_string(&spec).unwrap();
+    std::fs::write(&spec, text.replace("poly_ridge = 1e-8", "poly_ridge = 1e-8\nridges = 2")).unwrap();
+    let e = study_with(&spec, &dir, &dir.join("bad"), &opts, false).unwrap_err().to_string();
+    assert!(e.contains("known.toml") && e.contains("ridges"), "{e}");
+    std::fs::write(&spec, text.replace("\"state poly 3\"", "\"state poly 3 seed 2\"")).unwrap();
+    let e = study_with(&spec, &dir, &dir.join("bad"), &opts, false).unwrap_err().to_string();
+    assert!(e.contains("diagnosis[1]") && e.contains("seed"), "{e}");
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// A search spec (the search grammar's names) on the Lorenz data writes the search table the
+/// report reads, one row per candidate in the spec's order; a bad name is an error naming it.
+#[test]
+fn search_spec_writes_the_search_table() {
+    use chaos_study::study_results::{SEARCH, SearchResults};
+    use ssmctl::study::{SelectionRun, study_with};
+    let dir = std::env::temp_dir().join(format!("ssmctl-search-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    let selection = std::fs::read_to_string(lorenz_selection(&dir)).unwrap();
+    let head = &selection[..selection.find("[models]").unwrap()];
+    let names = ["k=1 d=3 p=7 s=1 m=3 c=40 r=1e-8", "k=2 d=3 p=7 s=1 m=3 polynomial map order 3 r=1e-8 smooth=3"];
+    let spec = dir.join("search.toml");
+    let text = format!(
+        "{}[models]\ncandidates = [{}]\n",
+        head.replace("kind = \"selection\"", "kind = \"search\""),
+        names.map(|n| format!("\"{n}\"")).join(", ")
+    );
+    std::fs::write(&spec, &text).unwrap();
+    let out = dir.join("out");
+    let opts = SelectionRun { quiet: true, ..Default::default() };
+    let rec = study_with(&spec, &dir, &out, &opts, false).unwrap();
+    assert_eq!(rec.files, [SEARCH]);
+    let r: SearchResults = read(&out.join(SEARCH)).unwrap();
+    let got: Vec<&str> = r.rows.iter().map(|r| r.candidate.as_str()).collect();
+    assert_eq!(got, names);
+    assert!(r.rows.iter().all(|r| r.data_rosenstein > 0.0 && r.cells()[0] == r.candidate), "{r:?}");
+    std::fs::write(&spec, text.replace("smooth=3", "smooth=4")).unwrap();
+    let e = study_with(&spec, &dir, &out, &opts, false).unwrap_err().to_string();
+    assert!(e.contains("search.toml") && e.contains("smooth=4") && e.contains("odd"), "{e}");
+    let _ = std::fs::remove_dir_all(&dir);
+}

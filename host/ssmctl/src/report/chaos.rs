@@ -554,8 +554,8 @@ const SELECTION: &str = "Model selection by held-out long-term statistics: each 
 
 /// The flag's candidate search table's introduction, over the study's runs.
 const SEARCH_INTRO: &str = "Inverted flag: the candidate search behind the flag's candidates (train \
-    {{ train | join(' + ') }}, held out {{ test }}; <code>cargo run --release -p lab --example explore_chaos -- \
-    flag-candidates</code>). Columns as above; k = map step in samples, d = SSM dimension, p = embedding dimension, s = \
+    {{ train | join(' + ') }}, held out {{ test }}; <code>ssmctl study studies/flag-first-search.toml \
+    --data-dir ../shared/data</code>). Columns as above; k = map step in samples, d = SSM dimension, p = embedding dimension, s = \
     shift (samples of the subsampled series), m = manifold order, c = RBF centres, r = relative ridge.";
 
 /// What the flag's candidate search shows, over [`search_findings`].
@@ -583,11 +583,11 @@ const SEARCH_FINDINGS: &str = "{% macro range(r, n) %}{% if r is none %}-{% elif
     brings a model's Rosenstein exponent and D2 to the data's: what changes is which attractor the fragile fit lands \
     on. Short-term accuracy (the rollout error in the notes) does not choose the attractor.";
 
-/// The facts of the flag's candidate search (`results`, rows as printed) that
+/// The facts of the flag's candidate search (`rows`, the table's cells: [`chaos_study::study_results::SearchRow::cells`]) that
 /// [`SEARCH_FINDINGS`] states: outcomes per map step of the plain RBF rows at SSM dimension `dim`, the chaotic
 /// ones' statistics at map step `step`, and each variant's (kernels, multistep, denoised or
 /// smoothed inputs, d = 6).
-fn search_findings(search: &chaos_study::study_results::SearchResults, step: usize, dim: usize) -> serde_json::Value {
+fn search_findings(rows: &[[String; 9]], step: usize, dim: usize) -> serde_json::Value {
     use serde_json::json;
     let first = |c: &str| c.split_whitespace().next().and_then(|v| v.parse::<f64>().ok());
     let token = |c: &str, key: &str| {
@@ -627,7 +627,7 @@ fn search_findings(search: &chaos_study::study_results::SearchResults, step: usi
     let col = |rows: &[&[String; 9]], i: usize| {
         rows.iter().filter(|r| chaotic(r)).filter_map(|r| first(&r[i])).collect::<Vec<f64>>()
     };
-    let plain: Vec<&[String; 9]> = search.rows.iter().filter(|r| variant(&r[0]).is_none()).collect();
+    let plain: Vec<&[String; 9]> = rows.iter().filter(|r| variant(&r[0]).is_none()).collect();
     let mut ks: Vec<usize> = plain.iter().filter_map(|r| token(&r[0], "k=")).collect();
     ks.sort_unstable();
     ks.dedup();
@@ -650,9 +650,9 @@ fn search_findings(search: &chaos_study::study_results::SearchResults, step: usi
     let d2 = col(&at_step, 4);
     let ratios: Vec<f64> =
         at_step.iter().filter(|r| chaotic(r)).filter_map(|r| Some(first(&r[3])? / first(&r[2])?)).collect();
-    let one: Vec<&[String; 9]> = search.rows.iter().filter(|r| token(&r[0], "k=") == Some(1)).collect();
+    let one: Vec<&[String; 9]> = rows.iter().filter(|r| token(&r[0], "k=") == Some(1)).collect();
     let mut names: Vec<String> = Vec::new();
-    for r in &search.rows {
+    for r in rows {
         if let Some(v) = variant(&r[0]).filter(|v| !names.contains(v)) {
             names.push(v);
         }
@@ -660,7 +660,7 @@ fn search_findings(search: &chaos_study::study_results::SearchResults, step: usi
     let variants: Vec<serde_json::Value> = names
         .iter()
         .map(|n| {
-            let g: Vec<&[String; 9]> = search.rows.iter().filter(|r| variant(&r[0]).as_ref() == Some(n)).collect();
+            let g: Vec<&[String; 9]> = rows.iter().filter(|r| variant(&r[0]).as_ref() == Some(n)).collect();
             json!({ "what": n, "rows": g.len(), "chaotic": g.iter().filter(|r| chaotic(r)).count(),
                     "failed": g.iter().filter(|r| failed(r)).count(), "benettin": range(&col(&g, 2)),
                     "corr_dim": range(&col(&g, 4)), "js": range(&col(&g, 5)) })
@@ -679,7 +679,7 @@ fn search_findings(search: &chaos_study::study_results::SearchResults, step: usi
 
 /// The model-selection tables: the candidates of each data set with their held-out long-term
 /// statistics and the pick, then the inverted-flag candidate search behind the flag's
-/// candidates (`explore_chaos flag-candidates`, committed in `chaos_study::model_selection`).
+/// candidates (`ssmctl study studies/flag-first-search.toml`, read from `search.json`).
 fn selection_tables(
     rep: &mut crate::report::Report,
     selections: &[(
@@ -740,10 +740,10 @@ fn selection_tables(
     }
     let runs = serde_json::json!({ "train": results.held_out.train_runs, "test": results.held_out.test_run });
     rep.para(&html("chaos/search-intro", SEARCH_INTRO, &runs)?);
-    let rows: Vec<Vec<String>> = results.search.rows.iter().map(|row| row.to_vec()).collect();
-    let header: Vec<&str> = results.search.header.iter().map(String::as_str).collect();
-    rep.table(&header, &rows);
-    let shows = search_findings(&results.search, chaos_study::flag_self::STEP, FLAG_DIM);
+    let rows: Vec<Vec<String>> = results.search.rows.iter().map(|row| row.cells().to_vec()).collect();
+    rep.table(&chaos_study::study_results::SearchResults::HEADER, &rows);
+    let cells: Vec<[String; 9]> = results.search.rows.iter().map(|r| r.cells()).collect();
+    let shows = search_findings(&cells, chaos_study::flag_self::STEP, FLAG_DIM);
     rep.para(&html("chaos/search-findings", SEARCH_FINDINGS, &shows)?);
     estimator_bias(rep, results, quick)?;
     flag_pipeline_check(rep, results, quick)
@@ -1104,14 +1104,15 @@ mod tests {
     #[test]
     fn search_findings_follow_the_table() {
         let results = chaos_study::study_results::FlagResults::bundled().unwrap();
-        let v = search_findings(&results.search, 4, FLAG_DIM);
+        let cells: Vec<[String; 9]> = results.search.rows.iter().map(|r| r.cells()).collect();
+        let v = search_findings(&cells, 4, FLAG_DIM);
         let a = assert_numbers_follow("chaos/search-findings", SEARCH_FINDINGS, &v);
         let step4 = v["steps"].as_array().unwrap().iter().find(|s| s["k"] == 4).unwrap().clone();
         let text = format!("k = 4: {} of {} chaotic", step4["chaotic"], step4["rows"]);
         assert!(a.contains(&text) && a.contains("data's Rosenstein 0.332 1/s"), "{a}");
         // One chaotic row at step 4 made to escape: one fewer chaotic, one more escaped.
-        let mut search = results.search.clone();
-        let row = search.rows.iter_mut().find(|r| r[0] == "k=4 d=4 p=9 s=1 m=3 c=500 r=1e-8").unwrap();
+        let mut search = cells.clone();
+        let row = search.iter_mut().find(|r| r[0] == "k=4 d=4 p=9 s=1 m=3 c=500 r=1e-8").unwrap();
         row[7] = "FAILED: escaped".into();
         let w = search_findings(&search, 4, FLAG_DIM);
         let moved = w["steps"].as_array().unwrap().iter().find(|s| s["k"] == 4).unwrap();
@@ -1746,8 +1747,8 @@ fn flag_pipeline_fit(
         .filter_map(|r| r.js.map(|j| (j, r)))
         .min_by(|a, b| a.0.total_cmp(&b.0));
     rep.para(&format!(
-        "Multistep refinement scanned on the known system (example <code>flag_pipeline -- variants</code>, \
-         <code>FLAG4_SEEDS</code> for other realizations of the series; RBF sizes and horizons reached by doubling as \
+        "Multistep refinement scanned on the known system (<code>ssmctl study studies/flag-known-system.toml</code>, \
+         names with <code>seed N</code> for other realizations of the series; RBF sizes and horizons reached by doubling as \
          the rows \"d = 6 scan\" above name them): {}. On other realizations of the series (seeds {}) the one-step {SEED_MODEL} gives Benettin \
          {} of exact (JS {}) where the refined one gives {} of exact (JS {}), while at {D6_SCALE}x the data the \
          refined {SEED_MODEL} gives {} of exact: the refinement can keep the chaos but does not make that fit \
