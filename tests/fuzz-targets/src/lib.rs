@@ -535,9 +535,9 @@ pub fn plant_expressions(data: &[u8]) {
             "tape {v} vs graph {r} at {point:?}"
         );
         let inputs: Vec<Dual<5>> = point.iter().enumerate().map(|(i, &x)| Dual::var(x, i)).collect();
-        let mut regs = vec![Dual::<5>::cst(0.0); tape.n_regs];
+        let mut regs = vec![Dual::<5>::cst(0.0); tape.n_regs()];
         tape.eval(&inputs, &mut regs);
-        let d = regs[tape.outputs[0] as usize].re();
+        let d = regs[tape.outputs()[0] as usize].re();
         assert!(d == v || (d.is_nan() && v.is_nan()), "dual value {d} vs f64 {v} at {point:?}");
     }
 }
