@@ -493,7 +493,7 @@ const TRANSIENT: &str = "Transient at {{ t.dt_ms | plain }} ms from (rho_1, rho_
     model){% else %}{{ t.model_3torus_freq_hz | fixed(4) }} Hz{% endif %}.";
 
 /// Full-system checks of the model's predictions: where small starts switch from bounded to
-/// escape, the 2-torus at [`TORUS_DT_MS`], the domain of attraction at 31.55 ms (three starts,
+/// escape, the 2-torus at `TORUS_DT_MS`, the domain of attraction at 31.55 ms (three starts,
 /// paper fig. 5), and the transient spectrum near the 3-torus (paper fig. 6). Returns the
 /// model's small-start switch bracket ([`model_default_switch`]), which the sensitivity
 /// section's default row reuses. Summary keys `heteroclinic_dt_ms`, `torus_30p8`,
