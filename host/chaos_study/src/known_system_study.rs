@@ -286,20 +286,7 @@ impl KnownSystemSpec {
         if !(self.benettin_time.is_finite() && self.benettin_time > 0.0) {
             return Err(format!("benettin_time = {}: needs a positive time (s)", self.benettin_time));
         }
-        let s = &self.statistics;
-        if s.gp_embed == 0 || s.gp_embed > crate::microchaos::MAX_GP_EMBED {
-            return Err(format!(
-                "statistics.gp_embed = {}: needs 1 ..= {}",
-                s.gp_embed,
-                crate::microchaos::MAX_GP_EMBED
-            ));
-        }
-        if s.long_runs == 0 || s.benettin_steps == 0 {
-            return Err("statistics.long_runs and statistics.benettin_steps must be >= 1".into());
-        }
-        if !(s.region_factor.is_finite() && s.region_factor >= 1.0) {
-            return Err(format!("statistics.region_factor = {}: needs a finite value >= 1", s.region_factor));
-        }
+        self.statistics.check()?;
         if self.check.scales.contains(&0) {
             return Err(format!("check.scales = {:?}: every scale must be >= 1", self.check.scales));
         }

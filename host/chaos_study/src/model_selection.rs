@@ -80,6 +80,27 @@ pub struct EvalSettings {
     pub region_factor: f64,
 }
 
+impl EvalSettings {
+    /// A spec's `statistics` table is usable: an embedding within the estimators' limit,
+    /// at least one long run and one Benettin step, a finite region factor of at least 1.
+    pub fn check(&self) -> Result<(), String> {
+        if self.gp_embed == 0 || self.gp_embed > crate::microchaos::MAX_GP_EMBED {
+            return Err(format!(
+                "statistics.gp_embed = {}: needs 1 ..= {}",
+                self.gp_embed,
+                crate::microchaos::MAX_GP_EMBED
+            ));
+        }
+        if self.long_runs == 0 || self.benettin_steps == 0 {
+            return Err("statistics.long_runs and statistics.benettin_steps must be >= 1".into());
+        }
+        if !(self.region_factor.is_finite() && self.region_factor >= 1.0) {
+            return Err(format!("statistics.region_factor = {}: needs a finite value >= 1", self.region_factor));
+        }
+        Ok(())
+    }
+}
+
 impl Default for EvalSettings {
     fn default() -> Self {
         Self { gp_embed: 6, long_runs: 5, benettin_transient: 5_000, benettin_steps: 50_000, region_factor: 1.5 }

@@ -348,20 +348,7 @@ impl SelectionSpec {
         if self.models.dim == Some(0) {
             return Err("models.dim = 0: the SSM dimension must be >= 1".into());
         }
-        let s = &self.statistics;
-        if s.gp_embed == 0 || s.gp_embed > crate::microchaos::MAX_GP_EMBED {
-            return Err(format!(
-                "statistics.gp_embed = {}: needs 1 ..= {}",
-                s.gp_embed,
-                crate::microchaos::MAX_GP_EMBED
-            ));
-        }
-        if s.long_runs == 0 || s.benettin_steps == 0 {
-            return Err("statistics.long_runs and statistics.benettin_steps must be >= 1".into());
-        }
-        if !(s.region_factor.is_finite() && s.region_factor >= 1.0) {
-            return Err(format!("statistics.region_factor = {}: needs a finite value >= 1", s.region_factor));
-        }
+        self.statistics.check()?;
         for c in self.candidates()? {
             c.fit.validate().map_err(|e| format!("models.candidates: `{}`: {e}", c.name))?;
         }
