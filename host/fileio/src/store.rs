@@ -43,7 +43,8 @@ impl std::fmt::Display for Key {
 }
 
 /// Builds a [`Key`] from named parts; every part is length-prefixed, so moving bytes from one
-/// part to the next changes the key.
+/// part to the next changes the key. A clone extends the same prefix.
+#[derive(Clone)]
 pub struct KeyBuilder {
     d: crc::Digest<'static, u64>,
 }

@@ -426,6 +426,69 @@ fn merge_shards(out: &Path, prefix: &str, hash: &str, n: usize) -> Result<Vec<se
     Ok(slots.into_iter().flatten().collect())
 }
 
+/// The progress printer of a study run (silent with `--quiet`), after refusing `--merge` with
+/// `--shard`.
+fn progress(opts: &SelectionRun, merge: bool, t0: Instant) -> Result<impl Fn(&str) + Sync, BoxError> {
+    if merge && opts.shard.is_some() {
+        return Err("--merge and --shard: merge the shard files in a run of its own".into());
+    }
+    let quiet = opts.quiet;
+    Ok(move |s: &str| {
+        if !quiet {
+            eprintln!("[{:7.1} s] {s}", t0.elapsed().as_secs_f64());
+        }
+    })
+}
+
+/// Writes shard `shard` of a study's `n` units (`rows`, of spec hash `hash`) to
+/// `out/PREFIX-I-of-N.json`; returns the file's name.
+fn write_shard(
+    out: &Path,
+    prefix: &str,
+    hash: String,
+    shard: Shard,
+    n: usize,
+    rows: Vec<(usize, serde_json::Value)>,
+) -> Result<String, BoxError> {
+    let s = SelectionShard { format: SHARD_FORMAT.into(), spec_hash: hash, shard, candidates: n, rows };
+    let name = format!("{prefix}{}-of-{}.json", shard.index, shard.count);
+    let path = out.join(&name);
+    write_atomic(&path, (serde_json::to_string_pretty(&s)? + "\n").as_bytes())
+        .map_err(|e| format!("{}: {e}", path.display()))?;
+    Ok(name)
+}
+
+/// The record of a study run, written to `out/study.json` unless the run is one shard.
+#[allow(clippy::too_many_arguments)]
+fn record(
+    spec_path: &Path,
+    text: &str,
+    opts: &SelectionRun,
+    out: &Path,
+    data: Vec<DataFile>,
+    file: String,
+    computed: usize,
+    t0: Instant,
+) -> Result<StudyRecord, BoxError> {
+    let record = StudyRecord {
+        spec_file: spec_path.to_path_buf(),
+        spec: text.to_string(),
+        candidates_limit: opts.limit,
+        data,
+        code_version: env!("CARGO_PKG_VERSION").to_string(),
+        git_commit: git_commit(),
+        files: vec![file],
+        computed: Some(computed),
+        wall_seconds: t0.elapsed().as_secs_f64(),
+    };
+    if opts.shard.is_none() {
+        let p = out.join(STUDY_FILE);
+        write_atomic(&p, (serde_json::to_string_pretty(&record)? + "\n").as_bytes())
+            .map_err(|e| format!("{}: {e}", p.display()))?;
+    }
+    Ok(record)
+}
+
 #[allow(clippy::too_many_arguments)]
 fn selection_study(
     spec_path: &Path,
@@ -437,14 +500,7 @@ fn selection_study(
     merge: bool,
     t0: Instant,
 ) -> Result<StudyRecord, BoxError> {
-    if merge && opts.shard.is_some() {
-        return Err("--merge and --shard: merge the shard files in a run of its own".into());
-    }
-    let say = |s: &str| {
-        if !opts.quiet {
-            eprintln!("[{:7.1} s] {s}", t0.elapsed().as_secs_f64());
-        }
-    };
+    let say = progress(opts, merge, t0)?;
     let spec = opts.limit.map_or(spec.clone(), |n| spec.limited(n));
     let data = selection_data(&spec, data_dir)?;
     let hash = selection_hash(&spec, &data)?;
@@ -456,13 +512,7 @@ fn selection_study(
         (Some(shard), _) => {
             let rows = selection_rows(&spec, &p, &data, opts, &say)?;
             computed = rows.computed;
-            let s =
-                SelectionShard { format: SHARD_FORMAT.into(), spec_hash: hash, shard, candidates: n, rows: rows.rows };
-            let name = format!("{SHARD_PREFIX}{}-of-{}.json", shard.index, shard.count);
-            let path = out.join(&name);
-            write_atomic(&path, (serde_json::to_string_pretty(&s)? + "\n").as_bytes())
-                .map_err(|e| format!("{}: {e}", path.display()))?;
-            name
+            write_shard(out, SHARD_PREFIX, hash, shard, n, rows.rows)?
         }
         (None, merge) => {
             let rows = if merge {
@@ -491,23 +541,7 @@ fn selection_study(
             name.to_string()
         }
     };
-    let record = StudyRecord {
-        spec_file: spec_path.to_path_buf(),
-        spec: text.to_string(),
-        candidates_limit: opts.limit,
-        data,
-        code_version: env!("CARGO_PKG_VERSION").to_string(),
-        git_commit: git_commit(),
-        files: vec![file],
-        computed: Some(computed),
-        wall_seconds: t0.elapsed().as_secs_f64(),
-    };
-    if opts.shard.is_none() {
-        let p = out.join(STUDY_FILE);
-        write_atomic(&p, (serde_json::to_string_pretty(&record)? + "\n").as_bytes())
-            .map_err(|e| format!("{}: {e}", p.display()))?;
-    }
-    Ok(record)
+    record(spec_path, text, opts, out, data, file, computed, t0)
 }
 
 /// The store's unit name of one known-system row.
@@ -528,14 +562,7 @@ fn known_system_study(
     merge: bool,
     t0: Instant,
 ) -> Result<StudyRecord, BoxError> {
-    if merge && opts.shard.is_some() {
-        return Err("--merge and --shard: merge the shard files in a run of its own".into());
-    }
-    let say = |s: &str| {
-        if !opts.quiet {
-            eprintln!("[{:7.1} s] {s}", t0.elapsed().as_secs_f64());
-        }
-    };
+    let say = progress(opts, merge, t0)?;
     let origin = spec_path.display().to_string();
     let spec = opts.limit.map_or(spec.clone(), |n| spec.limited(n));
     let units = spec.units().map_err(|why| format!("{origin}: {why}"))?;
@@ -543,14 +570,13 @@ fn known_system_study(
     let hash = format!("{:016x}", FINGERPRINT.checksum(&serde_json::to_vec(&spec)?));
     let store = opts.cache.as_deref().map(fileio::store::Store::open).transpose()?;
     // A row's key: the code that computes it, the system, its sampling, the settings, the row.
+    let base = crate::report::cache::code_key(KNOWN_UNIT, &["chaos_study"])?
+        .part("system", serde_json::to_string(&spec.system)?.as_bytes())
+        .part("layout", serde_json::to_string(&spec.layout)?.as_bytes())
+        .part("benettin time", &spec.benettin_time.to_le_bytes())
+        .part("statistics", serde_json::to_string(&spec.statistics)?.as_bytes());
     let key = |u: &chaos_study::known_system_study::Unit| -> Result<fileio::store::Key, BoxError> {
-        Ok(crate::report::cache::code_key(KNOWN_UNIT, &["chaos_study"])?
-            .part("system", serde_json::to_string(&spec.system)?.as_bytes())
-            .part("layout", serde_json::to_string(&spec.layout)?.as_bytes())
-            .part("benettin time", &spec.benettin_time.to_le_bytes())
-            .part("statistics", serde_json::to_string(&spec.statistics)?.as_bytes())
-            .part("row", serde_json::to_string(u)?.as_bytes())
-            .finish())
+        Ok(base.clone().part("row", serde_json::to_string(u)?.as_bytes()).finish())
     };
     let mine = if merge { Vec::new() } else { shard_units(n, opts) };
     let keys: Vec<fileio::store::Key> = mine.iter().map(|&i| key(&units[i])).collect::<Result<_, _>>()?;
@@ -589,12 +615,7 @@ fn known_system_study(
     let rows = cached_units(store.as_ref(), KNOWN_UNIT, &mine, &keys, &valid, &compute)?;
     crate::output::create_dir(out)?;
     let file = if let Some(shard) = opts.shard {
-        let s = SelectionShard { format: SHARD_FORMAT.into(), spec_hash: hash, shard, candidates: n, rows: rows.rows };
-        let name = format!("{KNOWN_SHARD_PREFIX}{}-of-{}.json", shard.index, shard.count);
-        let path = out.join(&name);
-        write_atomic(&path, (serde_json::to_string_pretty(&s)? + "\n").as_bytes())
-            .map_err(|e| format!("{}: {e}", path.display()))?;
-        name
+        write_shard(out, KNOWN_SHARD_PREFIX, hash, shard, n, rows.rows)?
     } else {
         let values = if merge {
             merge_shards(out, KNOWN_SHARD_PREFIX, &hash, n)?
@@ -615,21 +636,5 @@ fn known_system_study(
         write_atomic(&path, to_json(&r)?.as_bytes()).map_err(|e| format!("{}: {e}", path.display()))?;
         KNOWN_SYSTEM.to_string()
     };
-    let record = StudyRecord {
-        spec_file: spec_path.to_path_buf(),
-        spec: text.to_string(),
-        candidates_limit: opts.limit,
-        data: Vec::new(),
-        code_version: env!("CARGO_PKG_VERSION").to_string(),
-        git_commit: git_commit(),
-        files: vec![file],
-        computed: Some(rows.computed),
-        wall_seconds: t0.elapsed().as_secs_f64(),
-    };
-    if opts.shard.is_none() {
-        let p = out.join(STUDY_FILE);
-        write_atomic(&p, (serde_json::to_string_pretty(&record)? + "\n").as_bytes())
-            .map_err(|e| format!("{}: {e}", p.display()))?;
-    }
-    Ok(record)
+    record(spec_path, text, opts, out, Vec::new(), file, rows.computed, t0)
 }
