@@ -743,10 +743,12 @@ fn ssmctl_pil(tools: &PilTools, r: &PilRun<'_>, fresh: bool) -> Result<(serde_js
         theta_csv_check(&out.join("theta.csv"), r.periods)?;
         Ok(v)
     };
-    if !fresh && cache::hit(&r.out, &key) && r.model.is_file() {
-        if let Ok(v) = summary(&r.out) {
-            return Ok((v, true));
-        }
+    if !fresh
+        && cache::hit(&r.out, &key)
+        && r.model.is_file()
+        && let Ok(v) = summary(&r.out)
+    {
+        return Ok((v, true));
     }
     cache::forget(&r.out);
     std::fs::create_dir_all(&r.out).map_err(|e| format!("{}: {e}", r.out.display()))?;
