@@ -13,7 +13,8 @@ use serde_json::Value;
 /// The template environment with the report's number formats as filters:
 /// `num` (4 significant digits, [`crate::report::num`]), `fixed(n)` (n decimals), `sci(n)`
 /// (n decimals, exponent), `pct(n)` (a fraction as a percentage with n decimals, no sign),
-/// `nums` (a list through `num`, comma-separated), `fixed_or(n, text)` (`fixed(n)`, or `text` for none), `e` (Rust's `{:e}`), `dbg` (Rust's `{:?}` of a number or a list of numbers), `signed(n)` and `ssci(n)` (as `fixed` and
+/// `nums` (a list through `num`, comma-separated), `fixed_or(n, text)` (`fixed(n)`, or `text` for none),
+/// `num_or(text)` (`num`, or `text`, default `-`, for none), `e` (Rust's `{:e}`), `dbg` (Rust's `{:?}` of a number or a list of numbers), `signed(n)` and `ssci(n)` (as `fixed` and
 /// `sci` with a sign always), `plain` (Rust's `Display`: `31` for 31.0; a list joined by `, ` or
 /// the given separator).
 pub struct Prose {
@@ -91,6 +92,9 @@ impl Prose {
                 return Ok(items.join(sep.as_deref().unwrap_or(", ")));
             }
             plain(&v)
+        });
+        env.add_filter("num_or", |v: JinjaValue, alt: Option<String>| -> Result<String, minijinja::Error> {
+            if v.is_none() { Ok(alt.unwrap_or_else(|| "-".into())) } else { Ok(crate::report::num(f(&v)?)) }
         });
         env.add_filter("nums", |v: JinjaValue| -> Result<String, minijinja::Error> {
             let items: Vec<String> =
