@@ -1495,6 +1495,18 @@ mod tests {
     use super::*;
 
     #[test]
+    fn equation_text_follows_the_values() {
+        let s = crate::report::pages::snapshot_summary();
+        crate::report::pages::check_section(
+            equation_render,
+            &s,
+            "/equation_ssm/bifurcations_by_order/0/saddle_connection_dt_ms",
+            json!(31.23456),
+            "<td>31.235</td>",
+        );
+    }
+
+    #[test]
     fn basin_text_follows_the_values() {
         let s = crate::report::pages::snapshot_summary();
         crate::report::pages::check_section(
@@ -1503,6 +1515,33 @@ mod tests {
             "/basin/per_dt/0/map/disagreement",
             json!(0.4321),
             "<td>43.2 % (",
+        );
+    }
+
+    /// The full report's table of the fitted map over the training variants, on made-up
+    /// variants added to the quick report's values.
+    #[test]
+    fn equation_map_variants_follow_the_values() {
+        let mut s = crate::report::pages::snapshot_summary();
+        let spread = |x: f64| json!({"found": 2, "of": 2, "min": 31.5, "max": 31.5 + x, "spread_ms": x});
+        let torus = json!({"lost_between": [31.7, 31.75], "lost_at_first_dt": false, "first_dt_ms": 31.3,
+                           "growth_onset": 31.72});
+        let first = json!({"lost_between": null, "lost_at_first_dt": true, "first_dt_ms": 31.3, "growth_onset": null});
+        s["map_sensitivity"] = json!({
+            "variants": [{"variant": "default (paper's periods, cut 0.2 rad)",
+                          "connection": {"linear": {"bracket": [31.61, 31.62], "monotone": true},
+                                         "spline": {"error": "no escape on the grid"}},
+                          "torus": {"linear": torus, "spline": first}}],
+            "spreads": {"connection_linear": spread(0.03), "connection_spline": spread(0.04),
+                        "torus_onset_linear": spread(0.05), "torus_onset_spline": spread(0.06),
+                        "torus_lost_linear": spread(0.07), "torus_lost_spline": spread(0.08)},
+        });
+        crate::report::pages::check_section(
+            equation_render,
+            &s,
+            "/map_sensitivity/variants/0/torus/linear/growth_onset",
+            json!(31.7777),
+            "onset 31.778</td>",
         );
     }
 

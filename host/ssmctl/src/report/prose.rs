@@ -128,10 +128,22 @@ impl Prose {
     }
 }
 
-/// Names written with digits: a method, and the invariant objects named by their dimension;
-/// and the constants of formulas written out in the text.
-const NAMES_WITH_DIGITS: [&str; 8] =
-    ["0-1 test", "2-torus", "3-torus", "2-tori", "3-tori", "x (1 + spread", "(1 + k_ij", "by 2 k_ij"];
+/// Names written with digits: a method, the invariant objects named by their dimension and a
+/// figure of the paper; and the constants of formulas written out in the text (the unit
+/// multiplier of a shift, a real multiplier crossing +1).
+const NAMES_WITH_DIGITS: [&str; 11] = [
+    "0-1 test",
+    "2-torus",
+    "3-torus",
+    "2-tori",
+    "3-tori",
+    "x (1 + spread",
+    "(1 + k_ij",
+    "by 2 k_ij",
+    "paper's figure 2",
+    "structural multiplier 1 (",
+    "multiplier through +1",
+];
 
 /// The numbers written in `text`: runs of digits (with a decimal point, an exponent and a
 /// leading minus) that are not part of a name (`rho_1`, `x2`, `2D`, a monomial's `^3`,

@@ -192,6 +192,18 @@ fn max(v: &[f64]) -> f64 {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn verdict_text_follows_the_values() {
+        let s = crate::report::pages::snapshot_summary();
+        crate::report::pages::check_section(
+            render,
+            &s,
+            "/microchaos_verdict/period_map/open_loop_rate",
+            json!(12.3456),
+            "<td>12.3456</td>",
+        );
+    }
     use crate::report::prose::{perturbed, unmoved};
 
     /// Every number of the introduction comes from the options, the scene or the theory's
