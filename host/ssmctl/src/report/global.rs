@@ -2,7 +2,10 @@
 //! reduced model (its reduced map iterated, and its polar normal form) next to the data-driven
 //! one (the fitted map itself and its normal form) and the full system, every bifurcation value
 //! in five columns (`summary.json` keys `equation_ssm`, and `equation*` / `full_system*` /
-//! `map` / `equation_map` added to `heteroclinic_dt_ms` and `torus_hopf_dt_ms`, the equation map's small-start switch as `map_switch_dt_ms.equation_map`), and the full system's basin near the global bifurcation with both
+//! `map` / `equation_map` added to `heteroclinic_dt_ms` and `torus_hopf_dt_ms`, the equation
+//! map's small-start switch as `map_switch_dt_ms.equation_map`; `page_equation` holds what else
+//! the section's page reads, which [`equation_render`] writes from the summary alone), and the
+//! full system's basin near the global bifurcation with both
 //! normal forms' saddle manifolds and the fitted map's verdict over it (`basin`, with
 //! `map_disagreement`; `map_figure` is the main figure, which carries the map's verdict; the
 //! normal forms' verdicts are on `page_basin.normal_form_figure`).
@@ -964,8 +967,11 @@ const FH_DT_CELL: &str = "{% if r is none or r.data is none or r.rel_diff is non
 const SM_DT_CELL: &str =
     "{% if r is none or r.rel_diff is none %}-{% else %}{{ (100 * r.rel_diff) | signed(1) }} %{% endif %}";
 
+/// A table's header and rows.
+type Table = (Vec<String>, Vec<Vec<String>>);
+
 /// The coefficient comparison's table from its summary value `cc` (`cubic_comparison`).
-fn cubic_table(p: &Prose, cc: &Value) -> Result<(Vec<String>, Vec<Vec<String>>), Box<dyn Error>> {
+fn cubic_table(p: &Prose, cc: &Value) -> Result<Table, Box<dyn Error>> {
     let arr = |v: &Value, k: &str| -> Result<Vec<Value>, String> {
         v[k].as_array().cloned().ok_or(format!("report: equation_ssm.cubic_comparison: `{k}` is not a list"))
     };

@@ -1,5 +1,6 @@
 //! `ssmctl reproduce`: runs every capability on the bundled scenes and writes the report.
-//! Each capability adds its own section; this module only orchestrates.
+//! Each capability adds its own section; this module orchestrates them and writes the first
+//! ones (scenes, stability, chart, accuracy-time-sim), each from its summary values alone.
 
 use crate::bench;
 use crate::plot::{self, Series};
