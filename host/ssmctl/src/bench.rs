@@ -20,11 +20,18 @@ pub struct BenchRow {
     pub steps_per_period: f64,
 }
 
-/// The benchmark problem: `furuta-dt30.8`, 200 periods from theta0 = 0.05 rad, the rest at rest.
+/// The benchmark's scene, the report's number of periods, its start angle (rad) and the
+/// reference's relative tolerance.
+pub const SCENE: &str = "furuta-dt30.8";
+pub const PERIODS: u64 = 200;
+pub const THETA0: f64 = 0.05;
+pub const REFERENCE_RTOL: f64 = 1e-13;
+
+/// The benchmark problem: [`SCENE`], `periods` periods from theta0 = [`THETA0`], the rest at rest.
 pub fn problem(periods: u64) -> Result<Scene, SimError> {
-    Ok(SceneBuilder::load("furuta-dt30.8")?
+    Ok(SceneBuilder::load(SCENE)?
         .periods(periods)
-        .initial_state(&[0.05, 0.0, 0.0, 0.0])
+        .initial_state(&[THETA0, 0.0, 0.0, 0.0])
         .tasks(&[Task::Simulate])
         .build()?)
 }
@@ -109,8 +116,8 @@ pub fn bench_simulate_window(
     mut progress: impl FnMut(&str),
 ) -> Result<(Vec<BenchRow>, String), SimError> {
     let base = problem(periods)?;
-    progress("reference: rodas4 rtol=1e-13");
-    let reference = simulate(&with(&base, MethodKind::Rodas, Some(1e-13), None), None)?;
+    progress(&format!("reference: rodas4 rtol={REFERENCE_RTOL:e}"));
+    let reference = simulate(&with(&base, MethodKind::Rodas, Some(REFERENCE_RTOL), None), None)?;
     let mut configs = vec![with(&base, MethodKind::Rk4, None, Some(175))];
     let rtols: &[f64] = if quick { &[1e-8, 1e-11] } else { &[1e-6, 1e-8, 1e-9, 1e-10, 1e-11, 1e-12] };
     configs.extend(rtols.iter().map(|&r| with(&base, MethodKind::Rodas, Some(r), None)));

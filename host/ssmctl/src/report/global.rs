@@ -2,7 +2,10 @@
 //! reduced model (its reduced map iterated, and its polar normal form) next to the data-driven
 //! one (the fitted map itself and its normal form) and the full system, every bifurcation value
 //! in five columns (`summary.json` keys `equation_ssm`, and `equation*` / `full_system*` /
-//! `map` / `equation_map` added to `heteroclinic_dt_ms` and `torus_hopf_dt_ms`, the equation map's small-start switch as `map_switch_dt_ms.equation_map`), and the full system's basin near the global bifurcation with both
+//! `map` / `equation_map` added to `heteroclinic_dt_ms` and `torus_hopf_dt_ms`, the equation
+//! map's small-start switch as `map_switch_dt_ms.equation_map`; `page_equation` holds what else
+//! the section's page reads, which [`equation_render`] writes from the summary alone), and the
+//! full system's basin near the global bifurcation with both
 //! normal forms' saddle manifolds and the fitted map's verdict over it (`basin`, with
 //! `map_disagreement`; `map_figure` is the main figure, which carries the map's verdict; the
 //! normal forms' verdicts are on `page_basin.normal_form_figure`).
@@ -11,7 +14,7 @@ use crate::draw::basin::{Curves, OverlayPanel, draw_basin_overlay};
 use crate::report::bifurcations::TORUS_DT_MS;
 use crate::report::prose::Prose;
 use crate::report::tasks::task;
-use crate::report::{Report, num, par_map};
+use crate::report::{Report, par_map};
 use furuta::basin::{
     Agreement, BasinOptions, FullBasin, ModelBasin, ModelFate, TorusContinuation, agreement, full_basin, model_basin,
     torus_continuation_with,
@@ -400,12 +403,12 @@ fn compute(
     })
 }
 
-/// Where the equation-driven model's polar normal form departs from the full system, measured:
-/// the graph-style reduced map by order, the polar normal form by order, and the table order's
-/// normal-form-style map (the same SSM's normal form iterated as a map); then the data-driven
-/// fitted map against the equation-driven reduced map and the full system (the issue's 0.05 ms
-/// target).
-fn where_the_normal_form_errs(c: &Computed) -> Result<String, String> {
+/// The values of the paragraph on where the equation-driven model's polar normal form departs
+/// from the full system, measured: the graph-style reduced map by order, the polar normal form
+/// by order, and the table order's normal-form-style map (the same SSM's normal form iterated
+/// as a map); then the data-driven fitted map against the equation-driven reduced map and the
+/// full system (the issue's 0.05 ms target).
+fn where_values(c: &Computed) -> Value {
     let mid =
         |r: &Result<Connection, String>| r.as_ref().ok().and_then(|c| c.switch.bracket).map(|(a, b)| 0.5 * (a + b));
     let onset = |g: &EquationMapGlobal| g.torus.as_ref().ok().and_then(|t| t.growth_onset);
@@ -424,14 +427,13 @@ fn where_the_normal_form_errs(c: &Computed) -> Result<String, String> {
     let (g_conn, g_onset) = (g7.and_then(|g| mid(&g.connection)), g7.and_then(onset));
     let (m_conn, m_onset) = (mid(&c.map_connection[0]), c.map_torus[0].growth_onset);
     let (f_conn, f_onset) = (mid(&c.full_connection), c.torus.growth_onset);
-    let v = json!({
+    json!({
         "order": EQUATION_ORDER, "target": MAP_TARGET_MS, "graph": graph, "polar": polar,
         "full_error": c.full_connection.as_ref().err(), "full": f_conn, "nf_conn": nf_conn, "nf_onset": nf_onset,
         "gaps": [gap(nf_conn, polar_t.and_then(|b| b.heteroclinic.as_ref().map(|h| h.dt))),
                  gap(nf_onset, polar_t.and_then(|b| b.hopf.as_ref().map(|h| h.dt))),
                  gap(m_conn, g_conn), gap(m_onset, g_onset), gap(m_conn, f_conn), gap(m_onset, f_onset)],
-    });
-    Prose::new().html("equation/where", WHERE_THE_NORMAL_FORM_ERRS, &v)
+    })
 }
 
 /// A value in ms to 3 decimals or `none` (`F3 x`), a distance or `-` (`GAP x`).
@@ -450,14 +452,10 @@ const WHERE_THE_NORMAL_FORM_ERRS: &str = "Where \
     and its torus growth onset {{ gaps[3] | fixed_or(3, \"-\") }} ms (target {{ target | plain }} ms); against the full system: \
     connection {{ gaps[4] | fixed_or(3, \"-\") }} ms, onset {{ gaps[5] | fixed_or(3, \"-\") }} ms.";
 
-fn f4(v: Option<f64>) -> String {
-    v.map_or("none".into(), |x| format!("{x:.3}"))
-}
-
-/// Both sections: `equation` (the four columns: fitted map, its normal form, equation-driven, full system; the order table, coefficients and
-/// invariance) and `basin`. `bif` is the data-driven model's bifurcations (portraits section);
-/// the full system's small-start scan and torus are read from the summary keys the
-/// fullsystem section wrote.
+/// Both sections: `equation` (the four columns: fitted map, its normal form, equation-driven,
+/// full system; the order table, coefficients and invariance) and `basin`. `bif` is the
+/// data-driven model's bifurcations (portraits section); the full system's small-start scan
+/// and torus are read from the summary keys the fullsystem section wrote.
 pub fn global_sections(
     rep: &mut Report,
     pm: &ParametricModel,
@@ -467,10 +465,11 @@ pub fn global_sections(
     quick: bool,
 ) -> Result<(), Box<dyn Error>> {
     let c = compute(pm, sm, runs, quick).map_err(|e| e.to_string())?;
-    equation_section(rep, pm, sm, bif, &c, quick)?;
+    equation_values(rep, pm, sm, bif, &c, quick)?;
     if !quick {
-        map_variants_table(rep, &c)?;
+        map_variants_values(rep, &c);
     }
+    equation_render(rep, &Value::Object(rep.summary.clone()))?;
     basin_section(rep, &c)?;
     Ok(())
 }
@@ -478,19 +477,12 @@ pub fn global_sections(
 /// The fitted map's saddle connection and torus loss over the training variants (the
 /// sensitivity study's), next to the default's: docs/decisions/0001's spread target (<= 0.1 ms).
 /// Summary key `map_sensitivity`.
-fn map_variants_table(rep: &mut Report, c: &Computed) -> Result<(), Box<dyn Error>> {
-    let tor = |r: &Result<TorusContinuation, String>| r.as_ref().map_or_else(|e| e.clone(), lost_text);
+fn map_variants_values(rep: &mut Report, c: &Computed) {
     let default_torus: [Result<TorusContinuation, String>; 2] =
         [Ok(c.map_torus[0].clone()), Ok(c.map_torus[1].clone())];
     let mut all: Vec<(&str, &[Result<Connection, String>; 2], &[Result<TorusContinuation, String>; 2])> =
         vec![("default (paper's periods, cut 0.2 rad)", &c.map_connection, &default_torus)];
     all.extend(c.map_variants.iter().map(|v| (v.name, &v.connection, &v.torus)));
-    let rows: Vec<Vec<String>> = all
-        .iter()
-        .map(|(n, cs, ts)| {
-            vec![n.to_string(), connection_text(&cs[0]), connection_text(&cs[1]), tor(&ts[0]), tor(&ts[1])]
-        })
-        .collect();
     // Spread (max - min) of each value over the rows where it exists: bracket midpoints,
     // growth onsets; with the number of rows it was found in.
     let mid = |b: Option<(f64, f64)>| b.map(|(lo, hi)| 0.5 * (lo + hi));
@@ -517,19 +509,6 @@ fn map_variants_table(rep: &mut Report, c: &Computed) -> Result<(), Box<dyn Erro
             ),
         );
     }
-    let v = json!({"spreads": spreads, "target": SPREAD_TARGET_MS, "low_degree": furuta::parametric::MAP_LOW_DEGREE,
-                   "low_knee": furuta::parametric::MAP_LOW_KNEE_THETA});
-    rep.para(&Prose::new().html("equation/map-variants", MAP_VARIANTS, &v)?);
-    rep.table(
-        &[
-            "training",
-            "saddle connection, linear [ms]",
-            "saddle connection, spline [ms]",
-            "torus, linear [ms]",
-            "torus, spline [ms]",
-        ],
-        &rows,
-    );
     let list: Vec<Value> = all
         .iter()
         .map(|(n, cs, ts)| {
@@ -537,14 +516,14 @@ fn map_variants_table(rep: &mut Report, c: &Computed) -> Result<(), Box<dyn Erro
             let tj = |r: &Result<TorusContinuation, String>| {
                 r.as_ref().map_or_else(
                     |e| json!({"error": e}),
-                    |t| json!({"lost_between": t.lost_between, "lost_at_first_dt": t.lost_at_first_dt(), "growth_onset": t.growth_onset}),
+                    |t| json!({"lost_between": t.lost_between, "lost_at_first_dt": t.lost_at_first_dt(),
+                               "first_dt_ms": t.steps.first().map(|s| s.dt_ms), "growth_onset": t.growth_onset}),
                 )
             };
             json!({"variant": n, "connection": {"linear": cj(&cs[0]), "spline": cj(&cs[1])}, "torus": {"linear": tj(&ts[0]), "spline": tj(&ts[1])}})
         })
         .collect();
     rep.summary.insert("map_sensitivity".into(), json!({"variants": list, "spreads": spreads}));
-    Ok(())
 }
 
 const MAP_VARIANTS: &str = "The fitted map over the training variants of the \
@@ -558,29 +537,35 @@ const MAP_VARIANTS: &str = "The fitted map over the training variants of the \
     spreads.torus_lost_linear.spread_ms | fixed_or(3, \"-\") }} / {{ spreads.torus_lost_spline.spread_ms | fixed_or(3, \"-\") }} ms (rows without the value, e.g. a torus already \
     lost at the grid's first dt, are left out). Target: {{ target | plain }} ms.";
 
-/// A saddle-connection search as table text: its bracket, `none`, or why it failed.
-fn connection_text(r: &Result<Connection, String>) -> String {
-    match r {
-        Ok(c) => c.switch.bracket.map_or("none".into(), |(a, b)| format!("[{a:.4}, {b:.4}]")),
-        Err(e) => e.clone(),
-    }
-}
+/// A saddle-connection search `c` as table text: its bracket, `none`, why it failed, or
+/// `not computed` (null).
+const CONNECTION_CELL: &str = "{% if c is none %}not computed{% elif c.error is defined %}{{ c.error }}{% elif \
+    c.bracket is none %}none{% else %}[{{ c.bracket[0] | fixed(4) }}, {{ c.bracket[1] | fixed(4) }}]{% endif %}";
 
-/// A torus continuation's loss as table text: the bracket, or where it is lost at the grid's
-/// first dt or not at all; and its growth onset.
-fn lost_text(t: &TorusContinuation) -> String {
-    let l = match t.lost_between {
-        Some((a, b)) => format!("[{a:.3}, {b:.3}]"),
-        None if t.lost_at_first_dt() => format!("lost at the first dt ({})", t.steps[0].dt_ms),
-        None => "not lost on the grid".into(),
-    };
-    format!("{l}, onset {}", f4(t.growth_onset))
-}
+/// A torus continuation's loss `t` as table text (see [`torus_value`]): the bracket, or where
+/// it is lost at the grid's first dt or not at all, and its growth onset; why it failed, or
+/// `not computed` (null).
+const LOST_CELL: &str = "{% if t is none %}not computed{% elif t.error is defined %}{{ t.error }}{% else %}{% if \
+    t.lost_between is not none %}[{{ t.lost_between[0] | fixed(3) }}, {{ t.lost_between[1] | fixed(3) }}]{% elif \
+    t.lost_at_first_dt %}lost at the first dt ({{ t.first_dt_ms | plain }}){% else %}not lost on the grid{% endif %}, \
+    onset {{ t.growth_onset | fixed_or(3, \"none\") }}{% endif %}";
 
-/// The equation-driven reduced map's torus continuation as table text ([`lost_text`], or why
-/// it failed).
-fn eq_map_torus_text(t: &Result<TorusContinuation, String>) -> String {
-    t.as_ref().map_or_else(|e| e.clone(), lost_text)
+/// A switch bracket `b` (ms) to 3 decimals, or `none`.
+const BRACKET_CELL: &str = "{% if b is none %}none{% else %}[{{ b[0] | fixed(3) }}, {{ b[1] | fixed(3) }}]{% endif %}";
+
+/// A value `x` (ms) to 3 decimals, or `none`.
+const F3_CELL: &str = "{{ x | fixed_or(3, \"none\") }}";
+
+/// Mode amplitudes `r` (rad) to 4 decimals, or `none`.
+const RHO_CELL: &str = "{% if r is none %}none{% else %}({{ r[0] | fixed(4) }}, {{ r[1] | fixed(4) }}){% endif %}";
+
+/// A torus continuation in the summary's pieces (`lost_between`, `growth_onset`, `steps`)
+/// as [`LOST_CELL`] reads it; an `{"error"}` stays as it is.
+fn torus_value(lost_between: &Value, growth_onset: &Value, steps: &Value) -> Value {
+    let first = steps.as_array().and_then(|s| s.first());
+    json!({"lost_between": lost_between, "growth_onset": growth_onset,
+           "lost_at_first_dt": first.is_some_and(|s| s["lost"] == Value::Bool(true)),
+           "first_dt_ms": first.map(|s| s["dt_ms"].clone())})
 }
 
 /// `{"found", "of", "min", "max", "spread_ms"}` of the values that exist (spread = max - min;
@@ -594,15 +579,6 @@ fn value_spread(vals: &[Option<f64>]) -> Value {
     json!({"found": v.len(), "of": vals.len(), "min": lo, "max": hi, "spread_ms": hi - lo})
 }
 
-/// The equation-driven reduced map's small-start switch bracket as table text.
-fn eq_map_switch_text(c: &Computed) -> String {
-    match &c.eq_map_switch {
-        None => "not computed".into(),
-        Some((Err(e), _)) => e.clone(),
-        Some((Ok(sw), _)) => sw.bracket.map_or("none".into(), |(a, b)| format!("[{a:.3}, {b:.3}]")),
-    }
-}
-
 const EQ_MAP_SWITCH: &str = "The equation-driven reduced map's small-start switch (order {{ order }}, spline in dt) uses \
     the fitted map's rules: the full system's small mode-shaped starts (plant state and controller samples) projected \
     onto its reduced coordinates (z = U^T s, the exact linear map's left eigenvectors, in which the graph-style manifold \
@@ -613,10 +589,11 @@ const EQ_MAP_SWITCH: &str = "The equation-driven reduced map's small-start switc
     scan_periods is none %}unknown{% else %}{{ scan_periods }}{% endif %} periods) and {% if to_fitted is none %}-{% else \
     %}{{ to_fitted | signed(3) }}{% endif %} ms from the fitted map's (linear in dt).";
 
-/// The equation-driven reduced map's small-start switch: a paragraph (how far from the full
-/// system's and the fitted map's) and the summary key `map_switch_dt_ms.equation_map`.
-fn eq_map_switch_part(rep: &mut Report, c: &Computed, nodes: &[f64]) -> Result<(), Box<dyn Error>> {
-    let Some((sw, seconds)) = &c.eq_map_switch else { return Ok(()) };
+/// The equation-driven reduced map's small-start switch: the summary key
+/// `map_switch_dt_ms.equation_map`, and the values of its paragraph (how far from the full
+/// system's and the fitted map's; `None` when it was not computed).
+fn eq_map_switch_values(rep: &mut Report, c: &Computed, nodes: &[f64]) -> Option<Value> {
+    let (sw, seconds) = c.eq_map_switch.as_ref()?;
     let mid2 =
         |v: &Value| v.as_array().filter(|a| a.len() == 2).and_then(|a| Some(0.5 * (a[0].as_f64()? + a[1].as_f64()?)));
     let ms = rep.summary.get("map_switch_dt_ms").cloned().unwrap_or(Value::Null);
@@ -626,14 +603,6 @@ fn eq_map_switch_part(rep: &mut Report, c: &Computed, nodes: &[f64]) -> Result<(
     let (lo, hi, n, tol) = crate::report::bifurcations::MAP_SWITCH_RANGE_MS;
     let own = sw.as_ref().ok().and_then(|s| s.bracket).map(|(a, b)| 0.5 * (a + b));
     let gap = |a: Option<f64>, b: Option<f64>| a.zip(b).map(|(a, b)| a - b);
-    rep.para(&Prose::new().html(
-        "equation/map-switch",
-        EQ_MAP_SWITCH,
-        &json!({"order": EQUATION_ORDER, "periods": furuta::full_system::DEFAULT_SCAN_PERIODS,
-                "escape_theta": furuta::full_system::ESCAPE_THETA, "n": n, "lo": lo, "hi": hi, "tol": tol,
-                "seconds": seconds, "bracket": eq_map_switch_text(c), "to_full": gap(own, full),
-                "scan_periods": scan_periods, "to_fitted": gap(own, fitted)}),
-    )?);
     let v = match sw {
         Ok(sw) => {
             json!({"bracket": sw.bracket.map(|(a, b)| vec![a, b]), "grid": sw.grid.iter().map(|g| json!([g.0, g.1])).collect::<Vec<_>>(), "monotone": sw.monotone,
@@ -645,21 +614,9 @@ fn eq_map_switch_part(rep: &mut Report, c: &Computed, nodes: &[f64]) -> Result<(
     if let Some(Value::Object(m)) = rep.summary.get_mut("map_switch_dt_ms") {
         m.insert("equation_map".into(), v);
     }
-    Ok(())
-}
-
-/// The fitted map's switch brackets (predictions section, `map_switch_dt_ms`) as table text.
-fn map_switch(v: Option<&Value>) -> String {
-    let one = |k: &str| {
-        v.and_then(|v| v[k]["bracket"].as_array())
-            .filter(|a| a.len() == 2)
-            .and_then(|a| Some(format!("[{:.3}, {:.3}]", a[0].as_f64()?, a[1].as_f64()?)))
-            .unwrap_or_else(|| "none".into())
-    };
-    if v.is_none() {
-        return "not computed".into();
-    }
-    format!("{} / {}", one("linear"), one("spline"))
+    Some(json!({"order": EQUATION_ORDER, "periods": furuta::full_system::DEFAULT_SCAN_PERIODS,
+                "escape_theta": furuta::full_system::ESCAPE_THETA, "n": n, "lo": lo, "hi": hi, "tol": tol,
+                "seconds": seconds, "to_full": gap(own, full), "scan_periods": scan_periods, "to_fitted": gap(own, fitted)}))
 }
 
 const EQUATION_INTRO: &str = "The equation-driven model is the SSM of the unquantized loop's exact one-period map \
@@ -692,10 +649,14 @@ const EQUATION_RULES: &str = "The fitted map column is the shared-tangent SSM mo
     form: the graph-style reduced map (every term of the order-{{ order }} reduced map kept, no phase averaging; \
     furuta::equation_map) at the same nodes, coefficients interpolated by a natural cubic spline in dt, iterated as a map \
     and read by the fitted map's rules (its torus continuation starts from the reduced point of the same linear-mode \
-    start). Fitted map: {{ map_seconds | fixed(1) }} s wall; equation-driven reduced maps (orders {{ orders | plain }}): \
-    {{ eq_map_seconds | fixed(1) }} s wall; the full system's connection: {{ full_seconds | fixed(1) }} s wall.";
+    start). Fitted map: {{ seconds.map | fixed(1) }} s wall; equation-driven reduced maps (orders {{ orders | plain }}): \
+    {{ seconds.equation_map | fixed(1) }} s wall; the full system's connection: {{ seconds.full_connection | fixed(1) }} s wall.";
 
-fn equation_section(
+/// The equation section's values: the summary keys `equation_ssm` and `page_equation` (what
+/// else its page reads), and the equation-driven and fitted-map values added to the keys the
+/// fullsystem and predictions sections wrote (`heteroclinic_dt_ms`, `torus_hopf_dt_ms`,
+/// `map_switch_dt_ms`).
+fn equation_values(
     rep: &mut Report,
     pm: &ParametricModel,
     sm: &SharedParametricModel,
@@ -704,155 +665,14 @@ fn equation_section(
     quick: bool,
 ) -> Result<(), Box<dyn Error>> {
     let (nodes, orders, diag_dts, diag_order, _, _, torus_periods) = settings(quick);
-    rep.section(
-        "equation",
-        "Data-driven vs equation-driven model vs full system: every bifurcation value",
-        &Prose::new().html(
-            "equation/intro",
-            EQUATION_INTRO,
-            &json!({"nodes": nodes, "orders": orders, "torus_periods": torus_periods,
-                    "growth": furuta::basin::TORUS_GROWTH, "spread_min": furuta::basin::TORUS_SPREAD_MIN}),
-        )?,
-    );
     let eb =
         c.by_order.iter().find(|b| b.order == EQUATION_ORDER).ok_or("no equation-driven model at the table's order")?;
-    let het = rep.summary.get("heteroclinic_dt_ms").cloned().unwrap_or(Value::Null);
     let torus = rep.summary.get("torus_30p8").cloned().unwrap_or(Value::Null);
-    let full_switch = het["full_system"].as_array().map(|a| a.iter().filter_map(Value::as_f64).collect::<Vec<_>>());
-    let bracket = |b: Option<&Vec<f64>>| {
-        b.filter(|v| v.len() == 2).map_or("none".to_string(), |v| format!("[{:.3}, {:.3}]", v[0], v[1]))
-    };
     let eq_switch = eb.small_start_switch.map(|b| 0.5 * (b.0 + b.1));
     let lost = c.torus.lost_between;
-    let rho = |r: Option<[f64; 2]>| r.map_or("none".into(), |r| format!("({:.4}, {:.4})", r[0], r[1]));
     let rho_full = torus["rho_full"].as_array().and_then(|a| Some([a.first()?.as_f64()?, a.get(1)?.as_f64()?]));
     let co = ConnectionOptions::default();
-    let em = c.graph_map(EQUATION_ORDER);
-    let em_conn = em.map_or("not computed".into(), |g| connection_text(&g.connection));
-    let em_torus = em.map_or("not computed".into(), |g| eq_map_torus_text(&g.torus));
-    let rows = vec![
-        vec![
-            "saddle connection: fast saddle cycle's pushed unstable branch switches from the torus to escape [ms]"
-                .into(),
-            format!("{} / {}", connection_text(&c.map_connection[0]), connection_text(&c.map_connection[1])),
-            f4(bif.heteroclinic.as_ref().map(|h| h.dt)),
-            em_conn,
-            f4(eb.heteroclinic.as_ref().map(|h| h.dt)),
-            connection_text(&c.full_connection),
-        ],
-        vec![
-            "small-start switch, bounded -> escape [ms]".into(),
-            map_switch(rep.summary.get("map_switch_dt_ms")),
-            f4(het["model"].as_f64()),
-            eq_map_switch_text(c),
-            f4(eq_switch),
-            format!(
-                "{} (all escape from {})",
-                bracket(full_switch.as_ref()),
-                f4(het["full_system_all_escape_from"].as_f64())
-            ),
-        ],
-        vec![
-            "torus Hopf: the 2-torus stops attracting [ms] (lost by the continuation rule; growth onset)".into(),
-            format!("{} / {}", lost_text(&c.map_torus[0]), lost_text(&c.map_torus[1])),
-            f4(bif.hopf.as_ref().map(|h| h.dt)),
-            em_torus,
-            f4(eb.hopf.as_ref().map(|h| h.dt)),
-            lost_text(&c.torus),
-        ],
-        vec![
-            format!("2-torus at {TORUS_DT_MS} ms (rho_1, rho_2) [rad]"),
-            "-".into(),
-            rho(bif.torus_30p8.as_ref().map(|t| t.rho)),
-            "-".into(),
-            rho(eb.torus_30p8.as_ref().map(|t| t.rho)),
-            rho(rho_full),
-        ],
-    ];
-    rep.para(&Prose::new().html(
-        "equation/rules",
-        EQUATION_RULES,
-        &json!({"co": co, "escape_theta": furuta::full_system::ESCAPE_THETA, "range": CONNECTION_RANGE_MS,
-                "order": EQUATION_ORDER, "map_seconds": c.map_seconds, "orders": orders,
-                "eq_map_seconds": c.eq_map_seconds, "full_seconds": c.full_connection_seconds}),
-    )?);
-    rep.table(
-        &[
-            "bifurcation",
-            "fitted map (linear / spline in dt)",
-            "its normal form (data-driven)",
-            &format!("equation-driven reduced map (order {EQUATION_ORDER})"),
-            &format!("equation-driven model (order {EQUATION_ORDER})"),
-            "full system",
-        ],
-        &rows,
-    );
-    eq_map_switch_part(rep, c, &nodes)?;
-    // The equation-driven model's values by order.
-    let orow: Vec<Vec<String>> = c
-        .by_order
-        .iter()
-        .map(|b| {
-            let m = c.graph_map(b.order);
-            vec![
-                b.order.to_string(),
-                m.map_or("not computed".into(), |g| connection_text(&g.connection)),
-                m.map_or("not computed".into(), |g| eq_map_torus_text(&g.torus)),
-                f4(b.heteroclinic.as_ref().map(|h| h.dt)),
-                f4(b.small_start_switch.map(|s| 0.5 * (s.0 + s.1))),
-                f4(b.hopf.as_ref().map(|h| h.dt)),
-                rho(b.torus_30p8.as_ref().map(|t| t.rho)),
-            ]
-        })
-        .collect();
-    rep.para(
-        "The equation-driven values by the order of the SSM: its reduced map iterated (saddle connection and torus loss by \
-         the fitted map's rules) and its polar normal form (portrait scans):",
-    );
-    rep.table(
-        &[
-            "order",
-            "reduced map: saddle connection [ms]",
-            "reduced map: torus lost [ms], onset",
-            "normal form: saddle connection [ms]",
-            "normal form: small-start switch [ms]",
-            "normal form: torus Hopf [ms]",
-            &format!("normal form: 2-torus at {TORUS_DT_MS} ms"),
-        ],
-        &orow,
-    );
-    rep.para(&where_the_normal_form_errs(c)?);
-    // The full system's torus across dt.
-    let trow: Vec<Vec<String>> = c
-        .torus
-        .steps
-        .iter()
-        .map(|s| {
-            vec![
-                format!("{}", s.dt_ms),
-                rho(s.rho),
-                s.spread_mid.map_or("-".into(), |x| format!("{x:.4}")),
-                s.spread_last.map_or("-".into(), |x| format!("{x:.4}")),
-                s.growth_rate.map_or("-".into(), |x| format!("{x:+.2e}")),
-                s.escape_t.map_or("bounded".into(), |t| format!("escapes at {t:.1} s")),
-                if s.lost { "lost".into() } else { "attracting".into() },
-            ]
-        })
-        .collect();
-    rep.para("The full system's 2-torus continued across dt:");
-    rep.table(
-        &[
-            "dt [ms]",
-            "mean (rho_1, rho_2), last third",
-            "rho_1 spread, middle third",
-            "rho_1 spread, last third",
-            "growth rate [1/s]",
-            "run",
-            "torus",
-        ],
-        &trow,
-    );
-    // Coefficients and invariance by order.
+    let map_switch = eq_map_switch_values(rep, c, &nodes);
     let inv_orders = c
         .diag
         .first()
@@ -865,40 +685,32 @@ fn equation_section(
             })
         })
         .unwrap_or_default();
-    rep.para(&Prose::new().html(
-        "equation/invariance",
-        INVARIANCE,
-        &json!({"order": diag_order, "orders": inv_orders, "radii": INVARIANCE_RADII}),
-    )?);
-    let mut irows = Vec::new();
-    for d in &c.diag {
-        for &r in &INVARIANCE_RADII {
-            let mut row = vec![format!("{}", d.dt_ms), format!("{r}")];
-            row.extend(d.invariance.iter().filter(|e| e.radius == r).map(|e| format!("{}: {:.2e}", e.order, e.abs)));
-            irows.push(row);
-        }
-    }
-    let ncols = irows.iter().map(Vec::len).max().unwrap_or(2);
-    let mut head: Vec<String> = vec!["dt [ms]".into(), "radius [rad]".into()];
-    head.extend((0..ncols.saturating_sub(2)).map(|k| format!("order {}", 3 + 2 * k)));
-    let head_ref: Vec<&str> = head.iter().map(String::as_str).collect();
-    rep.table(&head_ref, &irows);
-    let mut crows = Vec::new();
-    if let Some(first) = c.diag.first() {
-        for (k, r) in first.table.rows.iter().enumerate() {
-            let mut row = vec![format!("rho_{}'", r.mode), r.monomial.clone()];
-            row.extend(c.diag.iter().map(|d| d.table.rows.get(k).map_or("-".into(), |x| num(x.value))));
-            crows.push(row);
-        }
-    }
-    let mut chead: Vec<String> = vec!["equation".into(), "monomial".into()];
-    chead.extend(c.diag.iter().map(|d| format!("{} ms", d.dt_ms)));
-    let chead_ref: Vec<&str> = chead.iter().map(String::as_str).collect();
-    rep.table(&chead_ref, &crows);
+    rep.summary.insert(
+        "page_equation".into(),
+        json!({
+            "intro": {"nodes": nodes, "orders": orders, "torus_periods": torus_periods,
+                      "growth": furuta::basin::TORUS_GROWTH, "spread_min": furuta::basin::TORUS_SPREAD_MIN},
+            "rules": {"co": co, "escape_theta": furuta::full_system::ESCAPE_THETA, "range": CONNECTION_RANGE_MS,
+                      "order": EQUATION_ORDER, "orders": orders,
+                      "seconds": {"map": c.map_seconds, "equation_map": c.eq_map_seconds,
+                                  "full_connection": c.full_connection_seconds}},
+            "torus_dt_ms": TORUS_DT_MS,
+            "map_switch": map_switch,
+            "where": where_values(c),
+            "invariance": {"order": diag_order, "orders": inv_orders, "radii": INVARIANCE_RADII},
+            "cubic": {"target": CUBIC_TARGET, "robust": CHART_ROBUST, "order": EQUATION_ORDER,
+                      "dyn_order": FurutaOptions::default().fit.dyn_order,
+                      "low_degree": furuta::parametric::MAP_LOW_DEGREE,
+                      "low_knee": furuta::parametric::MAP_LOW_KNEE_THETA,
+                      "knee": furuta::parametric::MAP_WEIGHT_KNEE_THETA},
+            "map_variants": {"target": SPREAD_TARGET_MS, "low_degree": furuta::parametric::MAP_LOW_DEGREE,
+                             "low_knee": furuta::parametric::MAP_LOW_KNEE_THETA},
+        }),
+    );
 
     // The data-driven model's cubic and quintic coefficients (each training period's own
     // fit, no interpolation) against the equation-driven ones at the same dt.
-    let mut cubic = cubic_comparison(rep, pm, sm, c)?;
+    let mut cubic = cubic_comparison(pm, sm, c)?;
     // Whether the coefficients' differences matter: the 2-torus at 30.8 ms of each model
     // against the full system's.
     cubic["torus_30p8_rho"] = json!({"full_system": rho_full, "data_driven": bif.torus_30p8.as_ref().map(|t| t.rho), "equation": eb.torus_30p8.as_ref().map(|t| t.rho)});
@@ -1060,15 +872,10 @@ const CUBIC: &str = "Data-driven vs equation-driven polar coefficients (1/s; rho
     the slow saddle cycle, and a higher map order or a lower knee of the single fit traded the cubic terms against the \
     saddle connection (docs/decisions/0001).";
 
-/// The table of the data-driven polar coefficients of degree 3 and 5 at each training period
-/// that is a node of the equation-driven model, against the equation-driven ones (order
-/// [`EQUATION_ORDER`]); returns the `cubic_comparison` summary value.
-fn cubic_comparison(
-    rep: &mut Report,
-    pm: &ParametricModel,
-    sm: &SharedParametricModel,
-    c: &Computed,
-) -> Result<Value, Box<dyn Error>> {
+/// The data-driven polar coefficients of degree 3 and 5 at each training period that is a node
+/// of the equation-driven model, against the equation-driven ones (order [`EQUATION_ORDER`]):
+/// the `cubic_comparison` summary value.
+fn cubic_comparison(pm: &ParametricModel, sm: &SharedParametricModel, c: &Computed) -> Result<Value, Box<dyn Error>> {
     let mut rows = Vec::new();
     let mut spectral_rows = Vec::new();
     let both: Vec<_> = pm
@@ -1111,68 +918,23 @@ fn cubic_comparison(
             keys.push((r.mode, r.monomial.clone(), r.degree));
         }
     }
-    let mut table = Vec::new();
     let mut terms = Vec::new();
     let mut fh_terms = Vec::new();
     let mut sm_terms = Vec::new();
-    for (mode, mono, degree) in &keys {
+    let of = |v: &[furuta::equation_ssm::CoefficientRow], mode: usize, mono: &str| -> (f64, bool) {
         let mine: Vec<&furuta::equation_ssm::CoefficientRow> =
-            rows.iter().filter(|r| r.mode == *mode && &r.monomial == mono).collect();
+            v.iter().filter(|r| r.mode == mode && r.monomial == mono).collect();
         let worst = mine.iter().filter_map(|r| r.rel_diff).fold(0.0f64, |m, x| m.max(x.abs()));
-        let within = mine.iter().all(|r| r.rel_diff.is_some_and(|x| x.abs() <= CUBIC_TARGET));
+        (worst, mine.iter().all(|r| r.rel_diff.is_some_and(|x| x.abs() <= CUBIC_TARGET)))
+    };
+    for (mode, mono, degree) in &keys {
+        let (worst, within) = of(&rows, *mode, mono);
         // max |Observable / Spectral - 1| over the periods.
-        let chart_shift = spectral_rows
-            .iter()
-            .filter(|r| r.mode == *mode && &r.monomial == mono)
-            .filter_map(|r| r.rel_diff)
-            .fold(0.0f64, |m, x| m.max(x.abs()));
-        let mut row = vec![format!("rho_{mode}'"), mono.clone()];
-        row.extend(dts.iter().map(|d| {
-            mine.iter().find(|r| r.dt_ms == *d).map_or("-".into(), |r| match (r.data, r.rel_diff) {
-                (Some(x), Some(e)) => format!("{} / {} ({:+.1} %)", num(x), num(r.equation), 100.0 * e),
-                _ => format!("- / {}", num(r.equation)),
-            })
-        }));
-        row.push(if within { "yes".into() } else { format!("no ({:.0} %)", 100.0 * worst) });
-        row.push(format!("{:.1} %", 100.0 * chart_shift));
+        let (chart_shift, _) = of(&spectral_rows, *mode, mono);
         // First-harmonic basis: the data-driven value per period (relative difference).
-        let fh: Vec<&furuta::equation_ssm::CoefficientRow> =
-            fh_rows.iter().filter(|r| r.mode == *mode && &r.monomial == mono).collect();
-        let fh_worst = fh.iter().filter_map(|r| r.rel_diff).fold(0.0f64, |m, x| m.max(x.abs()));
-        let fh_within = fh.iter().all(|r| r.rel_diff.is_some_and(|x| x.abs() <= CUBIC_TARGET));
-        let basis_shift = basis_rows
-            .iter()
-            .filter(|r| r.mode == *mode && &r.monomial == mono)
-            .filter_map(|r| r.rel_diff)
-            .fold(0.0f64, |m, x| m.max(x.abs()));
-        row.push(
-            dts.iter()
-                .map(|d| {
-                    fh.iter().find(|r| r.dt_ms == *d).map_or("-".into(), |r| match (r.data, r.rel_diff) {
-                        (Some(x), Some(e)) => format!("{} ({:+.1} %)", num(x), 100.0 * e),
-                        _ => "-".into(),
-                    })
-                })
-                .collect::<Vec<_>>()
-                .join("; "),
-        );
-        row.push(if fh_within { "yes".into() } else { format!("no ({:.0} %)", 100.0 * fh_worst) });
-        let smr: Vec<&furuta::equation_ssm::CoefficientRow> =
-            sm_rows.iter().filter(|r| r.mode == *mode && &r.monomial == mono).collect();
-        let sm_worst = smr.iter().filter_map(|r| r.rel_diff).fold(0.0f64, |m, x| m.max(x.abs()));
-        let sm_within = smr.iter().all(|r| r.rel_diff.is_some_and(|x| x.abs() <= CUBIC_TARGET));
-        row.push(
-            dts.iter()
-                .map(|d| {
-                    smr.iter()
-                        .find(|r| r.dt_ms == *d)
-                        .and_then(|r| r.rel_diff)
-                        .map_or("-".into(), |e| format!("{:+.1} %", 100.0 * e))
-                })
-                .collect::<Vec<_>>()
-                .join("; "),
-        );
-        table.push(row);
+        let (fh_worst, fh_within) = of(&fh_rows, *mode, mono);
+        let (basis_shift, _) = of(&basis_rows, *mode, mono);
+        let (sm_worst, sm_within) = of(&sm_rows, *mode, mono);
         sm_terms.push(json!({"mode": mode, "monomial": mono, "degree": degree, "max_abs_rel_diff": sm_worst, "within_target": sm_within}));
         fh_terms.push(json!({"mode": mode, "monomial": mono, "degree": degree, "max_abs_rel_diff": fh_worst, "within_target": fh_within,
                              "basis_shift": basis_shift}));
@@ -1181,27 +943,335 @@ fn cubic_comparison(
                           "chart_shift": chart_shift, "chart_robust": chart_shift <= CHART_ROBUST}),
         );
     }
-    rep.para(&Prose::new().html(
-        "equation/cubic",
-        CUBIC,
-        &json!({"target": CUBIC_TARGET, "robust": CHART_ROBUST, "order": EQUATION_ORDER,
-                "dyn_order": FurutaOptions::default().fit.dyn_order, "low_degree": furuta::parametric::MAP_LOW_DEGREE,
-                "low_knee": furuta::parametric::MAP_LOW_KNEE_THETA, "knee": furuta::parametric::MAP_WEIGHT_KNEE_THETA}),
-    )?);
-    let mut head: Vec<String> = vec!["equation".into(), "monomial".into()];
-    head.extend(dts.iter().map(|d| format!("{d} ms")));
-    head.push(format!("within {:.0} %", 100.0 * CUBIC_TARGET));
-    head.push("chart shift".into());
-    head.push(format!("first-harmonic data ({})", dts.iter().map(|d| format!("{d}")).collect::<Vec<_>>().join(" / ")));
-    head.push(format!("first harmonic within {:.0} %", 100.0 * CUBIC_TARGET));
-    head.push("fitted map, first harmonic".into());
-    let head_ref: Vec<&str> = head.iter().map(String::as_str).collect();
-    rep.table(&head_ref, &table);
     Ok(
         json!({"target_rel": CUBIC_TARGET, "chart_robust_rel": CHART_ROBUST, "amplitude": "observable", "equation_order": EQUATION_ORDER, "dts_ms": dts, "terms": terms, "rows": rows,
               "first_harmonic": {"terms": fh_terms, "rows": fh_rows},
               "first_harmonic_fitted_map": {"terms": sm_terms, "rows": sm_rows}}),
     )
+}
+
+/// The item of `list` (a summary list of objects) whose `order` is `order`.
+fn at_order<'a>(list: &'a Value, order: &Value) -> Option<&'a Value> {
+    list.as_array()?.iter().find(|x| &x["order"] == order)
+}
+
+/// The cells of the coefficient comparison: per period a comparison row `r` of the degree's
+/// term (null: none at that period), the term's summary `t`.
+const CUBIC_DT_CELL: &str = "{% if r is none %}-{% elif r.data is not none and r.rel_diff is not none %}{{ r.data | \
+    num }} / {{ r.equation | num }} ({{ (100 * r.rel_diff) | signed(1) }} %){% else %}- / {{ r.equation | num }}{% \
+    endif %}";
+const WITHIN_CELL: &str =
+    "{% if t.within_target %}yes{% else %}no ({{ (100 * t.max_abs_rel_diff) | fixed(0) }} %){% endif %}";
+const FH_DT_CELL: &str = "{% if r is none or r.data is none or r.rel_diff is none %}-{% else %}{{ r.data | num }} ({{ \
+    (100 * r.rel_diff) | signed(1) }} %){% endif %}";
+const SM_DT_CELL: &str =
+    "{% if r is none or r.rel_diff is none %}-{% else %}{{ (100 * r.rel_diff) | signed(1) }} %{% endif %}";
+
+/// A table's header and rows.
+type Table = (Vec<String>, Vec<Vec<String>>);
+
+/// The coefficient comparison's table from its summary value `cc` (`cubic_comparison`).
+fn cubic_table(p: &Prose, cc: &Value) -> Result<Table, Box<dyn Error>> {
+    let arr = |v: &Value, k: &str| -> Result<Vec<Value>, String> {
+        v[k].as_array().cloned().ok_or(format!("report: equation_ssm.cubic_comparison: `{k}` is not a list"))
+    };
+    let dts = arr(cc, "dts_ms")?;
+    let (rows, fh, smr) =
+        (arr(cc, "rows")?, arr(&cc["first_harmonic"], "rows")?, arr(&cc["first_harmonic_fitted_map"], "rows")?);
+    let (terms, fh_terms) = (arr(cc, "terms")?, arr(&cc["first_harmonic"], "terms")?);
+    if terms.len() != fh_terms.len() {
+        return Err("report: equation_ssm.cubic_comparison: terms and first_harmonic.terms differ in length".into());
+    }
+    let find = |list: &[Value], t: &Value, d: &Value| -> Value {
+        list.iter()
+            .find(|r| r["mode"] == t["mode"] && r["monomial"] == t["monomial"] && &r["dt_ms"] == d)
+            .cloned()
+            .unwrap_or(Value::Null)
+    };
+    let per_dt = |cell: &str, list: &[Value], t: &Value| -> Result<Vec<String>, String> {
+        dts.iter().map(|d| p.text("equation/cubic-cell", cell, &json!({ "r": find(list, t, d) }))).collect()
+    };
+    let mut table = Vec::new();
+    for (t, ft) in terms.iter().zip(&fh_terms) {
+        let mut row = vec![
+            p.text("equation/cubic-eq", "rho_{{ mode }}'", t)?,
+            p.text("equation/cubic-mono", "{{ monomial }}", t)?,
+        ];
+        row.extend(per_dt(CUBIC_DT_CELL, &rows, t)?);
+        row.push(p.text("equation/cubic-within", WITHIN_CELL, &json!({ "t": t }))?);
+        row.push(p.text("equation/cubic-shift", "{{ (100 * chart_shift) | fixed(1) }} %", t)?);
+        row.push(per_dt(FH_DT_CELL, &fh, t)?.join("; "));
+        row.push(p.text("equation/cubic-within", WITHIN_CELL, &json!({ "t": ft }))?);
+        row.push(per_dt(SM_DT_CELL, &smr, t)?.join("; "));
+        table.push(row);
+    }
+    let v = json!({"dts": dts, "target": cc["target_rel"]});
+    let mut head: Vec<String> = vec!["equation".into(), "monomial".into()];
+    for d in &dts {
+        head.push(p.text("equation/cubic-head", "{{ d | plain }} ms", &json!({ "d": d }))?);
+    }
+    head.push(p.text("equation/cubic-head", "within {{ (100 * target) | fixed(0) }} %", &v)?);
+    head.push("chart shift".into());
+    head.push(p.text("equation/cubic-head", "first-harmonic data ({{ dts | plain(\" / \") }})", &v)?);
+    head.push(p.text("equation/cubic-head", "first harmonic within {{ (100 * target) | fixed(0) }} %", &v)?);
+    head.push("fitted map, first harmonic".into());
+    Ok((head, table))
+}
+
+/// A step of a torus continuation (an item of `torus_hopf_dt_ms.full_system_steps`).
+const TORUS_STEP_CELLS: [&str; 7] = [
+    "{{ dt_ms | plain }}",
+    "{% if rho is none %}none{% else %}({{ rho[0] | fixed(4) }}, {{ rho[1] | fixed(4) }}){% endif %}",
+    "{{ spread_mid | fixed_or(4, \"-\") }}",
+    "{{ spread_last | fixed_or(4, \"-\") }}",
+    "{% if growth_rate is none %}-{% else %}{{ growth_rate | ssci(2) }}{% endif %}",
+    "{% if escape_t is none %}bounded{% else %}escapes at {{ escape_t | fixed(1) }} s{% endif %}",
+    "{% if lost %}lost{% else %}attracting{% endif %}",
+];
+
+/// Writes the equation section from the summary `s` (`page_equation`, `equation_ssm`,
+/// `heteroclinic_dt_ms`, `torus_hopf_dt_ms`, `torus_30p8`, `map_switch_dt_ms` and, in the full
+/// report, `map_sensitivity`).
+pub fn equation_render(rep: &mut Report, s: &Value) -> Result<(), Box<dyn Error>> {
+    let p = Prose::new();
+    let at = |k: &str| s.get(k).ok_or(format!("report: summary lacks `{k}`"));
+    let (page, eq, het, hopf) =
+        (at("page_equation")?, at("equation_ssm")?, at("heteroclinic_dt_ms")?, at("torus_hopf_dt_ms")?);
+    let torus = at("torus_30p8")?;
+    let ms = s.get("map_switch_dt_ms");
+    rep.section(
+        "equation",
+        "Data-driven vs equation-driven model vs full system: every bifurcation value",
+        &p.html("equation/intro", EQUATION_INTRO, &page["intro"])?,
+    );
+    let order = &eq["table_order"];
+    let eb =
+        at_order(&eq["bifurcations_by_order"], order).ok_or("report: no equation-driven model at the table's order")?;
+    let cell = |t: &str, k: &str, v: &Value| p.text("equation/cell", t, &json!({ k: v }));
+    let conn = |v: Option<&Value>| cell(CONNECTION_CELL, "c", v.unwrap_or(&Value::Null));
+    let lost = |v: Value| cell(LOST_CELL, "t", &v);
+    let f3 = |v: &Value| cell(F3_CELL, "x", v);
+    let rho = |v: &Value| cell(RHO_CELL, "r", v);
+    let torus_of = |t: &Value, prefix: &str| {
+        torus_value(&t[prefix], &t[format!("{prefix}_growth_onset")], &t[format!("{prefix}_steps")])
+    };
+    let eq_map_torus = |o: &Value| {
+        at_order(&hopf["equation_map"]["by_order"], o).map_or(Value::Null, |t| {
+            if t.get("error").is_some() {
+                json!({"error": t["error"]})
+            } else {
+                torus_value(&t["lost_between"], &t["growth_onset"], &t["steps"])
+            }
+        })
+    };
+    let eq_map_conn = |o: &Value| at_order(&het["equation_map"]["by_order"], o).map(|g| &g["connection"]);
+    let full_torus = torus_value(&hopf["full_system"], &hopf["full_system_growth_onset"], &hopf["full_system_steps"]);
+    let fitted_switch = match ms {
+        None => "not computed".to_string(),
+        Some(m) => format!(
+            "{} / {}",
+            cell(BRACKET_CELL, "b", &m["linear"]["bracket"])?,
+            cell(BRACKET_CELL, "b", &m["spline"]["bracket"])?
+        ),
+    };
+    let eq_switch_text = cell(
+        CONNECTION_CELL.replace("fixed(4)", "fixed(3)").as_str(),
+        "c",
+        ms.and_then(|m| m.get("equation_map")).unwrap_or(&Value::Null),
+    )?;
+    let torus_dt = &page["torus_dt_ms"];
+    let rows = vec![
+        vec![
+            "saddle connection: fast saddle cycle's pushed unstable branch switches from the torus to escape [ms]"
+                .into(),
+            format!("{} / {}", conn(Some(&het["map"]["linear"]))?, conn(Some(&het["map"]["spline"]))?),
+            f3(&het["model_saddle_connection"])?,
+            conn(eq_map_conn(order))?,
+            f3(&het["equation_saddle_connection"])?,
+            conn(Some(&het["full_system_connection"]))?,
+        ],
+        vec![
+            "small-start switch, bounded -> escape [ms]".into(),
+            fitted_switch,
+            f3(&het["model"])?,
+            eq_switch_text.clone(),
+            f3(&het["equation"])?,
+            format!(
+                "{} (all escape from {})",
+                cell(BRACKET_CELL, "b", &het["full_system"])?,
+                f3(&het["full_system_all_escape_from"])?
+            ),
+        ],
+        vec![
+            "torus Hopf: the 2-torus stops attracting [ms] (lost by the continuation rule; growth onset)".into(),
+            format!("{} / {}", lost(torus_of(&hopf["map"], "linear"))?, lost(torus_of(&hopf["map"], "spline"))?),
+            f3(&hopf["model"])?,
+            lost(eq_map_torus(order))?,
+            f3(&hopf["equation"])?,
+            lost(full_torus)?,
+        ],
+        vec![
+            p.text(
+                "equation/torus-row",
+                "2-torus at {{ d | plain }} ms (rho_1, rho_2) [rad]",
+                &json!({ "d": torus_dt }),
+            )?,
+            "-".into(),
+            rho(&torus["rho_model"])?,
+            "-".into(),
+            rho(&eb["torus_30p8_rho"])?,
+            rho(&torus["rho_full"])?,
+        ],
+    ];
+    rep.para(&p.html("equation/rules", EQUATION_RULES, &page["rules"])?);
+    let o = json!({ "order": order });
+    let h3 = p.text("equation/head", "equation-driven reduced map (order {{ order }})", &o)?;
+    let h4 = p.text("equation/head", "equation-driven model (order {{ order }})", &o)?;
+    rep.table(
+        &[
+            "bifurcation",
+            "fitted map (linear / spline in dt)",
+            "its normal form (data-driven)",
+            &h3,
+            &h4,
+            "full system",
+        ],
+        &rows,
+    );
+    if !page["map_switch"].is_null() {
+        let mut v = page["map_switch"].clone();
+        v["bracket"] = json!(eq_switch_text);
+        rep.para(&p.html("equation/map-switch", EQ_MAP_SWITCH, &v)?);
+    }
+    // The equation-driven model's values by order.
+    let mut orow = Vec::new();
+    for b in eq["bifurcations_by_order"].as_array().ok_or("report: equation_ssm.bifurcations_by_order is not a list")? {
+        let sw = &b["small_start_switch_dt_ms"];
+        let mid = match (sw[0].as_f64(), sw[1].as_f64()) {
+            (Some(a), Some(b)) => json!(0.5 * (a + b)),
+            _ => Value::Null,
+        };
+        orow.push(vec![
+            p.text("equation/order", "{{ order }}", b)?,
+            conn(eq_map_conn(&b["order"]))?,
+            lost(eq_map_torus(&b["order"]))?,
+            f3(&b["saddle_connection_dt_ms"])?,
+            f3(&mid)?,
+            f3(&b["torus_hopf_dt_ms"])?,
+            rho(&b["torus_30p8_rho"])?,
+        ]);
+    }
+    rep.para(
+        "The equation-driven values by the order of the SSM: its reduced map iterated (saddle connection and torus loss by \
+         the fitted map's rules) and its polar normal form (portrait scans):",
+    );
+    let h7 = p.text("equation/head", "normal form: 2-torus at {{ d | plain }} ms", &json!({ "d": torus_dt }))?;
+    rep.table(
+        &[
+            "order",
+            "reduced map: saddle connection [ms]",
+            "reduced map: torus lost [ms], onset",
+            "normal form: saddle connection [ms]",
+            "normal form: small-start switch [ms]",
+            "normal form: torus Hopf [ms]",
+            &h7,
+        ],
+        &orow,
+    );
+    rep.para(&p.html("equation/where", WHERE_THE_NORMAL_FORM_ERRS, &page["where"])?);
+    // The full system's torus across dt.
+    let steps =
+        hopf["full_system_steps"].as_array().ok_or("report: torus_hopf_dt_ms.full_system_steps is not a list")?;
+    rep.para("The full system's 2-torus continued across dt:");
+    rep.table(
+        &[
+            "dt [ms]",
+            "mean (rho_1, rho_2), last third",
+            "rho_1 spread, middle third",
+            "rho_1 spread, last third",
+            "growth rate [1/s]",
+            "run",
+            "torus",
+        ],
+        &p.rows("equation/torus-step", &TORUS_STEP_CELLS, steps)?,
+    );
+    // Coefficients and invariance by order.
+    let inv = &page["invariance"];
+    rep.para(&p.html("equation/invariance", INVARIANCE, inv)?);
+    let per_dt = eq["per_dt"].as_array().ok_or("report: equation_ssm.per_dt is not a list")?;
+    let radii = inv["radii"].as_array().ok_or("report: page_equation.invariance.radii is not a list")?;
+    let mut irows = Vec::new();
+    for d in per_dt {
+        for r in radii {
+            let mut row = vec![
+                p.text("equation/inv-dt", "{{ dt_ms | plain }}", d)?,
+                p.text("equation/inv-r", "{{ r | plain }}", &json!({ "r": r }))?,
+            ];
+            for e in d["invariance"].as_array().into_iter().flatten().filter(|e| &e["radius"] == r) {
+                row.push(p.text("equation/inv", "{{ order }}: {{ abs | sci(2) }}", e)?);
+            }
+            irows.push(row);
+        }
+    }
+    let ncols = irows.iter().map(Vec::len).max().unwrap_or(2);
+    let mut head: Vec<String> = vec!["dt [ms]".into(), "radius [rad]".into()];
+    let orders = inv["orders"].as_array().ok_or("report: page_equation.invariance.orders is not a list")?;
+    for o in orders.iter().take(ncols.saturating_sub(2)) {
+        head.push(p.text("equation/inv-head", "order {{ o }}", &json!({ "o": o }))?);
+    }
+    let head_ref: Vec<&str> = head.iter().map(String::as_str).collect();
+    rep.table(&head_ref, &irows);
+    let mut crows = Vec::new();
+    if let Some(first) = per_dt.first() {
+        for (k, r) in first["coefficients"].as_array().into_iter().flatten().enumerate() {
+            let mut row = vec![
+                p.text("equation/coef-eq", "rho_{{ mode }}'", r)?,
+                p.text("equation/coef-mono", "{{ monomial }}", r)?,
+            ];
+            for d in per_dt {
+                let v = d["coefficients"].get(k).map_or(Value::Null, |x| x["value"].clone());
+                let t = "{% if v is none %}-{% else %}{{ v | num }}{% endif %}";
+                row.push(p.text("equation/coef", t, &json!({ "v": v }))?);
+            }
+            crows.push(row);
+        }
+    }
+    let mut chead: Vec<String> = vec!["equation".into(), "monomial".into()];
+    for d in per_dt {
+        chead.push(p.text("equation/coef-head", "{{ dt_ms | plain }} ms", d)?);
+    }
+    let chead_ref: Vec<&str> = chead.iter().map(String::as_str).collect();
+    rep.table(&chead_ref, &crows);
+    rep.para(&p.html("equation/cubic", CUBIC, &page["cubic"])?);
+    let (head, table) = cubic_table(&p, &eq["cubic_comparison"])?;
+    let head_ref: Vec<&str> = head.iter().map(String::as_str).collect();
+    rep.table(&head_ref, &table);
+    if let Some(sens) = s.get("map_sensitivity") {
+        let mut v = page["map_variants"].clone();
+        v["spreads"] = sens["spreads"].clone();
+        rep.para(&p.html("equation/map-variants", MAP_VARIANTS, &v)?);
+        let mut rows = Vec::new();
+        for r in sens["variants"].as_array().ok_or("report: map_sensitivity.variants is not a list")? {
+            rows.push(vec![
+                p.text("equation/variant", "{{ variant }}", r)?,
+                conn(Some(&r["connection"]["linear"]))?,
+                conn(Some(&r["connection"]["spline"]))?,
+                lost(r["torus"]["linear"].clone())?,
+                lost(r["torus"]["spline"].clone())?,
+            ]);
+        }
+        rep.table(
+            &[
+                "training",
+                "saddle connection, linear [ms]",
+                "saddle connection, spline [ms]",
+                "torus, linear [ms]",
+                "torus, spline [ms]",
+            ],
+            &rows,
+        );
+    }
+    Ok(())
 }
 
 const BASIN_INTRO: &str = "Bounded (green) or escaping (red, |theta| > {{ page.escape_theta | plain }} rad within {{ b.periods }} periods) full-system \
@@ -1254,24 +1324,22 @@ fn separatrix_curves(p: &BasinPanel) -> Vec<Curves> {
     ]
 }
 
-/// The main figure's panels: the full system's basin, the fitted map's verdict (its
-/// differing cells marked) and the normal forms' separatrices.
-fn main_panels<'a>(panels: &'a [BasinPanel], r1: &'a [f64], r2: &'a [f64]) -> Vec<OverlayPanel<'a>> {
-    panels
-        .iter()
-        .map(|p| OverlayPanel {
-            caption: p.caption.clone(),
-            x: r1,
-            y: r2,
-            bounded: &p.full,
-            marks: vec![("fitted map differs".into(), ORANGE, p.map_differs.clone())],
-            curves: separatrix_curves(p),
-        })
-        .collect()
+/// Which verdicts a basin figure marks: the fitted map's (the main figure) or the two normal
+/// forms' (the second figure).
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum Verdicts {
+    FittedMap,
+    NormalForms,
 }
 
-/// The second figure's panels: the cells where each normal form's verdict differs.
-fn normal_form_panels<'a>(panels: &'a [BasinPanel], r1: &'a [f64], r2: &'a [f64]) -> Vec<OverlayPanel<'a>> {
+/// A basin figure's panels: per dt the full system's basin, the normal forms' separatrices and
+/// the cells where the `which` verdicts differ from the full system's, marked.
+fn overlay_panels<'a>(
+    panels: &'a [BasinPanel],
+    r1: &'a [f64],
+    r2: &'a [f64],
+    which: Verdicts,
+) -> Vec<OverlayPanel<'a>> {
     panels
         .iter()
         .map(|p| OverlayPanel {
@@ -1279,10 +1347,13 @@ fn normal_form_panels<'a>(panels: &'a [BasinPanel], r1: &'a [f64], r2: &'a [f64]
             x: r1,
             y: r2,
             bounded: &p.full,
-            marks: vec![
-                ("data-driven normal form differs".into(), BLUE, p.nf_differs[0].clone()),
-                ("equation-driven normal form differs".into(), PURPLE, p.nf_differs[1].clone()),
-            ],
+            marks: match which {
+                Verdicts::FittedMap => vec![("fitted map differs".into(), ORANGE, p.map_differs.clone())],
+                Verdicts::NormalForms => vec![
+                    ("data-driven normal form differs".into(), BLUE, p.nf_differs[0].clone()),
+                    ("equation-driven normal form differs".into(), PURPLE, p.nf_differs[1].clone()),
+                ],
+            },
             curves: separatrix_curves(p),
         })
         .collect()
@@ -1343,7 +1414,7 @@ fn basin_section(rep: &mut Report, c: &Computed) -> Result<(), Box<dyn Error>> {
         ),
         "rho_1 (slow) [rad]",
         "rho_2 (fast) [rad]",
-        &main_panels(&panels, &r1, &r2),
+        &overlay_panels(&panels, &r1, &r2, Verdicts::FittedMap),
     )?;
     let nf_fig = "fig/basin_normal_forms.png";
     draw_basin_overlay(
@@ -1354,7 +1425,7 @@ fn basin_section(rep: &mut Report, c: &Computed) -> Result<(), Box<dyn Error>> {
         ),
         "rho_1 (slow) [rad]",
         "rho_2 (fast) [rad]",
-        &normal_form_panels(&panels, &r1, &r2),
+        &overlay_panels(&panels, &r1, &r2, Verdicts::NormalForms),
     )?;
     rep.summary.insert(
         "basin".into(),
@@ -1430,6 +1501,18 @@ mod tests {
     use super::*;
 
     #[test]
+    fn equation_text_follows_the_values() {
+        let s = crate::report::pages::snapshot_summary();
+        crate::report::pages::check_section(
+            equation_render,
+            &s,
+            "/equation_ssm/bifurcations_by_order/0/saddle_connection_dt_ms",
+            json!(31.23456),
+            "<td>31.235</td>",
+        );
+    }
+
+    #[test]
     fn basin_text_follows_the_values() {
         let s = crate::report::pages::snapshot_summary();
         crate::report::pages::check_section(
@@ -1438,6 +1521,33 @@ mod tests {
             "/basin/per_dt/0/map/disagreement",
             json!(0.4321),
             "<td>43.2 % (",
+        );
+    }
+
+    /// The full report's table of the fitted map over the training variants, on made-up
+    /// variants added to the quick report's values.
+    #[test]
+    fn equation_map_variants_follow_the_values() {
+        let mut s = crate::report::pages::snapshot_summary();
+        let spread = |x: f64| json!({"found": 2, "of": 2, "min": 31.5, "max": 31.5 + x, "spread_ms": x});
+        let torus = json!({"lost_between": [31.7, 31.75], "lost_at_first_dt": false, "first_dt_ms": 31.3,
+                           "growth_onset": 31.72});
+        let first = json!({"lost_between": null, "lost_at_first_dt": true, "first_dt_ms": 31.3, "growth_onset": null});
+        s["map_sensitivity"] = json!({
+            "variants": [{"variant": "default (paper's periods, cut 0.2 rad)",
+                          "connection": {"linear": {"bracket": [31.61, 31.62], "monotone": true},
+                                         "spline": {"error": "no escape on the grid"}},
+                          "torus": {"linear": torus, "spline": first}}],
+            "spreads": {"connection_linear": spread(0.03), "connection_spline": spread(0.04),
+                        "torus_onset_linear": spread(0.05), "torus_onset_spline": spread(0.06),
+                        "torus_lost_linear": spread(0.07), "torus_lost_spline": spread(0.08)},
+        });
+        crate::report::pages::check_section(
+            equation_render,
+            &s,
+            "/map_sensitivity/variants/0/torus/linear/growth_onset",
+            json!(31.7777),
+            "onset 31.778</td>",
         );
     }
 
@@ -1489,7 +1599,7 @@ mod tests {
             separatrices: [vec![vec![(0.1, 0.01), (0.2, 0.02)]], vec![]],
         };
         let panels = [panel(0), panel(1), panel(2)];
-        let main = main_panels(&panels, &r1, &r2);
+        let main = overlay_panels(&panels, &r1, &r2, Verdicts::FittedMap);
         for (m, p) in main.iter().zip(&panels) {
             assert_eq!(m.marks.len(), 1);
             assert!(m.marks[0].0.contains("fitted map"), "{}", m.marks[0].0);
@@ -1497,7 +1607,7 @@ mod tests {
             assert_eq!(m.bounded, p.full.as_slice());
             assert_eq!(m.curves.len(), 2);
         }
-        let nf = normal_form_panels(&panels, &r1, &r2);
+        let nf = overlay_panels(&panels, &r1, &r2, Verdicts::NormalForms);
         assert!(nf.iter().all(|p| p.marks.len() == 2 && p.marks.iter().all(|m| m.0.contains("normal form"))));
         for (l, mark) in [
             (crate::draw::basin::overlay_layout(&main), "fitted map differs"),

@@ -2,8 +2,8 @@
 //! normal-form polar dynamics fitted at the training sampling periods, linearly interpolated
 //! in dt, checked against the exact linear multipliers.
 
+use crate::report::Report;
 use crate::report::prose::Prose;
-use crate::report::{Report, num};
 use furuta::parametric::{FurutaOptions, ParametricModel, TrainingRuns, exact_modes, furuta_parametric_from};
 use serde_json::{Value, json};
 use std::error::Error;
@@ -46,11 +46,8 @@ pub fn section(rep: &mut Report, quick: bool) -> Result<(ParametricModel, Traini
         "initial_states": opts.initial_states.len(), "slow_starts": opts.slow_starts.len(),
         "modes_hz": exact_modes(first)?.freqs_hz, "targets": RATE_TARGETS,
     });
-    let intro = Prose::new().html("parametric/intro", INTRO, &setup)?;
-    rep.section("parametric", "Parametric SSM model of the Furuta loop (normal forms)", &intro);
     rep.summary.insert("parametric_setup".into(), setup);
     let model = furuta_parametric_from(&opts, &runs)?;
-    let mut rows = Vec::new();
     let mut list = Vec::new();
     let mut dts: Vec<(f64, bool)> = opts.dts_ms.iter().map(|d| (*d, true)).collect();
     dts.extend(PAPER_DTS.iter().map(|d| (*d, false)));
@@ -59,46 +56,91 @@ pub fn section(rep: &mut Report, quick: bool) -> Result<(ParametricModel, Traini
         let [slow, fast] = model.linear_rates_at(dt)?;
         let ex = exact_modes(dt)?;
         let rel = |a: f64, b: f64| 100.0 * (a - b) / b.abs();
-        rows.push(vec![
-            format!("{dt}"),
-            if training { "training".into() } else { "interpolated".into() },
-            format!("{fast:+.4}"),
-            format!("{:+.4}", ex.rates[1]),
-            format!("{:+.2} %", rel(fast, ex.rates[1])),
-            format!("{slow:+.4}"),
-            format!("{:+.4}", ex.rates[0]),
-            format!("{:+.2} %", rel(slow, ex.rates[0])),
-        ]);
         list.push(json!({"dt_ms": dt, "training": training, "fast_rate_fit": fast, "fast_rate_exact": ex.rates[1],
-                         "slow_rate_fit": slow, "slow_rate_exact": ex.rates[0]}));
+                         "slow_rate_fit": slow, "slow_rate_exact": ex.rates[0],
+                         "fast_rate_error_pct": rel(fast, ex.rates[1]), "slow_rate_error_pct": rel(slow, ex.rates[0])}));
     }
-    rep.table(&["dt [ms]", "", "fast rate fit", "fast exact", "error", "slow rate fit", "slow exact", "error"], &rows);
     // Coefficient table at the paper's unseen dt.
     let tables: Vec<_> = PAPER_DTS.iter().map(|d| model.coefficients_at(*d)).collect::<Result<_, _>>()?;
-    let mut header = vec!["equation".to_string(), "monomial".to_string()];
-    header.extend(PAPER_DTS.iter().map(|d| format!("{d} ms")));
-    let mut trows = Vec::new();
     let mut tjson = Vec::new();
     if let Some(first) = tables.first() {
         for (i, r) in first.rows.iter().enumerate() {
-            let mut row = vec![format!("rho_{}'", r.mode), r.monomial.clone()];
             let vals: Vec<f64> = tables.iter().map(|t| t.rows.get(i).map_or(f64::NAN, |x| x.value)).collect();
-            row.extend(vals.iter().map(|v| num(*v)));
-            trows.push(row);
             tjson.push(json!({"mode": r.mode, "monomial": r.monomial, "values": vals}));
         }
     }
-    rep.para("Normal-form coefficients (polar amplitude equations) at the paper's unseen sampling periods:");
-    let h: Vec<&str> = header.iter().map(String::as_str).collect();
-    rep.table(&h, &trows);
     rep.summary.insert("linear_nf".into(), Value::Array(list));
     rep.summary.insert("normal_form_table".into(), json!({"dt_ms": PAPER_DTS, "rows": tjson}));
+    render(rep, &Value::Object(rep.summary.clone()))?;
     Ok((model, runs))
+}
+
+/// A row of the rate table (an item of the summary's `linear_nf`): fit, exact and the
+/// relative error (%) of each mode's rate.
+const RATE_CELLS: [&str; 8] = [
+    "{{ dt_ms | plain }}",
+    "{% if training %}training{% else %}interpolated{% endif %}",
+    "{{ fast_rate_fit | signed(4) }}",
+    "{{ fast_rate_exact | signed(4) }}",
+    "{{ fast_rate_error_pct | signed(2) }} %",
+    "{{ slow_rate_fit | signed(4) }}",
+    "{{ slow_rate_exact | signed(4) }}",
+    "{{ slow_rate_error_pct | signed(2) }} %",
+];
+
+/// Writes the section from the summary `s` (`parametric_setup`, `linear_nf`,
+/// `normal_form_table`).
+pub(crate) fn render(rep: &mut Report, s: &Value) -> Result<(), Box<dyn Error>> {
+    let p = Prose::new();
+    let setup = s.get("parametric_setup").ok_or("report: summary lacks `parametric_setup`")?;
+    rep.section(
+        "parametric",
+        "Parametric SSM model of the Furuta loop (normal forms)",
+        &p.html("parametric/intro", INTRO, setup)?,
+    );
+    let rates = s["linear_nf"].as_array().ok_or("report: summary lacks the list `linear_nf`")?;
+    rep.table(
+        &["dt [ms]", "", "fast rate fit", "fast exact", "error", "slow rate fit", "slow exact", "error"],
+        &p.rows("parametric/rate", &RATE_CELLS, rates)?,
+    );
+    let t = &s["normal_form_table"];
+    let dts = t["dt_ms"].as_array().ok_or("report: normal_form_table.dt_ms is not a list")?;
+    let mut header = vec!["equation".to_string(), "monomial".to_string()];
+    for d in dts {
+        header.push(p.text("parametric/coef-head", "{{ d | plain }} ms", &json!({ "d": d }))?);
+    }
+    let mut rows = Vec::new();
+    for r in t["rows"].as_array().ok_or("report: normal_form_table.rows is not a list")? {
+        let mut row = vec![
+            p.text("parametric/coef-eq", "rho_{{ mode }}'", r)?,
+            p.text("parametric/coef-mono", "{{ monomial }}", r)?,
+        ];
+        for v in r["values"].as_array().ok_or("report: normal_form_table.rows[].values is not a list")? {
+            row.push(p.text("parametric/coef", "{{ v | num }}", &json!({ "v": v }))?);
+        }
+        rows.push(row);
+    }
+    rep.para("Normal-form coefficients (polar amplitude equations) at the paper's unseen sampling periods:");
+    let h: Vec<&str> = header.iter().map(String::as_str).collect();
+    rep.table(&h, &rows);
+    Ok(())
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn parametric_text_follows_the_values() {
+        let s = crate::report::pages::snapshot_summary();
+        crate::report::pages::check_section(
+            render,
+            &s,
+            "/linear_nf/0/fast_rate_fit",
+            json!(-1.23456),
+            "<td>-1.2346</td>",
+        );
+    }
     use crate::report::prose::{perturbed, unmoved};
 
     /// The introduction's numbers all come from the setup: with every value moved, every

@@ -8,7 +8,7 @@
 //! report::pages`, where `DIR` holds `ssmctl reproduce --quick --out DIR`.
 
 use crate::report::prose::{perturbed, unmoved};
-use crate::report::{Report, auto_table, bifurcations, esc, global, own_plant};
+use crate::report::{Report, auto_table, bifurcations, esc, global, normal_form, own_plant, reproduce, verdict};
 use serde_json::{Map, Value};
 use std::error::Error;
 use std::path::{Path, PathBuf};
@@ -32,6 +32,25 @@ const RENDERED: &[(&str, &[&str], Render)] = &[
     ),
     ("basin", &["basin", "page_basin"], global::basin_render),
     ("fit-auto", &["fit_auto"], |r, s| auto_table::render(r, &s["fit_auto"])),
+    ("scenes", &["scenes"], reproduce::scenes_render),
+    ("stability", &["stability"], reproduce::stability_render),
+    ("chart", &["stability_chart", "page_chart"], reproduce::chart_render),
+    ("accuracy-time-sim", &["bench_simulate", "page_bench"], reproduce::bench_render),
+    ("parametric", &["parametric_setup", "linear_nf", "normal_form_table"], normal_form::render),
+    (
+        "equation",
+        &[
+            "page_equation",
+            "equation_ssm",
+            "heteroclinic_dt_ms",
+            "torus_hopf_dt_ms",
+            "torus_30p8",
+            "map_switch_dt_ms",
+            "map_sensitivity",
+        ],
+        global::equation_render,
+    ),
+    ("chaos-verdict", &["microchaos_verdict", "page_chaos_verdict"], verdict::render),
 ];
 
 /// Sections whose text is not yet written from values, and why.
@@ -60,13 +79,6 @@ const NOT_YET: &[(&str, &str)] = &[
         "chaos-cost",
         "chaos.rs: paragraphs are templates tested in the section; the page is not yet rendered from the summary alone",
     ),
-    ("scenes", "reproduce.rs: tables formatted from computed values, not yet through templates"),
-    ("stability", "reproduce.rs: tables formatted from computed values, not yet through templates"),
-    ("chart", "reproduce.rs: tables formatted from computed values, not yet through templates"),
-    ("accuracy-time-sim", "reproduce.rs: tables formatted from computed values, not yet through templates"),
-    ("parametric", "normal_form.rs: the introduction is a template, the tables are not yet"),
-    ("chaos-verdict", "verdict.rs: the introduction is a template, the tables are not yet"),
-    ("equation", "global.rs: the equation section's tables are formatted from computed values, not yet templates"),
     ("timings", "wall-clock times, not results: compare-report drops this section"),
 ];
 
@@ -83,10 +95,43 @@ const VERBATIM: &[(&str, &str)] = &[
     ("page_fullsystem.setup.scene", "a scene's name"),
     ("own_plant.chart.scene", "a scene's name"),
     ("own_plant.ssm.scene", "a scene's name"),
+    ("scenes[].name", "a scene's name"),
+    ("scenes[].effects[]", "a scene's effects with their settings, named by Scene::effect_names"),
+    ("scenes[].stopped", "why a run stopped, a message"),
+    ("stability[].scene", "a scene's name"),
+    ("bench_simulate[].method", "an integrator with its setting, named by bench::label"),
+    ("page_bench.scene", "a scene's name"),
+    ("page_bench.baseline", "the baseline integrator with its setting, named by bench::label"),
+    ("page_bench.elsewhere", "other programs' speeds quoted from MODEL.md, not measured by this program"),
+    ("page_chaos_verdict.setup.quantized", "a scene's name"),
+    ("page_chaos_verdict.setup.smooth", "a scene's name"),
+    ("page_chaos_verdict.setup.noisy", "a scene's name"),
+    ("microchaos_verdict.verdict", "the conclusion as chaos_study::verdict writes it from its values"),
+    ("microchaos_verdict.noisy_source", "where the noisy series comes from: a scene's or a recording's name"),
+    ("microchaos_verdict.series[].name", "a series' name: a scene's or a recording's"),
+    ("map_sensitivity.variants[].variant", "a training variant's name with its settings"),
+    ("heteroclinic_dt_ms.map.linear.error", "why a search failed, a message"),
+    ("heteroclinic_dt_ms.map.spline.error", "why a search failed, a message"),
+    ("heteroclinic_dt_ms.full_system_connection.error", "why a search failed, a message"),
+    ("heteroclinic_dt_ms.equation_map.by_order[].connection.error", "why a search failed, a message"),
+    ("torus_hopf_dt_ms.equation_map.by_order[].error", "why a continuation failed, a message"),
+    ("map_switch_dt_ms.equation_map.error", "why a search failed, a message"),
+    ("page_equation.where.full_error", "why a search failed, a message"),
+    ("map_sensitivity.variants[].connection.linear.error", "why a search failed, a message"),
+    ("map_sensitivity.variants[].connection.spline.error", "why a search failed, a message"),
+    ("map_sensitivity.variants[].torus.linear.error", "why a continuation failed, a message"),
+    ("map_sensitivity.variants[].torus.spline.error", "why a continuation failed, a message"),
 ];
 
 /// The numbers that may stay put, and why.
-const STAYS: &[(&str, &str)] = &[("0", "an integer zero stays zero in `perturbed`, so that a branch on a count stays")];
+const STAYS: &[(&str, &str)] = &[
+    ("0", "an integer zero stays zero in `perturbed`, so that a branch on a count stays"),
+    (
+        "-42.5",
+        "a relative difference (%) next to -42.64 %, the fixed point of `perturbed` (x -> 1.2345 x + 0.1): moved, it shows the same digits",
+    ),
+    ("-42.8", "as -42.5: next to the fixed point of `perturbed`"),
+];
 
 fn snapshot_path() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/snapshots/report_values.json")

@@ -13,7 +13,8 @@ use serde_json::Value;
 /// The template environment with the report's number formats as filters:
 /// `num` (4 significant digits, [`crate::report::num`]), `fixed(n)` (n decimals), `sci(n)`
 /// (n decimals, exponent), `pct(n)` (a fraction as a percentage with n decimals, no sign),
-/// `nums` (a list through `num`, comma-separated), `fixed_or(n, text)` (`fixed(n)`, or `text` for none), `e` (Rust's `{:e}`), `dbg` (Rust's `{:?}` of a number or a list of numbers), `signed(n)` and `ssci(n)` (as `fixed` and
+/// `nums` (a list through `num`, comma-separated), `fixed_or(n, text)` (`fixed(n)`, or `text` for none),
+/// `num_or(text)` (`num`, or `text`, default `-`, for none), `e` (Rust's `{:e}`), `dbg` (Rust's `{:?}` of a number or a list of numbers), `signed(n)` and `ssci(n)` (as `fixed` and
 /// `sci` with a sign always), `plain` (Rust's `Display`: `31` for 31.0; a list joined by `, ` or
 /// the given separator).
 pub struct Prose {
@@ -92,6 +93,9 @@ impl Prose {
             }
             plain(&v)
         });
+        env.add_filter("num_or", |v: JinjaValue, alt: Option<String>| -> Result<String, minijinja::Error> {
+            if v.is_none() { Ok(alt.unwrap_or_else(|| "-".into())) } else { Ok(crate::report::num(f(&v)?)) }
+        });
         env.add_filter("nums", |v: JinjaValue| -> Result<String, minijinja::Error> {
             let items: Vec<String> =
                 v.try_iter()?.map(|x| f(&x).map(crate::report::num)).collect::<Result<_, minijinja::Error>>()?;
@@ -124,10 +128,22 @@ impl Prose {
     }
 }
 
-/// Names written with digits: a method, and the invariant objects named by their dimension;
-/// and the constants of formulas written out in the text.
-const NAMES_WITH_DIGITS: [&str; 8] =
-    ["0-1 test", "2-torus", "3-torus", "2-tori", "3-tori", "x (1 + spread", "(1 + k_ij", "by 2 k_ij"];
+/// Names written with digits: a method, the invariant objects named by their dimension and a
+/// figure of the paper; and the constants of formulas written out in the text (the unit
+/// multiplier of a shift, a real multiplier crossing +1).
+const NAMES_WITH_DIGITS: [&str; 11] = [
+    "0-1 test",
+    "2-torus",
+    "3-torus",
+    "2-tori",
+    "3-tori",
+    "x (1 + spread",
+    "(1 + k_ij",
+    "by 2 k_ij",
+    "paper's figure 2",
+    "structural multiplier 1 (",
+    "multiplier through +1",
+];
 
 /// The numbers written in `text`: runs of digits (with a decimal point, an exponent and a
 /// leading minus) that are not part of a name (`rho_1`, `x2`, `2D`, a monomial's `^3`,

@@ -1,10 +1,12 @@
 //! `ssmctl reproduce`: runs every capability on the bundled scenes and writes the report.
-//! Each capability adds its own section; this module only orchestrates.
+//! Each capability adds its own section; this module orchestrates them and writes the first
+//! ones (scenes, stability, chart, accuracy-time-sim), each from its summary values alone.
 
 use crate::bench;
 use crate::plot::{self, Series};
 use crate::report::cache::{Outcome, SectionCache, Unit};
-use crate::report::{Report, num, par_map};
+use crate::report::prose::Prose;
+use crate::report::{Report, esc, par_map};
 use indicatif::{ProgressBar, ProgressStyle};
 use plotters::style::RGBColor;
 use serde_json::{Value, json};
@@ -463,19 +465,27 @@ fn bar(quiet: bool, len: u64, msg: &str) -> Option<ProgressBar> {
     })
 }
 
+const SCENES_INTRO: &str = "Each scene runs the device's own controller code (float path, or the integer path when the \
+    scene quantizes) against the plant integrated period by period. Trajectories are in <code>scenes/</code> as CSV with \
+    JSON metadata. max |theta| is over the second half of the run.";
+/// A scene's row (an item of the summary's `scenes`); the rate is the wall-clock one.
+const SCENE_CELLS: [&str; 7] = [
+    "{{ name }}",
+    "{{ effects | join(\"; \") }}",
+    "{{ periods }}",
+    "{{ max_abs_theta_late | num }}",
+    "{% if stopped is none %}-{% else %}{{ stopped }}{% endif %}",
+    "{{ saturated_samples }}",
+    "{{ (periods / ([wall_seconds, 1e-9] | max)) | fixed(0) }}",
+];
+const SCENE_CAPTION: &str = "{{ name }}: theta(t)";
+
 fn scenes_section(rep: &mut Report, quick: bool, quiet: bool) -> Result<(), Box<dyn Error>> {
-    rep.section(
-        "scenes",
-        "Bundled scenes: closed-loop simulations",
-        "Each scene runs the device's own controller code (float path, or the integer path when the scene \
-         quantizes) against the plant integrated period by period. Trajectories are in <code>scenes/</code> as CSV \
-         with JSON metadata. max |theta| is over the second half of the run.",
-    );
     let pb = bar(quiet, BUNDLED.len() as u64, "simulating scenes");
     // Each scene (run, CSV outputs, figure) is a task on the rayon pool writing only its own
-    // files; rows and JSON are collected in the bundled order.
+    // files; the values are collected in the bundled order.
     let dir = rep.dir().to_path_buf();
-    let done = par_map(BUNDLED, |(name, _)| -> Result<Option<(Vec<String>, Value)>, SendError> {
+    let done = par_map(BUNDLED, |(name, _)| -> Result<Option<Value>, SendError> {
         let r = scene_task(&dir, name, quick);
         if let Some(pb) = &pb {
             pb.inc(1);
@@ -486,22 +496,30 @@ fn scenes_section(rep: &mut Report, quick: bool, quiet: bool) -> Result<(), Box<
     if let Some(pb) = pb {
         pb.finish_and_clear();
     }
-    let (rows, list): (Vec<Vec<String>>, Vec<Value>) = done.into_iter().flatten().unzip();
+    rep.summary.insert("scenes".into(), Value::Array(done.into_iter().flatten().collect()));
+    scenes_render(rep, &Value::Object(rep.summary.clone()))
+}
+
+/// Writes the scenes section from the summary `s` (`scenes`).
+pub(crate) fn scenes_render(rep: &mut Report, s: &Value) -> Result<(), Box<dyn Error>> {
+    let p = Prose::new();
+    rep.section("scenes", "Bundled scenes: closed-loop simulations", &p.html("scenes/intro", SCENES_INTRO, s)?);
+    let list = s["scenes"].as_array().ok_or("report: summary lacks the list `scenes`")?;
     rep.table(
         &["scene", "effects", "periods", "max |theta| late [rad]", "stopped", "saturated samples", "periods/s"],
-        &rows,
+        &p.rows("scenes/row", &SCENE_CELLS, list)?,
     );
-    for (name, _) in BUNDLED {
-        rep.figure(&format!("fig/{name}.png"), &format!("{name}: theta(t)"));
+    for sc in list {
+        let fig = sc["figure"].as_str().ok_or("report: scenes[].figure is not a string")?;
+        rep.figure(fig, &p.text("scenes/caption", SCENE_CAPTION, sc)?);
     }
-    rep.summary.insert("scenes".into(), Value::Array(list));
     Ok(())
 }
 
 /// One bundled scene of the scenes section: simulates it (300 periods when `quick`), writes
 /// its outputs under `dir/scenes` and its figure; `None` for a scene that asks for no
 /// simulation.
-fn scene_task(dir: &Path, name: &str, quick: bool) -> Result<Option<(Vec<String>, Value)>, SendError> {
+fn scene_task(dir: &Path, name: &str, quick: bool) -> Result<Option<Value>, SendError> {
     let mut b = SceneBuilder::load(name)?;
     if quick {
         b = b.periods(300);
@@ -526,33 +544,26 @@ fn scene_task(dir: &Path, name: &str, quick: bool) -> Result<Option<(Vec<String>
         (640, 300),
     )?;
     let periods = tr.rows() - 1;
-    let row = vec![
-        name.to_string(),
-        s.effect_names().join("; "),
-        periods.to_string(),
-        num(max_late),
-        tr.stopped.clone().unwrap_or_else(|| "-".into()),
-        tr.saturated_samples.to_string(),
-        format!("{:.0}", periods as f64 / tr.wall_seconds.max(1e-9)),
-    ];
-    let json = json!({
+    Ok(Some(json!({
         "name": name, "effects": s.effect_names(), "periods": periods, "max_abs_theta_late": max_late,
         "stopped": tr.stopped, "saturated_samples": tr.saturated_samples, "integrator": tr.integrator,
         "wall_seconds": tr.wall_seconds, "figure": fig,
-    });
-    Ok(Some((row, json)))
+    })))
 }
 
+const STABILITY_INTRO: &str = "Multipliers of the exact zero-order-hold discretization of the linearized loop with \
+    delay r (augmented state of the current and delayed samples, matrix exponential). The structural multiplier 1 (a \
+    shift of the arm angle) is removed. rate = ln|mu|/dt; the two dominant pairs are the linear coefficients a fitted \
+    normal form must reproduce.";
+/// A scene's first cells; then [`PAIR_CELLS`] per dominant pair (up to two).
+const STABILITY_CELLS: [&str; 3] = [
+    "{{ scene }}",
+    "{{ dt_ms | plain }}",
+    "{% if kp_kd is none %}gains{% else %}{{ kp_kd[0] | plain }} / {{ kp_kd[1] | plain }}{% endif %}",
+];
+const PAIR_CELLS: [&str; 3] = ["{{ m.abs | fixed(6) }}", "{{ m.freq_hz | fixed(3) }}", "{{ m.rate | signed(4) }}"];
+
 fn stability_section(rep: &mut Report) -> Result<(), Box<dyn Error>> {
-    rep.section(
-        "stability",
-        "Exact linear stability of the sampled-data loop",
-        "Multipliers of the exact zero-order-hold discretization of the linearized loop with delay r \
-         (augmented state of the current and delayed samples, matrix exponential). The structural multiplier 1 \
-         (a shift of the arm angle) is removed. rate = ln|mu|/dt; the two dominant pairs are the linear \
-         coefficients a fitted normal form must reproduce.",
-    );
-    let mut rows = Vec::new();
     let mut list = Vec::new();
     for (name, _) in BUNDLED {
         let s = Scene::load(name, &[])?;
@@ -560,68 +571,97 @@ fn stability_section(rep: &mut Report) -> Result<(), Box<dyn Error>> {
             continue;
         }
         let dom = stability::dominant_pairs(&s)?;
-        let mut row = vec![
-            name.to_string(),
-            format!("{}", s.controller.dt_ms),
-            match (s.controller.kp, s.controller.kd) {
-                (Some(kp), Some(kd)) => format!("{kp} / {kd}"),
-                _ => "gains".to_string(),
-            },
-        ];
-        for m in dom.iter().take(2) {
-            row.push(format!("{:.6}", m.abs));
-            row.push(format!("{:.3}", m.freq_hz));
-            row.push(format!("{:+.4}", m.rate));
-        }
+        let kp_kd = s.controller.kp.zip(s.controller.kd).map(|(p, d)| [p, d]);
+        list.push(json!({"scene": name, "dt_ms": s.controller.dt_ms, "dominant": dom, "kp_kd": kp_kd}));
+    }
+    rep.summary.insert("stability".into(), Value::Array(list));
+    stability_render(rep, &Value::Object(rep.summary.clone()))
+}
+
+/// Writes the stability section from the summary `s` (`stability`).
+pub(crate) fn stability_render(rep: &mut Report, s: &Value) -> Result<(), Box<dyn Error>> {
+    let p = Prose::new();
+    rep.section(
+        "stability",
+        "Exact linear stability of the sampled-data loop",
+        &p.html("stability/intro", STABILITY_INTRO, s)?,
+    );
+    let list = s["stability"].as_array().ok_or("report: summary lacks the list `stability`")?;
+    let mut rows = Vec::new();
+    for item in list {
+        let mut row = p.rows("stability/row", &STABILITY_CELLS, std::slice::from_ref(item))?.concat();
+        let pairs: Vec<Value> = item["dominant"]
+            .as_array()
+            .ok_or("report: stability[].dominant is not a list")?
+            .iter()
+            .take(2)
+            .map(|m| json!({ "m": m }))
+            .collect();
+        row.extend(p.rows("stability/pair", &PAIR_CELLS, &pairs)?.concat());
         rows.push(row);
-        list.push(json!({"scene": name, "dt_ms": s.controller.dt_ms, "dominant": dom}));
     }
     rep.table(
         &["scene", "dt [ms]", "KP / KD", "|mu1|", "f1 [Hz]", "rate1 [1/s]", "|mu2|", "f2 [Hz]", "rate2 [1/s]"],
         &rows,
     );
-    rep.summary.insert("stability".into(), Value::Array(list));
     Ok(())
 }
 
+/// The scene of the stability chart and its sampling periods (ms).
+const CHART_SCENE: &str = "furuta-dt25";
+const CHART_DTS_MS: [f64; 3] = [20.0, 25.0, 30.8];
+
+const CHART_INTRO: &str = "Like the paper's figure 2: the region where every non-structural multiplier lies inside \
+    the unit circle, for several sampling periods, with the static (real multiplier through +1) and dynamic (complex \
+    pair through the unit circle) boundaries. The cross marks the scene's gains ({{ page_chart.gains[0] | num }} V, {{ \
+    page_chart.gains[1] | num }} V s).";
+const CHART_CAPTION: &str = "Stability chart: stable regions and boundaries for dt = {{ page_chart.dts_ms | nums }} ms";
+
 fn chart_section(rep: &mut Report, quick: bool) -> Result<(), Box<dyn Error>> {
-    let s = Scene::load("furuta-dt25", &[])?;
+    let s = Scene::load(CHART_SCENE, &[])?;
     let theta = s.measured()?.into_iter().next().ok_or("furuta-dt25 measures no coordinate")?;
-    rep.section(
-        "chart",
-        "Stability chart in the (KP, KD) plane",
-        &format!(
-            "Like the paper's figure 2: the region where every non-structural multiplier lies inside the unit circle, \
-             for several sampling periods, with the static (real multiplier through +1) and dynamic (complex pair \
-             through the unit circle) boundaries. The cross marks the scene's gains ({} V, {} V s).",
-            num(theta.p),
-            num(theta.d)
-        ),
-    );
     let n = if quick { 61 } else { 201 };
     let fig = "fig/stability_chart.png";
-    let dts = [20.0, 25.0, 30.8];
-    let summary = crate::draw::chart::chart_for_scene(&s, &rep.dir().join(fig), &dts, (0.0, 40.0, n), (0.0, 8.0, n))?;
-    let listed: Vec<String> = dts.iter().map(|d| num(*d)).collect();
-    rep.figure(fig, &format!("Stability chart: stable regions and boundaries for dt = {} ms", listed.join(", ")));
+    let summary =
+        crate::draw::chart::chart_for_scene(&s, &rep.dir().join(fig), &CHART_DTS_MS, (0.0, 40.0, n), (0.0, 8.0, n))?;
     // The figure's path relative to the report (the section may be computed in a cache folder).
     let mut v = serde_json::to_value(&summary)?;
     v["png"] = json!(fig);
     rep.summary.insert("stability_chart".into(), v);
+    rep.summary.insert(
+        "page_chart".into(),
+        json!({"scene": CHART_SCENE, "gains": [theta.p, theta.d], "dts_ms": CHART_DTS_MS}),
+    );
+    chart_render(rep, &Value::Object(rep.summary.clone()))
+}
+
+/// Writes the chart section from the summary `s` (`stability_chart`, `page_chart`).
+pub(crate) fn chart_render(rep: &mut Report, s: &Value) -> Result<(), Box<dyn Error>> {
+    let p = Prose::new();
+    rep.section("chart", "Stability chart in the (KP, KD) plane", &p.html("chart/intro", CHART_INTRO, s)?);
+    let fig = s["stability_chart"]["png"].as_str().ok_or("report: stability_chart.png is not a string")?;
+    rep.figure(fig, &p.text("chart/caption", CHART_CAPTION, s)?);
     Ok(())
 }
 
+const BENCH_INTRO: &str = "Sampling periods simulated per second (one core, fastest of repeated runs) against the max \
+    theta error versus a tight reference (RODAS4 at rtol {{ page_bench.reference_rtol | e }}), on {{ page_bench.periods \
+    }} periods of {{ page_bench.scene }} from theta0 = {{ page_bench.theta0 | plain }} rad. The baseline is classical \
+    RK4 at its stable step, measured in the same run. For scale: {{ page_bench.elsewhere }}.";
+/// A row of the table (an item of the summary's `bench_simulate`).
+const BENCH_CELLS: [&str; 5] = [
+    "{{ method }}",
+    "{{ periods_per_s | fixed(0) }}",
+    "{{ max_err_rad | sci(2) }}",
+    "{{ ratio_vs_baseline | fixed(2) }}",
+    "{{ steps_per_period | fixed(1) }}",
+];
+/// Speeds of other programs on the same problem, quoted from MODEL.md (not measured here).
+const BENCH_ELSEWHERE: &str = "scipy LSODA reaches about 500 periods/s, a C RK4 5,000-9,000/s (MODEL.md)";
+
 pub fn bench_section(rep: &mut Report, quick: bool, quiet: bool) -> Result<(), Box<dyn Error>> {
-    rep.section(
-        "accuracy-time-sim",
-        "What accuracy costs in time: simulation",
-        "Sampling periods simulated per second (one core, fastest of repeated runs) against the max theta error \
-         versus a tight reference (RODAS4 at rtol 1e-13), on 200 periods of furuta-dt30.8 from theta0 = 0.05 rad. \
-         The baseline is classical RK4 at its stable step, measured in the same run. For scale: scipy LSODA reaches \
-         about 500 periods/s, a C RK4 5,000-9,000/s (MODEL.md).",
-    );
     let pb = (!quiet).then(ProgressBar::new_spinner);
-    let (rows, baseline) = bench::bench_simulate(200, quick, |m| {
+    let (rows, baseline) = bench::bench_simulate(bench::PERIODS, quick, |m| {
         if let Some(pb) = &pb {
             pb.set_message(format!("bench: {m}"));
             pb.tick();
@@ -630,27 +670,62 @@ pub fn bench_section(rep: &mut Report, quick: bool, quiet: bool) -> Result<(), B
     if let Some(pb) = pb {
         pb.finish_and_clear();
     }
-    rep.para(&format!("Baseline: {}.", crate::report::esc(&baseline)));
-    let table: Vec<Vec<String>> = rows
-        .iter()
-        .map(|r| {
-            vec![
-                r.method.clone(),
-                format!("{:.0}", r.periods_per_s),
-                format!("{:.2e}", r.max_err_rad),
-                format!("{:.2}", r.ratio_vs_baseline),
-                format!("{:.1}", r.steps_per_period),
-            ]
-        })
-        .collect();
-    rep.table(&["method", "periods/s", "max theta error [rad]", "x baseline", "steps/period"], &table);
     rep.summary.insert("bench_simulate".into(), serde_json::to_value(&rows)?);
+    rep.summary.insert(
+        "page_bench".into(),
+        json!({"periods": bench::PERIODS, "scene": bench::SCENE, "theta0": bench::THETA0,
+               "reference_rtol": bench::REFERENCE_RTOL, "baseline": baseline, "elsewhere": BENCH_ELSEWHERE}),
+    );
+    bench_render(rep, &Value::Object(rep.summary.clone()))
+}
+
+/// Writes the accuracy-time section from the summary `s` (`bench_simulate`, `page_bench`).
+pub(crate) fn bench_render(rep: &mut Report, s: &Value) -> Result<(), Box<dyn Error>> {
+    let p = Prose::new();
+    // Plain text escaped here: an HTML template would write the `/` of `periods/s` and of
+    // the method labels as entities.
+    rep.section(
+        "accuracy-time-sim",
+        "What accuracy costs in time: simulation",
+        &esc(&p.text("accuracy-time-sim/intro", BENCH_INTRO, s)?),
+    );
+    rep.para(&esc(&p.text("accuracy-time-sim/baseline", "Baseline: {{ page_bench.baseline }}.", s)?));
+    let rows = s["bench_simulate"].as_array().ok_or("report: summary lacks the list `bench_simulate`")?;
+    rep.table(
+        &["method", "periods/s", "max theta error [rad]", "x baseline", "steps/period"],
+        &p.rows("accuracy-time-sim/row", &BENCH_CELLS, rows)?,
+    );
     Ok(())
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::report::pages::{check_section, snapshot_summary};
+
+    #[test]
+    fn scenes_text_follows_the_values() {
+        let s = snapshot_summary();
+        check_section(scenes_render, &s, "/scenes/0/max_abs_theta_late", json!(0.123456), "<td>0.1235</td>");
+    }
+
+    #[test]
+    fn stability_text_follows_the_values() {
+        let s = snapshot_summary();
+        check_section(stability_render, &s, "/stability/0/dominant/0/abs", json!(0.987654321), "<td>0.987654</td>");
+    }
+
+    #[test]
+    fn chart_text_follows_the_values() {
+        let s = snapshot_summary();
+        check_section(chart_render, &s, "/page_chart/gains/0", json!(17.25), "(17.25 V,");
+    }
+
+    #[test]
+    fn bench_text_follows_the_values() {
+        let s = snapshot_summary();
+        check_section(bench_render, &s, "/bench_simulate/0/max_err_rad", json!(1.234e-5), "<td>1.23e-5</td>");
+    }
 
     /// `v` without the wall-clock keys (at any depth).
     fn without_wall(mut v: Value) -> Value {

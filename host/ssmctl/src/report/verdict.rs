@@ -5,10 +5,10 @@
 use std::error::Error;
 
 use chaos_study::verdict::{MicrochaosVerdictSummary, VerdictOptions, microchaos_verdict};
-use serde_json::json;
+use serde_json::{Value, json};
 
 use crate::report::prose::Prose;
-use crate::report::{Report, esc, num};
+use crate::report::{Report, esc};
 
 /// The data FSLE's slope of ln lambda against ln delta for chaos and for diffusion (theory).
 const FSLE_SLOPE_CHAOS: f64 = 0.0;
@@ -25,9 +25,64 @@ const INTRO: &str = "The quantized loop at the paper's settings ({{ quantized }}
     vs ln delta: {{ fsle_slope.chaos | num }} for chaos, {{ fsle_slope.diffusion | num }} for diffusion) and IAAFT \
     surrogates (prediction error, time reversal; rank p-values).";
 
-/// The subsection "Is the quantized loop chaotic?" and the summary key `microchaos_verdict`.
-/// Reads the third PIL recording (the chaos section's held-out run) when present; the
-/// reduced models' exponents come from the chaos section's summary when it ran before.
+/// The first table: the period map's exponents (summary `microchaos_verdict`, and
+/// `page_chaos_verdict` for the count of smooth exponents).
+const EXPONENT_ROWS: [[&str; 2]; 6] = [
+    ["open-loop ZOH map at the equilibrium, ln rho(Phi)/dt", "{{ v.period_map.open_loop_rate | num }}"],
+    [
+        "quantized period map's tangent (Q' = 0) along {{ v.period_map.periods }} periods",
+        "{{ v.period_map.quantized_tangent | num }}",
+    ],
+    [
+        "linearized smooth closed loop at the equilibrium, ln rho(M)/dt",
+        "{{ v.period_map.linear_closed_loop_rate | num }}",
+    ],
+    [
+        "smooth closed loop's tangent along the quantized orbit ({{ page.smooth_exponents }} leading, QR)",
+        "{{ v.period_map.smooth_tangent | nums }}",
+    ],
+    ["twin FSLE below h/100 (noise-free quantized)", "{{ v.rate_below_step | num_or }}"],
+    [
+        "twin FSLE over the attractor's scales {{ v.attractor_scales[0] | sci(1) }}..{{ v.attractor_scales[1] | sci(1) }} rad: mean / slope",
+        "{{ v.attractor_rate | num_or }} / {{ v.attractor_slope | num_or }}",
+    ],
+];
+const TWINS: &str = "Twin FSLE by scale ({{ page.twins.starts }} starts on the attractor, {{ page.twins.periods }} \
+    periods each, initial separations {% for d in page.twins.deltas0 %}{{ d | sci(0) }}{% if not loop.last %}, {% endif \
+    %}{% endfor %}): noise-free quantized loop, and the noisy loop with both twins driven by the same noise sequence. \
+    \"jump\": the band was crossed within one period (a count flip).";
+/// A row of the twin table: a band of the noise-free twins and the noisy twins' same band.
+const TWIN_CELLS: [&str; 5] = [
+    "{{ r.delta | sci(2) }}",
+    "{% if r.lambda is none %}jump (0 s){% else %}{{ r.lambda | num }}{% endif %}",
+    "{{ r.pairs }}",
+    "{% if n is none %}-{% elif n.lambda is none %}jump (0 s){% else %}{{ n.lambda | num }}{% endif %}",
+    "{% if n is none %}-{% else %}{{ n.pairs }}{% endif %}",
+];
+/// A row of the series table (`s` from `microchaos_verdict.series`, `x` from
+/// `page_chaos_verdict.series`).
+const SERIES_CELLS: [&str; 6] = [
+    "{{ s.name }}",
+    "{{ s.zero_one_k | num }} (stride {{ x.stride }})",
+    "{{ s.fsle_slope | num_or }}",
+    "{% for r in s.fsle if r.lambda is not none %}{{ r.delta | fixed(3) }}: {{ r.lambda | num }}{% if not loop.last %}; \
+     {% endif %}{% endfor %}",
+    "{{ s.surrogate_p_prediction | num }} ({{ x.statistic_data | num }} vs {{ x.statistic_min | num }}..{{ \
+     x.statistic_max | num }})",
+    "{{ s.surrogate_p_time_reversal | num }}",
+];
+const MODELS: &str = "Reduced models of the same loop (chaos section): Benettin exponent of the smooth RBF map {{ \
+    m.lle_model_rbf_benettin | num_or }} 1/s, polynomial {{ m.lle_model_poly_benettin | num_or }} 1/s (their own \
+    attractors are tori), against {{ v.period_map.quantized_tangent | fixed(2) }} 1/s below a count and {{ \
+    v.attractor_rate | num_or }} 1/s at the attractor's scale here; the residual-kicked RBF model gives a time-series \
+    (Rosenstein) exponent of {{ m.lle_model_rbf_kicked | num_or }} 1/s (data {{ m.lle_data_rosenstein | num_or }} 1/s) \
+    with PDF divergence {{ m.pdf_divergence_rbf_kicked | num_or }} bits: the kicks, not the smooth map, carry the \
+    separation.";
+
+/// The subsection "Is the quantized loop chaotic?", the summary key `microchaos_verdict` and
+/// what else its page reads, `page_chaos_verdict`. Reads the third PIL recording (the chaos
+/// section's held-out run) when present; the reduced models' exponents come from the chaos
+/// section's summary when it ran before.
 pub fn microchaos_verdict_section(rep: &mut Report, quick: bool) -> Result<(), Box<dyn Error>> {
     let o = if quick { VerdictOptions::quick() } else { VerdictOptions::full() };
     let [quantized, smooth, noisy] = chaos_study::verdict::SCENES;
@@ -36,102 +91,9 @@ pub fn microchaos_verdict_section(rep: &mut Report, quick: bool) -> Result<(), B
         "options": &o, "dt_ms": dt_ms, "quantized": quantized, "smooth": smooth, "noisy": noisy,
         "fsle_slope": {"chaos": FSLE_SLOPE_CHAOS, "diffusion": FSLE_SLOPE_DIFFUSION},
     });
-    rep.section(
-        "chaos-verdict",
-        "Is the quantized loop chaotic? Tests that tell chaos from noise-driven diffusion",
-        &Prose::new().html("chaos-verdict/intro", INTRO, &setup)?,
-    );
     let pil_file = std::path::Path::new(crate::report::chaos::PIL_RECORD_DIR).join("run3/record.csv");
     let pil = if pil_file.is_file() { Some(crate::report::chaos::pil_plant_theta(&pil_file)?) } else { None };
     let v = microchaos_verdict(pil.as_ref(), &o)?;
-    rep.para(&esc(&v.verdict));
-    rep.para(&format!("Noisy data: {}.", esc(&v.noisy_source)));
-    let pm = &v.period_map;
-    rep.table(
-        &["exponent [1/s]", "value"],
-        &[
-            vec!["open-loop ZOH map at the equilibrium, ln rho(Phi)/dt".into(), num(pm.open_loop_rate)],
-            vec![
-                format!("quantized period map's tangent (Q' = 0) along {} periods", pm.periods),
-                num(pm.quantized_tangent),
-            ],
-            vec![
-                "linearized smooth closed loop at the equilibrium, ln rho(M)/dt".into(),
-                num(pm.linear_closed_loop_rate),
-            ],
-            vec![
-                "smooth closed loop's tangent along the quantized orbit (3 leading, QR)".into(),
-                pm.smooth_tangent.iter().map(|v| num(*v)).collect::<Vec<_>>().join(", "),
-            ],
-            vec!["twin FSLE below h/100 (noise-free quantized)".into(), v.rate_below_step.map_or("-".into(), num)],
-            vec![
-                format!(
-                    "twin FSLE over the attractor's scales {:.1e}..{:.1e} rad: mean / slope",
-                    v.attractor_scales.0, v.attractor_scales.1
-                ),
-                format!("{} / {}", v.attractor_rate.map_or("-".into(), num), v.attractor_slope.map_or("-".into(), num)),
-            ],
-        ],
-    );
-    let opt = |r: Option<&chaos::FsleRow>| r.map_or("-".to_string(), |r| r.lambda.map_or("jump (0 s)".into(), num));
-    let rows: Vec<Vec<String>> = v
-        .twins
-        .fsle
-        .iter()
-        .map(|r| {
-            let noisy = v.twins_noisy.fsle.iter().find(|n| n.delta == r.delta);
-            vec![
-                format!("{:.2e}", r.delta),
-                opt(Some(r)),
-                r.pairs.to_string(),
-                opt(noisy),
-                noisy.map_or("-".into(), |n| n.pairs.to_string()),
-            ]
-        })
-        .collect();
-    rep.para(&format!(
-        "Twin FSLE by scale ({} starts on the attractor, {} periods each, initial separations {}): noise-free quantized loop, and the noisy loop with both twins \
-         driven by the same noise sequence. \"jump\": the band was crossed within one period (a count flip).",
-        v.twins.starts,
-        v.twins.periods,
-        v.twins.deltas0.iter().map(|d| format!("{d:.0e}")).collect::<Vec<_>>().join(", ")
-    ));
-    rep.table(&["delta [rad]", "lambda [1/s]", "pairs", "lambda noisy [1/s]", "pairs noisy"], &rows);
-    let srows: Vec<Vec<String>> = v
-        .series
-        .iter()
-        .map(|s| {
-            vec![
-                esc(&s.name),
-                format!("{} (stride {})", num(s.zero_one.k), s.zero_one.stride),
-                s.fsle_slope.map_or("-".into(), num),
-                s.fsle
-                    .iter()
-                    .filter_map(|r| r.lambda.map(|l| format!("{:.3}: {}", r.delta, num(l))))
-                    .collect::<Vec<_>>()
-                    .join("; "),
-                format!(
-                    "{} ({} vs {}..{})",
-                    num(s.surrogate_prediction.p_value),
-                    num(s.surrogate_prediction.statistic_data),
-                    num(min(&s.surrogate_prediction.statistic_surrogates)),
-                    num(max(&s.surrogate_prediction.statistic_surrogates))
-                ),
-                num(s.surrogate_time_reversal.p_value),
-            ]
-        })
-        .collect();
-    rep.table(
-        &[
-            "series",
-            "0-1 test K",
-            "data FSLE slope",
-            "data FSLE delta [rad]: lambda [1/s]",
-            "surrogates: prediction error p (data vs surrogates)",
-            "time reversal p",
-        ],
-        &srows,
-    );
     // What the smooth reduced models of the chaos section did on the same loop.
     let models = rep.summary.get("chaos").and_then(|c| c.get("simulated: furuta-quant-dt25 (theta)")).map(|c| {
         let g = |k: &str| c.get(k).cloned().unwrap_or(serde_json::Value::Null);
@@ -143,26 +105,79 @@ pub fn microchaos_verdict_section(rep: &mut Report, quick: bool) -> Result<(), B
             "pdf_divergence_rbf_kicked": g("pdf_divergence_rbf_kicked"),
         })
     });
-    if let Some(m) = &models {
-        let f = |k: &str| m[k].as_f64().map_or("-".to_string(), num);
-        rep.para(&format!(
-            "Reduced models of the same loop (chaos section): Benettin exponent of the smooth RBF map {} 1/s, polynomial {} 1/s (their own attractors are tori), \
-             against {:.2} 1/s below a count and {} 1/s at the attractor's scale here; the residual-kicked RBF model gives a time-series (Rosenstein) exponent of {} 1/s \
-             (data {} 1/s) with PDF divergence {} bits: the kicks, not the smooth map, carry the separation.",
-            f("lle_model_rbf_benettin"),
-            f("lle_model_poly_benettin"),
-            pm.quantized_tangent,
-            v.attractor_rate.map_or("-".into(), num),
-            f("lle_model_rbf_kicked"),
-            f("lle_data_rosenstein"),
-            f("pdf_divergence_rbf_kicked")
-        ));
-    }
     let mut summary = serde_json::to_value(MicrochaosVerdictSummary::from(&v))?;
     if let (Some(obj), Some(m)) = (summary.as_object_mut(), models) {
         obj.insert("reduced_models".into(), m);
     }
     rep.summary.insert("microchaos_verdict".into(), summary);
+    let series: Vec<Value> = v
+        .series
+        .iter()
+        .map(|s| {
+            let sp = &s.surrogate_prediction;
+            json!({"stride": s.zero_one.stride, "statistic_data": sp.statistic_data,
+                   "statistic_min": min(&sp.statistic_surrogates), "statistic_max": max(&sp.statistic_surrogates)})
+        })
+        .collect();
+    rep.summary.insert(
+        "page_chaos_verdict".into(),
+        json!({"setup": setup, "smooth_exponents": v.period_map.smooth_tangent.len(),
+               "twins": {"starts": v.twins.starts, "periods": v.twins.periods, "deltas0": v.twins.deltas0},
+               "series": series}),
+    );
+    render(rep, &Value::Object(rep.summary.clone()))
+}
+
+/// Writes the subsection from the summary `s` (`microchaos_verdict`, `page_chaos_verdict`).
+pub(crate) fn render(rep: &mut Report, s: &Value) -> Result<(), Box<dyn Error>> {
+    let p = Prose::new();
+    let v = s.get("microchaos_verdict").ok_or("report: summary lacks `microchaos_verdict`")?;
+    let page = s.get("page_chaos_verdict").ok_or("report: summary lacks `page_chaos_verdict`")?;
+    rep.section(
+        "chaos-verdict",
+        "Is the quantized loop chaotic? Tests that tell chaos from noise-driven diffusion",
+        &p.html("chaos-verdict/intro", INTRO, &page["setup"])?,
+    );
+    let text = |k: &str| v[k].as_str().ok_or(format!("report: microchaos_verdict.{k} is not a string"));
+    rep.para(&esc(text("verdict")?));
+    rep.para(&format!("Noisy data: {}.", esc(text("noisy_source")?)));
+    let vp = json!({"v": v, "page": page});
+    let rows: Vec<Vec<String>> = EXPONENT_ROWS
+        .iter()
+        .map(|cells| cells.iter().map(|c| p.text("chaos-verdict/exponent", c, &vp)).collect())
+        .collect::<Result<_, String>>()?;
+    rep.table(&["exponent [1/s]", "value"], &rows);
+    let list = |k: &str| v[k].as_array().ok_or(format!("report: microchaos_verdict.{k} is not a list"));
+    let noisy = list("fsle_twins_noisy")?;
+    let items: Vec<Value> = list("fsle_twins")?
+        .iter()
+        .map(|r| json!({"r": r, "n": noisy.iter().find(|n| n["delta"] == r["delta"])}))
+        .collect();
+    rep.para(&p.html("chaos-verdict/twins", TWINS, &vp)?);
+    rep.table(
+        &["delta [rad]", "lambda [1/s]", "pairs", "lambda noisy [1/s]", "pairs noisy"],
+        &p.rows("chaos-verdict/twin", &TWIN_CELLS, &items)?,
+    );
+    let extra = page["series"].as_array().ok_or("report: page_chaos_verdict.series is not a list")?;
+    let series = list("series")?;
+    if series.len() != extra.len() {
+        return Err("report: microchaos_verdict.series and page_chaos_verdict.series differ in length".into());
+    }
+    let items: Vec<Value> = series.iter().zip(extra).map(|(s, x)| json!({"s": s, "x": x})).collect();
+    rep.table(
+        &[
+            "series",
+            "0-1 test K",
+            "data FSLE slope",
+            "data FSLE delta [rad]: lambda [1/s]",
+            "surrogates: prediction error p (data vs surrogates)",
+            "time reversal p",
+        ],
+        &p.rows("chaos-verdict/series", &SERIES_CELLS, &items)?,
+    );
+    if let Some(m) = v.get("reduced_models") {
+        rep.para(&p.html("chaos-verdict/models", MODELS, &json!({"m": m, "v": v}))?);
+    }
     Ok(())
 }
 
@@ -177,6 +192,18 @@ fn max(v: &[f64]) -> f64 {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn verdict_text_follows_the_values() {
+        let s = crate::report::pages::snapshot_summary();
+        crate::report::pages::check_section(
+            render,
+            &s,
+            "/microchaos_verdict/period_map/open_loop_rate",
+            json!(12.3456),
+            "<td>12.3456</td>",
+        );
+    }
     use crate::report::prose::{perturbed, unmoved};
 
     /// Every number of the introduction comes from the options, the scene or the theory's
