@@ -126,8 +126,8 @@ impl Prose {
 
 /// Names written with digits: a method, and the invariant objects named by their dimension;
 /// and the constants of formulas written out in the text.
-const NAMES_WITH_DIGITS: [&str; 8] =
-    ["0-1 test", "2-torus", "3-torus", "2-tori", "3-tori", "x (1 + spread", "(1 + k_ij", "by 2 k_ij"];
+const NAMES_WITH_DIGITS: [&str; 9] =
+    ["0-1 test", "2-torus", "3-torus", "2-tori", "3-tori", "x (1 + spread", "(1 + k_ij", "by 2 k_ij", "p = 2d + 1"];
 
 /// The numbers written in `text`: runs of digits (with a decimal point, an exponent and a
 /// leading minus) that are not part of a name (`rho_1`, `x2`, `2D`, a monomial's `^3`,
