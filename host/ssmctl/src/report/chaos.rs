@@ -1304,116 +1304,14 @@ fn flag_pipeline_fit(
         ],
         &table,
     );
-    let count = |f: &dyn Fn(&str, f64, usize) -> bool| {
-        let sel: Vec<_> = diag.iter().filter(|(w, n, r)| f(w, *n, r.scale)).collect();
-        (sel.iter().filter(|(_, _, r)| r.benettin_exact_ok).count(), sel.len())
-    };
     let fnoise = chaos_study::calibration::FLAG_SAMPLING.noise_rel;
-    // The diagnosis groups of the larger SSM dimensions (as `known_system.json` names them) and
-    // the larger training data of the second.
-    const D5: &str = "(b) d = 5";
-    const D6: &str = "(b) d = 6";
-    const D6_SCALE: usize = 3;
-    // Error bars below the data's D2 within which a centre-set row counts as high-D2.
-    const HIGH_D2_BARS: f64 = 3.0;
     let (bpct, embed) = (100.0 * chaos::Targets::default().benettin_rel, fit.embed);
-    let groups = [
-        ("noise_free_d4", count(&|w, _, _| w == "(a) noise-free")),
-        ("d5", count(&|w, _, _| w == D5)),
-        ("d6_1x", count(&|w, n, s| w == D6 && n == fnoise && s == 1)),
-        ("d6_3x", count(&|w, n, s| w == D6 && n == fnoise && s == D6_SCALE)),
-        ("d6_noise_free", count(&|w, n, _| w == D6 && n == 0.0)),
-        ("shift", count(&|w, _, _| w == "(b) shift")),
-        ("whole_delay_vector", count(&|w, _, _| w == "(b) whole delay vector")),
-        ("ridge", count(&|w, _, _| w == "ridge")),
-        ("denoised_inputs", count(&|w, _, _| w == "denoised inputs")),
-        ("multistep", count(&|w, _, _| w == "multistep")),
-        ("true_state_noise_free", count(&|w, n, _| w == "(c) true state" && n == 0.0)),
-        ("true_state_noisy", count(&|w, n, _| w == "(c) true state" && n > 0.0)),
-    ];
-    let g = |k: &str| groups.iter().find(|(n, _)| *n == k).map_or((0, 0), |(_, c)| *c);
-    // Ranges over the rows of a group, of the model's Benettin / exact, JS or Rosenstein.
-    let spread = |sel: &dyn Fn(&str, f64) -> bool, field: &dyn Fn(&PipelineRow) -> Option<f64>, p: usize| {
-        let v: Vec<f64> = diag.iter().filter(|(w, n, _)| sel(w, *n)).filter_map(|(_, _, r)| field(r)).collect();
-        span(&v, p)
-    };
+    let groups = diagnosis_groups(&diag);
     let b_e = |r: &PipelineRow| r.benettin_over_exact;
     let js = |r: &PipelineRow| r.js;
-    let state_free = |w: &str, n: f64| w == "(c) true state" && n == 0.0;
     let flag = held.fit_rows();
-    rep.para(&format!(
-        "What the diagnosis shows (Benettin within {bpct:.0} % of the exact exponent, of the rows): (a) noise-free data \
-         with the flag's settings: {}/{} (the noise is not the cause); (c) the same RBF and polynomial maps fitted \
-         on the true state x1..x4 sampled at the map step: {}/{} noise-free ({} of exact, JS {}), \
-         {}/{} with the flag's noise on the state: the model class and the data amount suffice; (b) the \
-         coordinates are what fails: rows \"{D5}\": {}/{}, \"{D6}\" (the rule's choice): {}/{} at the flag's \
-         data amount, {}/{} at {D6_SCALE}x it, but {}/{} on noise-free data (there the small singular directions \
-         are fitted without the noise's regularization and the attractor moves again); wider shifts {}/{}, the \
-         whole {embed}-sample delay vector without projection {}/{}. Fixes on the fit itself: a larger ridge (rows \
-         \"ridge\") {}/{} ({} of exact: the regularization removes the chaos before it steadies \
-         the attractor); denoised inputs \
-         (errors in variables, moving averages of the inputs) {}/{} (Benettin {} of exact: the smoothing steepens \
-         the map), multistep refinement {}/{} (Benettin {} of exact, JS {}). So a larger reduced dimension brings the \
-         exponent within {bpct:.0} % for most RBF sizes at the flag's noise, but the fit in delay coordinates stays \
-         fragile (one RBF size or data amount away from a wrong attractor), unlike the same fit on the true \
-         state. The Rosenstein exponent of the model series is {} 1/s for the maps fitted on the true state \
-         whose own exponent is within {bpct:.0} % of exact, against the held-out piece's {:.3}: on one held-out-length piece the estimator is \
-         no firm reference (the pieces above), so \
-         the Rosenstein and D2 targets cannot be met reliably even by an exact model. On the flag (train \
-         {}, held out {}, data Rosenstein {:.3} 1/s, D2 {:.2} ± {:.2}) the larger dimensions of the study's \
-         fits ({}) give Benettin {} 1/s, Rosenstein {}, D2 {}, JS {}: targets met {}; \
-         the flag's own dimension rule keeps d = {FLAG_DIM}, whose rows are the flag search's above.",
-        g("noise_free_d4").0,
-        g("noise_free_d4").1,
-        g("true_state_noise_free").0,
-        g("true_state_noise_free").1,
-        spread(&state_free, &b_e, 2),
-        spread(&state_free, &js, 4),
-        g("true_state_noisy").0,
-        g("true_state_noisy").1,
-        g("d5").0,
-        g("d5").1,
-        g("d6_1x").0,
-        g("d6_1x").1,
-        g("d6_3x").0,
-        g("d6_3x").1,
-        g("d6_noise_free").0,
-        g("d6_noise_free").1,
-        g("shift").0,
-        g("shift").1,
-        g("whole_delay_vector").0,
-        g("whole_delay_vector").1,
-        g("ridge").0,
-        g("ridge").1,
-        spread(&|w, _| w == "ridge", &b_e, 2),
-        g("denoised_inputs").0,
-        g("denoised_inputs").1,
-        spread(&|w, _| w == "denoised inputs", &b_e, 1),
-        g("multistep").0,
-        g("multistep").1,
-        spread(&|w, _| w == "multistep", &b_e, 2),
-        spread(&|w, _| w == "multistep", &js, 4),
-        span(
-            &diag
-                .iter()
-                .filter(|(w, _, r)| w == "(c) true state" && r.benettin_exact_ok)
-                .filter_map(|(_, _, r)| r.rosenstein)
-                .collect::<Vec<_>>(),
-            2
-        ),
-        results.known.data.rosenstein,
-        held.train_runs.join(" + "),
-        held.test_run,
-        flag_data.0,
-        flag_data.1,
-        flag_data.2,
-        flag.iter().map(|r| crate::report::esc(&r.candidate)).collect::<Vec<_>>().join("; "),
-        flag.iter().map(|r| o(r.benettin, 3)).collect::<Vec<_>>().join(", "),
-        flag.iter().map(|r| o(r.rosenstein, 3)).collect::<Vec<_>>().join(", "),
-        flag.iter().map(|r| o(r.corr_dim, 2)).collect::<Vec<_>>().join(", "),
-        flag.iter().map(|r| o(r.js, 4)).collect::<Vec<_>>().join(", "),
-        flag.iter().map(|r| format!("{}/{}", r.passes.iter().filter(|&&p| p).count(), r.passes.len())).collect::<Vec<_>>().join(", "),
-    ));
+    let v = diagnosis_values(results, &diag, embed);
+    rep.para(&html("chaos/diagnosis", &format!("{SPAN}{DIAGNOSIS}"), &v)?);
     // The multistep scan at d = 6 on the known system, and multistep on the flag.
     let scan = |ms: bool, scale: usize, noise: f64| d6_scan_counts(&diag, ms, scale, noise);
     let scan_cases = [("1x_flag_noise", 1, fnoise), ("3x_flag_noise", D6_SCALE, fnoise), ("1x_noise_free", 1, 0.0)];
@@ -1541,6 +1439,192 @@ fn flag_pipeline_fit(
     use chaos_study::flag_pipeline_fit::target_counts;
     let fcs = held.centre_rows();
     let (cn, cfail, cb, cd, cj, cbj, cbdj) = target_counts(&fcs);
+    rep.para(&html("chaos/centre-sets", CENTRE_SETS, &centre_set_values(held, &fcs))?);
+    // The experiment as its own model, the pick on a validation run, an ensemble (committed rows).
+    let self_keys = flag_self_paragraphs(rep, results, &fcs, &o)?;
+    rep.summary.insert(
+        "flag_pipeline_fit".into(),
+        serde_json::json!({
+            "fnn_rule": { "ratio": ratio, "max_fnn": max_fnn, "theiler": ctx.theiler, "dim": rule_dim, "rows": rule_rows },
+            "projection_fnn_p9": proj,
+            "diagnosis": diag.iter().map(|(w, n, r)| serde_json::json!({ "varied": w, "noise_rel": n, "row": r })).collect::<Vec<_>>(),
+            "within_10pct_of_exact": groups.iter().map(|(n, (a, b))| (n.to_string(), serde_json::json!([a, b]))).collect::<serde_json::Map<_, _>>(),
+            "flag": { "data": held.data, "rows": flag, "multistep_rows": fms,
+                "centre_rows": fcs, "centre_counts": { "rows": cn, "failed": cfail, "benettin": cb, "corr_dim": cd, "js": cj, "benettin_js": cbj, "benettin_corr_dim_js": cbdj },
+                "kaplan_yorke": held.dimension,
+                "corr_dim_runs": held.corr_dim_runs.iter().map(|r| r.corr_dim).collect::<Vec<_>>(),
+                "corr_dim_smoothed_3_5_noise_added": [held.corr_dim_smoothed.smoothed_3, held.corr_dim_smoothed.smoothed_5, held.corr_dim_smoothed.noise_added],
+                "model_noisy_corr_dim": held.model_noisy_corr_dim,
+                "experiment_as_model": self_keys.0, "validation_pick": self_keys.1, "ensemble": self_keys.2 },
+            "d6_multistep_scan": scan_cases.iter().map(|&(k, scale, noise)| {
+                let (m, p) = (scan(true, scale, noise), scan(false, scale, noise));
+                (k.to_string(), serde_json::json!({ "multistep": [m.0, m.1, m.2], "one_step": [p.0, p.1, p.2] }))
+            }).collect::<serde_json::Map<_, _>>(),
+        }),
+    );
+    Ok(())
+}
+
+/// The diagnosis groups of the larger SSM dimensions (as `known_system.json` names them) and
+/// the larger training data of the second.
+const D5: &str = "(b) d = 5";
+const D6: &str = "(b) d = 6";
+const D6_SCALE: usize = 3;
+
+/// `lo to hi` of a `[lo, hi]` with `n` decimals, one value when they print alike, `-` for none
+/// (as [`span`] writes it; the values from [`span_of`]).
+const SPAN: &str = "{% macro span(r, n) %}{% if r is none %}-{% elif (r[0] | fixed(n)) == (r[1] | fixed(n)) %}\
+    {{ r[0] | fixed(n) }}{% else %}{{ r[0] | fixed(n) }} to {{ r[1] | fixed(n) }}{% endif %}{% endmacro %}";
+
+/// The range `[lo, hi]` of `v` for [`SPAN`] (negative zeros as 0), `null` when empty.
+fn span_of(v: &[f64]) -> serde_json::Value {
+    if v.is_empty() {
+        return serde_json::Value::Null;
+    }
+    let (lo, hi) = v.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &x| (a.min(x + 0.0), b.max(x + 0.0)));
+    serde_json::json!([lo, hi])
+}
+
+/// The diagnosis rows' groups: (name, (rows with Benettin within the target of exact, rows)).
+fn diagnosis_groups(diag: &[(String, f64, PipelineRow)]) -> Vec<(&'static str, (usize, usize))> {
+    let count = |f: &dyn Fn(&str, f64, usize) -> bool| {
+        let sel: Vec<_> = diag.iter().filter(|(w, n, r)| f(w, *n, r.scale)).collect();
+        (sel.iter().filter(|(_, _, r)| r.benettin_exact_ok).count(), sel.len())
+    };
+    let fnoise = chaos_study::calibration::FLAG_SAMPLING.noise_rel;
+    vec![
+        ("noise_free_d4", count(&|w, _, _| w == "(a) noise-free")),
+        ("d5", count(&|w, _, _| w == D5)),
+        ("d6_1x", count(&|w, n, s| w == D6 && n == fnoise && s == 1)),
+        ("d6_3x", count(&|w, n, s| w == D6 && n == fnoise && s == D6_SCALE)),
+        ("d6_noise_free", count(&|w, n, _| w == D6 && n == 0.0)),
+        ("shift", count(&|w, _, _| w == "(b) shift")),
+        ("whole_delay_vector", count(&|w, _, _| w == "(b) whole delay vector")),
+        ("ridge", count(&|w, _, _| w == "ridge")),
+        ("denoised_inputs", count(&|w, _, _| w == "denoised inputs")),
+        ("multistep", count(&|w, _, _| w == "multistep")),
+        ("true_state_noise_free", count(&|w, n, _| w == "(c) true state" && n == 0.0)),
+        ("true_state_noisy", count(&|w, n, _| w == "(c) true state" && n > 0.0)),
+    ]
+}
+
+/// What the diagnosis shows, over [`diagnosis_values`] (with [`SPAN`]).
+const DIAGNOSIS: &str = "{% macro o(v, n) %}{% if v is none %}-{% else %}{{ v | fixed(n) }}{% endif %}{% endmacro %}\
+    {% macro g(k) %}{{ groups[k][0] }}/{{ groups[k][1] }}{% endmacro %}\
+    What the diagnosis shows (Benettin within {{ targets.benettin_rel | pct(0) }} % of the exact exponent, of the rows): \
+    (a) noise-free data with the flag's settings: {{ g('noise_free_d4') }} (the noise is not the cause); (c) the same \
+    RBF and polynomial maps fitted on the true state x1..x4 sampled at the map step: {{ g('true_state_noise_free') }} \
+    noise-free ({{ span(state_ratio, 2) }} of exact, JS {{ span(state_js, 4) }}), {{ g('true_state_noisy') }} with the \
+    flag's noise on the state: the model class and the data amount suffice; (b) the coordinates are what fails: rows \
+    \"{{ d5 }}\": {{ g('d5') }}, \"{{ d6 }}\" (the rule's choice): {{ g('d6_1x') }} at the flag's data amount, \
+    {{ g('d6_3x') }} at {{ d6_scale }}x it, but {{ g('d6_noise_free') }} on noise-free data (there the small singular \
+    directions are fitted without the noise's regularization and the attractor moves again); wider shifts \
+    {{ g('shift') }}, the whole {{ embed }}-sample delay vector without projection {{ g('whole_delay_vector') }}. Fixes \
+    on the fit itself: a larger ridge (rows \"ridge\") {{ g('ridge') }} ({{ span(ridge_ratio, 2) }} of exact: the \
+    regularization removes the chaos before it steadies the attractor); denoised inputs (errors in variables, moving \
+    averages of the inputs) {{ g('denoised_inputs') }} (Benettin {{ span(denoised_ratio, 1) }} of exact: the smoothing \
+    steepens the map), multistep refinement {{ g('multistep') }} (Benettin {{ span(multistep_ratio, 2) }} of exact, JS \
+    {{ span(multistep_js, 4) }}). So a larger reduced dimension brings the exponent within \
+    {{ targets.benettin_rel | pct(0) }} % for most RBF sizes at the flag's noise, but the fit in delay coordinates stays \
+    fragile (one RBF size or data amount away from a wrong attractor), unlike the same fit on the true state. The \
+    Rosenstein exponent of the model series is {{ span(state_rosenstein, 2) }} 1/s for the maps fitted on the true \
+    state whose own exponent is within {{ targets.benettin_rel | pct(0) }} % of exact, against the held-out piece's \
+    {{ known_rosenstein | fixed(3) }}: on one held-out-length piece the estimator is no firm reference (the pieces \
+    above), so the Rosenstein and D2 targets cannot be met reliably even by an exact model. On the flag (train \
+    {{ train | join(' + ') }}, held out {{ test }}, data Rosenstein {{ data.rosenstein | fixed(3) }} 1/s, D2 \
+    {{ data.corr_dim | fixed(2) }} ± {{ data.corr_dim_err | fixed(2) }}) the larger dimensions of the study's fits \
+    ({% for r in flag %}{{ r.candidate }}{% if not loop.last %}; {% endif %}{% endfor %}) give Benettin \
+    {% for r in flag %}{{ o(r.benettin, 3) }}{% if not loop.last %}, {% endif %}{% endfor %} 1/s, Rosenstein \
+    {% for r in flag %}{{ o(r.rosenstein, 3) }}{% if not loop.last %}, {% endif %}{% endfor %}, D2 \
+    {% for r in flag %}{{ o(r.corr_dim, 2) }}{% if not loop.last %}, {% endif %}{% endfor %}, JS \
+    {% for r in flag %}{{ o(r.js, 4) }}{% if not loop.last %}, {% endif %}{% endfor %}: targets met \
+    {% for r in flag %}{{ r.met }}/{{ r.targets }}{% if not loop.last %}, {% endif %}{% endfor %}; the flag's own \
+    dimension rule keeps d = {{ flag_dim }}, whose rows are the flag search's above.";
+
+/// The values of [`DIAGNOSIS`]: the groups' counts ([`diagnosis_groups`]), the ranges of their
+/// rows' Benettin / exact, JS and Rosenstein, and the flag's fits at the larger dimensions.
+fn diagnosis_values(
+    results: &chaos_study::study_results::FlagResults,
+    diag: &[(String, f64, PipelineRow)],
+    embed: usize,
+) -> serde_json::Value {
+    use serde_json::json;
+    let field = |sel: &dyn Fn(&str, f64) -> bool, f: &dyn Fn(&PipelineRow) -> Option<f64>| {
+        span_of(&diag.iter().filter(|(w, n, _)| sel(w, *n)).filter_map(|(_, _, r)| f(r)).collect::<Vec<_>>())
+    };
+    let b_e = |r: &PipelineRow| r.benettin_over_exact;
+    let js = |r: &PipelineRow| r.js;
+    let state_free = |w: &str, n: f64| w == "(c) true state" && n == 0.0;
+    let held = &results.held_out;
+    let flag_data = held.data.tuple();
+    let groups: serde_json::Map<String, serde_json::Value> =
+        diagnosis_groups(diag).into_iter().map(|(k, (a, b))| (k.to_string(), json!([a, b]))).collect();
+    let flag: Vec<serde_json::Value> = held
+        .fit_rows()
+        .iter()
+        .map(|r| {
+            json!({ "candidate": r.candidate, "benettin": r.benettin, "rosenstein": r.rosenstein,
+                    "corr_dim": r.corr_dim, "js": r.js, "met": r.passes.iter().filter(|&&p| p).count(),
+                    "targets": r.passes.len() })
+        })
+        .collect();
+    json!({
+        "targets": chaos::Targets::default(), "groups": groups, "d5": D5, "d6": D6, "d6_scale": D6_SCALE,
+        "embed": embed, "flag_dim": FLAG_DIM,
+        "state_ratio": field(&state_free, &b_e), "state_js": field(&state_free, &js),
+        "ridge_ratio": field(&|w, _| w == "ridge", &b_e),
+        "denoised_ratio": field(&|w, _| w == "denoised inputs", &b_e),
+        "multistep_ratio": field(&|w, _| w == "multistep", &b_e), "multistep_js": field(&|w, _| w == "multistep", &js),
+        "state_rosenstein": span_of(
+            &diag
+                .iter()
+                .filter(|(w, _, r)| w == "(c) true state" && r.benettin_exact_ok)
+                .filter_map(|(_, _, r)| r.rosenstein)
+                .collect::<Vec<_>>(),
+        ),
+        "known_rosenstein": results.known.data.rosenstein,
+        "train": held.train_runs, "test": held.test_run,
+        "data": { "rosenstein": flag_data.0, "corr_dim": flag_data.1, "corr_dim_err": flag_data.2 },
+        "flag": flag,
+    })
+}
+
+/// Error bars below the data's D2 within which a centre-set row counts as high-D2.
+const HIGH_D2_BARS: f64 = 3.0;
+
+/// The centre-set paragraph, over [`centre_set_values`].
+const CENTRE_SETS: &str = "{% macro o(v, n) %}{% if v is none %}-{% else %}{{ v | fixed(n) }}{% endif %}{% endmacro %}\
+    Other RBF centre sets on the flag (<code>ssm::dynamics::CentreChoice</code>: the farthest-point rule from a \
+    seeded start, k-means++, random subsets, k-means; example <code>flag_pipeline -- flag</code>; the sizes, ridges and \
+    seeds the rows name, one-step and multistep): {{ c.rows }} rows, {{ c.failed }} escaped; Benettin within \
+    {{ targets.benettin_rel | pct(0) }} %: {{ c.benettin }}, D2 within the error bar: {{ c.corr_dim }}, JS <= \
+    {{ targets.js_max | plain }}: {{ c.js }}, Benettin and JS together: {{ c.benettin_js }}{% if best_bj is not none %} \
+    (highest D2 of these: {{ best_bj.candidate }}, Benettin {{ o(best_bj.benettin, 3) }}, D2 \
+    {{ o(best_bj.corr_dim, 2) }}, JS {{ o(best_bj.js, 4) }}){% endif %}, all three: {{ c.benettin_corr_dim_js }}. Among \
+    the rows within {{ targets.benettin_rel | pct(0) }} % on Benettin, D2 is at most {{ d2_b10 | fixed(2) }} \
+    ({{ d2_b10_bars | fixed(1) }} error bars low); the rows with D2 within {{ high_d2_bars | plain }} error bars of the \
+    data's have Benettin {{ high_benettin[0] | fixed(3) }}-{{ high_benettin[1] | fixed(3) }} 1/s \
+    ({{ high_ratio[0] | fixed(2) }}-{{ high_ratio[1] | fixed(2) }} of the data's {{ data.rosenstein | fixed(3) }}). Why: \
+    the Kaplan-Yorke dimension of every chaotic model's Lyapunov spectrum is {{ kaplan_yorke[0] | fixed(2) }}-\
+    {{ kaplan_yorke[1] | fixed(2) }}, below the data's {{ data.corr_dim | fixed(2) }}. D2 of one held-out-length piece \
+    scatters around that: over {{ pieces }} pieces of one long run up to {% if spread is none %}- (-: ---){% else %}\
+    {{ spread.width | fixed(2) }} ({{ spread.candidate }}: {{ spread.lo | fixed(2) }}-{{ spread.hi | fixed(2) }})\
+    {% endif %}. The data's D2 is not inflated by measurement noise (two moving averages of the series: \
+    {{ smoothed[0] | fixed(2) }}, {{ smoothed[1] | fixed(2) }}; its noise added again: {{ smoothed[2] | fixed(2) }}; on \
+    the model series the data's noise moves D2 by {{ noisy.mean_change | signed(2) }} on average over {{ noisy.rows }} \
+    rows, though by more than {{ d2_change | plain }} on {{ noisy.changed_over_0_2 }}, either way: the scaling range \
+    the estimator finds is fragile), but it scatters the same way over the flag's runs: {% for r in runs %}\
+    {{ run_prefix }}{{ r.run }} {{ o(r.corr_dim, 2) }}{% if not loop.last %}, {% endif %}{% endfor %} \
+    ({{ runs_mean | fixed(2) }} ± {{ runs_sd | fixed(2) }}, {{ runs_range[0] | fixed(2) }}-{{ runs_range[1] | fixed(2) }}; \
+    {{ no_range }} without a scaling range), {{ sd_bars | fixed(1) }} times the one-run error bar of ± \
+    {{ data.corr_dim_err | fixed(2) }} that the D2 target uses. No centre set joins the report's selection.";
+
+/// The values of [`CENTRE_SETS`]: the flag's other centre sets (`fcs`) against the targets,
+/// the Kaplan-Yorke dimensions of the chaotic ones, and D2 over pieces, smoothings and runs.
+fn centre_set_values(held: &chaos_study::study_results::HeldOutResults, fcs: &[PipelineRow]) -> serde_json::Value {
+    use chaos_study::flag_pipeline_fit::target_counts;
+    let flag_data = held.data.tuple();
+    let (cn, cfail, cb, cd, cj, cbj, cbdj) = target_counts(fcs);
     let d2_b10 = fcs.iter().filter(|r| r.passes[0]).filter_map(|r| r.corr_dim).fold(f64::MIN, f64::max);
     let high_d2: Vec<f64> = fcs
         .iter()
@@ -1571,81 +1655,30 @@ fn flag_pipeline_fit(
         })
         .max_by(|a, b| a.0.total_cmp(&b.0));
     let runs: Vec<f64> = held.corr_dim_runs.iter().filter_map(|r| r.corr_dim).collect();
-    let no_range = held.corr_dim_runs.len() - runs.len();
-    let pieces = held.dimension.first().map_or(0, |r| r.corr_dim_pieces.len());
-    let js_max = chaos::Targets::default().js_max;
     let mean = runs.iter().sum::<f64>() / runs.len() as f64;
     let sd = (runs.iter().map(|v| (v - mean) * (v - mean)).sum::<f64>() / (runs.len() - 1) as f64).sqrt();
     let (run_lo, run_hi) = range(&runs);
-    rep.para(&format!(
-        "Other RBF centre sets on the flag (<code>ssm::dynamics::CentreChoice</code>: the farthest-point rule from a \
-         seeded start, k-means++, random subsets, k-means; example <code>flag_pipeline -- flag</code>; the sizes, \
-         ridges and seeds the rows name, one-step and multistep): {cn} rows, {cfail} escaped; \
-         Benettin within {bpct:.0} %: {cb}, D2 within the error bar: {cd}, JS <= {js_max}: {cj}, Benettin and JS together: {cbj}{}, \
-         all three: {cbdj}. Among the rows within {bpct:.0} % on Benettin, D2 is at most {d2_b10:.2} ({:.1} error bars low); the rows \
-         with D2 within {HIGH_D2_BARS} error bars of the data's have Benettin {hb_lo:.3}-{hb_hi:.3} 1/s ({:.2}-{:.2} of the data's {:.3}). \
-         Why: the Kaplan-Yorke dimension of every chaotic model's Lyapunov spectrum is {ky_lo:.2}-{ky_hi:.2}, below the \
-         data's {:.2}. D2 of one \
-         held-out-length piece scatters around that: over {pieces} pieces of one long run up to {} ({}: {}-{}). The data's D2 \
-         is not inflated by measurement noise (two moving averages of the series: {:.2}, {:.2}; its noise added again: \
-         {:.2}; on the model series the data's noise moves D2 by {:+.2} on average over {} rows, though by more than {} \
-         on {}, either way: the scaling range the estimator finds is fragile), but it scatters the same way over \
-         the flag's runs: {} ({mean:.2} ± {sd:.2}, {run_lo:.2}-{run_hi:.2}; {no_range} without a scaling range), {:.1} times the \
-         one-run error bar of ± {:.2} that the D2 target uses. No centre set joins the report's selection.",
-        best_bj.map_or(String::new(), |r| format!(
-            " (highest D2 of these: {}, Benettin {}, D2 {}, JS {})",
-            crate::report::esc(&r.candidate),
-            o(r.benettin, 3),
-            o(r.corr_dim, 2),
-            o(r.js, 4)
-        )),
-        (flag_data.1 - d2_b10) / flag_data.2,
-        hb_lo / flag_data.0,
-        hb_hi / flag_data.0,
-        flag_data.0,
-        flag_data.1,
-        spread.map_or("-".to_string(), |s| format!("{:.2}", s.0)),
-        spread.map_or("-".to_string(), |s| crate::report::esc(s.1)),
-        spread.map_or("-".to_string(), |s| format!("{:.2}", s.2)),
-        spread.map_or("-".to_string(), |s| format!("{:.2}", s.3)),
-        held.corr_dim_smoothed.smoothed_3,
-        held.corr_dim_smoothed.smoothed_5,
-        held.corr_dim_smoothed.noise_added,
-        held.model_noisy_corr_dim.mean_change,
-        held.model_noisy_corr_dim.rows,
-        chaos_study::flag_study::D2_CHANGE,
-        held.model_noisy_corr_dim.changed_over_0_2,
-        held.corr_dim_runs
-            .iter()
-            .map(|r| format!("{}{} {}", held.test_run.trim_end_matches(|c: char| c.is_ascii_digit()), r.run, o(r.corr_dim, 2)))
-            .collect::<Vec<_>>()
-            .join(", "),
-        sd / flag_data.2,
-        flag_data.2,
-    ));
-    // The experiment as its own model, the pick on a validation run, an ensemble (committed rows).
-    let self_keys = flag_self_paragraphs(rep, results, &fcs, &o)?;
-    rep.summary.insert(
-        "flag_pipeline_fit".into(),
-        serde_json::json!({
-            "fnn_rule": { "ratio": ratio, "max_fnn": max_fnn, "theiler": ctx.theiler, "dim": rule_dim, "rows": rule_rows },
-            "projection_fnn_p9": proj,
-            "diagnosis": diag.iter().map(|(w, n, r)| serde_json::json!({ "varied": w, "noise_rel": n, "row": r })).collect::<Vec<_>>(),
-            "within_10pct_of_exact": groups.iter().map(|(n, (a, b))| (n.to_string(), serde_json::json!([a, b]))).collect::<serde_json::Map<_, _>>(),
-            "flag": { "data": held.data, "rows": flag, "multistep_rows": fms,
-                "centre_rows": fcs, "centre_counts": { "rows": cn, "failed": cfail, "benettin": cb, "corr_dim": cd, "js": cj, "benettin_js": cbj, "benettin_corr_dim_js": cbdj },
-                "kaplan_yorke": held.dimension,
-                "corr_dim_runs": held.corr_dim_runs.iter().map(|r| r.corr_dim).collect::<Vec<_>>(),
-                "corr_dim_smoothed_3_5_noise_added": [held.corr_dim_smoothed.smoothed_3, held.corr_dim_smoothed.smoothed_5, held.corr_dim_smoothed.noise_added],
-                "model_noisy_corr_dim": held.model_noisy_corr_dim,
-                "experiment_as_model": self_keys.0, "validation_pick": self_keys.1, "ensemble": self_keys.2 },
-            "d6_multistep_scan": scan_cases.iter().map(|&(k, scale, noise)| {
-                let (m, p) = (scan(true, scale, noise), scan(false, scale, noise));
-                (k.to_string(), serde_json::json!({ "multistep": [m.0, m.1, m.2], "one_step": [p.0, p.1, p.2] }))
-            }).collect::<serde_json::Map<_, _>>(),
-        }),
-    );
-    Ok(())
+    let sm = &held.corr_dim_smoothed;
+    serde_json::json!({
+        "c": { "rows": cn, "failed": cfail, "benettin": cb, "corr_dim": cd, "js": cj, "benettin_js": cbj,
+               "benettin_corr_dim_js": cbdj },
+        "targets": chaos::Targets::default(),
+        "best_bj": best_bj.map(|r| serde_json::json!({ "candidate": r.candidate, "benettin": r.benettin,
+                                                       "corr_dim": r.corr_dim, "js": r.js })),
+        "d2_b10": d2_b10, "d2_b10_bars": (flag_data.1 - d2_b10) / flag_data.2, "high_d2_bars": HIGH_D2_BARS,
+        "high_benettin": [hb_lo, hb_hi], "high_ratio": [hb_lo / flag_data.0, hb_hi / flag_data.0],
+        "data": { "rosenstein": flag_data.0, "corr_dim": flag_data.1, "corr_dim_err": flag_data.2 },
+        "kaplan_yorke": [ky_lo, ky_hi],
+        "pieces": held.dimension.first().map_or(0, |r| r.corr_dim_pieces.len()),
+        "spread": spread.map(|s| serde_json::json!({ "width": s.0, "candidate": s.1, "lo": s.2, "hi": s.3 })),
+        "smoothed": [sm.smoothed_3, sm.smoothed_5, sm.noise_added],
+        "noisy": held.model_noisy_corr_dim, "d2_change": chaos_study::flag_study::D2_CHANGE,
+        "run_prefix": held.test_run.trim_end_matches(|c: char| c.is_ascii_digit()),
+        "runs": held.corr_dim_runs.iter().map(|r| serde_json::json!({ "run": r.run, "corr_dim": r.corr_dim }))
+            .collect::<Vec<_>>(),
+        "runs_mean": mean, "runs_sd": sd, "runs_range": [run_lo, run_hi],
+        "no_range": held.corr_dim_runs.len() - runs.len(), "sd_bars": sd / flag_data.2,
+    })
 }
 
 /// The centre-set row the experiment-as-model paragraph places among the runs.
@@ -1996,6 +2029,32 @@ mod tests {
         let mut none = v.clone();
         none["rule_dim"] = json!(null);
         assert!(html("chaos/fnn", FNN, &none).unwrap().contains("gives no d up to 8: d = 5"));
+    }
+
+    /// The centre-set paragraph over the bundled results: every number follows the values.
+    #[test]
+    fn centre_set_paragraph_follows_the_results() {
+        let results = chaos_study::study_results::FlagResults::bundled().unwrap();
+        let fcs = results.held_out.centre_rows();
+        let v = centre_set_values(&results.held_out, &fcs);
+        let a = assert_numbers_follow("chaos/centre-sets", CENTRE_SETS, &v);
+        let n = fcs.len();
+        assert!(a.contains(&format!("one-step and multistep): {n} rows, ")), "{a}");
+        let mut one = v.clone();
+        one["c"]["rows"] = json!(987);
+        assert!(html("chaos/centre-sets", CENTRE_SETS, &one).unwrap().contains("multistep): 987 rows"));
+    }
+
+    /// The diagnosis paragraph over the bundled rows: every number follows the values.
+    #[test]
+    fn diagnosis_paragraph_follows_the_rows() {
+        let results = chaos_study::study_results::FlagResults::bundled().unwrap();
+        let diag = results.known.diagnosis_rows();
+        let v = diagnosis_values(&results, &diag, 9);
+        let a = assert_numbers_follow("chaos/diagnosis", &format!("{SPAN}{DIAGNOSIS}"), &v);
+        let g = &v["groups"]["d5"];
+        assert!(a.contains(&format!("rows \"(b) d = 5\": {}/{},", g[0], g[1])), "{a}");
+        assert!(a.contains("the whole 9-sample delay vector") && a.contains("keeps d = 4, whose rows"), "{a}");
     }
 
     /// The scale page from the report's values: one value moved shows, every value moved
