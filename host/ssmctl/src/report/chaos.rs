@@ -1251,7 +1251,6 @@ fn flag_pipeline_fit(
     use chaos_study::flag_pipeline::FLAG_LAYOUT;
     use chaos_study::flag_pipeline_fit::{FNN_RULE, d6_scan_counts, fnn_dimension, projection_fnn};
     let held = &results.held_out;
-    let flag_data = held.data.tuple();
     let train = chaos_study::model_selection::subsample(&series[0], FLAG_LAYOUT.step, 0)?;
     let ctx = chaos::Context::from_series(&train.x, train.dt().unwrap_or(1.0), 6)?;
     let (ratio, max_fnn) = FNN_RULE;
@@ -1305,136 +1304,14 @@ fn flag_pipeline_fit(
         &table,
     );
     let fnoise = chaos_study::calibration::FLAG_SAMPLING.noise_rel;
-    let (bpct, embed) = (100.0 * chaos::Targets::default().benettin_rel, fit.embed);
     let groups = diagnosis_groups(&diag);
-    let b_e = |r: &PipelineRow| r.benettin_over_exact;
-    let js = |r: &PipelineRow| r.js;
     let flag = held.fit_rows();
-    let v = diagnosis_values(results, &diag, embed);
+    let v = diagnosis_values(results, &diag, fit.embed);
     rep.para(&html("chaos/diagnosis", &format!("{SPAN}{DIAGNOSIS}"), &v)?);
     // The multistep scan at d = 6 on the known system, and multistep on the flag.
     let scan = |ms: bool, scale: usize, noise: f64| d6_scan_counts(&diag, ms, scale, noise);
     let scan_cases = [("1x_flag_noise", 1, fnoise), ("3x_flag_noise", D6_SCALE, fnoise), ("1x_noise_free", 1, 0.0)];
-    let scan_text: Vec<String> = scan_cases
-        .iter()
-        .map(|&(_, scale, noise)| {
-            let ((mb, mj, mn), (pb, pj, pn)) = (scan(true, scale, noise), scan(false, scale, noise));
-            format!(
-                "{}x the data, {}: multistep {mb}/{mn} within {bpct:.0} %, {mj}/{mn} with JS <= {} too; one-step {pb}/{pn} and {pj}/{pn}",
-                scale,
-                chaos::Targets::default().js_max,
-                if noise > 0.0 { "the flag's noise" } else { "noise-free" }
-            )
-        })
-        .collect();
-    // The rows on other realizations of the series (`seed N` candidates of one model), one-step
-    // or refined.
-    const SEED_MODEL: &str = "RBF 250";
-    let mut seed_list: Vec<&str> = diag
-        .iter()
-        .filter_map(|(_, _, r)| r.candidate.split_once(" seed ").map(|(_, n)| n.split_whitespace().next().unwrap_or(n)))
-        .collect();
-    seed_list.sort_unstable();
-    seed_list.dedup();
-    let seeds = |ms: bool, field: &dyn Fn(&PipelineRow) -> Option<f64>, p: usize| {
-        let v: Vec<f64> = diag
-            .iter()
-            .filter(|(_, _, r)| r.candidate.contains(" seed ") && r.candidate.contains(SEED_MODEL))
-            .filter(|(_, _, r)| r.candidate.contains(" ms ") == ms)
-            .filter_map(|(_, _, r)| field(r))
-            .collect();
-        span(&v, p)
-    };
-    let refined_d6 = |r: &PipelineRow| r.candidate.contains("d=6") && r.candidate.contains(" ms ");
-    let refined_3x = span(
-        &diag
-            .iter()
-            .filter(|(w, n, r)| w == "d = 6 scan" && *n > 0.0 && r.scale == D6_SCALE && refined_d6(r))
-            .filter_map(|(_, _, r)| r.benettin_over_exact)
-            .collect::<Vec<_>>(),
-        2,
-    );
-    let refined_chaotic: Vec<f64> = diag
-        .iter()
-        .filter(|(_, n, r)| *n > 0.0 && r.scale == 1 && refined_d6(r))
-        .filter_map(|(_, _, r)| r.benettin_over_exact)
-        .filter(|&q| q > 0.1)
-        .collect();
-    let best_refined_js = diag
-        .iter()
-        .filter(|(_, n, r)| *n > 0.0 && refined_d6(r))
-        .filter_map(|(_, _, r)| r.js)
-        .fold(f64::INFINITY, f64::min);
-    let best_refined_js = if best_refined_js.is_finite() { format!("{best_refined_js:.4}") } else { "-".into() };
-    let fms = held.multistep_rows();
-    let benettin_ok: Vec<String> = fms
-        .iter()
-        .filter(|r| r.passes[0])
-        .map(|r| {
-            format!(
-                "{} ({} 1/s, JS {}, D2 {})",
-                crate::report::esc(&r.candidate),
-                o(r.benettin, 3),
-                o(r.js, 4),
-                o(r.corr_dim, 2)
-            )
-        })
-        .collect();
-    let benettin_ok = if benettin_ok.is_empty() { "none".to_string() } else { benettin_ok.join("; ") };
-    let both = fms.iter().filter(|r| r.passes[0] && r.passes[3]).count();
-    let ms_d2: Vec<f64> = fms.iter().filter_map(|r| r.corr_dim).collect();
-    let ms_ros: Vec<f64> = fms.iter().filter_map(|r| r.rosenstein).collect();
-    let best_js = fms
-        .iter()
-        .filter(|r| r.failed.is_none())
-        .filter_map(|r| r.js.map(|j| (j, r)))
-        .min_by(|a, b| a.0.total_cmp(&b.0));
-    rep.para(&format!(
-        "Multistep refinement scanned on the known system (<code>ssmctl study studies/flag-known-system.toml</code>, \
-         names with <code>seed N</code> for other realizations of the series; RBF sizes and horizons reached by doubling as \
-         the rows \"d = 6 scan\" above name them): {}. On other realizations of the series (seeds {}) the one-step {SEED_MODEL} gives Benettin \
-         {} of exact (JS {}) where the refined one gives {} of exact (JS {}), while at {D6_SCALE}x the data the \
-         refined {SEED_MODEL} gives {} of exact: the refinement can keep the chaos but does not make that fit \
-         reliable: the chaotic refined fits' Benettin / exact moves with the RBF size, the horizon and the \
-         realization ({}), and JS stays above {} (best {}). On the flag \
-         (d = {FLAG_DIM}, the flag's rule, and the known system's larger dimensions) multistep rows give Benettin {} 1/s against the \
-         data's {:.3}, Rosenstein {}, D2 {} against {:.2} ± {:.2}, JS {}: targets met {}. The refinement lowers the \
-         flag's rollout error only a little per stage (on the known system's d = 6 fits it is what lowered JS). Best by JS: {} (JS {}, Benettin {} 1/s: {} of the data's; D2 {}, \
-         {:.1} error bars low); the rows meeting the Benettin target: {}. Rows meeting JS and Benettin together: {}; \
-         D2 {} against {:.2} ± {:.2} where measured, and Rosenstein {} against {:.3}: no multistep candidate joins \
-         the report's selection.",
-        scan_text.join("; "),
-        seed_list.join(" and "),
-        seeds(false, &b_e, 2),
-        seeds(false, &js, 2),
-        seeds(true, &b_e, 2),
-        seeds(true, &js, 4),
-        refined_3x,
-        span(&refined_chaotic, 2),
-        chaos::Targets::default().js_max,
-        best_refined_js,
-        fms.iter().map(|r| o(r.benettin, 3)).collect::<Vec<_>>().join(", "),
-        flag_data.0,
-        fms.iter().map(|r| o(r.rosenstein, 3)).collect::<Vec<_>>().join(", "),
-        fms.iter().map(|r| o(r.corr_dim, 2)).collect::<Vec<_>>().join(", "),
-        flag_data.1,
-        flag_data.2,
-        fms.iter().map(|r| o(r.js, 4)).collect::<Vec<_>>().join(", "),
-        fms.iter().map(|r| format!("{}/{}", r.passes.iter().filter(|&&p| p).count(), r.passes.len())).collect::<Vec<_>>().join(", "),
-        best_js.map_or("-".to_string(), |(_, r)| crate::report::esc(&r.candidate)),
-        best_js.map_or("-".to_string(), |(j, _)| format!("{j:.4}")),
-        best_js.map_or("-".to_string(), |(_, r)| o(r.benettin, 3)),
-        best_js.and_then(|(_, r)| r.benettin.map(|b| format!("{:.2}", b / flag_data.0))).unwrap_or_else(|| "-".into()),
-        best_js.map_or("-".to_string(), |(_, r)| o(r.corr_dim, 2)),
-        best_js.and_then(|(_, r)| r.corr_dim.map(|d| (flag_data.1 - d) / flag_data.2)).unwrap_or(f64::NAN),
-        benettin_ok,
-        both,
-        span(&ms_d2, 1),
-        flag_data.1,
-        flag_data.2,
-        span(&ms_ros, 2),
-        flag_data.0,
-    ));
+    rep.para(&html("chaos/multistep", &format!("{SPAN}{MULTISTEP}"), &multistep_values(results, &diag))?);
     // Other RBF centre sets on the flag, and why D2 stays low (committed rows).
     use chaos_study::flag_pipeline_fit::target_counts;
     let fcs = held.centre_rows();
@@ -1449,7 +1326,7 @@ fn flag_pipeline_fit(
             "projection_fnn_p9": proj,
             "diagnosis": diag.iter().map(|(w, n, r)| serde_json::json!({ "varied": w, "noise_rel": n, "row": r })).collect::<Vec<_>>(),
             "within_10pct_of_exact": groups.iter().map(|(n, (a, b))| (n.to_string(), serde_json::json!([a, b]))).collect::<serde_json::Map<_, _>>(),
-            "flag": { "data": held.data, "rows": flag, "multistep_rows": fms,
+            "flag": { "data": held.data, "rows": flag, "multistep_rows": held.multistep_rows(),
                 "centre_rows": fcs, "centre_counts": { "rows": cn, "failed": cfail, "benettin": cb, "corr_dim": cd, "js": cj, "benettin_js": cbj, "benettin_corr_dim_js": cbdj },
                 "kaplan_yorke": held.dimension,
                 "corr_dim_runs": held.corr_dim_runs.iter().map(|r| r.corr_dim).collect::<Vec<_>>(),
@@ -1586,6 +1463,130 @@ fn diagnosis_values(
         "train": held.train_runs, "test": held.test_run,
         "data": { "rosenstein": flag_data.0, "corr_dim": flag_data.1, "corr_dim_err": flag_data.2 },
         "flag": flag,
+    })
+}
+
+/// The SSM dimension of the known system's multistep scan (rows `d = 6 scan`, candidates `d=6`).
+const SCAN_DIM: usize = 6;
+/// The model whose fits on other realizations of the series (`seed N` candidates) are compared.
+const SEED_MODEL: &str = "RBF 250";
+
+/// The multistep paragraph, over [`multistep_values`] (with [`SPAN`]).
+const MULTISTEP: &str = "{% macro o(v, n) %}{% if v is none %}-{% else %}{{ v | fixed(n) }}{% endif %}{% endmacro %}\
+    {% macro list(k, n) %}{% for r in flag %}{{ o(r[k], n) }}{% if not loop.last %}, {% endif %}{% endfor %}\
+    {% endmacro %}Multistep refinement scanned on the known system (<code>ssmctl study \
+    studies/flag-known-system.toml</code>, names with <code>seed N</code> for other realizations of the series; RBF \
+    sizes and horizons reached by doubling as the rows \"{{ scan_group }}\" above name them): {% for c in scan %}\
+    {{ c.scale }}x the data, {% if c.noise_free %}noise-free{% else %}the flag's noise{% endif %}: multistep \
+    {{ c.multistep[0] }}/{{ c.multistep[2] }} within {{ targets.benettin_rel | pct(0) }} %, {{ c.multistep[1] }}/\
+    {{ c.multistep[2] }} with JS <= {{ targets.js_max | plain }} too; one-step {{ c.one_step[0] }}/{{ c.one_step[2] }} \
+    and {{ c.one_step[1] }}/{{ c.one_step[2] }}{% if not loop.last %}; {% endif %}{% endfor %}. On other realizations \
+    of the series (seeds {{ seeds | join(' and ') }}) the one-step {{ seed_model }} gives Benettin \
+    {{ span(one_step_ratio, 2) }} of exact (JS {{ span(one_step_js, 2) }}) where the refined one gives \
+    {{ span(refined_ratio, 2) }} of exact (JS {{ span(refined_js, 4) }}), while at {{ d6_scale }}x the data the refined \
+    {{ seed_model }} gives {{ span(refined_3x, 2) }} of exact: the refinement can keep the chaos but does not make that \
+    fit reliable: the chaotic refined fits' Benettin / exact moves with the RBF size, the horizon and the realization \
+    ({{ span(refined_chaotic, 2) }}), and JS stays above {{ targets.js_max | plain }} (best \
+    {{ best_refined_js | fixed_or(4, '-') }}). On the flag (d = {{ flag_dim }}, the flag's rule, and the known \
+    system's larger dimensions) multistep rows give Benettin {{ list('benettin', 3) }} 1/s against the data's \
+    {{ data.rosenstein | fixed(3) }}, Rosenstein {{ list('rosenstein', 3) }}, D2 {{ list('corr_dim', 2) }} against \
+    {{ data.corr_dim | fixed(2) }} ± {{ data.corr_dim_err | fixed(2) }}, JS {{ list('js', 4) }}: targets met \
+    {% for r in flag %}{{ r.met }}/{{ r.targets }}{% if not loop.last %}, {% endif %}{% endfor %}. The refinement \
+    lowers the flag's rollout error only a little per stage (on the known system's d = {{ scan_dim }} fits it is what \
+    lowered JS). Best by JS: {% if best is none %}- (JS -, Benettin - 1/s: - of the data's; D2 -, NaN error bars low)\
+    {% else %}{{ best.candidate }} (JS {{ best.js | fixed(4) }}, Benettin {{ o(best.benettin, 3) }} 1/s: \
+    {{ o(best.ratio, 2) }} of the data's; D2 {{ o(best.corr_dim, 2) }}, {{ best.bars | fixed(1) }} error bars low)\
+    {% endif %}; the rows meeting the Benettin target: {% for r in flag if r.benettin_ok %}{{ r.candidate }} \
+    ({{ o(r.benettin, 3) }} 1/s, JS {{ o(r.js, 4) }}, D2 {{ o(r.corr_dim, 2) }}){% if not loop.last %}; {% endif %}\
+    {% else %}none{% endfor %}. Rows meeting JS and Benettin together: {{ both }}; D2 {{ span(ms_d2, 1) }} against \
+    {{ data.corr_dim | fixed(2) }} ± {{ data.corr_dim_err | fixed(2) }} where measured, and Rosenstein \
+    {{ span(ms_ros, 2) }} against {{ data.rosenstein | fixed(3) }}: no multistep candidate joins the report's \
+    selection.";
+
+/// The values of [`MULTISTEP`]: the known system's multistep scan and its fits on other
+/// realizations (from the diagnosis rows `diag`), and the flag's multistep rows.
+fn multistep_values(
+    results: &chaos_study::study_results::FlagResults,
+    diag: &[(String, f64, PipelineRow)],
+) -> serde_json::Value {
+    use chaos_study::flag_pipeline_fit::d6_scan_counts;
+    use serde_json::json;
+    let fnoise = chaos_study::calibration::FLAG_SAMPLING.noise_rel;
+    let scan: Vec<serde_json::Value> = [(1, fnoise), (D6_SCALE, fnoise), (1, 0.0)]
+        .iter()
+        .map(|&(scale, noise)| {
+            let (m, p) = (d6_scan_counts(diag, true, scale, noise), d6_scan_counts(diag, false, scale, noise));
+            json!({ "scale": scale, "noise_free": noise <= 0.0, "multistep": [m.0, m.1, m.2], "one_step": [p.0, p.1, p.2] })
+        })
+        .collect();
+    let mut seed_list: Vec<&str> = diag
+        .iter()
+        .filter_map(|(_, _, r)| r.candidate.split_once(" seed ").map(|(_, n)| n.split_whitespace().next().unwrap_or(n)))
+        .collect();
+    seed_list.sort_unstable();
+    seed_list.dedup();
+    let seeds = |ms: bool, field: &dyn Fn(&PipelineRow) -> Option<f64>| {
+        let v: Vec<f64> = diag
+            .iter()
+            .filter(|(_, _, r)| r.candidate.contains(" seed ") && r.candidate.contains(SEED_MODEL))
+            .filter(|(_, _, r)| r.candidate.contains(" ms ") == ms)
+            .filter_map(|(_, _, r)| field(r))
+            .collect();
+        span_of(&v)
+    };
+    let b_e = |r: &PipelineRow| r.benettin_over_exact;
+    let js = |r: &PipelineRow| r.js;
+    let (dim, group) = (format!("d={SCAN_DIM}"), format!("d = {SCAN_DIM} scan"));
+    let refined = |r: &PipelineRow| r.candidate.contains(&dim) && r.candidate.contains(" ms ");
+    let refined_3x: Vec<f64> = diag
+        .iter()
+        .filter(|(w, n, r)| *w == group && *n > 0.0 && r.scale == D6_SCALE && refined(r))
+        .filter_map(|(_, _, r)| r.benettin_over_exact)
+        .collect();
+    let refined_chaotic: Vec<f64> = diag
+        .iter()
+        .filter(|(_, n, r)| *n > 0.0 && r.scale == 1 && refined(r))
+        .filter_map(|(_, _, r)| r.benettin_over_exact)
+        .filter(|&q| q > 0.1)
+        .collect();
+    let best_refined_js = diag
+        .iter()
+        .filter(|(_, n, r)| *n > 0.0 && refined(r))
+        .filter_map(|(_, _, r)| r.js)
+        .fold(f64::INFINITY, f64::min);
+    let held = &results.held_out;
+    let flag_data = held.data.tuple();
+    let fms = held.multistep_rows();
+    let best = fms
+        .iter()
+        .filter(|r| r.failed.is_none())
+        .filter_map(|r| r.js.map(|j| (j, r)))
+        .min_by(|a, b| a.0.total_cmp(&b.0))
+        .map(|(j, r)| {
+            json!({ "candidate": r.candidate, "js": j, "benettin": r.benettin,
+                    "ratio": r.benettin.map(|b| b / flag_data.0), "corr_dim": r.corr_dim,
+                    "bars": r.corr_dim.map(|d| (flag_data.1 - d) / flag_data.2) })
+        });
+    let flag: Vec<serde_json::Value> = fms
+        .iter()
+        .map(|r| {
+            json!({ "candidate": r.candidate, "benettin": r.benettin, "rosenstein": r.rosenstein,
+                    "corr_dim": r.corr_dim, "js": r.js, "met": r.passes.iter().filter(|&&p| p).count(),
+                    "targets": r.passes.len(), "benettin_ok": r.passes[0] })
+        })
+        .collect();
+    json!({
+        "scan": scan, "scan_group": group, "scan_dim": SCAN_DIM, "targets": chaos::Targets::default(),
+        "seeds": seed_list, "seed_model": SEED_MODEL, "d6_scale": D6_SCALE, "flag_dim": FLAG_DIM,
+        "one_step_ratio": seeds(false, &b_e), "one_step_js": seeds(false, &js),
+        "refined_ratio": seeds(true, &b_e), "refined_js": seeds(true, &js),
+        "refined_3x": span_of(&refined_3x), "refined_chaotic": span_of(&refined_chaotic),
+        "best_refined_js": best_refined_js.is_finite().then_some(best_refined_js),
+        "data": { "rosenstein": flag_data.0, "corr_dim": flag_data.1, "corr_dim_err": flag_data.2 },
+        "flag": flag, "best": best,
+        "both": fms.iter().filter(|r| r.passes[0] && r.passes[3]).count(),
+        "ms_d2": span_of(&fms.iter().filter_map(|r| r.corr_dim).collect::<Vec<_>>()),
+        "ms_ros": span_of(&fms.iter().filter_map(|r| r.rosenstein).collect::<Vec<_>>()),
     })
 }
 
@@ -1901,7 +1902,7 @@ fn flag_self_paragraphs(
         pl(pick_place[1]),
         pl(pick_place[2]),
         test_pick.map_or("-".to_string(), |r| crate::report::esc(&r.candidate)),
-        test_pick.map_or("-".to_string(), |r| row4(r)),
+        test_pick.map_or("-".to_string(), &row4),
         test_pick.and_then(|t| val.iter().find(|r| r.candidate == t.candidate)).map_or("-".to_string(), |r| o(r.rosenstein, 3)),
         test_pick.and_then(|t| val.iter().find(|r| r.candidate == t.candidate)).map_or("-".to_string(), |r| o(r.corr_dim, 2)),
         second.run,
@@ -2055,6 +2056,25 @@ mod tests {
         let g = &v["groups"]["d5"];
         assert!(a.contains(&format!("rows \"(b) d = 5\": {}/{},", g[0], g[1])), "{a}");
         assert!(a.contains("the whole 9-sample delay vector") && a.contains("keeps d = 4, whose rows"), "{a}");
+    }
+
+    /// The multistep paragraph over the bundled rows: every number follows the values.
+    #[test]
+    fn multistep_paragraph_follows_the_rows() {
+        let results = chaos_study::study_results::FlagResults::bundled().unwrap();
+        let diag = results.known.diagnosis_rows();
+        let v = multistep_values(&results, &diag);
+        let a = assert_numbers_follow("chaos/multistep", &format!("{SPAN}{MULTISTEP}"), &v);
+        let c = &v["scan"][0];
+        let text = format!(
+            "name them): 1x the data, the flag's noise: multistep {}/{} within 10 %",
+            c["multistep"][0], c["multistep"][2]
+        );
+        assert!(a.contains(&text) && a.contains("the rows \"d = 6 scan\" above"), "{a}");
+        assert!(
+            a.contains("on the known system's d = 6 fits") && a.contains("On the flag (d = 4, the flag's rule"),
+            "{a}"
+        );
     }
 
     /// The scale page from the report's values: one value moved shows, every value moved
