@@ -30,19 +30,6 @@ const INTRO: &str = "Correlation dimension by Grassberger-Procaccia (self-pairs 
     are fitted on the training trajectories; the data statistics come from a held-out trajectory, from whose first \
     point the model series start.";
 
-/// `lo to hi` of `v` with `p` decimals (one value when they agree, `-` when there is none).
-fn span(v: &[f64], p: usize) -> String {
-    // `+ 0.0` prints a negative zero as 0.
-    let (lo, hi) = v.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &x| (a.min(x + 0.0), b.max(x + 0.0)));
-    if v.is_empty() {
-        "-".into()
-    } else if format!("{lo:.p$}") == format!("{hi:.p$}") {
-        format!("{lo:.p$}")
-    } else {
-        format!("{lo:.p$} to {hi:.p$}")
-    }
-}
-
 /// The plant angle `theta_rad` of a PIL `record.csv` (`t_s,theta_rad,phi_rad,theta_meas_rad,
 /// code,prediction`). The chaos study uses it rather than the encoder reading `theta.csv`:
 /// the reading is quantized to whole counts, so delay vectors tie exactly and the Lyapunov
@@ -1349,7 +1336,7 @@ const D6: &str = "(b) d = 6";
 const D6_SCALE: usize = 3;
 
 /// `lo to hi` of a `[lo, hi]` with `n` decimals, one value when they print alike, `-` for none
-/// (as [`span`] writes it; the values from [`span_of`]).
+/// (the values from [`span_of`]).
 const SPAN: &str = "{% macro span(r, n) %}{% if r is none %}-{% elif (r[0] | fixed(n)) == (r[1] | fixed(n)) %}\
     {{ r[0] | fixed(n) }}{% else %}{{ r[0] | fixed(n) }} to {{ r[1] | fixed(n) }}{% endif %}{% endmacro %}";
 
@@ -1955,6 +1942,19 @@ fn flag_self_paragraphs(
 mod tests {
     use super::*;
     use serde_json::json;
+
+    /// `lo to hi` of `v` with `p` decimals (one value when they agree, `-` when there is none).
+    fn span(v: &[f64], p: usize) -> String {
+        // `+ 0.0` prints a negative zero as 0.
+        let (lo, hi) = v.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &x| (a.min(x + 0.0), b.max(x + 0.0)));
+        if v.is_empty() {
+            "-".into()
+        } else if format!("{lo:.p$}") == format!("{hi:.p$}") {
+            format!("{lo:.p$}")
+        } else {
+            format!("{lo:.p$} to {hi:.p$}")
+        }
+    }
 
     /// The settings paragraphs: every number comes from the options, the targets or the
     /// flag study's files; one value changed shows on the page.
