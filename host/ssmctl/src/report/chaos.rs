@@ -1769,6 +1769,99 @@ fn experiment_values(
     }))
 }
 
+/// The pick on a validation run, on a second one, and the ensemble, over [`validation_values`].
+const VALIDATION: &str = "{% macro o(v, n) %}{% if v is none %}-{% else %}{{ v | fixed(n) }}{% endif %}{% endmacro %}\
+    {% macro row4(r) %}{% if r is none %}-{% else %}Benettin {{ o(r.benettin, 3) }}, Rosenstein \
+    {{ o(r.rosenstein, 3) }}, D2 {{ o(r.corr_dim, 2) }}, JS {{ o(r.js, 4) }}{% endif %}{% endmacro %}\
+    {% macro pl(p) %}{% if p is none %}-{% else %}percentile {{ p[0] | pct(0) }}, z {{ p[1] | signed(2) }}{% endif %}\
+    {% endmacro %}{% macro ms(v, n) %}{% if v is none %}-{% else %}{{ v[0] | fixed(n) }} ± {{ v[1] | fixed(n) }}\
+    {% endif %}{% endmacro %}{% macro name(r) %}{% if r is none %}-{% else %}{{ r.candidate }}{% endif %}{% endmacro %}\
+    {% macro met(r) %}{% if r is none %}0{% else %}{{ r.met }}{% endif %}{% endmacro %}\
+    Selection on a validation run, not the test run: the {{ c.rows }} centre-set rows fitted again on \
+    {{ train | join(' + ') }} and measured on {{ prefix }}{{ run }} (neither training nor test; its own settings: \
+    Rosenstein {{ data.rosenstein | fixed(3) }}, D2 {{ data.corr_dim | fixed(2) }} ± {{ data.corr_dim_err | fixed(2) }}; \
+    example <code>ssmctl study studies/flag.toml</code>): {{ c.failed }} escaped; Benettin within \
+    {{ targets.benettin_rel | pct(0) }} %: {{ c.benettin }}, Rosenstein within {{ targets.rosenstein_rel | pct(0) }} %: \
+    {{ c.rosenstein }}, D2: {{ c.corr_dim }}, JS: {{ c.js }}, Benettin and JS: {{ c.benettin_js }}, Benettin, D2 and JS: \
+    {{ c.benettin_corr_dim_js }}. The report's selection rule (most targets, then the smallest normalized error) picks \
+    {{ name(pick) }} there ({{ row4(pick) }}; {{ met(pick) }} of {{ targets_n }} targets); on the test run {{ test }} it \
+    reads {{ row4(pick_test) }} ({{ met(pick_test) }} of {{ targets_n }} targets; among the {{ runs }} runs as models of \
+    {{ test }}: Rosenstein {{ pl(placement[0]) }}, D2 {{ pl(placement[1]) }}, JS {{ pl(placement[2]) }}). The same \
+    rule on {{ test }} itself picks {{ name(test_pick) }} ({{ row4(test_pick) }}), which reads Rosenstein \
+    {% if test_pick_val is none %}-{% else %}{{ o(test_pick_val.rosenstein, 3) }}{% endif %} and D2 \
+    {% if test_pick_val is none %}-{% else %}{{ o(test_pick_val.corr_dim, 2) }}{% endif %} on {{ prefix }}{{ run }}: the \
+    one-run statistics that the pick rests on move with the run as much as between models. A second validation run, \
+    {{ prefix }}{{ second.run }} (Rosenstein {{ second.data.rosenstein | fixed(3) }}, D2 \
+    {{ second.data.corr_dim | fixed(2) }} ± {{ second.data.corr_dim_err | fixed(2) }}), picks yet another row, \
+    {{ name(second.pick) }} ({{ row4(second.pick) }}), which on {{ test }} reads {{ row4(second.pick_test) }} \
+    ({{ met(second.pick_test) }} of {{ targets_n }} targets). An ensemble of the {{ ensemble.members }} best-ranked d = \
+    {{ flag_dim }} models on {{ test }}: Benettin {{ ms(ensemble.benettin, 3) }} (the data's \
+    {{ test_data.rosenstein | fixed(3) }}), Rosenstein {{ ms(ensemble.rosenstein, 3) }}, D2 \
+    {{ ms(ensemble.corr_dim, 2) }}; JS of the pooled long runs {{ ensemble.js_pooled | fixed(4) }} (members \
+    {% for j in ensemble.js %}{{ j | fixed(4) }}{% if not loop.last %}, {% endif %}{% endfor %}).";
+
+/// The values of [`VALIDATION`]: the centre-set rows measured on the validation run and their
+/// counts against the targets, the picks there, on the test run (`test_rows`) and on a second
+/// validation run, the pick's place among the runs as models, and the ensemble.
+fn validation_values(
+    results: &chaos_study::study_results::FlagResults,
+    test_rows: &[PipelineRow],
+) -> Result<serde_json::Value, Box<dyn Error>> {
+    use chaos_study::flag_self::{
+        SelfRow, ensemble_members, is_whole, mean_sd, placement, validation_pick, validation_pick_on,
+    };
+    use serde_json::json;
+    let held = &results.held_out;
+    let primary = results.validation.primary()?;
+    let second = results.validation.runs.get(1).ok_or_else(|| {
+        format!("{}: a second validation run is missing in `runs`", chaos_study::study_results::VALIDATION)
+    })?;
+    let rows = &results.experiment.rows;
+    let whole: Vec<&SelfRow> = rows.iter().filter(|r| is_whole(r, rows)).collect();
+    let col = |f: &dyn Fn(&SelfRow) -> Option<f64>| whole.iter().filter_map(|r| f(r)).collect::<Vec<f64>>();
+    let stats = [col(&|r| r.rosenstein), col(&|r| r.corr_dim), col(&|r| r.js)];
+    let val = primary.pipeline_rows();
+    let (vn, vfail, vb, vd, vj, vbj, vbdj) = chaos_study::flag_pipeline_fit::target_counts(&val);
+    let row = |r: &PipelineRow| {
+        json!({ "candidate": r.candidate, "benettin": r.benettin, "rosenstein": r.rosenstein, "corr_dim": r.corr_dim,
+                "js": r.js, "met": r.passes.iter().filter(|&&p| p).count() })
+    };
+    let test_pick = chaos_study::flag_self::pick(test_rows).map(|i| &test_rows[i]);
+    let picked = validation_pick(results)?;
+    let picked0 = validation_pick_on(second, held);
+    let placement: Vec<serde_json::Value> = picked
+        .as_ref()
+        .map_or([None; 3], |(_, t)| [t.rosenstein, t.corr_dim, t.js])
+        .iter()
+        .zip(&stats)
+        .map(|(x, runs)| json!(x.and_then(|x| placement(x, runs)).map(|p| [p.0, p.1])))
+        .collect();
+    let members = ensemble_members(primary, results.validation.ensemble.members);
+    let mrows: Vec<&PipelineRow> =
+        members.iter().filter_map(|n| test_rows.iter().find(|r| r.candidate == *n)).collect();
+    let mcol = |f: &dyn Fn(&PipelineRow) -> Option<f64>| mrows.iter().filter_map(|r| f(r)).collect::<Vec<f64>>();
+    let ms = |v: &[f64]| mean_sd(v).map(|(m, s)| [m, s]);
+    let flag_data = held.data.tuple();
+    Ok(json!({
+        "c": { "rows": vn, "failed": vfail, "benettin": vb, "rosenstein": val.iter().filter(|r| r.passes[1]).count(),
+               "corr_dim": vd, "js": vj, "benettin_js": vbj, "benettin_corr_dim_js": vbdj },
+        "train": held.train_runs, "test": held.test_run, "run": primary.run,
+        "prefix": held.test_run.trim_end_matches(|c: char| c.is_ascii_digit()),
+        "data": primary.data, "targets": chaos::Targets::default(), "targets_n": val.first().map_or(0, |r| r.passes.len()),
+        "runs": whole.len(), "flag_dim": FLAG_DIM,
+        "pick": picked.as_ref().map(|(v, _)| row(v)), "pick_test": picked.as_ref().map(|(_, t)| row(t)),
+        "placement": placement,
+        "test_pick": test_pick.map(row),
+        "test_pick_val": test_pick.and_then(|t| val.iter().find(|r| r.candidate == t.candidate)).map(row),
+        "second": { "run": second.run, "data": second.data, "pick": picked0.as_ref().map(|(v, _)| row(v)),
+                    "pick_test": picked0.as_ref().map(|(_, t)| row(t)) },
+        "test_data": { "rosenstein": flag_data.0 },
+        "ensemble": { "members": members.len(), "benettin": ms(&mcol(&|r| r.benettin)),
+                      "rosenstein": ms(&mcol(&|r| r.rosenstein)), "corr_dim": ms(&mcol(&|r| r.corr_dim)),
+                      "js_pooled": results.validation.ensemble.js_pooled, "js": mcol(&|r| r.js) },
+    }))
+}
+
 /// The flag's experiment as its own model, the candidate pick on the validation run and the
 /// ensemble of the validation-ranked models ([`chaos_study::flag_self`], committed rows): two
 /// paragraphs, a table, and the summary values (experiment as model, validation pick,
@@ -1805,9 +1898,6 @@ fn flag_self_paragraphs(
         stats.iter().zip(v).map(|((_, runs, _), x)| x.and_then(|x| placement(x, runs))).collect()
     };
     let best_place = place(best);
-    let ms = |v: &[f64], p: usize| mean_sd(v).map_or("-".to_string(), |(m, s)| format!("{m:.p$} ± {s:.p$}"));
-    let pl =
-        |p: Option<(f64, f64)>| p.map_or("-".to_string(), |(q, z)| format!("percentile {:.0}, z {z:+.2}", 100.0 * q));
     let v = experiment_values(results, test_rows)?;
     rep.para(&html("chaos/experiment-as-model", EXPERIMENT_AS_MODEL, &v)?);
     let yn = |p: [bool; 3]| p.iter().map(|&b| if b { "y" } else { "n" }).collect::<String>();
@@ -1851,63 +1941,7 @@ fn flag_self_paragraphs(
         mrows.iter().filter_map(|r| f(r)).collect::<Vec<f64>>()
     };
     let (eb, er, ed, ej) = (mcol(&|r| r.benettin), mcol(&|r| r.rosenstein), mcol(&|r| r.corr_dim), mcol(&|r| r.js));
-    let row4 = |r: &chaos_study::flag_pipeline::PipelineRow| {
-        format!(
-            "Benettin {}, Rosenstein {}, D2 {}, JS {}",
-            o(r.benettin, 3),
-            o(r.rosenstein, 3),
-            o(r.corr_dim, 2),
-            o(r.js, 4)
-        )
-    };
-    let met = |r: &chaos_study::flag_pipeline::PipelineRow| r.passes.iter().filter(|&&p| p).count();
-    let (train, test) = (results.held_out.train_runs.join(" + "), &results.held_out.test_run);
-    let prefix = test.trim_end_matches(|c: char| c.is_ascii_digit());
-    let t = chaos::Targets::default();
-    let (bpct, rpct, nruns) = (100.0 * t.benettin_rel, 100.0 * t.rosenstein_rel, whole.len());
-    let nt = val.first().map_or(0, |r| r.passes.len());
-    rep.para(&format!(
-        "Selection on a validation run, not the test run: the {vn} centre-set rows fitted again on {train} and measured on \
-         {prefix}{validation_run} (neither training nor test; its own settings: Rosenstein {:.3}, D2 {:.2} ± {:.2}; example \
-         <code>ssmctl study studies/flag.toml</code>): {vfail} escaped; Benettin within {bpct:.0} %: {vb}, Rosenstein within {rpct:.0} %: {vr}, \
-         D2: {vd}, JS: {vj}, Benettin and JS: {vbj}, Benettin, D2 and JS: {vbdj}. The report's selection rule (most targets, then the \
-         smallest normalized error) picks {} there ({}; {} of {nt} targets); on the test run {test} it reads {} ({} of {nt} targets; among the \
-         {nruns} runs as models of {test}: Rosenstein {}, D2 {}, JS {}). \
-         The same rule on {test} itself picks {} ({}), which reads Rosenstein {} and D2 {} on {prefix}{validation_run}: the one-run \
-         statistics that the pick rests on move with the run as much as between models. A second validation run, {prefix}{} \
-         (Rosenstein {:.3}, D2 {:.2} ± {:.2}), picks yet another row, {} ({}), which on {test} reads {} ({} of {nt} targets). An ensemble of the {} best-ranked d = {FLAG_DIM} \
-         models on {test}: Benettin {} (the data's {:.3}), Rosenstein {}, D2 {}; JS of the pooled long runs {:.4} (members {}).",
-        primary.data.rosenstein,
-        primary.data.corr_dim,
-        primary.data.corr_dim_err,
-        picked.as_ref().map_or("-".to_string(), |(v, _)| crate::report::esc(&v.candidate)),
-        picked.as_ref().map_or("-".to_string(), |(v, _)| row4(v)),
-        picked.as_ref().map_or(0, |(v, _)| met(v)),
-        picked.as_ref().map_or("-".to_string(), |(_, t)| row4(t)),
-        picked.as_ref().map_or(0, |(_, t)| met(t)),
-        pl(pick_place[0]),
-        pl(pick_place[1]),
-        pl(pick_place[2]),
-        test_pick.map_or("-".to_string(), |r| crate::report::esc(&r.candidate)),
-        test_pick.map_or("-".to_string(), &row4),
-        test_pick.and_then(|t| val.iter().find(|r| r.candidate == t.candidate)).map_or("-".to_string(), |r| o(r.rosenstein, 3)),
-        test_pick.and_then(|t| val.iter().find(|r| r.candidate == t.candidate)).map_or("-".to_string(), |r| o(r.corr_dim, 2)),
-        second.run,
-        second.data.rosenstein,
-        second.data.corr_dim,
-        second.data.corr_dim_err,
-        picked0.as_ref().map_or("-".to_string(), |(v, _)| crate::report::esc(&v.candidate)),
-        picked0.as_ref().map_or("-".to_string(), |(v, _)| row4(v)),
-        picked0.as_ref().map_or("-".to_string(), |(_, t)| row4(t)),
-        picked0.as_ref().map_or(0, |(_, t)| met(t)),
-        members.len(),
-        ms(&eb, 3),
-        flag_data.0,
-        ms(&er, 3),
-        ms(&ed, 2),
-        ensemble_result.js_pooled,
-        ej.iter().map(|j| format!("{j:.4}")).collect::<Vec<_>>().join(", "),
-    ));
+    rep.para(&html("chaos/validation", VALIDATION, &validation_values(results, test_rows)?)?);
     let per_stat: serde_json::Map<String, serde_json::Value> = stats
         .iter()
         .zip(&best_place)
@@ -2075,6 +2109,23 @@ mod tests {
             a.contains("on the known system's d = 6 fits") && a.contains("On the flag (d = 4, the flag's rule"),
             "{a}"
         );
+    }
+
+    /// The validation paragraph over the bundled results: every number follows the values.
+    #[test]
+    fn validation_paragraph_follows_the_results() {
+        let results = chaos_study::study_results::FlagResults::bundled().unwrap();
+        let test_rows = results.held_out.centre_rows();
+        let v = validation_values(&results, &test_rows).unwrap();
+        let a = assert_numbers_follow("chaos/validation", VALIDATION, &v);
+        let text = format!(
+            "the {} centre-set rows fitted again on traj_9 + traj_7 and measured on traj_{}",
+            v["c"]["rows"], v["run"]
+        );
+        assert!(a.contains(&text) && a.contains("best-ranked d = 4 models on traj_8"), "{a}");
+        let mut one = v.clone();
+        one["ensemble"]["js_pooled"] = json!(0.98765);
+        assert!(html("chaos/validation", VALIDATION, &one).unwrap().contains("pooled long runs 0.9877 (members"));
     }
 
     /// The scale page from the report's values: one value moved shows, every value moved

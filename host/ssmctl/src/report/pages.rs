@@ -42,8 +42,8 @@ const RENDERED: &[(&str, &[&str], Render)] = &[
 const NOT_YET: &[(&str, &str)] = &[
     (
         "chaos",
-        "chaos.rs: most paragraphs are templates tested with every value moved, but the multistep, validation-pick and \
-         estimator-bias paragraphs and the tables are formatted from study rows; not yet rendered from the summary alone",
+        "chaos.rs: the paragraphs are templates tested with every value moved (but the estimator-bias and pick \
+         paragraphs), the tables are formatted from study rows; the page is not yet rendered from the summary alone",
     ),
     ("scenes", "reproduce.rs: tables formatted from computed values, not yet through templates"),
     ("stability", "reproduce.rs: tables formatted from computed values, not yet through templates"),
