@@ -130,8 +130,8 @@ impl Prose {
 
 /// Names written with digits: a method, the invariant objects named by their dimension and a
 /// figure of the paper; and the constants of formulas written out in the text (the unit
-/// multiplier of a shift, a real multiplier crossing +1).
-const NAMES_WITH_DIGITS: [&str; 11] = [
+/// multiplier of a shift, a real multiplier crossing +1, the delay embedding rule p = 2d + 1).
+const NAMES_WITH_DIGITS: [&str; 12] = [
     "0-1 test",
     "2-torus",
     "3-torus",
@@ -143,6 +143,7 @@ const NAMES_WITH_DIGITS: [&str; 11] = [
     "paper's figure 2",
     "structural multiplier 1 (",
     "multiplier through +1",
+    "p = 2d + 1",
 ];
 
 /// The numbers written in `text`: runs of digits (with a decimal point, an exponent and a

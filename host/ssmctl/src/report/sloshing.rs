@@ -3,7 +3,7 @@
 
 use crate::plot::{self, Series};
 use crate::report::prose::Prose;
-use crate::report::{Report, esc, num};
+use crate::report::{Report, esc};
 use plotters::style::RGBColor;
 use serde_json::{Value, json};
 use sim::closed_loop::simulate;
@@ -74,23 +74,20 @@ const FRC: &str = "Forced response curve of this model (<code>ssm::frc</code>, S
     linear frequency), giving the normal-form forcing {{ forcing | num }}. Largest stable amplitude \
     {{ peak_amplitude | num }} % at {{ peak_freq_rad_s | num }} rad/s; {{ unstable }} unstable branch(es) (dashed).";
 
-/// The sloshing section; skipped with a note when the data folder is absent.
+/// The sloshing section; skipped with a note when the data folder is absent. Computes its
+/// values (summary keys `fit_sloshing`, `backbone`, `frc`, and `page_sloshing` for the page's
+/// settings and figures), then writes the page from them ([`sloshing_render`]).
 pub fn sloshing_section(rep: &mut Report, data_dir: &Path, quick: bool) -> Result<(), Box<dyn Error>> {
     let dir = data_dir.join("sloshing");
     let fo = crate::bench::sloshing_fit_options();
     let setup = json!({ "dim": fo.dim, "folder": dir.display().to_string(), "train": TRAIN, "test": TEST });
-    rep.section(
-        "fit-sloshing",
-        "SSM fit of measured data: water sloshing decay",
-        &html("fit-sloshing/intro", INTRO, &setup)?,
-    );
     let files = [TRAIN[0], TRAIN[1], TEST].map(|f| dir.join(format!("{f}.csv")));
     if !files.iter().all(|f| f.is_file()) {
-        rep.para(&format!("Skipped: data folder {} not found.", esc(&dir.display().to_string())));
         rep.summary.insert("fit_sloshing".into(), json!({"skipped": format!("{} not found", dir.display())}));
         rep.summary.insert("backbone".into(), json!({"skipped": format!("{} not found", dir.display())}));
         rep.summary.insert("frc".into(), json!({"skipped": format!("{} not found", dir.display())}));
-        return Ok(());
+        rep.summary.insert("page_sloshing".into(), json!({ "setup": setup, "skipped_dir": dir.display().to_string() }));
+        return sloshing_render(rep, &Value::Object(rep.summary.clone()));
     }
     let series: Vec<TimeSeries> = files.iter().map(load_csv).collect::<Result<_, _>>()?;
     let (train, test) = (&series[..2], &series[2]);
@@ -99,15 +96,11 @@ pub fn sloshing_section(rep: &mut Report, data_dir: &Path, quick: bool) -> Resul
     let pred = m.predict(test)?;
     let (nmte, dtw) = (pred.nmte(test), pred.nmte_dtw(test, None));
     let eig: Vec<Value> = m.eigenvalues_ct().iter().map(|&(re, im)| json!({"re": re, "im": im})).collect();
-    let v = json!({
-        "fit": { "embed": fo.embed, "shift": fo.shift, "manifold_order": fo.manifold_order, "dyn_order": fo.dyn_order },
-        "fit_ms": s_to_ms(secs), "reps": reps, "nmte": nmte, "dtw": dtw, "eigenvalues": eig,
-    });
-    rep.para(&html("fit-sloshing/fit", &format!("{SIGNED}{FIT}"), &v)?);
     let tp: Vec<(f64, f64)> = test.t.iter().copied().zip(test.x.iter().copied()).collect();
     let pp: Vec<(f64, f64)> = pred.t.iter().copied().zip(pred.x.iter().copied()).collect();
+    let (prediction_fig, spectrum_fig) = ("fig/sloshing_prediction.png", "fig/sloshing_spectrum.png");
     plot::lines(
-        &rep.dir().join("fig/sloshing_prediction.png"),
+        &rep.dir().join(prediction_fig),
         &format!("sloshing {TEST}: measured vs SSM prediction"),
         "t [s]",
         "x [% tank width]",
@@ -122,7 +115,7 @@ pub fn sloshing_section(rep: &mut Report, data_dir: &Path, quick: bool) -> Resul
     let s1: Vec<(f64, f64)> = f1.into_iter().zip(a1).filter(|p| p.0 <= 3.0).collect();
     let s2: Vec<(f64, f64)> = f2.into_iter().zip(a2).filter(|p| p.0 <= 3.0).collect();
     plot::lines(
-        &rep.dir().join("fig/sloshing_spectrum.png"),
+        &rep.dir().join(spectrum_fig),
         "amplitude spectra",
         "f [Hz]",
         "amplitude",
@@ -132,36 +125,13 @@ pub fn sloshing_section(rep: &mut Report, data_dir: &Path, quick: bool) -> Resul
         ],
         (520, 320),
     )?;
-    rep.figure(
-        "fig/sloshing_prediction.png",
-        &format!("Test trajectory {TEST} and the model's prediction from its first point"),
-    );
-    rep.figure("fig/sloshing_spectrum.png", "FFT amplitude spectra of the test trajectory and the prediction");
-    backbone_paragraph(rep, &m, train)?;
-    frc_paragraph(rep, &m, train)?;
+    let backbone_page = backbone_values(rep, &m, train)?;
+    let frc_page = frc_values(rep, &m, train)?;
 
     // What accuracy costs in time (second table; also `ssmctl bench fit`).
     let (bench_rows, rbf50) = crate::bench::bench_fit(train, test, quick, |_| {})?;
-    let rows: Vec<Vec<String>> = bench_rows
-        .iter()
-        .map(|r| {
-            vec![
-                r.setting.clone(),
-                format!("{:.2}", r.fit_ms),
-                format!("{:.2}", r.ratio_vs_baseline),
-                num(r.nmte_test),
-                num(r.dtw_nmte_test),
-                r.stopped.clone().unwrap_or_else(|| "-".into()),
-            ]
-        })
-        .collect();
     let list = serde_json::to_value(&bench_rows)?;
-    rep.para(
-        "What accuracy costs in time (fitting): each row varies one setting from the baseline (first row); fit time is \
-         the best of repeated fits on one core, and its ratio to the baseline's is measured in the same run \
-         (<code>ssmctl bench fit</code> prints the same table).",
-    );
-    rep.table(&["setting", "fit [ms]", "x baseline", "test NMTE", "test DTW-NMTE", "stopped"], &rows);
+    let mut export = Value::Null;
     if let Some(m) = rbf50 {
         let blob = encode(&to_device_model(&m, shared::ControllerConfig::paper(m.dt))?)?;
         crate::output::write_atomic(&rep.dir().join("sloshing-rbf50.bin"), &blob)?;
@@ -169,21 +139,112 @@ pub fn sloshing_section(rep: &mut Report, data_dir: &Path, quick: bool) -> Resul
             Dynamics::Rbf { centers } => Some(centers),
             _ => None,
         };
-        let v = json!({ "centres": centres, "bytes": blob.len(), "file": "sloshing-rbf50.bin" });
-        rep.para(&html("fit-sloshing/export", EXPORT, &v)?);
+        export = json!({ "centres": centres, "bytes": blob.len(), "file": "sloshing-rbf50.bin" });
     }
     rep.summary.insert(
         "fit_sloshing".into(),
         json!({"fit_ms": s_to_ms(secs), "nmte_test": nmte, "dtw_nmte_test": dtw, "eigenvalues": eig, "table": list}),
     );
+    rep.summary.insert(
+        "page_sloshing".into(),
+        json!({
+            "setup": setup,
+            "fit": { "embed": fo.embed, "shift": fo.shift, "manifold_order": fo.manifold_order, "dyn_order": fo.dyn_order },
+            "reps": reps,
+            "figures": { "prediction": prediction_fig, "spectrum": spectrum_fig },
+            "backbone": backbone_page,
+            "frc": frc_page,
+            "export": export,
+        }),
+    );
+    sloshing_render(rep, &Value::Object(rep.summary.clone()))
+}
+
+/// The figure captions of the sloshing section, over its setup.
+const PREDICTION_CAPTION: &str = "Test trajectory {{ test }} and the model's prediction from its first point";
+const SPECTRUM_CAPTION: &str = "FFT amplitude spectra of the test trajectory and the prediction";
+const BACKBONE_CAPTION: &str =
+    "Backbone curve of the sloshing model: amplitude of x against damping ratio and against frequency";
+const FRC_CAPTION: &str = "Forced response of the sloshing model (illustrative calibration point): stable solid, unstable dashed, backbone grey";
+
+/// The fit-vs-time table's introduction.
+const BENCH_INTRO: &str = "What accuracy costs in time (fitting): each row varies one setting from the baseline (first \
+    row); fit time is the best of repeated fits on one core, and its ratio to the baseline's is measured in the same run \
+    (<code>ssmctl bench fit</code> prints the same table).";
+
+/// The fit-vs-time table's cells over one row of `fit_sloshing.table`.
+const BENCH_CELLS: [&str; 6] = [
+    "{{ r.setting }}",
+    "{{ r.fit_ms | fixed(2) }}",
+    "{{ r.ratio_vs_baseline | fixed(2) }}",
+    "{{ r.nmte_test | num }}",
+    "{{ r.dtw_nmte_test | num }}",
+    "{% if r.stopped is none %}-{% else %}{{ r.stopped }}{% endif %}",
+];
+
+/// The summary value at `key` of `s`, or an error naming it.
+fn key<'a>(s: &'a Value, key: &str) -> Result<&'a Value, String> {
+    s.get(key).ok_or_else(|| format!("report: summary lacks `{key}`"))
+}
+
+/// A figure path at `key` of `v`, or an error naming it.
+fn fig<'a>(v: &'a Value, key: &str) -> Result<&'a str, String> {
+    v[key].as_str().ok_or_else(|| format!("report: figure `{key}` is not a path"))
+}
+
+/// Writes the sloshing section from the summary `s` (`page_sloshing`, `fit_sloshing`).
+pub fn sloshing_render(rep: &mut Report, s: &Value) -> Result<(), Box<dyn Error>> {
+    let p = Prose::new();
+    let page = key(s, "page_sloshing")?;
+    let setup = &page["setup"];
+    rep.section(
+        "fit-sloshing",
+        "SSM fit of measured data: water sloshing decay",
+        &p.html("fit-sloshing/intro", INTRO, setup)?,
+    );
+    if page.get("skipped_dir").is_some() {
+        let dir = page["skipped_dir"].as_str().ok_or("report: page_sloshing.skipped_dir is not a path")?;
+        rep.para(&format!("Skipped: data folder {} not found.", esc(dir)));
+        return Ok(());
+    }
+    let fs = key(s, "fit_sloshing")?;
+    let v = json!({
+        "fit": page["fit"], "fit_ms": fs["fit_ms"], "reps": page["reps"], "nmte": fs["nmte_test"],
+        "dtw": fs["dtw_nmte_test"], "eigenvalues": fs["eigenvalues"],
+    });
+    rep.para(&p.html("fit-sloshing/fit", &format!("{SIGNED}{FIT}"), &v)?);
+    let figures = &page["figures"];
+    rep.figure(fig(figures, "prediction")?, &p.text("fit-sloshing/prediction", PREDICTION_CAPTION, setup)?);
+    rep.figure(fig(figures, "spectrum")?, &p.text("fit-sloshing/spectrum", SPECTRUM_CAPTION, setup)?);
+    let bb = &page["backbone"];
+    rep.para(&p.html("fit-sloshing/backbone", BACKBONE, bb)?);
+    rep.figure(fig(bb, "figure")?, &p.text("fit-sloshing/backbone-caption", BACKBONE_CAPTION, bb)?);
+    let frc = &page["frc"];
+    rep.para(&p.html("fit-sloshing/frc", FRC, frc)?);
+    rep.figure(fig(frc, "figure")?, &p.text("fit-sloshing/frc-caption", FRC_CAPTION, frc)?);
+    rep.para(&p.html("fit-sloshing/bench-intro", BENCH_INTRO, page)?);
+    let items: Vec<Value> = fs["table"]
+        .as_array()
+        .ok_or("report: fit_sloshing.table is not a list")?
+        .iter()
+        .map(|r| json!({ "r": r }))
+        .collect();
+    rep.table(
+        &["setting", "fit [ms]", "x baseline", "test NMTE", "test DTW-NMTE", "stopped"],
+        &p.rows("fit-sloshing/bench-row", &BENCH_CELLS, &items)?,
+    );
+    if !page["export"].is_null() {
+        rep.para(&p.html("fit-sloshing/export", EXPORT, &page["export"])?);
+    }
     Ok(())
 }
 
 /// The backbone curve of the recommended sloshing model: instantaneous damping ratio and
 /// frequency against the amplitude of x (through the normal-form transformation and the
 /// manifold), up to the largest |x| of the training data; `summary.json` key `backbone`:
-/// `{"sloshing": [{"amplitude", "freq_rad_s", "damping_ratio"}, ...]}`.
-fn backbone_paragraph(rep: &mut Report, m: &ssm::SsmModel, train: &[TimeSeries]) -> Result<(), Box<dyn Error>> {
+/// `{"sloshing": [{"amplitude", "freq_rad_s", "damping_ratio"}, ...]}`. Returns the paragraph's
+/// values: the curve's ends and the figure.
+fn backbone_values(rep: &mut Report, m: &ssm::SsmModel, train: &[TimeSeries]) -> Result<Value, Box<dyn Error>> {
     let amp_max = train.iter().flat_map(|t| t.x.iter()).fold(0.0_f64, |a, v| a.max(v.abs()));
     let opts = BackboneOptions { points: 51, ..BackboneOptions::new(0, amp_max) };
     let curves = backbone(m, &opts)?;
@@ -201,15 +262,13 @@ fn backbone_paragraph(rep: &mut Report, m: &ssm::SsmModel, train: &[TimeSeries])
         json!({ "amplitude": p.amplitude, "freq_hz": p.freq_rad_s / std::f64::consts::TAU,
                 "damping_pct": 100.0 * p.damping_ratio })
     };
-    let v = json!({ "first": end(&first), "last": end(&last) });
-    rep.para(&html("fit-sloshing/backbone", BACKBONE, &v)?);
-    rep.figure(fig, "Backbone curve of the sloshing model: amplitude of x against damping ratio and against frequency");
+    let v = json!({ "first": end(&first), "last": end(&last), "figure": fig });
     let list: Vec<Value> = pts
         .iter()
         .map(|p| json!({"amplitude": p.amplitude, "freq_rad_s": p.freq_rad_s, "damping_ratio": p.damping_ratio}))
         .collect();
     rep.summary.insert("backbone".into(), json!({ "sloshing": list }));
-    Ok(())
+    Ok(v)
 }
 
 /// The forced response curve of the recommended sloshing model (`ssm::frc`), forcing
@@ -218,7 +277,8 @@ fn backbone_paragraph(rep: &mut Report, m: &ssm::SsmModel, train: &[TimeSeries])
 /// softening curve is single-valued. Model range: the largest |x| of the training data.
 /// `summary.json` key `frc`: `{"sloshing": {"calibration": {"freq_rad_s", "amplitude",
 /// "rho", "forcing"}, "branches": [{"stable", "freq_rad_s", "amplitude", "rho"}, ...], ...}}`.
-fn frc_paragraph(rep: &mut Report, m: &ssm::SsmModel, train: &[TimeSeries]) -> Result<(), Box<dyn Error>> {
+/// Returns the paragraph's values: the calibration, the peak, the unstable branches, the figure.
+fn frc_values(rep: &mut Report, m: &ssm::SsmModel, train: &[TimeSeries]) -> Result<Value, Box<dyn Error>> {
     use ssm::frc::{Calibration, FrcOptions, frc};
     let amp_max = train.iter().flat_map(|t| t.x.iter()).fold(0.0_f64, |a, v| a.max(v.abs()));
     let w0 = m.eigenvalues_ct().first().map_or(0.0, |e| e.1.abs());
@@ -246,13 +306,12 @@ fn frc_paragraph(rep: &mut Report, m: &ssm::SsmModel, train: &[TimeSeries]) -> R
     let v = json!({
         "amplitude": cal.amplitude, "freq_rad_s": cal.freq_rad_s, "ratio": CAL_RATIO,
         "forcing": curve.calibration.forcing, "peak_amplitude": peak_a, "peak_freq_rad_s": peak_f, "unstable": unstable,
+        "figure": fig,
     });
-    rep.para(&html("fit-sloshing/frc", FRC, &v)?);
-    rep.figure(fig, "Forced response of the sloshing model (illustrative calibration point): stable solid, unstable dashed, backbone grey");
-    let mut v = crate::fit_command::frc_json(&curve, "x")?;
-    v["calibration_illustrative"] = json!(true);
-    rep.summary.insert("frc".into(), json!({ "sloshing": v }));
-    Ok(())
+    let mut frc = crate::fit_command::frc_json(&curve, "x")?;
+    frc["calibration_illustrative"] = json!(true);
+    rep.summary.insert("frc".into(), json!({ "sloshing": frc }));
+    Ok(v)
 }
 
 /// The scene of the exported Furuta model and its blob's file name.
@@ -284,31 +343,101 @@ pub fn furuta_blob(rep: &mut Report, quick: bool) -> Result<(), Box<dyn Error>> 
     };
     let v =
         json!({ "dim": o.dim, "centres": centres, "scene": FURUTA_SCENE, "file": FURUTA_BLOB, "bytes": blob.len() });
-    rep.para(&html("furuta-blob", FURUTA_EXPORT, &v)?);
     rep.summary.insert("exported_blobs".into(), json!(["sloshing-rbf50.bin", FURUTA_BLOB]));
+    rep.summary.insert("page_furuta_blob".into(), v);
+    furuta_blob_render(rep, &Value::Object(rep.summary.clone()))
+}
+
+/// Writes the sloshing section's page from the summary `s`: the sloshing fit
+/// ([`sloshing_render`]) and the Furuta blob's paragraph that ends it ([`furuta_blob_render`]).
+pub fn sloshing_page_render(rep: &mut Report, s: &Value) -> Result<(), Box<dyn Error>> {
+    sloshing_render(rep, s)?;
+    furuta_blob_render(rep, s)
+}
+
+/// Writes the Furuta blob's paragraph (the end of the sloshing section) from the summary `s`
+/// (`page_furuta_blob`).
+pub fn furuta_blob_render(rep: &mut Report, s: &Value) -> Result<(), Box<dyn Error>> {
+    rep.para(&html("furuta-blob", FURUTA_EXPORT, key(s, "page_furuta_blob")?)?);
     Ok(())
 }
 
+/// The QEMU machine and option the device table is counted under (`cargo xtask device-table`).
+const QEMU_MACHINE: &str = "mps2-an386";
+const QEMU_ICOUNT: &str = "-icount shift=7";
+/// The firmware's prediction call whose error the f32-vs-f64 table gives (`data::HORIZON` steps).
+const PREDICT_CALL: &str = "predict(12)";
+
+/// The device section's introduction over the QEMU machine and option.
+const DEVICE_INTRO: &str = "Instructions per call on the Cortex-M4F (QEMU {{ machine }}, <code>{{ icount }}</code>, \
+    SysTick: exact and repeatable counts, not cycles), and the prediction error of each sqrt flavour against the host's \
+    f64 evaluation of the same model.";
+
 /// Report section: the device cost table measured under QEMU (`cargo xtask device-table`
-/// writes `qemu/target/device-table.json`; the host cannot count Cortex-M instructions).
+/// writes `qemu/target/device-table.json`; the host cannot count Cortex-M instructions), and
+/// the processor-in-the-loop run. Summary keys `device` (the table as read), `pil` and
+/// `page_device` (the QEMU settings, the figure and the PIL run's page values); the page is
+/// written from them ([`device_render`]).
 pub fn device_section(rep: &mut Report, table: &Path) -> Result<(), Box<dyn Error>> {
-    rep.section(
-        "device",
-        "What accuracy costs in time: on the device",
-        "Instructions per call on the Cortex-M4F (QEMU mps2-an386, <code>-icount shift=7</code>, SysTick: exact \
-         and repeatable counts, not cycles), and the prediction error of each sqrt flavour against the host's f64 \
-         evaluation of the same model.",
-    );
-    let Ok(text) = infile::read_text(table, infile::MAX_REPORT_INPUT_BYTES) else {
+    let mut page = json!({ "machine": QEMU_MACHINE, "icount": QEMU_ICOUNT, "predict_call": PREDICT_CALL, "figure": null,
+                "coordinates": [] });
+    match infile::read_text(table, infile::MAX_REPORT_INPUT_BYTES) {
+        Err(_) => {
+            rep.summary.insert("device".into(), json!({"missing": table.display().to_string()}));
+        }
+        Ok(text) => {
+            let v: Value = serde_json::from_str(&text).map_err(|e| format!("{}: {e}", table.display()))?;
+            page["coordinates"] = Value::Array(coordinate_values(&v));
+            // Plot: instructions per predictor step against centres, one line per sqrt flavour.
+            let mut by: std::collections::BTreeMap<String, Vec<(f64, f64)>> = Default::default();
+            for r in v.get("predictor").and_then(Value::as_array).into_iter().flatten() {
+                if let (Some(k), Some(sq), Some(n)) = (
+                    r.get("centers").and_then(Value::as_f64),
+                    r.get("sqrt").and_then(Value::as_str),
+                    r.get("instructions").and_then(Value::as_f64),
+                ) {
+                    by.entry(sq.to_string()).or_default().push((k, n));
+                }
+            }
+            if !by.is_empty() {
+                let colors = [RGBColor(20, 60, 160), RED, RGBColor(30, 140, 60), BLACK];
+                let series: Vec<Series<'_>> = by
+                    .iter()
+                    .zip(colors.iter().cycle())
+                    .map(|((name, pts), c)| Series { name, points: pts, color: *c })
+                    .collect();
+                let fig = "fig/device_predictor.png";
+                plot::lines(
+                    &rep.dir().join(fig),
+                    "RBF predictor step on the Cortex-M4F (d = 6)",
+                    "centres K",
+                    "instructions per step",
+                    &series,
+                    (620, 340),
+                )?;
+                page["figure"] = json!(fig);
+            }
+            rep.summary.insert("device".into(), v);
+        }
+    }
+    page["pil"] = pil_values(rep, &table.with_file_name("pil").join("summary.json"))?;
+    rep.summary.insert("page_device".into(), page);
+    device_render(rep, &Value::Object(rep.summary.clone()))
+}
+
+/// Writes the device section from the summary `s` (`device`, `pil`, `page_device`).
+pub fn device_render(rep: &mut Report, s: &Value) -> Result<(), Box<dyn Error>> {
+    let page = key(s, "page_device")?;
+    rep.section("device", "What accuracy costs in time: on the device", &html("device/intro", DEVICE_INTRO, page)?);
+    let v = key(s, "device")?;
+    if let Some(missing) = v.get("missing").and_then(Value::as_str) {
         rep.para(&format!(
             "No device table at {}: run <code>cargo xtask device-table</code> (builds the firmware, runs it in QEMU) and \
              rerun the report.",
-            esc(&table.display().to_string())
+            esc(missing)
         ));
-        rep.summary.insert("device".into(), json!({"missing": table.display().to_string()}));
-        return pil_paragraph(rep, &table.with_file_name("pil").join("summary.json"));
-    };
-    let v: Value = serde_json::from_str(&text).map_err(|e| format!("{}: {e}", table.display()))?;
+        return pil_render(rep, s);
+    }
     let g = |k: &str| v.get(k).and_then(Value::as_f64).map_or("-".to_string(), |x| format!("{x:.0}"));
     let pd = v
         .get("controller_step_instructions_int_pd")
@@ -322,14 +451,15 @@ pub fn device_section(rep: &mut Report, table: &Path) -> Result<(), Box<dyn Erro
         g("flash_bytes"),
         g("ram_bytes")
     ));
-    let by_n = coordinate_rows(&v);
+    let by_n = page["coordinates"].as_array().ok_or("report: page_device.coordinates is not a list")?;
     if !by_n.is_empty() {
         rep.para(
             "Integer controller step by number of measured coordinates (encoders): with the configuration known when \
              the firmware is built, and decoded at run time from the model blob as the processor-in-the-loop firmware \
              has it.",
         );
-        rep.table(&["coordinates", "instructions / step", "run-time configuration"], &by_n);
+        let rows = Prose::new().rows("device/coordinates", &COORDINATE_CELLS, by_n)?;
+        rep.table(&["coordinates", "instructions / step", "run-time configuration"], &rows);
     }
     let rows: Vec<Vec<String>> = v
         .get("predictor")
@@ -380,102 +510,39 @@ pub fn device_section(rep: &mut Report, table: &Path) -> Result<(), Box<dyn Erro
         })
         .unwrap_or_default();
     if !scalar_rows.is_empty() {
-        rep.para(
+        rep.para(&format!(
             "f32 or f64: the Cortex-M4F's FPU is single precision only, so f64 arithmetic runs in software \
              (compiler-builtins' double routines, <code>libm::sqrt</code>). The same RBF step (the library's \
-             operation order, generic scalar, the dimension of the figure below) counted both ways; the error is that of <code>predict(12)</code> against \
+             operation order, generic scalar, the dimension of the figure below) counted both ways; the error is that of <code>{}</code> against \
              the host's f64 evaluation of the same model.",
-        );
+            esc(page["predict_call"].as_str().ok_or("report: page_device.predict_call is not a string")?)
+        ));
         rep.table(
             &["centres", "scalar", "instructions / step", "per centre", "x f32", "rel. error vs f64"],
             &scalar_rows,
         );
     }
-    // Plot: instructions per predictor step against centres, one line per sqrt flavour.
-    let mut by: std::collections::BTreeMap<String, Vec<(f64, f64)>> = Default::default();
-    for r in v.get("predictor").and_then(Value::as_array).into_iter().flatten() {
-        if let (Some(k), Some(sq), Some(n)) = (
-            r.get("centers").and_then(Value::as_f64),
-            r.get("sqrt").and_then(Value::as_str),
-            r.get("instructions").and_then(Value::as_f64),
-        ) {
-            by.entry(sq.to_string()).or_default().push((k, n));
-        }
+    if let Some(fig) = page["figure"].as_str() {
+        rep.figure(fig, "Instructions per predictor step against the number of centres, per sqrt flavour");
     }
-    if !by.is_empty() {
-        let colors = [RGBColor(20, 60, 160), RED, RGBColor(30, 140, 60), BLACK];
-        let series: Vec<Series<'_>> = by
-            .iter()
-            .zip(colors.iter().cycle())
-            .map(|((name, pts), c)| Series { name, points: pts, color: *c })
-            .collect();
-        plot::lines(
-            &rep.dir().join("fig/device_predictor.png"),
-            "RBF predictor step on the Cortex-M4F (d = 6)",
-            "centres K",
-            "instructions per step",
-            &series,
-            (620, 340),
-        )?;
-        rep.figure(
-            "fig/device_predictor.png",
-            "Instructions per predictor step against the number of centres, per sqrt flavour",
-        );
-    }
-    rep.summary.insert("device".into(), v);
-    pil_paragraph(rep, &table.with_file_name("pil").join("summary.json"))
+    pil_render(rep, s)
 }
 
-/// Rows of the integer step's cost per number of measured coordinates, from the device
-/// table's `controller_step_instructions_int_by_coordinates` and `..._runtime_config` (empty
-/// when the table predates them).
-fn coordinate_rows(v: &Value) -> Vec<Vec<String>> {
-    let Some(fixed) = v.get("controller_step_instructions_int_by_coordinates").and_then(Value::as_object) else {
-        return Vec::new();
-    };
-    let runtime = v.get("controller_step_instructions_int_runtime_config");
-    let cell = |x: Option<&Value>| x.and_then(Value::as_f64).map_or("-".to_string(), |x| format!("{x:.1}"));
-    let mut keys: Vec<(u32, &String)> = fixed.keys().filter_map(|k| k.parse().ok().map(|n| (n, k))).collect();
-    keys.sort();
-    keys.into_iter().map(|(_, k)| vec![k.clone(), cell(fixed.get(k)), cell(runtime.and_then(|r| r.get(k)))]).collect()
-}
-
-/// The processor-in-the-loop result (`cargo xtask pil` writes `qemu/target/pil/summary.json`).
-fn pil_paragraph(rep: &mut Report, path: &Path) -> Result<(), Box<dyn Error>> {
+/// The processor-in-the-loop result (`cargo xtask pil` writes `qemu/target/pil/summary.json`):
+/// summary key `pil`; returns the page's values (`null` when the run is missing).
+fn pil_values(rep: &mut Report, path: &Path) -> Result<Value, Box<dyn Error>> {
     let Ok(text) = infile::read_text(path, infile::MAX_REPORT_INPUT_BYTES) else {
-        rep.para(&format!(
-            "No processor-in-the-loop run at {}: run <code>cargo xtask pil</code>.",
-            esc(&path.display().to_string())
-        ));
         rep.summary.insert("pil".into(), json!({"missing": path.display().to_string()}));
-        return Ok(());
+        return Ok(Value::Null);
     };
     let v: Value = serde_json::from_str(&text).map_err(|e| format!("{}: {e}", path.display()))?;
-    let f = |k: &str| v.get(k).map_or("-".to_string(), |x| x.to_string());
-    rep.para(&format!(
-        "Processor in the loop (plant on the host, integer controller and RBF predictor in QEMU over the emulated UART, \
-         framed and CRC-checked): {} periods, control codes identical to the host-only controller: {}, predictions \
-         compared: {}, max relative prediction difference vs the host's f32 evaluation: {}, {} round trips/s. \
-         The whole closed loop (encoder counts, codes, states) equals the host-only simulation of the scene{}: {}.",
-        f("periods"),
-        f("codes_identical"),
-        f("predictions_compared"),
-        f("max_pred_rel_diff"),
-        v.get("round_trips_per_s").and_then(Value::as_f64).map_or("-".into(), |x| format!("{x:.0}")),
-        v.get("noise").filter(|n| !n.is_null()).map_or(String::new(), |n| format!(
-            " (sensor noise sigma {} rad, seed {}, the same draws)",
-            n.get("sigma_theta").map_or("-".to_string(), |x| x.to_string()),
-            n.get("seed").map_or("-".to_string(), |x| x.to_string())
-        )),
-        f("host_sim_codes_identical")
-    ));
     // The blob the run flashed is part of the report's exported models.
     let blob = path.with_file_name("model.bin");
-    if blob.is_file() {
+    let has_blob = blob.is_file();
+    if has_blob {
         let bytes =
             infile::read_bytes(&blob, infile::MAX_BLOB_BYTES).map_err(|e| format!("{}: {e}", blob.display()))?;
         crate::output::write_atomic(&rep.dir().join("pil-model.bin"), &bytes)?;
-        rep.para("The model blob of this run is <code>pil-model.bin</code>.");
         if let Some(Value::Array(list)) = rep.summary.get_mut("exported_blobs") {
             list.push(json!("pil-model.bin"));
         }
@@ -486,8 +553,64 @@ fn pil_paragraph(rep: &mut Report, path: &Path) -> Result<(), Box<dyn Error>> {
                "host_sim_codes_identical": v.get("host_sim_codes_identical"), "noise": v.get("noise"),
                "max_pred_rel_diff": v.get("max_pred_rel_diff"), "source": path.display().to_string()}),
     );
+    Ok(json!({
+        "predictions_compared": v.get("predictions_compared"), "round_trips_per_s": v.get("round_trips_per_s"),
+        "blob": has_blob,
+    }))
+}
+
+/// Writes the processor-in-the-loop paragraph from the summary `s` (`pil`, `page_device.pil`).
+fn pil_render(rep: &mut Report, s: &Value) -> Result<(), Box<dyn Error>> {
+    let v = key(s, "pil")?;
+    if let Some(missing) = v.get("missing").and_then(Value::as_str) {
+        rep.para(&format!("No processor-in-the-loop run at {}: run <code>cargo xtask pil</code>.", esc(missing)));
+        return Ok(());
+    }
+    let page = &key(s, "page_device")?["pil"];
+    // A value as the run's summary.json writes it, `-` when absent.
+    let f = |v: &Value, k: &str| v.get(k).filter(|x| !x.is_null()).map_or("-".to_string(), |x| x.to_string());
+    rep.para(&format!(
+        "Processor in the loop (plant on the host, integer controller and RBF predictor in QEMU over the emulated UART, \
+         framed and CRC-checked): {} periods, control codes identical to the host-only controller: {}, predictions \
+         compared: {}, max relative prediction difference vs the host's f32 evaluation: {}, {} round trips/s. \
+         The whole closed loop (encoder counts, codes, states) equals the host-only simulation of the scene{}: {}.",
+        f(v, "periods"),
+        f(v, "codes_identical"),
+        f(page, "predictions_compared"),
+        f(v, "max_pred_rel_diff"),
+        page.get("round_trips_per_s").and_then(Value::as_f64).map_or("-".into(), |x| format!("{x:.0}")),
+        v.get("noise").filter(|n| !n.is_null()).map_or(String::new(), |n| format!(
+            " (sensor noise sigma {} rad, seed {}, the same draws)",
+            n.get("sigma_theta").map_or("-".to_string(), |x| x.to_string()),
+            n.get("seed").map_or("-".to_string(), |x| x.to_string())
+        )),
+        f(v, "host_sim_codes_identical")
+    ));
+    if page["blob"].as_bool() == Some(true) {
+        rep.para("The model blob of this run is <code>pil-model.bin</code>.");
+    }
     Ok(())
 }
+/// The integer step's cost per number of measured coordinates, from the device table's
+/// `controller_step_instructions_int_by_coordinates` and `..._runtime_config` (empty when the
+/// table predates them): `[{"n", "fixed", "runtime"}]` in increasing `n`.
+fn coordinate_values(v: &Value) -> Vec<Value> {
+    let Some(fixed) = v.get("controller_step_instructions_int_by_coordinates").and_then(Value::as_object) else {
+        return Vec::new();
+    };
+    let runtime = v.get("controller_step_instructions_int_runtime_config");
+    let mut keys: Vec<(u32, &String)> = fixed.keys().filter_map(|k| k.parse().ok().map(|n| (n, k))).collect();
+    keys.sort();
+    keys.into_iter()
+        .map(|(n, k)| {
+            let at = |x: Option<&Value>| x.and_then(Value::as_f64);
+            json!({ "n": n, "fixed": at(fixed.get(k)), "runtime": at(runtime.and_then(|r| r.get(k))) })
+        })
+        .collect()
+}
+
+/// The cells of a [`coordinate_values`] row.
+const COORDINATE_CELLS: [&str; 3] = ["{{ n }}", "{{ fixed | fixed_or(1, '-') }}", "{{ runtime | fixed_or(1, '-') }}"];
 
 #[cfg(test)]
 mod tests {
@@ -534,6 +657,77 @@ mod tests {
         let blob = json!({ "dim": 4, "centres": 100, "scene": FURUTA_SCENE, "file": FURUTA_BLOB, "bytes": 9876 });
         let a = assert_numbers_follow("furuta-blob", FURUTA_EXPORT, &blob);
         assert!(a.contains("a 100-centre RBF map") && a.contains("(9876 bytes)"), "{a}");
+    }
+
+    /// The sloshing page from the report's values: one value moved shows, every value moved
+    /// leaves no number put.
+    #[test]
+    fn sloshing_page_follows_the_values() {
+        let s = crate::report::pages::snapshot_summary();
+        crate::report::pages::check_section(
+            sloshing_page_render,
+            &s,
+            "/fit_sloshing/nmte_test",
+            json!(0.0421),
+            "test NMTE 0.0421,",
+        );
+    }
+
+    /// A device table and a PIL run as `cargo xtask device-table` and `cargo xtask pil` write
+    /// them (the quick report has neither), with the page values `device_section` adds.
+    fn device_values() -> Value {
+        json!({
+            "device": {
+                "controller_step_instructions_int": 90.5, "controller_step_instructions_int_pd": 72.8,
+                "controller_step_instructions_float": 80.2, "controller_step_instructions_f64": 912.7,
+                "flash_bytes": 30211, "ram_bytes": 4417,
+                "controller_step_instructions_int_by_coordinates": {"1": 60.0, "2": 90.5, "4": 150.3},
+                "controller_step_instructions_int_runtime_config": {"1": 70.0, "2": 101.0},
+                "predictor": [
+                    {"centers": 50, "sqrt": "libm", "instructions": 5123.5, "per_center": 102.47, "rel_error": 3.1e-7},
+                    {"centers": 100, "sqrt": "fast", "instructions": 9876.5, "per_center": 98.765, "rel_error": 2.2e-4},
+                ],
+                "predictor_f32_vs_f64": [
+                    {"centers": 50, "scalar": "f32", "instructions": 1234.5, "per_center": 24.69, "rel_error": 3e-7, "vs_f32": 1.5},
+                    {"centers": 50, "scalar": "f64", "instructions": 23456.5, "per_center": 469.13, "rel_error": 2e-16, "vs_f32": 19.0},
+                ],
+                // Small sizes: a share of two sizes moved alike by `perturbed` would stay put.
+                "firmware_sizes": [
+                    {"config": "stm32f407: on-target tests", "flash_bytes": 3, "ram_bytes": 7, "flash_capacity": 10, "ram_capacity": 9},
+                ],
+            },
+            "pil": {"periods": 4000, "codes_identical": true, "host_sim_codes_identical": true,
+                    "noise": {"sigma_theta": 0.0015, "seed": 7}, "max_pred_rel_diff": 2.5e-7, "source": "qemu/target/pil/summary.json"},
+            "page_device": {"machine": QEMU_MACHINE, "icount": QEMU_ICOUNT, "predict_call": PREDICT_CALL,
+                            "figure": "fig/device_predictor.png",
+                            "coordinates": [{"n": 1, "fixed": 60.0, "runtime": 70.0}, {"n": 2, "fixed": 90.5, "runtime": 101.0},
+                                            {"n": 4, "fixed": 150.3, "runtime": null}],
+                            "pil": {"predictions_compared": 3990, "round_trips_per_s": 1534.6, "blob": true}},
+        })
+    }
+
+    /// The device page from its values: one value moved shows, every value moved leaves no
+    /// number put; and the page of a missing table and run names the files.
+    #[test]
+    fn device_page_follows_the_values() {
+        let s = device_values();
+        crate::report::pages::check_section(
+            device_render,
+            &s,
+            "/device/controller_step_instructions_int",
+            json!(123.4),
+            "integer 123 (",
+        );
+        let missing = json!({"device": {"missing": "q/device-table.json"}, "pil": {"missing": "q/pil/summary.json"},
+                             "page_device": {"machine": QEMU_MACHINE, "icount": QEMU_ICOUNT, "predict_call": PREDICT_CALL,
+                                             "figure": null, "coordinates": [], "pil": null}});
+        let dir = std::env::temp_dir().join(format!("ssm-sloshing-report-missing-{}", std::process::id()));
+        let mut rep = Report::new(&dir).unwrap();
+        device_render(&mut rep, &missing).unwrap();
+        let html = rep.into_parts().0;
+        assert!(html.contains("No device table at q/device-table.json") && html.contains("run at q/pil/summary.json"));
+        assert!(html.contains("(QEMU mps2-an386, <code>-icount shift=7</code>, SysTick"), "{html}");
+        std::fs::remove_dir_all(&dir).ok();
     }
 
     /// The f32-vs-f64 rows of the device table JSON are rendered as a table.
