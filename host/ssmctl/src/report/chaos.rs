@@ -1034,7 +1034,7 @@ pub(crate) fn assert_numbers_follow(name: &str, template: &str, values: &serde_j
 /// The flag's model search on a known chaotic system sampled like the flag
 /// ([`chaos_study::flag_pipeline`]): the system as the data settings read it (computed here, over 8
 /// held-out-length pieces; quick: a shorter Benettin run) and the committed candidate rows
-/// (`studies/results/flag/known_system.json`, from the example `flag_pipeline`). Summary key
+/// (`studies/results/flag/known_system.json`, written by `ssmctl study studies/flag-known-system.toml`). Summary key
 /// `flag_pipeline_check`.
 fn flag_pipeline_check(
     rep: &mut crate::report::Report,

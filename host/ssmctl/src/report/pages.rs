@@ -138,14 +138,7 @@ const CELLS: &[(&str, &str)] = &[
 ];
 
 /// The numbers that may stay put, and why.
-const STAYS: &[(&str, &str)] = &[
-    ("0", "an integer zero stays zero in `perturbed`, so that a branch on a count stays"),
-    (
-        "-42.5",
-        "a relative difference (%) next to -42.64 %, the fixed point of `perturbed` (x -> 1.2345 x + 0.1): moved, it shows the same digits",
-    ),
-    ("-42.8", "as -42.5: next to the fixed point of `perturbed`"),
-];
+const STAYS: &[(&str, &str)] = &[("0", "an integer zero stays zero in `perturbed`, so that a branch on a count stays")];
 
 fn snapshot_path() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/snapshots/report_values.json")

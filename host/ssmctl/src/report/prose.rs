@@ -193,8 +193,8 @@ pub fn numbers_in(text: &str) -> Vec<String> {
     out
 }
 
-/// `values` with every number moved (`x -> 1.2345 x + 0.1`, integers to the next integer up
-/// of that, an unsigned zero kept, so that a branch on "any of these?" stays): a rendering of
+/// `values` with every number moved (`x -> x + 0.2345 |x| + 0.1`, which has no fixed point,
+/// integers to the next integer up of that, an unsigned zero kept, so that a branch on "any of these?" stays): a rendering of
 /// it differs from the original's in every number that comes from a value (but such zeros),
 /// and equals it in every number typed into a template.
 pub fn perturbed(values: &Value) -> Value {
@@ -205,7 +205,7 @@ pub fn perturbed(values: &Value) -> Value {
             } else if let Some(i) = n.as_i64() {
                 Value::from(i - 1 - i.abs() / 4)
             } else {
-                Value::from(n.as_f64().map_or(0.0, |x| 1.2345 * x + 0.1))
+                Value::from(n.as_f64().map_or(0.0, |x| x + 0.2345 * x.abs() + 0.1))
             }
         }
         Value::Array(a) => Value::Array(a.iter().map(perturbed).collect()),
