@@ -1,6 +1,6 @@
 //! (d) Every `try_new` rejects each bad field with the variant naming it.
 
-mod common;
+use crate::common;
 
 use common::{H_ADC, paper_counts};
 use controller::{ConfigError, ControllerConfig, Field, FloatPd, Gain, IntPd, Law, LiteralPd, QuantMode, Quantization};

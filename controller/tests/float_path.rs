@@ -1,6 +1,6 @@
 //! The exact floating-point path against a direct evaluation of the formula.
 
-mod common;
+use crate::common;
 
 use common::{assert_close, shorthand};
 use controller::{ControllerConfig, FloatPd, InputError, Signal};

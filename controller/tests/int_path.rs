@@ -1,7 +1,7 @@
 //! The integer (counts) path: against the exact real formula within the documented Q16
 //! bound, against an exact i128 evaluation over the whole i32 range, and golden traces.
 
-mod common;
+use crate::common;
 
 use common::{H_ADC, H_DAC, paper_counts};
 use controller::AdcError;

@@ -1,6 +1,6 @@
 //! The paper's literal formula (golden values at 50 digits) and the `Law` dispatcher.
 
-mod common;
+use crate::common;
 
 use common::{H_ADC, H_DAC, paper_counts};
 use controller::{

@@ -1,7 +1,7 @@
 //! Golden bytes, the pinned version-2 blob, the refused version-1 blob, and one check per
 //! decode error.
 
-mod common;
+use crate::common;
 
 use shared::model::{DecodeError, EncodeError, HEADER_LEN, Model, ModelRef, SUPPORTED_VERSIONS};
 

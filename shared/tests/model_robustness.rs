@@ -2,7 +2,7 @@
 //! extensions, and combinations) are decoded; none may panic and none that differs from the
 //! original may be accepted. Deterministic (fixed seed), so a failure reproduces.
 
-mod common;
+use crate::common;
 
 use std::time::Instant;
 

@@ -7,7 +7,7 @@
 use sim::closed_loop::simulate;
 use sim::scene::{IntegratorSpec, MethodKind};
 
-mod common;
+use crate::common;
 use common::scene;
 
 #[test]

@@ -5,7 +5,7 @@
 //! `Ok` or `Err`, never panic.
 //!
 //! Bounded time: `FUZZ_CASES` cases per property (default 300); a longer run for a fuzz
-//! campaign is `FUZZ_CASES=100000 cargo test -p sim --test fuzz_scene --release`.
+//! campaign is `FUZZ_CASES=100000 cargo test -p sim --test integration --release fuzz_scene::`.
 
 use proptest::prelude::*;
 use sim::closed_loop::simulate;

@@ -3,7 +3,7 @@
 //! (prediction, conversion to the device blob) without panicking.
 //!
 //! Bounded time: `FUZZ_CASES` cases per property (default 300); a fuzz campaign runs e.g.
-//! `FUZZ_CASES=100000 cargo test -p ssm --test fuzz_inputs --release`.
+//! `FUZZ_CASES=100000 cargo test -p ssm --test integration --release fuzz_inputs::`.
 
 use proptest::prelude::*;
 use serde_json::Value;

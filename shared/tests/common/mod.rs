@@ -1,4 +1,4 @@
-//! Models shared by the format tests (`mod common;`).
+//! Models shared by the format tests (the module `common` of `tests/integration.rs`).
 #![allow(dead_code)]
 
 use shared::ControllerConfig;

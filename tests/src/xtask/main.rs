@@ -215,7 +215,27 @@ fn cmd(program: impl AsRef<std::ffi::OsStr>) -> Command {
     {
         c.env_remove(var);
     }
+    for (key, value) in ci_build_env(std::env::var_os("CI").as_deref(), |k| std::env::var_os(k).is_some()) {
+        c.env(key, value);
+    }
     c
+}
+
+/// What a CI run (`CI` set and not `false` or `0`) sets for the cargo it starts, each unless
+/// the environment already says: its target dir starts empty and is built once, so
+/// incremental compilation's dep-graphs and query caches would never be read, and nobody reads
+/// the workspace crates' line tables (a panic's message keeps its file:line, which comes from
+/// the panic's location, not from debug info; a backtrace keeps the function names). The
+/// dev profile too, so the Python module's `--profile dev` build keeps the test profile's
+/// settings and reuses its crates. A developer's target dir keeps both: cargo hashes them into
+/// each artifact, so switching would compile every workspace crate again.
+fn ci_build_env(ci: Option<&std::ffi::OsStr>, is_set: impl Fn(&str) -> bool) -> Vec<(&'static str, &'static str)> {
+    const CI_ENV: [(&str, &str); 3] =
+        [("CARGO_INCREMENTAL", "0"), ("CARGO_PROFILE_DEV_DEBUG", "false"), ("CARGO_PROFILE_TEST_DEBUG", "false")];
+    if !ci.is_some_and(|v| !v.is_empty() && v != "false" && v != "0") {
+        return Vec::new();
+    }
+    CI_ENV.into_iter().filter(|(k, _)| !is_set(k)).collect()
 }
 
 fn run(c: &mut Command) -> Result<()> {
@@ -1558,6 +1578,23 @@ fn test_all() -> Result<()> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn ci_builds_without_incremental_and_line_tables_unless_told() {
+        let s = |v: &'static str| Some(std::ffi::OsStr::new(v));
+        let keys = |ci, set: &[&str]| -> Vec<&str> {
+            ci_build_env(ci, |k| set.contains(&k)).into_iter().map(|(k, _)| k).collect()
+        };
+        let all = ["CARGO_INCREMENTAL", "CARGO_PROFILE_DEV_DEBUG", "CARGO_PROFILE_TEST_DEBUG"];
+        assert_eq!(keys(s("true"), &[]), all);
+        assert_eq!(keys(s("1"), &[]), all);
+        for not_ci in [None, s("false"), s("0"), s("")] {
+            assert!(keys(not_ci, &[]).is_empty(), "{not_ci:?}");
+        }
+        // A setting the caller made is left to cargo.
+        assert_eq!(keys(s("true"), &["CARGO_INCREMENTAL"]), all[1..]);
+        assert_eq!(ci_build_env(s("true"), |_| false)[0], ("CARGO_INCREMENTAL", "0"));
+    }
 
     fn args(a: &[&str]) -> Vec<String> {
         a.iter().map(|s| s.to_string()).collect()
