@@ -20,6 +20,8 @@ pub mod parametric;
 pub mod saddle_cycles;
 pub mod shared_tangent;
 pub mod sweep;
+#[cfg(test)]
+mod test_fixtures;
 
 pub use error::Error;
 

@@ -369,10 +369,11 @@ pub fn predict_one(
 mod tests {
     use super::*;
 
-    /// One shared fit (the costly part) reused for every check.
+    /// One shared fit (the costly part, shared with `map_global`'s tests) reused for every
+    /// check.
     #[test]
     fn shared_tangent_rates_and_predictions() {
-        let pm = shared_parametric(&FurutaOptions::default()).unwrap();
+        let pm = crate::test_fixtures::shared_model();
         // 1. The shared-V1 maps keep the exact linear rates like the own-V1 fits (anchored
         //    linear part; the errors are printed).
         for n in &pm.nodes {
