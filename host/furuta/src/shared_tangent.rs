@@ -369,6 +369,27 @@ pub fn predict_one(
 mod tests {
     use super::*;
 
+    /// The plain fit (runs simulated per period) and the fit on shared runs give the same
+    /// model, bit for bit: small options (two periods, three short runs each, a low order) as
+    /// the sharing tests of `parametric` use; the report's model is fitted on shared runs.
+    #[test]
+    fn shared_fit_on_shared_runs_is_the_plain_fit() {
+        let base = FurutaOptions::default();
+        let o = FurutaOptions {
+            dts_ms: vec![30.5, 32.5],
+            initial_states: vec![[0.01, 0.0, 0.0, 0.0], [0.05, 0.0, 0.0, 0.5]],
+            slow_starts: vec![(0.004, 0.7)],
+            periods: 900,
+            fit: ssm::fit::FitOptions { embed: 9, dyn_order: 3, ..base.fit },
+            map_weight: Some(crate::parametric::default_map_weight(9)),
+            ..base
+        };
+        let wider = FurutaOptions { max_theta: 0.3, ..o.clone() };
+        let runs = crate::parametric::TrainingRuns::simulate(&[&o, &wider]).unwrap();
+        let plain = serde_json::to_string(&shared_parametric(&o).unwrap()).unwrap();
+        assert_eq!(serde_json::to_string(&shared_parametric_from(&o, &runs).unwrap()).unwrap(), plain);
+    }
+
     /// One shared fit (the costly part, shared with `map_global`'s tests) reused for every
     /// check.
     #[test]

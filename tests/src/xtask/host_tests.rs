@@ -107,7 +107,8 @@ pub fn executables(json_lines: &str) -> Result<Vec<Executable>> {
 }
 
 /// Runs the test executables `jobs` at a time, longest first by `previous` (seconds by name
-/// from the last run; unknown ones first), each in its package folder as `cargo test` runs it,
+/// from the last run or the stored estimates; the ones without a time after them, in their
+/// order: the estimates hold every long binary), each in its package folder as `cargo test` runs it,
 /// its whole output printed when it ends (with `test_times`, libtest's time of each test);
 /// then `doc` (the doc tests, through cargo). Returns every binary's timing (start relative to
 /// this call) and the failed ones' names.
@@ -120,7 +121,7 @@ pub fn run_parallel(
 ) -> (Vec<Binary>, Vec<String>) {
     let mut order: Vec<&Executable> = exes.iter().collect();
     order.sort_by(|a, b| {
-        let t = |e: &Executable| previous.get(&e.name).copied().unwrap_or(f64::INFINITY);
+        let t = |e: &Executable| previous.get(&e.name).copied().unwrap_or(f64::NEG_INFINITY);
         t(b).total_cmp(&t(a))
     });
     let queue = std::sync::Mutex::new(order.into_iter());
@@ -431,20 +432,25 @@ pub fn build_times(
 /// The stored estimates of the host test binaries' seconds, from a steps JSON: the order in
 /// which a clean clone (no last run in `target/`) starts them. `None` when it has none.
 pub fn estimates_json(steps: &serde_json::Value) -> Option<serde_json::Value> {
-    let mut seconds = serde_json::Map::new();
+    let mut seconds = std::collections::BTreeMap::new();
     for b in steps["host_test_binaries"].as_array()? {
         let (Some(name), Some(s)) = (b["name"].as_str(), b["seconds"].as_f64()) else { continue };
         // The doc tests run after the binaries, through cargo: not scheduled.
         if !name.ends_with(" doc tests") {
-            seconds.insert(name.to_string(), ((s * 10.0).round() / 10.0).into());
+            seconds.insert(name.to_string(), s);
         }
     }
-    (!seconds.is_empty()).then(|| {
-        serde_json::json!({
-            "about": "Wall seconds of each host test binary in a run of `cargo xtask test` (two at a time), written by `cargo xtask build-times --save-estimates`: the xtask starts the longest first when target/ holds no run of its own.",
-            "load_average_1_5_15_min": steps["load_average_1_5_15_min"],
-            "seconds": seconds,
-        })
+    (!seconds.is_empty()).then(|| estimates_of(&seconds, &steps["load_average_1_5_15_min"]))
+}
+
+/// The estimates file's JSON for `seconds` by binary (rounded to 0.1 s).
+pub fn estimates_of(seconds: &std::collections::BTreeMap<String, f64>, load: &serde_json::Value) -> serde_json::Value {
+    let rounded: serde_json::Map<String, serde_json::Value> =
+        seconds.iter().map(|(k, s)| (k.clone(), ((s * 10.0).round() / 10.0).into())).collect();
+    serde_json::json!({
+        "about": "Wall seconds of host test binaries (`cargo xtask build-times --save-estimates`: every binary of a run of `cargo xtask test`; `cargo xtask test-cpu --save-estimates`: the binaries it measured, each alone, merged in): the xtask starts them longest first, the ones not listed after them, when target/ holds no run of its own.",
+        "load_average_1_5_15_min": load,
+        "seconds": rounded,
     })
 }
 
@@ -638,7 +644,8 @@ const CONCURRENCY_DATA = [];
             ),
             script("bad", "echo 'test result: FAILED. 0 passed; 1 failed'; exit 101"),
         ];
-        let previous = [("p long".to_string(), 9.0), ("p short".to_string(), 1.0), ("p bad".to_string(), 2.0)].into();
+        // `short` has no time: it runs after the others.
+        let previous = [("p long".to_string(), 9.0), ("p bad".to_string(), 2.0)].into();
         let mut doc = Command::new("sh");
         doc.args(["-c", "echo '   Doc-tests p' >&2; echo 'test result: ok. 2 passed; 0 failed'"]);
         let (b, failed) = run_parallel(&exes, &previous, 1, false, &mut doc);

@@ -62,10 +62,12 @@
 //!   cargo-fuzz; says so when missing), N seconds each (`fuzz.rs`).
 //! - `host-tests [--test-times]`: the host build and host tests of `test` alone; with
 //!   `--test-times` the 20 slowest tests (`host_tests.rs`).
-//! - `test-cpu [--top N] [--baseline FILE] PACKAGE[:TEST] ...`: the CPU of test binaries
-//!   (a package's unit tests, or its integration test TEST), whole and each test alone, its
-//!   N costliest tests as Markdown for `docs/build-time.md`; `target/xtask-test-cpu.json`
-//!   (`test_cpu.rs`).
+//! - `test-cpu [--top N] [--alone N] [--baseline FILE] [--json FILE] [--save-estimates] PACKAGE[:TEST][=EXE] ...`:
+//!   the CPU of test binaries (a package's unit tests, or its integration test TEST), whole
+//!   and the N longest tests of that run each alone, as Markdown for `docs/build-time.md`;
+//!   `target/xtask-test-cpu.json` (or `--json FILE`); `--save-estimates` merges their wall times into
+//!   `tests/host-test-seconds.json`; `=EXE` measures an executable built before (the binary
+//!   before a change) as that target's (`test_cpu.rs`).
 //! - `build-times [--steps FILE] [--save-estimates] [LABEL=TIMINGS.html ...]`: Markdown tables
 //!   of the last `cargo xtask test` (steps, host test binaries) and of cargo `--timings`
 //!   reports (unit-seconds by kind, side by side), for `docs/build-time.md`; with
@@ -198,11 +200,11 @@ fn main() -> ExitCode {
         Some("slurm-test") => slurm::slurm_test(None),
         Some("fuzz") => fuzz::fuzz(&args[1..]),
         Some("host-tests") => host_tests_only(&args[1..]),
-        Some("test-cpu") => test_cpu::run(&args[1..], &root(), &root().join("target").join("xtask-test-cpu.json")),
+        Some("test-cpu") => test_cpu::run(&args[1..], &root(), &root().join("target").join("xtask-test-cpu.json"), &estimates_path()),
         Some("build-times") => {
             host_tests::build_times(&args[1..], &steps_json_path(), &estimates_path(), &WORKSPACE_CRATES).map(|md| print!("{md}"))
         }
-        _ => Err("usage: cargo xtask <install | qemu-test [--board mps2-an386|stm32f407] | firmware-size | device-table [--json] | python-test | pil [--periods N] [--scene NAME] | pil-equations [--board mps2-an386|stm32f407] | pil-record --out DIR [--runs N] [--periods P] [--scene NAME] [--seed S] [--fresh] | test | reproduce --out DIR [--fresh] | compare-report BASE NEW | slurm-test | fuzz [--seconds N] [TARGET ...] | host-tests [--test-times] | test-cpu [--top N] [--baseline FILE] PACKAGE[:TEST] ... | build-times [--steps FILE] [--save-estimates] [LABEL=TIMINGS.html ...]>".into()),
+        _ => Err("usage: cargo xtask <install | qemu-test [--board mps2-an386|stm32f407] | firmware-size | device-table [--json] | python-test | pil [--periods N] [--scene NAME] | pil-equations [--board mps2-an386|stm32f407] | pil-record --out DIR [--runs N] [--periods P] [--scene NAME] [--seed S] [--fresh] | test | reproduce --out DIR [--fresh] | compare-report BASE NEW | slurm-test | fuzz [--seconds N] [TARGET ...] | host-tests [--test-times] | test-cpu [--top N] [--alone N] [--baseline FILE] [--json FILE] [--save-estimates] PACKAGE[:TEST][=EXE] ... | build-times [--steps FILE] [--save-estimates] [LABEL=TIMINGS.html ...]>".into()),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
@@ -1291,7 +1293,7 @@ fn estimates_path() -> PathBuf {
 
 /// Seconds per host test binary, to start the longest first: the last `cargo xtask test`'s
 /// (its steps JSON) over the stored estimates, so that a clean clone starts the longest first
-/// too; a binary in neither is unknown (started first).
+/// too; a binary in neither is taken for a short one (started after the others).
 fn previous_test_times() -> std::collections::BTreeMap<String, f64> {
     let read = |p: PathBuf| -> serde_json::Value {
         let text = std::fs::read_to_string(p).unwrap_or_default();

@@ -200,9 +200,15 @@ fn build(root: &Path, targets: &[String]) -> Result<Vec<Executable>> {
     let mut c = crate::cmd("cargo");
     c.current_dir(root).args(["test", "--no-run", "--message-format=json"]);
     let parsed: Vec<(String, Vec<String>, String)> = targets.iter().map(|t| parse_target(t)).collect();
-    for (p, flags, _) in &parsed {
-        c.args(["-p", p]).args(flags);
+    // Cargo takes each target flag once for all the packages.
+    let mut flags: Vec<&Vec<String>> = Vec::new();
+    for (p, f, _) in &parsed {
+        c.args(["-p", p]);
+        if !flags.contains(&f) {
+            flags.push(f);
+        }
     }
+    c.args(flags.into_iter().flatten());
     c.stderr(Stdio::inherit());
     let o = c.output().map_err(|e| format!("cannot start {c:?}: {e}"))?;
     if !o.status.success() {
@@ -216,6 +222,30 @@ fn build(root: &Path, targets: &[String]) -> Result<Vec<Executable>> {
             exes.iter().find(|e| &e.name == label).cloned().ok_or_else(|| format!("test-cpu: `{t}` built no `{label}`"))
         })
         .collect()
+}
+
+/// `TARGET=PATH`: the executable at PATH as `TARGET`'s, run in its package's folder (from
+/// `cargo metadata`).
+fn prebuilt_executable(root: &Path, target: &str) -> Result<Executable> {
+    let (t, path) = target.split_once('=').ok_or_else(|| format!("test-cpu: `{target}` is not TARGET=PATH"))?;
+    let (package, _, name) = parse_target(t);
+    if !Path::new(path).is_file() {
+        return Err(format!("test-cpu: `{target}`: {path} is not a file"));
+    }
+    let mut c = crate::cmd("cargo");
+    c.current_dir(root).args(["metadata", "--no-deps", "--format-version", "1"]);
+    let o = c.output().map_err(|e| format!("cannot start {c:?}: {e}"))?;
+    let m: serde_json::Value =
+        serde_json::from_slice(&o.stdout).map_err(|e| format!("test-cpu: cargo metadata: {e}"))?;
+    let manifest = m["packages"]
+        .as_array()
+        .into_iter()
+        .flatten()
+        .find(|p| p["name"] == package.as_str())
+        .and_then(|p| p["manifest_path"].as_str())
+        .ok_or_else(|| format!("test-cpu: `{target}`: no package `{package}` in the workspace"))?;
+    let package_dir = Path::new(manifest).parent().ok_or("test-cpu: a manifest path without a folder")?.to_path_buf();
+    Ok(Executable { name, path: PathBuf::from(path), package_dir, package })
 }
 
 /// The binary as the host tests run it: in its package folder, with the package's variables.
@@ -245,9 +275,13 @@ fn measure_binary(e: &Executable, alone: usize) -> Result<BinaryCpu> {
     Ok(BinaryCpu { name: e.name.clone(), whole, tests })
 }
 
-/// `cargo xtask test-cpu [--top N] [--alone N] [--baseline FILE] TARGET ...`.
-pub fn run(args: &[String], root: &Path, json_path: &Path) -> Result<()> {
+/// `cargo xtask test-cpu [--top N] [--alone N] [--baseline FILE] [--save-estimates] TARGET
+/// ...` (`--json FILE` instead of `json_path`; a target `TARGET=PATH` measures the executable at PATH, built before, as TARGET's); `estimates` is the stored estimates file (`--save-estimates` merges the measured
+/// binaries' wall times into it).
+pub fn run(args: &[String], root: &Path, json_path: &Path, estimates: &Path) -> Result<()> {
     let mut top = 20;
+    let mut save = false;
+    let mut json_file: Option<PathBuf> = None;
     let mut alone = 20;
     let mut baseline: Option<PathBuf> = None;
     let mut targets = Vec::new();
@@ -262,11 +296,14 @@ pub fn run(args: &[String], root: &Path, json_path: &Path) -> Result<()> {
                 let v = it.next().ok_or("test-cpu: --alone needs a number")?;
                 alone = v.parse().map_err(|_| format!("test-cpu: --alone `{v}` is not a count"))?;
             }
+            "--save-estimates" => save = true,
+            "--json" => json_file = Some(PathBuf::from(it.next().ok_or("test-cpu: --json needs a file")?)),
             "--baseline" => baseline = Some(PathBuf::from(it.next().ok_or("test-cpu: --baseline needs a file")?)),
             t if t.starts_with('-') => return Err(format!("test-cpu: unknown option `{t}`")),
             t => targets.push(t.to_string()),
         }
     }
+    let json_path = json_file.as_deref().unwrap_or(json_path);
     let read = |p: &Path| -> Result<serde_json::Value> {
         let text = std::fs::read_to_string(p).map_err(|e| format!("test-cpu: {}: {e}", p.display()))?;
         serde_json::from_str(&text).map_err(|e| format!("test-cpu: {}: {e}", p.display()))
@@ -276,7 +313,12 @@ pub fn run(args: &[String], root: &Path, json_path: &Path) -> Result<()> {
         None => Vec::new(),
     };
     // Every binary built before any runs: an edit made while they run changes nothing.
-    let exes = if targets.is_empty() { Vec::new() } else { build(root, &targets)? };
+    // `TARGET=PATH`: an executable built before (e.g. the binary before a change), not built.
+    let (prebuilt, to_build): (Vec<String>, Vec<String>) = targets.iter().cloned().partition(|t| t.contains('='));
+    let mut exes = if to_build.is_empty() { Vec::new() } else { build(root, &to_build)? };
+    for t in &prebuilt {
+        exes.push(prebuilt_executable(root, t)?);
+    }
     let mut measured = Vec::new();
     for e in &exes {
         measured.push(measure_binary(e, alone)?);
@@ -287,6 +329,17 @@ pub fn run(args: &[String], root: &Path, json_path: &Path) -> Result<()> {
     v["binaries"] = all.iter().map(BinaryCpu::json).collect::<Vec<_>>().into();
     let text = serde_json::to_string_pretty(&v).map_err(|e| format!("test-cpu: JSON: {e}"))?;
     std::fs::write(json_path, text + "\n").map_err(|e| format!("test-cpu: {}: {e}", json_path.display()))?;
+    if save {
+        // Merged into the stored estimates: each measured binary's wall time alone.
+        let text = std::fs::read_to_string(estimates).unwrap_or_default();
+        let old: serde_json::Value = serde_json::from_str(&text).unwrap_or(serde_json::Value::Null);
+        let mut seconds = crate::host_tests::read_estimates(&old);
+        seconds.extend(measured.iter().map(|b| (b.name.clone(), b.whole.wall_s)));
+        let e = crate::host_tests::estimates_of(&seconds, &v["load_average_1_5_15_min"]);
+        let text = serde_json::to_string_pretty(&e).map_err(|err| format!("test-cpu: JSON: {err}"))? + "\n";
+        std::fs::write(estimates, text).map_err(|err| format!("test-cpu: {}: {err}", estimates.display()))?;
+        println!("test-cpu: saved the binaries' wall seconds to {}", estimates.display());
+    }
     let shown: Vec<BinaryCpu> = if measured.is_empty() { all } else { measured };
     print!("{}", markdown(&shown, &before, top));
     println!("\nLoad average at the end: {}.", v["load_average_1_5_15_min"].as_str().unwrap_or("?"));

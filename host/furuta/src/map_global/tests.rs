@@ -176,19 +176,17 @@ fn map_torus_continuation_loses_the_torus_on_the_grid() {
 /// rad (past the slow saddle cycle at 32 and 32.5 ms) fitted with the default row weight
 /// (`FurutaOptions::map_weight`) lose the torus where the default's map does; unweighted they
 /// lose it far earlier. Continuation on the report's quick grid (31.4-32.0 ms by 0.1, 8,000
-/// periods), linear in dt. The default's is the report model's (`model_torus`: the model
-/// `shared_parametric_from` fits on shared runs is `shared_parametric`'s, their series being
-/// the same, `parametric::tests::shared_training_runs_give_the_separate_runs_series`).
+/// periods), linear in dt. The default's is the report model's (`model_torus`); all are
+/// fitted on the same runs (`crate::test_fixtures::training_runs`).
 #[test]
 fn map_torus_does_not_depend_on_the_training_cut() {
-    use crate::parametric::TrainingRuns;
     use crate::shared_tangent::shared_parametric_from;
-    let cut = FurutaOptions { max_theta: 0.3, ..FurutaOptions::default() };
+    let cut = crate::test_fixtures::cut_03();
     let raw = FurutaOptions { map_weight: None, ..cut.clone() };
-    let runs = TrainingRuns::simulate(&[&cut]).unwrap();
+    let runs = crate::test_fixtures::training_runs();
     let dts: Vec<f64> = (0..=6).map(|k| ((31.4 + 0.1 * k as f64) * 1e4).round() / 1e4).collect();
     let cont = |o: &FurutaOptions| {
-        let sm = shared_parametric_from(o, &runs).unwrap();
+        let sm = shared_parametric_from(o, runs).unwrap();
         map_torus_continuation(|dt| Ok(sm.model_at(dt, Interp::Linear)?), &dts, [0.097, 0.0277], 8000).unwrap()
     };
     let (b, c, r) = (model_torus(), &cont(&cut), &cont(&raw));
