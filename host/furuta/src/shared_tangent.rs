@@ -381,7 +381,9 @@ mod tests {
             slow_starts: vec![(0.004, 0.7)],
             periods: 900,
             fit: ssm::fit::FitOptions { embed: 9, dyn_order: 3, ..base.fit },
-            map_weight: Some(crate::parametric::default_map_weight(9)),
+            // The row weight's low-degree stage needs an order above 3; what is checked
+            // here is the series the fits get, not the weight.
+            map_weight: None,
             ..base
         };
         let wider = FurutaOptions { max_theta: 0.3, ..o.clone() };

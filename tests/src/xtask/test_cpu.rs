@@ -334,7 +334,9 @@ pub fn run(args: &[String], root: &Path, json_path: &Path, estimates: &Path) -> 
         let text = std::fs::read_to_string(estimates).unwrap_or_default();
         let old: serde_json::Value = serde_json::from_str(&text).unwrap_or(serde_json::Value::Null);
         let mut seconds = crate::host_tests::read_estimates(&old);
-        seconds.extend(measured.iter().map(|b| (b.name.clone(), b.whole.wall_s)));
+        // Without targets: every binary of the JSON.
+        let from = if measured.is_empty() { &all } else { &measured };
+        seconds.extend(from.iter().map(|b| (b.name.clone(), b.whole.wall_s)));
         let e = crate::host_tests::estimates_of(&seconds, &v["load_average_1_5_15_min"]);
         let text = serde_json::to_string_pretty(&e).map_err(|err| format!("test-cpu: JSON: {err}"))? + "\n";
         std::fs::write(estimates, text).map_err(|err| format!("test-cpu: {}: {err}", estimates.display()))?;
