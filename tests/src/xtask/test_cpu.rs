@@ -136,9 +136,9 @@ pub fn markdown(binaries: &[BinaryCpu], before: &[BinaryCpu], top: usize) -> Str
     let prior = |name: &str| before.iter().find(|b| b.name == name);
     let with_before = binaries.iter().any(|b| prior(&b.name).is_some());
     let mut md = String::from(if with_before {
-        "| binary | tests | CPU s before | CPU s (user + sys) | wall s | cores used |\n|---|---:|---:|---:|---:|---:|\n"
+        "| binary | tests alone | CPU s before | CPU s (user + sys) | wall s | cores used |\n|---|---:|---:|---:|---:|---:|\n"
     } else {
-        "| binary | tests | CPU s (user + sys) | wall s | cores used |\n|---|---:|---:|---:|---:|\n"
+        "| binary | tests alone | CPU s (user + sys) | wall s | cores used |\n|---|---:|---:|---:|---:|\n"
     });
     for b in binaries {
         let w = &b.whole;
