@@ -20,8 +20,6 @@ pub mod parametric;
 pub mod saddle_cycles;
 pub mod shared_tangent;
 pub mod sweep;
-#[cfg(test)]
-mod test_fixtures;
 
 pub use error::Error;
 

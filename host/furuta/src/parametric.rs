@@ -757,6 +757,28 @@ impl ParametricModel {
     }
 }
 
+/// Training runs that the tests of several modules fit, simulated once per test process.
+#[cfg(test)]
+pub(crate) mod test_runs {
+    use super::{FurutaOptions, TrainingRuns};
+    use std::sync::OnceLock;
+
+    /// The default training options with the runs cut at 0.3 rad instead of 0.2
+    /// (`map_global`'s training-cut test).
+    pub(crate) fn cut_03() -> FurutaOptions {
+        FurutaOptions { max_theta: 0.3, ..FurutaOptions::default() }
+    }
+
+    /// The training runs of the default options and of [`cut_03`], simulated once up to the
+    /// larger cut as the report simulates them: every series cut from them is the one
+    /// `training_series` simulates on its own
+    /// (`tests::shared_training_runs_give_the_separate_runs_series`).
+    pub(crate) fn training_runs() -> &'static TrainingRuns {
+        static R: OnceLock<TrainingRuns> = OnceLock::new();
+        R.get_or_init(|| TrainingRuns::simulate(&[&FurutaOptions::default(), &cut_03()]).unwrap())
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -766,7 +788,7 @@ mod tests {
     // tests as the report simulates them (the fit time is printed).
     fn furuta_rates_match_exact_multipliers() {
         let t0 = std::time::Instant::now();
-        let pm = furuta_parametric_from(&FurutaOptions::default(), crate::test_fixtures::training_runs()).unwrap();
+        let pm = furuta_parametric_from(&FurutaOptions::default(), test_runs::training_runs()).unwrap();
         eprintln!("fit time {:.1} s", t0.elapsed().as_secs_f64());
         let mut worst_train: f64 = 0.0;
         for t in &pm.trained {

@@ -365,6 +365,17 @@ pub fn predict_one(
     })
 }
 
+/// The report's shared-tangent model (default training options, fitted on the shared
+/// training runs as the report fits it), fitted once per test process: this module's tests
+/// check it against the exact rates and the full system, `map_global`'s iterate it.
+#[cfg(test)]
+pub(crate) fn test_model() -> &'static SharedParametricModel {
+    static M: std::sync::OnceLock<SharedParametricModel> = std::sync::OnceLock::new();
+    M.get_or_init(|| {
+        shared_parametric_from(&FurutaOptions::default(), crate::parametric::test_runs::training_runs()).unwrap()
+    })
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -396,7 +407,7 @@ mod tests {
     /// check.
     #[test]
     fn shared_tangent_rates_and_predictions() {
-        let pm = crate::test_fixtures::shared_model();
+        let pm = test_model();
         // 1. The shared-V1 maps keep the exact linear rates like the own-V1 fits (anchored
         //    linear part; the errors are printed).
         for n in &pm.nodes {

@@ -8,9 +8,9 @@ use ssm::interp::Interp;
 use std::sync::OnceLock;
 
 /// The report's shared-tangent model (default training options), fitted once per test
-/// process (`crate::test_fixtures`).
+/// process (`crate::shared_tangent::test_model`).
 fn model() -> &'static SharedParametricModel {
-    crate::test_fixtures::shared_model()
+    crate::shared_tangent::test_model()
 }
 
 /// The report model's torus continuation on the report's quick grid (31.4-32.0 ms by 0.1,
@@ -177,13 +177,13 @@ fn map_torus_continuation_loses_the_torus_on_the_grid() {
 /// (`FurutaOptions::map_weight`) lose the torus where the default's map does; unweighted they
 /// lose it far earlier. Continuation on the report's quick grid (31.4-32.0 ms by 0.1, 8,000
 /// periods), linear in dt. The default's is the report model's (`model_torus`); all are
-/// fitted on the same runs (`crate::test_fixtures::training_runs`).
+/// fitted on the same runs (`crate::parametric::test_runs::training_runs`).
 #[test]
 fn map_torus_does_not_depend_on_the_training_cut() {
     use crate::shared_tangent::shared_parametric_from;
-    let cut = crate::test_fixtures::cut_03();
+    let cut = crate::parametric::test_runs::cut_03();
     let raw = FurutaOptions { map_weight: None, ..cut.clone() };
-    let runs = crate::test_fixtures::training_runs();
+    let runs = crate::parametric::test_runs::training_runs();
     let dts: Vec<f64> = (0..=6).map(|k| ((31.4 + 0.1 * k as f64) * 1e4).round() / 1e4).collect();
     let cont = |o: &FurutaOptions| {
         let sm = shared_parametric_from(o, runs).unwrap();
