@@ -757,15 +757,38 @@ impl ParametricModel {
     }
 }
 
+/// Training runs that the tests of several modules fit, simulated once per test process.
+#[cfg(test)]
+pub(crate) mod test_runs {
+    use super::{FurutaOptions, TrainingRuns};
+    use std::sync::OnceLock;
+
+    /// The default training options with the runs cut at 0.3 rad instead of 0.2
+    /// (`map_global`'s training-cut test).
+    pub(crate) fn cut_03() -> FurutaOptions {
+        FurutaOptions { max_theta: 0.3, ..FurutaOptions::default() }
+    }
+
+    /// The training runs of the default options and of [`cut_03`], simulated once up to the
+    /// larger cut as the report simulates them: every series cut from them is the one
+    /// `training_series` simulates on its own
+    /// (`tests::shared_training_runs_give_the_separate_runs_series`).
+    pub(crate) fn training_runs() -> &'static TrainingRuns {
+        static R: OnceLock<TrainingRuns> = OnceLock::new();
+        R.get_or_init(|| TrainingRuns::simulate(&[&FurutaOptions::default(), &cut_03()]).unwrap())
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
 
     #[test]
-    // Simulates 12 runs at each of the 4 training periods (the fit time is printed).
+    // Fits the 12 runs at each of the 4 training periods, simulated once for the crate's
+    // tests as the report simulates them (the fit time is printed).
     fn furuta_rates_match_exact_multipliers() {
         let t0 = std::time::Instant::now();
-        let pm = furuta_parametric(&FurutaOptions::default()).unwrap();
+        let pm = furuta_parametric_from(&FurutaOptions::default(), test_runs::training_runs()).unwrap();
         eprintln!("fit time {:.1} s", t0.elapsed().as_secs_f64());
         let mut worst_train: f64 = 0.0;
         for t in &pm.trained {
@@ -847,7 +870,9 @@ mod tests {
     }
 
     /// The family fit (shared fits, reused periods of a known model) gives every set the model
-    /// `furuta_parametric` fits on its own, bit for bit.
+    /// `furuta_parametric` fits on its own, bit for bit. `furuta_parametric` fits each period
+    /// on its own runs, so one separate fit per cut over all the sets' periods holds every
+    /// set's models (each (period, cut) fitted once).
     #[test]
     fn family_fit_equals_separate_fits() {
         let base = small_opts(vec![30.5, 32.5], 0.2);
@@ -861,10 +886,16 @@ mod tests {
         let known = furuta_parametric_from(&base, &runs).unwrap();
         let set_refs: Vec<&FurutaOptions> = sets.iter().collect();
         let family = furuta_parametric_family(&base, &known, &set_refs, &runs).unwrap();
+        let separate: Vec<(f64, ParametricModel)> = [0.2, 0.15]
+            .iter()
+            .map(|&cut| (cut, furuta_parametric(&small_opts(vec![30.5, 31.5, 32.5], cut)).unwrap()))
+            .collect();
         for (o, (pm, _)) in sets.iter().zip(&family) {
-            let want = furuta_parametric(o).unwrap();
-            assert_eq!(pm.trained.len(), want.trained.len());
-            for (g, w) in pm.trained.iter().zip(&want.trained) {
+            let all = &separate.iter().find(|(cut, _)| *cut == o.max_theta).unwrap().1;
+            let want: Vec<&TrainedDt> =
+                o.dts_ms.iter().map(|d| all.trained.iter().find(|t| t.dt_ms == *d).unwrap()).collect();
+            assert_eq!(pm.trained.len(), want.len());
+            for (g, w) in pm.trained.iter().zip(want) {
                 assert_eq!(g.dt_ms, w.dt_ms);
                 assert_eq!(g.normal_form, w.normal_form, "dt {} cut {}", g.dt_ms, o.max_theta);
                 assert_eq!(serde_json::to_string(&g.model).unwrap(), serde_json::to_string(&w.model).unwrap());

@@ -365,14 +365,49 @@ pub fn predict_one(
     })
 }
 
+/// The report's shared-tangent model (default training options, fitted on the shared
+/// training runs as the report fits it), fitted once per test process: this module's tests
+/// check it against the exact rates and the full system, `map_global`'s iterate it.
+#[cfg(test)]
+pub(crate) fn test_model() -> &'static SharedParametricModel {
+    static M: std::sync::OnceLock<SharedParametricModel> = std::sync::OnceLock::new();
+    M.get_or_init(|| {
+        shared_parametric_from(&FurutaOptions::default(), crate::parametric::test_runs::training_runs()).unwrap()
+    })
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
 
-    /// One shared fit (the costly part) reused for every check.
+    /// The plain fit (runs simulated per period) and the fit on shared runs give the same
+    /// model, bit for bit: small options (two periods, three short runs each, a low order) as
+    /// the sharing tests of `parametric` use; the report's model is fitted on shared runs.
+    #[test]
+    fn shared_fit_on_shared_runs_is_the_plain_fit() {
+        let base = FurutaOptions::default();
+        let o = FurutaOptions {
+            dts_ms: vec![30.5, 32.5],
+            initial_states: vec![[0.01, 0.0, 0.0, 0.0], [0.05, 0.0, 0.0, 0.5]],
+            slow_starts: vec![(0.004, 0.7)],
+            periods: 900,
+            fit: ssm::fit::FitOptions { embed: 9, dyn_order: 3, ..base.fit },
+            // The row weight's low-degree stage needs an order above 3; what is checked
+            // here is the series the fits get, not the weight.
+            map_weight: None,
+            ..base
+        };
+        let wider = FurutaOptions { max_theta: 0.3, ..o.clone() };
+        let runs = crate::parametric::TrainingRuns::simulate(&[&o, &wider]).unwrap();
+        let plain = serde_json::to_string(&shared_parametric(&o).unwrap()).unwrap();
+        assert_eq!(serde_json::to_string(&shared_parametric_from(&o, &runs).unwrap()).unwrap(), plain);
+    }
+
+    /// One shared fit (the costly part, shared with `map_global`'s tests) reused for every
+    /// check.
     #[test]
     fn shared_tangent_rates_and_predictions() {
-        let pm = shared_parametric(&FurutaOptions::default()).unwrap();
+        let pm = test_model();
         // 1. The shared-V1 maps keep the exact linear rates like the own-V1 fits (anchored
         //    linear part; the errors are printed).
         for n in &pm.nodes {

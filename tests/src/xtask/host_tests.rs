@@ -107,7 +107,8 @@ pub fn executables(json_lines: &str) -> Result<Vec<Executable>> {
 }
 
 /// Runs the test executables `jobs` at a time, longest first by `previous` (seconds by name
-/// from the last run; unknown ones first), each in its package folder as `cargo test` runs it,
+/// from the last run or the stored estimates; the ones without a time after them, in their
+/// order: the estimates hold every long binary), each in its package folder as `cargo test` runs it,
 /// its whole output printed when it ends (with `test_times`, libtest's time of each test);
 /// then `doc` (the doc tests, through cargo). Returns every binary's timing (start relative to
 /// this call) and the failed ones' names.
@@ -120,7 +121,7 @@ pub fn run_parallel(
 ) -> (Vec<Binary>, Vec<String>) {
     let mut order: Vec<&Executable> = exes.iter().collect();
     order.sort_by(|a, b| {
-        let t = |e: &Executable| previous.get(&e.name).copied().unwrap_or(f64::INFINITY);
+        let t = |e: &Executable| previous.get(&e.name).copied().unwrap_or(f64::NEG_INFINITY);
         t(b).total_cmp(&t(a))
     });
     let queue = std::sync::Mutex::new(order.into_iter());
@@ -254,7 +255,7 @@ pub fn binaries(lines: &[(f64, String)], end: f64) -> Vec<Binary> {
 
 /// A test's name and seconds from libtest's `--report-time` line
 /// (`test a::b ... ok <1.234s>`).
-fn test_time(line: &str) -> Option<(String, f64)> {
+pub fn test_time(line: &str) -> Option<(String, f64)> {
     let rest = line.trim().strip_prefix("test ")?;
     let (name, result) = rest.split_once(" ... ")?;
     let secs = result.rsplit_once('<')?.1.strip_suffix("s>")?.parse().ok()?;
@@ -371,23 +372,32 @@ pub fn timing_summary(units: &[Unit], workspace: &[&str], top: usize) -> serde_j
     })
 }
 
-/// `cargo xtask build-times [--steps FILE] [LABEL=TIMINGS.html ...]`: Markdown tables of the
-/// step table and host test binaries of `cargo xtask test` (from its JSON, default
-/// `target/xtask-test-steps.json`) and, for each `--timings` report given, its unit-seconds by
+/// `cargo xtask build-times [--steps FILE] [--save-estimates] [LABEL=TIMINGS.html ...]`:
+/// Markdown tables of the step table and host test binaries of `cargo xtask test` (from its
+/// JSON, default `target/xtask-test-steps.json`; with `--save-estimates` its binaries'
+/// seconds also go to `estimates`, see [`estimates_json`]) and, for each `--timings` report given, its unit-seconds by
 /// kind, side by side (the measurements of `docs/build-time.md`).
-pub fn build_times(args: &[String], default_steps: &std::path::Path, workspace: &[&str]) -> Result<String> {
+pub fn build_times(
+    args: &[String],
+    default_steps: &std::path::Path,
+    estimates: &std::path::Path,
+    workspace: &[&str],
+) -> Result<String> {
     let mut steps_path = None;
     let mut reports = Vec::new();
+    let mut save = false;
     let mut it = args.iter();
     while let Some(a) = it.next() {
         if a == "--steps" {
             steps_path = Some(it.next().ok_or("build-times: --steps needs a file")?.clone());
+        } else if a == "--save-estimates" {
+            save = true;
         } else if let Some((label, path)) = a.split_once('=') {
             let html = std::fs::read_to_string(path).map_err(|e| format!("build-times: {path}: {e}"))?;
             let units = timing_units(&html).map_err(|e| format!("build-times: {path}: {e}"))?;
             reports.push((label.to_string(), units));
         } else {
-            return Err(format!("build-times: `{a}` is neither --steps FILE nor LABEL=TIMINGS.html"));
+            return Err(format!("build-times: `{a}` is neither --steps FILE, --save-estimates nor LABEL=TIMINGS.html"));
         }
     }
     let mut md = String::new();
@@ -398,6 +408,17 @@ pub fn build_times(args: &[String], default_steps: &std::path::Path, workspace: 
             let v: serde_json::Value =
                 serde_json::from_str(&text).map_err(|e| format!("build-times: {}: {e}", path.display()))?;
             md.push_str(&steps_markdown(&v));
+            if save {
+                let e = estimates_json(&v).ok_or_else(|| {
+                    format!("build-times: {} has no host test binaries to save as estimates", path.display())
+                })?;
+                let text = serde_json::to_string_pretty(&e).map_err(|err| format!("build-times: {err}"))? + "\n";
+                std::fs::write(estimates, text)
+                    .map_err(|err| format!("build-times: {}: {err}", estimates.display()))?;
+                md.push_str(&format!("\nSaved the binaries' seconds to {}.\n", estimates.display()));
+            }
+        } else if save {
+            return Err(format!("build-times: --save-estimates needs {}", path.display()));
         }
     } else {
         return Err(format!("build-times: {} is missing (run `cargo xtask test` first)", path.display()));
@@ -406,6 +427,39 @@ pub fn build_times(args: &[String], default_steps: &std::path::Path, workspace: 
         md.push_str(&compare_markdown(&reports, workspace));
     }
     Ok(md)
+}
+
+/// The stored estimates of the host test binaries' seconds, from a steps JSON: the order in
+/// which a clean clone (no last run in `target/`) starts them. `None` when it has none.
+pub fn estimates_json(steps: &serde_json::Value) -> Option<serde_json::Value> {
+    let mut seconds = std::collections::BTreeMap::new();
+    for b in steps["host_test_binaries"].as_array()? {
+        let (Some(name), Some(s)) = (b["name"].as_str(), b["seconds"].as_f64()) else { continue };
+        // The doc tests run after the binaries, through cargo: not scheduled.
+        if !name.ends_with(" doc tests") {
+            seconds.insert(name.to_string(), s);
+        }
+    }
+    (!seconds.is_empty()).then(|| estimates_of(&seconds, &steps["load_average_1_5_15_min"]))
+}
+
+/// The estimates file's JSON for `seconds` by binary (rounded to 0.1 s).
+pub fn estimates_of(seconds: &std::collections::BTreeMap<String, f64>, load: &serde_json::Value) -> serde_json::Value {
+    let rounded: serde_json::Map<String, serde_json::Value> =
+        seconds.iter().map(|(k, s)| (k.clone(), ((s * 10.0).round() / 10.0).into())).collect();
+    serde_json::json!({
+        "about": "Wall seconds of host test binaries (`cargo xtask build-times --save-estimates`: every binary of a run of `cargo xtask test`; `cargo xtask test-cpu --save-estimates`: the binaries it measured, each alone, merged in): the xtask starts them longest first, the ones not listed after them, when target/ holds no run of its own.",
+        "load_average_1_5_15_min": load,
+        "seconds": rounded,
+    })
+}
+
+/// Seconds by binary of an estimates JSON ([`estimates_json`]); empty when it has none.
+pub fn read_estimates(v: &serde_json::Value) -> std::collections::BTreeMap<String, f64> {
+    v["seconds"]
+        .as_object()
+        .map(|m| m.iter().filter_map(|(k, s)| Some((k.clone(), s.as_f64()?))).collect())
+        .unwrap_or_default()
 }
 
 /// The step table and the host test binaries, slowest first, of a steps JSON.
@@ -590,7 +644,8 @@ const CONCURRENCY_DATA = [];
             ),
             script("bad", "echo 'test result: FAILED. 0 passed; 1 failed'; exit 101"),
         ];
-        let previous = [("p long".to_string(), 9.0), ("p short".to_string(), 1.0), ("p bad".to_string(), 2.0)].into();
+        // `short` has no time: it runs after the others.
+        let previous = [("p long".to_string(), 9.0), ("p bad".to_string(), 2.0)].into();
         let mut doc = Command::new("sh");
         doc.args(["-c", "echo '   Doc-tests p' >&2; echo 'test result: ok. 2 passed; 0 failed'"]);
         let (b, failed) = run_parallel(&exes, &previous, 1, false, &mut doc);
@@ -601,6 +656,35 @@ const CONCURRENCY_DATA = [];
         let (b, failed) = run_parallel(&exes[..2], &previous, 2, false, &mut doc);
         assert_eq!(b.len(), 3);
         assert!(failed.is_empty(), "{failed:?}");
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    #[test]
+    fn estimates_are_saved_from_a_run_and_read_back() {
+        let steps = serde_json::json!({
+            "load_average_1_5_15_min": "1.0 2.0 3.0",
+            "host_test_binaries": [
+                {"name": "furuta src/lib.rs", "seconds": 136.14},
+                {"name": "ssm doc tests", "seconds": 9.0},
+                {"name": "ssmctl tests/commands.rs", "seconds": 144.36},
+            ],
+        });
+        let e = estimates_json(&steps).unwrap();
+        let t = read_estimates(&e);
+        assert_eq!(t.len(), 2, "{t:?}");
+        assert_eq!((t["furuta src/lib.rs"], t["ssmctl tests/commands.rs"]), (136.1, 144.4));
+        assert!(estimates_json(&serde_json::json!({"host_test_binaries": []})).is_none());
+        assert!(read_estimates(&serde_json::Value::Null).is_empty());
+        // Saved through build-times from a steps file.
+        let dir = std::env::temp_dir().join(format!("xtask-estimates-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let (steps_file, out) = (dir.join("steps.json"), dir.join("estimates.json"));
+        std::fs::write(&steps_file, steps.to_string()).unwrap();
+        let args = ["--steps".to_string(), steps_file.display().to_string(), "--save-estimates".to_string()];
+        let md = build_times(&args, &steps_file, &out, &[]).unwrap();
+        assert!(md.contains("Saved the binaries' seconds"), "{md}");
+        let back: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&out).unwrap()).unwrap();
+        assert_eq!(read_estimates(&back), t);
         std::fs::remove_dir_all(&dir).unwrap();
     }
 

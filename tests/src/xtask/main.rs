@@ -62,9 +62,17 @@
 //!   cargo-fuzz; says so when missing), N seconds each (`fuzz.rs`).
 //! - `host-tests [--test-times]`: the host build and host tests of `test` alone; with
 //!   `--test-times` the 20 slowest tests (`host_tests.rs`).
-//! - `build-times [--steps FILE] [LABEL=TIMINGS.html ...]`: Markdown tables of the last
-//!   `cargo xtask test` (steps, host test binaries) and of cargo `--timings` reports
-//!   (unit-seconds by kind, side by side), for `docs/build-time.md` (`host_tests.rs`).
+//! - `test-cpu [--top N] [--alone N] [--baseline FILE] [--json FILE] [--save-estimates] PACKAGE[:TEST][=EXE] ...`:
+//!   the CPU of test binaries (a package's unit tests, or its integration test TEST), whole
+//!   and the N longest tests of that run each alone, as Markdown for `docs/build-time.md`;
+//!   `target/xtask-test-cpu.json` (or `--json FILE`); `--save-estimates` merges their wall times into
+//!   `tests/host-test-seconds.json`; `=EXE` measures an executable built before (the binary
+//!   before a change) as that target's (`test_cpu.rs`).
+//! - `build-times [--steps FILE] [--save-estimates] [LABEL=TIMINGS.html ...]`: Markdown tables
+//!   of the last `cargo xtask test` (steps, host test binaries) and of cargo `--timings`
+//!   reports (unit-seconds by kind, side by side), for `docs/build-time.md`; with
+//!   `--save-estimates` the binaries' seconds go to `tests/host-test-seconds.json`, the order
+//!   a clean clone starts them in (`host_tests.rs`).
 
 mod cache;
 mod child;
@@ -78,6 +86,7 @@ mod python;
 mod rng;
 mod slurm;
 mod steps;
+mod test_cpu;
 mod traces;
 mod vectors;
 
@@ -191,10 +200,11 @@ fn main() -> ExitCode {
         Some("slurm-test") => slurm::slurm_test(None),
         Some("fuzz") => fuzz::fuzz(&args[1..]),
         Some("host-tests") => host_tests_only(&args[1..]),
+        Some("test-cpu") => test_cpu::run(&args[1..], &root(), &root().join("target").join("xtask-test-cpu.json"), &estimates_path()),
         Some("build-times") => {
-            host_tests::build_times(&args[1..], &steps_json_path(), &WORKSPACE_CRATES).map(|md| print!("{md}"))
+            host_tests::build_times(&args[1..], &steps_json_path(), &estimates_path(), &WORKSPACE_CRATES).map(|md| print!("{md}"))
         }
-        _ => Err("usage: cargo xtask <install | qemu-test [--board mps2-an386|stm32f407] | firmware-size | device-table [--json] | python-test | pil [--periods N] [--scene NAME] | pil-equations [--board mps2-an386|stm32f407] | pil-record --out DIR [--runs N] [--periods P] [--scene NAME] [--seed S] [--fresh] | test | reproduce --out DIR [--fresh] | compare-report BASE NEW | slurm-test | fuzz [--seconds N] [TARGET ...] | host-tests [--test-times] | build-times [--steps FILE] [LABEL=TIMINGS.html ...]>".into()),
+        _ => Err("usage: cargo xtask <install | qemu-test [--board mps2-an386|stm32f407] | firmware-size | device-table [--json] | python-test | pil [--periods N] [--scene NAME] | pil-equations [--board mps2-an386|stm32f407] | pil-record --out DIR [--runs N] [--periods P] [--scene NAME] [--seed S] [--fresh] | test | reproduce --out DIR [--fresh] | compare-report BASE NEW | slurm-test | fuzz [--seconds N] [TARGET ...] | host-tests [--test-times] | test-cpu [--top N] [--alone N] [--baseline FILE] [--json FILE] [--save-estimates] PACKAGE[:TEST][=EXE] ... | build-times [--steps FILE] [--save-estimates] [LABEL=TIMINGS.html ...]>".into()),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
@@ -1297,15 +1307,30 @@ fn host_tests_run(
     (binaries, r)
 }
 
-/// Seconds per host test binary of the last `cargo xtask test` (its steps JSON), to start the
-/// longest first; empty when there is none.
+/// The stored estimates of the host test binaries' seconds (`cargo xtask build-times
+/// --save-estimates` writes them from a run's steps JSON).
+fn estimates_path() -> PathBuf {
+    root().join("tests").join("host-test-seconds.json")
+}
+
+/// Seconds per host test binary, to start the longest first: the last `cargo xtask test`'s
+/// (its steps JSON) over the stored estimates, so that a clean clone starts the longest first
+/// too; a binary in neither is taken for a short one (started after the others).
 fn previous_test_times() -> std::collections::BTreeMap<String, f64> {
-    let text = std::fs::read_to_string(steps_json_path()).unwrap_or_default();
-    let v: serde_json::Value = serde_json::from_str(&text).unwrap_or(serde_json::Value::Null);
-    v["host_test_binaries"]
-        .as_array()
-        .map(|a| a.iter().filter_map(|b| Some((b["name"].as_str()?.to_string(), b["seconds"].as_f64()?))).collect())
-        .unwrap_or_default()
+    let read = |p: PathBuf| -> serde_json::Value {
+        let text = std::fs::read_to_string(p).unwrap_or_default();
+        serde_json::from_str(&text).unwrap_or(serde_json::Value::Null)
+    };
+    let mut times = host_tests::read_estimates(&read(estimates_path()));
+    let last = read(steps_json_path());
+    times.extend(
+        last["host_test_binaries"]
+            .as_array()
+            .into_iter()
+            .flatten()
+            .filter_map(|b| Some((b["name"].as_str()?.to_string(), b["seconds"].as_f64()?))),
+    );
+    times
 }
 
 /// `cargo xtask host-tests [--test-times]`: the host build and host tests of `cargo xtask

@@ -1,15 +1,26 @@
 use super::*;
+use crate::basin::TorusContinuation;
 use crate::basin::{agreement, full_basin};
 use crate::parametric::FurutaOptions;
-use crate::shared_tangent::{SharedParametricModel, shared_parametric};
+use crate::shared_tangent::SharedParametricModel;
 use sim::chart::Axis;
 use ssm::interp::Interp;
 use std::sync::OnceLock;
 
-/// The report's shared-tangent model (default training options), fitted once for the tests.
+/// The report's shared-tangent model (default training options), fitted once per test
+/// process (`crate::shared_tangent::test_model`).
 fn model() -> &'static SharedParametricModel {
-    static M: OnceLock<SharedParametricModel> = OnceLock::new();
-    M.get_or_init(|| shared_parametric(&FurutaOptions::default()).unwrap())
+    crate::shared_tangent::test_model()
+}
+
+/// The report model's torus continuation on the report's quick grid (31.4-32.0 ms by 0.1,
+/// 8,000 periods, linear in dt), computed once for the two tests that check it.
+fn model_torus() -> &'static TorusContinuation {
+    static T: OnceLock<TorusContinuation> = OnceLock::new();
+    T.get_or_init(|| {
+        let dts: Vec<f64> = (0..=6).map(|k| ((31.4 + 0.1 * k as f64) * 1e4).round() / 1e4).collect();
+        map_torus_continuation(|dt| Ok(model().model_at(dt, Interp::Linear)?), &dts, [0.097, 0.0277], 8000).unwrap()
+    })
 }
 
 /// A deflated state of the exact period map and the full-system start made of it agree:
@@ -141,13 +152,13 @@ fn map_basin_agrees_with_the_full_system_on_a_small_grid() {
     assert!(a.model_bounded_full_escaped + a.model_escaped_full_bounded <= 1, "{a:?}");
 }
 
-/// The map's torus continuation over 31.4-31.9 ms: attracting at 31.4 ms near the full
-/// system's torus, lost within the grid; bad grids refused.
+/// The map's torus continuation from 31.4 ms: attracting at 31.4 ms near the full system's
+/// torus, lost by 31.9 ms (the continuation stops at the first step that loses it, so the
+/// quick grid's longer tail changes nothing before); bad grids refused.
 #[test]
 fn map_torus_continuation_loses_the_torus_on_the_grid() {
     let at = |dt: f64| Ok(model().model_at(dt, Interp::Linear)?);
-    let dts: Vec<f64> = (0..=5).map(|k| ((31.4 + 0.1 * k as f64) * 1e4).round() / 1e4).collect();
-    let c = map_torus_continuation(at, &dts, [0.097, 0.0277], 8000).unwrap();
+    let c = model_torus();
     eprintln!("{c:?}");
     let first = &c.steps[0];
     assert!(!first.lost);
@@ -165,22 +176,21 @@ fn map_torus_continuation_loses_the_torus_on_the_grid() {
 /// rad (past the slow saddle cycle at 32 and 32.5 ms) fitted with the default row weight
 /// (`FurutaOptions::map_weight`) lose the torus where the default's map does; unweighted they
 /// lose it far earlier. Continuation on the report's quick grid (31.4-32.0 ms by 0.1, 8,000
-/// periods), linear in dt.
+/// periods), linear in dt. The default's is the report model's (`model_torus`); all are
+/// fitted on the same runs (`crate::parametric::test_runs::training_runs`).
 #[test]
 fn map_torus_does_not_depend_on_the_training_cut() {
-    use crate::parametric::TrainingRuns;
     use crate::shared_tangent::shared_parametric_from;
-    let base = FurutaOptions::default();
-    let cut = FurutaOptions { max_theta: 0.3, ..base.clone() };
+    let cut = crate::parametric::test_runs::cut_03();
     let raw = FurutaOptions { map_weight: None, ..cut.clone() };
-    let runs = TrainingRuns::simulate(&[&base, &cut]).unwrap();
+    let runs = crate::parametric::test_runs::training_runs();
     let dts: Vec<f64> = (0..=6).map(|k| ((31.4 + 0.1 * k as f64) * 1e4).round() / 1e4).collect();
     let cont = |o: &FurutaOptions| {
-        let sm = shared_parametric_from(o, &runs).unwrap();
+        let sm = shared_parametric_from(o, runs).unwrap();
         map_torus_continuation(|dt| Ok(sm.model_at(dt, Interp::Linear)?), &dts, [0.097, 0.0277], 8000).unwrap()
     };
-    let (b, c, r) = (cont(&base), cont(&cut), cont(&raw));
-    for (name, t) in [("default", &b), ("cut 0.3", &c), ("cut 0.3 unweighted", &r)] {
+    let (b, c, r) = (model_torus(), &cont(&cut), &cont(&raw));
+    for (name, t) in [("default", b), ("cut 0.3", c), ("cut 0.3 unweighted", r)] {
         eprintln!(
             "{name}: onset {:?}, lost {:?}, first dt lost {}",
             t.growth_onset,
@@ -191,9 +201,9 @@ fn map_torus_does_not_depend_on_the_training_cut() {
     let (ob, oc) = (b.growth_onset.unwrap(), c.growth_onset.unwrap());
     assert!((ob - oc).abs() <= 0.1, "onsets {ob} vs {oc}");
     let mid = |t: &crate::basin::TorusContinuation| t.lost_between.map(|(x, y)| 0.5 * (x + y));
-    let (lb, lc) = (mid(&b).unwrap(), mid(&c).unwrap());
+    let (lb, lc) = (mid(b).unwrap(), mid(c).unwrap());
     assert!((lb - lc).abs() <= 0.1 + 1e-9, "lost at {lb} vs {lc}");
-    assert!(r.lost_at_first_dt() || mid(&r).is_some_and(|l| l < lb - 0.2), "unweighted: {:?}", r.lost_between);
+    assert!(r.lost_at_first_dt() || mid(r).is_some_and(|l| l < lb - 0.2), "unweighted: {:?}", r.lost_between);
 }
 
 /// Options are checked before anything is computed.
