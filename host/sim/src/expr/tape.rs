@@ -8,7 +8,8 @@
 //! uses them (`a + (-b)` is `a - b`, `(-a)*c` is `a*(-c)`), integer powers as the same
 //! products `powi` forms, and an operation fused with the product feeding it when that
 //! product has no other use (`a*b + c` as one instruction: the same two roundings, one
-//! dispatch). Registers are reused once a value is dead; the inputs occupy the first
+//! dispatch), and likewise a fused product chain with its one user (`c - (a*b)*d`).
+//! Registers are reused once a value is dead; the inputs occupy the first
 //! registers. Evaluation is a loop over the tape, generic over [`Scalar`]; small scalars
 //! (`f64`, dual numbers) run on a register array on the stack whose size is a power of
 //! two, so that a masked index needs no bounds check and evaluation neither allocates
@@ -736,8 +737,9 @@ fn fn1<S: Scalar>(f: F1, x: S) -> S {
             }
         }),
         F1::Sqrt => x.apply(|x0, out| power_coefficients(x0, 0.5, out)),
+        // The sign bit, as `f64::abs` clears it: `abs(-0)` is `+0`.
         F1::Abs => {
-            if x.re() < 0.0 {
+            if x.re().is_sign_negative() {
                 -x
             } else {
                 x
