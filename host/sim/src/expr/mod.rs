@@ -21,6 +21,8 @@ mod tape;
 #[cfg(test)]
 mod tests;
 
+#[cfg(test)]
+pub(crate) use tape::WITHOUT_CHAIN_FUSION;
 pub use tape::{Evaluated, Instr, MAX_REGS, Op, Tape, TapeError};
 
 use std::collections::HashMap;

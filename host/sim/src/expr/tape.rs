@@ -8,7 +8,8 @@
 //! uses them (`a + (-b)` is `a - b`, `(-a)*c` is `a*(-c)`), integer powers as the same
 //! products `powi` forms, and an operation fused with the product feeding it when that
 //! product has no other use (`a*b + c` as one instruction: the same two roundings, one
-//! dispatch). Registers are reused once a value is dead; the inputs occupy the first
+//! dispatch), and likewise a fused product chain with its one user (`c - (a*b)*d`).
+//! Registers are reused once a value is dead; the inputs occupy the first
 //! registers. Evaluation is a loop over the tape, generic over [`Scalar`]; small scalars
 //! (`f64`, dual numbers) run on a register array on the stack whose size is a power of
 //! two, so that a masked index needs no bounds check and evaluation neither allocates
@@ -78,6 +79,12 @@ pub enum Op {
     DotMCSub(u16, u16, u16, f64),
     /// `a*k - c*d`.
     DotCMSub(u16, f64, u16, u16),
+    /// `(a*b)*k1 + k2`.
+    MulMulCAddC(u16, u16, f64, f64),
+    /// `c - (a*b)*d` (operands `c, a, b, d`).
+    SubMulMul(u16, u16, u16, u16),
+    /// `c - (a*k)*b` (operands `c, a, k, b`).
+    SubMulCMul(u16, u16, f64, u16),
     /// The end of the tape: its last instruction, and only there (the evaluation loop
     /// stops on it instead of testing for the end at every instruction).
     End,
@@ -109,15 +116,19 @@ impl Op {
             | Op::SubMulC(a, b, _)
             | Op::MulCMul(a, _, b)
             | Op::DotCAdd(a, _, b, _)
-            | Op::DotCSub(a, _, b, _) => out.extend([a, b]),
+            | Op::DotCSub(a, _, b, _)
+            | Op::MulMulCAddC(a, b, _, _) => out.extend([a, b]),
             Op::MulAdd(a, b, c)
             | Op::MulSub(a, b, c)
             | Op::SubMul(a, b, c)
             | Op::MulMul(a, b, c)
             | Op::DotMCAdd(a, b, c, _)
             | Op::DotMCSub(a, b, c, _)
-            | Op::DotCMSub(a, _, b, c) => out.extend([a, b, c]),
-            Op::Sel(a, b, c, d) | Op::DotAdd(a, b, c, d) | Op::DotSub(a, b, c, d) => out.extend([a, b, c, d]),
+            | Op::DotCMSub(a, _, b, c)
+            | Op::SubMulCMul(a, b, _, c) => out.extend([a, b, c]),
+            Op::Sel(a, b, c, d) | Op::DotAdd(a, b, c, d) | Op::DotSub(a, b, c, d) | Op::SubMulMul(a, b, c, d) => {
+                out.extend([a, b, c, d])
+            }
             Op::End => {}
         }
     }
@@ -165,6 +176,12 @@ pub const MAX_REGS: usize = u16::MAX as usize;
 
 /// Largest integer power computed as products (beyond it, `powi` at run time).
 const MAX_EXPANDED_POWER: u32 = 64;
+
+#[cfg(test)]
+thread_local! {
+    /// Tests compile with and without [`Ssa::fuse_chains`] to compare the values.
+    pub(crate) static WITHOUT_CHAIN_FUSION: std::cell::Cell<bool> = const { std::cell::Cell::new(false) };
+}
 
 /// A value of the SSA program before register allocation.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -276,6 +293,13 @@ impl Tape {
         }
         let out_vals: Vec<Val> = roots.iter().map(|&r| get(&val, r).unwrap_or(Val::Const(f64::NAN))).collect();
         b.fuse(&out_vals);
+        #[cfg(test)]
+        let chains = !WITHOUT_CHAIN_FUSION.with(std::cell::Cell::get);
+        #[cfg(not(test))]
+        let chains = true;
+        if chains {
+            b.fuse_chains(&out_vals);
+        }
         b.allocate(&out_vals, n_inputs)
     }
 
@@ -504,6 +528,17 @@ impl Tape {
                     let q = regs.with2(c, d, |x, y| x.mul_ref(y));
                     p.sub_ref(&q)
                 }
+                Op::MulMulCAddC(a, b, k1, k2) => regs.with2(a, b, |x, y| x.mul_ref(y)).scaled(k1) + k2,
+                Op::SubMulMul(c, a, b, d) => {
+                    let p = regs.with2(a, b, |x, y| x.mul_ref(y));
+                    let q = regs.with1(d, |z| p.mul_ref(z));
+                    regs.with1(c, |z| z.sub_ref(&q))
+                }
+                Op::SubMulCMul(c, a, k, b) => {
+                    let p = regs.with1(a, |x| x.scaled(k));
+                    let q = regs.with1(b, |z| p.mul_ref(z));
+                    regs.with1(c, |z| z.sub_ref(&q))
+                }
             };
             regs.put(ins.dst, value);
         }
@@ -702,8 +737,9 @@ fn fn1<S: Scalar>(f: F1, x: S) -> S {
             }
         }),
         F1::Sqrt => x.apply(|x0, out| power_coefficients(x0, 0.5, out)),
+        // The sign bit, as `f64::abs` clears it: `abs(-0)` is `+0`.
         F1::Abs => {
-            if x.re() < 0.0 {
+            if x.re().is_sign_negative() {
                 -x
             } else {
                 x
@@ -778,6 +814,9 @@ enum SsaOp {
     DotMCAdd(Val, Val, Val, f64),
     DotMCSub(Val, Val, Val, f64),
     DotCMSub(Val, f64, Val, Val),
+    MulMulCAddC(Val, Val, f64, f64),
+    SubMulMul(Val, Val, Val, Val),
+    SubMulCMul(Val, Val, f64, Val),
 }
 
 /// Hash key of an operation: a tag and up to four words (values and constants by bits).
@@ -792,9 +831,13 @@ impl SsaOp {
             | SsaOp::SubMulC(a, b, _)
             | SsaOp::MulCMul(a, _, b)
             | SsaOp::DotCAdd(a, _, b, _)
-            | SsaOp::DotCSub(a, _, b, _) => vec![a, b],
-            SsaOp::DotMCAdd(a, b, c, _) | SsaOp::DotMCSub(a, b, c, _) | SsaOp::DotCMSub(a, _, b, c) => vec![a, b, c],
-            SsaOp::DotAdd(a, b, c, d) | SsaOp::DotSub(a, b, c, d) => vec![a, b, c, d],
+            | SsaOp::DotCSub(a, _, b, _)
+            | SsaOp::MulMulCAddC(a, b, _, _) => vec![a, b],
+            SsaOp::DotMCAdd(a, b, c, _)
+            | SsaOp::DotMCSub(a, b, c, _)
+            | SsaOp::DotCMSub(a, _, b, c)
+            | SsaOp::SubMulCMul(a, b, _, c) => vec![a, b, c],
+            SsaOp::DotAdd(a, b, c, d) | SsaOp::DotSub(a, b, c, d) | SsaOp::SubMulMul(a, b, c, d) => vec![a, b, c, d],
             SsaOp::Neg(a)
             | SsaOp::AddC(a, _)
             | SsaOp::SubC(a, _)
@@ -853,6 +896,9 @@ impl SsaOp {
             SsaOp::DotMCAdd(a, b, x, k) => (35, [v(a), v(b), v(x), c(k)]),
             SsaOp::DotMCSub(a, b, x, k) => (36, [v(a), v(b), v(x), c(k)]),
             SsaOp::DotCMSub(a, k, x, y) => (37, [v(a), c(k), v(x), v(y)]),
+            SsaOp::MulMulCAddC(a, b, k1, k2) => (38, [v(a), v(b), c(k1), c(k2)]),
+            SsaOp::SubMulMul(x, a, b, y) => (39, [v(x), v(a), v(b), v(y)]),
+            SsaOp::SubMulCMul(x, a, k, b) => (40, [v(x), v(a), c(k), v(b)]),
         }
     }
 }
@@ -1097,6 +1143,71 @@ impl Ssa {
         self.sweep(outputs);
     }
 
+    /// How often each operation's first result is read by live operations, outputs counted
+    /// twice (never fused away: an output keeps its own register).
+    fn uses(&self, outputs: &[Val]) -> Vec<usize> {
+        let mut uses = vec![0usize; self.prog.len()];
+        let mut count = |v: Val| {
+            if let Val::Ssa(k, false) = v {
+                if let Some(u) = uses.get_mut(k) {
+                    *u += 1;
+                }
+            }
+        };
+        for (k, op) in self.prog.iter().enumerate() {
+            if !self.dead.get(k).copied().unwrap_or(true) {
+                for v in op.operands() {
+                    count(v);
+                }
+            }
+        }
+        for &v in outputs {
+            count(v);
+            count(v);
+        }
+        uses
+    }
+
+    /// After [`Ssa::fuse`]: fuses a fused product chain into its one user, when nothing
+    /// else reads it (`(a*b)*k1 + k2` from a square scaled and shifted, `c - (a*b)*d` and
+    /// `c - (a*k)*b`), evaluated in the operations' original order: the same roundings.
+    fn fuse_chains(&mut self, outputs: &[Val]) {
+        let uses = self.uses(outputs);
+        for j in 0..self.prog.len() {
+            if self.dead.get(j).copied().unwrap_or(true) {
+                continue;
+            }
+            let Some(op) = self.prog.get(j).copied() else { continue };
+            let single = |s: &Ssa, v: Val| -> Option<(usize, SsaOp)> {
+                let Val::Ssa(k, false) = v else { return None };
+                if uses.get(k).copied() != Some(1) || s.dead.get(k).copied().unwrap_or(true) {
+                    return None;
+                }
+                s.prog.get(k).map(|&d| (k, d))
+            };
+            let fused = match op {
+                SsaOp::MulCAddC(x, k1, k2) => match single(self, x) {
+                    Some((k, SsaOp::Bin(BinOp::Mul, a, b))) => Some((k, SsaOp::MulMulCAddC(a, b, k1, k2))),
+                    _ => None,
+                },
+                SsaOp::Bin(BinOp::Sub, c, y) if c != y => match single(self, y) {
+                    Some((k, SsaOp::MulMul(a, b, d))) => Some((k, SsaOp::SubMulMul(c, a, b, d))),
+                    Some((k, SsaOp::MulCMul(a, q, b))) => Some((k, SsaOp::SubMulCMul(c, a, q, b))),
+                    _ => None,
+                },
+                _ => None,
+            };
+            if let Some((k, f)) = fused {
+                if let Some(d) = self.dead.get_mut(k) {
+                    *d = true;
+                }
+                if let Some(slot) = self.prog.get_mut(j) {
+                    *slot = f;
+                }
+            }
+        }
+    }
+
     /// Marks dead every operation no output depends on (through live operations).
     fn sweep(&mut self, outputs: &[Val]) {
         let np = self.prog.len();
@@ -1241,6 +1352,9 @@ impl Ssa {
                 SsaOp::DotMCAdd(a, b, c, k) => Op::DotMCAdd(r(a), r(b), r(c), k),
                 SsaOp::DotMCSub(a, b, c, k) => Op::DotMCSub(r(a), r(b), r(c), k),
                 SsaOp::DotCMSub(a, k, c, d) => Op::DotCMSub(r(a), k, r(c), r(d)),
+                SsaOp::MulMulCAddC(a, b, k1, k2) => Op::MulMulCAddC(r(a), r(b), k1, k2),
+                SsaOp::SubMulMul(c, a, b, d) => Op::SubMulMul(r(c), r(a), r(b), r(d)),
+                SsaOp::SubMulCMul(c, a, k, b) => Op::SubMulCMul(r(c), r(a), k, r(b)),
             };
             // Free operands whose last use is here (before choosing the destination: an
             // instruction may overwrite its own operand, the evaluation reads them first).

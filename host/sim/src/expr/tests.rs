@@ -241,6 +241,11 @@ fn tape_rewrites_fire_and_keep_every_bit() {
         ("x*y - g*x_dot", &|op| matches!(op, Op::DotMCSub(..))),
         ("g*x_dot - x*y", &|op| matches!(op, Op::DotCMSub(..))),
         ("x*(-y) + x_dot", &|op| matches!(op, Op::SubMul(..))),
+        // Fused product chains fused into their one user.
+        ("x*y*g + 1", &|op| matches!(op, Op::MulMulCAddC(..))),
+        ("x^2*m - 3", &|op| matches!(op, Op::MulMulCAddC(_, _, k1, k2) if *k1 == 0.5 && *k2 == -3.0)),
+        ("x_dot - x*y*x", &|op| matches!(op, Op::SubMulMul(..))),
+        ("x_dot - m*x*y", &|op| matches!(op, Op::SubMulCMul(..))),
     ];
     for (src, fired) in cases {
         let mut g = Graph::new();
@@ -280,7 +285,7 @@ fn random_expressions_evaluate_like_the_graph() {
         if depth == 0 || next(4) == 0 {
             return leaves[next(leaves.len() as u64) as usize].to_string();
         }
-        let k = next(14);
+        let k = next(16);
         let pick = next(8) as usize;
         let (a, b, c, d) = (
             random_expr(next, depth - 1),
@@ -300,10 +305,12 @@ fn random_expressions_evaluate_like_the_graph() {
             9 => format!("{}({a}, {b})", ["min", "max"][pick % 2]),
             10 => format!("sin({a})*cos({a}) + {b}"),
             11 => format!("{a} - {b} * {c}"),
+            12 => format!("{a} - {b} * {c} * {d}"),
+            13 => format!("{a} * {b} * 0.5 + 3"),
             _ => format!("{a}*{b} + {c}*{d}"),
         }
     }
-    let mut fired = [false; 4];
+    let mut fired = [false; 5];
     for _ in 0..400 {
         let src = random_expr(&mut next, 4);
         let mut g = Graph::new();
@@ -323,6 +330,7 @@ fn random_expressions_evaluate_like_the_graph() {
                 | Op::DotCMSub(..) => fired[1] = true,
                 Op::MulMul(..) | Op::MulCMul(..) => fired[2] = true,
                 Op::SinCos(_) => fired[3] = true,
+                Op::MulMulCAddC(..) | Op::SubMulMul(..) | Op::SubMulCMul(..) => fired[4] = true,
                 _ => {}
             }
         }
@@ -334,7 +342,7 @@ fn random_expressions_evaluate_like_the_graph() {
             check_paths(&src, &g, p.root, &tape, pt);
         }
     }
-    assert_eq!(fired, [true; 4], "every fused shape and sin_cos occur among the random expressions");
+    assert_eq!(fired, [true; 5], "every fused shape and sin_cos occur among the random expressions");
 }
 
 /// Tapes of every stack register array size (up to 16, 32, 64, 128 and 256 registers,

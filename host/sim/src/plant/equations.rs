@@ -582,7 +582,7 @@ impl EquationsModel {
     /// `f(x, u)` and `df/dx` in `f64` from the symbolic derivatives of `M` and `f`:
     /// `q'' = M^-1 f`, `dq''/dx_k = M^-1 (df/dx_k - dM/dx_k q'')`; `f` is [`rhs`]'s to the
     /// bit. `jt` is the Jacobian tape.
-    #[inline]
+    #[inline(always)]
     fn jacobian<const N: usize>(&self, jt: &Tape, x: &[f64; N], u: f64) -> ([f64; N], [[f64; N]; N]) {
         let mut f = [0.0; N];
         let mut jac = [[0.0; N]; N];

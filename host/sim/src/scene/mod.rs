@@ -11,7 +11,7 @@
 #![cfg_attr(not(test), deny(clippy::indexing_slicing))]
 
 pub mod axis;
-mod bundled;
+pub(crate) mod bundled;
 
 pub use bundled::{BUNDLED, bundled_names};
 

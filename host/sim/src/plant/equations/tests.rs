@@ -717,3 +717,78 @@ fn unrolled_solves_equal_the_general_lu_for_every_size() {
     check::<6>();
     check::<8>();
 }
+
+/// Every bundled equation scene's plant compiled with and without the fused product chains
+/// (`(a*b)*k1 + k2`, `c - (a*b)*d`, `c - (a*k)*b` as one instruction) has the same
+/// right-hand side bit for bit in `f64`, dual numbers and power series, and the same
+/// Jacobian, at random states and at states with NaN, infinities and signed zeros.
+#[test]
+fn fused_chains_keep_every_bundled_scene_bit_for_bit() {
+    use crate::closed_loop::{AnyPlant, build_plant};
+    use crate::expr::WITHOUT_CHAIN_FUSION;
+    use crate::taylor::{Tps, TpsTable};
+    fn same(a: f64, b: f64) -> bool {
+        a.to_bits() == b.to_bits() || (a.is_nan() && b.is_nan())
+    }
+    fn check<const N: usize>(a: &EquationsPlant<N>, b: &EquationsPlant<N>, what: &str) {
+        let special = [0.0, -0.0, 0.3, -2.5, f64::INFINITY, f64::NEG_INFINITY, f64::NAN, 1e300];
+        let mut xs = states::<N>(20);
+        for k in 0..special.len() {
+            xs.push(core::array::from_fn(|i| special[(k + 3 * i) % special.len()]));
+        }
+        let t = TpsTable::get(N, 3).unwrap();
+        for (k, x) in xs.iter().enumerate() {
+            let u = [0.7 * k as f64 - 5.0, -0.0, f64::NAN][k % 3];
+            let (fa, fb) = (a.rhs(x, u), b.rhs(x, u));
+            assert!(fa.iter().zip(&fb).all(|(p, q)| same(*p, *q)), "{what}: rhs at {x:?}: {fa:?} vs {fb:?}");
+            let (ja, jb) = (a.exact_jacobian(x, u), b.exact_jacobian(x, u));
+            let flat =
+                |j: &([f64; N], [[f64; N]; N])| j.0.iter().chain(j.1.iter().flatten()).copied().collect::<Vec<_>>();
+            assert!(flat(&ja).iter().zip(&flat(&jb)).all(|(p, q)| same(*p, *q)), "{what}: Jacobian at {x:?}");
+            let (da, db) = (linearize::dual_jacobian(a, x, u), linearize::dual_jacobian(b, x, u));
+            assert!(flat(&da).iter().zip(&flat(&db)).all(|(p, q)| same(*p, *q)), "{what}: dual numbers at {x:?}");
+            let xt: [Tps; N] = core::array::from_fn(|i| Tps::var(t, i, x[i]));
+            let ut = Tps::constant(t, u);
+            for (p, q) in a.rhs(&xt, ut).iter().zip(&b.rhs(&xt, ut)) {
+                let same_tps = p.coefficients().iter().zip(q.coefficients()).all(|(p, q)| same(*p, *q));
+                assert!(same_tps, "{what}: power series at {x:?}");
+            }
+        }
+    }
+    let mut shorter = 0;
+    let mut scenes = 0;
+    for (name, text) in crate::scene::bundled::BUNDLED {
+        if !text.contains("kind = \"equations\"") {
+            continue;
+        }
+        scenes += 1;
+        let scene = crate::scene::Scene::load(name, &[]).unwrap();
+        let fused = build_plant(&scene).unwrap();
+        WITHOUT_CHAIN_FUSION.with(|c| c.set(true));
+        let plain = build_plant(&scene);
+        WITHOUT_CHAIN_FUSION.with(|c| c.set(false));
+        let plain = plain.unwrap();
+        let lens = |p: &EquationsModel| p.tape().len() + p.jac_tape().map_or(0, Tape::len);
+        match (&fused, &plain) {
+            (AnyPlant::Equations1(a), AnyPlant::Equations1(b)) => {
+                shorter += usize::from(lens(a.model()) < lens(b.model()));
+                check(a, b, name)
+            }
+            (AnyPlant::Equations2(a), AnyPlant::Equations2(b)) => {
+                shorter += usize::from(lens(a.model()) < lens(b.model()));
+                check(a, b, name)
+            }
+            (AnyPlant::Equations3(a), AnyPlant::Equations3(b)) => {
+                shorter += usize::from(lens(a.model()) < lens(b.model()));
+                check(a, b, name)
+            }
+            (AnyPlant::Equations4(a), AnyPlant::Equations4(b)) => {
+                shorter += usize::from(lens(a.model()) < lens(b.model()));
+                check(a, b, name)
+            }
+            _ => panic!("{name}: not an equations plant"),
+        }
+    }
+    assert!(scenes >= 4, "{scenes} bundled equation scenes");
+    assert!(shorter >= 1, "the chain fusion shortened no bundled scene's tapes");
+}
