@@ -1020,39 +1020,14 @@ impl Ssa {
         // Operations some output still needs (rewrites leave negations nobody reads).
         self.dead = vec![false; np];
         self.sweep(outputs);
-        let mut uses = vec![0usize; np];
-        let count = |v: Val, uses: &mut Vec<usize>| {
-            if let Val::Ssa(k, false) = v {
-                if let Some(u) = uses.get_mut(k) {
-                    *u += 1;
-                }
-            }
-        };
-        for (k, op) in self.prog.iter().enumerate() {
-            if !self.dead.get(k).copied().unwrap_or(true) {
-                for v in op.operands() {
-                    count(v, &mut uses);
-                }
-            }
-        }
-        for &v in outputs {
-            // Never fused away: an output keeps its own register.
-            count(v, &mut uses);
-            count(v, &mut uses);
-        }
+        let uses = self.uses(outputs);
         for j in 0..np {
             if self.dead.get(j).copied().unwrap_or(true) {
                 continue;
             }
             let Some(op) = self.prog.get(j).copied() else { continue };
             // `v` is a product used only here and not yet fused: its operands.
-            let single = |s: &Ssa, v: Val| -> Option<(usize, SsaOp)> {
-                let Val::Ssa(k, false) = v else { return None };
-                if uses.get(k).copied() != Some(1) || s.dead.get(k).copied().unwrap_or(true) {
-                    return None;
-                }
-                s.prog.get(k).map(|&d| (k, d))
-            };
+            let single = |s: &Ssa, v: Val| s.single_use(&uses, v);
             let mul = |s: &Ssa, v: Val| match single(s, v) {
                 Some((k, SsaOp::Bin(BinOp::Mul, a, b))) => Some((k, a, b)),
                 _ => None,
@@ -1143,6 +1118,16 @@ impl Ssa {
         self.sweep(outputs);
     }
 
+    /// The live operation behind `v` (index, op) when `v` is its first result and read once
+    /// (`uses` from [`Ssa::uses`]): a candidate to fuse into its reader.
+    fn single_use(&self, uses: &[usize], v: Val) -> Option<(usize, SsaOp)> {
+        let Val::Ssa(k, false) = v else { return None };
+        if uses.get(k).copied() != Some(1) || self.dead.get(k).copied().unwrap_or(true) {
+            return None;
+        }
+        self.prog.get(k).map(|&d| (k, d))
+    }
+
     /// How often each operation's first result is read by live operations, outputs counted
     /// twice (never fused away: an output keeps its own register).
     fn uses(&self, outputs: &[Val]) -> Vec<usize> {
@@ -1178,13 +1163,7 @@ impl Ssa {
                 continue;
             }
             let Some(op) = self.prog.get(j).copied() else { continue };
-            let single = |s: &Ssa, v: Val| -> Option<(usize, SsaOp)> {
-                let Val::Ssa(k, false) = v else { return None };
-                if uses.get(k).copied() != Some(1) || s.dead.get(k).copied().unwrap_or(true) {
-                    return None;
-                }
-                s.prog.get(k).map(|&d| (k, d))
-            };
+            let single = |s: &Ssa, v: Val| s.single_use(&uses, v);
             let fused = match op {
                 SsaOp::MulCAddC(x, k1, k2) => match single(self, x) {
                     Some((k, SsaOp::Bin(BinOp::Mul, a, b))) => Some((k, SsaOp::MulMulCAddC(a, b, k1, k2))),
