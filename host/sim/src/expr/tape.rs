@@ -1060,14 +1060,7 @@ impl Ssa {
                 _ => None,
             };
             if let Some((i, k, f)) = two {
-                for d in [i, k] {
-                    if let Some(d) = self.dead.get_mut(d) {
-                        *d = true;
-                    }
-                }
-                if let Some(slot) = self.prog.get_mut(j) {
-                    *slot = f;
-                }
+                self.absorb(j, &[i, k], f);
                 continue;
             }
             let fused = match op {
@@ -1107,15 +1100,23 @@ impl Ssa {
                 _ => None,
             };
             if let Some((k, f)) = fused {
-                if let Some(d) = self.dead.get_mut(k) {
-                    *d = true;
-                }
-                if let Some(slot) = self.prog.get_mut(j) {
-                    *slot = f;
-                }
+                self.absorb(j, &[k], f);
             }
         }
         self.sweep(outputs);
+    }
+
+    /// Operation `j` becomes the fused `f`, which computes the operations `absorbed` too: they
+    /// are dead now.
+    fn absorb(&mut self, j: usize, absorbed: &[usize], f: SsaOp) {
+        for &k in absorbed {
+            if let Some(d) = self.dead.get_mut(k) {
+                *d = true;
+            }
+        }
+        if let Some(slot) = self.prog.get_mut(j) {
+            *slot = f;
+        }
     }
 
     /// The live operation behind `v` (index, op) when `v` is its first result and read once
@@ -1163,13 +1164,12 @@ impl Ssa {
                 continue;
             }
             let Some(op) = self.prog.get(j).copied() else { continue };
-            let single = |s: &Ssa, v: Val| s.single_use(&uses, v);
             let fused = match op {
-                SsaOp::MulCAddC(x, k1, k2) => match single(self, x) {
+                SsaOp::MulCAddC(x, k1, k2) => match self.single_use(&uses, x) {
                     Some((k, SsaOp::Bin(BinOp::Mul, a, b))) => Some((k, SsaOp::MulMulCAddC(a, b, k1, k2))),
                     _ => None,
                 },
-                SsaOp::Bin(BinOp::Sub, c, y) if c != y => match single(self, y) {
+                SsaOp::Bin(BinOp::Sub, c, y) if c != y => match self.single_use(&uses, y) {
                     Some((k, SsaOp::MulMul(a, b, d))) => Some((k, SsaOp::SubMulMul(c, a, b, d))),
                     Some((k, SsaOp::MulCMul(a, q, b))) => Some((k, SsaOp::SubMulCMul(c, a, q, b))),
                     _ => None,
@@ -1177,12 +1177,7 @@ impl Ssa {
                 _ => None,
             };
             if let Some((k, f)) = fused {
-                if let Some(d) = self.dead.get_mut(k) {
-                    *d = true;
-                }
-                if let Some(slot) = self.prog.get_mut(j) {
-                    *slot = f;
-                }
+                self.absorb(j, &[k], f);
             }
         }
     }
