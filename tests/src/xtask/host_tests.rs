@@ -106,6 +106,23 @@ pub fn executables(json_lines: &str) -> Result<Vec<Executable>> {
     Ok(out)
 }
 
+impl Executable {
+    /// The binary as the host tests run it: in its package folder, with the package's variables.
+    pub fn command(&self) -> Command {
+        let mut c = crate::cmd(&self.path);
+        c.current_dir(&self.package_dir)
+            .env("CARGO_MANIFEST_DIR", &self.package_dir)
+            .env("CARGO_PKG_NAME", &self.package);
+        c
+    }
+}
+
+/// Asks libtest for each test's time: an unstable option; RUSTC_BOOTSTRAP reaches only the
+/// test process, so nothing is compiled again.
+pub fn report_time(c: &mut Command) -> &mut Command {
+    c.env("RUSTC_BOOTSTRAP", "1").args(["-Z", "unstable-options", "--report-time"])
+}
+
 /// Runs the test executables `jobs` at a time, longest first by `previous` (seconds by name
 /// from the last run or the stored estimates; the ones without a time after them, in their
 /// order: the estimates hold every long binary), each in its package folder as `cargo test` runs it,
@@ -133,14 +150,9 @@ pub fn run_parallel(
                 loop {
                     let next = queue.lock().unwrap_or_else(|p| p.into_inner()).next();
                     let Some(e) = next else { break };
-                    let mut c = crate::cmd(&e.path);
-                    c.current_dir(&e.package_dir)
-                        .env("CARGO_MANIFEST_DIR", &e.package_dir)
-                        .env("CARGO_PKG_NAME", &e.package);
+                    let mut c = e.command();
                     if test_times {
-                        // libtest's per-test times are an unstable option; RUSTC_BOOTSTRAP
-                        // reaches only the test process, so nothing is compiled again.
-                        c.env("RUSTC_BOOTSTRAP", "1").args(["-Z", "unstable-options", "--report-time"]);
+                        report_time(&mut c);
                     }
                     let start = t0.elapsed().as_secs_f64();
                     let (lines, seconds, r) = run_lines(&mut c, false);

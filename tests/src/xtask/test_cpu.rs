@@ -248,27 +248,17 @@ fn prebuilt_executable(root: &Path, target: &str) -> Result<Executable> {
     Ok(Executable { name, path: PathBuf::from(path), package_dir, package })
 }
 
-/// The binary as the host tests run it: in its package folder, with the package's variables.
-fn command(e: &Executable) -> Command {
-    let mut c = crate::cmd(&e.path);
-    c.current_dir(&e.package_dir).env("CARGO_MANIFEST_DIR", &e.package_dir).env("CARGO_PKG_NAME", &e.package);
-    c
-}
-
 /// Measures one binary: whole (libtest's `--report-time` giving each test's wall time in
 /// that run), then its `alone` longest tests of that run each alone (printed as they end).
 fn measure_binary(e: &Executable, alone: usize) -> Result<BinaryCpu> {
     println!("test-cpu: {}: the whole binary", e.name);
-    // libtest's per-test times are an unstable option; RUSTC_BOOTSTRAP reaches only the test
-    // process, so nothing is compiled again.
-    let (whole, out) =
-        measure(command(e).env("RUSTC_BOOTSTRAP", "1").args(["-Z", "unstable-options", "--report-time"]))?;
+    let (whole, out) = measure(crate::host_tests::report_time(&mut e.command()))?;
     println!("test-cpu: {}: {:.1} CPU-s in {:.1} s", e.name, whole.cpu_s(), whole.wall_s);
     let mut in_run: Vec<(String, f64)> = out.lines().filter_map(crate::host_tests::test_time).collect();
     in_run.sort_by(|a, b| b.1.total_cmp(&a.1));
     let mut tests = Vec::with_capacity(alone);
     for (n, _) in in_run.into_iter().take(alone) {
-        let (c, _) = measure(command(e).args(["--exact", &n, "--test-threads=1"]))?;
+        let (c, _) = measure(e.command().args(["--exact", &n, "--test-threads=1"]))?;
         println!("test-cpu: {:7.1} CPU-s {:7.1} s  {n}{}", c.cpu_s(), c.wall_s, if c.ok { "" } else { "  FAILED" });
         tests.push((n, c));
     }
