@@ -256,3 +256,38 @@ fn apps_write_only_through_the_one_writer() {
     assert!(RAW_WRITES.iter().any(|w| non_test_part("let _ = std::fs::write(p, b);").contains(w)));
     assert!(!RAW_WRITES.iter().any(|w| non_test_part("#[cfg(test)]\nfn t() { std::fs::write(p, b); }").contains(w)));
 }
+
+/// Every `tests/*.rs` file of a workspace crate is compiled: it is a test target's root or a
+/// `mod` of one. With `autotests = false` a file outside both would silently never build or run.
+#[test]
+fn every_integration_test_file_is_built() {
+    let m = metadata();
+    let mut orphans = Vec::new();
+    for p in m["packages"].as_array().unwrap() {
+        let manifest = std::path::Path::new(p["manifest_path"].as_str().unwrap());
+        let dir = manifest.parent().unwrap().join("tests");
+        let Ok(entries) = std::fs::read_dir(&dir) else { continue };
+        let roots: Vec<std::path::PathBuf> = p["targets"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .filter(|t| t["kind"].as_array().unwrap().iter().any(|k| k == "test"))
+            .map(|t| std::path::PathBuf::from(t["src_path"].as_str().unwrap()))
+            .collect();
+        let root_text: String = roots.iter().filter_map(|r| std::fs::read_to_string(r).ok()).collect();
+        for e in entries {
+            let path = e.unwrap().path();
+            if path.extension().is_none_or(|x| x != "rs") || roots.contains(&path) {
+                continue;
+            }
+            let stem = path.file_stem().unwrap().to_str().unwrap();
+            if !root_text.contains(&format!("mod {stem};")) {
+                orphans.push(path.display().to_string());
+            }
+        }
+    }
+    assert!(
+        orphans.is_empty(),
+        "test files that no test target builds (add `mod NAME;` to tests/integration.rs): {orphans:?}"
+    );
+}
