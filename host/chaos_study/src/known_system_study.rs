@@ -697,6 +697,7 @@ mod tests {
         let text = std::fs::read_to_string(studies.join("flag-noise-realizations.toml")).unwrap();
         let spec = KnownSystemSpec::parse("flag-noise-realizations.toml", &text).unwrap();
         let files = spec.files();
+        assert_eq!(files.results, crate::study_results::NOISE_REALIZATIONS);
         let record: serde_json::Value =
             serde_json::from_str(&std::fs::read_to_string(default_dir().join(&files.record)).unwrap()).unwrap();
         assert_eq!(record["spec"].as_str(), Some(text.as_str()), "{} is not this spec's run", files.record);
