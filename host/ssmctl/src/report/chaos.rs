@@ -1451,7 +1451,7 @@ fn noisy_state_values(dir: &std::path::Path) -> Result<serde_json::Value, Box<dy
         }
         v.sort_by(f64::total_cmp);
         let k = v.len() / 2;
-        let median = if v.len() % 2 == 0 { 0.5 * (v[k - 1] + v[k]) } else { v[k] };
+        let median = if v.len().is_multiple_of(2) { 0.5 * (v[k - 1] + v[k]) } else { v[k] };
         serde_json::json!({ "median": median, "range": span_of(&v) })
     };
     let per_model: Vec<serde_json::Value> = models
