@@ -4,9 +4,9 @@
 //! list of candidate names ([`parse_name`]). `ssmctl study` runs it and writes
 //! [`crate::study_results::KNOWN_SYSTEM`].
 //!
-//! Every row is one unit ([`units`]): its series (scale, noise, seed; [`series_data`]) and its
-//! candidate. The units are independent, so a cache stores each and a shard computes some;
-//! [`finish`] puts the rows in the spec's order.
+//! Every row is one unit ([`KnownSystemSpec::units`]): its series (scale, noise, seed;
+//! [`series_data`]) and its candidate. The units are independent, so a cache stores each and a
+//! shard computes some; [`finish`] puts the rows in the spec's order.
 
 use serde::{Deserialize, Serialize};
 use ssm::TimeSeries;
