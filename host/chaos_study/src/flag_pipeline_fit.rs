@@ -203,7 +203,14 @@ pub struct StateFit {
     /// With [`Coords::State`]: white noise on every state coordinate, times that
     /// coordinate's sd.
     pub noise_rel: f64,
+    /// The realization of that noise (0: the first; each seed offsets the noise seeds by
+    /// [`NOISE_SEED_STRIDE`]).
+    pub noise_seed: u64,
 }
+
+/// The offset of the state noise's seeds from one realization to the next: more than the
+/// noise streams of one realization (one per coordinate of each training piece).
+pub const NOISE_SEED_STRIDE: u64 = 1_000;
 
 impl StateFit {
     pub fn name(&self) -> String {
@@ -219,6 +226,9 @@ impl StateFit {
         }
         if self.noise_rel > 0.0 && self.coords == Coords::State {
             s += &format!(" noise {}", self.noise_rel);
+            if self.noise_seed != 0 {
+                s += &format!(" seed {}", self.noise_seed);
+            }
         }
         s
     }
@@ -284,12 +294,25 @@ pub fn state_model_row(
             states.rotate_left(1);
             let dim = states[0].len() / (layout.train[0] * scale);
             if fit.noise_rel > 0.0 {
+                let streams = 2 * dim as u64;
+                let base = fit
+                    .noise_seed
+                    .checked_mul(NOISE_SEED_STRIDE)
+                    .filter(|_| streams <= NOISE_SEED_STRIDE)
+                    .and_then(|b| b.checked_add(101))
+                    .ok_or_else(|| Error::BadOption {
+                        what: "state noise seed",
+                        why: format!(
+                            "seed {} with {streams} noise streams: needs at most {NOISE_SEED_STRIDE} streams and seed x {NOISE_SEED_STRIDE} within 64 bits",
+                            fit.noise_seed
+                        ),
+                    })?;
                 for (i, piece) in states.iter_mut().take(2).enumerate() {
                     for c in 0..dim {
                         let col: Vec<f64> = piece.iter().skip(c).step_by(dim).copied().collect();
                         let m = col.iter().sum::<f64>() / col.len() as f64;
                         let sd = (col.iter().map(|v| (v - m) * (v - m)).sum::<f64>() / col.len() as f64).sqrt();
-                        let noisy = add_noise(&col, fit.noise_rel * sd, 101 + (i * dim + c) as u64);
+                        let noisy = add_noise(&col, fit.noise_rel * sd, base + (i * dim + c) as u64);
                         for (k, v) in noisy.into_iter().enumerate() {
                             piece[k * dim + c] = v;
                         }

@@ -4,9 +4,9 @@
 //! list of candidate names ([`parse_name`]). `ssmctl study` runs it and writes
 //! [`crate::study_results::KNOWN_SYSTEM`].
 //!
-//! Every row is one unit ([`units`]): its series (scale, noise, seed; [`series_data`]) and its
-//! candidate. The units are independent, so a cache stores each and a shard computes some;
-//! [`finish`] puts the rows in the spec's order.
+//! Every row is one unit ([`KnownSystemSpec::units`]): its series (scale, noise, seed;
+//! [`series_data`]) and its candidate. The units are independent, so a cache stores each and a
+//! shard computes some; [`finish`] puts the rows in the spec's order.
 
 use serde::{Deserialize, Serialize};
 use ssm::TimeSeries;
@@ -76,9 +76,35 @@ pub struct KnownSystemSpec {
     pub benettin_time: f64,
     pub statistics: EvalSettings,
     pub names: NameDefaults,
-    pub check: CheckSpec,
+    /// The flag's candidate search; a spec of diagnosis rows alone leaves it out.
+    #[serde(default)]
+    pub check: Option<CheckSpec>,
     #[serde(default)]
     pub diagnosis: Vec<DiagnosisSpec>,
+    /// The stem of the results files, so that two specs can write to one folder: `STEM.json`,
+    /// `STEM.study.json` and shards `STEM-shard-I-of-N.json` ([`Self::files`]). Default: the
+    /// names of [`ResultFiles::default`].
+    #[serde(default)]
+    pub results: Option<String>,
+}
+
+/// The files a known-system spec writes: the results, the study record and the shards' prefix.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ResultFiles {
+    pub results: String,
+    pub record: String,
+    pub shard_prefix: String,
+}
+
+impl Default for ResultFiles {
+    /// `known_system.json`, `study.json`, `known-system-shard-`.
+    fn default() -> Self {
+        Self {
+            results: crate::study_results::KNOWN_SYSTEM.into(),
+            record: "study.json".into(),
+            shard_prefix: "known-system-shard-".into(),
+        }
+    }
 }
 
 /// The series a row is measured on: training-data scale, noise over the sd, realization.
@@ -125,8 +151,10 @@ pub struct UnitRow {
 /// A candidate name: `[state | delay P x S] (RBF C | poly O) [/K] [r=R] [d=D p=P] [s=S]
 /// [centres CHOICE] [denoised W] [ms h=H [stride S it I]] [seed N] [noise]`. `/K` is the map
 /// step (default the layout's), `denoised W` fits the map again on inputs smoothed by a
-/// moving average of W (odd) samples, `seed N` measures it on realization N of the series,
-/// `noise` marks a `state` candidate fitted on the noisy state (its noise is the row's).
+/// moving average of W (odd) samples, `noise` marks a `state` candidate fitted on the noisy
+/// state (its noise is the row's). `seed N` measures an embedded candidate on realization N
+/// of the series, and fits a `state ... noise` candidate on realization N of the state's
+/// noise (0: the name without it); `delay` and noise-free `state` candidates take no seed.
 /// What is left out comes from `defaults`.
 pub fn parse_name(name: &str, step: usize, d: &NameDefaults) -> Result<(Model, u64, bool), String> {
     let bad = |why: String| format!("candidate `{name}`: {why}");
@@ -138,8 +166,9 @@ pub fn parse_name(name: &str, step: usize, d: &NameDefaults) -> Result<(Model, u
         t
     };
     let num = |t: Option<&str>, key: &str| -> Result<f64, String> {
-        let t = t.ok_or_else(|| bad(format!("`{key}` value missing")))?;
-        t.strip_prefix(key).unwrap_or(t).parse::<f64>().map_err(|_| bad(format!("`{t}` is not {key}NUMBER")))
+        let what = if key.is_empty() { "a number".to_string() } else { format!("{key}NUMBER") };
+        let t = t.ok_or_else(|| bad(format!("{what} missing at the end")))?;
+        t.strip_prefix(key).unwrap_or(t).parse::<f64>().map_err(|_| bad(format!("`{t}` is not {what}")))
     };
     let int = |v: f64, what: &str| -> Result<usize, String> {
         if v >= 0.0 && v.fract() == 0.0 && v <= 1e9 {
@@ -213,7 +242,10 @@ pub fn parse_name(name: &str, step: usize, d: &NameDefaults) -> Result<(Model, u
                     }
                     ms = Some(MultiStep { horizon, stride, iterations });
                 }
-                "seed" => seed = int(num(next(&mut i), "")?, "seed")? as u64,
+                "seed" => {
+                    let n = next(&mut i).ok_or_else(|| bad("`seed` needs a realization number N".into()))?;
+                    seed = int(num(Some(n), "")?, "seed")? as u64;
+                }
                 "noise" => noise = true,
                 _ => return Err(bad(format!("unknown token `{t}`"))),
             }
@@ -224,10 +256,18 @@ pub fn parse_name(name: &str, step: usize, d: &NameDefaults) -> Result<(Model, u
     }
     let model = match coords {
         Some(coords) => {
-            if denoise > 0 || centres != ssm::dynamics::CentreChoice::Farthest || seed != 0 {
-                return Err(bad("`state` and `delay` candidates take no centres, denoised or seed".into()));
+            if denoise > 0 || centres != ssm::dynamics::CentreChoice::Farthest {
+                return Err(bad("`state` and `delay` candidates take no centres or denoised".into()));
             }
-            Model::Coords(StateFit { coords, centers, order, ridge, multistep: ms, noise_rel: 0.0 })
+            if seed != 0 && !(noise && coords == Coords::State) {
+                return Err(bad(format!(
+                    "`seed {seed}`: only `state ... noise` candidates (the noise's realization) and embedded ones take a seed"
+                )));
+            }
+            if noise && coords != Coords::State {
+                return Err(bad("`noise` marks `state` candidates only".into()));
+            }
+            Model::Coords(StateFit { coords, centers, order, ridge, multistep: ms, noise_rel: 0.0, noise_seed: seed })
         }
         None => {
             if noise {
@@ -259,7 +299,9 @@ impl KnownSystemSpec {
     /// The spec with every candidate list cut to its first `n`.
     pub fn limited(&self, n: usize) -> Self {
         let mut s = self.clone();
-        s.check.rbf.truncate(n);
+        if let Some(c) = &mut s.check {
+            c.rbf.truncate(n);
+        }
         for g in &mut s.diagnosis {
             g.candidates.truncate(n);
         }
@@ -287,14 +329,26 @@ impl KnownSystemSpec {
             return Err(format!("benettin_time = {}: needs a positive time (s)", self.benettin_time));
         }
         self.statistics.check()?;
-        if self.check.scales.contains(&0) {
-            return Err(format!("check.scales = {:?}: every scale must be >= 1", self.check.scales));
+        if let Some(check) = &self.check {
+            if check.scales.contains(&0) {
+                return Err(format!("check.scales = {:?}: every scale must be >= 1", check.scales));
+            }
+            if let Some(&(c, r)) = check.rbf.iter().find(|(c, r)| *c == 0 || !(r.is_finite() && *r > 0.0)) {
+                return Err(format!("check.rbf: ({c}, {r}): needs centres >= 1 and a ridge > 0"));
+            }
+            if !(check.poly_ridge.is_finite() && check.poly_ridge > 0.0) {
+                return Err(format!("check.poly_ridge = {}: needs a value > 0", check.poly_ridge));
+            }
         }
-        if let Some(&(c, r)) = self.check.rbf.iter().find(|(c, r)| *c == 0 || !(r.is_finite() && *r > 0.0)) {
-            return Err(format!("check.rbf: ({c}, {r}): needs centres >= 1 and a ridge > 0"));
-        }
-        if !(self.check.poly_ridge.is_finite() && self.check.poly_ridge > 0.0) {
-            return Err(format!("check.poly_ridge = {}: needs a value > 0", self.check.poly_ridge));
+        if let Some(stem) = &self.results {
+            let ok = !stem.is_empty()
+                && stem.chars().all(|c| c.is_ascii_alphanumeric() || c == '_' || c == '-')
+                && stem != "study";
+            if !ok {
+                return Err(format!(
+                    "results = `{stem}`: needs a file stem of letters, digits, `_` and `-` (not `study`)"
+                ));
+            }
         }
         for (k, g) in self.diagnosis.iter().enumerate() {
             if g.scale == 0 {
@@ -314,11 +368,15 @@ impl KnownSystemSpec {
         let d = &self.names;
         let step = self.layout.step;
         let mut out = Vec::new();
-        for &scale in &self.check.scales {
+        let (scales, rbf, poly_ridge, max_entries) = match &self.check {
+            Some(c) => (c.scales.as_slice(), c.rbf.as_slice(), c.poly_ridge, c.max_matrix_entries),
+            None => (&[][..], &[][..], 0.0, 0),
+        };
+        for &scale in scales {
             let series = SeriesKey { scale, noise_rel: self.layout.noise_rel, seed: 0 };
             let rows = scale * (self.layout.train[0] + self.layout.train[1]);
-            for &(c, r) in &self.check.rbf {
-                if rows.saturating_mul(c + 1 + d.dim) > self.check.max_matrix_entries {
+            for &(c, r) in rbf {
+                if rows.saturating_mul(c + 1 + d.dim) > max_entries {
                     continue;
                 }
                 let mut cand = variant(step, c, r, d.dim, d.embed, d.shift, None, 0);
@@ -332,7 +390,7 @@ impl KnownSystemSpec {
                     model: Model::Embedded(cand),
                 });
             }
-            let mut poly = variant(step, 0, self.check.poly_ridge, d.dim, d.embed, d.shift, None, 0);
+            let mut poly = variant(step, 0, poly_ridge, d.dim, d.embed, d.shift, None, 0);
             poly.fit.dyn_order = d.map_order;
             poly.name = format!("poly {} /{step}", d.map_order);
             out.push(Unit {
@@ -375,7 +433,22 @@ impl KnownSystemSpec {
                 });
             }
         }
+        if out.is_empty() {
+            return Err("nothing to compute: no [check] scales and no [[diagnosis]] candidates".into());
+        }
         Ok(out)
+    }
+
+    /// The files the spec's run writes ([`Self::results`]).
+    pub fn files(&self) -> ResultFiles {
+        match &self.results {
+            None => ResultFiles::default(),
+            Some(stem) => ResultFiles {
+                results: format!("{stem}.json"),
+                record: format!("{stem}.study.json"),
+                shard_prefix: format!("{stem}-shard-"),
+            },
+        }
     }
 }
 
@@ -526,12 +599,122 @@ mod tests {
             ("RBX 200", "expected `RBF C`"),
             ("RBF 200 q=3", "q=3"),
             ("RBF 200 denoised 4", "odd"),
-            ("state RBF 200 seed 1", "seed"),
+            ("state RBF 200 seed 1", "seed 1"),
             ("RBF 200 noise", "noise"),
+            ("delay 9 x 1 poly 4 noise", "noise"),
+            ("delay 9 x 1 poly 4 seed 1", "seed 1"),
+            ("state RBF 200 noise seed", "`seed` needs"),
+            ("state RBF 200 noise seed -1", "seed -1 is not a count"),
+            ("state RBF 200 noise seed 1.5", "seed 1.5 is not a count"),
+            ("state RBF 200 noise seed x", "`x` is not a number"),
         ] {
             let e = parse_name(bad, 4, &D).unwrap_err();
             assert!(e.contains(bad) && e.contains(want), "{e}");
         }
+    }
+
+    /// `seed N` on a `state ... noise` candidate picks the noise's realization: seed 0 is the
+    /// name without a seed, model for model and series for series; seed 1 is another noise on
+    /// the same state.
+    #[test]
+    fn state_noise_seed_picks_the_realization() {
+        let (m, seed, noisy) = parse_name("state RBF 200 r=3e-9 noise seed 3", 4, &D).unwrap();
+        let Model::Coords(f) = m else { panic!() };
+        assert_eq!((f.noise_seed, seed, noisy), (3, 3, true));
+        let text = std::fs::read_to_string(
+            std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../studies/flag-noise-realizations.toml"),
+        )
+        .unwrap();
+        let head = &text[..text.find("[[diagnosis]]").unwrap()];
+        let names =
+            ["state poly 2 r=1e-8 noise", "state poly 2 r=1e-8 noise seed 0", "state poly 2 r=1e-8 noise seed 1"];
+        let list = names.iter().map(|n| format!("\"{n}\"")).collect::<Vec<_>>().join(", ");
+        let t = format!("{head}[[diagnosis]]\ngroup = \"g\"\nscale = 1\ncandidates = [{list}]\n");
+        let s = KnownSystemSpec::parse("s.toml", &t).unwrap();
+        assert!(s.check.is_none());
+        let units = s.units().unwrap();
+        let fit = |u: &Unit| match &u.model {
+            Model::Coords(f) => *f,
+            m => panic!("{m:?}"),
+        };
+        let (f0, f00, f1) = (fit(&units[0]), fit(&units[1]), fit(&units[2]));
+        assert_eq!((f0.noise_seed, f00.noise_seed, f1.noise_seed), (0, 0, 1));
+        assert_eq!(serde_json::to_string(&f0).unwrap(), serde_json::to_string(&f00).unwrap());
+        // Every row is judged on the layout's observed series, realization 0.
+        assert!(units.iter().all(|u| u.series == s.reference_series()), "{units:?}");
+        // Short estimator runs: the fits and their rows, not the study's values.
+        let small = KnownSystemSpec {
+            benettin_time: 100.0,
+            statistics: EvalSettings { benettin_transient: 100, benettin_steps: 1000, long_runs: 1, ..s.statistics },
+            ..s.clone()
+        };
+        let data = series_data(&small, small.reference_series()).unwrap();
+        let row = |f: &StateFit| {
+            let layout = FlagLayout { noise_rel: small.layout.noise_rel, ..small.layout };
+            state_model_row(&small.system, &layout, 1, f, &data.stats, &data.series, &small.statistics).unwrap()
+        };
+        let (r0, r00, r1) = (row(&f0), row(&f00), row(&f1));
+        let values = |r: &crate::flag_pipeline::PipelineRow| (r.benettin, r.rosenstein, r.corr_dim, r.js);
+        assert_eq!(format!("{:?}", values(&r0)), format!("{:?}", values(&r00)));
+        assert_ne!(format!("{:?}", values(&r0)), format!("{:?}", values(&r1)));
+        let e: Vec<UnitRow> = units.iter().map(|u| evaluate(&small, u, &data).unwrap()).collect();
+        assert_eq!(e[0], e[1]);
+        assert_ne!(e[0], e[2]);
+    }
+
+    /// A spec without [check] and without diagnosis candidates has nothing to compute; a bad
+    /// `results` stem is named.
+    #[test]
+    fn empty_specs_and_bad_result_stems_are_errors() {
+        let text = std::fs::read_to_string(
+            std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../studies/flag-noise-realizations.toml"),
+        )
+        .unwrap();
+        let spec = KnownSystemSpec::parse("n.toml", &text).unwrap();
+        assert_eq!(spec.units().unwrap().len(), 24);
+        let files = spec.files();
+        assert_eq!(
+            (files.results.as_str(), files.record.as_str()),
+            ("noise_realizations.json", "noise_realizations.study.json")
+        );
+        assert_ne!(files, ResultFiles::default());
+        let empty = text[..text.find("[[diagnosis]]").unwrap()].to_string();
+        let e = KnownSystemSpec::parse("n.toml", &empty).unwrap_err().to_string();
+        assert!(e.contains("n.toml") && e.contains("nothing to compute"), "{e}");
+        for stem in ["\"\"", "\"../x\"", "\"study\""] {
+            let t = text.replace("results = \"noise_realizations\"", &format!("results = {stem}"));
+            let e = KnownSystemSpec::parse("n.toml", &t).unwrap_err().to_string();
+            assert!(e.contains("n.toml") && e.contains("results ="), "{e}");
+        }
+    }
+
+    /// The committed noise-realization rows are the bundled spec's, written by it, and their
+    /// realization 0 is the committed known-system file's noisy-state rows, value for value.
+    #[test]
+    fn noise_realizations_extend_the_known_system_rows() {
+        use crate::study_results::{KnownSystemResults, default_dir, read};
+        let studies = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../studies");
+        let text = std::fs::read_to_string(studies.join("flag-noise-realizations.toml")).unwrap();
+        let spec = KnownSystemSpec::parse("flag-noise-realizations.toml", &text).unwrap();
+        let files = spec.files();
+        assert_eq!(files.results, crate::study_results::NOISE_REALIZATIONS);
+        let record: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(default_dir().join(&files.record)).unwrap()).unwrap();
+        assert_eq!(record["spec"].as_str(), Some(text.as_str()), "{} is not this spec's run", files.record);
+        let noisy: KnownSystemResults = read(&default_dir().join(&files.results)).unwrap();
+        let known = crate::study_results::FlagResults::bundled().unwrap().known;
+        assert_eq!(noisy.data, known.data);
+        let names: Vec<&str> = noisy.diagnosis.iter().map(|r| r.candidate.as_str()).collect();
+        let want: Vec<String> = spec.units().unwrap().into_iter().map(|u| u.name).collect();
+        assert_eq!(names, want);
+        let mut matched = 0;
+        for r in &noisy.diagnosis {
+            let Some(base) = r.candidate.strip_suffix(" seed 0") else { continue };
+            let k = known.diagnosis.iter().find(|k| k.candidate == base).unwrap_or_else(|| panic!("{base}"));
+            assert_eq!(crate::study_results::DiagRow { candidate: base.to_string(), ..r.clone() }, *k);
+            matched += 1;
+        }
+        assert_eq!(matched, 3);
     }
 
     /// The bundled spec's rows are the committed file's, in its order (names, scales, noise).

@@ -6,6 +6,8 @@
 //! - [`KNOWN_SYSTEM`]: the flag pipeline on the known system ([`crate::flag_pipeline::CHOSEN`]):
 //!   its held-out statistics, the candidate rows at 1, 3 and 10 times the flag's training
 //!   data and the diagnosis rows;
+//! - [`NOISE_REALIZATIONS`]: the known system's maps fitted on the noisy true state, over
+//!   realizations of the noise (a [`KnownSystemResults`] of diagnosis rows alone);
 //! - [`SEARCH`]: the inverted flag's candidate search, one typed row per candidate;
 //! - [`HELD_OUT`]: every candidate on the held-out run (traj_8): the fits at d = 5 and 6, the
 //!   multistep rows, the centre-set rows, the models' dimensions and D2 of every run;
@@ -25,6 +27,8 @@ use crate::Error;
 
 /// File of [`KnownSystemResults`].
 pub const KNOWN_SYSTEM: &str = "known_system.json";
+/// File of the noisy-state rows over noise realizations (`studies/flag-noise-realizations.toml`).
+pub const NOISE_REALIZATIONS: &str = "noise_realizations.json";
 /// File of [`SearchResults`].
 pub const SEARCH: &str = "search.json";
 /// File of [`HeldOutResults`].

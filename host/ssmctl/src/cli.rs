@@ -994,13 +994,12 @@ fn run_command(cli: Cli) -> Result<(), Box<dyn std::error::Error>> {
             let cache = if no_cache { None } else { Some(cache.map_or_else(|| default_cache_dir(&out), Ok)?) };
             let opts = crate::study::SelectionRun { limit: candidates.map(|n| n as usize), cache, shard, quiet };
             let r = crate::study::study_with(&spec, &data_dir, &out, &opts, merge)?;
+            let written = r.files.iter().chain(&r.record_file).map(String::as_str).collect::<Vec<_>>().join(", ");
             eprintln!(
-                "study {} on {} data files in {:.1} s: wrote {} and {} under {}",
+                "study {} on {} data files in {:.1} s: wrote {written} under {}",
                 spec.display(),
                 r.data.len(),
                 r.wall_seconds,
-                r.files.join(", "),
-                crate::study::STUDY_FILE,
                 out.display()
             );
         }

@@ -12,7 +12,7 @@ use chaos_study::selection_study::{
     Prepared, SelectionResults, SelectionSpec, evaluate, finish, load_series, prepare, prepare_series,
     result_from_json, result_json,
 };
-use chaos_study::study_results::{EXPERIMENT, HELD_OUT, KNOWN_SYSTEM, SEARCH, VALIDATION, to_json};
+use chaos_study::study_results::{EXPERIMENT, HELD_OUT, SEARCH, VALIDATION, to_json};
 use furuta::sweep::Shard;
 use serde::Serialize;
 
@@ -52,6 +52,9 @@ pub struct StudyRecord {
     #[serde(skip_serializing_if = "Option::is_none")]
     pub computed: Option<usize>,
     pub wall_seconds: f64,
+    /// The file this record was written to (`None`: a shard's run, which writes none).
+    #[serde(skip)]
+    pub record_file: Option<String>,
 }
 
 /// The commit of the checkout the command runs in (`None` outside one).
@@ -157,6 +160,7 @@ pub fn study_with(
         files: files.iter().map(|(n, _)| n.to_string()).collect(),
         computed: None,
         wall_seconds: t0.elapsed().as_secs_f64(),
+        record_file: Some(STUDY_FILE.into()),
     };
     let p = out.join(STUDY_FILE);
     write_atomic(&p, (serde_json::to_string_pretty(&record)? + "\n").as_bytes())
@@ -458,13 +462,15 @@ fn write_shard(
     Ok(name)
 }
 
-/// The record of a study run, written to `out/study.json` unless the run is one shard.
+/// The record of a study run, written to `out/RECORD` (`record_file`, [`STUDY_FILE`] but for
+/// known-system specs that name their files) unless the run is one shard.
 #[allow(clippy::too_many_arguments)]
 fn record(
     spec_path: &Path,
     text: &str,
     opts: &SelectionRun,
     out: &Path,
+    record_file: &str,
     data: Vec<DataFile>,
     file: String,
     computed: usize,
@@ -480,9 +486,10 @@ fn record(
         files: vec![file],
         computed: Some(computed),
         wall_seconds: t0.elapsed().as_secs_f64(),
+        record_file: opts.shard.is_none().then(|| record_file.to_string()),
     };
     if opts.shard.is_none() {
-        let p = out.join(STUDY_FILE);
+        let p = out.join(record_file);
         write_atomic(&p, (serde_json::to_string_pretty(&record)? + "\n").as_bytes())
             .map_err(|e| format!("{}: {e}", p.display()))?;
     }
@@ -541,18 +548,16 @@ fn selection_study(
             name.to_string()
         }
     };
-    record(spec_path, text, opts, out, data, file, computed, t0)
+    record(spec_path, text, opts, out, STUDY_FILE, data, file, computed, t0)
 }
 
 /// The store's unit name of one known-system row.
 const KNOWN_UNIT: &str = "known-system-row";
 
-/// The prefix of a known-system study's shard files.
-const KNOWN_SHARD_PREFIX: &str = "known-system-shard-";
-
 /// A known-system spec (`kind = "known-system"`): every row of the check and the diagnosis a
 /// unit of the cache and of a shard; the series a computed row needs are simulated and
-/// measured once per run. Writes `known_system.json` (or a shard file) and `study.json`.
+/// measured once per run. Writes `known_system.json` (or a shard file) and `study.json`, or
+/// the files the spec's `results` names ([`KnownSystemSpec::files`]).
 fn known_system_study(
     spec_path: &Path,
     text: &str,
@@ -567,6 +572,7 @@ fn known_system_study(
     let spec = opts.limit.map_or(spec.clone(), |n| spec.limited(n));
     let units = spec.units().map_err(|why| format!("{origin}: {why}"))?;
     let n = units.len();
+    let files = spec.files();
     let hash = format!("{:016x}", FINGERPRINT.checksum(&serde_json::to_vec(&spec)?));
     let store = opts.cache.as_deref().map(fileio::store::Store::open).transpose()?;
     // A row's key: the code that computes it, the system, its sampling, the settings, the row.
@@ -615,10 +621,10 @@ fn known_system_study(
     let rows = cached_units(store.as_ref(), KNOWN_UNIT, &mine, &keys, &valid, &compute)?;
     crate::output::create_dir(out)?;
     let file = if let Some(shard) = opts.shard {
-        write_shard(out, KNOWN_SHARD_PREFIX, hash, shard, n, rows.rows)?
+        write_shard(out, &files.shard_prefix, hash, shard, n, rows.rows)?
     } else {
         let values = if merge {
-            merge_shards(out, KNOWN_SHARD_PREFIX, &hash, n)?
+            merge_shards(out, &files.shard_prefix, &hash, n)?
         } else {
             rows.rows.into_iter().map(|(_, v)| v).collect()
         };
@@ -632,9 +638,9 @@ fn known_system_study(
         // The command without its output folder, so that a rerun elsewhere writes the same bytes.
         let produced_by = format!("ssmctl study {}", spec_path.display());
         let r = chaos_study::known_system_study::finish(&produced_by, &reference.stats, &units, rows)?;
-        let path = out.join(KNOWN_SYSTEM);
+        let path = out.join(&files.results);
         write_atomic(&path, to_json(&r)?.as_bytes()).map_err(|e| format!("{}: {e}", path.display()))?;
-        KNOWN_SYSTEM.to_string()
+        files.results.clone()
     };
-    record(spec_path, text, opts, out, Vec::new(), file, rows.computed, t0)
+    record(spec_path, text, opts, out, &files.record, Vec::new(), file, rows.computed, t0)
 }

@@ -349,6 +349,26 @@ fn known_system_spec_runs_cached_and_sharded() {
     std::fs::write(&spec, text.replace("\"state poly 3\"", "\"state poly 3 seed 2\"")).unwrap();
     let e = study_with(&spec, &dir, &dir.join("bad"), &opts, false).unwrap_err().to_string();
     assert!(e.contains("diagnosis[1]") && e.contains("seed"), "{e}");
+
+    // Named result files: two specs write to one folder without touching each other's files.
+    let named = text.replace("name = \"flag-known-system\"", "name = \"small\"\nresults = \"small_rows\"");
+    assert_ne!(named, text);
+    std::fs::write(
+        &spec,
+        named
+            .replace("\"state poly 3\"", "\"state poly 3 noise seed 1\"")
+            .replace("noise_rel = 0.0\ncandidates = [\"state", "candidates = [\"state"),
+    )
+    .unwrap();
+    let rec = study_with(&spec, &dir, &whole, &opts, false).unwrap();
+    assert_eq!(
+        (rec.files.as_slice(), rec.record_file.as_deref()),
+        (&["small_rows.json".to_string()][..], Some("small_rows.study.json"))
+    );
+    assert_eq!(std::fs::read(whole.join(KNOWN_SYSTEM)).unwrap(), first);
+    let r: KnownSystemResults = read(&whole.join("small_rows.json")).unwrap();
+    assert_eq!(r.diagnosis[1].candidate, "state poly 3 noise seed 1");
+    assert!(r.diagnosis[1].noise_rel > 0.0 && whole.join("small_rows.study.json").is_file());
     let _ = std::fs::remove_dir_all(&dir);
 }
 

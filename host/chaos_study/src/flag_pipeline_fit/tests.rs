@@ -53,7 +53,15 @@ fn fnn_dimension_rule() {
 /// to the exact exponent, and its statistics equal the committed row's.
 #[test]
 fn state_model_reproduces_its_committed_row() {
-    let fit = StateFit { coords: Coords::State, centers: 0, order: 4, ridge: 3e-9, multistep: None, noise_rel: 0.0 };
+    let fit = StateFit {
+        coords: Coords::State,
+        centers: 0,
+        order: 4,
+        ridge: 3e-9,
+        multistep: None,
+        noise_rel: 0.0,
+        noise_seed: 0,
+    };
     let (k, r) =
         state_model_check(&crate::flag_pipeline::CHOSEN, &crate::flag_pipeline::FLAG_LAYOUT, 1, &fit, 4000.0).unwrap();
     let committed = res().known.diagnosis_rows().into_iter().find(|(_, _, c)| c.candidate == "state poly 4").unwrap().2;

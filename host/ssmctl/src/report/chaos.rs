@@ -1293,8 +1293,9 @@ fn flag_pipeline_fit(
     let fnoise = chaos_study::calibration::FLAG_SAMPLING.noise_rel;
     let groups = diagnosis_groups(&diag);
     let flag = held.fit_rows();
-    let v = diagnosis_values(results, &diag, fit.embed);
-    rep.para(&html("chaos/diagnosis", &format!("{SPAN}{DIAGNOSIS}"), &v)?);
+    let noisy = noisy_state_values(&chaos_study::study_results::default_dir())?;
+    let v = diagnosis_values(results, &diag, fit.embed, &noisy);
+    rep.para(&html("chaos/diagnosis", &format!("{SPAN}{NOISY_STATE}{DIAGNOSIS}"), &v)?);
     // The multistep scan at d = 6 on the known system, and multistep on the flag.
     let scan = |ms: bool, scale: usize, noise: f64| d6_scan_counts(&diag, ms, scale, noise);
     let scan_cases = [("1x_flag_noise", 1, fnoise), ("3x_flag_noise", D6_SCALE, fnoise), ("1x_noise_free", 1, 0.0)];
@@ -1312,6 +1313,7 @@ fn flag_pipeline_fit(
             "fnn_rule": { "ratio": ratio, "max_fnn": max_fnn, "theiler": ctx.theiler, "dim": rule_dim, "rows": rule_rows },
             "projection_fnn_p9": proj,
             "diagnosis": diag.iter().map(|(w, n, r)| serde_json::json!({ "varied": w, "noise_rel": n, "row": r })).collect::<Vec<_>>(),
+            "noisy_state_realizations": noisy,
             "within_10pct_of_exact": groups.iter().map(|(n, (a, b))| (n.to_string(), serde_json::json!([a, b]))).collect::<serde_json::Map<_, _>>(),
             "flag": { "data": held.data, "rows": flag, "multistep_rows": held.multistep_rows(),
                 "centre_rows": fcs, "centre_counts": { "rows": cn, "failed": cfail, "benettin": cb, "corr_dim": cd, "js": cj, "benettin_js": cbj, "benettin_corr_dim_js": cbdj },
@@ -1378,8 +1380,9 @@ const DIAGNOSIS: &str = "{% macro o(v, n) %}{% if v is none %}-{% else %}{{ v | 
     What the diagnosis shows (Benettin within {{ targets.benettin_rel | pct(0) }} % of the exact exponent, of the rows): \
     (a) noise-free data with the flag's settings: {{ g('noise_free_d4') }} (the noise is not the cause); (c) the same \
     RBF and polynomial maps fitted on the true state x1..x4 sampled at the map step: {{ g('true_state_noise_free') }} \
-    noise-free ({{ span(state_ratio, 2) }} of exact, JS {{ span(state_js, 4) }}), {{ g('true_state_noisy') }} with the \
-    flag's noise on the state: the model class and the data amount suffice; (b) the coordinates are what fails: rows \
+    noise-free ({{ span(state_ratio, 2) }} of exact, JS {{ span(state_js, 4) }}): the model class and the data amount \
+    suffice; with the flag's noise on the state {{ g('true_state_noisy') }} in the table's realization of the noise, \
+    and {{ noisy_state(noisy) }}; (b) the coordinates are what fails: rows \
     \"{{ d5 }}\": {{ g('d5') }}, \"{{ d6 }}\" (the rule's choice): {{ g('d6_1x') }} at the flag's data amount, \
     {{ g('d6_3x') }} at {{ d6_scale }}x it, but {{ g('d6_noise_free') }} on noise-free data (there the small singular \
     directions are fitted without the noise's regularization and the attractor moves again); wider shifts \
@@ -1405,12 +1408,82 @@ const DIAGNOSIS: &str = "{% macro o(v, n) %}{% if v is none %}-{% else %}{{ v | 
     {% for r in flag %}{{ r.met }}/{{ r.targets }}{% if not loop.last %}, {% endif %}{% endfor %}; the flag's own \
     dimension rule keeps d = {{ flag_dim }}, whose rows are the flag search's above.";
 
+/// The noisy-state fits over realizations of the noise, in [`DIAGNOSIS`] (with [`SPAN`]): per
+/// model the realizations with Benettin within the target of exact, median and range of
+/// Benettin / exact and of D2 ([`noisy_state_values`]).
+const NOISY_STATE: &str = "{% macro stat(s, n) %}{% if s is none %}-{% else %}{{ s.median | fixed(n) }} \
+    ({{ span(s.range, n) }}){% endif %}{% endmacro %}\
+    {% macro noisy_state(m) %}over {{ m.realizations }} realizations of that noise (<code>ssmctl study {{ m.spec }}</code>; \
+    the median and the range over the realizations): \
+    {% for r in m.models %}{{ r.model }} {{ r.within }}/{{ r.n }}{% if r.failed %} ({{ r.failed }} failed){% endif %}, \
+    Benettin / exact {{ stat(r.ratio, 2) }}, D2 {{ stat(r.corr_dim, 2) }}{% if not loop.last %}; {% endif %}{% endfor %}; \
+    against the held-out piece's D2 of {{ m.data_corr_dim | fixed(2) }} ± {{ m.data_corr_dim_err | fixed(2) }}, one \
+    noisy-state row is one draw of the noise{% endmacro %}";
+
+/// The values of [`NOISY_STATE`] from the noise-realization rows in `dir`
+/// ([`chaos_study::study_results::NOISE_REALIZATIONS`]): the rows grouped by model (the name
+/// without ` seed N`), in their order. Summary key `flag_pipeline_fit.noisy_state_realizations`.
+fn noisy_state_values(dir: &std::path::Path) -> Result<serde_json::Value, Box<dyn Error>> {
+    use chaos_study::study_results::{KnownSystemResults, NOISE_REALIZATIONS, read};
+    let path = dir.join(NOISE_REALIZATIONS);
+    let r: KnownSystemResults = read(&path)?;
+    let rows = r.diagnosis_rows();
+    let split = |name: &str| {
+        name.rsplit_once(" seed ").map_or((name.to_string(), "0".to_string()), |(m, s)| (m.to_string(), s.to_string()))
+    };
+    let (mut models, mut seeds): (Vec<String>, Vec<String>) = (Vec::new(), Vec::new());
+    for (_, _, row) in &rows {
+        let (m, seed) = split(&row.candidate);
+        if !models.contains(&m) {
+            models.push(m);
+        }
+        if !seeds.contains(&seed) {
+            seeds.push(seed);
+        }
+    }
+    if models.is_empty() {
+        return Err(format!("{}: no diagnosis rows", path.display()).into());
+    }
+    // Median and range of `v` (`null` when empty).
+    let stat = |mut v: Vec<f64>| {
+        if v.is_empty() {
+            return serde_json::Value::Null;
+        }
+        v.sort_by(f64::total_cmp);
+        let k = v.len() / 2;
+        let median = if v.len().is_multiple_of(2) { 0.5 * (v[k - 1] + v[k]) } else { v[k] };
+        serde_json::json!({ "median": median, "range": span_of(&v) })
+    };
+    let per_model: Vec<serde_json::Value> = models
+        .iter()
+        .map(|m| {
+            let sel: Vec<&PipelineRow> =
+                rows.iter().map(|(_, _, r)| r).filter(|r| split(&r.candidate).0 == *m).collect();
+            serde_json::json!({
+                "model": m,
+                "n": sel.len(),
+                "failed": sel.iter().filter(|r| r.failed.is_some()).count(),
+                "within": sel.iter().filter(|r| r.benettin_exact_ok).count(),
+                "ratio": stat(sel.iter().filter_map(|r| r.benettin_over_exact).collect()),
+                "corr_dim": stat(sel.iter().filter_map(|r| r.corr_dim).collect()),
+            })
+        })
+        .collect();
+    let spec = r.produced_by.strip_prefix("ssmctl study ").unwrap_or(&r.produced_by);
+    Ok(serde_json::json!({
+        "spec": spec, "realizations": seeds.len(), "models": per_model,
+        "data_corr_dim": r.data.corr_dim, "data_corr_dim_err": r.data.corr_dim_err,
+    }))
+}
+
 /// The values of [`DIAGNOSIS`]: the groups' counts ([`diagnosis_groups`]), the ranges of their
-/// rows' Benettin / exact, JS and Rosenstein, and the flag's fits at the larger dimensions.
+/// rows' Benettin / exact, JS and Rosenstein, the noisy-state fits over noise realizations
+/// (`noisy`, [`noisy_state_values`]) and the flag's fits at the larger dimensions.
 fn diagnosis_values(
     results: &chaos_study::study_results::FlagResults,
     diag: &[(String, f64, PipelineRow)],
     embed: usize,
+    noisy: &serde_json::Value,
 ) -> serde_json::Value {
     use serde_json::json;
     let field = |sel: &dyn Fn(&str, f64) -> bool, f: &dyn Fn(&PipelineRow) -> Option<f64>| {
@@ -1447,6 +1520,7 @@ fn diagnosis_values(
                 .collect::<Vec<_>>(),
         ),
         "known_rosenstein": results.known.data.rosenstein,
+        "noisy": noisy,
         "train": held.train_runs, "test": held.test_run,
         "data": { "rosenstein": flag_data.0, "corr_dim": flag_data.1, "corr_dim_err": flag_data.2 },
         "flag": flag,
@@ -2085,11 +2159,97 @@ mod tests {
     fn diagnosis_paragraph_follows_the_rows() {
         let results = chaos_study::study_results::FlagResults::bundled().unwrap();
         let diag = results.known.diagnosis_rows();
-        let v = diagnosis_values(&results, &diag, 9);
-        let a = assert_numbers_follow("chaos/diagnosis", &format!("{SPAN}{DIAGNOSIS}"), &v);
+        let noisy = noisy_state_values(&chaos_study::study_results::default_dir()).unwrap();
+        let v = diagnosis_values(&results, &diag, 9, &noisy);
+        let a = assert_numbers_follow("chaos/diagnosis", &format!("{SPAN}{NOISY_STATE}{DIAGNOSIS}"), &v);
         let g = &v["groups"]["d5"];
         assert!(a.contains(&format!("rows \"(b) d = 5\": {}/{},", g[0], g[1])), "{a}");
         assert!(a.contains("the whole 9-sample delay vector") && a.contains("keeps d = 4, whose rows"), "{a}");
+    }
+
+    /// The diagnosis paragraph's noisy-state part rendered from the summary, as the paragraph
+    /// renders it (`flag_pipeline_fit.noisy_state_realizations`).
+    fn noisy_state_render(rep: &mut crate::report::Report, s: &serde_json::Value) -> Result<(), Box<dyn Error>> {
+        let tpl = format!("{SPAN}{NOISY_STATE}{{{{ noisy_state(flag_pipeline_fit.noisy_state_realizations) }}}}");
+        rep.para(&html("chaos/noisy-state", &tpl, s)?);
+        Ok(())
+    }
+
+    /// The noisy-state spread over the committed realizations follows its summary values: one
+    /// value moved shows, every value moved leaves no number put.
+    #[test]
+    fn noisy_state_realizations_follow_the_summary() {
+        let noisy = noisy_state_values(&chaos_study::study_results::default_dir()).unwrap();
+        assert_eq!(noisy["realizations"], 8);
+        assert!(noisy["models"].as_array().unwrap().iter().all(|m| m["n"] == 8), "{noisy}");
+        let s = json!({ "flag_pipeline_fit": { "noisy_state_realizations": noisy } });
+        let within = s["flag_pipeline_fit"]["noisy_state_realizations"]["models"][1]["within"].as_u64().unwrap();
+        let to = (within + 1) % 9;
+        crate::report::pages::check_section(
+            noisy_state_render,
+            &s,
+            "/flag_pipeline_fit/noisy_state_realizations/models/1/within",
+            json!(to),
+            &format!("(verbatim) {to}/8, Benettin"),
+        );
+        crate::report::pages::check_section(
+            noisy_state_render,
+            &s,
+            "/flag_pipeline_fit/noisy_state_realizations/models/2/corr_dim/median",
+            json!(9.876),
+            "D2 9.88 (",
+        );
+    }
+
+    /// Median and range by model over a made-up file (odd and even counts, a failed row); a
+    /// missing or empty file is an error naming it.
+    #[test]
+    fn noisy_state_values_group_by_model() {
+        use chaos_study::study_results::{DiagRow, KnownData, KnownSystemResults, NOISE_REALIZATIONS, to_json};
+        let dir = std::env::temp_dir().join(format!("chaos-noisy-state-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let e = noisy_state_values(&dir).unwrap_err().to_string();
+        assert!(e.contains(NOISE_REALIZATIONS), "{e}");
+        let row = |name: &str, b: f64, d2: Option<f64>| DiagRow {
+            group: "g".into(),
+            candidate: name.into(),
+            scale: 1,
+            noise_rel: 0.01,
+            benettin: Some(b),
+            rosenstein: Some(0.5),
+            corr_dim: d2,
+            js: Some(0.005),
+            failed: d2.is_none().then(|| "escaped".into()),
+        };
+        let mut r = KnownSystemResults {
+            produced_by: "ssmctl study s.toml".into(),
+            data: KnownData { rosenstein: 0.9, corr_dim: 2.5, corr_dim_err: 0.1, exact: 1.0 },
+            pipeline_check: Vec::new(),
+            diagnosis: vec![
+                row("state poly 4 noise seed 0", 1.0, Some(3.0)),
+                row("state poly 4 noise seed 1", 0.5, Some(1.0)),
+                row("state poly 4 noise seed 2", 1.05, Some(2.0)),
+                row("state RBF 9 noise seed 0", 1.2, Some(2.0)),
+                row("state RBF 9 noise seed 1", 0.98, Some(4.0)),
+                row("state RBF 9 noise seed 2", 1.0, None),
+            ],
+        };
+        std::fs::write(dir.join(NOISE_REALIZATIONS), to_json(&r).unwrap()).unwrap();
+        let v = noisy_state_values(&dir).unwrap();
+        assert_eq!((v["spec"].as_str(), &v["realizations"]), (Some("s.toml"), &json!(3)));
+        let m = &v["models"];
+        assert_eq!(
+            (m[0]["model"].as_str(), &m[0]["n"], &m[0]["within"]),
+            (Some("state poly 4 noise"), &json!(3), &json!(2))
+        );
+        assert_eq!((&m[0]["corr_dim"]["median"], &m[0]["corr_dim"]["range"]), (&json!(2.0), &json!([1.0, 3.0])));
+        assert_eq!((&m[1]["failed"], &m[1]["corr_dim"]["median"]), (&json!(1), &json!(3.0)));
+        assert_eq!(&m[0]["ratio"]["median"], &json!(1.0));
+        r.diagnosis.clear();
+        std::fs::write(dir.join(NOISE_REALIZATIONS), to_json(&r).unwrap()).unwrap();
+        let e = noisy_state_values(&dir).unwrap_err().to_string();
+        assert!(e.contains(NOISE_REALIZATIONS) && e.contains("no diagnosis rows"), "{e}");
+        std::fs::remove_dir_all(&dir).ok();
     }
 
     /// The multistep paragraph over the bundled rows: every number follows the values.

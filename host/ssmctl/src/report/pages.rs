@@ -120,6 +120,7 @@ const VERBATIM: &[(&str, &str)] = &[
     ("device.missing", "a file path"),
     ("pil.missing", "a file path"),
     ("chaos_cost.rows[].notes[]", "an estimator's notes"),
+    ("flag_pipeline_fit.noisy_state_realizations.models[].model", "a model's name with its settings"),
 ];
 
 /// String values written as whole table cells (names, settings, messages), masked only there:
