@@ -2251,6 +2251,60 @@ pub(crate) mod tests {
         );
     }
 
+    /// The estimator-bias paragraph over made-up values, with and without candidates close to
+    /// the data: every number follows them.
+    #[test]
+    fn bias_paragraph_follows_the_values() {
+        let v = json!({
+            "rows": 17, "best": ["k=4 d=4 c=250", "k=4 d=4 c=300 /x"], "best_count": 2, "data_corr_dim": 3.36,
+            "d2": 0.3, "js": 0.02, "ratio": [0.43, 0.55], "exponent": [0.6, 0.77], "joint": [0.95, 1.05],
+            "targets": chaos::Targets::default(), "inside": 3, "inside_close": 1,
+        });
+        let a = assert_numbers_follow("chaos/bias", BIAS, &v);
+        assert!(
+            a.contains("(D2 within 0.3 of 3.36, JS <= 0.02: k=4 d=4 c=250; k=4 d=4 c=300 /x) read 0.43 to 0.55"),
+            "{a}"
+        );
+        assert!(a.contains("ratio in [0.950, 1.050]: 3 chaotic rows are in it, 1 of them"), "{a}");
+        let mut none = v.clone();
+        none["best_count"] = json!(0);
+        let a = assert_numbers_follow("chaos/bias", BIAS, &none);
+        assert!(
+            a.contains("no chaotic candidate of the search matches the data's D2 (within 0.3) and PDFs (JS <= 0.02).")
+        );
+    }
+
+    /// The pick paragraph over made-up values: a pick with each warning and none, and no pick;
+    /// every number follows the values, and the text is `model_selection::select`'s.
+    #[test]
+    fn pick_paragraph_follows_the_values() {
+        let r = json!({ "name": "RBF 500 /1", "benettin": 0.0123, "benettin_err": 0.02, "benettin_2nd": -0.1,
+                        "rosenstein": 0.31, "corr_dim": 2.5, "js": 0.0456, "rollout": 0.2, "failed": null,
+                        "data": { "lle": 0.332, "corr_dim": 3.36, "corr_dim_err": 0.17 } });
+        let pick = |met: &[&str], warning: &str| json!({ "r": r, "met_count": met.len(), "met": met, "targets": 4, "score": 3.21, "warning": warning });
+        let v = |p: serde_json::Value| json!({ "set": "measured: flag", "pick": p, "failed": 2, "total": 7, "targets": chaos::Targets::default() });
+        let a = assert_numbers_follow("chaos/pick", PICK, &v(pick(&["benettin", "js"], "data_chaotic")));
+        let want = "measured: flag: picked RBF 500 /1. RBF 500 /1 meets 2 of 4 targets (Benettin within 10 %, JS within \
+             bound) with normalized error 3.21: Benettin 0.012 1/s, Rosenstein 0.310 vs data 0.332 1/s, D2 2.500 vs \
+             3.36 +- 0.17, JS 0.046; 2 of 7 candidates failed <b>Warning:</b> the data look chaotic (Rosenstein 0.332 \
+             1/s) but the best model is not (Benettin 0.012 +- 0.020 1/s): its irregularity is not reproduced by its \
+             own dynamics.";
+        assert_eq!(a, want);
+        let a = assert_numbers_follow("chaos/pick", PICK, &v(pick(&[], "model_chaotic")));
+        assert!(
+            a.contains("targets (none) with") && a.ends_with("but the data do not look so (Rosenstein 0.332 1/s).")
+        );
+        let a = assert_numbers_follow("chaos/pick", PICK, &v(pick(&["rosenstein", "corr_dim"], "none")));
+        assert!(
+            a.contains("(Rosenstein within 5 %, D2 within the data's error bar)") && a.ends_with("candidates failed")
+        );
+        let a = assert_numbers_follow("chaos/pick", PICK, &v(serde_json::Value::Null));
+        assert!(a.ends_with(
+            "picked none. all 7 candidates failed (escape, left the data's region or fit error) \
+             <b>Warning:</b> no model: every candidate failed."
+        ));
+    }
+
     /// The false-nearest-neighbour paragraph over made-up values: every number follows them.
     #[test]
     fn fnn_paragraph_follows_the_values() {

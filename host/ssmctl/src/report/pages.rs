@@ -66,7 +66,8 @@ const NOT_YET: &[(&str, &str)] = &[("timings", "wall-clock times, not results: c
 /// String values copied into the text as they are (names, settings, messages): their digits
 /// do not move with the numbers. `(summary path, why)`; `[]` stands for every item of a list,
 /// `**` for any depth (a key at any depth below), and a list of strings at the end of a path
-/// stands for its items. Only strings with a digit are masked (no other can hide a number).
+/// stands for its items. Only strings with a number in them are masked (`traj_1` is left as it
+/// is, so that it is not masked inside `traj_12`).
 const VERBATIM: &[(&str, &str)] = &[
     ("fit_auto.rows[].set", "a data set's name"),
     ("fit_auto.rows[].auto_describe", "the chosen fit setting, named by ssm::auto::Setting::describe"),
@@ -218,7 +219,7 @@ fn masked(html: &str, summary: &Value) -> String {
     strings.sort_by_key(|s| std::cmp::Reverse(s.len()));
     strings
         .iter()
-        .filter(|s| s.bytes().any(|b| b.is_ascii_digit()))
+        .filter(|s| !crate::report::prose::numbers_in(s).is_empty())
         .fold(html, |h, s| h.replace(&esc(s), "(verbatim)").replace(*s, "(verbatim)"))
 }
 

@@ -228,6 +228,24 @@ mod tests {
 
     use crate::report::prose::{perturbed, unmoved};
 
+    /// The conclusion over the quick report's values, chaotic below a step or not and at the
+    /// attractor's scale or not: every number follows the values, the theory's slopes too.
+    #[test]
+    fn conclusion_follows_the_values() {
+        let s = crate::report::pages::snapshot_summary();
+        for chaotic in [true, false] {
+            let mut v = s["microchaos_verdict"].clone();
+            v["chaotic"] = json!(chaotic);
+            v["chaotic_at_attractor_scale"] = json!(!chaotic);
+            let values =
+                json!({"v": v, "c": v["conclusion"], "fsle_slope": s["page_chaos_verdict"]["setup"]["fsle_slope"]});
+            let a = crate::report::chaos::assert_numbers_follow("chaos-verdict/conclusion", CONCLUSION, &values);
+            assert!(a.contains("diffusion gives -2, chaos 0):"), "{a}");
+            assert_eq!(a.starts_with("The noise-free quantized loop is chaotic in the strict sense"), chaotic, "{a}");
+            assert_eq!(a.contains("): exponential separation at the attractor's scale."), !chaotic, "{a}");
+        }
+    }
+
     /// Every number of the introduction comes from the options, the scene or the theory's
     /// slopes: with all of them moved, every number of the text moves.
     #[test]
