@@ -587,7 +587,8 @@ const TABLES: &[(&str, &[&str], &[&str])] = &[
             "{{ r.exact | fixed(4) }} ± {{ r.exact_err | fixed(4) }}",
             "{{ o(r.rosenstein, 4) }}",
             "{{ o(r.ratio, 3) }}",
-            "{{ r.note }}",
+            "{% if r.data_rosenstein is defined %}Rosenstein model / data {{ o(r.rosenstein, 3) }} / \
+             {{ r.data_rosenstein | fixed(3) }} = {{ r.rosenstein_over_data | fixed(2) }}{% else %}{{ r.note }}{% endif %}",
         ],
     ),
     (

@@ -118,7 +118,6 @@ const VERBATIM: &[(&str, &str)] = &[
     ("chaos_cost.rows[].notes[]", "an estimator's notes"),
     ("page_chaos.**.candidate", "a candidate model's name with its settings, as the study names it"),
     ("page_chaos.**.name", "a data set's, series', run's, system's or candidate's name"),
-    ("page_chaos.**.set", "a data set's name"),
     ("page_chaos.**.train", "a training series' name"),
     ("page_chaos.**.test", "the held-out series' name"),
     ("page_chaos.**.best", "the names of the candidates closest to the data"),
