@@ -49,6 +49,11 @@ pub struct CheckRow {
     pub rosenstein: Option<f64>,
     /// `rosenstein / exact`.
     pub ratio: Option<f64>,
+    /// A fitted model's row: the data's Rosenstein exponent (1/s) and the model's over it.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub data_rosenstein: Option<f64>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub rosenstein_over_data: Option<f64>,
     pub note: String,
 }
 
@@ -140,6 +145,8 @@ pub fn known_answer_rows(quick: bool) -> Result<Vec<CheckRow>, Error> {
             exact_err,
             rosenstein: l,
             ratio: l.map(|l| l / exact),
+            data_rosenstein: None,
+            rosenstein_over_data: None,
             note,
         })
     })
@@ -166,7 +173,9 @@ pub fn model_rows(data_name: &str, results: &[CandidateResult]) -> Vec<CheckRow>
                 exact_err: e,
                 rosenstein: Some(l),
                 ratio: Some(l / b),
-                note: format!("Rosenstein model / data {:.3} / {:.3} = {:.2}", l, r.data.lle, l / r.data.lle),
+                data_rosenstein: Some(r.data.lle),
+                rosenstein_over_data: Some(l / r.data.lle),
+                note: String::new(),
             })
         })
         .collect()

@@ -454,11 +454,24 @@ pub fn twin_divergence(
     })
 }
 
+/// The values the conclusion quotes besides the rates, exponents and test results of
+/// [`Verdict`] (the report writes the conclusion's sentences over them).
+#[derive(Clone, Copy, Debug, Serialize)]
+pub struct Conclusion {
+    /// One encoder step `h` (rad): the scale below which the twins see the open-loop flow.
+    pub encoder_step: f64,
+    /// The first twin FSLE threshold at or above one encoder step with a rate (rad): where one
+    /// count flip takes the separation from about `h / 2`; `None` when no band has a rate.
+    pub separation_after_flip: Option<f64>,
+    /// The span of the noise-free quantized series the 0-1 test's displacements cover, s.
+    pub zero_one_span_s: f64,
+}
+
 /// Everything [`microchaos_verdict`] measured, and what it concludes.
 #[derive(Clone, Debug, Serialize)]
 pub struct Verdict {
-    /// The conclusion in a few sentences, with the numbers.
-    pub verdict: String,
+    /// What the conclusion quotes beyond the fields below.
+    pub conclusion: Conclusion,
     /// Deterministic chaos in the strict sense: the noise-free quantized loop's twins separate
     /// exponentially from 1e-9 rad up to a count flip at a rate (`rate_below_step`) that
     /// agrees with the period map's own tangent exponent within 30 %.
@@ -490,7 +503,7 @@ pub struct Verdict {
 /// The `summary.json` key `microchaos_verdict`: the conclusion and the test values.
 #[derive(Clone, Debug, Serialize)]
 pub struct MicrochaosVerdictSummary {
-    pub verdict: String,
+    pub conclusion: Conclusion,
     pub chaotic: bool,
     pub chaotic_at_attractor_scale: bool,
     pub rate_below_step: Option<f64>,
@@ -520,7 +533,7 @@ pub struct SeriesSummary {
 impl From<&Verdict> for MicrochaosVerdictSummary {
     fn from(v: &Verdict) -> Self {
         Self {
-            verdict: v.verdict.clone(),
+            conclusion: v.conclusion,
             chaotic: v.chaotic,
             chaotic_at_attractor_scale: v.chaotic_at_attractor_scale,
             rate_below_step: v.rate_below_step,
@@ -618,56 +631,13 @@ pub fn microchaos_verdict(pil: Option<&TimeSeries>, o: &VerdictOptions) -> Resul
     let q = &series[0];
     let chaotic_at_attractor_scale =
         attractor_rate.is_some_and(|r| r > 0.0) && attractor_slope.is_some_and(|s| s > -0.5) && q.zero_one.k > 0.5;
-    let f2 = |v: Option<f64>| v.map_or("-".to_string(), |v| format!("{v:.2}"));
-    let noisy = &series[2];
-    let smooth = &series[1];
-    let verdict = format!(
-        "{} Below one encoder step (h = {:.2e} rad) twins of the noise-free quantized loop separate at {} 1/s, the exponent of the period map's own tangent ({:.2} 1/s: \
-         the quantizer's derivative is zero almost everywhere, so the tangent is the open-loop flow's, {:.2} 1/s at the upright equilibrium) until a count flips; \
-         one flip (a DAC kick) takes the separation from ~h/2 to {:.1e} rad within a period. \
-         At the attractor's scales ({:.1e}..{:.1e} rad) the twin rate is {} 1/s on average but falls with the scale (slope of ln lambda vs ln delta {}; data FSLE slope {}, \
-         diffusion gives -2, chaos 0): {}. \
-         0-1 test K = {:.2} (smooth loop {:.2}, noisy loop {:.2}; displacements over {:.0} s of data: K reads diffusion, so it rises with the record's length for \
-         both the quantized and the noisy loop); IAAFT surrogates reject a linear Gaussian process by prediction error for all three (p = {:.3}, {:.3}, {:.3}; \
-         the smooth torus too: they show nonlinear determinism, not chaos), time reversal rejects none (p = {:.2}, {:.2}, {:.2}). \
-         The smooth (unquantized) closed loop's tangent along the quantized orbit has exponents {} 1/s (the orbit stays near the upright equilibrium, where the linearized loop \
-         expands at {:.3} 1/s, inside the smooth loop's torus): a smooth reduced model has no open-loop expansion below a count and no kicks, and on its own orbit it settles on \
-         the torus; it can carry the attractor-scale torus and, kicked by its residuals, the diffusion, not the sub-step chaos.",
-        if chaotic {
-            "The noise-free quantized loop is chaotic in the strict sense (bounded, deterministic, positive exponent), but only below one encoder step."
-        } else {
-            "The noise-free quantized loop shows no exponential separation that matches the period map's exponent below one encoder step."
-        },
-        H_ADC,
-        f2(rate_below_step),
-        period_map.quantized_tangent,
-        period_map.open_loop_rate,
-        twins.fsle.iter().find(|r| r.delta >= H_ADC && r.lambda.is_some()).map_or(f64::NAN, |r| r.delta),
-        attractor_scales.0,
-        attractor_scales.1,
-        f2(attractor_rate),
-        f2(attractor_slope),
-        f2(q.fsle_slope),
-        if chaotic_at_attractor_scale {
-            "exponential separation at the attractor's scale"
-        } else {
-            "no exponential separation at the attractor's scale: there it is a torus diffused by count-flip kicks, like the noisy loop"
-        },
-        q.zero_one.k,
-        smooth.zero_one.k,
-        noisy.zero_one.k,
-        (q.zero_one.n_cut * q.zero_one.stride) as f64 * dt,
-        q.surrogate_prediction.p_value,
-        smooth.surrogate_prediction.p_value,
-        noisy.surrogate_prediction.p_value,
-        q.surrogate_time_reversal.p_value,
-        smooth.surrogate_time_reversal.p_value,
-        noisy.surrogate_time_reversal.p_value,
-        period_map.smooth_tangent.iter().map(|v| format!("{v:+.3}")).collect::<Vec<_>>().join(", "),
-        period_map.linear_closed_loop_rate,
-    );
+    let conclusion = Conclusion {
+        encoder_step: H_ADC,
+        separation_after_flip: twins.fsle.iter().find(|r| r.delta >= H_ADC && r.lambda.is_some()).map(|r| r.delta),
+        zero_one_span_s: (q.zero_one.n_cut * q.zero_one.stride) as f64 * dt,
+    };
     Ok(Verdict {
-        verdict,
+        conclusion,
         chaotic,
         rate_below_step,
         attractor_scales,

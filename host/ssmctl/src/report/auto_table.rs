@@ -205,18 +205,6 @@ pub fn render(rep: &mut Report, v: &Value) -> Result<(), Box<dyn Error>> {
 mod tests {
     use super::*;
 
-    #[test]
-    fn auto_table_text_follows_the_values() {
-        let s = crate::report::pages::snapshot_summary();
-        crate::report::pages::check_section(
-            |r, s| render(r, &s["fit_auto"]),
-            &s,
-            "/fit_auto/replicates",
-            json!(77),
-            "77 bootstrap replicates",
-        );
-    }
-
     /// The section on the bundled grid results (quick: fewer replicates): a row per data
     /// set, auto's held-out NMTE within 1.2x of the grid's smallest, each interval ordered
     /// and beside its estimate.

@@ -130,17 +130,6 @@ pub(crate) fn render(rep: &mut Report, s: &Value) -> Result<(), Box<dyn Error>> 
 mod tests {
     use super::*;
 
-    #[test]
-    fn parametric_text_follows_the_values() {
-        let s = crate::report::pages::snapshot_summary();
-        crate::report::pages::check_section(
-            render,
-            &s,
-            "/linear_nf/0/fast_rate_fit",
-            json!(-1.23456),
-            "<td>-1.2346</td>",
-        );
-    }
     use crate::report::prose::{perturbed, unmoved};
 
     /// The introduction's numbers all come from the setup: with every value moved, every

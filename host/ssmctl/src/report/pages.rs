@@ -57,20 +57,17 @@ const RENDERED: &[(&str, &[&str], Render)] = &[
     ("fit-sloshing", &["page_sloshing", "fit_sloshing", "page_furuta_blob"], sloshing::sloshing_page_render),
     ("device", &["device", "pil", "page_device"], sloshing::device_render),
     ("chaos-scale", &["chaos_scale", "page_chaos_scale"], chaos::scale_render),
+    ("chaos", &["page_chaos"], chaos::render),
 ];
 
 /// Sections whose text is not yet written from values, and why.
-const NOT_YET: &[(&str, &str)] = &[
-    (
-        "chaos",
-        "chaos.rs: the paragraphs are templates tested with every value moved (but the estimator-bias and pick \
-         paragraphs), the tables are formatted from study rows; the page is not yet rendered from the summary alone",
-    ),
-    ("timings", "wall-clock times, not results: compare-report drops this section"),
-];
+const NOT_YET: &[(&str, &str)] = &[("timings", "wall-clock times, not results: compare-report drops this section")];
 
 /// String values copied into the text as they are (names, settings, messages): their digits
-/// do not move with the numbers. `(summary path, why)`; `[]` stands for every item of a list.
+/// do not move with the numbers. `(summary path, why)`; `[]` stands for every item of a list,
+/// `**` for any depth (a key at any depth below), and a list of strings at the end of a path
+/// stands for its items. Only strings with a number in them are masked (`traj_1` is left as it
+/// is, so that it is not masked inside `traj_12`).
 const VERBATIM: &[(&str, &str)] = &[
     ("fit_auto.rows[].set", "a data set's name"),
     ("fit_auto.rows[].auto_describe", "the chosen fit setting, named by ssm::auto::Setting::describe"),
@@ -93,7 +90,6 @@ const VERBATIM: &[(&str, &str)] = &[
     ("page_chaos_verdict.setup.quantized", "a scene's name"),
     ("page_chaos_verdict.setup.smooth", "a scene's name"),
     ("page_chaos_verdict.setup.noisy", "a scene's name"),
-    ("microchaos_verdict.verdict", "the conclusion as chaos_study::verdict writes it from its values"),
     ("microchaos_verdict.noisy_source", "where the noisy series comes from: a scene's or a recording's name"),
     ("microchaos_verdict.series[].name", "a series' name: a scene's or a recording's"),
     ("map_sensitivity.variants[].variant", "a training variant's name with its settings"),
@@ -121,6 +117,22 @@ const VERBATIM: &[(&str, &str)] = &[
     ("pil.missing", "a file path"),
     ("chaos_cost.rows[].notes[]", "an estimator's notes"),
     ("flag_pipeline_fit.noisy_state_realizations.models[].model", "a model's name with its settings"),
+    ("page_chaos.**.candidate", "a candidate model's name with its settings, as the study names it"),
+    ("page_chaos.**.name", "a data set's, series', run's, system's or candidate's name"),
+    ("page_chaos.**.train", "a training series' name"),
+    ("page_chaos.**.test", "the held-out series' name"),
+    ("page_chaos.**.best", "the names of the candidates closest to the data"),
+    ("page_chaos.**.system", "a known chaotic system's name with its parameters"),
+    ("page_chaos.**.systems", "known chaotic systems' names with their parameters"),
+    ("page_chaos.**.what", "what a group of rows varies, as the study names it"),
+    ("page_chaos.**.d5", "a diagnosis group's name, as the study names it"),
+    ("page_chaos.**.d6", "a diagnosis group's name, as the study names it"),
+    ("page_chaos.**.scan_group", "a diagnosis group's name, as the study names it"),
+    ("page_chaos.**.seed_model", "a candidate model's name"),
+    ("page_chaos.**.failed", "why a candidate failed, a message"),
+    ("page_chaos.**.error", "why an analysis failed, a message"),
+    ("page_chaos.**.notes", "an estimator's or a fit's notes"),
+    ("page_chaos.**.note", "an estimator's note"),
 ];
 
 /// String values written as whole table cells (names, settings, messages), masked only there:
@@ -161,16 +173,31 @@ fn snapshot_from(dir: &Path) -> Value {
     serde_json::json!({"sections": ids, "summary": keys})
 }
 
-/// The strings at `path` (dot-separated keys, `[]` for every item of a list) in `v`.
+/// The strings at `path` (dot-separated keys, `[]` for every item of a list, `**` for any
+/// depth; a list of strings at the end stands for its items) in `v`.
 fn strings_at<'a>(v: &'a Value, path: &str, out: &mut Vec<&'a str>) {
     let (head, rest) = path.split_once('.').map_or((path, None), |(h, r)| (h, Some(r)));
+    if head == "**" {
+        let rest = rest.unwrap_or_default();
+        strings_at(v, rest, out);
+        let children: Vec<&Value> = match v {
+            Value::Array(a) => a.iter().collect(),
+            Value::Object(o) => o.values().collect(),
+            _ => Vec::new(),
+        };
+        for c in children {
+            strings_at(c, path, out);
+        }
+        return;
+    }
     let (key, all) = head.strip_suffix("[]").map_or((head, false), |k| (k, true));
     let Some(x) = v.get(key) else { return };
     let items: Vec<&Value> = if all { x.as_array().map(|a| a.iter().collect()).unwrap_or_default() } else { vec![x] };
     for it in items {
-        match rest {
-            Some(r) => strings_at(it, r, out),
-            None => out.extend(it.as_str()),
+        match (rest, it) {
+            (Some(r), _) => strings_at(it, r, out),
+            (None, Value::Array(a)) => out.extend(a.iter().filter_map(Value::as_str)),
+            (None, _) => out.extend(it.as_str()),
         }
     }
 }
@@ -192,7 +219,7 @@ fn masked(html: &str, summary: &Value) -> String {
     strings.sort_by_key(|s| std::cmp::Reverse(s.len()));
     strings
         .iter()
-        .filter(|s| !s.is_empty())
+        .filter(|s| !crate::report::prose::numbers_in(s).is_empty())
         .fold(html, |h, s| h.replace(&esc(s), "(verbatim)").replace(*s, "(verbatim)"))
 }
 
@@ -212,20 +239,196 @@ pub(crate) fn snapshot_summary() -> Value {
 
 /// The two checks of a section written by `f` from `summary`: the number at `pointer` (a
 /// JSON pointer) changed to `to` puts `expect` on the page (and the old page lacks it), and
-/// with every value moved no number of the page stays put.
-pub(crate) fn check_section(f: Render, summary: &Value, pointer: &str, to: Value, expect: &str) {
+/// with every value moved no number of the page stays put. `Err` says which failed.
+fn check_section(f: Render, summary: &Value, pointer: &str, to: Value, expect: &str) -> Result<(), String> {
     let a = render(f, summary);
-    assert!(!a.contains(expect), "`{expect}` already on the page:\n{a}");
+    if a.contains(expect) {
+        return Err(format!("`{expect}` already on the page:\n{a}"));
+    }
     let mut one = summary.clone();
-    *one.pointer_mut(pointer).unwrap_or_else(|| panic!("no {pointer} in the values")) = to;
+    *one.pointer_mut(pointer).ok_or_else(|| format!("no {pointer} in the values"))? = to;
     let b = render(f, &one);
-    assert!(b.contains(expect), "`{expect}` not on the page after {pointer} changed:\n{b}");
-    let u: Vec<_> = unmoved(&a, &render(f, &perturbed(summary)))
-        .unwrap()
+    if !b.contains(expect) {
+        return Err(format!("`{expect}` not on the page after {pointer} changed:\n{b}"));
+    }
+    let u: Vec<_> = unmoved(&a, &render(f, &perturbed(summary)))?
         .into_iter()
         .filter(|(_, n)| !STAYS.iter().any(|s| s.0 == n))
         .collect();
-    assert!(u.is_empty(), "numbers typed into the text (position, number): {u:?}\n{a}");
+    if !u.is_empty() {
+        return Err(format!("numbers typed into the text (position, number): {u:?}\n{a}"));
+    }
+    Ok(())
+}
+
+/// One check of [`check_section`]: what it checks, the writer, its values, the number's
+/// pointer, its new value and the text that value puts on the page.
+struct Check {
+    what: &'static str,
+    render: Render,
+    values: fn() -> Value,
+    pointer: &'static str,
+    to: Value,
+    expect: &'static str,
+}
+
+/// The sections' checks: the quick report's values (the snapshot), or made-up values for the
+/// sections only the full report or a device run writes.
+fn checks() -> Vec<Check> {
+    use crate::report::{bifurcations as bif, global as glob, reproduce as rp};
+    use serde_json::json;
+    let snap: fn() -> Value = snapshot_summary;
+    let c = |what, render: Render, values, pointer, to, expect| Check { what, render, values, pointer, to, expect };
+    vec![
+        c(
+            "chaos diagnosis: noisy-state realizations, a count",
+            chaos::tests::noisy_state_render,
+            chaos::tests::noisy_state_summary,
+            "/flag_pipeline_fit/noisy_state_realizations/models/1/within",
+            json!(5),
+            "(verbatim) 5/8, Benettin",
+        ),
+        c(
+            "chaos diagnosis: noisy-state realizations, a median",
+            chaos::tests::noisy_state_render,
+            chaos::tests::noisy_state_summary,
+            "/flag_pipeline_fit/noisy_state_realizations/models/2/corr_dim/median",
+            json!(9.876),
+            "D2 9.88 (",
+        ),
+        c("scenes", rp::scenes_render, snap, "/scenes/0/max_abs_theta_late", json!(0.123456), "<td>0.1235</td>"),
+        c(
+            "stability",
+            rp::stability_render,
+            snap,
+            "/stability/0/dominant/0/abs",
+            json!(0.987654321),
+            "<td>0.987654</td>",
+        ),
+        c("chart", rp::chart_render, snap, "/page_chart/gains/0", json!(17.25), "(17.25 V,"),
+        c(
+            "accuracy-time-sim",
+            rp::bench_render,
+            snap,
+            "/bench_simulate/0/max_err_rad",
+            json!(1.234e-5),
+            "<td>1.23e-5</td>",
+        ),
+        c(
+            "fit-auto",
+            |r, s| auto_table::render(r, &s["fit_auto"]),
+            snap,
+            "/fit_auto/replicates",
+            json!(77),
+            "77 bootstrap replicates",
+        ),
+        c("parametric", normal_form::render, snap, "/linear_nf/0/fast_rate_fit", json!(-1.23456), "<td>-1.2346</td>"),
+        c("predictions", bif::predictions_render, snap, "/predictions/0/nmte", json!(0.0123456), "<td>0.0123</td>"),
+        c(
+            "portraits",
+            bif::portraits_render,
+            snap,
+            "/page_portraits/hopf",
+            json!({"dt": 31.98766, "bracket": [31.9, 32.0], "rho": [0.1, 0.02], "eigenvalues": [[0.0, 1.0], [0.0, -1.0]],
+                   "complex_pair": true, "frequency_hz": 0.5, "loses_stability": true}),
+            "loses stability at dt = 31.9877 ms",
+        ),
+        c(
+            "fullsystem",
+            bif::fullsystem_render,
+            snap,
+            "/page_fullsystem/scan/runs",
+            json!(987),
+            "Small starts, full system: 987 runs",
+        ),
+        c(
+            "bifurcation sensitivity (full report, made-up values)",
+            bif::sensitivity_render,
+            bif::tests::sensitivity_values,
+            "/page_bifsensitivity/max_rate_error",
+            json!(0.0042),
+            "within 0.42 %",
+        ),
+        c(
+            "equation",
+            glob::equation_render,
+            snap,
+            "/equation_ssm/bifurcations_by_order/0/saddle_connection_dt_ms",
+            json!(31.23456),
+            "<td>31.235</td>",
+        ),
+        c(
+            "equation, the fitted map's training variants (full report, made-up variants)",
+            glob::equation_render,
+            glob::tests::map_variant_values,
+            "/map_sensitivity/variants/0/torus/linear/growth_onset",
+            json!(31.7777),
+            "onset 31.778</td>",
+        ),
+        c("basin", glob::basin_render, snap, "/basin/per_dt/0/map/disagreement", json!(0.4321), "<td>43.2 % ("),
+        c(
+            "chaos-verdict",
+            verdict::render,
+            snap,
+            "/microchaos_verdict/period_map/open_loop_rate",
+            json!(12.3456),
+            "<td>12.3456</td>",
+        ),
+        c(
+            "chaos-verdict, the conclusion",
+            verdict::render,
+            snap,
+            "/microchaos_verdict/conclusion/zero_one_span_s",
+            json!(123.4),
+            "displacements over 123 s of data",
+        ),
+        c(
+            "fit-sloshing",
+            sloshing::sloshing_page_render,
+            snap,
+            "/fit_sloshing/nmte_test",
+            json!(0.0421),
+            "test NMTE 0.0421,",
+        ),
+        c(
+            "device (made-up device table and PIL run)",
+            sloshing::device_render,
+            sloshing::tests::device_values,
+            "/device/controller_step_instructions_int",
+            json!(123.4),
+            "integer 123 (",
+        ),
+        c(
+            "chaos-scale",
+            chaos::scale_render,
+            snap,
+            "/chaos_scale/0/rows/0/eps_units",
+            json!(12.3456),
+            "<td>12.346</td>",
+        ),
+        c(
+            "chaos-cost (full report, made-up rows)",
+            chaos::cost_render,
+            chaos::tests::cost_values,
+            "/chaos_cost/lle_data",
+            json!(0.9876),
+            "0.988 1/s.",
+        ),
+        c("chaos", chaos::render, snap, "/page_chaos/0/values/centers", json!(321), "(linear kernel, 321 centres)"),
+    ]
+}
+
+/// Each section's checks ([`checks`]): one value moved shows on its page, and with every
+/// value moved no number stays put. A failure names its check.
+#[test]
+fn each_section_follows_its_values() {
+    let failures: Vec<String> = checks()
+        .into_iter()
+        .filter_map(|c| {
+            check_section(c.render, &(c.values)(), c.pointer, c.to, c.expect).err().map(|e| format!("{}: {e}", c.what))
+        })
+        .collect();
+    assert!(failures.is_empty(), "{}", failures.join("\n\n"));
 }
 
 /// Every section of the quick report is written from values or named in a list above with

@@ -16,7 +16,8 @@ use serde_json::Value;
 /// `nums` (a list through `num`, comma-separated), `fixed_or(n, text)` (`fixed(n)`, or `text` for none),
 /// `num_or(text)` (`num`, or `text`, default `-`, for none), `e` (Rust's `{:e}`), `dbg` (Rust's `{:?}` of a number or a list of numbers), `signed(n)` and `ssci(n)` (as `fixed` and
 /// `sci` with a sign always), `plain` (Rust's `Display`: `31` for 31.0; a list joined by `, ` or
-/// the given separator).
+/// the given separator), `esc` (a string escaped as [`crate::report::esc`] does, which leaves `/`
+/// as it is, for names the page printed so before it was a template).
 pub struct Prose {
     env: Environment<'static>,
 }
@@ -58,6 +59,7 @@ impl Prose {
         // Paragraphs are HTML (values escaped); captions and table cells are plain text that
         // `Report` escapes itself.
         env.set_auto_escape_callback(|name| if name.ends_with(HTML) { AutoEscape::Html } else { AutoEscape::None });
+        env.add_filter("esc", |v: String| -> JinjaValue { JinjaValue::from_safe_string(crate::report::esc(&v)) });
         env.add_filter("num", |v: JinjaValue| -> Result<String, minijinja::Error> { Ok(crate::report::num(f(&v)?)) });
         env.add_filter("fixed", |v: JinjaValue, n: usize| -> Result<String, minijinja::Error> {
             Ok(format!("{:.n$}", f(&v)?))
