@@ -68,3 +68,75 @@ fn the_python_module_resolves_the_workspace_features() {
         d.join("\n")
     );
 }
+
+/// Names of the packages only the compiler runs (proc macros, and what only build scripts and
+/// proc macros use) in `cargo test --workspace`.
+fn compile_time_packages() -> BTreeSet<String> {
+    let name = |k: &String| k.split_whitespace().next().unwrap_or_default().to_string();
+    let all: BTreeSet<String> = features(&["--workspace", "-e", "normal,build,dev"]).keys().map(name).collect();
+    let run: BTreeSet<String> = features(&["--workspace", "-e", "normal,dev,no-proc-macro"]).keys().map(name).collect();
+    all.difference(&run).cloned().collect()
+}
+
+/// The packages `[profile.dev.package]` of the root manifest builds at opt-level 0.
+fn unoptimized_in_manifest() -> BTreeSet<String> {
+    let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).parent().unwrap().to_path_buf();
+    let manifest = std::fs::read_to_string(root.join("Cargo.toml")).unwrap();
+    let mut inside = false;
+    let mut names = BTreeSet::new();
+    for line in manifest.lines().map(str::trim) {
+        if line.starts_with('[') {
+            inside = line == "[profile.dev.package]";
+            continue;
+        }
+        if let (true, Some((name, value))) = (inside, line.split_once('=')) {
+            if value.replace(' ', "") == "{opt-level=0}" {
+                names.insert(name.trim().trim_matches('"').to_string());
+            }
+        }
+    }
+    names
+}
+
+/// `package."*"` optimizes every dependency, and it takes precedence over `build-override`, so
+/// the packages that only run at compile time are named to build unoptimized: all of them, and
+/// none that the tests or `ssmctl` run.
+#[test]
+fn compile_time_packages_are_built_unoptimized_and_only_they() {
+    let compile_time = compile_time_packages();
+    assert!(compile_time.contains("syn") && compile_time.contains("serde_derive"), "{compile_time:?}");
+    assert!(!compile_time.contains("faer") && !compile_time.contains("serde"), "{compile_time:?}");
+    let listed = unoptimized_in_manifest();
+    let missing: Vec<_> = compile_time.difference(&listed).collect();
+    let extra: Vec<_> = listed.difference(&compile_time).collect();
+    assert!(
+        missing.is_empty(),
+        "add to [profile.dev.package] of Cargo.toml as `NAME = {{ opt-level = 0 }}`: {missing:?}"
+    );
+    assert!(
+        extra.is_empty(),
+        "[profile.dev.package] of Cargo.toml unoptimizes packages that run in the tests: {extra:?}"
+    );
+}
+
+/// The lint step's `cargo check` and `cargo doc` (the same packages) and the lab check leave
+/// out the Python module; they resolve the compile-time packages (proc macros, build scripts'
+/// dependencies) as the host build does, so they reuse the host build's instead of compiling
+/// syn and the macros over it again.
+#[test]
+fn the_lint_doc_and_lab_checks_resolve_the_proc_macros_as_the_host_build() {
+    let whole = features(&["--workspace", "--exclude", "lab", "-e", "normal,build,dev"]);
+    let compile_time = compile_time_packages();
+    let of_compile_time = |m: BTreeMap<String, BTreeSet<String>>| -> BTreeMap<String, BTreeSet<String>> {
+        m.into_iter().filter(|(k, _)| compile_time.iter().any(|c| k.split_whitespace().next() == Some(c))).collect()
+    };
+    let lint =
+        ["-p", "shared", "-p", "controller", "-p", "sim", "-p", "ssm", "-p", "chaos", "-p", "furuta", "-p", "ssmctl"];
+    for part in [&lint[..], &["-p", "lab"]] {
+        let args: Vec<&str> = part.iter().copied().chain(["-e", "normal,build"]).collect();
+        let part = of_compile_time(features(&args));
+        assert!(part.keys().any(|k| k.starts_with("syn ")), "{part:?}");
+        let d = differing(&part, &whole);
+        assert!(d.is_empty(), "`cargo check {args:?}` would compile these again:\n{}", d.join("\n"));
+    }
+}

@@ -544,6 +544,52 @@ fn compare_markdown(reports: &[(String, Vec<Unit>)], workspace: &[&str]) -> Stri
         md.push_str(&format!(" {} |", s["integration_test_binaries"]));
     }
     md.push('\n');
+    md.push_str(&package_markdown(reports, COMPARE_TOP_PACKAGES));
+    md
+}
+
+/// Packages [`package_markdown`] lists when comparing reports.
+const COMPARE_TOP_PACKAGES: usize = 25;
+
+/// Unit-seconds per package (all its units and versions) in each report, for the `top`
+/// packages by their largest value in any report, largest first; `-` where a report compiled
+/// none of the package's units.
+fn package_markdown(reports: &[(String, Vec<Unit>)], top: usize) -> String {
+    use std::collections::BTreeMap;
+    let per: Vec<BTreeMap<&str, f64>> = reports
+        .iter()
+        .map(|(_, units)| {
+            let mut m = BTreeMap::new();
+            for u in units {
+                *m.entry(u.package.as_str()).or_insert(0.0) += u.seconds;
+            }
+            m
+        })
+        .collect();
+    let mut largest: BTreeMap<&str, f64> = BTreeMap::new();
+    for (k, v) in per.iter().flatten() {
+        let e = largest.entry(k).or_insert(0.0);
+        *e = e.max(*v);
+    }
+    let mut names: Vec<(&str, f64)> = largest.into_iter().collect();
+    names.sort_by(|a, b| b.1.total_cmp(&a.1).then(a.0.cmp(b.0)));
+    let mut md = String::from("\n| package (unit-seconds, all its units) |");
+    for (label, _) in reports {
+        md.push_str(&format!(" {label} |"));
+    }
+    md.push_str("\n|---|");
+    md.push_str(&"---:|".repeat(reports.len()));
+    md.push('\n');
+    for (name, _) in names.into_iter().take(top) {
+        md.push_str(&format!("| {name} |"));
+        for m in &per {
+            match m.get(name) {
+                Some(v) => md.push_str(&format!(" {v:.1} |")),
+                None => md.push_str(" - |"),
+            }
+        }
+        md.push('\n');
+    }
     md
 }
 
@@ -586,6 +632,23 @@ mod tests {
         assert_eq!(b.iter().map(|b| b.passed).collect::<Vec<_>>(), [2, 12, 0, 0, 1]);
         // A failed harness and binaries without a result line (crashed) are not ok.
         assert_eq!(b.iter().map(|b| b.ok).collect::<Vec<_>>(), [true, false, false, false, true]);
+    }
+
+    #[test]
+    fn packages_are_compared_largest_first_across_reports() {
+        let u = |package: &str, target: &str, seconds: f64| Unit {
+            package: package.to_string(),
+            target: target.to_string(),
+            seconds,
+        };
+        let before =
+            vec![u("syn", "lib", 40.0), u("syn", "lib", 30.0), u("ssm", "lib", 20.0), u("ssm", "lib (test)", 5.0)];
+        let after = vec![u("syn", "lib", 12.0), u("ssm", "lib", 26.0), u("png", "lib", 1.0)];
+        let md = package_markdown(&[("before".into(), before), ("after".into(), after)], 2);
+        let rows: Vec<&str> = md.lines().filter(|l| l.starts_with("| ") && !l.starts_with("| package")).collect();
+        assert_eq!(rows, ["| syn | 70.0 | 12.0 |", "| ssm | 25.0 | 26.0 |"]);
+        let md = package_markdown(&[("a".into(), vec![u("png", "lib", 1.0)]), ("b".into(), vec![])], 5);
+        assert!(md.contains("| png | 1.0 | - |"), "{md}");
     }
 
     #[test]
