@@ -630,6 +630,7 @@ fn reproduce(rest: &[String]) -> Result<()> {
     let fresh = rest.iter().any(|a| a == "--fresh");
     let rest: Vec<&String> = rest.iter().filter(|a| *a != "--fresh").collect();
     install()?;
+    HOST_RELEASE.store(true, std::sync::atomic::Ordering::Relaxed);
     let mut steps = Vec::new();
     let t = Instant::now();
     device_table_cmd(false)?;
@@ -694,30 +695,33 @@ fn pil_firmware(board: Board) -> Result<PathBuf> {
     Ok(build_firmware(board)?.with_file_name("pil"))
 }
 
-/// The host's `ssmctl` in the test profile (which optimizes the host crates), built if
-/// needed, once per xtask process; PIL runs call the binary directly so several can run at
-/// once. `--workspace` resolves features as `cargo test --workspace` does (dev-dependencies
-/// change no feature of the build graph: `tests/tests/build_sharing.rs`), so after the host
-/// tests' build this is that build's binary and nothing is compiled again.
+/// Whether [`ssmctl_bin`] builds the release `ssmctl` instead of the test profile's: set by
+/// `reproduce`, which builds and runs the release binary anyway, so its PIL runs need no
+/// second build of the workspace.
+static HOST_RELEASE: std::sync::atomic::AtomicBool = std::sync::atomic::AtomicBool::new(false);
+
+/// The host's `ssmctl`, built if needed, once per xtask process; PIL runs call the binary
+/// directly so several can run at once. In the test profile (which optimizes the host crates)
+/// with `--workspace`, which resolves features as `cargo test --workspace` does
+/// (dev-dependencies change no feature of the build graph: `tests/tests/build_sharing.rs`), so
+/// after the host tests' build this is that build's binary and nothing is compiled again; the
+/// release binary `cargo run --release -p ssmctl` runs when [`HOST_RELEASE`] is set.
 fn ssmctl_bin() -> Result<PathBuf> {
     static BIN: std::sync::OnceLock<PathBuf> = std::sync::OnceLock::new();
     if let Some(p) = BIN.get() {
         return Ok(p.clone());
     }
+    let release = HOST_RELEASE.load(std::sync::atomic::Ordering::Relaxed);
     let mut c = cmd("cargo");
-    c.current_dir(root()).args([
-        "build",
-        "--profile",
-        "test",
-        "-q",
-        "--workspace",
-        "--exclude",
-        "lab",
-        "--bin",
-        "ssmctl",
-    ]);
+    c.current_dir(root());
+    if release {
+        c.args(["build", "--release", "-q", "-p", "ssmctl", "--bin", "ssmctl"]);
+    } else {
+        c.args(["build", "--profile", "test", "-q", "--workspace", "--exclude", "lab", "--bin", "ssmctl"]);
+    }
     run(&mut c)?;
-    Ok(BIN.get_or_init(|| root().join("target").join("debug").join("ssmctl")).clone())
+    let dir = if release { "release" } else { "debug" };
+    Ok(BIN.get_or_init(|| root().join("target").join(dir).join("ssmctl")).clone())
 }
 
 /// The two programs of a PIL run, built, and the fingerprint of their images (read and
