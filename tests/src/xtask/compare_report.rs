@@ -26,6 +26,7 @@ use serde_json::Value;
 /// from run to run and are not compared, wherever the key appears in a JSON file.
 pub const TIMING_KEYS: &[&str] = &[
     "periods_per_s",
+    "round_trips_per_s",
     "ratio_vs_baseline",
     "seconds",
     "wall_seconds",
