@@ -68,7 +68,7 @@ pub fn pil_plant_theta(path: &std::path::Path) -> Result<TimeSeries, Box<dyn Err
 /// [`analyse_held_out_runs`] fitted (`"rbf"` / `"poly"`, in that order), `held` their runs over
 /// `test` it made (the predictions and the data's reduced coordinates, drawn as they are).
 /// Writes the PNGs under `dir` and returns the figures for the page (`path`, `title`, `kind`,
-/// and `samples` of the spectra), captioned by [`FIGURE_CAPTIONS`].
+/// and `samples` of the spectra), captioned by `FIGURE_CAPTIONS`.
 pub fn chaos_figures(
     dir: &std::path::Path,
     tag: &str,
@@ -213,7 +213,7 @@ impl Page {
 /// The main chaos section: computes the data sets' analyses, the model selection and the
 /// flag study's tables, writes the summary keys `chaos`, `rosenstein_check`,
 /// `flag_estimator_bias`, `flag_pipeline_check`, `flag_pipeline_fit` and the page's blocks
-/// `page_chaos`, then the page from the summary ([`render`]).
+/// `page_chaos`, then the page from the summary (`render`).
 pub fn section(rep: &mut crate::report::Report, data_dir: &std::path::Path, quick: bool) -> Result<(), Box<dyn Error>> {
     let mut page = Page::default();
     let o = ChaosOptions::default();
