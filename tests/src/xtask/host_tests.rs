@@ -514,16 +514,22 @@ fn steps_markdown(v: &serde_json::Value) -> String {
     md
 }
 
-/// Unit-seconds by kind of several `--timings` reports, one column each.
-fn compare_markdown(reports: &[(String, Vec<Unit>)], workspace: &[&str]) -> String {
-    let sums: Vec<serde_json::Value> = reports.iter().map(|(_, u)| timing_summary(u, workspace, 0)).collect();
-    let mut md = String::from("\n| unit-seconds |");
+/// A Markdown table's header: `first`, then one right-aligned column per report's label.
+fn report_columns(first: &str, reports: &[(String, Vec<Unit>)]) -> String {
+    let mut md = format!("\n| {first} |");
     for (label, _) in reports {
         md.push_str(&format!(" {label} |"));
     }
     md.push_str("\n|---|");
     md.push_str(&"---:|".repeat(reports.len()));
     md.push('\n');
+    md
+}
+
+/// Unit-seconds by kind of several `--timings` reports, one column each.
+fn compare_markdown(reports: &[(String, Vec<Unit>)], workspace: &[&str]) -> String {
+    let sums: Vec<serde_json::Value> = reports.iter().map(|(_, u)| timing_summary(u, workspace, 0)).collect();
+    let mut md = report_columns("unit-seconds", reports);
     for (key, name) in [
         ("workspace_lib_unit_seconds", "workspace libraries"),
         ("workspace_lib_test_unit_seconds", "workspace libraries' unit-test builds"),
@@ -573,13 +579,7 @@ fn package_markdown(reports: &[(String, Vec<Unit>)], top: usize) -> String {
     }
     let mut names: Vec<(&str, f64)> = largest.into_iter().collect();
     names.sort_by(|a, b| b.1.total_cmp(&a.1).then(a.0.cmp(b.0)));
-    let mut md = String::from("\n| package (unit-seconds, all its units) |");
-    for (label, _) in reports {
-        md.push_str(&format!(" {label} |"));
-    }
-    md.push_str("\n|---|");
-    md.push_str(&"---:|".repeat(reports.len()));
-    md.push('\n');
+    let mut md = report_columns("package (unit-seconds, all its units)", reports);
     for (name, _) in names.into_iter().take(top) {
         md.push_str(&format!("| {name} |"));
         for m in &per {
