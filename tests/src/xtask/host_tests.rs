@@ -29,6 +29,15 @@ pub struct Binary {
     pub ok: bool,
     /// Each test's seconds, when the harness printed them (`--report-time`).
     pub tests: Vec<(String, f64)>,
+    /// What the binary's passing tests said they skipped (lines starting `SKIPPED` or
+    /// `skipped:`, e.g. for want of `../shared/data`), shown by `--show-output`.
+    pub skipped: Vec<String>,
+}
+
+/// A line in which a test says it skipped its work (and why), if `line` is one.
+pub fn skip_line(line: &str) -> Option<&str> {
+    let t = line.trim();
+    (t.starts_with("SKIPPED") || t.get(..8).is_some_and(|p| p.eq_ignore_ascii_case("skipped:"))).then_some(t)
 }
 
 /// Runs `c` with stdout and stderr through one pipe: its lines with their arrival time
@@ -154,6 +163,8 @@ pub fn run_parallel(
                     if test_times {
                         report_time(&mut c);
                     }
+                    // The passing tests' output too, where a test that lacks its data says so.
+                    c.arg("--show-output");
                     let start = t0.elapsed().as_secs_f64();
                     let (lines, seconds, r) = run_lines(&mut c, false);
                     let mut b = Binary {
@@ -163,6 +174,7 @@ pub fn run_parallel(
                         passed: 0,
                         ok: r.is_ok(),
                         tests: Vec::new(),
+                        skipped: Vec::new(),
                     };
                     let mut text = format!("     Running {} ({})\n", e.name, e.path.display());
                     for (_, l) in &lines {
@@ -170,6 +182,8 @@ pub fn run_parallel(
                             b.passed += count_before(r, " passed");
                         } else if let Some(t) = test_time(l) {
                             b.tests.push(t);
+                        } else if let Some(t) = skip_line(l) {
+                            b.skipped.push(t.to_string());
                         }
                         text.push_str(l);
                         text.push('\n');
@@ -200,6 +214,7 @@ pub fn run_parallel(
             passed: 0,
             ok: false,
             tests: Vec::new(),
+            skipped: Vec::new(),
         });
     }
     all.extend(docs);
@@ -252,7 +267,15 @@ pub fn binaries(lines: &[(f64, String)], end: f64) -> Vec<Binary> {
         if let Some(name) = started {
             close(&mut out, *at, results);
             results = 0;
-            out.push(Binary { name, start_s: *at, seconds: 0.0, passed: 0, ok: true, tests: Vec::new() });
+            out.push(Binary {
+                name,
+                start_s: *at,
+                seconds: 0.0,
+                passed: 0,
+                ok: true,
+                tests: Vec::new(),
+                skipped: Vec::new(),
+            });
         } else if let Some(r) = l.strip_prefix("test result: ") {
             results += 1;
             if let Some(b) = out.last_mut() {
@@ -711,7 +734,12 @@ const CONCURRENCY_DATA = [];
             Executable { name: format!("p {name}"), path: p, package_dir: dir.clone(), package: "p".into() }
         };
         let exes = [
-            script("short", "echo 'test result: ok. 1 passed; 0 failed'"),
+            // Says it skipped its work, in the output `--show-output` adds.
+            script(
+                "short",
+                "[ \"$1\" = --show-output ] || exit 4; echo 'SKIPPED: no data at ../shared/data'; \
+                 echo 'test result: ok. 1 passed; 0 failed'",
+            ),
             // Runs in its package folder, with the package's CARGO_MANIFEST_DIR.
             script(
                 "long",
@@ -728,10 +756,21 @@ const CONCURRENCY_DATA = [];
         assert_eq!(names, ["p long", "p bad", "p short", "p doc tests"]);
         assert_eq!(b.iter().map(|b| b.passed).collect::<Vec<_>>(), [5, 0, 1, 2]);
         assert_eq!(failed, ["p bad"]);
+        let skipped: Vec<&Vec<String>> = b.iter().map(|b| &b.skipped).collect();
+        assert_eq!(skipped, [&vec![], &vec![], &vec!["SKIPPED: no data at ../shared/data".to_string()], &vec![]]);
         let (b, failed) = run_parallel(&exes[..2], &previous, 2, false, &mut doc);
         assert_eq!(b.len(), 3);
         assert!(failed.is_empty(), "{failed:?}");
         std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    #[test]
+    fn skip_lines_are_recognised() {
+        assert_eq!(skip_line("  SKIPPED: sloshing data not found"), Some("SKIPPED: sloshing data not found"));
+        assert!(skip_line("skipped: x not found (the shared data folder is absent)").is_some());
+        assert_eq!(skip_line("Skipped: x"), Some("Skipped: x"));
+        assert_eq!(skip_line("test a ... ok"), None);
+        assert_eq!(skip_line("2 rows skipped"), None);
     }
 
     #[test]
@@ -775,6 +814,7 @@ const CONCURRENCY_DATA = [];
             passed: 0,
             ok: true,
             tests: tests.iter().map(|(t, s)| (t.to_string(), *s)).collect(),
+            skipped: Vec::new(),
         };
         let md =
             slowest_tests(&[b("x src/lib.rs", &[("fast", 0.1), ("slow", 9.0)]), b("y tests/t.rs", &[("mid", 2.0)])], 2);

@@ -1306,7 +1306,19 @@ fn host_tests_run(
     let (binaries, failed) = host_tests::run_parallel(&exes, previous, HOST_TEST_JOBS, test_times, &mut doc);
     add_test_binaries(steps, start, &binaries);
     let passed: u32 = binaries.iter().map(|b| b.passed).sum();
-    println!("host tests: {passed} passed in {} binaries", binaries.len());
+    let skipped: Vec<&String> = binaries.iter().flat_map(|b| &b.skipped).collect();
+    if skipped.is_empty() {
+        println!("host tests: {passed} passed in {} binaries, none skipped", binaries.len());
+    } else {
+        println!(
+            "host tests: {passed} passed in {} binaries; {} SKIPPED their work (see below)",
+            binaries.len(),
+            skipped.len()
+        );
+        for s in &skipped {
+            println!("host tests:   {s}");
+        }
+    }
     let r = if failed.is_empty() { Ok(()) } else { Err(format!("failed: {}", failed.join(", "))) };
     (binaries, r)
 }
