@@ -177,14 +177,8 @@ pub fn run_parallel(
                         skipped: Vec::new(),
                     };
                     let mut text = format!("     Running {} ({})\n", e.name, e.path.display());
+                    read_output(lines.iter().map(|(_, l)| l.as_str()), &mut b);
                     for (_, l) in &lines {
-                        if let Some(r) = l.trim().strip_prefix("test result: ") {
-                            b.passed += count_before(r, " passed");
-                        } else if let Some(t) = test_time(l) {
-                            b.tests.push(t);
-                        } else if let Some(t) = skip_line(l) {
-                            b.skipped.push(t.to_string());
-                        }
                         text.push_str(l);
                         text.push('\n');
                     }
@@ -221,6 +215,28 @@ pub fn run_parallel(
     all.sort_by(|a, b| a.start_s.total_cmp(&b.start_s));
     let failed = all.iter().filter(|b| !b.ok).map(|b| b.name.clone()).collect();
     (all, failed)
+}
+
+/// Reads a libtest binary's output (run with `--show-output`) into `b`: the `test result:`
+/// counts and `--report-time` lines outside the tests' captured output, and the skip lines
+/// ([`skip_line`]) inside it, so that what a test prints cannot count as a result.
+pub fn read_output<'a>(lines: impl Iterator<Item = &'a str>, b: &mut Binary) {
+    let mut captured = false;
+    for l in lines {
+        if l.starts_with("---- ") && l.ends_with(" stdout ----") {
+            captured = true;
+        } else if captured && (l == "successes:" || l == "failures:") {
+            captured = false;
+        } else if captured {
+            if let Some(t) = skip_line(l) {
+                b.skipped.push(t.to_string());
+            }
+        } else if let Some(r) = l.trim().strip_prefix("test result: ") {
+            b.passed += count_before(r, " passed");
+        } else if let Some(t) = test_time(l) {
+            b.tests.push(t);
+        }
+    }
 }
 
 /// A pipe as two files (read end, write end), close-on-exec.
@@ -734,12 +750,8 @@ const CONCURRENCY_DATA = [];
             Executable { name: format!("p {name}"), path: p, package_dir: dir.clone(), package: "p".into() }
         };
         let exes = [
-            // Says it skipped its work, in the output `--show-output` adds.
-            script(
-                "short",
-                "[ \"$1\" = --show-output ] || exit 4; echo 'SKIPPED: no data at ../shared/data'; \
-                 echo 'test result: ok. 1 passed; 0 failed'",
-            ),
+            // Asked for the passing tests' output.
+            script("short", "[ \"$1\" = --show-output ] || exit 4; echo 'test result: ok. 1 passed; 0 failed'"),
             // Runs in its package folder, with the package's CARGO_MANIFEST_DIR.
             script(
                 "long",
@@ -756,12 +768,48 @@ const CONCURRENCY_DATA = [];
         assert_eq!(names, ["p long", "p bad", "p short", "p doc tests"]);
         assert_eq!(b.iter().map(|b| b.passed).collect::<Vec<_>>(), [5, 0, 1, 2]);
         assert_eq!(failed, ["p bad"]);
-        let skipped: Vec<&Vec<String>> = b.iter().map(|b| &b.skipped).collect();
-        assert_eq!(skipped, [&vec![], &vec![], &vec!["SKIPPED: no data at ../shared/data".to_string()], &vec![]]);
         let (b, failed) = run_parallel(&exes[..2], &previous, 2, false, &mut doc);
         assert_eq!(b.len(), 3);
         assert!(failed.is_empty(), "{failed:?}");
         std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    /// Skip lines count inside a test's captured output only, results outside it only.
+    #[test]
+    fn output_is_read_by_where_its_lines_stand() {
+        let text = [
+            "running 2 tests",
+            "test a ... ok",
+            "test b ... ok",
+            "",
+            "successes:",
+            "",
+            "---- a stdout ----",
+            "SKIPPED: no data at ../shared/data",
+            "test result: ok. 9 passed; 0 failed",
+            "",
+            "---- b stdout ----",
+            "skipped: x not found",
+            "",
+            "successes:",
+            "    a",
+            "    b",
+            "",
+            "SKIPPED outside captured output",
+            "test result: ok. 2 passed; 0 failed; 0 ignored",
+        ];
+        let mut b = Binary {
+            name: "p".into(),
+            start_s: 0.0,
+            seconds: 0.0,
+            passed: 0,
+            ok: true,
+            tests: Vec::new(),
+            skipped: Vec::new(),
+        };
+        read_output(text.into_iter(), &mut b);
+        assert_eq!(b.passed, 2);
+        assert_eq!(b.skipped, ["SKIPPED: no data at ../shared/data", "skipped: x not found"]);
     }
 
     #[test]
