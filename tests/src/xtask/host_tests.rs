@@ -34,6 +34,20 @@ pub struct Binary {
     pub skipped: Vec<String>,
 }
 
+impl Binary {
+    /// A binary named `name` that started `start_s` seconds after the command, before any of
+    /// its output is read: no tests counted yet, not failed.
+    pub fn new(name: impl Into<String>, start_s: f64) -> Self {
+        Self { name: name.into(), start_s, seconds: 0.0, passed: 0, ok: true, tests: Vec::new(), skipped: Vec::new() }
+    }
+}
+
+/// libtest's summary line (`test result: ok. 5 passed; 0 failed; ...`) as (ok, passed).
+fn test_result(line: &str) -> Option<(bool, u32)> {
+    let r = line.trim().strip_prefix("test result: ")?;
+    Some((r.starts_with("ok."), count_before(r, " passed")))
+}
+
 /// A line in which a test says it skipped its work (and why), if `line` is one.
 pub fn skip_line(line: &str) -> Option<&str> {
     let t = line.trim();
@@ -167,15 +181,7 @@ pub fn run_parallel(
                     c.arg("--show-output");
                     let start = t0.elapsed().as_secs_f64();
                     let (lines, seconds, r) = run_lines(&mut c, false);
-                    let mut b = Binary {
-                        name: e.name.clone(),
-                        start_s: start,
-                        seconds,
-                        passed: 0,
-                        ok: r.is_ok(),
-                        tests: Vec::new(),
-                        skipped: Vec::new(),
-                    };
+                    let mut b = Binary { seconds, ok: r.is_ok(), ..Binary::new(e.name.clone(), start) };
                     let mut text = format!("     Running {} ({})\n", e.name, e.path.display());
                     read_output(lines.iter().map(|(_, l)| l.as_str()), &mut b);
                     for (_, l) in &lines {
@@ -201,15 +207,7 @@ pub fn run_parallel(
         d.ok &= doc_ok;
     }
     if docs.is_empty() && !doc_ok {
-        docs.push(Binary {
-            name: "doc tests".into(),
-            start_s: start,
-            seconds: end,
-            passed: 0,
-            ok: false,
-            tests: Vec::new(),
-            skipped: Vec::new(),
-        });
+        docs.push(Binary { seconds: end, ok: false, ..Binary::new("doc tests", start) });
     }
     all.extend(docs);
     all.sort_by(|a, b| a.start_s.total_cmp(&b.start_s));
@@ -231,8 +229,8 @@ pub fn read_output<'a>(lines: impl Iterator<Item = &'a str>, b: &mut Binary) {
             if let Some(t) = skip_line(l) {
                 b.skipped.push(t.to_string());
             }
-        } else if let Some(r) = l.trim().strip_prefix("test result: ") {
-            b.passed += count_before(r, " passed");
+        } else if let Some((_, passed)) = test_result(l) {
+            b.passed += passed;
         } else if let Some(t) = test_time(l) {
             b.tests.push(t);
         }
@@ -283,20 +281,12 @@ pub fn binaries(lines: &[(f64, String)], end: f64) -> Vec<Binary> {
         if let Some(name) = started {
             close(&mut out, *at, results);
             results = 0;
-            out.push(Binary {
-                name,
-                start_s: *at,
-                seconds: 0.0,
-                passed: 0,
-                ok: true,
-                tests: Vec::new(),
-                skipped: Vec::new(),
-            });
-        } else if let Some(r) = l.strip_prefix("test result: ") {
+            out.push(Binary::new(name, *at));
+        } else if let Some((ok, passed)) = test_result(l) {
             results += 1;
             if let Some(b) = out.last_mut() {
-                b.ok &= r.starts_with("ok.");
-                b.passed += count_before(r, " passed");
+                b.ok &= ok;
+                b.passed += passed;
             }
         }
     }
@@ -798,15 +788,7 @@ const CONCURRENCY_DATA = [];
             "SKIPPED outside captured output",
             "test result: ok. 2 passed; 0 failed; 0 ignored",
         ];
-        let mut b = Binary {
-            name: "p".into(),
-            start_s: 0.0,
-            seconds: 0.0,
-            passed: 0,
-            ok: true,
-            tests: Vec::new(),
-            skipped: Vec::new(),
-        };
+        let mut b = Binary::new("p", 0.0);
         read_output(text.into_iter(), &mut b);
         assert_eq!(b.passed, 2);
         assert_eq!(b.skipped, ["SKIPPED: no data at ../shared/data", "skipped: x not found"]);
@@ -856,13 +838,8 @@ const CONCURRENCY_DATA = [];
         assert_eq!(test_time("test a::b ... ok"), None);
         assert_eq!(test_time("test result: ok. 1 passed"), None);
         let b = |name: &str, tests: &[(&str, f64)]| Binary {
-            name: name.into(),
-            start_s: 0.0,
-            seconds: 0.0,
-            passed: 0,
-            ok: true,
             tests: tests.iter().map(|(t, s)| (t.to_string(), *s)).collect(),
-            skipped: Vec::new(),
+            ..Binary::new(name, 0.0)
         };
         let md =
             slowest_tests(&[b("x src/lib.rs", &[("fast", 0.1), ("slow", 9.0)]), b("y tests/t.rs", &[("mid", 2.0)])], 2);

@@ -189,7 +189,7 @@ fn main() -> ExitCode {
         Some("python-test") => python::python_test(),
         Some("reproduce") => reproduce(&args[1..]),
         // An explicit `pil` always runs (it is a test of the device); reproduce may reuse.
-        Some("pil") => pil_args(&args[1..]).and_then(|(scene, periods)| pil(&scene, periods, true)).map(|_| ()),
+        Some("pil") => pil_args(&args[1..]).and_then(|(scene, periods)| pil(&scene, periods, true, Host::Test)).map(|_| ()),
         Some("pil-equations") => match (args.get(1).map(String::as_str), args.get(2)) {
             (None, _) => pil_equations(Board::Mps2An386),
             (Some("--board"), Some(b)) if args.len() == 3 => Board::parse(b).and_then(pil_equations),
@@ -630,14 +630,16 @@ fn reproduce(rest: &[String]) -> Result<()> {
     let fresh = rest.iter().any(|a| a == "--fresh");
     let rest: Vec<&String> = rest.iter().filter(|a| *a != "--fresh").collect();
     install()?;
-    HOST_RELEASE.store(true, std::sync::atomic::Ordering::Relaxed);
+    // The release `ssmctl` writes the report; the PIL steps run it too, so the workspace is
+    // built once.
+    let host = ssmctl_bin(Host::Release)?;
     let mut steps = Vec::new();
     let t = Instant::now();
     device_table_cmd(false)?;
     steps.push(serde_json::json!({"name": "device table (build + QEMU)", "seconds": t.elapsed().as_secs_f64(), "cached": false}));
     // A processor-in-the-loop run; its summary.json goes into the report.
     let t = Instant::now();
-    let v = pil("furuta-quant-dt25", 2000, fresh)?;
+    let v = pil("furuta-quant-dt25", 2000, fresh, Host::Release)?;
     steps.push(serde_json::json!({"name": "PIL run (2,000 periods)", "seconds": t.elapsed().as_secs_f64(), "cached": v["cached"]}));
     // The chaos study's "experiment": three noisy PIL recordings (train on two, test on one).
     let t = Instant::now();
@@ -648,14 +650,15 @@ fn reproduce(rest: &[String]) -> Result<()> {
         scene: PIL_SCENE.into(),
         seed: 1,
         fresh,
+        host: Host::Release,
     })?;
     steps.push(serde_json::json!({"name": "PIL recordings (3 x 20,000 periods)", "seconds": t.elapsed().as_secs_f64(), "cached": recorded}));
     // Where the xtask's own time went, for the report's timings.
     let path = qemu_dir().join("target").join("xtask-steps.json");
     let text = serde_json::to_string_pretty(&serde_json::json!({ "steps": steps })).map_err(|e| e.to_string())?;
     files::write_atomic(&path, text.as_bytes())?;
-    let mut c = cmd("cargo");
-    c.current_dir(root()).args(["run", "--release", "-p", "ssmctl", "--bin", "ssmctl", "--", "reproduce"]).args(rest);
+    let mut c = cmd(host.to_str().ok_or("host binary path is not UTF-8")?);
+    c.current_dir(root()).arg("reproduce").args(rest);
     c.env("SSMCTL_XTASK_STEPS", &path);
     run(&mut c)
 }
@@ -695,33 +698,40 @@ fn pil_firmware(board: Board) -> Result<PathBuf> {
     Ok(build_firmware(board)?.with_file_name("pil"))
 }
 
-/// Whether [`ssmctl_bin`] builds the release `ssmctl` instead of the test profile's: set by
-/// `reproduce`, which builds and runs the release binary anyway, so its PIL runs need no
-/// second build of the workspace.
-static HOST_RELEASE: std::sync::atomic::AtomicBool = std::sync::atomic::AtomicBool::new(false);
+/// Which build of the host's `ssmctl` a command runs.
+#[derive(Clone, Copy, PartialEq, Eq, Debug)]
+enum Host {
+    /// The test profile's, as the host tests built it (`cargo xtask test` and the PIL commands).
+    Test,
+    /// The release build, which `reproduce` runs for the report and so for its PIL steps too.
+    Release,
+}
 
 /// The host's `ssmctl`, built if needed, once per xtask process; PIL runs call the binary
 /// directly so several can run at once. In the test profile (which optimizes the host crates)
 /// with `--workspace`, which resolves features as `cargo test --workspace` does
 /// (dev-dependencies change no feature of the build graph: `tests/tests/build_sharing.rs`), so
-/// after the host tests' build this is that build's binary and nothing is compiled again; the
-/// release binary `cargo run --release -p ssmctl` runs when [`HOST_RELEASE`] is set.
-fn ssmctl_bin() -> Result<PathBuf> {
-    static BIN: std::sync::OnceLock<PathBuf> = std::sync::OnceLock::new();
-    if let Some(p) = BIN.get() {
+/// after the host tests' build this is that build's binary and nothing is compiled again;
+/// [`Host::Release`] is the release binary.
+fn ssmctl_bin(host: Host) -> Result<PathBuf> {
+    static BIN: [std::sync::OnceLock<PathBuf>; 2] = [const { std::sync::OnceLock::new() }; 2];
+    let (slot, dir) = match host {
+        Host::Test => (&BIN[0], "debug"),
+        Host::Release => (&BIN[1], "release"),
+    };
+    if let Some(p) = slot.get() {
         return Ok(p.clone());
     }
-    let release = HOST_RELEASE.load(std::sync::atomic::Ordering::Relaxed);
     let mut c = cmd("cargo");
     c.current_dir(root());
-    if release {
-        c.args(["build", "--release", "-q", "-p", "ssmctl", "--bin", "ssmctl"]);
-    } else {
-        c.args(["build", "--profile", "test", "-q", "--workspace", "--exclude", "lab", "--bin", "ssmctl"]);
-    }
+    match host {
+        Host::Release => c.args(["build", "--release", "-q", "-p", "ssmctl", "--bin", "ssmctl"]),
+        Host::Test => {
+            c.args(["build", "--profile", "test", "-q", "--workspace", "--exclude", "lab", "--bin", "ssmctl"])
+        }
+    };
     run(&mut c)?;
-    let dir = if release { "release" } else { "debug" };
-    Ok(BIN.get_or_init(|| root().join("target").join(dir).join("ssmctl")).clone())
+    Ok(slot.get_or_init(|| root().join("target").join(dir).join("ssmctl")).clone())
 }
 
 /// The two programs of a PIL run, built, and the fingerprint of their images (read and
@@ -734,8 +744,8 @@ struct PilTools {
     fingerprint: String,
 }
 
-fn pil_tools(board: Board) -> Result<PilTools> {
-    let (elf, host) = (pil_firmware(board)?, ssmctl_bin()?);
+fn pil_tools(board: Board, host: Host) -> Result<PilTools> {
+    let (elf, host) = (pil_firmware(board)?, ssmctl_bin(host)?);
     let read = |p: &Path| std::fs::read(p).map_err(|e| format!("{}: {e}", p.display()));
     let fingerprint = cache::key(&[&read(&elf)?, &read(&host)?, board.name().as_bytes()]);
     Ok(PilTools { elf, host, board, fingerprint })
@@ -872,7 +882,7 @@ fn pil_overrides(scene: &str) -> Vec<String> {
 /// Each run passes the checks of [`pil`]: codes and predictions identical to the host's, and
 /// the whole loop equal to the host-only simulation.
 fn pil_equations(board: Board) -> Result<()> {
-    let tools = pil_tools(board)?;
+    let tools = pil_tools(board, Host::Test)?;
     let fitted = qemu_dir().join("target").join("pil-equations");
     let base = match board {
         Board::Mps2An386 => fitted.clone(),
@@ -901,8 +911,8 @@ fn pil_equations(board: Board) -> Result<()> {
 }
 
 /// Builds the PIL firmware, fits a model and runs `ssmctl pil`; checks the summary.
-fn pil(scene: &str, periods: u64, fresh: bool) -> Result<serde_json::Value> {
-    let tools = pil_tools(Board::Mps2An386)?;
+fn pil(scene: &str, periods: u64, fresh: bool, host: Host) -> Result<serde_json::Value> {
+    let tools = pil_tools(Board::Mps2An386, host)?;
     let out = qemu_dir().join("target").join("pil");
     let run =
         PilRun { scene, set: pil_overrides(scene), model: out.join("model.bin"), fit: true, periods, out: out.clone() };
@@ -923,7 +933,7 @@ const PIL_STM32_PERIODS: u64 = 500;
 /// UART), with the model the mps2-an386 run `pil` fitted (`qemu/target/pil/model.bin`);
 /// the same checks as `pil`. Output in `qemu/target/pil-stm32f407/`.
 fn pil_stm32(scene: &str, periods: u64) -> Result<serde_json::Value> {
-    let tools = pil_tools(Board::Stm32f407)?;
+    let tools = pil_tools(Board::Stm32f407, Host::Test)?;
     let out = qemu_dir().join("target").join("pil-stm32f407");
     let model = qemu_dir().join("target").join("pil").join("model.bin");
     let run = PilRun { scene, set: Vec::new(), model, fit: false, periods, out: out.clone() };
@@ -968,6 +978,8 @@ struct RecordArgs {
     seed: u64,
     /// Redo runs even when their stored output has the same fingerprint.
     fresh: bool,
+    /// The `ssmctl` build that runs the host side.
+    host: Host,
 }
 
 fn record_args(rest: &[String]) -> Result<RecordArgs> {
@@ -978,6 +990,7 @@ fn record_args(rest: &[String]) -> Result<RecordArgs> {
         scene: PIL_SCENE.to_string(),
         seed: 1,
         fresh: false,
+        host: Host::Test,
     };
     let mut out = None;
     let mut it = rest.iter();
@@ -1025,7 +1038,7 @@ fn record_theta0(r: u32) -> f64 {
 /// others run concurrently, one QEMU each (each `ssmctl pil` binds its own port). Runs whose
 /// fingerprint matches the stored output are reused (`a.fresh`: never).
 fn pil_record(a: &RecordArgs) -> Result<bool> {
-    let tools = pil_tools(Board::Mps2An386)?;
+    let tools = pil_tools(Board::Mps2An386, a.host)?;
     std::fs::create_dir_all(&a.out).map_err(|e| format!("{}: {e}", a.out.display()))?;
     let model = a.out.join("model.bin");
     let start = Instant::now();
@@ -1245,7 +1258,7 @@ fn steps_json_path() -> PathBuf {
 /// `ssmctl` the PIL and Slurm steps run, from that build.
 fn host_build() -> Result<PathBuf> {
     run(cmd("cargo").current_dir(root()).args(["test", "--workspace", "--exclude", "lab", "--no-run", "--timings"]))?;
-    ssmctl_bin()
+    ssmctl_bin(Host::Test)
 }
 
 /// The workspace's crates (package names as cargo's timings report them).
@@ -1494,7 +1507,9 @@ fn test_all() -> Result<()> {
             let pil_run = built.and_then(|_| {
                 after(&apt_done, "apt")?;
                 after(&host, "host build")?;
-                steps.run("pil: 2,000 periods (mps2-an386)", || pil(PIL_SCENE, PIL_TEST_PERIODS, true).map(|_| ()))
+                steps.run("pil: 2,000 periods (mps2-an386)", || {
+                    pil(PIL_SCENE, PIL_TEST_PERIODS, true, Host::Test).map(|_| ())
+                })
             });
             count(u32::from(pil_run.is_ok()), u32::from(pil_run.is_err()));
             pil_done.set(pil_run.clone());
@@ -1646,7 +1661,15 @@ mod tests {
         let r = record_args(&args(&["--out", "d", "--runs", "2", "--periods", "500", "--seed", "7"])).unwrap();
         assert_eq!(
             r,
-            RecordArgs { out: "d".into(), runs: 2, periods: 500, scene: PIL_SCENE.into(), seed: 7, fresh: false }
+            RecordArgs {
+                out: "d".into(),
+                runs: 2,
+                periods: 500,
+                scene: PIL_SCENE.into(),
+                seed: 7,
+                fresh: false,
+                host: Host::Test
+            }
         );
         let d = record_args(&args(&["--out", "x"])).unwrap();
         assert_eq!((d.runs, d.periods, d.seed), (3, 20_000, 1));
