@@ -189,9 +189,12 @@ pub struct GridResults {
 /// The command that refreshes [`grid_file`].
 pub const GRID_COMMAND: &str = "nice cargo run --profile test -p lab --example auto_table -- --write";
 
-/// Where the bundled grid results live.
+/// Where the bundled grid results live, relative to the workspace root (as messages name it).
+pub const GRID_PATH: &str = "studies/results/auto/grid.json";
+
+/// [`GRID_PATH`] in this source tree.
 pub fn grid_file() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("../../studies/results/auto/grid.json")
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("../..").join(GRID_PATH)
 }
 
 impl GridResults {

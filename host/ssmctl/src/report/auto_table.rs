@@ -6,7 +6,7 @@
 
 use crate::report::Report;
 use crate::report::prose::Prose;
-use furuta::auto_sets::{AutoSet, GRID_COMMAND, GridResults, all_sets, eigenvalue_error, grid_file};
+use furuta::auto_sets::{AutoSet, GRID_COMMAND, GRID_PATH, GridResults, all_sets, eigenvalue_error, grid_file};
 use serde::Deserialize;
 use serde_json::{Value, json};
 use ssm::auto::{AutoOptions, EigenInterval, IntervalOptions, cut, intervals, select};
@@ -43,6 +43,9 @@ pub fn py_file() -> PathBuf {
     grid_file().with_file_name("ssmlearnpy.json")
 }
 
+/// [`py_file`] relative to the workspace root, as messages name it.
+const PY_PATH: &str = "studies/results/auto/ssmlearnpy.json";
+
 fn load_py(path: &Path) -> Result<Option<PyResults>, Box<dyn Error>> {
     if !path.is_file() {
         return Ok(None);
@@ -76,15 +79,15 @@ fn row(
     let e = leading_interval(&iv.eigenvalues).ok_or_else(|| format!("{}: no oscillatory eigenvalue", set.name))?;
     let g = grid.and_then(|g| g.row(&set.name));
     let grid_missing = || match grid {
-        None => format!("not run: {} absent (`{GRID_COMMAND}` writes it)", grid_file().display()),
-        Some(_) => format!("not in {} (`{GRID_COMMAND} --resume` adds it)", grid_file().display()),
+        None => format!("not run: {GRID_PATH} absent (`{GRID_COMMAND}` writes it)"),
+        Some(_) => format!("not in {GRID_PATH} (`{GRID_COMMAND} --resume` adds it)"),
     };
     let winner = g.map(|g| zeta_hz(g.winner_eig));
     let exact = set.exact.first().copied().map(zeta_hz);
     let auto_err = (!set.exact.is_empty()).then(|| eigenvalue_error(&model, &set.exact));
     let hz = |v: f64| v / TAU;
     let py_cell = match py {
-        None => format!("not run: {} absent (`{PY_COMMAND}` writes it)", py_file().display()),
+        None => format!("not run: {PY_PATH} absent (`{PY_COMMAND}` writes it)"),
         Some(p) => match p.rows.iter().find(|r| r.set == set.name) {
             Some(PyRow { damping_ratio: Some(z), freq_hz: Some(f), settings, .. }) => {
                 format!("{z:.5}, {f:.4} Hz ({})", settings.as_deref().unwrap_or("example settings"))
@@ -204,6 +207,15 @@ pub fn render(rep: &mut Report, v: &Value) -> Result<(), Box<dyn Error>> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The paths messages name are the files the section reads, relative to the workspace.
+    #[test]
+    fn message_paths_are_the_files_read() {
+        let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("../..");
+        let same = |a: &Path, b: &Path| a.canonicalize().unwrap() == b.canonicalize().unwrap();
+        assert!(same(&root.join(GRID_PATH), &grid_file()));
+        assert!(same(&root.join(PY_PATH), &py_file()));
+    }
 
     /// The section on the bundled grid results (quick: fewer replicates): a row per data
     /// set, auto's held-out NMTE within 1.2x of the grid's smallest, each interval ordered
