@@ -10,6 +10,7 @@ use chaos_study::chaos_tables::*;
 use chaos_study::flag_pipeline::PipelineRow;
 use chaos_study::lyapunov::ModelLyapunov;
 use chaos_study::microchaos::*;
+use chaos_study::study_results::SearchRow;
 use ssm::{SsmModel, TimeSeries};
 
 use crate::report::prose::Prose;
@@ -839,13 +840,13 @@ const SEARCH_FINDINGS: &str = "{% macro range(r, n) %}{% if r is none %}-{% elif
     brings a model's Rosenstein exponent and D2 to the data's: what changes is which attractor the fragile fit lands \
     on. Short-term accuracy (the rollout error in the notes) does not choose the attractor.";
 
-/// The facts of the flag's candidate search (`rows`, the table's cells: [`chaos_study::study_results::SearchRow::cells`]) that
+/// The facts of the flag's candidate search (`rows`, the table's rows) that
 /// [`SEARCH_FINDINGS`] states: outcomes per map step of the plain RBF rows at SSM dimension `dim`, the chaotic
 /// ones' statistics at map step `step`, and each variant's (kernels, multistep, denoised or
 /// smoothed inputs, d = 6).
-fn search_findings(rows: &[[String; 9]], step: usize, dim: usize) -> serde_json::Value {
+fn search_findings(rows: &[SearchRow], step: usize, dim: usize) -> serde_json::Value {
     use serde_json::json;
-    let first = |c: &str| c.split_whitespace().next().and_then(|v| v.parse::<f64>().ok());
+    // The candidate's spec tokens (`k=4 d=4 ... kernel ...`) say which variant a row is.
     let token = |c: &str, key: &str| {
         c.split_whitespace().find_map(|t| t.strip_prefix(key)).and_then(|v| v.parse::<usize>().ok())
     };
@@ -878,54 +879,55 @@ fn search_findings(rows: &[[String; 9]], step: usize, dim: usize) -> serde_json:
             ])
         }
     };
-    let chaotic = |r: &[String; 9]| r[7] == "chaotic";
-    let failed = |r: &[String; 9]| r[7].starts_with("FAILED");
-    let col = |rows: &[&[String; 9]], i: usize| {
-        rows.iter().filter(|r| chaotic(r)).filter_map(|r| first(&r[i])).collect::<Vec<f64>>()
-    };
-    let plain: Vec<&[String; 9]> = rows.iter().filter(|r| variant(&r[0]).is_none()).collect();
-    let mut ks: Vec<usize> = plain.iter().filter_map(|r| token(&r[0], "k=")).collect();
+    fn chaotic(r: &SearchRow) -> bool {
+        r.failed.is_none() && r.chaotic
+    }
+    let failed = |r: &SearchRow| r.failed.is_some();
+    /// A value of the chaotic rows among `rows`.
+    fn col(rows: &[&SearchRow], v: impl Fn(&SearchRow) -> Option<f64>) -> Vec<f64> {
+        rows.iter().filter(|r| chaotic(r)).filter_map(|r| v(r)).collect()
+    }
+    let (benettin, corr_dim, js) = (|r: &SearchRow| r.benettin, |r: &SearchRow| r.corr_dim, |r: &SearchRow| r.js);
+    let plain: Vec<&SearchRow> = rows.iter().filter(|r| variant(&r.candidate).is_none()).collect();
+    let mut ks: Vec<usize> = plain.iter().filter_map(|r| token(&r.candidate, "k=")).collect();
     ks.sort_unstable();
     ks.dedup();
     let steps: Vec<serde_json::Value> = ks
         .iter()
         .map(|&k| {
-            let at: Vec<_> = plain.iter().filter(|r| token(&r[0], "k=") == Some(k)).collect();
+            let at: Vec<_> = plain.iter().filter(|r| token(&r.candidate, "k=") == Some(k)).collect();
             json!({ "k": k, "rows": at.len(), "chaotic": at.iter().filter(|r| chaotic(r)).count(),
                     "failed": at.iter().filter(|r| failed(r)).count() })
         })
         .collect();
-    let at_step: Vec<&[String; 9]> = plain.iter().copied().filter(|r| token(&r[0], "k=") == Some(step)).collect();
-    let data_at = at_step.first().map(|r| {
-        let d2 = r[4].split_once('(').map(|(_, t)| t);
-        let err = d2.and_then(|t| t.split_once('±')).and_then(|(_, e)| first(e.trim_end_matches(')')));
-        json!({ "rosenstein": first(&r[1]), "corr_dim": d2.and_then(first), "corr_dim_err": err })
+    let at_step: Vec<&SearchRow> = plain.iter().copied().filter(|r| token(&r.candidate, "k=") == Some(step)).collect();
+    let data = at_step.first().map_or(json!({ "rosenstein": null, "corr_dim": null, "corr_dim_err": null }), |r| {
+        json!({ "rosenstein": r.data_rosenstein, "corr_dim": r.data_corr_dim, "corr_dim_err": r.data_corr_dim_err })
     });
-    let data = data_at.unwrap_or(json!({ "rosenstein": null, "corr_dim": null, "corr_dim_err": null }));
     let (dc, de) = (data["corr_dim"].as_f64().unwrap_or(f64::NAN), data["corr_dim_err"].as_f64().unwrap_or(f64::NAN));
-    let d2 = col(&at_step, 4);
+    let d2 = col(&at_step, corr_dim);
     let ratios: Vec<f64> =
-        at_step.iter().filter(|r| chaotic(r)).filter_map(|r| Some(first(&r[3])? / first(&r[2])?)).collect();
-    let one: Vec<&[String; 9]> = rows.iter().filter(|r| token(&r[0], "k=") == Some(1)).collect();
+        at_step.iter().filter(|r| chaotic(r)).filter_map(|r| Some(r.rosenstein? / r.benettin?)).collect();
+    let one: Vec<&SearchRow> = rows.iter().filter(|r| token(&r.candidate, "k=") == Some(1)).collect();
     let mut names: Vec<String> = Vec::new();
     for r in rows {
-        if let Some(v) = variant(&r[0]).filter(|v| !names.contains(v)) {
+        if let Some(v) = variant(&r.candidate).filter(|v| !names.contains(v)) {
             names.push(v);
         }
     }
     let variants: Vec<serde_json::Value> = names
         .iter()
         .map(|n| {
-            let g: Vec<&[String; 9]> = rows.iter().filter(|r| variant(&r[0]).as_ref() == Some(n)).collect();
+            let g: Vec<&SearchRow> = rows.iter().filter(|r| variant(&r.candidate).as_ref() == Some(n)).collect();
             json!({ "what": n, "rows": g.len(), "chaotic": g.iter().filter(|r| chaotic(r)).count(),
-                    "failed": g.iter().filter(|r| failed(r)).count(), "benettin": range(&col(&g, 2)),
-                    "corr_dim": range(&col(&g, 4)), "js": range(&col(&g, 5)) })
+                    "failed": g.iter().filter(|r| failed(r)).count(), "benettin": range(&col(&g, benettin)),
+                    "corr_dim": range(&col(&g, corr_dim)), "js": range(&col(&g, js)) })
         })
         .collect();
     json!({
         "one_sample": { "rows": one.len(), "chaotic": one.iter().filter(|r| chaotic(r)).count() },
         "dim": dim, "steps": steps, "step": step, "data": data, "targets": chaos::Targets::default(),
-        "chaotic": { "benettin": range(&col(&at_step, 2)), "js_max": col(&at_step, 5).into_iter().fold(f64::NAN, f64::max),
+        "chaotic": { "benettin": range(&col(&at_step, benettin)), "js_max": col(&at_step, js).into_iter().fold(f64::NAN, f64::max),
                      "ratio": range(&ratios), "corr_dim": range(&d2),
                      "corr_dim_in_bar": d2.iter().filter(|v| (*v - dc).abs() <= de).count() },
         "variants": variants,
@@ -997,8 +999,7 @@ fn selection_tables(
     page.para("chaos/search-intro", runs);
     let rows = results.search.rows.iter().map(|r| json!({ "r": r, "failed": r.failed })).collect();
     page.table("chaos/search", serde_json::Value::Null, rows);
-    let cells: Vec<[String; 9]> = results.search.rows.iter().map(|r| r.cells()).collect();
-    let shows = search_findings(&cells, chaos_study::flag_self::STEP, FLAG_DIM);
+    let shows = search_findings(&results.search.rows, chaos_study::flag_self::STEP, FLAG_DIM);
     page.para("chaos/search-findings", shows);
     estimator_bias(rep, page, results, quick)?;
     flag_pipeline_check(rep, page, results, quick)
@@ -2571,16 +2572,16 @@ pub(crate) mod tests {
     #[test]
     fn search_findings_follow_the_table() {
         let results = chaos_study::study_results::FlagResults::bundled().unwrap();
-        let cells: Vec<[String; 9]> = results.search.rows.iter().map(|r| r.cells()).collect();
-        let v = search_findings(&cells, 4, FLAG_DIM);
+        let rows = &results.search.rows;
+        let v = search_findings(rows, 4, FLAG_DIM);
         let a = assert_numbers_follow("chaos/search-findings", SEARCH_FINDINGS, &v);
         let step4 = v["steps"].as_array().unwrap().iter().find(|s| s["k"] == 4).unwrap().clone();
         let text = format!("k = 4: {} of {} chaotic", step4["chaotic"], step4["rows"]);
         assert!(a.contains(&text) && a.contains("data's Rosenstein 0.332 1/s"), "{a}");
         // One chaotic row at step 4 made to escape: one fewer chaotic, one more escaped.
-        let mut search = cells.clone();
-        let row = search.iter_mut().find(|r| r[0] == "k=4 d=4 p=9 s=1 m=3 c=500 r=1e-8").unwrap();
-        row[7] = "FAILED: escaped".into();
+        let mut search = rows.clone();
+        let row = search.iter_mut().find(|r| r.candidate == "k=4 d=4 p=9 s=1 m=3 c=500 r=1e-8").unwrap();
+        row.failed = Some("escaped".into());
         let w = search_findings(&search, 4, FLAG_DIM);
         let moved = w["steps"].as_array().unwrap().iter().find(|s| s["k"] == 4).unwrap();
         assert_eq!(moved["chaotic"].as_u64().unwrap() + 1, step4["chaotic"].as_u64().unwrap());
