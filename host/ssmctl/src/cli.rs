@@ -351,11 +351,12 @@ pub enum Cmd {
         periods: u64,
         #[arg(long)]
         out: PathBuf,
-        /// The firmware's PIL binary.
-        #[arg(long, default_value = "qemu/target/thumbv7em-none-eabihf/release/pil")]
+        /// The firmware's PIL binary (where the xtask copies each board's images after building
+        /// them in one target dir).
+        #[arg(long, default_value = "qemu/target/images/mps2-an386/pil")]
         elf: PathBuf,
         /// QEMU machine: mps2-an386, or netduinoplus2 (STM32F405) for the `stm32f407` build
-        /// (qemu/target/stm32f407/thumbv7em-none-eabihf/release/pil).
+        /// (qemu/target/images/stm32f407/pil).
         #[arg(long, default_value = "mps2-an386", value_parser = crate::pil::Machine::parse)]
         machine: crate::pil::Machine,
         /// Per-reply timeout, seconds.

@@ -35,7 +35,9 @@
 //!   made and given maturin, pytest and numpy when missing) and its pytest tests (`python.rs`).
 //! - `test`: everything, as steps that start as soon as what they need is there (`test_all`):
 //!   the installs (rustup, apt, the Python venv), `cargo fmt --check` (workspace, `qemu/`,
-//!   `tests/fuzz/`) and the firmware builds run while cargo builds the host tests; then
+//!   `tests/fuzz/`) and the firmware builds (both boards, one after the other in one target
+//!   dir, each board's images copied to `qemu/target/images/BOARD/`) run while cargo builds
+//!   the host tests; then
 //!   `cargo test --workspace`, clippy + `cargo doc` (in the host build's target dir, reusing its
 //!   proc macros and build scripts), the Python module and pytest, qemu-test on both
 //!   machines side by side, device-table (counted as one on-target test, see
@@ -151,14 +153,15 @@ impl Board {
         }
     }
 
-    /// The firmware's own target dir for this board (relative to `qemu/`).
-    fn target_dir(self) -> &'static str {
-        match self {
-            Self::Mps2An386 => "target",
-            Self::Stm32f407 => "target/stm32f407",
-        }
+    /// Where this board's images are copied after their build: both boards build in
+    /// `qemu/target`, whose `release/` names are the same for either feature set.
+    fn image_dir(self) -> PathBuf {
+        qemu_dir().join("target").join("images").join(self.name())
     }
 }
+
+/// The firmware's binaries: the on-target tests, the device table, the PIL loop.
+const FIRMWARE_BINARIES: [&str; 3] = ["firmware", "device_table", "pil"];
 
 fn root() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).parent().expect("tests/ has a parent").to_path_buf()
@@ -384,19 +387,23 @@ fn write_target_data() -> Result<Vec<Vec<f64>>> {
     Ok(dt.reference)
 }
 
-/// Builds the firmware's binaries for `board`; returns the test binary's path (the others
-/// are beside it).
+/// Builds the firmware's binaries for `board` and copies them to its
+/// [`Board::image_dir`]; returns the test binary's path there (the others are beside it).
 fn build_firmware(board: Board) -> Result<PathBuf> {
     build_firmware_with(board, None)
 }
 
 /// [`build_firmware`]; with `log`, as a step beside the host build: cargo's output into the
-/// log, at a lower priority.
+/// log, at a lower priority. Both boards share one target dir, so the dependencies compile
+/// once and only the firmware crate twice; a lock keeps another thread's build from
+/// replacing the images between this build and their copy.
 fn build_firmware_with(board: Board, log: Option<&Path>) -> Result<PathBuf> {
+    static BUILD: std::sync::Mutex<()> = std::sync::Mutex::new(());
+    let _one_build = BUILD.lock().unwrap_or_else(|p| p.into_inner());
     let mut c = cmd("cargo");
     c.current_dir(qemu_dir()).args(["build", "--release"]);
     if board == Board::Stm32f407 {
-        c.args(["--features", "stm32f407", "--target-dir", board.target_dir()]);
+        c.args(["--features", "stm32f407"]);
     }
     match log {
         Some(log) => {
@@ -405,7 +412,19 @@ fn build_firmware_with(board: Board, log: Option<&Path>) -> Result<PathBuf> {
         }
         None => run(&mut c)?,
     }
-    Ok(qemu_dir().join(board.target_dir()).join(TARGET).join("release").join("firmware"))
+    let built = qemu_dir().join("target").join(TARGET).join("release");
+    let dir = board.image_dir();
+    std::fs::create_dir_all(&dir).map_err(|e| format!("{}: {e}", dir.display()))?;
+    for name in FIRMWARE_BINARIES {
+        let from = built.join(name);
+        let bytes = std::fs::read(&from).map_err(|e| format!("{}: {e}", from.display()))?;
+        let to = dir.join(name);
+        // Replaced whole (a QEMU run may be reading the old one), and only when changed.
+        if std::fs::read(&to).ok().as_deref() != Some(&bytes[..]) {
+            files::write_atomic(&to, &bytes)?;
+        }
+    }
+    Ok(dir.join("firmware"))
 }
 
 /// Runs `elf` under QEMU as `board`'s machine with `extra` arguments, output into `log`;
@@ -1417,6 +1436,14 @@ fn after<T: Clone>(gate: &steps::Gate<Result<T>>, what: &str) -> Result<T> {
     gate.wait().map_err(|_| format!("not run: {what} failed"))
 }
 
+/// The step table's row of `board`'s firmware build.
+fn firmware_step(board: Board) -> &'static str {
+    match board {
+        Board::Mps2An386 => "firmware build (mps2-an386)",
+        Board::Stm32f407 => "firmware build (stm32f407, same target dir: the firmware crate only)",
+    }
+}
+
 /// `cargo xtask test`. Steps start as soon as what they need is there: the rustup and apt
 /// installs, the Python venv, rustfmt and the firmware builds run while cargo compiles the
 /// host tests (the builds beside it at a lower priority, their output in
@@ -1434,6 +1461,8 @@ fn test_all() -> Result<()> {
     let venv: Gate<Result<PathBuf>> = Gate::new();
     let data: Gate<Result<Vec<Vec<f64>>>> = Gate::new();
     let host: Gate<Result<PathBuf>> = Gate::new();
+    let image_mps2: Gate<Result<PathBuf>> = Gate::new();
+    let image_stm32: Gate<Result<PathBuf>> = Gate::new();
     let pil_done: Gate<Result<()>> = Gate::new();
     let pil_eq_done: Gate<Result<()>> = Gate::new();
     // The cargo runs on the host build's target dir that the lint step must not hold up (it
@@ -1476,15 +1505,22 @@ fn test_all() -> Result<()> {
                 .and_then(|()| steps.run("lab: research programs compile (check)", || lab_check(&logs)));
             record("lab", r);
         });
-        // mps2-an386: build, on-target suite, device table, then (with the host's ssmctl) PIL.
+        // Both boards' images, one after the other in one target dir (the second compiles
+        // only the firmware crate), beside the host build.
+        s.spawn(|| {
+            for (board, gate) in [(Board::Mps2An386, &image_mps2), (Board::Stm32f407, &image_stm32)] {
+                let r = after(&tools, "rustup").and_then(|()| after(&data, "target data")).and_then(|_| {
+                    let log = logs.join(format!("firmware-{}.log", board.name()));
+                    steps.run(firmware_step(board), || build_firmware_with(board, Some(&log)))
+                });
+                gate.set(r);
+            }
+        });
+        // mps2-an386: on-target suite, device table, then (with the host's ssmctl) PIL.
         s.spawn(|| {
             let board = Board::Mps2An386;
-            let built = after(&tools, "rustup").and_then(|()| after(&data, "target data")).and_then(|reference| {
-                let elf = steps.run("firmware build (mps2-an386)", || {
-                    build_firmware_with(board, Some(&logs.join("firmware-mps2-an386.log")))
-                })?;
-                Ok((reference, elf))
-            });
+            let built = after(&data, "target data")
+                .and_then(|reference| Ok((reference, after(&image_mps2, "firmware build (mps2-an386)")?)));
             let suite = built.clone().and_then(|(_, elf)| {
                 after(&apt_done, "apt")?;
                 steps.run("qemu: on-target suite (mps2-an386)", || qemu_suite(board, &elf))
@@ -1527,14 +1563,14 @@ fn test_all() -> Result<()> {
         s.spawn(|| {
             let board = Board::Stm32f407;
             let t = Instant::now();
-            let suite = after(&tools, "rustup").and_then(|()| after(&data, "target data")).and_then(|_| {
-                let elf = steps.run("firmware build (stm32f407)", || {
-                    build_firmware_with(board, Some(&logs.join("firmware-stm32f407.log")))
-                })?;
+            let suite = after(&image_stm32, "firmware build (stm32f407)").and_then(|elf| {
                 after(&apt_done, "apt")?;
                 steps.run("qemu: on-target suite (stm32f407 on netduinoplus2)", || qemu_suite(board, &elf))
             });
-            println!("qemu-test: stm32f407 build + netduinoplus2 run: {:.1} s", t.elapsed().as_secs_f64());
+            println!(
+                "qemu-test: stm32f407 image (built after the mps2-an386 one) + netduinoplus2 run: {:.1} s",
+                t.elapsed().as_secs_f64()
+            );
             match &suite {
                 Ok(r) => count(r.passed, r.failed),
                 Err(_) => count(0, 1),
