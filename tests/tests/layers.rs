@@ -291,3 +291,75 @@ fn every_integration_test_file_is_built() {
         "test files that no test target builds (add `mod NAME;` to tests/integration.rs): {orphans:?}"
     );
 }
+
+/// The lines of `text` that declare a test (`#[test]`, a `proptest!` block, a `#[cfg(test)]`
+/// item), comments skipped: in a library built with `test = false` they would silently never
+/// build or run.
+fn test_lines(text: &str) -> Vec<(usize, String)> {
+    text.lines()
+        .enumerate()
+        .filter(|(_, l)| !l.trim_start().starts_with("//"))
+        .filter(|(_, l)| ["#[test]", "proptest!", "#[cfg(test)]"].iter().any(|m| l.contains(m)))
+        .map(|(n, l)| (n + 1, l.trim().to_string()))
+        .collect()
+}
+
+/// The `.rs` files of the library whose root is `lib`, by folder: every file under the root's
+/// folder except those of the package's other targets (`src/main.rs`, `src/bin/`, a binary's own
+/// folder such as `src/xtask/`).
+fn library_files(lib: &std::path::Path, other_roots: &[std::path::PathBuf]) -> Vec<std::path::PathBuf> {
+    let dir = lib.parent().unwrap();
+    let skip_dirs: Vec<&std::path::Path> =
+        other_roots.iter().filter_map(|r| r.parent()).filter(|d| *d != dir && d.starts_with(dir)).collect();
+    let mut out = Vec::new();
+    let mut stack = vec![dir.to_path_buf()];
+    while let Some(d) = stack.pop() {
+        for e in std::fs::read_dir(&d).unwrap().flatten() {
+            let p = e.path();
+            if p.is_dir() {
+                if !skip_dirs.iter().any(|s| p.starts_with(s)) {
+                    stack.push(p);
+                }
+            } else if p.extension().is_some_and(|x| x == "rs") && !other_roots.contains(&p) {
+                out.push(p);
+            }
+        }
+    }
+    out
+}
+
+/// A library with `[lib] test = false` (its unit tests live in its integration-test binary, so
+/// the library is compiled once) has no test left under its sources.
+#[test]
+fn libraries_without_unit_tests_have_no_tests_in_their_sources() {
+    let m = metadata();
+    let mut found = Vec::new();
+    let mut libs = 0;
+    for p in m["packages"].as_array().unwrap() {
+        let targets = p["targets"].as_array().unwrap();
+        let roots: Vec<std::path::PathBuf> =
+            targets.iter().map(|t| std::path::PathBuf::from(t["src_path"].as_str().unwrap())).collect();
+        for (t, root) in targets.iter().zip(&roots) {
+            let is_lib = t["kind"].as_array().unwrap().iter().any(|k| k == "lib" || k == "rlib" || k == "cdylib");
+            if !is_lib || t["test"].as_bool() != Some(false) {
+                continue;
+            }
+            libs += 1;
+            let others: Vec<std::path::PathBuf> = roots.iter().filter(|r| *r != root).cloned().collect();
+            for f in library_files(root, &others) {
+                for (n, line) in test_lines(&std::fs::read_to_string(&f).unwrap()) {
+                    found.push(format!("{}:{n}: {line}", f.display()));
+                }
+            }
+        }
+    }
+    assert!(libs > 0, "no library with `test = false` found: the scan would check nothing");
+    assert!(
+        found.is_empty(),
+        "tests in libraries built with `test = false` never run (move them to tests/integration.rs):\n{}",
+        found.join("\n")
+    );
+    // The scan sees each kind of test, and not one in a comment.
+    assert_eq!(test_lines("#[test]\nfn t() {}\nproptest! {}\n#[cfg(test)]\nmod tests;").len(), 3);
+    assert!(test_lines("// #[test] in a comment").is_empty());
+}

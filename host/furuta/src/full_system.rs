@@ -555,6 +555,3 @@ pub fn transient_analysis(dt_ms: f64, start: &Start, seconds: f64) -> Result<Tra
         envelope_freq_hz,
     })
 }
-
-#[cfg(test)]
-mod tests;

@@ -3,8 +3,9 @@
 //! equation-driven SSM of the period map, full-system checks of the local and global
 //! bifurcations, basins and the sweep machinery. The chaotic-data study is `chaos_study`.
 //! Library only: returns data, draws nothing.
-// Library code returns errors: no unwrap/expect/panic outside tests (CI runs clippy).
-#![cfg_attr(not(test), deny(clippy::unwrap_used, clippy::expect_used, clippy::panic))]
+// Library code returns errors: no unwrap/expect/panic (CI runs clippy); the tests are in
+// `tests/`, so the library is never built with `cfg(test)`.
+#![deny(clippy::unwrap_used, clippy::expect_used, clippy::panic)]
 
 pub mod auto_sets;
 pub mod basin;

@@ -129,7 +129,7 @@ pub struct Connection {
 /// The eigenvector of the real matrix `a` (`d x d`) for its eigenvalue near `mu` (inverse
 /// iteration, [`crate::parametric::eigenvector_near`]), scaled so that `row . v = 1/2`: then `2 Re(v z)` has
 /// theta (`row . x`) equal to `Re z`.
-fn eigenvector(a: &DMatrix<f64>, mu: C, row: &[f64]) -> Result<Vec<C>, Error> {
+pub fn eigenvector(a: &DMatrix<f64>, mu: Complex<f64>, row: &[f64]) -> Result<Vec<Complex<f64>>, Error> {
     let v = crate::parametric::eigenvector_near(a, mu)
         .ok_or_else(|| Error::BadInput { what: "eigenvector", why: format!("singular shifted matrix at mu = {mu}") })?;
     let c: C = row.iter().zip(v.iter()).map(|(r, x)| x * *r).sum();
@@ -144,7 +144,7 @@ fn eigenvector(a: &DMatrix<f64>, mu: C, row: &[f64]) -> Result<Vec<C>, Error> {
 
 /// The slow multiplier of `a`: of the two oscillatory pairs of largest modulus, the one with
 /// the smaller rotation (positive imaginary part).
-fn slow_multiplier(a: &DMatrix<f64>) -> Result<C, Error> {
+pub fn slow_multiplier(a: &DMatrix<f64>) -> Result<Complex<f64>, Error> {
     let mut ev: Vec<C> = a.complex_eigenvalues().iter().copied().filter(|z| z.im > 0.0).collect();
     ev.sort_by(|x, y| y.norm().total_cmp(&x.norm()));
     ev.truncate(2);
@@ -475,6 +475,3 @@ pub fn map_basin(
     })?;
     Ok(bounded.chunks(r1.len() * r2.len()).map(<[bool]>::to_vec).collect())
 }
-
-#[cfg(test)]
-mod tests;

@@ -22,8 +22,6 @@
 //! the arithmetic of [`sim::stability::scene_chart`]'s grid points.
 
 pub mod shard;
-#[cfg(test)]
-mod tests;
 
 use std::path::Path;
 

@@ -1,11 +1,19 @@
-use super::*;
-use crate::basin::TorusContinuation;
-use crate::basin::{agreement, full_basin};
-use crate::parametric::FurutaOptions;
-use crate::shared_tangent::SharedParametricModel;
+//! The tests of `furuta::map_global`.
+
+use furuta::Error;
+use furuta::basin::{BasinOptions, TorusContinuation};
+use furuta::basin::{agreement, full_basin};
+use furuta::bifurcations::map_outcome;
+use furuta::full_system::{ESCAPE_THETA, run, start_from_rho};
+use furuta::map_global::*;
+use furuta::parametric::FurutaOptions;
+use furuta::shared_tangent::SharedParametricModel;
+use nalgebra::{Complex, DMatrix};
 use sim::chart::Axis;
 use ssm::interp::Interp;
 use std::sync::OnceLock;
+
+type C = Complex<f64>;
 
 /// The report's shared-tangent model (default training options), fitted once per test
 /// process (`crate::shared_tangent::test_model`).
@@ -29,8 +37,8 @@ fn model_torus() -> &'static TorusContinuation {
 #[test]
 fn deflated_state_is_the_full_system_start() {
     let dt_ms = 31.3;
-    let scene = crate::full_system::scene_at(dt_ms).unwrap();
-    let ex = crate::convergence::ExactMap::new(&scene, 3).unwrap();
+    let scene = furuta::full_system::scene_at(dt_ms).unwrap();
+    let ex = furuta::convergence::ExactMap::new(&scene, 3).unwrap();
     assert_eq!(ex.dim(), 7);
     let s = [0.03, -0.1, 0.05, 0.025, 0.02, -0.01, 0.004];
     let (x, h) = start_of_deflated(&s).unwrap();
@@ -142,9 +150,9 @@ fn map_basin_agrees_with_the_full_system_on_a_small_grid() {
             assert_eq!(mb[0][i * 3 + j], map_outcome(&m, 31.5, &(s, Some(h)), 1500, ESCAPE_THETA).unwrap().bounded());
         }
     }
-    let fates: Vec<crate::basin::ModelFate> = mb[0]
+    let fates: Vec<furuta::basin::ModelFate> = mb[0]
         .iter()
-        .map(|&b| if b { crate::basin::ModelFate::Principal } else { crate::basin::ModelFate::LeavesBox })
+        .map(|&b| if b { furuta::basin::ModelFate::Principal } else { furuta::basin::ModelFate::LeavesBox })
         .collect();
     let a = agreement(&fates, &full).unwrap();
     eprintln!("map {:?}\nfull {full:?}\n{a:?}", mb[0]);
@@ -180,7 +188,7 @@ fn map_torus_continuation_loses_the_torus_on_the_grid() {
 /// fitted on the same runs (`crate::parametric::test_runs::training_runs`).
 #[test]
 fn map_torus_does_not_depend_on_the_training_cut() {
-    use crate::shared_tangent::shared_parametric_from;
+    use furuta::shared_tangent::shared_parametric_from;
     let cut = crate::parametric::test_runs::cut_03();
     let raw = FurutaOptions { map_weight: None, ..cut.clone() };
     let runs = crate::parametric::test_runs::training_runs();
@@ -200,7 +208,7 @@ fn map_torus_does_not_depend_on_the_training_cut() {
     }
     let (ob, oc) = (b.growth_onset.unwrap(), c.growth_onset.unwrap());
     assert!((ob - oc).abs() <= 0.1, "onsets {ob} vs {oc}");
-    let mid = |t: &crate::basin::TorusContinuation| t.lost_between.map(|(x, y)| 0.5 * (x + y));
+    let mid = |t: &furuta::basin::TorusContinuation| t.lost_between.map(|(x, y)| 0.5 * (x + y));
     let (lb, lc) = (mid(b).unwrap(), mid(c).unwrap());
     assert!((lb - lc).abs() <= 0.1 + 1e-9, "lost at {lb} vs {lc}");
     assert!(r.lost_at_first_dt() || mid(r).is_some_and(|l| l < lb - 0.2), "unweighted: {:?}", r.lost_between);

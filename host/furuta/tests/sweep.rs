@@ -1,5 +1,11 @@
-use super::shard::{ShardFile, merge};
-use super::*;
+//! The tests of `furuta::sweep`.
+
+use furuta::Error;
+use furuta::full_system::{ESCAPE_THETA, outcome_of};
+use furuta::sweep::shard::{ShardFile, merge};
+use furuta::sweep::*;
+use sim::closed_loop::simulate;
+use sim::scene::Scene;
 use sim::scene::SceneBuilder;
 use std::path::Path;
 
@@ -106,7 +112,7 @@ fn basin_cells_are_full_system_outcomes() {
     assert_eq!(one.cells.len(), 6);
     for c in &one.cells {
         let tr =
-            crate::full_system::run(c.values[0], &([c.values[1], 0.0, 0.0, 0.0], None), 300, ESCAPE_THETA).unwrap();
+            furuta::full_system::run(c.values[0], &([c.values[1], 0.0, 0.0, 0.0], None), 300, ESCAPE_THETA).unwrap();
         let o = outcome_of(&tr);
         assert_eq!(c.bounded, Some(o.bounded()));
         assert_eq!(c.escape_t, o.escape_t);
@@ -181,7 +187,7 @@ fn mode_starts_use_the_cells_own_loop() {
         .to_string();
     assert!(err.contains("`axes[0]` (slow_amp): amplitude -0.01 is negative"), "{err}");
     let c = s.compute(3).unwrap();
-    let (x, h) = crate::parametric::mode_start(30.5, Some((0.01, 0.0)), Some((0.01, 0.0))).unwrap();
+    let (x, h) = furuta::parametric::mode_start(30.5, Some((0.01, 0.0)), Some((0.01, 0.0))).unwrap();
     let scene = SceneBuilder::load("furuta-dt30.5")
         .unwrap()
         .periods(100)
@@ -377,7 +383,7 @@ fn shard_files_without_version_or_format_are_named_in_words() {
         (r#"{"version": 1}"#, "format missing"),
         (r#"{"format": "other", "version": 1}"#, "format `other` is not"),
     ] {
-        let e = super::shard::ShardFile::parse("s.json", text).unwrap_err().to_string();
+        let e = ShardFile::parse("s.json", text).unwrap_err().to_string();
         assert!(e.contains("s.json") && e.contains(want), "{text}: {e}");
         assert!(!e.contains("Some(") && !e.contains("None"), "{text}: {e}");
     }

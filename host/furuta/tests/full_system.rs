@@ -1,4 +1,9 @@
-use super::*;
+//! The tests of `furuta::full_system`.
+
+use furuta::Error;
+use furuta::full_system::*;
+use furuta::parametric::{exact_modes, mode_start};
+use sim::closed_loop::{Trajectory, simulate};
 use sim::scene::SceneBuilder;
 
 /// Known facts (MODEL.md): small starts stay bounded at 31.2 ms and escape within tens of
@@ -171,7 +176,7 @@ fn starts_from_one_mode_basis_equal_the_per_start_ones() {
         let mut total = DVector::<f64>::zeros(n);
         for (pair, m) in pairs.iter().zip([slow, fast]) {
             let Some((theta_amp, phase)) = m else { continue };
-            let v = crate::parametric::eigenvector_near(&map.matrix, Complex::new(pair.re, pair.im)).unwrap();
+            let v = furuta::parametric::eigenvector_near(&map.matrix, Complex::new(pair.re, pair.im)).unwrap();
             let th = v[0];
             let scale = Complex::from_polar(theta_amp / th.norm(), phase - th.arg());
             for k in 0..n {
@@ -185,7 +190,7 @@ fn starts_from_one_mode_basis_equal_the_per_start_ones() {
     let bits =
         |s: &([f64; 4], Vec<[f64; 2]>)| s.0.iter().chain(s.1.iter().flatten()).map(|v| v.to_bits()).collect::<Vec<_>>();
     for dt_ms in [31.3, 31.6] {
-        let basis = crate::parametric::ModeBasis::at(dt_ms).unwrap();
+        let basis = furuta::parametric::ModeBasis::at(dt_ms).unwrap();
         for (rho, phases) in [
             ([0.005, 0.0], [0.0, 0.0]),
             ([0.0, 0.12], [0.0, 0.3]),
