@@ -144,6 +144,7 @@ const CELLS: &[(&str, &str)] = &[
     ("device.predictor[].sqrt", "a sqrt flavour's name"),
     ("device.predictor_f32_vs_f64[].scalar", "a scalar type's name"),
     ("device.firmware_sizes[].config", "a firmware configuration's name"),
+    ("page_device.sizes[].config", "a firmware configuration's name"),
     ("chaos_scale[].name", "a data set's name"),
     ("chaos_scale[].unit_name", "a unit's name"),
     ("chaos_scale[].rows[].note", "an estimator's note"),

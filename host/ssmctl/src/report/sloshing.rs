@@ -373,6 +373,28 @@ const DEVICE_INTRO: &str = "Instructions per call on the Cortex-M4F (QEMU {{ mac
     SysTick: exact and repeatable counts, not cycles), and the prediction error of each sqrt flavour against the host's \
     f64 evaluation of the same model.";
 
+/// Each firmware configuration's flash and static RAM from the device table, with their shares
+/// of the linked memory map in per cent (none where a capacity is missing or zero).
+fn size_values(v: &Value) -> Vec<Value> {
+    let rows = v.get("firmware_sizes").and_then(Value::as_array).map_or(&[][..], Vec::as_slice);
+    rows.iter()
+        .map(|r| {
+            let n = |k: &str| r.get(k).and_then(Value::as_u64);
+            let pct = |a: Option<u64>, b: Option<u64>| match (a, b) {
+                (Some(a), Some(b)) if b > 0 => Some(100.0 * a as f64 / b as f64),
+                _ => None,
+            };
+            json!({
+                "config": r.get("config"),
+                "flash_bytes": n("flash_bytes"),
+                "flash_pct": pct(n("flash_bytes"), n("flash_capacity")),
+                "ram_bytes": n("ram_bytes"),
+                "ram_pct": pct(n("ram_bytes"), n("ram_capacity")),
+            })
+        })
+        .collect()
+}
+
 /// Report section: the device cost table measured under QEMU (`cargo xtask device-table`
 /// writes `qemu/target/device-table.json`; the host cannot count Cortex-M instructions), and
 /// the processor-in-the-loop run. Summary keys `device` (the table as read), `pil` and
@@ -388,6 +410,7 @@ pub fn device_section(rep: &mut Report, table: &Path) -> Result<(), Box<dyn Erro
         Ok(text) => {
             let v: Value = serde_json::from_str(&text).map_err(|e| format!("{}: {e}", table.display()))?;
             page["coordinates"] = Value::Array(coordinate_values(&v));
+            page["sizes"] = Value::Array(size_values(&v));
             // Plot: instructions per predictor step against centres, one line per sqrt flavour.
             let mut by: std::collections::BTreeMap<String, Vec<(f64, f64)>> = Default::default();
             for r in v.get("predictor").and_then(Value::as_array).into_iter().flatten() {
@@ -474,18 +497,19 @@ pub fn device_render(rep: &mut Report, s: &Value) -> Result<(), Box<dyn Error>> 
         })
         .unwrap_or_default();
     rep.table(&["centres", "sqrt", "instructions / step", "per centre", "rel. error vs f64"], &rows);
-    if let Some(sizes) = v.get("firmware_sizes").and_then(Value::as_array) {
+    if let Some(sizes) = page.get("sizes").and_then(Value::as_array).filter(|s| !s.is_empty()) {
         let rows: Vec<Vec<String>> = sizes
             .iter()
             .map(|r| {
-                let n = |k: &str| r.get(k).and_then(Value::as_u64).unwrap_or(0);
-                let pct = |a: u64, b: u64| {
-                    if b > 0 { format!("{a} ({:.1} %)", 100.0 * a as f64 / b as f64) } else { a.to_string() }
+                let cell = |bytes: &str, share: &str| match (r.get(bytes), r.get(share).and_then(Value::as_f64)) {
+                    (Some(b), Some(p)) => format!("{b} ({p:.1} %)"),
+                    (Some(b), None) => b.to_string(),
+                    (None, _) => "-".to_string(),
                 };
                 vec![
                     r.get("config").and_then(Value::as_str).unwrap_or("?").to_string(),
-                    pct(n("flash_bytes"), n("flash_capacity")),
-                    pct(n("ram_bytes"), n("ram_capacity")),
+                    cell("flash_bytes", "flash_pct"),
+                    cell("ram_bytes", "ram_pct"),
                 ]
             })
             .collect();
@@ -677,7 +701,6 @@ pub(crate) mod tests {
                     {"centers": 50, "scalar": "f32", "instructions": 1234.5, "per_center": 24.69, "rel_error": 3e-7, "vs_f32": 1.5},
                     {"centers": 50, "scalar": "f64", "instructions": 23456.5, "per_center": 469.13, "rel_error": 2e-16, "vs_f32": 19.0},
                 ],
-                // Small sizes: a share of two sizes moved alike by `perturbed` would stay put.
                 "firmware_sizes": [
                     {"config": "stm32f407: on-target tests", "flash_bytes": 3, "ram_bytes": 7, "flash_capacity": 10, "ram_capacity": 9},
                 ],
@@ -688,6 +711,8 @@ pub(crate) mod tests {
                             "figure": "fig/device_predictor.png",
                             "coordinates": [{"n": 1, "fixed": 60.0, "runtime": 70.0}, {"n": 2, "fixed": 90.5, "runtime": 101.0},
                                             {"n": 4, "fixed": 150.3, "runtime": null}],
+                            "sizes": [{"config": "stm32f407: on-target tests", "flash_bytes": 3, "flash_pct": 30.0,
+                                       "ram_bytes": 7, "ram_pct": 77.8}],
                             "pil": {"predictions_compared": 3990, "round_trips_per_s": 1534.6, "blob": true}},
         })
     }
