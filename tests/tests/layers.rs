@@ -119,20 +119,29 @@ fn only_the_python_module_binds_python() {
     }
 }
 
-/// Top-level modules of one crate and the crate's own top-level modules each one uses
-/// (`crate::m` anywhere in its files, `super::m` in a top-level file), comments skipped.
-fn module_graph(src: &std::path::Path) -> BTreeMap<String, std::collections::BTreeSet<String>> {
-    fn files(dir: &std::path::Path, out: &mut Vec<std::path::PathBuf>) {
-        for e in std::fs::read_dir(dir).unwrap().flatten() {
+/// The `.rs` files under `dir`, recursively, leaving out every file and folder `skip` names.
+fn rs_files(dir: &std::path::Path, skip: &dyn Fn(&std::path::Path) -> bool) -> Vec<std::path::PathBuf> {
+    let mut out = Vec::new();
+    let mut stack = vec![dir.to_path_buf()];
+    while let Some(d) = stack.pop() {
+        for e in std::fs::read_dir(&d).unwrap().flatten() {
             let p = e.path();
+            if skip(&p) {
+                continue;
+            }
             if p.is_dir() {
-                files(&p, out);
-            } else if p.extension().is_some_and(|x| x == "rs") && !p.ends_with("tests.rs") {
-                // Test modules may reach any module: their imports are not the architecture.
+                stack.push(p);
+            } else if p.extension().is_some_and(|x| x == "rs") {
                 out.push(p);
             }
         }
     }
+    out
+}
+
+/// Top-level modules of one crate and the crate's own top-level modules each one uses
+/// (`crate::m` anywhere in its files, `super::m` in a top-level file), comments skipped.
+fn module_graph(src: &std::path::Path) -> BTreeMap<String, std::collections::BTreeSet<String>> {
     fn used(text: &str, prefix: &str, out: &mut std::collections::BTreeSet<String>) {
         for line in text.lines().filter(|l| !l.trim_start().starts_with("//")) {
             let mut rest = line;
@@ -146,8 +155,8 @@ fn module_graph(src: &std::path::Path) -> BTreeMap<String, std::collections::BTr
             }
         }
     }
-    let mut all = Vec::new();
-    files(src, &mut all);
+    // Test modules may reach any module: their imports are not the architecture.
+    let all = rs_files(src, &|p| p.ends_with("tests.rs"));
     let mut graph: BTreeMap<String, std::collections::BTreeSet<String>> = BTreeMap::new();
     for p in &all {
         let rel = p.strip_prefix(src).unwrap();
@@ -234,19 +243,11 @@ fn apps_write_only_through_the_one_writer() {
     let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).parent().unwrap().to_path_buf();
     let mut offenders = Vec::new();
     for krate in ["host/ssmctl/src", "host/python/src"] {
-        let mut stack = vec![root.join(krate)];
-        while let Some(dir) = stack.pop() {
-            for e in std::fs::read_dir(&dir).unwrap().flatten() {
-                let p = e.path();
-                if p.is_dir() {
-                    stack.push(p);
-                } else if p.extension().is_some_and(|x| x == "rs") && !p.ends_with("tests.rs") {
-                    let text = std::fs::read_to_string(&p).unwrap();
-                    for (n, line) in non_test_part(&text).lines().enumerate() {
-                        if !line.trim_start().starts_with("//") && RAW_WRITES.iter().any(|w| line.contains(w)) {
-                            offenders.push(format!("{}:{}: {}", p.display(), n + 1, line.trim()));
-                        }
-                    }
+        for p in rs_files(&root.join(krate), &|p| p.ends_with("tests.rs")) {
+            let text = std::fs::read_to_string(&p).unwrap();
+            for (n, line) in non_test_part(&text).lines().enumerate() {
+                if !line.trim_start().starts_with("//") && RAW_WRITES.iter().any(|w| line.contains(w)) {
+                    offenders.push(format!("{}:{}: {}", p.display(), n + 1, line.trim()));
                 }
             }
         }
@@ -311,21 +312,7 @@ fn library_files(lib: &std::path::Path, other_roots: &[std::path::PathBuf]) -> V
     let dir = lib.parent().unwrap();
     let skip_dirs: Vec<&std::path::Path> =
         other_roots.iter().filter_map(|r| r.parent()).filter(|d| *d != dir && d.starts_with(dir)).collect();
-    let mut out = Vec::new();
-    let mut stack = vec![dir.to_path_buf()];
-    while let Some(d) = stack.pop() {
-        for e in std::fs::read_dir(&d).unwrap().flatten() {
-            let p = e.path();
-            if p.is_dir() {
-                if !skip_dirs.iter().any(|s| p.starts_with(s)) {
-                    stack.push(p);
-                }
-            } else if p.extension().is_some_and(|x| x == "rs") && !other_roots.contains(&p) {
-                out.push(p);
-            }
-        }
-    }
-    out
+    rs_files(dir, &|p| skip_dirs.iter().any(|s| p.starts_with(s)) || other_roots.iter().any(|r| r == p))
 }
 
 /// A library with `[lib] test = false` (its unit tests live in its integration-test binary, so
