@@ -734,22 +734,14 @@ enum Host {
 /// [`Host::Release`] is the release binary.
 fn ssmctl_bin(host: Host) -> Result<PathBuf> {
     static BIN: [std::sync::OnceLock<PathBuf>; 2] = [const { std::sync::OnceLock::new() }; 2];
-    let (slot, dir) = match host {
-        Host::Test => (&BIN[0], "debug"),
-        Host::Release => (&BIN[1], "release"),
+    let (slot, dir, build): (_, _, &[&str]) = match host {
+        Host::Test => (&BIN[0], "debug", &["--profile", "test", "--workspace", "--exclude", "lab"]),
+        Host::Release => (&BIN[1], "release", &["--release", "-p", "ssmctl"]),
     };
     if let Some(p) = slot.get() {
         return Ok(p.clone());
     }
-    let mut c = cmd("cargo");
-    c.current_dir(root());
-    match host {
-        Host::Release => c.args(["build", "--release", "-q", "-p", "ssmctl", "--bin", "ssmctl"]),
-        Host::Test => {
-            c.args(["build", "--profile", "test", "-q", "--workspace", "--exclude", "lab", "--bin", "ssmctl"])
-        }
-    };
-    run(&mut c)?;
+    run(cmd("cargo").current_dir(root()).args(["build", "-q"]).args(build).args(["--bin", "ssmctl"]))?;
     Ok(slot.get_or_init(|| root().join("target").join(dir).join("ssmctl")).clone())
 }
 
