@@ -887,7 +887,6 @@ fn search_findings(rows: &[SearchRow], step: usize, dim: usize) -> serde_json::V
     fn col(rows: &[&SearchRow], v: impl Fn(&SearchRow) -> Option<f64>) -> Vec<f64> {
         rows.iter().filter(|r| chaotic(r)).filter_map(|r| v(r)).collect()
     }
-    let (benettin, corr_dim, js) = (|r: &SearchRow| r.benettin, |r: &SearchRow| r.corr_dim, |r: &SearchRow| r.js);
     let plain: Vec<&SearchRow> = rows.iter().filter(|r| variant(&r.candidate).is_none()).collect();
     let mut ks: Vec<usize> = plain.iter().filter_map(|r| token(&r.candidate, "k=")).collect();
     ks.sort_unstable();
@@ -905,7 +904,7 @@ fn search_findings(rows: &[SearchRow], step: usize, dim: usize) -> serde_json::V
         json!({ "rosenstein": r.data_rosenstein, "corr_dim": r.data_corr_dim, "corr_dim_err": r.data_corr_dim_err })
     });
     let (dc, de) = (data["corr_dim"].as_f64().unwrap_or(f64::NAN), data["corr_dim_err"].as_f64().unwrap_or(f64::NAN));
-    let d2 = col(&at_step, corr_dim);
+    let d2 = col(&at_step, |r| r.corr_dim);
     let ratios: Vec<f64> =
         at_step.iter().filter(|r| chaotic(r)).filter_map(|r| Some(r.rosenstein? / r.benettin?)).collect();
     let one: Vec<&SearchRow> = rows.iter().filter(|r| token(&r.candidate, "k=") == Some(1)).collect();
@@ -920,14 +919,14 @@ fn search_findings(rows: &[SearchRow], step: usize, dim: usize) -> serde_json::V
         .map(|n| {
             let g: Vec<&SearchRow> = rows.iter().filter(|r| variant(&r.candidate).as_ref() == Some(n)).collect();
             json!({ "what": n, "rows": g.len(), "chaotic": g.iter().filter(|r| chaotic(r)).count(),
-                    "failed": g.iter().filter(|r| failed(r)).count(), "benettin": range(&col(&g, benettin)),
-                    "corr_dim": range(&col(&g, corr_dim)), "js": range(&col(&g, js)) })
+                    "failed": g.iter().filter(|r| failed(r)).count(), "benettin": range(&col(&g, |r| r.benettin)),
+                    "corr_dim": range(&col(&g, |r| r.corr_dim)), "js": range(&col(&g, |r| r.js)) })
         })
         .collect();
     json!({
         "one_sample": { "rows": one.len(), "chaotic": one.iter().filter(|r| chaotic(r)).count() },
         "dim": dim, "steps": steps, "step": step, "data": data, "targets": chaos::Targets::default(),
-        "chaotic": { "benettin": range(&col(&at_step, benettin)), "js_max": col(&at_step, js).into_iter().fold(f64::NAN, f64::max),
+        "chaotic": { "benettin": range(&col(&at_step, |r| r.benettin)), "js_max": col(&at_step, |r| r.js).into_iter().fold(f64::NAN, f64::max),
                      "ratio": range(&ratios), "corr_dim": range(&d2),
                      "corr_dim_in_bar": d2.iter().filter(|v| (*v - dc).abs() <= de).count() },
         "variants": variants,
