@@ -1,6 +1,7 @@
 #![doc = include_str!("../README.md")]
-// Library code returns errors: no unwrap/expect/panic outside tests (CI runs clippy).
-#![cfg_attr(not(test), deny(clippy::unwrap_used, clippy::expect_used, clippy::panic))]
+// Library code returns errors: no unwrap/expect/panic (CI runs clippy); the tests are in
+// `tests/`, so the library is never built with `cfg(test)`.
+#![deny(clippy::unwrap_used, clippy::expect_used, clippy::panic)]
 
 pub mod benettin;
 pub mod corrdim;
@@ -10,9 +11,21 @@ pub mod fsle;
 pub mod held_out;
 pub mod lyapunov;
 pub mod reference;
-mod rng;
+pub mod rng;
 pub mod surrogate;
 pub mod zero_one;
+
+/// Not part of the API: kernels and helpers public only for the tests in `tests/`, which
+/// check them against plain reference loops bit for bit. They may change without notice.
+#[doc(hidden)]
+pub mod internals {
+    pub use crate::corrdim::{Binner, accumulate, accumulate_any};
+    pub use crate::lyapunov::{SortedAxis, check_params, finish_curve};
+    pub use crate::strided;
+    pub use crate::surrogate::{
+        IaaftWork, prediction_sse_scan, prediction_sse_sorted, radix_sort, stable_sort_keyed, total_order_key,
+    };
+}
 
 pub use benettin::{
     BenettinParams, BenettinResult, Orbit, SpectrumResult, benettin_qr, benettin_tangent, benettin_two_trajectory,
@@ -88,7 +101,7 @@ impl Norm {
     /// The squared distance (for `Max`, the square of the max-norm), so that comparisons
     /// against squared radii work for both norms.
     #[inline]
-    pub(crate) fn dist2(self, a: &[f64], b: &[f64]) -> f64 {
+    pub fn dist2(self, a: &[f64], b: &[f64]) -> f64 {
         match self {
             Norm::Euclidean => a.iter().zip(b).map(|(x, y)| (x - y) * (x - y)).sum(),
             Norm::Max => {
@@ -213,7 +226,8 @@ pub(crate) fn at_least(name: &'static str, v: usize, min: usize) -> Result<()> {
 }
 
 /// Evenly strided subset of `0..n` of at most `max` indices (all of them when `n <= max`).
-pub(crate) fn strided(n: usize, max: usize) -> Vec<usize> {
+#[doc(hidden)]
+pub fn strided(n: usize, max: usize) -> Vec<usize> {
     if n <= max { (0..n).collect() } else { (0..max).map(|k| k * n / max).collect() }
 }
 

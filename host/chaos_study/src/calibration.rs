@@ -431,6 +431,3 @@ pub fn summarize(rows: &[CalibrationRow], f: &FlagSampling) -> Option<Calibratio
         calm_noise_shift_max: shift,
     })
 }
-
-#[cfg(test)]
-mod tests;

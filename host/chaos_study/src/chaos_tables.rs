@@ -335,6 +335,3 @@ pub fn flag_cost_study(data_dir: &std::path::Path) -> Result<Option<CostStudy>, 
     let o = ChaosOptions { ssm_dim: Some(COST_DIM), ..Default::default() };
     Ok(Some(accuracy_vs_cost("inverted flag (traj_9 + traj_7)", &train, &o, &[50, 100, 200, 500], &[2, 3, 4, 5])?))
 }
-
-#[cfg(test)]
-mod tests;

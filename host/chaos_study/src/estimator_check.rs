@@ -59,16 +59,20 @@ pub struct CheckRow {
 
 /// A sampled flow: `substeps` RK4 steps per sample of `dt`, a `transient` of samples from `x0`.
 #[derive(Clone, Copy, Debug)]
-struct Sampling {
-    dt: f64,
-    substeps: usize,
-    transient: usize,
-    x0: [f64; 3],
+pub struct Sampling {
+    /// Sampling step (s).
+    pub dt: f64,
+    /// RK4 steps per sample.
+    pub substeps: usize,
+    /// Samples dropped before the series and the exponent.
+    pub transient: usize,
+    /// Initial state.
+    pub x0: [f64; 3],
 }
 
 /// The exact largest exponent (Benettin with the variational equation, renormalized every
 /// sample, 20 blocks over `steps` samples) and `n` samples of the state after the transient.
-fn exponent_and_series<F: Flow>(
+pub fn exponent_and_series<F: Flow>(
     f: &F,
     s: &Sampling,
     n: usize,
@@ -266,6 +270,3 @@ pub fn data_spread(
     }
     Ok((rows, spreads))
 }
-
-#[cfg(test)]
-mod tests;

@@ -74,7 +74,8 @@ impl KnownSystem {
             KnownSystem::Rossler { a, b, c } => format!("Rössler a = {a}, b = {b}, c = {c} (x)"),
         }
     }
-    fn start(&self) -> Vec<f64> {
+    /// The initial state of the system's integration (before its transient).
+    pub fn start(&self) -> Vec<f64> {
         match *self {
             KnownSystem::Lorenz96 { n, f } => {
                 let mut x = vec![f; n];
@@ -687,6 +688,3 @@ impl ValidationRun {
         rows_against(&self.rows, &self.data)
     }
 }
-
-#[cfg(test)]
-mod tests;

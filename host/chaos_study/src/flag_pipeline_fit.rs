@@ -456,6 +456,3 @@ pub fn held_out_at_step(series: &[TimeSeries], step: usize) -> Result<TimeSeries
     let last = series.last().ok_or(Error::BadInput { what: "series", why: "none given".into() })?;
     subsample(last, step, 0)
 }
-
-#[cfg(test)]
-mod tests;

@@ -329,6 +329,3 @@ pub fn ensemble_members(val: &ValidationRun, k: usize) -> Vec<String> {
         .take(k)
         .collect()
 }
-
-#[cfg(test)]
-mod tests;

@@ -3,8 +3,9 @@
 //! microchaos, processor-in-the-loop recordings) chosen by held-out statistics, the reduced
 //! maps' Lyapunov spectra and dimensions, the verdicts, and the flag study as a spec
 //! (`flag_study`, run by `ssmctl study`). Library only: returns data, draws nothing.
-// Library code returns errors: no unwrap/expect/panic outside tests (CI runs clippy).
-#![cfg_attr(not(test), deny(clippy::unwrap_used, clippy::expect_used, clippy::panic))]
+// Library code returns errors: no unwrap/expect/panic (CI runs clippy); the tests are in
+// `tests/`, so the library is never built with `cfg(test)`.
+#![deny(clippy::unwrap_used, clippy::expect_used, clippy::panic)]
 
 pub mod calibration;
 pub mod chaos_tables;

@@ -1,8 +1,11 @@
-use super::*;
-use crate::study_results::FlagResults;
+//! The tests of `chaos_study::flag_pipeline_fit`.
+
+use chaos_study::flag_pipeline::PipelineRow;
+use chaos_study::flag_pipeline_fit::*;
+use chaos_study::study_results::FlagResults;
 
 /// The flag's noise level over the sd, as the diagnosis rows carry it.
-const FN: f64 = crate::calibration::FLAG_SAMPLING.noise_rel;
+const FN: f64 = chaos_study::calibration::FLAG_SAMPLING.noise_rel;
 
 /// The bundled results of the flag study.
 fn res() -> FlagResults {
@@ -62,8 +65,14 @@ fn state_model_reproduces_its_committed_row() {
         noise_rel: 0.0,
         noise_seed: 0,
     };
-    let (k, r) =
-        state_model_check(&crate::flag_pipeline::CHOSEN, &crate::flag_pipeline::FLAG_LAYOUT, 1, &fit, 4000.0).unwrap();
+    let (k, r) = state_model_check(
+        &chaos_study::flag_pipeline::CHOSEN,
+        &chaos_study::flag_pipeline::FLAG_LAYOUT,
+        1,
+        &fit,
+        4000.0,
+    )
+    .unwrap();
     let committed = res().known.diagnosis_rows().into_iter().find(|(_, _, c)| c.candidate == "state poly 4").unwrap().2;
     for (a, b, tol) in [
         (r.benettin, committed.benettin, 5e-4),
@@ -77,10 +86,16 @@ fn state_model_reproduces_its_committed_row() {
     assert!(r.failed.is_none() && r.benettin_exact_ok && (k.exact - 0.940).abs() < 0.02, "{r:?}");
     let bad = StateFit { coords: Coords::Delay { embed: 0, shift: 1 }, ..fit };
     assert!(
-        state_model_check(&crate::flag_pipeline::CHOSEN, &crate::flag_pipeline::FLAG_LAYOUT, 1, &bad, 100.0)
-            .unwrap_err()
-            .to_string()
-            .contains("delay")
+        state_model_check(
+            &chaos_study::flag_pipeline::CHOSEN,
+            &chaos_study::flag_pipeline::FLAG_LAYOUT,
+            1,
+            &bad,
+            100.0
+        )
+        .unwrap_err()
+        .to_string()
+        .contains("delay")
     );
 }
 
@@ -226,7 +241,7 @@ fn flag_dimension_diagnosis() {
 /// precision (about 10 s).
 #[test]
 fn flag_centre_row_reproduces() {
-    use crate::model_selection::{EvalSettings, data_stats, evaluate_candidate};
+    use chaos_study::model_selection::{EvalSettings, data_stats, evaluate_candidate};
     let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared/data/inverted_flag_chaotic");
     if !dir.join("traj_8.csv").is_file() {
         eprintln!("SKIPPED (needs ../shared/data): inverted-flag data not found under {}", dir.display());
@@ -236,7 +251,7 @@ fn flag_centre_row_reproduces() {
     let (train, test) = ([load(9), load(7)], load(8));
     let s = EvalSettings::default();
     let data = data_stats(&test, 4, &s).unwrap();
-    let c = crate::model_selection::Candidate {
+    let c = chaos_study::model_selection::Candidate {
         centres: ssm::dynamics::CentreChoice::KMeansPP { seed: 3 },
         ..variant(4, 250, 5e-9, 4, 9, 1, None, 0)
     };

@@ -1,5 +1,8 @@
-use super::*;
+//! The tests of `chaos_study::estimator_check`.
+
 use chaos::reference::Lorenz;
+use chaos_study::estimator_check::*;
+use ssm::TimeSeries;
 use ssm::dynamics::{EtaTrajectory, ReducedDynamics};
 use ssm::{Dynamics, Ridge};
 
@@ -58,7 +61,7 @@ fn rbf_map_fitted_on_lorenz_has_its_exponent() {
         let dynm = ReducedDynamics::fit(&et, Dynamics::Rbf { centers: c }, 1, Ridge::Fixed(ridge)).unwrap();
         // A start off the training points (the linear kernel has a kink at every centre).
         let x0 = [trajs[0][(100, 0)] + 1e-3, trajs[0][(100, 1)], trajs[0][(100, 2)]];
-        let b = crate::lyapunov::dynamics_lyapunov(&dynm, &x0, 500.0, 2000, 50_000).unwrap();
+        let b = chaos_study::lyapunov::dynamics_lyapunov(&dynm, &x0, 500.0, 2000, 50_000).unwrap();
         eprintln!("{c} centres, ridge {ridge}: {:?}", b.spectrum);
         assert!((b.exponent - LORENZ_LLE).abs() < 0.06, "{c} centres, ridge {ridge}: {b:?}");
         assert!(b.spectrum[1].abs() < 0.1 && b.spectrum[2] < -5.0, "{c} centres, ridge {ridge}: {b:?}");
@@ -144,7 +147,7 @@ fn rbf_kernels_on_lorenz_tangent_maps_and_exponents() {
             }
         }
         let x0 = [trajs[0][(100, 0)] + 1e-3, trajs[0][(100, 1)], trajs[0][(100, 2)]];
-        let b = crate::lyapunov::dynamics_lyapunov(&dynm, &x0, 500.0, 2000, 50_000).unwrap();
+        let b = chaos_study::lyapunov::dynamics_lyapunov(&dynm, &x0, 500.0, 2000, 50_000).unwrap();
         eprintln!("{kernel:?}: {:?}", b.spectrum);
         assert!((b.exponent - LORENZ_LLE).abs() < 0.03 && b.spectrum[1].abs() < 0.02, "{kernel:?}: {b:?}");
     }

@@ -1,6 +1,11 @@
-use super::*;
-use crate::flag_pipeline::rows_against;
-use crate::study_results::{FlagResults, ModelRow, RunStats};
+//! The tests of `chaos_study::flag_self`.
+
+use chaos_study::flag_pipeline::{PipelineRow, rows_against};
+use chaos_study::flag_pipeline_fit::variant;
+use chaos_study::flag_self::*;
+use chaos_study::model_selection::{Candidate, EvalSettings, data_stats};
+use chaos_study::study_results::{FlagResults, ModelRow, RunStats};
+use ssm::{Dynamics, TimeSeries};
 
 /// The bundled results of the flag study.
 fn res() -> FlagResults {
@@ -214,7 +219,7 @@ fn flag_self_reproduces() {
 /// test run's own pick read on the validation run.
 #[test]
 fn validation_pick_on_traj3() {
-    use crate::flag_pipeline_fit::target_counts;
+    use chaos_study::flag_pipeline_fit::target_counts;
     let res = res();
     let centres = &res.held_out.centres;
     let v3 = res.validation.primary().unwrap();
@@ -311,7 +316,7 @@ fn validation_pick_and_ensemble_reproduce() {
         data.0
     );
     let (v, _) = validation_pick(&res).unwrap().unwrap();
-    let r = crate::model_selection::evaluate_candidate(
+    let r = chaos_study::model_selection::evaluate_candidate(
         &train,
         &val,
         &candidate_from_name(&v.candidate).unwrap(),

@@ -1,5 +1,14 @@
-use super::*;
-use crate::model_selection::{EvalSettings, data_stats};
+//! The tests of `chaos_study::calibration`.
+
+use chaos_study::calibration::*;
+use chaos_study::model_selection::{EvalSettings, data_stats};
+
+/// Population standard deviation, as the library's data statistics take it.
+fn sd(x: &[f64]) -> f64 {
+    let n = x.len().max(1) as f64;
+    let m = x.iter().sum::<f64>() / n;
+    (x.iter().map(|v| (v - m) * (v - m)).sum::<f64>() / n).sqrt()
+}
 
 /// The flag's sampling constants are what `data_stats` measures on traj_8 at step 4 (when
 /// the data are there).

@@ -1,15 +1,19 @@
 //! Known-answer tests of the model Benettin exponents, the scale study and the hard cases.
 
-use super::*;
-use crate::lyapunov::*;
-use crate::microchaos::*;
 use chaos::BenettinParams;
+use chaos::ChaosError;
 use chaos::reference::Henon;
+use chaos_study::Error;
+use chaos_study::chaos_tables::*;
+use chaos_study::lyapunov::*;
+use chaos_study::microchaos::ChaosOptions;
 use faer::Mat;
 use ssm::Ridge;
 use ssm::dynamics::EtaTrajectory;
 use ssm::dynamics::ReducedDynamics;
+use ssm::dynamics::StepScratch;
 use ssm::tangent::{RBF_KINK, map_jacobian, rbf_jacobian};
+use ssm::{Dynamics, TimeSeries};
 
 /// Published largest exponent of the Hénon map (a = 1.4, b = 0.3), per iteration.
 const HENON_LAMBDA: f64 = 0.41922;
@@ -218,10 +222,10 @@ fn quantized_loop_data_diffuse_and_smooth_model_is_a_torus() {
     let runs: Vec<TimeSeries> = [0.02, 0.035]
         .iter()
         .enumerate()
-        .map(|(i, th)| crate::microchaos::simulate_quantized(15_000, *th, &format!("quant #{i}")).unwrap())
+        .map(|(i, th)| chaos_study::microchaos::simulate_quantized(15_000, *th, &format!("quant #{i}")).unwrap())
         .collect();
     let o = ChaosOptions { centers: 100, ..ChaosOptions::default() };
-    let r = crate::microchaos::analyse_held_out(&runs[..1], Some(&runs[1]), &o).unwrap();
+    let r = chaos_study::microchaos::analyse_held_out(&runs[..1], Some(&runs[1]), &o).unwrap();
     let w: Vec<_> = r.growth_windows_data.iter().filter(|g| g.t0 >= 0.45 && g.t1 <= 4.5).collect();
     println!("data LLE {:.3}; windows {:?}", r.lle_data, r.growth_windows_data);
     println!(

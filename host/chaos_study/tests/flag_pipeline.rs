@@ -1,4 +1,15 @@
-use super::*;
+//! The tests of `chaos_study::flag_pipeline`.
+
+use chaos::reference::Flow;
+use chaos_study::flag_pipeline::*;
+use chaos_study::model_selection::Candidate;
+
+/// Population standard deviation, as the library's data statistics take it.
+fn sd(x: &[f64]) -> f64 {
+    let n = x.len().max(1) as f64;
+    let m = x.iter().sum::<f64>() / n;
+    (x.iter().map(|v| (v - m) * (v - m)).sum::<f64>() / n).sqrt()
+}
 
 /// The tangent of every system is the derivative of its right-hand side (central
 /// differences, step 1e-6, at a generic state).
@@ -52,7 +63,7 @@ fn chosen_system_sampled_like_the_flag() {
     assert!((k.exact - 0.940).abs() < 0.02 && k.exact_err < 0.02, "{k:?}");
     assert!((0.4..=0.6).contains(&k.per_lag), "{k:?}");
     assert!((k.step_dt - 4.0 * k.dt).abs() < 1e-12, "{k:?}");
-    let d = crate::study_results::FlagResults::bundled().unwrap().known.data;
+    let d = chaos_study::study_results::FlagResults::bundled().unwrap().known.data;
     let (lle, d2, d2_err, exact) = (d.rosenstein, d.corr_dim, d.corr_dim_err, d.exact);
     for (a, b) in [(k.rosenstein, lle), (k.corr_dim, d2), (k.corr_dim_err, d2_err), (k.exact, exact)] {
         assert!((a - b).abs() < 1e-9 * b.abs(), "{a} vs committed {b}");
@@ -77,7 +88,7 @@ fn pipeline_reproduces_a_committed_row() {
     let cands: Vec<Candidate> = flag_like_candidates(4, &[(300, 3e-9)]).into_iter().take(1).collect();
     let (_, rows) = pipeline_check(&CHOSEN, &FLAG_LAYOUT, 1, &cands, 4000.0).unwrap();
     let r = &rows[0];
-    let known = crate::study_results::FlagResults::bundled().unwrap().known;
+    let known = chaos_study::study_results::FlagResults::bundled().unwrap().known;
     let committed = known.check_rows().into_iter().find(|c| c.scale == 1 && c.candidate == r.candidate).unwrap();
     // Committed to 3, 3, 2 and 4 decimals.
     for (a, b, tol) in [
