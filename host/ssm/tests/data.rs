@@ -131,7 +131,6 @@ fn missing_file_is_reported() {
 
 /// The tests of `ssm::data::multi`.
 mod multi {
-
     use ssm::data::multi::*;
     use ssm::data::{DataError, TimeSeries};
 
