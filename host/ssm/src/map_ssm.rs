@@ -213,8 +213,7 @@ impl Table {
             .collect();
         Self { exps, deg, deg_start, prod, index }
     }
-    #[doc(hidden)]
-    pub fn len(&self) -> usize {
+    fn len(&self) -> usize {
         self.exps.len()
     }
     /// `a * b` truncated at degree `maxdeg`.

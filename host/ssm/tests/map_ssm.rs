@@ -67,7 +67,7 @@ const B: [f64; 2] = [0.3, -0.2];
 fn system() -> (PolynomialMap, Poly) {
     let l = linear_x();
     let tab = Table::new(4, 6);
-    let nt = tab.len();
+    let nt = tab.exps.len();
     let var = |i: usize| {
         let mut p = vec![C::new(0.0, 0.0); nt];
         let mut e = vec![0u32; 4];
