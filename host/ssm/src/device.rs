@@ -63,7 +63,7 @@ pub fn check_loop_dt(model_dt: f64, loop_dt: f64) -> Result<(), ExportError> {
 }
 
 /// Exponent vectors of degrees 2..=order in the device's graded order.
-fn device_exponents(d: usize, order: usize) -> Vec<Vec<u32>> {
+pub fn device_exponents(d: usize, order: usize) -> Vec<Vec<u32>> {
     let mut out = Vec::new();
     for deg in 2..=order as u32 {
         let mut v: Vec<Vec<u32>> = Vec::new();
@@ -182,6 +182,3 @@ pub fn to_device_model(m: &SsmModel, cfg: ControllerConfig) -> Result<OwnedModel
 pub fn encode(model: &OwnedModel) -> Result<Vec<u8>, ExportError> {
     model.encode().map_err(|e| ExportError::Encode(e.to_string()))
 }
-
-#[cfg(test)]
-mod tests;

@@ -21,8 +21,9 @@
 //! Architecture invariant: this crate knows no plant, no scene and no simulator (it does not
 //! depend on `sim`), and draws nothing; its only workspace dependency is `shared`, for the
 //! device model format.
-// Library code returns errors: no unwrap/expect/panic outside tests (CI runs clippy).
-#![cfg_attr(not(test), deny(clippy::unwrap_used, clippy::expect_used, clippy::panic))]
+// Library code returns errors: no unwrap/expect/panic (CI runs clippy; the tests, which may,
+// are in `tests/`).
+#![deny(clippy::unwrap_used, clippy::expect_used, clippy::panic)]
 
 pub mod auto;
 pub mod backbone;
@@ -50,6 +51,24 @@ pub mod tangent;
 pub mod testing;
 pub mod weight;
 
+/// Not part of the API: items of the modules' implementations that the crate's own tests
+/// check directly (the tests are compiled outside the library, in `tests/`): the sparse
+/// polynomial algebra of the normal forms, the table of the map SSM's monomials, the
+/// portrait's amplitude field, the regressions' memory budget and SVD path, and fast paths
+/// checked bit for bit against plain ones. Hidden from the documentation, as are the few
+/// fields and methods of public types the tests read (`PreparedDynamics::poly`,
+/// `PreparedLift::poly`, `PreparedPoly::in_order`, `PolynomialMap::eval_c`, `RidgeLs::s`,
+/// `RidgeLs::from_parts`); they may change at any time.
+#[doc(hidden)]
+pub mod internals {
+    pub use crate::dynamics::design_by_columns;
+    pub use crate::map_ssm::{Table, structural};
+    pub use crate::normal_form::{add_into, compose, map_to_flow, mul, mul_btree, normal_form_parts, one, var};
+    pub use crate::portrait::Field;
+    pub use crate::ridge::{Budget, Reservation, qr_first, u_blocks};
+    pub use crate::tangent::{rbf_jacobian_any, rbf_step_and_jacobian};
+}
+
 pub use data::{DataError, MultiSeries, TimeSeries, load_csv, load_csv_column, load_csv_observables, load_mat};
 pub use dynamics::{Dynamics, Kernel, LowDegreeStage, ReducedDynamics, RowWeight};
 pub use error::FitError;
@@ -58,9 +77,6 @@ pub use fit::{
     fit_multi,
 };
 pub use ridge::{Conditioning, Ridge};
-
-#[cfg(test)]
-mod tests;
 
 /// `ssm`'s module errors lifted into a higher layer's error.
 /// Implements `From<E>` for `$target` for every module error `E` of this layer, through this

@@ -123,7 +123,8 @@ impl PolynomialMap {
     }
 
     /// `F(s)` at a complex point (real in, real out for real `s`).
-    fn eval_c(&self, s: &[C]) -> Vec<C> {
+    #[doc(hidden)]
+    pub fn eval_c(&self, s: &[C]) -> Vec<C> {
         let (d, m) = (self.dim, self.nproj);
         let v: Vec<C> = (0..m).map(|k| (0..d).map(|j| s[j] * self.proj[k * d + j]).sum()).collect();
         let pows = powers(&v, poly::max_degree(&self.exps));
@@ -179,16 +180,20 @@ pub enum Amplitude {
 }
 
 /// Dense graded monomial table in `n` variables up to `order`.
-struct Table {
-    exps: Vec<Vec<u32>>,
+#[doc(hidden)]
+pub struct Table {
+    #[doc(hidden)]
+    pub exps: Vec<Vec<u32>>,
     deg: Vec<u32>,
     deg_start: Vec<usize>,
     prod: Vec<Vec<u32>>,
-    index: HashMap<Vec<u32>, usize>,
+    #[doc(hidden)]
+    pub index: HashMap<Vec<u32>, usize>,
 }
 
 impl Table {
-    fn new(n: usize, order: u32) -> Self {
+    #[doc(hidden)]
+    pub fn new(n: usize, order: u32) -> Self {
         let exps = poly::exponents(n, 0, order);
         let deg: Vec<u32> = exps.iter().map(|e| e.iter().sum()).collect();
         let mut deg_start = vec![0; order as usize + 2];
@@ -229,7 +234,8 @@ impl Table {
     /// Values (as polynomials truncated at `maxdeg`) of every monomial of `exps` of degree
     /// <= maxdeg in the polynomials `v` (the monomial `v^e`), via a tree: each monomial is
     /// its parent (one unit of the first nonzero exponent less) times one variable.
-    fn monomials(&self, exps: &[Vec<u32>], v: &[Vec<C>], maxdeg: u32) -> Vec<Option<Vec<C>>> {
+    #[doc(hidden)]
+    pub fn monomials(&self, exps: &[Vec<u32>], v: &[Vec<C>], maxdeg: u32) -> Vec<Option<Vec<C>>> {
         let mut cache: HashMap<Vec<u32>, Vec<C>> = HashMap::new();
         let mut one = vec![C::new(0.0, 0.0); self.len()];
         one[0] = C::new(1.0, 0.0);
@@ -298,7 +304,8 @@ pub struct MapSsm {
 
 /// Structural resonance of monomial `m` in the equation of variable `i` (see
 /// [`crate::normal_form`]).
-fn structural(i: usize, m: &[u32]) -> bool {
+#[doc(hidden)]
+pub fn structural(i: usize, m: &[u32]) -> bool {
     let sign: i64 = if i % 2 == 0 { 1 } else { -1 };
     (0..m.len() / 2).all(|j| m[2 * j] as i64 - m[2 * j + 1] as i64 == if j == i / 2 { sign } else { 0 })
 }
@@ -828,6 +835,3 @@ impl MapSsm {
         InvarianceError { order, radius, abs, rel: abs / size.max(1e-300) }
     }
 }
-
-#[cfg(test)]
-mod tests;

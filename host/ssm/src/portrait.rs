@@ -278,10 +278,14 @@ impl Portrait {
 
 /// The amplitude field, validated.
 #[derive(Clone, Debug)]
-struct Field {
-    pexps: Vec<[i32; 2]>,
-    amp: [Vec<f64>; 2],
-    phase: [Vec<f64>; 2],
+#[doc(hidden)]
+pub struct Field {
+    #[doc(hidden)]
+    pub pexps: Vec<[i32; 2]>,
+    #[doc(hidden)]
+    pub amp: [Vec<f64>; 2],
+    #[doc(hidden)]
+    pub phase: [Vec<f64>; 2],
     /// The largest exponent of each `P_j` in `pexps` (at most 64).
     top: [usize; 2],
 }
@@ -291,7 +295,8 @@ struct Field {
 type Powers = [[f64; 65]; 2];
 
 impl Field {
-    fn new(nf: &PolarNormalForm) -> Result<Self, PortraitError> {
+    #[doc(hidden)]
+    pub fn new(nf: &PolarNormalForm) -> Result<Self, PortraitError> {
         if nf.modes != 2 {
             return Err(PortraitError::Modes(nf.modes));
         }
@@ -348,12 +353,14 @@ impl Field {
         pw
     }
 
-    fn monos(&self, p: [f64; 2]) -> impl Iterator<Item = f64> + '_ {
+    #[doc(hidden)]
+    pub fn monos(&self, p: [f64; 2]) -> impl Iterator<Item = f64> + '_ {
         let pw = self.powers(p);
         self.pexps.iter().map(move |e| pw[0][e[0] as usize] * pw[1][e[1] as usize])
     }
 
-    fn g(&self, p: [f64; 2]) -> [f64; 2] {
+    #[doc(hidden)]
+    pub fn g(&self, p: [f64; 2]) -> [f64; 2] {
         let mut out = [0.0; 2];
         for (k, m) in self.monos(p).enumerate() {
             out[0] += self.amp[0][k] * m;
@@ -363,7 +370,8 @@ impl Field {
     }
 
     /// `g` and `dg_i/dP_j`.
-    fn g_grad(&self, p: [f64; 2]) -> ([f64; 2], [[f64; 2]; 2]) {
+    #[doc(hidden)]
+    pub fn g_grad(&self, p: [f64; 2]) -> ([f64; 2], [[f64; 2]; 2]) {
         let mut g = [0.0; 2];
         let mut d = [[0.0; 2]; 2];
         let pw = self.powers(p);
@@ -382,7 +390,8 @@ impl Field {
     }
 
     /// Sum of `|amp[i][k] P^k|`: the scale of `g_i` at `P` (for residual tests).
-    fn g_scale(&self, p: [f64; 2]) -> [f64; 2] {
+    #[doc(hidden)]
+    pub fn g_scale(&self, p: [f64; 2]) -> [f64; 2] {
         let mut out = [0.0; 2];
         for (k, m) in self.monos(p).enumerate() {
             out[0] += (self.amp[0][k] * m).abs();
@@ -391,12 +400,14 @@ impl Field {
         out
     }
 
-    fn f(&self, x: [f64; 2]) -> [f64; 2] {
+    #[doc(hidden)]
+    pub fn f(&self, x: [f64; 2]) -> [f64; 2] {
         let g = self.g([x[0] * x[0], x[1] * x[1]]);
         [x[0] * g[0], x[1] * g[1]]
     }
 
-    fn jac(&self, x: [f64; 2]) -> [[f64; 2]; 2] {
+    #[doc(hidden)]
+    pub fn jac(&self, x: [f64; 2]) -> [[f64; 2]; 2] {
         let (g, d) = self.g_grad([x[0] * x[0], x[1] * x[1]]);
         let mut j = [[0.0; 2]; 2];
         for i in 0..2 {
@@ -407,7 +418,8 @@ impl Field {
         j
     }
 
-    fn freqs_hz(&self, x: [f64; 2]) -> [f64; 2] {
+    #[doc(hidden)]
+    pub fn freqs_hz(&self, x: [f64; 2]) -> [f64; 2] {
         let mut out = [0.0; 2];
         for (k, m) in self.monos([x[0] * x[0], x[1] * x[1]]).enumerate() {
             out[0] += self.phase[0][k] * m;
@@ -1456,6 +1468,3 @@ pub fn torus_hopf_dt<E: std::fmt::Display>(
         loses_stability: loses,
     }))
 }
-
-#[cfg(test)]
-mod tests;

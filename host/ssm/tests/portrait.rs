@@ -1,12 +1,17 @@
+//! The tests of `ssm::portrait`.
+//!
 //! Tests of the phase-portrait analysis: closed-form Lotka-Volterra cases, the paper's own
 //! normal-form table (section 3.1), the plot, and bad input.
 
-use super::*;
-use crate::normal_form::Normalization;
+use ssm::internals::Field;
+use ssm::normal_form::Normalization;
+use ssm::normal_form::PolarNormalForm;
+use ssm::portrait::*;
+use std::f64::consts::TAU;
 
 /// `pexps` of a quintic 2-mode normal form, in `poly::exponents(2, 0, 2)` order.
 fn pexps5() -> Vec<Vec<u32>> {
-    crate::poly::exponents(2, 0, 2)
+    ssm::poly::exponents(2, 0, 2)
 }
 
 fn nf_from(pexps: Vec<Vec<u32>>, amp: [Vec<f64>; 2]) -> PolarNormalForm {
@@ -30,7 +35,7 @@ fn nf_from(pexps: Vec<Vec<u32>>, amp: [Vec<f64>; 2]) -> PolarNormalForm {
 
 /// Cubic truncation: `rho_i' = rho_i (a_i + B_i1 P_1 + B_i2 P_2)`, Lotka-Volterra in `P`.
 fn lv(a: [f64; 2], b: [[f64; 2]; 2]) -> PolarNormalForm {
-    let pexps = crate::poly::exponents(2, 0, 1);
+    let pexps = ssm::poly::exponents(2, 0, 1);
     assert_eq!(pexps, vec![vec![0, 0], vec![1, 0], vec![0, 1]]);
     nf_from(pexps, [vec![a[0], b[0][0], b[0][1]], vec![a[1], b[1][0], b[1][1]]])
 }
@@ -564,9 +569,9 @@ fn bad_input_gives_typed_errors() {
 /// tiny, unit and large coordinates.
 #[test]
 fn field_from_cached_powers_equals_powi_per_monomial() {
-    let mut rng = crate::testing::XorShift64::new(0x1234_5678_9abc_def1);
+    let mut rng = ssm::testing::XorShift64::new(0x1234_5678_9abc_def1);
     let mut rnd = move || rng.centered();
-    let p4 = crate::poly::exponents(2, 0, 4);
+    let p4 = ssm::poly::exponents(2, 0, 4);
     let n = p4.len();
     let amp = [(0..n).map(|_| rnd() * 3.0).collect::<Vec<_>>(), (0..n).map(|_| rnd() * 3.0).collect()];
     let mut rnd_nf = nf_from(p4, amp);

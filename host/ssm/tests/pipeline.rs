@@ -1,10 +1,12 @@
+//! The tests of `ssm`.
+//!
 //! End-to-end tests of the fitting pipeline: real sloshing data (skipped with a message
 //! when `../shared/data` is absent) and synthetic data with a known answer.
 
 use std::path::PathBuf;
 use std::time::Instant;
 
-use super::*;
+use ssm::*;
 
 fn sloshing_dir() -> Option<PathBuf> {
     let dir = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../../shared/data/sloshing");
@@ -378,7 +380,7 @@ fn nf_series(name: &str, s0: [f64; 4], dt: f64, n: usize) -> TimeSeries {
 
 #[test]
 fn synthetic_known_normal_form_is_recovered() {
-    use super::normal_form::{NormalFormOptions, model_normal_form};
+    use ssm::normal_form::{NormalFormOptions, model_normal_form};
     let dt = 0.05;
     let starts = [
         [0.6, 0.1, 0.0, 1.0],
@@ -447,7 +449,7 @@ fn synthetic_known_normal_form_is_recovered() {
 /// the error names the option and the limit.
 #[test]
 fn option_sizes_are_checked_against_the_stated_limits() {
-    use crate::limits::{MAX_CENTERS, MAX_DIM, MAX_EMBED, MAX_ORDER, MAX_TERMS};
+    use ssm::limits::{MAX_CENTERS, MAX_DIM, MAX_EMBED, MAX_ORDER, MAX_TERMS};
     let dt = 0.05;
     let train = [synthetic("a", 0.5, 0.0, dt, 300)];
     let base = FitOptions {
@@ -565,7 +567,7 @@ fn saved_model_shapes_are_validated_on_load() {
         let mut v = good.clone();
         edit(&mut v["model"]);
         let e = SsmModel::from_json(&v.to_string()).unwrap_err();
-        assert!(matches!(e, crate::ModelFileError::Invalid { .. }), "{field}: {e}");
+        assert!(matches!(e, ssm::ModelFileError::Invalid { .. }), "{field}: {e}");
         let m = e.to_string();
         assert!(m.contains(field) && m.contains(why), "{field} / {why}: {m}");
     }
@@ -595,15 +597,13 @@ fn rbf_kernel_saves_validates_and_exports_only_linear() {
     assert_eq!(old["model"]["dynamics"]["Rbf"]["kernel"], serde_json::json!("Linear"));
     old["model"]["dynamics"]["Rbf"].as_object_mut().unwrap().remove("kernel");
     let m = SsmModel::from_json(&old.to_string()).unwrap();
-    assert!(crate::device::to_device_model(&m, cfg).is_ok());
-    let o = FitOptions {
-        dynamics: Dynamics::RbfWith { centers: 10, kernel: crate::Kernel::Gaussian { eps: 0.8 } },
-        ..base
-    };
+    assert!(ssm::device::to_device_model(&m, cfg).is_ok());
+    let o =
+        FitOptions { dynamics: Dynamics::RbfWith { centers: 10, kernel: ssm::Kernel::Gaussian { eps: 0.8 } }, ..base };
     let m = fit(&train, &o).unwrap();
     let back = SsmModel::from_json(&m.to_json().unwrap()).unwrap();
     let ReducedDynamics::Rbf(r) = &back.dynamics else { panic!() };
-    assert_eq!(r.kernel, crate::Kernel::Gaussian { eps: 0.8 });
+    assert_eq!(r.kernel, ssm::Kernel::Gaussian { eps: 0.8 });
     let test = synthetic("t", 0.45, 1.0, dt, 200);
     let (p1, p2) = (m.predict(&test).unwrap(), back.predict(&test).unwrap());
     // (serde_json's float parsing is not exactly round-trip: equal to 1e-12.)
@@ -615,7 +615,7 @@ fn rbf_kernel_saves_validates_and_exports_only_linear() {
         p2.x.len(),
         p1.stop
     );
-    let e = crate::device::to_device_model(&back, cfg).unwrap_err().to_string();
+    let e = ssm::device::to_device_model(&back, cfg).unwrap_err().to_string();
     assert!(e.contains("linear RBF kernel") && e.contains("gaussian:0.8"), "{e}");
     let good: serde_json::Value = serde_json::from_str(&m.to_json().unwrap()).unwrap();
     type Edit = fn(&mut serde_json::Value);

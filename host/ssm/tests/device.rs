@@ -1,4 +1,6 @@
-use super::*;
+//! The tests of `ssm::device`.
+
+use ssm::device::*;
 
 #[test]
 fn device_exponent_order_is_graded_descending_lexicographic() {

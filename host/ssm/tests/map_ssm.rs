@@ -1,11 +1,20 @@
+//! The tests of `ssm::map_ssm`.
+//!
 //! Known answer: a skew product `x' = f(x)`, `y' = B y + g(x)` with `g = h o f - B h`, whose
 //! SSM is exactly the graph `y = h(x)` and whose reduced map is `f`. The SSM's polar
-//! coefficients must equal the normal form of `f` computed by [`crate::normal_form`] (an
+//! coefficients must equal the normal form of `f` computed by [`ssm::normal_form`] (an
 //! independent code path, tested on its own known answers).
 
-use super::*;
-use crate::normal_form::{NormalFormOptions, normal_form_of_poly};
-use crate::poly::Poly;
+use ssm::map_ssm::*;
+
+use nalgebra::{Complex, DMatrix};
+use ssm::internals::{Table, structural};
+use ssm::normal_form::Normalization;
+use ssm::normal_form::{NormalFormOptions, normal_form_of_poly};
+use ssm::poly;
+use ssm::poly::Poly;
+
+type C = Complex<f64>;
 
 const DT: f64 = 0.03;
 
@@ -58,7 +67,7 @@ const B: [f64; 2] = [0.3, -0.2];
 fn system() -> (PolynomialMap, Poly) {
     let l = linear_x();
     let tab = Table::new(4, 6);
-    let nt = tab.len();
+    let nt = tab.exps.len();
     let var = |i: usize| {
         let mut p = vec![C::new(0.0, 0.0); nt];
         let mut e = vec![0u32; 4];
@@ -444,7 +453,7 @@ fn cubic_coefficients_move_by_two_kappa_lambda() {
     }
 }
 
-/// The first-harmonic basis of `crate::normal_form` applied to the equation-driven model's
+/// The first-harmonic basis of `ssm::normal_form` applied to the equation-driven model's
 /// own reduced map and observable (`MapSsm::real_form`, the form of a data-driven model)
 /// reproduces the `Amplitude::Observable` polar coefficients, from either normalization of
 /// the SSM; the linear-row `Observable` normal form of the same map does not.
