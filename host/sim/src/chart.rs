@@ -15,9 +15,6 @@
 //! Other gains (KphiD, KI), the delay and the plant come from the caller; this module
 //! owns no plant and never simulates.
 
-#[cfg(test)]
-mod tests;
-
 use std::time::Instant;
 
 use nalgebra::{Complex, DMatrix, SMatrix, SVector};
@@ -26,6 +23,13 @@ use serde::Serialize;
 use shared::ControllerConfig;
 
 use crate::linear::{LinearError, LinearPlant, Zoh, eigenvalues};
+
+/// The chart's steps (D-curves, clipping, crossing kinds, the gains setter), public only for the
+/// crate's tests (`tests/chart.rs`): not part of the API.
+#[doc(hidden)]
+pub mod internals {
+    pub use super::{affine_det, clip_polyline, d_curves, kind_of, set_primary};
+}
 
 /// Why a chart could not be made.
 #[derive(Debug, thiserror::Error)]
@@ -173,7 +177,8 @@ pub struct Chart {
 /// closed-loop map is then affine in them, which the D-curves use).
 pub type SetGains<'a> = &'a (dyn Fn(&mut ControllerConfig, f64, f64) + Sync);
 
-fn set_primary(c: &mut ControllerConfig, p: f64, d: f64) {
+#[doc(hidden)]
+pub fn set_primary(c: &mut ControllerConfig, p: f64, d: f64) {
     *c = c.with_primary(p, d);
 }
 
@@ -246,7 +251,8 @@ fn loop_matrix(zoh: &Zoh, cfg: &ControllerConfig, deflate: bool) -> Result<DMatr
     }
 }
 
-fn kind_of(mu: Complex<f64>) -> Crossing {
+#[doc(hidden)]
+pub fn kind_of(mu: Complex<f64>) -> Crossing {
     if mu.im.abs() > 1e-12 * mu.norm() {
         Crossing::Dynamic
     } else if mu.re > 0.0 {
@@ -399,7 +405,8 @@ pub(crate) fn summarize(
 
 /// `det(R(kp, kd) - lambda I)` of the deflated map as the affine function
 /// `f0 + fa*kp + fb*kd`: returns `(f0, fa, fb)`.
-fn affine_det(
+#[doc(hidden)]
+pub fn affine_det(
     zoh: &Zoh,
     base: &ControllerConfig,
     lambda: Complex<f64>,
@@ -430,7 +437,8 @@ fn gains_at(zoh: &Zoh, base: &ControllerConfig, set: SetGains<'_>, kp: f64, kd: 
 }
 
 /// The D-curves inside the window `kp x kd`.
-fn d_curves(
+#[doc(hidden)]
+pub fn d_curves(
     zoh: &Zoh,
     base: &ControllerConfig,
     kp: Axis,
@@ -528,7 +536,8 @@ fn d_curves(
 
 /// Clip a polyline `(KP, KD, attribute)` to the window; returns the pieces inside (each
 /// with >= 2 points), the attribute interpolated linearly at cut points.
-fn clip_polyline(line: &[(f64, f64, f64)], kp: Axis, kd: Axis) -> Vec<Vec<(f64, f64, f64)>> {
+#[doc(hidden)]
+pub fn clip_polyline(line: &[(f64, f64, f64)], kp: Axis, kd: Axis) -> Vec<Vec<(f64, f64, f64)>> {
     let mut out: Vec<Vec<(f64, f64, f64)>> = Vec::new();
     let mut cur: Vec<(f64, f64, f64)> = Vec::new();
     for seg in line.windows(2) {

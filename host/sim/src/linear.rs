@@ -27,9 +27,6 @@
 
 mod eig;
 mod expm;
-#[cfg(test)]
-pub(crate) mod tests;
-
 use nalgebra::{DMatrix, DVector, SMatrix, SVector};
 use serde::Serialize;
 use shared::ControllerConfig;

@@ -18,14 +18,16 @@
 #![cfg_attr(not(test), deny(clippy::indexing_slicing))]
 
 mod tape;
-#[cfg(test)]
-mod tests;
-
-#[cfg(test)]
-pub(crate) use tape::WITHOUT_CHAIN_FUSION;
 pub use tape::{Evaluated, Instr, MAX_REGS, Op, Tape, TapeError};
 
 use std::collections::HashMap;
+
+/// Switches and constructors of the tape compiler, public only for the crate's tests
+/// (`tests/expr/`, `tests/plant/`): not part of the API.
+#[doc(hidden)]
+pub mod internals {
+    pub use super::tape::WITHOUT_CHAIN_FUSION;
+}
 
 /// Longest expression accepted, in characters.
 pub const MAX_EXPR_LEN: usize = 4000;

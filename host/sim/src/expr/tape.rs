@@ -177,10 +177,9 @@ pub const MAX_REGS: usize = u16::MAX as usize;
 /// Largest integer power computed as products (beyond it, `powi` at run time).
 const MAX_EXPANDED_POWER: u32 = 64;
 
-#[cfg(test)]
 thread_local! {
     /// Tests compile with and without [`Ssa::fuse_chains`] to compare the values.
-    pub(crate) static WITHOUT_CHAIN_FUSION: std::cell::Cell<bool> = const { std::cell::Cell::new(false) };
+    pub static WITHOUT_CHAIN_FUSION: std::cell::Cell<bool> = const { std::cell::Cell::new(false) };
 }
 
 /// A value of the SSA program before register allocation.
@@ -293,10 +292,7 @@ impl Tape {
         }
         let out_vals: Vec<Val> = roots.iter().map(|&r| get(&val, r).unwrap_or(Val::Const(f64::NAN))).collect();
         b.fuse(&out_vals);
-        #[cfg(test)]
         let chains = !WITHOUT_CHAIN_FUSION.with(std::cell::Cell::get);
-        #[cfg(not(test))]
-        let chains = true;
         if chains {
             b.fuse_chains(&out_vals);
         }
@@ -1377,45 +1373,17 @@ impl Ssa {
     }
 }
 
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    fn tape(instrs: Vec<Instr>, consts: Vec<(u16, f64)>, n_regs: usize, outputs: Vec<u16>) -> Tape {
-        Tape { consts, instrs, n_regs, n_inputs: 2, outputs }
-    }
-
-    fn ins(op: Op, dst: u16) -> Instr {
-        Instr { op, dst, dst2: dst }
-    }
-
-    const END: Instr = Instr { op: Op::End, dst: 0, dst2: 0 };
-
-    /// The invariants the unchecked evaluation relies on are checked: a register past
-    /// `n_regs` anywhere (operand, destination, second destination, constant, output,
-    /// inputs) and a tape without its one closing `End` are refused.
-    #[test]
-    fn validation_refuses_every_out_of_range_register() {
-        let good = || tape(vec![ins(Op::MulAdd(0, 1, 2), 3), END], vec![(2, 1.5)], 4, vec![3]);
-        assert!(good().validate().is_ok());
-        let mut bad = vec![
-            tape(vec![ins(Op::MulAdd(0, 4, 2), 3), END], vec![(2, 1.5)], 4, vec![3]),
-            tape(vec![ins(Op::MulAdd(0, 1, 2), 4), END], vec![(2, 1.5)], 4, vec![3]),
-            tape(vec![Instr { op: Op::SinCos(0), dst: 2, dst2: 9 }, END], vec![], 4, vec![2]),
-            tape(vec![ins(Op::MulAdd(0, 1, 2), 3), END], vec![(7, 1.5)], 4, vec![3]),
-            tape(vec![ins(Op::MulAdd(0, 1, 2), 3), END], vec![(2, 1.5)], 4, vec![5]),
-            tape(vec![ins(Op::DotCMSub(0, 2.0, 1, 8), 3), END], vec![], 4, vec![3]),
-            tape(vec![ins(Op::Sel(0, 1, 2, 300), 3), END], vec![], 4, vec![3]),
-            // No `End`, or one before the last instruction.
-            tape(vec![ins(Op::Add(0, 1), 3)], vec![], 4, vec![3]),
-            tape(vec![END, ins(Op::Add(0, 1), 3), END], vec![], 4, vec![3]),
-            tape(vec![], vec![], 4, vec![]),
-        ];
-        let mut few = good();
-        few.n_inputs = 5;
-        bad.push(few);
-        for (k, t) in bad.into_iter().enumerate() {
-            assert!(t.validate().is_err(), "case {k} passed");
-        }
+impl Tape {
+    /// A tape from its parts, checked as [`Tape::compile`]'s output is: public only for the
+    /// tests of that check (`tests/expr/tape.rs`), not part of the API.
+    #[doc(hidden)]
+    pub fn from_parts(
+        consts: Vec<(u16, f64)>,
+        instrs: Vec<Instr>,
+        n_regs: usize,
+        n_inputs: usize,
+        outputs: Vec<u16>,
+    ) -> Result<Tape, TapeError> {
+        Tape { consts, instrs, n_regs, n_inputs, outputs }.validate()
     }
 }

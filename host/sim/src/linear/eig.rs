@@ -4,7 +4,7 @@
 //! iteration cap, so that non-convergence is an error, not a hang; for the 7x7 and 8x8
 //! maps here it is faster than faer's solver, which matters for the charts.
 //! faer's `eigenvalues()` is kept as the independent second route for the tests; the two
-//! agree within 1e-11 on the closed-loop maps (`linear::tests`).
+//! agree within 1e-11 on the closed-loop maps (the `linear` tests).
 
 use nalgebra::{Complex, DMatrix};
 
@@ -22,13 +22,4 @@ pub fn eigenvalues(m: &DMatrix<f64>) -> Result<Vec<Complex<f64>>, LinearError> {
         LinearError::Eigen { n, reason: format!("Schur QR did not converge in {} iterations", 200 * n) }
     })?;
     Ok(schur.complex_eigenvalues().iter().copied().collect())
-}
-
-/// The same through faer (`Mat::eigenvalues`).
-#[cfg(test)]
-pub(crate) fn eigenvalues_faer(m: &DMatrix<f64>) -> Result<Vec<Complex<f64>>, LinearError> {
-    let n = m.nrows();
-    let fm = faer::Mat::<f64>::from_fn(n, m.ncols(), |i, j| m[(i, j)]);
-    let ev = fm.eigenvalues().map_err(|e| LinearError::Eigen { n, reason: format!("faer: {e:?}") })?;
-    Ok(ev.into_iter().map(|c| Complex::new(c.re, c.im)).collect())
 }

@@ -47,7 +47,7 @@ use super::split::{self, Cut, Pair};
 /// below `2^j / j!` of the vector).
 const RHO_MAX: f64 = 2.0;
 /// Taylor terms at most: `RHO_MAX^j / (j+1)!` is below `1e-18` from `j = 25` on.
-const MAX_TERMS: usize = 25;
+pub const MAX_TERMS: usize = 25;
 
 /// `c^j / (j+k)!` for `j = 0..MAX_TERMS`.
 const fn weights(c: f64, k: usize) -> [f64; MAX_TERMS] {
@@ -70,20 +70,20 @@ const fn weights(c: f64, k: usize) -> [f64; MAX_TERMS] {
 }
 
 /// The stage abscissae `c_2, c_3, c_4` and 1.
-const C2: f64 = 0.25;
-const C3: f64 = 0.5;
-const C4: f64 = 0.9;
-const W1_C2: [f64; MAX_TERMS] = weights(C2, 1);
+pub const C2: f64 = 0.25;
+pub const C3: f64 = 0.5;
+pub const C4: f64 = 0.9;
+pub const W1_C2: [f64; MAX_TERMS] = weights(C2, 1);
 const W1_C3: [f64; MAX_TERMS] = weights(C3, 1);
-const W1_C4: [f64; MAX_TERMS] = weights(C4, 1);
+pub const W1_C4: [f64; MAX_TERMS] = weights(C4, 1);
 const W1: [f64; MAX_TERMS] = weights(1.0, 1);
-const W3_C3: [f64; MAX_TERMS] = weights(C3, 3);
+pub const W3_C3: [f64; MAX_TERMS] = weights(C3, 3);
 const W3_C4: [f64; MAX_TERMS] = weights(C4, 3);
 const W3: [f64; MAX_TERMS] = weights(1.0, 3);
-const W4: [f64; MAX_TERMS] = weights(1.0, 4);
+pub const W4: [f64; MAX_TERMS] = weights(1.0, 4);
 
 /// The `phi`-function products one step needs, by vector.
-pub(crate) trait Phi54<const N: usize> {
+pub trait Phi54<const N: usize> {
     /// `phi1(c Z) F` for `c = 1/4, 1/2, 9/10, 1`.
     fn on_f(&self, f: &[f64; N]) -> [[f64; N]; 4];
     /// `phi3(Z/2) d`, `phi3(Z) d`, `phi4(Z) d`.
@@ -120,7 +120,7 @@ fn phi_from_expm1(z: f64, e: f64) -> [f64; 5] {
 
 /// The split `phi`-functions of one step (see `split.rs`).
 #[derive(Clone, Copy, Debug)]
-pub(crate) struct Split54<const N: usize> {
+pub struct Split54<const N: usize> {
     v: [f64; N],
     w: [f64; N],
     /// `h J_s = h (J - lambda v w^T)`.
@@ -128,11 +128,11 @@ pub(crate) struct Split54<const N: usize> {
     /// Taylor terms of the sums.
     terms: usize,
     /// `phi1(c h lambda)`, `c = 1/4, 1/2, 9/10, 1`.
-    f1: [f64; 4],
+    pub f1: [f64; 4],
     /// `phi3(c h lambda)`, `c = 1/2, 9/10, 1`.
-    f3: [f64; 3],
+    pub f3: [f64; 3],
     /// `phi4(h lambda)`.
-    f4: f64,
+    pub f4: f64,
     unit_rows: bool,
 }
 
@@ -140,7 +140,7 @@ impl<const N: usize> Split54<N> {
     /// The split at Jacobian `jac` with its dominant `pair` for the step `h`, the sums cut at
     /// `cut.term`; `None` if `|h J_s|_1` exceeds [`RHO_MAX`].
     #[inline]
-    pub(crate) fn new(jac: &[[f64; N]; N], pair: &Pair<N>, h: f64, cut: &Cut, unit_rows: bool) -> Option<Self> {
+    pub fn new(jac: &[[f64; N]; N], pair: &Pair<N>, h: f64, cut: &Cut, unit_rows: bool) -> Option<Self> {
         let &(lambda, v, w) = pair;
         let hl = h * lambda;
         let (a, terms) = split::deflated(jac, pair, h, RHO_MAX, MAX_TERMS, cut.term)?;
@@ -169,7 +169,7 @@ impl<const N: usize> Split54<N> {
 
     /// `sum_j wts[m][j] Z_s^j (y - v w^T y) + fast[m] v (w^T y)` for each output `m`.
     #[inline(always)]
-    fn apply<const K: usize>(&self, y: &[f64; N], wts: [&[f64; MAX_TERMS]; K], fast: [f64; K]) -> [[f64; N]; K] {
+    pub fn apply<const K: usize>(&self, y: &[f64; N], wts: [&[f64; MAX_TERMS]; K], fast: [f64; K]) -> [[f64; N]; K] {
         let c = split::dot(&self.w, y);
         let mut t: [f64; N] = core::array::from_fn(|i| y[i] - c * self.v[i]);
         let mut out = [[0.0; N]; K];
@@ -219,7 +219,7 @@ impl<const N: usize> Phi54<N> for Split54<N> {
 
 /// The full matrix functions of one step (columns, as `exprb.rs`).
 #[derive(Clone, Copy, Debug)]
-pub(crate) struct Full54<const N: usize> {
+pub struct Full54<const N: usize> {
     /// `phi1(c Z)`, `c = 1/4, 1/2, 9/10, 1`.
     p1: [Cols<N>; 4],
     /// `phi3(c Z)`, `c = 1/2, 9/10, 1`.
@@ -231,7 +231,7 @@ pub(crate) struct Full54<const N: usize> {
 impl<const N: usize> Full54<N> {
     /// `None` if `h J` is not finite or too large to scale.
     #[inline(never)]
-    pub(crate) fn new(jac: &[[f64; N]; N], h: f64) -> Option<Self> {
+    pub fn new(jac: &[[f64; N]; N], h: f64) -> Option<Self> {
         let scaled = |s: f64| -> Cols<N> { core::array::from_fn(|j| core::array::from_fn(|i| s * jac[i][j])) };
         // phi_k(Z/4) (the level before the last doubling of Z/2), then Z/2 and Z.
         // The levels before the last are bit for bit the full products' (the sparse layout's
@@ -277,7 +277,7 @@ impl<const N: usize> Phi54<N> for Full54<N> {
 /// `phi`-functions `ph`. `rhs` evaluates `f` (called three times). Returns the order-5 state
 /// and the error estimate (it minus the embedded order-4 state).
 #[inline]
-pub(crate) fn step<const N: usize, P: Phi54<N>>(
+pub fn step<const N: usize, P: Phi54<N>>(
     rhs: &mut impl FnMut(&[f64; N]) -> [f64; N],
     jac: &[[f64; N]; N],
     ph: &P,
@@ -308,91 +308,4 @@ pub(crate) fn step<const N: usize, P: Phi54<N>>(
         y[i] + h * pf1[i] + h * ((18.0 * b3[i] - 250.0 / 81.0 * c3[i]) + (-60.0 * b4[i] + 500.0 / 27.0 * c4[i]))
     });
     (y1, err)
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    /// The weights and stages of the method in closed form: the order conditions at `Z = 0`
-    /// (scalar `phi_k(0) = 1/k!`), for both solutions.
-    #[test]
-    fn coefficients_meet_the_order_conditions() {
-        let (c2, c3, c4): (f64, f64, f64) = (C2, C3, C4);
-        // phi_k(0)
-        let (p3, p4, p5) = (1.0 / 6.0, 1.0 / 24.0, 1.0 / 120.0);
-        // b_i(0) of the order-5 solution (b_2 = 0) and the order-4 one.
-        let b5 = [0.0, 18.0 * p3 - 60.0 * p4, -250.0 / 81.0 * p3 + 500.0 / 27.0 * p4];
-        let b4 = [64.0 * p3 - 60.0 * p4, -8.0 * p3 - 285.0 / 8.0 * p4, 125.0 / 8.0 * p4];
-        let c = [c2, c3, c4];
-        let moment = |b: &[f64; 3], k: i32| (0..3).map(|i| b[i] * c[i].powi(k)).sum::<f64>();
-        for (name, b) in [("order 5", &b5), ("order 4", &b4)] {
-            assert!((moment(b, 2) - 2.0 * p3).abs() < 1e-15, "{name}: sum b c^2");
-            assert!((moment(b, 3) - 6.0 * p4).abs() < 1e-15, "{name}: sum b c^3");
-        }
-        assert!((moment(&b5, 4) - 24.0 * p5).abs() < 1e-15, "sum b c^4 = 24 phi5(0)");
-        assert!((moment(&b4, 4) - 24.0 * p5).abs() > 1e-3, "the embedded solution is of order 4 only");
-        // As polynomials in phi3, phi4 (Z != 0): sum b c^2 = 2 phi3, sum b c^3 = 6 phi4.
-        for (b3c, b4c) in [
-            ([0.0, 18.0, -250.0 / 81.0], [0.0, -60.0, 500.0 / 27.0]),
-            ([64.0, -8.0, 0.0], [-60.0, -285.0 / 8.0, 125.0 / 8.0]),
-        ] {
-            let m = |w: &[f64; 3], k: i32| (0..3).map(|i| w[i] * c[i].powi(k)).sum::<f64>();
-            assert!((m(&b3c, 2) - 2.0).abs() < 1e-14 && m(&b4c, 2).abs() < 1e-14);
-            assert!(m(&b3c, 3).abs() < 1e-14 && (m(&b4c, 3) - 6.0).abs() < 1e-14);
-        }
-        // psi_3: a_32 c_2^2 / 2 = c_3^3, a_43 c_3^2 / 2 = c_4^3 (in units of phi3(c_i Z)).
-        assert!((4.0 * c2 * c2 / 2.0 - c3.powi(3)).abs() < 1e-15);
-        assert!((729.0 / 125.0 * c3 * c3 / 2.0 - c4.powi(3)).abs() < 1e-15);
-        // The error estimate's weights are the difference of the two solutions'.
-        let e3: [f64; 3] = [-64.0, 26.0, -250.0 / 81.0];
-        let e4: [f64; 3] = [60.0, -195.0 / 8.0, 625.0 / 216.0];
-        let d3 = [0.0 - 64.0, 18.0 + 8.0, -250.0 / 81.0];
-        let d4 = [0.0 + 60.0, -60.0 + 285.0 / 8.0, 500.0 / 27.0 - 125.0 / 8.0];
-        for i in 0..3 {
-            assert!((e3[i] - d3[i]).abs() < 1e-14 && (e4[i] - d4[i]).abs() < 1e-14);
-        }
-    }
-
-    /// The split's scalar `phi`-functions (the doubled `expm1` included) against the series
-    /// and closed forms, to the cut (or 4e-15 relative) at every `c`.
-    #[test]
-    fn fast_mode_phi_functions_meet_their_cut() {
-        use crate::ode::split::tests::phi_ref;
-        let jac = [[-1.0]];
-        for rtol in [1e-8, 1e-10, 3e-11, 1e-11, 1e-13] {
-            let cut = Cut::for_rtol(rtol);
-            for hl in [-1e-6, -0.3, -1.0, -2.0, -2.3, -3.0, -7.5, -21.0, -480.0, -1e4, 3.0] {
-                let sp = Split54::<1>::new(&jac, &(-1.0, [1.0], [1.0]), -hl, &cut, false).unwrap();
-                let z = hl;
-                let got = [
-                    (sp.f1[0], 1, C2),
-                    (sp.f1[1], 1, C3),
-                    (sp.f1[2], 1, C4),
-                    (sp.f1[3], 1, 1.0),
-                    (sp.f3[0], 3, C3),
-                    (sp.f3[1], 3, C4),
-                    (sp.f3[2], 3, 1.0),
-                    (sp.f4, 4, 1.0),
-                ];
-                for (g, k, c) in got {
-                    let want = phi_ref(k, c * z);
-                    let tol = cut.term.max(4e-15) * want.abs();
-                    assert!((g - want).abs() <= tol, "rtol {rtol:e}: phi_{k}({c} * {z}) = {g:e}, want {want:e}");
-                }
-            }
-        }
-    }
-
-    #[test]
-    fn weight_tables_are_the_taylor_coefficients() {
-        let fact = |n: usize| (1..=n).fold(1.0f64, |a, i| a * i as f64);
-        for (w, c, k) in [(&W1_C2, C2, 1), (&W1_C4, C4, 1), (&W3_C3, C3, 3), (&W4, 1.0, 4)] {
-            for j in 0..MAX_TERMS {
-                let want = c.powi(j as i32) / fact(j + k);
-                assert!((w[j] - want).abs() <= 1e-14 * want, "c {c} k {k} j {j}: {} vs {want}", w[j]);
-            }
-        }
-        assert!(2f64.powi(MAX_TERMS as i32) / fact(MAX_TERMS + 1) < 1e-18);
-    }
 }

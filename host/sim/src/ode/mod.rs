@@ -25,6 +25,30 @@ mod lu;
 mod rodas;
 mod split;
 
+/// The integrators' building blocks (the `phi`-functions, the split at the dominant
+/// eigenvalue, the LU solve), public only for the crate's tests (`tests/ode/`): not part of
+/// the API.
+#[doc(hidden)]
+pub mod internals {
+    /// `exprb.rs`: the `phi`-functions of a small matrix.
+    pub mod exprb {
+        pub use crate::ode::exprb::*;
+    }
+    /// `exprb54.rs`: exprb54s4's stages on exprb-lean's split.
+    pub mod exprb54 {
+        pub use crate::ode::exprb54::*;
+    }
+    /// `lu.rs`: the LU solve of the Rosenbrock stages.
+    pub mod lu {
+        pub use crate::ode::lu::*;
+    }
+    /// `split.rs`: the dominant eigenpair and the split `phi`-functions.
+    pub mod split {
+        pub use crate::ode::split::*;
+    }
+    pub use super::fifth_root;
+}
+
 use serde::{Deserialize, Serialize};
 
 use crate::plant::{Plant, jacobian};
@@ -614,7 +638,8 @@ impl<const N: usize> Integrator<N> {
 /// Newton steps `y <- (4 y + q / y^4) / 5` (relative error below 1e-13); `powf` outside
 /// `[1e-300, 1e300]` (zero, subnormal or huge ratios).
 #[inline]
-fn fifth_root(q: f64) -> f64 {
+#[doc(hidden)]
+pub fn fifth_root(q: f64) -> f64 {
     if !(1e-300..=1e300).contains(&q) {
         return q.powf(ERR_EXP_5);
     }
@@ -639,6 +664,3 @@ fn first_non_finite<const N: usize>(x: &[f64; N]) -> Option<usize> {
 fn bad_row<const N: usize>(jac: &[[f64; N]; N]) -> usize {
     jac.iter().position(|r| first_non_finite(r).is_some()).unwrap_or(0)
 }
-
-#[cfg(test)]
-mod tests;

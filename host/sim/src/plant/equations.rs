@@ -682,7 +682,8 @@ impl EquationsModel {
 }
 
 /// Index of `M[a][b]` (`a <= b`) in the upper triangle stored row by row.
-fn upper_index(n: usize, a: usize, b: usize) -> usize {
+#[doc(hidden)]
+pub fn upper_index(n: usize, a: usize, b: usize) -> usize {
     a * n - a * a.saturating_sub(1) / 2 - a + b
 }
 
@@ -826,7 +827,8 @@ fn lu_apply<const C: usize>(a: &[[f64; C]; C], perm: &[usize; C], b: &mut [f64; 
 
 /// Solves `A x = b` in place (`b` becomes `x`) by LU with partial pivoting on the values:
 /// [`solve_small`] on slices, for scalars too large for the stack.
-fn lu_solve<S: Scalar>(a: &mut [S], b: &mut [S], n: usize) {
+#[doc(hidden)]
+pub fn lu_solve<S: Scalar>(a: &mut [S], b: &mut [S], n: usize) {
     let nan = S::cst(f64::NAN);
     let at = |a: &[S], i: usize, j: usize| a.get(i * n + j).copied().unwrap_or(nan);
     for k in 0..n {
@@ -982,5 +984,9 @@ impl<const N: usize> Plant<N> for EquationsPlant<N> {
     }
 }
 
-#[cfg(test)]
-pub(crate) mod tests;
+/// The mass-matrix layout and the LU solve of the right-hand side, public only for the
+/// crate's tests (`tests/plant/equations.rs`): not part of the API.
+#[doc(hidden)]
+pub mod internals {
+    pub use super::{lu_solve, upper_index};
+}

@@ -1162,6 +1162,3 @@ fn parse_value(raw: &str) -> toml::Value {
         Err(_) => toml::Value::String(raw.into()),
     }
 }
-
-#[cfg(test)]
-mod tests;

@@ -44,6 +44,14 @@ use crate::plant::{Plant, Scalar, linearize};
 
 pub use tps::{TPS_CAPACITY, Tps, TpsTable, monomial_count};
 
+/// The time mesh and the series product's kernel, public only for the crate's tests
+/// (`tests/taylor/`): not part of the API.
+#[doc(hidden)]
+pub mod internals {
+    pub use super::mesh;
+    pub use super::tps::{SCRATCH, mul_flat};
+}
+
 /// Step size at the period start, times the linearization's spectral radius and the order
 /// (at least [`MESH_ORDER`]).
 pub const FIRST_STEP: f64 = 0.05;
@@ -164,7 +172,8 @@ pub const MAX_FLOW_STEPS: usize = 50_000;
 
 /// The base mesh refined `refine` times: step sizes summing to `dt`; `Err` when it would
 /// take more than [`MAX_FLOW_STEPS`] steps (checked as it is built).
-fn mesh(dt: f64, rate: f64, order: u32, refine: u32) -> Result<Vec<f64>, TaylorError> {
+#[doc(hidden)]
+pub fn mesh(dt: f64, rate: f64, order: u32, refine: u32) -> Result<Vec<f64>, TaylorError> {
     let mut steps = Vec::new();
     let rate = rate.max(1e-300);
     let mut t = 0.0;
@@ -641,6 +650,3 @@ impl PeriodMap {
         Ok(out)
     }
 }
-
-#[cfg(test)]
-mod tests;

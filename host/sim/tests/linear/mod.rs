@@ -1,10 +1,22 @@
 //! Tests of the exact linear stability against independent routes and the physics of
 //! `shared/MODEL.md`.
 
-use super::eig::eigenvalues_faer;
-use super::*;
-use crate::units::ms_to_s;
-use nalgebra::{Complex, Matrix4, Vector4};
+mod expm;
+
+use nalgebra::DVector;
+use nalgebra::{Complex, DMatrix, Matrix4, Vector4};
+use shared::ControllerConfig;
+use sim::linear::*;
+use sim::units::ms_to_s;
+
+/// The eigenvalues of `m` through faer (`Mat::eigenvalues`): the independent second route
+/// [`eigenvalues`] (nalgebra's Schur decomposition) is checked against.
+fn eigenvalues_faer(m: &DMatrix<f64>) -> Result<Vec<Complex<f64>>, LinearError> {
+    let n = m.nrows();
+    let fm = faer::Mat::<f64>::from_fn(n, m.ncols(), |i, j| m[(i, j)]);
+    let ev = fm.eigenvalues().map_err(|e| LinearError::Eigen { n, reason: format!("faer: {e:?}") })?;
+    Ok(ev.into_iter().map(|c| Complex::new(c.re, c.im)).collect())
+}
 
 /// Paper parameters (MODEL.md).
 pub(crate) mod furuta {
@@ -185,7 +197,9 @@ fn multipliers_match_those_of_independent_discretizations() {
         let z = p.discretize(dt).unwrap();
         let ours = z.closed_loop(&cfg).unwrap().multipliers().unwrap();
         for (phi, gamma) in [zoh_eigen(&p, dt), zoh_rk4(&p, dt, 1e-6)] {
-            let other = Zoh { phi, gamma, ..z.clone() }.closed_loop(&cfg).unwrap().multipliers().unwrap();
+            let mut zo = z.clone();
+            (zo.phi, zo.gamma) = (phi, gamma);
+            let other = zo.closed_loop(&cfg).unwrap().multipliers().unwrap();
             let d = multiplier_distance(&ours, &other, 1e-3);
             assert!(d < 1e-9, "dt {dt}: multiplier distance {d:e}");
         }

@@ -1,6 +1,8 @@
-use super::*;
-use crate::scalar::{Dual, Scalar};
-use crate::taylor::tps::{Tps, TpsTable};
+mod tape;
+
+use sim::expr::*;
+use sim::scalar::{Dual, Scalar};
+use sim::taylor::tps::{Tps, TpsTable};
 
 fn names() -> Names {
     Names { vars: vec!["x".into(), "y".into(), "x_dot".into()], params: vec![("m".into(), 0.5), ("g".into(), 9.81)] }

@@ -1,4 +1,13 @@
-use super::*;
+mod axis;
+
+use sim::scene::*;
+
+/// The bundled scenes' texts by name.
+mod bundled {
+    pub fn get(name: &str) -> Option<&'static str> {
+        sim::scene::BUNDLED.iter().find(|(n, _)| *n == name).map(|(_, t)| *t)
+    }
+}
 
 fn err(text: &str, overrides: &[&str]) -> String {
     let o: Vec<String> = overrides.iter().map(|s| s.to_string()).collect();
@@ -204,7 +213,7 @@ fn controller_fields_are_validated_by_the_controller_check() {
 /// Every method's key is its scene-file name: it parses back to the method through `--set`.
 #[test]
 fn method_keys_parse_back() {
-    use super::MethodKind::*;
+    use sim::scene::MethodKind::*;
     for m in [Rodas, RodasFixed, Rk4, Exprb, ExprbFixed, ExprbSplit, ExprbLean, ExprbFiltered, Exprb54, Exprb54Filtered]
     {
         let v: MethodKind = toml::Value::String(m.key().into()).try_into().unwrap();
@@ -213,8 +222,9 @@ fn method_keys_parse_back() {
 }
 
 mod equations {
-    use super::*;
-    use crate::closed_loop::{AnyPlant, build_plant, simulate};
+    use super::bundled;
+    use sim::closed_loop::{AnyPlant, build_plant, simulate};
+    use sim::scene::*;
 
     fn load(name: &str, o: &[&str]) -> Result<Scene, SceneError> {
         Scene::load(name, &o.iter().map(|s| s.to_string()).collect::<Vec<_>>())
@@ -302,9 +312,9 @@ mod equations {
         }
         println!("furuta equations vs built-in, 200 periods: max angle difference {worst:e} rad");
         assert!(worst < 1e-9, "{worst:e}");
-        let ma = crate::stability::scene_multipliers(&load("furuta-dt30.8", &[]).unwrap()).unwrap();
-        let mb = crate::stability::scene_multipliers(&load("furuta-equations", &[]).unwrap()).unwrap();
-        crate::plant::equations::tests::assert_same_multipliers(&ma, &mb, 1e-10 * ma[0].abs.max(1.0), "furuta");
+        let ma = sim::stability::scene_multipliers(&load("furuta-dt30.8", &[]).unwrap()).unwrap();
+        let mb = sim::stability::scene_multipliers(&load("furuta-equations", &[]).unwrap()).unwrap();
+        crate::plant::equations::assert_same_multipliers(&ma, &mb, 1e-10 * ma[0].abs.max(1.0), "furuta");
     }
 
     /// The bundled equation scenes are linearly stable where they say so, and their runs stay
@@ -313,7 +323,7 @@ mod equations {
     fn bundled_equation_scenes_are_stable_and_settle() {
         for name in ["cartpole-pd", "pendulum-pd", "duffing-chain"] {
             let s = load(name, &[]).unwrap();
-            let dom = crate::stability::dominant_pairs(&s).unwrap();
+            let dom = sim::stability::dominant_pairs(&s).unwrap();
             println!("{name}: dominant {:?}", dom.first());
             let tr = simulate(&s, None).unwrap();
             assert!(tr.stopped.is_none(), "{name}: {:?}", tr.stopped);

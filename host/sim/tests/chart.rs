@@ -1,7 +1,11 @@
 //! Tests of the stability chart on the Furuta linearization of MODEL.md.
 
-use super::*;
-use crate::linear::tests::furuta_ab;
+use crate::linear::furuta_ab;
+use nalgebra::Complex;
+use shared::ControllerConfig;
+use sim::chart::internals::*;
+use sim::chart::*;
+use sim::linear::{LinearPlant, Zoh};
 
 fn plant() -> LinearPlant {
     let (a, b) = furuta_ab();
@@ -162,7 +166,7 @@ fn furuta_has_no_static_boundary() {
     assert!(f0.norm() > 0.0);
     assert!(fa.norm() * 40.0 < 1e-9 * f0.norm() && fb.norm() * 8.0 < 1e-9 * f0.norm(), "{f0} {fa} {fb}");
     // ... and it vanishes at N KphiD = K + b2.
-    use crate::linear::tests::furuta::{B2, K, NM};
+    use crate::linear::furuta::{B2, K, NM};
     let at = {
         let (kp, kd, _) = base.as_shorthand().unwrap();
         ControllerConfig { gains: shared::Gains::shorthand(kp, kd, (K + B2) / NM, 0.0, 0.0), ..base }
@@ -172,7 +176,7 @@ fn furuta_has_no_static_boundary() {
 }
 
 fn spectral_radius_of(zoh: &Zoh, cfg: &ControllerConfig) -> f64 {
-    crate::linear::spectral_radius(&zoh.closed_loop(cfg).unwrap().dominant_multipliers().unwrap())
+    sim::linear::spectral_radius(&zoh.closed_loop(cfg).unwrap().dominant_multipliers().unwrap())
 }
 
 #[test]

@@ -1,5 +1,12 @@
-use super::*;
-use crate::plant::{Cart, Furuta, FurutaParams, Scalar};
+mod exprb;
+mod exprb54;
+mod lu;
+mod split;
+
+use sim::ode::internals::{self, fifth_root};
+use sim::ode::*;
+use sim::plant::Plant;
+use sim::plant::{Cart, Furuta, FurutaParams, Scalar};
 
 const DT: f64 = 0.0308;
 const KP: f64 = 15.5;
@@ -260,7 +267,7 @@ fn stats_count_the_work() {
 /// multiplier 1 of the secondary-angle shift removed.
 fn loop_radius<P: Plant<4>>(p: &P, (kp, kd, kphi): (f64, f64, f64), dt: f64) -> f64 {
     use nalgebra::SMatrix;
-    let (a, b) = crate::plant::linearize(p);
+    let (a, b) = sim::plant::linearize(p);
     let mut aug = SMatrix::<f64, 5, 5>::zeros();
     aug.fixed_view_mut::<4, 4>(0, 0).copy_from(&(a * dt));
     aug.fixed_view_mut::<4, 1>(0, 4).copy_from(&(b * dt));
@@ -330,7 +337,7 @@ struct LinearFuruta {
 
 impl LinearFuruta {
     fn new() -> Self {
-        let (a, b) = crate::plant::linearize(&Furuta::paper());
+        let (a, b) = sim::plant::linearize(&Furuta::paper());
         Self { a: core::array::from_fn(|i| core::array::from_fn(|j| a[(i, j)])), b: core::array::from_fn(|i| b[i]) }
     }
 
@@ -564,14 +571,14 @@ fn exprb_split_step_converges_with_order_four_like_exprb() {
         let dt = DT / f64::from(n);
         let mut x = x0;
         for _ in 0..n {
-            let (f0, jac) = crate::plant::jacobian(&p, &x, u);
-            let pair = split::dominant_pair(&jac, None).unwrap();
-            let sp = split::Split::new(&jac, &pair, dt).unwrap();
+            let (f0, jac) = sim::plant::jacobian(&p, &x, u);
+            let pair = internals::split::dominant_pair(&jac, None).unwrap();
+            let sp = internals::split::Split::new(&jac, &pair, dt).unwrap();
             let mut rhs = |y: &[f64; 4]| p.rhs(y, u);
-            let (y, _) = split::step(&mut rhs, &jac, &sp, &x, &f0, dt);
+            let (y, _) = internals::split::step(&mut rhs, &jac, &sp, &x, &f0, dt);
             // The full-matrix step from the same state agrees to rounding.
-            let phis = exprb::phis(&jac, dt).unwrap();
-            let (yf, _) = exprb::step(&mut rhs, &jac, &phis, &x, &f0, dt);
+            let phis = internals::exprb::phis(&jac, dt).unwrap();
+            let (yf, _) = internals::exprb::step(&mut rhs, &jac, &phis, &x, &f0, dt);
             for i in 0..4 {
                 assert!((y[i] - yf[i]).abs() < 1e-13 * yf[i].abs().max(1.0), "n {n}: {y:?} vs {yf:?}");
             }
@@ -820,18 +827,18 @@ fn exprb54_fixed<const N: usize, P: Plant<N>>(
     split: bool,
 ) -> Option<[f64; N]> {
     let dt = h_total / f64::from(n);
-    let cut = split::Cut::for_rtol(1e-15);
+    let cut = internals::split::Cut::for_rtol(1e-15);
     let mut x = x0;
     for _ in 0..n {
-        let (f0, jac) = crate::plant::jacobian(p, &x, u);
+        let (f0, jac) = sim::plant::jacobian(p, &x, u);
         let mut rhs = |y: &[f64; N]| p.rhs(y, u);
         x = if split {
-            let pair = split::dominant_pair(&jac, None)?;
-            let sp = exprb54::Split54::new(&jac, &pair, dt, &cut, split::unit_rows(&jac))?;
-            exprb54::step(&mut rhs, &jac, &sp, &x, &f0, dt).0
+            let pair = internals::split::dominant_pair(&jac, None)?;
+            let sp = internals::exprb54::Split54::new(&jac, &pair, dt, &cut, internals::split::unit_rows(&jac))?;
+            internals::exprb54::step(&mut rhs, &jac, &sp, &x, &f0, dt).0
         } else {
-            let ph = exprb54::Full54::new(&jac, dt)?;
-            exprb54::step(&mut rhs, &jac, &ph, &x, &f0, dt).0
+            let ph = internals::exprb54::Full54::new(&jac, dt)?;
+            internals::exprb54::step(&mut rhs, &jac, &ph, &x, &f0, dt).0
         };
     }
     Some(x)

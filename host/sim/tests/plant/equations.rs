@@ -1,8 +1,12 @@
-use super::*;
-use crate::linear::{LinearPlant, Multiplier};
-use crate::plant::{Dual, Furuta, FurutaParams, jacobian, linearize};
 use nalgebra::{DMatrix, SMatrix};
 use shared::ControllerConfig;
+use sim::expr::Tape;
+use sim::linear::{LinearPlant, Multiplier};
+use sim::plant::equations::internals::{lu_solve, upper_index};
+use sim::plant::equations::*;
+use sim::plant::{Dual, Furuta, FurutaParams, jacobian, linearize};
+use sim::plant::{Plant, Scalar};
+use std::sync::Arc;
 
 fn s(v: &[&str]) -> Vec<String> {
     v.iter().map(|x| x.to_string()).collect()
@@ -211,7 +215,7 @@ pub(crate) fn assert_same_multipliers(a: &[Multiplier], b: &[Multiplier], tol: f
 }
 
 /// `e^M` by Taylor series with scaling and squaring, written here independently of
-/// `crate::linear::expm` (Pade 13).
+/// `sim::linear::expm` (Pade 13).
 fn expm_taylor(m: &DMatrix<f64>) -> DMatrix<f64> {
     let norm = m.iter().fold(0.0f64, |a, v| a + v.abs());
     let mut k = 0;
@@ -598,7 +602,7 @@ fn equilibrium_shifts_the_states() {
 /// scalar) to the same coefficients as the built-in Furuta plant.
 #[test]
 fn power_series_rhs_equals_the_builtin() {
-    use crate::taylor::{Tps, TpsTable};
+    use sim::taylor::{Tps, TpsTable};
     let t = TpsTable::get(4, 5).unwrap();
     let x: [Tps; 4] = core::array::from_fn(|i| Tps::var(t, i, 0.1 * i as f64));
     let u = Tps::constant(t, 0.3);
@@ -616,11 +620,11 @@ fn power_series_rhs_equals_the_builtin() {
 #[test]
 fn symbolic_jacobian_equals_the_dual_number_one() {
     fn check<const N: usize>(p: &EquationsPlant<N>, what: &str) {
-        assert!(p.model().jac_tape.is_some(), "{what}: no Jacobian tape");
+        assert!(p.model().jac_tape().is_some(), "{what}: no Jacobian tape");
         for (k, x) in states::<N>(20).into_iter().enumerate() {
             let u = 0.7 * k as f64 - 5.0;
             let (f, jac) = p.exact_jacobian(&x, u);
-            let (fd, jd) = crate::plant::linearize::dual_jacobian(p, &x, u);
+            let (fd, jd) = sim::plant::linearize::dual_jacobian(p, &x, u);
             let rhs = p.rhs(&x, u);
             assert_eq!(f.map(f64::to_bits), rhs.map(f64::to_bits), "{what}: f at {x:?}");
             let scale = jd.iter().flatten().fold(1.0f64, |m, v| m.max(v.abs()));
@@ -704,7 +708,7 @@ fn unrolled_solves_equal_the_general_lu_for_every_size() {
                 "n = {n}: the Jacobian tape's values {jo:?} vs {outs:?}"
             );
             assert_eq!(f.map(f64::to_bits), rhs.map(f64::to_bits), "n = {n}: the Jacobian's f");
-            let (_, jd) = crate::plant::linearize::dual_jacobian(&p, &x, u);
+            let (_, jd) = sim::plant::linearize::dual_jacobian(&p, &x, u);
             let scale = jd.iter().flatten().fold(1.0f64, |m, v| m.max(v.abs()));
             for i in 0..N {
                 for j in 0..N {
@@ -724,9 +728,9 @@ fn unrolled_solves_equal_the_general_lu_for_every_size() {
 /// Jacobian, at random states and at states with NaN, infinities and signed zeros.
 #[test]
 fn fused_chains_keep_every_bundled_scene_bit_for_bit() {
-    use crate::closed_loop::{AnyPlant, build_plant};
-    use crate::expr::WITHOUT_CHAIN_FUSION;
-    use crate::taylor::{Tps, TpsTable};
+    use sim::closed_loop::{AnyPlant, build_plant};
+    use sim::expr::internals::WITHOUT_CHAIN_FUSION;
+    use sim::taylor::{Tps, TpsTable};
     fn same(a: f64, b: f64) -> bool {
         a.to_bits() == b.to_bits() || (a.is_nan() && b.is_nan())
     }
@@ -757,12 +761,12 @@ fn fused_chains_keep_every_bundled_scene_bit_for_bit() {
     }
     let mut shorter = 0;
     let mut scenes = 0;
-    for (name, text) in crate::scene::bundled::BUNDLED {
+    for (name, text) in sim::scene::BUNDLED {
         if !text.contains("kind = \"equations\"") {
             continue;
         }
         scenes += 1;
-        let scene = crate::scene::Scene::load(name, &[]).unwrap();
+        let scene = sim::scene::Scene::load(name, &[]).unwrap();
         let fused = build_plant(&scene).unwrap();
         WITHOUT_CHAIN_FUSION.with(|c| c.set(true));
         let plain = build_plant(&scene);

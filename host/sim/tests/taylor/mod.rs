@@ -1,6 +1,12 @@
-use super::*;
-use crate::linear::LinearPlant;
-use crate::plant::{Cart, Furuta, Scalar};
+mod tps;
+
+use shared::ControllerConfig;
+use sim::linear::LinearPlant;
+use sim::ode::Method;
+use sim::plant::{Cart, Furuta};
+use sim::plant::{Plant, Scalar, linearize};
+use sim::taylor::internals::mesh;
+use sim::taylor::*;
 
 fn paper_cfg(dt: f64) -> ControllerConfig {
     ControllerConfig::paper(dt)
@@ -255,18 +261,18 @@ fn in_place_rk4_is_the_by_value_loop() {
 #[test]
 fn rhs_by_reference_is_the_by_value_formula() {
     fn by_value<S: Scalar>(f: &Furuta, x: &[S; 4], u: S) -> [S; 4] {
-        let p = &f.params;
+        let p = f.params();
         let [th, wt, _phi, wp] = *x;
         let (s, c) = th.sin_cos();
         let s2 = s * s;
         let sc = s * c;
         let ja_eff = s2 * p.jp + p.ja;
-        let delta = s2 * f.delta_s2 + f.delta0;
+        let delta = s2 * f.delta_s2() + f.delta0();
         let motor = u * p.n - wp * p.k;
-        let a = motor - sc * wt * wp * f.two_jp - wp * p.b2 - s * wt * wt * f.mrl;
-        let b = sc * wp * wp * p.jp - wt * p.b1 + s * f.mgl;
+        let a = motor - sc * wt * wp * (2.0 * p.jp) - wp * p.b2 - s * wt * wt * f.mrl();
+        let b = sc * wp * wp * p.jp - wt * p.b1 + s * f.mgl();
         let inv = S::cst(1.0) / delta;
-        let mrl_c = c * f.mrl;
+        let mrl_c = c * f.mrl();
         let th_dd = (ja_eff * b + mrl_c * a) * inv;
         let ph_dd = (a * p.jp + mrl_c * b) * inv;
         [wt, th_dd, wp, ph_dd]
@@ -317,7 +323,7 @@ fn rhs_by_reference_is_the_by_value_formula() {
 /// flow falls like `delta^4` at order 3 (even degrees vanish: the plants are odd).
 #[test]
 fn equation_scenes_expand_with_their_gain_vectors() {
-    use crate::scene::Scene;
+    use sim::scene::Scene;
     fn check<P: Plant<N>, const N: usize>(p: &P, scene: &Scene, want_dim: usize) {
         let cfg = scene.controller_config();
         let pm = period_map(p, &cfg, 3, &FlowOptions::default()).unwrap();
@@ -352,6 +358,6 @@ fn equation_scenes_expand_with_their_gain_vectors() {
     // coordinate; the Furuta as equations is deflated like the built-in plant.
     for (name, dim) in [("duffing-chain", 6), ("cartpole-pd", 8), ("pendulum-pd", 4), ("furuta-equations", 7)] {
         let scene = Scene::load(name, &[]).unwrap();
-        crate::with_plant!(crate::closed_loop::build_plant(&scene).unwrap(), p => check(&p, &scene, dim));
+        sim::with_plant!(sim::closed_loop::build_plant(&scene).unwrap(), p => check(&p, &scene, dim));
     }
 }
