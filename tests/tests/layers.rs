@@ -315,25 +315,53 @@ fn library_files(lib: &std::path::Path, other_roots: &[std::path::PathBuf]) -> V
     rs_files(dir, &|p| skip_dirs.iter().any(|s| p.starts_with(s)) || other_roots.iter().any(|r| r == p))
 }
 
-/// A library with `[lib] test = false` (its unit tests live in its integration-test binary, so
-/// the library is compiled once) has no test left under its sources.
+/// The `.rs` files of the binary whose root is `bin`: the root, and the folder of its own modules
+/// (`src/NAME/` beside `src/NAME.rs`, or the folder of a `main.rs` that is not the library's).
+fn binary_files(bin: &std::path::Path, lib_dir: Option<&std::path::Path>) -> Vec<std::path::PathBuf> {
+    let own = if bin.file_name().is_some_and(|n| n == "main.rs") {
+        bin.parent().filter(|d| Some(*d) != lib_dir).map(std::path::Path::to_path_buf)
+    } else {
+        Some(bin.with_extension(""))
+    };
+    let mut files = vec![bin.to_path_buf()];
+    if let Some(d) = own.filter(|d| d.is_dir()) {
+        files.extend(rs_files(&d, &|p| p == bin));
+    }
+    files
+}
+
+/// A library or binary with `test = false` (its unit tests live in its integration-test binary,
+/// so it is compiled once) has no test left under its sources.
 #[test]
 fn libraries_without_unit_tests_have_no_tests_in_their_sources() {
     let m = metadata();
     let mut found = Vec::new();
-    let mut libs = 0;
+    let (mut libs, mut bins) = (0, 0);
     for p in m["packages"].as_array().unwrap() {
         let targets = p["targets"].as_array().unwrap();
         let roots: Vec<std::path::PathBuf> =
             targets.iter().map(|t| std::path::PathBuf::from(t["src_path"].as_str().unwrap())).collect();
+        let is = |t: &Value, kinds: &[&str]| t["kind"].as_array().unwrap().iter().any(|k| kinds.iter().any(|x| k == x));
+        let lib_dir = targets
+            .iter()
+            .zip(&roots)
+            .find(|(t, _)| is(t, &["lib", "rlib", "cdylib"]))
+            .and_then(|(_, r)| r.parent().map(std::path::Path::to_path_buf));
         for (t, root) in targets.iter().zip(&roots) {
-            let is_lib = t["kind"].as_array().unwrap().iter().any(|k| k == "lib" || k == "rlib" || k == "cdylib");
-            if !is_lib || t["test"].as_bool() != Some(false) {
+            if t["test"].as_bool() != Some(false) {
                 continue;
             }
-            libs += 1;
-            let others: Vec<std::path::PathBuf> = roots.iter().filter(|r| *r != root).cloned().collect();
-            for f in library_files(root, &others) {
+            let files = if is(t, &["lib", "rlib", "cdylib"]) {
+                libs += 1;
+                let others: Vec<std::path::PathBuf> = roots.iter().filter(|r| *r != root).cloned().collect();
+                library_files(root, &others)
+            } else if is(t, &["bin"]) {
+                bins += 1;
+                binary_files(root, lib_dir.as_deref())
+            } else {
+                continue;
+            };
+            for f in files {
                 for (n, line) in test_lines(&std::fs::read_to_string(&f).unwrap()) {
                     found.push(format!("{}:{n}: {line}", f.display()));
                 }
@@ -341,9 +369,10 @@ fn libraries_without_unit_tests_have_no_tests_in_their_sources() {
         }
     }
     assert!(libs > 0, "no library with `test = false` found: the scan would check nothing");
+    assert!(bins > 0, "no binary with `test = false` found: the scan would check nothing");
     assert!(
         found.is_empty(),
-        "tests in libraries built with `test = false` never run (move them to tests/integration.rs):\n{}",
+        "tests in libraries or binaries built with `test = false` never run (move them to tests/integration.rs):\n{}",
         found.join("\n")
     );
     // The scan sees each kind of test, and not one in a comment.

@@ -126,7 +126,9 @@ pub struct FitResult {
     pub summary: FitSummary,
 }
 
-pub(crate) fn parse_dynamics(s: &str, centers: usize) -> Result<Dynamics, String> {
+/// The `--dynamics` option's value (`flow`, `map`, `rbf`, `rbf:KERNEL`, ...) as the fit's
+/// dynamics, an RBF map with `centers` centres; an error names the option and the value.
+pub fn parse_dynamics(s: &str, centers: usize) -> Result<Dynamics, String> {
     match s {
         "flow" => Ok(Dynamics::Flow),
         "map" => Ok(Dynamics::Map),
@@ -679,43 +681,4 @@ pub fn inspect(bytes: &[u8]) -> Result<Value, BlobError> {
             "kphi_d": c.as_shorthand().map(|s| s.2),
             "ki": c.ki, "dt": c.dt, "delay": c.delay, "u_max": c.u_max, "quantized": c.quant.is_some()},
     }))
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    /// `--dynamics rbf:KERNEL` picks the kernel; `rbf` is the linear default; bad kernels
-    /// are errors naming the option.
-    #[test]
-    fn dynamics_with_kernels_parse() {
-        assert_eq!(parse_dynamics("rbf", 7), Ok(Dynamics::Rbf { centers: 7 }));
-        assert_eq!(parse_dynamics("rbf:cubic", 7), Ok(Dynamics::RbfWith { centers: 7, kernel: ssm::Kernel::Cubic }));
-        assert_eq!(
-            parse_dynamics("rbf:gaussian:2", 7),
-            Ok(Dynamics::RbfWith { centers: 7, kernel: ssm::Kernel::Gaussian { eps: 2.0 } })
-        );
-        for bad in ["rbf:quartic", "rbf:gaussian:-1", "spline"] {
-            let e = parse_dynamics(bad, 7).unwrap_err();
-            assert!(e.contains(&format!("--dynamics `{bad}`")), "{e}");
-        }
-    }
-
-    /// The host decoder needs no stack of the caller's (it runs on its own thread): `inspect`
-    /// of the reference blob works from a thread with a 256 KiB stack, where the several-MB
-    /// model built on the caller's stack overflowed (exit 134 of `export`/`inspect` in the
-    /// dev profile).
-    #[test]
-    fn inspect_runs_on_a_small_stack() {
-        let blob = std::fs::read(concat!(env!("CARGO_MANIFEST_DIR"), "/../../shared/tests/data/model_v2.bin")).unwrap();
-        let v = std::thread::Builder::new()
-            .stack_size(256 << 10)
-            .spawn(move || inspect(&blob).map_err(|e| e.to_string()))
-            .unwrap()
-            .join()
-            .unwrap()
-            .unwrap();
-        assert_eq!(v["format_version"], 2);
-        assert!(v["p"].as_u64().unwrap() >= 1, "{v}");
-    }
 }

@@ -27,9 +27,9 @@ use std::error::Error;
 const TRANSIENT_RHO: [f64; 2] = [0.02, 0.035];
 /// The full system's torus across dt: the start (on the torus), the run's length in periods
 /// and the tail (s) its mean and spread are measured over.
-const TORUS_RHO: [f64; 2] = [0.095, 0.028];
-const TORUS_PERIODS: u64 = 16_000;
-const TORUS_TAIL_S: f64 = 125.0;
+pub const TORUS_RHO: [f64; 2] = [0.095, 0.028];
+pub const TORUS_PERIODS: u64 = 16_000;
+pub const TORUS_TAIL_S: f64 = 125.0;
 
 const BLACK: RGBColor = RGBColor(0, 0, 0);
 const RED: RGBColor = RGBColor(200, 30, 30);
@@ -294,7 +294,7 @@ const KIND: &str = "{% if k == \"Equilibrium\" %}equilibrium{% elif k == \"Torus
 
 /// A serialized enum value (serde's external tagging) as Rust's `Debug` writes it:
 /// `Converges { point: 3 }`, `ConvergesTo(Torus2)`, `TimeLimit`.
-fn debug_text(v: &Value) -> String {
+pub fn debug_text(v: &Value) -> String {
     let tagged = |o: &serde_json::Map<String, Value>| {
         o.len() == 1 && o.keys().all(|k| k.starts_with(|c: char| c.is_ascii_uppercase()))
     };
@@ -426,7 +426,7 @@ pub fn portraits_render(rep: &mut Report, s: &Value) -> Result<(), Box<dyn Error
 
 /// Where the full system's 2-torus is measured (the model's is `ModelBifurcations::torus_30p8`)
 /// and the start of that run (theta, rad).
-pub(crate) const TORUS_DT_MS: f64 = 30.8;
+pub const TORUS_DT_MS: f64 = 30.8;
 const TORUS_THETA0: f64 = 0.05;
 /// The fast-mode cycle: the start's (slow, fast) amplitudes, and the plateau read after this
 /// time (s) while rho_1 stays below this (rad).
@@ -900,41 +900,4 @@ pub fn sensitivity_render(rep: &mut Report, s: &Value) -> Result<(), Box<dyn Err
         &p.rows("bifsensitivity/torus-row", &SENS_TORUS_CELLS, &items)?,
     );
     Ok(())
-}
-
-#[cfg(test)]
-pub(crate) mod tests {
-    use super::*;
-
-    #[test]
-    fn debug_text_writes_enums_as_rust_does() {
-        use ssm::portrait::FateClass;
-        for f in [
-            FateClass::ConvergesTo(PointKind::LimitCycle { mode: 2 }),
-            FateClass::LeavesBox,
-            FateClass::ConvergesTo(PointKind::Torus2),
-        ] {
-            assert_eq!(debug_text(&serde_json::to_value(f).unwrap()), format!("{f:?}"));
-        }
-        let f = Fate::LeavesBox { at: (0.5, 0.25) };
-        assert_eq!(debug_text(&serde_json::to_value(f).unwrap()), format!("{f:?}"));
-    }
-
-    /// The sensitivity section's values (full report only), made up, for
-    /// [`crate::report::pages`]'s checks.
-    pub(crate) fn sensitivity_values() -> Value {
-        let row = |variant: &str, fit: Option<f64>| {
-            json!({"variant": variant, "dts_ms": [30.5, 31.0], "max_theta": 0.2, "heteroclinic_dt_ms": 31.61,
-                   "torus_hopf_dt_ms": null, "small_start_switch_dt_ms": 31.33, "torus_30p8_rho": [0.09, 0.03],
-                   "fit_seconds": fit})
-        };
-        json!({
-            "bifurcation_sensitivity": [row("default", None), row("more periods", Some(12.5))],
-            "torus_full_vs_dt": [{"dt_ms": 30.8, "rho": [0.095, 0.028], "rho_spread": [0.001, 0.0005], "escaped": false},
-                                 {"dt_ms": 31.9, "escaped": true}],
-            "page_bifsensitivity": {"max_rate_error": 0.0017, "torus_rho": TORUS_RHO, "torus_periods": TORUS_PERIODS,
-                                    "torus_tail_s": TORUS_TAIL_S, "torus_dt_ms": TORUS_DT_MS,
-                                    "escaped_why": [null, "left the box"]},
-        })
-    }
 }

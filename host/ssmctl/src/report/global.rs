@@ -437,7 +437,7 @@ fn where_values(c: &Computed) -> Value {
 }
 
 /// A value in ms to 3 decimals or `none` (`F3 x`), a distance or `-` (`GAP x`).
-const WHERE_THE_NORMAL_FORM_ERRS: &str = "Where \
+pub const WHERE_THE_NORMAL_FORM_ERRS: &str = "Where \
     the equation-driven model's polar normal form departs from the full system, measured. Its reduced map, iterated \
     with every term kept, connects at {% for g in graph %}{{ g.order }}: {{ g.at | fixed_or(3, \"none\") }}{% if not loop.last %}, {% endif \
     %}{% endfor %} ms (bracket midpoints by order; full system {% if full_error is not none %}{{ full_error }}{% else \
@@ -526,7 +526,8 @@ fn map_variants_values(rep: &mut Report, c: &Computed) {
     rep.summary.insert("map_sensitivity".into(), json!({"variants": list, "spreads": spreads}));
 }
 
-const MAP_VARIANTS: &str = "The fitted map over the training variants of the \
+/// The paragraph on the fitted map over the sensitivity study's training variants.
+pub const MAP_VARIANTS: &str = "The fitted map over the training variants of the \
     sensitivity study: each variant's runs refitted into the shared-tangent model (its regression rows weighted by the \
     default's smooth amplitude cut, FurutaOptions::map_weight, so runs kept past the slow saddle cycle do not bend the \
     map near the torus, with its nonlinear degrees up to {{ low_degree }} from a first fit at a {{ low_knee | plain }} rad knee) and \
@@ -570,7 +571,7 @@ fn torus_value(lost_between: &Value, growth_onset: &Value, steps: &Value) -> Val
 
 /// `{"found", "of", "min", "max", "spread_ms"}` of the values that exist (spread = max - min;
 /// nulls when none does).
-fn value_spread(vals: &[Option<f64>]) -> Value {
+pub fn value_spread(vals: &[Option<f64>]) -> Value {
     let v: Vec<f64> = vals.iter().flatten().copied().collect();
     if v.is_empty() {
         return json!({"found": 0, "of": vals.len(), "min": Value::Null, "max": Value::Null, "spread_ms": Value::Null});
@@ -831,9 +832,9 @@ fn equation_values(
 
 /// Target distance of the fitted map's connection and torus growth onset from the
 /// equation-driven reduced map's.
-const MAP_TARGET_MS: f64 = 0.05;
+pub const MAP_TARGET_MS: f64 = 0.05;
 /// Target spread of the fitted map's global bifurcations over the sensitivity variants.
-const SPREAD_TARGET_MS: f64 = 0.1;
+pub const SPREAD_TARGET_MS: f64 = 0.1;
 
 /// Relative tolerance of the issue's target on the cubic coefficients.
 pub const CUBIC_TARGET: f64 = 0.05;
@@ -844,12 +845,13 @@ pub const CUBIC_TARGET: f64 = 0.05;
 /// not depend on what `rho` means beyond linear order.
 pub const CHART_ROBUST: f64 = 0.01;
 
-const INVARIANCE: &str = "Equation-driven SSM at order {{ order }}: invariance error max |F(W(z)) - W(R(z))| of the \
+/// The paragraph on the equation-driven SSM's invariance error by order.
+pub const INVARIANCE: &str = "Equation-driven SSM at order {{ order }}: invariance error max |F(W(z)) - W(R(z))| of the \
     truncations at orders {{ orders | plain }} on the spheres of theta amplitude {{ radii | plain(\" and \") }} rad, and \
     the polar coefficients (1/s; rho in rad of theta).";
 
 /// What the coefficient table compares, and how the fitted map's low degrees are fitted.
-const CUBIC: &str = "Data-driven vs equation-driven polar coefficients (1/s; rho in rad of theta) at the training \
+pub const CUBIC: &str = "Data-driven vs equation-driven polar coefficients (1/s; rho in rad of theta) at the training \
     periods that are nodes of the equation-driven model: each cell data / equation (relative difference); the \
     data-driven value is that training period's own fit (graph over its own SVD tangent with a degree-1 normal part, \
     order-{{ dyn_order }} map, normal form), the equation-driven one the order-{{ order }} normal form; the next column \
@@ -1304,12 +1306,17 @@ const BASIN_NF_CAPTION: &str = "The full system's basin with the normal forms' s
 
 /// One dt of the basin figures: the full system's cells, where the fitted map and the two
 /// normal forms differ from it, and the normal forms' separatrices.
-struct BasinPanel {
-    caption: String,
-    full: Vec<bool>,
-    map_differs: Vec<bool>,
-    nf_differs: [Vec<bool>; 2],
-    separatrices: [Vec<Vec<(f64, f64)>>; 2],
+pub struct BasinPanel {
+    /// The panel's caption (its dt).
+    pub caption: String,
+    /// Per cell: the full system stays bounded.
+    pub full: Vec<bool>,
+    /// Per cell: the fitted map's verdict differs from the full system's.
+    pub map_differs: Vec<bool>,
+    /// Per cell: the data-driven and the equation-driven normal form's verdicts differ.
+    pub nf_differs: [Vec<bool>; 2],
+    /// The data-driven and the equation-driven normal form's separatrices.
+    pub separatrices: [Vec<Vec<(f64, f64)>>; 2],
 }
 
 const BLUE: RGBColor = RGBColor(30, 80, 220);
@@ -1327,14 +1334,14 @@ fn separatrix_curves(p: &BasinPanel) -> Vec<Curves> {
 /// Which verdicts a basin figure marks: the fitted map's (the main figure) or the two normal
 /// forms' (the second figure).
 #[derive(Clone, Copy, Debug, PartialEq)]
-enum Verdicts {
+pub enum Verdicts {
     FittedMap,
     NormalForms,
 }
 
 /// A basin figure's panels: per dt the full system's basin, the normal forms' separatrices and
 /// the cells where the `which` verdicts differ from the full system's, marked.
-fn overlay_panels<'a>(
+pub fn overlay_panels<'a>(
     panels: &'a [BasinPanel],
     r1: &'a [f64],
     r2: &'a [f64],
@@ -1494,109 +1501,4 @@ pub fn basin_render(rep: &mut Report, s: &Value) -> Result<(), Box<dyn Error>> {
         &p.rows("basin/row", &cells, &items)?,
     );
     Ok(())
-}
-
-#[cfg(test)]
-pub(crate) mod tests {
-    use super::*;
-
-    /// The quick report's values with made-up training variants of the fitted map (the full
-    /// report's table), for [`crate::report::pages`]'s checks.
-    pub(crate) fn map_variant_values() -> Value {
-        let mut s = crate::report::pages::snapshot_summary();
-        let spread = |x: f64| json!({"found": 2, "of": 2, "min": 31.5, "max": 31.5 + x, "spread_ms": x});
-        let torus = json!({"lost_between": [31.7, 31.75], "lost_at_first_dt": false, "first_dt_ms": 31.3,
-                           "growth_onset": 31.72});
-        let first = json!({"lost_between": null, "lost_at_first_dt": true, "first_dt_ms": 31.3, "growth_onset": null});
-        s["map_sensitivity"] = json!({
-            "variants": [{"variant": "default (paper's periods, cut 0.2 rad)",
-                          "connection": {"linear": {"bracket": [31.61, 31.62], "monotone": true},
-                                         "spline": {"error": "no escape on the grid"}},
-                          "torus": {"linear": torus, "spline": first}}],
-            "spreads": {"connection_linear": spread(0.03), "connection_spline": spread(0.04),
-                        "torus_onset_linear": spread(0.05), "torus_onset_spline": spread(0.06),
-                        "torus_lost_linear": spread(0.07), "torus_lost_spline": spread(0.08)},
-        });
-        s
-    }
-
-    /// The equation section's paragraphs over made-up values: every number follows them.
-    #[test]
-    fn equation_paragraphs_follow_their_values() {
-        use crate::report::prose::{perturbed, unmoved};
-        let p = Prose::new();
-        let spread = |x: f64| json!({"found": 3, "of": 5, "min": 31.5, "max": 31.5 + x, "spread_ms": x});
-        let cases = [
-            (INVARIANCE, json!({"order": 9, "orders": [3, 5, 7, 9], "radii": [0.05, 0.1]})),
-            (
-                CUBIC,
-                json!({"target": CUBIC_TARGET, "robust": CHART_ROBUST, "order": 7, "dyn_order": 7, "low_degree": 3,
-                       "low_knee": 0.1, "knee": 0.2}),
-            ),
-            (
-                WHERE_THE_NORMAL_FORM_ERRS,
-                json!({"order": 7, "target": MAP_TARGET_MS, "graph": [{"order": 5, "at": 31.61}, {"order": 7, "at": null}],
-                       "polar": [{"order": 7, "at": 31.82}], "full_error": null, "full": 31.55, "nf_conn": 31.7,
-                       "nf_onset": 31.66, "gaps": [0.12, null, 0.031, 0.02, 0.05, 0.07]}),
-            ),
-            (
-                MAP_VARIANTS,
-                json!({"spreads": {"connection_linear": spread(0.03), "connection_spline": spread(0.04),
-                                   "torus_onset_linear": spread(0.05), "torus_onset_spline": spread(0.06),
-                                   "torus_lost_linear": spread(0.07), "torus_lost_spline": spread(0.08)},
-                       "target": SPREAD_TARGET_MS, "low_degree": 3, "low_knee": 0.1}),
-            ),
-        ];
-        for (t, v) in cases {
-            let a = p.html("t", t, &v).unwrap();
-            let b = p.html("t", t, &perturbed(&v)).unwrap();
-            assert_eq!(unmoved(&a, &b).unwrap(), [], "{a}");
-        }
-    }
-
-    /// The main figure carries the fitted map's verdict (its differing cells marked) over the
-    /// full system's basin with the normal forms' separatrices; the normal forms' marks are on
-    /// the second figure; the legend band overlaps no panel.
-    #[test]
-    fn the_main_basin_figure_shows_the_fitted_map_verdict() {
-        let (r1, r2) = ([0.1, 0.2], [0.01, 0.02, 0.03]);
-        let panel = |k: usize| BasinPanel {
-            caption: format!("dt {k}"),
-            full: vec![true, true, false, true, false, false],
-            map_differs: vec![false, false, true, false, false, false],
-            nf_differs: [vec![true; 6], vec![false, true, true, true, true, false]],
-            separatrices: [vec![vec![(0.1, 0.01), (0.2, 0.02)]], vec![]],
-        };
-        let panels = [panel(0), panel(1), panel(2)];
-        let main = overlay_panels(&panels, &r1, &r2, Verdicts::FittedMap);
-        for (m, p) in main.iter().zip(&panels) {
-            assert_eq!(m.marks.len(), 1);
-            assert!(m.marks[0].0.contains("fitted map"), "{}", m.marks[0].0);
-            assert_eq!(m.marks[0].2, p.map_differs);
-            assert_eq!(m.bounded, p.full.as_slice());
-            assert_eq!(m.curves.len(), 2);
-        }
-        let nf = overlay_panels(&panels, &r1, &r2, Verdicts::NormalForms);
-        assert!(nf.iter().all(|p| p.marks.len() == 2 && p.marks.iter().all(|m| m.0.contains("normal form"))));
-        for (l, mark) in [
-            (crate::draw::basin::overlay_layout(&main), "fitted map differs"),
-            (crate::draw::basin::overlay_layout(&nf), "normal form differs"),
-        ] {
-            assert!(l.panels.iter().all(|r| !r.overlaps(&l.legend)), "{l:?}");
-            assert!(l.entries.iter().any(|e| e.0.contains(mark)), "{mark}: {:?}", l.entries);
-        }
-    }
-
-    #[test]
-    fn value_spread_counts_the_values_found_and_spans_them() {
-        let v = value_spread(&[Some(31.3156), None, Some(31.4), Some(31.3281)]);
-        assert_eq!(v["found"], 3);
-        assert_eq!(v["of"], 4);
-        assert_eq!(v["min"], 31.3156);
-        assert_eq!(v["max"], 31.4);
-        assert!((v["spread_ms"].as_f64().unwrap() - 0.0844).abs() < 1e-12, "{v}");
-        let none = value_spread(&[None, None]);
-        assert_eq!(none["found"], 0);
-        assert!(none["spread_ms"].is_null() && none["min"].is_null(), "{none}");
-    }
 }

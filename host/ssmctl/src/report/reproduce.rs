@@ -480,7 +480,9 @@ const SCENE_CELLS: [&str; 7] = [
 ];
 const SCENE_CAPTION: &str = "{{ name }}: theta(t)";
 
-fn scenes_section(rep: &mut Report, quick: bool, quiet: bool) -> Result<(), Box<dyn Error>> {
+/// The scenes section: each bundled scene simulated (`quick`: fewer periods), its trajectory
+/// CSV, metadata and figure written, the summary key `scenes`; the page from the summary.
+pub fn scenes_section(rep: &mut Report, quick: bool, quiet: bool) -> Result<(), Box<dyn Error>> {
     let pb = bar(quiet, BUNDLED.len() as u64, "simulating scenes");
     // Each scene (run, CSV outputs, figure) is a task on the rayon pool writing only its own
     // files; the values are collected in the bundled order.
@@ -501,7 +503,7 @@ fn scenes_section(rep: &mut Report, quick: bool, quiet: bool) -> Result<(), Box<
 }
 
 /// Writes the scenes section from the summary `s` (`scenes`).
-pub(crate) fn scenes_render(rep: &mut Report, s: &Value) -> Result<(), Box<dyn Error>> {
+pub fn scenes_render(rep: &mut Report, s: &Value) -> Result<(), Box<dyn Error>> {
     let p = Prose::new();
     rep.section("scenes", "Bundled scenes: closed-loop simulations", &p.html("scenes/intro", SCENES_INTRO, s)?);
     let list = s["scenes"].as_array().ok_or("report: summary lacks the list `scenes`")?;
@@ -579,7 +581,7 @@ fn stability_section(rep: &mut Report) -> Result<(), Box<dyn Error>> {
 }
 
 /// Writes the stability section from the summary `s` (`stability`).
-pub(crate) fn stability_render(rep: &mut Report, s: &Value) -> Result<(), Box<dyn Error>> {
+pub fn stability_render(rep: &mut Report, s: &Value) -> Result<(), Box<dyn Error>> {
     let p = Prose::new();
     rep.section(
         "stability",
@@ -636,7 +638,7 @@ fn chart_section(rep: &mut Report, quick: bool) -> Result<(), Box<dyn Error>> {
 }
 
 /// Writes the chart section from the summary `s` (`stability_chart`, `page_chart`).
-pub(crate) fn chart_render(rep: &mut Report, s: &Value) -> Result<(), Box<dyn Error>> {
+pub fn chart_render(rep: &mut Report, s: &Value) -> Result<(), Box<dyn Error>> {
     let p = Prose::new();
     rep.section("chart", "Stability chart in the (KP, KD) plane", &p.html("chart/intro", CHART_INTRO, s)?);
     let fig = s["stability_chart"]["png"].as_str().ok_or("report: stability_chart.png is not a string")?;
@@ -680,7 +682,7 @@ pub fn bench_section(rep: &mut Report, quick: bool, quiet: bool) -> Result<(), B
 }
 
 /// Writes the accuracy-time section from the summary `s` (`bench_simulate`, `page_bench`).
-pub(crate) fn bench_render(rep: &mut Report, s: &Value) -> Result<(), Box<dyn Error>> {
+pub fn bench_render(rep: &mut Report, s: &Value) -> Result<(), Box<dyn Error>> {
     let p = Prose::new();
     // Plain text escaped here: an HTML template would write the `/` of `periods/s` and of
     // the method labels as entities.
@@ -696,59 +698,4 @@ pub(crate) fn bench_render(rep: &mut Report, s: &Value) -> Result<(), Box<dyn Er
         &p.rows("accuracy-time-sim/row", &BENCH_CELLS, rows)?,
     );
     Ok(())
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    /// `v` without the wall-clock keys (at any depth).
-    fn without_wall(mut v: Value) -> Value {
-        match &mut v {
-            Value::Object(m) => {
-                m.remove("wall_seconds");
-                for x in m.values_mut() {
-                    *x = without_wall(x.take());
-                }
-            }
-            Value::Array(a) => a.iter_mut().for_each(|x| *x = without_wall(x.take())),
-            _ => {}
-        }
-        v
-    }
-
-    /// The scenes section (`--quick`) on a 1-thread and a 2-thread pool: the same summary
-    /// (wall times aside), the same trajectories, metadata and figures, byte for byte.
-    #[test]
-    fn scenes_section_is_bit_identical_on_one_and_two_threads() {
-        let on = |threads: usize| {
-            let dir = std::env::temp_dir().join(format!("ssmctl-scenes-par-{}-{threads}", std::process::id()));
-            let _ = std::fs::remove_dir_all(&dir);
-            let mut rep = Report::new(&dir).unwrap();
-            std::fs::create_dir_all(dir.join("fig")).unwrap();
-            let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
-            pool.install(|| scenes_section(&mut rep, true, true).map_err(|e| e.to_string())).unwrap();
-            (dir, without_wall(Value::Object(rep.summary.clone())))
-        };
-        let ((d1, s1), (d2, s2)) = (on(1), on(2));
-        assert_eq!(s1, s2);
-        let scenes = s1["scenes"].as_array().unwrap();
-        assert!(scenes.len() >= 5, "{s1}");
-        for sc in scenes {
-            let name = sc["name"].as_str().unwrap();
-            for rel in [format!("scenes/{name}.csv"), format!("fig/{name}.png")] {
-                let (a, b) = (std::fs::read(d1.join(&rel)).unwrap(), std::fs::read(d2.join(&rel)).unwrap());
-                assert!(a == b, "{rel} differs between 1 and 2 threads");
-            }
-            let meta = |d: &Path| {
-                without_wall(
-                    serde_json::from_slice(&std::fs::read(d.join(format!("scenes/{name}.json"))).unwrap()).unwrap(),
-                )
-            };
-            assert_eq!(meta(&d1), meta(&d2), "{name}.json");
-        }
-        for d in [d1, d2] {
-            std::fs::remove_dir_all(d).unwrap();
-        }
-    }
 }

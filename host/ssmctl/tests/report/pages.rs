@@ -4,14 +4,14 @@
 //!
 //! The snapshot (`tests/snapshots/report_values.json` of this crate: the section ids of the
 //! quick report's page and the summary keys the rendered sections read) is refreshed from a
-//! quick report by `UPDATE_SNAPSHOTS=1 SSMCTL_REPORT_DIR=DIR cargo test -p ssmctl --lib
-//! report::pages`, where `DIR` holds `ssmctl reproduce --quick --out DIR`.
+//! quick report by `UPDATE_SNAPSHOTS=1 SSMCTL_REPORT_DIR=DIR cargo test -p ssmctl --test
+//! commands report::pages`, where `DIR` holds `ssmctl reproduce --quick --out DIR`.
 
-use crate::report::prose::{perturbed, unmoved};
-use crate::report::{
+use serde_json::{Map, Value};
+use ssmctl::report::prose::{perturbed, unmoved};
+use ssmctl::report::{
     Report, auto_table, bifurcations, chaos, esc, global, normal_form, own_plant, reproduce, sloshing, verdict,
 };
-use serde_json::{Map, Value};
 use std::error::Error;
 use std::path::{Path, PathBuf};
 
@@ -220,7 +220,7 @@ fn masked(html: &str, summary: &Value) -> String {
     strings.sort_by_key(|s| std::cmp::Reverse(s.len()));
     strings
         .iter()
-        .filter(|s| !crate::report::prose::numbers_in(s).is_empty())
+        .filter(|s| !ssmctl::report::prose::numbers_in(s).is_empty())
         .fold(html, |h, s| h.replace(&esc(s), "(verbatim)").replace(*s, "(verbatim)"))
 }
 
@@ -276,23 +276,23 @@ struct Check {
 /// The sections' checks: the quick report's values (the snapshot), or made-up values for the
 /// sections only the full report or a device run writes.
 fn checks() -> Vec<Check> {
-    use crate::report::{bifurcations as bif, global as glob, reproduce as rp};
     use serde_json::json;
+    use ssmctl::report::{bifurcations as bif, global as glob, reproduce as rp};
     let snap: fn() -> Value = snapshot_summary;
     let c = |what, render: Render, values, pointer, to, expect| Check { what, render, values, pointer, to, expect };
     vec![
         c(
             "chaos diagnosis: noisy-state realizations, a count",
-            chaos::tests::noisy_state_render,
-            chaos::tests::noisy_state_summary,
+            crate::report::chaos::noisy_state_render,
+            crate::report::chaos::noisy_state_summary,
             "/flag_pipeline_fit/noisy_state_realizations/models/1/within",
             json!(5),
             "(verbatim) 5/8, Benettin",
         ),
         c(
             "chaos diagnosis: noisy-state realizations, a median",
-            chaos::tests::noisy_state_render,
-            chaos::tests::noisy_state_summary,
+            crate::report::chaos::noisy_state_render,
+            crate::report::chaos::noisy_state_summary,
             "/flag_pipeline_fit/noisy_state_realizations/models/2/corr_dim/median",
             json!(9.876),
             "D2 9.88 (",
@@ -345,7 +345,7 @@ fn checks() -> Vec<Check> {
         c(
             "bifurcation sensitivity (full report, made-up values)",
             bif::sensitivity_render,
-            bif::tests::sensitivity_values,
+            crate::report::bifurcations::sensitivity_values,
             "/page_bifsensitivity/max_rate_error",
             json!(0.0042),
             "within 0.42 %",
@@ -361,7 +361,7 @@ fn checks() -> Vec<Check> {
         c(
             "equation, the fitted map's training variants (full report, made-up variants)",
             glob::equation_render,
-            glob::tests::map_variant_values,
+            crate::report::global::map_variant_values,
             "/map_sensitivity/variants/0/torus/linear/growth_onset",
             json!(31.7777),
             "onset 31.778</td>",
@@ -394,7 +394,7 @@ fn checks() -> Vec<Check> {
         c(
             "device (made-up device table and PIL run)",
             sloshing::device_render,
-            sloshing::tests::device_values,
+            crate::report::sloshing::device_values,
             "/device/controller_step_instructions_int",
             json!(123.4),
             "integer 123 (",
@@ -410,7 +410,7 @@ fn checks() -> Vec<Check> {
         c(
             "chaos-cost (full report, made-up rows)",
             chaos::cost_render,
-            chaos::tests::cost_values,
+            crate::report::chaos::cost_values,
             "/chaos_cost/lle_data",
             json!(0.9876),
             "0.988 1/s.",
@@ -440,7 +440,8 @@ fn every_number_of_the_report_follows_its_values() {
         let dir = std::env::var_os("SSMCTL_REPORT_DIR")
             .expect("UPDATE_SNAPSHOTS=1 needs SSMCTL_REPORT_DIR, a folder written by `ssmctl reproduce --quick`");
         let snap = snapshot_from(Path::new(&dir));
-        crate::output::write_atomic(&snapshot_path(), serde_json::to_string_pretty(&snap).unwrap().as_bytes()).unwrap();
+        ssmctl::output::write_atomic(&snapshot_path(), serde_json::to_string_pretty(&snap).unwrap().as_bytes())
+            .unwrap();
     }
     let text = std::fs::read_to_string(snapshot_path()).expect("the report values snapshot");
     let snap: Value = serde_json::from_str(&text).unwrap();
