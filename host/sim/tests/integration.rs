@@ -4,6 +4,7 @@
 //! `cargo test -p sim --test integration exprb_lean::`.
 
 mod common;
+mod equations_fast;
 mod exprb_filtered;
 mod exprb_lean;
 mod exprb_split;
