@@ -16,6 +16,10 @@ pub trait Scalar:
     + Mul<f64, Output = Self>
     + Div<f64, Output = Self>
 {
+    /// `true` for `f64` alone: generic code may then take a path written for plain floats
+    /// (the same operations in the same order), converting with `re` and `cst`, identities
+    /// for `f64`.
+    const IS_F64: bool = false;
     /// A constant (zero derivative).
     fn cst(v: f64) -> Self;
     /// The value part.
@@ -52,6 +56,7 @@ pub trait Scalar:
 }
 
 impl Scalar for f64 {
+    const IS_F64: bool = true;
     #[inline(always)]
     fn cst(v: f64) -> Self {
         v

@@ -9,6 +9,7 @@
 mod chart;
 mod closed_loop;
 mod common;
+mod equations_fast;
 mod expr;
 mod exprb_filtered;
 mod exprb_lean;

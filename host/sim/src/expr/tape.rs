@@ -384,6 +384,40 @@ impl Tape {
         f(&Evaluated { regs: &regs, outputs: &self.outputs })
     }
 
+    /// [`Tape::eval_with`] with the inputs written by `load` straight into the register
+    /// file (all zero when `load` gets it; it writes the inputs to registers `0..n_inputs`,
+    /// and any register past them is overwritten before the tape reads it): no input array
+    /// is built and copied.
+    #[inline(always)]
+    pub fn eval_loaded<S: Scalar, T>(&self, load: impl FnOnce(&mut [S]), f: impl FnOnce(&Evaluated<'_, S>) -> T) -> T {
+        if core::mem::size_of::<S>() <= 128 {
+            match self.n_regs {
+                0..=16 => return self.eval_loaded_on::<S, T, 16>(load, f),
+                17..=32 => return self.eval_loaded_on::<S, T, 32>(load, f),
+                33..=64 => return self.eval_loaded_on::<S, T, 64>(load, f),
+                _ => {}
+            }
+        }
+        let mut regs = vec![S::cst(0.0); self.n_regs];
+        load(regs.as_mut_slice());
+        self.run(regs.as_mut_slice());
+        f(&Evaluated { regs: &regs, outputs: &self.outputs })
+    }
+
+    /// [`Tape::eval_loaded`] on an array of `R >= n_regs` registers (see [`Tape::eval_on`]).
+    #[inline(always)]
+    fn eval_loaded_on<S: Scalar, T, const R: usize>(
+        &self,
+        load: impl FnOnce(&mut [S]),
+        f: impl FnOnce(&Evaluated<'_, S>) -> T,
+    ) -> T {
+        assert!(self.n_regs <= R, "a register file of {R} for a tape of {} registers", self.n_regs);
+        let mut regs = Fixed([S::cst(0.0); R]);
+        load(regs.0.as_mut_slice());
+        self.run(&mut regs);
+        f(&Evaluated { regs: &regs.0, outputs: &self.outputs })
+    }
+
     /// Evaluates the tape and writes its outputs, in order, to `out` (as many as both
     /// have).
     #[inline]
@@ -576,6 +610,24 @@ impl<S: Scalar> Evaluated<'_, S> {
                 *unsafe { self.regs.get_unchecked(usize::from(r)) }
             }
             None => S::cst(f64::NAN),
+        }
+    }
+
+    /// The first `K` outputs (NaN past the last), the output count checked once rather
+    /// than per output.
+    #[inline(always)]
+    pub fn outputs_array<const K: usize>(&self) -> [S; K] {
+        match self.outputs.get(..K) {
+            Some(outs) => {
+                let mut v = [S::cst(0.0); K];
+                for (d, &r) in v.iter_mut().zip(outs) {
+                    debug_assert!(usize::from(r) < self.regs.len());
+                    // SAFETY: as for `output`.
+                    *d = *unsafe { self.regs.get_unchecked(usize::from(r)) };
+                }
+                v
+            }
+            None => core::array::from_fn(|k| self.output(k)),
         }
     }
 }

@@ -89,11 +89,16 @@ pub struct EquationsModel {
     jac_tape: Option<Tape>,
     /// Bit `k` set: output `k` of the Jacobian tape is identically zero.
     jac_zero: u128,
+    /// Bit `s` set: state `s` is one neither `M` nor `f` depends on (a zero column of the
+    /// Jacobian's acceleration rows).
+    jac_zero_cols: u8,
     /// `sum q'_i dL/dq'_i - L` (Lagrangian form only).
     energy: Option<Tape>,
     equilibrium: Vec<f64>,
     /// `equilibrium` padded with zeros to [`MAX_COORDINATES`] (the right-hand side's copy).
     equilibrium_pad: [f64; MAX_COORDINATES],
+    /// Some coordinate of the equilibrium is not zero (the inputs add it).
+    shifted: bool,
 }
 
 impl EquationsModel {
@@ -284,6 +289,15 @@ impl EquationsModel {
         for (p, e) in equilibrium_pad.iter_mut().zip(&equilibrium) {
             *p = *e;
         }
+        let block = roots.len();
+        let mut jac_zero_cols = 0u8;
+        for state in 0..2 * n {
+            let v = if state % 2 == 0 { state / 2 } else { n + state / 2 };
+            let base = (1 + v) * block;
+            if (base..base + block).all(|k| jac_zero.checked_shr(k as u32).unwrap_or(0) & 1 == 1) {
+                jac_zero_cols |= 1 << state;
+            }
+        }
         let model = Self {
             n,
             coordinates: spec.coordinates.clone(),
@@ -291,7 +305,9 @@ impl EquationsModel {
             tape,
             jac_tape,
             jac_zero,
+            jac_zero_cols,
             energy,
+            shifted: equilibrium.iter().any(|&e| e != 0.0),
             equilibrium,
             equilibrium_pad,
         };
@@ -533,10 +549,75 @@ impl EquationsModel {
         inputs
     }
 
+    /// [`Self::inputs`] for `f64`, written into the tape's first `2C + 1` registers.
+    #[inline(always)]
+    fn load_f64<const N: usize, const C: usize>(&self, regs: &mut [f64], x: &[f64; N], u: f64) {
+        let (q, rest) = regs.split_at_mut(C.min(regs.len()));
+        let (v, rest) = rest.split_at_mut(C.min(rest.len()));
+        if self.shifted {
+            for ((s, pair), e) in q.iter_mut().zip(x.chunks_exact(2)).zip(&self.equilibrium_pad) {
+                let xq = pair.first().copied().unwrap_or(f64::NAN);
+                *s = if *e == 0.0 { xq } else { xq + e };
+            }
+        } else {
+            for (s, pair) in q.iter_mut().zip(x.chunks_exact(2)) {
+                *s = pair.first().copied().unwrap_or(f64::NAN);
+            }
+        }
+        for (s, pair) in v.iter_mut().zip(x.chunks_exact(2)) {
+            *s = pair.get(1).copied().unwrap_or(f64::NAN);
+        }
+        if let Some(s) = rest.first_mut() {
+            *s = u;
+        }
+    }
+
+    /// [`Self::rhs`] for `f64` and `C` coordinates, `K = C (C + 1) / 2 + C` tape outputs:
+    /// the same operations on the same operands in the same order as the generic path,
+    /// without its bookkeeping (no input array, the outputs read at once, the solve by
+    /// [`lu_factor`] and [`lu_apply`], which [`solve_small`] equals to the bit).
+    #[inline(always)]
+    fn rhs_f64<const N: usize, const C: usize, const K: usize>(&self, x: &[f64; N], u: f64) -> [f64; N] {
+        let o = self.tape.eval_loaded(|regs| self.load_f64::<N, C>(regs, x, u), |e| e.outputs_array::<K>());
+        let out = |k: usize| o.get(k).copied().unwrap_or(f64::NAN);
+        let mut lu = [[0.0; C]; C];
+        for (i, row) in lu.iter_mut().enumerate() {
+            for (j, s) in row.iter_mut().enumerate() {
+                let (p, q) = if i <= j { (i, j) } else { (j, i) };
+                *s = out(upper_index(C, p, q));
+            }
+        }
+        let mut qdd = [0.0; C];
+        for (i, s) in qdd.iter_mut().enumerate() {
+            *s = out(C * (C + 1) / 2 + i);
+        }
+        let perm = lu_factor(&mut lu);
+        lu_apply(&lu, &perm, &mut qdd);
+        let mut out = [0.0; N];
+        for ((o, pair), a) in out.chunks_exact_mut(2).zip(x.chunks_exact(2)).zip(qdd) {
+            if let ([d0, d1], [_, v]) = (o, pair) {
+                *d0 = *v;
+                *d1 = a;
+            }
+        }
+        out
+    }
+
     /// `dx/dt` for `N = 2n` states (`N` is checked by [`EquationsPlant::new`]).
     #[inline]
     fn rhs<S: Scalar, const N: usize>(&self, x: &[S; N], u: S) -> [S; N] {
         let n = N / 2;
+        if S::IS_F64 {
+            // `re` and `cst` are identities for `f64`.
+            let xf = x.map(S::re);
+            let out = match n {
+                1 => self.rhs_f64::<N, 1, 2>(&xf, u.re()),
+                2 => self.rhs_f64::<N, 2, 5>(&xf, u.re()),
+                3 => self.rhs_f64::<N, 3, 9>(&xf, u.re()),
+                _ => self.rhs_f64::<N, 4, 14>(&xf, u.re()),
+            };
+            return out.map(S::cst);
+        }
         let inputs = self.inputs(x, u);
         let mut out = [S::cst(0.0); N];
         // q'': small scalars on the stack, the solve unrolled for the coordinate count; a
@@ -587,11 +668,12 @@ impl EquationsModel {
         let mut f = [0.0; N];
         let mut jac = [[0.0; N]; N];
         // `N = 2n`: the coordinate count is the state's, known at compile time.
+        // `K`: the tape's outputs, `(C (C + 1) / 2 + C) (2C + 1)`.
         match N / 2 {
-            1 => self.jacobian_c::<N, 1>(jt, x, u, &mut f, &mut jac),
-            2 => self.jacobian_c::<N, 2>(jt, x, u, &mut f, &mut jac),
-            3 => self.jacobian_c::<N, 3>(jt, x, u, &mut f, &mut jac),
-            _ => self.jacobian_c::<N, 4>(jt, x, u, &mut f, &mut jac),
+            1 => self.jacobian_c::<N, 1, 6>(jt, x, u, &mut f, &mut jac),
+            2 => self.jacobian_c::<N, 2, 25>(jt, x, u, &mut f, &mut jac),
+            3 => self.jacobian_c::<N, 3, 63>(jt, x, u, &mut f, &mut jac),
+            _ => self.jacobian_c::<N, 4, 126>(jt, x, u, &mut f, &mut jac),
         }
         (f, jac)
     }
@@ -599,7 +681,7 @@ impl EquationsModel {
     /// [`Self::jacobian`] for `C = n` coordinates (the loops unrolled), into `f` and `jac`
     /// (zero on entry).
     #[inline(always)]
-    fn jacobian_c<const N: usize, const C: usize>(
+    fn jacobian_c<const N: usize, const C: usize, const K: usize>(
         &self,
         jt: &Tape,
         x: &[f64; N],
@@ -607,23 +689,23 @@ impl EquationsModel {
         f: &mut [f64; N],
         jac: &mut [[f64; N]; N],
     ) {
-        let inputs = self.inputs(x, u);
-        jt.eval_with(&inputs, |e| self.jacobian_from::<N, C>(e, &inputs, f, jac))
+        let o = jt.eval_loaded(|regs| self.load_f64::<N, C>(regs, x, u), |e| e.outputs_array::<K>());
+        self.jacobian_from::<N, C, K>(&o, x, f, jac)
     }
 
     /// [`Self::jacobian_c`] from the evaluated Jacobian tape.
     #[inline(always)]
-    fn jacobian_from<const N: usize, const C: usize>(
+    fn jacobian_from<const N: usize, const C: usize, const K: usize>(
         &self,
-        e: &Evaluated<'_, f64>,
-        inputs: &[f64; 9],
+        o: &[f64; K],
+        x: &[f64; N],
         f: &mut [f64; N],
         jac: &mut [[f64; N]; N],
     ) {
         let nan = f64::NAN;
         let nm = C * (C + 1) / 2;
         let block = nm + C;
-        let out = |k: usize| e.output(k);
+        let out = |k: usize| o.get(k).copied().unwrap_or(nan);
         let zero = |k: usize| self.jac_zero.checked_shr(k as u32).unwrap_or(0) & 1 == 1;
         // M factored once; q'' and every column solved with the factors (the same
         // arithmetic as `solve_small`, so q'' is the right-hand side's to the bit).
@@ -642,7 +724,7 @@ impl EquationsModel {
         lu_apply(&lu, &perm, &mut qdd);
         for i in 0..C {
             if let Some(s) = f.get_mut(2 * i) {
-                *s = inputs.get(C + i).copied().unwrap_or(nan);
+                *s = x.get(2 * i + 1).copied().unwrap_or(nan);
             }
             if let Some(s) = f.get_mut(2 * i + 1) {
                 *s = qdd.get(i).copied().unwrap_or(nan);
@@ -656,7 +738,7 @@ impl EquationsModel {
             let v = if state % 2 == 0 { state / 2 } else { C + state / 2 };
             let base = (1 + v) * block;
             // A state neither M nor f depends on: a zero column.
-            if (base..base + block).all(zero) {
+            if self.jac_zero_cols >> state & 1 == 1 {
                 continue;
             }
             let mut c = [0.0; C];
@@ -769,13 +851,18 @@ fn lu_factor<const C: usize>(a: &mut [[f64; C]; C]) -> [usize; C] {
         }
         // Columns from `k` on only: the multipliers of earlier steps stay with the rows they
         // were computed for, as `lu_apply` reads them in its interleaved order.
-        if p != k {
+        // The swap with the pivot row `p > k` by constant indices (a comparison with each
+        // candidate row): no run-time indexing once the loops unroll.
+        for r in k + 1..C {
+            if r != p {
+                continue;
+            }
             for j in k..C {
-                let (x, y) = (at(a, k, j), at(a, p, j));
-                if let Some(s) = a.get_mut(k).and_then(|r| r.get_mut(j)) {
+                let (x, y) = (at(a, k, j), at(a, r, j));
+                if let Some(s) = a.get_mut(k).and_then(|row| row.get_mut(j)) {
                     *s = y;
                 }
-                if let Some(s) = a.get_mut(p).and_then(|r| r.get_mut(j)) {
+                if let Some(s) = a.get_mut(r).and_then(|row| row.get_mut(j)) {
                     *s = x;
                 }
             }
@@ -804,8 +891,11 @@ fn lu_apply<const C: usize>(a: &[[f64; C]; C], perm: &[usize; C], b: &mut [f64; 
     let at = |i: usize, j: usize| a.get(i).and_then(|r| r.get(j)).copied().unwrap_or(f64::NAN);
     for k in 0..C {
         let p = perm.get(k).copied().unwrap_or(k);
-        if p != k && p < C {
-            b.swap(k, p);
+        // As in `lu_factor`: the swap by constant indices.
+        for r in k + 1..C {
+            if r == p {
+                b.swap(k, r);
+            }
         }
         let bk = b.get(k).copied().unwrap_or(f64::NAN);
         for i in k + 1..C {
