@@ -191,11 +191,11 @@ pub struct Page {
 }
 
 impl Page {
-    /// A paragraph: the template [`PARAS`] names `id`, over `values`.
+    /// A paragraph: the template `PARAS` names `id`, over `values`.
     pub fn para(&mut self, id: &str, values: serde_json::Value) {
         self.blocks.push(serde_json::json!({ "para": id, "values": values }));
     }
-    /// A table: the header and cell templates [`TABLES`] names `id`, the header over `head`,
+    /// A table: the header and cell templates `TABLES` names `id`, the header over `head`,
     /// the cells over each of `rows`.
     pub fn table(&mut self, id: &str, head: serde_json::Value, rows: Vec<serde_json::Value>) {
         self.blocks.push(serde_json::json!({ "table": id, "head": head, "rows": rows }));
@@ -606,8 +606,8 @@ const TABLES: &[(&str, &[&str], &[&str])] = &[
 const TITLE: &str = "Chaotic statistics: data vs SSM models";
 
 /// Writes the main chaos section from the summary `s`: the blocks of `page_chaos` in order
-/// (the first the section's introduction), through [`PARAS`], [`TABLES`] and
-/// [`FIGURE_CAPTIONS`].
+/// (the first the section's introduction), through `PARAS`, `TABLES` and
+/// `FIGURE_CAPTIONS`.
 pub fn render(rep: &mut crate::report::Report, s: &serde_json::Value) -> Result<(), Box<dyn Error>> {
     let p = Prose::new();
     let blocks = key(s, "page_chaos")?.as_array().ok_or("report: page_chaos is not a list")?;
@@ -1072,7 +1072,7 @@ fn estimator_bias(
     Ok(())
 }
 
-/// The estimator-bias paragraph over [`estimator_bias`]'s values: the chaotic rows of the search
+/// The estimator-bias paragraph over `estimator_bias`'s values: the chaotic rows of the search
 /// (`rows`), the ones closest to the data (`best`, matched within `d2` and `js`), their ratio
 /// and the data exponent it implies, the joint ratio range of the targets and the rows in it.
 pub const BIAS: &str = "{% if best_count == 0 %}Estimator bias: no chaotic candidate of the search matches the data's D2 \
@@ -1519,7 +1519,7 @@ const D6: &str = "(b) d = 6";
 const D6_SCALE: usize = 3;
 
 /// `lo to hi` of a `[lo, hi]` with `n` decimals, one value when they print alike, `-` for none
-/// (the values from [`span_of`]).
+/// (the values from `span_of`).
 pub const SPAN: &str = "{% macro span(r, n) %}{% if r is none %}-{% elif (r[0] | fixed(n)) == (r[1] | fixed(n)) %}\
     {{ r[0] | fixed(n) }}{% else %}{{ r[0] | fixed(n) }} to {{ r[1] | fixed(n) }}{% endif %}{% endmacro %}";
 
@@ -1657,7 +1657,7 @@ pub fn noisy_state_values(dir: &std::path::Path) -> Result<serde_json::Value, Bo
     }))
 }
 
-/// The values of [`DIAGNOSIS`]: the groups' counts ([`diagnosis_groups`]), the ranges of their
+/// The values of [`DIAGNOSIS`]: the groups' counts (`diagnosis_groups`), the ranges of their
 /// rows' Benettin / exact, JS and Rosenstein, the noisy-state fits over noise realizations
 /// (`noisy`, [`noisy_state_values`]) and the flag's fits at the larger dimensions.
 pub fn diagnosis_values(
@@ -1961,7 +1961,7 @@ pub const EXPERIMENT_AS_MODEL: &str = "{% macro o(v, n) %}{% if v is none %}-{% 
 
 /// The values of [`EXPERIMENT_AS_MODEL`]: the runs as models of the held-out run (whole runs and
 /// pieces of the longer ones), the most overlapping pieces, the runs whose D2 moves most with
-/// their own settings, and [`BEST_ROW`] of `test_rows` placed among the whole runs.
+/// their own settings, and `BEST_ROW` of `test_rows` placed among the whole runs.
 pub fn experiment_values(
     results: &chaos_study::study_results::FlagResults,
     test_rows: &[PipelineRow],

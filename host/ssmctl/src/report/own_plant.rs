@@ -136,7 +136,7 @@ fn compute(dir: &std::path::Path, quick: bool) -> Result<Value, Box<dyn Error>> 
     }))
 }
 
-/// Writes the section's text, figures and table from its values `v` (see [`compute`]).
+/// Writes the section's text, figures and table from its values `v` (see `compute`).
 pub fn render(rep: &mut Report, v: &Value) -> Result<(), Box<dyn Error>> {
     let p = Prose::new();
     rep.section("own-plant", "Your own plant: plants written as equations", &p.html("own-plant/intro", INTRO, v)?);
