@@ -395,6 +395,8 @@ impl Tape {
                 0..=16 => return self.eval_loaded_on::<S, T, 16>(load, f),
                 17..=32 => return self.eval_loaded_on::<S, T, 32>(load, f),
                 33..=64 => return self.eval_loaded_on::<S, T, 64>(load, f),
+                65..=128 => return self.eval_loaded_on::<S, T, 128>(load, f),
+                129..=256 => return self.eval_loaded_on::<S, T, 256>(load, f),
                 _ => {}
             }
         }
