@@ -111,19 +111,19 @@ pub fn to_m<const N: usize>(x: &Cols<N>) -> M<N> {
 /// or cart position appears nowhere in the right-hand side). Zeros of either sign.
 ///
 /// Then every `phi_k(x)` has column 2 equal to `phi_k(0) e_2` (`+0.0` off the diagonal), and
-/// the products of [`phis_before_last`] skip the terms that are zero: the Horner products
+/// the products of `phis_before_last` skip the terms that are zero: the Horner products
 /// `x p` (followed by `c I + .`, which maps either zero to `+0.0`) keep 3 terms in rows 1
 /// and 3 and one in rows 0 and 2, of columns 0, 1 and 3 only; the doubling products `e m`
 /// (`e`'s column 2 is `e_2`) skip column 2. Bit for bit the full products: a zero term `t`
 /// leaves a sum `a + t` equal to `a` for `a != 0` and changes at most the sign of a zero
 /// sum, and the Horner sums end in `c + .` or `0.0 + .`, which forget that sign (see
-/// [`horner_sparse`]); a doubling product's column 2 is `+0.0` off the diagonal (one
+/// `horner_sparse`); a doubling product's column 2 is `+0.0` off the diagonal (one
 /// `+0.0 * m[2][2]` term, `m[2][2] > 0`, among zeros) and `m[2][2]` on it. This needs finite
 /// operands (`0 * inf` is NaN): the Horner stage is finite (`|x|_1 <= 1/2`), and a doubling
 /// level with a non-finite entry in a matrix leaves one in the same matrix, in columns 0, 1
 /// or 3, at every later level (each `q_k` adds `e p_k`, which spreads it over a column or a
 /// row; column 2 is never computed from it), so finite columns 0, 1, 3 at the last level
-/// mean finite operands everywhere; [`phis_before_last`] checks that (after at least one
+/// mean finite operands everywhere; `phis_before_last` checks that (after at least one
 /// doubling) and else recomputes with the full products.
 #[inline(always)]
 pub fn sparse_layout<const N: usize>(x: &Cols<N>) -> bool {

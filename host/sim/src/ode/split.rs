@@ -215,7 +215,7 @@ pub fn norm_inf<const N: usize>(a: &[f64; N]) -> f64 {
 pub type Pair<const N: usize> = (f64, [f64; N], [f64; N]);
 
 /// The dominant eigenpair of `J`: `(lambda, v, w)` with `J v = lambda v`, `w^T J = lambda w^T`,
-/// `w^T v = 1`, or `None` if power iteration does not converge to [`PAIR_TOL`] (no single real
+/// `w^T v = 1`, or `None` if power iteration does not converge to `PAIR_TOL` (no single real
 /// eigenvalue dominating) or the pair is ill-conditioned. `start` (the pair of a nearby
 /// Jacobian, e.g. the previous step's) seeds the iteration; without it, the largest column and
 /// row of `J` do.
@@ -229,7 +229,7 @@ pub fn dominant_pair<const N: usize>(jac: &[[f64; N]; N], start: Option<&Pair<N>
 /// pair; each iteration solves `(J - mu I) v' = v` and `(J - mu I)^T w' = w` with one LU.
 /// From the last step's pair (on the Furuta bench the left vector is further off than the
 /// right) the first iteration leaves the right vector at rounding and the left one close to
-/// it, the second both at rounding; the residual test `tol` (relative, as [`PAIR_TOL`]) is
+/// it, the second both at rounding; the residual test `tol` (relative, as `PAIR_TOL`) is
 /// applied after each. Power iteration takes more iterations. The pair found is an eigenpair
 /// of `J` checked by its residuals (the split is exact for any eigenpair; a pair that is not
 /// the dominant one shows as a large `|h J_s|` and the step falls back). Where the Jacobian has
@@ -361,7 +361,7 @@ pub fn second_order_pair<const N: usize>(
 
 /// [`checked_pair`] for a Jacobian with the Furuta and cart plants' layout (rows 0 and 2 the
 /// unit rows `e_1`, `e_3`, [`second_order_layout`]) and finite `v`, `w` (as
-/// [`normalized_pair`] gives): the same result bit for bit, the products with the exact zeros
+/// `normalized_pair` gives): the same result bit for bit, the products with the exact zeros
 /// and ones left out. In `matvec`'s and `matvec_t`'s sums, which start from `+0.0` and add in
 /// row (column) order, a term `0 x` is `+-0` for finite `x` and leaves the running sum as it
 /// is (the sum is never `-0`: `+0.0 + a` is `+0` for `a = -0`, and `+0 + -0 = +0`), and a term
