@@ -369,19 +369,20 @@ impl Tape {
     /// register file on the heap.
     #[inline]
     pub fn eval_with<S: Scalar, T>(&self, inputs: &[S], f: impl FnOnce(&Evaluated<'_, S>) -> T) -> T {
-        if core::mem::size_of::<S>() <= 128 {
-            match self.n_regs {
-                0..=16 => return self.eval_on::<S, T, 16>(inputs, f),
-                17..=32 => return self.eval_on::<S, T, 32>(inputs, f),
-                33..=64 => return self.eval_on::<S, T, 64>(inputs, f),
-                65..=128 => return self.eval_on::<S, T, 128>(inputs, f),
-                129..=256 => return self.eval_on::<S, T, 256>(inputs, f),
-                _ => {}
+        // Every input given (those past `n_inputs` land in registers the tape writes before
+        // it reads them), NaN for the missing ones.
+        let n_inputs = self.n_inputs;
+        let load = |regs: &mut [S]| {
+            for (r, x) in regs.iter_mut().zip(inputs) {
+                *r = *x;
             }
-        }
-        let mut regs = vec![S::cst(0.0); self.n_regs];
-        self.eval(inputs, &mut regs);
-        f(&Evaluated { regs: &regs, outputs: &self.outputs })
+            if inputs.len() < n_inputs {
+                for r in regs.iter_mut().take(n_inputs).skip(inputs.len()) {
+                    *r = S::cst(f64::NAN);
+                }
+            }
+        };
+        self.eval_loaded(load, f)
     }
 
     /// [`Tape::eval_with`] with the inputs written by `load` straight into the register
@@ -406,7 +407,9 @@ impl Tape {
         f(&Evaluated { regs: &regs, outputs: &self.outputs })
     }
 
-    /// [`Tape::eval_loaded`] on an array of `R >= n_regs` registers (see [`Tape::eval_on`]).
+    /// [`Tape::eval_loaded`] on an array of `R` registers, at least `n_regs`: every index the
+    /// tape holds is below `n_regs` ([`Tape::validate`]), so the loop reads and writes
+    /// without bounds checks.
     #[inline(always)]
     fn eval_loaded_on<S: Scalar, T, const R: usize>(
         &self,
@@ -429,27 +432,6 @@ impl Tape {
                 *o = e.output(k);
             }
         })
-    }
-
-    /// [`Tape::eval_with`] on an array of `R` registers, at least `n_regs`: every index the
-    /// tape holds is below `n_regs` ([`Tape::validate`]), so the loop reads and writes
-    /// without bounds checks.
-    #[inline(always)]
-    fn eval_on<S: Scalar, T, const R: usize>(&self, inputs: &[S], f: impl FnOnce(&Evaluated<'_, S>) -> T) -> T {
-        assert!(self.n_regs <= R, "a register file of {R} for a tape of {} registers", self.n_regs);
-        let mut regs = Fixed([S::cst(0.0); R]);
-        // Every input given (those past `n_inputs` land in registers the tape writes before
-        // it reads them), NaN for the missing ones.
-        for (r, x) in regs.0.iter_mut().zip(inputs) {
-            *r = *x;
-        }
-        if inputs.len() < self.n_inputs {
-            for r in regs.0.iter_mut().take(self.n_inputs).skip(inputs.len()) {
-                *r = S::cst(f64::NAN);
-            }
-        }
-        self.run(&mut regs);
-        f(&Evaluated { regs: &regs.0, outputs: &self.outputs })
     }
 
     /// The instruction loop over any register file.
@@ -671,7 +653,7 @@ impl<S: Scalar> Regs<S> for [S] {
     }
 }
 
-/// `R` registers, `R >= n_regs` of the tape run on them ([`Tape::eval_on`] asserts it):
+/// `R` registers, `R >= n_regs` of the tape run on them ([`Tape::eval_loaded`] asserts it):
 /// every register index of a tape is below its `n_regs` ([`Tape::validate`], and the fields
 /// are private), so every access is in bounds without a check.
 struct Fixed<S, const R: usize>([S; R]);

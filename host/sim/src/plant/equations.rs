@@ -292,8 +292,7 @@ impl EquationsModel {
         let block = roots.len();
         let mut jac_zero_cols = 0u8;
         for state in 0..2 * n {
-            let v = if state % 2 == 0 { state / 2 } else { n + state / 2 };
-            let base = (1 + v) * block;
+            let base = jac_block_start(state, n, block);
             if (base..base + block).all(|k| jac_zero.checked_shr(k as u32).unwrap_or(0) & 1 == 1) {
                 jac_zero_cols |= 1 << state;
             }
@@ -578,6 +577,7 @@ impl EquationsModel {
     /// [`lu_factor`] and [`lu_apply`], which [`solve_small`] equals to the bit).
     #[inline(always)]
     fn rhs_f64<const N: usize, const C: usize, const K: usize>(&self, x: &[f64; N], u: f64) -> [f64; N] {
+        const { assert!(K == C * (C + 1) / 2 + C, "K is the value tape's output count") };
         let o = self.tape.eval_loaded(|regs| self.load_f64::<N, C>(regs, x, u), |e| e.outputs_array::<K>());
         let out = |k: usize| o.get(k).copied().unwrap_or(f64::NAN);
         let mut lu = [[0.0; C]; C];
@@ -689,6 +689,7 @@ impl EquationsModel {
         f: &mut [f64; N],
         jac: &mut [[f64; N]; N],
     ) {
+        const { assert!(K == (C * (C + 1) / 2 + C) * (2 * C + 1), "K is the Jacobian tape's output count") };
         let o = jt.eval_loaded(|regs| self.load_f64::<N, C>(regs, x, u), |e| e.outputs_array::<K>());
         self.jacobian_from::<N, C, K>(&o, x, f, jac)
     }
@@ -735,8 +736,7 @@ impl EquationsModel {
             }
         }
         for state in 0..N {
-            let v = if state % 2 == 0 { state / 2 } else { C + state / 2 };
-            let base = (1 + v) * block;
+            let base = jac_block_start(state, C, block);
             // A state neither M nor f depends on: a zero column.
             if self.jac_zero_cols >> state & 1 == 1 {
                 continue;
@@ -761,6 +761,14 @@ impl EquationsModel {
             }
         }
     }
+}
+
+/// First output of the Jacobian tape's block for `state` (`q_i` at `2i`, `q'_i` at `2i + 1`)
+/// with `n` coordinates: the value block (`M`'s upper triangle, then `f`) comes first, then one
+/// block of `block` derivatives per tape input (`q` then `q'`).
+fn jac_block_start(state: usize, n: usize, block: usize) -> usize {
+    let input = if state % 2 == 0 { state / 2 } else { n + state / 2 };
+    (1 + input) * block
 }
 
 /// Index of `M[a][b]` (`a <= b`) in the upper triangle stored row by row.
