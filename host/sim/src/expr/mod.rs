@@ -18,7 +18,7 @@
 #![cfg_attr(not(test), deny(clippy::indexing_slicing))]
 
 mod tape;
-pub use tape::{Evaluated, Instr, MAX_REGS, Op, Tape, TapeError};
+pub use tape::{Evaluated, Instr, MAX_REGS, Op, Outputs, Tape, TapeError};
 
 use std::collections::HashMap;
 

@@ -597,6 +597,14 @@ impl<S: Scalar> Evaluated<'_, S> {
         }
     }
 
+    /// The first `K` outputs to read in place (the output count checked once), or `None`
+    /// when the tape has fewer.
+    #[inline(always)]
+    pub fn outputs_fixed<const K: usize>(&self) -> Option<Outputs<'_, S, K>> {
+        let outputs = self.outputs.get(..K)?.try_into().ok()?;
+        Some(Outputs { regs: self.regs, outputs })
+    }
+
     /// The first `K` outputs (NaN past the last), the output count checked once rather
     /// than per output.
     #[inline(always)]
@@ -612,6 +620,28 @@ impl<S: Scalar> Evaluated<'_, S> {
                 v
             }
             None => core::array::from_fn(|k| self.output(k)),
+        }
+    }
+}
+
+/// The first `K` outputs of an evaluation ([`Evaluated::outputs_fixed`]), read straight from
+/// the registers: no copy of the outputs.
+pub struct Outputs<'a, S, const K: usize> {
+    regs: &'a [S],
+    outputs: &'a [u16; K],
+}
+
+impl<S: Scalar, const K: usize> Outputs<'_, S, K> {
+    /// Output `k` (NaN for `k >= K`).
+    #[inline(always)]
+    pub fn get(&self, k: usize) -> S {
+        match self.outputs.get(k) {
+            Some(&r) => {
+                debug_assert!(usize::from(r) < self.regs.len());
+                // SAFETY: as for `Evaluated::output`.
+                *unsafe { self.regs.get_unchecked(usize::from(r)) }
+            }
+            None => S::cst(f64::NAN),
         }
     }
 }

@@ -578,8 +578,19 @@ impl EquationsModel {
     #[inline(always)]
     fn rhs_f64<const N: usize, const C: usize, const K: usize>(&self, x: &[f64; N], u: f64) -> [f64; N] {
         const { assert!(K == C * (C + 1) / 2 + C, "K is the value tape's output count") };
-        let o = self.tape.eval_loaded(|regs| self.load_f64::<N, C>(regs, x, u), |e| e.outputs_array::<K>());
-        let out = |k: usize| o.get(k).copied().unwrap_or(f64::NAN);
+        // The outputs read where the tape left them (no copy), as in `jacobian_c`.
+        self.tape.eval_loaded(
+            |regs| self.load_f64::<N, C>(regs, x, u),
+            |e| match e.outputs_fixed::<K>() {
+                Some(o) => Self::rhs_f64_from::<N, C>(|k| o.get(k), x),
+                None => Self::rhs_f64_from::<N, C>(|_| f64::NAN, x),
+            },
+        )
+    }
+
+    /// [`Self::rhs_f64`] from the evaluated value tape's outputs, `out(k)`.
+    #[inline(always)]
+    fn rhs_f64_from<const N: usize, const C: usize>(out: impl Fn(usize) -> f64, x: &[f64; N]) -> [f64; N] {
         let mut lu = [[0.0; C]; C];
         for (i, row) in lu.iter_mut().enumerate() {
             for (j, s) in row.iter_mut().enumerate() {
@@ -690,15 +701,22 @@ impl EquationsModel {
         jac: &mut [[f64; N]; N],
     ) {
         const { assert!(K == (C * (C + 1) / 2 + C) * (2 * C + 1), "K is the Jacobian tape's output count") };
-        let o = jt.eval_loaded(|regs| self.load_f64::<N, C>(regs, x, u), |e| e.outputs_array::<K>());
-        self.jacobian_from::<N, C, K>(&o, x, f, jac)
+        // The outputs read where the tape left them (no copy); a tape with fewer outputs
+        // (never compiled so) gives NaN.
+        jt.eval_loaded(
+            |regs| self.load_f64::<N, C>(regs, x, u),
+            |e| match e.outputs_fixed::<K>() {
+                Some(o) => self.jacobian_from::<N, C>(|k| o.get(k), x, f, jac),
+                None => self.jacobian_from::<N, C>(|_| f64::NAN, x, f, jac),
+            },
+        )
     }
 
-    /// [`Self::jacobian_c`] from the evaluated Jacobian tape.
+    /// [`Self::jacobian_c`] from the evaluated Jacobian tape's outputs, `out(k)`.
     #[inline(always)]
-    fn jacobian_from<const N: usize, const C: usize, const K: usize>(
+    fn jacobian_from<const N: usize, const C: usize>(
         &self,
-        o: &[f64; K],
+        out: impl Fn(usize) -> f64,
         x: &[f64; N],
         f: &mut [f64; N],
         jac: &mut [[f64; N]; N],
@@ -706,7 +724,6 @@ impl EquationsModel {
         let nan = f64::NAN;
         let nm = C * (C + 1) / 2;
         let block = nm + C;
-        let out = |k: usize| o.get(k).copied().unwrap_or(nan);
         let zero = |k: usize| self.jac_zero.checked_shr(k as u32).unwrap_or(0) & 1 == 1;
         // M factored once; q'' and every column solved with the factors (the same
         // arithmetic as `solve_small`, so q'' is the right-hand side's to the bit).

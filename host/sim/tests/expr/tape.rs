@@ -37,3 +37,21 @@ fn validation_refuses_every_out_of_range_register() {
         assert!(t.is_err(), "case {k} passed");
     }
 }
+
+/// The outputs read in place ([`sim::expr::Evaluated::outputs_fixed`]) are the outputs one by
+/// one, NaN past `K`; more than the tape has gives `None`.
+#[test]
+fn outputs_read_in_place_equal_the_outputs() {
+    let t = tape(vec![ins(Op::MulAdd(0, 1, 2), 3), ins(Op::Sub(3, 0), 2), END], vec![(2, 1.5)], 4, vec![2, 3, 0])
+        .unwrap_or_else(|e| panic!("{e}"));
+    let (fixed, one_by_one, too_many) = t.eval_with(&[2.0, -3.0], |e| {
+        let fixed = e.outputs_fixed::<3>().map(|o| [o.get(0), o.get(1), o.get(2), o.get(3)]);
+        let one_by_one = [e.output(0), e.output(1), e.output(2)];
+        (fixed, one_by_one, e.outputs_fixed::<4>().is_none())
+    });
+    let fixed = fixed.unwrap_or_else(|| panic!("three outputs"));
+    assert_eq!(one_by_one, [-6.5, -4.5, 2.0]);
+    assert_eq!(fixed[..3], one_by_one[..]);
+    assert!(fixed[3].is_nan());
+    assert!(too_many);
+}
