@@ -238,13 +238,21 @@ fn cmd(program: impl AsRef<std::ffi::OsStr>) -> Command {
 /// the environment already says: its target dir starts empty and is built once, so
 /// incremental compilation's dep-graphs and query caches would never be read, and nobody reads
 /// the workspace crates' line tables (a panic's message keeps its file:line, which comes from
-/// the panic's location, not from debug info; a backtrace keeps the function names). The
-/// dev profile too, so the Python module's `--profile dev` build keeps the test profile's
-/// settings and reuses its crates. A developer's target dir keeps both: cargo hashes them into
-/// each artifact, so switching would compile every workspace crate again.
+/// the panic's location, not from debug info; a backtrace keeps the function names). Without
+/// incremental compilation, the workspace's crates in 4 codegen units instead of 16 compile in
+/// less CPU (fewer copies of inlined generic code; the dependencies keep 16, set in
+/// `Cargo.toml`, as for them it saves nothing). The dev profile too, so the Python module's
+/// `--profile dev` build keeps the test profile's settings and reuses its crates. A developer's
+/// target dir keeps all of them: cargo hashes them into each artifact, so switching would
+/// compile every workspace crate again, and incremental builds want many codegen units.
 fn ci_build_env(ci: Option<&std::ffi::OsStr>, is_set: impl Fn(&str) -> bool) -> Vec<(&'static str, &'static str)> {
-    const CI_ENV: [(&str, &str); 3] =
-        [("CARGO_INCREMENTAL", "0"), ("CARGO_PROFILE_DEV_DEBUG", "false"), ("CARGO_PROFILE_TEST_DEBUG", "false")];
+    const CI_ENV: [(&str, &str); 5] = [
+        ("CARGO_INCREMENTAL", "0"),
+        ("CARGO_PROFILE_DEV_DEBUG", "false"),
+        ("CARGO_PROFILE_TEST_DEBUG", "false"),
+        ("CARGO_PROFILE_DEV_CODEGEN_UNITS", "4"),
+        ("CARGO_PROFILE_TEST_CODEGEN_UNITS", "4"),
+    ];
     if !ci.is_some_and(|v| !v.is_empty() && v != "false" && v != "0") {
         return Vec::new();
     }
@@ -1664,12 +1672,18 @@ mod tests {
     use super::*;
 
     #[test]
-    fn ci_builds_without_incremental_and_line_tables_unless_told() {
+    fn ci_builds_without_incremental_and_line_tables_in_4_codegen_units_unless_told() {
         let s = |v: &'static str| Some(std::ffi::OsStr::new(v));
         let keys = |ci, set: &[&str]| -> Vec<&str> {
             ci_build_env(ci, |k| set.contains(&k)).into_iter().map(|(k, _)| k).collect()
         };
-        let all = ["CARGO_INCREMENTAL", "CARGO_PROFILE_DEV_DEBUG", "CARGO_PROFILE_TEST_DEBUG"];
+        let all = [
+            "CARGO_INCREMENTAL",
+            "CARGO_PROFILE_DEV_DEBUG",
+            "CARGO_PROFILE_TEST_DEBUG",
+            "CARGO_PROFILE_DEV_CODEGEN_UNITS",
+            "CARGO_PROFILE_TEST_CODEGEN_UNITS",
+        ];
         assert_eq!(keys(s("true"), &[]), all);
         assert_eq!(keys(s("1"), &[]), all);
         for not_ci in [None, s("false"), s("0"), s("")] {
