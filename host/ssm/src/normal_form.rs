@@ -365,18 +365,29 @@ pub fn compose(f: &[SPoly], sub: &[SPoly], nvar: usize, maxdeg: u32) -> Vec<SPol
         }
         powers.push(v);
     }
+    let unit = one(nvar);
     f.iter()
         .map(|fi| {
             let mut out = SPoly::new();
+            // A monomial's term is the product of its factors `sub[j]^k` taken in `j`'s order
+            // from 1; the monomials come in exponent order, so neighbours share their leading
+            // factors: `prefix[m]` is the product of the first `m + 1` factors of the last
+            // monomial (`factors` them), reused while they agree (the same products).
+            let mut factors: Vec<(usize, u32)> = Vec::new();
+            let mut prefix: Vec<SPoly> = Vec::new();
+            let mut next: Vec<(usize, u32)> = Vec::new();
             // `sub` has no constant terms, so monomials above `maxdeg` contribute nothing.
             for (e, c) in fi.iter().filter(|(e, _)| deg(e) <= maxdeg) {
-                let mut term = one(nvar);
-                for (j, &k) in e.iter().enumerate() {
-                    if k > 0 {
-                        term = mul(&term, &powers[j][k as usize], maxdeg);
-                    }
+                next.clear();
+                next.extend(e.iter().enumerate().filter(|(_, k)| **k > 0).map(|(j, &k)| (j, k)));
+                let same = factors.iter().zip(&next).take_while(|(a, b)| a == b).count();
+                prefix.truncate(same);
+                for &(j, k) in &next[same..] {
+                    let term = mul(prefix.last().unwrap_or(&unit), &powers[j][k as usize], maxdeg);
+                    prefix.push(term);
                 }
-                add_into(&mut out, &term, *c);
+                std::mem::swap(&mut factors, &mut next);
+                add_into(&mut out, prefix.last().unwrap_or(&unit), *c);
             }
             out
         })
