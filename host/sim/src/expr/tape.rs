@@ -585,16 +585,7 @@ impl<S: Scalar> Evaluated<'_, S> {
     /// Output `k` (NaN past the last).
     #[inline(always)]
     pub fn output(&self, k: usize) -> S {
-        match self.outputs.get(k) {
-            Some(&r) => {
-                debug_assert!(usize::from(r) < self.regs.len());
-                // SAFETY: an `Evaluated` is built only by `Tape::eval_with` over at least the
-                // tape's `n_regs` registers, and every output register is below `n_regs`
-                // (`Tape::validate`).
-                *unsafe { self.regs.get_unchecked(usize::from(r)) }
-            }
-            None => S::cst(f64::NAN),
-        }
+        read_output(self.regs, self.outputs, k)
     }
 
     /// The first `K` outputs to read in place (the output count checked once), or `None`
@@ -603,24 +594,6 @@ impl<S: Scalar> Evaluated<'_, S> {
     pub fn outputs_fixed<const K: usize>(&self) -> Option<Outputs<'_, S, K>> {
         let outputs = self.outputs.get(..K)?.try_into().ok()?;
         Some(Outputs { regs: self.regs, outputs })
-    }
-
-    /// The first `K` outputs (NaN past the last), the output count checked once rather
-    /// than per output.
-    #[inline(always)]
-    pub fn outputs_array<const K: usize>(&self) -> [S; K] {
-        match self.outputs.get(..K) {
-            Some(outs) => {
-                let mut v = [S::cst(0.0); K];
-                for (d, &r) in v.iter_mut().zip(outs) {
-                    debug_assert!(usize::from(r) < self.regs.len());
-                    // SAFETY: as for `output`.
-                    *d = *unsafe { self.regs.get_unchecked(usize::from(r)) };
-                }
-                v
-            }
-            None => core::array::from_fn(|k| self.output(k)),
-        }
     }
 }
 
@@ -635,14 +608,22 @@ impl<S: Scalar, const K: usize> Outputs<'_, S, K> {
     /// Output `k` (NaN for `k >= K`).
     #[inline(always)]
     pub fn get(&self, k: usize) -> S {
-        match self.outputs.get(k) {
-            Some(&r) => {
-                debug_assert!(usize::from(r) < self.regs.len());
-                // SAFETY: as for `Evaluated::output`.
-                *unsafe { self.regs.get_unchecked(usize::from(r)) }
-            }
-            None => S::cst(f64::NAN),
+        read_output(self.regs, self.outputs, k)
+    }
+}
+
+/// Output `k` of an evaluation over `regs` (NaN past the last of `outputs`).
+#[inline(always)]
+fn read_output<S: Scalar>(regs: &[S], outputs: &[u16], k: usize) -> S {
+    match outputs.get(k) {
+        Some(&r) => {
+            debug_assert!(usize::from(r) < regs.len());
+            // SAFETY: `Evaluated` and `Outputs` are built only by `Tape::eval_loaded` over at
+            // least the tape's `n_regs` registers, with the tape's outputs, and every output
+            // register is below `n_regs` (`Tape::validate`).
+            *unsafe { regs.get_unchecked(usize::from(r)) }
         }
+        None => S::cst(f64::NAN),
     }
 }
 
