@@ -39,7 +39,8 @@
 //!   dir, each board's images copied to `qemu/target/images/BOARD/`) run while cargo builds
 //!   the host tests; then
 //!   `cargo test --workspace`, clippy + `cargo doc` (in the host build's target dir, reusing its
-//!   proc macros and build scripts), the Python module and pytest, qemu-test on both
+//!   proc macros and build scripts; with `CI` set, inside the host build through the xtask as
+//!   compiler wrapper, `wrap.rs`), the Python module and pytest, qemu-test on both
 //!   machines side by side, device-table (counted as one on-target test, see
 //!   `device_table::check`), a 2,000-period PIL run (one more), a 500-period PIL run of the
 //!   STM32F407 image on `netduinoplus2` over USART1 (one more), 300-period PIL runs of the four
@@ -91,6 +92,7 @@ mod steps;
 mod test_cpu;
 mod traces;
 mod vectors;
+mod wrap;
 
 use std::path::{Path, PathBuf};
 use std::process::{Command, ExitCode, Stdio};
@@ -174,6 +176,10 @@ fn qemu_dir() -> PathBuf {
 type Result<T> = std::result::Result<T, String>;
 
 fn main() -> ExitCode {
+    let raw: Vec<std::ffi::OsString> = std::env::args_os().collect();
+    if wrap::is_wrapper_call(&raw) {
+        return wrap::main(raw);
+    }
     let args: Vec<String> = std::env::args().skip(1).collect();
     let result = match args.first().map(String::as_str) {
         Some("install") => install(),
@@ -231,7 +237,24 @@ fn cmd(program: impl AsRef<std::ffi::OsStr>) -> Command {
     for (key, value) in ci_build_env(std::env::var_os("CI").as_deref(), |k| std::env::var_os(k).is_some()) {
         c.env(key, value);
     }
+    if let Some(exe) = ci_wrapper() {
+        c.env("RUSTC_WORKSPACE_WRAPPER", exe);
+    }
     c
+}
+
+/// In a CI run, the xtask itself as the workspace crates' compiler wrapper (`wrap.rs`), for
+/// every cargo it starts: cargo hashes the wrapper into each workspace artifact, so the host
+/// build, the test listing, the PIL and Slurm `ssmctl` and the Python module's build share
+/// them. Only the host build asks it for more than compiling (the lints, the API docs and the
+/// lab check of [`ci_wrapper_plan`]). `None` outside CI, or when the environment names a
+/// wrapper already.
+fn ci_wrapper() -> Option<PathBuf> {
+    let ci = std::env::var_os("CI");
+    if ci_build_env(ci.as_deref(), |_| false).is_empty() || std::env::var_os("RUSTC_WORKSPACE_WRAPPER").is_some() {
+        return None;
+    }
+    std::env::current_exe().ok()
 }
 
 /// What a CI run (`CI` set and not `false` or `0`) sets for the cargo it starts, each unless
@@ -1223,13 +1246,18 @@ fn clippy_lints(log_dir: &Path) -> Result<()> {
 /// part of a workspace crate's artifact hash, so doc and the lab check run with it too and
 /// reuse the checks the lint step made instead of checking every workspace crate again.
 fn clippy_env(c: &mut Command) -> Result<()> {
+    c.env("RUSTC_WORKSPACE_WRAPPER", clippy_driver()?).env("CLIPPY_ARGS", wrap::CLIPPY_ARGS);
+    Ok(())
+}
+
+/// The toolchain's `clippy-driver`.
+fn clippy_driver() -> Result<PathBuf> {
     let sysroot = output(cmd("rustc").args(["--print", "sysroot"])).ok_or("`rustc --print sysroot` failed")?;
     let driver = Path::new(sysroot.trim()).join("bin").join("clippy-driver");
     if !driver.exists() {
         return Err(format!("{} is missing (rustup component add clippy)", driver.display()));
     }
-    c.env("RUSTC_WORKSPACE_WRAPPER", driver).env("CLIPPY_ARGS", "-A__CLIPPY_HACKERY__clippy::all__CLIPPY_HACKERY__");
-    Ok(())
+    Ok(driver)
 }
 
 /// The API documentation builds without a warning (broken or ambiguous intra-doc links,
@@ -1278,6 +1306,44 @@ fn steps_json_path() -> PathBuf {
 fn host_build() -> Result<PathBuf> {
     run(cmd("cargo").current_dir(root()).args(["test", "--workspace", "--exclude", "lab", "--no-run", "--timings"]))?;
     ssmctl_bin(Host::Test)
+}
+
+/// The host build of a CI run: [`host_build`] with the lab's programs, its compiler wrapper
+/// (`wrap.rs`) checking the lint policy of [`clippy_lints`] and the API docs of
+/// [`doc_links`] beside each documented crate's compile, and the lab's programs compiled to
+/// metadata only, as [`lab_check`] does: one front-end pass over the dependencies instead of
+/// a second one in check units. A lint or a doc warning fails this build, naming the crate.
+fn host_build_checked(plan: &wrap::Plan) -> Result<PathBuf> {
+    std::fs::create_dir_all(&plan.lint_dir).map_err(|e| format!("{}: {e}", plan.lint_dir.display()))?;
+    let mut c = cmd("cargo");
+    c.current_dir(root()).args(["test", "--workspace", "--no-run", "--timings"]).envs(plan.env());
+    run(&mut c).map_err(|e| {
+        format!(
+            "{e} (the build also holds the lint policy of {} and the API docs of {} without warnings: see the wrapper's messages above)",
+            LINTED_CRATES.join(", "),
+            DOCUMENTED_CRATES.join(", ")
+        )
+    })?;
+    println!("clippy: lint policy holds in {}", LINTED_CRATES.join(", "));
+    println!("doc: the API documentation of {} builds without warnings", DOCUMENTED_CRATES.join(", "));
+    println!("lab: the research and profiling programs compile");
+    ssmctl_bin(Host::Test)
+}
+
+/// What a CI run's host build asks of its wrapper: lint and document the documented crates,
+/// check the lab (needs clippy, from the rustup step). `None` outside CI.
+fn ci_wrapper_plan() -> Result<Option<wrap::Plan>> {
+    if ci_wrapper().is_none() {
+        return Ok(None);
+    }
+    let target = root().join("target");
+    Ok(Some(wrap::Plan {
+        lint_doc: DOCUMENTED_CRATES.iter().map(|s| s.to_string()).collect(),
+        check_only: vec!["lab".to_string()],
+        clippy: clippy_driver()?,
+        doc_dir: target.join("doc"),
+        lint_dir: target.join("xtask-lint"),
+    }))
 }
 
 /// The workspace's crates (package names as cargo's timings report them).
@@ -1492,7 +1558,11 @@ fn test_all() -> Result<()> {
         });
         // Lints, docs and the lab check in the host build's target dir, reusing its proc macros
         // and build scripts: after the host build and the cargo runs that wait for it.
+        // A CI run checks them inside the host build instead (`host_build_checked`).
         s.spawn(|| {
+            if ci_wrapper().is_some() {
+                return;
+            }
             let _ = host.wait();
             listed.wait();
             module_built.wait();
@@ -1606,7 +1676,17 @@ fn test_all() -> Result<()> {
             record("slurm-test", r);
         });
         // The host build and tests, on this thread.
-        let built = steps.run("host build (cargo test --no-run, test profile)", host_build);
+        let built = if ci_wrapper().is_some() {
+            after(&tools, "rustup").and_then(|()| ci_wrapper_plan()).and_then(|plan| match plan {
+                Some(plan) => steps
+                    .run("host build (cargo test --no-run, test profile; lint policy, API docs, lab check)", || {
+                        host_build_checked(&plan)
+                    }),
+                None => steps.run("host build (cargo test --no-run, test profile)", host_build),
+            })
+        } else {
+            steps.run("host build (cargo test --no-run, test profile)", host_build)
+        };
         host.set(built.clone());
         let tests = after(&host, "host build").and_then(|_| {
             steps.run(HOST_TESTS_STEP, || {
