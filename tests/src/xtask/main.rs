@@ -849,11 +849,17 @@ fn ssmctl_pil(tools: &PilTools, r: &PilRun<'_>, fresh: bool) -> Result<(serde_js
     }
     c.args(["--periods", &periods_arg]).arg("--out").arg(&r.out).arg("--elf").arg(elf);
     c.args(["--machine", tools.board.pil_machine()]);
+    // Beside the test binaries on a loaded two-core machine the emulator can wait seconds for
+    // the CPU: a longer wait per reply than the interactive default, a hung device still fails.
+    c.args(["--timeout", PIL_REPLY_TIMEOUT_S]);
     run(&mut c)?;
     let v = summary(&r.out)?;
     cache::store(&r.out, &key)?;
     Ok((v, false))
 }
+
+/// Seconds the xtask's PIL runs wait for each reply of the device (`ssmctl pil --timeout`).
+const PIL_REPLY_TIMEOUT_S: &str = "60";
 
 /// The bundled plants written as equations, with the encoders, DAC and saturation a device
 /// needs (`--set` overrides: the scenes themselves control exactly). Resolutions: pi/2000 rad
