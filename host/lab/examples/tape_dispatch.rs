@@ -87,12 +87,6 @@ fn remap(op: Op, map: &mut dyn FnMut(u16) -> u16) -> Op {
         Op::MulMulCAddC(a, b, k1, k2) => Op::MulMulCAddC(m(a), m(b), k1, k2),
         Op::SubMulMul(c, a, b, d) => Op::SubMulMul(m(c), m(a), m(b), m(d)),
         Op::SubMulCMul(c, a, k, b) => Op::SubMulCMul(m(c), m(a), k, m(b)),
-        Op::NegMul(a, b) => Op::NegMul(m(a), m(b)),
-        Op::NegMulMul(a, b, c) => Op::NegMulMul(m(a), m(b), m(c)),
-        Op::MulMulC(a, b, k) => Op::MulMulC(m(a), m(b), k),
-        Op::MulCMulC(a, k1, b, k2) => Op::MulCMulC(m(a), k1, m(b), k2),
-        Op::SubMulMulC(c, a, b, k) => Op::SubMulMulC(m(c), m(a), m(b), k),
-        Op::RSubCSubC(k1, a, k2) => Op::RSubCSubC(k1, m(a), k2),
         Op::End => Op::End,
     }
 }
@@ -211,12 +205,6 @@ fn exec(op: Op, r: &mut [f64], dst2: usize) -> f64 {
         Op::MulMulCAddC(a, b, k1, k2) => g(r, a) * g(r, b) * k1 + k2,
         Op::SubMulMul(c, a, b, d) => g(r, c) - g(r, a) * g(r, b) * g(r, d),
         Op::SubMulCMul(c, a, k, b) => g(r, c) - g(r, a) * k * g(r, b),
-        Op::NegMul(a, b) => -(g(r, a) * g(r, b)),
-        Op::NegMulMul(a, b, c) => -(g(r, a) * g(r, b) * g(r, c)),
-        Op::MulMulC(a, b, k) => g(r, a) * (g(r, b) * k),
-        Op::MulCMulC(a, k1, b, k2) => g(r, a) * k1 * g(r, b) * k2,
-        Op::SubMulMulC(c, a, b, k) => g(r, c) - g(r, a) * (g(r, b) * k),
-        Op::RSubCSubC(k1, a, k2) => -g(r, a) + k1 - k2,
         _ => f64::NAN,
     }
 }
@@ -296,12 +284,6 @@ fn handler_of(op: Op) -> Handler {
         Op::MulMulCAddC(..) => handler!(Op::MulMulCAddC(..)),
         Op::SubMulMul(..) => handler!(Op::SubMulMul(..)),
         Op::SubMulCMul(..) => handler!(Op::SubMulCMul(..)),
-        Op::NegMul(..) => handler!(Op::NegMul(..)),
-        Op::NegMulMul(..) => handler!(Op::NegMulMul(..)),
-        Op::MulMulC(..) => handler!(Op::MulMulC(..)),
-        Op::MulCMulC(..) => handler!(Op::MulCMulC(..)),
-        Op::SubMulMulC(..) => handler!(Op::SubMulMulC(..)),
-        Op::RSubCSubC(..) => handler!(Op::RSubCSubC(..)),
         _ => handler!(Op::End),
     }
 }
@@ -366,13 +348,7 @@ fn run_batched(p: &Program, ins: &[Ins], runs: &[(usize, usize)], inputs: &[f64]
             Op::DotMCSub(..),
             Op::MulMulCAddC(..),
             Op::SubMulMul(..),
-            Op::SubMulCMul(..),
-            Op::NegMul(..),
-            Op::NegMulMul(..),
-            Op::MulMulC(..),
-            Op::MulCMulC(..),
-            Op::SubMulMulC(..),
-            Op::RSubCSubC(..)
+            Op::SubMulCMul(..)
         );
     }
     for (o, &r) in out.iter_mut().zip(&p.outputs) {

@@ -8,9 +8,7 @@
 //! uses them (`a + (-b)` is `a - b`, `(-a)*c` is `a*(-c)`), integer powers as the same
 //! products `powi` forms, and an operation fused with the product feeding it when that
 //! product has no other use (`a*b + c` as one instruction: the same two roundings, one
-//! dispatch), and likewise a fused product chain with its one user (`c - (a*b)*d`), a
-//! product with the negation of it (`-(a*b)`) and a scaled factor with its product
-//! (`a*(b*k)`).
+//! dispatch), and likewise a fused product chain with its one user (`c - (a*b)*d`).
 //! Registers are reused once a value is dead; the inputs occupy the first
 //! registers. Evaluation is a loop over the tape, generic over [`Scalar`]; small scalars
 //! (`f64`, dual numbers) run on a register array on the stack whose size is a power of
@@ -87,18 +85,6 @@ pub enum Op {
     SubMulMul(u16, u16, u16, u16),
     /// `c - (a*k)*b` (operands `c, a, k, b`).
     SubMulCMul(u16, u16, f64, u16),
-    /// `-(a*b)`.
-    NegMul(u16, u16),
-    /// `-((a*b)*c)`.
-    NegMulMul(u16, u16, u16),
-    /// `a*(b*k)`.
-    MulMulC(u16, u16, f64),
-    /// `((a*k1)*b)*k2`.
-    MulCMulC(u16, f64, u16, f64),
-    /// `c - a*(b*k)` (operands `c, a, b, k`).
-    SubMulMulC(u16, u16, u16, f64),
-    /// `(k1 - a) - k2`.
-    RSubCSubC(f64, u16, f64),
     /// The end of the tape: its last instruction, and only there (the evaluation loop
     /// stops on it instead of testing for the end at every instruction).
     End,
@@ -119,8 +105,7 @@ impl Op {
             | Op::PowC(a, _)
             | Op::Fn1(_, a)
             | Op::SinCos(a)
-            | Op::MulCAddC(a, _, _)
-            | Op::RSubCSubC(_, a, _) => out.push(a),
+            | Op::MulCAddC(a, _, _) => out.push(a),
             Op::Add(a, b)
             | Op::Sub(a, b)
             | Op::Mul(a, b)
@@ -132,10 +117,7 @@ impl Op {
             | Op::MulCMul(a, _, b)
             | Op::DotCAdd(a, _, b, _)
             | Op::DotCSub(a, _, b, _)
-            | Op::MulMulCAddC(a, b, _, _)
-            | Op::NegMul(a, b)
-            | Op::MulMulC(a, b, _)
-            | Op::MulCMulC(a, _, b, _) => out.extend([a, b]),
+            | Op::MulMulCAddC(a, b, _, _) => out.extend([a, b]),
             Op::MulAdd(a, b, c)
             | Op::MulSub(a, b, c)
             | Op::SubMul(a, b, c)
@@ -143,9 +125,7 @@ impl Op {
             | Op::DotMCAdd(a, b, c, _)
             | Op::DotMCSub(a, b, c, _)
             | Op::DotCMSub(a, _, b, c)
-            | Op::SubMulCMul(a, b, _, c)
-            | Op::NegMulMul(a, b, c)
-            | Op::SubMulMulC(a, b, c, _) => out.extend([a, b, c]),
+            | Op::SubMulCMul(a, b, _, c) => out.extend([a, b, c]),
             Op::Sel(a, b, c, d) | Op::DotAdd(a, b, c, d) | Op::DotSub(a, b, c, d) | Op::SubMulMul(a, b, c, d) => {
                 out.extend([a, b, c, d])
             }
@@ -573,25 +553,6 @@ impl Tape {
                     let q = regs.with1(b, |z| p.mul_ref(z));
                     regs.with1(c, |z| z.sub_ref(&q))
                 }
-                Op::NegMul(a, b) => -regs.with2(a, b, |x, y| x.mul_ref(y)),
-                Op::NegMulMul(a, b, c) => {
-                    let p = regs.with2(a, b, |x, y| x.mul_ref(y));
-                    -regs.with1(c, |z| p.mul_ref(z))
-                }
-                Op::MulMulC(a, b, k) => {
-                    let p = regs.with1(b, |x| x.scaled(k));
-                    regs.with1(a, |z| z.mul_ref(&p))
-                }
-                Op::MulCMulC(a, k1, b, k2) => {
-                    let p = regs.with1(a, |x| x.scaled(k1));
-                    regs.with1(b, |z| p.mul_ref(z)).scaled(k2)
-                }
-                Op::SubMulMulC(c, a, b, k) => {
-                    let p = regs.with1(b, |x| x.scaled(k));
-                    let q = regs.with1(a, |z| z.mul_ref(&p));
-                    regs.with1(c, |z| z.sub_ref(&q))
-                }
-                Op::RSubCSubC(k1, a, k2) => -regs.read(a) + k1 - k2,
             };
             regs.put(ins.dst, value);
         }
@@ -899,12 +860,6 @@ enum SsaOp {
     MulMulCAddC(Val, Val, f64, f64),
     SubMulMul(Val, Val, Val, Val),
     SubMulCMul(Val, Val, f64, Val),
-    NegMul(Val, Val),
-    NegMulMul(Val, Val, Val),
-    MulMulC(Val, Val, f64),
-    MulCMulC(Val, f64, Val, f64),
-    SubMulMulC(Val, Val, Val, f64),
-    RSubCSubC(f64, Val, f64),
 }
 
 /// Hash key of an operation: a tag and up to four words (values and constants by bits).
@@ -920,16 +875,11 @@ impl SsaOp {
             | SsaOp::MulCMul(a, _, b)
             | SsaOp::DotCAdd(a, _, b, _)
             | SsaOp::DotCSub(a, _, b, _)
-            | SsaOp::MulMulCAddC(a, b, _, _)
-            | SsaOp::NegMul(a, b)
-            | SsaOp::MulMulC(a, b, _)
-            | SsaOp::MulCMulC(a, _, b, _) => vec![a, b],
+            | SsaOp::MulMulCAddC(a, b, _, _) => vec![a, b],
             SsaOp::DotMCAdd(a, b, c, _)
             | SsaOp::DotMCSub(a, b, c, _)
             | SsaOp::DotCMSub(a, _, b, c)
-            | SsaOp::SubMulCMul(a, b, _, c)
-            | SsaOp::NegMulMul(a, b, c)
-            | SsaOp::SubMulMulC(a, b, c, _) => vec![a, b, c],
+            | SsaOp::SubMulCMul(a, b, _, c) => vec![a, b, c],
             SsaOp::DotAdd(a, b, c, d) | SsaOp::DotSub(a, b, c, d) | SsaOp::SubMulMul(a, b, c, d) => vec![a, b, c, d],
             SsaOp::Neg(a)
             | SsaOp::AddC(a, _)
@@ -942,8 +892,7 @@ impl SsaOp {
             | SsaOp::PowC(a, _)
             | SsaOp::Fn1(_, a)
             | SsaOp::SinCos(a)
-            | SsaOp::MulCAddC(a, _, _)
-            | SsaOp::RSubCSubC(_, a, _) => vec![a],
+            | SsaOp::MulCAddC(a, _, _) => vec![a],
             SsaOp::Sel(a, b, t, f) => vec![a, b, t, f],
             SsaOp::MulAdd(a, b, c) | SsaOp::MulSub(a, b, c) | SsaOp::SubMul(a, b, c) | SsaOp::MulMul(a, b, c) => {
                 vec![a, b, c]
@@ -993,12 +942,6 @@ impl SsaOp {
             SsaOp::MulMulCAddC(a, b, k1, k2) => (38, [v(a), v(b), c(k1), c(k2)]),
             SsaOp::SubMulMul(x, a, b, y) => (39, [v(x), v(a), v(b), v(y)]),
             SsaOp::SubMulCMul(x, a, k, b) => (40, [v(x), v(a), c(k), v(b)]),
-            SsaOp::NegMul(a, b) => (41, [v(a), v(b), z, z]),
-            SsaOp::NegMulMul(a, b, x) => (42, [v(a), v(b), v(x), z]),
-            SsaOp::MulMulC(a, b, k) => (43, [v(a), v(b), c(k), z]),
-            SsaOp::MulCMulC(a, k1, b, k2) => (44, [v(a), c(k1), v(b), c(k2)]),
-            SsaOp::SubMulMulC(x, a, b, k) => (45, [v(x), v(a), v(b), c(k)]),
-            SsaOp::RSubCSubC(k1, a, k2) => (46, [v(a), c(k1), c(k2), z]),
         }
     }
 }
@@ -1256,10 +1199,7 @@ impl Ssa {
 
     /// After [`Ssa::fuse`]: fuses a fused product chain into its one user, when nothing
     /// else reads it (`(a*b)*k1 + k2` from a square scaled and shifted, `c - (a*b)*d` and
-    /// `c - (a*k)*b`), and likewise a product into a negation (`-(a*b)`, `-((a*b)*c)`), a
-    /// scaled factor into its product (`a*(b*k)`, `c - a*(b*k)`, `((a*k1)*b)*k2`) and
-    /// `k1 - a` into `(k1 - a) - k2`; each evaluated in the operations' original order:
-    /// the same roundings.
+    /// `c - (a*k)*b`), evaluated in the operations' original order: the same roundings.
     fn fuse_chains(&mut self, outputs: &[Val]) {
         let uses = self.uses(outputs);
         for j in 0..self.prog.len() {
@@ -1275,29 +1215,6 @@ impl Ssa {
                 SsaOp::Bin(BinOp::Sub, c, y) if c != y => match self.single_use(&uses, y) {
                     Some((k, SsaOp::MulMul(a, b, d))) => Some((k, SsaOp::SubMulMul(c, a, b, d))),
                     Some((k, SsaOp::MulCMul(a, q, b))) => Some((k, SsaOp::SubMulCMul(c, a, q, b))),
-                    _ => None,
-                },
-                // A negated product (one the negation could not move into a constant).
-                SsaOp::Neg(x) => match self.single_use(&uses, x) {
-                    Some((k, SsaOp::Bin(BinOp::Mul, a, b))) => Some((k, SsaOp::NegMul(a, b))),
-                    Some((k, SsaOp::MulMul(a, b, c))) => Some((k, SsaOp::NegMulMul(a, b, c))),
-                    _ => None,
-                },
-                // A product whose second factor is a scaled value: `a*(b*k)`.
-                SsaOp::Bin(BinOp::Mul, a, y) if a != y => match self.single_use(&uses, y) {
-                    Some((k, SsaOp::MulC(b, q))) => Some((k, SsaOp::MulMulC(a, b, q))),
-                    _ => None,
-                },
-                SsaOp::MulC(x, k2) => match self.single_use(&uses, x) {
-                    Some((k, SsaOp::MulCMul(a, k1, b))) => Some((k, SsaOp::MulCMulC(a, k1, b, k2))),
-                    _ => None,
-                },
-                SsaOp::SubMul(c, a, y) if c != y && a != y => match self.single_use(&uses, y) {
-                    Some((k, SsaOp::MulC(b, q))) => Some((k, SsaOp::SubMulMulC(c, a, b, q))),
-                    _ => None,
-                },
-                SsaOp::SubC(x, k2) => match self.single_use(&uses, x) {
-                    Some((k, SsaOp::RSubC(k1, a))) => Some((k, SsaOp::RSubCSubC(k1, a, k2))),
                     _ => None,
                 },
                 _ => None,
@@ -1455,12 +1372,6 @@ impl Ssa {
                 SsaOp::MulMulCAddC(a, b, k1, k2) => Op::MulMulCAddC(r(a), r(b), k1, k2),
                 SsaOp::SubMulMul(c, a, b, d) => Op::SubMulMul(r(c), r(a), r(b), r(d)),
                 SsaOp::SubMulCMul(c, a, k, b) => Op::SubMulCMul(r(c), r(a), k, r(b)),
-                SsaOp::NegMul(a, b) => Op::NegMul(r(a), r(b)),
-                SsaOp::NegMulMul(a, b, c) => Op::NegMulMul(r(a), r(b), r(c)),
-                SsaOp::MulMulC(a, b, k) => Op::MulMulC(r(a), r(b), k),
-                SsaOp::MulCMulC(a, k1, b, k2) => Op::MulCMulC(r(a), k1, r(b), k2),
-                SsaOp::SubMulMulC(c, a, b, k) => Op::SubMulMulC(r(c), r(a), r(b), k),
-                SsaOp::RSubCSubC(k1, a, k2) => Op::RSubCSubC(k1, r(a), k2),
             };
             // Free operands whose last use is here (before choosing the destination: an
             // instruction may overwrite its own operand, the evaluation reads them first).
