@@ -16,8 +16,10 @@ use std::ffi::{OsStr, OsString};
 use std::path::{Path, PathBuf};
 use std::process::{Command, ExitCode, Stdio};
 
-/// Packages whose library is linted and documented (comma-separated).
-pub const ENV_LINT_DOC: &str = "XTASK_WRAP_LINT_DOC";
+/// Packages whose library is linted (comma-separated).
+pub const ENV_LINT: &str = "XTASK_WRAP_LINT";
+/// Packages whose library is documented (comma-separated).
+pub const ENV_DOC: &str = "XTASK_WRAP_DOC";
 /// Packages compiled to metadata only (comma-separated).
 pub const ENV_CHECK_ONLY: &str = "XTASK_WRAP_CHECK_ONLY";
 /// The `clippy-driver` that lints.
@@ -39,7 +41,8 @@ pub fn is_wrapper_call(args: &[OsString]) -> bool {
 /// What the host build asks of the wrapper.
 #[derive(Debug, Clone, Default, PartialEq)]
 pub struct Plan {
-    pub lint_doc: Vec<String>,
+    pub lint: Vec<String>,
+    pub doc: Vec<String>,
     pub check_only: Vec<String>,
     pub clippy: PathBuf,
     pub doc_dir: PathBuf,
@@ -52,24 +55,23 @@ impl Plan {
         let list = |k: &str| -> Vec<String> {
             std::env::var(k).unwrap_or_default().split(',').filter(|s| !s.is_empty()).map(str::to_string).collect()
         };
-        let (lint_doc, check_only) = (list(ENV_LINT_DOC), list(ENV_CHECK_ONLY));
-        if lint_doc.is_empty() && check_only.is_empty() {
+        let (lint, doc, check_only) = (list(ENV_LINT), list(ENV_DOC), list(ENV_CHECK_ONLY));
+        if lint.is_empty() && doc.is_empty() && check_only.is_empty() {
             return Ok(None);
         }
         let path =
             |k: &str| std::env::var_os(k).map(PathBuf::from).ok_or_else(|| format!("xtask wrapper: {k} is not set"));
-        let (clippy, doc_dir, lint_dir) = if lint_doc.is_empty() {
-            Default::default()
-        } else {
-            (path(ENV_CLIPPY)?, path(ENV_DOC_DIR)?, path(ENV_LINT_DIR)?)
-        };
-        Ok(Some(Plan { lint_doc, check_only, clippy, doc_dir, lint_dir }))
+        let (clippy, lint_dir) =
+            if lint.is_empty() { Default::default() } else { (path(ENV_CLIPPY)?, path(ENV_LINT_DIR)?) };
+        let doc_dir = if doc.is_empty() { PathBuf::new() } else { path(ENV_DOC_DIR)? };
+        Ok(Some(Plan { lint, doc, check_only, clippy, doc_dir, lint_dir }))
     }
 
     /// The environment that asks for this plan.
     pub fn env(&self) -> Vec<(&'static str, OsString)> {
         vec![
-            (ENV_LINT_DOC, self.lint_doc.join(",").into()),
+            (ENV_LINT, self.lint.join(",").into()),
+            (ENV_DOC, self.doc.join(",").into()),
             (ENV_CHECK_ONLY, self.check_only.join(",").into()),
             (ENV_CLIPPY, self.clippy.clone().into()),
             (ENV_DOC_DIR, self.doc_dir.clone().into()),
@@ -273,45 +275,44 @@ fn compile(
         return Ok(code);
     }
     let is_lib = u.crate_types.iter().any(|t| t == "lib" || t == "rlib");
-    if !(plan.lint_doc.iter().any(|p| p == package) && is_lib && !u.is_test) {
+    let lint = plan.lint.iter().any(|p| p == package) && is_lib && !u.is_test;
+    let doc = plan.doc.iter().any(|p| p == package) && is_lib && !u.is_test;
+    if !lint && !doc {
         return status(Command::new(rustc).args(rest));
     }
-    std::fs::create_dir_all(&plan.lint_dir).map_err(|e| format!("{}: {e}", plan.lint_dir.display()))?;
-    let rustdoc = rustc.with_file_name(match rustc.extension() {
-        Some(ext) => format!("rustdoc.{}", ext.to_string_lossy()),
-        None => "rustdoc".into(),
-    });
     let spawn = |c: &mut Command, what: &str| c.spawn().map_err(|e| format!("cannot start {what}: {e}"));
     let mut build = spawn(Command::new(rustc).args(rest), "rustc")?;
-    let lint = spawn(
-        Command::new(&plan.clippy)
-            .arg(rustc)
-            .args(clippy_args(&text, &plan.lint_dir))
-            .env("CLIPPY_ARGS", CLIPPY_ARGS)
-            .stdout(Stdio::piped())
-            .stderr(Stdio::piped()),
-        "clippy-driver",
-    )?;
-    let doc = spawn(
-        Command::new(&rustdoc)
-            .args(rustdoc_args(&text, &plan.doc_dir, version))
-            .stdout(Stdio::piped())
-            .stderr(Stdio::piped()),
-        "rustdoc",
-    )?;
-    let built = build.wait().map_err(|e| format!("rustc: {e}"))?;
-    let lint = lint.wait_with_output().map_err(|e| format!("clippy-driver: {e}"))?;
-    let doc = doc.wait_with_output().map_err(|e| format!("rustdoc: {e}"))?;
-    if !built.success() {
-        return Ok(exit_code(built));
+    let mut checks = Vec::new();
+    if lint {
+        std::fs::create_dir_all(&plan.lint_dir).map_err(|e| format!("{}: {e}", plan.lint_dir.display()))?;
+        let mut c = Command::new(&plan.clippy);
+        c.arg(rustc).args(clippy_args(&text, &plan.lint_dir)).env("CLIPPY_ARGS", CLIPPY_ARGS);
+        checks.push((
+            "clippy (the crate's lint policy)",
+            spawn(c.stdout(Stdio::piped()).stderr(Stdio::piped()), "clippy-driver")?,
+        ));
     }
+    if doc {
+        let rustdoc = rustc.with_file_name(match rustc.extension() {
+            Some(ext) => format!("rustdoc.{}", ext.to_string_lossy()),
+            None => "rustdoc".into(),
+        });
+        let mut c = Command::new(&rustdoc);
+        c.args(rustdoc_args(&text, &plan.doc_dir, version));
+        checks.push(("rustdoc (warnings denied)", spawn(c.stdout(Stdio::piped()).stderr(Stdio::piped()), "rustdoc")?));
+    }
+    let built = build.wait().map_err(|e| format!("rustc: {e}"))?;
     let mut failed = false;
-    for (what, o) in [("clippy (the crate's lint policy)", &lint), ("rustdoc (warnings denied)", &doc)] {
-        if !o.status.success() {
+    for (what, child) in checks {
+        let o = child.wait_with_output().map_err(|e| format!("{what}: {e}"))?;
+        if built.success() && !o.status.success() {
             failed = true;
             eprintln!("xtask wrapper: {what} failed for package `{package}` ({}):", o.status);
             eprint!("{}{}", String::from_utf8_lossy(&o.stdout), String::from_utf8_lossy(&o.stderr));
         }
+    }
+    if !built.success() {
+        return Ok(exit_code(built));
     }
     Ok(if failed { ExitCode::FAILURE } else { ExitCode::SUCCESS })
 }
@@ -467,7 +468,8 @@ mod tests {
         let src = dir.join("lib.rs");
         std::fs::write(&src, body).unwrap();
         let plan = Plan {
-            lint_doc: vec!["probe".into()],
+            lint: vec!["probe".into()],
+            doc: vec!["probe".into()],
             check_only: Vec::new(),
             clippy: bin.join("clippy-driver"),
             doc_dir: dir.join("doc"),
