@@ -1322,7 +1322,6 @@ fn host_build() -> Result<PathBuf> {
 /// metadata only, as [`lab_check`] does: one front-end pass over the dependencies instead of
 /// a second one in check units. A lint or a doc warning fails this build, naming the crate.
 fn host_build_checked(plan: &wrap::Plan) -> Result<PathBuf> {
-    std::fs::create_dir_all(&plan.lint_dir).map_err(|e| format!("{}: {e}", plan.lint_dir.display()))?;
     let mut c = cmd("cargo");
     c.current_dir(root()).args(["test", "--workspace", "--no-run", "--timings"]).envs(plan.env());
     run(&mut c).map_err(|e| {
@@ -1338,21 +1337,18 @@ fn host_build_checked(plan: &wrap::Plan) -> Result<PathBuf> {
     ssmctl_bin(Host::Test)
 }
 
-/// What a CI run's host build asks of its wrapper: lint and document the documented crates,
-/// check the lab (needs clippy, from the rustup step). `None` outside CI.
-fn ci_wrapper_plan() -> Result<Option<wrap::Plan>> {
-    if ci_wrapper().is_none() {
-        return Ok(None);
-    }
+/// What a CI run's host build asks of its wrapper: lint [`LINTED_CRATES`], document
+/// [`DOCUMENTED_CRATES`], check the lab (needs clippy, from the rustup step).
+fn ci_wrapper_plan() -> Result<wrap::Plan> {
     let target = root().join("target");
-    Ok(Some(wrap::Plan {
+    Ok(wrap::Plan {
         lint: LINTED_CRATES.iter().map(|s| s.to_string()).collect(),
         doc: DOCUMENTED_CRATES.iter().map(|s| s.to_string()).collect(),
         check_only: vec!["lab".to_string()],
         clippy: clippy_driver()?,
         doc_dir: target.join("doc"),
         lint_dir: target.join("xtask-lint"),
-    }))
+    })
 }
 
 /// The workspace's crates (package names as cargo's timings report them).
@@ -1548,6 +1544,8 @@ fn test_all() -> Result<()> {
     let on_target = std::sync::Mutex::new((0u32, 0u32));
     let test_binaries = std::sync::Mutex::new(Vec::<host_tests::Binary>::new());
     let previous = previous_test_times();
+    // A CI run lints, documents and checks the lab inside its host build (`host_build_checked`).
+    let checks_in_build = ci_wrapper().is_some();
     let record = |name: &'static str, r: Result<()>| results.lock().unwrap_or_else(|p| p.into_inner()).push((name, r));
     let count = |passed: u32, failed: u32| {
         let mut c = on_target.lock().unwrap_or_else(|p| p.into_inner());
@@ -1567,9 +1565,8 @@ fn test_all() -> Result<()> {
         });
         // Lints, docs and the lab check in the host build's target dir, reusing its proc macros
         // and build scripts: after the host build and the cargo runs that wait for it.
-        // A CI run checks them inside the host build instead (`host_build_checked`).
         s.spawn(|| {
-            if ci_wrapper().is_some() {
+            if checks_in_build {
                 return;
             }
             let _ = host.wait();
@@ -1685,13 +1682,11 @@ fn test_all() -> Result<()> {
             record("slurm-test", r);
         });
         // The host build and tests, on this thread.
-        let built = if ci_wrapper().is_some() {
-            after(&tools, "rustup").and_then(|()| ci_wrapper_plan()).and_then(|plan| match plan {
-                Some(plan) => steps
-                    .run("host build (cargo test --no-run, test profile; lint policy, API docs, lab check)", || {
-                        host_build_checked(&plan)
-                    }),
-                None => steps.run("host build (cargo test --no-run, test profile)", host_build),
+        let built = if checks_in_build {
+            after(&tools, "rustup").and_then(|()| ci_wrapper_plan()).and_then(|plan| {
+                steps.run("host build (cargo test --no-run, test profile; lint policy, API docs, lab check)", || {
+                    host_build_checked(&plan)
+                })
             })
         } else {
             steps.run("host build (cargo test --no-run, test profile)", host_build)

@@ -5,9 +5,9 @@
 //! `cargo clippy`, `cargo doc` and `cargo check` would each need the dependencies' metadata
 //! from check units of their own (cargo never reads a build unit's metadata for a check), a
 //! second front-end pass over the whole dependency graph. Here, beside the build's `rustc` of a
-//! documented library, `clippy-driver` checks the same arguments (its metadata into a folder
-//! of its own) and `rustdoc` documents them, both against the dependencies' metadata the build
-//! already made; the lab's library and examples are compiled to metadata only (checked, not
+//! library under the lint policy `clippy-driver` checks the same arguments (its metadata into a
+//! folder of its own), and beside that of a documented library `rustdoc` documents them, both
+//! against the dependencies' metadata the build already made; the lab's library and examples are compiled to metadata only (checked, not
 //! linked: nothing runs them in the suite), with empty files where cargo expects the rlib and
 //! the executables. What is asked comes in environment variables ([`Plan::from_env`]); without
 //! them, and for every other crate, the wrapper runs `rustc` unchanged.
@@ -39,7 +39,7 @@ pub fn is_wrapper_call(args: &[OsString]) -> bool {
 }
 
 /// What the host build asks of the wrapper.
-#[derive(Debug, Clone, Default, PartialEq)]
+#[derive(Debug)]
 pub struct Plan {
     pub lint: Vec<String>,
     pub doc: Vec<String>,
