@@ -298,7 +298,7 @@ fn install() -> Result<()> {
         println!("install: qemu-system-arm present");
     } else {
         apt(&["update"], None)?;
-        apt(&["install", "-y", "qemu-system-arm"], None)?;
+        apt(&QEMU_APT_INSTALL, None)?;
     }
     Ok(())
 }
@@ -312,6 +312,10 @@ fn rust_target() -> Result<()> {
         run(cmd("rustup").args(["target", "add", TARGET]))
     }
 }
+
+/// The apt-get arguments that install QEMU's Arm machines, without its recommends (GUI,
+/// audio and video codecs, GPU drivers): the emulated Cortex-M boards need none of them.
+const QEMU_APT_INSTALL: [&str; 4] = ["install", "-y", "--no-install-recommends", "qemu-system-arm"];
 
 /// `apt-get ARGS` (through sudo unless root), its output into `log` when given.
 fn apt(args: &[&str], log: Option<&Path>) -> Result<()> {
@@ -352,7 +356,7 @@ fn apt_packages(log: &Path) -> Result<()> {
     }
     apt(&["update"], Some(log))?;
     if qemu {
-        apt(&["install", "-y", "qemu-system-arm"], Some(log))?;
+        apt(&QEMU_APT_INSTALL, Some(log))?;
     }
     if slurm {
         apt(&slurm::APT_INSTALL, Some(log))?;
@@ -1780,6 +1784,33 @@ mod tests {
 
     fn args(a: &[&str]) -> Vec<String> {
         a.iter().map(|s| s.to_string()).collect()
+    }
+
+    /// Every apt-get install of the xtask leaves the recommended packages out (the command
+    /// installs on a fresh machine; recommends would add desktop and media stacks).
+    #[test]
+    fn every_apt_install_is_without_recommends() {
+        for list in [&QEMU_APT_INSTALL[..], &slurm::APT_INSTALL[..]] {
+            assert_eq!(list[..3], ["install", "-y", "--no-install-recommends"], "{list:?}");
+        }
+        // Built here, so that this test's own source does not hold the pattern it looks for.
+        let install = ["\"install\"", "\"-y\""].join(", ");
+        let without = format!("{install}, \"--no-install-recommends\"");
+        let dir = root().join("tests/src/xtask");
+        for entry in std::fs::read_dir(&dir).unwrap() {
+            let path = entry.unwrap().path();
+            let text = std::fs::read_to_string(&path).unwrap();
+            for (i, line) in text.lines().enumerate() {
+                if let Some(at) = line.find(&install).filter(|_| !line.trim_start().starts_with("//")) {
+                    assert!(
+                        line[at..].starts_with(&without),
+                        "{}:{}: an apt-get install with recommends: {line}",
+                        path.display(),
+                        i + 1
+                    );
+                }
+            }
+        }
     }
 
     /// Every workspace library whose sources deny a clippy lint is in [`LINTED_CRATES`], so
