@@ -237,6 +237,75 @@ pub fn build_plant(scene: &Scene) -> Result<AnyPlant, SimError> {
     })
 }
 
+/// A scene's plant with its integrator, the state passed as a slice: for a caller that drives
+/// the loop itself (the PIL host). Its methods are not generic, so the integrator's code is
+/// compiled in `sim` (at `sim`'s optimization level), not in the calling crate.
+#[derive(Debug)]
+pub struct Stepper(StepperKind);
+
+#[derive(Debug)]
+enum StepperKind {
+    Furuta(Furuta, Integrator<4>),
+    Cart(Cart, Integrator<4>),
+    Equations1(EquationsPlant<2>, Integrator<2>),
+    Equations2(EquationsPlant<4>, Integrator<4>),
+    Equations3(EquationsPlant<6>, Integrator<6>),
+    Equations4(EquationsPlant<8>, Integrator<8>),
+}
+
+impl Stepper {
+    /// The plant `scene` names ([`build_plant`]) and an integrator of its method ([`method_of`]).
+    pub fn new(scene: &Scene) -> Result<Self, SimError> {
+        fn ode<const N: usize>(scene: &Scene) -> Result<Integrator<N>, SimError> {
+            Integrator::new(method_of(scene)).map_err(|source| SimError::Ode { scene: scene.name.clone(), source })
+        }
+        Ok(Self(match build_plant(scene)? {
+            AnyPlant::Furuta(p) => StepperKind::Furuta(p, ode(scene)?),
+            AnyPlant::Cart(p) => StepperKind::Cart(p, ode(scene)?),
+            AnyPlant::Equations1(p) => StepperKind::Equations1(p, ode(scene)?),
+            AnyPlant::Equations2(p) => StepperKind::Equations2(p, ode(scene)?),
+            AnyPlant::Equations3(p) => StepperKind::Equations3(p, ode(scene)?),
+            AnyPlant::Equations4(p) => StepperKind::Equations4(p, ode(scene)?),
+        }))
+    }
+
+    /// The plant's state count.
+    pub fn states(&self) -> usize {
+        match &self.0 {
+            StepperKind::Furuta(..) | StepperKind::Cart(..) | StepperKind::Equations2(..) => 4,
+            StepperKind::Equations1(..) => 2,
+            StepperKind::Equations3(..) => 6,
+            StepperKind::Equations4(..) => 8,
+        }
+    }
+
+    /// [`Integrator::advance`]: `x` (of [`Stepper::states`] values) by exactly `h` seconds
+    /// under the held input `u`. A state of another length is an error, `x` untouched.
+    pub fn advance(&mut self, x: &mut [f64], u: f64, h: f64) -> Result<(), OdeError> {
+        fn go<P: Plant<N>, const N: usize>(
+            p: &P,
+            ode: &mut Integrator<N>,
+            x: &mut [f64],
+            u: f64,
+            h: f64,
+        ) -> Result<(), OdeError> {
+            let len = x.len();
+            let x: &mut [f64; N] = x.try_into().map_err(|_| {
+                OdeError::BadArgument(format!("a state of {len} values for the {} plant of {N} states", p.name()))
+            })?;
+            ode.advance(p, x, u, h)
+        }
+        match &mut self.0 {
+            StepperKind::Furuta(p, ode) => go(p, ode, x, u, h),
+            StepperKind::Cart(p, ode) => go(p, ode, x, u, h),
+            StepperKind::Equations1(p, ode) => go(p, ode, x, u, h),
+            StepperKind::Equations2(p, ode) => go(p, ode, x, u, h),
+            StepperKind::Equations3(p, ode) => go(p, ode, x, u, h),
+            StepperKind::Equations4(p, ode) => go(p, ode, x, u, h),
+        }
+    }
+}
+
 /// Runs a scene's closed-loop simulation.
 pub fn simulate(scene: &Scene, progress: Option<&dyn Fn(u64)>) -> Result<Trajectory, SimError> {
     crate::with_plant!(build_plant(scene)?, p => simulate_with(&p, scene, progress))

@@ -99,6 +99,41 @@ fn scene(name: &str, o: &[&str]) -> Scene {
     Scene::load(name, &o.iter().map(|s| s.to_string()).collect::<Vec<_>>()).unwrap()
 }
 
+/// A `Stepper` driven by a simulation's held inputs retraces that simulation's states bit
+/// for bit (the built-in Furuta, a four-coordinate equations plant), and refuses a state of
+/// the wrong length without touching it.
+#[test]
+fn stepper_retraces_the_simulation_and_refuses_a_wrong_state_length() {
+    for (s, states) in [
+        (scene("furuta-quant-dt25-noise", &["run.periods=300"]), 4),
+        (scene("duffing-chain4", &["run.periods=300"]), 8),
+    ] {
+        let tr = simulate(&s, None).unwrap();
+        let mut stepper = Stepper::new(&s).unwrap();
+        assert_eq!((stepper.states(), tr.n_states()), (states, states), "{}", s.name);
+        let mut x = vec![0.0; states];
+        if !s.initial.state.is_empty() {
+            x.copy_from_slice(&s.initial.state);
+        }
+        let dt = s.controller_config().dt;
+        for i in 0..tr.rows() {
+            for (k, xk) in x.iter().enumerate() {
+                assert_eq!(xk.to_bits(), tr.state(i, k).to_bits(), "{}: period {i}, state {k}", s.name);
+            }
+            if i + 1 < tr.rows() {
+                stepper.advance(&mut x, tr.u[i], dt).unwrap();
+            }
+        }
+        let mut short = vec![0.25; states - 1];
+        let e = stepper.advance(&mut short, 0.0, dt).unwrap_err().to_string();
+        assert!(
+            e.contains(&format!("a state of {} values", states - 1)) && e.contains(&format!("of {states} states")),
+            "{e}"
+        );
+        assert!(short.iter().all(|&v| v == 0.25));
+    }
+}
+
 /// Long quantized runs stay finite and repeat bit for bit.
 #[test]
 fn quantized_1e5_periods_finite_and_bitwise_reproducible() {

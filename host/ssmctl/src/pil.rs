@@ -5,7 +5,7 @@
 //! device answers with the DAC code and a one-step prediction, and the code is held over the
 //! next period. A host-side [`IntPd`] and f32 [`Predictor`] fed the same inputs check the
 //! device's answers (codes and prediction bits); after the run, the host-only simulation of
-//! the same scene ([`sim::closed_loop::simulate_with`], same seed) checks the whole closed loop:
+//! the same scene ([`sim::closed_loop::simulate`], same seed) checks the whole closed loop:
 //! its codes and states must equal the PIL run's.
 //!
 //! The run is recorded as a data set: `theta.csv` (`t_s,theta_meas_rad`, the measured primary
@@ -32,8 +32,7 @@ use serde::Serialize;
 use shared::frame::{
     self, Fault, FrameError, HEADER_LEN, Header, Kind, LoadReply, MAX_FRAME, REPLY_START, Seq, StepReply,
 };
-use sim::closed_loop::{HISTORY, SimError, build_plant, method_of};
-use sim::ode::Integrator;
+use sim::closed_loop::{HISTORY, SimError, Stepper, build_plant};
 use sim::plant::Plant;
 use sim::scene::{Scene, SceneError};
 use std::io::{Read, Write};
@@ -189,7 +188,7 @@ pub struct PilSummary {
     pub noise: Option<sim::scene::NoiseSpec>,
     /// What `theta.csv` holds.
     pub observable: String,
-    /// Whether the host-only simulation of the scene (same seed, [`sim::closed_loop::simulate_with`])
+    /// Whether the host-only simulation of the scene (same seed, [`sim::closed_loop::simulate`])
     /// produced the same encoder counts and DAC codes as the PIL run, period by period.
     pub host_sim_codes_identical: bool,
     pub host_sim_first_mismatch: Option<u64>,
@@ -528,10 +527,18 @@ pub fn run(opts: &PilOptions) -> Result<PilSummary, PilError> {
     }
     check_firmware(&opts.elf, &opts.out.join("qemu.log"))?;
     let scene = Scene::load(&opts.scene, &opts.overrides)?;
-    sim::with_plant!(build_plant(&scene)?, p => run_with(&p, &scene, opts))
+    // The plant integrated through `Stepper`, whose numerics `sim` compiles: this loop's own
+    // code is glue, generic over the plant only for its state array and names.
+    let stepper = Stepper::new(&scene)?;
+    sim::with_plant!(build_plant(&scene)?, p => run_with(&p, stepper, &scene, opts))
 }
 
-fn run_with<P: Plant<N>, const N: usize>(plant: &P, scene: &Scene, opts: &PilOptions) -> Result<PilSummary, PilError> {
+fn run_with<P: Plant<N>, const N: usize>(
+    plant: &P,
+    mut stepper: Stepper,
+    scene: &Scene,
+    opts: &PilOptions,
+) -> Result<PilSummary, PilError> {
     let name = scene.name.clone();
     let cfg = scene.controller_config();
     match cfg.quant {
@@ -614,9 +621,6 @@ fn run_with<P: Plant<N>, const N: usize>(plant: &P, scene: &Scene, opts: &PilOpt
         }
         None => None,
     };
-    let mut ode =
-        Integrator::<N>::new(method_of(scene)).map_err(|source| SimError::Ode { scene: name.clone(), source })?;
-
     crate::output::create_dir(&opts.out).map_err(|e| PilError::Options(e.to_string()))?;
     let (mut qemu, stream) = start(&opts.elf, opts.machine, &opts.out)?;
     stream.set_read_timeout(Some(opts.reply_timeout)).map_err(io("read timeout"))?;
@@ -762,7 +766,7 @@ fn run_with<P: Plant<N>, const N: usize>(plant: &P, scene: &Scene, opts: &PilOpt
         }
         // The device's code is what the plant sees.
         let u = pd.volts(code);
-        ode.advance(plant, &mut x, u, dt).map_err(|source| SimError::Ode { scene: name.clone(), source })?;
+        stepper.advance(&mut x, u, dt).map_err(|source| SimError::Ode { scene: name.clone(), source })?;
     }
     let secs = t_start.elapsed().as_secs_f64();
     s.round_trips_per_s = if link_secs > 0.0 { s.periods as f64 / link_secs } else { 0.0 };
@@ -781,7 +785,7 @@ fn run_with<P: Plant<N>, const N: usize>(plant: &P, scene: &Scene, opts: &PilOpt
     if !status.success() {
         return Err(PilError::Qemu(format!("exited with {status} after the shutdown frame")));
     }
-    compare_with_host_sim(plant, scene, &run_codes, &run_states, &mut s)?;
+    compare_with_host_sim(scene, &run_codes, &run_states, &mut s)?;
     let json = serde_json::to_string_pretty(&s).map_err(|e| PilError::Fit(e.to_string()))?;
     // Only a complete run becomes files.
     csv.commit().map_err(wr)?;
@@ -793,8 +797,7 @@ fn run_with<P: Plant<N>, const N: usize>(plant: &P, scene: &Scene, opts: &PilOpt
 
 /// Runs the host-only simulation of `scene` over the PIL run's periods and compares codes
 /// (counts in, code out) and states with the PIL run's, filling the `host_sim_*` fields.
-pub fn compare_with_host_sim<P: Plant<N>, const N: usize>(
-    plant: &P,
+pub fn compare_with_host_sim<const N: usize>(
     scene: &Scene,
     codes: &[sim::closed_loop::Codes],
     states: &[[f64; N]],
@@ -805,7 +808,7 @@ pub fn compare_with_host_sim<P: Plant<N>, const N: usize>(
     };
     let mut sc = scene.clone();
     sc.run.periods = last as u64; // rows 0..=periods
-    let tr = sim::closed_loop::simulate_with(plant, &sc, None).map_err(|e| PilError::HostSim(e.to_string()))?;
+    let tr = sim::closed_loop::simulate(&sc, None).map_err(|e| PilError::HostSim(e.to_string()))?;
     let sim_codes = tr.codes.as_deref().unwrap_or_default();
     let rows = tr.rows().min(sim_codes.len());
     s.host_sim_codes_identical = rows == codes.len();

@@ -1,5 +1,4 @@
 use shared::frame::{self, Fault, HEADER_LEN, Header, Kind, MAX_FRAME, Seq};
-use sim::closed_loop::build_plant;
 use sim::scene::SceneBuilder;
 use ssmctl::pil::*;
 use std::io::{Read, Write};
@@ -183,19 +182,18 @@ fn recorded_csv_files_load_back_exactly() {
 #[test]
 fn host_sim_comparison_finds_the_first_mismatch() {
     let scene = SceneBuilder::load("furuta-quant-dt25-noise").unwrap().periods(120).build().unwrap();
-    let sim::closed_loop::AnyPlant::Furuta(plant) = build_plant(&scene).unwrap() else { panic!("furuta scene") };
     let tr = sim::closed_loop::simulate(&scene, None).unwrap();
     let mut codes = tr.codes.clone().unwrap();
     let states: Vec<[f64; 4]> = (0..tr.rows()).map(|i| std::array::from_fn(|k| tr.state(i, k))).collect();
     let mut s = summary_for_test();
-    compare_with_host_sim(&plant, &scene, &codes, &states, &mut s).unwrap();
+    compare_with_host_sim(&scene, &codes, &states, &mut s).unwrap();
     assert!(s.host_sim_codes_identical && s.host_sim_first_mismatch.is_none() && s.host_sim_max_state_diff == 0.0);
     // The seed matters: another seed changes some encoder count within 120 periods.
     let other = SceneBuilder::load("furuta-quant-dt25-noise").unwrap().periods(120).noise_seed(2).build().unwrap();
-    compare_with_host_sim(&plant, &other, &codes, &states, &mut s).unwrap();
+    compare_with_host_sim(&other, &codes, &states, &mut s).unwrap();
     assert!(!s.host_sim_codes_identical && s.host_sim_first_mismatch.is_some());
     codes[77].code += 1;
-    compare_with_host_sim(&plant, &scene, &codes, &states, &mut s).unwrap();
+    compare_with_host_sim(&scene, &codes, &states, &mut s).unwrap();
     assert_eq!((s.host_sim_codes_identical, s.host_sim_first_mismatch), (false, Some(77)));
 }
 
