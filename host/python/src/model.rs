@@ -216,10 +216,6 @@ pub fn load_model(path: std::path::PathBuf) -> PyResult<Model> {
     guard(|| Model::load(path))
 }
 
-/// Capacities (p, d, RBF centres, lift monomials) of the host's blob decoder: those of
-/// `ssmctl inspect`.
-type HostModel = shared::model::Model<256, { ssm::limits::MAX_DIM }, 8192, 4096>;
-
 /// `inspect_blob(blob)`: header and shapes of a device blob (bytes) after a full decode (magic,
 /// version, lengths, CRC, every value): a dict; a bad blob is a `ValueError` naming what is
 /// wrong.
@@ -228,18 +224,10 @@ pub fn inspect_blob<'py>(py: Python<'py>, blob: &[u8]) -> PyResult<Bound<'py, Py
     guard(|| {
         let (h, _) = shared::model::Header::parse(blob).map_err(|e| value_error(format!("blob: {e}")))?;
         let bytes = blob.to_vec();
-        // The fixed-capacity decoder is several MB: decoded on a thread with room for it.
+        // `ssmctl inspect`'s decoder (on a thread of its own: the fixed-capacity model is several MB).
         let decoded = py.detach(move || {
-            std::thread::Builder::new()
-                .stack_size(64 << 20)
-                .spawn(move || {
-                    let mut m = Box::new(HostModel::empty());
-                    m.decode_into(&bytes)
-                        .map(|_| (m.p(), m.d(), m.k(), m.lift_order(), m.sample_period(), m.config().dt))
-                })
-                .map_err(|e| format!("blob: cannot start the decoder: {e}"))?
-                .join()
-                .map_err(|_| "blob: the decoder failed".to_string())?
+            ssm::device::decode_host(&bytes)
+                .map(|m| (m.p(), m.d(), m.k(), m.lift_order(), m.sample_period(), m.config().dt))
                 .map_err(|e| format!("blob: {e}"))
         });
         let (p, d, k, lift_order, sample_period, dt) = decoded.map_err(value_error)?;

@@ -44,6 +44,39 @@ pub enum ExportError {
     StepMismatch { model_dt: f64, loop_dt: f64, rtol: f64 },
 }
 
+/// Capacities of the host's blob decoder (`ssmctl inspect`, `export`'s round trip, the Python
+/// module's `inspect_blob`): `p`, `d`, RBF centres, lift monomials.
+pub type HostModel = shared::model::Model<256, { crate::limits::MAX_DIM }, 8192, 4096>;
+
+/// Why [`decode_host`] returned no model: the blob's format, or the decoder's thread.
+#[derive(Debug, thiserror::Error)]
+pub enum HostDecodeError {
+    #[error(transparent)]
+    Decode(#[from] shared::model::DecodeError),
+    /// The decoder's thread could not be started or did not finish.
+    #[error("the blob decoder could not run: {0}")]
+    Decoder(String),
+}
+
+/// Decodes `bytes` with the host decoder ([`HostModel`]: every check the device makes). The
+/// fixed-capacity model is several MB, and an unoptimized build constructs it on the stack
+/// (more than a main thread's 8 MB): it is decoded on a thread with room for it. Not generic,
+/// so the decoder is compiled here, at this crate's optimization level, for every caller.
+pub fn decode_host(bytes: &[u8]) -> Result<Box<HostModel>, HostDecodeError> {
+    let bytes = bytes.to_vec();
+    std::thread::Builder::new()
+        .name("blob-decoder".into())
+        .stack_size(64 << 20)
+        .spawn(move || {
+            let mut m = Box::new(HostModel::empty());
+            m.decode_into(&bytes).map(|()| m)
+        })
+        .map_err(|e| HostDecodeError::Decoder(e.to_string()))?
+        .join()
+        .map_err(|_| HostDecodeError::Decoder("it panicked".into()))?
+        .map_err(HostDecodeError::Decode)
+}
+
 /// `v[index]`, or an error naming the field (models are validated on load; this keeps an
 /// unvalidated one from indexing out of bounds).
 fn at(what: &'static str, v: &[f64], index: usize) -> Result<f64, ExportError> {

@@ -617,9 +617,7 @@ pub fn text_summary(s: &FitSummary) -> String {
     out
 }
 
-/// Capacities of the host's blob decoder (`inspect`, and `export`'s round trip):
-/// `p`, `d`, RBF centres, lift monomials.
-pub type HostModel = shared::model::Model<256, { ssm::limits::MAX_DIM }, 8192, 4096>;
+pub use ssm::device::HostModel;
 
 /// Largest blob file `inspect` reads: header plus the largest payload [`HostModel`] holds,
 /// with room to spare (the decoder then names what is wrong).
@@ -637,24 +635,13 @@ pub enum BlobError {
     Decoder(String),
 }
 
-/// Decodes `bytes` with the host decoder ([`HostModel`]: every check the device makes). The
-/// fixed-capacity model is several MB and decoding builds it on the stack in an unoptimized
-/// build (twice: the placeholder and the reset), more than the main thread's 8 MB (`export`
-/// and `inspect` aborted with a stack overflow in the dev profile): it runs on a thread
-/// with room for it, as the Python module's `inspect_blob`.
+/// Decodes `bytes` with the host decoder ([`ssm::device::decode_host`]: every check the
+/// device makes).
 pub fn decode_host(bytes: &[u8]) -> Result<Box<HostModel>, BlobError> {
-    let bytes = bytes.to_vec();
-    std::thread::Builder::new()
-        .name("blob-decoder".into())
-        .stack_size(64 << 20)
-        .spawn(move || {
-            let mut m = Box::new(HostModel::empty());
-            m.decode_into(&bytes).map(|()| m)
-        })
-        .map_err(|e| BlobError::Decoder(e.to_string()))?
-        .join()
-        .map_err(|_| BlobError::Decoder("it panicked".into()))?
-        .map_err(BlobError::Decode)
+    ssm::device::decode_host(bytes).map_err(|e| match e {
+        ssm::device::HostDecodeError::Decode(e) => BlobError::Decode(e),
+        ssm::device::HostDecodeError::Decoder(e) => BlobError::Decoder(e),
+    })
 }
 
 /// Header and shapes of a device blob, after a full decode (so every check runs) and the
