@@ -46,7 +46,7 @@ def test_wrong_types_are_type_errors():
         (lambda: sc.fit(3, dim=2, embed=2), "expected a Trajectory or a list"),
         (lambda: sc.fit(t, dim=2, embed=5, ridge=[1]), "ridge"),
         (lambda: sc.fit(t, dim=2, embed=5, t_from="x"), "t_from"),
-        (lambda: sc.fit(t, dim="2", embed=5), ""),
+        (lambda: sc.fit(t, dim="2", embed=5), "cannot be interpreted as an integer"),
         (lambda: t.select(1.5), "observables"),
     ]
     for call, want in cases:
