@@ -58,7 +58,7 @@ impl ExactMap {
 
     /// `F(s)` integrated.
     pub fn eval(&self, s: &[f64]) -> Result<Vec<f64>, Error> {
-        let r = sim::with_plant!(&self.plant, p => self.pm.exact(p, s, self.method));
+        let r = self.pm.exact_any(&self.plant, s, self.method);
         r.map_err(|e| Error::from(sim::Error::from(e)))
     }
 }

@@ -21,10 +21,9 @@ use std::time::Instant;
 
 use serde::{Deserialize, Serialize};
 use sim::closed_loop::build_plant;
-use sim::plant::Plant;
 use sim::scene::Scene;
 use sim::stability::dominant_pairs;
-use sim::taylor::{FlowOptions, MESH_ORDER, PeriodMap, TaylorError, period_map};
+use sim::taylor::{FlowOptions, MESH_ORDER, PeriodMap, TaylorError, period_map_any};
 use ssm::interp::{Interp, interp_weights};
 use ssm::map_ssm::{Amplitude, InvarianceError, MapSsm, MapSsmOptions, OrderStats, PolynomialMap, map_ssm};
 use ssm::normal_form::{ExtraResonance, NormalFormTable, PolarNormalForm};
@@ -93,19 +92,10 @@ pub fn polynomial_map(pm: &PeriodMap) -> PolynomialMap {
     }
 }
 
-fn expand<P: Plant<N>, const N: usize>(
-    p: &P,
-    scene: &Scene,
-    order: u32,
-    opts: &FlowOptions,
-) -> Result<PeriodMap, TaylorError> {
-    period_map(p, &scene.controller_config(), order, opts)
-}
-
 /// The period map of `scene` (quantization and saturation, if any, are left out: they have
 /// no Taylor expansion / are inactive near the equilibrium), expanded to `order`.
 pub fn scene_period_map(scene: &Scene, order: u32, opts: &FlowOptions) -> Result<PeriodMap, Error> {
-    let pm = sim::with_plant!(build_plant(scene)?, p => expand(&p, scene, order, opts));
+    let pm = period_map_any(&build_plant(scene)?, &scene.controller_config(), order, opts);
     pm.map_err(|e| match e {
         // The sampling period sets the expansion's work (the RK4 steps over one period).
         TaylorError::TooManySteps { .. } | TaylorError::BadDt(_) => {

@@ -38,6 +38,7 @@ pub mod tps;
 use nalgebra::DMatrix;
 use shared::ControllerConfig;
 
+use crate::closed_loop::AnyPlant;
 use crate::linear::{LinearError, eigenvalues};
 use crate::ode::{Integrator, Method, OdeError};
 use crate::plant::{Plant, Scalar, linearize};
@@ -488,6 +489,17 @@ fn deflates<P: Plant<N>, const N: usize>(plant: &P, cfg: &ControllerConfig, orde
     }
 }
 
+/// [`period_map`] of a plant built from a scene: not generic, so the expansion's code is
+/// compiled here, at this crate's optimization level, however many crates call it.
+pub fn period_map_any(
+    plant: &AnyPlant,
+    cfg: &ControllerConfig,
+    order: u32,
+    opts: &FlowOptions,
+) -> Result<PeriodMap, TaylorError> {
+    crate::with_plant!(plant, p => period_map(p, cfg, order, opts))
+}
+
 /// Taylor expansion to `order` of the one-period map of the loop `cfg` around `plant`
 /// (unquantized, unsaturated; `cfg.ki` must be 0), deflated when the secondary coordinate
 /// allows it ([`PeriodMap`]).
@@ -604,6 +616,12 @@ impl PeriodMap {
                 lin + self.coef[r].iter().zip(&mono).map(|(a, b)| a * b).sum::<f64>()
             })
             .collect())
+    }
+
+    /// [`PeriodMap::exact`] on a plant built from a scene: not generic, so the integration's
+    /// code is compiled here.
+    pub fn exact_any(&self, plant: &AnyPlant, s: &[f64], method: Method) -> Result<Vec<f64>, TaylorError> {
+        crate::with_plant!(plant, p => self.exact(p, s, method))
     }
 
     /// The exact one-period map (no truncation) at a state, by integrating the plant with
