@@ -118,25 +118,3 @@ fn compile_time_packages_are_built_unoptimized_and_only_they() {
         "[profile.dev.package] of Cargo.toml unoptimizes packages that run in the tests: {extra:?}"
     );
 }
-
-/// The lint step's `cargo check` and `cargo doc` (the same packages) and the lab check leave
-/// out the Python module; they resolve the compile-time packages (proc macros, build scripts'
-/// dependencies) as the host build does, so they reuse the host build's instead of compiling
-/// syn and the macros over it again.
-#[test]
-fn the_lint_doc_and_lab_checks_resolve_the_proc_macros_as_the_host_build() {
-    let whole = features(&["--workspace", "--exclude", "lab", "-e", "normal,build,dev"]);
-    let compile_time = compile_time_packages();
-    let of_compile_time = |m: BTreeMap<String, BTreeSet<String>>| -> BTreeMap<String, BTreeSet<String>> {
-        m.into_iter().filter(|(k, _)| compile_time.iter().any(|c| k.split_whitespace().next() == Some(c))).collect()
-    };
-    let lint =
-        ["-p", "shared", "-p", "controller", "-p", "sim", "-p", "ssm", "-p", "chaos", "-p", "furuta", "-p", "ssmctl"];
-    for part in [&lint[..], &["-p", "lab"]] {
-        let args: Vec<&str> = part.iter().copied().chain(["-e", "normal,build"]).collect();
-        let part = of_compile_time(features(&args));
-        assert!(part.keys().any(|k| k.starts_with("syn ")), "{part:?}");
-        let d = differing(&part, &whole);
-        assert!(d.is_empty(), "`cargo check {args:?}` would compile these again:\n{}", d.join("\n"));
-    }
-}

@@ -38,9 +38,9 @@
 //!   `tests/fuzz/`) and the firmware builds (both boards, one after the other in one target
 //!   dir, each board's images copied to `qemu/target/images/BOARD/`) run while cargo builds
 //!   the host tests; then
-//!   `cargo test --workspace`, clippy + `cargo doc` (in the host build's target dir, reusing its
-//!   proc macros and build scripts; with `CI` set, inside the host build through the xtask as
-//!   compiler wrapper, `wrap.rs`), the Python module and pytest, qemu-test on both
+//!   `cargo test --workspace` in `target/xtask-build/` with clippy, the API docs and the lab
+//!   check inside the host build (the xtask as compiler wrapper, `wrap.rs`), the Python module
+//!   and pytest, qemu-test on both
 //!   machines side by side, device-table (counted as one on-target test, see
 //!   `device_table::check`), a 2,000-period PIL run (one more), a 500-period PIL run of the
 //!   STM32F407 image on `netduinoplus2` over USART1 (one more), 300-period PIL runs of the four
@@ -237,24 +237,46 @@ fn cmd(program: impl AsRef<std::ffi::OsStr>) -> Command {
     for (key, value) in ci_build_env(std::env::var_os("CI").as_deref(), |k| std::env::var_os(k).is_some()) {
         c.env(key, value);
     }
-    if let Some(exe) = ci_wrapper() {
-        c.env("RUSTC_WORKSPACE_WRAPPER", exe);
-    }
     c
 }
 
-/// In a CI run, the xtask itself as the workspace crates' compiler wrapper (`wrap.rs`), for
-/// every cargo it starts: cargo hashes the wrapper into each workspace artifact, so the host
-/// build, the test listing, the PIL and Slurm `ssmctl` and the Python module's build share
-/// them. Only the host build asks it for more than compiling (the lints, the API docs and the
-/// lab check of [`ci_wrapper_plan`]). `None` outside CI, or when the environment names a
-/// wrapper already.
-fn ci_wrapper() -> Option<PathBuf> {
-    let ci = std::env::var_os("CI");
-    if ci_build_env(ci.as_deref(), |_| false).is_empty() || std::env::var_os("RUSTC_WORKSPACE_WRAPPER").is_some() {
-        return None;
+/// The target folder of the xtask's test-profile builds of the workspace (the host tests, the
+/// PIL and Slurm `ssmctl`, the Python module): its own, because they compile the workspace's
+/// crates through the xtask as compiler wrapper ([`host_build_env`]), which cargo hashes into
+/// each of their artifacts; in `target/debug` a developer's plain `cargo test` and `cargo
+/// xtask test` would compile every workspace crate again after each other.
+fn build_dir() -> PathBuf {
+    root().join("target").join("xtask-build")
+}
+
+/// cargo in the workspace's root, building in [`build_dir`] ([`host_build_env`]).
+fn host_cargo() -> Result<Command> {
+    let mut c = cmd("cargo");
+    c.current_dir(root());
+    host_build_env(&mut c)?;
+    Ok(c)
+}
+
+/// What every cargo (or the Python module's build backend) that builds the workspace in the
+/// test profile for the xtask is given: [`build_dir`] as its target folder and the xtask itself
+/// as the workspace crates' compiler wrapper (`wrap.rs`), so that the host build (which also
+/// asks the wrapper for the lints, the API docs and the lab check: [`wrapper_plan`]), the
+/// test listing, the PIL and Slurm `ssmctl` and the Python module share one compile of each
+/// crate. A wrapper the environment names is replaced (said once): the checks need this one.
+fn host_build_env(c: &mut Command) -> Result<()> {
+    let exe = std::env::current_exe().map_err(|e| format!("the xtask's own path, for the compiler wrapper: {e}"))?;
+    if let Some(other) = std::env::var_os("RUSTC_WORKSPACE_WRAPPER").filter(|o| o.as_os_str() != exe.as_os_str()) {
+        static SAID: std::sync::Once = std::sync::Once::new();
+        SAID.call_once(|| {
+            eprintln!(
+                "xtask: RUSTC_WORKSPACE_WRAPPER={} is replaced by the xtask's own for its builds in {}",
+                other.to_string_lossy(),
+                build_dir().display()
+            )
+        });
     }
-    std::env::current_exe().ok()
+    c.env("CARGO_TARGET_DIR", build_dir()).env("RUSTC_WORKSPACE_WRAPPER", exe);
+    Ok(())
 }
 
 /// What a CI run (`CI` set and not `false` or `0`) sets for the cargo it starts, each unless
@@ -265,9 +287,9 @@ fn ci_wrapper() -> Option<PathBuf> {
 /// incremental compilation, the workspace's crates in 4 codegen units instead of 16 compile in
 /// less CPU (fewer copies of inlined generic code; the dependencies keep 16, set in
 /// `Cargo.toml`, as for them it saves nothing). The dev profile too, so the Python module's
-/// `--profile dev` build keeps the test profile's settings and reuses its crates. A developer's
-/// target dir keeps all of them: cargo hashes them into each artifact, so switching would
-/// compile every workspace crate again, and incremental builds want many codegen units.
+/// `--profile dev` build keeps the test profile's settings and reuses its crates. Outside CI
+/// the xtask's builds keep incremental compilation (a warm re-run after an edit recompiles
+/// only what changed) and with it cargo's codegen units and line tables.
 fn ci_build_env(ci: Option<&std::ffi::OsStr>, is_set: impl Fn(&str) -> bool) -> Vec<(&'static str, &'static str)> {
     const CI_ENV: [(&str, &str); 5] = [
         ("CARGO_INCREMENTAL", "0"),
@@ -776,8 +798,16 @@ fn ssmctl_bin(host: Host) -> Result<PathBuf> {
     if let Some(p) = slot.get() {
         return Ok(p.clone());
     }
-    run(cmd("cargo").current_dir(root()).args(["build", "-q"]).args(build).args(["--bin", "ssmctl"]))?;
-    Ok(slot.get_or_init(|| root().join("target").join(dir).join("ssmctl")).clone())
+    let (mut c, target) = match host {
+        Host::Test => (host_cargo()?, build_dir()),
+        Host::Release => {
+            let mut c = cmd("cargo");
+            c.current_dir(root());
+            (c, root().join("target"))
+        }
+    };
+    run(c.args(["build", "-q"]).args(build).args(["--bin", "ssmctl"]))?;
+    Ok(slot.get_or_init(|| target.join(dir).join("ssmctl")).clone())
 }
 
 /// The two programs of a PIL run, built, and the fingerprint of their images (read and
@@ -1227,39 +1257,6 @@ fn firmware_size() -> Result<()> {
     Ok(())
 }
 
-/// The library crates' lint policy (docs/decisions/0004): no `unwrap`/`expect`/`panic` outside tests, and no
-/// panicking indexing in the crates and modules that parse input (`shared`, `controller`,
-/// `ssm::{mat, data, device}`, `sim::scene`); the `deny` attributes live in the crates, this
-/// runs clippy over them. In the host build's target dir, after it: the dependencies' proc
-/// macros and build scripts it compiled are reused, only their checks are new. Cargo's output
-/// into `log_dir`.
-fn clippy_lints(log_dir: &Path) -> Result<()> {
-    let mut c = cmd("cargo");
-    c.current_dir(root()).args(["check", "--lib"]);
-    // With `ssmctl` (whose lib denies none of these lints) the packages are doc's, so the
-    // workspace's and the dependencies' checks are made once for both.
-    for p in DOCUMENTED_CRATES {
-        c.args(["-p", p]);
-    }
-    clippy_env(&mut c)?;
-    steps::lower_priority(&mut c);
-    steps::run_logged(&mut c, &log_dir.join("clippy.log"))
-        .map_err(|e| format!("clippy (unwrap/expect/panic/indexing policy of {}): {e}", LINTED_CRATES.join(", ")))?;
-    println!("clippy: lint policy holds in {}", LINTED_CRATES.join(", "));
-    Ok(())
-}
-
-/// What `cargo clippy -- -A clippy::all` sets for the `cargo check` it runs: the toolchain's
-/// `clippy-driver` as the compiler wrapper of the workspace's crates, and its arguments in
-/// `CLIPPY_ARGS` (separated by `__CLIPPY_HACKERY__`, as clippy-driver splits them): only the
-/// policy's lints, denied in the crates; the style lints stay a local matter. The wrapper is
-/// part of a workspace crate's artifact hash, so doc and the lab check run with it too and
-/// reuse the checks the lint step made instead of checking every workspace crate again.
-fn clippy_env(c: &mut Command) -> Result<()> {
-    c.env("RUSTC_WORKSPACE_WRAPPER", clippy_driver()?).env("CLIPPY_ARGS", wrap::CLIPPY_ARGS);
-    Ok(())
-}
-
 /// The toolchain's `clippy-driver`.
 fn clippy_driver() -> Result<PathBuf> {
     let sysroot = output(cmd("rustc").args(["--print", "sysroot"])).ok_or("`rustc --print sysroot` failed")?;
@@ -1270,41 +1267,16 @@ fn clippy_driver() -> Result<PathBuf> {
     Ok(driver)
 }
 
-/// The API documentation builds without a warning (broken or ambiguous intra-doc links,
-/// stray HTML in doc comments) for the crates a user reads: the library crates and `ssmctl`
-/// (`--no-deps`; into `target/doc`, reusing the checks the lint step made).
-fn doc_links(log_dir: &Path) -> Result<()> {
-    let mut c = cmd("cargo");
-    c.current_dir(root()).env("RUSTDOCFLAGS", "-D warnings").args(["doc", "--no-deps"]);
-    for p in DOCUMENTED_CRATES {
-        c.args(["-p", p]);
-    }
-    clippy_env(&mut c)?;
-    steps::lower_priority(&mut c);
-    steps::run_logged(&mut c, &log_dir.join("doc.log"))
-        .map_err(|e| format!("cargo doc (-D warnings) of {}: {e}", DOCUMENTED_CRATES.join(", ")))?;
-    println!("doc: the API documentation of {} builds without warnings", DOCUMENTED_CRATES.join(", "));
-    Ok(())
-}
-
-/// The research and profiling programs of `host/lab` compile (checked, not linked: nothing
-/// runs them in the suite), reusing the checks of the crates below them that the lint step made.
-fn lab_check(log_dir: &Path) -> Result<()> {
-    let mut c = cmd("cargo");
-    c.current_dir(root()).args(["check", "-p", "lab", "--lib", "--examples"]);
-    clippy_env(&mut c)?;
-    steps::lower_priority(&mut c);
-    steps::run_logged(&mut c, &log_dir.join("lab.log")).map_err(|e| format!("lab programs: {e}"))?;
-    println!("lab: the research and profiling programs compile");
-    Ok(())
-}
-
-/// Library crates under the clippy policy of [`clippy_lints`].
+/// The library crates under the lint policy (docs/decisions/0004): no `unwrap`/`expect`/`panic`
+/// outside tests, and no panicking indexing in the crates and modules that parse input
+/// (`shared`, `controller`, `ssm::{mat, data, device}`, `sim::scene`). The `deny` attributes
+/// live in the crates; the host build's wrapper runs clippy over them ([`wrapper_plan`]).
 /// (Every workspace library that denies a clippy lint itself; a unit test keeps the list whole.)
 const LINTED_CRATES: [&str; 9] =
     ["shared", "controller", "fileio", "infile", "sim", "ssm", "chaos", "furuta", "chaos_study"];
 
-/// The crates whose API documentation [`doc_links`] builds: the library crates and `ssmctl`.
+/// The crates whose API documentation the host build's wrapper builds, warnings denied (broken
+/// or ambiguous intra-doc links, stray HTML in doc comments): the library crates and `ssmctl`.
 const DOCUMENTED_CRATES: [&str; 7] = ["shared", "controller", "sim", "ssm", "chaos", "furuta", "ssmctl"];
 
 /// Where `cargo xtask test` writes its step table.
@@ -1313,21 +1285,15 @@ fn steps_json_path() -> PathBuf {
 }
 
 /// The host build of `cargo xtask test`: every test binary of the workspace in the test
-/// profile (`--timings`: what each crate cost, in `target/cargo-timings/`), then the
-/// `ssmctl` the PIL and Slurm steps run, from that build.
-fn host_build() -> Result<PathBuf> {
-    run(cmd("cargo").current_dir(root()).args(["test", "--workspace", "--exclude", "lab", "--no-run", "--timings"]))?;
-    ssmctl_bin(Host::Test)
-}
-
-/// The host build of a CI run: [`host_build`] with the lab's programs, its compiler wrapper
-/// (`wrap.rs`) checking the lint policy of [`clippy_lints`] and the API docs of
-/// [`doc_links`] beside each documented crate's compile, and the lab's programs compiled to
-/// metadata only, as [`lab_check`] does: one front-end pass over the dependencies instead of
-/// a second one in check units. A lint or a doc warning fails this build, naming the crate.
-fn host_build_checked(plan: &wrap::Plan) -> Result<PathBuf> {
-    let mut c = cmd("cargo");
-    c.current_dir(root()).args(["test", "--workspace", "--no-run", "--timings"]).envs(plan.env());
+/// profile (`--timings`: what each crate cost, in `cargo-timings/` of [`build_dir`]) and the
+/// lab's programs, its compiler wrapper (`wrap.rs`) checking the lint policy of
+/// [`LINTED_CRATES`] and the API docs of [`DOCUMENTED_CRATES`] beside each one's compile, and
+/// the lab's programs compiled to metadata only: one front-end pass over the dependencies
+/// instead of a second one in check units. A lint or a doc warning fails this build, naming
+/// the crate. Then the `ssmctl` the PIL and Slurm steps run, from that build.
+fn host_build(plan: &wrap::Plan) -> Result<PathBuf> {
+    let mut c = host_cargo()?;
+    c.args(["test", "--workspace", "--no-run", "--timings"]).envs(plan.env());
     run(&mut c).map_err(|e| {
         format!(
             "{e} (the build also holds the lint policy of {} and the API docs of {} without warnings: see the wrapper's messages above)",
@@ -1341,10 +1307,10 @@ fn host_build_checked(plan: &wrap::Plan) -> Result<PathBuf> {
     ssmctl_bin(Host::Test)
 }
 
-/// What a CI run's host build asks of its wrapper: lint [`LINTED_CRATES`], document
+/// What the host build asks of its wrapper: lint [`LINTED_CRATES`], document
 /// [`DOCUMENTED_CRATES`], check the lab (needs clippy, from the rustup step).
-fn ci_wrapper_plan() -> Result<wrap::Plan> {
-    let target = root().join("target");
+fn wrapper_plan() -> Result<wrap::Plan> {
+    let target = build_dir();
     Ok(wrap::Plan {
         lint: LINTED_CRATES.iter().map(|s| s.to_string()).collect(),
         doc: DOCUMENTED_CRATES.iter().map(|s| s.to_string()).collect(),
@@ -1388,18 +1354,19 @@ fn host_tests_run(
     steps: &steps::Steps,
     previous: &std::collections::BTreeMap<String, f64>,
     test_times: bool,
-    listed: &dyn Fn(),
 ) -> (Vec<host_tests::Binary>, Result<()>) {
     let start = steps.elapsed();
-    let mut c = cmd("cargo");
-    c.current_dir(root()).args(["test", "--workspace", "--exclude", "lab", "--no-run", "--message-format=json"]);
+    let mut c = match host_cargo() {
+        Ok(c) => c,
+        Err(e) => return (Vec::new(), Err(e)),
+    };
+    c.args(["test", "--workspace", "--exclude", "lab", "--no-run", "--message-format=json"]);
     c.stderr(Stdio::inherit());
     let exes = match c.output() {
         Ok(o) if o.status.success() => host_tests::executables(&String::from_utf8_lossy(&o.stdout)),
         Ok(o) => Err(format!("{c:?} failed with {}", o.status)),
         Err(e) => Err(format!("cannot start {c:?}: {e}")),
     };
-    listed();
     let exes = match exes {
         Ok(e) if e.is_empty() => Err("cargo test --no-run listed no test executable".to_string()),
         other => other,
@@ -1408,8 +1375,11 @@ fn host_tests_run(
         Ok(e) => e,
         Err(e) => return (Vec::new(), Err(e)),
     };
-    let mut doc = cmd("cargo");
-    doc.current_dir(root()).args(["test", "--workspace", "--exclude", "lab", "--doc"]);
+    let mut doc = match host_cargo() {
+        Ok(c) => c,
+        Err(e) => return (Vec::new(), Err(e)),
+    };
+    doc.args(["test", "--workspace", "--exclude", "lab", "--doc"]);
     let (binaries, failed) = host_tests::run_parallel(&exes, previous, HOST_TEST_JOBS, test_times, &mut doc);
     add_test_binaries(steps, start, &binaries);
     let passed: u32 = binaries.iter().map(|b| b.passed).sum();
@@ -1468,11 +1438,11 @@ fn host_tests_only(args: &[String]) -> Result<()> {
     let steps = steps::Steps::new();
     let previous = previous_test_times();
     steps.run("host build (cargo test --no-run, test profile)", || {
-        run(cmd("cargo").current_dir(root()).args(["test", "--workspace", "--exclude", "lab", "--no-run"]))
+        run(host_cargo()?.args(["test", "--workspace", "--exclude", "lab", "--no-run"]))
     })?;
     let mut binaries = Vec::new();
     let r = steps.run(HOST_TESTS_STEP, || {
-        let (b, r) = host_tests_run(&steps, &previous, test_times, &|| ());
+        let (b, r) = host_tests_run(&steps, &previous, test_times);
         binaries = b;
         r
     });
@@ -1522,9 +1492,10 @@ fn firmware_step(board: Board) -> &'static str {
 /// `cargo xtask test`. Steps start as soon as what they need is there: the rustup and apt
 /// installs, the Python venv, rustfmt and the firmware builds run while cargo compiles the
 /// host tests (the builds beside it at a lower priority, their output in
-/// `target/xtask-logs/`); the two QEMU machines' suites run side by side; the Python module
-/// (reusing the host build's dependencies), clippy + doc (in its target dir), the PIL runs and
-/// Slurm (with the test build's `ssmctl`) follow the host build. Every step runs even when another failed (unless it
+/// `target/xtask-logs/`); the host build in [`build_dir`] lints, documents and checks the lab
+/// beside its compiles; the two QEMU machines' suites run side by side; the Python module
+/// (reusing the host build's dependencies), the PIL runs and Slurm (with the test build's
+/// `ssmctl`) follow the host build. Every step runs even when another failed (unless it
 /// needs that one); the command ends with the step table (also in
 /// `target/xtask-test-steps.json`) and the on-target count, and fails if any step failed.
 fn test_all() -> Result<()> {
@@ -1540,16 +1511,10 @@ fn test_all() -> Result<()> {
     let image_stm32: Gate<Result<PathBuf>> = Gate::new();
     let pil_done: Gate<Result<()>> = Gate::new();
     let pil_eq_done: Gate<Result<()>> = Gate::new();
-    // The cargo runs on the host build's target dir that the lint step must not hold up (it
-    // takes cargo's lock of the folder for minutes): the host tests' listing, the module build.
-    let listed: Gate<()> = Gate::new();
-    let module_built: Gate<()> = Gate::new();
     let results = std::sync::Mutex::new(Vec::<(&str, Result<()>)>::new());
     let on_target = std::sync::Mutex::new((0u32, 0u32));
     let test_binaries = std::sync::Mutex::new(Vec::<host_tests::Binary>::new());
     let previous = previous_test_times();
-    // A CI run lints, documents and checks the lab inside its host build (`host_build_checked`).
-    let checks_in_build = ci_wrapper().is_some();
     let record = |name: &'static str, r: Result<()>| results.lock().unwrap_or_else(|p| p.into_inner()).push((name, r));
     let count = |passed: u32, failed: u32| {
         let mut c = on_target.lock().unwrap_or_else(|p| p.into_inner());
@@ -1566,24 +1531,6 @@ fn test_all() -> Result<()> {
             let r = after(&tools, "rustup")
                 .and_then(|()| steps.run("rustfmt --check (workspace, qemu/, tests/fuzz/)", || fmt_check(&logs)));
             record("rustfmt", r);
-        });
-        // Lints, docs and the lab check in the host build's target dir, reusing its proc macros
-        // and build scripts: after the host build and the cargo runs that wait for it.
-        s.spawn(|| {
-            if checks_in_build {
-                return;
-            }
-            let _ = host.wait();
-            listed.wait();
-            module_built.wait();
-            let r = after(&tools, "rustup").and_then(|()| steps.run("clippy: lint policy", || clippy_lints(&logs)));
-            record("clippy", r);
-            let r =
-                after(&tools, "rustup").and_then(|()| steps.run("doc: API docs, warnings denied", || doc_links(&logs)));
-            record("doc", r);
-            let r = after(&tools, "rustup")
-                .and_then(|()| steps.run("lab: research programs compile (check)", || lab_check(&logs)));
-            record("lab", r);
         });
         // Both boards' images, one after the other in one target dir (the second compiles
         // only the firmware crate), beside the host build.
@@ -1674,7 +1621,6 @@ fn test_all() -> Result<()> {
             let built = after(&venv, "python venv")
                 .and_then(|_| after(&host, "host build"))
                 .and_then(|_| steps.run("python: module build (maturin, optimized)", python::module_build));
-            module_built.set(());
             let r = built.and_then(|()| steps.run("python: pytest", python::pytest));
             record("python-test", r);
         });
@@ -1686,24 +1632,19 @@ fn test_all() -> Result<()> {
             record("slurm-test", r);
         });
         // The host build and tests, on this thread.
-        let built = if checks_in_build {
-            after(&tools, "rustup").and_then(|()| ci_wrapper_plan()).and_then(|plan| {
-                steps.run("host build (cargo test --no-run, test profile; lint policy, API docs, lab check)", || {
-                    host_build_checked(&plan)
-                })
+        let built = after(&tools, "rustup").and_then(|()| wrapper_plan()).and_then(|plan| {
+            steps.run("host build (cargo test --no-run, test profile; lint policy, API docs, lab check)", || {
+                host_build(&plan)
             })
-        } else {
-            steps.run("host build (cargo test --no-run, test profile)", host_build)
-        };
+        });
         host.set(built.clone());
         let tests = after(&host, "host build").and_then(|_| {
             steps.run(HOST_TESTS_STEP, || {
-                let (binaries, r) = host_tests_run(&steps, &previous, false, &|| listed.set(()));
+                let (binaries, r) = host_tests_run(&steps, &previous, false);
                 *test_binaries.lock().unwrap_or_else(|p| p.into_inner()) = binaries;
                 r
             })
         });
-        listed.set(());
         record("host tests", tests);
     });
     for (gate, name) in [(&tools, "rustup"), (&apt_done, "apt")] {
@@ -1730,7 +1671,7 @@ fn test_all() -> Result<()> {
         o.insert("host_test_binaries".into(), list.into());
         // What each crate of the host build cost (all of them when the build started from
         // scratch, only what was recompiled otherwise).
-        let timings = root().join("target").join("cargo-timings").join("cargo-timing.html");
+        let timings = build_dir().join("cargo-timings").join("cargo-timing.html");
         match std::fs::read_to_string(&timings).map_err(|e| e.to_string()).and_then(|h| host_tests::timing_units(&h)) {
             Ok(units) => {
                 o.insert("host_build_units".into(), host_tests::timing_summary(&units, &WORKSPACE_CRATES, 25));

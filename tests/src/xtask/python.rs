@@ -5,8 +5,8 @@
 //! while cargo compiles, builds the module ([`module_build`]) after the host build and then runs
 //! [`pytest`].
 //!
-//! The module is built optimized with the test profile's settings in the workspace's target
-//! directory: maturin's `--profile test` would build a test harness (`cargo rustc` treats
+//! The module is built optimized with the test profile's settings in the target directory of
+//! the xtask's host build (`crate::build_dir`, with its compiler wrapper): maturin's `--profile test` would build a test harness (`cargo rustc` treats
 //! that profile name so), so it builds `--profile dev` with the settings the test profile
 //! adds to dev ([`TEST_OVER_DEV`]) given as `CARGO_PROFILE_DEV_*`; with equal settings and the
 //! workspace's feature sets (`host/python/Cargo.toml`) every dependency `cargo test
@@ -87,6 +87,7 @@ pub fn module_build() -> Result<()> {
     for (k, v) in TEST_OVER_DEV {
         build.env(k, v);
     }
+    crate::host_build_env(&mut build)?;
     run(&mut build)?;
     println!("python-test: module build + install {:.1} s", t0.elapsed().as_secs_f64());
     Ok(())

@@ -197,7 +197,7 @@ fn parse_target(target: &str) -> (String, Vec<String>, String) {
 /// The test executables of `targets`, built in the test profile by one cargo run (the
 /// packages' features unified as one build, so a dependency is compiled once for all).
 fn build(root: &Path, targets: &[String]) -> Result<Vec<Executable>> {
-    let mut c = crate::cmd("cargo");
+    let mut c = crate::host_cargo()?;
     c.current_dir(root).args(["test", "--no-run", "--message-format=json"]);
     let parsed: Vec<(String, Vec<String>, String)> = targets.iter().map(|t| parse_target(t)).collect();
     // Cargo takes each target flag once for all the packages.

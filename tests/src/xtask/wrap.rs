@@ -1,4 +1,4 @@
-//! The CI host build's compiler wrapper: cargo runs the xtask binary itself as
+//! The host build's compiler wrapper: cargo runs the xtask binary itself as
 //! `RUSTC_WORKSPACE_WRAPPER` (`xtask /path/to/rustc ARGS`), so that one compile of each
 //! workspace crate serves the test build, the lint policy, the API docs and the lab check.
 //!
@@ -181,12 +181,14 @@ fn rebuild(args: &[String], mut change: impl FnMut(&str, &str) -> Option<Vec<Str
 }
 
 /// clippy-driver's arguments: the build's, emitting metadata into `lint_dir`, diagnostics
-/// rendered for people (they are shown only when a lint fails).
+/// rendered for people (they are shown only when a lint fails), and without the build's
+/// incremental session folder, which the build's `rustc` is using at the same time.
 fn clippy_args(args: &[String], lint_dir: &Path) -> Vec<String> {
-    rebuild(args, |k, _| match k {
+    rebuild(args, |k, v| match k {
         "--emit" => Some(vec!["--emit=metadata".into()]),
         "--out-dir" => Some(vec!["--out-dir".into(), lint_dir.display().to_string()]),
         "--error-format" | "--json" => Some(Vec::new()),
+        "-C" | "--codegen" if v.starts_with("incremental=") => Some(Vec::new()),
         _ => None,
     })
 }
@@ -404,6 +406,12 @@ mod tests {
         assert!(!a.iter().any(|x| x.starts_with("--error-format") || x.starts_with("--json") || x == "/t/debug/deps"));
         assert!(a.windows(2).any(|w| w == ["--extern", "faer=/t/debug/deps/libfaer-12.rmeta"]));
         assert!(a.windows(2).any(|w| w == ["-C", "opt-level=2"]));
+        // The build's incremental session folder stays the build's own.
+        let mut incremental = s(LIB);
+        incremental.extend(s(&["-C", "incremental=/t/debug/incremental", "--codegen=incremental=/t/i2"]));
+        let a = clippy_args(&incremental, Path::new("/t/lint"));
+        assert!(!a.iter().any(|x| x.contains("incremental")), "{a:?}");
+        assert_eq!(a.len(), clippy_args(&s(LIB), Path::new("/t/lint")).len());
     }
 
     #[test]
