@@ -177,8 +177,9 @@ fn params<T: serde::de::DeserializeOwned>(scene: &Scene) -> Result<T, SimError> 
 
 /// A plant built from a scene, one variant per kind (an equations plant per coordinate
 /// count: its state count is a type parameter). [`with_plant!`](crate::with_plant) runs
-/// code generic over [`Plant`] on any of them.
-#[derive(Debug)]
+/// code generic over [`Plant`] on any of them. Cloning is cheap (an equations plant shares
+/// its compiled model), so one built plant can serve a [`Stepper`] and [`simulate_plant`].
+#[derive(Clone, Debug)]
 pub enum AnyPlant {
     Furuta(Furuta),
     Cart(Cart),
@@ -256,10 +257,16 @@ enum StepperKind {
 impl Stepper {
     /// The plant `scene` names ([`build_plant`]) and an integrator of its method ([`method_of`]).
     pub fn new(scene: &Scene) -> Result<Self, SimError> {
+        Self::with_plant(scene, build_plant(scene)?)
+    }
+
+    /// An already built `plant` (the one `scene` names) and an integrator of the scene's
+    /// method: for a caller that also needs the plant itself, so it is built once.
+    pub fn with_plant(scene: &Scene, plant: AnyPlant) -> Result<Self, SimError> {
         fn ode<const N: usize>(scene: &Scene) -> Result<Integrator<N>, SimError> {
             Integrator::new(method_of(scene)).map_err(|source| SimError::Ode { scene: scene.name.clone(), source })
         }
-        Ok(Self(match build_plant(scene)? {
+        Ok(Self(match plant {
             AnyPlant::Furuta(p) => StepperKind::Furuta(p, ode(scene)?),
             AnyPlant::Cart(p) => StepperKind::Cart(p, ode(scene)?),
             AnyPlant::Equations1(p) => StepperKind::Equations1(p, ode(scene)?),
@@ -271,11 +278,17 @@ impl Stepper {
 
     /// The plant's state count.
     pub fn states(&self) -> usize {
+        // Read off each variant's integrator type, so the counts are stated only there.
+        fn n<const N: usize>(_: &Integrator<N>) -> usize {
+            N
+        }
         match &self.0 {
-            StepperKind::Furuta(..) | StepperKind::Cart(..) | StepperKind::Equations2(..) => 4,
-            StepperKind::Equations1(..) => 2,
-            StepperKind::Equations3(..) => 6,
-            StepperKind::Equations4(..) => 8,
+            StepperKind::Furuta(_, ode) => n(ode),
+            StepperKind::Cart(_, ode) => n(ode),
+            StepperKind::Equations1(_, ode) => n(ode),
+            StepperKind::Equations2(_, ode) => n(ode),
+            StepperKind::Equations3(_, ode) => n(ode),
+            StepperKind::Equations4(_, ode) => n(ode),
         }
     }
 
@@ -308,7 +321,13 @@ impl Stepper {
 
 /// Runs a scene's closed-loop simulation.
 pub fn simulate(scene: &Scene, progress: Option<&dyn Fn(u64)>) -> Result<Trajectory, SimError> {
-    crate::with_plant!(build_plant(scene)?, p => simulate_with(&p, scene, progress))
+    simulate_plant(scene, &build_plant(scene)?, progress)
+}
+
+/// Runs a scene's closed-loop simulation on its already built `plant` ([`build_plant`] of
+/// `scene`). Not generic, so a caller holding an [`AnyPlant`] gets the numerics `sim` compiles.
+pub fn simulate_plant(scene: &Scene, plant: &AnyPlant, progress: Option<&dyn Fn(u64)>) -> Result<Trajectory, SimError> {
+    crate::with_plant!(plant, p => simulate_with(p, scene, progress))
 }
 
 /// The law the scene's effects select.

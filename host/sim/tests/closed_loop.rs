@@ -100,8 +100,9 @@ fn scene(name: &str, o: &[&str]) -> Scene {
 }
 
 /// A `Stepper` driven by a simulation's held inputs retraces that simulation's states bit
-/// for bit (the built-in Furuta, a four-coordinate equations plant), and refuses a state of
-/// the wrong length without touching it.
+/// for bit (the built-in Furuta, a four-coordinate equations plant), whether it builds the
+/// plant itself or is given one already built, and refuses a state of the wrong length
+/// without touching it. `simulate_plant` on that built plant is `simulate`, bit for bit.
 #[test]
 fn stepper_retraces_the_simulation_and_refuses_a_wrong_state_length() {
     for (s, states) in [
@@ -109,28 +110,36 @@ fn stepper_retraces_the_simulation_and_refuses_a_wrong_state_length() {
         (scene("duffing-chain4", &["run.periods=300"]), 8),
     ] {
         let tr = simulate(&s, None).unwrap();
-        let mut stepper = Stepper::new(&s).unwrap();
-        assert_eq!((stepper.states(), tr.n_states()), (states, states), "{}", s.name);
-        let mut x = vec![0.0; states];
-        if !s.initial.state.is_empty() {
-            x.copy_from_slice(&s.initial.state);
-        }
-        let dt = s.controller_config().dt;
-        for i in 0..tr.rows() {
-            for (k, xk) in x.iter().enumerate() {
-                assert_eq!(xk.to_bits(), tr.state(i, k).to_bits(), "{}: period {i}, state {k}", s.name);
+        let plant = build_plant(&s).unwrap();
+        let again = simulate_plant(&s, &plant, None).unwrap();
+        assert_eq!(again.states.len(), tr.states.len(), "{}", s.name);
+        assert!(again.states.iter().zip(&tr.states).all(|(a, b)| a.to_bits() == b.to_bits()), "{}", s.name);
+        assert_eq!((&again.u, &again.codes), (&tr.u, &tr.codes), "{}", s.name);
+        for (how, mut stepper) in
+            [("built by new", Stepper::new(&s).unwrap()), ("given", Stepper::with_plant(&s, plant.clone()).unwrap())]
+        {
+            assert_eq!((stepper.states(), tr.n_states()), (states, states), "{}: {how}", s.name);
+            let mut x = vec![0.0; states];
+            if !s.initial.state.is_empty() {
+                x.copy_from_slice(&s.initial.state);
             }
-            if i + 1 < tr.rows() {
-                stepper.advance(&mut x, tr.u[i], dt).unwrap();
+            let dt = s.controller_config().dt;
+            for i in 0..tr.rows() {
+                for (k, xk) in x.iter().enumerate() {
+                    assert_eq!(xk.to_bits(), tr.state(i, k).to_bits(), "{}: {how}: period {i}, state {k}", s.name);
+                }
+                if i + 1 < tr.rows() {
+                    stepper.advance(&mut x, tr.u[i], dt).unwrap();
+                }
             }
+            let mut short = vec![0.25; states - 1];
+            let e = stepper.advance(&mut short, 0.0, dt).unwrap_err().to_string();
+            assert!(
+                e.contains(&format!("a state of {} values", states - 1)) && e.contains(&format!("of {states} states")),
+                "{e}"
+            );
+            assert!(short.iter().all(|&v| v == 0.25));
         }
-        let mut short = vec![0.25; states - 1];
-        let e = stepper.advance(&mut short, 0.0, dt).unwrap_err().to_string();
-        assert!(
-            e.contains(&format!("a state of {} values", states - 1)) && e.contains(&format!("of {states} states")),
-            "{e}"
-        );
-        assert!(short.iter().all(|&v| v == 0.25));
     }
 }
 

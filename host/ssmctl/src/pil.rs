@@ -5,7 +5,7 @@
 //! device answers with the DAC code and a one-step prediction, and the code is held over the
 //! next period. A host-side [`IntPd`] and f32 [`Predictor`] fed the same inputs check the
 //! device's answers (codes and prediction bits); after the run, the host-only simulation of
-//! the same scene ([`sim::closed_loop::simulate`], same seed) checks the whole closed loop:
+//! the same scene ([`sim::closed_loop::simulate_plant`], same seed) checks the whole closed loop:
 //! its codes and states must equal the PIL run's.
 //!
 //! The run is recorded as a data set: `theta.csv` (`t_s,theta_meas_rad`, the measured primary
@@ -32,7 +32,7 @@ use serde::Serialize;
 use shared::frame::{
     self, Fault, FrameError, HEADER_LEN, Header, Kind, LoadReply, MAX_FRAME, REPLY_START, Seq, StepReply,
 };
-use sim::closed_loop::{HISTORY, SimError, Stepper, build_plant};
+use sim::closed_loop::{AnyPlant, HISTORY, SimError, Stepper, build_plant};
 use sim::plant::Plant;
 use sim::scene::{Scene, SceneError};
 use std::io::{Read, Write};
@@ -188,8 +188,9 @@ pub struct PilSummary {
     pub noise: Option<sim::scene::NoiseSpec>,
     /// What `theta.csv` holds.
     pub observable: String,
-    /// Whether the host-only simulation of the scene (same seed, [`sim::closed_loop::simulate`])
-    /// produced the same encoder counts and DAC codes as the PIL run, period by period.
+    /// Whether the host-only simulation of the scene (same seed,
+    /// [`sim::closed_loop::simulate_plant`]) produced the same encoder counts and DAC codes
+    /// as the PIL run, period by period.
     pub host_sim_codes_identical: bool,
     pub host_sim_first_mismatch: Option<u64>,
     /// Largest |state difference| between the PIL run and the host-only simulation (0 when
@@ -527,14 +528,18 @@ pub fn run(opts: &PilOptions) -> Result<PilSummary, PilError> {
     }
     check_firmware(&opts.elf, &opts.out.join("qemu.log"))?;
     let scene = Scene::load(&opts.scene, &opts.overrides)?;
-    // The plant integrated through `Stepper`, whose numerics `sim` compiles: this loop's own
-    // code is glue, generic over the plant only for its state array and names.
-    let stepper = Stepper::new(&scene)?;
-    sim::with_plant!(build_plant(&scene)?, p => run_with(&p, stepper, &scene, opts))
+    // The plant, built once, integrated through `Stepper` and simulated by `simulate_plant`,
+    // whose numerics `sim` compiles: this loop's own code is glue, generic over the plant only
+    // for its state array and names.
+    let plant = build_plant(&scene)?;
+    let stepper = Stepper::with_plant(&scene, plant.clone())?;
+    sim::with_plant!(&plant, p => run_with(p, &plant, stepper, &scene, opts))
 }
 
+/// The PIL loop on `plant`, the concrete plant inside `any`.
 fn run_with<P: Plant<N>, const N: usize>(
     plant: &P,
+    any: &AnyPlant,
     mut stepper: Stepper,
     scene: &Scene,
     opts: &PilOptions,
@@ -785,7 +790,7 @@ fn run_with<P: Plant<N>, const N: usize>(
     if !status.success() {
         return Err(PilError::Qemu(format!("exited with {status} after the shutdown frame")));
     }
-    compare_with_host_sim(scene, &run_codes, &run_states, &mut s)?;
+    compare_with_host_sim(scene, any, &run_codes, &run_states, &mut s)?;
     let json = serde_json::to_string_pretty(&s).map_err(|e| PilError::Fit(e.to_string()))?;
     // Only a complete run becomes files.
     csv.commit().map_err(wr)?;
@@ -795,10 +800,12 @@ fn run_with<P: Plant<N>, const N: usize>(
     Ok(s)
 }
 
-/// Runs the host-only simulation of `scene` over the PIL run's periods and compares codes
-/// (counts in, code out) and states with the PIL run's, filling the `host_sim_*` fields.
+/// Runs the host-only simulation of `scene` on its built `plant` ([`build_plant`] of `scene`)
+/// over the PIL run's periods and compares codes (counts in, code out) and states with the
+/// PIL run's, filling the `host_sim_*` fields.
 pub fn compare_with_host_sim<const N: usize>(
     scene: &Scene,
+    plant: &AnyPlant,
     codes: &[sim::closed_loop::Codes],
     states: &[[f64; N]],
     s: &mut PilSummary,
@@ -808,7 +815,7 @@ pub fn compare_with_host_sim<const N: usize>(
     };
     let mut sc = scene.clone();
     sc.run.periods = last as u64; // rows 0..=periods
-    let tr = sim::closed_loop::simulate(&sc, None).map_err(|e| PilError::HostSim(e.to_string()))?;
+    let tr = sim::closed_loop::simulate_plant(&sc, plant, None).map_err(|e| PilError::HostSim(e.to_string()))?;
     let sim_codes = tr.codes.as_deref().unwrap_or_default();
     let rows = tr.rows().min(sim_codes.len());
     s.host_sim_codes_identical = rows == codes.len();

@@ -185,15 +185,17 @@ fn host_sim_comparison_finds_the_first_mismatch() {
     let tr = sim::closed_loop::simulate(&scene, None).unwrap();
     let mut codes = tr.codes.clone().unwrap();
     let states: Vec<[f64; 4]> = (0..tr.rows()).map(|i| std::array::from_fn(|k| tr.state(i, k))).collect();
+    let plant = sim::closed_loop::build_plant(&scene).unwrap();
     let mut s = summary_for_test();
-    compare_with_host_sim(&scene, &codes, &states, &mut s).unwrap();
+    compare_with_host_sim(&scene, &plant, &codes, &states, &mut s).unwrap();
     assert!(s.host_sim_codes_identical && s.host_sim_first_mismatch.is_none() && s.host_sim_max_state_diff == 0.0);
-    // The seed matters: another seed changes some encoder count within 120 periods.
+    // The seed matters: another seed changes some encoder count within 120 periods (the
+    // plant is the same, so the one built plant serves both scenes).
     let other = SceneBuilder::load("furuta-quant-dt25-noise").unwrap().periods(120).noise_seed(2).build().unwrap();
-    compare_with_host_sim(&other, &codes, &states, &mut s).unwrap();
+    compare_with_host_sim(&other, &plant, &codes, &states, &mut s).unwrap();
     assert!(!s.host_sim_codes_identical && s.host_sim_first_mismatch.is_some());
     codes[77].code += 1;
-    compare_with_host_sim(&scene, &codes, &states, &mut s).unwrap();
+    compare_with_host_sim(&scene, &plant, &codes, &states, &mut s).unwrap();
     assert_eq!((s.host_sim_codes_identical, s.host_sim_first_mismatch), (false, Some(77)));
 }
 
