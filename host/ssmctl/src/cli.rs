@@ -862,8 +862,12 @@ pub fn run(cli: Cli) -> Result<(), Box<dyn std::error::Error>> {
     let tx = crate::output::Outputs::begin(&roots, &inputs);
     for r in &roots {
         // An output folder (or a link to one) is fine; anything else must be writable as a file.
-        if !std::fs::metadata(r).is_ok_and(|m| m.is_dir()) {
-            tx.check(r)?;
+        // Checked first and the folder looked at after a refusal: another shard of the same
+        // sweep may create the folder between the two looks.
+        if let Err(e) = tx.check(r) {
+            if !std::fs::metadata(r).is_ok_and(|m| m.is_dir()) {
+                return Err(e.into());
+            }
         }
     }
     run_command(cli)?;
