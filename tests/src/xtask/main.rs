@@ -234,9 +234,6 @@ fn cmd(program: impl AsRef<std::ffi::OsStr>) -> Command {
     {
         c.env_remove(var);
     }
-    for (key, value) in ci_build_env(std::env::var_os("CI").as_deref(), |k| std::env::var_os(k).is_some()) {
-        c.env(key, value);
-    }
     c
 }
 
@@ -276,32 +273,34 @@ fn host_build_env(c: &mut Command) -> Result<()> {
         });
     }
     c.env("CARGO_TARGET_DIR", build_dir()).env("RUSTC_WORKSPACE_WRAPPER", exe);
+    for (key, value) in build_env(std::env::var_os("CI").as_deref(), |k| std::env::var_os(k).is_some()) {
+        c.env(key, value);
+    }
     Ok(())
 }
 
-/// What a CI run (`CI` set and not `false` or `0`) sets for the cargo it starts, each unless
-/// the environment already says: its target dir starts empty and is built once, so
-/// incremental compilation's dep-graphs and query caches would never be read, and nobody reads
-/// the workspace crates' line tables (a panic's message keeps its file:line, which comes from
-/// the panic's location, not from debug info; a backtrace keeps the function names). Without
-/// incremental compilation, the workspace's crates in 4 codegen units instead of 16 compile in
-/// less CPU (fewer copies of inlined generic code; the dependencies keep 16, set in
-/// `Cargo.toml`, as for them it saves nothing). The dev profile too, so the Python module's
-/// `--profile dev` build keeps the test profile's settings and reuses its crates. Outside CI
-/// the xtask's builds keep incremental compilation (a warm re-run after an edit recompiles
-/// only what changed) and with it cargo's codegen units and line tables.
-fn ci_build_env(ci: Option<&std::ffi::OsStr>, is_set: impl Fn(&str) -> bool) -> Vec<(&'static str, &'static str)> {
-    const CI_ENV: [(&str, &str); 5] = [
+/// The profile settings of the xtask's builds in [`build_dir`], each unless the environment
+/// already says. Always no line tables for the workspace's crates (`debug = false` in the dev
+/// and test profiles): nobody reads them there (a panic's message keeps its file:line, which
+/// comes from the panic's location, not from debug info; a backtrace keeps the function
+/// names), and they cost a sixth of a crate's compile. The dev profile too, so the Python
+/// module's `--profile dev` build keeps the test profile's settings and reuses its crates.
+/// Outside CI incremental compilation stays on, so a warm re-run after an edit recompiles only
+/// what changed. A CI run (`CI` set and not `false` or `0`) builds its target dir once, so
+/// incremental compilation's dep-graphs and query caches would never be read: it turns it off,
+/// and without it the workspace's crates in 4 codegen units instead of 16 compile in less CPU
+/// (fewer copies of inlined generic code; the dependencies keep 16, set in `Cargo.toml`, as
+/// for them it saves nothing).
+fn build_env(ci: Option<&std::ffi::OsStr>, is_set: impl Fn(&str) -> bool) -> Vec<(&'static str, &'static str)> {
+    const ALWAYS: [(&str, &str); 2] = [("CARGO_PROFILE_DEV_DEBUG", "false"), ("CARGO_PROFILE_TEST_DEBUG", "false")];
+    const CI: [(&str, &str); 3] = [
         ("CARGO_INCREMENTAL", "0"),
-        ("CARGO_PROFILE_DEV_DEBUG", "false"),
-        ("CARGO_PROFILE_TEST_DEBUG", "false"),
         ("CARGO_PROFILE_DEV_CODEGEN_UNITS", "4"),
         ("CARGO_PROFILE_TEST_CODEGEN_UNITS", "4"),
     ];
-    if !ci.is_some_and(|v| !v.is_empty() && v != "false" && v != "0") {
-        return Vec::new();
-    }
-    CI_ENV.into_iter().filter(|(k, _)| !is_set(k)).collect()
+    let ci = ci.is_some_and(|v| !v.is_empty() && v != "false" && v != "0");
+    let ci_only: &[(&str, &str)] = if ci { &CI } else { &[] };
+    ALWAYS.iter().chain(ci_only).copied().filter(|(k, _)| !is_set(k)).collect()
 }
 
 fn run(c: &mut Command) -> Result<()> {
@@ -1701,26 +1700,29 @@ mod tests {
     use super::*;
 
     #[test]
-    fn ci_builds_without_incremental_and_line_tables_in_4_codegen_units_unless_told() {
+    fn builds_without_line_tables_and_in_ci_without_incremental_in_4_codegen_units_unless_told() {
         let s = |v: &'static str| Some(std::ffi::OsStr::new(v));
         let keys = |ci, set: &[&str]| -> Vec<&str> {
-            ci_build_env(ci, |k| set.contains(&k)).into_iter().map(|(k, _)| k).collect()
+            build_env(ci, |k| set.contains(&k)).into_iter().map(|(k, _)| k).collect()
         };
-        let all = [
-            "CARGO_INCREMENTAL",
+        let always = ["CARGO_PROFILE_DEV_DEBUG", "CARGO_PROFILE_TEST_DEBUG"];
+        let ci = [
             "CARGO_PROFILE_DEV_DEBUG",
             "CARGO_PROFILE_TEST_DEBUG",
+            "CARGO_INCREMENTAL",
             "CARGO_PROFILE_DEV_CODEGEN_UNITS",
             "CARGO_PROFILE_TEST_CODEGEN_UNITS",
         ];
-        assert_eq!(keys(s("true"), &[]), all);
-        assert_eq!(keys(s("1"), &[]), all);
+        assert_eq!(keys(s("true"), &[]), ci);
+        assert_eq!(keys(s("1"), &[]), ci);
         for not_ci in [None, s("false"), s("0"), s("")] {
-            assert!(keys(not_ci, &[]).is_empty(), "{not_ci:?}");
+            assert_eq!(keys(not_ci, &[]), always, "{not_ci:?}");
         }
         // A setting the caller made is left to cargo.
-        assert_eq!(keys(s("true"), &["CARGO_INCREMENTAL"]), all[1..]);
-        assert_eq!(ci_build_env(s("true"), |_| false)[0], ("CARGO_INCREMENTAL", "0"));
+        assert_eq!(keys(s("true"), &["CARGO_INCREMENTAL"]), [&ci[..2], &ci[3..]].concat());
+        assert_eq!(keys(None, &["CARGO_PROFILE_DEV_DEBUG"]), always[1..]);
+        assert!(build_env(s("true"), |_| false).contains(&("CARGO_INCREMENTAL", "0")));
+        assert!(build_env(None, |_| false).iter().all(|&(_, v)| v == "false"));
     }
 
     fn args(a: &[&str]) -> Vec<String> {
