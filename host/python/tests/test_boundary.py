@@ -5,6 +5,7 @@ the interpreter as a Rust panic (PanicException) or a crash.
 """
 
 import struct
+import sys
 import zlib
 from pathlib import Path
 
@@ -52,6 +53,23 @@ def test_wrong_types_are_type_errors():
     for call, want in cases:
         with pytest.raises(TypeError, match=want):
             call()
+
+
+@pytest.mark.skipif(sys.version_info < (3, 11), reason="exception notes (PEP 678) need Python 3.11")
+def test_a_wrong_argument_type_names_the_argument():
+    # pyo3 names the argument in a note on the TypeError, which a traceback prints below it.
+    t = sc.Trajectory(T, X)
+    cases = [
+        (dict(dim="2", embed=5), "dim"),
+        (dict(dim=2, embed=5, shift="x"), "shift"),
+        (dict(dim=2, embed=5, dynamics=3), "dynamics"),
+        (dict(dim=2.5, embed=5), "dim"),
+    ]
+    for kwargs, name in cases:
+        with pytest.raises(TypeError) as raised:
+            sc.fit(t, **kwargs)
+        notes = getattr(raised.value, "__notes__", [])
+        assert f"while processing '{name}'" in notes, (kwargs, notes)
 
 
 def test_wrong_values_are_value_errors():
