@@ -9,7 +9,7 @@
 //! host build.
 
 use std::io::{BufRead, BufReader};
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
 use std::time::Instant;
 
@@ -157,8 +157,10 @@ pub fn run_parallel(
     previous: &std::collections::BTreeMap<String, f64>,
     jobs: usize,
     test_times: bool,
+    log_dir: &Path,
     doc: &mut Command,
 ) -> (Vec<Binary>, Vec<String>) {
+    let made = std::fs::create_dir_all(log_dir);
     let mut order: Vec<&Executable> = exes.iter().collect();
     order.sort_by(|a, b| {
         let t = |e: &Executable| previous.get(&e.name).copied().unwrap_or(f64::NEG_INFINITY);
@@ -182,15 +184,28 @@ pub fn run_parallel(
                     let start = t0.elapsed().as_secs_f64();
                     let (lines, seconds, r) = run_lines(&mut c, false);
                     let mut b = Binary { seconds, ok: r.is_ok(), ..Binary::new(e.name.clone(), start) };
-                    let mut text = format!("     Running {} ({})\n", e.name, e.path.display());
+                    let head = format!("     Running {} ({})\n", e.name, e.path.display());
                     read_output(lines.iter().map(|(_, l)| l.as_str()), &mut b);
-                    for (_, l) in &lines {
+                    let tail = r.as_ref().err().map(|err| format!("{err}\n")).unwrap_or_default();
+                    let all: String = lines.iter().map(|(_, l)| format!("{l}\n")).collect();
+                    // The whole output into the binary's log; the command's own shows it without
+                    // the passing tests' captured output (their skip lines are in the summary).
+                    let log = log_dir.join(log_name(&e.name));
+                    let saved = match &made {
+                        Ok(()) => std::fs::write(&log, format!("{head}{all}{tail}")).map_err(|err| err.to_string()),
+                        Err(err) => Err(err.to_string()),
+                    };
+                    let mut text = head;
+                    for l in shown_lines(lines.iter().map(|(_, l)| l.as_str())) {
                         text.push_str(l);
                         text.push('\n');
                     }
-                    if let Err(err) = &r {
-                        text.push_str(&format!("{err}\n"));
+                    match saved {
+                        Ok(()) => text
+                            .push_str(&format!("(the whole output, with the passing tests' own: {})\n", log.display())),
+                        Err(err) => text.push_str(&format!("(writing {}: {err})\n", log.display())),
                     }
+                    text.push_str(&tail);
                     print!("{text}");
                     results.lock().unwrap_or_else(|p| p.into_inner()).push(b);
                 }
@@ -213,6 +228,44 @@ pub fn run_parallel(
     all.sort_by(|a, b| a.start_s.total_cmp(&b.start_s));
     let failed = all.iter().filter(|b| !b.ok).map(|b| b.name.clone()).collect();
     (all, failed)
+}
+
+/// A binary's log file name in the log folder: its label with every character but letters,
+/// digits, `.`, `_` and `-` made `-`.
+fn log_name(label: &str) -> String {
+    let name: String = label
+        .chars()
+        .map(|c| if c.is_ascii_alphanumeric() || matches!(c, '.' | '_' | '-') { c } else { '-' })
+        .collect();
+    format!("{name}.log")
+}
+
+/// The lines of a libtest binary's output (run with `--show-output`) worth showing in the
+/// command's output: all but the passing tests' captured output and their names' list
+/// (libtest's two `successes:` blocks), so that what a passing test prints (an expected
+/// failure of a tool it drives, a `FAILED` of a fixture) cannot be read as a failure.
+/// The failing tests' output (`failures:`) stays.
+pub fn shown_lines<'a>(lines: impl Iterator<Item = &'a str>) -> Vec<&'a str> {
+    // 0: before, 1: in the captured output, 2: in the names' list, 3: after.
+    let mut state = 0;
+    let mut out = Vec::new();
+    for l in lines {
+        state = match (state, l) {
+            (0, "successes:") | (1, "successes:") => state + 1,
+            (0, _) | (3, _) => {
+                out.push(l);
+                state
+            }
+            (1, _) => 1,
+            (2, l) if l.starts_with("    ") => 2,
+            (2, "") => 3,
+            (_, l) => {
+                out.push(l);
+                3
+            }
+        };
+    }
+    out
 }
 
 /// Reads a libtest binary's output (run with `--show-output`) into `b`: the `test result:`
@@ -753,12 +806,16 @@ const CONCURRENCY_DATA = [];
         let previous = [("p long".to_string(), 9.0), ("p bad".to_string(), 2.0)].into();
         let mut doc = Command::new("sh");
         doc.args(["-c", "echo '   Doc-tests p' >&2; echo 'test result: ok. 2 passed; 0 failed'"]);
-        let (b, failed) = run_parallel(&exes, &previous, 1, false, &mut doc);
+        let logs = dir.join("logs");
+        let (b, failed) = run_parallel(&exes, &previous, 1, false, &logs, &mut doc);
         let names: Vec<&str> = b.iter().map(|b| b.name.as_str()).collect();
         assert_eq!(names, ["p long", "p bad", "p short", "p doc tests"]);
         assert_eq!(b.iter().map(|b| b.passed).collect::<Vec<_>>(), [5, 0, 1, 2]);
         assert_eq!(failed, ["p bad"]);
-        let (b, failed) = run_parallel(&exes[..2], &previous, 2, false, &mut doc);
+        // Each binary's whole output in its log.
+        let bad = std::fs::read_to_string(logs.join("p-bad.log")).unwrap();
+        assert!(bad.contains("test result: FAILED. 0 passed; 1 failed") && bad.contains("exit status: 101"), "{bad}");
+        let (b, failed) = run_parallel(&exes[..2], &previous, 2, false, &logs, &mut doc);
         assert_eq!(b.len(), 3);
         assert!(failed.is_empty(), "{failed:?}");
         std::fs::remove_dir_all(&dir).unwrap();
@@ -792,6 +849,44 @@ const CONCURRENCY_DATA = [];
         read_output(text.into_iter(), &mut b);
         assert_eq!(b.passed, 2);
         assert_eq!(b.skipped, ["SKIPPED: no data at ../shared/data", "skipped: x not found"]);
+    }
+
+    /// The passing tests' output is left out of what is shown, the failing tests' stays.
+    #[test]
+    fn passing_tests_output_is_not_shown_and_failures_are() {
+        let text = [
+            "running 3 tests",
+            "test a ... ok",
+            "test b ... ok",
+            "test c ... FAILED",
+            "",
+            "successes:",
+            "",
+            "---- a stdout ----",
+            "step: second: FAILED in 0.0 s: broke",
+            "",
+            "successes:",
+            "    a",
+            "    b",
+            "",
+            "failures:",
+            "",
+            "---- c stdout ----",
+            "thread 'c' panicked",
+            "",
+            "failures:",
+            "    c",
+            "",
+            "test result: FAILED. 2 passed; 1 failed; 0 ignored",
+        ];
+        let shown = shown_lines(text.into_iter());
+        assert_eq!(shown[..5], text[..5]);
+        assert_eq!(shown[5..], text[14..]);
+        assert!(!shown.iter().any(|l| l.contains("broke")));
+        // Without a successes block (no passing test printed anything), everything is shown.
+        let plain = ["running 1 test", "test a ... ok", "", "test result: ok. 1 passed; 0 failed"];
+        assert_eq!(shown_lines(plain.into_iter()), plain);
+        assert_eq!(log_name("ssmctl tests/commands.rs"), "ssmctl-tests-commands.rs.log");
     }
 
     #[test]

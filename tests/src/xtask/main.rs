@@ -1379,7 +1379,8 @@ fn host_tests_run(
         Err(e) => return (Vec::new(), Err(e)),
     };
     doc.args(["test", "--workspace", "--exclude", "lab", "--doc"]);
-    let (binaries, failed) = host_tests::run_parallel(&exes, previous, HOST_TEST_JOBS, test_times, &mut doc);
+    let logs = root().join("target").join("xtask-logs").join("host-tests");
+    let (binaries, failed) = host_tests::run_parallel(&exes, previous, HOST_TEST_JOBS, test_times, &logs, &mut doc);
     add_test_binaries(steps, start, &binaries);
     let passed: u32 = binaries.iter().map(|b| b.passed).sum();
     let skipped: Vec<&String> = binaries.iter().flat_map(|b| &b.skipped).collect();
