@@ -630,18 +630,9 @@ pub enum BlobError {
     Decode(#[from] shared::model::DecodeError),
     #[error(transparent)]
     Config(#[from] controller::ConfigError),
-    /// The decoder's thread could not be started or did not finish.
-    #[error("the blob decoder could not run: {0}")]
-    Decoder(String),
-}
-
-/// Decodes `bytes` with the host decoder ([`ssm::device::decode_host`]: every check the
-/// device makes).
-pub fn decode_host(bytes: &[u8]) -> Result<Box<HostModel>, BlobError> {
-    ssm::device::decode_host(bytes).map_err(|e| match e {
-        ssm::device::HostDecodeError::Decode(e) => BlobError::Decode(e),
-        ssm::device::HostDecodeError::Decoder(e) => BlobError::Decoder(e),
-    })
+    /// The host decoder's refusal ([`ssm::device::decode_host`]), or its thread's failure.
+    #[error(transparent)]
+    Host(#[from] ssm::device::HostDecodeError),
 }
 
 /// Header and shapes of a device blob, after a full decode (so every check runs) and the
@@ -649,7 +640,7 @@ pub fn decode_host(bytes: &[u8]) -> Result<Box<HostModel>, BlobError> {
 /// passes ([`controller::validate_config`] for the project's history capacity).
 pub fn inspect(bytes: &[u8]) -> Result<Value, BlobError> {
     let (h, _) = shared::model::Header::parse(bytes)?;
-    let m = decode_host(bytes)?;
+    let m = ssm::device::decode_host(bytes)?;
     controller::validate_config::<{ controller::HISTORY }>(m.config())?;
     let c = m.config();
     Ok(json!({

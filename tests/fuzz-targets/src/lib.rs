@@ -13,7 +13,7 @@
 use shared::frame::{self, Direction, Kind, Receiver, Seq};
 use shared::model::OwnedModel;
 use sim::scene::Scene;
-use ssmctl::fit_command::decode_host;
+use ssm::device::decode_host;
 
 /// A target: its name (the harness's binary and the corpus folder) and its body.
 pub type Target = (&'static str, fn(&[u8]));
