@@ -1278,6 +1278,11 @@ const LINTED_CRATES: [&str; 9] =
 /// or ambiguous intra-doc links, stray HTML in doc comments): the library crates and `ssmctl`.
 const DOCUMENTED_CRATES: [&str; 7] = ["shared", "controller", "sim", "ssm", "chaos", "furuta", "ssmctl"];
 
+/// Where `cargo xtask test` writes the output of its steps (and of each host test binary).
+fn logs_dir() -> PathBuf {
+    root().join("target").join("xtask-logs")
+}
+
 /// Where `cargo xtask test` writes its step table.
 fn steps_json_path() -> PathBuf {
     root().join("target").join("xtask-test-steps.json")
@@ -1379,7 +1384,7 @@ fn host_tests_run(
         Err(e) => return (Vec::new(), Err(e)),
     };
     doc.args(["test", "--workspace", "--exclude", "lab", "--doc"]);
-    let logs = root().join("target").join("xtask-logs").join("host-tests");
+    let logs = logs_dir().join("host-tests");
     let (binaries, failed) = host_tests::run_parallel(&exes, previous, HOST_TEST_JOBS, test_times, &logs, &mut doc);
     add_test_binaries(steps, start, &binaries);
     let passed: u32 = binaries.iter().map(|b| b.passed).sum();
@@ -1501,7 +1506,7 @@ fn firmware_step(board: Board) -> &'static str {
 fn test_all() -> Result<()> {
     use steps::Gate;
     let steps = steps::Steps::new();
-    let logs = root().join("target").join("xtask-logs");
+    let logs = logs_dir();
     let tools: Gate<Result<()>> = Gate::new();
     let apt_done: Gate<Result<()>> = Gate::new();
     let venv: Gate<Result<PathBuf>> = Gate::new();
