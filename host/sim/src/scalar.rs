@@ -53,6 +53,13 @@ pub trait Scalar:
     fn scaled(&self, f: f64) -> Self {
         *self * f
     }
+    /// The slice as plain floats when `Self` is `f64` (for code written for `f64` only,
+    /// such as a tape's native code), else `None`.
+    #[inline(always)]
+    fn as_f64s(xs: &mut [Self]) -> Option<&mut [f64]> {
+        let _ = xs;
+        None
+    }
 }
 
 impl Scalar for f64 {
@@ -74,6 +81,10 @@ impl Scalar for f64 {
         let mut c = [0.0];
         coef(self, &mut c);
         c[0]
+    }
+    #[inline(always)]
+    fn as_f64s(xs: &mut [Self]) -> Option<&mut [f64]> {
+        Some(xs)
     }
 }
 

@@ -17,6 +17,8 @@
 // Parses untrusted input: no indexing that can panic (CI runs clippy).
 #![cfg_attr(not(test), deny(clippy::indexing_slicing))]
 
+#[cfg(target_arch = "x86_64")]
+mod native;
 mod tape;
 pub use tape::{Evaluated, Instr, MAX_REGS, Op, Outputs, Tape, TapeError};
 
@@ -26,7 +28,7 @@ use std::collections::HashMap;
 /// (`tests/expr/`, `tests/plant/`): not part of the API.
 #[doc(hidden)]
 pub mod internals {
-    pub use super::tape::WITHOUT_CHAIN_FUSION;
+    pub use super::tape::{WITHOUT_CHAIN_FUSION, WITHOUT_NATIVE};
 }
 
 /// Longest expression accepted, in characters.

@@ -13,7 +13,9 @@
 //! registers. Evaluation is a loop over the tape, generic over [`Scalar`]; small scalars
 //! (`f64`, dual numbers) run on a register array on the stack whose size is a power of
 //! two, so that a masked index needs no bounds check and evaluation neither allocates
-//! nor touches strings.
+//! nor touches strings. In `f64` on x86-64, the tape runs as native code compiled once with
+//! it (`native`): the same operations in the same order, so the same values bit for bit,
+//! without the loop's dispatch.
 
 use std::collections::HashMap;
 
@@ -92,7 +94,7 @@ pub enum Op {
 
 impl Op {
     /// The registers the operation reads, appended to `out`.
-    fn registers(&self, out: &mut Vec<u16>) {
+    pub(super) fn registers(&self, out: &mut Vec<u16>) {
         match *self {
             Op::Neg(a)
             | Op::AddC(a, _)
@@ -158,6 +160,74 @@ pub struct Tape {
     n_inputs: usize,
     /// The register holding each output, in the order the roots were given.
     outputs: Vec<u16>,
+    /// The `f64` evaluation as native code, where the platform has it.
+    native: NativeCode,
+}
+
+/// A tape's native code ([`super::native`]), shared by its clones; tapes compare by their
+/// instructions, of which the code is a function.
+#[derive(Clone, Debug, Default)]
+struct NativeCode(#[cfg(target_arch = "x86_64")] Option<std::sync::Arc<super::native::Native>>);
+
+impl PartialEq for NativeCode {
+    fn eq(&self, _: &Self) -> bool {
+        true
+    }
+}
+
+impl NativeCode {
+    /// Native code for a validated tape (none when `WITHOUT_NATIVE` is set, or where the
+    /// platform has no code generator or no executable memory).
+    fn compile(instrs: &[Instr], n_regs: usize, outputs: &[u16]) -> NativeCode {
+        #[cfg(target_arch = "x86_64")]
+        {
+            if WITHOUT_NATIVE.with(std::cell::Cell::get) {
+                return NativeCode(None);
+            }
+            NativeCode(super::native::Native::compile(instrs, n_regs, outputs, step_f64).map(std::sync::Arc::new))
+        }
+        #[cfg(not(target_arch = "x86_64"))]
+        {
+            let _ = (instrs, n_regs, outputs);
+            NativeCode()
+        }
+    }
+
+    /// Runs the code on `regs` (constants and inputs loaded); `false` when there is none or
+    /// the file is too short (the caller then interprets).
+    #[inline(always)]
+    fn run(&self, regs: &mut [f64]) -> bool {
+        #[cfg(target_arch = "x86_64")]
+        {
+            self.0.as_ref().is_some_and(|n| n.run(regs))
+        }
+        #[cfg(not(target_arch = "x86_64"))]
+        {
+            let _ = regs;
+            false
+        }
+    }
+
+    fn exists(&self) -> bool {
+        #[cfg(target_arch = "x86_64")]
+        {
+            self.0.is_some()
+        }
+        #[cfg(not(target_arch = "x86_64"))]
+        {
+            false
+        }
+    }
+}
+
+/// One instruction of the interpreter over a register file of `n` `f64`s: what native code
+/// calls for the operations it does not inline.
+#[cfg(target_arch = "x86_64")]
+extern "sysv64" fn step_f64(regs: *mut f64, n: usize, ins: *const Instr) {
+    // SAFETY: native code passes the register file it runs on (`n` registers, the tape's
+    // `n_regs`, checked against the file's length before the run) and an instruction it owns.
+    let (regs, ins) = unsafe { (std::slice::from_raw_parts_mut(regs, n), &*ins) };
+    exec::<f64, [f64]>(ins, regs);
 }
 
 /// Why a tape could not be built.
@@ -180,6 +250,8 @@ const MAX_EXPANDED_POWER: u32 = 64;
 thread_local! {
     /// Tests compile with and without [`Ssa::fuse_chains`] to compare the values.
     pub static WITHOUT_CHAIN_FUSION: std::cell::Cell<bool> = const { std::cell::Cell::new(false) };
+    /// Tests and benchmarks compile without native code to compare the values and costs.
+    pub static WITHOUT_NATIVE: std::cell::Cell<bool> = const { std::cell::Cell::new(false) };
 }
 
 /// A value of the SSA program before register allocation.
@@ -350,7 +422,13 @@ impl Tape {
         if self.n_inputs > n_regs {
             return Err(TapeError::Malformed(format!("{} inputs in {n_regs} registers", self.n_inputs)));
         }
-        Ok(self)
+        let native = NativeCode::compile(&self.instrs, n_regs, &self.outputs);
+        Ok(Tape { native, ..self })
+    }
+
+    /// Whether `f64` evaluations run as native code (else they are interpreted).
+    pub fn is_native(&self) -> bool {
+        self.native.exists()
     }
 
     /// Evaluates the tape: `inputs` (`n_inputs` of them; missing ones read NaN) into `regs`
@@ -440,121 +518,19 @@ impl Tape {
         for &(r, c) in &self.consts {
             regs.put(r, S::cst(c));
         }
+        if let Some(file) = regs.f64_file() {
+            if self.native.run(file) {
+                return;
+            }
+        }
         let mut next = self.instrs.iter();
         loop {
             // SAFETY: the last instruction is the only `End` (`Tape::validate`; the fields are
             // private), and the loop stops there, so the iterator never runs out.
             let ins = unsafe { next.next().unwrap_unchecked() };
-            let value = match ins.op {
-                Op::End => break,
-                Op::Add(a, b) => regs.with2(a, b, |x, y| x.add_ref(y)),
-                Op::Sub(a, b) => regs.with2(a, b, |x, y| x.sub_ref(y)),
-                Op::Mul(a, b) => regs.with2(a, b, |x, y| x.mul_ref(y)),
-                Op::Div(a, b) => regs.read(a) / regs.read(b),
-                Op::Neg(a) => -regs.read(a),
-                Op::AddC(a, c) => regs.read(a) + c,
-                Op::SubC(a, c) => regs.read(a) - c,
-                Op::RSubC(c, a) => -regs.read(a) + c,
-                Op::MulC(a, c) => regs.with1(a, |x| x.scaled(c)),
-                Op::DivC(a, c) => regs.read(a) / c,
-                Op::RDivC(c, a) => S::cst(c) / regs.read(a),
-                Op::PowI(a, m) => powi(regs.read(a), m),
-                Op::PowC(a, p) => regs.read(a).apply(|x0, out| power_coefficients(x0, p, out)),
-                Op::Fn1(f, a) => fn1(f, regs.read(a)),
-                Op::SinCos(a) => {
-                    let (s, c) = regs.read(a).sin_cos();
-                    regs.put(ins.dst2, c);
-                    s
-                }
-                Op::Atan2(y, x) => atan2(regs.read(y), regs.read(x)),
-                Op::Sel(a, b, t, f) => {
-                    if regs.read(a).re() <= regs.read(b).re() {
-                        regs.read(t)
-                    } else {
-                        regs.read(f)
-                    }
-                }
-                Op::MulAdd(a, b, c) => {
-                    let p = regs.with2(a, b, |x, y| x.mul_ref(y));
-                    regs.with1(c, |z| p.add_ref(z))
-                }
-                Op::MulSub(a, b, c) => {
-                    let p = regs.with2(a, b, |x, y| x.mul_ref(y));
-                    regs.with1(c, |z| p.sub_ref(z))
-                }
-                Op::SubMul(c, a, b) => {
-                    let p = regs.with2(a, b, |x, y| x.mul_ref(y));
-                    regs.with1(c, |z| z.sub_ref(&p))
-                }
-                Op::MulCAdd(a, k, c) => {
-                    let p = regs.with1(a, |x| x.scaled(k));
-                    regs.with1(c, |z| p.add_ref(z))
-                }
-                Op::MulCSub(a, k, c) => {
-                    let p = regs.with1(a, |x| x.scaled(k));
-                    regs.with1(c, |z| p.sub_ref(z))
-                }
-                Op::SubMulC(c, a, k) => {
-                    let p = regs.with1(a, |x| x.scaled(k));
-                    regs.with1(c, |z| z.sub_ref(&p))
-                }
-                Op::MulCAddC(a, k1, k2) => regs.with1(a, |x| x.scaled(k1)) + k2,
-                Op::MulMul(a, b, c) => {
-                    let p = regs.with2(a, b, |x, y| x.mul_ref(y));
-                    regs.with1(c, |z| p.mul_ref(z))
-                }
-                Op::MulCMul(a, k, b) => {
-                    let p = regs.with1(a, |x| x.scaled(k));
-                    regs.with1(b, |z| p.mul_ref(z))
-                }
-                Op::DotAdd(a, b, c, d) => {
-                    let p = regs.with2(a, b, |x, y| x.mul_ref(y));
-                    let q = regs.with2(c, d, |x, y| x.mul_ref(y));
-                    p.add_ref(&q)
-                }
-                Op::DotSub(a, b, c, d) => {
-                    let p = regs.with2(a, b, |x, y| x.mul_ref(y));
-                    let q = regs.with2(c, d, |x, y| x.mul_ref(y));
-                    p.sub_ref(&q)
-                }
-                Op::DotCAdd(a, k1, c, k2) => {
-                    let p = regs.with1(a, |x| x.scaled(k1));
-                    let q = regs.with1(c, |x| x.scaled(k2));
-                    p.add_ref(&q)
-                }
-                Op::DotCSub(a, k1, c, k2) => {
-                    let p = regs.with1(a, |x| x.scaled(k1));
-                    let q = regs.with1(c, |x| x.scaled(k2));
-                    p.sub_ref(&q)
-                }
-                Op::DotMCAdd(a, b, c, k) => {
-                    let p = regs.with2(a, b, |x, y| x.mul_ref(y));
-                    let q = regs.with1(c, |x| x.scaled(k));
-                    p.add_ref(&q)
-                }
-                Op::DotMCSub(a, b, c, k) => {
-                    let p = regs.with2(a, b, |x, y| x.mul_ref(y));
-                    let q = regs.with1(c, |x| x.scaled(k));
-                    p.sub_ref(&q)
-                }
-                Op::DotCMSub(a, k, c, d) => {
-                    let p = regs.with1(a, |x| x.scaled(k));
-                    let q = regs.with2(c, d, |x, y| x.mul_ref(y));
-                    p.sub_ref(&q)
-                }
-                Op::MulMulCAddC(a, b, k1, k2) => regs.with2(a, b, |x, y| x.mul_ref(y)).scaled(k1) + k2,
-                Op::SubMulMul(c, a, b, d) => {
-                    let p = regs.with2(a, b, |x, y| x.mul_ref(y));
-                    let q = regs.with1(d, |z| p.mul_ref(z));
-                    regs.with1(c, |z| z.sub_ref(&q))
-                }
-                Op::SubMulCMul(c, a, k, b) => {
-                    let p = regs.with1(a, |x| x.scaled(k));
-                    let q = regs.with1(b, |z| p.mul_ref(z));
-                    regs.with1(c, |z| z.sub_ref(&q))
-                }
-            };
-            regs.put(ins.dst, value);
+            if !exec(ins, regs) {
+                break;
+            }
         }
     }
 
@@ -573,6 +549,122 @@ impl Tape {
     pub fn is_empty(&self) -> bool {
         self.instrs().is_empty()
     }
+}
+
+/// Runs one instruction on `regs`; `false` for the closing [`Op::End`].
+#[inline(always)]
+fn exec<S: Scalar, F: Regs<S> + ?Sized>(ins: &Instr, regs: &mut F) -> bool {
+    let value = match ins.op {
+        Op::End => return false,
+        Op::Add(a, b) => regs.with2(a, b, |x, y| x.add_ref(y)),
+        Op::Sub(a, b) => regs.with2(a, b, |x, y| x.sub_ref(y)),
+        Op::Mul(a, b) => regs.with2(a, b, |x, y| x.mul_ref(y)),
+        Op::Div(a, b) => regs.read(a) / regs.read(b),
+        Op::Neg(a) => -regs.read(a),
+        Op::AddC(a, c) => regs.read(a) + c,
+        Op::SubC(a, c) => regs.read(a) - c,
+        Op::RSubC(c, a) => -regs.read(a) + c,
+        Op::MulC(a, c) => regs.with1(a, |x| x.scaled(c)),
+        Op::DivC(a, c) => regs.read(a) / c,
+        Op::RDivC(c, a) => S::cst(c) / regs.read(a),
+        Op::PowI(a, m) => powi(regs.read(a), m),
+        Op::PowC(a, p) => regs.read(a).apply(|x0, out| power_coefficients(x0, p, out)),
+        Op::Fn1(f, a) => fn1(f, regs.read(a)),
+        Op::SinCos(a) => {
+            let (s, c) = regs.read(a).sin_cos();
+            regs.put(ins.dst2, c);
+            s
+        }
+        Op::Atan2(y, x) => atan2(regs.read(y), regs.read(x)),
+        Op::Sel(a, b, t, f) => {
+            if regs.read(a).re() <= regs.read(b).re() {
+                regs.read(t)
+            } else {
+                regs.read(f)
+            }
+        }
+        Op::MulAdd(a, b, c) => {
+            let p = regs.with2(a, b, |x, y| x.mul_ref(y));
+            regs.with1(c, |z| p.add_ref(z))
+        }
+        Op::MulSub(a, b, c) => {
+            let p = regs.with2(a, b, |x, y| x.mul_ref(y));
+            regs.with1(c, |z| p.sub_ref(z))
+        }
+        Op::SubMul(c, a, b) => {
+            let p = regs.with2(a, b, |x, y| x.mul_ref(y));
+            regs.with1(c, |z| z.sub_ref(&p))
+        }
+        Op::MulCAdd(a, k, c) => {
+            let p = regs.with1(a, |x| x.scaled(k));
+            regs.with1(c, |z| p.add_ref(z))
+        }
+        Op::MulCSub(a, k, c) => {
+            let p = regs.with1(a, |x| x.scaled(k));
+            regs.with1(c, |z| p.sub_ref(z))
+        }
+        Op::SubMulC(c, a, k) => {
+            let p = regs.with1(a, |x| x.scaled(k));
+            regs.with1(c, |z| z.sub_ref(&p))
+        }
+        Op::MulCAddC(a, k1, k2) => regs.with1(a, |x| x.scaled(k1)) + k2,
+        Op::MulMul(a, b, c) => {
+            let p = regs.with2(a, b, |x, y| x.mul_ref(y));
+            regs.with1(c, |z| p.mul_ref(z))
+        }
+        Op::MulCMul(a, k, b) => {
+            let p = regs.with1(a, |x| x.scaled(k));
+            regs.with1(b, |z| p.mul_ref(z))
+        }
+        Op::DotAdd(a, b, c, d) => {
+            let p = regs.with2(a, b, |x, y| x.mul_ref(y));
+            let q = regs.with2(c, d, |x, y| x.mul_ref(y));
+            p.add_ref(&q)
+        }
+        Op::DotSub(a, b, c, d) => {
+            let p = regs.with2(a, b, |x, y| x.mul_ref(y));
+            let q = regs.with2(c, d, |x, y| x.mul_ref(y));
+            p.sub_ref(&q)
+        }
+        Op::DotCAdd(a, k1, c, k2) => {
+            let p = regs.with1(a, |x| x.scaled(k1));
+            let q = regs.with1(c, |x| x.scaled(k2));
+            p.add_ref(&q)
+        }
+        Op::DotCSub(a, k1, c, k2) => {
+            let p = regs.with1(a, |x| x.scaled(k1));
+            let q = regs.with1(c, |x| x.scaled(k2));
+            p.sub_ref(&q)
+        }
+        Op::DotMCAdd(a, b, c, k) => {
+            let p = regs.with2(a, b, |x, y| x.mul_ref(y));
+            let q = regs.with1(c, |x| x.scaled(k));
+            p.add_ref(&q)
+        }
+        Op::DotMCSub(a, b, c, k) => {
+            let p = regs.with2(a, b, |x, y| x.mul_ref(y));
+            let q = regs.with1(c, |x| x.scaled(k));
+            p.sub_ref(&q)
+        }
+        Op::DotCMSub(a, k, c, d) => {
+            let p = regs.with1(a, |x| x.scaled(k));
+            let q = regs.with2(c, d, |x, y| x.mul_ref(y));
+            p.sub_ref(&q)
+        }
+        Op::MulMulCAddC(a, b, k1, k2) => regs.with2(a, b, |x, y| x.mul_ref(y)).scaled(k1) + k2,
+        Op::SubMulMul(c, a, b, d) => {
+            let p = regs.with2(a, b, |x, y| x.mul_ref(y));
+            let q = regs.with1(d, |z| p.mul_ref(z));
+            regs.with1(c, |z| z.sub_ref(&q))
+        }
+        Op::SubMulCMul(c, a, k, b) => {
+            let p = regs.with1(a, |x| x.scaled(k));
+            let q = regs.with1(b, |z| p.mul_ref(z));
+            regs.with1(c, |z| z.sub_ref(&q))
+        }
+    };
+    regs.put(ins.dst, value);
+    true
 }
 
 /// The registers after an evaluation ([`Tape::eval_with`]).
@@ -631,6 +723,8 @@ fn read_output<S: Scalar>(regs: &[S], outputs: &[u16], k: usize) -> S {
 trait Regs<S: Scalar> {
     fn at(&self, i: u16) -> Option<&S>;
     fn put(&mut self, i: u16, v: S);
+    /// The registers as `f64`s, when `S` is `f64`.
+    fn f64_file(&mut self) -> Option<&mut [f64]>;
     #[inline(always)]
     fn read(&self, i: u16) -> S {
         self.at(i).copied().unwrap_or(S::cst(f64::NAN))
@@ -662,6 +756,10 @@ impl<S: Scalar> Regs<S> for [S] {
             *s = v;
         }
     }
+    #[inline(always)]
+    fn f64_file(&mut self) -> Option<&mut [f64]> {
+        S::as_f64s(self)
+    }
 }
 
 /// `R` registers, `R >= n_regs` of the tape run on them ([`Tape::eval_loaded`] asserts it):
@@ -681,6 +779,10 @@ impl<S: Scalar, const R: usize> Regs<S> for Fixed<S, R> {
         debug_assert!(usize::from(i) < R);
         // SAFETY: as for `at`.
         unsafe { *self.0.get_unchecked_mut(usize::from(i)) = v }
+    }
+    #[inline(always)]
+    fn f64_file(&mut self) -> Option<&mut [f64]> {
+        S::as_f64s(&mut self.0)
     }
 }
 
@@ -1416,7 +1518,7 @@ impl Ssa {
         // Constants used by nothing after their definition stay allocated (few, harmless).
         let outputs = outputs.iter().map(|&v| reg(v, &reg_of)).collect();
         instrs.push(Instr { op: Op::End, dst: 0, dst2: 0 });
-        Tape { consts: const_regs, instrs, n_regs, n_inputs, outputs }.validate()
+        Tape { consts: const_regs, instrs, n_regs, n_inputs, outputs, native: NativeCode::default() }.validate()
     }
 }
 
@@ -1431,6 +1533,6 @@ impl Tape {
         n_inputs: usize,
         outputs: Vec<u16>,
     ) -> Result<Tape, TapeError> {
-        Tape { consts, instrs, n_regs, n_inputs, outputs }.validate()
+        Tape { consts, instrs, n_regs, n_inputs, outputs, native: NativeCode::default() }.validate()
     }
 }

@@ -181,9 +181,12 @@ fn constants_fold() {
 }
 
 /// The tape's value in every evaluation path at `vars`: the `f64` register array, the
-/// `f64` slice, and the value part of dual numbers, each checked against the graph's
+/// `f64` slice (both native code on x86-64), and the value part of dual numbers (the
+/// interpreter), each checked against the graph's
 /// reference evaluation bit for bit (NaN against NaN).
 fn check_paths(src: &str, g: &Graph, root: Id, tape: &Tape, vars: &[f64; 3]) {
+    // On x86-64 the `f64` paths run the tape's native code.
+    assert_eq!(tape.is_native(), cfg!(target_arch = "x86_64"), "{src}: native code");
     let want = g.eval_f64(root, vars);
     let same = |a: f64, b: f64| a.to_bits() == b.to_bits() || (a.is_nan() && b.is_nan());
     let fast = tape.eval_f64(vars)[0];

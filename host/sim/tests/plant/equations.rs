@@ -728,8 +728,38 @@ fn unrolled_solves_equal_the_general_lu_for_every_size() {
 /// Jacobian, at random states and at states with NaN, infinities and signed zeros.
 #[test]
 fn fused_chains_keep_every_bundled_scene_bit_for_bit() {
-    use sim::closed_loop::{AnyPlant, build_plant};
     use sim::expr::internals::WITHOUT_CHAIN_FUSION;
+    let (scenes, shorter) = compare_bundled_scenes(&WITHOUT_CHAIN_FUSION);
+    assert!(scenes >= 4, "{scenes} bundled equation scenes");
+    assert!(shorter >= 1, "the chain fusion shortened no bundled scene's tapes");
+}
+
+/// Every bundled equation scene's plant evaluated by native code and by the interpreter
+/// has the same right-hand side and Jacobian bit for bit, at random states and at states
+/// with NaN, infinities and signed zeros; on x86-64 the tapes do run as native code.
+#[test]
+fn native_code_keeps_every_bundled_scene_bit_for_bit() {
+    use sim::closed_loop::{AnyPlant, build_plant};
+    use sim::expr::internals::WITHOUT_NATIVE;
+    let (scenes, _) = compare_bundled_scenes(&WITHOUT_NATIVE);
+    assert!(scenes >= 4, "{scenes} bundled equation scenes");
+    let scene = sim::scene::Scene::load("furuta-equations", &[]).unwrap();
+    let AnyPlant::Equations2(p) = build_plant(&scene).unwrap() else { panic!("furuta-equations: not 2 coordinates") };
+    let native = [p.model().tape().is_native(), p.model().jac_tape().is_some_and(Tape::is_native)];
+    assert_eq!(native, [cfg!(target_arch = "x86_64"); 2], "value and Jacobian tapes native");
+    WITHOUT_NATIVE.with(|c| c.set(true));
+    let plain = build_plant(&scene);
+    WITHOUT_NATIVE.with(|c| c.set(false));
+    let AnyPlant::Equations2(plain) = plain.unwrap() else { panic!("furuta-equations: not 2 coordinates") };
+    assert!(!plain.model().tape().is_native(), "the switch turns native code off");
+}
+
+/// Compares every bundled equation scene's plant built as usual with the one built while
+/// `switch` is set (a compiler option off): right-hand sides in `f64`, dual numbers and
+/// power series, and Jacobians, bit for bit. Returns the number of scenes and of those
+/// whose tapes the option made shorter.
+fn compare_bundled_scenes(switch: &'static std::thread::LocalKey<std::cell::Cell<bool>>) -> (usize, usize) {
+    use sim::closed_loop::{AnyPlant, build_plant};
     use sim::taylor::{Tps, TpsTable};
     fn same(a: f64, b: f64) -> bool {
         a.to_bits() == b.to_bits() || (a.is_nan() && b.is_nan())
@@ -768,9 +798,9 @@ fn fused_chains_keep_every_bundled_scene_bit_for_bit() {
         scenes += 1;
         let scene = sim::scene::Scene::load(name, &[]).unwrap();
         let fused = build_plant(&scene).unwrap();
-        WITHOUT_CHAIN_FUSION.with(|c| c.set(true));
+        switch.with(|c| c.set(true));
         let plain = build_plant(&scene);
-        WITHOUT_CHAIN_FUSION.with(|c| c.set(false));
+        switch.with(|c| c.set(false));
         let plain = plain.unwrap();
         let lens = |p: &EquationsModel| p.tape().len() + p.jac_tape().map_or(0, Tape::len);
         match (&fused, &plain) {
@@ -793,6 +823,5 @@ fn fused_chains_keep_every_bundled_scene_bit_for_bit() {
             _ => panic!("{name}: not an equations plant"),
         }
     }
-    assert!(scenes >= 4, "{scenes} bundled equation scenes");
-    assert!(shorter >= 1, "the chain fusion shortened no bundled scene's tapes");
+    (scenes, shorter)
 }

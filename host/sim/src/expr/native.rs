@@ -1,0 +1,403 @@
+//! A tape's `f64` evaluation as native x86-64 code: the instructions straight-line, with no
+//! dispatch, the first registers of the tape held in `xmm0..xmm12` for the whole run. The
+//! register file in memory is read for the inputs and constants the tape reads and written
+//! for its outputs; around a call, only the values it reads or that live past it go through
+//! memory.
+//!
+//! The code does the operations of the interpreter's loop in its order, with the same
+//! roundings (SSE2 scalar arithmetic, as Rust's own `f64` code on x86-64; no fused
+//! multiply-add), so every value is the interpreter's bit for bit (tests compare them on
+//! every bundled scene and on random expressions). Operations that call a function (`sin`,
+//! `atan2`, `powf`, `min`/`max`, ...) are not inlined: the code hands the instruction to
+//! the interpreter's own one-step function, so those values are the interpreter's by
+//! construction.
+//!
+//! The machine code is assembled by `dynasmrt` into a buffer that is never writable and
+//! executable at once.
+
+use std::fmt;
+
+use dynasmrt::x64::Assembler;
+use dynasmrt::{AssemblyOffset, DynasmApi, ExecutableBuffer, dynasm};
+
+use super::tape::{Instr, Op};
+
+/// Tape registers below this are held in `xmm0..` during the run.
+const HELD: u16 = 13;
+/// Scratch registers: two for values, one for constants and masks.
+const S0: u8 = 15;
+const S1: u8 = 14;
+const K: u8 = 13;
+
+/// The interpreter's one-step function: `(registers, register count, instruction)`.
+pub(super) type Step = extern "sysv64" fn(*mut f64, usize, *const Instr);
+
+/// A compiled tape: `run` evaluates it on a register file of at least `n_regs` `f64`s.
+pub(super) struct Native {
+    code: ExecutableBuffer,
+    entry: AssemblyOffset,
+    /// The instructions the code hands to the one-step function, at addresses the code
+    /// holds: owned here (a boxed slice never moves its elements), so they live as long as
+    /// the code.
+    _calls: Box<[Instr]>,
+    n_regs: usize,
+}
+
+impl fmt::Debug for Native {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "Native {{ {} bytes, {} registers }}", self.code.len(), self.n_regs)
+    }
+}
+
+/// Where a tape register lives during the run.
+#[derive(Clone, Copy)]
+enum Loc {
+    Xmm(u8),
+    /// Byte offset from the register file's start.
+    Mem(i32),
+}
+
+fn loc(r: u16) -> Loc {
+    if r < HELD { Loc::Xmm(r as u8) } else { Loc::Mem(8 * i32::from(r)) }
+}
+
+#[derive(Clone, Copy)]
+enum Arith {
+    Add,
+    Sub,
+    Mul,
+    Div,
+}
+
+/// The assembler and the facts the emitters need.
+struct Emit {
+    ops: Assembler,
+    /// Held registers whose `xmm` differs from the register file (written since the last
+    /// spill or load).
+    dirty: Vec<bool>,
+}
+
+impl Emit {
+    /// `xmm d = r`.
+    fn load(&mut self, d: u8, r: u16) {
+        match loc(r) {
+            Loc::Xmm(s) if s == d => {}
+            Loc::Xmm(s) => dynasm!(self.ops ; .arch x64 ; movapd Rx(d), Rx(s)),
+            Loc::Mem(o) => dynasm!(self.ops ; .arch x64 ; movsd Rx(d), QWORD [rbx + o]),
+        }
+    }
+
+    /// `r = xmm s`.
+    fn store(&mut self, r: u16, s: u8) {
+        match loc(r) {
+            Loc::Xmm(d) if s == d => {}
+            Loc::Xmm(d) => dynasm!(self.ops ; .arch x64 ; movapd Rx(d), Rx(s)),
+            Loc::Mem(o) => dynasm!(self.ops ; .arch x64 ; movsd QWORD [rbx + o], Rx(s)),
+        }
+    }
+
+    /// `xmm d = c`.
+    fn konst(&mut self, d: u8, c: f64) {
+        let bits = c.to_bits() as i64;
+        dynasm!(self.ops ; .arch x64 ; mov rax, QWORD bits ; movq Rx(d), rax);
+    }
+
+    /// `xmm d = -xmm d` (the sign bit flipped, as Rust's `-x`).
+    fn negate(&mut self, d: u8) {
+        self.konst(K, -0.0);
+        dynasm!(self.ops ; .arch x64 ; xorpd Rx(d), Rx(K));
+    }
+
+    /// `xmm d = xmm d (op) xmm s`.
+    fn arith_x(&mut self, op: Arith, d: u8, s: u8) {
+        match op {
+            Arith::Add => dynasm!(self.ops ; .arch x64 ; addsd Rx(d), Rx(s)),
+            Arith::Sub => dynasm!(self.ops ; .arch x64 ; subsd Rx(d), Rx(s)),
+            Arith::Mul => dynasm!(self.ops ; .arch x64 ; mulsd Rx(d), Rx(s)),
+            Arith::Div => dynasm!(self.ops ; .arch x64 ; divsd Rx(d), Rx(s)),
+        }
+    }
+
+    /// `xmm d = xmm d (op) r`.
+    fn arith(&mut self, op: Arith, d: u8, r: u16) {
+        match (op, loc(r)) {
+            (op, Loc::Xmm(s)) => self.arith_x(op, d, s),
+            (Arith::Add, Loc::Mem(o)) => dynasm!(self.ops ; .arch x64 ; addsd Rx(d), QWORD [rbx + o]),
+            (Arith::Sub, Loc::Mem(o)) => dynasm!(self.ops ; .arch x64 ; subsd Rx(d), QWORD [rbx + o]),
+            (Arith::Mul, Loc::Mem(o)) => dynasm!(self.ops ; .arch x64 ; mulsd Rx(d), QWORD [rbx + o]),
+            (Arith::Div, Loc::Mem(o)) => dynasm!(self.ops ; .arch x64 ; divsd Rx(d), QWORD [rbx + o]),
+        }
+    }
+
+    /// `xmm d = xmm d (op) c`.
+    fn arith_c(&mut self, op: Arith, d: u8, c: f64) {
+        self.konst(K, c);
+        self.arith_x(op, d, K);
+    }
+
+    /// `xmm d = a * b`.
+    fn product(&mut self, d: u8, a: u16, b: u16) {
+        self.load(d, a);
+        self.arith(Arith::Mul, d, b);
+    }
+
+    /// `xmm d = a * k`.
+    fn scaled(&mut self, d: u8, a: u16, k: f64) {
+        self.load(d, a);
+        self.arith_c(Arith::Mul, d, k);
+    }
+
+    /// The held registers of `which` written since they were loaded, to the register file.
+    fn spill(&mut self, which: &[bool]) {
+        for r in 0..HELD {
+            let k = usize::from(r);
+            if which.get(k).copied().unwrap_or(false) && self.dirty.get(k).copied().unwrap_or(false) {
+                let o = 8 * i32::from(r);
+                dynasm!(self.ops ; .arch x64 ; movsd QWORD [rbx + o], Rx(r as u8));
+                if let Some(d) = self.dirty.get_mut(k) {
+                    *d = false;
+                }
+            }
+        }
+    }
+
+    /// The held registers of `which` from the register file.
+    fn reload(&mut self, which: &[bool]) {
+        for r in 0..HELD {
+            let k = usize::from(r);
+            if which.get(k).copied().unwrap_or(false) {
+                let o = 8 * i32::from(r);
+                dynasm!(self.ops ; .arch x64 ; movsd Rx(r as u8), QWORD [rbx + o]);
+                if let Some(d) = self.dirty.get_mut(k) {
+                    *d = false;
+                }
+            }
+        }
+    }
+
+    /// The instruction at `ins` run by the interpreter's `step` on the register file, which
+    /// must hold what it reads (`live_in`); the registers live after it (`live_out`) are
+    /// loaded again, since a call may clobber every `xmm`.
+    fn call(&mut self, step: Step, ins: *const Instr, n_regs: usize, live_in: &[bool], live_out: &[bool]) {
+        self.spill(live_in);
+        let (n, ins, step) = (n_regs as i64, ins as i64, step as usize as i64);
+        dynasm!(self.ops
+            ; .arch x64
+            ; mov rdi, rbx
+            ; mov rsi, QWORD n
+            ; mov rdx, QWORD ins
+            ; mov rax, QWORD step
+            ; call rax
+        );
+        self.reload(live_out);
+    }
+
+    /// One instruction the code computes itself ([`is_inline`]).
+    fn instr(&mut self, ins: &Instr) {
+        use Arith::*;
+        let (d, e) = (S0, S1);
+        match ins.op {
+            Op::Add(a, b) => self.binary(Add, a, b),
+            Op::Sub(a, b) => self.binary(Sub, a, b),
+            Op::Mul(a, b) => self.binary(Mul, a, b),
+            Op::Div(a, b) => self.binary(Div, a, b),
+            Op::Neg(a) => {
+                self.load(d, a);
+                self.negate(d);
+            }
+            Op::AddC(a, c) => self.with_const(Add, a, c),
+            Op::SubC(a, c) => self.with_const(Sub, a, c),
+            Op::RSubC(c, a) => {
+                // `-a + c`, as the interpreter computes it.
+                self.load(d, a);
+                self.negate(d);
+                self.arith_c(Add, d, c);
+            }
+            Op::MulC(a, c) => self.with_const(Mul, a, c),
+            Op::DivC(a, c) => self.with_const(Div, a, c),
+            Op::RDivC(c, a) => {
+                self.konst(d, c);
+                self.arith(Div, d, a);
+            }
+            Op::MulAdd(a, b, c) => {
+                self.product(d, a, b);
+                self.arith(Add, d, c);
+            }
+            Op::MulSub(a, b, c) => {
+                self.product(d, a, b);
+                self.arith(Sub, d, c);
+            }
+            Op::SubMul(c, a, b) => {
+                self.product(e, a, b);
+                self.load(d, c);
+                self.arith_x(Sub, d, e);
+            }
+            Op::MulCAdd(a, k, c) => {
+                self.scaled(d, a, k);
+                self.arith(Add, d, c);
+            }
+            Op::MulCSub(a, k, c) => {
+                self.scaled(d, a, k);
+                self.arith(Sub, d, c);
+            }
+            Op::SubMulC(c, a, k) => {
+                self.scaled(e, a, k);
+                self.load(d, c);
+                self.arith_x(Sub, d, e);
+            }
+            Op::MulCAddC(a, k1, k2) => {
+                self.scaled(d, a, k1);
+                self.arith_c(Add, d, k2);
+            }
+            Op::MulMul(a, b, c) => {
+                self.product(d, a, b);
+                self.arith(Mul, d, c);
+            }
+            Op::MulCMul(a, k, b) => {
+                self.scaled(d, a, k);
+                self.arith(Mul, d, b);
+            }
+            Op::DotAdd(a, b, c, f) | Op::DotSub(a, b, c, f) => {
+                self.product(d, a, b);
+                self.product(e, c, f);
+                self.arith_x(if matches!(ins.op, Op::DotAdd(..)) { Add } else { Sub }, d, e);
+            }
+            Op::DotCAdd(a, k1, c, k2) | Op::DotCSub(a, k1, c, k2) => {
+                self.scaled(d, a, k1);
+                self.scaled(e, c, k2);
+                self.arith_x(if matches!(ins.op, Op::DotCAdd(..)) { Add } else { Sub }, d, e);
+            }
+            Op::DotMCAdd(a, b, c, k) | Op::DotMCSub(a, b, c, k) => {
+                self.product(d, a, b);
+                self.scaled(e, c, k);
+                self.arith_x(if matches!(ins.op, Op::DotMCAdd(..)) { Add } else { Sub }, d, e);
+            }
+            Op::DotCMSub(a, k, c, f) => {
+                self.scaled(d, a, k);
+                self.product(e, c, f);
+                self.arith_x(Sub, d, e);
+            }
+            Op::MulMulCAddC(a, b, k1, k2) => {
+                self.product(d, a, b);
+                self.arith_c(Mul, d, k1);
+                self.arith_c(Add, d, k2);
+            }
+            Op::SubMulMul(c, a, b, f) => {
+                self.product(e, a, b);
+                self.arith(Mul, e, f);
+                self.load(d, c);
+                self.arith_x(Sub, d, e);
+            }
+            Op::SubMulCMul(c, a, k, b) => {
+                self.scaled(e, a, k);
+                self.arith(Mul, e, b);
+                self.load(d, c);
+                self.arith_x(Sub, d, e);
+            }
+            // Handed to the interpreter ([`Emit::call`]).
+            Op::PowI(..) | Op::PowC(..) | Op::Fn1(..) | Op::SinCos(_) | Op::Atan2(..) | Op::Sel(..) | Op::End => return,
+        }
+        self.store(ins.dst, d);
+        if let Some(w) = self.dirty.get_mut(usize::from(ins.dst)) {
+            *w = true;
+        }
+    }
+
+    /// `S0 = a (op) b`.
+    fn binary(&mut self, op: Arith, a: u16, b: u16) {
+        self.load(S0, a);
+        self.arith(op, S0, b);
+    }
+
+    /// `S0 = a (op) c`.
+    fn with_const(&mut self, op: Arith, a: u16, c: f64) {
+        self.load(S0, a);
+        self.arith_c(op, S0, c);
+    }
+}
+
+impl Native {
+    /// Native code for `instrs` (a validated tape's, up to its closing `End`) over `n_regs`
+    /// registers with the given output registers; `None` where executable memory cannot be
+    /// had.
+    pub(super) fn compile(instrs: &[Instr], n_regs: usize, outputs: &[u16], step: Step) -> Option<Native> {
+        let instrs =
+            instrs.iter().position(|i| i.op == Op::End).map_or(instrs, |end| instrs.get(..end).unwrap_or(instrs));
+        let calls: Box<[Instr]> = instrs.iter().filter(|i| !is_inline(i.op)).copied().collect();
+        let live = liveness(instrs, n_regs, outputs);
+        let mut emit = Emit { ops: Assembler::new().ok()?, dirty: vec![false; usize::from(HELD)] };
+        let entry = emit.ops.offset();
+        // The register file's address stays in `rbx` (callee-saved); the push also aligns
+        // the stack to 16 bytes for the calls.
+        dynasm!(emit.ops ; .arch x64 ; push rbx ; mov rbx, rdi);
+        emit.reload(live.first()?);
+        let mut next_call = calls.iter();
+        for (k, ins) in instrs.iter().enumerate() {
+            if is_inline(ins.op) {
+                emit.instr(ins);
+            } else {
+                let c = next_call.next()?;
+                emit.call(step, c as *const Instr, n_regs, live.get(k)?, live.get(k + 1)?);
+            }
+        }
+        emit.spill(live.last()?);
+        dynasm!(emit.ops ; .arch x64 ; pop rbx ; ret);
+        let code = emit.ops.finalize().ok()?;
+        Some(Native { code, entry, _calls: calls, n_regs })
+    }
+
+    /// Evaluates on `regs` (inputs and constants loaded); `false`, with nothing done, when
+    /// the file is shorter than the tape's registers.
+    #[inline]
+    pub(super) fn run(&self, regs: &mut [f64]) -> bool {
+        if regs.len() < self.n_regs {
+            return false;
+        }
+        // SAFETY: the buffer holds a function of this signature, assembled by `compile`; it
+        // reads and writes registers `0..n_regs` of the file only (every register index of a
+        // validated tape is below `n_regs`), and `regs` has at least that many. Its calls go
+        // to `step` with the same file and instructions owned by `self`.
+        let f: extern "sysv64" fn(*mut f64) = unsafe { std::mem::transmute(self.code.ptr(self.entry)) };
+        f(regs.as_mut_ptr());
+        true
+    }
+}
+
+/// `live[k][r]`: register `r` holds a value read later, before instruction `k` (`k` up to
+/// `instrs.len()`, where the outputs are live).
+fn liveness(instrs: &[Instr], n_regs: usize, outputs: &[u16]) -> Vec<Vec<bool>> {
+    let mut live = vec![vec![false; n_regs]; instrs.len() + 1];
+    let mut now = vec![false; n_regs];
+    for &r in outputs {
+        if let Some(l) = now.get_mut(usize::from(r)) {
+            *l = true;
+        }
+    }
+    let mut reads = Vec::new();
+    for (k, ins) in instrs.iter().enumerate().rev() {
+        if let Some(slot) = live.get_mut(k + 1) {
+            slot.clone_from(&now);
+        }
+        for w in [ins.dst, ins.dst2] {
+            if let Some(l) = now.get_mut(usize::from(w)) {
+                *l = false;
+            }
+        }
+        reads.clear();
+        ins.op.registers(&mut reads);
+        for &r in &reads {
+            if let Some(l) = now.get_mut(usize::from(r)) {
+                *l = true;
+            }
+        }
+    }
+    if let Some(slot) = live.first_mut() {
+        *slot = now;
+    }
+    live
+}
+
+/// Whether the code computes the operation itself (else it calls the interpreter's step).
+fn is_inline(op: Op) -> bool {
+    !matches!(op, Op::PowI(..) | Op::PowC(..) | Op::Fn1(..) | Op::SinCos(_) | Op::Atan2(..) | Op::Sel(..) | Op::End)
+}
