@@ -18,7 +18,7 @@
 use std::fmt;
 
 use dynasmrt::x64::Assembler;
-use dynasmrt::{AssemblyOffset, DynasmApi, ExecutableBuffer, dynasm};
+use dynasmrt::{DynasmApi, ExecutableBuffer, dynasm};
 
 use super::tape::{Instr, Op};
 
@@ -35,7 +35,8 @@ pub(super) type Step = extern "sysv64" fn(*mut f64, usize, *const Instr);
 /// A compiled tape: `run` evaluates it on a register file of at least `n_regs` `f64`s.
 pub(super) struct Native {
     code: ExecutableBuffer,
-    entry: AssemblyOffset,
+    /// The function in `code`.
+    entry: extern "sysv64" fn(*mut f64),
     /// The instructions the code hands to the one-step function, at addresses the code
     /// holds: owned here (a boxed slice never moves its elements), so they live as long as
     /// the code.
@@ -190,6 +191,37 @@ impl Emit {
             ; call rax
         );
         self.reload(live_out);
+        self.forget();
+    }
+
+    /// `sin` and `cos` of `a` into `dst` and `dst2` by direct calls of `f64::sin` and
+    /// `f64::cos` (what `f64::sin_cos`, and so the interpreter, computes), with the value in
+    /// `xmm0`: the registers live through it kept as for [`Emit::call`].
+    fn sin_cos(&mut self, a: u16, dst: u16, dst2: u16, live_in: &[bool], live_out: &[bool]) {
+        self.spill(live_in);
+        let oa = 8 * i32::from(a);
+        // The result that overwrites the argument's register (if one does) computed last.
+        let (sin, cos): (extern "sysv64" fn(f64) -> f64, extern "sysv64" fn(f64) -> f64) = (sin, cos);
+        let order = if dst == a { [(cos, dst2), (sin, dst)] } else { [(sin, dst), (cos, dst2)] };
+        for (f, d) in order {
+            let (f, od) = (f as usize as i64, 8 * i32::from(d));
+            dynasm!(self.ops
+                ; .arch x64
+                ; movsd xmm0, QWORD [rbx + oa]
+                ; mov rax, QWORD f
+                ; call rax
+                ; movsd QWORD [rbx + od], xmm0
+            );
+        }
+        self.reload(live_out);
+        self.forget();
+    }
+
+    /// After a call: the registers that live on were loaded, and the others' `xmm` hold
+    /// nothing that is read again, so none differs from the register file in a way that
+    /// matters (a dead value must not be spilled over what the call wrote).
+    fn forget(&mut self) {
+        self.dirty.fill(false);
     }
 
     /// One instruction the code computes itself ([`is_inline`]).
@@ -323,7 +355,8 @@ impl Native {
     pub(super) fn compile(instrs: &[Instr], n_regs: usize, outputs: &[u16], step: Step) -> Option<Native> {
         let instrs =
             instrs.iter().position(|i| i.op == Op::End).map_or(instrs, |end| instrs.get(..end).unwrap_or(instrs));
-        let calls: Box<[Instr]> = instrs.iter().filter(|i| !is_inline(i.op)).copied().collect();
+        let calls: Box<[Instr]> =
+            instrs.iter().filter(|i| !is_inline(i.op) && !matches!(i.op, Op::SinCos(_))).copied().collect();
         let live = liveness(instrs, n_regs, outputs);
         let mut emit = Emit { ops: Assembler::new().ok()?, dirty: vec![false; usize::from(HELD)] };
         let entry = emit.ops.offset();
@@ -335,6 +368,8 @@ impl Native {
         for (k, ins) in instrs.iter().enumerate() {
             if is_inline(ins.op) {
                 emit.instr(ins);
+            } else if let Op::SinCos(a) = ins.op {
+                emit.sin_cos(a, ins.dst, ins.dst2, live.get(k)?, live.get(k + 1)?);
             } else {
                 let c = next_call.next()?;
                 emit.call(step, c as *const Instr, n_regs, live.get(k)?, live.get(k + 1)?);
@@ -343,6 +378,10 @@ impl Native {
         emit.spill(live.last()?);
         dynasm!(emit.ops ; .arch x64 ; pop rbx ; ret);
         let code = emit.ops.finalize().ok()?;
+        // SAFETY: `entry` is the start of the function assembled above, of this signature
+        // (it takes the register file's address in `rdi`); the pointer stays valid as long
+        // as `code`, which `Native` owns.
+        let entry: extern "sysv64" fn(*mut f64) = unsafe { std::mem::transmute(code.ptr(entry)) };
         Some(Native { code, entry, _calls: calls, n_regs })
     }
 
@@ -353,14 +392,21 @@ impl Native {
         if regs.len() < self.n_regs {
             return false;
         }
-        // SAFETY: the buffer holds a function of this signature, assembled by `compile`; it
-        // reads and writes registers `0..n_regs` of the file only (every register index of a
-        // validated tape is below `n_regs`), and `regs` has at least that many. Its calls go
-        // to `step` with the same file and instructions owned by `self`.
-        let f: extern "sysv64" fn(*mut f64) = unsafe { std::mem::transmute(self.code.ptr(self.entry)) };
-        f(regs.as_mut_ptr());
+        // The function reads and writes registers `0..n_regs` of the file only (every
+        // register index of a validated tape is below `n_regs`), and `regs` has at least
+        // that many; its calls go to `step` with the same file and instructions owned by
+        // `self`, or to `sin` and `cos`.
+        (self.entry)(regs.as_mut_ptr());
         true
     }
+}
+
+extern "sysv64" fn sin(x: f64) -> f64 {
+    x.sin()
+}
+
+extern "sysv64" fn cos(x: f64) -> f64 {
+    x.cos()
 }
 
 /// `live[k][r]`: register `r` holds a value read later, before instruction `k` (`k` up to

@@ -399,3 +399,46 @@ fn large_tapes_and_the_register_limit() {
         format!("the expressions need more than {MAX_REGS} registers")
     );
 }
+
+/// Native code calls `sin` and `cos` directly: a `sin_cos` whose result overwrites its own
+/// argument's register, one whose argument is live after it, and one in a tape whose
+/// registers spill to memory give the graph's values bit for bit.
+#[test]
+fn native_sin_cos_keeps_its_argument_and_the_live_registers() {
+    let n = names();
+    let cases = [
+        ("sin(x*y)*cos(x*y)", true),
+        ("sin(x*y)*cos(x*y) + x*y", false),
+        ("sin(x)*x_dot + cos(x)*y - x*(y + x_dot)", false),
+    ];
+    let mut overwrites = false;
+    for (src, _) in cases {
+        let mut g = Graph::new();
+        let p = parse(src, &n, &mut g).unwrap();
+        let tape = Tape::compile(&g, &[p.root], 3).unwrap();
+        for i in tape.instrs() {
+            if let Op::SinCos(a) = i.op {
+                overwrites |= i.dst == a || i.dst2 == a;
+            }
+        }
+        for pt in special_points() {
+            check_paths(src, &g, p.root, &tape, &pt);
+        }
+    }
+    assert!(overwrites, "a sin_cos writes over its argument's register");
+    // Many values live across calls, most of them in memory (more registers than are held).
+    let mut g = Graph::new();
+    let roots: Vec<Id> = (0..30)
+        .map(|k| parse(&format!("(x + {k})*y + sin(x_dot*{k})*cos(x_dot*{k})"), &n, &mut g).unwrap().root)
+        .collect();
+    let tape = Tape::compile(&g, &roots, 3).unwrap();
+    assert!(tape.n_regs() > 16, "{} registers", tape.n_regs());
+    for pt in special_points() {
+        let out = tape.eval_f64(&pt);
+        for (k, &r) in roots.iter().enumerate() {
+            let want = g.eval_f64(r, &pt);
+            let same = out[k].to_bits() == want.to_bits() || (out[k].is_nan() && want.is_nan());
+            assert!(same, "root {k} at {pt:?}: {:e} vs {want:e}", out[k]);
+        }
+    }
+}
