@@ -1,5 +1,6 @@
 //! The plant-form table of `ssmctl bench simulate` with exact instruction counts: the
-//! built-in Furuta and the same plant written as equations (`furuta-equations`), per `f64`
+//! built-in Furuta and the same plant written as equations (`furuta-equations`), its tapes
+//! run as native code and interpreted, per `f64`
 //! right-hand side, per Jacobian as the exprb integrators take it (`Plant::exact_jacobian`:
 //! dual numbers for the built-in plant, the compiled symbolic derivatives for the equations)
 //! and per sampling period of the bench's integrators, counted by valgrind (cachegrind
@@ -11,7 +12,7 @@
 //! cargo run --release -p lab --example plant_forms -- [--write] [--quick]
 //! target/release/examples/plant_forms count FORM WHAT N   # what valgrind runs
 //! ```
-//! FORM is `built-in` or `equations`; WHAT is `rhs`, `jacobian`, `dual-jacobian` (the
+//! FORM is `built-in`, `equations` or `interpreted`; WHAT is `rhs`, `jacobian`, `dual-jacobian` (the
 //! dual-number Jacobian whatever the plant's own; N evaluations) or `exprb`, `rk4` (N
 //! sampling periods of the bench problem).
 
@@ -32,8 +33,8 @@ fn scene(form: &str, periods: u64) -> Res<Scene> {
     let (b, e) = ssmctl::bench::plant_form_scenes(periods)?;
     match form {
         "built-in" => Ok(b),
-        "equations" => Ok(e),
-        _ => Err(format!("unknown plant form `{form}` (built-in, equations)").into()),
+        "equations" | "interpreted" => Ok(e),
+        _ => Err(format!("unknown plant form `{form}` (built-in, equations, interpreted)").into()),
     }
 }
 
@@ -59,8 +60,16 @@ fn evaluate<P: Plant<4>>(p: &P, what: &str, n: u64) -> Res<()> {
     Ok(())
 }
 
-/// The child: `n` evaluations or `n` periods, nothing printed.
+/// The child: `n` evaluations or `n` periods, nothing printed; the `interpreted` form's
+/// tapes compiled without native code.
 fn count(form: &str, what: &str, n: u64) -> Res<()> {
+    if form == "interpreted" {
+        return sim::expr::interpreted(|| count_form("equations", what, n));
+    }
+    count_form(form, what, n)
+}
+
+fn count_form(form: &str, what: &str, n: u64) -> Res<()> {
     if let Some(&(method, rtol, steps)) = ssmctl::bench::PLANT_FORM_INTEGRATORS.iter().find(|(m, _, _)| {
         matches!((what, m), ("exprb", sim::scene::MethodKind::Exprb) | ("rk4", sim::scene::MethodKind::Rk4))
     }) {
@@ -136,7 +145,7 @@ fn main() -> Res<()> {
     let (e1, e2) = if quick { (200, 1200) } else { (1000, 11_000) };
     let (p1, p2) = (1u64, if quick { 51 } else { 201 });
     let mut counts = Vec::new();
-    for form in ["built-in", "equations"] {
+    for form in ssmctl::bench::PLANT_FORMS {
         eprintln!("counting {form}");
         let mut per_period = Vec::new();
         for (m, r, s) in ssmctl::bench::PLANT_FORM_INTEGRATORS {
@@ -144,7 +153,9 @@ fn main() -> Res<()> {
             let (_, label) = ssmctl::bench::with_integrator(&scene(form, 1)?, m, r, s);
             per_period.push((label, per_unit(form, what, p1, p2)?));
         }
-        let (tape, jac_tape) = match build_plant(&scene(form, 1)?)? {
+        let build = || build_plant(&scene(form, 1)?).map_err(Into::into);
+        let plant: Res<AnyPlant> = if form == "interpreted" { sim::expr::interpreted(build) } else { build() };
+        let (tape, jac_tape) = match plant? {
             AnyPlant::Equations2(p) => (Some(p.model().tape().len()), p.model().jac_tape().map(|t| t.len())),
             _ => (None, None),
         };
@@ -188,8 +199,9 @@ fn markdown(r: &Report) -> Res<String> {
         md,
         "Written by `{}` ({}); do not edit. The bench problem of `ssmctl bench simulate` \
          (furuta-dt30.8, 200 periods from theta0 = 0.05 rad) with the plant built in and \
-         written as equations. Instructions are exact counts (valgrind, release build; the \
-         difference of two run lengths). CPU time: {} rounds, each one run of either form \
+         written as equations, the latter's tapes run as native code (`equations`) and \
+         interpreted (`interpreted`). Instructions are exact counts (valgrind, release build; the \
+         difference of two run lengths). CPU time: {} rounds, each one run of every form \
          back to back (thread CPU time), on a machine shared with other jobs (load average \
          {} before, {} after); the CPU ratio is the median of the rounds' ratios (their range \
          in brackets), the CPU time per period the median of the rounds.\n",

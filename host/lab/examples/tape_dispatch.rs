@@ -1,5 +1,6 @@
-//! Three ways to run the compiled tapes of `furuta-equations` in `f64`, against the tape's
-//! own `match` loop (`Tape::eval_outputs`): the same instructions in the same order through
+//! Four ways to run the compiled tapes of `furuta-equations` in `f64`, against the tape's
+//! own `match` loop (`Tape::eval_outputs` of a tape compiled without native code): the
+//! tape's native code (what `f64` evaluations run on x86-64), the same instructions in the same order through
 //! a `match` loop over renamed registers (every value its own register: the baseline of the
 //! other two), threaded code (one function pointer per instruction, called in a loop), and
 //! batches (the instructions scheduled by dependency level, a level's instructions of one
@@ -13,7 +14,7 @@
 //! cargo run --release -p lab --example tape_dispatch
 //! target/release/examples/tape_dispatch count FORM TAPE N   # what valgrind runs
 //! ```
-//! FORM is `tape`, `match`, `threaded` or `batched`; TAPE is `value` or `jacobian`.
+//! FORM is `tape`, `native`, `match`, `threaded` or `batched`; TAPE is `value` or `jacobian`.
 
 use std::process::Command;
 use std::time::Instant;
@@ -24,7 +25,7 @@ use sim::scene::Scene;
 
 type Res<T> = Result<T, Box<dyn std::error::Error>>;
 
-const FORMS: [&str; 4] = ["tape", "match", "threaded", "batched"];
+const FORMS: [&str; 5] = ["tape", "native", "match", "threaded", "batched"];
 const TAPES: [&str; 2] = ["value", "jacobian"];
 
 /// The inputs of the evaluations (theta, phi, their rates, u), near the bench run's.
@@ -356,9 +357,10 @@ fn run_batched(p: &Program, ins: &[Ins], runs: &[(usize, usize)], inputs: &[f64]
     }
 }
 
-/// The Furuta's tapes (value, Jacobian).
-fn tapes() -> Res<(Tape, Tape)> {
-    let plant = build_plant(&Scene::load("furuta-equations", &[])?)?;
+/// The Furuta's tapes (value, Jacobian), interpreted or with native code.
+fn tapes(native: bool) -> Res<(Tape, Tape)> {
+    let scene = Scene::load("furuta-equations", &[])?;
+    let plant = if native { build_plant(&scene)? } else { sim::expr::interpreted(|| build_plant(&scene))? };
     let AnyPlant::Equations2(p) = plant else { return Err("furuta-equations has two coordinates".into()) };
     let jt = p.model().jac_tape().ok_or("no Jacobian tape")?.clone();
     Ok((p.model().tape().clone(), jt))
@@ -367,26 +369,28 @@ fn tapes() -> Res<(Tape, Tape)> {
 /// A form ready to run on one tape: its evaluation into `out`.
 struct Forms {
     tape: Tape,
+    native: Tape,
     prog: Program,
     code: Vec<(Handler, Ins)>,
     batched: (Vec<Ins>, Vec<(usize, usize)>),
 }
 
 impl Forms {
-    fn new(tape: Tape) -> Res<Forms> {
+    fn new(tape: Tape, native: Tape) -> Res<Forms> {
         let prog = Program::rename(&tape);
         if !covered(&prog) || prog.n_regs > R {
             return Err("the tape uses operations or registers this program does not cover".into());
         }
         let code = prog.ins.iter().map(|i| (handler_of(i.op), *i)).collect();
         let batched = prog.batched();
-        Ok(Forms { tape, prog, code, batched })
+        Ok(Forms { tape, native, prog, code, batched })
     }
 
     #[inline(never)]
     fn run(&self, form: &str, inputs: &[f64], out: &mut [f64]) {
         match form {
             "tape" => self.tape.eval_outputs(inputs, out),
+            "native" => self.native.eval_outputs(inputs, out),
             "match" => run_match(&self.prog, inputs, out),
             "threaded" => run_threaded(&self.prog, &self.code, inputs, out),
             _ => run_batched(&self.prog, &self.batched.0, &self.batched.1, inputs, out),
@@ -395,8 +399,8 @@ impl Forms {
 }
 
 fn count(form: &str, which: &str, n: u64) -> Res<()> {
-    let (v, j) = tapes()?;
-    let f = Forms::new(if which == "value" { v } else { j })?;
+    let ((v, j), (nv, nj)) = (tapes(false)?, tapes(true)?);
+    let f = if which == "value" { Forms::new(v, nv)? } else { Forms::new(j, nj)? };
     let mut out = vec![0.0; f.prog.outputs.len()];
     for _ in 0..n {
         f.run(std::hint::black_box(form), std::hint::black_box(&INPUTS), &mut out);
@@ -442,8 +446,8 @@ fn main() -> Res<()> {
         let n: u64 = args.get(3).ok_or("count FORM TAPE N")?.parse()?;
         return count(args.get(1).ok_or("FORM")?, args.get(2).ok_or("TAPE")?, n);
     }
-    let (v, j) = tapes()?;
-    let forms = [Forms::new(v)?, Forms::new(j)?];
+    let ((v, j), (nv, nj)) = (tapes(false)?, tapes(true)?);
+    let forms = [Forms::new(v, nv)?, Forms::new(j, nj)?];
     // Every form gives the tape's outputs bit for bit, at the bench point and beyond.
     for (which, f) in TAPES.iter().zip(&forms) {
         for k in 0..200 {

@@ -174,10 +174,11 @@ pub fn bench_simulate_window(
 // ------------------------------------------------------------------------ plant forms
 
 /// One row of the plant-form table: the benchmark problem with one integrator, the plant
-/// built in (Rust) or written as equations in the scene (`furuta-equations`).
+/// built in (Rust) or written as equations in the scene (`furuta-equations`), the latter's
+/// tapes run as native code (where there is some) or interpreted.
 #[derive(Clone, Debug, Serialize)]
 pub struct PlantFormRow {
-    /// `built-in` or `equations`.
+    /// One of [`PLANT_FORMS`].
     pub plant: String,
     pub integrator: String,
     /// Thread CPU time per sampling period, s (the median over the interleaved rounds).
@@ -215,6 +216,11 @@ pub struct PlantForms {
     pub load_average: [Option<f64>; 2],
 }
 
+/// The plant forms of the table: the built-in Furuta, `furuta-equations` as it runs (its
+/// tapes as native code where the platform has it), and the same with its tapes
+/// interpreted.
+pub const PLANT_FORMS: [&str; 3] = ["built-in", "equations", "interpreted"];
+
 /// The integrators of the plant-form table: method, rtol (atol = rtol / 100), steps.
 pub const PLANT_FORM_INTEGRATORS: [(MethodKind, Option<f64>, Option<u32>); 2] =
     [(MethodKind::Exprb, Some(1e-9), None), (MethodKind::Rk4, None, Some(175))];
@@ -250,19 +256,22 @@ fn thread_cpu_s() -> f64 {
     ts.tv_sec as f64 + 1e-9 * ts.tv_nsec as f64
 }
 
-/// Thread CPU time of one run of each scene, back to back, repeated for at least
-/// `min_seconds` (at least 5 rounds): the per-round CPU times of each scene, and each
-/// scene's last trajectory.
-fn cpu_rounds(scenes: &[&Scene], min_seconds: f64) -> Result<(Vec<Vec<f64>>, Vec<Trajectory>), SimError> {
+/// Thread CPU time of one run of each scene on its built plant, back to back, repeated for
+/// at least `min_seconds` (at least 5 rounds): the per-round CPU times of each scene, and
+/// each scene's last trajectory.
+fn cpu_rounds(
+    scenes: &[(&Scene, &sim::closed_loop::AnyPlant)],
+    min_seconds: f64,
+) -> Result<(Vec<Vec<f64>>, Vec<Trajectory>), SimError> {
     let mut times = vec![Vec::new(); scenes.len()];
     let mut last = Vec::new();
     let start = Instant::now();
     let mut rounds = 0;
     while rounds < 5 || start.elapsed().as_secs_f64() < min_seconds {
         last.clear();
-        for (s, t) in scenes.iter().zip(times.iter_mut()) {
+        for ((s, plant), t) in scenes.iter().zip(times.iter_mut()) {
             let c0 = thread_cpu_s();
-            let tr = simulate(s, None)?;
+            let tr = sim::closed_loop::simulate_plant(s, plant, None)?;
             t.push(thread_cpu_s() - c0);
             last.push(tr);
         }
@@ -314,9 +323,9 @@ fn rhs_cost<P: sim::plant::Plant<N>, const N: usize>(
 }
 
 /// The plant-form table: the benchmark problem ([`problem`]) with the built-in Furuta plant
-/// and with the same plant written as equations (`furuta-equations`), for the adaptive
-/// exponential integrator and fixed-step RK4, all timed in one run; errors against one
-/// tight reference.
+/// and with the same plant written as equations (`furuta-equations`), its tapes run as
+/// native code and interpreted ([`PLANT_FORMS`]), for the adaptive exponential integrator
+/// and fixed-step RK4, all timed in one run; errors against one tight reference.
 pub fn bench_plant_forms(periods: u64, quick: bool, mut progress: impl FnMut(&str)) -> Result<PlantForms, SimError> {
     let window = if quick { 0.02 } else { TIMING_WINDOW_S };
     let (builtin, equations) = plant_form_scenes(periods)?;
@@ -328,14 +337,18 @@ pub fn bench_plant_forms(periods: u64, quick: bool, mut progress: impl FnMut(&st
         Err(e) => format!("hardware counters not readable in this machine ({e}); ns per rhs from a timing loop"),
     };
     let iters = if quick { 20_000 } else { 200_000 };
+    let plants = [
+        sim::closed_loop::build_plant(&builtin)?,
+        sim::closed_loop::build_plant(&equations)?,
+        sim::expr::interpreted(|| sim::closed_loop::build_plant(&equations))?,
+    ];
     let mut costs = Vec::new();
-    for s in [&builtin, &equations] {
-        let plant = sim::closed_loop::build_plant(s)?;
-        let tape = match &plant {
+    for plant in &plants {
+        let tape = match plant {
             sim::closed_loop::AnyPlant::Equations2(p) => Some(p.model().tape().len()),
             _ => None,
         };
-        let (ns, ins) = sim::with_plant!(plant, p => rhs_cost(&p, iters, counter.as_ref().ok()));
+        let (ns, ins) = sim::with_plant!(plant, p => rhs_cost(p, iters, counter.as_ref().ok()));
         costs.push((ns, ins, tape));
     }
     let mut rows = Vec::new();
@@ -343,12 +356,13 @@ pub fn bench_plant_forms(periods: u64, quick: bool, mut progress: impl FnMut(&st
     for (method, rtol, steps) in PLANT_FORM_INTEGRATORS {
         let configs = [with(&builtin, method, rtol, steps), with(&equations, method, rtol, steps)];
         let integrator = label(&configs[0]);
-        progress(&format!("plant forms: {integrator}, both forms interleaved"));
-        // Twice the single window: the rounds hold two runs each.
-        let (times, trs) = cpu_rounds(&[&configs[0], &configs[1]], 2.0 * window)?;
-        let ratios: Vec<f64> = times[1].iter().zip(&times[0]).map(|(e, b)| e / b).collect();
-        for (k, ((name, tr), &(ns, ins, tape))) in ["built-in", "equations"].iter().zip(&trs).zip(&costs).enumerate() {
+        progress(&format!("plant forms: {integrator}, the three forms interleaved"));
+        let runs = [(&configs[0], &plants[0]), (&configs[1], &plants[1]), (&configs[1], &plants[2])];
+        // The single window per run: the rounds hold three runs each.
+        let (times, trs) = cpu_rounds(&runs, 3.0 * window)?;
+        for (k, ((name, tr), &(ns, ins, tape))) in PLANT_FORMS.iter().zip(&trs).zip(&costs).enumerate() {
             let n = (tr.rows() - 1) as f64;
+            let ratios: Vec<f64> = times[k].iter().zip(&times[0]).map(|(e, b)| e / b).collect();
             let (ratio, range) = if k == 0 {
                 (1.0, [1.0, 1.0])
             } else {

@@ -1374,7 +1374,11 @@ fn run_command(cli: Cli) -> Result<(), Box<dyn std::error::Error>> {
                     );
                 }
                 outln!();
-                outln!("plant forms (the same scene, built-in Furuta vs furuta-equations); {}", forms.counters);
+                outln!(
+                    "plant forms (the same scene: the built-in Furuta, furuta-equations, and furuta-equations \
+                     with its tapes interpreted instead of run as native code); {}",
+                    forms.counters
+                );
                 let load = |l: Option<f64>| l.map_or("-".to_string(), |v| format!("{v:.2}"));
                 outln!(
                     "CPU ratios: median of {} interleaved rounds; load average {} before, {} after",
@@ -1383,7 +1387,7 @@ fn run_command(cli: Cli) -> Result<(), Box<dyn std::error::Error>> {
                     load(forms.load_average[1])
                 );
                 outln!(
-                    "{:<10} {:<26} {:>12} {:>10} {:>12} {:>10} {:>9} {:>10} {:>6}",
+                    "{:<11} {:<26} {:>12} {:>10} {:>12} {:>10} {:>9} {:>10} {:>6}",
                     "plant",
                     "integrator",
                     "cpu us/per",
@@ -1396,7 +1400,7 @@ fn run_command(cli: Cli) -> Result<(), Box<dyn std::error::Error>> {
                 );
                 for r in &forms.rows {
                     outln!(
-                        "{:<10} {:<26} {:>12.2} {:>10.2} {:>12.2e} {:>10.1} {:>9.1} {:>10} {:>6}",
+                        "{:<11} {:<26} {:>12.2} {:>10.2} {:>12.2e} {:>10.1} {:>9.1} {:>10} {:>6}",
                         r.plant,
                         r.integrator,
                         1e6 * r.cpu_s_per_period,

@@ -106,19 +106,25 @@ fn bench_json_rows_have_the_contract_keys() {
         assert!(r["max_err_rad"].as_f64().unwrap().is_finite());
     }
     assert_eq!(rows[0]["ratio_vs_baseline"].as_f64(), Some(1.0));
-    // A row per plant form and integrator: the built-in Furuta and the same plant as
-    // equations, ratios against the built-in one, the same error to the integrator's accuracy.
+    // A row per plant form and integrator: the built-in Furuta, the same plant as equations
+    // and those equations interpreted, ratios against the built-in one, the same error to the
+    // integrator's accuracy (the two equation forms to the bit).
     let forms = v["plant_forms"]["rows"].as_array().unwrap();
-    assert_eq!(forms.len(), 4, "{forms:?}");
-    for pair in forms.chunks(2) {
-        assert_eq!((pair[0]["plant"].as_str(), pair[1]["plant"].as_str()), (Some("built-in"), Some("equations")));
-        assert_eq!(pair[0]["integrator"], pair[1]["integrator"]);
-        assert_eq!(pair[0]["cpu_ratio_vs_builtin"].as_f64(), Some(1.0));
-        assert!(pair[1]["cpu_ratio_vs_builtin"].as_f64().unwrap() > 0.0);
-        let (a, b) = (pair[0]["max_err_rad"].as_f64().unwrap(), pair[1]["max_err_rad"].as_f64().unwrap());
+    assert_eq!(forms.len(), 6, "{forms:?}");
+    for three in forms.chunks(3) {
+        let names: Vec<_> = three.iter().map(|r| r["plant"].as_str()).collect();
+        assert_eq!(names, [Some("built-in"), Some("equations"), Some("interpreted")]);
+        assert!(three.iter().all(|r| r["integrator"] == three[0]["integrator"]));
+        assert_eq!(three[0]["cpu_ratio_vs_builtin"].as_f64(), Some(1.0));
+        let (a, b) = (three[0]["max_err_rad"].as_f64().unwrap(), three[1]["max_err_rad"].as_f64().unwrap());
         assert!((a - b).abs() <= 1e-9 + 0.5 * a.max(b), "{a:e} vs {b:e}");
-        assert!(pair[1]["tape_instructions"].as_u64().unwrap() > 0 && pair[0]["tape_instructions"].is_null());
-        assert!(pair[0]["ns_per_rhs"].as_f64().unwrap() > 0.0);
+        assert_eq!(three[1]["max_err_rad"], three[2]["max_err_rad"], "native and interpreted tapes");
+        for r in &three[1..] {
+            assert!(r["cpu_ratio_vs_builtin"].as_f64().unwrap() > 0.0);
+            assert!(r["tape_instructions"].as_u64().unwrap() > 0);
+        }
+        assert!(three[0]["tape_instructions"].is_null());
+        assert!(three[0]["ns_per_rhs"].as_f64().unwrap() > 0.0);
     }
     assert!(v["plant_forms"]["counters"].is_string());
 }

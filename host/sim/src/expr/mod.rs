@@ -31,6 +31,20 @@ pub mod internals {
     pub use super::tape::{WITHOUT_CHAIN_FUSION, WITHOUT_NATIVE};
 }
 
+/// Runs `f` with every tape it compiles (in this thread) interpreted, without native code:
+/// for comparisons of the two (benchmarks, tests). The values are the same bit for bit.
+pub fn interpreted<T>(f: impl FnOnce() -> T) -> T {
+    /// Restores the switch, also when `f` panics.
+    struct Restore(bool);
+    impl Drop for Restore {
+        fn drop(&mut self) {
+            tape::WITHOUT_NATIVE.with(|c| c.set(self.0));
+        }
+    }
+    let _restore = Restore(tape::WITHOUT_NATIVE.with(|c| c.replace(true)));
+    f()
+}
+
 /// Longest expression accepted, in characters.
 pub const MAX_EXPR_LEN: usize = 4000;
 /// Deepest nesting of parentheses, unary minus and function calls accepted.
