@@ -487,8 +487,11 @@ impl Tape {
 
     /// [`Tape::eval_loaded`] on an array of `R` registers, at least `n_regs`: every index the
     /// tape holds is below `n_regs` ([`Tape::validate`]), so the loop reads and writes
-    /// without bounds checks.
-    #[inline(always)]
+    /// without bounds checks. Forced inline only in builds without debug assertions: an
+    /// unoptimized build would otherwise give every caller the frames of all five array
+    /// sizes, megabytes for a power series, which never takes this path.
+    #[cfg_attr(not(debug_assertions), inline(always))]
+    #[cfg_attr(debug_assertions, inline)]
     fn eval_loaded_on<S: Scalar, T, const R: usize>(
         &self,
         load: impl FnOnce(&mut [S]),
