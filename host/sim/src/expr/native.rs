@@ -7,9 +7,10 @@
 //! The code does the operations of the interpreter's loop in its order, with the same
 //! roundings (SSE2 scalar arithmetic, as Rust's own `f64` code on x86-64; no fused
 //! multiply-add), so every value is the interpreter's bit for bit (tests compare them on
-//! every bundled scene and on random expressions). Operations that call a function (`sin`,
-//! `atan2`, `powf`, `min`/`max`, ...) are not inlined: the code hands the instruction to
-//! the interpreter's own one-step function, so those values are the interpreter's by
+//! every bundled scene and on random expressions). `sin_cos` calls `f64::sin` and `f64::cos`
+//! (what `f64::sin_cos` is); the other operations that call a function (`tan`, `exp`,
+//! `atan2`, `powf`, `min`/`max`, ...) are not inlined: the code hands the instruction to the
+//! interpreter's own one-step function, so those values are the interpreter's by
 //! construction.
 //!
 //! The machine code is assembled by `dynasmrt` into a buffer that is never writable and
