@@ -252,26 +252,19 @@ impl Emit {
                 self.konst(d, c);
                 self.arith(Div, d, a);
             }
-            Op::MulAdd(a, b, c) => {
+            Op::MulAdd(a, b, c) | Op::MulSub(a, b, c) => {
                 self.product(d, a, b);
-                self.arith(Add, d, c);
+                self.arith(if matches!(ins.op, Op::MulAdd(..)) { Add } else { Sub }, d, c);
             }
-            Op::MulSub(a, b, c) => {
-                self.product(d, a, b);
-                self.arith(Sub, d, c);
+            Op::MulCAdd(a, k, c) | Op::MulCSub(a, k, c) => {
+                self.scaled(d, a, k);
+                self.arith(if matches!(ins.op, Op::MulCAdd(..)) { Add } else { Sub }, d, c);
             }
+            // `c - a*b` and `c - a*k`: the product first, as the interpreter rounds it.
             Op::SubMul(c, a, b) => {
                 self.product(e, a, b);
                 self.load(d, c);
                 self.arith_x(Sub, d, e);
-            }
-            Op::MulCAdd(a, k, c) => {
-                self.scaled(d, a, k);
-                self.arith(Add, d, c);
-            }
-            Op::MulCSub(a, k, c) => {
-                self.scaled(d, a, k);
-                self.arith(Sub, d, c);
             }
             Op::SubMulC(c, a, k) => {
                 self.scaled(e, a, k);
@@ -290,6 +283,7 @@ impl Emit {
                 self.scaled(d, a, k);
                 self.arith(Mul, d, b);
             }
+            // Two products (each `a*b` or `a*k`) added or subtracted.
             Op::DotAdd(a, b, c, f) | Op::DotSub(a, b, c, f) => {
                 self.product(d, a, b);
                 self.product(e, c, f);
