@@ -1,8 +1,8 @@
 //! A tape's `f64` evaluation as native x86-64 code: the instructions straight-line, with no
-//! dispatch, the first registers of the tape held in `xmm0..xmm12` for the whole run. The
-//! register file in memory is read for the inputs and constants the tape reads and written
-//! for its outputs; around a call, only the values it reads or that live past it go through
-//! memory.
+//! dispatch, the first registers of the tape held in `xmm0..xmm13` for the whole run, and
+//! the constants read from a pool after the code. The register file in memory is read for
+//! the inputs and constants the tape reads and written for its outputs; around a call, only
+//! the values it reads or that live past it go through memory.
 //!
 //! The code does the operations of the interpreter's loop in its order, with the same
 //! roundings (SSE2 scalar arithmetic, as Rust's own `f64` code on x86-64; no fused
@@ -19,16 +19,16 @@
 use std::fmt;
 
 use dynasmrt::x64::Assembler;
-use dynasmrt::{DynasmApi, ExecutableBuffer, dynasm};
+use dynasmrt::{DynamicLabel, DynasmApi, DynasmLabelApi, ExecutableBuffer, dynasm};
 
 use super::tape::{Instr, Op};
 
 /// Tape registers below this are held in `xmm0..` during the run.
-const HELD: u16 = 13;
-/// Scratch registers: two for values, one for constants and masks.
+const HELD: u16 = 14;
+/// Scratch registers for values (constants are memory operands, read from a pool after
+/// the code).
 const S0: u8 = 15;
 const S1: u8 = 14;
-const K: u8 = 13;
 
 /// The interpreter's one-step function: `(registers, register count, instruction)`.
 pub(super) type Step = extern "sysv64" fn(*mut f64, usize, *const Instr);
@@ -77,6 +77,10 @@ struct Emit {
     /// Held registers whose `xmm` differs from the register file (written since the last
     /// spill or load).
     dirty: Vec<bool>,
+    /// The constants the code reads (their bits) and their labels in the pool.
+    pool: Vec<(u64, DynamicLabel)>,
+    /// The sign mask of `negate` (16 bytes, aligned), once a negation needs it.
+    sign: Option<DynamicLabel>,
 }
 
 impl Emit {
@@ -98,16 +102,40 @@ impl Emit {
         }
     }
 
+    /// The pool label of `c` (one per distinct bit pattern).
+    fn label(&mut self, c: f64) -> DynamicLabel {
+        let bits = c.to_bits();
+        if let Some(&(_, l)) = self.pool.iter().find(|(b, _)| *b == bits) {
+            return l;
+        }
+        let l = self.ops.new_dynamic_label();
+        self.pool.push((bits, l));
+        l
+    }
+
     /// `xmm d = c`.
     fn konst(&mut self, d: u8, c: f64) {
-        let bits = c.to_bits() as i64;
-        dynasm!(self.ops ; .arch x64 ; mov rax, QWORD bits ; movq Rx(d), rax);
+        let l = self.label(c);
+        dynasm!(self.ops ; .arch x64 ; movsd Rx(d), QWORD [=>l]);
     }
 
     /// `xmm d = -xmm d` (the sign bit flipped, as Rust's `-x`).
     fn negate(&mut self, d: u8) {
-        self.konst(K, -0.0);
-        dynasm!(self.ops ; .arch x64 ; xorpd Rx(d), Rx(K));
+        let l = *self.sign.get_or_insert_with(|| self.ops.new_dynamic_label());
+        dynasm!(self.ops ; .arch x64 ; xorpd Rx(d), OWORD [=>l]);
+    }
+
+    /// The constants after the code: the sign mask first (16-byte aligned, as `xorpd`
+    /// needs), then each constant (8-byte aligned).
+    fn emit_pool(&mut self) {
+        dynasm!(self.ops ; .arch x64 ; .align 16);
+        if let Some(l) = self.sign {
+            let (mask, zero) = ((-0.0f64).to_bits(), 0u64);
+            dynasm!(self.ops ; .arch x64 ; =>l ; .u64 mask ; .u64 zero);
+        }
+        for (bits, l) in std::mem::take(&mut self.pool) {
+            dynasm!(self.ops ; .arch x64 ; =>l ; .u64 bits);
+        }
     }
 
     /// `xmm d = xmm d (op) xmm s`.
@@ -133,8 +161,13 @@ impl Emit {
 
     /// `xmm d = xmm d (op) c`.
     fn arith_c(&mut self, op: Arith, d: u8, c: f64) {
-        self.konst(K, c);
-        self.arith_x(op, d, K);
+        let l = self.label(c);
+        match op {
+            Arith::Add => dynasm!(self.ops ; .arch x64 ; addsd Rx(d), QWORD [=>l]),
+            Arith::Sub => dynasm!(self.ops ; .arch x64 ; subsd Rx(d), QWORD [=>l]),
+            Arith::Mul => dynasm!(self.ops ; .arch x64 ; mulsd Rx(d), QWORD [=>l]),
+            Arith::Div => dynasm!(self.ops ; .arch x64 ; divsd Rx(d), QWORD [=>l]),
+        }
     }
 
     /// `xmm d = a * b`.
@@ -228,26 +261,34 @@ impl Emit {
     /// One instruction the code computes itself ([`is_inline`]).
     fn instr(&mut self, ins: &Instr) {
         use Arith::*;
-        let (d, e) = (S0, S1);
+        // The result straight into its held register when the operation reads no register
+        // it would overwrite on the way, else through the scratch register.
+        let mut reads = Vec::new();
+        ins.op.registers(&mut reads);
+        let d = match loc(ins.dst) {
+            Loc::Xmm(x) if !reads.contains(&ins.dst) => x,
+            _ => S0,
+        };
+        let e = S1;
         match ins.op {
-            Op::Add(a, b) => self.binary(Add, a, b),
-            Op::Sub(a, b) => self.binary(Sub, a, b),
-            Op::Mul(a, b) => self.binary(Mul, a, b),
-            Op::Div(a, b) => self.binary(Div, a, b),
+            Op::Add(a, b) => self.binary(Add, d, a, b),
+            Op::Sub(a, b) => self.binary(Sub, d, a, b),
+            Op::Mul(a, b) => self.binary(Mul, d, a, b),
+            Op::Div(a, b) => self.binary(Div, d, a, b),
             Op::Neg(a) => {
                 self.load(d, a);
                 self.negate(d);
             }
-            Op::AddC(a, c) => self.with_const(Add, a, c),
-            Op::SubC(a, c) => self.with_const(Sub, a, c),
+            Op::AddC(a, c) => self.with_const(Add, d, a, c),
+            Op::SubC(a, c) => self.with_const(Sub, d, a, c),
             Op::RSubC(c, a) => {
                 // `-a + c`, as the interpreter computes it.
                 self.load(d, a);
                 self.negate(d);
                 self.arith_c(Add, d, c);
             }
-            Op::MulC(a, c) => self.with_const(Mul, a, c),
-            Op::DivC(a, c) => self.with_const(Div, a, c),
+            Op::MulC(a, c) => self.with_const(Mul, d, a, c),
+            Op::DivC(a, c) => self.with_const(Div, d, a, c),
             Op::RDivC(c, a) => {
                 self.konst(d, c);
                 self.arith(Div, d, a);
@@ -330,16 +371,16 @@ impl Emit {
         }
     }
 
-    /// `S0 = a (op) b`.
-    fn binary(&mut self, op: Arith, a: u16, b: u16) {
-        self.load(S0, a);
-        self.arith(op, S0, b);
+    /// `xmm d = a (op) b`.
+    fn binary(&mut self, op: Arith, d: u8, a: u16, b: u16) {
+        self.load(d, a);
+        self.arith(op, d, b);
     }
 
-    /// `S0 = a (op) c`.
-    fn with_const(&mut self, op: Arith, a: u16, c: f64) {
-        self.load(S0, a);
-        self.arith_c(op, S0, c);
+    /// `xmm d = a (op) c`.
+    fn with_const(&mut self, op: Arith, d: u8, a: u16, c: f64) {
+        self.load(d, a);
+        self.arith_c(op, d, c);
     }
 }
 
@@ -353,7 +394,8 @@ impl Native {
         let calls: Box<[Instr]> =
             instrs.iter().filter(|i| !is_inline(i.op) && !matches!(i.op, Op::SinCos(_))).copied().collect();
         let live = liveness(instrs, n_regs, outputs);
-        let mut emit = Emit { ops: Assembler::new().ok()?, dirty: vec![false; usize::from(HELD)] };
+        let mut emit =
+            Emit { ops: Assembler::new().ok()?, dirty: vec![false; usize::from(HELD)], pool: Vec::new(), sign: None };
         let entry = emit.ops.offset();
         // The register file's address stays in `rbx` (callee-saved); the push also aligns
         // the stack to 16 bytes for the calls.
@@ -372,6 +414,7 @@ impl Native {
         }
         emit.spill(live.last()?);
         dynasm!(emit.ops ; .arch x64 ; pop rbx ; ret);
+        emit.emit_pool();
         let code = emit.ops.finalize().ok()?;
         // SAFETY: `entry` is the start of the function assembled above, of this signature
         // (it takes the register file's address in `rdi`); the pointer stays valid as long
