@@ -19,6 +19,22 @@
 
 #[cfg(target_arch = "x86_64")]
 mod native;
+/// Where there is no code generator, no tape has native code.
+#[cfg(not(target_arch = "x86_64"))]
+mod native {
+    #[derive(Debug, PartialEq)]
+    pub(super) enum Native {}
+
+    impl Native {
+        pub(super) fn compile(_: &[super::Instr], _: usize, _: &[u16]) -> Option<Native> {
+            None
+        }
+
+        pub(super) fn run(&self, _: &mut [f64]) -> bool {
+            match *self {}
+        }
+    }
+}
 mod tape;
 pub use tape::{Evaluated, Instr, MAX_REGS, Op, Outputs, Tape, TapeError};
 

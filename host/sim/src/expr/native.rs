@@ -21,7 +21,7 @@ use std::fmt;
 use dynasmrt::x64::Assembler;
 use dynasmrt::{DynamicLabel, DynasmApi, DynasmLabelApi, ExecutableBuffer, dynasm};
 
-use super::tape::{Instr, Op};
+use super::tape::{Instr, Op, exec_f64};
 
 /// Tape registers below this are held in `xmm0..` during the run.
 const HELD: u16 = 14;
@@ -30,19 +30,23 @@ const HELD: u16 = 14;
 const S0: u8 = 15;
 const S1: u8 = 14;
 
-/// The interpreter's one-step function: `(registers, register count, instruction)`.
-pub(super) type Step = extern "sysv64" fn(*mut f64, usize, *const Instr);
-
 /// A compiled tape: `run` evaluates it on a register file of at least `n_regs` `f64`s.
 pub(super) struct Native {
     code: ExecutableBuffer,
     /// The function in `code`.
     entry: extern "sysv64" fn(*mut f64),
-    /// The instructions the code hands to the one-step function, at addresses the code
-    /// holds: owned here (a boxed slice never moves its elements), so they live as long as
-    /// the code.
-    _calls: Box<[Instr]>,
+    /// The tape's instructions, at addresses the code hands to the interpreter's one-step
+    /// function: owned here (a boxed slice never moves its elements), so they live as long
+    /// as the code.
+    _instrs: Box<[Instr]>,
     n_regs: usize,
+}
+
+/// Tapes compare by their instructions, of which the code is a function.
+impl PartialEq for Native {
+    fn eq(&self, _: &Self) -> bool {
+        true
+    }
 }
 
 impl fmt::Debug for Native {
@@ -210,11 +214,12 @@ impl Emit {
         }
     }
 
-    /// The instruction at `ins` run by the interpreter's `step` on the register file, which
-    /// must hold what it reads (`live_in`); the registers live after it (`live_out`) are
-    /// loaded again, since a call may clobber every `xmm`.
-    fn call(&mut self, step: Step, ins: *const Instr, n_regs: usize, live_in: &[bool], live_out: &[bool]) {
+    /// The instruction at `ins` run by the interpreter's [`step`] on the register file,
+    /// which must hold what it reads (`live_in`); the registers live after it (`live_out`)
+    /// are loaded again, since a call may clobber every `xmm`.
+    fn call(&mut self, ins: *const Instr, n_regs: usize, live_in: &[bool], live_out: &[bool]) {
         self.spill(live_in);
+        let step: extern "sysv64" fn(*mut f64, usize, *const Instr) = step;
         let (n, ins, step) = (n_regs as i64, ins as i64, step as usize as i64);
         dynasm!(self.ops
             ; .arch x64
@@ -258,8 +263,9 @@ impl Emit {
         self.dirty.fill(false);
     }
 
-    /// One instruction the code computes itself ([`is_inline`]).
-    fn instr(&mut self, ins: &Instr) {
+    /// One instruction, computed by the code itself; `false` for one that calls a function
+    /// ([`Emit::sin_cos`], [`Emit::call`]), for which nothing is emitted.
+    fn instr(&mut self, ins: &Instr) -> bool {
         use Arith::*;
         // The result straight into its held register when the operation reads no register
         // it would overwrite on the way, else through the scratch register.
@@ -362,13 +368,15 @@ impl Emit {
                 self.load(d, c);
                 self.arith_x(Sub, d, e);
             }
-            // Handed to the interpreter ([`Emit::call`]).
-            Op::PowI(..) | Op::PowC(..) | Op::Fn1(..) | Op::SinCos(_) | Op::Atan2(..) | Op::Sel(..) | Op::End => return,
+            Op::PowI(..) | Op::PowC(..) | Op::Fn1(..) | Op::SinCos(_) | Op::Atan2(..) | Op::Sel(..) | Op::End => {
+                return false;
+            }
         }
         self.store(ins.dst, d);
         if let Some(w) = self.dirty.get_mut(usize::from(ins.dst)) {
             *w = true;
         }
+        true
     }
 
     /// `xmm d = a (op) b`.
@@ -388,11 +396,9 @@ impl Native {
     /// Native code for `instrs` (a validated tape's, up to its closing `End`) over `n_regs`
     /// registers with the given output registers; `None` where executable memory cannot be
     /// had.
-    pub(super) fn compile(instrs: &[Instr], n_regs: usize, outputs: &[u16], step: Step) -> Option<Native> {
-        let instrs =
-            instrs.iter().position(|i| i.op == Op::End).map_or(instrs, |end| instrs.get(..end).unwrap_or(instrs));
-        let calls: Box<[Instr]> =
-            instrs.iter().filter(|i| !is_inline(i.op) && !matches!(i.op, Op::SinCos(_))).copied().collect();
+    pub(super) fn compile(instrs: &[Instr], n_regs: usize, outputs: &[u16]) -> Option<Native> {
+        let owned: Box<[Instr]> = instrs.iter().take_while(|i| i.op != Op::End).copied().collect();
+        let instrs = &*owned;
         let live = liveness(instrs, n_regs, outputs);
         let mut emit =
             Emit { ops: Assembler::new().ok()?, dirty: vec![false; usize::from(HELD)], pool: Vec::new(), sign: None };
@@ -401,15 +407,11 @@ impl Native {
         // the stack to 16 bytes for the calls.
         dynasm!(emit.ops ; .arch x64 ; push rbx ; mov rbx, rdi);
         emit.reload(live.first()?);
-        let mut next_call = calls.iter();
         for (k, ins) in instrs.iter().enumerate() {
-            if is_inline(ins.op) {
-                emit.instr(ins);
-            } else if let Op::SinCos(a) = ins.op {
+            if let Op::SinCos(a) = ins.op {
                 emit.sin_cos(a, ins.dst, ins.dst2, live.get(k)?, live.get(k + 1)?);
-            } else {
-                let c = next_call.next()?;
-                emit.call(step, c as *const Instr, n_regs, live.get(k)?, live.get(k + 1)?);
+            } else if !emit.instr(ins) {
+                emit.call(ins as *const Instr, n_regs, live.get(k)?, live.get(k + 1)?);
             }
         }
         emit.spill(live.last()?);
@@ -420,7 +422,7 @@ impl Native {
         // (it takes the register file's address in `rdi`); the pointer stays valid as long
         // as `code`, which `Native` owns.
         let entry: extern "sysv64" fn(*mut f64) = unsafe { std::mem::transmute(code.ptr(entry)) };
-        Some(Native { code, entry, _calls: calls, n_regs })
+        Some(Native { code, entry, _instrs: owned, n_regs })
     }
 
     /// Evaluates on `regs` (inputs and constants loaded); `false`, with nothing done, when
@@ -437,6 +439,16 @@ impl Native {
         (self.entry)(regs.as_mut_ptr());
         true
     }
+}
+
+/// One instruction of the interpreter over a register file of `n` `f64`s: what the code
+/// calls for the operations it does not compute itself.
+extern "sysv64" fn step(regs: *mut f64, n: usize, ins: *const Instr) {
+    // SAFETY: the code passes the register file it runs on (`n` registers, the tape's
+    // `n_regs`, checked against the file's length before the run) and an instruction that
+    // `Native` owns.
+    let (regs, ins) = unsafe { (std::slice::from_raw_parts_mut(regs, n), &*ins) };
+    exec_f64(ins, regs);
 }
 
 extern "sysv64" fn sin(x: f64) -> f64 {
@@ -479,9 +491,4 @@ fn liveness(instrs: &[Instr], n_regs: usize, outputs: &[u16]) -> Vec<Vec<bool>> 
         *slot = now;
     }
     live
-}
-
-/// Whether the code computes the operation itself (else it calls the interpreter's step).
-fn is_inline(op: Op) -> bool {
-    !matches!(op, Op::PowI(..) | Op::PowC(..) | Op::Fn1(..) | Op::SinCos(_) | Op::Atan2(..) | Op::Sel(..) | Op::End)
 }

@@ -18,7 +18,9 @@
 //! without the loop's dispatch.
 
 use std::collections::HashMap;
+use std::sync::Arc;
 
+use super::native::Native;
 use super::{F1, Graph, Id, Node, children};
 use crate::scalar::Scalar;
 
@@ -160,74 +162,8 @@ pub struct Tape {
     n_inputs: usize,
     /// The register holding each output, in the order the roots were given.
     outputs: Vec<u16>,
-    /// The `f64` evaluation as native code, where the platform has it.
-    native: NativeCode,
-}
-
-/// A tape's native code ([`super::native`]), shared by its clones; tapes compare by their
-/// instructions, of which the code is a function.
-#[derive(Clone, Debug, Default)]
-struct NativeCode(#[cfg(target_arch = "x86_64")] Option<std::sync::Arc<super::native::Native>>);
-
-impl PartialEq for NativeCode {
-    fn eq(&self, _: &Self) -> bool {
-        true
-    }
-}
-
-impl NativeCode {
-    /// Native code for a validated tape (none when `WITHOUT_NATIVE` is set, or where the
-    /// platform has no code generator or no executable memory).
-    fn compile(instrs: &[Instr], n_regs: usize, outputs: &[u16]) -> NativeCode {
-        #[cfg(target_arch = "x86_64")]
-        {
-            if WITHOUT_NATIVE.with(std::cell::Cell::get) {
-                return NativeCode(None);
-            }
-            NativeCode(super::native::Native::compile(instrs, n_regs, outputs, step_f64).map(std::sync::Arc::new))
-        }
-        #[cfg(not(target_arch = "x86_64"))]
-        {
-            let _ = (instrs, n_regs, outputs);
-            NativeCode()
-        }
-    }
-
-    /// Runs the code on `regs` (constants and inputs loaded); `false` when there is none or
-    /// the file is too short (the caller then interprets).
-    #[inline(always)]
-    fn run(&self, regs: &mut [f64]) -> bool {
-        #[cfg(target_arch = "x86_64")]
-        {
-            self.0.as_ref().is_some_and(|n| n.run(regs))
-        }
-        #[cfg(not(target_arch = "x86_64"))]
-        {
-            let _ = regs;
-            false
-        }
-    }
-
-    fn exists(&self) -> bool {
-        #[cfg(target_arch = "x86_64")]
-        {
-            self.0.is_some()
-        }
-        #[cfg(not(target_arch = "x86_64"))]
-        {
-            false
-        }
-    }
-}
-
-/// One instruction of the interpreter over a register file of `n` `f64`s: what native code
-/// calls for the operations it does not inline.
-#[cfg(target_arch = "x86_64")]
-extern "sysv64" fn step_f64(regs: *mut f64, n: usize, ins: *const Instr) {
-    // SAFETY: native code passes the register file it runs on (`n` registers, the tape's
-    // `n_regs`, checked against the file's length before the run) and an instruction it owns.
-    let (regs, ins) = unsafe { (std::slice::from_raw_parts_mut(regs, n), &*ins) };
-    exec::<f64, [f64]>(ins, regs);
+    /// The `f64` evaluation as native code, where the platform has it; shared by clones.
+    native: Option<Arc<Native>>,
 }
 
 /// Why a tape could not be built.
@@ -422,13 +358,19 @@ impl Tape {
         if self.n_inputs > n_regs {
             return Err(TapeError::Malformed(format!("{} inputs in {n_regs} registers", self.n_inputs)));
         }
-        let native = NativeCode::compile(&self.instrs, n_regs, &self.outputs);
+        // Native code unless tests or benchmarks turned it off, or the platform has no code
+        // generator or no executable memory.
+        let native = if WITHOUT_NATIVE.with(std::cell::Cell::get) {
+            None
+        } else {
+            Native::compile(&self.instrs, n_regs, &self.outputs).map(Arc::new)
+        };
         Ok(Tape { native, ..self })
     }
 
     /// Whether `f64` evaluations run as native code (else they are interpreted).
     pub fn is_native(&self) -> bool {
-        self.native.exists()
+        self.native.is_some()
     }
 
     /// Evaluates the tape: `inputs` (`n_inputs` of them; missing ones read NaN) into `regs`
@@ -521,8 +463,8 @@ impl Tape {
         for &(r, c) in &self.consts {
             regs.put(r, S::cst(c));
         }
-        if let Some(file) = regs.f64_file() {
-            if self.native.run(file) {
+        if let (Some(native), Some(file)) = (&self.native, regs.f64_file()) {
+            if native.run(file) {
                 return;
             }
         }
@@ -552,6 +494,13 @@ impl Tape {
     pub fn is_empty(&self) -> bool {
         self.instrs().is_empty()
     }
+}
+
+/// [`exec`] in `f64` on a slice: what native code calls for the operations it does not
+/// compute itself.
+#[cfg(target_arch = "x86_64")]
+pub(super) fn exec_f64(ins: &Instr, regs: &mut [f64]) {
+    exec::<f64, [f64]>(ins, regs);
 }
 
 /// Runs one instruction on `regs`; `false` for the closing [`Op::End`].
@@ -1521,7 +1470,7 @@ impl Ssa {
         // Constants used by nothing after their definition stay allocated (few, harmless).
         let outputs = outputs.iter().map(|&v| reg(v, &reg_of)).collect();
         instrs.push(Instr { op: Op::End, dst: 0, dst2: 0 });
-        Tape { consts: const_regs, instrs, n_regs, n_inputs, outputs, native: NativeCode::default() }.validate()
+        Tape { consts: const_regs, instrs, n_regs, n_inputs, outputs, native: None }.validate()
     }
 }
 
@@ -1536,6 +1485,6 @@ impl Tape {
         n_inputs: usize,
         outputs: Vec<u16>,
     ) -> Result<Tape, TapeError> {
-        Tape { consts, instrs, n_regs, n_inputs, outputs, native: NativeCode::default() }.validate()
+        Tape { consts, instrs, n_regs, n_inputs, outputs, native: None }.validate()
     }
 }
