@@ -747,11 +747,15 @@ fn native_code_keeps_every_bundled_scene_bit_for_bit() {
     let AnyPlant::Equations2(p) = build_plant(&scene).unwrap() else { panic!("furuta-equations: not 2 coordinates") };
     let native = [p.model().tape().is_native(), p.model().jac_tape().is_some_and(Tape::is_native)];
     assert_eq!(native, [cfg!(target_arch = "x86_64"); 2], "value and Jacobian tapes native");
-    WITHOUT_NATIVE.with(|c| c.set(true));
-    let plain = build_plant(&scene);
-    WITHOUT_NATIVE.with(|c| c.set(false));
+    let plain = sim::expr::interpreted(|| build_plant(&scene));
     let AnyPlant::Equations2(plain) = plain.unwrap() else { panic!("furuta-equations: not 2 coordinates") };
-    assert!(!plain.model().tape().is_native(), "the switch turns native code off");
+    assert!(!plain.model().tape().is_native(), "`interpreted` turns native code off");
+    assert!(
+        build_plant(&scene).is_ok_and(
+            |p| matches!(p, AnyPlant::Equations2(p) if p.model().tape().is_native() == cfg!(target_arch = "x86_64"))
+        ),
+        "and back on after it"
+    );
 }
 
 /// Compares every bundled equation scene's plant built as usual with the one built while
